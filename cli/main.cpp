@@ -1,0 +1,50 @@
+// photosite: the command-line front end. Subcommands register themselves (registry.h).
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+
+#include "photosite/error.h"
+#include "registry.h"
+
+namespace photosite::cli {
+std::vector<std::pair<std::string, SetupFn>>& registry() {
+  static std::vector<std::pair<std::string, SetupFn>> r;
+  return r;
+}
+void add_overwrite_flag(CLI::App* sub, bool& overwrite) {
+  sub->add_flag("--overwrite,-y", overwrite, "replace an existing output file");
+}
+}  // namespace photosite::cli
+
+int main(int argc, char** argv) {
+  using namespace photosite;
+  CLI::App app{"photosite " PHOTOSITE_VERSION
+               ": a camera-sensor simulator in physical units, with a day-to-night front end"};
+  app.set_version_flag("--version", "photosite " PHOTOSITE_VERSION);
+  app.require_subcommand(1);
+  auto& reg = cli::registry();
+  std::sort(reg.begin(), reg.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (auto& [key, setup] : reg) setup(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;  // usage errors are bad input
+  } catch (const Error& e) {
+    std::fprintf(stderr, "photosite: error: %s\n", e.what());
+    return e.exit_code();
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "photosite: error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "photosite: internal error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,220 @@
+#include "photosite/io.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
+namespace photosite {
+namespace fs = std::filesystem;
+using namespace OIIO;
+
+namespace {
+std::unique_ptr<ImageInput> open_input(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail_at(path, "no such file");
+  if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
+  auto in = ImageInput::open(path);
+  if (!in) {
+    std::string msg = OIIO::geterror();
+    fail_at(path, "cannot read image (" + (msg.empty() ? std::string("unknown format") : msg) + ")");
+  }
+  const ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    fail_at(path, fmt::format("image has no pixels ({}x{}, {} channels)", spec.width, spec.height,
+                              spec.nchannels));
+  // A declared size far beyond any camera (40000x40000 and up) is refused before allocation.
+  const double pixels = static_cast<double>(spec.width) * spec.height * spec.nchannels;
+  if (pixels > 1.2e9)
+    fail_at(path, fmt::format("declared size {}x{}x{} is too large (over 1.2e9 samples)", spec.width,
+                              spec.height, spec.nchannels));
+  return in;
+}
+
+ImageFileInfo info_from(const std::string& path, const ImageInput& in) {
+  const ImageSpec& spec = in.spec();
+  ImageFileInfo info;
+  info.path = path;
+  info.format = in.format_name();
+  info.width = spec.width;
+  info.height = spec.height;
+  info.channels = spec.nchannels;
+  info.bits_per_sample = static_cast<int>(spec.format.size() * 8);
+  info.is_float = spec.format.is_floating_point();
+  std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  info.srgb_encoded = !info.is_float && cs != "Linear" && cs != "linear";
+  return info;
+}
+}  // namespace
+
+ImageFileInfo probe_image(const std::string& path) {
+  auto in = open_input(path);
+  auto info = info_from(path, *in);
+  in->close();
+  return info;
+}
+
+ImageF read_image(const std::string& path, ImageFileInfo* info) {
+  auto in = open_input(path);
+  const ImageSpec& spec = in->spec();
+  ImageF img(spec.width, spec.height, spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.data()))
+    fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
+  if (info) *info = info_from(path, *in);
+  in->close();
+  return img;
+}
+
+ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
+  auto in = open_input(path);
+  const ImageSpec& spec = in->spec();
+  if (spec.format.is_floating_point())
+    fail_at(path, "expected an integer (8- or 16-bit) image, found floating point");
+  ImageU16 img(spec.width, spec.height, spec.nchannels);
+  bool ok;
+  if (spec.format.size() == 1) {
+    ImageU8 tmp(spec.width, spec.height, spec.nchannels);
+    ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::UINT8, tmp.data());
+    for (size_t i = 0; i < tmp.size(); ++i) img[i] = tmp[i];
+  } else if (spec.format.size() == 2) {
+    ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::UINT16, img.data());
+  } else {
+    fail_at(path, fmt::format("unsupported {}-bit integer samples", spec.format.size() * 8));
+  }
+  if (!ok) fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
+  if (info) *info = info_from(path, *in);
+  in->close();
+  return img;
+}
+
+void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
+               const std::map<std::string, ExrAttribute>& attributes,
+               const ExrWriteOptions& options) {
+  if (groups.empty()) internal_error("write_exr: no channels");
+  const int w = groups[0].image->width(), h = groups[0].image->height();
+  std::vector<std::string> names;
+  for (const auto& g : groups) {
+    if (!g.image || g.image->width() != w || g.image->height() != h ||
+        g.image->channels() != static_cast<int>(g.channel_names.size()))
+      internal_error("write_exr: channel group shape mismatch for " + path);
+    for (const auto& n : g.channel_names) names.push_back(n);
+  }
+  const int nch = static_cast<int>(names.size());
+  ImageSpec spec(w, h, nch, options.half ? TypeDesc::HALF : TypeDesc::FLOAT);
+  spec.channelnames = names;
+  spec.alpha_channel = -1;
+  spec.attribute("compression", options.compression);
+  spec.attribute("oiio:ColorSpace", "Linear");
+  for (const auto& g : groups)
+    if (!g.unit.empty())
+      for (const auto& n : g.channel_names) spec.attribute("photosite/unit/" + n, g.unit);
+  for (const auto& [k, v] : attributes) {
+    std::visit([&](const auto& x) {
+      using X = std::decay_t<decltype(x)>;
+      if constexpr (std::is_same_v<X, std::string>) spec.attribute(k, x);
+      else if constexpr (std::is_same_v<X, int>) spec.attribute(k, x);
+      else spec.attribute(k, static_cast<float>(x));
+    }, v);
+    if (std::holds_alternative<double>(v))  // keep full precision as text too
+      spec.attribute(k + "_text", fmt::format("{:.17g}", std::get<double>(v)));
+  }
+  // Interleave all groups into one float buffer.
+  std::vector<float> buf(static_cast<size_t>(w) * h * nch);
+  int c0 = 0;
+  for (const auto& g : groups) {
+    const int gc = g.image->channels();
+    const float* src = g.image->data();
+    for (size_t p = 0, n = static_cast<size_t>(w) * h; p < n; ++p)
+      for (int c = 0; c < gc; ++c) buf[p * nch + c0 + c] = src[p * gc + c];
+    c0 += gc;
+  }
+  atomic_write(path, [&](const std::string& tmp) {
+    auto out = ImageOutput::create("openexr");
+    if (!out) internal_error("OpenImageIO has no OpenEXR writer");
+    if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
+    if (!out->write_image(TypeDesc::FLOAT, buf.data()))
+      fail_at(path, "write failed (" + out->geterror() + ")");
+    if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
+  });
+}
+
+ExrContents read_exr(const std::string& path) {
+  auto in = open_input(path);
+  const ImageSpec& spec = in->spec();
+  ExrContents r;
+  r.width = spec.width;
+  r.height = spec.height;
+  const int nch = spec.nchannels;
+  std::vector<float> buf(static_cast<size_t>(spec.width) * spec.height * nch);
+  if (!in->read_image(0, 0, 0, nch, TypeDesc::FLOAT, buf.data()))
+    fail_at(path, "corrupt or truncated EXR (" + in->geterror() + ")");
+  for (int c = 0; c < nch; ++c) {
+    ImageF ch(spec.width, spec.height, 1);
+    for (size_t p = 0, n = ch.size(); p < n; ++p) ch[p] = buf[p * nch + c];
+    std::string name = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c]
+                                                                       : fmt::format("ch{}", c);
+    auto u = spec.find_attribute("photosite/unit/" + name);
+    if (u) ch.set_unit(u->get_string());
+    r.channels.emplace(name, std::move(ch));
+  }
+  for (const auto& a : spec.extra_attribs) r.attributes[a.name().string()] = a.get_string();
+  in->close();
+  return r;
+}
+
+void write_png(const std::string& path, const ImageF& image, int bits) {
+  ImageSpec spec(image.width(), image.height(), image.channels(),
+                 bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8);
+  atomic_write(path, [&](const std::string& tmp) {
+    // Keep the real extension on the temporary so OIIO picks the right writer.
+    auto out = ImageOutput::create(path);
+    if (!out) fail_at(path, "no image writer for this file extension");
+    if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
+    if (!out->write_image(TypeDesc::FLOAT, image.data()))
+      fail_at(path, "write failed (" + out->geterror() + ")");
+    out->close();
+  });
+}
+
+void check_output_path(const std::string& path, bool overwrite) {
+  if (path.empty()) fail("no output path given");
+  fs::path p(path);
+  fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) fail_at(path, "output folder " + dir.string() + " does not exist");
+  if (fs::exists(p, ec) && !overwrite)
+    fail_at(path, "already exists; photosite never overwrites a file unless --overwrite is given");
+  if (access(dir.c_str(), W_OK) != 0) fail_at(path, "output folder is not writable");
+}
+
+void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write) {
+  static std::atomic<unsigned> counter{0};
+  fs::path p(path);
+  std::string tmp = (p.parent_path() / ("." + p.stem().string() + fmt::format(".tmp-{}-{}", getpid(), counter++))).string() + p.extension().string();
+  try {
+    write(tmp);
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+std::string frame_path(const std::string& pattern, int frame) {
+  auto first = pattern.find('#');
+  if (first == std::string::npos) return pattern;
+  auto last = pattern.find_first_not_of('#', first);
+  size_t n = (last == std::string::npos ? pattern.size() : last) - first;
+  return pattern.substr(0, first) + fmt::format("{:0{}d}", frame, n) + pattern.substr(first + n);
+}
+
+}  // namespace photosite

@@ -1,0 +1,76 @@
+// Typed images: an owning, interleaved, row-major buffer with its size, channel count and the
+// physical unit of its samples. Stages take and return these; the unit string travels into the
+// EXR header so every layer on disk says what it holds.
+#pragma once
+#include <cassert>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace photosite {
+
+template <class T>
+class Image {
+ public:
+  Image() = default;
+  Image(int width, int height, int channels = 1, T fill = T{}, std::string unit = {})
+      : width_(width), height_(height), channels_(channels),
+        data_(static_cast<size_t>(width) * height * channels, fill), unit_(std::move(unit)) {
+    assert(width >= 0 && height >= 0 && channels >= 1);
+  }
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int channels() const { return channels_; }
+  size_t pixel_count() const { return static_cast<size_t>(width_) * height_; }
+  size_t size() const { return data_.size(); }
+  bool empty() const { return data_.empty(); }
+  bool same_shape(int w, int h) const { return w == width_ && h == height_; }
+  template <class U>
+  bool same_shape(const Image<U>& o) const { return o.width() == width_ && o.height() == height_; }
+
+  T* data() { return data_.data(); }
+  const T* data() const { return data_.data(); }
+  T* row(int y) { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
+  const T* row(int y) const { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
+  T& at(int x, int y, int c = 0) {
+    assert(x >= 0 && x < width_ && y >= 0 && y < height_ && c >= 0 && c < channels_);
+    return data_[(static_cast<size_t>(y) * width_ + x) * channels_ + c];
+  }
+  const T& at(int x, int y, int c = 0) const {
+    assert(x >= 0 && x < width_ && y >= 0 && y < height_ && c >= 0 && c < channels_);
+    return data_[(static_cast<size_t>(y) * width_ + x) * channels_ + c];
+  }
+  T& operator[](size_t i) { return data_[i]; }
+  const T& operator[](size_t i) const { return data_[i]; }
+  std::vector<T>& vec() { return data_; }
+  const std::vector<T>& vec() const { return data_; }
+
+  // The physical unit of the samples, e.g. "W.sr-1.m-2", "e-", "DN", "1" (dimensionless).
+  const std::string& unit() const { return unit_; }
+  void set_unit(std::string u) { unit_ = std::move(u); }
+
+ private:
+  int width_ = 0, height_ = 0, channels_ = 1;
+  std::vector<T> data_;
+  std::string unit_;
+};
+
+using ImageF = Image<float>;
+using ImageU8 = Image<uint8_t>;
+using ImageU16 = Image<uint16_t>;
+using ImageI32 = Image<int32_t>;
+
+// Unit strings used across photosite (UCUM-like, ASCII so they survive every EXR reader).
+namespace unit {
+inline constexpr const char* radiance = "W.sr-1.m-2";
+inline constexpr const char* irradiance = "W.m-2";
+inline constexpr const char* electrons = "e-";
+inline constexpr const char* dn = "DN";
+inline constexpr const char* dimensionless = "1";
+inline constexpr const char* label_id = "label id";
+}  // namespace unit
+
+}  // namespace photosite

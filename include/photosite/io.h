@@ -1,0 +1,66 @@
+// Image files through OpenImageIO: reading any format it knows into float or integer images,
+// writing multi-channel OpenEXR with named layers, units and provenance in the header, and
+// PNG previews. Every write goes to a temporary name in the target folder and is renamed into
+// place only when complete, so a failed or killed run never leaves a half-written file.
+#pragma once
+#include <functional>
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "photosite/image.h"
+
+namespace photosite {
+
+struct ImageFileInfo {
+  std::string path;
+  std::string format;  // "png", "openexr", "tiff", "jpeg", ...
+  int width = 0, height = 0, channels = 0;
+  int bits_per_sample = 0;  // 8, 16, 32 (float)...
+  bool is_float = false;    // stored as float/half: taken as linear
+  bool srgb_encoded = false;  // integer formats: sRGB transfer unless the file says linear
+};
+
+ImageFileInfo probe_image(const std::string& path);
+
+// Reads every channel as float. Integer files are normalised to [0, 1] (value / max code).
+ImageF read_image(const std::string& path, ImageFileInfo* info = nullptr);
+// Reads raw integer codes (8 or 16-bit files), unscaled: labels, instance ids, mosaics.
+ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info = nullptr);
+
+// ---- OpenEXR ------------------------------------------------------------------------------
+struct ExrChannelGroup {
+  std::vector<std::string> channel_names;  // full names, e.g. {"raw.Y"} or {"R","G","B"}
+  const ImageF* image = nullptr;           // channels() == channel_names.size()
+  std::string unit;                        // recorded as header attribute "photosite/unit/<name>"
+};
+using ExrAttribute = std::variant<std::string, int, float, double>;
+struct ExrWriteOptions {
+  bool half = false;                // store as half instead of float32
+  std::string compression = "zip";  // none, rle, zips, zip, piz, pxr24, b44, dwaa, dwab
+};
+
+void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
+               const std::map<std::string, ExrAttribute>& attributes,
+               const ExrWriteOptions& options = {});
+
+struct ExrContents {
+  int width = 0, height = 0;
+  std::map<std::string, ImageF> channels;  // one single-channel image per channel name
+  std::map<std::string, std::string> attributes;  // every attribute, as text
+};
+ExrContents read_exr(const std::string& path);
+
+// 8- or 16-bit PNG (or any OIIO format by extension) from float [0,1] samples, rounded.
+void write_png(const std::string& path, const ImageF& image, int bits = 8);
+
+// ---- safe output ----------------------------------------------------------------------------
+// Refuses (bad input, exit 2) when the folder is missing or the file exists and !overwrite.
+void check_output_path(const std::string& path, bool overwrite);
+// Runs write(temp_path) and renames temp_path to path; removes the temporary on any error.
+void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write);
+// Replaces the run of '#' in a pattern with the zero-padded frame number ("out_###.exr").
+std::string frame_path(const std::string& pattern, int frame);
+
+}  // namespace photosite

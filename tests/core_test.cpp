@@ -1,0 +1,99 @@
+#include <gtest/gtest.h>
+
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/rng.h"
+#include "photosite/sensor/cfa.h"
+#include "photosite/sensor/demosaic.h"
+#include "test_util.h"
+
+using namespace photosite;
+
+// Known-answer vectors from Random123's kat_vectors (philox4x32, 10 rounds).
+TEST(Philox, KnownAnswers) {
+  auto a = Philox4x32::generate({0, 0, 0, 0}, {0, 0});
+  EXPECT_EQ(a[0], 0x6627e8d5u);
+  EXPECT_EQ(a[1], 0xe169c58du);
+  EXPECT_EQ(a[2], 0xbc57ac4cu);
+  EXPECT_EQ(a[3], 0x9b00dbd8u);
+  auto b = Philox4x32::generate({0xffffffffu, 0xffffffffu, 0xffffffffu, 0xffffffffu},
+                                {0xffffffffu, 0xffffffffu});
+  EXPECT_EQ(b[0], 0x408f276du);
+  EXPECT_EQ(b[1], 0x41c83b0eu);
+  EXPECT_EQ(b[2], 0xa20bc7c6u);
+  EXPECT_EQ(b[3], 0x6d5451fdu);
+  auto c = Philox4x32::generate({0x243f6a88u, 0x85a308d3u, 0x13198a2eu, 0x03707344u},
+                                {0xa4093822u, 0x299f31d0u});
+  EXPECT_EQ(c[0], 0xd16cfe09u);
+  EXPECT_EQ(c[1], 0x94fdccebu);
+  EXPECT_EQ(c[2], 0x5001e420u);
+  EXPECT_EQ(c[3], 0x24126ea1u);
+}
+
+TEST(Philox, DeviceIdSeedIsStableAndDistinct) {
+  EXPECT_EQ(seed_from_device_id("cam0"), seed_from_device_id("cam0"));
+  EXPECT_NE(seed_from_device_id("cam0"), seed_from_device_id("cam1"));
+}
+
+TEST(Cfa, PatternsAndColours) {
+  EXPECT_EQ(cfa_color(CfaPattern::RGGB, 0, 0), FilterColor::R);
+  EXPECT_EQ(cfa_color(CfaPattern::RGGB, 1, 1), FilterColor::B);
+  EXPECT_EQ(cfa_color(CfaPattern::GBRG, 0, 1), FilterColor::R);
+  EXPECT_EQ(cfa_color(CfaPattern::GRBG, 1, 0), FilterColor::R);
+  EXPECT_EQ(cfa_color(CfaPattern::BGGR, 0, 0), FilterColor::B);
+  EXPECT_EQ(cfa_color(CfaPattern::RCCB, 1, 0), FilterColor::C);
+  EXPECT_EQ(cfa_colors(CfaPattern::RCCC).size(), 2u);
+  EXPECT_EQ(parse_cfa("rccb"), CfaPattern::RCCB);
+  EXPECT_THROW(parse_cfa("RGBW"), Error);
+}
+
+TEST(Demosaic, BilinearRecoversFlatColourOnEveryPattern) {
+  for (auto p : all_cfa_patterns()) {
+    if (p == CfaPattern::Mono) continue;
+    ImageF rgb(17, 11, 3);
+    for (size_t i = 0; i < rgb.pixel_count(); ++i) {
+      rgb[3 * i] = 0.3f;
+      rgb[3 * i + 1] = 0.5f;
+      rgb[3 * i + 2] = 0.2f;
+    }
+    ImageF out = demosaic_bilinear(mosaic(rgb, p), p);
+    float expect[3] = {0.3f, 0.5f, 0.2f};
+    if (p == CfaPattern::RCCC) expect[1] = expect[2] = 0.35f;  // (C - R) / 2
+    for (size_t i = 0; i < out.pixel_count(); ++i)
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(out[3 * i + c], expect[c], 1e-5) << to_string(p);
+  }
+}
+
+TEST(Io, FramePathPadsTheHashRun) {
+  EXPECT_EQ(frame_path("out_###.exr", 7), "out_007.exr");
+  EXPECT_EQ(frame_path("out.exr", 7), "out.exr");
+  EXPECT_EQ(frame_path("a#b", 12), "a12b");
+}
+
+TEST(Io, ExrRoundTripKeepsChannelsUnitsAndAttributes) {
+  test::TempDir dir;
+  ImageF raw(5, 4, 1), rgb(5, 4, 3);
+  for (size_t i = 0; i < raw.size(); ++i) raw[i] = static_cast<float>(i);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = 0.25f * static_cast<float>(i);
+  std::string path = dir.file("x.exr");
+  write_exr(path, {{{"raw.Y"}, &raw, "DN"}, {{"R", "G", "B"}, &rgb, "e-"}},
+            {{"photosite/preset", std::string("test")}, {"photosite/frame", 3}});
+  auto c = read_exr(path);
+  ASSERT_EQ(c.channels.count("raw.Y"), 1u);
+  EXPECT_EQ(c.channels.at("raw.Y").at(2, 1), raw.at(2, 1));
+  EXPECT_EQ(c.channels.at("G").at(4, 3), rgb.at(4, 3, 1));
+  EXPECT_EQ(c.channels.at("raw.Y").unit(), "DN");
+  EXPECT_EQ(c.attributes.at("photosite/preset"), "test");
+  EXPECT_EQ(c.attributes.at("photosite/frame"), "3");
+}
+
+TEST(Io, RefusesToOverwriteAndMissingFolders) {
+  test::TempDir dir;
+  ImageF raw(2, 2, 1);
+  std::string path = dir.file("y.exr");
+  write_exr(path, {{{"Y"}, &raw, ""}}, {});
+  EXPECT_THROW(check_output_path(path, false), Error);
+  EXPECT_NO_THROW(check_output_path(path, true));
+  EXPECT_THROW(check_output_path(dir.file("nope/z.exr"), false), Error);
+  EXPECT_THROW(read_image(dir.file("missing.png")), Error);
+}

@@ -1,0 +1,48 @@
+// Helpers shared by the test files: running the photosite binary, temporary folders, and the
+// location of ../shared test data (tests that need it skip loudly when it is absent).
+#pragma once
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace photosite::test {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+// Runs `photosite <args>` through the shell; args are passed verbatim (quote paths yourself).
+CliResult run_cli(const std::string& args);
+
+// A fresh, empty folder under the build tree's temp area, removed when the object dies.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::filesystem::path& path() const { return path_; }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// ../shared beside the checkout, or empty when absent.
+std::filesystem::path shared_dir();
+
+}  // namespace photosite::test
+
+// Skips the current test with a loud message when ../shared/<sub> is absent.
+#define PHOTOSITE_REQUIRE_SHARED(sub)                                                        \
+  do {                                                                                       \
+    auto _d = ::photosite::test::shared_dir();                                               \
+    if (_d.empty() || !std::filesystem::exists(_d / (sub))) {                                \
+      std::fprintf(stderr,                                                                   \
+                   "\n*** SKIPPING: ../shared/%s is absent; this test needs the shared test " \
+                   "data beside the checkout ***\n\n",                                       \
+                   std::string(sub).c_str());                                                \
+      GTEST_SKIP() << "../shared/" << (sub) << " absent";                                    \
+    }                                                                                        \
+  } while (0)
