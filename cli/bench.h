@@ -1,0 +1,21 @@
+// `photosite bench <target>`: benchmarks that write CSV and charts to docs/. Each target
+// registers itself with a BenchRegistrar from its own cli/bench_*.cpp.
+#pragma once
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+
+namespace photosite::cli {
+// setup(sub) adds the target's options to `sub` and sets its callback.
+void register_bench(const std::string& name, const std::string& help,
+                    const std::function<void(CLI::App* sub)>& setup);
+struct BenchRegistrar {
+  BenchRegistrar(const std::string& name, const std::string& help,
+                 const std::function<void(CLI::App* sub)>& setup) {
+    register_bench(name, help, setup);
+  }
+};
+// Where results go (docs/ in the source tree unless --out-dir is given), and the machine name
+// (CPU model and core count) to print beside absolute times.
+std::string machine_description();
+}  // namespace photosite::cli

@@ -1,0 +1,51 @@
+// Fixed-pattern noise: maps that belong to one physical device (a preset + a device id), made once
+// and reused by every later run and frame. PRNU is a per-pixel gain, DSNU an offset in electrons
+// plus a per-pixel dark-current rate factor (hot pixels included), all drawn from the
+// counter-based generator keyed by the device seed, so the same device id gives the same maps
+// on any machine. The DeviceStore keeps them as EXR files, verified on every load.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "photosite/image.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite {
+
+struct FixedPatternMaps {
+  std::string device_id;
+  std::string preset_name;
+  uint64_t device_seed = 0;
+  int width = 0, height = 0;
+  ImageF prnu_gain;         // 1 + δ (dimensionless); empty when the preset has no PRNU
+  ImageF dsnu_offset_e;     // e-; empty when the preset has no offset DSNU
+  ImageF dark_rate_factor;  // multiplies the mean dark rate; empty when uniform and no hot pixels
+  std::string checksum;     // of the map contents (FNV-1a 64, hex)
+};
+
+FixedPatternMaps generate_fixed_pattern(const CameraPreset& preset, int width, int height,
+                                        const std::string& device_id);
+std::string fixed_pattern_checksum(const FixedPatternMaps& maps);
+
+class DeviceStore {
+ public:
+  // dir empty: $PHOTOSITE_DEVICE_STORE, else $XDG_DATA_HOME/photosite/devices, else
+  // ~/.local/share/photosite/devices.
+  explicit DeviceStore(std::string dir = {});
+  static std::string default_dir();
+  const std::string& dir() const { return dir_; }
+  std::string path_for(const CameraPreset& preset, const std::string& device_id, int width,
+                       int height) const;
+  // Loads the device's maps, or generates and stores them (atomically, under a lock) when
+  // absent. A map whose preset, size, parameters or checksum do not match is an error, never
+  // silently regenerated or overwritten.
+  FixedPatternMaps load_or_create(const CameraPreset& preset, const std::string& device_id,
+                                  int width, int height) const;
+  FixedPatternMaps load(const std::string& path, const CameraPreset& preset,
+                        const std::string& device_id, int width, int height) const;
+
+ private:
+  std::string dir_;
+};
+
+}  // namespace photosite

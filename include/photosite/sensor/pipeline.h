@@ -1,0 +1,77 @@
+// The sensor chain, stage by stage, in physical units:
+//   radiance RGB (W·sr⁻¹·m⁻²) ─optics→ irradiance ─photon integral→ mean electrons per pixel
+//   ─PRNU, dark current, shot noise→ electrons ─read noise, gain, full well, ADC→ DN mosaic
+//   ─black level removed, demosaic→ RGB (DN).
+// Each stage is a pure function; expose() composes them. docs/sensor.md has the equations.
+#pragma once
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "photosite/image.h"
+#include "photosite/sensor/demosaic.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite {
+
+struct ExposureSettings {
+  double exposure_s = 0.02;
+  double f_number = std::numeric_limits<double>::quiet_NaN();       // NaN: the lens preset's
+  double gain_db = 0.0;                                             // analog gain over K
+  double temperature_c = std::numeric_limits<double>::quiet_NaN();  // NaN: the preset's
+  uint64_t seed = 0;     // temporal-noise seed (the device seed keys the fixed pattern)
+  uint32_t frame = 0;
+  DemosaicMethod demosaic = DemosaicMethod::Bilinear;
+};
+
+// Settings with the preset/lens defaults filled in and checked (bad input on impossible values).
+struct ResolvedExposure {
+  double exposure_s, f_number, gain_db, gain_linear, temperature_c;
+  double system_gain_dn_per_e;   // K · 10^(gain_db/20)
+  double dark_current_e_per_s;   // mean rate at temperature_c (doubling law)
+  double hot_pixel_rate_e_per_s; // hot pixels' mean rate at temperature_c
+};
+ResolvedExposure resolve(const CameraPreset& preset, const LensPreset& lens,
+                         const ExposureSettings& settings);
+
+// Optics (Eq. 3 of Baek 2020 after Jähne / EMVA 1288): image-plane irradiance per unit scene
+// radiance, E/L = π·T / (1 + 4(N(1+|m|))²), times cos⁴θ at the pixel when enabled.
+double irradiance_per_radiance(double f_number, double magnification, double transmittance);
+
+// The photon integral reduced to a matrix: mean electrons in a pixel with filter colour c per
+// unit band radiance (W·sr⁻¹·m⁻²) of band k (R, G, B), for the on-axis pixel:
+//   e[c][k] = t · A_pix · FF · (E/L) · ∫ b_k(λ) QE_c(λ) λ/(hc) dλ.
+using PhotonMatrix = std::array<std::array<double, 3>, 4>;
+PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
+                           const ResolvedExposure& exposure);
+
+// Mean photo-electrons per pixel (before PRNU and noise), sampled through the CFA. Rejects NaN,
+// Inf and negative radiance (bad input).
+ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
+                             const LensPreset& lens, const ResolvedExposure& exposure);
+
+struct SensorOutput {
+  ImageF electrons;  // e-, collected (signal + dark) after shot noise, integer-valued
+  ImageF raw_dn;     // DN, ADC output with black level, integer-valued, CFA mosaic
+  ImageF rgb;        // DN above black, demosaiced linear RGB (3 channels)
+};
+
+// From mean photo-electrons to the camera's output: PRNU, dark current (+ its non-uniformity
+// and hot pixels), Poisson shot noise, DSNU offset, read noise (Gaussian or Tukey-λ), row and
+// column noise, full well, conversion gain, black level, ADC quantization, demosaic.
+SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
+                   const ResolvedExposure& exposure, const ExposureSettings& settings,
+                   const FixedPatternMaps& fpn);
+
+// The whole chain from scene radiance.
+SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
+                    const ExposureSettings& settings, const FixedPatternMaps& fpn);
+
+// A flat field of `photons_per_pixel` mean photons of one wavelength on every pixel (0: dark).
+SensorOutput flat_field(double photons_per_pixel, double wavelength_nm, int width, int height,
+                        const CameraPreset& preset, const LensPreset& lens,
+                        const ExposureSettings& settings, const FixedPatternMaps& fpn);
+
+}  // namespace photosite

@@ -1,0 +1,77 @@
+// Camera and lens presets: TOML files in presets/cameras and presets/lenses, every number with
+// its unit in the key name and its source in a comment. Unknown keys, missing keys and
+// out-of-range values are errors naming file, line and key (pbrt-v4's ReportUnused idea).
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "photosite/sensor/cfa.h"
+
+namespace photosite {
+
+// Quantum efficiency per filter colour, tabulated on one wavelength grid (nm). A colour the
+// pattern does not use has an empty table.
+struct QeTable {
+  std::vector<double> wavelength_nm;
+  std::array<std::vector<double>, 4> qe;  // indexed by FilterColor; fraction 0..1
+  double at(FilterColor c, double wavelength_nm) const;  // linear interpolation, 0 outside
+};
+
+struct CameraPreset {
+  std::string name;         // file stem, e.g. "onsemi-ar0331"
+  std::string file;         // where it was loaded from
+  std::string description;  // free text
+  std::string default_lens; // lens preset name, may be empty
+  CfaPattern cfa = CfaPattern::RGGB;
+  int width_px = 0, height_px = 0;  // native active array
+  int bit_depth = 12;
+  double pixel_pitch_um = 0;
+  double fill_factor = 1.0;         // fraction of pixel area that collects (microlenses: ~1)
+  double full_well_e = 0;
+  double system_gain_dn_per_e = 0;  // K at 0 dB analog gain
+  double max_gain_db = 24;
+  double read_noise_e = 0;          // temporal dark noise, σ in e-
+  double read_noise_tukey_lambda = 0;  // 0: Gaussian; else Tukey-lambda shape (heavy tail < 0)
+  double dark_current_e_per_s = 0;  // mean, at dark_current_reference_c
+  double dark_current_reference_c = 25;
+  double dark_current_doubling_c = 6.5;
+  double dark_current_nonuniformity_percent = 0;  // σ/mean of the per-pixel dark rate
+  double dsnu_e = 0;                // offset fixed-pattern σ in e- (independent of exposure)
+  double prnu_percent = 0;          // σ of the per-pixel gain, percent
+  double black_level_dn = 0;
+  double temperature_c = 25;        // operating die temperature
+  double row_noise_e = 0, column_noise_e = 0;    // temporal, σ in e-, 0 = off
+  double hot_pixel_fraction = 0;                 // fraction of pixels that are hot, 0 = off
+  double hot_pixel_dark_current_e_per_s = 0;     // their mean rate at the reference temperature
+  QeTable qe;
+};
+
+struct LensPreset {
+  std::string name, file, description;
+  double f_number = 2.0;
+  double focal_length_mm = 6.0;
+  double transmittance = 0.9;  // lens + IR-cut filter, fraction
+  double magnification = 0.0;  // |m|, ~0 for scenes at distance
+  bool cos4_falloff = true;    // natural vignetting cos⁴θ
+};
+
+// name_or_path: a bundled preset's name ("onsemi-ar0331") or a path to a .toml file.
+CameraPreset load_camera_preset(const std::string& name_or_path);
+LensPreset load_lens_preset(const std::string& name_or_path);
+// Parse from text (file is used only in messages).
+CameraPreset parse_camera_preset(const std::string& toml_text, const std::string& file);
+LensPreset parse_lens_preset(const std::string& toml_text, const std::string& file);
+// Physical sanity checks (also run by the loaders); throw bad-input Errors naming file and key.
+void validate(const CameraPreset& p);
+
+struct PresetEntry { std::string name, kind, description, file; };
+std::vector<PresetEntry> list_presets();  // cameras then lenses, sorted by name
+std::string preset_dir();                 // PHOTOSITE_PRESET_DIR env or the source tree's presets/
+
+nlohmann::json to_json(const CameraPreset& p);
+nlohmann::json to_json(const LensPreset& p);
+
+}  // namespace photosite

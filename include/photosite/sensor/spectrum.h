@@ -1,0 +1,43 @@
+// photosite's spectral model. Linear RGB radiance in W·sr⁻¹·m⁻² is defined on a fixed spectral
+// basis of three unit-area boxes:
+//     B: 400-500 nm,  G: 500-600 nm,  R: 600-700 nm,   b_k(λ) = 1/(100 nm) inside its band.
+// A pixel (R, G, B) therefore means the spectral radiance L(λ) = R·b_R(λ) + G·b_G(λ) + B·b_B(λ):
+// each channel is the radiance carried in its 100-nm band, and R + G + B is the total radiance
+// from 400 to 700 nm. Everything the sensor needs then reduces to a small matrix: electrons per
+// filter colour = Σ_k (channel k) · ∫ b_k(λ) QE(λ) λ/(hc) dλ · (optics, area, time), and the
+// photometric quantities (luminance, lux) to a fixed efficacy per band from CIE 1931 ȳ(λ).
+#pragma once
+#include <array>
+#include <functional>
+
+namespace photosite::spectrum {
+
+inline constexpr double kBandLoNm[3] = {600.0, 500.0, 400.0};  // R, G, B
+inline constexpr double kBandHiNm[3] = {700.0, 600.0, 500.0};
+
+// CIE 1931 2° colour-matching functions, the multi-lobe Gaussian fits of Wyman, Sloan & Shirley,
+// "Simple Analytic Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2), 2013.
+double cie_x_bar(double wavelength_nm);
+double cie_y_bar(double wavelength_nm);  // = V(λ), photopic luminous efficiency
+double cie_z_bar(double wavelength_nm);
+
+// Planck's law, spectral radiance of a black body, W·sr⁻¹·m⁻²·nm⁻¹.
+double planck_W_sr_m2_nm(double wavelength_nm, double temperature_K);
+
+// Band radiances (W·sr⁻¹·m⁻²) of a spectral radiance function (W·sr⁻¹·m⁻²·nm⁻¹): ∫ over each box.
+std::array<double, 3> project_to_rgb(const std::function<double(double)>& spectral_radiance);
+
+// Luminous efficacy of each box (lm/W): 683 · mean of V(λ) over the band. Luminance in cd/m² of
+// an RGB radiance is dot(efficacy, rgb).
+const std::array<double, 3>& band_luminous_efficacy_lm_per_W();
+double luminance_cd_m2(const float rgb_W_sr_m2[3]);
+
+// The RGB radiance of a black body (or a CCT proxy for a lamp) scaled to a given luminance.
+std::array<double, 3> blackbody_rgb(double cct_K, double luminance_cd_m2);
+
+// 3x3 matrices between photosite's box RGB radiance and linear sRGB (Rec. 709 primaries, D65),
+// from the boxes' CIE XYZ. srgb = M · box; box = M⁻¹ · srgb. Rows are output channels.
+const std::array<std::array<double, 3>, 3>& box_to_linear_srgb();
+const std::array<std::array<double, 3>, 3>& linear_srgb_to_box();
+
+}  // namespace photosite::spectrum
