@@ -20,7 +20,7 @@ void poisson_fill(const float* mean, float* out, uint64_t n, uint64_t first_pixe
 
 // Above this mean the exact sampler uses the Cornish-Fisher-corrected normal, whose CDF differs
 // from the Poisson CDF by less than kPoissonApproxMaxCdfError (proved in tests).
-inline constexpr double kPoissonApproxThreshold = 256.0;
+inline constexpr double kPoissonApproxThreshold = 128.0;
 inline constexpr double kPoissonApproxMaxCdfError = 1e-4;
 
 }  // namespace photosite

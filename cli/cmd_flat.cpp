@@ -1,0 +1,54 @@
+// `photosite flat`: flat fields (or dark frames) of a given mean photon count per pixel at one
+// wavelength, for characterization.
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+#include "registry.h"
+#include "sensor_options.h"
+
+namespace photosite::cli {
+namespace {
+struct FlatCmd {
+  double photons = 0, wavelength_nm = 525;
+  int width = 0, height = 0;
+  std::string out;
+  bool overwrite = false;
+  SensorOptions sensor;
+};
+
+void run(const FlatCmd& c) {
+  auto r = c.sensor.resolve();
+  if (c.width < 1 || c.height < 1 || static_cast<double>(c.width) * c.height > 4e8)
+    fail(fmt::format("--width {} --height {} is not a possible frame size", c.width, c.height));
+  const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
+  const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
+  const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);
+  for (int f = 0; f < c.sensor.frames; ++f) {
+    r.settings.frame = static_cast<uint32_t>(f);
+    SensorOutput out = flat_field(c.photons, c.wavelength_nm, c.width, c.height, r.camera, r.lens,
+                                  r.settings, fpn);
+    auto attrs = sensor_attributes(r, ex, fpn);
+    attrs["photosite/photons_per_pixel"] = c.photons;
+    attrs["photosite/wavelength_nm"] = c.wavelength_nm;
+    write_exr(outputs[f], sensor_channels(out), attrs);
+    std::printf("%s\n", outputs[f].c_str());
+  }
+}
+}  // namespace
+
+static Registrar reg("c-flat", [](CLI::App& app) {
+  auto cmd = std::make_shared<FlatCmd>();
+  auto* sub = app.add_subcommand("flat", "flat-field or dark frames for characterization");
+  sub->add_option("--photons", cmd->photons, "mean photons per pixel (0: dark frame)")->required();
+  sub->add_option("--wavelength-nm", cmd->wavelength_nm, "wavelength of the light in nm")->required();
+  sub->add_option("--width", cmd->width, "frame width in pixels")->required();
+  sub->add_option("--height", cmd->height, "frame height in pixels")->required();
+  sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
+  cmd->sensor.add(sub);
+  add_overwrite_flag(sub, cmd->overwrite);
+  sub->callback([cmd] { run(*cmd); });
+});
+
+}  // namespace photosite::cli

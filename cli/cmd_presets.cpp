@@ -1,0 +1,38 @@
+// `photosite presets list` and `photosite presets show NAME [--json]`.
+#include <cstdio>
+
+#include "photosite/sensor/preset.h"
+#include "registry.h"
+
+namespace photosite::cli {
+
+static Registrar reg("a-presets", [](CLI::App& app) {
+  auto* presets = app.add_subcommand("presets", "list and show camera and lens presets");
+  presets->require_subcommand(1);
+  auto* list = presets->add_subcommand("list", "one preset per line: name, kind, description");
+  list->callback([] {
+    for (const auto& e : list_presets())
+      std::printf("%s\t%s\t%s\n", e.name.c_str(), e.kind.c_str(), e.description.c_str());
+  });
+  auto name = std::make_shared<std::string>();
+  auto json = std::make_shared<bool>(false);
+  auto* show = presets->add_subcommand("show", "the resolved parameters of one preset");
+  show->add_option("name", *name, "preset name or path")->required();
+  show->add_flag("--json", *json, "print JSON");
+  show->callback([name, json] {
+    nlohmann::json j;
+    bool is_lens = false;
+    for (const auto& e : list_presets())
+      if (e.name == *name && e.kind == "lens") is_lens = true;
+    if (is_lens) j = to_json(load_lens_preset(*name));
+    else j = to_json(load_camera_preset(*name));
+    if (*json) {
+      std::printf("%s\n", j.dump(2).c_str());
+    } else {
+      for (auto it = j.begin(); it != j.end(); ++it)
+        std::printf("%-36s %s\n", it.key().c_str(), it.value().dump().c_str());
+    }
+  });
+});
+
+}  // namespace photosite::cli

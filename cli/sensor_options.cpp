@@ -1,0 +1,83 @@
+#include "sensor_options.h"
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
+namespace photosite::cli {
+
+void SensorOptions::add(CLI::App* sub, bool preset_required) {
+  auto* p = sub->add_option("--preset", preset, "camera preset: a bundled name or a .toml path");
+  if (preset_required) p->required();
+  sub->add_option("--lens", lens, "lens preset (default: the camera's default lens)");
+  sub->add_option("--exposure-s", exposure_s, "exposure time in seconds")->capture_default_str();
+  sub->add_option("--f-number", f_number, "f-number N (default: the lens preset's)");
+  sub->add_option("--gain-db", gain_db, "analog gain in dB above the base system gain")->capture_default_str();
+  sub->add_option("--temperature-c", temperature_c, "die temperature in C (default: the preset's)");
+  sub->add_option("--seed", seed, "seed of the temporal noise")->capture_default_str();
+  sub->add_option("--frames", frames, "number of frames (output name needs a # run)")->capture_default_str();
+  sub->add_option("--device-id", device_id, "device identity for the fixed-pattern maps (default <preset>-0)");
+  sub->add_option("--device-store", device_store,
+                  "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE or "
+                  "~/.local/share/photosite/devices)");
+  sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
+}
+
+SensorOptions::Resolved SensorOptions::resolve() const {
+  if (frames < 1 || frames > 100000) fail(fmt::format("--frames {} must be in [1, 100000]", frames));
+  CameraPreset cam = load_camera_preset(preset);
+  std::string lens_name = lens.empty() ? cam.default_lens : lens;
+  if (lens_name.empty()) fail("camera preset " + cam.file + " names no default_lens; pass --lens");
+  LensPreset l = load_lens_preset(lens_name);
+  ExposureSettings s;
+  s.exposure_s = exposure_s;
+  s.f_number = f_number;
+  s.gain_db = gain_db;
+  s.temperature_c = temperature_c;
+  s.seed = seed;
+  s.demosaic = parse_demosaic_method(demosaic);
+  std::string id = device_id.empty() ? cam.name + "-0" : device_id;
+  photosite::resolve(cam, l, s);  // validate the settings before any work
+  return Resolved{std::move(cam), std::move(l), s, id, DeviceStore(device_store)};
+}
+
+std::map<std::string, ExrAttribute> sensor_attributes(const SensorOptions::Resolved& r,
+                                                      const ResolvedExposure& ex,
+                                                      const FixedPatternMaps& fpn) {
+  return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
+          {"photosite/preset", r.camera.name},
+          {"photosite/lens", r.lens.name},
+          {"photosite/device_id", r.device_id},
+          {"photosite/fpn_checksum", fpn.checksum},
+          {"photosite/seed", std::to_string(r.settings.seed)},
+          {"photosite/frame", static_cast<int>(r.settings.frame)},
+          {"photosite/exposure_s", ex.exposure_s},
+          {"photosite/f_number", ex.f_number},
+          {"photosite/gain_db", ex.gain_db},
+          {"photosite/gain", ex.gain_linear},
+          {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
+          {"photosite/temperature_c", ex.temperature_c},
+          {"photosite/cfa", std::string(to_string(r.camera.cfa))},
+          {"photosite/bit_depth", r.camera.bit_depth},
+          {"photosite/black_level_dn", r.camera.black_level_dn},
+          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))}};
+}
+
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {
+  return {{{"raw.Y"}, &out.raw_dn, unit::dn},
+          {{"R", "G", "B"}, &out.rgb, "DN above black level"},
+          {{"electrons.Y"}, &out.electrons, unit::electrons}};
+}
+
+std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite) {
+  if (frames > 1 && pattern.find('#') == std::string::npos)
+    fail_at(pattern, "--frames > 1 needs a run of '#' in the output name for the frame number");
+  std::vector<std::string> out;
+  for (int f = 0; f < frames; ++f) {
+    out.push_back(frame_path(pattern, f));
+    check_output_path(out.back(), overwrite);
+  }
+  return out;
+}
+
+}  // namespace photosite::cli

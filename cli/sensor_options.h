@@ -1,0 +1,51 @@
+// Options shared by the commands that run the sensor (expose, flat, night, characterize):
+// preset, lens, exposure, device and seed, with their resolution into library types.
+#pragma once
+#include <CLI/CLI.hpp>
+#include <map>
+#include <string>
+
+#include "photosite/io.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite::cli {
+
+struct SensorOptions {
+  std::string preset;
+  std::string lens;  // empty: the camera's default lens
+  double exposure_s = 0.02;
+  double f_number = std::numeric_limits<double>::quiet_NaN();
+  double gain_db = 0.0;
+  double temperature_c = std::numeric_limits<double>::quiet_NaN();
+  uint64_t seed = 0;
+  int frames = 1;
+  std::string device_id;  // empty: "<preset>-0"
+  std::string device_store;
+  std::string demosaic = "bilinear";
+
+  // Adds the options; `preset_required` for commands where --preset has no default.
+  void add(CLI::App* sub, bool preset_required = true);
+
+  struct Resolved {
+    CameraPreset camera;
+    LensPreset lens;
+    ExposureSettings settings;
+    std::string device_id;
+    DeviceStore store;
+  };
+  Resolved resolve() const;
+};
+
+// The header attributes every sensor output carries.
+std::map<std::string, ExrAttribute> sensor_attributes(const SensorOptions::Resolved& r,
+                                                      const ResolvedExposure& ex,
+                                                      const FixedPatternMaps& fpn);
+// The channel groups of a sensor output: raw.Y, R,G,B, electrons.Y.
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out);
+
+// Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
+std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);
+
+}  // namespace photosite::cli

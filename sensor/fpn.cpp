@@ -1,0 +1,204 @@
+// Fixed-pattern maps and the device store.
+//
+// Model (docs/sensor.md, "Fixed-pattern noise"): for pixel i,
+//   PRNU gain        g_i = 1 + σ_PRNU z₁,                 z ~ N(0,1)
+//   offset DSNU      o_i = σ_DSNU z₂            [e⁻]     (exposure independent)
+//   dark-rate factor r_i = LogNormal(mean 1, CV = dark_current_nonuniformity) — or, for the
+//                    hot pixels (a Bernoulli fraction), hot_rate / mean_rate.
+// The dark part of the signal is then t·D·r_i: its spatial σ grows linearly with exposure t,
+// while its temporal (shot) variance t·D·r_i grows linearly too — the thesis's Eq. 8,
+// N_dsnu = N(0, T·σ²), keeps only the latter form; see docs/sensor.md for the comparison.
+#include "photosite/sensor/fpn.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/rng.h"
+
+namespace photosite {
+namespace fs = std::filesystem;
+
+namespace {
+constexpr uint32_t kFpnFrame = 0xFFFFFFFFu;  // reserved frame number for device maps
+
+std::string fpn_params_text(const CameraPreset& p) {
+  return fmt::format("prnu_percent={};dsnu_e={};dark_current_nonuniformity_percent={};"
+                     "hot_pixel_fraction={};hot_pixel_dark_current_e_per_s={};dark_current_e_per_s={}",
+                     p.prnu_percent, p.dsnu_e, p.dark_current_nonuniformity_percent,
+                     p.hot_pixel_fraction, p.hot_pixel_dark_current_e_per_s, p.dark_current_e_per_s);
+}
+
+uint64_t fnv1a(const void* data, size_t n, uint64_t h = 0xcbf29ce484222325ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) {
+    h ^= p[i];
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+void check_device_id(const std::string& id) {
+  if (id.empty()) fail("device id is empty");
+  for (char c : id)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
+      fail("device id '" + id + "' may contain only letters, digits, '-', '_' and '.'");
+}
+}  // namespace
+
+FixedPatternMaps generate_fixed_pattern(const CameraPreset& p, int width, int height,
+                                        const std::string& device_id) {
+  check_device_id(device_id);
+  FixedPatternMaps m;
+  m.device_id = device_id;
+  m.preset_name = p.name;
+  m.device_seed = seed_from_device_id(device_id.c_str());
+  m.width = width;
+  m.height = height;
+  const size_t n = static_cast<size_t>(width) * height;
+  const bool prnu = p.prnu_percent > 0, dsnu = p.dsnu_e > 0;
+  const bool dark = p.dark_current_nonuniformity_percent > 0 || p.hot_pixel_fraction > 0;
+  if (prnu) m.prnu_gain = ImageF(width, height, 1, 1.f, unit::dimensionless);
+  if (dsnu) m.dsnu_offset_e = ImageF(width, height, 1, 0.f, unit::electrons);
+  if (dark) m.dark_rate_factor = ImageF(width, height, 1, 1.f, unit::dimensionless);
+  const double cv = p.dark_current_nonuniformity_percent / 100.0;
+  const double s_ln = std::sqrt(std::log1p(cv * cv)), m_ln = -0.5 * s_ln * s_ln;
+  const double hot_factor =
+      p.dark_current_e_per_s > 0 ? p.hot_pixel_dark_current_e_per_s / p.dark_current_e_per_s : 0.0;
+  const uint64_t seed = m.device_seed;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < static_cast<int64_t>(n); ++i) {
+    if (prnu) {
+      auto w = random_words(seed, kFpnFrame, i, Stream::FpnPrnu);
+      m.prnu_gain[i] = static_cast<float>(1.0 + p.prnu_percent / 100.0 * normal_from_words(w[0], w[1]));
+    }
+    if (dsnu) {
+      auto w = random_words(seed, kFpnFrame, i, Stream::FpnDsnu);
+      m.dsnu_offset_e[i] = static_cast<float>(p.dsnu_e * normal_from_words(w[0], w[1]));
+    }
+    if (dark) {
+      auto w = random_words(seed, kFpnFrame, i, Stream::FpnDarkRate);
+      double f = cv > 0 ? std::exp(m_ln + s_ln * normal_from_words(w[0], w[1])) : 1.0;
+      if (p.hot_pixel_fraction > 0 && uniform_open(w[2]) < p.hot_pixel_fraction)
+        f = hot_factor * std::exp(m_ln + s_ln * normal_from_words(w[3], w[1] ^ 0x9e3779b9u));
+      m.dark_rate_factor[i] = static_cast<float>(f);
+    }
+  }
+  m.checksum = fixed_pattern_checksum(m);
+  return m;
+}
+
+std::string fixed_pattern_checksum(const FixedPatternMaps& m) {
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (const ImageF* img : {&m.prnu_gain, &m.dsnu_offset_e, &m.dark_rate_factor}) {
+    const uint64_t n = img->size();
+    h = fnv1a(&n, sizeof n, h);
+    if (n) h = fnv1a(img->data(), n * sizeof(float), h);
+  }
+  return fmt::format("{:016x}", h);
+}
+
+DeviceStore::DeviceStore(std::string dir) : dir_(dir.empty() ? default_dir() : std::move(dir)) {}
+
+std::string DeviceStore::default_dir() {
+  if (const char* e = std::getenv("PHOTOSITE_DEVICE_STORE"); e && *e) return e;
+  if (const char* x = std::getenv("XDG_DATA_HOME"); x && *x)
+    return (fs::path(x) / "photosite" / "devices").string();
+  if (const char* h = std::getenv("HOME"); h && *h)
+    return (fs::path(h) / ".local" / "share" / "photosite" / "devices").string();
+  return "photosite-devices";
+}
+
+std::string DeviceStore::path_for(const CameraPreset& preset, const std::string& device_id,
+                                  int width, int height) const {
+  check_device_id(device_id);
+  return (fs::path(dir_) / preset.name / fmt::format("{}_{}x{}.exr", device_id, width, height))
+      .string();
+}
+
+FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& preset,
+                                   const std::string& device_id, int width, int height) const {
+  ExrContents c = read_exr(path);
+  auto attr = [&](const std::string& k) {
+    auto it = c.attributes.find(k);
+    if (it == c.attributes.end()) fail_at(path, "not a photosite device map (no " + k + ")");
+    return it->second;
+  };
+  if (attr("photosite/preset") != preset.name)
+    fail_at(path, "fixed-pattern map belongs to preset '" + attr("photosite/preset") + "', not '" +
+                      preset.name + "'");
+  if (attr("photosite/device_id") != device_id)
+    fail_at(path, "fixed-pattern map belongs to device '" + attr("photosite/device_id") + "'");
+  if (c.width != width || c.height != height)
+    fail_at(path, fmt::format("fixed-pattern map is {}x{}, the frame is {}x{}", c.width, c.height,
+                              width, height));
+  if (attr("photosite/fpn_params") != fpn_params_text(preset))
+    fail_at(path, "fixed-pattern map was made with other preset parameters (" +
+                      attr("photosite/fpn_params") + "); the preset now says " +
+                      fpn_params_text(preset) + ". Use another --device-id or remove the map.");
+  FixedPatternMaps m;
+  m.device_id = device_id;
+  m.preset_name = preset.name;
+  m.device_seed = seed_from_device_id(device_id.c_str());
+  m.width = width;
+  m.height = height;
+  auto take = [&](const char* name, ImageF& dst) {
+    auto it = c.channels.find(name);
+    if (it != c.channels.end()) dst = std::move(it->second);
+  };
+  take("prnu.Y", m.prnu_gain);
+  take("dsnu.Y", m.dsnu_offset_e);
+  take("dark_rate.Y", m.dark_rate_factor);
+  m.checksum = fixed_pattern_checksum(m);
+  if (m.checksum != attr("photosite/checksum"))
+    fail_at(path, "fixed-pattern map is corrupt (checksum " + m.checksum + " != recorded " +
+                      attr("photosite/checksum") + ")");
+  return m;
+}
+
+FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
+                                             const std::string& device_id, int width,
+                                             int height) const {
+  const std::string path = path_for(preset, device_id, width, height);
+  std::error_code ec;
+  fs::create_directories(fs::path(path).parent_path(), ec);
+  if (ec) fail_at(fs::path(path).parent_path().string(), "cannot create the device store folder: " + ec.message());
+  // One process at a time creates a device's maps: an exclusive lock on a sibling file, then a
+  // second look. The map itself is written atomically (temporary + rename).
+  const std::string lock_path = path + ".lock";
+  int fd = ::open(lock_path.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
+    fail_at(lock_path, "cannot lock the device store (read-only?)");
+  }
+  struct Unlock {
+    int fd;
+    ~Unlock() { ::flock(fd, LOCK_UN); ::close(fd); }
+  } unlock{fd};
+  ::flock(fd, LOCK_EX);
+  if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
+  FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);
+  std::vector<ExrChannelGroup> groups;
+  if (!m.prnu_gain.empty()) groups.push_back({{"prnu.Y"}, &m.prnu_gain, unit::dimensionless});
+  if (!m.dsnu_offset_e.empty()) groups.push_back({{"dsnu.Y"}, &m.dsnu_offset_e, unit::electrons});
+  if (!m.dark_rate_factor.empty())
+    groups.push_back({{"dark_rate.Y"}, &m.dark_rate_factor, unit::dimensionless});
+  ImageF none(width, height, 1, 0.f);
+  if (groups.empty()) groups.push_back({{"none.Y"}, &none, ""});  // a preset without FPN
+  write_exr(path, groups,
+            {{"photosite/version", std::string(PHOTOSITE_VERSION)},
+             {"photosite/preset", preset.name},
+             {"photosite/device_id", device_id},
+             {"photosite/fpn_params", fpn_params_text(preset)},
+             {"photosite/checksum", m.checksum}});
+  return m;
+}
+
+}  // namespace photosite

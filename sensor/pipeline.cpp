@@ -1,0 +1,236 @@
+#include "photosite/sensor/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+#include "photosite/rng.h"
+#include "photosite/sensor/poisson_detail.h"
+#include "photosite/sensor/spectrum.h"
+#include "photosite/units.h"
+
+namespace photosite {
+
+ResolvedExposure resolve(const CameraPreset& p, const LensPreset& lens, const ExposureSettings& s) {
+  ResolvedExposure r{};
+  r.exposure_s = s.exposure_s;
+  if (!std::isfinite(r.exposure_s) || r.exposure_s < 0)
+    fail(fmt::format("exposure time {} s is impossible (must be >= 0)", r.exposure_s));
+  if (r.exposure_s > 3600) fail(fmt::format("exposure time {} s is beyond one hour", r.exposure_s));
+  r.f_number = std::isnan(s.f_number) ? lens.f_number : s.f_number;
+  if (!std::isfinite(r.f_number) || r.f_number < 0.5 || r.f_number > 64)
+    fail(fmt::format("f-number {} is impossible (must be in [0.5, 64])", r.f_number));
+  r.gain_db = s.gain_db;
+  if (!std::isfinite(r.gain_db) || r.gain_db < 0 || r.gain_db > p.max_gain_db)
+    fail(fmt::format("gain {} dB is outside the camera's range [0, {}] dB", r.gain_db, p.max_gain_db));
+  r.gain_linear = units::db_to_gain(r.gain_db);
+  r.temperature_c = std::isnan(s.temperature_c) ? p.temperature_c : s.temperature_c;
+  if (!std::isfinite(r.temperature_c) || r.temperature_c < -100 || r.temperature_c > 200)
+    fail(fmt::format("sensor temperature {} C is impossible", r.temperature_c));
+  r.system_gain_dn_per_e = p.system_gain_dn_per_e * r.gain_linear;
+  // Dark current doubles every dark_current_doubling_c degrees (Arrhenius behaviour of
+  // depletion-region generation near room temperature; EMVA 1288 R4.0 Sec. 7.1, Janesick 2007).
+  const double doubling =
+      std::exp2((r.temperature_c - p.dark_current_reference_c) / p.dark_current_doubling_c);
+  r.dark_current_e_per_s = p.dark_current_e_per_s * doubling;
+  r.hot_pixel_rate_e_per_s = p.hot_pixel_dark_current_e_per_s * doubling;
+  return r;
+}
+
+double irradiance_per_radiance(double f_number, double magnification, double transmittance) {
+  const double q = f_number * (1.0 + std::fabs(magnification));
+  return units::pi * transmittance / (1.0 + 4.0 * q * q);
+}
+
+PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
+                           const ResolvedExposure& ex) {
+  PhotonMatrix m{};
+  const double area_m2 = std::pow(p.pixel_pitch_um * 1e-6, 2) * p.fill_factor;
+  const double e_per_l = irradiance_per_radiance(ex.f_number, lens.magnification, lens.transmittance);
+  for (int c = 0; c < kFilterColorCount; ++c) {
+    const auto color = static_cast<FilterColor>(c);
+    for (int k = 0; k < 3; ++k) {
+      // ∫ b_k(λ) QE_c(λ) λ/(hc) dλ with b_k = 1/(band width): photons-to-electrons per joule.
+      const double lo = spectrum::kBandLoNm[k], hi = spectrum::kBandHiNm[k], step = 0.5;
+      double s = 0;
+      for (double l = lo + step / 2; l < hi; l += step)
+        s += p.qe.at(color, l) / units::photon_energy_J(l);
+      s *= step / (hi - lo);
+      m[c][k] = ex.exposure_s * area_m2 * e_per_l * s;
+    }
+  }
+  return m;
+}
+
+ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                             const ResolvedExposure& ex) {
+  if (radiance.channels() != 3)
+    fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
+  if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
+  const PhotonMatrix m = photon_matrix(p, lens, ex);
+  const int w = radiance.width(), h = radiance.height();
+  ImageF out(w, h, 1, 0.f, unit::electrons);
+  // cos⁴θ natural vignetting (the image is a centred crop of the sensor at its native pitch):
+  // tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
+  const double pitch_over_f = lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0;
+  const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
+  int bad_x = -1, bad_y = -1;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const float* r = radiance.row(y);
+    float* o = out.row(y);
+    const double dy2 = (y - cy) * (y - cy);
+    for (int x = 0; x < w; ++x) {
+      const float R = r[3 * x], G = r[3 * x + 1], B = r[3 * x + 2];
+      if (!(R >= 0 && G >= 0 && B >= 0) || !std::isfinite(R + G + B)) {
+#pragma omp critical
+        if (bad_y < 0 || y < bad_y || (y == bad_y && x < bad_x)) bad_x = x, bad_y = y;
+        continue;
+      }
+      const auto& row = m[static_cast<int>(cfa_color(p.cfa, x, y))];
+      double e = row[0] * R + row[1] * G + row[2] * B;
+      if (pitch_over_f > 0) {
+        const double t2 = ((x - cx) * (x - cx) + dy2) * pitch_over_f * pitch_over_f;
+        e /= (1 + t2) * (1 + t2);
+      }
+      o[x] = static_cast<float>(e);
+    }
+  }
+  if (bad_y >= 0) {
+    const float* r = radiance.row(bad_y) + 3 * bad_x;
+    fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
+                     "are not physical",
+                     bad_x, bad_y, r[0], r[1], r[2]));
+  }
+  return out;
+}
+
+namespace {
+// Standard deviation of the Tukey-lambda distribution with unit scale (λ > -1/2).
+double tukey_sd(double lambda) {
+  if (std::fabs(lambda) < 1e-9) return units::pi / std::sqrt(3.0);
+  const double v = 2.0 / (lambda * lambda) *
+                   (1.0 / (1.0 + 2.0 * lambda) -
+                    std::exp(2.0 * std::lgamma(lambda + 1.0) - std::lgamma(2.0 * lambda + 2.0)));
+  return std::sqrt(v);
+}
+uint64_t temporal_key(uint64_t device_seed, uint64_t seed) {
+  // Mix the run seed into the device seed (SplitMix64 step) so the key names both.
+  uint64_t z = seed + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return device_seed ^ z ^ (z >> 31);
+}
+}  // namespace
+
+SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
+                   const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  const int w = mean_signal_e.width(), h = mean_signal_e.height();
+  if (w < 1 || h < 1) fail("sensor input is empty");
+  if ((!fpn.prnu_gain.empty() && !fpn.prnu_gain.same_shape(w, h)) ||
+      (!fpn.dsnu_offset_e.empty() && !fpn.dsnu_offset_e.same_shape(w, h)) ||
+      (!fpn.dark_rate_factor.empty() && !fpn.dark_rate_factor.same_shape(w, h)))
+    fail(fmt::format("fixed-pattern maps of device '{}' are {}x{}, the frame is {}x{}",
+                     fpn.device_id, fpn.width, fpn.height, w, h));
+  if (!fpn.preset_name.empty() && fpn.preset_name != p.name)
+    fail("fixed-pattern maps belong to preset '" + fpn.preset_name + "', not '" + p.name + "'");
+
+  const uint64_t key = temporal_key(fpn.device_seed, s.seed);
+  const uint32_t frame = s.frame;
+  const double dark_mean_e = ex.dark_current_e_per_s * ex.exposure_s;
+  const double K = ex.system_gain_dn_per_e;
+  const double full_well = p.full_well_e;
+  const double max_code = std::ldexp(1.0, p.bit_depth) - 1.0;
+  const double black = p.black_level_dn;
+  const double read_e = p.read_noise_e;
+  const double tukey = p.read_noise_tukey_lambda;
+  const double tukey_norm = tukey != 0 ? 1.0 / tukey_sd(tukey) : 0.0;
+
+  // Row and column temporal noise: one Gaussian per row / column per frame (skipped when zero).
+  std::vector<float> row_e(p.row_noise_e > 0 ? h : 0), col_e(p.column_noise_e > 0 ? w : 0);
+  for (int y = 0; y < static_cast<int>(row_e.size()); ++y) {
+    auto r = random_words(key, frame, y, Stream::RowNoise);
+    row_e[y] = static_cast<float>(p.row_noise_e * normal_from_words(r[0], r[1]));
+  }
+  for (int x = 0; x < static_cast<int>(col_e.size()); ++x) {
+    auto r = random_words(key, frame, x, Stream::ColumnNoise);
+    col_e[x] = static_cast<float>(p.column_noise_e * normal_from_words(r[0], r[1]));
+  }
+
+  SensorOutput out;
+  out.electrons = ImageF(w, h, 1, 0.f, unit::electrons);
+  out.raw_dn = ImageF(w, h, 1, 0.f, unit::dn);
+  const float* prnu = fpn.prnu_gain.empty() ? nullptr : fpn.prnu_gain.data();
+  const float* dsnu = fpn.dsnu_offset_e.empty() ? nullptr : fpn.dsnu_offset_e.data();
+  const float* darkf = fpn.dark_rate_factor.empty() ? nullptr : fpn.dark_rate_factor.data();
+  const float* sig = mean_signal_e.data();
+  float* el = out.electrons.data();
+  float* dn = out.raw_dn.data();
+  const uint32_t shot_stream = static_cast<uint32_t>(Stream::PhotonShot);
+
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const float row_noise = row_e.empty() ? 0.f : row_e[y];
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      // Mean collected electrons: photo-signal through the pixel's PRNU gain, plus dark charge
+      // at this pixel's dark rate. One Poisson draw of the sum is exactly the sum of the two
+      // independent Poisson processes (photon shot noise and dark-current shot noise).
+      double mean = sig[i] * (prnu ? prnu[i] : 1.f) + dark_mean_e * (darkf ? darkf[i] : 1.f);
+      const auto words = random_words(key, frame, i, Stream::PhotonShot);
+      double e = detail::poisson_from_words(mean, words, key, frame, i, shot_stream);
+      e = std::min(e, full_well);  // the well holds no more than its capacity
+      el[i] = static_cast<float>(e);
+      // Analog chain in electrons: offset DSNU, read noise (words 2, 3 of the same draw), row
+      // and column noise; then conversion gain K, black level and the ADC.
+      double read;
+      if (tukey != 0) {
+        const double u = uniform_open(words[2]);
+        read = (std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm;
+      } else {
+        read = normal_from_words(words[2], words[3]);
+      }
+      double v = e + (dsnu ? dsnu[i] : 0.f) + read_e * read + row_noise + (col_e.empty() ? 0.f : col_e[x]);
+      // One rounding only: the quantization noise is the ideal 1/12 DN².
+      double code = std::floor(v * K + black + 0.5);
+      dn[i] = static_cast<float>(std::clamp(code, 0.0, max_code));
+    }
+  }
+  // Demosaic the black-subtracted mosaic to linear RGB in DN.
+  ImageF above_black(w, h, 1, 0.f, unit::dn);
+  for (size_t i = 0; i < above_black.size(); ++i) above_black[i] = dn[i] - static_cast<float>(black);
+  out.rgb = demosaic(above_black, p.cfa, s.demosaic);
+  out.rgb.set_unit(unit::dn);
+  return out;
+}
+
+SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  const ResolvedExposure ex = resolve(p, lens, s);
+  return sense(mean_signal_electrons(radiance, p, lens, ex), p, ex, s, fpn);
+}
+
+SensorOutput flat_field(double photons, double wavelength_nm, int width, int height,
+                        const CameraPreset& p, const LensPreset& lens, const ExposureSettings& s,
+                        const FixedPatternMaps& fpn) {
+  if (!std::isfinite(photons) || photons < 0)
+    fail(fmt::format("photons per pixel {} is impossible (must be >= 0)", photons));
+  if (!(wavelength_nm >= 200 && wavelength_nm <= 1200))
+    fail(fmt::format("wavelength {} nm is outside [200, 1200] nm", wavelength_nm));
+  if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
+    fail(fmt::format("flat-field size {}x{} is impossible", width, height));
+  const ResolvedExposure ex = resolve(p, lens, s);
+  // Photons falling on the pixel area; the fill factor and QE turn them into electrons
+  // (EMVA 1288 defines QE over the whole pixel area, so its η = FF · QE here).
+  float per_color[4];
+  for (int c = 0; c < 4; ++c)
+    per_color[c] = static_cast<float>(photons * p.fill_factor *
+                                      p.qe.at(static_cast<FilterColor>(c), wavelength_nm));
+  ImageF mean(width, height, 1, 0.f, unit::electrons);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) mean.at(x, y) = per_color[static_cast<int>(cfa_color(p.cfa, x, y))];
+  return sense(mean, p, ex, s, fpn);
+}
+
+}  // namespace photosite

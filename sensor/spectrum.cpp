@@ -1,0 +1,104 @@
+#include "photosite/sensor/spectrum.h"
+
+#include <cmath>
+
+#include "photosite/units.h"
+
+namespace photosite::spectrum {
+namespace {
+// Piecewise Gaussian of Wyman et al. 2013, Eq. 2: different widths left and right of the mean.
+double g(double x, double mu, double s1, double s2) {
+  const double t = (x - mu) / (x < mu ? s1 : s2);
+  return std::exp(-0.5 * t * t);
+}
+
+// ∫ f over [lo, hi] with the midpoint rule at 0.5 nm: the functions are smooth on that scale.
+double integrate(const std::function<double(double)>& f, double lo, double hi) {
+  const double step = 0.5;
+  double s = 0;
+  for (double x = lo + step / 2; x < hi; x += step) s += f(x);
+  return s * step;
+}
+
+std::array<std::array<double, 3>, 3> invert(const std::array<std::array<double, 3>, 3>& m) {
+  const double a = m[0][0], b = m[0][1], c = m[0][2], d = m[1][0], e = m[1][1], f = m[1][2],
+               gg = m[2][0], h = m[2][1], i = m[2][2];
+  const double det = a * (e * i - f * h) - b * (d * i - f * gg) + c * (d * h - e * gg);
+  return {{{(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det},
+           {(f * gg - d * i) / det, (a * i - c * gg) / det, (c * d - a * f) / det},
+           {(d * h - e * gg) / det, (b * gg - a * h) / det, (a * e - b * d) / det}}};
+}
+}  // namespace
+
+double cie_x_bar(double l) {
+  return 1.056 * g(l, 599.8, 37.9, 31.0) + 0.362 * g(l, 442.0, 16.0, 26.7) -
+         0.065 * g(l, 501.1, 20.4, 26.2);
+}
+double cie_y_bar(double l) { return 0.821 * g(l, 568.8, 46.9, 40.5) + 0.286 * g(l, 530.9, 16.3, 31.1); }
+double cie_z_bar(double l) { return 1.217 * g(l, 437.0, 11.8, 36.0) + 0.681 * g(l, 459.0, 26.0, 13.8); }
+
+double planck_W_sr_m2_nm(double wavelength_nm, double temperature_K) {
+  // B_λ(T) = 2hc²/λ⁵ / (exp(hc/(λ k T)) − 1), per metre of wavelength; × 1e-9 per nm.
+  using namespace units;
+  const double l = wavelength_nm * 1e-9;
+  const double x = planck_J_s * light_speed_m_per_s / (l * boltzmann_J_per_K * temperature_K);
+  return 2 * planck_J_s * light_speed_m_per_s * light_speed_m_per_s / std::pow(l, 5) /
+         std::expm1(x) * 1e-9;
+}
+
+std::array<double, 3> project_to_rgb(const std::function<double(double)>& spectral_radiance) {
+  std::array<double, 3> rgb{};
+  for (int k = 0; k < 3; ++k) rgb[k] = integrate(spectral_radiance, kBandLoNm[k], kBandHiNm[k]);
+  return rgb;
+}
+
+const std::array<double, 3>& band_luminous_efficacy_lm_per_W() {
+  static const std::array<double, 3> eff = [] {
+    std::array<double, 3> e{};
+    for (int k = 0; k < 3; ++k)
+      e[k] = units::max_luminous_efficacy_lm_per_W *
+             integrate(cie_y_bar, kBandLoNm[k], kBandHiNm[k]) / (kBandHiNm[k] - kBandLoNm[k]);
+    return e;
+  }();
+  return eff;
+}
+
+double luminance_cd_m2(const float rgb[3]) {
+  const auto& e = band_luminous_efficacy_lm_per_W();
+  return e[0] * rgb[0] + e[1] * rgb[1] + e[2] * rgb[2];
+}
+
+std::array<double, 3> blackbody_rgb(double cct_K, double luminance) {
+  auto rgb = project_to_rgb([cct_K](double l) { return planck_W_sr_m2_nm(l, cct_K); });
+  const auto& e = band_luminous_efficacy_lm_per_W();
+  const double lum = e[0] * rgb[0] + e[1] * rgb[1] + e[2] * rgb[2];
+  for (auto& v : rgb) v *= luminance / lum;
+  return rgb;
+}
+
+const std::array<std::array<double, 3>, 3>& box_to_linear_srgb() {
+  static const auto m = [] {
+    // XYZ (absolute, Y in cd/m²) of one W·sr⁻¹·m⁻² in each box, then IEC 61966-2-1's XYZ→sRGB.
+    static constexpr double xyz_to_srgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
+                                                 {-0.9692660, 1.8760108, 0.0415560},
+                                                 {0.0556434, -0.2040259, 1.0572252}};
+    std::array<std::array<double, 3>, 3> out{};
+    for (int k = 0; k < 3; ++k) {
+      const double w = kBandHiNm[k] - kBandLoNm[k];
+      const double X = 683.0 * integrate(cie_x_bar, kBandLoNm[k], kBandHiNm[k]) / w;
+      const double Y = 683.0 * integrate(cie_y_bar, kBandLoNm[k], kBandHiNm[k]) / w;
+      const double Z = 683.0 * integrate(cie_z_bar, kBandLoNm[k], kBandHiNm[k]) / w;
+      for (int r = 0; r < 3; ++r)
+        out[r][k] = xyz_to_srgb[r][0] * X + xyz_to_srgb[r][1] * Y + xyz_to_srgb[r][2] * Z;
+    }
+    return out;
+  }();
+  return m;
+}
+
+const std::array<std::array<double, 3>, 3>& linear_srgb_to_box() {
+  static const auto m = invert(box_to_linear_srgb());
+  return m;
+}
+
+}  // namespace photosite::spectrum
