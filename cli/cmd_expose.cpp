@@ -4,13 +4,14 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/sensor/isp.h"
 #include "registry.h"
 #include "sensor_options.h"
 
 namespace photosite::cli {
 namespace {
 struct ExposeCmd {
-  std::string radiance, out;
+  std::string radiance, out, preview;
   bool overwrite = false;
   bool half = false;
   SensorOptions sensor;
@@ -41,6 +42,8 @@ ImageF load_radiance(const std::string& path) {
 void run(const ExposeCmd& c) {
   auto r = c.sensor.resolve();
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
+  const auto previews = c.preview.empty() ? std::vector<std::string>{}
+                                          : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
   ImageF radiance = load_radiance(c.radiance);
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   ImageF mean_e;
@@ -62,6 +65,10 @@ void run(const ExposeCmd& c) {
     wo.half = c.half;
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
+    if (!previews.empty()) {
+      write_png(previews[f], preview_srgb(out.rgb, white_balance_gains(r.camera)));
+      std::printf("%s\n", previews[f].c_str());
+    }
   }
 }
 }  // namespace
@@ -72,6 +79,7 @@ static Registrar reg("b-expose", [](CLI::App& app) {
   sub->add_option("--radiance", cmd->radiance, "scene radiance, linear W.sr-1.m-2 (EXR)")->required();
   sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
   cmd->sensor.add(sub);
+  sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (simple ISP, docs/sensor.md)");
   sub->add_flag("--half", cmd->half, "store channels as half floats");
   add_overwrite_flag(sub, cmd->overwrite);
   sub->callback([cmd] { run(*cmd); });

@@ -1,0 +1,156 @@
+// The Poisson sampler: exact in distribution at every mean, and the corrected-normal regime
+// provably indistinguishable from the exact law.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "photosite/sensor/poisson.h"
+#include "photosite/sensor/poisson_detail.h"
+
+using namespace photosite;
+
+namespace {
+double poisson_cdf(long k, double mu) {  // Σ_{j<=k} e^-μ μ^j / j!, in log space
+  double tot = 0;
+  for (long j = 0; j <= k; ++j) tot += std::exp(-mu + j * std::log(mu) - std::lgamma(j + 1.0));
+  return tot;
+}
+double phi(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+// CDF of the corrected-normal approximation: P(K <= k) = Φ(z*) with X(z*) = k + 1/2.
+double approx_cdf(long k, double mu) {
+  const double s = std::sqrt(mu), t = k + 0.5;
+  auto X = [&](double z) { return mu + s * z + (z * z - 1) / 6 + (z - z * z * z) / (72 * s); };
+  double z = (t - mu) / s;
+  for (int i = 0; i < 50; ++i) {
+    const double d = s + z / 3 + (1 - 3 * z * z) / (72 * s);
+    z -= (X(z) - t) / d;
+  }
+  return phi(z);
+}
+}  // namespace
+
+TEST(Poisson, CorrectedNormalIsWithinStatedCdfErrorAboveThreshold) {
+  for (double mu : {kPoissonApproxThreshold, 150.0, 200.0, 300.0, 500.0, 1000.0, 5000.0, 2e4}) {
+    double worst = 0;
+    const long lo = std::max(0L, static_cast<long>(mu - 9 * std::sqrt(mu)));
+    const long hi = static_cast<long>(mu + 9 * std::sqrt(mu));
+    for (long k = lo; k <= hi; ++k) worst = std::max(worst, std::fabs(approx_cdf(k, mu) - poisson_cdf(k, mu)));
+    EXPECT_LT(worst, kPoissonApproxMaxCdfError) << "mean " << mu;
+  }
+  // The plain rounded normal is NOT that close at the threshold: the correction matters.
+  const double mu = kPoissonApproxThreshold;
+  double worst = 0;
+  for (long k = 60; k < 200; ++k)
+    worst = std::max(worst, std::fabs(phi((k + 0.5 - mu) / std::sqrt(mu)) - poisson_cdf(k, mu)));
+  EXPECT_GT(worst, 5 * kPoissonApproxMaxCdfError);
+}
+
+// Chi-square goodness of fit of N draws against the exact pmf, bins with expected count >= 5
+// merged; the statistic must stay under the 0.999 quantile (Wilson-Hilferty).
+// Returns χ² − q (negative: passes).
+static double chi2_excess(double mu, int n, uint32_t stream, PoissonMethod method) {
+  std::vector<int> counts;
+  double sum = 0, sum2 = 0;
+  for (int i = 0; i < n; ++i) {
+    const double k = poisson_sample(mu, 12345, 7, i, stream, method);
+    EXPECT_EQ(k, std::floor(k));
+    EXPECT_GE(k, 0);
+    if (k >= counts.size()) counts.resize(static_cast<size_t>(k) + 1);
+    counts[static_cast<size_t>(k)]++;
+    sum += k;
+    sum2 += k * k;
+  }
+  const double mean = sum / n, var = sum2 / n - mean * mean;
+  if (method == PoissonMethod::Exact) {
+    EXPECT_NEAR(mean, mu, 5 * std::sqrt(mu / n) + 1e-12) << "mean " << mu;
+    if (mu > 0.01) EXPECT_NEAR(var / mu, 1.0, 6 * std::sqrt(2.0 / n) + 5.0 / (n * mu)) << "mean " << mu;
+  }
+  // χ² over bins
+  double chi2 = 0, exp_acc = 0, obs_acc = 0, cdf_prev = 0;
+  int dof = -1;
+  const long kmax = static_cast<long>(mu + 12 * std::sqrt(mu) + 20);
+  for (long k = 0; k <= kmax; ++k) {
+    const double cdf = poisson_cdf(k, mu);
+    exp_acc += (cdf - cdf_prev) * n;
+    cdf_prev = cdf;
+    obs_acc += k < static_cast<long>(counts.size()) ? counts[k] : 0;
+    if (exp_acc >= 5 && (1 - cdf) * n >= 5) {
+      chi2 += (obs_acc - exp_acc) * (obs_acc - exp_acc) / exp_acc;
+      exp_acc = obs_acc = 0;
+      ++dof;
+    }
+  }
+  exp_acc += (1 - cdf_prev) * n;
+  long tail = 0;
+  for (long k = kmax + 1; k < static_cast<long>(counts.size()); ++k) tail += counts[k];
+  obs_acc += tail;
+  if (exp_acc > 0) {
+    chi2 += (obs_acc - exp_acc) * (obs_acc - exp_acc) / exp_acc;
+    ++dof;
+  }
+  if (dof >= 1) {
+    const double z = 3.09;  // 0.999 quantile of N(0,1)
+    const double q = dof * std::pow(1 - 2.0 / (9 * dof) + z * std::sqrt(2.0 / (9 * dof)), 3);
+    return chi2 - q;
+  }
+  return -1;
+}
+
+static void expect_poisson(double mu, int n, uint32_t stream) {
+  EXPECT_LT(chi2_excess(mu, n, stream, PoissonMethod::Exact), 0) << "mean " << mu;
+}
+
+TEST(Poisson, ExactInDistributionAcrossRegimes) {
+  for (double mu : {1e-3, 0.5, 3.0, 11.9, 12.0, 30.0, 100.0, 127.9, 128.0, 1000.0})
+    expect_poisson(mu, 200000, 1);
+}
+
+// Negative control: the same test rejects a plain rounded normal at low means.
+TEST(Poisson, GoodnessOfFitRejectsTheNormalApproximationAtLowMeans) {
+  for (double mu : {3.0, 30.0}) EXPECT_GT(chi2_excess(mu, 200000, 1, PoissonMethod::Normal), 0) << mu;
+}
+
+TEST(Poisson, LargeMeansKeepMeanAndVariance) {
+  for (double mu : {1e5, 1e6}) {
+    const int n = 100000;
+    double s = 0, s2 = 0;
+    for (int i = 0; i < n; ++i) {
+      const double k = poisson_sample(mu, 99, 0, i, 1);
+      s += k;
+      s2 += k * k;
+    }
+    const double mean = s / n, var = s2 / n - mean * mean;
+    EXPECT_NEAR(mean, mu, 5 * std::sqrt(mu / n));
+    EXPECT_NEAR(var / mu, 1.0, 0.03);
+  }
+}
+
+TEST(Poisson, ZeroAndNegativeMeansGiveZero) {
+  EXPECT_EQ(poisson_sample(0.0, 1, 0, 0, 1), 0.f);
+  EXPECT_EQ(poisson_sample(-3.0, 1, 0, 0, 1), 0.f);
+}
+
+TEST(Poisson, IndependentOfThreadCount) {
+  const int n = 300000;
+  std::vector<float> mean(n), a(n), b(n);
+  for (int i = 0; i < n; ++i) mean[i] = static_cast<float>(std::exp(std::log(0.5) + std::log(1e4) * i / n));
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  poisson_fill(mean.data(), a.data(), n, 0, 42, 3, 1);
+  omp_set_num_threads(3);
+  poisson_fill(mean.data(), b.data(), n, 0, 42, 3, 1);
+  omp_set_num_threads(saved);
+  EXPECT_EQ(a, b);
+  // Tiling: the second half computed on its own equals the same pixels of the whole.
+  std::vector<float> c(n / 2);
+  poisson_fill(mean.data() + n / 2, c.data(), n / 2, n / 2, 42, 3, 1);
+  EXPECT_TRUE(std::equal(c.begin(), c.end(), a.begin() + n / 2));
+}
+
+TEST(Poisson, LogFactorialMatchesLgamma) {
+  for (uint32_t k : {0u, 1u, 5u, 100u, 255u, 256u, 257u, 1000u, 100000u})
+    EXPECT_NEAR(detail::log_factorial(k), std::lgamma(k + 1.0), 1e-9 * (1 + std::lgamma(k + 1.0)));
+}

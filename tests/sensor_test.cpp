@@ -1,0 +1,384 @@
+// The sensor model: optics, photon integral, dark current, fixed pattern, read noise and ADC,
+// sequences and determinism.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "photosite/error.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/spectrum.h"
+#include "photosite/units.h"
+#include "test_util.h"
+
+using namespace photosite;
+
+namespace {
+CameraPreset flat_qe_camera(double qe = 0.5) {
+  CameraPreset p;
+  p.name = "test-cam";
+  p.file = "test-cam.toml";
+  p.cfa = CfaPattern::RGGB;
+  p.bit_depth = 12;
+  p.pixel_pitch_um = 4.0;
+  p.full_well_e = 20000;
+  p.system_gain_dn_per_e = 0.2;
+  p.read_noise_e = 3.0;
+  p.black_level_dn = 64;
+  p.temperature_c = 25;
+  p.qe.wavelength_nm = {380, 720};
+  for (int c = 0; c < 4; ++c) p.qe.qe[c] = {qe, qe};
+  return p;
+}
+LensPreset simple_lens(bool cos4 = false) {
+  LensPreset l;
+  l.f_number = 2.0;
+  l.transmittance = 1.0;
+  l.cos4_falloff = cos4;
+  return l;
+}
+double mean_of(const ImageF& img) {
+  return std::accumulate(img.vec().begin(), img.vec().end(), 0.0) / img.size();
+}
+double var_of(const ImageF& img) {
+  const double m = mean_of(img);
+  double s = 0;
+  for (float v : img.vec()) s += (v - m) * (v - m);
+  return s / (img.size() - 1);
+}
+FixedPatternMaps no_fpn(const CameraPreset& p, int w, int h) {
+  FixedPatternMaps m;
+  m.preset_name = p.name;
+  m.device_id = "test";
+  m.device_seed = 7;
+  m.width = w;
+  m.height = h;
+  return m;
+}
+}  // namespace
+
+TEST(Optics, ImagePlaneIrradianceFollowsTheCameraEquation) {
+  // E/L = π T / (1 + 4 (N(1+|m|))²)
+  EXPECT_NEAR(irradiance_per_radiance(2.0, 0.0, 1.0), units::pi / 17.0, 1e-12);
+  EXPECT_NEAR(irradiance_per_radiance(2.0, 1.0, 0.5), 0.5 * units::pi / 65.0, 1e-12);
+}
+
+TEST(PhotonIntegral, MatchesTheClosedFormForAFlatQe) {
+  CameraPreset p = flat_qe_camera(0.5);
+  LensPreset l = simple_lens();
+  ExposureSettings s;
+  s.exposure_s = 0.01;
+  const auto ex = resolve(p, l, s);
+  const auto m = photon_matrix(p, l, ex);
+  // With constant QE the band integral is QE · mean(λ)/(hc) over the band = QE · λ_mid/(hc).
+  const double area = std::pow(4e-6, 2), el = units::pi / 17.0;
+  for (int k = 0; k < 3; ++k) {
+    const double mid = 0.5 * (spectrum::kBandLoNm[k] + spectrum::kBandHiNm[k]);
+    const double expect = 0.01 * area * el * 0.5 / units::photon_energy_J(mid);
+    EXPECT_NEAR(m[0][k] / expect, 1.0, 1e-4) << k;
+  }
+}
+
+TEST(PhotonIntegral, Cos4FalloffDarkensTheCorners) {
+  CameraPreset p = flat_qe_camera();
+  LensPreset l = simple_lens(true);
+  l.focal_length_mm = 2.0;
+  ImageF radiance(201, 101, 3, 1.0f);
+  const auto ex = resolve(p, l, ExposureSettings{});
+  ImageF e = mean_signal_electrons(radiance, p, l, ex);
+  // Same filter colour at the centre (100, 50) and a corner (0, 0).
+  const double r2 = (100.0 * 100 + 50.0 * 50) * std::pow(4e-3 / 2.0, 2);
+  EXPECT_NEAR(e.at(0, 0) / e.at(100, 50), 1.0 / ((1 + r2) * (1 + r2)), 1e-5);
+}
+
+TEST(PhotonIntegral, RejectsNanInfAndNegativeRadiance) {
+  CameraPreset p = flat_qe_camera();
+  LensPreset l = simple_lens();
+  const auto ex = resolve(p, l, ExposureSettings{});
+  for (float bad : {std::nanf(""), INFINITY, -1.0f}) {
+    ImageF r(8, 8, 3, 1.0f);
+    r.at(5, 3, 1) = bad;
+    try {
+      mean_signal_electrons(r, p, l, ex);
+      FAIL() << "accepted " << bad;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("(5, 3)"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Exposure, ImpossibleSettingsAreBadInput) {
+  CameraPreset p = flat_qe_camera();
+  LensPreset l = simple_lens();
+  ExposureSettings s;
+  s.f_number = 0;
+  EXPECT_THROW(resolve(p, l, s), Error);
+  s = {};
+  s.exposure_s = -1;
+  EXPECT_THROW(resolve(p, l, s), Error);
+  s = {};
+  s.gain_db = 100;
+  EXPECT_THROW(resolve(p, l, s), Error);
+}
+
+TEST(DarkCurrent, DoublesEveryDoublingTemperature) {
+  CameraPreset p = flat_qe_camera();
+  p.dark_current_e_per_s = 10;
+  p.dark_current_reference_c = 25;
+  p.dark_current_doubling_c = 6;
+  ExposureSettings s;
+  s.temperature_c = 37;
+  EXPECT_NEAR(resolve(p, simple_lens(), s).dark_current_e_per_s, 40.0, 1e-9);
+}
+
+TEST(DarkCurrent, DarkFrameMeanAndShotNoiseGrowWithExposure) {
+  CameraPreset p = flat_qe_camera();
+  p.read_noise_e = 0.5;
+  p.dark_current_e_per_s = 200;
+  const int w = 256, h = 256;
+  auto fpn = no_fpn(p, w, h);
+  ImageF zero(w, h, 1, 0.f);
+  for (double t : {0.1, 1.0}) {
+    ExposureSettings s;
+    s.exposure_s = t;
+    auto out = sense(zero, p, resolve(p, simple_lens(), s), s, fpn);
+    EXPECT_NEAR(mean_of(out.electrons), 200 * t, 0.05 * 200 * t + 0.5);
+    EXPECT_NEAR(var_of(out.electrons) / (200 * t), 1.0, 0.05);  // Poisson: variance = mean
+  }
+}
+
+TEST(Adc, QuantizationNoiseIsTheIdealTwelfth) {
+  // A dark frame with read noise only: var(DN) = K² σ² + 1/12 (one rounding, no more).
+  CameraPreset p = flat_qe_camera();
+  p.read_noise_e = 2.0;
+  p.system_gain_dn_per_e = 0.5;
+  const int w = 512, h = 512;
+  ImageF zero(w, h, 1, 0.f);
+  ExposureSettings s;
+  s.exposure_s = 0;
+  auto out = sense(zero, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+  const double expect = 0.25 * 4.0 + 1.0 / 12;
+  EXPECT_NEAR(var_of(out.raw_dn), expect, 0.02 * expect);
+  EXPECT_NEAR(mean_of(out.raw_dn), 64.0, 0.02);
+  for (float v : out.raw_dn.vec()) ASSERT_EQ(v, std::floor(v));
+}
+
+TEST(Adc, FullWellAndAdcClip) {
+  CameraPreset p = flat_qe_camera();
+  const int w = 32, h = 32;
+  ImageF huge(w, h, 1, 1e7f);
+  ExposureSettings s;
+  auto out = sense(huge, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+  for (size_t i = 0; i < out.electrons.size(); ++i) {
+    ASSERT_EQ(out.electrons[i], 20000.f);
+    ASSERT_LE(out.raw_dn[i], 4095.f);
+  }
+  // With a gain making the ADC clip first, every code is the maximum.
+  s.gain_db = 12;
+  out = sense(huge, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+  for (float v : out.raw_dn.vec()) ASSERT_EQ(v, 4095.f);
+}
+
+TEST(Adc, SignalMeanFollowsGainAndBlackLevel) {
+  CameraPreset p = flat_qe_camera();
+  const int w = 256, h = 256;
+  ImageF sig(w, h, 1, 1000.f);
+  ExposureSettings s;
+  s.gain_db = 6.0206;  // ×2
+  auto out = sense(sig, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+  EXPECT_NEAR(mean_of(out.raw_dn), 64 + 0.4 * 1000, 0.5);
+  EXPECT_NEAR(var_of(out.raw_dn), 0.16 * (1000 + 9) + 1.0 / 12, 0.05 * 0.16 * 1009);
+}
+
+TEST(FixedPattern, MapsHaveTheirStatisticsAndAreDeterministic) {
+  CameraPreset p = flat_qe_camera();
+  p.prnu_percent = 1.5;
+  p.dsnu_e = 4.0;
+  p.dark_current_e_per_s = 10;
+  p.dark_current_nonuniformity_percent = 30;
+  auto a = generate_fixed_pattern(p, 300, 200, "unit-a");
+  auto b = generate_fixed_pattern(p, 300, 200, "unit-a");
+  auto c = generate_fixed_pattern(p, 300, 200, "unit-b");
+  EXPECT_EQ(a.checksum, b.checksum);
+  EXPECT_NE(a.checksum, c.checksum);
+  EXPECT_NEAR(mean_of(a.prnu_gain), 1.0, 0.001);
+  EXPECT_NEAR(std::sqrt(var_of(a.prnu_gain)), 0.015, 0.0006);
+  EXPECT_NEAR(std::sqrt(var_of(a.dsnu_offset_e)), 4.0, 0.15);
+  EXPECT_NEAR(mean_of(a.dark_rate_factor), 1.0, 0.01);
+  EXPECT_NEAR(std::sqrt(var_of(a.dark_rate_factor)), 0.30, 0.015);
+  // Stages the preset does not ask for are skipped: no maps at all.
+  auto none = generate_fixed_pattern(flat_qe_camera(), 30, 20, "unit-a");
+  EXPECT_TRUE(none.prnu_gain.empty() && none.dsnu_offset_e.empty() && none.dark_rate_factor.empty());
+}
+
+TEST(FixedPattern, HotPixelsAppearAtTheirFraction) {
+  CameraPreset p = flat_qe_camera();
+  p.dark_current_e_per_s = 10;
+  p.hot_pixel_fraction = 0.01;
+  p.hot_pixel_dark_current_e_per_s = 1000;
+  auto m = generate_fixed_pattern(p, 400, 250, "hot");
+  size_t hot = 0;
+  for (float f : m.dark_rate_factor.vec()) hot += f > 50;
+  EXPECT_NEAR(hot / 1e5, 0.01, 0.0015);
+}
+
+TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
+  test::TempDir dir;
+  CameraPreset p = flat_qe_camera();
+  p.prnu_percent = 1;
+  p.dsnu_e = 2;
+  DeviceStore store(dir.path().string());
+  auto a = store.load_or_create(p, "cam7", 64, 48);
+  const std::string path = store.path_for(p, "cam7", 64, 48);
+  ASSERT_TRUE(std::filesystem::exists(path));
+  const auto mtime = std::filesystem::last_write_time(path);
+  auto b = store.load_or_create(p, "cam7", 64, 48);
+  EXPECT_EQ(a.checksum, b.checksum);
+  EXPECT_EQ(a.prnu_gain.vec(), b.prnu_gain.vec());
+  EXPECT_EQ(std::filesystem::last_write_time(path), mtime);  // reused, not rewritten
+  // Another preset's parameters against the same file: an error, and the file is untouched.
+  CameraPreset q = p;
+  q.prnu_percent = 2;
+  EXPECT_THROW(store.load(path, q, "cam7", 64, 48), Error);
+  EXPECT_THROW(store.load(path, p, "cam7", 32, 48), Error);
+  q = p;
+  q.name = "other";
+  EXPECT_THROW(store.load(path, q, "cam7", 64, 48), Error);
+  EXPECT_THROW(store.load_or_create(p, "bad/id", 64, 48), Error);
+  // A corrupted map is an error, never silently regenerated.
+  {
+    std::FILE* f = std::fopen(path.c_str(), "r+b");
+    std::fseek(f, -200, SEEK_END);
+    const char junk[64] = "corrupted bytes corrupted bytes corrupted bytes corrupted by";
+    std::fwrite(junk, 1, sizeof junk, f);
+    std::fclose(f);
+  }
+  EXPECT_THROW(store.load_or_create(p, "cam7", 64, 48), Error);
+  EXPECT_TRUE(std::filesystem::exists(path));
+}
+
+TEST(Sequence, FramesShareFixedPatternAndHaveIndependentTemporalNoise) {
+  CameraPreset p = flat_qe_camera();
+  p.prnu_percent = 2;
+  p.dsnu_e = 5;
+  const int w = 256, h = 128;
+  auto fpn = generate_fixed_pattern(p, w, h, "seq");
+  ImageF sig(w, h, 1, 500.f);
+  ExposureSettings s;
+  const auto ex = resolve(p, simple_lens(), s);
+  s.frame = 0;
+  auto f0 = sense(sig, p, ex, s, fpn);
+  s.frame = 1;
+  auto f1 = sense(sig, p, ex, s, fpn);
+  s.frame = 0;
+  auto f0b = sense(sig, p, ex, s, fpn);
+  EXPECT_EQ(f0.raw_dn.vec(), f0b.raw_dn.vec());  // same seed and frame: bit for bit
+  EXPECT_NE(f0.raw_dn.vec(), f1.raw_dn.vec());
+  // Temporal parts (frame minus the two-frame mean) are uncorrelated; the fixed pattern is
+  // shared, so the frames themselves correlate through it.
+  double sab = 0, saa = 0, sbb = 0, cab = 0;
+  const double m0 = mean_of(f0.raw_dn), m1 = mean_of(f1.raw_dn);
+  for (size_t i = 0; i < f0.raw_dn.size(); ++i) {
+    const double a = f0.raw_dn[i] - m0, b = f1.raw_dn[i] - m1;
+    sab += a * b;
+    saa += a * a;
+    sbb += b * b;
+  }
+  const double corr = sab / std::sqrt(saa * sbb);
+  // Expected correlation = FPN variance / total variance (PRNU 2% of 500 e- = 10 e-, DSNU 5 e-).
+  const double fpn_var = 100 + 25, temporal = 500 + 9;
+  EXPECT_NEAR(corr, fpn_var / (fpn_var + temporal), 0.03);
+  (void)cab;
+}
+
+TEST(Sequence, IndependentOfThreadCount) {
+  CameraPreset p = flat_qe_camera();
+  p.prnu_percent = 1;
+  p.row_noise_e = 1;
+  const int w = 300, h = 170;
+  auto fpn = generate_fixed_pattern(p, w, h, "thr");
+  ImageF sig(w, h, 1);
+  for (size_t i = 0; i < sig.size(); ++i) sig[i] = static_cast<float>(i % 997) * 3.0f;
+  ExposureSettings s;
+  s.seed = 99;
+  const auto ex = resolve(p, simple_lens(), s);
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  auto a = sense(sig, p, ex, s, fpn);
+  omp_set_num_threads(4);
+  auto b = sense(sig, p, ex, s, fpn);
+  omp_set_num_threads(saved);
+  EXPECT_EQ(a.raw_dn.vec(), b.raw_dn.vec());
+  EXPECT_EQ(a.rgb.vec(), b.rgb.vec());
+}
+
+TEST(ReadNoise, TukeyLambdaHasTheStatedStandardDeviationAndHeavierTails) {
+  CameraPreset p = flat_qe_camera();
+  p.read_noise_e = 4.0;
+  p.read_noise_tukey_lambda = -0.1;
+  p.system_gain_dn_per_e = 4.0;  // fine DN steps so the read noise dominates quantization
+  p.bit_depth = 16;
+  p.black_level_dn = 2000;
+  const int w = 512, h = 512;
+  ImageF zero(w, h, 1, 0.f);
+  ExposureSettings s;
+  s.exposure_s = 0;
+  auto out = sense(zero, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+  const double sd_e = std::sqrt(var_of(out.raw_dn) - 1.0 / 12) / 4.0;
+  EXPECT_NEAR(sd_e, 4.0, 0.12);
+  // Excess kurtosis > 0 (a Gaussian has 0).
+  const double m = mean_of(out.raw_dn);
+  double m2 = 0, m4 = 0;
+  for (float v : out.raw_dn.vec()) {
+    const double d = v - m;
+    m2 += d * d;
+    m4 += d * d * d * d;
+  }
+  m2 /= out.raw_dn.size();
+  m4 /= out.raw_dn.size();
+  EXPECT_GT(m4 / (m2 * m2) - 3.0, 0.3);
+}
+
+TEST(Spectrum, BandEfficaciesAndConversions) {
+  const auto& e = spectrum::band_luminous_efficacy_lm_per_W();
+  EXPECT_GT(e[1], e[0]);  // green band is the most efficient
+  EXPECT_GT(e[1], e[2]);
+  // CIE 1924 V(λ) at 10 nm from 500 to 600 nm (CIE 15:2004 table), trapezoid mean ≈ 0.8105.
+  const double v[11] = {0.323, 0.503, 0.710, 0.862, 0.954, 0.995, 0.995, 0.952, 0.870, 0.757, 0.631};
+  double vm = 0;
+  for (int i = 0; i < 10; ++i) vm += 0.5 * (v[i] + v[i + 1]) / 10;
+  EXPECT_NEAR(e[1] / (683.0 * vm), 1.0, 0.01);
+  const auto rgb = spectrum::blackbody_rgb(3000, 2.5);
+  const float f[3] = {float(rgb[0]), float(rgb[1]), float(rgb[2])};
+  EXPECT_NEAR(spectrum::luminance_cd_m2(f), 2.5, 1e-5);
+  EXPECT_GT(rgb[0], rgb[2]);  // warm light: more red than blue
+  const auto& a = spectrum::box_to_linear_srgb();
+  const auto& b = spectrum::linear_srgb_to_box();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      double s = 0;
+      for (int k = 0; k < 3; ++k) s += a[i][k] * b[k][j];
+      EXPECT_NEAR(s, i == j ? 1.0 : 0.0, 1e-9);
+    }
+  // The sRGB luminance row of box → sRGB equals the band efficacies.
+  for (int k = 0; k < 3; ++k) {
+    const double y = 0.2126 * a[0][k] + 0.7152 * a[1][k] + 0.0722 * a[2][k];
+    EXPECT_NEAR(y / e[k], 1.0, 0.01) << k;
+  }
+}
+
+TEST(Expose, WholeChainOnEveryBundledCamera) {
+  for (const auto& entry : list_presets()) {
+    if (entry.kind != "camera") continue;
+    CameraPreset p = load_camera_preset(entry.name);
+    LensPreset l = load_lens_preset(p.default_lens);
+    ImageF radiance(64, 48, 3, 0.01f);
+    auto fpn = generate_fixed_pattern(p, 64, 48, "x");
+    ExposureSettings s;
+    auto out = expose(radiance, p, l, s, fpn);
+    EXPECT_EQ(out.raw_dn.width(), 64);
+    EXPECT_EQ(out.rgb.channels(), 3);
+    EXPECT_GT(mean_of(out.electrons), 0.0) << entry.name;
+  }
+}
