@@ -1,0 +1,191 @@
+// `photosite night`: a day photo and its Cityscapes-format labels in, the night scene radiance
+// and the camera's exposure of it out (docs/night.md). `photosite demo` runs it on the bundled
+// KITTI frame.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
+#include "registry.h"
+#include "sensor_options.h"
+
+namespace photosite::cli {
+
+struct NightCmd {
+  std::string image, labels, instances, out, preview;
+  std::string scene_preset = "night-urban";
+  std::string label_format = "auto";
+  std::string resize_labels = "none";
+  double ambient_lux = std::numeric_limits<double>::quiet_NaN();
+  bool timings = false, overwrite = false, half = false;
+  SensorOptions sensor;
+};
+
+// The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
+std::string night_sample_dir() {
+  if (const char* e = std::getenv("PHOTOSITE_SAMPLE_DIR"); e && *e) return e;
+  return std::string(PHOTOSITE_SOURCE_DIR) + "/samples";
+}
+
+void run_night(NightCmd c) {
+  using clock = std::chrono::steady_clock;
+  const auto t_start = clock::now();
+  const bool bundled = c.image.empty() && c.labels.empty();
+  if (bundled) {
+    c.image = night_sample_dir() + "/kitti/image_2/000000_10.png";
+    c.labels = night_sample_dir() + "/kitti/semantic_cropped/000000_10.png";
+    if (c.sensor.preset.empty()) c.sensor.preset = "sony-icx267-flea2";  // KITTI's camera
+  } else if (c.image.empty() || c.labels.empty()) {
+    fail("night: give both --image and --labels, or neither to run on the bundled KITTI sample");
+  }
+  if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";  // Cityscapes' camera
+  scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
+  if (!std::isnan(c.ambient_lux)) {
+    if (!(c.ambient_lux >= 0 && c.ambient_lux <= 10))
+      fail(fmt::format("--ambient-lux {} must be in [0, 10] lx", c.ambient_lux));
+    // Keep the preset's moon/sky-glow proportions, rescaled to the requested total.
+    const double sum = sp.moon_lux + sp.skyglow_lux;
+    if (sum > 0) {
+      sp.moon_lux *= c.ambient_lux / sum;
+      sp.skyglow_lux *= c.ambient_lux / sum;
+    } else {
+      sp.moon_lux = c.ambient_lux;
+    }
+  }
+  const auto fmt_label = scene::parse_label_format(c.label_format);
+  scene::ResizeLabels resize;
+  if (c.resize_labels == "none") resize = scene::ResizeLabels::None;
+  else if (c.resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
+  else fail("--resize-labels: '" + c.resize_labels + "' is not none or nearest");
+  auto r = c.sensor.resolve();
+  const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
+  const auto previews = c.preview.empty() ? std::vector<std::string>{}
+                                          : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
+
+  std::vector<scene::StageTiming> times;
+  auto t = clock::now();
+  auto lap = [&](const char* name) {
+    const auto now = clock::now();
+    times.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
+    t = now;
+  };
+  if (!std::filesystem::exists(c.image)) fail_at(c.image, "image file not found");
+  ImageFileInfo info;
+  ImageF day_raw = read_image(c.image, &info);
+  const scene::LabelMap labels =
+      scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
+  lap("read inputs");
+  ImageF day = scene::linearize(day_raw, info);
+  lap("linearize");
+  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed);
+  for (auto& st : ns.timings) times.push_back(st);
+  t = clock::now();
+
+  const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
+  const ImageF mean_e = mean_signal_electrons(ns.radiance, r.camera, r.lens, ex);
+  const FixedPatternMaps fpn =
+      r.store.load_or_create(r.camera, r.device_id, ns.radiance.width(), ns.radiance.height());
+  lap("sensor: optics, FPN");
+
+  ImageF depth = ns.depth, label_img(labels.ids.width(), labels.ids.height(), 1, 0.f, unit::label_id);
+  for (size_t i = 0; i < label_img.pixel_count(); ++i) label_img[i] = labels.ids[i];
+  auto attrs_scene = scene::scene_attributes(sp);
+  for (int f = 0; f < c.sensor.frames; ++f) {
+    r.settings.frame = static_cast<uint32_t>(f);
+    SensorOutput out = sense(mean_e, r.camera, ex, r.settings, fpn);
+    lap("sensor: noise, ADC, demosaic");
+    auto groups = sensor_channels(out);
+    groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
+    groups.push_back({{"depth.Z"}, &depth, unit::dimensionless});
+    groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
+    groups.push_back({{"labels.Y"}, &label_img, unit::label_id});
+    auto attrs = sensor_attributes(r, ex, fpn);
+    attrs.insert(attrs_scene.begin(), attrs_scene.end());
+    attrs["photosite/night/image"] = c.image;
+    attrs["photosite/night/labels"] = c.labels;
+    attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
+    if (!c.instances.empty()) attrs["photosite/night/instances"] = c.instances;
+    attrs["photosite/night/vanishing_point_x"] = ns.vp.x;
+    attrs["photosite/night/vanishing_point_y"] = ns.vp.y;
+    attrs["photosite/night/vanishing_point_confidence"] = ns.vp.confidence;
+    attrs["photosite/night/vanishing_point_method"] = std::string(scene::vp_method_name(ns.vp.method));
+    attrs["photosite/night/vanishing_point_support"] = ns.vp.support;
+    if (!ns.vp.note.empty()) attrs["photosite/night/vanishing_point_note"] = ns.vp.note;
+    attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
+    attrs["photosite/night/work_scale"] = ns.work_scale;
+    attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
+    attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
+    attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;
+    attrs["photosite/night/lights_windows"] = ns.light_stats.windows;
+    ExrWriteOptions wo;
+    wo.half = c.half;
+    write_exr(outputs[f], groups, attrs, wo);
+    std::printf("%s\n", outputs[f].c_str());
+    if (!previews.empty()) {
+      write_png(previews[f], preview_srgb(out.rgb, white_balance_gains(r.camera)));
+      std::printf("%s\n", previews[f].c_str());
+    }
+    lap("write outputs");
+  }
+  std::printf("vanishing point (%.1f, %.1f) px, method %s, confidence %.2f%s%s\n", ns.vp.x, ns.vp.y,
+              scene::vp_method_name(ns.vp.method), ns.vp.confidence, ns.vp.note.empty() ? "" : ": ",
+              ns.vp.note.c_str());
+  if (c.timings) {
+    std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", day.width(), day.height(),
+                r.camera.name.c_str());
+    double scene_ms = 0;
+    for (const auto& st : times) {
+      std::printf("%-32s %10.2f\n", st.stage.c_str(), st.ms);
+      if (st.stage != "read inputs" && st.stage.rfind("sensor", 0) != 0 && st.stage != "write outputs")
+        scene_ms += st.ms;
+    }
+    const double total = std::chrono::duration<double, std::milli>(clock::now() - t_start).count();
+    std::printf("%-32s %10.2f\n%-32s %10.2f\n", "scene stages (linearize..compose)", scene_ms,
+                "total (with file I/O)", total);
+  }
+}
+
+void add_night_options(CLI::App* sub, NightCmd& c) {
+  sub->add_option("--image", c.image, "day image: 8/16-bit PNG, JPEG, TIFF (sRGB) or linear EXR");
+  sub->add_option("--labels", c.labels, "Cityscapes-format labels: labelIds, trainIds or colour palette");
+  sub->add_option("--instances", c.instances, "Cityscapes *_instanceIds.png (per-vehicle lights)");
+  sub->add_option("--out", c.out, "output EXR (with --frames, a # run takes the frame number)")->required();
+  sub->add_option("--scene-preset", c.scene_preset, "scene preset: name in presets/scenes or a .toml path")
+      ->capture_default_str();
+  sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
+  sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
+  sub->add_option("--resize-labels", c.resize_labels, "none or nearest (labels of another size)")
+      ->capture_default_str();
+  sub->add_option("--preview", c.preview, "also write an sRGB PNG through the simple ISP");
+  sub->add_flag("--timings", c.timings, "print the per-stage time table");
+  sub->add_flag("--half", c.half, "store channels as half floats");
+  c.sensor.add(sub, false);
+  add_overwrite_flag(sub, c.overwrite);
+}
+
+static Registrar reg("c-night", [](CLI::App& app) {
+  auto cmd = std::make_shared<NightCmd>();
+  auto* sub = app.add_subcommand(
+      "night", "day photo + semantic labels -> night scene radiance and camera exposure");
+  add_night_options(sub, *cmd);
+  sub->callback([cmd] { run_night(*cmd); });
+});
+
+}  // namespace photosite::cli
+
+namespace photosite::cli {
+void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings) {
+  NightCmd c;
+  c.out = out;
+  c.preview = preview;
+  c.overwrite = overwrite;
+  c.timings = timings;
+  run_night(c);
+}
+}  // namespace photosite::cli

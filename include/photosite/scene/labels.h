@@ -1,0 +1,53 @@
+// Semantic labels in the Cityscapes format (Cordts et al., CVPR 2016; cityscapesScripts
+// helpers/labels.py), shared by Cityscapes, KITTI and BDD100K: labelIds 0..33, trainIds 0..18 with
+// 255 for ignored, or the colour palette. Internally photosite always holds labelIds (uint8).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "photosite/image.h"
+
+namespace photosite::scene {
+
+// The 34 Cityscapes labelIds (helpers/labels.py).
+enum class Label : uint8_t {
+  Unlabeled = 0, EgoVehicle = 1, RectificationBorder = 2, OutOfRoi = 3, Static = 4, Dynamic = 5,
+  Ground = 6, Road = 7, Sidewalk = 8, Parking = 9, RailTrack = 10, Building = 11, Wall = 12,
+  Fence = 13, GuardRail = 14, Bridge = 15, Tunnel = 16, Pole = 17, PoleGroup = 18,
+  TrafficLight = 19, TrafficSign = 20, Vegetation = 21, Terrain = 22, Sky = 23, Person = 24,
+  Rider = 25, Car = 26, Truck = 27, Bus = 28, Caravan = 29, Trailer = 30, Train = 31,
+  Motorcycle = 32, Bicycle = 33,
+};
+inline constexpr int kLabelCount = 34;
+
+enum class LabelFormat { Auto, LabelIds, TrainIds, Palette };
+LabelFormat parse_label_format(const std::string& text);  // auto|labelIds|trainIds|color
+const char* label_format_name(LabelFormat f);
+
+const char* label_name(int label_id);
+std::array<uint8_t, 3> label_color(int label_id);  // the Cityscapes palette colour
+int train_id_to_label_id(int train_id);             // 255 → Unlabeled; unknown → -1
+bool is_vehicle(int label_id);  // car, truck, bus, caravan, trailer, train, motorcycle, bicycle
+bool is_ground(int label_id);   // road, sidewalk, parking, ground, rail track, terrain
+
+struct LabelMap {
+  ImageU16 ids;             // labelIds 0..33, one channel
+  LabelFormat format = LabelFormat::LabelIds;  // what the file held
+  ImageU16 instances;       // Cityscapes instance code class*1000+n (>= 1000), 0: none; empty without a file
+};
+
+// Interprets raw codes (1 channel: ids; 3 channels: palette) in `format` (Auto: detect). An
+// unknown id or colour is a bad-input error naming `file` and the pixel.
+LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::string& file);
+
+enum class ResizeLabels { None, Nearest };
+// Reads labels (and optional Cityscapes *_instanceIds.png: id >= 1000 → class id/1000, instance
+// id%1000; ids < 1000 are class ids without instances) and checks they match width x height.
+LabelMap read_labels(const std::string& labels_path, const std::string& instances_path,
+                     int width, int height, LabelFormat format, ResizeLabels resize);
+
+// Nearest-neighbour resize of a one-channel label/instance image.
+ImageU16 resize_nearest(const ImageU16& in, int width, int height);
+
+}  // namespace photosite::scene

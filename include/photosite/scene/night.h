@@ -1,0 +1,124 @@
+// The day-to-night scene translation (after Baek 2020, "Road Scene Image Translation from Day to
+// Night using Semantic Segmentation"), in radiometric units. Each stage is a pure function:
+//   linearize → darken (per-class reflectance under night illuminance, W·sr⁻¹·m⁻²)
+//   → lanes → edges → lines → vanishing point → coarse depth → light map → compose.
+// Stages 3-6 (lanes..vanishing) run on a working copy at most `work_max_width` wide; their
+// results are scaled back to full resolution. docs/night.md has the equations and sources.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "photosite/image.h"
+#include "photosite/io.h"
+#include "photosite/scene/labels.h"
+#include "photosite/scene/scene_preset.h"
+
+namespace photosite::scene {
+
+// ---- linearize --------------------------------------------------------------------------
+// Day image → linear sRGB (3 channels). Integer files are sRGB-decoded (IEC 61966-2-1); float
+// files (EXR) are taken as linear. Grey images are replicated, alpha dropped.
+ImageF linearize(const ImageF& day, const ImageFileInfo& info);
+// Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
+ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
+
+// ---- darken -----------------------------------------------------------------------------
+// Representative reflectance of a class (Table 1 of Baek 2020; unlabeled: mean of the others).
+double class_reflectance(int label_id, const ScenePreset& p);
+// Per-pixel reflectance texture f (W/lm, per band): the day image normalised so that the
+// luminance-weighted mean of each class equals the class reflectance ρ:
+//   f_k(x) = ρ_class · c_k(x) / mean_class(Y(c)),  Y(c) = Σ_k K_k c_k  (band efficacies, lm/W).
+// A Lambertian surface under illuminance E (lx) with relative spectral tint t then has
+//   L_k = f_k · t_k · E / π    (W·sr⁻¹·m⁻²),  with luminance ρ·E/π for the class mean.
+ImageF reflectance_texture(const ImageF& day_box, const ImageU16& labels, const ScenePreset& p);
+// Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
+std::array<double, 3> illuminant_tint(double cct_K);
+// Ambient (moon + sky glow) and street lighting on every class; the sky gets its own luminance.
+ImageF darken(const ImageF& day_box, const ImageF& texture, const ImageU16& labels,
+              const ScenePreset& p);
+
+// ---- geometry (working resolution) -------------------------------------------------------
+struct WorkImages {
+  double scale = 1.0;  // work = full · scale
+  ImageF luma;         // sRGB-encoded luminance [0,1] of the day image
+  ImageU16 labels;     // nearest-neighbour labels
+};
+WorkImages make_work_images(const ImageF& day_linear_srgb, const ImageU16& labels,
+                            int work_max_width);
+// Lane markings inside the road class (255 = marking): Gaussian blur, then Batista et al.'s
+// horizontal contrast accumulation (brighter than both neighbours at the perspective-scaled
+// marking width) plus a vertical pass for transverse markings.
+ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePreset& p);
+// Canny over the segmentation of the selected classes (road, vehicles) plus lane markings.
+ImageU8 segmentation_edges(const ImageU16& labels, const ImageU8& lanes, const ScenePreset& p);
+struct Segment { float x0, y0, x1, y1; };
+// HoughLinesP, dropping near-horizontal/near-vertical lines and lines within the outer border.
+std::vector<Segment> detect_lines(const ImageU8& edges, const ScenePreset& p);
+
+enum class VpMethod { Hough, RoadPrior, SkyPrior, ImageCentre };
+const char* vp_method_name(VpMethod m);
+struct VanishingPoint {
+  double x = 0, y = 0;       // pixels of the image the lines came from
+  double confidence = 0;     // 0..1
+  VpMethod method = VpMethod::ImageCentre;
+  int support = 0;           // intersections in the winning cluster
+  std::string note;          // why a fallback was taken
+};
+// Pairwise intersections, densest cluster, its mean; else a prior from the labels.
+VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
+                               const ScenePreset& p);
+// 0 at the vanishing point rising linearly to 1 at the image border along every ray.
+ImageF coarse_depth(int width, int height, double vp_x, double vp_y);
+
+// ---- lights and composition (full resolution) ----------------------------------------------
+// Ego low-beam illuminance (lx) on the ground at a pixel, from the coarse depth: ∝ depth² (the
+// inverse-square law along the road, distance ∝ 1/depth), Gaussian across the beam.
+double low_beam_lux(int x, int y, int width, double depth, double vp_y, const ScenePreset& p);
+
+struct LightStats { int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0; };
+struct LightMap {
+  ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected, with bloom
+  LightStats stats;
+};
+LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
+                   const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
+                   const ScenePreset& p, uint64_t seed);
+// Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
+ImageF bloom(const ImageF& src, double fraction, int levels);
+// darkened + diffuse low-beam light on the ground + light map.
+ImageF compose(const ImageF& darkened, const ImageF& texture, const ImageF& lights,
+               const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,
+               const ScenePreset& p);
+
+// ---- the chain ----------------------------------------------------------------------------
+struct StageTiming { std::string stage; double ms; };
+struct NightScene {
+  ImageF darkened, lights, radiance, depth;  // full resolution
+  ImageU8 lanes_work, edges_work;            // working resolution
+  double work_scale = 1;
+  std::vector<Segment> lines_work;
+  VanishingPoint vp;  // full-resolution pixels
+  LightStats light_stats;
+  std::vector<StageTiming> timings;
+};
+NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+                       uint64_t seed);
+
+// ---- synthetic test scenes -----------------------------------------------------------------
+struct SyntheticOptions {
+  int width = 640, height = 320;
+  double vp_x = 320, vp_y = 130;
+  int cars = 2;
+  bool lanes = true, road = true, buildings = true, sky = true;
+};
+struct SyntheticScene {
+  ImageF day_linear_srgb;
+  LabelMap labels;  // labelIds plus instances for the cars
+};
+// A straight road in perspective toward (vp_x, vp_y) with dashed lane markings, sky, buildings
+// on both sides and box cars on the road. Deterministic.
+SyntheticScene make_synthetic_road(const SyntheticOptions& o);
+
+}  // namespace photosite::scene

@@ -1,0 +1,56 @@
+// Scene presets: the night illumination and every parameter of the day-to-night stages, in
+// presets/scenes/<name>.toml with the source of each number in a comment. Unknown or missing
+// keys and out-of-range values are errors naming file and key.
+#pragma once
+#include <array>
+#include <map>
+#include <string>
+
+#include "photosite/io.h"
+
+namespace photosite::scene {
+
+struct ScenePreset {
+  std::string name, file, description;
+  // [reflectance] Table 1 of Baek 2020: representative material per class (dimensionless).
+  double rho_sign = 0.7, rho_construction = 0.3, rho_human = 0.25, rho_nature = 0.2,
+         rho_vehicle = 0.2, rho_sky = 0.1, rho_road = 0.1;
+  // [ambient] illuminance on every surface (lx) and the sky's own luminance (cd/m²).
+  double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
+  double sky_luminance_cd_m2 = 0.02;
+  // [street] street lighting: road luminance target (cd/m², EN 13201 M class) → horizontal
+  // illuminance on ground classes E = π·L/ρ_road; vertical surfaces get vertical_fraction of it.
+  double street_road_luminance_cd_m2 = 1.0, street_vertical_fraction = 0.3;
+  double street_cct_K = 4000;
+  // [lamps] luminances of light sources (cd/m²) and CCTs (K).
+  double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
+  double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
+  double taillamp_luminance_cd_m2 = 500;
+  double signal_luminance_cd_m2 = 1e4;
+  double window_luminance_cd_m2 = 30, window_cct_K = 2700, window_lit_fraction = 0.3;
+  double window_cell_fraction = 0.02;  // window grid cell, fraction of the image width
+  // [retroreflection] EN 1436 R_L (cd·m⁻²·lx⁻¹) for lane markings, EN 12899 R_A (cd·lx⁻¹·m⁻²).
+  double marking_RL = 0.2, sign_RA = 180;
+  // [ego_beam] low beam: illuminance on the road at the bottom of the image (lx), CCT,
+  // half-width of the beam at the bottom as a fraction of the image width.
+  double beam_road_lux = 30, beam_cct_K = 3200, beam_half_width = 0.35, beam_sign_lux = 5;
+  // [bloom] energy fraction spread by the mip-chain glare and the number of levels.
+  double bloom_fraction = 0.05;
+  int bloom_levels = 5;
+  // [geometry] lanes, edges, Hough, vanishing point.
+  int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
+  double lane_blur_sigma_px = 1.0, lane_contrast_threshold = 0.06;
+  double canny_low = 40, canny_high = 120;
+  int hough_threshold = 30;
+  double hough_min_length_fraction = 0.04, hough_max_gap_fraction = 0.01;
+  double line_reject_angle_deg = 12, border_fraction = 0.03;
+  double vp_cluster_radius_fraction = 0.04;
+  int vp_min_support = 4;
+};
+
+ScenePreset load_scene_preset(const std::string& name_or_path);  // name in presets/scenes or path
+ScenePreset parse_scene_preset(const std::string& toml_text, const std::string& file);
+// Every parameter as a header attribute "photosite/scene/<key>".
+std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p);
+
+}  // namespace photosite::scene

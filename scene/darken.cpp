@@ -1,0 +1,134 @@
+// Linearization and per-class darkening under night illumination (stage 1).
+#include <cmath>
+
+#include "photosite/error.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
+#include "photosite/sensor/spectrum.h"
+#include "photosite/units.h"
+
+namespace photosite::scene {
+
+ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
+  const int c = day.channels();
+  ImageF out(day.width(), day.height(), 3, 0.f, "linear sRGB");
+  // sRGB decode through a 4096-entry table (inputs are 8/16-bit codes normalised to [0,1]).
+  std::vector<float> lut(4097);
+  for (int i = 0; i <= 4096; ++i) lut[i] = static_cast<float>(srgb_decode(i / 4096.0));
+  const bool decode = !info.is_float;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < day.height(); ++y) {
+    const float* in = day.row(y);
+    float* o = out.row(y);
+    for (int x = 0; x < day.width(); ++x) {
+      for (int k = 0; k < 3; ++k) {
+        float v = in[x * c + (c >= 3 ? k : 0)];
+        if (!std::isfinite(v) || v < 0) v = 0;
+        if (decode) {
+          const float t = std::min(v, 1.f) * 4096.f;
+          const int i = std::min(4095, static_cast<int>(t));
+          v = lut[i] + (lut[i + 1] - lut[i]) * (t - i);
+        }
+        o[3 * x + k] = v;
+      }
+    }
+  }
+  return out;
+}
+
+ImageF linear_srgb_to_box_rgb(const ImageF& s) {
+  const auto& M = spectrum::linear_srgb_to_box();
+  ImageF out(s.width(), s.height(), 3, 0.f, "box RGB (relative)");
+  const size_t n = s.pixel_count();
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r) {
+      const double v = M[r][0] * s[3 * i] + M[r][1] * s[3 * i + 1] + M[r][2] * s[3 * i + 2];
+      out[3 * i + r] = static_cast<float>(std::max(0.0, v));  // out-of-gamut negatives clipped
+    }
+  return out;
+}
+
+double class_reflectance(int id, const ScenePreset& p) {
+  switch (static_cast<Label>(id)) {
+    case Label::TrafficSign: case Label::TrafficLight: return p.rho_sign;
+    case Label::Building: case Label::Wall: case Label::Fence: case Label::GuardRail:
+    case Label::Bridge: case Label::Tunnel: case Label::Pole: case Label::PoleGroup:
+      return p.rho_construction;  // poles: concrete/galvanised, grouped with construction
+    case Label::Person: case Label::Rider: return p.rho_human;
+    case Label::Vegetation: case Label::Terrain: return p.rho_nature;
+    case Label::Car: case Label::Truck: case Label::Bus: case Label::Caravan: case Label::Trailer:
+    case Label::Train: case Label::Motorcycle: case Label::Bicycle: return p.rho_vehicle;
+    case Label::Sky: return p.rho_sky;
+    case Label::Road: case Label::Parking: case Label::Sidewalk: case Label::Ground:
+    case Label::RailTrack: return p.rho_road;
+    default:  // unlabeled, ego vehicle, border, out of roi, static, dynamic: mean of the others
+      return (p.rho_sign + p.rho_construction + p.rho_human + p.rho_nature + p.rho_vehicle +
+              p.rho_sky + p.rho_road) / 7.0;
+  }
+}
+
+ImageF reflectance_texture(const ImageF& day_box, const ImageU16& labels, const ScenePreset& p) {
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const size_t n = day_box.pixel_count();
+  double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
+  for (size_t i = 0; i < n; ++i) {
+    const int id = labels[i];
+    sum[id] += K[0] * day_box[3 * i] + K[1] * day_box[3 * i + 1] + K[2] * day_box[3 * i + 2];
+    cnt[id] += 1;
+  }
+  float scale[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) {
+    const double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
+    scale[id] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
+  }
+  const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
+  const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
+  ImageF f(day_box.width(), day_box.height(), 3, 0.f, "W.lm-1");
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    const int id = labels[i];
+    for (int k = 0; k < 3; ++k) {
+      float v = scale[id] > 0 ? scale[id] * day_box[3 * i + k]
+                              : static_cast<float>(class_reflectance(id, p)) * flat;
+      f[3 * i + k] = std::min(v, cap);
+    }
+  }
+  return f;
+}
+
+std::array<double, 3> illuminant_tint(double cct_K) {
+  const auto a = spectrum::blackbody_rgb(cct_K, 1.0), d = spectrum::blackbody_rgb(6504.0, 1.0);
+  return {a[0] / d[0], a[1] / d[1], a[2] / d[2]};
+}
+
+ImageF darken(const ImageF& day_box, const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K),
+             tl = illuminant_tint(p.street_cct_K);
+  // Horizontal street-light illuminance that gives the target road luminance: E = π L / ρ_road.
+  const double e_street = units::pi * p.street_road_luminance_cd_m2 / p.rho_road;
+  std::array<float, 3> ground{}, vertical{}, sky{};
+  for (int k = 0; k < 3; ++k) {
+    const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
+    ground[k] = static_cast<float>((amb + e_street * tl[k]) / units::pi);
+    vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
+  }
+  // Sky: its own luminance with the day texture (clouds) relative to the sky's mean luminance;
+  // the texture holds ρ_sky·c/Ȳ, so divide ρ_sky out again. Colour of urban glow.
+  for (int k = 0; k < 3; ++k)
+    sky[k] = static_cast<float>(p.sky_luminance_cd_m2 * ts[k] / std::max(1e-6, p.rho_sky));
+  (void)K;
+  ImageF out(day_box.width(), day_box.height(), 3, 0.f, unit::radiance);
+  const size_t n = out.pixel_count();
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    const int id = labels[i];
+    const std::array<float, 3>& e =
+        id == static_cast<int>(Label::Sky) ? sky : (is_ground(id) ? ground : vertical);
+    for (int k = 0; k < 3; ++k) out[3 * i + k] = f[3 * i + k] * e[k];
+  }
+  return out;
+}
+
+}  // namespace photosite::scene

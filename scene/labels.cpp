@@ -1,0 +1,197 @@
+// Cityscapes label decoding (ids, trainIds, palette) and instance ids.
+#include "photosite/scene/labels.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+
+#include "photosite/error.h"
+#include "photosite/io.h"
+
+namespace photosite::scene {
+namespace {
+struct LabelInfo {
+  const char* name;
+  int train_id;
+  uint8_t r, g, b;
+};
+// cityscapesScripts helpers/labels.py (name, trainId, colour) for labelIds 0..33.
+constexpr LabelInfo kLabels[kLabelCount] = {
+    {"unlabeled", 255, 0, 0, 0},          {"ego vehicle", 255, 0, 0, 0},
+    {"rectification border", 255, 0, 0, 0}, {"out of roi", 255, 0, 0, 0},
+    {"static", 255, 0, 0, 0},             {"dynamic", 255, 111, 74, 0},
+    {"ground", 255, 81, 0, 81},           {"road", 0, 128, 64, 128},
+    {"sidewalk", 1, 244, 35, 232},        {"parking", 255, 250, 170, 160},
+    {"rail track", 255, 230, 150, 140},   {"building", 2, 70, 70, 70},
+    {"wall", 3, 102, 102, 156},           {"fence", 4, 190, 153, 153},
+    {"guard rail", 255, 180, 165, 180},   {"bridge", 255, 150, 100, 100},
+    {"tunnel", 255, 150, 120, 90},        {"pole", 5, 153, 153, 153},
+    {"polegroup", 255, 153, 153, 153},    {"traffic light", 6, 250, 170, 30},
+    {"traffic sign", 7, 220, 220, 0},     {"vegetation", 8, 107, 142, 35},
+    {"terrain", 9, 152, 251, 152},        {"sky", 10, 70, 130, 180},
+    {"person", 11, 220, 20, 60},          {"rider", 12, 255, 0, 0},
+    {"car", 13, 0, 0, 142},               {"truck", 14, 0, 0, 70},
+    {"bus", 15, 0, 60, 100},              {"caravan", 255, 0, 0, 90},
+    {"trailer", 255, 0, 0, 110},          {"train", 16, 0, 80, 100},
+    {"motorcycle", 17, 0, 0, 230},        {"bicycle", 18, 119, 11, 32},
+};
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Palette colour → labelId. Shared colours resolve to the first id (black → unlabeled,
+// pole/polegroup → pole); the license-plate colour equals car's.
+int palette_lookup(uint16_t r, uint16_t g, uint16_t b) {
+  for (int id = 0; id < kLabelCount; ++id)
+    if (kLabels[id].r == r && kLabels[id].g == g && kLabels[id].b == b) return id;
+  return -1;
+}
+}  // namespace
+
+LabelFormat parse_label_format(const std::string& text) {
+  const std::string t = lower(text);
+  if (t == "auto") return LabelFormat::Auto;
+  if (t == "labelids" || t == "label-ids" || t == "ids") return LabelFormat::LabelIds;
+  if (t == "trainids" || t == "train-ids") return LabelFormat::TrainIds;
+  if (t == "color" || t == "colour" || t == "palette") return LabelFormat::Palette;
+  fail("--label-format: unknown format '" + text + "' (auto, labelIds, trainIds, color)");
+}
+
+const char* label_format_name(LabelFormat f) {
+  switch (f) {
+    case LabelFormat::Auto: return "auto";
+    case LabelFormat::LabelIds: return "labelIds";
+    case LabelFormat::TrainIds: return "trainIds";
+    case LabelFormat::Palette: return "color";
+  }
+  return "?";
+}
+
+const char* label_name(int id) { return id >= 0 && id < kLabelCount ? kLabels[id].name : "?"; }
+std::array<uint8_t, 3> label_color(int id) {
+  if (id < 0 || id >= kLabelCount) return {0, 0, 0};
+  return {kLabels[id].r, kLabels[id].g, kLabels[id].b};
+}
+int train_id_to_label_id(int train_id) {
+  if (train_id == 255) return static_cast<int>(Label::Unlabeled);
+  for (int id = 0; id < kLabelCount; ++id)
+    if (kLabels[id].train_id == train_id) return id;
+  return -1;
+}
+bool is_vehicle(int id) { return id >= 26 && id <= 33; }
+bool is_ground(int id) {
+  return id == 6 || id == 7 || id == 8 || id == 9 || id == 10 || id == 22;
+}
+
+LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::string& file) {
+  LabelMap m;
+  const int w = raw.width(), h = raw.height();
+  m.ids = ImageU16(w, h, 1, 0, unit::label_id);
+  auto where_px = [&](size_t i) {
+    return " at pixel (" + std::to_string(i % w) + ", " + std::to_string(i / w) + ")";
+  };
+  if (raw.channels() >= 3) {
+    if (format != LabelFormat::Auto && format != LabelFormat::Palette)
+      fail_at(file, std::string("labels have ") + std::to_string(raw.channels()) +
+                        " channels but --label-format is " + label_format_name(format));
+    m.format = LabelFormat::Palette;
+    const int c = raw.channels();
+    for (size_t i = 0; i < raw.pixel_count(); ++i) {
+      const int id = palette_lookup(raw[i * c], raw[i * c + 1], raw[i * c + 2]);
+      if (id < 0)
+        fail_at(file, "colour (" + std::to_string(raw[i * c]) + ", " + std::to_string(raw[i * c + 1]) +
+                          ", " + std::to_string(raw[i * c + 2]) + ")" + where_px(i) +
+                          " is not in the Cityscapes palette");
+      m.ids[i] = static_cast<uint16_t>(id);
+    }
+    return m;
+  }
+  if (raw.channels() != 1) fail_at(file, "labels must have 1 (ids) or 3 (palette) channels");
+  if (format == LabelFormat::Palette) fail_at(file, "--label-format color needs an RGB label image");
+  uint16_t maxv = 0;
+  bool has255 = false, has_mid = false;  // mid: 19..33, only labelIds have these
+  for (size_t i = 0; i < raw.pixel_count(); ++i) {
+    const uint16_t v = raw[i];
+    if (v == 255) has255 = true;
+    else {
+      maxv = std::max(maxv, v);
+      if (v >= 19 && v <= 33) has_mid = true;
+    }
+  }
+  if (format == LabelFormat::Auto) {
+    if (has255 && !has_mid) format = LabelFormat::TrainIds;
+    else format = LabelFormat::LabelIds;  // values 0..18 only are ambiguous: labelIds (the common file)
+  }
+  m.format = format;
+  for (size_t i = 0; i < raw.pixel_count(); ++i) {
+    const int v = raw[i];
+    int id = -1;
+    if (format == LabelFormat::LabelIds) id = v < kLabelCount ? v : -1;
+    else id = (v <= 18 || v == 255) ? train_id_to_label_id(v) : -1;
+    if (id < 0)
+      fail_at(file, "value " + std::to_string(v) + where_px(i) + " is not a Cityscapes " +
+                        label_format_name(format) + " value" +
+                        (format == LabelFormat::LabelIds ? " (0..33)" : " (0..18, 255)"));
+    m.ids[i] = static_cast<uint16_t>(id);
+  }
+  return m;
+}
+
+ImageU16 resize_nearest(const ImageU16& in, int width, int height) {
+  ImageU16 out(width, height, in.channels(), 0, in.unit());
+  const int c = in.channels();
+  for (int y = 0; y < height; ++y) {
+    const int sy = std::min(in.height() - 1, static_cast<int>((y + 0.5) * in.height() / height));
+    for (int x = 0; x < width; ++x) {
+      const int sx = std::min(in.width() - 1, static_cast<int>((x + 0.5) * in.width() / width));
+      for (int k = 0; k < c; ++k) out.at(x, y, k) = in.at(sx, sy, k);
+    }
+  }
+  return out;
+}
+
+LabelMap read_labels(const std::string& labels_path, const std::string& instances_path, int width,
+                     int height, LabelFormat format, ResizeLabels resize) {
+  if (!std::filesystem::exists(labels_path)) fail_at(labels_path, "labels file not found");
+  ImageU16 raw = read_image_u16(labels_path);
+  if (!raw.same_shape(width, height)) {
+    if (resize == ResizeLabels::None)
+      fail_at(labels_path, "labels are " + std::to_string(raw.width()) + "x" +
+                               std::to_string(raw.height()) + " but the image is " +
+                               std::to_string(width) + "x" + std::to_string(height) +
+                               " (pass --resize-labels nearest to resample them)");
+    raw = resize_nearest(raw, width, height);
+  }
+  LabelMap m = decode_labels(raw, format, labels_path);
+  if (!instances_path.empty()) {
+    if (!std::filesystem::exists(instances_path)) fail_at(instances_path, "instances file not found");
+    ImageU16 inst = read_image_u16(instances_path);
+    if (inst.channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
+    if (!inst.same_shape(width, height)) {
+      if (resize == ResizeLabels::None)
+        fail_at(instances_path, "instance ids are " + std::to_string(inst.width()) + "x" +
+                                    std::to_string(inst.height()) + " but the image is " +
+                                    std::to_string(width) + "x" + std::to_string(height));
+      inst = resize_nearest(inst, width, height);
+    }
+    m.instances = ImageU16(width, height, 1, 0, "instance id");
+    for (size_t i = 0; i < inst.pixel_count(); ++i) {
+      const int v = inst[i];
+      if (v >= 1000) {
+        if (v / 1000 >= kLabelCount)
+          fail_at(instances_path, "instance id " + std::to_string(v) + " has class " +
+                                      std::to_string(v / 1000) + " beyond labelId 33");
+        m.instances[i] = static_cast<uint16_t>(v);
+      } else if (v >= kLabelCount) {
+        fail_at(instances_path, "instance id " + std::to_string(v) +
+                                    " is neither a labelId (0..33) nor class*1000+instance");
+      }
+    }
+  }
+  return m;
+}
+
+}  // namespace photosite::scene

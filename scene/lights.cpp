@@ -1,0 +1,307 @@
+// The light map (stage 7): retroreflection of signs and lane markings under the ego beam, light
+// sources found by colour in CIELAB (traffic signals, vehicle lamps), head/tail lamps placed per
+// vehicle instance, lamp heads on poles, seeded window lights on buildings, then bloom.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/imgproc.hpp>
+
+#include "photosite/rng.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
+#include "photosite/sensor/spectrum.h"
+
+namespace photosite::scene {
+namespace {
+using Rgb = std::array<double, 3>;
+
+struct Lab { double L, a, b; };
+// CIELAB (D65) of a linear sRGB colour (CIE 15:2004).
+Lab to_lab(const float* s) {
+  const double X = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
+  const double Y = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
+  const double Z = (0.0193 * s[0] + 0.1192 * s[1] + 0.9505 * s[2]) / 1.08883;
+  auto f = [](double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116; };
+  const double fx = f(X), fy = f(Y), fz = f(Z);
+  return {116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)};
+}
+
+// A coloured source of a given luminance in the box basis: the chromaticity of a saturated
+// signal colour (box radiance ratios) scaled so that Σ K_k c_k = luminance.
+Rgb coloured(double r, double g, double b, double luminance) {
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const double y = K[0] * r + K[1] * g + K[2] * b;
+  return {r * luminance / y, g * luminance / y, b * luminance / y};
+}
+Rgb red_lamp(double L) { return coloured(1.0, 0.03, 0.0, L); }     // red signal / tail lamp
+Rgb amber_lamp(double L) { return coloured(1.0, 0.45, 0.0, L); }   // amber signal
+Rgb green_lamp(double L) { return coloured(0.0, 1.0, 0.6, L); }    // blue-green signal
+Rgb blackbody(double cct, double L) { return spectrum::blackbody_rgb(cct, L); }
+
+void put_max(ImageF& img, int x, int y, const Rgb& c) {
+  for (int k = 0; k < 3; ++k) img.at(x, y, k) = std::max(img.at(x, y, k), static_cast<float>(c[k]));
+}
+// A filled disc of radiance, limited to pixels where `keep(x,y)`.
+template <class Keep>
+int disc(ImageF& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
+  int n = 0;
+  const int x0 = std::max(0, static_cast<int>(std::floor(cx - r))),
+            x1 = std::min(img.width() - 1, static_cast<int>(std::ceil(cx + r)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(cy - r))),
+            y1 = std::min(img.height() - 1, static_cast<int>(std::ceil(cy + r)));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x)
+      if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r && keep(x, y)) {
+        put_max(img, x, y, c);
+        ++n;
+      }
+  return n;
+}
+}  // namespace
+
+double low_beam_lux(int x, int y, int width, double depth, double vp_y, const ScenePreset& p) {
+  if (y <= vp_y) return 0;
+  // Distance along a flat road ∝ 1/(y - y_h) ∝ 1/depth near the image centre: inverse square.
+  const double d = depth;
+  const double half = std::max(1.0, p.beam_half_width * width * d);
+  const double u = (x - 0.5 * width) / half;
+  return p.beam_road_lux * d * d * std::exp(-0.5 * u * u);
+}
+
+ImageF bloom(const ImageF& src, double fraction, int levels) {
+  if (fraction <= 0 || levels <= 0 || src.width() < 4 || src.height() < 4) return src;
+  const int W = src.width(), H = src.height();
+  cv::Mat s(H, W, CV_32FC3, const_cast<float*>(src.data()));
+  cv::Mat acc = cv::Mat::zeros(H, W, CV_32FC3), level = s, up;
+  int used = 0;
+  for (int l = 1; l <= levels; ++l) {
+    if (level.cols < 4 || level.rows < 4) break;
+    cv::Mat down, blurred;
+    cv::pyrDown(level, down);  // 5x5 Gaussian then decimation: one octave of the mip chain
+    cv::GaussianBlur(down, blurred, cv::Size(0, 0), 1.5);
+    cv::resize(blurred, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
+    acc += up;
+    level = down;
+    ++used;
+  }
+  ImageF out(W, H, 3, 0.f, src.unit());
+  if (used == 0) return src;
+  cv::Mat o(H, W, CV_32FC3, out.data());
+  // Energy-preserving: the glare share f leaves the source and spreads over the octaves.
+  cv::addWeighted(s, 1.0 - fraction, acc, fraction / used, 0.0, o);
+  return out;
+}
+
+LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
+                   const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
+                   uint64_t seed) {
+  const int W = day.width(), H = day.height();
+  const ImageU16& labels = lm.ids;
+  LightMap out;
+  ImageF L(W, H, 3, 0.f, unit::radiance);
+  const auto tb = illuminant_tint(p.beam_cct_K);
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const double ksum = K[0] + K[1] + K[2];
+  auto lab_at = [&](int i) { return to_lab(day.data() + 3 * static_cast<size_t>(i)); };
+
+  // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
+  // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK).
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = static_cast<size_t>(y) * W + x;
+      const int id = labels[i];
+      double lum = 0;
+      if (lanes[i]) lum = p.marking_RL * low_beam_lux(x, y, W, depth[i], vp.y, p);
+      else if (id == static_cast<int>(Label::TrafficSign))
+        lum = p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(depth[i]));
+      if (lum <= 0) continue;
+      const double rho = class_reflectance(id, p);
+      for (int k = 0; k < 3; ++k) {
+        const double pattern = lanes[i] ? 1.0 / ksum : texture[3 * i + k] / rho;
+        L[3 * i + k] = static_cast<float>(lum * tb[k] * pattern);
+      }
+    }
+
+  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses).
+  for (size_t i = 0; i < labels.pixel_count(); ++i) {
+    if (labels[i] != static_cast<int>(Label::TrafficLight)) continue;
+    const Lab c = lab_at(static_cast<int>(i));
+    const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
+    if (c.L < 25 || chroma < 30) continue;
+    Rgb col;
+    if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
+    else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
+    else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+    else continue;
+    put_max(L, static_cast<int>(i % W), static_cast<int>(i / W), col);
+    ++out.stats.signals;
+  }
+
+  // Vehicles: instances from the instance ids, else connected components of each vehicle class.
+  ImageI32 comp(W, H, 1, 0);
+  int ncomp = 0;
+  std::vector<int> comp_class(1, 0);
+  {
+    std::map<int, int> inst_index;
+    if (!lm.instances.empty()) {
+      for (size_t i = 0; i < labels.pixel_count(); ++i) {
+        const int v = lm.instances[i];
+        if (v >= 1000 && is_vehicle(v / 1000)) {
+          auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
+          if (fresh) comp_class.push_back(v / 1000);
+          comp[i] = it->second;
+        }
+      }
+    }
+    cv::Mat mask(H, W, CV_8U, cv::Scalar(0));
+    for (size_t i = 0; i < labels.pixel_count(); ++i)
+      if (is_vehicle(labels[i]) && comp[i] == 0) mask.data[i] = 255;
+    cv::Mat cc;
+    const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
+    const int base = static_cast<int>(inst_index.size());
+    for (int c = 1; c < n; ++c) comp_class.push_back(0);
+    for (size_t i = 0; i < labels.pixel_count(); ++i) {
+      const int c = reinterpret_cast<const int*>(cc.data)[i];
+      if (c > 0) {
+        comp[i] = base + c;
+        if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
+      }
+    }
+    ncomp = static_cast<int>(comp_class.size()) - 1;
+  }
+  struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
+  std::vector<Box> boxes(ncomp + 1);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int c = comp.at(x, y);
+      if (!c) continue;
+      Box& b = boxes[c];
+      b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
+      b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
+      ++b.n;
+    }
+  // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
+  // bright white is rare (so not a white body), near-white highlights in the lower half.
+  for (size_t i = 0; i < labels.pixel_count(); ++i) {
+    const int c = comp[i];
+    if (!c) continue;
+    const Lab l = lab_at(static_cast<int>(i));
+    if (l.L > 92 && std::hypot(l.a, l.b) < 10) ++boxes[c].white;
+  }
+  const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
+  const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
+  for (size_t i = 0; i < labels.pixel_count(); ++i) {
+    const int c = comp[i];
+    if (!c) continue;
+    const Box& b = boxes[c];
+    const int x = static_cast<int>(i % W), y = static_cast<int>(i / W);
+    const Lab l = lab_at(static_cast<int>(i));
+    const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+    if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) put_max(L, x, y, tail);
+    else if (b.white * 20 < b.n && l.L > 92 && std::hypot(l.a, l.b) < 10 && 2 * y > b.y0 + b.y1)
+      put_max(L, x, y, head);
+  }
+  // Placed lamps: a pair per vehicle at 55% of its height, 15% in from each side (one lamp for
+  // two-wheelers). Right-hand traffic: vehicles left of the vanishing point oncoming (head
+  // lamps), the others seen from behind (tail lamps). Drawn only on that vehicle's pixels.
+  for (int c = 1; c <= ncomp; ++c) {
+    const Box& b = boxes[c];
+    const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
+    if (b.n < 40 || bw < 8 || bh < 6) continue;
+    const bool oncoming = b.x1 < vp.x;
+    const Rgb& col = oncoming ? head : tail;
+    const double r = std::max(1.5, 0.05 * bw), ly = b.y0 + 0.55 * bh;
+    auto mine = [&](int x, int y) { return comp.at(x, y) == c; };
+    const int cls = comp_class[c];
+    if (cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle)) {
+      if (disc(L, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
+    } else {
+      out.stats.vehicle_lamps += disc(L, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
+      out.stats.vehicle_lamps += disc(L, b.x1 - 0.15 * bw, ly, r, col, mine) > 0;
+    }
+  }
+
+  // Lamp heads on poles: tall thin pole components whose top is above the horizon and not
+  // capped by a sign or signal (those poles carry no luminaire).
+  {
+    cv::Mat mask(H, W, CV_8U, cv::Scalar(0));
+    for (size_t i = 0; i < labels.pixel_count(); ++i)
+      if (labels[i] == static_cast<int>(Label::Pole) || labels[i] == static_cast<int>(Label::PoleGroup))
+        mask.data[i] = 255;
+    cv::Mat cc, stats, cent;
+    const int n = cv::connectedComponentsWithStats(mask, cc, stats, cent, 8, CV_32S);
+    const Rgb lamp = blackbody(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
+    for (int c = 1; c < n; ++c) {
+      const int x0 = stats.at<int>(c, cv::CC_STAT_LEFT), y0 = stats.at<int>(c, cv::CC_STAT_TOP);
+      const int bw = stats.at<int>(c, cv::CC_STAT_WIDTH), bh = stats.at<int>(c, cv::CC_STAT_HEIGHT);
+      if (bh < 0.08 * H || bh < 3 * bw / 2 || y0 >= vp.y) continue;
+      int sx = 0, cnt = 0;  // centre of the pole's top row
+      for (int x = x0; x < x0 + bw; ++x)
+        if (cc.at<int>(y0, x) == c) { sx += x; ++cnt; }
+      const double cx = cnt ? static_cast<double>(sx) / cnt : x0 + bw / 2.0;
+      bool capped = false;
+      for (int y = std::max(0, y0 - 3); y < y0 && !capped; ++y)
+        for (int x = std::max(0, x0 - 2); x < std::min(W, x0 + bw + 2); ++x) {
+          const int id = labels.at(x, y);
+          if (id == static_cast<int>(Label::TrafficSign) || id == static_cast<int>(Label::TrafficLight)) capped = true;
+        }
+      if (capped) continue;
+      const double r = std::max(2.0, 0.004 * W);
+      if (disc(L, cx, y0 + r * 0.5, r, lamp, [](int, int) { return true; })) ++out.stats.pole_lamps;
+    }
+  }
+
+  // Window lights: a grid anchored to the image with cells of window_cell_fraction·W; a cell's
+  // window (inner 50% x 50%) is drawn when it lies entirely on building pixels and the Philox
+  // draw keyed by (seed, cell) says lit, so every frame of a sequence keeps the same windows.
+  {
+    const int cell = std::max(4, static_cast<int>(std::lround(p.window_cell_fraction * W)));
+    const int nx = W / cell + 1, ny = H / cell + 1;
+    auto building = [&](int x, int y) {
+      return x >= 0 && y >= 0 && x < W && y < H &&
+             labels.at(x, y) == static_cast<int>(Label::Building);
+    };
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const int x0 = i * cell + cell / 4, x1 = i * cell + (3 * cell) / 4;
+        const int y0 = j * cell + cell / 4, y1 = j * cell + (3 * cell) / 4;
+        if (!(building(x0, y0) && building(x1, y0) && building(x0, y1) && building(x1, y1) &&
+              building((x0 + x1) / 2, (y0 + y1) / 2)))
+          continue;
+        const auto w = random_words(seed, 0, static_cast<uint64_t>(j) * 65536u + i, Stream::Scene);
+        if (uniform_open(w[0]) >= p.window_lit_fraction) continue;
+        const double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+        const double cct = uniform_open(w[2]) < 0.7 ? p.window_cct_K : 4000.0;
+        const Rgb col = blackbody(cct, lum);
+        for (int y = y0; y <= y1; ++y)
+          for (int x = x0; x <= x1; ++x)
+            if (building(x, y)) put_max(L, x, y, col);
+        ++out.stats.windows;
+      }
+  }
+  out.radiance = bloom(L, p.bloom_fraction, p.bloom_levels);
+  return out;
+}
+
+ImageF compose(const ImageF& darkened, const ImageF& texture, const ImageF& lights,
+               const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,
+               const ScenePreset& p) {
+  const int W = darkened.width(), H = darkened.height();
+  const auto tb = illuminant_tint(p.beam_cct_K);
+  ImageF out(W, H, 3, 0.f, unit::radiance);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = static_cast<size_t>(y) * W + x;
+      const double e = is_ground(labels[i]) ? low_beam_lux(x, y, W, depth[i], vp.y, p) : 0.0;
+      for (int k = 0; k < 3; ++k) {
+        // Lambertian diffuse reflection of the low beam: f_k·t_k·E/π.
+        const double beam = texture[3 * i + k] * tb[k] * e / M_PI;
+        out[3 * i + k] = static_cast<float>(darkened[3 * i + k] + beam + lights[3 * i + k]);
+      }
+    }
+  return out;
+}
+
+}  // namespace photosite::scene

@@ -1,0 +1,59 @@
+// The whole day-to-night chain with per-stage timings (thesis Table 6 counterpart).
+#include <chrono>
+
+#include "photosite/scene/night.h"
+
+namespace photosite::scene {
+
+NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
+                       uint64_t seed) {
+  NightScene s;
+  using clock = std::chrono::steady_clock;
+  auto t = clock::now();
+  auto lap = [&](const char* name) {
+    const auto now = clock::now();
+    s.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
+    t = now;
+  };
+  const int W = day.width(), H = day.height();
+  const ImageF box = linear_srgb_to_box_rgb(day);
+  const ImageF texture = reflectance_texture(box, labels.ids, p);
+  s.darkened = darken(box, texture, labels.ids, p);
+  lap("darken");
+  WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
+  s.work_scale = w.scale;
+  s.lanes_work = lane_markings(w.luma, w.labels, p);
+  lap("lanes");
+  s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
+  lap("edges");
+  s.lines_work = detect_lines(s.edges_work, p);
+  lap("lines");
+  VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
+  // Back to full-resolution pixel coordinates (pixel centres).
+  vp.x = (vp.x + 0.5) / w.scale - 0.5;
+  vp.y = (vp.y + 0.5) / w.scale - 0.5;
+  s.vp = vp;
+  lap("vanishing");
+  s.depth = coarse_depth(W, H, vp.x, vp.y);
+  lap("depth");
+  ImageU8 lanes_full;
+  if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
+  else {
+    lanes_full = ImageU8(W, H, 1, 0);
+    const int ww = s.lanes_work.width(), wh = s.lanes_work.height();
+    for (int y = 0; y < H; ++y) {
+      const int sy = std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H));
+      for (int x = 0; x < W; ++x)
+        lanes_full.at(x, y) = s.lanes_work.at(std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W)), sy);
+    }
+  }
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed);
+  s.lights = std::move(lm.radiance);
+  s.light_stats = lm.stats;
+  lap("lights");
+  s.radiance = compose(s.darkened, texture, s.lights, labels.ids, s.depth, vp, p);
+  lap("compose");
+  return s;
+}
+
+}  // namespace photosite::scene

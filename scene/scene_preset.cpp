@@ -1,0 +1,153 @@
+// Scene preset loading: a flat table of "section.key" → number with range checks.
+#include "photosite/scene/scene_preset.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <toml++/toml.h>
+#include <vector>
+
+#include "photosite/error.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite::scene {
+namespace {
+struct Field {
+  double* d = nullptr;
+  int* i = nullptr;
+  double lo, hi;
+};
+
+std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
+  auto D = [](double& v, double lo, double hi) { return Field{&v, nullptr, lo, hi}; };
+  auto I = [](int& v, double lo, double hi) { return Field{nullptr, &v, lo, hi}; };
+  return {
+      {"reflectance.sign", D(p.rho_sign, 0, 1)},
+      {"reflectance.construction", D(p.rho_construction, 0, 1)},
+      {"reflectance.human", D(p.rho_human, 0, 1)},
+      {"reflectance.nature", D(p.rho_nature, 0, 1)},
+      {"reflectance.vehicle", D(p.rho_vehicle, 0, 1)},
+      {"reflectance.sky", D(p.rho_sky, 0, 1)},
+      {"reflectance.road", D(p.rho_road, 1e-3, 1)},
+      {"ambient.moon_lux", D(p.moon_lux, 0, 1)},
+      {"ambient.moon_cct_K", D(p.moon_cct_K, 1000, 20000)},
+      {"ambient.skyglow_lux", D(p.skyglow_lux, 0, 10)},
+      {"ambient.skyglow_cct_K", D(p.skyglow_cct_K, 1000, 20000)},
+      {"ambient.sky_luminance_cd_m2", D(p.sky_luminance_cd_m2, 0, 10)},
+      {"street.road_luminance_cd_m2", D(p.street_road_luminance_cd_m2, 0, 10)},
+      {"street.vertical_fraction", D(p.street_vertical_fraction, 0, 1)},
+      {"street.cct_K", D(p.street_cct_K, 1000, 20000)},
+      {"lamps.streetlamp_luminance_cd_m2", D(p.streetlamp_luminance_cd_m2, 0, 1e8)},
+      {"lamps.streetlamp_cct_K", D(p.streetlamp_cct_K, 1000, 20000)},
+      {"lamps.headlamp_luminance_cd_m2", D(p.headlamp_luminance_cd_m2, 0, 1e8)},
+      {"lamps.headlamp_cct_K", D(p.headlamp_cct_K, 1000, 20000)},
+      {"lamps.taillamp_luminance_cd_m2", D(p.taillamp_luminance_cd_m2, 0, 1e8)},
+      {"lamps.signal_luminance_cd_m2", D(p.signal_luminance_cd_m2, 0, 1e8)},
+      {"lamps.window_luminance_cd_m2", D(p.window_luminance_cd_m2, 0, 1e4)},
+      {"lamps.window_cct_K", D(p.window_cct_K, 1000, 20000)},
+      {"lamps.window_lit_fraction", D(p.window_lit_fraction, 0, 1)},
+      {"lamps.window_cell_fraction", D(p.window_cell_fraction, 0.002, 0.5)},
+      {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
+      {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
+      {"ego_beam.road_lux", D(p.beam_road_lux, 0, 1000)},
+      {"ego_beam.cct_K", D(p.beam_cct_K, 1000, 20000)},
+      {"ego_beam.half_width", D(p.beam_half_width, 0.01, 2)},
+      {"ego_beam.sign_lux", D(p.beam_sign_lux, 0, 1000)},
+      {"bloom.fraction", D(p.bloom_fraction, 0, 1)},
+      {"bloom.levels", I(p.bloom_levels, 0, 10)},
+      {"geometry.work_max_width", I(p.work_max_width, 64, 8192)},
+      {"geometry.lane_blur_sigma_px", D(p.lane_blur_sigma_px, 0, 20)},
+      {"geometry.lane_contrast_threshold", D(p.lane_contrast_threshold, 0, 1)},
+      {"geometry.canny_low", D(p.canny_low, 0, 1000)},
+      {"geometry.canny_high", D(p.canny_high, 0, 1000)},
+      {"geometry.hough_threshold", I(p.hough_threshold, 1, 10000)},
+      {"geometry.hough_min_length_fraction", D(p.hough_min_length_fraction, 0, 1)},
+      {"geometry.hough_max_gap_fraction", D(p.hough_max_gap_fraction, 0, 1)},
+      {"geometry.line_reject_angle_deg", D(p.line_reject_angle_deg, 0, 45)},
+      {"geometry.border_fraction", D(p.border_fraction, 0, 0.4)},
+      {"geometry.vp_cluster_radius_fraction", D(p.vp_cluster_radius_fraction, 0.001, 1)},
+      {"geometry.vp_min_support", I(p.vp_min_support, 1, 10000)},
+  };
+}
+}  // namespace
+
+ScenePreset parse_scene_preset(const std::string& text, const std::string& file) {
+  toml::table t;
+  try {
+    t = toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    fail(where(file, static_cast<int>(e.source().begin.line)) + std::string(e.description()));
+  }
+  ScenePreset p;
+  p.file = file;
+  p.name = std::filesystem::path(file).stem().string();
+  auto fs = fields(p);
+  std::map<std::string, bool> seen;
+  for (const auto& [k, node] : t) {
+    const std::string key(k.str());
+    const int line = static_cast<int>(node.source().begin.line);
+    if (key == "description") {
+      if (!node.is_string()) fail(where(file, line, key) + "must be a string");
+      p.description = node.value_or(std::string());
+      continue;
+    }
+    const toml::table* sec = node.as_table();
+    if (!sec) fail(where(file, line, key) + "unknown key");
+    for (const auto& [k2, v] : *sec) {
+      const std::string full = key + "." + std::string(k2.str());
+      const int l2 = static_cast<int>(v.source().begin.line);
+      auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == full; });
+      if (it == fs.end()) fail(where(file, l2, full) + "unknown key");
+      auto num = v.value<double>();
+      if (!num) fail(where(file, l2, full) + "must be a number");
+      const Field& f = it->second;
+      if (!(*num >= f.lo && *num <= f.hi))
+        fail(where(file, l2, full) + "value " + std::to_string(*num) + " is outside [" +
+             std::to_string(f.lo) + ", " + std::to_string(f.hi) + "]");
+      if (f.d) *f.d = *num;
+      else {
+        if (*num != static_cast<int>(*num)) fail(where(file, l2, full) + "must be an integer");
+        *f.i = static_cast<int>(*num);
+      }
+      seen[full] = true;
+    }
+  }
+  for (auto& f : fs)
+    if (!seen.count(f.first)) fail(where(file, 0, f.first) + "missing key");
+  if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + "exceeds canny_high");
+  return p;
+}
+
+ScenePreset load_scene_preset(const std::string& name_or_path) {
+  namespace fs = std::filesystem;
+  std::string path = name_or_path;
+  if (name_or_path.find('/') == std::string::npos && !name_or_path.ends_with(".toml")) {
+    path = (fs::path(preset_dir()) / "scenes" / (name_or_path + ".toml")).string();
+    if (!fs::exists(path)) {
+      std::string known;
+      std::error_code ec;
+      for (const auto& e : fs::directory_iterator(fs::path(preset_dir()) / "scenes", ec))
+        if (e.path().extension() == ".toml")
+          known += (known.empty() ? "" : ", ") + e.path().stem().string();
+      fail("unknown scene preset '" + name_or_path + "' (bundled: " + known + ")");
+    }
+  }
+  std::ifstream in(path);
+  if (!in) fail_at(path, "cannot read scene preset");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scene_preset(ss.str(), path);
+}
+
+std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p) {
+  std::map<std::string, ExrAttribute> a;
+  a["photosite/scene/preset"] = p.name;
+  ScenePreset copy = p;
+  for (auto& [k, f] : fields(copy)) {
+    if (f.d) a["photosite/scene/" + k] = *f.d;
+    else a["photosite/scene/" + k] = *f.i;
+  }
+  return a;
+}
+
+}  // namespace photosite::scene

@@ -1,0 +1,163 @@
+// Vanishing point from line intersections, with label priors as fallback (stage 5), and the
+// coarse depth it implies (stage 6).
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "photosite/scene/night.h"
+
+namespace photosite::scene {
+
+const char* vp_method_name(VpMethod m) {
+  switch (m) {
+    case VpMethod::Hough: return "hough";
+    case VpMethod::RoadPrior: return "road_prior";
+    case VpMethod::SkyPrior: return "sky_prior";
+    case VpMethod::ImageCentre: return "image_centre";
+  }
+  return "?";
+}
+
+namespace {
+// The horizon prior from the labels: the far end of the road (its topmost rows, robustly),
+// else the lower boundary of the sky, else the image centre.
+VanishingPoint label_prior(const ImageU16& labels, const std::string& why) {
+  const int W = labels.width(), H = labels.height();
+  VanishingPoint vp;
+  vp.note = why;
+  std::vector<int> road_rows(H, 0);
+  size_t road_total = 0;
+  std::vector<int> sky_bottom;  // per column: lowest sky row
+  for (int x = 0; x < W; ++x) {
+    int low = -1;
+    for (int y = 0; y < H; ++y) {
+      const int id = labels.at(x, y);
+      if (id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking)) {
+        ++road_rows[y];
+        ++road_total;
+      }
+      if (id == static_cast<int>(Label::Sky)) low = y;
+    }
+    if (low >= 0) sky_bottom.push_back(low);
+  }
+  if (road_total >= std::max<size_t>(16, labels.pixel_count() / 500)) {
+    // Top of the road: the first row where 0.5% of the road pixels lie above.
+    size_t acc = 0;
+    int y_top = 0;
+    for (int y = 0; y < H; ++y) {
+      acc += road_rows[y];
+      if (acc >= road_total / 200 + 1) { y_top = y; break; }
+    }
+    double sx = 0, n = 0;
+    const int y_end = std::min(H - 1, y_top + std::max(1, H / 50));
+    for (int y = y_top; y <= y_end; ++y)
+      for (int x = 0; x < W; ++x) {
+        const int id = labels.at(x, y);
+        if (id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking)) { sx += x; ++n; }
+      }
+    vp.x = n > 0 ? sx / n : W / 2.0;
+    vp.y = y_top;
+    vp.method = VpMethod::RoadPrior;
+    vp.confidence = 0.3;
+    return vp;
+  }
+  if (sky_bottom.size() >= static_cast<size_t>(std::max(1, W / 10))) {
+    std::nth_element(sky_bottom.begin(), sky_bottom.begin() + sky_bottom.size() / 2, sky_bottom.end());
+    vp.x = W / 2.0;
+    vp.y = sky_bottom[sky_bottom.size() / 2];
+    vp.method = VpMethod::SkyPrior;
+    vp.confidence = 0.15;
+    return vp;
+  }
+  vp.x = W / 2.0;
+  vp.y = H / 2.0;
+  vp.method = VpMethod::ImageCentre;
+  vp.confidence = 0;
+  return vp;
+}
+}  // namespace
+
+VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
+                               const ScenePreset& p) {
+  const int W = labels.width(), H = labels.height();
+  if (lines.size() < 2) return label_prior(labels, "fewer than 2 lines");
+  struct Pt { double x, y; };
+  std::vector<Pt> pts;
+  pts.reserve(lines.size() * lines.size() / 2);
+  for (size_t i = 0; i < lines.size(); ++i)
+    for (size_t j = i + 1; j < lines.size(); ++j) {
+      const Segment &a = lines[i], &b = lines[j];
+      const double a1 = a.y1 - a.y0, b1 = a.x0 - a.x1, c1 = a1 * a.x0 + b1 * a.y0;
+      const double a2 = b.y1 - b.y0, b2 = b.x0 - b.x1, c2 = a2 * b.x0 + b2 * b.y0;
+      const double det = a1 * b2 - a2 * b1;
+      const double na = std::hypot(a1, b1), nb = std::hypot(a2, b2);
+      if (std::fabs(det) < 0.1 * na * nb) continue;  // within ~6° of parallel
+      const double x = (b2 * c1 - b1 * c2) / det, y = (a1 * c2 - a2 * c1) / det;
+      if (x < -W || x > 2.0 * W || y < -H || y > 2.0 * H) continue;
+      pts.push_back({x, y});
+    }
+  if (pts.empty()) return label_prior(labels, "no line intersections near the image");
+  // Densest cluster: vote in a grid of cells of the cluster radius, take the best 3x3
+  // neighbourhood, then two mean-shift steps with a flat kernel of that radius.
+  const double r = p.vp_cluster_radius_fraction * std::hypot(W, H);
+  std::map<std::pair<int, int>, int> grid;
+  for (const auto& q : pts) ++grid[{static_cast<int>(std::floor(q.x / r)), static_cast<int>(std::floor(q.y / r))}];
+  int best = -1;
+  std::pair<int, int> bc{0, 0};
+  for (const auto& [c, n] : grid) {
+    int s = 0;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        auto it = grid.find({c.first + dx, c.second + dy});
+        if (it != grid.end()) s += it->second;
+      }
+    if (s > best || (s == best && c < bc)) { best = s; bc = c; }
+  }
+  double cx = (bc.first + 0.5) * r, cy = (bc.second + 0.5) * r;
+  int support = 0;
+  for (int it = 0; it < 3; ++it) {
+    double sx = 0, sy = 0;
+    int n = 0;
+    for (const auto& q : pts)
+      if (std::hypot(q.x - cx, q.y - cy) <= 1.5 * r) { sx += q.x; sy += q.y; ++n; }
+    if (n == 0) break;
+    cx = sx / n;
+    cy = sy / n;
+    support = n;
+  }
+  VanishingPoint vp;
+  vp.x = cx;
+  vp.y = cy;
+  vp.support = support;
+  if (support < p.vp_min_support)
+    return label_prior(labels, "largest intersection cluster has " + std::to_string(support) +
+                                   " points (< " + std::to_string(p.vp_min_support) + ")");
+  if (cx < 0 || cx >= W || cy < 0 || cy >= H)
+    return label_prior(labels, "intersection cluster lies outside the image");
+  vp.method = VpMethod::Hough;
+  // Confidence: the share of intersections that agree, saturating with the number of lines.
+  vp.confidence = std::min(1.0, (static_cast<double>(support) / pts.size()) *
+                                    std::min(1.0, lines.size() / 6.0) * 2.0);
+  vp.confidence = std::max(vp.confidence, 0.31);  // a Hough VP is trusted above any prior
+  return vp;
+}
+
+ImageF coarse_depth(int W, int H, double vx, double vy) {
+  vx = std::clamp(vx, 0.0, W - 1.0);
+  vy = std::clamp(vy, 0.0, H - 1.0);
+  ImageF d(W, H, 1, 0.f, unit::dimensionless);
+  const double left = std::max(vx, 1e-9), right = std::max(W - 1 - vx, 1e-9);
+  const double top = std::max(vy, 1e-9), bottom = std::max(H - 1 - vy, 1e-9);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    const double ty = y >= vy ? (y - vy) / bottom : (vy - y) / top;
+    float* row = d.row(y);
+    for (int x = 0; x < W; ++x) {
+      const double tx = x >= vx ? (x - vx) / right : (vx - x) / left;
+      row[x] = static_cast<float>(std::min(1.0, std::max(tx, ty)));
+    }
+  }
+  return d;
+}
+
+}  // namespace photosite::scene
