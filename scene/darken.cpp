@@ -108,24 +108,27 @@ ImageF darken(const ImageF& day_box, const ImageF& f, const ImageU16& labels, co
              tl = illuminant_tint(p.street_cct_K);
   // Horizontal street-light illuminance that gives the target road luminance: E = π L / ρ_road.
   const double e_street = units::pi * p.street_road_luminance_cd_m2 / p.rho_road;
-  std::array<float, 3> ground{}, vertical{}, sky{};
+  std::array<float, 3> ground{}, vertical{};
   for (int k = 0; k < 3; ++k) {
     const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
     ground[k] = static_cast<float>((amb + e_street * tl[k]) / units::pi);
     vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
   }
-  // Sky: its own luminance with the day texture (clouds) relative to the sky's mean luminance;
-  // the texture holds ρ_sky·c/Ȳ, so divide ρ_sky out again. Colour of urban glow.
-  for (int k = 0; k < 3; ++k)
-    sky[k] = static_cast<float>(p.sky_luminance_cd_m2 * ts[k] / std::max(1e-6, p.rho_sky));
-  (void)K;
+  // Sky: its own luminance, with the day's relative luminance pattern (clouds) kept and the
+  // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).
+  const auto glow = spectrum::blackbody_rgb(p.skyglow_cct_K, p.sky_luminance_cd_m2);
+  const double rho_sky = std::max(1e-6, p.rho_sky);
   ImageF out(day_box.width(), day_box.height(), 3, 0.f, unit::radiance);
   const size_t n = out.pixel_count();
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     const int id = labels[i];
-    const std::array<float, 3>& e =
-        id == static_cast<int>(Label::Sky) ? sky : (is_ground(id) ? ground : vertical);
+    if (id == static_cast<int>(Label::Sky)) {
+      const double yr = (K[0] * f[3 * i] + K[1] * f[3 * i + 1] + K[2] * f[3 * i + 2]) / rho_sky;
+      for (int k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(glow[k] * yr);
+      continue;
+    }
+    const std::array<float, 3>& e = is_ground(id) ? ground : vertical;
     for (int k = 0; k < 3; ++k) out[3 * i + k] = f[3 * i + k] * e[k];
   }
   return out;

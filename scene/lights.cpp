@@ -191,17 +191,28 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   }
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
+  ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour
   for (size_t i = 0; i < labels.pixel_count(); ++i) {
     const int c = comp[i];
     if (!c) continue;
     const Box& b = boxes[c];
-    const int x = static_cast<int>(i % W), y = static_cast<int>(i / W);
+    const int y = static_cast<int>(i / W);
     const Lab l = lab_at(static_cast<int>(i));
     const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
-    if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) put_max(L, x, y, tail);
+    if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
     else if (b.white * 20 < b.n && l.L > 92 && std::hypot(l.a, l.b) < 10 && 2 * y > b.y0 + b.y1)
-      put_max(L, x, y, head);
+      cue[i] = 2;
   }
+  // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
+  for (int y = 1; y < H - 1; ++y)
+    for (int x = 1; x < W - 1; ++x) {
+      const uint8_t v = cue.at(x, y);
+      if (!v) continue;
+      int n = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
+      if (n >= 5) put_max(L, x, y, v == 1 ? tail : head);
+    }
   // Placed lamps: a pair per vehicle at 55% of its height, 15% in from each side (one lamp for
   // two-wheelers). Right-hand traffic: vehicles left of the vanishing point oncoming (head
   // lamps), the others seen from behind (tail lamps). Drawn only on that vehicle's pixels.

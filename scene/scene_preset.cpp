@@ -76,7 +76,7 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
   try {
     t = toml::parse(text, file);
   } catch (const toml::parse_error& e) {
-    fail(where(file, static_cast<int>(e.source().begin.line)) + std::string(e.description()));
+    fail(where(file, static_cast<int>(e.source().begin.line)) + ": " + std::string(e.description()));
   }
   ScenePreset p;
   p.file = file;
@@ -87,34 +87,34 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
     const std::string key(k.str());
     const int line = static_cast<int>(node.source().begin.line);
     if (key == "description") {
-      if (!node.is_string()) fail(where(file, line, key) + "must be a string");
+      if (!node.is_string()) fail(where(file, line, key) + ": must be a string");
       p.description = node.value_or(std::string());
       continue;
     }
     const toml::table* sec = node.as_table();
-    if (!sec) fail(where(file, line, key) + "unknown key");
+    if (!sec) fail(where(file, line, key) + ": unknown key");
     for (const auto& [k2, v] : *sec) {
       const std::string full = key + "." + std::string(k2.str());
       const int l2 = static_cast<int>(v.source().begin.line);
       auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == full; });
-      if (it == fs.end()) fail(where(file, l2, full) + "unknown key");
+      if (it == fs.end()) fail(where(file, l2, full) + ": unknown key");
       auto num = v.value<double>();
-      if (!num) fail(where(file, l2, full) + "must be a number");
+      if (!num) fail(where(file, l2, full) + ": must be a number");
       const Field& f = it->second;
       if (!(*num >= f.lo && *num <= f.hi))
-        fail(where(file, l2, full) + "value " + std::to_string(*num) + " is outside [" +
+        fail(where(file, l2, full) + ": value " + std::to_string(*num) + " is outside [" +
              std::to_string(f.lo) + ", " + std::to_string(f.hi) + "]");
       if (f.d) *f.d = *num;
       else {
-        if (*num != static_cast<int>(*num)) fail(where(file, l2, full) + "must be an integer");
+        if (*num != static_cast<int>(*num)) fail(where(file, l2, full) + ": must be an integer");
         *f.i = static_cast<int>(*num);
       }
       seen[full] = true;
     }
   }
   for (auto& f : fs)
-    if (!seen.count(f.first)) fail(where(file, 0, f.first) + "missing key");
-  if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + "exceeds canny_high");
+    if (!seen.count(f.first)) fail(where(file, 0, f.first) + ": missing key");
+  if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + ": exceeds canny_high");
   return p;
 }
 

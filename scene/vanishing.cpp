@@ -12,6 +12,7 @@ const char* vp_method_name(VpMethod m) {
   switch (m) {
     case VpMethod::Hough: return "hough";
     case VpMethod::RoadPrior: return "road_prior";
+    case VpMethod::GroundPrior: return "ground_prior";
     case VpMethod::SkyPrior: return "sky_prior";
     case VpMethod::ImageCentre: return "image_centre";
   }
@@ -20,53 +21,57 @@ const char* vp_method_name(VpMethod m) {
 
 namespace {
 // The horizon prior from the labels: the far end of the road (its topmost rows, robustly),
-// else the lower boundary of the sky, else the image centre.
+// else of any ground class (sidewalk, terrain, ...), else the lowest sky boundary, else the
+// image centre.
 VanishingPoint label_prior(const ImageU16& labels, const std::string& why) {
   const int W = labels.width(), H = labels.height();
   VanishingPoint vp;
   vp.note = why;
-  std::vector<int> road_rows(H, 0);
-  size_t road_total = 0;
-  std::vector<int> sky_bottom;  // per column: lowest sky row
-  for (int x = 0; x < W; ++x) {
-    int low = -1;
-    for (int y = 0; y < H; ++y) {
-      const int id = labels.at(x, y);
-      if (id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking)) {
-        ++road_rows[y];
-        ++road_total;
-      }
-      if (id == static_cast<int>(Label::Sky)) low = y;
-    }
-    if (low >= 0) sky_bottom.push_back(low);
-  }
-  if (road_total >= std::max<size_t>(16, labels.pixel_count() / 500)) {
-    // Top of the road: the first row where 0.5% of the road pixels lie above.
+  auto is_road = [](int id) { return id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking); };
+  auto far_end = [&](auto&& member, VpMethod method, double confidence) {
+    std::vector<size_t> rows(H, 0);
+    size_t total = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (member(labels.at(x, y))) { ++rows[y]; ++total; }
+    if (total < std::max<size_t>(16, labels.pixel_count() / 500)) return false;
+    // Top: the first row with 0.5% of the class's pixels above it.
     size_t acc = 0;
     int y_top = 0;
     for (int y = 0; y < H; ++y) {
-      acc += road_rows[y];
-      if (acc >= road_total / 200 + 1) { y_top = y; break; }
+      acc += rows[y];
+      if (acc >= total / 200 + 1) { y_top = y; break; }
     }
+    if (y_top >= H - 1) return false;  // the class only touches the bottom row: no horizon
     double sx = 0, n = 0;
     const int y_end = std::min(H - 1, y_top + std::max(1, H / 50));
     for (int y = y_top; y <= y_end; ++y)
-      for (int x = 0; x < W; ++x) {
-        const int id = labels.at(x, y);
-        if (id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking)) { sx += x; ++n; }
-      }
+      for (int x = 0; x < W; ++x)
+        if (member(labels.at(x, y))) { sx += x; ++n; }
     vp.x = n > 0 ? sx / n : W / 2.0;
     vp.y = y_top;
-    vp.method = VpMethod::RoadPrior;
-    vp.confidence = 0.3;
-    return vp;
+    vp.method = method;
+    vp.confidence = confidence;
+    return true;
+  };
+  if (far_end(is_road, VpMethod::RoadPrior, 0.3)) return vp;
+  if (far_end([](int id) { return is_ground(id); }, VpMethod::GroundPrior, 0.2)) return vp;
+  // Sky: per column the lowest sky row, over columns where the sky ends above the bottom; the
+  // 90th percentile (the deepest view between buildings) approximates the horizon.
+  std::vector<int> sky_bottom;
+  for (int x = 0; x < W; ++x) {
+    int low = -1;
+    for (int y = 0; y < H; ++y)
+      if (labels.at(x, y) == static_cast<int>(Label::Sky)) low = y;
+    if (low >= 0 && low < H - 1) sky_bottom.push_back(low);
   }
-  if (sky_bottom.size() >= static_cast<size_t>(std::max(1, W / 10))) {
-    std::nth_element(sky_bottom.begin(), sky_bottom.begin() + sky_bottom.size() / 2, sky_bottom.end());
+  if (!sky_bottom.empty() && sky_bottom.size() >= static_cast<size_t>(std::max(1, W / 10))) {
+    const size_t k = sky_bottom.size() * 9 / 10;
+    std::nth_element(sky_bottom.begin(), sky_bottom.begin() + k, sky_bottom.end());
     vp.x = W / 2.0;
-    vp.y = sky_bottom[sky_bottom.size() / 2];
+    vp.y = sky_bottom[k];
     vp.method = VpMethod::SkyPrior;
-    vp.confidence = 0.15;
+    vp.confidence = 0.1;
     return vp;
   }
   vp.x = W / 2.0;

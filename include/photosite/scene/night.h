@@ -57,7 +57,7 @@ struct Segment { float x0, y0, x1, y1; };
 // HoughLinesP, dropping near-horizontal/near-vertical lines and lines within the outer border.
 std::vector<Segment> detect_lines(const ImageU8& edges, const ScenePreset& p);
 
-enum class VpMethod { Hough, RoadPrior, SkyPrior, ImageCentre };
+enum class VpMethod { Hough, RoadPrior, GroundPrior, SkyPrior, ImageCentre };
 const char* vp_method_name(VpMethod m);
 struct VanishingPoint {
   double x = 0, y = 0;       // pixels of the image the lines came from

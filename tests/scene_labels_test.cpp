@@ -1,0 +1,114 @@
+// Cityscapes label decoding and scene presets.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/scene/labels.h"
+#include "photosite/scene/scene_preset.h"
+#include "test_util.h"
+
+using namespace photosite;
+using namespace photosite::scene;
+
+namespace {
+ImageU16 ids(std::initializer_list<uint16_t> v, int w) {
+  ImageU16 img(w, static_cast<int>(v.size()) / w, 1);
+  size_t i = 0;
+  for (auto x : v) img[i++] = x;
+  return img;
+}
+void write_codes(const std::string& path, const ImageU16& codes, int bits) {
+  ImageF f(codes.width(), codes.height(), codes.channels());
+  const float m = bits == 8 ? 255.f : 65535.f;
+  for (size_t i = 0; i < f.size(); ++i) f[i] = codes[i] / m;
+  write_png(path, f, bits);
+}
+std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(SceneLabels, LabelIdsTrainIdsAndPaletteAgree) {
+  const ImageU16 label_ids = ids({7, 11, 23, 26, 0, 33}, 3);
+  const ImageU16 train_ids = ids({0, 2, 10, 13, 255, 18}, 3);
+  ImageU16 pal(3, 2, 3);
+  for (size_t i = 0; i < 6; ++i)
+    for (int k = 0; k < 3; ++k) pal[3 * i + k] = label_color(label_ids[i])[k];
+  const LabelMap a = decode_labels(label_ids, LabelFormat::Auto, "a.png");
+  const LabelMap b = decode_labels(train_ids, LabelFormat::Auto, "b.png");
+  const LabelMap c = decode_labels(pal, LabelFormat::Auto, "c.png");
+  EXPECT_EQ(a.format, LabelFormat::LabelIds);
+  EXPECT_EQ(b.format, LabelFormat::TrainIds);
+  EXPECT_EQ(c.format, LabelFormat::Palette);
+  for (size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(a.ids[i], label_ids[i]);
+    EXPECT_EQ(b.ids[i], label_ids[i]) << i;
+    EXPECT_EQ(c.ids[i], label_ids[i]) << i;
+  }
+}
+
+TEST(SceneLabels, UnknownValuesAndColoursNameTheFileAndPixel) {
+  std::string m = error_of([] { decode_labels(ids({7, 40}, 2), LabelFormat::Auto, "bad.png"); });
+  EXPECT_NE(m.find("bad.png"), std::string::npos) << m;
+  EXPECT_NE(m.find("40"), std::string::npos) << m;
+  EXPECT_NE(m.find("(1, 0)"), std::string::npos) << m;
+  m = error_of([] { decode_labels(ids({0, 19}, 2), LabelFormat::TrainIds, "t.png"); });
+  EXPECT_NE(m.find("t.png"), std::string::npos) << m;
+  ImageU16 pal(1, 1, 3);
+  pal[0] = 1; pal[1] = 2; pal[2] = 3;
+  m = error_of([&] { decode_labels(pal, LabelFormat::Auto, "p.png"); });
+  EXPECT_NE(m.find("not in the Cityscapes palette"), std::string::npos) << m;
+}
+
+TEST(SceneLabels, FilesSizeCheckResizeAndInstances) {
+  test::TempDir d;
+  ImageU16 lab(8, 4, 1, 7);
+  lab.at(0, 0) = 26;
+  write_codes(d.file("l.png"), lab, 8);
+  ImageU16 inst(8, 4, 1, 7);
+  inst.at(0, 0) = 26003;
+  inst.at(1, 0) = 26;  // a class id without instance
+  write_codes(d.file("i.png"), inst, 16);
+  LabelMap m = read_labels(d.file("l.png"), d.file("i.png"), 8, 4, LabelFormat::Auto, ResizeLabels::None);
+  EXPECT_EQ(m.ids.at(0, 0), 26);
+  EXPECT_EQ(m.instances.at(0, 0), 26003);
+  EXPECT_EQ(m.instances.at(1, 0), 0);
+  const std::string e = error_of(
+      [&] { read_labels(d.file("l.png"), "", 16, 8, LabelFormat::Auto, ResizeLabels::None); });
+  EXPECT_NE(e.find("l.png"), std::string::npos);
+  EXPECT_NE(e.find("--resize-labels"), std::string::npos) << e;
+  LabelMap r = read_labels(d.file("l.png"), "", 16, 8, LabelFormat::Auto, ResizeLabels::Nearest);
+  EXPECT_EQ(r.ids.width(), 16);
+  EXPECT_EQ(r.ids.at(0, 0), 26);
+  EXPECT_EQ(r.ids.at(1, 1), 26);
+  EXPECT_EQ(r.ids.at(2, 2), 7);
+}
+
+TEST(ScenePreset, BundledPresetsLoadAndBadKeysAreNamed) {
+  const ScenePreset u = load_scene_preset("night-urban");
+  const ScenePreset r = load_scene_preset("night-rural");
+  EXPECT_DOUBLE_EQ(u.rho_road, 0.1);
+  EXPECT_DOUBLE_EQ(u.rho_sign, 0.7);
+  EXPECT_GT(u.street_road_luminance_cd_m2, r.street_road_luminance_cd_m2);
+  std::ifstream in(u.file);
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  std::string bad = text;
+  bad.replace(bad.find("moon_lux = 0.1"), 14, "moon_lux = -1.0");
+  std::string m = error_of([&] { parse_scene_preset(bad, "x.toml"); });
+  EXPECT_NE(m.find("x.toml"), std::string::npos) << m;
+  EXPECT_NE(m.find("ambient.moon_lux"), std::string::npos) << m;
+  m = error_of([&] { parse_scene_preset(text + "\n[extra]\nfoo = 1\n", "y.toml"); });
+  EXPECT_NE(m.find("extra.foo"), std::string::npos) << m;
+  bad = text;
+  bad.replace(bad.find("sign_RA = 180"), 13, "");
+  m = error_of([&] { parse_scene_preset(bad, "z.toml"); });
+  EXPECT_NE(m.find("missing key"), std::string::npos) << m;
+  EXPECT_THROW(load_scene_preset("no-such-scene"), Error);
+}

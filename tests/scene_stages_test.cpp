@@ -1,0 +1,230 @@
+// Day-to-night stages on synthetic road scenes with known answers, and degenerate scenes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
+
+using namespace photosite;
+using namespace photosite::scene;
+
+namespace {
+const ScenePreset& preset() {
+  static const ScenePreset p = load_scene_preset("night-urban");
+  return p;
+}
+double luminance(const ImageF& img, size_t i) {
+  float c[3] = {img[3 * i], img[3 * i + 1], img[3 * i + 2]};
+  return spectrum::luminance_cd_m2(c);
+}
+bool all_finite_nonneg(const ImageF& img) {
+  for (size_t i = 0; i < img.size(); ++i)
+    if (!std::isfinite(img[i]) || img[i] < 0) return false;
+  return true;
+}
+}  // namespace
+
+TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  const ScenePreset& p = preset();
+  const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
+  const ImageF tex = reflectance_texture(box, s.labels.ids, p);
+  const ImageF dark = darken(box, tex, s.labels.ids, p);
+  EXPECT_EQ(dark.unit(), std::string(unit::radiance));
+  // Road: ambient + street lighting that makes the road luminance the M-class target.
+  double sum_road = 0, n_road = 0, sum_b = 0, n_b = 0, sum_sky = 0, n_sky = 0;
+  for (size_t i = 0; i < dark.pixel_count(); ++i) {
+    const int id = s.labels.ids[i];
+    if (id == int(Label::Road)) { sum_road += luminance(dark, i); ++n_road; }
+    if (id == int(Label::Building)) { sum_b += luminance(dark, i); ++n_b; }
+    if (id == int(Label::Sky)) { sum_sky += luminance(dark, i); ++n_sky; }
+  }
+  const double amb = p.moon_lux + p.skyglow_lux;
+  const double road_expect = p.street_road_luminance_cd_m2 + p.rho_road * amb / M_PI;
+  EXPECT_NEAR(sum_road / n_road, road_expect, 0.03 * road_expect);
+  const double e_street = M_PI * p.street_road_luminance_cd_m2 / p.rho_road;
+  const double b_expect = p.rho_construction * (amb + p.street_vertical_fraction * e_street) / M_PI;
+  EXPECT_NEAR(sum_b / n_b, b_expect, 0.05 * b_expect);
+  EXPECT_NEAR(sum_sky / n_sky, p.sky_luminance_cd_m2, 0.05 * p.sky_luminance_cd_m2);
+  // Texture survives: lane markings are brighter than the asphalt around them.
+  EXPECT_GT(dark.at(int(o.width / 2 - 0.5 * o.width * 1 / 6.0 + 0.5), o.height - 2, 1), 0.f);
+}
+
+TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
+  for (auto [vx, vy] : {std::pair{320.0, 130.0}, std::pair{250.0, 110.0}, std::pair{400.0, 150.0}}) {
+    SyntheticOptions o;
+    o.vp_x = vx;
+    o.vp_y = vy;
+    SyntheticScene s = make_synthetic_road(o);
+    NightScene n = night_scene(s.day_linear_srgb, s.labels, preset(), 1);
+    EXPECT_EQ(n.vp.method, VpMethod::Hough) << n.vp.note;
+    EXPECT_LT(std::hypot(n.vp.x - vx, n.vp.y - vy), 6.0) << n.vp.x << "," << n.vp.y;
+    EXPECT_GT(n.vp.confidence, 0.3);
+    // Depth: 0 at the VP, rising toward the bottom; the near car deeper than the far one.
+    EXPECT_LT(n.depth.at(int(vx), int(vy) + 2), 0.05f);
+    EXPECT_FLOAT_EQ(n.depth.at(int(vx), o.height - 1), 1.f);
+    const int far_y = int(vy + (o.height - 1 - vy) * 0.35) - 2, near_y = int(vy + (o.height - 1 - vy) * 0.6) - 2;
+    EXPECT_LT(n.depth.at(int(vx), far_y), n.depth.at(int(vx), near_y));
+    EXPECT_TRUE(all_finite_nonneg(n.radiance));
+  }
+}
+
+TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  WorkImages w = make_work_images(s.day_linear_srgb, s.labels.ids, 1024);
+  ImageU8 lanes = lane_markings(w.luma, w.labels, preset());
+  size_t hit = 0, total = 0, bright = 0;
+  for (size_t i = 0; i < lanes.pixel_count(); ++i) {
+    const bool painted = s.day_linear_srgb[3 * i] > 0.5f && s.labels.ids[i] == int(Label::Road);
+    bright += painted;
+    if (lanes[i]) {
+      ++total;
+      hit += painted;
+    }
+  }
+  ASSERT_GT(total, 100u);
+  EXPECT_GT(double(hit) / total, 0.7);     // precision
+  EXPECT_GT(double(hit) / bright, 0.5);    // recall
+  ImageU8 edges = segmentation_edges(w.labels, lanes, preset());
+  EXPECT_GT(std::count(edges.vec().begin(), edges.vec().end(), 255), 100);
+  // Lines: none near-horizontal or near-vertical.
+  for (const auto& l : detect_lines(edges, preset())) {
+    double a = std::fabs(std::atan2(l.y1 - l.y0, l.x1 - l.x0)) * 180 / M_PI;
+    if (a > 90) a = 180 - a;
+    EXPECT_GE(a, preset().line_reject_angle_deg);
+    EXPECT_LE(a, 90 - preset().line_reject_angle_deg);
+  }
+}
+
+TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {
+  ImageF d = coarse_depth(100, 50, 30, 20);
+  EXPECT_FLOAT_EQ(d.at(30, 20), 0.f);
+  for (int x = 0; x < 100; ++x) {
+    EXPECT_FLOAT_EQ(d.at(x, 0), 1.f);
+    EXPECT_FLOAT_EQ(d.at(x, 49), 1.f);
+  }
+  for (int y = 0; y < 50; ++y) EXPECT_FLOAT_EQ(d.at(99, y), 1.f);
+  EXPECT_NEAR(d.at(30, 35), 15.f / 29.f, 1e-5f);  // linear from the VP to the bottom row
+}
+
+TEST(SceneLights, PerVehicleLampsWindowsDeterministicAndBloomConservesEnergy) {
+  SyntheticOptions o;
+  o.cars = 2;
+  SyntheticScene s = make_synthetic_road(o);
+  NightScene a = night_scene(s.day_linear_srgb, s.labels, preset(), 7);
+  NightScene b = night_scene(s.day_linear_srgb, s.labels, preset(), 7);
+  NightScene c = night_scene(s.day_linear_srgb, s.labels, preset(), 8);
+  EXPECT_EQ(a.light_stats.vehicle_lamps, 4);  // two per car
+  EXPECT_GT(a.light_stats.windows, 0);
+  EXPECT_EQ(a.lights.vec(), b.lights.vec());  // same seed, same scene: same lights
+  EXPECT_NE(a.lights.vec(), c.lights.vec());  // the seed moves the lit windows
+  ImageF src(64, 64, 3, 0.f);
+  src.at(32, 32, 0) = src.at(32, 32, 1) = src.at(32, 32, 2) = 1000.f;
+  ImageF bl = bloom(src, 0.1, 4);
+  double s0 = 0, s1 = 0;
+  for (size_t i = 0; i < src.size(); ++i) { s0 += src[i]; s1 += bl[i]; }
+  EXPECT_NEAR(s1, s0, 0.02 * s0);
+  EXPECT_GT(bl.at(36, 32, 0), 0.f);        // glare spreads
+  EXPECT_LT(bl.at(32, 32, 0), 1000.f);
+  // Doubling the source doubles the glare (bloom scales with source intensity).
+  ImageF src2 = src;
+  for (auto& v : src2.vec()) v *= 2;
+  EXPECT_NEAR(bloom(src2, 0.1, 4).at(36, 32, 0), 2 * bl.at(36, 32, 0), 1e-3);
+}
+
+namespace {
+LabelMap fill_labels(int w, int h, Label l) {
+  LabelMap m;
+  m.ids = ImageU16(w, h, 1, static_cast<uint16_t>(l));
+  return m;
+}
+ImageF grey(int w, int h, float v) { return ImageF(w, h, 3, v); }
+}  // namespace
+
+TEST(SceneDegenerate, EveryFailureCaseFinishesWithTheFallbackReported) {
+  const ScenePreset& p = preset();
+  struct Case { std::string name; ImageF day; LabelMap labels; bool allow_hough; };
+  std::vector<Case> cases;
+  cases.push_back({"only sky", grey(200, 100, 0.5f), fill_labels(200, 100, Label::Sky), false});
+  cases.push_back({"all unlabeled", grey(200, 100, 0.3f), fill_labels(200, 100, Label::Unlabeled), false});
+  cases.push_back({"single class road", grey(200, 100, 0.1f), fill_labels(200, 100, Label::Road), false});
+  cases.push_back({"tiny image", grey(5, 4, 0.2f), fill_labels(5, 4, Label::Road), false});
+  cases.push_back({"one pixel", grey(1, 1, 0.2f), fill_labels(1, 1, Label::Car), false});
+  {
+    SyntheticOptions o;
+    o.road = false;
+    auto s = make_synthetic_road(o);
+    cases.push_back({"no road", s.day_linear_srgb, s.labels, false});
+  }
+  {
+    SyntheticOptions o;
+    o.lanes = false;
+    auto s = make_synthetic_road(o);
+    cases.push_back({"no lanes", s.day_linear_srgb, s.labels, true});
+  }
+  {
+    SyntheticOptions o;
+    auto s = make_synthetic_road(o);
+    ImageF f = s.day_linear_srgb;
+    LabelMap l = s.labels;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        for (int k = 0; k < 3; ++k) f.at(x, y, k) = s.day_linear_srgb.at(x, o.height - 1 - y, k);
+        l.ids.at(x, y) = s.labels.ids.at(x, o.height - 1 - y);
+        l.instances.at(x, y) = s.labels.instances.at(x, o.height - 1 - y);
+      }
+    cases.push_back({"vertical flip", f, l, true});
+  }
+  {
+    // A curved road: lane edges bend, the Hough cluster may fail; either way it must finish.
+    SyntheticOptions o;
+    auto s = make_synthetic_road(o);
+    ImageF f = s.day_linear_srgb;
+    LabelMap l = s.labels;
+    for (int y = 0; y < o.height; ++y) {
+      const int shift = int(0.002 * (o.height - y) * (o.height - y));
+      for (int x = 0; x < o.width; ++x) {
+        const int sx = std::clamp(x - shift, 0, o.width - 1);
+        for (int k = 0; k < 3; ++k) f.at(x, y, k) = s.day_linear_srgb.at(sx, y, k);
+        l.ids.at(x, y) = s.labels.ids.at(sx, y);
+        l.instances.at(x, y) = s.labels.instances.at(sx, y);
+      }
+    }
+    cases.push_back({"curved road", f, l, true});
+  }
+  for (auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    NightScene n = night_scene(c.day, c.labels, p, 3);
+    EXPECT_TRUE(all_finite_nonneg(n.radiance));
+    EXPECT_TRUE(n.depth.same_shape(c.day));
+    EXPECT_GE(n.vp.confidence, 0.0);
+    EXPECT_LE(n.vp.confidence, 1.0);
+    if (!c.allow_hough) {
+      EXPECT_NE(n.vp.method, VpMethod::Hough);
+      EXPECT_FALSE(n.vp.note.empty());
+    }
+    if (n.vp.method != VpMethod::Hough) EXPECT_LE(n.vp.confidence, 0.3);
+  }
+  // Specific fallbacks: sky only → the sky prior's horizon; all unlabeled → image centre.
+  EXPECT_EQ(night_scene(grey(200, 100, 0.5f), fill_labels(200, 100, Label::Unlabeled), p, 0).vp.method,
+            VpMethod::ImageCentre);
+  SyntheticOptions o;
+  o.road = false;
+  auto s = make_synthetic_road(o);
+  NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 0);
+  EXPECT_EQ(n.vp.method, VpMethod::GroundPrior) << n.vp.note;
+  EXPECT_NEAR(n.vp.y, o.vp_y, 3);
+  EXPECT_NEAR(n.vp.x, o.vp_x, 0.15 * o.width);
+  // Sky above a building skyline with a gap down to the horizon: the sky prior.
+  LabelMap sb = fill_labels(200, 100, Label::Building);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 200; ++x)
+      if (y < 30 || (x > 70 && x < 130 && y < 60)) sb.ids.at(x, y) = uint16_t(Label::Sky);
+  NightScene k = night_scene(grey(200, 100, 0.4f), sb, p, 0);
+  EXPECT_EQ(k.vp.method, VpMethod::SkyPrior);
+  EXPECT_NEAR(k.vp.y, 59, 1);
+}
