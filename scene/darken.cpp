@@ -68,14 +68,32 @@ double class_reflectance(int id, const ScenePreset& p) {
   }
 }
 
-ImageF reflectance_texture(const ImageF& day_box, const ImageU16& labels, const ScenePreset& p) {
+ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const size_t n = day_box.pixel_count();
+  const auto& M = spectrum::linear_srgb_to_box();
+  // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
+  // (before clipping negatives, which only out-of-gamut colours have).
+  const size_t n = day.pixel_count();
+  ImageF f(day.width(), day.height(), 3, 0.f, "W.lm-1");
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
-  for (size_t i = 0; i < n; ++i) {
-    const int id = labels[i];
-    sum[id] += K[0] * day_box[3 * i] + K[1] * day_box[3 * i + 1] + K[2] * day_box[3 * i + 2];
-    cnt[id] += 1;
+  // Pass 1: box RGB into f (reused as scratch) and the class sums of Y.
+#pragma omp parallel
+  {
+    double ls[kLabelCount] = {}, lc[kLabelCount] = {};
+#pragma omp for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      const float* s = day.data() + 3 * i;
+      double y = 0;
+      for (int r = 0; r < 3; ++r) {
+        const double v = std::max(0.0, M[r][0] * s[0] + M[r][1] * s[1] + M[r][2] * s[2]);
+        f[3 * i + r] = static_cast<float>(v);
+        y += K[r] * v;
+      }
+      ls[labels[i]] += y;
+      lc[labels[i]] += 1;
+    }
+#pragma omp critical
+    for (int id = 0; id < kLabelCount; ++id) { sum[id] += ls[id]; cnt[id] += lc[id]; }
   }
   float scale[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id) {
@@ -84,13 +102,12 @@ ImageF reflectance_texture(const ImageF& day_box, const ImageU16& labels, const 
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
   const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
-  ImageF f(day_box.width(), day_box.height(), 3, 0.f, "W.lm-1");
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     const int id = labels[i];
     for (int k = 0; k < 3; ++k) {
-      float v = scale[id] > 0 ? scale[id] * day_box[3 * i + k]
-                              : static_cast<float>(class_reflectance(id, p)) * flat;
+      const float v = scale[id] > 0 ? scale[id] * f[3 * i + k]
+                                    : static_cast<float>(class_reflectance(id, p)) * flat;
       f[3 * i + k] = std::min(v, cap);
     }
   }
@@ -102,7 +119,7 @@ std::array<double, 3> illuminant_tint(double cct_K) {
   return {a[0] / d[0], a[1] / d[1], a[2] / d[2]};
 }
 
-ImageF darken(const ImageF& day_box, const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
+ImageF darken(const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K),
              tl = illuminant_tint(p.street_cct_K);
@@ -118,7 +135,7 @@ ImageF darken(const ImageF& day_box, const ImageF& f, const ImageU16& labels, co
   // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).
   const auto glow = spectrum::blackbody_rgb(p.skyglow_cct_K, p.sky_luminance_cd_m2);
   const double rho_sky = std::max(1e-6, p.rho_sky);
-  ImageF out(day_box.width(), day_box.height(), 3, 0.f, unit::radiance);
+  ImageF out(f.width(), f.height(), 3, 0.f, unit::radiance);
   const size_t n = out.pixel_count();
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {

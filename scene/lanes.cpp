@@ -14,21 +14,25 @@ WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_
   w.scale = W > work_max_width ? static_cast<double>(work_max_width) / W : 1.0;
   const int ww = std::max(1, static_cast<int>(std::lround(W * w.scale)));
   const int wh = std::max(1, static_cast<int>(std::lround(H * w.scale)));
-  // Luminance (Rec. 709 weights on linear sRGB), then sRGB-encoded so contrasts are perceptual.
+  // Luminance (Rec. 709 weights on linear sRGB), area-averaged to the working size, then
+  // sRGB-encoded so that contrasts are perceptual.
   cv::Mat lum(H, W, CV_32F);
+#pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
     const float* r = day.row(y);
     float* o = lum.ptr<float>(y);
-    for (int x = 0; x < W; ++x) {
-      const float v = 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2];
-      o[x] = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(std::min(v, 1.f), 1 / 2.4f) - 0.055f;
-    }
+    for (int x = 0; x < W; ++x) o[x] = 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2];
   }
   cv::Mat small;
   if (ww != W) cv::resize(lum, small, cv::Size(ww, wh), 0, 0, cv::INTER_AREA);
   else small = lum;
   w.luma = ImageF(ww, wh, 1);
-  for (int y = 0; y < wh; ++y) std::copy_n(small.ptr<float>(y), ww, w.luma.row(y));
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < wh; ++y) {
+    const float* in = small.ptr<float>(y);
+    float* o = w.luma.row(y);
+    for (int x = 0; x < ww; ++x) o[x] = static_cast<float>(srgb_encode(std::clamp(in[x], 0.f, 1.f)));
+  }
   w.labels = ww == W ? labels : resize_nearest(labels, ww, wh);
   return w;
 }

@@ -16,13 +16,28 @@ namespace {
 using Rgb = std::array<double, 3>;
 
 struct Lab { double L, a, b; };
-// CIELAB (D65) of a linear sRGB colour (CIE 15:2004).
+// CIELAB (D65) of a linear sRGB colour (CIE 15:2004). f(t) = t^(1/3) comes from a table on
+// [0, 1] (4096 steps, linear interpolation: |error| < 1e-4, far below the thresholds used).
+double lab_f(double t) {
+  static const std::vector<float> lut = [] {
+    std::vector<float> v(4098);
+    for (int i = 0; i <= 4097; ++i) {
+      const double x = i / 4096.0;
+      v[i] = static_cast<float>(x > 0.008856 ? std::cbrt(x) : 7.787 * x + 16.0 / 116);
+    }
+    return v;
+  }();
+  if (t >= 1.0) return std::cbrt(t);
+  if (t <= 0.0) return 16.0 / 116;
+  const double u = t * 4096.0;
+  const int i = static_cast<int>(u);
+  return lut[i] + (lut[i + 1] - lut[i]) * (u - i);
+}
 Lab to_lab(const float* s) {
   const double X = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
   const double Y = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
   const double Z = (0.0193 * s[0] + 0.1192 * s[1] + 0.9505 * s[2]) / 1.08883;
-  auto f = [](double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116; };
-  const double fx = f(X), fy = f(Y), fz = f(Z);
+  const double fx = lab_f(X), fy = lab_f(Y), fz = lab_f(Z);
   return {116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)};
 }
 
@@ -65,30 +80,50 @@ double low_beam_lux(int x, int y, int width, double depth, double vp_y, const Sc
   const double d = depth;
   const double half = std::max(1.0, p.beam_half_width * width * d);
   const double u = (x - 0.5 * width) / half;
+  if (std::fabs(u) > 4) return 0;  // beyond 4σ: below 3.4e-4 of the beam centre
   return p.beam_road_lux * d * d * std::exp(-0.5 * u * u);
 }
 
-ImageF bloom(const ImageF& src, double fraction, int levels) {
-  if (fraction <= 0 || levels <= 0 || src.width() < 4 || src.height() < 4) return src;
-  const int W = src.width(), H = src.height();
-  cv::Mat s(H, W, CV_32FC3, const_cast<float*>(src.data()));
-  cv::Mat acc = cv::Mat::zeros(H, W, CV_32FC3), level = s, up;
-  int used = 0;
+void bloom_in_place(ImageF& img, double fraction, int levels) {
+  if (fraction <= 0 || levels <= 0 || img.width() < 4 || img.height() < 4) return;
+  const int W = img.width(), H = img.height();
+  cv::Mat s(H, W, CV_32FC3, img.data());
+  // The mip chain: the first octave a 2x2 area average (cheap at full size), each further level
+  // a 5x5-Gaussian decimation (pyrDown) of the one above.
+  std::vector<cv::Mat> mips{s};
   for (int l = 1; l <= levels; ++l) {
-    if (level.cols < 4 || level.rows < 4) break;
-    cv::Mat down, blurred;
-    cv::pyrDown(level, down);  // 5x5 Gaussian then decimation: one octave of the mip chain
-    cv::GaussianBlur(down, blurred, cv::Size(0, 0), 1.5);
-    cv::resize(blurred, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
-    acc += up;
-    level = down;
-    ++used;
+    const cv::Mat& top = mips.back();
+    if (top.cols < 4 || top.rows < 4) break;
+    cv::Mat down;
+    if (l == 1) cv::resize(top, down, cv::Size((top.cols + 1) / 2, (top.rows + 1) / 2), 0, 0, cv::INTER_AREA);
+    else cv::pyrDown(top, down);
+    mips.push_back(down);
   }
-  ImageF out(W, H, 3, 0.f, src.unit());
-  if (used == 0) return src;
-  cv::Mat o(H, W, CV_32FC3, out.data());
+  const int used = static_cast<int>(mips.size()) - 1;
+  if (used == 0) return;
+  // Collapse coarse to fine: acc_l = blur(mip_l) + up(acc_{l+1}); one full-size upsample at
+  // the end, so the cost is about that of the first octave.
+  cv::Mat acc;
+  for (int l = used; l >= 1; --l) {
+    cv::Mat blurred;
+    cv::GaussianBlur(mips[l], blurred, cv::Size(0, 0), 1.5);
+    if (!acc.empty()) {
+      cv::Mat up;
+      cv::resize(acc, up, blurred.size(), 0, 0, cv::INTER_LINEAR);
+      acc = blurred + up;
+    } else {
+      acc = blurred;
+    }
+  }
+  cv::Mat up;
+  cv::resize(acc, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
   // Energy-preserving: the glare share f leaves the source and spreads over the octaves.
-  cv::addWeighted(s, 1.0 - fraction, acc, fraction / used, 0.0, o);
+  cv::addWeighted(s, 1.0 - fraction, up, fraction / used, 0.0, s);
+}
+
+ImageF bloom(const ImageF& src, double fraction, int levels) {
+  ImageF out = src;
+  bloom_in_place(out, fraction, levels);
   return out;
 }
 
@@ -145,12 +180,17 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   {
     std::map<int, int> inst_index;
     if (!lm.instances.empty()) {
+      int last_v = -1, last_c = 0;
       for (size_t i = 0; i < labels.pixel_count(); ++i) {
         const int v = lm.instances[i];
         if (v >= 1000 && is_vehicle(v / 1000)) {
-          auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
-          if (fresh) comp_class.push_back(v / 1000);
-          comp[i] = it->second;
+          if (v != last_v) {
+            auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
+            if (fresh) comp_class.push_back(v / 1000);
+            last_v = v;
+            last_c = it->second;
+          }
+          comp[i] = last_c;
         }
       }
     }
@@ -183,26 +223,28 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
   // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
   // bright white is rare (so not a white body), near-white highlights in the lower half.
-  for (size_t i = 0; i < labels.pixel_count(); ++i) {
-    const int c = comp[i];
-    if (!c) continue;
-    const Lab l = lab_at(static_cast<int>(i));
-    if (l.L > 92 && std::hypot(l.a, l.b) < 10) ++boxes[c].white;
-  }
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-  ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour
-  for (size_t i = 0; i < labels.pixel_count(); ++i) {
-    const int c = comp[i];
-    if (!c) continue;
-    const Box& b = boxes[c];
-    const int y = static_cast<int>(i / W);
-    const Lab l = lab_at(static_cast<int>(i));
-    const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
-    if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
-    else if (b.white * 20 < b.n && l.L > 92 && std::hypot(l.a, l.b) < 10 && 2 * y > b.y0 + b.y1)
-      cue[i] = 2;
-  }
+  ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows)
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t i = static_cast<size_t>(y) * W + x;
+      const int c = comp[i];
+      if (!c) continue;
+      const Lab l = lab_at(static_cast<int>(i));
+      const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+      if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
+      else if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
+    }
+  for (size_t i = 0; i < cue.pixel_count(); ++i)
+    if (cue[i] == 2) ++boxes[comp[i]].white;
+  for (size_t i = 0; i < cue.pixel_count(); ++i)
+    if (cue[i] == 2) {
+      const Box& b = boxes[comp[i]];
+      const int y = static_cast<int>(i / W);
+      if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
+    }
   // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
   for (int y = 1; y < H - 1; ++y)
     for (int x = 1; x < W - 1; ++x) {
@@ -291,7 +333,8 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         ++out.stats.windows;
       }
   }
-  out.radiance = bloom(L, p.bloom_fraction, p.bloom_levels);
+  bloom_in_place(L, p.bloom_fraction, p.bloom_levels);
+  out.radiance = std::move(L);
   return out;
 }
 

@@ -16,9 +16,8 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
     t = now;
   };
   const int W = day.width(), H = day.height();
-  const ImageF box = linear_srgb_to_box_rgb(day);
-  const ImageF texture = reflectance_texture(box, labels.ids, p);
-  s.darkened = darken(box, texture, labels.ids, p);
+  const ImageF texture = reflectance_texture(day, labels.ids, p);
+  s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
   s.work_scale = w.scale;

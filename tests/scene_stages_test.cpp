@@ -30,9 +30,8 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   SyntheticOptions o;
   SyntheticScene s = make_synthetic_road(o);
   const ScenePreset& p = preset();
-  const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
-  const ImageF tex = reflectance_texture(box, s.labels.ids, p);
-  const ImageF dark = darken(box, tex, s.labels.ids, p);
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const ImageF dark = darken(tex, s.labels.ids, p);
   EXPECT_EQ(dark.unit(), std::string(unit::radiance));
   // Road: ambient + street lighting that makes the road luminance the M-class target.
   double sum_road = 0, n_road = 0, sum_b = 0, n_b = 0, sum_sky = 0, n_sky = 0;

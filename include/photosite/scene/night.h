@@ -29,15 +29,16 @@ ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
 double class_reflectance(int label_id, const ScenePreset& p);
 // Per-pixel reflectance texture f (W/lm, per band): the day image normalised so that the
 // luminance-weighted mean of each class equals the class reflectance ρ:
-//   f_k(x) = ρ_class · c_k(x) / mean_class(Y(c)),  Y(c) = Σ_k K_k c_k  (band efficacies, lm/W).
+//   f_k(x) = ρ_class · c_k(x) / mean_class(Y(c)),  Y(c) = Σ_k K_k c_k  (band efficacies, lm/W),
+// c the day pixel in the box basis.
 // A Lambertian surface under illuminance E (lx) with relative spectral tint t then has
 //   L_k = f_k · t_k · E / π    (W·sr⁻¹·m⁻²),  with luminance ρ·E/π for the class mean.
-ImageF reflectance_texture(const ImageF& day_box, const ImageU16& labels, const ScenePreset& p);
+// Takes linear sRGB and converts to the box basis on the fly.
+ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
 // Ambient (moon + sky glow) and street lighting on every class; the sky gets its own luminance.
-ImageF darken(const ImageF& day_box, const ImageF& texture, const ImageU16& labels,
-              const ScenePreset& p);
+ImageF darken(const ImageF& texture, const ImageU16& labels, const ScenePreset& p);
 
 // ---- geometry (working resolution) -------------------------------------------------------
 struct WorkImages {
@@ -87,6 +88,7 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
                    const ScenePreset& p, uint64_t seed);
 // Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
 ImageF bloom(const ImageF& src, double fraction, int levels);
+void bloom_in_place(ImageF& img, double fraction, int levels);
 // darkened + diffuse low-beam light on the ground + light map.
 ImageF compose(const ImageF& darkened, const ImageF& texture, const ImageF& lights,
                const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,

@@ -1,0 +1,150 @@
+// `photosite bench night`: the whole night chain without file I/O (linearize → scene stages →
+// sensor) on a 2048x1024 Cityscapes frame (../shared, else the synthetic road at that size),
+// per-stage medians over repeats, each also as a ratio to an OpenCV peer measured in the same
+// run (cv::cvtColor RGB→Lab on the same float frame). CSV to docs/night_bench.csv.
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <fmt/format.h>
+
+#include "bench.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite::cli {
+namespace {
+struct Opts {
+  std::string image, labels, instances, out_dir, preset = "onsemi-ar0331";
+  int repeats = 9, threads = 2;
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+void run(const Opts& o) {
+  namespace fs = std::filesystem;
+  using clock = std::chrono::steady_clock;
+  omp_set_num_threads(o.threads);
+  cv::setNumThreads(o.threads);
+  std::string image = o.image, labels = o.labels, instances = o.instances, source;
+  const fs::path shared = fs::path(PHOTOSITE_SOURCE_DIR) / ".." / "shared" / "data" / "cityscapes";
+  if (image.empty() && fs::exists(shared / "leftImg8bit")) {
+    image = (shared / "leftImg8bit/aachen_000000_000019_leftImg8bit.png").string();
+    labels = (shared / "gtFine/aachen_000000_000019_gtFine_labelIds.png").string();
+    instances = (shared / "gtFine/aachen_000000_000019_gtFine_instanceIds.png").string();
+  }
+  ImageF day;
+  scene::LabelMap lm;
+  ImageFileInfo info;
+  if (!image.empty()) {
+    const ImageF raw = read_image(image, &info);
+    lm = scene::read_labels(labels, instances, raw.width(), raw.height(), scene::LabelFormat::Auto,
+                            scene::ResizeLabels::None);
+    day = raw;
+    source = fs::path(image).filename().string();
+  } else {
+    scene::SyntheticOptions so;
+    so.width = 2048;
+    so.height = 1024;
+    so.vp_x = 1000;
+    so.vp_y = 450;
+    so.cars = 3;
+    auto s = scene::make_synthetic_road(so);
+    lm = s.labels;
+    day = s.day_linear_srgb;
+    info.is_float = true;
+    source = "synthetic road 2048x1024 (../shared/data/cityscapes absent)";
+  }
+  const scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+  const CameraPreset cam = load_camera_preset(o.preset);
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  ExposureSettings es;
+  const ResolvedExposure ex = resolve(cam, lens, es);
+  const FixedPatternMaps fpn = generate_fixed_pattern(cam, day.width(), day.height(), "bench-0");
+
+  std::map<std::string, std::vector<double>> t;
+  std::vector<std::string> order;
+  auto add = [&](const std::string& k, double ms) {
+    if (!t.count(k)) order.push_back(k);
+    t[k].push_back(ms);
+  };
+  cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
+  for (int r = 0; r < o.repeats + 1; ++r) {  // the first round warms caches and is dropped
+    const bool keep = r > 0;
+    auto t0 = clock::now();
+    const ImageF lin = scene::linearize(day, info);
+    auto t1 = clock::now();
+    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
+    auto t2 = clock::now();
+    const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
+    es.frame = static_cast<uint32_t>(r);
+    SensorOutput so = sense(mean_e, cam, ex, es, fpn);
+    auto t3 = clock::now();
+    std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
+    auto t4 = clock::now();
+    cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+    auto t5 = clock::now();
+    if (!keep) continue;
+    auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+    add("linearize", ms(t0, t1));
+    for (const auto& st : ns.timings) add(st.stage, st.ms);
+    add("scene stages (linearize..compose)", ms(t0, t2));
+    add("sensor (expose)", ms(t2, t3));
+    add("whole chain", ms(t0, t3));
+    add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
+  }
+  const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);
+  const std::string machine = machine_description();
+  std::printf("photosite bench night: %s, %dx%d, %d threads, median of %d\nmachine: %s\n\n", source.c_str(),
+              day.width(), day.height(), o.threads, o.repeats, machine.c_str());
+  std::printf("%-36s %10s %12s\n", "stage", "ms", "x peer");
+  const fs::path dir = o.out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(o.out_dir);
+  const std::string csv_path = (dir / "night_bench.csv").string();
+  check_output_path(csv_path, true);
+  std::string csv = "stage,median_ms,ratio_to_peer,width,height,threads,machine\n";
+  for (const auto& k : order) {
+    const double m = median(t[k]);
+    std::printf("%-36s %10.2f %12.2f\n", k.c_str(), m, m / peer);
+    csv += fmt::format("\"{}\",{:.3f},{:.3f},{},{},{},\"{}\"\n", k, m, m / peer, day.width(),
+                       day.height(), o.threads, machine);
+  }
+  const double scene_ms = median(t["scene stages (linearize..compose)"]);
+  const double whole_ms = median(t["whole chain"]);
+  std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain < 50 ms: %s (%.1f ms)\n",
+              scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms < 50 ? "met" : "NOT met", whole_ms);
+  atomic_write(csv_path, [&](const std::string& tmp) {
+    std::ofstream f(tmp);
+    f << csv;
+    if (!f) fail_at(csv_path, "cannot write");
+  });
+  std::printf("%s\n", csv_path.c_str());
+}
+}  // namespace
+
+static BenchRegistrar reg("night", "the night chain without file I/O at 2048x1024 (docs/night_bench.csv)",
+                          [](CLI::App* sub) {
+                            auto o = std::make_shared<Opts>();
+                            sub->add_option("--image", o->image, "day image (default: a Cityscapes frame from ../shared)");
+                            sub->add_option("--labels", o->labels, "its labels");
+                            sub->add_option("--instances", o->instances, "its instance ids");
+                            sub->add_option("--preset", o->preset, "camera preset")->capture_default_str();
+                            sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
+                            sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
+                            sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
+                            sub->callback([o] { run(*o); });
+                          });
+}  // namespace photosite::cli
