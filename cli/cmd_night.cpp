@@ -39,7 +39,7 @@ void run_night(NightCmd c) {
   const bool bundled = c.image.empty() && c.labels.empty();
   if (bundled) {
     c.image = night_sample_dir() + "/kitti/image_2/000000_10.png";
-    c.labels = night_sample_dir() + "/kitti/semantic_cropped/000000_10.png";
+    c.labels = night_sample_dir() + "/kitti/semantic/000000_10.png";
     if (c.sensor.preset.empty()) c.sensor.preset = "sony-icx267-flea2";  // KITTI's camera
   } else if (c.image.empty() || c.labels.empty()) {
     fail("night: give both --image and --labels, or neither to run on the bundled KITTI sample");
