@@ -6,7 +6,7 @@
 
 #include "photosite/error.h"
 #include "photosite/rng.h"
-#include "photosite/sensor/poisson_detail.h"
+#include "photosite/sensor/poisson.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
 
@@ -169,37 +169,54 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
   float* dn = out.raw_dn.data();
   const uint32_t shot_stream = static_cast<uint32_t>(Stream::PhotonShot);
 
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const float row_noise = row_e.empty() ? 0.f : row_e[y];
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
+  // Absent maps and noise terms read from constant rows, so every inner loop is branch-free
+  // and vectorizes; the stages themselves are skipped only in the sense that they add 0 / x1.
+  const std::vector<float> ones(w, 1.f), zeros(w, 0.f);
+  const float fw = static_cast<float>(full_well);
+#pragma omp parallel
+  {
+    std::vector<float> mean(w), read(w);
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      const size_t row0 = static_cast<size_t>(y) * w;
+      const float* g = prnu ? prnu + row0 : ones.data();
+      const float* df = darkf ? darkf + row0 : ones.data();
+      const float* off = dsnu ? dsnu + row0 : zeros.data();
+      const float* col = col_e.empty() ? zeros.data() : col_e.data();
+      const float* srow = sig + row0;
+      float* erow = el + row0;
+      float* drow = dn + row0;
       // Mean collected electrons: photo-signal through the pixel's PRNU gain, plus dark charge
       // at this pixel's dark rate. One Poisson draw of the sum is exactly the sum of the two
       // independent Poisson processes (photon shot noise and dark-current shot noise).
-      double mean = sig[i] * (prnu ? prnu[i] : 1.f) + dark_mean_e * (darkf ? darkf[i] : 1.f);
-      const auto words = random_words(key, frame, i, Stream::PhotonShot);
-      double e = detail::poisson_from_words(mean, words, key, frame, i, shot_stream);
-      e = std::min(e, full_well);  // the well holds no more than its capacity
-      el[i] = static_cast<float>(e);
-      // Analog chain in electrons: offset DSNU, read noise (words 2, 3 of the same draw), row
-      // and column noise; then conversion gain K, black level and the ADC.
-      double read;
-      if (tukey != 0) {
-        const double u = uniform_open(words[2]);
-        read = (std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm;
-      } else {
-        read = normal_from_words(words[2], words[3]);
+      const float dark = static_cast<float>(dark_mean_e);
+      for (int x = 0; x < w; ++x) mean[x] = srow[x] * g[x] + dark * df[x];
+      // Shot noise and the read-noise normal from one Philox draw per pixel.
+      poisson_block(mean.data(), erow, read.data(), w, row0, key, frame, shot_stream);
+      if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
+        for (int x = 0; x < w; ++x) {
+          const double u = std::clamp(0.5 * std::erfc(-read[x] / std::sqrt(2.0)), 1e-300, 1.0 - 1e-16);
+          read[x] = static_cast<float>((std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm);
+        }
       }
-      double v = e + (dsnu ? dsnu[i] : 0.f) + read_e * read + row_noise + (col_e.empty() ? 0.f : col_e[x]);
-      // One rounding only: the quantization noise is the ideal 1/12 DN².
-      double code = std::floor(v * K + black + 0.5);
-      dn[i] = static_cast<float>(std::clamp(code, 0.0, max_code));
+      const float row_noise = row_e.empty() ? 0.f : row_e[y];
+      const float rn = static_cast<float>(read_e);
+      for (int x = 0; x < w; ++x) {
+        const float e = std::min(erow[x], fw);  // the well holds no more than its capacity
+        erow[x] = e;
+        // Analog chain in electrons: offset DSNU, read noise, row and column noise; then the
+        // conversion gain K, the black level and one rounding (ideal 1/12 DN² quantization).
+        const double v = static_cast<double>(e) + off[x] + rn * read[x] + row_noise + col[x];
+        drow[x] = static_cast<float>(std::clamp(std::floor(v * K + black + 0.5), 0.0, max_code));
+      }
     }
   }
   // Demosaic the black-subtracted mosaic to linear RGB in DN.
   ImageF above_black(w, h, 1, 0.f, unit::dn);
-  for (size_t i = 0; i < above_black.size(); ++i) above_black[i] = dn[i] - static_cast<float>(black);
+  const float blk = static_cast<float>(black);
+  float* ab = above_black.data();
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < static_cast<int64_t>(above_black.size()); ++i) ab[i] = dn[i] - blk;
   out.rgb = demosaic(above_black, p.cfa, s.demosaic);
   out.rgb.set_unit(unit::dn);
   return out;
