@@ -227,3 +227,27 @@ TEST(SceneDegenerate, EveryFailureCaseFinishesWithTheFallbackReported) {
   EXPECT_EQ(k.vp.method, VpMethod::SkyPrior);
   EXPECT_NEAR(k.vp.y, 59, 1);
 }
+
+TEST(SceneLights, LampHeadsOnPolesButNotUnderSigns) {
+  const int W = 200, H = 100;
+  LabelMap m;
+  m.ids = ImageU16(W, H, 1, uint16_t(Label::Sky));
+  for (int y = 60; y < H; ++y)
+    for (int x = 0; x < W; ++x) m.ids.at(x, y) = uint16_t(Label::Road);
+  for (int y = 10; y < 60; ++y)
+    for (int x = 50; x < 53; ++x) m.ids.at(x, y) = uint16_t(Label::Pole);  // a bare pole
+  for (int y = 20; y < 60; ++y)
+    for (int x = 150; x < 153; ++x) m.ids.at(x, y) = uint16_t(Label::Pole);  // a sign pole
+  for (int y = 12; y < 20; ++y)
+    for (int x = 146; x < 157; ++x) m.ids.at(x, y) = uint16_t(Label::TrafficSign);
+  const ImageF day(W, H, 3, 0.3f);
+  VanishingPoint vp;
+  vp.x = 100;
+  vp.y = 60;
+  const ScenePreset& p = preset();
+  const ImageF tex = reflectance_texture(day, m.ids, p);
+  LightMap lm = light_map(day, tex, m, ImageU8(W, H, 1, 0), coarse_depth(W, H, vp.x, vp.y), vp, p, 0);
+  EXPECT_EQ(lm.stats.pole_lamps, 1);
+  EXPECT_GT(luminance(lm.radiance, 11 * W + 51), 0.5 * p.streetlamp_luminance_cd_m2);
+  EXPECT_LT(luminance(lm.radiance, 21 * W + 151), 0.05 * p.streetlamp_luminance_cd_m2);
+}
