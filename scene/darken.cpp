@@ -1,5 +1,6 @@
 // Linearization and per-class darkening under night illumination (stage 1).
 #include <cmath>
+#include <vector>
 
 #include "photosite/error.h"
 #include "photosite/scene/night.h"
@@ -75,13 +76,16 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   // (before clipping negatives, which only out-of-gamut colours have).
   const size_t n = day.pixel_count();
   ImageF f(day.width(), day.height(), 3, 0.f, "W.lm-1");
-  double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
-  // Pass 1: box RGB into f (reused as scratch) and the class sums of Y.
-#pragma omp parallel
-  {
-    double ls[kLabelCount] = {}, lc[kLabelCount] = {};
-#pragma omp for schedule(static)
-    for (size_t i = 0; i < n; ++i) {
+  // Pass 1: box RGB into f (reused as scratch) and the class sums of Y, over a fixed set of
+  // chunks summed in order afterwards, so the result does not depend on the thread count.
+  constexpr int kChunks = 64;
+  std::vector<std::array<double, 2 * kLabelCount>> part(kChunks);
+#pragma omp parallel for schedule(static)
+  for (int ch = 0; ch < kChunks; ++ch) {
+    auto& ps = part[ch];
+    ps.fill(0.0);
+    const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
+    for (size_t i = i0; i < i1; ++i) {
       const float* s = day.data() + 3 * i;
       double y = 0;
       for (int r = 0; r < 3; ++r) {
@@ -89,12 +93,13 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
         f[3 * i + r] = static_cast<float>(v);
         y += K[r] * v;
       }
-      ls[labels[i]] += y;
-      lc[labels[i]] += 1;
+      ps[labels[i]] += y;
+      ps[kLabelCount + labels[i]] += 1;
     }
-#pragma omp critical
-    for (int id = 0; id < kLabelCount; ++id) { sum[id] += ls[id]; cnt[id] += lc[id]; }
   }
+  double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
+  for (const auto& ps : part)
+    for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
   float scale[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id) {
     const double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;

@@ -142,7 +142,7 @@ VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16
   vp.method = VpMethod::Hough;
   // Confidence: the share of intersections that agree, saturating with the number of lines.
   vp.confidence = std::min(1.0, (static_cast<double>(support) / pts.size()) *
-                                    std::min(1.0, lines.size() / 6.0) * 2.0);
+                                    std::min(1.0, lines.size() / 6.0));
   vp.confidence = std::max(vp.confidence, 0.31);  // a Hough VP is trusted above any prior
   return vp;
 }

@@ -145,3 +145,15 @@ TEST(SceneSharedData, EveryKittiSample) {
   }
   EXPECT_GT(runs, 0);
 }
+
+TEST(SceneNightCli, FramesKeepTheirLightsAndVaryTheNoise) {
+  test::TempDir d;
+  auto r = test::run_cli("night --out '" + d.file("f_#.exr") + "' --frames 2 --device-store '" +
+                         d.file("store") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents a = read_exr(d.file("f_0.exr")), b = read_exr(d.file("f_1.exr"));
+  EXPECT_EQ(a.channels.at("lights.G").vec(), b.channels.at("lights.G").vec());
+  EXPECT_EQ(a.channels.at("night_radiance.G").vec(), b.channels.at("night_radiance.G").vec());
+  EXPECT_NE(a.channels.at("raw.Y").vec(), b.channels.at("raw.Y").vec());  // temporal noise
+  EXPECT_EQ(a.attributes.at("photosite/fpn_checksum"), b.attributes.at("photosite/fpn_checksum"));
+}

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <omp.h>
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/spectrum.h"
@@ -250,4 +251,18 @@ TEST(SceneLights, LampHeadsOnPolesButNotUnderSigns) {
   EXPECT_EQ(lm.stats.pole_lamps, 1);
   EXPECT_GT(luminance(lm.radiance, 11 * W + 51), 0.5 * p.streetlamp_luminance_cd_m2);
   EXPECT_LT(luminance(lm.radiance, 21 * W + 151), 0.05 * p.streetlamp_luminance_cd_m2);
+}
+
+TEST(SceneChain, IndependentOfThreadCount) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  NightScene a = night_scene(s.day_linear_srgb, s.labels, preset(), 5);
+  omp_set_num_threads(std::max(2, before));
+  NightScene b = night_scene(s.day_linear_srgb, s.labels, preset(), 5);
+  omp_set_num_threads(before);
+  EXPECT_EQ(a.radiance.vec(), b.radiance.vec());
+  EXPECT_EQ(a.depth.vec(), b.depth.vec());
+  EXPECT_EQ(a.vp.x, b.vp.x);
 }
