@@ -115,10 +115,41 @@ void bloom_in_place(ImageF& img, double fraction, int levels) {
       acc = blurred;
     }
   }
-  cv::Mat up;
-  cv::resize(acc, up, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
-  // Energy-preserving: the glare share f leaves the source and spreads over the octaves.
-  cv::addWeighted(s, 1.0 - fraction, up, fraction / used, 0.0, s);
+  // Energy-preserving: the glare share f leaves the source and spreads over the octaves. The
+  // last bilinear upsample (pixel-centre aligned, as cv::resize) is fused with the mix.
+  const float keep = static_cast<float>(1.0 - fraction), spread = static_cast<float>(fraction / used);
+  const int aw = acc.cols, ah = acc.rows;
+  const double sx = static_cast<double>(aw) / W, sy = static_cast<double>(ah) / H;
+  std::vector<int> cx0(W), cx1(W);
+  std::vector<float> cwx(W);
+  for (int x = 0; x < W; ++x) {
+    const double fx = std::clamp((x + 0.5) * sx - 0.5, 0.0, aw - 1.0);
+    cx0[x] = 3 * static_cast<int>(fx);
+    cx1[x] = 3 * std::min(aw - 1, static_cast<int>(fx) + 1);
+    cwx[x] = static_cast<float>(fx - static_cast<int>(fx));
+  }
+#pragma omp parallel
+  {
+    std::vector<float> row(3 * static_cast<size_t>(aw));
+#pragma omp for schedule(static)
+    for (int y = 0; y < H; ++y) {
+      const double fy = std::clamp((y + 0.5) * sy - 0.5, 0.0, ah - 1.0);
+      const int y0 = static_cast<int>(fy), y1 = std::min(ah - 1, y0 + 1);
+      const float wy = static_cast<float>(fy - y0);
+      const float* r0 = acc.ptr<float>(y0);
+      const float* r1 = acc.ptr<float>(y1);
+      for (int j = 0; j < 3 * aw; ++j) row[j] = spread * (r0[j] + (r1[j] - r0[j]) * wy);
+      float* o = img.row(y);
+      for (int x = 0; x < W; ++x) {
+        const float wx = cwx[x];
+        const float* a = row.data() + cx0[x];
+        const float* b = row.data() + cx1[x];
+        o[3 * x] = keep * o[3 * x] + a[0] + (b[0] - a[0]) * wx;
+        o[3 * x + 1] = keep * o[3 * x + 1] + a[1] + (b[1] - a[1]) * wx;
+        o[3 * x + 2] = keep * o[3 * x + 2] + a[2] + (b[2] - a[2]) * wx;
+      }
+    }
+  }
 }
 
 ImageF bloom(const ImageF& src, double fraction, int levels) {
@@ -194,13 +225,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         }
       }
     }
-    cv::Mat mask(H, W, CV_8U, cv::Scalar(0));
-    for (size_t i = 0; i < labels.pixel_count(); ++i)
-      if (is_vehicle(labels[i]) && comp[i] == 0) mask.data[i] = 255;
+    cv::Mat mask(H, W, CV_8U);
+    const long np = static_cast<long>(labels.pixel_count());
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < np; ++i) mask.data[i] = is_vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
     cv::Mat cc;
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
     const int base = static_cast<int>(inst_index.size());
     for (int c = 1; c < n; ++c) comp_class.push_back(0);
+    // Class of each new component: the label at its first pixel (a component is one class
+    // group, vehicles; mixed-class blobs take the first met).
     for (size_t i = 0; i < labels.pixel_count(); ++i) {
       const int c = reinterpret_cast<const int*>(cc.data)[i];
       if (c > 0) {
@@ -278,10 +312,12 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // Lamp heads on poles: tall thin pole components whose top is above the horizon and not
   // capped by a sign or signal (those poles carry no luminaire).
   {
-    cv::Mat mask(H, W, CV_8U, cv::Scalar(0));
-    for (size_t i = 0; i < labels.pixel_count(); ++i)
-      if (labels[i] == static_cast<int>(Label::Pole) || labels[i] == static_cast<int>(Label::PoleGroup))
-        mask.data[i] = 255;
+    cv::Mat mask(H, W, CV_8U);
+    const long np = static_cast<long>(labels.pixel_count());
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < np; ++i)
+      mask.data[i] = labels[i] == static_cast<int>(Label::Pole) ||
+                             labels[i] == static_cast<int>(Label::PoleGroup) ? 255 : 0;
     cv::Mat cc, stats, cent;
     const int n = cv::connectedComponentsWithStats(mask, cc, stats, cent, 8, CV_32S);
     const Rgb lamp = blackbody(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
