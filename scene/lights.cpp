@@ -312,22 +312,36 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // Lamp heads on poles: tall thin pole components whose top is above the horizon and not
   // capped by a sign or signal (those poles carry no luminaire).
   {
-    cv::Mat mask(H, W, CV_8U);
-    const long np = static_cast<long>(labels.pixel_count());
+    // Components on a half-resolution mask (2x2 OR pooling keeps 1-px poles), a quarter of the
+    // work; the top row and its centre are then found at full resolution.
+    auto is_pole = [&](int x, int y) {
+      const int id = labels.at(x, y);
+      return id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup);
+    };
+    const int W2 = (W + 1) / 2, H2 = (H + 1) / 2;
+    cv::Mat mask(H2, W2, CV_8U);
 #pragma omp parallel for schedule(static)
-    for (long i = 0; i < np; ++i)
-      mask.data[i] = labels[i] == static_cast<int>(Label::Pole) ||
-                             labels[i] == static_cast<int>(Label::PoleGroup) ? 255 : 0;
+    for (int y = 0; y < H2; ++y)
+      for (int x = 0; x < W2; ++x) {
+        bool any = false;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx)
+            any |= 2 * x + dx < W && 2 * y + dy < H && is_pole(2 * x + dx, 2 * y + dy);
+        mask.at<uint8_t>(y, x) = any ? 255 : 0;
+      }
     cv::Mat cc, stats, cent;
     const int n = cv::connectedComponentsWithStats(mask, cc, stats, cent, 8, CV_32S);
     const Rgb lamp = blackbody(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
     for (int c = 1; c < n; ++c) {
-      const int x0 = stats.at<int>(c, cv::CC_STAT_LEFT), y0 = stats.at<int>(c, cv::CC_STAT_TOP);
-      const int bw = stats.at<int>(c, cv::CC_STAT_WIDTH), bh = stats.at<int>(c, cv::CC_STAT_HEIGHT);
+      const int x0 = 2 * stats.at<int>(c, cv::CC_STAT_LEFT);
+      const int bw = std::min(W - x0, 2 * stats.at<int>(c, cv::CC_STAT_WIDTH));
+      const int bh = 2 * stats.at<int>(c, cv::CC_STAT_HEIGHT);
+      int y0 = 2 * stats.at<int>(c, cv::CC_STAT_TOP);
       if (bh < 0.08 * H || bh < 3 * bw / 2 || y0 >= vp.y) continue;
-      int sx = 0, cnt = 0;  // centre of the pole's top row
-      for (int x = x0; x < x0 + bw; ++x)
-        if (cc.at<int>(y0, x) == c) { sx += x; ++cnt; }
+      int sx = 0, cnt = 0;  // centre of the pole's top row (full resolution)
+      for (int yy = y0; yy < std::min(H, y0 + 2) && cnt == 0; ++yy)
+        for (int x = x0; x < x0 + bw; ++x)
+          if (is_pole(x, yy) && cc.at<int>(yy / 2, x / 2) == c) { sx += x; ++cnt; y0 = yy; }
       const double cx = cnt ? static_cast<double>(sx) / cnt : x0 + bw / 2.0;
       bool capped = false;
       for (int y = std::max(0, y0 - 3); y < y0 && !capped; ++y)
