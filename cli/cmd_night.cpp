@@ -139,7 +139,7 @@ void run_night(NightCmd c) {
   lap("read inputs");
   ImageF day = scene::linearize(day_raw, info);
   lap("linearize");
-  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed);
+  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed, !c.maps.empty());
   for (auto& st : ns.timings) times.push_back(st);
   t = clock::now();
   if (!c.maps.empty()) {

@@ -388,24 +388,28 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   return out;
 }
 
-ImageF compose(const ImageF& darkened, const ImageF& texture, const ImageF& lights,
-               const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,
-               const ScenePreset& p) {
-  const int W = darkened.width(), H = darkened.height();
+ImageF compose(ImageF night, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+               const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p) {
+  const int W = night.width(), H = night.height();
   const auto tb = illuminant_tint(p.beam_cct_K);
-  ImageF out(W, H, 3, 0.f, unit::radiance);
+  const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
+                        static_cast<float>(tb[2] / M_PI)};
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y)
+  for (int y = 0; y < H; ++y) {
+    float* o = night.row(y);
+    const float* t = texture.row(y);
+    const float* l = lights.row(y);
+    const float* d = depth.row(y);
+    const uint16_t* id = labels.row(y);
     for (int x = 0; x < W; ++x) {
-      const size_t i = static_cast<size_t>(y) * W + x;
-      const double e = is_ground(labels[i]) ? low_beam_lux(x, y, W, depth[i], vp.y, p) : 0.0;
-      for (int k = 0; k < 3; ++k) {
-        // Lambertian diffuse reflection of the low beam: f_k·t_k·E/π.
-        const double beam = texture[3 * i + k] * tb[k] * e / M_PI;
-        out[3 * i + k] = static_cast<float>(darkened[3 * i + k] + beam + lights[3 * i + k]);
-      }
+      // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π.
+      const float e = y > vp.y && is_ground(id[x])
+                          ? static_cast<float>(low_beam_lux(x, y, W, d[x], vp.y, p)) : 0.f;
+      for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
     }
-  return out;
+  }
+  night.set_unit(unit::radiance);
+  return night;
 }
 
 }  // namespace photosite::scene

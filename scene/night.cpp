@@ -6,7 +6,7 @@
 namespace photosite::scene {
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed) {
+                       uint64_t seed, bool keep_darkened) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -50,7 +50,9 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   s.lights = std::move(lm.radiance);
   s.light_stats = lm.stats;
   lap("lights");
-  s.radiance = compose(s.darkened, texture, s.lights, labels.ids, s.depth, vp, p);
+  s.radiance = compose(keep_darkened ? s.darkened : std::move(s.darkened), texture, s.lights,
+                       labels.ids, s.depth, vp, p);
+  if (!keep_darkened) s.darkened = ImageF();
   lap("compose");
   return s;
 }

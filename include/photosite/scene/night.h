@@ -89,15 +89,16 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
 // Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
 ImageF bloom(const ImageF& src, double fraction, int levels);
 void bloom_in_place(ImageF& img, double fraction, int levels);
-// darkened + diffuse low-beam light on the ground + light map.
-ImageF compose(const ImageF& darkened, const ImageF& texture, const ImageF& lights,
+// darkened + diffuse low-beam light on the ground + light map (adds into `darkened`).
+ImageF compose(ImageF darkened, const ImageF& texture, const ImageF& lights,
                const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,
                const ScenePreset& p);
 
 // ---- the chain ----------------------------------------------------------------------------
 struct StageTiming { std::string stage; double ms; };
 struct NightScene {
-  ImageF darkened, lights, radiance, depth;  // full resolution
+  ImageF darkened;  // full resolution, kept only with keep_darkened
+  ImageF lights, radiance, depth;  // full resolution
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;
   std::vector<Segment> lines_work;
@@ -106,7 +107,7 @@ struct NightScene {
   std::vector<StageTiming> timings;
 };
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed);
+                       uint64_t seed, bool keep_darkened = false);
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {
