@@ -178,16 +178,33 @@ LabelMap read_labels(const std::string& labels_path, const std::string& instance
       inst = resize_nearest(inst, width, height);
     }
     m.instances = ImageU16(width, height, 1, 0, "instance id");
+    // Cityscapes codes are class*1000 + n; KITTI's instance PNGs use class*256 + n. Decide by
+    // which one agrees with the labels on every pixel carrying an instance.
+    size_t city_ok = 0, kitti_ok = 0, with_inst = 0;
     for (size_t i = 0; i < inst.pixel_count(); ++i) {
       const int v = inst[i];
+      if (v < kLabelCount) continue;
+      ++with_inst;
+      city_ok += v >= 1000 && v / 1000 == m.ids[i];
+      kitti_ok += (v >> 8) == m.ids[i];
+    }
+    const bool kitti = with_inst > 0 && kitti_ok == with_inst && city_ok < with_inst;
+    for (size_t i = 0; i < inst.pixel_count(); ++i) {
+      const int v = inst[i];
+      if (kitti) {
+        if (v >= 256) m.instances[i] = static_cast<uint16_t>((v >> 8) * 1000 + (v & 255));
+        continue;
+      }
       if (v >= 1000) {
         if (v / 1000 >= kLabelCount)
           fail_at(instances_path, "instance id " + std::to_string(v) + " has class " +
                                       std::to_string(v / 1000) + " beyond labelId 33");
         m.instances[i] = static_cast<uint16_t>(v);
       } else if (v >= kLabelCount) {
-        fail_at(instances_path, "instance id " + std::to_string(v) +
-                                    " is neither a labelId (0..33) nor class*1000+instance");
+        fail_at(instances_path, "instance id " + std::to_string(v) + " at pixel (" +
+                                    std::to_string(i % width) + ", " + std::to_string(i / width) +
+                                    ") is neither a labelId (0..33), class*1000+n (Cityscapes) nor "
+                                    "class*256+n (KITTI) matching the labels");
       }
     }
   }

@@ -112,3 +112,19 @@ TEST(ScenePreset, BundledPresetsLoadAndBadKeysAreNamed) {
   EXPECT_NE(m.find("missing key"), std::string::npos) << m;
   EXPECT_THROW(load_scene_preset("no-such-scene"), Error);
 }
+
+TEST(SceneLabels, KittiInstanceCodesAreRecognised) {
+  test::TempDir d;
+  ImageU16 lab(4, 2, 1, 7);
+  lab.at(0, 0) = 26;
+  lab.at(1, 0) = 26;
+  write_codes(d.file("l.png"), lab, 8);
+  ImageU16 inst(4, 2, 1, 7 * 256);  // KITTI: class*256 + n, road without instance number
+  inst.at(0, 0) = 26 * 256 + 1;
+  inst.at(1, 0) = 26 * 256 + 2;
+  write_codes(d.file("i.png"), inst, 16);
+  LabelMap m = read_labels(d.file("l.png"), d.file("i.png"), 4, 2, LabelFormat::Auto, ResizeLabels::None);
+  EXPECT_EQ(m.instances.at(0, 0), 26001);
+  EXPECT_EQ(m.instances.at(1, 0), 26002);
+  EXPECT_EQ(m.instances.at(2, 0), 7000);
+}

@@ -43,7 +43,8 @@ LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::strin
 
 enum class ResizeLabels { None, Nearest };
 // Reads labels (and optional Cityscapes *_instanceIds.png: id >= 1000 → class id/1000, instance
-// id%1000; ids < 1000 are class ids without instances) and checks they match width x height.
+// id%1000; ids < 1000 are class ids without instances; KITTI's class*256+n instance PNGs are
+// recognised when they agree with the labels) and checks they match width x height.
 LabelMap read_labels(const std::string& labels_path, const std::string& instances_path,
                      int width, int height, LabelFormat format, ResizeLabels resize);
 
