@@ -208,11 +208,26 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   ImageI32 comp(W, H, 1, 0);
   int ncomp = 0;
   std::vector<int> comp_class(1, 0);
-  {
+  // The rows holding any vehicle pixel: all vehicle work below stays inside them.
+  int ry0 = H, ry1 = -1;
+#pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* r = labels.row(y);
+    const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
+    for (int x = 0; x < W; ++x)
+      if (is_vehicle(r[x]) || (q && q[x] >= 1000 && is_vehicle(q[x] / 1000))) {
+        ry0 = std::min(ry0, y);
+        ry1 = std::max(ry1, y);
+        break;
+      }
+  }
+  const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
+  const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
+  if (ry1 >= 0) {
     std::map<int, int> inst_index;
     if (!lm.instances.empty()) {
       int last_v = -1, last_c = 0;
-      for (size_t i = 0; i < labels.pixel_count(); ++i) {
+      for (size_t i = i_begin; i < i_end; ++i) {
         const int v = lm.instances[i];
         if (v >= 1000 && is_vehicle(v / 1000)) {
           if (v != last_v) {
@@ -225,18 +240,18 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         }
       }
     }
-    cv::Mat mask(H, W, CV_8U);
-    const long np = static_cast<long>(labels.pixel_count());
+    cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
+    const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
 #pragma omp parallel for schedule(static)
-    for (long i = 0; i < np; ++i) mask.data[i] = is_vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
+    for (long i = nb; i < ne; ++i) mask.data[i - nb] = is_vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
     cv::Mat cc;
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
     const int base = static_cast<int>(inst_index.size());
     for (int c = 1; c < n; ++c) comp_class.push_back(0);
     // Class of each new component: the label at its first pixel (a component is one class
     // group, vehicles; mixed-class blobs take the first met).
-    for (size_t i = 0; i < labels.pixel_count(); ++i) {
-      const int c = reinterpret_cast<const int*>(cc.data)[i];
+    for (size_t i = i_begin; i < i_end; ++i) {
+      const int c = reinterpret_cast<const int*>(cc.data)[i - i_begin];
       if (c > 0) {
         comp[i] = base + c;
         if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
@@ -246,7 +261,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   }
   struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
   std::vector<Box> boxes(ncomp + 1);
-  for (int y = 0; y < H; ++y)
+  for (int y = ry0; y <= ry1; ++y)
     for (int x = 0; x < W; ++x) {
       const int c = comp.at(x, y);
       if (!c) continue;
@@ -261,7 +276,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
   ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows)
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y)
+  for (int y = std::max(0, ry0); y <= ry1; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
       const int c = comp[i];
@@ -271,16 +286,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
       else if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
     }
-  for (size_t i = 0; i < cue.pixel_count(); ++i)
+  for (size_t i = i_begin; i < i_end; ++i)
     if (cue[i] == 2) ++boxes[comp[i]].white;
-  for (size_t i = 0; i < cue.pixel_count(); ++i)
+  for (size_t i = i_begin; i < i_end; ++i)
     if (cue[i] == 2) {
       const Box& b = boxes[comp[i]];
       const int y = static_cast<int>(i / W);
       if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
     }
   // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
-  for (int y = 1; y < H - 1; ++y)
+  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
     for (int x = 1; x < W - 1; ++x) {
       const uint8_t v = cue.at(x, y);
       if (!v) continue;
