@@ -140,18 +140,22 @@ ImageF darken(const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
   // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).
   const auto glow = spectrum::blackbody_rgb(p.skyglow_cct_K, p.sky_luminance_cd_m2);
   const double rho_sky = std::max(1e-6, p.rho_sky);
-  ImageF out(f.width(), f.height(), 3, 0.f, unit::radiance);
+  bool ground_class[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) ground_class[id] = is_ground(id);
+  ImageF out = f;  // a copy modified in place: one read-modify-write stream
+  out.set_unit(unit::radiance);
   const size_t n = out.pixel_count();
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     const int id = labels[i];
+    float* o = out.data() + 3 * i;
     if (id == static_cast<int>(Label::Sky)) {
-      const double yr = (K[0] * f[3 * i] + K[1] * f[3 * i + 1] + K[2] * f[3 * i + 2]) / rho_sky;
-      for (int k = 0; k < 3; ++k) out[3 * i + k] = static_cast<float>(glow[k] * yr);
+      const double yr = (K[0] * o[0] + K[1] * o[1] + K[2] * o[2]) / rho_sky;
+      for (int k = 0; k < 3; ++k) o[k] = static_cast<float>(glow[k] * yr);
       continue;
     }
-    const std::array<float, 3>& e = is_ground(id) ? ground : vertical;
-    for (int k = 0; k < 3; ++k) out[3 * i + k] = f[3 * i + k] * e[k];
+    const std::array<float, 3>& e = ground_class[id] ? ground : vertical;
+    for (int k = 0; k < 3; ++k) o[k] *= e[k];
   }
   return out;
 }
