@@ -1,0 +1,111 @@
+// EMVA 1288: the measurement recovers a camera's parameters, on a stand-alone synthetic camera
+// (no photosite code behind it) and on every bundled preset through the simulator.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "photosite/sensor/emva_sim.h"
+#include "test_util.h"
+
+using namespace photosite;
+
+namespace {
+// A textbook linear camera drawn with std::mt19937: y = clip(K·(clip(Poisson(η·g·p + D·t), FW)
+// + o + σ_r n) + black), with fixed per-pixel g and o.
+class TextbookCamera : public emva::Camera {
+ public:
+  static constexpr double K = 0.25, eta = 0.6, sigma_r = 4.0, dsnu = 3.0, prnu = 0.012, dark = 50.0,
+                          full_well = 12000, black = 64;
+  TextbookCamera() : g_(64 * 64), o_(64 * 64), rng_(7) {
+    std::normal_distribution<double> n;
+    for (auto& v : g_) v = 1 + prnu * n(rng_);
+    for (auto& v : o_) v = dsnu * n(rng_);
+  }
+  int width() const override { return 64; }
+  int height() const override { return 64; }
+  int bit_depth() const override { return 12; }
+  double wavelength_nm() const override { return 525; }
+  std::vector<ImageF> acquire(double p, double t, int frames) override {
+    std::vector<ImageF> out;
+    std::normal_distribution<double> n;
+    for (int f = 0; f < frames; ++f) {
+      ImageF img(64, 64, 1);
+      for (size_t i = 0; i < img.size(); ++i) {
+        double e = std::poisson_distribution<long>(eta * g_[i] * p + dark * t)(rng_);
+        e = std::min(e, full_well);
+        img[i] = static_cast<float>(std::clamp(std::floor(K * (e + o_[i] + sigma_r * n(rng_)) + black + 0.5), 0.0, 4095.0));
+      }
+      out.push_back(std::move(img));
+    }
+    return out;
+  }
+
+ private:
+  std::vector<double> g_, o_;
+  std::mt19937_64 rng_;
+};
+}  // namespace
+
+TEST(Emva1288, RecoversATextbookCamera) {
+  TextbookCamera cam;
+  emva::Plan plan;
+  const auto r = emva::measure(cam, plan);
+  using C = TextbookCamera;
+  EXPECT_NEAR(r.system_gain_dn_per_e.value, C::K, 4 * r.system_gain_dn_per_e.uncertainty);
+  EXPECT_NEAR(r.qe.value, C::eta, 4 * r.qe.uncertainty);
+  const double sd = std::sqrt(C::sigma_r * C::sigma_r + C::dark * plan.exposure_s);
+  EXPECT_NEAR(r.temporal_dark_noise_e.value, sd, 4 * r.temporal_dark_noise_e.uncertainty);
+  EXPECT_NEAR(r.dark_current_e_per_s.value, C::dark, 4 * r.dark_current_e_per_s.uncertainty);
+  EXPECT_NEAR(r.dsnu_e.value, C::dsnu, 0.1 * C::dsnu);   // 4096 pixels: ~1.1 % + device draw
+  EXPECT_NEAR(r.prnu_percent.value, 100 * C::prnu, 0.1 * 100 * C::prnu);
+  // The temporal variance peaks about one shot-noise σ below the full well (√12000 ≈ 110 e⁻),
+  // and 4096 pixels leave the flat top of the curve noisy: within 5 %, and below the well.
+  EXPECT_NEAR(r.saturation_capacity_e.value, C::full_well, 0.05 * C::full_well);
+  EXPECT_LT(r.saturation_capacity_e.value, C::full_well + 2 * r.saturation_capacity_e.uncertainty);
+  // The uncertainties are real: small but not zero.
+  EXPECT_GT(r.system_gain_dn_per_e.uncertainty, 0);
+  EXPECT_LT(r.system_gain_dn_per_e.uncertainty, 0.02 * C::K);
+}
+
+TEST(Emva1288, EveryBundledPresetIsRecoveredWithinItsUncertainty) {
+  for (const auto& entry : list_presets()) {
+    if (entry.kind != "camera") continue;
+    const CameraPreset p = load_camera_preset(entry.name);
+    const LensPreset lens = load_lens_preset(p.default_lens);
+    const int w = std::min(256, p.width_px), h = std::min(256, p.height_px);
+    const auto fpn = generate_fixed_pattern(p, w, h, "emva-test");
+    ExposureSettings s;
+    s.seed = 11;
+    emva::SimulatedCamera cam(p, lens, s, fpn);
+    const auto plan = emva::plan_for(p);
+    const auto m = emva::measure(cam, plan);
+    const auto e = emva::expected(p, s, plan, m.pixels_measured);
+    struct Q { const char* name; emva::Value m, e; double max_rel; };
+    const Q qs[] = {{"K", m.system_gain_dn_per_e, e.system_gain_dn_per_e, 0.03},
+                    {"QE", m.qe, e.qe, 0.03},
+                    {"temporal dark noise", m.temporal_dark_noise_e, e.temporal_dark_noise_e, 0.03},
+                    {"saturation", m.saturation_capacity_e, e.saturation_capacity_e, 0.04},
+                    {"dark current", m.dark_current_e_per_s, e.dark_current_e_per_s, 0.06},
+                    {"DSNU1288", m.dsnu_e, e.dsnu_e, 1.0},  // hot pixels make small regions vary
+                    {"PRNU1288", m.prnu_percent, e.prnu_percent, 0.03},
+                    {"SNR max", m.snr_max_db, e.snr_max_db, 0.01},
+                    {"dynamic range", m.dynamic_range_db, e.dynamic_range_db, 0.01}};
+    for (const auto& q : qs) {
+      const double se = std::hypot(q.m.uncertainty, q.e.uncertainty);
+      EXPECT_LE(std::fabs(q.m.value - q.e.value), 3.5 * se) << entry.name << " " << q.name << ": measured "
+          << q.m.value << " +/- " << q.m.uncertainty << ", preset " << q.e.value;
+      EXPECT_LE(std::fabs(q.m.value - q.e.value), q.max_rel * std::fabs(q.e.value)) << entry.name << " " << q.name;
+    }
+  }
+}
+
+TEST(Emva1288, CharacterizeCommandPrintsJson) {
+  test::TempDir dir;
+  auto r = test::run_cli("characterize --preset sony-imx174 --json --roi 64 --device-store '" + dir.file("s") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* k : {"system_gain_dn_per_e", "read_noise_e", "qe_525nm", "saturation_capacity_e",
+                        "dark_current_e_per_s", "dsnu_e", "prnu_percent", "snr_max_db", "dynamic_range_db"})
+    EXPECT_NE(r.output.find(std::string("\"") + k + "\""), std::string::npos) << k;
+  EXPECT_EQ(test::run_cli("characterize --preset nope").exit_code, 2);
+}
