@@ -3,12 +3,22 @@
 #include <unistd.h>
 
 #include <array>
+#include <cstdlib>
 #include <atomic>
 #include <sys/wait.h>
 
 namespace photosite::test {
 
 CliResult run_cli(const std::string& args) {
+  // Never touch the user's own device store from the tests (ctest sets one; plain runs get a
+  // private folder).
+  static const bool store_set = [] {
+    if (!std::getenv("PHOTOSITE_DEVICE_STORE"))
+      setenv("PHOTOSITE_DEVICE_STORE",
+             (std::filesystem::temp_directory_path() / ("photosite-test-store-" + std::to_string(getpid()))).c_str(), 1);
+    return true;
+  }();
+  (void)store_set;
   CliResult r;
   std::string cmd = std::string("'") + PHOTOSITE_BIN + "' " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
