@@ -7,12 +7,12 @@ import matplotlib.pyplot as plt
 
 rows = [r for r in csv.reader(l for l in open(sys.argv[1]) if not l.startswith("#"))][1:]
 fig, ax = plt.subplots(figsize=(8, 5))
-for r in rows:
+for i, r in enumerate(rows):
     if not r[-1]:
         continue
     t, ks = float(r[2]), max(float(r[-1]), 1e-4)
     ax.scatter(t, ks, s=60)
-    ax.annotate(r[0].split(" (")[0] + f" [{r[1]} thr]", (t, ks), textcoords="offset points", xytext=(6, 4), fontsize=8)
+    ax.annotate(r[0].split(" (")[0] + f" [{r[1]} thr]", (t, ks), textcoords="offset points", xytext=(6, 4 - 12 * (i % 3)), fontsize=8)
 ax.set_xscale("log"); ax.set_yscale("log")
 ax.set_xlabel("ms per 2048x1024 frame (means 0.5..5000 e-)")
 ax.set_ylabel("worst KS distance to Poisson at means 0.5..200 (400k draws)")
