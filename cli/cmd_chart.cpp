@@ -88,7 +88,7 @@ void run(const ChartCmd& c) {
           for (int k = 0; k < 3; ++k) img.at(x, y, k) = static_cast<float>(v[k]);
   }
   ExrWriteOptions wo;
-  wo.half = false;
+  wo.reproducible = true;
   write_exr(c.out, {{{"R", "G", "B"}, &img, unit::radiance}},
             {{"photosite/version", std::string(PHOTOSITE_VERSION)},
              {"photosite/content", std::string("night test chart: ColorChecker, grey wedge, lamps")},

@@ -111,6 +111,7 @@ void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
   spec.alpha_channel = -1;
   spec.attribute("compression", options.compression);
   spec.attribute("oiio:ColorSpace", "Linear");
+  if (options.reproducible) spec.attribute("DateTime", "0000:00:00 00:00:00");
   for (const auto& g : groups)
     if (!g.unit.empty())
       for (const auto& n : g.channel_names) spec.attribute("photosite/unit/" + n, g.unit);
@@ -171,6 +172,7 @@ ExrContents read_exr(const std::string& path) {
 void write_png(const std::string& path, const ImageF& image, int bits) {
   ImageSpec spec(image.width(), image.height(), image.channels(),
                  bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8);
+  spec.attribute("DateTime", "0000:00:00 00:00:00");  // previews carry no wall-clock time
   atomic_write(path, [&](const std::string& tmp) {
     // Keep the real extension on the temporary so OIIO picks the right writer.
     auto out = ImageOutput::create(path);

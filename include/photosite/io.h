@@ -39,6 +39,9 @@ using ExrAttribute = std::variant<std::string, int, float, double>;
 struct ExrWriteOptions {
   bool half = false;                // store as half instead of float32
   std::string compression = "zip";  // none, rle, zips, zip, piz, pxr24, b44, dwaa, dwab
+  // Byte-reproducible files: no wall-clock DateTime in the header (OpenImageIO adds one by
+  // default), so the same inputs give the same bytes on any machine and any day.
+  bool reproducible = false;
 };
 
 void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,

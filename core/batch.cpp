@@ -1,0 +1,261 @@
+#include "photosite/batch.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
+namespace photosite::batch {
+namespace fs = std::filesystem;
+
+Dataset parse_dataset(const std::string& name) {
+  if (name == "cityscapes") return Dataset::Cityscapes;
+  if (name == "kitti") return Dataset::Kitti;
+  if (name == "bdd100k") return Dataset::Bdd100k;
+  fail("unknown --dataset '" + name + "' (expected cityscapes, kitti or bdd100k)");
+}
+const char* to_string(Dataset d) {
+  switch (d) {
+    case Dataset::Cityscapes: return "cityscapes";
+    case Dataset::Kitti: return "kitti";
+    case Dataset::Bdd100k: return "bdd100k";
+  }
+  return "?";
+}
+
+uint64_t fnv1a_text(const std::string& text, uint64_t h) {
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+uint64_t fnv1a_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return 0;
+  uint64_t h = 0xcbf29ce484222325ull;
+  char buf[1 << 16];
+  while (f) {
+    f.read(buf, sizeof buf);
+    for (std::streamsize i = 0; i < f.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buf[i]);
+      h *= 0x100000001b3ull;
+    }
+  }
+  return h;
+}
+
+uint64_t group_seed(uint64_t base_seed, const std::string& group) {
+  uint64_t z = fnv1a_text(group) ^ (base_seed * 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+namespace {
+std::string rel(const fs::path& p, const fs::path& root) { return fs::relative(p, root).generic_string(); }
+
+bool all_digits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+// Frames: within a group, sorted by (order key, item key), numbered 0, 1, 2, ...
+void number_frames(std::vector<Item>& items, const std::map<std::string, long>& order) {
+  std::sort(items.begin(), items.end(), [&](const Item& a, const Item& b) {
+    if (a.group != b.group) return a.group < b.group;
+    const long oa = order.at(a.key), ob = order.at(b.key);
+    return oa != ob ? oa < ob : a.key < b.key;
+  });
+  std::string last;
+  int f = 0;
+  for (auto& it : items) {
+    f = it.group == last ? f + 1 : 0;
+    it.frame = f;
+    last = it.group;
+  }
+}
+
+std::vector<fs::path> files_under(const fs::path& dir, const std::vector<std::string>& exts) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return out;
+  for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::skip_permission_denied, ec);
+       it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (ec) break;
+    if (!it->is_regular_file()) continue;
+    std::string e = it->path().extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (std::find(exts.begin(), exts.end(), e) != exts.end()) out.push_back(it->path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void require_labels(const Item& it) {
+  std::error_code ec;
+  if (!fs::exists(it.labels, ec))
+    fail_at(it.image, "no labels found for this image (looked for " + it.labels + ")");
+}
+}  // namespace
+
+std::vector<Item> discover(Dataset d, const std::string& root_s) {
+  const fs::path root(root_s);
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) fail_at(root_s, "data set root is not a folder");
+  std::vector<Item> items;
+  std::map<std::string, long> order;
+  if (d == Dataset::Cityscapes) {
+    // <root>/leftImg8bit[_sequence]/<split>/<city>/<city>_<seq>_<frame>_leftImg8bit.png and
+    // <root>/gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_labelIds.png (+ _instanceIds).
+    static const std::regex name_re(R"((.*)_(\d{6})_(\d{6})_leftImg8bit\.png)");
+    for (const char* top : {"leftImg8bit", "leftImg8bit_sequence"})
+      for (const auto& p : files_under(root / top, {".png"})) {
+        std::smatch m;
+        const std::string name = p.filename().string();
+        if (!std::regex_match(name, m, name_re)) continue;
+        const std::string stem = name.substr(0, name.size() - std::string("_leftImg8bit.png").size());
+        const fs::path sub = fs::relative(p.parent_path(), root / top);
+        Item it;
+        it.image = p.string();
+        it.key = (fs::path(top) / sub / (stem + "_leftImg8bit")).generic_string();
+        const fs::path lab = root / "gtFine" / sub / (stem + "_gtFine_labelIds.png");
+        const fs::path ins = root / "gtFine" / sub / (stem + "_gtFine_instanceIds.png");
+        it.labels = lab.string();
+        it.labels_rel = rel(lab, root);
+        if (fs::exists(ins, ec)) {
+          it.instances = ins.string();
+          it.instances_rel = rel(ins, root);
+        }
+        it.group = (fs::path(top) / sub / (m[1].str() + "_" + m[2].str())).generic_string();
+        require_labels(it);
+        order[it.key] = std::stol(m[3].str());
+        items.push_back(std::move(it));
+      }
+  } else if (d == Dataset::Kitti) {
+    // <root>/image_2/<name>.png with <root>/semantic/<name>.png (+ instance/<name>.png). Purely
+    // numbered files (0000000123.png) in a folder form one sequence.
+    for (const auto& p : files_under(root / "image_2", {".png"})) {
+      const fs::path sub = fs::relative(p, root / "image_2");
+      Item it;
+      it.image = p.string();
+      it.key = (fs::path("image_2") / sub).replace_extension().generic_string();
+      const fs::path lab = root / "semantic" / sub, ins = root / "instance" / sub;
+      it.labels = lab.string();
+      it.labels_rel = rel(lab, root);
+      if (fs::exists(ins, ec)) {
+        it.instances = ins.string();
+        it.instances_rel = rel(ins, root);
+      }
+      const std::string stem = p.stem().string();
+      it.group = all_digits(stem) ? (fs::path("image_2") / sub.parent_path()).generic_string() + "/seq" : it.key;
+      require_labels(it);
+      order[it.key] = all_digits(stem) ? std::stol(stem) : 0;
+      items.push_back(std::move(it));
+    }
+  } else {
+    // BDD100K: <root>/images/10k/<split>/<name>.jpg with <root>/labels/sem_seg/masks/<split>/<name>.png
+    // (trainIds).
+    for (const auto& p : files_under(root / "images" / "10k", {".jpg", ".jpeg", ".png"})) {
+      const fs::path sub = fs::relative(p, root / "images" / "10k");
+      Item it;
+      it.image = p.string();
+      it.key = (fs::path("images/10k") / sub).replace_extension().generic_string();
+      const fs::path lab = (root / "labels" / "sem_seg" / "masks" / sub).replace_extension(".png");
+      it.labels = lab.string();
+      it.labels_rel = rel(lab, root);
+      it.label_format = "trainIds";
+      it.group = it.key;
+      require_labels(it);
+      order[it.key] = 0;
+      items.push_back(std::move(it));
+    }
+  }
+  if (items.empty())
+    fail_at(root_s, std::string("no ") + to_string(d) + " images found in the data set's layout (see docs/scale.md)");
+  number_frames(items, order);
+  return items;
+}
+
+std::vector<Item> read_manifest(const std::string& manifest) {
+  std::ifstream f(manifest);
+  if (!f) fail_at(manifest, "cannot read the manifest");
+  const fs::path base = fs::path(manifest).parent_path();
+  std::vector<Item> items;
+  std::map<std::string, long> order;
+  std::set<std::string> keys;
+  std::string line;
+  int lineno = 0;
+  auto resolve = [&](const std::string& s) { return fs::path(s).is_absolute() ? fs::path(s) : base / s; };
+  // The output path mirrors the input path: relative to the manifest's folder when inside it,
+  // else the path with its root and any leading "../" removed.
+  auto mirror = [&](const fs::path& p) {
+    fs::path r = fs::relative(fs::absolute(p), fs::absolute(base.empty() ? fs::path(".") : base));
+    fs::path clean;
+    for (const auto& part : r.lexically_normal())
+      if (part != ".." && part != "." && !part.empty() && part != r.root_path()) clean /= part;
+    return clean.generic_string();
+  };
+  while (std::getline(f, line)) {
+    ++lineno;
+    if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream ss(line);
+    std::vector<std::string> parts;
+    for (std::string w; ss >> w;) parts.push_back(w);
+    if (parts.empty()) continue;
+    if (parts.size() < 2 || parts.size() > 3)
+      fail(where(manifest, lineno) + ": expected 'image labels [instances]', found " + std::to_string(parts.size()) + " fields");
+    Item it;
+    it.image = resolve(parts[0]).string();
+    it.labels = resolve(parts[1]).string();
+    if (parts.size() == 3) it.instances = resolve(parts[2]).string();
+    std::error_code ec;
+    if (!fs::exists(it.image, ec)) fail(where(manifest, lineno) + ": image " + it.image + " not found");
+    if (!fs::exists(it.labels, ec)) fail(where(manifest, lineno) + ": labels " + it.labels + " not found");
+    if (!it.instances.empty() && !fs::exists(it.instances, ec))
+      fail(where(manifest, lineno) + ": instances " + it.instances + " not found");
+    it.key = fs::path(mirror(it.image)).replace_extension().generic_string();
+    it.labels_rel = "labels/" + mirror(it.labels);
+    if (!it.instances.empty()) it.instances_rel = "labels/" + mirror(it.instances);
+    if (!keys.insert(it.key).second) fail(where(manifest, lineno) + ": image listed twice: " + it.image);
+    it.group = it.key;
+    order[it.key] = lineno;
+    items.push_back(std::move(it));
+  }
+  if (items.empty()) fail_at(manifest, "the manifest lists no items");
+  number_frames(items, order);
+  return items;
+}
+
+std::vector<Item> shard(const std::vector<Item>& items, int index, int count) {
+  std::vector<std::string> groups;
+  for (const auto& it : items) groups.push_back(it.group);
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+  std::map<std::string, int> gi;
+  for (size_t i = 0; i < groups.size(); ++i) gi[groups[i]] = static_cast<int>(i);
+  std::vector<Item> out;
+  for (const auto& it : items)
+    if (gi[it.group] % count == index) out.push_back(it);
+  return out;
+}
+
+std::pair<int, int> parse_shard(const std::string& text) {
+  int i = -1, n = -1;
+  char slash = 0;
+  std::istringstream ss(text);
+  if (!(ss >> i >> slash >> n) || slash != '/' || n < 1 || i < 0 || i >= n || !ss.eof())
+    fail("--shard '" + text + "' must be I/N with 0 <= I < N (e.g. 3/16)");
+  return {i, n};
+}
+
+}  // namespace photosite::batch
