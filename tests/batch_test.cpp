@@ -1,0 +1,167 @@
+// Whole data sets: layouts, shards that give the same bytes as one run, resume after a kill,
+// and the parameter guard.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sys/wait.h>
+#include <fmt/format.h>
+
+#include "photosite/batch.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
+#include "test_util.h"
+
+using namespace photosite;
+namespace fs = std::filesystem;
+
+namespace {
+// A small KITTI-layout data set from the synthetic road generator: `n` independent frames and a
+// numbered sequence of `seq` frames.
+void make_kitti(const fs::path& root, int n, int seq) {
+  fs::create_directories(root / "image_2" / "seq01");
+  fs::create_directories(root / "semantic" / "seq01");
+  auto write = [&](const std::string& rel, int i) {
+    scene::SyntheticOptions o;
+    o.width = 160;
+    o.height = 80;
+    o.vp_x = 70 + 3 * i;
+    o.vp_y = 30;
+    const auto s = scene::make_synthetic_road(o);
+    ImageF srgb = s.day_linear_srgb;
+    for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
+    write_png((root / "image_2" / rel).string(), srgb);
+    ImageF ids(o.width, o.height, 1);
+    for (size_t k = 0; k < ids.size(); ++k) ids[k] = s.labels.ids[k] / 255.0f;
+    write_png((root / "semantic" / rel).string(), ids);
+  };
+  for (int i = 0; i < n; ++i) write(fmt::format("{:06d}_10.png", i), i);
+  for (int i = 0; i < seq; ++i) write(fmt::format("seq01/{:010d}.png", i), i);
+}
+
+std::map<std::string, std::string> tree_bytes(const fs::path& dir) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), dir).generic_string();
+    if (rel.rfind(".photosite-batch", 0) == 0) continue;  // manifests name their shard
+    std::ifstream f(e.path(), std::ios::binary);
+    out[rel] = std::string((std::istreambuf_iterator<char>(f)), {});
+  }
+  return out;
+}
+}  // namespace
+
+TEST(Batch, KittiLayoutGroupsNumberedFramesIntoOneSequence) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 3);
+  auto items = batch::discover(batch::Dataset::Kitti, (dir.path() / "kitti").string());
+  ASSERT_EQ(items.size(), 5u);
+  std::map<std::string, std::vector<int>> groups;
+  for (const auto& it : items) groups[it.group].push_back(it.frame);
+  EXPECT_EQ(groups.size(), 3u);  // two single frames and one sequence
+  EXPECT_EQ(groups["image_2/seq01/seq"], (std::vector<int>{0, 1, 2}));
+  // Shards partition the groups and keep a sequence together.
+  size_t total = 0;
+  for (int i = 0; i < 3; ++i) {
+    auto s = batch::shard(items, i, 3);
+    total += s.size();
+    std::set<std::string> g;
+    for (const auto& it : s) g.insert(it.group);
+    for (const auto& it : items)
+      if (g.count(it.group)) EXPECT_TRUE(std::any_of(s.begin(), s.end(), [&](auto& x) { return x.key == it.key; }));
+  }
+  EXPECT_EQ(total, items.size());
+  EXPECT_THROW(batch::parse_shard("3/3"), Error);
+  EXPECT_THROW(batch::parse_shard("x"), Error);
+}
+
+TEST(Batch, ThreeShardsGiveTheSameBytesAsOneRun) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 3, 3);
+  const std::string root = (dir.path() / "kitti").string();
+  const std::string common = " --dataset kitti --root '" + root + "' --format both --quiet --seed 4";
+  auto r = test::run_cli("batch" + common + " --out '" + dir.file("one") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (int i = 0; i < 3; ++i) {
+    r = test::run_cli("batch" + common + " --shard " + std::to_string(i) + "/3 --out '" + dir.file("three") + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const auto one = tree_bytes(dir.path() / "one"), three = tree_bytes(dir.path() / "three");
+  EXPECT_EQ(one.size(), 6u * 3);  // exr, png and the label copy per image
+  ASSERT_EQ(one.size(), three.size());
+  for (const auto& [k, v] : one) {
+    ASSERT_TRUE(three.count(k)) << k;
+    EXPECT_TRUE(three.at(k) == v) << k << " differs between 1 and 3 shards";
+  }
+  // Labels are carried over unchanged.
+  std::ifstream a(root + "/semantic/000001_10.png", std::ios::binary), b(dir.file("one/semantic/000001_10.png"), std::ios::binary);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(a)), {}), std::string((std::istreambuf_iterator<char>(b)), {}));
+  // Frames of the sequence carry consecutive frame numbers.
+  auto c = read_exr(dir.file("one/image_2/seq01/0000000002.exr"));
+  EXPECT_EQ(c.attributes["photosite/frame"], "2");
+}
+
+TEST(Batch, ResumesAfterAKillAndRefusesOtherParameters) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 4, 0);
+  const std::string root = (dir.path() / "kitti").string();
+  const std::string base = " batch --dataset kitti --root '" + root + "' --quiet";
+  const std::string args = base + " --out '" + dir.file("out") + "'";
+  ASSERT_EQ(test::run_cli(base.substr(1) + " --out '" + dir.file("ref") + "'").exit_code, 0);
+  // Kill a run early (SIGKILL), then run the same command again.
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", (std::string("'") + PHOTOSITE_BIN + "'" + args + " > /dev/null 2>&1").c_str(), nullptr);
+    _exit(127);
+  }
+  usleep(250000);
+  kill(pid, SIGKILL);
+  int st;
+  waitpid(pid, &st, 0);
+  auto r = test::run_cli(args.substr(1));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto ref = tree_bytes(dir.path() / "ref"), out = tree_bytes(dir.path() / "out");
+  EXPECT_EQ(ref.size(), out.size());
+  for (const auto& [k, v] : ref) EXPECT_TRUE(out.count(k) && out.at(k) == v) << k;
+  for (const auto& e : fs::recursive_directory_iterator(dir.path() / "out"))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  // A finished run does nothing the second time; a damaged output is redone.
+  fs::remove(dir.file("out/image_2/000002_10.exr"));
+  r = test::run_cli(args.substr(1));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+  // Other parameters into the same folder: refused, nothing changed.
+  r = test::run_cli(args.substr(1) + " --exposure-s 0.03");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("other parameters"), std::string::npos) << r.output;
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+}
+
+TEST(Batch, ManifestItemsAndBadInput) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 0);
+  {
+    std::ofstream m(dir.file("list.txt"));
+    m << "# image, labels\nkitti/image_2/000000_10.png, kitti/semantic/000000_10.png\n"
+      << "kitti/image_2/000001_10.png kitti/semantic/000001_10.png\n";
+  }
+  auto r = test::run_cli("batch --manifest '" + dir.file("list.txt") + "' --quiet --out '" + dir.file("o") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir.file("o/kitti/image_2/000001_10.exr")));
+  EXPECT_TRUE(fs::exists(dir.file("o/labels/kitti/semantic/000001_10.png")));
+  { std::ofstream(dir.file("bad.txt")) << "kitti/image_2/000000_10.png\n"; }
+  r = test::run_cli("batch --manifest '" + dir.file("bad.txt") + "' --out '" + dir.file("o2") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("bad.txt:1"), std::string::npos) << r.output;
+  fs::remove(dir.path() / "kitti/semantic/000001_10.png");
+  r = test::run_cli("batch --dataset kitti --root '" + dir.file("kitti") + "' --out '" + dir.file("o3") + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("no labels"), std::string::npos) << r.output;
+}
