@@ -74,7 +74,7 @@ class BoundedQueue {
 };
 
 struct BatchCmd {
-  std::string dataset, root, manifest, out, shard = "0/1", format = "exr", compression = "zip",
+  std::string dataset, root, manifest, out, shard = "0/1", format = "exr", compression = "piz",
                                                scene_preset = "night-urban";
   bool half = false, quiet = false;
   int jobs = 1, queue_depth = 2;
