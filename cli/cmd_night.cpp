@@ -14,6 +14,7 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "night_output.h"
 #include "registry.h"
 #include "sensor_options.h"
 
@@ -153,36 +154,13 @@ void run_night(NightCmd c) {
       r.store.load_or_create(r.camera, r.device_id, ns.radiance.width(), ns.radiance.height());
   lap("sensor: optics, FPN");
 
-  ImageF depth = ns.depth, label_img(labels.ids.width(), labels.ids.height(), 1, 0.f, unit::label_id);
-  for (size_t i = 0; i < label_img.pixel_count(); ++i) label_img[i] = labels.ids[i];
-  auto attrs_scene = scene::scene_attributes(sp);
+  const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = sense(mean_e, r.camera, ex, r.settings, fpn);
     lap("sensor: noise, ADC, demosaic");
-    auto groups = sensor_channels(out);
-    groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
-    groups.push_back({{"depth.Z"}, &depth, unit::dimensionless});
-    groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
-    groups.push_back({{"labels.Y"}, &label_img, unit::label_id});
-    auto attrs = sensor_attributes(r, ex, fpn);
-    attrs.insert(attrs_scene.begin(), attrs_scene.end());
-    attrs["photosite/night/image"] = c.image;
-    attrs["photosite/night/labels"] = c.labels;
-    attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
-    if (!c.instances.empty()) attrs["photosite/night/instances"] = c.instances;
-    attrs["photosite/night/vanishing_point_x"] = ns.vp.x;
-    attrs["photosite/night/vanishing_point_y"] = ns.vp.y;
-    attrs["photosite/night/vanishing_point_confidence"] = ns.vp.confidence;
-    attrs["photosite/night/vanishing_point_method"] = std::string(scene::vp_method_name(ns.vp.method));
-    attrs["photosite/night/vanishing_point_support"] = ns.vp.support;
-    if (!ns.vp.note.empty()) attrs["photosite/night/vanishing_point_note"] = ns.vp.note;
-    attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
-    attrs["photosite/night/work_scale"] = ns.work_scale;
-    attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
-    attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
-    attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;
-    attrs["photosite/night/lights_windows"] = ns.light_stats.windows;
+    const auto groups = night_channels(out, ns, label_img);
+    const auto attrs = night_attributes(r, ex, fpn, sp, ns, labels, {c.image, c.labels, c.instances});
     ExrWriteOptions wo;
     wo.half = c.half;
     write_exr(outputs[f], groups, attrs, wo);
