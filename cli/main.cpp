@@ -1,4 +1,6 @@
 // photosite: the command-line front end. Subcommands register themselves (registry.h).
+#include <malloc.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -18,6 +20,12 @@ void add_overwrite_flag(CLI::App* sub, bool& overwrite) {
 
 int main(int argc, char** argv) {
   using namespace photosite;
+  // Whole-frame buffers (25 MB for 2048x1024 RGB float) are allocated and freed stage after
+  // stage, frame after frame. Serve them from the heap and keep freed memory there, so a buffer
+  // freed by one stage is reused by the next instead of being returned to the kernel and
+  // page-faulted in again (measured: page faults were a fifth of a night run's time).
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's upper limit on 64-bit
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   CLI::App app{"photosite " PHOTOSITE_VERSION
                ": a camera-sensor simulator in physical units, with a day-to-night front end"};
   app.set_version_flag("--version", "photosite " PHOTOSITE_VERSION);

@@ -63,7 +63,7 @@ ImageFileInfo probe_image(const std::string& path) {
 ImageF read_image(const std::string& path, ImageFileInfo* info) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();
-  ImageF img(spec.width, spec.height, spec.nchannels);
+  ImageF img(spec.width, spec.height, spec.nchannels, uninitialized);
   if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.data()))
     fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
   if (info) *info = info_from(path, *in);
@@ -76,10 +76,10 @@ ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
   const ImageSpec& spec = in->spec();
   if (spec.format.is_floating_point())
     fail_at(path, "expected an integer (8- or 16-bit) image, found floating point");
-  ImageU16 img(spec.width, spec.height, spec.nchannels);
+  ImageU16 img(spec.width, spec.height, spec.nchannels, uninitialized);
   bool ok;
   if (spec.format.size() == 1) {
-    ImageU8 tmp(spec.width, spec.height, spec.nchannels);
+    ImageU8 tmp(spec.width, spec.height, spec.nchannels, uninitialized);
     ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::UINT8, tmp.data());
     for (size_t i = 0; i < tmp.size(); ++i) img[i] = tmp[i];
   } else if (spec.format.size() == 2) {
@@ -156,7 +156,7 @@ ExrContents read_exr(const std::string& path) {
   if (!in->read_image(0, 0, 0, nch, TypeDesc::FLOAT, buf.data()))
     fail_at(path, "corrupt or truncated EXR (" + in->geterror() + ")");
   for (int c = 0; c < nch; ++c) {
-    ImageF ch(spec.width, spec.height, 1);
+    ImageF ch(spec.width, spec.height, 1, uninitialized);
     for (size_t p = 0, n = ch.size(); p < n; ++p) ch[p] = buf[p * nch + c];
     std::string name = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c]
                                                                        : fmt::format("ch{}", c);

@@ -12,7 +12,7 @@ namespace photosite::scene {
 
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   const int c = day.channels();
-  ImageF out(day.width(), day.height(), 3, 0.f, "linear sRGB");
+  ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
   // sRGB decode through a 4096-entry table (inputs are 8/16-bit codes normalised to [0,1]).
   std::vector<float> lut(4097);
   for (int i = 0; i <= 4096; ++i) lut[i] = static_cast<float>(srgb_decode(i / 4096.0));
@@ -39,7 +39,7 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
 
 ImageF linear_srgb_to_box_rgb(const ImageF& s) {
   const auto& M = spectrum::linear_srgb_to_box();
-  ImageF out(s.width(), s.height(), 3, 0.f, "box RGB (relative)");
+  ImageF out(s.width(), s.height(), 3, uninitialized, "box RGB (relative)");
   const size_t n = s.pixel_count();
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i)
@@ -75,7 +75,7 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
   // (before clipping negatives, which only out-of-gamut colours have).
   const size_t n = day.pixel_count();
-  ImageF f(day.width(), day.height(), 3, 0.f, "W.lm-1");
+  ImageF f(day.width(), day.height(), 3, uninitialized, "W.lm-1");
   // Pass 1: box RGB into f (reused as scratch) and the class sums of Y, over a fixed set of
   // chunks summed in order afterwards, so the result does not depend on the thread count.
   constexpr int kChunks = 64;
@@ -124,39 +124,36 @@ std::array<double, 3> illuminant_tint(double cct_K) {
   return {a[0] / d[0], a[1] / d[1], a[2] / d[2]};
 }
 
-ImageF darken(const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
+DarkenParams darken_params(const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K),
              tl = illuminant_tint(p.street_cct_K);
   // Horizontal street-light illuminance that gives the target road luminance: E = π L / ρ_road.
   const double e_street = units::pi * p.street_road_luminance_cd_m2 / p.rho_road;
-  std::array<float, 3> ground{}, vertical{};
+  DarkenParams d;
   for (int k = 0; k < 3; ++k) {
     const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
-    ground[k] = static_cast<float>((amb + e_street * tl[k]) / units::pi);
-    vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
+    d.ground[k] = static_cast<float>((amb + e_street * tl[k]) / units::pi);
+    d.vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
   }
   // Sky: its own luminance, with the day's relative luminance pattern (clouds) kept and the
   // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).
   const auto glow = spectrum::blackbody_rgb(p.skyglow_cct_K, p.sky_luminance_cd_m2);
-  const double rho_sky = std::max(1e-6, p.rho_sky);
-  bool ground_class[kLabelCount];
-  for (int id = 0; id < kLabelCount; ++id) ground_class[id] = is_ground(id);
-  ImageF out = f;  // a copy modified in place: one read-modify-write stream
-  out.set_unit(unit::radiance);
+  d.rho_sky = std::max(1e-6, p.rho_sky);
+  for (int k = 0; k < 3; ++k) {
+    d.K[k] = K[k];
+    d.glow[k] = glow[k];
+  }
+  for (int id = 0; id < kLabelCount; ++id) d.ground_class[id] = is_ground(id);
+  return d;
+}
+
+ImageF darken(const ImageF& f, const ImageU16& labels, const ScenePreset& p) {
+  const DarkenParams d = darken_params(p);
+  ImageF out(f.width(), f.height(), 3, uninitialized, unit::radiance);
   const size_t n = out.pixel_count();
 #pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < n; ++i) {
-    const int id = labels[i];
-    float* o = out.data() + 3 * i;
-    if (id == static_cast<int>(Label::Sky)) {
-      const double yr = (K[0] * o[0] + K[1] * o[1] + K[2] * o[2]) / rho_sky;
-      for (int k = 0; k < 3; ++k) o[k] = static_cast<float>(glow[k] * yr);
-      continue;
-    }
-    const std::array<float, 3>& e = ground_class[id] ? ground : vertical;
-    for (int k = 0; k < 3; ++k) o[k] *= e[k];
-  }
+  for (size_t i = 0; i < n; ++i) darken_pixel(f.data() + 3 * i, labels[i], d, out.data() + 3 * i);
   return out;
 }
 

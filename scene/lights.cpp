@@ -403,9 +403,11 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   return out;
 }
 
-ImageF compose(ImageF night, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p) {
-  const int W = night.width(), H = night.height();
+  const int W = texture.width(), H = texture.height();
+  ImageF night(W, H, 3, uninitialized, unit::radiance);
+  const DarkenParams dp = darken_params(p);
   const auto tb = illuminant_tint(p.beam_cct_K);
   const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
                         static_cast<float>(tb[2] / M_PI)};
@@ -417,13 +419,13 @@ ImageF compose(ImageF night, const ImageF& texture, const ImageF& lights, const 
     const float* d = depth.row(y);
     const uint16_t* id = labels.row(y);
     for (int x = 0; x < W; ++x) {
+      darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
       // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π.
       const float e = y > vp.y && is_ground(id[x])
                           ? static_cast<float>(low_beam_lux(x, y, W, d[x], vp.y, p)) : 0.f;
       for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
     }
   }
-  night.set_unit(unit::radiance);
   return night;
 }
 

@@ -1,5 +1,7 @@
 // The whole day-to-night chain with per-stage timings (thesis Table 6 counterpart).
+#include <algorithm>
 #include <chrono>
+#include <vector>
 
 #include "photosite/scene/night.h"
 
@@ -17,7 +19,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p);
-  s.darkened = darken(texture, labels.ids, p);
+  if (keep_darkened) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
   s.work_scale = w.scale;
@@ -38,21 +40,22 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   ImageU8 lanes_full;
   if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
   else {
-    lanes_full = ImageU8(W, H, 1, 0);
+    lanes_full = ImageU8(W, H, 1, uninitialized);
     const int ww = s.lanes_work.width(), wh = s.lanes_work.height();
+    std::vector<int> sx(W);
+    for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
+#pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
-      const int sy = std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H));
-      for (int x = 0; x < W; ++x)
-        lanes_full.at(x, y) = s.lanes_work.at(std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W)), sy);
+      const uint8_t* src = s.lanes_work.row(std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+      uint8_t* dst = lanes_full.row(y);
+      for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
   LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed);
   s.lights = std::move(lm.radiance);
   s.light_stats = lm.stats;
   lap("lights");
-  s.radiance = compose(keep_darkened ? s.darkened : std::move(s.darkened), texture, s.lights,
-                       labels.ids, s.depth, vp, p);
-  if (!keep_darkened) s.darkened = ImageF();
+  s.radiance = compose(texture, s.lights, labels.ids, s.depth, vp, p);
   lap("compose");
   return s;
 }

@@ -150,7 +150,7 @@ VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16
 ImageF coarse_depth(int W, int H, double vx, double vy) {
   vx = std::clamp(vx, 0.0, W - 1.0);
   vy = std::clamp(vy, 0.0, H - 1.0);
-  ImageF d(W, H, 1, 0.f, unit::dimensionless);
+  ImageF d(W, H, 1, uninitialized, unit::dimensionless);
   const double left = std::max(vx, 1e-9), right = std::max(W - 1 - vx, 1e-9);
   const double top = std::max(vy, 1e-9), bottom = std::max(H - 1 - vy, 1e-9);
 #pragma omp parallel for schedule(static)

@@ -61,7 +61,7 @@ std::vector<FilterColor> cfa_colors(CfaPattern p) {
 
 ImageF mosaic(const ImageF& rgb, CfaPattern p) {
   if (rgb.channels() < 3) internal_error("mosaic: expected an RGB image");
-  ImageF out(rgb.width(), rgb.height(), 1, 0.f, rgb.unit());
+  ImageF out(rgb.width(), rgb.height(), 1, uninitialized, rgb.unit());
   const int nc = rgb.channels();
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < rgb.height(); ++y) {

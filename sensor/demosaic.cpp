@@ -56,7 +56,7 @@ void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3
 
 ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
   const int w = m.width(), h = m.height();
-  ImageF out(w, h, 3, 0.f, m.unit());
+  ImageF out(w, h, 3, uninitialized, m.unit());
   static constexpr float k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < h; ++y) {

@@ -42,7 +42,7 @@ ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb, double p
     std::nth_element(lum.begin(), lum.begin() + k, lum.end());
     if (lum[k] > 0) scale = white_point / lum[k];
   }
-  ImageF out(rgb.width(), rgb.height(), 3, 0.f, "sRGB");
+  ImageF out(rgb.width(), rgb.height(), 3, uninitialized, "sRGB");
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
     for (int c = 0; c < 3; ++c)

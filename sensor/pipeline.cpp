@@ -70,7 +70,7 @@ ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, cons
   if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
   const PhotonMatrix m = photon_matrix(p, lens, ex);
   const int w = radiance.width(), h = radiance.height();
-  ImageF out(w, h, 1, 0.f, unit::electrons);
+  ImageF out(w, h, 1, uninitialized, unit::electrons);
   // cos⁴θ natural vignetting (the image is a centred crop of the sensor at its native pitch):
   // tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
   const double pitch_over_f = lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0;
@@ -159,8 +159,8 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
   }
 
   SensorOutput out;
-  out.electrons = ImageF(w, h, 1, 0.f, unit::electrons);
-  out.raw_dn = ImageF(w, h, 1, 0.f, unit::dn);
+  out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
+  out.raw_dn = ImageF(w, h, 1, uninitialized, unit::dn);
   const float* prnu = fpn.prnu_gain.empty() ? nullptr : fpn.prnu_gain.data();
   const float* dsnu = fpn.dsnu_offset_e.empty() ? nullptr : fpn.dsnu_offset_e.data();
   const float* darkf = fpn.dark_rate_factor.empty() ? nullptr : fpn.dark_rate_factor.data();
@@ -212,7 +212,7 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
     }
   }
   // Demosaic the black-subtracted mosaic to linear RGB in DN.
-  ImageF above_black(w, h, 1, 0.f, unit::dn);
+  ImageF above_black(w, h, 1, uninitialized, unit::dn);
   const float blk = static_cast<float>(black);
   float* ab = above_black.data();
 #pragma omp parallel for schedule(static)

@@ -5,19 +5,47 @@
 #include <cassert>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
+#include <type_traits>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace photosite {
 
+// An allocator whose value-initialisation is default-initialisation: a buffer that a stage is
+// about to overwrite in full is not first zero-filled (a 2048x1024 RGB float image is 25 MB:
+// the memset alone costs about as much as a simple per-pixel stage).
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind { using other = DefaultInitAllocator<U>; };
+  using std::allocator<T>::allocator;
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) { ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...); }
+};
+
+// Tag for an image whose samples are left unset, for stages that write every sample.
+struct Uninitialized {};
+inline constexpr Uninitialized uninitialized{};
+
 template <class T>
 class Image {
  public:
+  using Buffer = std::vector<T, DefaultInitAllocator<T>>;
   Image() = default;
   Image(int width, int height, int channels = 1, T fill = T{}, std::string unit = {})
       : width_(width), height_(height), channels_(channels),
         data_(static_cast<size_t>(width) * height * channels, fill), unit_(std::move(unit)) {
+    assert(width >= 0 && height >= 0 && channels >= 1);
+  }
+  // Samples left unset: the caller writes every one of them before reading any.
+  Image(int width, int height, int channels, Uninitialized, std::string unit = {})
+      : width_(width), height_(height), channels_(channels),
+        data_(static_cast<size_t>(width) * height * channels), unit_(std::move(unit)) {
     assert(width >= 0 && height >= 0 && channels >= 1);
   }
 
@@ -45,8 +73,8 @@ class Image {
   }
   T& operator[](size_t i) { return data_[i]; }
   const T& operator[](size_t i) const { return data_[i]; }
-  std::vector<T>& vec() { return data_; }
-  const std::vector<T>& vec() const { return data_; }
+  Buffer& vec() { return data_; }
+  const Buffer& vec() const { return data_; }
 
   // The physical unit of the samples, e.g. "W.sr-1.m-2", "e-", "DN", "1" (dimensionless).
   const std::string& unit() const { return unit_; }
@@ -54,7 +82,7 @@ class Image {
 
  private:
   int width_ = 0, height_ = 0, channels_ = 1;
-  std::vector<T> data_;
+  Buffer data_;
   std::string unit_;
 };
 

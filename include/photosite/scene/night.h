@@ -37,6 +37,27 @@ double class_reflectance(int label_id, const ScenePreset& p);
 ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
+// The per-pixel darkening, shared by darken() and compose(): night illuminance per unit
+// reflectance on ground and vertical surfaces (E/π in lx·sr⁻¹ per band: times the texture in
+// W·lm⁻¹ it gives W·sr⁻¹·m⁻²), and the sky's
+// glow colour scaled by the pixel's relative luminance.
+struct DarkenParams {
+  float ground[3], vertical[3];
+  double K[3];     // band luminous efficacies (lm/W)
+  double rho_sky;  // the sky class reflectance the texture was normalised to
+  double glow[3];  // sky glow radiance of relative luminance 1
+  bool ground_class[kLabelCount];
+};
+DarkenParams darken_params(const ScenePreset& p);
+inline void darken_pixel(const float* t, int id, const DarkenParams& d, float* o) {
+  if (id == static_cast<int>(Label::Sky)) {
+    const double yr = (d.K[0] * t[0] + d.K[1] * t[1] + d.K[2] * t[2]) / d.rho_sky;
+    for (int k = 0; k < 3; ++k) o[k] = static_cast<float>(d.glow[k] * yr);
+    return;
+  }
+  const float* e = d.ground_class[id] ? d.ground : d.vertical;
+  for (int k = 0; k < 3; ++k) o[k] = t[k] * e[k];
+}
 // Ambient (moon + sky glow) and street lighting on every class; the sky gets its own luminance.
 ImageF darken(const ImageF& texture, const ImageU16& labels, const ScenePreset& p);
 
@@ -89,10 +110,11 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
 // Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
 ImageF bloom(const ImageF& src, double fraction, int levels);
 void bloom_in_place(ImageF& img, double fraction, int levels);
-// darkened + diffuse low-beam light on the ground + light map (adds into `darkened`).
-ImageF compose(ImageF darkened, const ImageF& texture, const ImageF& lights,
-               const ImageU16& labels, const ImageF& depth, const VanishingPoint& vp,
-               const ScenePreset& p);
+// The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
+// back from a darkened image: one pass over memory less) + diffuse low-beam light on the ground
+// + the light map.
+ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+               const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p);
 
 // ---- the chain ----------------------------------------------------------------------------
 struct StageTiming { std::string stage; double ms; };
