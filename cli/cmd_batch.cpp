@@ -23,6 +23,8 @@
 #include <sstream>
 #include <thread>
 
+#include <omp.h>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -78,6 +80,7 @@ struct BatchCmd {
                                                scene_preset = "night-urban";
   bool half = false, quiet = false;
   int jobs = 1, queue_depth = 2;
+  int compute_threads = 0;  // 0: the hardware threads left over by the writers (at least 1)
   SensorOptions sensor;
 };
 
@@ -121,6 +124,7 @@ void run(BatchCmd& c) {
   if (c.format != "exr" && c.format != "png" && c.format != "both") fail("--format must be exr, png or both");
   if (c.jobs < 1 || c.jobs > 64) fail("--jobs must be in [1, 64]");
   if (c.queue_depth < 1 || c.queue_depth > 64) fail("--queue-depth must be in [1, 64]");
+  if (c.compute_threads < 0 || c.compute_threads > 256) fail("--compute-threads must be in [0, 256]");
   const auto [shard_i, shard_n] = batch::parse_shard(c.shard);
   std::vector<Item> all;
   std::string source;
@@ -232,7 +236,16 @@ void run(BatchCmd& c) {
   // ---- the pipeline -----------------------------------------------------------------------
   BoundedQueue<Loaded> loaded(static_cast<size_t>(c.queue_depth));
   BoundedQueue<Computed> computed(static_cast<size_t>(c.queue_depth));
+  // Cores are split between the parts instead of every part fighting for all of them: each
+  // writer owns a hardware thread (EXR encoding is single-threaded per file), the reader runs
+  // its decode and linearization on one thread, and compute's OpenMP team gets what is left.
+  // On 2 cores with one writer this keeps the writer (the slowest part) on a core of its own,
+  // so the pipeline runs at the writer's pace (docs/benchmarks.md, bench batch).
+  const int hw = std::max(1, omp_get_num_procs());
+  const int compute_threads = c.compute_threads > 0 ? c.compute_threads : std::max(1, hw - c.jobs);
+  omp_set_num_threads(compute_threads);
   std::thread reader([&] {
+    omp_set_num_threads(1);
     for (const auto& it : todo) {
       if (g_stop) break;
       Loaded l;
@@ -267,6 +280,7 @@ void run(BatchCmd& c) {
   std::vector<std::thread> writers;
   for (int j = 0; j < c.jobs; ++j)
     writers.emplace_back([&] {
+      omp_set_num_threads(1);
       while (auto cmp = computed.pop()) {
         if (!cmp->error.empty()) {
           std::lock_guard l(err_m);
@@ -377,6 +391,9 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_flag("--half", c->half, "store EXR channels as half floats");
   sub->add_option("--compression", c->compression, "EXR compression (zip, piz, dwaa, none, ...)")->capture_default_str();
   sub->add_option("--jobs", c->jobs, "writer threads")->capture_default_str();
+  sub->add_option("--compute-threads", c->compute_threads,
+                  "OpenMP threads for the scene and sensor (0: hardware threads minus --jobs, at least 1)")
+      ->capture_default_str();
   sub->add_option("--queue-depth", c->queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
