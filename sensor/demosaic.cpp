@@ -1,34 +1,75 @@
+// Demosaic dispatch, the method list, and bilinear interpolation.
 #include "photosite/sensor/demosaic.h"
 
 #include <algorithm>
 #include <cctype>
 
+#include "demosaic_detail.h"
 #include "photosite/error.h"
 
 namespace photosite {
 
-std::vector<std::string> demosaic_method_names() { return {"bilinear"}; }
+namespace {
+struct MethodInfo {
+  DemosaicMethod method;
+  const char* name;
+  const char* alias;
+  const char* description;
+};
+constexpr MethodInfo kMethods[] = {
+    {DemosaicMethod::Bilinear, "bilinear", "", "per-colour bilinear interpolation (3x3)"},
+    {DemosaicMethod::Malvar, "malvar", "mhc",
+     "Malvar-He-Cutler 2004 gradient-corrected linear filters (5x5)"},
+    {DemosaicMethod::HamiltonAdams, "hamilton-adams", "ha",
+     "Hamilton-Adams 1997 edge-directed green, colour-difference red/blue"},
+    {DemosaicMethod::Lmmse, "lmmse", "",
+     "Zhang-Wu 2005 directional LMMSE estimation of colour differences"},
+};
+}  // namespace
+
+std::vector<std::string> demosaic_method_names() {
+  std::vector<std::string> n;
+  for (const auto& m : kMethods) n.push_back(m.name);
+  return n;
+}
+
+std::vector<DemosaicMethod> all_demosaic_methods() {
+  std::vector<DemosaicMethod> v;
+  for (const auto& m : kMethods) v.push_back(m.method);
+  return v;
+}
 
 const char* to_string(DemosaicMethod m) {
-  switch (m) {
-    case DemosaicMethod::Bilinear: return "bilinear";
-  }
+  for (const auto& i : kMethods)
+    if (i.method == m) return i.name;
+  return "?";
+}
+
+const char* demosaic_method_description(DemosaicMethod m) {
+  for (const auto& i : kMethods)
+    if (i.method == m) return i.description;
   return "?";
 }
 
 DemosaicMethod parse_demosaic_method(const std::string& name) {
   std::string l = name;
   std::transform(l.begin(), l.end(), l.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (l == "bilinear") return DemosaicMethod::Bilinear;
+  for (const auto& m : kMethods)
+    if (l == m.name || (*m.alias && l == m.alias)) return m.method;
   std::string known;
-  for (const auto& n : demosaic_method_names()) known += (known.empty() ? "" : ", ") + n;
+  for (const auto& m : kMethods)
+    known += (known.empty() ? "" : ", ") + std::string(m.name) + (*m.alias ? std::string(" (") + m.alias + ")" : "");
   fail("unknown demosaic method '" + name + "' (known: " + known + ")");
 }
 
 ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
   if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
+  if (mosaic.empty()) fail("demosaic: the mosaic is empty");
   switch (method) {
     case DemosaicMethod::Bilinear: return demosaic_bilinear(mosaic, pattern);
+    case DemosaicMethod::Malvar: return demosaic_malvar(mosaic, pattern);
+    case DemosaicMethod::HamiltonAdams: return demosaic_hamilton_adams(mosaic, pattern);
+    case DemosaicMethod::Lmmse: return demosaic_lmmse(mosaic, pattern);
   }
   internal_error("demosaic: unhandled method");
 }
@@ -54,7 +95,10 @@ void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3
   }
 }
 
-ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
+// Normalized convolution with [1 2 1; 2 4 2; 1 2 1] over the pixels of each filter colour: any
+// pattern, borders use only the neighbours that exist. The path for RCCC, Mono and images too
+// small for the mirrored Bayer path.
+ImageF detail::demosaic_bilinear_generic(const ImageF& m, CfaPattern pattern) {
   const int w = m.width(), h = m.height();
   ImageF out(w, h, 3, uninitialized, m.unit());
   static constexpr float k[3][3] = {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}};
@@ -81,6 +125,40 @@ ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
       filter_planes_to_rgb(pattern, planes, o + 3 * x);
     }
   }
+  return out;
+}
+
+namespace {
+// Bilinear on RGGB: each missing colour is the mean of its nearest 2 or 4 samples.
+struct BilinearKernel {
+  static constexpr int kOut = 3;
+  template <int T, class F>
+  void px(const F& f, float* o) const {
+    using namespace detail;
+    const float c = f(0, 0, 0);
+    const float lr = f(0, -1, 0) + f(0, 1, 0), ud = f(0, 0, -1) + f(0, 0, 1);
+    if constexpr (T == kR || T == kB) {
+      const float diag = (f(0, -1, -1) + f(0, 1, -1)) + (f(0, -1, 1) + f(0, 1, 1));
+      const float other = 0.25f * diag, g = 0.25f * (lr + ud);
+      o[0] = T == kR ? c : other;
+      o[1] = g;
+      o[2] = T == kR ? other : c;
+    } else {
+      o[0] = 0.5f * (T == kGr ? lr : ud);
+      o[1] = c;
+      o[2] = 0.5f * (T == kGr ? ud : lr);
+    }
+  }
+};
+
+}  // namespace
+
+ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
+  if (!detail::bayer_path_ok(m, pattern)) return detail::demosaic_bilinear_generic(m, pattern);
+  const auto ph = detail::bayer_phase(pattern);
+  ImageF out(m.width(), m.height(), 3, uninitialized, m.unit());
+  const ImageF* planes[1] = {&m};
+  detail::run_stencil<1>(planes, ph, out, BilinearKernel{}, ph.clear);
   return out;
 }
 

@@ -2,6 +2,18 @@
 // out, for every pattern in cfa.h. For the clear patterns the output is still R, G, B: with a
 // clear pixel passing R+G+B (photosite's box spectral basis), G = C - R - B for RCCB, and for
 // RCCC (red + clear only) G = B = (C - R) / 2, a red-and-grey image.
+//
+// Methods (docs/demosaic.md has their accuracy and speed, measured side by side with OpenCV):
+//   bilinear        per-colour bilinear interpolation (3x3).
+//   malvar (mhc)    Malvar, He & Cutler 2004, gradient-corrected linear 5x5 filters.
+//   hamilton-adams  Hamilton & Adams 1997 (US 5,629,734): green along the direction of the
+//   (ha)            smaller gradient (first + second order), R/B from colour differences.
+//   lmmse           Zhang & Wu 2005, directional linear minimum mean-square-error estimation
+//                   of the green-minus-red/blue difference, fused by the estimation errors.
+// Every method handles all four Bayer phases and RCCB (whose clear pixels take the place of
+// green: the clear channel is smooth and correlated with R and B as green is). RCCC (a single
+// sparse colour) and Mono use the bilinear path whatever the method. Borders are mirrored
+// (reflect-101, which keeps the CFA phase): no black frame and no wrap-around.
 #pragma once
 #include <string>
 #include <vector>
@@ -11,19 +23,24 @@
 
 namespace photosite {
 
-enum class DemosaicMethod { Bilinear };
+enum class DemosaicMethod { Bilinear, Malvar, HamiltonAdams, Lmmse };
 
 std::vector<std::string> demosaic_method_names();
+std::vector<DemosaicMethod> all_demosaic_methods();
 DemosaicMethod parse_demosaic_method(const std::string& name);  // bad input on unknown names
 const char* to_string(DemosaicMethod m);
+const char* demosaic_method_description(DemosaicMethod m);
 
 ImageF demosaic(const ImageF& mosaic, CfaPattern pattern,
                 DemosaicMethod method = DemosaicMethod::Bilinear);
 
-// Bilinear interpolation as normalized convolution with the 3x3 kernel [1 2 1; 2 4 2; 1 2 1]
-// over the pixels of each filter colour: exactly the textbook bilinear on Bayer data, and
-// borders use only the neighbours that exist (no black frame, no wrap-around).
+// Bilinear interpolation: on Bayer and RCCB data the textbook per-colour bilinear (mirrored
+// borders); on RCCC and Mono normalized convolution with [1 2 1; 2 4 2; 1 2 1] over the pixels
+// of each filter colour, borders using only the neighbours that exist.
 ImageF demosaic_bilinear(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_malvar(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_hamilton_adams(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_lmmse(const ImageF& mosaic, CfaPattern pattern);
 
 // Turns per-filter planes (R, G, B, C interpolated at every pixel) into RGB for the pattern.
 void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3]);

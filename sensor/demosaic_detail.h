@@ -1,0 +1,126 @@
+// Shared machinery of the Bayer demosaicers (sensor/demosaic*.cpp), not a public header.
+//
+// Every method is written once, for the RGGB arrangement, as a per-pixel formula over a fetch
+// functor f(plane, dx, dy). The row driver below turns the other phases into RGGB by where it
+// starts each row's pixel pairs (the cell type of a pixel is fixed by the parities of x and y
+// relative to the red site), so there is no per-pixel switch on colour: each row is a loop over
+// (R,G) or (G,B) pairs with the cell types as template constants, which the compiler vectorizes.
+// Only the few border columns whose stencil leaves the image take a slow path with mirrored
+// (reflect-101) coordinates; rows are mirrored by choosing row pointers, which costs nothing.
+// Reflect-101 maps -k to k and n-1+k to n-1-k, so it keeps every pixel's parity and with it the
+// CFA colour: the mirrored border is a valid mosaic of the mirrored scene.
+#pragma once
+#include <algorithm>
+
+#include "photosite/error.h"
+#include "photosite/image.h"
+#include "photosite/sensor/cfa.h"
+
+namespace photosite::detail {
+
+// Cell types of the RGGB arrangement: 0 = R, 1 = G in a red row, 2 = G in a blue row, 3 = B.
+enum CellType { kR = 0, kGr = 1, kGb = 2, kB = 3 };
+
+// Bilinear by normalized convolution, any pattern (sensor/demosaic.cpp): the fallback of every
+// method for RCCC, Mono and mosaics smaller than 2x2.
+ImageF demosaic_bilinear_generic(const ImageF& m, CfaPattern pattern);
+
+// Where the red (for RCCB also red) site sits in the 2x2 cell.
+struct BayerPhase {
+  int ox = 0, oy = 0;
+  bool clear = false;  // RCCB: the "green" sites are clear (R+G+B)
+};
+inline bool has_bayer_geometry(CfaPattern p) { return is_bayer(p) || p == CfaPattern::RCCB; }
+inline BayerPhase bayer_phase(CfaPattern p) {
+  switch (p) {
+    case CfaPattern::RGGB: return {0, 0, false};
+    case CfaPattern::BGGR: return {1, 1, false};
+    case CfaPattern::GRBG: return {1, 0, false};
+    case CfaPattern::GBRG: return {0, 1, false};
+    case CfaPattern::RCCB: return {0, 0, true};
+    default: internal_error("bayer_phase: not a Bayer-geometry pattern");
+  }
+}
+inline int cell_type(const BayerPhase& ph, int x, int y) {
+  return (((y - ph.oy) & 1) << 1) | ((x - ph.ox) & 1);
+}
+
+// The mirrored Bayer path needs a Bayer-geometry pattern and at least 2x2 pixels.
+inline bool bayer_path_ok(const ImageF& m, CfaPattern p) {
+  return has_bayer_geometry(p) && m.width() >= 2 && m.height() >= 2;
+}
+
+// Reflect-101 index into [0, n), n >= 2 (period 2(n-1), even: parity is kept).
+inline int reflect(int i, int n) {
+  if (i >= 0 && i < n) return i;
+  const int period = 2 * (n - 1);
+  i %= period;
+  if (i < 0) i += period;
+  return i < n ? i : period - i;
+}
+
+// RCCB: planes (R, C, B) at a pixel become R, G = C - R - B, B (cfa.h: a clear filter passes
+// R+G+B).
+inline void clear_to_rgb(float* o) { o[1] = o[1] - o[0] - o[2]; }
+
+// Runs kernel K over every pixel: K::template px<T>(f, out) writes K::kOut floats for a pixel of
+// cell type T, reading inputs through f(plane, dx, dy). `planes` are the input images (same
+// size, one channel each), Rad the stencil radius. out has K::kOut channels.
+template <bool Clear, int NPlanes, int Rad, class K>
+void run_stencil_impl(const ImageF* const (&planes)[NPlanes], const BayerPhase& ph, ImageF& out,
+                      const K& k) {
+  const int w = out.width(), h = out.height();
+  constexpr int kOut = K::kOut;
+  // First column >= Rad at the red site's column parity, and the pair count that keeps every
+  // fast-path stencil inside the image.
+  const int xs = Rad + ((Rad - ph.ox) & 1);
+  const int npairs = std::max(0, (w - Rad - xs) / 2);
+  const int xe = xs + 2 * npairs;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const float* rows[NPlanes][2 * Rad + 1];
+    for (int p = 0; p < NPlanes; ++p)
+      for (int d = -Rad; d <= Rad; ++d) rows[p][d + Rad] = planes[p]->row(reflect(y + d, h));
+    float* o = out.row(y);
+    const bool red_row = ((y - ph.oy) & 1) == 0;
+    auto slow = [&](int x) {
+      auto f = [&](int p, int dx, int dy) { return rows[p][dy + Rad][reflect(x + dx, w)]; };
+      float* ox = o + static_cast<size_t>(kOut) * x;
+      switch (cell_type(ph, x, y)) {
+        case kR: k.template px<kR>(f, ox); break;
+        case kGr: k.template px<kGr>(f, ox); break;
+        case kGb: k.template px<kGb>(f, ox); break;
+        default: k.template px<kB>(f, ox); break;
+      }
+      if constexpr (Clear && kOut == 3) clear_to_rgb(ox);
+    };
+    for (int x = 0; x < std::min(xs, w); ++x) slow(x);
+    for (int x = std::max(xe, xs); x < w; ++x) slow(x);
+    auto fast = [&]<int T0, int T1>() {
+      for (int i = 0; i < npairs; ++i) {
+        const int x = xs + 2 * i;
+        auto f0 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + dx]; };
+        auto f1 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + 1 + dx]; };
+        float* ox = o + static_cast<size_t>(kOut) * x;
+        k.template px<T0>(f0, ox);
+        k.template px<T1>(f1, ox + kOut);
+        if constexpr (Clear && kOut == 3) {
+          clear_to_rgb(ox);
+          clear_to_rgb(ox + 3);
+        }
+      }
+    };
+    if (red_row) fast.template operator()<kR, kGr>();
+    else fast.template operator()<kGb, kB>();
+  }
+}
+
+// convert_clear: RCCB output, (R, C, B) turned into (R, G, B) as each pixel is written.
+template <int Rad, int NPlanes, class K>
+void run_stencil(const ImageF* const (&planes)[NPlanes], const BayerPhase& ph, ImageF& out,
+                 const K& k, bool convert_clear = false) {
+  if (convert_clear) run_stencil_impl<true, NPlanes, Rad>(planes, ph, out, k);
+  else run_stencil_impl<false, NPlanes, Rad>(planes, ph, out, k);
+}
+
+}  // namespace photosite::detail
