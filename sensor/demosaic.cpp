@@ -3,6 +3,9 @@
 
 #include <algorithm>
 #include <cctype>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "demosaic_detail.h"
 #include "photosite/error.h"
@@ -74,6 +77,33 @@ ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method)
   internal_error("demosaic: unhandled method");
 }
 
+void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, int n) {
+  int x = 0;
+#ifdef __SSE2__
+  // Four pixels per step: (r0 g0 b0 r1) (g1 b1 r2 g2) (b2 r3 g3 b3).
+  for (; x + 4 <= n; x += 4) {
+    const __m128 R = _mm_loadu_ps(r + x), G = _mm_loadu_ps(g + x), B = _mm_loadu_ps(b + x);
+    const __m128 rg = _mm_unpacklo_ps(R, G);                         // r0 g0 r1 g1
+    const __m128 b0r1 = _mm_shuffle_ps(B, R, _MM_SHUFFLE(1, 1, 0, 0));  // b0 b0 r1 r1
+    const __m128 o0 = _mm_shuffle_ps(rg, b0r1, _MM_SHUFFLE(2, 0, 1, 0));
+    const __m128 g1b1 = _mm_shuffle_ps(G, B, _MM_SHUFFLE(1, 1, 1, 1));  // g1 g1 b1 b1
+    const __m128 r2g2 = _mm_shuffle_ps(R, G, _MM_SHUFFLE(2, 2, 2, 2));  // r2 r2 g2 g2
+    const __m128 o1 = _mm_shuffle_ps(g1b1, r2g2, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m128 b2r3 = _mm_shuffle_ps(B, R, _MM_SHUFFLE(3, 3, 2, 2));  // b2 b2 r3 r3
+    const __m128 g3b3 = _mm_shuffle_ps(G, B, _MM_SHUFFLE(3, 3, 3, 3));  // g3 g3 b3 b3
+    const __m128 o2 = _mm_shuffle_ps(b2r3, g3b3, _MM_SHUFFLE(2, 0, 2, 0));
+    _mm_storeu_ps(rgb + 3 * x, o0);
+    _mm_storeu_ps(rgb + 3 * x + 4, o1);
+    _mm_storeu_ps(rgb + 3 * x + 8, o2);
+  }
+#endif
+  for (; x < n; ++x) {
+    rgb[3 * x] = r[x];
+    rgb[3 * x + 1] = g[x];
+    rgb[3 * x + 2] = b[x];
+  }
+}
+
 void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3]) {
   switch (pattern) {
     case CfaPattern::RCCB:
@@ -133,7 +163,7 @@ namespace {
 struct BilinearKernel {
   static constexpr int kOut = 3;
   template <int T, class F>
-  void px(const F& f, float* o) const {
+  void px(const F& f, const detail::PixelOut& o) const {
     using namespace detail;
     const float c = f(0, 0, 0);
     const float lr = f(0, -1, 0) + f(0, 1, 0), ud = f(0, 0, -1) + f(0, 0, 1);

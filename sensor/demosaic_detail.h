@@ -11,10 +11,13 @@
 // CFA colour: the mirrored border is a valid mosaic of the mirrored scene.
 #pragma once
 #include <algorithm>
+#include <cstddef>
+#include <vector>
 
 #include "photosite/error.h"
 #include "photosite/image.h"
 #include "photosite/sensor/cfa.h"
+#include "photosite/sensor/demosaic.h"
 
 namespace photosite::detail {
 
@@ -63,8 +66,47 @@ inline int reflect(int i, int n) {
 // R+G+B).
 inline void clear_to_rgb(float* o) { o[1] = o[1] - o[0] - o[2]; }
 
-// Runs kernel K over every pixel: K::template px<T>(f, out) writes K::kOut floats for a pixel of
-// cell type T, reading inputs through f(plane, dx, dy). `planes` are the input images (same
+// Where a kernel writes one pixel's kOut values: channel c at p[c * stride]. The fast path
+// writes planar rows (unit-stride, so the pair loop vectorizes) and interleaves them after.
+struct PixelOut {
+  float* p;
+  size_t stride;
+  float& operator[](int c) const { return p[c * stride]; }
+};
+
+// The fast path over one row: npairs pixel pairs from column xs, cell types T0, T1; outputs
+// planar at base[c * stride + x]. Rows away from the top and bottom are addressed from one
+// centre pointer per plane and the row pitch (what lets the compiler vectorize the pair loop);
+// the Rad rows at each end go through their mirrored row pointers.
+template <int T0, int T1, int NPlanes, int Rad, bool Interior, class K>
+inline void pair_loop(const K& k, const float* const (&rows)[NPlanes][2 * Rad + 1], ptrdiff_t pitch,
+                      float* __restrict base, int stride, int xs, int npairs) {
+  const size_t st = static_cast<size_t>(stride);
+  if constexpr (Interior) {
+    const float* c[NPlanes];
+    for (int p = 0; p < NPlanes; ++p) c[p] = rows[p][Rad];
+    // The planar output never overlaps the input planes.
+#pragma GCC ivdep
+    for (int i = 0; i < npairs; ++i) {
+      const int x = xs + 2 * i;
+      auto f0 = [&](int p, int dx, int dy) { return c[p][dy * pitch + x + dx]; };
+      auto f1 = [&](int p, int dx, int dy) { return c[p][dy * pitch + x + 1 + dx]; };
+      k.template px<T0>(f0, PixelOut{base + x, st});
+      k.template px<T1>(f1, PixelOut{base + x + 1, st});
+    }
+  } else {
+    for (int i = 0; i < npairs; ++i) {
+      const int x = xs + 2 * i;
+      auto f0 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + dx]; };
+      auto f1 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + 1 + dx]; };
+      k.template px<T0>(f0, PixelOut{base + x, st});
+      k.template px<T1>(f1, PixelOut{base + x + 1, st});
+    }
+  }
+}
+
+// Runs kernel K over every pixel: K::template px<T>(f, out) writes K::kOut values for a pixel
+// of cell type T, reading inputs through f(plane, dx, dy). `planes` are the input images (same
 // size, one channel each), Rad the stencil radius. out has K::kOut channels.
 template <bool Clear, int NPlanes, int Rad, class K>
 void run_stencil_impl(const ImageF* const (&planes)[NPlanes], const BayerPhase& ph, ImageF& out,
@@ -76,42 +118,50 @@ void run_stencil_impl(const ImageF* const (&planes)[NPlanes], const BayerPhase& 
   const int xs = Rad + ((Rad - ph.ox) & 1);
   const int npairs = std::max(0, (w - Rad - xs) / 2);
   const int xe = xs + 2 * npairs;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const float* rows[NPlanes][2 * Rad + 1];
-    for (int p = 0; p < NPlanes; ++p)
-      for (int d = -Rad; d <= Rad; ++d) rows[p][d + Rad] = planes[p]->row(reflect(y + d, h));
-    float* o = out.row(y);
-    const bool red_row = ((y - ph.oy) & 1) == 0;
-    auto slow = [&](int x) {
-      auto f = [&](int p, int dx, int dy) { return rows[p][dy + Rad][reflect(x + dx, w)]; };
-      float* ox = o + static_cast<size_t>(kOut) * x;
-      switch (cell_type(ph, x, y)) {
-        case kR: k.template px<kR>(f, ox); break;
-        case kGr: k.template px<kGr>(f, ox); break;
-        case kGb: k.template px<kGb>(f, ox); break;
-        default: k.template px<kB>(f, ox); break;
-      }
-      if constexpr (Clear && kOut == 3) clear_to_rgb(ox);
-    };
-    for (int x = 0; x < std::min(xs, w); ++x) slow(x);
-    for (int x = std::max(xe, xs); x < w; ++x) slow(x);
-    auto fast = [&]<int T0, int T1>() {
-      for (int i = 0; i < npairs; ++i) {
-        const int x = xs + 2 * i;
-        auto f0 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + dx]; };
-        auto f1 = [&](int p, int dx, int dy) { return rows[p][dy + Rad][x + 1 + dx]; };
-        float* ox = o + static_cast<size_t>(kOut) * x;
-        k.template px<T0>(f0, ox);
-        k.template px<T1>(f1, ox + kOut);
-        if constexpr (Clear && kOut == 3) {
-          clear_to_rgb(ox);
-          clear_to_rgb(ox + 3);
+#pragma omp parallel
+  {
+    // Planar row buffers for 3-channel output (a 1-channel output is written in place).
+    std::vector<float> planar(kOut == 1 ? 0 : static_cast<size_t>(3) * w);
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      const float* rows[NPlanes][2 * Rad + 1];
+      for (int p = 0; p < NPlanes; ++p)
+        for (int d = -Rad; d <= Rad; ++d) rows[p][d + Rad] = planes[p]->row(reflect(y + d, h));
+      float* o = out.row(y);
+      const bool red_row = ((y - ph.oy) & 1) == 0;
+      auto slow = [&](int x) {
+        auto f = [&](int p, int dx, int dy) { return rows[p][dy + Rad][reflect(x + dx, w)]; };
+        const PixelOut ox{o + static_cast<size_t>(kOut) * x, 1};
+        switch (cell_type(ph, x, y)) {
+          case kR: k.template px<kR>(f, ox); break;
+          case kGr: k.template px<kGr>(f, ox); break;
+          case kGb: k.template px<kGb>(f, ox); break;
+          default: k.template px<kB>(f, ox); break;
         }
+        if constexpr (Clear && kOut == 3) clear_to_rgb(&ox[0]);
+      };
+      for (int x = 0; x < std::min(xs, w); ++x) slow(x);
+      for (int x = std::max(xe, xs); x < w; ++x) slow(x);
+      float* base = kOut == 1 ? o : planar.data();
+      const int stride = kOut == 1 ? 0 : w;
+      const ptrdiff_t pitch = w;  // every plane is one channel wide
+      if (y >= Rad && y < h - Rad) {
+        if (red_row) pair_loop<kR, kGr, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
+        else pair_loop<kGb, kB, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
+      } else {
+        if (red_row) pair_loop<kR, kGr, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
+        else pair_loop<kGb, kB, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
       }
-    };
-    if (red_row) fast.template operator()<kR, kGr>();
-    else fast.template operator()<kGb, kB>();
+      if constexpr (kOut == 3) {
+        float* r = planar.data();
+        if constexpr (Clear) {  // G = C - R - B
+          float* g = r + w;
+          const float* bl = r + 2 * w;
+          for (int x = xs; x < xe; ++x) g[x] = g[x] - r[x] - bl[x];
+        }
+        interleave_rgb(r + xs, r + w + xs, r + 2 * w + xs, o + 3 * xs, xe - xs);
+      }
+    }
   }
 }
 

@@ -21,7 +21,7 @@ namespace {
 struct HaGreen {
   static constexpr int kOut = 1;
   template <int T, class F>
-  void px(const F& f, float* o) const {
+  void px(const F& f, const detail::PixelOut& o) const {
     using namespace detail;
     const float c = f(0, 0, 0);
     if constexpr (T == kGr || T == kGb) {
@@ -43,7 +43,7 @@ struct HaGreen {
 struct HaColour {
   static constexpr int kOut = 3;
   template <int T, class F>
-  void px(const F& f, float* o) const {
+  void px(const F& f, const detail::PixelOut& o) const {
     using namespace detail;
     const float c = f(0, 0, 0), g = f(1, 0, 0);
     auto diff = [&](int dx, int dy) { return f(1, dx, dy) - f(0, dx, dy); };  // G - colour

@@ -65,7 +65,7 @@ inline float lmmse_estimate(float o, const S& s, const Z& z, float& err) {
 struct LmmseColour {
   static constexpr int kOut = 3;
   template <int T, class F>
-  void px(const F& f, float* o) const {
+  void px(const F& f, const detail::PixelOut& o) const {
     using namespace detail;
     const float c = f(0, 0, 0), d0 = f(1, 0, 0), g = c + d0;
     auto diag = [&](int dx, int dy) {  // mean D over the diagonal neighbours of (dx, dy)

@@ -14,7 +14,7 @@ namespace {
 struct MalvarKernel {
   static constexpr int kOut = 3;
   template <int T, class F>
-  void px(const F& f, float* o) const {
+  void px(const F& f, const detail::PixelOut& o) const {
     using namespace detail;
     const float c = f(0, 0, 0);
     const float l = f(0, -1, 0), r = f(0, 1, 0), u = f(0, 0, -1), d = f(0, 0, 1);

@@ -53,11 +53,14 @@ TEST(Demosaic, EveryMethodRecoversASmoothColourFieldOnEveryPattern) {
             if (x >= 3 && y >= 3 && x < out.width() - 3 && y < out.height() - 3) worst_inner = std::max(worst_inner, d);
           }
       const double rms = std::sqrt(se / out.size());
-      // A full-scale-0.2 field recovered to well under 1/1000 of full scale inside; the
-      // mirrored border bends the field's slope, still within 1/100.
-      EXPECT_LT(rms, 1e-3) << to_string(m) << " on " << to_string(p);
-      EXPECT_LT(worst_inner, 2e-3) << to_string(m) << " on " << to_string(p);
-      EXPECT_LT(worst, 1.5e-2) << to_string(m) << " on " << to_string(p);
+      // A field of amplitude 0.1-0.2 recovered to about 1/1000 of full scale; the mirrored
+      // border bends the field's slope, still within 1/100. RCCB's G = C - R - B subtracts
+      // three interpolated values (C carries the sum of all three channels' variation), which
+      // doubles the error: its limits are twice as wide.
+      const double k = p == CfaPattern::RCCB ? 2.0 : 1.0;
+      EXPECT_LT(rms, 1e-3 * k) << to_string(m) << " on " << to_string(p);
+      EXPECT_LT(worst_inner, 2e-3 * k) << to_string(m) << " on " << to_string(p);
+      EXPECT_LT(worst, 1.5e-2 * k) << to_string(m) << " on " << to_string(p);
     }
 }
 
@@ -152,10 +155,10 @@ TEST(Demosaic, KodakCpsnrStaysAboveMeasuredFloors) {
   // detailed, the hardest for demosaicing).
   struct Floor { DemosaicMethod m; double dB[3]; };
   const Floor floors[] = {
-      {DemosaicMethod::Bilinear, {0, 0, 0}},
-      {DemosaicMethod::Malvar, {0, 0, 0}},
-      {DemosaicMethod::HamiltonAdams, {0, 0, 0}},
-      {DemosaicMethod::Lmmse, {0, 0, 0}},
+      {DemosaicMethod::Bilinear, {26.24, 23.52, 27.97}},       // measured 26.34, 23.62, 28.07
+      {DemosaicMethod::Malvar, {31.99, 29.10, 33.56}},         // 32.09, 29.20, 33.66
+      {DemosaicMethod::HamiltonAdams, {33.67, 32.12, 37.17}},  // 33.78, 32.22, 37.27
+      {DemosaicMethod::Lmmse, {39.63, 36.72, 41.07}},          // 39.74, 36.82, 41.17
   };
   const char* files[3] = {"kodim01.png", "kodim08.png", "kodim19.png"};
   for (const auto& f : floors)

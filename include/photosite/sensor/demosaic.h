@@ -42,6 +42,9 @@ ImageF demosaic_malvar(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_hamilton_adams(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_lmmse(const ImageF& mosaic, CfaPattern pattern);
 
+// Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
+void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, int n);
+
 // Turns per-filter planes (R, G, B, C interpolated at every pixel) into RGB for the pattern.
 void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3]);
 
