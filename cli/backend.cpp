@@ -59,7 +59,13 @@ SensorRunner::SensorRunner(Backend b) : backend_(b) {
   if (b == Backend::Vulkan) device_ = std::make_unique<Device>();
 #endif
 }
-SensorRunner::~SensorRunner() = default;
+SensorRunner::~SensorRunner() {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  // With PHOTOSITE_VK_VALIDATION=1 every validation message is reported (tests look for them).
+  if (device_ && device_->chain.context().validation())
+    for (const auto& m : device_->chain.context().messages()) std::fprintf(stderr, "photosite: Vulkan validation: %s\n", m.c_str());
+#endif
+}
 
 ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                                            const ResolvedExposure& ex) {

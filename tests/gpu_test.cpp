@@ -302,7 +302,8 @@ TEST_F(Gpu, BloomMatchesCpuWithinFloatRounding) {
 #ifdef PHOTOSITE_HAVE_VULKAN
 namespace photosite {
 
-// `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI).
+// `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI);
+// the children inherit PHOTOSITE_VK_VALIDATION=1 and print any validation message.
 TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
   test::TempDir dir;
   const std::string store = " --device-store '" + dir.file("store") + "'";
@@ -313,6 +314,7 @@ TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
     r = test::run_cli(std::string("night --backend ") + b + " --out '" +  // the bundled KITTI sample
                       dir.file(std::string("night-") + b + ".exr") + "'" + store);
     ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(r.output.find("validation"), std::string::npos) << r.output;  // the child ran with validation on
   }
   for (const char* f : {"flat", "night"}) {
     const ImageF a = read_image(dir.file(std::string(f) + "-cpu.exr"));
