@@ -32,6 +32,7 @@
 #include "photosite/error.h"
 #include "photosite/sensor/isp.h"
 #include "night_output.h"
+#include "backend.h"
 #include "registry.h"
 
 namespace photosite::cli {
@@ -82,6 +83,7 @@ struct BatchCmd {
   int jobs = 1, queue_depth = 2;
   int compute_threads = 0;  // 0: the hardware threads left over by the writers (at least 1)
   SensorOptions sensor;
+  std::string backend = "auto";
 };
 
 struct Loaded {
@@ -146,6 +148,7 @@ void run(BatchCmd& c) {
   if (!fs::is_directory(c.out, ec)) fail_at(c.out, "cannot create the output folder");
   const std::vector<Item> items = batch::shard(all, shard_i, shard_n);
   auto r = c.sensor.resolve();
+  SensorRunner runner(resolve_backend(c.backend));
   const scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
 
   // Parameters that decide the results (not the shard: results do not depend on the split).
@@ -330,7 +333,7 @@ void run(BatchCmd& c) {
       auto key = std::make_pair(w, h);
       if (!fpn_cache.count(key)) fpn_cache[key] = r.store.load_or_create(r.camera, r.device_id, w, h);
       const FixedPatternMaps& fpn = fpn_cache[key];
-      auto so = std::make_shared<SensorOutput>(expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn));
+      auto so = std::make_shared<SensorOutput>(runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn));
       auto label_img = std::make_shared<ImageF>(label_image(l->labels));
       NightInputs in{it.image, it.labels, it.instances};
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(
@@ -398,6 +401,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false);
+  add_backend_option(sub, c->backend);
   sub->callback([c] { run(*c); });
 });
 

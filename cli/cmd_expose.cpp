@@ -5,6 +5,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/sensor/isp.h"
+#include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
 
@@ -15,6 +16,7 @@ struct ExposeCmd {
   bool overwrite = false;
   bool half = false;
   SensorOptions sensor;
+  std::string backend = "auto";
 };
 
 ImageF load_radiance(const std::string& path) {
@@ -41,6 +43,7 @@ ImageF load_radiance(const std::string& path) {
 
 void run(const ExposeCmd& c) {
   auto r = c.sensor.resolve();
+  SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
@@ -48,7 +51,7 @@ void run(const ExposeCmd& c) {
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   ImageF mean_e;
   try {
-    mean_e = mean_signal_electrons(radiance, r.camera, r.lens, ex);
+    mean_e = runner.mean_signal_electrons(radiance, r.camera, r.lens, ex);
   } catch (const Error& e) {
     fail_at(c.radiance, e.what());
   }
@@ -56,7 +59,7 @@ void run(const ExposeCmd& c) {
       r.store.load_or_create(r.camera, r.device_id, radiance.width(), radiance.height());
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
-    SensorOutput out = sense(mean_e, r.camera, ex, r.settings, fpn);
+    SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn);
     auto groups = sensor_channels(out);
     groups.push_back({{"radiance.R", "radiance.G", "radiance.B"}, &radiance, unit::radiance});
     auto attrs = sensor_attributes(r, ex, fpn);
@@ -79,6 +82,7 @@ static Registrar reg("b-expose", [](CLI::App& app) {
   sub->add_option("--radiance", cmd->radiance, "scene radiance, linear W.sr-1.m-2 (EXR)")->required();
   sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
   cmd->sensor.add(sub);
+  add_backend_option(sub, cmd->backend);
   sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (simple ISP, docs/sensor.md)");
   sub->add_flag("--half", cmd->half, "store channels as half floats");
   add_overwrite_flag(sub, cmd->overwrite);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "photosite/error.h"
+#include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
 
@@ -16,19 +17,21 @@ struct FlatCmd {
   std::string out;
   bool overwrite = false;
   SensorOptions sensor;
+  std::string backend = "auto";
 };
 
 void run(const FlatCmd& c) {
   auto r = c.sensor.resolve();
+  SensorRunner runner(resolve_backend(c.backend));
   if (c.width < 1 || c.height < 1 || static_cast<double>(c.width) * c.height > 4e8)
     fail(fmt::format("--width {} --height {} is not a possible frame size", c.width, c.height));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);
+  const ImageF mean = detail::flat_field_mean(c.photons, c.wavelength_nm, c.width, c.height, r.camera);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
-    SensorOutput out = flat_field(c.photons, c.wavelength_nm, c.width, c.height, r.camera, r.lens,
-                                  r.settings, fpn);
+    SensorOutput out = runner.sense(mean, r.camera, ex, r.settings, fpn);
     auto attrs = sensor_attributes(r, ex, fpn);
     attrs["photosite/photons_per_pixel"] = c.photons;
     attrs["photosite/wavelength_nm"] = c.wavelength_nm;
@@ -47,6 +50,7 @@ static Registrar reg("c-flat", [](CLI::App& app) {
   sub->add_option("--height", cmd->height, "frame height in pixels")->required();
   sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
   cmd->sensor.add(sub);
+  add_backend_option(sub, cmd->backend);
   add_overwrite_flag(sub, cmd->overwrite);
   sub->callback([cmd] { run(*cmd); });
 });

@@ -15,6 +15,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "night_output.h"
+#include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
 
@@ -28,6 +29,7 @@ struct NightCmd {
   double ambient_lux = std::numeric_limits<double>::quiet_NaN();
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
+  std::string backend = "auto";
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -121,6 +123,7 @@ void run_night(NightCmd c) {
   else if (c.resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
   else fail("--resize-labels: '" + c.resize_labels + "' is not none or nearest");
   auto r = c.sensor.resolve();
+  SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
@@ -149,7 +152,7 @@ void run_night(NightCmd c) {
   }
 
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
-  const ImageF mean_e = mean_signal_electrons(ns.radiance, r.camera, r.lens, ex);
+  const ImageF mean_e = runner.mean_signal_electrons(ns.radiance, r.camera, r.lens, ex);
   const FixedPatternMaps fpn =
       r.store.load_or_create(r.camera, r.device_id, ns.radiance.width(), ns.radiance.height());
   lap("sensor: optics, FPN");
@@ -157,7 +160,7 @@ void run_night(NightCmd c) {
   const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
-    SensorOutput out = sense(mean_e, r.camera, ex, r.settings, fpn);
+    SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn);
     lap("sensor: noise, ADC, demosaic");
     const auto groups = night_channels(out, ns, label_img);
     const auto attrs = night_attributes(r, ex, fpn, sp, ns, labels, {c.image, c.labels, c.instances});
@@ -206,6 +209,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");
   c.sensor.add(sub, false);
+  add_backend_option(sub, c.backend);
   add_overwrite_flag(sub, c.overwrite);
 }
 

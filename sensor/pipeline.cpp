@@ -115,6 +115,9 @@ double tukey_sd(double lambda) {
                     std::exp(2.0 * std::lgamma(lambda + 1.0) - std::lgamma(2.0 * lambda + 2.0)));
   return std::sqrt(v);
 }
+}  // namespace
+
+namespace detail {
 uint64_t temporal_key(uint64_t device_seed, uint64_t seed) {
   // Mix the run seed into the device seed (SplitMix64 step) so the key names both.
   uint64_t z = seed + 0x9e3779b97f4a7c15ull;
@@ -122,11 +125,8 @@ uint64_t temporal_key(uint64_t device_seed, uint64_t seed) {
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
   return device_seed ^ z ^ (z >> 31);
 }
-}  // namespace
 
-SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
-                   const ExposureSettings& s, const FixedPatternMaps& fpn) {
-  const int w = mean_signal_e.width(), h = mean_signal_e.height();
+void check_sense_inputs(int w, int h, const CameraPreset& p, const FixedPatternMaps& fpn) {
   if (w < 1 || h < 1) fail("sensor input is empty");
   if ((!fpn.prnu_gain.empty() && !fpn.prnu_gain.same_shape(w, h)) ||
       (!fpn.dsnu_offset_e.empty() && !fpn.dsnu_offset_e.same_shape(w, h)) ||
@@ -135,8 +135,29 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
                      fpn.device_id, fpn.width, fpn.height, w, h));
   if (!fpn.preset_name.empty() && fpn.preset_name != p.name)
     fail("fixed-pattern maps belong to preset '" + fpn.preset_name + "', not '" + p.name + "'");
+}
 
-  const uint64_t key = temporal_key(fpn.device_seed, s.seed);
+void row_column_noise(const CameraPreset& p, uint64_t key, uint32_t frame, int w, int h,
+                      std::vector<float>& row_e, std::vector<float>& col_e) {
+  row_e.assign(p.row_noise_e > 0 ? h : 0, 0.f);
+  col_e.assign(p.column_noise_e > 0 ? w : 0, 0.f);
+  for (int y = 0; y < static_cast<int>(row_e.size()); ++y) {
+    auto r = random_words(key, frame, y, Stream::RowNoise);
+    row_e[y] = static_cast<float>(p.row_noise_e * normal_from_words(r[0], r[1]));
+  }
+  for (int x = 0; x < static_cast<int>(col_e.size()); ++x) {
+    auto r = random_words(key, frame, x, Stream::ColumnNoise);
+    col_e[x] = static_cast<float>(p.column_noise_e * normal_from_words(r[0], r[1]));
+  }
+}
+}  // namespace detail
+
+SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
+                   const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  const int w = mean_signal_e.width(), h = mean_signal_e.height();
+  detail::check_sense_inputs(w, h, p, fpn);
+
+  const uint64_t key = detail::temporal_key(fpn.device_seed, s.seed);
   const uint32_t frame = s.frame;
   const double dark_mean_e = ex.dark_current_e_per_s * ex.exposure_s;
   const double K = ex.system_gain_dn_per_e;
@@ -148,15 +169,8 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
   const double tukey_norm = tukey != 0 ? 1.0 / tukey_sd(tukey) : 0.0;
 
   // Row and column temporal noise: one Gaussian per row / column per frame (skipped when zero).
-  std::vector<float> row_e(p.row_noise_e > 0 ? h : 0), col_e(p.column_noise_e > 0 ? w : 0);
-  for (int y = 0; y < static_cast<int>(row_e.size()); ++y) {
-    auto r = random_words(key, frame, y, Stream::RowNoise);
-    row_e[y] = static_cast<float>(p.row_noise_e * normal_from_words(r[0], r[1]));
-  }
-  for (int x = 0; x < static_cast<int>(col_e.size()); ++x) {
-    auto r = random_words(key, frame, x, Stream::ColumnNoise);
-    col_e[x] = static_cast<float>(p.column_noise_e * normal_from_words(r[0], r[1]));
-  }
+  std::vector<float> row_e, col_e;
+  detail::row_column_noise(p, key, frame, w, h, row_e, col_e);
 
   SensorOutput out;
   out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
@@ -238,6 +252,17 @@ SensorOutput flat_field(double photons, double wavelength_nm, int width, int hei
   if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
     fail(fmt::format("flat-field size {}x{} is impossible", width, height));
   const ResolvedExposure ex = resolve(p, lens, s);
+  return sense(detail::flat_field_mean(photons, wavelength_nm, width, height, p), p, ex, s, fpn);
+}
+
+ImageF detail::flat_field_mean(double photons, double wavelength_nm, int width, int height,
+                               const CameraPreset& p) {
+  if (!std::isfinite(photons) || photons < 0)
+    fail(fmt::format("photons per pixel {} is impossible (must be >= 0)", photons));
+  if (!(wavelength_nm >= 200 && wavelength_nm <= 1200))
+    fail(fmt::format("wavelength {} nm is outside [200, 1200] nm", wavelength_nm));
+  if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
+    fail(fmt::format("flat-field size {}x{} is impossible", width, height));
   // Photons falling on the pixel area; the fill factor and QE turn them into electrons
   // (EMVA 1288 defines QE over the whole pixel area, so its η = FF · QE here).
   float per_color[4];
@@ -247,7 +272,7 @@ SensorOutput flat_field(double photons, double wavelength_nm, int width, int hei
   ImageF mean(width, height, 1, 0.f, unit::electrons);
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) mean.at(x, y) = per_color[static_cast<int>(cfa_color(p.cfa, x, y))];
-  return sense(mean, p, ex, s, fpn);
+  return mean;
 }
 
 }  // namespace photosite

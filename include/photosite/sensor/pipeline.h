@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "photosite/image.h"
 #include "photosite/sensor/demosaic.h"
@@ -73,5 +74,20 @@ SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, cons
 SensorOutput flat_field(double photons_per_pixel, double wavelength_nm, int width, int height,
                         const CameraPreset& preset, const LensPreset& lens,
                         const ExposureSettings& settings, const FixedPatternMaps& fpn);
+
+// Pieces of sense() shared with the Vulkan backend (gpu/sensor_chain.cpp), so both paths key,
+// check and draw the same way.
+namespace detail {
+// The temporal-noise key: the run seed mixed into the device seed.
+uint64_t temporal_key(uint64_t device_seed, uint64_t seed);
+// Bad input when the maps do not fit the frame or belong to another preset.
+void check_sense_inputs(int width, int height, const CameraPreset& preset, const FixedPatternMaps& fpn);
+// One Gaussian per row and per column per frame (e-); empty vectors when the preset has none.
+void row_column_noise(const CameraPreset& preset, uint64_t key, uint32_t frame, int width, int height,
+                      std::vector<float>& row_e, std::vector<float>& col_e);
+// flat_field()'s mean photo-electrons per pixel (before sense()).
+ImageF flat_field_mean(double photons_per_pixel, double wavelength_nm, int width, int height,
+                       const CameraPreset& preset);
+}  // namespace detail
 
 }  // namespace photosite

@@ -1,0 +1,94 @@
+#include "backend.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "photosite/error.h"
+#ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/gpu/sensor.h"
+#endif
+
+namespace photosite::cli {
+
+const char* to_string(Backend b) { return b == Backend::Vulkan ? "vulkan" : "cpu"; }
+
+void add_backend_option(CLI::App* sub, std::string& backend) {
+  sub->add_option("--backend", backend,
+                  "where the per-pixel sensor stages run: cpu, vulkan, or auto (a real GPU when "
+                  "present, else cpu)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "vulkan", "auto"}));
+}
+
+Backend resolve_backend(const std::string& name) {
+  if (name == "cpu") return Backend::Cpu;
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (name == "vulkan") {
+    try {
+      gpu::shared_context();
+    } catch (const Error& e) {
+      fail(std::string("--backend vulkan: ") + e.what());
+    }
+    return Backend::Vulkan;
+  }
+  if (name == "auto") {
+    try {
+      return gpu::shared_context().device().cpu ? Backend::Cpu : Backend::Vulkan;
+    } catch (const Error&) {
+      return Backend::Cpu;  // no loader or device: the native path, silently (that is auto)
+    }
+  }
+#else
+  if (name == "vulkan") fail("--backend vulkan: this photosite was built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)");
+  if (name == "auto") return Backend::Cpu;
+#endif
+  fail("unknown --backend '" + name + "' (known: cpu, vulkan, auto)");
+}
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+struct SensorRunner::Device {
+  gpu::SensorChain chain{gpu::shared_context()};
+};
+#else
+struct SensorRunner::Device {};
+#endif
+
+SensorRunner::SensorRunner(Backend b) : backend_(b) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (b == Backend::Vulkan) device_ = std::make_unique<Device>();
+#endif
+}
+SensorRunner::~SensorRunner() {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  // With PHOTOSITE_VK_VALIDATION=1 every validation message is reported (tests look for them).
+  if (device_ && device_->chain.context().validation())
+    for (const auto& m : device_->chain.context().messages()) std::fprintf(stderr, "photosite: Vulkan validation: %s\n", m.c_str());
+#endif
+}
+
+ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                           const ResolvedExposure& ex) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.mean_signal_electrons(radiance, p, lens, ex);
+#endif
+  return photosite::mean_signal_electrons(radiance, p, lens, ex);
+}
+
+SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
+                                 const ExposureSettings& s, const FixedPatternMaps& fpn) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.sense(mean_e, p, ex, s, fpn);
+#endif
+  return photosite::sense(mean_e, p, ex, s, fpn);
+}
+
+SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                  const ExposureSettings& s, const FixedPatternMaps& fpn) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.expose(radiance, p, lens, s, fpn);
+#endif
+  return photosite::expose(radiance, p, lens, s, fpn);
+}
+
+}  // namespace photosite::cli

@@ -1,0 +1,46 @@
+// `--backend cpu|vulkan|auto`: where the per-pixel sensor stages run.
+//   cpu     the native C++ path (OpenMP, AVX2);
+//   vulkan  the GLSL kernels (kernels/) through Vulkan; no loader, driver or usable device is
+//           bad input (exit 2) with the reason;
+//   auto    (default) Vulkan on a real GPU when one is present, else the CPU path: a CPU Vulkan
+//           driver (lavapipe) runs the same kernels slower than the native code
+//           (docs/vulkan.md has the ratio).
+// Both give the same numbers (tests/gpu_test.cpp: bit-equal on lavapipe).
+#pragma once
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+
+#include "photosite/sensor/pipeline.h"
+
+namespace photosite::cli {
+
+enum class Backend { Cpu, Vulkan };
+const char* to_string(Backend b);
+
+void add_backend_option(CLI::App* sub, std::string& backend);
+// Resolves the option's value; `vulkan` with no usable device fails here, before any work.
+Backend resolve_backend(const std::string& name);
+
+// The sensor stages on the chosen backend; on Vulkan the device buffers and fixed-pattern maps
+// are kept from one frame to the next. Not thread-safe: one per thread of work.
+class SensorRunner {
+ public:
+  explicit SensorRunner(Backend b);
+  ~SensorRunner();
+  Backend backend() const { return backend_; }
+  ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
+                               const LensPreset& lens, const ResolvedExposure& exposure);
+  SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
+                     const ResolvedExposure& exposure, const ExposureSettings& settings,
+                     const FixedPatternMaps& fpn);
+  SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
+                      const ExposureSettings& settings, const FixedPatternMaps& fpn);
+
+ private:
+  Backend backend_;
+  struct Device;
+  std::unique_ptr<Device> device_;
+};
+
+}  // namespace photosite::cli

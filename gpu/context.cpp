@@ -1,0 +1,288 @@
+// The Vulkan context: the loader opened at run time, an instance (with the Khronos validation
+// layer and a recording debug messenger on request), and one device with a compute queue.
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fmt/format.h>
+
+#include "photosite/gpu/kernel.h"
+#include "vk.h"
+
+namespace photosite::gpu {
+namespace vk {
+const char* result_name(VkResult r) {
+  switch (r) {
+    case VK_SUCCESS: return "VK_SUCCESS";
+    case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
+    case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
+    case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
+    case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
+    case VK_ERROR_LAYER_NOT_PRESENT: return "VK_ERROR_LAYER_NOT_PRESENT";
+    case VK_ERROR_EXTENSION_NOT_PRESENT: return "VK_ERROR_EXTENSION_NOT_PRESENT";
+    case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
+    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER (no Vulkan driver found)";
+    default: return "VkResult error";
+  }
+}
+void check(VkResult r, const char* what) {
+  if (r != VK_SUCCESS) fail(fmt::format("Vulkan: {} failed ({}, {})", what, result_name(r), static_cast<int>(r)));
+}
+}  // namespace vk
+
+namespace {
+VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                          VkDebugUtilsMessageTypeFlagsEXT,
+                                          const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+  const char* sev = severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? "error" : "warning";
+  static_cast<Context*>(user)->record_message(fmt::format("{}: {}", sev, data && data->pMessage ? data->pMessage : "?"));
+  return VK_FALSE;
+}
+
+const char* type_name(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+    default: return "other";
+  }
+}
+int preference(VkPhysicalDeviceType t) {  // higher is better: real GPUs before CPU drivers
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+  }
+}
+}  // namespace
+
+Context::Impl::~Impl() {
+  if (device) { f.vkDeviceWaitIdle(device); f.vkDestroyDevice(device, nullptr); }
+  if (messenger) f.vkDestroyDebugUtilsMessengerEXT(instance, messenger, nullptr);
+  if (instance) f.vkDestroyInstance(instance, nullptr);
+  if (lib) dlclose(lib);
+}
+
+void Context::record_message(std::string m) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  messages_.push_back(std::move(m));
+}
+std::vector<std::string> Context::messages() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return messages_;
+}
+
+Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()) {
+  Impl& I = *impl_;
+  auto& f = I.f;
+  I.lib = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_LOCAL);
+  if (!I.lib)
+    fail("Vulkan: the Vulkan loader (libvulkan.so.1) is not installed; install libvulkan1 and a "
+         "driver (mesa-vulkan-drivers for lavapipe), or use --backend cpu");
+  f.vkGetInstanceProcAddr = reinterpret_cast<PFN_vkGetInstanceProcAddr>(dlsym(I.lib, "vkGetInstanceProcAddr"));
+  if (!f.vkGetInstanceProcAddr) fail("Vulkan: libvulkan.so.1 has no vkGetInstanceProcAddr");
+#define PHOTOSITE_VK_LOAD_GLOBAL(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetInstanceProcAddr(nullptr, #name));
+  PHOTOSITE_VK_GLOBAL(PHOTOSITE_VK_LOAD_GLOBAL)
+#undef PHOTOSITE_VK_LOAD_GLOBAL
+
+  const char* env = std::getenv("PHOTOSITE_VK_VALIDATION");
+  validation_ = options.validation || (env && std::strcmp(env, "0") != 0 && *env);
+  std::vector<const char*> layers, extensions;
+  if (validation_) {
+    uint32_t n = 0;
+    f.vkEnumerateInstanceLayerProperties(&n, nullptr);
+    std::vector<VkLayerProperties> props(n);
+    f.vkEnumerateInstanceLayerProperties(&n, props.data());
+    bool found = false;
+    for (auto& p : props) found |= std::strcmp(p.layerName, "VK_LAYER_KHRONOS_validation") == 0;
+    if (!found)
+      fail("Vulkan: validation requested (PHOTOSITE_VK_VALIDATION) but VK_LAYER_KHRONOS_validation "
+           "is not installed (Debian: vulkan-validationlayers)");
+    layers.push_back("VK_LAYER_KHRONOS_validation");
+    extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  }
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "photosite";
+  app.apiVersion = VK_API_VERSION_1_1;
+  VkDebugUtilsMessengerCreateInfoEXT dm{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+  dm.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  dm.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                   VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  dm.pfnUserCallback = on_message;
+  dm.pUserData = this;
+  VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ici.pApplicationInfo = &app;
+  ici.enabledLayerCount = static_cast<uint32_t>(layers.size());
+  ici.ppEnabledLayerNames = layers.data();
+  ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+  ici.ppEnabledExtensionNames = extensions.data();
+  if (validation_) ici.pNext = &dm;
+  const VkResult created = f.vkCreateInstance(&ici, nullptr, &I.instance);
+  if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
+    fail("Vulkan: no Vulkan driver found (install mesa-vulkan-drivers for lavapipe, or a GPU driver; "
+         "VK_DRIVER_FILES / VK_ICD_FILENAMES may point elsewhere)");
+  vk::check(created, "creating an instance");
+#define PHOTOSITE_VK_LOAD_INSTANCE(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetInstanceProcAddr(I.instance, #name));
+  PHOTOSITE_VK_INSTANCE(PHOTOSITE_VK_LOAD_INSTANCE)
+#undef PHOTOSITE_VK_LOAD_INSTANCE
+  if (validation_) vk::check(f.vkCreateDebugUtilsMessengerEXT(I.instance, &dm, nullptr, &I.messenger), "creating the debug messenger");
+
+  uint32_t n = 0;
+  vk::check(f.vkEnumeratePhysicalDevices(I.instance, &n, nullptr), "listing devices");
+  std::vector<VkPhysicalDevice> devices(n);
+  if (n) vk::check(f.vkEnumeratePhysicalDevices(I.instance, &n, devices.data()), "listing devices");
+  // The kernels need a compute queue and 64-bit floats (the sensor's ADC and photon integral
+  // are computed in double, as on the CPU, so DN agree exactly).
+  int best = -1, best_score = -1;
+  std::string rejected;
+  for (uint32_t i = 0; i < n; ++i) {
+    VkPhysicalDeviceProperties p;
+    f.vkGetPhysicalDeviceProperties(devices[i], &p);
+    VkPhysicalDeviceFeatures feat;
+    f.vkGetPhysicalDeviceFeatures(devices[i], &feat);
+    uint32_t nq = 0;
+    f.vkGetPhysicalDeviceQueueFamilyProperties(devices[i], &nq, nullptr);
+    std::vector<VkQueueFamilyProperties> q(nq);
+    f.vkGetPhysicalDeviceQueueFamilyProperties(devices[i], &nq, q.data());
+    bool compute = false;
+    for (auto& fam : q) compute |= (fam.queueFlags & VK_QUEUE_COMPUTE_BIT) != 0;
+    if (!compute || !feat.shaderFloat64 || p.apiVersion < VK_API_VERSION_1_1) {
+      rejected += fmt::format(" '{}' ({})", p.deviceName,
+                              !compute ? "no compute queue" : !feat.shaderFloat64 ? "no shaderFloat64" : "Vulkan < 1.1");
+      continue;
+    }
+    int score = options.prefer_gpu ? preference(p.deviceType) : (p.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 5 : preference(p.deviceType));
+    if (score > best_score) best = static_cast<int>(i), best_score = score;
+  }
+  if (best < 0)
+    fail(n == 0 ? std::string("Vulkan: no Vulkan device found (no driver: install mesa-vulkan-drivers for lavapipe, or a GPU driver)")
+                : "Vulkan: no usable device:" + rejected);
+  I.physical = devices[best];
+  VkPhysicalDeviceProperties p;
+  f.vkGetPhysicalDeviceProperties(I.physical, &p);
+  f.vkGetPhysicalDeviceMemoryProperties(I.physical, &I.memory);
+  uint32_t nq = 0;
+  f.vkGetPhysicalDeviceQueueFamilyProperties(I.physical, &nq, nullptr);
+  std::vector<VkQueueFamilyProperties> q(nq);
+  f.vkGetPhysicalDeviceQueueFamilyProperties(I.physical, &nq, q.data());
+  for (uint32_t i = 0; i < nq; ++i)
+    if (q[i].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+      I.queue_family = i;
+      // Prefer a compute family without graphics (a dedicated compute queue), else the first.
+      if (!(q[i].queueFlags & VK_QUEUE_GRAPHICS_BIT)) break;
+    }
+  info_.name = p.deviceName;
+  info_.type = type_name(p.deviceType);
+  info_.cpu = p.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  info_.vendor_id = p.vendorID;
+  info_.api_version = p.apiVersion;
+  info_.timestamps = q[I.queue_family].timestampValidBits > 0 && p.limits.timestampPeriod > 0;
+  info_.timestamp_period_ns = p.limits.timestampPeriod;
+
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qci.queueFamilyIndex = I.queue_family;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  VkPhysicalDeviceFeatures enabled{};
+  enabled.shaderFloat64 = VK_TRUE;
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.pEnabledFeatures = &enabled;
+  vk::check(f.vkCreateDevice(I.physical, &dci, nullptr, &I.device), "creating the device");
+#define PHOTOSITE_VK_LOAD_DEVICE(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetDeviceProcAddr(I.device, #name));
+  PHOTOSITE_VK_DEVICE(PHOTOSITE_VK_LOAD_DEVICE)
+#undef PHOTOSITE_VK_LOAD_DEVICE
+  f.vkGetDeviceQueue(I.device, I.queue_family, 0, &I.queue);
+}
+
+Context::~Context() { kernels_.clear(); }  // pipelines before the device
+
+Kernel& Context::kernel(const std::string& name, int buffers, uint32_t push_bytes) {
+  auto it = kernels_.find(name);
+  if (it == kernels_.end()) it = kernels_.emplace(name, std::make_unique<Kernel>(*this, name, buffers, push_bytes)).first;
+  if (it->second->buffers() != buffers || it->second->push_bytes() != push_bytes)
+    internal_error("gpu: kernel " + name + " requested with a different interface");
+  return *it->second;
+}
+
+bool available(std::string* why, DeviceInfo* info) {
+  try {
+    Context ctx;
+    if (info) *info = ctx.device();
+    return true;
+  } catch (const Error& e) {
+    if (why) *why = e.what();
+    return false;
+  }
+}
+
+Context& shared_context() {
+  static Context* ctx = new Context;  // a failed construction throws and is retried next call
+  return *ctx;
+}
+
+// ---- buffers -----------------------------------------------------------------------------
+
+Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std::make_unique<Impl>()) {
+  auto& C = ctx.impl();
+  auto& f = C.f;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = std::max<size_t>(4, (bytes + 3) & ~size_t{3});  // storage buffers are read in words
+  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &impl_->buffer), "creating a buffer");
+  VkMemoryRequirements req;
+  f.vkGetBufferMemoryRequirements(C.device, impl_->buffer, &req);
+  // Host-visible and coherent: mapped once; prefer memory that is also device-local (a GPU's
+  // resizable BAR, or any memory of a CPU driver).
+  const VkMemoryPropertyFlags need = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  int type = -1;
+  for (int pass = 0; pass < 2 && type < 0; ++pass)
+    for (uint32_t i = 0; i < C.memory.memoryTypeCount; ++i) {
+      const auto flags = C.memory.memoryTypes[i].propertyFlags;
+      const bool ok = (req.memoryTypeBits & (1u << i)) && (flags & need) == need &&
+                      (pass == 1 || (flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT));
+      if (ok) { type = static_cast<int>(i); break; }
+    }
+  if (type < 0) fail("Vulkan: no host-visible coherent memory type for storage buffers");
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = static_cast<uint32_t>(type);
+  if (f.vkAllocateMemory(C.device, &mai, nullptr, &impl_->memory) != VK_SUCCESS) {
+    // Large frames on a GPU whose BAR window is small: fall back to any host-visible type.
+    bool done = false;
+    for (uint32_t i = 0; i < C.memory.memoryTypeCount && !done; ++i) {
+      const auto flags = C.memory.memoryTypes[i].propertyFlags;
+      if ((req.memoryTypeBits & (1u << i)) && (flags & need) == need && static_cast<int>(i) != type) {
+        mai.memoryTypeIndex = i;
+        done = f.vkAllocateMemory(C.device, &mai, nullptr, &impl_->memory) == VK_SUCCESS;
+      }
+    }
+    if (!done) fail(fmt::format("Vulkan: allocating a {} MB buffer failed", bytes >> 20));
+  }
+  vk::check(f.vkBindBufferMemory(C.device, impl_->buffer, impl_->memory, 0), "binding buffer memory");
+  vk::check(f.vkMapMemory(C.device, impl_->memory, 0, VK_WHOLE_SIZE, 0, &mapped_), "mapping a buffer");
+}
+
+Buffer::~Buffer() {
+  auto& C = ctx_.impl();
+  if (mapped_) C.f.vkUnmapMemory(C.device, impl_->memory);
+  if (impl_->buffer) C.f.vkDestroyBuffer(C.device, impl_->buffer, nullptr);
+  if (impl_->memory) C.f.vkFreeMemory(C.device, impl_->memory, nullptr);
+}
+
+void Buffer::upload(const void* src, size_t n, size_t offset) {
+  if (offset + n > bytes_) internal_error("gpu::Buffer::upload beyond the buffer");
+  std::memcpy(static_cast<char*>(mapped_) + offset, src, n);
+}
+void Buffer::download(void* dst, size_t n, size_t offset) const {
+  if (offset + n > bytes_) internal_error("gpu::Buffer::download beyond the buffer");
+  std::memcpy(dst, static_cast<const char*>(mapped_) + offset, n);
+}
+
+}  // namespace photosite::gpu

@@ -1,0 +1,109 @@
+// The parameter structs of the kernels, each mirrored field for field by the push-constant
+// block of its kernels/<name>.comp (std430: scalars 4-byte aligned, uvec2 8, double 8). The
+// static_asserts pin every size and offset to the GLSL layout.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "photosite/gpu/kernel.h"
+#include "photosite/sensor/cfa.h"
+
+namespace photosite::gpu {
+
+// {low, high} halves of a 64-bit value, as GLSL's uvec2.
+struct U64 {
+  uint32_t lo, hi;
+  static U64 of(uint64_t v) { return {static_cast<uint32_t>(v), static_cast<uint32_t>(v >> 32)}; }
+};
+
+// poisson.comp, philox_words.comp
+struct PoissonParams {
+  uint32_t n, frame, stream, pad;
+  U64 first_pixel, key;
+};
+static_assert(sizeof(PoissonParams) == 32 && offsetof(PoissonParams, first_pixel) == 16 &&
+              offsetof(PoissonParams, key) == 24);
+
+// A 1-D job of n items in groups of `local`, laid out as x * y groups (x <= 65535, the
+// guaranteed maxComputeWorkGroupCount), matching linear_invocation() in common/philox.glsl.
+struct Grid { uint32_t x, y; };
+inline Grid grid_1d(uint64_t n, uint32_t local = 256) {
+  const uint64_t groups = (n + local - 1) / local;
+  if (groups <= 65535) return {static_cast<uint32_t>(groups ? groups : 1), 1};
+  return {65535, static_cast<uint32_t>((groups + 65534) / 65535)};
+}
+
+}  // namespace photosite::gpu
+
+namespace photosite::gpu {
+
+// photon.comp
+struct PhotonParams {
+  uint32_t width, height, cfa_cell, pad;
+  double pitch_over_f, cx, cy;
+};
+static_assert(sizeof(PhotonParams) == 40 && offsetof(PhotonParams, pitch_over_f) == 16 &&
+              offsetof(PhotonParams, cy) == 32);
+
+// sense.comp
+struct SenseParams {
+  uint32_t width, height, frame, stream;
+  U64 key;
+  uint32_t flags;
+  float dark_mean_e, full_well_e, read_noise_e;
+  double gain_dn_per_e, black_dn, max_code;
+};
+static_assert(sizeof(SenseParams) == 64 && offsetof(SenseParams, key) == 16 &&
+              offsetof(SenseParams, flags) == 24 && offsetof(SenseParams, read_noise_e) == 36 &&
+              offsetof(SenseParams, gain_dn_per_e) == 40 && offsetof(SenseParams, max_code) == 56);
+enum SenseFlags : uint32_t { kHasPrnu = 1, kHasDsnu = 2, kHasDarkRate = 4, kHasRowNoise = 8, kHasColumnNoise = 16 };
+
+// A pattern's 2x2 cell for common/cfa.glsl: byte ((y&1)<<1 | (x&1)) = cfa_color(p, x, y).
+inline uint32_t pack_cfa(CfaPattern p) {
+  uint32_t cell = 0;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 2; ++x) cell |= static_cast<uint32_t>(cfa_color(p, x, y)) << (8 * ((y << 1) | x));
+  return cell;
+}
+// filter_planes_to_rgb's cases (sensor/demosaic.cpp) as demosaic_bilinear.comp numbers them.
+inline uint32_t planes_mode(CfaPattern p) {
+  switch (p) {
+    case CfaPattern::RCCB: return 1;
+    case CfaPattern::RCCC: return 2;
+    case CfaPattern::Mono: return 3;
+    default: return 0;
+  }
+}
+
+// demosaic_bilinear.comp
+struct DemosaicParams {
+  uint32_t width, height, cfa_cell, planes_to_rgb;
+  float black_dn;
+};
+static_assert(sizeof(DemosaicParams) == 20 && offsetof(DemosaicParams, black_dn) == 16);
+
+}  // namespace photosite::gpu
+
+namespace photosite::gpu {
+
+// darken.comp, from scene::DarkenParams
+struct DarkenParams {
+  float ground[3], vertical[3];
+  double K[3], rho_sky, glow[3];
+  U64 ground_mask;
+  uint32_t n, sky_id;
+};
+static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
+              offsetof(DarkenParams, rho_sky) == 48 && offsetof(DarkenParams, glow) == 56 &&
+              offsetof(DarkenParams, ground_mask) == 80 && offsetof(DarkenParams, n) == 88);
+
+// bloom_down.comp, bloom_blur.comp, bloom_up.comp, bloom_mix.comp (one block for all four)
+struct BloomParams {
+  int32_t src_w, src_h, dst_w, dst_h;
+  int32_t mode;
+  float a, b;
+  float weights[7];
+};
+static_assert(sizeof(BloomParams) == 56 && offsetof(BloomParams, a) == 20 && offsetof(BloomParams, weights) == 28);
+
+}  // namespace photosite::gpu

@@ -1,0 +1,168 @@
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstring>
+
+#include "kernels.h"
+#include "photosite/error.h"
+#include "photosite/gpu/sensor.h"
+#include "photosite/rng.h"
+
+namespace photosite::gpu {
+
+SensorChain::SensorChain(Context& ctx) : ctx_(ctx), seq_(std::make_unique<Sequence>(ctx)) {}
+SensorChain::~SensorChain() = default;
+
+Buffer& SensorChain::buffer(const std::string& name, size_t bytes) {
+  auto& b = buffers_[name];
+  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
+  return *b;
+}
+
+void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p,
+                                const LensPreset& lens, const ResolvedExposure& ex) {
+  if (radiance.channels() != 3)
+    fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
+  if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
+  const int w = radiance.width(), h = radiance.height();
+  const size_t n = static_cast<size_t>(w) * h;
+  Buffer& rad = buffer("radiance", n * 3 * sizeof(float));
+  rad.upload(radiance.data(), n * 3 * sizeof(float));
+  const PhotonMatrix m = photon_matrix(p, lens, ex);
+  Buffer& mat = buffer("photon_matrix", 12 * sizeof(double));
+  for (int c = 0; c < 4; ++c) std::memcpy(mat.as<double>() + 3 * c, m[c].data(), 3 * sizeof(double));
+  Buffer& bad = buffer("bad", sizeof(uint32_t));
+  *bad.as<uint32_t>() = UINT32_MAX;
+  PhotonParams pp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), 0,
+                  lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0,
+                  0.5 * (w - 1), 0.5 * (h - 1)};
+  Kernel& k = ctx_.kernel("photon", 4, sizeof(PhotonParams));
+  const Grid g = grid_1d(n);
+  s.dispatch(k, {&rad, &mat, &buffer("mean_e", n * sizeof(float)), &bad}, pp, g.x, g.y, 1, "photon");
+}
+
+void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
+                               const ExposureSettings& st, const FixedPatternMaps& fpn) {
+  detail::check_sense_inputs(w, h, p, fpn);
+  if (p.read_noise_tukey_lambda != 0)
+    fail(fmt::format("the Vulkan backend has no Tukey-lambda read noise yet (preset '{}', lambda {}); "
+                     "use --backend cpu",
+                     p.name, p.read_noise_tukey_lambda));
+  const size_t n = static_cast<size_t>(w) * h;
+  // Fixed-pattern maps: uploaded once per device, kept for every later frame.
+  const std::string fpn_id = fmt::format("{}|{}|{}x{}", fpn.device_id, fpn.checksum, w, h);
+  uint32_t flags = 0;
+  auto map = [&](const char* name, const ImageF& img, uint32_t flag) -> Buffer& {
+    if (img.empty()) return buffer(std::string(name) + "_absent", 4);
+    flags |= flag;
+    Buffer& b = buffer(name, n * sizeof(float));
+    if (fpn_loaded_ != fpn_id || fpn.checksum.empty()) b.upload(img.data(), n * sizeof(float));
+    return b;
+  };
+  Buffer& prnu = map("prnu", fpn.prnu_gain, kHasPrnu);
+  Buffer& dsnu = map("dsnu", fpn.dsnu_offset_e, kHasDsnu);
+  Buffer& dark = map("dark_rate", fpn.dark_rate_factor, kHasDarkRate);
+  fpn_loaded_ = fpn_id;
+  const uint64_t key = detail::temporal_key(fpn.device_seed, st.seed);
+  std::vector<float> row_e, col_e;
+  detail::row_column_noise(p, key, st.frame, w, h, row_e, col_e);
+  Buffer& row = buffer("row_e", std::max<size_t>(4, row_e.size() * sizeof(float)));
+  Buffer& col = buffer("col_e", std::max<size_t>(4, col_e.size() * sizeof(float)));
+  if (!row_e.empty()) row.upload(row_e.data(), row_e.size() * sizeof(float)), flags |= kHasRowNoise;
+  if (!col_e.empty()) col.upload(col_e.data(), col_e.size() * sizeof(float)), flags |= kHasColumnNoise;
+  SenseParams sp{};
+  sp.width = static_cast<uint32_t>(w);
+  sp.height = static_cast<uint32_t>(h);
+  sp.frame = st.frame;
+  sp.stream = static_cast<uint32_t>(Stream::PhotonShot);
+  sp.key = U64::of(key);
+  sp.flags = flags;
+  sp.dark_mean_e = static_cast<float>(ex.dark_current_e_per_s * ex.exposure_s);
+  sp.full_well_e = static_cast<float>(p.full_well_e);
+  sp.read_noise_e = static_cast<float>(p.read_noise_e);
+  sp.gain_dn_per_e = ex.system_gain_dn_per_e;
+  sp.black_dn = p.black_level_dn;
+  sp.max_code = std::ldexp(1.0, p.bit_depth) - 1.0;
+  Kernel& k = ctx_.kernel("sense", 8, sizeof(SenseParams));
+  const Grid g = grid_1d(n);
+  Buffer& electrons = buffer("electrons", n * sizeof(float));
+  Buffer& raw = buffer("raw_dn", n * sizeof(float));
+  s.dispatch(k, {&buffer("mean_e", n * sizeof(float)), &prnu, &dsnu, &dark, &row, &col, &electrons, &raw}, sp,
+             g.x, g.y, 1, "sense");
+  if (st.demosaic == DemosaicMethod::Bilinear) {
+    DemosaicParams dp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), planes_mode(p.cfa),
+                      static_cast<float>(p.black_level_dn)};
+    Kernel& d = ctx_.kernel("demosaic_bilinear", 2, sizeof(DemosaicParams));
+    s.dispatch(d, {&raw, &buffer("rgb", n * 3 * sizeof(float))}, dp, g.x, g.y, 1, "demosaic");
+  }
+}
+
+SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const ExposureSettings& st) {
+  const size_t n = static_cast<size_t>(w) * h;
+  SensorOutput out;
+  out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
+  out.raw_dn = ImageF(w, h, 1, uninitialized, unit::dn);
+  buffer("electrons", n * sizeof(float)).download(out.electrons.data(), n * sizeof(float));
+  buffer("raw_dn", n * sizeof(float)).download(out.raw_dn.data(), n * sizeof(float));
+  if (st.demosaic == DemosaicMethod::Bilinear) {
+    out.rgb = ImageF(w, h, 3, uninitialized, unit::dn);
+    buffer("rgb", n * 3 * sizeof(float)).download(out.rgb.data(), n * 3 * sizeof(float));
+  } else {  // other methods run on the CPU, on the downloaded mosaic (as sense() does)
+    ImageF above_black(w, h, 1, uninitialized, unit::dn);
+    const float blk = static_cast<float>(p.black_level_dn);
+    for (size_t i = 0; i < n; ++i) above_black[i] = out.raw_dn[i] - blk;
+    out.rgb = demosaic(above_black, p.cfa, st.demosaic);
+    out.rgb.set_unit(unit::dn);
+  }
+  return out;
+}
+
+static void check_bad(Buffer& bad, const ImageF& radiance) {
+  const uint32_t i = *bad.as<uint32_t>();
+  if (i == UINT32_MAX) return;
+  const int x = static_cast<int>(i % radiance.width()), y = static_cast<int>(i / radiance.width());
+  const float* r = radiance.row(y) + 3 * x;
+  fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
+                   "are not physical",
+                   x, y, r[0], r[1], r[2]));
+}
+
+ImageF SensorChain::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                          const ResolvedExposure& ex) {
+  seq_->begin();
+  record_photon(*seq_, radiance, p, lens, ex);
+  seq_->submit_and_wait();
+  times_ = seq_->stage_times();
+  check_bad(buffer("bad", sizeof(uint32_t)), radiance);
+  const size_t n = radiance.pixel_count();
+  ImageF out(radiance.width(), radiance.height(), 1, uninitialized, unit::electrons);
+  buffer("mean_e", n * sizeof(float)).download(out.data(), n * sizeof(float));
+  return out;
+}
+
+SensorOutput SensorChain::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
+                                const ExposureSettings& st, const FixedPatternMaps& fpn) {
+  const int w = mean_e.width(), h = mean_e.height();
+  const size_t n = mean_e.pixel_count();
+  seq_->begin();
+  if (w >= 1 && h >= 1) buffer("mean_e", n * sizeof(float)).upload(mean_e.data(), n * sizeof(float));
+  record_sense(*seq_, w, h, p, ex, st, fpn);
+  seq_->submit_and_wait();
+  times_ = seq_->stage_times();
+  return finish(w, h, p, st);
+}
+
+SensorOutput SensorChain::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                 const ExposureSettings& st, const FixedPatternMaps& fpn) {
+  const ResolvedExposure ex = resolve(p, lens, st);
+  seq_->begin();
+  record_photon(*seq_, radiance, p, lens, ex);
+  record_sense(*seq_, radiance.width(), radiance.height(), p, ex, st, fpn);
+  seq_->submit_and_wait();
+  times_ = seq_->stage_times();
+  check_bad(buffer("bad", sizeof(uint32_t)), radiance);
+  return finish(radiance.width(), radiance.height(), p, st);
+}
+
+}  // namespace photosite::gpu

@@ -1,0 +1,63 @@
+// Single-stage entry points (one upload, one dispatch, one download): the device twins of CPU
+// functions, used by the parity tests and the benchmark.
+#include "photosite/gpu/stages.h"
+
+#include "kernels.h"
+#include "photosite/error.h"
+#include "photosite/gpu/sequence.h"
+
+namespace photosite::gpu {
+
+void poisson_fill(Context& ctx, const float* mean, float* out, uint64_t n, uint64_t first_pixel,
+                  uint64_t seed, uint32_t frame, uint32_t stream) {
+  if (n == 0) return;
+  Buffer in(ctx, n * sizeof(float)), res(ctx, n * sizeof(float));
+  in.upload(mean, n * sizeof(float));
+  Sequence s(ctx);
+  record_poisson(ctx, s, in, res, n, first_pixel, seed, frame, stream);
+  s.submit_and_wait();
+  res.download(out, n * sizeof(float));
+}
+
+void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64_t n, uint64_t first_pixel,
+                    uint64_t seed, uint32_t frame, uint32_t stream) {
+  if (n > UINT32_MAX) fail("gpu poisson: more than 2^32 - 1 pixels in one dispatch");
+  Kernel& k = ctx.kernel("poisson", 2, sizeof(PoissonParams));
+  const PoissonParams p{static_cast<uint32_t>(n), frame, stream, 0, U64::of(first_pixel), U64::of(seed)};
+  const Grid g = grid_1d(n);
+  s.dispatch(k, {&mean, &out}, p, g.x, g.y, 1, "poisson");
+}
+
+std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixel, uint64_t seed,
+                                   uint32_t frame, uint32_t stream) {
+  std::vector<uint32_t> out(4 * n);
+  if (n == 0) return out;
+  Buffer res(ctx, out.size() * sizeof(uint32_t));
+  Kernel& k = ctx.kernel("philox_words", 1, sizeof(PoissonParams));
+  const PoissonParams p{static_cast<uint32_t>(n), frame, stream, 0, U64::of(first_pixel), U64::of(seed)};
+  Sequence s(ctx);
+  const Grid g = grid_1d(n);
+  s.dispatch(k, {&res}, p, g.x, g.y);
+  s.submit_and_wait();
+  res.download(out.data(), out.size() * sizeof(uint32_t));
+  return out;
+}
+
+ImageF demosaic_bilinear(Context& ctx, const ImageF& mosaic, CfaPattern pattern) {
+  if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
+  const size_t n = mosaic.pixel_count();
+  ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
+  if (n == 0) return out;
+  Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float));
+  in.upload(mosaic.data(), n * sizeof(float));
+  const DemosaicParams p{static_cast<uint32_t>(mosaic.width()), static_cast<uint32_t>(mosaic.height()),
+                         pack_cfa(pattern), planes_mode(pattern), 0.f};
+  Sequence s(ctx);
+  const Grid g = grid_1d(n);
+  s.dispatch(ctx.kernel("demosaic_bilinear", 2, sizeof(DemosaicParams)), {&in, &res}, p, g.x, g.y);
+  s.submit_and_wait();
+  res.download(out.data(), 3 * n * sizeof(float));
+  return out;
+}
+
+}  // namespace photosite::gpu

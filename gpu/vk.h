@@ -1,0 +1,68 @@
+// Vulkan entry points loaded at run time (dlopen libvulkan.so.1, then vkGetInstanceProcAddr /
+// vkGetDeviceProcAddr), so photosite links no Vulkan library and starts without one.
+#pragma once
+#define VK_NO_PROTOTYPES
+#include <vulkan/vulkan.h>
+
+#include <string>
+
+#include "photosite/error.h"
+#include "photosite/gpu/context.h"
+
+namespace photosite::gpu::vk {
+
+#define PHOTOSITE_VK_GLOBAL(X) \
+  X(vkCreateInstance) X(vkEnumerateInstanceLayerProperties) X(vkEnumerateInstanceExtensionProperties)
+#define PHOTOSITE_VK_INSTANCE(X)                                                              \
+  X(vkDestroyInstance) X(vkEnumeratePhysicalDevices) X(vkGetPhysicalDeviceProperties)          \
+  X(vkGetPhysicalDeviceQueueFamilyProperties) X(vkGetPhysicalDeviceFeatures)                   \
+  X(vkGetPhysicalDeviceMemoryProperties) X(vkCreateDevice) X(vkGetDeviceProcAddr)              \
+  X(vkCreateDebugUtilsMessengerEXT) X(vkDestroyDebugUtilsMessengerEXT)
+#define PHOTOSITE_VK_DEVICE(X)                                                                 \
+  X(vkDestroyDevice) X(vkGetDeviceQueue) X(vkDeviceWaitIdle) X(vkCreateBuffer)                 \
+  X(vkDestroyBuffer) X(vkGetBufferMemoryRequirements) X(vkAllocateMemory) X(vkFreeMemory)       \
+  X(vkBindBufferMemory) X(vkMapMemory) X(vkUnmapMemory) X(vkCreateShaderModule)                 \
+  X(vkDestroyShaderModule) X(vkCreateDescriptorSetLayout) X(vkDestroyDescriptorSetLayout)       \
+  X(vkCreatePipelineLayout) X(vkDestroyPipelineLayout) X(vkCreateComputePipelines)              \
+  X(vkDestroyPipeline) X(vkCreateDescriptorPool) X(vkDestroyDescriptorPool)                     \
+  X(vkResetDescriptorPool) X(vkAllocateDescriptorSets) X(vkUpdateDescriptorSets)                \
+  X(vkCreateCommandPool) X(vkDestroyCommandPool) X(vkAllocateCommandBuffers)                    \
+  X(vkResetCommandBuffer) X(vkBeginCommandBuffer) X(vkEndCommandBuffer) X(vkCmdBindPipeline)    \
+  X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) X(vkCmdDispatch) X(vkCmdPipelineBarrier)     \
+  X(vkQueueSubmit) X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences)       \
+  X(vkCreateQueryPool) X(vkDestroyQueryPool) X(vkCmdResetQueryPool) X(vkCmdWriteTimestamp)     \
+  X(vkGetQueryPoolResults)
+
+struct Functions {
+  PFN_vkGetInstanceProcAddr vkGetInstanceProcAddr = nullptr;
+#define PHOTOSITE_VK_DECLARE(name) PFN_##name name = nullptr;
+  PHOTOSITE_VK_GLOBAL(PHOTOSITE_VK_DECLARE)
+  PHOTOSITE_VK_INSTANCE(PHOTOSITE_VK_DECLARE)
+  PHOTOSITE_VK_DEVICE(PHOTOSITE_VK_DECLARE)
+#undef PHOTOSITE_VK_DECLARE
+};
+
+// Throws a bad-input Error "Vulkan: <what> failed (VK_ERROR_...)" on a failed call.
+void check(VkResult r, const char* what);
+const char* result_name(VkResult r);
+
+}  // namespace photosite::gpu::vk
+
+namespace photosite::gpu {
+struct Context::Impl {
+  void* lib = nullptr;
+  vk::Functions f;
+  VkInstance instance = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t queue_family = 0;
+  VkPhysicalDeviceMemoryProperties memory{};
+  ~Impl();
+};
+struct Buffer::Impl {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+};
+}  // namespace photosite::gpu

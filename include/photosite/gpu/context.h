@@ -1,0 +1,102 @@
+// The Vulkan compute backend's host layer, part 1: the context (instance, device, queue) and
+// storage buffers. Vulkan itself stays behind these classes (no Vulkan header here): the loader
+// is opened at run time (dlopen libvulkan.so.1), so a machine without it runs the CPU path and
+// `--backend vulkan` there fails with a message, not at start-up.
+//
+// Environment:
+//   PHOTOSITE_VK_VALIDATION=1  enable VK_LAYER_KHRONOS_validation and record every message
+//                              (tests fail on any); an error if the layer is not installed.
+//   VK_DRIVER_FILES / VK_ICD_FILENAMES  the loader's own driver selection (lavapipe in CI).
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace photosite::gpu {
+
+struct DeviceInfo {
+  std::string name;         // e.g. "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA GeForce ..."
+  std::string type;         // discrete, integrated, virtual, cpu, other
+  bool cpu = false;         // a CPU implementation (lavapipe, SwiftShader): slower than native code
+  uint32_t vendor_id = 0, api_version = 0;
+  bool timestamps = false;  // compute queue writes timestamps
+  double timestamp_period_ns = 0;
+};
+
+struct ContextOptions {
+  bool validation = false;       // also on when PHOTOSITE_VK_VALIDATION=1
+  bool prefer_gpu = true;        // a real GPU over a CPU implementation when both are present
+};
+
+class Context;
+class Buffer;
+class Kernel;
+
+// A storage buffer in host-visible, coherent memory, mapped for its whole life. Stages read and
+// write these on the device; the host copies in once (upload) and out once (download) per frame.
+class Buffer {
+ public:
+  Buffer(Context& ctx, size_t bytes);
+  ~Buffer();
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+  size_t bytes() const { return bytes_; }
+  void* data() { return mapped_; }
+  const void* data() const { return mapped_; }
+  template <class T> T* as() { return static_cast<T*>(mapped_); }
+  template <class T> const T* as() const { return static_cast<const T*>(mapped_); }
+  void upload(const void* src, size_t n, size_t offset = 0);
+  void download(void* dst, size_t n, size_t offset = 0) const;
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  Context& ctx_;
+  size_t bytes_;
+  void* mapped_ = nullptr;
+  std::unique_ptr<Impl> impl_;
+};
+
+class Context {
+ public:
+  // Opens the loader, creates an instance and a device; throws photosite::Error (bad input,
+  // exit 2 in the CLI) naming what is missing: loader, driver, device, a required feature.
+  explicit Context(const ContextOptions& options = {});
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+
+  const DeviceInfo& device() const { return info_; }
+  bool validation() const { return validation_; }
+  // Every validation-layer / debug-utils message since creation ("severity: text").
+  std::vector<std::string> messages() const;
+  void record_message(std::string m);
+
+  // The kernel `name` (kernels/<name>.comp), created on first use and kept with the context.
+  Kernel& kernel(const std::string& name, int buffers, uint32_t push_bytes);
+
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  DeviceInfo info_;
+  std::map<std::string, std::unique_ptr<Kernel>> kernels_;
+  bool validation_ = false;
+  mutable std::mutex mutex_;
+  std::vector<std::string> messages_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Whether a Vulkan device can be opened here (loader, driver, device with the features the
+// kernels need); `why` gets the reason when not. Creates and destroys a context.
+bool available(std::string* why = nullptr, DeviceInfo* info = nullptr);
+
+// The one context of the process (created on first use and never destroyed, so no Vulkan
+// teardown runs in static destructors at exit), so commands and frames reuse pipelines.
+Context& shared_context();
+
+}  // namespace photosite::gpu

@@ -1,0 +1,31 @@
+// The day-to-night per-pixel stages on the Vulkan backend: per-class darkening and bloom (the
+// mip chain down, Gaussian blur per level, collapse up, mix). Geometry stays on the CPU (lane
+// markings, Canny, Hough, vanishing point clustering, light placement), as in Baek 2020.
+#pragma once
+#include <memory>
+
+#include "photosite/gpu/context.h"
+#include "photosite/gpu/sequence.h"
+#include "photosite/image.h"
+#include "photosite/scene/night.h"
+
+namespace photosite::gpu {
+
+// scene::darken() on the device: bit-equal (the same darken_pixel operations).
+ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p);
+// scene::bloom_in_place() on the device: equal to within float rounding (the sums run in another
+// order than OpenCV's; docs/vulkan.md has the measured difference).
+void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels);
+
+// Recording into a caller's sequence (for chains that keep images on the device): `img` is an
+// interleaved RGB w x h buffer, processed in place; scratch buffers are made on first use and
+// kept in `cache` for later frames.
+struct BloomBuffers;
+struct BloomBuffersDeleter { void operator()(BloomBuffers*) const; };
+using BloomCache = std::unique_ptr<BloomBuffers, BloomBuffersDeleter>;
+void record_bloom(Context& ctx, Sequence& s, Buffer& img, int w, int h, double fraction, int levels,
+                  BloomCache& cache);
+void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
+                   const scene::DarkenParams& d);
+
+}  // namespace photosite::gpu

@@ -1,0 +1,53 @@
+// The sensor chain on the Vulkan backend: photon integral → sense (shot noise, dark current,
+// fixed pattern, read noise, full well, gain, black, ADC) → bilinear demosaic as one sequence of
+// kernels over buffers that stay on the device: one upload (the radiance) and one download (the
+// outputs) per frame; the fixed-pattern maps are uploaded once per device and reused by every
+// frame. The twin of expose() / sense() / mean_signal_electrons() (sensor/pipeline.h), held to
+// them by tests/gpu_test.cpp.
+//
+// On the CPU stay: photon_matrix() (a spectral integral per frame, not per pixel), the w + h
+// row/column noise draws, and demosaic methods other than bilinear (run on the downloaded mosaic).
+// Tukey-λ read noise is not on the device yet: sense() there is bad input naming the preset.
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "photosite/gpu/context.h"
+#include "photosite/gpu/sequence.h"
+#include "photosite/sensor/pipeline.h"
+
+namespace photosite::gpu {
+
+class SensorChain {
+ public:
+  explicit SensorChain(Context& ctx);
+  ~SensorChain();
+  ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
+                               const LensPreset& lens, const ResolvedExposure& exposure);
+  SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
+                     const ResolvedExposure& exposure, const ExposureSettings& settings,
+                     const FixedPatternMaps& fpn);
+  SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
+                      const ExposureSettings& settings, const FixedPatternMaps& fpn);
+  // Device time per kernel of the last frame (empty without timestamps).
+  std::vector<Sequence::StageTime> stage_times() const { return times_; }
+  Context& context() { return ctx_; }
+
+ private:
+  Buffer& buffer(const std::string& name, size_t bytes);
+  void record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                     const ResolvedExposure& ex);
+  void record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
+                    const ExposureSettings& st, const FixedPatternMaps& fpn);
+  SensorOutput finish(int w, int h, const CameraPreset& p, const ExposureSettings& st);
+
+  Context& ctx_;
+  std::map<std::string, std::unique_ptr<Buffer>> buffers_;
+  std::string fpn_loaded_;  // device id + checksum of the maps now on the device
+  std::vector<Sequence::StageTime> times_;
+  std::unique_ptr<Sequence> seq_;
+};
+
+}  // namespace photosite::gpu

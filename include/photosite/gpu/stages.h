@@ -1,0 +1,27 @@
+// The per-pixel stages on the Vulkan backend, each the device twin of a CPU function (the
+// parity tests in tests/gpu_test.cpp hold them to it).
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "photosite/gpu/context.h"
+#include "photosite/image.h"
+#include "photosite/sensor/cfa.h"
+
+namespace photosite::gpu {
+class Sequence;
+
+// poisson_fill(..., PoissonMethod::Exact) on the device: the same draws, bit for bit.
+void poisson_fill(Context& ctx, const float* mean, float* out, uint64_t n, uint64_t first_pixel,
+                  uint64_t seed, uint32_t frame, uint32_t stream);
+// The same kernel recorded into a sequence over buffers already on the device (n floats each).
+void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64_t n, uint64_t first_pixel,
+                    uint64_t seed, uint32_t frame, uint32_t stream);
+// The four Philox words of pixels first_pixel.. (random_words() on the device), 4n words.
+std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixel, uint64_t seed,
+                                   uint32_t frame, uint32_t stream);
+
+// demosaic_bilinear(mosaic, pattern) on the device.
+ImageF demosaic_bilinear(Context& ctx, const ImageF& mosaic, CfaPattern pattern);
+
+}  // namespace photosite::gpu

@@ -1,0 +1,49 @@
+// Per-class darkening, photosite::scene::darken_pixel (include/photosite/scene/night.h) operation
+// for operation: a Lambertian texture f under the class's night illuminance,
+//   L_k = f_k · E_k     (E = ground or vertical illuminance / π, float),
+// and for the sky its glow colour scaled by the pixel's relative luminance (double):
+//   L_k = glow_k · (Σ K_j f_j) / ρ_sky.
+#version 450
+#extension GL_GOOGLE_include_directive : enable
+#include "common/philox.glsl"
+layout(local_size_x = 256) in;
+
+// gpu::DarkenParams (gpu/kernels.h), from scene::darken_params()
+layout(push_constant, std430) uniform Params {
+  float ground[3];
+  float vertical[3];
+  double K[3];
+  double rho_sky;
+  double glow[3];
+  uvec2 ground_mask;  // bit id: class id is a ground class
+  uint n;
+  uint sky_id;
+} P;
+layout(std430, binding = 0) readonly buffer Texture { float tex[]; };
+layout(std430, binding = 1) readonly buffer Labels { uint labels[]; };  // uint16 ids, two per word
+layout(std430, binding = 2) writeonly buffer Out { float radiance[]; };
+
+void main() {
+  const uint i = linear_invocation();
+  if (i >= P.n) return;
+  const uint id = (labels[i >> 1] >> (16u * (i & 1u))) & 0xffffu;
+  const float t0 = tex[3 * i], t1 = tex[3 * i + 1], t2 = tex[3 * i + 2];
+  if (id == P.sky_id) {
+    precise double yr = (P.K[0] * double(t0) + P.K[1] * double(t1) + P.K[2] * double(t2)) / P.rho_sky;
+    radiance[3 * i] = float(P.glow[0] * yr);
+    radiance[3 * i + 1] = float(P.glow[1] * yr);
+    radiance[3 * i + 2] = float(P.glow[2] * yr);
+    return;
+  }
+  const bool ground = id < 32u ? ((P.ground_mask.x >> id) & 1u) != 0u
+                               : id < 64u && ((P.ground_mask.y >> (id - 32u)) & 1u) != 0u;
+  if (ground) {
+    radiance[3 * i] = t0 * P.ground[0];
+    radiance[3 * i + 1] = t1 * P.ground[1];
+    radiance[3 * i + 2] = t2 * P.ground[2];
+  } else {
+    radiance[3 * i] = t0 * P.vertical[0];
+    radiance[3 * i + 1] = t1 * P.vertical[1];
+    radiance[3 * i + 2] = t2 * P.vertical[2];
+  }
+}

@@ -1,0 +1,23 @@
+// The four Philox words of pixels first_pixel + i (for the parity test of common/philox.glsl
+// against include/photosite/rng.h).
+#version 450
+#extension GL_GOOGLE_include_directive : enable
+#include "common/philox.glsl"
+layout(local_size_x = 256) in;
+
+// gpu::PoissonParams (the same fields; `pad` unused)
+layout(push_constant, std430) uniform Params {
+  uint n;
+  uint frame;
+  uint stream;
+  uint pad;
+  uvec2 first_pixel;
+  uvec2 key;
+} P;
+layout(std430, binding = 0) writeonly buffer Out { uvec4 words[]; };
+
+void main() {
+  const uint i = linear_invocation();
+  if (i >= P.n) return;
+  words[i] = random_words(P.key, P.frame, pixel_index(P.first_pixel, i), P.stream);
+}

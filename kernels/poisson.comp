@@ -1,0 +1,26 @@
+// Poisson shot noise: out[i] ~ Poisson(mean[i]) for pixels first_pixel + i, the draw of
+// photosite::poisson_fill (PoissonMethod::Exact) bit for bit.
+#version 450
+#extension GL_GOOGLE_include_directive : enable
+#include "common/philox.glsl"
+#include "common/poisson.glsl"
+layout(local_size_x = 256) in;
+
+// gpu::PoissonParams (gpu/kernels.h)
+layout(push_constant, std430) uniform Params {
+  uint n;
+  uint frame;
+  uint stream;
+  uint pad;
+  uvec2 first_pixel;
+  uvec2 key;
+} P;
+layout(std430, binding = 0) readonly buffer Mean { float mean[]; };
+layout(std430, binding = 1) writeonly buffer Out { float result[]; };
+
+void main() {
+  const uint i = linear_invocation();
+  if (i >= P.n) return;
+  const uvec4 w = random_words(P.key, P.frame, pixel_index(P.first_pixel, i), P.stream);
+  result[i] = poisson_from_words(mean[i], w);
+}

@@ -1,0 +1,377 @@
+// Parity of the Vulkan kernels with the native C++ path, on lavapipe (Mesa's CPU Vulkan driver)
+// unless the caller picked a driver, with the Khronos validation layer on: any validation
+// message fails the test. Without a usable Vulkan device these tests FAIL, unless
+// PHOTOSITE_ALLOW_NO_VULKAN=1 (then they skip, loudly).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include "photosite/rng.h"
+#include "photosite/sensor/poisson.h"
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/gpu/context.h"
+#include "photosite/gpu/stages.h"
+#endif
+
+namespace photosite {
+namespace {
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+// The test context: lavapipe (when no driver was chosen) and validation on.
+gpu::Context* test_context(std::string* why) {
+  static std::unique_ptr<gpu::Context> ctx;
+  static std::string error;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    const char* lvp = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
+    if (!std::getenv("VK_DRIVER_FILES") && !std::getenv("VK_ICD_FILENAMES") && std::filesystem::exists(lvp)) {
+      setenv("VK_DRIVER_FILES", lvp, 1);
+      setenv("VK_ICD_FILENAMES", lvp, 1);
+    }
+    setenv("PHOTOSITE_VK_VALIDATION", "1", 0);
+    try {
+      ctx = std::make_unique<gpu::Context>();
+      std::fprintf(stderr, "[gpu] device: %s (%s)%s\n", ctx->device().name.c_str(), ctx->device().type.c_str(),
+                   ctx->validation() ? ", validation on" : "");
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  if (why) *why = error;
+  return ctx.get();
+}
+#endif
+
+bool allow_no_vulkan() {
+  const char* e = std::getenv("PHOTOSITE_ALLOW_NO_VULKAN");
+  return e && std::string(e) == "1";
+}
+
+}  // namespace
+
+// Fixture: a context or a failure (a loud skip only where allowed), and no validation message
+// from anything the test ran.
+class Gpu : public ::testing::Test {
+ protected:
+#ifdef PHOTOSITE_HAVE_VULKAN
+  gpu::Context* ctx = nullptr;
+  size_t messages_before = 0;
+#endif
+  void SetUp() override {
+#ifdef PHOTOSITE_HAVE_VULKAN
+    std::string why;
+    ctx = test_context(&why);
+    if (!ctx) {
+      if (allow_no_vulkan()) GTEST_SKIP() << "*** Vulkan unavailable, skipped (PHOTOSITE_ALLOW_NO_VULKAN=1): " << why;
+      FAIL() << "Vulkan unavailable: " << why << " (set PHOTOSITE_ALLOW_NO_VULKAN=1 to skip)";
+    }
+    messages_before = ctx->messages().size();
+#else
+    if (allow_no_vulkan()) GTEST_SKIP() << "*** built without the Vulkan backend, skipped (PHOTOSITE_ALLOW_NO_VULKAN=1)";
+    FAIL() << "built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)";
+#endif
+  }
+  void TearDown() override {
+#ifdef PHOTOSITE_HAVE_VULKAN
+    if (!ctx) return;
+    const auto m = ctx->messages();
+    for (size_t i = messages_before; i < m.size(); ++i) ADD_FAILURE() << "Vulkan validation: " << m[i];
+#endif
+  }
+};
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+TEST_F(Gpu, ContextHasValidationAndADevice) {
+  EXPECT_TRUE(ctx->validation()) << "tests run with PHOTOSITE_VK_VALIDATION=1";
+  EXPECT_FALSE(ctx->device().name.empty());
+}
+
+TEST_F(Gpu, PhiloxWordsEqualRngH) {
+  // Pixel indices across the 2^32 boundary exercise the 64-bit counter's carry.
+  for (uint64_t first : {uint64_t{0}, uint64_t{0xFFFFFF00u}, uint64_t{123456789012ull}}) {
+    const uint64_t n = 1000, seed = 0x0123456789ABCDEFull;
+    const auto w = gpu::philox_words(*ctx, n, first, seed, 7, static_cast<uint32_t>(Stream::PhotonShot));
+    for (uint64_t i = 0; i < n; ++i) {
+      const auto e = random_words(seed, 7, first + i, Stream::PhotonShot);
+      for (int k = 0; k < 4; ++k) ASSERT_EQ(w[4 * i + k], e[k]) << "pixel " << first + i << " word " << k;
+    }
+  }
+}
+
+TEST_F(Gpu, PoissonBitEqualToCpuAtEveryMean) {
+  // Means over both regimes (inversion < 10 <= corrected normal), the threshold itself, zero,
+  // negative and NaN; 200k pixels.
+  const uint64_t n = 200000;
+  std::vector<float> mean(n);
+  for (uint64_t i = 0; i < n; ++i) mean[i] = static_cast<float>(std::exp((static_cast<double>(i % 4000) / 4000.0) * 14.0 - 4.0));
+  mean[0] = 0.f, mean[1] = -3.f, mean[2] = std::nanf(""), mean[3] = 10.f, mean[4] = 9.999999f, mean[5] = 1e-30f;
+  std::vector<float> cpu(n), dev(n);
+  poisson_fill(mean.data(), cpu.data(), n, 5000, 42, 3, 1);
+  gpu::poisson_fill(*ctx, mean.data(), dev.data(), n, 5000, 42, 3, 1);
+  uint64_t differ = 0;
+  for (uint64_t i = 0; i < n; ++i)
+    if (cpu[i] != dev[i] && ++differ < 5) ADD_FAILURE() << "pixel " << i << " mean " << mean[i] << ": cpu " << cpu[i] << " gpu " << dev[i];
+  EXPECT_EQ(differ, 0u);
+}
+
+// Beyond parity: the device sampler itself has the Poisson law's mean and variance at means in
+// both regimes (200k draws each: the sample mean within 5 standard errors, the variance within 5
+// of its standard errors, var(s²) ≈ (2μ² + μ)/n for a Poisson).
+TEST_F(Gpu, PoissonDrawsHaveThePoissonMeanAndVariance) {
+  const uint64_t n = 200000;
+  for (float mu : {0.5f, 3.f, 9.5f, 10.f, 40.f, 2500.f}) {
+    std::vector<float> mean(n, mu), out(n);
+    gpu::poisson_fill(*ctx, mean.data(), out.data(), n, 0, 1234, 0, 1);
+    double s = 0, s2 = 0;
+    for (float k : out) s += k, s2 += static_cast<double>(k) * k;
+    const double m = s / n, var = s2 / n - m * m;
+    EXPECT_NEAR(m, mu, 5 * std::sqrt(mu / n)) << "mean " << mu;
+    EXPECT_NEAR(var, mu, 5 * std::sqrt((2.0 * mu * mu + mu) / n)) << "mean " << mu;
+  }
+}
+#endif
+
+// Compiled with or without the backend: a build or machine without Vulkan fails here (unless
+// PHOTOSITE_ALLOW_NO_VULKAN=1), so the GPU tests never go missing silently.
+TEST_F(Gpu, BackendIsBuiltAndADeviceOpens) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  EXPECT_NE(ctx, nullptr);
+#endif
+}
+
+}  // namespace photosite
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/error.h"
+#include "photosite/gpu/sensor.h"
+#include "photosite/sensor/demosaic.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite {
+namespace {
+// A radiance field spanning dark to bright, every pixel different (odd size: partial groups).
+ImageF test_radiance(int w, int h, double scale) {
+  ImageF r(w, h, 3, 0.f, unit::radiance);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t u = random_words(99, 0, static_cast<uint64_t>(y) * w + x, Stream::Test)[c];
+        r.at(x, y, c) = static_cast<float>(scale * std::exp(18.0 * uniform_open(u) - 16.0));
+      }
+  return r;
+}
+size_t count_differences(const ImageF& a, const ImageF& b) {
+  if (a.size() != b.size()) return SIZE_MAX;
+  size_t d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+  return d;
+}
+}  // namespace
+
+TEST_F(Gpu, PhotonIntegralBitEqualWithAndWithoutVignetting) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  for (bool cos4 : {true, false}) {
+    LensPreset lens = load_lens_preset(cam.default_lens);
+    lens.cos4_falloff = cos4;
+    ExposureSettings s;
+    const ResolvedExposure ex = resolve(cam, lens, s);
+    const ImageF rad = test_radiance(333, 123, 1.0);
+    gpu::SensorChain chain(*ctx);
+    const ImageF cpu = mean_signal_electrons(rad, cam, lens, ex);
+    const ImageF dev = chain.mean_signal_electrons(rad, cam, lens, ex);
+    EXPECT_EQ(count_differences(cpu, dev), 0u) << "cos4 " << cos4;
+  }
+}
+
+TEST_F(Gpu, PhotonRejectsTheSameFirstBadPixelAsCpu) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  const ResolvedExposure ex = resolve(cam, lens, ExposureSettings{});
+  ImageF rad = test_radiance(64, 40, 1.0);
+  rad.at(50, 30, 1) = -1.f;
+  rad.at(7, 31, 2) = std::nanf("");
+  rad.at(3, 20, 0) = 3e38f, rad.at(3, 20, 1) = 3e38f;  // finite samples whose sum overflows
+  std::string cpu_msg, dev_msg;
+  try { mean_signal_electrons(rad, cam, lens, ex); } catch (const Error& e) { cpu_msg = e.what(); }
+  gpu::SensorChain chain(*ctx);
+  try { chain.mean_signal_electrons(rad, cam, lens, ex); } catch (const Error& e) { dev_msg = e.what(); }
+  EXPECT_NE(cpu_msg.find("(3, 20)"), std::string::npos) << cpu_msg;
+  EXPECT_EQ(cpu_msg, dev_msg);
+}
+
+// The whole chain (photon → sense → demosaic) on every bundled camera: electrons and DN bit-equal
+// (integer-valued, so "equal" is exact), demosaiced RGB bit-equal; two frames, the second
+// reusing the fixed-pattern maps already on the device.
+TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
+  for (const char* name : {"onsemi-ar0331", "onsemi-ar0132at-rccc", "sony-icx267-flea2", "sony-imx174", "sony-imx490"}) {
+    const CameraPreset cam = load_camera_preset(name);
+    const LensPreset lens = load_lens_preset(cam.default_lens);
+    const int w = 301, h = 97;
+    const FixedPatternMaps fpn = generate_fixed_pattern(cam, w, h, std::string(name) + "-gpu-test");
+    // From a few electrons to far beyond full well: both Poisson regimes and clipping occur.
+    const ImageF rad = test_radiance(w, h, 40.0);
+    gpu::SensorChain chain(*ctx);
+    for (uint32_t frame = 0; frame < 2; ++frame) {
+      ExposureSettings s;
+      s.exposure_s = 0.01;
+      s.temperature_c = -40;  // little dark charge, so the darkest pixels see means below 10
+      s.seed = 5;
+      s.frame = frame;
+      const SensorOutput cpu = expose(rad, cam, lens, s, fpn);
+      const SensorOutput dev = chain.expose(rad, cam, lens, s, fpn);
+      EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u) << name << " frame " << frame;
+      EXPECT_EQ(count_differences(cpu.raw_dn, dev.raw_dn), 0u) << name << " frame " << frame;
+      EXPECT_EQ(count_differences(cpu.rgb, dev.rgb), 0u) << name << " frame " << frame;
+      float lo = 1e30f, hi = -1e30f;
+      for (size_t i = 0; i < cpu.electrons.size(); ++i) lo = std::min(lo, cpu.electrons[i]), hi = std::max(hi, cpu.electrons[i]);
+      EXPECT_LT(lo, 10.f) << name;  // the inversion regime is exercised
+      EXPECT_GT(hi, 100.f) << name;  // and the corrected normal
+      EXPECT_EQ(hi, static_cast<float>(cam.full_well_e)) << name;  // and full-well clipping
+    }
+  }
+}
+
+TEST_F(Gpu, SenseFromMeanElectronsBitEqualAndTukeyIsRefused) {
+  const CameraPreset cam = load_camera_preset("sony-imx490");
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  const int w = 129, h = 65;
+  ImageF mean(w, h, 1, 0.f, unit::electrons);
+  for (size_t i = 0; i < mean.size(); ++i) mean[i] = static_cast<float>(std::pow(10.0, 6.0 * (i % 1000) / 1000.0 - 1.5));
+  const FixedPatternMaps fpn = generate_fixed_pattern(cam, w, h, "sense-gpu-test");
+  ExposureSettings s;
+  s.gain_db = 6;
+  const ResolvedExposure ex = resolve(cam, lens, s);
+  gpu::SensorChain chain(*ctx);
+  const SensorOutput cpu = sense(mean, cam, ex, s, fpn), dev = chain.sense(mean, cam, ex, s, fpn);
+  EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u);
+  EXPECT_EQ(count_differences(cpu.raw_dn, dev.raw_dn), 0u);
+  EXPECT_EQ(count_differences(cpu.rgb, dev.rgb), 0u);
+  const CameraPreset tukey = load_camera_preset("sony-a7s2");
+  const FixedPatternMaps f2 = generate_fixed_pattern(tukey, w, h, "tukey-gpu-test");
+  const ResolvedExposure ex2 = resolve(tukey, load_lens_preset(tukey.default_lens), ExposureSettings{});
+  EXPECT_THROW(chain.sense(mean, tukey, ex2, ExposureSettings{}, f2), Error);
+}
+
+TEST_F(Gpu, BilinearDemosaicBitEqualOnEveryPattern) {
+  ImageF m(77, 41, 1, 0.f, unit::dn);
+  for (size_t i = 0; i < m.size(); ++i) m[i] = static_cast<float>(random_words(3, 0, i, Stream::Test)[0] >> 20) - 100.f;
+  for (CfaPattern p : all_cfa_patterns())
+    EXPECT_EQ(count_differences(demosaic_bilinear(m, p), gpu::demosaic_bilinear(*ctx, m, p)), 0u) << to_string(p);
+}
+
+}  // namespace photosite
+#endif
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/gpu/scene.h"
+#include "photosite/scene/night.h"
+
+namespace photosite {
+
+TEST_F(Gpu, DarkenBitEqualToCpu) {
+  scene::SyntheticOptions so;
+  so.width = 321, so.height = 161, so.vp_x = 160, so.vp_y = 60;
+  const auto road = scene::make_synthetic_road(so);
+  const auto sp = scene::load_scene_preset("night-urban");
+  const ImageF tex = scene::reflectance_texture(road.day_linear_srgb, road.labels.ids, sp);
+  const ImageF cpu = scene::darken(tex, road.labels.ids, sp);
+  const ImageF dev = gpu::darken(*ctx, tex, road.labels.ids, sp);
+  ASSERT_EQ(cpu.size(), dev.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < cpu.size(); ++i) differ += std::memcmp(&cpu[i], &dev[i], sizeof(float)) != 0;
+  EXPECT_EQ(differ, 0u);
+}
+
+// Bloom: the same mip chain, blur and collapse as bloom_in_place (OpenCV), its float sums in
+// another order: every sample within 2e-6 of the image's peak (measured: ~4e-7).
+TEST_F(Gpu, BloomMatchesCpuWithinFloatRounding) {
+  for (auto [w, h] : {std::pair{256, 128}, std::pair{203, 77}}) {
+    ImageF img(w, h, 3, 0.f, unit::radiance);
+    for (size_t i = 0; i < img.size(); ++i) img[i] = static_cast<float>(uniform_open(random_words(8, 0, i, Stream::Test)[1]));
+    for (int k = 0; k < 40; ++k) {  // bright point lights, the thing bloom spreads
+      const auto r = random_words(9, 0, k, Stream::Test);
+      for (int c = 0; c < 3; ++c) img.at(static_cast<int>(r[0] % w), static_cast<int>(r[1] % h), c) = 500.f;
+    }
+    ImageF cpu = img, dev = img;
+    scene::bloom_in_place(cpu, 0.05, 5);
+    gpu::bloom_in_place(*ctx, dev, 0.05, 5);
+    double peak = 0, worst = 0;
+    for (size_t i = 0; i < cpu.size(); ++i) {
+      peak = std::max(peak, std::fabs(static_cast<double>(cpu[i])));
+      worst = std::max(worst, std::fabs(static_cast<double>(cpu[i]) - dev[i]));
+    }
+    std::fprintf(stderr, "[gpu] bloom %dx%d: max |cpu - gpu| / peak = %.3g\n", w, h, worst / peak);
+    EXPECT_LT(worst / peak, 2e-6) << w << "x" << h;
+    // And the bloom did something: the image changed by far more than the tolerance.
+    double changed = 0;
+    for (size_t i = 0; i < cpu.size(); ++i) changed = std::max(changed, std::fabs(static_cast<double>(cpu[i]) - img[i]));
+    EXPECT_GT(changed / peak, 1e-3);
+  }
+}
+
+}  // namespace photosite
+#endif
+
+#include "photosite/io.h"
+#include "test_util.h"
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+namespace photosite {
+
+// `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI);
+// the children inherit PHOTOSITE_VK_VALIDATION=1 and print any validation message.
+TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
+  test::TempDir dir;
+  const std::string store = " --device-store '" + dir.file("store") + "'";
+  for (const char* b : {"cpu", "vulkan"}) {
+    auto r = test::run_cli(std::string("flat --photons 500 --wavelength-nm 525 --preset sony-imx174 --width 64 --height 48 --seed 3 --backend ") +
+                           b + " --out '" + dir.file(std::string("flat-") + b + ".exr") + "'" + store);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    r = test::run_cli(std::string("night --backend ") + b + " --out '" +  // the bundled KITTI sample
+                      dir.file(std::string("night-") + b + ".exr") + "'" + store);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(r.output.find("validation"), std::string::npos) << r.output;  // the child ran with validation on
+  }
+  for (const char* f : {"flat", "night"}) {
+    const ImageF a = read_image(dir.file(std::string(f) + "-cpu.exr"));
+    const ImageF b = read_image(dir.file(std::string(f) + "-vulkan.exr"));
+    ASSERT_EQ(a.size(), b.size()) << f;
+    size_t differ = 0;
+    for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+    EXPECT_EQ(differ, 0u) << f;
+  }
+}
+
+}  // namespace photosite
+#endif
+
+namespace photosite {
+// No Vulkan driver: `--backend vulkan` is a clear error with exit 2, `auto` falls back to the CPU.
+// (Runs with or without the backend built in.)
+TEST(GpuCli, BackendVulkanWithoutADeviceIsBadInput) {
+  test::TempDir dir;
+  const char* saved_icd = std::getenv("VK_ICD_FILENAMES");
+  const char* saved_drv = std::getenv("VK_DRIVER_FILES");
+  const std::string keep_icd = saved_icd ? saved_icd : "", keep_drv = saved_drv ? saved_drv : "";
+  setenv("VK_ICD_FILENAMES", dir.file("no-such-driver.json").c_str(), 1);
+  setenv("VK_DRIVER_FILES", dir.file("no-such-driver.json").c_str(), 1);
+  const std::string args = " --photons 10 --wavelength-nm 525 --preset sony-imx174 --width 16 --height 8 --device-store '" +
+                           dir.file("store") + "' --out '";
+  auto r = test::run_cli("flat --backend vulkan" + args + dir.file("v.exr") + "'");
+  auto a = test::run_cli("flat --backend auto" + args + dir.file("a.exr") + "'");
+  if (saved_icd) setenv("VK_ICD_FILENAMES", keep_icd.c_str(), 1); else unsetenv("VK_ICD_FILENAMES");
+  if (saved_drv) setenv("VK_DRIVER_FILES", keep_drv.c_str(), 1); else unsetenv("VK_DRIVER_FILES");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--backend vulkan"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("v.exr")));
+  EXPECT_EQ(a.exit_code, 0) << a.output;
+}
+}  // namespace photosite
