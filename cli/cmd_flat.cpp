@@ -6,6 +6,7 @@
 
 #include "photosite/error.h"
 #include "backend.h"
+#include "photosite/io.h"
 #include "registry.h"
 #include "sensor_options.h"
 
@@ -22,9 +23,8 @@ struct FlatCmd {
 
 void run(const FlatCmd& c) {
   auto r = c.sensor.resolve();
+  check_frame_size("--width/--height", c.width, c.height);
   SensorRunner runner(resolve_backend(c.backend));
-  if (c.width < 1 || c.height < 1 || static_cast<double>(c.width) * c.height > 4e8)
-    fail(fmt::format("--width {} --height {} is not a possible frame size", c.width, c.height));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);

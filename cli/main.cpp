@@ -1,5 +1,6 @@
 // photosite: the command-line front end. Subcommands register themselves (registry.h).
 #include <malloc.h>
+#include <signal.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -26,6 +27,10 @@ int main(int argc, char** argv) {
   // page-faulted in again (measured: page faults were a fifth of a night run's time).
   mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's upper limit on 64-bit
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // A file-size limit (ulimit -f) or quota would otherwise kill the process with SIGXFSZ in the
+  // middle of a write; ignored, the write fails with EFBIG and is reported as bad input (exit 2)
+  // after the temporary file is removed.
+  signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"photosite " PHOTOSITE_VERSION
                ": a camera-sensor simulator in physical units, with a day-to-night front end"};
   app.set_version_flag("--version", "photosite " PHOTOSITE_VERSION);

@@ -6,6 +6,9 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
 
@@ -26,14 +29,9 @@ std::unique_ptr<ImageInput> open_input(const std::string& path) {
     fail_at(path, "cannot read image (" + (msg.empty() ? std::string("unknown format") : msg) + ")");
   }
   const ImageSpec& spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-    fail_at(path, fmt::format("image has no pixels ({}x{}, {} channels)", spec.width, spec.height,
-                              spec.nchannels));
-  // A declared size far beyond any camera (40000x40000 and up) is refused before allocation.
-  const double pixels = static_cast<double>(spec.width) * spec.height * spec.nchannels;
-  if (pixels > 1.2e9)
-    fail_at(path, fmt::format("declared size {}x{}x{} is too large (over 1.2e9 samples)", spec.width,
-                              spec.height, spec.nchannels));
+  if (spec.nchannels <= 0) fail_at(path, "image has no channels");
+  check_frame_size(path, spec.width, spec.height);
+  if (spec.nchannels > 64) fail_at(path, fmt::format("image declares {} channels", spec.nchannels));
   return in;
 }
 
@@ -53,6 +51,29 @@ ImageFileInfo info_from(const std::string& path, const ImageInput& in) {
 }
 }  // namespace
 
+int64_t max_frame_pixels() {
+  static const int64_t limit = [] {
+    if (const char* e = std::getenv("PHOTOSITE_MAX_PIXELS"); e && *e) {
+      char* end = nullptr;
+      const long long v = std::strtoll(e, &end, 10);
+      if (end && *end == 0 && v >= 4) return static_cast<int64_t>(v);
+      fail(std::string("PHOTOSITE_MAX_PIXELS='") + e + "' is not a whole number >= 4");
+    }
+    return int64_t{1} << 28;
+  }();
+  return limit;
+}
+
+void check_frame_size(const std::string& what, int64_t width, int64_t height) {
+  if (width < 2 || height < 2)
+    fail_at(what, fmt::format("frame size {}x{} is too small (at least 2x2 pixels, one CFA tile)",
+                              width, height));
+  if (width * height > max_frame_pixels())
+    fail_at(what, fmt::format("frame size {}x{} is larger than the limit of {} pixels "
+                              "(PHOTOSITE_MAX_PIXELS); refused before allocating it",
+                              width, height, max_frame_pixels()));
+}
+
 ImageFileInfo probe_image(const std::string& path) {
   auto in = open_input(path);
   auto info = info_from(path, *in);
@@ -64,7 +85,9 @@ ImageF read_image(const std::string& path, ImageFileInfo* info) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();
   ImageF img(spec.width, spec.height, spec.nchannels, uninitialized);
-  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.data()))
+  // Some readers (libtiff's strips) report damage as an error message but still "succeed"
+  // with the missing part zero-filled: any reported error is a corrupt file.
+  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.data()) || in->has_error())
     fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
   if (info) *info = info_from(path, *in);
   in->close();
@@ -87,13 +110,13 @@ ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
   } else {
     fail_at(path, fmt::format("unsupported {}-bit integer samples", spec.format.size() * 8));
   }
-  if (!ok) fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
+  if (!ok || in->has_error()) fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
   if (info) *info = info_from(path, *in);
   in->close();
   return img;
 }
 
-void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
+bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
                const std::map<std::string, ExrAttribute>& attributes,
                const ExrWriteOptions& options) {
   if (groups.empty()) internal_error("write_exr: no channels");
@@ -135,14 +158,17 @@ void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
       for (int c = 0; c < gc; ++c) buf[p * nch + c0 + c] = src[p * gc + c];
     c0 += gc;
   }
-  atomic_write(path, [&](const std::string& tmp) {
+  const auto write = [&](const std::string& tmp) {
     auto out = ImageOutput::create("openexr");
     if (!out) internal_error("OpenImageIO has no OpenEXR writer");
     if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
     if (!out->write_image(TypeDesc::FLOAT, buf.data()))
       fail_at(path, "write failed (" + out->geterror() + ")");
     if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
-  });
+  };
+  if (options.create_only) return atomic_create(path, write);
+  atomic_write(path, write);
+  return true;
 }
 
 ExrContents read_exr(const std::string& path) {
@@ -153,7 +179,7 @@ ExrContents read_exr(const std::string& path) {
   r.height = spec.height;
   const int nch = spec.nchannels;
   std::vector<float> buf(static_cast<size_t>(spec.width) * spec.height * nch);
-  if (!in->read_image(0, 0, 0, nch, TypeDesc::FLOAT, buf.data()))
+  if (!in->read_image(0, 0, 0, nch, TypeDesc::FLOAT, buf.data()) || in->has_error())
     fail_at(path, "corrupt or truncated EXR (" + in->geterror() + ")");
   for (int c = 0; c < nch; ++c) {
     ImageF ch(spec.width, spec.height, 1, uninitialized);
@@ -180,7 +206,7 @@ void write_png(const std::string& path, const ImageF& image, int bits) {
     if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
     if (!out->write_image(TypeDesc::FLOAT, image.data()))
       fail_at(path, "write failed (" + out->geterror() + ")");
-    out->close();
+    if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
   });
 }
 
@@ -195,20 +221,41 @@ void check_output_path(const std::string& path, bool overwrite) {
   if (access(dir.c_str(), W_OK) != 0) fail_at(path, "output folder is not writable");
 }
 
-void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write) {
+namespace {
+// Writes through a temporary beside the target ('.<stem>.tmp-<pid>-<n><ext>', the extension kept
+// so OpenImageIO picks the writer), then publishes it: rename (replacing) or link (never
+// replacing). The temporary is removed on every error.
+bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
+                        bool replace) {
   static std::atomic<unsigned> counter{0};
   fs::path p(path);
   std::string tmp = (p.parent_path() / ("." + p.stem().string() + fmt::format(".tmp-{}-{}", getpid(), counter++))).string() + p.extension().string();
-  try {
-    write(tmp);
+  struct Remove {
+    const std::string& tmp;
+    ~Remove() {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+    }
+  } remove{tmp};
+  write(tmp);
+  if (replace) {
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw;
+    return true;
   }
+  if (::link(tmp.c_str(), path.c_str()) == 0) return true;
+  if (errno == EEXIST) return false;
+  fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
+}
+}  // namespace
+
+void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write) {
+  write_then_publish(path, write, true);
+}
+
+bool atomic_create(const std::string& path, const std::function<void(const std::string&)>& write) {
+  return write_then_publish(path, write, false);
 }
 
 std::string frame_path(const std::string& pattern, int frame) {

@@ -1,5 +1,7 @@
 // Linearization and per-class darkening under night illumination (stage 1).
+#include <climits>
 #include <cmath>
+#include <fmt/format.h>
 #include <vector>
 
 #include "photosite/error.h"
@@ -17,14 +19,21 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   std::vector<float> lut(4097);
   for (int i = 0; i <= 4096; ++i) lut[i] = static_cast<float>(srgb_decode(i / 4096.0));
   const bool decode = !info.is_float;
-#pragma omp parallel for schedule(static)
+  // NaN and Inf in a linear (EXR) day image are damage, not light: refused, first one named.
+  // Negatives are kept as out-of-gamut colour and clipped to 0 like integer files' codes.
+  int64_t bad = INT64_MAX;  // first damaged pixel in reading order (y·width + x)
+#pragma omp parallel for schedule(static) reduction(min : bad)
   for (int y = 0; y < day.height(); ++y) {
     const float* in = day.row(y);
     float* o = out.row(y);
     for (int x = 0; x < day.width(); ++x) {
       for (int k = 0; k < 3; ++k) {
         float v = in[x * c + (c >= 3 ? k : 0)];
-        if (!std::isfinite(v) || v < 0) v = 0;
+        if (!std::isfinite(v)) {
+          bad = std::min(bad, static_cast<int64_t>(y) * day.width() + x);
+          v = 0;
+        }
+        if (v < 0) v = 0;
         if (decode) {
           const float t = std::min(v, 1.f) * 4096.f;
           const int i = std::min(4095, static_cast<int>(t));
@@ -33,6 +42,11 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
         o[3 * x + k] = v;
       }
     }
+  }
+  if (bad != INT64_MAX) {
+    const int64_t y = bad / day.width(), x = bad % day.width();
+    fail_at(info.path, fmt::format("pixel ({}, {}) is {}: NaN and Inf are not light; the image is damaged",
+                                   x, y, day.at(static_cast<int>(x), static_cast<int>(y), 0)));
   }
   return out;
 }

@@ -76,7 +76,8 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
   try {
     t = toml::parse(text, file);
   } catch (const toml::parse_error& e) {
-    fail(where(file, static_cast<int>(e.source().begin.line)) + ": " + std::string(e.description()));
+    fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
+         std::string(e.description()));
   }
   ScenePreset p;
   p.file = file;

@@ -14,7 +14,9 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fmt/format.h>
@@ -125,6 +127,14 @@ std::string DeviceStore::path_for(const CameraPreset& preset, const std::string&
 
 FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& preset,
                                    const std::string& device_id, int width, int height) const {
+  // The header first: a map of another size (or a damaged header declaring a huge one) is
+  // refused before its pixels are allocated and decoded.
+  const ImageFileInfo info = probe_image(path);
+  if (info.format != "openexr") fail_at(path, "not a photosite device map (a " + info.format + " file, not OpenEXR)");
+  if (info.width != width || info.height != height)
+    fail_at(path, fmt::format("fixed-pattern map is {}x{}, the frame is {}x{}", info.width, info.height,
+                              width, height));
+  if (info.channels > 3) fail_at(path, fmt::format("not a photosite device map ({} channels)", info.channels));
   ExrContents c = read_exr(path);
   auto attr = [&](const std::string& k) {
     auto it = c.attributes.find(k);
@@ -166,23 +176,39 @@ FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& 
 FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                                              const std::string& device_id, int width,
                                              int height) const {
+  check_frame_size("fixed-pattern map", width, height);
   const std::string path = path_for(preset, device_id, width, height);
+  const std::string dir = fs::path(path).parent_path().string();
   std::error_code ec;
-  fs::create_directories(fs::path(path).parent_path(), ec);
-  if (ec) fail_at(fs::path(path).parent_path().string(), "cannot create the device store folder: " + ec.message());
-  // One process at a time creates a device's maps: an exclusive lock on a sibling file, then a
-  // second look. The map itself is written atomically (temporary + rename).
-  const std::string lock_path = path + ".lock";
-  int fd = ::open(lock_path.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
-    fail_at(lock_path, "cannot lock the device store (read-only?)");
-  }
+  // Maps are only ever published whole (temporary + link), so one that exists is complete and
+  // is read without a lock: a read-only store shared by many jobs works as long as it holds
+  // every map they need.
+  if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    fail_at(dir, "cannot create the device store folder (" + (ec ? ec.message() : "not a folder") +
+                     "; read-only store?) for the fixed-pattern map " + fs::path(path).filename().string());
+  if (::access(dir.c_str(), W_OK) != 0)
+    fail_at(dir, "the device store folder is read-only; cannot create the fixed-pattern map " +
+                     fs::path(path).filename().string() + " (make it writable, or create the map elsewhere and copy it in)");
+  // Creation is serialised by an exclusive flock on the preset's folder itself (no lock files
+  // to leave behind): the second process waits, then finds the first one's map. Where the file
+  // system has no flock (some network file systems answer ENOLCK), the lock is skipped and the
+  // no-replace publish below decides: the first map to be linked in wins, and a process that
+  // loses the race discards its own and loads the winner's, so every process uses one map.
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   struct Unlock {
     int fd;
-    ~Unlock() { ::flock(fd, LOCK_UN); ::close(fd); }
+    ~Unlock() {
+      if (fd >= 0) {
+        ::flock(fd, LOCK_UN);
+        ::close(fd);
+      }
+    }
   } unlock{fd};
-  ::flock(fd, LOCK_EX);
+  if (fd >= 0)
+    while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+    }
   if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
   FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);
   std::vector<ExrChannelGroup> groups;
@@ -192,12 +218,17 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
     groups.push_back({{"dark_rate.Y"}, &m.dark_rate_factor, unit::dimensionless});
   ImageF none(width, height, 1, 0.f);
   if (groups.empty()) groups.push_back({{"none.Y"}, &none, ""});  // a preset without FPN
-  write_exr(path, groups,
-            {{"photosite/version", std::string(PHOTOSITE_VERSION)},
-             {"photosite/preset", preset.name},
-             {"photosite/device_id", device_id},
-             {"photosite/fpn_params", fpn_params_text(preset)},
-             {"photosite/checksum", m.checksum}});
+  ExrWriteOptions wo;
+  wo.create_only = true;
+  const bool published = write_exr(path, groups,
+                                   {{"photosite/version", std::string(PHOTOSITE_VERSION)},
+                                    {"photosite/preset", preset.name},
+                                    {"photosite/device_id", device_id},
+                                    {"photosite/fpn_params", fpn_params_text(preset)},
+                                    {"photosite/checksum", m.checksum}},
+                                   wo);
+  if (!published) return load(path, preset, device_id, width, height);
+  std::fprintf(stderr, "photosite: created the fixed-pattern map %s\n", path.c_str());
   return m;
 }
 

@@ -110,21 +110,38 @@ TEST(Batch, ThreeShardsGiveTheSameBytesAsOneRun) {
 
 TEST(Batch, ResumesAfterAKillAndRefusesOtherParameters) {
   test::TempDir dir;
-  make_kitti(dir.path() / "kitti", 4, 0);
+  constexpr int kImages = 6;
+  make_kitti(dir.path() / "kitti", kImages, 0);
   const std::string root = (dir.path() / "kitti").string();
   const std::string base = " batch --dataset kitti --root '" + root + "' --quiet";
   const std::string args = base + " --out '" + dir.file("out") + "'";
   ASSERT_EQ(test::run_cli(base.substr(1) + " --out '" + dir.file("ref") + "'").exit_code, 0);
-  // Kill a run early (SIGKILL), then run the same command again.
+  // Kill a run (SIGKILL) as soon as its manifest records the first finished image — not after a
+  // fixed delay, which under load can fall before any image is done — then run it again.
+  // `exec` makes the shell become photosite, so the kill reaches the batch itself.
   const pid_t pid = fork();
   if (pid == 0) {
-    execl("/bin/sh", "sh", "-c", (std::string("'") + PHOTOSITE_BIN + "'" + args + " > /dev/null 2>&1").c_str(), nullptr);
+    execl("/bin/sh", "sh", "-c", (std::string("exec '") + PHOTOSITE_BIN + "'" + args + " > /dev/null 2>&1").c_str(), nullptr);
     _exit(127);
   }
-  usleep(250000);
+  auto finished_in_manifest = [&] {
+    int n = 0;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir.path() / "out" / ".photosite-batch", ec)) {
+      std::ifstream f(e.path());
+      for (std::string line; std::getline(f, line);) n += line.find("\"key\":") != std::string::npos;
+    }
+    return n;
+  };
+  int done_at_kill = 0;
+  for (int waited_ms = 0; waited_ms < 300000 && (done_at_kill = finished_in_manifest()) == 0; waited_ms += 2)
+    usleep(2000);
   kill(pid, SIGKILL);
   int st;
   waitpid(pid, &st, 0);
+  ASSERT_GE(done_at_kill, 1) << "the batch recorded no finished image within 300 s";
+  ASSERT_TRUE(WIFSIGNALED(st)) << "the batch finished before it could be killed";
+  EXPECT_LT(finished_in_manifest(), kImages) << "nothing was left to resume";
   auto r = test::run_cli(args.substr(1));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto ref = tree_bytes(dir.path() / "ref"), out = tree_bytes(dir.path() / "out");

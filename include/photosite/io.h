@@ -3,6 +3,7 @@
 // PNG previews. Every write goes to a temporary name in the target folder and is renamed into
 // place only when complete, so a failed or killed run never leaves a half-written file.
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <string>
@@ -24,6 +25,14 @@ struct ImageFileInfo {
 
 ImageFileInfo probe_image(const std::string& path);
 
+// The largest frame photosite accepts, in pixels: $PHOTOSITE_MAX_PIXELS or 2^28 (16384x16384).
+// Image headers are checked against it before any pixel buffer is allocated, so a file that
+// declares 40000x40000 is refused instead of exhausting memory.
+int64_t max_frame_pixels();
+// Bad input (exit 2, "<what>: ...") unless width x height is a possible frame: at least 2x2
+// (one CFA tile) and at most max_frame_pixels().
+void check_frame_size(const std::string& what, int64_t width, int64_t height);
+
 // Reads every channel as float. Integer files are normalised to [0, 1] (value / max code).
 ImageF read_image(const std::string& path, ImageFileInfo* info = nullptr);
 // Reads raw integer codes (8 or 16-bit files), unscaled: labels, instance ids, mosaics.
@@ -42,9 +51,13 @@ struct ExrWriteOptions {
   // Byte-reproducible files: no wall-clock DateTime in the header (OpenImageIO adds one by
   // default), so the same inputs give the same bytes on any machine and any day.
   bool reproducible = false;
+  // Never replace: the finished file is published with link(), which fails when the name
+  // exists; write_exr then discards its own file and returns false (someone else's is there).
+  bool create_only = false;
 };
 
-void write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
+// Returns true when the file was written; false only with create_only and an existing file.
+bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
                const std::map<std::string, ExrAttribute>& attributes,
                const ExrWriteOptions& options = {});
 
@@ -63,6 +76,8 @@ void write_png(const std::string& path, const ImageF& image, int bits = 8);
 void check_output_path(const std::string& path, bool overwrite);
 // Runs write(temp_path) and renames temp_path to path; removes the temporary on any error.
 void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write);
+// The same, but never replacing: false (temporary removed) when path already exists.
+bool atomic_create(const std::string& path, const std::function<void(const std::string&)>& write);
 // Replaces the run of '#' in a pattern with the zero-padded frame number ("out_###.exr").
 std::string frame_path(const std::string& pattern, int frame);
 

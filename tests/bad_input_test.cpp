@@ -1,0 +1,385 @@
+// Bad input, table-driven, through the real `photosite` binary: every row builds a folder of
+// inputs (good ones, then one thing broken), runs a command and checks the contract of
+// include/photosite/error.h — exit status 2, a message naming the file (or option) and the
+// problem, and no output left behind (not even a temporary). The good-input controls at the end
+// run the same commands on the unbroken inputs and must succeed, so a row cannot pass because
+// its inputs were broken in some other way.
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "photosite/io.h"
+#include "test_util.h"
+
+using namespace photosite;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kW = 128, kH = 64;  // the good frames
+
+struct Ctx {
+  fs::path dir;  // in/ out/ store/ under it
+  std::string in(const std::string& n) const { return (dir / "in" / n).string(); }
+  std::string out(const std::string& n) const { return (dir / "out" / n).string(); }
+  std::string store() const { return (dir / "store").string(); }
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+void put(const std::string& path, const std::string& bytes) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+void truncate_to(const std::string& path, double fraction) {
+  const std::string b = slurp(path);
+  put(path, b.substr(0, static_cast<size_t>(b.size() * fraction)));
+}
+// Overwrites the bytes from `fraction` of the file to its end with a fixed pseudo-random
+// pattern: the header stays intact, the compressed pixel data becomes garbage.
+void corrupt_tail(const std::string& path, double fraction) {
+  std::string b = slurp(path);
+  uint32_t x = 0x12345678u;
+  for (size_t i = static_cast<size_t>(b.size() * fraction); i < b.size(); ++i) {
+    x = x * 1664525u + 1013904223u;
+    b[i] = static_cast<char>(x >> 24);
+  }
+  put(path, b);
+}
+
+uint32_t crc32(const unsigned char* p, size_t n) {  // PNG's CRC (ISO 3309), bitwise
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+  }
+  return c ^ 0xFFFFFFFFu;
+}
+// Rewrites a PNG's IHDR to declare width x height, with a correct CRC, pixel data unchanged.
+void png_declare_size(const std::string& path, uint32_t w, uint32_t h) {
+  std::string b = slurp(path);
+  auto be = [&](size_t at, uint32_t v) {
+    for (int k = 0; k < 4; ++k) b[at + k] = static_cast<char>(v >> (24 - 8 * k));
+  };
+  be(16, w);
+  be(20, h);
+  be(29, crc32(reinterpret_cast<const unsigned char*>(b.data()) + 12, 17));
+  put(path, b);
+}
+// Rewrites an EXR's dataWindow and displayWindow (box2i attributes) to 0..w-1 x 0..h-1.
+void exr_declare_size(const std::string& path, int32_t w, int32_t h) {
+  std::string b = slurp(path);
+  for (const std::string name : {"dataWindow", "displayWindow"}) {
+    const std::string tag = name + std::string("\0box2i\0", 7);
+    const size_t at = b.find(tag);
+    ASSERT_NE(at, std::string::npos) << name;
+    const int32_t box[4] = {0, 0, w - 1, h - 1};
+    std::memcpy(b.data() + at + tag.size() + 4, box, sizeof box);  // after the int32 size
+  }
+  // Room for the chunk offset table the header now implies, so OpenEXR opens the file and it is
+  // photosite's size check that refuses it.
+  put(path, b + std::string(64 * 1024, '\0'));
+}
+
+ImageF day_image(int w = kW, int h = kH) {
+  ImageF img(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = 0.2f + 0.6f * ((x + y + 7 * c) % 17) / 17.f;
+  return img;
+}
+// Cityscapes labelIds: sky (23) above, building (11) in the middle, road (7) below.
+ImageF label_ids(int w = kW, int h = kH, int odd_value = -1) {
+  ImageF img(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) img.at(x, y) = (y < h / 3 ? 23 : y < h / 2 ? 11 : 7) / 255.f;
+  if (odd_value >= 0) img.at(w / 2, h / 2) = odd_value / 255.f;
+  return img;
+}
+void write_radiance(const std::string& path, int w = kW, int h = kH, float odd = 1.f,
+                    int channels = 3) {
+  ImageF r(w, h, channels, 0.05f);
+  r[r.size() / 2] = odd;
+  std::vector<std::string> names = {"R", "G", "B"};
+  names.resize(channels);
+  if (channels == 2) names = {"R", "G"};
+  write_exr(path, {{names, &r, "W.sr-1.m-2"}}, {});
+}
+void write_good_inputs(const Ctx& c) {
+  write_png(c.in("day.png"), day_image());
+  write_png(c.in("labels.png"), label_ids());
+  write_radiance(c.in("radiance.exr"));
+  put(c.in("manifest.txt"), c.in("day.png") + " " + c.in("labels.png") + "\n");
+}
+std::string base_camera_toml() {
+  return slurp(std::string(PHOTOSITE_PRESET_DIR) + "/cameras/sony-imx174.toml");
+}
+std::string replace_line(std::string text, const std::string& key, const std::string& line) {
+  const auto p = text.find("\n" + key + " ");
+  const auto e = text.find('\n', p + 1);
+  return text.substr(0, p + 1) + line + text.substr(e);
+}
+void write_camera(const Ctx& c, const std::string& text) { put(c.in("cam.toml"), text); }
+// A device map of one preset and size, made by a real run, placed where another lookup goes.
+void make_map(const Ctx& c, const std::string& preset, int w, int h) {
+  auto r = test::run_cli(fmt::format("flat --photons 0 --wavelength-nm 525 --width {} --height {} "
+                                     "--preset {} --device-id dev --device-store '{}' --out '{}'",
+                                     w, h, preset, c.store(), c.in("mk.exr")));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  fs::remove(c.in("mk.exr"));
+}
+std::string map_path(const Ctx& c, const std::string& preset, int w, int h) {
+  return (fs::path(c.store()) / preset / fmt::format("dev_{}x{}.exr", w, h)).string();
+}
+void move_map(const Ctx& c, const std::string& from_preset, int fw, int fh, const std::string& to_preset,
+              int tw, int th) {
+  make_map(c, from_preset, fw, fh);
+  fs::create_directories(fs::path(map_path(c, to_preset, tw, th)).parent_path());
+  fs::rename(map_path(c, from_preset, fw, fh), map_path(c, to_preset, tw, th));
+}
+// Runs `cmd` as an unprivileged user when the tests run as root (root ignores permissions).
+std::string as_user(const Ctx& c) {
+  if (geteuid() != 0) return "";
+  fs::permissions(c.dir / "out", fs::perms::all);
+  return "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+}
+
+struct Row {
+  const char* name;
+  std::function<void(Ctx&)> setup;  // after the good inputs are written
+  std::string args;                 // {in}/{out}/{store} are replaced by the folders
+  std::vector<std::string> expect;  // each must appear in the output (file and problem)
+  std::string prefix = {};          // shell words before the command (ulimit, setpriv)
+};
+
+std::string expand(std::string s, const Ctx& c) {
+  for (const auto& [k, v] : {std::pair<std::string, std::string>{"{in}", (c.dir / "in").string()},
+                             {"{out}", (c.dir / "out").string()},
+                             {"{store}", c.store()}}) {
+    for (size_t p; (p = s.find(k)) != std::string::npos;) s.replace(p, k.size(), v);
+  }
+  return s;
+}
+
+const std::string kSensor = "--device-id dev --device-store '{store}' ";
+const std::string kExpose = "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/o.exr' ";
+const std::string kFlat = "flat --preset sony-imx174 " + kSensor + "--photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr' ";
+const std::string kNight = "night " + kSensor + "--image '{in}/day.png' --labels '{in}/labels.png' --out '{out}/o.exr' ";
+const std::string kBatch = "batch --quiet " + kSensor + "--out '{out}/b' ";
+
+std::vector<Row> rows() {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<Row> t;
+  // ---- expose: the radiance file ----------------------------------------------------------
+  t.push_back({"expose_missing_radiance", [](Ctx& c) { fs::remove(c.in("radiance.exr")); }, kExpose, {"radiance.exr", "no such file"}});
+  t.push_back({"expose_empty_radiance", [](Ctx& c) { put(c.in("radiance.exr"), ""); }, kExpose, {"radiance.exr", "cannot read image"}});
+  t.push_back({"expose_truncated_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.5); }, kExpose, {"radiance.exr", "Unexpected end of file"}});
+  t.push_back({"expose_header_only_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.05); }, kExpose, {"radiance.exr"}});
+  t.push_back({"expose_corrupt_exr", [](Ctx& c) { corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "cannot read image"}});
+  t.push_back({"expose_garbage_file", [](Ctx& c) { put(c.in("radiance.exr"), std::string(5000, 'x')); }, kExpose, {"radiance.exr", "cannot read image"}});
+  t.push_back({"expose_integer_png_radiance", [](Ctx& c) { fs::copy_file(c.in("day.png"), c.in("r.png")); }, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/r.png' --out '{out}/o.exr'", {"r.png", "floating-point"}});
+  t.push_back({"expose_nan_radiance", [=](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, nan); }, kExpose, {"radiance.exr", "NaN"}});
+  t.push_back({"expose_inf_radiance", [=](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, inf); }, kExpose, {"radiance.exr", "inf"}});
+  t.push_back({"expose_negative_radiance", [](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, -3.f); }, kExpose, {"radiance.exr", "negative"}});
+  t.push_back({"expose_one_pixel", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 1, 1); }, kExpose, {"radiance.exr", "1x1", "too small"}});
+  t.push_back({"expose_one_row", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 64, 1); }, kExpose, {"radiance.exr", "64x1", "too small"}});
+  t.push_back({"expose_declared_40000_exr", [](Ctx& c) { exr_declare_size(c.in("radiance.exr"), 40000, 40000); }, kExpose, {"radiance.exr", "40000x40000", "refused before allocating"}});
+  t.push_back({"expose_two_channels", [](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, 1.f, 2); }, kExpose, {"radiance.exr", "1 or 3 channels"}});
+  t.push_back({"expose_radiance_is_folder", [](Ctx& c) { fs::remove(c.in("radiance.exr")); fs::create_directory(c.in("radiance.exr")); }, kExpose, {"radiance.exr", "is a folder"}});
+  t.push_back({"expose_output_folder_missing", {}, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
+  t.push_back({"expose_output_exists", [](Ctx& c) { put(c.out("o.exr"), "user data"); }, kExpose, {"o.exr", "already exists"}});
+  t.push_back({"expose_preview_folder_missing", {}, kExpose + "--preview '{out}/nope/p.png'", {"nope", "does not exist"}});
+  t.push_back({"expose_frames_without_hash", {}, kExpose + "--frames 3", {"o.exr", "'#'"}});
+  t.push_back({"expose_negative_exposure", {}, kExpose + "--exposure-s -1", {"exposure"}});
+  t.push_back({"expose_bad_device_id", {}, "expose --preset sony-imx174 --device-id ../x --device-store '{store}' --radiance '{in}/radiance.exr' --out '{out}/o.exr'", {"device id", "may contain only"}});
+  t.push_back({"expose_output_too_large_for_disk", [](Ctx& c) { make_map(c, "sony-imx174", kW, kH); }, kExpose, {"o.exr", "write failed"}, "ulimit -f 64; "});
+  // ---- camera presets --------------------------------------------------------------------
+  const std::string kCam = "expose --preset '{in}/cam.toml' " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/o.exr'";
+  t.push_back({"preset_unknown_name", {}, "expose --preset no-such-camera " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/o.exr'", {"no-such-camera", "unknown camera preset"}});
+  t.push_back({"preset_missing_file", {}, kCam, {"cam.toml", "no such preset file"}});
+  t.push_back({"preset_unknown_key", [](Ctx& c) { write_camera(c, base_camera_toml() + "\nfull_wel_e = 5\n"); }, kCam, {"cam.toml:", "full_wel_e: unknown key"}});
+  t.push_back({"preset_wrong_unit_string", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "read_noise_e = \"6 e-\"")); }, kCam, {"cam.toml:", "read_noise_e", "expected a number"}});
+  t.push_back({"preset_wrong_unit_key", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "read_noise_dn = 6")); }, kCam, {"cam.toml:", "read_noise_dn: unknown key"}});
+  t.push_back({"preset_out_of_range", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "prnu_percent", "prnu_percent = -1")); }, kCam, {"cam.toml:", "prnu_percent", "out of range"}});
+  t.push_back({"preset_nan_value", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "dsnu_e", "dsnu_e = nan")); }, kCam, {"cam.toml:", "dsnu_e"}});
+  t.push_back({"preset_missing_value", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "# removed")); }, kCam, {"cam.toml", "read_noise_e: required"}});
+  t.push_back({"preset_malformed_toml", [](Ctx& c) { write_camera(c, base_camera_toml() + "\n[[broken"); }, kCam, {"cam.toml:", "malformed TOML"}});
+  t.push_back({"preset_binary_garbage", [](Ctx& c) { write_camera(c, std::string("\x89PNG\r\n\x1a\n\0\0\xff", 11)); }, kCam, {"cam.toml"}});
+  t.push_back({"preset_unknown_lens", {}, kExpose + "--lens no-such-lens", {"no-such-lens"}});
+  t.push_back({"presets_show_unknown", {}, "presets show no-such-preset", {"no-such-preset"}});
+  t.push_back({"presets_show_malformed", [](Ctx& c) { write_camera(c, "name = \"x\"\n[[[\n"); }, "presets show '{in}/cam.toml'", {"cam.toml", "malformed TOML"}});
+  // ---- the device store -------------------------------------------------------------------
+  t.push_back({"map_of_another_preset", [](Ctx& c) { move_map(c, "onsemi-ar0331", kW, kH, "sony-imx174", kW, kH); }, kExpose, {"dev_128x64.exr", "belongs to preset 'onsemi-ar0331'"}});
+  t.push_back({"map_of_another_size", [](Ctx& c) { move_map(c, "sony-imx174", 64, 32, "sony-imx174", kW, kH); }, kExpose, {"dev_128x64.exr", "64x32", "128x64"}});
+  t.push_back({"map_of_other_parameters", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); put(c.in("sony-imx174.toml"), replace_line(base_camera_toml(), "prnu_percent", "prnu_percent = 3.5")); }, "flat --preset '{in}/sony-imx174.toml' " + kSensor + "--photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"dev_64x32.exr", "other preset parameters"}});
+  t.push_back({"map_truncated", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); truncate_to(map_path(c, "sony-imx174", 64, 32), 0.5); }, kFlat, {"dev_64x32.exr", "corrupt or truncated"}});
+  t.push_back({"map_bits_flipped", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); corrupt_tail(map_path(c, "sony-imx174", 64, 32), 0.7); }, kFlat, {"dev_64x32.exr", "corrupt"}});
+  t.push_back({"map_not_photosite", [](Ctx& c) { fs::create_directories(c.store() + "/sony-imx174"); write_radiance(map_path(c, "sony-imx174", 64, 32), 64, 32); }, kFlat, {"dev_64x32.exr", "not a photosite device map"}});
+  t.push_back({"map_declared_40000", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); exr_declare_size(map_path(c, "sony-imx174", 64, 32), 40000, 40000); }, kFlat, {"dev_64x32.exr", "40000x40000"}});
+  t.push_back({"store_read_only", [](Ctx& c) { fs::create_directories(c.store()); fs::permissions(c.store(), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec); }, kFlat, {"store", "device store", "read-only"}});
+  t.push_back({"store_is_a_file", [](Ctx& c) { put(c.store(), "x"); }, kFlat, {"store", "device store"}});
+  t.push_back({"store_full", {}, kFlat, {"dev_64x32.exr", "write failed"}, "ulimit -f 8; "});
+  // ---- flat and chart ---------------------------------------------------------------------
+  t.push_back({"flat_zero_width", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 0 --height 32 --out '{out}/o.exr'", {"--width", "too small"}});
+  t.push_back({"flat_one_pixel", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 1 --height 1 --out '{out}/o.exr'", {"--width", "1x1", "too small"}});
+  t.push_back({"flat_40000", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 40000 --height 40000 --out '{out}/o.exr'", {"--width", "40000x40000", "limit"}});
+  t.push_back({"flat_negative_photons", {}, "flat --preset sony-imx174 " + kSensor + "--photons -5 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"photons"}});
+  t.push_back({"flat_output_folder_missing", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 64 --height 32 --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
+  t.push_back({"chart_too_small", {}, "chart --width 10 --height 10 --out '{out}/c.exr'", {"chart size"}});
+  t.push_back({"chart_bad_cct", {}, "chart --cct-k 100 --out '{out}/c.exr'", {"CCT"}});
+  t.push_back({"chart_output_folder_missing", {}, "chart --out '{out}/nope/c.exr'", {"nope", "does not exist"}});
+  t.push_back({"characterize_bad_roi", {}, "characterize --preset sony-imx174 " + kSensor + "--roi 5", {"--roi"}});
+  t.push_back({"characterize_bad_preset", [](Ctx& c) { write_camera(c, "[[x"); }, "characterize --preset '{in}/cam.toml' " + kSensor, {"cam.toml", "malformed TOML"}});
+  // ---- night: the day image -----------------------------------------------------------------
+  t.push_back({"night_missing_image", [](Ctx& c) { fs::remove(c.in("day.png")); }, kNight, {"day.png", "not found"}});
+  t.push_back({"night_empty_png", [](Ctx& c) { put(c.in("day.png"), ""); }, kNight, {"day.png", "cannot read image"}});
+  t.push_back({"night_truncated_png", [](Ctx& c) { truncate_to(c.in("day.png"), 0.5); }, kNight, {"day.png", "corrupt or truncated"}});
+  t.push_back({"night_corrupt_png", [](Ctx& c) { corrupt_tail(c.in("day.png"), 0.3); }, kNight, {"day.png"}});
+  t.push_back({"night_png_header_only", [](Ctx& c) { truncate_to(c.in("day.png"), 0.02); }, kNight, {"day.png"}});
+  t.push_back({"night_png_declared_40000", [](Ctx& c) { png_declare_size(c.in("day.png"), 40000, 40000); }, kNight, {"day.png", "40000x40000", "refused before allocating"}});
+  t.push_back({"night_png_declared_zero", [](Ctx& c) { png_declare_size(c.in("day.png"), 0, 0); }, kNight, {"day.png"}});
+  t.push_back({"night_one_pixel_png", [](Ctx& c) { write_png(c.in("day.png"), day_image(1, 1)); write_png(c.in("labels.png"), label_ids(1, 1)); }, kNight, {"day.png", "1x1", "too small"}});
+  t.push_back({"night_truncated_tiff", [](Ctx& c) { write_png(c.in("day.tif"), day_image()); truncate_to(c.in("day.tif"), 0.5); }, "night " + kSensor + "--image '{in}/day.tif' --labels '{in}/labels.png' --out '{out}/o.exr'", {"day.tif", "corrupt or truncated"}});
+  t.push_back({"night_corrupt_tiff_header", [](Ctx& c) { write_png(c.in("day.tif"), day_image()); std::string b = slurp(c.in("day.tif")); for (size_t i = 4; i < 8; ++i) b[i] = '\xff'; put(c.in("day.tif"), b); }, "night " + kSensor + "--image '{in}/day.tif' --labels '{in}/labels.png' --out '{out}/o.exr'", {"day.tif"}});
+  t.push_back({"night_nan_exr_day", [=](Ctx& c) { write_radiance(c.in("day.exr"), kW, kH, nan); }, "night " + kSensor + "--image '{in}/day.exr' --labels '{in}/labels.png' --out '{out}/o.exr'", {"day.exr", "NaN"}});
+  t.push_back({"night_inf_exr_day", [=](Ctx& c) { write_radiance(c.in("day.exr"), kW, kH, inf); }, "night " + kSensor + "--image '{in}/day.exr' --labels '{in}/labels.png' --out '{out}/o.exr'", {"day.exr", "inf"}});
+  t.push_back({"night_image_is_folder", [](Ctx& c) { fs::remove(c.in("day.png")); fs::create_directory(c.in("day.png")); }, kNight, {"day.png", "folder"}});
+  // ---- night: labels and instances ----------------------------------------------------------
+  t.push_back({"labels_missing", [](Ctx& c) { fs::remove(c.in("labels.png")); }, kNight, {"labels.png", "not found"}});
+  t.push_back({"labels_wrong_size", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(64, 32)); }, kNight, {"labels.png", "64x32", "128x64"}});
+  t.push_back({"labels_unknown_id", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(kW, kH, 40)); }, kNight, {"labels.png", "value 40", "(64, 32)"}});
+  t.push_back({"labels_unknown_train_id", [](Ctx& c) { ImageF t(kW, kH, 1, 0.f); t[kW + 3] = 19 / 255.f; write_png(c.in("labels.png"), t); }, kNight + "--label-format trainIds", {"labels.png", "value 19"}});
+  t.push_back({"labels_unknown_colour", [](Ctx& c) { ImageF p(kW, kH, 3, 0.f); p[0] = 0.5f; write_png(c.in("labels.png"), p); }, kNight, {"labels.png", "not in the Cityscapes palette"}});
+  t.push_back({"labels_two_channels", [](Ctx& c) { ImageF p(kW, kH, 2, 0.f); write_png(c.in("labels.png"), p); }, kNight, {"labels.png", "channels"}});
+  t.push_back({"labels_truncated", [](Ctx& c) { truncate_to(c.in("labels.png"), 0.4); }, kNight, {"labels.png"}});
+  t.push_back({"labels_float_exr", [](Ctx& c) { write_radiance(c.in("labels.exr"), kW, kH); }, "night " + kSensor + "--image '{in}/day.png' --labels '{in}/labels.exr' --out '{out}/o.exr'", {"labels.exr", "floating point"}});
+  t.push_back({"labels_bad_format_option", {}, kNight + "--label-format rainbow", {"--label-format", "rainbow"}});
+  t.push_back({"instances_wrong_size", [](Ctx& c) { write_png(c.in("inst.png"), ImageF(64, 32, 1, 0.f), 16); }, kNight + "--instances '{in}/inst.png'", {"inst.png", "64x32"}});
+  t.push_back({"instances_class_beyond_33", [](Ctx& c) { ImageF i(kW, kH, 1, 0.f); i[5] = 40001 / 65535.f; write_png(c.in("inst.png"), i, 16); }, kNight + "--instances '{in}/inst.png'", {"inst.png", "40001"}});
+  t.push_back({"instances_missing", {}, kNight + "--instances '{in}/inst.png'", {"inst.png", "not found"}});
+  t.push_back({"scene_preset_unknown_key", [](Ctx& c) { put(c.in("scene.toml"), "name = \"s\"\nmoon_luxx = 1\n"); }, kNight + "--scene-preset '{in}/scene.toml'", {"scene.toml", "moon_luxx"}});
+  t.push_back({"scene_preset_malformed", [](Ctx& c) { put(c.in("scene.toml"), "name = \"s\n"); }, kNight + "--scene-preset '{in}/scene.toml'", {"scene.toml", "malformed TOML"}});
+  t.push_back({"night_ambient_out_of_range", {}, kNight + "--ambient-lux 50", {"--ambient-lux"}});
+  t.push_back({"night_maps_folder_missing", {}, kNight + "--maps '{out}/nope'", {"nope", "does not exist"}});
+  t.push_back({"night_output_folder_missing", {}, "night " + kSensor + "--image '{in}/day.png' --labels '{in}/labels.png' --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
+  // ---- batch --------------------------------------------------------------------------------
+  t.push_back({"batch_missing_manifest", {}, kBatch + "--manifest '{in}/none.txt'", {"none.txt"}});
+  t.push_back({"batch_manifest_missing_image", [](Ctx& c) { put(c.in("manifest.txt"), c.in("gone.png") + " " + c.in("labels.png") + "\n"); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt", "gone.png", "not found"}});
+  t.push_back({"batch_truncated_image", [](Ctx& c) { truncate_to(c.in("day.png"), 0.5); }, kBatch + "--manifest '{in}/manifest.txt'", {"day.png", "corrupt or truncated", "1 of 1 items failed"}});
+  t.push_back({"batch_wrong_size_labels", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(64, 32)); }, kBatch + "--manifest '{in}/manifest.txt'", {"labels.png", "64x32", "1 of 1 items failed"}});
+  t.push_back({"batch_manifest_garbage", [](Ctx& c) { put(c.in("manifest.txt"), std::string("\0\1\2 x y z w v\n", 14)); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt"}});
+  t.push_back({"batch_unknown_dataset", {}, kBatch + "--dataset mnist --root '{in}'", {"mnist"}});
+  t.push_back({"batch_root_missing", {}, kBatch + "--dataset cityscapes --root '{in}/nope'", {"nope"}});
+  t.push_back({"batch_bad_shard", {}, kBatch + "--manifest '{in}/manifest.txt' --shard 3/2", {"3/2"}});
+  t.push_back({"batch_bad_jobs", {}, kBatch + "--manifest '{in}/manifest.txt' --jobs 0", {"--jobs"}});
+  return t;
+}
+
+// Every file under `root`, temporaries (".name.tmp-...") included; the batch's own resume
+// manifest folder is not an output.
+std::vector<std::string> files_under(const fs::path& root) {
+  std::vector<std::string> f;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(root, ec); it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    if (it->path().filename() == ".photosite-batch") {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_directory()) f.push_back(it->path().string());
+  }
+  return f;
+}
+
+void PrintTo(const Row& r, std::ostream* os) { *os << r.name; }
+
+// As test::run_cli, with shell words (a ulimit, setpriv) before the binary.
+test::CliResult run_with_prefix(const std::string& prefix, const std::string& args) {
+  test::CliResult r;
+  const std::string cmd = prefix + "'" + PHOTOSITE_BIN + "' " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) r.output.append(buf, n);
+  const int st = pclose(p);
+  r.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  return r;
+}
+
+class BadInput : public ::testing::TestWithParam<Row> {};
+
+TEST_P(BadInput, ExitTwoNamesFileAndProblemLeavesNoOutput) {
+  const Row& row = GetParam();
+  test::TempDir tmp;
+  Ctx c{tmp.path()};
+  fs::create_directories(c.dir / "in");
+  fs::create_directories(c.dir / "out");
+  write_good_inputs(c);
+  if (row.setup) row.setup(c);
+  std::string prefix = row.prefix;
+  if (std::string(row.name) == "store_read_only") prefix = as_user(c);
+  const auto r = prefix.empty() ? test::run_cli(expand(row.args, c)) : run_with_prefix(prefix, expand(row.args, c));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  for (const auto& e : row.expect) EXPECT_NE(r.output.find(expand(e, c)), std::string::npos) << "missing '" << e << "' in:\n" << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+  for (const auto& f : files_under(c.dir / "out"))
+    if (std::string(row.name) != "expose_output_exists") ADD_FAILURE() << "left behind: " << f;
+  for (const auto& f : files_under(c.store()))
+    EXPECT_EQ(f.find(".tmp-"), std::string::npos) << "temporary left in the store: " << f;
+  if (std::string(row.name) == "expose_output_exists") EXPECT_EQ(slurp(c.out("o.exr")), "user data");
+  std::error_code ec;
+  fs::permissions(c.store(), fs::perms::all, ec);  // so TempDir can remove it
+}
+
+INSTANTIATE_TEST_SUITE_P(Table, BadInput, ::testing::ValuesIn(rows()),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+TEST(BadInput, TableHasAtLeastThirtyRowsOverEveryCommand) {
+  const auto t = rows();
+  EXPECT_GE(t.size(), 30u);
+  for (const std::string cmd : {"expose", "flat", "night", "chart", "batch", "presets", "characterize"}) {
+    bool found = false;
+    for (const auto& r : t) found |= r.args.rfind(cmd + " ", 0) == 0;
+    EXPECT_TRUE(found) << cmd;
+  }
+}
+
+// The same commands on the unbroken inputs succeed: each row fails for its own reason.
+TEST(BadInput, GoodInputControlsSucceed) {
+  test::TempDir tmp;
+  Ctx c{tmp.path()};
+  fs::create_directories(c.dir / "in");
+  fs::create_directories(c.dir / "out");
+  write_good_inputs(c);
+  write_camera(c, base_camera_toml());
+  int n = 0;
+  for (std::string args : std::vector<std::string>{
+           kExpose, kFlat, kNight, kBatch + "--manifest '{in}/manifest.txt'",
+        "expose --preset '{in}/cam.toml' " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/o.exr'",
+        "night " + kSensor + "--image '{in}/day.exr' --labels '{in}/labels.png' --out '{out}/o.exr'",
+        "chart --out '{out}/o.exr'"}) {
+    if (n == 5) write_radiance(c.in("day.exr"));
+    const std::string out = fmt::format("o{}.exr", n++);
+    if (const auto p = args.find("o.exr"); p != std::string::npos) args.replace(p, 5, out);
+    const auto r = test::run_cli(expand(args, c));
+    EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
+    if (args.rfind("batch", 0) != 0) EXPECT_TRUE(fs::exists(c.out(out))) << args;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,81 @@
+// Processes sharing one device store: several `photosite flat` runs started at the same moment
+// need the same device's fixed-pattern maps, which none of them finds. Exactly one may create
+// the map; the others must wait for it (flock on the store folder) or, having lost a race, load
+// it (no-replace publish), so every output is made with the one map in the store.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "photosite/io.h"
+#include "test_util.h"
+
+using namespace photosite;
+namespace fs = std::filesystem;
+
+namespace {
+size_t count(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+}  // namespace
+
+TEST(DeviceStoreConcurrency, FourProcessesStartedTogetherUseOneMap) {
+  constexpr int kProcs = 4;
+  test::TempDir dir;
+  const std::string store = dir.file("store"), gun = dir.file("start");
+  ASSERT_EQ(mkfifo(gun.c_str(), 0600), 0);
+  // Each process blocks opening the FIFO for reading; one write releases all of them at once.
+  // A 1024x768 map takes long enough to generate and write that they overlap.
+  std::string cmd = "bash -c '";
+  for (int i = 0; i < kProcs; ++i)
+    cmd += fmt::format("(cat \"{}\" > /dev/null; exec \"{}\" flat --photons 100 --wavelength-nm 525 "
+                       "--preset sony-imx490 --width 1024 --height 768 --device-id race "
+                       "--device-store \"{}\" --out \"{}\" 2> \"{}\") & ",
+                       gun, PHOTOSITE_BIN, store, dir.file(fmt::format("o{}.exr", i)),
+                       dir.file(fmt::format("e{}.txt", i)));
+  cmd += fmt::format("sleep 0.3; echo go > \"{}\"; fail=0; for j in $(jobs -p); do wait $j || fail=1; done; exit $fail'", gun);
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+
+  std::string all_stderr;
+  for (int i = 0; i < kProcs; ++i) all_stderr += slurp(dir.file(fmt::format("e{}.txt", i)));
+  EXPECT_EQ(count(all_stderr, "created the fixed-pattern map"), 1u) << all_stderr;
+
+  std::vector<fs::path> files;
+  for (const auto& e : fs::recursive_directory_iterator(store))
+    if (!e.is_directory()) files.push_back(e.path());
+  ASSERT_EQ(files.size(), 1u) << "expected one map and no lock or temporary files";
+  const auto map = read_exr(files[0].string());
+  const std::string checksum = map.attributes.at("photosite/checksum");
+  for (int i = 0; i < kProcs; ++i) {
+    const auto out = read_exr(dir.file(fmt::format("o{}.exr", i)));
+    EXPECT_EQ(out.attributes.at("photosite/fpn_checksum"), checksum) << i;
+  }
+}
+
+// The no-replace publish on its own (the path taken where flock is unavailable): the second
+// writer finds the first one's file, keeps it untouched and leaves no temporary.
+TEST(DeviceStoreConcurrency, CreateOnlyNeverReplacesAndCleansUp) {
+  test::TempDir dir;
+  const std::string path = dir.file("m.exr");
+  EXPECT_TRUE(atomic_create(path, [](const std::string& tmp) { std::ofstream(tmp) << "first"; }));
+  EXPECT_FALSE(atomic_create(path, [](const std::string& tmp) { std::ofstream(tmp) << "second"; }));
+  EXPECT_EQ(slurp(path), "first");
+  size_t n = 0;
+  for (const auto& e : fs::directory_iterator(dir.path())) n += e.exists();
+  EXPECT_EQ(n, 1u);
+  ImageF img(4, 4, 1, 1.f);
+  ExrWriteOptions wo;
+  wo.create_only = true;
+  EXPECT_FALSE(write_exr(path, {{{"Y"}, &img, ""}}, {}, wo));
+  EXPECT_EQ(slurp(path), "first");
+}
