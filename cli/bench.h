@@ -18,4 +18,6 @@ struct BenchRegistrar {
 // Where results go (docs/ in the source tree unless --out-dir is given), and the machine name
 // (CPU model and core count) to print beside absolute times.
 std::string machine_description();
+// Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
+std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
 }  // namespace photosite::cli

@@ -212,19 +212,11 @@ void run(const Opts& o) {
   const double pois_ms = rows[12].dev_ms > 0 ? rows[12].dev_ms : rows[12].cpu_ms;
   std::printf("\nPoisson: cpu %.3f Gpx/s%s (GPU target > 50 Gpx/s, unmeasured without a GPU)\n",
               n / (rows[12].cpu_ms * 1e6), v ? fmt::format(", vulkan {:.3f} Gpx/s (device time)", n / (pois_ms * 1e6)).c_str() : "");
-  const fs::path dir = o.out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(o.out_dir);
   std::string tag = "cpu";
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (ctx) tag = ctx->device().cpu ? "lavapipe" : "gpu";
 #endif
-  const std::string csv_path = (dir / ("bench_pipeline_" + tag + ".csv")).string();
-  check_output_path(csv_path, true);
-  atomic_write(csv_path, [&](const std::string& tmp) {
-    std::ofstream f(tmp);
-    f << csv;
-    if (!f) fail_at(csv_path, "cannot write");
-  });
-  std::printf("%s\n", csv_path.c_str());
+  write_bench_csv(o.out_dir, "bench_pipeline_" + tag + ".csv", csv);
 }
 }  // namespace
 

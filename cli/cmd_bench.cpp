@@ -1,8 +1,12 @@
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <thread>
 #include <vector>
 
 #include "bench.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
 #include "registry.h"
 
 namespace photosite::cli {
@@ -25,6 +29,20 @@ std::string machine_description() {
       break;
     }
   return model + ", " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
+}
+
+std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv) {
+  namespace fs = std::filesystem;
+  const fs::path dir = out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(out_dir);
+  const std::string path = (dir / name).string();
+  check_output_path(path, true);
+  atomic_write(path, [&](const std::string& tmp) {
+    std::ofstream f(tmp);
+    f << csv;
+    if (!f) fail_at(path, "cannot write");
+  });
+  std::printf("%s\n", path.c_str());
+  return path;
 }
 
 static Registrar reg("m-bench", [](CLI::App& app) {

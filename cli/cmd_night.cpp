@@ -142,6 +142,8 @@ void run_night(NightCmd c) {
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
   lap("read inputs");
   ImageF day = scene::linearize(day_raw, info);
+  const int frame_w = day.width(), frame_h = day.height();
+  day_raw = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   lap("linearize");
   scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed, !c.maps.empty());
   for (auto& st : ns.timings) times.push_back(st);
@@ -150,6 +152,7 @@ void run_night(NightCmd c) {
     write_maps(c.maps, day, labels, ns, c.overwrite);
     lap("write maps");
   }
+  day = ImageF();
 
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   const ImageF mean_e = runner.mean_signal_electrons(ns.radiance, r.camera, r.lens, ex);
@@ -178,7 +181,7 @@ void run_night(NightCmd c) {
               scene::vp_method_name(ns.vp.method), ns.vp.confidence, ns.vp.note.empty() ? "" : ": ",
               ns.vp.note.c_str());
   if (c.timings) {
-    std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", day.width(), day.height(),
+    std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());
     double scene_ms = 0;
     for (const auto& st : times) {

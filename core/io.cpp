@@ -4,6 +4,7 @@
 #include <OpenImageIO/imageio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cerrno>
@@ -148,22 +149,31 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
     if (std::holds_alternative<double>(v))  // keep full precision as text too
       spec.attribute(k + "_text", fmt::format("{:.17g}", std::get<double>(v)));
   }
-  // Interleave all groups into one float buffer.
-  std::vector<float> buf(static_cast<size_t>(w) * h * nch);
-  int c0 = 0;
-  for (const auto& g : groups) {
-    const int gc = g.image->channels();
-    const float* src = g.image->data();
-    for (size_t p = 0, n = static_cast<size_t>(w) * h; p < n; ++p)
-      for (int c = 0; c < gc; ++c) buf[p * nch + c0 + c] = src[p * gc + c];
-    c0 += gc;
-  }
+  // Interleaved and written a strip of rows at a time: a night result has 13 channels, and one
+  // interleaved copy of the whole frame (109 MB at 2048x1024) was the largest single buffer of
+  // a run. Strips are a multiple of 32 rows (OpenEXR's largest line block, PIZ/B44) and about
+  // 16 MB, so OpenEXR still compresses several blocks of each strip in parallel. The file's
+  // bytes do not depend on the strip height.
+  const size_t row_floats = static_cast<size_t>(w) * nch;
+  const int strip = std::max(32, static_cast<int>((16u << 20) / (row_floats * sizeof(float))) / 32 * 32);
+  std::vector<float> buf(row_floats * std::min(strip, h));
   const auto write = [&](const std::string& tmp) {
     auto out = ImageOutput::create("openexr");
     if (!out) internal_error("OpenImageIO has no OpenEXR writer");
     if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
-    if (!out->write_image(TypeDesc::FLOAT, buf.data()))
-      fail_at(path, "write failed (" + out->geterror() + ")");
+    for (int y0 = 0; y0 < h; y0 += strip) {
+      const int y1 = std::min(h, y0 + strip);
+      int c0 = 0;
+      for (const auto& g : groups) {
+        const int gc = g.image->channels();
+        const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
+        for (size_t p = 0, n = static_cast<size_t>(w) * (y1 - y0); p < n; ++p)
+          for (int c = 0; c < gc; ++c) buf[p * nch + c0 + c] = src[p * gc + c];
+        c0 += gc;
+      }
+      if (!out->write_scanlines(y0, y1, 0, TypeDesc::FLOAT, buf.data()))
+        fail_at(path, "write failed (" + out->geterror() + ")");
+    }
     if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
   };
   if (options.create_only) return atomic_create(path, write);

@@ -20,6 +20,7 @@
 // small row of +-1), the horizontal estimate computed per row in thread-local buffers, the
 // vertical one from two planes (observations, low-pass) whose 9-row windows are read through
 // mirrored row pointers. Then one stencil pass (demosaic_detail.h) writes R, G, B.
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -111,10 +112,12 @@ ImageF demosaic_lmmse(const ImageF& m, CfaPattern pattern) {
   // Vertical observations.
 #pragma omp parallel
   {
-    std::vector<float> sg(w);
+    std::vector<float> sg0(w), sg1(w);  // sign rows for the two row parities
+    fill_sign(sg0.data(), 0, w, ph.oy);
+    fill_sign(sg1.data(), 0, w, ph.oy + 1);
 #pragma omp for schedule(static)
     for (int y = 0; y < h; ++y) {
-      fill_sign(sg.data(), 0, w, y);
+      const float* sg = ((y - ph.oy) & 1) ? sg1.data() : sg0.data();
       const float *a = m.row(reflect(y - 2, h)), *b = m.row(reflect(y - 1, h)), *c = m.row(y),
                   *d = m.row(reflect(y + 1, h)), *e = m.row(reflect(y + 2, h));
       float* o = dv.row(y);
@@ -135,32 +138,34 @@ ImageF demosaic_lmmse(const ImageF& m, CfaPattern pattern) {
       o[x] = s;
     }
   }
-  // Horizontal estimate (row-local), vertical estimate, fusion: D = G - X at R/B sites.
+  // Horizontal estimate (row-local, in a mirrored copy of the row), vertical estimate and
+  // their fusion, computed at the R/B sites only (every other pixel of a row): D = G - X there,
+  // zero at green sites.
   constexpr int P = 2 + 2 * kHalf;  // margin: observation filter + low-pass + window
+  const int n = w + 2 * P;
 #pragma omp parallel
   {
-    std::vector<float> sg(w + 2 * P), mp(w + 2 * P), zh(w + 2 * P), sh(w + 2 * P);
-    std::vector<float> eh(w), xh(w);
+    std::vector<float> sg0(n), sg1(n), mp(n), zh(n), sh(n);
+    fill_sign(sg0.data(), -P, n, ph.oy);
+    fill_sign(sg1.data(), -P, n, ph.oy + 1);
 #pragma omp for schedule(static)
     for (int y = 0; y < h; ++y) {
+      const float* sg = ((y - ph.oy) & 1) ? sg1.data() : sg0.data();
       const float* mr = m.row(y);
-      const int n = w + 2 * P;
-      for (int i = 0; i < n; ++i) mp[i] = mr[reflect(i - P, w)];
-      fill_sign(sg.data(), -P, n, y);
+      float* M = mp.data();
+      std::copy(mr, mr + w, M + P);
+      for (int i = 0; i < P; ++i) {
+        M[P - 1 - i] = mr[reflect(-1 - i, w)];
+        M[P + w + i] = mr[reflect(w + i, w)];
+      }
+      float* Z = zh.data();
+      float* S = sh.data();
       for (int i = 2; i < n - 2; ++i)
-        zh[i] = sg[i] * (0.25f * (2.f * (mp[i - 1] + mp[i] + mp[i + 1]) - mp[i - 2] - mp[i + 2]) - mp[i]);
+        Z[i] = sg[i] * (0.25f * (2.f * (M[i - 1] + M[i] + M[i + 1]) - M[i - 2] - M[i + 2]) - M[i]);
       for (int i = 2 + kHalf; i < n - 2 - kHalf; ++i) {
         float s = 0;
-        for (int k = -kHalf; k <= kHalf; ++k) s += gw[k + kHalf] * zh[i + k];
-        sh[i] = s;
-      }
-#pragma omp simd
-      for (int x = 0; x < w; ++x) {
-        const int i = x + P;
-        float e;
-        xh[x] = lmmse_estimate(zh[i], [&](int k) { return sh[i + k]; },
-                               [&](int k) { return zh[i + k]; }, e);
-        eh[x] = e;
+        for (int k = -kHalf; k <= kHalf; ++k) s += gw[k + kHalf] * Z[i + k];
+        S[i] = s;
       }
       const float* sr[2 * kHalf + 1];
       const float* zr[2 * kHalf + 1];
@@ -169,14 +174,18 @@ ImageF demosaic_lmmse(const ImageF& m, CfaPattern pattern) {
         zr[k + kHalf] = dv.row(reflect(y + k, h));
       }
       float* o = dplane.row(y);
-      const float* sgr = sg.data() + P;
+      std::fill(o, o + w, 0.f);
+      const int a = (ph.ox + y - ph.oy) & 1;  // column parity of this row's R/B sites
+      const int nj = (w - a + 1) / 2;
 #pragma omp simd
-      for (int x = 0; x < w; ++x) {
-        float ev;
+      for (int j = 0; j < nj; ++j) {
+        const int x = a + 2 * j, i = x + P;
+        float eh, ev;
+        const float xh = lmmse_estimate(Z[i], [&](int k) { return S[i + k]; },
+                                        [&](int k) { return Z[i + k]; }, eh);
         const float xv = lmmse_estimate(zr[kHalf][x], [&](int k) { return sr[k + kHalf][x]; },
                                         [&](int k) { return zr[k + kHalf][x]; }, ev);
-        const float fused = (xh[x] * ev + xv * eh[x]) / (eh[x] + ev);
-        o[x] = sgr[x] > 0 ? fused : 0.f;
+        o[x] = (xh * ev + xv * eh) / (eh + ev);
       }
     }
   }

@@ -245,14 +245,9 @@ SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPre
 SensorOutput flat_field(double photons, double wavelength_nm, int width, int height,
                         const CameraPreset& p, const LensPreset& lens, const ExposureSettings& s,
                         const FixedPatternMaps& fpn) {
-  if (!std::isfinite(photons) || photons < 0)
-    fail(fmt::format("photons per pixel {} is impossible (must be >= 0)", photons));
-  if (!(wavelength_nm >= 200 && wavelength_nm <= 1200))
-    fail(fmt::format("wavelength {} nm is outside [200, 1200] nm", wavelength_nm));
-  if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
-    fail(fmt::format("flat-field size {}x{} is impossible", width, height));
+  ImageF mean = detail::flat_field_mean(photons, wavelength_nm, width, height, p);  // checks its inputs
   const ResolvedExposure ex = resolve(p, lens, s);
-  return sense(detail::flat_field_mean(photons, wavelength_nm, width, height, p), p, ex, s, fpn);
+  return sense(mean, p, ex, s, fpn);
 }
 
 ImageF detail::flat_field_mean(double photons, double wavelength_nm, int width, int height,

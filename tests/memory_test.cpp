@@ -1,0 +1,111 @@
+// Peak memory of whole runs of the real binary, measured as the child's maximum resident set
+// (wait4's ru_maxrss): a 2048x1024 `night` run stays under the bound documented in
+// docs/robustness.md, and a `batch` run's peak does not grow with the number of images (its
+// queues hold a bounded number of frames, whatever the data set's size).
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "photosite/io.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
+#include "test_util.h"
+
+using namespace photosite;
+namespace fs = std::filesystem;
+
+namespace {
+// The documented bound for a 2048x1024 night run (docs/robustness.md, "Memory").
+constexpr double kNightPeakBoundMB = 400;
+
+struct Measured {
+  int exit_code = -1;
+  double peak_mb = 0;
+};
+Measured run_measured(const std::string& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const std::string cmd = std::string("exec '") + PHOTOSITE_BIN + "' " + args + " > /dev/null 2>&1";
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), nullptr);
+    _exit(127);
+  }
+  Measured m;
+  int st = 0;
+  rusage ru{};
+  if (wait4(pid, &st, 0, &ru) != pid) return m;
+  m.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  m.peak_mb = ru.ru_maxrss / 1024.0;  // kB on Linux
+  return m;
+}
+
+// A synthetic street (sky, buildings, road with lanes, cars) as an sRGB PNG and labelIds PNG.
+void write_street(const std::string& image, const std::string& labels, int w, int h, int variant) {
+  scene::SyntheticOptions o;
+  o.width = w;
+  o.height = h;
+  o.vp_x = w * (0.48 + 0.01 * variant);
+  o.vp_y = h * 0.4;
+  o.cars = 4;
+  const auto s = scene::make_synthetic_road(o);
+  ImageF srgb = s.day_linear_srgb;
+  for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
+  write_png(image, srgb);
+  ImageF ids(w, h, 1);
+  for (size_t k = 0; k < ids.size(); ++k) ids[k] = s.labels.ids[k] / 255.0f;
+  write_png(labels, ids);
+}
+
+double batch_peak(const test::TempDir& dir, int images, const std::string& tag) {
+  std::ofstream m(dir.file(tag + ".txt"));
+  for (int i = 0; i < images; ++i) {
+    const std::string img = dir.file(fmt::format("{}_{}.png", tag, i));
+    const std::string lab = dir.file(fmt::format("{}_{}_labels.png", tag, i));
+    fs::copy_file(dir.file("street.png"), img);
+    fs::copy_file(dir.file("street_labels.png"), lab);
+    m << img << " " << lab << "\n";
+  }
+  m.close();
+  const auto r = run_measured(fmt::format("batch --quiet --manifest '{}' --out '{}' --device-store '{}'",
+                                          dir.file(tag + ".txt"), dir.file("out_" + tag), dir.file("store")));
+  EXPECT_EQ(r.exit_code, 0) << tag;
+  return r.peak_mb;
+}
+}  // namespace
+
+TEST(Memory, Night2048x1024StaysUnderTheDocumentedPeak) {
+  test::TempDir dir;
+  write_street(dir.file("street.png"), dir.file("street_labels.png"), 2048, 1024, 0);
+  const auto r = run_measured(fmt::format("night --image '{}' --labels '{}' --out '{}' --device-store '{}'",
+                                          dir.file("street.png"), dir.file("street_labels.png"),
+                                          dir.file("night.exr"), dir.file("store")));
+  ASSERT_EQ(r.exit_code, 0);
+  std::printf("night 2048x1024 peak RSS: %.0f MB (bound %.0f MB)\n", r.peak_mb, kNightPeakBoundMB);
+  RecordProperty("night_peak_mb", static_cast<int>(r.peak_mb));
+  EXPECT_LT(r.peak_mb, kNightPeakBoundMB);
+  EXPECT_GT(r.peak_mb, 50.0);  // the measurement is real: the frame buffers alone are larger
+}
+
+TEST(Memory, BatchPeakDoesNotGrowWithTheNumberOfImages) {
+  test::TempDir dir;
+  write_street(dir.file("street.png"), dir.file("street_labels.png"), 1024, 512, 1);
+  // Run both sizes with the device map already in the store, so neither pays for making it.
+  ASSERT_EQ(run_measured(fmt::format("night --image '{}' --labels '{}' --out '{}' --device-store '{}'",
+                                     dir.file("street.png"), dir.file("street_labels.png"),
+                                     dir.file("warm.exr"), dir.file("store")))
+                .exit_code,
+            0);
+  const double small = batch_peak(dir, 3, "n"), large = batch_peak(dir, 9, "n3");
+  std::printf("batch 1024x512 peak RSS: %.0f MB for 3 images, %.0f MB for 9\n", small, large);
+  RecordProperty("batch_peak_mb_3", static_cast<int>(small));
+  RecordProperty("batch_peak_mb_9", static_cast<int>(large));
+  // Six more images may not add even one more frame's worth of memory per two images
+  // (a 1024x512 night result is ~25 MB of buffers): allow 10% + 15 MB of allocator noise.
+  EXPECT_LT(large, small * 1.10 + 15.0);
+}
