@@ -81,7 +81,7 @@ struct BatchCmd {
                                                scene_preset = "night-urban";
   bool half = false, quiet = false;
   int jobs = 1, queue_depth = 2;
-  int compute_threads = 0;  // 0: the hardware threads left over by the writers (at least 1)
+  int compute_threads = 0;  // 0: OpenMP's default (every hardware thread)
   SensorOptions sensor;
   std::string backend = "auto";
 };
@@ -239,16 +239,14 @@ void run(BatchCmd& c) {
   // ---- the pipeline -----------------------------------------------------------------------
   BoundedQueue<Loaded> loaded(static_cast<size_t>(c.queue_depth));
   BoundedQueue<Computed> computed(static_cast<size_t>(c.queue_depth));
-  // Cores are split between the parts instead of every part fighting for all of them: each
-  // writer owns a hardware thread (EXR encoding is single-threaded per file), the reader runs
-  // its decode and linearization on one thread, and compute's OpenMP team gets what is left.
-  // On 2 cores with one writer this keeps the writer (the slowest part) on a core of its own,
-  // so the pipeline runs at the writer's pace (docs/benchmarks.md, bench batch).
-  const int hw = std::max(1, omp_get_num_procs());
-  const int compute_threads = c.compute_threads > 0 ? c.compute_threads : std::max(1, hw - c.jobs);
-  omp_set_num_threads(compute_threads);
+  // By default every part may use every core: the writer (EXR encoding, the slowest part) gets
+  // OpenEXR's own thread pool and the compute stage a full OpenMP team, and the OS shares the
+  // cores between them. Measured on 2 cores (docs/benchmarks.md, bench batch): pinning the writer
+  // and the reader to one thread each and giving compute the rest made the run 1.6x slower, since
+  // the writer then runs single-threaded while compute idles. --compute-threads N caps the
+  // compute stage's team (e.g. beside other jobs on a shared node).
+  if (c.compute_threads > 0) omp_set_num_threads(c.compute_threads);
   std::thread reader([&] {
-    omp_set_num_threads(1);
     for (const auto& it : todo) {
       if (g_stop) break;
       Loaded l;
@@ -283,7 +281,6 @@ void run(BatchCmd& c) {
   std::vector<std::thread> writers;
   for (int j = 0; j < c.jobs; ++j)
     writers.emplace_back([&] {
-      omp_set_num_threads(1);
       while (auto cmp = computed.pop()) {
         if (!cmp->error.empty()) {
           std::lock_guard l(err_m);
@@ -395,7 +392,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--compression", c->compression, "EXR compression (zip, piz, dwaa, none, ...)")->capture_default_str();
   sub->add_option("--jobs", c->jobs, "writer threads")->capture_default_str();
   sub->add_option("--compute-threads", c->compute_threads,
-                  "OpenMP threads for the scene and sensor (0: hardware threads minus --jobs, at least 1)")
+                  "OpenMP threads for the scene and sensor (0: all hardware threads)")
       ->capture_default_str();
   sub->add_option("--queue-depth", c->queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
