@@ -7,6 +7,7 @@
 #include "kernels.h"
 #include "photosite/error.h"
 #include "photosite/gpu/sensor.h"
+#include "photosite/gpu/stages.h"
 #include "photosite/rng.h"
 
 namespace photosite::gpu {
@@ -90,10 +91,10 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
   Buffer& raw = buffer("raw_dn", n * sizeof(float));
   s.dispatch(k, {&buffer("mean_e", n * sizeof(float)), &prnu, &dsnu, &dark, &row, &col, &electrons, &raw}, sp,
              g.x, g.y, 1, "sense");
-  if (st.demosaic == DemosaicMethod::Bilinear) {
+  if (has_demosaic_kernel(st.demosaic)) {
     DemosaicParams dp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), planes_mode(p.cfa),
                       static_cast<float>(p.black_level_dn)};
-    Kernel& d = ctx_.kernel("demosaic_bilinear", 2, sizeof(DemosaicParams));
+    Kernel& d = ctx_.kernel(demosaic_kernel_name(st.demosaic), 2, sizeof(DemosaicParams));
     s.dispatch(d, {&raw, &buffer("rgb", n * 3 * sizeof(float))}, dp, g.x, g.y, 1, "demosaic");
   }
 }
@@ -105,7 +106,7 @@ SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const Expo
   out.raw_dn = ImageF(w, h, 1, uninitialized, unit::dn);
   buffer("electrons", n * sizeof(float)).download(out.electrons.data(), n * sizeof(float));
   buffer("raw_dn", n * sizeof(float)).download(out.raw_dn.data(), n * sizeof(float));
-  if (st.demosaic == DemosaicMethod::Bilinear) {
+  if (has_demosaic_kernel(st.demosaic)) {
     out.rgb = ImageF(w, h, 3, uninitialized, unit::dn);
     buffer("rgb", n * 3 * sizeof(float)).download(out.rgb.data(), n * 3 * sizeof(float));
   } else {  // other methods run on the CPU, on the downloaded mosaic (as sense() does)

@@ -43,8 +43,21 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
   return out;
 }
 
-ImageF demosaic_bilinear(Context& ctx, const ImageF& mosaic, CfaPattern pattern) {
+bool has_demosaic_kernel(DemosaicMethod m) {
+  return m == DemosaicMethod::Bilinear || m == DemosaicMethod::Malvar;
+}
+
+const char* demosaic_kernel_name(DemosaicMethod m) {
+  switch (m) {
+    case DemosaicMethod::Bilinear: return "demosaic_bilinear";
+    case DemosaicMethod::Malvar: return "demosaic_malvar";
+    default: internal_error(std::string("gpu: no demosaic kernel for ") + to_string(m));
+  }
+}
+
+ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
   if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
+  const char* name = demosaic_kernel_name(method);
   const size_t n = mosaic.pixel_count();
   ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
   if (n == 0) return out;
@@ -54,7 +67,7 @@ ImageF demosaic_bilinear(Context& ctx, const ImageF& mosaic, CfaPattern pattern)
                          pack_cfa(pattern), planes_mode(pattern), 0.f};
   Sequence s(ctx);
   const Grid g = grid_1d(n);
-  s.dispatch(ctx.kernel("demosaic_bilinear", 2, sizeof(DemosaicParams)), {&in, &res}, p, g.x, g.y);
+  s.dispatch(ctx.kernel(name, 2, sizeof(DemosaicParams)), {&in, &res}, p, g.x, g.y);
   s.submit_and_wait();
   res.download(out.data(), 3 * n * sizeof(float));
   return out;

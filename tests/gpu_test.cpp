@@ -225,6 +225,8 @@ TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
       s.temperature_c = -40;  // little dark charge, so the darkest pixels see means below 10
       s.seed = 5;
       s.frame = frame;
+      // Each demosaic kernel once inside the chain (Malvar's 5x5 stencil on the device mosaic).
+      s.demosaic = frame == 0 ? DemosaicMethod::Bilinear : DemosaicMethod::Malvar;
       const SensorOutput cpu = expose(rad, cam, lens, s, fpn);
       const SensorOutput dev = chain.expose(rad, cam, lens, s, fpn);
       EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u) << name << " frame " << frame;
@@ -260,11 +262,23 @@ TEST_F(Gpu, SenseFromMeanElectronsBitEqualAndTukeyIsRefused) {
   EXPECT_THROW(chain.sense(mean, tukey, ex2, ExposureSettings{}, f2), Error);
 }
 
-TEST_F(Gpu, BilinearDemosaicBitEqualOnEveryPattern) {
-  ImageF m(77, 41, 1, 0.f, unit::dn);
-  for (size_t i = 0; i < m.size(); ++i) m[i] = static_cast<float>(random_words(3, 0, i, Stream::Test)[0] >> 20) - 100.f;
-  for (CfaPattern p : all_cfa_patterns())
-    EXPECT_EQ(count_differences(demosaic_bilinear(m, p), gpu::demosaic_bilinear(*ctx, m, p)), 0u) << to_string(p);
+TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
+  // Every method with a kernel, every CFA pattern, frames with mirrored borders on all sides, the
+  // smallest Bayer frames (2x2, 3x5: the 5x5 Malvar stencil reflects twice) and a 1-pixel-wide
+  // one (the generic path).
+  const int sizes[][2] = {{77, 41}, {2, 2}, {3, 5}, {1, 7}, {6, 1}};
+  for (DemosaicMethod meth : all_demosaic_methods()) {
+    if (!gpu::has_demosaic_kernel(meth)) continue;
+    for (const auto& sz : sizes) {
+      ImageF m(sz[0], sz[1], 1, 0.f, unit::dn);
+      for (size_t i = 0; i < m.size(); ++i)
+        m[i] = static_cast<float>(random_words(3, 0, i, Stream::Test)[0] >> 20) - 100.f;
+      for (CfaPattern p : all_cfa_patterns())
+        EXPECT_EQ(count_differences(demosaic(m, p, meth), gpu::demosaic(*ctx, m, p, meth)), 0u)
+            << to_string(meth) << " " << to_string(p) << " " << sz[0] << "x" << sz[1];
+    }
+  }
+  EXPECT_TRUE(gpu::has_demosaic_kernel(DemosaicMethod::Malvar));
 }
 
 }  // namespace photosite

@@ -1,0 +1,90 @@
+// The frame of every demosaic kernel (demosaic_<method>.comp), mirroring sensor/demosaic.cpp and
+// sensor/demosaic_detail.h: parameters, buffers, reflect-101 borders, the red site's phase, the
+// normalized-convolution bilinear path for RCCC, mono and frames under 2x2
+// (demosaic_bilinear_generic), RCCB's G = C - R - B, and the RGB write. A method's .comp includes
+// this file, defines `vec3 bayer_px(int x, int y, int t)` (the pixel of RGGB cell type t: 0 R,
+// 1 G in a red row, 2 G in a blue row, 3 B, summed in the C++ kernel's order), and calls
+// demosaic_main() from main().
+#ifndef PHOTOSITE_DEMOSAIC_GLSL
+#define PHOTOSITE_DEMOSAIC_GLSL
+#include "cfa.glsl"
+#include "philox.glsl"
+layout(local_size_x = 256) in;
+
+// gpu::DemosaicParams (gpu/kernels.h)
+layout(push_constant, std430) uniform Params {
+  uint width;
+  uint height;
+  uint cfa_cell;
+  uint planes_to_rgb;  // 0 R,G,B planes; 1 RCCB (G = C − R − B); 2 RCCC (G = B = (C − R)/2); 3 mono (C/3)
+  float black_dn;      // subtracted from every mosaic sample first
+} P;
+layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
+layout(std430, binding = 1) writeonly buffer Rgb { float rgb[]; };
+
+// demosaic_detail.h reflect(): reflect-101 into [0, n), n >= 2 (keeps parity, hence the colour).
+int reflect101(int i, int n) {
+  if (i >= 0 && i < n) return i;
+  const int period = 2 * (n - 1);
+  i %= period;
+  if (i < 0) i += period;
+  return i < n ? i : period - i;
+}
+
+int W, H;
+// The black-subtracted mosaic sample at (x, y), mirrored at the borders.
+float fetch(int x, int y) { return raw_dn[reflect101(y, H) * W + reflect101(x, W)] - P.black_dn; }
+
+vec3 bayer_px(int x, int y, int t);
+
+vec3 generic_px(int x, int y) {
+  precise float sum[4] = float[4](0.0, 0.0, 0.0, 0.0);
+  precise float wsum[4] = float[4](0.0, 0.0, 0.0, 0.0);
+  for (int dy = -1; dy <= 1; ++dy) {
+    const int yy = y + dy;
+    if (yy < 0 || yy >= H) continue;
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int xx = x + dx;
+      if (xx < 0 || xx >= W) continue;
+      const uint c = cfa_color(P.cfa_cell, uint(xx), uint(yy));
+      const float kw = float((2 - abs(dx)) * (2 - abs(dy)));
+      precise float v = raw_dn[yy * W + xx] - P.black_dn;
+      sum[c] += kw * v;
+      wsum[c] += kw;
+    }
+  }
+  precise float planes[4];
+  for (int c = 0; c < 4; ++c) planes[c] = wsum[c] > 0.0 ? sum[c] / wsum[c] : 0.0;
+  precise vec3 o;
+  if (P.planes_to_rgb == 1u) o = vec3(planes[0], planes[3] - planes[0] - planes[2], planes[2]);
+  else if (P.planes_to_rgb == 2u) o = vec3(planes[0], vec2(0.5 * (planes[3] - planes[0])));
+  else if (P.planes_to_rgb == 3u) o = vec3(planes[3] / 3.0);
+  else o = vec3(planes[0], planes[1], planes[2]);
+  return o;
+}
+
+void demosaic_main() {
+  const uint i = linear_invocation();
+  if (i >= P.width * P.height) return;
+  W = int(P.width);
+  H = int(P.height);
+  const int x = int(i % P.width), y = int(i / P.width);
+  precise vec3 o;
+  if (P.planes_to_rgb <= 1u && W >= 2 && H >= 2) {
+    // The red site's position in the 2x2 cell, from the packed pattern (bayer_phase()).
+    int ox = 0, oy = 0;
+    for (int c = 0; c < 4; ++c)
+      if (cfa_color(P.cfa_cell, uint(c & 1), uint(c >> 1)) == 0u) {
+        ox = c & 1;
+        oy = c >> 1;
+      }
+    o = bayer_px(x, y, (((y - oy) & 1) << 1) | ((x - ox) & 1));
+    if (P.planes_to_rgb == 1u) o.y = o.y - o.x - o.z;  // clear_to_rgb
+  } else {
+    o = generic_px(x, y);
+  }
+  rgb[3 * i] = o.x;
+  rgb[3 * i + 1] = o.y;
+  rgb[3 * i + 2] = o.z;
+}
+#endif
