@@ -92,107 +92,37 @@ struct LmmseColour {
   }
 };
 
+const Gauss9& gauss9() {
+  static const Gauss9 g;
+  return g;
+}
+
 }  // namespace
 
-ImageF demosaic_lmmse(const ImageF& m, CfaPattern pattern) {
-  using detail::reflect;
-  if (!detail::bayer_path_ok(m, pattern)) return detail::demosaic_bilinear_generic(m, pattern);
-  const auto ph = detail::bayer_phase(pattern);
-  const int w = m.width(), h = m.height();
-  static const Gauss9 gauss;
-  const float* gw = gauss.w;
-  // Sign of Delta = G - X at a pixel: +1 where X is observed (R/B sites, whose column and row
-  // parities relative to the red site agree: Delta = G_est - X), -1 at green sites
-  // (Delta = G - X_est).
-  auto fill_sign = [&](float* sg, int x0, int n, int y) {
-    for (int i = 0; i < n; ++i) sg[i] = ((x0 + i - ph.ox) & 1) == ((y - ph.oy) & 1) ? 1.f : -1.f;
-  };
-  ImageF dv(w, h, 1, uninitialized), sv(w, h, 1, uninitialized), dplane(w, h, 1, uninitialized);
+namespace detail {
+#define LMMSE_ATTR
+#define LMMSE_NAME demosaic_lmmse_baseline
+#include "demosaic_lmmse_body.inc"
+#undef LMMSE_ATTR
+#undef LMMSE_NAME
+#if defined(__x86_64__) && defined(__GNUC__)
+#define LMMSE_ATTR __attribute__((target("avx2")))
+#define LMMSE_NAME demosaic_lmmse_avx2
+#include "demosaic_lmmse_body.inc"
+#undef LMMSE_ATTR
+#undef LMMSE_NAME
+bool lmmse_have_avx2() { return __builtin_cpu_supports("avx2"); }
+#else
+ImageF demosaic_lmmse_avx2(const ImageF& m, CfaPattern pattern) { return demosaic_lmmse_baseline(m, pattern); }
+bool lmmse_have_avx2() { return false; }
+#endif
+}  // namespace detail
 
-  // Vertical observations.
-#pragma omp parallel
-  {
-    std::vector<float> sg0(w), sg1(w);  // sign rows for the two row parities
-    fill_sign(sg0.data(), 0, w, ph.oy);
-    fill_sign(sg1.data(), 0, w, ph.oy + 1);
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y) {
-      const float* sg = ((y - ph.oy) & 1) ? sg1.data() : sg0.data();
-      const float *a = m.row(reflect(y - 2, h)), *b = m.row(reflect(y - 1, h)), *c = m.row(y),
-                  *d = m.row(reflect(y + 1, h)), *e = m.row(reflect(y + 2, h));
-      float* o = dv.row(y);
-      for (int x = 0; x < w; ++x)
-        o[x] = sg[x] * (0.25f * (2.f * (b[x] + c[x] + d[x]) - a[x] - e[x]) - c[x]);
-    }
-  }
-  // Their vertical low-pass.
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const float* r[2 * kHalf + 1];
-    for (int k = -kHalf; k <= kHalf; ++k) r[k + kHalf] = dv.row(reflect(y + k, h));
-    float* o = sv.row(y);
-#pragma omp simd
-    for (int x = 0; x < w; ++x) {
-      float s = 0;
-      for (int k = 0; k <= 2 * kHalf; ++k) s += gw[k] * r[k][x];
-      o[x] = s;
-    }
-  }
-  // Horizontal estimate (row-local, in a mirrored copy of the row), vertical estimate and
-  // their fusion, computed at the R/B sites only (every other pixel of a row): D = G - X there,
-  // zero at green sites.
-  constexpr int P = 2 + 2 * kHalf;  // margin: observation filter + low-pass + window
-  const int n = w + 2 * P;
-#pragma omp parallel
-  {
-    std::vector<float> sg0(n), sg1(n), mp(n), zh(n), sh(n);
-    fill_sign(sg0.data(), -P, n, ph.oy);
-    fill_sign(sg1.data(), -P, n, ph.oy + 1);
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y) {
-      const float* sg = ((y - ph.oy) & 1) ? sg1.data() : sg0.data();
-      const float* mr = m.row(y);
-      float* M = mp.data();
-      std::copy(mr, mr + w, M + P);
-      for (int i = 0; i < P; ++i) {
-        M[P - 1 - i] = mr[reflect(-1 - i, w)];
-        M[P + w + i] = mr[reflect(w + i, w)];
-      }
-      float* Z = zh.data();
-      float* S = sh.data();
-      for (int i = 2; i < n - 2; ++i)
-        Z[i] = sg[i] * (0.25f * (2.f * (M[i - 1] + M[i] + M[i + 1]) - M[i - 2] - M[i + 2]) - M[i]);
-      for (int i = 2 + kHalf; i < n - 2 - kHalf; ++i) {
-        float s = 0;
-        for (int k = -kHalf; k <= kHalf; ++k) s += gw[k + kHalf] * Z[i + k];
-        S[i] = s;
-      }
-      const float* sr[2 * kHalf + 1];
-      const float* zr[2 * kHalf + 1];
-      for (int k = -kHalf; k <= kHalf; ++k) {
-        sr[k + kHalf] = sv.row(reflect(y + k, h));
-        zr[k + kHalf] = dv.row(reflect(y + k, h));
-      }
-      float* o = dplane.row(y);
-      std::fill(o, o + w, 0.f);
-      const int a = (ph.ox + y - ph.oy) & 1;  // column parity of this row's R/B sites
-      const int nj = (w - a + 1) / 2;
-#pragma omp simd
-      for (int j = 0; j < nj; ++j) {
-        const int x = a + 2 * j, i = x + P;
-        float eh, ev;
-        const float xh = lmmse_estimate(Z[i], [&](int k) { return S[i + k]; },
-                                        [&](int k) { return Z[i + k]; }, eh);
-        const float xv = lmmse_estimate(zr[kHalf][x], [&](int k) { return sr[k + kHalf][x]; },
-                                        [&](int k) { return zr[k + kHalf][x]; }, ev);
-        o[x] = (xh * ev + xv * eh) / (eh + ev);
-      }
-    }
-  }
-  ImageF out(w, h, 3, uninitialized, m.unit());
-  const ImageF* planes[2] = {&m, &dplane};
-  detail::run_stencil<2>(planes, ph, out, LmmseColour{}, ph.clear);
-  return out;
+// Most of LMMSE's time is in its row loops of 9-tap windows, which AVX2 runs 8 floats wide
+// (measured 1.7x faster than the SSE2 baseline on the development VM, docs/demosaic.md).
+ImageF demosaic_lmmse(const ImageF& m, CfaPattern pattern) {
+  static const bool avx2 = detail::lmmse_have_avx2();
+  return avx2 ? detail::demosaic_lmmse_avx2(m, pattern) : detail::demosaic_lmmse_baseline(m, pattern);
 }
 
 }  // namespace photosite

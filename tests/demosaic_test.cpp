@@ -1,6 +1,8 @@
 // Demosaicing family: exactness on smooth and flat fields for every method and pattern, phase
 // consistency, Kodak CPSNR floors, and the `photosite demosaic` command.
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "photosite/error.h"
@@ -115,6 +117,26 @@ TEST(Demosaic, EveryBayerPhaseGivesTheSameInterior) {
             ASSERT_NEAR(out.at(x, y, c), ref.at(x + s.dx, y + s.dy, c), 1e-5)
                 << to_string(m) << " " << to_string(s.p) << " at " << x << "," << y;
     }
+  }
+}
+
+TEST(Demosaic, LmmseAvx2AndBaselineBuildsAreBitIdentical) {
+  // The run-time ISA choice must not change a result (determinism across machines).
+  if (!detail::lmmse_have_avx2()) {
+    std::fprintf(stderr, "\n*** LmmseAvx2AndBaselineBuildsAreBitIdentical: this CPU has no AVX2; only the "
+                         "baseline build runs here ***\n\n");
+    GTEST_SKIP() << "no AVX2 on this CPU";
+  }
+  for (CfaPattern p : {CfaPattern::RGGB, CfaPattern::GBRG, CfaPattern::RCCB}) {
+    ImageF m(203, 77, 1);
+    for (int y = 0; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x)
+        m.at(x, y) = static_cast<float>(0.5 + 0.4 * std::sin(0.37 * x + 0.11 * y * y) * std::cos(0.05 * x * y));
+    const ImageF a = detail::demosaic_lmmse_baseline(m, p), b = detail::demosaic_lmmse_avx2(m, p);
+    ASSERT_EQ(a.size(), b.size());
+    size_t diff = 0;
+    for (size_t i = 0; i < a.size(); ++i) diff += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+    EXPECT_EQ(diff, 0u) << to_string(p);
   }
 }
 

@@ -42,6 +42,14 @@ ImageF demosaic_malvar(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_hamilton_adams(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_lmmse(const ImageF& mosaic, CfaPattern pattern);
 
+namespace detail {
+// demosaic_lmmse's two builds of one body (baseline SSE2 and AVX2, picked at run time by
+// lmmse_have_avx2()); bit-identical results. Exposed for the test that says so.
+ImageF demosaic_lmmse_baseline(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_lmmse_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()
+bool lmmse_have_avx2();
+}  // namespace detail
+
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
 void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, int n);
 
