@@ -2,6 +2,8 @@
 // registers itself with a BenchRegistrar from its own cli/bench_*.cpp.
 #pragma once
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
 #include <functional>
 #include <string>
 
@@ -20,4 +22,15 @@ struct BenchRegistrar {
 std::string machine_description();
 // Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
+// The best (smallest) wall time of `repeats` calls of f, in ms: the least-disturbed run.
+template <class F>
+double best_ms(int repeats, F&& f) {
+  double best = 1e300;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    best = std::min(best, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return best;
+}
 }  // namespace photosite::cli

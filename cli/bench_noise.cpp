@@ -25,17 +25,6 @@
 namespace photosite::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-template <class F>
-double best_ms(int repeats, F&& f) {
-  double best = 1e300;
-  for (int r = 0; r < repeats; ++r) {
-    auto t0 = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-  }
-  return best;
-}
 
 // Kolmogorov-Smirnov distance between n samples and Poisson(mu), on the integers.
 double ks_distance(std::vector<float> s, double mu) {
