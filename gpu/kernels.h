@@ -4,9 +4,11 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "photosite/gpu/kernel.h"
 #include "photosite/sensor/cfa.h"
+#include "photosite/sensor/demosaic.h"
 
 namespace photosite::gpu {
 
@@ -81,6 +83,15 @@ struct DemosaicParams {
   float black_dn;
 };
 static_assert(sizeof(DemosaicParams) == 20 && offsetof(DemosaicParams, black_dn) == 16);
+
+class Sequence;
+class Buffer;
+// Records a demosaic of `raw` (width x height floats, black_dn subtracted on the fly) into `rgb`
+// (3 floats per pixel) with the method's kernels (gpu/stages.cpp): one dispatch, or two for
+// Hamilton-Adams, whose green plane goes to `scratch` (one float per pixel). `label` names the
+// dispatches in stage timings.
+void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const DemosaicParams& p, Buffer& raw,
+                     Buffer& rgb, Buffer& scratch, const std::string& label = {});
 
 }  // namespace photosite::gpu
 

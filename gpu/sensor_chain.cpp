@@ -94,8 +94,8 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
   if (has_demosaic_kernel(st.demosaic)) {
     DemosaicParams dp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), planes_mode(p.cfa),
                       static_cast<float>(p.black_level_dn)};
-    Kernel& d = ctx_.kernel(demosaic_kernel_name(st.demosaic), 2, sizeof(DemosaicParams));
-    s.dispatch(d, {&raw, &buffer("rgb", n * 3 * sizeof(float))}, dp, g.x, g.y, 1, "demosaic");
+    record_demosaic(ctx_, s, st.demosaic, dp, raw, buffer("rgb", n * 3 * sizeof(float)),
+                    buffer("demosaic_scratch", n * sizeof(float)), "demosaic");
   }
 }
 

@@ -44,30 +44,41 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
 }
 
 bool has_demosaic_kernel(DemosaicMethod m) {
-  return m == DemosaicMethod::Bilinear || m == DemosaicMethod::Malvar;
+  return m == DemosaicMethod::Bilinear || m == DemosaicMethod::Malvar || m == DemosaicMethod::HamiltonAdams;
 }
 
-const char* demosaic_kernel_name(DemosaicMethod m) {
-  switch (m) {
-    case DemosaicMethod::Bilinear: return "demosaic_bilinear";
-    case DemosaicMethod::Malvar: return "demosaic_malvar";
-    default: internal_error(std::string("gpu: no demosaic kernel for ") + to_string(m));
+void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const DemosaicParams& p, Buffer& raw,
+                     Buffer& rgb, Buffer& scratch, const std::string& label) {
+  const Grid g = grid_1d(static_cast<uint64_t>(p.width) * p.height);
+  // The mirrored Bayer path (demosaic_detail.h bayer_path_ok); elsewhere every method is the
+  // generic bilinear path, which the bilinear kernel holds.
+  const bool bayer = p.planes_to_rgb <= 1 && p.width >= 2 && p.height >= 2;
+  auto kernel = [&](const char* name, int bindings) -> Kernel& {
+    return ctx.kernel(name, bindings, sizeof(DemosaicParams));
+  };
+  switch (bayer ? method : DemosaicMethod::Bilinear) {
+    case DemosaicMethod::Bilinear: s.dispatch(kernel("demosaic_bilinear", 2), {&raw, &rgb}, p, g.x, g.y, 1, label); break;
+    case DemosaicMethod::Malvar: s.dispatch(kernel("demosaic_malvar", 2), {&raw, &rgb}, p, g.x, g.y, 1, label); break;
+    case DemosaicMethod::HamiltonAdams:
+      s.dispatch(kernel("demosaic_ha_green", 2), {&raw, &scratch}, p, g.x, g.y, 1, label.empty() ? label : label + " (green)");
+      s.dispatch(kernel("demosaic_ha_colour", 3), {&raw, &rgb, &scratch}, p, g.x, g.y, 1, label);
+      break;
+    default: internal_error(std::string("gpu: no demosaic kernel for ") + to_string(method));
   }
 }
 
 ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
   if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
-  const char* name = demosaic_kernel_name(method);
+  if (!has_demosaic_kernel(method)) internal_error(std::string("gpu: no demosaic kernel for ") + to_string(method));
   const size_t n = mosaic.pixel_count();
   ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
   if (n == 0) return out;
-  Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float));
+  Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float)), green(ctx, n * sizeof(float));
   in.upload(mosaic.data(), n * sizeof(float));
   const DemosaicParams p{static_cast<uint32_t>(mosaic.width()), static_cast<uint32_t>(mosaic.height()),
                          pack_cfa(pattern), planes_mode(pattern), 0.f};
   Sequence s(ctx);
-  const Grid g = grid_1d(n);
-  s.dispatch(ctx.kernel(name, 2, sizeof(DemosaicParams)), {&in, &res}, p, g.x, g.y);
+  record_demosaic(ctx, s, method, p, in, res, green);
   s.submit_and_wait();
   res.download(out.data(), 3 * n * sizeof(float));
   return out;

@@ -4,6 +4,7 @@
 // at the pixel. The frame (borders, RCCB, the generic path) is common/demosaic.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : enable
+#define DEMOSAIC_RGB_MAIN
 #include "common/demosaic.glsl"
 
 vec3 bayer_px(int x, int y, int t) {

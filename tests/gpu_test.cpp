@@ -219,14 +219,16 @@ TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
     // From a few electrons to far beyond full well: both Poisson regimes and clipping occur.
     const ImageF rad = test_radiance(w, h, 40.0);
     gpu::SensorChain chain(*ctx);
-    for (uint32_t frame = 0; frame < 2; ++frame) {
+    for (uint32_t frame = 0; frame < 3; ++frame) {
       ExposureSettings s;
       s.exposure_s = 0.01;
       s.temperature_c = -40;  // little dark charge, so the darkest pixels see means below 10
       s.seed = 5;
       s.frame = frame;
-      // Each demosaic kernel once inside the chain (Malvar's 5x5 stencil on the device mosaic).
-      s.demosaic = frame == 0 ? DemosaicMethod::Bilinear : DemosaicMethod::Malvar;
+      // Each demosaic kernel once inside the chain (Malvar's 5x5 stencil, Hamilton-Adams's two
+      // passes on the device mosaic).
+      const DemosaicMethod per_frame[] = {DemosaicMethod::Bilinear, DemosaicMethod::Malvar, DemosaicMethod::HamiltonAdams};
+      s.demosaic = per_frame[frame];
       const SensorOutput cpu = expose(rad, cam, lens, s, fpn);
       const SensorOutput dev = chain.expose(rad, cam, lens, s, fpn);
       EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u) << name << " frame " << frame;
@@ -279,6 +281,7 @@ TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
     }
   }
   EXPECT_TRUE(gpu::has_demosaic_kernel(DemosaicMethod::Malvar));
+  EXPECT_TRUE(gpu::has_demosaic_kernel(DemosaicMethod::HamiltonAdams));
 }
 
 }  // namespace photosite

@@ -1,10 +1,11 @@
 // The frame of every demosaic kernel (demosaic_<method>.comp), mirroring sensor/demosaic.cpp and
 // sensor/demosaic_detail.h: parameters, buffers, reflect-101 borders, the red site's phase, the
 // normalized-convolution bilinear path for RCCC, mono and frames under 2x2
-// (demosaic_bilinear_generic), RCCB's G = C - R - B, and the RGB write. A method's .comp includes
-// this file, defines `vec3 bayer_px(int x, int y, int t)` (the pixel of RGGB cell type t: 0 R,
-// 1 G in a red row, 2 G in a blue row, 3 B, summed in the C++ kernel's order), and calls
-// demosaic_main() from main().
+// (demosaic_bilinear_generic), RCCB's G = C - R - B. The mosaic is binding 0; a kernel declares
+// its outputs (and further inputs) itself. A one-pass method's .comp defines DEMOSAIC_RGB_MAIN
+// before including this file, defines `vec3 bayer_px(int x, int y, int t)` (the pixel of RGGB cell
+// type t: 0 R, 1 G in a red row, 2 G in a blue row, 3 B, summed in the C++ kernel's order), and
+// calls demosaic_main() from main(); multi-pass methods use the pieces (frame_setup, cell_type).
 #ifndef PHOTOSITE_DEMOSAIC_GLSL
 #define PHOTOSITE_DEMOSAIC_GLSL
 #include "cfa.glsl"
@@ -20,7 +21,6 @@ layout(push_constant, std430) uniform Params {
   float black_dn;      // subtracted from every mosaic sample first
 } P;
 layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
-layout(std430, binding = 1) writeonly buffer Rgb { float rgb[]; };
 
 // demosaic_detail.h reflect(): reflect-101 into [0, n), n >= 2 (keeps parity, hence the colour).
 int reflect101(int i, int n) {
@@ -35,7 +35,27 @@ int W, H;
 // The black-subtracted mosaic sample at (x, y), mirrored at the borders.
 float fetch(int x, int y) { return raw_dn[reflect101(y, H) * W + reflect101(x, W)] - P.black_dn; }
 
-vec3 bayer_px(int x, int y, int t);
+// Sets W, H; false for invocations past the frame.
+bool frame_setup(uint i) {
+  W = int(P.width);
+  H = int(P.height);
+  return i < P.width * P.height;
+}
+
+// The RGGB cell type of (x, y) (demosaic_detail.h cell_type), the red site's position in the 2x2
+// cell found from the packed pattern (bayer_phase()).
+int cell_type(int x, int y) {
+  int ox = 0, oy = 0;
+  for (int c = 0; c < 4; ++c)
+    if (cfa_color(P.cfa_cell, uint(c & 1), uint(c >> 1)) == 0u) {
+      ox = c & 1;
+      oy = c >> 1;
+    }
+  return (((y - oy) & 1) << 1) | ((x - ox) & 1);
+}
+
+// The mirrored Bayer path applies (bayer_path_ok): RGGB family or RCCB, at least 2x2.
+bool bayer_path() { return P.planes_to_rgb <= 1u && W >= 2 && H >= 2; }
 
 vec3 generic_px(int x, int y) {
   precise float sum[4] = float[4](0.0, 0.0, 0.0, 0.0);
@@ -63,28 +83,28 @@ vec3 generic_px(int x, int y) {
   return o;
 }
 
-void demosaic_main() {
-  const uint i = linear_invocation();
-  if (i >= P.width * P.height) return;
-  W = int(P.width);
-  H = int(P.height);
-  const int x = int(i % P.width), y = int(i / P.width);
-  precise vec3 o;
-  if (P.planes_to_rgb <= 1u && W >= 2 && H >= 2) {
-    // The red site's position in the 2x2 cell, from the packed pattern (bayer_phase()).
-    int ox = 0, oy = 0;
-    for (int c = 0; c < 4; ++c)
-      if (cfa_color(P.cfa_cell, uint(c & 1), uint(c >> 1)) == 0u) {
-        ox = c & 1;
-        oy = c >> 1;
-      }
-    o = bayer_px(x, y, (((y - oy) & 1) << 1) | ((x - ox) & 1));
-    if (P.planes_to_rgb == 1u) o.y = o.y - o.x - o.z;  // clear_to_rgb
-  } else {
-    o = generic_px(x, y);
-  }
+#ifdef DEMOSAIC_RGB_MAIN
+layout(std430, binding = 1) writeonly buffer Rgb { float rgb[]; };
+vec3 bayer_px(int x, int y, int t);
+
+void write_rgb(uint i, vec3 o) {
   rgb[3 * i] = o.x;
   rgb[3 * i + 1] = o.y;
   rgb[3 * i + 2] = o.z;
 }
+
+void demosaic_main() {
+  const uint i = linear_invocation();
+  if (!frame_setup(i)) return;
+  const int x = int(i % P.width), y = int(i / P.width);
+  precise vec3 o;
+  if (bayer_path()) {
+    o = bayer_px(x, y, cell_type(x, y));
+    if (P.planes_to_rgb == 1u) o.y = o.y - o.x - o.z;  // clear_to_rgb
+  } else {
+    o = generic_px(x, y);
+  }
+  write_rgb(i, o);
+}
+#endif
 #endif

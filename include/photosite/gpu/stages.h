@@ -22,12 +22,10 @@ void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64
 std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixel, uint64_t seed,
                                    uint32_t frame, uint32_t stream);
 
-// The demosaic methods that have a kernel (bilinear, Malvar-He-Cutler: fixed local stencils);
-// Hamilton-Adams and LMMSE run on the CPU (their directional decisions and LMMSE windows would
-// need several passes and scratch planes; not written yet).
+// The demosaic methods that have kernels: bilinear and Malvar-He-Cutler (one pass each),
+// Hamilton-Adams (green pass, then colour pass). LMMSE runs on the CPU (its directional estimates
+// over 9-pixel windows need several more passes and scratch planes; not written yet).
 bool has_demosaic_kernel(DemosaicMethod m);
-// The kernel's name (demosaic_<method>.comp) for a method with a kernel.
-const char* demosaic_kernel_name(DemosaicMethod m);
 // demosaic(mosaic, pattern, method) on the device, bit for bit; a method without a kernel is an
 // internal error (callers check has_demosaic_kernel()).
 ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
