@@ -4,6 +4,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "photosite/gpu/kernel.h"
@@ -86,12 +87,23 @@ static_assert(sizeof(DemosaicParams) == 20 && offsetof(DemosaicParams, black_dn)
 
 class Sequence;
 class Buffer;
+// demosaic_lmmse_*.comp: the frame plus the 9 Gaussian weights (common/lmmse.glsl).
+struct LmmseParams {
+  DemosaicParams frame;
+  float gw[9];
+};
+static_assert(sizeof(LmmseParams) == 56 && offsetof(LmmseParams, gw) == 20);
+
+// Scratch planes of a multi-pass method on the device, by name and size in bytes (kept by the
+// caller, e.g. reused frame to frame by the sensor chain).
+using ScratchBuffers = std::function<Buffer&(const std::string& name, size_t bytes)>;
+
 // Records a demosaic of `raw` (width x height floats, black_dn subtracted on the fly) into `rgb`
-// (3 floats per pixel) with the method's kernels (gpu/stages.cpp): one dispatch, or two for
-// Hamilton-Adams, whose green plane goes to `scratch` (one float per pixel). `label` names the
-// dispatches in stage timings.
+// (3 floats per pixel) with the method's kernels (gpu/stages.cpp): one dispatch for bilinear and
+// Malvar, two for Hamilton-Adams, five for LMMSE, their intermediate planes from `scratch`.
+// `label` names the dispatches in stage timings.
 void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const DemosaicParams& p, Buffer& raw,
-                     Buffer& rgb, Buffer& scratch, const std::string& label = {});
+                     Buffer& rgb, const ScratchBuffers& scratch, const std::string& label = {});
 
 }  // namespace photosite::gpu
 

@@ -95,7 +95,8 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
     DemosaicParams dp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), planes_mode(p.cfa),
                       static_cast<float>(p.black_level_dn)};
     record_demosaic(ctx_, s, st.demosaic, dp, raw, buffer("rgb", n * 3 * sizeof(float)),
-                    buffer("demosaic_scratch", n * sizeof(float)), "demosaic");
+                    [this](const std::string& name, size_t bytes) -> Buffer& { return buffer(name, bytes); },
+                    "demosaic");
   }
 }
 

@@ -2,6 +2,9 @@
 // functions, used by the parity tests and the benchmark.
 #include "photosite/gpu/stages.h"
 
+#include <map>
+#include <memory>
+
 #include "kernels.h"
 #include "photosite/error.h"
 #include "photosite/gpu/sequence.h"
@@ -44,41 +47,77 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
 }
 
 bool has_demosaic_kernel(DemosaicMethod m) {
-  return m == DemosaicMethod::Bilinear || m == DemosaicMethod::Malvar || m == DemosaicMethod::HamiltonAdams;
+  switch (m) {
+    case DemosaicMethod::Bilinear:
+    case DemosaicMethod::Malvar:
+    case DemosaicMethod::HamiltonAdams:
+    case DemosaicMethod::Lmmse: return true;
+  }
+  return false;
 }
 
 void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const DemosaicParams& p, Buffer& raw,
-                     Buffer& rgb, Buffer& scratch, const std::string& label) {
-  const Grid g = grid_1d(static_cast<uint64_t>(p.width) * p.height);
+                     Buffer& rgb, const ScratchBuffers& scratch, const std::string& label) {
+  const uint64_t w = p.width, h = p.height, n = w * h;
+  const Grid g = grid_1d(n);
   // The mirrored Bayer path (demosaic_detail.h bayer_path_ok); elsewhere every method is the
   // generic bilinear path, which the bilinear kernel holds.
-  const bool bayer = p.planes_to_rgb <= 1 && p.width >= 2 && p.height >= 2;
-  auto kernel = [&](const char* name, int bindings) -> Kernel& {
-    return ctx.kernel(name, bindings, sizeof(DemosaicParams));
+  const bool bayer = p.planes_to_rgb <= 1 && w >= 2 && h >= 2;
+  auto kernel = [&](const char* name, int bindings, size_t params) -> Kernel& {
+    return ctx.kernel(name, bindings, params);
   };
+  auto part = [&](const char* what) { return label.empty() ? label : label + " (" + what + ")"; };
   switch (bayer ? method : DemosaicMethod::Bilinear) {
-    case DemosaicMethod::Bilinear: s.dispatch(kernel("demosaic_bilinear", 2), {&raw, &rgb}, p, g.x, g.y, 1, label); break;
-    case DemosaicMethod::Malvar: s.dispatch(kernel("demosaic_malvar", 2), {&raw, &rgb}, p, g.x, g.y, 1, label); break;
-    case DemosaicMethod::HamiltonAdams:
-      s.dispatch(kernel("demosaic_ha_green", 2), {&raw, &scratch}, p, g.x, g.y, 1, label.empty() ? label : label + " (green)");
-      s.dispatch(kernel("demosaic_ha_colour", 3), {&raw, &rgb, &scratch}, p, g.x, g.y, 1, label);
+    case DemosaicMethod::Bilinear:
+      s.dispatch(kernel("demosaic_bilinear", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
       break;
-    default: internal_error(std::string("gpu: no demosaic kernel for ") + to_string(method));
+    case DemosaicMethod::Malvar:
+      s.dispatch(kernel("demosaic_malvar", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
+      break;
+    case DemosaicMethod::HamiltonAdams: {
+      Buffer& green = scratch("demosaic_green", n * sizeof(float));
+      s.dispatch(kernel("demosaic_ha_green", 2, sizeof(p)), {&raw, &green}, p, g.x, g.y, 1, part("green"));
+      s.dispatch(kernel("demosaic_ha_colour", 3, sizeof(p)), {&raw, &rgb, &green}, p, g.x, g.y, 1, label);
+      break;
+    }
+    case DemosaicMethod::Lmmse: {
+      LmmseParams lp{p, {}};
+      detail::lmmse_gauss_weights(lp.gw);
+      Buffer& dv = scratch("lmmse_dv", n * sizeof(float));
+      Buffer& sv = scratch("lmmse_sv", n * sizeof(float));
+      Buffer& zh = scratch("lmmse_zh", (w + 16) * h * sizeof(float));
+      Buffer& sh = scratch("lmmse_sh", (w + 8) * h * sizeof(float));
+      Buffer& d = scratch("lmmse_d", n * sizeof(float));
+      const Grid gz = grid_1d((w + 16) * h), gl = grid_1d(n + (w + 8) * h);
+      s.dispatch(kernel("demosaic_lmmse_vobs", 2, sizeof(lp)), {&raw, &dv}, lp, g.x, g.y, 1, part("observations"));
+      s.dispatch(kernel("demosaic_lmmse_hobs", 2, sizeof(lp)), {&raw, &zh}, lp, gz.x, gz.y, 1, part("observations"));
+      s.dispatch(kernel("demosaic_lmmse_low", 5, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh}, lp, gl.x, gl.y, 1,
+                 part("low-pass"));
+      s.dispatch(kernel("demosaic_lmmse_fuse", 6, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh, &d}, lp, g.x, g.y, 1,
+                 part("estimate"));
+      s.dispatch(kernel("demosaic_lmmse_colour", 3, sizeof(lp)), {&raw, &rgb, &d}, lp, g.x, g.y, 1, label);
+      break;
+    }
   }
 }
 
 ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
   if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
-  if (!has_demosaic_kernel(method)) internal_error(std::string("gpu: no demosaic kernel for ") + to_string(method));
   const size_t n = mosaic.pixel_count();
   ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
   if (n == 0) return out;
-  Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float)), green(ctx, n * sizeof(float));
+  Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float));
+  std::map<std::string, std::unique_ptr<Buffer>> planes;
+  const ScratchBuffers scratch = [&](const std::string& name, size_t bytes) -> Buffer& {
+    auto& b = planes[name];
+    if (!b) b = std::make_unique<Buffer>(ctx, bytes);
+    return *b;
+  };
   in.upload(mosaic.data(), n * sizeof(float));
   const DemosaicParams p{static_cast<uint32_t>(mosaic.width()), static_cast<uint32_t>(mosaic.height()),
                          pack_cfa(pattern), planes_mode(pattern), 0.f};
   Sequence s(ctx);
-  record_demosaic(ctx, s, method, p, in, res, green);
+  record_demosaic(ctx, s, method, p, in, res, scratch);
   s.submit_and_wait();
   res.download(out.data(), 3 * n * sizeof(float));
   return out;

@@ -116,6 +116,9 @@ bool lmmse_have_avx2() { return __builtin_cpu_supports("avx2"); }
 ImageF demosaic_lmmse_avx2(const ImageF& m, CfaPattern pattern) { return demosaic_lmmse_baseline(m, pattern); }
 bool lmmse_have_avx2() { return false; }
 #endif
+void lmmse_gauss_weights(float out[9]) {
+  for (int k = 0; k <= 2 * kHalf; ++k) out[k] = gauss9().w[k];
+}
 }  // namespace detail
 
 // Most of LMMSE's time is in its row loops of 9-tap windows, which AVX2 runs 8 floats wide

@@ -219,15 +219,16 @@ TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
     // From a few electrons to far beyond full well: both Poisson regimes and clipping occur.
     const ImageF rad = test_radiance(w, h, 40.0);
     gpu::SensorChain chain(*ctx);
-    for (uint32_t frame = 0; frame < 3; ++frame) {
+    for (uint32_t frame = 0; frame < 4; ++frame) {
       ExposureSettings s;
       s.exposure_s = 0.01;
       s.temperature_c = -40;  // little dark charge, so the darkest pixels see means below 10
       s.seed = 5;
       s.frame = frame;
-      // Each demosaic kernel once inside the chain (Malvar's 5x5 stencil, Hamilton-Adams's two
-      // passes on the device mosaic).
-      const DemosaicMethod per_frame[] = {DemosaicMethod::Bilinear, DemosaicMethod::Malvar, DemosaicMethod::HamiltonAdams};
+      // Each demosaic method's kernels once inside the chain, on the device mosaic (Malvar's 5x5
+      // stencil, Hamilton-Adams's two passes, LMMSE's five).
+      const DemosaicMethod per_frame[] = {DemosaicMethod::Bilinear, DemosaicMethod::Malvar,
+                                          DemosaicMethod::HamiltonAdams, DemosaicMethod::Lmmse};
       s.demosaic = per_frame[frame];
       const SensorOutput cpu = expose(rad, cam, lens, s, fpn);
       const SensorOutput dev = chain.expose(rad, cam, lens, s, fpn);
@@ -280,8 +281,8 @@ TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
             << to_string(meth) << " " << to_string(p) << " " << sz[0] << "x" << sz[1];
     }
   }
-  EXPECT_TRUE(gpu::has_demosaic_kernel(DemosaicMethod::Malvar));
-  EXPECT_TRUE(gpu::has_demosaic_kernel(DemosaicMethod::HamiltonAdams));
+  for (DemosaicMethod meth : all_demosaic_methods())
+    EXPECT_TRUE(gpu::has_demosaic_kernel(meth)) << to_string(meth) << " has no Vulkan kernel";
 }
 
 }  // namespace photosite

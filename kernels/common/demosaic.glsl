@@ -19,6 +19,9 @@ layout(push_constant, std430) uniform Params {
   uint cfa_cell;
   uint planes_to_rgb;  // 0 R,G,B planes; 1 RCCB (G = C − R − B); 2 RCCC (G = B = (C − R)/2); 3 mono (C/3)
   float black_dn;      // subtracted from every mosaic sample first
+#ifdef DEMOSAIC_EXTRA_PARAMS
+  DEMOSAIC_EXTRA_PARAMS  // a method's own parameters after the shared ones (gpu::LmmseParams)
+#endif
 } P;
 layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
 

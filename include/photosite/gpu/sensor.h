@@ -1,12 +1,12 @@
 // The sensor chain on the Vulkan backend: photon integral → sense (shot noise, dark current,
-// fixed pattern, read noise, full well, gain, black, ADC) → demosaic (bilinear, Malvar or Hamilton-Adams kernels) as one sequence of
+// fixed pattern, read noise, full well, gain, black, ADC) → demosaic (every method has kernels) as one sequence of
 // kernels over buffers that stay on the device: one upload (the radiance) and one download (the
 // outputs) per frame; the fixed-pattern maps are uploaded once per device and reused by every
 // frame. The twin of expose() / sense() / mean_signal_electrons() (sensor/pipeline.h), held to
 // them by tests/gpu_test.cpp.
 //
 // On the CPU stay: photon_matrix() (a spectral integral per frame, not per pixel), the w + h
-// row/column noise draws, and LMMSE demosaicing (run on the downloaded mosaic).
+// row/column noise draws.
 // Tukey-λ read noise is not on the device yet: sense() there is bad input naming the preset.
 #pragma once
 #include <map>

@@ -23,8 +23,8 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
                                    uint32_t frame, uint32_t stream);
 
 // The demosaic methods that have kernels: bilinear and Malvar-He-Cutler (one pass each),
-// Hamilton-Adams (green pass, then colour pass). LMMSE runs on the CPU (its directional estimates
-// over 9-pixel windows need several more passes and scratch planes; not written yet).
+// Hamilton-Adams (green pass, then colour pass), LMMSE (observations, low-pass, estimates and
+// fusion, colour: five passes). Every method today; kept for methods added later.
 bool has_demosaic_kernel(DemosaicMethod m);
 // demosaic(mosaic, pattern, method) on the device, bit for bit; a method without a kernel is an
 // internal error (callers check has_demosaic_kernel()).

@@ -48,6 +48,8 @@ namespace detail {
 ImageF demosaic_lmmse_baseline(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_lmmse_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()
 bool lmmse_have_avx2();
+// LMMSE's 9 Gaussian weights (sigma 2), as the C++ path uses them (the Vulkan kernels take these).
+void lmmse_gauss_weights(float out[9]);
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
