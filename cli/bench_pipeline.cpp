@@ -33,6 +33,8 @@
 
 namespace photosite::cli {
 namespace {
+const DemosaicMethod kOtherDemosaics[] = {DemosaicMethod::Malvar, DemosaicMethod::HamiltonAdams,
+                                          DemosaicMethod::Lmmse};
 struct Opts {
   std::string preset = "onsemi-ar0331", out_dir, backend = "vulkan";
   int repeats = 5, threads = 2;
@@ -128,6 +130,8 @@ void run(const Opts& o) {
     add(cpu, "demosaic", dem_ms);
     add(cpu, "sense", sense_ms - dem_ms);
     add(cpu, "poisson", time_ms([&] { poisson_fill(pmean.data(), pout.data(), n, 0, 1, 0, 1); }));
+    for (DemosaicMethod m : kOtherDemosaics)
+      add(cpu, std::string("demosaic ") + to_string(m), time_ms([&] { (void)demosaic(above, cam.cfa, m); }));
 #ifdef PHOTOSITE_HAVE_VULKAN
     if (chain) {
       // The sensor chain: one upload, photon → sense → demosaic, one download.
@@ -157,6 +161,12 @@ void run(const Opts& o) {
       gpu::record_poisson(*ctx, s, pm, po, n, 0, 1, 0, 1);
       s.submit_and_wait();
       for (const auto& st : s.stage_times()) add(dev, "poisson", st.ms);
+      // The other demosaic methods' kernels on the black-subtracted mosaic (device time, all passes).
+      for (DemosaicMethod m : kOtherDemosaics) {
+        double ms = -1;
+        (void)gpu::demosaic(*ctx, above, cam.cfa, m, &ms);
+        add(dev, std::string("demosaic ") + to_string(m), ms);
+      }
     }
 #endif
   }
@@ -182,6 +192,14 @@ void run(const Opts& o) {
       {"sensor chain wall (upload + 3 kernels + download)", -1, med(cpu, "photon") + med(cpu, "sense") + med(cpu, "demosaic"),
        med(dev, "sensor wall (upload, kernels, download)"), "vulkan"},
   };
+  // The other demosaic methods (not in the thesis's table; not in the sum).
+  for (DemosaicMethod m : kOtherDemosaics) {
+    const std::string k = std::string("demosaic ") + to_string(m);
+    rows.push_back({"Demosaicing (" + std::string(to_string(m)) + ")", -1, med(cpu, k), med(dev, k),
+                    m == DemosaicMethod::Lmmse ? "kernels demosaic_lmmse_* (5 passes)"
+                    : m == DemosaicMethod::HamiltonAdams ? "kernels demosaic_ha_green/colour"
+                                                         : "kernel demosaic_malvar"});
+  }
   // The first row's CPU time is reflectance_texture (night_scene's "darken" lap without darken()).
   rows[0].dev_ms = rows[0].cpu_ms;
   const std::string machine = machine_description();

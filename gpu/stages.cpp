@@ -101,7 +101,7 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
   }
 }
 
-ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
+ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method, double* device_ms) {
   if (mosaic.channels() != 1) fail("demosaic: the mosaic must have exactly one channel");
   const size_t n = mosaic.pixel_count();
   ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
@@ -117,8 +117,13 @@ ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, Demosaic
   const DemosaicParams p{static_cast<uint32_t>(mosaic.width()), static_cast<uint32_t>(mosaic.height()),
                          pack_cfa(pattern), planes_mode(pattern), 0.f};
   Sequence s(ctx);
-  record_demosaic(ctx, s, method, p, in, res, scratch);
+  record_demosaic(ctx, s, method, p, in, res, scratch, "demosaic");
   s.submit_and_wait();
+  if (device_ms) {
+    const auto times = s.stage_times();
+    *device_ms = times.empty() ? -1 : 0;
+    for (const auto& t : times) *device_ms += t.ms;
+  }
   res.download(out.data(), 3 * n * sizeof(float));
   return out;
 }

@@ -28,7 +28,9 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
 bool has_demosaic_kernel(DemosaicMethod m);
 // demosaic(mosaic, pattern, method) on the device, bit for bit; a method without a kernel is an
 // internal error (callers check has_demosaic_kernel()).
-ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
+// With device_ms, the device time of its dispatches (timestamps; -1 without them).
+ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method,
+                double* device_ms = nullptr);
 // demosaic_bilinear(mosaic, pattern) on the device.
 inline ImageF demosaic_bilinear(Context& ctx, const ImageF& mosaic, CfaPattern pattern) {
   return demosaic(ctx, mosaic, pattern, DemosaicMethod::Bilinear);
