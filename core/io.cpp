@@ -139,7 +139,8 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
   for (const auto& g : groups)
     if (!g.unit.empty())
       for (const auto& n : g.channel_names) spec.attribute("photosite/unit/" + n, g.unit);
-  for (const auto& [k, v] : attributes) {
+  for (const auto& [key, v] : attributes) {
+    const std::string& k = key;  // a plain reference: clang 14 cannot capture a structured binding
     std::visit([&](const auto& x) {
       using X = std::decay_t<decltype(x)>;
       if constexpr (std::is_same_v<X, std::string>) spec.attribute(k, x);
