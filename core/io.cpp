@@ -20,10 +20,63 @@ namespace fs = std::filesystem;
 using namespace OIIO;
 
 namespace {
+// OpenEXR header walk, before OpenEXR reads it. The header is a list of attributes, each
+// "name\0type\0" + int32 size + size bytes, ended by an empty name (one header per part in a
+// multi-part file, the list of headers ended by an empty header); see "The OpenEXR File Layout",
+// openexr.com/en/latest/OpenEXRFileLayout.html. OpenEXR 3.1 allocates an attribute's declared
+// size before reading it, so a damaged size turns a 1 kB file into a 2 GB allocation (found by
+// fuzz_device_map, docs/robustness.md): sizes beyond the end of the file are refused here.
+void check_exr_header(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return;  // OpenImageIO reports it
+  struct Closer {
+    std::FILE* f;
+    ~Closer() { std::fclose(f); }
+  } closer{f};
+  unsigned char head[8];
+  if (std::fread(head, 1, 8, f) != 8 || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 ||
+      head[3] != 0x01)
+    return;  // not OpenEXR
+  std::error_code ec;
+  const auto file_size = static_cast<int64_t>(fs::file_size(path, ec));
+  if (ec) return;
+  const bool multipart = head[5] & 0x10;  // version field bit 12
+  auto read_string = [&](std::string& out) {  // NUL-terminated, at most 255 characters
+    out.clear();
+    for (int c; (c = std::fgetc(f)) != 0;) {
+      if (c == EOF) fail_at(path, "corrupt or truncated EXR header (ends inside an attribute name)");
+      if (out.size() == 255) fail_at(path, "corrupt EXR header (attribute name longer than 255 characters)");
+      out.push_back(static_cast<char>(c));
+    }
+  };
+  std::string name, type;
+  for (int part = 0;; ++part) {
+    for (int attributes = 0;; ++attributes) {
+      read_string(name);
+      if (name.empty()) break;
+      read_string(type);
+      unsigned char b[4];
+      if (std::fread(b, 1, 4, f) != 4) fail_at(path, "corrupt or truncated EXR header (attribute " + name + ")");
+      const int64_t size = static_cast<int32_t>(b[0] | b[1] << 8 | b[2] << 16 | uint32_t{b[3]} << 24);
+      const int64_t left = file_size - std::ftell(f);
+      if (size < 0 || size > left)
+        fail_at(path, fmt::format("corrupt EXR header: attribute '{}' declares {} bytes, the file has {} left",
+                                  name, size, left));
+      std::fseek(f, static_cast<long>(size), SEEK_CUR);
+      if (attributes > 10000) fail_at(path, "corrupt EXR header (more than 10000 attributes)");
+    }
+    if (!multipart || part > 10000) break;
+    const int c = std::fgetc(f);  // an empty header (a lone NUL) ends the list of parts
+    if (c == 0 || c == EOF) break;
+    std::ungetc(c, f);
+  }
+}
+
 std::unique_ptr<ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_at(path, "no such file");
   if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
+  check_exr_header(path);
   auto in = ImageInput::open(path);
   if (!in) {
     std::string msg = OIIO::geterror();
@@ -139,7 +192,8 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
   for (const auto& g : groups)
     if (!g.unit.empty())
       for (const auto& n : g.channel_names) spec.attribute("photosite/unit/" + n, g.unit);
-  for (const auto& [k, v] : attributes) {
+  for (const auto& [key, v] : attributes) {
+    const std::string& k = key;  // a plain reference: clang 14 cannot capture a structured binding
     std::visit([&](const auto& x) {
       using X = std::decay_t<decltype(x)>;
       if constexpr (std::is_same_v<X, std::string>) spec.attribute(k, x);

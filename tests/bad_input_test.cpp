@@ -96,6 +96,18 @@ void exr_declare_size(const std::string& path, int32_t w, int32_t h) {
   put(path, b + std::string(64 * 1024, '\0'));
 }
 
+// Sets the declared size of an EXR header attribute (the int32 after "name\0type\0") to `bytes`,
+// as a damaged file may: OpenEXR would allocate that much before finding the file too short.
+void exr_attribute_size(const std::string& path, const std::string& name, const std::string& type,
+                        int32_t bytes) {
+  std::string b = slurp(path);
+  const std::string tag = name + '\0' + type + '\0';
+  const size_t at = b.find(tag);
+  ASSERT_NE(at, std::string::npos) << name;
+  std::memcpy(b.data() + at + tag.size(), &bytes, sizeof bytes);
+  put(path, b);
+}
+
 ImageF day_image(int w = kW, int h = kH) {
   ImageF img(w, h, 3);
   for (int y = 0; y < h; ++y)
@@ -119,6 +131,16 @@ void write_radiance(const std::string& path, int w = kW, int h = kH, float odd =
   names.resize(channels);
   if (channels == 2) names = {"R", "G"};
   write_exr(path, {{names, &r, "W.sr-1.m-2"}}, {});
+}
+// Radiance that does not compress (a hash per pixel), so most of the file is pixel data.
+void write_textured_radiance(const std::string& path) {
+  ImageF r(kW, kH, 3);
+  uint32_t x = 0x9e3779b9u;
+  for (auto& v : r.vec()) {
+    x = x * 1664525u + 1013904223u;
+    v = 0.01f + (x >> 8) * (1.f / 16777216.f);
+  }
+  write_exr(path, {{{"R", "G", "B"}, &r, "W.sr-1.m-2"}}, {});
 }
 void write_good_inputs(const Ctx& c) {
   write_png(c.in("day.png"), day_image());
@@ -188,9 +210,12 @@ std::vector<Row> rows() {
   // ---- expose: the radiance file ----------------------------------------------------------
   t.push_back({"expose_missing_radiance", [](Ctx& c) { fs::remove(c.in("radiance.exr")); }, kExpose, {"radiance.exr", "no such file"}});
   t.push_back({"expose_empty_radiance", [](Ctx& c) { put(c.in("radiance.exr"), ""); }, kExpose, {"radiance.exr", "cannot read image"}});
-  t.push_back({"expose_truncated_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.5); }, kExpose, {"radiance.exr", "Unexpected end of file"}});
+  // The good radiance compresses to a few hundred bytes: cutting it in half cuts its header.
+  t.push_back({"expose_truncated_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.5); }, kExpose, {"radiance.exr", "truncated EXR header"}});
+  t.push_back({"expose_truncated_exr_pixels", [](Ctx& c) { write_textured_radiance(c.in("radiance.exr")); truncate_to(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "Unexpected end of file"}});
   t.push_back({"expose_header_only_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.05); }, kExpose, {"radiance.exr"}});
-  t.push_back({"expose_corrupt_exr", [](Ctx& c) { corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "cannot read image"}});
+  t.push_back({"expose_corrupt_exr", [](Ctx& c) { corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt EXR header"}});
+  t.push_back({"expose_corrupt_exr_pixels", [](Ctx& c) { write_textured_radiance(c.in("radiance.exr")); corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt"}});
   t.push_back({"expose_garbage_file", [](Ctx& c) { put(c.in("radiance.exr"), std::string(5000, 'x')); }, kExpose, {"radiance.exr", "cannot read image"}});
   t.push_back({"expose_integer_png_radiance", [](Ctx& c) { fs::copy_file(c.in("day.png"), c.in("r.png")); }, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/r.png' --out '{out}/o.exr'", {"r.png", "floating-point"}});
   t.push_back({"expose_nan_radiance", [=](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, nan); }, kExpose, {"radiance.exr", "NaN"}});
@@ -199,6 +224,7 @@ std::vector<Row> rows() {
   t.push_back({"expose_one_pixel", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 1, 1); }, kExpose, {"radiance.exr", "1x1", "too small"}});
   t.push_back({"expose_one_row", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 64, 1); }, kExpose, {"radiance.exr", "64x1", "too small"}});
   t.push_back({"expose_declared_40000_exr", [](Ctx& c) { exr_declare_size(c.in("radiance.exr"), 40000, 40000); }, kExpose, {"radiance.exr", "40000x40000", "refused before allocating"}});
+  t.push_back({"expose_exr_attribute_size_2gb", [](Ctx& c) { exr_attribute_size(c.in("radiance.exr"), "channels", "chlist", 2000000000); }, kExpose, {"radiance.exr", "corrupt EXR header", "'channels' declares 2000000000 bytes"}});
   t.push_back({"expose_two_channels", [](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, 1.f, 2); }, kExpose, {"radiance.exr", "1 or 3 channels"}});
   t.push_back({"expose_radiance_is_folder", [](Ctx& c) { fs::remove(c.in("radiance.exr")); fs::create_directory(c.in("radiance.exr")); }, kExpose, {"radiance.exr", "is a folder"}});
   t.push_back({"expose_output_folder_missing", {}, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
@@ -230,6 +256,8 @@ std::vector<Row> rows() {
   t.push_back({"map_truncated", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); truncate_to(map_path(c, "sony-imx174", 64, 32), 0.5); }, kFlat, {"dev_64x32.exr", "corrupt or truncated"}});
   t.push_back({"map_bits_flipped", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); corrupt_tail(map_path(c, "sony-imx174", 64, 32), 0.7); }, kFlat, {"dev_64x32.exr", "corrupt"}});
   t.push_back({"map_not_photosite", [](Ctx& c) { fs::create_directories(c.store() + "/sony-imx174"); write_radiance(map_path(c, "sony-imx174", 64, 32), 64, 32); }, kFlat, {"dev_64x32.exr", "not a photosite device map"}});
+  // fuzz_device_map's out-of-memory input: a map whose header declares a 2 GB attribute.
+  t.push_back({"map_attribute_size_2gb", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); exr_attribute_size(map_path(c, "sony-imx174", 64, 32), "photosite/checksum", "string", 0x7fff0000); }, kFlat, {"dev_64x32.exr", "corrupt EXR header", "'photosite/checksum' declares"}});
   t.push_back({"map_declared_40000", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); exr_declare_size(map_path(c, "sony-imx174", 64, 32), 40000, 40000); }, kFlat, {"dev_64x32.exr", "40000x40000"}});
   t.push_back({"store_read_only", [](Ctx& c) { fs::create_directories(c.store()); fs::permissions(c.store(), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec); }, kFlat, {"store", "device store", "read-only"}});
   t.push_back({"store_is_a_file", [](Ctx& c) { put(c.store(), "x"); }, kFlat, {"store", "device store"}});
