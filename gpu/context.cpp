@@ -1,12 +1,15 @@
 // The Vulkan context: the loader opened at run time, an instance (with the Khronos validation
 // layer and a recording debug messenger on request), and one device with a compute queue.
 #include <dlfcn.h>
+#include <link.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fmt/format.h>
 
 #include "photosite/gpu/kernel.h"
+#include "photosite/sanitizer.h"
 #include "vk.h"
 
 namespace photosite::gpu {
@@ -57,6 +60,25 @@ int preference(VkPhysicalDeviceType t) {  // higher is better: real GPUs before 
     default: return 0;
   }
 }
+// Sanitizer builds only: the Vulkan loader and the libraries it opened for the instance (the
+// driver, e.g. Mesa's lavapipe with its LLVM, and the layers) are kept mapped after vkDestroyInstance, so
+// LeakSanitizer, which runs at exit, names them in its reports instead of "<unknown module>" and
+// scripts/lsan.supp can suppress the driver's own leaks by module (docs/robustness.md).
+#if PHOTOSITE_ASAN
+std::vector<std::string> loaded_libraries() {
+  std::vector<std::string> names;
+  dl_iterate_phdr([](dl_phdr_info* info, size_t, void* out) {
+    if (info->dlpi_name && *info->dlpi_name) static_cast<std::vector<std::string>*>(out)->push_back(info->dlpi_name);
+    return 0;
+  }, &names);
+  return names;
+}
+void pin_libraries_loaded_since(const std::vector<std::string>& before) {
+  for (const auto& name : loaded_libraries())
+    if (std::find(before.begin(), before.end(), name) == before.end())
+      dlopen(name.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+}
+#endif
 }  // namespace
 
 Context::Impl::~Impl() {
@@ -78,6 +100,9 @@ std::vector<std::string> Context::messages() const {
 Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()) {
   Impl& I = *impl_;
   auto& f = I.f;
+#if PHOTOSITE_ASAN
+  const auto before = loaded_libraries();
+#endif
   I.lib = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_LOCAL);
   if (!I.lib)
     fail("Vulkan: the Vulkan loader (libvulkan.so.1) is not installed; install libvulkan1 and a "
@@ -121,6 +146,9 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   ici.ppEnabledExtensionNames = extensions.data();
   if (validation_) ici.pNext = &dm;
   const VkResult created = f.vkCreateInstance(&ici, nullptr, &I.instance);
+#if PHOTOSITE_ASAN
+  pin_libraries_loaded_since(before);
+#endif
   if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
     fail("Vulkan: no Vulkan driver found (install mesa-vulkan-drivers for lavapipe, or a GPU driver; "
          "VK_DRIVER_FILES / VK_ICD_FILENAMES may point elsewhere)");

@@ -242,6 +242,8 @@ std::vector<Row> rows() {
   t.push_back({"preset_wrong_unit_string", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "read_noise_e = \"6 e-\"")); }, kCam, {"cam.toml:", "read_noise_e", "expected a number"}});
   t.push_back({"preset_wrong_unit_key", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "read_noise_dn = 6")); }, kCam, {"cam.toml:", "read_noise_dn: unknown key"}});
   t.push_back({"preset_out_of_range", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "prnu_percent", "prnu_percent = -1")); }, kCam, {"cam.toml:", "prnu_percent", "out of range"}});
+  // fuzz_preset's UBSan finding: a float too large for int64 where an integer is expected.
+  t.push_back({"preset_huge_float_for_integer", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "height_px", "height_px = 15E60")); }, kCam, {"cam.toml:", "height_px", "expected an integer"}});
   t.push_back({"preset_nan_value", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "dsnu_e", "dsnu_e = nan")); }, kCam, {"cam.toml:", "dsnu_e"}});
   t.push_back({"preset_missing_value", [](Ctx& c) { write_camera(c, replace_line(base_camera_toml(), "read_noise_e", "# removed")); }, kCam, {"cam.toml", "read_noise_e: required"}});
   t.push_back({"preset_malformed_toml", [](Ctx& c) { write_camera(c, base_camera_toml() + "\n[[broken"); }, kCam, {"cam.toml:", "malformed TOML"}});

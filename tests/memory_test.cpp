@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include "photosite/io.h"
+#include "photosite/sanitizer.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "test_util.h"
@@ -24,6 +25,16 @@ namespace fs = std::filesystem;
 namespace {
 // The documented bound for a 2048x1024 night run (docs/robustness.md, "Memory").
 constexpr double kNightPeakBoundMB = 400;
+
+// Under AddressSanitizer the resident set holds its shadow memory and a 256 MB quarantine of
+// freed blocks, so a peak measures the sanitizer, not photosite: the bounds are checked in the
+// normal build only (scripts/sanitize.sh runs the rest of the suite).
+#if PHOTOSITE_ASAN
+#define PHOTOSITE_SKIP_UNDER_SANITIZER() \
+  GTEST_SKIP() << "SKIPPED: peak-RSS bounds are not meaningful under AddressSanitizer (docs/robustness.md)"
+#else
+#define PHOTOSITE_SKIP_UNDER_SANITIZER() (void)0
+#endif
 
 struct Measured {
   int exit_code = -1;
@@ -80,6 +91,7 @@ double batch_peak(const test::TempDir& dir, int images, const std::string& tag) 
 }  // namespace
 
 TEST(Memory, Night2048x1024StaysUnderTheDocumentedPeak) {
+  PHOTOSITE_SKIP_UNDER_SANITIZER();
   test::TempDir dir;
   write_street(dir.file("street.png"), dir.file("street_labels.png"), 2048, 1024, 0);
   const auto r = run_measured(fmt::format("night --image '{}' --labels '{}' --out '{}' --device-store '{}'",
@@ -93,6 +105,7 @@ TEST(Memory, Night2048x1024StaysUnderTheDocumentedPeak) {
 }
 
 TEST(Memory, BatchPeakDoesNotGrowWithTheNumberOfImages) {
+  PHOTOSITE_SKIP_UNDER_SANITIZER();
   test::TempDir dir;
   write_street(dir.file("street.png"), dir.file("street_labels.png"), 1024, 512, 1);
   // Run both sizes with the device map already in the store, so neither pays for making it.
@@ -101,11 +114,14 @@ TEST(Memory, BatchPeakDoesNotGrowWithTheNumberOfImages) {
                                      dir.file("warm.exr"), dir.file("store")))
                 .exit_code,
             0);
-  const double small = batch_peak(dir, 3, "n"), large = batch_peak(dir, 9, "n3");
-  std::printf("batch 1024x512 peak RSS: %.0f MB for 3 images, %.0f MB for 9\n", small, large);
-  RecordProperty("batch_peak_mb_3", static_cast<int>(small));
-  RecordProperty("batch_peak_mb_9", static_cast<int>(large));
-  // Six more images may not add even one more frame's worth of memory per two images
+  // The peak rises while the pipeline fills (reader, the --queue-depth 2 queue of decoded
+  // images, compute, writer: measured flat from 5 images on, docs/robustness.md "Memory"), so
+  // both runs are past that point: 5 images, then 12.
+  const double small = batch_peak(dir, 5, "n"), large = batch_peak(dir, 12, "n3");
+  std::printf("batch 1024x512 peak RSS: %.0f MB for 5 images, %.0f MB for 12\n", small, large);
+  RecordProperty("batch_peak_mb_5", static_cast<int>(small));
+  RecordProperty("batch_peak_mb_12", static_cast<int>(large));
+  // Seven more images may not add even one more frame's worth of memory per two images
   // (a 1024x512 night result is ~25 MB of buffers): allow 10% + 15 MB of allocator noise.
   EXPECT_LT(large, small * 1.10 + 15.0);
 }
