@@ -26,6 +26,20 @@ namespace {
 // openexr.com/en/latest/OpenEXRFileLayout.html. OpenEXR 3.1 allocates an attribute's declared
 // size before reading it, so a damaged size turns a 1 kB file into a 2 GB allocation (found by
 // fuzz_device_map, docs/robustness.md): sizes beyond the end of the file are refused here.
+// Bytes of a value of a fixed-size OpenEXR attribute type, or -1 (strings, vectors, channel
+// lists, previews and unknown types, whose size is the declared one).
+int64_t exr_fixed_size(const std::string& type) {
+  static const std::pair<const char*, int> sizes[] = {
+      {"int", 4},       {"float", 4},     {"double", 8},  {"box2i", 16},      {"box2f", 16},
+      {"v2i", 8},       {"v2f", 8},       {"v2d", 16},    {"v3i", 12},        {"v3f", 12},
+      {"v3d", 24},      {"m33f", 36},     {"m33d", 72},   {"m44f", 64},       {"m44d", 128},
+      {"compression", 1}, {"lineOrder", 1}, {"envmap", 1}, {"deepImageState", 1},
+      {"tiledesc", 9},  {"rational", 8},  {"timecode", 8}, {"keycode", 28},   {"chromaticities", 32}};
+  for (const auto& [t, n] : sizes)
+    if (type == t) return n;
+  return -1;
+}
+
 void check_exr_header(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) return;  // OpenImageIO reports it
@@ -62,7 +76,32 @@ void check_exr_header(const std::string& path) {
       if (size < 0 || size > left)
         fail_at(path, fmt::format("corrupt EXR header: attribute '{}' declares {} bytes, the file has {} left",
                                   name, size, left));
-      std::fseek(f, static_cast<long>(size), SEEK_CUR);
+      // OpenEXR reads a typed value by its type, not by the declared size: where the two differ
+      // its walk and this one part ways and OpenEXR goes on to read garbage sizes (a 1 kB map
+      // kept fuzz_device_map in a 2 GB string fill for 10 s). So the size must be the type's.
+      const auto bad = [&](const std::string& why) {
+        fail_at(path, fmt::format("corrupt EXR header: attribute '{}' of type {} {}", name, type, why));
+      };
+      if (const int64_t fixed = exr_fixed_size(type); fixed >= 0 && size != fixed)
+        bad(fmt::format("declares {} bytes, the type has {}", size, fixed));
+      const long value_start = std::ftell(f);
+      if (type == "chlist") {  // channels: "name\0" + 16 bytes each, ended by an empty name
+        std::string channel;
+        for (int n = 0;; ++n) {
+          read_string(channel);
+          if (channel.empty()) break;
+          if (std::fseek(f, 16, SEEK_CUR) != 0 || n > 4096) bad("has a damaged channel list");
+          if (std::ftell(f) - value_start > size) break;
+        }
+        if (std::ftell(f) - value_start != size) bad(fmt::format("declares {} bytes, its channel list differs", size));
+      } else if (type == "preview") {  // width, height (uint32), then 4 bytes a pixel
+        unsigned char wh[8];
+        if (size < 8 || std::fread(wh, 1, 8, f) != 8) bad("is truncated");
+        const auto u32 = [](const unsigned char* q) { return uint64_t{q[0]} | uint64_t{q[1]} << 8 | uint64_t{q[2]} << 16 | uint64_t{q[3]} << 24; };
+        if (8 + 4 * u32(wh) * u32(wh + 4) != static_cast<uint64_t>(size))
+          bad(fmt::format("declares {} bytes for a {}x{} preview", size, u32(wh), u32(wh + 4)));
+      }
+      std::fseek(f, value_start + static_cast<long>(size), SEEK_SET);
       if (attributes > 10000) fail_at(path, "corrupt EXR header (more than 10000 attributes)");
     }
     if (!multipart || part > 10000) break;
