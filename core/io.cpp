@@ -98,7 +98,8 @@ void check_exr_header(const std::string& path) {
         unsigned char wh[8];
         if (size < 8 || std::fread(wh, 1, 8, f) != 8) bad("is truncated");
         const auto u32 = [](const unsigned char* q) { return uint64_t{q[0]} | uint64_t{q[1]} << 8 | uint64_t{q[2]} << 16 | uint64_t{q[3]} << 24; };
-        if (8 + 4 * u32(wh) * u32(wh + 4) != static_cast<uint64_t>(size))
+        const uint64_t pw = u32(wh), ph = u32(wh + 4);  // below 2^24 each, so 4*pw*ph cannot wrap
+        if (pw >= (1u << 24) || ph >= (1u << 24) || 8 + 4 * pw * ph != static_cast<uint64_t>(size))
           bad(fmt::format("declares {} bytes for a {}x{} preview", size, u32(wh), u32(wh + 4)));
       }
       std::fseek(f, value_start + static_cast<long>(size), SEEK_SET);
