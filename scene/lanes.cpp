@@ -56,7 +56,7 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
   // Marking width in pixels grows linearly below the top of the road (perspective): about 1.5%
   // of the width at the bottom row (a 0.15 m line on a ~10 m wide view), at least 2 px.
   const double span = std::max(1, H - 1 - y_top);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static, 8)  // road pixels crowd the lower rows: interleave
   for (int y = y_top; y < H; ++y) {
     const float* r = blur.ptr<float>(y);
     const int w = std::max(2, static_cast<int>(std::lround(0.015 * W * (y - y_top) / span)));

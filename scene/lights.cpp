@@ -172,7 +172,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
   // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK).
-#pragma omp parallel for schedule(static)
+  // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
+  // the frame, so contiguous halves would leave one thread most of the work.)
+#pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
@@ -275,7 +277,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
   ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows)
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static, 8)
   for (int y = std::max(0, ry0); y <= ry1; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
@@ -411,7 +413,9 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
   const auto tb = illuminant_tint(p.beam_cct_K);
   const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
                         static_cast<float>(tb[2] / M_PI)};
-#pragma omp parallel for schedule(static)
+  // Rows in small interleaved chunks: the low beam (an exp per ground pixel) lies in the lower
+  // part of the frame only, so contiguous halves left one thread with most of the work.
+#pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
     float* o = night.row(y);
     const float* t = texture.row(y);
@@ -421,7 +425,7 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
     for (int x = 0; x < W; ++x) {
       darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
       // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π.
-      const float e = y > vp.y && is_ground(id[x])
+      const float e = y > vp.y && dp.ground_class[id[x]]
                           ? static_cast<float>(low_beam_lux(x, y, W, d[x], vp.y, p)) : 0.f;
       for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
     }
