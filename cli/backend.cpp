@@ -7,6 +7,7 @@
 #include "photosite/error.h"
 #ifdef PHOTOSITE_HAVE_VULKAN
 #include "photosite/gpu/sensor.h"
+#include "photosite/gpu/stages.h"
 #endif
 
 namespace photosite::cli {
@@ -89,6 +90,13 @@ SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p,
   if (device_) return device_->chain.expose(radiance, p, lens, s, fpn);
 #endif
   return photosite::expose(radiance, p, lens, s, fpn);
+}
+
+ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::demosaic(device_->chain.context(), mosaic, pattern, method);
+#endif
+  return photosite::demosaic(mosaic, pattern, method);
 }
 
 }  // namespace photosite::cli

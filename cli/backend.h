@@ -36,6 +36,8 @@ class SensorRunner {
                      const FixedPatternMaps& fpn);
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
                       const ExposureSettings& settings, const FixedPatternMaps& fpn);
+  // demosaic() of a single-channel mosaic (every method has kernels).
+  ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
 
  private:
   Backend backend_;

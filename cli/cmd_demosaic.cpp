@@ -11,13 +11,14 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "backend.h"
 #include "photosite/sensor/demosaic.h"
 #include "registry.h"
 
 namespace photosite::cli {
 namespace {
 struct DemosaicCmd {
-  std::string in, out, cfa = "RGGB", method = "bilinear";
+  std::string in, out, cfa = "RGGB", method = "bilinear", backend = "auto";
   bool list = false, overwrite = false;
 };
 
@@ -36,6 +37,7 @@ void run(const DemosaicCmd& c) {
   if (c.out.empty()) fail("demosaic: --out RGB.exr is required");
   const CfaPattern cfa = parse_cfa(c.cfa);
   const DemosaicMethod method = parse_demosaic_method(c.method);
+  SensorRunner runner(resolve_backend(c.backend));
   const std::string ext = lower_ext(c.out);
   if (ext != ".exr" && ext != ".png")
     fail_at(c.out, "output must be .exr or .png (got '" + ext + "')");
@@ -47,7 +49,8 @@ void run(const DemosaicCmd& c) {
     fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", mosaic_img.channels()));
   if (mosaic_img.width() < 1 || mosaic_img.height() < 1) fail_at(c.in, "empty image");
   if (mosaic_img.unit().empty()) mosaic_img.set_unit(info.is_float ? "" : unit::dimensionless);
-  const ImageF rgb = demosaic(mosaic_img, cfa, method);
+  ImageF rgb = runner.demosaic(mosaic_img, cfa, method);
+  rgb.set_unit(mosaic_img.unit());
   if (ext == ".png") {
     write_png(c.out, rgb, !info.is_float && info.bits_per_sample == 8 ? 8 : 16);
   } else {
@@ -71,6 +74,7 @@ static Registrar reg("c-demosaic", [](CLI::App& app) {
   sub->add_option("--method", cmd->method, "demosaic method (see --list)")->capture_default_str();
   sub->add_flag("--list", cmd->list, "list the demosaic methods and exit");
   add_overwrite_flag(sub, cmd->overwrite);
+  add_backend_option(sub, cmd->backend);
   sub->callback([cmd] { run(*cmd); });
 });
 

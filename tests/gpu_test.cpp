@@ -346,6 +346,31 @@ namespace photosite {
 
 // `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI);
 // the children inherit PHOTOSITE_VK_VALIDATION=1 and print any validation message.
+TEST_F(Gpu, CliDemosaicBackendsAgreeForEveryMethod) {
+  // `photosite demosaic --backend vulkan` runs the method's kernels; the file equals the CPU one.
+  test::TempDir dir;
+  const std::string store = " --device-store '" + dir.file("store") + "'";
+  auto r = test::run_cli("flat --photons 500 --wavelength-nm 525 --preset sony-imx174 --width 61 --height 37 --seed 3"
+                         " --backend cpu --out '" + dir.file("flat.exr") + "'" + store);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ImageF raw = read_exr(dir.file("flat.exr")).channels.at("raw.Y");
+  write_exr(dir.file("mosaic.exr"), {{{"Y"}, &raw, "DN"}}, {});
+  for (DemosaicMethod m : all_demosaic_methods()) {
+    for (const char* b : {"cpu", "vulkan"}) {
+      r = test::run_cli(std::string("demosaic --in '") + dir.file("mosaic.exr") + "' --cfa GBRG --method " + to_string(m) +
+                        " --backend " + b + " --out '" + dir.file(std::string(to_string(m)) + "-" + b + ".exr") + "'");
+      ASSERT_EQ(r.exit_code, 0) << r.output;
+      EXPECT_EQ(r.output.find("validation"), std::string::npos) << r.output;
+    }
+    const ImageF a = read_image(dir.file(std::string(to_string(m)) + "-cpu.exr"));
+    const ImageF v = read_image(dir.file(std::string(to_string(m)) + "-vulkan.exr"));
+    ASSERT_EQ(a.size(), v.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &v[i], sizeof(float)) != 0;
+    EXPECT_EQ(differ, 0u) << to_string(m);
+  }
+}
+
 TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
   test::TempDir dir;
   const std::string store = " --device-store '" + dir.file("store") + "'";
