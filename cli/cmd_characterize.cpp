@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "backend.h"
 #include "photosite/error.h"
 #include "photosite/sensor/emva_sim.h"
 #include "registry.h"
@@ -19,6 +20,7 @@ struct CharacterizeCmd {
   bool json = false;
   int roi = 256;
   double wavelength_nm = 525;
+  std::string backend = "auto";
 };
 
 void run(const CharacterizeCmd& c) {
@@ -26,7 +28,12 @@ void run(const CharacterizeCmd& c) {
   if (c.roi < 16 || c.roi > 4096) fail(fmt::format("--roi {} must be in [16, 4096]", c.roi));
   const int w = std::min(c.roi, r.camera.width_px), h = std::min(c.roi, r.camera.height_px);
   const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, w, h);
-  emva::SimulatedCamera cam(r.camera, r.lens, r.settings, fpn, c.wavelength_nm);
+  SensorRunner runner(resolve_backend(c.backend));
+  emva::SimulatedCamera cam(r.camera, r.lens, r.settings, fpn, c.wavelength_nm,
+                            [&runner](const ImageF& m, const CameraPreset& p, const ResolvedExposure& ex,
+                                      const ExposureSettings& s, const FixedPatternMaps& f) {
+                              return runner.sense(m, p, ex, s, f);
+                            });
   const emva::Plan plan = emva::plan_for(r.camera, c.wavelength_nm);
   const emva::Result m = emva::measure(cam, plan);
   const emva::Result e = emva::expected(r.camera, r.settings, plan, m.pixels_measured, c.wavelength_nm);
@@ -82,6 +89,7 @@ static Registrar reg("e-characterize", [](CLI::App& app) {
   sub->add_flag("--json", cmd->json, "print JSON (measured, uncertainty and preset value per quantity)");
   sub->add_option("--roi", cmd->roi, "side of the measured region in pixels")->capture_default_str();
   sub->add_option("--wavelength-nm", cmd->wavelength_nm, "wavelength of the light")->capture_default_str();
+  add_backend_option(sub, cmd->backend);
   sub->callback([cmd] { run(*cmd); });
 });
 }  // namespace photosite::cli

@@ -5,9 +5,12 @@
 namespace photosite::emva {
 
 SimulatedCamera::SimulatedCamera(CameraPreset preset, LensPreset lens, ExposureSettings settings,
-                                 FixedPatternMaps fpn, double wavelength_nm)
+                                 FixedPatternMaps fpn, double wavelength_nm, SenseFn sense_fn)
     : preset_(std::move(preset)), lens_(std::move(lens)), settings_(settings), fpn_(std::move(fpn)),
-      wavelength_nm_(wavelength_nm) {}
+      wavelength_nm_(wavelength_nm), sense_(std::move(sense_fn)) {
+  if (!sense_) sense_ = [](const ImageF& m, const CameraPreset& p, const ResolvedExposure& ex,
+                           const ExposureSettings& s, const FixedPatternMaps& f) { return sense(m, p, ex, s, f); };
+}
 
 std::vector<ImageF> SimulatedCamera::acquire(double photons, double exposure_s, int frames) {
   std::vector<ImageF> out;
@@ -15,7 +18,9 @@ std::vector<ImageF> SimulatedCamera::acquire(double photons, double exposure_s, 
   s.exposure_s = exposure_s;
   for (int i = 0; i < frames; ++i) {
     s.frame = next_frame_++;
-    out.push_back(flat_field(photons, wavelength_nm_, fpn_.width, fpn_.height, preset_, lens_, s, fpn_).raw_dn);
+    // flat_field(), with the sense stage on the chosen backend.
+    const ImageF mean = detail::flat_field_mean(photons, wavelength_nm_, fpn_.width, fpn_.height, preset_);
+    out.push_back(sense_(mean, preset_, resolve(preset_, lens_, s), s, fpn_).raw_dn);
   }
   return out;
 }

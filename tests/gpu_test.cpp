@@ -346,6 +346,22 @@ namespace photosite {
 
 // `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI);
 // the children inherit PHOTOSITE_VK_VALIDATION=1 and print any validation message.
+TEST_F(Gpu, CliCharacterizeBackendsAgree) {
+  // The EMVA 1288 measurement of the simulated camera with its sense stage on Vulkan reports the
+  // same numbers, digit for digit, as on the CPU.
+  test::TempDir dir;
+  std::string out[2];
+  int k = 0;
+  for (const char* b : {"cpu", "vulkan"}) {
+    const auto r = test::run_cli(std::string("characterize --preset sony-imx174 --json --roi 64 --backend ") + b +
+                                 " --device-store '" + dir.file("store") + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    out[k++] = r.output.substr(r.output.find('{'));
+  }
+  EXPECT_EQ(out[0], out[1]);
+  EXPECT_NE(out[0].find("system_gain_dn_per_e"), std::string::npos);
+}
+
 TEST_F(Gpu, CliDemosaicBackendsAgreeForEveryMethod) {
   // `photosite demosaic --backend vulkan` runs the method's kernels; the file equals the CPU one.
   test::TempDir dir;

@@ -2,6 +2,8 @@
 // serves flat fields through emva::Camera, the measurement plan for a preset, and the values
 // EMVA 1288 should find for it, derived from the preset alone.
 #pragma once
+#include <functional>
+
 #include "photosite/sensor/emva.h"
 #include "photosite/sensor/pipeline.h"
 
@@ -9,8 +11,12 @@ namespace photosite::emva {
 
 class SimulatedCamera : public Camera {
  public:
+  // How a frame's mean electrons become an exposure: photosite::sense (the default) or the same
+  // stage on another backend (the CLI's --backend passes the Vulkan one).
+  using SenseFn = std::function<SensorOutput(const ImageF& mean_e, const CameraPreset&, const ResolvedExposure&,
+                                             const ExposureSettings&, const FixedPatternMaps&)>;
   SimulatedCamera(CameraPreset preset, LensPreset lens, ExposureSettings settings,
-                  FixedPatternMaps fpn, double wavelength_nm = 525.0);
+                  FixedPatternMaps fpn, double wavelength_nm = 525.0, SenseFn sense_fn = {});
   int width() const override { return fpn_.width; }
   int height() const override { return fpn_.height; }
   int bit_depth() const override { return preset_.bit_depth; }
@@ -23,6 +29,7 @@ class SimulatedCamera : public Camera {
   ExposureSettings settings_;
   FixedPatternMaps fpn_;
   double wavelength_nm_;
+  SenseFn sense_;
   uint32_t next_frame_ = 0;
 };
 
