@@ -2,20 +2,26 @@
 // EXR and an sRGB preview beside it.
 #include <string>
 
+#include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
 
 namespace photosite::cli {
-void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings);
+void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings,
+              const std::string& backend);
 
 static Registrar reg("c-night-demo", [](CLI::App& app) {
-  struct Opts { std::string out = "photosite-demo.exr", preview = "photosite-demo.png"; bool overwrite = false, timings = false; };
+  struct Opts {
+    std::string out = "photosite-demo.exr", preview = "photosite-demo.png", backend = "auto";
+    bool overwrite = false, timings = false;
+  };
   auto o = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("demo", "run `photosite night` on the bundled KITTI sample");
   sub->add_option("--out", o->out, "output EXR")->capture_default_str();
   sub->add_option("--preview", o->preview, "sRGB preview PNG (empty: none)")->capture_default_str();
   sub->add_flag("--timings", o->timings, "print the per-stage time table");
   add_overwrite_flag(sub, o->overwrite);
-  sub->callback([o] { run_demo(o->out, o->preview, o->overwrite, o->timings); });
+  add_backend_option(sub, o->backend);
+  sub->callback([o] { run_demo(o->out, o->preview, o->overwrite, o->timings, o->backend); });
 });
 }  // namespace photosite::cli

@@ -227,8 +227,10 @@ static Registrar reg("c-night", [](CLI::App& app) {
 }  // namespace photosite::cli
 
 namespace photosite::cli {
-void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings) {
+void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings,
+              const std::string& backend) {
   NightCmd c;
+  c.backend = backend;
   c.out = out;
   c.preview = preview;
   c.overwrite = overwrite;
