@@ -6,6 +6,7 @@
 
 #include "photosite/error.h"
 #ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/gpu/scene.h"
 #include "photosite/gpu/sensor.h"
 #include "photosite/gpu/stages.h"
 #endif
@@ -97,6 +98,20 @@ ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, Demosaic
   if (device_) return gpu::demosaic(device_->chain.context(), mosaic, pattern, method);
 #endif
   return photosite::demosaic(mosaic, pattern, method);
+}
+
+scene::PixelStages SensorRunner::pixel_stages() {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::pixel_stages(device_->chain.context());
+#endif
+  return {};
+}
+
+ImageF SensorRunner::linearize(const ImageF& day, const ImageFileInfo& info) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::linearize(device_->chain.context(), day, info);
+#endif
+  return scene::linearize(day, info);
 }
 
 }  // namespace photosite::cli

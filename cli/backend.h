@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "photosite/scene/night.h"
 #include "photosite/sensor/pipeline.h"
 
 namespace photosite::cli {
@@ -38,6 +39,11 @@ class SensorRunner {
                       const ExposureSettings& settings, const FixedPatternMaps& fpn);
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
+  // The night chain's full-resolution per-pixel stages: on Vulkan the kernels darken, bloom_*
+  // and compose (scene::PixelStages), on the CPU none (night_scene's own path).
+  scene::PixelStages pixel_stages();
+  // scene::linearize() on this backend (kernel linearize on Vulkan).
+  ImageF linearize(const ImageF& day, const ImageFileInfo& info);
 
  private:
   Backend backend_;

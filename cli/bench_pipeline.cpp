@@ -2,12 +2,13 @@
 // path and on the Vulkan backend in the same run, per step in the layout of Baek 2020's Table 6
 // (2048x1024), with the thesis's GTX 1080 Ti numbers beside them and the Vulkan/CPU ratio.
 // Vulkan times are device times from timestamp queries (on lavapipe: CPU time of its threads);
-// steps without a kernel (geometry: lanes, Canny, Hough, depth, light placement, compose) run on
-// the CPU in both columns. CSV to docs/bench_pipeline_<device>.csv.
+// steps without a kernel (geometry: lanes, Canny, Hough, depth, light placement, the reflectance
+// texture's class means) run on the CPU in both columns. CSV to docs/bench_pipeline_<device>.csv.
 #include <omp.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -22,6 +23,7 @@
 #include "photosite/rng.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/fpn.h"
+#include "photosite/sensor/isp.h"
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/preset.h"
@@ -58,13 +60,14 @@ void run(const Opts& o) {
   omp_set_num_threads(o.threads);
   cv::setNumThreads(o.threads);
   // The frame: a Cityscapes image from ../shared, else the synthetic road, at 2048x1024.
-  ImageF day;
+  ImageF day, raw;  // raw: the 8-bit file as read (codes in [0,1]), for linearize
+  ImageFileInfo raw_info;
   scene::LabelMap lm;
   std::string source;
   const fs::path shared = fs::path(PHOTOSITE_SOURCE_DIR) / ".." / "shared" / "data" / "cityscapes";
   if (fs::exists(shared / "leftImg8bit")) {
-    ImageFileInfo info;
-    const ImageF raw = read_image((shared / "leftImg8bit/aachen_000000_000019_leftImg8bit.png").string(), &info);
+    ImageFileInfo& info = raw_info;
+    raw = read_image((shared / "leftImg8bit/aachen_000000_000019_leftImg8bit.png").string(), &info);
     lm = scene::read_labels((shared / "gtFine/aachen_000000_000019_gtFine_labelIds.png").string(),
                             (shared / "gtFine/aachen_000000_000019_gtFine_instanceIds.png").string(), raw.width(),
                             raw.height(), scene::LabelFormat::Auto, scene::ResizeLabels::None);
@@ -77,6 +80,10 @@ void run(const Opts& o) {
     lm = s.labels;
     day = s.day_linear_srgb;
     source = "synthetic road (../shared/data/cityscapes absent)";
+    raw = ImageF(day.width(), day.height(), 3, uninitialized);  // its 8-bit sRGB codes
+    for (size_t i = 0; i < day.size(); ++i)
+      raw[i] = static_cast<float>(std::nearbyint(srgb_encode(std::clamp(day[i], 0.f, 1.f)) * 255) / 255);
+    raw_info.path = "synthetic";
   }
   const int W = day.width(), H = day.height();
   const size_t n = static_cast<size_t>(W) * H;
@@ -117,6 +124,8 @@ void run(const Opts& o) {
     scene::NightScene ns = scene::night_scene(day, lm, sp, 1);
     for (const auto& st : ns.timings) add(cpu, st.stage, st.ms);
     add(cpu, "darken only", time_ms([&] { (void)scene::darken(texture, lm.ids, sp); }));
+    add(cpu, "linearize", time_ms([&] { (void)scene::linearize(raw, raw_info); }));
+    add(cpu, "compose only", time_ms([&] { (void)scene::compose(texture, ns.lights, lm.ids, ns.depth, ns.vp, sp); }));
     ImageF bl = ns.lights;
     add(cpu, "bloom", time_ms([&] { scene::bloom_in_place(bl, sp.bloom_fraction, sp.bloom_levels); }));
     ImageF mean_e;
@@ -154,6 +163,12 @@ void run(const Opts& o) {
       double bloom = 0;
       for (const auto& st : s.stage_times()) bloom += st.ms;
       add(dev, "bloom", bloom);
+      // Linearize, and compose (darken + compose kernels), device times.
+      double ms = -1;
+      (void)gpu::linearize(*ctx, raw, raw_info, &ms);
+      add(dev, "linearize", ms);
+      (void)gpu::compose(*ctx, texture, ns.lights, lm.ids, ns.depth, ns.vp, sp, &ms);
+      add(dev, "compose only", ms);
       // Poisson alone: the kernel of poisson_fill over a frame already on the device.
       gpu::Buffer pm(*ctx, n * 4), po(*ctx, n * 4);
       pm.upload(pmean.data(), n * 4);
@@ -184,7 +199,7 @@ void run(const Opts& o) {
       {"Coarse depth estimation", 0.17, med(cpu, "depth"), med(cpu, "depth"), "cpu"},
       {"Light map generation", 12.01, med(cpu, "lights"), lights_dev, "cpu placement + kernels bloom_*"},
       {"  of which bloom", -1, med(cpu, "bloom"), med(dev, "bloom"), "kernels bloom_down/blur/up/mix"},
-      {"Composition", 0.37, med(cpu, "compose"), med(cpu, "compose"), "cpu"},
+      {"Composition", 0.37, med(cpu, "compose"), med(dev, "compose only"), "kernels darken + compose"},
       {"RAW conversion (optics, photon integral)", 0.28, med(cpu, "photon"), med(dev, "photon"), "kernel photon"},
       {"Sensor noise (shot, dark, FPN, read, ADC)", 1.44, med(cpu, "sense"), med(dev, "sense"), "kernel sense"},
       {"Demosaicing (bilinear)", 0.83, med(cpu, "demosaic"), med(dev, "demosaic"), "kernel demosaic_bilinear"},
@@ -200,6 +215,8 @@ void run(const Opts& o) {
                     : m == DemosaicMethod::HamiltonAdams ? "kernels demosaic_ha_green/colour"
                                                          : "kernel demosaic_malvar"});
   }
+  rows.push_back({"Linearization (sRGB decode, before the chain)", -1, med(cpu, "linearize"), med(dev, "linearize"),
+                  "kernel linearize"});
   // The first row's CPU time is reflectance_texture (night_scene's "darken" lap without darken()).
   rows[0].dev_ms = rows[0].cpu_ms;
   const std::string machine = machine_description();

@@ -321,7 +321,7 @@ void run(BatchCmd& c) {
     try {
       const Item& it = l->item;
       const uint64_t seed = batch::group_seed(r.settings.seed, it.group);
-      auto ns = std::make_shared<scene::NightScene>(scene::night_scene(l->day, l->labels, sp, seed));
+      auto ns = std::make_shared<scene::NightScene>(scene::night_scene(l->day, l->labels, sp, seed, false, runner.pixel_stages()));
       auto rr = std::make_shared<SensorOptions::Resolved>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);

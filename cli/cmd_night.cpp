@@ -141,11 +141,11 @@ void run_night(NightCmd c) {
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
   lap("read inputs");
-  ImageF day = scene::linearize(day_raw, info);
+  ImageF day = runner.linearize(day_raw, info);
   const int frame_w = day.width(), frame_h = day.height();
   day_raw = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   lap("linearize");
-  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed, !c.maps.empty());
+  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed, !c.maps.empty(), runner.pixel_stages());
   for (auto& st : ns.timings) times.push_back(st);
   t = clock::now();
   if (!c.maps.empty()) {

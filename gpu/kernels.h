@@ -129,4 +129,22 @@ struct BloomParams {
 };
 static_assert(sizeof(BloomParams) == 56 && offsetof(BloomParams, a) == 20 && offsetof(BloomParams, weights) == 28);
 
+// compose.comp
+struct ComposeParams {
+  uint32_t width, height;
+  U64 ground_mask;
+  double vp_y, beam_half_width, beam_road_lux;
+  float tint_over_pi[3];
+  uint32_t pad;
+};
+static_assert(sizeof(ComposeParams) == 56 && offsetof(ComposeParams, ground_mask) == 8 &&
+              offsetof(ComposeParams, vp_y) == 16 && offsetof(ComposeParams, beam_road_lux) == 32 &&
+              offsetof(ComposeParams, tint_over_pi) == 40);
+
+// linearize.comp
+struct LinearizeParams {
+  uint32_t n, channels, decode, pad;
+};
+static_assert(sizeof(LinearizeParams) == 16);
+
 }  // namespace photosite::gpu

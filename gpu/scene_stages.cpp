@@ -1,6 +1,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <fmt/format.h>
 #include <vector>
 
 #include "kernels.h"
@@ -134,6 +135,101 @@ void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels) {
   record_bloom(ctx, s, b, img.width(), img.height(), fraction, levels, cache);
   s.submit_and_wait();
   b.download(img.data(), bytes);
+}
+
+namespace {
+double total_device_ms(const Sequence& s) {
+  const auto t = s.stage_times();
+  if (t.empty()) return -1;
+  double ms = 0;
+  for (const auto& st : t) ms += st.ms;
+  return ms;
+}
+// uint16 labels as the kernels read them: two per 32-bit word.
+std::unique_ptr<Buffer> upload_labels(Context& ctx, const ImageU16& labels) {
+  const size_t n = labels.pixel_count();
+  auto b = std::make_unique<Buffer>(ctx, std::max<size_t>(4, ((n + 1) / 2) * sizeof(uint32_t)));
+  b->upload(labels.data(), n * sizeof(uint16_t));
+  return b;
+}
+}  // namespace
+
+ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms) {
+  const int c = day.channels();
+  if (c < 1 || c > 4) fail(fmt::format("linearize: {} channels (1 to 4 expected)", c));
+  const size_t n = day.pixel_count();
+  ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
+  if (n == 0) return out;
+  if (n >= UINT32_MAX) fail("linearize: the image has more than 2^32 - 1 pixels, beyond the Vulkan kernel's index");
+  const std::vector<float>& lut = scene::srgb_decode_table();
+  Buffer in(ctx, day.size() * sizeof(float)), table(ctx, lut.size() * sizeof(float)),
+      o(ctx, 3 * n * sizeof(float)), bad(ctx, sizeof(uint32_t));
+  in.upload(day.data(), day.size() * sizeof(float));
+  table.upload(lut.data(), lut.size() * sizeof(float));
+  *bad.as<uint32_t>() = UINT32_MAX;
+  LinearizeParams p{static_cast<uint32_t>(n), static_cast<uint32_t>(c), info.is_float ? 0u : 1u, 0};
+  Sequence s(ctx);
+  const Grid g = grid_1d(n);
+  s.dispatch(ctx.kernel("linearize", 4, sizeof(LinearizeParams)), {&in, &table, &o, &bad}, p, g.x, g.y, 1,
+             "linearize");
+  s.submit_and_wait();
+  if (device_ms) *device_ms = total_device_ms(s);
+  const uint32_t first_bad = *bad.as<uint32_t>();
+  if (first_bad != UINT32_MAX) scene::fail_damaged_pixel(day, info, first_bad);
+  o.download(out.data(), 3 * n * sizeof(float));
+  return out;
+}
+
+ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& sp,
+               double* device_ms) {
+  const int W = texture.width(), H = texture.height();
+  if (texture.channels() != 3 || !lights.same_shape(texture) || labels.width() != W || labels.height() != H ||
+      depth.width() != W || depth.height() != H || depth.channels() != 1)
+    fail("compose: texture, lights, labels and depth differ in size");
+  const size_t n = texture.pixel_count();
+  ImageF out(W, H, 3, uninitialized, unit::radiance);
+  if (n == 0) return out;
+  if (n >= UINT32_MAX) fail("compose: the image has more than 2^32 - 1 pixels, beyond the Vulkan kernel's index");
+  const size_t rgb_bytes = 3 * n * sizeof(float);
+  Buffer t(ctx, rgb_bytes), l(ctx, rgb_bytes), d(ctx, n * sizeof(float)), o(ctx, rgb_bytes);
+  t.upload(texture.data(), rgb_bytes);
+  l.upload(lights.data(), rgb_bytes);
+  d.upload(depth.data(), n * sizeof(float));
+  const auto ids = upload_labels(ctx, labels);
+  const scene::DarkenParams dp = scene::darken_params(sp);
+  Sequence s(ctx);
+  record_darken(ctx, s, t, *ids, o, n, dp);
+  ComposeParams cp{};
+  cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
+  uint64_t mask = 0;
+  for (int id = 0; id < scene::kLabelCount; ++id)
+    if (dp.ground_class[id]) mask |= uint64_t{1} << id;
+  cp.ground_mask = U64::of(mask);
+  cp.vp_y = vp.y;
+  cp.beam_half_width = sp.beam_half_width;
+  cp.beam_road_lux = sp.beam_road_lux;
+  // The CPU's tint / π (scene::compose): the beam's colour relative to D65.
+  const auto tb = scene::illuminant_tint(sp.beam_cct_K);
+  for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);
+  const Grid g = grid_1d(n);
+  s.dispatch(ctx.kernel("compose", 5, sizeof(ComposeParams)), {&t, &l, ids.get(), &d, &o}, cp, g.x, g.y, 1,
+             "compose");
+  s.submit_and_wait();
+  if (device_ms) *device_ms = total_device_ms(s);
+  o.download(out.data(), rgb_bytes);
+  return out;
+}
+
+scene::PixelStages pixel_stages(Context& ctx) {
+  scene::PixelStages st;
+  st.darken = [&ctx](const ImageF& t, const ImageU16& l, const scene::ScenePreset& p) { return darken(ctx, t, l, p); };
+  st.bloom_in_place = [&ctx](ImageF& img, double f, int levels) { bloom_in_place(ctx, img, f, levels); };
+  st.compose = [&ctx](const ImageF& t, const ImageF& l, const ImageU16& ids, const ImageF& d,
+                      const scene::VanishingPoint& vp, const scene::ScenePreset& p) {
+    return compose(ctx, t, l, ids, d, vp, p);
+  };
+  return st;
 }
 
 }  // namespace photosite::gpu

@@ -12,12 +12,27 @@
 
 namespace photosite::scene {
 
+const std::vector<float>& srgb_decode_table() {
+  // sRGB decode through a 4096-entry table (inputs are 8/16-bit codes normalised to [0,1]),
+  // interpolated linearly; the Vulkan kernel (kernels/linearize.comp) reads the same table.
+  static const std::vector<float> lut = [] {
+    std::vector<float> t(4097);
+    for (int i = 0; i <= 4096; ++i) t[i] = static_cast<float>(srgb_decode(i / 4096.0));
+    return t;
+  }();
+  return lut;
+}
+
+void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index) {
+  const int64_t y = index / day.width(), x = index % day.width();
+  fail_at(info.path, fmt::format("pixel ({}, {}) is {}: NaN and Inf are not light; the image is damaged",
+                                 x, y, day.at(static_cast<int>(x), static_cast<int>(y), 0)));
+}
+
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   const int c = day.channels();
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
-  // sRGB decode through a 4096-entry table (inputs are 8/16-bit codes normalised to [0,1]).
-  std::vector<float> lut(4097);
-  for (int i = 0; i <= 4096; ++i) lut[i] = static_cast<float>(srgb_decode(i / 4096.0));
+  const std::vector<float>& lut = srgb_decode_table();
   const bool decode = !info.is_float;
   // NaN and Inf in a linear (EXR) day image are damage, not light: refused, first one named.
   // Negatives are kept as out-of-gamut colour and clipped to 0 like integer files' codes.
@@ -43,11 +58,7 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
       }
     }
   }
-  if (bad != INT64_MAX) {
-    const int64_t y = bad / day.width(), x = bad % day.width();
-    fail_at(info.path, fmt::format("pixel ({}, {}) is {}: NaN and Inf are not light; the image is damaged",
-                                   x, y, day.at(static_cast<int>(x), static_cast<int>(y), 0)));
-  }
+  if (bad != INT64_MAX) fail_damaged_pixel(day, info, bad);
   return out;
 }
 

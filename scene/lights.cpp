@@ -160,7 +160,7 @@ ImageF bloom(const ImageF& src, double fraction, int levels) {
 
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
-                   uint64_t seed) {
+                   uint64_t seed, bool with_bloom) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -400,7 +400,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         ++out.stats.windows;
       }
   }
-  bloom_in_place(L, p.bloom_fraction, p.bloom_levels);
+  if (with_bloom) bloom_in_place(L, p.bloom_fraction, p.bloom_levels);
   out.radiance = std::move(L);
   return out;
 }

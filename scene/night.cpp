@@ -8,7 +8,7 @@
 namespace photosite::scene {
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened) {
+                       uint64_t seed, bool keep_darkened, const PixelStages& stages) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -19,7 +19,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p);
-  if (keep_darkened) s.darkened = darken(texture, labels.ids, p);
+  if (keep_darkened) s.darkened = stages.darken ? stages.darken(texture, labels.ids, p) : darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
   s.work_scale = w.scale;
@@ -51,11 +51,13 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed);
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed, !stages.bloom_in_place);
+  if (stages.bloom_in_place) stages.bloom_in_place(lm.radiance, p.bloom_fraction, p.bloom_levels);
   s.lights = std::move(lm.radiance);
   s.light_stats = lm.stats;
   lap("lights");
-  s.radiance = compose(texture, s.lights, labels.ids, s.depth, vp, p);
+  s.radiance = stages.compose ? stages.compose(texture, s.lights, labels.ids, s.depth, vp, p)
+                              : compose(texture, s.lights, labels.ids, s.depth, vp, p);
   lap("compose");
   return s;
 }

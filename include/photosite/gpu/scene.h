@@ -16,6 +16,18 @@ ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const
 // scene::bloom_in_place() on the device: equal to within float rounding (the sums run in another
 // order than OpenCV's; docs/vulkan.md has the measured difference).
 void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels);
+// scene::linearize() on the device: bit-equal (the same table and float operations); a NaN or
+// Inf pixel is refused with the CPU path's message.
+ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms = nullptr);
+// scene::compose() on the device (darken, then low beam + lights): bit-equal except where the
+// double exp of the low beam (common/exp64.glsl) rounds to another float than std::exp, at most
+// one float ulp there (tests/gpu_test.cpp counts them).
+ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
+               double* device_ms = nullptr);
+// device_ms: the kernels' device time (timestamps), -1 without them.
+// The three as night_scene()'s pixel stages on this context.
+scene::PixelStages pixel_stages(Context& ctx);
 
 // Recording into a caller's sequence (for chains that keep images on the device): `img` is an
 // interleaved RGB w x h buffer, processed in place; scratch buffers are made on first use and

@@ -7,6 +7,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,10 @@ namespace photosite::scene {
 // Day image → linear sRGB (3 channels). Integer files are sRGB-decoded (IEC 61966-2-1); float
 // files (EXR) are taken as linear. Grey images are replicated, alpha dropped.
 ImageF linearize(const ImageF& day, const ImageFileInfo& info);
+// The 4097-entry sRGB-decode table linearize() interpolates (shared with the Vulkan kernel).
+const std::vector<float>& srgb_decode_table();
+// The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
+[[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
 ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
 
@@ -106,7 +111,7 @@ struct LightMap {
 };
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
-                   const ScenePreset& p, uint64_t seed);
+                   const ScenePreset& p, uint64_t seed, bool with_bloom = true);
 // Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
 ImageF bloom(const ImageF& src, double fraction, int levels);
 void bloom_in_place(ImageF& img, double fraction, int levels);
@@ -128,8 +133,17 @@ struct NightScene {
   LightStats light_stats;
   std::vector<StageTiming> timings;
 };
+// The full-resolution per-pixel stages night_scene() can hand to another backend (the Vulkan
+// kernels, gpu/scene.h); an empty function runs the CPU path. Geometry stays on the CPU.
+struct PixelStages {
+  std::function<ImageF(const ImageF& texture, const ImageU16& labels, const ScenePreset& p)> darken;
+  std::function<void(ImageF& img, double fraction, int levels)> bloom_in_place;
+  std::function<ImageF(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                       const VanishingPoint& vp, const ScenePreset& p)>
+      compose;
+};
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened = false);
+                       uint64_t seed, bool keep_darkened = false, const PixelStages& stages = {});
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {
