@@ -51,6 +51,7 @@ Backend resolve_backend(const std::string& name) {
 #ifdef PHOTOSITE_HAVE_VULKAN
 struct SensorRunner::Device {
   gpu::SensorChain chain{gpu::shared_context()};
+  std::shared_ptr<gpu::SceneStages> scene = std::make_shared<gpu::SceneStages>(gpu::shared_context());
 };
 #else
 struct SensorRunner::Device {};
@@ -102,7 +103,7 @@ ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, Demosaic
 
 scene::PixelStages SensorRunner::pixel_stages() {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return gpu::pixel_stages(device_->chain.context());
+  if (device_) return gpu::pixel_stages(device_->scene);
 #endif
   return {};
 }

@@ -31,21 +31,6 @@ void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, B
   s.dispatch(ctx.kernel("darken", 3, sizeof(DarkenParams)), {&texture, &labels, &out}, p, g.x, g.y, 1, "darken");
 }
 
-ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& sp) {
-  if (texture.channels() != 3 || !labels.same_shape(texture)) fail("darken: texture and labels differ in size");
-  const size_t n = texture.pixel_count();
-  ImageF out(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
-  if (n == 0) return out;
-  Buffer t(ctx, 3 * n * sizeof(float)), l(ctx, ((n + 1) / 2) * sizeof(uint32_t)), o(ctx, 3 * n * sizeof(float));
-  t.upload(texture.data(), 3 * n * sizeof(float));
-  l.upload(labels.data(), n * sizeof(uint16_t));
-  Sequence s(ctx);
-  record_darken(ctx, s, t, l, o, n, scene::darken_params(sp));
-  s.submit_and_wait();
-  o.download(out.data(), 3 * n * sizeof(float));
-  return out;
-}
-
 struct BloomBuffers {
   int w = 0, h = 0, levels = 0;
   std::vector<std::pair<int, int>> size;           // per level (0 = the image)
@@ -124,19 +109,6 @@ void record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double f
   s.dispatch(mix, {B.acc[1].get(), &img}, mp, g.x, g.y, 1, "bloom mix");
 }
 
-void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels) {
-  if (img.channels() != 3) fail("bloom: the image must have 3 channels");
-  if (fraction <= 0 || levels <= 0 || img.width() < 4 || img.height() < 4) return;
-  const size_t bytes = img.size() * sizeof(float);
-  Buffer b(ctx, bytes);
-  b.upload(img.data(), bytes);
-  BloomCache cache;
-  Sequence s(ctx);
-  record_bloom(ctx, s, b, img.width(), img.height(), fraction, levels, cache);
-  s.submit_and_wait();
-  b.download(img.data(), bytes);
-}
-
 namespace {
 double total_device_ms(const Sequence& s) {
   const auto t = s.stage_times();
@@ -144,13 +116,6 @@ double total_device_ms(const Sequence& s) {
   double ms = 0;
   for (const auto& st : t) ms += st.ms;
   return ms;
-}
-// uint16 labels as the kernels read them: two per 32-bit word.
-std::unique_ptr<Buffer> upload_labels(Context& ctx, const ImageU16& labels) {
-  const size_t n = labels.pixel_count();
-  auto b = std::make_unique<Buffer>(ctx, std::max<size_t>(4, ((n + 1) / 2) * sizeof(uint32_t)));
-  b->upload(labels.data(), n * sizeof(uint16_t));
-  return b;
 }
 }  // namespace
 
@@ -180,9 +145,53 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
   return out;
 }
 
-ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& sp,
-               double* device_ms) {
+SceneStages::SceneStages(Context& ctx) : ctx_(ctx) {}
+SceneStages::~SceneStages() = default;
+
+Buffer& SceneStages::buffer(const std::string& name, size_t bytes) {
+  auto& b = buffers_[name];
+  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
+  return *b;
+}
+
+// uint16 labels as the kernels read them: two per 32-bit word.
+Buffer& SceneStages::upload_labels(const ImageU16& labels) {
+  const size_t n = labels.pixel_count();
+  Buffer& b = buffer("labels", std::max<size_t>(4, ((n + 1) / 2) * sizeof(uint32_t)));
+  b.upload(labels.data(), n * sizeof(uint16_t));
+  return b;
+}
+
+ImageF SceneStages::darken(const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& sp) {
+  if (texture.channels() != 3 || !labels.same_shape(texture)) fail("darken: texture and labels differ in size");
+  const size_t n = texture.pixel_count();
+  ImageF out(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
+  if (n == 0) return out;
+  Buffer& t = buffer("texture", 3 * n * sizeof(float));
+  Buffer& o = buffer("radiance", 3 * n * sizeof(float));
+  t.upload(texture.data(), 3 * n * sizeof(float));
+  Buffer& l = upload_labels(labels);
+  Sequence s(ctx_);
+  record_darken(ctx_, s, t, l, o, n, scene::darken_params(sp));
+  s.submit_and_wait();
+  o.download(out.data(), 3 * n * sizeof(float));
+  return out;
+}
+
+void SceneStages::bloom_in_place(ImageF& img, double fraction, int levels) {
+  if (img.channels() != 3) fail("bloom: the image must have 3 channels");
+  if (fraction <= 0 || levels <= 0 || img.width() < 4 || img.height() < 4) return;
+  const size_t bytes = img.size() * sizeof(float);
+  Buffer& b = buffer("lights", bytes);
+  b.upload(img.data(), bytes);
+  Sequence s(ctx_);
+  record_bloom(ctx_, s, b, img.width(), img.height(), fraction, levels, bloom_);
+  s.submit_and_wait();
+  b.download(img.data(), bytes);
+}
+
+ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                            const scene::VanishingPoint& vp, const scene::ScenePreset& sp, double* device_ms) {
   const int W = texture.width(), H = texture.height();
   if (texture.channels() != 3 || !lights.same_shape(texture) || labels.width() != W || labels.height() != H ||
       depth.width() != W || depth.height() != H || depth.channels() != 1)
@@ -192,14 +201,17 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
   if (n == 0) return out;
   if (n >= UINT32_MAX) fail("compose: the image has more than 2^32 - 1 pixels, beyond the Vulkan kernel's index");
   const size_t rgb_bytes = 3 * n * sizeof(float);
-  Buffer t(ctx, rgb_bytes), l(ctx, rgb_bytes), d(ctx, n * sizeof(float)), o(ctx, rgb_bytes);
+  Buffer& t = buffer("texture", rgb_bytes);
+  Buffer& l = buffer("lights", rgb_bytes);
+  Buffer& d = buffer("depth", n * sizeof(float));
+  Buffer& o = buffer("radiance", rgb_bytes);
   t.upload(texture.data(), rgb_bytes);
   l.upload(lights.data(), rgb_bytes);
   d.upload(depth.data(), n * sizeof(float));
-  const auto ids = upload_labels(ctx, labels);
+  Buffer& ids = upload_labels(labels);
   const scene::DarkenParams dp = scene::darken_params(sp);
-  Sequence s(ctx);
-  record_darken(ctx, s, t, *ids, o, n, dp);
+  Sequence s(ctx_);
+  record_darken(ctx_, s, t, ids, o, n, dp);
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
   uint64_t mask = 0;
@@ -213,21 +225,34 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
   const auto tb = scene::illuminant_tint(sp.beam_cct_K);
   for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);
   const Grid g = grid_1d(n);
-  s.dispatch(ctx.kernel("compose", 5, sizeof(ComposeParams)), {&t, &l, ids.get(), &d, &o}, cp, g.x, g.y, 1,
-             "compose");
+  s.dispatch(ctx_.kernel("compose", 5, sizeof(ComposeParams)), {&t, &l, &ids, &d, &o}, cp, g.x, g.y, 1, "compose");
   s.submit_and_wait();
   if (device_ms) *device_ms = total_device_ms(s);
   o.download(out.data(), rgb_bytes);
   return out;
 }
 
-scene::PixelStages pixel_stages(Context& ctx) {
+ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p) {
+  return SceneStages(ctx).darken(texture, labels, p);
+}
+void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels) {
+  SceneStages(ctx).bloom_in_place(img, fraction, levels);
+}
+ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
+               double* device_ms) {
+  return SceneStages(ctx).compose(texture, lights, labels, depth, vp, p, device_ms);
+}
+
+scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages) {
   scene::PixelStages st;
-  st.darken = [&ctx](const ImageF& t, const ImageU16& l, const scene::ScenePreset& p) { return darken(ctx, t, l, p); };
-  st.bloom_in_place = [&ctx](ImageF& img, double f, int levels) { bloom_in_place(ctx, img, f, levels); };
-  st.compose = [&ctx](const ImageF& t, const ImageF& l, const ImageU16& ids, const ImageF& d,
-                      const scene::VanishingPoint& vp, const scene::ScenePreset& p) {
-    return compose(ctx, t, l, ids, d, vp, p);
+  st.darken = [stages](const ImageF& t, const ImageU16& l, const scene::ScenePreset& p) {
+    return stages->darken(t, l, p);
+  };
+  st.bloom_in_place = [stages](ImageF& img, double f, int levels) { stages->bloom_in_place(img, f, levels); };
+  st.compose = [stages](const ImageF& t, const ImageF& l, const ImageU16& ids, const ImageF& d,
+                        const scene::VanishingPoint& vp, const scene::ScenePreset& p) {
+    return stages->compose(t, l, ids, d, vp, p);
   };
   return st;
 }

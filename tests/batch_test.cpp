@@ -182,3 +182,54 @@ TEST(Batch, ManifestItemsAndBadInput) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("no labels"), std::string::npos) << r.output;
 }
+
+// `batch --backend vulkan` runs darken, bloom and compose on the device for every image (one set
+// of device buffers reused across images, sizes differing): the same images as the CPU run,
+// within the night chain's tolerance (docs/vulkan.md).
+TEST(Batch, VulkanBackendAgreesWithCpu) {
+  // As tests/gpu_test.cpp: lavapipe unless a driver was chosen, validation on in the children.
+  const char* lvp = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
+  if (!std::getenv("VK_DRIVER_FILES") && !std::getenv("VK_ICD_FILENAMES") && fs::exists(lvp)) {
+    setenv("VK_DRIVER_FILES", lvp, 1);
+    setenv("VK_ICD_FILENAMES", lvp, 1);
+  }
+  setenv("PHOTOSITE_VK_VALIDATION", "1", 0);
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 2);
+  const std::string root = (dir.path() / "kitti").string();
+  const std::string common = " --dataset kitti --root '" + root + "' --format exr --quiet --seed 4 --device-store '" +
+                             dir.file("store") + "'";
+  for (const char* b : {"cpu", "vulkan"}) {
+    auto r = test::run_cli(std::string("batch --backend ") + b + common + " --out '" + dir.file(b) + "'");
+    if (std::string(b) == "vulkan" && r.exit_code == 2 && std::getenv("PHOTOSITE_ALLOW_NO_VULKAN") &&
+        std::string(std::getenv("PHOTOSITE_ALLOW_NO_VULKAN")) == "1")
+      GTEST_SKIP() << "*** Vulkan unavailable, skipped (PHOTOSITE_ALLOW_NO_VULKAN=1): " << r.output;
+    ASSERT_EQ(r.exit_code, 0) << b << ": " << r.output;
+    EXPECT_EQ(r.output.find("validation"), std::string::npos) << r.output;
+  }
+  size_t files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir.path() / "cpu")) {
+    if (!e.is_regular_file() || e.path().extension() != ".exr") continue;
+    const fs::path rel = fs::relative(e.path(), dir.path() / "cpu");
+    const auto a = read_exr(e.path().string()).channels;
+    const auto v = read_exr((dir.path() / "vulkan" / rel).string()).channels;
+    ASSERT_EQ(a.size(), v.size()) << rel;
+    for (const auto& [name, img] : a) {
+      const ImageF& w = v.at(name);
+      ASSERT_EQ(img.size(), w.size()) << rel << " " << name;
+      double peak = 0, worst = 0;
+      size_t differ = 0;
+      for (size_t i = 0; i < img.size(); ++i) {
+        peak = std::max(peak, std::fabs(static_cast<double>(img[i])));
+        worst = std::max(worst, std::fabs(static_cast<double>(img[i]) - w[i]));
+        differ += img[i] != w[i];
+      }
+      if (name.rfind("lights", 0) == 0 || name.rfind("night_radiance", 0) == 0)
+        EXPECT_LE(worst, 2e-6 * peak) << rel << " " << name;
+      else
+        EXPECT_LE(differ, img.size() / 1000) << rel << " " << name;
+    }
+    ++files;
+  }
+  EXPECT_EQ(files, 4u);
+}

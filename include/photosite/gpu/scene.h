@@ -2,7 +2,9 @@
 // mip chain down, Gaussian blur per level, collapse up, mix). Geometry stays on the CPU (lane
 // markings, Canny, Hough, vanishing point clustering, light placement), as in Baek 2020.
 #pragma once
+#include <map>
 #include <memory>
+#include <string>
 
 #include "photosite/gpu/context.h"
 #include "photosite/gpu/sequence.h"
@@ -26,8 +28,6 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
                const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
                double* device_ms = nullptr);
 // device_ms: the kernels' device time (timestamps), -1 without them.
-// The three as night_scene()'s pixel stages on this context.
-scene::PixelStages pixel_stages(Context& ctx);
 
 // Recording into a caller's sequence (for chains that keep images on the device): `img` is an
 // interleaved RGB w x h buffer, processed in place; scratch buffers are made on first use and
@@ -39,5 +39,26 @@ void record_bloom(Context& ctx, Sequence& s, Buffer& img, int w, int h, double f
                   BloomCache& cache);
 void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
                    const scene::DarkenParams& d);
+
+// The scene stages with their device buffers kept from one call to the next (a batch or a run of
+// frames of one size allocates them once). Not thread-safe: one per thread of work.
+class SceneStages {
+ public:
+  explicit SceneStages(Context& ctx);
+  ~SceneStages();
+  ImageF darken(const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p);
+  void bloom_in_place(ImageF& img, double fraction, int levels);
+  ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                 const scene::VanishingPoint& vp, const scene::ScenePreset& p, double* device_ms = nullptr);
+
+ private:
+  Buffer& buffer(const std::string& name, size_t bytes);
+  Buffer& upload_labels(const ImageU16& labels);
+  Context& ctx_;
+  std::map<std::string, std::unique_ptr<Buffer>> buffers_;
+  BloomCache bloom_;
+};
+// darken, bloom and compose as night_scene()'s pixel stages, on `stages`' buffers.
+scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages);
 
 }  // namespace photosite::gpu
