@@ -160,9 +160,7 @@ void run(const Opts& o) {
       s.begin();
       gpu::record_bloom(*ctx, s, out, W, H, sp.bloom_fraction, sp.bloom_levels, cache);
       s.submit_and_wait();
-      double bloom = 0;
-      for (const auto& st : s.stage_times()) bloom += st.ms;
-      add(dev, "bloom", bloom);
+      add(dev, "bloom", s.device_ms());
       // Linearize, and compose (darken + compose kernels), device times.
       double ms = -1;
       (void)gpu::linearize(*ctx, raw, raw_info, &ms);

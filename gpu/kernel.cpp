@@ -213,6 +213,13 @@ void Sequence::submit_and_wait() {
   }
 }
 
+double Sequence::device_ms() const {
+  if (impl_->ms.empty()) return -1;
+  double sum = 0;
+  for (double ms : impl_->ms) sum += ms;
+  return sum;
+}
+
 std::vector<Sequence::StageTime> Sequence::stage_times() const {
   std::vector<StageTime> out;
   for (size_t i = 0; i < impl_->ms.size(); ++i) out.push_back({impl_->labels[i], impl_->ms[i]});

@@ -109,16 +109,6 @@ void record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double f
   s.dispatch(mix, {B.acc[1].get(), &img}, mp, g.x, g.y, 1, "bloom mix");
 }
 
-namespace {
-double total_device_ms(const Sequence& s) {
-  const auto t = s.stage_times();
-  if (t.empty()) return -1;
-  double ms = 0;
-  for (const auto& st : t) ms += st.ms;
-  return ms;
-}
-}  // namespace
-
 ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms) {
   const int c = day.channels();
   if (c < 1 || c > 4) fail(fmt::format("linearize: {} channels (1 to 4 expected)", c));
@@ -138,7 +128,7 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
   s.dispatch(ctx.kernel("linearize", 4, sizeof(LinearizeParams)), {&in, &table, &o, &bad}, p, g.x, g.y, 1,
              "linearize");
   s.submit_and_wait();
-  if (device_ms) *device_ms = total_device_ms(s);
+  if (device_ms) *device_ms = s.device_ms();
   const uint32_t first_bad = *bad.as<uint32_t>();
   if (first_bad != UINT32_MAX) scene::fail_damaged_pixel(day, info, first_bad);
   o.download(out.data(), 3 * n * sizeof(float));
@@ -227,7 +217,7 @@ ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const I
   const Grid g = grid_1d(n);
   s.dispatch(ctx_.kernel("compose", 5, sizeof(ComposeParams)), {&t, &l, &ids, &d, &o}, cp, g.x, g.y, 1, "compose");
   s.submit_and_wait();
-  if (device_ms) *device_ms = total_device_ms(s);
+  if (device_ms) *device_ms = s.device_ms();
   o.download(out.data(), rgb_bytes);
   return out;
 }

@@ -119,11 +119,7 @@ ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, Demosaic
   Sequence s(ctx);
   record_demosaic(ctx, s, method, p, in, res, scratch, "demosaic");
   s.submit_and_wait();
-  if (device_ms) {
-    const auto times = s.stage_times();
-    *device_ms = times.empty() ? -1 : 0;
-    for (const auto& t : times) *device_ms += t.ms;
-  }
+  if (device_ms) *device_ms = s.device_ms();
   res.download(out.data(), 3 * n * sizeof(float));
   return out;
 }

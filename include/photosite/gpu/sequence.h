@@ -36,6 +36,8 @@ class Sequence {
   // device has none. Labels as given to dispatch().
   struct StageTime { std::string label; double ms; };
   std::vector<StageTime> stage_times() const;
+  // Their sum (ms), or -1 when the device has no timestamps.
+  double device_ms() const;
 
   struct Impl;
 
