@@ -297,6 +297,12 @@ Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std
   vk::check(f.vkMapMemory(C.device, impl_->memory, 0, VK_WHOLE_SIZE, 0, &mapped_), "mapping a buffer");
 }
 
+Buffer& BufferCache::get(const std::string& name, size_t bytes) {
+  auto& b = buffers_[name];
+  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
+  return *b;
+}
+
 Buffer::~Buffer() {
   auto& C = ctx_.impl();
   if (mapped_) C.f.vkUnmapMemory(C.device, impl_->memory);

@@ -135,14 +135,10 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
   return out;
 }
 
-SceneStages::SceneStages(Context& ctx) : ctx_(ctx) {}
+SceneStages::SceneStages(Context& ctx) : ctx_(ctx), buffers_(ctx) {}
 SceneStages::~SceneStages() = default;
 
-Buffer& SceneStages::buffer(const std::string& name, size_t bytes) {
-  auto& b = buffers_[name];
-  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
-  return *b;
-}
+Buffer& SceneStages::buffer(const std::string& name, size_t bytes) { return buffers_.get(name, bytes); }
 
 // uint16 labels as the kernels read them: two per 32-bit word.
 Buffer& SceneStages::upload_labels(const ImageU16& labels) {

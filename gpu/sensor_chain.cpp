@@ -12,14 +12,10 @@
 
 namespace photosite::gpu {
 
-SensorChain::SensorChain(Context& ctx) : ctx_(ctx), seq_(std::make_unique<Sequence>(ctx)) {}
+SensorChain::SensorChain(Context& ctx) : ctx_(ctx), buffers_(ctx), seq_(std::make_unique<Sequence>(ctx)) {}
 SensorChain::~SensorChain() = default;
 
-Buffer& SensorChain::buffer(const std::string& name, size_t bytes) {
-  auto& b = buffers_[name];
-  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
-  return *b;
-}
+Buffer& SensorChain::buffer(const std::string& name, size_t bytes) { return buffers_.get(name, bytes); }
 
 void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p,
                                 const LensPreset& lens, const ResolvedExposure& ex) {

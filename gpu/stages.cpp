@@ -2,7 +2,6 @@
 // functions, used by the parity tests and the benchmark.
 #include "photosite/gpu/stages.h"
 
-#include <map>
 #include <memory>
 
 #include "kernels.h"
@@ -107,11 +106,9 @@ ImageF demosaic(Context& ctx, const ImageF& mosaic, CfaPattern pattern, Demosaic
   ImageF out(mosaic.width(), mosaic.height(), 3, uninitialized, mosaic.unit());
   if (n == 0) return out;
   Buffer in(ctx, n * sizeof(float)), res(ctx, 3 * n * sizeof(float));
-  std::map<std::string, std::unique_ptr<Buffer>> planes;
+  BufferCache planes(ctx);
   const ScratchBuffers scratch = [&](const std::string& name, size_t bytes) -> Buffer& {
-    auto& b = planes[name];
-    if (!b) b = std::make_unique<Buffer>(ctx, bytes);
-    return *b;
+    return planes.get(name, bytes);
   };
   in.upload(mosaic.data(), n * sizeof(float));
   const DemosaicParams p{static_cast<uint32_t>(mosaic.width()), static_cast<uint32_t>(mosaic.height()),

@@ -61,6 +61,18 @@ class Buffer {
   std::unique_ptr<Impl> impl_;
 };
 
+// Device buffers by name, kept between calls and made again only when a name's size changes:
+// a chain's images and scratch planes are allocated once for a run of frames of one size.
+class BufferCache {
+ public:
+  explicit BufferCache(Context& ctx) : ctx_(ctx) {}
+  Buffer& get(const std::string& name, size_t bytes);
+
+ private:
+  Context& ctx_;
+  std::map<std::string, std::unique_ptr<Buffer>> buffers_;
+};
+
 class Context {
  public:
   // Opens the loader, creates an instance and a device; throws photosite::Error (bad input,

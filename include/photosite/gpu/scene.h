@@ -2,7 +2,6 @@
 // mip chain down, Gaussian blur per level, collapse up, mix). Geometry stays on the CPU (lane
 // markings, Canny, Hough, vanishing point clustering, light placement), as in Baek 2020.
 #pragma once
-#include <map>
 #include <memory>
 #include <string>
 
@@ -55,7 +54,7 @@ class SceneStages {
   Buffer& buffer(const std::string& name, size_t bytes);
   Buffer& upload_labels(const ImageU16& labels);
   Context& ctx_;
-  std::map<std::string, std::unique_ptr<Buffer>> buffers_;
+  BufferCache buffers_;
   BloomCache bloom_;
 };
 // darken, bloom and compose as night_scene()'s pixel stages, on `stages`' buffers.

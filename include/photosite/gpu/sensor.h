@@ -9,7 +9,6 @@
 // row/column noise draws.
 // Tukey-λ read noise is not on the device yet: sense() there is bad input naming the preset.
 #pragma once
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,7 +43,7 @@ class SensorChain {
   SensorOutput finish(int w, int h, const CameraPreset& p, const ExposureSettings& st);
 
   Context& ctx_;
-  std::map<std::string, std::unique_ptr<Buffer>> buffers_;
+  BufferCache buffers_;
   std::string fpn_loaded_;  // device id + checksum of the maps now on the device
   std::vector<Sequence::StageTime> times_;
   std::unique_ptr<Sequence> seq_;
