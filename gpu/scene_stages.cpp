@@ -10,9 +10,19 @@
 
 namespace photosite::gpu {
 
+namespace {
+// scene::DarkenParams::ground_class as the kernels read it: bit id set for a ground class.
+U64 ground_mask(const scene::DarkenParams& d) {
+  static_assert(scene::kLabelCount <= 64, "ground classes travel as a 64-bit mask");
+  uint64_t mask = 0;
+  for (int id = 0; id < scene::kLabelCount; ++id)
+    if (d.ground_class[id]) mask |= uint64_t{1} << id;
+  return U64::of(mask);
+}
+}  // namespace
+
 void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
                    const scene::DarkenParams& d) {
-  static_assert(scene::kLabelCount <= 64, "ground classes travel as a 64-bit mask");
   DarkenParams p{};
   for (int k = 0; k < 3; ++k) {
     p.ground[k] = d.ground[k];
@@ -21,10 +31,7 @@ void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, B
     p.glow[k] = d.glow[k];
   }
   p.rho_sky = d.rho_sky;
-  uint64_t mask = 0;
-  for (int id = 0; id < scene::kLabelCount; ++id)
-    if (d.ground_class[id]) mask |= uint64_t{1} << id;
-  p.ground_mask = U64::of(mask);
+  p.ground_mask = ground_mask(d);
   p.n = static_cast<uint32_t>(n);
   p.sky_id = static_cast<uint32_t>(scene::Label::Sky);
   const Grid g = grid_1d(n);
@@ -200,10 +207,7 @@ ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const I
   record_darken(ctx_, s, t, ids, o, n, dp);
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
-  uint64_t mask = 0;
-  for (int id = 0; id < scene::kLabelCount; ++id)
-    if (dp.ground_class[id]) mask |= uint64_t{1} << id;
-  cp.ground_mask = U64::of(mask);
+  cp.ground_mask = ground_mask(dp);
   cp.vp_y = vp.y;
   cp.beam_half_width = sp.beam_half_width;
   cp.beam_road_lux = sp.beam_road_lux;
