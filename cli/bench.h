@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace photosite::cli {
 // setup(sub) adds the target's options to `sub` and sets its callback.
@@ -22,15 +23,23 @@ struct BenchRegistrar {
 std::string machine_description();
 // Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
+// The wall time of one call of f, in ms.
+template <class F>
+double time_ms(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 // The best (smallest) wall time of `repeats` calls of f, in ms: the least-disturbed run.
 template <class F>
 double best_ms(int repeats, F&& f) {
   double best = 1e300;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
+  for (int r = 0; r < repeats; ++r) best = std::min(best, time_ms(f));
   return best;
+}
+// The median of a set of timings (the upper middle for an even count), 0 when empty.
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
 }
 }  // namespace photosite::cli

@@ -30,11 +30,6 @@ struct Opts {
   int repeats = 9, threads = 2;
 };
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
-
 void run(const Opts& o) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;

@@ -42,17 +42,6 @@ struct Opts {
   int repeats = 5, threads = 2;
 };
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
-template <class F>
-double time_ms(F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 void run(const Opts& o) {
   namespace fs = std::filesystem;
   if (o.backend != "vulkan" && o.backend != "cpu") fail("bench pipeline: --backend must be vulkan or cpu");
