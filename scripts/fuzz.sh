@@ -7,6 +7,7 @@
 # run and leaves the input in build-fuzz/artifacts/. Corpora grow in build-fuzz/corpus/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/lib.sh
 SECONDS_PER_TARGET=${1:-30}
 shift || true
 TARGETS=("$@")
@@ -14,15 +15,7 @@ TARGETS=("$@")
 # The normal build does not need clang: the fuzzing tool chain is installed here only.
 scripts/setup.sh
 FUZZ_PKGS=(clang libclang-rt-14-dev libomp-dev)
-missing=()
-for p in "${FUZZ_PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+install_missing_packages "${FUZZ_PKGS[@]}"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DPHOTOSITE_FUZZ=ON -DPHOTOSITE_TESTS=OFF -DPHOTOSITE_BENCH=OFF -DPHOTOSITE_VULKAN=OFF >/dev/null
 cmake --build build-fuzz -j"${JOBS:-$(nproc)}" --target "${TARGETS[@]/#/fuzz_}"

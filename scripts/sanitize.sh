@@ -5,16 +5,14 @@
 # Usage: scripts/sanitize.sh [ctest args...]     e.g. scripts/sanitize.sh -R 'BadInput'
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/lib.sh
 scripts/setup.sh
 JOBS=${JOBS:-$(nproc)}
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPHOTOSITE_SANITIZE=ON \
       -DPHOTOSITE_BENCH=OFF
 cmake --build build-asan -j"$JOBS"
 # Vulkan tests run on Mesa's lavapipe unless a caller chose a driver (as scripts/test.sh).
-lvp=$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json 2>/dev/null | head -n 1 || true)
-if [ -n "$lvp" ] && [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ]; then
-  export VK_DRIVER_FILES="$lvp" VK_ICD_FILENAMES="$lvp"
-fi
+use_lavapipe_unless_chosen
 here=$(pwd)
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:halt_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1:check_initialization_order=1"
 export LSAN_OPTIONS="suppressions=$here/scripts/lsan.supp:print_suppressions=0"
