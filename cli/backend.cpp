@@ -70,27 +70,50 @@ SensorRunner::~SensorRunner() {
 #endif
 }
 
-ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                           const ResolvedExposure& ex) {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return device_->chain.mean_signal_electrons(radiance, p, lens, ex);
+namespace {
+// The scene stages' radiance buffer when `token` still names it and it fits `radiance`.
+gpu::Buffer* resident(gpu::SceneStages& scene, uint64_t token, const ImageF& radiance) {
+  gpu::Buffer* b = scene.resident_radiance(token);
+  return b && b->bytes() == radiance.size() * sizeof(float) ? b : nullptr;
+}
+}  // namespace
 #endif
+
+ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                           const ResolvedExposure& ex, uint64_t resident_radiance) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_)
+    return device_->chain.mean_signal_electrons(radiance, p, lens, ex,
+                                                resident(*device_->scene, resident_radiance, radiance));
+#endif
+  (void)resident_radiance;
   return photosite::mean_signal_electrons(radiance, p, lens, ex);
 }
 
-SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
-                                 const ExposureSettings& s, const FixedPatternMaps& fpn) {
+uint64_t SensorRunner::resident_mean_e() const {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return device_->chain.sense(mean_e, p, ex, s, fpn);
+  if (device_) return device_->chain.resident_mean_e();
 #endif
+  return 0;
+}
+
+SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
+                                 const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_mean_e) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.sense(mean_e, p, ex, s, fpn, resident_mean_e);
+#endif
+  (void)resident_mean_e;
   return photosite::sense(mean_e, p, ex, s, fpn);
 }
 
 SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                  const ExposureSettings& s, const FixedPatternMaps& fpn) {
+                                  const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_radiance) {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return device_->chain.expose(radiance, p, lens, s, fpn);
+  if (device_)
+    return device_->chain.expose(radiance, p, lens, s, fpn, resident(*device_->scene, resident_radiance, radiance));
 #endif
+  (void)resident_radiance;
   return photosite::expose(radiance, p, lens, s, fpn);
 }
 
@@ -113,6 +136,16 @@ ImageF SensorRunner::linearize(const ImageF& day, const ImageFileInfo& info) {
   if (device_) return gpu::linearize(device_->chain.context(), day, info);
 #endif
   return scene::linearize(day, info);
+}
+
+SensorRunner::Transfers SensorRunner::transfers() const {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) {
+    const auto t = device_->chain.context().transfers();
+    return {t.uploaded, t.downloaded};
+  }
+#endif
+  return {};
 }
 
 }  // namespace photosite::cli

@@ -30,20 +30,31 @@ class SensorRunner {
   explicit SensorRunner(Backend b);
   ~SensorRunner();
   Backend backend() const { return backend_; }
+  // resident_radiance: NightScene::resident_radiance of a scene made by this runner's
+  // pixel_stages(): on Vulkan the radiance is read where the scene stages left it on the device
+  // (a stale or 0 token uploads the host image, with the same result).
   ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
-                               const LensPreset& lens, const ResolvedExposure& exposure);
+                               const LensPreset& lens, const ResolvedExposure& exposure,
+                               uint64_t resident_radiance = 0);
+  // resident_mean_e(): a token for the mean signal of the last mean_signal_electrons(), which on
+  // Vulkan stays on the device; sense() given it uploads nothing for a run of frames.
+  uint64_t resident_mean_e() const;
   SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
                      const ResolvedExposure& exposure, const ExposureSettings& settings,
-                     const FixedPatternMaps& fpn);
+                     const FixedPatternMaps& fpn, uint64_t resident_mean_e = 0);
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
-                      const ExposureSettings& settings, const FixedPatternMaps& fpn);
+                      const ExposureSettings& settings, const FixedPatternMaps& fpn,
+                      uint64_t resident_radiance = 0);
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
-  // The night chain's full-resolution per-pixel stages: on Vulkan the kernels darken, bloom_*
-  // and compose (scene::PixelStages), on the CPU none (night_scene's own path).
+  // The night chain's full-resolution per-pixel tail: on Vulkan the kernels bloom_*, darken
+  // and compose in one sequence (gpu::SceneStages::tail), on the CPU none (night_scene's own path).
   scene::PixelStages pixel_stages();
   // scene::linearize() on this backend (kernel linearize on Vulkan).
   ImageF linearize(const ImageF& day, const ImageFileInfo& info);
+  // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
+  struct Transfers { uint64_t uploaded = 0, downloaded = 0; };
+  Transfers transfers() const;
 
  private:
   Backend backend_;

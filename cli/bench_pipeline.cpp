@@ -86,9 +86,11 @@ void run(const Opts& o) {
   const ImageF texture = scene::reflectance_texture(day, lm.ids, sp);
 
   std::map<std::string, std::vector<double>> cpu, dev;
+  double resident_up_mb = 0, resident_down_mb = 0, trips_up_mb = 0, trips_down_mb = 0;
   std::string device = "none";
 #ifdef PHOTOSITE_HAVE_VULKAN
   std::unique_ptr<gpu::SensorChain> chain;
+  std::unique_ptr<gpu::SceneStages> stages;
   gpu::Context* ctx = nullptr;
   if (o.backend == "vulkan") {
     try {
@@ -99,6 +101,7 @@ void run(const Opts& o) {
     if (!ctx->device().timestamps) fail("bench pipeline: the Vulkan device has no compute timestamps");
     device = ctx->device().name;
     chain = std::make_unique<gpu::SensorChain>(*ctx);
+    stages = std::make_unique<gpu::SceneStages>(*ctx);
   }
 #else
   if (o.backend == "vulkan") fail("bench pipeline --backend vulkan: built without the Vulkan backend");
@@ -156,6 +159,26 @@ void run(const Opts& o) {
       add(dev, "linearize", ms);
       (void)gpu::compose(*ctx, texture, ns.lights, lm.ids, ns.depth, ns.vp, sp, &ms);
       add(dev, "compose only", ms);
+      // The night tail and the sensor as night and batch run them: one sequence for bloom, darken
+      // and compose, the sensor reading the radiance where it was left; against the same kernels
+      // as separate round trips (each stage uploads its inputs and downloads its output).
+      {
+        ImageF L1 = ns.lights, L2 = ns.lights;
+        auto t0 = ctx->transfers();
+        add(dev, "tail+sensor resident", time_ms([&] {
+              scene::PixelTail t = stages->tail(texture, L1, lm.ids, ns.depth, ns.vp, sp, false);
+              gs = chain->expose(t.radiance, cam, lens, es, fpn, stages->resident_radiance(t.resident));
+            }));
+        auto t1 = ctx->transfers();
+        add(dev, "tail+sensor round trips", time_ms([&] {
+              stages->bloom_in_place(L2, sp.bloom_fraction, sp.bloom_levels);
+              const ImageF rad = stages->compose(texture, L2, lm.ids, ns.depth, ns.vp, sp);
+              gs = chain->expose(rad, cam, lens, es, fpn);
+            }));
+        auto t2 = ctx->transfers();
+        resident_up_mb = (t1.uploaded - t0.uploaded) / 1e6, resident_down_mb = (t1.downloaded - t0.downloaded) / 1e6;
+        trips_up_mb = (t2.uploaded - t1.uploaded) / 1e6, trips_down_mb = (t2.downloaded - t1.downloaded) / 1e6;
+      }
       // Poisson alone: the kernel of poisson_fill over a frame already on the device.
       gpu::Buffer pm(*ctx, n * 4), po(*ctx, n * 4);
       pm.upload(pmean.data(), n * 4);
@@ -202,6 +225,17 @@ void run(const Opts& o) {
                     : m == DemosaicMethod::HamiltonAdams ? "kernels demosaic_ha_green/colour"
                                                          : "kernel demosaic_malvar"});
   }
+  // Wall times, uploads and downloads included: the CPU column is the same stages' CPU sum.
+  const double tail_cpu = med(cpu, "bloom") + med(cpu, "compose") + med(cpu, "photon") + med(cpu, "sense") +
+                          med(cpu, "demosaic");
+  rows.push_back({"night tail + sensor wall, resident (bloom..demosaic)", -1, tail_cpu,
+                  med(dev, "tail+sensor resident"),
+                  fmt::format("one tail sequence, radiance left on device; {:.1f} MB up, {:.1f} MB down",
+                              resident_up_mb, resident_down_mb)});
+  rows.push_back({"night tail + sensor wall, round trips (bloom..demosaic)", -1, tail_cpu,
+                  med(dev, "tail+sensor round trips"),
+                  fmt::format("bloom, compose, expose each upload/download; {:.1f} MB up, {:.1f} MB down",
+                              trips_up_mb, trips_down_mb)});
   rows.push_back({"Linearization (sRGB decode, before the chain)", -1, med(cpu, "linearize"), med(dev, "linearize"),
                   "kernel linearize"});
   // The first row's CPU time is reflectance_texture (night_scene's "darken" lap without darken()).

@@ -330,7 +330,8 @@ void run(BatchCmd& c) {
       auto key = std::make_pair(w, h);
       if (!fpn_cache.count(key)) fpn_cache[key] = r.store.load_or_create(r.camera, r.device_id, w, h);
       const FixedPatternMaps& fpn = fpn_cache[key];
-      auto so = std::make_shared<SensorOutput>(runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn));
+      auto so = std::make_shared<SensorOutput>(runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn,
+                                                                    ns->resident_radiance));
       auto label_img = std::make_shared<ImageF>(label_image(l->labels));
       NightInputs in{it.image, it.labels, it.instances};
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(

@@ -155,7 +155,10 @@ void run_night(NightCmd c) {
   day = ImageF();
 
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
-  const ImageF mean_e = runner.mean_signal_electrons(ns.radiance, r.camera, r.lens, ex);
+  // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
+  // device for every frame (the host copies are for the EXR and the CPU path).
+  const ImageF mean_e = runner.mean_signal_electrons(ns.radiance, r.camera, r.lens, ex, ns.resident_radiance);
+  const uint64_t mean_e_on_device = runner.resident_mean_e();
   const FixedPatternMaps fpn =
       r.store.load_or_create(r.camera, r.device_id, ns.radiance.width(), ns.radiance.height());
   lap("sensor: optics, FPN");
@@ -163,7 +166,7 @@ void run_night(NightCmd c) {
   const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
-    SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn);
+    SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn, mean_e_on_device);
     lap("sensor: noise, ADC, demosaic");
     const auto groups = night_channels(out, ns, label_img);
     const auto attrs = night_attributes(r, ex, fpn, sp, ns, labels, {c.image, c.labels, c.instances});
@@ -193,6 +196,11 @@ void run_night(NightCmd c) {
     const double total = std::chrono::duration<double, std::milli>(clock::now() - t_start).count();
     std::printf("%-32s %10.2f\n%-32s %10.2f\n", "scene stages (linearize..compose)", scene_ms,
                 "total (with file I/O)", total);
+    if (runner.backend() == Backend::Vulkan) {
+      const auto tr = runner.transfers();
+      std::printf("%-32s %10.1f\n%-32s %10.1f\n", "host->device (MB)", tr.uploaded / 1e6, "device->host (MB)",
+                  tr.downloaded / 1e6);
+    }
   }
 }
 

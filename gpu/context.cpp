@@ -303,6 +303,11 @@ Buffer& BufferCache::get(const std::string& name, size_t bytes) {
   return *b;
 }
 
+Buffer* BufferCache::find(const std::string& name) {
+  const auto it = buffers_.find(name);
+  return it == buffers_.end() ? nullptr : it->second.get();
+}
+
 Buffer::~Buffer() {
   auto& C = ctx_.impl();
   if (mapped_) C.f.vkUnmapMemory(C.device, impl_->memory);
@@ -313,10 +318,17 @@ Buffer::~Buffer() {
 void Buffer::upload(const void* src, size_t n, size_t offset) {
   if (offset + n > bytes_) internal_error("gpu::Buffer::upload beyond the buffer");
   std::memcpy(static_cast<char*>(mapped_) + offset, src, n);
+  ctx_.count_upload(n);
 }
 void Buffer::download(void* dst, size_t n, size_t offset) const {
   if (offset + n > bytes_) internal_error("gpu::Buffer::download beyond the buffer");
   std::memcpy(dst, static_cast<const char*>(mapped_) + offset, n);
+  ctx_.count_download(n);
+}
+
+uint64_t new_residency_token() {
+  static std::atomic<uint64_t> next{1};
+  return next++;
 }
 
 }  // namespace photosite::gpu

@@ -7,6 +7,9 @@
 #include <functional>
 #include <string>
 
+#include <fmt/format.h>
+
+#include "photosite/error.h"
 #include "photosite/gpu/kernel.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/demosaic.h"
@@ -29,11 +32,19 @@ static_assert(sizeof(PoissonParams) == 32 && offsetof(PoissonParams, first_pixel
 
 // A 1-D job of n items in groups of `local`, laid out as x * y groups (x <= 65535, the
 // guaranteed maxComputeWorkGroupCount), matching linear_invocation() in common/philox.glsl.
+// That index is 32-bit: a grid of more than 2^32 invocations would wrap it onto pixels already
+// done (compose adds in place: twice), and UINT32_MAX is the kernels' "no bad pixel" mark, so
+// such a job is refused here, for every kernel (PHOTOSITE_MAX_PIXELS refuses it sooner).
 struct Grid { uint32_t x, y; };
 inline Grid grid_1d(uint64_t n, uint32_t local = 256) {
   const uint64_t groups = (n + local - 1) / local;
-  if (groups <= 65535) return {static_cast<uint32_t>(groups ? groups : 1), 1};
-  return {65535, static_cast<uint32_t>((groups + 65534) / 65535)};
+  const Grid g = groups <= 65535 ? Grid{static_cast<uint32_t>(groups ? groups : 1), 1}
+                                 : Grid{65535, static_cast<uint32_t>((groups + 65534) / 65535)};
+  if (static_cast<uint64_t>(g.x) * g.y * local >= (uint64_t{1} << 32))
+    fail(fmt::format("Vulkan: a dispatch over {} items is beyond the kernels' 32-bit invocation index "
+                     "(at most {} per dispatch)",
+                     n, ((uint64_t{1} << 32) - 1) / (65535ull * local) * 65535ull * local));
+  return g;
 }
 
 }  // namespace photosite::gpu

@@ -122,7 +122,7 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
   const size_t n = day.pixel_count();
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
   if (n == 0) return out;
-  if (n >= UINT32_MAX) fail("linearize: the image has more than 2^32 - 1 pixels, beyond the Vulkan kernel's index");
+  const Grid g = grid_1d(n);  // refuses a frame beyond the kernels' index before allocating
   const std::vector<float>& lut = scene::srgb_decode_table();
   Buffer in(ctx, day.size() * sizeof(float)), table(ctx, lut.size() * sizeof(float)),
       o(ctx, 3 * n * sizeof(float)), bad(ctx, sizeof(uint32_t));
@@ -131,7 +131,6 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
   *bad.as<uint32_t>() = UINT32_MAX;
   LinearizeParams p{static_cast<uint32_t>(n), static_cast<uint32_t>(c), info.is_float ? 0u : 1u, 0};
   Sequence s(ctx);
-  const Grid g = grid_1d(n);
   s.dispatch(ctx.kernel("linearize", 4, sizeof(LinearizeParams)), {&in, &table, &o, &bad}, p, g.x, g.y, 1,
              "linearize");
   s.submit_and_wait();
@@ -161,7 +160,7 @@ ImageF SceneStages::darken(const ImageF& texture, const ImageU16& labels, const 
   ImageF out(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
   if (n == 0) return out;
   Buffer& t = buffer("texture", 3 * n * sizeof(float));
-  Buffer& o = buffer("radiance", 3 * n * sizeof(float));
+  Buffer& o = buffer("darkened", 3 * n * sizeof(float));
   t.upload(texture.data(), 3 * n * sizeof(float));
   Buffer& l = upload_labels(labels);
   Sequence s(ctx_);
@@ -183,27 +182,21 @@ void SceneStages::bloom_in_place(ImageF& img, double fraction, int levels) {
   b.download(img.data(), bytes);
 }
 
-ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                            const scene::VanishingPoint& vp, const scene::ScenePreset& sp, double* device_ms) {
+namespace {
+void check_tail_shapes(const char* what, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+                       const ImageF& depth) {
   const int W = texture.width(), H = texture.height();
-  if (texture.channels() != 3 || !lights.same_shape(texture) || labels.width() != W || labels.height() != H ||
-      depth.width() != W || depth.height() != H || depth.channels() != 1)
-    fail("compose: texture, lights, labels and depth differ in size");
-  const size_t n = texture.pixel_count();
-  ImageF out(W, H, 3, uninitialized, unit::radiance);
-  if (n == 0) return out;
-  if (n >= UINT32_MAX) fail("compose: the image has more than 2^32 - 1 pixels, beyond the Vulkan kernel's index");
-  const size_t rgb_bytes = 3 * n * sizeof(float);
-  Buffer& t = buffer("texture", rgb_bytes);
-  Buffer& l = buffer("lights", rgb_bytes);
-  Buffer& d = buffer("depth", n * sizeof(float));
-  Buffer& o = buffer("radiance", rgb_bytes);
-  t.upload(texture.data(), rgb_bytes);
-  l.upload(lights.data(), rgb_bytes);
-  d.upload(depth.data(), n * sizeof(float));
-  Buffer& ids = upload_labels(labels);
+  if (texture.channels() != 3 || lights.channels() != 3 || !lights.same_shape(texture) || labels.width() != W ||
+      labels.height() != H || depth.width() != W || depth.height() != H || depth.channels() != 1)
+    fail(fmt::format("{}: texture, lights, labels and depth differ in size", what));
+  (void)grid_1d(texture.pixel_count());  // refuses a frame beyond the kernels' index before allocating
+}
+}  // namespace
+
+void SceneStages::record_compose(Sequence& s, Buffer& t, Buffer& l, Buffer& ids, Buffer& d, Buffer& o, int W, int H,
+                                 const scene::VanishingPoint& vp, const scene::ScenePreset& sp) {
+  const size_t n = static_cast<size_t>(W) * H;
   const scene::DarkenParams dp = scene::darken_params(sp);
-  Sequence s(ctx_);
   record_darken(ctx_, s, t, ids, o, n, dp);
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
@@ -216,10 +209,65 @@ ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const I
   for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);
   const Grid g = grid_1d(n);
   s.dispatch(ctx_.kernel("compose", 5, sizeof(ComposeParams)), {&t, &l, &ids, &d, &o}, cp, g.x, g.y, 1, "compose");
+}
+
+SceneStages::TailBuffers SceneStages::upload_tail(const ImageF& texture, const ImageF& lights,
+                                                  const ImageU16& labels, const ImageF& depth) {
+  const size_t n = texture.pixel_count(), rgb_bytes = 3 * n * sizeof(float);
+  TailBuffers b{&buffer("texture", rgb_bytes), &buffer("lights", rgb_bytes), &buffer("depth", n * sizeof(float)),
+                &buffer("radiance", rgb_bytes), nullptr};
+  radiance_token_ = 0;  // the radiance buffer is about to be overwritten
+  b.texture->upload(texture.data(), rgb_bytes);
+  b.lights->upload(lights.data(), rgb_bytes);
+  b.depth->upload(depth.data(), n * sizeof(float));
+  b.labels = &upload_labels(labels);
+  return b;
+}
+
+ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                            const scene::VanishingPoint& vp, const scene::ScenePreset& sp, double* device_ms) {
+  check_tail_shapes("compose", texture, lights, labels, depth);
+  ImageF out(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
+  if (texture.pixel_count() == 0) return out;
+  const TailBuffers b = upload_tail(texture, lights, labels, depth);
+  Sequence s(ctx_);
+  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, texture.width(), texture.height(), vp, sp);
   s.submit_and_wait();
   if (device_ms) *device_ms = s.device_ms();
-  o.download(out.data(), rgb_bytes);
+  b.radiance->download(out.data(), out.size() * sizeof(float));
   return out;
+}
+
+scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
+                                   const ImageF& depth, const scene::VanishingPoint& vp,
+                                   const scene::ScenePreset& sp, bool keep_darkened, double* device_ms) {
+  check_tail_shapes("night tail", texture, lights, labels, depth);
+  const int W = texture.width(), H = texture.height();
+  const size_t n = texture.pixel_count(), rgb_bytes = 3 * n * sizeof(float);
+  scene::PixelTail out;
+  out.radiance = ImageF(W, H, 3, uninitialized, unit::radiance);
+  if (keep_darkened) out.darkened = ImageF(W, H, 3, uninitialized, unit::radiance);
+  if (n == 0) return out;
+  const TailBuffers b = upload_tail(texture, lights, labels, depth);
+  Sequence s(ctx_);
+  const bool bloomed = sp.bloom_fraction > 0 && sp.bloom_levels > 0 && W >= 4 && H >= 4;
+  if (bloomed) record_bloom(ctx_, s, *b.lights, W, H, sp.bloom_fraction, sp.bloom_levels, bloom_);
+  // The darkened image for --maps: darken once more into its own buffer (compose darkens in place).
+  if (keep_darkened)
+    record_darken(ctx_, s, *b.texture, *b.labels, buffer("darkened", rgb_bytes), n, scene::darken_params(sp));
+  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, W, H, vp, sp);
+  s.submit_and_wait();
+  if (device_ms) *device_ms = s.device_ms();
+  if (bloomed) b.lights->download(lights.data(), rgb_bytes);
+  if (keep_darkened) buffer("darkened", rgb_bytes).download(out.darkened.data(), rgb_bytes);
+  b.radiance->download(out.radiance.data(), rgb_bytes);
+  out.resident = radiance_token_ = new_residency_token();
+  return out;
+}
+
+Buffer* SceneStages::resident_radiance(uint64_t token) {
+  if (token == 0 || token != radiance_token_) return nullptr;
+  return buffers_.find("radiance");
 }
 
 ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p) {
@@ -236,13 +284,9 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
 
 scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages) {
   scene::PixelStages st;
-  st.darken = [stages](const ImageF& t, const ImageU16& l, const scene::ScenePreset& p) {
-    return stages->darken(t, l, p);
-  };
-  st.bloom_in_place = [stages](ImageF& img, double f, int levels) { stages->bloom_in_place(img, f, levels); };
-  st.compose = [stages](const ImageF& t, const ImageF& l, const ImageU16& ids, const ImageF& d,
-                        const scene::VanishingPoint& vp, const scene::ScenePreset& p) {
-    return stages->compose(t, l, ids, d, vp, p);
+  st.tail = [stages](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& d,
+                     const scene::VanishingPoint& vp, const scene::ScenePreset& p, bool keep_darkened) {
+    return stages->tail(t, lights, ids, d, vp, p, keep_darkened);
   };
   return st;
 }

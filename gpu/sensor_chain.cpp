@@ -18,14 +18,16 @@ SensorChain::~SensorChain() = default;
 Buffer& SensorChain::buffer(const std::string& name, size_t bytes) { return buffers_.get(name, bytes); }
 
 void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p,
-                                const LensPreset& lens, const ResolvedExposure& ex) {
+                                const LensPreset& lens, const ResolvedExposure& ex, Buffer* radiance_on_device) {
   if (radiance.channels() != 3)
     fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
   if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
   const int w = radiance.width(), h = radiance.height();
   const size_t n = static_cast<size_t>(w) * h;
-  Buffer& rad = buffer("radiance", n * 3 * sizeof(float));
-  rad.upload(radiance.data(), n * 3 * sizeof(float));
+  if (radiance_on_device && radiance_on_device->bytes() < n * 3 * sizeof(float))
+    internal_error("gpu::SensorChain: the resident radiance buffer is smaller than the image");
+  Buffer& rad = radiance_on_device ? *radiance_on_device : buffer("radiance", n * 3 * sizeof(float));
+  if (!radiance_on_device) rad.upload(radiance.data(), n * 3 * sizeof(float));
   const PhotonMatrix m = photon_matrix(p, lens, ex);
   Buffer& mat = buffer("photon_matrix", 12 * sizeof(double));
   for (int c = 0; c < 4; ++c) std::memcpy(mat.as<double>() + 3 * c, m[c].data(), 3 * sizeof(double));
@@ -127,24 +129,32 @@ static void check_bad(Buffer& bad, const ImageF& radiance) {
 }
 
 ImageF SensorChain::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                          const ResolvedExposure& ex) {
+                                          const ResolvedExposure& ex, Buffer* radiance_on_device) {
+  mean_e_token_ = 0;
   seq_->begin();
-  record_photon(*seq_, radiance, p, lens, ex);
+  record_photon(*seq_, radiance, p, lens, ex, radiance_on_device);
   seq_->submit_and_wait();
   times_ = seq_->stage_times();
   check_bad(buffer("bad", sizeof(uint32_t)), radiance);
   const size_t n = radiance.pixel_count();
   ImageF out(radiance.width(), radiance.height(), 1, uninitialized, unit::electrons);
   buffer("mean_e", n * sizeof(float)).download(out.data(), n * sizeof(float));
+  mean_e_token_ = new_residency_token();
   return out;
 }
 
 SensorOutput SensorChain::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
-                                const ExposureSettings& st, const FixedPatternMaps& fpn) {
+                                const ExposureSettings& st, const FixedPatternMaps& fpn, uint64_t mean_e_token) {
   const int w = mean_e.width(), h = mean_e.height();
   const size_t n = mean_e.pixel_count();
   seq_->begin();
-  if (w >= 1 && h >= 1) buffer("mean_e", n * sizeof(float)).upload(mean_e.data(), n * sizeof(float));
+  const Buffer* held = buffers_.find("mean_e");
+  const bool resident = mean_e_token != 0 && mean_e_token == mean_e_token_ && held &&
+                        held->bytes() == n * sizeof(float);
+  if (!resident && w >= 1 && h >= 1) {
+    mean_e_token_ = 0;
+    buffer("mean_e", n * sizeof(float)).upload(mean_e.data(), n * sizeof(float));
+  }
   record_sense(*seq_, w, h, p, ex, st, fpn);
   seq_->submit_and_wait();
   times_ = seq_->stage_times();
@@ -152,10 +162,12 @@ SensorOutput SensorChain::sense(const ImageF& mean_e, const CameraPreset& p, con
 }
 
 SensorOutput SensorChain::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                 const ExposureSettings& st, const FixedPatternMaps& fpn) {
+                                 const ExposureSettings& st, const FixedPatternMaps& fpn,
+                                 Buffer* radiance_on_device) {
   const ResolvedExposure ex = resolve(p, lens, st);
+  mean_e_token_ = 0;
   seq_->begin();
-  record_photon(*seq_, radiance, p, lens, ex);
+  record_photon(*seq_, radiance, p, lens, ex, radiance_on_device);
   record_sense(*seq_, radiance.width(), radiance.height(), p, ex, st, fpn);
   seq_->submit_and_wait();
   times_ = seq_->stage_times();

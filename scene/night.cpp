@@ -19,7 +19,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p);
-  if (keep_darkened) s.darkened = stages.darken ? stages.darken(texture, labels.ids, p) : darken(texture, labels.ids, p);
+  if (keep_darkened && !stages.tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
   s.work_scale = w.scale;
@@ -51,13 +51,19 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed, !stages.bloom_in_place);
-  if (stages.bloom_in_place) stages.bloom_in_place(lm.radiance, p.bloom_fraction, p.bloom_levels);
-  s.lights = std::move(lm.radiance);
+  // With a backend tail the light map leaves here unbloomed: bloom runs there, before compose.
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed, !stages.tail);
   s.light_stats = lm.stats;
   lap("lights");
-  s.radiance = stages.compose ? stages.compose(texture, s.lights, labels.ids, s.depth, vp, p)
-                              : compose(texture, s.lights, labels.ids, s.depth, vp, p);
+  if (stages.tail) {
+    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.depth, vp, p, keep_darkened);
+    s.radiance = std::move(t.radiance);
+    if (keep_darkened) s.darkened = std::move(t.darkened);
+    s.resident_radiance = t.resident;
+  } else {
+    s.radiance = compose(texture, lm.radiance, labels.ids, s.depth, vp, p);
+  }
+  s.lights = std::move(lm.radiance);
   lap("compose");
   return s;
 }

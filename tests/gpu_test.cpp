@@ -12,6 +12,7 @@
 #include <limits>
 #include <memory>
 
+#include "photosite/error.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/poisson.h"
 
@@ -125,6 +126,20 @@ TEST_F(Gpu, PoissonBitEqualToCpuAtEveryMean) {
 // Beyond parity: the device sampler itself has the Poisson law's mean and variance at means in
 // both regimes (200k draws each: the sample mean within 5 standard errors, the variance within 5
 // of its standard errors, var(s²) ≈ (2μ² + μ)/n for a Poisson).
+// Every kernel indexes pixels with a 32-bit invocation index (linear_invocation): a job whose grid
+// would pass 2^32 invocations is refused as bad input before anything is allocated or read
+// (the pointers here are never touched).
+TEST_F(Gpu, DispatchBeyondThe32BitIndexIsRefused) {
+  for (uint64_t n : {uint64_t{1} << 32, uint64_t{4294901761}, uint64_t{1} << 40}) {
+    try {
+      gpu::poisson_fill(*ctx, nullptr, nullptr, n, 0, 1, 0, 1);
+      ADD_FAILURE() << n << " items were accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("32-bit invocation index"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST_F(Gpu, PoissonDrawsHaveThePoissonMeanAndVariance) {
   const uint64_t n = 200000;
   for (float mu : {0.5f, 3.f, 9.5f, 10.f, 40.f, 2500.f}) {
@@ -406,6 +421,85 @@ TEST_F(Gpu, ComposeMatchesCpuToOneUlp) {
     for (size_t i = 0; i < cpu.size(); ++i) beam = std::max(beam, cpu[i] - static_cast<double>(dark[i]) - lights[i]);
     EXPECT_GT(beam, 1e-4) << w << "x" << h;
   }
+}
+
+// The night chain keeps its images on the device: the tail (bloom, darken, compose) uploads the
+// texture, light map, labels and depth once each and downloads the bloomed lights and the
+// radiance; the sensor then reads the radiance where the tail left it, and a run of frames reads
+// the mean signal where the photon integral left it. Same results as the uploading path, bit
+// for bit; a stale token falls back to the upload.
+TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
+  const int w = 640, h = 320;
+  scene::SyntheticOptions so;
+  const auto road = scene::make_synthetic_road(so);
+  const auto sp = scene::load_scene_preset("night-urban");
+  auto stages = std::make_shared<gpu::SceneStages>(*ctx);
+  const size_t n = static_cast<size_t>(w) * h;
+  auto before = ctx->transfers();
+  const scene::NightScene dev = scene::night_scene(road.day_linear_srgb, road.labels, sp, 3, true,
+                                                   gpu::pixel_stages(stages));
+  auto after = ctx->transfers();
+  // texture + lights (3 floats) + depth (1 float) + labels (uint16) up; lights + darkened + radiance down.
+  EXPECT_EQ(after.uploaded - before.uploaded, n * (12 + 12 + 4 + 2));
+  EXPECT_EQ(after.downloaded - before.downloaded, n * (12 + 12 + 12));
+  ASSERT_NE(dev.resident_radiance, 0u);
+  ASSERT_NE(stages->resident_radiance(dev.resident_radiance), nullptr);
+  const scene::NightScene cpu = scene::night_scene(road.day_linear_srgb, road.labels, sp, 3, true);
+  EXPECT_EQ(cpu.resident_radiance, 0u);
+  EXPECT_EQ(count_differences(cpu.darkened, dev.darkened), 0u);
+  double peak = 0, worst = 0;
+  for (size_t i = 0; i < cpu.radiance.size(); ++i) {
+    peak = std::max(peak, static_cast<double>(cpu.radiance[i]));
+    worst = std::max(worst, std::abs(static_cast<double>(cpu.radiance[i]) - dev.radiance[i]));
+    worst = std::max(worst, std::abs(static_cast<double>(cpu.lights[i]) - dev.lights[i]));
+  }
+  EXPECT_GT(peak, 0);
+  EXPECT_LE(worst, 2e-6 * peak);  // bloom sums in another order (BloomMatchesCpuWithinFloatRounding)
+
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  const FixedPatternMaps fpn = generate_fixed_pattern(cam, w, h, "resident-gpu-test");
+  ExposureSettings s;
+  s.exposure_s = 0.03;
+  s.seed = 9;
+  gpu::SensorChain chain(*ctx);
+  const SensorOutput uploaded = chain.expose(dev.radiance, cam, lens, s, fpn);  // also loads the maps
+  before = ctx->transfers();
+  const SensorOutput resident =
+      chain.expose(dev.radiance, cam, lens, s, fpn, stages->resident_radiance(dev.resident_radiance));
+  after = ctx->transfers();
+  EXPECT_LT(after.uploaded - before.uploaded, n);  // the w + h row/column noise draws only
+  EXPECT_EQ(count_differences(uploaded.raw_dn, resident.raw_dn), 0u);
+  EXPECT_EQ(count_differences(uploaded.rgb, resident.rgb), 0u);
+
+  // Frames from the mean signal left on the device.
+  const ResolvedExposure ex = resolve(cam, lens, s);
+  const ImageF mean_e = chain.mean_signal_electrons(dev.radiance, cam, lens, ex,
+                                                    stages->resident_radiance(dev.resident_radiance));
+  const uint64_t token = chain.resident_mean_e();
+  ASSERT_NE(token, 0u);
+  for (uint32_t f = 0; f < 2; ++f) {
+    s.frame = f;
+    before = ctx->transfers();
+    const SensorOutput a = chain.sense(mean_e, cam, ex, s, fpn, token);
+    after = ctx->transfers();
+    EXPECT_LT(after.uploaded - before.uploaded, n) << "frame " << f;
+    const SensorOutput b = sense(mean_e, cam, ex, s, fpn);
+    EXPECT_EQ(count_differences(a.raw_dn, b.raw_dn), 0u) << "frame " << f;
+  }
+  // expose() overwrites the mean signal: the token is stale, and sense() uploads (same result).
+  (void)chain.expose(dev.radiance, cam, lens, s, fpn);
+  EXPECT_EQ(chain.resident_mean_e(), 0u);
+  before = ctx->transfers();
+  const SensorOutput c = chain.sense(mean_e, cam, ex, s, fpn, token);
+  after = ctx->transfers();
+  EXPECT_GE(after.uploaded - before.uploaded, n * 4);
+  EXPECT_EQ(count_differences(c.raw_dn, sense(mean_e, cam, ex, s, fpn).raw_dn), 0u);
+  // A later composition overwrites the radiance: the scene's token no longer names a buffer.
+  (void)stages->compose(scene::reflectance_texture(road.day_linear_srgb, road.labels.ids, sp), cpu.lights,
+                        road.labels.ids, cpu.depth, cpu.vp, sp);
+  EXPECT_EQ(stages->resident_radiance(dev.resident_radiance), nullptr);
+  EXPECT_EQ(stages->resident_radiance(0), nullptr);
 }
 
 }  // namespace photosite

@@ -8,6 +8,7 @@
 //                              (tests fail on any); an error if the layer is not installed.
 //   VK_DRIVER_FILES / VK_ICD_FILENAMES  the loader's own driver selection (lavapipe in CI).
 #pragma once
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -67,6 +68,8 @@ class BufferCache {
  public:
   explicit BufferCache(Context& ctx) : ctx_(ctx) {}
   Buffer& get(const std::string& name, size_t bytes);
+  // The buffer `name` as it is, or nullptr when none was made yet.
+  Buffer* find(const std::string& name);
 
  private:
   Context& ctx_;
@@ -91,6 +94,14 @@ class Context {
   // The kernel `name` (kernels/<name>.comp), created on first use and kept with the context.
   Kernel& kernel(const std::string& name, int buffers, uint32_t push_bytes);
 
+  // Bytes copied host→device (Buffer::upload) and device→host (Buffer::download) since creation:
+  // what a chain moves per frame, the cost that keeping images on the device saves (on a GPU
+  // each byte crosses PCIe; on lavapipe it is a memcpy).
+  struct Transfers { uint64_t uploaded = 0, downloaded = 0; };
+  Transfers transfers() const { return {uploaded_.load(), downloaded_.load()}; }
+  void count_upload(size_t n) { uploaded_ += n; }
+  void count_download(size_t n) { downloaded_ += n; }
+
   struct Impl;
   Impl& impl() { return *impl_; }
 
@@ -100,8 +111,16 @@ class Context {
   bool validation_ = false;
   mutable std::mutex mutex_;
   std::vector<std::string> messages_;
+  std::atomic<uint64_t> uploaded_{0}, downloaded_{0};
   std::unique_ptr<Impl> impl_;
 };
+
+// A fresh token, never 0 and never given twice in the process: a stage that leaves its result in
+// a device buffer hands one out with the host copy, and a later stage given the same token reads
+// the buffer instead of uploading the host copy again (SceneStages::resident_radiance,
+// SensorChain::resident_mean_e). Whoever overwrites the buffer drops the token, so a stale one
+// only costs an upload, never a wrong image.
+uint64_t new_residency_token();
 
 // Whether a Vulkan device can be opened here (loader, driver, device with the features the
 // kernels need); `why` gets the reason when not. Creates and destroys a context.

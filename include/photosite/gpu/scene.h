@@ -49,15 +49,33 @@ class SceneStages {
   void bloom_in_place(ImageF& img, double fraction, int levels);
   ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
                  const scene::VanishingPoint& vp, const scene::ScenePreset& p, double* device_ms = nullptr);
+  // night_scene()'s whole per-pixel tail as one sequence: bloom `lights` (in place), darken
+  // (into `darkened` too with keep_darkened), low beam + lights. Uploads the texture, light map,
+  // labels and depth once each; downloads the bloomed lights and the radiance, which also stays
+  // on the device under the returned token (resident_radiance).
+  scene::PixelTail tail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                        const scene::VanishingPoint& vp, const scene::ScenePreset& p, bool keep_darkened,
+                        double* device_ms = nullptr);
+  // The device buffer holding the radiance of the tail() that gave `token`, or nullptr when
+  // the token is 0 or stale (a later call has overwritten the buffer).
+  Buffer* resident_radiance(uint64_t token);
 
  private:
   Buffer& buffer(const std::string& name, size_t bytes);
   Buffer& upload_labels(const ImageU16& labels);
+  // The inputs of compose and tail (shapes already checked) uploaded; the radiance buffer they
+  // write, its token dropped.
+  struct TailBuffers { Buffer *texture, *lights, *depth, *radiance, *labels; };
+  TailBuffers upload_tail(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
+                          const ImageF& depth);
+  void record_compose(Sequence& s, Buffer& texture, Buffer& lights, Buffer& labels, Buffer& depth, Buffer& out,
+                      int w, int h, const scene::VanishingPoint& vp, const scene::ScenePreset& p);
   Context& ctx_;
   BufferCache buffers_;
   BloomCache bloom_;
+  uint64_t radiance_token_ = 0;  // what buffer "radiance" holds; 0: nothing promised
 };
-// darken, bloom and compose as night_scene()'s pixel stages, on `stages`' buffers.
+// SceneStages::tail as night_scene()'s pixel stages.
 scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages);
 
 }  // namespace photosite::gpu

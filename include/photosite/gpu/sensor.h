@@ -1,7 +1,7 @@
 // The sensor chain on the Vulkan backend: photon integral → sense (shot noise, dark current,
 // fixed pattern, read noise, full well, gain, black, ADC) → demosaic (every method has kernels) as one sequence of
-// kernels over buffers that stay on the device: one upload (the radiance) and one download (the
-// outputs) per frame; the fixed-pattern maps are uploaded once per device and reused by every
+// kernels over buffers that stay on the device: one upload (the radiance, none when the scene
+// stages left it there) and one download (the outputs) per frame; the fixed-pattern maps are uploaded once per device and reused by every
 // frame. The twin of expose() / sense() / mean_signal_electrons() (sensor/pipeline.h), held to
 // them by tests/gpu_test.cpp.
 //
@@ -23,13 +23,22 @@ class SensorChain {
  public:
   explicit SensorChain(Context& ctx);
   ~SensorChain();
+  // `radiance_on_device`: a buffer of this context already holding `radiance_rgb` (a scene
+  // stage's output, SceneStages::resident_radiance): read from there, not uploaded again. The
+  // host image is still needed for its size and for naming a bad pixel.
   ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
-                               const LensPreset& lens, const ResolvedExposure& exposure);
+                               const LensPreset& lens, const ResolvedExposure& exposure,
+                               Buffer* radiance_on_device = nullptr);
+  // The mean signal of the last mean_signal_electrons() stays on the device under this token
+  // until expose() or a sense() of another mean overwrites it; sense() given the token reads it
+  // from there (a run of frames uploads it never).
+  uint64_t resident_mean_e() const { return mean_e_token_; }
   SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
                      const ResolvedExposure& exposure, const ExposureSettings& settings,
-                     const FixedPatternMaps& fpn);
+                     const FixedPatternMaps& fpn, uint64_t mean_e_token = 0);
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
-                      const ExposureSettings& settings, const FixedPatternMaps& fpn);
+                      const ExposureSettings& settings, const FixedPatternMaps& fpn,
+                      Buffer* radiance_on_device = nullptr);
   // Device time per kernel of the last frame (empty without timestamps).
   std::vector<Sequence::StageTime> stage_times() const { return times_; }
   Context& context() { return ctx_; }
@@ -37,7 +46,7 @@ class SensorChain {
  private:
   Buffer& buffer(const std::string& name, size_t bytes);
   void record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                     const ResolvedExposure& ex);
+                     const ResolvedExposure& ex, Buffer* radiance_on_device);
   void record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
                     const ExposureSettings& st, const FixedPatternMaps& fpn);
   SensorOutput finish(int w, int h, const CameraPreset& p, const ExposureSettings& st);
@@ -47,6 +56,7 @@ class SensorChain {
   std::string fpn_loaded_;  // device id + checksum of the maps now on the device
   std::vector<Sequence::StageTime> times_;
   std::unique_ptr<Sequence> seq_;
+  uint64_t mean_e_token_ = 0;  // what buffer "mean_e" holds; 0: nothing promised
 };
 
 }  // namespace photosite::gpu

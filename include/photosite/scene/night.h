@@ -132,15 +132,23 @@ struct NightScene {
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
   std::vector<StageTiming> timings;
+  uint64_t resident_radiance = 0;  // PixelTail::resident: `radiance` is still on the device
 };
-// The full-resolution per-pixel stages night_scene() can hand to another backend (the Vulkan
-// kernels, gpu/scene.h); an empty function runs the CPU path. Geometry stays on the CPU.
+// The full-resolution per-pixel tail of night_scene() handed to another backend (the Vulkan
+// kernels, gpu/scene.h): bloom of the light map, per-class darkening, low beam and composition,
+// from the CPU's reflectance texture, light map (before bloom) and depth. Geometry stays on the
+// CPU. Empty: night_scene's own CPU path.
+struct PixelTail {
+  ImageF radiance;    // compose()
+  ImageF darkened;    // darken(), only when asked for
+  uint64_t resident = 0;  // nonzero: `radiance` is also left on the backend's device under this
+                          // token (gpu::new_residency_token), for the sensor to read from there
+};
 struct PixelStages {
-  std::function<ImageF(const ImageF& texture, const ImageU16& labels, const ScenePreset& p)> darken;
-  std::function<void(ImageF& img, double fraction, int levels)> bloom_in_place;
-  std::function<ImageF(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                       const VanishingPoint& vp, const ScenePreset& p)>
-      compose;
+  // `lights` is bloomed in place (bloom_in_place with p.bloom_fraction, p.bloom_levels).
+  std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
+                          const VanishingPoint& vp, const ScenePreset& p, bool keep_darkened)>
+      tail;
 };
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                        uint64_t seed, bool keep_darkened = false, const PixelStages& stages = {});
