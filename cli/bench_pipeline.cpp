@@ -99,7 +99,7 @@ void run(const Opts& o) {
       fail(std::string("bench pipeline --backend vulkan: ") + e.what());
     }
     if (!ctx->device().timestamps) fail("bench pipeline: the Vulkan device has no compute timestamps");
-    device = ctx->device().name;
+    device = ctx->device().name + (ctx->device().staged ? " (staged transfers)" : " (mapped buffers)");
     chain = std::make_unique<gpu::SensorChain>(*ctx);
     stages = std::make_unique<gpu::SceneStages>(*ctx);
   }

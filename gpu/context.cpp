@@ -81,8 +81,21 @@ void pin_libraries_loaded_since(const std::vector<std::string>& before) {
 #endif
 }  // namespace
 
+void Context::Impl::free_staging() {
+  if (staging_mapped) f.vkUnmapMemory(device, staging.memory);
+  if (staging.buffer) f.vkDestroyBuffer(device, staging.buffer, nullptr);
+  if (staging.memory) f.vkFreeMemory(device, staging.memory, nullptr);
+  staging_mapped = nullptr, staging = {}, staging_bytes = 0;
+}
+
 Context::Impl::~Impl() {
-  if (device) { f.vkDeviceWaitIdle(device); f.vkDestroyDevice(device, nullptr); }
+  if (device) {
+    f.vkDeviceWaitIdle(device);
+    free_staging();
+    if (transfer_fence) f.vkDestroyFence(device, transfer_fence, nullptr);
+    if (transfer_pool) f.vkDestroyCommandPool(device, transfer_pool, nullptr);
+    f.vkDestroyDevice(device, nullptr);
+  }
   if (messenger) f.vkDestroyDebugUtilsMessengerEXT(instance, messenger, nullptr);
   if (instance) f.vkDestroyInstance(instance, nullptr);
   if (lib) dlclose(lib);
@@ -116,6 +129,7 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   const char* env = std::getenv("PHOTOSITE_VK_VALIDATION");
   validation_ = options.validation || (env && std::strcmp(env, "0") != 0 && *env);
   std::vector<const char*> layers, extensions;
+  bool sync_validation = false;
   if (validation_) {
     uint32_t n = 0;
     f.vkEnumerateInstanceLayerProperties(&n, nullptr);
@@ -128,6 +142,14 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
            "is not installed (Debian: vulkan-validationlayers)");
     layers.push_back("VK_LAYER_KHRONOS_validation");
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    // Synchronization validation too, where the layer offers it: a missing barrier between two
+    // kernels, or between a copy and a kernel, is then a reported hazard, not a silent race.
+    uint32_t ne = 0;
+    f.vkEnumerateInstanceExtensionProperties("VK_LAYER_KHRONOS_validation", &ne, nullptr);
+    std::vector<VkExtensionProperties> ext(ne);
+    f.vkEnumerateInstanceExtensionProperties("VK_LAYER_KHRONOS_validation", &ne, ext.data());
+    for (auto& e : ext) sync_validation |= std::strcmp(e.extensionName, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME) == 0;
+    if (sync_validation) extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
   }
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "photosite";
@@ -144,7 +166,12 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   ici.ppEnabledLayerNames = layers.data();
   ici.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
   ici.ppEnabledExtensionNames = extensions.data();
-  if (validation_) ici.pNext = &dm;
+  const VkValidationFeatureEnableEXT sync = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+  VkValidationFeaturesEXT vf{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  vf.enabledValidationFeatureCount = 1;
+  vf.pEnabledValidationFeatures = &sync;
+  vf.pNext = &dm;  // (dm itself keeps pNext null: it is also given to vkCreateDebugUtilsMessengerEXT)
+  if (validation_) ici.pNext = sync_validation ? static_cast<const void*>(&vf) : &dm;
   const VkResult created = f.vkCreateInstance(&ici, nullptr, &I.instance);
 #if PHOTOSITE_ASAN
   pin_libraries_loaded_since(before);
@@ -226,6 +253,31 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   PHOTOSITE_VK_DEVICE(PHOTOSITE_VK_LOAD_DEVICE)
 #undef PHOTOSITE_VK_LOAD_DEVICE
   f.vkGetDeviceQueue(I.device, I.queue_family, 0, &I.queue);
+
+  // Direct (mapped storage buffers) where some memory is device-local, host-visible, coherent
+  // and cached at once (lavapipe, integrated GPUs); staged copies otherwise.
+  bool unified = false;
+  const VkMemoryPropertyFlags all = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                    VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  for (uint32_t i = 0; i < I.memory.memoryTypeCount; ++i) unified |= (I.memory.memoryTypes[i].propertyFlags & all) == all;
+  Staging mode = options.staging;
+  if (const char* e = std::getenv("PHOTOSITE_VK_STAGING"); e && *e && mode == Staging::Auto)
+    mode = std::strcmp(e, "0") == 0 ? Staging::Direct : Staging::Staged;
+  I.staged = mode == Staging::Staged || (mode == Staging::Auto && !unified);
+  info_.staged = I.staged;
+  if (I.staged) {
+    VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    cpi.queueFamilyIndex = I.queue_family;
+    vk::check(f.vkCreateCommandPool(I.device, &cpi, nullptr, &I.transfer_pool), "creating a command pool");
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = I.transfer_pool;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    vk::check(f.vkAllocateCommandBuffers(I.device, &cai, &I.transfer_cmd), "allocating a command buffer");
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    vk::check(f.vkCreateFence(I.device, &fci, nullptr, &I.transfer_fence), "creating a fence");
+  }
 }
 
 Context::~Context() { kernels_.clear(); }  // pipelines before the device
@@ -256,33 +308,43 @@ Context& shared_context() {
 
 // ---- buffers -----------------------------------------------------------------------------
 
+namespace {
+// The first memory type allowed by `bits` with all of `need` (and, when possible, all of
+// `prefer`), or -1.
+int memory_type(const VkPhysicalDeviceMemoryProperties& m, uint32_t bits, VkMemoryPropertyFlags need,
+                VkMemoryPropertyFlags prefer) {
+  for (int pass = 0; pass < 2; ++pass)
+    for (uint32_t i = 0; i < m.memoryTypeCount; ++i) {
+      const auto flags = m.memoryTypes[i].propertyFlags;
+      if ((bits & (1u << i)) && (flags & need) == need && (pass == 1 || (flags & prefer) == prefer))
+        return static_cast<int>(i);
+    }
+  return -1;
+}
+}  // namespace
+
 Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std::make_unique<Impl>()) {
   auto& C = ctx.impl();
   auto& f = C.f;
   VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   bci.size = std::max<size_t>(4, (bytes + 3) & ~size_t{3});  // storage buffers are read in words
   bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  if (C.staged) bci.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &impl_->buffer), "creating a buffer");
   VkMemoryRequirements req;
   f.vkGetBufferMemoryRequirements(C.device, impl_->buffer, &req);
-  // Host-visible and coherent: mapped once; prefer memory that is also device-local (a GPU's
-  // resizable BAR, or any memory of a CPU driver).
-  const VkMemoryPropertyFlags need = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  int type = -1;
-  for (int pass = 0; pass < 2 && type < 0; ++pass)
-    for (uint32_t i = 0; i < C.memory.memoryTypeCount; ++i) {
-      const auto flags = C.memory.memoryTypes[i].propertyFlags;
-      const bool ok = (req.memoryTypeBits & (1u << i)) && (flags & need) == need &&
-                      (pass == 1 || (flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT));
-      if (ok) { type = static_cast<int>(i); break; }
-    }
-  if (type < 0) fail("Vulkan: no host-visible coherent memory type for storage buffers");
+  // Staged: device-local memory, reached by copies. Direct: host-visible and coherent, mapped
+  // once, preferably also device-local (a CPU driver's memory, a GPU's resizable BAR).
+  const VkMemoryPropertyFlags need =
+      C.staged ? 0 : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  const int type = memory_type(C.memory, req.memoryTypeBits, need, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (type < 0) fail("Vulkan: no memory type for storage buffers");
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;
   mai.memoryTypeIndex = static_cast<uint32_t>(type);
   if (f.vkAllocateMemory(C.device, &mai, nullptr, &impl_->memory) != VK_SUCCESS) {
-    // Large frames on a GPU whose BAR window is small: fall back to any host-visible type.
+    // Device-local memory (or a small BAR window) full: fall back to any other allowed type.
     bool done = false;
     for (uint32_t i = 0; i < C.memory.memoryTypeCount && !done; ++i) {
       const auto flags = C.memory.memoryTypes[i].propertyFlags;
@@ -294,7 +356,8 @@ Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std
     if (!done) fail(fmt::format("Vulkan: allocating a {} MB buffer failed", bytes >> 20));
   }
   vk::check(f.vkBindBufferMemory(C.device, impl_->buffer, impl_->memory, 0), "binding buffer memory");
-  vk::check(f.vkMapMemory(C.device, impl_->memory, 0, VK_WHOLE_SIZE, 0, &mapped_), "mapping a buffer");
+  if (!C.staged)
+    vk::check(f.vkMapMemory(C.device, impl_->memory, 0, VK_WHOLE_SIZE, 0, &mapped_), "mapping a buffer");
 }
 
 Buffer& BufferCache::get(const std::string& name, size_t bytes) {
@@ -315,14 +378,95 @@ Buffer::~Buffer() {
   if (impl_->memory) C.f.vkFreeMemory(C.device, impl_->memory, nullptr);
 }
 
+namespace {
+// Staged transfers: host ↔ the context's staging buffer (memcpy) ↔ the device buffer (a copy
+// command, submitted and waited for), in chunks of at most kStagingBytes.
+constexpr size_t kStagingBytes = size_t{32} << 20;
+
+void ensure_staging(Context::Impl& C, size_t bytes) {
+  if (C.staging_bytes >= bytes) return;
+  auto& f = C.f;
+  C.free_staging();
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = bytes;
+  bci.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &C.staging.buffer), "creating the staging buffer");
+  VkMemoryRequirements req;
+  f.vkGetBufferMemoryRequirements(C.device, C.staging.buffer, &req);
+  // Host-cached where offered: the CPU reads downloads from it at memory speed.
+  const int type = memory_type(C.memory, req.memoryTypeBits,
+                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                               VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+  if (type < 0) fail("Vulkan: no host-visible coherent memory type for the staging buffer");
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = static_cast<uint32_t>(type);
+  vk::check(f.vkAllocateMemory(C.device, &mai, nullptr, &C.staging.memory), "allocating the staging buffer");
+  vk::check(f.vkBindBufferMemory(C.device, C.staging.buffer, C.staging.memory, 0), "binding the staging buffer");
+  vk::check(f.vkMapMemory(C.device, C.staging.memory, 0, VK_WHOLE_SIZE, 0, &C.staging_mapped), "mapping the staging buffer");
+  C.staging_bytes = bytes;
+}
+
+void staged_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, const void* src, void* dst, size_t n) {
+  auto& f = C.f;
+  std::lock_guard<std::mutex> lock(C.transfer_mutex);
+  ensure_staging(C, std::min(n, kStagingBytes));
+  const bool up = src != nullptr;
+  for (size_t done = 0; done < n;) {
+    const size_t c = std::min(n - done, kStagingBytes);
+    if (up) std::memcpy(C.staging_mapped, static_cast<const char*>(src) + done, c);
+    vk::check(f.vkResetCommandBuffer(C.transfer_cmd, 0), "resetting a command buffer");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vk::check(f.vkBeginCommandBuffer(C.transfer_cmd, &bi), "beginning a command buffer");
+    // Earlier submissions' kernels and copies on the buffer finish (and their writes are
+    // available) before this copy.
+    VkMemoryBarrier before{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    before.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    before.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    f.vkCmdPipelineBarrier(C.transfer_cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                           VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+    VkBufferCopy region{};
+    region.size = c;
+    if (up) region.dstOffset = offset + done;
+    else region.srcOffset = offset + done;
+    f.vkCmdCopyBuffer(C.transfer_cmd, up ? C.staging.buffer : device_buffer, up ? device_buffer : C.staging.buffer, 1, &region);
+    // The copy's writes are visible to later kernels (upload) or to the host (download).
+    VkMemoryBarrier after{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    after.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    after.dstAccessMask = up ? VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT : VK_ACCESS_HOST_READ_BIT;
+    f.vkCmdPipelineBarrier(C.transfer_cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                           up ? VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &after, 0,
+                           nullptr, 0, nullptr);
+    vk::check(f.vkEndCommandBuffer(C.transfer_cmd), "ending a command buffer");
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &C.transfer_cmd;
+    vk::check(f.vkResetFences(C.device, 1, &C.transfer_fence), "resetting a fence");
+    {
+      std::lock_guard<std::mutex> q(C.queue_mutex);
+      vk::check(f.vkQueueSubmit(C.queue, 1, &si, C.transfer_fence), "submitting a copy");
+    }
+    vk::check(f.vkWaitForFences(C.device, 1, &C.transfer_fence, VK_TRUE, UINT64_MAX), "waiting for a copy");
+    if (!up) std::memcpy(static_cast<char*>(dst) + done, C.staging_mapped, c);
+    done += c;
+  }
+}
+}  // namespace
+
 void Buffer::upload(const void* src, size_t n, size_t offset) {
   if (offset + n > bytes_) internal_error("gpu::Buffer::upload beyond the buffer");
-  std::memcpy(static_cast<char*>(mapped_) + offset, src, n);
+  if (n == 0) return;
+  if (mapped_) std::memcpy(static_cast<char*>(mapped_) + offset, src, n);
+  else staged_copy(ctx_.impl(), impl_->buffer, offset, src, nullptr, n);
   ctx_.count_upload(n);
 }
 void Buffer::download(void* dst, size_t n, size_t offset) const {
   if (offset + n > bytes_) internal_error("gpu::Buffer::download beyond the buffer");
-  std::memcpy(dst, static_cast<const char*>(mapped_) + offset, n);
+  if (n == 0) return;
+  if (mapped_) std::memcpy(dst, static_cast<const char*>(mapped_) + offset, n);
+  else staged_copy(ctx_.impl(), impl_->buffer, offset, nullptr, dst, n);
   ctx_.count_download(n);
 }
 

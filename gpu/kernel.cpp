@@ -200,7 +200,10 @@ void Sequence::submit_and_wait() {
   si.commandBufferCount = 1;
   si.pCommandBuffers = &impl_->cmd;
   vk::check(f.vkResetFences(C.device, 1, &impl_->fence), "resetting a fence");
-  vk::check(f.vkQueueSubmit(C.queue, 1, &si, impl_->fence), "submitting work");
+  {
+    std::lock_guard<std::mutex> q(C.queue_mutex);
+    vk::check(f.vkQueueSubmit(C.queue, 1, &si, impl_->fence), "submitting work");
+  }
   vk::check(f.vkWaitForFences(C.device, 1, &impl_->fence, VK_TRUE, UINT64_MAX), "waiting for the device");
   if (impl_->queries && !impl_->labels.empty()) {
     const uint32_t n = static_cast<uint32_t>(impl_->labels.size()) + 1;

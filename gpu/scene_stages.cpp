@@ -128,14 +128,14 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
       o(ctx, 3 * n * sizeof(float)), bad(ctx, sizeof(uint32_t));
   in.upload(day.data(), day.size() * sizeof(float));
   table.upload(lut.data(), lut.size() * sizeof(float));
-  *bad.as<uint32_t>() = UINT32_MAX;
+  bad.store(UINT32_MAX);
   LinearizeParams p{static_cast<uint32_t>(n), static_cast<uint32_t>(c), info.is_float ? 0u : 1u, 0};
   Sequence s(ctx);
   s.dispatch(ctx.kernel("linearize", 4, sizeof(LinearizeParams)), {&in, &table, &o, &bad}, p, g.x, g.y, 1,
              "linearize");
   s.submit_and_wait();
   if (device_ms) *device_ms = s.device_ms();
-  const uint32_t first_bad = *bad.as<uint32_t>();
+  const uint32_t first_bad = bad.load<uint32_t>();
   if (first_bad != UINT32_MAX) scene::fail_damaged_pixel(day, info, first_bad);
   o.download(out.data(), 3 * n * sizeof(float));
   return out;

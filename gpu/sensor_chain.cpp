@@ -30,9 +30,11 @@ void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const Camer
   if (!radiance_on_device) rad.upload(radiance.data(), n * 3 * sizeof(float));
   const PhotonMatrix m = photon_matrix(p, lens, ex);
   Buffer& mat = buffer("photon_matrix", 12 * sizeof(double));
-  for (int c = 0; c < 4; ++c) std::memcpy(mat.as<double>() + 3 * c, m[c].data(), 3 * sizeof(double));
+  double rows[12];
+  for (int c = 0; c < 4; ++c) std::memcpy(rows + 3 * c, m[c].data(), 3 * sizeof(double));
+  mat.upload(rows, sizeof(rows));
   Buffer& bad = buffer("bad", sizeof(uint32_t));
-  *bad.as<uint32_t>() = UINT32_MAX;
+  bad.store(UINT32_MAX);
   PhotonParams pp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), 0,
                   lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0,
                   0.5 * (w - 1), 0.5 * (h - 1)};
@@ -119,7 +121,7 @@ SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const Expo
 }
 
 static void check_bad(Buffer& bad, const ImageF& radiance) {
-  const uint32_t i = *bad.as<uint32_t>();
+  const uint32_t i = bad.load<uint32_t>();
   if (i == UINT32_MAX) return;
   const int x = static_cast<int>(i % radiance.width()), y = static_cast<int>(i / radiance.width());
   const float* r = radiance.row(y) + 3 * x;

@@ -1,6 +1,7 @@
 // Vulkan entry points loaded at run time (dlopen libvulkan.so.1, then vkGetInstanceProcAddr /
 // vkGetDeviceProcAddr), so photosite links no Vulkan library and starts without one.
 #pragma once
+#include <mutex>
 #define VK_NO_PROTOTYPES
 #include <vulkan/vulkan.h>
 
@@ -31,7 +32,7 @@ namespace photosite::gpu::vk {
   X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) X(vkCmdDispatch) X(vkCmdPipelineBarrier)     \
   X(vkQueueSubmit) X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences)       \
   X(vkCreateQueryPool) X(vkDestroyQueryPool) X(vkCmdResetQueryPool) X(vkCmdWriteTimestamp)     \
-  X(vkGetQueryPoolResults)
+  X(vkGetQueryPoolResults) X(vkCmdCopyBuffer)
 
 struct Functions {
   PFN_vkGetInstanceProcAddr vkGetInstanceProcAddr = nullptr;
@@ -49,6 +50,10 @@ const char* result_name(VkResult r);
 }  // namespace photosite::gpu::vk
 
 namespace photosite::gpu {
+struct Buffer::Impl {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+};
 struct Context::Impl {
   void* lib = nullptr;
   vk::Functions f;
@@ -59,10 +64,19 @@ struct Context::Impl {
   VkQueue queue = VK_NULL_HANDLE;
   uint32_t queue_family = 0;
   VkPhysicalDeviceMemoryProperties memory{};
+  std::mutex queue_mutex;  // the one queue, submitted to from any thread
+  // Staged transfers (DeviceInfo::staged): one host-visible, cached staging buffer and a command
+  // buffer for the copies, shared by every Buffer of the context under transfer_mutex.
+  bool staged = false;
+  std::mutex transfer_mutex;
+  VkCommandPool transfer_pool = VK_NULL_HANDLE;
+  VkCommandBuffer transfer_cmd = VK_NULL_HANDLE;
+  VkFence transfer_fence = VK_NULL_HANDLE;
+  Buffer::Impl staging;  // its buffer and memory
+  void* staging_mapped = nullptr;
+  size_t staging_bytes = 0;
+  void free_staging();
   ~Impl();
 };
-struct Buffer::Impl {
-  VkBuffer buffer = VK_NULL_HANDLE;
-  VkDeviceMemory memory = VK_NULL_HANDLE;
-};
+
 }  // namespace photosite::gpu

@@ -26,19 +26,31 @@ struct DeviceInfo {
   uint32_t vendor_id = 0, api_version = 0;
   bool timestamps = false;  // compute queue writes timestamps
   double timestamp_period_ns = 0;
+  // Transfers go through staging copies (a discrete GPU: storage buffers in device-local memory,
+  // copied to and from a host-cached staging buffer) rather than through mapped storage buffers
+  // (a CPU driver or an integrated GPU, whose memory is device-local, host-visible and cached).
+  bool staged = false;
 };
+
+// How Buffer::upload / download reach device memory: Auto picks Staged unless a memory type is
+// device-local, host-visible, coherent and cached all at once (where mapping is free). Reading
+// a GPU's BAR window from the CPU is uncached (slow), so a discrete GPU stages.
+enum class Staging { Auto, Direct, Staged };
 
 struct ContextOptions {
   bool validation = false;       // also on when PHOTOSITE_VK_VALIDATION=1
   bool prefer_gpu = true;        // a real GPU over a CPU implementation when both are present
+  Staging staging = Staging::Auto;  // Auto: PHOTOSITE_VK_STAGING=1 / 0 forces Staged / Direct
 };
 
 class Context;
 class Buffer;
 class Kernel;
 
-// A storage buffer in host-visible, coherent memory, mapped for its whole life. Stages read and
-// write these on the device; the host copies in once (upload) and out once (download) per frame.
+// A storage buffer. Direct contexts keep it in host-visible, coherent memory mapped for its whole
+// life (upload and download are memcpy); staged ones keep it in device-local memory and copy
+// through the context's staging buffer (DeviceInfo::staged). Stages read and write these on the
+// device; the host copies in once (upload) and out once (download) per frame.
 class Buffer {
  public:
   Buffer(Context& ctx, size_t bytes);
@@ -46,19 +58,21 @@ class Buffer {
   Buffer(const Buffer&) = delete;
   Buffer& operator=(const Buffer&) = delete;
   size_t bytes() const { return bytes_; }
-  void* data() { return mapped_; }
-  const void* data() const { return mapped_; }
-  template <class T> T* as() { return static_cast<T*>(mapped_); }
-  template <class T> const T* as() const { return static_cast<const T*>(mapped_); }
   void upload(const void* src, size_t n, size_t offset = 0);
   void download(void* dst, size_t n, size_t offset = 0) const;
+  template <class T> void store(const T& value) { upload(&value, sizeof(T)); }
+  template <class T> T load() const {
+    T value;
+    download(&value, sizeof(T));
+    return value;
+  }
   struct Impl;
   Impl& impl() { return *impl_; }
 
  private:
   Context& ctx_;
   size_t bytes_;
-  void* mapped_ = nullptr;
+  void* mapped_ = nullptr;  // direct contexts only
   std::unique_ptr<Impl> impl_;
 };
 
