@@ -142,7 +142,7 @@ SensorRunner::Transfers SensorRunner::transfers() const {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_) {
     const auto t = device_->chain.context().transfers();
-    return {t.uploaded, t.downloaded};
+    return {t.uploaded, t.downloaded, device_->chain.context().device().staged};
   }
 #endif
   return {};

@@ -53,7 +53,10 @@ class SensorRunner {
   // scene::linearize() on this backend (kernel linearize on Vulkan).
   ImageF linearize(const ImageF& day, const ImageFileInfo& info);
   // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
-  struct Transfers { uint64_t uploaded = 0, downloaded = 0; };
+  struct Transfers {
+    uint64_t uploaded = 0, downloaded = 0;
+    bool staged = false;  // through staging copies (a discrete GPU), not mapped buffers
+  };
   Transfers transfers() const;
 
  private:

@@ -198,8 +198,8 @@ void run_night(NightCmd c) {
                 "total (with file I/O)", total);
     if (runner.backend() == Backend::Vulkan) {
       const auto tr = runner.transfers();
-      std::printf("%-32s %10.1f\n%-32s %10.1f\n", "host->device (MB)", tr.uploaded / 1e6, "device->host (MB)",
-                  tr.downloaded / 1e6);
+      std::printf("%-32s %10.1f\n%-32s %10.1f\n%-32s %10s\n", "host->device (MB)", tr.uploaded / 1e6,
+                  "device->host (MB)", tr.downloaded / 1e6, "transfers", tr.staged ? "staged" : "mapped");
     }
   }
 }

@@ -144,11 +144,14 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
     // Synchronization validation too, where the layer offers it: a missing barrier between two
     // kernels, or between a copy and a kernel, is then a reported hazard, not a silent race.
+    const char* sv = std::getenv("PHOTOSITE_VK_SYNC_VALIDATION");
+    const bool want_sync = !(sv && std::strcmp(sv, "0") == 0);
     uint32_t ne = 0;
     f.vkEnumerateInstanceExtensionProperties("VK_LAYER_KHRONOS_validation", &ne, nullptr);
     std::vector<VkExtensionProperties> ext(ne);
     f.vkEnumerateInstanceExtensionProperties("VK_LAYER_KHRONOS_validation", &ne, ext.data());
-    for (auto& e : ext) sync_validation |= std::strcmp(e.extensionName, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME) == 0;
+    for (auto& e : ext)
+      sync_validation |= want_sync && std::strcmp(e.extensionName, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME) == 0;
     if (sync_validation) extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
   }
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};

@@ -679,11 +679,28 @@ TEST(GpuCli, BackendVulkanWithoutADeviceIsBadInput) {
                            dir.file("store") + "' --out '";
   auto r = test::run_cli("flat --backend vulkan" + args + dir.file("v.exr") + "'");
   auto a = test::run_cli("flat --backend auto" + args + dir.file("a.exr") + "'");
+  auto v = test::run_cli("version --backends");
   if (saved_icd) setenv("VK_ICD_FILENAMES", keep_icd.c_str(), 1); else unsetenv("VK_ICD_FILENAMES");
   if (saved_drv) setenv("VK_DRIVER_FILES", keep_drv.c_str(), 1); else unsetenv("VK_DRIVER_FILES");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--backend vulkan"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir.file("v.exr")));
   EXPECT_EQ(a.exit_code, 0) << a.output;
+  // `version --backends` says why there is no Vulkan device and that auto runs the CPU path.
+  EXPECT_EQ(v.exit_code, 0) << v.output;
+  EXPECT_NE(v.output.find("vulkan: unavailable: Vulkan: no Vulkan driver found"), std::string::npos) << v.output;
+  EXPECT_NE(v.output.find("auto: cpu"), std::string::npos) << v.output;
+}
+
+// With lavapipe: the device, its transfer mode, and auto still on the CPU (lavapipe is slower
+// than the native path, docs/vulkan.md).
+TEST_F(Gpu, CliVersionListsTheBackends) {
+  const auto r = test::run_cli("version --backends");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cpu: native C++"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("vulkan: " + ctx->device().name), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(ctx->device().staged ? "staged transfers" : "mapped buffers"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find(ctx->device().cpu ? "auto: cpu" : "auto: vulkan"), std::string::npos) << r.output;
 }
 }  // namespace photosite

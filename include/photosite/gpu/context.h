@@ -4,8 +4,10 @@
 // `--backend vulkan` there fails with a message, not at start-up.
 //
 // Environment:
-//   PHOTOSITE_VK_VALIDATION=1  enable VK_LAYER_KHRONOS_validation and record every message
-//                              (tests fail on any); an error if the layer is not installed.
+//   PHOTOSITE_VK_VALIDATION=1  enable VK_LAYER_KHRONOS_validation (synchronization validation
+//                              included) and record every message (tests fail on any); an
+//                              error if the layer is not installed.
+//   PHOTOSITE_VK_STAGING=1|0   force staged copies or mapped buffers (ContextOptions::staging).
 //   VK_DRIVER_FILES / VK_ICD_FILENAMES  the loader's own driver selection (lavapipe in CI).
 #pragma once
 #include <atomic>
