@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -118,6 +119,26 @@ TEST(Demosaic, EveryBayerPhaseGivesTheSameInterior) {
                 << to_string(m) << " " << to_string(s.p) << " at " << x << "," << y;
     }
   }
+}
+
+// interleave_rgb (the planar-to-RGB step of every stencil method): AVX2 blocks of 8, SSE blocks
+// of 4 and the scalar tail give exactly r0 g0 b0 r1 ..., at every length and misalignment.
+TEST(Demosaic, InterleaveRgbIsExactAtEveryLengthAndOffset) {
+  std::vector<float> planes(3 * 64);
+  for (size_t i = 0; i < planes.size(); ++i) planes[i] = static_cast<float>(i) + 0.25f;
+  for (int off = 0; off < 3; ++off)
+    for (int n = 0; n <= 40; ++n) {
+      const float *r = planes.data() + off, *g = r + 64, *b = g + 64;
+      std::vector<float> out(3 * n + 4, -1.f);
+      interleave_rgb(r, g, b, out.data() + 1, n);
+      EXPECT_EQ(out[0], -1.f) << n;
+      EXPECT_EQ(out[3 * n + 1], -1.f) << n;  // nothing written past the end
+      for (int x = 0; x < n; ++x) {
+        ASSERT_EQ(out[1 + 3 * x], r[x]) << "n " << n << " x " << x;
+        ASSERT_EQ(out[2 + 3 * x], g[x]) << "n " << n << " x " << x;
+        ASSERT_EQ(out[3 + 3 * x], b[x]) << "n " << n << " x " << x;
+      }
+    }
 }
 
 TEST(Demosaic, LmmseAvx2AndBaselineBuildsAreBitIdentical) {
