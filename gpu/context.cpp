@@ -88,6 +88,10 @@ void Context::Impl::free_staging() {
   staging_mapped = nullptr, staging = {}, staging_bytes = 0;
 }
 
+namespace {
+std::vector<uint32_t> type_flags(const VkPhysicalDeviceMemoryProperties& m);  // (with the buffers)
+}
+
 Context::Impl::~Impl() {
   if (device) {
     f.vkDeviceWaitIdle(device);
@@ -259,10 +263,7 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
 
   // Direct (mapped storage buffers) where some memory is device-local, host-visible, coherent
   // and cached at once (lavapipe, integrated GPUs); staged copies otherwise.
-  bool unified = false;
-  const VkMemoryPropertyFlags all = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                    VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
-  for (uint32_t i = 0; i < I.memory.memoryTypeCount; ++i) unified |= (I.memory.memoryTypes[i].propertyFlags & all) == all;
+  const bool unified = unified_memory(type_flags(I.memory));
   Staging mode = options.staging;
   if (const char* e = std::getenv("PHOTOSITE_VK_STAGING"); e && *e && mode == Staging::Auto)
     mode = std::strcmp(e, "0") == 0 ? Staging::Direct : Staging::Staged;
@@ -311,18 +312,35 @@ Context& shared_context() {
 
 // ---- buffers -----------------------------------------------------------------------------
 
-namespace {
-// The first memory type allowed by `bits` with all of `need` (and, when possible, all of
-// `prefer`), or -1.
-int memory_type(const VkPhysicalDeviceMemoryProperties& m, uint32_t bits, VkMemoryPropertyFlags need,
-                VkMemoryPropertyFlags prefer) {
-  for (int pass = 0; pass < 2; ++pass)
-    for (uint32_t i = 0; i < m.memoryTypeCount; ++i) {
-      const auto flags = m.memoryTypes[i].propertyFlags;
-      if ((bits & (1u << i)) && (flags & need) == need && (pass == 1 || (flags & prefer) == prefer))
-        return static_cast<int>(i);
+int pick_memory_type(const std::vector<uint32_t>& type_flags, uint32_t allowed, uint32_t need, uint32_t prefer,
+                     uint32_t avoid) {
+  for (int pass = 0; pass < 3; ++pass)
+    for (size_t i = 0; i < type_flags.size() && i < 32; ++i) {
+      const uint32_t flags = type_flags[i];
+      const bool ok = (allowed & (1u << i)) && (flags & need) == need &&
+                      (pass == 2 || (flags & prefer) == prefer) && (pass >= 1 || (flags & avoid) == 0);
+      if (ok) return static_cast<int>(i);
     }
   return -1;
+}
+
+bool unified_memory(const std::vector<uint32_t>& type_flags) {
+  const uint32_t all = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  for (uint32_t f : type_flags)
+    if ((f & all) == all) return true;
+  return false;
+}
+
+namespace {
+std::vector<uint32_t> type_flags(const VkPhysicalDeviceMemoryProperties& m) {
+  std::vector<uint32_t> t(m.memoryTypeCount);
+  for (uint32_t i = 0; i < m.memoryTypeCount; ++i) t[i] = m.memoryTypes[i].propertyFlags;
+  return t;
+}
+int memory_type(const VkPhysicalDeviceMemoryProperties& m, uint32_t bits, VkMemoryPropertyFlags need,
+                VkMemoryPropertyFlags prefer, VkMemoryPropertyFlags avoid = 0) {
+  return pick_memory_type(type_flags(m), bits, need, prefer, avoid);
 }
 }  // namespace
 
@@ -341,7 +359,10 @@ Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std
   // once, preferably also device-local (a CPU driver's memory, a GPU's resizable BAR).
   const VkMemoryPropertyFlags need =
       C.staged ? 0 : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  const int type = memory_type(C.memory, req.memoryTypeBits, need, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  // Staged buffers stay out of host-visible device memory where they can: on a GPU without
+  // resizable BAR that window is 256 MB, better left to whoever needs mapping.
+  const int type = memory_type(C.memory, req.memoryTypeBits, need, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
+                               C.staged ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT : 0);
   if (type < 0) fail("Vulkan: no memory type for storage buffers");
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;
@@ -400,7 +421,7 @@ void ensure_staging(Context::Impl& C, size_t bytes) {
   // Host-cached where offered: the CPU reads downloads from it at memory speed.
   const int type = memory_type(C.memory, req.memoryTypeBits,
                                VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                               VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+                               VK_MEMORY_PROPERTY_HOST_CACHED_BIT, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
   if (type < 0) fail("Vulkan: no host-visible coherent memory type for the staging buffer");
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;

@@ -505,6 +505,26 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
 // Staged transfers (a discrete GPU's path: device-local storage buffers, copies through a
 // host-cached staging buffer) give what mapped buffers give, bit for bit: forced on lavapipe,
 // with validation (synchronization validation included) watching every copy and barrier.
+// The memory types a buffer lands in, on the tables drivers report (flags: 1 device-local,
+// 2 host-visible, 4 coherent, 8 cached). No device needed.
+TEST(GpuMemory, BuffersAndStagingPickTheRightMemoryTypes) {
+  const uint32_t DL = 1, HV = 2, HC = 4, CA = 8, all = 0xffffffffu;
+  // A discrete GPU without resizable BAR: VRAM, system memory (plain and cached), a 256 MB BAR.
+  const std::vector<uint32_t> discrete = {DL | HV | HC, DL, HV | HC, HV | HC | CA};
+  EXPECT_FALSE(gpu::unified_memory(discrete));                                   // Auto stages
+  EXPECT_EQ(gpu::pick_memory_type(discrete, all, 0, DL, HV), 1);                // staged storage: VRAM
+  EXPECT_EQ(gpu::pick_memory_type(discrete, all, HV | HC, CA, DL), 3);          // staging: cached sysmem
+  EXPECT_EQ(gpu::pick_memory_type(discrete, all, HV | HC, DL), 0);              // mapped storage: the BAR
+  EXPECT_EQ(gpu::pick_memory_type(discrete, all & ~2u, 0, DL, HV), 0);          // VRAM not allowed: BAR
+  EXPECT_EQ(gpu::pick_memory_type(discrete, 1u << 2, HV | HC, CA, DL), 2);      // only plain sysmem allowed
+  EXPECT_EQ(gpu::pick_memory_type(discrete, 1u << 1, HV | HC, DL), -1);         // none host-visible allowed
+  // lavapipe and integrated GPUs: one type that is everything; Auto maps.
+  const std::vector<uint32_t> unified = {DL | HV | HC | CA};
+  EXPECT_TRUE(gpu::unified_memory(unified));
+  EXPECT_EQ(gpu::pick_memory_type(unified, all, 0, DL, HV), 0);
+  EXPECT_EQ(gpu::pick_memory_type(unified, all, HV | HC, CA, DL), 0);
+}
+
 TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
   gpu::ContextOptions o;
   o.staging = gpu::Staging::Staged;

@@ -131,6 +131,18 @@ class Context {
   std::unique_ptr<Impl> impl_;
 };
 
+// Memory-type choice, from each type's VkMemoryPropertyFlags (bit 0 device-local, 1 host-visible,
+// 2 host-coherent, 3 host-cached) and the types a resource allows: the first type with all of
+// `need`, preferably also all of `prefer` and none of `avoid`, else with `prefer`, else any;
+// -1 when none has `need`. Storage buffers: need host-visible + coherent, prefer device-local
+// (mapped), or prefer device-local and avoid host-visible (staged); the staging buffer: need
+// host-visible + coherent, prefer cached, avoid device-local.
+int pick_memory_type(const std::vector<uint32_t>& type_flags, uint32_t allowed, uint32_t need, uint32_t prefer,
+                     uint32_t avoid = 0);
+// Whether some type is device-local, host-visible, coherent and cached at once (a CPU driver, an
+// integrated GPU): where mapping is free, so Staging::Auto maps.
+bool unified_memory(const std::vector<uint32_t>& type_flags);
+
 // A fresh token, never 0 and never given twice in the process: a stage that leaves its result in
 // a device buffer hands one out with the host copy, and a later stage given the same token reads
 // the buffer instead of uploading the host copy again (SceneStages::resident_radiance,
