@@ -88,9 +88,65 @@ void Context::Impl::free_staging() {
   staging_mapped = nullptr, staging = {}, staging_bytes = 0;
 }
 
-namespace {
-std::vector<uint32_t> type_flags(const VkPhysicalDeviceMemoryProperties& m);  // (with the buffers)
+// ---- memory types ------------------------------------------------------------------------
+
+int pick_memory_type(const std::vector<uint32_t>& type_flags, uint32_t allowed, uint32_t need, uint32_t prefer,
+                     uint32_t avoid) {
+  for (int pass = 0; pass < 3; ++pass)
+    for (size_t i = 0; i < type_flags.size() && i < 32; ++i) {
+      const uint32_t flags = type_flags[i];
+      const bool ok = (allowed & (1u << i)) && (flags & need) == need &&
+                      (pass == 2 || (flags & prefer) == prefer) && (pass >= 1 || (flags & avoid) == 0);
+      if (ok) return static_cast<int>(i);
+    }
+  return -1;
 }
+
+bool unified_memory(const std::vector<uint32_t>& type_flags) {
+  const uint32_t all = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  for (uint32_t f : type_flags)
+    if ((f & all) == all) return true;
+  return false;
+}
+
+namespace {
+std::vector<uint32_t> type_flags(const VkPhysicalDeviceMemoryProperties& m) {
+  std::vector<uint32_t> t(m.memoryTypeCount);
+  for (uint32_t i = 0; i < m.memoryTypeCount; ++i) t[i] = m.memoryTypes[i].propertyFlags;
+  return t;
+}
+// Creates out.buffer (`bytes`, `usage`) and binds memory of the type pick_memory_type() names
+// for (need, prefer, avoid); when that allocation fails (device memory or a small BAR window
+// full) any other allowed type with `need` is tried. Maps it into *mapped when given.
+void allocate(Context::Impl& C, size_t bytes, VkBufferUsageFlags usage, VkMemoryPropertyFlags need,
+              VkMemoryPropertyFlags prefer, VkMemoryPropertyFlags avoid, const char* what, Buffer::Impl& out,
+              void** mapped) {
+  auto& f = C.f;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.size = bytes;
+  bci.usage = usage;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &out.buffer), fmt::format("creating {}", what).c_str());
+  VkMemoryRequirements req;
+  f.vkGetBufferMemoryRequirements(C.device, out.buffer, &req);
+  const std::vector<uint32_t> types = type_flags(C.memory);
+  const int type = pick_memory_type(types, req.memoryTypeBits, need, prefer, avoid);
+  if (type < 0) fail(fmt::format("Vulkan: no memory type for {}", what));
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = static_cast<uint32_t>(type);
+  bool done = f.vkAllocateMemory(C.device, &mai, nullptr, &out.memory) == VK_SUCCESS;
+  for (uint32_t i = 0; i < types.size() && !done; ++i)
+    if ((req.memoryTypeBits & (1u << i)) && (types[i] & need) == need && static_cast<int>(i) != type) {
+      mai.memoryTypeIndex = i;
+      done = f.vkAllocateMemory(C.device, &mai, nullptr, &out.memory) == VK_SUCCESS;
+    }
+  if (!done) fail(fmt::format("Vulkan: allocating {} of {} MB failed", what, bytes >> 20));
+  vk::check(f.vkBindBufferMemory(C.device, out.buffer, out.memory, 0), fmt::format("binding {}", what).c_str());
+  if (mapped) vk::check(f.vkMapMemory(C.device, out.memory, 0, VK_WHOLE_SIZE, 0, mapped), fmt::format("mapping {}", what).c_str());
+}
+}  // namespace
 
 Context::Impl::~Impl() {
   if (device) {
@@ -312,76 +368,21 @@ Context& shared_context() {
 
 // ---- buffers -----------------------------------------------------------------------------
 
-int pick_memory_type(const std::vector<uint32_t>& type_flags, uint32_t allowed, uint32_t need, uint32_t prefer,
-                     uint32_t avoid) {
-  for (int pass = 0; pass < 3; ++pass)
-    for (size_t i = 0; i < type_flags.size() && i < 32; ++i) {
-      const uint32_t flags = type_flags[i];
-      const bool ok = (allowed & (1u << i)) && (flags & need) == need &&
-                      (pass == 2 || (flags & prefer) == prefer) && (pass >= 1 || (flags & avoid) == 0);
-      if (ok) return static_cast<int>(i);
-    }
-  return -1;
-}
-
-bool unified_memory(const std::vector<uint32_t>& type_flags) {
-  const uint32_t all = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
-  for (uint32_t f : type_flags)
-    if ((f & all) == all) return true;
-  return false;
-}
-
-namespace {
-std::vector<uint32_t> type_flags(const VkPhysicalDeviceMemoryProperties& m) {
-  std::vector<uint32_t> t(m.memoryTypeCount);
-  for (uint32_t i = 0; i < m.memoryTypeCount; ++i) t[i] = m.memoryTypes[i].propertyFlags;
-  return t;
-}
-int memory_type(const VkPhysicalDeviceMemoryProperties& m, uint32_t bits, VkMemoryPropertyFlags need,
-                VkMemoryPropertyFlags prefer, VkMemoryPropertyFlags avoid = 0) {
-  return pick_memory_type(type_flags(m), bits, need, prefer, avoid);
-}
-}  // namespace
-
 Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std::make_unique<Impl>()) {
   auto& C = ctx.impl();
-  auto& f = C.f;
-  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-  bci.size = std::max<size_t>(4, (bytes + 3) & ~size_t{3});  // storage buffers are read in words
-  bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-  if (C.staged) bci.usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-  vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &impl_->buffer), "creating a buffer");
-  VkMemoryRequirements req;
-  f.vkGetBufferMemoryRequirements(C.device, impl_->buffer, &req);
-  // Staged: device-local memory, reached by copies. Direct: host-visible and coherent, mapped
-  // once, preferably also device-local (a CPU driver's memory, a GPU's resizable BAR).
-  const VkMemoryPropertyFlags need =
-      C.staged ? 0 : VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  // Staged buffers stay out of host-visible device memory where they can: on a GPU without
-  // resizable BAR that window is 256 MB, better left to whoever needs mapping.
-  const int type = memory_type(C.memory, req.memoryTypeBits, need, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
-                               C.staged ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT : 0);
-  if (type < 0) fail("Vulkan: no memory type for storage buffers");
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = static_cast<uint32_t>(type);
-  if (f.vkAllocateMemory(C.device, &mai, nullptr, &impl_->memory) != VK_SUCCESS) {
-    // Device-local memory (or a small BAR window) full: fall back to any other allowed type.
-    bool done = false;
-    for (uint32_t i = 0; i < C.memory.memoryTypeCount && !done; ++i) {
-      const auto flags = C.memory.memoryTypes[i].propertyFlags;
-      if ((req.memoryTypeBits & (1u << i)) && (flags & need) == need && static_cast<int>(i) != type) {
-        mai.memoryTypeIndex = i;
-        done = f.vkAllocateMemory(C.device, &mai, nullptr, &impl_->memory) == VK_SUCCESS;
-      }
-    }
-    if (!done) fail(fmt::format("Vulkan: allocating a {} MB buffer failed", bytes >> 20));
-  }
-  vk::check(f.vkBindBufferMemory(C.device, impl_->buffer, impl_->memory, 0), "binding buffer memory");
-  if (!C.staged)
-    vk::check(f.vkMapMemory(C.device, impl_->memory, 0, VK_WHOLE_SIZE, 0, &mapped_), "mapping a buffer");
+  // Staged: device-local memory, reached by copies, kept out of host-visible device memory where
+  // it can be (on a GPU without resizable BAR that window is 256 MB, better left to mapping).
+  // Direct: host-visible and coherent, mapped once, preferably also device-local (a CPU driver's
+  // memory, a GPU's resizable BAR).
+  const size_t words = std::max<size_t>(4, (bytes + 3) & ~size_t{3});  // storage buffers are read in words
+  if (C.staged)
+    allocate(C, words,
+             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+             0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, "a buffer", *impl_, nullptr);
+  else
+    allocate(C, words, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+             VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+             VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, "a buffer", *impl_, &mapped_);
 }
 
 Buffer& BufferCache::get(const std::string& name, size_t bytes) {
@@ -409,26 +410,12 @@ constexpr size_t kStagingBytes = size_t{32} << 20;
 
 void ensure_staging(Context::Impl& C, size_t bytes) {
   if (C.staging_bytes >= bytes) return;
-  auto& f = C.f;
   C.free_staging();
-  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-  bci.size = bytes;
-  bci.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-  vk::check(f.vkCreateBuffer(C.device, &bci, nullptr, &C.staging.buffer), "creating the staging buffer");
-  VkMemoryRequirements req;
-  f.vkGetBufferMemoryRequirements(C.device, C.staging.buffer, &req);
-  // Host-cached where offered: the CPU reads downloads from it at memory speed.
-  const int type = memory_type(C.memory, req.memoryTypeBits,
-                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                               VK_MEMORY_PROPERTY_HOST_CACHED_BIT, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  if (type < 0) fail("Vulkan: no host-visible coherent memory type for the staging buffer");
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = static_cast<uint32_t>(type);
-  vk::check(f.vkAllocateMemory(C.device, &mai, nullptr, &C.staging.memory), "allocating the staging buffer");
-  vk::check(f.vkBindBufferMemory(C.device, C.staging.buffer, C.staging.memory, 0), "binding the staging buffer");
-  vk::check(f.vkMapMemory(C.device, C.staging.memory, 0, VK_WHOLE_SIZE, 0, &C.staging_mapped), "mapping the staging buffer");
+  // Host-cached and not device-local where offered: the CPU reads downloads from it at memory speed.
+  allocate(C, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+           VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+           VK_MEMORY_PROPERTY_HOST_CACHED_BIT, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "the staging buffer", C.staging,
+           &C.staging_mapped);
   C.staging_bytes = bytes;
 }
 

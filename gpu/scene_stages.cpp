@@ -58,9 +58,9 @@ std::array<float, 7> gaussian_taps(double sigma) {
 }
 }  // namespace
 
-void record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double fraction, int levels,
+bool record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double fraction, int levels,
                   BloomCache& cache) {
-  if (fraction <= 0 || levels <= 0 || W < 4 || H < 4) return;
+  if (fraction <= 0 || levels <= 0 || W < 4 || H < 4) return false;
   if (!cache || cache->w != W || cache->h != H || cache->levels != levels) {
     cache = BloomCache(new BloomBuffers);
     cache->w = W, cache->h = H, cache->levels = levels;
@@ -82,7 +82,7 @@ void record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double f
   }
   BloomBuffers& B = *cache;
   const int used = static_cast<int>(B.size.size()) - 1;
-  if (used == 0) return;
+  if (used == 0) return false;
   Kernel& down = ctx.kernel("bloom_down", 2, sizeof(BloomParams));
   Kernel& blur = ctx.kernel("bloom_blur", 2, sizeof(BloomParams));
   Kernel& up = ctx.kernel("bloom_up", 2, sizeof(BloomParams));
@@ -114,6 +114,7 @@ void record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double f
   mp.b = static_cast<float>(fraction / used);
   const Grid g = grid_1d(pixels(0));
   s.dispatch(mix, {B.acc[1].get(), &img}, mp, g.x, g.y, 1, "bloom mix");
+  return true;
 }
 
 ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms) {
@@ -250,8 +251,7 @@ scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const 
   if (n == 0) return out;
   const TailBuffers b = upload_tail(texture, lights, labels, depth);
   Sequence s(ctx_);
-  const bool bloomed = sp.bloom_fraction > 0 && sp.bloom_levels > 0 && W >= 4 && H >= 4;
-  if (bloomed) record_bloom(ctx_, s, *b.lights, W, H, sp.bloom_fraction, sp.bloom_levels, bloom_);
+  const bool bloomed = record_bloom(ctx_, s, *b.lights, W, H, sp.bloom_fraction, sp.bloom_levels, bloom_);
   // The darkened image for --maps: darken once more into its own buffer (compose darkens in place).
   if (keep_darkened)
     record_darken(ctx_, s, *b.texture, *b.labels, buffer("darkened", rgb_bytes), n, scene::darken_params(sp));

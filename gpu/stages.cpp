@@ -62,21 +62,18 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
   // The mirrored Bayer path (demosaic_detail.h bayer_path_ok); elsewhere every method is the
   // generic bilinear path, which the bilinear kernel holds.
   const bool bayer = p.planes_to_rgb <= 1 && w >= 2 && h >= 2;
-  auto kernel = [&](const char* name, int bindings, size_t params) -> Kernel& {
-    return ctx.kernel(name, bindings, params);
-  };
   auto part = [&](const char* what) { return label.empty() ? label : label + " (" + what + ")"; };
   switch (bayer ? method : DemosaicMethod::Bilinear) {
     case DemosaicMethod::Bilinear:
-      s.dispatch(kernel("demosaic_bilinear", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
+      s.dispatch(ctx.kernel("demosaic_bilinear", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
       break;
     case DemosaicMethod::Malvar:
-      s.dispatch(kernel("demosaic_malvar", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
+      s.dispatch(ctx.kernel("demosaic_malvar", 2, sizeof(p)), {&raw, &rgb}, p, g.x, g.y, 1, label);
       break;
     case DemosaicMethod::HamiltonAdams: {
       Buffer& green = scratch("demosaic_green", n * sizeof(float));
-      s.dispatch(kernel("demosaic_ha_green", 2, sizeof(p)), {&raw, &green}, p, g.x, g.y, 1, part("green"));
-      s.dispatch(kernel("demosaic_ha_colour", 3, sizeof(p)), {&raw, &rgb, &green}, p, g.x, g.y, 1, label);
+      s.dispatch(ctx.kernel("demosaic_ha_green", 2, sizeof(p)), {&raw, &green}, p, g.x, g.y, 1, part("green"));
+      s.dispatch(ctx.kernel("demosaic_ha_colour", 3, sizeof(p)), {&raw, &rgb, &green}, p, g.x, g.y, 1, label);
       break;
     }
     case DemosaicMethod::Lmmse: {
@@ -88,13 +85,13 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
       Buffer& sh = scratch("lmmse_sh", (w + 8) * h * sizeof(float));
       Buffer& d = scratch("lmmse_d", n * sizeof(float));
       const Grid gz = grid_1d((w + 16) * h), gl = grid_1d(n + (w + 8) * h);
-      s.dispatch(kernel("demosaic_lmmse_vobs", 2, sizeof(lp)), {&raw, &dv}, lp, g.x, g.y, 1, part("observations"));
-      s.dispatch(kernel("demosaic_lmmse_hobs", 2, sizeof(lp)), {&raw, &zh}, lp, gz.x, gz.y, 1, part("observations"));
-      s.dispatch(kernel("demosaic_lmmse_low", 5, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh}, lp, gl.x, gl.y, 1,
+      s.dispatch(ctx.kernel("demosaic_lmmse_vobs", 2, sizeof(lp)), {&raw, &dv}, lp, g.x, g.y, 1, part("observations"));
+      s.dispatch(ctx.kernel("demosaic_lmmse_hobs", 2, sizeof(lp)), {&raw, &zh}, lp, gz.x, gz.y, 1, part("observations"));
+      s.dispatch(ctx.kernel("demosaic_lmmse_low", 5, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh}, lp, gl.x, gl.y, 1,
                  part("low-pass"));
-      s.dispatch(kernel("demosaic_lmmse_fuse", 6, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh, &d}, lp, g.x, g.y, 1,
+      s.dispatch(ctx.kernel("demosaic_lmmse_fuse", 6, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh, &d}, lp, g.x, g.y, 1,
                  part("estimate"));
-      s.dispatch(kernel("demosaic_lmmse_colour", 3, sizeof(lp)), {&raw, &rgb, &d}, lp, g.x, g.y, 1, label);
+      s.dispatch(ctx.kernel("demosaic_lmmse_colour", 3, sizeof(lp)), {&raw, &rgb, &d}, lp, g.x, g.y, 1, label);
       break;
     }
   }

@@ -34,7 +34,9 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
 struct BloomBuffers;
 struct BloomBuffersDeleter { void operator()(BloomBuffers*) const; };
 using BloomCache = std::unique_ptr<BloomBuffers, BloomBuffersDeleter>;
-void record_bloom(Context& ctx, Sequence& s, Buffer& img, int w, int h, double fraction, int levels,
+// Returns whether anything was recorded (nothing for fraction or levels <= 0, or an image
+// narrower or shorter than 4 pixels, as bloom_in_place).
+bool record_bloom(Context& ctx, Sequence& s, Buffer& img, int w, int h, double fraction, int levels,
                   BloomCache& cache);
 void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
                    const scene::DarkenParams& d);
