@@ -51,6 +51,7 @@ bool has_demosaic_kernel(DemosaicMethod m) {
     case DemosaicMethod::Malvar:
     case DemosaicMethod::HamiltonAdams:
     case DemosaicMethod::Lmmse: return true;
+    case DemosaicMethod::Mlri: return false;
   }
   return false;
 }
@@ -94,6 +95,7 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
       s.dispatch(ctx.kernel("demosaic_lmmse_colour", 3, sizeof(lp)), {&raw, &rgb, &d}, lp, g.x, g.y, 1, label);
       break;
     }
+    case DemosaicMethod::Mlri: internal_error("record_demosaic: mlri has no kernels");
   }
 }
 
