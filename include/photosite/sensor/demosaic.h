@@ -58,12 +58,16 @@ void lmmse_gauss_weights(float out[9]);
 // parity, bit 1: other row parity).
 struct MlriConstants {
   float gw[5];                     // one-sided Gaussian weights (sigma 3 px), gw[4] at the centre
-  float tau_n_g[4], inv_n_g[4];    // green guided filters (5x5): tau / N and 1 / N per relation
+  float tau_n_g[2], inv_n_g[2];    // green guided filters (1-D, 9 taps): tau / N and 1 / N per relation
   float tau_n_b[4], inv_n_b[4];    // red/blue guided filters (7x7)
-  float inv_box_g, inv_box_b;      // 1/25, 1/49: the coefficient box means
+  float inv_box_g, inv_box_b;      // 1/9, 1/49: the coefficient box means
 };
 const MlriConstants& mlri_constants();
-int mlri_support_radius();  // pixels: how far a mosaic sample influences the output
+int mlri_support_radius();
+// demosaic_mlri's two builds of one body (baseline SSE2 and AVX2, picked at run time like LMMSE's);
+// bit-identical results. Exposed for the test that says so.
+ImageF demosaic_mlri_baseline(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()  // pixels: how far a mosaic sample influences the output
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
