@@ -28,12 +28,12 @@
 //    and one-sided 5-tap Gaussian (sigma 3 px) averages of the differences towards each side;
 //    green = X + combined difference at the R and B sites.
 // 3. Red and blue: one MLRI guided filter each on the full green plane, the sparse R (B) samples,
-//    L the 5-point cross Laplacian with step 2, window 7x7 (radius kRb = 3); residual interpolated
+//    L the 5-point cross Laplacian with step 2, window 5x5 (radius kRb = 2); residual interpolated
 //    bilinearly (3x3 [1/4 1/2 1/4; 1/2 1 1/2; 1/4 1/2 1/4]); measured samples kept as they are.
 // Regularization: sum L(I)^2 is clamped below at tau N mean_M(I)^2 (tau = 1e-3), a scale-free
 // form of the original's fixed floor on the mean squared Laplacian; where both are 0, a = 0.
 // Borders: the mosaic is extended by reflect-101 (parity-preserving: a valid mosaic of the
-// mirrored scene) and every stage runs on the extended frame; the support radius is 21 px.
+// mirrored scene) and every stage runs on the extended frame; the support radius is 23 px.
 //
 // Arithmetic: every window sum is separable, row (x) first then column (y), each a sum in
 // increasing offset order, so a value does not depend on how the frame is cut into tiles or
@@ -52,16 +52,16 @@ namespace photosite {
 namespace {
 
 constexpr int kRg = 4;       // green guided filters: 1-D window of 2 kRg + 1 along the direction
-constexpr int kRb = 3;       // red/blue guided filters: (2 kRb + 1)^2 window
+constexpr int kRb = 2;       // red/blue guided filters: (2 kRb + 1)^2 window
 // Margins of the stages around an output tile (each stage needs the previous one this far out).
-constexpr int kMGreen = 9;                    // green, for the red/blue stage (7 + Laplacian 2)
+constexpr int kMGreen = 2 * kRb + 3;         // green, for the red/blue stage (1 + 2 kRb + Laplacian 2)
 constexpr int kAcross = kMGreen + 1;          // directional differences across their direction
 constexpr int kMDif = kMGreen + 4;            // ... along it (one-sided 5-tap means)
 constexpr int kMQ = kMDif + 1;                // tentative estimates (residuals at +-1)
 constexpr int kMAb = kMQ + kRg;               // coefficients (their box mean)
 constexpr int kMLap = kMAb + kRg;             // Laplacian products (the window sums)
 constexpr int kMGuide = kMLap + 2;            // guides (the step-2 Laplacian)
-constexpr int kMargin = kMGuide + 1;          // = 25: the mosaic, and the support radius
+constexpr int kMargin = kMGuide + 1;          // = 23: the mosaic, and the support radius
 constexpr float kTau = 1e-3f;
 
 }  // namespace
@@ -70,7 +70,7 @@ namespace detail {
 // The float constants of MLRI, computed once, shared with the Vulkan kernels (push constants):
 //   gw[5]      one-sided Gaussian weights (sigma 3), gw[4] at the centre, sum 1
 //   tau_n_g[2] tau / N and inv_n_g[2] 1 / N of the green filters' two site relations (1-D)
-//   tau_n_b[4], inv_n_b[4] the same for the red/blue filters' four; inv_box_g = 1/9, inv_box_b = 1/49.
+//   tau_n_b[4], inv_n_b[4] the same for the red/blue filters' four; inv_box_g = 1/9, inv_box_b = 1/25.
 const MlriConstants& mlri_constants() {
   static const MlriConstants c = [] {
     MlriConstants k{};

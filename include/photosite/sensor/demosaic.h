@@ -59,8 +59,8 @@ void lmmse_gauss_weights(float out[9]);
 struct MlriConstants {
   float gw[5];                     // one-sided Gaussian weights (sigma 3 px), gw[4] at the centre
   float tau_n_g[2], inv_n_g[2];    // green guided filters (1-D, 9 taps): tau / N and 1 / N per relation
-  float tau_n_b[4], inv_n_b[4];    // red/blue guided filters (7x7)
-  float inv_box_g, inv_box_b;      // 1/9, 1/49: the coefficient box means
+  float tau_n_b[4], inv_n_b[4];    // red/blue guided filters (5x5)
+  float inv_box_g, inv_box_b;      // 1/9, 1/25: the coefficient box means
 };
 const MlriConstants& mlri_constants();
 int mlri_support_radius();
