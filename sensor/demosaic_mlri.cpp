@@ -102,6 +102,7 @@ const MlriConstants& mlri_constants() {
   return c;
 }
 int mlri_support_radius() { return kMargin; }
+MlriGeometry mlri_geometry() { return {kRg, kRb, kMLap, kMAb, kMQ, kMDif, kAcross, kMGreen, kMargin}; }
 }  // namespace detail
 
 

@@ -63,11 +63,19 @@ struct MlriConstants {
   float inv_box_g, inv_box_b;      // 1/9, 1/25: the coefficient box means
 };
 const MlriConstants& mlri_constants();
-int mlri_support_radius();
+// MLRI's stage margins around the frame (pixels), for the Vulkan dispatches: each stage is
+// computed this far beyond the frame (along / across the direction for the green stages).
+struct MlriGeometry {
+  int rg, rb;                          // green (1-D) and red/blue (2-D) window radii
+  int lap, ab, q, dif, across, green;  // green stages along the direction; across it; green
+  int margin;                          // the support radius: how far a mosaic sample reaches
+};
+MlriGeometry mlri_geometry();
+int mlri_support_radius();  // pixels: how far a mosaic sample influences the output
 // demosaic_mlri's two builds of one body (baseline SSE2 and AVX2, picked at run time like LMMSE's);
 // bit-identical results. Exposed for the test that says so.
 ImageF demosaic_mlri_baseline(const ImageF& mosaic, CfaPattern pattern);
-ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()  // pixels: how far a mosaic sample influences the output
+ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
