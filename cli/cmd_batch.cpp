@@ -160,6 +160,7 @@ void run(BatchCmd& c) {
       {"exposure_s", r.settings.exposure_s}, {"f_number", std::isnan(r.settings.f_number) ? -1.0 : r.settings.f_number},
       {"gain_db", r.settings.gain_db}, {"temperature_c", std::isnan(r.settings.temperature_c) ? -999.0 : r.settings.temperature_c},
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
+      {"poisson", to_string(r.settings.poisson)},
       {"format", c.format}, {"half", c.half}, {"compression", c.compression}};
   const std::string params_text = params.dump();
 

@@ -236,8 +236,9 @@ static Registrar reg("c-night", [](CLI::App& app) {
 
 namespace photosite::cli {
 void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings,
-              const std::string& backend) {
+              const std::string& backend, const std::string& poisson) {
   NightCmd c;
+  c.sensor.poisson = poisson;
   c.backend = backend;
   c.out = out;
   c.preview = preview;

@@ -21,6 +21,7 @@ void SensorOptions::add(CLI::App* sub, bool preset_required) {
                   "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE or "
                   "~/.local/share/photosite/devices)");
   sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
+  sub->add_option("--poisson", poisson, "shot-noise sampler: exact, cornish-fisher or normal")->capture_default_str();
 }
 
 SensorOptions::Resolved SensorOptions::resolve() const {
@@ -36,6 +37,7 @@ SensorOptions::Resolved SensorOptions::resolve() const {
   s.temperature_c = temperature_c;
   s.seed = seed;
   s.demosaic = parse_demosaic_method(demosaic);
+  s.poisson = parse_poisson_method(poisson);
   std::string id = device_id.empty() ? cam.name + "-0" : device_id;
   photosite::resolve(cam, l, s);  // validate the settings before any work
   return Resolved{std::move(cam), std::move(l), s, id, DeviceStore(device_store)};
@@ -60,7 +62,8 @@ std::map<std::string, ExrAttribute> sensor_attributes(const SensorOptions::Resol
           {"photosite/cfa", std::string(to_string(r.camera.cfa))},
           {"photosite/bit_depth", r.camera.bit_depth},
           {"photosite/black_level_dn", r.camera.black_level_dn},
-          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))}};
+          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))},
+          {"photosite/poisson", std::string(to_string(r.settings.poisson))}};
 }
 
 std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {

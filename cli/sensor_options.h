@@ -24,6 +24,7 @@ struct SensorOptions {
   std::string device_id;  // empty: "<preset>-0"
   std::string device_store;
   std::string demosaic = "bilinear";
+  std::string poisson = "exact";
 
   // Adds the options; `preset_required` for commands where --preset has no default.
   void add(CLI::App* sub, bool preset_required = true);
