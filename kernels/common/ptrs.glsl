@@ -24,7 +24,7 @@
 // Float care (what makes the float version exact up to its uniform grids):
 //  * k is formed as ⌊μ⌋ + ⌊(2a/u_s + b)U + (μ − ⌊μ⌋ + 0.43)⌋: the lattice boundaries are found
 //    on a number of size ~σ, not ~μ (at μ = 1e6 the float spacing near μ is 1/16, which would
-//    move each boundary by up to 1/32 of a count);
+//    move the boundaries by up to 1/32 of a count);
 //  * log p(k) for k >= 10 is Loader's saddle-point form (C. Loader, "Fast and accurate
 //    computation of binomial probabilities", 2000):
 //      log p(k) = −stirlerr(k) − bd0(k, μ) − ½ log(2πk),
@@ -92,37 +92,58 @@ PS_FN PtrsCandidate ptrs_candidate(PtrsSetup s, uint wu, uint wv) {
   return c;
 }
 
-// log p(k) for Poisson(μ), k >= 0 an integer (the header comment's forms). Both forms are
-// evaluated and one is selected, so the function has no data-dependent branch.
-PS_FN float ptrs_log_pmf(PtrsSetup s, float k) {
-  // k < 10: k! = Π_{j<=k} j exactly in float (<= 362880 < 2^24), as a product of selects (no
-  // table: a table lookup is a gather, which keeps the C++ loop from vectorizing).
+// log p(k) for Poisson(μ), k >= 0 an integer (the header comment's forms), as r − log q, so that
+// the acceptance test log(V·(1/α)/h) <= log p(k) takes one logarithm: log(V·(1/α)/h·q) <= r.
+//   k < 10:  q = k!,          r = −μ + k log μ
+//   k >= 10: q = √(2πk),      r = −stirlerr(k) − bd0(k, μ)
+// Both forms are evaluated and one is selected (no data-dependent branch, so the C++ loop
+// vectorizes); the one logarithm they need is log μ or log(k/μ), selected likewise.
+struct PtrsPmf {
+  float q, r;
+};
+
+PS_FN PtrsPmf ptrs_pmf(PtrsSetup s, float k) {
+  const bool low = k < 10.0f;
+  // k! = Π_{j<=k} j, exact in float (<= 362880 < 2^24), as a product of selects (no table: a
+  // table lookup is a gather, which keeps the C++ loop from vectorizing).
   precise float fact = 1.0f;
   for (int j = 2; j <= 9; ++j) fact *= float(j) <= k ? float(j) : 1.0f;
-  precise float small = -s.mu + k * fast_log(s.mu) - fast_log(fact);
-  // k >= 10: Loader's form.
   precise float kk = max(k, 10.0f);
-  precise float d = kk - s.mu;   // exact when k and μ are within a factor 2 (Sterbenz)
+  precise float d = kk - s.mu;  // exact when k and μ are within a factor 2 (Sterbenz)
   precise float sum = kk + s.mu;
   precise float v = d / sum;
   precise float v2 = v * v;
   precise float series = d * v + 2.0f * kk * v * (v2 * (0.333333343f + v2 * (0.200000003f + v2 * (0.142857149f +
                          v2 * (0.111111112f + v2 * (0.0909090936f + v2 * (0.0769230798f + v2 * (0.0666666701f +
                          v2 * (0.0588235296f + v2 * 0.0526315793f)))))))));
-  precise float direct = kk * fast_log(kk / s.mu) + (s.mu - kk);
+  precise float lg = fast_log(low ? s.mu : kk / s.mu);
+  precise float direct = kk * lg + (s.mu - kk);
   precise float bd0 = abs(d) < 0.25f * sum ? series : direct;
-  precise float r = 1.0f / kk;
-  precise float r2 = r * r;
-  precise float stirlerr = r * (0.0833333358f - r2 * (0.00277777785f - r2 * 0.000793650805f));
-  precise float large = -(stirlerr + bd0) - 0.5f * fast_log(6.28318548f * kk);
-  return k < 10.0f ? small : large;
+  precise float rk = 1.0f / kk;
+  precise float rk2 = rk * rk;
+  precise float stirlerr = rk * (0.0833333358f - rk2 * (0.00277777785f - rk2 * 0.000793650805f));
+  precise float q = low ? fact : sqrt(6.28318548f * kk);
+  precise float r = low ? -s.mu + k * lg : -(stirlerr + bd0);
+  PtrsPmf p;
+  p.q = q;
+  p.r = r;
+  return p;
+}
+
+// log p(k) itself (for the tests).
+PS_FN float ptrs_log_pmf(PtrsSetup s, float k) {
+  const PtrsPmf p = ptrs_pmf(s, k);
+  precise float l = p.r - fast_log(p.q);
+  return l;
 }
 
 // The full acceptance test of a candidate with verdict 0.
 PS_FN bool ptrs_accept(PtrsSetup s, PtrsCandidate c) {
-  precise float hat = s.a / (c.us * c.us) + s.b;
-  precise float lhs = fast_log(c.v * s.inv_alpha / hat);
-  return lhs <= ptrs_log_pmf(s, c.k);
+  const PtrsPmf p = ptrs_pmf(s, c.k);
+  // V·(1/α)/h with h = a/u_s² + b = (a + b u_s²)/u_s²: one division.
+  precise float us2 = c.us * c.us;
+  precise float lhs = fast_log(c.v * s.inv_alpha * us2 / (s.a + s.b * us2) * p.q);
+  return lhs <= p.r;
 }
 
 // One whole attempt: k >= 0 when accepted, −1 when rejected.
