@@ -19,7 +19,7 @@
 //   reject if k < 0, or u_s < 0.013 and V > u_s;
 //   else accept iff log(V·(1/α)/(a/u_s² + b)) <= log p(k) = −μ + k log μ − log k!.
 // The transformed hat h(U) = (2a/u_s + b)U + μ + 0.43 dominates the pmf scaled by α, so the
-// accepted k are exactly Poisson(μ); about 1/α ≈ 1.12-1.15 attempts are needed per draw.
+// accepted k are exactly Poisson(μ); most draws need one attempt.
 //
 // Float care (what makes the float version exact up to its uniform grids):
 //  * k is formed as ⌊μ⌋ + ⌊(2a/u_s + b)U + (μ − ⌊μ⌋ + 0.43)⌋: the lattice boundaries are found
@@ -157,8 +157,9 @@ PS_FN float ptrs_attempt(PtrsSetup s, uint wu, uint wv) {
 // Retries draw fresh words from the same (seed, frame, pixel) Philox counter with the stream
 // word stream + r·kPtrsRetryStreamStep, r = 1 .. kPtrsMaxRetryCalls (every named stream is
 // below 256, so these never meet another stream). Each call's four words give two attempts:
-// (w0, w1) then (w2, w3). The first attempt uses the pixel's own words 0, 1. The chance that
-// all 1 + 2·31 attempts fail is below 0.25^63 < 1e-37; the mode ⌊μ⌋ is returned then.
+// (w0, w1) then (w2, w3). The first attempt uses the pixel's own words 0, 1. An attempt is
+// rejected with probability below 0.25 (the worst case, μ = 10), so the chance that all
+// 1 + 2·31 attempts fail is below 0.25^63 < 1e-37; the mode ⌊μ⌋ is returned then.
 const uint kPtrsRetryStreamStep = 256u;
 const int kPtrsMaxRetryCalls = 31;
 
