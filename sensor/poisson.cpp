@@ -187,15 +187,25 @@ void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, con
     verdict[i] = high ? c.verdict : 1.f;  // lanes below 10: left to the inversion
   }
 }
+// The compacted passes run whole vectors: their counts are rounded up to a multiple of 8 by the
+// caller, the extra lanes holding harmless values (pad8), so no lane falls into a scalar
+// epilogue loop (an attempt costs ~8x more there).
+inline int round8(int n) { return (n + 7) & ~7; }
+template <class T>
+inline void pad8(T* a, int n, T value) {
+  for (int i = n; i < round8(n); ++i) a[i] = value;
+}
 __attribute__((target_clones("avx2", "default")))
 void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const float* __restrict us,
                     const float* __restrict v, float* __restrict accepted, int m) {
+  if (m % 8 != 0) __builtin_unreachable();
   for (int i = 0; i < m; ++i)
     accepted[i] = detail::ptrs_accept(detail::ptrs_setup(mu[i]), detail::PtrsCandidate{k[i], us[i], v[i], 0.f}) ? 1.f : 0.f;
 }
 __attribute__((target_clones("avx2", "default")))
 void ptrs_attempts(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                    float* __restrict k, int m) {
+  if (m % 8 != 0) __builtin_unreachable();
   for (int i = 0; i < m; ++i) k[i] = detail::ptrs_attempt(detail::ptrs_setup(mu[i]), wu[i], wv[i]);
 }
 
@@ -264,7 +274,8 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     cus[j] = us[i];
     cv[j] = v[i];
   }
-  ptrs_full_test(cmu, ck, cus, cv, acc, nu);
+  pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
+  ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
   for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
   // Pass 3: the rejected lanes retried, compacted, until each is accepted: per retry call, the
   // first attempt on all of them, the second on those the first rejected.
@@ -279,8 +290,9 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     phi[j] = static_cast<uint32_t>(pixel >> 32);
   }
   for (int r = 1; nr > 0 && r <= detail::kPtrsMaxRetryCalls; ++r) {
-    philox_list(key, frame, plo, phi, detail::ptrs_retry_stream(stream, r), nr, r0, r1, r2, r3);
-    ptrs_attempts(cmu, r0, r1, ck, nr);
+    pad8(cmu, nr, 10.f), pad8(plo, nr, 0u), pad8(phi, nr, 0u);
+    philox_list(key, frame, plo, phi, detail::ptrs_retry_stream(stream, r), round8(nr), r0, r1, r2, r3);
+    ptrs_attempts(cmu, r0, r1, ck, round8(nr));
     for (int j = 0; j < nr; ++j) again[j] = ck[j] < 0.f ? 1.f : 0.f;
     const int n2 = select_lanes(again, nr, sel2);
     for (int t = 0; t < n2; ++t) {
@@ -288,7 +300,8 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
       q2[t] = r2[sel2[t]];
       q3[t] = r3[sel2[t]];
     }
-    ptrs_attempts(qmu, q2, q3, cv, n2);
+    pad8(qmu, n2, 10.f), pad8(q2, n2, 0u), pad8(q3, n2, 0u);
+    ptrs_attempts(qmu, q2, q3, cv, round8(n2));
     for (int t = 0; t < n2; ++t) ck[sel2[t]] = cv[t];
     int left = 0;
     for (int j = 0; j < nr; ++j) {
