@@ -27,16 +27,19 @@ const float kInverseInteger[64] = {
 namespace {
 constexpr int kBlock = 256;
 
+// rng.h's scalar Philox for one pixel, its four words stored at index j of w0..w3.
+inline void philox_one(uint64_t key, uint32_t frame, uint64_t pixel, uint32_t stream, int j, uint32_t* w0,
+                       uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  const auto w = random_words(key, frame, pixel, static_cast<Stream>(stream));
+  w0[j] = w[0];
+  w1[j] = w[1];
+  w2[j] = w[2];
+  w3[j] = w[3];
+}
 // Philox4x32-10 over a block of consecutive pixels, bit-identical to rng.h's scalar Philox.
 void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
                          uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  for (int j = 0; j < n; ++j) {
-    const auto w = random_words(key, frame, first_pixel + j, static_cast<Stream>(stream));
-    w0[j] = w[0];
-    w1[j] = w[1];
-    w2[j] = w[2];
-    w3[j] = w[3];
-  }
+  for (int j = 0; j < n; ++j) philox_one(key, frame, first_pixel + j, stream, j, w0, w1, w2, w3);
 }
 
 // The same, 8 pixels at a time with AVX2: _mm256_mul_epu32 forms the 32x32->64 products of the
@@ -109,14 +112,8 @@ void philox_list(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const u
                  uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
   int j = 0;
   if (kHaveAvx2) philox_list_avx2(key, frame, pixel_lo, pixel_hi, stream, j = n & ~7, w0, w1, w2, w3);
-  for (; j < n; ++j) {
-    const auto w = random_words(key, frame, (static_cast<uint64_t>(pixel_hi[j]) << 32) | pixel_lo[j],
-                                static_cast<Stream>(stream));
-    w0[j] = w[0];
-    w1[j] = w[1];
-    w2[j] = w[2];
-    w3[j] = w[3];
-  }
+  for (; j < n; ++j)
+    philox_one(key, frame, (static_cast<uint64_t>(pixel_hi[j]) << 32) | pixel_lo[j], stream, j, w0, w1, w2, w3);
 }
 
 __attribute__((target_clones("avx2", "default")))
@@ -168,10 +165,9 @@ void rounded_normal(const float* mean, const float* z, float* out, int n) {
 // candidate from its own words 0, 1 and the squeeze (lanes below mean 10 run it on 10 and are
 // overwritten by the inversion); (2) the full acceptance test on the lanes the squeeze left
 // undecided, compacted; (3) the rejected lanes, compacted, retried on their retry streams, two
-// attempts per Philox call, until none is left. Compaction is branch-free (every lane is
-// written, the count advances by the condition): the verdicts are random, branches on them
-// would mispredict. Each lane's result is detail::ptrs_sample's, whatever the block, the
-// thread or the other lanes.
+// attempts per Philox call, until none is left. Compaction is branch-free (select_lanes): the
+// verdicts are random, branches on them would mispredict. Each lane's result is
+// detail::ptrs_sample's, whatever the block, the thread or the other lanes.
 __attribute__((target_clones("avx2", "default")))
 void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                 float* __restrict mu, float* __restrict k, float* __restrict us, float* __restrict v,
