@@ -1,7 +1,8 @@
 // From mean photo-electrons to DN, photosite::sense() operation for operation (sensor/pipeline.cpp):
 //   μ = signal·PRNU + dark·(dark-rate factor)           (float)
 //   e = min(Poisson(μ), full well)                      (one Philox call: words 0,1 the Poisson
-//                                                        draw, words 2,3 the read-noise normal)
+//                                                        draw, words 2,3 the read-noise normal;
+//                                                        PTRS retries draw on retry streams)
 //   v = e + DSNU + σ_read·z + row + column              (double)
 //   DN = clamp(⌊v·K + black + ½⌋, 0, 2^bits − 1)        (double)
 // Row and column noise are one normal per row / column per frame, drawn on the host (w + h
