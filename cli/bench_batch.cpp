@@ -12,7 +12,8 @@
 #include <fmt/format.h>
 
 #include "bench.h"
-#include "night_output.h"
+#include "photosite/outputs.h"
+#include "sensor_options.h"
 #include "photosite/batch.h"
 #include "photosite/error.h"
 #include "registry.h"

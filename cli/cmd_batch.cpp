@@ -31,7 +31,8 @@
 #include "photosite/batch.h"
 #include "photosite/error.h"
 #include "photosite/sensor/isp.h"
-#include "night_output.h"
+#include "photosite/outputs.h"
+#include "sensor_options.h"
 #include "backend.h"
 #include "registry.h"
 

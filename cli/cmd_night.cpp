@@ -14,7 +14,7 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
-#include "night_output.h"
+#include "photosite/outputs.h"
 #include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"

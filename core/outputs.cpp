@@ -1,6 +1,35 @@
-#include "night_output.h"
+// The EXR layers and header attributes of sensor outputs and night frames (see outputs.h).
+#include "photosite/outputs.h"
 
-namespace photosite::cli {
+namespace photosite {
+
+std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
+                                                      const ResolvedExposure& ex,
+                                                      const FixedPatternMaps& fpn) {
+  return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
+          {"photosite/preset", r.camera.name},
+          {"photosite/lens", r.lens.name},
+          {"photosite/device_id", r.device_id},
+          {"photosite/fpn_checksum", fpn.checksum},
+          {"photosite/seed", std::to_string(r.settings.seed)},
+          {"photosite/frame", static_cast<int>(r.settings.frame)},
+          {"photosite/exposure_s", ex.exposure_s},
+          {"photosite/f_number", ex.f_number},
+          {"photosite/gain_db", ex.gain_db},
+          {"photosite/gain", ex.gain_linear},
+          {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
+          {"photosite/temperature_c", ex.temperature_c},
+          {"photosite/cfa", std::string(to_string(r.camera.cfa))},
+          {"photosite/bit_depth", r.camera.bit_depth},
+          {"photosite/black_level_dn", r.camera.black_level_dn},
+          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))}};
+}
+
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {
+  return {{{"raw.Y"}, &out.raw_dn, unit::dn},
+          {{"R", "G", "B"}, &out.rgb, "DN above black level"},
+          {{"electrons.Y"}, &out.electrons, unit::electrons}};
+}
 
 ImageF label_image(const scene::LabelMap& labels) {
   ImageF img(labels.ids.width(), labels.ids.height(), 1, 0.f, unit::label_id);
@@ -18,7 +47,7 @@ std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene
   return groups;
 }
 
-std::map<std::string, ExrAttribute> night_attributes(const SensorOptions::Resolved& r,
+std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
                                                      const ResolvedExposure& ex,
                                                      const FixedPatternMaps& fpn,
                                                      const scene::ScenePreset& sp,
@@ -47,4 +76,4 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorOptions::Resolv
   return attrs;
 }
 
-}  // namespace photosite::cli
+}  // namespace photosite
