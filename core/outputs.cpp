@@ -26,9 +26,12 @@ std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
 }
 
 std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {
-  return {{{"raw.Y"}, &out.raw_dn, unit::dn},
+  // raw.Y (ADC codes) and electrons.Y (counted charges) are integers: UINT channels, exact. R,G,B
+  // (demosaiced, fractional DN up to 2^bit_depth) stay float32: half's 11-bit significand would
+  // step 2 DN at 4095, coarser than the ADC.
+  return {{{"raw.Y"}, &out.raw_dn, unit::dn, ExrPixel::Uint},
           {{"R", "G", "B"}, &out.rgb, "DN above black level"},
-          {{"electrons.Y"}, &out.electrons, unit::electrons}};
+          {{"electrons.Y"}, &out.electrons, unit::electrons, ExrPixel::Uint}};
 }
 
 ImageF label_image(const scene::LabelMap& labels) {
@@ -41,9 +44,14 @@ std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene
                                             const ImageF& label_img) {
   auto groups = sensor_channels(out);
   groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
-  groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless});
+  // depth.Z as half: the coarse depth runs 0..1 along each ray from the vanishing point, so one
+  // pixel's step is at least 1/2290 at 2048x1024 (the longest ray); half's spacing is at most
+  // 2^-11 = 1/2048 in [0.5, 1) and finer below, about one step per pixel at the border and
+  // exact ordering everywhere. night_radiance and lights stay float32: physical radiances
+  // whose range is set by the scene preset, not bounded by half's [6.1e-5, 65504] normal range.
+  groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
   groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
-  groups.push_back({{"labels.Y"}, &label_img, unit::label_id});
+  groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
   return groups;
 }
 

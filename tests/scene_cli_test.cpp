@@ -23,6 +23,10 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   for (const char* ch : {"raw.Y", "R", "G", "B", "electrons.Y", "night_radiance.R", "night_radiance.G",
                          "night_radiance.B", "depth.Z", "lights.R", "lights.G", "lights.B", "labels.Y"})
     EXPECT_EQ(e.channels.count(ch), 1u) << ch;
+  // Integer layers are UINT, depth is half, the radiometric layers float32 (docs/cli.md).
+  for (const char* ch : {"raw.Y", "electrons.Y", "labels.Y"}) EXPECT_EQ(e.pixel_types.at(ch), ExrPixel::Uint) << ch;
+  EXPECT_EQ(e.pixel_types.at("depth.Z"), ExrPixel::Half);
+  for (const char* ch : {"R", "night_radiance.G", "lights.B"}) EXPECT_EQ(e.pixel_types.at(ch), ExrPixel::Float) << ch;
   for (const char* at : {"photosite/night/vanishing_point_x", "photosite/night/vanishing_point_y",
                          "photosite/night/vanishing_point_confidence",
                          "photosite/night/vanishing_point_method", "photosite/scene/ambient.moon_lux",
