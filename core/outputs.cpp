@@ -1,7 +1,51 @@
 // The EXR layers and header attributes of sensor outputs and night frames (see outputs.h).
 #include "photosite/outputs.h"
 
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
 namespace photosite {
+
+namespace {
+constexpr std::pair<const char*, Layer> kLayerNames[] = {
+    {"sensor", Layer::Sensor}, {"raw", Layer::Raw},       {"electrons", Layer::Electrons},
+    {"radiance", Layer::Radiance}, {"lights", Layer::Lights}, {"depth", Layer::Depth},
+    {"labels", Layer::Labels}};
+}  // namespace
+
+LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::string& what,
+                      const std::string& command) {
+  LayerSet s = 0;
+  size_t b = 0;
+  while (b <= list.size()) {
+    size_t e = list.find(',', b);
+    if (e == std::string::npos) e = list.size();
+    const std::string name = list.substr(b, e - b);
+    b = e + 1;
+    if (name.empty()) continue;
+    bool known = false;
+    for (const auto& [n, l] : kLayerNames)
+      if (name == n) {
+        known = true;
+        if (!has(applicable, l))
+          fail(fmt::format("{} {}: {} does not write the layer '{}' (it writes {})", what, list, command, name,
+                           layers_text(applicable)));
+        s |= static_cast<unsigned>(l);
+      }
+    if (!known)
+      fail(fmt::format("{} {}: unknown layer '{}' (layers: {})", what, list, name, layers_text(applicable)));
+  }
+  if (s == 0) fail(fmt::format("{} '{}': no layer named", what, list));
+  return s;
+}
+
+std::string layers_text(LayerSet s) {
+  std::string t;
+  for (const auto& [n, l] : kLayerNames)
+    if (has(s, l)) t += (t.empty() ? "" : ",") + std::string(n);
+  return t;
+}
 
 std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
                                                       const ResolvedExposure& ex,
@@ -25,13 +69,15 @@ std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
           {"photosite/demosaic", std::string(to_string(r.settings.demosaic))}};
 }
 
-std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out, LayerSet layers) {
   // raw.Y (ADC codes) and electrons.Y (counted charges) are integers: UINT channels, exact. R,G,B
   // (demosaiced, fractional DN up to 2^bit_depth) stay float32: half's 11-bit significand would
   // step 2 DN at 4095, coarser than the ADC.
-  return {{{"raw.Y"}, &out.raw_dn, unit::dn, ExrPixel::Uint},
-          {{"R", "G", "B"}, &out.rgb, "DN above black level"},
-          {{"electrons.Y"}, &out.electrons, unit::electrons, ExrPixel::Uint}};
+  std::vector<ExrChannelGroup> g;
+  if (has(layers, Layer::Raw)) g.push_back({{"raw.Y"}, &out.raw_dn, unit::dn, ExrPixel::Uint});
+  if (has(layers, Layer::Sensor)) g.push_back({{"R", "G", "B"}, &out.rgb, "DN above black level"});
+  if (has(layers, Layer::Electrons)) g.push_back({{"electrons.Y"}, &out.electrons, unit::electrons, ExrPixel::Uint});
+  return g;
 }
 
 ImageF label_image(const scene::LabelMap& labels) {
@@ -41,17 +87,17 @@ ImageF label_image(const scene::LabelMap& labels) {
 }
 
 std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
-                                            const ImageF& label_img) {
-  auto groups = sensor_channels(out);
-  groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
+                                            const ImageF& label_img, LayerSet layers) {
+  auto groups = sensor_channels(out, layers);
+  if (has(layers, Layer::Radiance)) groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
   // depth.Z as half: the coarse depth runs 0..1 along each ray from the vanishing point, so one
   // pixel's step is at least 1/2290 at 2048x1024 (the longest ray); half's spacing is at most
   // 2^-11 = 1/2048 in [0.5, 1) and finer below, about one step per pixel at the border and
   // exact ordering everywhere. night_radiance and lights stay float32: physical radiances
   // whose range is set by the scene preset, not bounded by half's [6.1e-5, 65504] normal range.
-  groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
-  groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
-  groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
+  if (has(layers, Layer::Depth)) groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
+  if (has(layers, Layer::Lights)) groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
+  if (has(layers, Layer::Labels)) groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
   return groups;
 }
 
