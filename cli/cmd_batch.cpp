@@ -85,7 +85,7 @@ struct BatchCmd {
   int compute_threads = 0;  // 0: OpenMP's default (every hardware thread)
   SensorOptions sensor;
   std::string backend = "auto";
-  std::string layers;  // empty: every layer
+  std::string layers;  // empty: kBatchLayers
 };
 
 struct Loaded {
@@ -126,7 +126,7 @@ void run(BatchCmd& c) {
   if (c.dataset.empty() == c.manifest.empty()) fail("batch: give either --dataset with --root, or --manifest");
   if (!c.dataset.empty() && c.root.empty()) fail("batch: --dataset needs --root");
   if (c.format != "exr" && c.format != "png" && c.format != "both") fail("--format must be exr, png or both");
-  const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "batch");
+  const LayerSet layers = c.layers.empty() ? kBatchLayers : parse_layers(c.layers, kNightLayers, "--layers", "batch");
   if (c.jobs < 1 || c.jobs > 64) fail("--jobs must be in [1, 64]");
   if (c.queue_depth < 1 || c.queue_depth > 64) fail("--queue-depth must be in [1, 64]");
   if (c.compute_threads < 0 || c.compute_threads > 256) fail("--compute-threads must be in [0, 256]");
@@ -392,7 +392,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--out", c->out, "output folder (mirrors the data set's layout)")->required();
   sub->add_option("--shard", c->shard, "I/N: process the I-th of N deterministic shards")->capture_default_str();
   sub->add_option("--format", c->format, "exr, png (preview) or both")->capture_default_str();
-  sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
+  sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: sensor,raw,electrons,depth,labels)");
   sub->add_flag("--half", c->half, "store EXR channels as half floats");
   sub->add_option("--compression", c->compression, "EXR compression (zip, piz, dwaa, none, ...)")->capture_default_str();
   sub->add_option("--jobs", c->jobs, "writer threads")->capture_default_str();

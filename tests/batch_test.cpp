@@ -221,7 +221,7 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
   test::TempDir dir;
   make_kitti(dir.path() / "kitti", 2, 2);
   const std::string root = (dir.path() / "kitti").string();
-  const std::string common = " --dataset kitti --root '" + root + "' --format exr --quiet --seed 4 --device-store '" +
+  const std::string common = " --dataset kitti --root '" + root + "' --format exr --layers sensor,raw,electrons,radiance,lights,depth,labels --quiet --seed 4 --device-store '" +
                              dir.file("store") + "'";
   for (const char* b : {"cpu", "vulkan"}) {
     auto r = test::run_cli(std::string("batch --backend ") + b + common + " --out '" + dir.file(b) + "'");

@@ -35,6 +35,10 @@ constexpr bool has(LayerSet s, Layer l) { return (s & static_cast<unsigned>(l)) 
 // radiance; night and batch every layer.
 constexpr LayerSet kExposeLayers = 1 | 2 | 4 | 8;
 constexpr LayerSet kNightLayers = 127;
+// batch's default: what a training set needs (sensor, raw, electrons, depth, labels) without the
+// two float32 radiance layers (6 of 13 channels, most of the bytes and the write time:
+// docs/benchmarks.md, "batch").
+constexpr LayerSet kBatchLayers = 1 | 2 | 4 | 32 | 64;
 // Parses a comma list of layer names ("sensor,labels"). Bad input (naming `what`, e.g. the flag)
 // for an unknown name, a layer outside `applicable` (named with `command`), or an empty list.
 LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::string& what,
