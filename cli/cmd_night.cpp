@@ -14,7 +14,7 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
-#include "night_output.h"
+#include "photosite/outputs.h"
 #include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
@@ -30,6 +30,7 @@ struct NightCmd {
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
   std::string backend = "auto";
+  std::string layers;  // empty: every layer
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -93,6 +94,7 @@ void write_maps(const std::string& dir, const ImageF& day, const scene::LabelMap
 }
 
 void run_night(NightCmd c) {
+  const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -168,7 +170,7 @@ void run_night(NightCmd c) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn, mean_e_on_device);
     lap("sensor: noise, ADC, demosaic");
-    const auto groups = night_channels(out, ns, label_img);
+    const auto groups = night_channels(out, ns, label_img, layers);
     const auto attrs = night_attributes(r, ex, fpn, sp, ns, labels, {c.image, c.labels, c.instances});
     ExrWriteOptions wo;
     wo.half = c.half;
@@ -219,6 +221,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_flag("--timings", c.timings, "print the per-stage time table");
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");
+  sub->add_option("--layers", c.layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
   c.sensor.add(sub, false);
   add_backend_option(sub, c.backend);
   add_overwrite_flag(sub, c.overwrite);

@@ -183,6 +183,30 @@ TEST(Batch, ManifestItemsAndBadInput) {
   EXPECT_NE(r.output.find("no labels"), std::string::npos) << r.output;
 }
 
+// --layers: the EXR holds the chosen layers, the manifest records the set, a rerun with another
+// set into the same folder is refused, and an unknown name is bad input before any file.
+TEST(Batch, LayersAreWrittenRecordedAndChecked) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 1, 0);
+  const std::string base = "batch --dataset kitti --root '" + dir.file("kitti") + "' --quiet --out '" + dir.file("o") + "'";
+  auto r = test::run_cli(base + " --layers raw,labels");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents e = read_exr(dir.file("o/image_2/000000_10.exr"));
+  EXPECT_EQ(e.channels.size(), 2u);
+  EXPECT_EQ(e.pixel_types.at("raw.Y"), ExrPixel::Uint);
+  EXPECT_EQ(e.pixel_types.at("labels.Y"), ExrPixel::Uint);
+  std::ifstream m(dir.file("o/.photosite-batch/shard-0-of-1.jsonl"));
+  const std::string manifest((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
+  EXPECT_NE(manifest.find("\"layers\":\"raw,labels\""), std::string::npos) << manifest;
+  r = test::run_cli(base + " --layers raw");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = test::run_cli("batch --dataset kitti --root '" + dir.file("kitti") + "' --quiet --out '" + dir.file("o2") +
+                    "' --layers raw,bogus");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("unknown layer 'bogus'"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir.file("o2/image_2/000000_10.exr")));
+}
+
 // `batch --backend vulkan` runs darken, bloom and compose on the device for every image (one set
 // of device buffers reused across images, sizes differing): the same images as the CPU run,
 // within the night chain's tolerance (docs/vulkan.md).
@@ -197,7 +221,7 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
   test::TempDir dir;
   make_kitti(dir.path() / "kitti", 2, 2);
   const std::string root = (dir.path() / "kitti").string();
-  const std::string common = " --dataset kitti --root '" + root + "' --format exr --quiet --seed 4 --device-store '" +
+  const std::string common = " --dataset kitti --root '" + root + "' --format exr --layers sensor,raw,electrons,radiance,lights,depth,labels --quiet --seed 4 --device-store '" +
                              dir.file("store") + "'";
   for (const char* b : {"cpu", "vulkan"}) {
     auto r = test::run_cli(std::string("batch --backend ") + b + common + " --out '" + dir.file(b) + "'");

@@ -132,8 +132,11 @@ TEST(Cli, ExposeWritesTheContractChannelsAndFrames) {
   EXPECT_EQ(a.attributes["photosite/frame"], "0");
   EXPECT_EQ(b.attributes["photosite/frame"], "1");
   EXPECT_NE(a.channels["raw.Y"].vec(), b.channels["raw.Y"].vec());
-  // Raw DN is integer-valued and includes the black level.
+  // Raw DN is integer-valued and includes the black level; raw and electrons are UINT channels.
   for (float v : a.channels["raw.Y"].vec()) ASSERT_EQ(v, std::floor(v));
+  EXPECT_EQ(a.pixel_types.at("raw.Y"), ExrPixel::Uint);
+  EXPECT_EQ(a.pixel_types.at("electrons.Y"), ExrPixel::Uint);
+  EXPECT_EQ(a.pixel_types.at("radiance.R"), ExrPixel::Float);
   // The same command again (other file name) reproduces frame 0 bit for bit.
   r = test::run_cli("expose --radiance '" + dir.file("scene.exr") + "' --preset sony-imx490 --out '" +
                     dir.file("again.exr") + "' --seed 5 " + store);

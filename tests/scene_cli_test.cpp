@@ -23,6 +23,10 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   for (const char* ch : {"raw.Y", "R", "G", "B", "electrons.Y", "night_radiance.R", "night_radiance.G",
                          "night_radiance.B", "depth.Z", "lights.R", "lights.G", "lights.B", "labels.Y"})
     EXPECT_EQ(e.channels.count(ch), 1u) << ch;
+  // Integer layers are UINT, depth is half, the radiometric layers float32 (docs/cli.md).
+  for (const char* ch : {"raw.Y", "electrons.Y", "labels.Y"}) EXPECT_EQ(e.pixel_types.at(ch), ExrPixel::Uint) << ch;
+  EXPECT_EQ(e.pixel_types.at("depth.Z"), ExrPixel::Half);
+  for (const char* ch : {"R", "night_radiance.G", "lights.B"}) EXPECT_EQ(e.pixel_types.at(ch), ExrPixel::Float) << ch;
   for (const char* at : {"photosite/night/vanishing_point_x", "photosite/night/vanishing_point_y",
                          "photosite/night/vanishing_point_confidence",
                          "photosite/night/vanishing_point_method", "photosite/scene/ambient.moon_lux",
@@ -156,4 +160,37 @@ TEST(SceneNightCli, FramesKeepTheirLightsAndVaryTheNoise) {
   EXPECT_EQ(a.channels.at("night_radiance.G").vec(), b.channels.at("night_radiance.G").vec());
   EXPECT_NE(a.channels.at("raw.Y").vec(), b.channels.at("raw.Y").vec());  // temporal noise
   EXPECT_EQ(a.attributes.at("photosite/fpn_checksum"), b.attributes.at("photosite/fpn_checksum"));
+}
+
+TEST(SceneNightCli, LayersSelectsTheChannelsAndRefusesUnknownOrInapplicableNames) {
+  test::TempDir d;
+  const std::string store = "--device-store '" + d.file("store") + "'";
+  auto r = test::run_cli("night --out '" + d.file("sl.exr") + "' --layers sensor,labels " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents e = read_exr(d.file("sl.exr"));
+  std::vector<std::string> names;
+  for (const auto& [n, img] : e.channels) names.push_back(n);
+  EXPECT_EQ(names, (std::vector<std::string>{"B", "G", "R", "labels.Y"}));
+  EXPECT_EQ(e.pixel_types.at("labels.Y"), ExrPixel::Uint);
+  // An unknown name, and a layer the command does not write, are bad input: exit 2, no file.
+  r = test::run_cli("night --out '" + d.file("bad.exr") + "' --layers sensor,nosuch " + store);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("unknown layer 'nosuch'"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d.file("bad.exr")));
+  test::TempDir x;
+  const std::string radiance = x.file("rad.exr");
+  ImageF rad(16, 8, 3, 1.f);
+  write_exr(radiance, {{{"R", "G", "B"}, &rad, "W.sr-1.m-2"}}, {});
+  r = test::run_cli("expose --radiance '" + radiance + "' --preset sony-imx490 --out '" + x.file("e.exr") +
+                    "' --layers raw,lights " + store);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("expose does not write the layer 'lights'"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(x.file("e.exr")));
+  r = test::run_cli("expose --radiance '" + radiance + "' --preset sony-imx490 --out '" + x.file("e.exr") +
+                    "' --layers raw,electrons " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents ee = read_exr(x.file("e.exr"));
+  EXPECT_EQ(ee.channels.size(), 2u);
+  EXPECT_EQ(ee.pixel_types.at("raw.Y"), ExrPixel::Uint);
+  EXPECT_EQ(ee.pixel_types.at("electrons.Y"), ExrPixel::Uint);
 }
