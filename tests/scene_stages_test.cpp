@@ -3,10 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <omp.h>
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/spectrum.h"
+#include "photosite/error.h"
+#include "test_util.h"
 
 using namespace photosite;
 using namespace photosite::scene;
@@ -265,4 +269,35 @@ TEST(SceneChain, IndependentOfThreadCount) {
   EXPECT_EQ(a.radiance.vec(), b.radiance.vec());
   EXPECT_EQ(a.depth.vec(), b.depth.vec());
   EXPECT_EQ(a.vp.x, b.vp.x);
+}
+
+// The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_fraction,
+// lamps.window_cool_cct_K), not from constants in the code: all-warm windows equal all-cool
+// windows at the same CCT, and moving the cool CCT changes the light map.
+TEST(SceneLights, WindowColourSplitComesFromThePreset) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  ScenePreset warm = preset();
+  warm.window_warm_fraction = 1.0;
+  ScenePreset cool_same = preset();
+  cool_same.window_warm_fraction = 0.0;
+  cool_same.window_cool_cct_K = cool_same.window_cct_K;
+  ScenePreset cool_blue = cool_same;
+  cool_blue.window_cool_cct_K = 6500.0;
+  const NightScene a = night_scene(s.day_linear_srgb, s.labels, warm, 7);
+  const NightScene b = night_scene(s.day_linear_srgb, s.labels, cool_same, 7);
+  const NightScene c = night_scene(s.day_linear_srgb, s.labels, cool_blue, 7);
+  ASSERT_GT(a.light_stats.windows, 0);
+  EXPECT_EQ(a.lights.vec(), b.lights.vec());
+  EXPECT_NE(a.lights.vec(), c.lights.vec());
+  // The urban preset with the fraction out of [0, 1] is refused (the range is checked).
+  std::stringstream urban;
+  urban << std::ifstream(std::string(PHOTOSITE_PRESET_DIR) + "/scenes/night-urban.toml").rdbuf();
+  std::string text = urban.str();
+  const auto at = text.find("window_warm_fraction = 0.7");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 26, "window_warm_fraction = 1.5");
+  test::TempDir dir;
+  { std::ofstream(dir.file("bad.toml")) << text; }
+  EXPECT_THROW(load_scene_preset(dir.file("bad.toml")), Error);
 }
