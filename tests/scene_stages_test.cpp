@@ -53,8 +53,25 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const double b_expect = p.rho_construction * (amb + p.street_vertical_fraction * e_street) / M_PI;
   EXPECT_NEAR(sum_b / n_b, b_expect, 0.05 * b_expect);
   EXPECT_NEAR(sum_sky / n_sky, p.sky_luminance_cd_m2, 0.05 * p.sky_luminance_cd_m2);
-  // Texture survives: lane markings are brighter than the asphalt around them.
-  EXPECT_GT(dark.at(int(o.width / 2 - 0.5 * o.width * 1 / 6.0 + 0.5), o.height - 2, 1), 0.f);
+  // Texture survives: within the road class each night channel is the day channel times one
+  // factor (reflectance texture = ρ·day_k/class mean_k per channel of the day image in box RGB,
+  // lit by one illuminance), so in box-RGB green the brightest (lane marking) and darkest (asphalt) road pixels of a row keep their day contrast,
+  // to float32 rounding of a handful of operations (relative 1e-4 bounds it generously: each
+  // rounding is ≤ 6e-8).
+  const int y = o.height - 2;
+  int mark = -1, asphalt = -1;
+  for (int x = 0; x < o.width; ++x) {
+    if (s.labels.ids.at(x, y) != int(Label::Road)) continue;
+    const size_t i = size_t(y) * o.width + x;
+    if (mark < 0 || luminance(s.day_linear_srgb, i) > luminance(s.day_linear_srgb, size_t(y) * o.width + mark)) mark = x;
+    if (asphalt < 0 || luminance(s.day_linear_srgb, i) < luminance(s.day_linear_srgb, size_t(y) * o.width + asphalt)) asphalt = x;
+  }
+  ASSERT_GE(mark, 0);
+  const size_t im = size_t(y) * o.width + mark, ia = size_t(y) * o.width + asphalt;
+  const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
+  const double day_contrast = double(box[3 * im + 1]) / box[3 * ia + 1];
+  ASSERT_GT(day_contrast, 2.0);  // the synthetic road has painted markings on this row
+  EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 1e-4 * day_contrast);
 }
 
 TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
