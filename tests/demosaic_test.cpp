@@ -191,25 +191,29 @@ double kodak_cpsnr(const std::string& file, DemosaicMethod m) {
   return 10 * std::log10(255.0 * 255.0 / (se / n));
 }
 
-TEST(Demosaic, KodakCpsnrStaysAboveMeasuredFloors) {
+TEST(Demosaic, KodakCpsnrRanksTheMethodsAsPublished) {
   PHOTOSITE_REQUIRE_SHARED("data/kodak24");
   const auto dir = test::shared_dir() / "data/kodak24";
-  // Floors about 0.1 dB under the values measured when the methods were written (kodim 1, 8, 19:
-  // detailed, the hardest for demosaicing).
-  struct Floor { DemosaicMethod m; double dB[3]; };
-  const Floor floors[] = {
-      {DemosaicMethod::Bilinear, {26.24, 23.52, 27.97}},       // measured 26.34, 23.62, 28.07
-      {DemosaicMethod::Malvar, {31.99, 29.10, 33.56}},         // 32.09, 29.20, 33.66
-      {DemosaicMethod::HamiltonAdams, {33.67, 32.12, 37.17}},  // 33.78, 32.22, 37.27
-      {DemosaicMethod::Lmmse, {39.63, 36.72, 41.07}},          // 39.74, 36.82, 41.17
-  };
+  // No floor fitted to today's numbers: the published ranking must hold on each of the three
+  // hardest Kodak images (kodim 1, 8, 19: fine detail and fences), every step by at least
+  // 0.5 dB: Malvar-He-Cutler over bilinear (Malvar, He, Cutler, ICASSP 2004, report over 5.5 dB
+  // on Kodak), edge-directed Hamilton-Adams over the non-adaptive Malvar filter, and Zhang-Wu's
+  // directional LMMSE (IEEE TIP 14(12), 2005) over the Hamilton-Adams family it was compared
+  // with. docs/demosaic.md has the 24-image means from `photosite bench demosaic`.
+  // Bilinear's CPSNR must also be above 20 dB: a broken mosaic phase drops it to ~10-15 dB.
+  const DemosaicMethod order[] = {DemosaicMethod::Bilinear, DemosaicMethod::Malvar,
+                                  DemosaicMethod::HamiltonAdams, DemosaicMethod::Lmmse};
   const char* files[3] = {"kodim01.png", "kodim08.png", "kodim19.png"};
-  for (const auto& f : floors)
-    for (int i = 0; i < 3; ++i) {
-      const double p = kodak_cpsnr((dir / files[i]).string(), f.m);
-      std::printf("%s %s %.3f dB\n", to_string(f.m), files[i], p);
-      EXPECT_GT(p, f.dB[i]) << to_string(f.m) << " on " << files[i];
+  for (const char* file : files) {
+    double prev = 0;
+    for (size_t k = 0; k < std::size(order); ++k) {
+      const double p = kodak_cpsnr((dir / file).string(), order[k]);
+      std::printf("%s %s %.3f dB\n", to_string(order[k]), file, p);
+      if (k == 0) EXPECT_GT(p, 20.0) << file;
+      else EXPECT_GT(p, prev + 0.5) << to_string(order[k]) << " on " << file;
+      prev = p;
     }
+  }
 }
 
 TEST(DemosaicCli, RoundTripMatchesTheLibraryAndListsMethods) {
