@@ -197,19 +197,3 @@ TEST(Cli, BadInputExitsTwoAndLeavesNoOutput) {
   for (const auto& e : std::filesystem::directory_iterator(dir.path()))
     EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
 }
-
-TEST(Cli, TwoProcessesCreatingOneDeviceShareOneMap) {
-  test::TempDir dir;
-  const std::string common = " --photons 100 --wavelength-nm 525 --preset sony-imx490 --width 512 --height 384 "
-                             "--frames 1 --device-id race --device-store '" + dir.file("store") + "'";
-  // Started together in the background by one shell, so they race for the same map.
-  const std::string cmd = std::string("'") + PHOTOSITE_BIN + "' flat" + common + " --out '" + dir.file("a.exr") +
-                          "' & '" + PHOTOSITE_BIN + "' flat" + common + " --out '" + dir.file("b.exr") + "' & wait";
-  ASSERT_EQ(std::system(("bash -c \"" + cmd + "\" > /dev/null 2>&1").c_str()), 0);
-  auto a = read_exr(dir.file("a.exr")), b = read_exr(dir.file("b.exr"));
-  EXPECT_EQ(a.attributes["photosite/fpn_checksum"], b.attributes["photosite/fpn_checksum"]);
-  size_t maps = 0;
-  for (const auto& e : std::filesystem::recursive_directory_iterator(dir.file("store")))
-    maps += e.path().extension() == ".exr";
-  EXPECT_EQ(maps, 1u);
-}
