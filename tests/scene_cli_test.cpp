@@ -6,6 +6,8 @@
 
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
+#include "photosite/scene/scene_preset.h"
+#include "photosite/sensor/spectrum.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -35,14 +37,30 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_EQ(e.width, 1224);
   EXPECT_EQ(e.height, 370);
   EXPECT_TRUE(fs::exists(d.file("n.png")));
-  // The road is lit: its radiance luminance is around the M3 target (1 cd/m²) plus the beam.
+  // The road is lit: its mean luminance is the scene preset's EN 13201 M-class target plus
+  // the moon and skyglow it reflects (L = L_street + ρ_road·E_amb/π: darken holds the class
+  // mean to that, SceneDarken.ClassMeansHitReflectanceTimesIlluminance) plus the ego low beam,
+  // which only adds and is at most ρ_road·E_beam/π (E_beam: the beam's road illuminance at the
+  // bottom row, its brightest). The lower bound allows 3% for the texture cap (pixels capped at
+  // 5/ρ lose their excess), the same bound the stage test derives.
+  const ScenePreset sp = load_scene_preset("night-urban");
+  const double l_class = sp.street_road_luminance_cd_m2 + sp.rho_road * (sp.moon_lux + sp.skyglow_lux) / M_PI;
+  const double l_beam_max = sp.rho_road * sp.beam_road_lux / M_PI;
   const ImageF& lab = e.channels.at("labels.Y");
-  const ImageF& g = e.channels.at("night_radiance.G");
+  const ImageF& rr = e.channels.at("night_radiance.R");
+  const ImageF& rg = e.channels.at("night_radiance.G");
+  const ImageF& rb = e.channels.at("night_radiance.B");
+  const ImageF &lr = e.channels.at("lights.R"), &lg = e.channels.at("lights.G"), &lb = e.channels.at("lights.B");
   double sum = 0, n = 0;
   for (size_t i = 0; i < lab.pixel_count(); ++i)
-    if (lab[i] == 7) { sum += g[i]; ++n; }
+    if (lab[i] == 7) {  // road, without the light map (lamps and their glare) composed onto it
+      const float c[3] = {rr[i] - lr[i], rg[i] - lg[i], rb[i] - lb[i]};
+      sum += spectrum::luminance_cd_m2(c);
+      ++n;
+    }
   ASSERT_GT(n, 1000);
-  EXPECT_GT(sum / n, 0.0);
+  EXPECT_GT(sum / n, 0.97 * l_class);
+  EXPECT_LT(sum / n, l_class + l_beam_max);
   // Same seed and scene: identical radiance (lights included) on a second run.
   auto r2 = test::run_cli("night --out '" + d.file("m.exr") + "' " + store);
   ASSERT_EQ(r2.exit_code, 0) << r2.output;
