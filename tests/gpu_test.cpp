@@ -156,9 +156,18 @@ TEST_F(Gpu, PoissonDrawsHaveThePoissonMeanAndVariance) {
 
 // Compiled with or without the backend: a build or machine without Vulkan fails here (unless
 // PHOTOSITE_ALLOW_NO_VULKAN=1), so the GPU tests never go missing silently.
+// Where the backend is built, the device it opened meets what the kernels need and reports
+// itself consistently: Vulkan 1.1 or later (encoded major << 22 | minor << 12, the spec's
+// VK_MAKE_API_VERSION), a known device type, the CPU flag set exactly for a CPU device (it decides
+// what `auto` picks), and a positive timestamp period wherever timestamps are offered.
 TEST_F(Gpu, BackendIsBuiltAndADeviceOpens) {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  EXPECT_NE(ctx, nullptr);
+  const gpu::DeviceInfo& d = ctx->device();
+  EXPECT_GE(d.api_version, (1u << 22) | (1u << 12)) << d.name;
+  const std::string type = d.type;
+  EXPECT_TRUE(type == "discrete" || type == "integrated" || type == "virtual" || type == "cpu" || type == "other") << type;
+  EXPECT_EQ(d.cpu, type == "cpu") << d.name;
+  if (d.timestamps) EXPECT_GT(d.timestamp_period_ns, 0.0) << d.name;
 #endif
 }
 
