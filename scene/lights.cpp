@@ -392,7 +392,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         const auto w = random_words(seed, 0, static_cast<uint64_t>(j) * 65536u + i, Stream::Scene);
         if (uniform_open(w[0]) >= p.window_lit_fraction) continue;
         const double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-        const double cct = uniform_open(w[2]) < p.window_warm_fraction ? p.window_cct_K : p.window_cool_cct_K;
+        const double cct = uniform_open(w[2]) < p.window_warm_share ? p.window_cct_K : p.window_cool_cct_K;
         const Rgb col = blackbody(cct, lum);
         for (int y = y0; y <= y1; ++y)
           for (int x = x0; x <= x1; ++x)

@@ -288,16 +288,16 @@ TEST(SceneChain, IndependentOfThreadCount) {
   EXPECT_EQ(a.vp.x, b.vp.x);
 }
 
-// The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_fraction,
+// The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_share,
 // lamps.window_cool_cct_K), not from constants in the code: all-warm windows equal all-cool
 // windows at the same CCT, and moving the cool CCT changes the light map.
 TEST(SceneLights, WindowColourSplitComesFromThePreset) {
   SyntheticOptions o;
   SyntheticScene s = make_synthetic_road(o);
   ScenePreset warm = preset();
-  warm.window_warm_fraction = 1.0;
+  warm.window_warm_share = 1.0;
   ScenePreset cool_same = preset();
-  cool_same.window_warm_fraction = 0.0;
+  cool_same.window_warm_share = 0.0;
   cool_same.window_cool_cct_K = cool_same.window_cct_K;
   ScenePreset cool_blue = cool_same;
   cool_blue.window_cool_cct_K = 6500.0;
@@ -311,9 +311,9 @@ TEST(SceneLights, WindowColourSplitComesFromThePreset) {
   std::stringstream urban;
   urban << std::ifstream(std::string(PHOTOSITE_PRESET_DIR) + "/scenes/night-urban.toml").rdbuf();
   std::string text = urban.str();
-  const auto at = text.find("window_warm_fraction = 0.7");
+  const auto at = text.find("window_warm_share = 0.7");
   ASSERT_NE(at, std::string::npos);
-  text.replace(at, 26, "window_warm_fraction = 1.5");
+  text.replace(at, 23, "window_warm_share = 1.5");
   test::TempDir dir;
   { std::ofstream(dir.file("bad.toml")) << text; }
   EXPECT_THROW(load_scene_preset(dir.file("bad.toml")), Error);
