@@ -72,6 +72,40 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const double day_contrast = double(box[3 * im + 1]) / box[3 * ia + 1];
   ASSERT_GT(day_contrast, 2.0);  // the synthetic road has painted markings on this row
   EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 1e-4 * day_contrast);
+  {
+  // Texture survives: within the road class every pixel is the day colour times one class scale,
+  // times the illuminant tint t_k, times the illuminance, so in each row (one illuminance, however
+  // the lighting varies with distance) the markings' luminance over the asphalt's is
+  // Σ K_k t_k m_k / Σ K_k t_k a_k for the box colours m and a: a weighted mean of the channel
+  // ratios m_k / a_k with positive weights, hence between their least and greatest (synthetic.cpp:
+  // asphalt 0.08, 0.08, 0.085 and markings 0.8, 0.8, 0.78, linear sRGB). Float rounding: 1e-5.
+  const double asphalt_srgb[3] = {0.08, 0.08, 0.085}, marking_srgb[3] = {0.8, 0.8, 0.78};
+  const auto& M = spectrum::linear_srgb_to_box();
+  double lo = 1e300, hi = 0;
+  for (int k = 0; k < 3; ++k) {
+    double a = 0, m = 0;
+    for (int j = 0; j < 3; ++j) a += M[k][j] * asphalt_srgb[j], m += M[k][j] * marking_srgb[j];
+    ASSERT_GT(a, 0);
+    lo = std::min(lo, m / a), hi = std::max(hi, m / a);
+  }
+  int rows = 0;
+  for (int y = o.height - 40; y < o.height; ++y) {
+    double sm = 0, nm = 0, sa = 0, na = 0;
+    for (int x = 0; x < o.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * o.width + x;
+      if (s.labels.ids[i] != int(Label::Road)) continue;
+      const float g = s.day_linear_srgb.at(x, y, 1);
+      if (g == 0.8f) sm += luminance(dark, i), ++nm;
+      if (g == 0.08f) sa += luminance(dark, i), ++na;
+    }
+    if (nm == 0 || na == 0) continue;
+    ++rows;
+    const double ratio = (sm / nm) / (sa / na);
+    EXPECT_GE(ratio, lo * (1 - 1e-5)) << "row " << y;
+    EXPECT_LE(ratio, hi * (1 + 1e-5)) << "row " << y;
+  }
+  EXPECT_GE(rows, 20);  // markings in most of the bottom rows (the dashes are long there)
+  }
 }
 
 TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
