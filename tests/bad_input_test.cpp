@@ -182,9 +182,9 @@ void move_map(const Ctx& c, const std::string& from_preset, int fw, int fh, cons
   fs::rename(map_path(c, from_preset, fw, fh), map_path(c, to_preset, tw, th));
 }
 // Runs the command as an unprivileged user when the tests run as root (root ignores permissions).
-// That user (65534) may be unable to enter the build folder (a checkout in root's 0700 home), so
-// the binary and the presets it reads are copied into the test's own folder, readable by all, and
-// the copy is pointed at them with PHOTOSITE_PRESET_DIR (sensor/preset.cpp; the Vulkan kernels are
+// That user (65534) cannot read the presets in a checkout under root's 0700 home (nor, there,
+// open the build folder), so the binary and the presets are copied into the test's own folder,
+// readable by all, and pointed at with PHOTOSITE_PRESET_DIR (sensor/preset.cpp; the Vulkan kernels are
 // compiled into the binary). `bin` empty: run the build's binary as the current user.
 struct AsUser {
   std::string prefix, bin, skip_reason;

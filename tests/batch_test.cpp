@@ -238,6 +238,7 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
     const auto a = read_exr(e.path().string()).channels;
     const auto v = read_exr((dir.path() / "vulkan" / rel).string()).channels;
     ASSERT_EQ(a.size(), v.size()) << rel;
+    const double raw_bound = test::differing_sensor_samples_bound(a, v);
     for (const auto& [name, img] : a) {
       const ImageF& w = v.at(name);
       ASSERT_EQ(img.size(), w.size()) << rel << " " << name;
@@ -248,10 +249,17 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
         worst = std::max(worst, std::fabs(static_cast<double>(img[i]) - w[i]));
         differ += img[i] != w[i];
       }
+      // Light map and radiance: bloom's float sums in another order. Sensor layers: only where
+      // that rounding moved a noise draw (test_util.h); labels and depth bit-equal. Demosaiced
+      // RGB (bilinear, a 3×3 neighbourhood): at most 9 × 3 samples per differing raw sample.
       if (name.rfind("lights", 0) == 0 || name.rfind("night_radiance", 0) == 0)
         EXPECT_LE(worst, 2e-6 * peak) << rel << " " << name;
+      else if (name.rfind("labels", 0) == 0 || name.rfind("depth", 0) == 0)
+        EXPECT_EQ(differ, 0u) << rel << " " << name;
+      else if (name == "raw.Y" || name == "electrons.Y")
+        EXPECT_LE(static_cast<double>(differ), raw_bound) << rel << " " << name;
       else
-        EXPECT_LE(differ, img.size() / 1000) << rel << " " << name;
+        EXPECT_LE(static_cast<double>(differ), 27 * raw_bound) << rel << " " << name;
     }
     ++files;
   }
