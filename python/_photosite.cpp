@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <optional>
 
+#include <OpenEXR/ImfThreading.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
@@ -428,10 +429,26 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
   write_exr(path, groups, attrs, wo);
 }
 
+
+// OpenEXR's global thread pool is not fork-safe: a forked child (a DataLoader worker) inherits
+// the pool's bookkeeping but not its threads, and its first EXR read (the device store's
+// fixed-pattern maps) waits on them for ever. The package's os.register_at_fork hooks stop the
+// pool before a fork, so the child reads EXRs in the calling thread, and restart it in the parent.
+int exr_threads_before_fork = -1;
+void before_fork() {
+  exr_threads_before_fork = Imf::globalThreadCount();
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(0);
+}
+void after_fork_in_parent() {
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(exr_threads_before_fork);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_photosite, m) {
   m.doc() = "photosite's C++ library (the extension under the photosite package)";
+  m.def("_before_fork", &before_fork);
+  m.def("_after_fork_in_parent", &after_fork_in_parent);
 
   py::register_exception_translator([](std::exception_ptr p) {
     try {
