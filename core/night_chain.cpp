@@ -69,9 +69,15 @@ ImageF image_from_codes(const void* codes, int bits, int width, int height, int 
   if (bits != 8 && bits != 16) internal_error("image_from_codes: bits must be 8 or 16");
   ImageF img(width, height, channels, uninitialized);
   const OIIO::TypeDesc src = bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-  if (!OIIO::convert_pixel_values(src, codes, OIIO::TypeDesc::FLOAT, img.data(),
-                                  static_cast<int>(img.size())))
-    internal_error("image_from_codes: conversion failed");
+  // Rows in parallel: each sample's conversion is independent, so the result is the same.
+  const int row = width * channels;
+  const size_t row_bytes = static_cast<size_t>(row) * (bits / 8);
+  bool ok = true;
+#pragma omp parallel for schedule(static) reduction(&& : ok)
+  for (int y = 0; y < height; ++y)
+    ok = ok && OIIO::convert_pixel_values(src, static_cast<const char*>(codes) + y * row_bytes,
+                                          OIIO::TypeDesc::FLOAT, img.row(y), row);
+  if (!ok) internal_error("image_from_codes: conversion failed");
   return img;
 }
 

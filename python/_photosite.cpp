@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <optional>
 
+#include <OpenEXR/ImfThreading.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
@@ -118,7 +119,9 @@ py::array_t<T> to_array(Image<T>&& img) {
 
 ImageU16 raw_codes(const ImageF& raw_dn) {  // integer-valued DN (0..2^bit_depth-1) as uint16
   ImageU16 r(raw_dn.width(), raw_dn.height(), 1, uninitialized, unit::dn);
-  for (size_t i = 0; i < r.size(); ++i) r[i] = static_cast<uint16_t>(raw_dn[i]);
+  const int64_t n = static_cast<int64_t>(r.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) r[i] = static_cast<uint16_t>(raw_dn[i]);
   return r;
 }
 
@@ -175,7 +178,9 @@ struct NightResult {
   py::array_t<uint16_t> labels;
   py::tuple vanishing_point;
   SensorResult sensor;
-  double chain_ms = 0;  // the library chain's own time (labels decode .. sensor), for the bench
+  // The library chain's own time: labels_from_codes, make_backend, prepare_night, night_frame,
+  // night_attributes and releasing the intermediates (for `photosite bench python`).
+  double chain_ms = 0;
 };
 
 // ---- the camera ---------------------------------------------------------------------------
@@ -294,9 +299,13 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     SensorRunner runner = make_backend(backend, "backend");
     chain.emplace(prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, frame));
-    r.chain_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
                              {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : ""});
+    // The intermediates no output keeps are released here, as a C++ caller's scope would.
+    chain->mean_e = ImageF();
+    chain->fpn = FixedPatternMaps();
+    chain->scene.darkened = ImageF();
+    r.chain_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   scene::NightScene& ns = chain->scene;
   r.vanishing_point = py::make_tuple(ns.vp.x, ns.vp.y, ns.vp.confidence, scene::vp_method_name(ns.vp.method));
@@ -428,10 +437,26 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
   write_exr(path, groups, attrs, wo);
 }
 
+
+// OpenEXR's global thread pool is not fork-safe: a forked child (a DataLoader worker) inherits
+// the pool's bookkeeping but not its threads, and its first EXR read (the device store's
+// fixed-pattern maps) waits on them for ever. The package's os.register_at_fork hooks stop the
+// pool before a fork, so the child reads EXRs in the calling thread, and restart it in the parent.
+int exr_threads_before_fork = -1;
+void before_fork() {
+  exr_threads_before_fork = Imf::globalThreadCount();
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(0);
+}
+void after_fork_in_parent() {
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(exr_threads_before_fork);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_photosite, m) {
   m.doc() = "photosite's C++ library (the extension under the photosite package)";
+  m.def("_before_fork", &before_fork);
+  m.def("_after_fork_in_parent", &after_fork_in_parent);
 
   py::register_exception_translator([](std::exception_ptr p) {
     try {

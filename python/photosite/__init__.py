@@ -18,6 +18,7 @@ line prints. Computation releases the GIL.
 """
 from __future__ import annotations
 
+import os
 from typing import Optional, Union
 
 import numpy as np
@@ -25,6 +26,10 @@ import numpy as np
 from . import _photosite
 from ._photosite import Camera, NightResult, SensorResult
 from . import presets
+
+# Fork safety (DataLoader workers, multiprocessing): OpenEXR's thread pool is stopped before a
+# fork and restarted in the parent, so a forked child reads EXRs without it (_photosite.cpp).
+os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent)
 
 __all__ = ["Camera", "NightResult", "SensorResult", "night", "demosaic", "characterize", "read_exr",
            "write_exr", "read_image", "read_codes", "presets"]
