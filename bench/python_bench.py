@@ -76,29 +76,21 @@ def overhead(pair, repeats, store):
     return statistics.median(walls), statistics.median(chains), day.shape
 
 
-class NightPairs:
-    """A map-style dataset (len, getitem) of night frames, at module level so that spawned
-    DataLoader workers can unpickle it."""
-
-    def __init__(self, pairs, store):
-        from photosite.torch import NightTransform
-        self.pairs = pairs
-        self.t = NightTransform(camera="onsemi-ar0331", seed=1, output="raw", device_store=store, backend="cpu")
-
-    def __len__(self):
-        return len(self.pairs)
-
-    def __getitem__(self, i):
-        return self.t(load(self.pairs[i]), index=i)
-
-
 def loader_rate(pairs, workers, store):
     import torch
+    from photosite.torch import NightTransform
 
-    # Spawned workers: libgomp (the library's OpenMP runtime) is not fork-safe once the parent
-    # has run a parallel region, as overhead() has (photosite/torch.py).
-    dl = torch.utils.data.DataLoader(NightPairs(pairs, store), batch_size=None, num_workers=workers,
-                                     multiprocessing_context="spawn" if workers else None)
+    class DS(torch.utils.data.Dataset):
+        def __init__(self):
+            self.t = NightTransform(camera="onsemi-ar0331", seed=1, output="raw", device_store=store, backend="cpu")
+
+        def __len__(self):
+            return len(pairs)
+
+        def __getitem__(self, i):
+            return self.t(load(pairs[i]), index=i)
+
+    dl = torch.utils.data.DataLoader(DS(), batch_size=None, num_workers=workers)
     t0 = time.perf_counter()
     n = sum(1 for _ in dl)
     return n / (time.perf_counter() - t0)

@@ -39,8 +39,7 @@ def main():
     ds = CityscapesNight(pathlib.Path(a.root), NightTransform(camera="onsemi-ar0331", seed=0, output="raw"), a.frames)
     if len(ds) == 0:
         raise SystemExit(f"no Cityscapes frames under {a.root}")
-    dl = torch.utils.data.DataLoader(ds, batch_size=2, num_workers=a.workers,
-                                     multiprocessing_context="spawn" if a.workers else None)  # libgomp is not fork-safe
+    dl = torch.utils.data.DataLoader(ds, batch_size=2, num_workers=a.workers)
     t0 = time.perf_counter()
     n = 0
     for raw, labels in dl:  # a training step would go here

@@ -5,10 +5,6 @@
     image, target = t((day_uint8_hwc, labels_hw), index=i)   # or in a Dataset: t.for_index(i)
 
 torch is optional: importing photosite works without it; this module needs it.
-
-DataLoader workers: start them with ``multiprocessing_context="spawn"`` (or "forkserver").
-GCC's OpenMP runtime (libgomp), which photosite's parallel loops use, is not fork-safe: a worker
-forked after the parent has run any photosite call blocks in its first parallel region.
 """
 from __future__ import annotations
 

@@ -28,12 +28,7 @@ class PairDataset(torch.utils.data.Dataset):
 
 
 def run_loader(ds, workers):
-    # Worker processes are started with "spawn": GCC's OpenMP runtime (libgomp), which the
-    # library's parallel loops use, is not fork-safe once a parallel region has run in the parent,
-    # and a forked worker then blocks in its first parallel region (photosite/torch.py).
-    ctx = "spawn" if workers > 0 else None
-    dl = torch.utils.data.DataLoader(ds, batch_size=None, num_workers=workers, shuffle=False,
-                                     multiprocessing_context=ctx)
+    dl = torch.utils.data.DataLoader(ds, batch_size=None, num_workers=workers, shuffle=False)
     return [(x.clone(), y.clone()) for x, y in dl]
 
 
