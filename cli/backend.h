@@ -1,68 +1,13 @@
-// `--backend cpu|vulkan|auto`: where the per-pixel sensor stages run.
-//   cpu     the native C++ path (OpenMP, AVX2);
-//   vulkan  the GLSL kernels (kernels/) through Vulkan; no loader, driver or usable device is
-//           bad input (exit 2) with the reason;
-//   auto    (default) Vulkan on a real GPU when one is present, else the CPU path: a CPU Vulkan
-//           driver (lavapipe) runs the same kernels slower than the native code
-//           (docs/vulkan.md has the ratio).
-// Both give the same numbers (tests/gpu_test.cpp: bit-equal on lavapipe).
+// `--backend cpu|vulkan|auto`: the command line's face of the library's backend choice
+// (photosite/backend.h: resolve_backend, SensorRunner).
 #pragma once
 #include <CLI/CLI.hpp>
-#include <memory>
 #include <string>
 
-#include "photosite/scene/night.h"
-#include "photosite/sensor/pipeline.h"
+#include "photosite/backend.h"
 
 namespace photosite::cli {
 
-enum class Backend { Cpu, Vulkan };
-const char* to_string(Backend b);
-
 void add_backend_option(CLI::App* sub, std::string& backend);
-// Resolves the option's value; `vulkan` with no usable device fails here, before any work.
-Backend resolve_backend(const std::string& name);
-
-// The sensor stages on the chosen backend; on Vulkan the device buffers and fixed-pattern maps
-// are kept from one frame to the next. Not thread-safe: one per thread of work.
-class SensorRunner {
- public:
-  explicit SensorRunner(Backend b);
-  ~SensorRunner();
-  Backend backend() const { return backend_; }
-  // resident_radiance: NightScene::resident_radiance of a scene made by this runner's
-  // pixel_stages(): on Vulkan the radiance is read where the scene stages left it on the device
-  // (a stale or 0 token uploads the host image, with the same result).
-  ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
-                               const LensPreset& lens, const ResolvedExposure& exposure,
-                               uint64_t resident_radiance = 0);
-  // resident_mean_e(): a token for the mean signal of the last mean_signal_electrons(), which on
-  // Vulkan stays on the device; sense() given it uploads nothing for a run of frames.
-  uint64_t resident_mean_e() const;
-  SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
-                     const ResolvedExposure& exposure, const ExposureSettings& settings,
-                     const FixedPatternMaps& fpn, uint64_t resident_mean_e = 0);
-  SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
-                      const ExposureSettings& settings, const FixedPatternMaps& fpn,
-                      uint64_t resident_radiance = 0);
-  // demosaic() of a single-channel mosaic (every method has kernels).
-  ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
-  // The night chain's full-resolution per-pixel tail: on Vulkan the kernels bloom_*, darken
-  // and compose in one sequence (gpu::SceneStages::tail), on the CPU none (night_scene's own path).
-  scene::PixelStages pixel_stages();
-  // scene::linearize() on this backend (kernel linearize on Vulkan).
-  ImageF linearize(const ImageF& day, const ImageFileInfo& info);
-  // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
-  struct Transfers {
-    uint64_t uploaded = 0, downloaded = 0;
-    bool staged = false;  // through staging copies (a discrete GPU), not mapped buffers
-  };
-  Transfers transfers() const;
-
- private:
-  Backend backend_;
-  struct Device;
-  std::unique_ptr<Device> device_;
-};
 
 }  // namespace photosite::cli

@@ -31,7 +31,8 @@
 #include "photosite/batch.h"
 #include "photosite/error.h"
 #include "photosite/sensor/isp.h"
-#include "night_output.h"
+#include "photosite/outputs.h"
+#include "sensor_options.h"
 #include "backend.h"
 #include "registry.h"
 
@@ -84,6 +85,7 @@ struct BatchCmd {
   int compute_threads = 0;  // 0: OpenMP's default (every hardware thread)
   SensorOptions sensor;
   std::string backend = "auto";
+  std::string layers;  // empty: kBatchLayers
 };
 
 struct Loaded {
@@ -124,6 +126,7 @@ void run(BatchCmd& c) {
   if (c.dataset.empty() == c.manifest.empty()) fail("batch: give either --dataset with --root, or --manifest");
   if (!c.dataset.empty() && c.root.empty()) fail("batch: --dataset needs --root");
   if (c.format != "exr" && c.format != "png" && c.format != "both") fail("--format must be exr, png or both");
+  const LayerSet layers = c.layers.empty() ? kBatchLayers : parse_layers(c.layers, kNightLayers, "--layers", "batch");
   if (c.jobs < 1 || c.jobs > 64) fail("--jobs must be in [1, 64]");
   if (c.queue_depth < 1 || c.queue_depth > 64) fail("--queue-depth must be in [1, 64]");
   if (c.compute_threads < 0 || c.compute_threads > 256) fail("--compute-threads must be in [0, 256]");
@@ -160,7 +163,8 @@ void run(BatchCmd& c) {
       {"exposure_s", r.settings.exposure_s}, {"f_number", std::isnan(r.settings.f_number) ? -1.0 : r.settings.f_number},
       {"gain_db", r.settings.gain_db}, {"temperature_c", std::isnan(r.settings.temperature_c) ? -999.0 : r.settings.temperature_c},
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
-      {"format", c.format}, {"half", c.half}, {"compression", c.compression}};
+      {"poisson", to_string(r.settings.poisson)},
+      {"format", c.format}, {"half", c.half}, {"compression", c.compression}, {"layers", layers_text(layers)}};
   const std::string params_text = params.dump();
 
   // ---- the resume manifest ------------------------------------------------------------------
@@ -343,7 +347,7 @@ void run(BatchCmd& c) {
       wo.reproducible = true;
       if (c.format != "png")
         out.writes.emplace_back(it.key + ".exr", [=](const std::string& p) {
-          write_exr(p, night_channels(*so, *ns, *label_img), *attrs, wo);
+          write_exr(p, night_channels(*so, *ns, *label_img, layers), *attrs, wo);
         });
       if (c.format != "exr") {
         auto wb = white_balance_gains(rr->camera);
@@ -389,6 +393,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--out", c->out, "output folder (mirrors the data set's layout)")->required();
   sub->add_option("--shard", c->shard, "I/N: process the I-th of N deterministic shards")->capture_default_str();
   sub->add_option("--format", c->format, "exr, png (preview) or both")->capture_default_str();
+  sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: sensor,raw,electrons,depth,labels)");
   sub->add_flag("--half", c->half, "store EXR channels as half floats");
   sub->add_option("--compression", c->compression, "EXR compression (zip, piz, dwaa, none, ...)")->capture_default_str();
   sub->add_option("--jobs", c->jobs, "writer threads")->capture_default_str();

@@ -15,6 +15,7 @@ struct ExposeCmd {
   std::string radiance, out, preview;
   bool overwrite = false;
   bool half = false;
+  std::string layers;  // empty: every layer expose writes
   SensorOptions sensor;
   std::string backend = "auto";
 };
@@ -42,6 +43,7 @@ ImageF load_radiance(const std::string& path) {
 }
 
 void run(const ExposeCmd& c) {
+  const LayerSet layers = c.layers.empty() ? kExposeLayers : parse_layers(c.layers, kExposeLayers, "--layers", "expose");
   auto r = c.sensor.resolve();
   SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
@@ -60,8 +62,9 @@ void run(const ExposeCmd& c) {
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn);
-    auto groups = sensor_channels(out);
-    groups.push_back({{"radiance.R", "radiance.G", "radiance.B"}, &radiance, unit::radiance});
+    auto groups = sensor_channels(out, layers);
+    if (has(layers, Layer::Radiance))
+      groups.push_back({{"radiance.R", "radiance.G", "radiance.B"}, &radiance, unit::radiance});
     auto attrs = sensor_attributes(r, ex, fpn);
     attrs["photosite/radiance_file"] = c.radiance;
     ExrWriteOptions wo;
@@ -85,6 +88,7 @@ static Registrar reg("b-expose", [](CLI::App& app) {
   add_backend_option(sub, cmd->backend);
   sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (simple ISP, docs/sensor.md)");
   sub->add_flag("--half", cmd->half, "store channels as half floats");
+  sub->add_option("--layers", cmd->layers, "comma list of layers to write: sensor,raw,electrons,radiance (default: all)");
   add_overwrite_flag(sub, cmd->overwrite);
   sub->callback([cmd] { run(*cmd); });
 });

@@ -14,7 +14,8 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
-#include "night_output.h"
+#include "photosite/night_chain.h"
+#include "photosite/outputs.h"
 #include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
@@ -30,6 +31,7 @@ struct NightCmd {
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
   std::string backend = "auto";
+  std::string layers;  // empty: every layer
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -93,6 +95,7 @@ void write_maps(const std::string& dir, const ImageF& day, const scene::LabelMap
 }
 
 void run_night(NightCmd c) {
+  const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -105,25 +108,14 @@ void run_night(NightCmd c) {
   }
   if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";  // Cityscapes' camera
   scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
-  if (!std::isnan(c.ambient_lux)) {
-    if (!(c.ambient_lux >= 0 && c.ambient_lux <= 10))
-      fail(fmt::format("--ambient-lux {} must be in [0, 10] lx", c.ambient_lux));
-    // Keep the preset's moon/sky-glow proportions, rescaled to the requested total.
-    const double sum = sp.moon_lux + sp.skyglow_lux;
-    if (sum > 0) {
-      sp.moon_lux *= c.ambient_lux / sum;
-      sp.skyglow_lux *= c.ambient_lux / sum;
-    } else {
-      sp.moon_lux = c.ambient_lux;
-    }
-  }
+  if (!std::isnan(c.ambient_lux)) set_ambient_lux(sp, c.ambient_lux);
   const auto fmt_label = scene::parse_label_format(c.label_format);
   scene::ResizeLabels resize;
   if (c.resize_labels == "none") resize = scene::ResizeLabels::None;
   else if (c.resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
   else fail("--resize-labels: '" + c.resize_labels + "' is not none or nearest");
   auto r = c.sensor.resolve();
-  SensorRunner runner(resolve_backend(c.backend));
+  SensorRunner runner = make_backend(c.backend);
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
@@ -141,35 +133,22 @@ void run_night(NightCmd c) {
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
   lap("read inputs");
-  ImageF day = runner.linearize(day_raw, info);
-  const int frame_w = day.width(), frame_h = day.height();
-  day_raw = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
-  lap("linearize");
-  scene::NightScene ns = scene::night_scene(day, labels, sp, r.settings.seed, !c.maps.empty(), runner.pixel_stages());
-  for (auto& st : ns.timings) times.push_back(st);
+  std::function<void(const ImageF&, const scene::NightScene&)> maps;
+  if (!c.maps.empty())
+    maps = [&](const ImageF& day, const scene::NightScene& ns) { write_maps(c.maps, day, labels, ns, c.overwrite); };
+  const NightChain chain = prepare_night(runner, std::move(day_raw), info, labels, sp, r, r.store, maps);
+  const scene::NightScene& ns = chain.scene;
+  const int frame_w = chain.width, frame_h = chain.height;
+  for (const auto& st : chain.timings) times.push_back(st);
   t = clock::now();
-  if (!c.maps.empty()) {
-    write_maps(c.maps, day, labels, ns, c.overwrite);
-    lap("write maps");
-  }
-  day = ImageF();
-
-  const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
-  // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
-  // device for every frame (the host copies are for the EXR and the CPU path).
-  const ImageF mean_e = runner.mean_signal_electrons(ns.radiance, r.camera, r.lens, ex, ns.resident_radiance);
-  const uint64_t mean_e_on_device = runner.resident_mean_e();
-  const FixedPatternMaps fpn =
-      r.store.load_or_create(r.camera, r.device_id, ns.radiance.width(), ns.radiance.height());
-  lap("sensor: optics, FPN");
 
   const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
-    SensorOutput out = runner.sense(mean_e, r.camera, ex, r.settings, fpn, mean_e_on_device);
+    SensorOutput out = night_frame(runner, chain, r, r.settings.frame);
     lap("sensor: noise, ADC, demosaic");
-    const auto groups = night_channels(out, ns, label_img);
-    const auto attrs = night_attributes(r, ex, fpn, sp, ns, labels, {c.image, c.labels, c.instances});
+    const auto groups = night_channels(out, ns, label_img, layers);
+    const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances});
     ExrWriteOptions wo;
     wo.half = c.half;
     write_exr(outputs[f], groups, attrs, wo);
@@ -219,6 +198,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_flag("--timings", c.timings, "print the per-stage time table");
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");
+  sub->add_option("--layers", c.layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
   c.sensor.add(sub, false);
   add_backend_option(sub, c.backend);
   add_overwrite_flag(sub, c.overwrite);
@@ -236,8 +216,9 @@ static Registrar reg("c-night", [](CLI::App& app) {
 
 namespace photosite::cli {
 void run_demo(const std::string& out, const std::string& preview, bool overwrite, bool timings,
-              const std::string& backend) {
+              const std::string& backend, const std::string& poisson) {
   NightCmd c;
+  c.sensor.poisson = poisson;
   c.backend = backend;
   c.out = out;
   c.preview = preview;

@@ -20,12 +20,7 @@ static Registrar reg("a-presets", [](CLI::App& app) {
   show->add_option("name", *name, "preset name or path")->required();
   show->add_flag("--json", *json, "print JSON");
   show->callback([name, json] {
-    nlohmann::json j;
-    bool is_lens = false;
-    for (const auto& e : list_presets())
-      if (e.name == *name && e.kind == "lens") is_lens = true;
-    if (is_lens) j = to_json(load_lens_preset(*name));
-    else j = to_json(load_camera_preset(*name));
+    const nlohmann::json j = show_preset(*name);
     if (*json) {
       std::printf("%s\n", j.dump(2).c_str());
     } else {

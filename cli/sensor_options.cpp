@@ -21,6 +21,7 @@ void SensorOptions::add(CLI::App* sub, bool preset_required) {
                   "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE or "
                   "~/.local/share/photosite/devices)");
   sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
+  sub->add_option("--poisson", poisson, "shot-noise sampler: exact, cornish-fisher or normal")->capture_default_str();
 }
 
 SensorOptions::Resolved SensorOptions::resolve() const {
@@ -36,37 +37,10 @@ SensorOptions::Resolved SensorOptions::resolve() const {
   s.temperature_c = temperature_c;
   s.seed = seed;
   s.demosaic = parse_demosaic_method(demosaic);
+  s.poisson = parse_poisson_method(poisson);
   std::string id = device_id.empty() ? cam.name + "-0" : device_id;
   photosite::resolve(cam, l, s);  // validate the settings before any work
-  return Resolved{std::move(cam), std::move(l), s, id, DeviceStore(device_store)};
-}
-
-std::map<std::string, ExrAttribute> sensor_attributes(const SensorOptions::Resolved& r,
-                                                      const ResolvedExposure& ex,
-                                                      const FixedPatternMaps& fpn) {
-  return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
-          {"photosite/preset", r.camera.name},
-          {"photosite/lens", r.lens.name},
-          {"photosite/device_id", r.device_id},
-          {"photosite/fpn_checksum", fpn.checksum},
-          {"photosite/seed", std::to_string(r.settings.seed)},
-          {"photosite/frame", static_cast<int>(r.settings.frame)},
-          {"photosite/exposure_s", ex.exposure_s},
-          {"photosite/f_number", ex.f_number},
-          {"photosite/gain_db", ex.gain_db},
-          {"photosite/gain", ex.gain_linear},
-          {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
-          {"photosite/temperature_c", ex.temperature_c},
-          {"photosite/cfa", std::string(to_string(r.camera.cfa))},
-          {"photosite/bit_depth", r.camera.bit_depth},
-          {"photosite/black_level_dn", r.camera.black_level_dn},
-          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))}};
-}
-
-std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out) {
-  return {{{"raw.Y"}, &out.raw_dn, unit::dn},
-          {{"R", "G", "B"}, &out.rgb, "DN above black level"},
-          {{"electrons.Y"}, &out.electrons, unit::electrons}};
+  return Resolved{{std::move(cam), std::move(l), s, id}, DeviceStore(device_store)};
 }
 
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "photosite/io.h"
+#include "photosite/outputs.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
@@ -24,26 +25,17 @@ struct SensorOptions {
   std::string device_id;  // empty: "<preset>-0"
   std::string device_store;
   std::string demosaic = "bilinear";
+  std::string poisson = "exact";
 
   // Adds the options; `preset_required` for commands where --preset has no default.
   void add(CLI::App* sub, bool preset_required = true);
 
-  struct Resolved {
-    CameraPreset camera;
-    LensPreset lens;
-    ExposureSettings settings;
-    std::string device_id;
+  // The camera, lens, settings and device id (what outputs record) and the device store.
+  struct Resolved : SensorSetup {
     DeviceStore store;
   };
   Resolved resolve() const;
 };
-
-// The header attributes every sensor output carries.
-std::map<std::string, ExrAttribute> sensor_attributes(const SensorOptions::Resolved& r,
-                                                      const ResolvedExposure& ex,
-                                                      const FixedPatternMaps& fpn);
-// The channel groups of a sensor output: raw.Y, R,G,B, electrons.Y.
-std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out);
 
 // Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);

@@ -22,9 +22,9 @@ struct U64 {
   static U64 of(uint64_t v) { return {static_cast<uint32_t>(v), static_cast<uint32_t>(v >> 32)}; }
 };
 
-// poisson.comp, philox_words.comp
+// poisson.comp, philox_words.comp (which ignores `method`, the PoissonMethod's value)
 struct PoissonParams {
-  uint32_t n, frame, stream, pad;
+  uint32_t n, frame, stream, method;
   U64 first_pixel, key;
 };
 static_assert(sizeof(PoissonParams) == 32 && offsetof(PoissonParams, first_pixel) == 16 &&
@@ -71,6 +71,7 @@ static_assert(sizeof(SenseParams) == 64 && offsetof(SenseParams, key) == 16 &&
               offsetof(SenseParams, flags) == 24 && offsetof(SenseParams, read_noise_e) == 36 &&
               offsetof(SenseParams, gain_dn_per_e) == 40 && offsetof(SenseParams, max_code) == 56);
 enum SenseFlags : uint32_t { kHasPrnu = 1, kHasDsnu = 2, kHasDarkRate = 4, kHasRowNoise = 8, kHasColumnNoise = 16 };
+inline constexpr int kSensePoissonShift = 8;  // flags bits 8-9: the PoissonMethod's value
 
 // A pattern's 2x2 cell for common/cfa.glsl: byte ((y&1)<<1 | (x&1)) = cfa_color(p, x, y).
 inline uint32_t pack_cfa(CfaPattern p) {

@@ -78,7 +78,7 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
   sp.frame = st.frame;
   sp.stream = static_cast<uint32_t>(Stream::PhotonShot);
   sp.key = U64::of(key);
-  sp.flags = flags;
+  sp.flags = flags | static_cast<uint32_t>(st.poisson) << kSensePoissonShift;
   sp.dark_mean_e = static_cast<float>(ex.dark_current_e_per_s * ex.exposure_s);
   sp.full_well_e = static_cast<float>(p.full_well_e);
   sp.read_noise_e = static_cast<float>(p.read_noise_e);

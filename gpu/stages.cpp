@@ -13,21 +13,22 @@
 namespace photosite::gpu {
 
 void poisson_fill(Context& ctx, const float* mean, float* out, uint64_t n, uint64_t first_pixel,
-                  uint64_t seed, uint32_t frame, uint32_t stream) {
+                  uint64_t seed, uint32_t frame, uint32_t stream, PoissonMethod method) {
   if (n == 0) return;
   (void)grid_1d(n);  // refuses a job beyond the kernels' index before allocating
   Buffer in(ctx, n * sizeof(float)), res(ctx, n * sizeof(float));
   in.upload(mean, n * sizeof(float));
   Sequence s(ctx);
-  record_poisson(ctx, s, in, res, n, first_pixel, seed, frame, stream);
+  record_poisson(ctx, s, in, res, n, first_pixel, seed, frame, stream, method);
   s.submit_and_wait();
   res.download(out, n * sizeof(float));
 }
 
 void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64_t n, uint64_t first_pixel,
-                    uint64_t seed, uint32_t frame, uint32_t stream) {
+                    uint64_t seed, uint32_t frame, uint32_t stream, PoissonMethod method) {
   Kernel& k = ctx.kernel("poisson", 2, sizeof(PoissonParams));
-  const PoissonParams p{static_cast<uint32_t>(n), frame, stream, 0, U64::of(first_pixel), U64::of(seed)};
+  const PoissonParams p{static_cast<uint32_t>(n), frame, stream, static_cast<uint32_t>(method), U64::of(first_pixel),
+                        U64::of(seed)};
   const Grid g = grid_1d(n);
   s.dispatch(k, {&mean, &out}, p, g.x, g.y, 1, "poisson");
 }

@@ -5,12 +5,12 @@
 #include "common/philox.glsl"
 layout(local_size_x = 256) in;
 
-// gpu::PoissonParams (the same fields; `pad` unused)
+// gpu::PoissonParams (the same fields; `method` unused)
 layout(push_constant, std430) uniform Params {
   uint n;
   uint frame;
   uint stream;
-  uint pad;
+  uint method;
   uvec2 first_pixel;
   uvec2 key;
 } P;

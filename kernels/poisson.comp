@@ -1,5 +1,5 @@
 // Poisson shot noise: out[i] ~ Poisson(mean[i]) for pixels first_pixel + i, the draw of
-// photosite::poisson_fill (PoissonMethod::Exact) bit for bit.
+// photosite::poisson_fill bit for bit, for the PoissonMethod in the push constants.
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #include "common/philox.glsl"
@@ -11,7 +11,7 @@ layout(push_constant, std430) uniform Params {
   uint n;
   uint frame;
   uint stream;
-  uint pad;
+  uint method;        // PoissonMethod: 0 exact, 1 cornish-fisher, 2 normal
   uvec2 first_pixel;
   uvec2 key;
 } P;
@@ -21,6 +21,7 @@ layout(std430, binding = 1) writeonly buffer Out { float result[]; };
 void main() {
   const uint i = linear_invocation();
   if (i >= P.n) return;
-  const uvec4 w = random_words(P.key, P.frame, pixel_index(P.first_pixel, i), P.stream);
-  result[i] = poisson_from_words(mean[i], w);
+  const uvec2 pixel = pixel_index(P.first_pixel, i);
+  const uvec4 w = random_words(P.key, P.frame, pixel, P.stream);
+  result[i] = poisson_from_words(mean[i], w, P.key, P.frame, pixel, P.stream, P.method);
 }

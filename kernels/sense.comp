@@ -1,7 +1,8 @@
 // From mean photo-electrons to DN, photosite::sense() operation for operation (sensor/pipeline.cpp):
 //   μ = signal·PRNU + dark·(dark-rate factor)           (float)
 //   e = min(Poisson(μ), full well)                      (one Philox call: words 0,1 the Poisson
-//                                                        draw, words 2,3 the read-noise normal)
+//                                                        draw, words 2,3 the read-noise normal;
+//                                                        PTRS retries draw on retry streams)
 //   v = e + DSNU + σ_read·z + row + column              (double)
 //   DN = clamp(⌊v·K + black + ½⌋, 0, 2^bits − 1)        (double)
 // Row and column noise are one normal per row / column per frame, drawn on the host (w + h
@@ -19,7 +20,8 @@ layout(push_constant, std430) uniform Params {
   uint frame;
   uint stream;
   uvec2 key;
-  uint flags;         // 1 PRNU, 2 DSNU, 4 dark-rate map, 8 row noise, 16 column noise
+  uint flags;         // 1 PRNU, 2 DSNU, 4 dark-rate map, 8 row noise, 16 column noise;
+                      // bits 8-9: the PoissonMethod (0 exact, 1 cornish-fisher, 2 normal)
   float dark_mean_e;
   float full_well_e;
   float read_noise_e;
@@ -47,7 +49,7 @@ void main() {
   const float col = (P.flags & 16u) != 0u ? col_e[x] : 0.0;
   precise float mean = signal_e[i] * g + P.dark_mean_e * df;
   const uvec4 w = random_words(P.key, P.frame, uvec2(i, 0u), P.stream);
-  const float k = poisson_from_words(mean, w);
+  const float k = poisson_from_words(mean, w, P.key, P.frame, uvec2(i, 0u), P.stream, (P.flags >> 8) & 3u);
   const float read = normal_from_words_f(w.z, w.w);
   const float e = min(k, P.full_well_e);
   electrons[i] = e;

@@ -157,6 +157,17 @@ LabelMap read_labels(const std::string& labels_path, const std::string& instance
                      int height, LabelFormat format, ResizeLabels resize) {
   if (!std::filesystem::exists(labels_path)) fail_at(labels_path, "labels file not found");
   ImageU16 raw = read_image_u16(labels_path);
+  ImageU16 inst;
+  if (!instances_path.empty()) {
+    if (!std::filesystem::exists(instances_path)) fail_at(instances_path, "instances file not found");
+    inst = read_image_u16(instances_path);
+  }
+  return labels_from_codes(std::move(raw), instances_path.empty() ? nullptr : &inst, width, height, format,
+                           resize, labels_path, instances_path);
+}
+
+LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, int height, LabelFormat format,
+                           ResizeLabels resize, const std::string& labels_path, const std::string& instances_path) {
   if (!raw.same_shape(width, height)) {
     if (resize == ResizeLabels::None)
       fail_at(labels_path, "labels are " + std::to_string(raw.width()) + "x" +
@@ -166,9 +177,8 @@ LabelMap read_labels(const std::string& labels_path, const std::string& instance
     raw = resize_nearest(raw, width, height);
   }
   LabelMap m = decode_labels(raw, format, labels_path);
-  if (!instances_path.empty()) {
-    if (!std::filesystem::exists(instances_path)) fail_at(instances_path, "instances file not found");
-    ImageU16 inst = read_image_u16(instances_path);
+  if (instances) {
+    ImageU16 inst = *instances;
     if (inst.channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
     if (!inst.same_shape(width, height)) {
       if (resize == ResizeLabels::None)

@@ -167,7 +167,10 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   ImageF L(W, H, 3, 0.f, unit::radiance);
   const auto tb = illuminant_tint(p.beam_cct_K);
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const double ksum = K[0] + K[1] + K[2];
+  // A white marking's colour under the beam, scaled so its luminance is exactly R_L·E:
+  // Σ_k K_k t_k / Σ_k K_k t_k = 1 (the tint preserves the luminance of D65 white, not of a flat
+  // spectrum, so 1/ΣK per band would be off by Σ K t / ΣK, 2.6% for a 3200 K beam).
+  const double ktb = K[0] * tb[0] + K[1] * tb[1] + K[2] * tb[2];
   auto lab_at = [&](int i) { return to_lab(day.data() + 3 * static_cast<size_t>(i)); };
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
@@ -186,7 +189,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (lum <= 0) continue;
       const double rho = class_reflectance(id, p);
       for (int k = 0; k < 3; ++k) {
-        const double pattern = lanes[i] ? 1.0 / ksum : texture[3 * i + k] / rho;
+        const double pattern = lanes[i] ? 1.0 / ktb : texture[3 * i + k] / rho;
         L[3 * i + k] = static_cast<float>(lum * tb[k] * pattern);
       }
     }
@@ -392,7 +395,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         const auto w = random_words(seed, 0, static_cast<uint64_t>(j) * 65536u + i, Stream::Scene);
         if (uniform_open(w[0]) >= p.window_lit_fraction) continue;
         const double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-        const double cct = uniform_open(w[2]) < 0.7 ? p.window_cct_K : 4000.0;
+        const double cct = uniform_open(w[2]) < p.window_warm_share ? p.window_cct_K : p.window_cool_cct_K;
         const Rgb col = blackbody(cct, lum);
         for (int y = y0; y <= y1; ++y)
           for (int x = x0; x <= x1; ++x)

@@ -47,6 +47,8 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"lamps.window_cct_K", D(p.window_cct_K, 1000, 20000)},
       {"lamps.window_lit_fraction", D(p.window_lit_fraction, 0, 1)},
       {"lamps.window_cell_fraction", D(p.window_cell_fraction, 0.002, 0.5)},
+      {"lamps.window_warm_share", D(p.window_warm_share, 0, 1)},
+      {"lamps.window_cool_cct_K", D(p.window_cool_cct_K, 1000, 20000)},
       {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
       {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
       {"ego_beam.road_lux", D(p.beam_road_lux, 0, 1000)},

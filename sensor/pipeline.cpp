@@ -206,7 +206,7 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
       const float dark = static_cast<float>(dark_mean_e);
       for (int x = 0; x < w; ++x) mean[x] = srow[x] * g[x] + dark * df[x];
       // Shot noise and the read-noise normal from one Philox draw per pixel.
-      poisson_block(mean.data(), erow, read.data(), w, row0, key, frame, shot_stream);
+      poisson_block(mean.data(), erow, read.data(), w, row0, key, frame, shot_stream, s.poisson);
       if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
         for (int x = 0; x < w; ++x) {
           const double u = std::clamp(0.5 * std::erfc(-read[x] / std::sqrt(2.0)), 1e-300, 1.0 - 1e-16);

@@ -3,8 +3,10 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <utility>
 #include <immintrin.h>
 
+#include "photosite/error.h"
 #include "photosite/sensor/poisson_detail.h"
 
 namespace photosite {
@@ -25,57 +27,78 @@ const float kInverseInteger[64] = {
 namespace {
 constexpr int kBlock = 256;
 
+// rng.h's scalar Philox for one pixel, its four words stored at index j of w0..w3.
+inline void philox_one(uint64_t key, uint32_t frame, uint64_t pixel, uint32_t stream, int j, uint32_t* w0,
+                       uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  const auto w = random_words(key, frame, pixel, static_cast<Stream>(stream));
+  w0[j] = w[0];
+  w1[j] = w[1];
+  w2[j] = w[2];
+  w3[j] = w[3];
+}
 // Philox4x32-10 over a block of consecutive pixels, bit-identical to rng.h's scalar Philox.
 void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
                          uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  for (int j = 0; j < n; ++j) {
-    const auto w = random_words(key, frame, first_pixel + j, static_cast<Stream>(stream));
-    w0[j] = w[0];
-    w1[j] = w[1];
-    w2[j] = w[2];
-    w3[j] = w[3];
-  }
+  for (int j = 0; j < n; ++j) philox_one(key, frame, first_pixel + j, stream, j, w0, w1, w2, w3);
 }
 
 // The same, 8 pixels at a time with AVX2: _mm256_mul_epu32 forms the 32x32->64 products of the
 // even lanes; the odd lanes are shifted down and multiplied the same way, and blends put the
-// high and low halves back in place.
+// high and low halves back in place. c0, c1: the pixels' low and high halves.
+__attribute__((target("avx2")))
+inline void philox8_avx2(__m256i c0, __m256i c1, uint64_t key, uint32_t frame, uint32_t stream, uint32_t* w0,
+                         uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M0));
+  const __m256i m1 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M1));
+  __m256i c2 = _mm256_set1_epi32(static_cast<int>(frame));
+  __m256i c3 = _mm256_set1_epi32(static_cast<int>(stream));
+  uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);
+  for (int r = 0; r < 10; ++r) {
+    const __m256i e0 = _mm256_mul_epu32(c0, m0), o0 = _mm256_mul_epu32(_mm256_srli_epi64(c0, 32), m0);
+    const __m256i e1 = _mm256_mul_epu32(c2, m1), o1 = _mm256_mul_epu32(_mm256_srli_epi64(c2, 32), m1);
+    const __m256i hi0 = _mm256_blend_epi32(_mm256_srli_epi64(e0, 32), o0, 0xAA);
+    const __m256i lo0 = _mm256_blend_epi32(e0, _mm256_slli_epi64(o0, 32), 0xAA);
+    const __m256i hi1 = _mm256_blend_epi32(_mm256_srli_epi64(e1, 32), o1, 0xAA);
+    const __m256i lo1 = _mm256_blend_epi32(e1, _mm256_slli_epi64(o1, 32), 0xAA);
+    const __m256i n0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32(static_cast<int>(ka)));
+    const __m256i n2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32(static_cast<int>(kb)));
+    c0 = n0;
+    c1 = lo1;
+    c2 = n2;
+    c3 = lo0;
+    ka += Philox4x32::W0;
+    kb += Philox4x32::W1;
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w0), c0);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w1), c1);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w2), c2);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w3), c3);
+}
+
+// Consecutive pixels first_pixel.. (8 at a time while the high half stays the same).
 __attribute__((target("avx2")))
 void philox_words_avx2(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
                        uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M0));
-  const __m256i m1 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M1));
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   int j = 0;
   for (; j + 8 <= n && ((first_pixel + j) >> 32) == ((first_pixel + j + 7) >> 32); j += 8) {
     const uint64_t p = first_pixel + j;
-    __m256i c0 = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p))), lane);
-    __m256i c1 = _mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p >> 32)));
-    __m256i c2 = _mm256_set1_epi32(static_cast<int>(frame));
-    __m256i c3 = _mm256_set1_epi32(static_cast<int>(stream));
-    uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);
-    for (int r = 0; r < 10; ++r) {
-      const __m256i e0 = _mm256_mul_epu32(c0, m0), o0 = _mm256_mul_epu32(_mm256_srli_epi64(c0, 32), m0);
-      const __m256i e1 = _mm256_mul_epu32(c2, m1), o1 = _mm256_mul_epu32(_mm256_srli_epi64(c2, 32), m1);
-      const __m256i hi0 = _mm256_blend_epi32(_mm256_srli_epi64(e0, 32), o0, 0xAA);
-      const __m256i lo0 = _mm256_blend_epi32(e0, _mm256_slli_epi64(o0, 32), 0xAA);
-      const __m256i hi1 = _mm256_blend_epi32(_mm256_srli_epi64(e1, 32), o1, 0xAA);
-      const __m256i lo1 = _mm256_blend_epi32(e1, _mm256_slli_epi64(o1, 32), 0xAA);
-      const __m256i n0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32(static_cast<int>(ka)));
-      const __m256i n2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32(static_cast<int>(kb)));
-      c0 = n0;
-      c1 = lo1;
-      c2 = n2;
-      c3 = lo0;
-      ka += Philox4x32::W0;
-      kb += Philox4x32::W1;
-    }
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w0 + j), c0);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w1 + j), c1);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w2 + j), c2);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w3 + j), c3);
+    const __m256i c0 = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p))), lane);
+    const __m256i c1 = _mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p >> 32)));
+    philox8_avx2(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);
   }
   if (j < n) philox_words_scalar(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);
+}
+
+// Any list of pixels (PTRS retries), the first n & ~7 of them: pixel_lo/hi hold the 64-bit
+// indices' halves.
+__attribute__((target("avx2")))
+void philox_list_avx2(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const uint32_t* pixel_hi,
+                      uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  for (int j = 0; j + 8 <= n; j += 8)
+    philox8_avx2(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel_lo + j)),
+                 _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel_hi + j)), key, frame, stream, w0 + j,
+                 w1 + j, w2 + j, w3 + j);
 }
 
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
@@ -84,6 +107,13 @@ void philox_words(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t s
                   uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
   if (kHaveAvx2) philox_words_avx2(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
   else philox_words_scalar(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+}
+void philox_list(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const uint32_t* pixel_hi,
+                 uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  int j = 0;
+  if (kHaveAvx2) philox_list_avx2(key, frame, pixel_lo, pixel_hi, stream, j = n & ~7, w0, w1, w2, w3);
+  for (; j < n; ++j)
+    philox_one(key, frame, (static_cast<uint64_t>(pixel_hi[j]) << 32) | pixel_lo[j], stream, j, w0, w1, w2, w3);
 }
 
 __attribute__((target_clones("avx2", "default")))
@@ -130,52 +160,207 @@ void rounded_normal(const float* mean, const float* z, float* out, int n) {
     out[j] = std::max(0.f, std::floor(mu + std::sqrt(mu) * z[j] + 0.5f));
   }
 }
+
+// PTRS over a block, in three vector passes with masked retries: (1) every lane's first
+// candidate from its own words 0, 1 and the squeeze (lanes below mean 10 run it on 10 and are
+// overwritten by the inversion); (2) the full acceptance test on the lanes the squeeze left
+// undecided, compacted; (3) the rejected lanes, compacted, retried on their retry streams, two
+// attempts per Philox call, until none is left. Compaction is branch-free (select_lanes): the
+// verdicts are random, branches on them would mispredict. Each lane's result is
+// detail::ptrs_sample's, whatever the block, the thread or the other lanes.
+__attribute__((target_clones("avx2", "default")))
+void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
+                float* __restrict mu, float* __restrict k, float* __restrict us, float* __restrict v,
+                float* __restrict verdict, int m) {
+  for (int i = 0; i < m; ++i) {
+    const bool high = mean[i] >= static_cast<float>(kPoissonApproxThreshold);
+    const float mi = high ? mean[i] : 10.f;
+    const detail::PtrsCandidate c = detail::ptrs_candidate(detail::ptrs_setup(mi), wu[i], wv[i]);
+    mu[i] = mi;
+    k[i] = c.k;
+    us[i] = c.us;
+    v[i] = c.v;
+    verdict[i] = high ? c.verdict : 1.f;  // lanes below 10: left to the inversion
+  }
+}
+// The compacted passes run whole vectors: their counts are rounded up to a multiple of 8 by the
+// caller, the extra lanes holding harmless values (pad8), so no lane falls into a scalar
+// epilogue loop (an attempt costs ~8x more there).
+inline int round8(int n) { return (n + 7) & ~7; }
+template <class T>
+inline void pad8(T* a, int n, T value) {
+  for (int i = n; i < round8(n); ++i) a[i] = value;
+}
+__attribute__((target_clones("avx2", "default")))
+void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const float* __restrict us,
+                    const float* __restrict v, float* __restrict accepted, int m) {
+  if (m % 8 != 0) __builtin_unreachable();
+  for (int i = 0; i < m; ++i)
+    accepted[i] = detail::ptrs_accept(detail::ptrs_setup(mu[i]), detail::PtrsCandidate{k[i], us[i], v[i], 0.f}) ? 1.f : 0.f;
+}
+__attribute__((target_clones("avx2", "default")))
+void ptrs_attempts(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
+                   float* __restrict k, int m) {
+  if (m % 8 != 0) __builtin_unreachable();
+  for (int i = 0; i < m; ++i) k[i] = detail::ptrs_attempt(detail::ptrs_setup(mu[i]), wu[i], wv[i]);
+}
+
+// The lanes i < m where keep[i] != 0, in order, into idx (room for m + 8); returns their count.
+// Branch-free: the conditions are random, branches on them would mispredict. With AVX2, 8
+// lanes at a time: the compare's sign mask picks a precomputed permutation that packs the kept
+// lanes' indices to the front ("left-packing"), stored whole, the count advancing by its
+// popcount; plain C++ otherwise (every lane writes its index, the count advances by the
+// condition).
+struct PackTable {
+  alignas(32) int32_t perm[256][8];
+  PackTable() {
+    for (int mask = 0; mask < 256; ++mask) {
+      int n = 0;
+      for (int j = 0; j < 8; ++j)
+        if (mask >> j & 1) perm[mask][n++] = j;
+      for (; n < 8; ++n) perm[mask][n] = 0;
+    }
+  }
+};
+const PackTable kPack;
+__attribute__((target("avx2")))
+int select_lanes_avx2(const float* keep, int m, int* idx) {
+  int n = 0, i = 0;
+  for (; i + 8 <= m; i += 8) {
+    const int mask = _mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(keep + i), _mm256_setzero_ps(), _CMP_NEQ_UQ));
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
+    n += __builtin_popcount(static_cast<unsigned>(mask));
+  }
+  for (; i < m; ++i) {
+    idx[n] = i;
+    n += keep[i] != 0.f ? 1 : 0;
+  }
+  return n;
+}
+int select_lanes(const float* keep, int m, int* idx) {
+  if (kHaveAvx2) return select_lanes_avx2(keep, m, idx);
+  int n = 0;
+  for (int i = 0; i < m; ++i) {
+    idx[n] = i;
+    n += keep[i] != 0.f ? 1 : 0;
+  }
+  return n;
+}
+
+// out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
+// first_pixel + i, own words w0[i], w1[i]); other lanes get a value the caller overwrites.
+void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
+                uint64_t key, uint32_t frame, uint32_t stream) {
+  alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
+  alignas(64) float cmu[kBlock], ck[kBlock], cus[kBlock], cv[kBlock], acc[kBlock];
+  alignas(64) int sel[kBlock + 8], sel2[kBlock + 8];
+  // Pass 1: every lane's first candidate, k straight into out.
+  ptrs_first(mean, w0, w1, mu, out, us, v, rejected, m);
+  for (int i = 0; i < m; ++i) {
+    undecided[i] = rejected[i] == 0.f ? 1.f : 0.f;
+    rejected[i] = rejected[i] < 0.f ? 1.f : 0.f;
+  }
+  // Pass 2: the full test on the undecided lanes, compacted.
+  const int nu = select_lanes(undecided, m, sel);
+  for (int j = 0; j < nu; ++j) {
+    const int i = sel[j];
+    cmu[j] = mu[i];
+    ck[j] = out[i];
+    cus[j] = us[i];
+    cv[j] = v[i];
+  }
+  pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
+  ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
+  for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
+  // Pass 3: the rejected lanes retried, compacted, until each is accepted: per retry call, the
+  // first attempt on all of them, the second on those the first rejected.
+  alignas(64) uint32_t plo[kBlock], phi[kBlock], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[kBlock],
+      q3[kBlock];
+  alignas(64) float qmu[kBlock], again[kBlock];
+  int nr = select_lanes(rejected, m, sel);
+  for (int j = 0; j < nr; ++j) {
+    const uint64_t pixel = first_pixel + static_cast<uint64_t>(sel[j]);
+    cmu[j] = mu[sel[j]];
+    plo[j] = static_cast<uint32_t>(pixel);
+    phi[j] = static_cast<uint32_t>(pixel >> 32);
+  }
+  for (int r = 1; nr > 0 && r <= detail::kPtrsMaxRetryCalls; ++r) {
+    pad8(cmu, nr, 10.f), pad8(plo, nr, 0u), pad8(phi, nr, 0u);
+    philox_list(key, frame, plo, phi, detail::ptrs_retry_stream(stream, r), round8(nr), r0, r1, r2, r3);
+    ptrs_attempts(cmu, r0, r1, ck, round8(nr));
+    for (int j = 0; j < nr; ++j) again[j] = ck[j] < 0.f ? 1.f : 0.f;
+    const int n2 = select_lanes(again, nr, sel2);
+    for (int t = 0; t < n2; ++t) {
+      qmu[t] = cmu[sel2[t]];
+      q2[t] = r2[sel2[t]];
+      q3[t] = r3[sel2[t]];
+    }
+    pad8(qmu, n2, 10.f), pad8(q2, n2, 0u), pad8(q3, n2, 0u);
+    ptrs_attempts(qmu, q2, q3, cv, round8(n2));
+    for (int t = 0; t < n2; ++t) ck[sel2[t]] = cv[t];
+    int left = 0;
+    for (int j = 0; j < nr; ++j) {
+      out[sel[j]] = ck[j];  // a lane still rejected (k < 0) is written again later
+      sel[left] = sel[j];
+      cmu[left] = cmu[j];
+      plo[left] = plo[j];
+      phi[left] = phi[j];
+      left += ck[j] < 0.f ? 1 : 0;
+    }
+    nr = left;
+  }
+  for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
+}
 }  // namespace
 
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
-                   uint64_t key, uint32_t frame, uint32_t stream) {
+                   uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];
   alignas(64) float z[kBlock];
+  const float threshold = static_cast<float>(kPoissonApproxThreshold);
   for (int start = 0; start < n; start += kBlock) {
     const int m = std::min(kBlock, n - start);
+    const float* mu = mean + start;
+    float* o = out + start;
     philox_words(key, frame, first_pixel + start, stream, m, w0, w1, w2, w3);
-    normals(w0, w1, z, m);
-    corrected_normal_block(mean + start, z, out + start, m);
     if (normal2) normals(w2, w3, normal2 + start, m);
-    // Low means: exact inversion on word 0, on the compacted low-mean pixels.
+    if (method == PoissonMethod::Normal) {
+      normals(w0, w1, z, m);
+      rounded_normal(mu, z, o, m);
+      continue;
+    }
+    // Means >= 10: PTRS (exact) or the corrected normal (cornish-fisher), on every lane.
+    if (method == PoissonMethod::CornishFisher) {
+      normals(w0, w1, z, m);
+      corrected_normal_block(mu, z, o, m);
+    } else {
+      ptrs_block(mu, w0, w1, m, o, first_pixel + start, key, frame, stream);
+    }
+    // Means below 10: exact inversion on word 0, on the compacted low-mean lanes; zero,
+    // negative or NaN means: no electrons.
+    for (int j = 0; j < m; ++j) o[j] = mu[j] >= threshold ? o[j] : 0.f;
     alignas(64) float low_mean[kBlock], low_k[kBlock];
     alignas(64) uint32_t low_w[kBlock];
-    alignas(64) int low_idx[kBlock];
-    int nl = 0;
-    for (int j = 0; j < m; ++j) {
-      const float mu = mean[start + j];
-      if (!(mu >= static_cast<float>(kPoissonApproxThreshold))) {
-        if (mu > 0) {
-          low_mean[nl] = mu;
-          low_w[nl] = w0[j];
-          low_idx[nl++] = j;
-        } else {
-          out[start + j] = 0.f;  // zero, negative or NaN mean: no electrons
-        }
-      }
-    }
+    alignas(64) int low_idx[kBlock + 8];
+    for (int j = 0; j < m; ++j) z[j] = (mu[j] < threshold) & (mu[j] > 0.f) ? 1.f : 0.f;
+    const int nl = select_lanes(z, m, low_idx);
     if (nl) {
+      for (int i = 0; i < nl; ++i) {
+        low_mean[i] = mu[low_idx[i]];
+        low_w[i] = w0[low_idx[i]];
+      }
       inversion_block(low_mean, low_w, low_k, nl);
-      for (int i = 0; i < nl; ++i) out[start + low_idx[i]] = low_k[i];
+      for (int i = 0; i < nl; ++i) o[low_idx[i]] = low_k[i];
     }
   }
 }
 
 float poisson_sample(double mean, uint64_t seed, uint32_t frame, uint64_t pixel, uint32_t stream,
                      PoissonMethod method) {
-  const auto w = random_words(seed, frame, pixel, static_cast<Stream>(stream));
-  if (method == PoissonMethod::Normal) {
-    const float mu = std::max(static_cast<float>(mean), 0.f);
-    return std::max(0.f, std::floor(mu + std::sqrt(mu) * detail::normal_from_words_f(w[0], w[1]) + 0.5f));
-  }
   const float m = static_cast<float>(mean);
   float out;
-  poisson_block(&m, &out, nullptr, 1, pixel, seed, frame, stream);
+  poisson_block(&m, &out, nullptr, 1, pixel, seed, frame, stream, method);
   return out;
 }
 
@@ -185,19 +370,23 @@ void poisson_fill(const float* mean, float* out, uint64_t n, uint64_t first_pixe
 #pragma omp parallel for schedule(static)
   for (int64_t c = 0; c < chunks; ++c) {
     const uint64_t s = static_cast<uint64_t>(c) * 4096, len = std::min<uint64_t>(4096, n - s);
-    if (method == PoissonMethod::Exact) {
-      poisson_block(mean + s, out + s, nullptr, static_cast<int>(len), first_pixel + s, seed, frame, stream);
-    } else {  // the plain rounded normal, on the same vectorized words (a peer in bench noise)
-      alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];
-      alignas(64) float z[kBlock];
-      for (uint64_t b = s; b < s + len; b += kBlock) {
-        const int m = static_cast<int>(std::min<uint64_t>(kBlock, s + len - b));
-        philox_words(seed, frame, first_pixel + b, stream, m, w0, w1, w2, w3);
-        normals(w0, w1, z, m);
-        rounded_normal(mean + b, z, out + b, m);
-      }
-    }
+    poisson_block(mean + s, out + s, nullptr, static_cast<int>(len), first_pixel + s, seed, frame, stream, method);
   }
+}
+
+namespace {
+constexpr std::pair<PoissonMethod, const char*> kPoissonNames[] = {
+    {PoissonMethod::Exact, "exact"}, {PoissonMethod::CornishFisher, "cornish-fisher"}, {PoissonMethod::Normal, "normal"}};
+}
+const char* to_string(PoissonMethod m) {
+  for (const auto& [method, name] : kPoissonNames)
+    if (method == m) return name;
+  return "?";
+}
+PoissonMethod parse_poisson_method(const std::string& name) {
+  for (const auto& [method, n] : kPoissonNames)
+    if (name == n) return method;
+  fail("unknown Poisson method '" + name + "' (known: exact, cornish-fisher, normal)");
 }
 
 }  // namespace photosite

@@ -32,24 +32,33 @@ std::string slurp(const std::string& path) {
 TEST(DeviceStoreConcurrency, FourProcessesStartedTogetherUseOneMap) {
   constexpr int kProcs = 4;
   test::TempDir dir;
-  const std::string store = dir.file("store"), gun = dir.file("start");
+  const std::string store = dir.file("store"), gun = dir.file("start"), ready = dir.file("ready");
   ASSERT_EQ(mkfifo(gun.c_str(), 0600), 0);
-  // Each process blocks opening the FIFO for reading; one write releases all of them at once.
-  // A 1024x768 map takes long enough to generate and write that they overlap.
-  std::string cmd = "bash -c '";
+  fs::create_directories(ready);
+  // A barrier with no timing assumption. The parent holds the FIFO open read-write (fd 3), so a
+  // child's open for reading returns at once; each child closes its inherited fd 3, opens the FIFO
+  // (fd 4), says it is ready and blocks reading. When all are ready the parent closes the last
+  // writer and every child's read returns end-of-file at the same moment; only then does each
+  // exec photosite. A 1024x768 map takes long enough to generate and write that they overlap.
+  std::string cmd = fmt::format("bash -c 'exec 3<>\"{}\"; ", gun);
   for (int i = 0; i < kProcs; ++i)
-    cmd += fmt::format("(cat \"{}\" > /dev/null; exec \"{}\" flat --photons 100 --wavelength-nm 525 "
+    cmd += fmt::format("(exec 3>&-; exec 4<\"{}\"; touch \"{}/{}\"; cat <&4 > /dev/null; exec 4<&-; "
+                       "exec \"{}\" flat --photons 100 --wavelength-nm 525 "
                        "--preset sony-imx490 --width 1024 --height 768 --device-id race "
                        "--device-store \"{}\" --out \"{}\" 2> \"{}\") & ",
-                       gun, PHOTOSITE_BIN, store, dir.file(fmt::format("o{}.exr", i)),
+                       gun, ready, i, PHOTOSITE_BIN, store, dir.file(fmt::format("o{}.exr", i)),
                        dir.file(fmt::format("e{}.txt", i)));
-  cmd += fmt::format("sleep 0.3; echo go > \"{}\"; fail=0; for j in $(jobs -p); do wait $j || fail=1; done; exit $fail'", gun);
+  // Wait (up to 120 s on a loaded machine) until all are blocked on the FIFO, then release them.
+  cmd += fmt::format("for t in $(seq 12000); do [ $(ls \"{}\" | wc -l) -ge {} ] && break; sleep 0.01; done; "
+                     "exec 3>&-; fail=0; for j in $(jobs -p); do wait $j || fail=1; done; exit $fail'",
+                     ready, kProcs);
   ASSERT_EQ(std::system(cmd.c_str()), 0);
 
   std::string all_stderr;
   for (int i = 0; i < kProcs; ++i) all_stderr += slurp(dir.file(fmt::format("e{}.txt", i)));
   EXPECT_EQ(count(all_stderr, "created the fixed-pattern map"), 1u) << all_stderr;
 
+  EXPECT_EQ(std::distance(fs::directory_iterator(ready), fs::directory_iterator()), kProcs);
   std::vector<fs::path> files;
   for (const auto& e : fs::recursive_directory_iterator(store))
     if (!e.is_directory()) files.push_back(e.path());

@@ -1,4 +1,8 @@
 #include <gtest/gtest.h>
+#include <Imath/half.h>
+
+#include <cmath>
+#include <filesystem>
 
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -85,6 +89,40 @@ TEST(Io, ExrRoundTripKeepsChannelsUnitsAndAttributes) {
   EXPECT_EQ(c.channels.at("raw.Y").unit(), "DN");
   EXPECT_EQ(c.attributes.at("photosite/preset"), "test");
   EXPECT_EQ(c.attributes.at("photosite/frame"), "3");
+}
+
+TEST(Io, ExrTypedChannelsRoundTripExactly) {
+  // UINT channels hold the integers exactly (up to 2^24, where read_exr's float is still exact),
+  // half channels round to half, float channels are untouched; each channel's type reads back.
+  test::TempDir dir;
+  ImageF ids(7, 5, 1), dn(7, 5, 1), depth(7, 5, 1), rad(7, 5, 3);
+  for (size_t i = 0; i < ids.size(); ++i) {
+    ids[i] = static_cast<float>(i * 97 % 34);
+    dn[i] = static_cast<float>((1u << 24) - i * 1021);
+    depth[i] = static_cast<float>(i) / 34.f;
+  }
+  for (size_t i = 0; i < rad.size(); ++i) rad[i] = 1e-7f * static_cast<float>(i + 1) / 3.f;
+  const std::string path = dir.file("typed.exr");
+  write_exr(path, {{{"raw.Y"}, &dn, "DN", ExrPixel::Uint}, {{"R", "G", "B"}, &rad, "x"},
+                   {{"depth.Z"}, &depth, "", ExrPixel::Half}, {{"labels.Y"}, &ids, "", ExrPixel::Uint}},
+            {});
+  const auto c = read_exr(path);
+  EXPECT_EQ(c.pixel_types.at("raw.Y"), ExrPixel::Uint);
+  EXPECT_EQ(c.pixel_types.at("labels.Y"), ExrPixel::Uint);
+  EXPECT_EQ(c.pixel_types.at("depth.Z"), ExrPixel::Half);
+  EXPECT_EQ(c.pixel_types.at("G"), ExrPixel::Float);
+  EXPECT_EQ(c.channels.at("raw.Y").vec(), dn.vec());
+  EXPECT_EQ(c.channels.at("labels.Y").vec(), ids.vec());
+  for (size_t i = 0; i < depth.size(); ++i) {
+    EXPECT_EQ(c.channels.at("depth.Z")[i], static_cast<float>(half(depth[i]))) << i;
+    // half keeps 11 significant bits: relative error at most 2^-11 for these normal values.
+    EXPECT_LE(std::abs(c.channels.at("depth.Z")[i] - depth[i]), depth[i] * 0x1p-11f) << i;
+  }
+  for (size_t p = 0; p < rad.pixel_count(); ++p) EXPECT_EQ(c.channels.at("B")[p], rad.at(p % 7, p / 7, 2));
+  // A UINT channel refuses what is not a non-negative integer, and leaves no file behind.
+  ImageF frac(7, 5, 1, 0.5f);
+  EXPECT_ANY_THROW(write_exr(dir.file("bad.exr"), {{{"raw.Y"}, &frac, "DN", ExrPixel::Uint}}, {}));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("bad.exr")));
 }
 
 TEST(Io, RefusesToOverwriteAndMissingFolders) {

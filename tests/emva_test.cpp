@@ -5,7 +5,10 @@
 #include <cmath>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
 #include "photosite/sensor/emva_sim.h"
+#include "photosite/sensor/preset.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -81,31 +84,56 @@ TEST(Emva1288, EveryBundledPresetIsRecoveredWithinItsUncertainty) {
     const auto plan = emva::plan_for(p);
     const auto m = emva::measure(cam, plan);
     const auto e = emva::expected(p, s, plan, m.pixels_measured);
-    struct Q { const char* name; emva::Value m, e; double max_rel; };
-    const Q qs[] = {{"K", m.system_gain_dn_per_e, e.system_gain_dn_per_e, 0.03},
-                    {"QE", m.qe, e.qe, 0.03},
-                    {"temporal dark noise", m.temporal_dark_noise_e, e.temporal_dark_noise_e, 0.03},
-                    {"saturation", m.saturation_capacity_e, e.saturation_capacity_e, 0.04},
-                    {"dark current", m.dark_current_e_per_s, e.dark_current_e_per_s, 0.06},
-                    {"DSNU1288", m.dsnu_e, e.dsnu_e, 1.0},  // hot pixels make small regions vary
-                    {"PRNU1288", m.prnu_percent, e.prnu_percent, 0.03},
-                    {"SNR max", m.snr_max_db, e.snr_max_db, 0.01},
-                    {"dynamic range", m.dynamic_range_db, e.dynamic_range_db, 0.01}};
+    // Each quantity within 5 combined standard errors of the preset (5σ two-sided: 5.7e-7 per
+    // comparison, under 1e-4 over the 6 cameras × 9 quantities). A z test is only as strong as the
+    // uncertainty is small, so the plan must also measure each quantity to 5% (a 25% model error
+    // is then 5σ away) — except DSNU1288, whose spread over a 256×256 device is dominated by rare
+    // hot pixels (docs/emva1288.md, "± device"): its precision is printed, not required.
+    struct Q { const char* name; emva::Value m, e; bool precision_required; };
+    const Q qs[] = {{"K", m.system_gain_dn_per_e, e.system_gain_dn_per_e, true},
+                    {"QE", m.qe, e.qe, true},
+                    {"temporal dark noise", m.temporal_dark_noise_e, e.temporal_dark_noise_e, true},
+                    {"saturation", m.saturation_capacity_e, e.saturation_capacity_e, true},
+                    {"dark current", m.dark_current_e_per_s, e.dark_current_e_per_s, true},
+                    {"DSNU1288", m.dsnu_e, e.dsnu_e, false},
+                    {"PRNU1288", m.prnu_percent, e.prnu_percent, true},
+                    {"SNR max", m.snr_max_db, e.snr_max_db, true},
+                    {"dynamic range", m.dynamic_range_db, e.dynamic_range_db, true}};
     for (const auto& q : qs) {
       const double se = std::hypot(q.m.uncertainty, q.e.uncertainty);
-      EXPECT_LE(std::fabs(q.m.value - q.e.value), 3.5 * se) << entry.name << " " << q.name << ": measured "
+      std::fprintf(stderr, "[emva] %-20s %-20s z %+.2f  se/value %.4f\n", entry.name.c_str(), q.name,
+                   (q.m.value - q.e.value) / se, se / std::fabs(q.e.value));
+      EXPECT_LE(std::fabs(q.m.value - q.e.value), 5 * se) << entry.name << " " << q.name << ": measured "
           << q.m.value << " +/- " << q.m.uncertainty << ", preset " << q.e.value;
-      EXPECT_LE(std::fabs(q.m.value - q.e.value), q.max_rel * std::fabs(q.e.value)) << entry.name << " " << q.name;
+      if (q.precision_required) EXPECT_LE(se, 0.05 * std::fabs(q.e.value)) << entry.name << " " << q.name;
     }
   }
 }
 
+// The JSON carries numbers, not just names: every quantity's measured value, preset value and
+// uncertainties are finite, the uncertainty positive, z is (measured − preset) over the combined
+// standard error √(u² + u_device²), and |z| ≤ 5 (the measurement agrees with the preset within
+// 5 standard errors). The preset side of K is the camera preset's own system gain.
 TEST(Emva1288, CharacterizeCommandPrintsJson) {
   test::TempDir dir;
   auto r = test::run_cli("characterize --preset sony-imx174 --json --roi 64 --device-store '" + dir.file("s") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  const size_t brace = r.output.find('{');
+  ASSERT_NE(brace, std::string::npos) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(r.output.substr(brace));
   for (const char* k : {"system_gain_dn_per_e", "read_noise_e", "qe_525nm", "saturation_capacity_e",
-                        "dark_current_e_per_s", "dsnu_e", "prnu_percent", "snr_max_db", "dynamic_range_db"})
-    EXPECT_NE(r.output.find(std::string("\"") + k + "\""), std::string::npos) << k;
+                        "dark_current_e_per_s", "dsnu_e", "prnu_percent", "snr_max_db", "dynamic_range_db"}) {
+    ASSERT_TRUE(j.contains(k)) << k;
+    const auto& q = j.at(k);
+    const double m = q.at("measured"), e = q.at("preset"), u = q.at("uncertainty"),
+                 ud = q.at("preset_device_uncertainty"), z = q.at("z");
+    for (double v : {m, e, u, ud, z}) EXPECT_TRUE(std::isfinite(v)) << k;
+    EXPECT_GT(u, 0.0) << k;
+    EXPECT_GE(ud, 0.0) << k;
+    EXPECT_NEAR(z, (m - e) / std::hypot(u, ud), 1e-9 * (1 + std::fabs(z))) << k;
+    EXPECT_LE(std::fabs(z), 5.0) << k << ": measured " << m << " +/- " << u << ", preset " << e;
+  }
+  EXPECT_DOUBLE_EQ(j.at("system_gain_dn_per_e").at("preset").get<double>(),
+                   load_camera_preset("sony-imx174").system_gain_dn_per_e);
   EXPECT_EQ(test::run_cli("characterize --preset nope").exit_code, 2);
 }

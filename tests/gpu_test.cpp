@@ -108,19 +108,26 @@ TEST_F(Gpu, PhiloxWordsEqualRngH) {
 }
 
 TEST_F(Gpu, PoissonBitEqualToCpuAtEveryMean) {
-  // Means over both regimes (inversion < 10 <= corrected normal), the threshold itself, zero,
-  // negative and NaN; 200k pixels.
+  // Every mode; means log-spaced from e^-4 to 1e6 (inversion < 10 <= PTRS or the corrected
+  // normal; PTRS's retries on the retry streams), the threshold itself, zero, negative and NaN;
+  // 200k pixels, so each mean recurs 50 times with different words.
   const uint64_t n = 200000;
   std::vector<float> mean(n);
-  for (uint64_t i = 0; i < n; ++i) mean[i] = static_cast<float>(std::exp((static_cast<double>(i % 4000) / 4000.0) * 14.0 - 4.0));
-  mean[0] = 0.f, mean[1] = -3.f, mean[2] = std::nanf(""), mean[3] = 10.f, mean[4] = 9.999999f, mean[5] = 1e-30f;
-  std::vector<float> cpu(n), dev(n);
-  poisson_fill(mean.data(), cpu.data(), n, 5000, 42, 3, 1);
-  gpu::poisson_fill(*ctx, mean.data(), dev.data(), n, 5000, 42, 3, 1);
-  uint64_t differ = 0;
+  const double top = std::log(1e6);
   for (uint64_t i = 0; i < n; ++i)
-    if (cpu[i] != dev[i] && ++differ < 5) ADD_FAILURE() << "pixel " << i << " mean " << mean[i] << ": cpu " << cpu[i] << " gpu " << dev[i];
-  EXPECT_EQ(differ, 0u);
+    mean[i] = static_cast<float>(std::exp((static_cast<double>(i % 4000) / 3999.0) * (top + 4.0) - 4.0));
+  mean[0] = 0.f, mean[1] = -3.f, mean[2] = std::nanf(""), mean[3] = 10.f, mean[4] = 9.999999f, mean[5] = 1e-30f;
+  mean[6] = 1e6f;
+  for (PoissonMethod method : {PoissonMethod::Exact, PoissonMethod::CornishFisher, PoissonMethod::Normal}) {
+    std::vector<float> cpu(n), dev(n);
+    poisson_fill(mean.data(), cpu.data(), n, 5000, 42, 3, 1, method);
+    gpu::poisson_fill(*ctx, mean.data(), dev.data(), n, 5000, 42, 3, 1, method);
+    uint64_t differ = 0;
+    for (uint64_t i = 0; i < n; ++i)
+      if (cpu[i] != dev[i] && ++differ < 5)
+        ADD_FAILURE() << to_string(method) << " pixel " << i << " mean " << mean[i] << ": cpu " << cpu[i] << " gpu " << dev[i];
+    EXPECT_EQ(differ, 0u) << to_string(method);
+  }
 }
 
 // Beyond parity: the device sampler itself has the Poisson law's mean and variance at means in
@@ -156,9 +163,18 @@ TEST_F(Gpu, PoissonDrawsHaveThePoissonMeanAndVariance) {
 
 // Compiled with or without the backend: a build or machine without Vulkan fails here (unless
 // PHOTOSITE_ALLOW_NO_VULKAN=1), so the GPU tests never go missing silently.
+// Where the backend is built, the device it opened meets what the kernels need and reports
+// itself consistently: Vulkan 1.1 or later (encoded major << 22 | minor << 12, the spec's
+// VK_MAKE_API_VERSION), a known device type, the CPU flag set exactly for a CPU device (it decides
+// what `auto` picks), and a positive timestamp period wherever timestamps are offered.
 TEST_F(Gpu, BackendIsBuiltAndADeviceOpens) {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  EXPECT_NE(ctx, nullptr);
+  const gpu::DeviceInfo& d = ctx->device();
+  EXPECT_GE(d.api_version, (1u << 22) | (1u << 12)) << d.name;
+  const std::string type = d.type;
+  EXPECT_TRUE(type == "discrete" || type == "integrated" || type == "virtual" || type == "cpu" || type == "other") << type;
+  EXPECT_EQ(d.cpu, type == "cpu") << d.name;
+  if (d.timestamps) EXPECT_GT(d.timestamp_period_ns, 0.0) << d.name;
 #endif
 }
 
@@ -254,7 +270,7 @@ TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
       float lo = 1e30f, hi = -1e30f;
       for (size_t i = 0; i < cpu.electrons.size(); ++i) lo = std::min(lo, cpu.electrons[i]), hi = std::max(hi, cpu.electrons[i]);
       EXPECT_LT(lo, 10.f) << name;  // the inversion regime is exercised
-      EXPECT_GT(hi, 100.f) << name;  // and the corrected normal
+      EXPECT_GT(hi, 100.f) << name;  // and PTRS
       EXPECT_EQ(hi, static_cast<float>(cam.full_well_e)) << name;  // and full-well clipping
     }
   }
@@ -271,10 +287,13 @@ TEST_F(Gpu, SenseFromMeanElectronsBitEqualAndTukeyIsRefused) {
   s.gain_db = 6;
   const ResolvedExposure ex = resolve(cam, lens, s);
   gpu::SensorChain chain(*ctx);
-  const SensorOutput cpu = sense(mean, cam, ex, s, fpn), dev = chain.sense(mean, cam, ex, s, fpn);
-  EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u);
-  EXPECT_EQ(count_differences(cpu.raw_dn, dev.raw_dn), 0u);
-  EXPECT_EQ(count_differences(cpu.rgb, dev.rgb), 0u);
+  for (PoissonMethod method : {PoissonMethod::Exact, PoissonMethod::CornishFisher, PoissonMethod::Normal}) {
+    s.poisson = method;  // sense.comp reads it from the flags word
+    const SensorOutput cpu = sense(mean, cam, ex, s, fpn), dev = chain.sense(mean, cam, ex, s, fpn);
+    EXPECT_EQ(count_differences(cpu.electrons, dev.electrons), 0u) << to_string(method);
+    EXPECT_EQ(count_differences(cpu.raw_dn, dev.raw_dn), 0u) << to_string(method);
+    EXPECT_EQ(count_differences(cpu.rgb, dev.rgb), 0u) << to_string(method);
+  }
   const CameraPreset tukey = load_camera_preset("sony-a7s2");
   const FixedPatternMaps f2 = generate_fixed_pattern(tukey, w, h, "tukey-gpu-test");
   const ResolvedExposure ex2 = resolve(tukey, load_lens_preset(tukey.default_lens), ExposureSettings{});
@@ -677,6 +696,10 @@ TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
   const auto a = read_exr(dir.file("night-cpu.exr")).channels;
   const auto v = read_exr(dir.file("night-vulkan.exr")).channels;
   ASSERT_EQ(a.size(), v.size());
+  // Sensor samples may differ only where bloom's rounding moved a noise draw across a count:
+  // test::differing_sensor_samples_bound derives how many may (test_util.h).
+  const double raw_bound = test::differing_sensor_samples_bound(a, v);
+  std::fprintf(stderr, "[gpu] night: derived bound on differing raw samples %.1f\n", raw_bound);
   for (const auto& [name, img] : a) {
     ASSERT_TRUE(v.count(name)) << name;
     const ImageF& w = v.at(name);
@@ -693,7 +716,10 @@ TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
                  frac, peak > 0 ? worst / peak : 0.0);
     if (name.rfind("labels", 0) == 0 || name.rfind("depth", 0) == 0) EXPECT_EQ(differ, 0u) << name;
     else if (name.rfind("lights", 0) == 0 || name.rfind("night_radiance", 0) == 0) EXPECT_LT(worst, 2e-6 * peak) << name;
-    else EXPECT_LT(frac, 1e-3) << name;  // sensor layers: a draw moved by a rounding-sized change in its mean
+    else if (name == "raw.Y" || name == "electrons.Y") EXPECT_LE(static_cast<double>(differ), raw_bound) << name;
+    // Demosaiced RGB (night's default, bilinear): each output sample reads a 3×3 raw
+    // neighbourhood, so one differing raw sample moves at most 9 × 3 of them.
+    else EXPECT_LE(static_cast<double>(differ), 27 * raw_bound) << name;
   }
 }
 

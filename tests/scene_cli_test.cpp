@@ -1,11 +1,13 @@
 // `photosite night` / `photosite demo` contracts, and every shared Cityscapes and KITTI sample.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -31,14 +33,41 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_EQ(e.width, 1224);
   EXPECT_EQ(e.height, 370);
   EXPECT_TRUE(fs::exists(d.file("n.png")));
-  // The road is lit: its radiance luminance is around the M3 target (1 cd/m²) plus the beam.
+  // The road is lit to its EN 13201 class. The default scene preset (night-urban, class M3) sets
+  // the maintained average road luminance L_M = 1.00 cd/m²; moon and sky glow add ρ E_amb / π.
+  // night_radiance − lights is the darkened scene plus the low beam's diffuse reflection
+  // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
+  // the sources s (street, moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,
+  // so it lies between Σ_s min_k t_s,k L_s and Σ_s max_k t_s,k L_s with L_street = L_M and
+  // L_s = ρ E_s / π for the others (E_beam ≤ ego_beam.road_lux, and ≥ 0 for the lower bound);
+  // t_s is source s's tint (illuminant_tint).
+  const ScenePreset sp = load_scene_preset("night-urban");
+  EXPECT_DOUBLE_EQ(sp.street_road_luminance_cd_m2, 1.0);  // EN 13201-2 M3
+  double lower = 0, upper = 0;
+  const std::pair<double, double> sources[] = {{sp.street_cct_K, sp.street_road_luminance_cd_m2},
+                                               {sp.moon_cct_K, sp.rho_road * sp.moon_lux / M_PI},
+                                               {sp.skyglow_cct_K, sp.rho_road * sp.skyglow_lux / M_PI},
+                                               {sp.beam_cct_K, sp.rho_road * sp.beam_road_lux / M_PI}};
+  for (int i = 0; i < 4; ++i) {
+    const auto t = illuminant_tint(sources[i].first);
+    if (i < 3) lower += *std::min_element(t.begin(), t.end()) * sources[i].second;  // the beam may be 0
+    upper += *std::max_element(t.begin(), t.end()) * sources[i].second;
+  }
   const ImageF& lab = e.channels.at("labels.Y");
-  const ImageF& g = e.channels.at("night_radiance.G");
   double sum = 0, n = 0;
   for (size_t i = 0; i < lab.pixel_count(); ++i)
-    if (lab[i] == 7) { sum += g[i]; ++n; }
+    if (lab[i] == 7) {
+      float c[3];
+      int k = 0;
+      for (const char* ch : {"R", "G", "B"})
+        c[k++] = e.channels.at(std::string("night_radiance.") + ch)[i] - e.channels.at(std::string("lights.") + ch)[i];
+      sum += spectrum::luminance_cd_m2(c);
+      ++n;
+    }
   ASSERT_GT(n, 1000);
-  EXPECT_GT(sum / n, 0.0);
+  std::fprintf(stderr, "[night] road luminance %.3f cd/m² (bounds %.3f..%.3f)\n", sum / n, lower, upper);
+  EXPECT_GE(sum / n, lower * (1 - 1e-4));  // 1e-4: float sums over the image
+  EXPECT_LE(sum / n, upper * (1 + 1e-4));
   // Same seed and scene: identical radiance (lights included) on a second run.
   auto r2 = test::run_cli("night --out '" + d.file("m.exr") + "' " + store);
   ASSERT_EQ(r2.exit_code, 0) << r2.output;

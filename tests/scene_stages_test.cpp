@@ -3,10 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <omp.h>
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/spectrum.h"
+#include "photosite/error.h"
+#include "test_util.h"
 
 using namespace photosite;
 using namespace photosite::scene;
@@ -49,8 +53,59 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const double b_expect = p.rho_construction * (amb + p.street_vertical_fraction * e_street) / M_PI;
   EXPECT_NEAR(sum_b / n_b, b_expect, 0.05 * b_expect);
   EXPECT_NEAR(sum_sky / n_sky, p.sky_luminance_cd_m2, 0.05 * p.sky_luminance_cd_m2);
-  // Texture survives: lane markings are brighter than the asphalt around them.
-  EXPECT_GT(dark.at(int(o.width / 2 - 0.5 * o.width * 1 / 6.0 + 0.5), o.height - 2, 1), 0.f);
+  // Texture survives: within the road class each night channel is the day channel times one
+  // factor (reflectance texture = ρ·day_k/class mean_k per channel of the day image in box RGB,
+  // lit by one illuminance), so in box-RGB green the brightest (lane marking) and darkest (asphalt) road pixels of a row keep their day contrast,
+  // to float32 rounding of a handful of operations (relative 1e-4 bounds it generously: each
+  // rounding is ≤ 6e-8).
+  const int y = o.height - 2;
+  int mark = -1, asphalt = -1;
+  for (int x = 0; x < o.width; ++x) {
+    if (s.labels.ids.at(x, y) != int(Label::Road)) continue;
+    const size_t i = size_t(y) * o.width + x;
+    if (mark < 0 || luminance(s.day_linear_srgb, i) > luminance(s.day_linear_srgb, size_t(y) * o.width + mark)) mark = x;
+    if (asphalt < 0 || luminance(s.day_linear_srgb, i) < luminance(s.day_linear_srgb, size_t(y) * o.width + asphalt)) asphalt = x;
+  }
+  ASSERT_GE(mark, 0);
+  const size_t im = size_t(y) * o.width + mark, ia = size_t(y) * o.width + asphalt;
+  const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
+  const double day_contrast = double(box[3 * im + 1]) / box[3 * ia + 1];
+  ASSERT_GT(day_contrast, 2.0);  // the synthetic road has painted markings on this row
+  EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 1e-4 * day_contrast);
+  {
+  // Texture survives: within the road class every pixel is the day colour times one class scale,
+  // times the illuminant tint t_k, times the illuminance, so in each row (one illuminance, however
+  // the lighting varies with distance) the markings' luminance over the asphalt's is
+  // Σ K_k t_k m_k / Σ K_k t_k a_k for the box colours m and a: a weighted mean of the channel
+  // ratios m_k / a_k with positive weights, hence between their least and greatest (synthetic.cpp:
+  // asphalt 0.08, 0.08, 0.085 and markings 0.8, 0.8, 0.78, linear sRGB). Float rounding: 1e-5.
+  const double asphalt_srgb[3] = {0.08, 0.08, 0.085}, marking_srgb[3] = {0.8, 0.8, 0.78};
+  const auto& M = spectrum::linear_srgb_to_box();
+  double lo = 1e300, hi = 0;
+  for (int k = 0; k < 3; ++k) {
+    double a = 0, m = 0;
+    for (int j = 0; j < 3; ++j) a += M[k][j] * asphalt_srgb[j], m += M[k][j] * marking_srgb[j];
+    ASSERT_GT(a, 0);
+    lo = std::min(lo, m / a), hi = std::max(hi, m / a);
+  }
+  int rows = 0;
+  for (int y = o.height - 40; y < o.height; ++y) {
+    double sm = 0, nm = 0, sa = 0, na = 0;
+    for (int x = 0; x < o.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * o.width + x;
+      if (s.labels.ids[i] != int(Label::Road)) continue;
+      const float g = s.day_linear_srgb.at(x, y, 1);
+      if (g == 0.8f) sm += luminance(dark, i), ++nm;
+      if (g == 0.08f) sa += luminance(dark, i), ++na;
+    }
+    if (nm == 0 || na == 0) continue;
+    ++rows;
+    const double ratio = (sm / nm) / (sa / na);
+    EXPECT_GE(ratio, lo * (1 - 1e-5)) << "row " << y;
+    EXPECT_LE(ratio, hi * (1 + 1e-5)) << "row " << y;
+  }
+  EXPECT_GE(rows, 20);  // markings in most of the bottom rows (the dashes are long there)
+  }
 }
 
 TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
@@ -265,4 +320,35 @@ TEST(SceneChain, IndependentOfThreadCount) {
   EXPECT_EQ(a.radiance.vec(), b.radiance.vec());
   EXPECT_EQ(a.depth.vec(), b.depth.vec());
   EXPECT_EQ(a.vp.x, b.vp.x);
+}
+
+// The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_share,
+// lamps.window_cool_cct_K), not from constants in the code: all-warm windows equal all-cool
+// windows at the same CCT, and moving the cool CCT changes the light map.
+TEST(SceneLights, WindowColourSplitComesFromThePreset) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  ScenePreset warm = preset();
+  warm.window_warm_share = 1.0;
+  ScenePreset cool_same = preset();
+  cool_same.window_warm_share = 0.0;
+  cool_same.window_cool_cct_K = cool_same.window_cct_K;
+  ScenePreset cool_blue = cool_same;
+  cool_blue.window_cool_cct_K = 6500.0;
+  const NightScene a = night_scene(s.day_linear_srgb, s.labels, warm, 7);
+  const NightScene b = night_scene(s.day_linear_srgb, s.labels, cool_same, 7);
+  const NightScene c = night_scene(s.day_linear_srgb, s.labels, cool_blue, 7);
+  ASSERT_GT(a.light_stats.windows, 0);
+  EXPECT_EQ(a.lights.vec(), b.lights.vec());
+  EXPECT_NE(a.lights.vec(), c.lights.vec());
+  // The urban preset with the fraction out of [0, 1] is refused (the range is checked).
+  std::stringstream urban;
+  urban << std::ifstream(std::string(PHOTOSITE_PRESET_DIR) + "/scenes/night-urban.toml").rdbuf();
+  std::string text = urban.str();
+  const auto at = text.find("window_warm_share = 0.7");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 23, "window_warm_share = 1.5");
+  test::TempDir dir;
+  { std::ofstream(dir.file("bad.toml")) << text; }
+  EXPECT_THROW(load_scene_preset(dir.file("bad.toml")), Error);
 }

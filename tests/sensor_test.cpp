@@ -3,11 +3,16 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 
 #include "photosite/error.h"
+#include "photosite/sensor/cfa.h"
+#include "photosite/sensor/fpn.h"
 #include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
 #include "test_util.h"
@@ -142,9 +147,15 @@ TEST(DarkCurrent, DarkFrameMeanAndShotNoiseGrowWithExposure) {
   for (double t : {0.1, 1.0}) {
     ExposureSettings s;
     s.exposure_s = t;
-    auto out = sense(zero, p, resolve(p, simple_lens(), s), s, fpn);
-    EXPECT_NEAR(mean_of(out.electrons), 200 * t, 0.05 * 200 * t + 0.5);
-    EXPECT_NEAR(var_of(out.electrons) / (200 * t), 1.0, 0.05);  // Poisson: variance = mean
+    const ResolvedExposure ex = resolve(p, simple_lens(), s);
+    auto out = sense(zero, p, ex, s, fpn);
+    // The dark charge is Poisson with mean μ = D t (D the resolved rate). Over n pixels the sample
+    // mean has standard error √(μ/n); the sample variance s² has Var(s²) = (μ₄ − σ⁴)/n with the
+    // Poisson μ₄ = μ + 3μ², so SE(s²/μ) = √((1/μ + 2)/n). Both within 5 standard errors.
+    const double mu = ex.dark_current_e_per_s * t, n = static_cast<double>(w) * h;
+    EXPECT_NEAR(mu, 200 * t, 1e-9 * mu);  // no temperature scaling in this camera
+    EXPECT_NEAR(mean_of(out.electrons), mu, 5 * std::sqrt(mu / n));
+    EXPECT_NEAR(var_of(out.electrons) / mu, 1.0, 5 * std::sqrt((1 / mu + 2) / n));  // variance = mean
   }
 }
 
@@ -368,17 +379,79 @@ TEST(Spectrum, BandEfficaciesAndConversions) {
   }
 }
 
+// Every bundled camera through its default lens, against the photon integral done here
+// independently: a pixel of filter colour c under band radiance L (W·sr⁻¹·m⁻², equal in R, G, B)
+// collects on average
+//   μ = t · A_pix · FF · πT / (1 + 4N²) · cos⁴θ · g_PRNU · Σ_k L / (λ_hi − λ_lo) ∫_k QE_c(λ) λ/(hc) dλ
+// photo-electrons plus the dark charge D t · (dark-rate factor), with at most the full well. The QE
+// table is piecewise linear, so each table segment's QE(λ)·λ is a quadratic and Simpson's rule
+// integrates it exactly (the code sums 0.5 nm midpoints; the two agree to far better than the
+// 1e-3 allowed for it). L is set so the brightest colour collects a fifth of the full well.
+// Per colour the mean of n_c Poisson counts has standard error √(Σμ_i)/n_c: tolerance 5 of them.
+// The raw DN mean is then K·(mean electrons + mean DSNU offset) + black level: read noise,
+// one rounding (1/12 DN²) and row/column noise shared along a row/column (over at least h/2
+// rows and w/2 columns of each colour) give its standard error; tolerance 5 of them.
 TEST(Expose, WholeChainOnEveryBundledCamera) {
+  const int w = 64, h = 48;
+  int cameras = 0;
   for (const auto& entry : list_presets()) {
     if (entry.kind != "camera") continue;
+    ++cameras;
     CameraPreset p = load_camera_preset(entry.name);
     LensPreset l = load_lens_preset(p.default_lens);
-    ImageF radiance(64, 48, 3, 0.01f);
-    auto fpn = generate_fixed_pattern(p, 64, 48, "x");
     ExposureSettings s;
+    const ResolvedExposure ex = resolve(p, l, s);
+    // Electrons per unit radiance in every band, per filter colour.
+    std::array<double, kFilterColorCount> per_L{};
+    const double area = std::pow(p.pixel_pitch_um * 1e-6, 2) * p.fill_factor;
+    const double q = ex.f_number * (1 + std::fabs(l.magnification));
+    const double optics = units::pi * l.transmittance / (1 + 4 * q * q);
+    for (int c = 0; c < kFilterColorCount; ++c) {
+      const auto& grid = p.qe.wavelength_nm;
+      for (int k = 0; k < 3; ++k) {
+        const double lo = spectrum::kBandLoNm[k], hi = spectrum::kBandHiNm[k];
+        std::vector<double> nodes{lo, hi};
+        for (double g : grid) if (g > lo && g < hi) nodes.push_back(g);
+        std::sort(nodes.begin(), nodes.end());
+        double integral = 0;
+        auto f = [&](double nm) { return p.qe.at(static_cast<FilterColor>(c), nm) / units::photon_energy_J(nm); };
+        for (size_t i = 0; i + 1 < nodes.size(); ++i) {
+          const double a = nodes[i], b = nodes[i + 1];
+          // Simpson on the open interval's interior values (QE is continuous inside a segment).
+          const double e = 1e-9 * (b - a);
+          integral += (b - a) / 6 * (f(a + e) + 4 * f(0.5 * (a + b)) + f(b - e));
+        }
+        per_L[c] += ex.exposure_s * area * optics * integral / (hi - lo);
+      }
+    }
+    const double L = 0.2 * p.full_well_e / *std::max_element(per_L.begin(), per_L.end());
+    ImageF radiance(w, h, 3, static_cast<float>(L));
+    auto fpn = generate_fixed_pattern(p, w, h, "x");
     auto out = expose(radiance, p, l, s, fpn);
-    EXPECT_EQ(out.raw_dn.width(), 64);
-    EXPECT_EQ(out.rgb.channels(), 3);
-    EXPECT_GT(mean_of(out.electrons), 0.0) << entry.name;
+    ASSERT_EQ(out.raw_dn.width(), w);
+    ASSERT_EQ(out.rgb.channels(), 3);
+    const double pitch_over_f = l.cos4_falloff ? p.pixel_pitch_um * 1e-3 / l.focal_length_mm : 0.0;
+    const double K = ex.system_gain_dn_per_e, dark_e = ex.dark_current_e_per_s * ex.exposure_s;
+    for (FilterColor c : cfa_colors(p.cfa)) {
+      double mu_sum = 0, e_sum = 0, dn_sum = 0, off_sum = 0, n = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          if (cfa_color(p.cfa, x, y) != c) continue;
+          const double r2 = (std::pow(x - 0.5 * (w - 1), 2) + std::pow(y - 0.5 * (h - 1), 2)) * pitch_over_f * pitch_over_f;
+          const double g = fpn.prnu_gain.empty() ? 1.0 : fpn.prnu_gain.at(x, y, 0);
+          const double df = fpn.dark_rate_factor.empty() ? 1.0 : fpn.dark_rate_factor.at(x, y, 0);
+          mu_sum += std::min(p.full_well_e, L * per_L[static_cast<int>(c)] * g / ((1 + r2) * (1 + r2)) + dark_e * df);
+          off_sum += fpn.dsnu_offset_e.empty() ? 0.0 : fpn.dsnu_offset_e.at(x, y, 0);
+          e_sum += out.electrons.at(x, y, 0);
+          dn_sum += out.raw_dn.at(x, y, 0);
+          n += 1;
+        }
+      const double mu = mu_sum / n;
+      EXPECT_NEAR(e_sum / n, mu, 5 * std::sqrt(mu_sum) / n + 1e-3 * mu) << entry.name << " colour " << static_cast<int>(c);
+      const double dn_var = K * K * (mu + p.read_noise_e * p.read_noise_e) + 1.0 / 12;
+      const double dn_se = std::sqrt(dn_var / n + K * K * (std::pow(p.row_noise_e, 2) / (h / 2) + std::pow(p.column_noise_e, 2) / (w / 2)));
+      EXPECT_NEAR(dn_sum / n, K * (e_sum + off_sum) / n + p.black_level_dn, 5 * dn_se) << entry.name << " colour " << static_cast<int>(c);
+    }
   }
+  EXPECT_GE(cameras, 1);
 }

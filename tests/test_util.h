@@ -5,7 +5,10 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <string>
+
+#include "photosite/image.h"
 
 namespace photosite::test {
 
@@ -28,6 +31,11 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Two night EXRs of the same run on two backends whose radiance differs by float rounding (bloom):
+// the most raw.Y / electrons.Y samples that may differ, derived in test_util.cpp (5σ).
+double differing_sensor_samples_bound(const std::map<std::string, photosite::ImageF>& a,
+                                      const std::map<std::string, photosite::ImageF>& b);
 
 // ../shared beside the checkout, or empty when absent.
 std::filesystem::path shared_dir();

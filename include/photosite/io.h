@@ -39,10 +39,17 @@ ImageF read_image(const std::string& path, ImageFileInfo* info = nullptr);
 ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info = nullptr);
 
 // ---- OpenEXR ------------------------------------------------------------------------------
+// The EXR pixel type of a channel. Float: float32, or half when ExrWriteOptions::half. Half:
+// always half. Uint: 32-bit unsigned integer; the source values must be integers in
+// [0, 2^32) (write_exr refuses others), stored exactly.
+enum class ExrPixel { Float, Half, Uint };
+const char* to_string(ExrPixel p);  // "float", "half", "uint"
+
 struct ExrChannelGroup {
   std::vector<std::string> channel_names;  // full names, e.g. {"raw.Y"} or {"R","G","B"}
   const ImageF* image = nullptr;           // channels() == channel_names.size()
   std::string unit;                        // recorded as header attribute "photosite/unit/<name>"
+  ExrPixel pixel = ExrPixel::Float;
 };
 using ExrAttribute = std::variant<std::string, int, float, double>;
 struct ExrWriteOptions {
@@ -65,6 +72,7 @@ struct ExrContents {
   int width = 0, height = 0;
   std::map<std::string, ImageF> channels;  // one single-channel image per channel name
   std::map<std::string, std::string> attributes;  // every attribute, as text
+  std::map<std::string, ExrPixel> pixel_types;    // each channel's stored type
 };
 ExrContents read_exr(const std::string& path);
 

@@ -1,12 +1,14 @@
-// The per-pixel Poisson sampler of include/photosite/sensor/poisson_detail.h, operation for
-// operation (the header comment there has the maths: inversion below mean 10, the
-// Sheppard-corrected Cornish-Fisher quantile above). `precise` forbids the compiler to fuse or
+// The per-pixel Poisson samplers of include/photosite/sensor/poisson_detail.h, operation for
+// operation (the header comment there has the maths: inversion below mean 10; above, PTRS
+// (common/ptrs.glsl, the same source the C++ compiles) or the Sheppard-corrected
+// Cornish-Fisher quantile; or the rounded normal everywhere). `precise` forbids the compiler to fuse or
 // reorder these float operations, so the kernels give the CPU path's bits (the CPU side is
 // compiled with -ffp-contract=off for the same reason).
 #ifndef PHOTOSITE_POISSON_GLSL
 #define PHOTOSITE_POISSON_GLSL
 #extension GL_GOOGLE_include_directive : enable
 #include "common/inverse_integer.glsl"
+#include "common/philox.glsl"
 
 const float kPoissonApproxThreshold = 10.0;
 const float kInversionMinPmf = 1e-10;
@@ -95,10 +97,37 @@ float corrected_normal(float mu, float z) {
   return float(max(0.0lf, k));
 }
 
-// One Poisson(mean) draw from the pixel's words w (w.x, w.y drive it): detail's exact sampler
-// as poisson_block runs it. Zero, negative or NaN means give 0.
-float poisson_from_words(float mean, uvec4 w) {
-  if (mean >= kPoissonApproxThreshold) return corrected_normal(mean, normal_from_words_f(w.x, w.y));
+// PTRS, common/ptrs.glsl, with the GLSL side of its prelude.
+#define PS_FN
+#include "common/ptrs.glsl"
+
+// detail::ptrs_sample: the pixel's words (w.x, w.y) first, then two attempts per retry call.
+float ptrs_sample(float mu, uvec4 w, uvec2 key, uint frame, uvec2 pixel, uint stream) {
+  const PtrsSetup s = ptrs_setup(mu);
+  float k = ptrs_attempt(s, w.x, w.y);
+  for (int r = 1; k < 0.0 && r <= kPtrsMaxRetryCalls; ++r) {
+    const uvec4 rw = random_words(key, frame, pixel, stream + uint(r) * kPtrsRetryStreamStep);
+    k = ptrs_attempt(s, rw.x, rw.y);
+    if (k < 0.0) k = ptrs_attempt(s, rw.z, rw.w);
+  }
+  return k < 0.0 ? s.mu_int : k;
+}
+
+// PoissonMethod as the kernels receive it (the enum's order).
+const uint kPoissonExact = 0u, kPoissonCornishFisher = 1u, kPoissonNormal = 2u;
+
+// One Poisson(mean) draw for the pixel whose Philox words are w (w.x, w.y drive it; PTRS
+// retries draw more from (key, frame, pixel) on retry streams): poisson_block's draw for
+// `method`. Zero, negative or NaN means give 0.
+float poisson_from_words(float mean, uvec4 w, uvec2 key, uint frame, uvec2 pixel, uint stream, uint method) {
+  if (method == kPoissonNormal) {
+    precise float mu = max(mean, 0.0);
+    precise float k = floor(mu + sqrt(mu) * normal_from_words_f(w.x, w.y) + 0.5);
+    return max(0.0, k);
+  }
+  if (mean >= kPoissonApproxThreshold)
+    return method == kPoissonExact ? ptrs_sample(mean, w, key, frame, pixel, stream)
+                                   : corrected_normal(mean, normal_from_words_f(w.x, w.y));
   if (mean > 0.0) return poisson_inversion(mean, w.x);
   return 0.0;
 }

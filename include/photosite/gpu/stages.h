@@ -8,16 +8,17 @@
 #include "photosite/image.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/demosaic.h"
+#include "photosite/sensor/poisson.h"
 
 namespace photosite::gpu {
 class Sequence;
 
-// poisson_fill(..., PoissonMethod::Exact) on the device: the same draws, bit for bit.
+// poisson_fill(..., method) on the device: the same draws, bit for bit.
 void poisson_fill(Context& ctx, const float* mean, float* out, uint64_t n, uint64_t first_pixel,
-                  uint64_t seed, uint32_t frame, uint32_t stream);
+                  uint64_t seed, uint32_t frame, uint32_t stream, PoissonMethod method = PoissonMethod::Exact);
 // The same kernel recorded into a sequence over buffers already on the device (n floats each).
 void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64_t n, uint64_t first_pixel,
-                    uint64_t seed, uint32_t frame, uint32_t stream);
+                    uint64_t seed, uint32_t frame, uint32_t stream, PoissonMethod method = PoissonMethod::Exact);
 // The four Philox words of pixels first_pixel.. (random_words() on the device), 4n words.
 std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixel, uint64_t seed,
                                    uint32_t frame, uint32_t stream);

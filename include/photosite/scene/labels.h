@@ -48,6 +48,12 @@ enum class ResizeLabels { None, Nearest };
 LabelMap read_labels(const std::string& labels_path, const std::string& instances_path,
                      int width, int height, LabelFormat format, ResizeLabels resize);
 
+// read_labels() on codes already in memory (the Python module's arrays): `raw` as
+// read_image_u16() returns it, `instances` null when there are none; the paths name the inputs
+// in messages.
+LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, int height, LabelFormat format,
+                           ResizeLabels resize, const std::string& labels_path, const std::string& instances_path);
+
 // Nearest-neighbour resize of a one-channel label/instance image.
 ImageU16 resize_nearest(const ImageU16& in, int width, int height);
 

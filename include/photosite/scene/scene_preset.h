@@ -29,6 +29,7 @@ struct ScenePreset {
   double signal_luminance_cd_m2 = 1e4;
   double window_luminance_cd_m2 = 30, window_cct_K = 2700, window_lit_fraction = 0.3;
   double window_cell_fraction = 0.02;  // window grid cell, fraction of the image width
+  double window_warm_share = 0.7, window_cool_cct_K = 4000;  // share of windows at window_cct_K; the rest at this CCT
   // [retroreflection] EN 1436 R_L (cd·m⁻²·lx⁻¹) for lane markings, EN 12899 R_A (cd·lx⁻¹·m⁻²).
   double marking_RL = 0.2, sign_RA = 180;
   // [ego_beam] low beam: illuminance on the road at the bottom of the image (lx), CCT,

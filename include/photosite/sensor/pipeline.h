@@ -13,6 +13,7 @@
 #include "photosite/image.h"
 #include "photosite/sensor/demosaic.h"
 #include "photosite/sensor/fpn.h"
+#include "photosite/sensor/poisson.h"
 #include "photosite/sensor/preset.h"
 
 namespace photosite {
@@ -25,6 +26,7 @@ struct ExposureSettings {
   uint64_t seed = 0;     // temporal-noise seed (the device seed keys the fixed pattern)
   uint32_t frame = 0;
   DemosaicMethod demosaic = DemosaicMethod::Bilinear;
+  PoissonMethod poisson = PoissonMethod::Exact;  // the shot-noise sampler (poisson.h)
 };
 
 // Settings with the preset/lens defaults filled in and checked (bad input on impossible values).

@@ -1,17 +1,21 @@
-// The per-pixel Poisson sampler, shared by the sensor loop, the benchmark and the tests.
-// Two regimes, each exact in distribution or provably indistinguishable from it:
-//  * mean < kPoissonApproxThreshold (10): inversion by sequential search on a 32-bit uniform,
-//    exact up to the 2^-32 grid of the uniform;
-//  * above: a Cornish-Fisher quantile of the continuity-corrected Poisson law. For a lattice
-//    variable K, P(K <= k) = P(Y < k + 1/2) where Y is K smoothed over one lattice step; the
+// The per-pixel Poisson samplers, shared by the sensor loop, the benchmark and the tests.
+// PoissonMethod (poisson.h) picks one of three:
+//  * exact: below mean kPoissonApproxThreshold (10) inversion by sequential search on a 24-bit
+//    uniform (exact up to the 2^-24 grid of the uniform); from 10 up Hörmann's PTRS, an exact
+//    rejection sampler (kernels/common/ptrs.glsl has the maths; that one file is compiled into
+//    this header and into the Vulkan kernels);
+//  * cornish-fisher: the same inversion below 10; above, a Cornish-Fisher quantile of the
+//    continuity-corrected Poisson law, an APPROXIMATION. For a lattice variable K,
+//    P(K <= k) = P(Y < k + 1/2) where Y is K smoothed over one lattice step; the
 //    Sheppard-corrected cumulants of that smooth law are κ₂ = μ − 1/12, κ₃ = μ, κ₄ = μ + 1/120,
 //    κ₅ = μ, and the third-order Cornish-Fisher expansion (Cornish & Fisher 1937; Abramowitz &
 //    Stegun 26.2.49) gives
 //      x = z + γ₁He₂/6 + γ₂He₃/24 − γ₁²(2z³−5z)/36 + γ₃He₄/120 − γ₁γ₂(z⁴−5z²+2)/24
 //          + γ₁³(12z⁴−53z²+17)/324,          K = ⌊μ + σx + ½⌋,
 //    whose CDF differs from the exact Poisson CDF by under kPoissonApproxMaxCdfError at every k
-//    (tests/poisson_test.cpp computes the distance exactly on a grid of means). Telling such a
-//    sampler apart from an exact one by a KS test would take ~(1.36/5e-5)² ≈ 7e8 draws at one mean.
+//    (tests/poisson_test.cpp computes the distance on a grid of means), with z a float
+//    Box-Muller normal from 24-bit uniforms, so |z| <= 5.9 (no draw beyond ~5.9σ);
+//  * normal: ⌊μ + √μ z + ½⌋, the plain rounded normal (an approximation, for comparison).
 #pragma once
 #include <algorithm>
 #include <array>
@@ -119,6 +123,51 @@ inline float normal_from_words_f(uint32_t a, uint32_t b) {
   const float u = (static_cast<float>(static_cast<int32_t>(a >> 8)) + 0.5f) * 0x1p-24f;
   const float v = static_cast<float>(static_cast<int32_t>(b >> 8)) * 0x1p-24f;
   return std::sqrt(-2.0f * fast_log(u)) * fast_cos_2pi(v);
+}
+
+// PTRS (kernels/common/ptrs.glsl) compiled as C++: the prelude maps the GLSL subset that file
+// uses onto C++ (the library is built with -ffp-contract=off, so `precise` has nothing to add).
+namespace shader_subset {
+using uint = uint32_t;
+using std::abs;
+using std::floor;
+using std::max;
+using std::min;
+using std::sqrt;
+#define precise
+#define PS_FN inline
+#include "../../../kernels/common/ptrs.glsl"
+#undef PS_FN
+#undef precise
+}  // namespace shader_subset
+using shader_subset::kPtrsMaxRetryCalls;
+using shader_subset::kPtrsRetryStreamStep;
+using shader_subset::ptrs_accept;
+using shader_subset::ptrs_attempt;
+using shader_subset::ptrs_candidate;
+using shader_subset::ptrs_log_pmf;
+using shader_subset::ptrs_setup;
+using shader_subset::PtrsCandidate;
+using shader_subset::PtrsSetup;
+
+// The stream word of PTRS retry call r (1-based), the same in poisson.glsl.
+inline uint32_t ptrs_retry_stream(uint32_t stream, int r) {
+  return stream + static_cast<uint32_t>(r) * kPtrsRetryStreamStep;
+}
+
+// One exact Poisson(μ) draw, μ >= 10, by PTRS on the pixel's words (w0, w1) and, when those are
+// rejected, on retry words of the same (seed, frame, pixel) counter. Scalar reference of the
+// vectorized loop in sensor/poisson.cpp and of poisson.glsl.
+inline float ptrs_sample(float mu, uint32_t w0, uint32_t w1, uint64_t seed, uint32_t frame, uint64_t pixel,
+                         uint32_t stream) {
+  const PtrsSetup s = ptrs_setup(mu);
+  float k = ptrs_attempt(s, w0, w1);
+  for (int r = 1; k < 0 && r <= kPtrsMaxRetryCalls; ++r) {
+    const auto w = random_words(seed, frame, pixel, static_cast<Stream>(ptrs_retry_stream(stream, r)));
+    k = ptrs_attempt(s, w[0], w[1]);
+    if (k < 0) k = ptrs_attempt(s, w[2], w[3]);
+  }
+  return k < 0 ? s.mu_int : k;
 }
 
 }  // namespace photosite::detail

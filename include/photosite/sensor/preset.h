@@ -73,5 +73,7 @@ std::string preset_dir();                 // PHOTOSITE_PRESET_DIR env or the sou
 
 nlohmann::json to_json(const CameraPreset& p);
 nlohmann::json to_json(const LensPreset& p);
+// `presets show --json`: a lens preset's JSON when `name` is a bundled lens, else the camera's.
+nlohmann::json show_preset(const std::string& name);
 
 }  // namespace photosite

@@ -1,0 +1,149 @@
+#include "photosite/backend.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+#include "photosite/error.h"
+#ifdef PHOTOSITE_HAVE_VULKAN
+#include "photosite/gpu/scene.h"
+#include "photosite/gpu/sensor.h"
+#include "photosite/gpu/stages.h"
+#endif
+
+namespace photosite {
+
+const char* to_string(Backend b) { return b == Backend::Vulkan ? "vulkan" : "cpu"; }
+
+Backend resolve_backend(const std::string& name, const std::string& what) {
+  if (name == "cpu") return Backend::Cpu;
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (name == "vulkan") {
+    try {
+      gpu::shared_context();
+    } catch (const Error& e) {
+      fail(what + " vulkan: " + e.what());
+    }
+    return Backend::Vulkan;
+  }
+  if (name == "auto") {
+    try {
+      return gpu::shared_context().device().cpu ? Backend::Cpu : Backend::Vulkan;
+    } catch (const Error&) {
+      return Backend::Cpu;  // no loader or device: the native path, silently (that is auto)
+    }
+  }
+#else
+  if (name == "vulkan") fail(what + " vulkan: this photosite was built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)");
+  if (name == "auto") return Backend::Cpu;
+#endif
+  fail("unknown " + what + " '" + name + "' (known: cpu, vulkan, auto)");
+}
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+struct SensorRunner::Device {
+  gpu::SensorChain chain{gpu::shared_context()};
+  std::shared_ptr<gpu::SceneStages> scene = std::make_shared<gpu::SceneStages>(gpu::shared_context());
+};
+#else
+struct SensorRunner::Device {};
+#endif
+
+SensorRunner::SensorRunner(Backend b) : backend_(b) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (b == Backend::Vulkan) device_ = std::make_unique<Device>();
+#endif
+}
+SensorRunner::SensorRunner(SensorRunner&&) noexcept = default;
+SensorRunner& SensorRunner::operator=(SensorRunner&&) noexcept = default;
+SensorRunner make_backend(const std::string& name, const std::string& what) {
+  return SensorRunner(resolve_backend(name, what));
+}
+
+SensorRunner::~SensorRunner() {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  // With PHOTOSITE_VK_VALIDATION=1 every validation message is reported (tests look for them).
+  if (device_ && device_->chain.context().validation())
+    for (const auto& m : device_->chain.context().messages()) std::fprintf(stderr, "photosite: Vulkan validation: %s\n", m.c_str());
+#endif
+}
+
+#ifdef PHOTOSITE_HAVE_VULKAN
+namespace {
+// The scene stages' radiance buffer when `token` still names it and it fits `radiance`.
+gpu::Buffer* resident(gpu::SceneStages& scene, uint64_t token, const ImageF& radiance) {
+  gpu::Buffer* b = scene.resident_radiance(token);
+  return b && b->bytes() == radiance.size() * sizeof(float) ? b : nullptr;
+}
+}  // namespace
+#endif
+
+ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                           const ResolvedExposure& ex, uint64_t resident_radiance) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_)
+    return device_->chain.mean_signal_electrons(radiance, p, lens, ex,
+                                                resident(*device_->scene, resident_radiance, radiance));
+#endif
+  (void)resident_radiance;
+  return photosite::mean_signal_electrons(radiance, p, lens, ex);
+}
+
+uint64_t SensorRunner::resident_mean_e() const {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.resident_mean_e();
+#endif
+  return 0;
+}
+
+SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
+                                 const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_mean_e) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return device_->chain.sense(mean_e, p, ex, s, fpn, resident_mean_e);
+#endif
+  (void)resident_mean_e;
+  return photosite::sense(mean_e, p, ex, s, fpn);
+}
+
+SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                                  const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_radiance) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_)
+    return device_->chain.expose(radiance, p, lens, s, fpn, resident(*device_->scene, resident_radiance, radiance));
+#endif
+  (void)resident_radiance;
+  return photosite::expose(radiance, p, lens, s, fpn);
+}
+
+ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::demosaic(device_->chain.context(), mosaic, pattern, method);
+#endif
+  return photosite::demosaic(mosaic, pattern, method);
+}
+
+scene::PixelStages SensorRunner::pixel_stages() {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::pixel_stages(device_->scene);
+#endif
+  return {};
+}
+
+ImageF SensorRunner::linearize(const ImageF& day, const ImageFileInfo& info) {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) return gpu::linearize(device_->chain.context(), day, info);
+#endif
+  return scene::linearize(day, info);
+}
+
+SensorRunner::Transfers SensorRunner::transfers() const {
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) {
+    const auto t = device_->chain.context().transfers();
+    return {t.uploaded, t.downloaded, device_->chain.context().device().staged};
+  }
+#endif
+  return {};
+}
+
+}  // namespace photosite

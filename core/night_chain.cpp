@@ -1,0 +1,84 @@
+#include "photosite/night_chain.h"
+
+#include <chrono>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
+namespace photosite {
+
+NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
+  using clock = std::chrono::steady_clock;
+  NightChain c;
+  auto t = clock::now();
+  auto lap = [&](const char* name) {
+    const auto now = clock::now();
+    c.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
+    t = now;
+  };
+  ImageF lin = runner.linearize(day, info);
+  c.width = lin.width();
+  c.height = lin.height();
+  day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
+  lap("linearize");
+  c.scene = scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect),
+                               runner.pixel_stages());
+  for (auto& st : c.scene.timings) c.timings.push_back(st);
+  t = clock::now();
+  if (inspect) {
+    inspect(lin, c.scene);
+    lap("write maps");
+  }
+  lin = ImageF();
+  c.exposure = resolve(setup.camera, setup.lens, setup.settings);
+  // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
+  // device for every frame (the host copies are for the outputs and the CPU path).
+  c.mean_e = runner.mean_signal_electrons(c.scene.radiance, setup.camera, setup.lens, c.exposure,
+                                          c.scene.resident_radiance);
+  c.mean_e_on_device = runner.resident_mean_e();
+  c.fpn = store.load_or_create(setup.camera, setup.device_id, c.scene.radiance.width(),
+                               c.scene.radiance.height());
+  lap("sensor: optics, FPN");
+  return c;
+}
+
+void set_ambient_lux(scene::ScenePreset& sp, double lux, const std::string& what) {
+  if (!(lux >= 0 && lux <= 10)) fail(fmt::format("{} {} must be in [0, 10] lx", what, lux));
+  // Keep the preset's moon/sky-glow proportions, rescaled to the requested total.
+  const double sum = sp.moon_lux + sp.skyglow_lux;
+  if (sum > 0) {
+    sp.moon_lux *= lux / sum;
+    sp.skyglow_lux *= lux / sum;
+  } else {
+    sp.moon_lux = lux;
+  }
+}
+
+SensorOutput night_frame(SensorRunner& runner, const NightChain& c, const SensorSetup& setup, uint32_t frame) {
+  ExposureSettings s = setup.settings;
+  s.frame = frame;
+  return runner.sense(c.mean_e, setup.camera, c.exposure, s, c.fpn, c.mean_e_on_device);
+}
+
+ImageF image_from_codes(const void* codes, int bits, int width, int height, int channels) {
+  if (bits != 8 && bits != 16) internal_error("image_from_codes: bits must be 8 or 16");
+  ImageF img(width, height, channels, uninitialized);
+  const OIIO::TypeDesc src = bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
+  // Rows in parallel: each sample's conversion is independent, so the result is the same.
+  const int row = width * channels;
+  const size_t row_bytes = static_cast<size_t>(row) * (bits / 8);
+  bool ok = true;
+#pragma omp parallel for schedule(static) reduction(&& : ok)
+  for (int y = 0; y < height; ++y)
+    ok = ok && OIIO::convert_pixel_values(src, static_cast<const char*>(codes) + y * row_bytes,
+                                          OIIO::TypeDesc::FLOAT, img.row(y), row);
+  if (!ok) internal_error("image_from_codes: conversion failed");
+  return img;
+}
+
+}  // namespace photosite

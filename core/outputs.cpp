@@ -1,0 +1,134 @@
+// The EXR layers and header attributes of sensor outputs and night frames (see outputs.h).
+#include "photosite/outputs.h"
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+
+namespace photosite {
+
+namespace {
+constexpr std::pair<const char*, Layer> kLayerNames[] = {
+    {"sensor", Layer::Sensor}, {"raw", Layer::Raw},       {"electrons", Layer::Electrons},
+    {"radiance", Layer::Radiance}, {"lights", Layer::Lights}, {"depth", Layer::Depth},
+    {"labels", Layer::Labels}};
+}  // namespace
+
+LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::string& what,
+                      const std::string& command) {
+  LayerSet s = 0;
+  size_t b = 0;
+  while (b <= list.size()) {
+    size_t e = list.find(',', b);
+    if (e == std::string::npos) e = list.size();
+    const std::string name = list.substr(b, e - b);
+    b = e + 1;
+    if (name.empty()) continue;
+    bool known = false;
+    for (const auto& [n, l] : kLayerNames)
+      if (name == n) {
+        known = true;
+        if (!has(applicable, l))
+          fail(fmt::format("{} {}: {} does not write the layer '{}' (it writes {})", what, list, command, name,
+                           layers_text(applicable)));
+        s |= static_cast<unsigned>(l);
+      }
+    if (!known)
+      fail(fmt::format("{} {}: unknown layer '{}' (layers: {})", what, list, name, layers_text(applicable)));
+  }
+  if (s == 0) fail(fmt::format("{} '{}': no layer named", what, list));
+  return s;
+}
+
+std::string layers_text(LayerSet s) {
+  std::string t;
+  for (const auto& [n, l] : kLayerNames)
+    if (has(s, l)) t += (t.empty() ? "" : ",") + std::string(n);
+  return t;
+}
+
+std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
+                                                      const ResolvedExposure& ex,
+                                                      const FixedPatternMaps& fpn) {
+  return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
+          {"photosite/preset", r.camera.name},
+          {"photosite/lens", r.lens.name},
+          {"photosite/device_id", r.device_id},
+          {"photosite/fpn_checksum", fpn.checksum},
+          {"photosite/seed", std::to_string(r.settings.seed)},
+          {"photosite/frame", static_cast<int>(r.settings.frame)},
+          {"photosite/exposure_s", ex.exposure_s},
+          {"photosite/f_number", ex.f_number},
+          {"photosite/gain_db", ex.gain_db},
+          {"photosite/gain", ex.gain_linear},
+          {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
+          {"photosite/temperature_c", ex.temperature_c},
+          {"photosite/cfa", std::string(to_string(r.camera.cfa))},
+          {"photosite/bit_depth", r.camera.bit_depth},
+          {"photosite/black_level_dn", r.camera.black_level_dn},
+          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))},
+          {"photosite/poisson", std::string(to_string(r.settings.poisson))}};
+}
+
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out, LayerSet layers) {
+  // raw.Y (ADC codes) and electrons.Y (counted charges) are integers: UINT channels, exact. R,G,B
+  // (demosaiced, fractional DN up to 2^bit_depth) stay float32: half's 11-bit significand would
+  // step 2 DN at 4095, coarser than the ADC.
+  std::vector<ExrChannelGroup> g;
+  if (has(layers, Layer::Raw)) g.push_back({{"raw.Y"}, &out.raw_dn, unit::dn, ExrPixel::Uint});
+  if (has(layers, Layer::Sensor)) g.push_back({{"R", "G", "B"}, &out.rgb, "DN above black level"});
+  if (has(layers, Layer::Electrons)) g.push_back({{"electrons.Y"}, &out.electrons, unit::electrons, ExrPixel::Uint});
+  return g;
+}
+
+ImageF label_image(const scene::LabelMap& labels) {
+  ImageF img(labels.ids.width(), labels.ids.height(), 1, 0.f, unit::label_id);
+  for (size_t i = 0; i < img.pixel_count(); ++i) img[i] = labels.ids[i];
+  return img;
+}
+
+std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
+                                            const ImageF& label_img, LayerSet layers) {
+  auto groups = sensor_channels(out, layers);
+  if (has(layers, Layer::Radiance)) groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
+  // depth.Z as half: the coarse depth runs 0..1 along each ray from the vanishing point, so one
+  // pixel's step is at least 1/2290 at 2048x1024 (the longest ray); half's spacing is at most
+  // 2^-11 = 1/2048 in [0.5, 1) and finer below, about one step per pixel at the border and
+  // exact ordering everywhere. night_radiance and lights stay float32: physical radiances
+  // whose range is set by the scene preset, not bounded by half's [6.1e-5, 65504] normal range.
+  if (has(layers, Layer::Depth)) groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
+  if (has(layers, Layer::Lights)) groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
+  if (has(layers, Layer::Labels)) groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
+  return groups;
+}
+
+std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
+                                                     const ResolvedExposure& ex,
+                                                     const FixedPatternMaps& fpn,
+                                                     const scene::ScenePreset& sp,
+                                                     const scene::NightScene& ns,
+                                                     const scene::LabelMap& labels,
+                                                     const NightInputs& in) {
+  auto attrs = sensor_attributes(r, ex, fpn);
+  const auto scene_attrs = scene::scene_attributes(sp);
+  attrs.insert(scene_attrs.begin(), scene_attrs.end());
+  attrs["photosite/night/image"] = in.image;
+  attrs["photosite/night/labels"] = in.labels;
+  attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
+  if (!in.instances.empty()) attrs["photosite/night/instances"] = in.instances;
+  attrs["photosite/night/vanishing_point_x"] = ns.vp.x;
+  attrs["photosite/night/vanishing_point_y"] = ns.vp.y;
+  attrs["photosite/night/vanishing_point_confidence"] = ns.vp.confidence;
+  attrs["photosite/night/vanishing_point_method"] = std::string(scene::vp_method_name(ns.vp.method));
+  attrs["photosite/night/vanishing_point_support"] = ns.vp.support;
+  if (!ns.vp.note.empty()) attrs["photosite/night/vanishing_point_note"] = ns.vp.note;
+  attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
+  attrs["photosite/night/work_scale"] = ns.work_scale;
+  attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
+  attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
+  attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;
+  attrs["photosite/night/lights_windows"] = ns.light_stats.windows;
+  return attrs;
+}
+
+}  // namespace photosite

@@ -1,0 +1,43 @@
+// `characterize`: an EMVA 1288 (R4.0) photon-transfer measurement of a simulated camera
+// (sensor/emva.cpp sees the camera only through frames) beside the values its preset implies.
+// The command line prints it as a table or JSON; the Python module returns the JSON as a dict.
+#pragma once
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "photosite/backend.h"
+#include "photosite/outputs.h"
+#include "photosite/sensor/emva.h"
+#include "photosite/sensor/fpn.h"
+
+namespace photosite {
+
+struct Characterization {
+  std::string preset, device_id;
+  double wavelength_nm = 525;
+  int pixels_measured = 0;
+  char cfa_colour = 'G';  // the CFA colour of the measured sub-lattice
+  int roi_w = 0, roi_h = 0;
+  struct Row {
+    const char* key;    // JSON key
+    const char* label;  // words for people
+    const char* unit;
+    emva::Value measured, preset;
+  };
+  std::vector<Row> rows;
+  std::vector<emva::PtcPoint> photon_transfer;
+};
+
+// roi: side of the measured region in pixels, [16, 4096] (bad input naming `roi_what` otherwise).
+Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
+                              int roi, double wavelength_nm, const std::string& roi_what = "--roi");
+
+// z: deviation in combined standard errors (measurement and finite-device sampling).
+double z_score(const Characterization::Row& row);
+
+// The JSON of `photosite characterize --json`.
+nlohmann::json to_json(const Characterization& c);
+
+}  // namespace photosite

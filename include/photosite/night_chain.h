@@ -1,0 +1,55 @@
+// The `night` chain as one library call: a decoded day image and its labels in, the night scene
+// and the camera's frames of it out, on a chosen backend. The command line (`photosite night`,
+// `demo`) and the Python module (`photosite.night`) both call it, so they give the same numbers.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "photosite/backend.h"
+#include "photosite/io.h"
+#include "photosite/outputs.h"
+#include "photosite/scene/labels.h"
+#include "photosite/scene/night.h"
+#include "photosite/scene/scene_preset.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/pipeline.h"
+
+namespace photosite {
+
+// Everything the frames of one night scene share: the scene, the resolved exposure, the device's
+// fixed-pattern maps and the mean signal (left on the device on Vulkan for a run of frames).
+struct NightChain {
+  scene::NightScene scene;
+  ResolvedExposure exposure;
+  FixedPatternMaps fpn;
+  ImageF mean_e;                  // mean signal, e- per pixel
+  uint64_t mean_e_on_device = 0;  // SensorRunner::resident_mean_e() of mean_e
+  int width = 0, height = 0;
+  // "linearize", the scene stages, "write maps" (with `inspect`) and "sensor: optics, FPN".
+  std::vector<scene::StageTiming> timings;
+};
+
+// day: read_image()'s samples with their file info (integer files as code / max code, sRGB
+// encoded; float files linear); consumed, freed as soon as no later stage reads it.
+// inspect: when given, called with the linear day image and the scene (with its darkened map)
+// before the sensor stages — the command line's --maps.
+NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
+
+// Sets the night ambient illuminance (moon + sky glow) to `lux` in [0, 10] lx, keeping the
+// preset's moon/sky-glow proportions; bad input naming `what` outside that range.
+void set_ambient_lux(scene::ScenePreset& sp, double lux, const std::string& what = "--ambient-lux");
+
+// One frame of the camera (noise drawn for setup.settings.seed and `frame`).
+SensorOutput night_frame(SensorRunner& runner, const NightChain& chain, const SensorSetup& setup,
+                         uint32_t frame);
+
+// Integer codes (8- or 16-bit, interleaved) as read_image() returns them from a file: the same
+// conversion (OpenImageIO's), so an array and the PNG it came from give the same floats.
+ImageF image_from_codes(const void* codes, int bits, int width, int height, int channels);
+
+}  // namespace photosite

@@ -1,0 +1,81 @@
+// What the sensor commands write: the EXR layers (channel groups) and the header attributes of
+// `expose`/`flat` (sensor outputs) and of `night`/`batch` (night frames). A library module so
+// that every face — the command line, the batch engine, the Python module — writes the same
+// layout from the same code.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "photosite/io.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
+
+namespace photosite {
+
+// The resolved identity of a sensor run: camera, lens, settings and the device whose
+// fixed-pattern maps were used. Recorded in every output's header.
+struct SensorSetup {
+  CameraPreset camera;
+  LensPreset lens;
+  ExposureSettings settings;
+  std::string device_id;
+};
+
+// ---- layers -----------------------------------------------------------------------------------
+// The layers a command can write, as bits of a LayerSet: sensor (R,G,B), raw (raw.Y), electrons
+// (electrons.Y), radiance (radiance.R/G/B for expose, night_radiance.R/G/B for night/batch),
+// lights (lights.R/G/B), depth (depth.Z), labels (labels.Y).
+enum class Layer : unsigned { Sensor = 1, Raw = 2, Electrons = 4, Radiance = 8, Lights = 16, Depth = 32, Labels = 64 };
+using LayerSet = unsigned;
+constexpr bool has(LayerSet s, Layer l) { return (s & static_cast<unsigned>(l)) != 0; }
+// What each command can write (and writes by default): expose the sensor layers and its input
+// radiance; night and batch every layer.
+constexpr LayerSet kExposeLayers = 1 | 2 | 4 | 8;
+constexpr LayerSet kNightLayers = 127;
+// batch's default: what a training set needs (sensor, raw, electrons, depth, labels) without the
+// two float32 radiance layers (6 of 13 channels, most of the bytes and the write time:
+// docs/benchmarks.md, "batch").
+constexpr LayerSet kBatchLayers = 1 | 2 | 4 | 32 | 64;
+// Parses a comma list of layer names ("sensor,labels"). Bad input (naming `what`, e.g. the flag)
+// for an unknown name, a layer outside `applicable` (named with `command`), or an empty list.
+LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::string& what,
+                      const std::string& command);
+// The canonical comma list of a set, in the order above (recorded in batch manifests).
+std::string layers_text(LayerSet s);
+
+// The header attributes every sensor output carries ("photosite/..."): version, preset, lens,
+// device and its fixed-pattern checksum, seed, frame, the resolved exposure, CFA, bit depth,
+// black level and demosaic method.
+std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& setup,
+                                                      const ResolvedExposure& ex,
+                                                      const FixedPatternMaps& fpn);
+// The channel groups of a sensor output: raw.Y, R,G,B, electrons.Y.
+std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out, LayerSet layers = kExposeLayers);
+
+// ---- night frames (`night`, `batch`) ----------------------------------------------------------
+struct NightInputs {
+  std::string image, labels, instances;
+};
+
+// Channel groups: the sensor's (raw.Y, R,G,B, electrons.Y), night_radiance.R/G/B, depth.Z,
+// lights.R/G/B, labels.Y. `label_img` must outlive the returned groups.
+// Only the layers in `layers`.
+std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
+                                            const ImageF& label_img, LayerSet layers = kNightLayers);
+// The label ids as a one-channel image (unit label_id) for the labels.Y layer.
+ImageF label_image(const scene::LabelMap& labels);
+
+// Header: the sensor attributes, every scene parameter, the inputs, the vanishing point (with
+// confidence, method and fallback note) and the light counts.
+std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& setup,
+                                                     const ResolvedExposure& ex,
+                                                     const FixedPatternMaps& fpn,
+                                                     const scene::ScenePreset& sp,
+                                                     const scene::NightScene& ns,
+                                                     const scene::LabelMap& labels,
+                                                     const NightInputs& in);
+
+}  // namespace photosite

@@ -1,0 +1,565 @@
+// _photosite: the Python face of the photosite library (pybind11). Every function here converts
+// arguments, calls the same library functions the command line calls (photosite/night_chain.h,
+// backend.h, outputs.h, characterize.h, io.h) and wraps the results; no stage is written twice.
+//
+// Conventions:
+//  - Arrays in are C-contiguous, H x W (one channel) or H x W x C, of the dtypes each function
+//    names; anything else is a ValueError naming the argument. Integer images are codes, read as
+//    code / max code exactly as the command line reads an 8/16-bit file (OpenImageIO's conversion).
+//  - The library's Image owns its samples, so an input array is copied once into it (memcpy or
+//    the code conversion); outputs are the library's own buffers, moved into a capsule that the
+//    returned NumPy array owns (no copy out).
+//  - The GIL is released for every computation, so Python threads run concurrently.
+//  - photosite::Error of kind BadInput becomes ValueError with the library's message, missing
+//    files FileNotFoundError, internal errors RuntimeError.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+
+#include <OpenEXR/ImfThreading.h>
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+
+#include "photosite/backend.h"
+#include "photosite/characterize.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/night_chain.h"
+#include "photosite/outputs.h"
+#include "photosite/scene/scene_preset.h"
+#include "photosite/sensor/demosaic.h"
+#include "photosite/sensor/isp.h"
+#include "photosite/sensor/preset.h"
+
+namespace py = pybind11;
+using namespace photosite;
+
+namespace {
+
+// A missing input file: FileNotFoundError in Python.
+struct MissingFile : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+void require_file(const std::string& path, const std::string& what) {
+  if (!std::filesystem::exists(path)) throw MissingFile(path + ": " + what + " not found");
+}
+
+// ---- arrays in ----------------------------------------------------------------------------
+struct ArrayShape {
+  int height = 0, width = 0, channels = 1;
+};
+
+// Checks C-contiguity, dimensions (2 or 3) and allowed channel counts; `what` names the argument.
+ArrayShape check_image_array(const py::array& a, const std::string& what, std::initializer_list<int> channels) {
+  if (!(a.flags() & py::array::c_style))
+    fail(what + ": the array must be C-contiguous (use numpy.ascontiguousarray)");
+  if (a.ndim() != 2 && a.ndim() != 3)
+    fail(fmt::format("{}: expected an H x W or H x W x C array, got {} dimensions", what, a.ndim()));
+  ArrayShape s;
+  s.height = static_cast<int>(a.shape(0));
+  s.width = static_cast<int>(a.shape(1));
+  s.channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+  bool ok = false;
+  for (int c : channels) ok |= c == s.channels;
+  if (!ok) {
+    std::string list;
+    for (int c : channels) list += (list.empty() ? "" : " or ") + std::to_string(c);
+    fail(fmt::format("{}: expected {} channel(s), got {}", what, list, s.channels));
+  }
+  check_frame_size(what, s.width, s.height);
+  return s;
+}
+
+std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+bool is_dtype(const py::array& a, const py::dtype& d) { return a.dtype().is(d) || a.dtype().equal(d); }
+
+// A float32 array as an ImageF (one copy); NaN or infinity is bad input naming the pixel.
+ImageF float_image(const py::array& a, const std::string& what, const ArrayShape& s, bool finite = true) {
+  ImageF img(s.width, s.height, s.channels, uninitialized);
+  std::memcpy(img.data(), a.data(), img.size() * sizeof(float));
+  if (finite)
+    for (size_t i = 0; i < img.size(); ++i)
+      if (!std::isfinite(img[i])) {
+        const size_t p = i / s.channels;
+        fail(fmt::format("{}: sample {} at pixel ({}, {}) is not finite", what, img[i], p % s.width, p / s.width));
+      }
+  return img;
+}
+
+// Integer codes as ImageU16 (labels, instance ids).
+ImageU16 code_image(const py::array& a, const std::string& what, const ArrayShape& s) {
+  ImageU16 img(s.width, s.height, s.channels, uninitialized);
+  if (is_dtype(a, py::dtype::of<uint16_t>()))
+    std::memcpy(img.data(), a.data(), img.size() * sizeof(uint16_t));
+  else if (is_dtype(a, py::dtype::of<uint8_t>()))
+    std::copy_n(static_cast<const uint8_t*>(a.data()), img.size(), img.data());
+  else
+    fail(what + ": expected dtype uint8 or uint16 (label codes), got " + dtype_name(a));
+  return img;
+}
+
+// ---- arrays out ---------------------------------------------------------------------------
+// The image's buffer, owned by the returned array (the Image is moved into the capsule).
+template <class T>
+py::array_t<T> to_array(Image<T>&& img) {
+  auto* owner = new Image<T>(std::move(img));
+  py::capsule cap(owner, [](void* p) { delete static_cast<Image<T>*>(p); });
+  std::vector<py::ssize_t> shape = {owner->height(), owner->width()};
+  if (owner->channels() > 1) shape.push_back(owner->channels());
+  return py::array_t<T>(shape, owner->data(), cap);
+}
+
+ImageU16 raw_codes(const ImageF& raw_dn) {  // integer-valued DN (0..2^bit_depth-1) as uint16
+  ImageU16 r(raw_dn.width(), raw_dn.height(), 1, uninitialized, unit::dn);
+  const int64_t n = static_cast<int64_t>(r.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) r[i] = static_cast<uint16_t>(raw_dn[i]);
+  return r;
+}
+
+py::dict attributes_dict(const std::map<std::string, ExrAttribute>& attrs) {
+  py::dict d;
+  for (const auto& [k, v] : attrs) {
+    const std::string key = k.rfind("photosite/", 0) == 0 ? k.substr(10) : k;
+    std::visit([&](const auto& x) { d[py::str(key)] = x; }, v);
+  }
+  return d;
+}
+
+py::object json_to_python(const nlohmann::json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
+}
+
+// ---- results ------------------------------------------------------------------------------
+struct SensorResult {
+  py::array_t<uint16_t> raw;      // DN, CFA mosaic with black level
+  py::array_t<float> rgb;         // DN above black, demosaiced
+  py::array_t<float> electrons;   // e-
+  py::dict metadata;
+  std::array<double, 3> wb_gains{1, 1, 1};
+};
+
+SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam) {
+  SensorResult r;
+  r.raw = to_array(raw_codes(out.raw_dn));
+  out.raw_dn = ImageF();
+  r.rgb = to_array(std::move(out.rgb));
+  r.electrons = to_array(std::move(out.electrons));
+  r.metadata = attributes_dict(attrs);
+  r.wb_gains = white_balance_gains(cam);
+  return r;
+}
+
+// The simple ISP's sRGB preview (photosite/sensor/isp.h) as uint8, rounded as a PNG preview is.
+py::array_t<uint8_t> preview_u8(const SensorResult& s) {
+  const auto rgb = s.rgb;
+  ImageF in(static_cast<int>(rgb.shape(1)), static_cast<int>(rgb.shape(0)), 3, uninitialized);
+  std::memcpy(in.data(), rgb.data(), in.size() * sizeof(float));
+  ImageU8 out(in.width(), in.height(), 3, uninitialized);
+  {
+    py::gil_scoped_release nogil;
+    const ImageF srgb = preview_srgb(in, s.wb_gains);
+    OIIO::convert_pixel_values(OIIO::TypeDesc::FLOAT, srgb.data(), OIIO::TypeDesc::UINT8, out.data(),
+                               static_cast<int>(out.size()));
+  }
+  return to_array(std::move(out));
+}
+
+struct NightResult {
+  py::array_t<float> radiance, lights, depth;
+  py::array_t<uint16_t> labels;
+  py::tuple vanishing_point;
+  SensorResult sensor;
+  // The library chain's own time: labels_from_codes, make_backend, prepare_night, night_frame,
+  // night_attributes and releasing the intermediates (for `photosite bench python`).
+  double chain_ms = 0;
+};
+
+// ---- the camera ---------------------------------------------------------------------------
+struct Camera {
+  SensorSetup setup;
+  DeviceStore store;
+
+  Camera(const std::string& preset, std::optional<std::string> lens, std::optional<std::string> device_id,
+         std::optional<std::string> device_store)
+      : store(device_store.value_or("")) {
+    setup.camera = load_camera_preset(preset);
+    const std::string lens_name = lens.value_or(setup.camera.default_lens);
+    if (lens_name.empty()) fail("camera preset " + setup.camera.file + " names no default_lens; pass lens=");
+    setup.lens = load_lens_preset(lens_name);
+    setup.device_id = device_id.value_or(setup.camera.name + "-0");
+  }
+
+  // The settings of one call, validated before any work (as the CLI's SensorOptions::resolve).
+  SensorSetup with(double exposure_s, std::optional<double> f_number, double gain_db,
+                   std::optional<double> temperature_c, uint64_t seed, uint32_t frame,
+                   const std::string& demosaic) const {
+    SensorSetup s = setup;
+    s.settings.exposure_s = exposure_s;
+    s.settings.f_number = f_number.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.gain_db = gain_db;
+    s.settings.temperature_c = temperature_c.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.seed = seed;
+    s.settings.frame = frame;
+    s.settings.demosaic = parse_demosaic_method(demosaic);
+    photosite::resolve(s.camera, s.lens, s.settings);
+    return s;
+  }
+
+  SensorResult expose(const py::array& radiance, double exposure_s, std::optional<double> f_number, double gain_db,
+                      std::optional<double> temperature_c, uint64_t seed, uint32_t frame,
+                      const std::string& demosaic, const std::string& backend) const {
+    if (!is_dtype(radiance, py::dtype::of<float>()))
+      fail("radiance: expected dtype float32 (W.sr-1.m-2, linear), got " + dtype_name(radiance));
+    const ArrayShape shape = check_image_array(radiance, "radiance", {1, 3});
+    const SensorSetup s = with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
+    SensorOutput out;
+    ResolvedExposure ex;
+    FixedPatternMaps fpn;
+    {
+      py::gil_scoped_release nogil;
+      ImageF rad = float_image(radiance, "radiance", shape);
+      if (rad.channels() == 1) {  // grey radiance: equal band radiance in R, G, B (as `expose`)
+        ImageF rgb(rad.width(), rad.height(), 3, uninitialized);
+        for (size_t i = 0; i < rad.pixel_count(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = rad[i];
+        rad = std::move(rgb);
+      }
+      rad.set_unit(unit::radiance);
+      SensorRunner runner = make_backend(backend, "backend");
+      ex = photosite::resolve(s.camera, s.lens, s.settings);
+      ImageF mean_e;
+      try {
+        mean_e = runner.mean_signal_electrons(rad, s.camera, s.lens, ex);
+      } catch (const Error& e) {
+        fail(std::string("radiance: ") + e.what());
+      }
+      fpn = store.load_or_create(s.camera, s.device_id, rad.width(), rad.height());
+      out = runner.sense(mean_e, s.camera, ex, s.settings, fpn);
+    }
+    return wrap_sensor(std::move(out), sensor_attributes(s, ex, fpn), s.camera);
+  }
+};
+
+NightResult night(const py::array& day_rgb, const py::array& labels, const std::optional<py::array>& instances,
+                  const Camera& camera, const std::string& scene_preset, double exposure_s,
+                  std::optional<double> f_number, double gain_db, std::optional<double> temperature_c, uint64_t seed,
+                  uint32_t frame, const std::string& demosaic, const std::string& backend,
+                  const std::string& label_format, std::optional<double> ambient_lux,
+                  const std::string& resize_labels) {
+  const ArrayShape ds = check_image_array(day_rgb, "day_rgb", {3});
+  const bool day_float = is_dtype(day_rgb, py::dtype::of<float>());
+  const bool day_u8 = is_dtype(day_rgb, py::dtype::of<uint8_t>());
+  const bool day_u16 = is_dtype(day_rgb, py::dtype::of<uint16_t>());
+  if (!day_float && !day_u8 && !day_u16)
+    fail("day_rgb: expected dtype uint8 or uint16 (sRGB codes) or float32 (linear), got " + dtype_name(day_rgb));
+  const ArrayShape ls = check_image_array(labels, "labels", {1, 3});
+  ArrayShape is;
+  if (instances) is = check_image_array(*instances, "instances", {1});
+  // Codes are copied with the GIL held: the dtype checks need it and the copy is small.
+  ImageU16 label_codes = code_image(labels, "labels", ls);
+  ImageU16 instance_codes = instances ? code_image(*instances, "instances", is) : ImageU16();
+  const auto fmt_label = scene::parse_label_format(label_format);
+  scene::ResizeLabels resize;
+  if (resize_labels == "none") resize = scene::ResizeLabels::None;
+  else if (resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
+  else fail("resize_labels: '" + resize_labels + "' is not none or nearest");
+  scene::ScenePreset sp = scene::load_scene_preset(scene_preset);
+  if (ambient_lux) set_ambient_lux(sp, *ambient_lux, "ambient_lux");
+  SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
+
+  NightResult r;
+  std::optional<NightChain> chain;
+  std::optional<SensorOutput> out;
+  scene::LabelMap lm;
+  std::map<std::string, ExrAttribute> attrs;
+  {
+    py::gil_scoped_release nogil;
+    ImageFileInfo info;
+    info.path = "day_rgb";
+    info.format = "array";
+    info.width = ds.width;
+    info.height = ds.height;
+    info.channels = ds.channels;
+    info.is_float = day_float;
+    info.bits_per_sample = day_float ? 32 : day_u8 ? 8 : 16;
+    info.srgb_encoded = !day_float;
+    ImageF day = day_float ? float_image(day_rgb, "day_rgb", ds)
+                           : image_from_codes(day_rgb.data(), info.bits_per_sample, ds.width, ds.height, 3);
+    const auto t0 = std::chrono::steady_clock::now();
+    lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
+                                  fmt_label, resize, "labels", "instances");
+    SensorRunner runner = make_backend(backend, "backend");
+    chain.emplace(prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
+    out.emplace(night_frame(runner, *chain, s, frame));
+    attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
+                             {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : ""});
+    // The intermediates no output keeps are released here, as a C++ caller's scope would.
+    chain->mean_e = ImageF();
+    chain->fpn = FixedPatternMaps();
+    chain->scene.darkened = ImageF();
+    r.chain_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  scene::NightScene& ns = chain->scene;
+  r.vanishing_point = py::make_tuple(ns.vp.x, ns.vp.y, ns.vp.confidence, scene::vp_method_name(ns.vp.method));
+  r.radiance = to_array(std::move(ns.radiance));
+  r.lights = to_array(std::move(ns.lights));
+  r.depth = to_array(std::move(ns.depth));
+  r.labels = to_array(std::move(lm.ids));
+  r.sensor = wrap_sensor(std::move(*out), std::move(attrs), s.camera);
+  return r;
+}
+
+py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cfa, const std::string& method,
+                                  const std::string& backend) {
+  const ArrayShape ms = check_image_array(mosaic, "mosaic", {1});
+  const bool f32 = is_dtype(mosaic, py::dtype::of<float>());
+  const bool u8 = is_dtype(mosaic, py::dtype::of<uint8_t>()), u16 = is_dtype(mosaic, py::dtype::of<uint16_t>());
+  if (!f32 && !u8 && !u16)
+    fail("mosaic: expected dtype float32 (any unit) or uint8/uint16 (codes, read as code / max code), got " +
+         dtype_name(mosaic));
+  const CfaPattern pattern = parse_cfa(cfa);
+  const DemosaicMethod m = parse_demosaic_method(method);
+  ImageF rgb;
+  {
+    py::gil_scoped_release nogil;
+    ImageF img = f32 ? float_image(mosaic, "mosaic", ms)
+                     : image_from_codes(mosaic.data(), u8 ? 8 : 16, ms.width, ms.height, 1);
+    SensorRunner runner = make_backend(backend, "backend");
+    rgb = runner.demosaic(img, pattern, m);
+  }
+  return to_array(std::move(rgb));
+}
+
+py::dict characterize_py(const py::object& camera, std::optional<std::string> lens, std::optional<std::string> device_id,
+                         std::optional<std::string> device_store, double exposure_s, double gain_db, uint64_t seed,
+                         int roi, double wavelength_nm, const std::string& backend) {
+  std::optional<Camera> own;
+  const Camera* cam = nullptr;
+  if (py::isinstance<py::str>(camera)) {
+    own.emplace(camera.cast<std::string>(), lens, device_id, device_store);
+    cam = &*own;
+  } else {
+    cam = &camera.cast<const Camera&>();
+  }
+  const SensorSetup s = cam->with(exposure_s, std::nullopt, gain_db, std::nullopt, seed, 0, "bilinear");
+  nlohmann::json j;
+  {
+    py::gil_scoped_release nogil;
+    SensorRunner runner = make_backend(backend, "backend");
+    j = to_json(characterize(s, cam->store, runner, roi, wavelength_nm, "roi"));
+  }
+  return json_to_python(j);
+}
+
+// ---- EXR ----------------------------------------------------------------------------------
+py::tuple read_exr_py(const std::string& path) {
+  require_file(path, "EXR file");
+  ExrContents c;
+  {
+    py::gil_scoped_release nogil;
+    c = read_exr(path);
+  }
+  py::dict channels, attrs, types;
+  for (auto& [name, img] : c.channels) channels[py::str(name)] = to_array(std::move(img));
+  for (const auto& [k, v] : c.attributes) attrs[py::str(k)] = v;
+  for (const auto& [k, v] : c.pixel_types) types[py::str(k)] = to_string(v);
+  return py::make_tuple(channels, attrs, types);
+}
+
+void write_exr_py(const std::string& path, const py::dict& layers, const py::dict& attributes, bool half,
+                  bool overwrite) {
+  check_output_path(path, overwrite);
+  std::vector<ImageF> images;
+  images.reserve(layers.size());
+  std::vector<ExrChannelGroup> groups;
+  for (const auto& [k, v] : layers) {
+    const std::string name = k.cast<std::string>();
+    if (!py::isinstance<py::array>(v)) fail("layers['" + name + "']: expected a NumPy array");
+    const py::array a = v.cast<py::array>();
+    const ArrayShape s = check_image_array(a, "layers['" + name + "']", {1, 2, 3, 4});
+    ExrChannelGroup g;
+    if (is_dtype(a, py::dtype::of<float>())) {
+      images.push_back(float_image(a, "layers['" + name + "']", s, false));
+    } else if (is_dtype(a, py::dtype("float16"))) {
+      const ImageF f(s.width, s.height, s.channels, uninitialized);
+      images.push_back(f);
+      OIIO::convert_pixel_values(OIIO::TypeDesc::HALF, a.data(), OIIO::TypeDesc::FLOAT, images.back().data(),
+                                 static_cast<int>(f.size()));
+      g.pixel = ExrPixel::Half;
+    } else if (is_dtype(a, py::dtype::of<uint8_t>()) || is_dtype(a, py::dtype::of<uint16_t>()) ||
+               is_dtype(a, py::dtype::of<uint32_t>())) {
+      // UINT channels: exact integers (the library stores them through float, exact below 2^24,
+      // and refuses larger ones rather than rounding).
+      ImageF f(s.width, s.height, s.channels, uninitialized);
+      const size_t n = f.size();
+      if (is_dtype(a, py::dtype::of<uint8_t>())) std::copy_n(static_cast<const uint8_t*>(a.data()), n, f.data());
+      else if (is_dtype(a, py::dtype::of<uint16_t>())) std::copy_n(static_cast<const uint16_t*>(a.data()), n, f.data());
+      else {
+        const auto* p = static_cast<const uint32_t*>(a.data());
+        for (size_t i = 0; i < n; ++i) {
+          if (p[i] > (1u << 24)) fail("layers['" + name + "']: uint32 value above 2^24 cannot be stored exactly");
+          f[i] = static_cast<float>(p[i]);
+        }
+      }
+      images.push_back(std::move(f));
+      g.pixel = ExrPixel::Uint;
+    } else {
+      fail("layers['" + name + "']: expected dtype float32, float16 or uint8/16/32, got " + dtype_name(a));
+    }
+    static const char* rgba[] = {"R", "G", "B", "A"};
+    if (s.channels == 1) g.channel_names = {name};
+    else
+      for (int c = 0; c < s.channels; ++c)
+        g.channel_names.push_back(name.empty() ? rgba[c] : name + "." + (s.channels >= 3 ? rgba[c] : std::to_string(c)));
+    groups.push_back(std::move(g));
+  }
+  for (size_t i = 0; i < groups.size(); ++i) groups[i].image = &images[i];
+  std::map<std::string, ExrAttribute> attrs;
+  for (const auto& [k, v] : attributes) {
+    const std::string key = k.cast<std::string>();
+    if (py::isinstance<py::bool_>(v)) attrs[key] = static_cast<int>(v.cast<bool>());
+    else if (py::isinstance<py::int_>(v)) attrs[key] = v.cast<int>();
+    else if (py::isinstance<py::float_>(v)) attrs[key] = v.cast<double>();
+    else if (py::isinstance<py::str>(v)) attrs[key] = v.cast<std::string>();
+    else fail("attributes['" + key + "']: expected str, int or float");
+  }
+  ExrWriteOptions wo;
+  wo.half = half;
+  py::gil_scoped_release nogil;
+  write_exr(path, groups, attrs, wo);
+}
+
+
+// OpenEXR's global thread pool is not fork-safe: a forked child (a DataLoader worker) inherits
+// the pool's bookkeeping but not its threads, and its first EXR read (the device store's
+// fixed-pattern maps) waits on them for ever. The package's os.register_at_fork hooks stop the
+// pool before a fork, so the child reads EXRs in the calling thread, and restart it in the parent.
+int exr_threads_before_fork = -1;
+void before_fork() {
+  exr_threads_before_fork = Imf::globalThreadCount();
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(0);
+}
+void after_fork_in_parent() {
+  if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(exr_threads_before_fork);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_photosite, m) {
+  m.doc() = "photosite's C++ library (the extension under the photosite package)";
+  m.def("_before_fork", &before_fork);
+  m.def("_after_fork_in_parent", &after_fork_in_parent);
+
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const MissingFile& e) {
+      PyErr_SetString(PyExc_FileNotFoundError, e.what());
+    } catch (const Error& e) {
+      if (e.kind() == Error::Kind::BadInput) {
+        const std::string msg = e.what();
+        const bool missing = msg.find("file not found") != std::string::npos ||
+                             msg.find("no such file") != std::string::npos;
+        PyErr_SetString(missing ? PyExc_FileNotFoundError : PyExc_ValueError, e.what());
+      } else {
+        PyErr_SetString(PyExc_RuntimeError, e.what());
+      }
+    }
+  });
+
+  py::class_<SensorResult>(m, "SensorResult")
+      .def_readonly("raw", &SensorResult::raw, "uint16 H x W: raw DN mosaic (with black level)")
+      .def_readonly("rgb", &SensorResult::rgb, "float32 H x W x 3: demosaiced DN above black")
+      .def_readonly("electrons", &SensorResult::electrons, "float32 H x W: collected e- per pixel")
+      .def_readonly("metadata", &SensorResult::metadata, "dict: the EXR header attributes (without 'photosite/')")
+      .def("preview", &preview_u8, "uint8 H x W x 3 sRGB preview through the simple ISP");
+
+  py::class_<NightResult>(m, "NightResult")
+      .def_readonly("radiance", &NightResult::radiance, "float32 H x W x 3: night scene radiance, W.sr-1.m-2")
+      .def_readonly("lights", &NightResult::lights, "float32 H x W x 3: artificial light radiance, W.sr-1.m-2")
+      .def_readonly("depth", &NightResult::depth, "float32 H x W: relative depth 0..1 (vanishing-point ramp)")
+      .def_readonly("labels", &NightResult::labels, "uint16 H x W: Cityscapes labelIds")
+      .def_readonly("vanishing_point", &NightResult::vanishing_point, "(x px, y px, confidence 0..1, method)")
+      .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")
+      .def_readonly("chain_ms", &NightResult::chain_ms, "ms spent in the library chain (labels .. sensor)")
+      .def("preview", [](const NightResult& r) { return preview_u8(r.sensor); },
+           "uint8 H x W x 3 sRGB preview of the sensor frame");
+
+  py::class_<Camera>(m, "Camera")
+      .def(py::init<const std::string&, std::optional<std::string>, std::optional<std::string>,
+                    std::optional<std::string>>(),
+           py::arg("preset"), py::arg("lens") = py::none(), py::arg("device_id") = py::none(),
+           py::arg("device_store") = py::none())
+      .def_property_readonly("preset", [](const Camera& c) { return c.setup.camera.name; })
+      .def_property_readonly("lens", [](const Camera& c) { return c.setup.lens.name; })
+      .def_property_readonly("device_id", [](const Camera& c) { return c.setup.device_id; })
+      .def_property_readonly("device_store", [](const Camera& c) { return c.store.dir(); })
+      .def_property_readonly("width_px", [](const Camera& c) { return c.setup.camera.width_px; })
+      .def_property_readonly("height_px", [](const Camera& c) { return c.setup.camera.height_px; })
+      .def_property_readonly("bit_depth", [](const Camera& c) { return c.setup.camera.bit_depth; })
+      .def_property_readonly("cfa", [](const Camera& c) { return std::string(to_string(c.setup.camera.cfa)); })
+      .def("expose", &Camera::expose, py::arg("radiance"), py::arg("exposure_s") = 0.02,
+           py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
+           py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto");
+
+  m.def("night", &night, py::arg("day_rgb"), py::arg("labels"), py::arg("instances") = py::none(),
+        py::arg("camera"), py::arg("scene_preset") = "night-urban", py::arg("exposure_s") = 0.02,
+        py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
+        py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",
+        py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none");
+  m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
+        py::arg("backend") = "auto");
+  m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),
+        py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
+        py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,
+        py::arg("backend") = "auto");
+  m.def("read_exr", &read_exr_py, py::arg("path"));
+  m.def("write_exr", &write_exr_py, py::arg("path"), py::arg("layers"), py::arg("attributes") = py::dict(),
+        py::arg("half") = false, py::arg("overwrite") = false);
+  m.def("preset_names", [](const std::string& kind) {
+    std::vector<std::string> names;
+    for (const auto& e : list_presets())
+      if (e.kind == kind) names.push_back(e.name);
+    return names;
+  }, py::arg("kind"));
+  m.def("show_preset", [](const std::string& name) { return json_to_python(show_preset(name)); }, py::arg("name"));
+  m.def("scene_presets", [] {
+    std::vector<std::string> names;
+    const auto dir = std::filesystem::path(preset_dir()) / "scenes";
+    if (std::filesystem::is_directory(dir))
+      for (const auto& e : std::filesystem::directory_iterator(dir))
+        if (e.path().extension() == ".toml") names.push_back(e.path().stem().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  });
+  m.def("read_image", [](const std::string& path) {
+    require_file(path, "image file");
+    ImageF img;
+    {
+      py::gil_scoped_release nogil;
+      img = read_image(path);
+    }
+    return to_array(std::move(img));
+  }, py::arg("path"));
+  m.def("read_codes", [](const std::string& path) -> py::array {
+    require_file(path, "image file");
+    ImageU16 img;
+    ImageFileInfo info;
+    {
+      py::gil_scoped_release nogil;
+      img = read_image_u16(path, &info);
+    }
+    if (info.bits_per_sample != 8) return to_array(std::move(img));
+    ImageU8 u8(img.width(), img.height(), img.channels(), uninitialized);
+    std::copy_n(img.data(), img.size(), u8.data());
+    return to_array(std::move(u8));
+  }, py::arg("path"));
+}

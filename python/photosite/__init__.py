@@ -1,0 +1,164 @@
+"""photosite: a camera-sensor simulator with a day-to-night front end, from NumPy.
+
+The same C++ library as the ``photosite`` command, in process: arrays in, arrays out, no files in
+between. Arrays are C-contiguous NumPy arrays, H x W (one channel) or H x W x C:
+
+- day images: uint8 / uint16 sRGB codes (as in a PNG; read as code / max code) or float32 linear,
+- labels: uint8 / uint16 Cityscapes labelIds or trainIds (H x W) or the colour palette (H x W x 3),
+- radiance: float32, W.sr-1.m-2 (band radiance per R, G, B),
+- outputs: uint16 raw DN, float32 DN above black, float32 electrons (e-), uint8 sRGB previews.
+
+Bad input raises ValueError (FileNotFoundError for a missing file) with the message the command
+line prints. Computation releases the GIL.
+
+    import photosite as ps
+    cam = ps.Camera("onsemi-ar0331")
+    night = ps.night(day_rgb, labels, camera=cam, exposure_s=0.02, seed=0)
+    night.radiance, night.depth, night.sensor.raw, night.preview()
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional, Union
+
+import numpy as np
+
+from . import _photosite
+from ._photosite import Camera, NightResult, SensorResult
+from . import presets
+
+# Fork safety (DataLoader workers, multiprocessing): OpenEXR's thread pool is stopped before a
+# fork and restarted in the parent, so a forked child reads EXRs without it (_photosite.cpp).
+os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent)
+
+__all__ = ["Camera", "NightResult", "SensorResult", "night", "demosaic", "characterize", "read_exr",
+           "write_exr", "read_image", "read_codes", "presets"]
+
+Camera.__doc__ = """Camera(preset, lens=None, device_id=None, device_store=None)
+
+A camera: a camera preset (bundled name such as "onsemi-ar0331" or a .toml path), a lens preset
+(default: the camera's default lens) and one device of it. The device's fixed-pattern maps (PRNU,
+DSNU, hot pixels) are created once per device_id and frame size and kept in device_store (default:
+$PHOTOSITE_DEVICE_STORE or ~/.local/share/photosite/devices), exactly as the command line does.
+
+Camera.expose(radiance, exposure_s=0.02, f_number=None, gain_db=0, temperature_c=None, seed=0,
+              frame=0, demosaic="bilinear", backend="auto") -> SensorResult
+    radiance     float32 H x W x 3 (or H x W, grey), scene radiance in W.sr-1.m-2
+    exposure_s   exposure time in seconds
+    f_number     f-number N (None: the lens preset's)
+    gain_db      analog gain in dB above the base system gain
+    temperature_c  die temperature in deg C (None: the preset's)
+    seed, frame  the temporal noise key: results are deterministic per (device, seed, frame)
+    demosaic     demosaic method for .rgb (bilinear, malvar, hamilton-adams, lmmse, ...)
+    backend      "cpu", "vulkan" or "auto" (a real GPU when present, else cpu)
+Returns .raw (uint16 DN mosaic), .rgb (float32 DN above black), .electrons (float32 e-) and
+.metadata (dict: the EXR header attributes `photosite expose` writes).
+"""
+
+CameraLike = Union[Camera, str, None]
+
+
+def _camera(camera: CameraLike, default: str) -> Camera:
+    if camera is None:
+        return Camera(default)
+    if isinstance(camera, str):
+        return Camera(camera)
+    return camera
+
+
+def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarray] = None,
+          camera: CameraLike = None, scene_preset: str = "night-urban", exposure_s: float = 0.02,
+          f_number: Optional[float] = None, gain_db: float = 0.0, temperature_c: Optional[float] = None,
+          seed: int = 0, frame: int = 0, demosaic: str = "bilinear", backend: str = "auto",
+          label_format: str = "auto", ambient_lux: Optional[float] = None,
+          resize_labels: str = "none") -> NightResult:
+    """Translate a day photo to night and expose it through a camera (`photosite night`).
+
+    day_rgb       H x W x 3, uint8/uint16 sRGB codes (as a PNG holds them) or float32 linear sRGB
+    labels        H x W uint8/uint16 Cityscapes labelIds or trainIds, or H x W x 3 palette colours
+    instances     H x W uint16 Cityscapes instance ids (class*1000+n), for per-vehicle lights; optional
+    camera        a Camera, a camera preset name, or None for "onsemi-ar0331" (Cityscapes' camera)
+    scene_preset  scene preset name in presets/scenes or a .toml path ("night-urban", ...)
+    exposure_s    exposure time in seconds
+    f_number      f-number (None: the lens preset's)
+    gain_db       analog gain in dB above the base system gain
+    temperature_c die temperature in deg C (None: the preset's)
+    seed          scene and temporal-noise seed; frame: the frame number (noise key)
+    demosaic      demosaic method of sensor.rgb
+    backend       "cpu", "vulkan" or "auto"
+    label_format  "auto", "labelIds", "trainIds" or "color"
+    ambient_lux   night ambient illuminance (moon + sky glow) in lx, [0, 10] (None: the preset's)
+    resize_labels "none" or "nearest" (labels of another size than the image)
+
+    Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,
+    W.sr-1.m-2), .depth (float32 H x W, relative 0..1), .labels (uint16 labelIds),
+    .vanishing_point (x px, y px, confidence 0..1, method), .sensor (a SensorResult, metadata as in
+    the EXR header) and .preview() (uint8 sRGB). The pixels equal those of the `photosite night`
+    EXR for the same inputs, camera, seed and frame.
+    """
+    return _photosite.night(day_rgb, labels, instances, _camera(camera, "onsemi-ar0331"), scene_preset,
+                            exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, backend,
+                            label_format, ambient_lux, resize_labels)
+
+
+def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto") -> np.ndarray:
+    """Demosaic a CFA mosaic (`photosite demosaic`).
+
+    mosaic   H x W float32 (any unit, kept) or uint8/uint16 codes (read as code / max code)
+    cfa      RGGB, BGGR, GRBG, GBRG, RCCB, RCCC or MONO
+    method   bilinear, malvar, hamilton-adams, lmmse, ... (`photosite demosaic --list`)
+    backend  "cpu", "vulkan" or "auto"
+    Returns float32 H x W x 3 in the mosaic's unit.
+    """
+    return _photosite.demosaic(mosaic, cfa, method, backend)
+
+
+def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_id: Optional[str] = None,
+                 device_store: Optional[str] = None, exposure_s: float = 0.02, gain_db: float = 0.0,
+                 seed: int = 0, roi: int = 256, wavelength_nm: float = 525.0, backend: str = "auto") -> dict:
+    """EMVA 1288 (R4.0) photon-transfer measurement of a simulated camera (`photosite characterize --json`).
+
+    camera        a Camera or a camera preset name (then lens, device_id, device_store apply)
+    exposure_s    exposure time of the dark frames in seconds; gain_db: analog gain in dB
+    roi           side of the measured region in pixels, [16, 4096]
+    wavelength_nm wavelength of the light in nm
+    Returns the same dict as the command's JSON: per quantity (system_gain_dn_per_e, read_noise_e,
+    qe_525nm, saturation_capacity_e, dark_current_e_per_s, dsnu_e, prnu_percent, snr_max_db,
+    dynamic_range_db) its measured value, uncertainty (1 standard error), preset value and z score,
+    and "photon_transfer": [[photons, mean DN, temporal variance DN^2], ...].
+    """
+    return _photosite.characterize(camera, lens, device_id, device_store, exposure_s, gain_db, seed, roi,
+                                   wavelength_nm, backend)
+
+
+def read_exr(path: str) -> tuple:
+    """Read an OpenEXR file: (channels, attributes, pixel_types).
+
+    channels     dict channel name -> float32 H x W array (UINT channels exact as float32)
+    attributes   dict of every header attribute, as text
+    pixel_types  dict channel name -> "float", "half" or "uint"
+    """
+    return _photosite.read_exr(path)
+
+
+def write_exr(path: str, layers: dict, attributes: Optional[dict] = None, half: bool = False,
+              overwrite: bool = False) -> None:
+    """Write an OpenEXR file atomically (never a half-written file; an existing one only with overwrite).
+
+    layers      dict name -> array. H x W: one channel named `name`; H x W x 3 or 4: channels
+                name.R, name.G, name.B (, name.A), or R, G, B (, A) for the name "".
+                float32 -> float (half with half=True), float16 -> half, uint8/16/32 -> uint (exact).
+    attributes  dict name -> str, int or float header attributes
+    """
+    _photosite.write_exr(path, layers, attributes or {}, half, overwrite)
+
+
+def read_image(path: str) -> np.ndarray:
+    """Read an image as float32 (integer files as code / max code), H x W or H x W x C."""
+    return _photosite.read_image(path)
+
+
+def read_codes(path: str) -> np.ndarray:
+    """Read an 8/16-bit image's integer codes unscaled: uint8 for 8-bit files, else uint16
+    (day PNGs for night(), label and instance PNGs)."""
+    return _photosite.read_codes(path)

@@ -1,0 +1,72 @@
+#include "photosite/characterize.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "photosite/error.h"
+#include "photosite/sensor/emva_sim.h"
+
+namespace photosite {
+
+Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
+                              int roi, double wavelength_nm, const std::string& roi_what) {
+  if (roi < 16 || roi > 4096) fail(fmt::format("{} {} must be in [16, 4096]", roi_what, roi));
+  const int w = std::min(roi, setup.camera.width_px), h = std::min(roi, setup.camera.height_px);
+  const FixedPatternMaps fpn = store.load_or_create(setup.camera, setup.device_id, w, h);
+  emva::SimulatedCamera cam(setup.camera, setup.lens, setup.settings, fpn, wavelength_nm,
+                            [&runner](const ImageF& m, const CameraPreset& p, const ResolvedExposure& ex,
+                                      const ExposureSettings& s, const FixedPatternMaps& f) {
+                              return runner.sense(m, p, ex, s, f);
+                            });
+  const emva::Plan plan = emva::plan_for(setup.camera, wavelength_nm);
+  const emva::Result m = emva::measure(cam, plan);
+  const emva::Result e = emva::expected(setup.camera, setup.settings, plan, m.pixels_measured, wavelength_nm);
+  Characterization c;
+  c.preset = setup.camera.name;
+  c.device_id = setup.device_id;
+  c.wavelength_nm = wavelength_nm;
+  c.pixels_measured = m.pixels_measured;
+  c.cfa_colour = to_string(cfa_color(setup.camera.cfa, plan.x0, plan.y0))[0];
+  c.roi_w = w;
+  c.roi_h = h;
+  c.rows = {
+      {"system_gain_dn_per_e", "system gain K", "DN/e-", m.system_gain_dn_per_e, e.system_gain_dn_per_e},
+      {"read_noise_e", "temporal dark noise", "e-", m.temporal_dark_noise_e, e.temporal_dark_noise_e},
+      {"qe_525nm", "quantum efficiency", "", m.qe, e.qe},
+      {"saturation_capacity_e", "saturation capacity", "e-", m.saturation_capacity_e, e.saturation_capacity_e},
+      {"dark_current_e_per_s", "dark current", "e-/s", m.dark_current_e_per_s, e.dark_current_e_per_s},
+      {"dsnu_e", "DSNU1288", "e-", m.dsnu_e, e.dsnu_e},
+      {"prnu_percent", "PRNU1288", "%", m.prnu_percent, e.prnu_percent},
+      {"snr_max_db", "SNR max", "dB", m.snr_max_db, e.snr_max_db},
+      {"dynamic_range_db", "dynamic range", "dB", m.dynamic_range_db, e.dynamic_range_db},
+  };
+  c.photon_transfer = m.ptc;
+  return c;
+}
+
+double z_score(const Characterization::Row& row) {
+  return (row.measured.value - row.preset.value) /
+         std::max(1e-300, std::hypot(row.measured.uncertainty, row.preset.uncertainty));
+}
+
+nlohmann::json to_json(const Characterization& c) {
+  nlohmann::json j;
+  j["preset"] = c.preset;
+  j["device_id"] = c.device_id;
+  j["wavelength_nm"] = c.wavelength_nm;
+  j["pixels_measured"] = c.pixels_measured;
+  j["cfa_colour"] = std::string(1, c.cfa_colour);
+  j["roi"] = {c.roi_w, c.roi_h};
+  for (const auto& row : c.rows)
+    j[row.key] = {{"measured", row.measured.value}, {"uncertainty", row.measured.uncertainty},
+                  {"preset", row.preset.value}, {"preset_device_uncertainty", row.preset.uncertainty},
+                  {"z", z_score(row)}};
+  nlohmann::json ptc = nlohmann::json::array();
+  for (const auto& p : c.photon_transfer) ptc.push_back({p.photons, p.mean_dn, p.var_dn2});
+  j["photon_transfer"] = ptc;
+  return j;
+}
+
+}  // namespace photosite

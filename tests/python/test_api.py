@@ -1,0 +1,259 @@
+"""photosite's Python module against the command line: same numbers, every function."""
+import json
+import pickle
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import photosite as ps
+from conftest import KITTI_IMAGE, KITTI_LABELS, ROOT
+
+KITTI_CAMERA = "sony-icx267-flea2"
+
+
+@pytest.fixture(scope="module")
+def kitti():
+    return ps.read_codes(str(KITTI_IMAGE)), ps.read_codes(str(KITTI_LABELS))
+
+
+def exr_pixels(path):
+    channels, attrs, types = ps.read_exr(str(path))
+    return channels, attrs, types
+
+
+def test_imports_without_torch():
+    code = "import sys; sys.modules['torch'] = None; import photosite; print(photosite.presets.cameras()[0])"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def test_presets_match_cli(cli):
+    cams = ps.presets.cameras()
+    assert "sony-imx174" in cams and "onsemi-ar0331" in cams
+    listed = [l.split("\t") for l in cli("presets", "list").stdout.splitlines()]
+    assert cams == sorted(n for n, kind, *_ in listed if kind == "camera")
+    assert ps.presets.lenses() == sorted(n for n, kind, *_ in listed if kind == "lens")
+    assert ps.presets.show("sony-imx174") == json.loads(cli("presets", "show", "sony-imx174", "--json").stdout)
+    lens = ps.presets.lenses()[0]
+    assert ps.presets.show(lens) == json.loads(cli("presets", "show", lens, "--json").stdout)
+    assert "night-urban" in ps.presets.scenes()
+
+
+def test_night_matches_cli_exr_bit_for_bit(kitti, cli, store, tmp_path):
+    """Every layer of `photosite night` (frame 1 of 2, seed 5) equals the module's arrays."""
+    day, labels = kitti
+    out = tmp_path / "night_#.exr"
+    cli("night", "--image", KITTI_IMAGE, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--seed", 5,
+        "--frames", 2, "--exposure-s", 0.03, "--backend", "cpu", "--out", out)
+    ch, attrs, types = exr_pixels(tmp_path / "night_1.exr")
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    r = ps.night(day, labels, camera=cam, exposure_s=0.03, seed=5, frame=1, backend="cpu")
+    h, w = labels.shape
+    assert r.radiance.shape == (h, w, 3) and r.radiance.dtype == np.float32
+    assert r.sensor.raw.dtype == np.uint16 and r.sensor.raw.shape == (h, w)
+    np.testing.assert_array_equal(ch["raw.Y"], r.sensor.raw.astype(np.float32))
+    np.testing.assert_array_equal(ch["electrons.Y"], r.sensor.electrons)
+    np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), r.sensor.rgb)
+    np.testing.assert_array_equal(np.stack([ch["night_radiance." + c] for c in "RGB"], -1), r.radiance)
+    np.testing.assert_array_equal(np.stack([ch["lights." + c] for c in "RGB"], -1), r.lights)
+    np.testing.assert_array_equal(ch["labels.Y"], r.labels.astype(np.float32))
+    # depth.Z is stored as half in the EXR (docs/cli.md): equal after the same rounding.
+    assert types["depth.Z"] == "half"
+    np.testing.assert_array_equal(ch["depth.Z"], r.depth.astype(np.float16).astype(np.float32))
+    # the header's sensor attributes are the metadata's
+    md = r.sensor.metadata
+    for key in ("preset", "seed", "frame", "fpn_checksum", "exposure_s"):
+        if "photosite/" + key in attrs:
+            assert str(md[key]) == attrs["photosite/" + key] or float(md[key]) == pytest.approx(
+                float(attrs["photosite/" + key]), rel=1e-6)
+    assert md["preset"] == KITTI_CAMERA and md["frame"] == 1
+    x, y, conf, method = r.vanishing_point
+    assert 0 <= x < w and 0 <= y < h and 0 <= conf <= 1 and isinstance(method, str)
+    pv = r.preview()
+    assert pv.dtype == np.uint8 and pv.shape == (h, w, 3) and pv.flags.owndata is False and pv.base is not None
+
+
+def test_outputs_own_their_memory(kitti, store):
+    day, labels = kitti
+    r = ps.night(day, labels, camera=ps.Camera(KITTI_CAMERA, device_store=store), backend="cpu")
+    rad = r.radiance
+    del r
+    assert np.isfinite(rad).all()  # the buffer outlives the result object (capsule-owned)
+    assert rad.flags.c_contiguous and not rad.flags.owndata  # no copy: NumPy views the C++ buffer
+
+
+def test_expose_matches_cli(cli, store, tmp_path):
+    rng = np.random.default_rng(1)
+    radiance = rng.uniform(0, 0.05, (48, 64, 3)).astype(np.float32)
+    ps.write_exr(str(tmp_path / "rad.exr"), {"": radiance})
+    cli("expose", "--radiance", tmp_path / "rad.exr", "--preset", "sony-imx174", "--exposure-s", 0.01,
+        "--seed", 9, "--backend", "cpu", "--demosaic", "malvar", "--out", tmp_path / "out.exr")
+    ch, attrs, _ = exr_pixels(tmp_path / "out.exr")
+    cam = ps.Camera("sony-imx174", device_store=store)
+    o = cam.expose(radiance, exposure_s=0.01, seed=9, demosaic="malvar", backend="cpu")
+    np.testing.assert_array_equal(ch["raw.Y"], o.raw.astype(np.float32))
+    np.testing.assert_array_equal(ch["electrons.Y"], o.electrons)
+    np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), o.rgb)
+    assert o.metadata["fpn_checksum"] == attrs["photosite/fpn_checksum"]
+    # deterministic per (seed, frame), different for another frame
+    o2 = cam.expose(radiance, exposure_s=0.01, seed=9, demosaic="malvar", backend="cpu")
+    np.testing.assert_array_equal(o.raw, o2.raw)
+    o3 = cam.expose(radiance, exposure_s=0.01, seed=9, frame=1, demosaic="malvar", backend="cpu")
+    assert (o.raw != o3.raw).any()
+    # a grey (H x W) radiance is the same as equal R, G, B
+    g = cam.expose(radiance[..., 1].copy(), exposure_s=0.01, seed=9, backend="cpu")
+    g3 = cam.expose(np.repeat(radiance[..., 1:2], 3, axis=2), exposure_s=0.01, seed=9, backend="cpu")
+    np.testing.assert_array_equal(g.raw, g3.raw)
+
+
+def test_demosaic_matches_cli(cli, tmp_path):
+    rng = np.random.default_rng(2)
+    mosaic = rng.uniform(0, 1, (32, 40)).astype(np.float32)
+    ps.write_exr(str(tmp_path / "m.exr"), {"Y": mosaic})
+    cli("demosaic", "--in", tmp_path / "m.exr", "--cfa", "GRBG", "--method", "lmmse", "--backend", "cpu",
+        "--out", tmp_path / "rgb.exr")
+    ch, _, _ = exr_pixels(tmp_path / "rgb.exr")
+    rgb = ps.demosaic(mosaic, cfa="GRBG", method="lmmse", backend="cpu")
+    assert rgb.shape == (32, 40, 3) and rgb.dtype == np.float32
+    np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), rgb)
+    # uint16 codes are read as code / max code (OpenImageIO's code * (1/65535)): against an exact
+    # division each sample differs by at most one float32 rounding (relative 2^-24); bilinear
+    # interpolation averages up to 4 such samples, so the result stays within 4 * 2^-24 relative.
+    codes = (mosaic * 65535).astype(np.uint16)
+    np.testing.assert_allclose(ps.demosaic(codes, backend="cpu"),
+                               ps.demosaic((codes.astype(np.float64) / 65535).astype(np.float32), backend="cpu"),
+                               rtol=4 * 2.0**-24, atol=0)
+
+
+def test_characterize_matches_cli(cli, store):
+    d = ps.characterize("sony-imx174", roi=32, device_store=store, backend="cpu")
+    j = json.loads(cli("characterize", "--preset", "sony-imx174", "--roi", 32, "--json", "--backend", "cpu").stdout)
+    assert d == j
+    assert len(d["photon_transfer"]) > 5 and d["system_gain_dn_per_e"]["measured"] > 0
+
+
+def test_exr_round_trip(tmp_path):
+    rng = np.random.default_rng(3)
+    f = rng.normal(size=(5, 7, 3)).astype(np.float32)
+    u = rng.integers(0, 60000, (5, 7)).astype(np.uint16)
+    p = str(tmp_path / "x.exr")
+    ps.write_exr(p, {"a": f, "ids": u}, {"note": "hi", "n": 3, "x": 0.5})
+    ch, attrs, types = ps.read_exr(p)
+    np.testing.assert_array_equal(np.stack([ch["a." + c] for c in "RGB"], -1), f)
+    np.testing.assert_array_equal(ch["ids"], u.astype(np.float32))
+    assert types["ids"] == "uint" and types["a.R"] == "float"
+    assert attrs["note"] == "hi" and attrs["n"] == "3"
+    with pytest.raises(ValueError, match="exists"):
+        ps.write_exr(p, {"a": f})  # never overwrite without overwrite=True
+    ps.write_exr(p, {"a": f}, overwrite=True)
+
+
+def test_two_threads_run_night_at_once(kitti, store):
+    """Both threads' results equal the sequential ones, and the GIL is free during compute: a
+    third (main) thread keeps running Python while night works."""
+    day, labels = kitti
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    want = [ps.night(day, labels, camera=cam, seed=s, backend="cpu") for s in (1, 2)]
+    got = [None, None]
+
+    def work(i):
+        got[i] = ps.night(day, labels, camera=cam, seed=i + 1, backend="cpu")
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    stamps = []
+    t0 = time.perf_counter()
+    for t in threads:
+        t.start()
+    while any(t.is_alive() for t in threads):
+        stamps.append(time.perf_counter())
+    total = time.perf_counter() - t0
+    for t in threads:
+        t.join()
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g.sensor.raw, w.sensor.raw)
+        np.testing.assert_array_equal(g.radiance, w.radiance)
+    # Had night held the GIL, the main loop would stall for a whole call (>= half of `total`).
+    gaps = np.diff(stamps) if len(stamps) > 1 else np.array([total])
+    assert gaps.max() < 0.5 * total, (gaps.max(), total)
+
+
+def test_camera_properties(store):
+    cam = ps.Camera("onsemi-ar0331", device_id="cam0", device_store=store)
+    assert cam.preset == "onsemi-ar0331" and cam.device_id == "cam0" and cam.device_store == store
+    assert cam.lens and cam.width_px > 0 and cam.bit_depth > 0 and cam.cfa
+    assert "exposure_s" in ps.night.__doc__ and "W.sr-1.m-2" in ps.night.__doc__
+
+
+# ---- bad input: ValueError/FileNotFoundError naming the argument, never a crash -----------------
+def _day(h=32, w=48, dtype=np.uint8):
+    return np.full((h, w, 3), 100, dtype)
+
+
+def _labels(h=32, w=48, dtype=np.uint8):
+    lab = np.full((h, w), 7, dtype)  # road
+    lab[: h // 3] = 23  # sky
+    return lab
+
+
+NAN_DAY = _day(dtype=np.float32)
+NAN_DAY[3, 4, 1] = np.nan
+BAD = [
+    ("day float64", lambda: ps.night(_day(dtype=np.float64), _labels()), ValueError, "day_rgb: expected dtype"),
+    ("day not contiguous", lambda: ps.night(np.zeros((32, 96, 3), np.uint8)[:, ::2], _labels()), ValueError,
+     "C-contiguous"),
+    ("day 2-D", lambda: ps.night(np.zeros((32, 48), np.uint8), _labels()), ValueError, "day_rgb: expected 3"),
+    ("day 4 channels", lambda: ps.night(np.zeros((32, 48, 4), np.uint8), _labels()), ValueError, "channel"),
+    ("day 4-D", lambda: ps.night(np.zeros((1, 32, 48, 3), np.uint8), _labels()), ValueError, "dimensions"),
+    ("day NaN", lambda: ps.night(NAN_DAY, _labels()), ValueError, "not finite"),
+    ("day 1x1", lambda: ps.night(np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.uint8)), ValueError,
+     "too small"),
+    ("labels size", lambda: ps.night(_day(), _labels(16, 48)), ValueError, "labels are 48x16 but the image is 48x32"),
+    ("labels float", lambda: ps.night(_day(), _labels().astype(np.float32)), ValueError, "labels: expected dtype"),
+    ("labels unknown id", lambda: ps.night(_day(), np.full((32, 48), 200, np.uint8)), ValueError, "labels"),
+    ("unknown camera", lambda: ps.Camera("no-such-camera"), ValueError, "no-such-camera"),
+    ("unknown scene", lambda: ps.night(_day(), _labels(), scene_preset="no-such-scene"), ValueError,
+     "no-such-scene"),
+    ("unknown backend", lambda: ps.night(_day(), _labels(), backend="gpu"), ValueError, "unknown backend 'gpu'"),
+    ("negative exposure", lambda: ps.night(_day(), _labels(), exposure_s=-1), ValueError, "exposure"),
+    ("ambient lux", lambda: ps.night(_day(), _labels(), ambient_lux=50), ValueError, "ambient_lux 50"),
+    ("resize_labels", lambda: ps.night(_day(), _labels(), resize_labels="bicubic"), ValueError, "resize_labels"),
+    ("label_format", lambda: ps.night(_day(), _labels(), label_format="png"), ValueError, "png"),
+    ("demosaic method", lambda: ps.night(_day(), _labels(), demosaic="magic"), ValueError, "magic"),
+    ("radiance uint8", lambda: ps.Camera("sony-imx174").expose(np.zeros((8, 8, 3), np.uint8)), ValueError,
+     "radiance: expected dtype float32"),
+    ("radiance inf", lambda: ps.Camera("sony-imx174").expose(np.full((8, 8, 3), np.inf, np.float32)), ValueError,
+     "radiance: sample inf"),
+    ("mosaic 3 channels", lambda: ps.demosaic(np.zeros((8, 8, 3), np.float32)), ValueError, "mosaic: expected 1"),
+    ("cfa", lambda: ps.demosaic(np.zeros((8, 8), np.float32), cfa="XYZW"), ValueError, "XYZW"),
+    ("characterize roi", lambda: ps.characterize("sony-imx174", roi=8), ValueError, "roi 8 must be in [16, 4096]"),
+    ("read_exr missing", lambda: ps.read_exr("/nonexistent/x.exr"), FileNotFoundError, "/nonexistent/x.exr"),
+    ("read_codes missing", lambda: ps.read_codes("/nonexistent/x.png"), FileNotFoundError, "x.png"),
+    ("write_exr bad attribute", lambda: ps.write_exr("/tmp/never.exr", {"a": np.zeros((4, 4), np.float32)},
+                                                     {"k": [1]}), ValueError, "attributes['k']"),
+    ("write_exr missing folder", lambda: ps.write_exr("/nonexistent/dir/x.exr", {"a": np.zeros((4, 4), np.float32)}),
+     ValueError, "/nonexistent/dir"),
+]
+
+
+@pytest.mark.parametrize("name,call,exc,match", BAD, ids=[b[0] for b in BAD])
+def test_bad_input(name, call, exc, match, store):
+    with pytest.raises(exc) as e:
+        call()
+    assert match in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize("py_call,cli_args", [
+    (lambda: ps.Camera("no-such-camera"), ["presets", "show", "no-such-camera"]),
+    (lambda: ps.night(_day(), _labels(), exposure_s=-1, camera=KITTI_CAMERA),
+     ["night", "--preset", KITTI_CAMERA, "--exposure-s", "-1", "--out", "/tmp/never.exr"]),
+])
+def test_bad_input_message_is_the_clis(py_call, cli_args, cli):
+    with pytest.raises(ValueError) as e:
+        py_call()
+    r = cli(*cli_args, check=False)
+    assert r.returncode == 2
+    assert str(e.value) in r.stderr, (str(e.value), r.stderr)

@@ -1,0 +1,168 @@
+// Physical relations of the night stages (scene/lights.cpp, scene/darken.cpp, scene/night.cpp),
+// checked through the public chain on synthetic scenes: retroreflection of lane markings, the
+// low beam's illuminance against depth, traffic-signal detection and vehicle colour cues. The
+// relations are independent of how depth is parameterised, so they hold for any geometry model.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
+
+using namespace photosite;
+using namespace photosite::scene;
+
+namespace {
+// The urban preset without bloom, so each pixel of the light map holds only what was put there.
+ScenePreset no_bloom() {
+  ScenePreset p = load_scene_preset("night-urban");
+  p.bloom_fraction = 0;
+  return p;
+}
+double lum(const ImageF& img, size_t i) {
+  const float c[3] = {img[3 * i], img[3 * i + 1], img[3 * i + 2]};
+  return spectrum::luminance_cd_m2(c);
+}
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+}  // namespace
+
+// Retroreflection (EN 1436): a lane marking under the ego beam's illuminance E has luminance
+// L = R_L · E. E is not read from the code's beam model: it is recovered at the same pixel from
+// the beam's diffuse reflection that compose() adds to the ground, night − lights − darkened =
+// f_k t_k E / π (f the reflectance texture, t the beam's tint), whose luminance is
+// E · Σ_k K_k t_k f_k / π. So at each marking pixel R_L·E follows from the images alone. Only
+// pixels where the beam term is at least 10% of the night luminance are used, so the float
+// subtraction loses at most a factor 10 of single precision (10 × 6e-8 relative per operand):
+// the ratio is 1 within 1e-4 at the median pixel (lamp discs of the cars may cover a few).
+TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
+  const ScenePreset p = no_bloom();
+  const SyntheticScene s = make_synthetic_road({});
+  const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1, /*keep_darkened=*/true);
+  ASSERT_EQ(n.lanes_work.width(), n.radiance.width()) << "the synthetic scene is below work_max_width";
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const auto tb = illuminant_tint(p.beam_cct_K);
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  std::vector<double> ratio;
+  for (size_t i = 0; i < n.radiance.pixel_count(); ++i) {
+    if (!n.lanes_work[i]) continue;
+    float beam[3];
+    for (int k = 0; k < 3; ++k) beam[k] = n.radiance[3 * i + k] - n.lights[3 * i + k] - n.darkened[3 * i + k];
+    const double beam_lum = spectrum::luminance_cd_m2(beam);
+    if (beam_lum < 0.1 * lum(n.radiance, i)) continue;
+    double ktf = 0;
+    for (int k = 0; k < 3; ++k) ktf += K[k] * tb[k] * tex[3 * i + k];
+    const double E = M_PI * beam_lum / ktf;
+    ratio.push_back(lum(n.lights, i) / (p.marking_RL * E));
+  }
+  ASSERT_GE(ratio.size(), 100u);
+  const double m = median(ratio);
+  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f\n", ratio.size(), m);
+  EXPECT_NEAR(m, 1.0, 1e-4);
+}
+
+namespace {
+// A small hand-made scene for the light map: every pixel Sky (no lights of its own) unless set.
+struct Canvas {
+  int w, h;
+  ImageF day;
+  LabelMap labels;
+  Canvas(int w_, int h_) : w(w_), h(h_), day(w_, h_, 3, 0.05f, unit::dimensionless) {
+    labels.ids = ImageU16(w, h, 1, static_cast<uint16_t>(Label::Sky));
+  }
+  void fill(int x0, int y0, int x1, int y1, Label l, float r, float g, float b) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        labels.ids.at(x, y) = static_cast<uint16_t>(l);
+        day.at(x, y, 0) = r, day.at(x, y, 1) = g, day.at(x, y, 2) = b;
+      }
+  }
+  LightMap lights(const ScenePreset& p, double vp_x, double vp_y) const {
+    const ImageF tex = reflectance_texture(day, labels.ids, p);
+    VanishingPoint vp;
+    vp.x = vp_x, vp.y = vp_y;
+    return light_map(day, tex, labels, ImageU8(w, h, 1, 0), ImageF(w, h, 1, 0.f), vp, p, 1, false);
+  }
+  double lum_at(const ImageF& L, int x, int y) const { return lum(L, static_cast<size_t>(y) * w + x); }
+};
+}  // namespace
+
+// Traffic signals: a lit lens (a traffic-light pixel of signal colour, CIELAB L* ≥ 25 and chroma
+// ≥ 30) emits the preset's signal luminance (a 200-400 cd LED signal over a 200 mm lens, ~1e4
+// cd/m²) in its colour; the dark housing, and the same red outside a traffic light, emit nothing.
+// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (1e-6).
+TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
+  const ScenePreset p = no_bloom();
+  Canvas c(64, 40);
+  c.fill(4, 4, 10, 10, Label::TrafficLight, 0.8f, 0.03f, 0.03f);    // red lens
+  c.fill(14, 4, 20, 10, Label::TrafficLight, 0.8f, 0.35f, 0.01f);   // amber lens
+  c.fill(24, 4, 30, 10, Label::TrafficLight, 0.02f, 0.5f, 0.3f);    // green (blue-green) lens
+  c.fill(34, 4, 40, 10, Label::TrafficLight, 0.03f, 0.03f, 0.03f);  // unlit housing
+  c.fill(44, 4, 50, 10, Label::Static, 0.8f, 0.03f, 0.03f);         // red, but not a signal
+  const LightMap m = c.lights(p, 32, 20);
+  EXPECT_EQ(m.stats.signals, 3 * 36);
+  for (int x0 : {4, 14, 24})
+    for (int y = 4; y < 10; ++y)
+      for (int x = x0; x < x0 + 6; ++x)
+        EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.signal_luminance_cd_m2, 1e-6 * p.signal_luminance_cd_m2) << x << "," << y;
+  auto at = [&](int x, int k) { return m.radiance.at(x, 6, k); };
+  EXPECT_GT(at(6, 0), 10 * at(6, 1));                       // red: R dominates
+  EXPECT_GT(at(16, 0), at(16, 1));                          // amber: R over G, G well above 0
+  EXPECT_GT(at(16, 1), 0.2 * at(16, 0));
+  EXPECT_EQ(at(26, 0), 0.f);                                // green: no R, G over B
+  EXPECT_GT(at(26, 1), at(26, 2));
+  for (int x0 : {34, 44})
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(at(x0 + 2, k), 0.f) << x0;
+}
+
+// Vehicle colour cues: a saturated red blob on a car (a tail-lamp lens) lights with the
+// preset's tail-lamp luminance (ECE R7: 4-12 cd over ~0.02 m², ~500 cd/m²); each car also gets
+// its placed pair of lamps, tail lamps right of the vanishing point and head lamps (the
+// headlamp luminance at its CCT) left of it; the car body elsewhere stays dark.
+TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
+  const ScenePreset p = no_bloom();
+  Canvas c(120, 60);
+  c.fill(70, 30, 110, 54, Label::Car, 0.1f, 0.1f, 0.12f);  // right of the VP: seen from behind
+  c.fill(74, 46, 80, 51, Label::Car, 0.8f, 0.02f, 0.02f);  // red lens in the lower half
+  c.fill(10, 30, 50, 54, Label::Car, 0.1f, 0.1f, 0.12f);   // left of the VP: oncoming
+  const LightMap m = c.lights(p, 60, 20);
+  EXPECT_EQ(m.stats.vehicle_lamps, 4);
+  // Inside the red lens (pixels with all 8 neighbours red): exactly the tail-lamp luminance.
+  for (int y = 47; y < 50; ++y)
+    for (int x = 75; x < 79; ++x)
+      EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.taillamp_luminance_cd_m2, 1e-6 * p.taillamp_luminance_cd_m2) << x << "," << y;
+  // Placed lamps at 55% of the height, 15% in from each side.
+  const int ly = static_cast<int>(30 + 0.55 * 24);
+  EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(110 - 1 - 0.15 * 40), ly), p.taillamp_luminance_cd_m2,
+              1e-6 * p.taillamp_luminance_cd_m2);
+  EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(10 + 0.15 * 40), ly), p.headlamp_luminance_cd_m2,
+              1e-6 * p.headlamp_luminance_cd_m2);
+  EXPECT_EQ(c.lum_at(m.radiance, 90, 33), 0.0);  // the body, away from any lamp
+  EXPECT_EQ(c.lum_at(m.radiance, 30, 33), 0.0);
+}
+
+// The ego low beam on the ground (scene/lights.cpp low_beam_lux): ego_beam.road_lux (30 lx, the
+// upper end of NP §4's 0.1-30 lx) on the nearest ground at the beam's centre, falling with the
+// inverse square of the distance (distance ∝ 1/depth on a flat road, so E ∝ depth²), a Gaussian
+// across the beam (e^(-1/2) at one half-width), nothing above the horizon or beyond 4 half-widths.
+TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
+  const ScenePreset p = no_bloom();
+  const int W = 1000;
+  const double vp_y = 100;
+  for (double d : {1.0, 0.5, 0.25, 0.1}) {
+    const double centre = low_beam_lux(W / 2, 300, W, d, vp_y, p);
+    EXPECT_NEAR(centre, p.beam_road_lux * d * d, 1e-12 * p.beam_road_lux) << d;
+    const double half = std::max(1.0, p.beam_half_width * W * d);
+    const int x = W / 2 + static_cast<int>(half);  // about one half-width out
+    EXPECT_NEAR(low_beam_lux(x, 300, W, d, vp_y, p) / centre, std::exp(-0.5 * std::pow((x - 0.5 * W) / half, 2)), 1e-9) << d;
+    EXPECT_EQ(low_beam_lux(static_cast<int>(W / 2 + 4 * half + 2), 300, W, d, vp_y, p), 0.0) << d;
+  }
+  // Doubling the distance quarters the illuminance.
+  EXPECT_NEAR(low_beam_lux(W / 2, 300, W, 0.25, vp_y, p) / low_beam_lux(W / 2, 300, W, 0.5, vp_y, p), 0.25, 1e-12);
+  EXPECT_EQ(low_beam_lux(W / 2, 50, W, 0.5, vp_y, p), 0.0);  // above the horizon
+  EXPECT_NEAR(p.beam_road_lux, 30.0, 0.0);
+}
