@@ -5,6 +5,12 @@
 //   Artefacts: zipper energy on a rendered chart of thin coloured lines at 24 angles and a
 //   coloured disc (RMS of the Nyquist-frequency part of the error), false colour on a grey zone
 //   plate (RMS chroma), with crops written to docs/demosaic/.
+//   Saturated set (issue 17): where the methods that assume smooth colour differences fail.
+//   Built at run time from what photosite can ship or generate: every 128x128 tile (on a 128-px
+//   grid) of the Kodak images whose mean HSV saturation (max - min) / max is at least 0.5, plus
+//   two rendered charts, edges between the six saturated primaries and secondaries at 30 angles
+//   and a red-blue zone plate up to the R/B sampling limit. CPSNR as for Kodak (per image, then
+//   the mean), and zipper and false colour (RMS of the chroma error), per image then the mean.
 //   Speed: ms per 2048x1024 frame, float mosaic in, float RGB out, against the memory floor
 //   (read the mosaic, write the RGB image: a copy loop) measured in the same run. OpenCV only
 //   takes integer mosaics (VNG 8-bit only): it is timed on its own input types, said in the CSV.
@@ -124,6 +130,34 @@ double false_colour_rms(const ImageF& out) {
   return std::sqrt(s / n);
 }
 
+// Chroma error on a colour input: RMS (8-bit DN) of the error's colour part,
+// sqrt(((eR - eG)^2 + (eB - eG)^2) / 2) with e = out - truth (on a grey input this is
+// false_colour_rms), border excluded.
+double chroma_error_rms(const ImageF& out, const ImageF& truth) {
+  double s = 0;
+  size_t n = 0;
+  for (int y = kBorder; y < out.height() - kBorder; ++y)
+    for (int x = kBorder; x < out.width() - kBorder; ++x) {
+      double e[3];
+      for (int c = 0; c < 3; ++c) e[c] = 255.0 * (out.at(x, y, c) - truth.at(x, y, c));
+      s += 0.5 * ((e[0] - e[1]) * (e[0] - e[1]) + (e[2] - e[1]) * (e[2] - e[1]));
+      ++n;
+    }
+  return std::sqrt(s / n);
+}
+
+// Mean HSV saturation (max - min) / max of an RGB image region (0 where max = 0).
+double mean_saturation(const ImageF& rgb, int x0, int y0, int w, int h) {
+  double s = 0;
+  for (int y = y0; y < y0 + h; ++y)
+    for (int x = x0; x < x0 + w; ++x) {
+      const float r = rgb.at(x, y, 0), g = rgb.at(x, y, 1), b = rgb.at(x, y, 2);
+      const float mx = std::max({r, g, b}), mn = std::min({r, g, b});
+      s += mx > 0 ? (mx - mn) / mx : 0.0;
+    }
+  return s / (static_cast<double>(w) * h);
+}
+
 // Renders f(x, y, rgb) with 4x4 supersampling (box-filtered pixels, as a sensor integrates).
 template <class F>
 ImageF render(int w, int h, F&& f) {
@@ -194,6 +228,75 @@ ImageF zone_plate(int n) {
   });
 }
 
+// The six saturated primaries and secondaries of the colour charts (HSV saturation 0.88-0.91).
+constexpr float kSaturated[6][3] = {{0.85f, 0.08f, 0.08f}, {0.08f, 0.75f, 0.08f}, {0.08f, 0.08f, 0.85f},
+                                    {0.85f, 0.80f, 0.08f}, {0.08f, 0.75f, 0.85f}, {0.85f, 0.08f, 0.80f}};
+
+// Colour edges: a 6 x 5 grid of 64-px cells; cell i holds pair i mod 15 of the six saturated
+// colours, split by a straight edge through its centre at i * 6 degrees (0..174): every pair
+// twice, at 30 angles, so each edge has a jump in G - R and G - B (what colour-difference
+// methods assume away).
+ImageF colour_edge_chart() {
+  constexpr int kCell = 64, kCols = 6, kRows = 5;
+  int pairs[15][2], np = 0;
+  for (int a = 0; a < 6; ++a)
+    for (int b = a + 1; b < 6; ++b) pairs[np][0] = a, pairs[np][1] = b, ++np;
+  return render(kCols * kCell, kRows * kCell, [&](double x, double y, float* o) {
+    const int cx = std::min(static_cast<int>(x / kCell), kCols - 1), cy = std::min(static_cast<int>(y / kCell), kRows - 1);
+    const int i = cy * kCols + cx;
+    const double a = i * M_PI / 30.0;
+    const double dx = x - (cx + 0.5) * kCell, dy = y - (cy + 0.5) * kCell;
+    const int side = (-dx * std::sin(a) + dy * std::cos(a)) < 0 ? 0 : 1;
+    for (int c = 0; c < 3; ++c) o[c] = kSaturated[pairs[i % 15][side]][c];
+  });
+}
+
+// Saturated zone plate: red (0.85, 0.08, 0.08) and blue (0.08, 0.08, 0.85) mixed by
+// 0.5 + 0.5 cos(pi r^2 / (2n)): local frequency r / (2n) cycles per pixel, the Nyquist limit of
+// the red and blue sites (0.25) at r = n / 2, the image's half width (past it in the corners).
+ImageF saturated_zone_plate(int n) {
+  const double c = n / 2.0;
+  return render(n, n, [&](double x, double y, float* o) {
+    const double r2 = (x - c) * (x - c) + (y - c) * (y - c);
+    const double t = 0.5 + 0.5 * std::cos(M_PI * r2 / (2.0 * n));
+    for (int k = 0; k < 3; ++k) o[k] = static_cast<float>(t * kSaturated[0][k] + (1 - t) * kSaturated[2][k]);
+  });
+}
+
+// The saturated set: named images (Kodak crops, then the two charts).
+struct NamedImage {
+  std::string name;
+  ImageF rgb;
+};
+constexpr int kSatTile = 128;
+constexpr double kSatThreshold = 0.5;
+std::vector<NamedImage> saturated_set(const std::vector<std::string>& kodak_files) {
+  namespace fs = std::filesystem;
+  std::vector<NamedImage> set;
+  for (const auto& f : kodak_files) {
+    const ImageF rgb = read_image(f);
+    for (int y0 = 0; y0 + kSatTile <= rgb.height(); y0 += kSatTile)
+      for (int x0 = 0; x0 + kSatTile <= rgb.width(); x0 += kSatTile) {
+        if (mean_saturation(rgb, x0, y0, kSatTile, kSatTile) < kSatThreshold) continue;
+        ImageF crop(kSatTile, kSatTile, 3);
+        for (int y = 0; y < kSatTile; ++y)
+          for (int x = 0; x < kSatTile; ++x)
+            for (int c = 0; c < 3; ++c) crop.at(x, y, c) = rgb.at(x0 + x, y0 + y, c);
+        set.push_back({fmt::format("{}_x{}_y{}", fs::path(f).stem().string(), x0, y0), std::move(crop)});
+      }
+  }
+  set.push_back({"chart_colour_edges", colour_edge_chart()});
+  set.push_back({"chart_saturated_zone_plate", saturated_zone_plate(256)});
+  return set;
+}
+
+// Per method on the saturated set: mean CPSNR over all images, over the Kodak crops, on each
+// chart; zipper and chroma error RMS, each the mean over the set's images of the image's RMS
+// (every image weighs the same), and on the colour-edge chart.
+struct SaturatedScores {
+  double all = 0, crops = 0, edges = 0, zone = 0, zipper = 0, chroma = 0, edges_zipper = 0, edges_chroma = 0;
+};
+
 // Crops [x0, x0+s) x [y0, y0+s) of each image, scaled up 3x (nearest), side by side with a
 // white gap, into one PNG.
 void write_crops(const std::string& path, const std::vector<const ImageF*>& imgs, int x0, int y0, int s) {
@@ -214,7 +317,7 @@ struct BenchDemosaicOptions {
   std::string kodak_dir = std::string(PHOTOSITE_SOURCE_DIR) + "/../shared/data/kodak24";
   int repeats = 10;
   int width = 2048, height = 1024;
-  bool accuracy_only = false;  // Kodak CPSNR of photosite's methods only, printed (no files)
+  bool accuracy_only = false;  // Kodak and saturated-set scores of photosite's methods only, printed (no files)
 };
 
 void run_bench(const BenchDemosaicOptions& o) {
@@ -253,8 +356,47 @@ void run_bench(const BenchDemosaicOptions& o) {
     }
     per_image += "\n";
   }
+  // ---- accuracy on the saturated set -------------------------------------------------------
+  const std::vector<NamedImage> sat = saturated_set(files);
+  const size_t ncrops = sat.size() - 2;
+  std::printf("Saturated set: %zu Kodak %dx%d crops with mean HSV saturation >= %.2f, colour-edge chart, "
+              "saturated zone plate\n", ncrops, kSatTile, kSatTile, kSatThreshold);
+  std::vector<SaturatedScores> sscore(methods.size());
+  std::vector<ImageF> out_edges(methods.size());
+  std::string sat_per_image = "image";
+  for (const auto& m : methods) sat_per_image += ",\"" + label(m) + "\"";
+  sat_per_image += "\n";
+  {
+    for (size_t k = 0; k < sat.size(); ++k) {
+      sat_per_image += sat[k].name;
+      for (size_t i = 0; i < methods.size(); ++i) {
+        ImageF out = run_8bit(methods[i], sat[k].rgb);
+        const double p = cpsnr(out, sat[k].rgb);
+        sat_per_image += fmt::format(",{:.3f}", p);
+        auto& sc = sscore[i];
+        sc.all += p / sat.size();
+        if (k < ncrops) sc.crops += p / ncrops;
+        else if (k == ncrops) sc.edges = p;
+        else sc.zone = p;
+        const double z = zipper_rms(out, sat[k].rgb), ch = chroma_error_rms(out, sat[k].rgb);
+        sc.zipper += z / sat.size();
+        sc.chroma += ch / sat.size();
+        if (k == ncrops) {
+          sc.edges_zipper = z, sc.edges_chroma = ch;
+          out_edges[i] = std::move(out);
+        }
+      }
+      sat_per_image += "\n";
+    }
+  }
   if (o.accuracy_only) {
-    for (size_t i = 0; i < methods.size(); ++i) std::printf("%-16s %.3f dB\n", label(methods[i]).c_str(), mean[i]);
+    std::printf("%-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "method", "Kodak", "sat set", "sat crops", "sat edges",
+                "sat zone", "zipper", "chroma", "edges zip", "edges chr");
+    for (size_t i = 0; i < methods.size(); ++i) {
+      const auto& sc = sscore[i];
+      std::printf("%-16s %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f\n", label(methods[i]).c_str(), mean[i],
+                  sc.all, sc.crops, sc.edges, sc.zone, sc.zipper, sc.chroma, sc.edges_zipper, sc.edges_chroma);
+    }
     return;
   }
 
@@ -281,6 +423,9 @@ void run_bench(const BenchDemosaicOptions& o) {
     write_crops(o.out_dir + "/demosaic/edges_crop.png", e, n / 2 + 60, n / 2 - 120, 64);
     write_crops(o.out_dir + "/demosaic/lines_crop.png", a, n / 2 + 70, n / 2 - 100, 64);
     write_crops(o.out_dir + "/demosaic/zoneplate_crop.png", b, n - 140, n / 2 - 40, 80);
+    std::vector<const ImageF*> se{&sat[ncrops].rgb};
+    for (const auto& e2 : out_edges) se.push_back(&e2);
+    write_crops(o.out_dir + "/demosaic/saturated_edges_crop.png", se, 64 + 8, 64 + 8, 48);
   }
 
   // ---- speed -----------------------------------------------------------------------------------
@@ -310,10 +455,12 @@ void run_bench(const BenchDemosaicOptions& o) {
               machine_description().c_str());
   std::printf("memory floor (read float mosaic + write float RGB): %.3f ms\n", floor_ms);
 
-  std::string csv = "method,implementation,input,ms_per_frame,x_memory_floor,kodak_cpsnr_db,lines_cpsnr_db,zipper_rms_dn,false_colour_rms_dn,edges_cpsnr_db,edges_zipper_rms_dn\n";
-  csv += fmt::format("memory floor,copy,float32,{:.3f},1.00,,,,,,\n", floor_ms);
-  std::printf("%-22s %-9s %9s %8s %10s %9s %9s %9s\n", "method", "input", "ms/frame", "x floor", "Kodak dB", "zipper",
-              "false col", "edge zip");
+  std::string csv = "method,implementation,input,ms_per_frame,x_memory_floor,kodak_cpsnr_db,lines_cpsnr_db,zipper_rms_dn,false_colour_rms_dn,edges_cpsnr_db,edges_zipper_rms_dn,"
+                    "sat_cpsnr_db,sat_crops_cpsnr_db,sat_edges_cpsnr_db,sat_zoneplate_cpsnr_db,sat_zipper_rms_dn,sat_chroma_rms_dn,"
+                    "sat_edges_zipper_rms_dn,sat_edges_chroma_rms_dn\n";
+  csv += fmt::format("memory floor,copy,float32,{:.3f},1.00,,,,,,,,,,,,,,\n", floor_ms);
+  std::printf("%-22s %-9s %9s %8s %10s %9s %9s %9s %8s %8s %8s\n", "method", "input", "ms/frame", "x floor", "Kodak dB",
+              "zipper", "false col", "edge zip", "sat dB", "sat zip", "sat chr");
   for (size_t i = 0; i < methods.size(); ++i) {
     const auto& m = methods[i];
     std::vector<std::pair<std::string, double>> times;
@@ -326,20 +473,26 @@ void run_bench(const BenchDemosaicOptions& o) {
         times.push_back({"uint16", best_ms(reps, [&] { cv::Mat r; cv::demosaicing(raw16, r, m.cv_code); })});
     }
     for (const auto& [type, ms] : times) {
-      csv += fmt::format("\"{}\",{},{},{:.3f},{:.2f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f}\n", m.name, m.impl,
-                         type, ms, ms / floor_ms, mean[i], lines_psnr[i], zip[i], fc[i], star_psnr[i], star_zip[i]);
-      std::printf("%-22s %-9s %9.3f %8.2f %10.2f %9.3f %9.3f %9.3f\n", label(m).c_str(), type.c_str(), ms,
-                  ms / floor_ms, mean[i], zip[i], fc[i], star_zip[i]);
+      const auto& sc = sscore[i];
+      csv += fmt::format("\"{}\",{},{},{:.3f},{:.2f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f}\n",
+                         m.name, m.impl, type, ms, ms / floor_ms, mean[i], lines_psnr[i], zip[i], fc[i], star_psnr[i],
+                         star_zip[i], sc.all, sc.crops, sc.edges, sc.zone, sc.zipper, sc.chroma, sc.edges_zipper,
+                         sc.edges_chroma);
+      std::printf("%-22s %-9s %9.3f %8.2f %10.2f %9.3f %9.3f %9.3f %8.2f %8.3f %8.3f\n", label(m).c_str(), type.c_str(), ms,
+                  ms / floor_ms, mean[i], zip[i], fc[i], star_zip[i], sc.all, sc.zipper, sc.chroma);
     }
   }
   csv += fmt::format("# {}x{} frame, {} threads, best of {} runs (OpenCV VNG: best of {}); machine: {}\n", W, H,
                      threads, o.repeats, std::max(2, o.repeats / 3), machine_description());
   csv += "# Kodak: 24 images, RGGB, outputs rounded to 8 bits, CPSNR with a 10-pixel border excluded; OpenCV on 8-bit mosaics (VNG shifted down 2 rows)\n";
+  csv += fmt::format("# saturated set: {} Kodak {}x{} tiles with mean HSV saturation >= {} + colour-edge chart + saturated zone plate; sat_cpsnr_db the mean over all, zipper and chroma the mean of per-image RMS\n",
+                     ncrops, kSatTile, kSatTile, kSatThreshold);
   const std::string csv_path = o.out_dir + "/demosaic.csv";
   std::ofstream(csv_path) << csv;
   std::ofstream(o.out_dir + "/demosaic_per_image.csv") << per_image;
-  std::printf("\nwrote %s, %s/demosaic_per_image.csv and crops in %s/demosaic/\n", csv_path.c_str(),
-              o.out_dir.c_str(), o.out_dir.c_str());
+  std::ofstream(o.out_dir + "/demosaic_saturated_per_image.csv") << sat_per_image;
+  std::printf("\nwrote %s, %s/demosaic_per_image.csv, %s/demosaic_saturated_per_image.csv and crops in %s/demosaic/\n",
+              csv_path.c_str(), o.out_dir.c_str(), o.out_dir.c_str(), o.out_dir.c_str());
   const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/scripts/chart_demosaic.py";
   const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + o.out_dir + "/demosaic.png'";
   if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
@@ -347,13 +500,14 @@ void run_bench(const BenchDemosaicOptions& o) {
 }
 }  // namespace
 
-static BenchRegistrar reg("demosaic", "demosaic methods: Kodak CPSNR, zipper, false colour and ms/frame vs OpenCV",
+static BenchRegistrar reg("demosaic", "demosaic methods: Kodak and saturated-set CPSNR, zipper, false colour and ms/frame vs OpenCV",
                           [](CLI::App* sub) {
                             auto o = std::make_shared<BenchDemosaicOptions>();
                             sub->add_option("--out-dir", o->out_dir, "where CSV, chart and crops go")->capture_default_str();
                             sub->add_option("--kodak", o->kodak_dir, "folder of the Kodak PNGs")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "best of N runs")->capture_default_str();
-                            sub->add_flag("--accuracy-only", o->accuracy_only, "print the Kodak CPSNR of photosite's methods, write nothing");
+                            sub->add_flag("--accuracy-only", o->accuracy_only,
+                                          "print the Kodak and saturated-set scores of photosite's methods, write nothing");
                             sub->add_option("--width", o->width)->capture_default_str();
                             sub->add_option("--height", o->height)->capture_default_str();
                             sub->callback([o] { run_bench(*o); });

@@ -105,6 +105,15 @@ struct LmmseParams {
   float gw[9];
 };
 static_assert(sizeof(LmmseParams) == 56 && offsetof(LmmseParams, gw) == 20);
+// demosaic_mlri_*.comp (common/mlri.glsl): the frame, the stage's direction and margins around
+// the frame, the planes' margin, and MLRI's float constants (detail::MlriConstants).
+struct MlriParams {
+  DemosaicParams frame;
+  uint32_t dir;
+  int32_t mx, my, margin;
+  float gw[5], tau_n_g[2], inv_n_g[2], tau_n_b[4], inv_n_b[4], inv_box_g, inv_box_b;
+};
+static_assert(sizeof(MlriParams) == 112 && offsetof(MlriParams, gw) == 36 && offsetof(MlriParams, inv_box_b) == 108);
 
 // Scratch planes of a multi-pass method on the device, by name and size in bytes (kept by the
 // caller, e.g. reused frame to frame by the sensor chain).
@@ -112,7 +121,8 @@ using ScratchBuffers = std::function<Buffer&(const std::string& name, size_t byt
 
 // Records a demosaic of `raw` (width x height floats, black_dn subtracted on the fly) into `rgb`
 // (3 floats per pixel) with the method's kernels (gpu/stages.cpp): one dispatch for bilinear and
-// Malvar, two for Hamilton-Adams, five for LMMSE, their intermediate planes from `scratch`.
+// Malvar, two for Hamilton-Adams, five for LMMSE, fourteen for MLRI, their intermediate planes from
+// `scratch`.
 // `label` names the dispatches in stage timings.
 void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const DemosaicParams& p, Buffer& raw,
                      Buffer& rgb, const ScratchBuffers& scratch, const std::string& label = {});

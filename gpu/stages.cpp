@@ -2,6 +2,8 @@
 // functions, used by the parity tests and the benchmark.
 #include "photosite/gpu/stages.h"
 
+#include <algorithm>
+#include <iterator>
 #include <memory>
 
 #include "kernels.h"
@@ -52,6 +54,7 @@ bool has_demosaic_kernel(DemosaicMethod m) {
     case DemosaicMethod::Malvar:
     case DemosaicMethod::HamiltonAdams:
     case DemosaicMethod::Lmmse: return true;
+    case DemosaicMethod::Mlri: return true;
   }
   return false;
 }
@@ -93,6 +96,52 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
       s.dispatch(ctx.kernel("demosaic_lmmse_fuse", 6, sizeof(lp)), {&raw, &dv, &zh, &sv, &sh, &d}, lp, g.x, g.y, 1,
                  part("estimate"));
       s.dispatch(ctx.kernel("demosaic_lmmse_colour", 3, sizeof(lp)), {&raw, &rgb, &d}, lp, g.x, g.y, 1, label);
+      break;
+    }
+    case DemosaicMethod::Mlri: {
+      // Every plane covers the frame plus the support radius on each side; each stage is
+      // dispatched over the frame plus its margins (sensor/demosaic_mlri.cpp's geometry).
+      const auto geo = detail::mlri_geometry();
+      const auto& c = detail::mlri_constants();
+      MlriParams mp{p, 0, 0, 0, geo.margin, {}, {}, {}, {}, {}, c.inv_box_g, c.inv_box_b};
+      std::copy(std::begin(c.gw), std::end(c.gw), mp.gw);
+      std::copy(std::begin(c.tau_n_g), std::end(c.tau_n_g), mp.tau_n_g);
+      std::copy(std::begin(c.inv_n_g), std::end(c.inv_n_g), mp.inv_n_g);
+      std::copy(std::begin(c.tau_n_b), std::end(c.tau_n_b), mp.tau_n_b);
+      std::copy(std::begin(c.inv_n_b), std::end(c.inv_n_b), mp.inv_n_b);
+      const uint64_t plane = (w + 2 * geo.margin) * (h + 2 * geo.margin) * sizeof(float);
+      Buffer& lap = scratch("mlri_lap", 2 * plane);
+      Buffer& coef = scratch("mlri_coef", 4 * plane);
+      Buffer& tent = scratch("mlri_tent", 2 * plane);
+      Buffer& dif = scratch("mlri_dif", 2 * plane);
+      Buffer& wt = scratch("mlri_wt", 2 * plane);
+      Buffer& green = scratch("mlri_green", plane);
+      auto stage = [&](const char* kernel, uint32_t dir, int mx, int my, const std::string& what) {
+        mp.dir = dir, mp.mx = mx, mp.my = my;
+        const Grid gr = grid_1d((w + 2 * mx) * (h + 2 * my));
+        if (std::string(kernel) == "demosaic_mlri_rgb")
+          s.dispatch(ctx.kernel(kernel, 8, sizeof(mp)), {&raw, &lap, &coef, &tent, &dif, &wt, &green, &rgb}, mp, gr.x,
+                     gr.y, 1, label);
+        else
+          s.dispatch(ctx.kernel(kernel, 7, sizeof(mp)), {&raw, &lap, &coef, &tent, &dif, &wt, &green}, mp, gr.x, gr.y, 1,
+                     part(what.c_str()));
+      };
+      for (uint32_t d = 0; d < 2; ++d) {
+        auto along = [&](const char* k, int m, const char* what) {
+          stage(k, d, d == 0 ? m : geo.across, d == 0 ? geo.across : m, what);
+        };
+        along("demosaic_mlri_lap", geo.lap, "green Laplacians");
+        along("demosaic_mlri_coef", geo.ab, "green coefficients");
+        along("demosaic_mlri_q", geo.q, "green tentative");
+        along("demosaic_mlri_dif", geo.dif, "green differences");
+      }
+      stage("demosaic_mlri_weight", 0, geo.green + 1, geo.green, "green weights");
+      stage("demosaic_mlri_weight", 1, geo.green, geo.green + 1, "green weights");
+      stage("demosaic_mlri_green", 0, geo.green, geo.green, "green");
+      stage("demosaic_mlri_rblap", 0, 1 + 2 * geo.rb, 1 + 2 * geo.rb, "red/blue Laplacians");
+      stage("demosaic_mlri_rbcoef", 0, 1 + geo.rb, 1 + geo.rb, "red/blue coefficients");
+      stage("demosaic_mlri_rbq", 0, 1, 1, "red/blue tentative");
+      stage("demosaic_mlri_rgb", 0, 0, 0, "");
       break;
     }
   }

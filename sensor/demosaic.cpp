@@ -27,6 +27,8 @@ constexpr MethodInfo kMethods[] = {
      "Hamilton-Adams 1997 edge-directed green, colour-difference red/blue"},
     {DemosaicMethod::Lmmse, "lmmse", "",
      "Zhang-Wu 2005 directional LMMSE estimation of colour differences"},
+    {DemosaicMethod::Mlri, "mlri", "",
+     "Kiku-Monno-Tanaka-Okutomi 2014 minimized-Laplacian residual interpolation"},
 };
 }  // namespace
 
@@ -73,6 +75,7 @@ ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method)
     case DemosaicMethod::Malvar: return demosaic_malvar(mosaic, pattern);
     case DemosaicMethod::HamiltonAdams: return demosaic_hamilton_adams(mosaic, pattern);
     case DemosaicMethod::Lmmse: return demosaic_lmmse(mosaic, pattern);
+    case DemosaicMethod::Mlri: return demosaic_mlri(mosaic, pattern);
   }
   internal_error("demosaic: unhandled method");
 }

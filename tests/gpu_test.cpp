@@ -320,6 +320,21 @@ TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
     EXPECT_TRUE(gpu::has_demosaic_kernel(meth)) << to_string(meth) << " has no Vulkan kernel";
 }
 
+TEST_F(Gpu, MlriKernelsBitEqualOnFramesLargerThanACpuTile) {
+  // MLRI's CPU path runs in 256x128 tiles with 23-px margins, its kernels over whole planes: on
+  // frames spanning several tiles (odd sizes, partial tiles at the right and bottom), every
+  // Bayer phase and RCCB give the same bits, with samples from 0 to 4095 DN (full detail).
+  const int sizes[][2] = {{517, 261}, {260, 131}};
+  for (const auto& sz : sizes) {
+    ImageF m(sz[0], sz[1], 1, 0.f, unit::dn);
+    for (size_t i = 0; i < m.size(); ++i) m[i] = static_cast<float>(random_words(17, 0, i, Stream::Test)[0] >> 20);
+    for (CfaPattern p : {CfaPattern::RGGB, CfaPattern::BGGR, CfaPattern::GRBG, CfaPattern::GBRG, CfaPattern::RCCB})
+      EXPECT_EQ(count_differences(demosaic(m, p, DemosaicMethod::Mlri), gpu::demosaic(*ctx, m, p, DemosaicMethod::Mlri)),
+                0u)
+          << to_string(p) << " " << sz[0] << "x" << sz[1];
+  }
+}
+
 }  // namespace photosite
 #endif
 

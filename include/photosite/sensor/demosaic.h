@@ -10,6 +10,8 @@
 //   (ha)            smaller gradient (first + second order), R/B from colour differences.
 //   lmmse           Zhang & Wu 2005, directional linear minimum mean-square-error estimation
 //                   of the green-minus-red/blue difference, fused by the estimation errors.
+//   mlri            Kiku, Monno, Tanaka & Okutomi 2014, minimized-Laplacian residual
+//                   interpolation: guided-filter estimates whose residuals are interpolated.
 // Every method handles all four Bayer phases and RCCB (whose clear pixels take the place of
 // green: the clear channel is smooth and correlated with R and B as green is). RCCC (a single
 // sparse colour) and Mono use the bilinear path whatever the method. Borders are mirrored
@@ -23,7 +25,7 @@
 
 namespace photosite {
 
-enum class DemosaicMethod { Bilinear, Malvar, HamiltonAdams, Lmmse };
+enum class DemosaicMethod { Bilinear, Malvar, HamiltonAdams, Lmmse, Mlri };
 
 std::vector<std::string> demosaic_method_names();
 std::vector<DemosaicMethod> all_demosaic_methods();
@@ -41,6 +43,7 @@ ImageF demosaic_bilinear(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_malvar(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_hamilton_adams(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_lmmse(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_mlri(const ImageF& mosaic, CfaPattern pattern);
 
 namespace detail {
 // demosaic_lmmse's two builds of one body (baseline SSE2 and AVX2, picked at run time by
@@ -50,6 +53,29 @@ ImageF demosaic_lmmse_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs 
 bool lmmse_have_avx2();
 // LMMSE's 9 Gaussian weights (sigma 2), as the C++ path uses them (the Vulkan kernels take these).
 void lmmse_gauss_weights(float out[9]);
+// MLRI's float constants (sensor/demosaic_mlri.cpp), as the C++ path uses them; the Vulkan
+// kernels take these. Relations k = 0..3 of a site class to a window centre (bit 0: other column
+// parity, bit 1: other row parity).
+struct MlriConstants {
+  float gw[5];                     // one-sided Gaussian weights (sigma 3 px), gw[4] at the centre
+  float tau_n_g[2], inv_n_g[2];    // green guided filters (1-D, 9 taps): tau / N and 1 / N per relation
+  float tau_n_b[4], inv_n_b[4];    // red/blue guided filters (5x5)
+  float inv_box_g, inv_box_b;      // 1/9, 1/25: the coefficient box means
+};
+const MlriConstants& mlri_constants();
+// MLRI's stage margins around the frame (pixels), for the Vulkan dispatches: each stage is
+// computed this far beyond the frame (along / across the direction for the green stages).
+struct MlriGeometry {
+  int rg, rb;                          // green (1-D) and red/blue (2-D) window radii
+  int lap, ab, q, dif, across, green;  // green stages along the direction; across it; green
+  int margin;                          // the support radius: how far a mosaic sample reaches
+};
+MlriGeometry mlri_geometry();
+int mlri_support_radius();  // pixels: how far a mosaic sample influences the output
+// demosaic_mlri's two builds of one body (baseline SSE2 and AVX2, picked at run time like LMMSE's);
+// bit-identical results. Exposed for the test that says so.
+ImageF demosaic_mlri_baseline(const ImageF& mosaic, CfaPattern pattern);
+ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
