@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -27,7 +28,7 @@ struct NightCmd {
   std::string scene_preset = "night-urban";
   std::string label_format = "auto";
   std::string resize_labels = "none";
-  double ambient_lux = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> ambient_lux;  // none: the scene preset's
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
   std::string backend = "auto";
@@ -36,8 +37,8 @@ struct NightCmd {
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
 std::string night_sample_dir() {
-  if (const char* e = std::getenv("PHOTOSITE_SAMPLE_DIR"); e && *e) return e;
-  return std::string(PHOTOSITE_SOURCE_DIR) + "/samples";
+  if (auto e = env::get(env::Var::SampleDir)) return *e;
+  return data_dir() + "/samples";
 }
 
 void run_night(NightCmd c) {
@@ -54,7 +55,7 @@ void run_night(NightCmd c) {
   }
   if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";  // Cityscapes' camera
   scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
-  if (!std::isnan(c.ambient_lux)) set_ambient_lux(sp, c.ambient_lux);
+  if (c.ambient_lux) set_ambient_lux(sp, *c.ambient_lux);
   const auto fmt_label = scene::parse_label_format(c.label_format);
   scene::ResizeLabels resize;
   if (c.resize_labels == "none") resize = scene::ResizeLabels::None;

@@ -12,6 +12,7 @@
 //  - The GIL is released for every computation, so Python threads run concurrently.
 //  - photosite::Error of kind BadInput becomes ValueError with the library's message, missing
 //    files FileNotFoundError, internal errors RuntimeError.
+#include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -205,9 +206,9 @@ struct Camera {
                    const std::string& demosaic) const {
     SensorSetup s = setup;
     s.settings.exposure_s = exposure_s;
-    s.settings.f_number = f_number.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.f_number = f_number;
     s.settings.gain_db = gain_db;
-    s.settings.temperature_c = temperature_c.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.temperature_c = temperature_c;
     s.settings.seed = seed;
     s.settings.frame = frame;
     s.settings.demosaic = parse_demosaic_method(demosaic);
@@ -234,7 +235,7 @@ struct Camera {
         rad = std::move(rgb);
       }
       rad.set_unit(unit::radiance);
-      SensorRunner runner = make_backend(backend, "backend");
+      SensorRunner runner = make_backend(backend);
       ex = photosite::resolve(s.camera, s.lens, s.settings);
       ImageF mean_e;
       try {
@@ -273,7 +274,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   else if (resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
   else fail("resize_labels: '" + resize_labels + "' is not none or nearest");
   scene::ScenePreset sp = scene::load_scene_preset(scene_preset);
-  if (ambient_lux) set_ambient_lux(sp, *ambient_lux, "ambient_lux");
+  if (ambient_lux) set_ambient_lux(sp, *ambient_lux);
   SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
 
   NightResult r;
@@ -297,7 +298,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
-    SensorRunner runner = make_backend(backend, "backend");
+    SensorRunner runner = make_backend(backend);
     chain.emplace(prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, frame));
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
@@ -333,7 +334,7 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
     py::gil_scoped_release nogil;
     ImageF img = f32 ? float_image(mosaic, "mosaic", ms)
                      : image_from_codes(mosaic.data(), u8 ? 8 : 16, ms.width, ms.height, 1);
-    SensorRunner runner = make_backend(backend, "backend");
+    SensorRunner runner = make_backend(backend);
     rgb = runner.demosaic(img, pattern, m);
   }
   return to_array(std::move(rgb));
@@ -354,8 +355,8 @@ py::dict characterize_py(const py::object& camera, std::optional<std::string> le
   nlohmann::json j;
   {
     py::gil_scoped_release nogil;
-    SensorRunner runner = make_backend(backend, "backend");
-    j = to_json(characterize(s, cam->store, runner, roi, wavelength_nm, "roi"));
+    SensorRunner runner = make_backend(backend);
+    j = nlohmann::json::parse(to_json(characterize(s, cam->store, runner, roi, wavelength_nm)));
   }
   return json_to_python(j);
 }
@@ -548,7 +549,7 @@ PYBIND11_MODULE(_photosite, m) {
       if (e.kind == kind) names.push_back(e.name);
     return names;
   }, py::arg("kind"));
-  m.def("show_preset", [](const std::string& name) { return json_to_python(show_preset(name)); }, py::arg("name"));
+  m.def("show_preset", [](const std::string& name) { return json_to_python(nlohmann::json::parse(show_preset(name))); }, py::arg("name"));
   m.def("scene_presets", [] {
     std::vector<std::string> names;
     const auto dir = std::filesystem::path(preset_dir()) / "scenes";
