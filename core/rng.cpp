@@ -1,6 +1,18 @@
 #include "photosite/rng.h"
 
+#include "core/rng_detail.h"
+
 namespace photosite {
+
+std::array<uint32_t, 4> Philox4x32::generate(std::array<uint32_t, 4> ctr, std::array<uint32_t, 2> key) {
+  const shader::uvec4 w =
+      shader::philox4x32_10(shader::uvec4(ctr[0], ctr[1], ctr[2], ctr[3]), shader::uvec2(key[0], key[1]));
+  return {w.x, w.y, w.z, w.w};
+}
+
+std::array<uint32_t, 4> random_words(uint64_t seed, uint32_t frame, uint64_t pixel, Stream stream) {
+  return detail::random_words_inline(seed, frame, pixel, static_cast<uint32_t>(stream));
+}
 
 uint64_t seed_from_device_id(const char* device_id) {
   uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64-bit offset basis

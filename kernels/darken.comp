@@ -1,11 +1,13 @@
-// Per-class darkening, photosite::scene::darken_pixel (include/photosite/scene/night.h) operation
-// for operation: a Lambertian texture f under the class's night illuminance,
+// Per-class darkening, photosite::scene::darken_pixel (scene/darken_detail.h) with the same
+// per-pixel functions (common/darken.glsl, written once for both): a Lambertian texture f under
+// the class's night illuminance,
 //   L_k = f_k · E_k     (E = ground or vertical illuminance / π, float),
 // and for the sky its glow colour scaled by the pixel's relative luminance (double):
 //   L_k = glow_k · (Σ K_j f_j) / ρ_sky.
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #include "common/philox.glsl"
+#include "common/darken.glsl"
 layout(local_size_x = 256) in;
 
 // gpu::DarkenParams (gpu/kernels.h), from scene::darken_params()
@@ -29,21 +31,17 @@ void main() {
   const uint id = (labels[i >> 1] >> (16u * (i & 1u))) & 0xffffu;
   const float t0 = tex[3 * i], t1 = tex[3 * i + 1], t2 = tex[3 * i + 2];
   if (id == P.sky_id) {
-    precise double yr = (P.K[0] * double(t0) + P.K[1] * double(t1) + P.K[2] * double(t2)) / P.rho_sky;
-    radiance[3 * i] = float(P.glow[0] * yr);
-    radiance[3 * i + 1] = float(P.glow[1] * yr);
-    radiance[3 * i + 2] = float(P.glow[2] * yr);
+    const double yr = darken_sky_relative(P.K[0], P.K[1], P.K[2], P.rho_sky, t0, t1, t2);
+    radiance[3 * i] = darken_sky_channel(P.glow[0], yr);
+    radiance[3 * i + 1] = darken_sky_channel(P.glow[1], yr);
+    radiance[3 * i + 2] = darken_sky_channel(P.glow[2], yr);
     return;
   }
   const bool ground = id < 32u ? ((P.ground_mask.x >> id) & 1u) != 0u
                                : id < 64u && ((P.ground_mask.y >> (id - 32u)) & 1u) != 0u;
-  if (ground) {
-    radiance[3 * i] = t0 * P.ground[0];
-    radiance[3 * i + 1] = t1 * P.ground[1];
-    radiance[3 * i + 2] = t2 * P.ground[2];
-  } else {
-    radiance[3 * i] = t0 * P.vertical[0];
-    radiance[3 * i + 1] = t1 * P.vertical[1];
-    radiance[3 * i + 2] = t2 * P.vertical[2];
-  }
+  const float e0 = ground ? P.ground[0] : P.vertical[0], e1 = ground ? P.ground[1] : P.vertical[1],
+              e2 = ground ? P.ground[2] : P.vertical[2];
+  radiance[3 * i] = darken_lit_channel(t0, e0);
+  radiance[3 * i + 1] = darken_lit_channel(t1, e1);
+  radiance[3 * i + 2] = darken_lit_channel(t2, e2);
 }

@@ -1,5 +1,6 @@
 // Optics and the photon integral: radiance RGB (W·sr⁻¹·m⁻²) → mean photo-electrons per CFA
-// pixel, photosite::mean_signal_electrons operation for operation (in double, as there):
+// pixel, photosite::mean_signal_electrons with the same per-pixel functions
+// (common/sensor_pixel.glsl, written once for both; in double):
 //   e = M[c]·(R, G, B), divided by (1 + t²)² for cos⁴θ vignetting, t² = r²·(pitch/f)².
 // M is photon_matrix() computed on the host (the spectral integral is per frame, not per
 // pixel). Non-physical radiance (negative, NaN, Inf, or an R+G+B that overflows) is reported
@@ -9,6 +10,7 @@
 #extension GL_GOOGLE_include_directive : enable
 #include "common/cfa.glsl"
 #include "common/philox.glsl"
+#include "common/sensor_pixel.glsl"
 layout(local_size_x = 256) in;
 
 // gpu::PhotonParams (gpu/kernels.h)
@@ -25,24 +27,17 @@ layout(std430, binding = 1) readonly buffer Matrix { double M[12]; };  // [colou
 layout(std430, binding = 2) writeonly buffer Electrons { float electrons[]; };
 layout(std430, binding = 3) buffer Bad { uint first_bad; };
 
-bool finite(float v) { return (floatBitsToUint(v) & 0x7f800000u) != 0x7f800000u; }
-
 void main() {
   const uint i = linear_invocation();
   if (i >= P.width * P.height) return;
   const uint x = i % P.width, y = i / P.width;
   const float R = radiance[3 * i], G = radiance[3 * i + 1], B = radiance[3 * i + 2];
-  precise float sum = R + G + B;
-  if (!(R >= 0.0 && G >= 0.0 && B >= 0.0) || !finite(sum)) {
+  if (!radiance_is_physical(R, G, B)) {
     atomicMin(first_bad, i);
     return;
   }
   const uint c = cfa_color(P.cfa_cell, x, y);
-  precise double e = M[3 * c] * double(R) + M[3 * c + 1] * double(G) + M[3 * c + 2] * double(B);
-  if (P.pitch_over_f > 0.0lf) {
-    precise double dx = double(x) - P.cx, dy = double(y) - P.cy;
-    precise double t2 = (dx * dx + dy * dy) * P.pitch_over_f * P.pitch_over_f;
-    e /= (1.0lf + t2) * (1.0lf + t2);
-  }
-  electrons[i] = float(e);
+  precise double dx = double(x) - P.cx, dy = double(y) - P.cy;
+  precise double dy2 = dy * dy;
+  electrons[i] = photon_electrons(M[3 * c], M[3 * c + 1], M[3 * c + 2], R, G, B, dx, dy2, P.pitch_over_f);
 }

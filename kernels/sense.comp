@@ -1,4 +1,5 @@
-// From mean photo-electrons to DN, photosite::sense() operation for operation (sensor/pipeline.cpp):
+// From mean photo-electrons to DN, photosite::sense() (sensor/pipeline.cpp) with the same per-pixel
+// functions (common/sensor_pixel.glsl, common/poisson.glsl, written once for both):
 //   μ = signal·PRNU + dark·(dark-rate factor)           (float)
 //   e = min(Poisson(μ), full well)                      (one Philox call: words 0,1 the Poisson
 //                                                        draw, words 2,3 the read-noise normal;
@@ -11,6 +12,7 @@
 #extension GL_GOOGLE_include_directive : enable
 #include "common/philox.glsl"
 #include "common/poisson.glsl"
+#include "common/sensor_pixel.glsl"
 layout(local_size_x = 256) in;
 
 // gpu::SenseParams (gpu/kernels.h)
@@ -47,14 +49,11 @@ void main() {
   const float df = (P.flags & 4u) != 0u ? dark_rate[i] : 1.0;
   const float row = (P.flags & 8u) != 0u ? row_e[y] : 0.0;
   const float col = (P.flags & 16u) != 0u ? col_e[x] : 0.0;
-  precise float mean = signal_e[i] * g + P.dark_mean_e * df;
+  const float mean = sense_mean_e(signal_e[i], g, P.dark_mean_e, df);
   const uvec4 w = random_words(P.key, P.frame, uvec2(i, 0u), P.stream);
   const float k = poisson_from_words(mean, w, P.key, P.frame, uvec2(i, 0u), P.stream, (P.flags >> 8) & 3u);
   const float read = normal_from_words_f(w.z, w.w);
-  const float e = min(k, P.full_well_e);
+  const float e = sense_electrons(k, P.full_well_e);
   electrons[i] = e;
-  precise float rn = P.read_noise_e * read;
-  precise double v = double(e) + double(off) + double(rn) + double(row) + double(col);
-  precise double dn = floor(v * P.gain_dn_per_e + P.black_dn + 0.5lf);
-  raw_dn[i] = float(clamp(dn, 0.0lf, P.max_code));
+  raw_dn[i] = sense_raw_dn(e, off, P.read_noise_e, read, row, col, P.gain_dn_per_e, P.black_dn, P.max_code);
 }

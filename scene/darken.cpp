@@ -9,6 +9,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
+#include "scene/darken_detail.h"
 
 namespace photosite::scene {
 

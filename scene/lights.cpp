@@ -10,6 +10,7 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/darken_detail.h"
 
 namespace photosite::scene {
 namespace {

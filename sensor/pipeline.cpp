@@ -9,6 +9,7 @@
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
+#include "sensor/pixel_detail.h"
 
 namespace photosite {
 
@@ -83,18 +84,14 @@ ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, cons
     const double dy2 = (y - cy) * (y - cy);
     for (int x = 0; x < w; ++x) {
       const float R = r[3 * x], G = r[3 * x + 1], B = r[3 * x + 2];
-      if (!(R >= 0 && G >= 0 && B >= 0) || !std::isfinite(R + G + B)) {
+      if (!shader::radiance_is_physical(R, G, B)) {
 #pragma omp critical
         if (bad_y < 0 || y < bad_y || (y == bad_y && x < bad_x)) bad_x = x, bad_y = y;
         continue;
       }
+      // kernels/common/sensor_pixel.glsl: e = M[c]·(R, G, B), cos⁴θ falloff.
       const auto& row = m[static_cast<int>(cfa_color(p.cfa, x, y))];
-      double e = row[0] * R + row[1] * G + row[2] * B;
-      if (pitch_over_f > 0) {
-        const double t2 = ((x - cx) * (x - cx) + dy2) * pitch_over_f * pitch_over_f;
-        e /= (1 + t2) * (1 + t2);
-      }
-      o[x] = static_cast<float>(e);
+      o[x] = shader::photon_electrons(row[0], row[1], row[2], R, G, B, x - cx, dy2, pitch_over_f);
     }
   }
   if (bad_y >= 0) {
@@ -200,11 +197,10 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
       const float* srow = sig + row0;
       float* erow = el + row0;
       float* drow = dn + row0;
-      // Mean collected electrons: photo-signal through the pixel's PRNU gain, plus dark charge
-      // at this pixel's dark rate. One Poisson draw of the sum is exactly the sum of the two
-      // independent Poisson processes (photon shot noise and dark-current shot noise).
+      // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
+      // kernels/common/sensor_pixel.glsl, has the physics).
       const float dark = static_cast<float>(dark_mean_e);
-      for (int x = 0; x < w; ++x) mean[x] = srow[x] * g[x] + dark * df[x];
+      for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
       // Shot noise and the read-noise normal from one Philox draw per pixel.
       poisson_block(mean.data(), erow, read.data(), w, row0, key, frame, shot_stream, s.poisson);
       if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
@@ -215,13 +211,13 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const Res
       }
       const float row_noise = row_e.empty() ? 0.f : row_e[y];
       const float rn = static_cast<float>(read_e);
+      // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
+      // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level,
+      // one rounding).
       for (int x = 0; x < w; ++x) {
-        const float e = std::min(erow[x], fw);  // the well holds no more than its capacity
+        const float e = shader::sense_electrons(erow[x], fw);
         erow[x] = e;
-        // Analog chain in electrons: offset DSNU, read noise, row and column noise; then the
-        // conversion gain K, the black level and one rounding (ideal 1/12 DN² quantization).
-        const double v = static_cast<double>(e) + off[x] + rn * read[x] + row_noise + col[x];
-        drow[x] = static_cast<float>(std::clamp(std::floor(v * K + black + 0.5), 0.0, max_code));
+        drow[x] = shader::sense_raw_dn(e, off[x], rn, read[x], row_noise, col[x], K, black, max_code);
       }
     }
   }

@@ -7,10 +7,10 @@
 #include <immintrin.h>
 
 #include "photosite/error.h"
-#include "photosite/sensor/poisson_detail.h"
+#include "sensor/poisson_detail.h"
 
 namespace photosite {
-namespace detail {
+namespace shader {
 
 const float kInverseInteger[64] = {
     0,         1.f / 1,  1.f / 2,  1.f / 3,  1.f / 4,  1.f / 5,  1.f / 6,  1.f / 7,  1.f / 8,
@@ -22,15 +22,16 @@ const float kInverseInteger[64] = {
     1.f / 54,  1.f / 55, 1.f / 56, 1.f / 57, 1.f / 58, 1.f / 59, 1.f / 60, 1.f / 61, 1.f / 62,
     1.f / 63};
 
-}  // namespace detail
+}  // namespace shader
 
 namespace {
 constexpr int kBlock = 256;
 
-// rng.h's scalar Philox for one pixel, its four words stored at index j of w0..w3.
+// The scalar Philox (kernels/common/philox_round.glsl) for one pixel, its four words stored at
+// index j of w0..w3.
 inline void philox_one(uint64_t key, uint32_t frame, uint64_t pixel, uint32_t stream, int j, uint32_t* w0,
                        uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  const auto w = random_words(key, frame, pixel, static_cast<Stream>(stream));
+  const auto w = detail::random_words_inline(key, frame, pixel, stream);
   w0[j] = w[0];
   w1[j] = w[1];
   w2[j] = w[2];
@@ -42,18 +43,24 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
   for (int j = 0; j < n; ++j) philox_one(key, frame, first_pixel + j, stream, j, w0, w1, w2, w3);
 }
 
-// The same, 8 pixels at a time with AVX2: _mm256_mul_epu32 forms the 32x32->64 products of the
-// even lanes; the odd lanes are shifted down and multiplied the same way, and blends put the
-// high and low halves back in place. c0, c1: the pixels' low and high halves.
+// The same, 8 pixels at a time with AVX2: a documented SIMD twin of philox4x32_round and
+// philox4x32_10 (kernels/common/philox_round.glsl), held to their bits by the tests that compare
+// poisson_block with the scalar draws on random_words() (Poisson.BlockKernelMatchesScalarPhiloxWords,
+// PoissonAccuracy.PtrsBlockEqualsScalarReference) and by Philox.KnownAnswers. _mm256_mul_epu32 forms
+// the 32x32->64 products of the even lanes; the odd lanes are shifted down and multiplied the
+// same way, and blends put the high and low halves back in place. c0, c1: the pixels' low and
+// high halves. Rounds is kPhiloxRounds (10) everywhere but in the generator benchmark
+// (philox_words_rounds), which times 7 rounds beside 10.
+template <int Rounds = shader::kPhiloxRounds>
 __attribute__((target("avx2")))
 inline void philox8_avx2(__m256i c0, __m256i c1, uint64_t key, uint32_t frame, uint32_t stream, uint32_t* w0,
                          uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M0));
-  const __m256i m1 = _mm256_set1_epi32(static_cast<int>(Philox4x32::M1));
+  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(shader::kPhiloxM0));
+  const __m256i m1 = _mm256_set1_epi32(static_cast<int>(shader::kPhiloxM1));
   __m256i c2 = _mm256_set1_epi32(static_cast<int>(frame));
   __m256i c3 = _mm256_set1_epi32(static_cast<int>(stream));
   uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);
-  for (int r = 0; r < 10; ++r) {
+  for (int r = 0; r < Rounds; ++r) {
     const __m256i e0 = _mm256_mul_epu32(c0, m0), o0 = _mm256_mul_epu32(_mm256_srli_epi64(c0, 32), m0);
     const __m256i e1 = _mm256_mul_epu32(c2, m1), o1 = _mm256_mul_epu32(_mm256_srli_epi64(c2, 32), m1);
     const __m256i hi0 = _mm256_blend_epi32(_mm256_srli_epi64(e0, 32), o0, 0xAA);
@@ -66,8 +73,8 @@ inline void philox8_avx2(__m256i c0, __m256i c1, uint64_t key, uint32_t frame, u
     c1 = lo1;
     c2 = n2;
     c3 = lo0;
-    ka += Philox4x32::W0;
-    kb += Philox4x32::W1;
+    ka += shader::kPhiloxW0;
+    kb += shader::kPhiloxW1;
   }
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(w0), c0);
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(w1), c1);
@@ -76,6 +83,7 @@ inline void philox8_avx2(__m256i c0, __m256i c1, uint64_t key, uint32_t frame, u
 }
 
 // Consecutive pixels first_pixel.. (8 at a time while the high half stays the same).
+template <int Rounds = shader::kPhiloxRounds>
 __attribute__((target("avx2")))
 void philox_words_avx2(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
                        uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
@@ -85,7 +93,7 @@ void philox_words_avx2(uint64_t key, uint32_t frame, uint64_t first_pixel, uint3
     const uint64_t p = first_pixel + j;
     const __m256i c0 = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p))), lane);
     const __m256i c1 = _mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p >> 32)));
-    philox8_avx2(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);
+    philox8_avx2<Rounds>(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);
   }
   if (j < n) philox_words_scalar(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);
 }
@@ -124,11 +132,13 @@ void normals(const uint32_t* a, const uint32_t* b, float* z, int n) {
 __attribute__((target_clones("avx2", "default")))
 void corrected_normal_block(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j)
-    out[j] = static_cast<float>(
-        detail::CornishFisher(std::max(mean[j], static_cast<float>(kPoissonApproxThreshold))).sample(z[j]));
+    out[j] = detail::cornish_fisher_sample(
+        detail::cornish_fisher_setup(std::max(mean[j], static_cast<float>(kPoissonApproxThreshold))), z[j]);
 }
-// Inversion for the compacted low-mean pixels of a block, all lanes in step: K = Σ_k [F(k) < u],
-// the same sums in the same order as detail::poisson_inversion, so the same bits.
+// Inversion for the compacted low-mean pixels of a block, all lanes in step: K = Σ_k [F(k) < u].
+// A documented SIMD twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops
+// per lane with a break that keeps it from vectorizing: the same sums in the same order, so the
+// same bits, held to them by the test Poisson.BlockKernelMatchesScalarPhiloxWords.
 __attribute__((target_clones("avx2", "default")))
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
   alignas(64) float u[kBlock], p[kBlock], cdf[kBlock], k[kBlock];
@@ -155,10 +165,7 @@ void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) 
 }
 __attribute__((target_clones("avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
-  for (int j = 0; j < n; ++j) {
-    const float mu = std::max(mean[j], 0.f);
-    out[j] = std::max(0.f, std::floor(mu + std::sqrt(mu) * z[j] + 0.5f));
-  }
+  for (int j = 0; j < n; ++j) out[j] = detail::rounded_normal_sample(mean[j], z[j]);
 }
 
 // PTRS over a block, in three vector passes with masked retries: (1) every lane's first
@@ -354,6 +361,14 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
       for (int i = 0; i < nl; ++i) o[low_idx[i]] = low_k[i];
     }
   }
+}
+
+void detail::philox_words_rounds(int rounds, uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream,
+                                 int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  if (rounds != 7 && rounds != shader::kPhiloxRounds) fail("philox_words_rounds: 7 or 10 rounds");
+  if (!kHaveAvx2) fail("philox_words_rounds: needs AVX2");
+  if (rounds == 7) philox_words_avx2<7>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  else philox_words_avx2<shader::kPhiloxRounds>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
 }
 
 float poisson_sample(double mean, uint64_t seed, uint32_t frame, uint64_t pixel, uint32_t stream,

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "photosite/sensor/poisson.h"
-#include "photosite/sensor/poisson_detail.h"
+#include "sensor/poisson_detail.h"
 
 using namespace photosite;
 

@@ -3,7 +3,7 @@
 //   key     = device seed (64 bit)
 //   counter = (pixel index (64 bit), frame, stream)
 // so a result never depends on thread count, tiling or the order pixels are visited, and the
-// GLSL kernels (kernels/common/philox.glsl) produce the very same bits.
+// GLSL kernels compile the same source (kernels/common/philox_round.glsl): the very same bits.
 #pragma once
 #include <array>
 #include <cmath>
@@ -26,32 +26,16 @@ enum class Stream : uint32_t {
   Test = 255,
 };
 
+// The generator itself is written once, in kernels/common/philox_round.glsl, which the library
+// (core/rng.cpp) and the Vulkan kernels both compile.
 struct Philox4x32 {
-  static constexpr uint32_t M0 = 0xD2511F53u, M1 = 0xCD9E8D57u;
-  static constexpr uint32_t W0 = 0x9E3779B9u, W1 = 0xBB67AE85u;
-
-  static inline std::array<uint32_t, 4> generate(std::array<uint32_t, 4> ctr,
-                                                 std::array<uint32_t, 2> key) {
-    for (int round = 0; round < 10; ++round) {
-      if (round > 0) { key[0] += W0; key[1] += W1; }
-      const uint64_t p0 = static_cast<uint64_t>(M0) * ctr[0];
-      const uint64_t p1 = static_cast<uint64_t>(M1) * ctr[2];
-      const uint32_t hi0 = static_cast<uint32_t>(p0 >> 32), lo0 = static_cast<uint32_t>(p0);
-      const uint32_t hi1 = static_cast<uint32_t>(p1 >> 32), lo1 = static_cast<uint32_t>(p1);
-      ctr = {hi1 ^ ctr[1] ^ key[0], lo1, hi0 ^ ctr[3] ^ key[1], lo0};
-    }
-    return ctr;
-  }
+  // The ten rounds on counter ctr with key key.
+  static std::array<uint32_t, 4> generate(std::array<uint32_t, 4> ctr, std::array<uint32_t, 2> key);
 };
 
-// The four 32-bit words for (seed, frame, pixel, stream).
-inline std::array<uint32_t, 4> random_words(uint64_t seed, uint32_t frame, uint64_t pixel,
-                                            Stream stream) {
-  return Philox4x32::generate(
-      {static_cast<uint32_t>(pixel), static_cast<uint32_t>(pixel >> 32), frame,
-       static_cast<uint32_t>(stream)},
-      {static_cast<uint32_t>(seed), static_cast<uint32_t>(seed >> 32)});
-}
+// The four 32-bit words for (seed, frame, pixel, stream): Philox4x32-10 of the counter
+// (pixel low, pixel high, frame, stream) under the key (seed low, seed high).
+std::array<uint32_t, 4> random_words(uint64_t seed, uint32_t frame, uint64_t pixel, Stream stream);
 
 // Uniform in the open interval (0, 1) with 32 bits of resolution: (u + 0.5) / 2^32.
 inline double uniform_open(uint32_t u) { return (static_cast<double>(u) + 0.5) * 0x1p-32; }

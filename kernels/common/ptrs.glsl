@@ -1,13 +1,8 @@
-// Hörmann's PTRS, one attempt of it per call, written ONCE for both languages: the C++ library
-// includes this file from include/photosite/sensor/poisson_detail.h, the kernels from
-// common/poisson.glsl. It uses only the subset the two share (float, uint, int, bool, structs,
-// floor/sqrt/abs, the ternary), float literals with the f suffix, and a small prelude each
-// includer defines first:
-//   precise                           GLSL's no-contraction qualifier (empty in C++, which is
-//                                     built with -ffp-contract=off)
-//   PS_FN                             `inline` in C++, empty in GLSL
-//   uint, floor, sqrt, abs, min, max, fast_log  (fast_log: poisson_detail.h / poisson.glsl)
-// so the CPU and Vulkan paths run the same float operations in the same order: the same bits.
+// Hörmann's PTRS, one attempt of it per call, written ONCE for both languages in the C++/GLSL
+// common subset (common/prelude.glsl has the subset and the prelude that maps its differences):
+// the C++ library includes this file through sensor/poisson_detail.h, the kernels through
+// common/poisson.glsl, after common/fastmath.glsl (fast_log), so the CPU and Vulkan paths run
+// the same float operations in the same order: the same bits.
 //
 // PTRS (W. Hörmann, "The transformed rejection method for generating Poisson random
 // variables", Insurance: Mathematics and Economics 12 (1993) 39-45), for μ >= 10:

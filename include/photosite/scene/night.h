@@ -53,16 +53,9 @@ struct DarkenParams {
   double glow[3];  // sky glow radiance of relative luminance 1
   bool ground_class[kLabelCount];
 };
+// The per-pixel darkening itself, darken_pixel(), is private to the library (scene/darken_detail.h):
+// its maths is written once, in kernels/common/darken.glsl, for the CPU path and the kernel.
 DarkenParams darken_params(const ScenePreset& p);
-inline void darken_pixel(const float* t, int id, const DarkenParams& d, float* o) {
-  if (id == static_cast<int>(Label::Sky)) {
-    const double yr = (d.K[0] * t[0] + d.K[1] * t[1] + d.K[2] * t[2]) / d.rho_sky;
-    for (int k = 0; k < 3; ++k) o[k] = static_cast<float>(d.glow[k] * yr);
-    return;
-  }
-  const float* e = d.ground_class[id] ? d.ground : d.vertical;
-  for (int k = 0; k < 3; ++k) o[k] = t[k] * e[k];
-}
 // Ambient (moon + sky glow) and street lighting on every class; the sky gets its own luminance.
 ImageF darken(const ImageF& texture, const ImageU16& labels, const ScenePreset& p);
 

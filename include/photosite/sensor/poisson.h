@@ -1,5 +1,5 @@
 // Poisson sampling from counter-based random words: an exact sampler at every mean, and two
-// approximations kept for comparison and speed (poisson_detail.h has the maths).
+// approximations kept for comparison and speed (sensor/poisson_detail.h and kernels/common/poisson_draws.glsl have the maths).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -33,7 +33,7 @@ inline constexpr double kPoissonApproxMaxCdfError = 5e-5;
 // Fills n Poisson draws for consecutive pixels first_pixel.. from one Philox call per pixel:
 // words 0, 1 drive the Poisson draw, words 2, 3 a standard normal written to `normal2` (the
 // sensor's read noise) when it is not null. PTRS attempts that are rejected draw more words
-// from the same (key, frame, pixel) counter on retry streams (poisson_detail.h). The
+// from the same (key, frame, pixel) counter on retry streams (kernels/common/poisson_draws.glsl). The
 // vectorized kernel behind expose().
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream,
