@@ -66,12 +66,37 @@ inline void upsample_row(const float* t, int cw, int width, float* u) {
   for (int x = 2 * (cw - 1); x < width; ++x) one(x);
 }
 
+// Σ_j n_x(j)·v over one level-1 row (n = number of full-resolution children), per channel, in
+// double and in order: the row sums behind glare_level1_energy.
+inline std::array<double, 3> level1_row_sum(const float* r, int w, int full_width) {
+  double s0 = 0, s1 = 0, s2 = 0;
+  for (int j = 0; j < w; ++j) {
+    const double n = 2 * j + 1 < full_width ? 2.0 : 1.0;
+    s0 += n * static_cast<double>(r[3 * j]);
+    s1 += n * static_cast<double>(r[3 * j + 1]);
+    s2 += n * static_cast<double>(r[3 * j + 2]);
+  }
+  return {s0, s1, s2};
+}
+std::array<double, 3> combine_rows(const std::vector<std::array<double, 3>>& rows, int full_height) {
+  std::array<double, 3> e{0, 0, 0};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const double n = 2 * static_cast<int>(i) + 1 < full_height ? 2.0 : 1.0;
+    for (int c = 0; c < 3; ++c) e[c] += n * rows[i][c];
+  }
+  return e;
+}
+// Levels this small run on one thread: under load, a barrier costs more than their work.
+constexpr int64_t kParallelPixels = int64_t{1} << 18;
+
 // 2x2 box average, edge clamped (the last row/column of an odd size averages with itself).
-ImageF down2(const ImageF& src) {
+// With `rows`: also each output row's level1_row_sum (the level-1 energy of the input).
+ImageF down2(const ImageF& src, std::vector<std::array<double, 3>>* rows = nullptr) {
   const int w = src.width(), h = src.height();
   const int w2 = (w + 1) / 2, h2 = (h + 1) / 2;
   ImageF dst(w2, h2, 3, uninitialized, src.unit());
-#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > (1 << 16))
+  if (rows) rows->assign(h2, {0, 0, 0});
+#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels / 4)
   for (int y = 0; y < h2; ++y) {
     const float* ra = src.row(2 * y);
     const float* rb = src.row(std::min(2 * y + 1, h - 1));
@@ -81,6 +106,7 @@ ImageF down2(const ImageF& src) {
       for (int c = 0; c < 3; ++c)
         o[3 * x + c] = ((ra[xa + c] + ra[xb + c]) + (rb[xa + c] + rb[xb + c])) * 0.25f;
     }
+    if (rows) (*rows)[y] = level1_row_sum(o, w2, w);
   }
   return dst;
 }
@@ -93,7 +119,7 @@ ImageF down_1331(const ImageF& src) {
   const int w = src.width(), h = src.height();
   const int w2 = (w + 1) / 2, h2 = (h + 1) / 2;
   ImageF t(w2, h, 3, uninitialized, src.unit()), dst(w2, h2, 3, uninitialized, src.unit());
-#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h > (1 << 16))
+#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h > kParallelPixels)
   for (int y = 0; y < h; ++y) {
     const float* s = src.row(y);
     float* o = t.row(y);
@@ -114,7 +140,7 @@ ImageF down_1331(const ImageF& src) {
     }
     for (int x = std::max(1, inner_end); x < w2; ++x) at(x);
   }
-#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > (1 << 16))
+#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels)
   for (int y = 0; y < h2; ++y) {
     const float* a = t.row(mirror(2 * y - 1, h));
     const float* b = t.row(mirror(2 * y, h));
@@ -132,7 +158,7 @@ ImageF blur_rows(const ImageF& src, const std::array<float, kGlareBlurRadius + 1
   const int w = src.width(), h = src.height();
   constexpr int R = kGlareBlurRadius;
   ImageF dst(w, h, 3, uninitialized, src.unit());
-#pragma omp parallel if (static_cast<int64_t>(w) * h > (1 << 16))
+#pragma omp parallel if (static_cast<int64_t>(w) * h > kParallelPixels)
   {
     std::vector<float> pad(3 * static_cast<size_t>(w + 2 * R));
 #pragma omp for schedule(static)
@@ -158,13 +184,15 @@ ImageF blur_rows(const ImageF& src, const std::array<float, kGlareBlurRadius + 1
 // upsampled value u (vertical interpolation first, then horizontal), the column sum
 // a = Σ_{k=−R..R} g_|k|·t(y + k) in that order, then w·a + u.
 ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, int height,
-                     const std::array<float, kGlareBlurRadius + 1>& g) {
+                     const std::array<float, kGlareBlurRadius + 1>& g,
+                     std::vector<std::array<double, 3>>* rows = nullptr, int full_width = 0) {
   constexpr int R = kGlareBlurRadius;
   ImageF dst(width, height, 3, uninitialized, unit::radiance);
   const bool blur = !t.empty(), up = !coarse.empty();
   const int cw = up ? coarse.width() : 0, ch = up ? coarse.height() : 0;
   const size_t n = 3 * static_cast<size_t>(width);
-#pragma omp parallel if (static_cast<int64_t>(width) * height > (1 << 16))
+  if (rows) rows->assign(height, {0, 0, 0});
+#pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
     std::vector<float> tmp(up ? 3 * static_cast<size_t>(cw) : 0), u(up ? n : 0);
 #pragma omp for schedule(static)
@@ -177,7 +205,10 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
         for (int j = 0; j < 3 * cw; ++j) tmp[j] = ty.w0 * r0[j] + ty.w1 * r1[j];
         upsample_row(tmp.data(), cw, width, blur ? u.data() : o);
       }
-      if (!blur) continue;
+      if (!blur) {
+        if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
+        continue;
+      }
       for (size_t j = 0; j < n; ++j) o[j] = 0.f;
       for (int k = -R; k <= R; ++k) {
         const float wk = g[std::abs(k)];
@@ -188,6 +219,7 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
         for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
       else
         for (size_t j = 0; j < n; ++j) o[j] = w * o[j];
+      if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
     }
   }
   return dst;
@@ -249,26 +281,9 @@ GlarePlan plan_glare(const LensGlare& glare, double px_per_deg) {
 }
 
 std::array<double, 3> glare_level1_energy(const ImageF& v, int full_width, int full_height) {
-  const int w = v.width(), h = v.height();
-  std::vector<std::array<double, 3>> rows(h);
-#pragma omp parallel for schedule(static)
-  for (int i = 0; i < h; ++i) {
-    const float* r = v.row(i);
-    double s0 = 0, s1 = 0, s2 = 0;
-    for (int j = 0; j < w; ++j) {
-      const double n = 2 * j + 1 < full_width ? 2.0 : 1.0;
-      s0 += n * static_cast<double>(r[3 * j]);
-      s1 += n * static_cast<double>(r[3 * j + 1]);
-      s2 += n * static_cast<double>(r[3 * j + 2]);
-    }
-    rows[i] = {s0, s1, s2};
-  }
-  std::array<double, 3> e{0, 0, 0};
-  for (int i = 0; i < h; ++i) {
-    const double n = 2 * i + 1 < full_height ? 2.0 : 1.0;
-    for (int c = 0; c < 3; ++c) e[c] += n * rows[i][c];
-  }
-  return e;
+  std::vector<std::array<double, 3>> rows(v.height());
+  for (int i = 0; i < v.height(); ++i) rows[i] = level1_row_sum(v.row(i), v.width(), full_width);
+  return combine_rows(rows, full_height);
 }
 
 GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
@@ -279,17 +294,21 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
   if (in.channels() != 3) fail("glare: the irradiance must have 3 channels");
   if (in.width() < 1 || in.height() < 1) return s;
   const auto g = glare_blur_taps();
+  // The level-1 energies' row sums come out of the passes that write level 1 and acc_1 (the
+  // same sums as glare_level1_energy, without another pass over memory).
+  std::vector<std::array<double, 3>> rows_in, rows_skirt;
   std::vector<ImageF> lv(plan.hi + 1);
-  lv[1] = down2(in);
+  lv[1] = down2(in, &rows_in);
   for (int l = 2; l <= plan.hi; ++l) lv[l] = down_1331(lv[l - 1]);
   ImageF acc;
   for (int l = plan.hi; l >= 1; --l) {
     const int w = lv[l].width(), h = lv[l].height();
-    if (l >= plan.lo) acc = blur_cols_add(blur_rows(lv[l], g), acc, plan.weight[l - plan.lo], w, h, g);
-    else acc = blur_cols_add(ImageF(), acc, 0.f, w, h, g);
+    auto* rows = l == 1 ? &rows_skirt : nullptr;
+    if (l >= plan.lo) acc = blur_cols_add(blur_rows(lv[l], g), acc, plan.weight[l - plan.lo], w, h, g, rows, s.width);
+    else acc = blur_cols_add(ImageF(), acc, 0.f, w, h, g, rows, s.width);
   }
-  const auto e_in = glare_level1_energy(lv[1], s.width, s.height);
-  const auto e_skirt = glare_level1_energy(acc, s.width, s.height);
+  const auto e_in = combine_rows(rows_in, s.height);
+  const auto e_skirt = combine_rows(rows_skirt, s.height);
   for (int c = 0; c < 3; ++c)
     s.scale[c] = e_skirt[c] > 0 ? static_cast<float>(plan.eta * e_in[c] / e_skirt[c]) : 0.f;
   s.keep = plan.keep;

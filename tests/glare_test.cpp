@@ -256,7 +256,8 @@ TEST(Glare, TwoLensesGiveDifferentGlare) {
 
 // Thread count never changes a result; the fused optics stage equals glare then optics.
 TEST(Glare, ThreadCountIndependentAndFusedEqualsSeparate) {
-  const ImageF in = wide_radiance(333, 123);
+  // Level 1 above 2^18 pixels, so its passes (and the full-resolution ones) run in parallel.
+  const ImageF in = wide_radiance(2048, 600);
   const LensGlare g = test_glare();
   const int before = omp_get_max_threads();
   omp_set_num_threads(1);
