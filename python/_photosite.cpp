@@ -33,6 +33,7 @@
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
 #include "photosite/outputs.h"
+#include "photosite/scene/chart.h"
 #include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/demosaic.h"
 #include "photosite/sensor/isp.h"
@@ -522,6 +523,23 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
         py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,
         py::arg("backend") = "auto");
+  m.def("chart", [](int width, int height, double illuminance_lux, double cct_k, double lamp_cd_m2,
+                    double background_cd_m2) {
+    scene::ChartOptions o;
+    o.width = width;
+    o.height = height;
+    o.illuminance_lux = illuminance_lux;
+    o.cct_k = cct_k;
+    o.lamp_cd_m2 = lamp_cd_m2;
+    o.background_cd_m2 = background_cd_m2;
+    ImageF img;
+    {
+      py::gil_scoped_release nogil;
+      img = scene::render_chart(o);
+    }
+    return to_array(std::move(img));
+  }, py::arg("width") = 640, py::arg("height") = 480, py::arg("illuminance_lux") = 10.0, py::arg("cct_k") = 3000.0,
+        py::arg("lamp_cd_m2") = 2e4, py::arg("background_cd_m2") = 0.005);
   m.def("read_exr", &read_exr_py, py::arg("path"));
   m.def("write_exr", &write_exr_py, py::arg("path"), py::arg("layers"), py::arg("attributes") = py::dict(),
         py::arg("half") = false, py::arg("overwrite") = false);
