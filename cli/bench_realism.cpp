@@ -8,6 +8,9 @@
 #include <omp.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -92,7 +95,24 @@ struct Variant {
   std::string method;
   std::function<void(scene::ScenePreset&)> scene;
   double white_percentile = 0.99;  // preview_srgb default: the 99th percentile maps to white
+  bool full_scale_isp = false;     // preview_full_scale() instead of preview_srgb()
 };
+
+// A camera ISP's highlight handling, as dcraw's default (-H 0, "clip"; D. Coffin, dcraw.c): white
+// balance gains normalised so the smallest is 1, applied to the DN; every channel clipped at the
+// sensor's full scale S; S shown as white (fixed exposure and gain: no rescaling to the scene).
+// A pixel saturated in every channel is then white, as in a camera JPEG. preview_srgb() instead
+// maps a luminance percentile to white and clips each channel afterwards, so with white at the
+// brightest pixel a saturated lamp keeps the tint of the gains (Y' below 0.98).
+ImageF preview_full_scale(const ImageF& rgb, std::array<double, 3> wb, double full_scale_dn) {
+  const double g_min = std::min({wb[0], wb[1], wb[2]});
+  for (double& g : wb) g /= g_min;
+  ImageF out(rgb.width(), rgb.height(), 3, uninitialized, "sRGB");
+  for (size_t i = 0; i < rgb.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out[3 * i + c] = static_cast<float>(srgb_encode(std::min(rgb[3 * i + c] * wb[c], full_scale_dn) / full_scale_dn));
+  return out;
+}
 
 ImageF u8_to_f(const ImageU8& m) {
   ImageF f(m.width(), m.height(), m.channels(), uninitialized);
@@ -126,6 +146,7 @@ void run(const Opts& o) {
       // White at the brightest pixel: where lamps saturate the sensor, the ADC's full scale is
       // white and nothing else is scaled, as a camera with a fixed exposure and gain shows it.
       {"photosite white max", {}, 1.0},
+      {"photosite ISP full scale", {}, 1.0, true},
       {"photosite no bloom", [](scene::ScenePreset& sp) { sp.bloom_fraction = 0; }, 0.99},
       // A darker night: quarter moon and a dark sky (0.01 lx, night-photometry.md §3).
       {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01, "bench"); }, 0.99},
@@ -149,6 +170,9 @@ void run(const Opts& o) {
     const ResolvedExposure ex = resolve(cam, lens, es);
     const FixedPatternMaps fpn = generate_fixed_pattern(cam, raw.width(), raw.height(), cam.name + "-0");
     const auto wb = white_balance_gains(cam);
+    // The sensor's full scale in DN above black: the ADC's top code or the full well, the lower.
+    const double full_scale_dn = std::min(std::ldexp(1.0, cam.bit_depth) - 1 - cam.black_level_dn,
+                                          cam.full_well_e * ex.system_gain_dn_per_e);
     for (const Variant& v : variants) {
       scene::ScenePreset sp = scene::load_scene_preset("night-urban");
       if (v.scene) v.scene(sp);
@@ -158,7 +182,8 @@ void run(const Opts& o) {
         const scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
         const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
         const SensorOutput so = sense(mean_e, cam, ex, es, fpn);
-        preview = preview_srgb(so.rgb, wb, v.white_percentile);
+        preview = v.full_scale_isp ? preview_full_scale(so.rgb, wb, full_scale_dn)
+                                   : preview_srgb(so.rgb, wb, v.white_percentile);
       });
       const fs::path file = prev / fmt::format("{}__{}.png", f.name, v.method);
       write_png(file.string(), preview);
