@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -134,6 +135,16 @@ void run(const Opts& o) {
   const std::vector<Frame> frames = shared_frames(shared / "data", o.max_frames);
   const std::string real = o.real.empty() ? (shared / "data" / "night_real").string() : o.real;
   if (!fs::is_directory(real)) fail_at(real, "--real: folder of real night photos not found");
+  {
+    int photos = 0;
+    for (const auto& e : fs::directory_iterator(real)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+      photos += ext == ".png" || ext == ".jpg" || ext == ".jpeg";
+    }
+    if (photos < 2)  // the leave-one-out histogram and the spread need at least two
+      fail_at(real, fmt::format("--real: {} .png/.jpg photos in this folder, at least 2 needed", photos));
+  }
   fs::path prev = o.previews;
   if (prev.empty()) prev = fs::temp_directory_path() / fmt::format("photosite-realism-{}", ::getpid());
   fs::create_directories(prev);

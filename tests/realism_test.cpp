@@ -129,6 +129,11 @@ TEST(RealismBench, BadRealFolderIsRefused) {
   const auto r = test::run_cli("bench realism --real /nonexistent/night --no-stats");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("/nonexistent/night"), std::string::npos) << r.output;
+  test::TempDir empty;  // a folder without photos is refused before any frame is run
+  const auto e = test::run_cli("bench realism --real '" + empty.path().string() + "' --no-stats");
+  EXPECT_EQ(e.exit_code, 2) << e.output;
+  EXPECT_NE(e.output.find("at least 2 needed"), std::string::npos) << e.output;
+  EXPECT_EQ(e.output.find("ms/frame"), std::string::npos) << e.output;
 }
 
 TEST(RealismBench, OneFramePerDataSetGivesEveryMethodAndTheRealSet) {
