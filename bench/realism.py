@@ -124,13 +124,14 @@ def main(argv=None):
         sys.exit(f"{a.manifest}: empty manifest")
     methods = list(dict.fromkeys(r["method"] for r in manifest))
 
-    per_image, hists, feats = [], {}, {}
+    per_image, hists, feats, sources = [], {}, {}, {}
     for p in real_photos(a.real):
         rgb = rs.load_srgb(p)
         s, h = statistics(rgb, rs.load_srgb(p, BLOB_WIDTH))
         per_image.append({"method": "real night", "dataset": "night_real", "frame": p.stem, "ms_per_frame": float("nan"), **s})
         hists.setdefault("real night", []).append(h)
         feats.setdefault("real night", []).append(rs.patch_features(rs.load_srgb(p, rs.WORK_WIDTH)))
+        sources.setdefault("real night", []).append(p.stem.split("_")[0])  # bdd100k, robotcar, ...
     real_h = np.array(hists["real night"])
     for i, row in enumerate(per_image):  # leave-one-out pooled real histogram
         others = np.delete(real_h, i, axis=0).mean(0) if len(real_h) > 1 else real_h[i]
@@ -142,6 +143,7 @@ def main(argv=None):
         per_image.append({"method": r["method"], "dataset": r["dataset"], "frame": r["frame"],
                           "ms_per_frame": float(r["ms_per_frame"]), **s, "luma_emd": emd(h, pooled)})
         feats.setdefault(r["method"], []).append(rs.patch_features(rs.load_srgb(r["file"], rs.WORK_WIDTH)))
+        sources.setdefault(r["method"], []).append(r["dataset"])
 
     real_rows = [r for r in per_image if r["method"] == "real night"]
     spread = {k: (np.nanmin([r[k] for r in real_rows]), np.nanmax([r[k] for r in real_rows])) for k in STATS}
@@ -162,18 +164,24 @@ def main(argv=None):
         row["all_inside_fraction"] = float(np.mean([all(r[f"{k}_inside"] for k in STATS) for r in rows]))
         if m != "real night" and not a.no_classifier:
             t = rs.two_sample_test(feats[m], feats["real night"])
+            lo = rs.two_sample_test(feats[m], feats["real night"], sources_a=sources[m],
+                                    sources_b=sources["real night"])
+            t["balanced_accuracy_loso"], t["se_loso"] = lo["balanced_accuracy"], lo["se"]
             row.update({"balanced_accuracy": t["balanced_accuracy"], "balanced_accuracy_se": t["se"],
+                        "balanced_accuracy_loso": lo["balanced_accuracy"], "balanced_accuracy_loso_se": lo["se"],
                         "photos_needed_per_class": t["photos_needed_per_class"]})
             clf_rows.append({"method": m, **{k: v for k, v in t.items() if k != "top_features"},
                              "top_features": " ".join(t["top_features"]), "target": rs.TARGET_BA,
                              "met": int(t["balanced_accuracy"] + 2 * t["se"] <= rs.TARGET_BA)})
             print(f"{m:28s} balanced accuracy {t['balanced_accuracy']:.3f} +- {t['se']:.3f} "
                   f"({t['n_a']} vs {t['n_b']} images; {t['photos_needed_per_class']} per class for a +-0.05 interval); "
-                  f"top features: {' '.join(t['top_features'])}")
+                  f"top features: {' '.join(t['top_features'])}; leave-one-source-out "
+                  f"{lo['balanced_accuracy']:.3f} +- {lo['se']:.3f}")
         summary.append(row)
 
     os.makedirs(a.out_dir, exist_ok=True)
     keys = ["method", "images", "ms_per_frame"] + STATS + ["balanced_accuracy", "balanced_accuracy_se",
+                                                           "balanced_accuracy_loso", "balanced_accuracy_loso_se",
                                                            "photos_needed_per_class", "all_inside_fraction"] + \
         [f"{k}_inside_fraction" for k in STATS]
     atomic_write_text(os.path.join(a.out_dir, "realism.csv"), to_csv(summary, keys))
@@ -182,7 +190,7 @@ def main(argv=None):
     if clf_rows:
         atomic_write_text(os.path.join(a.out_dir, "realism_classifier.csv"),
                           to_csv(clf_rows, ["method", "balanced_accuracy", "se", "n_a", "n_b", "photos_needed_per_class",
-                                            "target", "met", "top_features"]))
+                                            "target", "met", "balanced_accuracy_loso", "se_loso", "top_features"]))
     charts(per_image, summary, spread, methods, a.out_dir, a.machine)
     print()
     print(f"{'method':28s} " + " ".join(f"{k[:12]:>12s}" for k in STATS))

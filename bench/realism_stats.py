@@ -102,18 +102,27 @@ def photos_needed(se, n_per_class, margin=TARGET_BA - 0.5, z=1.96):
     return int(math.ceil(n_per_class * (z * se / margin) ** 2))
 
 
-def two_sample_test(feats_a, feats_b, n_splits=None, seed=0):
+def two_sample_test(feats_a, feats_b, n_splits=None, seed=0, sources_a=None, sources_b=None):
     """Random forest a-vs-b with GroupKFold by image. feats_*: list of per-image feature arrays.
+    With sources_a/sources_b (a source name per image: data set or camera), the folds are
+    leave-one-source-out instead: the forest never sees the test image's source, so it cannot
+    win by recognising a camera or a data set. Balanced accuracy is still per image.
     Returns dict(balanced_accuracy, se, n_a, n_b, photos_needed_per_class, top_features)."""
     from sklearn.ensemble import RandomForestClassifier
-    from sklearn.model_selection import GroupKFold
+    from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
 
     X = np.concatenate(feats_a + feats_b)
     y = np.concatenate([np.zeros(len(f), int) for f in feats_a] + [np.ones(len(f), int) for f in feats_b])
     groups = np.concatenate([np.full(len(f), i) for i, f in enumerate(feats_a + feats_b)])
-    k = n_splits or min(8, len(feats_a) + len(feats_b))
     pred = np.empty_like(y)
-    for train, test in GroupKFold(n_splits=k).split(X, y, groups):
+    if sources_a is not None:
+        names = list(sources_a) + [f"b:{s}" if s in set(sources_a) else s for s in sources_b]
+        split_groups = np.concatenate([np.full(len(f), names[i]) for i, f in enumerate(feats_a + feats_b)])
+        splits = LeaveOneGroupOut().split(X, y, split_groups)
+    else:
+        k = n_splits or min(8, len(feats_a) + len(feats_b))
+        splits = GroupKFold(n_splits=k).split(X, y, groups)
+    for train, test in splits:
         # class_weight balanced: the two sides have different patch counts.
         rf = RandomForestClassifier(n_estimators=200, min_samples_leaf=2, class_weight="balanced",
                                     random_state=seed, n_jobs=2)

@@ -117,3 +117,16 @@ def test_two_sample_test_separates_different_and_not_identical_distributions():
     # (each image's fraction correct is a mean of 4 Bernoulli(1/2): sd 0.25; SE = 0.5*sqrt(2*0.25^2/6) = 0.072).
     t = rs.two_sample_test(dark, same)
     assert abs(t["balanced_accuracy"] - 0.5) <= 5 * 0.5 * math.sqrt(2 * 0.25 ** 2 / 6)
+
+
+def test_leave_one_source_out_keeps_a_real_difference_and_holds_out_whole_sources():
+    rng = np.random.default_rng(2)
+    img = lambda mu: rs.patch_features(np.clip(rng.normal(mu, 0.02, (256, 256, 3)), 0, 1).astype(np.float32))
+    dark = [img(0.1) for _ in range(4)]
+    bright = [img(0.6) for _ in range(4)]
+    t = rs.two_sample_test(dark, bright, sources_a=["x", "x", "y", "y"], sources_b=["u", "u", "v", "v"])
+    assert t["balanced_accuracy"] == 1.0
+    # A source name shared by both sides is still two groups (one per side): no fold may hold
+    # every image of one class out of training.
+    t = rs.two_sample_test(dark, bright, sources_a=["x", "x", "y", "y"], sources_b=["x", "x", "y", "y"])
+    assert t["balanced_accuracy"] == 1.0
