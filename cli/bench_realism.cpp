@@ -97,6 +97,7 @@ struct Variant {
   std::function<void(scene::ScenePreset&)> scene;
   double white_percentile = 0.99;  // preview_srgb default: the 99th percentile maps to white
   bool full_scale_isp = false;     // preview_full_scale() instead of preview_srgb()
+  bool lens_glare = true;          // false: the lens preset's [glare] off (sensor/glare.h)
 };
 
 // A camera ISP's highlight handling, as dcraw's default (-H 0, "clip"; D. Coffin, dcraw.c): white
@@ -158,9 +159,9 @@ void run(const Opts& o) {
       // white and nothing else is scaled, as a camera with a fixed exposure and gain shows it.
       {"photosite white max", {}, 1.0},
       {"photosite ISP full scale", {}, 1.0, true},
-      {"photosite no bloom", [](scene::ScenePreset& sp) { sp.bloom_fraction = 0; }, 0.99},
+      {"photosite no glare", {}, 0.99, false, false},
       // A darker night: quarter moon and a dark sky (0.01 lx, night-photometry.md §3).
-      {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01, "bench"); }, 0.99},
+      {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01); }, 0.99},
   };
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
   auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
@@ -176,9 +177,9 @@ void run(const Opts& o) {
     const scene::LabelMap lm = scene::read_labels(f.labels, f.instances, raw.width(), raw.height(),
                                                   scene::LabelFormat::Auto, scene::ResizeLabels::None);
     const CameraPreset cam = load_camera_preset(f.camera);
-    const LensPreset lens = load_lens_preset(cam.default_lens);
+    const LensPreset lens_preset = load_lens_preset(cam.default_lens);
     ExposureSettings es;  // the `night` command's defaults: 20 ms, lens f-number, 0 dB
-    const ResolvedExposure ex = resolve(cam, lens, es);
+    const ResolvedExposure ex = resolve(cam, lens_preset, es);
     const FixedPatternMaps fpn = generate_fixed_pattern(cam, raw.width(), raw.height(), cam.name + "-0");
     const auto wb = white_balance_gains(cam);
     // The sensor's full scale in DN above black: the ADC's top code or the full well, the lower.
@@ -187,6 +188,8 @@ void run(const Opts& o) {
     for (const Variant& v : variants) {
       scene::ScenePreset sp = scene::load_scene_preset("night-urban");
       if (v.scene) v.scene(sp);
+      LensPreset lens = lens_preset;
+      if (!v.lens_glare) lens.glare.enabled = false;
       ImageF preview;
       const double ms = best_ms(o.repeats, [&] {
         const ImageF lin = scene::linearize(raw, info);
