@@ -13,12 +13,10 @@
 
 #include "bench.h"
 #include "photosite/outputs.h"
-#include "sensor_options.h"
 #include "photosite/batch.h"
 #include "photosite/error.h"
-#include "registry.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -35,13 +33,16 @@ void run_bench(const BenchBatchOptions& o) {
   fs::remove_all(tmp);
   fs::create_directories(tmp);
   setenv("PHOTOSITE_DEVICE_STORE", (tmp / "store").c_str(), 1);
-  SensorOptions so;
-  so.preset = "onsemi-ar0331";
-  auto r = so.resolve();
+  SensorSetup r;
+  r.camera = load_camera_preset("onsemi-ar0331");
+  r.lens = load_lens_preset(r.camera.default_lens);
+  r.device_id = r.camera.name + "-0";
+  resolve(r.camera, r.lens, r.settings);  // the command's defaults (ExposureSettings{}), checked
+  const DeviceStore store;  // $PHOTOSITE_DEVICE_STORE, set above
   const auto sp = scene::load_scene_preset("night-urban");
   double t_read = 0, t_compute = 0, t_write = 0;
   // Warm the device store (map creation is a one-off per device and size).
-  { auto f = r.store.load_or_create(r.camera, r.device_id, 2048, 1024); (void)f; }
+  { auto f = store.load_or_create(r.camera, r.device_id, 2048, 1024); (void)f; }
   for (const auto& it : items) {
     auto t = Clock::now();
     ImageFileInfo info;
@@ -52,7 +53,7 @@ void run_bench(const BenchBatchOptions& o) {
     t_read += ms_since(t);
     t = Clock::now();
     auto ns = scene::night_scene(lin, labels, sp, 1);
-    const auto fpn = r.store.load_or_create(r.camera, r.device_id, lin.width(), lin.height());
+    const auto fpn = store.load_or_create(r.camera, r.device_id, lin.width(), lin.height());
     const auto ex = resolve(r.camera, r.lens, r.settings);
     auto out = expose(ns.radiance, r.camera, r.lens, r.settings, fpn);
     ImageF label_img = label_image(labels);
@@ -100,4 +101,4 @@ static BenchRegistrar reg("batch", "batch pipeline: each part alone vs end to en
   sub->add_option("--out-dir", o->out_dir, "where the CSV goes")->capture_default_str();
   sub->callback([o] { run_bench(*o); });
 });
-}  // namespace photosite::cli
+}  // namespace photosite::bench
