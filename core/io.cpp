@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "photosite/error.h"
 
@@ -220,10 +221,27 @@ const char* to_string(ExrPixel p) {
   return "?";
 }
 
+const std::vector<std::string>& exr_compressions() {
+  static const std::vector<std::string> names = {"none", "rle",  "zips", "zip",  "piz",
+                                                 "pxr24", "b44", "b44a", "dwaa", "dwab"};
+  return names;
+}
+
+bool exr_compression_lossless(const std::string& name) {
+  return name == "none" || name == "rle" || name == "zips" || name == "zip" || name == "piz";
+}
+
+void check_exr_compression(const std::string& name, const std::string& what) {
+  const auto& all = exr_compressions();
+  if (std::find(all.begin(), all.end(), name) == all.end())
+    fail(fmt::format("{} '{}': not an OpenEXR compression (one of {})", what, name, fmt::join(all, ", ")));
+}
+
 bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
                const std::map<std::string, ExrAttribute>& attributes,
                const ExrWriteOptions& options) {
   if (groups.empty()) internal_error("write_exr: no channels");
+  check_exr_compression(options.compression, "EXR compression");
   const int w = groups[0].image->width(), h = groups[0].image->height();
   std::vector<std::string> names;
   std::vector<TypeDesc> formats;  // per channel

@@ -52,6 +52,16 @@ struct ExrChannelGroup {
   ExrPixel pixel = ExrPixel::Float;
 };
 using ExrAttribute = std::variant<std::string, int, float, double>;
+// The compressions this OpenEXR (3.1) writes, by OpenImageIO's names: none, rle, zips, zip, piz
+// (lossless), pxr24 (lossy for float32: rounds to 24 bits), b44, b44a, dwaa, dwab (lossy for
+// half and float; integer channels are always stored losslessly, OpenEXR's rule).
+const std::vector<std::string>& exr_compressions();
+bool exr_compression_lossless(const std::string& name);
+// Bad input naming `what` (e.g. "--compression") unless `name` is one of exr_compressions().
+void check_exr_compression(const std::string& name, const std::string& what);
+// batch's default, as before (`photosite bench batch`).
+inline constexpr const char* kDefaultExrCompression = "piz";
+
 struct ExrWriteOptions {
   bool half = false;                // store as half instead of float32
   std::string compression = "zip";  // none, rle, zips, zip, piz, pxr24, b44, dwaa, dwab
