@@ -315,7 +315,6 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       auto so = std::make_shared<SensorOutput>(
           runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
       auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
-      auto label_img = std::make_shared<ImageF>(label_image(*labels));
       const NightInputs in{it.image, it.labels, it.instances};
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(
           night_attributes(*rr, ex, fpn, sp, *ns, *labels, in));
@@ -327,10 +326,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       const LayerSet layers = o.layers;
       if (o.format != "png")
         c.writes.emplace_back(it.key + ".exr", [=](const std::string& p) {
-          write_exr(p, night_channels(*so, *ns, *label_img, layers), *attrs, wo);
+          write_exr(p, night_channels(*so, *ns, *labels, layers), *attrs, wo);
         });
       if (o.format != "exr")
-        c.writes.emplace_back(it.key + ".png", [=](const std::string& p) { write_png(p, preview_srgb(so->rgb, wb)); });
+        c.writes.emplace_back(it.key + ".png", [=](const std::string& p) { write_png8(p, preview_srgb8(so->rgb, wb)); });
       // Labels carried over unchanged: byte copies, written atomically too.
       for (const auto& [src, dst] : {std::pair{it.labels, it.labels_rel}, std::pair{it.instances, it.instances_rel}})
         if (!dst.empty())
