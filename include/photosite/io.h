@@ -63,8 +63,9 @@ const std::vector<std::string>& exr_compressions();
 bool exr_compression_lossless(const std::string& name);
 // Bad input naming `what` (e.g. "--compression") unless `name` is one of exr_compressions().
 void check_exr_compression(const std::string& name, const std::string& what);
-// The default of `expose`, `night` and `batch`: the lossless codec that wrote the typed night
-// layers fastest and smallest-but-one (docs/bench_exr.csv, `photosite bench exr`).
+// The default of `expose`, `night` and `batch`: of the lossless codecs, the one that wrote the
+// typed night layers smallest, in about half zip's time; none and rle were faster at 4-5x the
+// bytes (docs/bench_exr.csv, `photosite bench exr`).
 inline constexpr const char* kDefaultExrCompression = "piz";
 
 struct ExrWriteOptions {
