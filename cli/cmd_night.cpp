@@ -33,6 +33,7 @@ struct NightCmd {
   SensorOptions sensor;
   std::string backend = "auto";
   std::string layers;  // empty: every layer
+  std::string compression = kDefaultExrCompression;
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -43,6 +44,7 @@ std::string night_sample_dir() {
 
 void run_night(NightCmd c) {
   const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
+  check_exr_compression(c.compression, "--compression");
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -92,19 +94,19 @@ void run_night(NightCmd c) {
   for (const auto& st : chain.timings) times.push_back(st);
   t = clock::now();
 
-  const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = night_frame(runner, chain, r, r.settings.frame);
     lap("sensor: noise, ADC, demosaic");
-    const auto groups = night_channels(out, ns, label_img, layers);
+    const auto groups = night_channels(out, ns, labels, layers);
     const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances});
     ExrWriteOptions wo;
     wo.half = c.half;
+    wo.compression = c.compression;
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) {
-      write_png(previews[f], preview_srgb(out.rgb, white_balance_gains(r.camera)));
+      write_png8(previews[f], preview_srgb8(out.rgb, white_balance_gains(r.camera)));
       std::printf("%s\n", previews[f].c_str());
     }
     lap("write outputs");
@@ -149,6 +151,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");
   sub->add_option("--layers", c.layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
+  sub->add_option("--compression", c.compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();
   c.sensor.add(sub, false);
   add_backend_option(sub, c.backend);
   add_overwrite_flag(sub, c.overwrite);

@@ -88,7 +88,7 @@ ImageF label_image(const scene::LabelMap& labels) {
 }
 
 std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
-                                            const ImageF& label_img, LayerSet layers) {
+                                            const scene::LabelMap& labels, LayerSet layers) {
   auto groups = sensor_channels(out, layers);
   if (has(layers, Layer::Radiance)) groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
   // depth.Z as half: the coarse depth runs 0..1 along each ray from the vanishing point, so one
@@ -98,7 +98,8 @@ std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene
   // whose range is set by the scene preset, not bounded by half's [6.1e-5, 65504] normal range.
   if (has(layers, Layer::Depth)) groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
   if (has(layers, Layer::Lights)) groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
-  if (has(layers, Layer::Labels)) groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
+  if (has(layers, Layer::Labels))  // class ids, straight from their 16-bit samples
+    groups.push_back({{"labels.Y"}, nullptr, unit::label_id, ExrPixel::Uint, &labels.ids});
   return groups;
 }
 

@@ -24,7 +24,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 struct Opts {
   std::string image, labels, instances, out_dir, preset = "onsemi-ar0331";
@@ -161,4 +161,4 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

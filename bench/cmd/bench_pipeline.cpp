@@ -33,7 +33,7 @@
 #include "photosite/gpu/stages.h"
 #endif
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 const DemosaicMethod kOtherDemosaics[] = {DemosaicMethod::Malvar, DemosaicMethod::HamiltonAdams,
                                           DemosaicMethod::Lmmse};
@@ -288,4 +288,4 @@ static BenchRegistrar reg("pipeline",
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench
