@@ -1,5 +1,5 @@
 # The Python package `photosite` (python/photosite + the _photosite extension), built by
-# scikit-build through CMake with only the library and the module (no CLI tests or benchmarks).
+# scikit-build through CMake with only the library and the module (no command, tests or benchmarks).
 from skbuild import setup
 
 setup(
@@ -9,7 +9,8 @@ setup(
     packages=["photosite"],
     package_dir={"": "python"},
     package_data={"photosite": ["*.pyi", "py.typed"]},
-    cmake_args=["-DPHOTOSITE_TESTS=OFF", "-DPHOTOSITE_BENCH=OFF", "-DCMAKE_BUILD_TYPE=Release"],
+    cmake_args=["-DPHOTOSITE_TESTS=OFF", "-DPHOTOSITE_BENCH=OFF", "-DPHOTOSITE_BUILD_CLI=OFF",
+                "-DCMAKE_BUILD_TYPE=Release"],
     cmake_install_dir="python",
     python_requires=">=3.9",
     install_requires=["numpy"],

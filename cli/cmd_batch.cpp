@@ -160,8 +160,8 @@ void run(BatchCmd& c) {
       {"camera", r.camera.name}, {"camera_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(r.camera.file)))},
       {"lens", r.lens.name}, {"lens_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(r.lens.file)))},
       {"scene_preset", sp.name}, {"scene_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(sp.file)))},
-      {"exposure_s", r.settings.exposure_s}, {"f_number", std::isnan(r.settings.f_number) ? -1.0 : r.settings.f_number},
-      {"gain_db", r.settings.gain_db}, {"temperature_c", std::isnan(r.settings.temperature_c) ? -999.0 : r.settings.temperature_c},
+      {"exposure_s", r.settings.exposure_s}, {"f_number", r.settings.f_number ? nlohmann::json(*r.settings.f_number) : nlohmann::json()},
+      {"gain_db", r.settings.gain_db}, {"temperature_c", r.settings.temperature_c ? nlohmann::json(*r.settings.temperature_c) : nlohmann::json()},
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
       {"poisson", to_string(r.settings.poisson)},
       {"format", c.format}, {"half", c.half}, {"compression", c.compression}, {"layers", layers_text(layers)}};
@@ -182,7 +182,7 @@ void run(BatchCmd& c) {
       if (j.is_discarded()) continue;  // a line cut short by a kill
       if (first) {
         first = false;
-        if (!j.contains("params") || j["params"].dump() != params_text)
+        if (!j.contains("params") || batch::upgrade_params(j["params"].dump()) != params_text)
           fail_at(c.out, "was written by a batch run with other parameters (" + e.path().filename().string() +
                              "); photosite does not mix results: use a new --out");
         continue;
@@ -262,7 +262,7 @@ void run(BatchCmd& c) {
                                       scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
         l.day = scene::linearize(day, info);
       } catch (const Error& e) {
-        l.error = e.what();
+        l.error = message(e);
       }
       loaded.push(std::move(l));
     }
@@ -301,7 +301,7 @@ void run(BatchCmd& c) {
           }
         } catch (const Error& e) {
           std::lock_guard l(err_m);
-          errors.push_back(e.what());
+          errors.push_back(message(e));
           continue;
         }
         {
@@ -364,7 +364,7 @@ void run(BatchCmd& c) {
             });
           });
     } catch (const Error& e) {
-      out.error = l->item.image + ": " + e.what();
+      out.error = l->item.image + ": " + message(e);
     }
     computed.push(std::move(out));
   }

@@ -28,7 +28,7 @@ void run(const CharacterizeCmd& c) {
   SensorRunner runner = make_backend(c.backend);
   const Characterization ch = characterize(r, r.store, runner, c.roi, c.wavelength_nm);
   if (c.json) {
-    std::printf("%s\n", to_json(ch).dump(2).c_str());
+    std::printf("%s\n", to_json(ch, 2).c_str());
     return;
   }
   std::printf("EMVA 1288 R4.0 photon transfer: %s (device %s), %dx%d region, %d %c pixels, %.0f nm\n",

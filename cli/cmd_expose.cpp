@@ -55,7 +55,7 @@ void run(const ExposeCmd& c) {
   try {
     mean_e = runner.mean_signal_electrons(radiance, r.camera, r.lens, ex);
   } catch (const Error& e) {
-    fail_at(c.radiance, e.what());
+    fail_at(c.radiance, message(e));
   }
   const FixedPatternMaps fpn =
       r.store.load_or_create(r.camera, r.device_id, radiance.width(), radiance.height());

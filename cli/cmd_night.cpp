@@ -7,8 +7,8 @@
 #include <filesystem>
 
 #include <fmt/format.h>
-#include <opencv2/imgproc.hpp>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -16,6 +16,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "photosite/night_chain.h"
 #include "photosite/outputs.h"
+#include "photosite/visualize.h"
 #include "backend.h"
 #include "registry.h"
 #include "sensor_options.h"
@@ -27,7 +28,7 @@ struct NightCmd {
   std::string scene_preset = "night-urban";
   std::string label_format = "auto";
   std::string resize_labels = "none";
-  double ambient_lux = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> ambient_lux;  // none: the scene preset's
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
   std::string backend = "auto";
@@ -36,62 +37,8 @@ struct NightCmd {
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
 std::string night_sample_dir() {
-  if (const char* e = std::getenv("PHOTOSITE_SAMPLE_DIR"); e && *e) return e;
-  return std::string(PHOTOSITE_SOURCE_DIR) + "/samples";
-}
-
-// Intermediate maps as PNGs for people (docs/night.md): lanes, edges, lines + vanishing point,
-// depth, light map and darkened scene (log-scaled luminance), labels in the palette.
-void write_maps(const std::string& dir, const ImageF& day, const scene::LabelMap& labels,
-                const scene::NightScene& ns, bool overwrite) {
-  namespace fs = std::filesystem;
-  if (!fs::is_directory(dir)) fail_at(dir, "--maps: folder does not exist");
-  auto path = [&](const char* name) {
-    const std::string p = (fs::path(dir) / name).string();
-    check_output_path(p, overwrite);
-    return p;
-  };
-  auto u8_to_f = [](const ImageU8& m) {
-    ImageF f(m.width(), m.height(), 1);
-    for (size_t i = 0; i < f.size(); ++i) f[i] = m[i] / 255.f;
-    return f;
-  };
-  write_png(path("lanes.png"), u8_to_f(ns.lanes_work));
-  write_png(path("edges.png"), u8_to_f(ns.edges_work));
-  {
-    const int w = ns.edges_work.width(), h = ns.edges_work.height();
-    cv::Mat m(h, w, CV_32FC3, cv::Scalar(0, 0, 0));
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        if (ns.edges_work.at(x, y)) m.at<cv::Vec3f>(y, x) = cv::Vec3f(0.35f, 0.35f, 0.35f);
-    for (const auto& l : ns.lines_work)
-      cv::line(m, cv::Point2f(l.x0, l.y0), cv::Point2f(l.x1, l.y1), cv::Scalar(1, 0.8, 0), 2);
-    const cv::Point2f vp((ns.vp.x + 0.5) * ns.work_scale - 0.5, (ns.vp.y + 0.5) * ns.work_scale - 0.5);
-    cv::circle(m, vp, std::max(4, w / 100), cv::Scalar(1, 0, 0.2), 2);
-    ImageF f(w, h, 3);
-    std::copy_n(reinterpret_cast<float*>(m.data), f.size(), f.data());
-    write_png(path("lines_vp.png"), f);
-  }
-  write_png(path("depth.png"), ns.depth);
-  auto log_lum = [](const ImageF& rad) {  // log10 luminance from 1e-3 to 1e3 cd/m² → 0..1
-    ImageF f(rad.width(), rad.height(), 1);
-    for (size_t i = 0; i < f.pixel_count(); ++i) {
-      const float c[3] = {rad[3 * i], rad[3 * i + 1], rad[3 * i + 2]};
-      const double L = spectrum::luminance_cd_m2(c);
-      f[i] = static_cast<float>(std::clamp((std::log10(std::max(L, 1e-6)) + 3) / 6, 0.0, 1.0));
-    }
-    return f;
-  };
-  write_png(path("lights_log.png"), log_lum(ns.lights));
-  write_png(path("darkened_log.png"), log_lum(ns.darkened));
-  write_png(path("night_radiance_log.png"), log_lum(ns.radiance));
-  ImageF pal(labels.ids.width(), labels.ids.height(), 3);
-  for (size_t i = 0; i < labels.ids.pixel_count(); ++i)
-    for (int k = 0; k < 3; ++k) pal[3 * i + k] = scene::label_color(labels.ids[i])[k] / 255.f;
-  write_png(path("labels.png"), pal);
-  ImageF dayp(day.width(), day.height(), 3);
-  for (size_t i = 0; i < dayp.size(); ++i) dayp[i] = static_cast<float>(srgb_encode(std::min(1.f, day[i])));
-  write_png(path("day.png"), dayp);
+  if (auto e = env::get(env::Var::SampleDir)) return *e;
+  return data_dir() + "/samples";
 }
 
 void run_night(NightCmd c) {
@@ -108,7 +55,7 @@ void run_night(NightCmd c) {
   }
   if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";  // Cityscapes' camera
   scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
-  if (!std::isnan(c.ambient_lux)) set_ambient_lux(sp, c.ambient_lux);
+  if (c.ambient_lux) set_ambient_lux(sp, *c.ambient_lux);
   const auto fmt_label = scene::parse_label_format(c.label_format);
   scene::ResizeLabels resize;
   if (c.resize_labels == "none") resize = scene::ResizeLabels::None;
@@ -128,6 +75,7 @@ void run_night(NightCmd c) {
     t = now;
   };
   if (!std::filesystem::exists(c.image)) fail_at(c.image, "image file not found");
+  if (!c.maps.empty() && !std::filesystem::is_directory(c.maps)) fail_at(c.maps, "--maps: folder does not exist");
   ImageFileInfo info;
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
@@ -135,7 +83,9 @@ void run_night(NightCmd c) {
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
-    maps = [&](const ImageF& day, const scene::NightScene& ns) { write_maps(c.maps, day, labels, ns, c.overwrite); };
+    maps = [&](const ImageF& day, const scene::NightScene& ns) {
+      write_pictures(c.maps, night_map_pictures(day, labels, ns), c.overwrite);
+    };
   const NightChain chain = prepare_night(runner, std::move(day_raw), info, labels, sp, r, r.store, maps);
   const scene::NightScene& ns = chain.scene;
   const int frame_w = chain.width, frame_h = chain.height;

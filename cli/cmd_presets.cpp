@@ -1,6 +1,8 @@
 // `photosite presets list` and `photosite presets show NAME [--json]`.
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
 #include "photosite/sensor/preset.h"
 #include "registry.h"
 
@@ -20,7 +22,7 @@ static Registrar reg("a-presets", [](CLI::App& app) {
   show->add_option("name", *name, "preset name or path")->required();
   show->add_flag("--json", *json, "print JSON");
   show->callback([name, json] {
-    const nlohmann::json j = show_preset(*name);
+    const nlohmann::json j = nlohmann::json::parse(show_preset(*name));
     if (*json) {
       std::printf("%s\n", j.dump(2).c_str());
     } else {

@@ -26,7 +26,7 @@ void print_backends() {
     std::printf("auto: %s\n", d.cpu ? "cpu (the Vulkan device is a CPU implementation, slower than the native path)"
                                     : "vulkan");
   } catch (const Error& e) {
-    std::printf("vulkan: unavailable: %s\nauto: cpu\n", e.what());
+    std::printf("vulkan: unavailable: %s\nauto: cpu\n", message(e).c_str());
   }
 #else
   std::printf("vulkan: not built (PHOTOSITE_VULKAN=OFF)\nauto: cpu\n");

@@ -17,6 +17,19 @@ std::vector<std::pair<std::string, SetupFn>>& registry() {
 void add_overwrite_flag(CLI::App* sub, bool& overwrite) {
   sub->add_flag("--overwrite,-y", overwrite, "replace an existing output file");
 }
+std::string flag_for(const std::string& parameter) {
+  std::string flag = "--" + parameter;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+std::string message(const std::exception& e) {
+  if (const auto* p = dynamic_cast<const ParameterError*>(&e)) return p->message_for(flag_for(p->parameter()));
+  return e.what();
+}
+int exit_status(const std::exception& e) {
+  const auto* err = dynamic_cast<const Error*>(&e);
+  return err && err->kind() == Error::Kind::BadInput ? 2 : 1;
+}
 }  // namespace photosite::cli
 
 int main(int argc, char** argv) {
@@ -50,8 +63,8 @@ int main(int argc, char** argv) {
     app.exit(e);
     return 2;  // usage errors are bad input
   } catch (const Error& e) {
-    std::fprintf(stderr, "photosite: error: %s\n", e.what());
-    return e.exit_code();
+    std::fprintf(stderr, "photosite: error: %s\n", cli::message(e).c_str());
+    return cli::exit_status(e);
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "photosite: error: out of memory\n");
     return 1;

@@ -3,6 +3,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "photosite/io.h"
@@ -17,9 +18,9 @@ struct SensorOptions {
   std::string preset;
   std::string lens;  // empty: the camera's default lens
   double exposure_s = 0.02;
-  double f_number = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> f_number;       // none: the lens preset's
   double gain_db = 0.0;
-  double temperature_c = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> temperature_c;  // none: the camera preset's
   uint64_t seed = 0;
   int frames = 1;
   std::string device_id;  // empty: "<preset>-0"

@@ -15,14 +15,24 @@ namespace photosite {
 
 const char* to_string(Backend b) { return b == Backend::Vulkan ? "vulkan" : "cpu"; }
 
-Backend resolve_backend(const std::string& name, const std::string& what) {
+Backend resolve_backend(const std::string& name) {
   if (name == "cpu") return Backend::Cpu;
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (name == "vulkan") {
     try {
       gpu::shared_context();
+    } catch (const ParameterError& e) {
+      // "backend vulkan: <why>", where <why> may name the parameter again ("or use backend cpu").
+      std::vector<std::string> parts{"", " vulkan: "};
+      if (e.parameter() == "backend") {
+        parts.back() += e.parts().front();
+        parts.insert(parts.end(), e.parts().begin() + 1, e.parts().end());
+      } else {
+        parts.back() += e.what();
+      }
+      throw ParameterError("backend", std::move(parts));
     } catch (const Error& e) {
-      fail(what + " vulkan: " + e.what());
+      fail_parameter("backend", "", std::string(" vulkan: ") + e.what());
     }
     return Backend::Vulkan;
   }
@@ -34,10 +44,11 @@ Backend resolve_backend(const std::string& name, const std::string& what) {
     }
   }
 #else
-  if (name == "vulkan") fail(what + " vulkan: this photosite was built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)");
+  if (name == "vulkan")
+    fail_parameter("backend", "", " vulkan: this photosite was built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)");
   if (name == "auto") return Backend::Cpu;
 #endif
-  fail("unknown " + what + " '" + name + "' (known: cpu, vulkan, auto)");
+  fail_parameter("backend", "unknown ", " '" + name + "' (known: cpu, vulkan, auto)");
 }
 
 #ifdef PHOTOSITE_HAVE_VULKAN
@@ -56,8 +67,8 @@ SensorRunner::SensorRunner(Backend b) : backend_(b) {
 }
 SensorRunner::SensorRunner(SensorRunner&&) noexcept = default;
 SensorRunner& SensorRunner::operator=(SensorRunner&&) noexcept = default;
-SensorRunner make_backend(const std::string& name, const std::string& what) {
-  return SensorRunner(resolve_backend(name, what));
+SensorRunner make_backend(const std::string& name) {
+  return SensorRunner(resolve_backend(name));
 }
 
 SensorRunner::~SensorRunner() {

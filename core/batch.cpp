@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "photosite/error.h"
 
@@ -20,7 +21,7 @@ Dataset parse_dataset(const std::string& name) {
   if (name == "cityscapes") return Dataset::Cityscapes;
   if (name == "kitti") return Dataset::Kitti;
   if (name == "bdd100k") return Dataset::Bdd100k;
-  fail("unknown --dataset '" + name + "' (expected cityscapes, kitti or bdd100k)");
+  fail_parameter("dataset", "unknown ", " '" + name + "' (expected cityscapes, kitti or bdd100k)");
 }
 const char* to_string(Dataset d) {
   switch (d) {
@@ -249,12 +250,20 @@ std::vector<Item> shard(const std::vector<Item>& items, int index, int count) {
   return out;
 }
 
+std::string upgrade_params(const std::string& params_json) {
+  nlohmann::json j = nlohmann::json::parse(params_json, nullptr, false);
+  if (!j.is_object()) return params_json;
+  if (j.contains("f_number") && j["f_number"] == -1.0) j["f_number"] = nullptr;
+  if (j.contains("temperature_c") && j["temperature_c"] == -999.0) j["temperature_c"] = nullptr;
+  return j.dump();
+}
+
 std::pair<int, int> parse_shard(const std::string& text) {
   int i = -1, n = -1;
   char slash = 0;
   std::istringstream ss(text);
   if (!(ss >> i >> slash >> n) || slash != '/' || n < 1 || i < 0 || i >= n || !ss.eof())
-    fail("--shard '" + text + "' must be I/N with 0 <= I < N (e.g. 3/16)");
+    fail_parameter("shard", "", " '" + text + "' must be I/N with 0 <= I < N (e.g. 3/16)");
   return {i, n};
 }
 

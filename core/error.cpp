@@ -2,6 +2,19 @@
 
 namespace photosite {
 
+namespace {
+std::string join(const std::vector<std::string>& parts, const std::string& name) {
+  std::string s;
+  for (size_t i = 0; i < parts.size(); ++i) s += (i ? name : std::string()) + parts[i];
+  return s;
+}
+}  // namespace
+
+ParameterError::ParameterError(std::string parameter, std::vector<std::string> parts)
+    : Error(join(parts, parameter), Kind::BadInput), parameter_(std::move(parameter)), parts_(std::move(parts)) {}
+
+std::string ParameterError::message_for(const std::string& name) const { return join(parts_, name); }
+
 std::string where(const std::string& file, int line, const std::string& key) {
   std::string s = file;
   if (line > 0) s += ":" + std::to_string(line);
@@ -12,6 +25,9 @@ std::string where(const std::string& file, int line, const std::string& key) {
 void fail(const std::string& message) { throw Error(message, Error::Kind::BadInput); }
 void fail_at(const std::string& file, const std::string& message) {
   throw Error(file + ": " + message, Error::Kind::BadInput);
+}
+void fail_parameter(const std::string& parameter, const std::string& before, const std::string& after) {
+  throw ParameterError(parameter, {before, after});
 }
 void internal_error(const std::string& message) { throw Error(message, Error::Kind::Internal); }
 

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 
 namespace photosite {
@@ -148,11 +149,11 @@ ImageFileInfo info_from(const std::string& path, const ImageInput& in) {
 
 int64_t max_frame_pixels() {
   static const int64_t limit = [] {
-    if (const char* e = std::getenv("PHOTOSITE_MAX_PIXELS"); e && *e) {
+    if (const auto e = env::get(env::Var::MaxPixels)) {
       char* end = nullptr;
-      const long long v = std::strtoll(e, &end, 10);
+      const long long v = std::strtoll(e->c_str(), &end, 10);
       if (end && *end == 0 && v >= 4) return static_cast<int64_t>(v);
-      fail(std::string("PHOTOSITE_MAX_PIXELS='") + e + "' is not a whole number >= 4");
+      fail(std::string("PHOTOSITE_MAX_PIXELS='") + *e + "' is not a whole number >= 4");
     }
     return int64_t{1} << 28;
   }();
@@ -378,7 +379,7 @@ void check_output_path(const std::string& path, bool overwrite) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) fail_at(path, "output folder " + dir.string() + " does not exist");
   if (fs::exists(p, ec) && !overwrite)
-    fail_at(path, "already exists; photosite never overwrites a file unless --overwrite is given");
+    fail_parameter("overwrite", path + ": already exists; photosite never overwrites a file unless ", " is given");
   if (access(dir.c_str(), W_OK) != 0) fail_at(path, "output folder is not writable");
 }
 

@@ -47,8 +47,8 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
   return c;
 }
 
-void set_ambient_lux(scene::ScenePreset& sp, double lux, const std::string& what) {
-  if (!(lux >= 0 && lux <= 10)) fail(fmt::format("{} {} must be in [0, 10] lx", what, lux));
+void set_ambient_lux(scene::ScenePreset& sp, double lux) {
+  if (!(lux >= 0 && lux <= 10)) fail_parameter("ambient_lux", "", fmt::format(" {} must be in [0, 10] lx", lux));
   // Keep the preset's moon/sky-glow proportions, rescaled to the requested total.
   const double sum = sp.moon_lux + sp.skyglow_lux;
   if (sum > 0) {

@@ -15,10 +15,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     switch (data[0] % 3) {
       case 0: {
         const auto p = photosite::parse_camera_preset(text, "fuzz.toml");
-        (void)photosite::to_json(p).dump();
+        (void)photosite::to_json(p);
         break;
       }
-      case 1: (void)photosite::to_json(photosite::parse_lens_preset(text, "fuzz.toml")).dump(); break;
+      case 1: (void)photosite::to_json(photosite::parse_lens_preset(text, "fuzz.toml")); break;
       default: (void)photosite::scene::scene_attributes(photosite::scene::parse_scene_preset(text, "fuzz.toml"));
     }
   } catch (const photosite::Error&) {

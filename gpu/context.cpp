@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fmt/format.h>
 
+#include "photosite/environment.h"
 #include "photosite/gpu/kernel.h"
 #include "photosite/sanitizer.h"
 #include "vk.h"
@@ -178,16 +179,18 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
 #endif
   I.lib = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_LOCAL);
   if (!I.lib)
-    fail("Vulkan: the Vulkan loader (libvulkan.so.1) is not installed; install libvulkan1 and a "
-         "driver (mesa-vulkan-drivers for lavapipe), or use --backend cpu");
+    fail_parameter("backend",
+                   "Vulkan: the Vulkan loader (libvulkan.so.1) is not installed; install libvulkan1 and a "
+                   "driver (mesa-vulkan-drivers for lavapipe), or use ",
+                   " cpu");
   f.vkGetInstanceProcAddr = reinterpret_cast<PFN_vkGetInstanceProcAddr>(dlsym(I.lib, "vkGetInstanceProcAddr"));
   if (!f.vkGetInstanceProcAddr) fail("Vulkan: libvulkan.so.1 has no vkGetInstanceProcAddr");
 #define PHOTOSITE_VK_LOAD_GLOBAL(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetInstanceProcAddr(nullptr, #name));
   PHOTOSITE_VK_GLOBAL(PHOTOSITE_VK_LOAD_GLOBAL)
 #undef PHOTOSITE_VK_LOAD_GLOBAL
 
-  const char* env = std::getenv("PHOTOSITE_VK_VALIDATION");
-  validation_ = options.validation || (env && std::strcmp(env, "0") != 0 && *env);
+  const auto validation_env = env::get(env::Var::VkValidation);
+  validation_ = options.validation || (validation_env && *validation_env != "0");
   std::vector<const char*> layers, extensions;
   bool sync_validation = false;
   if (validation_) {
@@ -204,8 +207,8 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
     // Synchronization validation too, where the layer offers it: a missing barrier between two
     // kernels, or between a copy and a kernel, is then a reported hazard, not a silent race.
-    const char* sv = std::getenv("PHOTOSITE_VK_SYNC_VALIDATION");
-    const bool want_sync = !(sv && std::strcmp(sv, "0") == 0);
+    const auto sv = env::get(env::Var::VkSyncValidation);
+    const bool want_sync = !(sv && *sv == "0");
     uint32_t ne = 0;
     f.vkEnumerateInstanceExtensionProperties("VK_LAYER_KHRONOS_validation", &ne, nullptr);
     std::vector<VkExtensionProperties> ext(ne);
@@ -321,8 +324,8 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   // and cached at once (lavapipe, integrated GPUs); staged copies otherwise.
   const bool unified = unified_memory(type_flags(I.memory));
   Staging mode = options.staging;
-  if (const char* e = std::getenv("PHOTOSITE_VK_STAGING"); e && *e && mode == Staging::Auto)
-    mode = std::strcmp(e, "0") == 0 ? Staging::Direct : Staging::Staged;
+  if (const auto e = env::get(env::Var::VkStaging); e && mode == Staging::Auto)
+    mode = *e == "0" ? Staging::Direct : Staging::Staged;
   I.staged = mode == Staging::Staged || (mode == Staging::Auto && !unified);
   info_.staged = I.staged;
   if (I.staged) {

@@ -47,9 +47,10 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
                                const ExposureSettings& st, const FixedPatternMaps& fpn) {
   detail::check_sense_inputs(w, h, p, fpn);
   if (p.read_noise_tukey_lambda != 0)
-    fail(fmt::format("the Vulkan backend has no Tukey-lambda read noise yet (preset '{}', lambda {}); "
-                     "use --backend cpu",
-                     p.name, p.read_noise_tukey_lambda));
+    fail_parameter("backend",
+                   fmt::format("the Vulkan backend has no Tukey-lambda read noise yet (preset '{}', lambda {}); use ",
+                               p.name, p.read_noise_tukey_lambda),
+                   " cpu");
   const size_t n = static_cast<size_t>(w) * h;
   // Fixed-pattern maps: uploaded once per device, kept for every later frame.
   const std::string fpn_id = fmt::format("{}|{}|{}x{}", fpn.device_id, fpn.checksum, w, h);

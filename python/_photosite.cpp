@@ -12,6 +12,7 @@
 //  - The GIL is released for every computation, so Python threads run concurrently.
 //  - photosite::Error of kind BadInput becomes ValueError with the library's message, missing
 //    files FileNotFoundError, internal errors RuntimeError.
+#include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -32,6 +33,7 @@
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
 #include "photosite/outputs.h"
+#include "photosite/scene/chart.h"
 #include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/demosaic.h"
 #include "photosite/sensor/isp.h"
@@ -204,9 +206,9 @@ struct Camera {
                    const std::string& demosaic) const {
     SensorSetup s = setup;
     s.settings.exposure_s = exposure_s;
-    s.settings.f_number = f_number.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.f_number = f_number;
     s.settings.gain_db = gain_db;
-    s.settings.temperature_c = temperature_c.value_or(std::numeric_limits<double>::quiet_NaN());
+    s.settings.temperature_c = temperature_c;
     s.settings.seed = seed;
     s.settings.frame = frame;
     s.settings.demosaic = parse_demosaic_method(demosaic);
@@ -233,7 +235,7 @@ struct Camera {
         rad = std::move(rgb);
       }
       rad.set_unit(unit::radiance);
-      SensorRunner runner = make_backend(backend, "backend");
+      SensorRunner runner = make_backend(backend);
       ex = photosite::resolve(s.camera, s.lens, s.settings);
       ImageF mean_e;
       try {
@@ -272,7 +274,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   else if (resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
   else fail("resize_labels: '" + resize_labels + "' is not none or nearest");
   scene::ScenePreset sp = scene::load_scene_preset(scene_preset);
-  if (ambient_lux) set_ambient_lux(sp, *ambient_lux, "ambient_lux");
+  if (ambient_lux) set_ambient_lux(sp, *ambient_lux);
   SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
 
   NightResult r;
@@ -296,7 +298,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
-    SensorRunner runner = make_backend(backend, "backend");
+    SensorRunner runner = make_backend(backend);
     chain.emplace(prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, frame));
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
@@ -332,7 +334,7 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
     py::gil_scoped_release nogil;
     ImageF img = f32 ? float_image(mosaic, "mosaic", ms)
                      : image_from_codes(mosaic.data(), u8 ? 8 : 16, ms.width, ms.height, 1);
-    SensorRunner runner = make_backend(backend, "backend");
+    SensorRunner runner = make_backend(backend);
     rgb = runner.demosaic(img, pattern, m);
   }
   return to_array(std::move(rgb));
@@ -353,8 +355,8 @@ py::dict characterize_py(const py::object& camera, std::optional<std::string> le
   nlohmann::json j;
   {
     py::gil_scoped_release nogil;
-    SensorRunner runner = make_backend(backend, "backend");
-    j = to_json(characterize(s, cam->store, runner, roi, wavelength_nm, "roi"));
+    SensorRunner runner = make_backend(backend);
+    j = nlohmann::json::parse(to_json(characterize(s, cam->store, runner, roi, wavelength_nm)));
   }
   return json_to_python(j);
 }
@@ -521,6 +523,23 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
         py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,
         py::arg("backend") = "auto");
+  m.def("chart", [](int width, int height, double illuminance_lux, double cct_k, double lamp_cd_m2,
+                    double background_cd_m2) {
+    scene::ChartOptions o;
+    o.width = width;
+    o.height = height;
+    o.illuminance_lux = illuminance_lux;
+    o.cct_k = cct_k;
+    o.lamp_cd_m2 = lamp_cd_m2;
+    o.background_cd_m2 = background_cd_m2;
+    ImageF img;
+    {
+      py::gil_scoped_release nogil;
+      img = scene::render_chart(o);
+    }
+    return to_array(std::move(img));
+  }, py::arg("width") = 640, py::arg("height") = 480, py::arg("illuminance_lux") = 10.0, py::arg("cct_k") = 3000.0,
+        py::arg("lamp_cd_m2") = 2e4, py::arg("background_cd_m2") = 0.005);
   m.def("read_exr", &read_exr_py, py::arg("path"));
   m.def("write_exr", &write_exr_py, py::arg("path"), py::arg("layers"), py::arg("attributes") = py::dict(),
         py::arg("half") = false, py::arg("overwrite") = false);
@@ -530,7 +549,7 @@ PYBIND11_MODULE(_photosite, m) {
       if (e.kind == kind) names.push_back(e.name);
     return names;
   }, py::arg("kind"));
-  m.def("show_preset", [](const std::string& name) { return json_to_python(show_preset(name)); }, py::arg("name"));
+  m.def("show_preset", [](const std::string& name) { return json_to_python(nlohmann::json::parse(show_preset(name))); }, py::arg("name"));
   m.def("scene_presets", [] {
     std::vector<std::string> names;
     const auto dir = std::filesystem::path(preset_dir()) / "scenes";

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "photosite/error.h"
 #include "photosite/sensor/emva_sim.h"
@@ -11,8 +12,8 @@
 namespace photosite {
 
 Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
-                              int roi, double wavelength_nm, const std::string& roi_what) {
-  if (roi < 16 || roi > 4096) fail(fmt::format("{} {} must be in [16, 4096]", roi_what, roi));
+                              int roi, double wavelength_nm) {
+  if (roi < 16 || roi > 4096) fail_parameter("roi", "", fmt::format(" {} must be in [16, 4096]", roi));
   const int w = std::min(roi, setup.camera.width_px), h = std::min(roi, setup.camera.height_px);
   const FixedPatternMaps fpn = store.load_or_create(setup.camera, setup.device_id, w, h);
   emva::SimulatedCamera cam(setup.camera, setup.lens, setup.settings, fpn, wavelength_nm,
@@ -51,7 +52,7 @@ double z_score(const Characterization::Row& row) {
          std::max(1e-300, std::hypot(row.measured.uncertainty, row.preset.uncertainty));
 }
 
-nlohmann::json to_json(const Characterization& c) {
+std::string to_json(const Characterization& c, int indent) {
   nlohmann::json j;
   j["preset"] = c.preset;
   j["device_id"] = c.device_id;
@@ -66,7 +67,7 @@ nlohmann::json to_json(const Characterization& c) {
   nlohmann::json ptc = nlohmann::json::array();
   for (const auto& p : c.photon_transfer) ptc.push_back({p.photons, p.mean_dn, p.var_dn2});
   j["photon_transfer"] = ptc;
-  return j;
+  return j.dump(indent);
 }
 
 }  // namespace photosite

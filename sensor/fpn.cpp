@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/rng.h"
@@ -110,11 +111,10 @@ std::string fixed_pattern_checksum(const FixedPatternMaps& m) {
 DeviceStore::DeviceStore(std::string dir) : dir_(dir.empty() ? default_dir() : std::move(dir)) {}
 
 std::string DeviceStore::default_dir() {
-  if (const char* e = std::getenv("PHOTOSITE_DEVICE_STORE"); e && *e) return e;
-  if (const char* x = std::getenv("XDG_DATA_HOME"); x && *x)
-    return (fs::path(x) / "photosite" / "devices").string();
-  if (const char* h = std::getenv("HOME"); h && *h)
-    return (fs::path(h) / ".local" / "share" / "photosite" / "devices").string();
+  if (auto e = env::get(env::Var::DeviceStore)) return *e;
+  if (auto x = env::get(env::Var::XdgDataHome)) return (fs::path(*x) / "photosite" / "devices").string();
+  if (auto h = env::get(env::Var::Home))
+    return (fs::path(*h) / ".local" / "share" / "photosite" / "devices").string();
   return "photosite-devices";
 }
 
@@ -150,9 +150,10 @@ FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& 
     fail_at(path, fmt::format("fixed-pattern map is {}x{}, the frame is {}x{}", c.width, c.height,
                               width, height));
   if (attr("photosite/fpn_params") != fpn_params_text(preset))
-    fail_at(path, "fixed-pattern map was made with other preset parameters (" +
-                      attr("photosite/fpn_params") + "); the preset now says " +
-                      fpn_params_text(preset) + ". Use another --device-id or remove the map.");
+    fail_parameter("device_id", path + ": fixed-pattern map was made with other preset parameters (" +
+                                    attr("photosite/fpn_params") + "); the preset now says " +
+                                    fpn_params_text(preset) + ". Use another ",
+                   " or remove the map.");
   FixedPatternMaps m;
   m.device_id = device_id;
   m.preset_name = preset.name;

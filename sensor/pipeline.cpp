@@ -19,14 +19,14 @@ ResolvedExposure resolve(const CameraPreset& p, const LensPreset& lens, const Ex
   if (!std::isfinite(r.exposure_s) || r.exposure_s < 0)
     fail(fmt::format("exposure time {} s is impossible (must be >= 0)", r.exposure_s));
   if (r.exposure_s > 3600) fail(fmt::format("exposure time {} s is beyond one hour", r.exposure_s));
-  r.f_number = std::isnan(s.f_number) ? lens.f_number : s.f_number;
+  r.f_number = s.f_number.value_or(lens.f_number);
   if (!std::isfinite(r.f_number) || r.f_number < 0.5 || r.f_number > 64)
     fail(fmt::format("f-number {} is impossible (must be in [0.5, 64])", r.f_number));
   r.gain_db = s.gain_db;
   if (!std::isfinite(r.gain_db) || r.gain_db < 0 || r.gain_db > p.max_gain_db)
     fail(fmt::format("gain {} dB is outside the camera's range [0, {}] dB", r.gain_db, p.max_gain_db));
   r.gain_linear = units::db_to_gain(r.gain_db);
-  r.temperature_c = std::isnan(s.temperature_c) ? p.temperature_c : s.temperature_c;
+  r.temperature_c = s.temperature_c.value_or(p.temperature_c);
   if (!std::isfinite(r.temperature_c) || r.temperature_c < -100 || r.temperature_c > 200)
     fail(fmt::format("sensor temperature {} C is impossible", r.temperature_c));
   r.system_gain_dn_per_e = p.system_gain_dn_per_e * r.gain_linear;

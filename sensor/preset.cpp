@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -13,7 +12,9 @@
 #include <toml++/toml.h>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 
 namespace photosite {
@@ -147,8 +148,8 @@ std::string resolve_preset_path(const std::string& name_or_path, const std::stri
 }  // namespace
 
 std::string preset_dir() {
-  if (const char* e = std::getenv("PHOTOSITE_PRESET_DIR"); e && *e) return e;
-  return PHOTOSITE_PRESET_DIR;
+  if (auto e = env::get(env::Var::PresetDir)) return *e;
+  return (fs::path(data_dir()) / "presets").string();
 }
 
 CameraPreset parse_camera_preset(const std::string& text, const std::string& file) {
@@ -292,7 +293,7 @@ std::vector<PresetEntry> list_presets() {
   return out;
 }
 
-nlohmann::json to_json(const CameraPreset& p) {
+std::string to_json(const CameraPreset& p, int indent) {
   nlohmann::json j;
   j["name"] = p.name;
   j["file"] = p.file;
@@ -328,14 +329,14 @@ nlohmann::json to_json(const CameraPreset& p) {
     qe[k] = p.qe.qe[static_cast<int>(c)];
   }
   j["qe"] = qe;
-  return j;
+  return j.dump(indent);
 }
 
-nlohmann::json to_json(const LensPreset& l) {
-  return {{"name", l.name},           {"file", l.file},
+std::string to_json(const LensPreset& l, int indent) {
+  return nlohmann::json{{"name", l.name},           {"file", l.file},
           {"description", l.description}, {"f_number", l.f_number},
           {"focal_length_mm", l.focal_length_mm}, {"transmittance", l.transmittance},
-          {"magnification", l.magnification}, {"cos4_falloff", l.cos4_falloff}};
+          {"magnification", l.magnification}, {"cos4_falloff", l.cos4_falloff}}.dump(indent);
 }
 
 }  // namespace photosite

@@ -10,6 +10,7 @@
 #include <set>
 #include <sys/wait.h>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "photosite/batch.h"
 #include "photosite/error.h"
@@ -264,4 +265,46 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
     ++files;
   }
   EXPECT_EQ(files, 4u);
+}
+
+// "The preset's value" is recorded as null; manifests of earlier runs recorded it as f_number -1
+// and temperature_c -999, and must still resume (read as null), while a real value is kept.
+TEST(Batch, OldManifestsWithMinusOneForThePresetsValueStillResume) {
+  EXPECT_EQ(batch::upgrade_params(R"({"f_number":-1.0,"gain_db":0.0,"temperature_c":-999.0})"),
+            R"({"f_number":null,"gain_db":0.0,"temperature_c":null})");
+  EXPECT_EQ(batch::upgrade_params(R"({"f_number":2.8,"temperature_c":-20.0})"),
+            R"({"f_number":2.8,"temperature_c":-20.0})");
+
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 0);
+  const std::string args = "batch --dataset kitti --root '" + (dir.path() / "kitti").string() + "' --out '" +
+                           dir.file("out") + "'";
+  auto r = test::run_cli(args + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto out = tree_bytes(dir.path() / "out");
+  // Rewrite the manifest's parameters as an earlier photosite wrote them.
+  const fs::path manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
+  std::ifstream in(manifest);
+  std::string first, rest, line;
+  std::getline(in, first);
+  while (std::getline(in, line)) rest += line + "\n";
+  in.close();
+  nlohmann::json head = nlohmann::json::parse(first);
+  ASSERT_TRUE(head["params"]["f_number"].is_null()) << first;
+  ASSERT_TRUE(head["params"]["temperature_c"].is_null()) << first;
+  auto rewrite = [&](double f_number, double temperature_c) {
+    head["params"]["f_number"] = f_number;
+    head["params"]["temperature_c"] = temperature_c;
+    std::ofstream(manifest) << head.dump() << "\n" << rest;
+  };
+  rewrite(-1.0, -999.0);
+  r = test::run_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2 already done, 0 to do"), std::string::npos) << r.output;
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+  // A value that is a real f-number is not the preset's: refused as other parameters.
+  rewrite(2.8, -999.0);
+  r = test::run_cli(args);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("other parameters"), std::string::npos) << r.output;
 }

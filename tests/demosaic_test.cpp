@@ -175,7 +175,7 @@ TEST(Demosaic, NamesParseAndUnknownNamesAreBadInput) {
     parse_demosaic_method("vng");
     FAIL() << "no exception";
   } catch (const Error& e) {
-    EXPECT_EQ(e.exit_code(), 2);
+    EXPECT_EQ(e.kind(), Error::Kind::BadInput);
     EXPECT_NE(std::string(e.what()).find("lmmse"), std::string::npos);
   }
 }

@@ -20,8 +20,8 @@ enum class Backend { Cpu, Vulkan };
 const char* to_string(Backend b);
 
 // Resolves "cpu", "vulkan" or "auto"; `vulkan` with no usable device fails here, before any
-// work. `what` names the choice in messages: "--backend" on the command line, "backend" in Python.
-Backend resolve_backend(const std::string& name, const std::string& what = "--backend");
+// work. Errors are ParameterErrors of "backend" (the command line calls it --backend).
+Backend resolve_backend(const std::string& name);
 
 // The sensor stages on the chosen backend; on Vulkan the device buffers and fixed-pattern maps
 // are kept from one frame to the next. Not thread-safe: one per thread of work.
@@ -68,6 +68,6 @@ class SensorRunner {
 };
 
 // make_backend("cpu" | "vulkan" | "auto"): resolve_backend() and a runner on the result.
-SensorRunner make_backend(const std::string& name, const std::string& what = "--backend");
+SensorRunner make_backend(const std::string& name);
 
 }  // namespace photosite

@@ -37,6 +37,11 @@ std::pair<int, int> parse_shard(const std::string& text);
 // not depend on how the work is split or ordered.
 uint64_t group_seed(uint64_t base_seed, const std::string& group);
 
+// A resume manifest's parameter record (JSON text) in today's form: manifests written before
+// "the preset's value" was recorded as null hold f_number -1 and temperature_c -999 for it
+// (values outside the parameters' ranges, so nothing else is read as null).
+std::string upgrade_params(const std::string& params_json);
+
 uint64_t fnv1a_file(const std::string& path);  // checksum of a file's bytes
 uint64_t fnv1a_text(const std::string& text, uint64_t h = 0xcbf29ce484222325ull);
 

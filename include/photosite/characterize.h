@@ -5,8 +5,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "photosite/backend.h"
 #include "photosite/outputs.h"
 #include "photosite/sensor/emva.h"
@@ -30,14 +28,14 @@ struct Characterization {
   std::vector<emva::PtcPoint> photon_transfer;
 };
 
-// roi: side of the measured region in pixels, [16, 4096] (bad input naming `roi_what` otherwise).
+// roi: side of the measured region in pixels, [16, 4096] (ParameterError "roi" otherwise).
 Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
-                              int roi, double wavelength_nm, const std::string& roi_what = "--roi");
+                              int roi, double wavelength_nm);
 
 // z: deviation in combined standard errors (measurement and finite-device sampling).
 double z_score(const Characterization::Row& row);
 
-// The JSON of `photosite characterize --json`.
-nlohmann::json to_json(const Characterization& c);
+// The JSON text of `photosite characterize --json` (indent as nlohmann::json::dump's).
+std::string to_json(const Characterization& c, int indent = -1);
 
 }  // namespace photosite

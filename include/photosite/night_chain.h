@@ -42,7 +42,7 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
 
 // Sets the night ambient illuminance (moon + sky glow) to `lux` in [0, 10] lx, keeping the
 // preset's moon/sky-glow proportions; bad input naming `what` outside that range.
-void set_ambient_lux(scene::ScenePreset& sp, double lux, const std::string& what = "--ambient-lux");
+void set_ambient_lux(scene::ScenePreset& sp, double lux);  // ParameterError "ambient_lux" outside [0, 10]
 
 // One frame of the camera (noise drawn for setup.settings.seed and `frame`).
 SensorOutput night_frame(SensorRunner& runner, const NightChain& chain, const SensorSetup& setup,

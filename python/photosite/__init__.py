@@ -31,7 +31,7 @@ from . import presets
 # fork and restarted in the parent, so a forked child reads EXRs without it (_photosite.cpp).
 os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent)
 
-__all__ = ["Camera", "NightResult", "SensorResult", "night", "demosaic", "characterize", "read_exr",
+__all__ = ["Camera", "NightResult", "SensorResult", "night", "chart", "demosaic", "characterize", "read_exr",
            "write_exr", "read_image", "read_codes", "presets"]
 
 Camera.__doc__ = """Camera(preset, lens=None, device_id=None, device_store=None)
@@ -151,6 +151,15 @@ def write_exr(path: str, layers: dict, attributes: Optional[dict] = None, half: 
     attributes  dict name -> str, int or float header attributes
     """
     _photosite.write_exr(path, layers, attributes or {}, half, overwrite)
+
+
+def chart(width: int = 640, height: int = 480, illuminance_lux: float = 10.0, cct_k: float = 3000.0,
+          lamp_cd_m2: float = 2e4, background_cd_m2: float = 0.005) -> np.ndarray:
+    """The night test chart in radiance (float32 H x W x 3, W.sr-1.m-2), as `photosite chart`
+    writes it: the 24 ColorChecker patches under `illuminance_lux` of a `cct_k` black body, a
+    20-step grey wedge from 1e-3 to 1e2 cd/m2 and two lamp heads (2000 K, 4000 K) of
+    `lamp_cd_m2` on a `background_cd_m2` background. Feed it to Camera.expose()."""
+    return _photosite.chart(width, height, illuminance_lux, cct_k, lamp_cd_m2, background_cd_m2)
 
 
 def read_image(path: str) -> np.ndarray:

@@ -136,6 +136,17 @@ def test_characterize_matches_cli(cli, store):
     assert len(d["photon_transfer"]) > 5 and d["system_gain_dn_per_e"]["measured"] > 0
 
 
+def test_chart_matches_cli_bit_for_bit(cli, tmp_path):
+    out = tmp_path / "chart.exr"
+    cli("chart", "--out", out, "--width", 128, "--height", 96, "--illuminance-lux", 3)
+    ch, attrs, _ = ps.read_exr(str(out))
+    arr = ps.chart(width=128, height=96, illuminance_lux=3)
+    assert arr.shape == (96, 128, 3) and arr.dtype == np.float32
+    np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), arr)
+    with pytest.raises(ValueError, match="CCT"):
+        ps.chart(cct_k=100)
+
+
 def test_exr_round_trip(tmp_path):
     rng = np.random.default_rng(3)
     f = rng.normal(size=(5, 7, 3)).astype(np.float32)

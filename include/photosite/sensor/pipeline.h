@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "photosite/image.h"
@@ -20,9 +21,9 @@ namespace photosite {
 
 struct ExposureSettings {
   double exposure_s = 0.02;
-  double f_number = std::numeric_limits<double>::quiet_NaN();       // NaN: the lens preset's
-  double gain_db = 0.0;                                             // analog gain over K
-  double temperature_c = std::numeric_limits<double>::quiet_NaN();  // NaN: the preset's
+  std::optional<double> f_number;       // none: the lens preset's
+  double gain_db = 0.0;                 // analog gain over K
+  std::optional<double> temperature_c;  // none: the camera preset's
   uint64_t seed = 0;     // temporal-noise seed (the device seed keys the fixed pattern)
   uint32_t frame = 0;
   DemosaicMethod demosaic = DemosaicMethod::Bilinear;

@@ -6,8 +6,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "photosite/sensor/cfa.h"
 
 namespace photosite {
@@ -69,11 +67,13 @@ void validate(const CameraPreset& p);
 
 struct PresetEntry { std::string name, kind, description, file; };
 std::vector<PresetEntry> list_presets();  // cameras then lenses, sorted by name
-std::string preset_dir();                 // PHOTOSITE_PRESET_DIR env or the source tree's presets/
+std::string preset_dir();  // $PHOTOSITE_PRESET_DIR, else data_dir()/presets (environment.h)
 
-nlohmann::json to_json(const CameraPreset& p);
-nlohmann::json to_json(const LensPreset& p);
+// JSON text (an object, keys sorted); indent as nlohmann::json::dump's: -1 compact, else pretty.
+// Text, not a JSON library's type, so that this header pulls in no third-party library.
+std::string to_json(const CameraPreset& p, int indent = -1);
+std::string to_json(const LensPreset& p, int indent = -1);
 // `presets show --json`: a lens preset's JSON when `name` is a bundled lens, else the camera's.
-nlohmann::json show_preset(const std::string& name);
+std::string show_preset(const std::string& name, int indent = -1);
 
 }  // namespace photosite

@@ -1,0 +1,73 @@
+// The one place photosite reads its environment (include/photosite/environment.h), and the data
+// folder's lookup, which is relative to the library's own file so that an installed tree can move.
+#include "photosite/environment.h"
+
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <system_error>
+
+namespace photosite::env {
+
+const char* name(Var v) {
+  switch (v) {
+    case Var::DataDir: return "PHOTOSITE_DATA_DIR";
+    case Var::PresetDir: return "PHOTOSITE_PRESET_DIR";
+    case Var::DeviceStore: return "PHOTOSITE_DEVICE_STORE";
+    case Var::XdgDataHome: return "XDG_DATA_HOME";
+    case Var::Home: return "HOME";
+    case Var::MaxPixels: return "PHOTOSITE_MAX_PIXELS";
+    case Var::VkValidation: return "PHOTOSITE_VK_VALIDATION";
+    case Var::VkSyncValidation: return "PHOTOSITE_VK_SYNC_VALIDATION";
+    case Var::VkStaging: return "PHOTOSITE_VK_STAGING";
+    case Var::SampleDir: return "PHOTOSITE_SAMPLE_DIR";
+  }
+  return "";
+}
+
+std::optional<std::string> get(Var v) {
+  const char* e = std::getenv(name(v));
+  if (!e || !*e) return std::nullopt;
+  return std::string(e);
+}
+
+}  // namespace photosite::env
+
+namespace photosite {
+namespace fs = std::filesystem;
+
+namespace {
+
+// <file's folder>/../share/photosite, then one level further up (lib/<multiarch>/ layouts).
+std::optional<std::string> data_dir_near(const fs::path& file) {
+  if (file.empty()) return std::nullopt;
+  std::error_code ec;
+  fs::path dir = fs::weakly_canonical(file, ec).parent_path();
+  if (ec) dir = file.parent_path();
+  for (int up = 0; up < 2 && !dir.empty(); ++up) {
+    dir = dir.parent_path();
+    const fs::path candidate = dir / "share" / "photosite";
+    if (fs::is_directory(candidate / "presets", ec)) return candidate.string();
+  }
+  return std::nullopt;
+}
+
+fs::path this_library() {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&data_dir), &info) && info.dli_fname && *info.dli_fname)
+    return fs::path(info.dli_fname);
+  return {};
+}
+
+}  // namespace
+
+std::string data_dir() {
+  if (auto e = env::get(env::Var::DataDir)) return *e;
+  if (auto d = data_dir_near(this_library())) return *d;
+  std::error_code ec;
+  if (auto d = data_dir_near(fs::read_symlink("/proc/self/exe", ec))) return *d;
+  return PHOTOSITE_SOURCE_DIR;
+}
+
+}  // namespace photosite

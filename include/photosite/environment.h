@@ -1,0 +1,51 @@
+// Every environment variable photosite reads, read in one place (core/environment.cpp): no other
+// file of the library calls getenv. The table is the documentation:
+//
+//   PHOTOSITE_DATA_DIR            the data folder (holding presets/); see data_dir()
+//   PHOTOSITE_PRESET_DIR          the preset folder itself (cameras/, lenses/, scenes/)
+//   PHOTOSITE_DEVICE_STORE        where fixed-pattern maps of simulated devices are kept
+//   XDG_DATA_HOME, HOME           the device store's default (XDG base directory spec)
+//   PHOTOSITE_MAX_PIXELS          the largest frame accepted, in pixels (default 2^28)
+//   PHOTOSITE_VK_VALIDATION       1: Vulkan validation layer on, every message recorded
+//   PHOTOSITE_VK_SYNC_VALIDATION  0: without synchronization validation (when validation is on)
+//   PHOTOSITE_VK_STAGING          1|0: force staged copies or mapped buffers
+//   PHOTOSITE_SAMPLE_DIR          the bundled sample images (the command's `night` default input)
+//
+// The Vulkan loader's own variables (VK_DRIVER_FILES, VK_ICD_FILENAMES) are read by the loader.
+#pragma once
+#include <optional>
+#include <string>
+
+namespace photosite::env {
+
+enum class Var {
+  DataDir,
+  PresetDir,
+  DeviceStore,
+  XdgDataHome,
+  Home,
+  MaxPixels,
+  VkValidation,
+  VkSyncValidation,
+  VkStaging,
+  SampleDir,
+};
+
+const char* name(Var v);                 // "PHOTOSITE_DATA_DIR", ...
+std::optional<std::string> get(Var v);   // the value; nullopt when unset or empty
+
+}  // namespace photosite::env
+
+namespace photosite {
+
+// The folder of photosite's data (presets/ and, in a source tree, samples/), first found of:
+//   1. $PHOTOSITE_DATA_DIR;
+//   2. <dir>/../share/photosite or <dir>/../../share/photosite, where <dir> holds the library
+//      itself (libphotosite.so, or the program it is linked into; found with dladdr), so an
+//      installed tree finds its presets wherever it was moved;
+//   3. the same, relative to the running program (/proc/self/exe);
+//   4. the source tree this library was built from.
+// The first three count only where a presets/ folder exists there.
+std::string data_dir();
+
+}  // namespace photosite
