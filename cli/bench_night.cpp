@@ -20,6 +20,7 @@
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/fpn.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 
@@ -28,6 +29,7 @@ namespace {
 struct Opts {
   std::string image, labels, instances, out_dir, preset = "onsemi-ar0331";
   int repeats = 9, threads = 2;
+  bool no_glare = false;
 };
 
 void run(const Opts& o) {
@@ -66,10 +68,13 @@ void run(const Opts& o) {
   }
   const scene::ScenePreset sp = scene::load_scene_preset("night-urban");
   const CameraPreset cam = load_camera_preset(o.preset);
-  const LensPreset lens = load_lens_preset(cam.default_lens);
+  LensPreset lens = load_lens_preset(cam.default_lens);
+  if (o.no_glare) lens.glare = LensGlare{};
   ExposureSettings es;
   const ResolvedExposure ex = resolve(cam, lens, es);
   const FixedPatternMaps fpn = generate_fixed_pattern(cam, day.width(), day.height(), "bench-0");
+  const double ppd = px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um);
+  const GlarePlan glare_plan = plan_glare(lens.glare, ppd);
 
   std::map<std::string, std::vector<double>> t;
   std::vector<std::string> order;
@@ -89,6 +94,13 @@ void run(const Opts& o) {
     es.frame = static_cast<uint32_t>(r);
     SensorOutput so = sense(mean_e, cam, ex, es, fpn);
     auto t3 = clock::now();
+    // The lens glare alone (it runs inside the sensor's optics stage above): its pyramid, and
+    // the pyramid plus the full-resolution mix as an image of its own (apply_glare).
+    auto tg0 = clock::now();
+    const GlareSkirt skirt = glare_skirt(ns.radiance, glare_plan);
+    auto tg1 = clock::now();
+    const ImageF glared = apply_glare(ns.radiance, lens.glare, ppd);
+    auto tg2 = clock::now();
     std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
     auto t4 = clock::now();
     cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
@@ -100,6 +112,12 @@ void run(const Opts& o) {
     add("scene stages (linearize..compose)", ms(t0, t2));
     add("sensor (expose)", ms(t2, t3));
     add("whole chain", ms(t0, t3));
+    if (glare_plan.active) {
+      add("lens glare pyramid (inside sensor)", ms(tg0, tg1));
+      add("lens glare alone (pyramid + mix)", ms(tg1, tg2));
+    }
+    (void)skirt;
+    (void)glared;
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
   }
   const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);
@@ -139,6 +157,7 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--preset", o->preset, "camera preset")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
                             sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
+                            sub->add_flag("--no-glare", o->no_glare, "the lens without its [glare] (for the glare's cost)");
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
                           });

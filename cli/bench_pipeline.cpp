@@ -118,8 +118,8 @@ void run(const Opts& o) {
     add(cpu, "darken only", time_ms([&] { (void)scene::darken(texture, lm.ids, sp); }));
     add(cpu, "linearize", time_ms([&] { (void)scene::linearize(raw, raw_info); }));
     add(cpu, "compose only", time_ms([&] { (void)scene::compose(texture, ns.lights, lm.ids, ns.depth, ns.vp, sp); }));
-    ImageF bl = ns.lights;
-    add(cpu, "bloom", time_ms([&] { scene::bloom_in_place(bl, sp.bloom_fraction, sp.bloom_levels); }));
+    const GlarePlan gplan = plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um));
+    if (gplan.active) add(cpu, "glare", time_ms([&] { (void)glare_skirt(ns.radiance, gplan); }));
     ImageF mean_e;
     add(cpu, "photon", time_ms([&] { mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex); }));
     es.frame = static_cast<uint32_t>(r);
@@ -138,8 +138,13 @@ void run(const Opts& o) {
       // The sensor chain: one upload, photon → sense → demosaic, one download.
       SensorOutput gs;
       add(dev, "sensor wall (upload, kernels, download)", time_ms([&] { gs = chain->expose(ns.radiance, cam, lens, es, fpn); }));
-      for (const auto& st : chain->stage_times()) add(dev, st.label, st.ms);
-      // Darken and bloom, each its own sequence (device times summed per kernel kind).
+      {  // device times summed per label (the glare pyramid has several dispatches of each kernel)
+        std::map<std::string, double> per_label;
+        for (const auto& st : chain->stage_times())
+          per_label[st.label.rfind("glare", 0) == 0 ? std::string("glare") : st.label] += st.ms;
+        for (const auto& [label, ms] : per_label) add(dev, label, ms);
+      }
+      // Darken, its own sequence.
       gpu::Buffer t(*ctx, 3 * n * sizeof(float)), l(*ctx, ((n + 1) / 2) * 4), out(*ctx, 3 * n * sizeof(float));
       t.upload(texture.data(), 3 * n * sizeof(float));
       l.upload(lm.ids.data(), n * sizeof(uint16_t));
@@ -147,20 +152,14 @@ void run(const Opts& o) {
       gpu::record_darken(*ctx, s, t, l, out, n, scene::darken_params(sp));
       s.submit_and_wait();
       for (const auto& st : s.stage_times()) add(dev, "darken only", st.ms);
-      out.upload(ns.lights.data(), 3 * n * sizeof(float));
-      gpu::BloomCache cache;
-      s.begin();
-      gpu::record_bloom(*ctx, s, out, W, H, sp.bloom_fraction, sp.bloom_levels, cache);
-      s.submit_and_wait();
-      add(dev, "bloom", s.device_ms());
       // Linearize, and compose (darken + compose kernels), device times.
       double ms = -1;
       (void)gpu::linearize(*ctx, raw, raw_info, &ms);
       add(dev, "linearize", ms);
       (void)gpu::compose(*ctx, texture, ns.lights, lm.ids, ns.depth, ns.vp, sp, &ms);
       add(dev, "compose only", ms);
-      // The night tail and the sensor as night and batch run them: one sequence for bloom, darken
-      // and compose, the sensor reading the radiance where it was left; against the same kernels
+      // The night tail and the sensor as night and batch run them: one sequence for darken and
+      // compose, the sensor reading the radiance where it was left; against the same kernels
       // as separate round trips (each stage uploads its inputs and downloads its output).
       {
         ImageF L1 = ns.lights, L2 = ns.lights;
@@ -171,7 +170,6 @@ void run(const Opts& o) {
             }));
         auto t1 = ctx->transfers();
         add(dev, "tail+sensor round trips", time_ms([&] {
-              stages->bloom_in_place(L2, sp.bloom_fraction, sp.bloom_levels);
               const ImageF rad = stages->compose(texture, L2, lm.ids, ns.depth, ns.vp, sp);
               gs = chain->expose(rad, cam, lens, es, fpn);
             }));
@@ -198,7 +196,6 @@ void run(const Opts& o) {
   auto med = [](auto& m, const std::string& k) { return m.count(k) ? median(m.at(k)) : -1.0; };
   struct Row { std::string step; double thesis; double cpu_ms; double dev_ms; std::string where; };
   const bool v = o.backend == "vulkan";
-  const double lights_dev = med(cpu, "lights") - med(cpu, "bloom") + med(dev, "bloom");
   std::vector<Row> rows = {
       {"Preprocessing (texture: linear sRGB to reflectance)", 0.08, med(cpu, "darken") - 0, -1, "cpu"},
       {"Brightness adjustment (per-class darkening)", 0.06, med(cpu, "darken only"), med(dev, "darken only"), "kernel darken"},
@@ -207,10 +204,12 @@ void run(const Opts& o) {
       {"Hough transform (+ vanishing point)", 3.57, med(cpu, "lines") + med(cpu, "vanishing"),
        med(cpu, "lines") + med(cpu, "vanishing"), "cpu"},
       {"Coarse depth estimation", 0.17, med(cpu, "depth"), med(cpu, "depth"), "cpu"},
-      {"Light map generation", 12.01, med(cpu, "lights"), lights_dev, "cpu placement + kernels bloom_*"},
-      {"  of which bloom", -1, med(cpu, "bloom"), med(dev, "bloom"), "kernels bloom_down/blur/up/mix"},
+      {"Light map generation", 12.01, med(cpu, "lights"), med(cpu, "lights"), "cpu (glare: the lens's, in RAW conversion)"},
       {"Composition", 0.37, med(cpu, "compose"), med(dev, "compose only"), "kernels darken + compose"},
-      {"RAW conversion (optics, photon integral)", 0.28, med(cpu, "photon"), med(dev, "photon"), "kernel photon"},
+      {"RAW conversion (optics with lens glare, photon integral)", 0.28, med(cpu, "photon"),
+       med(dev, "photon") + std::max(0.0, med(dev, "glare")), "kernels glare_* + photon"},
+      {"  of which the lens glare pyramid", -1, med(cpu, "glare"), med(dev, "glare"),
+       "kernels glare_down/blur/up/norm (the mix is in photon)"},
       {"Sensor noise (shot, dark, FPN, read, ADC)", 1.44, med(cpu, "sense"), med(dev, "sense"), "kernel sense"},
       {"Demosaicing (bilinear)", 0.83, med(cpu, "demosaic"), med(dev, "demosaic"), "kernel demosaic_bilinear"},
       {"Poisson alone (2 Mpx, means 0..100)", -1, med(cpu, "poisson"), med(dev, "poisson"), "kernel poisson"},
@@ -226,15 +225,15 @@ void run(const Opts& o) {
                                                          : "kernel demosaic_malvar"});
   }
   // Wall times, uploads and downloads included: the CPU column is the same stages' CPU sum.
-  const double tail_cpu = med(cpu, "bloom") + med(cpu, "compose") + med(cpu, "photon") + med(cpu, "sense") +
+  const double tail_cpu = med(cpu, "compose") + med(cpu, "photon") + med(cpu, "sense") +
                           med(cpu, "demosaic");
-  rows.push_back({"night tail + sensor wall, resident (bloom..demosaic)", -1, tail_cpu,
+  rows.push_back({"night tail + sensor wall, resident (compose..demosaic)", -1, tail_cpu,
                   med(dev, "tail+sensor resident"),
                   fmt::format("one tail sequence, radiance left on device; {:.1f} MB up, {:.1f} MB down",
                               resident_up_mb, resident_down_mb)});
-  rows.push_back({"night tail + sensor wall, round trips (bloom..demosaic)", -1, tail_cpu,
+  rows.push_back({"night tail + sensor wall, round trips (compose..demosaic)", -1, tail_cpu,
                   med(dev, "tail+sensor round trips"),
-                  fmt::format("bloom, compose, expose each upload/download; {:.1f} MB up, {:.1f} MB down",
+                  fmt::format("compose, expose each upload/download; {:.1f} MB up, {:.1f} MB down",
                               trips_up_mb, trips_down_mb)});
   rows.push_back({"Linearization (sRGB decode, before the chain)", -1, med(cpu, "linearize"), med(dev, "linearize"),
                   "kernel linearize"});

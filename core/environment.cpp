@@ -53,10 +53,15 @@ std::optional<std::string> data_dir_near(const fs::path& file) {
   return std::nullopt;
 }
 
+// The file this code was loaded from: libphotosite.so, or the program it is linked into. For a
+// program glibc reports argv[0], which may be relative to a folder the program has since left;
+// only an absolute path is used (/proc/self/exe covers the rest).
 fs::path this_library() {
   Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&data_dir), &info) && info.dli_fname && *info.dli_fname)
-    return fs::path(info.dli_fname);
+  if (dladdr(reinterpret_cast<void*>(&data_dir), &info) && info.dli_fname && *info.dli_fname) {
+    fs::path p(info.dli_fname);
+    if (p.is_absolute()) return p;
+  }
   return {};
 }
 

@@ -67,8 +67,20 @@ namespace photosite::gpu {
 
 // photon.comp
 using shader::PhotonParams;  // kernels/common/params_photon.glsl
-static_assert(sizeof(PhotonParams) == 40 && offsetof(PhotonParams, pitch_over_f) == 16 &&
-              offsetof(PhotonParams, cy) == 32);
+static_assert(sizeof(PhotonParams) == 48 && offsetof(PhotonParams, pitch_over_f) == 16 &&
+              offsetof(PhotonParams, cy) == 32 && offsetof(PhotonParams, keep) == 40);
+
+// glare_down.comp, glare_blur.comp, glare_up.comp, glare_norm.comp (one block for all four)
+struct GlareParams {
+  int32_t src_w, src_h, dst_w, dst_h;
+  int32_t mode, flags;
+  float weight;
+  float taps[4];
+  uint32_t pad;
+  double eta;
+};
+static_assert(sizeof(GlareParams) == 56 && offsetof(GlareParams, weight) == 24 &&
+              offsetof(GlareParams, taps) == 28 && offsetof(GlareParams, eta) == 48);
 
 // sense.comp
 using shader::SenseParams;  // kernels/common/params_sense.glsl
@@ -141,15 +153,6 @@ using shader::DarkenParams;  // kernels/common/params_darken.glsl
 static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
               offsetof(DarkenParams, rho_sky) == 48 && offsetof(DarkenParams, glow) == 56 &&
               offsetof(DarkenParams, ground_mask) == 80 && offsetof(DarkenParams, n) == 88);
-
-// bloom_down.comp, bloom_blur.comp, bloom_up.comp, bloom_mix.comp (one block for all four)
-struct BloomParams {
-  int32_t src_w, src_h, dst_w, dst_h;
-  int32_t mode;
-  float a, b;
-  float weights[7];
-};
-static_assert(sizeof(BloomParams) == 56 && offsetof(BloomParams, a) == 20 && offsetof(BloomParams, weights) == 28);
 
 // compose.comp
 struct ComposeParams {

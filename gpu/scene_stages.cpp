@@ -38,85 +38,6 @@ void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, B
   s.dispatch(ctx.kernel("darken", 3, sizeof(DarkenParams)), {&texture, &labels, &out}, p, g.x, g.y, 1, "darken");
 }
 
-struct BloomBuffers {
-  int w = 0, h = 0, levels = 0;
-  std::vector<std::pair<int, int>> size;           // per level (0 = the image)
-  std::vector<std::unique_ptr<Buffer>> mip, tmp, acc;
-};
-void BloomBuffersDeleter::operator()(BloomBuffers* b) const { delete b; }
-
-namespace {
-// cv::getGaussianKernel(13, 1.5, CV_32F): exp(−x²/2σ²) in double, normalised, then float;
-// w[0] the centre tap.
-std::array<float, 7> gaussian_taps(double sigma) {
-  std::array<double, 13> k;
-  double sum = 0;
-  for (int i = 0; i < 13; ++i) sum += k[i] = std::exp(-0.5 / (sigma * sigma) * (i - 6) * (i - 6));
-  std::array<float, 7> w;
-  for (int i = 0; i < 7; ++i) w[i] = static_cast<float>(k[6 + i] / sum);
-  return w;
-}
-}  // namespace
-
-bool record_bloom(Context& ctx, Sequence& s, Buffer& img, int W, int H, double fraction, int levels,
-                  BloomCache& cache) {
-  if (fraction <= 0 || levels <= 0 || W < 4 || H < 4) return false;
-  if (!cache || cache->w != W || cache->h != H || cache->levels != levels) {
-    cache = BloomCache(new BloomBuffers);
-    cache->w = W, cache->h = H, cache->levels = levels;
-    cache->size.push_back({W, H});
-    cache->mip.emplace_back(nullptr);
-    cache->tmp.emplace_back(nullptr);
-    cache->acc.emplace_back(nullptr);
-    // The chain of bloom_in_place: stop before a level narrower or shorter than 4 is made from.
-    for (int l = 1; l <= levels; ++l) {
-      const auto [tw, th] = cache->size.back();
-      if (tw < 4 || th < 4) break;
-      const int w = (tw + 1) / 2, h = (th + 1) / 2;
-      cache->size.push_back({w, h});
-      const size_t bytes = 3 * sizeof(float) * static_cast<size_t>(w) * h;
-      cache->mip.push_back(std::make_unique<Buffer>(ctx, bytes));
-      cache->tmp.push_back(std::make_unique<Buffer>(ctx, bytes));
-      cache->acc.push_back(std::make_unique<Buffer>(ctx, bytes));
-    }
-  }
-  BloomBuffers& B = *cache;
-  const int used = static_cast<int>(B.size.size()) - 1;
-  if (used == 0) return false;
-  Kernel& down = ctx.kernel("bloom_down", 2, sizeof(BloomParams));
-  Kernel& blur = ctx.kernel("bloom_blur", 2, sizeof(BloomParams));
-  Kernel& up = ctx.kernel("bloom_up", 2, sizeof(BloomParams));
-  Kernel& mix = ctx.kernel("bloom_mix", 2, sizeof(BloomParams));
-  const auto taps = gaussian_taps(1.5);
-  auto params = [&](int src, int dst, int mode) {
-    BloomParams p{};
-    p.src_w = B.size[src].first, p.src_h = B.size[src].second;
-    p.dst_w = B.size[dst].first, p.dst_h = B.size[dst].second;
-    p.mode = mode;
-    std::memcpy(p.weights, taps.data(), sizeof(p.weights));
-    return p;
-  };
-  auto pixels = [&](int l) { return static_cast<uint64_t>(B.size[l].first) * B.size[l].second; };
-  for (int l = 1; l <= used; ++l) {
-    const Grid g = grid_1d(pixels(l));
-    s.dispatch(down, {l == 1 ? &img : B.mip[l - 1].get(), B.mip[l].get()}, params(l - 1, l, l == 1 ? 0 : 1), g.x, g.y,
-               1, "bloom down");
-  }
-  // Coarse to fine: acc_l = blur(mip_l) + up(acc_{l+1}).
-  for (int l = used; l >= 1; --l) {
-    const Grid g = grid_1d(pixels(l));
-    s.dispatch(blur, {B.mip[l].get(), B.tmp[l].get()}, params(l, l, 0), g.x, g.y, 1, "bloom blur");
-    s.dispatch(blur, {B.tmp[l].get(), B.acc[l].get()}, params(l, l, 1), g.x, g.y, 1, "bloom blur");
-    if (l < used) s.dispatch(up, {B.acc[l + 1].get(), B.acc[l].get()}, params(l + 1, l, 0), g.x, g.y, 1, "bloom up");
-  }
-  BloomParams mp = params(1, 0, 0);
-  mp.a = static_cast<float>(1.0 - fraction);
-  mp.b = static_cast<float>(fraction / used);
-  const Grid g = grid_1d(pixels(0));
-  s.dispatch(mix, {B.acc[1].get(), &img}, mp, g.x, g.y, 1, "bloom mix");
-  return true;
-}
-
 ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms) {
   const int c = day.channels();
   if (c < 1 || c > 4) fail(fmt::format("linearize: {} channels (1 to 4 expected)", c));
@@ -169,18 +90,6 @@ ImageF SceneStages::darken(const ImageF& texture, const ImageU16& labels, const 
   s.submit_and_wait();
   o.download(out.data(), 3 * n * sizeof(float));
   return out;
-}
-
-void SceneStages::bloom_in_place(ImageF& img, double fraction, int levels) {
-  if (img.channels() != 3) fail("bloom: the image must have 3 channels");
-  if (fraction <= 0 || levels <= 0 || img.width() < 4 || img.height() < 4) return;
-  const size_t bytes = img.size() * sizeof(float);
-  Buffer& b = buffer("lights", bytes);
-  b.upload(img.data(), bytes);
-  Sequence s(ctx_);
-  record_bloom(ctx_, s, b, img.width(), img.height(), fraction, levels, bloom_);
-  s.submit_and_wait();
-  b.download(img.data(), bytes);
 }
 
 namespace {
@@ -251,14 +160,12 @@ scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const 
   if (n == 0) return out;
   const TailBuffers b = upload_tail(texture, lights, labels, depth);
   Sequence s(ctx_);
-  const bool bloomed = record_bloom(ctx_, s, *b.lights, W, H, sp.bloom_fraction, sp.bloom_levels, bloom_);
   // The darkened image for --maps: darken once more into its own buffer (compose darkens in place).
   if (keep_darkened)
     record_darken(ctx_, s, *b.texture, *b.labels, buffer("darkened", rgb_bytes), n, scene::darken_params(sp));
   record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, W, H, vp, sp);
   s.submit_and_wait();
   if (device_ms) *device_ms = s.device_ms();
-  if (bloomed) b.lights->download(lights.data(), rgb_bytes);
   if (keep_darkened) buffer("darkened", rgb_bytes).download(out.darkened.data(), rgb_bytes);
   b.radiance->download(out.radiance.data(), rgb_bytes);
   out.resident = radiance_token_ = new_residency_token();
@@ -272,9 +179,6 @@ Buffer* SceneStages::resident_radiance(uint64_t token) {
 
 ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p) {
   return SceneStages(ctx).darken(texture, labels, p);
-}
-void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels) {
-  SceneStages(ctx).bloom_in_place(img, fraction, levels);
 }
 ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,

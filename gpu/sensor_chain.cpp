@@ -35,12 +35,78 @@ void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const Camer
   mat.upload(rows, sizeof(rows));
   Buffer& bad = buffer("bad", sizeof(uint32_t));
   bad.store(UINT32_MAX);
-  PhotonParams pp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), 0,
+  // The lens's veiling glare (sensor/glare.h): the pyramid on the device, its last upsample and
+  // mix inside the photon kernel.
+  const GlarePlan plan = plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um));
+  const bool glare = plan.active && record_glare(s, rad, w, h, plan);
+  PhotonParams pp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), glare ? 1u : 0u,
                   lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0,
-                  0.5 * (w - 1), 0.5 * (h - 1)};
-  Kernel& k = ctx_.kernel("photon", 4, sizeof(PhotonParams));
+                  0.5 * (w - 1), 0.5 * (h - 1), plan.keep, 0};
+  Kernel& k = ctx_.kernel("photon", 6, sizeof(PhotonParams));
   const Grid g = grid_1d(n);
-  s.dispatch(k, {&rad, &mat, &buffer("mean_e", n * sizeof(float)), &bad}, pp, g.x, g.y, 1, "photon");
+  Buffer& acc1 = glare ? buffer("glare_acc1", glare_bytes(w, h, 1)) : buffer("glare_absent", 16);
+  Buffer& scale = glare ? buffer("glare_scale", 4 * sizeof(float)) : buffer("glare_absent", 16);
+  s.dispatch(k, {&rad, &mat, &buffer("mean_e", n * sizeof(float)), &bad, &acc1, &scale}, pp, g.x, g.y, 1, "photon");
+}
+
+size_t SensorChain::glare_bytes(int w, int h, int level) {
+  return 3 * sizeof(float) * static_cast<size_t>(glare_level_size(w, level)) * glare_level_size(h, level);
+}
+
+// The glare pyramid of sensor/glare.cpp glare_skirt(), kernel for kernel: level 1 by the 2x2
+// box, coarser levels by (1,3,3,1)/8 rows then columns; coarse to fine, the row blur then
+// glare_up (column blur, weight, + the upsampled coarser accumulator); the energies and scale.
+// Leaves acc_1 in "glare_acc1" and s_c in "glare_scale".
+bool SensorChain::record_glare(Sequence& s, Buffer& rad, int w, int h, const GlarePlan& plan) {
+  const auto taps = glare_blur_taps();
+  auto params = [&](int sw, int sh, int dw, int dh, int mode, int flags, float weight) {
+    GlareParams gp{};
+    gp.src_w = sw, gp.src_h = sh, gp.dst_w = dw, gp.dst_h = dh, gp.mode = mode, gp.flags = flags;
+    gp.weight = weight;
+    for (int k = 0; k <= kGlareBlurRadius; ++k) gp.taps[k] = taps[k];
+    gp.eta = plan.eta;
+    return gp;
+  };
+  auto level = [&](int l) -> Buffer& { return buffer(fmt::format("glare_level{}", l), glare_bytes(w, h, l)); };
+  auto acc = [&](int l) -> Buffer& {
+    return l == 1 ? buffer("glare_acc1", glare_bytes(w, h, 1)) : buffer(fmt::format("glare_acc{}", l), glare_bytes(w, h, l));
+  };
+  auto W = [&](int l) { return glare_level_size(w, l); };
+  auto H = [&](int l) { return glare_level_size(h, l); };
+  Buffer& tmp = buffer("glare_tmp", glare_bytes(w, h, 1));
+  Kernel& down = ctx_.kernel("glare_down", 2, sizeof(GlareParams));
+  Kernel& blur = ctx_.kernel("glare_blur", 2, sizeof(GlareParams));
+  Kernel& up = ctx_.kernel("glare_up", 3, sizeof(GlareParams));
+  Kernel& norm = ctx_.kernel("glare_norm", 4, sizeof(GlareParams));
+  auto grid = [](int a, int b) { return grid_1d(static_cast<uint64_t>(a) * b); };
+  Grid g = grid(W(1), H(1));
+  s.dispatch(down, {&rad, &level(1)}, params(w, h, W(1), H(1), 0, 0, 0.f), g.x, g.y, 1, "glare down");
+  for (int l = 2; l <= plan.hi; ++l) {
+    g = grid(W(l), H(l - 1));
+    s.dispatch(down, {&level(l - 1), &tmp}, params(W(l - 1), H(l - 1), W(l), H(l - 1), 1, 0, 0.f), g.x, g.y, 1,
+               "glare down");
+    g = grid(W(l), H(l));
+    s.dispatch(down, {&tmp, &level(l)}, params(W(l), H(l - 1), W(l), H(l), 2, 0, 0.f), g.x, g.y, 1, "glare down");
+  }
+  for (int l = plan.hi; l >= 1; --l) {
+    const bool blurred = l >= plan.lo, coarser = l < plan.hi;
+    g = grid(W(l), H(l));
+    if (blurred)
+      s.dispatch(blur, {&level(l), &tmp}, params(W(l), H(l), W(l), H(l), 0, 0, 0.f), g.x, g.y, 1, "glare blur");
+    Buffer& coarse = coarser ? acc(l + 1) : buffer("glare_absent", 16);
+    const int flags = (blurred ? 1 : 0) | (coarser ? 2 : 0);
+    const float weight = blurred ? plan.weight[l - plan.lo] : 0.f;
+    s.dispatch(up, {blurred ? &tmp : &buffer("glare_absent", 16), &coarse, &acc(l)},
+               params(coarser ? W(l + 1) : 1, coarser ? H(l + 1) : 1, W(l), H(l), 0, flags, weight), g.x, g.y, 1,
+               "glare up");
+  }
+  Buffer& rows = buffer("glare_rows", 2 * 3 * sizeof(double) * static_cast<size_t>(H(1)));
+  Buffer& scale = buffer("glare_scale", 4 * sizeof(float));
+  const Grid gr = grid_1d(2 * static_cast<uint64_t>(H(1)), 64);
+  s.dispatch(norm, {&level(1), &acc(1), &rows, &scale}, params(w, h, W(1), H(1), 0, 0, 0.f), gr.x, gr.y, 1,
+             "glare norm");
+  s.dispatch(norm, {&level(1), &acc(1), &rows, &scale}, params(w, h, W(1), H(1), 1, 0, 0.f), 1, 1, 1, "glare norm");
+  return true;
 }
 
 void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,

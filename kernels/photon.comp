@@ -6,11 +6,15 @@
 // pixel). Non-physical radiance (negative, NaN, Inf, or an R+G+B that overflows) is reported
 // through `bad`: the smallest row-major index of such a pixel (atomicMin), as the CPU reports
 // the first one.
+// With the lens's glare (glare != 0): the radiance first becomes keep·L + s_c·up(acc_1), the
+// last bilinear upsample of the glare pyramid and its mix (sensor/glare.cpp glare_row), in
+// float and in that order; the bad-pixel check reads the radiance before it.
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #include "common/cfa.glsl"
 #include "common/philox.glsl"
 #include "common/sensor_pixel.glsl"
+#include "common/glare.glsl"
 layout(local_size_x = 256) in;
 
 #include "common/params_photon.glsl"
@@ -18,6 +22,8 @@ layout(std430, binding = 0) readonly buffer Radiance { float radiance[]; };
 layout(std430, binding = 1) readonly buffer Matrix { double M[12]; };  // [colour][band]
 layout(std430, binding = 2) writeonly buffer Electrons { float electrons[]; };
 layout(std430, binding = 3) buffer Bad { uint first_bad; };
+layout(std430, binding = 4) readonly buffer Acc1 { float acc1[]; };  // level 1, ceil(w/2) x ceil(h/2) x 3
+layout(std430, binding = 5) readonly buffer Scale { float scale[]; };
 
 void main() {
   const uint i = linear_invocation();
@@ -28,8 +34,22 @@ void main() {
     atomicMin(first_bad, i);
     return;
   }
+  precise float g[3] = float[3](R, G, B);
+  if (P.glare != 0u) {
+    const int aw = int(P.width + 1u) / 2, ah = int(P.height + 1u) / 2;
+    int r0, r1, c0, c1;
+    float wy0, wy1, wx0, wx1;
+    glare_up_tap(int(y), ah, r0, r1, wy0, wy1);
+    glare_up_tap(int(x), aw, c0, c1, wx0, wx1);
+    for (int k = 0; k < 3; ++k) {
+      precise float t0 = wy0 * acc1[3 * (r0 * aw + c0) + k] + wy1 * acc1[3 * (r1 * aw + c0) + k];
+      precise float t1 = wy0 * acc1[3 * (r0 * aw + c1) + k] + wy1 * acc1[3 * (r1 * aw + c1) + k];
+      precise float u = wx0 * t0 + wx1 * t1;
+      g[k] = P.keep * g[k] + scale[k] * u;
+    }
+  }
   const uint c = cfa_color(P.cfa_cell, x, y);
   precise double dx = double(x) - P.cx, dy = double(y) - P.cy;
   precise double dy2 = dy * dy;
-  electrons[i] = photon_electrons(M[3 * c], M[3 * c + 1], M[3 * c + 2], R, G, B, dx, dy2, P.pitch_over_f);
+  electrons[i] = photon_electrons(M[3 * c], M[3 * c + 1], M[3 * c + 2], g[0], g[1], g[2], dx, dy2, P.pitch_over_f);
 }

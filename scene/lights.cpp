@@ -1,6 +1,7 @@
 // The light map (stage 7): retroreflection of signs and lane markings under the ego beam, light
 // sources found by colour in CIELAB (traffic signals, vehicle lamps), head/tail lamps placed per
-// vehicle instance, lamp heads on poles, seeded window lights on buildings, then bloom.
+// vehicle instance, lamp heads on poles, seeded window lights on buildings. Glare is the lens's, in the sensor's optics stage
+// (sensor/glare.h), not here.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -85,83 +86,9 @@ double low_beam_lux(int x, int y, int width, double depth, double vp_y, const Sc
   return p.beam_road_lux * d * d * std::exp(-0.5 * u * u);
 }
 
-void bloom_in_place(ImageF& img, double fraction, int levels) {
-  if (fraction <= 0 || levels <= 0 || img.width() < 4 || img.height() < 4) return;
-  const int W = img.width(), H = img.height();
-  cv::Mat s(H, W, CV_32FC3, img.data());
-  // The mip chain: the first octave a 2x2 area average (cheap at full size), each further level
-  // a 5x5-Gaussian decimation (pyrDown) of the one above.
-  std::vector<cv::Mat> mips{s};
-  for (int l = 1; l <= levels; ++l) {
-    const cv::Mat& top = mips.back();
-    if (top.cols < 4 || top.rows < 4) break;
-    cv::Mat down;
-    if (l == 1) cv::resize(top, down, cv::Size((top.cols + 1) / 2, (top.rows + 1) / 2), 0, 0, cv::INTER_AREA);
-    else cv::pyrDown(top, down);
-    mips.push_back(down);
-  }
-  const int used = static_cast<int>(mips.size()) - 1;
-  if (used == 0) return;
-  // Collapse coarse to fine: acc_l = blur(mip_l) + up(acc_{l+1}); one full-size upsample at
-  // the end, so the cost is about that of the first octave.
-  cv::Mat acc;
-  for (int l = used; l >= 1; --l) {
-    cv::Mat blurred;
-    cv::GaussianBlur(mips[l], blurred, cv::Size(0, 0), 1.5);
-    if (!acc.empty()) {
-      cv::Mat up;
-      cv::resize(acc, up, blurred.size(), 0, 0, cv::INTER_LINEAR);
-      acc = blurred + up;
-    } else {
-      acc = blurred;
-    }
-  }
-  // Energy-preserving: the glare share f leaves the source and spreads over the octaves. The
-  // last bilinear upsample (pixel-centre aligned, as cv::resize) is fused with the mix.
-  const float keep = static_cast<float>(1.0 - fraction), spread = static_cast<float>(fraction / used);
-  const int aw = acc.cols, ah = acc.rows;
-  const double sx = static_cast<double>(aw) / W, sy = static_cast<double>(ah) / H;
-  std::vector<int> cx0(W), cx1(W);
-  std::vector<float> cwx(W);
-  for (int x = 0; x < W; ++x) {
-    const double fx = std::clamp((x + 0.5) * sx - 0.5, 0.0, aw - 1.0);
-    cx0[x] = 3 * static_cast<int>(fx);
-    cx1[x] = 3 * std::min(aw - 1, static_cast<int>(fx) + 1);
-    cwx[x] = static_cast<float>(fx - static_cast<int>(fx));
-  }
-#pragma omp parallel
-  {
-    std::vector<float> row(3 * static_cast<size_t>(aw));
-#pragma omp for schedule(static)
-    for (int y = 0; y < H; ++y) {
-      const double fy = std::clamp((y + 0.5) * sy - 0.5, 0.0, ah - 1.0);
-      const int y0 = static_cast<int>(fy), y1 = std::min(ah - 1, y0 + 1);
-      const float wy = static_cast<float>(fy - y0);
-      const float* r0 = acc.ptr<float>(y0);
-      const float* r1 = acc.ptr<float>(y1);
-      for (int j = 0; j < 3 * aw; ++j) row[j] = spread * (r0[j] + (r1[j] - r0[j]) * wy);
-      float* o = img.row(y);
-      for (int x = 0; x < W; ++x) {
-        const float wx = cwx[x];
-        const float* a = row.data() + cx0[x];
-        const float* b = row.data() + cx1[x];
-        o[3 * x] = keep * o[3 * x] + a[0] + (b[0] - a[0]) * wx;
-        o[3 * x + 1] = keep * o[3 * x + 1] + a[1] + (b[1] - a[1]) * wx;
-        o[3 * x + 2] = keep * o[3 * x + 2] + a[2] + (b[2] - a[2]) * wx;
-      }
-    }
-  }
-}
-
-ImageF bloom(const ImageF& src, double fraction, int levels) {
-  ImageF out = src;
-  bloom_in_place(out, fraction, levels);
-  return out;
-}
-
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
-                   uint64_t seed, bool with_bloom) {
+                   uint64_t seed) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -404,7 +331,6 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         ++out.stats.windows;
       }
   }
-  if (with_bloom) bloom_in_place(L, p.bloom_fraction, p.bloom_levels);
   out.radiance = std::move(L);
   return out;
 }

@@ -51,8 +51,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
-  // With a backend tail the light map leaves here unbloomed: bloom runs there, before compose.
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed, !stages.tail);
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.depth, vp, p, seed);
   s.light_stats = lm.stats;
   lap("lights");
   if (stages.tail) {

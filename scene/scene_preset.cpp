@@ -55,8 +55,6 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"ego_beam.cct_K", D(p.beam_cct_K, 1000, 20000)},
       {"ego_beam.half_width", D(p.beam_half_width, 0.01, 2)},
       {"ego_beam.sign_lux", D(p.beam_sign_lux, 0, 1000)},
-      {"bloom.fraction", D(p.bloom_fraction, 0, 1)},
-      {"bloom.levels", I(p.bloom_levels, 0, 10)},
       {"geometry.work_max_width", I(p.work_max_width, 64, 8192)},
       {"geometry.lane_blur_sigma_px", D(p.lane_blur_sigma_px, 0, 20)},
       {"geometry.lane_contrast_threshold", D(p.lane_contrast_threshold, 0, 1)},
@@ -94,6 +92,10 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
       p.description = node.value_or(std::string());
       continue;
     }
+    if (key == "bloom")  // the scene-space bloom is gone: glare is the lens's now
+      fail(where(file, line, key) +
+           ": the scene-space bloom was removed; veiling glare is a property of the lens: set it in the "
+           "lens preset's [glare] table (presets/lenses/*.toml, docs/model_glare.md)");
     const toml::table* sec = node.as_table();
     if (!sec) fail(where(file, line, key) + ": unknown key");
     for (const auto& [k2, v] : *sec) {

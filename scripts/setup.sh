@@ -9,7 +9,8 @@ PKGS=(build-essential cmake ninja-build pkg-config
       libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
       libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
       libgtest-dev libbenchmark-dev python3-matplotlib python3-numpy
-      python3-dev pybind11-dev python3-pybind11 python3-pytest python3-torch python3-skbuild python3-venv)
+      python3-dev pybind11-dev python3-pybind11 python3-pytest python3-torch python3-skbuild python3-venv
+      python3-sklearn python3-scipy python3-pil)
 install_missing_packages "${PKGS[@]}"
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j"$(nproc)"

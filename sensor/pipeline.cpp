@@ -6,6 +6,7 @@
 
 #include "photosite/error.h"
 #include "photosite/rng.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
@@ -76,10 +77,25 @@ ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, cons
   // tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
   const double pitch_over_f = lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0;
   const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
+  // Veiling glare of the lens (sensor/glare.h): the reduced-resolution pyramid first, then its
+  // last upsample and the mix, one row at a time, fused into this loop. It acts on the
+  // irradiance before the cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle
+  // of the pixel where it lands, not of its source; docs/model_glare.md).
+  const GlareSkirt skirt =
+      glare_skirt(radiance, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um)));
   int bad_x = -1, bad_y = -1;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel
+  {
+  std::vector<float> glared(skirt.active() ? 3 * static_cast<size_t>(w) : 0);
+  std::vector<float> tmp(skirt.active() ? 3 * (static_cast<size_t>(skirt.acc1.width()) + w) : 0);
+#pragma omp for schedule(static)
   for (int y = 0; y < h; ++y) {
     const float* r = radiance.row(y);
+    const float* g = r;
+    if (skirt.active()) {
+      glare_row(skirt, y, r, glared.data(), tmp.data());
+      g = glared.data();
+    }
     float* o = out.row(y);
     const double dy2 = (y - cy) * (y - cy);
     for (int x = 0; x < w; ++x) {
@@ -91,8 +107,10 @@ ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, cons
       }
       // kernels/common/sensor_pixel.glsl: e = M[c]·(R, G, B), cos⁴θ falloff.
       const auto& row = m[static_cast<int>(cfa_color(p.cfa, x, y))];
-      o[x] = shader::photon_electrons(row[0], row[1], row[2], R, G, B, x - cx, dy2, pitch_over_f);
+      o[x] = shader::photon_electrons(row[0], row[1], row[2], g[3 * x], g[3 * x + 1], g[3 * x + 2], x - cx, dy2,
+                                      pitch_over_f);
     }
+  }
   }
   if (bad_y >= 0) {
     const float* r = radiance.row(bad_y) + 3 * bad_x;

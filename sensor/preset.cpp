@@ -254,7 +254,26 @@ LensPreset parse_lens_preset(const std::string& text, const std::string& file) {
       {"magnification", number(&l.magnification, 0, 10, false)},
       {"cos4_falloff", boolean(&l.cos4_falloff)},
   };
-  apply_fields(t, fields, file, "");
+  apply_fields(t, fields, file, "", [&](const std::string& key, const toml::node& node) {
+    if (key != "glare") return false;
+    const toml::table* g = node.as_table();
+    if (!g) fail(where(file, line_of(node), "glare") + ": expected a table [glare]");
+    // The veiling-glare PSF (sensor/glare.h, docs/model_glare.md). Without this table the lens
+    // has no glare.
+    LensGlare& lg = l.glare;
+    lg.enabled = true;
+    std::map<std::string, Field> gf{
+        {"veiling_glare_index", number(&lg.veiling_glare_index, 0, 0.5)},
+        {"core_deg", number(&lg.core_deg, 1e-3, 10)},
+        {"reach_deg", number(&lg.reach_deg, 0.01, 180)},
+        {"skirt_exponent", number(&lg.skirt_exponent, 1, 4, false)},
+    };
+    apply_fields(*g, gf, file, "glare.");
+    if (!(lg.reach_deg > lg.core_deg))
+      fail(where(file, line_of(node), "glare.reach_deg") +
+           fmt::format(": reach {} deg must exceed the core {} deg", lg.reach_deg, lg.core_deg));
+    return true;
+  });
   return l;
 }
 
@@ -336,7 +355,12 @@ std::string to_json(const LensPreset& l, int indent) {
   return nlohmann::json{{"name", l.name},           {"file", l.file},
           {"description", l.description}, {"f_number", l.f_number},
           {"focal_length_mm", l.focal_length_mm}, {"transmittance", l.transmittance},
-          {"magnification", l.magnification}, {"cos4_falloff", l.cos4_falloff}}.dump(indent);
+          {"magnification", l.magnification}, {"cos4_falloff", l.cos4_falloff},
+          {"glare", l.glare.enabled ? nlohmann::json{{"veiling_glare_index", l.glare.veiling_glare_index},
+                                                      {"core_deg", l.glare.core_deg},
+                                                      {"reach_deg", l.glare.reach_deg},
+                                                      {"skirt_exponent", l.glare.skirt_exponent}}
+                                    : nlohmann::json(nullptr)}}.dump(indent);
 }
 
 }  // namespace photosite

@@ -208,7 +208,7 @@ TEST(Batch, LayersAreWrittenRecordedAndChecked) {
   EXPECT_FALSE(fs::exists(dir.file("o2/image_2/000000_10.exr")));
 }
 
-// `batch --backend vulkan` runs darken, bloom and compose on the device for every image (one set
+// `batch --backend vulkan` runs darken and compose (and the sensor with the lens glare) on the device for every image (one set
 // of device buffers reused across images, sizes differing): the same images as the CPU run,
 // within the night chain's tolerance (docs/vulkan.md).
 TEST(Batch, VulkanBackendAgreesWithCpu) {
@@ -250,7 +250,7 @@ TEST(Batch, VulkanBackendAgreesWithCpu) {
         worst = std::max(worst, std::fabs(static_cast<double>(img[i]) - w[i]));
         differ += img[i] != w[i];
       }
-      // Light map and radiance: bloom's float sums in another order. Sensor layers: only where
+      // Light map and radiance: compose's one-ulp low beam (gpu_test.cpp). Sensor layers: only where
       // that rounding moved a noise draw (test_util.h); labels and depth bit-equal. Demosaiced
       // RGB (bilinear, a 3×3 neighbourhood): at most 9 × 3 samples per differing raw sample.
       if (name.rfind("lights", 0) == 0 || name.rfind("night_radiance", 0) == 0)

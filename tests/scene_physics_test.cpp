@@ -15,12 +15,9 @@ using namespace photosite;
 using namespace photosite::scene;
 
 namespace {
-// The urban preset without bloom, so each pixel of the light map holds only what was put there.
-ScenePreset no_bloom() {
-  ScenePreset p = load_scene_preset("night-urban");
-  p.bloom_fraction = 0;
-  return p;
-}
+// The urban preset: each pixel of the light map holds only what was put there (glare is the
+// lens's, applied later in the sensor).
+ScenePreset no_bloom() { return load_scene_preset("night-urban"); }
 double lum(const ImageF& img, size_t i) {
   const float c[3] = {img[3 * i], img[3 * i + 1], img[3 * i + 2]};
   return spectrum::luminance_cd_m2(c);
@@ -85,7 +82,7 @@ struct Canvas {
     const ImageF tex = reflectance_texture(day, labels.ids, p);
     VanishingPoint vp;
     vp.x = vp_x, vp.y = vp_y;
-    return light_map(day, tex, labels, ImageU8(w, h, 1, 0), ImageF(w, h, 1, 0.f), vp, p, 1, false);
+    return light_map(day, tex, labels, ImageU8(w, h, 1, 0), ImageF(w, h, 1, 0.f), vp, p, 1);
   }
   double lum_at(const ImageF& L, int x, int y) const { return lum(L, static_cast<size_t>(y) * w + x); }
 };

@@ -166,7 +166,7 @@ TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {
   EXPECT_NEAR(d.at(30, 35), 15.f / 29.f, 1e-5f);  // linear from the VP to the bottom row
 }
 
-TEST(SceneLights, PerVehicleLampsWindowsDeterministicAndBloomConservesEnergy) {
+TEST(SceneLights, PerVehicleLampsWindowsDeterministic) {
   SyntheticOptions o;
   o.cars = 2;
   SyntheticScene s = make_synthetic_road(o);
@@ -177,18 +177,19 @@ TEST(SceneLights, PerVehicleLampsWindowsDeterministicAndBloomConservesEnergy) {
   EXPECT_GT(a.light_stats.windows, 0);
   EXPECT_EQ(a.lights.vec(), b.lights.vec());  // same seed, same scene: same lights
   EXPECT_NE(a.lights.vec(), c.lights.vec());  // the seed moves the lit windows
-  ImageF src(64, 64, 3, 0.f);
-  src.at(32, 32, 0) = src.at(32, 32, 1) = src.at(32, 32, 2) = 1000.f;
-  ImageF bl = bloom(src, 0.1, 4);
-  double s0 = 0, s1 = 0;
-  for (size_t i = 0; i < src.size(); ++i) { s0 += src[i]; s1 += bl[i]; }
-  EXPECT_NEAR(s1, s0, 0.02 * s0);
-  EXPECT_GT(bl.at(36, 32, 0), 0.f);        // glare spreads
-  EXPECT_LT(bl.at(32, 32, 0), 1000.f);
-  // Doubling the source doubles the glare (bloom scales with source intensity).
-  ImageF src2 = src;
-  for (auto& v : src2.vec()) v *= 2;
-  EXPECT_NEAR(bloom(src2, 0.1, 4).at(36, 32, 0), 2 * bl.at(36, 32, 0), 1e-3);
+}
+
+// The scene-space bloom is gone: a scene preset that still has [bloom] is refused, pointing to
+// the lens's [glare].
+TEST(ScenePreset, BloomTableIsRefusedWithAPointerToTheLensGlare) {
+  try {
+    parse_scene_preset("description = \"x\"\n[bloom]\nfraction = 0.05\n", "old.toml");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("old.toml:2: bloom"), std::string::npos) << m;
+    EXPECT_NE(m.find("[glare]"), std::string::npos) << m;
+  }
 }
 
 namespace {

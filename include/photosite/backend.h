@@ -49,8 +49,7 @@ class SensorRunner {
                       uint64_t resident_radiance = 0);
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
-  // The night chain's full-resolution per-pixel tail: on Vulkan the kernels bloom_*, darken
-  // and compose in one sequence (gpu::SceneStages::tail), on the CPU none (night_scene's own path).
+  // The night chain's full-resolution per-pixel tail: on Vulkan the kernels darken and compose in one sequence (gpu::SceneStages::tail), on the CPU none (night_scene's own path).
   scene::PixelStages pixel_stages();
   // scene::linearize() on this backend (kernel linearize on Vulkan).
   ImageF linearize(const ImageF& day, const ImageFileInfo& info);

@@ -4,8 +4,10 @@ PS_PUSH_CONSTANTS(PhotonParams) {
   uint width;
   uint height;
   uint cfa_cell;  // the CFA pattern's 2x2 cell (gpu::pack_cfa)
-  uint pad;
+  uint glare;     // 1: mix the glare skirt in
   double pitch_over_f;  // 0: no cos⁴ falloff
   double cx;            // optical centre (pixels)
   double cy;
+  float keep;  // 1 − η
+  uint pad;
 } PS_PUSH_INSTANCE;

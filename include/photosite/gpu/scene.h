@@ -1,5 +1,5 @@
-// The day-to-night per-pixel stages on the Vulkan backend: per-class darkening and bloom (the
-// mip chain down, Gaussian blur per level, collapse up, mix). Geometry stays on the CPU (lane
+// The day-to-night per-pixel stages on the Vulkan backend: per-class darkening and composition
+// (glare is the lens's, in the sensor chain: gpu/sensor.h). Geometry stays on the CPU (lane
 // markings, Canny, Hough, vanishing point clustering, light placement), as in Baek 2020.
 #pragma once
 #include <memory>
@@ -14,9 +14,6 @@ namespace photosite::gpu {
 
 // scene::darken() on the device: bit-equal (the same darken_pixel operations).
 ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p);
-// scene::bloom_in_place() on the device: equal to within float rounding (the sums run in another
-// order than OpenCV's; docs/vulkan.md has the measured difference).
-void bloom_in_place(Context& ctx, ImageF& img, double fraction, int levels);
 // scene::linearize() on the device: bit-equal (the same table and float operations); a NaN or
 // Inf pixel is refused with the CPU path's message.
 ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms = nullptr);
@@ -28,16 +25,7 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
                double* device_ms = nullptr);
 // device_ms: the kernels' device time (timestamps), -1 without them.
 
-// Recording into a caller's sequence (for chains that keep images on the device): `img` is an
-// interleaved RGB w x h buffer, processed in place; scratch buffers are made on first use and
-// kept in `cache` for later frames.
-struct BloomBuffers;
-struct BloomBuffersDeleter { void operator()(BloomBuffers*) const; };
-using BloomCache = std::unique_ptr<BloomBuffers, BloomBuffersDeleter>;
-// Returns whether anything was recorded (nothing for fraction or levels <= 0, or an image
-// narrower or shorter than 4 pixels, as bloom_in_place).
-bool record_bloom(Context& ctx, Sequence& s, Buffer& img, int w, int h, double fraction, int levels,
-                  BloomCache& cache);
+// Recording into a caller's sequence (for chains that keep images on the device).
 void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
                    const scene::DarkenParams& d);
 
@@ -48,12 +36,11 @@ class SceneStages {
   explicit SceneStages(Context& ctx);
   ~SceneStages();
   ImageF darken(const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p);
-  void bloom_in_place(ImageF& img, double fraction, int levels);
   ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
                  const scene::VanishingPoint& vp, const scene::ScenePreset& p, double* device_ms = nullptr);
-  // night_scene()'s whole per-pixel tail as one sequence: bloom `lights` (in place), darken
-  // (into `darkened` too with keep_darkened), low beam + lights. Uploads the texture, light map,
-  // labels and depth once each; downloads the bloomed lights and the radiance, which also stays
+  // night_scene()'s whole per-pixel tail as one sequence: darken (into `darkened` too with
+  // keep_darkened), low beam + lights. Uploads the texture, light map, labels and depth once
+  // each; downloads the radiance, which also stays
   // on the device under the returned token (resident_radiance).
   scene::PixelTail tail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
                         const scene::VanishingPoint& vp, const scene::ScenePreset& p, bool keep_darkened,
@@ -74,7 +61,6 @@ class SceneStages {
                       int w, int h, const scene::VanishingPoint& vp, const scene::ScenePreset& p);
   Context& ctx_;
   BufferCache buffers_;
-  BloomCache bloom_;
   uint64_t radiance_token_ = 0;  // what buffer "radiance" holds; 0: nothing promised
 };
 // SceneStages::tail as night_scene()'s pixel stages.

@@ -5,6 +5,8 @@
 // frame. The twin of expose() / sense() / mean_signal_electrons() (sensor/pipeline.h), held to
 // them by tests/gpu_test.cpp.
 //
+// The lens's veiling glare (sensor/glare.h) runs there too: kernels glare_down, glare_blur,
+// glare_up and glare_norm build the pyramid, photon mixes it in.
 // On the CPU stay: photon_matrix() (a spectral integral per frame, not per pixel), the w + h
 // row/column noise draws.
 // Tukey-λ read noise is not on the device yet: sense() there is bad input naming the preset.
@@ -15,6 +17,7 @@
 
 #include "photosite/gpu/context.h"
 #include "photosite/gpu/sequence.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/pipeline.h"
 
 namespace photosite::gpu {
@@ -47,6 +50,8 @@ class SensorChain {
   Buffer& buffer(const std::string& name, size_t bytes);
   void record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                      const ResolvedExposure& ex, Buffer* radiance_on_device);
+  bool record_glare(Sequence& s, Buffer& radiance, int w, int h, const GlarePlan& plan);
+  static size_t glare_bytes(int w, int h, int level);
   void record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
                     const ExposureSettings& st, const FixedPatternMaps& fpn);
   SensorOutput finish(int w, int h, const CameraPreset& p, const ExposureSettings& st);

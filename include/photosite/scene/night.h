@@ -99,15 +99,12 @@ double low_beam_lux(int x, int y, int width, double depth, double vp_y, const Sc
 
 struct LightStats { int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0; };
 struct LightMap {
-  ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected, with bloom
+  ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected (the lens's glare comes later, in the sensor)
   LightStats stats;
 };
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
-                   const ScenePreset& p, uint64_t seed, bool with_bloom = true);
-// Bloom from a mip chain: out = (1-f)·src + f·mean over levels of upsampled Gaussian-blurred mips.
-ImageF bloom(const ImageF& src, double fraction, int levels);
-void bloom_in_place(ImageF& img, double fraction, int levels);
+                   const ScenePreset& p, uint64_t seed);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on the ground
 // + the light map.
@@ -128,8 +125,8 @@ struct NightScene {
   uint64_t resident_radiance = 0;  // PixelTail::resident: `radiance` is still on the device
 };
 // The full-resolution per-pixel tail of night_scene() handed to another backend (the Vulkan
-// kernels, gpu/scene.h): bloom of the light map, per-class darkening, low beam and composition,
-// from the CPU's reflectance texture, light map (before bloom) and depth. Geometry stays on the
+// kernels, gpu/scene.h): per-class darkening, low beam and composition, from the CPU's
+// reflectance texture, light map and depth. Geometry stays on the
 // CPU. Empty: night_scene's own CPU path.
 struct PixelTail {
   ImageF radiance;    // compose()
@@ -138,7 +135,6 @@ struct PixelTail {
                           // token (gpu::new_residency_token), for the sensor to read from there
 };
 struct PixelStages {
-  // `lights` is bloomed in place (bloom_in_place with p.bloom_fraction, p.bloom_levels).
   std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
                           const VanishingPoint& vp, const ScenePreset& p, bool keep_darkened)>
       tail;

@@ -35,9 +35,6 @@ struct ScenePreset {
   // [ego_beam] low beam: illuminance on the road at the bottom of the image (lx), CCT,
   // half-width of the beam at the bottom as a fraction of the image width.
   double beam_road_lux = 30, beam_cct_K = 3200, beam_half_width = 0.35, beam_sign_lux = 5;
-  // [bloom] energy fraction spread by the mip-chain glare and the number of levels.
-  double bloom_fraction = 0.05;
-  int bloom_levels = 5;
   // [geometry] lanes, edges, Hough, vanishing point.
   int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
   double lane_blur_sigma_px = 1.0, lane_contrast_threshold = 0.06;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "photosite/sensor/cfa.h"
+#include "photosite/sensor/glare.h"
 
 namespace photosite {
 
@@ -54,6 +55,7 @@ struct LensPreset {
   double transmittance = 0.9;  // lens + IR-cut filter, fraction
   double magnification = 0.0;  // |m|, ~0 for scenes at distance
   bool cos4_falloff = true;    // natural vignetting cos⁴θ
+  LensGlare glare;             // [glare]: veiling glare PSF (sensor/glare.h); absent: none
 };
 
 // name_or_path: a bundled preset's name ("onsemi-ar0331") or a path to a .toml file.

@@ -1,0 +1,256 @@
+// `photosite bench realism` (issue 14 §4): how close photosite's night previews come to real night
+// photos. Runs the night chain (linearize → scene → sensor → preview ISP, the `night` command's
+// path without file I/O) on the shared Cityscapes and KITTI frames, for photosite's defaults and a
+// few of its options, plus the thesis's own method (photosite::thesis_night) and the day photos
+// themselves; writes every result as an sRGB PNG preview to a folder, with a manifest (method,
+// frame, file, ms per frame), and hands that to bench/realism.py for the statistics, the charts
+// and the classifier two-sample test (bench/realism_stats.py). Results: docs/realism*.csv|png.
+#include <omp.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cctype>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "bench.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/night_chain.h"
+#include "photosite/scene/night.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/isp.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
+#include "photosite/thesis_baseline.h"
+
+namespace photosite::cli {
+namespace {
+namespace fs = std::filesystem;
+
+struct Opts {
+  std::string shared = std::string(PHOTOSITE_SOURCE_DIR) + "/../shared";
+  std::string real;  // default: <shared>/data/night_real
+  std::string out_dir, previews;
+  int threads = 2, repeats = 1;
+  int max_frames = 0;  // per data set; 0: all
+  bool no_stats = false;
+};
+
+struct Frame {
+  std::string dataset, name, image, labels, instances, camera;
+};
+
+// The shared frames: every Cityscapes leftImg8bit with its gtFine labelIds (and instanceIds),
+// every KITTI image_2 with its semantic labelIds. Cameras as `photosite night` uses them
+// (Cityscapes: onsemi AR0331; KITTI: Sony ICX267 on the Point Grey Flea2).
+std::vector<Frame> shared_frames(const fs::path& data, int max_frames) {
+  std::vector<Frame> out;
+  const fs::path cs = data / "cityscapes", kt = data / "kitti";
+  if (!fs::is_directory(cs / "leftImg8bit") || !fs::is_directory(kt / "image_2"))
+    fail_at(data.string(), "bench realism: needs cityscapes/leftImg8bit and kitti/image_2 here (the shared data; "
+                           "give --shared DIR)");
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(cs / "leftImg8bit")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& p : files) {
+    const std::string stem = p.filename().string();
+    const auto cut = stem.find("_leftImg8bit.png");
+    if (cut == std::string::npos) continue;
+    const std::string base = stem.substr(0, cut);
+    Frame f{"cityscapes", base, p.string(), (cs / "gtFine" / (base + "_gtFine_labelIds.png")).string(),
+            (cs / "gtFine" / (base + "_gtFine_instanceIds.png")).string(), "onsemi-ar0331"};
+    if (!fs::exists(f.labels)) fail_at(f.labels, "bench realism: labels of " + f.image + " missing");
+    if (!fs::exists(f.instances)) f.instances.clear();
+    if (max_frames > 0 && static_cast<int>(out.size()) >= max_frames) break;
+    out.push_back(f);
+  }
+  const size_t n_cityscapes = out.size();
+  files.clear();
+  for (const auto& e : fs::directory_iterator(kt / "image_2")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& p : files) {
+    if (p.extension() != ".png") continue;
+    Frame f{"kitti", "kitti_" + p.stem().string(), p.string(), (kt / "semantic" / p.filename()).string(), "",
+            "sony-icx267-flea2"};
+    if (!fs::exists(f.labels)) fail_at(f.labels, "bench realism: labels of " + f.image + " missing");
+    if (max_frames > 0 && static_cast<int>(out.size() - n_cityscapes) >= max_frames) break;
+    out.push_back(f);
+  }
+  if (out.empty()) fail_at(data.string(), "bench realism: no frames found");
+  return out;
+}
+
+// A photosite variant: a change to the scene preset and the preview's white-point percentile.
+struct Variant {
+  std::string method;
+  std::function<void(scene::ScenePreset&)> scene;
+  double white_percentile = 0.99;  // preview_srgb default: the 99th percentile maps to white
+  bool full_scale_isp = false;     // preview_full_scale() instead of preview_srgb()
+  bool lens_glare = true;          // false: the lens preset's [glare] off (sensor/glare.h)
+};
+
+// A camera ISP's highlight handling, as dcraw's default (-H 0, "clip"; D. Coffin, dcraw.c): white
+// balance gains normalised so the smallest is 1, applied to the DN; every channel clipped at the
+// sensor's full scale S; S shown as white (fixed exposure and gain: no rescaling to the scene).
+// A pixel saturated in every channel is then white, as in a camera JPEG. preview_srgb() instead
+// maps a luminance percentile to white and clips each channel afterwards, so with white at the
+// brightest pixel a saturated lamp keeps the tint of the gains (Y' below 0.98).
+ImageF preview_full_scale(const ImageF& rgb, std::array<double, 3> wb, double full_scale_dn) {
+  const double g_min = std::min({wb[0], wb[1], wb[2]});
+  for (double& g : wb) g /= g_min;
+  ImageF out(rgb.width(), rgb.height(), 3, uninitialized, "sRGB");
+  for (size_t i = 0; i < rgb.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out[3 * i + c] = static_cast<float>(srgb_encode(std::min(rgb[3 * i + c] * wb[c], full_scale_dn) / full_scale_dn));
+  return out;
+}
+
+ImageF u8_to_f(const ImageU8& m) {
+  ImageF f(m.width(), m.height(), m.channels(), uninitialized);
+  for (size_t i = 0; i < f.size(); ++i) f[i] = m[i] / 255.f;
+  return f;
+}
+
+std::string quote(const std::string& s) {  // single-quoted for /bin/sh
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+void run(const Opts& o) {
+  omp_set_num_threads(o.threads);
+  if (o.repeats < 1) fail(fmt::format("--repeats {} must be at least 1", o.repeats));
+  if (o.max_frames < 0) fail(fmt::format("--max-frames {} must be 0 (all) or more", o.max_frames));
+  const fs::path shared(o.shared);
+  const std::vector<Frame> frames = shared_frames(shared / "data", o.max_frames);
+  const std::string real = o.real.empty() ? (shared / "data" / "night_real").string() : o.real;
+  if (!fs::is_directory(real)) fail_at(real, "--real: folder of real night photos not found");
+  {
+    int photos = 0;
+    for (const auto& e : fs::directory_iterator(real)) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+      photos += ext == ".png" || ext == ".jpg" || ext == ".jpeg";
+    }
+    if (photos < 2)  // the leave-one-out histogram and the spread need at least two
+      fail_at(real, fmt::format("--real: {} .png/.jpg photos in this folder, at least 2 needed", photos));
+  }
+  fs::path prev = o.previews;
+  if (prev.empty()) prev = fs::temp_directory_path() / fmt::format("photosite-realism-{}", ::getpid());
+  fs::create_directories(prev);
+
+  std::vector<Variant> variants = {
+      {"photosite", {}, 0.99},
+      // The preview ISP's white point at the 99.9th percentile instead of the 99th: fewer pixels
+      // clip, so the saturated-highlight fraction is no longer pinned near 1 %.
+      {"photosite white p99.9", {}, 0.999},
+      // White at the brightest pixel: where lamps saturate the sensor, the ADC's full scale is
+      // white and nothing else is scaled, as a camera with a fixed exposure and gain shows it.
+      {"photosite white max", {}, 1.0},
+      {"photosite ISP full scale", {}, 1.0, true},
+      {"photosite no glare", {}, 0.99, false, false},
+      // A darker night: quarter moon and a dark sky (0.01 lx, night-photometry.md §3).
+      {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01); }, 0.99},
+  };
+  std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
+  auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
+    manifest += fmt::format("\"{}\",{},{},\"{}\",{:.3f},{},{}\n", method, f.dataset, f.name, file.string(), ms, w, h);
+  };
+  const std::string machine = machine_description();
+  std::printf("photosite bench realism: %zu frames, %d threads, best of %d\nmachine: %s\npreviews: %s\n\n",
+              frames.size(), o.threads, o.repeats, machine.c_str(), prev.c_str());
+  std::printf("%-28s %-34s %10s\n", "method", "frame", "ms/frame");
+  for (const Frame& f : frames) {
+    ImageFileInfo info;
+    const ImageF raw = read_image(f.image, &info);
+    const scene::LabelMap lm = scene::read_labels(f.labels, f.instances, raw.width(), raw.height(),
+                                                  scene::LabelFormat::Auto, scene::ResizeLabels::None);
+    const CameraPreset cam = load_camera_preset(f.camera);
+    const LensPreset lens_preset = load_lens_preset(cam.default_lens);
+    ExposureSettings es;  // the `night` command's defaults: 20 ms, lens f-number, 0 dB
+    const ResolvedExposure ex = resolve(cam, lens_preset, es);
+    const FixedPatternMaps fpn = generate_fixed_pattern(cam, raw.width(), raw.height(), cam.name + "-0");
+    const auto wb = white_balance_gains(cam);
+    // The sensor's full scale in DN above black: the ADC's top code or the full well, the lower.
+    const double full_scale_dn = std::min(std::ldexp(1.0, cam.bit_depth) - 1 - cam.black_level_dn,
+                                          cam.full_well_e * ex.system_gain_dn_per_e);
+    for (const Variant& v : variants) {
+      scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+      if (v.scene) v.scene(sp);
+      LensPreset lens = lens_preset;
+      if (!v.lens_glare) lens.glare.enabled = false;
+      ImageF preview;
+      const double ms = best_ms(o.repeats, [&] {
+        const ImageF lin = scene::linearize(raw, info);
+        const scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
+        const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
+        const SensorOutput so = sense(mean_e, cam, ex, es, fpn);
+        preview = v.full_scale_isp ? preview_full_scale(so.rgb, wb, full_scale_dn)
+                                   : preview_srgb(so.rgb, wb, v.white_percentile);
+      });
+      const fs::path file = prev / fmt::format("{}__{}.png", f.name, v.method);
+      write_png(file.string(), preview);
+      add(v.method, f, file, ms, raw.width(), raw.height());
+      std::printf("%-28s %-34s %10.1f\n", v.method.c_str(), f.name.c_str(), ms);
+    }
+    // The thesis baseline on the 8-bit day image.
+    ImageU8 day8(raw.width(), raw.height(), 3, uninitialized);
+    for (size_t i = 0; i < raw.pixel_count(); ++i)
+      for (int k = 0; k < 3; ++k)
+        day8[3 * i + k] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(raw[i * raw.channels() + std::min(k, raw.channels() - 1)], 0.f, 1.f)));
+    ThesisBaselineOptions to;
+    ImageU8 night8;
+    const double ms = best_ms(o.repeats, [&] { night8 = thesis_night(day8, lm.ids, to); });
+    fs::path file = prev / fmt::format("{}__thesis baseline.png", f.name);
+    write_png(file.string(), u8_to_f(night8));
+    add("thesis baseline", f, file, ms, raw.width(), raw.height());
+    std::printf("%-28s %-34s %10.1f\n", "thesis baseline", f.name.c_str(), ms);
+    // The day photo itself: the classifier's easy case (no translation, 0 ms).
+    add("day photo", f, fs::path(f.image), 0, raw.width(), raw.height());
+  }
+  const fs::path manifest_path = prev / "manifest.csv";
+  {
+    std::ofstream m(manifest_path);
+    m << manifest;
+    if (!m) fail_at(manifest_path.string(), "cannot write the manifest");
+  }
+  std::printf("%s\n", manifest_path.c_str());
+  if (o.no_stats) return;
+  const fs::path out = o.out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(o.out_dir);
+  const std::string cmd = fmt::format("/usr/bin/python3 {} --manifest {} --real {} --out-dir {} --machine {}",
+                                      quote(std::string(PHOTOSITE_SOURCE_DIR) + "/bench/realism.py"),
+                                      quote(manifest_path.string()), quote(real), quote(out.string()),
+                                      quote(machine + fmt::format(", {} threads", o.threads)));
+  std::fflush(stdout);
+  const int rc = std::system(cmd.c_str());
+  if (rc != 0) fail(fmt::format("bench realism: bench/realism.py failed (status {}): {}", rc, cmd));
+}
+}  // namespace
+
+static BenchRegistrar reg("realism",
+                          "night previews vs real night photos: statistics, classifier test (docs/realism*)",
+                          [](CLI::App* sub) {
+                            auto o = std::make_shared<Opts>();
+                            sub->add_option("--shared", o->shared, "the shared folder (data/cityscapes, data/kitti)")
+                                ->capture_default_str();
+                            sub->add_option("--real", o->real, "folder of real night photos (default <shared>/data/night_real)");
+                            sub->add_option("--previews", o->previews, "where the previews go (default: a new temp folder)");
+                            sub->add_option("--out-dir", o->out_dir, "where CSVs and charts go (default docs/)");
+                            sub->add_option("--threads", o->threads, "OpenMP threads")->capture_default_str();
+                            sub->add_option("--repeats", o->repeats, "timed runs per frame (best kept)")->capture_default_str();
+                            sub->add_option("--max-frames", o->max_frames, "frames per data set (0: all)")->capture_default_str();
+                            sub->add_flag("--no-stats", o->no_stats, "only write the previews and the manifest");
+                            sub->callback([o] { run(*o); });
+                          });
+}  // namespace photosite::cli

@@ -1,0 +1,132 @@
+"""The statistics and features of bench/realism.py and bench/realism_stats.py on synthetic images
+whose answers are known in closed form."""
+import math
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "bench"))
+import realism  # noqa: E402
+import realism_stats as rs  # noqa: E402
+
+
+def grey(h, w, v):
+    return np.full((h, w, 3), v, np.float32)
+
+
+def test_luma_is_rec709_weights():
+    rgb = np.zeros((1, 3, 3), np.float32)
+    rgb[0, 0, 0] = rgb[0, 1, 1] = rgb[0, 2, 2] = 1
+    np.testing.assert_allclose(rs.luma(rgb)[0], [0.2126, 0.7152, 0.0722], rtol=1e-6)
+
+
+def test_statistics_of_a_half_dark_half_saturated_image():
+    img = grey(100, 200, 0.05)
+    img[:, 100:] = 1.0  # right half saturated white: one blob of 100x100 px
+    s, h = realism.statistics(img)
+    assert s["dark_fraction"] == pytest.approx(0.5)
+    assert s["highlight_fraction"] == pytest.approx(0.5)
+    assert s["median_luma"] == pytest.approx(0.525, abs=1e-6)  # the even count's middle: mean of 0.05 and 1
+    assert s["b_over_r"] == pytest.approx(1.0) and s["g_over_r"] == pytest.approx(1.0)
+    assert s["blobs_per_mpx"] == pytest.approx(1 / (100 * 200 / 1e6))
+    assert s["blob_median_px"] == 100 * 100
+    assert h.sum() == pytest.approx(1.0)
+
+
+def test_blobs_count_8_connected_regions_and_skip_speckle():
+    y = np.zeros((50, 50), np.float32)
+    y[5:8, 5:8] = 1         # 9 px
+    y[8, 8] = 1             # touches the first diagonally: same blob (10 px)
+    y[20:22, 30:34] = 0.95  # 8 px, above BLOB_LUMA
+    y[40, 40] = 1           # 1 px: speckle, below BLOB_MIN_PX
+    y[45:47, 10] = 0.89     # below BLOB_LUMA
+    areas = sorted(realism.light_blobs(y))
+    assert areas == [8, 10]
+
+
+def test_colour_ratios_of_a_known_colour():
+    s, _ = realism.statistics(grey(10, 10, 0.0) + np.array([0.4, 0.2, 0.1], np.float32))
+    assert s["b_over_r"] == pytest.approx(0.25, rel=1e-5)
+    assert s["g_over_r"] == pytest.approx(0.5, rel=1e-5)
+
+
+def test_emd_of_shifted_deltas_is_the_shift():
+    a = np.zeros(64)
+    b = np.zeros(64)
+    a[10] = 1
+    b[30] = 1
+    assert realism.emd(a, b) == pytest.approx(20 / 64)
+    assert realism.emd(a, a) == 0
+
+
+def test_features_of_a_flat_patch():
+    f = dict(zip(rs.FEATURE_NAMES, rs.features(grey(128, 128, 0.5))))
+    assert len(rs.FEATURE_NAMES) == len(rs.features(grey(8, 8, 0.5)))
+    assert f["luma_hist_8"] == pytest.approx(1.0)  # 0.5 falls in bin 8 of 16
+    assert f["grad_hist_0"] == pytest.approx(1.0)  # no gradient anywhere
+    assert f["luma_std"] == pytest.approx(0, abs=1e-7) and f["local_contrast"] == pytest.approx(0, abs=1e-7)
+    assert f["highlight_fraction"] == 0 and f["mean_luma"] == pytest.approx(0.5, rel=1e-6)
+
+
+def test_features_of_a_ramp_have_its_gradient():
+    x = np.linspace(0, 1, 128, dtype=np.float32)
+    img = np.repeat(np.repeat(x[None, :, None], 128, 0), 3, 2)  # luma = x: gradient 1/127 per px
+    f = dict(zip(rs.FEATURE_NAMES, rs.features(img)))
+    g = 1 / 127
+    k = int(np.searchsorted(rs.GRAD_EDGES, g, side="right")) - 1
+    assert f[f"grad_hist_{k}"] == pytest.approx(1.0)
+    assert f["luma_std"] == pytest.approx(1 / math.sqrt(12), rel=0.02)  # uniform on [0, 1]
+
+
+def test_box_mean_of_a_constant_and_of_an_impulse():
+    np.testing.assert_allclose(rs.box_mean(np.full((9, 9), 3.0), 5), 3.0)
+    a = np.zeros((9, 9))
+    a[4, 4] = 25
+    m = rs.box_mean(a, 5)
+    assert m[4, 4] == pytest.approx(1.0) and m[2, 2] == pytest.approx(1.0) and m[1, 1] == 0
+
+
+def test_balanced_accuracy_and_its_image_level_standard_error():
+    # class 0: two images, all right and half right; class 1: two images, all right.
+    correct = np.array([1, 1, 1, 0, 1, 1, 1, 1], float)
+    labels = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    groups = np.array([0, 0, 1, 1, 2, 2, 3, 3])
+    ba, se, n = rs.balanced_accuracy_by_image(correct, labels, groups)
+    assert ba == pytest.approx(0.5 * (0.75 + 1.0))
+    assert se == pytest.approx(0.5 * math.sqrt(np.var([1, 0.5], ddof=1) / 2))
+    assert n == [2, 2]
+
+
+def test_photos_needed_scales_with_the_variance():
+    # SE 0.051 with 8 per class: a +-0.05 interval needs (1.96*0.051/0.05)^2 = 4.0 times the photos.
+    assert rs.photos_needed(0.051, 8) == math.ceil(8 * (1.96 * 0.051 / 0.05) ** 2)
+
+
+def test_two_sample_test_separates_different_and_not_identical_distributions():
+    rng = np.random.default_rng(1)
+    dark = [rs.patch_features(np.clip(rng.normal(0.1, 0.02, (256, 256, 3)), 0, 1).astype(np.float32))
+            for _ in range(6)]
+    bright = [rs.patch_features(np.clip(rng.normal(0.6, 0.02, (256, 256, 3)), 0, 1).astype(np.float32))
+              for _ in range(6)]
+    same = [rs.patch_features(np.clip(rng.normal(0.1, 0.02, (256, 256, 3)), 0, 1).astype(np.float32))
+            for _ in range(6)]
+    assert rs.two_sample_test(dark, bright)["balanced_accuracy"] == 1.0
+    # Same distribution: chance. 12 images x 4 patches; a per-image SE bound of 5 sigma around 0.5
+    # (each image's fraction correct is a mean of 4 Bernoulli(1/2): sd 0.25; SE = 0.5*sqrt(2*0.25^2/6) = 0.072).
+    t = rs.two_sample_test(dark, same)
+    assert abs(t["balanced_accuracy"] - 0.5) <= 5 * 0.5 * math.sqrt(2 * 0.25 ** 2 / 6)
+
+
+def test_leave_one_source_out_keeps_a_real_difference_and_holds_out_whole_sources():
+    rng = np.random.default_rng(2)
+    img = lambda mu: rs.patch_features(np.clip(rng.normal(mu, 0.02, (256, 256, 3)), 0, 1).astype(np.float32))
+    dark = [img(0.1) for _ in range(4)]
+    bright = [img(0.6) for _ in range(4)]
+    t = rs.two_sample_test(dark, bright, sources_a=["x", "x", "y", "y"], sources_b=["u", "u", "v", "v"])
+    assert t["balanced_accuracy"] == 1.0
+    # A source name shared by both sides is still two groups (one per side): no fold may hold
+    # every image of one class out of training.
+    t = rs.two_sample_test(dark, bright, sources_a=["x", "x", "y", "y"], sources_b=["x", "x", "y", "y"])
+    assert t["balanced_accuracy"] == 1.0
