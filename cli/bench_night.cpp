@@ -119,8 +119,11 @@ void run(const Opts& o) {
   }
   const double scene_ms = median(t["scene stages (linearize..compose)"]);
   const double whole_ms = median(t["whole chain"]);
-  std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain < 50 ms: %s (%.1f ms)\n",
-              scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms < 50 ? "met" : "NOT met", whole_ms);
+  const double lights_ms = t.count("lights") ? median(t["lights"]) : 0;
+  std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain <= 50 ms: %s (%.1f ms); "
+              "light map <= 10 ms: %s (%.1f ms)\n",
+              scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms <= 50 ? "met" : "NOT met", whole_ms,
+              lights_ms <= 10 ? "met" : "NOT met", lights_ms);
   atomic_write(csv_path, [&](const std::string& tmp) {
     std::ofstream f(tmp);
     f << csv;

@@ -80,6 +80,7 @@ class BoundedQueue {
 struct BatchCmd {
   std::string dataset, root, manifest, out, shard = "0/1", format = "exr", compression = "piz",
                                                scene_preset = "night-urban";
+  std::string rig = "auto";  // auto: the data set's rig (kitti, cityscapes), else by aspect ratio
   bool half = false, quiet = false;
   int jobs = 1, queue_depth = 2;
   int compute_threads = 0;  // 0: OpenMP's default (every hardware thread)
@@ -141,6 +142,8 @@ void run(BatchCmd& c) {
     all = batch::discover(ds, c.root);
     source = std::string(batch::to_string(ds)) + " " + fs::absolute(c.root).lexically_normal().string();
     if (c.sensor.preset.empty()) c.sensor.preset = ds == batch::Dataset::Kitti ? "sony-icx267-flea2" : "onsemi-ar0331";
+    if (c.rig == "auto" && ds == batch::Dataset::Kitti) c.rig = "kitti";
+    if (c.rig == "auto" && ds == batch::Dataset::Cityscapes) c.rig = "cityscapes";
   }
   if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";
   if (c.sensor.frames != 1) fail("batch: --frames does not apply (sequences come from the data set's own frames)");
@@ -152,7 +155,8 @@ void run(BatchCmd& c) {
   const std::vector<Item> items = batch::shard(all, shard_i, shard_n);
   auto r = c.sensor.resolve();
   SensorRunner runner(resolve_backend(c.backend));
-  const scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
+  scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
+  if (c.rig != "auto") sp.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)
 
   // Parameters that decide the results (not the shard: results do not depend on the split).
   nlohmann::json params = {
@@ -160,6 +164,7 @@ void run(BatchCmd& c) {
       {"camera", r.camera.name}, {"camera_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(r.camera.file)))},
       {"lens", r.lens.name}, {"lens_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(r.lens.file)))},
       {"scene_preset", sp.name}, {"scene_file_fnv", fmt::format("{:016x}", batch::fnv1a_text(read_text(sp.file)))},
+      {"camera_rig", c.rig}, {"rig_file_fnv", sp.rig.file.empty() ? std::string() : fmt::format("{:016x}", batch::fnv1a_text(read_text(sp.rig.file)))},
       {"exposure_s", r.settings.exposure_s}, {"f_number", std::isnan(r.settings.f_number) ? -1.0 : r.settings.f_number},
       {"gain_db", r.settings.gain_db}, {"temperature_c", std::isnan(r.settings.temperature_c) ? -999.0 : r.settings.temperature_c},
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
@@ -402,6 +407,8 @@ static Registrar reg("f-batch", [](CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--queue-depth", c->queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
+  sub->add_option("--rig", c->rig, "camera rig (presets/rigs name or .toml path; auto: the data set's, else by aspect ratio)")
+      ->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false);
   add_backend_option(sub, c->backend);

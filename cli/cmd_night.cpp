@@ -25,6 +25,7 @@ namespace photosite::cli {
 struct NightCmd {
   std::string image, labels, instances, out, preview, maps;
   std::string scene_preset = "night-urban";
+  std::string rig = "auto";
   std::string label_format = "auto";
   std::string resize_labels = "none";
   double ambient_lux = std::numeric_limits<double>::quiet_NaN();
@@ -72,7 +73,12 @@ void write_maps(const std::string& dir, const ImageF& day, const scene::LabelMap
     std::copy_n(reinterpret_cast<float*>(m.data), f.size(), f.data());
     write_png(path("lines_vp.png"), f);
   }
-  write_png(path("depth.png"), ns.depth);
+  {  // metric depth on a log scale: 1 m white .. 1000 m black, sky black
+    ImageF d(ns.depth.width(), ns.depth.height(), 1);
+    for (size_t i = 0; i < d.size(); ++i)
+      d[i] = static_cast<float>(std::clamp(1.0 - std::log10(std::max(1.0, static_cast<double>(ns.depth[i]))) / 3, 0.0, 1.0));
+    write_png(path("depth.png"), d);
+  }
   auto log_lum = [](const ImageF& rad) {  // log10 luminance from 1e-3 to 1e3 cd/m² → 0..1
     ImageF f(rad.width(), rad.height(), 1);
     for (size_t i = 0; i < f.pixel_count(); ++i) {
@@ -132,6 +138,7 @@ void run_night(NightCmd c) {
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? "kitti" : c.rig, day_raw.width(), day_raw.height());
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
@@ -162,6 +169,10 @@ void run_night(NightCmd c) {
   std::printf("vanishing point (%.1f, %.1f) px, method %s, confidence %.2f%s%s\n", ns.vp.x, ns.vp.y,
               scene::vp_method_name(ns.vp.method), ns.vp.confidence, ns.vp.note.empty() ? "" : ": ",
               ns.vp.note.c_str());
+  std::printf("horizon y %.1f px from the %s (confidence %.2f), rig %s: f %.1f px, height %.2f m, pitch %.2f deg\n",
+              ns.geometry.horizon_y, ns.geometry.horizon_source == "rig" ? "rig's nominal pitch" : "vanishing point",
+              ns.geometry.horizon_confidence, ns.geometry.rig.c_str(), ns.geometry.f_px, ns.geometry.mount_height_m,
+              ns.geometry.pitch_rad * 180 / M_PI);
   if (c.timings) {
     std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());
@@ -189,6 +200,8 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--instances", c.instances, "Cityscapes *_instanceIds.png (per-vehicle lights)");
   sub->add_option("--out", c.out, "output EXR (with --frames, a # run takes the frame number)")->required();
   sub->add_option("--scene-preset", c.scene_preset, "scene preset: name in presets/scenes or a .toml path")
+      ->capture_default_str();
+  sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, or auto (nearest native aspect ratio)")
       ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
