@@ -53,17 +53,21 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
   const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
-  // Road extent across: per row with the ground 12..40 m ahead (far enough that a road edge is
-  // inside the view at most focal lengths), the outermost road pixels; medians.
+  // Road extent across: per row with the ground 20..60 m ahead, the carriageway the camera looks
+  // along: from the principal column outward over road and the vehicles standing on it, to the
+  // first other pixel (the kerb); a run reaching the image border says nothing about that side.
+  // Medians over the rows. (Taking this run rather than the outermost road pixels keeps side
+  // streets entering the view from moving the edges.)
   std::vector<double> lefts, rights;
-  for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H; ++y) {
+  auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
+  const int xc = static_cast<int>(std::lround(g.cx_px));
+  for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H && xc >= 0 && xc < W; ++y) {
     double D;
-    if (!g.ground_point(g.cx_px, y, nullptr, &D, nullptr) || D < 12 || D > 40) continue;
-    int x0 = -1, x1 = -1;
-    for (int x = 0; x < W; ++x)
-      if (ids.at(x, y) == static_cast<int>(Label::Road)) { if (x0 < 0) x0 = x; x1 = x; }
-    if (x0 < 0) continue;
-    // An edge at the image border is the view's edge, not the road's.
+    if (!g.ground_point(g.cx_px, y, nullptr, &D, nullptr) || D < 20 || D > 60) continue;
+    if (ids.at(xc, y) != static_cast<int>(Label::Road)) continue;
+    int x0 = xc, x1 = xc;
+    while (x0 > 0 && carriageway(ids.at(x0 - 1, y))) --x0;
+    while (x1 < W - 1 && carriageway(ids.at(x1 + 1, y))) ++x1;
     double Xa, Xb;
     g.ground_point(x0 - 0.5, y, &Xa, nullptr, nullptr);
     g.ground_point(x1 + 0.5, y, &Xb, nullptr, nullptr);
