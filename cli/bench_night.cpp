@@ -64,7 +64,8 @@ void run(const Opts& o) {
     info.is_float = true;
     source = "synthetic road 2048x1024 (../shared/data/cityscapes absent)";
   }
-  const scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+  scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+  sp.rig = scene::rig_for_image(day.width(), day.height());  // as `night --rig auto` (read once, outside the timing)
   const CameraPreset cam = load_camera_preset(o.preset);
   const LensPreset lens = load_lens_preset(cam.default_lens);
   ExposureSettings es;

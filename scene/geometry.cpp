@@ -92,8 +92,9 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   // Per-row ground depth, and the horizontal distance D of the ground at each row's lower pixel
   // edge (y + 0.5: an object's lowest pixel meets the ground at its lower edge).
   std::vector<float> zg(H);
-  std::vector<double> d_edge(H);
+  std::vector<double> d_edge(H), plane(H);  // plane[y]: z per metre of D at row y (plane_depth_m(y, 1))
   for (int y = 0; y < H; ++y) {
+    plane[y] = g.plane_depth_m(y, 1.0);
     const double z = g.ground_depth_m(y);
     zg[y] = static_cast<float>(std::isfinite(z) ? std::min(z, max_depth_m) : max_depth_m);
     double D = 0;
@@ -103,9 +104,12 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   struct Run { int y, x0, x1, key; };
   std::vector<Run> runs;
   std::vector<int> row_start(H + 1, 0);
+  uint8_t kinds[kLabelCount];
+  for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
+  auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
   auto key_at = [&](int x, int y) -> int {
     const int id = ids.at(x, y);
-    if (kind_of(id) != 2) return -1;
+    if (kind_fast(id) != 2) return -1;
     if (inst) {
       const int c = lm.instances.at(x, y);
       if (c >= 1000) return 1000 + c;
@@ -176,7 +180,7 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     for (int x = c.x0; x <= c.x1; ++x) {
       int& y = col_ymax[c.col_off + (x - c.x0)];
       if (y < 0) continue;
-      while (y + 1 < H && kind_of(ids.at(x, y + 1)) == 2) ++y;
+      while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;
     }
   }
   // Fill: ground and sky per pixel, objects per run.
@@ -185,18 +189,17 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     float* o = depth.row(y);
     const uint16_t* r = ids.row(y);
     for (int x = 0; x < W; ++x) {
-      const int k = kind_of(r[x]);
-      o[x] = k == 1 ? kDepthInfinity_m : zg[y];  // objects overwritten below
+      o[x] = kind_fast(r[x]) == 1 ? kDepthInfinity_m : zg[y];  // objects overwritten below
     }
     for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
       const Comp& c = comps[comp[i]];
       if (c.single) {
-        const float z = static_cast<float>(std::min(g.plane_depth_m(y, d_edge[c.ymax]), max_depth_m));
+        const float z = static_cast<float>(std::min(plane[y] * d_edge[c.ymax], max_depth_m));
         std::fill(o + runs[i].x0, o + runs[i].x1 + 1, z);
       } else {
         for (int x = runs[i].x0; x <= runs[i].x1; ++x) {
           const int yc = col_ymax[c.col_off + (x - c.x0)];
-          o[x] = static_cast<float>(std::min(g.plane_depth_m(y, d_edge[yc]), max_depth_m));
+          o[x] = static_cast<float>(std::min(plane[y] * d_edge[yc], max_depth_m));
         }
       }
     }
