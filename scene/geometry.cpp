@@ -172,15 +172,51 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     if (c.single) continue;
     for (int x = runs[i].x0; x <= runs[i].x1; ++x) col_ymax[c.col_off + (x - c.x0)] = runs[i].y;
   }
-  // A column whose lowest pixel sits on another object (a façade behind a parked car, a tree
-  // trunk behind a hedge) has its contact hidden: it is taken at the bottom of the stack of
-  // objects below it, the nearest the hidden contact can be (a lower bound on the depth).
+  // The ground line of a vertical plane is a straight image line. Columns whose lowest pixel
+  // stands on a ground class show the contact; a straight line fitted to them (least squares,
+  // at least 8 columns and a fifth of the region's) gives every column's contact, so that a
+  // façade behind parked cars or hedges stays one plane; it is never taken above the column's
+  // own lowest pixel. With fewer such columns their median row is the contact (a fronto-parallel
+  // plane); with none, a column's contact is the bottom of the stack of objects below it (a
+  // façade behind a car: the nearest the hidden contact can be, a lower bound on the depth).
+  std::vector<double> col_D(cols, max_depth_m);
+  auto D_at = [&](double row) {  // horizontal distance of the ground at a (fractional) row edge
+    double D = 0;
+    return g.ground_point(g.cx_px, row, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
+  };
   for (auto& c : comps) {
     if (c.single) continue;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0, ncol = 0;
+    std::vector<int> rows;
     for (int x = c.x0; x <= c.x1; ++x) {
-      int& y = col_ymax[c.col_off + (x - c.x0)];
+      const int y = col_ymax[c.col_off + (x - c.x0)];
       if (y < 0) continue;
-      while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;
+      ++ncol;
+      if (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 0) {
+        sx += x; sy += y; sxx += double(x) * x; sxy += double(x) * y; ++n;
+        rows.push_back(y);
+      }
+    }
+    const double det = n * sxx - sx * sx;
+    const bool line = n >= 8 && 5 * n >= ncol && det > 0;
+    const double b = line ? (n * sxy - sx * sy) / det : 0, a = line ? (sy - b * sx) / n : 0;
+    double med = -1;
+    if (!line && n > 0) {
+      std::nth_element(rows.begin(), rows.begin() + rows.size() / 2, rows.end());
+      med = rows[rows.size() / 2];
+    }
+    for (int x = c.x0; x <= c.x1; ++x) {
+      int y = col_ymax[c.col_off + (x - c.x0)];
+      if (y < 0) continue;
+      double yc;
+      if (line) yc = std::max<double>(y, a + b * x);
+      else if (med >= 0) yc = std::max<double>(y, med);
+      else {
+        while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;
+        yc = y;
+      }
+      col_D[c.col_off + (x - c.x0)] = D_at(yc + 0.5);
     }
   }
   // Fill: ground and sky per pixel, objects per run.
@@ -198,8 +234,7 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
         std::fill(o + runs[i].x0, o + runs[i].x1 + 1, z);
       } else {
         for (int x = runs[i].x0; x <= runs[i].x1; ++x) {
-          const int yc = col_ymax[c.col_off + (x - c.x0)];
-          o[x] = static_cast<float>(std::min(plane[y] * d_edge[yc], max_depth_m));
+          o[x] = static_cast<float>(std::min(plane[y] * col_D[c.col_off + (x - c.x0)], max_depth_m));
         }
       }
     }

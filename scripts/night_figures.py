@@ -3,19 +3,19 @@
 
 Runs `photosite night` of this checkout (after) and, when given, another build (before, e.g. main
 before the metric scene) on three scenes: the bundled KITTI frame and two Cityscapes frames from
-../shared. Writes PNGs under docs/night/:
-  <scene>_before.png, <scene>_after.png   camera previews
+../shared. Writes pictures under docs/night/:
+  <scene>_before.jpg, <scene>_after.jpg   camera previews (at most 1024 px wide)
   <scene>_depth_m.png                      metric depth.Z with a colour bar in metres
-  <scene>_lights_log.png                   the light map, log10 luminance
+  <scene>_lights_log.jpg                   the light map, log10 luminance 1e-3..1e3 cd/m²
 Usage: scripts/night_figures.py [--before /path/to/old/photosite]
 """
 import argparse
 import os
-import shutil
 import subprocess
 import tempfile
 
 import matplotlib
+from PIL import Image
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -34,6 +34,14 @@ def scenes():
             "--image", os.path.join(cs, "leftImg8bit", n + "_leftImg8bit.png"),
             "--labels", os.path.join(cs, "gtFine", n + "_gtFine_labelIds.png"),
             "--instances", os.path.join(cs, "gtFine", n + "_gtFine_instanceIds.png")], "cityscapes")
+
+
+def save_small(src, dst, width=1024):
+    """Copies a PNG as a JPEG at most `width` px wide (docs stay small)."""
+    im = Image.open(src).convert("RGB")
+    if im.width > width:
+        im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
+    im.save(dst, quality=85)
 
 
 def run(exe, args, tmp, maps=True, rig=None):
@@ -60,11 +68,11 @@ def main():
         for name, args, rig in scenes():
             after = os.path.join(tmp, name + "_after")
             run(exe, args, after, rig=rig)
-            shutil.copy(os.path.join(after, "n.png"), os.path.join(OUT, name + "_after.png"))
+            save_small(os.path.join(after, "n.png"), os.path.join(OUT, name + "_after.jpg"))
             if a.before:
                 before = os.path.join(tmp, name + "_before")
                 run(a.before, args, before, maps=False)
-                shutil.copy(os.path.join(before, "n.png"), os.path.join(OUT, name + "_before.png"))
+                save_small(os.path.join(before, "n.png"), os.path.join(OUT, name + "_before.jpg"))
             # depth.png holds 1 - log10(z)/3 (1 m white .. 1000 m black, sky black): back to metres.
             v = plt.imread(os.path.join(after, "depth.png"))
             if v.ndim == 3:
@@ -79,7 +87,7 @@ def main():
             cb.set_label("depth.Z (m), flat ground + vertical planes")
             fig.savefig(os.path.join(OUT, name + "_depth_m.png"), dpi=100, bbox_inches="tight")
             plt.close(fig)
-            shutil.copy(os.path.join(after, "lights_log.png"), os.path.join(OUT, name + "_lights_log.png"))
+            save_small(os.path.join(after, "lights_log.png"), os.path.join(OUT, name + "_lights_log.jpg"))
     print("wrote", OUT)
 
 
