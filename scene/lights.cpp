@@ -430,7 +430,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // Street lighting in metres: luminaires on poles or along the road edges, their pools on the
   // ground and their heads (scene/street.cpp).
   if (geometry) {
-    out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
+    out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p, depth_m);
     out.stats.street_lamps = static_cast<int>(sl.lamps.size());
     out.stats.street_lamp_source = sl.source;
     out.stats.street_peak_intensity_cd = sl.peak_intensity_cd;

@@ -143,8 +143,11 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
           if (id == static_cast<int>(Label::TrafficSign) || id == static_cast<int>(Label::TrafficLight)) capped = true;
         }
       if (capped) continue;
-      // A pole cut by the image top is taller than it looks: the preset's height then.
-      s.lamps.push_back({X, y0 > 0 ? Ytop : std::max(Ytop, p.lamp_mount_height_m), D, true});
+      // A pole cut by the image top or whose top is hidden (anything but sky above it: a tree
+      // crown, a building) is taller than it looks: at least the preset's height then.
+      const int xt = std::clamp(x0 + w / 2, 0, W - 1);
+      const bool top_seen = y0 > 0 && ids.at(xt, y0 - 1) == static_cast<int>(Label::Sky);
+      s.lamps.push_back({X, top_seen ? Ytop : std::max(Ytop, p.lamp_mount_height_m), D, true});
     }
   }
   // The standard layout along the road edges: staggered rows on both edges for a road wider
@@ -209,7 +212,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
 }
 
 int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
-                        const StreetLighting& s, const ScenePreset& p) {
+                        const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m) {
   if (s.lamps.empty()) return 0;
   const int W = L.width(), H = L.height();
   const auto tl = illuminant_tint(p.street_cct_K);
@@ -251,7 +254,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
     bool any = false;
     for (int y = std::max(0, static_cast<int>(std::floor(v - r))); y <= std::min(H - 1, static_cast<int>(std::ceil(v + r))); ++y)
       for (int x = std::max(0, static_cast<int>(std::floor(u - r))); x <= std::min(W - 1, static_cast<int>(std::ceil(u + r))); ++x)
-        if ((x - u) * (x - u) + (y - v) * (y - v) <= r * r) {
+        if ((x - u) * (x - u) + (y - v) * (y - v) <= r * r && (!depth_m || depth_m->at(x, y) >= z - 1.0)) {
           for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(head[k]));
           any = true;
         }
