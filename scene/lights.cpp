@@ -315,7 +315,11 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       double Xo = v.X;
       g.ground_point(v.X < road_mid ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
       const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
-      const bool in_lane = !extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m && Xo < sl.road_right_m - p.veh_kerb_strip_m);
+      // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
+      // the conservative reading (an approximation: a passing vehicle there stays dark too).
+      const bool cut = b.x0 == 0 || b.x1 == W - 1;
+      const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
+                                                Xo < sl.road_right_m - p.veh_kerb_strip_m));
       if (on_road && in_lane) {
         v.state = 1;
         ++out.stats.vehicles_in_traffic;
