@@ -223,8 +223,9 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o);
 
 // A scene rendered from a known camera by ray casting (one ray per pixel centre): a flat road
 // (Y = 0) with a 1 m texture checker, lane markings (dashes 3 m on / 6 m off at X = ±lane_width/2,
-// solid lines 0.2 m inside the road edges), sidewalks, terrain beyond, sky above the horizon, and
-// boxes standing on the road (front face at D, sides visible, labelled car with instances).
+// solid lines 0.2 m inside the road edges), sidewalks, building façades 12 m tall beyond them
+// (3 to 200 m ahead), terrain beyond, sky above the horizon, and boxes standing on the road (front
+// face at D, sides visible, labelled car with instances).
 struct SyntheticBox { double X_m, D_m, width_m, height_m, length_m; };
 struct SyntheticCameraOptions {
   int width = 1024, height = 512;

@@ -5,7 +5,6 @@
 #include <array>
 #include <map>
 #include <string>
-#include <vector>
 
 #include "photosite/io.h"
 #include "photosite/scene/rig.h"
@@ -37,10 +36,6 @@ struct ScenePreset {
   double veh_lamp_height_m = 0.7, veh_lamp_inset_m = 0.15, veh_head_diameter_m = 0.18,
          veh_tail_diameter_m = 0.12, veh_head_intensity_cd = 350, veh_tail_intensity_cd = 8,
          veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5;
-  // [ego_beam] table: luminous intensity (cd) of the ego low beam (both lamps) over horizontal
-  // (positive right) and vertical (positive up) angle, row-major [v][h]; lamp height.
-  std::vector<double> beam_h_deg, beam_v_deg, beam_intensity_cd;
-  double beam_lamp_height_m = 0.65;
   // [windows] façade layout in metres.
   double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,
          shop_luminance_factor = 3, shop_cct_K = 3000;
