@@ -173,10 +173,10 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     for (int x = runs[i].x0; x <= runs[i].x1; ++x) col_ymax[c.col_off + (x - c.x0)] = runs[i].y;
   }
   // The ground line of a vertical plane is a straight image line. Columns whose lowest pixel
-  // stands on a ground class show the contact; a straight line fitted to them (least squares,
-  // at least 8 columns and a fifth of the region's) gives every column's contact, so that a
-  // façade behind parked cars or hedges stays one plane; it is never taken above the column's
-  // own lowest pixel. With fewer such columns their median row is the contact (a fronto-parallel
+  // stands on a ground class show the contact and keep it; a straight line fitted to them (least
+  // squares, at least 8 columns and a fifth of the region's) gives the hidden columns theirs, so
+  // that a façade behind parked cars or hedges stays one plane; it is never taken above the
+  // column's own lowest pixel. With fewer such columns their median row is the contact (a fronto-parallel
   // plane); with none, a column's contact is the bottom of the stack of objects below it (a
   // façade behind a car: the nearest the hidden contact can be, a lower bound on the depth).
   std::vector<double> col_D(cols, max_depth_m);
@@ -210,7 +210,8 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
       int y = col_ymax[c.col_off + (x - c.x0)];
       if (y < 0) continue;
       double yc;
-      if (line) yc = std::max<double>(y, a + b * x);
+      if (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 0) yc = y;  // a column that shows its contact keeps it
+      else if (line) yc = std::max<double>(y, a + b * x);
       else if (med >= 0) yc = std::max<double>(y, med);
       else {
         while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;

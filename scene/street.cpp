@@ -143,11 +143,9 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
           if (id == static_cast<int>(Label::TrafficSign) || id == static_cast<int>(Label::TrafficLight)) capped = true;
         }
       if (capped) continue;
-      // A pole cut by the image top or whose top is hidden (anything but sky above it: a tree
-      // crown, a building) is taller than it looks: at least the preset's height then.
-      const int xt = std::clamp(x0 + w / 2, 0, W - 1);
-      const bool top_seen = y0 > 0 && ids.at(xt, y0 - 1) == static_cast<int>(Label::Sky);
-      s.lamps.push_back({X, top_seen ? Ytop : std::max(Ytop, p.lamp_mount_height_m), D, true});
+      // A pole cut by the image top is taller than it looks: the preset's height then. (A top
+      // hidden by a tree crown is not detected: the luminaire sits at the visible top.)
+      s.lamps.push_back({X, y0 > 0 ? Ytop : std::max(Ytop, p.lamp_mount_height_m), D, true});
     }
   }
   // The standard layout along the road edges: staggered rows on both edges for a road wider
