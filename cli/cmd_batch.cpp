@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "photosite/batch.h"
+#include "photosite/scene/rig.h"
 #include "photosite/error.h"
 #include "backend.h"
 #include "registry.h"
@@ -26,6 +27,7 @@ void on_signal(int) { g_stop = true; }
 
 struct BatchCmd {
   std::string dataset, root, manifest, shard = "0/1", scene_preset = "night-urban";
+  std::string rig = "auto";  // auto: the data set's rig (kitti, cityscapes), else by aspect ratio
   std::string layers;  // empty: kBatchLayers
   bool quiet = false;
   batch::Options options;
@@ -52,6 +54,8 @@ void run(BatchCmd& c) {
     o.source = std::string(batch::to_string(ds)) + " " + fs::absolute(c.root).lexically_normal().string();
     o.root = c.root;
     if (c.sensor.preset.empty()) c.sensor.preset = ds == batch::Dataset::Kitti ? "sony-icx267-flea2" : "onsemi-ar0331";
+    if (c.rig == "auto" && ds == batch::Dataset::Kitti) c.rig = "kitti";
+    if (c.rig == "auto" && ds == batch::Dataset::Cityscapes) c.rig = "cityscapes";
   }
   if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";
   if (c.sensor.frames != 1) fail("batch: --frames does not apply (sequences come from the data set's own frames)");
@@ -59,6 +63,7 @@ void run(BatchCmd& c) {
   o.sensor = r;
   o.device_store = r.store.dir();
   o.scene = scene::load_scene_preset(c.scene_preset);
+  if (c.rig != "auto") o.scene.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)
   SensorRunner runner(resolve_backend(c.backend));
 
   std::signal(SIGINT, on_signal);
@@ -117,6 +122,8 @@ static Registrar reg("f-batch", [](CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--queue-depth", o.queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
+  sub->add_option("--rig", c->rig, "camera rig (presets/rigs name or .toml path; auto: the data set's, else by aspect ratio)")
+      ->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false);
   add_backend_option(sub, c->backend);

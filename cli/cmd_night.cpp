@@ -26,6 +26,7 @@ namespace photosite::cli {
 struct NightCmd {
   std::string image, labels, instances, out, preview, maps;
   std::string scene_preset = "night-urban";
+  std::string rig = "auto";
   std::string label_format = "auto";
   std::string resize_labels = "none";
   std::optional<double> ambient_lux;  // none: the scene preset's
@@ -82,6 +83,7 @@ void run_night(NightCmd c) {
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? "kitti" : c.rig, day_raw.width(), day_raw.height());
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
@@ -114,6 +116,10 @@ void run_night(NightCmd c) {
   std::printf("vanishing point (%.1f, %.1f) px, method %s, confidence %.2f%s%s\n", ns.vp.x, ns.vp.y,
               scene::vp_method_name(ns.vp.method), ns.vp.confidence, ns.vp.note.empty() ? "" : ": ",
               ns.vp.note.c_str());
+  std::printf("horizon y %.1f px from the %s (confidence %.2f), rig %s: f %.1f px, height %.2f m, pitch %.2f deg\n",
+              ns.geometry.horizon_y, ns.geometry.horizon_source == "rig" ? "rig's nominal pitch" : "vanishing point",
+              ns.geometry.horizon_confidence, ns.geometry.rig.c_str(), ns.geometry.f_px, ns.geometry.mount_height_m,
+              ns.geometry.pitch_rad * 180 / M_PI);
   if (c.timings) {
     std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());
@@ -141,6 +147,8 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--instances", c.instances, "Cityscapes *_instanceIds.png (per-vehicle lights)");
   sub->add_option("--out", c.out, "output EXR (with --frames, a # run takes the frame number)")->required();
   sub->add_option("--scene-preset", c.scene_preset, "scene preset: name in presets/scenes or a .toml path")
+      ->capture_default_str();
+  sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, or auto (nearest native aspect ratio)")
       ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
