@@ -53,11 +53,10 @@ void run(BatchCmd& c) {
     items = batch::discover(ds, c.root);
     o.source = std::string(batch::to_string(ds)) + " " + fs::absolute(c.root).lexically_normal().string();
     o.root = c.root;
-    if (c.sensor.preset.empty()) c.sensor.preset = ds == batch::Dataset::Kitti ? "sony-icx267-flea2" : "onsemi-ar0331";
-    if (c.rig == "auto" && ds == batch::Dataset::Kitti) c.rig = "kitti";
-    if (c.rig == "auto" && ds == batch::Dataset::Cityscapes) c.rig = "cityscapes";
+    if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(ds).camera;
+    if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;
   }
-  if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";
+  if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
   if (c.sensor.frames != 1) fail("batch: --frames does not apply (sequences come from the data set's own frames)");
   auto r = c.sensor.resolve();
   o.sensor = r;

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "photosite/environment.h"
+#include "photosite/batch.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -52,11 +53,11 @@ void run_night(NightCmd c) {
   if (bundled) {
     c.image = night_sample_dir() + "/kitti/image_2/000000_10.png";
     c.labels = night_sample_dir() + "/kitti/semantic/000000_10.png";
-    if (c.sensor.preset.empty()) c.sensor.preset = "sony-icx267-flea2";  // KITTI's camera
+    if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Kitti).camera;
   } else if (c.image.empty() || c.labels.empty()) {
     fail("night: give both --image and --labels, or neither to run on the bundled KITTI sample");
   }
-  if (c.sensor.preset.empty()) c.sensor.preset = "onsemi-ar0331";  // Cityscapes' camera
+  if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
   scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
   if (c.ambient_lux) set_ambient_lux(sp, *c.ambient_lux);
   const auto fmt_label = scene::parse_label_format(c.label_format);
@@ -83,7 +84,7 @@ void run_night(NightCmd c) {
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
-  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? "kitti" : c.rig, day_raw.width(), day_raw.height());
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_raw.width(), day_raw.height());
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())

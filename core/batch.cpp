@@ -23,6 +23,15 @@ Dataset parse_dataset(const std::string& name) {
   if (name == "bdd100k") return Dataset::Bdd100k;
   fail_parameter("dataset", "unknown ", " '" + name + "' (expected cityscapes, kitti or bdd100k)");
 }
+DatasetCamera dataset_camera(Dataset d) {
+  switch (d) {
+    case Dataset::Cityscapes: return {"onsemi-ar0331", "cityscapes"};
+    case Dataset::Kitti: return {"sony-icx267-flea2", "kitti"};
+    case Dataset::Bdd100k: return {"onsemi-ar0331", "auto"};
+  }
+  return {"onsemi-ar0331", "auto"};
+}
+
 const char* to_string(Dataset d) {
   switch (d) {
     case Dataset::Cityscapes: return "cityscapes";

@@ -18,6 +18,8 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
+#include "photosite/scene/rig.h"
+#include "photosite/sensor/preset.h"
 #include "photosite/sensor/isp.h"
 #include "test_util.h"
 
@@ -461,4 +463,15 @@ TEST(Batch, LinkedDataSetAndCompressionName) {
     EXPECT_EQ(by_codec["dwaa"].pixel_types.at(name), ExrPixel::Uint) << name;
     EXPECT_TRUE(by_codec["dwaa"].channels.at(name).vec() == by_codec["rle"].channels.at(name).vec()) << name;
   }
+}
+
+// Every data set's default camera is a bundled camera preset and its rig a bundled rig (or auto).
+TEST(Batch, DatasetCamerasAreBundledPresets) {
+  for (auto d : {batch::Dataset::Cityscapes, batch::Dataset::Kitti, batch::Dataset::Bdd100k}) {
+    const auto dc = batch::dataset_camera(d);
+    EXPECT_EQ(load_camera_preset(dc.camera).name, dc.camera) << batch::to_string(d);
+    if (std::string(dc.rig) != "auto") EXPECT_EQ(scene::load_camera_rig(dc.rig).name, dc.rig) << batch::to_string(d);
+  }
+  EXPECT_STREQ(batch::dataset_camera(batch::Dataset::Kitti).camera, "sony-icx267-flea2");
+  EXPECT_STREQ(batch::dataset_camera(batch::Dataset::Cityscapes).rig, "cityscapes");
 }

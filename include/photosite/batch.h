@@ -18,6 +18,16 @@ enum class Dataset { Cityscapes, Kitti, Bdd100k };
 Dataset parse_dataset(const std::string& name);  // bad input on anything else
 const char* to_string(Dataset d);
 
+// The camera preset and camera rig (presets/rigs) a data set was recorded with, the defaults of
+// `batch --dataset` and of the bundled KITTI sample: Cityscapes onsemi-ar0331 on the "cityscapes"
+// rig, KITTI sony-icx267-flea2 (FLIR Flea2) on the "kitti" rig; BDD100K's dashcams vary, so
+// onsemi-ar0331 and rig "auto" (chosen per image by aspect ratio, scene/rig.h).
+struct DatasetCamera {
+  const char* camera;
+  const char* rig;
+};
+DatasetCamera dataset_camera(Dataset d);
+
 struct Item {
   std::string key;          // unique relative path of the output, without extension ('/'-separated)
   std::string image, labels, instances;           // input paths
