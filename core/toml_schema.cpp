@@ -44,7 +44,7 @@ std::string range_text(double lo, double hi) {
 }
 
 std::string out_of_range(double v, double lo, double hi, std::string_view unit) {
-  std::string s = "value " + number_text(v) + " is outside " + range_text(lo, hi);
+  std::string s = "value " + number_text(v) + " is out of range, outside " + range_text(lo, hi);
   if (!unit.empty() && unit != "—") s += " (" + std::string(unit) + ")";
   return s;
 }

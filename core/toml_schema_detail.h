@@ -81,7 +81,7 @@ toml::table parse_toml(const std::string& text, const std::string& file);
 std::string number_text(double v);
 // "[0.1, 100]", "[0, ∞)", "(−∞, 5]"
 std::string range_text(double lo, double hi);
-// "value 120 is outside [0, 50] (%)": the range and, where the key has one, the unit.
+// "value 120 is out of range, outside [0, 50] (%)": the range and, where the key has one, the unit.
 std::string out_of_range(double v, double lo, double hi, std::string_view unit);
 
 // ---- the reader ----

@@ -154,17 +154,17 @@ TEST(PresetSchema, ErrorsNameFileLineKeyRangeAndUnit) {
   std::string bad = cam;
   bad.replace(bad.find("prnu_percent = 0.6"), 18, "prnu_percent = 60");
   EXPECT_NE(error_of([&] { parse_camera_preset(bad, "cam.toml"); })
-                .find("cam.toml:" + std::to_string(prnu_line) + ": prnu_percent: value 60 is outside [0, 50] (%)"),
+                .find("cam.toml:" + std::to_string(prnu_line) + ": prnu_percent: value 60 is out of range, outside [0, 50] (%)"),
             std::string::npos)
       << error_of([&] { parse_camera_preset(bad, "cam.toml"); });
   bad = cam;
   bad.replace(bad.find("bit_depth = 12"), 14, "bit_depth = 30");
-  EXPECT_NE(error_of([&] { parse_camera_preset(bad, "cam.toml"); }).find("bit_depth: value 30 is outside [1, 24] (bit)"),
+  EXPECT_NE(error_of([&] { parse_camera_preset(bad, "cam.toml"); }).find("bit_depth: value 30 is out of range, outside [1, 24] (bit)"),
             std::string::npos);
 
   auto lens_error = [&](const std::string& text) { return error_of([&] { parse_lens_preset(text, "l.toml"); }); };
   EXPECT_NE(lens_error(kLensHead + "[glare]\nveiling_glare_index = 0.03\ncore_deg = 20\nreach_deg = 30\n")
-                .find("l.toml:8: glare.core_deg: value 20 is outside [0.001, 10] (°)"),
+                .find("l.toml:8: glare.core_deg: value 20 is out of range, outside [0.001, 10] (°)"),
             std::string::npos);
   // Inside a table, an unknown key lists the table's keys; a missing one names the table's line.
   EXPECT_NE(lens_error(kLensHead + "[glare]\nveiling_glare_index = 0.03\ncore_dg = 0.1\n")
