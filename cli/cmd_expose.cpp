@@ -16,6 +16,7 @@ struct ExposeCmd {
   bool overwrite = false;
   bool half = false;
   std::string layers;  // empty: every layer expose writes
+  std::string compression = kDefaultExrCompression;
   SensorOptions sensor;
   std::string backend = "auto";
 };
@@ -44,6 +45,7 @@ ImageF load_radiance(const std::string& path) {
 
 void run(const ExposeCmd& c) {
   const LayerSet layers = c.layers.empty() ? kExposeLayers : parse_layers(c.layers, kExposeLayers, "--layers", "expose");
+  check_exr_compression(c.compression, "--compression");
   auto r = c.sensor.resolve();
   SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
@@ -69,10 +71,11 @@ void run(const ExposeCmd& c) {
     attrs["photosite/radiance_file"] = c.radiance;
     ExrWriteOptions wo;
     wo.half = c.half;
+    wo.compression = c.compression;
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) {
-      write_png(previews[f], preview_srgb(out.rgb, white_balance_gains(r.camera)));
+      write_png8(previews[f], preview_srgb8(out.rgb, white_balance_gains(r.camera)));
       std::printf("%s\n", previews[f].c_str());
     }
   }
@@ -89,6 +92,7 @@ static Registrar reg("b-expose", [](CLI::App& app) {
   sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (simple ISP, docs/sensor.md)");
   sub->add_flag("--half", cmd->half, "store channels as half floats");
   sub->add_option("--layers", cmd->layers, "comma list of layers to write: sensor,raw,electrons,radiance (default: all)");
+  sub->add_option("--compression", cmd->compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();
   add_overwrite_flag(sub, cmd->overwrite);
   sub->callback([cmd] { run(*cmd); });
 });

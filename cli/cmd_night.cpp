@@ -26,6 +26,7 @@ namespace photosite::cli {
 struct NightCmd {
   std::string image, labels, instances, out, preview, maps;
   std::string scene_preset = "night-urban";
+  std::string rig = "auto";
   std::string label_format = "auto";
   std::string resize_labels = "none";
   std::optional<double> ambient_lux;  // none: the scene preset's
@@ -33,6 +34,7 @@ struct NightCmd {
   SensorOptions sensor;
   std::string backend = "auto";
   std::string layers;  // empty: every layer
+  std::string compression = kDefaultExrCompression;
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -43,6 +45,7 @@ std::string night_sample_dir() {
 
 void run_night(NightCmd c) {
   const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
+  check_exr_compression(c.compression, "--compression");
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -80,6 +83,7 @@ void run_night(NightCmd c) {
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? "kitti" : c.rig, day_raw.width(), day_raw.height());
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
@@ -92,19 +96,19 @@ void run_night(NightCmd c) {
   for (const auto& st : chain.timings) times.push_back(st);
   t = clock::now();
 
-  const ImageF label_img = label_image(labels);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = night_frame(runner, chain, r, r.settings.frame);
     lap("sensor: noise, ADC, demosaic");
-    const auto groups = night_channels(out, ns, label_img, layers);
+    const auto groups = night_channels(out, ns, labels, layers);
     const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances});
     ExrWriteOptions wo;
     wo.half = c.half;
+    wo.compression = c.compression;
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) {
-      write_png(previews[f], preview_srgb(out.rgb, white_balance_gains(r.camera)));
+      write_png8(previews[f], preview_srgb8(out.rgb, white_balance_gains(r.camera)));
       std::printf("%s\n", previews[f].c_str());
     }
     lap("write outputs");
@@ -112,6 +116,10 @@ void run_night(NightCmd c) {
   std::printf("vanishing point (%.1f, %.1f) px, method %s, confidence %.2f%s%s\n", ns.vp.x, ns.vp.y,
               scene::vp_method_name(ns.vp.method), ns.vp.confidence, ns.vp.note.empty() ? "" : ": ",
               ns.vp.note.c_str());
+  std::printf("horizon y %.1f px from the %s (confidence %.2f), rig %s: f %.1f px, height %.2f m, pitch %.2f deg\n",
+              ns.geometry.horizon_y, ns.geometry.horizon_source == "rig" ? "rig's nominal pitch" : "vanishing point",
+              ns.geometry.horizon_confidence, ns.geometry.rig.c_str(), ns.geometry.f_px, ns.geometry.mount_height_m,
+              ns.geometry.pitch_rad * 180 / M_PI);
   if (c.timings) {
     std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());
@@ -140,6 +148,8 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--out", c.out, "output EXR (with --frames, a # run takes the frame number)")->required();
   sub->add_option("--scene-preset", c.scene_preset, "scene preset: name in presets/scenes or a .toml path")
       ->capture_default_str();
+  sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, or auto (nearest native aspect ratio)")
+      ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
   sub->add_option("--resize-labels", c.resize_labels, "none or nearest (labels of another size)")
@@ -149,6 +159,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");
   sub->add_option("--layers", c.layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
+  sub->add_option("--compression", c.compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();
   c.sensor.add(sub, false);
   add_backend_option(sub, c.backend);
   add_overwrite_flag(sub, c.overwrite);

@@ -3,9 +3,11 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 #include <Imath/half.h>
+#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdio>
 #include <cerrno>
@@ -13,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "photosite/environment.h"
 #include "photosite/error.h"
@@ -221,16 +224,38 @@ const char* to_string(ExrPixel p) {
   return "?";
 }
 
+const std::vector<std::string>& exr_compressions() {
+  static const std::vector<std::string> names = {"none", "rle",  "zips", "zip",  "piz",
+                                                 "pxr24", "b44", "b44a", "dwaa", "dwab"};
+  return names;
+}
+
+bool exr_compression_lossless(const std::string& name) {
+  return name == "none" || name == "rle" || name == "zips" || name == "zip" || name == "piz";
+}
+
+void check_exr_compression(const std::string& name, const std::string& what) {
+  const auto& all = exr_compressions();
+  if (std::find(all.begin(), all.end(), name) == all.end())
+    fail(fmt::format("{} '{}': not an OpenEXR compression (one of {})", what, name, fmt::join(all, ", ")));
+}
+
 bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& groups,
                const std::map<std::string, ExrAttribute>& attributes,
                const ExrWriteOptions& options) {
   if (groups.empty()) internal_error("write_exr: no channels");
-  const int w = groups[0].image->width(), h = groups[0].image->height();
+  check_exr_compression(options.compression, "EXR compression");
   std::vector<std::string> names;
   std::vector<TypeDesc> formats;  // per channel
+  const auto shape = [](const ExrChannelGroup& g) {
+    return g.image ? std::array<int, 3>{g.image->width(), g.image->height(), g.image->channels()}
+           : g.image_u16 ? std::array<int, 3>{g.image_u16->width(), g.image_u16->height(), g.image_u16->channels()}
+                         : std::array<int, 3>{0, 0, 0};
+  };
+  const int w = shape(groups[0])[0], h = shape(groups[0])[1];
   for (const auto& g : groups) {
-    if (!g.image || g.image->width() != w || g.image->height() != h ||
-        g.image->channels() != static_cast<int>(g.channel_names.size()))
+    if (!g.image == !g.image_u16 || (g.image_u16 && g.pixel != ExrPixel::Uint) ||
+        shape(g) != std::array<int, 3>{w, h, static_cast<int>(g.channel_names.size())})
       internal_error("write_exr: channel group shape mismatch for " + path);
     const TypeDesc t = g.pixel == ExrPixel::Uint ? TypeDesc::UINT
                        : g.pixel == ExrPixel::Half || options.half ? TypeDesc::HALF
@@ -282,9 +307,21 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
       const int y1 = std::min(h, y0 + strip);
       int c0 = 0;
       for (const auto& g : groups) {
-        const int gc = g.image->channels();
-        const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
+        const int gc = static_cast<int>(g.channel_names.size());
         const size_t n = static_cast<size_t>(w) * (y1 - y0);
+        if (g.image_u16) {  // integers widened as they are
+          const uint16_t* src = g.image_u16->data() + static_cast<size_t>(y0) * w * gc;
+          for (int c = 0; c < gc; ++c) {
+            unsigned char* dst = buf.data() + offset[c0 + c];
+            for (size_t p = 0; p < n; ++p) {
+              const uint32_t u = src[p * gc + c];
+              std::memcpy(dst + p * pixel_bytes, &u, 4);
+            }
+          }
+          c0 += gc;
+          continue;
+        }
+        const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
         for (int c = 0; c < gc; ++c) {
           unsigned char* dst = buf.data() + offset[c0 + c];
           const TypeDesc t = formats[c0 + c];
@@ -369,6 +406,62 @@ void write_png(const std::string& path, const ImageF& image, int bits) {
     if (!out->write_image(TypeDesc::FLOAT, image.data()))
       fail_at(path, "write failed (" + out->geterror() + ")");
     if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
+  });
+}
+
+namespace {
+// libpng reports errors by longjmp: this function holds no object with a destructor, and
+// returns libpng's message (empty when the file was written).
+struct PngError {
+  char message[256] = {};
+};
+void png_error_fn(png_structp png, png_const_charp msg) {
+  auto* e = static_cast<PngError*>(png_get_error_ptr(png));
+  std::snprintf(e->message, sizeof e->message, "%s", msg);
+  png_longjmp(png, 1);
+}
+void png_warning_fn(png_structp, png_const_charp) {}
+
+void png_encode(std::FILE* f, const uint8_t* data, int w, int h, int channels, PngError* err) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, png_error_fn, png_warning_fn);
+  if (!png) {
+    std::snprintf(err->message, sizeof err->message, "out of memory");
+    return;
+  }
+  png_infop info = png_create_info_struct(png);
+  if (!info || setjmp(png_jmpbuf(png))) {
+    if (!err->message[0]) std::snprintf(err->message, sizeof err->message, "libpng failed");
+    png_destroy_write_struct(&png, &info);
+    return;
+  }
+  png_init_io(png, f);
+  // zlib level 1 (fastest) with the Sub filter alone: on the 2048x1024 night previews about
+  // as small as libpng's adaptive filter choice at a fraction of its time (docs/benchmarks.md).
+  png_set_compression_level(png, 1);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
+  const int type = channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB;
+  png_set_IHDR(png, info, static_cast<png_uint_32>(w), static_cast<png_uint_32>(h), 8, type, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+  png_write_info(png, info);
+  const size_t stride = static_cast<size_t>(w) * channels;
+  for (int y = 0; y < h; ++y) png_write_row(png, data + stride * static_cast<size_t>(y));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+}
+}  // namespace
+
+void write_png8(const std::string& path, const ImageU8& image) {
+  const int ch = image.channels();
+  if (ch != 1 && ch != 3) internal_error(fmt::format("write_png8: {} channels", ch));
+  atomic_write(path, [&](const std::string& tmp) {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
+    PngError err;
+    png_encode(f, image.data(), image.width(), image.height(), ch, &err);
+    const bool flushed = std::fflush(f) == 0 && !std::ferror(f);
+    const int close_errno = std::fclose(f) == 0 ? 0 : errno;
+    if (err.message[0]) fail_at(path, std::string("write failed (") + err.message + ")");
+    if (!flushed || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
   });
 }
 

@@ -1,6 +1,8 @@
 // The EXR layers and header attributes of sensor outputs and night frames (see outputs.h).
 #include "photosite/outputs.h"
 
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include "photosite/error.h"
@@ -88,17 +90,18 @@ ImageF label_image(const scene::LabelMap& labels) {
 }
 
 std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
-                                            const ImageF& label_img, LayerSet layers) {
+                                            const scene::LabelMap& labels, LayerSet layers) {
   auto groups = sensor_channels(out, layers);
   if (has(layers, Layer::Radiance)) groups.push_back({{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &ns.radiance, unit::radiance});
-  // depth.Z as half: the coarse depth runs 0..1 along each ray from the vanishing point, so one
-  // pixel's step is at least 1/2290 at 2048x1024 (the longest ray); half's spacing is at most
-  // 2^-11 = 1/2048 in [0.5, 1) and finer below, about one step per pixel at the border and
-  // exact ordering everywhere. night_radiance and lights stay float32: physical radiances
-  // whose range is set by the scene preset, not bounded by half's [6.1e-5, 65504] normal range.
-  if (has(layers, Layer::Depth)) groups.push_back({{"depth.Z"}, &ns.depth, unit::dimensionless, ExrPixel::Half});
+  // depth.Z in metres (metric_depth, the EXR convention: distance along the optical axis) as
+  // half: relative spacing 2^-11 (0.05%), far below the flat-ground model's own error; the sky is
+  // the largest finite half, 65504 (header photosite/night/depth_infinity_m). night_radiance and
+  // lights stay float32: physical radiances whose range is set by the scene preset, not bounded
+  // by half's [6.1e-5, 65504] normal range.
+  if (has(layers, Layer::Depth)) groups.push_back({{"depth.Z"}, &ns.depth, "m", ExrPixel::Half});
   if (has(layers, Layer::Lights)) groups.push_back({{"lights.R", "lights.G", "lights.B"}, &ns.lights, unit::radiance});
-  if (has(layers, Layer::Labels)) groups.push_back({{"labels.Y"}, &label_img, unit::label_id, ExrPixel::Uint});  // class ids
+  if (has(layers, Layer::Labels))  // class ids, straight from their 16-bit samples
+    groups.push_back({{"labels.Y"}, nullptr, unit::label_id, ExrPixel::Uint, &labels.ids});
   return groups;
 }
 
@@ -122,12 +125,29 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/vanishing_point_method"] = std::string(scene::vp_method_name(ns.vp.method));
   attrs["photosite/night/vanishing_point_support"] = ns.vp.support;
   if (!ns.vp.note.empty()) attrs["photosite/night/vanishing_point_note"] = ns.vp.note;
+  const auto& g = ns.geometry;
+  attrs["photosite/night/horizon_y"] = g.horizon_y;
+  attrs["photosite/night/horizon_source"] = g.horizon_source;
+  attrs["photosite/night/horizon_confidence"] = g.horizon_confidence;
+  attrs["photosite/night/camera_rig"] = g.rig;
+  attrs["photosite/night/camera_pitch_deg"] = g.pitch_rad * 180 / M_PI;
+  attrs["photosite/night/focal_length_px"] = g.f_px;
+  attrs["photosite/night/mount_height_m"] = g.mount_height_m;
+  attrs["photosite/night/depth_infinity_m"] = static_cast<double>(scene::kDepthInfinity_m);
   attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
   attrs["photosite/night/work_scale"] = ns.work_scale;
   attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
   attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
   attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;
   attrs["photosite/night/lights_windows"] = ns.light_stats.windows;
+  attrs["photosite/night/vehicles_in_traffic"] = ns.light_stats.vehicles_in_traffic;
+  attrs["photosite/night/vehicles_parked"] = ns.light_stats.vehicles_parked;
+  attrs["photosite/night/vehicles_parked_lit"] = ns.light_stats.vehicles_parked_lit;
+  attrs["photosite/night/street_lamps"] = ns.light_stats.street_lamps;
+  attrs["photosite/night/street_lamp_source"] = ns.light_stats.street_lamp_source;
+  attrs["photosite/night/street_peak_intensity_cd"] = ns.light_stats.street_peak_intensity_cd;
+  attrs["photosite/night/road_luminance_avg_cd_m2"] = ns.light_stats.road_luminance_avg_cd_m2;
+  attrs["photosite/night/road_uniformity_u0"] = ns.light_stats.road_uniformity_u0;
   return attrs;
 }
 

@@ -38,6 +38,14 @@ ImageF lines_picture(const scene::NightScene& ns) {
 }
 }  // namespace
 
+ImageF depth_picture(const ImageF& depth_m) {
+  // Metric depth on a log scale: 1 m white .. 1000 m black; the sky (65504) black.
+  ImageF d(depth_m.width(), depth_m.height(), 1);
+  for (size_t i = 0; i < d.size(); ++i)
+    d[i] = static_cast<float>(std::clamp(1.0 - std::log10(std::max(1.0, static_cast<double>(depth_m[i]))) / 3, 0.0, 1.0));
+  return d;
+}
+
 ImageF log_luminance_picture(const ImageF& rad) {
   ImageF f(rad.width(), rad.height(), 1);
   for (size_t i = 0; i < f.pixel_count(); ++i) {
@@ -54,7 +62,7 @@ std::vector<NamedPicture> night_map_pictures(const ImageF& day, const scene::Lab
   p.push_back({"lanes.png", u8_to_unit(ns.lanes_work)});
   p.push_back({"edges.png", u8_to_unit(ns.edges_work)});
   p.push_back({"lines_vp.png", lines_picture(ns)});
-  p.push_back({"depth.png", ns.depth});
+  p.push_back({"depth.png", depth_picture(ns.depth)});
   p.push_back({"lights_log.png", log_luminance_picture(ns.lights)});
   p.push_back({"darkened_log.png", log_luminance_picture(ns.darkened)});
   p.push_back({"night_radiance_log.png", log_luminance_picture(ns.radiance)});

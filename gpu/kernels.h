@@ -1,7 +1,11 @@
 // The parameter structs of the kernels, each mirrored field for field by the push-constant
-// block of its kernels/<name>.comp (std430: scalars 4-byte aligned, uvec2 8, double 8). The
-// static_asserts pin every size and offset to the GLSL layout.
+// block of its kernels/<name>.comp (std430: scalars 4-byte aligned, uvec2 8, double 8); those of
+// photon, sense and darken are not mirrored but defined once, in kernels/common/params_*.glsl,
+// which both languages read. The static_asserts pin every size and offset to the GLSL layout.
 #pragma once
+#include <algorithm>
+#include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -14,12 +18,22 @@
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/demosaic.h"
 
+// The push-constant blocks defined once for C++ and GLSL (kernels/common/push_constants.glsl).
+namespace photosite::shader {
+#include "common/prelude.glsl"
+#include "common/params_photon.glsl"
+#include "common/params_sense.glsl"
+#include "common/params_darken.glsl"
+#include "common/prelude_end.glsl"
+}  // namespace photosite::shader
+
 namespace photosite::gpu {
 
 // {low, high} halves of a 64-bit value, as GLSL's uvec2.
 struct U64 {
   uint32_t lo, hi;
   static U64 of(uint64_t v) { return {static_cast<uint32_t>(v), static_cast<uint32_t>(v >> 32)}; }
+  operator shader::uvec2() const { return shader::uvec2(lo, hi); }  // for the shared blocks
 };
 
 // poisson.comp, philox_words.comp (which ignores `method`, the PoissonMethod's value)
@@ -52,12 +66,7 @@ inline Grid grid_1d(uint64_t n, uint32_t local = 256) {
 namespace photosite::gpu {
 
 // photon.comp
-struct PhotonParams {
-  uint32_t width, height, cfa_cell, glare;
-  double pitch_over_f, cx, cy;
-  float keep;
-  uint32_t pad;
-};
+using shader::PhotonParams;  // kernels/common/params_photon.glsl
 static_assert(sizeof(PhotonParams) == 48 && offsetof(PhotonParams, pitch_over_f) == 16 &&
               offsetof(PhotonParams, cy) == 32 && offsetof(PhotonParams, keep) == 40);
 
@@ -74,13 +83,7 @@ static_assert(sizeof(GlareParams) == 56 && offsetof(GlareParams, weight) == 24 &
               offsetof(GlareParams, taps) == 28 && offsetof(GlareParams, eta) == 48);
 
 // sense.comp
-struct SenseParams {
-  uint32_t width, height, frame, stream;
-  U64 key;
-  uint32_t flags;
-  float dark_mean_e, full_well_e, read_noise_e;
-  double gain_dn_per_e, black_dn, max_code;
-};
+using shader::SenseParams;  // kernels/common/params_sense.glsl
 static_assert(sizeof(SenseParams) == 64 && offsetof(SenseParams, key) == 16 &&
               offsetof(SenseParams, flags) == 24 && offsetof(SenseParams, read_noise_e) == 36 &&
               offsetof(SenseParams, gain_dn_per_e) == 40 && offsetof(SenseParams, max_code) == 56);
@@ -146,12 +149,7 @@ void record_demosaic(Context& ctx, Sequence& s, DemosaicMethod method, const Dem
 namespace photosite::gpu {
 
 // darken.comp, from scene::DarkenParams
-struct DarkenParams {
-  float ground[3], vertical[3];
-  double K[3], rho_sky, glow[3];
-  U64 ground_mask;
-  uint32_t n, sky_id;
-};
+using shader::DarkenParams;  // kernels/common/params_darken.glsl
 static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
               offsetof(DarkenParams, rho_sky) == 48 && offsetof(DarkenParams, glow) == 56 &&
               offsetof(DarkenParams, ground_mask) == 80 && offsetof(DarkenParams, n) == 88);

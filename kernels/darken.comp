@@ -10,17 +10,7 @@
 #include "common/darken.glsl"
 layout(local_size_x = 256) in;
 
-// gpu::DarkenParams (gpu/kernels.h), from scene::darken_params()
-layout(push_constant, std430) uniform Params {
-  float ground[3];
-  float vertical[3];
-  double K[3];
-  double rho_sky;
-  double glow[3];
-  uvec2 ground_mask;  // bit id: class id is a ground class
-  uint n;
-  uint sky_id;
-} P;
+#include "common/params_darken.glsl"
 layout(std430, binding = 0) readonly buffer Texture { float tex[]; };
 layout(std430, binding = 1) readonly buffer Labels { uint labels[]; };  // uint16 ids, two per word
 layout(std430, binding = 2) writeonly buffer Out { float radiance[]; };

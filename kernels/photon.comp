@@ -17,17 +17,7 @@
 #include "common/glare.glsl"
 layout(local_size_x = 256) in;
 
-// gpu::PhotonParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint width;
-  uint height;
-  uint cfa_cell;
-  uint glare;           // 1: mix the glare skirt in
-  double pitch_over_f;  // 0: no cos⁴ falloff
-  double cx, cy;        // optical centre (pixels)
-  float keep;           // 1 − η
-  uint pad;
-} P;
+#include "common/params_photon.glsl"
 layout(std430, binding = 0) readonly buffer Radiance { float radiance[]; };
 layout(std430, binding = 1) readonly buffer Matrix { double M[12]; };  // [colour][band]
 layout(std430, binding = 2) writeonly buffer Electrons { float electrons[]; };

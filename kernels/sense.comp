@@ -15,22 +15,7 @@
 #include "common/sensor_pixel.glsl"
 layout(local_size_x = 256) in;
 
-// gpu::SenseParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint width;
-  uint height;
-  uint frame;
-  uint stream;
-  uvec2 key;
-  uint flags;         // 1 PRNU, 2 DSNU, 4 dark-rate map, 8 row noise, 16 column noise;
-                      // bits 8-9: the PoissonMethod (0 exact, 1 cornish-fisher, 2 normal)
-  float dark_mean_e;
-  float full_well_e;
-  float read_noise_e;
-  double gain_dn_per_e;
-  double black_dn;
-  double max_code;
-} P;
+#include "common/params_sense.glsl"
 layout(std430, binding = 0) readonly buffer Signal { float signal_e[]; };
 layout(std430, binding = 1) readonly buffer Prnu { float prnu[]; };
 layout(std430, binding = 2) readonly buffer Dsnu { float dsnu[]; };

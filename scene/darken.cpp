@@ -154,12 +154,14 @@ DarkenParams darken_params(const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K),
              tl = illuminant_tint(p.street_cct_K);
-  // Horizontal street-light illuminance that gives the target road luminance: E = π L / ρ_road.
+  // Average horizontal street-light illuminance that gives the target road luminance:
+  // E = π L / ρ_road. The ground receives it as lamp pools in metres (scene/street.cpp, added in
+  // the light map); vertical surfaces keep the uniform vertical_fraction of the average.
   const double e_street = units::pi * p.street_road_luminance_cd_m2 / p.rho_road;
   DarkenParams d;
   for (int k = 0; k < 3; ++k) {
     const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
-    d.ground[k] = static_cast<float>((amb + e_street * tl[k]) / units::pi);
+    d.ground[k] = static_cast<float>(amb / units::pi);
     d.vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
   }
   // Sky: its own luminance, with the day's relative luminance pattern (clouds) kept and the

@@ -9,6 +9,7 @@
 
 #include "photosite/rng.h"
 #include "photosite/scene/night.h"
+#include "photosite/scene/street.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/darken_detail.h"
@@ -88,7 +89,7 @@ double low_beam_lux(int x, int y, int width, double depth, double vp_y, const Sc
 
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
-                   uint64_t seed) {
+                   uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -203,6 +204,65 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
       ++b.n;
     }
+  // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
+  // lowest row; the labels just below it (3 rows across the middle half of its width) say what
+  // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
+  // of the road edges, where vehicles park on the road). Others are parked: dark, except a seeded
+  // share (veh_parked_lit_fraction) with parking lights, keyed by the instance code or by the
+  // ground position on a 2 m grid, so a vehicle keeps its draw from frame to frame.
+  StreetLighting sl;
+  if (geometry) sl = plan_street_lighting(lm, *geometry, p, seed);
+  const bool extent = sl.road_right_m > sl.road_left_m;
+  const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
+  struct VehState { int state = 0; double X = 0, D = 0, z = 0, width_m = 0; };  // 0 dark, 1 traffic, 2 parked lit
+  std::vector<VehState> vs(ncomp + 1);
+  if (geometry) {
+    const CameraGeometry& g = *geometry;
+    std::vector<int> inst_of(ncomp + 1, 0);
+    if (!lm.instances.empty())
+      for (size_t i = i_begin; i < i_end; ++i)
+        if (comp[i] && lm.instances[i] >= 1000) inst_of[comp[i]] = lm.instances[i];
+    for (int c = 1; c <= ncomp; ++c) {
+      const Box& b = boxes[c];
+      if (b.n == 0) continue;
+      VehState& v = vs[c];
+      if (!g.ground_point(0.5 * (b.x0 + b.x1), b.y1 + 0.5, &v.X, &v.D, nullptr)) continue;
+      v.z = g.plane_depth_m(b.y1 + 0.5, v.D);
+      v.width_m = (b.x1 - b.x0 + 1) * v.z / g.f_px;
+      int road = 0, other = 0;
+      const int q = (b.x1 - b.x0 + 1) / 4;
+      for (int y = b.y1 + 1; y <= std::min(H - 1, b.y1 + 3); ++y)
+        for (int x = b.x0 + q; x <= b.x1 - q; ++x) {
+          const int id = labels.at(x, y);
+          if (id == static_cast<int>(Label::Road)) ++road;
+          else if (!is_vehicle(id)) ++other;
+        }
+      // The outer side (toward the nearer road edge) at the contact depth: a parked vehicle's
+      // lies within the kerb strip of the edge.
+      double Xo = v.X;
+      g.ground_point(v.X < road_mid ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
+      const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
+      // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
+      // the conservative reading (an approximation: a passing vehicle there stays dark too).
+      const bool cut = b.x0 == 0 || b.x1 == W - 1;
+      const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
+                                                Xo < sl.road_right_m - p.veh_kerb_strip_m));
+      if (on_road && in_lane) {
+        v.state = 1;
+        ++out.stats.vehicles_in_traffic;
+      } else {
+        ++out.stats.vehicles_parked;
+        const uint64_t key = inst_of[c] ? static_cast<uint64_t>(inst_of[c])
+                                        : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
+                                              static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
+        const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
+        if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
+          v.state = 2;
+          ++out.stats.vehicles_parked_lit;
+        }
+      }
+    }
+  }
   // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
   // bright white is rare (so not a white body), near-white highlights in the lower half.
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
@@ -228,6 +288,8 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
     }
   // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
+  // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
+  auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
   for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
     for (int x = 1; x < W - 1; ++x) {
       const uint8_t v = cue.at(x, y);
@@ -235,21 +297,60 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       int n = 0;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
-      if (n >= 5) put_max(L, x, y, v == 1 ? tail : head);
+      if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(L, x, y, v == 1 ? tail : head);
     }
-  // Placed lamps: a pair per vehicle at 55% of its height, 15% in from each side (one lamp for
-  // two-wheelers). Right-hand traffic: vehicles left of the vanishing point oncoming (head
-  // lamps), the others seen from behind (tail lamps). Drawn only on that vehicle's pixels.
+  // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
+  // ground contact, veh_lamp_inset_m in from its sides (its metric width from its pixel width at
+  // the contact depth), one lamp for two-wheelers; discs of the lens diameter at intensity I
+  // (luminance I/area; a lens smaller than a pixel puts I over the pixel's footprint (z/f)²).
+  // Direction of travel, right-hand traffic: left of the road's centre line in road coordinates
+  // oncoming (head lamps toward the camera), right of it going away (tail lamps). Parked lit
+  // vehicles show position lamps: red if parked facing away (right side), white otherwise.
+  // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
   for (int c = 1; c <= ncomp; ++c) {
     const Box& b = boxes[c];
     const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
+    auto mine = [&](int x, int y) { return comp.at(x, y) == c; };
+    const int cls = comp_class[c];
+    const bool two_wheeler = cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle);
+    if (geometry) {
+      const VehState& v = vs[c];
+      if (v.state == 0) continue;
+      const bool oncoming = v.X < road_mid;
+      double I, dia;
+      bool red;
+      if (v.state == 1) {
+        I = oncoming ? p.veh_head_intensity_cd : p.veh_tail_intensity_cd;
+        dia = oncoming ? p.veh_head_diameter_m : p.veh_tail_diameter_m;
+        red = !oncoming;
+      } else {
+        I = p.veh_parking_intensity_cd;
+        dia = p.veh_tail_diameter_m;
+        red = !oncoming;
+      }
+      const double half = std::max(0.0, 0.5 * v.width_m - p.veh_lamp_inset_m);
+      std::vector<double> xs = two_wheeler ? std::vector<double>{v.X} : std::vector<double>{v.X - half, v.X + half};
+      for (double X : xs) {
+        double u, vv, z;
+        if (!geometry->project(X, p.veh_lamp_height_m, v.D, &u, &vv, &z)) continue;
+        const double r = 0.5 * geometry->f_px * dia / z;
+        const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
+        const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
+        int n = 0;
+        if (r >= 0.6) n = disc(L, u, vv, r, col, mine);
+        else {
+          const int px = static_cast<int>(std::lround(u)), py = static_cast<int>(std::lround(vv));
+          if (px >= 0 && py >= 0 && px < W && py < H && mine(px, py)) { put_max(L, px, py, col); n = 1; }
+        }
+        out.stats.vehicle_lamps += n > 0;
+      }
+      continue;
+    }
     if (b.n < 40 || bw < 8 || bh < 6) continue;
     const bool oncoming = b.x1 < vp.x;
     const Rgb& col = oncoming ? head : tail;
     const double r = std::max(1.5, 0.05 * bw), ly = b.y0 + 0.55 * bh;
-    auto mine = [&](int x, int y) { return comp.at(x, y) == c; };
-    const int cls = comp_class[c];
-    if (cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle)) {
+    if (two_wheeler) {
       if (disc(L, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
     } else {
       out.stats.vehicle_lamps += disc(L, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
@@ -257,9 +358,22 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
   }
 
-  // Lamp heads on poles: tall thin pole components whose top is above the horizon and not
-  // capped by a sign or signal (those poles carry no luminaire).
-  {
+  // Street lighting in metres: luminaires on poles or along the road edges, their pools on the
+  // ground and their heads (scene/street.cpp).
+  if (geometry) {
+    // No depth test for the heads here: the depth of façades and trees whose contact is hidden
+    // depends on which of their columns are in view, and heads flipping between visible and
+    // hidden from frame to frame cost the panning test (MetricLights) 6 points on Cityscapes.
+    out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
+    out.stats.street_lamps = static_cast<int>(sl.lamps.size());
+    out.stats.street_lamp_source = sl.source;
+    out.stats.street_peak_intensity_cd = sl.peak_intensity_cd;
+    out.stats.road_luminance_avg_cd_m2 = sl.avg_luminance_cd_m2;
+    out.stats.road_uniformity_u0 = sl.uniformity_u0;
+  }
+  // Without geometry: lamp heads on poles: tall thin pole components whose top is above the
+  // horizon and not capped by a sign or signal (those poles carry no luminaire).
+  if (!geometry) {
     // Components on a half-resolution mask (2x2 OR pooling keeps 1-px poles), a quarter of the
     // work; the top row and its centre are then found at full resolution.
     auto is_pole = [&](int x, int y) {
@@ -303,10 +417,13 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
   }
 
-  // Window lights: a grid anchored to the image with cells of window_cell_fraction·W; a cell's
-  // window (inner 50% x 50%) is drawn when it lies entirely on building pixels and the Philox
-  // draw keyed by (seed, cell) says lit, so every frame of a sequence keeps the same windows.
-  {
+  // Window lights. With geometry: on the façades in metres (scene/street.cpp). Without: a grid
+  // anchored to the image with cells of window_cell_fraction·W; a cell's window (inner 50% x 50%)
+  // is drawn when it lies entirely on building pixels and the Philox draw keyed by (seed, cell)
+  // says lit.
+  if (geometry && depth_m) {
+    out.stats.windows = add_facade_windows(L, labels, *depth_m, *geometry, p, seed);
+  } else {
     const int cell = std::max(4, static_cast<int>(std::lround(p.window_cell_fraction * W)));
     const int nx = W / cell + 1, ny = H / cell + 1;
     auto building = [&](int x, int y) {

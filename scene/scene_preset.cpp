@@ -38,6 +38,23 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"street.road_luminance_cd_m2", D(p.street_road_luminance_cd_m2, 0, 10)},
       {"street.vertical_fraction", D(p.street_vertical_fraction, 0, 1)},
       {"street.cct_K", D(p.street_cct_K, 1000, 20000)},
+      {"street_lamps.mount_height_m", D(p.lamp_mount_height_m, 2, 30)},
+      {"street_lamps.spacing_ratio", D(p.lamp_spacing_ratio, 1, 10)},
+      {"street_lamps.setback_m", D(p.lamp_setback_m, -5, 10)},
+      {"street_lamps.cutoff_deg", D(p.lamp_cutoff_deg, 10, 89)},
+      {"street_lamps.falloff_deg", D(p.lamp_falloff_deg, 0.1, 45)},
+      {"street_lamps.head_diameter_m", D(p.lamp_head_diameter_m, 0.05, 3)},
+      {"street_lamps.max_distance_m", D(p.lamp_max_distance_m, 10, 2000)},
+      {"street_lamps.min_pole_height_m", D(p.lamp_min_pole_height_m, 1, 30)},
+      {"vehicle_lamps.height_m", D(p.veh_lamp_height_m, 0.2, 3)},
+      {"vehicle_lamps.inset_m", D(p.veh_lamp_inset_m, 0, 1)},
+      {"vehicle_lamps.head_diameter_m", D(p.veh_head_diameter_m, 0.02, 1)},
+      {"vehicle_lamps.tail_diameter_m", D(p.veh_tail_diameter_m, 0.02, 1)},
+      {"vehicle_lamps.head_intensity_cd", D(p.veh_head_intensity_cd, 0, 1e6)},
+      {"vehicle_lamps.tail_intensity_cd", D(p.veh_tail_intensity_cd, 0, 1e4)},
+      {"vehicle_lamps.parking_intensity_cd", D(p.veh_parking_intensity_cd, 0, 1e4)},
+      {"vehicle_lamps.parked_lit_fraction", D(p.veh_parked_lit_fraction, 0, 1)},
+      {"vehicle_lamps.kerb_strip_m", D(p.veh_kerb_strip_m, 0, 10)},
       {"lamps.streetlamp_luminance_cd_m2", D(p.streetlamp_luminance_cd_m2, 0, 1e8)},
       {"lamps.streetlamp_cct_K", D(p.streetlamp_cct_K, 1000, 20000)},
       {"lamps.headlamp_luminance_cd_m2", D(p.headlamp_luminance_cd_m2, 0, 1e8)},
@@ -50,6 +67,12 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"lamps.window_cell_fraction", D(p.window_cell_fraction, 0.002, 0.5)},
       {"lamps.window_warm_share", D(p.window_warm_share, 0, 1)},
       {"lamps.window_cool_cct_K", D(p.window_cool_cct_K, 1000, 20000)},
+      {"windows.storey_m", D(p.window_storey_m, 1.5, 10)},
+      {"windows.pitch_m", D(p.window_pitch_m, 0.3, 10)},
+      {"windows.width_m", D(p.window_width_m, 0.1, 10)},
+      {"windows.height_m", D(p.window_height_m, 0.1, 10)},
+      {"windows.shop_luminance_factor", D(p.shop_luminance_factor, 0, 100)},
+      {"windows.shop_cct_K", D(p.shop_cct_K, 1000, 20000)},
       {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
       {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
       {"ego_beam.road_lux", D(p.beam_road_lux, 0, 1000)},
@@ -68,6 +91,7 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"geometry.border_fraction", D(p.border_fraction, 0, 0.4)},
       {"geometry.vp_cluster_radius_fraction", D(p.vp_cluster_radius_fraction, 0.001, 1)},
       {"geometry.vp_min_support", I(p.vp_min_support, 1, 10000)},
+      {"geometry.max_depth_m", D(p.max_depth_m, 10, 60000)},
   };
 }
 }  // namespace
@@ -113,6 +137,8 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
   }
   for (auto& f : fs)
     if (!seen.count(f.first)) fail(where(file, 0, f.first) + ": missing key");
+  if (p.window_width_m > p.window_pitch_m) fail(where(file, 0, "windows.width_m") + ": exceeds windows.pitch_m");
+  if (p.window_height_m > p.window_storey_m) fail(where(file, 0, "windows.height_m") + ": exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + ": exceeds canny_high");
   return p;
 }

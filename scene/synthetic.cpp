@@ -69,3 +69,93 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o) {
 }
 
 }  // namespace photosite::scene
+
+namespace photosite::scene {
+
+SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o) {
+  const int W = o.width, H = o.height;
+  const CameraGeometry& g = o.camera;
+  SyntheticCameraScene s;
+  s.day_linear_srgb = ImageF(W, H, 3, 0.f, "linear sRGB");
+  s.labels.ids = ImageU16(W, H, 1, 0, unit::label_id);
+  s.labels.instances = ImageU16(W, H, 1, 0, "instance id");
+  s.depth_m = ImageF(W, H, 1, kDepthInfinity_m, "m");
+  s.box_front = ImageU8(W, H, 1, 0);
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      // Ray per unit camera z in road coordinates: origin (0, h, 0).
+      const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
+      const double dX = xn, dY = -(yn * c + sn), dD = c - yn * sn;
+      double best = INFINITY;
+      int hit = -1;  // -2 ground, >= 0 box index
+      bool front = false;
+      if (dY < 0) { best = h / -dY; hit = -2; }
+      // Building façades beyond the sidewalks: vertical planes X = ±(road + sidewalk), 12 m tall,
+      // from 3 m to 200 m ahead.
+      bool facade = false;
+      {
+        const double xf = o.road_half_width_m + o.sidewalk_m;
+        for (double side : {-xf, xf})
+          if (dX != 0) {
+            const double t = side / dX, Y = h + t * dY, D = t * dD;
+            if (t > 0 && t < best && Y >= 0 && Y <= 12 && D >= 3 && D <= 200) { best = t; hit = -3; facade = true; }
+          }
+      }
+      for (size_t b = 0; b < o.boxes.size(); ++b) {
+        const SyntheticBox& B = o.boxes[b];
+        auto inside = [&](double t, int face) {
+          const double X = t * dX, Y = h + t * dY, D = t * dD;
+          if (Y < 0 || Y > B.height_m) return false;
+          if (face == 0) return std::fabs(X - B.X_m) <= B.width_m / 2;
+          return D >= B.D_m && D <= B.D_m + B.length_m;
+        };
+        if (dD > 0) {
+          const double t = B.D_m / dD;
+          if (t > 0 && t < best && inside(t, 0)) { best = t; hit = static_cast<int>(b); front = true; }
+        }
+        for (double side : {B.X_m - B.width_m / 2, B.X_m + B.width_m / 2})
+          if (dX != 0) {
+            const double t = side / dX;
+            if (t > 0 && t < best && inside(t, 1)) { best = t; hit = static_cast<int>(b); front = false; }
+          }
+      }
+      float* px = &s.day_linear_srgb.at(x, y, 0);
+      Label l = Label::Sky;
+      if (hit == -2) {
+        const double X = best * dX, D = best * dD, ax = std::fabs(X);
+        const bool check = (static_cast<int>(std::floor(X)) + static_cast<int>(std::floor(D))) & 1;
+        const float tex = check ? 1.1f : 0.9f;
+        if (ax <= o.road_half_width_m) {
+          l = Label::Road;
+          const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(D, 9.0) < 3.0;
+          const bool edge = std::fabs(ax - (o.road_half_width_m - 0.2)) <= 0.075;
+          const float v = dash || edge ? 0.8f : 0.08f * tex;
+          px[0] = px[1] = px[2] = v;
+        } else if (ax <= o.road_half_width_m + o.sidewalk_m) {
+          l = Label::Sidewalk;
+          px[0] = px[1] = px[2] = 0.2f * tex;
+        } else {
+          l = Label::Terrain;
+          px[0] = 0.06f * tex; px[1] = 0.1f * tex; px[2] = 0.03f * tex;
+        }
+        s.depth_m.at(x, y) = static_cast<float>(best);
+      } else if (facade && hit == -3) {
+        l = Label::Building;
+        px[0] = 0.25f; px[1] = 0.22f; px[2] = 0.2f;
+        s.depth_m.at(x, y) = static_cast<float>(best);
+      } else if (hit >= 0) {
+        l = Label::Car;
+        s.labels.instances.at(x, y) = static_cast<uint16_t>(26000 + hit);
+        px[0] = front ? 0.3f : 0.2f; px[1] = 0.05f; px[2] = 0.05f;
+        s.depth_m.at(x, y) = static_cast<float>(best);
+        s.box_front.at(x, y) = front;
+      } else {
+        px[0] = 0.5f; px[1] = 0.6f; px[2] = 0.8f;
+      }
+      s.labels.ids.at(x, y) = static_cast<uint16_t>(l);
+    }
+  return s;
+}
+
+}  // namespace photosite::scene

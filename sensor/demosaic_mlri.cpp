@@ -38,11 +38,14 @@
 // Arithmetic: every window sum is separable, row (x) first then column (y), each a sum in
 // increasing offset order, so a value does not depend on how the frame is cut into tiles or
 // threads, and kernels/demosaic_mlri_*.comp reproduce it operation for operation (bit-equal;
-// -ffp-contract=off, no reassociation). The CPU path runs the stages tile by tile (128x64 output
-// pixels plus the 21-px margin) so that the intermediate planes stay in cache.
+// -ffp-contract=off, no reassociation). The CPU path runs the stages tile by tile (512x256 output
+// pixels plus the 23-px margin); within a tile each stage's passes run as a wavefront over the
+// rows, their intermediate rows in rings of 16 rows (demosaic_mlri_body.inc).
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "demosaic_detail.h"
@@ -119,6 +122,14 @@ namespace mlri_avx2 {
 #include "demosaic_mlri_body.inc"
 }  // namespace mlri_avx2
 #pragma GCC pop_options
+// 16 floats wide. The same IEEE operations as the other builds (no FMA, -ffp-contract=off; the
+// division, max and compares are exact in every width), so the same bits.
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx512vl,avx512bw,avx512dq,prefer-vector-width=512")
+namespace mlri_avx512 {
+#include "demosaic_mlri_body.inc"
+}  // namespace mlri_avx512
+#pragma GCC pop_options
 #endif
 
 }  // namespace
@@ -127,15 +138,25 @@ namespace detail {
 ImageF demosaic_mlri_baseline(const ImageF& m, CfaPattern pattern) { return mlri_base::run(m, pattern); }
 #if defined(__x86_64__) && defined(__GNUC__)
 ImageF demosaic_mlri_avx2(const ImageF& m, CfaPattern pattern) { return mlri_avx2::run(m, pattern); }
+ImageF demosaic_mlri_avx512(const ImageF& m, CfaPattern pattern) { return mlri_avx512::run(m, pattern); }
+bool mlri_have_avx512() {
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+         __builtin_cpu_supports("avx512dq");
+}
 #else
 ImageF demosaic_mlri_avx2(const ImageF& m, CfaPattern pattern) { return mlri_base::run(m, pattern); }
+ImageF demosaic_mlri_avx512(const ImageF& m, CfaPattern pattern) { return mlri_base::run(m, pattern); }
+bool mlri_have_avx512() { return false; }
 #endif
 }  // namespace detail
 
-// Most of MLRI's time is in unit-stride row loops of window sums, which AVX2 runs 8 floats wide.
+// Most of MLRI's time is in unit-stride row loops of window sums, which AVX2 runs 8 floats wide
+// and AVX-512 16.
 ImageF demosaic_mlri(const ImageF& m, CfaPattern pattern) {
-  static const bool avx2 = detail::lmmse_have_avx2();
-  return avx2 ? detail::demosaic_mlri_avx2(m, pattern) : detail::demosaic_mlri_baseline(m, pattern);
+  static const int isa = detail::mlri_have_avx512() ? 2 : detail::lmmse_have_avx2() ? 1 : 0;
+  return isa == 2   ? detail::demosaic_mlri_avx512(m, pattern)
+         : isa == 1 ? detail::demosaic_mlri_avx2(m, pattern)
+                    : detail::demosaic_mlri_baseline(m, pattern);
 }
 
 }  // namespace photosite

@@ -25,6 +25,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/rng.h"
+#include "core/rng_detail.h"  // Philox inline in the per-pixel loop
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -79,15 +80,15 @@ FixedPatternMaps generate_fixed_pattern(const CameraPreset& p, int width, int he
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < static_cast<int64_t>(n); ++i) {
     if (prnu) {
-      auto w = random_words(seed, kFpnFrame, i, Stream::FpnPrnu);
+      auto w = detail::random_words_inline(seed, kFpnFrame, i, static_cast<uint32_t>(Stream::FpnPrnu));
       m.prnu_gain[i] = static_cast<float>(1.0 + p.prnu_percent / 100.0 * normal_from_words(w[0], w[1]));
     }
     if (dsnu) {
-      auto w = random_words(seed, kFpnFrame, i, Stream::FpnDsnu);
+      auto w = detail::random_words_inline(seed, kFpnFrame, i, static_cast<uint32_t>(Stream::FpnDsnu));
       m.dsnu_offset_e[i] = static_cast<float>(p.dsnu_e * normal_from_words(w[0], w[1]));
     }
     if (dark) {
-      auto w = random_words(seed, kFpnFrame, i, Stream::FpnDarkRate);
+      auto w = detail::random_words_inline(seed, kFpnFrame, i, static_cast<uint32_t>(Stream::FpnDarkRate));
       double f = cv > 0 ? std::exp(m_ln + s_ln * normal_from_words(w[0], w[1])) : 1.0;
       if (p.hot_pixel_fraction > 0 && uniform_open(w[2]) < p.hot_pixel_fraction)
         f = hot_factor * std::exp(m_ln + s_ln * normal_from_words(w[3], w[1] ^ 0x9e3779b9u));

@@ -355,6 +355,10 @@ std::vector<Row> rows() {
   t.push_back({"batch_root_missing", {}, kBatch + "--dataset cityscapes --root '{in}/nope'", {"nope"}});
   t.push_back({"batch_bad_shard", {}, kBatch + "--manifest '{in}/manifest.txt' --shard 3/2", {"3/2"}});
   t.push_back({"batch_bad_jobs", {}, kBatch + "--manifest '{in}/manifest.txt' --jobs 0", {"--jobs"}});
+  // ---- EXR compression names (issue 16): checked before any work ----------------------------
+  t.push_back({"expose_unknown_compression", {}, kExpose + "--compression zip9", {"--compression", "zip9", "piz"}});
+  t.push_back({"night_unknown_compression", {}, kNight + "--compression lzw", {"--compression", "lzw", "piz"}});
+  t.push_back({"batch_unknown_compression", {}, kBatch + "--manifest '{in}/manifest.txt' --compression jpeg", {"--compression", "jpeg", "piz"}});
   return t;
 }
 

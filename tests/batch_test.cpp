@@ -11,6 +11,8 @@
 #include <sys/wait.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <atomic>
+#include <functional>
 
 #include "photosite/batch.h"
 #include "photosite/error.h"
@@ -307,4 +309,156 @@ TEST(Batch, OldManifestsWithMinusOneForThePresetsValueStillResume) {
   r = test::run_cli(args);
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("other parameters"), std::string::npos) << r.output;
+}
+
+// ---- the engine in process (batch::run) ------------------------------------------------------
+namespace {
+// The options `photosite batch --dataset kitti` resolves to (its default camera and lens), with
+// an isolated device store.
+batch::Options kitti_options(const test::TempDir& dir, const std::string& root, const std::string& out) {
+  batch::Options o;
+  o.out = out;
+  o.root = root;
+  o.source = "kitti " + root;
+  o.format = "both";
+  o.sensor.camera = load_camera_preset("sony-icx267-flea2");
+  o.sensor.lens = load_lens_preset(o.sensor.camera.default_lens);
+  o.sensor.device_id = o.sensor.camera.name + "-0";
+  o.sensor.settings.seed = 4;
+  o.device_store = dir.file("store");
+  o.scene = scene::load_scene_preset("night-urban");
+  return o;
+}
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// Writer threads, compute threads and queue depth change only the order in which items are
+// done, never a byte of what is written.
+TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 3, 3);
+  const std::string root = dir.file("kitti");
+  const auto items = batch::discover(batch::Dataset::Kitti, root);
+  SensorRunner cpu(Backend::Cpu);
+  auto a = kitti_options(dir, root, dir.file("a"));
+  a.jobs = 1, a.queue_depth = 1, a.compute_threads = 1;
+  auto b = kitti_options(dir, root, dir.file("b"));
+  b.jobs = 3, b.queue_depth = 5, b.compute_threads = 2;
+  const auto ra = batch::run(items, a, cpu), rb = batch::run(items, b, cpu);
+  EXPECT_TRUE(ra.errors.empty() && rb.errors.empty());
+  EXPECT_EQ(ra.progress.written, 6u);
+  EXPECT_EQ(rb.progress.written, 6u);
+  const auto ta = tree_bytes(dir.path() / "a"), tb = tree_bytes(dir.path() / "b");
+  EXPECT_EQ(ta.size(), 6u * 3);  // exr, png and the label copy per image
+  ASSERT_EQ(ta.size(), tb.size());
+  for (const auto& [k, v] : ta) EXPECT_TRUE(tb.count(k) && tb.at(k) == v) << k << " differs";
+}
+
+// An interrupted run resumes where it stopped and ends with the bytes of an uninterrupted one;
+// temporaries of a dead process are removed (a live process's are kept); other parameters, and
+// a file the batch did not write, are refused before anything is written.
+TEST(Batch, LibraryResumesRefusesAndCleansUp) {
+  test::TempDir dir;
+  constexpr size_t kImages = 6;
+  make_kitti(dir.path() / "kitti", kImages, 0);
+  const std::string root = dir.file("kitti");
+  const auto items = batch::discover(batch::Dataset::Kitti, root);
+  SensorRunner cpu(Backend::Cpu);
+  ASSERT_TRUE(batch::run(items, kitti_options(dir, root, dir.file("ref")), cpu).errors.empty());
+
+  std::atomic<bool> stop{false};
+  auto o = kitti_options(dir, root, dir.file("out"));
+  o.queue_depth = 1;
+  o.stop = &stop;
+  // Stop once the first item is written: the reader then reads no further item, so at most the
+  // five in flight are finished (being written, in each of the two queues, being computed, and
+  // the one the reader holds).
+  const auto first = batch::run(items, o, cpu, [&](const batch::Progress& p) {
+    if (p.written >= 1) stop = true;
+  });
+  EXPECT_TRUE(first.interrupted);
+  EXPECT_GE(first.progress.written, 1u);
+  EXPECT_LE(first.progress.written, 5u);
+
+  const fs::path dead = dir.path() / "out/image_2/.000005_10.tmp-999999999-0.exr";  // above pid_max
+  const fs::path live = dir.path() / fmt::format("out/image_2/.000004_10.tmp-{}-999999.exr", getpid());
+  std::ofstream(dead) << "half-written";
+  std::ofstream(live) << "being written";
+  o.stop = nullptr;
+  const auto second = batch::run(items, o, cpu);
+  EXPECT_TRUE(second.errors.empty());
+  EXPECT_FALSE(second.interrupted);
+  EXPECT_EQ(second.progress.already_done, first.progress.written);
+  EXPECT_EQ(second.progress.written, kImages - first.progress.written);
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(live));
+  fs::remove(live);
+  const auto ref = tree_bytes(dir.path() / "ref"), out = tree_bytes(dir.path() / "out");
+  ASSERT_EQ(ref.size(), out.size());
+  for (const auto& [k, v] : ref) EXPECT_TRUE(out.count(k) && out.at(k) == v) << k;
+
+  // Finished: nothing to do. Other parameters: refused, nothing changed.
+  EXPECT_EQ(batch::run(items, o, cpu).progress.to_do, 0u);
+  auto other = o;
+  other.sensor.settings.exposure_s = 0.03;
+  EXPECT_NE(error_of([&] { batch::run(items, other, cpu); }).find("other parameters"), std::string::npos);
+  other = o;
+  other.layers = kNightLayers;
+  EXPECT_NE(error_of([&] { batch::run(items, other, cpu); }).find("other parameters"), std::string::npos);
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+
+  // A file the batch did not write, where an output goes: refused, left as it was.
+  fs::create_directories(dir.path() / "foreign/image_2");
+  std::ofstream(dir.file("foreign/image_2/000003_10.exr")) << "someone else's";
+  auto f = kitti_options(dir, root, dir.file("foreign"));
+  EXPECT_NE(error_of([&] { batch::run(items, f, cpu); }).find("never overwrites"), std::string::npos);
+  EXPECT_EQ(tree_bytes(dir.path() / "foreign").size(), 1u);
+}
+
+// A data set reached through a symbolic link is the same data set: writing into its root is
+// refused by either name. The compression is checked by name before any work, recorded in the
+// header, and integer layers stay exact under a lossy codec (OpenEXR stores UINT losslessly).
+TEST(Batch, LinkedDataSetAndCompressionName) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 1, 0);
+  fs::create_directory_symlink(dir.path() / "kitti", dir.path() / "link");
+  const std::string link = dir.file("link");
+  const auto items = batch::discover(batch::Dataset::Kitti, link);
+  ASSERT_EQ(items.size(), 1u);
+  SensorRunner cpu(Backend::Cpu);
+  auto into_root = kitti_options(dir, link, dir.file("kitti"));
+  EXPECT_NE(error_of([&] { batch::run(items, into_root, cpu); }).find("data set's own root"), std::string::npos);
+
+  auto bad = kitti_options(dir, link, dir.file("bad"));
+  bad.compression = "zip9";
+  const std::string msg = error_of([&] { batch::run(items, bad, cpu); });
+  EXPECT_NE(msg.find("--compression 'zip9'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("piz"), std::string::npos) << msg;  // lists the names
+  EXPECT_FALSE(fs::exists(dir.path() / "bad"));
+
+  std::map<std::string, ExrContents> by_codec;
+  for (const char* codec : {"rle", "dwaa"}) {
+    auto o = kitti_options(dir, link, dir.file(codec));
+    o.format = "exr";
+    o.compression = codec;
+    o.layers = kNightLayers;
+    const auto r = batch::run(items, o, cpu);
+    ASSERT_TRUE(r.errors.empty());
+    by_codec[codec] = read_exr(dir.file(std::string(codec) + "/image_2/000000_10.exr"));
+    EXPECT_EQ(by_codec[codec].attributes["compression"], codec);
+    std::ifstream m(dir.file(std::string(codec) + "/.photosite-batch/shard-0-of-1.jsonl"));
+    const std::string manifest((std::istreambuf_iterator<char>(m)), {});
+    EXPECT_NE(manifest.find(fmt::format("\"compression\":\"{}\"", codec)), std::string::npos) << manifest;
+  }
+  for (const char* name : {"raw.Y", "electrons.Y", "labels.Y"}) {
+    EXPECT_EQ(by_codec["dwaa"].pixel_types.at(name), ExrPixel::Uint) << name;
+    EXPECT_TRUE(by_codec["dwaa"].channels.at(name).vec() == by_codec["rle"].channels.at(name).vec()) << name;
+  }
 }

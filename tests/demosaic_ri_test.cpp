@@ -68,7 +68,7 @@ TEST(DemosaicRi, MlriIsExactOnConstantImagesUpToFloatRounding) {
 
 TEST(DemosaicRi, MlriReachesOnlyItsSupportRadiusAndIgnoresTheTiling) {
   // A pixel depends on the mosaic within the support radius only, and not on how the frame is
-  // cut into the CPU path's 256x128 tiles: a crop (a different tile grid, mirrored borders
+  // cut into the CPU path's 512x256 tiles: a crop (a different tile grid, mirrored borders
   // elsewhere) must give the same bits as the full frame at every pixel at least the support
   // radius inside the crop.
   const int r = detail::mlri_support_radius();
@@ -105,6 +105,20 @@ TEST(DemosaicRi, MlriAvx2AndBaselineBuildsAreBitIdentical) {
     const ImageF m = random_mosaic(301, 133, 7);
     EXPECT_EQ(differing_bits(detail::demosaic_mlri_baseline(m, p), detail::demosaic_mlri_avx2(m, p)), 0u)
         << to_string(p);
+  }
+}
+
+TEST(DemosaicRi, MlriAvx512AndBaselineBuildsAreBitIdentical) {
+  if (!detail::mlri_have_avx512()) {
+    std::fprintf(stderr, "\n*** MlriAvx512AndBaselineBuildsAreBitIdentical: this CPU has no AVX-512; only the "
+                         "baseline and AVX2 builds run here ***\n\n");
+    GTEST_SKIP() << "no AVX-512 on this CPU";
+  }
+  for (CfaPattern p : {CfaPattern::RGGB, CfaPattern::BGGR, CfaPattern::GRBG, CfaPattern::RCCB}) {
+    // 301x133: one partial tile, every vector loop with a remainder; 1100x600: several tiles.
+    for (const ImageF& m : {random_mosaic(301, 133, 7), random_mosaic(1100, 600, 8)})
+      EXPECT_EQ(differing_bits(detail::demosaic_mlri_baseline(m, p), detail::demosaic_mlri_avx512(m, p)), 0u)
+          << to_string(p) << " " << m.width() << "x" << m.height();
   }
 }
 

@@ -204,7 +204,7 @@ ImageF opencv_demosaic(const ImageF& mos, int code, bool vng) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) raw.at<uint8_t>(y, x) = static_cast<uint8_t>(std::nearbyint(std::clamp(mos.at(x, y), 0.f, 1.f) * 255.f));
   cv::demosaicing(raw, o, code);
-  if (vng) {  // OpenCV 4.6's VNG writes row y + 2 into row y (cli/bench_demosaic.cpp): shift it back
+  if (vng) {  // OpenCV 4.6's VNG writes row y + 2 into row y (bench/cmd/bench_demosaic.cpp): shift it back
     cv::Mat shifted = o.clone();
     o.rowRange(0, o.rows - 2).copyTo(shifted.rowRange(2, o.rows));
     o.row(0).copyTo(shifted.row(0));

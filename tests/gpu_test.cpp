@@ -363,10 +363,10 @@ TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
 }
 
 TEST_F(Gpu, MlriKernelsBitEqualOnFramesLargerThanACpuTile) {
-  // MLRI's CPU path runs in 256x128 tiles with 23-px margins, its kernels over whole planes: on
+  // MLRI's CPU path runs in 512x256 tiles with 23-px margins, its kernels over whole planes: on
   // frames spanning several tiles (odd sizes, partial tiles at the right and bottom), every
   // Bayer phase and RCCB give the same bits, with samples from 0 to 4095 DN (full detail).
-  const int sizes[][2] = {{517, 261}, {260, 131}};
+  const int sizes[][2] = {{1037, 523}, {517, 261}};
   for (const auto& sz : sizes) {
     ImageF m(sz[0], sz[1], 1, 0.f, unit::dn);
     for (size_t i = 0; i < m.size(); ++i) m[i] = static_cast<float>(random_words(17, 0, i, Stream::Test)[0] >> 20);

@@ -33,24 +33,29 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_EQ(e.width, 1224);
   EXPECT_EQ(e.height, 370);
   EXPECT_TRUE(fs::exists(d.file("n.png")));
-  // The road is lit to its EN 13201 class. The default scene preset (night-urban, class M3) sets
-  // the maintained average road luminance L_M = 1.00 cd/m²; moon and sky glow add ρ E_amb / π.
-  // night_radiance − lights is the darkened scene plus the low beam's diffuse reflection
-  // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
-  // the sources s (street, moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,
-  // so it lies between Σ_s min_k t_s,k L_s and Σ_s max_k t_s,k L_s with L_street = L_M and
-  // L_s = ρ E_s / π for the others (E_beam ≤ ego_beam.road_lux, and ≥ 0 for the lower bound);
-  // t_s is source s's tint (illuminant_tint).
+  // The road is lit by lamp pools (scene/street.cpp), which the light map carries; the luminaires'
+  // intensity holds the preset's EN 13201 class (M3, L_M = 1.00 cd/m²) on the design layout, and
+  // the header reports this scene's own calculation field: L_avg > 0 and U0 = L_min/L_avg in (0, 1].
   const ScenePreset sp = load_scene_preset("night-urban");
   EXPECT_DOUBLE_EQ(sp.street_road_luminance_cd_m2, 1.0);  // EN 13201-2 M3
+  EXPECT_GT(std::stod(e.attributes.at("photosite/night/road_luminance_avg_cd_m2")), 0.0);
+  const double u0 = std::stod(e.attributes.at("photosite/night/road_uniformity_u0"));
+  EXPECT_GT(u0, 0.0);
+  EXPECT_LE(u0, 1.0);
+  EXPECT_GT(std::stoi(e.attributes.at("photosite/night/street_lamps")), 0);
+  // night_radiance − lights is the darkened scene plus the low beam's diffuse reflection
+  // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
+  // the sources s (moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,
+  // so it lies between Σ_s min_k t_s,k L_s and Σ_s max_k t_s,k L_s with L_s = ρ E_s / π
+  // (E_beam ≤ ego_beam.road_lux, and ≥ 0 for the lower bound); t_s is source s's tint
+  // (illuminant_tint).
   double lower = 0, upper = 0;
-  const std::pair<double, double> sources[] = {{sp.street_cct_K, sp.street_road_luminance_cd_m2},
-                                               {sp.moon_cct_K, sp.rho_road * sp.moon_lux / M_PI},
+  const std::pair<double, double> sources[] = {{sp.moon_cct_K, sp.rho_road * sp.moon_lux / M_PI},
                                                {sp.skyglow_cct_K, sp.rho_road * sp.skyglow_lux / M_PI},
                                                {sp.beam_cct_K, sp.rho_road * sp.beam_road_lux / M_PI}};
-  for (int i = 0; i < 4; ++i) {
+  for (int i = 0; i < 3; ++i) {
     const auto t = illuminant_tint(sources[i].first);
-    if (i < 3) lower += *std::min_element(t.begin(), t.end()) * sources[i].second;  // the beam may be 0
+    if (i < 2) lower += *std::min_element(t.begin(), t.end()) * sources[i].second;  // the beam may be 0
     upper += *std::max_element(t.begin(), t.end()) * sources[i].second;
   }
   const ImageF& lab = e.channels.at("labels.Y");

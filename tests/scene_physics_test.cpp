@@ -37,7 +37,8 @@ double median(std::vector<double> v) {
 // subtraction loses at most a factor 10 of single precision (10 × 6e-8 relative per operand):
 // the ratio is 1 within 1e-4 at the median pixel (lamp discs of the cars may cover a few).
 TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
-  const ScenePreset p = no_bloom();
+  ScenePreset p = no_bloom();
+  p.street_road_luminance_cd_m2 = 0;  // no lamp pools: the light map's markings are retroreflection alone
   const SyntheticScene s = make_synthetic_road({});
   const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1, /*keep_darkened=*/true);
   ASSERT_EQ(n.lanes_work.width(), n.radiance.width()) << "the synthetic scene is below work_max_width";

@@ -38,7 +38,8 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
   const ImageF dark = darken(tex, s.labels.ids, p);
   EXPECT_EQ(dark.unit(), std::string(unit::radiance));
-  // Road: ambient + street lighting that makes the road luminance the M-class target.
+  // Road: ambient only (street lighting reaches the ground as lamp pools in the light map,
+  // scene/street.cpp); vertical surfaces: ambient + the uniform vertical share of the street light.
   double sum_road = 0, n_road = 0, sum_b = 0, n_b = 0, sum_sky = 0, n_sky = 0;
   for (size_t i = 0; i < dark.pixel_count(); ++i) {
     const int id = s.labels.ids[i];
@@ -47,7 +48,7 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
     if (id == int(Label::Sky)) { sum_sky += luminance(dark, i); ++n_sky; }
   }
   const double amb = p.moon_lux + p.skyglow_lux;
-  const double road_expect = p.street_road_luminance_cd_m2 + p.rho_road * amb / M_PI;
+  const double road_expect = p.rho_road * amb / M_PI;
   EXPECT_NEAR(sum_road / n_road, road_expect, 0.03 * road_expect);
   const double e_street = M_PI * p.street_road_luminance_cd_m2 / p.rho_road;
   const double b_expect = p.rho_construction * (amb + p.street_vertical_fraction * e_street) / M_PI;
@@ -118,11 +119,13 @@ TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
     EXPECT_EQ(n.vp.method, VpMethod::Hough) << n.vp.note;
     EXPECT_LT(std::hypot(n.vp.x - vx, n.vp.y - vy), 6.0) << n.vp.x << "," << n.vp.y;
     EXPECT_GT(n.vp.confidence, 0.3);
-    // Depth: 0 at the VP, rising toward the bottom; the near car deeper than the far one.
-    EXPECT_LT(n.depth.at(int(vx), int(vy) + 2), 0.05f);
-    EXPECT_FLOAT_EQ(n.depth.at(int(vx), o.height - 1), 1.f);
+    // Metric depth: far near the horizon, near at the bottom; the far car deeper than the near one.
+    EXPECT_GT(n.depth.at(int(vx), int(vy) + 3), 10 * n.depth.at(int(vx), o.height - 1));
     const int far_y = int(vy + (o.height - 1 - vy) * 0.35) - 2, near_y = int(vy + (o.height - 1 - vy) * 0.6) - 2;
-    EXPECT_LT(n.depth.at(int(vx), far_y), n.depth.at(int(vx), near_y));
+    EXPECT_GT(n.depth.at(int(vx), far_y), n.depth.at(int(vx), near_y));
+    // The low-beam ramp: 0 at the VP, 1 at the border.
+    EXPECT_LT(n.beam_input.at(int(vx), int(vy) + 2), 0.05f);
+    EXPECT_FLOAT_EQ(n.beam_input.at(int(vx), o.height - 1), 1.f);
     EXPECT_TRUE(all_finite_nonneg(n.radiance));
   }
 }
@@ -166,14 +169,23 @@ TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {
   EXPECT_NEAR(d.at(30, 35), 15.f / 29.f, 1e-5f);  // linear from the VP to the bottom row
 }
 
+// A scene from a known camera (the Cityscapes rig at 1024x512): three boxes in the driving area,
+// façades beyond the sidewalks.
+SyntheticCameraScene camera_scene() {
+  SyntheticCameraOptions o;
+  VanishingPoint none;
+  o.camera = camera_geometry(load_camera_rig("cityscapes"), o.width, o.height, none);
+  o.boxes = {{-2.0, 12, 1.8, 1.5, 4.5}, {2.0, 20, 1.8, 1.5, 4.5}, {0.0, 32, 2.5, 3.0, 10}};
+  return make_synthetic_camera_scene(o);
+}
+
 TEST(SceneLights, PerVehicleLampsWindowsDeterministic) {
-  SyntheticOptions o;
-  o.cars = 2;
-  SyntheticScene s = make_synthetic_road(o);
+  const SyntheticCameraScene s = camera_scene();
   NightScene a = night_scene(s.day_linear_srgb, s.labels, preset(), 7);
   NightScene b = night_scene(s.day_linear_srgb, s.labels, preset(), 7);
   NightScene c = night_scene(s.day_linear_srgb, s.labels, preset(), 8);
-  EXPECT_EQ(a.light_stats.vehicle_lamps, 4);  // two per car
+  EXPECT_EQ(a.light_stats.vehicles_in_traffic, 3);
+  EXPECT_EQ(a.light_stats.vehicle_lamps, 6);  // two per car
   EXPECT_GT(a.light_stats.windows, 0);
   EXPECT_EQ(a.lights.vec(), b.lights.vec());  // same seed, same scene: same lights
   EXPECT_NE(a.lights.vec(), c.lights.vec());  // the seed moves the lit windows
@@ -327,8 +339,7 @@ TEST(SceneChain, IndependentOfThreadCount) {
 // lamps.window_cool_cct_K), not from constants in the code: all-warm windows equal all-cool
 // windows at the same CCT, and moving the cool CCT changes the light map.
 TEST(SceneLights, WindowColourSplitComesFromThePreset) {
-  SyntheticOptions o;
-  SyntheticScene s = make_synthetic_road(o);
+  const SyntheticCameraScene s = camera_scene();
   ScenePreset warm = preset();
   warm.window_warm_share = 1.0;
   ScenePreset cool_same = preset();

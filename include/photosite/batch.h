@@ -1,9 +1,16 @@
 // Whole data sets: finding the (image, labels, instances) items of a data set's own layout or a
-// manifest, grouping sequence frames, sharding deterministically, and the resume manifest.
+// manifest, grouping sequence frames, sharding deterministically, and the engine that turns
+// them into night frames (run: its queue, resume manifest, shards and fixed-pattern cache).
 #pragma once
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
+
+#include "photosite/backend.h"
+#include "photosite/outputs.h"
+#include "photosite/scene/scene_preset.h"
 
 namespace photosite::batch {
 
@@ -44,5 +51,58 @@ std::string upgrade_params(const std::string& params_json);
 
 uint64_t fnv1a_file(const std::string& path);  // checksum of a file's bytes
 uint64_t fnv1a_text(const std::string& text, uint64_t h = 0xcbf29ce484222325ull);
+
+// ---- the engine ----------------------------------------------------------------------------
+// What a batch run writes and how. Everything but shard, jobs, queue_depth, compute_threads and
+// stop decides the results and is recorded in the resume manifest.
+struct Options {
+  std::string out;            // output folder, created when missing; mirrors the items' keys
+  std::string source;         // what the items came from, recorded ("cityscapes /abs/root")
+  std::string root;           // the data set's root (refused as `out`), empty for a manifest
+  int shard_index = 0, shard_count = 1;
+  std::string format = "exr";  // exr, png (8-bit sRGB preview) or both
+  LayerSet layers = kBatchLayers;
+  std::string compression = kDefaultExrCompression;  // an EXR compression name (io.h)
+  bool half = false;          // float layers as half
+  SensorSetup sensor;         // settings.seed is the run's seed; each group's is mixed from it
+  std::string device_store;   // empty: DeviceStore's default
+  scene::ScenePreset scene;
+  int jobs = 1;               // writer threads
+  int queue_depth = 2;        // items in flight between read, compute and write (bounds memory)
+  int compute_threads = 0;    // OpenMP team of the compute stage; 0: OpenMP's default
+  // Set (e.g. from a signal handler) to stop reading new items; those in flight are finished.
+  const std::atomic<bool>* stop = nullptr;
+};
+
+struct Progress {
+  size_t items = 0;         // in this shard
+  size_t already_done = 0;  // finished by an earlier run (checksums verified), skipped
+  size_t to_do = 0;
+  size_t written = 0;       // finished by this run so far
+  size_t failed = 0;
+  double elapsed_s = 0;
+};
+// Called once before the first item (written == 0) and after every finished item, from the
+// engine's threads one at a time.
+using ProgressFn = std::function<void(const Progress&)>;
+
+struct Result {
+  Progress progress;                // the final counts
+  std::vector<std::string> errors;  // one per failed item: "<input>: <problem>"
+  bool interrupted = false;         // *stop was set before every item was read
+};
+
+// Runs shard (shard_index, shard_count) of `items` (all of them: whole groups go to a shard, as
+// in shard()). A reader thread decodes, the calling thread computes (scene and sensor on
+// `backend`), `jobs` writer threads encode; bounded queues keep memory flat. Every file is
+// written under a temporary name and renamed; temporaries of killed runs are removed first. A
+// per-shard manifest (<out>/.photosite-batch/) records each finished item with its files'
+// checksums: items whose files are intact are skipped. Bad input (Error) before any work: a
+// manifest of other parameters in `out`, an output that exists and is not this run's, `out`
+// being the data set root, a bad option. Items that fail are listed in Result::errors; the
+// others are written. The bytes written depend on neither jobs, queue_depth, compute_threads
+// nor the sharding.
+Result run(const std::vector<Item>& items, const Options& options, SensorRunner& backend,
+           const ProgressFn& progress = {});
 
 }  // namespace photosite::batch

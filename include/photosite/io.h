@@ -50,8 +50,24 @@ struct ExrChannelGroup {
   const ImageF* image = nullptr;           // channels() == channel_names.size()
   std::string unit;                        // recorded as header attribute "photosite/unit/<name>"
   ExrPixel pixel = ExrPixel::Float;
+  // Instead of `image`, for pixel Uint: 16-bit integer samples (class ids), widened to the UINT
+  // channel as they are, with no float in between.
+  const ImageU16* image_u16 = nullptr;
 };
 using ExrAttribute = std::variant<std::string, int, float, double>;
+
+// The compressions this OpenEXR (3.1) writes, by OpenImageIO's names: none, rle, zips, zip, piz
+// (lossless), pxr24 (lossy for float32: rounds to 24 bits), b44, b44a, dwaa, dwab (lossy for
+// half and float; integer channels are always stored losslessly, OpenEXR's rule).
+const std::vector<std::string>& exr_compressions();
+bool exr_compression_lossless(const std::string& name);
+// Bad input naming `what` (e.g. "--compression") unless `name` is one of exr_compressions().
+void check_exr_compression(const std::string& name, const std::string& what);
+// The default of `expose`, `night` and `batch`: of the lossless codecs, the one that wrote the
+// typed night layers smallest, in about half zip's time; none and rle were faster at 4-5x the
+// bytes (docs/bench_exr.csv, `photosite bench exr`).
+inline constexpr const char* kDefaultExrCompression = "piz";
+
 struct ExrWriteOptions {
   bool half = false;                // store as half instead of float32
   std::string compression = "zip";  // none, rle, zips, zip, piz, pxr24, b44, dwaa, dwab
@@ -78,6 +94,10 @@ ExrContents read_exr(const std::string& path);
 
 // 8- or 16-bit PNG (or any OIIO format by extension) from float [0,1] samples, rounded.
 void write_png(const std::string& path, const ImageF& image, int bits = 8);
+// 8-bit PNG of the codes as they are (1 grey or 3 RGB channels), through libpng: zlib
+// level 1 and the Sub filter, no time or text chunks (the same bytes on any day). Written
+// atomically like every output.
+void write_png8(const std::string& path, const ImageU8& image);
 
 // ---- safe output ----------------------------------------------------------------------------
 // Refuses (bad input, exit 2) when the folder is missing or the file exists and !overwrite.

@@ -61,10 +61,10 @@ struct NightInputs {
 };
 
 // Channel groups: the sensor's (raw.Y, R,G,B, electrons.Y), night_radiance.R/G/B, depth.Z,
-// lights.R/G/B, labels.Y. `label_img` must outlive the returned groups.
-// Only the layers in `layers`.
+// lights.R/G/B, labels.Y (the class ids written from their 16-bit samples to a UINT channel).
+// `out`, `ns` and `labels` must outlive the returned groups. Only the layers in `layers`.
 std::vector<ExrChannelGroup> night_channels(const SensorOutput& out, const scene::NightScene& ns,
-                                            const ImageF& label_img, LayerSet layers = kNightLayers);
+                                            const scene::LabelMap& labels, LayerSet layers = kNightLayers);
 // The label ids as a one-channel image (unit label_id) for the labels.Y layer.
 ImageF label_image(const scene::LabelMap& labels);
 

@@ -18,11 +18,14 @@ struct NamedPicture {
 };
 
 // The maps of one night scene: lanes, edges, lines and the vanishing point (work resolution),
-// depth, the light map, the darkened scene and the night radiance as log10 luminance from 1e-3 to
+// depth (log scale, 1 m to 1 km), the light map, the darkened scene and the night radiance as log10 luminance from 1e-3 to
 // 1e3 cd/m² mapped to [0, 1], the labels in the Cityscapes palette, and the day photo.
 // day_linear: the linear sRGB day image the scene was made from.
 std::vector<NamedPicture> night_map_pictures(const ImageF& day_linear, const scene::LabelMap& labels,
                                              const scene::NightScene& ns);
+
+// Metric depth (m) on a log scale: 1 m white, 1000 m and beyond (the sky) black.
+ImageF depth_picture(const ImageF& depth_m);
 
 // log10 luminance of a radiance image (W·sr⁻¹·m⁻², box RGB) from 1e-3 to 1e3 cd/m², mapped to [0, 1].
 ImageF log_luminance_picture(const ImageF& radiance);

@@ -91,7 +91,8 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     resize_labels "none" or "nearest" (labels of another size than the image)
 
     Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,
-    W.sr-1.m-2), .depth (float32 H x W, relative 0..1), .labels (uint16 labelIds),
+    W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; camera rig chosen
+    by the image's aspect ratio), .labels (uint16 labelIds),
     .vanishing_point (x px, y px, confidence 0..1, method), .sensor (a SensorResult, metadata as in
     the EXR header) and .preview() (uint8 sRGB). The pixels equal those of the `photosite night`
     EXR for the same inputs, camera, seed and frame.

@@ -89,22 +89,72 @@ struct VanishingPoint {
 // Pairwise intersections, densest cluster, its mean; else a prior from the labels.
 VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
                                const ScenePreset& p);
-// 0 at the vanishing point rising linearly to 1 at the image border along every ray.
+// 0 at the vanishing point rising linearly to 1 at the image border along every ray. Used only
+// as the low-beam falloff proxy (low_beam_lux); depth.Z is metric_depth().
 ImageF coarse_depth(int width, int height, double vp_x, double vp_y);
+
+// ---- metric geometry (full resolution) ------------------------------------------------------
+// Road coordinates: X right, Y up from the road, D forward along the road (horizontal), metres;
+// the camera's optical centre at (0, mount_height_m, 0), pitched down by pitch_rad, no roll or yaw.
+// Camera z (depth.Z, the EXR convention: distance along the optical axis) of a point is
+//   z = (h − Y)·sin θ + D·cos θ,  y_c = (h − Y)·cos θ − D·sin θ,  u = c_x + f·X/z, v = c_y + f·y_c/z.
+// The horizon (D → ∞) is the row y_h = c_y − f·tan θ.
+inline constexpr float kDepthInfinity_m = 65504.f;  // sky: the largest finite half (EXR depth.Z is half)
+struct CameraGeometry {
+  std::string rig;
+  double f_px = 1, cx_px = 0, cy_px = 0, mount_height_m = 1, pitch_rad = 0;
+  double horizon_y = 0;
+  std::string horizon_source = "rig";  // "vanishing_point" or "rig"
+  double horizon_confidence = 0;        // the VP's confidence, or 0 for the rig's nominal pitch
+  // Ground point of a pixel (Y = 0): false above the horizon. Flat-ground model:
+  //   z = f·h / ((v − y_h)·cos θ).
+  bool ground_point(double u, double v, double* X, double* D, double* z) const;
+  // Camera z of the ground at row v (infinite at and above the horizon).
+  double ground_depth_m(double v) const;
+  // Camera z of a vertical plane D = D_plane, fronto-parallel, at row v.
+  double plane_depth_m(double v, double D_plane) const;
+  // Projection of a road-coordinate point; false behind the camera (z <= 0.05 m).
+  bool project(double X, double Y, double D, double* u, double* v, double* z) const;
+};
+// The rig's intrinsics at width x height, the horizon from the vanishing point when it is a
+// Hough estimate (confidence >= 0.3) whose pitch atan((c_y − y_vp)/f) is within ±15°, else from
+// the rig's nominal pitch.
+CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, const VanishingPoint& vp);
+// Metric depth (m): ground classes (and ego vehicle, rectification border, out of ROI) by the
+// flat-ground model; every object — an instance, or a 4-connected region of one non-ground
+// class — a vertical plane at the depth of its ground contact: vehicles, people and instances
+// one fronto-parallel plane at the region's lowest row; other regions (buildings, walls,
+// vegetation, poles) per column at that column's lowest pixel of the region (a façade receding
+// along the street). A contact that is hidden (occluded bottom) is taken where the region's
+// visible bottom is: an approximation that places it farther. Sky kDepthInfinity_m; depths
+// capped at max_depth_m elsewhere.
+ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_depth_m);
 
 // ---- lights and composition (full resolution) ----------------------------------------------
 // Ego low-beam illuminance (lx) on the ground at a pixel, from the coarse depth: ∝ depth² (the
 // inverse-square law along the road, distance ∝ 1/depth), Gaussian across the beam.
 double low_beam_lux(int x, int y, int width, double depth, double vp_y, const ScenePreset& p);
 
-struct LightStats { int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0; };
+struct LightStats {
+  int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;
+  // Street lighting (scene/street.cpp): luminaires placed ("poles" or "road_edges"), the peak
+  // luminous intensity that makes the EN 13201 average hold, and the road's average luminance and
+  // overall uniformity U0 = L_min / L_avg on the calculation grid.
+  int vehicles_in_traffic = 0, vehicles_parked = 0, vehicles_parked_lit = 0;
+  int street_lamps = 0;
+  std::string street_lamp_source = "none";
+  double street_peak_intensity_cd = 0, road_luminance_avg_cd_m2 = 0, road_uniformity_u0 = 0;
+};
 struct LightMap {
   ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected (the lens's glare comes later, in the sensor)
   LightStats stats;
 };
+// `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
+// pools; with them lamps, pools and windows are placed and sized in metres.
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
-                   const ScenePreset& p, uint64_t seed);
+                   const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
+                   const ImageF* depth_m = nullptr);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on the ground
 // + the light map.
@@ -115,7 +165,10 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
 struct StageTiming { std::string stage; double ms; };
 struct NightScene {
   ImageF darkened;  // full resolution, kept only with keep_darkened
-  ImageF lights, radiance, depth;  // full resolution
+  ImageF lights, radiance;  // full resolution
+  ImageF depth;             // metres (metric_depth), full resolution
+  ImageF beam_input;        // what compose() reads for the ego low beam (see low_beam_lux), full resolution
+  CameraGeometry geometry;
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;
   std::vector<Segment> lines_work;
@@ -156,5 +209,25 @@ struct SyntheticScene {
 // A straight road in perspective toward (vp_x, vp_y) with dashed lane markings, sky, buildings
 // on both sides and box cars on the road. Deterministic.
 SyntheticScene make_synthetic_road(const SyntheticOptions& o);
+
+// A scene rendered from a known camera by ray casting (one ray per pixel centre): a flat road
+// (Y = 0) with a 1 m texture checker, lane markings (dashes 3 m on / 6 m off at X = ±lane_width/2,
+// solid lines 0.2 m inside the road edges), sidewalks, building façades 12 m tall beyond them
+// (3 to 200 m ahead), terrain beyond, sky above the horizon, and boxes standing on the road (front
+// face at D, sides visible, labelled car with instances).
+struct SyntheticBox { double X_m, D_m, width_m, height_m, length_m; };
+struct SyntheticCameraOptions {
+  int width = 1024, height = 512;
+  CameraGeometry camera;  // intrinsics and pose at width x height
+  double road_half_width_m = 7, lane_width_m = 3.5, sidewalk_m = 3;
+  std::vector<SyntheticBox> boxes;
+};
+struct SyntheticCameraScene {
+  ImageF day_linear_srgb;
+  LabelMap labels;
+  ImageF depth_m;     // true camera z (kDepthInfinity_m for sky)
+  ImageU8 box_front;  // 1: pixel on a box's front face
+};
+SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o);
 
 }  // namespace photosite::scene

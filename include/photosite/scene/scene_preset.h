@@ -7,6 +7,7 @@
 #include <string>
 
 #include "photosite/io.h"
+#include "photosite/scene/rig.h"
 
 namespace photosite::scene {
 
@@ -22,6 +23,22 @@ struct ScenePreset {
   // illuminance on ground classes E = π·L/ρ_road; vertical surfaces get vertical_fraction of it.
   double street_road_luminance_cd_m2 = 1.0, street_vertical_fraction = 0.3;
   double street_cct_K = 4000;
+  // [street_lamps] luminaires as point sources (scene/street.cpp): mounting height, spacing as a
+  // multiple of it, set-back from the road edge, the cut-off intensity distribution (constant to
+  // cutoff_deg from the nadir, then falling as exp(-(γ - cutoff)/falloff_deg)), the lamp head's
+  // size, how far placed lamps reach, the least pole height that carries a luminaire.
+  double lamp_mount_height_m = 10, lamp_spacing_ratio = 3.5, lamp_setback_m = 0.5;
+  double lamp_cutoff_deg = 65, lamp_falloff_deg = 5, lamp_head_diameter_m = 0.5;
+  double lamp_max_distance_m = 150, lamp_min_pole_height_m = 5;
+  // [vehicle_lamps] lamps in metres per vehicle (scene/lights.cpp): height above the ground
+  // contact, inset from the vehicle's side, lens diameters, intensities toward the camera, the
+  // seeded share of parked vehicles with parking lights, the kerb strip where vehicles park.
+  double veh_lamp_height_m = 0.7, veh_lamp_inset_m = 0.15, veh_head_diameter_m = 0.18,
+         veh_tail_diameter_m = 0.12, veh_head_intensity_cd = 350, veh_tail_intensity_cd = 8,
+         veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5;
+  // [windows] façade layout in metres.
+  double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,
+         shop_luminance_factor = 3, shop_cct_K = 3000;
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
@@ -44,6 +61,10 @@ struct ScenePreset {
   double line_reject_angle_deg = 12, border_fraction = 0.03;
   double vp_cluster_radius_fraction = 0.04;
   int vp_min_support = 4;
+  double max_depth_m = 1000;  // metric depth cap for ground and objects near the horizon
+  // The camera rig (not a key of the scene file: chosen by `--rig`); an empty name means auto
+  // (rig_for_image: the bundled rig of the nearest native aspect ratio).
+  CameraRig rig;
 };
 
 ScenePreset load_scene_preset(const std::string& name_or_path);  // name in presets/scenes or path

@@ -72,10 +72,12 @@ struct MlriGeometry {
 };
 MlriGeometry mlri_geometry();
 int mlri_support_radius();  // pixels: how far a mosaic sample influences the output
-// demosaic_mlri's two builds of one body (baseline SSE2 and AVX2, picked at run time like LMMSE's);
-// bit-identical results. Exposed for the test that says so.
+// demosaic_mlri's three builds of one body (baseline SSE2, AVX2 and AVX-512, the widest the CPU
+// has picked at run time like LMMSE's); bit-identical results. Exposed for the test that says so.
 ImageF demosaic_mlri_baseline(const ImageF& mosaic, CfaPattern pattern);
-ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);  // needs lmmse_have_avx2()
+ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);    // needs lmmse_have_avx2()
+ImageF demosaic_mlri_avx512(const ImageF& mosaic, CfaPattern pattern);  // needs mlri_have_avx512()
+bool mlri_have_avx512();  // AVX-512 F, VL, BW and DQ
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).

@@ -34,7 +34,7 @@
 #include "photosite/io.h"
 #include "photosite/sensor/demosaic.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 
 
@@ -512,4 +512,4 @@ static BenchRegistrar reg("demosaic", "demosaic methods: Kodak and saturated-set
                             sub->add_option("--height", o->height)->capture_default_str();
                             sub->callback([o] { run_bench(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

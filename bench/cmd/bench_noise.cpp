@@ -27,7 +27,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/poisson.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 
 
@@ -278,4 +278,4 @@ static BenchRegistrar reg("noise", "Poisson sampler speed and accuracy vs std::,
                             sub->add_option("--height", o->height)->capture_default_str();
                             sub->callback([o] { run_bench(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

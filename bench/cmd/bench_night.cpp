@@ -24,7 +24,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 struct Opts {
   std::string image, labels, instances, out_dir, preset = "onsemi-ar0331";
@@ -66,7 +66,8 @@ void run(const Opts& o) {
     info.is_float = true;
     source = "synthetic road 2048x1024 (../shared/data/cityscapes absent)";
   }
-  const scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+  scene::ScenePreset sp = scene::load_scene_preset("night-urban");
+  sp.rig = scene::rig_for_image(day.width(), day.height());  // as `night --rig auto` (read once, outside the timing)
   const CameraPreset cam = load_camera_preset(o.preset);
   LensPreset lens = load_lens_preset(cam.default_lens);
   if (o.no_glare) lens.glare = LensGlare{};
@@ -137,8 +138,11 @@ void run(const Opts& o) {
   }
   const double scene_ms = median(t["scene stages (linearize..compose)"]);
   const double whole_ms = median(t["whole chain"]);
-  std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain < 50 ms: %s (%.1f ms)\n",
-              scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms < 50 ? "met" : "NOT met", whole_ms);
+  const double lights_ms = t.count("lights") ? median(t["lights"]) : 0;
+  std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain <= 50 ms: %s (%.1f ms); "
+              "light map <= 10 ms: %s (%.1f ms)\n",
+              scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms <= 50 ? "met" : "NOT met", whole_ms,
+              lights_ms <= 10 ? "met" : "NOT met", lights_ms);
   atomic_write(csv_path, [&](const std::string& tmp) {
     std::ofstream f(tmp);
     f << csv;
@@ -161,4 +165,4 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

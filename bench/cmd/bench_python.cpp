@@ -10,7 +10,7 @@
 #include "bench.h"
 #include "photosite/error.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 struct PythonBench {
   std::string out_dir;
@@ -49,4 +49,4 @@ static BenchRegistrar reg("python", "Python module: night overhead vs the C++ ch
                                 ->capture_default_str();
                             sub->callback([b] { run(*b); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

@@ -1,5 +1,7 @@
-// `photosite bench <target>`: benchmarks that write CSV and charts to docs/. Each target
-// registers itself with a BenchRegistrar from its own cli/bench_*.cpp.
+// `photosite bench <target>`: benchmarks that write CSV and charts to docs/. They are built as
+// their own static library (photosite_benchlib, from bench/cmd/*.cpp), linked whole into the
+// `photosite` executable; each target registers itself with a BenchRegistrar from its own
+// bench/cmd/bench_*.cpp, and cli/cmd_bench.cpp adds them under `photosite bench`.
 #pragma once
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -8,10 +10,12 @@
 #include <string>
 #include <vector>
 
-namespace photosite::cli {
+namespace photosite::bench {
 // setup(sub) adds the target's options to `sub` and sets its callback.
 void register_bench(const std::string& name, const std::string& help,
                     const std::function<void(CLI::App* sub)>& setup);
+// Adds every registered target as a subcommand of `bench` (the command line's `photosite bench`).
+void add_bench_targets(CLI::App* bench);
 struct BenchRegistrar {
   BenchRegistrar(const std::string& name, const std::string& help,
                  const std::function<void(CLI::App* sub)>& setup) {
@@ -42,4 +46,4 @@ inline double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0 : v[v.size() / 2];
 }
-}  // namespace photosite::cli
+}  // namespace photosite::bench

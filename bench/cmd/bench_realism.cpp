@@ -34,7 +34,7 @@
 #include "photosite/sensor/preset.h"
 #include "photosite/thesis_baseline.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 namespace fs = std::filesystem;
 
@@ -253,4 +253,4 @@ static BenchRegistrar reg("realism",
                             sub->add_flag("--no-stats", o->no_stats, "only write the previews and the manifest");
                             sub->callback([o] { run(*o); });
                           });
-}  // namespace photosite::cli
+}  // namespace photosite::bench

@@ -29,7 +29,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "sensor/poisson_detail.h"
 
-namespace photosite::cli {
+namespace photosite::bench {
 namespace {
 
 struct BenchSenseOptions {
@@ -165,4 +165,4 @@ static BenchRegistrar reg("sense",
                             sub->callback([o] { run_bench(*o); });
                           });
 
-}  // namespace photosite::cli
+}  // namespace photosite::bench

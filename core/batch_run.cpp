@@ -1,0 +1,359 @@
+// batch::run: a whole data set (or one shard of it) to night frames (batch.h).
+//
+// Pipeline: a reader thread decodes images and labels, the calling thread computes (the scene
+// and the sensor, OpenMP inside), writer threads encode and write; bounded queues between them
+// keep memory flat whatever the number of images. Every file is written under a temporary name
+// and renamed; a small per-shard manifest (out/.photosite-batch/) records each finished item with
+// its files' checksums and the run's parameters, so a re-run skips finished items and refuses to
+// mix results of other parameters.
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include <omp.h>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "photosite/batch.h"
+#include "photosite/error.h"
+#include "photosite/sensor/isp.h"
+
+namespace photosite::batch {
+namespace fs = std::filesystem;
+
+namespace {
+template <class T>
+class BoundedQueue {
+ public:
+  explicit BoundedQueue(size_t cap) : cap_(cap) {}
+  void push(T v) {
+    std::unique_lock l(m_);
+    not_full_.wait(l, [&] { return q_.size() < cap_; });
+    q_.push_back(std::move(v));
+    not_empty_.notify_one();
+  }
+  std::optional<T> pop() {
+    std::unique_lock l(m_);
+    not_empty_.wait(l, [&] { return !q_.empty() || closed_; });
+    if (q_.empty()) return std::nullopt;
+    T v = std::move(q_.front());
+    q_.pop_front();
+    not_full_.notify_one();
+    return v;
+  }
+  void close() {
+    std::lock_guard l(m_);
+    closed_ = true;
+    not_empty_.notify_all();
+  }
+
+ private:
+  size_t cap_;
+  std::deque<T> q_;
+  bool closed_ = false;
+  std::mutex m_;
+  std::condition_variable not_full_, not_empty_;
+};
+
+struct Loaded {
+  Item item;
+  ImageF day;  // linear sRGB
+  scene::LabelMap labels;
+  std::string error;
+};
+struct Computed {
+  Item item;
+  std::string error;
+  std::vector<std::pair<std::string, std::function<void(const std::string&)>>> writes;  // rel path, writer
+};
+
+std::string read_text(const std::string& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// Removes temporaries left by a killed run (".<name>.tmp-<pid>-<n>.<ext>" whose pid is gone).
+void remove_stale_temporaries(const fs::path& out) {
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(out, ec); it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (ec) break;
+    const std::string n = it->path().filename().string();
+    const auto t = n.find(".tmp-");
+    if (n.empty() || n[0] != '.' || t == std::string::npos) continue;
+    const int pid = std::atoi(n.c_str() + t + 5);
+    if (pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH)) continue;  // still running
+    fs::remove(it->path(), ec);
+  }
+}
+
+// OpenMP's team size for the compute stage, restored when the run ends.
+struct OmpThreads {
+  int saved = omp_get_max_threads();
+  explicit OmpThreads(int n) {
+    if (n > 0) omp_set_num_threads(n);
+  }
+  ~OmpThreads() { omp_set_num_threads(saved); }
+};
+}  // namespace
+
+Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner, const ProgressFn& progress) {
+  // ---- options and parameters -------------------------------------------------------------
+  if (o.format != "exr" && o.format != "png" && o.format != "both") fail("--format must be exr, png or both");
+  if (o.layers == 0 || (o.layers & ~kNightLayers) != 0) fail("batch: no layer or an unknown layer in the set");
+  check_exr_compression(o.compression, "--compression");
+  if (o.jobs < 1 || o.jobs > 64) fail("--jobs must be in [1, 64]");
+  if (o.queue_depth < 1 || o.queue_depth > 64) fail("--queue-depth must be in [1, 64]");
+  if (o.compute_threads < 0 || o.compute_threads > 256) fail("--compute-threads must be in [0, 256]");
+  if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count)
+    fail(fmt::format("--shard {}/{} must be I/N with 0 <= I < N", o.shard_index, o.shard_count));
+  if (o.out.empty()) fail("batch: no output folder given");
+  std::error_code ec;
+  if (!o.root.empty() && fs::exists(o.out, ec) && fs::equivalent(o.out, o.root, ec))
+    fail_at(o.out, "the output folder is the data set's own root; choose another --out");
+  fs::create_directories(o.out, ec);
+  if (!fs::is_directory(o.out, ec)) fail_at(o.out, "cannot create the output folder");
+  const std::vector<Item> items = shard(all, o.shard_index, o.shard_count);
+  const SensorSetup& r = o.sensor;
+  const ResolvedExposure base_ex = resolve(r.camera, r.lens, r.settings);  // checks the settings
+  (void)base_ex;
+  const DeviceStore store(o.device_store);
+  const scene::ScenePreset& sp = o.scene;
+
+  // Parameters that decide the results (not the shard: results do not depend on the split).
+  // "Use the preset's value" is recorded as null (manifests of earlier runs: -1 / -999, read as
+  // null by upgrade_params).
+  nlohmann::json params = {
+      {"photosite_version", PHOTOSITE_VERSION}, {"source", o.source},
+      {"camera", r.camera.name}, {"camera_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(r.camera.file)))},
+      {"lens", r.lens.name}, {"lens_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(r.lens.file)))},
+      {"scene_preset", sp.name}, {"scene_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(sp.file)))},
+      {"camera_rig", sp.rig.file.empty() ? std::string("auto") : sp.rig.name},
+      {"rig_file_fnv", sp.rig.file.empty() ? std::string() : fmt::format("{:016x}", fnv1a_text(read_text(sp.rig.file)))},
+      {"exposure_s", r.settings.exposure_s}, {"f_number", r.settings.f_number ? nlohmann::json(*r.settings.f_number) : nlohmann::json()},
+      {"gain_db", r.settings.gain_db}, {"temperature_c", r.settings.temperature_c ? nlohmann::json(*r.settings.temperature_c) : nlohmann::json()},
+      {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
+      {"poisson", to_string(r.settings.poisson)},
+      {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
+  const std::string params_text = params.dump();
+
+  // ---- the resume manifest ------------------------------------------------------------------
+  const fs::path out(o.out);
+  const fs::path mdir = out / ".photosite-batch";
+  fs::create_directories(mdir, ec);
+  remove_stale_temporaries(out);
+  std::map<std::string, nlohmann::json> done;  // key → record
+  for (const auto& e : fs::directory_iterator(mdir, ec)) {
+    if (e.path().extension() != ".jsonl") continue;
+    std::ifstream f(e.path());
+    std::string line;
+    bool first = true;
+    while (std::getline(f, line)) {
+      nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+      if (j.is_discarded()) continue;  // a line cut short by a kill
+      if (first) {
+        first = false;
+        if (!j.contains("params") || batch::upgrade_params(j["params"].dump()) != params_text)
+          fail_at(o.out, "was written by a batch run with other parameters (" + e.path().filename().string() +
+                             "); photosite does not mix results: use a new --out");
+        continue;
+      }
+      if (j.contains("key")) done[j["key"]] = j;
+    }
+  }
+  auto finished = [&](const Item& it) {
+    auto d = done.find(it.key);
+    if (d == done.end()) return false;
+    for (const auto& f : d->second["files"]) {
+      const fs::path p = out / f["path"].get<std::string>();
+      if (!fs::exists(p) || fmt::format("{:016x}", fnv1a_file(p.string())) != f["fnv"].get<std::string>())
+        return false;
+    }
+    return true;
+  };
+  std::vector<Item> todo;
+  for (const auto& it : items)
+    if (!finished(it)) todo.push_back(it);
+  // Every output we are about to write must be new, or one of ours from an unfinished item.
+  std::set<std::string> ours;
+  for (const auto& [k, rec] : done)
+    for (const auto& f : rec["files"]) ours.insert(f["path"].get<std::string>());
+  auto outputs_of = [&](const Item& it) {
+    std::vector<std::string> v;
+    if (o.format != "png") v.push_back(it.key + ".exr");
+    if (o.format != "exr") v.push_back(it.key + ".png");
+    if (!it.labels_rel.empty()) v.push_back(it.labels_rel);
+    if (!it.instances_rel.empty()) v.push_back(it.instances_rel);
+    return v;
+  };
+  for (const auto& it : todo)
+    for (const auto& rel : outputs_of(it)) {
+      const fs::path p = out / rel;
+      if (fs::exists(p, ec) && !ours.count(rel))
+        fail_at(p.string(), "exists and was not written by this batch; photosite never overwrites other files");
+      if (!o.root.empty() && fs::exists(p, ec)) {
+        for (const std::string& in : {it.image, it.labels, it.instances})
+          if (!in.empty() && fs::equivalent(p, in, ec)) fail_at(p.string(), "output would overwrite an input");
+      }
+    }
+  const std::string mfile = (mdir / fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count)).string();
+  const bool new_manifest = !fs::exists(mfile, ec);
+  std::ofstream mout(mfile, std::ios::app);
+  if (!mout) fail_at(mfile, "cannot write the batch manifest");
+  if (new_manifest) mout << nlohmann::json({{"params", params}}).dump() << "\n" << std::flush;
+
+  Result result;
+  Progress& pr = result.progress;
+  pr.items = items.size();
+  pr.to_do = todo.size();
+  pr.already_done = items.size() - todo.size();
+  std::mutex state_m;  // result, progress calls and the manifest
+  const auto t0 = std::chrono::steady_clock::now();
+  auto report = [&] {  // with state_m held
+    pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (progress) progress(pr);
+  };
+  report();
+  auto stopped = [&] { return o.stop && o.stop->load(); };
+
+  // ---- the pipeline -----------------------------------------------------------------------
+  BoundedQueue<Loaded> loaded(static_cast<size_t>(o.queue_depth));
+  BoundedQueue<Computed> computed(static_cast<size_t>(o.queue_depth));
+  // By default every part may use every core: the writer (EXR encoding) gets OpenEXR's own
+  // thread pool and the compute stage a full OpenMP team, and the OS shares the cores between
+  // them. Measured on 2 cores (docs/benchmarks.md, bench batch): pinning the writer and the
+  // reader to one thread each and giving compute the rest made the run 1.6x slower, since the
+  // writer then runs single-threaded while compute idles. compute_threads caps the compute
+  // stage's team (e.g. beside other jobs on a shared node).
+  const OmpThreads omp_team(o.compute_threads);
+  std::thread reader([&] {
+    for (const auto& it : todo) {
+      if (stopped()) {
+        result.interrupted = true;  // read by the calling thread only after join()
+        break;
+      }
+      Loaded l;
+      l.item = it;
+      try {
+        ImageFileInfo info;
+        ImageF day = read_image(it.image, &info);
+        l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
+                                      scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
+        l.day = scene::linearize(day, info);
+      } catch (const Error& e) {
+        l.error = e.what();
+      }
+      loaded.push(std::move(l));
+    }
+    loaded.close();
+  });
+  std::vector<std::thread> writers;
+  for (int j = 0; j < o.jobs; ++j)
+    writers.emplace_back([&] {
+      while (auto cmp = computed.pop()) {
+        std::string error = cmp->error;
+        nlohmann::json files = nlohmann::json::array();
+        if (error.empty()) try {
+            for (auto& [relp, write] : cmp->writes) {
+              const fs::path p = out / relp;
+              fs::create_directories(p.parent_path());
+              write(p.string());
+              files.push_back({{"path", relp}, {"fnv", fmt::format("{:016x}", fnv1a_file(p.string()))}});
+            }
+          } catch (const Error& e) {
+            error = e.what();
+          }
+        std::lock_guard l(state_m);
+        if (!error.empty()) {
+          result.errors.push_back(error);
+          ++pr.failed;
+        } else {
+          mout << nlohmann::json({{"key", cmp->item.key}, {"files", files}}).dump() << "\n" << std::flush;
+          ++pr.written;
+        }
+        report();
+      }
+    });
+
+  // The compute stage, on this thread. One fixed-pattern map per frame size, loaded once.
+  std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
+  const auto wb = white_balance_gains(r.camera);
+  while (auto l = loaded.pop()) {
+    Computed c;
+    c.item = l->item;
+    if (!l->error.empty()) {
+      c.error = l->error;
+      computed.push(std::move(c));
+      continue;
+    }
+    try {
+      const Item& it = l->item;
+      const uint64_t seed = group_seed(r.settings.seed, it.group);
+      auto ns = std::make_shared<scene::NightScene>(
+          scene::night_scene(l->day, l->labels, sp, seed, false, runner.pixel_stages()));
+      auto rr = std::make_shared<SensorSetup>(r);
+      rr->settings.seed = seed;
+      rr->settings.frame = static_cast<uint32_t>(it.frame);
+      const ResolvedExposure ex = resolve(rr->camera, rr->lens, rr->settings);
+      const int w = ns->radiance.width(), h = ns->radiance.height();
+      const auto key = std::make_pair(w, h);
+      if (!fpn_cache.count(key)) fpn_cache[key] = store.load_or_create(r.camera, r.device_id, w, h);
+      const FixedPatternMaps& fpn = fpn_cache[key];
+      auto so = std::make_shared<SensorOutput>(
+          runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
+      auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
+      const NightInputs in{it.image, it.labels, it.instances};
+      auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(
+          night_attributes(*rr, ex, fpn, sp, *ns, *labels, in));
+      (*attrs)["photosite/batch/group"] = it.group;
+      ExrWriteOptions wo;
+      wo.half = o.half;
+      wo.compression = o.compression;
+      wo.reproducible = true;
+      const LayerSet layers = o.layers;
+      if (o.format != "png")
+        c.writes.emplace_back(it.key + ".exr", [=](const std::string& p) {
+          write_exr(p, night_channels(*so, *ns, *labels, layers), *attrs, wo);
+        });
+      if (o.format != "exr")
+        c.writes.emplace_back(it.key + ".png", [=](const std::string& p) { write_png8(p, preview_srgb8(so->rgb, wb)); });
+      // Labels carried over unchanged: byte copies, written atomically too.
+      for (const auto& [src, dst] : {std::pair{it.labels, it.labels_rel}, std::pair{it.instances, it.instances_rel}})
+        if (!dst.empty())
+          c.writes.emplace_back(dst, [src = src](const std::string& p) {
+            atomic_write(p, [&](const std::string& tmp) {
+              std::error_code e2;
+              fs::copy_file(src, tmp, fs::copy_options::overwrite_existing, e2);
+              if (e2) fail_at(p, "cannot copy labels: " + e2.message());
+            });
+          });
+    } catch (const Error& e) {
+      c.error = l->item.image + ": " + e.what();
+    }
+    computed.push(std::move(c));
+  }
+  reader.join();
+  computed.close();
+  for (auto& t : writers) t.join();
+  std::lock_guard l(state_m);
+  pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace photosite::batch

@@ -1,0 +1,35 @@
+// Camera rigs: what a road camera needs beyond the camera and lens presets to put the scene in
+// metres: the intrinsics in pixels at the data set's native image size, the mounting height above
+// the road and the nominal pitch. presets/rigs/<name>.toml, every number with its source; unknown
+// or missing keys and out-of-range values are errors naming file and line.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace photosite::scene {
+
+struct CameraRig {
+  std::string name, file, description;
+  double native_width_px = 0, native_height_px = 0;  // the image size the intrinsics refer to
+  double fx_px = 0, cx_px = 0, cy_px = 0;            // pinhole focal length and principal point
+  double mount_height_m = 0;                         // optical centre above the road
+  double pitch_deg = 0;                              // nominal pitch, positive looking down
+};
+
+CameraRig parse_camera_rig(const std::string& toml_text, const std::string& file);
+CameraRig load_camera_rig(const std::string& name_or_path);  // name in presets/rigs, or a path
+std::vector<std::string> bundled_rigs();                     // names in presets/rigs, sorted
+// `--rig auto`: the bundled rig whose native aspect ratio is nearest the image's (KITTI 3.31,
+// Cityscapes 2.0); ties go to the first name.
+CameraRig rig_for_image(int width, int height);
+// `--rig` value: "auto" (rig_for_image), a bundled name or a .toml path.
+CameraRig resolve_camera_rig(const std::string& flag, int width, int height);
+
+// The rig's intrinsics at an image of width x height. An image of the native aspect ratio (within
+// 1%) is taken as resized: fx, cx, cy scale by width / native width. Another aspect ratio is taken
+// as a centred crop of the native frame: fx unchanged, the principal point shifted by half the
+// size difference. (Which of the two happened cannot be told from the image; named approximation.)
+struct CameraIntrinsics { double f_px, cx_px, cy_px; };
+CameraIntrinsics scaled_intrinsics(const CameraRig& rig, int width, int height);
+
+}  // namespace photosite::scene

@@ -1,0 +1,48 @@
+// Street lighting in metres (scene/street.cpp): luminaires as point sources on detected poles or
+// along the road edges, their illuminance on the ground E = Σ I(γ)·cos γ / d², scaled so that the
+// scene preset's EN 13201 average road luminance holds, and the lamp heads sized in metres.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "photosite/scene/night.h"
+
+namespace photosite::scene {
+
+struct StreetLamp { double X_m, Y_m, D_m; bool from_pole; };
+struct StreetLighting {
+  std::vector<StreetLamp> lamps;         // sorted by D
+  std::string source = "none";           // "poles", "road_edges" or "none"
+  double road_left_m = 0, road_right_m = 0;  // road extent across (X) used for the grid
+  double peak_intensity_cd = 0;          // I(γ ≤ cut-off)
+  double grid_D0_m = 0;                  // start of the calculation field (one spacing long)
+  double avg_luminance_cd_m2 = 0, uniformity_u0 = 0;
+};
+// The cut-off distribution relative to its peak: 1 up to cutoff_deg from the nadir, then
+// exp(-(γ - cutoff)/falloff).
+double lamp_relative_intensity(double gamma_rad, const ScenePreset& p);
+// Horizontal illuminance (lx) at ground point (X, D) from all lamps at peak intensity I0.
+double street_illuminance_lux(double X_m, double D_m, const StreetLighting& s, const ScenePreset& p);
+// Places the luminaires and scales them to the preset's road luminance (no lamps when it is 0).
+StreetLighting plan_street_lighting(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
+                                    uint64_t seed);
+// Adds the ground's diffuse reflection of the street lighting (f_k·t_k·E/π, texture f, street
+// tint t) on ground classes below the horizon, and the lamp heads (discs of head_diameter_m at
+// streetlamp_luminance_cd_m2) to `L`, a head's pixel only where `depth_m` (when given) puts
+// nothing more than 1 m in front of it. Returns the number of heads drawn.
+int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
+                        const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m = nullptr);
+
+// Lit windows on building façades, in metres: every building pixel's point from its metric
+// depth; the façade runs along the road (coordinate D) where depth changes along the row faster
+// in D than in X, else across it (coordinate X); storeys of window_storey_m, windows of
+// window_width_m x window_height_m centred in cells of window_pitch_m, perspective following
+// from the projection. The lit draw is keyed by (run seed, façade side, cell, storey), all in
+// world coordinates, so windows stay on their façade when the camera moves. The ground floor
+// holds shop fronts: shop_luminance_factor brighter, at shop_cct_K. Pixels whose footprint exceeds
+// half a window width (z/f > window_width_m/2) get none (they would alias). Returns the number of
+// lit windows drawn.
+int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                       const ScenePreset& p, uint64_t seed);
+
+}  // namespace photosite::scene

@@ -1,0 +1,344 @@
+// Street lighting as point sources in road coordinates (see street.h).
+//
+// Photometry: a luminaire of intensity I(γ) (cd, γ from the nadir) at height H above the ground
+// gives the horizontal illuminance E = I(γ)·cos γ / d² at a ground point at distance d (inverse
+// square and cosine laws). The road's luminance is L = ρ·E/π (Lambertian road, an approximation:
+// EN 13201-3 uses the r-table of the surface, which brightens the road toward grazing view).
+// EN 13201-3 evaluates L_avg and U0 = L_min/L_avg on a grid over one luminaire spacing: here 10
+// points along by 6 across the road.
+#include "photosite/scene/street.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <unordered_set>
+
+#include "photosite/rng.h"
+#include "photosite/sensor/spectrum.h"
+
+namespace photosite::scene {
+
+double lamp_relative_intensity(double gamma, const ScenePreset& p) {
+  const double gc = p.lamp_cutoff_deg * M_PI / 180;
+  if (gamma <= gc) return 1;
+  return std::exp(-(gamma - gc) / (p.lamp_falloff_deg * M_PI / 180));
+}
+
+namespace {
+// The horizontal reach beyond which a lamp's contribution is dropped: γ = cutoff + 2·falloff
+// (13.5% of the peak intensity; with cos³γ the illuminance there is 0.24% of the nadir value at
+// the preset's 65° + 2·5°), at most 85°.
+double reach_m(double H, const ScenePreset& p) {
+  const double g = std::min(85.0, p.lamp_cutoff_deg + 2 * p.lamp_falloff_deg) * M_PI / 180;
+  return H * std::tan(g);
+}
+double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI / 180); }
+// The distribution beyond the cut-off as a table over cos γ in [0, cos γ_c] (4096 steps, linear
+// interpolation: relative error below 1e-6, as the function is smooth there), built per preset:
+// acos and exp per pixel and luminaire were most of the light map's time.
+struct RelTable {
+  double cc = 0, step = 0, cutoff = -1, falloff = -1;
+  std::vector<double> v;
+};
+const RelTable& rel_table(const ScenePreset& p) {
+  thread_local RelTable t;
+  if (t.cutoff != p.lamp_cutoff_deg || t.falloff != p.lamp_falloff_deg) {
+    t.cutoff = p.lamp_cutoff_deg;
+    t.falloff = p.lamp_falloff_deg;
+    t.cc = cos_cut(p);
+    t.v.resize(4097);
+    t.step = t.cc / 4096;
+    for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
+  }
+  return t;
+}
+inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& t) {
+  const double d2 = dx * dx + dz * dz + H * H, d = std::sqrt(d2), c = H / d;
+  double rel = 1.0;
+  if (c < t.cc) {
+    const double u = c / t.step;
+    const int i = std::min(4095, static_cast<int>(u));
+    rel = t.v[i] + (t.v[i + 1] - t.v[i]) * (u - i);
+  }
+  return I0 * rel * c / d2;
+}
+bool is_pole(int id) { return id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup); }
+}  // namespace
+
+double street_illuminance_lux(double X, double D, const StreetLighting& s, const ScenePreset& p) {
+  double e = 0;
+  const RelTable& t = rel_table(p);
+  for (const auto& l : s.lamps) e += lamp_E(X - l.X_m, D - l.D_m, l.Y_m, s.peak_intensity_cd, t);
+  return e;
+}
+
+StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g, const ScenePreset& p, uint64_t seed) {
+  StreetLighting s;
+  if (p.street_road_luminance_cd_m2 <= 0) return s;
+  const ImageU16& ids = lm.ids;
+  const int W = ids.width(), H = ids.height();
+  const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
+  // Road extent across: per row with the ground 20..60 m ahead, the carriageway the camera looks
+  // along: from the principal column outward over road and the vehicles standing on it, to the
+  // first other pixel (the kerb); a run reaching the image border says nothing about that side.
+  // Medians over the rows. (Taking this run rather than the outermost road pixels keeps side
+  // streets entering the view from moving the edges.)
+  std::vector<double> lefts, rights;
+  auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
+  const int xc = static_cast<int>(std::lround(g.cx_px));
+  for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H && xc >= 0 && xc < W; ++y) {
+    double D;
+    if (!g.ground_point(g.cx_px, y, nullptr, &D, nullptr) || D < 20 || D > 60) continue;
+    if (ids.at(xc, y) != static_cast<int>(Label::Road)) continue;
+    int x0 = xc, x1 = xc;
+    while (x0 > 0 && carriageway(ids.at(x0 - 1, y))) --x0;
+    while (x1 < W - 1 && carriageway(ids.at(x1 + 1, y))) ++x1;
+    double Xa, Xb;
+    g.ground_point(x0 - 0.5, y, &Xa, nullptr, nullptr);
+    g.ground_point(x1 + 0.5, y, &Xb, nullptr, nullptr);
+    if (x0 > 0) lefts.push_back(Xa);
+    if (x1 < W - 1) rights.push_back(Xb);
+  }
+  if (lefts.empty() || rights.empty()) return s;
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  // In quarter metres: the layout (and the intensity scaled to it) then does not jitter as the
+  // rows that enter the medians change with the view.
+  s.road_left_m = 0.25 * std::round(4 * median(lefts));
+  s.road_right_m = 0.25 * std::round(4 * median(rights));
+  // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
+  // at least min_pole_height_m tall, not capped by a sign or signal (those carry none).
+  {
+    cv::Mat mask(H, W, CV_8U);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) mask.at<uint8_t>(y, x) = is_pole(ids.at(x, y)) ? 255 : 0;
+    cv::Mat cc, st, cent;
+    const int n = cv::connectedComponentsWithStats(mask, cc, st, cent, 8, CV_32S);
+    for (int c = 1; c < n; ++c) {
+      const int x0 = st.at<int>(c, cv::CC_STAT_LEFT), w = st.at<int>(c, cv::CC_STAT_WIDTH);
+      const int y0 = st.at<int>(c, cv::CC_STAT_TOP), h = st.at<int>(c, cv::CC_STAT_HEIGHT);
+      // A pole cut by the left or right border may be a sign post or a lamp column: not used.
+      if (x0 == 0 || x0 + w >= W) continue;
+      // The base: the pole's lowest pixel, or below it the bottom of whatever object hides it
+      // (a parked car), the nearest the hidden base can be.
+      int yb = y0 + h - 1;
+      const int xm = std::clamp(x0 + w / 2, 0, W - 1);
+      while (yb + 1 < H) {
+        const int id = ids.at(xm, yb + 1);
+        if (is_ground(id) || id == static_cast<int>(Label::Sky) || id == 0) break;
+        ++yb;
+      }
+      double X, D;
+      if (!g.ground_point(x0 + 0.5 * w - 0.5, yb + 0.5, &X, &D, nullptr) || D > p.lamp_max_distance_m) continue;
+      // Height of the top on the vertical line at D: Y = h − t·(yn cos θ + sin θ), t = D/(cos θ − yn sin θ).
+      const double yn = (y0 - 0.5 - g.cy_px) / g.f_px, c0 = std::cos(g.pitch_rad), s0 = std::sin(g.pitch_rad);
+      const double t = D / (c0 - yn * s0), Ytop = g.mount_height_m - t * (yn * c0 + s0);
+      if (Ytop < p.lamp_min_pole_height_m) continue;
+      bool capped = false;
+      for (int y = std::max(0, y0 - 3); y < y0 && !capped; ++y)
+        for (int x = std::max(0, x0 - 2); x < std::min(W, x0 + w + 2); ++x) {
+          const int id = ids.at(x, y);
+          if (id == static_cast<int>(Label::TrafficSign) || id == static_cast<int>(Label::TrafficLight)) capped = true;
+        }
+      if (capped) continue;
+      // A pole cut by the image top is taller than it looks: the preset's height then. (A top
+      // hidden by a tree crown is not detected: the luminaire sits at the visible top.)
+      s.lamps.push_back({X, y0 > 0 ? Ytop : std::max(Ytop, p.lamp_mount_height_m), D, true});
+    }
+  }
+  // The standard layout along the road edges: staggered rows on both edges for a road wider
+  // than the mounting height, else one row on the right (CIE 115 / EN 13201 layout practice
+  // [U]); the phase along the road from the run seed. Each detected pole then replaces the
+  // layout's luminaire nearest to it on its side (within half a spacing), so a pole entering or
+  // leaving the view moves one luminaire, not the whole row.
+  std::vector<StreetLamp> poles;
+  poles.swap(s.lamps);
+  {
+    const auto w = random_words(seed, 0, 0x57ee7u, Stream::Scene);
+    const double phase = S * uniform_open(w[0]);
+    const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
+    for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
+      const double D = phase + k * S;
+      s.lamps.push_back({s.road_right_m + p.lamp_setback_m, p.lamp_mount_height_m, D, false});
+      if (both) s.lamps.push_back({s.road_left_m - p.lamp_setback_m, p.lamp_mount_height_m, D + 0.5 * S, false});
+    }
+  }
+  const double mid = 0.5 * (s.road_left_m + s.road_right_m);
+  for (const auto& pole : poles) {
+    int best = -1;
+    for (int i = 0; i < static_cast<int>(s.lamps.size()); ++i) {
+      const auto& l = s.lamps[i];
+      if (l.from_pole || (l.X_m - mid) * (pole.X_m - mid) <= 0 || std::fabs(l.D_m - pole.D_m) > 0.5 * S) continue;
+      if (best < 0 || std::fabs(l.D_m - pole.D_m) < std::fabs(s.lamps[best].D_m - pole.D_m)) best = i;
+    }
+    if (best >= 0) s.lamps[best] = pole;
+    else s.lamps.push_back(pole);
+  }
+  s.source = poles.empty() ? "road_edges" : "poles+road_edges";
+  std::sort(s.lamps.begin(), s.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
+  // Luminous intensity: a luminaire's is a property of the installation, not of the view. It is
+  // set on the design layout (one row at the kerb, spacing S, height H, over a carriageway as
+  // wide as the mounting height, the rule of thumb for one-sided layouts [U]) so that the EN
+  // 13201-3 calculation field (one spacing long, 10 x 6 points) averages the class luminance:
+  //   L_avg = ρ_road·Ē/π = L_class  →  I0 = π·L_class / (ρ_road·Ē(I0 = 1)).
+  // L_avg and U0 are then reported on this scene's own layout and road extent.
+  auto field = [&](const StreetLighting& lay, double left, double right, double D0, double* u0) {
+    double sum = 0, mn = 1e300;
+    for (int i = 0; i < 10; ++i)
+      for (int j = 0; j < 6; ++j) {
+        const double e = street_illuminance_lux(left + (j + 0.5) * (right - left) / 6, D0 + (i + 0.5) * S / 10, lay, p);
+        sum += e;
+        mn = std::min(mn, e);
+      }
+    const double avg = sum / 60;
+    if (u0) *u0 = avg > 0 ? mn / avg : 0;
+    return avg;
+  };
+  {
+    StreetLighting design;
+    design.peak_intensity_cd = 1;
+    const double Hm = p.lamp_mount_height_m;
+    for (int k = -3; k <= 3; ++k) design.lamps.push_back({Hm + p.lamp_setback_m, Hm, k * S, false});
+    s.peak_intensity_cd = M_PI * p.street_road_luminance_cd_m2 / (p.rho_road * field(design, 0, Hm, 0, nullptr));
+  }
+  s.grid_D0_m = std::max(10.0, S);
+  const double avg = field(s, s.road_left_m, s.road_right_m, s.grid_D0_m, &s.uniformity_u0);
+  s.avg_luminance_cd_m2 = p.rho_road * avg / M_PI;
+  return s;
+}
+
+int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
+                        const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m) {
+  if (s.lamps.empty()) return 0;
+  const int W = L.width(), H = L.height();
+  const auto tl = illuminant_tint(p.street_cct_K);
+  const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
+  const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
+  const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
+  bool ground[kLabelCount];
+  for (int i = 0; i < kLabelCount; ++i) ground[i] = is_ground(i);
+#pragma omp parallel for schedule(static, 8)
+  for (int y = y_start; y < H; ++y) {
+    double D0, t;
+    if (!g.ground_point(g.cx_px, y, nullptr, &D0, &t)) continue;
+    // Lamps within reach of this row (the ground row is a line of constant D).
+    std::vector<const StreetLamp*> near;
+    for (const auto& l : s.lamps)
+      if (std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p)) near.push_back(&l);
+    if (near.empty()) continue;
+    const uint16_t* id = labels.row(y);
+    const float* tx = texture.row(y);
+    float* o = L.row(y);
+    const double kx = t / g.f_px;
+    for (int x = 0; x < W; ++x) {
+      if (id[x] >= kLabelCount || !ground[id[x]]) continue;
+      const double X = (x - g.cx_px) * kx;
+      double e = 0;
+      for (const StreetLamp* l : near) e += lamp_E(X - l->X_m, D0 - l->D_m, l->Y_m, s.peak_intensity_cd, table);
+      const float ef = static_cast<float>(e);
+      for (int k = 0; k < 3; ++k) o[3 * x + k] += tx[3 * x + k] * tlf[k] * ef;
+    }
+  }
+  // Lamp heads: discs of the head's diameter at its projected size, only over their footprint.
+  const auto head = spectrum::blackbody_rgb(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
+  int drawn = 0;
+  for (const auto& l : s.lamps) {
+    double u, v, z;
+    if (!g.project(l.X_m, l.Y_m, l.D_m, &u, &v, &z)) continue;
+    const double r = std::max(0.5, 0.5 * g.f_px * p.lamp_head_diameter_m / z);
+    if (u + r < 0 || u - r >= W || v + r < 0 || v - r >= H) continue;
+    bool any = false;
+    for (int y = std::max(0, static_cast<int>(std::floor(v - r))); y <= std::min(H - 1, static_cast<int>(std::ceil(v + r))); ++y)
+      for (int x = std::max(0, static_cast<int>(std::floor(u - r))); x <= std::min(W - 1, static_cast<int>(std::ceil(u + r))); ++x)
+        if ((x - u) * (x - u) + (y - v) * (y - v) <= r * r && (!depth_m || depth_m->at(x, y) >= z - 1.0)) {
+          for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(head[k]));
+          any = true;
+        }
+    drawn += any;
+  }
+  return drawn;
+}
+
+}  // namespace photosite::scene
+
+namespace photosite::scene {
+
+int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                       const ScenePreset& p, uint64_t seed) {
+  const int W = L.width(), H = L.height();
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const int building = static_cast<int>(Label::Building);
+  const double max_z = 0.5 * p.window_width_m * g.f_px;  // footprint z/f <= width/2
+  auto world = [&](int x, int y, double* X, double* Y, double* D) {
+    const double z = depth_m.at(x, y), xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
+    *X = z * xn;
+    *D = z * (c - yn * sn);
+    *Y = h - z * (yn * c + sn);
+  };
+  // Unit-luminance colours of the three window CCTs (a blackbody's box RGB is linear in its
+  // luminance; spectrum::blackbody_rgb integrates Planck's law, far too slow per pixel).
+  const auto warm1 = spectrum::blackbody_rgb(p.window_cct_K, 1.0), cool1 = spectrum::blackbody_rgb(p.window_cool_cct_K, 1.0),
+             shop1 = spectrum::blackbody_rgb(p.shop_cct_K, 1.0);
+  std::unordered_set<uint64_t> all;
+#pragma omp parallel
+  {
+    std::unordered_set<uint64_t> seen;
+#pragma omp for schedule(static, 8)
+    for (int y = 0; y < H; ++y) {
+      const uint16_t* id = labels.row(y);
+      const float* z = depth_m.row(y);
+      float* o = L.row(y);
+      uint64_t last_key = ~0ull;
+      bool last_lit = false;
+      float last_col[3] = {0, 0, 0};
+      for (int x = 0; x < W; ++x) {
+        if (id[x] != building || z[x] > max_z) continue;
+        double X, Y, D;
+        world(x, y, &X, &Y, &D);
+        if (Y < 0) continue;
+        // Façade orientation from the neighbours 2 px to each side on this row.
+        bool along = std::fabs(X) > 3;
+        if (x >= 2 && x + 2 < W && id[x - 2] == building && id[x + 2] == building) {
+          double X0, Y0, D0, X1, Y1, D1;
+          world(x - 2, y, &X0, &Y0, &D0);
+          world(x + 2, y, &X1, &Y1, &D1);
+          along = std::fabs(D1 - D0) > std::fabs(X1 - X0);
+        }
+        const double s = along ? D : X, across = along ? X : D;
+        const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
+        const int j = static_cast<int>(std::floor(Y / p.window_storey_m));
+        const double s_in = s - i * p.window_pitch_m, y_in = Y - j * p.window_storey_m;
+        const bool shop = j == 0;
+        const double ww = shop ? 0.9 * p.window_pitch_m : p.window_width_m;
+        const double wh = shop ? std::min(2.4, 0.8 * p.window_storey_m) : p.window_height_m;
+        if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * ww || std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * wh)
+          continue;
+        const uint64_t side = static_cast<uint64_t>(std::lround(across / 5.0) + 512) & 1023;
+        const uint64_t key = (static_cast<uint64_t>(along) << 62) | (side << 40) |
+                             ((static_cast<uint64_t>(i + (1 << 19)) & 0xfffff) << 12) | (static_cast<uint64_t>(j) & 0xfff);
+        // Neighbouring pixels of a row mostly share a window: its draw is kept.
+        if (key != last_key) {
+          last_key = key;
+          const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+          last_lit = uniform_open(w[0]) < p.window_lit_fraction;
+          if (last_lit) {
+            double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+            const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+            if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+            for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
+            seen.insert(key);
+          }
+        }
+        if (!last_lit) continue;
+        for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
+      }
+    }
+#pragma omp critical
+    all.insert(seen.begin(), seen.end());
+  }
+  return static_cast<int>(all.size());
+}
+
+}  // namespace photosite::scene
