@@ -1,4 +1,4 @@
-// `photosite presets list` and `photosite presets show NAME [--json]`.
+// `photosite presets list`, `photosite presets show NAME [--json]` and `photosite presets doc`.
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
@@ -30,6 +30,9 @@ static Registrar reg("a-presets", [](CLI::App& app) {
         std::printf("%-36s %s\n", it.key().c_str(), it.value().dump().c_str());
     }
   });
+  auto* doc = presets->add_subcommand(
+      "doc", "the Markdown reference of the camera and lens keys (docs/presets.md's generated section)");
+  doc->callback([] { std::printf("%s", presets_doc_markdown().c_str()); });
 });
 
 }  // namespace photosite::cli

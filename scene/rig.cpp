@@ -5,61 +5,49 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <sstream>
-#include <toml++/toml.h>
 
+#include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 #include "photosite/sensor/preset.h"
 
 namespace photosite::scene {
 namespace {
-struct Field { double* v; double lo, hi; };
-std::vector<std::pair<std::string, Field>> fields(CameraRig& r) {
-  return {{"native_width_px", {&r.native_width_px, 16, 65536}},
-          {"native_height_px", {&r.native_height_px, 16, 65536}},
-          {"fx_px", {&r.fx_px, 1, 1e6}},
-          {"cx_px", {&r.cx_px, -1e5, 1e5}},
-          {"cy_px", {&r.cy_px, -1e5, 1e5}},
-          {"mount_height_m", {&r.mount_height_m, 0.1, 50}},
-          {"pitch_deg", {&r.pitch_deg, -30, 30}}};
+using schema::Kind;
+using schema::Need;
+constexpr double inf = schema::kUnbounded;
+// The rig's keys, read by the one preset reader (core/toml_schema_detail.h).
+const std::vector<schema::Param<CameraRig>>& rig_schema() {
+  using P = CameraRig;
+  static const std::vector<schema::Param<P>> rows{
+      {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional,
+       "one line", "free text"},
+      {"native_width_px", Kind::Number, PHOTOSITE_AT(P, native_width_px), "px", 16, 65536, Need::Required,
+       "image width the intrinsics refer to", "data set calibration"},
+      {"native_height_px", Kind::Number, PHOTOSITE_AT(P, native_height_px), "px", 16, 65536, Need::Required,
+       "image height the intrinsics refer to", "data set calibration"},
+      {"fx_px", Kind::Number, PHOTOSITE_AT(P, fx_px), "px", 1, 1e6, Need::Required, "pinhole focal length",
+       "data set calibration"},
+      {"cx_px", Kind::Number, PHOTOSITE_AT(P, cx_px), "px", -1e5, 1e5, Need::Required, "principal point x",
+       "data set calibration"},
+      {"cy_px", Kind::Number, PHOTOSITE_AT(P, cy_px), "px", -1e5, 1e5, Need::Required, "principal point y",
+       "data set calibration"},
+      {"mount_height_m", Kind::Number, PHOTOSITE_AT(P, mount_height_m), "m", 0.1, 50, Need::Required,
+       "optical centre above the road", "data set paper"},
+      {"pitch_deg", Kind::Number, PHOTOSITE_AT(P, pitch_deg), "°", -30, 30, Need::Required,
+       "nominal pitch, positive looking down", "estimate"},
+  };
+  return rows;
 }
 std::filesystem::path rig_dir() { return std::filesystem::path(preset_dir()) / "rigs"; }
 }  // namespace
 
 CameraRig parse_camera_rig(const std::string& text, const std::string& file) {
-  toml::table t;
-  try {
-    t = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
-         std::string(e.description()));
-  }
+  const toml::table t = schema::parse_toml(text, file);
   CameraRig r;
   r.file = file;
   r.name = std::filesystem::path(file).stem().string();
-  auto fs = fields(r);
-  std::map<std::string, bool> seen;
-  for (const auto& [k, node] : t) {
-    const std::string key(k.str());
-    const int line = static_cast<int>(node.source().begin.line);
-    if (key == "description") {
-      if (!node.is_string()) fail(where(file, line, key) + ": must be a string");
-      r.description = node.value_or(std::string());
-      continue;
-    }
-    auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == key; });
-    if (it == fs.end()) fail(where(file, line, key) + ": unknown key");
-    auto num = node.value<double>();
-    if (!num) fail(where(file, line, key) + ": must be a number");
-    if (!(*num >= it->second.lo && *num <= it->second.hi))
-      fail(where(file, line, key) + ": value " + std::to_string(*num) + " is outside [" +
-           std::to_string(it->second.lo) + ", " + std::to_string(it->second.hi) + "]");
-    *it->second.v = *num;
-    seen[key] = true;
-  }
-  for (auto& f : fs)
-    if (!seen.count(f.first)) fail(where(file, 0, f.first) + ": missing key");
+  schema::read<CameraRig>(t, rig_schema(), file, r);
   return r;
 }
 

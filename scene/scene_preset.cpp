@@ -7,6 +7,7 @@
 #include <toml++/toml.h>
 #include <vector>
 
+#include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 #include "photosite/sensor/preset.h"
 
@@ -96,13 +97,8 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
 }  // namespace
 
 ScenePreset parse_scene_preset(const std::string& text, const std::string& file) {
-  toml::table t;
-  try {
-    t = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
-         std::string(e.description()));
-  }
+  // The camera and lens readers' wording (core/toml_schema_detail.h): "file:line: key: problem".
+  const toml::table t = schema::parse_toml(text, file);
   ScenePreset p;
   p.file = file;
   p.name = std::filesystem::path(file).stem().string();
@@ -112,7 +108,7 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
     const std::string key(k.str());
     const int line = static_cast<int>(node.source().begin.line);
     if (key == "description") {
-      if (!node.is_string()) fail(where(file, line, key) + ": must be a string");
+      if (!node.is_string()) schema::key_error(file, line, key, "expected a string");
       p.description = node.value_or(std::string());
       continue;
     }
@@ -128,14 +124,12 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
       auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == full; });
       if (it == fs.end()) fail(where(file, l2, full) + ": unknown key");
       auto num = v.value<double>();
-      if (!num) fail(where(file, l2, full) + ": must be a number");
+      if (!num) schema::key_error(file, l2, full, "expected a number");
       const Field& f = it->second;
-      if (!(*num >= f.lo && *num <= f.hi))
-        fail(where(file, l2, full) + ": value " + std::to_string(*num) + " is outside [" +
-             std::to_string(f.lo) + ", " + std::to_string(f.hi) + "]");
+      if (!(*num >= f.lo && *num <= f.hi)) schema::key_error(file, l2, full, schema::out_of_range(*num, f.lo, f.hi, {}));
       if (f.d) *f.d = *num;
       else {
-        if (*num != static_cast<int>(*num)) fail(where(file, l2, full) + ": must be an integer");
+        if (*num != static_cast<int>(*num)) schema::key_error(file, l2, full, "expected an integer");
         *f.i = static_cast<int>(*num);
       }
       seen[full] = true;

@@ -6,15 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <map>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "photosite/environment.h"
+#include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 
 namespace photosite {
@@ -34,92 +32,116 @@ double QeTable::at(FilterColor c, double wl) const {
 
 namespace {
 
-int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
+using schema::Kind;
+using schema::Need;
+using schema::Param;
+constexpr double inf = schema::kUnbounded;
 
-struct Field {
-  std::function<void(const toml::node&, const std::string& file, const std::string& key)> set;
-  bool required;
-};
+// The camera preset's keys. The ranges are physical plausibility bounds, not sensor-class limits;
+// cross-key conditions are checked by validate(). A default is the initialiser in CameraPreset.
+const std::vector<Param<CameraPreset>>& camera_schema() {
+  using P = CameraPreset;
+  static const std::vector<Param<P>> rows{
+      {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional,
+       "one line, shown by `presets list`", "free text"},
+      {"default_lens", Kind::Text, PHOTOSITE_AT(P, default_lens), "", -inf, inf, Need::Optional,
+       "lens preset used when `--lens` is not given", "the camera's documented or typical lens"},
+      {"cfa", Kind::Choice,
+       schema::Choice<P>{[](P& p, const std::string& s) { p.cfa = parse_cfa(s); },
+                         [](const P& p) -> std::string { return to_string(p.cfa); }, "RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO"},
+       "", -inf, inf, Need::Required, "top-left 2×2 filter cell, row by row", "datasheet"},
+      {"width_px", Kind::Integer, PHOTOSITE_AT(P, width_px), "px", 1, 100000, Need::Required,
+       "native active array width", "datasheet"},
+      {"height_px", Kind::Integer, PHOTOSITE_AT(P, height_px), "px", 1, 100000, Need::Required,
+       "native active array height", "datasheet"},
+      {"bit_depth", Kind::Integer, PHOTOSITE_AT(P, bit_depth), "bit", 1, 24, Need::Required, "ADC resolution",
+       "datasheet"},
+      {"pixel_pitch_um", Kind::Number, PHOTOSITE_AT(P, pixel_pitch_um), "µm", 0.1, 100, Need::Required,
+       "pixel pitch", "datasheet"},
+      {"fill_factor", Kind::Number, PHOTOSITE_AT(P, fill_factor), "fraction", 0.01, 1.0, Need::Optional,
+       "collecting fraction of the pixel area", "usually absorbed into the QE (microlenses: ~1)"},
+      {"full_well_e", Kind::Number, PHOTOSITE_AT(P, full_well_e), "e⁻", 1, 1e8, Need::Required,
+       "saturation capacity of the photodiode", "EMVA 1288 saturation capacity", "> read_noise_e"},
+      {"system_gain_dn_per_e", Kind::Number, PHOTOSITE_AT(P, system_gain_dn_per_e), "DN/e⁻", 1e-6, 1e3,
+       Need::Required, "overall system gain K at 0 dB analog gain", "EMVA 1288 K (photon transfer)"},
+      {"max_gain_db", Kind::Number, PHOTOSITE_AT(P, max_gain_db), "dB", 0, 60, Need::Optional,
+       "upper limit of `--gain-db`", "datasheet"},
+      {"read_noise_e", Kind::Number, PHOTOSITE_AT(P, read_noise_e), "e⁻ rms", 0, 1e4, Need::Required,
+       "temporal dark noise σ", "EMVA 1288 temporal dark noise"},
+      {"read_noise_tukey_lambda", Kind::Number, PHOTOSITE_AT(P, read_noise_tukey_lambda), "—", -0.5, 0.5,
+       Need::Optional, "0: Gaussian; else Tukey-λ shape (normalised to σ; heavy tail < 0)",
+       "Wei et al. 2020 (ELD) noise calibration"},
+      {"dark_current_e_per_s", Kind::Number, PHOTOSITE_AT(P, dark_current_e_per_s), "e⁻/s", 0, 1e7,
+       Need::Required, "mean dark current at the reference temperature", "EMVA 1288 dark current"},
+      {"dark_current_reference_c", Kind::Number, PHOTOSITE_AT(P, dark_current_reference_c), "°C", -100, 200,
+       Need::Optional, "temperature at which dark_current_e_per_s holds", "datasheet condition"},
+      {"dark_current_doubling_c", Kind::Number, PHOTOSITE_AT(P, dark_current_doubling_c), "°C", 1, 50,
+       Need::Optional, "temperature step that doubles the dark current",
+       "EMVA 1288 doubling temperature; 6.5 °C typical of silicon (an estimate)"},
+      {"dark_current_nonuniformity_percent", Kind::Number, PHOTOSITE_AT(P, dark_current_nonuniformity_percent),
+       "%", 0, 1000, Need::Required, "coefficient of variation of the per-pixel dark rate", "EMVA 1288 DSNU of dark current"},
+      {"dsnu_e", Kind::Number, PHOTOSITE_AT(P, dsnu_e), "e⁻", 0, 1e5, Need::Required,
+       "offset fixed-pattern σ (exposure independent)", "EMVA 1288 DSNU"},
+      {"prnu_percent", Kind::Number, PHOTOSITE_AT(P, prnu_percent), "%", 0, 50, Need::Required,
+       "σ of the per-pixel gain", "EMVA 1288 PRNU"},
+      {"black_level_dn", Kind::Number, PHOTOSITE_AT(P, black_level_dn), "DN", 0, inf, Need::Required,
+       "pedestal added before the ADC clip", "datasheet or camera register", "< 2^bit_depth − 1"},
+      {"temperature_c", Kind::Number, PHOTOSITE_AT(P, temperature_c), "°C", -100, 200, Need::Required,
+       "die temperature in operation (`--temperature-c` overrides)", "estimate of the operating point"},
+      {"row_noise_e", Kind::Number, PHOTOSITE_AT(P, row_noise_e), "e⁻ rms", 0, 1e4, Need::Optional,
+       "temporal row noise σ, 0 = off", "noise calibration (ELD) or estimate"},
+      {"column_noise_e", Kind::Number, PHOTOSITE_AT(P, column_noise_e), "e⁻ rms", 0, 1e4, Need::Optional,
+       "temporal column noise σ, 0 = off", "noise calibration or estimate"},
+      {"hot_pixel_fraction", Kind::Number, PHOTOSITE_AT(P, hot_pixel_fraction), "fraction", 0, 0.1,
+       Need::Optional, "share of hot pixels, 0 = off", "dark-frame statistics or estimate"},
+      {"hot_pixel_dark_current_e_per_s", Kind::Number, PHOTOSITE_AT(P, hot_pixel_dark_current_e_per_s), "e⁻/s",
+       0, 1e8, Need::Optional, "hot pixels' mean dark rate at the reference temperature",
+       "dark-frame statistics or estimate"},
+      {"qe", Kind::Table, {}, "", -inf, inf, Need::Required, "quantum efficiency per filter colour",
+       "EMVA 1288 QE where measured, else modelled (scripts/model_qe.py)"},
+      {"qe.wavelength_nm", Kind::NumberList, PHOTOSITE_AT(P, qe.wavelength_nm), "nm", 0, inf, Need::Required,
+       "the QE grid", "", "increasing, ≥ 2 values"},
+      {"qe.r", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[0]), "fraction", 0, 1, Need::Optional,
+       "QE of the red filter on the grid", "", "where the CFA has R; one value per wavelength"},
+      {"qe.g", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[1]), "fraction", 0, 1, Need::Optional,
+       "QE of the green filter on the grid", "", "where the CFA has G; one value per wavelength"},
+      {"qe.b", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[2]), "fraction", 0, 1, Need::Optional,
+       "QE of the blue filter on the grid", "", "where the CFA has B; one value per wavelength"},
+      {"qe.c", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[3]), "fraction", 0, 1, Need::Optional,
+       "QE of the clear filter on the grid", "", "where the CFA has C; one value per wavelength"},
+  };
+  return rows;
+}
 
-// Declares a number field with an allowed closed range.
-Field number(double* target, double lo, double hi, bool required = true) {
-  return {[=](const toml::node& n, const std::string& file, const std::string& key) {
-            auto v = n.value<double>();
-            if (!v) fail(where(file, line_of(n), key) + ": expected a number");
-            if (!std::isfinite(*v) || *v < lo || *v > hi)
-              fail(where(file, line_of(n), key) +
-                   fmt::format(": value {} is out of range [{}, {}]", *v, lo, hi));
-            *target = *v;
-          },
-          required};
-}
-Field integer(int* target, int lo, int hi, bool required = true) {
-  return {[=](const toml::node& n, const std::string& file, const std::string& key) {
-            // The type first: toml++ 3.3's value<int64_t>() of a float casts it unchecked, which
-            // is undefined for 15E60 (UBSan, found by fuzz_preset; docs/robustness.md).
-            if (!n.is_integer()) fail(where(file, line_of(n), key) + ": expected an integer");
-            const auto v = n.value<int64_t>();
-            if (*v < lo || *v > hi)
-              fail(where(file, line_of(n), key) +
-                   fmt::format(": value {} is out of range [{}, {}]", *v, lo, hi));
-            *target = static_cast<int>(*v);
-          },
-          required};
-}
-Field string_field(std::string* target, bool required = false) {
-  return {[=](const toml::node& n, const std::string& file, const std::string& key) {
-            auto v = n.value<std::string>();
-            if (!v) fail(where(file, line_of(n), key) + ": expected a string");
-            *target = *v;
-          },
-          required};
-}
-Field boolean(bool* target, bool required = false) {
-  return {[=](const toml::node& n, const std::string& file, const std::string& key) {
-            auto v = n.value<bool>();
-            if (!v) fail(where(file, line_of(n), key) + ": expected true or false");
-            *target = *v;
-          },
-          required};
-}
-
-toml::table parse_toml(const std::string& text, const std::string& file) {
-  try {
-    return toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
-         std::string(e.description()));
-  }
-}
-
-void apply_fields(const toml::table& table, const std::map<std::string, Field>& fields,
-                  const std::string& file, const std::string& prefix,
-                  const std::function<bool(const std::string&, const toml::node&)>& extra = {}) {
-  for (const auto& [k, node] : table) {
-    const std::string key(k.str());
-    auto it = fields.find(key);
-    if (it != fields.end()) {
-      it->second.set(node, file, prefix + key);
-    } else if (!(extra && extra(key, node))) {
-      fail(where(file, line_of(node), prefix + key) + ": unknown key");
-    }
-  }
-  for (const auto& [key, f] : fields)
-    if (f.required && !table.contains(key))
-      fail(where(file, 0, prefix + key) + ": required key is missing");
-}
-
-std::vector<double> number_array(const toml::node& n, const std::string& file,
-                                 const std::string& key) {
-  const toml::array* a = n.as_array();
-  if (!a) fail(where(file, line_of(n), key) + ": expected an array of numbers");
-  std::vector<double> out;
-  for (const auto& e : *a) {
-    auto v = e.value<double>();
-    if (!v || !std::isfinite(*v)) fail(where(file, line_of(e), key) + ": expected a number");
-    out.push_back(*v);
-  }
-  return out;
+// The lens preset's keys. [glare] is the veiling-glare PSF of sensor/glare.h (docs/model_glare.md).
+const std::vector<Param<LensPreset>>& lens_schema() {
+  using P = LensPreset;
+  static const std::vector<Param<P>> rows{
+      {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional,
+       "one line, shown by `presets list`", "free text"},
+      {"f_number", Kind::Number, PHOTOSITE_AT(P, f_number), "—", 0.5, 64, Need::Required,
+       "default aperture (`--f-number` overrides)", "lens datasheet"},
+      {"focal_length_mm", Kind::Number, PHOTOSITE_AT(P, focal_length_mm), "mm", 0.5, 2000, Need::Required,
+       "for the cos⁴ falloff and the glare's pixels per degree", "lens datasheet or camera intrinsics"},
+      {"transmittance", Kind::Number, PHOTOSITE_AT(P, transmittance), "fraction", 0.01, 1.0, Need::Required,
+       "lens + IR-cut filter (+ windscreen)", "usually an estimate"},
+      {"magnification", Kind::Number, PHOTOSITE_AT(P, magnification), "—", 0, 10, Need::Optional,
+       "|m| in the camera equation, ≈0 for road scenes", "geometry"},
+      {"cos4_falloff", Kind::Boolean, PHOTOSITE_AT(P, cos4_falloff), "", -inf, inf, Need::Optional,
+       "natural vignetting cos⁴θ", "the camera equation"},
+      {"glare", Kind::Table, PHOTOSITE_AT(P, glare.enabled), "", -inf, inf, Need::Optional,
+       "the lens's veiling-glare PSF (docs/model_glare.md); absent: no glare",
+       "no lens measured: the bundled values are estimates"},
+      {"glare.veiling_glare_index", Kind::Number, PHOTOSITE_AT(P, glare.veiling_glare_index), "fraction", 0, 0.5,
+       Need::Required, "η, share of the image-plane flux in the skirt", "ISO 9358:1994 veiling glare index"},
+      {"glare.core_deg", Kind::Number, PHOTOSITE_AT(P, glare.core_deg), "°", 1e-3, 10, Need::Required,
+       "θ0, where the skirt flattens", "CIE 146:2002 glare function starts at 0.1°"},
+      {"glare.reach_deg", Kind::Number, PHOTOSITE_AT(P, glare.reach_deg), "°", 0.01, 180, Need::Required,
+       "where the power law ends", "photosite's choice", "> glare.core_deg"},
+      {"glare.skirt_exponent", Kind::Number, PHOTOSITE_AT(P, glare.skirt_exponent), "—", 1, 4, Need::Optional,
+       "p in S ∝ (θ² + θ0²)^(−p/2)", "CIE 146:2002 / Vos (eye), assumed for the lens"},
+  };
+  return rows;
 }
 
 std::string read_text(const std::string& path) {
@@ -153,67 +175,11 @@ std::string preset_dir() {
 }
 
 CameraPreset parse_camera_preset(const std::string& text, const std::string& file) {
-  toml::table t = parse_toml(text, file);
+  const toml::table t = schema::parse_toml(text, file);
   CameraPreset p;
   p.file = file;
   p.name = fs::path(file).stem().string();
-  std::string cfa;
-  const double inf = 1e300;
-  std::map<std::string, Field> fields{
-      {"description", string_field(&p.description)},
-      {"default_lens", string_field(&p.default_lens)},
-      {"cfa", string_field(&cfa, true)},
-      {"width_px", integer(&p.width_px, 1, 100000)},
-      {"height_px", integer(&p.height_px, 1, 100000)},
-      {"bit_depth", integer(&p.bit_depth, 1, 24)},
-      {"pixel_pitch_um", number(&p.pixel_pitch_um, 0.1, 100)},
-      {"fill_factor", number(&p.fill_factor, 0.01, 1.0, false)},
-      {"full_well_e", number(&p.full_well_e, 1, 1e8)},
-      {"system_gain_dn_per_e", number(&p.system_gain_dn_per_e, 1e-6, 1e3)},
-      {"max_gain_db", number(&p.max_gain_db, 0, 60, false)},
-      {"read_noise_e", number(&p.read_noise_e, 0, 1e4)},
-      {"read_noise_tukey_lambda", number(&p.read_noise_tukey_lambda, -0.5, 0.5, false)},
-      {"dark_current_e_per_s", number(&p.dark_current_e_per_s, 0, 1e7)},
-      {"dark_current_reference_c", number(&p.dark_current_reference_c, -100, 200, false)},
-      {"dark_current_doubling_c", number(&p.dark_current_doubling_c, 1, 50, false)},
-      {"dark_current_nonuniformity_percent", number(&p.dark_current_nonuniformity_percent, 0, 1000)},
-      {"dsnu_e", number(&p.dsnu_e, 0, 1e5)},
-      {"prnu_percent", number(&p.prnu_percent, 0, 50)},
-      {"black_level_dn", number(&p.black_level_dn, 0, inf)},
-      {"temperature_c", number(&p.temperature_c, -100, 200)},
-      {"row_noise_e", number(&p.row_noise_e, 0, 1e4, false)},
-      {"column_noise_e", number(&p.column_noise_e, 0, 1e4, false)},
-      {"hot_pixel_fraction", number(&p.hot_pixel_fraction, 0, 0.1, false)},
-      {"hot_pixel_dark_current_e_per_s", number(&p.hot_pixel_dark_current_e_per_s, 0, 1e8, false)},
-  };
-  bool have_qe = false;
-  apply_fields(t, fields, file, "", [&](const std::string& key, const toml::node& node) {
-    if (key != "qe") return false;
-    const toml::table* q = node.as_table();
-    if (!q) fail(where(file, line_of(node), "qe") + ": expected a table [qe]");
-    have_qe = true;
-    for (const auto& [k, n] : *q) {
-      const std::string kk(k.str());
-      const std::string full = "qe." + kk;
-      if (kk == "wavelength_nm") {
-        p.qe.wavelength_nm = number_array(n, file, full);
-        continue;
-      }
-      int c = kk == "r" ? 0 : kk == "g" ? 1 : kk == "b" ? 2 : kk == "c" ? 3 : -1;
-      if (c < 0) fail(where(file, line_of(n), full) + ": unknown key (expected wavelength_nm, r, g, b or c)");
-      p.qe.qe[c] = number_array(n, file, full);
-      for (double v : p.qe.qe[c])
-        if (v < 0 || v > 1)
-          fail(where(file, line_of(n), full) + fmt::format(": QE {} is outside [0, 1]", v));
-    }
-    return true;
-  });
-  if (!have_qe) fail(where(file, 0, "qe") + ": required table is missing");
-  try {
-    p.cfa = parse_cfa(cfa);
-  } catch (const Error& e) {
-    fail(where(file, line_of(*t.get("cfa")), "cfa") + ": " + e.what());
-  }
+  schema::read<CameraPreset>(t, camera_schema(), file, p);
   validate(p);
   return p;
 }
@@ -242,38 +208,15 @@ void validate(const CameraPreset& p) {
 }
 
 LensPreset parse_lens_preset(const std::string& text, const std::string& file) {
-  toml::table t = parse_toml(text, file);
+  const toml::table t = schema::parse_toml(text, file);
   LensPreset l;
   l.file = file;
   l.name = fs::path(file).stem().string();
-  std::map<std::string, Field> fields{
-      {"description", string_field(&l.description)},
-      {"f_number", number(&l.f_number, 0.5, 64)},
-      {"focal_length_mm", number(&l.focal_length_mm, 0.5, 2000)},
-      {"transmittance", number(&l.transmittance, 0.01, 1.0)},
-      {"magnification", number(&l.magnification, 0, 10, false)},
-      {"cos4_falloff", boolean(&l.cos4_falloff)},
-  };
-  apply_fields(t, fields, file, "", [&](const std::string& key, const toml::node& node) {
-    if (key != "glare") return false;
-    const toml::table* g = node.as_table();
-    if (!g) fail(where(file, line_of(node), "glare") + ": expected a table [glare]");
-    // The veiling-glare PSF (sensor/glare.h, docs/model_glare.md). Without this table the lens
-    // has no glare.
-    LensGlare& lg = l.glare;
-    lg.enabled = true;
-    std::map<std::string, Field> gf{
-        {"veiling_glare_index", number(&lg.veiling_glare_index, 0, 0.5)},
-        {"core_deg", number(&lg.core_deg, 1e-3, 10)},
-        {"reach_deg", number(&lg.reach_deg, 0.01, 180)},
-        {"skirt_exponent", number(&lg.skirt_exponent, 1, 4, false)},
-    };
-    apply_fields(*g, gf, file, "glare.");
-    if (!(lg.reach_deg > lg.core_deg))
-      fail(where(file, line_of(node), "glare.reach_deg") +
-           fmt::format(": reach {} deg must exceed the core {} deg", lg.reach_deg, lg.core_deg));
-    return true;
-  });
+  schema::read<LensPreset>(t, lens_schema(), file, l);
+  const LensGlare& lg = l.glare;
+  if (lg.enabled && !(lg.reach_deg > lg.core_deg))
+    schema::key_error(file, schema::line_of(*t.get("glare")), "glare.reach_deg",
+                      fmt::format("reach {} deg must exceed the core {} deg", lg.reach_deg, lg.core_deg));
   return l;
 }
 
@@ -313,54 +256,24 @@ std::vector<PresetEntry> list_presets() {
 }
 
 std::string to_json(const CameraPreset& p, int indent) {
-  nlohmann::json j;
+  nlohmann::json j = schema::to_json<CameraPreset>(camera_schema(), p);
   j["name"] = p.name;
   j["file"] = p.file;
-  j["description"] = p.description;
-  j["default_lens"] = p.default_lens;
-  j["cfa"] = to_string(p.cfa);
-  j["width_px"] = p.width_px;
-  j["height_px"] = p.height_px;
-  j["bit_depth"] = p.bit_depth;
-  j["pixel_pitch_um"] = p.pixel_pitch_um;
-  j["fill_factor"] = p.fill_factor;
-  j["full_well_e"] = p.full_well_e;
-  j["system_gain_dn_per_e"] = p.system_gain_dn_per_e;
-  j["max_gain_db"] = p.max_gain_db;
-  j["read_noise_e"] = p.read_noise_e;
-  j["read_noise_tukey_lambda"] = p.read_noise_tukey_lambda;
-  j["dark_current_e_per_s"] = p.dark_current_e_per_s;
-  j["dark_current_reference_c"] = p.dark_current_reference_c;
-  j["dark_current_doubling_c"] = p.dark_current_doubling_c;
-  j["dsnu_e"] = p.dsnu_e;
-  j["dark_current_nonuniformity_percent"] = p.dark_current_nonuniformity_percent;
-  j["prnu_percent"] = p.prnu_percent;
-  j["black_level_dn"] = p.black_level_dn;
-  j["temperature_c"] = p.temperature_c;
-  j["row_noise_e"] = p.row_noise_e;
-  j["column_noise_e"] = p.column_noise_e;
-  j["hot_pixel_fraction"] = p.hot_pixel_fraction;
-  j["hot_pixel_dark_current_e_per_s"] = p.hot_pixel_dark_current_e_per_s;
-  nlohmann::json qe;
-  qe["wavelength_nm"] = p.qe.wavelength_nm;
-  for (auto c : cfa_colors(p.cfa)) {
-    std::string k(1, static_cast<char>(std::tolower(to_string(c)[0])));
-    qe[k] = p.qe.qe[static_cast<int>(c)];
-  }
-  j["qe"] = qe;
   return j.dump(indent);
 }
 
 std::string to_json(const LensPreset& l, int indent) {
-  return nlohmann::json{{"name", l.name},           {"file", l.file},
-          {"description", l.description}, {"f_number", l.f_number},
-          {"focal_length_mm", l.focal_length_mm}, {"transmittance", l.transmittance},
-          {"magnification", l.magnification}, {"cos4_falloff", l.cos4_falloff},
-          {"glare", l.glare.enabled ? nlohmann::json{{"veiling_glare_index", l.glare.veiling_glare_index},
-                                                      {"core_deg", l.glare.core_deg},
-                                                      {"reach_deg", l.glare.reach_deg},
-                                                      {"skirt_exponent", l.glare.skirt_exponent}}
-                                    : nlohmann::json(nullptr)}}.dump(indent);
+  nlohmann::json j = schema::to_json<LensPreset>(lens_schema(), l);
+  j["name"] = l.name;
+  j["file"] = l.file;
+  return j.dump(indent);
+}
+
+std::string presets_doc_markdown() {
+  return "### Camera keys (`presets/cameras/*.toml`)\n\n" +
+         schema::markdown_table(schema::doc_rows<CameraPreset>(camera_schema())) +
+         "\n### Lens keys (`presets/lenses/*.toml`)\n\n" +
+         schema::markdown_table(schema::doc_rows<LensPreset>(lens_schema()));
 }
 
 }  // namespace photosite

@@ -1,6 +1,8 @@
 // Camera and lens presets: TOML files in presets/cameras and presets/lenses, every number with
-// its unit in the key name and its source in a comment. Unknown keys, missing keys and
-// out-of-range values are errors naming file, line and key (pbrt-v4's ReportUnused idea).
+// its unit in the key name and its source in a comment. Each kind's keys are declared once, in a
+// schema table in sensor/preset.cpp (core/toml_schema_detail.h): it drives the reader, to_json
+// and the docs. Unknown keys, missing keys and out-of-range values are errors
+// "file:line: key: problem" (pbrt-v4's ReportUnused idea).
 #pragma once
 #include <array>
 #include <string>
@@ -77,5 +79,9 @@ std::string to_json(const CameraPreset& p, int indent = -1);
 std::string to_json(const LensPreset& p, int indent = -1);
 // `presets show --json`: a lens preset's JSON when `name` is a bundled lens, else the camera's.
 std::string show_preset(const std::string& name, int indent = -1);
+// The reference tables of the camera and lens keys (Markdown), generated from the same schema
+// the reader and to_json use (sensor/preset.cpp); `photosite presets doc` prints it, and
+// docs/presets.md holds it between generated-section markers (a test compares them).
+std::string presets_doc_markdown();
 
 }  // namespace photosite

@@ -1,0 +1,68 @@
+// The shared wording of preset errors and docs (core/toml_schema_detail.h).
+#include "core/toml_schema_detail.h"
+
+#include <cstdlib>
+
+#include <fmt/format.h>
+
+namespace photosite::schema {
+
+void key_error(const std::string& file, int line, const std::string& key, const std::string& problem) {
+  fail(where(file, line, key) + ": " + problem);
+}
+
+toml::table parse_toml(const std::string& text, const std::string& file) {
+  try {
+    return toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
+         std::string(e.description()));
+  }
+}
+
+std::string number_text(double v) {
+  if (v == kUnbounded) return "∞";
+  if (v == -kUnbounded) return "−∞";
+  // "%g" where it gives the number back exactly (1e+08 rather than 100000000), else the shortest
+  // round trip; the exponent then without sign padding and leading zeros.
+  std::string s = fmt::format("{:g}", v);
+  if (std::strtod(s.c_str(), nullptr) != v) s = fmt::format("{}", v);
+  const auto e = s.find('e');
+  if (e != std::string::npos) {
+    std::string mant = s.substr(0, e), exp = s.substr(e + 1);
+    const bool neg = !exp.empty() && exp[0] == '-';
+    if (!exp.empty() && (exp[0] == '-' || exp[0] == '+')) exp.erase(0, 1);
+    while (exp.size() > 1 && exp[0] == '0') exp.erase(0, 1);
+    s = mant + "e" + (neg ? "-" : "") + exp;
+  }
+  return s;
+}
+
+std::string range_text(double lo, double hi) {
+  return (lo == -kUnbounded ? "(" : "[") + number_text(lo) + ", " + number_text(hi) +
+         (hi == kUnbounded ? ")" : "]");
+}
+
+std::string out_of_range(double v, double lo, double hi, std::string_view unit) {
+  std::string s = "value " + number_text(v) + " is out of range, outside " + range_text(lo, hi);
+  if (!unit.empty() && unit != "—") s += " (" + std::string(unit) + ")";
+  return s;
+}
+
+std::string markdown_table(const std::vector<DocRow>& rows) {
+  // A '|' in a cell would end it: Markdown's escape is "\|".
+  auto cell = [](const std::string& s) {
+    std::string o;
+    for (char c : s) o += c == '|' ? std::string("\\|") : std::string(1, c);
+    return o;
+  };
+  auto code = [&](const std::string& s) { return "`" + s + "`"; };
+  std::string md = "| key | unit / type | required (default) | range | meaning | source |\n"
+                   "|---|---|---|---|---|---|\n";
+  for (const auto& r : rows)
+    md += "| " + code(r.key) + " | " + cell(r.unit) + " | " + cell(r.required) + " | " + cell(r.range) + " | " +
+          cell(r.meaning) + " | " + cell(r.source) + " |\n";
+  return md;
+}
+
+}  // namespace photosite::schema

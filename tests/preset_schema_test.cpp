@@ -1,0 +1,186 @@
+// The one parameter schema (issue 18 §4): the camera and lens readers, `presets show --json` and
+// the docs' reference tables come from one table per preset kind (sensor/preset.cpp).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "photosite/error.h"
+#include "photosite/sensor/preset.h"
+#include "test_util.h"
+
+using namespace photosite;
+
+namespace {
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// tests/data/presets_before/<name>.json: `presets show NAME --json` of every bundled preset as the
+// readers before the schema (commit 260993b) loaded them.
+std::vector<fs::path> golden_files() {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/presets_before"))
+    if (e.path().extension() == ".json") out.push_back(e.path());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<double> list_or_empty(const nlohmann::json& j, const char* key) {
+  return j.contains(key) ? j[key].get<std::vector<double>>() : std::vector<double>{};
+}
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+const std::string kLensHead =
+    "description = \"t\"\nf_number = 2.0\nfocal_length_mm = 5.0\ntransmittance = 0.9\ncos4_falloff = true\n";
+}  // namespace
+
+// Every bundled camera and lens loads to the values it had before the schema, field by field
+// (exact: the golden numbers are nlohmann's round-trip text), and `presets show --json` is the
+// same JSON (keys and values) apart from the file's path.
+TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
+  const auto files = golden_files();
+  ASSERT_EQ(files.size(), 11u);  // the 6 cameras and 5 lenses bundled when the goldens were written
+  for (const auto& path : files) {
+    const std::string name = path.stem().string();
+    SCOPED_TRACE(name);
+    nlohmann::json before = nlohmann::json::parse(slurp(path));
+    if (before.contains("cfa")) {
+      const CameraPreset p = load_camera_preset(name);
+      EXPECT_EQ(p.name, before["name"]);
+      EXPECT_EQ(p.description, before["description"]);
+      EXPECT_EQ(p.default_lens, before["default_lens"]);
+      EXPECT_EQ(std::string(to_string(p.cfa)), before["cfa"]);
+      EXPECT_EQ(p.width_px, before["width_px"]);
+      EXPECT_EQ(p.height_px, before["height_px"]);
+      EXPECT_EQ(p.bit_depth, before["bit_depth"]);
+      EXPECT_EQ(p.pixel_pitch_um, before["pixel_pitch_um"]);
+      EXPECT_EQ(p.fill_factor, before["fill_factor"]);
+      EXPECT_EQ(p.full_well_e, before["full_well_e"]);
+      EXPECT_EQ(p.system_gain_dn_per_e, before["system_gain_dn_per_e"]);
+      EXPECT_EQ(p.max_gain_db, before["max_gain_db"]);
+      EXPECT_EQ(p.read_noise_e, before["read_noise_e"]);
+      EXPECT_EQ(p.read_noise_tukey_lambda, before["read_noise_tukey_lambda"]);
+      EXPECT_EQ(p.dark_current_e_per_s, before["dark_current_e_per_s"]);
+      EXPECT_EQ(p.dark_current_reference_c, before["dark_current_reference_c"]);
+      EXPECT_EQ(p.dark_current_doubling_c, before["dark_current_doubling_c"]);
+      EXPECT_EQ(p.dark_current_nonuniformity_percent, before["dark_current_nonuniformity_percent"]);
+      EXPECT_EQ(p.dsnu_e, before["dsnu_e"]);
+      EXPECT_EQ(p.prnu_percent, before["prnu_percent"]);
+      EXPECT_EQ(p.black_level_dn, before["black_level_dn"]);
+      EXPECT_EQ(p.temperature_c, before["temperature_c"]);
+      EXPECT_EQ(p.row_noise_e, before["row_noise_e"]);
+      EXPECT_EQ(p.column_noise_e, before["column_noise_e"]);
+      EXPECT_EQ(p.hot_pixel_fraction, before["hot_pixel_fraction"]);
+      EXPECT_EQ(p.hot_pixel_dark_current_e_per_s, before["hot_pixel_dark_current_e_per_s"]);
+      const auto& qe = before["qe"];
+      EXPECT_EQ(p.qe.wavelength_nm, list_or_empty(qe, "wavelength_nm"));
+      EXPECT_EQ(p.qe.qe[0], list_or_empty(qe, "r"));
+      EXPECT_EQ(p.qe.qe[1], list_or_empty(qe, "g"));
+      EXPECT_EQ(p.qe.qe[2], list_or_empty(qe, "b"));
+      EXPECT_EQ(p.qe.qe[3], list_or_empty(qe, "c"));
+    } else {
+      const LensPreset l = load_lens_preset(name);
+      EXPECT_EQ(l.name, before["name"]);
+      EXPECT_EQ(l.description, before["description"]);
+      EXPECT_EQ(l.f_number, before["f_number"]);
+      EXPECT_EQ(l.focal_length_mm, before["focal_length_mm"]);
+      EXPECT_EQ(l.transmittance, before["transmittance"]);
+      EXPECT_EQ(l.magnification, before["magnification"]);
+      EXPECT_EQ(l.cos4_falloff, before["cos4_falloff"]);
+      const auto& g = before["glare"];
+      EXPECT_EQ(l.glare.enabled, !g.is_null());
+      const LensGlare none;
+      EXPECT_EQ(l.glare.veiling_glare_index, g.is_null() ? none.veiling_glare_index : g["veiling_glare_index"].get<double>());
+      EXPECT_EQ(l.glare.core_deg, g.is_null() ? none.core_deg : g["core_deg"].get<double>());
+      EXPECT_EQ(l.glare.reach_deg, g.is_null() ? none.reach_deg : g["reach_deg"].get<double>());
+      EXPECT_EQ(l.glare.skirt_exponent, g.is_null() ? none.skirt_exponent : g["skirt_exponent"].get<double>());
+    }
+    // The JSON contract: the same keys, types and values.
+    nlohmann::json now = nlohmann::json::parse(show_preset(name));
+    before.erase("file");
+    now.erase("file");
+    EXPECT_EQ(now, before) << now.dump(2);
+  }
+}
+
+// docs/presets.md's reference tables are the generator's output, so the docs cannot drift from
+// the schema. To update them: `photosite presets doc`, pasted between the markers.
+TEST(PresetSchema, DocsTablesAreGenerated) {
+  const std::string doc = slurp(fs::path(PHOTOSITE_SOURCE_DIR) / "docs/presets.md");
+  const std::string begin = "<!-- BEGIN GENERATED by `photosite presets doc`: do not edit by hand -->\n";
+  const std::string end = "<!-- END GENERATED -->";
+  const auto b = doc.find(begin), e = doc.find(end);
+  ASSERT_NE(b, std::string::npos);
+  ASSERT_NE(e, std::string::npos);
+  ASSERT_LT(b, e);
+  EXPECT_EQ(doc.substr(b + begin.size(), e - b - begin.size()), presets_doc_markdown())
+      << "docs/presets.md is stale: replace its generated section with `photosite presets doc`";
+  // Every key of the reader is in the docs: one row per key (here spot-checked on both kinds).
+  for (const char* row : {"| `full_well_e` | e⁻ | yes | [1, 1e8]; > read_noise_e |", "| `qe.wavelength_nm` |",
+                          "| `glare.skirt_exponent` | — | no (2) | [1, 4] |", "| `[glare]` | table | no (absent) |"})
+    EXPECT_NE(presets_doc_markdown().find(row), std::string::npos) << row;
+  auto r = test::run_cli("presets doc");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output, presets_doc_markdown());
+}
+
+// One error form for every key, "file:line: key: problem"; a value out of range names the
+// range and the unit.
+TEST(PresetSchema, ErrorsNameFileLineKeyRangeAndUnit) {
+  const std::string cam = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "cameras/sony-imx174.toml");
+  auto line_of = [](const std::string& text, const std::string& key) {
+    const auto p = text.find("\n" + key + " ");
+    return static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(p) + 1, '\n')) + 1;
+  };
+  const int prnu_line = line_of(cam, "prnu_percent");
+  std::string bad = cam;
+  bad.replace(bad.find("prnu_percent = 0.6"), 18, "prnu_percent = 60");
+  EXPECT_NE(error_of([&] { parse_camera_preset(bad, "cam.toml"); })
+                .find("cam.toml:" + std::to_string(prnu_line) + ": prnu_percent: value 60 is out of range, outside [0, 50] (%)"),
+            std::string::npos)
+      << error_of([&] { parse_camera_preset(bad, "cam.toml"); });
+  bad = cam;
+  bad.replace(bad.find("bit_depth = 12"), 14, "bit_depth = 30");
+  EXPECT_NE(error_of([&] { parse_camera_preset(bad, "cam.toml"); }).find("bit_depth: value 30 is out of range, outside [1, 24] (bit)"),
+            std::string::npos);
+
+  auto lens_error = [&](const std::string& text) { return error_of([&] { parse_lens_preset(text, "l.toml"); }); };
+  EXPECT_NE(lens_error(kLensHead + "[glare]\nveiling_glare_index = 0.03\ncore_deg = 20\nreach_deg = 30\n")
+                .find("l.toml:8: glare.core_deg: value 20 is out of range, outside [0.001, 10] (°)"),
+            std::string::npos);
+  // Inside a table, an unknown key lists the table's keys; a missing one names the table's line.
+  EXPECT_NE(lens_error(kLensHead + "[glare]\nveiling_glare_index = 0.03\ncore_dg = 0.1\n")
+                .find("l.toml:8: glare.core_dg: unknown key (expected veiling_glare_index, core_deg, reach_deg, "
+                      "skirt_exponent)"),
+            std::string::npos);
+  EXPECT_NE(lens_error(kLensHead + "[glare]\nveiling_glare_index = 0.03\ncore_deg = 0.1\n")
+                .find("l.toml:6: glare.reach_deg: required key is missing"),
+            std::string::npos);
+  EXPECT_NE(lens_error(kLensHead + "f_numbr = 2\n").find("l.toml:6: f_numbr: unknown key"), std::string::npos);
+  EXPECT_NE(lens_error(kLensHead + "glare = 1\n").find("l.toml:6: glare: expected a table [glare]"), std::string::npos);
+  EXPECT_NE(lens_error("f_number = 2.0\nfocal_length_mm = 5.0\ntransmittance = 0.9\ncos4_falloff = 1\n")
+                .find("l.toml:4: cos4_falloff: expected true or false"),
+            std::string::npos);
+  EXPECT_NE(lens_error("f_number = 2.0\ntransmittance = 0.9\n").find("l.toml: focal_length_mm: required key is missing"),
+            std::string::npos);
+  // A quoted key with a dot is not the table's key.
+  EXPECT_NE(lens_error(kLensHead + "\"glare.core_deg\" = 0.1\n").find("glare.core_deg: unknown key"), std::string::npos);
+}
