@@ -1,6 +1,8 @@
 // The bench targets' registry and the helpers they share (bench.h).
 #include "bench.h"
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -49,4 +51,15 @@ std::string write_bench_csv(const std::string& out_dir, const std::string& name,
   std::printf("%s\n", path.c_str());
   return path;
 }
+ScratchDir::ScratchDir(const std::string& tag)
+    : path_(std::filesystem::temp_directory_path() /
+            ("photosite-bench-" + tag + "-" + std::to_string(static_cast<long>(::getpid())))) {
+  std::filesystem::remove_all(path_);
+  std::filesystem::create_directories(path_);
+}
+ScratchDir::~ScratchDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
 }  // namespace photosite::bench

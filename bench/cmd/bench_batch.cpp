@@ -50,16 +50,8 @@ cv::Mat mat_of(const ImageF& img) {
 void run_bench(const BenchBatchOptions& o) {
   if (o.repeats < 1 || o.repeats > 20) fail("--repeats must be in [1, 20]");
   const auto items = batch::discover(batch::Dataset::Cityscapes, o.root);
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("photosite-bench-batch-{}", getpid());
-  fs::remove_all(tmp);
-  fs::create_directories(tmp);
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{tmp};
+  const ScratchDir scratch("batch");
+  const fs::path& tmp = scratch.path();
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const auto per_core_hour = [&](double ms_per_image) { return 3.6e6 / (ms_per_image * cores); };
 

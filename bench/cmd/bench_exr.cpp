@@ -32,16 +32,8 @@ void run(const ExrBench& b) {
   if (b.repeats < 1 || b.repeats > 100) fail("--repeats must be in [1, 100]");
   const auto items = batch::discover(batch::Dataset::Cityscapes, b.root);
   const auto& it = items.front();
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("photosite-bench-exr-{}", getpid());
-  fs::remove_all(tmp);
-  fs::create_directories(tmp);
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{tmp};
+  const ScratchDir scratch("exr");
+  const fs::path& tmp = scratch.path();
 
   // One night frame, as `batch` computes it (onsemi-ar0331, night-urban, seed 0).
   SensorSetup r;
