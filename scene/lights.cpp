@@ -77,11 +77,12 @@ int disc(ImageF& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
 }
 }  // namespace
 
-double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
+namespace {
+// low_beam_intensity_cd with tan(cutoff_rise_deg) computed once by the caller.
+double beam_intensity_cd(double h_deg, double v_deg, double tan_rise, const ScenePreset& p) {
   // The cut-off: horizontal at cutoff_v_deg left of the v-v line, rising at cutoff_rise_deg to
   // the right up to cutoff_max_v_deg (ECE R112 class B, right-hand traffic); nothing above it.
-  const double cut = std::min(p.beam_cutoff_max_v_deg,
-                              p.beam_cutoff_v_deg + std::max(0.0, h_deg) * std::tan(p.beam_cutoff_rise_deg * M_PI / 180));
+  const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h_deg) * tan_rise);
   if (v_deg > cut) return 0;
   const auto& H = p.beam_h_deg;
   const auto& V = p.beam_v_deg;
@@ -96,32 +97,42 @@ double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
   return (1 - b) * ((1 - a) * r0[j] + a * r0[j + 1]) + b * ((1 - a) * r1[j] + a * r1[j + 1]);
 }
 
+double beam_lux(double X_m, double D_m, double tan_rise, const ScenePreset& p) {
+  if (!(D_m > 0)) return 0;
+  const double hl = p.beam_lamp_height_m;
+  double E = 0;
+  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+    const double dx = X_m - xl, horiz2 = dx * dx + D_m * D_m, horiz = std::sqrt(horiz2);
+    const double d2 = horiz2 + hl * hl, d = std::sqrt(d2);
+    const double I = beam_intensity_cd(std::atan2(dx, D_m) * (180 / M_PI), -std::atan2(hl, horiz) * (180 / M_PI), tan_rise, p);
+    E += I * (hl / d) / d2;
+  }
+  return E;
+}
+}  // namespace
+
+double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
+  return beam_intensity_cd(h_deg, v_deg, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
+}
+
 double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   // The headlamp pair at (±spacing/2, lamp_height_m, 0) in road coordinates (beside the camera,
   // whose forward offset from the lamps is neglected: an approximation), aimed along the road.
   // A ground point (X, 0, D) seen from a lamp at horizontal angle h = atan2(X − x_l, D) and
   // vertical angle v = −atan2(h_l, √((X − x_l)² + D²)) receives E = I(h, v)·cos θ / d² with
   // d² = (X − x_l)² + h_l² + D² and cos θ = h_l / d (incidence from the road's normal).
-  if (!(D_m > 0)) return 0;
-  const double hl = p.beam_lamp_height_m;
-  double E = 0;
-  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
-    const double dx = X_m - xl, horiz = std::hypot(dx, D_m);
-    const double d2 = horiz * horiz + hl * hl, d = std::sqrt(d2);
-    const double I = low_beam_intensity_cd(std::atan2(dx, D_m) * 180 / M_PI, -std::atan2(hl, horiz) * 180 / M_PI, p);
-    E += I * (hl / d) / d2;
-  }
-  return E;
+  return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p) {
   ImageF E(width, height, 1, 0.f);
+  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < height; ++y) {
     float* e = E.row(y);
     for (int x = 0; x < width; ++x) {
       double X, D, z;
-      if (g.ground_point(x, y, &X, &D, &z)) e[x] = static_cast<float>(low_beam_lux(X, D, p));
+      if (g.ground_point(x, y, &X, &D, &z)) e[x] = static_cast<float>(beam_lux(X, D, tan_rise, p));
     }
   }
   return E;
