@@ -158,13 +158,11 @@ static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
 struct ComposeParams {
   uint32_t width, height;
   U64 ground_mask;
-  double vp_y, beam_half_width, beam_road_lux;
   float tint_over_pi[3];
   uint32_t pad;
 };
-static_assert(sizeof(ComposeParams) == 56 && offsetof(ComposeParams, ground_mask) == 8 &&
-              offsetof(ComposeParams, vp_y) == 16 && offsetof(ComposeParams, beam_road_lux) == 32 &&
-              offsetof(ComposeParams, tint_over_pi) == 40);
+static_assert(sizeof(ComposeParams) == 32 && offsetof(ComposeParams, ground_mask) == 8 &&
+              offsetof(ComposeParams, tint_over_pi) == 16);
 
 // linearize.comp
 struct LinearizeParams {

@@ -111,9 +111,7 @@ void SceneStages::record_compose(Sequence& s, Buffer& t, Buffer& l, Buffer& ids,
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
   cp.ground_mask = ground_mask(dp);
-  cp.vp_y = vp.y;
-  cp.beam_half_width = sp.beam_half_width;
-  cp.beam_road_lux = sp.beam_road_lux;
+  (void)vp;  // the beam illuminance comes in as an image (scene::low_beam_illuminance)
   // The CPU's tint / π (scene::compose): the beam's colour relative to D65.
   const auto tb = scene::illuminant_tint(sp.beam_cct_K);
   for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);

@@ -77,19 +77,71 @@ int disc(ImageF& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
 }
 }  // namespace
 
-double low_beam_lux(int x, int y, int width, double depth, double vp_y, const ScenePreset& p) {
-  if (y <= vp_y) return 0;
-  // Distance along a flat road ∝ 1/(y - y_h) ∝ 1/depth near the image centre: inverse square.
-  const double d = depth;
-  const double half = std::max(1.0, p.beam_half_width * width * d);
-  const double u = (x - 0.5 * width) / half;
-  if (std::fabs(u) > 4) return 0;  // beyond 4σ: below 3.4e-4 of the beam centre
-  return p.beam_road_lux * d * d * std::exp(-0.5 * u * u);
+namespace {
+// low_beam_intensity_cd with tan(cutoff_rise_deg) computed once by the caller.
+double beam_intensity_cd(double h_deg, double v_deg, double tan_rise, const ScenePreset& p) {
+  // The cut-off: horizontal at cutoff_v_deg left of the v-v line, rising at cutoff_rise_deg to
+  // the right up to cutoff_max_v_deg (ECE R112 class B, right-hand traffic); nothing above it.
+  const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h_deg) * tan_rise);
+  if (v_deg > cut) return 0;
+  const auto& H = p.beam_h_deg;
+  const auto& V = p.beam_v_deg;
+  const size_t nh = H.size(), nv = V.size();
+  if (nh < 2 || nv < 2 || h_deg < H.front() || h_deg > H.back() || v_deg < V.front() || v_deg > V.back()) return 0;
+  // Bilinear between the grid points (an approximation of the lamp's smooth distribution).
+  const size_t j = std::min<size_t>(nh - 2, std::upper_bound(H.begin(), H.end(), h_deg) - H.begin() - 1);
+  const size_t i = std::min<size_t>(nv - 2, std::upper_bound(V.begin(), V.end(), v_deg) - V.begin() - 1);
+  const double a = (h_deg - H[j]) / (H[j + 1] - H[j]), b = (v_deg - V[i]) / (V[i + 1] - V[i]);
+  const double* r0 = p.beam_intensity_cd.data() + i * nh;
+  const double* r1 = r0 + nh;
+  return (1 - b) * ((1 - a) * r0[j] + a * r0[j + 1]) + b * ((1 - a) * r1[j] + a * r1[j + 1]);
+}
+
+double beam_lux(double X_m, double D_m, double tan_rise, const ScenePreset& p) {
+  if (!(D_m > 0)) return 0;
+  const double hl = p.beam_lamp_height_m;
+  double E = 0;
+  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+    const double dx = X_m - xl, horiz2 = dx * dx + D_m * D_m, horiz = std::sqrt(horiz2);
+    const double d2 = horiz2 + hl * hl, d = std::sqrt(d2);
+    const double I = beam_intensity_cd(std::atan2(dx, D_m) * (180 / M_PI), -std::atan2(hl, horiz) * (180 / M_PI), tan_rise, p);
+    E += I * (hl / d) / d2;
+  }
+  return E;
+}
+}  // namespace
+
+double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
+  return beam_intensity_cd(h_deg, v_deg, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
+}
+
+double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
+  // The headlamp pair at (±spacing/2, lamp_height_m, 0) in road coordinates (beside the camera,
+  // whose forward offset from the lamps is neglected: an approximation), aimed along the road.
+  // A ground point (X, 0, D) seen from a lamp at horizontal angle h = atan2(X − x_l, D) and
+  // vertical angle v = −atan2(h_l, √((X − x_l)² + D²)) receives E = I(h, v)·cos θ / d² with
+  // d² = (X − x_l)² + h_l² + D² and cos θ = h_l / d (incidence from the road's normal).
+  return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
+}
+
+ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p) {
+  ImageF E(width, height, 1, 0.f);
+  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < height; ++y) {
+    float* e = E.row(y);
+    for (int x = 0; x < width; ++x) {
+      double X, D, z;
+      if (g.ground_point(x, y, &X, &D, &z)) e[x] = static_cast<float>(beam_lux(X, D, tan_rise, p));
+    }
+  }
+  return E;
 }
 
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
-                   uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m) {
+                   uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
+                   const ImageF* beam_lux) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -112,7 +164,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       const size_t i = static_cast<size_t>(y) * W + x;
       const int id = labels[i];
       double lum = 0;
-      if (lanes[i]) lum = p.marking_RL * low_beam_lux(x, y, W, depth[i], vp.y, p);
+      if (lanes[i]) lum = beam_lux ? p.marking_RL * (*beam_lux)[i] : 0.0;
       else if (id == static_cast<int>(Label::TrafficSign))
         lum = p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(depth[i]));
       if (lum <= 0) continue;
@@ -453,27 +505,25 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 }
 
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p) {
+               const ImageF& beam_lux, const VanishingPoint& /*vp: the beam is metric now*/, const ScenePreset& p) {
   const int W = texture.width(), H = texture.height();
   ImageF night(W, H, 3, uninitialized, unit::radiance);
   const DarkenParams dp = darken_params(p);
   const auto tb = illuminant_tint(p.beam_cct_K);
   const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
                         static_cast<float>(tb[2] / M_PI)};
-  // Rows in small interleaved chunks: the low beam (an exp per ground pixel) lies in the lower
-  // part of the frame only, so contiguous halves left one thread with most of the work.
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
     float* o = night.row(y);
     const float* t = texture.row(y);
     const float* l = lights.row(y);
-    const float* d = depth.row(y);
+    const float* b = beam_lux.row(y);
     const uint16_t* id = labels.row(y);
     for (int x = 0; x < W; ++x) {
       darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
-      // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π.
-      const float e = y > vp.y && dp.ground_class[id[x]]
-                          ? static_cast<float>(low_beam_lux(x, y, W, d[x], vp.y, p)) : 0.f;
+      // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π, E from
+      // low_beam_illuminance (0 above the horizon and beyond the cut-off).
+      const float e = dp.ground_class[id[x]] ? b[x] : 0.f;
       for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
     }
   }

@@ -38,6 +38,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   s.geometry = camera_geometry(p.rig.name.empty() ? rig_for_image(W, H) : p.rig, W, H, vp);
   s.depth = metric_depth(labels, s.geometry, p.max_depth_m);
   s.beam_input = coarse_depth(W, H, vp.x, vp.y);
+  s.beam_lux = low_beam_illuminance(s.geometry, W, H, p);
   lap("depth");
   ImageU8 lanes_full;
   if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
@@ -53,16 +54,16 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth);
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux);
   s.light_stats = lm.stats;
   lap("lights");
   if (stages.tail) {
-    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.beam_input, vp, p, keep_darkened);
+    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.beam_lux, vp, p, keep_darkened);
     s.radiance = std::move(t.radiance);
     if (keep_darkened) s.darkened = std::move(t.darkened);
     s.resident_radiance = t.resident;
   } else {
-    s.radiance = compose(texture, lm.radiance, labels.ids, s.beam_input, vp, p);
+    s.radiance = compose(texture, lm.radiance, labels.ids, s.beam_lux, vp, p);
   }
   s.lights = std::move(lm.radiance);
   lap("compose");

@@ -75,9 +75,12 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"windows.shop_cct_K", D(p.shop_cct_K, 1000, 20000)},
       {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
       {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
-      {"ego_beam.road_lux", D(p.beam_road_lux, 0, 1000)},
       {"ego_beam.cct_K", D(p.beam_cct_K, 1000, 20000)},
-      {"ego_beam.half_width", D(p.beam_half_width, 0.01, 2)},
+      {"ego_beam.lamp_height_m", D(p.beam_lamp_height_m, 0.2, 2)},
+      {"ego_beam.lamp_spacing_m", D(p.beam_lamp_spacing_m, 0, 3)},
+      {"ego_beam.cutoff_v_deg", D(p.beam_cutoff_v_deg, -5, 5)},
+      {"ego_beam.cutoff_rise_deg", D(p.beam_cutoff_rise_deg, 0, 60)},
+      {"ego_beam.cutoff_max_v_deg", D(p.beam_cutoff_max_v_deg, -5, 5)},
       {"ego_beam.sign_lux", D(p.beam_sign_lux, 0, 1000)},
       {"geometry.work_max_width", I(p.work_max_width, 64, 8192)},
       {"geometry.lane_blur_sigma_px", D(p.lane_blur_sigma_px, 0, 20)},
@@ -93,6 +96,44 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"geometry.vp_min_support", I(p.vp_min_support, 1, 10000)},
       {"geometry.max_depth_m", D(p.max_depth_m, 10, 60000)},
   };
+}
+
+// [ego_beam] h_deg, v_deg (arrays of at least two strictly increasing angles within ±90°) and
+// intensity_cd (an array of rows, numbers >= 0).
+void read_beam_table(const std::string& full, const toml::node& v, const std::string& file, int line,
+                     ScenePreset& p) {
+  const toml::array* a = v.as_array();
+  if (!a) fail(where(file, line, full) + ": must be an array");
+  auto number = [&](const toml::node& n) {
+    auto x = n.value<double>();
+    if (!x) fail(where(file, line, full) + ": entries must be numbers");
+    return *x;
+  };
+  if (full == "ego_beam.intensity_cd") {
+    p.beam_intensity_cd.clear();
+    size_t cols = 0;
+    for (const auto& row : *a) {
+      const toml::array* r = row.as_array();
+      if (!r) fail(where(file, line, full) + ": must be an array of rows (arrays)");
+      if (cols && r->size() != cols) fail(where(file, line, full) + ": rows differ in length");
+      cols = r->size();
+      for (const auto& n : *r) {
+        const double x = number(n);
+        if (!(x >= 0 && x <= 1e6)) fail(where(file, line, full) + ": value " + std::to_string(x) + " is outside [0, 1e6] cd");
+        p.beam_intensity_cd.push_back(x);
+      }
+    }
+    return;
+  }
+  std::vector<double>& out = full == "ego_beam.h_deg" ? p.beam_h_deg : p.beam_v_deg;
+  out.clear();
+  for (const auto& n : *a) {
+    const double x = number(n);
+    if (!(x >= -90 && x <= 90)) fail(where(file, line, full) + ": angle " + std::to_string(x) + " is outside [-90, 90]");
+    if (!out.empty() && !(x > out.back())) fail(where(file, line, full) + ": angles must increase strictly");
+    out.push_back(x);
+  }
+  if (out.size() < 2) fail(where(file, line, full) + ": needs at least two angles");
 }
 }  // namespace
 
@@ -121,6 +162,11 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
     for (const auto& [k2, v] : *sec) {
       const std::string full = key + "." + std::string(k2.str());
       const int l2 = static_cast<int>(v.source().begin.line);
+      if (full == "ego_beam.h_deg" || full == "ego_beam.v_deg" || full == "ego_beam.intensity_cd") {
+        read_beam_table(full, v, file, l2, p);
+        seen[full] = true;
+        continue;
+      }
       auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == full; });
       if (it == fs.end()) fail(where(file, l2, full) + ": unknown key");
       auto num = v.value<double>();
@@ -137,6 +183,12 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
   }
   for (auto& f : fs)
     if (!seen.count(f.first)) fail(where(file, 0, f.first) + ": missing key");
+  for (const char* k : {"ego_beam.h_deg", "ego_beam.v_deg", "ego_beam.intensity_cd"})
+    if (!seen.count(k)) fail(where(file, 0, k) + ": missing key");
+  if (p.beam_intensity_cd.size() != p.beam_h_deg.size() * p.beam_v_deg.size())
+    fail(where(file, 0, "ego_beam.intensity_cd") + ": needs one row per v_deg entry (" +
+         std::to_string(p.beam_v_deg.size()) + "), each with one value per h_deg entry (" +
+         std::to_string(p.beam_h_deg.size()) + ")");
   if (p.window_width_m > p.window_pitch_m) fail(where(file, 0, "windows.width_m") + ": exceeds windows.pitch_m");
   if (p.window_height_m > p.window_storey_m) fail(where(file, 0, "windows.height_m") + ": exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + ": exceeds canny_high");

@@ -47,12 +47,21 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
   // the sources s (moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,
   // so it lies between Σ_s min_k t_s,k L_s and Σ_s max_k t_s,k L_s with L_s = ρ E_s / π
-  // (E_beam ≤ ego_beam.road_lux, and ≥ 0 for the lower bound); t_s is source s's tint
+  // (E_beam ≥ 0 for the lower bound; for the upper, E = Σ_lamps I·cos θ/d² = Σ I·sin³|v|/h_l² on
+  // the road, v the lamp's vertical angle: between table rows v_i < v_i+1 < 0, I ≤ the larger
+  // row maximum and sin³|v| ≤ sin³|v_i|, 0 below the table); t_s is source s's tint
   // (illuminant_tint).
+  double beam_bound_lux = 0;
+  const size_t nh = sp.beam_h_deg.size();
+  for (size_t i = 0; i + 1 < sp.beam_v_deg.size() && sp.beam_v_deg[i] < 0; ++i) {
+    const double I = *std::max_element(sp.beam_intensity_cd.begin() + i * nh, sp.beam_intensity_cd.begin() + (i + 2) * nh);
+    beam_bound_lux = std::max(beam_bound_lux, 2 * I * std::pow(std::sin(-sp.beam_v_deg[i] * M_PI / 180), 3) /
+                                                  (sp.beam_lamp_height_m * sp.beam_lamp_height_m));
+  }
   double lower = 0, upper = 0;
   const std::pair<double, double> sources[] = {{sp.moon_cct_K, sp.rho_road * sp.moon_lux / M_PI},
                                                {sp.skyglow_cct_K, sp.rho_road * sp.skyglow_lux / M_PI},
-                                               {sp.beam_cct_K, sp.rho_road * sp.beam_road_lux / M_PI}};
+                                               {sp.beam_cct_K, sp.rho_road * beam_bound_lux / M_PI}};
   for (int i = 0; i < 3; ++i) {
     const auto t = illuminant_tint(sources[i].first);
     if (i < 2) lower += *std::min_element(t.begin(), t.end()) * sources[i].second;  // the beam may be 0

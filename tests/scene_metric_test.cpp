@@ -414,3 +414,84 @@ TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
     EXPECT_LE(share, 1.0);
   }
 }
+
+// The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on
+// the synthetic camera scene without boxes (the centre line free to the horizon).
+namespace {
+// The preset's table read independently of the code: bilinear between the grid points, 0
+// above the cut-off line and outside the table.
+double table_cd(const ScenePreset& p, double h, double v) {
+  const double cut = std::min(p.beam_cutoff_max_v_deg,
+                              p.beam_cutoff_v_deg + std::max(0.0, h) * std::tan(p.beam_cutoff_rise_deg * M_PI / 180));
+  const auto &H = p.beam_h_deg, &V = p.beam_v_deg;
+  if (v > cut || h < H.front() || h > H.back() || v < V.front() || v > V.back()) return 0;
+  size_t j = 0, i = 0;
+  while (j + 2 < H.size() && h >= H[j + 1]) ++j;
+  while (i + 2 < V.size() && v >= V[i + 1]) ++i;
+  const double a = (h - H[j]) / (H[j + 1] - H[j]), b = (v - V[i]) / (V[i + 1] - V[i]);
+  auto I = [&](size_t r, size_t c) { return p.beam_intensity_cd[r * H.size() + c]; };
+  return (1 - a) * (1 - b) * I(i, j) + a * (1 - b) * I(i, j + 1) + (1 - a) * b * I(i + 1, j) + a * b * I(i + 1, j + 1);
+}
+}  // namespace
+
+// E at a pixel = Σ over the two lamps (±spacing/2, h_l, 0) of I(h, v)·cos θ/d² for its ground point
+// (X, D). The image stores float(E): |float(E) − E| ≤ 2⁻²⁴·E (round to nearest), plus the double
+// evaluation order's ~1e-15 relative: bound 2⁻²⁴·E·(1 + 1e-6). Above the cut-off (for both lamps)
+// exactly 0, and 0 above the horizon. The beam's road luminance ρE/π along the centre line
+// (the column under the principal point) peaks 20-40 m ahead (issue 14 §2).
+TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  const ImageF E = low_beam_illuminance(g, o.width, o.height, p);
+  const double hl = p.beam_lamp_height_m;
+  int checked = 0, beyond_cutoff = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      double X, D, z;
+      if (!g.ground_point(x, y, &X, &D, &z)) {
+        ASSERT_EQ(E.at(x, y), 0.f) << x << "," << y;
+        continue;
+      }
+      double expect = 0;
+      bool lit = false;
+      for (double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+        const double dx = X - xl, d2 = dx * dx + D * D + hl * hl;
+        const double h = std::atan2(dx, D) * 180 / M_PI, v = -std::atan2(hl, std::hypot(dx, D)) * 180 / M_PI;
+        const double I = table_cd(p, h, v);
+        lit = lit || I > 0;
+        expect += I * (hl / std::sqrt(d2)) / d2;
+      }
+      if (!lit) {
+        ++beyond_cutoff;
+        ASSERT_EQ(E.at(x, y), 0.f) << x << "," << y << " D " << D;
+      } else {
+        ASSERT_NEAR(E.at(x, y), expect, std::ldexp(1.0, -24) * expect * (1 + 1e-6)) << x << "," << y << " D " << D;
+        ++checked;
+      }
+    }
+  EXPECT_GT(checked, 10000);
+  EXPECT_GT(beyond_cutoff, 1000);  // the far road beyond the cut-off is dark: a visible cut-off
+  // Set depths on the centre line.
+  const int xc = static_cast<int>(std::lround(g.cx_px));
+  double best = -1, best_D = 0;
+  for (int y = 0; y < o.height; ++y) {
+    double X, D, z;
+    if (s.labels.ids.at(xc, y) != static_cast<int>(Label::Road) || !g.ground_point(xc, y, &X, &D, &z)) continue;
+    const double L = p.rho_road * E.at(xc, y) / M_PI;
+    if (L > best) best = L, best_D = D;
+  }
+  std::fprintf(stderr, "[beam] centre-line road luminance from the low beam peaks at %.1f m: %.4f cd/m² (E %.3f lx)\n",
+               best_D, best, best * M_PI / p.rho_road);
+  EXPECT_GE(best_D, 20.0);
+  EXPECT_LE(best_D, 40.0);
+  // The chain uses the same image.
+  ScenePreset pc = p;
+  pc.rig = load_camera_rig("cityscapes");
+  const NightScene n = night_scene(s.day_linear_srgb, s.labels, pc, 1);
+  const ImageF En = low_beam_illuminance(n.geometry, o.width, o.height, pc);
+  ASSERT_EQ(n.beam_lux.size(), En.size());
+  EXPECT_TRUE(std::equal(En.data(), En.data() + En.size(), n.beam_lux.data()));
+}

@@ -143,24 +143,46 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
   EXPECT_EQ(c.lum_at(m.radiance, 30, 33), 0.0);
 }
 
-// The ego low beam on the ground (scene/lights.cpp low_beam_lux): ego_beam.road_lux (30 lx, the
-// upper end of NP §4's 0.1-30 lx) on the nearest ground at the beam's centre, falling with the
-// inverse square of the distance (distance ∝ 1/depth on a flat road, so E ∝ depth²), a Gaussian
-// across the beam (e^(-1/2) at one half-width), nothing above the horizon or beyond 4 half-widths.
+// The ego low beam (scene/lights.cpp): the preset's intensity table holds the ECE R112 class B
+// measuring points (per headlamp, cd = lx at 25 m × 625 m²) and nothing above the cut-off; on
+// the road the pair gives E = Σ I(h, v)·cos θ / d². With the lamps coincident (spacing 0) on the
+// axis (h = 0) at the distance D where v = −atan(h_l/D) is a table row, E = 2·I_row·(h_l/d)/d².
+// Tolerance 1e-12 relative: double rounding of a few operations (~1e-15 each) plus the row
+// angle's rounding through atan/tan (~1e-15 of 1°, times the slope ≤ 2e4 cd/° of a 1e4 cd value).
 TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
-  const ScenePreset p = no_bloom();
-  const int W = 1000;
-  const double vp_y = 100;
-  for (double d : {1.0, 0.5, 0.25, 0.1}) {
-    const double centre = low_beam_lux(W / 2, 300, W, d, vp_y, p);
-    EXPECT_NEAR(centre, p.beam_road_lux * d * d, 1e-12 * p.beam_road_lux) << d;
-    const double half = std::max(1.0, p.beam_half_width * W * d);
-    const int x = W / 2 + static_cast<int>(half);  // about one half-width out
-    EXPECT_NEAR(low_beam_lux(x, 300, W, d, vp_y, p) / centre, std::exp(-0.5 * std::pow((x - 0.5 * W) / half, 2)), 1e-9) << d;
-    EXPECT_EQ(low_beam_lux(static_cast<int>(W / 2 + 4 * half + 2), 300, W, d, vp_y, p), 0.0) << d;
+  ScenePreset p = no_bloom();
+  // R112 class B (right-hand traffic), [U] values recalled in presets/scenes/night-urban.toml.
+  EXPECT_GE(low_beam_intensity_cd(1.72, -0.86, p), 12 * 625.0);  // 50R >= 12 lx
+  EXPECT_GE(low_beam_intensity_cd(1.15, -0.57, p), 12 * 625.0);  // 75R >= 12 lx
+  EXPECT_GE(low_beam_intensity_cd(0.0, -0.86, p), 6 * 625.0);    // 50V >= 6 lx
+  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.86, p), 15 * 625.0); // 50L <= 15 lx
+  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.57, p), 12 * 625.0); // 75L <= 12 lx
+  EXPECT_LE(low_beam_intensity_cd(-3.43, 0.57, p), 0.4 * 625.0); // B50L <= 0.4 lx
+  EXPECT_GE(low_beam_intensity_cd(-9, -1.72, p), 2 * 625.0);     // 25L >= 2 lx
+  EXPECT_GE(low_beam_intensity_cd(9, -1.72, p), 2 * 625.0);      // 25R >= 2 lx
+  for (double h = -5.15; h <= 5.15; h += 0.5)                     // Zone IV >= 3 lx
+    for (double v = -1.72; v <= -0.86; v += 0.1) EXPECT_GE(low_beam_intensity_cd(h, v, p), 3 * 625.0) << h << " " << v;
+  // The cut-off: horizontal at cutoff_v_deg on the left, nothing above; rising at 15° on the right.
+  EXPECT_GT(low_beam_intensity_cd(-2, p.beam_cutoff_v_deg - 1e-9, p), 1000.0);
+  EXPECT_EQ(low_beam_intensity_cd(-2, p.beam_cutoff_v_deg + 1e-9, p), 0.0);
+  EXPECT_GT(low_beam_intensity_cd(2, -0.1, p), 1000.0);  // right of the elbow, below the rising line
+  EXPECT_EQ(low_beam_intensity_cd(0.5, 0.0, p), 0.0);
+
+  p.beam_lamp_spacing_m = 0;
+  const double hl = p.beam_lamp_height_m;
+  // (Not the 0.57° D row: it is the cut-off, where rounding decides between the row and 0.)
+  const double rows[] = {-0.86, -1.3, -1.72, -3};
+  for (size_t r = 0; r < 4; ++r) {
+    const double D = hl / std::tan(-rows[r] * M_PI / 180), d2 = D * D + hl * hl, d = std::sqrt(d2);
+    const double I = low_beam_intensity_cd(0, rows[r], p);
+    const size_t iv = std::find(p.beam_v_deg.begin(), p.beam_v_deg.end(), rows[r]) - p.beam_v_deg.begin();
+    const size_t ih = std::find(p.beam_h_deg.begin(), p.beam_h_deg.end(), 0.0) - p.beam_h_deg.begin();
+    ASSERT_LT(iv, p.beam_v_deg.size());
+    const double node = p.beam_intensity_cd[iv * p.beam_h_deg.size() + ih];
+    EXPECT_NEAR(I, node, 1e-9 * node);  // v = the row to ~1e-15°: the bilinear weight of the next row ~1e-14
+    EXPECT_NEAR(low_beam_lux(0, D, p), 2 * I * (hl / d) / d2, 1e-12 * 2 * I / d2) << D;
   }
-  // Doubling the distance quarters the illuminance.
-  EXPECT_NEAR(low_beam_lux(W / 2, 300, W, 0.25, vp_y, p) / low_beam_lux(W / 2, 300, W, 0.5, vp_y, p), 0.25, 1e-12);
-  EXPECT_EQ(low_beam_lux(W / 2, 50, W, 0.5, vp_y, p), 0.0);  // above the horizon
-  EXPECT_NEAR(p.beam_road_lux, 30.0, 0.0);
+  // Beyond the cut-off (farther than h_l / tan 0.57° ≈ 65 m, left of the axis) and behind the car: dark.
+  EXPECT_EQ(low_beam_lux(-3, 100, p), 0.0);
+  EXPECT_EQ(low_beam_lux(0, -5, p), 0.0);
 }

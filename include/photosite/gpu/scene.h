@@ -17,9 +17,8 @@ ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const
 // scene::linearize() on the device: bit-equal (the same table and float operations); a NaN or
 // Inf pixel is refused with the CPU path's message.
 ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, double* device_ms = nullptr);
-// scene::compose() on the device (darken, then low beam + lights): bit-equal except where the
-// double exp of the low beam (common/exp64.glsl) rounds to another float than std::exp, at most
-// one float ulp there (tests/gpu_test.cpp counts them).
+// scene::compose() on the device (darken, then low beam + lights), `depth` being the low beam's
+// illuminance image (scene::low_beam_illuminance, lx): bit-equal (tests/gpu_test.cpp).
 ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
                double* device_ms = nullptr);

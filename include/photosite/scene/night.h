@@ -90,7 +90,7 @@ struct VanishingPoint {
 VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
                                const ScenePreset& p);
 // 0 at the vanishing point rising linearly to 1 at the image border along every ray. Used only
-// as the low-beam falloff proxy (low_beam_lux); depth.Z is metric_depth().
+// as the traffic signs' beam-illuminance proxy (light_map); depth.Z is metric_depth().
 ImageF coarse_depth(int width, int height, double vp_x, double vp_y);
 
 // ---- metric geometry (full resolution) ------------------------------------------------------
@@ -131,9 +131,16 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
 ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_depth_m);
 
 // ---- lights and composition (full resolution) ----------------------------------------------
-// Ego low-beam illuminance (lx) on the ground at a pixel, from the coarse depth: ∝ depth² (the
-// inverse-square law along the road, distance ∝ 1/depth), Gaussian across the beam.
-double low_beam_lux(int x, int y, int width, double depth, double vp_y, const ScenePreset& p);
+// Ego low beam (stage 6b): one headlamp's luminous intensity (cd) from the scene preset's
+// [ego_beam] table at horizontal angle h_deg (positive right) and vertical angle v_deg (positive
+// up): bilinear in the table, 0 above the cut-off and outside the table.
+double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p);
+// Illuminance (lx) of the headlamp pair on the road at road coordinates (X_m right, D_m forward):
+// E = Σ_lamps I(h, v)·cos θ / d², θ the incidence from the road's normal, d the lamp distance.
+double low_beam_lux(double X_m, double D_m, const ScenePreset& p);
+// E_beam per pixel (1 channel, lx): low_beam_lux at each pixel's flat-ground point
+// (CameraGeometry::ground_point), 0 at and above the horizon. What compose() reads.
+ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p);
 
 struct LightStats {
   int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;
@@ -150,16 +157,19 @@ struct LightMap {
   LightStats stats;
 };
 // `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
-// pools; with them lamps, pools and windows are placed and sized in metres.
+// pools; with them lamps, pools and windows are placed and sized in metres. `depth` is the
+// coarse ramp (coarse_depth), the sign-illuminance proxy. `beam_lux` (low_beam_illuminance)
+// lights the lane markings (R_L·E); null: markings stay dark.
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
-                   const ImageF* depth_m = nullptr);
+                   const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
-// back from a darkened image: one pass over memory less) + diffuse low-beam light on the ground
-// + the light map.
+// back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
+// classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
+// `vp` is unused (the beam is metric); kept for the PixelStages interface.
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p);
+               const ImageF& beam_lux, const VanishingPoint& vp, const ScenePreset& p);
 
 // ---- the chain ----------------------------------------------------------------------------
 struct StageTiming { std::string stage; double ms; };
@@ -167,7 +177,8 @@ struct NightScene {
   ImageF darkened;  // full resolution, kept only with keep_darkened
   ImageF lights, radiance;  // full resolution
   ImageF depth;             // metres (metric_depth), full resolution
-  ImageF beam_input;        // what compose() reads for the ego low beam (see low_beam_lux), full resolution
+  ImageF beam_input;        // coarse_depth ramp: the sign-illuminance proxy of light_map, full resolution
+  ImageF beam_lux;          // ego low-beam illuminance on the ground (lx, low_beam_illuminance): what compose() reads
   CameraGeometry geometry;
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;

@@ -5,6 +5,7 @@
 #include <array>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "photosite/io.h"
 #include "photosite/scene/rig.h"
@@ -49,9 +50,15 @@ struct ScenePreset {
   double window_warm_share = 0.7, window_cool_cct_K = 4000;  // share of windows at window_cct_K; the rest at this CCT
   // [retroreflection] EN 1436 R_L (cd·m⁻²·lx⁻¹) for lane markings, EN 12899 R_A (cd·lx⁻¹·m⁻²).
   double marking_RL = 0.2, sign_RA = 180;
-  // [ego_beam] low beam: illuminance on the road at the bottom of the image (lx), CCT,
-  // half-width of the beam at the bottom as a fraction of the image width.
-  double beam_road_lux = 30, beam_cct_K = 3200, beam_half_width = 0.35, beam_sign_lux = 5;
+  // [ego_beam] low beam: CCT, illuminance on signs, and the headlamp pair: mounting height above
+  // the road and lateral spacing (m), the cut-off line (v = cutoff_v_deg left of the v-v line,
+  // rising at cutoff_rise_deg to the right up to cutoff_max_v_deg; nothing above it) and one
+  // headlamp's luminous intensity table: intensity_cd[iv][ih] (cd) at v_deg[iv] (vertical
+  // angle, positive up) and h_deg[ih] (horizontal, positive right), both strictly increasing.
+  double beam_cct_K = 3200, beam_sign_lux = 5;
+  double beam_lamp_height_m = 0.65, beam_lamp_spacing_m = 1.5;
+  double beam_cutoff_v_deg = -0.57, beam_cutoff_rise_deg = 15, beam_cutoff_max_v_deg = 0;
+  std::vector<double> beam_h_deg, beam_v_deg, beam_intensity_cd;  // intensity row-major over v
   // [geometry] lanes, edges, Hough, vanishing point.
   int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
   double lane_blur_sigma_px = 1.0, lane_contrast_threshold = 0.06;
