@@ -124,13 +124,21 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
-ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p) {
+ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
+                            const ImageU16* labels, const ImageU8* lanes) {
   ImageF E(width, height, 1, 0.f);
   const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
+  // the labels are given: the two atan2 per lamp and pixel are most of this stage's time.
+  bool read[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) read[id] = is_ground(id);
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < height; ++y) {
     float* e = E.row(y);
+    const uint16_t* id = labels ? labels->row(y) : nullptr;
+    const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
     for (int x = 0; x < width; ++x) {
+      if (id && !(id[x] < kLabelCount && read[id[x]]) && !(lane && lane[x])) continue;
       double X, D, z;
       if (g.ground_point(x, y, &X, &D, &z)) e[x] = static_cast<float>(beam_lux(X, D, tan_rise, p));
     }

@@ -38,8 +38,6 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   s.geometry = camera_geometry(p.rig.name.empty() ? rig_for_image(W, H) : p.rig, W, H, vp);
   s.depth = metric_depth(labels, s.geometry, p.max_depth_m);
   s.beam_input = coarse_depth(W, H, vp.x, vp.y);
-  s.beam_lux = low_beam_illuminance(s.geometry, W, H, p);
-  lap("depth");
   ImageU8 lanes_full;
   if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
   else {
@@ -54,6 +52,8 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
     }
   }
+  s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
+  lap("depth");
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux);
   s.light_stats = lm.stats;
   lap("lights");

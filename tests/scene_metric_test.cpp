@@ -487,11 +487,19 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
                best_D, best, best * M_PI / p.rho_road);
   EXPECT_GE(best_D, 20.0);
   EXPECT_LE(best_D, 40.0);
-  // The chain uses the same image.
+  // The chain uses the same values wherever they are read (ground classes, lane markings) and
+  // computes none elsewhere.
   ScenePreset pc = p;
   pc.rig = load_camera_rig("cityscapes");
   const NightScene n = night_scene(s.day_linear_srgb, s.labels, pc, 1);
   const ImageF En = low_beam_illuminance(n.geometry, o.width, o.height, pc);
   ASSERT_EQ(n.beam_lux.size(), En.size());
-  EXPECT_TRUE(std::equal(En.data(), En.data() + En.size(), n.beam_lux.data()));
+  size_t read = 0;
+  for (size_t i = 0; i < En.size(); ++i) {
+    if (is_ground(s.labels.ids[i])) {
+      ++read;
+      EXPECT_EQ(n.beam_lux[i], En[i]) << i;
+    }
+  }
+  EXPECT_GT(read, En.size() / 4);  // the ground is a large part of a road scene
 }

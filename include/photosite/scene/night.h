@@ -140,7 +140,10 @@ double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p);
 double low_beam_lux(double X_m, double D_m, const ScenePreset& p);
 // E_beam per pixel (1 channel, lx): low_beam_lux at each pixel's flat-ground point
 // (CameraGeometry::ground_point), 0 at and above the horizon. What compose() reads.
-ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p);
+// labels (and lanes) given: computed only where it is read, on ground-class pixels (compose) and
+// lane-marking pixels (the light map's retroreflection); 0 elsewhere.
+ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
+                            const ImageU16* labels = nullptr, const ImageU8* lanes = nullptr);
 
 struct LightStats {
   int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;
