@@ -54,12 +54,13 @@ CameraRig parse_camera_rig(const std::string& text, const std::string& file) {
 CameraRig load_camera_rig(const std::string& name_or_path) {
   namespace fs = std::filesystem;
   std::string path = name_or_path;
+  if (name_or_path.ends_with(".json")) return load_cityscapes_camera(name_or_path);
   if (name_or_path.find('/') == std::string::npos && !name_or_path.ends_with(".toml")) {
     path = (rig_dir() / (name_or_path + ".toml")).string();
     if (!fs::exists(path)) {
       std::string known;
       for (const auto& n : bundled_rigs()) known += (known.empty() ? "" : ", ") + n;
-      fail("--rig: unknown camera rig '" + name_or_path + "' (bundled: " + known + ", or auto, or a .toml path)");
+      fail("--rig: unknown camera rig '" + name_or_path + "' (bundled: " + known + ", or auto, or a .toml path, or a Cityscapes camera .json)");
     }
   }
   std::ifstream in(path);
@@ -92,8 +93,11 @@ CameraRig rig_for_image(int width, int height) {
   return best;
 }
 
-CameraRig resolve_camera_rig(const std::string& flag, int width, int height) {
-  if (flag.empty() || flag == "auto") return rig_for_image(width, height);
+CameraRig resolve_camera_rig(const std::string& flag, int width, int height, const std::string& image_path) {
+  if (flag.empty() || flag == "auto") {
+    if (const std::string cam = cityscapes_camera_file(image_path); !cam.empty()) return load_cityscapes_camera(cam);
+    return rig_for_image(width, height);
+  }
   return load_camera_rig(flag);
 }
 
