@@ -11,6 +11,7 @@
 
 using namespace photosite;
 using namespace photosite::scene;
+using test::error_of;
 
 namespace {
 ImageU16 ids(std::initializer_list<uint16_t> v, int w) {
@@ -24,14 +25,6 @@ void write_codes(const std::string& path, const ImageU16& codes, int bits) {
   const float m = bits == 8 ? 255.f : 65535.f;
   for (size_t i = 0; i < f.size(); ++i) f[i] = codes[i] / m;
   write_png(path, f, bits);
-}
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 }  // namespace
 
