@@ -4,6 +4,7 @@
 // (sensor/glare.h), not here.
 #include <algorithm>
 #include <cmath>
+#include <immintrin.h>
 #include <map>
 #include <opencv2/imgproc.hpp>
 
@@ -160,6 +161,63 @@ void beam_rays(int x0, int n, double cx, double f, double t, double D_m, double 
       o.d2[k][i] = r.d2;
     }
 }
+
+// beam_intensity_cd times cos θ / d² summed over the two lamps for pixels 0 .. n − 1 of a chunk
+// of rays, four pixels at a time: the same operations as the scalar path (the cell index by
+// counting the grid angles at or below the angle, which is upper_bound − 1 clamped to the last
+// cell; the table read by gathers), so the same bits.
+__attribute__((target("avx2")))
+void beam_sum_avx2(const BeamRows& r, int n, double tan_rise, const ScenePreset& p, double* sum) {
+  const auto& H = p.beam_h_deg;
+  const auto& V = p.beam_v_deg;
+  const int nh = static_cast<int>(H.size()), nv = static_cast<int>(V.size());
+  const double* I = p.beam_intensity_cd.data();
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  const __m256d cmax = _mm256_set1_pd(p.beam_cutoff_max_v_deg), cv = _mm256_set1_pd(p.beam_cutoff_v_deg);
+  const __m256d rise = _mm256_set1_pd(tan_rise);
+  const __m256d h_lo = _mm256_set1_pd(H.front()), h_hi = _mm256_set1_pd(H.back());
+  const __m256d v_lo = _mm256_set1_pd(V.front()), v_hi = _mm256_set1_pd(V.back());
+  const __m128i vnh = _mm_set1_epi32(nh);
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    __m256d acc = zero;
+    for (int k = 0; k < 2; ++k) {
+      const __m256d h = _mm256_loadu_pd(r.h[k] + x), v = _mm256_loadu_pd(r.v[k] + x);
+      // cut = min(cmax, cv + max(0, h)·tan_rise); lit: v <= cut and (h, v) inside the table.
+      const __m256d cut = _mm256_min_pd(_mm256_add_pd(cv, _mm256_mul_pd(_mm256_max_pd(h, zero), rise)), cmax);
+      __m256d lit = _mm256_cmp_pd(v, cut, _CMP_LE_OQ);
+      lit = _mm256_and_pd(lit, _mm256_and_pd(_mm256_cmp_pd(h, h_lo, _CMP_GE_OQ), _mm256_cmp_pd(h, h_hi, _CMP_LE_OQ)));
+      lit = _mm256_and_pd(lit, _mm256_and_pd(_mm256_cmp_pd(v, v_lo, _CMP_GE_OQ), _mm256_cmp_pd(v, v_hi, _CMP_LE_OQ)));
+      if (_mm256_movemask_pd(lit) == 0) continue;
+      __m256d jd = zero, id = zero;  // cell indices as counts
+      for (int m = 1; m + 1 < nh; ++m) jd = _mm256_add_pd(jd, _mm256_and_pd(_mm256_cmp_pd(_mm256_set1_pd(H[m]), h, _CMP_LE_OQ), one));
+      for (int m = 1; m + 1 < nv; ++m) id = _mm256_add_pd(id, _mm256_and_pd(_mm256_cmp_pd(_mm256_set1_pd(V[m]), v, _CMP_LE_OQ), one));
+      const __m128i j = _mm256_cvtpd_epi32(jd), i = _mm256_cvtpd_epi32(id);
+#define PHOTOSITE_GATHER(base, idx) _mm256_mask_i32gather_pd(zero, (base), (idx), all, 8)
+      const __m256d Hj = PHOTOSITE_GATHER(H.data(), j), Hj1 = PHOTOSITE_GATHER(H.data() + 1, j);
+      const __m256d Vi = PHOTOSITE_GATHER(V.data(), i), Vi1 = PHOTOSITE_GATHER(V.data() + 1, i);
+      const __m256d a = _mm256_div_pd(_mm256_sub_pd(h, Hj), _mm256_sub_pd(Hj1, Hj));
+      const __m256d b = _mm256_div_pd(_mm256_sub_pd(v, Vi), _mm256_sub_pd(Vi1, Vi));
+      const __m128i c0 = _mm_add_epi32(_mm_mullo_epi32(i, vnh), j);  // r0 + j
+      const __m256d r00 = PHOTOSITE_GATHER(I, c0), r01 = PHOTOSITE_GATHER(I + 1, c0);
+      const __m256d r10 = PHOTOSITE_GATHER(I + nh, c0), r11 = PHOTOSITE_GATHER(I + nh + 1, c0);
+#undef PHOTOSITE_GATHER
+      const __m256d ia = _mm256_sub_pd(one, a), ib = _mm256_sub_pd(one, b);
+      const __m256d top = _mm256_add_pd(_mm256_mul_pd(ia, r00), _mm256_mul_pd(a, r01));
+      const __m256d bot = _mm256_add_pd(_mm256_mul_pd(ia, r10), _mm256_mul_pd(a, r11));
+      const __m256d Iv = _mm256_and_pd(lit, _mm256_add_pd(_mm256_mul_pd(ib, top), _mm256_mul_pd(b, bot)));
+      const __m256d c = _mm256_loadu_pd(r.c[k] + x), d2 = _mm256_loadu_pd(r.d2[k] + x);
+      acc = _mm256_add_pd(acc, _mm256_div_pd(_mm256_mul_pd(Iv, c), d2));
+    }
+    _mm256_storeu_pd(sum + x, acc);
+  }
+  for (; x < n; ++x) {
+    double s = 0;
+    for (int k = 0; k < 2; ++k) s += beam_intensity_cd(r.h[k][x], r.v[k][x], tan_rise, p) * r.c[k][x] / r.d2[k][x];
+    sum[x] = s;
+  }
+}
+const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
 }  // namespace
 
 double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
@@ -190,9 +248,14 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   // to low_beam_lux at the pixel's ground point): D and t once per row, the two atan per lamp
   // and pixel in vectorized chunks (beam_rays), then the table per pixel that reads it.
   const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
+  // The vectorized table (beam_sum_avx2) for grids of at least two angles each (the preset's
+  // rule); the scalar path otherwise and without AVX2. The same bits either way.
+  const bool avx2 = kHaveAvx2 && p.beam_h_deg.size() >= 2 && p.beam_v_deg.size() >= 2 &&
+                    p.beam_intensity_cd.size() == p.beam_h_deg.size() * p.beam_v_deg.size();
 #pragma omp parallel
   {
     BeamRows rays;
+    double sum[kBeamChunk];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < height; ++y) {
       const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
@@ -210,6 +273,12 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
         while (b > a && !needed(b - 1)) --b;
         if (a == b) continue;
         beam_rays(a, b - a, g.cx_px, g.f_px, t, D, hl, xl, rays);
+        if (avx2) {
+          beam_sum_avx2(rays, b - a, tan_rise, p, sum);
+          for (int x = a; x < b; ++x)
+            if (needed(x)) e[x] = static_cast<float>(sum[x - a]);
+          continue;
+        }
         for (int x = a; x < b; ++x) {
           if (!needed(x)) continue;
           const int i = x - a;

@@ -86,12 +86,16 @@ void lamp_row_avx2(double* e, int x0, int n, double cx, double kx, double Xl, do
     const __m256d dx = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(x, vcx), vkx), vXl);
     const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), dz2), H2);
     const __m256d c = _mm256_div_pd(vH, _mm256_sqrt_pd(d2));
-    const __m256d u = _mm256_div_pd(c, vstep);
-    const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
-    const __m256d v0 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data(), j, all, 8);
-    const __m256d v1 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data() + 1, j, all, 8);
-    const __m256d r = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
-    const __m256d rel = _mm256_blendv_pd(one, r, _mm256_cmp_pd(c, vcc, _CMP_LT_OQ));
+    const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
+    __m256d rel = one;
+    if (_mm256_movemask_pd(beyond)) {
+      const __m256d u = _mm256_div_pd(c, vstep);
+      const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
+      const __m256d v0 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data(), j, all, 8);
+      const __m256d v1 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data() + 1, j, all, 8);
+      const __m256d r = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
+      rel = _mm256_blendv_pd(one, r, beyond);
+    }
     _mm256_storeu_pd(e + i, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
   }
   lamp_row_scalar(e + i, x0 + i, n - i, cx, kx, Xl, dz, Hl, I0, t);
