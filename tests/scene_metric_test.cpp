@@ -315,6 +315,67 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
   EXPECT_LE(under / gap, e_under / e_gap * 1.1 / 0.9 * (1 + slack));
 }
 
+// Each luminaire is drawn only over its footprint, the ground within R = H·tan(γ_R),
+// γ_R = min(85°, cut-off + 2·falloff), of its foot along the road (|D − D_l| ≤ R, street.cpp).
+// On every road pixel the pools then hold E from exactly the lamps whose band holds the pixel's
+// ground point: the image's
+// E (recovered from L = t·(tint/π)·E, the green channel: float(E) and two float products, each
+// within 2⁻²⁴ relative, and the pixel's X from (x − c_x)·(t/f) against the test's t·((x − c_x)/f),
+// ~1e-15) agrees with Σ over those lamps to 4·2⁻²⁴ relative. A dropped lamp lies beyond R, where
+// E ≤ E_R = I0·rel(γ_R)·cos³γ_R / H² (rel and cos falling with γ): the truncation at a pixel is
+// at most (number of lamps dropped there)·E_R. Pixels within 1e-6·R of a band's edge are skipped
+// (the image's and the test's rounding may put them on either side).
+TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const StreetLighting s = plan_street_lighting(sc.labels, o.camera, p, 7);
+  ASSERT_GT(s.lamps.size(), 4u);
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+  ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(L, tex, sc.labels.ids, o.camera, s, p);
+  const double gR = std::min(85.0, p.lamp_cutoff_deg + 2 * p.lamp_falloff_deg) * M_PI / 180;
+  const double H = p.lamp_mount_height_m, R = H * std::tan(gR);
+  const double E_R = s.peak_intensity_cd * lamp_relative_intensity(gR, p) * std::pow(std::cos(gR), 3) / (H * H);
+  const double E_avg = M_PI * s.avg_luminance_cd_m2 / p.rho_road;  // the road's average E (EN 13201 field)
+  const float tg = static_cast<float>(illuminant_tint(p.street_cct_K)[1] / M_PI);
+  double worst_share = 0, worst_bound_share = 0;
+  int checked = 0, rim = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      double X, D;
+      if (sc.labels.ids.at(x, y) != static_cast<int>(Label::Road) || !o.camera.ground_point(x, y, &X, &D, nullptr)) continue;
+      const float t = tex.at(x, y, 1);
+      if (!(t > 0)) continue;
+      StreetLighting in = s, out = s;
+      in.lamps.clear();
+      out.lamps.clear();
+      bool on_rim = false;
+      for (const auto& l : s.lamps) {
+        const double r = std::fabs(D - l.D_m);
+        on_rim = on_rim || std::fabs(r - R) < 1e-6 * R;
+        (r <= R ? in : out).lamps.push_back(l);
+      }
+      if (on_rim) {
+        ++rim;
+        continue;
+      }
+      const double e_in = street_illuminance_lux(X, D, in, p), e_out = street_illuminance_lux(X, D, out, p);
+      const double e_img = L.at(x, y, 1) / (static_cast<double>(t) * tg);
+      ASSERT_NEAR(e_img, e_in, 4 * std::ldexp(1.0, -24) * e_in + 1e-30) << x << "," << y;
+      ASSERT_LE(e_out, out.lamps.size() * E_R * (1 + 1e-9)) << x << "," << y;
+      worst_share = std::max(worst_share, e_out / E_avg);
+      worst_bound_share = std::max(worst_bound_share, out.lamps.size() * E_R / E_avg);
+      ++checked;
+    }
+  EXPECT_GT(checked, 10000);
+  EXPECT_LT(rim, checked / 100);
+  std::fprintf(stderr, "[street] footprint R %.1f m, E_R %.4f lx = %.2e of the road average %.2f lx; dropped at most "
+               "%.2e of the average (bound %.2e), %d pixels checked, %d on a rim\n",
+               R, E_R, E_R / E_avg, E_avg, worst_share, worst_bound_share, checked, rim);
+}
+
 namespace {
 // Share of the light energy of frame t at x + k found again at x in frame t+1 (to 1%), away from
 // the lateral borders, over crops of one frame (day image `lin`, labels `lab`) k px apart, each
@@ -436,7 +497,8 @@ double table_cd(const ScenePreset& p, double h, double v) {
 
 // E at a pixel = Σ over the two lamps (±spacing/2, h_l, 0) of I(h, v)·cos θ/d² for its ground point
 // (X, D). The image stores float(E): |float(E) − E| ≤ 2⁻²⁴·E (round to nearest), plus the double
-// evaluation order's ~1e-15 relative: bound 2⁻²⁴·E·(1 + 1e-6). Above the cut-off (for both lamps)
+// evaluation order's and the code's atan (Cephes, ≤ 2.4e-16 relative against atan2 here, lights.cpp)
+// ~1e-15 relative: bound 2⁻²⁴·E·(1 + 1e-6). Above the cut-off (for both lamps)
 // exactly 0, and 0 above the horizon. The beam's road luminance ρE/π along the centre line
 // (the column under the principal point) peaks 20-40 m ahead (issue 14 §2).
 TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
@@ -469,6 +531,9 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
         ASSERT_EQ(E.at(x, y), 0.f) << x << "," << y << " D " << D;
       } else {
         ASSERT_NEAR(E.at(x, y), expect, std::ldexp(1.0, -24) * expect * (1 + 1e-6)) << x << "," << y << " D " << D;
+        // The image's per-row evaluation (D and t once per row, vectorized rays) gives the
+        // point function's bits at the pixel's ground point.
+        ASSERT_EQ(E.at(x, y), static_cast<float>(low_beam_lux(X, D, p))) << x << "," << y;
         ++checked;
       }
     }
