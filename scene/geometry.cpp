@@ -397,12 +397,14 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
       plane_of.assign(pts.size(), -1);
       const int min_left = std::max(kMinFacadeContacts, static_cast<int>(0.15 * pts.size()));
       int found = 0;
-      for (int k = 0; k < kMaxFacadePlanes; ++k) {
+      // On stack feet, one plane: lines of lower bounds (a sign post here, a hedge there) do not
+      // tell a façade's corner from the things in front of it.
+      for (int k = 0; k < (occluded ? 1 : kMaxFacadePlanes); ++k) {
         int left = 0;
         for (auto f : free) left += f;
         if (left < (k == 0 ? kMinFacadeContacts : min_left)) break;
         Line L;
-        if (!fit_line(pts, free, &L, &in)) break;
+        if (!fit_line(pts, free, &L, &in) || (k > 0 && L.n < min_left)) break;
         int i0 = -1, i1 = -1;
         for (size_t i = 0; i < pts.size(); ++i)
           if (in[i]) { if (i0 < 0) i0 = static_cast<int>(i); i1 = static_cast<int>(i); }
@@ -434,17 +436,28 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     };
     if (!fit_planes(cs, false)) {
       // No façade on unoccluded contacts: the feet of what stands in front (the bottom of the
-      // stack of objects below each column's lowest building pixel, a fence or a parked car), the
-      // nearest the hidden foot can be.
-      cs.clear();
-      for (int i = 0; i < w; ++i) {
-        int y = ym[i];
-        if (y < 0) continue;
-        const int x = R.x0 + i;
-        while (y + 1 < H && object(ids.at(x, y + 1))) ++y;
-        if (y + 1 < H && is_ground(ids.at(x, y + 1)) && y + 0.5 >= g.horizon_y + 1) cs.push_back({x, y + 0.5});
+      // stack of objects below each column's lowest building pixel), the nearest the hidden foot
+      // can be. First only stacks of fixed structures (fences, walls, hedges, poles: they stand
+      // at the property line, close before the façade), then also through vehicles and people
+      // (parked at the kerb, metres before it: a looser bound).
+      for (bool movable : {false, true}) {
+        cs.clear();
+        for (int i = 0; i < w; ++i) {
+          int y = ym[i];
+          if (y < 0) continue;
+          const int x = R.x0 + i;
+          bool through_movable = false;
+          while (y + 1 < H && object(ids.at(x, y + 1))) {
+            const int id = ids.at(x, y + 1);
+            through_movable = through_movable || is_vehicle(id) || id == static_cast<int>(Label::Person) ||
+                              id == static_cast<int>(Label::Rider);
+            ++y;
+          }
+          if ((!through_movable || movable) && y + 1 < H && is_ground(ids.at(x, y + 1)) && y + 0.5 >= g.horizon_y + 1)
+            cs.push_back({x, y + 0.5});
+        }
+        if (fit_planes(cs, true)) break;
       }
-      fit_planes(cs, true);
     }
     // Columns: the façade of the nearest inlier contact (left one on a tie).
     std::vector<int> col_plane(w, -1);

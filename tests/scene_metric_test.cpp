@@ -631,3 +631,42 @@ TEST(Facades, WindowSpacingIsThePitchInPerspective) {
     EXPECT_GE(pairs, 5) << "storey " << storey;
   }
 }
+
+// The bundled KITTI frame (samples/kitti): the façades the fit finds, per building region,
+// printed (no ground truth here); every building pixel gets a façade.
+TEST(Facades, KittiSamplePlanesReported) {
+  const std::string src = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  ImageFileInfo info;
+  const ImageF day = read_image(src + "image_2/000000_10.png", &info);
+  const LabelMap lab = read_labels(src + "semantic/000000_10.png", "", day.width(), day.height(), LabelFormat::Auto,
+                                   ResizeLabels::None);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("kitti");
+  const NightScene n = night_scene(linearize(day, info), lab, p, 1);
+  const BuildingFacades fac = building_facades(lab.ids, n.geometry, p.max_depth_m);
+  std::vector<int64_t> px(fac.regions.size(), 0), fitted_px(fac.regions.size(), 0);
+  for (int y = 0; y < day.height(); ++y)
+    for (int x = 0; x < day.width(); ++x) {
+      const int r = fac.region.at(x, y);
+      if (r < 0) continue;
+      ++px[r];
+      const FacadePlane* f = fac.plane_at(x, y);
+      ASSERT_NE(f, nullptr) << x << "," << y;
+      fitted_px[r] += f->fitted;
+    }
+  for (size_t r = 0; r < fac.regions.size(); ++r) {
+    if (px[r] < 500) continue;
+    const auto& R = fac.regions[r];
+    std::fprintf(stderr, "[facades kitti] region %zu: columns %d..%zu, %lld px (%lld on fitted planes), %d contacts\n", r,
+                 R.x0, R.x0 + R.column_plane.size() - 1, static_cast<long long>(px[r]), static_cast<long long>(fitted_px[r]),
+                 R.contacts);
+    std::vector<int> used;
+    for (int i : R.column_plane)
+      if (i >= 0 && std::find(used.begin(), used.end(), i) == used.end()) used.push_back(i);
+    for (int i : used) {
+      const FacadePlane& f = fac.planes[i];
+      std::fprintf(stderr, "    plane %d: n (%.3f, %.3f), d %.1f m, azimuth %.1f deg, %d inliers%s%s\n", i, f.nX, f.nD, f.d_m,
+                   std::atan2(f.nX, f.nD) * 180 / M_PI, f.inliers, f.fitted ? "" : ", unfitted", f.occluded ? ", occluded (stack feet)" : "");
+    }
+  }
+}

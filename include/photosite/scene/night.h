@@ -139,14 +139,17 @@ ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_
 // ground in a straight line, whose image is a straight line v = a + b·u; it is fitted in the image
 // by RANSAC over deterministic pairs of contacts (inlier band ±kFacadeInlier_px: the contact row
 // is quantised to ±0.5 px, the labels' boundary to about ±1 px), refitted by least squares on the
-// inliers; further façades are fitted to the contacts the first ones leave out. Every column of the
+// inliers; further façades (each with at least kMinFacadeContacts and 15% of the contacts) are
+// fitted to the contacts the first ones leave out. Every column of the
 // region takes the façade of its nearest inlier contact, also where cars or trees hide the foot.
 // A column whose own building pixels reach below that façade's foot line (by more than the
 // inlier band) is something nearer (a building's projecting part): it keeps the per-column depth
 // of metric_depth's vertical-plane model. A region with fewer than kMinFacadeContacts contacts on
 // one line is fitted alike to the feet of the objects in front of it (the bottom of the stack of
-// objects below each column: a fence, a hedge, parked cars), the nearest the hidden foot can be, a
-// lower bound on its depth (`occluded`); with none of those either, it keeps the per-column depth
+// objects below each column), the nearest the hidden foot can be, a lower bound on its depth
+// (`occluded`; one plane per region, as lines of lower bounds do not tell a corner from the things
+// in front): first stacks of fixed structures only (fences, walls, hedges), then also through
+// vehicles and people; with none of those either, it keeps the per-column depth
 // and gets an unfitted plane for its window layout only: along
 // the road (n = (±1, 0)) when the median ground point of its columns lies more than 3 m to the
 // side, else facing the camera (n = (0, 1)) — a named approximation, the orientation of the old
