@@ -73,6 +73,10 @@ std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
       {"windows.height_m", D(p.window_height_m, 0.1, 10)},
       {"windows.shop_luminance_factor", D(p.shop_luminance_factor, 0, 100)},
       {"windows.shop_cct_K", D(p.shop_cct_K, 1000, 20000)},
+      {"windows.shop_width_m", D(p.shop_width_m, 0.1, 10)},
+      {"windows.shop_sill_m", D(p.shop_sill_m, 0, 10)},
+      {"windows.shop_height_m", D(p.shop_height_m, 0.1, 10)},
+      {"windows.shop_frontage_m", D(p.shop_frontage_m, 0.5, 100)},
       {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
       {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
       {"ego_beam.cct_K", D(p.beam_cct_K, 1000, 20000)},
@@ -191,6 +195,9 @@ ScenePreset parse_scene_preset(const std::string& text, const std::string& file)
          std::to_string(p.beam_h_deg.size()) + ")");
   if (p.window_width_m > p.window_pitch_m) fail(where(file, 0, "windows.width_m") + ": exceeds windows.pitch_m");
   if (p.window_height_m > p.window_storey_m) fail(where(file, 0, "windows.height_m") + ": exceeds windows.storey_m");
+  if (p.shop_width_m > p.window_pitch_m) fail(where(file, 0, "windows.shop_width_m") + ": exceeds windows.pitch_m");
+  if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
+    fail(where(file, 0, "windows.shop_height_m") + ": shop_sill_m + shop_height_m exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + ": exceeds canny_high");
   return p;
 }

@@ -352,14 +352,24 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
                        const ScenePreset& p, uint64_t seed) {
   const int W = L.width(), H = L.height();
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  const int building = static_cast<int>(Label::Building);
   const double max_z = 0.5 * p.window_width_m * g.f_px;  // footprint z/f <= width/2
-  auto world = [&](int x, int y, double* X, double* Y, double* D) {
-    const double z = depth_m.at(x, y), xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
-    *X = z * xn;
-    *D = z * (c - yn * sn);
-    *Y = h - z * (yn * c + sn);
-  };
+  // Each building pixel's façade: the plane fitted to its region's ground contacts (or the
+  // region's unfitted plane), the same that gave metric_depth its depth.
+  const BuildingFacades fac = building_facades(labels, g, p.max_depth_m);
+  // Per plane: the horizontal unit vector along it, oriented away from the camera (increasing D;
+  // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
+  // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in
+  // the world, so a façade keeps its windows' draws when the camera moves.
+  struct Frame { double tX, tD; uint64_t key; };
+  std::vector<Frame> frames(fac.planes.size());
+  for (size_t k = 0; k < fac.planes.size(); ++k) {
+    const FacadePlane& f = fac.planes[k];
+    double tX = f.nD, tD = -f.nX;
+    if (tD < 0 || (tD == 0 && tX < 0)) { tX = -tX; tD = -tD; }
+    const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(f.nX, f.nD) * 180 / M_PI / 5.0) + 64) & 127;
+    const uint64_t dist = static_cast<uint64_t>(std::lround(f.d_m / 5.0)) & 1023;
+    frames[k] = {tX, tD, (az << 10) | dist};
+  }
   // Unit-luminance colours of the three window CCTs (a blackbody's box RGB is linear in its
   // luminance; spectrum::blackbody_rgb integrates Planck's law, far too slow per pixel).
   const auto warm1 = spectrum::blackbody_rgb(p.window_cct_K, 1.0), cool1 = spectrum::blackbody_rgb(p.window_cool_cct_K, 1.0),
@@ -370,37 +380,45 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
     std::unordered_set<uint64_t> seen;
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
-      const uint16_t* id = labels.row(y);
       const float* z = depth_m.row(y);
+      const int32_t* reg = fac.region.row(y);
       float* o = L.row(y);
       uint64_t last_key = ~0ull;
       bool last_lit = false;
       float last_col[3] = {0, 0, 0};
+      const double yn = (y - g.cy_px) / g.f_px;
       for (int x = 0; x < W; ++x) {
-        if (id[x] != building || z[x] > max_z) continue;
-        double X, Y, D;
-        world(x, y, &X, &Y, &D);
+        if (reg[x] < 0 || z[x] > max_z) continue;
+        const FacadePlane* f = fac.plane_at(x, y);
+        if (!f) continue;
+        const Frame& fr = frames[f - fac.planes.data()];
+        const double zz = z[x], X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
         if (Y < 0) continue;
-        // Façade orientation from the neighbours 2 px to each side on this row.
-        bool along = std::fabs(X) > 3;
-        if (x >= 2 && x + 2 < W && id[x - 2] == building && id[x + 2] == building) {
-          double X0, Y0, D0, X1, Y1, D1;
-          world(x - 2, y, &X0, &Y0, &D0);
-          world(x + 2, y, &X1, &Y1, &D1);
-          along = std::fabs(D1 - D0) > std::fabs(X1 - X0);
-        }
-        const double s = along ? D : X, across = along ? X : D;
-        const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
+        const double s = fr.tX * X + fr.tD * D;  // along the façade (m)
         const int j = static_cast<int>(std::floor(Y / p.window_storey_m));
-        const double s_in = s - i * p.window_pitch_m, y_in = Y - j * p.window_storey_m;
-        const bool shop = j == 0;
-        const double ww = shop ? 0.9 * p.window_pitch_m : p.window_width_m;
-        const double wh = shop ? std::min(2.4, 0.8 * p.window_storey_m) : p.window_height_m;
-        if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * ww || std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * wh)
-          continue;
-        const uint64_t side = static_cast<uint64_t>(std::lround(across / 5.0) + 512) & 1023;
-        const uint64_t key = (static_cast<uint64_t>(along) << 62) | (side << 40) |
-                             ((static_cast<uint64_t>(i + (1 << 19)) & 0xfffff) << 12) | (static_cast<uint64_t>(j) & 0xfff);
+        const double y_in = Y - j * p.window_storey_m;
+        uint64_t cell;
+        bool shop = j == 0;
+        if (!shop) {
+          // Upper storeys: a window_width_m x window_height_m window centred in each pitch x storey cell.
+          const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
+          const double s_in = s - i * p.window_pitch_m;
+          if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * p.window_width_m ||
+              std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * p.window_height_m)
+            continue;
+          cell = static_cast<uint64_t>(i + (1 << 19)) & 0xfffff;
+        } else {
+          // Ground floor: shops of shop_frontage_m, each a row of panes shop_width_m wide on the
+          // window pitch (piers between them), from shop_sill_m to shop_sill_m + shop_height_m;
+          // a shop is lit or dark as a whole.
+          const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
+          const double s_in = s - i * p.window_pitch_m;
+          if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * p.shop_width_m || y_in < p.shop_sill_m ||
+              y_in > p.shop_sill_m + p.shop_height_m)
+            continue;
+          cell = static_cast<uint64_t>(static_cast<int64_t>(std::floor(s / p.shop_frontage_m)) + (1 << 19)) & 0xfffff;
+        }
+        const uint64_t key = (fr.key << 40) | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff);
         // Neighbouring pixels of a row mostly share a window: its draw is kept.
         if (key != last_key) {
           last_key = key;
