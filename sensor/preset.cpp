@@ -14,6 +14,8 @@
 #include "photosite/environment.h"
 #include "core/toml_schema_detail.h"
 #include "photosite/error.h"
+#include "photosite/scene/rig.h"
+#include "photosite/scene/scene_preset.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -273,7 +275,9 @@ std::string presets_doc_markdown() {
   return "### Camera keys (`presets/cameras/*.toml`)\n\n" +
          schema::markdown_table(schema::doc_rows<CameraPreset>(camera_schema())) +
          "\n### Lens keys (`presets/lenses/*.toml`)\n\n" +
-         schema::markdown_table(schema::doc_rows<LensPreset>(lens_schema()));
+         schema::markdown_table(schema::doc_rows<LensPreset>(lens_schema())) +
+         "\n### Scene keys (`presets/scenes/*.toml`)\n\n" + scene::scene_presets_doc_markdown() +
+         "\n### Camera rig keys (`presets/rigs/*.toml`)\n\n" + scene::camera_rigs_doc_markdown();
 }
 
 }  // namespace photosite

@@ -32,4 +32,7 @@ CameraRig resolve_camera_rig(const std::string& flag, int width, int height);
 struct CameraIntrinsics { double f_px, cx_px, cy_px; };
 CameraIntrinsics scaled_intrinsics(const CameraRig& rig, int width, int height);
 
+// The Markdown reference table of the rig keys (part of `presets_doc_markdown()`).
+std::string camera_rigs_doc_markdown();
+
 }  // namespace photosite::scene
