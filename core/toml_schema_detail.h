@@ -2,7 +2,8 @@
 // Param rows (key, unit, allowed range, required or default, meaning, source); the same rows drive
 //   * read():      the TOML reader (toml++), every error "file:line: key: problem";
 //   * to_json():   `presets show --json`, the keys being the TOML keys;
-//   * markdown():  the reference tables in docs/presets.md (`photosite presets doc`).
+//   * markdown():  the reference tables in docs/presets.md (`photosite presets doc`);
+//   * attributes(): the EXR header attributes of the rows marked Exr::Header (names are contracts).
 // The idea is pbrt-v4's ParameterDictionary + ReportUnused: nothing in a file goes unread, and
 // nothing is read that the table does not declare. Defaults are not in the table: they are the
 // initialisers of the preset struct (P{}), so the docs print what the code uses.
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -25,6 +27,7 @@
 #include <toml++/toml.h>
 
 #include "photosite/error.h"
+#include "photosite/io.h"
 
 namespace photosite::schema {
 
@@ -42,6 +45,9 @@ enum class Kind {
   Table,       // [key]: its rows are the keys "key.*"; slot: none, or a bool set when present
 };
 enum class Need { Required, Optional };
+// Whether an output's EXR header carries the key's value, as the attribute <prefix><key>
+// (attributes(); Number, Integer, Text and Choice rows).
+enum class Exr { No, Header };
 
 // A text key stored as an enum: set() throws photosite::Error on an unknown name (its message is
 // kept after "file:line: key: "), get() gives the name back.
@@ -77,6 +83,7 @@ struct Param {
   std::string_view meaning;     // one line
   std::string_view source;      // where the definition comes from, and how sure it is
   std::string_view check = {};  // a cross-key condition checked after reading (validate), for docs
+  Exr exr = Exr::No;
 };
 
 // An accessor for a Slot: PHOTOSITE_AT(CameraPreset, qe.wavelength_nm).
@@ -302,6 +309,27 @@ nlohmann::json to_json(std::span<const Param<P>> schema, const P& preset, std::s
     }
   }
   return j;
+}
+
+// The values of the rows marked Exr::Header as EXR header attributes "<prefix><key>": a Number as
+// double, an Integer as int, Text and Choice as their text.
+template <class P>
+std::map<std::string, ExrAttribute> attributes(std::span<const Param<P>> schema, const P& preset,
+                                               std::string_view prefix) {
+  P& p = const_cast<P&>(preset);  // the accessors are only read here
+  std::map<std::string, ExrAttribute> a;
+  for (const auto& r : schema) {
+    if (r.exr != Exr::Header) continue;
+    const std::string name = std::string(prefix) + std::string(r.key);
+    switch (r.kind) {
+      case Kind::Number: a[name] = detail::slot_ref<P, double>(r, p); break;
+      case Kind::Integer: a[name] = detail::slot_ref<P, int>(r, p); break;
+      case Kind::Text: a[name] = detail::slot_ref<P, std::string>(r, p); break;
+      case Kind::Choice: a[name] = std::get<Choice<P>>(r.slot).get(p); break;
+      default: break;  // lists, tables and flags have no attribute
+    }
+  }
+  return a;
 }
 
 // ---- the docs ----

@@ -1,6 +1,6 @@
 // Scene presets: read by the one preset reader (core/toml_schema_detail.h) from the table below,
 // which also gives the docs' reference table (`photosite presets doc`) and the EXR header
-// attributes "photosite/scene/<key>".
+// attributes "photosite/scene/<key>" (every number: num() and integer() mark their rows).
 #include "photosite/scene/scene_preset.h"
 
 #include <filesystem>
@@ -27,11 +27,13 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
   };
   auto num = [](std::string_view key, double& (*at)(P&), std::string_view unit, double lo, double hi,
                 std::string_view meaning, std::string_view source, std::string_view check = {}) {
-    return schema::Param<P>{key, Kind::Number, at, unit, lo, hi, Need::Required, meaning, source, check};
+    return schema::Param<P>{key, Kind::Number, at, unit, lo, hi, Need::Required, meaning, source, check,
+                            schema::Exr::Header};
   };
   auto integer = [](std::string_view key, int& (*at)(P&), std::string_view unit, double lo, double hi,
                     std::string_view meaning, std::string_view source) {
-    return schema::Param<P>{key, Kind::Integer, at, unit, lo, hi, Need::Required, meaning, source};
+    return schema::Param<P>{key, Kind::Integer, at, unit, lo, hi, Need::Required, meaning, source, {},
+                            schema::Exr::Header};
   };
   static const std::vector<schema::Param<P>> rows{
       {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional, "one line",
@@ -237,13 +239,8 @@ ScenePreset load_scene_preset(const std::string& name_or_path) {
 }
 
 std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p) {
-  std::map<std::string, ExrAttribute> a;
+  auto a = schema::attributes<ScenePreset>(scene_schema(), p, "photosite/scene/");
   a["photosite/scene/preset"] = p.name;
-  ScenePreset& q = const_cast<ScenePreset&>(p);  // the accessors are only read here
-  for (const auto& r : scene_schema()) {
-    if (r.kind == Kind::Number) a["photosite/scene/" + std::string(r.key)] = schema::detail::slot_ref<ScenePreset, double>(r, q);
-    if (r.kind == Kind::Integer) a["photosite/scene/" + std::string(r.key)] = schema::detail::slot_ref<ScenePreset, int>(r, q);
-  }
   return a;
 }
 

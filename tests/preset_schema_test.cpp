@@ -186,6 +186,20 @@ TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   }
 }
 
+// The camera keys an output's EXR header carries come from the rows marked Exr::Header: the same
+// attribute names (contracts), types and values as the hand-written list they replaced.
+TEST(PresetSchema, CameraAttributesAreTheMarkedRows) {
+  for (const char* name : {"sony-imx174", "onsemi-ar0132at-rccc"}) {
+    SCOPED_TRACE(name);
+    const CameraPreset p = load_camera_preset(name);
+    const auto a = camera_attributes(p);
+    ASSERT_EQ(a.size(), 3u);
+    EXPECT_EQ(std::get<std::string>(a.at("photosite/cfa")), to_string(p.cfa));
+    EXPECT_EQ(std::get<int>(a.at("photosite/bit_depth")), p.bit_depth);
+    EXPECT_EQ(std::get<double>(a.at("photosite/black_level_dn")), p.black_level_dn);
+  }
+}
+
 // A scene file's errors have the camera's and lens's form, "file:line: key: problem".
 TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
   const std::string urban = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml");

@@ -5,9 +5,11 @@
 // "file:line: key: problem" (pbrt-v4's ReportUnused idea).
 #pragma once
 #include <array>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "photosite/io.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/glare.h"
 
@@ -84,5 +86,8 @@ std::string show_preset(const std::string& name, int indent = -1);
 // `photosite presets doc` prints it, and docs/presets.md holds it between generated-section
 // markers (a test compares them).
 std::string presets_doc_markdown();
+// The camera's keys that an output's EXR header carries (the rows of its schema marked so):
+// "photosite/cfa", "photosite/bit_depth", "photosite/black_level_dn".
+std::map<std::string, ExrAttribute> camera_attributes(const CameraPreset& p);
 
 }  // namespace photosite
