@@ -31,7 +31,7 @@ static Registrar reg("a-presets", [](CLI::App& app) {
     }
   });
   auto* doc = presets->add_subcommand(
-      "doc", "the Markdown reference of the camera and lens keys (docs/presets.md's generated section)");
+      "doc", "the Markdown reference of the camera, lens, scene and rig keys (docs/presets.md's generated section)");
   doc->callback([] { std::printf("%s", presets_doc_markdown().c_str()); });
 });
 

@@ -52,24 +52,23 @@ std::string layers_text(LayerSet s) {
 std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
                                                       const ResolvedExposure& ex,
                                                       const FixedPatternMaps& fpn) {
-  return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
-          {"photosite/preset", r.camera.name},
-          {"photosite/lens", r.lens.name},
-          {"photosite/device_id", r.device_id},
-          {"photosite/fpn_checksum", fpn.checksum},
-          {"photosite/seed", std::to_string(r.settings.seed)},
-          {"photosite/frame", static_cast<int>(r.settings.frame)},
-          {"photosite/exposure_s", ex.exposure_s},
-          {"photosite/f_number", ex.f_number},
-          {"photosite/gain_db", ex.gain_db},
-          {"photosite/gain", ex.gain_linear},
-          {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
-          {"photosite/temperature_c", ex.temperature_c},
-          {"photosite/cfa", std::string(to_string(r.camera.cfa))},
-          {"photosite/bit_depth", r.camera.bit_depth},
-          {"photosite/black_level_dn", r.camera.black_level_dn},
-          {"photosite/demosaic", std::string(to_string(r.settings.demosaic))},
-          {"photosite/poisson", std::string(to_string(r.settings.poisson))}};
+  std::map<std::string, ExrAttribute> a = camera_attributes(r.camera);  // cfa, bit_depth, black_level_dn
+  a.insert({{"photosite/version", std::string(PHOTOSITE_VERSION)},
+            {"photosite/preset", r.camera.name},
+            {"photosite/lens", r.lens.name},
+            {"photosite/device_id", r.device_id},
+            {"photosite/fpn_checksum", fpn.checksum},
+            {"photosite/seed", std::to_string(r.settings.seed)},
+            {"photosite/frame", static_cast<int>(r.settings.frame)},
+            {"photosite/exposure_s", ex.exposure_s},
+            {"photosite/f_number", ex.f_number},
+            {"photosite/gain_db", ex.gain_db},
+            {"photosite/gain", ex.gain_linear},
+            {"photosite/system_gain_dn_per_e", ex.system_gain_dn_per_e},
+            {"photosite/temperature_c", ex.temperature_c},
+            {"photosite/demosaic", std::string(to_string(r.settings.demosaic))},
+            {"photosite/poisson", std::string(to_string(r.settings.poisson))}});
+  return a;
 }
 
 std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out, LayerSet layers) {

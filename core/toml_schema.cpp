@@ -1,7 +1,10 @@
 // The shared wording of preset errors and docs (core/toml_schema_detail.h).
 #include "core/toml_schema_detail.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -18,6 +21,42 @@ toml::table parse_toml(const std::string& text, const std::string& file) {
     fail(where(file, static_cast<int>(e.source().begin.line)) + ": malformed TOML: " +
          std::string(e.description()));
   }
+}
+
+int line_at(const toml::table& t, std::string_view path) {
+  const toml::node* n = t.at_path(path).node();
+  return n ? line_of(*n) : 0;
+}
+
+std::optional<std::string> preset_file(const std::filesystem::path& dir, const std::string& name_or_path) {
+  if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml")) return name_or_path;
+  const auto path = dir / (name_or_path + ".toml");
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return std::nullopt;
+  return path.string();
+}
+
+std::vector<std::string> preset_names(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+    if (e.path().extension() == ".toml") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::string comma_list(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+std::string read_text(const std::string& path, const std::string& what) {
+  std::ifstream in(path);
+  if (!in) fail_at(path, "cannot read " + what);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 std::string number_text(double v) {

@@ -2,17 +2,21 @@
 // Param rows (key, unit, allowed range, required or default, meaning, source); the same rows drive
 //   * read():      the TOML reader (toml++), every error "file:line: key: problem";
 //   * to_json():   `presets show --json`, the keys being the TOML keys;
-//   * markdown():  the reference tables in docs/presets.md (`photosite presets doc`).
+//   * markdown():  the reference tables in docs/presets.md (`photosite presets doc`);
+//   * attributes(): the EXR header attributes of the rows marked Exr::Header (names are contracts).
 // The idea is pbrt-v4's ParameterDictionary + ReportUnused: nothing in a file goes unread, and
 // nothing is read that the table does not declare. Defaults are not in the table: they are the
 // initialisers of the preset struct (P{}), so the docs print what the code uses.
 //
-// Private header (toml++ and nlohmann-json): included by sensor/preset.cpp, and meant for
-// scene/scene_preset.cpp (and any later preset kind) as well.
+// Private header (toml++ and nlohmann-json): included by sensor/preset.cpp (cameras, lenses),
+// scene/rig.cpp (camera rigs) and scene/scene_preset.cpp (scenes).
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
+#include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -23,6 +27,7 @@
 #include <toml++/toml.h>
 
 #include "photosite/error.h"
+#include "photosite/io.h"
 
 namespace photosite::schema {
 
@@ -35,9 +40,14 @@ enum class Kind {
   Choice,      // TOML string naming one of a fixed set, stored as an enum (Choice<P>)
   Boolean,     // true / false
   NumberList,  // array of finite numbers, each in [lo, hi]
+  NumberRows,  // array of rows (arrays of finite numbers, each in [lo, hi]) of one length, stored
+               // row-major in a std::vector<double> (Rows<P>)
   Table,       // [key]: its rows are the keys "key.*"; slot: none, or a bool set when present
 };
 enum class Need { Required, Optional };
+// Whether an output's EXR header carries the key's value, as the attribute <prefix><key>
+// (attributes(); Number, Integer, Text and Choice rows).
+enum class Exr { No, Header };
 
 // A text key stored as an enum: set() throws photosite::Error on an unknown name (its message is
 // kept after "file:line: key: "), get() gives the name back.
@@ -48,10 +58,19 @@ struct Choice {
   std::string_view names;  // the allowed names, for the docs
 };
 
+// A matrix key stored row-major: values() holds the numbers, columns() says how many a row has
+// (for to_json; the reader checks only that the rows are of one length, the preset's own check
+// ties the length to another key).
+template <class P>
+struct Rows {
+  std::vector<double>& (*values)(P&);
+  std::size_t (*columns)(const P&);
+};
+
 // Where a row's value lives in the preset struct P: an accessor returning a reference.
 template <class P>
 using Slot = std::variant<std::monostate, double& (*)(P&), int& (*)(P&), std::string& (*)(P&),
-                          bool& (*)(P&), std::vector<double>& (*)(P&), Choice<P>>;
+                          bool& (*)(P&), std::vector<double>& (*)(P&), Choice<P>, Rows<P>>;
 
 template <class P>
 struct Param {
@@ -64,6 +83,7 @@ struct Param {
   std::string_view meaning;     // one line
   std::string_view source;      // where the definition comes from, and how sure it is
   std::string_view check = {};  // a cross-key condition checked after reading (validate), for docs
+  Exr exr = Exr::No;
 };
 
 // An accessor for a Slot: PHOTOSITE_AT(CameraPreset, qe.wavelength_nm).
@@ -83,6 +103,23 @@ std::string number_text(double v);
 std::string range_text(double lo, double hi);
 // "value 120 is out of range, outside [0, 50] (%)": the range and, where the key has one, the unit.
 std::string out_of_range(double v, double lo, double hi, std::string_view unit);
+
+// The line of the key at `path` ("windows.width_m") in `t`, for a cross-key check after read();
+// 0 (no line) where the key is absent.
+int line_at(const toml::table& t, std::string_view path);
+
+// ---- preset files ----
+
+// The file of a preset: `name_or_path` itself when it holds a '/' or ends in ".toml", else
+// <dir>/<name>.toml if that exists; nullopt for a bare name with no file (the caller words that
+// error, listing preset_names(dir)).
+std::optional<std::string> preset_file(const std::filesystem::path& dir, const std::string& name_or_path);
+// The bundled presets in `dir`: the stems of its *.toml files, sorted.
+std::vector<std::string> preset_names(const std::filesystem::path& dir);
+// "a, b, c"
+std::string comma_list(const std::vector<std::string>& names);
+// The file's text; "path: cannot read <what>" when it cannot be opened.
+std::string read_text(const std::string& path, const std::string& what);
 
 // ---- the reader ----
 
@@ -167,6 +204,26 @@ void set_value(const Param<P>& p, const toml::node& n, const std::string& file, 
       slot_ref<P, std::vector<double>>(p, out) = std::move(v);
       return;
     }
+    case Kind::NumberRows: {
+      const toml::array* a = n.as_array();
+      if (!a) key_error(file, line, key, "expected an array of rows (arrays of numbers)");
+      std::vector<double> v;
+      std::size_t cols = 0;
+      for (const auto& row : *a) {
+        const toml::array* r = row.as_array();
+        if (!r) key_error(file, line_of(row), key, "expected an array of rows (arrays of numbers)");
+        if (!v.empty() && r->size() != cols) key_error(file, line_of(row), key, "rows differ in length");
+        cols = r->size();
+        for (const auto& e : *r) {
+          const auto x = e.value<double>();
+          if (!x || e.is_boolean() || !std::isfinite(*x)) key_error(file, line_of(e), key, "expected a number");
+          check_range(p, *x, file, line_of(e), key);
+          v.push_back(*x);
+        }
+      }
+      std::get<Rows<P>>(p.slot).values(out) = std::move(v);
+      return;
+    }
     case Kind::Table: break;  // read() descends
   }
 }
@@ -229,6 +286,21 @@ nlohmann::json to_json(std::span<const Param<P>> schema, const P& preset, std::s
         if (!v.empty()) j[leaf] = v;
         break;
       }
+      case Kind::NumberRows: {
+        const auto& rows = std::get<Rows<P>>(r.slot);
+        const auto& v = rows.values(p);
+        const std::size_t cols = rows.columns(preset);
+        if (v.empty()) break;
+        if (cols == 0 || v.size() % cols != 0) {  // not a matrix: the numbers as they are
+          j[leaf] = v;
+          break;
+        }
+        nlohmann::json m = nlohmann::json::array();
+        for (std::size_t i = 0; i < v.size(); i += cols)
+          m.push_back(std::vector<double>(v.begin() + static_cast<long>(i), v.begin() + static_cast<long>(i + cols)));
+        j[leaf] = std::move(m);
+        break;
+      }
       case Kind::Table: {
         const auto* flag = std::get_if<bool& (*)(P&)>(&r.slot);
         j[leaf] = (flag && !(*flag)(p)) ? nlohmann::json(nullptr) : to_json(schema, preset, r.key);
@@ -237,6 +309,27 @@ nlohmann::json to_json(std::span<const Param<P>> schema, const P& preset, std::s
     }
   }
   return j;
+}
+
+// The values of the rows marked Exr::Header as EXR header attributes "<prefix><key>": a Number as
+// double, an Integer as int, Text and Choice as their text.
+template <class P>
+std::map<std::string, ExrAttribute> attributes(std::span<const Param<P>> schema, const P& preset,
+                                               std::string_view prefix) {
+  P& p = const_cast<P&>(preset);  // the accessors are only read here
+  std::map<std::string, ExrAttribute> a;
+  for (const auto& r : schema) {
+    if (r.exr != Exr::Header) continue;
+    const std::string name = std::string(prefix) + std::string(r.key);
+    switch (r.kind) {
+      case Kind::Number: a[name] = detail::slot_ref<P, double>(r, p); break;
+      case Kind::Integer: a[name] = detail::slot_ref<P, int>(r, p); break;
+      case Kind::Text: a[name] = detail::slot_ref<P, std::string>(r, p); break;
+      case Kind::Choice: a[name] = std::get<Choice<P>>(r.slot).get(p); break;
+      default: break;  // lists, tables and flags have no attribute
+    }
+  }
+  return a;
 }
 
 // ---- the docs ----
@@ -261,6 +354,7 @@ std::vector<DocRow> doc_rows(std::span<const Param<P>> schema) {
       case Kind::Boolean: d.unit = "true / false"; break;
       case Kind::Table: d.unit = "table"; break;
       case Kind::NumberList: d.unit = "list, " + std::string(r.unit); break;
+      case Kind::NumberRows: d.unit = "rows of lists, " + std::string(r.unit); break;
       default: d.unit = std::string(r.unit);
     }
     if (r.need == Need::Required) {
@@ -277,7 +371,8 @@ std::vector<DocRow> doc_rows(std::span<const Param<P>> schema) {
       }
       d.required = def.empty() ? "no" : "no (" + def + ")";
     }
-    if (r.kind == Kind::Number || r.kind == Kind::Integer || r.kind == Kind::NumberList)
+    if (r.kind == Kind::Number || r.kind == Kind::Integer || r.kind == Kind::NumberList ||
+        r.kind == Kind::NumberRows)
       if (r.lo != -kUnbounded || r.hi != kUnbounded) d.range = range_text(r.lo, r.hi);
     if (!r.check.empty()) d.range += (d.range.empty() ? "" : "; ") + std::string(r.check);
     d.meaning = r.meaning;

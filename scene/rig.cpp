@@ -1,11 +1,8 @@
 // Camera rig presets (see rig.h).
 #include "photosite/scene/rig.h"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "core/toml_schema_detail.h"
 #include "photosite/error.h"
@@ -52,32 +49,15 @@ CameraRig parse_camera_rig(const std::string& text, const std::string& file) {
 }
 
 CameraRig load_camera_rig(const std::string& name_or_path) {
-  namespace fs = std::filesystem;
-  std::string path = name_or_path;
   if (name_or_path.ends_with(".json")) return load_cityscapes_camera(name_or_path);
-  if (name_or_path.find('/') == std::string::npos && !name_or_path.ends_with(".toml")) {
-    path = (rig_dir() / (name_or_path + ".toml")).string();
-    if (!fs::exists(path)) {
-      std::string known;
-      for (const auto& n : bundled_rigs()) known += (known.empty() ? "" : ", ") + n;
-      fail("--rig: unknown camera rig '" + name_or_path + "' (bundled: " + known + ", or auto, or a .toml path, or a Cityscapes camera .json)");
-    }
-  }
-  std::ifstream in(path);
-  if (!in) fail_at(path, "cannot read camera rig");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_camera_rig(ss.str(), path);
+  const auto path = schema::preset_file(rig_dir(), name_or_path);
+  if (!path)
+    fail("--rig: unknown camera rig '" + name_or_path + "' (bundled: " + schema::comma_list(bundled_rigs()) +
+         ", or auto, or a .toml path, or a Cityscapes camera .json)");
+  return parse_camera_rig(schema::read_text(*path, "camera rig"), *path);
 }
 
-std::vector<std::string> bundled_rigs() {
-  std::vector<std::string> names;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator(rig_dir(), ec))
-    if (e.path().extension() == ".toml") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
+std::vector<std::string> bundled_rigs() { return schema::preset_names(rig_dir()); }
 
 CameraRig rig_for_image(int width, int height) {
   const auto names = bundled_rigs();
@@ -111,5 +91,7 @@ CameraIntrinsics scaled_intrinsics(const CameraRig& r, int width, int height) {
   }
   return {r.fx_px, r.cx_px - 0.5 * (r.native_width_px - width), r.cy_px - 0.5 * (r.native_height_px - height)};
 }
+
+std::string camera_rigs_doc_markdown() { return schema::markdown_table(schema::doc_rows<CameraRig>(rig_schema())); }
 
 }  // namespace photosite::scene

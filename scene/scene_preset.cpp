@@ -1,10 +1,10 @@
-// Scene preset loading: a flat table of "section.key" → number with range checks.
+// Scene presets: read by the one preset reader (core/toml_schema_detail.h) from the table below,
+// which also gives the docs' reference table (`photosite presets doc`) and the EXR header
+// attributes "photosite/scene/<key>" (every number: num() and integer() mark their rows).
 #include "photosite/scene/scene_preset.h"
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <toml++/toml.h>
+#include <string>
 #include <vector>
 
 #include "core/toml_schema_detail.h"
@@ -13,225 +13,249 @@
 
 namespace photosite::scene {
 namespace {
-struct Field {
-  double* d = nullptr;
-  int* i = nullptr;
-  double lo, hi;
-};
-
-std::vector<std::pair<std::string, Field>> fields(ScenePreset& p) {
-  auto D = [](double& v, double lo, double hi) { return Field{&v, nullptr, lo, hi}; };
-  auto I = [](int& v, double lo, double hi) { return Field{nullptr, &v, lo, hi}; };
-  return {
-      {"reflectance.sign", D(p.rho_sign, 0, 1)},
-      {"reflectance.construction", D(p.rho_construction, 0, 1)},
-      {"reflectance.human", D(p.rho_human, 0, 1)},
-      {"reflectance.nature", D(p.rho_nature, 0, 1)},
-      {"reflectance.vehicle", D(p.rho_vehicle, 0, 1)},
-      {"reflectance.sky", D(p.rho_sky, 0, 1)},
-      {"reflectance.road", D(p.rho_road, 1e-3, 1)},
-      {"ambient.moon_lux", D(p.moon_lux, 0, 1)},
-      {"ambient.moon_cct_K", D(p.moon_cct_K, 1000, 20000)},
-      {"ambient.skyglow_lux", D(p.skyglow_lux, 0, 10)},
-      {"ambient.skyglow_cct_K", D(p.skyglow_cct_K, 1000, 20000)},
-      {"ambient.sky_luminance_cd_m2", D(p.sky_luminance_cd_m2, 0, 10)},
-      {"street.road_luminance_cd_m2", D(p.street_road_luminance_cd_m2, 0, 10)},
-      {"street.vertical_fraction", D(p.street_vertical_fraction, 0, 1)},
-      {"street.cct_K", D(p.street_cct_K, 1000, 20000)},
-      {"street_lamps.mount_height_m", D(p.lamp_mount_height_m, 2, 30)},
-      {"street_lamps.spacing_ratio", D(p.lamp_spacing_ratio, 1, 10)},
-      {"street_lamps.setback_m", D(p.lamp_setback_m, -5, 10)},
-      {"street_lamps.cutoff_deg", D(p.lamp_cutoff_deg, 10, 89)},
-      {"street_lamps.falloff_deg", D(p.lamp_falloff_deg, 0.1, 45)},
-      {"street_lamps.head_diameter_m", D(p.lamp_head_diameter_m, 0.05, 3)},
-      {"street_lamps.max_distance_m", D(p.lamp_max_distance_m, 10, 2000)},
-      {"street_lamps.min_pole_height_m", D(p.lamp_min_pole_height_m, 1, 30)},
-      {"vehicle_lamps.height_m", D(p.veh_lamp_height_m, 0.2, 3)},
-      {"vehicle_lamps.inset_m", D(p.veh_lamp_inset_m, 0, 1)},
-      {"vehicle_lamps.head_diameter_m", D(p.veh_head_diameter_m, 0.02, 1)},
-      {"vehicle_lamps.tail_diameter_m", D(p.veh_tail_diameter_m, 0.02, 1)},
-      {"vehicle_lamps.head_intensity_cd", D(p.veh_head_intensity_cd, 0, 1e6)},
-      {"vehicle_lamps.tail_intensity_cd", D(p.veh_tail_intensity_cd, 0, 1e4)},
-      {"vehicle_lamps.parking_intensity_cd", D(p.veh_parking_intensity_cd, 0, 1e4)},
-      {"vehicle_lamps.parked_lit_fraction", D(p.veh_parked_lit_fraction, 0, 1)},
-      {"vehicle_lamps.kerb_strip_m", D(p.veh_kerb_strip_m, 0, 10)},
-      {"lamps.streetlamp_luminance_cd_m2", D(p.streetlamp_luminance_cd_m2, 0, 1e8)},
-      {"lamps.streetlamp_cct_K", D(p.streetlamp_cct_K, 1000, 20000)},
-      {"lamps.headlamp_luminance_cd_m2", D(p.headlamp_luminance_cd_m2, 0, 1e8)},
-      {"lamps.headlamp_cct_K", D(p.headlamp_cct_K, 1000, 20000)},
-      {"lamps.taillamp_luminance_cd_m2", D(p.taillamp_luminance_cd_m2, 0, 1e8)},
-      {"lamps.signal_luminance_cd_m2", D(p.signal_luminance_cd_m2, 0, 1e8)},
-      {"lamps.window_luminance_cd_m2", D(p.window_luminance_cd_m2, 0, 1e4)},
-      {"lamps.window_cct_K", D(p.window_cct_K, 1000, 20000)},
-      {"lamps.window_lit_fraction", D(p.window_lit_fraction, 0, 1)},
-      {"lamps.window_cell_fraction", D(p.window_cell_fraction, 0.002, 0.5)},
-      {"lamps.window_warm_share", D(p.window_warm_share, 0, 1)},
-      {"lamps.window_cool_cct_K", D(p.window_cool_cct_K, 1000, 20000)},
-      {"windows.storey_m", D(p.window_storey_m, 1.5, 10)},
-      {"windows.pitch_m", D(p.window_pitch_m, 0.3, 10)},
-      {"windows.width_m", D(p.window_width_m, 0.1, 10)},
-      {"windows.height_m", D(p.window_height_m, 0.1, 10)},
-      {"windows.shop_luminance_factor", D(p.shop_luminance_factor, 0, 100)},
-      {"windows.shop_cct_K", D(p.shop_cct_K, 1000, 20000)},
-      {"windows.shop_width_m", D(p.shop_width_m, 0.1, 10)},
-      {"windows.shop_sill_m", D(p.shop_sill_m, 0, 10)},
-      {"windows.shop_height_m", D(p.shop_height_m, 0.1, 10)},
-      {"windows.shop_frontage_m", D(p.shop_frontage_m, 0.5, 100)},
-      {"retroreflection.marking_RL", D(p.marking_RL, 0, 5)},
-      {"retroreflection.sign_RA", D(p.sign_RA, 0, 2000)},
-      {"ego_beam.cct_K", D(p.beam_cct_K, 1000, 20000)},
-      {"ego_beam.lamp_height_m", D(p.beam_lamp_height_m, 0.2, 2)},
-      {"ego_beam.lamp_spacing_m", D(p.beam_lamp_spacing_m, 0, 3)},
-      {"ego_beam.cutoff_v_deg", D(p.beam_cutoff_v_deg, -5, 5)},
-      {"ego_beam.cutoff_rise_deg", D(p.beam_cutoff_rise_deg, 0, 60)},
-      {"ego_beam.cutoff_max_v_deg", D(p.beam_cutoff_max_v_deg, -5, 5)},
-      {"ego_beam.sign_lux", D(p.beam_sign_lux, 0, 1000)},
-      {"geometry.work_max_width", I(p.work_max_width, 64, 8192)},
-      {"geometry.lane_blur_sigma_px", D(p.lane_blur_sigma_px, 0, 20)},
-      {"geometry.lane_contrast_threshold", D(p.lane_contrast_threshold, 0, 1)},
-      {"geometry.canny_low", D(p.canny_low, 0, 1000)},
-      {"geometry.canny_high", D(p.canny_high, 0, 1000)},
-      {"geometry.hough_threshold", I(p.hough_threshold, 1, 10000)},
-      {"geometry.hough_min_length_fraction", D(p.hough_min_length_fraction, 0, 1)},
-      {"geometry.hough_max_gap_fraction", D(p.hough_max_gap_fraction, 0, 1)},
-      {"geometry.line_reject_angle_deg", D(p.line_reject_angle_deg, 0, 45)},
-      {"geometry.border_fraction", D(p.border_fraction, 0, 0.4)},
-      {"geometry.vp_cluster_radius_fraction", D(p.vp_cluster_radius_fraction, 0.001, 1)},
-      {"geometry.vp_min_support", I(p.vp_min_support, 1, 10000)},
-      {"geometry.max_depth_m", D(p.max_depth_m, 10, 60000)},
+using schema::Kind;
+using schema::Need;
+constexpr double inf = schema::kUnbounded;
+// Sources: [T1] Baek 2020 thesis Table 1; NP: ../shared/reference/night-photometry.md (its
+// primary sources are named there; each preset's comments name the section); [U] regulation or
+// design-guide figures from general knowledge, not in ../shared; "photosite choice" where no
+// source fixes the value. The rows' sources name where a value comes from in the bundled presets.
+const std::vector<schema::Param<ScenePreset>>& scene_schema() {
+  using P = ScenePreset;
+  auto table = [](std::string_view key, std::string_view meaning, std::string_view source) {
+    return schema::Param<P>{key, Kind::Table, {}, "", -inf, inf, Need::Required, meaning, source};
   };
+  auto num = [](std::string_view key, double& (*at)(P&), std::string_view unit, double lo, double hi,
+                std::string_view meaning, std::string_view source, std::string_view check = {}) {
+    return schema::Param<P>{key, Kind::Number, at, unit, lo, hi, Need::Required, meaning, source, check,
+                            schema::Exr::Header};
+  };
+  auto integer = [](std::string_view key, int& (*at)(P&), std::string_view unit, double lo, double hi,
+                    std::string_view meaning, std::string_view source) {
+    return schema::Param<P>{key, Kind::Integer, at, unit, lo, hi, Need::Required, meaning, source, {},
+                            schema::Exr::Header};
+  };
+  static const std::vector<schema::Param<P>> rows{
+      {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional, "one line",
+       "free text"},
+      table("reflectance", "diffuse reflectance ρ of the label classes", "[T1]"),
+      num("reflectance.sign", PHOTOSITE_AT(P, rho_sign), "—", 0, 1, "traffic signs and lights", "[T1] aluminium"),
+      num("reflectance.construction", PHOTOSITE_AT(P, rho_construction), "—", 0, 1, "buildings, walls, fences",
+          "[T1] concrete; NP §4"),
+      num("reflectance.human", PHOTOSITE_AT(P, rho_human), "—", 0, 1, "persons, riders", "[T1] skin"),
+      num("reflectance.nature", PHOTOSITE_AT(P, rho_nature), "—", 0, 1, "vegetation, terrain",
+          "[T1] vegetation; NP §4"),
+      num("reflectance.vehicle", PHOTOSITE_AT(P, rho_vehicle), "—", 0, 1, "vehicles", "[T1] steel"),
+      num("reflectance.sky", PHOTOSITE_AT(P, rho_sky), "—", 0, 1,
+          "sky, in the unlabelled mean only (the sky uses ambient.sky_luminance_cd_m2)", "[T1] lunar albedo"),
+      num("reflectance.road", PHOTOSITE_AT(P, rho_road), "—", 1e-3, 1, "road, sidewalk, parking: E = π·L/ρ",
+          "[T1] asphalt; NP §1 L/E"),
+      table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
+      num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
+      num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
+      num("ambient.skyglow_lux", PHOTOSITE_AT(P, skyglow_lux), "lx", 0, 10, "sky-glow illuminance on the ground",
+          "NP §2 (E = π·L of the sky)"),
+      num("ambient.skyglow_cct_K", PHOTOSITE_AT(P, skyglow_cct_K), "K", 1000, 20000, "sky-glow CCT", "NP §0"),
+      num("ambient.sky_luminance_cd_m2", PHOTOSITE_AT(P, sky_luminance_cd_m2), "cd/m²", 0, 10,
+          "luminance of the sky pixels", "NP §2"),
+      table("street", "road lighting: the road luminance target and its share on vertical surfaces",
+            "EN 13201 via NP §1"),
+      num("street.road_luminance_cd_m2", PHOTOSITE_AT(P, street_road_luminance_cd_m2), "cd/m²", 0, 10,
+          "maintained average road luminance (EN 13201 M class)", "NP §1"),
+      num("street.vertical_fraction", PHOTOSITE_AT(P, street_vertical_fraction), "fraction", 0, 1,
+          "vertical illuminance as a share of the horizontal", "typical 0.2-0.4 [D]"),
+      num("street.cct_K", PHOTOSITE_AT(P, street_cct_K), "K", 1000, 20000, "street-lighting CCT", "NP §1"),
+      table("street_lamps", "luminaires as point sources (scene/street.cpp)", "[U] EN 13201 / CIE practice"),
+      num("street_lamps.mount_height_m", PHOTOSITE_AT(P, lamp_mount_height_m), "m", 2, 30, "luminaire height",
+          "[U] EN 13201 / CIE 115 practice"),
+      num("street_lamps.spacing_ratio", PHOTOSITE_AT(P, lamp_spacing_ratio), "—", 1, 10,
+          "spacing as a multiple of the mounting height", "[U] lighting design guides"),
+      num("street_lamps.setback_m", PHOTOSITE_AT(P, lamp_setback_m), "m", -5, 10,
+          "luminaire outside the road edge", "photosite choice"),
+      num("street_lamps.cutoff_deg", PHOTOSITE_AT(P, lamp_cutoff_deg), "°", 10, 89,
+          "intensity constant up to this angle from the nadir", "[U] CIE 34 cut-off"),
+      num("street_lamps.falloff_deg", PHOTOSITE_AT(P, lamp_falloff_deg), "°", 0.1, 45,
+          "beyond the cut-off I ∝ exp(−(γ − cutoff)/falloff)", "[D] within CIE 34 cut-off limits"),
+      num("street_lamps.head_diameter_m", PHOTOSITE_AT(P, lamp_head_diameter_m), "m", 0.05, 3,
+          "luminaire head size", "[U] LED street luminaires"),
+      num("street_lamps.max_distance_m", PHOTOSITE_AT(P, lamp_max_distance_m), "m", 10, 2000,
+          "placed lamps (no poles labelled) reach this far ahead", "photosite choice"),
+      num("street_lamps.min_pole_height_m", PHOTOSITE_AT(P, lamp_min_pole_height_m), "m", 1, 30,
+          "a taller labelled pole carries a luminaire", "photosite choice"),
+      table("vehicle_lamps", "head, tail and parking lamps per vehicle (scene/lights.cpp)", "[U] ECE R48, R7, R112"),
+      num("vehicle_lamps.height_m", PHOTOSITE_AT(P, veh_lamp_height_m), "m", 0.2, 3,
+          "lamp height above the ground contact", "[U] ECE R48"),
+      num("vehicle_lamps.inset_m", PHOTOSITE_AT(P, veh_lamp_inset_m), "m", 0, 1, "lamp centre in from the side",
+          "[U] ECE R48"),
+      num("vehicle_lamps.head_diameter_m", PHOTOSITE_AT(P, veh_head_diameter_m), "m", 0.02, 1,
+          "headlamp lens diameter", "[U]"),
+      num("vehicle_lamps.tail_diameter_m", PHOTOSITE_AT(P, veh_tail_diameter_m), "m", 0.02, 1,
+          "rear lamp lens diameter", "[U]"),
+      num("vehicle_lamps.head_intensity_cd", PHOTOSITE_AT(P, veh_head_intensity_cd), "cd", 0, 1e6,
+          "oncoming headlamp toward the camera", "NP §3; [U] ECE R112 B50L"),
+      num("vehicle_lamps.tail_intensity_cd", PHOTOSITE_AT(P, veh_tail_intensity_cd), "cd", 0, 1e4,
+          "tail lamp toward the camera", "NP §3; [U] ECE R7"),
+      num("vehicle_lamps.parking_intensity_cd", PHOTOSITE_AT(P, veh_parking_intensity_cd), "cd", 0, 1e4,
+          "position lamp of a parked vehicle", "[U] ECE R7"),
+      num("vehicle_lamps.parked_lit_fraction", PHOTOSITE_AT(P, veh_parked_lit_fraction), "fraction", 0, 1,
+          "seeded share of parked vehicles with lamps on", "photosite choice"),
+      num("vehicle_lamps.kerb_strip_m", PHOTOSITE_AT(P, veh_kerb_strip_m), "m", 0, 10,
+          "a vehicle this near the road edge is parked", "photosite choice"),
+      table("lamps", "luminances and CCTs of the light sources' own pixels", "NP §3-4"),
+      num("lamps.streetlamp_luminance_cd_m2", PHOTOSITE_AT(P, streetlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
+          "street luminaire face", "NP §4"),
+      num("lamps.streetlamp_cct_K", PHOTOSITE_AT(P, streetlamp_cct_K), "K", 1000, 20000, "street luminaire CCT",
+          "NP §1"),
+      num("lamps.headlamp_luminance_cd_m2", PHOTOSITE_AT(P, headlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
+          "headlamp lens", "NP §4 [D]"),
+      num("lamps.headlamp_cct_K", PHOTOSITE_AT(P, headlamp_cct_K), "K", 1000, 20000, "headlamp CCT", "NP §4"),
+      num("lamps.taillamp_luminance_cd_m2", PHOTOSITE_AT(P, taillamp_luminance_cd_m2), "cd/m²", 0, 1e8,
+          "tail lamp lens", "[D] ECE R7 intensity over the lens area"),
+      num("lamps.signal_luminance_cd_m2", PHOTOSITE_AT(P, signal_luminance_cd_m2), "cd/m²", 0, 1e8,
+          "traffic signal", "[D] LED signal intensity over the lens area"),
+      num("lamps.window_luminance_cd_m2", PHOTOSITE_AT(P, window_luminance_cd_m2), "cd/m²", 0, 1e4,
+          "lit window", "NP §4"),
+      num("lamps.window_cct_K", PHOTOSITE_AT(P, window_cct_K), "K", 1000, 20000, "warm windows' CCT", "NP §0"),
+      num("lamps.window_lit_fraction", PHOTOSITE_AT(P, window_lit_fraction), "fraction", 0, 1,
+          "seeded share of lit windows", "[U]"),
+      num("lamps.window_cell_fraction", PHOTOSITE_AT(P, window_cell_fraction), "fraction", 0.002, 0.5,
+          "window grid cell, of the image width (façades without metric layout)", "photosite choice"),
+      num("lamps.window_warm_share", PHOTOSITE_AT(P, window_warm_share), "fraction", 0, 1,
+          "share of lit windows at window_cct_K, the rest at window_cool_cct_K", "[U] photosite choice"),
+      num("lamps.window_cool_cct_K", PHOTOSITE_AT(P, window_cool_cct_K), "K", 1000, 20000,
+          "the other windows' CCT", "NP §0"),
+      table("windows", "façade window layout (scene/street.cpp)", "[U] architectural rules of thumb"),
+      num("windows.storey_m", PHOTOSITE_AT(P, window_storey_m), "m", 1.5, 10, "floor-to-floor height", "[U]"),
+      num("windows.pitch_m", PHOTOSITE_AT(P, window_pitch_m), "m", 0.3, 10, "window axis spacing", "[U]"),
+      num("windows.width_m", PHOTOSITE_AT(P, window_width_m), "m", 0.1, 10, "window width", "[U]",
+          "≤ windows.pitch_m"),
+      num("windows.height_m", PHOTOSITE_AT(P, window_height_m), "m", 0.1, 10, "window height", "[U]",
+          "≤ windows.storey_m"),
+      num("windows.shop_luminance_factor", PHOTOSITE_AT(P, shop_luminance_factor), "—", 0, 100,
+          "ground-floor shop front luminance over a lit window's", "photosite choice (NP §3)"),
+      num("windows.shop_cct_K", PHOTOSITE_AT(P, shop_cct_K), "K", 1000, 20000, "shop lighting CCT", "NP §0"),
+      num("windows.shop_width_m", PHOTOSITE_AT(P, shop_width_m), "m", 0.1, 10,
+          "shop-window pane width, on the window pitch", "[U]", "≤ windows.pitch_m"),
+      num("windows.shop_sill_m", PHOTOSITE_AT(P, shop_sill_m), "m", 0, 10, "shop-window sill above the pavement", "[U]"),
+      num("windows.shop_height_m", PHOTOSITE_AT(P, shop_height_m), "m", 0.1, 10, "shop-window pane height", "[U]",
+          "shop_sill_m + shop_height_m ≤ windows.storey_m"),
+      num("windows.shop_frontage_m", PHOTOSITE_AT(P, shop_frontage_m), "m", 0.5, 100,
+          "frontage of one shop unit (lit or dark as a whole)", "[U]"),
+      table("retroreflection", "retroreflective markings and signs", "NP §4"),
+      num("retroreflection.marking_RL", PHOTOSITE_AT(P, marking_RL), "cd·m⁻²·lx⁻¹", 0, 5,
+          "lane markings' coefficient of retroreflected luminance R_L", "NP §4 (EN 1436)"),
+      num("retroreflection.sign_RA", PHOTOSITE_AT(P, sign_RA), "cd·lx⁻¹·m⁻²", 0, 2000,
+          "signs' coefficient of retroreflection R_A", "NP §4 (EN 12899 RA2)"),
+      table("ego_beam", "the camera car's low beam: E = Σ_lamps I(h, v)·cos θ / d² on the metric ground",
+            "NP §4; [U] ECE R112 class B, R48"),
+      num("ego_beam.cct_K", PHOTOSITE_AT(P, beam_cct_K), "K", 1000, 20000, "low-beam CCT", "NP §4"),
+      num("ego_beam.sign_lux", PHOTOSITE_AT(P, beam_sign_lux), "lx", 0, 1000, "illuminance on signs", "NP §4"),
+      num("ego_beam.lamp_height_m", PHOTOSITE_AT(P, beam_lamp_height_m), "m", 0.2, 2, "headlamps above the road",
+          "[U] ECE R48"),
+      num("ego_beam.lamp_spacing_m", PHOTOSITE_AT(P, beam_lamp_spacing_m), "m", 0, 3, "headlamp centres apart",
+          "[U]"),
+      num("ego_beam.cutoff_v_deg", PHOTOSITE_AT(P, beam_cutoff_v_deg), "°", -5, 5,
+          "cut-off line left of the v-v line (positive up)", "[U] ECE R112"),
+      num("ego_beam.cutoff_rise_deg", PHOTOSITE_AT(P, beam_cutoff_rise_deg), "°", 0, 60,
+          "rise of the cut-off right of the elbow", "[U] ECE R112"),
+      num("ego_beam.cutoff_max_v_deg", PHOTOSITE_AT(P, beam_cutoff_max_v_deg), "°", -5, 5,
+          "where the rising cut-off stops", "photosite choice"),
+      {"ego_beam.h_deg", Kind::NumberList, PHOTOSITE_AT(P, beam_h_deg), "°", -90, 90, Need::Required,
+       "horizontal angles of the intensity grid, positive right", "[U] ECE R112 test points",
+       "strictly increasing, ≥ 2 values"},
+      {"ego_beam.v_deg", Kind::NumberList, PHOTOSITE_AT(P, beam_v_deg), "°", -90, 90, Need::Required,
+       "vertical angles of the intensity grid, positive up", "[U] ECE R112 test points",
+       "strictly increasing, ≥ 2 values"},
+      {"ego_beam.intensity_cd", Kind::NumberRows,
+       schema::Rows<P>{PHOTOSITE_AT(P, beam_intensity_cd), [](const P& p) { return p.beam_h_deg.size(); }}, "cd", 0,
+       1e6, Need::Required, "one headlamp's intensity below the cut-off, a row per v_deg",
+       "[U] ECE R112 class B (I = E·625 m²) and photosite choice between", "one row per v_deg, one value per h_deg"},
+      table("geometry", "lanes, edges, lines and the vanishing point", "photosite choices (docs/night.md)"),
+      integer("geometry.work_max_width", PHOTOSITE_AT(P, work_max_width), "px", 64, 8192,
+              "the geometry stages run at this width at most", "photosite choice"),
+      num("geometry.lane_blur_sigma_px", PHOTOSITE_AT(P, lane_blur_sigma_px), "px", 0, 20,
+          "Gaussian blur before the lane-marking test", "photosite choice"),
+      num("geometry.lane_contrast_threshold", PHOTOSITE_AT(P, lane_contrast_threshold), "—", 0, 1,
+          "luma excess over the blurred road that marks a lane line", "photosite choice"),
+      num("geometry.canny_low", PHOTOSITE_AT(P, canny_low), "—", 0, 1000, "Canny hysteresis low threshold (L2 gradient)",
+          "photosite choice", "≤ geometry.canny_high"),
+      num("geometry.canny_high", PHOTOSITE_AT(P, canny_high), "—", 0, 1000, "Canny hysteresis high threshold",
+          "photosite choice"),
+      integer("geometry.hough_threshold", PHOTOSITE_AT(P, hough_threshold), "votes", 1, 10000,
+              "probabilistic Hough accumulator threshold", "photosite choice"),
+      num("geometry.hough_min_length_fraction", PHOTOSITE_AT(P, hough_min_length_fraction), "fraction", 0, 1,
+          "shortest line, of the image width (≥ 5 px)", "photosite choice"),
+      num("geometry.hough_max_gap_fraction", PHOTOSITE_AT(P, hough_max_gap_fraction), "fraction", 0, 1,
+          "largest gap within a line, of the image width (≥ 1 px)", "photosite choice"),
+      num("geometry.line_reject_angle_deg", PHOTOSITE_AT(P, line_reject_angle_deg), "°", 0, 45,
+          "lines this near horizontal or vertical are dropped", "photosite choice"),
+      num("geometry.border_fraction", PHOTOSITE_AT(P, border_fraction), "fraction", 0, 0.4,
+          "lines with both ends in this frame border are dropped", "photosite choice"),
+      num("geometry.vp_cluster_radius_fraction", PHOTOSITE_AT(P, vp_cluster_radius_fraction), "fraction", 0.001, 1,
+          "vanishing-point cluster radius, of the image diagonal", "photosite choice"),
+      integer("geometry.vp_min_support", PHOTOSITE_AT(P, vp_min_support), "lines", 1, 10000,
+              "fewer intersections in the cluster: no vanishing point", "photosite choice"),
+      num("geometry.max_depth_m", PHOTOSITE_AT(P, max_depth_m), "m", 10, 60000,
+          "metric depth cap (ground near the horizon, objects without a ground contact)", "photosite choice"),
+  };
+  return rows;
 }
 
-// [ego_beam] h_deg, v_deg (arrays of at least two strictly increasing angles within ±90°) and
-// intensity_cd (an array of rows, numbers >= 0).
-void read_beam_table(const std::string& full, const toml::node& v, const std::string& file, int line,
-                     ScenePreset& p) {
-  const toml::array* a = v.as_array();
-  if (!a) fail(where(file, line, full) + ": must be an array");
-  auto number = [&](const toml::node& n) {
-    auto x = n.value<double>();
-    if (!x) fail(where(file, line, full) + ": entries must be numbers");
-    return *x;
+// The cross-key conditions, at the line of the key they name.
+void validate(const ScenePreset& p, const toml::table& t, const std::string& file) {
+  auto err = [&](const char* key, const std::string& problem) {
+    schema::key_error(file, schema::line_at(t, key), key, problem);
   };
-  if (full == "ego_beam.intensity_cd") {
-    p.beam_intensity_cd.clear();
-    size_t cols = 0;
-    for (const auto& row : *a) {
-      const toml::array* r = row.as_array();
-      if (!r) fail(where(file, line, full) + ": must be an array of rows (arrays)");
-      if (cols && r->size() != cols) fail(where(file, line, full) + ": rows differ in length");
-      cols = r->size();
-      for (const auto& n : *r) {
-        const double x = number(n);
-        if (!(x >= 0 && x <= 1e6)) fail(where(file, line, full) + ": value " + std::to_string(x) + " is outside [0, 1e6] cd");
-        p.beam_intensity_cd.push_back(x);
-      }
-    }
-    return;
+  for (const char* key : {"ego_beam.h_deg", "ego_beam.v_deg"}) {
+    const auto& a = std::string_view(key) == "ego_beam.h_deg" ? p.beam_h_deg : p.beam_v_deg;
+    if (a.size() < 2) err(key, "needs at least two angles");
+    for (size_t i = 1; i < a.size(); ++i)
+      if (!(a[i] > a[i - 1])) err(key, "angles must increase strictly");
   }
-  std::vector<double>& out = full == "ego_beam.h_deg" ? p.beam_h_deg : p.beam_v_deg;
-  out.clear();
-  for (const auto& n : *a) {
-    const double x = number(n);
-    if (!(x >= -90 && x <= 90)) fail(where(file, line, full) + ": angle " + std::to_string(x) + " is outside [-90, 90]");
-    if (!out.empty() && !(x > out.back())) fail(where(file, line, full) + ": angles must increase strictly");
-    out.push_back(x);
-  }
-  if (out.size() < 2) fail(where(file, line, full) + ": needs at least two angles");
+  if (p.beam_intensity_cd.size() != p.beam_h_deg.size() * p.beam_v_deg.size())
+    err("ego_beam.intensity_cd", "needs one row per v_deg entry (" + std::to_string(p.beam_v_deg.size()) +
+                                     "), each with one value per h_deg entry (" +
+                                     std::to_string(p.beam_h_deg.size()) + ")");
+  if (p.window_width_m > p.window_pitch_m) err("windows.width_m", "exceeds windows.pitch_m");
+  if (p.window_height_m > p.window_storey_m) err("windows.height_m", "exceeds windows.storey_m");
+  if (p.shop_width_m > p.window_pitch_m) err("windows.shop_width_m", "exceeds windows.pitch_m");
+  if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
+    err("windows.shop_height_m", "shop_sill_m + shop_height_m exceeds windows.storey_m");
+  if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
 }
 }  // namespace
 
 ScenePreset parse_scene_preset(const std::string& text, const std::string& file) {
-  // The camera and lens readers' wording (core/toml_schema_detail.h): "file:line: key: problem".
   const toml::table t = schema::parse_toml(text, file);
+  if (const toml::node* bloom = t.get("bloom"))  // the scene-space bloom is gone: glare is the lens's now
+    schema::key_error(file, schema::line_of(*bloom), "bloom",
+                      "the scene-space bloom was removed; veiling glare is a property of the lens: set it in the "
+                      "lens preset's [glare] table (presets/lenses/*.toml, docs/model_glare.md)");
   ScenePreset p;
   p.file = file;
   p.name = std::filesystem::path(file).stem().string();
-  auto fs = fields(p);
-  std::map<std::string, bool> seen;
-  for (const auto& [k, node] : t) {
-    const std::string key(k.str());
-    const int line = static_cast<int>(node.source().begin.line);
-    if (key == "description") {
-      if (!node.is_string()) schema::key_error(file, line, key, "expected a string");
-      p.description = node.value_or(std::string());
-      continue;
-    }
-    if (key == "bloom")  // the scene-space bloom is gone: glare is the lens's now
-      fail(where(file, line, key) +
-           ": the scene-space bloom was removed; veiling glare is a property of the lens: set it in the "
-           "lens preset's [glare] table (presets/lenses/*.toml, docs/model_glare.md)");
-    const toml::table* sec = node.as_table();
-    if (!sec) fail(where(file, line, key) + ": unknown key");
-    for (const auto& [k2, v] : *sec) {
-      const std::string full = key + "." + std::string(k2.str());
-      const int l2 = static_cast<int>(v.source().begin.line);
-      if (full == "ego_beam.h_deg" || full == "ego_beam.v_deg" || full == "ego_beam.intensity_cd") {
-        read_beam_table(full, v, file, l2, p);
-        seen[full] = true;
-        continue;
-      }
-      auto it = std::find_if(fs.begin(), fs.end(), [&](auto& f) { return f.first == full; });
-      if (it == fs.end()) fail(where(file, l2, full) + ": unknown key");
-      auto num = v.value<double>();
-      if (!num) schema::key_error(file, l2, full, "expected a number");
-      const Field& f = it->second;
-      if (!(*num >= f.lo && *num <= f.hi)) schema::key_error(file, l2, full, schema::out_of_range(*num, f.lo, f.hi, {}));
-      if (f.d) *f.d = *num;
-      else {
-        if (*num != static_cast<int>(*num)) schema::key_error(file, l2, full, "expected an integer");
-        *f.i = static_cast<int>(*num);
-      }
-      seen[full] = true;
-    }
-  }
-  for (auto& f : fs)
-    if (!seen.count(f.first)) fail(where(file, 0, f.first) + ": missing key");
-  for (const char* k : {"ego_beam.h_deg", "ego_beam.v_deg", "ego_beam.intensity_cd"})
-    if (!seen.count(k)) fail(where(file, 0, k) + ": missing key");
-  if (p.beam_intensity_cd.size() != p.beam_h_deg.size() * p.beam_v_deg.size())
-    fail(where(file, 0, "ego_beam.intensity_cd") + ": needs one row per v_deg entry (" +
-         std::to_string(p.beam_v_deg.size()) + "), each with one value per h_deg entry (" +
-         std::to_string(p.beam_h_deg.size()) + ")");
-  if (p.window_width_m > p.window_pitch_m) fail(where(file, 0, "windows.width_m") + ": exceeds windows.pitch_m");
-  if (p.window_height_m > p.window_storey_m) fail(where(file, 0, "windows.height_m") + ": exceeds windows.storey_m");
-  if (p.shop_width_m > p.window_pitch_m) fail(where(file, 0, "windows.shop_width_m") + ": exceeds windows.pitch_m");
-  if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
-    fail(where(file, 0, "windows.shop_height_m") + ": shop_sill_m + shop_height_m exceeds windows.storey_m");
-  if (p.canny_low > p.canny_high) fail(where(file, 0, "geometry.canny_low") + ": exceeds canny_high");
+  schema::read<ScenePreset>(t, scene_schema(), file, p);
+  validate(p, t, file);
   return p;
 }
 
 ScenePreset load_scene_preset(const std::string& name_or_path) {
-  namespace fs = std::filesystem;
-  std::string path = name_or_path;
-  if (name_or_path.find('/') == std::string::npos && !name_or_path.ends_with(".toml")) {
-    path = (fs::path(preset_dir()) / "scenes" / (name_or_path + ".toml")).string();
-    if (!fs::exists(path)) {
-      std::string known;
-      std::error_code ec;
-      for (const auto& e : fs::directory_iterator(fs::path(preset_dir()) / "scenes", ec))
-        if (e.path().extension() == ".toml")
-          known += (known.empty() ? "" : ", ") + e.path().stem().string();
-      fail("unknown scene preset '" + name_or_path + "' (bundled: " + known + ")");
-    }
-  }
-  std::ifstream in(path);
-  if (!in) fail_at(path, "cannot read scene preset");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_scene_preset(ss.str(), path);
+  const auto dir = std::filesystem::path(preset_dir()) / "scenes";
+  const auto path = schema::preset_file(dir, name_or_path);
+  if (!path)
+    fail("unknown scene preset '" + name_or_path + "' (bundled: " + schema::comma_list(schema::preset_names(dir)) +
+         ")");
+  return parse_scene_preset(schema::read_text(*path, "scene preset"), *path);
 }
 
 std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p) {
-  std::map<std::string, ExrAttribute> a;
+  auto a = schema::attributes<ScenePreset>(scene_schema(), p, "photosite/scene/");
   a["photosite/scene/preset"] = p.name;
-  ScenePreset copy = p;
-  for (auto& [k, f] : fields(copy)) {
-    if (f.d) a["photosite/scene/" + k] = *f.d;
-    else a["photosite/scene/" + k] = *f.i;
-  }
   return a;
+}
+
+std::string scene_presets_doc_markdown() {
+  return schema::markdown_table(schema::doc_rows<ScenePreset>(scene_schema()));
 }
 
 }  // namespace photosite::scene

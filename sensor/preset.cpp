@@ -14,6 +14,8 @@
 #include "photosite/environment.h"
 #include "core/toml_schema_detail.h"
 #include "photosite/error.h"
+#include "photosite/scene/rig.h"
+#include "photosite/scene/scene_preset.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -32,6 +34,7 @@ double QeTable::at(FilterColor c, double wl) const {
 
 namespace {
 
+using schema::Exr;
 using schema::Kind;
 using schema::Need;
 using schema::Param;
@@ -49,13 +52,13 @@ const std::vector<Param<CameraPreset>>& camera_schema() {
       {"cfa", Kind::Choice,
        schema::Choice<P>{[](P& p, const std::string& s) { p.cfa = parse_cfa(s); },
                          [](const P& p) -> std::string { return to_string(p.cfa); }, "RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO"},
-       "", -inf, inf, Need::Required, "top-left 2×2 filter cell, row by row", "datasheet"},
+       "", -inf, inf, Need::Required, "top-left 2×2 filter cell, row by row", "datasheet", {}, Exr::Header},
       {"width_px", Kind::Integer, PHOTOSITE_AT(P, width_px), "px", 1, 100000, Need::Required,
        "native active array width", "datasheet"},
       {"height_px", Kind::Integer, PHOTOSITE_AT(P, height_px), "px", 1, 100000, Need::Required,
        "native active array height", "datasheet"},
       {"bit_depth", Kind::Integer, PHOTOSITE_AT(P, bit_depth), "bit", 1, 24, Need::Required, "ADC resolution",
-       "datasheet"},
+       "datasheet", {}, Exr::Header},
       {"pixel_pitch_um", Kind::Number, PHOTOSITE_AT(P, pixel_pitch_um), "µm", 0.1, 100, Need::Required,
        "pixel pitch", "datasheet"},
       {"fill_factor", Kind::Number, PHOTOSITE_AT(P, fill_factor), "fraction", 0.01, 1.0, Need::Optional,
@@ -85,7 +88,7 @@ const std::vector<Param<CameraPreset>>& camera_schema() {
       {"prnu_percent", Kind::Number, PHOTOSITE_AT(P, prnu_percent), "%", 0, 50, Need::Required,
        "σ of the per-pixel gain", "EMVA 1288 PRNU"},
       {"black_level_dn", Kind::Number, PHOTOSITE_AT(P, black_level_dn), "DN", 0, inf, Need::Required,
-       "pedestal added before the ADC clip", "datasheet or camera register", "< 2^bit_depth − 1"},
+       "pedestal added before the ADC clip", "datasheet or camera register", "< 2^bit_depth − 1", Exr::Header},
       {"temperature_c", Kind::Number, PHOTOSITE_AT(P, temperature_c), "°C", -100, 200, Need::Required,
        "die temperature in operation (`--temperature-c` overrides)", "estimate of the operating point"},
       {"row_noise_e", Kind::Number, PHOTOSITE_AT(P, row_noise_e), "e⁻ rms", 0, 1e4, Need::Optional,
@@ -269,11 +272,17 @@ std::string to_json(const LensPreset& l, int indent) {
   return j.dump(indent);
 }
 
+std::map<std::string, ExrAttribute> camera_attributes(const CameraPreset& p) {
+  return schema::attributes<CameraPreset>(camera_schema(), p, "photosite/");
+}
+
 std::string presets_doc_markdown() {
   return "### Camera keys (`presets/cameras/*.toml`)\n\n" +
          schema::markdown_table(schema::doc_rows<CameraPreset>(camera_schema())) +
          "\n### Lens keys (`presets/lenses/*.toml`)\n\n" +
-         schema::markdown_table(schema::doc_rows<LensPreset>(lens_schema()));
+         schema::markdown_table(schema::doc_rows<LensPreset>(lens_schema())) +
+         "\n### Scene keys (`presets/scenes/*.toml`)\n\n" + scene::scene_presets_doc_markdown() +
+         "\n### Camera rig keys (`presets/rigs/*.toml`)\n\n" + scene::camera_rigs_doc_markdown();
 }
 
 }  // namespace photosite

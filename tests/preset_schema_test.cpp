@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "photosite/error.h"
+#include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/preset.h"
 #include "test_util.h"
 
@@ -119,6 +120,119 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
     now.erase("file");
     EXPECT_EQ(now, before) << now.dump(2);
   }
+}
+
+// Every member of ScenePreset that a scene file sets.
+#define PHOTOSITE_SCENE_FIELDS(X) \
+  X(rho_sign) X(rho_construction) X(rho_human) X(rho_nature) X(rho_vehicle) X(rho_sky) X(rho_road) \
+  X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
+  X(street_road_luminance_cd_m2) X(street_vertical_fraction) X(street_cct_K) \
+  X(lamp_mount_height_m) X(lamp_spacing_ratio) X(lamp_setback_m) X(lamp_cutoff_deg) X(lamp_falloff_deg) \
+  X(lamp_head_diameter_m) X(lamp_max_distance_m) X(lamp_min_pole_height_m) \
+  X(veh_lamp_height_m) X(veh_lamp_inset_m) X(veh_head_diameter_m) X(veh_tail_diameter_m) \
+  X(veh_head_intensity_cd) X(veh_tail_intensity_cd) X(veh_parking_intensity_cd) X(veh_parked_lit_fraction) \
+  X(veh_kerb_strip_m) \
+  X(window_storey_m) X(window_pitch_m) X(window_width_m) X(window_height_m) X(shop_luminance_factor) X(shop_cct_K) \
+  X(shop_width_m) X(shop_sill_m) X(shop_height_m) X(shop_frontage_m) \
+  X(streetlamp_luminance_cd_m2) X(streetlamp_cct_K) X(headlamp_luminance_cd_m2) X(headlamp_cct_K) \
+  X(taillamp_luminance_cd_m2) X(signal_luminance_cd_m2) X(window_luminance_cd_m2) X(window_cct_K) \
+  X(window_lit_fraction) X(window_cell_fraction) X(window_warm_share) X(window_cool_cct_K) \
+  X(marking_RL) X(sign_RA) \
+  X(beam_cct_K) X(beam_sign_lux) X(beam_lamp_height_m) X(beam_lamp_spacing_m) X(beam_cutoff_v_deg) \
+  X(beam_cutoff_rise_deg) X(beam_cutoff_max_v_deg) X(beam_h_deg) X(beam_v_deg) X(beam_intensity_cd) \
+  X(work_max_width) X(lane_blur_sigma_px) X(lane_contrast_threshold) X(canny_low) X(canny_high) \
+  X(hough_threshold) X(hough_min_length_fraction) X(hough_max_gap_fraction) X(line_reject_angle_deg) \
+  X(border_fraction) X(vp_cluster_radius_fraction) X(vp_min_support) X(max_depth_m)
+
+// Every bundled scene loads to the values it had before the scene keys moved into the schema table
+// (tests/data/scenes_before/<name>.json, written by the hand-written reader of commit d6cd607 with
+// a program that printed each member above by name, and scene_attributes()), member by member and
+// exactly (nlohmann's round-trip text); and the EXR header attributes keep their names, types and
+// values.
+TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))
+    if (e.path().extension() == ".json") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_EQ(files.size(), 2u);  // night-rural, night-urban
+  for (const auto& path : files) {
+    const std::string name = path.stem().string();
+    SCOPED_TRACE(name);
+    const nlohmann::json before = nlohmann::json::parse(slurp(path));
+    const scene::ScenePreset p = scene::load_scene_preset(name);
+    EXPECT_EQ(p.name, before["name"]);
+    EXPECT_EQ(p.description, before["description"]);
+    const auto& f = before["fields"];
+    size_t n = 0;
+#define X(m)                                                   \
+  EXPECT_EQ(p.m, f[#m].get<decltype(scene::ScenePreset::m)>()) \
+      << #m;                                                   \
+  ++n;
+    PHOTOSITE_SCENE_FIELDS(X)
+#undef X
+    EXPECT_EQ(n, f.size());
+    nlohmann::json now = nlohmann::json::object();
+    for (const auto& [k, v] : scene::scene_attributes(p))
+      std::visit(
+          [&](const auto& x) {
+            using T = std::decay_t<decltype(x)>;
+            const char* type = std::is_same_v<T, std::string> ? "string"
+                               : std::is_same_v<T, int>       ? "int"
+                               : std::is_same_v<T, float>     ? "float"
+                                                              : "double";
+            now[k] = {{"type", type}, {"value", x}};
+          },
+          v);
+    EXPECT_EQ(now, before["attributes"]) << now.dump(1);
+  }
+}
+
+// The camera keys an output's EXR header carries come from the rows marked Exr::Header: the same
+// attribute names (contracts), types and values as the hand-written list they replaced.
+TEST(PresetSchema, CameraAttributesAreTheMarkedRows) {
+  for (const char* name : {"sony-imx174", "onsemi-ar0132at-rccc"}) {
+    SCOPED_TRACE(name);
+    const CameraPreset p = load_camera_preset(name);
+    const auto a = camera_attributes(p);
+    ASSERT_EQ(a.size(), 3u);
+    EXPECT_EQ(std::get<std::string>(a.at("photosite/cfa")), to_string(p.cfa));
+    EXPECT_EQ(std::get<int>(a.at("photosite/bit_depth")), p.bit_depth);
+    EXPECT_EQ(std::get<double>(a.at("photosite/black_level_dn")), p.black_level_dn);
+  }
+}
+
+// A scene file's errors have the camera's and lens's form, "file:line: key: problem".
+TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
+  const std::string urban = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml");
+  auto line_of = [&](const std::string& key) {
+    const auto p = urban.find("\n" + key + " ");
+    return std::to_string(std::count(urban.begin(), urban.begin() + static_cast<long>(p) + 1, '\n') + 1);
+  };
+  auto error = [&](const std::string& from, const std::string& to) {
+    std::string bad = urban;
+    bad.replace(bad.find(from), from.size(), to);
+    return error_of([&] { scene::parse_scene_preset(bad, "s.toml"); });
+  };
+  EXPECT_NE(error("moon_lux = 0.1", "moon_lux = 2").find("s.toml:" + line_of("moon_lux") +
+                                                          ": ambient.moon_lux: value 2 is out of range, outside [0, 1] (lx)"),
+            std::string::npos)
+      << error("moon_lux = 0.1", "moon_lux = 2");
+  EXPECT_NE(error("moon_lux = 0.1", "moon_lx = 0.1").find("s.toml:" + line_of("moon_lux") + ": ambient.moon_lx: unknown key (expected moon_lux,"),
+            std::string::npos);
+  EXPECT_NE(error("work_max_width = 1024", "work_max_width = 1024.5")
+                .find("s.toml:" + line_of("work_max_width") + ": geometry.work_max_width: expected an integer"),
+            std::string::npos);
+  EXPECT_NE(error("canny_low = 40", "canny_low = 400").find("s.toml:" + line_of("canny_low") + ": geometry.canny_low: exceeds canny_high"),
+            std::string::npos);
+  EXPECT_NE(error("h_deg = [-25, -9,", "h_deg = [-9, -25,").find("s.toml:" + line_of("h_deg") + ": ego_beam.h_deg: angles must increase strictly"),
+            std::string::npos);
+  EXPECT_NE(error("[0, 0, 0, 0, 0, 0, 0],", "[0, 0, 0, 0, 0, 0],").find(": ego_beam.intensity_cd: rows differ in length"),
+            std::string::npos);
+  EXPECT_NE(error("[2, 4, 6, 8, 8, 6, 2],", "[2, 4, 6, 8, 8, 6, 2e7],").find(": ego_beam.intensity_cd: value 2e7 is out of range, outside [0, 1e6] (cd)"),
+            std::string::npos);
+  EXPECT_NE(error("[retroreflection]", "[retro]").find(": retro: unknown key"), std::string::npos);
+  const std::string missing = error("sign_RA = 180", "");
+  EXPECT_NE(missing.find(": retroreflection.sign_RA: required key is missing"), std::string::npos) << missing;
 }
 
 // docs/presets.md's reference tables are the generator's output, so the docs cannot drift from

@@ -45,4 +45,7 @@ std::string cityscapes_camera_file(const std::string& image_path);
 struct CameraIntrinsics { double f_px, cx_px, cy_px; };
 CameraIntrinsics scaled_intrinsics(const CameraRig& rig, int width, int height);
 
+// The Markdown reference table of the rig keys (part of `presets_doc_markdown()`).
+std::string camera_rigs_doc_markdown();
+
 }  // namespace photosite::scene

@@ -1,6 +1,7 @@
 // Scene presets: the night illumination and every parameter of the day-to-night stages, in
-// presets/scenes/<name>.toml with the source of each number in a comment. Unknown or missing
-// keys and out-of-range values are errors naming file and key.
+// presets/scenes/<name>.toml with the source of each number in a comment. Their keys are one
+// schema table (scene/scene_preset.cpp) read by the one preset reader: unknown or missing keys and
+// out-of-range values are errors "file:line: key: problem".
 #pragma once
 #include <array>
 #include <map>
@@ -78,7 +79,10 @@ struct ScenePreset {
 
 ScenePreset load_scene_preset(const std::string& name_or_path);  // name in presets/scenes or path
 ScenePreset parse_scene_preset(const std::string& toml_text, const std::string& file);
-// Every parameter as a header attribute "photosite/scene/<key>".
+// Every number of the scene's schema as a header attribute "photosite/scene/<key>", and the
+// preset's name as "photosite/scene/preset".
 std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p);
+// The Markdown reference table of the scene keys (part of `presets_doc_markdown()`).
+std::string scene_presets_doc_markdown();
 
 }  // namespace photosite::scene

@@ -5,9 +5,11 @@
 // "file:line: key: problem" (pbrt-v4's ReportUnused idea).
 #pragma once
 #include <array>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "photosite/io.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/glare.h"
 
@@ -79,9 +81,13 @@ std::string to_json(const CameraPreset& p, int indent = -1);
 std::string to_json(const LensPreset& p, int indent = -1);
 // `presets show --json`: a lens preset's JSON when `name` is a bundled lens, else the camera's.
 std::string show_preset(const std::string& name, int indent = -1);
-// The reference tables of the camera and lens keys (Markdown), generated from the same schema
-// the reader and to_json use (sensor/preset.cpp); `photosite presets doc` prints it, and
-// docs/presets.md holds it between generated-section markers (a test compares them).
+// The reference tables of the camera, lens, scene and camera rig keys (Markdown), generated from
+// the same schemas the readers use (sensor/preset.cpp, scene/scene_preset.cpp, scene/rig.cpp);
+// `photosite presets doc` prints it, and docs/presets.md holds it between generated-section
+// markers (a test compares them).
 std::string presets_doc_markdown();
+// The camera's keys that an output's EXR header carries (the rows of its schema marked so):
+// "photosite/cfa", "photosite/bit_depth", "photosite/black_level_dn".
+std::map<std::string, ExrAttribute> camera_attributes(const CameraPreset& p);
 
 }  // namespace photosite
