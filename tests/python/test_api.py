@@ -79,8 +79,9 @@ def test_night_matches_cli_exr_bit_for_bit(kitti, cli, store, tmp_path):
 
 def test_rig_camera_file_sets_the_metric_scale(kitti, store, tmp_path):
     # Two Cityscapes camera files that differ only in the mounting height, 1.65 m and 3.30 m:
-    # flat-ground depth Z = f*h/(y - y_h) doubles, exactly in binary floating point, wherever
-    # neither run reaches the preset's 1000 m depth cap. The rig is named in the header.
+    # flat-ground depth Z = f*h/(y - y_h) doubles, exactly in binary floating point, on the road
+    # and sidewalk wherever neither run reaches the preset's 1000 m depth cap (façade planes are
+    # fitted with thresholds in metres, so they are not compared). The rig is named in the header.
     day, labels = kitti
     cam = ps.Camera(KITTI_CAMERA, device_store=store)
     depth = {}
@@ -91,8 +92,9 @@ def test_rig_camera_file_sets_the_metric_scale(kitti, store, tmp_path):
         r = ps.night(day, labels, camera=cam, backend="cpu", rig=str(f))
         assert r.sensor.metadata["night/camera_rig"] == f.stem and r.sensor.metadata["night/mount_height_m"] == z
         depth[z] = r.depth
-    finite = (depth[1.65] < 500) & (depth[1.65] > 0)
-    assert finite.mean() > 0.3
+        ground = np.isin(r.labels, (7, 8))  # labelIds road, sidewalk
+    finite = ground & (depth[1.65] < 500) & (depth[1.65] > 0)
+    assert finite.mean() > 0.2  # the road and sidewalks: a quarter of this frame
     np.testing.assert_array_equal(depth[3.30][finite], 2 * depth[1.65][finite])
 
 
