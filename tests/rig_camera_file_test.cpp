@@ -119,7 +119,8 @@ TEST(RigCameraFile, FoundBesideTheImageAndUsedByAutoOnly) {
 
 // batch over the Cityscapes layout uses each image's own camera file: with a camera mounted twice
 // as high (and the same pitch and intrinsics), flat-ground depth Z = f·h/(y − y_h) and the
-// objects' contact depths double. Doubling is exact in binary floating point and survives the
+// vehicles' contact depths double (façade planes are fitted with thresholds in metres, so
+// buildings are not compared). Doubling is exact in binary floating point and survives the
 // half-float depth layer exactly (a power-of-two scale of a normal half), so the bound below is
 // one half ulp of the larger value, 2^-11 relative, for rounding differences upstream of the
 // layer (none expected).
@@ -158,7 +159,10 @@ TEST(RigCameraFile, BatchUsesEachImagesOwnCameraFile) {
   ASSERT_EQ(d1.size(), d2.size());
   const float cap_m = static_cast<float>(scene::load_scene_preset("night-urban").max_depth_m);
   size_t finite = 0;
+  const ImageF& ids = rig.channels.at("labels.Y");
   for (size_t i = 0; i < d1.size(); ++i) {
+    const int id = static_cast<int>(ids[i]);
+    if (!scene::is_ground(id) && !scene::is_vehicle(id) && id != static_cast<int>(scene::Label::Sky)) continue;
     if (d1[i] >= 65504.0f) {  // sky: infinite in both
       EXPECT_GE(d2[i], 65504.0f) << i;
       continue;
@@ -167,5 +171,5 @@ TEST(RigCameraFile, BatchUsesEachImagesOwnCameraFile) {
     ++finite;
     EXPECT_NEAR(d2[i], 2 * d1[i], 2 * d1[i] * 0x1p-11f) << i;
   }
-  EXPECT_GT(finite, d1.size() / 3);  // road, sidewalks, buildings and cars: most of the frame
+  EXPECT_GT(finite, d1.size() / 4);  // road, sidewalks and cars
 }
