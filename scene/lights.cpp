@@ -330,22 +330,33 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       }
     }
 
-  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses).
-  for (size_t i = 0; i < labels.pixel_count(); ++i) {
-    if (labels[i] != static_cast<int>(Label::TrafficLight)) continue;
-    const Lab c = lab_at(static_cast<int>(i));
-    const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
-    if (c.L < 25 || chroma < 30) continue;
-    Rgb col;
-    if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-    else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-    else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
-    else continue;
-    put_max(L, static_cast<int>(i % W), static_cast<int>(i / W), col);
-    ++out.stats.signals;
+  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses). (Rows in
+  // parallel: each pixel writes only itself.)
+  int signals = 0;
+#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* r = labels.row(y);
+    for (int x = 0; x < W; ++x) {
+      if (r[x] != static_cast<int>(Label::TrafficLight)) continue;
+      const Lab c = lab_at(y * W + x);
+      const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
+      if (c.L < 25 || chroma < 30) continue;
+      Rgb col;
+      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
+      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
+      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+      else continue;
+      put_max(L, x, y, col);
+      ++signals;
+    }
   }
+  out.stats.signals += signals;
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
+  // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
+  bool vehicle_id[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) vehicle_id[id] = is_vehicle(id);
+  auto vehicle = [&](int id) { return id >= 0 && id < kLabelCount && vehicle_id[id]; };
   ImageI32 comp(W, H, 1, 0);
   int ncomp = 0;
   std::vector<int> comp_class(1, 0);
@@ -356,7 +367,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     const uint16_t* r = labels.row(y);
     const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
     for (int x = 0; x < W; ++x)
-      if (is_vehicle(r[x]) || (q && q[x] >= 1000 && is_vehicle(q[x] / 1000))) {
+      if (vehicle(r[x]) || (q && q[x] >= 1000 && vehicle(q[x] / 1000))) {
         ry0 = std::min(ry0, y);
         ry1 = std::max(ry1, y);
         break;
@@ -370,7 +381,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       int last_v = -1, last_c = 0;
       for (size_t i = i_begin; i < i_end; ++i) {
         const int v = lm.instances[i];
-        if (v >= 1000 && is_vehicle(v / 1000)) {
+        if (v >= 1000 && vehicle(v / 1000)) {
           if (v != last_v) {
             auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
             if (fresh) comp_class.push_back(v / 1000);
@@ -384,7 +395,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
     const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
 #pragma omp parallel for schedule(static)
-    for (long i = nb; i < ne; ++i) mask.data[i - nb] = is_vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
+    for (long i = nb; i < ne; ++i) mask.data[i - nb] = vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
     cv::Mat cc;
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
     const int base = static_cast<int>(inst_index.size());
