@@ -434,6 +434,7 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     auto fit_planes = [&](const std::vector<Contact>& pts, bool occluded) {
       std::vector<uint8_t> free(pts.size(), 1), in(pts.size());
       plane_of.assign(pts.size(), -1);
+      const int first_plane = static_cast<int>(out.planes.size());
       const int min_left = std::max(kMinFacadeContacts, static_cast<int>(0.15 * pts.size()));
       int found = 0;
       // On stack feet, one plane: lines of lower bounds (a sign post here, a hedge there) do not
@@ -444,6 +445,23 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
         if (left < (k == 0 ? kMinFacadeContacts : min_left)) break;
         Line L;
         if (!fit_line(pts, free, &L, &in) || (k > 0 && L.n < min_left)) break;
+        // A later line within 3 bands (mean over its inliers) of an earlier façade's foot line is
+        // that façade's noisier contacts (label noise grows with distance), not a new façade: its
+        // inliers join the earlier plane, and the search goes on.
+        {
+          int same = -1;
+          for (int q = first_plane; q < static_cast<int>(out.planes.size()) && same < 0; ++q) {
+            double sum = 0;
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) sum += std::fabs((L.a + L.b * pts[i].x) - (out.planes[q].line_a + out.planes[q].line_b * pts[i].x));
+            if (sum / L.n < 3 * kFacadeInlier_px) same = q;
+          }
+          if (same >= 0) {
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) { plane_of[i] = same; free[i] = 0; }
+            continue;
+          }
+        }
         int i0 = -1, i1 = -1;
         for (size_t i = 0; i < pts.size(); ++i)
           if (in[i]) { if (i0 < 0) i0 = static_cast<int>(i); i1 = static_cast<int>(i); }
