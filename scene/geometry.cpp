@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <opencv2/imgproc.hpp>
 
 #include "photosite/scene/night.h"
 
@@ -244,17 +243,25 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   // Buildings: the fitted façade plane of their column (building_facades), where the column's
   // pixels lie above its foot line; elsewhere the per-column plane above.
   const BuildingFacades fac = building_facades(ids, g, max_depth_m);
+  // z = d / (n_X·x_n + n_D·k), x_n = (u − c_x)/f per column, k = cos θ − y_n·sin θ per row
+  // (facade_depth_m, unrolled).
+  std::vector<double> xn(W);
+  for (int x = 0; x < W; ++x) xn[x] = (x - g.cx_px) / g.f_px;
+  const double cp = std::cos(g.pitch_rad), sp = std::sin(g.pitch_rad);
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
     float* o = depth.row(y);
     const int32_t* r = fac.region.row(y);
+    const double k = cp - (y - g.cy_px) / g.f_px * sp;
     for (int x = 0; x < W; ++x) {
       if (r[x] < 0) continue;
-      bool on = false;
-      const FacadePlane* f = fac.plane_at(x, y, &on);
-      if (!f || !f->fitted || !on) continue;
-      const double z = facade_depth_m(g, *f, x, y);
-      if (std::isfinite(z) && z > 0) o[x] = static_cast<float>(std::min(z, max_depth_m));
+      const BuildingFacades::Region& R = fac.regions[r[x]];
+      const int i = R.column_plane[x - R.x0];
+      if (i < 0 || !R.on_plane[x - R.x0]) continue;
+      const FacadePlane& f = fac.planes[i];
+      if (!f.fitted) continue;
+      const double den = f.nX * xn[x] + f.nD * k;
+      if (den > 1e-9) o[x] = static_cast<float>(std::min(f.d_m / den, max_depth_m));
     }
   }
   return depth;
@@ -348,32 +355,64 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   BuildingFacades out;
   out.region = ImageI32(W, H, 1, -1, "region");
-  cv::Mat mask(H, W, CV_8U);
+  // 4-connected regions from runs of building pixels (a union-find over runs that overlap in
+  // consecutive rows; far cheaper than a per-pixel labelling, as buildings come in long runs).
+  struct Run { int y, x0, x1; };
+  std::vector<Run> runs;
+  std::vector<int> row_start(H + 1, 0);
   for (int y = 0; y < H; ++y) {
+    row_start[y] = static_cast<int>(runs.size());
     const uint16_t* r = ids.row(y);
-    uint8_t* m = mask.ptr<uint8_t>(y);
-    for (int x = 0; x < W; ++x) m[x] = r[x] == building;
+    for (int x = 0; x < W;) {
+      if (r[x] != building) { ++x; continue; }
+      int e = x + 1;
+      while (e < W && r[e] == building) ++e;
+      runs.push_back({y, x, e - 1});
+      x = e;
+    }
   }
-  cv::Mat cc, st, cent;
-  const int n = cv::connectedComponentsWithStats(mask, cc, st, cent, 4, CV_32S);
-  out.regions.resize(std::max(0, n - 1));
-  std::vector<std::vector<int>> ymax(out.regions.size());
-  for (int c = 1; c < n; ++c) {
-    auto& R = out.regions[c - 1];
-    R.x0 = st.at<int>(c, cv::CC_STAT_LEFT);
-    const int w = st.at<int>(c, cv::CC_STAT_WIDTH);
-    R.column_plane.assign(w, -1);
-    R.on_plane.assign(w, 0);
-    ymax[c - 1].assign(w, -1);
-  }
-  for (int y = 0; y < H; ++y) {  // rows ascend: the last write is the lowest
-    const int* l = cc.ptr<int>(y);
-    int32_t* o = out.region.row(y);
-    for (int x = 0; x < W; ++x)
-      if (l[x] > 0) {
-        o[x] = l[x] - 1;
-        ymax[l[x] - 1][x - out.regions[l[x] - 1].x0] = y;
+  row_start[H] = static_cast<int>(runs.size());
+  std::vector<int> parent(runs.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int y = 1; y < H; ++y) {
+    int j = row_start[y - 1];
+    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
+      while (j < row_start[y] && runs[j].x1 < runs[i].x0) ++j;
+      for (int k = j; k < row_start[y] && runs[k].x0 <= runs[i].x1; ++k) {
+        const int a = find(parent, i), b = find(parent, k);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
       }
+    }
+  }
+  // Regions numbered in the order of their first run (reading order), with their column extent.
+  std::vector<int> run_region(runs.size(), -1), x1s;
+  {
+    std::vector<int> index(runs.size(), -1);
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const int root = find(parent, static_cast<int>(i));
+      if (index[root] < 0) {
+        index[root] = static_cast<int>(out.regions.size());
+        out.regions.push_back({});
+        out.regions.back().x0 = runs[i].x0;
+        x1s.push_back(runs[i].x1);
+      }
+      const int r = run_region[i] = index[root];
+      out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
+      x1s[r] = std::max(x1s[r], runs[i].x1);
+    }
+  }
+  std::vector<std::vector<int>> ymax(out.regions.size());
+  for (size_t r = 0; r < out.regions.size(); ++r) {
+    const int w = x1s[r] - out.regions[r].x0 + 1;
+    out.regions[r].column_plane.assign(w, -1);
+    out.regions[r].on_plane.assign(w, 0);
+    ymax[r].assign(w, -1);
+  }
+  for (size_t i = 0; i < runs.size(); ++i) {  // rows ascend: the last write is the lowest
+    const Run& u = runs[i];
+    const int r = run_region[i], x0 = out.regions[r].x0;
+    std::fill(out.region.row(u.y) + u.x0, out.region.row(u.y) + u.x1 + 1, r);
+    for (int x = u.x0; x <= u.x1; ++x) ymax[r][x - x0] = u.y;
   }
   auto object = [&](int id) {  // neither ground nor sky: something standing in front
     return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
@@ -395,6 +434,7 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     auto fit_planes = [&](const std::vector<Contact>& pts, bool occluded) {
       std::vector<uint8_t> free(pts.size(), 1), in(pts.size());
       plane_of.assign(pts.size(), -1);
+      const int first_plane = static_cast<int>(out.planes.size());
       const int min_left = std::max(kMinFacadeContacts, static_cast<int>(0.15 * pts.size()));
       int found = 0;
       // On stack feet, one plane: lines of lower bounds (a sign post here, a hedge there) do not
@@ -405,6 +445,23 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
         if (left < (k == 0 ? kMinFacadeContacts : min_left)) break;
         Line L;
         if (!fit_line(pts, free, &L, &in) || (k > 0 && L.n < min_left)) break;
+        // A later line within 3 bands (mean over its inliers) of an earlier façade's foot line is
+        // that façade's noisier contacts (label noise grows with distance), not a new façade: its
+        // inliers join the earlier plane, and the search goes on.
+        {
+          int same = -1;
+          for (int q = first_plane; q < static_cast<int>(out.planes.size()) && same < 0; ++q) {
+            double sum = 0;
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) sum += std::fabs((L.a + L.b * pts[i].x) - (out.planes[q].line_a + out.planes[q].line_b * pts[i].x));
+            if (sum / L.n < 3 * kFacadeInlier_px) same = q;
+          }
+          if (same >= 0) {
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) { plane_of[i] = same; free[i] = 0; }
+            continue;
+          }
+        }
         int i0 = -1, i1 = -1;
         for (size_t i = 0; i < pts.size(); ++i)
           if (in[i]) { if (i0 < 0) i0 = static_cast<int>(i); i1 = static_cast<int>(i); }

@@ -735,3 +735,78 @@ TEST(Facades, KittiSamplePlanesReported) {
     }
   }
 }
+
+// A building region with two façades meeting at a corner — the left side of the street
+// (X = −12 m) and a block facing the camera across its end (D = 60 m) — whose foot rows carry label
+// noise: on the block across the end, +4 rows on every 3rd column (beyond the inlier band: a line
+// of their own 4 px below the true one, a third of that façade's contacts, above the 15% a façade
+// needs), and −1 on every 5th column of both. The fit finds exactly those two planes
+// (the offset line joins its façade instead of becoming a third one), and
+// every column away from the corner takes its own façade. Bounds from the inlier band τ = 1.5 px:
+// a foot line off by at most τ at the row v_c of the corner (the contacts' farthest point, the
+// smallest v − y_h) puts the plane's distance off by at most τ/(v_c − y_h) relative; its two
+// ends each off by τ turn it by at most atan(2τ·D/(v_c − y_h) / span), span the façade's
+// extent across (m) in view.
+TEST(Facades, TwoFacadesAtACornerWithLabelNoise) {
+  const SyntheticCameraOptions o = camera_scene();
+  const CameraGeometry& g = o.camera;
+  const int W = o.width, H = o.height;
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const double XA = -12, DB = 60, XB_end = 5;
+  // Foot row of the façades at column u (continuous at the corner).
+  auto foot_A = [&](double u) {  // on X = XA: z = XA / x_n, D = (z − h·sin θ)/cos θ
+    const double xn = (u - g.cx_px) / g.f_px, z = XA / xn, D = (z - h * sn) / c;
+    return g.cy_px + g.f_px * (h * c - D * sn) / z;
+  };
+  const double zB = h * sn + DB * c, vB = g.cy_px + g.f_px * (h * c - DB * sn) / zB;
+  const double u_corner = g.cx_px + g.f_px * XA / zB, u_end = g.cx_px + g.f_px * XB_end / zB;
+  auto foot = [&](double u) { return u < u_corner ? foot_A(u) : vB; };
+  LabelMap lm;
+  lm.ids = ImageU16(W, H, 1, static_cast<uint16_t>(Label::Sky), unit::label_id);
+  for (int x = 0; x < W; ++x) {
+    const double v = foot(x);
+    int yb = static_cast<int>(std::ceil(v)) - 1;  // the lowest pixel centre above the foot
+    const bool in_region = x < u_end && std::isfinite(v) && v > g.horizon_y + 2;
+    if (in_region) yb += 4 * (x >= u_corner && x % 3 == 0) - (x % 5 == 0);
+    for (int y = 0; y < H; ++y) {
+      if (y > g.horizon_y) lm.ids.at(x, y) = static_cast<uint16_t>(Label::Road);
+      if (in_region && y <= yb && y >= yb - 60) lm.ids.at(x, y) = static_cast<uint16_t>(Label::Building);
+    }
+  }
+  const BuildingFacades fac = building_facades(lm.ids, g, 1000);
+  ASSERT_EQ(fac.regions.size(), 1u);
+  const auto& R = fac.regions[0];
+  std::vector<int> used;
+  for (int i : R.column_plane)
+    if (i >= 0 && std::find(used.begin(), used.end(), i) == used.end()) used.push_back(i);
+  ASSERT_EQ(used.size(), 2u);
+  const double tau = kFacadeInlier_px, vc = vB - g.horizon_y;
+  const FacadePlane* A = nullptr;
+  const FacadePlane* B = nullptr;
+  for (int i : used) (std::fabs(fac.planes[i].nX) > std::fabs(fac.planes[i].nD) ? A : B) = &fac.planes[i];
+  ASSERT_NE(A, nullptr);
+  ASSERT_NE(B, nullptr);
+  const double u_first = std::max(0.0, static_cast<double>(R.x0));
+  double X_first = 0;  // the left end of the view on façade A: its extent along D
+  {
+    const double xn = (u_first - g.cx_px) / g.f_px;
+    X_first = (XA / xn - h * sn) / c;
+  }
+  const double turn_A = std::atan(2 * tau * DB / vc / std::fabs(DB - X_first));
+  const double turn_B = std::atan(2 * tau * DB / vc / (XB_end - XA));
+  std::fprintf(stderr, "[corner] A: n (%.4f, %.4f) d %.2f m; B: n (%.4f, %.4f) d %.2f m; bounds: d %.1f%%, turn A %.1f°, B %.1f°\n",
+               A->nX, A->nD, A->d_m, B->nX, B->nD, B->d_m, 100 * tau / vc, turn_A * 180 / M_PI, turn_B * 180 / M_PI);
+  EXPECT_LE(std::fabs(A->d_m / -XA - 1), tau / vc);
+  EXPECT_LE(std::fabs(B->d_m / DB - 1), tau / vc);
+  EXPECT_LE(std::acos(std::min(1.0, -A->nX)), turn_A);  // true normal (−1, 0)
+  EXPECT_LE(std::acos(std::min(1.0, B->nD)), turn_B);   // true normal (0, 1)
+  // Columns away from the corner (where the two foot lines are more than 2τ + 1 px apart).
+  int checked = 0;
+  for (int x = R.x0; x < R.x0 + static_cast<int>(R.column_plane.size()); ++x) {
+    if (std::fabs(foot_A(x) - vB) <= 2 * tau + 1) continue;
+    const FacadePlane* want = x < u_corner ? A : B;
+    EXPECT_EQ(&fac.planes[R.column_plane[x - R.x0]], want) << "column " << x;
+    ++checked;
+  }
+  EXPECT_GT(checked, 200);
+}

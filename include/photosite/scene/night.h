@@ -140,7 +140,9 @@ ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_
 // by RANSAC over deterministic pairs of contacts (inlier band ±kFacadeInlier_px: the contact row
 // is quantised to ±0.5 px, the labels' boundary to about ±1 px), refitted by least squares on the
 // inliers; further façades (each with at least kMinFacadeContacts and 15% of the contacts) are
-// fitted to the contacts the first ones leave out. Every column of the
+// fitted to the contacts the first ones leave out — a further line within 3 bands of an earlier
+// façade's foot line (mean over its inliers) is that façade's noisier contacts and joins it.
+// Every column of the
 // region takes the façade of its nearest inlier contact, also where cars or trees hide the foot.
 // A column whose own building pixels reach below that façade's foot line (by more than the
 // inlier band) is something nearer (a building's projecting part): it keeps the per-column depth
