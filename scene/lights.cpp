@@ -513,7 +513,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 }
 
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& beam_lux, const VanishingPoint& /*vp: the beam is metric now*/, const ScenePreset& p) {
+               const ImageF& beam_lux, const ScenePreset& p) {
   const int W = texture.width(), H = texture.height();
   ImageF night(W, H, 3, uninitialized, unit::radiance);
   const DarkenParams dp = darken_params(p);
