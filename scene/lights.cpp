@@ -130,8 +130,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given: the two atan2 per lamp and pixel are most of this stage's time.
-  bool read[kLabelCount];
-  for (int id = 0; id < kLabelCount; ++id) read[id] = is_ground(id);
+  const auto& read = ground_classes();
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < height; ++y) {
     float* e = E.row(y);
