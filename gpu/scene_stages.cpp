@@ -104,14 +104,13 @@ void check_tail_shapes(const char* what, const ImageF& texture, const ImageF& li
 }  // namespace
 
 void SceneStages::record_compose(Sequence& s, Buffer& t, Buffer& l, Buffer& ids, Buffer& d, Buffer& o, int W, int H,
-                                 const scene::VanishingPoint& vp, const scene::ScenePreset& sp) {
+                                 const scene::ScenePreset& sp) {
   const size_t n = static_cast<size_t>(W) * H;
   const scene::DarkenParams dp = scene::darken_params(sp);
   record_darken(ctx_, s, t, ids, o, n, dp);
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
   cp.ground_mask = ground_mask(dp);
-  (void)vp;  // the beam illuminance comes in as an image (scene::low_beam_illuminance)
   // The CPU's tint / π (scene::compose): the beam's colour relative to D65.
   const auto tb = scene::illuminant_tint(sp.beam_cct_K);
   for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);
@@ -133,13 +132,13 @@ SceneStages::TailBuffers SceneStages::upload_tail(const ImageF& texture, const I
 }
 
 ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                            const scene::VanishingPoint& vp, const scene::ScenePreset& sp, double* device_ms) {
+                            const scene::ScenePreset& sp, double* device_ms) {
   check_tail_shapes("compose", texture, lights, labels, depth);
   ImageF out(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
   if (texture.pixel_count() == 0) return out;
   const TailBuffers b = upload_tail(texture, lights, labels, depth);
   Sequence s(ctx_);
-  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, texture.width(), texture.height(), vp, sp);
+  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, texture.width(), texture.height(), sp);
   s.submit_and_wait();
   if (device_ms) *device_ms = s.device_ms();
   b.radiance->download(out.data(), out.size() * sizeof(float));
@@ -147,8 +146,8 @@ ImageF SceneStages::compose(const ImageF& texture, const ImageF& lights, const I
 }
 
 scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
-                                   const ImageF& depth, const scene::VanishingPoint& vp,
-                                   const scene::ScenePreset& sp, bool keep_darkened, double* device_ms) {
+                                   const ImageF& depth, const scene::ScenePreset& sp, bool keep_darkened,
+                                   double* device_ms) {
   check_tail_shapes("night tail", texture, lights, labels, depth);
   const int W = texture.width(), H = texture.height();
   const size_t n = texture.pixel_count(), rgb_bytes = 3 * n * sizeof(float);
@@ -161,7 +160,7 @@ scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const 
   // The darkened image for --maps: darken once more into its own buffer (compose darkens in place).
   if (keep_darkened)
     record_darken(ctx_, s, *b.texture, *b.labels, buffer("darkened", rgb_bytes), n, scene::darken_params(sp));
-  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, W, H, vp, sp);
+  record_compose(s, *b.texture, *b.lights, *b.labels, *b.depth, *b.radiance, W, H, sp);
   s.submit_and_wait();
   if (device_ms) *device_ms = s.device_ms();
   if (keep_darkened) buffer("darkened", rgb_bytes).download(out.darkened.data(), rgb_bytes);
@@ -179,16 +178,15 @@ ImageF darken(Context& ctx, const ImageF& texture, const ImageU16& labels, const
   return SceneStages(ctx).darken(texture, labels, p);
 }
 ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
-               double* device_ms) {
-  return SceneStages(ctx).compose(texture, lights, labels, depth, vp, p, device_ms);
+               const ImageF& depth, const scene::ScenePreset& p, double* device_ms) {
+  return SceneStages(ctx).compose(texture, lights, labels, depth, p, device_ms);
 }
 
 scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages) {
   scene::PixelStages st;
   st.tail = [stages](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& d,
-                     const scene::VanishingPoint& vp, const scene::ScenePreset& p, bool keep_darkened) {
-    return stages->tail(t, lights, ids, d, vp, p, keep_darkened);
+                     const scene::ScenePreset& p, bool keep_darkened) {
+    return stages->tail(t, lights, ids, d, p, keep_darkened);
   };
   return st;
 }

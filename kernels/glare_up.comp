@@ -29,14 +29,13 @@ void main() {
   const bool blur = (P.flags & 1) != 0, up = (P.flags & 2) != 0;
   precise float u[3] = float[3](0.0, 0.0, 0.0);
   if (up) {
-    int r0, r1, c0, c1;
-    float wy0, wy1, wx0, wx1;
-    glare_up_tap(y, P.src_h, r0, r1, wy0, wy1);
-    glare_up_tap(x, P.src_w, c0, c1, wx0, wx1);
+    const GlareTap ty = glare_up_tap(y, P.src_h), tx = glare_up_tap(x, P.src_w);
     for (int c = 0; c < 3; ++c) {
-      precise float t0 = wy0 * coarse[3 * (r0 * P.src_w + c0) + c] + wy1 * coarse[3 * (r1 * P.src_w + c0) + c];
-      precise float t1 = wy0 * coarse[3 * (r0 * P.src_w + c1) + c] + wy1 * coarse[3 * (r1 * P.src_w + c1) + c];
-      u[c] = wx0 * t0 + wx1 * t1;
+      const float t0 = glare_lerp(ty.w0, coarse[3 * (ty.i0 * P.src_w + tx.i0) + c], ty.w1,
+                                  coarse[3 * (ty.i1 * P.src_w + tx.i0) + c]);
+      const float t1 = glare_lerp(ty.w0, coarse[3 * (ty.i0 * P.src_w + tx.i1) + c], ty.w1,
+                                  coarse[3 * (ty.i1 * P.src_w + tx.i1) + c]);
+      u[c] = glare_lerp(tx.w0, t0, tx.w1, t1);
     }
   }
   for (int c = 0; c < 3; ++c) {

@@ -7,8 +7,9 @@
 // through `bad`: the smallest row-major index of such a pixel (atomicMin), as the CPU reports
 // the first one.
 // With the lens's glare (glare != 0): the radiance first becomes keep·L + s_c·up(acc_1), the
-// last bilinear upsample of the glare pyramid and its mix (sensor/glare.cpp glare_row), in
-// float and in that order; the bad-pixel check reads the radiance before it.
+// last bilinear upsample of the glare pyramid and its mix (common/glare.glsl, which
+// sensor/glare.cpp's glare_row runs too), in float and in that order; the bad-pixel check reads
+// the radiance before it.
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #include "common/cfa.glsl"
@@ -37,15 +38,11 @@ void main() {
   precise float g[3] = float[3](R, G, B);
   if (P.glare != 0u) {
     const int aw = int(P.width + 1u) / 2, ah = int(P.height + 1u) / 2;
-    int r0, r1, c0, c1;
-    float wy0, wy1, wx0, wx1;
-    glare_up_tap(int(y), ah, r0, r1, wy0, wy1);
-    glare_up_tap(int(x), aw, c0, c1, wx0, wx1);
+    const GlareTap ty = glare_up_tap(int(y), ah), tx = glare_up_tap(int(x), aw);
     for (int k = 0; k < 3; ++k) {
-      precise float t0 = wy0 * acc1[3 * (r0 * aw + c0) + k] + wy1 * acc1[3 * (r1 * aw + c0) + k];
-      precise float t1 = wy0 * acc1[3 * (r0 * aw + c1) + k] + wy1 * acc1[3 * (r1 * aw + c1) + k];
-      precise float u = wx0 * t0 + wx1 * t1;
-      g[k] = P.keep * g[k] + scale[k] * u;
+      const float t0 = glare_lerp(ty.w0, acc1[3 * (ty.i0 * aw + tx.i0) + k], ty.w1, acc1[3 * (ty.i1 * aw + tx.i0) + k]);
+      const float t1 = glare_lerp(ty.w0, acc1[3 * (ty.i0 * aw + tx.i1) + k], ty.w1, acc1[3 * (ty.i1 * aw + tx.i1) + k]);
+      g[k] = glare_mix(P.keep, g[k], scale[k], glare_lerp(tx.w0, t0, tx.w1, t1));
     }
   }
   const uint c = cfa_color(P.cfa_cell, x, y);

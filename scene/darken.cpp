@@ -1,4 +1,5 @@
 // Linearization and per-class darkening under night illumination (stage 1).
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <fmt/format.h>
@@ -198,7 +199,7 @@ DarkenParams darken_params(const ScenePreset& p) {
     d.K[k] = K[k];
     d.glow[k] = glow[k];
   }
-  for (int id = 0; id < kLabelCount; ++id) d.ground_class[id] = is_ground(id);
+  std::copy(ground_classes().begin(), ground_classes().end(), d.ground_class);
   return d;
 }
 

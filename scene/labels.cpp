@@ -85,6 +85,14 @@ bool is_vehicle(int id) { return id >= 26 && id <= 33; }
 bool is_ground(int id) {
   return id == 6 || id == 7 || id == 8 || id == 9 || id == 10 || id == 22;
 }
+const std::array<bool, kLabelCount>& ground_classes() {
+  static const std::array<bool, kLabelCount> table = [] {
+    std::array<bool, kLabelCount> t{};
+    for (int id = 0; id < kLabelCount; ++id) t[id] = is_ground(id);
+    return t;
+  }();
+  return table;
+}
 
 LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::string& file) {
   LabelMap m;

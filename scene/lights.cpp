@@ -241,8 +241,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   const double xl[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given.
-  bool read[kLabelCount];
-  for (int id = 0; id < kLabelCount; ++id) read[id] = is_ground(id);
+  const auto& read = ground_classes();
   // On the flat ground a row is one forward distance D and its ground points are X = t·x_n
   // (CameraGeometry::ground_point, whose expressions are repeated here so that E is bit-equal
   // to low_beam_lux at the pixel's ground point): D and t once per row, the two atan per lamp
@@ -697,7 +696,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 }
 
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& beam_lux, const VanishingPoint& /*vp: the beam is metric now*/, const ScenePreset& p) {
+               const ImageF& beam_lux, const ScenePreset& p) {
   const int W = texture.width(), H = texture.height();
   ImageF night(W, H, 3, uninitialized, unit::radiance);
   const DarkenParams dp = darken_params(p);

@@ -58,12 +58,12 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   s.light_stats = lm.stats;
   lap("lights");
   if (stages.tail) {
-    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.beam_lux, vp, p, keep_darkened);
+    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);
     s.radiance = std::move(t.radiance);
     if (keep_darkened) s.darkened = std::move(t.darkened);
     s.resident_radiance = t.resident;
   } else {
-    s.radiance = compose(texture, lm.radiance, labels.ids, s.beam_lux, vp, p);
+    s.radiance = compose(texture, lm.radiance, labels.ids, s.beam_lux, p);
   }
   s.lights = std::move(lm.radiance);
   lap("compose");

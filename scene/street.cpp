@@ -295,8 +295,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
-  bool ground[kLabelCount];
-  for (int i = 0; i < kLabelCount; ++i) ground[i] = is_ground(i);
+  const auto& ground = ground_classes();
 #pragma omp parallel
   {
     std::vector<double> acc(W), one(W);  // the row's E, one lamp's E (from xa on)

@@ -1,7 +1,7 @@
 // Lens veiling glare: the reduced-resolution pyramid of include/photosite/sensor/glare.h.
 // Every float operation below is written in a fixed order (no FMA: -ffp-contract=off), the
-// same order as kernels/glare_*.comp and the mix in kernels/photon.comp, so both backends give
-// the same bits. Rows are independent and the energy sums run in a fixed order, so the thread
+// same order as kernels/glare_*.comp and photon.comp; the borders, taps, bilinear steps and the
+// mix are the same functions (kernels/common/glare.glsl), so both backends give the same bits. Rows are independent and the energy sums run in a fixed order, so the thread
 // count never changes a result.
 #include "photosite/sensor/glare.h"
 
@@ -10,42 +10,27 @@
 
 #include "photosite/error.h"
 #include "photosite/units.h"
+#include "sensor/glare_detail.h"
 
 namespace photosite {
 
 namespace {
 constexpr int kMaxLevel = 16;
 
-// Half-sample symmetric mirror, periodic (…, 1, 0 | 0, 1, …, n−1 | n−1, …): a symmetric kernel
-// applied with it conserves the sum exactly, for any n >= 1 and any offset.
-inline int mirror(int i, int n) {
-  const int period = 2 * n;
-  int m = i % period;
-  if (m < 0) m += period;
-  return m < n ? m : period - 1 - m;
-}
-
-// Bilinear 2x upsampling taps, pixel-centre aligned (fine x sits at coarse x/2 − 1/4), edge
-// clamped. Lower coarse index first. The column sums of this operator equal the number of fine
-// children of each coarse pixel (2, or 1 for the last one of an odd size), so Σ over the fine
-// image = Σ n·coarse: the level-1 energies below are the full-resolution ones.
-struct UpTap {
-  int i0, i1;
-  float w0, w1;
-};
-inline UpTap up_tap(int x, int n_coarse) {
-  const int j = x >> 1;
-  if (x & 1) return {j, std::min(j + 1, n_coarse - 1), 0.75f, 0.25f};
-  return {std::max(j - 1, 0), j, 0.25f, 0.75f};
-}
+// The pyramid's borders, taps, steps and mix are kernels/common/glare.glsl's, shared with the
+// Vulkan kernels (sensor/glare_detail.h).
+using shader::glare_lerp;
+using shader::glare_mirror;
+using shader::glare_up_tap;
+using UpTap = shader::GlareTap;
 
 // One row of the bilinear 2x upsampling along x: u[3x + c] = w0·t[3·i0 + c] + w1·t[3·i1 + c]
-// with up_tap's taps, for x < width; t holds cw pixels. The interior pairs (x = 2j, 2j + 1) need
-// no clamping; the arithmetic is up_tap's.
+// with glare_up_tap's taps, for x < width; t holds cw pixels. The interior pairs (x = 2j, 2j + 1)
+// need no clamping; the arithmetic is glare_up_tap's.
 inline void upsample_row(const float* t, int cw, int width, float* u) {
   auto one = [&](int x) {
-    const UpTap tx = up_tap(x, cw);
-    for (int c = 0; c < 3; ++c) u[3 * x + c] = tx.w0 * t[3 * tx.i0 + c] + tx.w1 * t[3 * tx.i1 + c];
+    const UpTap tx = glare_up_tap(x, cw);
+    for (int c = 0; c < 3; ++c) u[3 * x + c] = glare_lerp(tx.w0, t[3 * tx.i0 + c], tx.w1, t[3 * tx.i1 + c]);
   };
   if (cw < 3) {
     for (int x = 0; x < width; ++x) one(x);
@@ -59,8 +44,8 @@ inline void upsample_row(const float* t, int cw, int width, float* u) {
     const float* d = t + 3 * (j + 1);
     float* o = u + 6 * j;
     for (int c = 0; c < 3; ++c) {
-      o[c] = 0.25f * a[c] + 0.75f * b[c];
-      o[3 + c] = 0.75f * b[c] + 0.25f * d[c];
+      o[c] = glare_lerp(0.25f, a[c], 0.75f, b[c]);
+      o[3 + c] = glare_lerp(0.75f, b[c], 0.25f, d[c]);
     }
   }
   for (int x = 2 * (cw - 1); x < width; ++x) one(x);
@@ -124,10 +109,10 @@ ImageF down_1331(const ImageF& src) {
     const float* s = src.row(y);
     float* o = t.row(y);
     auto at = [&](int x) {
-      const float* a = s + 3 * mirror(2 * x - 1, w);
-      const float* b = s + 3 * mirror(2 * x, w);
-      const float* c = s + 3 * mirror(2 * x + 1, w);
-      const float* d = s + 3 * mirror(2 * x + 2, w);
+      const float* a = s + 3 * glare_mirror(2 * x - 1, w);
+      const float* b = s + 3 * glare_mirror(2 * x, w);
+      const float* c = s + 3 * glare_mirror(2 * x + 1, w);
+      const float* d = s + 3 * glare_mirror(2 * x + 2, w);
       for (int k = 0; k < 3; ++k)
         o[3 * x + k] = (0.125f * a[k] + 0.375f * b[k]) + (0.375f * c[k] + 0.125f * d[k]);
     };
@@ -142,10 +127,10 @@ ImageF down_1331(const ImageF& src) {
   }
 #pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels)
   for (int y = 0; y < h2; ++y) {
-    const float* a = t.row(mirror(2 * y - 1, h));
-    const float* b = t.row(mirror(2 * y, h));
-    const float* c = t.row(mirror(2 * y + 1, h));
-    const float* d = t.row(mirror(2 * y + 2, h));
+    const float* a = t.row(glare_mirror(2 * y - 1, h));
+    const float* b = t.row(glare_mirror(2 * y, h));
+    const float* c = t.row(glare_mirror(2 * y + 1, h));
+    const float* d = t.row(glare_mirror(2 * y + 2, h));
     float* o = dst.row(y);
     for (int j = 0; j < 3 * w2; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
   }
@@ -165,7 +150,7 @@ ImageF blur_rows(const ImageF& src, const std::array<float, kGlareBlurRadius + 1
     for (int y = 0; y < h; ++y) {
       const float* s = src.row(y);
       for (int x = -R; x < w + R; ++x)
-        for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * mirror(x, w) + c];
+        for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
       float* o = dst.row(y);
       for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
       for (int k = -R; k <= R; ++k) {
@@ -199,10 +184,10 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
     for (int y = 0; y < height; ++y) {
       float* o = dst.row(y);
       if (up) {
-        const UpTap ty = up_tap(y, ch);
+        const UpTap ty = glare_up_tap(y, ch);
         const float* r0 = coarse.row(ty.i0);
         const float* r1 = coarse.row(ty.i1);
-        for (int j = 0; j < 3 * cw; ++j) tmp[j] = ty.w0 * r0[j] + ty.w1 * r1[j];
+        for (int j = 0; j < 3 * cw; ++j) tmp[j] = glare_lerp(ty.w0, r0[j], ty.w1, r1[j]);
         upsample_row(tmp.data(), cw, width, blur ? u.data() : o);
       }
       if (!blur) {
@@ -212,7 +197,7 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
       for (size_t j = 0; j < n; ++j) o[j] = 0.f;
       for (int k = -R; k <= R; ++k) {
         const float wk = g[std::abs(k)];
-        const float* v = t.row(mirror(y + k, height));
+        const float* v = t.row(glare_mirror(y + k, height));
         for (size_t j = 0; j < n; ++j) o[j] = o[j] + wk * v[j];
       }
       if (up)
@@ -319,18 +304,18 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
 void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
   const ImageF& a = s.acc1;
   const int aw = a.width(), ah = a.height();
-  const UpTap ty = up_tap(y, ah);
+  const UpTap ty = glare_up_tap(y, ah);
   const float* r0 = a.row(ty.i0);
   const float* r1 = a.row(ty.i1);
   float* t = tmp;                  // 3·aw: the vertical interpolation
   float* u = tmp + 3 * aw;         // 3·width: then the horizontal one
-  for (int j = 0; j < 3 * aw; ++j) t[j] = ty.w0 * r0[j] + ty.w1 * r1[j];
+  for (int j = 0; j < 3 * aw; ++j) t[j] = glare_lerp(ty.w0, r0[j], ty.w1, r1[j]);
   upsample_row(t, aw, s.width, u);
   const float keep = s.keep, s0 = s.scale[0], s1 = s.scale[1], s2 = s.scale[2];
   for (int x = 0; x < s.width; ++x) {
-    out[3 * x] = keep * in[3 * x] + s0 * u[3 * x];
-    out[3 * x + 1] = keep * in[3 * x + 1] + s1 * u[3 * x + 1];
-    out[3 * x + 2] = keep * in[3 * x + 2] + s2 * u[3 * x + 2];
+    out[3 * x] = shader::glare_mix(keep, in[3 * x], s0, u[3 * x]);
+    out[3 * x + 1] = shader::glare_mix(keep, in[3 * x + 1], s1, u[3 * x + 1]);
+    out[3 * x + 2] = shader::glare_mix(keep, in[3 * x + 2], s2, u[3 * x + 2]);
   }
 }
 

@@ -450,8 +450,8 @@ TEST_F(Gpu, ComposeMatchesCpuToOneUlp) {
     ImageF lights(w, h, 3, 0.f, unit::radiance);
     for (size_t i = 0; i < lights.size(); ++i)
       lights[i] = static_cast<float>(uniform_open(random_words(12, 0, i, Stream::Test)[0]) * 0.01);
-    const ImageF cpu = scene::compose(tex, lights, road.labels.ids, depth, vp, sp);
-    const ImageF dev = gpu::compose(*ctx, tex, lights, road.labels.ids, depth, vp, sp);
+    const ImageF cpu = scene::compose(tex, lights, road.labels.ids, depth, sp);
+    const ImageF dev = gpu::compose(*ctx, tex, lights, road.labels.ids, depth, sp);
     ASSERT_EQ(cpu.size(), dev.size());
     size_t differ = 0;
     int64_t worst_ulp = 0;
@@ -547,7 +547,7 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   EXPECT_EQ(count_differences(c.raw_dn, sense(mean_e, cam, ex, s, fpn).raw_dn), 0u);
   // A later composition overwrites the radiance: the scene's token no longer names a buffer.
   (void)stages->compose(scene::reflectance_texture(road.day_linear_srgb, road.labels.ids, sp), cpu.lights,
-                        road.labels.ids, cpu.beam_lux, cpu.vp, sp);
+                        road.labels.ids, cpu.beam_lux, sp);
   EXPECT_EQ(stages->resident_radiance(dev.resident_radiance), nullptr);
   EXPECT_EQ(stages->resident_radiance(0), nullptr);
 }

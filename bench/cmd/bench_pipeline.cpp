@@ -117,7 +117,7 @@ void run(const Opts& o) {
     for (const auto& st : ns.timings) add(cpu, st.stage, st.ms);
     add(cpu, "darken only", time_ms([&] { (void)scene::darken(texture, lm.ids, sp); }));
     add(cpu, "linearize", time_ms([&] { (void)scene::linearize(raw, raw_info); }));
-    add(cpu, "compose only", time_ms([&] { (void)scene::compose(texture, ns.lights, lm.ids, ns.beam_lux, ns.vp, sp); }));
+    add(cpu, "compose only", time_ms([&] { (void)scene::compose(texture, ns.lights, lm.ids, ns.beam_lux, sp); }));
     const GlarePlan gplan = plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um));
     if (gplan.active) add(cpu, "glare", time_ms([&] { (void)glare_skirt(ns.radiance, gplan); }));
     ImageF mean_e;
@@ -156,7 +156,7 @@ void run(const Opts& o) {
       double ms = -1;
       (void)gpu::linearize(*ctx, raw, raw_info, &ms);
       add(dev, "linearize", ms);
-      (void)gpu::compose(*ctx, texture, ns.lights, lm.ids, ns.beam_lux, ns.vp, sp, &ms);
+      (void)gpu::compose(*ctx, texture, ns.lights, lm.ids, ns.beam_lux, sp, &ms);
       add(dev, "compose only", ms);
       // The night tail and the sensor as night and batch run them: one sequence for darken and
       // compose, the sensor reading the radiance where it was left; against the same kernels
@@ -165,12 +165,12 @@ void run(const Opts& o) {
         ImageF L1 = ns.lights, L2 = ns.lights;
         auto t0 = ctx->transfers();
         add(dev, "tail+sensor resident", time_ms([&] {
-              scene::PixelTail t = stages->tail(texture, L1, lm.ids, ns.beam_lux, ns.vp, sp, false);
+              scene::PixelTail t = stages->tail(texture, L1, lm.ids, ns.beam_lux, sp, false);
               gs = chain->expose(t.radiance, cam, lens, es, fpn, stages->resident_radiance(t.resident));
             }));
         auto t1 = ctx->transfers();
         add(dev, "tail+sensor round trips", time_ms([&] {
-              const ImageF rad = stages->compose(texture, L2, lm.ids, ns.beam_lux, ns.vp, sp);
+              const ImageF rad = stages->compose(texture, L2, lm.ids, ns.beam_lux, sp);
               gs = chain->expose(rad, cam, lens, es, fpn);
             }));
         auto t2 = ctx->transfers();

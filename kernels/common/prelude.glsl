@@ -1,10 +1,10 @@
 // The prelude of the C++/GLSL common subset. The files of kernels/common that hold per-pixel
 // maths (fastmath.glsl, philox_round.glsl, cornish_fisher.glsl, ptrs.glsl, sensor_pixel.glsl,
-// darken.glsl) are written once, in the subset of the two languages they share, and compiled
-// both into the Vulkan kernels (glslang) and into the C++ library (through the private headers
-// core/shader_subset.h, core/rng_detail.h, sensor/poisson_detail.h, sensor/pixel_detail.h,
-// scene/darken_detail.h), so the CPU and Vulkan paths run the same float operations in the same
-// order and give the same bits.
+// darken.glsl, glare.glsl) are written once, in the subset of the two languages they share, and
+// compiled both into the Vulkan kernels (glslang) and into the C++ library (through the private
+// headers core/shader_subset.h, core/rng_detail.h, sensor/poisson_detail.h, sensor/pixel_detail.h,
+// scene/darken_detail.h, sensor/glare_detail.h), so the CPU and Vulkan paths run the same float
+// operations in the same order and give the same bits.
 //
 // The subset: float, double, int, uint, bool, uvec2, uvec4 (members .x .y .z .w and the
 // constructor with all components), structs filled member by member, functional casts

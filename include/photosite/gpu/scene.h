@@ -20,8 +20,7 @@ ImageF linearize(Context& ctx, const ImageF& day, const ImageFileInfo& info, dou
 // scene::compose() on the device (darken, then low beam + lights), `depth` being the low beam's
 // illuminance image (scene::low_beam_illuminance, lx): bit-equal (tests/gpu_test.cpp).
 ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& depth, const scene::VanishingPoint& vp, const scene::ScenePreset& p,
-               double* device_ms = nullptr);
+               const ImageF& depth, const scene::ScenePreset& p, double* device_ms = nullptr);
 // device_ms: the kernels' device time (timestamps), -1 without them.
 
 // Recording into a caller's sequence (for chains that keep images on the device).
@@ -36,14 +35,13 @@ class SceneStages {
   ~SceneStages();
   ImageF darken(const ImageF& texture, const ImageU16& labels, const scene::ScenePreset& p);
   ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                 const scene::VanishingPoint& vp, const scene::ScenePreset& p, double* device_ms = nullptr);
+                 const scene::ScenePreset& p, double* device_ms = nullptr);
   // night_scene()'s whole per-pixel tail as one sequence: darken (into `darkened` too with
   // keep_darkened), low beam + lights. Uploads the texture, light map, labels and depth once
   // each; downloads the radiance, which also stays
   // on the device under the returned token (resident_radiance).
   scene::PixelTail tail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                        const scene::VanishingPoint& vp, const scene::ScenePreset& p, bool keep_darkened,
-                        double* device_ms = nullptr);
+                        const scene::ScenePreset& p, bool keep_darkened, double* device_ms = nullptr);
   // The device buffer holding the radiance of the tail() that gave `token`, or nullptr when
   // the token is 0 or stale (a later call has overwritten the buffer).
   Buffer* resident_radiance(uint64_t token);
@@ -57,7 +55,7 @@ class SceneStages {
   TailBuffers upload_tail(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                           const ImageF& depth);
   void record_compose(Sequence& s, Buffer& texture, Buffer& lights, Buffer& labels, Buffer& depth, Buffer& out,
-                      int w, int h, const scene::VanishingPoint& vp, const scene::ScenePreset& p);
+                      int w, int h, const scene::ScenePreset& p);
   Context& ctx_;
   BufferCache buffers_;
   uint64_t radiance_token_ = 0;  // what buffer "radiance" holds; 0: nothing promised

@@ -224,7 +224,7 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
 // `vp` is unused (the beam is metric); kept for the PixelStages interface.
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
-               const ImageF& beam_lux, const VanishingPoint& vp, const ScenePreset& p);
+               const ImageF& beam_lux, const ScenePreset& p);
 
 // ---- the chain ----------------------------------------------------------------------------
 struct StageTiming { std::string stage; double ms; };
@@ -254,8 +254,8 @@ struct PixelTail {
                           // token (gpu::new_residency_token), for the sensor to read from there
 };
 struct PixelStages {
-  std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& depth,
-                          const VanishingPoint& vp, const ScenePreset& p, bool keep_darkened)>
+  std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& beam_lux,
+                          const ScenePreset& p, bool keep_darkened)>
       tail;
 };
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
