@@ -191,9 +191,11 @@ LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, i
     if (inst.channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
     if (!inst.same_shape(width, height)) {
       if (resize == ResizeLabels::None)
-        fail_at(instances_path, "instance ids are " + std::to_string(inst.width()) + "x" +
-                                    std::to_string(inst.height()) + " but the image is " +
-                                    std::to_string(width) + "x" + std::to_string(height));
+        fail_parameter("resize_labels",
+                       instances_path + ": instance ids are " + std::to_string(inst.width()) + "x" +
+                           std::to_string(inst.height()) + " but the image is " + std::to_string(width) + "x" +
+                           std::to_string(height) + " (pass ",
+                       "=nearest to resample them)");
       inst = resize_nearest(inst, width, height);
     }
     m.instances = ImageU16(width, height, 1, 0, "instance id");
