@@ -330,27 +330,20 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       }
     }
 
-  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses). (Rows in
-  // parallel: each pixel writes only itself.)
-  int signals = 0;
-#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
-  for (int y = 0; y < H; ++y) {
-    const uint16_t* r = labels.row(y);
-    for (int x = 0; x < W; ++x) {
-      if (r[x] != static_cast<int>(Label::TrafficLight)) continue;
-      const Lab c = lab_at(y * W + x);
-      const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
-      if (c.L < 25 || chroma < 30) continue;
-      Rgb col;
-      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
-      else continue;
-      put_max(L, x, y, col);
-      ++signals;
-    }
+  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses).
+  for (size_t i = 0; i < labels.pixel_count(); ++i) {
+    if (labels[i] != static_cast<int>(Label::TrafficLight)) continue;
+    const Lab c = lab_at(static_cast<int>(i));
+    const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
+    if (c.L < 25 || chroma < 30) continue;
+    Rgb col;
+    if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
+    else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
+    else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+    else continue;
+    put_max(L, static_cast<int>(i % W), static_cast<int>(i / W), col);
+    ++out.stats.signals;
   }
-  out.stats.signals += signals;
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
