@@ -143,9 +143,9 @@ double beam_lux(double X_m, double D_m, double tan_rise, const ScenePreset& p) {
   return E;
 }
 
-// One row's rays for both lamps over pixels [x0, x1) (the ground points X = t·(x − c_x)/f at
-// the row's D): the transcendental part of the beam, vectorized (AVX2 where the CPU has it; the
-// same IEEE operations either way, so the same bits).
+// One row's rays for both lamps over pixels x0 .. x0 + n − 1 (the ground points
+// X = t·(x − c_x)/f at the row's D): the transcendental part of the beam, vectorized (AVX2 where
+// the CPU has it; the same IEEE operations either way, so the same bits).
 constexpr int kBeamChunk = 256;
 struct BeamRows { double h[2][kBeamChunk], v[2][kBeamChunk], c[2][kBeamChunk], d2[2][kBeamChunk]; };
 __attribute__((target_clones("avx2", "default")))
@@ -282,10 +282,10 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
         for (int x = a; x < b; ++x) {
           if (!needed(x)) continue;
           const int i = x - a;
-          double sum = 0;
+          double E_x = 0;
           for (int k = 0; k < 2; ++k)
-            sum += beam_intensity_cd(rays.h[k][i], rays.v[k][i], tan_rise, p) * rays.c[k][i] / rays.d2[k][i];
-          e[x] = static_cast<float>(sum);
+            E_x += beam_intensity_cd(rays.h[k][i], rays.v[k][i], tan_rise, p) * rays.c[k][i] / rays.d2[k][i];
+          e[x] = static_cast<float>(E_x);
         }
       }
     }
