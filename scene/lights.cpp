@@ -143,9 +143,9 @@ double beam_lux(double X_m, double D_m, double tan_rise, const ScenePreset& p) {
   return E;
 }
 
-// One row's rays for both lamps over pixels [x0, x1) (the ground points X = t·(x − c_x)/f at
-// the row's D): the transcendental part of the beam, vectorized (AVX2 where the CPU has it; the
-// same IEEE operations either way, so the same bits).
+// One row's rays for both lamps over pixels x0 .. x0 + n − 1 (the ground points
+// X = t·(x − c_x)/f at the row's D): the transcendental part of the beam, vectorized (AVX2 where
+// the CPU has it; the same IEEE operations either way, so the same bits).
 constexpr int kBeamChunk = 256;
 struct BeamRows { double h[2][kBeamChunk], v[2][kBeamChunk], c[2][kBeamChunk], d2[2][kBeamChunk]; };
 __attribute__((target_clones("avx2", "default")))
@@ -281,10 +281,10 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
         for (int x = a; x < b; ++x) {
           if (!needed(x)) continue;
           const int i = x - a;
-          double sum = 0;
+          double E_x = 0;
           for (int k = 0; k < 2; ++k)
-            sum += beam_intensity_cd(rays.h[k][i], rays.v[k][i], tan_rise, p) * rays.c[k][i] / rays.d2[k][i];
-          e[x] = static_cast<float>(sum);
+            E_x += beam_intensity_cd(rays.h[k][i], rays.v[k][i], tan_rise, p) * rays.c[k][i] / rays.d2[k][i];
+          e[x] = static_cast<float>(E_x);
         }
       }
     }
@@ -329,27 +329,20 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       }
     }
 
-  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses). (Rows in
-  // parallel: each pixel writes only itself.)
-  int signals = 0;
-#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
-  for (int y = 0; y < H; ++y) {
-    const uint16_t* r = labels.row(y);
-    for (int x = 0; x < W; ++x) {
-      if (r[x] != static_cast<int>(Label::TrafficLight)) continue;
-      const Lab c = lab_at(y * W + x);
-      const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
-      if (c.L < 25 || chroma < 30) continue;
-      Rgb col;
-      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
-      else continue;
-      put_max(L, x, y, col);
-      ++signals;
-    }
+  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses).
+  for (size_t i = 0; i < labels.pixel_count(); ++i) {
+    if (labels[i] != static_cast<int>(Label::TrafficLight)) continue;
+    const Lab c = lab_at(static_cast<int>(i));
+    const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
+    if (c.L < 25 || chroma < 30) continue;
+    Rgb col;
+    if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
+    else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
+    else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+    else continue;
+    put_max(L, static_cast<int>(i % W), static_cast<int>(i / W), col);
+    ++out.stats.signals;
   }
-  out.stats.signals += signals;
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
@@ -412,29 +405,15 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   }
   struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
   std::vector<Box> boxes(ncomp + 1);
-  // (Rows in parallel, each thread's boxes merged by min, max and sums: the same boxes.)
-#pragma omp parallel
-  {
-    std::vector<Box> mine(ncomp + 1);
-#pragma omp for schedule(static) nowait
-    for (int y = std::max(0, ry0); y <= ry1; ++y)
-      for (int x = 0; x < W; ++x) {
-        const int c = comp.at(x, y);
-        if (!c) continue;
-        Box& b = mine[c];
-        b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
-        b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
-        ++b.n;
-      }
-#pragma omp critical
-    for (int c = 1; c <= ncomp; ++c) {
+  for (int y = ry0; y <= ry1; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int c = comp.at(x, y);
+      if (!c) continue;
       Box& b = boxes[c];
-      const Box& m = mine[c];
-      b.x0 = std::min(b.x0, m.x0); b.x1 = std::max(b.x1, m.x1);
-      b.y0 = std::min(b.y0, m.y0); b.y1 = std::max(b.y1, m.y1);
-      b.n += m.n;
+      b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
+      b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
+      ++b.n;
     }
-  }
   // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
   // lowest row; the labels just below it (3 rows across the middle half of its width) say what
   // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
@@ -510,19 +489,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
       else if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
     }
-  // (White counts per thread, summed; then each pixel's cue by its box, in parallel.)
-  const long cb = static_cast<long>(i_begin), ce = static_cast<long>(i_end);
-#pragma omp parallel
-  {
-    std::vector<int> white(ncomp + 1, 0);
-#pragma omp for schedule(static) nowait
-    for (long i = cb; i < ce; ++i)
-      if (cue[i] == 2) ++white[comp[i]];
-#pragma omp critical
-    for (int c = 1; c <= ncomp; ++c) boxes[c].white += white[c];
-  }
-#pragma omp parallel for schedule(static)
-  for (long i = cb; i < ce; ++i)
+  for (size_t i = i_begin; i < i_end; ++i)
+    if (cue[i] == 2) ++boxes[comp[i]].white;
+  for (size_t i = i_begin; i < i_end; ++i)
     if (cue[i] == 2) {
       const Box& b = boxes[comp[i]];
       const int y = static_cast<int>(i / W);
@@ -530,9 +499,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
   // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
   // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
-  // (Rows in parallel: each pixel reads the cues and writes only itself.)
   auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
-#pragma omp parallel for schedule(static, 8)
   for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
     for (int x = 1; x < W - 1; ++x) {
       const uint8_t v = cue.at(x, y);

@@ -170,29 +170,17 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
     struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1; };
     std::vector<Box> box(n);
-#pragma omp parallel
-    {
-      std::vector<Box> mine(n);  // rows in parallel, merged by min and max: the same boxes
-#pragma omp for schedule(static) nowait
-      for (int y = 0; y < H; ++y) {
-        const uint8_t* m = mask.ptr<uint8_t>(y);
-        const int* l = cc.ptr<int>(y);
-        for (int x = 0; x < W; ++x)
-          if (m[x]) {
-            Box& b = mine[l[x]];
-            b.x0 = std::min(b.x0, x);
-            b.x1 = std::max(b.x1, x);
-            b.y0 = std::min(b.y0, y);
-            b.y1 = y;  // rows ascend within a thread
-          }
-      }
-#pragma omp critical
-      for (int c = 1; c < n; ++c) {
-        box[c].x0 = std::min(box[c].x0, mine[c].x0);
-        box[c].x1 = std::max(box[c].x1, mine[c].x1);
-        box[c].y0 = std::min(box[c].y0, mine[c].y0);
-        box[c].y1 = std::max(box[c].y1, mine[c].y1);
-      }
+    for (int y = 0; y < H; ++y) {
+      const uint8_t* m = mask.ptr<uint8_t>(y);
+      const int* l = cc.ptr<int>(y);
+      for (int x = 0; x < W; ++x)
+        if (m[x]) {
+          Box& b = box[l[x]];
+          b.x0 = std::min(b.x0, x);
+          b.x1 = std::max(b.x1, x);
+          b.y0 = std::min(b.y0, y);
+          b.y1 = y;  // rows ascend
+        }
     }
     for (int c = 1; c < n; ++c) {
       const int x0 = box[c].x0, w = box[c].x1 - box[c].x0 + 1;

@@ -402,23 +402,29 @@ TEST_F(Gpu, DarkenBitEqualToCpu) {
 
 // Linearization: the same table and float operations, bit-equal for 1 to 4 channels, integer
 // codes and linear floats; a NaN or Inf is refused with the CPU's message (the first pixel).
+// 8-bit files take the CPU's 256-entry table (scene/darken.cpp) for the values code·(1/255) they
+// read as and interpolate any other value (every 7th here): still the kernel's bits.
 TEST_F(Gpu, LinearizeBitEqualToCpu) {
   for (int c = 1; c <= 4; ++c)
-    for (bool is_float : {false, true}) {
+    for (int kind = 0; kind < 3; ++kind) {  // 16-bit codes, linear floats, 8-bit codes
+      const bool is_float = kind == 1;
       ImageF day(97, 41, c, 0.f);
       for (size_t i = 0; i < day.size(); ++i) {
         const double u = uniform_open(random_words(11, 0, i, Stream::Test)[0]);
-        day[i] = is_float ? static_cast<float>(4 * u - 0.5)  // negatives and > 1 in a linear EXR
-                          : static_cast<float>(std::floor(u * 65536) / 65535.0);
+        day[i] = is_float    ? static_cast<float>(4 * u - 0.5)  // negatives and > 1 in a linear EXR
+                 : kind == 0 ? static_cast<float>(std::floor(u * 65536) / 65535.0)
+                 : i % 7 == 0 ? static_cast<float>(u)
+                              : static_cast<float>(std::floor(u * 256)) * (1.f / 255);
       }
       ImageFileInfo info;
       info.path = "day.png";
       info.is_float = is_float;
+      info.bits_per_sample = kind == 2 ? 8 : kind == 0 ? 16 : 32;
       const ImageF cpu = scene::linearize(day, info), dev = gpu::linearize(*ctx, day, info);
       ASSERT_EQ(cpu.size(), dev.size());
       size_t differ = 0;
       for (size_t i = 0; i < cpu.size(); ++i) differ += std::memcmp(&cpu[i], &dev[i], sizeof(float)) != 0;
-      EXPECT_EQ(differ, 0u) << c << " channels, float " << is_float;
+      EXPECT_EQ(differ, 0u) << c << " channels, kind " << kind;
     }
   ImageF day(31, 17, 3, 0.25f);
   day.at(20, 9, 1) = std::numeric_limits<float>::infinity();
