@@ -306,7 +306,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       const Item& it = l->item;
       const uint64_t seed = group_seed(r.settings.seed, it.group);
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, sp, seed, false, runner.pixel_stages()));
+          scene::night_scene(l->day, l->labels, sp, seed, false, runner));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
