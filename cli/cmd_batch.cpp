@@ -37,6 +37,7 @@ struct BatchCmd {
 
 void run(BatchCmd& c) {
   batch::Options& o = c.options;
+  const bool rig_given = c.rig != "auto";
   if (c.dataset.empty() == c.manifest.empty()) fail("batch: give either --dataset with --root, or --manifest");
   if (!c.dataset.empty() && c.root.empty()) fail("batch: --dataset needs --root");
   if (o.format != "exr" && o.format != "png" && o.format != "both") fail("--format must be exr, png or both");
@@ -54,7 +55,7 @@ void run(BatchCmd& c) {
     o.source = std::string(batch::to_string(ds)) + " " + fs::absolute(c.root).lexically_normal().string();
     o.root = c.root;
     if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(ds).camera;
-    if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;
+    if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;  // where an item has no camera file
   }
   if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
   if (c.sensor.frames != 1) fail("batch: --frames does not apply (sequences come from the data set's own frames)");
@@ -63,6 +64,7 @@ void run(BatchCmd& c) {
   o.device_store = r.store.dir();
   o.scene = scene::load_scene_preset(c.scene_preset);
   if (c.rig != "auto") o.scene.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)
+  o.item_cameras = !rig_given;  // an explicit --rig wins over Cityscapes' per-image camera files
   SensorRunner runner(resolve_backend(c.backend));
 
   std::signal(SIGINT, on_signal);
@@ -121,7 +123,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--queue-depth", o.queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
-  sub->add_option("--rig", c->rig, "camera rig (presets/rigs name or .toml path; auto: the data set's, else by aspect ratio)")
+  sub->add_option("--rig", c->rig, "camera rig (presets/rigs name, .toml path or Cityscapes camera .json; auto: each Cityscapes image's own camera file where the data set has it, else the data set's rig, else by aspect ratio)")
       ->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false);

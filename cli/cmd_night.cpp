@@ -84,7 +84,7 @@ void run_night(NightCmd c) {
   ImageF day_raw = read_image(c.image, &info);
   const scene::LabelMap labels =
       scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
-  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_raw.width(), day_raw.height());
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_raw.width(), day_raw.height(), c.image);
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
@@ -149,7 +149,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--out", c.out, "output EXR (with --frames, a # run takes the frame number)")->required();
   sub->add_option("--scene-preset", c.scene_preset, "scene preset: name in presets/scenes or a .toml path")
       ->capture_default_str();
-  sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, or auto (nearest native aspect ratio)")
+  sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, a Cityscapes camera .json, or auto (the image's Cityscapes camera file when beside it in the data set's layout, else the nearest native aspect ratio)")
       ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();

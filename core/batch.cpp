@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "photosite/error.h"
+#include "photosite/scene/rig.h"
 
 namespace photosite::batch {
 namespace fs = std::filesystem;
@@ -146,6 +147,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
           it.instances_rel = rel(ins, root);
         }
         it.group = (fs::path(top) / sub / (m[1].str() + "_" + m[2].str())).generic_string();
+        it.camera = scene::cityscapes_camera_file(it.image);
         require_labels(it);
         order[it.key] = std::stol(m[3].str());
         items.push_back(std::move(it));

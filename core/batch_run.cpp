@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -31,6 +32,7 @@
 
 #include "photosite/batch.h"
 #include "photosite/error.h"
+#include "photosite/scene/rig.h"
 #include "photosite/sensor/isp.h"
 
 namespace photosite::batch {
@@ -74,6 +76,7 @@ struct Loaded {
   Item item;
   ImageF day;  // linear sRGB
   scene::LabelMap labels;
+  std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::string error;
 };
 struct Computed {
@@ -135,6 +138,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   (void)base_ex;
   const DeviceStore store(o.device_store);
   const scene::ScenePreset& sp = o.scene;
+  const bool item_cameras =
+      o.item_cameras && std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.camera.empty(); });
 
   // Parameters that decide the results (not the shard: results do not depend on the split).
   // "Use the preset's value" is recorded as null (manifests of earlier runs: -1 / -999, read as
@@ -144,7 +149,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"camera", r.camera.name}, {"camera_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(r.camera.file)))},
       {"lens", r.lens.name}, {"lens_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(r.lens.file)))},
       {"scene_preset", sp.name}, {"scene_file_fnv", fmt::format("{:016x}", fnv1a_text(read_text(sp.file)))},
-      {"camera_rig", sp.rig.file.empty() ? std::string("auto") : sp.rig.name},
+      {"camera_rig", (item_cameras ? std::string("per-image camera files, else ") : std::string()) +
+                         (sp.rig.file.empty() ? std::string("auto") : sp.rig.name)},
       {"rig_file_fnv", sp.rig.file.empty() ? std::string() : fmt::format("{:016x}", fnv1a_text(read_text(sp.rig.file)))},
       {"exposure_s", r.settings.exposure_s}, {"f_number", r.settings.f_number ? nlohmann::json(*r.settings.f_number) : nlohmann::json()},
       {"gain_db", r.settings.gain_db}, {"temperature_c", r.settings.temperature_c ? nlohmann::json(*r.settings.temperature_c) : nlohmann::json()},
@@ -255,6 +261,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         ImageF day = read_image(it.image, &info);
         l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                       scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
+        if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
         l.day = scene::linearize(day, info);
       } catch (const Error& e) {
         l.error = e.what();
@@ -305,8 +312,15 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     try {
       const Item& it = l->item;
       const uint64_t seed = group_seed(r.settings.seed, it.group);
+      const scene::ScenePreset* spi = &sp;
+      scene::ScenePreset with_camera;
+      if (l->rig) {
+        with_camera = sp;
+        with_camera.rig = *l->rig;
+        spi = &with_camera;
+      }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, sp, seed, false, runner));
+          scene::night_scene(l->day, l->labels, *spi, seed, false, runner));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
@@ -320,7 +334,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
       const NightInputs in{it.image, it.labels, it.instances};
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(
-          night_attributes(*rr, ex, fpn, sp, *ns, *labels, in));
+          night_attributes(*rr, ex, fpn, *spi, *ns, *labels, in));
       (*attrs)["photosite/batch/group"] = it.group;
       ExrWriteOptions wo;
       wo.half = o.half;

@@ -34,6 +34,7 @@
 #include "photosite/night_chain.h"
 #include "photosite/outputs.h"
 #include "photosite/scene/chart.h"
+#include "photosite/scene/rig.h"
 #include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/demosaic.h"
 #include "photosite/sensor/isp.h"
@@ -255,7 +256,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
                   std::optional<double> f_number, double gain_db, std::optional<double> temperature_c, uint64_t seed,
                   uint32_t frame, const std::string& demosaic, const std::string& backend,
                   const std::string& label_format, std::optional<double> ambient_lux,
-                  const std::string& resize_labels) {
+                  const std::string& resize_labels, const std::string& rig) {
   const ArrayShape ds = check_image_array(day_rgb, "day_rgb", {3});
   const bool day_float = is_dtype(day_rgb, py::dtype::of<float>());
   const bool day_u8 = is_dtype(day_rgb, py::dtype::of<uint8_t>());
@@ -275,6 +276,9 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   else fail("resize_labels: '" + resize_labels + "' is not none or nearest");
   scene::ScenePreset sp = scene::load_scene_preset(scene_preset);
   if (ambient_lux) set_ambient_lux(sp, *ambient_lux);
+  // As `night --rig`: "auto" picks by aspect ratio (an array has no data-set path to find a
+  // Cityscapes camera file by; pass the file itself).
+  sp.rig = scene::resolve_camera_rig(rig, ds.width, ds.height);
   SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
 
   NightResult r;
@@ -516,7 +520,8 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("camera"), py::arg("scene_preset") = "night-urban", py::arg("exposure_s") = 0.02,
         py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
         py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",
-        py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none");
+        py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none",
+        py::arg("rig") = "auto");
   m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
         py::arg("backend") = "auto");
   m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),

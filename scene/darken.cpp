@@ -31,11 +31,37 @@ void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t in
                                  x, y, day.at(static_cast<int>(x), static_cast<int>(y), 0)));
 }
 
+namespace {
+// The decode of a value v in [0, 1]: linear interpolation in srgb_decode_table.
+inline float decode_interp(float v, const float* lut) {
+  const float t = v * 4096.f;
+  const int i = std::min(4095, static_cast<int>(t));
+  return lut[i] + (lut[i + 1] - lut[i]) * (t - i);
+}
+// 8-bit files: read_image gives the 256 values code·(1/255) (OpenImageIO's conversion). Their
+// decodes, by decode_interp itself, in a 256-entry table: a value that is one of them reads the
+// table, any other value interpolates, so the result is the same to the bit either way.
+struct Decode8 { float in[256], out[256]; };
+const Decode8& decode8() {
+  static const Decode8 d = [] {
+    Decode8 t;
+    const float* lut = srgb_decode_table().data();
+    for (int c = 0; c < 256; ++c) {
+      t.in[c] = c * (1.f / 255);
+      t.out[c] = decode_interp(t.in[c], lut);
+    }
+    return t;
+  }();
+  return d;
+}
+}  // namespace
+
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   const int c = day.channels();
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
-  const std::vector<float>& lut = srgb_decode_table();
+  const float* lut = srgb_decode_table().data();
   const bool decode = !info.is_float;
+  const Decode8* d8 = decode && info.bits_per_sample == 8 ? &decode8() : nullptr;
   // NaN and Inf in a linear (EXR) day image are damage, not light: refused, first one named.
   // Negatives are kept as out-of-gamut colour and clipped to 0 like integer files' codes.
   int64_t bad = INT64_MAX;  // first damaged pixel in reading order (y·width + x)
@@ -52,9 +78,9 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
         }
         if (v < 0) v = 0;
         if (decode) {
-          const float t = std::min(v, 1.f) * 4096.f;
-          const int i = std::min(4095, static_cast<int>(t));
-          v = lut[i] + (lut[i + 1] - lut[i]) * (t - i);
+          v = std::min(v, 1.f);
+          const int code = static_cast<int>(v * 255.f + 0.5f);
+          v = d8 && d8->in[code] == v ? d8->out[code] : decode_interp(v, lut);
         }
         o[3 * x + k] = v;
       }

@@ -240,7 +240,332 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
       }
     }
   }
+  // Buildings: the fitted façade plane of their column (building_facades), where the column's
+  // pixels lie above its foot line; elsewhere the per-column plane above.
+  const BuildingFacades fac = building_facades(ids, g, max_depth_m);
+  // z = d / (n_X·x_n + n_D·k), x_n = (u − c_x)/f per column, k = cos θ − y_n·sin θ per row
+  // (facade_depth_m, unrolled).
+  std::vector<double> xn(W);
+  for (int x = 0; x < W; ++x) xn[x] = (x - g.cx_px) / g.f_px;
+  const double cp = std::cos(g.pitch_rad), sp = std::sin(g.pitch_rad);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    float* o = depth.row(y);
+    const int32_t* r = fac.region.row(y);
+    const double k = cp - (y - g.cy_px) / g.f_px * sp;
+    for (int x = 0; x < W; ++x) {
+      if (r[x] < 0) continue;
+      const BuildingFacades::Region& R = fac.regions[r[x]];
+      const int i = R.column_plane[x - R.x0];
+      if (i < 0 || !R.on_plane[x - R.x0]) continue;
+      const FacadePlane& f = fac.planes[i];
+      if (!f.fitted) continue;
+      const double den = f.nX * xn[x] + f.nD * k;
+      if (den > 1e-9) o[x] = static_cast<float>(std::min(f.d_m / den, max_depth_m));
+    }
+  }
   return depth;
+}
+
+}  // namespace photosite::scene
+
+// ---- building façades ---------------------------------------------------------------------
+
+namespace photosite::scene {
+
+const FacadePlane* BuildingFacades::plane_at(int x, int y, bool* on_plane) const {
+  const int r = region.at(x, y);
+  if (r < 0) return nullptr;
+  const Region& R = regions[r];
+  const int i = R.column_plane[x - R.x0];
+  if (on_plane) *on_plane = R.on_plane[x - R.x0] != 0;
+  return i >= 0 ? &planes[i] : nullptr;
+}
+
+double facade_depth_m(const CameraGeometry& g, const FacadePlane& f, double u, double v) {
+  // The ray of pixel (u, v) per unit camera z: X = x_n, D = cos θ − y_n·sin θ.
+  const double xn = (u - g.cx_px) / g.f_px, yn = (v - g.cy_px) / g.f_px;
+  const double den = f.nX * xn + f.nD * (std::cos(g.pitch_rad) - yn * std::sin(g.pitch_rad));
+  return den > 1e-9 ? f.d_m / den : INFINITY;
+}
+
+namespace {
+struct Contact { int x; double v; };
+struct Line { double a = 0, b = 0; int n = 0; };
+// Least squares v = a + b·u over the contacts flagged in `use`.
+bool least_squares(const std::vector<Contact>& c, const std::vector<uint8_t>& use, Line* L) {
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int n = 0;
+  for (size_t i = 0; i < c.size(); ++i)
+    if (use[i]) { sx += c[i].x; sy += c[i].v; sxx += double(c[i].x) * c[i].x; sxy += c[i].x * c[i].v; ++n; }
+  const double det = n * sxx - sx * sx;
+  if (n < 2 || det <= 0) return false;
+  L->b = (n * sxy - sx * sy) / det;
+  L->a = (sy - L->b * sx) / n;
+  return true;
+}
+int mark_inliers(const std::vector<Contact>& c, const std::vector<uint8_t>& free, const Line& L, std::vector<uint8_t>* in) {
+  int n = 0;
+  for (size_t i = 0; i < c.size(); ++i) {
+    (*in)[i] = free[i] && std::fabs(c[i].v - (L.a + L.b * c[i].x)) <= kFacadeInlier_px;
+    n += (*in)[i];
+  }
+  return n;
+}
+// RANSAC over deterministic pairs of the free contacts (ordered by column): pairs at gaps of 1/2,
+// 1/4, 1/8, 1/16 of their count, 16 starts each; then least squares on the inliers, twice.
+bool fit_line(const std::vector<Contact>& c, const std::vector<uint8_t>& free, Line* best, std::vector<uint8_t>* in) {
+  std::vector<int> idx;
+  for (size_t i = 0; i < c.size(); ++i)
+    if (free[i]) idx.push_back(static_cast<int>(i));
+  const int n = static_cast<int>(idx.size());
+  if (n < kMinFacadeContacts) return false;
+  std::vector<uint8_t> tmp(c.size());
+  best->n = 0;
+  for (int gdiv : {2, 4, 8, 16}) {
+    const int gap = std::max(3, n / gdiv);
+    if (gap >= n) continue;
+    for (int k = 0; k < 16; ++k) {
+      const int i = static_cast<int>(static_cast<int64_t>(k) * (n - 1 - gap) / 15);
+      const Contact &p = c[idx[i]], &q = c[idx[i + gap]];
+      if (q.x == p.x) continue;
+      Line L;
+      L.b = (q.v - p.v) / (q.x - p.x);
+      L.a = p.v - L.b * p.x;
+      L.n = mark_inliers(c, free, L, &tmp);
+      if (L.n > best->n) *best = L;
+    }
+  }
+  if (best->n < kMinFacadeContacts) return false;
+  for (int it = 0; it < 2; ++it) {
+    mark_inliers(c, free, *best, in);
+    Line L = *best;
+    if (!least_squares(c, *in, &L)) break;
+    L.n = mark_inliers(c, free, L, &tmp);
+    if (L.n < best->n) break;  // keep the better of the two
+    *best = L;
+  }
+  best->n = mark_inliers(c, free, *best, in);
+  return best->n >= kMinFacadeContacts;
+}
+}  // namespace
+
+BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m) {
+  const int W = ids.width(), H = ids.height();
+  const uint16_t building = static_cast<uint16_t>(Label::Building);
+  BuildingFacades out;
+  out.region = ImageI32(W, H, 1, -1, "region");
+  // 4-connected regions from runs of building pixels (a union-find over runs that overlap in
+  // consecutive rows; far cheaper than a per-pixel labelling, as buildings come in long runs).
+  struct Run { int y, x0, x1; };
+  std::vector<Run> runs;
+  std::vector<int> row_start(H + 1, 0);
+  for (int y = 0; y < H; ++y) {
+    row_start[y] = static_cast<int>(runs.size());
+    const uint16_t* r = ids.row(y);
+    for (int x = 0; x < W;) {
+      if (r[x] != building) { ++x; continue; }
+      int e = x + 1;
+      while (e < W && r[e] == building) ++e;
+      runs.push_back({y, x, e - 1});
+      x = e;
+    }
+  }
+  row_start[H] = static_cast<int>(runs.size());
+  std::vector<int> parent(runs.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int y = 1; y < H; ++y) {
+    int j = row_start[y - 1];
+    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
+      while (j < row_start[y] && runs[j].x1 < runs[i].x0) ++j;
+      for (int k = j; k < row_start[y] && runs[k].x0 <= runs[i].x1; ++k) {
+        const int a = find(parent, i), b = find(parent, k);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+    }
+  }
+  // Regions numbered in the order of their first run (reading order), with their column extent.
+  std::vector<int> run_region(runs.size(), -1), x1s;
+  {
+    std::vector<int> index(runs.size(), -1);
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const int root = find(parent, static_cast<int>(i));
+      if (index[root] < 0) {
+        index[root] = static_cast<int>(out.regions.size());
+        out.regions.push_back({});
+        out.regions.back().x0 = runs[i].x0;
+        x1s.push_back(runs[i].x1);
+      }
+      const int r = run_region[i] = index[root];
+      out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
+      x1s[r] = std::max(x1s[r], runs[i].x1);
+    }
+  }
+  std::vector<std::vector<int>> ymax(out.regions.size());
+  for (size_t r = 0; r < out.regions.size(); ++r) {
+    const int w = x1s[r] - out.regions[r].x0 + 1;
+    out.regions[r].column_plane.assign(w, -1);
+    out.regions[r].on_plane.assign(w, 0);
+    ymax[r].assign(w, -1);
+  }
+  for (size_t i = 0; i < runs.size(); ++i) {  // rows ascend: the last write is the lowest
+    const Run& u = runs[i];
+    const int r = run_region[i], x0 = out.regions[r].x0;
+    std::fill(out.region.row(u.y) + u.x0, out.region.row(u.y) + u.x1 + 1, r);
+    for (int x = u.x0; x <= u.x1; ++x) ymax[r][x - x0] = u.y;
+  }
+  auto object = [&](int id) {  // neither ground nor sky: something standing in front
+    return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
+           id != static_cast<int>(Label::RectificationBorder) && id != static_cast<int>(Label::OutOfRoi);
+  };
+  for (size_t r = 0; r < out.regions.size(); ++r) {
+    auto& R = out.regions[r];
+    const auto& ym = ymax[r];
+    const int w = static_cast<int>(ym.size());
+    std::vector<Contact> cs;
+    for (int i = 0; i < w; ++i) {
+      const int x = R.x0 + i, y = ym[i];
+      if (y < 0 || y + 1 >= H || !is_ground(ids.at(x, y + 1)) || y + 0.5 < g.horizon_y + 1) continue;
+      cs.push_back({x, y + 0.5});
+    }
+    R.contacts = static_cast<int>(cs.size());
+    std::vector<int> plane_of;
+    // Sequential RANSAC: up to kMaxFacadePlanes lines, each on the contacts the earlier ones left.
+    auto fit_planes = [&](const std::vector<Contact>& pts, bool occluded) {
+      std::vector<uint8_t> free(pts.size(), 1), in(pts.size());
+      plane_of.assign(pts.size(), -1);
+      const int first_plane = static_cast<int>(out.planes.size());
+      const int min_left = std::max(kMinFacadeContacts, static_cast<int>(0.15 * pts.size()));
+      int found = 0;
+      // On stack feet, one plane: lines of lower bounds (a sign post here, a hedge there) do not
+      // tell a façade's corner from the things in front of it.
+      for (int k = 0; k < (occluded ? 1 : kMaxFacadePlanes); ++k) {
+        int left = 0;
+        for (auto f : free) left += f;
+        if (left < (k == 0 ? kMinFacadeContacts : min_left)) break;
+        Line L;
+        if (!fit_line(pts, free, &L, &in) || (k > 0 && L.n < min_left)) break;
+        // A later line within 3 bands (mean over its inliers) of an earlier façade's foot line is
+        // that façade's noisier contacts (label noise grows with distance), not a new façade: its
+        // inliers join the earlier plane, and the search goes on.
+        {
+          int same = -1;
+          for (int q = first_plane; q < static_cast<int>(out.planes.size()) && same < 0; ++q) {
+            double sum = 0;
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) sum += std::fabs((L.a + L.b * pts[i].x) - (out.planes[q].line_a + out.planes[q].line_b * pts[i].x));
+            if (sum / L.n < 3 * kFacadeInlier_px) same = q;
+          }
+          if (same >= 0) {
+            for (size_t i = 0; i < pts.size(); ++i)
+              if (in[i]) { plane_of[i] = same; free[i] = 0; }
+            continue;
+          }
+        }
+        int i0 = -1, i1 = -1;
+        for (size_t i = 0; i < pts.size(); ++i)
+          if (in[i]) { if (i0 < 0) i0 = static_cast<int>(i); i1 = static_cast<int>(i); }
+        const double u0 = pts[i0].x, u1 = pts[i1].x;
+        double X0, D0, X1, D1;
+        if (u1 <= u0 || !g.ground_point(u0, L.a + L.b * u0, &X0, &D0, nullptr) ||
+            !g.ground_point(u1, L.a + L.b * u1, &X1, &D1, nullptr) || D0 > max_depth_m || D1 > max_depth_m)
+          break;
+        const double tx = X1 - X0, td = D1 - D0, len = std::hypot(tx, td);
+        if (len < 1e-6) break;
+        FacadePlane f;
+        f.nX = -td / len;
+        f.nD = tx / len;
+        f.d_m = f.nX * X0 + f.nD * D0;
+        if (f.d_m < 0) { f.nX = -f.nX; f.nD = -f.nD; f.d_m = -f.d_m; }
+        if (f.d_m < 0.5) break;  // a plane through the camera's foot, seen edge-on
+        f.line_a = L.a;
+        f.line_b = L.b;
+        f.inliers = L.n;
+        f.fitted = true;
+        f.occluded = occluded;
+        const int idx = static_cast<int>(out.planes.size());
+        out.planes.push_back(f);
+        ++found;
+        for (size_t i = 0; i < pts.size(); ++i)
+          if (in[i]) { plane_of[i] = idx; free[i] = 0; }
+      }
+      return found;
+    };
+    if (!fit_planes(cs, false)) {
+      // No façade on unoccluded contacts: the feet of what stands in front (the bottom of the
+      // stack of objects below each column's lowest building pixel), the nearest the hidden foot
+      // can be. First only stacks of fixed structures (fences, walls, hedges, poles: they stand
+      // at the property line, close before the façade), then also through vehicles and people
+      // (parked at the kerb, metres before it: a looser bound).
+      for (bool movable : {false, true}) {
+        cs.clear();
+        for (int i = 0; i < w; ++i) {
+          int y = ym[i];
+          if (y < 0) continue;
+          const int x = R.x0 + i;
+          bool through_movable = false;
+          while (y + 1 < H && object(ids.at(x, y + 1))) {
+            const int id = ids.at(x, y + 1);
+            through_movable = through_movable || is_vehicle(id) || id == static_cast<int>(Label::Person) ||
+                              id == static_cast<int>(Label::Rider);
+            ++y;
+          }
+          if ((!through_movable || movable) && y + 1 < H && is_ground(ids.at(x, y + 1)) && y + 0.5 >= g.horizon_y + 1)
+            cs.push_back({x, y + 0.5});
+        }
+        if (fit_planes(cs, true)) break;
+      }
+    }
+    // Columns: the façade of the nearest inlier contact (left one on a tie).
+    std::vector<int> col_plane(w, -1);
+    std::vector<int> inlier_x;
+    std::vector<int> inlier_p;
+    for (size_t i = 0; i < cs.size(); ++i)
+      if (plane_of[i] >= 0) { inlier_x.push_back(cs[i].x); inlier_p.push_back(plane_of[i]); }
+    const bool stack = !inlier_x.empty() && out.planes[inlier_p[0]].occluded;
+    if (!inlier_x.empty()) {
+      size_t j = 0;
+      for (int i = 0; i < w; ++i) {
+        if (ym[i] < 0) continue;
+        const int x = R.x0 + i;
+        while (j + 1 < inlier_x.size() && inlier_x[j + 1] <= x) ++j;
+        size_t k = j;
+        if (j + 1 < inlier_x.size() && std::abs(inlier_x[j + 1] - x) < std::abs(inlier_x[j] - x)) k = j + 1;
+        const int p = inlier_p[k];
+        R.column_plane[i] = p;
+        const FacadePlane& f = out.planes[p];
+        const double foot = f.line_a + f.line_b * x;
+        // On a plane fitted to the stacks' feet, the building's own pixels stand above the foot
+        // line by construction (the objects in between).
+        R.on_plane[i] = foot > g.horizon_y + 0.5 && (stack || ym[i] + 0.5 <= foot + kFacadeInlier_px);
+      }
+    } else {
+      // No façade fitted: an unfitted plane for the window layout, from the median ground point of
+      // the columns' bottoms (below a hidden foot: the bottom of the stack of objects in front).
+      std::vector<double> xs, ds;
+      for (int i = 0; i < w; ++i) {
+        int y = ym[i];
+        if (y < 0) continue;
+        const int x = R.x0 + i;
+        while (y + 1 < H && object(ids.at(x, y + 1))) ++y;
+        double X, D;
+        if (g.ground_point(x, y + 0.5, &X, &D, nullptr)) { xs.push_back(X); ds.push_back(std::min(D, max_depth_m)); }
+      }
+      FacadePlane f;
+      if (!xs.empty()) {
+        std::nth_element(xs.begin(), xs.begin() + xs.size() / 2, xs.end());
+        std::nth_element(ds.begin(), ds.begin() + ds.size() / 2, ds.end());
+        const double Xm = xs[xs.size() / 2];
+        if (std::fabs(Xm) > 3) { f.nX = Xm > 0 ? 1 : -1; f.nD = 0; f.d_m = std::fabs(Xm); }
+        else { f.nX = 0; f.nD = 1; f.d_m = ds[ds.size() / 2]; }
+      }
+      const int idx = static_cast<int>(out.planes.size());
+      out.planes.push_back(f);
+      for (int i = 0; i < w; ++i)
+        if (ym[i] >= 0) R.column_plane[i] = idx;
+    }
+  }
+  return out;
 }
 
 }  // namespace photosite::scene

@@ -178,12 +178,11 @@ LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, i
                            ResizeLabels resize, const std::string& labels_path, const std::string& instances_path) {
   if (!raw.same_shape(width, height)) {
     if (resize == ResizeLabels::None)
-      // Still names the command's flag: tests/scene_labels_test.cpp asserts "--resize-labels" in
-      // this library message (a ParameterError "resize_labels" once that assertion may change).
-      fail_at(labels_path, "labels are " + std::to_string(raw.width()) + "x" +
-                               std::to_string(raw.height()) + " but the image is " +
-                               std::to_string(width) + "x" + std::to_string(height) +
-                               " (pass --resize-labels nearest to resample them)");
+      // A ParameterError: each face names its own spelling (--resize-labels, resize_labels).
+      fail_parameter("resize_labels",
+                     labels_path + ": labels are " + std::to_string(raw.width()) + "x" + std::to_string(raw.height()) +
+                         " but the image is " + std::to_string(width) + "x" + std::to_string(height) + " (pass ",
+                     "=nearest to resample them)");
     raw = resize_nearest(raw, width, height);
   }
   LabelMap m = decode_labels(raw, format, labels_path);
@@ -192,9 +191,11 @@ LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, i
     if (inst.channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
     if (!inst.same_shape(width, height)) {
       if (resize == ResizeLabels::None)
-        fail_at(instances_path, "instance ids are " + std::to_string(inst.width()) + "x" +
-                                    std::to_string(inst.height()) + " but the image is " +
-                                    std::to_string(width) + "x" + std::to_string(height));
+        fail_parameter("resize_labels",
+                       instances_path + ": instance ids are " + std::to_string(inst.width()) + "x" +
+                           std::to_string(inst.height()) + " but the image is " + std::to_string(width) + "x" +
+                           std::to_string(height) + " (pass ",
+                       "=nearest to resample them)");
       inst = resize_nearest(inst, width, height);
     }
     m.instances = ImageU16(width, height, 1, 0, "instance id");

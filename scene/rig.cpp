@@ -49,10 +49,11 @@ CameraRig parse_camera_rig(const std::string& text, const std::string& file) {
 }
 
 CameraRig load_camera_rig(const std::string& name_or_path) {
+  if (name_or_path.ends_with(".json")) return load_cityscapes_camera(name_or_path);
   const auto path = schema::preset_file(rig_dir(), name_or_path);
   if (!path)
     fail("--rig: unknown camera rig '" + name_or_path + "' (bundled: " + schema::comma_list(bundled_rigs()) +
-         ", or auto, or a .toml path)");
+         ", or auto, or a .toml path, or a Cityscapes camera .json)");
   return parse_camera_rig(schema::read_text(*path, "camera rig"), *path);
 }
 
@@ -72,8 +73,11 @@ CameraRig rig_for_image(int width, int height) {
   return best;
 }
 
-CameraRig resolve_camera_rig(const std::string& flag, int width, int height) {
-  if (flag.empty() || flag == "auto") return rig_for_image(width, height);
+CameraRig resolve_camera_rig(const std::string& flag, int width, int height, const std::string& image_path) {
+  if (flag.empty() || flag == "auto") {
+    if (const std::string cam = cityscapes_camera_file(image_path); !cam.empty()) return load_cityscapes_camera(cam);
+    return rig_for_image(width, height);
+  }
   return load_camera_rig(flag);
 }
 

@@ -134,6 +134,13 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       num("windows.shop_luminance_factor", PHOTOSITE_AT(P, shop_luminance_factor), "—", 0, 100,
           "ground-floor shop front luminance over a lit window's", "photosite choice (NP §3)"),
       num("windows.shop_cct_K", PHOTOSITE_AT(P, shop_cct_K), "K", 1000, 20000, "shop lighting CCT", "NP §0"),
+      num("windows.shop_width_m", PHOTOSITE_AT(P, shop_width_m), "m", 0.1, 10,
+          "shop-window pane width, on the window pitch", "[U]", "≤ windows.pitch_m"),
+      num("windows.shop_sill_m", PHOTOSITE_AT(P, shop_sill_m), "m", 0, 10, "shop-window sill above the pavement", "[U]"),
+      num("windows.shop_height_m", PHOTOSITE_AT(P, shop_height_m), "m", 0.1, 10, "shop-window pane height", "[U]",
+          "shop_sill_m + shop_height_m ≤ windows.storey_m"),
+      num("windows.shop_frontage_m", PHOTOSITE_AT(P, shop_frontage_m), "m", 0.5, 100,
+          "frontage of one shop unit (lit or dark as a whole)", "[U]"),
       table("retroreflection", "retroreflective markings and signs", "NP §4"),
       num("retroreflection.marking_RL", PHOTOSITE_AT(P, marking_RL), "cd·m⁻²·lx⁻¹", 0, 5,
           "lane markings' coefficient of retroreflected luminance R_L", "NP §4 (EN 1436)"),
@@ -213,6 +220,9 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
                                      std::to_string(p.beam_h_deg.size()) + ")");
   if (p.window_width_m > p.window_pitch_m) err("windows.width_m", "exceeds windows.pitch_m");
   if (p.window_height_m > p.window_storey_m) err("windows.height_m", "exceeds windows.storey_m");
+  if (p.shop_width_m > p.window_pitch_m) err("windows.shop_width_m", "exceeds windows.pitch_m");
+  if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
+    err("windows.shop_height_m", "shop_sill_m + shop_height_m exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
 }
 }  // namespace

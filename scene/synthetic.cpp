@@ -145,8 +145,8 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         px[0] = 0.25f; px[1] = 0.22f; px[2] = 0.2f;
         s.depth_m.at(x, y) = static_cast<float>(best);
       } else if (hit >= 0) {
-        l = Label::Car;
-        s.labels.instances.at(x, y) = static_cast<uint16_t>(26000 + hit);
+        l = o.boxes[hit].label;
+        if (is_vehicle(static_cast<int>(l))) s.labels.instances.at(x, y) = static_cast<uint16_t>(static_cast<int>(l) * 1000 + hit);
         px[0] = front ? 0.3f : 0.2f; px[1] = 0.05f; px[2] = 0.05f;
         s.depth_m.at(x, y) = static_cast<float>(best);
         s.box_front.at(x, y) = front;

@@ -35,18 +35,27 @@
 // Borders: the mosaic is extended by reflect-101 (parity-preserving: a valid mosaic of the
 // mirrored scene) and every stage runs on the extended frame; the support radius is 23 px.
 //
-// Arithmetic: every window sum is separable, row (x) first then column (y), each a sum in
-// increasing offset order, so a value does not depend on how the frame is cut into tiles or
+// Arithmetic: every window sum is separable, row (x) first then column (y), each in a fixed order
+// (increasing offsets, or for the green filters' 1-D windows pairs q(o) + q(o + 2) added as
+// demosaic_mlri_body.inc says), so a value does not depend on how the frame is cut into tiles or
 // threads, and kernels/demosaic_mlri_*.comp reproduce it operation for operation (bit-equal;
-// -ffp-contract=off, no reassociation). The CPU path runs the stages tile by tile (512x256 output
-// pixels plus the 23-px margin); within a tile each stage's passes run as a wavefront over the
-// rows, their intermediate rows in rings of 16 rows (demosaic_mlri_body.inc).
+// -ffp-contract=off, no reassociation). The CPU path runs tile by tile (512 output pixels wide,
+// as tall as keeps about two tiles per thread, plus the 23-px margin); within a tile all stages'
+// passes run as one wavefront over the rows, every intermediate plane a ring of a few rows
+// (demosaic_mlri_body.inc), and the output rows are written with non-temporal stores.
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "demosaic_detail.h"
 #include "photosite/sensor/demosaic.h"

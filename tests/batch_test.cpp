@@ -25,6 +25,7 @@
 
 using namespace photosite;
 namespace fs = std::filesystem;
+using test::error_of;
 
 namespace {
 // A small KITTI-layout data set from the synthetic road generator: `n` independent frames and a
@@ -330,14 +331,6 @@ batch::Options kitti_options(const test::TempDir& dir, const std::string& root, 
   o.device_store = dir.file("store");
   o.scene = scene::load_scene_preset("night-urban");
   return o;
-}
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 }  // namespace
 

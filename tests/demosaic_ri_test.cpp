@@ -3,6 +3,8 @@
 // on Kodak and on the saturated set of `photosite bench demosaic`. The tests over every method in
 // demosaic_test.cpp (smooth colour field on every pattern, flat areas and borders, every Bayer
 // phase, the CLI round trip and --list) and the Vulkan parity test in gpu_test.cpp cover MLRI too.
+#include <omp.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -68,7 +70,7 @@ TEST(DemosaicRi, MlriIsExactOnConstantImagesUpToFloatRounding) {
 
 TEST(DemosaicRi, MlriReachesOnlyItsSupportRadiusAndIgnoresTheTiling) {
   // A pixel depends on the mosaic within the support radius only, and not on how the frame is
-  // cut into the CPU path's 512x256 tiles: a crop (a different tile grid, mirrored borders
+  // cut into the CPU path's tiles: a crop (a different tile grid, mirrored borders
   // elsewhere) must give the same bits as the full frame at every pixel at least the support
   // radius inside the crop.
   const int r = detail::mlri_support_radius();
@@ -93,6 +95,21 @@ TEST(DemosaicRi, MlriReachesOnlyItsSupportRadiusAndIgnoresTheTiling) {
     // changes pixels near it.
     EXPECT_GT(near_border_diff, 0u) << to_string(p);
   }
+}
+
+TEST(DemosaicRi, MlriIgnoresTheThreadCount) {
+  // The CPU path picks its tile height from the thread count (about two tiles per thread): one
+  // thread runs this frame as three 512-px-wide tiles of the full height, eight threads as
+  // eighteen tiles 117 rows tall. Both, and 3 threads (tiles of 350 rows), give the same bits.
+  const ImageF m = random_mosaic(1100, 700, 9);
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ImageF one = demosaic(m, CfaPattern::GRBG, DemosaicMethod::Mlri);
+  for (int n : {3, 8}) {
+    omp_set_num_threads(n);
+    EXPECT_EQ(differing_bits(one, demosaic(m, CfaPattern::GRBG, DemosaicMethod::Mlri)), 0u) << n << " threads";
+  }
+  omp_set_num_threads(before);
 }
 
 TEST(DemosaicRi, MlriAvx2AndBaselineBuildsAreBitIdentical) {

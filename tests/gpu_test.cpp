@@ -363,7 +363,7 @@ TEST_F(Gpu, DemosaicKernelsBitEqualOnEveryPatternAndSize) {
 }
 
 TEST_F(Gpu, MlriKernelsBitEqualOnFramesLargerThanACpuTile) {
-  // MLRI's CPU path runs in 512x256 tiles with 23-px margins, its kernels over whole planes: on
+  // MLRI's CPU path runs in 512-px-wide tiles with 23-px margins, its kernels over whole planes: on
   // frames spanning several tiles (odd sizes, partial tiles at the right and bottom), every
   // Bayer phase and RCCB give the same bits, with samples from 0 to 4095 DN (full detail).
   const int sizes[][2] = {{1037, 523}, {517, 261}};

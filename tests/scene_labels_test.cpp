@@ -11,6 +11,7 @@
 
 using namespace photosite;
 using namespace photosite::scene;
+using test::error_of;
 
 namespace {
 ImageU16 ids(std::initializer_list<uint16_t> v, int w) {
@@ -24,14 +25,6 @@ void write_codes(const std::string& path, const ImageU16& codes, int bits) {
   const float m = bits == 8 ? 255.f : 65535.f;
   for (size_t i = 0; i < f.size(); ++i) f[i] = codes[i] / m;
   write_png(path, f, bits);
-}
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 }  // namespace
 
@@ -80,10 +73,17 @@ TEST(SceneLabels, FilesSizeCheckResizeAndInstances) {
   EXPECT_EQ(m.ids.at(0, 0), 26);
   EXPECT_EQ(m.instances.at(0, 0), 26003);
   EXPECT_EQ(m.instances.at(1, 0), 0);
-  const std::string e = error_of(
-      [&] { read_labels(d.file("l.png"), "", 16, 8, LabelFormat::Auto, ResizeLabels::None); });
-  EXPECT_NE(e.find("l.png"), std::string::npos);
-  EXPECT_NE(e.find("--resize-labels"), std::string::npos) << e;
+  // Another size: a ParameterError naming the file and resize_labels, which each face re-words
+  // with its own spelling (the command line's --resize-labels).
+  try {
+    read_labels(d.file("l.png"), "", 16, 8, LabelFormat::Auto, ResizeLabels::None);
+    FAIL() << "labels of another size accepted";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "resize_labels");
+    EXPECT_NE(std::string(e.what()).find("l.png: labels are 8x4 but the image is 16x8 (pass resize_labels=nearest"),
+              std::string::npos) << e.what();
+    EXPECT_NE(e.message_for("--resize-labels").find("(pass --resize-labels=nearest"), std::string::npos);
+  }
   LabelMap r = read_labels(d.file("l.png"), "", 16, 8, LabelFormat::Auto, ResizeLabels::Nearest);
   EXPECT_EQ(r.ids.width(), 16);
   EXPECT_EQ(r.ids.at(0, 0), 26);

@@ -1,5 +1,7 @@
 #include "test_util.h"
 
+#include "photosite/error.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +12,15 @@
 #include <sys/wait.h>
 
 namespace photosite::test {
+
+std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 CliResult run_cli(const std::string& args) {
   // Never touch the user's own device store from the tests (ctest sets one; plain runs get a

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -16,6 +17,9 @@ struct CliResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr together
 };
+
+// The message of the photosite::Error that fn throws, or "" when it throws none.
+std::string error_of(const std::function<void()>& fn);
 
 // Runs `photosite <args>` through the shell; args are passed verbatim (quote paths yourself).
 CliResult run_cli(const std::string& args);

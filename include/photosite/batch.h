@@ -32,6 +32,8 @@ struct Item {
   std::string key;          // unique relative path of the output, without extension ('/'-separated)
   std::string image, labels, instances;           // input paths
   std::string labels_rel, instances_rel;          // where the label copies go under --out
+  std::string camera;       // the image's own calibration (Cityscapes camera/*.json), or ""
+
   std::string label_format = "auto";
   std::string group;        // sequence id: frames of one group share device, seed and frame count
   int frame = 0;            // frame number within the group (consecutive from 0)
@@ -39,7 +41,8 @@ struct Item {
 
 // Walks a data set's layout under root (Cityscapes: leftImg8bit[_sequence]/ with gtFine/;
 // KITTI: image_2/ with semantic/ and instance/; BDD100K: images/10k/ with
-// labels/sem_seg/masks/). An image without labels is bad input naming the image.
+// labels/sem_seg/masks/). An image without labels is bad input naming the image. Cityscapes
+// items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists.
 std::vector<Item> discover(Dataset dataset, const std::string& root);
 // One item per line: image, labels and optional instances paths, separated by spaces or commas;
 // relative paths are relative to the manifest's folder; '#' starts a comment.
@@ -77,6 +80,9 @@ struct Options {
   SensorSetup sensor;         // settings.seed is the run's seed; each group's is mixed from it
   std::string device_store;   // empty: DeviceStore's default
   scene::ScenePreset scene;
+  // Items with a camera file (Cityscapes) use it as their rig in place of scene.rig: their own
+  // height, pitch and intrinsics. The command line turns this off when --rig is given.
+  bool item_cameras = true;
   int jobs = 1;               // writer threads
   int queue_depth = 2;        // items in flight between read, compute and write (bounds memory)
   int compute_threads = 0;    // OpenMP team of the compute stage; 0: OpenMP's default

@@ -71,7 +71,7 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
           f_number: Optional[float] = None, gain_db: float = 0.0, temperature_c: Optional[float] = None,
           seed: int = 0, frame: int = 0, demosaic: str = "bilinear", backend: str = "auto",
           label_format: str = "auto", ambient_lux: Optional[float] = None,
-          resize_labels: str = "none") -> NightResult:
+          resize_labels: str = "none", rig: str = "auto") -> NightResult:
     """Translate a day photo to night and expose it through a camera (`photosite night`).
 
     day_rgb       H x W x 3, uint8/uint16 sRGB codes (as a PNG holds them) or float32 linear sRGB
@@ -89,17 +89,18 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     label_format  "auto", "labelIds", "trainIds" or "color"
     ambient_lux   night ambient illuminance (moon + sky glow) in lx, [0, 10] (None: the preset's)
     resize_labels "none" or "nearest" (labels of another size than the image)
+    rig           camera rig: "auto" (by aspect ratio), a name in presets/rigs, a .toml path or a
+                  Cityscapes camera .json (camera/<split>/<city>/<stem>_camera.json)
 
     Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,
-    W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; camera rig chosen
-    by the image's aspect ratio), .labels (uint16 labelIds),
+    W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; from the rig), .labels (uint16 labelIds),
     .vanishing_point (x px, y px, confidence 0..1, method), .sensor (a SensorResult, metadata as in
     the EXR header) and .preview() (uint8 sRGB). The pixels equal those of the `photosite night`
     EXR for the same inputs, camera, seed and frame.
     """
     return _photosite.night(day_rgb, labels, instances, _camera(camera, "onsemi-ar0331"), scene_preset,
                             exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, backend,
-                            label_format, ambient_lux, resize_labels)
+                            label_format, ambient_lux, resize_labels, rig)
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto") -> np.ndarray:

@@ -77,6 +77,27 @@ def test_night_matches_cli_exr_bit_for_bit(kitti, cli, store, tmp_path):
     assert pv.dtype == np.uint8 and pv.shape == (h, w, 3) and pv.flags.owndata is False and pv.base is not None
 
 
+def test_rig_camera_file_sets_the_metric_scale(kitti, store, tmp_path):
+    # Two Cityscapes camera files that differ only in the mounting height, 1.65 m and 3.30 m:
+    # flat-ground depth Z = f*h/(y - y_h) doubles, exactly in binary floating point, on the road
+    # and sidewalk wherever neither run reaches the preset's 1000 m depth cap (façade planes are
+    # fitted with thresholds in metres, so they are not compared). The rig is named in the header.
+    day, labels = kitti
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    depth = {}
+    for z in (1.65, 3.30):
+        f = tmp_path / f"h{z}_camera.json"
+        f.write_text(json.dumps({"extrinsic": {"z": z, "pitch": 0.0},
+                                 "intrinsic": {"fx": 721.5377, "u0": 1012.5, "v0": 339.5}}))
+        r = ps.night(day, labels, camera=cam, backend="cpu", rig=str(f))
+        assert r.sensor.metadata["night/camera_rig"] == f.stem and r.sensor.metadata["night/mount_height_m"] == z
+        depth[z] = r.depth
+        ground = np.isin(r.labels, (7, 8))  # labelIds road, sidewalk
+    finite = ground & (depth[1.65] < 500) & (depth[1.65] > 0)
+    assert finite.mean() > 0.2  # the road and sidewalks: a quarter of this frame
+    np.testing.assert_array_equal(depth[3.30][finite], 2 * depth[1.65][finite])
+
+
 def test_outputs_own_their_memory(kitti, store):
     day, labels = kitti
     r = ps.night(day, labels, camera=ps.Camera(KITTI_CAMERA, device_store=store), backend="cpu")
@@ -233,6 +254,7 @@ BAD = [
     ("ambient lux", lambda: ps.night(_day(), _labels(), ambient_lux=50), ValueError, "ambient_lux 50"),
     ("resize_labels", lambda: ps.night(_day(), _labels(), resize_labels="bicubic"), ValueError, "resize_labels"),
     ("label_format", lambda: ps.night(_day(), _labels(), label_format="png"), ValueError, "png"),
+    ("unknown rig", lambda: ps.night(_day(), _labels(), rig="no-such-rig"), ValueError, "no-such-rig"),
     ("demosaic method", lambda: ps.night(_day(), _labels(), demosaic="magic"), ValueError, "magic"),
     ("radiance uint8", lambda: ps.Camera("sony-imx174").expose(np.zeros((8, 8, 3), np.uint8)), ValueError,
      "radiance: expected dtype float32"),

@@ -130,6 +130,58 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
 // capped at max_depth_m elsewhere.
 ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_depth_m);
 
+// Building façades as vertical planes (geometry.cpp). A building region (4-connected region of
+// the building class) is cut into up to kMaxFacadePlanes façades, each the vertical plane
+//   n_X·X + n_D·D = d_m   (road coordinates, (n_X, n_D) a unit normal pointing away from the
+//   camera, d_m >= 0 the plane's distance from the camera's foot),
+// fitted to the region's unoccluded ground contacts: columns whose lowest building pixel sits
+// directly on a ground class (not on a car, vegetation, a fence). A vertical plane meets the flat
+// ground in a straight line, whose image is a straight line v = a + b·u; it is fitted in the image
+// by RANSAC over deterministic pairs of contacts (inlier band ±kFacadeInlier_px: the contact row
+// is quantised to ±0.5 px, the labels' boundary to about ±1 px), refitted by least squares on the
+// inliers; further façades (each with at least kMinFacadeContacts and 15% of the contacts) are
+// fitted to the contacts the first ones leave out — a further line within 3 bands of an earlier
+// façade's foot line (mean over its inliers) is that façade's noisier contacts and joins it.
+// Every column of the
+// region takes the façade of its nearest inlier contact, also where cars or trees hide the foot.
+// A column whose own building pixels reach below that façade's foot line (by more than the
+// inlier band) is something nearer (a building's projecting part): it keeps the per-column depth
+// of metric_depth's vertical-plane model. A region with fewer than kMinFacadeContacts contacts on
+// one line is fitted alike to the feet of the objects in front of it (the bottom of the stack of
+// objects below each column), the nearest the hidden foot can be, a lower bound on its depth
+// (`occluded`; one plane per region, as lines of lower bounds do not tell a corner from the things
+// in front): first stacks of fixed structures only (fences, walls, hedges), then also through
+// vehicles and people; with none of those either, it keeps the per-column depth
+// and gets an unfitted plane for its window layout only: along
+// the road (n = (±1, 0)) when the median ground point of its columns lies more than 3 m to the
+// side, else facing the camera (n = (0, 1)) — a named approximation, the orientation of the old
+// per-pixel rule.
+inline constexpr int kMaxFacadePlanes = 3, kMinFacadeContacts = 8;
+inline constexpr double kFacadeInlier_px = 1.5;
+struct FacadePlane {
+  double nX = 0, nD = 1, d_m = 0;
+  double line_a = 0, line_b = 0;  // the foot line in the image: v = a + b·u (fitted planes)
+  int inliers = 0;                // contacts within the band (0 for an unfitted plane)
+  bool fitted = false;
+  bool occluded = false;          // fitted to the feet of the objects in front (no contact showed)
+};
+struct BuildingFacades {
+  ImageI32 region;                  // per pixel: index into `regions`, -1 off the building class
+  std::vector<FacadePlane> planes;  // every region's façades
+  struct Region {
+    int x0 = 0, contacts = 0;        // first column; unoccluded ground contacts found
+    std::vector<int> column_plane;   // per column from x0: index into `planes` (-1: column has no pixel)
+    std::vector<uint8_t> on_plane;   // per column: 1 when its depth is the plane's
+  };
+  std::vector<Region> regions;
+  // The façade plane of pixel (x, y), or nullptr off buildings.
+  const FacadePlane* plane_at(int x, int y, bool* on_plane = nullptr) const;
+};
+BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m);
+// Camera z where the pixel ray through (u, v) meets the vertical plane; INFINITY when it does not
+// (parallel or behind the camera).
+double facade_depth_m(const CameraGeometry& g, const FacadePlane& f, double u, double v);
+
 // ---- lights and composition (full resolution) ----------------------------------------------
 // Ego low beam (stage 6b): one headlamp's luminous intensity (cd) from the scene preset's
 // [ego_beam] table at horizontal angle h_deg (positive right) and vertical angle v_deg (positive
@@ -225,8 +277,12 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o);
 // (Y = 0) with a 1 m texture checker, lane markings (dashes 3 m on / 6 m off at X = ±lane_width/2,
 // solid lines 0.2 m inside the road edges), sidewalks, building façades 12 m tall beyond them
 // (3 to 200 m ahead), terrain beyond, sky above the horizon, and boxes standing on the road (front
-// face at D, sides visible, labelled car with instances).
-struct SyntheticBox { double X_m, D_m, width_m, height_m, length_m; };
+// face at D, sides visible, labelled car with instances, or with another label: vegetation for
+// a hedge, no instance).
+struct SyntheticBox {
+  double X_m, D_m, width_m, height_m, length_m;
+  Label label = Label::Car;
+};
 struct SyntheticCameraOptions {
   int width = 1024, height = 512;
   CameraGeometry camera;  // intrinsics and pose at width x height

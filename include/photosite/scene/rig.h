@@ -17,13 +17,26 @@ struct CameraRig {
 };
 
 CameraRig parse_camera_rig(const std::string& toml_text, const std::string& file);
-CameraRig load_camera_rig(const std::string& name_or_path);  // name in presets/rigs, or a path
+// A name in presets/rigs, a .toml path, or a Cityscapes camera .json path.
+CameraRig load_camera_rig(const std::string& name_or_path);
 std::vector<std::string> bundled_rigs();                     // names in presets/rigs, sorted
 // `--rig auto`: the bundled rig whose native aspect ratio is nearest the image's (KITTI 3.31,
 // Cityscapes 2.0); ties go to the first name.
 CameraRig rig_for_image(int width, int height);
-// `--rig` value: "auto" (rig_for_image), a bundled name or a .toml path.
-CameraRig resolve_camera_rig(const std::string& flag, int width, int height);
+// `--rig` value: "auto" (rig_for_image), a bundled name, a .toml path or a Cityscapes camera
+// .json. With "auto" and an image path in the Cityscapes layout whose camera file exists
+// (cityscapes_camera_file), that image's own calibration.
+CameraRig resolve_camera_rig(const std::string& flag, int width, int height, const std::string& image_path = {});
+
+// Cityscapes' per-image calibration (camera/<split>/<city>/<stem>_camera.json: extrinsic z and
+// pitch, intrinsic fx, u0, v0) as a rig of the 2048x1024 leftImg8bit frames (scene/rig_json.cpp).
+// Bad input (file: key: problem) on a missing key, a non-number or a value outside the rig
+// schema's ranges.
+CameraRig parse_cityscapes_camera(const std::string& json_text, const std::string& file);
+CameraRig load_cityscapes_camera(const std::string& path);
+// The camera file of an image in the Cityscapes layout (leftImg8bit[_sequence]/<split>/<city>/
+// <stem>_leftImg8bit.png → camera/<split>/<city>/<stem>_camera.json) when it exists, else "".
+std::string cityscapes_camera_file(const std::string& image_path);
 
 // The rig's intrinsics at an image of width x height. An image of the native aspect ratio (within
 // 1%) is taken as resized: fx, cx, cy scale by width / native width. Another aspect ratio is taken

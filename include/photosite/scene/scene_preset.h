@@ -38,9 +38,11 @@ struct ScenePreset {
   double veh_lamp_height_m = 0.7, veh_lamp_inset_m = 0.15, veh_head_diameter_m = 0.18,
          veh_tail_diameter_m = 0.12, veh_head_intensity_cd = 350, veh_tail_intensity_cd = 8,
          veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5;
-  // [windows] façade layout in metres.
+  // [windows] façade layout in metres; ground-floor shops: pane width (on the window pitch),
+  // sill and pane height above the ground, and the frontage of one shop (lit as a whole).
   double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,
          shop_luminance_factor = 3, shop_cct_K = 3000;
+  double shop_width_m = 1.1, shop_sill_m = 0.4, shop_height_m = 2.0, shop_frontage_m = 6.5;
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;

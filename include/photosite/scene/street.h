@@ -34,14 +34,17 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
                         const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m = nullptr);
 
 // Lit windows on building façades, in metres: every building pixel's point from its metric
-// depth; the façade runs along the road (coordinate D) where depth changes along the row faster
-// in D than in X, else across it (coordinate X); storeys of window_storey_m, windows of
-// window_width_m x window_height_m centred in cells of window_pitch_m, perspective following
-// from the projection. The lit draw is keyed by (run seed, façade side, cell, storey), all in
-// world coordinates, so windows stay on their façade when the camera moves. The ground floor
-// holds shop fronts: shop_luminance_factor brighter, at shop_cct_K. Pixels whose footprint exceeds
-// half a window width (z/f > window_width_m/2) get none (they would alias). Returns the number of
-// lit windows drawn.
+// depth, laid out in its façade's plane (building_facades: the plane fitted to the region's
+// ground contacts, the one metric_depth took the depth from), with s the horizontal coordinate
+// along the plane (increasing away from the camera; toward +X on a plane facing it) and Y the
+// height: storeys of window_storey_m, windows of window_width_m x window_height_m centred in cells
+// of window_pitch_m, perspective following from the projection. The lit draw is keyed by (run
+// seed, the plane's azimuth in 5° and distance in 5 m steps, cell, storey), all in world
+// coordinates, so windows stay on their façade when the camera moves. The ground floor holds
+// shops of shop_frontage_m, each lit or dark as a whole: panes of shop_width_m on the window
+// pitch from shop_sill_m to shop_sill_m + shop_height_m, shop_luminance_factor brighter, at
+// shop_cct_K. Pixels whose footprint exceeds half a window width (z/f > window_width_m/2) get
+// none (they would alias). Returns the number of lit windows and shops drawn.
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                        const ScenePreset& p, uint64_t seed);
 

@@ -1,0 +1,88 @@
+// Cityscapes' own per-image camera calibration as a camera rig (see rig.h).
+//
+// The Cityscapes package camera_trainvaltest ships one file per image,
+// <root>/camera/<split>/<city>/<city>_<seq>_<frame>_camera.json:
+//   {"extrinsic": {"baseline": m, "pitch": rad, "roll": rad, "x": m, "y": m, "yaw": rad, "z": m},
+//    "intrinsic": {"fx": px, "fy": px, "u0": px, "v0": px}}
+// (Cordts et al., CVPR 2016, and the data set's README). z is the camera's height above the road
+// and pitch its rotation about the lateral axis, positive looking down: for the stuttgart camera
+// (pitch 0.038 rad, z 1.22 m) the Cityscapes 3D matrix sensor_T_ISO_8855 of the same camera has
+// R[0][2] = −0.038 and places the optical centre 1.220 m above the ground. The intrinsics refer to
+// the 2048×1024 leftImg8bit frames.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "photosite/error.h"
+#include "photosite/scene/rig.h"
+
+namespace photosite::scene {
+namespace fs = std::filesystem;
+
+namespace {
+constexpr int kCityscapesWidthPx = 2048, kCityscapesHeightPx = 1024;  // leftImg8bit frames
+
+double number_at(const nlohmann::json& j, const char* group, const char* key, double lo, double hi,
+                 const char* unit, const std::string& file) {
+  const std::string name = std::string(group) + "." + key;
+  if (!j.contains(group) || !j[group].is_object()) fail_at(file, std::string("no \"") + group + "\" object (a Cityscapes camera file has extrinsic and intrinsic)");
+  const auto& g = j[group];
+  if (!g.contains(key)) fail_at(file, name + ": missing");
+  if (!g[key].is_number()) fail_at(file, name + ": not a number");
+  const double v = g[key].get<double>();
+  if (!(v >= lo && v <= hi))
+    fail_at(file, fmt::format("{}: {} {} is outside [{}, {}]", name, v, unit, lo, hi));
+  return v;
+}
+}  // namespace
+
+CameraRig parse_cityscapes_camera(const std::string& text, const std::string& file) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) fail_at(file, "not a JSON object (expected a Cityscapes camera file)");
+  CameraRig r;
+  r.file = file;
+  r.name = fs::path(file).stem().string();
+  r.description = "Cityscapes camera file";
+  r.native_width_px = kCityscapesWidthPx;
+  r.native_height_px = kCityscapesHeightPx;
+  // The same ranges as the rig presets' schema (scene/rig.cpp), pitch converted from radians.
+  r.fx_px = number_at(j, "intrinsic", "fx", 1, 1e6, "px", file);
+  r.cx_px = number_at(j, "intrinsic", "u0", -1e5, 1e5, "px", file);
+  r.cy_px = number_at(j, "intrinsic", "v0", -1e5, 1e5, "px", file);
+  r.mount_height_m = number_at(j, "extrinsic", "z", 0.1, 50, "m", file);
+  const double pitch_rad = number_at(j, "extrinsic", "pitch", -30 * std::numbers::pi / 180, 30 * std::numbers::pi / 180, "rad", file);
+  r.pitch_deg = pitch_rad * 180 / std::numbers::pi;
+  return r;
+}
+
+std::string cityscapes_camera_file(const std::string& image_path) {
+  // .../leftImg8bit[_sequence]/<split>/<city>/<stem>_leftImg8bit.<ext> →
+  // .../camera/<split>/<city>/<stem>_camera.json, when the data set has it.
+  const fs::path p(image_path);
+  const std::string name = p.filename().string();
+  const std::string tag = "_leftImg8bit";
+  const auto at = name.rfind(tag);
+  if (at == std::string::npos) return {};
+  const std::string stem = name.substr(0, at);
+  const fs::path city = p.parent_path(), split = city.parent_path(), top = split.parent_path();
+  const std::string top_name = top.filename().string();
+  if (top_name != "leftImg8bit" && top_name != "leftImg8bit_sequence") return {};
+  const fs::path cam = top.parent_path() / "camera" / split.filename() / city.filename() / (stem + "_camera.json");
+  std::error_code ec;
+  return fs::is_regular_file(cam, ec) ? cam.string() : std::string();
+}
+
+CameraRig load_cityscapes_camera(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) fail_at(path, "cannot read camera file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_cityscapes_camera(ss.str(), path);
+}
+
+}  // namespace photosite::scene
