@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "photosite/error.h"
+#include "scene/night_detail.h"
 #ifdef PHOTOSITE_HAVE_VULKAN
 #include "photosite/gpu/scene.h"
 #include "photosite/gpu/sensor.h"
@@ -133,12 +134,27 @@ ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, Demosaic
   return photosite::demosaic(mosaic, pattern, method);
 }
 
-scene::PixelStages SensorRunner::pixel_stages() {
+scene::PixelTail SensorRunner::night_tail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
+                                          const ImageF& beam_lux, const scene::ScenePreset& p, bool keep_darkened) {
 #ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return gpu::pixel_stages(device_->scene);
+  if (device_) return device_->scene->tail(texture, lights, labels, beam_lux, p, keep_darkened);
 #endif
-  return {};
+  scene::PixelTail t;
+  if (keep_darkened) t.darkened = scene::darken(texture, labels, p);
+  t.radiance = scene::compose(texture, lights, labels, beam_lux, p);
+  return t;
 }
+
+namespace scene {
+NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
+                       bool keep_darkened, SensorRunner& backend) {
+  NightTail tail;  // empty on the CPU: night_scene's own path (the same operations, its own timings)
+  if (backend.backend() == Backend::Vulkan)
+    tail = [&backend](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& beam_lux,
+                      const ScenePreset& q, bool keep) { return backend.night_tail(t, lights, ids, beam_lux, q, keep); };
+  return night_scene_with(day, labels, p, seed, keep_darkened, tail);
+}
+}  // namespace scene
 
 ImageF SensorRunner::linearize(const ImageF& day, const ImageFileInfo& info) {
 #ifdef PHOTOSITE_HAVE_VULKAN

@@ -320,7 +320,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         spi = &with_camera;
       }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, *spi, seed, false, runner.pixel_stages()));
+          scene::night_scene(l->day, l->labels, *spi, seed, false, runner));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);

@@ -26,8 +26,7 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   lap("linearize");
-  c.scene = scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect),
-                               runner.pixel_stages());
+  c.scene = scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
   if (inspect) {

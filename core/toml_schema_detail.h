@@ -209,10 +209,12 @@ void set_value(const Param<P>& p, const toml::node& n, const std::string& file, 
       if (!a) key_error(file, line, key, "expected an array of rows (arrays of numbers)");
       std::vector<double> v;
       std::size_t cols = 0;
+      bool first = true;
       for (const auto& row : *a) {
         const toml::array* r = row.as_array();
         if (!r) key_error(file, line_of(row), key, "expected an array of rows (arrays of numbers)");
-        if (!v.empty() && r->size() != cols) key_error(file, line_of(row), key, "rows differ in length");
+        if (!first && r->size() != cols) key_error(file, line_of(row), key, "rows differ in length");
+        first = false;
         cols = r->size();
         for (const auto& e : *r) {
           const auto x = e.value<double>();

@@ -182,13 +182,5 @@ ImageF compose(Context& ctx, const ImageF& texture, const ImageF& lights, const 
   return SceneStages(ctx).compose(texture, lights, labels, depth, p, device_ms);
 }
 
-scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages) {
-  scene::PixelStages st;
-  st.tail = [stages](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& d,
-                     const scene::ScenePreset& p, bool keep_darkened) {
-    return stages->tail(t, lights, ids, d, p, keep_darkened);
-  };
-  return st;
-}
 
 }  // namespace photosite::gpu

@@ -4,11 +4,17 @@
 #include <vector>
 
 #include "photosite/scene/night.h"
+#include "scene/night_detail.h"
 
 namespace photosite::scene {
 
-NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened, const PixelStages& stages) {
+NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
+                       bool keep_darkened) {
+  return night_scene_with(day, labels, p, seed, keep_darkened, {});
+}
+
+NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
+                            uint64_t seed, bool keep_darkened, const NightTail& tail) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -19,7 +25,7 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p);
-  if (keep_darkened && !stages.tail) s.darkened = darken(texture, labels.ids, p);
+  if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
   s.work_scale = w.scale;
@@ -57,8 +63,8 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux);
   s.light_stats = lm.stats;
   lap("lights");
-  if (stages.tail) {
-    PixelTail t = stages.tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);
+  if (tail) {
+    PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);
     s.radiance = std::move(t.radiance);
     if (keep_darkened) s.darkened = std::move(t.darkened);
     s.resident_radiance = t.resident;

@@ -212,7 +212,9 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
     for (size_t i = 1; i < a.size(); ++i)
       if (!(a[i] > a[i - 1])) err(key, "angles must increase strictly");
   }
-  if (p.beam_intensity_cd.size() != p.beam_h_deg.size() * p.beam_v_deg.size())
+  const toml::array* rows = t.at_path("ego_beam.intensity_cd").as_array();  // read() found it an array
+  if (!rows || rows->size() != p.beam_v_deg.size() ||
+      p.beam_intensity_cd.size() != p.beam_h_deg.size() * p.beam_v_deg.size())
     err("ego_beam.intensity_cd", "needs one row per v_deg entry (" + std::to_string(p.beam_v_deg.size()) +
                                      "), each with one value per h_deg entry (" +
                                      std::to_string(p.beam_h_deg.size()) + ")");

@@ -383,8 +383,18 @@ TEST_F(Gpu, MlriKernelsBitEqualOnFramesLargerThanACpuTile) {
 #ifdef PHOTOSITE_HAVE_VULKAN
 #include "photosite/gpu/scene.h"
 #include "photosite/scene/night.h"
+#include "scene/night_detail.h"
 
 namespace photosite {
+
+// SceneStages::tail (what SensorRunner::night_tail runs on Vulkan) as night_scene's tail, on a
+// test's own context.
+static scene::NightTail tail_on(std::shared_ptr<gpu::SceneStages> stages) {
+  return [stages](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& beam_lux,
+                  const scene::ScenePreset& p, bool keep_darkened) {
+    return stages->tail(t, lights, ids, beam_lux, p, keep_darkened);
+  };
+}
 
 TEST_F(Gpu, DarkenBitEqualToCpu) {
   scene::SyntheticOptions so;
@@ -492,8 +502,8 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   auto stages = std::make_shared<gpu::SceneStages>(*ctx);
   const size_t n = static_cast<size_t>(w) * h;
   auto before = ctx->transfers();
-  const scene::NightScene dev = scene::night_scene(road.day_linear_srgb, road.labels, sp, 3, true,
-                                                   gpu::pixel_stages(stages));
+  const scene::NightScene dev = scene::night_scene_with(road.day_linear_srgb, road.labels, sp, 3, true,
+                                                        tail_on(stages));
   auto after = ctx->transfers();
   // texture + lights (3 floats) + depth (1 float) + labels (uint16) up; darkened + radiance down.
   EXPECT_EQ(after.uploaded - before.uploaded, n * (12 + 12 + 4 + 2));
@@ -620,8 +630,8 @@ TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
   const auto road = scene::make_synthetic_road(so);
   const auto sp = scene::load_scene_preset("night-urban");
   auto sa = std::make_shared<gpu::SceneStages>(*ctx), sb = std::make_shared<gpu::SceneStages>(staged);
-  const auto na = scene::night_scene(road.day_linear_srgb, road.labels, sp, 2, true, gpu::pixel_stages(sa));
-  const auto nb = scene::night_scene(road.day_linear_srgb, road.labels, sp, 2, true, gpu::pixel_stages(sb));
+  const auto na = scene::night_scene_with(road.day_linear_srgb, road.labels, sp, 2, true, tail_on(sa));
+  const auto nb = scene::night_scene_with(road.day_linear_srgb, road.labels, sp, 2, true, tail_on(sb));
   EXPECT_EQ(count_differences(na.lights, nb.lights), 0u);
   EXPECT_EQ(count_differences(na.darkened, nb.darkened), 0u);
   EXPECT_EQ(count_differences(na.radiance, nb.radiance), 0u);

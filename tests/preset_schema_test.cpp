@@ -228,6 +228,11 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
             std::string::npos);
   EXPECT_NE(error("[0, 0, 0, 0, 0, 0, 0],", "[0, 0, 0, 0, 0, 0],").find(": ego_beam.intensity_cd: rows differ in length"),
             std::string::npos);
+  // An empty first row is a row too; and as many rows as v_deg entries, of one length each.
+  EXPECT_NE(error("[0, 0, 0, 0, 0, 0, 0],", "[],").find(": ego_beam.intensity_cd: rows differ in length"),
+            std::string::npos);
+  EXPECT_NE(error("[0, 0, 0, 0, 0, 0, 0],", "").find(": ego_beam.intensity_cd: needs one row per v_deg entry (8)"),
+            std::string::npos);
   EXPECT_NE(error("[2, 4, 6, 8, 8, 6, 2],", "[2, 4, 6, 8, 8, 6, 2e7],").find(": ego_beam.intensity_cd: value 2e7 is out of range, outside [0, 1e6] (cd)"),
             std::string::npos);
   EXPECT_NE(error("[retroreflection]", "[retro]").find(": retro: unknown key"), std::string::npos);

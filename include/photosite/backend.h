@@ -32,8 +32,8 @@ class SensorRunner {
   SensorRunner& operator=(SensorRunner&&) noexcept;
   ~SensorRunner();
   Backend backend() const { return backend_; }
-  // resident_radiance: NightScene::resident_radiance of a scene made by this runner's
-  // pixel_stages(): on Vulkan the radiance is read where the scene stages left it on the device
+  // resident_radiance: NightScene::resident_radiance of a scene made on this runner
+  // (night_scene(..., runner)): on Vulkan the radiance is read where the scene stages left it on the device
   // (a stale or 0 token uploads the host image, with the same result).
   ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
                                const LensPreset& lens, const ResolvedExposure& exposure,
@@ -49,8 +49,12 @@ class SensorRunner {
                       uint64_t resident_radiance = 0);
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
-  // The night chain's full-resolution per-pixel tail: on Vulkan the kernels darken and compose in one sequence (gpu::SceneStages::tail), on the CPU none (night_scene's own path).
-  scene::PixelStages pixel_stages();
+  // The night chain's full-resolution per-pixel tail: darken (`darkened` only with
+  // keep_darkened), low beam and lights. On Vulkan the kernels in one sequence
+  // (gpu::SceneStages::tail), the radiance also left on the device (PixelTail::resident); on the
+  // CPU scene::darken and scene::compose.
+  scene::PixelTail night_tail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
+                              const ImageF& beam_lux, const scene::ScenePreset& p, bool keep_darkened);
   // scene::linearize() on this backend (kernel linearize on Vulkan).
   ImageF linearize(const ImageF& day, const ImageFileInfo& info);
   // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
@@ -68,5 +72,14 @@ class SensorRunner {
 
 // make_backend("cpu" | "vulkan" | "auto"): resolve_backend() and a runner on the result.
 SensorRunner make_backend(const std::string& name);
+
+namespace scene {
+// The night chain (scene::night_scene) with its per-pixel tail on `backend`
+// (SensorRunner::night_tail): on Vulkan the radiance stays on the device under
+// NightScene::resident_radiance for the same runner's sensor stages; on the CPU it is
+// scene::night_scene itself.
+NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+                       uint64_t seed, bool keep_darkened, SensorRunner& backend);
+}  // namespace scene
 
 }  // namespace photosite

@@ -60,7 +60,5 @@ class SceneStages {
   BufferCache buffers_;
   uint64_t radiance_token_ = 0;  // what buffer "radiance" holds; 0: nothing promised
 };
-// SceneStages::tail as night_scene()'s pixel stages.
-scene::PixelStages pixel_stages(std::shared_ptr<SceneStages> stages);
 
 }  // namespace photosite::gpu

@@ -222,7 +222,6 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
-// `vp` is unused (the beam is metric); kept for the PixelStages interface.
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& beam_lux, const ScenePreset& p);
 
@@ -243,23 +242,21 @@ struct NightScene {
   std::vector<StageTiming> timings;
   uint64_t resident_radiance = 0;  // PixelTail::resident: `radiance` is still on the device
 };
-// The full-resolution per-pixel tail of night_scene() handed to another backend (the Vulkan
-// kernels, gpu/scene.h): per-class darkening, low beam and composition, from the CPU's
-// reflectance texture, light map and depth. Geometry stays on the
-// CPU. Empty: night_scene's own CPU path.
+// The full-resolution per-pixel tail of night_scene() (per-class darkening, low beam and
+// composition, from the reflectance texture, the light map and the low beam's illuminance) as a
+// backend returns it: SensorRunner::night_tail (include/photosite/backend.h), on Vulkan
+// gpu::SceneStages::tail. Geometry stays on the CPU.
 struct PixelTail {
   ImageF radiance;    // compose()
   ImageF darkened;    // darken(), only when asked for
   uint64_t resident = 0;  // nonzero: `radiance` is also left on the backend's device under this
                           // token (gpu::new_residency_token), for the sensor to read from there
 };
-struct PixelStages {
-  std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels, const ImageF& beam_lux,
-                          const ScenePreset& p, bool keep_darkened)>
-      tail;
-};
+// The chain on the CPU. To run its per-pixel tail where a backend runs (on Vulkan the radiance
+// then stays on the device for the sensor): night_scene(..., SensorRunner&) in
+// include/photosite/backend.h.
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened = false, const PixelStages& stages = {});
+                       uint64_t seed, bool keep_darkened = false);
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {

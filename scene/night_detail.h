@@ -1,0 +1,18 @@
+// Private (not installed): night_scene() with its full-resolution per-pixel tail handed to a
+// backend. The public faces are scene::night_scene() (the CPU) and night_scene(..., SensorRunner&)
+// (include/photosite/backend.h, core/backend.cpp); the Vulkan tests hand it a gpu::SceneStages
+// of their own context.
+#pragma once
+#include <functional>
+
+#include "photosite/scene/night.h"
+
+namespace photosite::scene {
+
+using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
+                                          const ImageF& beam_lux, const ScenePreset& p, bool keep_darkened)>;
+// An empty tail: the CPU path (darken before the geometry, compose at the end).
+NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+                            uint64_t seed, bool keep_darkened, const NightTail& tail);
+
+}  // namespace photosite::scene
