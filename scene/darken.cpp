@@ -179,17 +179,16 @@ std::array<double, 3> illuminant_tint(double cct_K) {
 
 DarkenParams darken_params(const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K),
-             tl = illuminant_tint(p.street_cct_K);
-  // Average horizontal street-light illuminance that gives the target road luminance:
-  // E = π L / ρ_road. The ground receives it as lamp pools in metres (scene/street.cpp, added in
-  // the light map); vertical surfaces keep the uniform vertical_fraction of the average.
-  const double e_street = units::pi * p.street_road_luminance_cd_m2 / p.rho_road;
+  const auto tm = illuminant_tint(p.moon_cct_K), ts = illuminant_tint(p.skyglow_cct_K);
+  // Ambient only (moon and sky glow, on every surface alike): the street lighting reaches the
+  // ground as lamp pools and vertical surfaces as each pixel's own E_v from the same lamps, both
+  // in metres and added in the light map (scene/street.cpp add_street_lighting,
+  // add_vertical_street_light), so none of it is counted here.
   DarkenParams d;
   for (int k = 0; k < 3; ++k) {
     const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
     d.ground[k] = static_cast<float>(amb / units::pi);
-    d.vertical[k] = static_cast<float>((amb + p.street_vertical_fraction * e_street * tl[k]) / units::pi);
+    d.vertical[k] = d.ground[k];
   }
   // Sky: its own luminance, with the day's relative luminance pattern (clouds) kept and the
   // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).

@@ -343,6 +343,83 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   return drawn;
 }
 
+void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
+                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p) {
+  if (s.lamps.empty()) return;
+  const int W = L.width(), H = L.height();
+  const auto tl = illuminant_tint(p.street_cct_K);
+  const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
+  const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
+  const auto& ground = ground_classes();
+  // Façade pixels: the plane metric_depth took their depth from (and add_facade_windows lays its
+  // windows in); its normal (n_X, n_D) points away from the camera, the lit face the other way.
+  const BuildingFacades fac = building_facades(labels, g, p.max_depth_m);
+  std::vector<double> reach(s.lamps.size());
+  for (size_t i = 0; i < s.lamps.size(); ++i) reach[i] = reach_m(s.lamps[i].Y_m, p);
+  // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
+  // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
+  // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
+  // E finite. (The ground pools do not apply it: their d is at least the mounting height, 8-10 m
+  // in the presets.)
+  const double d2_min = 25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
+  const double I0 = s.peak_intensity_cd;
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < H; ++y) {
+    const float* z = depth_m.row(y);
+    const uint16_t* id = labels.row(y);
+    const int32_t* reg = fac.region.row(y);
+    const float* tx = texture.row(y);
+    float* o = L.row(y);
+    const double yn = (y - g.cy_px) / g.f_px;
+    for (int x = 0; x < W; ++x) {
+      const int k = id[x];
+      if (k == sky || (k < kLabelCount && ground[k])) continue;
+      const double zz = z[x];
+      if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
+      // The pixel's point in road coordinates (X right, Y up, D ahead; camera foot at the origin).
+      const double X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
+      double nX, nD;  // the surface's horizontal unit normal, toward the half-space it is lit from
+      const FacadePlane* f = k == building && reg[x] >= 0 ? fac.plane_at(x, y) : nullptr;
+      if (f) {
+        nX = -f->nX;
+        nD = -f->nD;
+      } else {
+        // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
+        // approximation: their own orientation is not known from the labels).
+        const double r = std::sqrt(X * X + D * D);
+        if (!(r > 0)) continue;
+        nX = -X / r;
+        nD = -D / r;
+      }
+      double e = 0;
+      for (size_t i = 0; i < s.lamps.size(); ++i) {
+        const StreetLamp& l = s.lamps[i];
+        // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
+        // along the road.
+        if (!(std::fabs(D - l.D_m) <= reach[i])) continue;
+        const double vX = l.X_m - X, vY = l.Y_m - Y, vD = l.D_m - D;
+        const double cb = nX * vX + nD * vD;  // |v|·cos β
+        // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
+        // approximation of its upward light output ratio as 0) nor on faces turned away.
+        if (!(vY > 0) || !(cb > 0)) continue;
+        const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
+        double rel = 1.0;
+        if (cg < table.cc) {
+          const double u = cg / table.step;
+          const int j = std::min(4095, static_cast<int>(u));
+          rel = table.v[j] + (table.v[j + 1] - table.v[j]) * (u - j);
+        }
+        e += I0 * rel * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+      }
+      if (!(e > 0)) continue;
+      const float ef = static_cast<float>(e);
+      for (int q = 0; q < 3; ++q) o[3 * x + q] += tx[3 * x + q] * tlf[q] * ef;
+    }
+  }
+}
+
 }  // namespace photosite::scene
 
 namespace photosite::scene {

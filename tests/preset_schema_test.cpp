@@ -126,7 +126,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 #define PHOTOSITE_SCENE_FIELDS(X) \
   X(rho_sign) X(rho_construction) X(rho_human) X(rho_nature) X(rho_vehicle) X(rho_sky) X(rho_road) \
   X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
-  X(street_road_luminance_cd_m2) X(street_vertical_fraction) X(street_cct_K) \
+  X(street_road_luminance_cd_m2) X(street_cct_K) \
   X(lamp_mount_height_m) X(lamp_spacing_ratio) X(lamp_setback_m) X(lamp_cutoff_deg) X(lamp_falloff_deg) \
   X(lamp_head_diameter_m) X(lamp_max_distance_m) X(lamp_min_pole_height_m) \
   X(veh_lamp_height_m) X(veh_lamp_inset_m) X(veh_head_diameter_m) X(veh_tail_diameter_m) \

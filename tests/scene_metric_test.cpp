@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -374,6 +375,144 @@ TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
   std::fprintf(stderr, "[street] footprint R %.1f m, E_R %.4f lx = %.2e of the road average %.2f lx; dropped at most "
                "%.2e of the average (bound %.2e), %d pixels checked, %d on a rim\n",
                R, E_R, E_R / E_avg, E_avg, worst_share, worst_bound_share, checked, rim);
+}
+
+// Vertical surfaces lit by the same lamps (street.cpp add_vertical_street_light): one lamp of
+// known intensity I0 at (X, Y, D) = (0, 8, 14) m in front of a box on the road axis.
+namespace {
+struct VerticalRig {
+  SyntheticCameraOptions o;
+  SyntheticCameraScene sc;
+  ScenePreset p = urban();
+  StreetLighting s;
+  ImageF tex, L;
+  explicit VerticalRig(double box_D_m) {
+    o = camera_scene();
+    o.boxes = {{0.0, box_D_m, 2.0, 1.5, 4.5}};
+    sc = make_synthetic_camera_scene(o);
+    s.peak_intensity_cd = 5000;
+    s.lamps = {{0.0, 8.0, 14.0, false}};
+    tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+    L = ImageF(o.width, o.height, 3, 0.f, unit::radiance);
+  }
+  // The pixel's point from its depth, as street.cpp takes it (road coordinates, camera foot at 0).
+  std::array<double, 3> point(int x, int y) const {
+    const CameraGeometry& g = o.camera;
+    const double z = sc.depth_m.at(x, y), yn = (y - g.cy_px) / g.f_px;
+    const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
+    return {z * (x - g.cx_px) / g.f_px, g.mount_height_m - z * (yn * c + sn), z * (c - yn * sn)};
+  }
+  // E recovered from the light map's green channel: L = t·float(tint/π)·float(E).
+  double E_at(int x, int y) const {
+    const float tg = static_cast<float>(illuminant_tint(p.street_cct_K)[1] / M_PI);
+    return L.at(x, y, 1) / (static_cast<double>(tex.at(x, y, 1)) * tg);
+  }
+  // I0·rel(γ)·cos β / d² at point P with the camera-facing horizontal normal, and cos γ.
+  double E_formula(const std::array<double, 3>& P, double* cos_gamma = nullptr) const {
+    const StreetLamp& l = s.lamps[0];
+    const double r = std::hypot(P[0], P[2]), nX = -P[0] / r, nD = -P[2] / r;
+    const double vX = l.X_m - P[0], vY = l.Y_m - P[1], vD = l.D_m - P[2], d = std::sqrt(vX * vX + vY * vY + vD * vD);
+    if (cos_gamma) *cos_gamma = vY / d;
+    return s.peak_intensity_cd * lamp_relative_intensity(std::acos(vY / d), p) * std::max(0.0, (nX * vX + nD * vD) / d) / (d * d);
+  }
+};
+}  // namespace
+
+// The box front (camera-facing, the lamp 6 m in front of it and 8 m up: γ 37-53°, inside the
+// 65° cut-off, rel = 1) gets E = I0·cos β/d² per pixel. The image's E, recovered from
+// L = t·(tint/π)·E: float(E) and two float products, each within 2⁻²⁴ relative, the test's
+// t·tint and division in double exact to 2⁻⁵³ (a product of two floats is exact in double), the
+// two double evaluations of the formula in a different order ~1e-15: within 4·2⁻²⁴ relative.
+TEST(VerticalStreetLight, BoxFrontGetsIntensityCosOverDistanceSquared) {
+  VerticalRig r(20);
+  add_vertical_street_light(r.L, r.tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p);
+  const double cc = std::cos(r.p.lamp_cutoff_deg * M_PI / 180), tol = 4 * std::ldexp(1.0, -24);
+  double worst = 0, lo = 1e300, hi = 0;
+  int n = 0;
+  for (int y = 0; y < r.o.height; ++y)
+    for (int x = 0; x < r.o.width; ++x) {
+      if (!r.sc.box_front.at(x, y)) continue;
+      double cg;
+      const double e = r.E_formula(r.point(x, y), &cg);
+      ASSERT_GT(cg, cc);  // inside the cut-off: the test's formula needs no table
+      ASSERT_GT(e, 0);
+      const double rel = std::fabs(r.E_at(x, y) / e - 1);
+      worst = std::max(worst, rel);
+      EXPECT_LE(rel, tol) << x << "," << y;
+      lo = std::min(lo, e);
+      hi = std::max(hi, e);
+      ++n;
+    }
+  EXPECT_GT(n, 1000);
+  std::fprintf(stderr, "[vertical] box front at 20 m, lamp 8 m up at 14 m, I0 %.0f cd: %d pixels, E %.2f..%.2f lx, "
+               "worst relative error %.2e (bound %.2e)\n", r.s.peak_intensity_cd, n, lo, hi, worst, tol);
+}
+
+// A box beyond every lamp's reach (its front at 50 m, the lamp's footprint ends at
+// 14 + 8·tan(75°) = 43.9 m) gets no lamp light, although the unbounded formula gives it some
+// (γ ≈ 79°, rel ≈ 6%): the ground pools' footprint rule holds for vertical surfaces too.
+TEST(VerticalStreetLight, NothingBeyondEveryLampsReach) {
+  VerticalRig r(50);
+  add_vertical_street_light(r.L, r.tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p);
+  const double reach = r.s.lamps[0].Y_m * std::tan(std::min(85.0, r.p.lamp_cutoff_deg + 2 * r.p.lamp_falloff_deg) * M_PI / 180);
+  int n = 0, lit_inside = 0;
+  for (int y = 0; y < r.o.height; ++y)
+    for (int x = 0; x < r.o.width; ++x) {
+      const int id = r.sc.labels.ids.at(x, y);
+      if (id != static_cast<int>(Label::Car) && id != static_cast<int>(Label::Building)) continue;
+      const auto P = r.point(x, y);
+      if (std::fabs(P[2] - r.s.lamps[0].D_m) > reach * (1 + 1e-9)) {
+        if (id == static_cast<int>(Label::Car)) EXPECT_GT(r.E_formula(P), 0);
+        EXPECT_EQ(r.L.at(x, y, 0), 0.f);
+        EXPECT_EQ(r.L.at(x, y, 1), 0.f);
+        EXPECT_EQ(r.L.at(x, y, 2), 0.f);
+        n += id == static_cast<int>(Label::Car);
+      } else if (std::fabs(P[2] - r.s.lamps[0].D_m) < reach * (1 - 1e-9)) {
+        lit_inside += r.L.at(x, y, 1) > 0;
+      }
+    }
+  EXPECT_GT(n, 100);
+  EXPECT_GT(lit_inside, 100);  // façade pixels within reach facing the lamp are lit
+}
+
+// Pool continuity: at the box's foot the road (horizontal, add_street_lighting) and the box's
+// lowest pixel (vertical, add_vertical_street_light) see the same lamp at the same d and γ, so
+// E_v/E_h = cos β/cos γ = (n·v)/H at the foot point F = (X_b, 0, D_b) below the box pixel's
+// point P_b. The two pixels' points are not F: ln E_h = const − 3 ln d has gradient 3/d, and on
+// the vertical segment P_b–F only d changes (n·v is constant: n horizontal), so
+//   |ln(measured / (n·v)/H)| ≤ 3|P_r − F|/d_min + 3|P_b − F|/d_min + 8·2⁻²⁴
+// (mean value theorem, d_min = |v_F| − the longer offset; float rounding of two recovered E's).
+// The same at two box distances: the light on the face follows the lamp's distance.
+TEST(VerticalStreetLight, PoolIsContinuousAtTheBoxFoot) {
+  for (double D_box : {17.0, 22.0}) {
+    VerticalRig r(D_box);
+    add_street_lighting(r.L, r.tex, r.sc.labels.ids, r.o.camera, r.s, r.p);
+    add_vertical_street_light(r.L, r.tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p);
+    const int x = static_cast<int>(std::lround(r.o.camera.cx_px));
+    int yb = -1;
+    for (int y = 0; y < r.o.height; ++y)
+      if (r.sc.box_front.at(x, y)) yb = y;
+    ASSERT_GE(yb, 0);
+    ASSERT_EQ(r.sc.labels.ids.at(x, yb + 1), static_cast<int>(Label::Road));
+    const auto Pb = r.point(x, yb);
+    double Xr, Dr;
+    ASSERT_TRUE(r.o.camera.ground_point(x, yb + 1, &Xr, &Dr, nullptr));
+    const StreetLamp& l = r.s.lamps[0];
+    const std::array<double, 3> F = {Pb[0], 0.0, Pb[2]};
+    const double rr = std::hypot(F[0], F[2]), nv = (-F[0] * (l.X_m - F[0]) - F[2] * (l.D_m - F[2])) / rr;
+    const double dF = std::sqrt(std::pow(l.X_m - F[0], 2) + l.Y_m * l.Y_m + std::pow(l.D_m - F[2], 2));
+    const double off_r = std::hypot(Xr - F[0], Dr - F[2]), off_b = std::fabs(Pb[1]);
+    const double dmin = dF - std::max(off_r, off_b);
+    const double bound = 3 * off_r / dmin + 3 * off_b / dmin + 8 * std::ldexp(1.0, -24);
+    const double Ev = r.E_at(x, yb), Eh = r.E_at(x, yb + 1), expect = nv / l.Y_m;
+    ASSERT_GT(Eh, 0);
+    EXPECT_LE(std::fabs(std::log(Ev / Eh / expect)), bound);
+    // Both the road and the box inside the cut-off (rel = 1), so the ratio is geometry alone.
+    EXPECT_GT(l.Y_m / dF, std::cos(r.p.lamp_cutoff_deg * M_PI / 180) + 0.05);
+    std::fprintf(stderr, "[vertical] box at %.0f m: road E_h %.2f lx, box foot E_v %.2f lx, ratio %.4f, cos β/cos γ at "
+                 "the foot %.4f, |ln| %.4f (bound %.4f)\n", D_box, Eh, Ev, Ev / Eh, expect,
+                 std::fabs(std::log(Ev / Eh / expect)), bound);
+  }
 }
 
 namespace {

@@ -38,8 +38,8 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
   const ImageF dark = darken(tex, s.labels.ids, p);
   EXPECT_EQ(dark.unit(), std::string(unit::radiance));
-  // Road: ambient only (street lighting reaches the ground as lamp pools in the light map,
-  // scene/street.cpp); vertical surfaces: ambient + the uniform vertical share of the street light.
+  // Road and vertical surfaces: ambient only (street lighting reaches the ground as lamp pools and
+  // vertical surfaces as their own E_v from the same lamps, both in the light map, scene/street.cpp).
   double sum_road = 0, n_road = 0, sum_b = 0, n_b = 0, sum_sky = 0, n_sky = 0;
   for (size_t i = 0; i < dark.pixel_count(); ++i) {
     const int id = s.labels.ids[i];
@@ -50,8 +50,7 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const double amb = p.moon_lux + p.skyglow_lux;
   const double road_expect = p.rho_road * amb / M_PI;
   EXPECT_NEAR(sum_road / n_road, road_expect, 0.03 * road_expect);
-  const double e_street = M_PI * p.street_road_luminance_cd_m2 / p.rho_road;
-  const double b_expect = p.rho_construction * (amb + p.street_vertical_fraction * e_street) / M_PI;
+  const double b_expect = p.rho_construction * amb / M_PI;
   EXPECT_NEAR(sum_b / n_b, b_expect, 0.05 * b_expect);
   EXPECT_NEAR(sum_sky / n_sky, p.sky_luminance_cd_m2, 0.05 * p.sky_luminance_cd_m2);
   // Texture survives: within the road class each night channel is the day channel times one

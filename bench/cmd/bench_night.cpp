@@ -19,6 +19,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
+#include "photosite/scene/street.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/pipeline.h"
@@ -119,6 +120,17 @@ void run(const Opts& o) {
     }
     (void)skirt;
     (void)glared;
+    // The vertical surfaces' street light alone (it runs inside the light map above): each
+    // non-ground pixel's E_v from the lamps within reach, on this round's depth and geometry.
+    {
+      const scene::StreetLighting sl = scene::plan_street_lighting(lm, ns.geometry, sp, 1);
+      const ImageF tex = scene::reflectance_texture(lin, lm.ids, sp);
+      ImageF vl(day.width(), day.height(), 3, 0.f, unit::radiance);
+      auto tv0 = clock::now();
+      scene::add_vertical_street_light(vl, tex, lm.ids, ns.depth, ns.geometry, sl, sp);
+      auto tv1 = clock::now();
+      add("street light on vertical surfaces (alone)", std::chrono::duration<double, std::milli>(tv1 - tv0).count());
+    }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
   }
   const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);

@@ -22,8 +22,9 @@ struct ScenePreset {
   double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
   double sky_luminance_cd_m2 = 0.02;
   // [street] street lighting: road luminance target (cd/m², EN 13201 M class) → horizontal
-  // illuminance on ground classes E = π·L/ρ_road; vertical surfaces get vertical_fraction of it.
-  double street_road_luminance_cd_m2 = 1.0, street_vertical_fraction = 0.3;
+  // illuminance on ground classes E = π·L/ρ_road (the lamps' intensity is scaled to it,
+  // scene/street.cpp); vertical surfaces are lit by the same lamps.
+  double street_road_luminance_cd_m2 = 1.0;
   double street_cct_K = 4000;
   // [street_lamps] luminaires as point sources (scene/street.cpp): mounting height, spacing as a
   // multiple of it, set-back from the road edge, the cut-off intensity distribution (constant to

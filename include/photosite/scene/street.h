@@ -33,6 +33,17 @@ StreetLighting plan_street_lighting(const LabelMap& labels, const CameraGeometry
 int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
                         const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m = nullptr);
 
+// Adds the street lighting's diffuse reflection on vertical surfaces (every non-ground, non-sky
+// pixel): the pixel's point from its metric depth `depth_m`, its horizontal normal from its
+// façade plane (building_facades) on buildings, else turned toward the camera, and
+//   E_v = Σ I(γ)·max(0, cos β) / d²
+// over the lamps within reach_m of it along the road (the ground pools' rule), β between the
+// normal and the direction to the lamp, γ that direction's angle from the lamp's nadir (nothing
+// for γ >= 90°), d² at least (5·head diameter)². Added to `L` as f_k·t_k·E_v/π like the ground
+// pools (texture f, street tint t).
+void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
+                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p);
+
 // Lit windows on building façades, in metres: every building pixel's point from its metric
 // depth, laid out in its façade's plane (building_facades: the plane fitted to the region's
 // ground contacts, the one metric_depth took the depth from), with s the horizontal coordinate
