@@ -84,7 +84,7 @@ int find(std::vector<int>& p, int a) {
 }
 }  // namespace
 
-ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_depth_m) {
+ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_depth_m, const BuildingFacades* facades) {
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
   const bool inst = !lm.instances.empty();
@@ -242,7 +242,8 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   }
   // Buildings: the fitted façade plane of their column (building_facades), where the column's
   // pixels lie above its foot line; elsewhere the per-column plane above.
-  const BuildingFacades fac = building_facades(ids, g, max_depth_m);
+  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(ids, g, max_depth_m);
+  const BuildingFacades& fac = facades ? *facades : computed;
   // z = d / (n_X·x_n + n_D·k), x_n = (u − c_x)/f per column, k = cos θ − y_n·sin θ per row
   // (facade_depth_m, unrolled).
   std::vector<double> xn(W);

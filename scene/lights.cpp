@@ -295,7 +295,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
-                   const ImageF* beam_lux) {
+                   const ImageF* beam_lux, const BuildingFacades* facades) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -576,7 +576,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // hidden from frame to frame cost the panning test (MetricLights) 6 points on Cityscapes.
     // Vertical surfaces (cars, façades, people, poles) by the same lamps from their metric
     // depth, before the heads (drawn as a maximum over whatever light lies there).
-    if (depth_m) add_vertical_street_light(L, texture, labels, *depth_m, *geometry, sl, p);
+    if (depth_m) add_vertical_street_light(L, texture, labels, *depth_m, *geometry, sl, p, facades);
     out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
     out.stats.street_lamps = static_cast<int>(sl.lamps.size());
     out.stats.street_lamp_source = sl.source;
@@ -635,7 +635,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // is drawn when it lies entirely on building pixels and the Philox draw keyed by (seed, cell)
   // says lit.
   if (geometry && depth_m) {
-    out.stats.windows = add_facade_windows(L, labels, *depth_m, *geometry, p, seed);
+    out.stats.windows = add_facade_windows(L, labels, *depth_m, *geometry, p, seed, facades);
   } else {
     const int cell = std::max(4, static_cast<int>(std::lround(p.window_cell_fraction * W)));
     const int nx = W / cell + 1, ny = H / cell + 1;

@@ -42,7 +42,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.vp = vp;
   lap("vanishing");
   s.geometry = camera_geometry(p.rig.name.empty() ? rig_for_image(W, H) : p.rig, W, H, vp);
-  s.depth = metric_depth(labels, s.geometry, p.max_depth_m);
+  // The façade planes, fitted once: depth, windows and the street light on façades read them.
+  const BuildingFacades facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
+  s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
   s.beam_input = coarse_depth(W, H, vp.x, vp.y);
   ImageU8 lanes_full;
   if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
@@ -60,7 +62,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
   s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
   lap("depth");
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux);
+  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
+                          &facades);
   s.light_stats = lm.stats;
   lap("lights");
   if (tail) {

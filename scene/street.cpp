@@ -344,7 +344,8 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 }
 
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
-                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p) {
+                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                               const BuildingFacades* facades) {
   if (s.lamps.empty()) return;
   const int W = L.width(), H = L.height();
   const auto tl = illuminant_tint(p.street_cct_K);
@@ -353,7 +354,8 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   const auto& ground = ground_classes();
   // Façade pixels: the plane metric_depth took their depth from (and add_facade_windows lays its
   // windows in); its normal (n_X, n_D) points away from the camera, the lit face the other way.
-  const BuildingFacades fac = building_facades(labels, g, p.max_depth_m);
+  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
+  const BuildingFacades& fac = facades ? *facades : computed;
   std::vector<double> reach(s.lamps.size());
   for (size_t i = 0; i < s.lamps.size(); ++i) reach[i] = reach_m(s.lamps[i].Y_m, p);
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
@@ -425,13 +427,14 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 namespace photosite::scene {
 
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed) {
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades) {
   const int W = L.width(), H = L.height();
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const double max_z = 0.5 * p.window_width_m * g.f_px;  // footprint z/f <= width/2
   // Each building pixel's façade: the plane fitted to its region's ground contacts (or the
   // region's unfitted plane), the same that gave metric_depth its depth.
-  const BuildingFacades fac = building_facades(labels, g, p.max_depth_m);
+  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
+  const BuildingFacades& fac = facades ? *facades : computed;
   // Per plane: the horizontal unit vector along it, oriented away from the camera (increasing D;
   // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
   // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in

@@ -128,7 +128,10 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
 // along the street). A contact that is hidden (occluded bottom) is taken where the region's
 // visible bottom is: an approximation that places it farther. Sky kDepthInfinity_m; depths
 // capped at max_depth_m elsewhere.
-ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_depth_m);
+// `facades`: building_facades(labels.ids, g, max_depth_m) when the caller has it (night_scene
+// computes it once for depth, windows and the street light on façades), else computed here.
+ImageF metric_depth(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
+                    const struct BuildingFacades* facades = nullptr);
 
 // Building façades as vertical planes (geometry.cpp). A building region (4-connected region of
 // the building class) is cut into up to kMaxFacadePlanes façades, each the vertical plane
@@ -218,7 +221,8 @@ struct LightMap {
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
-                   const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr);
+                   const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr,
+                   const BuildingFacades* facades = nullptr);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.

@@ -41,8 +41,10 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 // normal and the direction to the lamp, γ that direction's angle from the lamp's nadir (nothing
 // for γ >= 90°), d² at least (5·head diameter)². Added to `L` as f_k·t_k·E_v/π like the ground
 // pools (texture f, street tint t).
+// `facades`: building_facades(labels, g, p.max_depth_m) when the caller has it, else computed here.
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
-                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p);
+                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                               const BuildingFacades* facades = nullptr);
 
 // Lit windows on building façades, in metres: every building pixel's point from its metric
 // depth, laid out in its façade's plane (building_facades: the plane fitted to the region's
@@ -56,7 +58,8 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // pitch from shop_sill_m to shop_sill_m + shop_height_m, shop_luminance_factor brighter, at
 // shop_cct_K. Pixels whose footprint exceeds half a window width (z/f > window_width_m/2) get
 // none (they would alias). Returns the number of lit windows and shops drawn.
+// `facades` as for add_vertical_street_light.
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed);
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades = nullptr);
 
 }  // namespace photosite::scene
