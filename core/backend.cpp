@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <cstdio>
 
 #include "photosite/error.h"
@@ -13,6 +14,11 @@
 #endif
 
 namespace photosite {
+
+DeviceImage DeviceImage::issue() {
+  static std::atomic<uint64_t> next{1};
+  return DeviceImage(next++);
+}
 
 const char* to_string(Backend b) { return b == Backend::Vulkan ? "vulkan" : "cpu"; }
 
@@ -83,7 +89,7 @@ SensorRunner::~SensorRunner() {
 #ifdef PHOTOSITE_HAVE_VULKAN
 namespace {
 // The scene stages' radiance buffer when `token` still names it and it fits `radiance`.
-gpu::Buffer* resident(gpu::SceneStages& scene, uint64_t token, const ImageF& radiance) {
+gpu::Buffer* resident(gpu::SceneStages& scene, DeviceImage token, const ImageF& radiance) {
   gpu::Buffer* b = scene.resident_radiance(token);
   return b && b->bytes() == radiance.size() * sizeof(float) ? b : nullptr;
 }
@@ -91,7 +97,7 @@ gpu::Buffer* resident(gpu::SceneStages& scene, uint64_t token, const ImageF& rad
 #endif
 
 ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                           const ResolvedExposure& ex, uint64_t resident_radiance) {
+                                           const ResolvedExposure& ex, DeviceImage resident_radiance) {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_)
     return device_->chain.mean_signal_electrons(radiance, p, lens, ex,
@@ -101,15 +107,15 @@ ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraP
   return photosite::mean_signal_electrons(radiance, p, lens, ex);
 }
 
-uint64_t SensorRunner::resident_mean_e() const {
+DeviceImage SensorRunner::resident_mean_e() const {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_) return device_->chain.resident_mean_e();
 #endif
-  return 0;
+  return {};
 }
 
 SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
-                                 const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_mean_e) {
+                                 const ExposureSettings& s, const FixedPatternMaps& fpn, DeviceImage resident_mean_e) {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_) return device_->chain.sense(mean_e, p, ex, s, fpn, resident_mean_e);
 #endif
@@ -118,7 +124,7 @@ SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, co
 }
 
 SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                  const ExposureSettings& s, const FixedPatternMaps& fpn, uint64_t resident_radiance) {
+                                  const ExposureSettings& s, const FixedPatternMaps& fpn, DeviceImage resident_radiance) {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_)
     return device_->chain.expose(radiance, p, lens, s, fpn, resident(*device_->scene, resident_radiance, radiance));

@@ -484,9 +484,5 @@ void Buffer::download(void* dst, size_t n, size_t offset) const {
   ctx_.count_download(n);
 }
 
-uint64_t new_residency_token() {
-  static std::atomic<uint64_t> next{1};
-  return next++;
-}
 
 }  // namespace photosite::gpu

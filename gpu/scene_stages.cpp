@@ -123,7 +123,7 @@ SceneStages::TailBuffers SceneStages::upload_tail(const ImageF& texture, const I
   const size_t n = texture.pixel_count(), rgb_bytes = 3 * n * sizeof(float);
   TailBuffers b{&buffer("texture", rgb_bytes), &buffer("lights", rgb_bytes), &buffer("depth", n * sizeof(float)),
                 &buffer("radiance", rgb_bytes), nullptr};
-  radiance_token_ = 0;  // the radiance buffer is about to be overwritten
+  radiance_token_ = {};  // the radiance buffer is about to be overwritten
   b.texture->upload(texture.data(), rgb_bytes);
   b.lights->upload(lights.data(), rgb_bytes);
   b.depth->upload(depth.data(), n * sizeof(float));
@@ -165,12 +165,12 @@ scene::PixelTail SceneStages::tail(const ImageF& texture, ImageF& lights, const 
   if (device_ms) *device_ms = s.device_ms();
   if (keep_darkened) buffer("darkened", rgb_bytes).download(out.darkened.data(), rgb_bytes);
   b.radiance->download(out.radiance.data(), rgb_bytes);
-  out.resident = radiance_token_ = new_residency_token();
+  out.resident = radiance_token_ = DeviceImage::issue();
   return out;
 }
 
-Buffer* SceneStages::resident_radiance(uint64_t token) {
-  if (token == 0 || token != radiance_token_) return nullptr;
+Buffer* SceneStages::resident_radiance(DeviceImage image) {
+  if (!image || image != radiance_token_) return nullptr;
   return buffers_.find("radiance");
 }
 

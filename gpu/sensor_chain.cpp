@@ -199,7 +199,7 @@ static void check_bad(Buffer& bad, const ImageF& radiance) {
 
 ImageF SensorChain::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                                           const ResolvedExposure& ex, Buffer* radiance_on_device) {
-  mean_e_token_ = 0;
+  mean_e_token_ = {};
   seq_->begin();
   record_photon(*seq_, radiance, p, lens, ex, radiance_on_device);
   seq_->submit_and_wait();
@@ -208,20 +208,20 @@ ImageF SensorChain::mean_signal_electrons(const ImageF& radiance, const CameraPr
   const size_t n = radiance.pixel_count();
   ImageF out(radiance.width(), radiance.height(), 1, uninitialized, unit::electrons);
   buffer("mean_e", n * sizeof(float)).download(out.data(), n * sizeof(float));
-  mean_e_token_ = new_residency_token();
+  mean_e_token_ = DeviceImage::issue();
   return out;
 }
 
 SensorOutput SensorChain::sense(const ImageF& mean_e, const CameraPreset& p, const ResolvedExposure& ex,
-                                const ExposureSettings& st, const FixedPatternMaps& fpn, uint64_t mean_e_token) {
+                                const ExposureSettings& st, const FixedPatternMaps& fpn, DeviceImage mean_e_token) {
   const int w = mean_e.width(), h = mean_e.height();
   const size_t n = mean_e.pixel_count();
   seq_->begin();
   const Buffer* held = buffers_.find("mean_e");
-  const bool resident = mean_e_token != 0 && mean_e_token == mean_e_token_ && held &&
+  const bool resident = mean_e_token && mean_e_token == mean_e_token_ && held &&
                         held->bytes() == n * sizeof(float);
   if (!resident && w >= 1 && h >= 1) {
-    mean_e_token_ = 0;
+    mean_e_token_ = {};
     buffer("mean_e", n * sizeof(float)).upload(mean_e.data(), n * sizeof(float));
   }
   record_sense(*seq_, w, h, p, ex, st, fpn);
@@ -234,7 +234,7 @@ SensorOutput SensorChain::expose(const ImageF& radiance, const CameraPreset& p, 
                                  const ExposureSettings& st, const FixedPatternMaps& fpn,
                                  Buffer* radiance_on_device) {
   const ResolvedExposure ex = resolve(p, lens, st);
-  mean_e_token_ = 0;
+  mean_e_token_ = {};
   seq_->begin();
   record_photon(*seq_, radiance, p, lens, ex, radiance_on_device);
   record_sense(*seq_, radiance.width(), radiance.height(), p, ex, st, fpn);

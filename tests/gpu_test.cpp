@@ -508,10 +508,10 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   // texture + lights (3 floats) + depth (1 float) + labels (uint16) up; darkened + radiance down.
   EXPECT_EQ(after.uploaded - before.uploaded, n * (12 + 12 + 4 + 2));
   EXPECT_EQ(after.downloaded - before.downloaded, n * (12 + 12));
-  ASSERT_NE(dev.resident_radiance, 0u);
+  ASSERT_TRUE(dev.resident_radiance);
   ASSERT_NE(stages->resident_radiance(dev.resident_radiance), nullptr);
   const scene::NightScene cpu = scene::night_scene(road.day_linear_srgb, road.labels, sp, 3, true);
-  EXPECT_EQ(cpu.resident_radiance, 0u);
+  EXPECT_FALSE(cpu.resident_radiance);
   EXPECT_EQ(count_differences(cpu.darkened, dev.darkened), 0u);
   double peak = 0, worst = 0;
   for (size_t i = 0; i < cpu.radiance.size(); ++i) {
@@ -542,8 +542,8 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   const ResolvedExposure ex = resolve(cam, lens, s);
   const ImageF mean_e = chain.mean_signal_electrons(dev.radiance, cam, lens, ex,
                                                     stages->resident_radiance(dev.resident_radiance));
-  const uint64_t token = chain.resident_mean_e();
-  ASSERT_NE(token, 0u);
+  const DeviceImage token = chain.resident_mean_e();
+  ASSERT_TRUE(token);
   for (uint32_t f = 0; f < 2; ++f) {
     s.frame = f;
     before = ctx->transfers();
@@ -555,7 +555,8 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   }
   // expose() overwrites the mean signal: the token is stale, and sense() uploads (same result).
   (void)chain.expose(dev.radiance, cam, lens, s, fpn);
-  EXPECT_EQ(chain.resident_mean_e(), 0u);
+  EXPECT_FALSE(chain.resident_mean_e());
+  EXPECT_FALSE(chain.resident_mean_e() == token);
   before = ctx->transfers();
   const SensorOutput c = chain.sense(mean_e, cam, ex, s, fpn, token);
   after = ctx->transfers();
@@ -565,7 +566,7 @@ TEST_F(Gpu, NightChainKeepsImagesOnTheDevice) {
   (void)stages->compose(scene::reflectance_texture(road.day_linear_srgb, road.labels.ids, sp), cpu.lights,
                         road.labels.ids, cpu.beam_lux, sp);
   EXPECT_EQ(stages->resident_radiance(dev.resident_radiance), nullptr);
-  EXPECT_EQ(stages->resident_radiance(0), nullptr);
+  EXPECT_EQ(stages->resident_radiance(DeviceImage()), nullptr);
 }
 
 // Staged transfers (a discrete GPU's path: device-local storage buffers, copies through a

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "photosite/device_image.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/pipeline.h"
 
@@ -34,19 +35,19 @@ class SensorRunner {
   Backend backend() const { return backend_; }
   // resident_radiance: NightScene::resident_radiance of a scene made on this runner
   // (night_scene(..., runner)): on Vulkan the radiance is read where the scene stages left it on the device
-  // (a stale or 0 token uploads the host image, with the same result).
+  // (a stale or empty handle uploads the host image, with the same result).
   ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
                                const LensPreset& lens, const ResolvedExposure& exposure,
-                               uint64_t resident_radiance = 0);
-  // resident_mean_e(): a token for the mean signal of the last mean_signal_electrons(), which on
+                               DeviceImage resident_radiance = {});
+  // resident_mean_e(): a handle on the mean signal of the last mean_signal_electrons(), which on
   // Vulkan stays on the device; sense() given it uploads nothing for a run of frames.
-  uint64_t resident_mean_e() const;
+  DeviceImage resident_mean_e() const;
   SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
                      const ResolvedExposure& exposure, const ExposureSettings& settings,
-                     const FixedPatternMaps& fpn, uint64_t resident_mean_e = 0);
+                     const FixedPatternMaps& fpn, DeviceImage resident_mean_e = {});
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
                       const ExposureSettings& settings, const FixedPatternMaps& fpn,
-                      uint64_t resident_radiance = 0);
+                      DeviceImage resident_radiance = {});
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
   // The night chain's full-resolution per-pixel tail: darken (`darkened` only with

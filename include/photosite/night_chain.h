@@ -25,7 +25,7 @@ struct NightChain {
   ResolvedExposure exposure;
   FixedPatternMaps fpn;
   ImageF mean_e;                  // mean signal, e- per pixel
-  uint64_t mean_e_on_device = 0;  // SensorRunner::resident_mean_e() of mean_e
+  DeviceImage mean_e_on_device;  // SensorRunner::resident_mean_e() of mean_e
   int width = 0, height = 0;
   // "linearize", the scene stages, "write maps" (with `inspect`) and "sensor: optics, FPN".
   std::vector<scene::StageTiming> timings;

@@ -143,12 +143,6 @@ int pick_memory_type(const std::vector<uint32_t>& type_flags, uint32_t allowed, 
 // integrated GPU): where mapping is free, so Staging::Auto maps.
 bool unified_memory(const std::vector<uint32_t>& type_flags);
 
-// A fresh token, never 0 and never given twice in the process: a stage that leaves its result in
-// a device buffer hands one out with the host copy, and a later stage given the same token reads
-// the buffer instead of uploading the host copy again (SceneStages::resident_radiance,
-// SensorChain::resident_mean_e). Whoever overwrites the buffer drops the token, so a stale one
-// only costs an upload, never a wrong image.
-uint64_t new_residency_token();
 
 // Whether a Vulkan device can be opened here (loader, driver, device with the features the
 // kernels need); `why` gets the reason when not. Creates and destroys a context.

@@ -44,7 +44,7 @@ class SceneStages {
                         const scene::ScenePreset& p, bool keep_darkened, double* device_ms = nullptr);
   // The device buffer holding the radiance of the tail() that gave `token`, or nullptr when
   // the token is 0 or stale (a later call has overwritten the buffer).
-  Buffer* resident_radiance(uint64_t token);
+  Buffer* resident_radiance(DeviceImage image);
 
  private:
   Buffer& buffer(const std::string& name, size_t bytes);
@@ -58,7 +58,7 @@ class SceneStages {
                       int w, int h, const scene::ScenePreset& p);
   Context& ctx_;
   BufferCache buffers_;
-  uint64_t radiance_token_ = 0;  // what buffer "radiance" holds; 0: nothing promised
+  DeviceImage radiance_token_;  // what buffer "radiance" holds; empty: nothing promised
 };
 
 }  // namespace photosite::gpu

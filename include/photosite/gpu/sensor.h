@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "photosite/device_image.h"
 #include "photosite/gpu/context.h"
 #include "photosite/gpu/sequence.h"
 #include "photosite/sensor/glare.h"
@@ -35,10 +36,10 @@ class SensorChain {
   // The mean signal of the last mean_signal_electrons() stays on the device under this token
   // until expose() or a sense() of another mean overwrites it; sense() given the token reads it
   // from there (a run of frames uploads it never).
-  uint64_t resident_mean_e() const { return mean_e_token_; }
+  DeviceImage resident_mean_e() const { return mean_e_token_; }
   SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
                      const ResolvedExposure& exposure, const ExposureSettings& settings,
-                     const FixedPatternMaps& fpn, uint64_t mean_e_token = 0);
+                     const FixedPatternMaps& fpn, DeviceImage mean_e_token = {});
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
                       const ExposureSettings& settings, const FixedPatternMaps& fpn,
                       Buffer* radiance_on_device = nullptr);
@@ -61,7 +62,7 @@ class SensorChain {
   std::string fpn_loaded_;  // device id + checksum of the maps now on the device
   std::vector<Sequence::StageTime> times_;
   std::unique_ptr<Sequence> seq_;
-  uint64_t mean_e_token_ = 0;  // what buffer "mean_e" holds; 0: nothing promised
+  DeviceImage mean_e_token_;  // what buffer "mean_e" holds; empty: nothing promised
 };
 
 }  // namespace photosite::gpu

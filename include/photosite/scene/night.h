@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "photosite/device_image.h"
 #include "photosite/image.h"
 #include "photosite/io.h"
 #include "photosite/scene/labels.h"
@@ -244,7 +245,7 @@ struct NightScene {
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
   std::vector<StageTiming> timings;
-  uint64_t resident_radiance = 0;  // PixelTail::resident: `radiance` is still on the device
+  DeviceImage resident_radiance;  // PixelTail::resident: `radiance` is still on the device
 };
 // The full-resolution per-pixel tail of night_scene() (per-class darkening, low beam and
 // composition, from the reflectance texture, the light map and the low beam's illuminance) as a
@@ -253,8 +254,8 @@ struct NightScene {
 struct PixelTail {
   ImageF radiance;    // compose()
   ImageF darkened;    // darken(), only when asked for
-  uint64_t resident = 0;  // nonzero: `radiance` is also left on the backend's device under this
-                          // token (gpu::new_residency_token), for the sensor to read from there
+  DeviceImage resident;  // non-empty: `radiance` is also left on the backend's device, for the
+                         // sensor to read from there
 };
 // The chain on the CPU. To run its per-pixel tail where a backend runs (on Vulkan the radiance
 // then stays on the device for the sensor): night_scene(..., SensorRunner&) in
