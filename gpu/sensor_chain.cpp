@@ -19,9 +19,7 @@ Buffer& SensorChain::buffer(const std::string& name, size_t bytes) { return buff
 
 void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const CameraPreset& p,
                                 const LensPreset& lens, const ResolvedExposure& ex, Buffer* radiance_on_device) {
-  if (radiance.channels() != 3)
-    fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
-  if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
+  detail::check_radiance_shape(radiance);
   const int w = radiance.width(), h = radiance.height();
   const size_t n = static_cast<size_t>(w) * h;
   if (radiance_on_device && radiance_on_device->bytes() < n * 3 * sizeof(float))
@@ -190,11 +188,7 @@ SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const Expo
 static void check_bad(Buffer& bad, const ImageF& radiance) {
   const uint32_t i = bad.load<uint32_t>();
   if (i == UINT32_MAX) return;
-  const int x = static_cast<int>(i % radiance.width()), y = static_cast<int>(i / radiance.width());
-  const float* r = radiance.row(y) + 3 * x;
-  fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
-                   "are not physical",
-                   x, y, r[0], r[1], r[2]));
+  detail::fail_bad_radiance(radiance, static_cast<int>(i % radiance.width()), static_cast<int>(i / radiance.width()));
 }
 
 ImageF SensorChain::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,

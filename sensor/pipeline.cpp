@@ -67,9 +67,7 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
 
 ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                              const ResolvedExposure& ex) {
-  if (radiance.channels() != 3)
-    fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
-  if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
+  detail::check_radiance_shape(radiance);
   const PhotonMatrix m = photon_matrix(p, lens, ex);
   const int w = radiance.width(), h = radiance.height();
   ImageF out(w, h, 1, uninitialized, unit::electrons);
@@ -112,12 +110,7 @@ ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, cons
     }
   }
   }
-  if (bad_y >= 0) {
-    const float* r = radiance.row(bad_y) + 3 * bad_x;
-    fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
-                     "are not physical",
-                     bad_x, bad_y, r[0], r[1], r[2]));
-  }
+  if (bad_y >= 0) detail::fail_bad_radiance(radiance, bad_x, bad_y);
   return out;
 }
 
@@ -139,6 +132,19 @@ uint64_t temporal_key(uint64_t device_seed, uint64_t seed) {
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
   return device_seed ^ z ^ (z >> 31);
+}
+
+void check_radiance_shape(const ImageF& radiance) {
+  if (radiance.channels() != 3)
+    fail(fmt::format("scene radiance must have 3 channels (R, G, B), found {}", radiance.channels()));
+  if (radiance.width() < 1 || radiance.height() < 1) fail("scene radiance image is empty");
+}
+
+void fail_bad_radiance(const ImageF& radiance, int x, int y) {
+  const float* r = radiance.row(y) + 3 * x;
+  fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
+                   "are not physical",
+                   x, y, r[0], r[1], r[2]));
 }
 
 void check_sense_inputs(int w, int h, const CameraPreset& p, const FixedPatternMaps& fpn) {

@@ -85,6 +85,11 @@ namespace detail {
 uint64_t temporal_key(uint64_t device_seed, uint64_t seed);
 // Bad input when the maps do not fit the frame or belong to another preset.
 void check_sense_inputs(int width, int height, const CameraPreset& preset, const FixedPatternMaps& fpn);
+// Bad input unless the scene radiance is a non-empty 3-channel (R, G, B) image.
+void check_radiance_shape(const ImageF& radiance);
+// Bad input naming the first non-physical radiance pixel (x, y) (NaN, Inf or negative), the one
+// the photon stage found (CPU: its scan; Vulkan: the kernel's atomic minimum index).
+[[noreturn]] void fail_bad_radiance(const ImageF& radiance, int x, int y);
 // One Gaussian per row and per column per frame (e-); empty vectors when the preset has none.
 void row_column_noise(const CameraPreset& preset, uint64_t key, uint32_t frame, int width, int height,
                       std::vector<float>& row_e, std::vector<float>& col_e);
