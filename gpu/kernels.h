@@ -1,7 +1,8 @@
-// The parameter structs of the kernels, each mirrored field for field by the push-constant
-// block of its kernels/<name>.comp (std430: scalars 4-byte aligned, uvec2 8, double 8); those of
-// photon, sense and darken are not mirrored but defined once, in kernels/common/params_*.glsl,
-// which both languages read. The static_asserts pin every size and offset to the GLSL layout.
+// The parameter structs of the kernels. Those of photon, sense, darken, compose, linearize,
+// poisson/philox_words and the glare kernels are defined once, in kernels/common/params_*.glsl,
+// which both languages read; the demosaic kernels' are still mirrored field for field by the
+// push-constant blocks of their .comp files (std430: scalars 4-byte aligned, uvec2 8, double 8).
+// The static_asserts pin every size and offset to the GLSL layout.
 #pragma once
 #include <algorithm>
 #include <bit>
@@ -24,6 +25,10 @@ namespace photosite::shader {
 #include "common/params_photon.glsl"
 #include "common/params_sense.glsl"
 #include "common/params_darken.glsl"
+#include "common/params_compose.glsl"
+#include "common/params_linearize.glsl"
+#include "common/params_poisson.glsl"
+#include "common/params_glare.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
 
@@ -37,10 +42,7 @@ struct U64 {
 };
 
 // poisson.comp, philox_words.comp (which ignores `method`, the PoissonMethod's value)
-struct PoissonParams {
-  uint32_t n, frame, stream, method;
-  U64 first_pixel, key;
-};
+using shader::PoissonParams;  // kernels/common/params_poisson.glsl
 static_assert(sizeof(PoissonParams) == 32 && offsetof(PoissonParams, first_pixel) == 16 &&
               offsetof(PoissonParams, key) == 24);
 
@@ -71,14 +73,7 @@ static_assert(sizeof(PhotonParams) == 48 && offsetof(PhotonParams, pitch_over_f)
               offsetof(PhotonParams, cy) == 32 && offsetof(PhotonParams, keep) == 40);
 
 // glare_down.comp, glare_blur.comp, glare_up.comp, glare_norm.comp (one block for all four)
-struct GlareParams {
-  int32_t src_w, src_h, dst_w, dst_h;
-  int32_t mode, flags;
-  float weight;
-  float taps[4];
-  uint32_t pad;
-  double eta;
-};
+using shader::GlareParams;  // kernels/common/params_glare.glsl
 static_assert(sizeof(GlareParams) == 56 && offsetof(GlareParams, weight) == 24 &&
               offsetof(GlareParams, taps) == 28 && offsetof(GlareParams, eta) == 48);
 
@@ -155,19 +150,12 @@ static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
               offsetof(DarkenParams, ground_mask) == 80 && offsetof(DarkenParams, n) == 88);
 
 // compose.comp
-struct ComposeParams {
-  uint32_t width, height;
-  U64 ground_mask;
-  float tint_over_pi[3];
-  uint32_t pad;
-};
+using shader::ComposeParams;  // kernels/common/params_compose.glsl
 static_assert(sizeof(ComposeParams) == 32 && offsetof(ComposeParams, ground_mask) == 8 &&
               offsetof(ComposeParams, tint_over_pi) == 16);
 
 // linearize.comp
-struct LinearizeParams {
-  uint32_t n, channels, decode, pad;
-};
+using shader::LinearizeParams;  // kernels/common/params_linearize.glsl
 static_assert(sizeof(LinearizeParams) == 16);
 
 }  // namespace photosite::gpu

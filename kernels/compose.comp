@@ -11,13 +11,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::ComposeParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint width;
-  uint height;
-  uvec2 ground_mask;  // bit id: class id is a ground class
-  float tint_over_pi[3];
-  uint pad;
-} P;
+#include "common/params_compose.glsl"
 layout(std430, binding = 0) readonly buffer Texture { float tex[]; };
 layout(std430, binding = 1) readonly buffer Lights { float lights[]; };
 layout(std430, binding = 2) readonly buffer Labels { uint labels[]; };  // uint16 ids, two per word

@@ -9,14 +9,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::GlareParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  int src_w, src_h, dst_w, dst_h;
-  int mode, flags;
-  float weight;
-  float taps[4];
-  uint pad;
-  double eta;
-} P;
+#include "common/params_glare.glsl"
 layout(std430, binding = 0) readonly buffer Src { float src[]; };
 layout(std430, binding = 1) writeonly buffer Dst { float dst[]; };
 

@@ -10,14 +10,7 @@
 layout(local_size_x = 64) in;
 
 // gpu::GlareParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  int src_w, src_h, dst_w, dst_h;
-  int mode, flags;
-  float weight;
-  float taps[4];
-  uint pad;
-  double eta;
-} P;
+#include "common/params_glare.glsl"
 layout(std430, binding = 0) readonly buffer Level1 { float level1[]; };
 layout(std430, binding = 1) readonly buffer Acc1 { float acc1[]; };
 layout(std430, binding = 2) buffer Rows { double rows[]; };  // [image][row][channel]

@@ -10,14 +10,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::GlareParams (gpu/kernels.h): dst_w x dst_h this level, src_w x src_h the coarse one
-layout(push_constant, std430) uniform Params {
-  int src_w, src_h, dst_w, dst_h;
-  int mode, flags;
-  float weight;
-  float taps[4];
-  uint pad;
-  double eta;
-} P;
+#include "common/params_glare.glsl"
 layout(std430, binding = 0) readonly buffer T { float t[]; };
 layout(std430, binding = 1) readonly buffer Coarse { float coarse[]; };
 layout(std430, binding = 2) writeonly buffer Acc { float acc[]; };

@@ -10,12 +10,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::LinearizeParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint n;         // pixels
-  uint channels;  // of the input
-  uint decode;    // 1: sRGB-encoded codes through the table; 0: linear already
-  uint pad;
-} P;
+#include "common/params_linearize.glsl"
 layout(std430, binding = 0) readonly buffer In { float day[]; };
 layout(std430, binding = 1) readonly buffer Lut { float lut[]; };  // 4097 entries
 layout(std430, binding = 2) writeonly buffer Out { float linear_rgb[]; };

@@ -6,14 +6,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::PoissonParams (the same fields; `method` unused)
-layout(push_constant, std430) uniform Params {
-  uint n;
-  uint frame;
-  uint stream;
-  uint method;
-  uvec2 first_pixel;
-  uvec2 key;
-} P;
+#include "common/params_poisson.glsl"
 layout(std430, binding = 0) writeonly buffer Out { uvec4 words[]; };
 
 void main() {

@@ -7,14 +7,7 @@
 layout(local_size_x = 256) in;
 
 // gpu::PoissonParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint n;
-  uint frame;
-  uint stream;
-  uint method;        // PoissonMethod: 0 exact, 1 cornish-fisher, 2 normal
-  uvec2 first_pixel;
-  uvec2 key;
-} P;
+#include "common/params_poisson.glsl"
 layout(std430, binding = 0) readonly buffer Mean { float mean[]; };
 layout(std430, binding = 1) writeonly buffer Out { float result[]; };
 

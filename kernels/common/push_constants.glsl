@@ -1,5 +1,5 @@
-// The push-constant blocks of the kernels whose maths is shared (photon.comp, sense.comp,
-// darken.comp), each defined ONCE in kernels/common/params_<kernel>.glsl and read by both
+// The push-constant blocks of photon, sense, darken, compose, linearize, poisson/philox_words and
+// the glare kernels, each defined ONCE in kernels/common/params_<kernel>.glsl and read by both
 // languages: the kernel includes its file as its push-constant block (instance P), and
 // gpu/kernels.h includes all of them as C++ structs (inside namespace photosite::shader, after
 // common/prelude.glsl), with static_asserts that pin every size and offset to std430 (scalars
