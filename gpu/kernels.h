@@ -145,9 +145,9 @@ namespace photosite::gpu {
 
 // darken.comp, from scene::DarkenParams
 using shader::DarkenParams;  // kernels/common/params_darken.glsl
-static_assert(sizeof(DarkenParams) == 96 && offsetof(DarkenParams, K) == 24 &&
-              offsetof(DarkenParams, rho_sky) == 48 && offsetof(DarkenParams, glow) == 56 &&
-              offsetof(DarkenParams, ground_mask) == 80 && offsetof(DarkenParams, n) == 88);
+static_assert(sizeof(DarkenParams) == 80 && offsetof(DarkenParams, K) == 16 &&
+              offsetof(DarkenParams, rho_sky) == 40 && offsetof(DarkenParams, glow) == 48 &&
+              offsetof(DarkenParams, n) == 72);
 
 // compose.comp
 using shader::ComposeParams;  // kernels/common/params_compose.glsl

@@ -25,13 +25,11 @@ void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, B
                    const scene::DarkenParams& d) {
   DarkenParams p{};
   for (int k = 0; k < 3; ++k) {
-    p.ground[k] = d.ground[k];
-    p.vertical[k] = d.vertical[k];
+    p.ambient[k] = d.ambient[k];
     p.K[k] = d.K[k];
     p.glow[k] = d.glow[k];
   }
   p.rho_sky = d.rho_sky;
-  p.ground_mask = ground_mask(d);
   p.n = static_cast<uint32_t>(n);
   p.sky_id = static_cast<uint32_t>(scene::Label::Sky);
   const Grid g = grid_1d(n);

@@ -1,7 +1,7 @@
 // Per-class darkening, photosite::scene::darken_pixel (scene/darken_detail.h) with the same
 // per-pixel functions (common/darken.glsl, written once for both): a Lambertian texture f under
 // the class's night illuminance,
-//   L_k = f_k · E_k     (E = ground or vertical illuminance / π, float),
+//   L_k = f_k · E_k     (E = the ambient illuminance / π, float),
 // and for the sky its glow colour scaled by the pixel's relative luminance (double):
 //   L_k = glow_k · (Σ K_j f_j) / ρ_sky.
 #version 450
@@ -27,11 +27,7 @@ void main() {
     radiance[3 * i + 2] = darken_sky_channel(P.glow[2], yr);
     return;
   }
-  const bool ground = id < 32u ? ((P.ground_mask.x >> id) & 1u) != 0u
-                               : id < 64u && ((P.ground_mask.y >> (id - 32u)) & 1u) != 0u;
-  const float e0 = ground ? P.ground[0] : P.vertical[0], e1 = ground ? P.ground[1] : P.vertical[1],
-              e2 = ground ? P.ground[2] : P.vertical[2];
-  radiance[3 * i] = darken_lit_channel(t0, e0);
-  radiance[3 * i + 1] = darken_lit_channel(t1, e1);
-  radiance[3 * i + 2] = darken_lit_channel(t2, e2);
+  radiance[3 * i] = darken_lit_channel(t0, P.ambient[0]);
+  radiance[3 * i + 1] = darken_lit_channel(t1, P.ambient[1]);
+  radiance[3 * i + 2] = darken_lit_channel(t2, P.ambient[2]);
 }

@@ -187,8 +187,7 @@ DarkenParams darken_params(const ScenePreset& p) {
   DarkenParams d;
   for (int k = 0; k < 3; ++k) {
     const double amb = p.moon_lux * tm[k] + p.skyglow_lux * ts[k];
-    d.ground[k] = static_cast<float>(amb / units::pi);
-    d.vertical[k] = d.ground[k];
+    d.ambient[k] = static_cast<float>(amb / units::pi);
   }
   // Sky: its own luminance, with the day's relative luminance pattern (clouds) kept and the
   // colour of the glow (the night sky does not keep the day's blue): L = L_sky·(Y/Ȳ)·s(CCT).

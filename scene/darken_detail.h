@@ -27,8 +27,7 @@ inline void darken_pixel(const float* t, int id, const DarkenParams& d, float* o
     for (int k = 0; k < 3; ++k) o[k] = shader::darken_sky_channel(d.glow[k], yr);
     return;
   }
-  const float* e = d.ground_class[id] ? d.ground : d.vertical;
-  for (int k = 0; k < 3; ++k) o[k] = shader::darken_lit_channel(t[k], e[k]);
+  for (int k = 0; k < 3; ++k) o[k] = shader::darken_lit_channel(t[k], d.ambient[k]);
 }
 
 }  // namespace photosite::scene

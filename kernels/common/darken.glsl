@@ -1,7 +1,7 @@
 // The per-pixel maths of scene::darken, written once in the C++/GLSL common subset
 // (common/prelude.glsl) for scene/darken_detail.h (darken_pixel: scene::darken and scene::compose) and
 // kernels/darken.comp. A Lambertian texture f under the class's night
-// illuminance, L_k = f_k · E_k (E = ground or vertical illuminance / π, float); the sky its glow
+// illuminance, L_k = f_k · E_k (E = the ambient illuminance / π, float); the sky its glow
 // colour scaled by the pixel's relative luminance (double), L_k = glow_k · (Σ K_j f_j) / ρ_sky.
 #ifndef PHOTOSITE_DARKEN_GLSL
 #define PHOTOSITE_DARKEN_GLSL

@@ -43,12 +43,13 @@ double class_reflectance(int label_id, const ScenePreset& p);
 ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
-// The per-pixel darkening, shared by darken() and compose(): night illuminance per unit
-// reflectance on ground and vertical surfaces (E/π in lx·sr⁻¹ per band: times the texture in
-// W·lm⁻¹ it gives W·sr⁻¹·m⁻²), and the sky's
-// glow colour scaled by the pixel's relative luminance.
+// The per-pixel darkening, shared by darken() and compose(): the ambient night illuminance (moon
+// and sky glow) per unit reflectance on every surface but the sky (E/π in lx·sr⁻¹ per band: times
+// the texture in W·lm⁻¹ it gives W·sr⁻¹·m⁻²; the street lamps add their light in the light map),
+// and the sky's glow colour scaled by the pixel's relative luminance. ground_class: the ground
+// classes, read by compose (the low beam lights them).
 struct DarkenParams {
-  float ground[3], vertical[3];
+  float ambient[3];
   double K[3];     // band luminous efficacies (lm/W)
   double rho_sky;  // the sky class reflectance the texture was normalised to
   double glow[3];  // sky glow radiance of relative luminance 1
