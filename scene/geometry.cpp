@@ -82,6 +82,59 @@ int find(std::vector<int>& p, int a) {
   while (p[a] != a) a = p[a] = p[p[a]];
   return a;
 }
+
+// Runs of equal key per row (pixels with key_at(x, y) >= 0) and their 4-connected components:
+// a union-find over runs of one key that overlap in consecutive rows (far cheaper than a per-pixel
+// labelling, as labels come in long runs). Runs are in row order, row y's from row_start[y] to
+// row_start[y + 1]; comp[i] numbers run i's component in the order of its first run (reading
+// order), count of them.
+struct KeyedRun { int y, x0, x1, key; };
+struct RunComponents {
+  std::vector<KeyedRun> runs;
+  std::vector<int> row_start;
+  std::vector<int> comp;
+  int count = 0;
+};
+template <class KeyAt>
+RunComponents run_components(int W, int H, const KeyAt& key_at) {
+  RunComponents rc;
+  auto& runs = rc.runs;
+  auto& row_start = rc.row_start;
+  row_start.assign(H + 1, 0);
+  for (int y = 0; y < H; ++y) {
+    row_start[y] = static_cast<int>(runs.size());
+    int x = 0;
+    while (x < W) {
+      const int k = key_at(x, y);
+      int e = x + 1;
+      while (e < W && key_at(e, y) == k) ++e;
+      if (k >= 0) runs.push_back({y, x, e - 1, k});
+      x = e;
+    }
+  }
+  row_start[H] = static_cast<int>(runs.size());
+  std::vector<int> parent(runs.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (int y = 1; y < H; ++y) {
+    int j = row_start[y - 1];
+    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
+      while (j < row_start[y] && runs[j].x1 < runs[i].x0) ++j;
+      for (int k = j; k < row_start[y] && runs[k].x0 <= runs[i].x1; ++k)
+        if (runs[k].key == runs[i].key) {
+          const int a = find(parent, i), b = find(parent, k);
+          if (a != b) parent[std::max(a, b)] = std::min(a, b);
+        }
+    }
+  }
+  rc.comp.assign(runs.size(), -1);
+  std::vector<int> index(runs.size(), -1);
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const int r = find(parent, static_cast<int>(i));
+    if (index[r] < 0) index[r] = rc.count++;
+    rc.comp[i] = index[r];
+  }
+  return rc;
+}
 }  // namespace
 
 ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_depth_m, const BuildingFacades* facades) {
@@ -100,10 +153,7 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     double D = 0;
     d_edge[y] = g.ground_point(g.cx_px, y + 0.5, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
   }
-  // Runs of equal key (class id, or instance code for instance pixels) on object pixels.
-  struct Run { int y, x0, x1, key; };
-  std::vector<Run> runs;
-  std::vector<int> row_start(H + 1, 0);
+  // Components of equal key (class id, or instance code for instance pixels) on object pixels.
   uint8_t kinds[kLabelCount];
   for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
   auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
@@ -116,52 +166,23 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     }
     return id;
   };
-  for (int y = 0; y < H; ++y) {
-    row_start[y] = static_cast<int>(runs.size());
-    int x = 0;
-    while (x < W) {
-      const int k = key_at(x, y);
-      int e = x + 1;
-      while (e < W && key_at(e, y) == k) ++e;
-      if (k >= 0) runs.push_back({y, x, e - 1, k});
-      x = e;
-    }
-  }
-  row_start[H] = static_cast<int>(runs.size());
-  // Union of 4-connected runs with equal keys (overlapping x ranges in consecutive rows).
-  std::vector<int> parent(runs.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  for (int y = 1; y < H; ++y) {
-    int j = row_start[y - 1];
-    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
-      while (j < row_start[y] && runs[j].x1 < runs[i].x0) ++j;
-      for (int k = j; k < row_start[y] && runs[k].x0 <= runs[i].x1; ++k)
-        if (runs[k].key == runs[i].key) {
-          const int a = find(parent, i), b = find(parent, k);
-          if (a != b) parent[std::max(a, b)] = std::min(a, b);
-        }
-    }
-  }
+  const RunComponents rc = run_components(W, H, key_at);
+  const std::vector<KeyedRun>& runs = rc.runs;
+  const std::vector<int>& row_start = rc.row_start;
+  const std::vector<int>& comp = rc.comp;
   // Components: lowest row, x range; per-column lowest rows for the per-column kind.
-  std::vector<int> comp(runs.size());
   struct Comp { int ymax = -1, x0 = 1 << 30, x1 = -1; bool single = false; size_t col_off = 0; };
-  std::vector<Comp> comps;
-  {
-    std::vector<int> index(runs.size(), -1);
-    for (size_t i = 0; i < runs.size(); ++i) {
-      const int r = find(parent, static_cast<int>(i));
-      if (index[r] < 0) {
-        index[r] = static_cast<int>(comps.size());
-        comps.push_back({});
-        const int key = runs[i].key;
-        comps.back().single = key >= 1000 || single_plane_class(key);
-      }
-      comp[i] = index[r];
-      Comp& c = comps[comp[i]];
-      c.ymax = std::max(c.ymax, runs[i].y);
-      c.x0 = std::min(c.x0, runs[i].x0);
-      c.x1 = std::max(c.x1, runs[i].x1);
+  std::vector<Comp> comps(rc.count);
+  std::vector<uint8_t> seen(rc.count, 0);
+  for (size_t i = 0; i < runs.size(); ++i) {
+    Comp& c = comps[comp[i]];
+    if (!seen[comp[i]]) {  // the component's first run gives its key
+      seen[comp[i]] = 1;
+      c.single = runs[i].key >= 1000 || single_plane_class(runs[i].key);
     }
+    c.ymax = std::max(c.ymax, runs[i].y);
+    c.x0 = std::min(c.x0, runs[i].x0);
+    c.x1 = std::max(c.x1, runs[i].x1);
   }
   size_t cols = 0;
   for (auto& c : comps)
@@ -356,51 +377,18 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   BuildingFacades out;
   out.region = ImageI32(W, H, 1, -1, "region");
-  // 4-connected regions from runs of building pixels (a union-find over runs that overlap in
-  // consecutive rows; far cheaper than a per-pixel labelling, as buildings come in long runs).
-  struct Run { int y, x0, x1; };
-  std::vector<Run> runs;
-  std::vector<int> row_start(H + 1, 0);
-  for (int y = 0; y < H; ++y) {
-    row_start[y] = static_cast<int>(runs.size());
-    const uint16_t* r = ids.row(y);
-    for (int x = 0; x < W;) {
-      if (r[x] != building) { ++x; continue; }
-      int e = x + 1;
-      while (e < W && r[e] == building) ++e;
-      runs.push_back({y, x, e - 1});
-      x = e;
-    }
-  }
-  row_start[H] = static_cast<int>(runs.size());
-  std::vector<int> parent(runs.size());
-  std::iota(parent.begin(), parent.end(), 0);
-  for (int y = 1; y < H; ++y) {
-    int j = row_start[y - 1];
-    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
-      while (j < row_start[y] && runs[j].x1 < runs[i].x0) ++j;
-      for (int k = j; k < row_start[y] && runs[k].x0 <= runs[i].x1; ++k) {
-        const int a = find(parent, i), b = find(parent, k);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-      }
-    }
-  }
-  // Regions numbered in the order of their first run (reading order), with their column extent.
-  std::vector<int> run_region(runs.size(), -1), x1s;
-  {
-    std::vector<int> index(runs.size(), -1);
-    for (size_t i = 0; i < runs.size(); ++i) {
-      const int root = find(parent, static_cast<int>(i));
-      if (index[root] < 0) {
-        index[root] = static_cast<int>(out.regions.size());
-        out.regions.push_back({});
-        out.regions.back().x0 = runs[i].x0;
-        x1s.push_back(runs[i].x1);
-      }
-      const int r = run_region[i] = index[root];
-      out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
-      x1s[r] = std::max(x1s[r], runs[i].x1);
-    }
+  // 4-connected regions of building pixels, numbered in reading order, with their column extent.
+  const RunComponents rc =
+      run_components(W, H, [&](int x, int y) { return ids.at(x, y) == building ? 0 : -1; });
+  const std::vector<KeyedRun>& runs = rc.runs;
+  const std::vector<int>& run_region = rc.comp;
+  out.regions.resize(rc.count);
+  std::vector<int> x1s(rc.count, -1);
+  for (auto& r : out.regions) r.x0 = 1 << 30;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const int r = run_region[i];
+    out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
+    x1s[r] = std::max(x1s[r], runs[i].x1);
   }
   std::vector<std::vector<int>> ymax(out.regions.size());
   for (size_t r = 0; r < out.regions.size(); ++r) {
@@ -410,7 +398,7 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     ymax[r].assign(w, -1);
   }
   for (size_t i = 0; i < runs.size(); ++i) {  // rows ascend: the last write is the lowest
-    const Run& u = runs[i];
+    const KeyedRun& u = runs[i];
     const int r = run_region[i], x0 = out.regions[r].x0;
     std::fill(out.region.row(u.y) + u.x0, out.region.row(u.y) + u.x1 + 1, r);
     for (int x = u.x0; x <= u.x1; ++x) ymax[r][x - x0] = u.y;
