@@ -40,6 +40,13 @@ double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI 
 struct RelTable {
   double cc = 0, step = 0, cutoff = -1, falloff = -1;
   std::vector<double> v;
+  // I(γ)/I0 at cos γ = c: 1 inside the cut-off cone (c >= cc), else linear between the entries.
+  double at(double c) const {
+    if (!(c < cc)) return 1.0;
+    const double u = c / step;
+    const int i = std::min(4095, static_cast<int>(u));
+    return v[i] + (v[i + 1] - v[i]) * (u - i);
+  }
 };
 const RelTable& rel_table(const ScenePreset& p) {
   thread_local RelTable t;
@@ -55,13 +62,7 @@ const RelTable& rel_table(const ScenePreset& p) {
 }
 inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& t) {
   const double d2 = dx * dx + dz * dz + H * H, d = std::sqrt(d2), c = H / d;
-  double rel = 1.0;
-  if (c < t.cc) {
-    const double u = c / t.step;
-    const int i = std::min(4095, static_cast<int>(u));
-    rel = t.v[i] + (t.v[i + 1] - t.v[i]) * (u - i);
-  }
-  return I0 * rel * c / d2;
+  return I0 * t.at(c) * c / d2;
 }
 // One lamp's E over the ground points X = (x − c_x)·k_x of a row (x = x0 .. x0 + n − 1, at the
 // lamp distance dz along the road), into e: lamp_E's operations in the same order. With AVX2
@@ -417,13 +418,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
         // approximation of its upward light output ratio as 0) nor on faces turned away.
         if (!(vY > 0) || !(cb > 0)) continue;
         const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-        double rel = 1.0;
-        if (cg < table.cc) {
-          const double u = cg / table.step;
-          const int j = std::min(4095, static_cast<int>(u));
-          rel = table.v[j] + (table.v[j + 1] - table.v[j]) * (u - j);
-        }
-        e += I0 * rel * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+        e += I0 * table.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
       }
       if (!(e > 0)) continue;
       const float ef = static_cast<float>(e);
