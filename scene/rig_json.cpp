@@ -11,13 +11,12 @@
 // the 2048×1024 leftImg8bit frames.
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 #include "photosite/scene/rig.h"
 
@@ -78,11 +77,7 @@ std::string cityscapes_camera_file(const std::string& image_path) {
 }
 
 CameraRig load_cityscapes_camera(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) fail_at(path, "cannot read camera file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_cityscapes_camera(ss.str(), path);
+  return parse_cityscapes_camera(schema::read_text(path, "camera file"), path);
 }
 
 }  // namespace photosite::scene
