@@ -1,8 +1,6 @@
-// The parameter structs of the kernels. Those of photon, sense, darken, compose, linearize,
-// poisson/philox_words and the glare kernels are defined once, in kernels/common/params_*.glsl,
-// which both languages read; the demosaic kernels' are still mirrored field for field by the
-// push-constant blocks of their .comp files (std430: scalars 4-byte aligned, uvec2 8, double 8).
-// The static_asserts pin every size and offset to the GLSL layout.
+// The parameter structs of the kernels, each defined once, in kernels/common/params_*.glsl, which
+// both languages read (common/push_constants.glsl). The static_asserts pin every size and offset
+// to the kernels' std430 layout (scalars 4-byte aligned, uvec2 8, double 8).
 #pragma once
 #include <algorithm>
 #include <bit>
@@ -29,6 +27,7 @@ namespace photosite::shader {
 #include "common/params_linearize.glsl"
 #include "common/params_poisson.glsl"
 #include "common/params_glare.glsl"
+#include "common/params_demosaic.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
 
@@ -102,30 +101,22 @@ inline uint32_t planes_mode(CfaPattern p) {
   }
 }
 
-// demosaic_bilinear.comp
-struct DemosaicParams {
-  uint32_t width, height, cfa_cell, planes_to_rgb;
-  float black_dn;
-};
-static_assert(sizeof(DemosaicParams) == 20 && offsetof(DemosaicParams, black_dn) == 16);
+// demosaic_<method>.comp: the frame every method reads; LMMSE's and MLRI's own parameters after it
+// (kernels/common/params_demosaic.glsl; LmmseParams and MlriParams hold the frame as `frame`).
+using shader::DemosaicParams;
+using shader::LmmseParams;  // the 9 Gaussian weights (common/lmmse.glsl)
+using shader::MlriParams;   // direction, margins, detail::MlriConstants (common/mlri.glsl)
+static_assert(sizeof(DemosaicParams) == 20 && offsetof(DemosaicParams, cfa_cell) == 8 &&
+              offsetof(DemosaicParams, planes_to_rgb) == 12 && offsetof(DemosaicParams, black_dn) == 16);
+static_assert(sizeof(LmmseParams) == 56 && offsetof(LmmseParams, gw) == 20);
+static_assert(sizeof(MlriParams) == 112 && offsetof(MlriParams, dir) == 20 && offsetof(MlriParams, margin) == 32 &&
+              offsetof(MlriParams, gw) == 36 && offsetof(MlriParams, tau_n_g) == 56 &&
+              offsetof(MlriParams, inv_n_g) == 64 && offsetof(MlriParams, tau_n_b) == 72 &&
+              offsetof(MlriParams, inv_n_b) == 88 && offsetof(MlriParams, inv_box_g) == 104 &&
+              offsetof(MlriParams, inv_box_b) == 108);
 
 class Sequence;
 class Buffer;
-// demosaic_lmmse_*.comp: the frame plus the 9 Gaussian weights (common/lmmse.glsl).
-struct LmmseParams {
-  DemosaicParams frame;
-  float gw[9];
-};
-static_assert(sizeof(LmmseParams) == 56 && offsetof(LmmseParams, gw) == 20);
-// demosaic_mlri_*.comp (common/mlri.glsl): the frame, the stage's direction and margins around
-// the frame, the planes' margin, and MLRI's float constants (detail::MlriConstants).
-struct MlriParams {
-  DemosaicParams frame;
-  uint32_t dir;
-  int32_t mx, my, margin;
-  float gw[5], tau_n_g[2], inv_n_g[2], tau_n_b[4], inv_n_b[4], inv_box_g, inv_box_b;
-};
-static_assert(sizeof(MlriParams) == 112 && offsetof(MlriParams, gw) == 36 && offsetof(MlriParams, inv_box_b) == 108);
 
 // Scratch planes of a multi-pass method on the device, by name and size in bytes (kept by the
 // caller, e.g. reused frame to frame by the sensor chain).

@@ -12,17 +12,9 @@
 #include "philox.glsl"
 layout(local_size_x = 256) in;
 
-// gpu::DemosaicParams (gpu/kernels.h)
-layout(push_constant, std430) uniform Params {
-  uint width;
-  uint height;
-  uint cfa_cell;
-  uint planes_to_rgb;  // 0 R,G,B planes; 1 RCCB (G = C − R − B); 2 RCCC (G = B = (C − R)/2); 3 mono (C/3)
-  float black_dn;      // subtracted from every mosaic sample first
-#ifdef DEMOSAIC_EXTRA_PARAMS
-  DEMOSAIC_EXTRA_PARAMS  // a method's own parameters after the shared ones (gpu::LmmseParams)
-#endif
-} P;
+// The push constants P: the frame, and the method's own parameters after it where the including
+// file defined DEMOSAIC_PARAMS_LMMSE or DEMOSAIC_PARAMS_MLRI (common/params_demosaic.glsl).
+#include "params_demosaic.glsl"
 layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
 
 // demosaic_detail.h reflect(): reflect-101 into [0, n), n >= 2 (keeps parity, hence the colour).

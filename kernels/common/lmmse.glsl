@@ -1,12 +1,13 @@
 // Shared by the LMMSE demosaic kernels (demosaic_lmmse_*.comp), the device twin of
 // sensor/demosaic_lmmse.cpp (Zhang & Wu, IEEE TIP 2005): the parameters (gpu::LmmseParams: the
-// demosaic frame plus the 9 Gaussian weights, sigma 2, as the C++ code computes them) and the
-// scratch planes. Each plane is one float per pixel of its own width: dv, sv (vertical
-// observations and their low-pass) w wide; zh (horizontal observations) w + 16 wide from x = -8;
-// sh (their low-pass) w + 8 wide from x = -4; d (the fused G - X) w wide.
+// demosaic frame plus the 9 Gaussian weights, sigma 2, as the C++ code computes them; defined in
+// common/params_demosaic.glsl) and the scratch planes. Each plane is one float per pixel of its
+// own width: dv, sv (vertical observations and their low-pass) w wide; zh (horizontal
+// observations) w + 16 wide from x = -8; sh (their low-pass) w + 8 wide from x = -4; d (the fused
+// G - X) w wide.
 #ifndef PHOTOSITE_LMMSE_GLSL
 #define PHOTOSITE_LMMSE_GLSL
-#define DEMOSAIC_EXTRA_PARAMS float gw[9];
+#define DEMOSAIC_PARAMS_LMMSE  // P: the frame, then gw (common/params_demosaic.glsl)
 #include "demosaic.glsl"
 
 const int kHalf = 4;

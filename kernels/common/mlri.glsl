@@ -1,25 +1,14 @@
 // Shared by the MLRI demosaic kernels (demosaic_mlri_*.comp), the device twin of
 // sensor/demosaic_mlri.cpp and demosaic_mlri_body.inc (Kiku, Monno, Tanaka & Okutomi, SPIE 2014):
 // the parameters (gpu::MlriParams: the demosaic frame, the stage's direction and margins, and
-// the float constants as the C++ code computes them) and the scratch planes. Every plane covers
-// the frame extended by `margin` pixels on each side (the mosaic mirrored there, reflect-101);
-// a dispatch computes its stage over the frame plus (mx, my). Every sum is written in the C++
-// code's order (precise: no reassociation, no contraction), so the planes are bit-equal to the
-// CPU's tile planes.
+// the float constants as the C++ code computes them; defined in common/params_demosaic.glsl) and
+// the scratch planes. Every plane covers the frame extended by `margin` pixels on each side (the
+// mosaic mirrored there, reflect-101); a dispatch computes its stage over the frame plus
+// (mx, my). Every sum is written in the C++ code's order (precise: no reassociation, no
+// contraction), so the planes are bit-equal to the CPU's tile planes.
 #ifndef PHOTOSITE_MLRI_GLSL
 #define PHOTOSITE_MLRI_GLSL
-#define DEMOSAIC_EXTRA_PARAMS \
-  uint dir;                   \
-  int mx;                     \
-  int my;                     \
-  int margin;                 \
-  float gw[5];                \
-  float tau_n_g[2];           \
-  float inv_n_g[2];           \
-  float tau_n_b[4];           \
-  float inv_n_b[4];           \
-  float inv_box_g;            \
-  float inv_box_b;
+#define DEMOSAIC_PARAMS_MLRI  // P: the frame, then MLRI's (common/params_demosaic.glsl)
 #include "demosaic.glsl"
 
 const int kRg = 4;  // green windows: 9 samples along the direction
