@@ -16,14 +16,14 @@
 namespace photosite::scene {
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+}  // namespace
 
-double quantile(std::vector<double> v, double q) {
+double nearest_rank_quantile(std::vector<double> v, double q) {
   if (v.empty()) return kNaN;
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
   std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
   return v[k];
 }
-}  // namespace
 
 StereoCalibration read_kitti_stereo_calibration(const std::string& path) {
   std::ifstream in(path);
@@ -74,8 +74,8 @@ DepthErrors depth_errors(const ImageF& depth_m, const ImageF& truth_m, const Lab
     if (labels.ids[i] == static_cast<uint16_t>(Label::Road) && measured(i))
       road.push_back(std::fabs(static_cast<double>(depth_m[i]) - truth_m[i]) / truth_m[i]);
   e.road_pixels = road.size();
-  e.road_median_rel = quantile(road, 0.5);
-  e.road_p90_rel = quantile(road, 0.9);
+  e.road_median_rel = nearest_rank_quantile(road, 0.5);
+  e.road_p90_rel = nearest_rank_quantile(road, 0.9);
 
   // Vehicles: instance codes where given, else 8-connected regions of one vehicle class.
   cv::Mat comp(H, W, CV_32S, cv::Scalar(0));
@@ -131,11 +131,11 @@ DepthErrors depth_errors(const ImageF& depth_m, const ImageF& truth_m, const Lab
       }
     }
     if (t.empty()) continue;
-    const double zt = quantile(t, 0.5);
-    e.contact_rel.push_back(std::fabs(quantile(z, 0.5) - zt) / zt);
+    const double zt = nearest_rank_quantile(t, 0.5);
+    e.contact_rel.push_back(std::fabs(nearest_rank_quantile(z, 0.5) - zt) / zt);
   }
   e.contacts = e.contact_rel.size();
-  e.contact_median_rel = quantile(e.contact_rel, 0.5);
+  e.contact_median_rel = nearest_rank_quantile(e.contact_rel, 0.5);
   return e;
 }
 

@@ -71,6 +71,18 @@ TEST(DepthEval, KittiCalibrationAndDisparity) {
 
 // The measures themselves: a depth map 20% short of the truth everywhere gives exactly 0.2 on the
 // road and at every vehicle contact; unmeasured pixels and pixels beyond the cap are left out.
+// Nearest rank: rank round(q (n - 1)); the median of an even count is the upper one (rank n/2),
+// which the pooled medians of `photosite bench depth` rely on.
+TEST(DepthEval, NearestRankQuantile) {
+  EXPECT_TRUE(std::isnan(nearest_rank_quantile({}, 0.5)));
+  EXPECT_EQ(nearest_rank_quantile({7}, 0.9), 7);
+  EXPECT_EQ(nearest_rank_quantile({4, 1, 3, 2}, 0.5), 3);     // ranks 0..3: round(1.5) = 2
+  EXPECT_EQ(nearest_rank_quantile({5, 1, 4, 2, 3}, 0.5), 3);  // round(2) = 2
+  EXPECT_EQ(nearest_rank_quantile({5, 1, 4, 2, 3}, 0.0), 1);
+  EXPECT_EQ(nearest_rank_quantile({5, 1, 4, 2, 3}, 1.0), 5);
+  EXPECT_EQ(nearest_rank_quantile({10, 9, 8, 7, 6, 5, 4, 3, 2, 1}, 0.9), 9);  // round(8.1) = 8
+}
+
 TEST(DepthEval, ErrorsOfAKnownScaleError) {
   const int W = 40, H = 20;
   LabelMap lm;

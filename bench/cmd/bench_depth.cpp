@@ -35,12 +35,6 @@ struct DepthBench {
   int max_frames = 0;
 };
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 void run(const DepthBench& b) {
   if (b.kitti.empty()) fail("--kitti: give the folder holding image_2/, semantic/ and disp_occ_0/ (see `photosite bench depth --help`)");
   const fs::path root(b.kitti);
@@ -100,7 +94,8 @@ void run(const DepthBench& b) {
                        ns.geometry.horizon_source, calib_name, e.road_pixels, e.road_median_rel, e.road_p90_rel,
                        e.contacts, e.contact_median_rel);
   }
-  const double road = median_of(road_medians), contact = median_of(contacts);
+  const double road = scene::nearest_rank_quantile(road_medians, 0.5),
+               contact = scene::nearest_rank_quantile(contacts, 0.5);
   std::printf("  pooled: road %.1f%% (median of the frames' medians; target <= 10%%), vehicle contacts %.1f%% "
               "(median over %zu vehicles; target <= 15%%)\n", 100 * road, 100 * contact, contacts.size());
   csv += fmt::format("all,,,,,{},{:.5f},,{},{:.5f}\n", road_medians.size(), road, contacts.size(), contact);

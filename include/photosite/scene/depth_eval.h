@@ -31,6 +31,12 @@ struct DepthErrors {
   double contact_median_rel = 0;   // median over vehicles of the contact's relative error
   std::vector<double> contact_rel;  // each vehicle's, in order of appearance (row-major first pixel)
 };
+// The q-quantile (0 <= q <= 1) of a sample by nearest rank: the element of rank
+// round(q·(n − 1)) in ascending order, no interpolation (q = 0.5: the upper median of an even
+// count, rank n/2); NaN for an empty sample. depth_errors' medians and percentiles, and the
+// pooled medians of `photosite bench depth`.
+double nearest_rank_quantile(std::vector<double> v, double q);
+
 // Compares depth_m with truth_m (NaN: no measurement) on the labels' road pixels and at each
 // vehicle's ground contact: a vehicle is an instance (id >= 1000 of a vehicle class) or, without
 // instances, an 8-connected region of one vehicle class with at least min_vehicle_px pixels; its
