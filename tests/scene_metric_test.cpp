@@ -516,16 +516,70 @@ TEST(VerticalStreetLight, PoolIsContinuousAtTheBoxFoot) {
 }
 
 namespace {
+// The light map split by kind, to say where unmatched energy lies (1 channel: R+G+B radiance).
+// Built from the same public stages light_map() calls, on the same street-lighting plan and
+// façades: street lamp heads (add_street_lighting on a black texture), ground pools (the same
+// with the texture, the heads' pixels removed), light on vertical surfaces, windows (shops dark:
+// shop_luminance_factor 0), shop panes (all façade lights less the windows), and what light_map()
+// adds besides, split by the label under it (signs, signals, vehicle lamps; "other" should be 0).
+// light_map composes heads and windows as a maximum over what lies there, so the rest is
+// clamped at 0 and the kinds sum to the light map only up to those overlaps.
+constexpr int kKinds = 9;
+const char* const kKindName[kKinds] = {"lamp heads", "ground pools", "vertical street light", "windows",
+                                       "shop panes", "signs", "signals", "vehicle lamps", "other"};
+std::vector<ImageF> light_kinds(const ImageF& full, const ImageF& tex, const LabelMap& lm, const CameraGeometry& g,
+                                const ImageF& depth, const StreetLighting& sl, const ScenePreset& p, uint64_t seed) {
+  const int W = full.width(), H = full.height();
+  const BuildingFacades fac = building_facades(lm.ids, g, p.max_depth_m);
+  auto blank = [&] { return ImageF(W, H, 3, 0.f, unit::radiance); };
+  ImageF heads = blank(), pools = blank(), vert = blank(), win = blank(), all_win = blank();
+  const ImageF black(W, H, 3, 0.f, tex.unit());
+  add_street_lighting(heads, black, lm.ids, g, sl, p);
+  add_street_lighting(pools, tex, lm.ids, g, sl, p);
+  add_vertical_street_light(vert, tex, lm.ids, depth, g, sl, p, &fac);
+  ScenePreset no_shops = p;
+  no_shops.shop_luminance_factor = 0;
+  add_facade_windows(win, lm.ids, depth, g, no_shops, seed, &fac);
+  add_facade_windows(all_win, lm.ids, depth, g, p, seed, &fac);
+  std::vector<ImageF> k(kKinds, ImageF(W, H, 1, 0.f));
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      double v[5] = {0, 0, 0, 0, 0}, f = 0;
+      for (int c = 0; c < 3; ++c) {
+        v[0] += heads.at(x, y, c);
+        v[1] += heads.at(x, y, c) > 0 ? 0 : pools.at(x, y, c);
+        v[2] += vert.at(x, y, c);
+        v[3] += win.at(x, y, c);
+        v[4] += all_win.at(x, y, c) - win.at(x, y, c);
+        f += full.at(x, y, c);
+      }
+      double rest = f;
+      for (int q = 0; q < 5; ++q) {
+        k[q].at(x, y) = static_cast<float>(v[q]);
+        rest -= v[q];
+      }
+      if (rest <= 1e-6 * f) continue;
+      const int id = lm.ids.at(x, y);
+      const int q = id == static_cast<int>(Label::TrafficSign) ? 5 : id == static_cast<int>(Label::TrafficLight) ? 6
+                    : is_vehicle(id) ? 7 : 8;
+      k[q].at(x, y) = static_cast<float>(rest);
+    }
+  return k;
+}
+
 // Share of the light energy of frame t at x + k found again at x in frame t+1 (to 1%), away from
 // the lateral borders, over crops of one frame (day image `lin`, labels `lab`) k px apart, each
 // with its own principal point (the crop offset moves the image plane: c_x − offset). The light
 // map is built on the rig's horizon: the lamps, pools and windows are what is tested, not the
-// vanishing point (whose jitter from crop to crop is printed).
+// vanishing point (whose jitter from crop to crop is printed). Per kind (light_kinds) it prints
+// each kind's energy, the share of it that matches on its own, and its part of the unmatched
+// energy of the whole light map (each unmatched pixel's energy shared out by the kinds' parts).
 std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const CameraRig& base, int k, int frames,
                                    const char* name) {
   const int CW = lin.width() - k * (frames - 1), CH = lin.height();
   ScenePreset p = urban();
   std::vector<ImageF> lights;
+  std::vector<std::vector<ImageF>> kinds;
   for (int t = 0; t < frames; ++t) {
     const int off = k * t;
     ImageF day(CW, CH, 3, 0.f, lin.unit());
@@ -549,16 +603,22 @@ std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const
     const double vx = g.cx_px, vy = g.horizon_y;  // the ramp (sign retroreflection) from the same horizon
     LightMap m = light_map(day, tex, lm, ImageU8(CW, CH, 1, 0), coarse_depth(CW, CH, vx, vy),
                            VanishingPoint{vx, vy, 0, VpMethod::ImageCentre, 0, ""}, p, 5, &g, &depth);
+    const StreetLighting sl = plan_street_lighting(lm, g, p, 5);
+    kinds.push_back(light_kinds(m.radiance, tex, lm, g, depth, sl, p, 5));
     lights.push_back(std::move(m.radiance));
     std::fprintf(stderr, "[panning %s] frame %d: chain's VP horizon %.2f (%s); rig horizon %.2f: %d street lamps (%s), "
-                 "%d windows, %d vehicle lamps\n", name, t, n.geometry.horizon_y, n.geometry.horizon_source.c_str(),
-                 g.horizon_y, m.stats.street_lamps, m.stats.street_lamp_source.c_str(), m.stats.windows,
-                 m.stats.vehicle_lamps);
+                 "%d windows, %d vehicle lamps; road edges %.2f / %.2f m\n", name, t, n.geometry.horizon_y,
+                 n.geometry.horizon_source.c_str(), g.horizon_y, m.stats.street_lamps,
+                 m.stats.street_lamp_source.c_str(), m.stats.windows, m.stats.vehicle_lamps, sl.road_left_m,
+                 sl.road_right_m);
+    for (const auto& l : sl.lamps)
+      if (l.from_pole) std::fprintf(stderr, "    pole lamp X %.2f Y %.2f D %.2f m\n", l.X_m, l.Y_m, l.D_m);
   }
   const int margin = CW / 20;
   std::vector<double> shares;
   for (int t = 0; t + 1 < frames; ++t) {
     double total = 0, matched = 0;
+    double kin[kKinds] = {}, kin_matched[kKinds] = {}, kin_unmatched[kKinds] = {};
     for (int y = 0; y < CH; ++y)
       for (int x = margin; x < CW - margin - k; ++x) {
         double a = 0, b = 0;  // content at x + k in frame t is at x in frame t+1
@@ -567,11 +627,26 @@ std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const
           b += lights[t + 1].at(x, y, c);
         }
         total += a;
-        if (std::fabs(a - b) <= 0.01 * std::max(a, b) + 1e-12) matched += a;
+        const bool match = std::fabs(a - b) <= 0.01 * std::max(a, b) + 1e-12;
+        if (match) matched += a;
+        double parts = 0;
+        for (int q = 0; q < kKinds; ++q) {
+          const double ka = kinds[t][q].at(x + k, y), kb = kinds[t + 1][q].at(x, y);
+          kin[q] += ka;
+          parts += ka;
+          if (std::fabs(ka - kb) <= 0.01 * std::max(ka, kb) + 1e-12) kin_matched[q] += ka;
+        }
+        if (!match && parts > 0)
+          for (int q = 0; q < kKinds; ++q) kin_unmatched[q] += a * kinds[t][q].at(x + k, y) / parts;
       }
     shares.push_back(total > 0 ? matched / total : 0);
     std::fprintf(stderr, "[panning %s] frames %d->%d: %.2f%% of the light energy matches\n", name, t, t + 1,
                  100 * shares.back());
+    std::fprintf(stderr, "  %-22s %9s %10s %12s\n", "kind", "energy %", "self-match", "unmatched %");
+    for (int q = 0; q < kKinds; ++q)
+      if (kin[q] > 0)
+        std::fprintf(stderr, "  %-22s %8.2f%% %9.2f%% %11.3f%%\n", kKindName[q], 100 * kin[q] / total,
+                     100 * kin_matched[q] / kin[q], 100 * kin_unmatched[q] / total);
   }
   return shares;
 }
