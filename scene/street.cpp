@@ -351,6 +351,108 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   return drawn;
 }
 
+namespace {
+// One row's vertical-surface pixels, compacted (add_vertical_street_light): column, point in road
+// coordinates, lit normal, and the E_v summed over the lamps. Padded to a multiple of 4 by
+// repeating the last pixel (its lanes computed and dropped).
+struct VerticalRow {
+  std::vector<int> x;
+  std::vector<double> X, Y, D, nX, nD, e;
+  explicit VerticalRow(int W) : x(W + 4), X(W + 4), Y(W + 4), D(W + 4), nX(W + 4), nD(W + 4), e(W + 4) {}
+};
+// The lamps as arrays, with each one's reach along the road.
+struct LampArrays {
+  std::vector<double> X, Y, D, reach;
+  double max_reach = 0;
+};
+// The lamps k = lo .. hi − 1 whose D lies within max_reach (plus 1 m, so that the rounding of the
+// bounds never leaves one out) of [Dmin, Dmax]: every lamp outside is beyond its own reach
+// (reach_k <= max_reach) of every pixel in that range, which the per-pixel loop skips anyway,
+// so the window changes nothing (the lamps are sorted by D).
+inline void lamp_window(const LampArrays& la, double Dmin, double Dmax, size_t* lo, size_t* hi) {
+  const double pad = la.max_reach + 1.0;
+  *lo = std::lower_bound(la.D.begin(), la.D.end(), Dmin - pad) - la.D.begin();
+  *hi = std::upper_bound(la.D.begin() + *lo, la.D.end(), Dmax + pad) - la.D.begin();
+}
+// E_v = Σ_k I0·rel(cos γ)·(cos β)/max(d², d²_min) over the lamps in order, per pixel: the
+// original per-pixel loop's operations in its order (a skipped lamp adds nothing; here it adds
+// +0.0, which leaves the non-negative sum's bits unchanged).
+void vertical_e_scalar(VerticalRow& r, int i0, int n, const LampArrays& la, double I0, double d2_min,
+                       const RelTable& t) {
+  for (int i = i0; i < i0 + n; ++i) {
+    const double X = r.X[i], Y = r.Y[i], D = r.D[i], nX = r.nX[i], nD = r.nD[i];
+    size_t lo, hi;
+    lamp_window(la, D, D, &lo, &hi);
+    double e = 0;
+    for (size_t k = lo; k < hi; ++k) {
+      // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
+      // along the road.
+      if (!(std::fabs(D - la.D[k]) <= la.reach[k])) continue;
+      const double vX = la.X[k] - X, vY = la.Y[k] - Y, vD = la.D[k] - D;
+      const double cb = nX * vX + nD * vD;  // |v|·cos β
+      // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
+      // approximation of its upward light output ratio as 0) nor on faces turned away.
+      if (!(vY > 0) || !(cb > 0)) continue;
+      const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
+      e += I0 * t.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+    }
+    r.e[i] = e;
+  }
+}
+// vertical_e_scalar four pixels at a time: the same IEEE operations in the same order per lane
+// (the table read by masked gathers, a lamp's lanes outside its reach, above it or facing away
+// masked to +0.0), so the same bits. Lamps whose every lane is masked are skipped whole: their
+// contribution is exactly zero. Ends with vzeroupper (see clear_upper_vector_state).
+__attribute__((target("avx2")))
+void vertical_e_avx2(VerticalRow& r, int n, const LampArrays& la, double I0, double d2_min, const RelTable& t) {
+  const __m256d vI0 = _mm256_set1_pd(I0), vd2min = _mm256_set1_pd(d2_min), zero = _mm256_setzero_pd();
+  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), one = _mm256_set1_pd(1.0);
+  const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
+  const __m128i jmax = _mm_set1_epi32(4095);
+  for (int i = 0; i < n; i += 4) {
+    const __m256d X = _mm256_loadu_pd(&r.X[i]), Y = _mm256_loadu_pd(&r.Y[i]), D = _mm256_loadu_pd(&r.D[i]);
+    const __m256d nX = _mm256_loadu_pd(&r.nX[i]), nD = _mm256_loadu_pd(&r.nD[i]);
+    double Dmin = r.D[i], Dmax = r.D[i];
+    for (int q = 1; q < 4; ++q) {
+      Dmin = std::min(Dmin, r.D[i + q]);
+      Dmax = std::max(Dmax, r.D[i + q]);
+    }
+    size_t lo, hi;
+    lamp_window(la, Dmin, Dmax, &lo, &hi);
+    __m256d acc = zero;
+    for (size_t k = lo; k < hi; ++k) {
+      const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
+      const __m256d in_reach =
+          _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(D, lD), absmask), _mm256_broadcast_sd(&la.reach[k]), _CMP_LE_OQ);
+      if (!_mm256_movemask_pd(in_reach)) continue;
+      const __m256d vX = _mm256_sub_pd(_mm256_broadcast_sd(&la.X[k]), X);
+      const __m256d vY = _mm256_sub_pd(_mm256_broadcast_sd(&la.Y[k]), Y);
+      const __m256d vD = _mm256_sub_pd(lD, D);
+      const __m256d cb = _mm256_add_pd(_mm256_mul_pd(nX, vX), _mm256_mul_pd(nD, vD));
+      const __m256d lit = _mm256_and_pd(in_reach, _mm256_and_pd(_mm256_cmp_pd(vY, zero, _CMP_GT_OQ),
+                                                                _mm256_cmp_pd(cb, zero, _CMP_GT_OQ)));
+      if (!_mm256_movemask_pd(lit)) continue;
+      const __m256d dv2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vX, vX), _mm256_mul_pd(vY, vY)), _mm256_mul_pd(vD, vD));
+      const __m256d dv = _mm256_sqrt_pd(dv2), cg = _mm256_div_pd(vY, dv);
+      const __m256d beyond = _mm256_and_pd(lit, _mm256_cmp_pd(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
+      __m256d rel = one;
+      if (_mm256_movemask_pd(beyond)) {
+        const __m256d u = _mm256_div_pd(cg, vstep);
+        const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
+        const __m256d v0 = _mm256_mask_i32gather_pd(zero, t.v.data(), j, beyond, 8);
+        const __m256d v1 = _mm256_mask_i32gather_pd(zero, t.v.data() + 1, j, beyond, 8);
+        const __m256d rr = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
+        rel = _mm256_blendv_pd(one, rr, beyond);
+      }
+      const __m256d ek = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), _mm256_div_pd(cb, dv)), _mm256_max_pd(dv2, vd2min));
+      acc = _mm256_add_pd(acc, _mm256_and_pd(lit, ek));
+    }
+    _mm256_storeu_pd(&r.e[i], acc);
+  }
+  _mm256_zeroupper();
+}
+}  // namespace
+
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                const BuildingFacades* facades) {
@@ -364,8 +466,14 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   // windows in); its normal (n_X, n_D) points away from the camera, the lit face the other way.
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades& fac = facades ? *facades : computed;
-  std::vector<double> reach(s.lamps.size());
-  for (size_t i = 0; i < s.lamps.size(); ++i) reach[i] = reach_m(s.lamps[i].Y_m, p);
+  LampArrays la;
+  for (const auto& l : s.lamps) {
+    la.X.push_back(l.X_m);
+    la.Y.push_back(l.Y_m);
+    la.D.push_back(l.D_m);
+    la.reach.push_back(reach_m(l.Y_m, p));
+    la.max_reach = std::max(la.max_reach, la.reach.back());
+  }
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
   // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
@@ -375,17 +483,19 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
   const double I0 = s.peak_intensity_cd;
+  // Per row: the lit pixels' points and normals (scalar), then E_v over the lamps (vectorized),
+  // then the reflection into L. Each pixel's sum is its own, so rows may go to any thread.
 #pragma omp parallel
   {
   if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
+  VerticalRow r(W);
 #pragma omp for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
     const float* z = depth_m.row(y);
     const uint16_t* id = labels.row(y);
     const int32_t* reg = fac.region.row(y);
-    const float* tx = texture.row(y);
-    float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
+    int n = 0;
     for (int x = 0; x < W; ++x) {
       const int k = id[x];
       if (k == sky || (k < kLabelCount && ground[k])) continue;
@@ -401,26 +511,38 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       } else {
         // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
         // approximation: their own orientation is not known from the labels).
-        const double r = std::sqrt(X * X + D * D);
-        if (!(r > 0)) continue;
-        nX = -X / r;
-        nD = -D / r;
+        const double rr = std::sqrt(X * X + D * D);
+        if (!(rr > 0)) continue;
+        nX = -X / rr;
+        nD = -D / rr;
       }
-      double e = 0;
-      for (size_t i = 0; i < s.lamps.size(); ++i) {
-        const StreetLamp& l = s.lamps[i];
-        // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
-        // along the road.
-        if (!(std::fabs(D - l.D_m) <= reach[i])) continue;
-        const double vX = l.X_m - X, vY = l.Y_m - Y, vD = l.D_m - D;
-        const double cb = nX * vX + nD * vD;  // |v|·cos β
-        // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
-        // approximation of its upward light output ratio as 0) nor on faces turned away.
-        if (!(vY > 0) || !(cb > 0)) continue;
-        const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-        e += I0 * table.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+      r.x[n] = x;
+      r.X[n] = X;
+      r.Y[n] = Y;
+      r.D[n] = D;
+      r.nX[n] = nX;
+      r.nD[n] = nD;
+      ++n;
+    }
+    if (n == 0) continue;
+    if (kHaveAvx2) {
+      for (int i = n; i % 4; ++i) {  // pad with the last pixel
+        r.X[i] = r.X[n - 1];
+        r.Y[i] = r.Y[n - 1];
+        r.D[i] = r.D[n - 1];
+        r.nX[i] = r.nX[n - 1];
+        r.nD[i] = r.nD[n - 1];
       }
+      vertical_e_avx2(r, n, la, I0, d2_min, table);
+    } else {
+      vertical_e_scalar(r, 0, n, la, I0, d2_min, table);
+    }
+    const float* tx = texture.row(y);
+    float* o = L.row(y);
+    for (int i = 0; i < n; ++i) {
+      const double e = r.e[i];
       if (!(e > 0)) continue;
+      const int x = r.x[i];
       const float ef = static_cast<float>(e);
       for (int q = 0; q < 3; ++q) o[3 * x + q] += tx[3 * x + q] * tlf[q] * ef;
     }

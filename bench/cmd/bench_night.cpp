@@ -120,16 +120,29 @@ void run(const Opts& o) {
     }
     (void)skirt;
     (void)glared;
-    // The vertical surfaces' street light alone (it runs inside the light map above): each
-    // non-ground pixel's E_v from the lamps within reach, on this round's depth and geometry.
+    // Parts of the light map alone (each also runs inside "lights" above), on this round's depth
+    // and geometry: the lamp plan, the street light on vertical surfaces (each non-ground
+    // pixel's E_v from the lamps within reach), the ground pools with the lamp heads, and the
+    // façade windows. The façade planes are fitted outside these timings (the light map gets
+    // them from the depth stage).
     {
+      const scene::BuildingFacades fac = scene::building_facades(lm.ids, ns.geometry, sp.max_depth_m);
+      auto tp0 = clock::now();
       const scene::StreetLighting sl = scene::plan_street_lighting(lm, ns.geometry, sp, 1);
+      auto tp1 = clock::now();
+      add("street lamp plan (alone)", ms(tp0, tp1));
       const ImageF tex = scene::reflectance_texture(lin, lm.ids, sp);
       ImageF vl(day.width(), day.height(), 3, 0.f, unit::radiance);
       auto tv0 = clock::now();
-      scene::add_vertical_street_light(vl, tex, lm.ids, ns.depth, ns.geometry, sl, sp);
+      scene::add_vertical_street_light(vl, tex, lm.ids, ns.depth, ns.geometry, sl, sp, &fac);
       auto tv1 = clock::now();
-      add("street light on vertical surfaces (alone)", std::chrono::duration<double, std::milli>(tv1 - tv0).count());
+      add("street light on vertical surfaces (alone)", ms(tv0, tv1));
+      scene::add_street_lighting(vl, tex, lm.ids, ns.geometry, sl, sp);
+      auto tv2 = clock::now();
+      add("street light pools + heads (alone)", ms(tv1, tv2));
+      scene::add_facade_windows(vl, lm.ids, ns.depth, ns.geometry, sp, 1, &fac);
+      auto tv3 = clock::now();
+      add("facade windows (alone)", ms(tv2, tv3));
     }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
   }
