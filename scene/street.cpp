@@ -40,6 +40,7 @@ double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI 
 struct RelTable {
   double cc = 0, step = 0, cutoff = -1, falloff = -1;
   std::vector<double> v;
+  std::vector<double> vd;  // (v[i], v[i + 1] − v[i]) pairs, i = 0 .. 4095: one load per lane
   // I(γ)/I0 at cos γ = c: 1 inside the cut-off cone (c >= cc), else linear between the entries.
   double at(double c) const {
     if (!(c < cc)) return 1.0;
@@ -57,6 +58,11 @@ const RelTable& rel_table(const ScenePreset& p) {
     t.v.resize(4097);
     t.step = t.cc / 4096;
     for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
+    t.vd.resize(2 * 4096);
+    for (int i = 0; i < 4096; ++i) {
+      t.vd[2 * i] = t.v[i];
+      t.vd[2 * i + 1] = t.v[i + 1] - t.v[i];
+    }
   }
   return t;
 }
@@ -65,47 +71,24 @@ inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& 
   return I0 * t.at(c) * c / d2;
 }
 // One lamp's E over the ground points X = (x − c_x)·k_x of a row (x = x0 .. x0 + n − 1, at the
-// lamp distance dz along the road), into e: lamp_E's operations in the same order. With AVX2
-// four pixels at a time (the table read by a gather); the same IEEE operations either way, so the
-// same bits.
+// lamp distance dz along the road), into e: lamp_E's operations in the same order (the path
+// without AVX2; with it, pool_row_avx2 below gives the same bits).
 void lamp_row_scalar(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
                      const RelTable& t) {
   for (int i = 0; i < n; ++i) e[i] = lamp_E((x0 + i - cx) * kx - Xl, dz, Hl, I0, t);
 }
-__attribute__((target("avx2")))
-void lamp_row_avx2(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
-                   const RelTable& t) {
-  const __m256d vcx = _mm256_set1_pd(cx), vkx = _mm256_set1_pd(kx), vXl = _mm256_set1_pd(Xl);
-  const __m256d dz2 = _mm256_set1_pd(dz * dz), H2 = _mm256_set1_pd(Hl * Hl), vH = _mm256_set1_pd(Hl);
-  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), vI0 = _mm256_set1_pd(I0);
-  const __m256d one = _mm256_set1_pd(1.0), lane = _mm256_set_pd(3, 2, 1, 0);
-  const __m128i jmax = _mm_set1_epi32(4095);
-  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-  int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    const __m256d x = _mm256_add_pd(_mm256_set1_pd(static_cast<double>(x0 + i)), lane);  // exact integers
-    const __m256d dx = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(x, vcx), vkx), vXl);
-    const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), dz2), H2);
-    const __m256d c = _mm256_div_pd(vH, _mm256_sqrt_pd(d2));
-    const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
-    __m256d rel = one;
-    if (_mm256_movemask_pd(beyond)) {
-      const __m256d u = _mm256_div_pd(c, vstep);
-      const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
-      const __m256d v0 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data(), j, all, 8);
-      const __m256d v1 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data() + 1, j, all, 8);
-      const __m256d r = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
-      rel = _mm256_blendv_pd(one, r, beyond);
-    }
-    _mm256_storeu_pd(e + i, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
-  }
-  lamp_row_scalar(e + i, x0 + i, n - i, cx, kx, Xl, dz, Hl, I0, t);
-}
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
-void lamp_row(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
-              const RelTable& t) {
-  if (kHaveAvx2) lamp_row_avx2(e, x0, n, cx, kx, Xl, dz, Hl, I0, t);
-  else lamp_row_scalar(e, x0, n, cx, kx, Xl, dz, Hl, I0, t);
+// RelTable::at's interpolation v[j] + (v[j + 1] − v[j])·(u − j) for four lanes, the pairs read by
+// one 16-byte load per lane instead of two gathers; j clamped to [0, 4095] so that lanes whose
+// result is dropped stay inside the table. The same operations, so the same bits.
+__attribute__((target("avx2"), always_inline)) inline __m256d rel_lerp(const RelTable& t, __m256d u) {
+  const __m128i j = _mm_max_epi32(_mm_min_epi32(_mm256_cvttpd_epi32(u), _mm_set1_epi32(4095)), _mm_setzero_si128());
+  const double* vd = t.vd.data();
+  const __m128d p0 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 0)), p1 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 1));
+  const __m128d p2 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 2)), p3 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 3));
+  const __m256d a = _mm256_set_m128d(p2, p0), b = _mm256_set_m128d(p3, p1);
+  const __m256d v0 = _mm256_unpacklo_pd(a, b), dv = _mm256_unpackhi_pd(a, b);
+  return _mm256_add_pd(v0, _mm256_mul_pd(dv, _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
 }
 // The ground pools of one row, lamps inner: for each group of four pixels holding a ground pixel
 // (mask[g] != 0, g = i/4), E = Σ_k lamp_E over the row's lamps k = 0 .. nl − 1 in their order, from
@@ -118,8 +101,6 @@ void pool_row_avx2(double* e, const double* Xg, const uint8_t* mask, int n, cons
                    const double* H2, const double* Hl, int nl, double I0, const RelTable& t) {
   const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), vI0 = _mm256_set1_pd(I0);
   const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
-  const __m128i jmax = _mm_set1_epi32(4095);
-  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
   for (int i = 0; i < n; i += 4) {
     if (!mask[i / 4]) continue;
     const __m256d X = _mm256_loadu_pd(Xg + i);
@@ -132,12 +113,7 @@ void pool_row_avx2(double* e, const double* Xg, const uint8_t* mask, int n, cons
       const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
       __m256d rel = one;
       if (_mm256_movemask_pd(beyond)) {
-        const __m256d u = _mm256_div_pd(c, vstep);
-        const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
-        const __m256d v0 = _mm256_mask_i32gather_pd(zero, t.v.data(), j, all, 8);
-        const __m256d v1 = _mm256_mask_i32gather_pd(zero, t.v.data() + 1, j, all, 8);
-        const __m256d r = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
-        rel = _mm256_blendv_pd(one, r, beyond);
+        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(c, vstep)), beyond);
       }
       acc = _mm256_add_pd(acc, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
     }
@@ -381,7 +357,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       } else {
         for (const auto& l : s.lamps) {
           if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
-          lamp_row(any ? one.data() : acc.data() + xa, xa, xb - xa, g.cx_px, kx, l.X_m, D0 - l.D_m, l.Y_m,
+          lamp_row_scalar(any ? one.data() : acc.data() + xa, xa, xb - xa, g.cx_px, kx, l.X_m, D0 - l.D_m, l.Y_m,
                    s.peak_intensity_cd, table);
           if (any)
             for (int x = xa; x < xb; ++x) acc[x] += one[x - xa];
@@ -508,7 +484,6 @@ void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& 
   const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
   const __m256d cx = _mm256_set1_pd(q.cx), f = _mm256_set1_pd(q.f), kD = _mm256_set1_pd(q.kD),
                 kY = _mm256_set1_pd(q.kY), h = _mm256_set1_pd(q.h);
-  const __m128i jmax = _mm_set1_epi32(4095);
   for (int i = 0; i < n; i += 4) {
     const __m256d zz = _mm256_loadu_pd(&r.z[i]);
     const __m256d xd = _mm256_cvtepi32_pd(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.x[i])));  // exact
@@ -545,12 +520,7 @@ void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& 
       const __m256d beyond = _mm256_and_pd(lit, _mm256_cmp_pd(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
       __m256d rel = one;
       if (_mm256_movemask_pd(beyond)) {
-        const __m256d u = _mm256_div_pd(cg, vstep);
-        const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
-        const __m256d v0 = _mm256_mask_i32gather_pd(zero, t.v.data(), j, beyond, 8);
-        const __m256d v1 = _mm256_mask_i32gather_pd(zero, t.v.data() + 1, j, beyond, 8);
-        const __m256d rv = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
-        rel = _mm256_blendv_pd(one, rv, beyond);
+        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(cg, vstep)), beyond);
       }
       const __m256d ek = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), _mm256_div_pd(cb, dv)), _mm256_max_pd(dv2, vd2min));
       acc = _mm256_add_pd(acc, _mm256_and_pd(lit, ek));
