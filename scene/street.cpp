@@ -661,9 +661,11 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       const double yn = (y - g.cy_px) / g.f_px;
       for (int x = 0; x < W; ++x) {
         if (reg[x] < 0 || z[x] > max_z) continue;
-        const FacadePlane* f = fac.plane_at(x, y);
-        if (!f) continue;
-        const Frame& fr = frames[f - fac.planes.data()];
+        // The pixel's façade plane (BuildingFacades::plane_at, inlined).
+        const BuildingFacades::Region& R = fac.regions[reg[x]];
+        const int pi = R.column_plane[x - R.x0];
+        if (pi < 0) continue;
+        const Frame& fr = frames[pi];
         const double zz = z[x], X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
         if (Y < 0) continue;
         const double s = fr.tX * X + fr.tD * D;  // along the façade (m)
