@@ -299,7 +299,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
-  ImageF L(W, H, 3, 0.f, unit::radiance);
+  // Written whole by the first pass below (zeros where nothing retroreflects), in parallel: no
+  // separate zeroing pass, and each thread touches its own rows first.
+  ImageF L(W, H, 3, uninitialized, unit::radiance);
   const auto tb = illuminant_tint(p.beam_cct_K);
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   // A white marking's colour under the beam, scaled so its luminance is exactly R_L·E:
@@ -309,11 +311,17 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   auto lab_at = [&](int i) { return to_lab(day.data() + 3 * static_cast<size_t>(i)); };
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
-  // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK).
+  // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). In the same
+  // pass, traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn
+  // over the pixel's own retroreflection (each pixel is written by itself only, so the pass's
+  // order does not matter).
   // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
   // the frame, so contiguous halves would leave one thread most of the work.)
-#pragma omp parallel for schedule(static, 8)
-  for (int y = 0; y < H; ++y)
+  int signals = 0;
+  const int traffic_light = static_cast<int>(Label::TrafficLight);
+#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
+  for (int y = 0; y < H; ++y) {
+    std::fill_n(L.row(y), 3 * static_cast<size_t>(W), 0.f);
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
       const int id = labels[i];
@@ -321,41 +329,41 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (lanes[i]) lum = beam_lux ? p.marking_RL * (*beam_lux)[i] : 0.0;
       else if (id == static_cast<int>(Label::TrafficSign))
         lum = p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(depth[i]));
-      if (lum <= 0) continue;
-      const double rho = class_reflectance(id, p);
-      for (int k = 0; k < 3; ++k) {
-        const double pattern = lanes[i] ? 1.0 / ktb : texture[3 * i + k] / rho;
-        L[3 * i + k] = static_cast<float>(lum * tb[k] * pattern);
+      if (lum > 0) {
+        const double rho = class_reflectance(id, p);
+        for (int k = 0; k < 3; ++k) {
+          const double pattern = lanes[i] ? 1.0 / ktb : texture[3 * i + k] / rho;
+          L[3 * i + k] = static_cast<float>(lum * tb[k] * pattern);
+        }
       }
+      if (id != traffic_light) continue;
+      const Lab c = lab_at(static_cast<int>(i));
+      const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
+      if (c.L < 25 || chroma < 30) continue;
+      Rgb col;
+      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
+      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
+      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+      else continue;
+      put_max(L, x, y, col);
+      ++signals;
     }
-
-  // Traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses).
-  for (size_t i = 0; i < labels.pixel_count(); ++i) {
-    if (labels[i] != static_cast<int>(Label::TrafficLight)) continue;
-    const Lab c = lab_at(static_cast<int>(i));
-    const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
-    if (c.L < 25 || chroma < 30) continue;
-    Rgb col;
-    if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-    else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-    else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
-    else continue;
-    put_max(L, static_cast<int>(i % W), static_cast<int>(i / W), col);
-    ++out.stats.signals;
   }
+  out.stats.signals = signals;
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
   bool vehicle_id[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id) vehicle_id[id] = is_vehicle(id);
   auto vehicle = [&](int id) { return id >= 0 && id < kLabelCount && vehicle_id[id]; };
-  ImageI32 comp(W, H, 1, 0);
+  ImageI32 comp(W, H, 1, uninitialized);  // zeroed row by row in the scan below
   int ncomp = 0;
   std::vector<int> comp_class(1, 0);
   // The rows holding any vehicle pixel: all vehicle work below stays inside them.
   int ry0 = H, ry1 = -1;
 #pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
   for (int y = 0; y < H; ++y) {
+    std::fill_n(comp.row(y), W, 0);
     const uint16_t* r = labels.row(y);
     const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
     for (int x = 0; x < W; ++x)
@@ -485,9 +493,15 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       const int c = comp[i];
       if (!c) continue;
       const Lab l = lab_at(static_cast<int>(i));
-      const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
-      if (l.a > 40 && l.L > 25 && hue > -20 && hue < 40) cue[i] = 1;
-      else if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
+      // The hue angle only where the red test can pass (the same tests in the same order).
+      if (l.a > 40 && l.L > 25) {
+        const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+        if (hue > -20 && hue < 40) {
+          cue[i] = 1;
+          continue;
+        }
+      }
+      if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
     }
   for (size_t i = i_begin; i < i_end; ++i)
     if (cue[i] == 2) ++boxes[comp[i]].white;

@@ -40,6 +40,7 @@ double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI 
 struct RelTable {
   double cc = 0, step = 0, cutoff = -1, falloff = -1;
   std::vector<double> v;
+  std::vector<double> vd;  // (v[i], v[i + 1] − v[i]) pairs, i = 0 .. 4095: one load per lane
   // I(γ)/I0 at cos γ = c: 1 inside the cut-off cone (c >= cc), else linear between the entries.
   double at(double c) const {
     if (!(c < cc)) return 1.0;
@@ -57,6 +58,11 @@ const RelTable& rel_table(const ScenePreset& p) {
     t.v.resize(4097);
     t.step = t.cc / 4096;
     for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
+    t.vd.resize(2 * 4096);
+    for (int i = 0; i < 4096; ++i) {
+      t.vd[2 * i] = t.v[i];
+      t.vd[2 * i + 1] = t.v[i + 1] - t.v[i];
+    }
   }
   return t;
 }
@@ -65,47 +71,55 @@ inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& 
   return I0 * t.at(c) * c / d2;
 }
 // One lamp's E over the ground points X = (x − c_x)·k_x of a row (x = x0 .. x0 + n − 1, at the
-// lamp distance dz along the road), into e: lamp_E's operations in the same order. With AVX2
-// four pixels at a time (the table read by a gather); the same IEEE operations either way, so the
-// same bits.
+// lamp distance dz along the road), into e: lamp_E's operations in the same order (the path
+// without AVX2; with it, pool_row_avx2 below gives the same bits).
 void lamp_row_scalar(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
                      const RelTable& t) {
   for (int i = 0; i < n; ++i) e[i] = lamp_E((x0 + i - cx) * kx - Xl, dz, Hl, I0, t);
 }
-__attribute__((target("avx2")))
-void lamp_row_avx2(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
-                   const RelTable& t) {
-  const __m256d vcx = _mm256_set1_pd(cx), vkx = _mm256_set1_pd(kx), vXl = _mm256_set1_pd(Xl);
-  const __m256d dz2 = _mm256_set1_pd(dz * dz), H2 = _mm256_set1_pd(Hl * Hl), vH = _mm256_set1_pd(Hl);
-  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), vI0 = _mm256_set1_pd(I0);
-  const __m256d one = _mm256_set1_pd(1.0), lane = _mm256_set_pd(3, 2, 1, 0);
-  const __m128i jmax = _mm_set1_epi32(4095);
-  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-  int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    const __m256d x = _mm256_add_pd(_mm256_set1_pd(static_cast<double>(x0 + i)), lane);  // exact integers
-    const __m256d dx = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(x, vcx), vkx), vXl);
-    const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), dz2), H2);
-    const __m256d c = _mm256_div_pd(vH, _mm256_sqrt_pd(d2));
-    const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
-    __m256d rel = one;
-    if (_mm256_movemask_pd(beyond)) {
-      const __m256d u = _mm256_div_pd(c, vstep);
-      const __m128i j = _mm_min_epi32(_mm256_cvttpd_epi32(u), jmax);
-      const __m256d v0 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data(), j, all, 8);
-      const __m256d v1 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), t.v.data() + 1, j, all, 8);
-      const __m256d r = _mm256_add_pd(v0, _mm256_mul_pd(_mm256_sub_pd(v1, v0), _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
-      rel = _mm256_blendv_pd(one, r, beyond);
-    }
-    _mm256_storeu_pd(e + i, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
-  }
-  lamp_row_scalar(e + i, x0 + i, n - i, cx, kx, Xl, dz, Hl, I0, t);
-}
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
-void lamp_row(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
-              const RelTable& t) {
-  if (kHaveAvx2) lamp_row_avx2(e, x0, n, cx, kx, Xl, dz, Hl, I0, t);
-  else lamp_row_scalar(e, x0, n, cx, kx, Xl, dz, Hl, I0, t);
+// RelTable::at's interpolation v[j] + (v[j + 1] − v[j])·(u − j) for four lanes, the pairs read by
+// one 16-byte load per lane instead of two gathers; j clamped to [0, 4095] so that lanes whose
+// result is dropped stay inside the table. The same operations, so the same bits.
+__attribute__((target("avx2"), always_inline)) inline __m256d rel_lerp(const RelTable& t, __m256d u) {
+  const __m128i j = _mm_max_epi32(_mm_min_epi32(_mm256_cvttpd_epi32(u), _mm_set1_epi32(4095)), _mm_setzero_si128());
+  const double* vd = t.vd.data();
+  const __m128d p0 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 0)), p1 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 1));
+  const __m128d p2 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 2)), p3 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 3));
+  const __m256d a = _mm256_set_m128d(p2, p0), b = _mm256_set_m128d(p3, p1);
+  const __m256d v0 = _mm256_unpacklo_pd(a, b), dv = _mm256_unpackhi_pd(a, b);
+  return _mm256_add_pd(v0, _mm256_mul_pd(dv, _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
+}
+// The ground pools of one row, lamps inner: for each group of four pixels holding a ground pixel
+// (mask[g] != 0, g = i/4), E = Σ_k lamp_E over the row's lamps k = 0 .. nl − 1 in their order, from
+// the pixels' ground X (Xg, the row's (x − c_x)·k_x) and each lamp's X_l, dz², H², H. The same IEEE
+// operations per lane as lamp_row_avx2 and the per-row sum over the lamps (the first lamp's E
+// added to +0.0 is that E), so the same bits; the sum stays in a register instead of a row
+// buffer. Groups without ground pixels are not computed (nothing reads them).
+__attribute__((target("avx2")))
+void pool_row_avx2(double* e, const double* Xg, const uint8_t* mask, int n, const double* Xl, const double* dz2,
+                   const double* H2, const double* Hl, int nl, double I0, const RelTable& t) {
+  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), vI0 = _mm256_set1_pd(I0);
+  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+  for (int i = 0; i < n; i += 4) {
+    if (!mask[i / 4]) continue;
+    const __m256d X = _mm256_loadu_pd(Xg + i);
+    __m256d acc = zero;
+    for (int k = 0; k < nl; ++k) {
+      const __m256d dx = _mm256_sub_pd(X, _mm256_broadcast_sd(Xl + k));
+      const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_broadcast_sd(dz2 + k)),
+                                       _mm256_broadcast_sd(H2 + k));
+      const __m256d c = _mm256_div_pd(_mm256_broadcast_sd(Hl + k), _mm256_sqrt_pd(d2));
+      const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
+      __m256d rel = one;
+      if (_mm256_movemask_pd(beyond)) {
+        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(c, vstep)), beyond);
+      }
+      acc = _mm256_add_pd(acc, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
+    }
+    _mm256_storeu_pd(e + i, acc);
+  }
+  _mm256_zeroupper();
 }
 // vzeroupper: clears the upper halves of the vector registers. Vector code run earlier in the
 // chain leaves them dirty, and every SSE (non-VEX) instruction after it then waits on a merge with
@@ -294,7 +308,8 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const auto& ground = ground_classes();
 #pragma omp parallel
   {
-    std::vector<double> acc(W), one(W);  // the row's E, one lamp's E (from xa on)
+    std::vector<double> acc(W + 4), one(W), Xg(W + 4), Xl, dz2, H2, Hl;
+    std::vector<uint8_t> gmask(W / 4 + 2);
 #pragma omp for schedule(static, 8)
     for (int y = y_start; y < H; ++y) {
       double D0, t;
@@ -313,13 +328,41 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       // and changed dim pixels by up to 4%: not taken.)
       bool any = false;
       const double kx = t / g.f_px;
-      for (const auto& l : s.lamps) {
-        if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
-        lamp_row(any ? one.data() : acc.data() + xa, xa, xb - xa, g.cx_px, kx, l.X_m, D0 - l.D_m, l.Y_m,
-                 s.peak_intensity_cd, table);
-        if (any)
-          for (int x = xa; x < xb; ++x) acc[x] += one[x - xa];
-        any = true;
+      if (kHaveAvx2) {
+        Xl.clear();
+        dz2.clear();
+        H2.clear();
+        Hl.clear();
+        for (const auto& l : s.lamps) {
+          if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
+          const double dz = D0 - l.D_m;
+          Xl.push_back(l.X_m);
+          dz2.push_back(dz * dz);
+          H2.push_back(l.Y_m * l.Y_m);
+          Hl.push_back(l.Y_m);
+        }
+        any = !Xl.empty();
+        if (!any) continue;
+        // Pixels from xa in groups of four (the last padded with columns past xb, computed
+        // and not read); a group is computed when it holds a ground pixel.
+        const int n = xb - xa;
+        for (int i = 0; i < n + 3; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // lamp_row's (x − c_x)·k_x
+        for (int q = 0; 4 * q < n; ++q) {
+          uint8_t m = 0;
+          for (int x = xa + 4 * q; x < std::min(xb, xa + 4 * q + 4); ++x) m |= id[x] < kLabelCount && ground[id[x]];
+          gmask[q] = m;
+        }
+        pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, Xl.data(), dz2.data(), H2.data(), Hl.data(),
+                      static_cast<int>(Xl.size()), s.peak_intensity_cd, table);
+      } else {
+        for (const auto& l : s.lamps) {
+          if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
+          lamp_row_scalar(any ? one.data() : acc.data() + xa, xa, xb - xa, g.cx_px, kx, l.X_m, D0 - l.D_m, l.Y_m,
+                   s.peak_intensity_cd, table);
+          if (any)
+            for (int x = xa; x < xb; ++x) acc[x] += one[x - xa];
+          any = true;
+        }
       }
       if (!any) continue;
       const float* tx = texture.row(y);
@@ -351,6 +394,143 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   return drawn;
 }
 
+namespace {
+// One row's vertical-surface pixels, compacted (add_vertical_street_light): column, camera z and,
+// for façade pixels, the lit normal of their plane (plane = -1; 0: the normal turned to the
+// camera, from the point). Padded to a multiple of 4 by repeating the last pixel (its lanes are
+// computed and dropped).
+struct VerticalRow {
+  std::vector<int32_t> x;
+  std::vector<int64_t> plane;
+  std::vector<double> z, pnX, pnD, e;
+  explicit VerticalRow(int W) : x(W + 4), plane(W + 4), z(W + 4), pnX(W + 4), pnD(W + 4), e(W + 4) {}
+  void pad(int n) {
+    for (int i = n; i % 4; ++i) {
+      x[i] = x[n - 1];
+      plane[i] = plane[n - 1];
+      z[i] = z[n - 1];
+      pnX[i] = pnX[n - 1];
+      pnD[i] = pnD[n - 1];
+    }
+  }
+};
+// The pixel's point in road coordinates (X right, Y up, D ahead; camera foot at the origin) from
+// its camera z: X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, with the row's kD = cos θ − y_n·sin θ
+// and kY = y_n·cos θ + sin θ.
+struct RowGeom { double cx, f, kD, kY, h; };
+// The lamps as arrays, with each one's reach along the road.
+struct LampArrays {
+  std::vector<double> X, Y, D, reach;
+  double max_reach = 0;
+};
+// The lamps k = lo .. hi − 1 whose D lies within max_reach (plus 1 m, so that the rounding of the
+// bounds never leaves one out) of [Dmin, Dmax]: every lamp outside is beyond its own reach
+// (reach_k <= max_reach) of every pixel in that range, which the per-pixel loop skips anyway,
+// so the window changes nothing (the lamps are sorted by D).
+inline void lamp_window(const LampArrays& la, double Dmin, double Dmax, size_t* lo, size_t* hi) {
+  const double pad = la.max_reach + 1.0;
+  *lo = std::lower_bound(la.D.begin(), la.D.end(), Dmin - pad) - la.D.begin();
+  *hi = std::upper_bound(la.D.begin() + *lo, la.D.end(), Dmax + pad) - la.D.begin();
+}
+// E_v = Σ_k I0·rel(cos γ)·(cos β)/max(d², d²_min) over the lamps in order, per pixel (a skipped
+// lamp adds nothing; in the vector path it adds +0.0, which leaves the non-negative sum's bits
+// unchanged). A pixel whose camera-facing normal is undefined (X = D = 0) gets 0.
+void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, double I0, double d2_min,
+                       const RelTable& t) {
+  for (int i = 0; i < n; ++i) {
+    const double zz = r.z[i];
+    const double X = zz * (r.x[i] - q.cx) / q.f, D = zz * q.kD, Y = q.h - zz * q.kY;
+    double nX, nD;  // the surface's horizontal unit normal, toward the half-space it is lit from
+    r.e[i] = 0;
+    if (r.plane[i]) {
+      nX = r.pnX[i];
+      nD = r.pnD[i];
+    } else {
+      // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
+      // approximation: their own orientation is not known from the labels).
+      const double rr = std::sqrt(X * X + D * D);
+      if (!(rr > 0)) continue;
+      nX = -X / rr;
+      nD = -D / rr;
+    }
+    size_t lo, hi;
+    lamp_window(la, D, D, &lo, &hi);
+    double e = 0;
+    for (size_t k = lo; k < hi; ++k) {
+      // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
+      // along the road.
+      if (!(std::fabs(D - la.D[k]) <= la.reach[k])) continue;
+      const double vX = la.X[k] - X, vY = la.Y[k] - Y, vD = la.D[k] - D;
+      const double cb = nX * vX + nD * vD;  // |v|·cos β
+      // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
+      // approximation of its upward light output ratio as 0) nor on faces turned away.
+      if (!(vY > 0) || !(cb > 0)) continue;
+      const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
+      e += I0 * t.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+    }
+    r.e[i] = e;
+  }
+}
+// vertical_e_scalar four pixels at a time: the same IEEE operations in the same order per lane
+// (the table read by masked gathers; a lamp's lanes outside its reach, above it or facing away
+// masked to +0.0), so the same bits. Lamps whose every lane is masked are skipped whole: their
+// contribution is exactly zero. Ends with vzeroupper (see clear_upper_vector_state).
+__attribute__((target("avx2")))
+void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, double I0, double d2_min,
+                     const RelTable& t) {
+  const __m256d vI0 = _mm256_set1_pd(I0), vd2min = _mm256_set1_pd(d2_min), zero = _mm256_setzero_pd();
+  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), one = _mm256_set1_pd(1.0);
+  const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
+  const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
+  const __m256d cx = _mm256_set1_pd(q.cx), f = _mm256_set1_pd(q.f), kD = _mm256_set1_pd(q.kD),
+                kY = _mm256_set1_pd(q.kY), h = _mm256_set1_pd(q.h);
+  for (int i = 0; i < n; i += 4) {
+    const __m256d zz = _mm256_loadu_pd(&r.z[i]);
+    const __m256d xd = _mm256_cvtepi32_pd(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.x[i])));  // exact
+    const __m256d X = _mm256_div_pd(_mm256_mul_pd(zz, _mm256_sub_pd(xd, cx)), f);
+    const __m256d D = _mm256_mul_pd(zz, kD), Y = _mm256_sub_pd(h, _mm256_mul_pd(zz, kY));
+    const __m256d pm = _mm256_castsi256_pd(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.plane[i])));
+    __m256d nX = _mm256_loadu_pd(&r.pnX[i]), nD = _mm256_loadu_pd(&r.pnD[i]), ok = pm;
+    if (_mm256_movemask_pd(pm) != 0xf) {
+      const __m256d rr = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(X, X), _mm256_mul_pd(D, D)));
+      ok = _mm256_or_pd(pm, _mm256_cmp_pd(rr, zero, _CMP_GT_OQ));
+      nX = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(X, sign), rr), nX, pm);
+      nD = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(D, sign), rr), nD, pm);
+    }
+    const __m256d m1 = _mm256_min_pd(D, _mm256_permute2f128_pd(D, D, 1)), M1 = _mm256_max_pd(D, _mm256_permute2f128_pd(D, D, 1));
+    const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
+    const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
+    size_t lo, hi;
+    lamp_window(la, Dmin, Dmax, &lo, &hi);
+    __m256d acc = zero;
+    for (size_t k = lo; k < hi; ++k) {
+      const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
+      const __m256d in_reach = _mm256_and_pd(
+          ok, _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(D, lD), absmask), _mm256_broadcast_sd(&la.reach[k]), _CMP_LE_OQ));
+      if (!_mm256_movemask_pd(in_reach)) continue;
+      const __m256d vX = _mm256_sub_pd(_mm256_broadcast_sd(&la.X[k]), X);
+      const __m256d vY = _mm256_sub_pd(_mm256_broadcast_sd(&la.Y[k]), Y);
+      const __m256d vD = _mm256_sub_pd(lD, D);
+      const __m256d cb = _mm256_add_pd(_mm256_mul_pd(nX, vX), _mm256_mul_pd(nD, vD));
+      const __m256d lit = _mm256_and_pd(in_reach, _mm256_and_pd(_mm256_cmp_pd(vY, zero, _CMP_GT_OQ),
+                                                                _mm256_cmp_pd(cb, zero, _CMP_GT_OQ)));
+      if (!_mm256_movemask_pd(lit)) continue;
+      const __m256d dv2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vX, vX), _mm256_mul_pd(vY, vY)), _mm256_mul_pd(vD, vD));
+      const __m256d dv = _mm256_sqrt_pd(dv2), cg = _mm256_div_pd(vY, dv);
+      const __m256d beyond = _mm256_and_pd(lit, _mm256_cmp_pd(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
+      __m256d rel = one;
+      if (_mm256_movemask_pd(beyond)) {
+        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(cg, vstep)), beyond);
+      }
+      const __m256d ek = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), _mm256_div_pd(cb, dv)), _mm256_max_pd(dv2, vd2min));
+      acc = _mm256_add_pd(acc, _mm256_and_pd(lit, ek));
+    }
+    _mm256_storeu_pd(&r.e[i], acc);
+  }
+  _mm256_zeroupper();
+}
+}  // namespace
+
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                const BuildingFacades* facades) {
@@ -364,8 +544,14 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   // windows in); its normal (n_X, n_D) points away from the camera, the lit face the other way.
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades& fac = facades ? *facades : computed;
-  std::vector<double> reach(s.lamps.size());
-  for (size_t i = 0; i < s.lamps.size(); ++i) reach[i] = reach_m(s.lamps[i].Y_m, p);
+  LampArrays la;
+  for (const auto& l : s.lamps) {
+    la.X.push_back(l.X_m);
+    la.Y.push_back(l.Y_m);
+    la.D.push_back(l.D_m);
+    la.reach.push_back(reach_m(l.Y_m, p));
+    la.max_reach = std::max(la.max_reach, la.reach.back());
+  }
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
   // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
@@ -375,54 +561,55 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
   const double I0 = s.peak_intensity_cd;
+  // Per row: the lit pixels compacted (scalar), then their points, normals and E_v over the lamps
+  // (vectorized), then the reflection into L. Each pixel's sum is its own, so rows may go to any
+  // thread.
 #pragma omp parallel
   {
   if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
+  VerticalRow r(W);
 #pragma omp for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
     const float* z = depth_m.row(y);
     const uint16_t* id = labels.row(y);
     const int32_t* reg = fac.region.row(y);
-    const float* tx = texture.row(y);
-    float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
+    const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
+    int n = 0;
     for (int x = 0; x < W; ++x) {
       const int k = id[x];
       if (k == sky || (k < kLabelCount && ground[k])) continue;
-      const double zz = z[x];
+      const float zz = z[x];
       if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
-      // The pixel's point in road coordinates (X right, Y up, D ahead; camera foot at the origin).
-      const double X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
-      double nX, nD;  // the surface's horizontal unit normal, toward the half-space it is lit from
-      const FacadePlane* f = k == building && reg[x] >= 0 ? fac.plane_at(x, y) : nullptr;
-      if (f) {
-        nX = -f->nX;
-        nD = -f->nD;
-      } else {
-        // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
-        // approximation: their own orientation is not known from the labels).
-        const double r = std::sqrt(X * X + D * D);
-        if (!(r > 0)) continue;
-        nX = -X / r;
-        nD = -D / r;
+      // On buildings the pixel's façade plane (BuildingFacades::plane_at, inlined).
+      const FacadePlane* f = nullptr;
+      if (k == building && reg[x] >= 0) {
+        const BuildingFacades::Region& R = fac.regions[reg[x]];
+        const int pi = R.column_plane[x - R.x0];
+        if (pi >= 0) f = &fac.planes[pi];
       }
-      double e = 0;
-      for (size_t i = 0; i < s.lamps.size(); ++i) {
-        const StreetLamp& l = s.lamps[i];
-        // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
-        // along the road.
-        if (!(std::fabs(D - l.D_m) <= reach[i])) continue;
-        const double vX = l.X_m - X, vY = l.Y_m - Y, vD = l.D_m - D;
-        const double cb = nX * vX + nD * vD;  // |v|·cos β
-        // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
-        // approximation of its upward light output ratio as 0) nor on faces turned away.
-        if (!(vY > 0) || !(cb > 0)) continue;
-        const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-        e += I0 * table.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
-      }
+      r.x[n] = x;
+      r.z[n] = zz;
+      r.plane[n] = f ? -1 : 0;
+      r.pnX[n] = f ? -f->nX : 0.0;
+      r.pnD[n] = f ? -f->nD : 0.0;
+      ++n;
+    }
+    if (n == 0) continue;
+    if (kHaveAvx2) {
+      r.pad(n);
+      vertical_e_avx2(r, n, q, la, I0, d2_min, table);
+    } else {
+      vertical_e_scalar(r, n, q, la, I0, d2_min, table);
+    }
+    const float* tx = texture.row(y);
+    float* o = L.row(y);
+    for (int i = 0; i < n; ++i) {
+      const double e = r.e[i];
       if (!(e > 0)) continue;
+      const int x = r.x[i];
       const float ef = static_cast<float>(e);
-      for (int q = 0; q < 3; ++q) o[3 * x + q] += tx[3 * x + q] * tlf[q] * ef;
+      for (int qq = 0; qq < 3; ++qq) o[3 * x + qq] += tx[3 * x + qq] * tlf[qq] * ef;
     }
   }
   }
@@ -474,9 +661,11 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       const double yn = (y - g.cy_px) / g.f_px;
       for (int x = 0; x < W; ++x) {
         if (reg[x] < 0 || z[x] > max_z) continue;
-        const FacadePlane* f = fac.plane_at(x, y);
-        if (!f) continue;
-        const Frame& fr = frames[f - fac.planes.data()];
+        // The pixel's façade plane (BuildingFacades::plane_at, inlined).
+        const BuildingFacades::Region& R = fac.regions[reg[x]];
+        const int pi = R.column_plane[x - R.x0];
+        if (pi < 0) continue;
+        const Frame& fr = frames[pi];
         const double zz = z[x], X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
         if (Y < 0) continue;
         const double s = fr.tX * X + fr.tD * D;  // along the façade (m)

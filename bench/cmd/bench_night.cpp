@@ -3,6 +3,7 @@
 // per-stage medians over repeats, each also as a ratio to an OpenCV peer measured in the same
 // run (cv::cvtColor RGB→Lab on the same float frame). CSV to docs/night_bench.csv.
 #include <omp.h>
+#include <time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -30,8 +31,16 @@ namespace {
 struct Opts {
   std::string image, labels, instances, out_dir, preset = "onsemi-ar0331";
   int repeats = 9, threads = 2;
-  bool no_glare = false;
+  bool no_glare = false, cpu_clock = false;
 };
+
+// The process CPU time (ms): with --threads 1 a stage's own work, which other processes on a
+// loaded machine do not stretch as they do the wall time.
+double cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 void run(const Opts& o) {
   namespace fs = std::filesystem;
@@ -104,9 +113,11 @@ void run(const Opts& o) {
     const ImageF glared = apply_glare(ns.radiance, lens.glare, ppd);
     auto tg2 = clock::now();
     std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
+    const double c4 = cpu_ms();
     auto t4 = clock::now();
     cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
     auto t5 = clock::now();
+    const double c5 = cpu_ms();
     if (!keep) continue;
     auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     add("linearize", ms(t0, t1));
@@ -120,16 +131,42 @@ void run(const Opts& o) {
     }
     (void)skirt;
     (void)glared;
-    // The vertical surfaces' street light alone (it runs inside the light map above): each
-    // non-ground pixel's E_v from the lamps within reach, on this round's depth and geometry.
+    // Parts of the light map alone (each also runs inside "lights" above), on this round's depth
+    // and geometry: the lamp plan, the street light on vertical surfaces (each non-ground
+    // pixel's E_v from the lamps within reach), the ground pools with the lamp heads, and the
+    // façade windows. The façade planes are fitted outside these timings (the light map gets
+    // them from the depth stage).
     {
+      const scene::BuildingFacades fac = scene::building_facades(lm.ids, ns.geometry, sp.max_depth_m);
+      const double cp0 = cpu_ms();
+      auto tp0 = clock::now();
       const scene::StreetLighting sl = scene::plan_street_lighting(lm, ns.geometry, sp, 1);
+      auto tp1 = clock::now();
+      const double cp1 = cpu_ms();
+      add("street lamp plan (alone)", ms(tp0, tp1));
       const ImageF tex = scene::reflectance_texture(lin, lm.ids, sp);
       ImageF vl(day.width(), day.height(), 3, 0.f, unit::radiance);
+      const double cv0 = cpu_ms();
       auto tv0 = clock::now();
-      scene::add_vertical_street_light(vl, tex, lm.ids, ns.depth, ns.geometry, sl, sp);
+      scene::add_vertical_street_light(vl, tex, lm.ids, ns.depth, ns.geometry, sl, sp, &fac);
       auto tv1 = clock::now();
-      add("street light on vertical surfaces (alone)", std::chrono::duration<double, std::milli>(tv1 - tv0).count());
+      const double cv1 = cpu_ms();
+      add("street light on vertical surfaces (alone)", ms(tv0, tv1));
+      scene::add_street_lighting(vl, tex, lm.ids, ns.geometry, sl, sp);
+      auto tv2 = clock::now();
+      const double cv2 = cpu_ms();
+      add("street light pools + heads (alone)", ms(tv1, tv2));
+      scene::add_facade_windows(vl, lm.ids, ns.depth, ns.geometry, sp, 1, &fac);
+      auto tv3 = clock::now();
+      const double cv3 = cpu_ms();
+      add("facade windows (alone)", ms(tv2, tv3));
+      if (o.cpu_clock) {
+        add("cpu: street lamp plan (alone)", cp1 - cp0);
+        add("cpu: vertical surfaces (alone)", cv1 - cv0);
+        add("cpu: pools + heads (alone)", cv2 - cv1);
+        add("cpu: facade windows (alone)", cv3 - cv2);
+        add("cpu: peer", c5 - c4);
+      }
     }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
   }
@@ -173,6 +210,8 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--preset", o->preset, "camera preset")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
                             sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
+                            sub->add_flag("--cpu-clock", o->cpu_clock,
+                                          "also time the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
                             sub->add_flag("--no-glare", o->no_glare, "the lens without its [glare] (for the glare's cost)");
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
