@@ -69,6 +69,24 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   for (int y = 0; y < day.height(); ++y) {
     const float* in = day.row(y);
     float* o = out.row(y);
+    if (c == 3 && d8) {
+      // 8-bit RGB: one flat loop over the row's samples; the checks below, for a value outside
+      // [0, 1] (NaN, Inf, negative, above white), are taken only when one is.
+      for (int j = 0; j < 3 * day.width(); ++j) {
+        float v = in[j];
+        if (!(v >= 0.f && v <= 1.f)) [[unlikely]] {
+          if (!std::isfinite(v)) {
+            bad = std::min(bad, static_cast<int64_t>(y) * day.width() + j / 3);
+            v = 0;
+          }
+          if (v < 0) v = 0;
+          v = std::min(v, 1.f);
+        }
+        const int code = static_cast<int>(v * 255.f + 0.5f);
+        o[j] = d8->in[code] == v ? d8->out[code] : decode_interp(v, lut);
+      }
+      continue;
+    }
     for (int x = 0; x < day.width(); ++x) {
       for (int k = 0; k < 3; ++k) {
         float v = in[x * c + (c >= 3 ? k : 0)];
@@ -138,16 +156,29 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
     auto& ps = part[ch];
     ps.fill(0.0);
     const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
-    for (size_t i = i0; i < i1; ++i) {
-      const float* s = day.data() + 3 * i;
-      double y = 0;
-      for (int r = 0; r < 3; ++r) {
-        const double v = std::max(0.0, M[r][0] * s[0] + M[r][1] * s[1] + M[r][2] * s[2]);
-        f[3 * i + r] = static_cast<float>(v);
-        y += K[r] * v;
+    // The class's running sum is held in a register along a run of one label and stored at its
+    // end: the same additions in the same order as adding into ps per pixel, without a store and
+    // reload between them (which would bound the loop by their latency).
+    const uint16_t* lab = labels.data();
+    const float* day_px = day.data();
+    float* f_px = f.data();
+    for (size_t i = i0; i < i1;) {
+      const int id = lab[i];
+      double acc = ps[id];
+      size_t e = i;
+      for (; e < i1 && lab[e] == id; ++e) {
+        const float* s = day_px + 3 * e;
+        double y = 0;
+        for (int r = 0; r < 3; ++r) {
+          const double v = std::max(0.0, M[r][0] * s[0] + M[r][1] * s[1] + M[r][2] * s[2]);
+          f_px[3 * e + r] = static_cast<float>(v);
+          y += K[r] * v;
+        }
+        acc += y;
       }
-      ps[labels[i]] += y;
-      ps[kLabelCount + labels[i]] += 1;
+      ps[id] = acc;
+      ps[kLabelCount + id] += static_cast<double>(e - i);  // a count: exact in a double (< 2^53)
+      i = e;
     }
   }
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -160,13 +191,25 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
   const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
+  // Pass 2, per run of one label: its scale on every sample (or its flat grey), capped.
 #pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < n; ++i) {
-    const int id = labels[i];
-    for (int k = 0; k < 3; ++k) {
-      const float v = scale[id] > 0 ? scale[id] * f[3 * i + k]
-                                    : static_cast<float>(class_reflectance(id, p)) * flat;
-      f[3 * i + k] = std::min(v, cap);
+  for (int ch = 0; ch < kChunks; ++ch) {
+    const uint16_t* lab = labels.data();
+    float* f_px = f.data();
+    const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
+    for (size_t i = i0; i < i1;) {
+      const int id = lab[i];
+      size_t e = i + 1;
+      while (e < i1 && lab[e] == id) ++e;
+      float* o = f_px + 3 * i;
+      const size_t m = 3 * (e - i);
+      if (scale[id] > 0) {
+        const float s = scale[id];
+        for (size_t j = 0; j < m; ++j) o[j] = std::min(s * o[j], cap);
+      } else {
+        std::fill(o, o + m, std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
+      }
+      i = e;
     }
   }
   return f;
