@@ -140,6 +140,30 @@ double class_reflectance(int id, const ScenePreset& p) {
   }
 }
 
+namespace {
+// Box RGB (M·s, negatives clipped) of n pixels into f and each pixel's luminous efficacy
+// Y = Σ_r K_r·(M·s)_r into y: per pixel the same operations in the same order whatever the
+// instruction set (no contraction into fused multiply-adds: -ffp-contract=off), so the same bits;
+// the loop carries no dependence, so the AVX2 clone runs four pixels at once.
+constexpr int kBoxBlock = 256;
+__attribute__((target_clones("avx2", "default")))
+void box_rgb_block(const float* s, int n, const std::array<std::array<double, 3>, 3>& Mr,
+                   const std::array<double, 3>& Kr, float* f, double* y) {
+  const double M00 = Mr[0][0], M01 = Mr[0][1], M02 = Mr[0][2], M10 = Mr[1][0], M11 = Mr[1][1], M12 = Mr[1][2],
+               M20 = Mr[2][0], M21 = Mr[2][1], M22 = Mr[2][2], K0 = Kr[0], K1 = Kr[1], K2 = Kr[2];
+  for (int i = 0; i < n; ++i) {
+    const double r = s[3 * i], g = s[3 * i + 1], b = s[3 * i + 2];
+    const double v0 = std::max(0.0, M00 * r + M01 * g + M02 * b);
+    const double v1 = std::max(0.0, M10 * r + M11 * g + M12 * b);
+    const double v2 = std::max(0.0, M20 * r + M21 * g + M22 * b);
+    f[3 * i] = static_cast<float>(v0);
+    f[3 * i + 1] = static_cast<float>(v1);
+    f[3 * i + 2] = static_cast<float>(v2);
+    y[i] = ((0.0 + K0 * v0) + K1 * v1) + K2 * v2;
+  }
+}
+}  // namespace
+
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto& M = spectrum::linear_srgb_to_box();
@@ -162,19 +186,16 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
     const uint16_t* lab = labels.data();
     const float* day_px = day.data();
     float* f_px = f.data();
+    double ys[kBoxBlock];
     for (size_t i = i0; i < i1;) {
       const int id = lab[i];
       double acc = ps[id];
-      size_t e = i;
-      for (; e < i1 && lab[e] == id; ++e) {
-        const float* s = day_px + 3 * e;
-        double y = 0;
-        for (int r = 0; r < 3; ++r) {
-          const double v = std::max(0.0, M[r][0] * s[0] + M[r][1] * s[1] + M[r][2] * s[2]);
-          f_px[3 * e + r] = static_cast<float>(v);
-          y += K[r] * v;
-        }
-        acc += y;
+      size_t e = i + 1;
+      while (e < i1 && lab[e] == id) ++e;
+      for (size_t b = i; b < e; b += kBoxBlock) {
+        const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
+        box_rgb_block(day_px + 3 * b, nb, M, K, f_px + 3 * b, ys);
+        for (int j = 0; j < nb; ++j) acc += ys[j];
       }
       ps[id] = acc;
       ps[kLabelCount + id] += static_cast<double>(e - i);  // a count: exact in a double (< 2^53)
