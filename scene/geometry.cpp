@@ -188,8 +188,9 @@ void lowest_rows(const std::vector<KeyedRun>& runs, int W, const ColOff& col_off
       if (u.x1 < sa || u.x0 >= sb) continue;
       const long off = col_off(i);
       if (off < 0) continue;
-      const int x0 = x0_of(i);
-      for (int x = std::max(u.x0, sa), xe = std::min(u.x1 + 1, sb); x < xe; ++x) col_ymax[off + (x - x0)] = u.y;
+      const int x0 = x0_of(i), row = u.y;
+      int* c = col_ymax + off;
+      for (int x = std::max(u.x0, sa), xe = std::min(u.x1 + 1, sb); x < xe; ++x) c[x - x0] = row;
     }
   }
 }
@@ -269,6 +270,10 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     double D = 0;
     return g.ground_point(g.cx_px, row, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
   };
+  // Columns whose contact is the bottom of the stack of objects below them: answered after the
+  // loop, all at once (below).
+  struct StackQuery { size_t col; int x, y; };
+  std::vector<StackQuery> stack_q;
   for (auto& c : comps) {
     if (c.single) continue;
     double sx = 0, sy = 0, sxx = 0, sxy = 0;
@@ -299,10 +304,35 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
       else if (line) yc = std::max<double>(y, a + b * x);
       else if (med >= 0) yc = std::max<double>(y, med);
       else {
-        while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;
-        yc = y;
+        stack_q.push_back({c.col_off + (x - c.x0), x, y});
+        continue;
       }
       col_D[c.col_off + (x - c.x0)] = D_at(yc + 0.5);
+    }
+  }
+  // The bottom of the stack of objects below (x, y): the last row of the column's run of object
+  // pixels from y + 1 down (y itself when (x, y + 1) is no object). One sweep from the bottom row
+  // up over the object runs, end[x] the last row of the object run through (x, r) in column x
+  // (-1 off objects), instead of a walk down each queried column.
+  if (!stack_q.empty()) {
+    std::stable_sort(stack_q.begin(), stack_q.end(), [](const StackQuery& a, const StackQuery& b) { return a.y > b.y; });
+    size_t qi = 0;
+    for (; qi < stack_q.size() && stack_q[qi].y + 1 >= H; ++qi) col_D[stack_q[qi].col] = D_at(stack_q[qi].y + 0.5);
+    std::vector<int> end(W, -1);
+    for (int r = H - 1; r >= 1 && qi < stack_q.size(); --r) {
+      int x = 0;
+      int* e = end.data();
+      for (int i = row_start[r]; i < row_start[r + 1]; ++i) {
+        const int x0 = runs[i].x0, x1 = runs[i].x1;  // locals: the stores below cannot change them
+        std::fill(e + x, e + x0, -1);
+        for (int xx = x0; xx <= x1; ++xx) e[xx] = std::max(e[xx], r);
+        x = x1 + 1;
+      }
+      std::fill(end.begin() + x, end.end(), -1);
+      for (; qi < stack_q.size() && stack_q[qi].y + 1 == r; ++qi) {
+        const StackQuery& q = stack_q[qi];
+        col_D[q.col] = D_at((end[q.x] >= 0 ? end[q.x] : q.y) + 0.5);
+      }
     }
   }
   // Buildings: the fitted façade plane of their column (building_facades), where the column's
