@@ -4,6 +4,9 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <vector>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "photosite/error.h"
 #include "photosite/scene/night.h"
@@ -54,6 +57,28 @@ const Decode8& decode8() {
   }();
   return d;
 }
+#if defined(__x86_64__)
+// The 8-bit path's table read, eight samples at a time from j (a multiple of 8) while all eight
+// are in [0, 1] and one of the 256 code values (the test and the code exactly as the scalar loop
+// computes them); returns where it stopped: n, or the first block of eight with any other value,
+// which the scalar loop takes.
+__attribute__((target("avx2")))
+int decode8_codes_avx2(const float* in, int j, int n, const Decode8& d8, float* o) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f);
+  const __m256 k255 = _mm256_set1_ps(255.f), half = _mm256_set1_ps(0.5f);
+  for (; j + 8 <= n; j += 8) {
+    const __m256 v = _mm256_loadu_ps(in + j);
+    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GE_OQ), _mm256_cmp_ps(v, one, _CMP_LE_OQ));
+    // Out-of-range lanes index code 0 (the mask keeps the gather inside the table).
+    const __m256i code = _mm256_and_si256(_mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(v, k255), half)),
+                                          _mm256_castps_si256(in_range));
+    const __m256 is_code = _mm256_cmp_ps(_mm256_i32gather_ps(d8.in, code, 4), v, _CMP_EQ_OQ);
+    if (_mm256_movemask_ps(_mm256_and_ps(in_range, is_code)) != 0xff) return j;
+    _mm256_storeu_ps(o + j, _mm256_i32gather_ps(d8.out, code, 4));
+  }
+  return j;
+}
+#endif
 }  // namespace
 
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
@@ -65,10 +90,38 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   // NaN and Inf in a linear (EXR) day image are damage, not light: refused, first one named.
   // Negatives are kept as out-of-gamut colour and clipped to 0 like integer files' codes.
   int64_t bad = INT64_MAX;  // first damaged pixel in reading order (y·width + x)
+#if defined(__x86_64__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+#endif
 #pragma omp parallel for schedule(static) reduction(min : bad)
   for (int y = 0; y < day.height(); ++y) {
     const float* in = day.row(y);
     float* o = out.row(y);
+    if (c == 3 && d8) {
+      // 8-bit RGB: one flat loop over the row's samples; the checks below, for a value outside
+      // [0, 1] (NaN, Inf, negative, above white), are taken only when one is.
+      const int n = 3 * day.width();
+      for (int j = 0; j < n; ++j) {
+#if defined(__x86_64__)
+        if (avx2 && (j & 7) == 0) {  // eight at a time while all eight are table codes
+          j = decode8_codes_avx2(in, j, n, *d8, o);
+          if (j >= n) break;
+        }
+#endif
+        float v = in[j];
+        if (!(v >= 0.f && v <= 1.f)) [[unlikely]] {
+          if (!std::isfinite(v)) {
+            bad = std::min(bad, static_cast<int64_t>(y) * day.width() + j / 3);
+            v = 0;
+          }
+          if (v < 0) v = 0;
+          v = std::min(v, 1.f);
+        }
+        const int code = static_cast<int>(v * 255.f + 0.5f);
+        o[j] = d8->in[code] == v ? d8->out[code] : decode_interp(v, lut);
+      }
+      continue;
+    }
     for (int x = 0; x < day.width(); ++x) {
       for (int k = 0; k < 3; ++k) {
         float v = in[x * c + (c >= 3 ? k : 0)];
@@ -122,6 +175,30 @@ double class_reflectance(int id, const ScenePreset& p) {
   }
 }
 
+namespace {
+// Box RGB (M·s, negatives clipped) of n pixels into f and each pixel's luminous efficacy
+// Y = Σ_r K_r·(M·s)_r into y: per pixel the same operations in the same order whatever the
+// instruction set (no contraction into fused multiply-adds: -ffp-contract=off), so the same bits;
+// the loop carries no dependence, so the AVX2 clone runs four pixels at once.
+constexpr int kBoxBlock = 256;
+__attribute__((target_clones("avx2", "default")))
+void box_rgb_block(const float* s, int n, const std::array<std::array<double, 3>, 3>& Mr,
+                   const std::array<double, 3>& Kr, float* f, double* y) {
+  const double M00 = Mr[0][0], M01 = Mr[0][1], M02 = Mr[0][2], M10 = Mr[1][0], M11 = Mr[1][1], M12 = Mr[1][2],
+               M20 = Mr[2][0], M21 = Mr[2][1], M22 = Mr[2][2], K0 = Kr[0], K1 = Kr[1], K2 = Kr[2];
+  for (int i = 0; i < n; ++i) {
+    const double r = s[3 * i], g = s[3 * i + 1], b = s[3 * i + 2];
+    const double v0 = std::max(0.0, M00 * r + M01 * g + M02 * b);
+    const double v1 = std::max(0.0, M10 * r + M11 * g + M12 * b);
+    const double v2 = std::max(0.0, M20 * r + M21 * g + M22 * b);
+    f[3 * i] = static_cast<float>(v0);
+    f[3 * i + 1] = static_cast<float>(v1);
+    f[3 * i + 2] = static_cast<float>(v2);
+    y[i] = ((0.0 + K0 * v0) + K1 * v1) + K2 * v2;
+  }
+}
+}  // namespace
+
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto& M = spectrum::linear_srgb_to_box();
@@ -138,16 +215,26 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
     auto& ps = part[ch];
     ps.fill(0.0);
     const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
-    for (size_t i = i0; i < i1; ++i) {
-      const float* s = day.data() + 3 * i;
-      double y = 0;
-      for (int r = 0; r < 3; ++r) {
-        const double v = std::max(0.0, M[r][0] * s[0] + M[r][1] * s[1] + M[r][2] * s[2]);
-        f[3 * i + r] = static_cast<float>(v);
-        y += K[r] * v;
+    // The class's running sum is held in a register along a run of one label and stored at its
+    // end: the same additions in the same order as adding into ps per pixel, without a store and
+    // reload between them (which would bound the loop by their latency).
+    const uint16_t* lab = labels.data();
+    const float* day_px = day.data();
+    float* f_px = f.data();
+    double ys[kBoxBlock];
+    for (size_t i = i0; i < i1;) {
+      const int id = lab[i];
+      double acc = ps[id];
+      size_t e = i + 1;
+      while (e < i1 && lab[e] == id) ++e;
+      for (size_t b = i; b < e; b += kBoxBlock) {
+        const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
+        box_rgb_block(day_px + 3 * b, nb, M, K, f_px + 3 * b, ys);
+        for (int j = 0; j < nb; ++j) acc += ys[j];
       }
-      ps[labels[i]] += y;
-      ps[kLabelCount + labels[i]] += 1;
+      ps[id] = acc;
+      ps[kLabelCount + id] += static_cast<double>(e - i);  // a count: exact in a double (< 2^53)
+      i = e;
     }
   }
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -160,13 +247,25 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
   const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
+  // Pass 2, per run of one label: its scale on every sample (or its flat grey), capped.
 #pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < n; ++i) {
-    const int id = labels[i];
-    for (int k = 0; k < 3; ++k) {
-      const float v = scale[id] > 0 ? scale[id] * f[3 * i + k]
-                                    : static_cast<float>(class_reflectance(id, p)) * flat;
-      f[3 * i + k] = std::min(v, cap);
+  for (int ch = 0; ch < kChunks; ++ch) {
+    const uint16_t* lab = labels.data();
+    float* f_px = f.data();
+    const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
+    for (size_t i = i0; i < i1;) {
+      const int id = lab[i];
+      size_t e = i + 1;
+      while (e < i1 && lab[e] == id) ++e;
+      float* o = f_px + 3 * i;
+      const size_t m = 3 * (e - i);
+      if (scale[id] > 0) {
+        const float s = scale[id];
+        for (size_t j = 0; j < m; ++j) o[j] = std::min(s * o[j], cap);
+      } else {
+        std::fill(o, o + m, std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
+      }
+      i = e;
     }
   }
   return f;

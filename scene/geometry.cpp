@@ -1,7 +1,10 @@
 // Metric scene geometry: camera model from the rig, horizon, flat-ground and vertical-plane depth
 // (see night.h for the equations).
 #include <algorithm>
+#include <bit>
+#include <climits>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 
 #include "photosite/scene/night.h"
@@ -83,11 +86,32 @@ int find(std::vector<int>& p, int a) {
   return a;
 }
 
-// Runs of equal key per row (pixels with key_at(x, y) >= 0) and their 4-connected components:
-// a union-find over runs of one key that overlap in consecutive rows (far cheaper than a per-pixel
-// labelling, as labels come in long runs). Runs are in row order, row y's from row_start[y] to
-// row_start[y + 1]; comp[i] numbers run i's component in the order of its first run (reading
-// order), count of them.
+// The end of the run of values equal to p[x] in p[x..limit): the first index whose value differs,
+// or limit. Four 16-bit labels at a time as one 64-bit word (the first differing lane from the
+// lowest set bit of the XOR: little-endian lane order), the rest one at a time.
+inline int run_end(const uint16_t* p, int x, int limit) {
+  const uint16_t v = p[x];
+  int e = x + 1;
+  if constexpr (std::endian::native == std::endian::little) {
+    const uint64_t vv = v * 0x0001000100010001ull;
+    for (; e + 4 <= limit; e += 4) {
+      uint64_t w;
+      std::memcpy(&w, p + e, sizeof w);
+      if (const uint64_t d = w ^ vv) return e + std::countr_zero(d) / 16;
+    }
+  }
+  while (e < limit && p[e] == v) ++e;
+  return e;
+}
+
+// Runs of equal key per row and their 4-connected components: a union-find over runs of one key
+// that overlap in consecutive rows (far cheaper than a per-pixel labelling, as labels come in
+// long runs). segments(y, emit) calls emit(x0, x1, key) for pieces that cover row y from left to
+// right (key < 0: no run there); touching pieces of one key are one run, so the runs are the
+// maximal runs of equal key of a per-pixel scan whatever the pieces. Runs are in row order, row
+// y's from row_start[y] to row_start[y + 1]; comp[i] numbers run i's component in the order of
+// its first run (reading order), count of them. The rows are scanned in parallel, in fixed bands
+// joined in row order: the same runs for any thread count.
 struct KeyedRun { int y, x0, x1, key; };
 struct RunComponents {
   std::vector<KeyedRun> runs;
@@ -95,24 +119,36 @@ struct RunComponents {
   std::vector<int> comp;
   int count = 0;
 };
-template <class KeyAt>
-RunComponents run_components(int W, int H, const KeyAt& key_at) {
+template <class Segments>
+RunComponents run_components(int H, const Segments& segments) {
   RunComponents rc;
   auto& runs = rc.runs;
   auto& row_start = rc.row_start;
-  row_start.assign(H + 1, 0);
-  for (int y = 0; y < H; ++y) {
-    row_start[y] = static_cast<int>(runs.size());
-    int x = 0;
-    while (x < W) {
-      const int k = key_at(x, y);
-      int e = x + 1;
-      while (e < W && key_at(e, y) == k) ++e;
-      if (k >= 0) runs.push_back({y, x, e - 1, k});
-      x = e;
+  constexpr int kBands = 16;
+  std::vector<std::vector<KeyedRun>> band(kBands);
+  std::vector<int> row_runs(H);
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < kBands; ++b) {
+    std::vector<KeyedRun>& out = band[b];
+    out.reserve(1024);
+    for (int y = H * b / kBands; y < H * (b + 1) / kBands; ++y) {
+      const size_t before = out.size();
+      int cx0 = 0, cx1 = -1, ckey = INT_MIN;  // the run being extended
+      segments(y, [&](int x0, int x1, int key) {
+        if (key == ckey) { cx1 = x1; return; }
+        if (ckey >= 0) out.push_back({y, cx0, cx1, ckey});
+        cx0 = x0; cx1 = x1; ckey = key;
+      });
+      if (ckey >= 0) out.push_back({y, cx0, cx1, ckey});
+      row_runs[y] = static_cast<int>(out.size() - before);
     }
   }
-  row_start[H] = static_cast<int>(runs.size());
+  size_t total = 0;
+  for (const auto& b : band) total += b.size();
+  runs.reserve(total);
+  for (const auto& b : band) runs.insert(runs.end(), b.begin(), b.end());
+  row_start.assign(H + 1, 0);
+  for (int y = 0; y < H; ++y) row_start[y + 1] = row_start[y] + row_runs[y];
   std::vector<int> parent(runs.size());
   std::iota(parent.begin(), parent.end(), 0);
   for (int y = 1; y < H; ++y) {
@@ -134,6 +170,29 @@ RunComponents run_components(int W, int H, const KeyAt& key_at) {
     rc.comp[i] = index[r];
   }
   return rc;
+}
+
+// The lowest row of each column of each component, written into col_ymax[col_off(run) + x - x0(run)]
+// for the runs that take part (col_off(run) < 0: skipped). Rows ascend, so the last write is the
+// lowest; the columns are split into fixed strips written in parallel (each strip sees every run
+// in order: the same result for any thread count).
+template <class ColOff, class X0>
+void lowest_rows(const std::vector<KeyedRun>& runs, int W, const ColOff& col_off, const X0& x0_of,
+                 int* col_ymax) {
+  constexpr int kStrips = 8;
+#pragma omp parallel for schedule(static)
+  for (int s = 0; s < kStrips; ++s) {
+    const int sa = W * s / kStrips, sb = W * (s + 1) / kStrips;
+    for (size_t i = 0; i < runs.size(); ++i) {
+      const KeyedRun& u = runs[i];
+      if (u.x1 < sa || u.x0 >= sb) continue;
+      const long off = col_off(i);
+      if (off < 0) continue;
+      const int x0 = x0_of(i), row = u.y;
+      int* c = col_ymax + off;
+      for (int x = std::max(u.x0, sa), xe = std::min(u.x1 + 1, sb); x < xe; ++x) c[x - x0] = row;
+    }
+  }
 }
 }  // namespace
 
@@ -157,16 +216,24 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   uint8_t kinds[kLabelCount];
   for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
   auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
-  auto key_at = [&](int x, int y) -> int {
-    const int id = ids.at(x, y);
-    if (kind_fast(id) != 2) return -1;
-    if (inst) {
-      const int c = lm.instances.at(x, y);
-      if (c >= 1000) return 1000 + c;
+  // The key of a pixel: -1 off objects, else its instance code + 1000 where it has one (>= 1000),
+  // else its class id. Pieces: runs of one class id, cut where the instance code changes.
+  const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
+    const uint16_t* r = ids.row(y);
+    const uint16_t* in = inst ? lm.instances.row(y) : nullptr;
+    for (int x = 0; x < W;) {
+      const int e = run_end(r, x, W), id = r[x];
+      if (kind_fast(id) != 2) emit(x, e - 1, -1);
+      else if (!in) emit(x, e - 1, id);
+      else
+        for (int s = x; s < e;) {
+          const int t = run_end(in, s, e), c = in[s];
+          emit(s, t - 1, c >= 1000 ? 1000 + c : id);
+          s = t;
+        }
+      x = e;
     }
-    return id;
-  };
-  const RunComponents rc = run_components(W, H, key_at);
+  });
   const std::vector<KeyedRun>& runs = rc.runs;
   const std::vector<int>& row_start = rc.row_start;
   const std::vector<int>& comp = rc.comp;
@@ -188,11 +255,9 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   for (auto& c : comps)
     if (!c.single) { c.col_off = cols; cols += c.x1 - c.x0 + 1; }
   std::vector<int> col_ymax(cols, -1);
-  for (size_t i = 0; i < runs.size(); ++i) {  // rows ascend: the last write is the lowest
-    const Comp& c = comps[comp[i]];
-    if (c.single) continue;
-    for (int x = runs[i].x0; x <= runs[i].x1; ++x) col_ymax[c.col_off + (x - c.x0)] = runs[i].y;
-  }
+  lowest_rows(
+      runs, W, [&](size_t i) { const Comp& c = comps[comp[i]]; return c.single ? -1L : static_cast<long>(c.col_off); },
+      [&](size_t i) { return comps[comp[i]].x0; }, col_ymax.data());
   // The ground line of a vertical plane is a straight image line. Columns whose lowest pixel
   // stands on a ground class show the contact and keep it; a straight line fitted to them (least
   // squares, at least 8 columns and a fifth of the region's) gives the hidden columns theirs, so
@@ -205,6 +270,10 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
     double D = 0;
     return g.ground_point(g.cx_px, row, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
   };
+  // Columns whose contact is the bottom of the stack of objects below them: answered after the
+  // loop, all at once (below).
+  struct StackQuery { size_t col; int x, y; };
+  std::vector<StackQuery> stack_q;
   for (auto& c : comps) {
     if (c.single) continue;
     double sx = 0, sy = 0, sxx = 0, sxy = 0;
@@ -235,34 +304,39 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
       else if (line) yc = std::max<double>(y, a + b * x);
       else if (med >= 0) yc = std::max<double>(y, med);
       else {
-        while (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 2) ++y;
-        yc = y;
+        stack_q.push_back({c.col_off + (x - c.x0), x, y});
+        continue;
       }
       col_D[c.col_off + (x - c.x0)] = D_at(yc + 0.5);
     }
   }
-  // Fill: ground and sky per pixel, objects per run.
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
-    float* o = depth.row(y);
-    const uint16_t* r = ids.row(y);
-    for (int x = 0; x < W; ++x) {
-      o[x] = kind_fast(r[x]) == 1 ? kDepthInfinity_m : zg[y];  // objects overwritten below
-    }
-    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
-      const Comp& c = comps[comp[i]];
-      if (c.single) {
-        const float z = static_cast<float>(std::min(plane[y] * d_edge[c.ymax], max_depth_m));
-        std::fill(o + runs[i].x0, o + runs[i].x1 + 1, z);
-      } else {
-        for (int x = runs[i].x0; x <= runs[i].x1; ++x) {
-          o[x] = static_cast<float>(std::min(plane[y] * col_D[c.col_off + (x - c.x0)], max_depth_m));
-        }
+  // The bottom of the stack of objects below (x, y): the last row of the column's run of object
+  // pixels from y + 1 down (y itself when (x, y + 1) is no object). One sweep from the bottom row
+  // up over the object runs, end[x] the last row of the object run through (x, r) in column x
+  // (-1 off objects), instead of a walk down each queried column.
+  if (!stack_q.empty()) {
+    std::stable_sort(stack_q.begin(), stack_q.end(), [](const StackQuery& a, const StackQuery& b) { return a.y > b.y; });
+    size_t qi = 0;
+    for (; qi < stack_q.size() && stack_q[qi].y + 1 >= H; ++qi) col_D[stack_q[qi].col] = D_at(stack_q[qi].y + 0.5);
+    std::vector<int> end(W, -1);
+    for (int r = H - 1; r >= 1 && qi < stack_q.size(); --r) {
+      int x = 0;
+      int* e = end.data();
+      for (int i = row_start[r]; i < row_start[r + 1]; ++i) {
+        const int x0 = runs[i].x0, x1 = runs[i].x1;  // locals: the stores below cannot change them
+        std::fill(e + x, e + x0, -1);
+        for (int xx = x0; xx <= x1; ++xx) e[xx] = std::max(e[xx], r);
+        x = x1 + 1;
+      }
+      std::fill(end.begin() + x, end.end(), -1);
+      for (; qi < stack_q.size() && stack_q[qi].y + 1 == r; ++qi) {
+        const StackQuery& q = stack_q[qi];
+        col_D[q.col] = D_at((end[q.x] >= 0 ? end[q.x] : q.y) + 0.5);
       }
     }
   }
   // Buildings: the fitted façade plane of their column (building_facades), where the column's
-  // pixels lie above its foot line; elsewhere the per-column plane above.
+  // pixels lie above its foot line; elsewhere the per-column plane below.
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(ids, g, max_depth_m);
   const BuildingFacades& fac = facades ? *facades : computed;
   // z = d / (n_X·x_n + n_D·k), x_n = (u − c_x)/f per column, k = cos θ − y_n·sin θ per row
@@ -270,20 +344,41 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   std::vector<double> xn(W);
   for (int x = 0; x < W; ++x) xn[x] = (x - g.cx_px) / g.f_px;
   const double cp = std::cos(g.pitch_rad), sp = std::sin(g.pitch_rad);
+  // One pass per row: ground and sky per pixel between the object runs, each object run from its
+  // component's plane, and on building pixels (all inside object runs: the building class is an
+  // object) the façade plane over that.
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
     float* o = depth.row(y);
-    const int32_t* r = fac.region.row(y);
+    const uint16_t* r = ids.row(y);
+    const int32_t* reg = fac.region.row(y);
+    const float zgy = zg[y];
     const double k = cp - (y - g.cy_px) / g.f_px * sp;
-    for (int x = 0; x < W; ++x) {
-      if (r[x] < 0) continue;
-      const BuildingFacades::Region& R = fac.regions[r[x]];
-      const int i = R.column_plane[x - R.x0];
-      if (i < 0 || !R.on_plane[x - R.x0]) continue;
-      const FacadePlane& f = fac.planes[i];
-      if (!f.fitted) continue;
-      const double den = f.nX * xn[x] + f.nD * k;
-      if (den > 1e-9) o[x] = static_cast<float>(std::min(f.d_m / den, max_depth_m));
+    int x = 0;
+    for (int i = row_start[y];; ++i) {
+      const int gap_end = i < row_start[y + 1] ? runs[i].x0 : W;
+      for (; x < gap_end; ++x) o[x] = kind_fast(r[x]) == 1 ? kDepthInfinity_m : zgy;
+      if (i == row_start[y + 1]) break;
+      const KeyedRun& u = runs[i];
+      const Comp& c = comps[comp[i]];
+      if (c.single) {
+        const float z = static_cast<float>(std::min(plane[y] * d_edge[c.ymax], max_depth_m));
+        std::fill(o + u.x0, o + u.x1 + 1, z);
+      } else {
+        for (int xx = u.x0; xx <= u.x1; ++xx)
+          o[xx] = static_cast<float>(std::min(plane[y] * col_D[c.col_off + (xx - c.x0)], max_depth_m));
+      }
+      for (int xx = u.x0; xx <= u.x1; ++xx) {
+        if (reg[xx] < 0) continue;
+        const BuildingFacades::Region& R = fac.regions[reg[xx]];
+        const int pi = R.column_plane[xx - R.x0];
+        if (pi < 0 || !R.on_plane[xx - R.x0]) continue;
+        const FacadePlane& f = fac.planes[pi];
+        if (!f.fitted) continue;
+        const double den = f.nX * xn[xx] + f.nD * k;
+        if (den > 1e-9) o[xx] = static_cast<float>(std::min(f.d_m / den, max_depth_m));
+      }
+      x = u.x1 + 1;
     }
   }
   return depth;
@@ -376,10 +471,15 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
   const int W = ids.width(), H = ids.height();
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   BuildingFacades out;
-  out.region = ImageI32(W, H, 1, -1, "region");
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
-  const RunComponents rc =
-      run_components(W, H, [&](int x, int y) { return ids.at(x, y) == building ? 0 : -1; });
+  const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
+    const uint16_t* r = ids.row(y);
+    for (int x = 0; x < W;) {
+      const int e = run_end(r, x, W);
+      emit(x, e - 1, r[x] == building ? 0 : -1);
+      x = e;
+    }
+  });
   const std::vector<KeyedRun>& runs = rc.runs;
   const std::vector<int>& run_region = rc.comp;
   out.regions.resize(rc.count);
@@ -390,18 +490,30 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
     x1s[r] = std::max(x1s[r], runs[i].x1);
   }
-  std::vector<std::vector<int>> ymax(out.regions.size());
+  // Per region, its columns' lowest rows, one block of them for all regions (col_off[r] onwards).
+  std::vector<long> col_off(out.regions.size() + 1, 0);
   for (size_t r = 0; r < out.regions.size(); ++r) {
     const int w = x1s[r] - out.regions[r].x0 + 1;
     out.regions[r].column_plane.assign(w, -1);
     out.regions[r].on_plane.assign(w, 0);
-    ymax[r].assign(w, -1);
+    col_off[r + 1] = col_off[r] + w;
   }
-  for (size_t i = 0; i < runs.size(); ++i) {  // rows ascend: the last write is the lowest
-    const KeyedRun& u = runs[i];
-    const int r = run_region[i], x0 = out.regions[r].x0;
-    std::fill(out.region.row(u.y) + u.x0, out.region.row(u.y) + u.x1 + 1, r);
-    for (int x = u.x0; x <= u.x1; ++x) ymax[r][x - x0] = u.y;
+  std::vector<int> ymax_all(col_off.back(), -1);
+  lowest_rows(
+      runs, W, [&](size_t i) { return col_off[run_region[i]]; },
+      [&](size_t i) { return out.regions[run_region[i]].x0; }, ymax_all.data());
+  // The region of every pixel (-1 off the building class), one pass per row.
+  out.region = ImageI32(W, H, 1, uninitialized, "region");
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    int32_t* o = out.region.row(y);
+    int x = 0;
+    for (int i = rc.row_start[y]; i < rc.row_start[y + 1]; ++i) {
+      std::fill(o + x, o + runs[i].x0, -1);
+      std::fill(o + runs[i].x0, o + runs[i].x1 + 1, run_region[i]);
+      x = runs[i].x1 + 1;
+    }
+    std::fill(o + x, o + W, -1);
   }
   auto object = [&](int id) {  // neither ground nor sky: something standing in front
     return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
@@ -409,8 +521,8 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
   };
   for (size_t r = 0; r < out.regions.size(); ++r) {
     auto& R = out.regions[r];
-    const auto& ym = ymax[r];
-    const int w = static_cast<int>(ym.size());
+    const int* ym = ymax_all.data() + col_off[r];
+    const int w = static_cast<int>(col_off[r + 1] - col_off[r]);
     std::vector<Contact> cs;
     for (int i = 0; i < w; ++i) {
       const int x = R.x0 + i, y = ym[i];

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <vector>
 
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -149,14 +150,21 @@ LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::strin
 }
 
 ImageU16 resize_nearest(const ImageU16& in, int width, int height) {
-  ImageU16 out(width, height, in.channels(), 0, in.unit());
+  ImageU16 out(width, height, in.channels(), uninitialized, in.unit());
   const int c = in.channels();
+  // The source column of every output column once (the same expression per pixel as per column).
+  std::vector<int> sxs(width);
+  for (int x = 0; x < width; ++x) sxs[x] = std::min(in.width() - 1, static_cast<int>((x + 0.5) * in.width() / width));
+#pragma omp parallel for schedule(static)
   for (int y = 0; y < height; ++y) {
     const int sy = std::min(in.height() - 1, static_cast<int>((y + 0.5) * in.height() / height));
-    for (int x = 0; x < width; ++x) {
-      const int sx = std::min(in.width() - 1, static_cast<int>((x + 0.5) * in.width() / width));
-      for (int k = 0; k < c; ++k) out.at(x, y, k) = in.at(sx, sy, k);
-    }
+    const uint16_t* src = in.row(sy);
+    uint16_t* dst = out.row(y);
+    if (c == 1)
+      for (int x = 0; x < width; ++x) dst[x] = src[sxs[x]];
+    else
+      for (int x = 0; x < width; ++x)
+        for (int k = 0; k < c; ++k) dst[x * c + k] = src[sxs[x] * c + k];
   }
   return out;
 }

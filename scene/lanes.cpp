@@ -1,12 +1,151 @@
 // Working-resolution images and lane-marking segmentation (stage 2).
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <opencv2/imgproc.hpp>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
+#include "scene/srgb_detail.h"
 
 namespace photosite::scene {
+
+namespace {
+// x^a for a = 1/2.4 (the double srgb_encode raises to) and x = 2^e·m (m in [1, 2)) a float in
+// (0.0031308, 1): x^a = (2^e)^a · m0^a · (1 + t)^a with m0 = 1 + k/1024 the mantissa's first 10
+// bits and t = (m − m0)/m0 in [0, 2^-10); (2^e)^a and m0^a from std::pow once (tables), (1 + t)^a
+// by its binomial series to t^4 (the next term is below 0.03·2^-50 ≈ 3e-17). Relative error: the
+// tables' roundings (std::pow: < 1 ulp each), the series' and the products' (a few ulp), under 1e-15.
+struct PowTables {
+  double two_e[10];  // (2^e)^a for e = -9 .. 0
+  double m0a[1024], inv_m0[1024];
+  double c1, c2, c3, c4;  // binomial coefficients C(a, n)
+};
+const PowTables& pow_tables() {
+  static const PowTables t = [] {
+    PowTables p;
+    const double a = 1.0 / 2.4;
+    for (int e = -9; e <= 0; ++e) p.two_e[e + 9] = std::pow(std::ldexp(1.0, e), a);
+    for (int k = 0; k < 1024; ++k) {
+      const double m0 = 1.0 + k / 1024.0;
+      p.m0a[k] = std::pow(m0, a);
+      p.inv_m0[k] = 1.0 / m0;
+    }
+    p.c1 = a;
+    p.c2 = p.c1 * (a - 1) / 2;
+    p.c3 = p.c2 * (a - 2) / 3;
+    p.c4 = p.c3 * (a - 3) / 4;
+    return p;
+  }();
+  return t;
+}
+
+// The encode's float of n values, computed from the fast x^a where that decides it:
+// y = 1.055·x^a − 0.055 differs from srgb_encode's own double by at most 1.055·(its x^a error +
+// std::pow's < 1 ulp) plus two roundings — below 1e-13·y even where the subtraction cancels
+// (y ≥ 0.04 at the toe, 1.055·x^a ≤ 2.4·y there) — so where y lies farther than 1e-12·y from both
+// midpoints to the neighbouring floats, both round to the same float. Elsewhere (the toe, white,
+// NaN, and about one value in 30 000 near a midpoint) `exact` is set and the caller takes the
+// exact expression.
+void srgb_encode_block(const float* v, int n, float* out, int32_t* exact) {
+  const PowTables& T = pow_tables();
+  for (int i = 0; i < n; ++i) {
+    const float xf = v[i];
+    // Values past the toe and below white (NaN fails both); 0.0031308f > 0.0031308, so no toe
+    // value passes.
+    const bool fast = xf > 0.0031308f && xf < 1.f;
+    exact[i] = 1;
+    if (!fast) continue;
+    const uint32_t bits = std::bit_cast<uint32_t>(xf);
+    const int e = static_cast<int>(bits >> 23) - 127;  // in [-9, -1]
+    const int mant = static_cast<int>(bits & 0x7fffffu);
+    const int k = mant >> 13;
+    const double m = 1.0 + mant * 0x1p-23, m0 = 1.0 + k * 0x1p-10;
+    const double t = (m - m0) * T.inv_m0[k];
+    const double s = 1.0 + t * (T.c1 + t * (T.c2 + t * (T.c3 + t * T.c4)));
+    const double y = 1.055 * (T.two_e[e + 9] * T.m0a[k] * s) - 0.055;
+    const float f = static_cast<float>(y);
+    const uint32_t fb = std::bit_cast<uint32_t>(f);
+    const double lo = 0.5 * (static_cast<double>(std::bit_cast<float>(fb - 1)) + f);
+    const double hi = 0.5 * (static_cast<double>(std::bit_cast<float>(fb + 1)) + f);
+    const double tol = 1e-12 * y;
+    out[i] = f;
+    exact[i] = !(y - tol > lo && y + tol < hi);
+  }
+}
+
+#if defined(__x86_64__)
+__attribute__((target("avx2"))) inline __m256d gather_pd(const double* base, __m128i idx) {
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, idx, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+}
+// The same, four values at a time with AVX2: the same operations in the same order on each value
+// (no fused multiply-adds), the tables read by gathers, so the same floats and the same `exact`.
+__attribute__((target("avx2")))
+void srgb_encode_block_avx2(const float* v, int n, float* out, int32_t* exact) {
+  const PowTables& T = pow_tables();
+  const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5);
+  const __m256d c1 = _mm256_set1_pd(T.c1), c2 = _mm256_set1_pd(T.c2), c3 = _mm256_set1_pd(T.c3), c4 = _mm256_set1_pd(T.c4);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const __m128 xf = _mm_loadu_ps(v + i);
+    const __m128 fast = _mm_and_ps(_mm_cmpgt_ps(xf, _mm_set1_ps(0.0031308f)), _mm_cmplt_ps(xf, _mm_set1_ps(1.f)));
+    const __m128i bits = _mm_castps_si128(_mm_blendv_ps(_mm_set1_ps(0.5f), xf, fast));
+    const __m128i e9 = _mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127 - 9));
+    const __m128i mant = _mm_and_si128(bits, _mm_set1_epi32(0x7fffff));
+    const __m128i k = _mm_srli_epi32(mant, 13);
+    const __m256d m = _mm256_add_pd(one, _mm256_mul_pd(_mm256_cvtepi32_pd(mant), _mm256_set1_pd(0x1p-23)));
+    const __m256d m0 = _mm256_add_pd(one, _mm256_mul_pd(_mm256_cvtepi32_pd(k), _mm256_set1_pd(0x1p-10)));
+    const __m256d t = _mm256_mul_pd(_mm256_sub_pd(m, m0), gather_pd(T.inv_m0, k));
+    __m256d s = _mm256_add_pd(c3, _mm256_mul_pd(t, c4));
+    s = _mm256_add_pd(c2, _mm256_mul_pd(t, s));
+    s = _mm256_add_pd(c1, _mm256_mul_pd(t, s));
+    s = _mm256_add_pd(one, _mm256_mul_pd(t, s));
+    const __m256d p = _mm256_mul_pd(_mm256_mul_pd(gather_pd(T.two_e, e9), gather_pd(T.m0a, k)), s);
+    const __m256d y = _mm256_sub_pd(_mm256_mul_pd(_mm256_set1_pd(1.055), p), _mm256_set1_pd(0.055));
+    const __m128 f = _mm256_cvtpd_ps(y);
+    const __m128i fb = _mm_castps_si128(f);
+    const __m256d fd = _mm256_cvtps_pd(f);
+    const __m256d lo = _mm256_mul_pd(half, _mm256_add_pd(_mm256_cvtps_pd(_mm_castsi128_ps(_mm_sub_epi32(fb, _mm_set1_epi32(1)))), fd));
+    const __m256d hi = _mm256_mul_pd(half, _mm256_add_pd(_mm256_cvtps_pd(_mm_castsi128_ps(_mm_add_epi32(fb, _mm_set1_epi32(1)))), fd));
+    const __m256d tol = _mm256_mul_pd(_mm256_set1_pd(1e-12), y);
+    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(_mm256_sub_pd(y, tol), lo, _CMP_GT_OQ),
+                                     _mm256_cmp_pd(_mm256_add_pd(y, tol), hi, _CMP_LT_OQ));
+    // The 64-bit lanes' mask to 32 bits (their low halves), and with the float test.
+    const __m128i ok32 = _mm_castps_si128(_mm256_cvtpd_ps(_mm256_and_pd(ok, one)));  // 1.0f where ok, else 0
+    const __m128i good = _mm_and_si128(_mm_cmpeq_epi32(ok32, _mm_castps_si128(_mm_set1_ps(1.f))), _mm_castps_si128(fast));
+    _mm_storeu_ps(out + i, f);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(exact + i), _mm_andnot_si128(good, _mm_set1_epi32(1)));
+  }
+  srgb_encode_block(v + i, n - i, out + i, exact + i);
+}
+#endif
+}  // namespace
+
+void srgb_encode_floats(const float* v, int n, float* out) {
+  constexpr int kBlock = 256;
+  float fast[kBlock];
+  int32_t exact[kBlock];
+#if defined(__x86_64__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+#else
+  constexpr bool avx2 = false;
+#endif
+  for (int b = 0; b < n; b += kBlock) {
+    const int m = std::min(kBlock, n - b);
+#if defined(__x86_64__)
+    if (avx2) srgb_encode_block_avx2(v + b, m, fast, exact);
+    else
+#endif
+      srgb_encode_block(v + b, m, fast, exact);
+    for (int i = 0; i < m; ++i)
+      out[b + i] = exact[i] ? static_cast<float>(srgb_encode(std::clamp(v[b + i], 0.f, 1.f))) : fast[i];
+  }
+}
 
 WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_max_width) {
   WorkImages w;
@@ -16,22 +155,42 @@ WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_
   const int wh = std::max(1, static_cast<int>(std::lround(H * w.scale)));
   // Luminance (Rec. 709 weights on linear sRGB), area-averaged to the working size, then
   // sRGB-encoded so that contrasts are perceptual.
-  cv::Mat lum(H, W, CV_32F);
+  auto luma_at = [](const float* r, int x) { return 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2]; };
+  w.luma = ImageF(ww, wh, 1, uninitialized);
+  if (W == 2 * ww && H == 2 * wh && ww % 16 == 0) {
+    // Exact halving (the usual case): each working pixel is the mean of a 2x2 block, summed as
+    // (a + b) + (c + d) and scaled by 0.25 — the arithmetic of OpenCV's INTER_AREA for this case
+    // (its vector path, which covers rows whose width is a multiple of 16), so the same bits as
+    // cv::resize, in one pass per pair of rows without the full-resolution luminance image.
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
-    const float* r = day.row(y);
-    float* o = lum.ptr<float>(y);
-    for (int x = 0; x < W; ++x) o[x] = 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2];
-  }
-  cv::Mat small;
-  if (ww != W) cv::resize(lum, small, cv::Size(ww, wh), 0, 0, cv::INTER_AREA);
-  else small = lum;
-  w.luma = ImageF(ww, wh, 1);
+    for (int y = 0; y < wh; ++y) {
+      const float* r0 = day.row(2 * y);
+      const float* r1 = day.row(2 * y + 1);
+      float* o = w.luma.row(y);
+      for (int x = 0; x < ww; ++x) {
+        const float a = luma_at(r0, 2 * x), b = luma_at(r0, 2 * x + 1);
+        const float c = luma_at(r1, 2 * x), d = luma_at(r1, 2 * x + 1);
+        o[x] = ((a + b) + (c + d)) * 0.25f;
+      }
+      srgb_encode_floats(o, ww, o);
+    }
+  } else {
+    cv::Mat lum(H, W, CV_32F);
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < wh; ++y) {
-    const float* in = small.ptr<float>(y);
-    float* o = w.luma.row(y);
-    for (int x = 0; x < ww; ++x) o[x] = static_cast<float>(srgb_encode(std::clamp(in[x], 0.f, 1.f)));
+    for (int y = 0; y < H; ++y) {
+      const float* r = day.row(y);
+      float* o = lum.ptr<float>(y);
+      for (int x = 0; x < W; ++x) o[x] = luma_at(r, x);
+    }
+    cv::Mat small;
+    if (ww != W) cv::resize(lum, small, cv::Size(ww, wh), 0, 0, cv::INTER_AREA);
+    else small = lum;
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < wh; ++y) {
+      const float* in = small.ptr<float>(y);
+      float* o = w.luma.row(y);
+      srgb_encode_floats(in, ww, o);
+    }
   }
   w.labels = ww == W ? labels : resize_nearest(labels, ww, wh);
   return w;

@@ -2,13 +2,19 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <vector>
+#include <opencv2/imgproc.hpp>
 #include <fstream>
 #include <sstream>
 #include <omp.h>
 
 #include "photosite/scene/night.h"
+#include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/srgb_detail.h"
 #include "photosite/error.h"
 #include "test_util.h"
 
@@ -155,6 +161,67 @@ TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
     EXPECT_GE(a, preset().line_reject_angle_deg);
     EXPECT_LE(a, 90 - preset().line_reject_angle_deg);
   }
+}
+
+// The lane stage's fast sRGB encode (scene/lanes.cpp) against the exact expression, bit for bit,
+// on every float from 0.003 (below the toe's end, 0.0031308) to 1, on a stride through the toe, and
+// on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail.
+TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
+  auto exact = [](float v) { return static_cast<float>(srgb_encode(std::clamp(v, 0.f, 1.f))); };
+  std::vector<float> in;
+  const uint32_t lo = std::bit_cast<uint32_t>(0.003f), hi = std::bit_cast<uint32_t>(1.f);
+  for (uint32_t b = 0; b < lo; b += 997) in.push_back(std::bit_cast<float>(b));
+  for (float v : {-1.f, -0.f, 0.f, 0.0031308f, 1.f, 1.5f, INFINITY, -INFINITY, NAN}) in.push_back(v);
+  const size_t n_special = in.size();
+  constexpr size_t kBlock = 1 << 16;
+  std::vector<float> out(kBlock);
+  long differ = 0;
+  auto check = [&](const float* v, int n) {
+    srgb_encode_floats(v, n, out.data());
+    for (int i = 0; i < n; ++i) differ += std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(exact(v[i]));
+  };
+  for (size_t i = 0; i < n_special; i += 7) check(in.data() + i, static_cast<int>(std::min<size_t>(7, n_special - i)));
+  std::vector<float> block(kBlock);
+  for (uint64_t b = lo; b <= hi; b += kBlock) {
+    const int n = static_cast<int>(std::min<uint64_t>(kBlock, hi + 1 - b));
+    for (int i = 0; i < n; ++i) block[i] = std::bit_cast<float>(static_cast<uint32_t>(b + i));
+    check(block.data(), n);
+  }
+  EXPECT_EQ(differ, 0);
+  // In place (out == v) as make_work_images calls it.
+  std::vector<float> v = {0.2f, 0.5f, 0.001f, 0.9f, 0.04f};
+  std::vector<float> ref(v.size());
+  for (size_t i = 0; i < v.size(); ++i) ref[i] = exact(v[i]);
+  srgb_encode_floats(v.data(), static_cast<int>(v.size()), v.data());
+  EXPECT_EQ(v, ref);
+}
+
+// make_work_images' exact halving (one pass per row pair) against what it replaces: the
+// full-resolution luminance through cv::resize INTER_AREA, then the encode; bit for bit.
+TEST(SceneGeometry, WorkLumaHalvingIsOpenCvsAreaResize) {
+  SyntheticOptions o;
+  o.width = 512;
+  o.height = 256;
+  o.vp_x = 256;
+  o.vp_y = 104;
+  SyntheticScene s = make_synthetic_road(o);
+  const ImageF& day = s.day_linear_srgb;
+  WorkImages w = make_work_images(day, s.labels.ids, 256);
+  ASSERT_EQ(w.luma.width(), 256);
+  cv::Mat lum(o.height, o.width, CV_32F), small;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const float* r = day.row(y) + 3 * x;
+      lum.at<float>(y, x) = 0.2126f * r[0] + 0.7152f * r[1] + 0.0722f * r[2];
+    }
+  cv::resize(lum, small, cv::Size(256, 128), 0, 0, cv::INTER_AREA);
+  long differ = 0;
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 256; ++x) {
+      const float ref = static_cast<float>(srgb_encode(std::clamp(small.at<float>(y, x), 0.f, 1.f)));
+      differ += std::bit_cast<uint32_t>(ref) != std::bit_cast<uint32_t>(w.luma.at(x, y));
+    }
+  EXPECT_EQ(differ, 0);
 }
 
 TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {
