@@ -333,9 +333,13 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
       auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
       const NightInputs in{it.image, it.labels, it.instances};
-      auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>(
-          night_attributes(*rr, ex, fpn, *spi, *ns, *labels, in));
-      (*attrs)["photosite/batch/group"] = it.group;
+      // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
+      // three maps): only when an EXR is written.
+      auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>();
+      if (o.format != "png") {
+        *attrs = night_attributes(*rr, ex, fpn, *spi, *ns, *labels, in);
+        (*attrs)["photosite/batch/group"] = it.group;
+      }
       ExrWriteOptions wo;
       wo.half = o.half;
       wo.compression = o.compression;
