@@ -210,15 +210,33 @@ std::string encode(const uint8_t* samples, int width, int height, int channels, 
       }
     };
     int type = static_cast<int>(o.filter);
-    if (o.filter == Filter::Sub) {  // the default: a plain loop that vectorizes
-      for (int i = 0; i < bpp; ++i) f[1 + i] = r[i];
-      for (size_t i = bpp; i < stride; ++i) f[1 + i] = static_cast<uint8_t>(r[i] - r[i - bpp]);
-    } else if (o.filter == Filter::None) {
-      std::memcpy(f + 1, r, stride);
+    // Filtering has no serial dependency (it reads the unfiltered image), so each filter is a
+    // plain loop that vectorizes; the first pixel (no left neighbour) and the first row (no row
+    // above) by the general code.
+    uint8_t* d = f + 1;
+    if (o.filter == Filter::None) {
+      std::memcpy(d, r, stride);
+    } else if (o.filter == Filter::Sub) {
+      for (int i = 0; i < bpp; ++i) d[i] = r[i];
+      for (size_t i = bpp; i < stride; ++i) d[i] = static_cast<uint8_t>(r[i] - r[i - bpp]);
+    } else if (o.filter == Filter::Adaptive || !up) {
+      if (o.filter != Filter::Adaptive) apply(type, d);
     } else if (o.filter == Filter::Up) {
-      for (size_t i = 0; i < stride; ++i) f[1 + i] = static_cast<uint8_t>(r[i] - (up ? up[i] : 0));
-    } else if (o.filter != Filter::Adaptive) {
-      apply(type, f + 1);
+      for (size_t i = 0; i < stride; ++i) d[i] = static_cast<uint8_t>(r[i] - up[i]);
+    } else if (o.filter == Filter::Average) {
+      for (int i = 0; i < bpp; ++i) d[i] = static_cast<uint8_t>(r[i] - (up[i] >> 1));
+      for (size_t i = bpp; i < stride; ++i) d[i] = static_cast<uint8_t>(r[i] - ((r[i - bpp] + up[i]) >> 1));
+    } else {  // Paeth, branch-free
+      for (int i = 0; i < bpp; ++i) d[i] = static_cast<uint8_t>(r[i] - up[i]);  // a = c = 0: predicts b
+      for (size_t i = bpp; i < stride; ++i) {
+        const int16_t a = r[i - bpp], b = up[i], c = up[i - bpp];
+        const int16_t pa = static_cast<int16_t>(std::abs(b - c)), pb = static_cast<int16_t>(std::abs(a - c)),
+                      pc = static_cast<int16_t>(std::abs(a + b - 2 * c));
+        const int16_t pred = (pa <= pb && pa <= pc) ? a : (pb <= pc ? b : c);
+        d[i] = static_cast<uint8_t>(r[i] - pred);
+      }
+    }
+    if (o.filter != Filter::Adaptive) {
     } else {
       uint64_t best = UINT64_MAX;
       for (int t = 0; t < 5; ++t) {

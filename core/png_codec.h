@@ -45,9 +45,12 @@ struct EncodeOptions {
   Deflater deflater = Deflater::Zlib;
   int level = 1;         // libdeflate 1..12, zlib 0..9
   int zlib_strategy = 2;  // Z_DEFAULT_STRATEGY 0, Z_FILTERED 1, Z_HUFFMAN_ONLY 2, Z_RLE 3 (zlib only)
-  Filter filter = Filter::Sub;
+  Filter filter = Filter::Average;
 };
-// What write_png8 uses (docs/cli.md "PNG output", measured by `photosite bench batch`).
+// What write_png8 uses: zlib Huffman-only coding (no string matching) of Average-filtered rows.
+// On the night previews it was the smallest file among the settings within 10 % of the fastest
+// (bench_png.csv, docs/cli.md "PNG input and output"): sensor noise leaves LZ77 few matches, so
+// zlib's match search costs time and its matches cost bits.
 EncodeOptions default_encode_options();
 
 // The whole PNG file of an 8-bit grey (channels 1) or RGB (3) image.
