@@ -106,20 +106,37 @@ struct PhotonStage {
       g = sc.glared.data();
     }
     const double dy2 = (y - cy) * (y - cy);
-    int bad = -1;
-    for (int x = 0; x < w; ++x) {
-      const float R = r[3 * x], G = r[3 * x + 1], B = r[3 * x + 2];
-      if (!shader::radiance_is_physical(R, G, B)) {
+    // The CFA colour of a pixel depends on the parity of x along a row (cfa_color).
+    electrons_row(g, w, m[static_cast<int>(cfa_color(p.cfa, 0, y))].data(),
+                  m[static_cast<int>(cfa_color(p.cfa, 1, y))].data(), cx, dy2, pitch_over_f, o);
+    if (physical_row(r, w)) return -1;
+    int bad = -1;  // the rare damaged row: the first bad pixel, and 0 where the radiance is not physical
+    for (int x = 0; x < w; ++x)
+      if (!shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2])) {
         if (bad < 0) bad = x;
         o[x] = 0.f;
-        continue;
       }
-      // kernels/common/sensor_pixel.glsl: e = M[c]·(R, G, B), cos⁴θ falloff.
-      const auto& mr = m[static_cast<int>(cfa_color(p.cfa, x, y))];
-      o[x] = shader::photon_electrons(mr[0], mr[1], mr[2], g[3 * x], g[3 * x + 1], g[3 * x + 2], x - cx, dy2,
-                                      pitch_over_f);
-    }
     return bad;
+  }
+  // kernels/common/sensor_pixel.glsl's photon_electrons over a row (e = M[c]·(R, G, B), cos⁴θ
+  // falloff; me, mo: the M rows of even and odd x). An AVX2 clone where it vectorizes: the same
+  // IEEE operations in the same order per pixel, so the same bits on either clone.
+  __attribute__((target_clones("avx2", "default")))
+  static void electrons_row(const float* __restrict g, int w, const double* me, const double* mo, double cx,
+                            double dy2, double pitch_over_f, float* __restrict o) {
+    const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
+    for (int x = 0; x < w; ++x) {
+      const bool odd = x & 1;
+      o[x] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, g[3 * x], g[3 * x + 1],
+                                      g[3 * x + 2], x - cx, dy2, pitch_over_f);
+    }
+  }
+  // Whether every pixel of the row is physical (shader::radiance_is_physical), as one reduction.
+  __attribute__((target_clones("avx2", "default")))
+  static bool physical_row(const float* __restrict r, int w) {
+    bool all = true;
+    for (int x = 0; x < w; ++x) all &= shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2]);
+    return all;
   }
 };
 // The first damaged pixel in reading order over the rows' reports (bad_x[y] = -1: none).
@@ -272,13 +289,19 @@ struct SenseStage {
         read[x] = static_cast<float>((std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm);
       }
     }
-    const float row_noise = row_e.empty() ? 0.f : row_e[y];
-    const float rn = static_cast<float>(read_e);
-    const float fw = static_cast<float>(full_well);
+    analog_row(erow, off, read, col, row_e.empty() ? 0.f : row_e[y], static_cast<float>(read_e),
+               static_cast<float>(full_well), K, black, max_code, w, drow, abrow);
+  }
+  // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
+  // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one
+  // rounding), and the mosaic above black. A function of its own with an AVX2 clone: its floor
+  // and clamp in double vectorize there (roundpd), the same IEEE operations as the scalar code,
+  // so the same bits on either clone.
+  __attribute__((target_clones("avx2", "default")))
+  static void analog_row(float* __restrict erow, const float* __restrict off, const float* __restrict read,
+                         const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
+                         double max_code, int w, float* __restrict drow, float* __restrict abrow) {
     const float blk = static_cast<float>(black);
-    // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
-    // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level,
-    // one rounding).
     for (int x = 0; x < w; ++x) {
       const float e = shader::sense_electrons(erow[x], fw);
       erow[x] = e;
