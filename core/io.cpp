@@ -3,7 +3,6 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
 #include <Imath/half.h>
-#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,10 +12,13 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <cctype>
+#include <optional>
 #include <filesystem>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/png_codec.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
 
@@ -180,7 +182,43 @@ ImageFileInfo probe_image(const std::string& path) {
   return info;
 }
 
-ImageF read_image(const std::string& path, ImageFileInfo* info) {
+namespace {
+// The plain PNGs of the data sets (8/16-bit grey or RGB, not interlaced, no colour chunks)
+// decoded by core/png_codec.cpp: 1.2x to 2.6x less CPU than OpenImageIO's libpng reader and
+// float conversion (`photosite bench batch`, docs/cli.md "PNG input and output"). Anything else
+// (another format, a PNG the decoder does not take, a damaged file) returns nullopt and goes
+// through OpenImageIO, which also words the errors.
+std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInfo* info) {
+  const fs::path p(path);
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::error_code ec;
+  if (ext != ".png" || !fs::is_regular_file(p, ec)) return std::nullopt;
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return std::nullopt;
+  std::vector<uint8_t> bytes(fs::file_size(p, ec));
+  const size_t got = ec ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
+  std::fclose(f);
+  if (ec || got != bytes.size()) return std::nullopt;
+  auto d = png::decode(bytes, max_frame_pixels());
+  if (!d) return std::nullopt;
+  check_frame_size(path, d->width, d->height);
+  if (info) {  // as info_from() reports OpenImageIO's spec of the same file
+    *info = ImageFileInfo{};
+    info->path = path;
+    info->format = "png";
+    info->width = d->width;
+    info->height = d->height;
+    info->channels = d->channels;
+    info->bits_per_sample = d->bits;
+    info->is_float = false;
+    info->srgb_encoded = true;  // no gAMA / iCCP / sRGB chunk: OpenImageIO names it sRGB
+  }
+  return d;
+}
+}  // namespace
+
+ImageF detail::read_image_general(const std::string& path, ImageFileInfo* info) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();
   ImageF img(spec.width, spec.height, spec.nchannels, uninitialized);
@@ -193,7 +231,30 @@ ImageF read_image(const std::string& path, ImageFileInfo* info) {
   return img;
 }
 
+ImageF read_image(const std::string& path, ImageFileInfo* info) {
+  if (auto d = read_plain_png(path, info); d && d->bits == 8) {
+    // OpenImageIO's 8-bit to float conversion, code * (1/255) in float (the values
+    // scene::linearize's exact table expects); 16-bit files go through it unchanged.
+    ImageF img(d->width, d->height, d->channels, uninitialized);
+    float* o = img.data();
+    const uint8_t* s = d->u8.data();
+    for (size_t i = 0; i < d->u8.size(); ++i) o[i] = s[i] * (1.f / 255);
+    return img;
+  }
+  return detail::read_image_general(path, info);
+}
+
 ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
+  if (auto d = read_plain_png(path, info)) {
+    ImageU16 img(d->width, d->height, d->channels, uninitialized);
+    if (d->bits == 8) std::copy(d->u8.begin(), d->u8.end(), img.data());
+    else std::copy(d->u16.begin(), d->u16.end(), img.data());
+    return img;
+  }
+  return detail::read_image_u16_general(path, info);
+}
+
+ImageU16 detail::read_image_u16_general(const std::string& path, ImageFileInfo* info) {
   auto in = open_input(path);
   const ImageSpec& spec = in->spec();
   if (spec.format.is_floating_point())
@@ -409,59 +470,18 @@ void write_png(const std::string& path, const ImageF& image, int bits) {
   });
 }
 
-namespace {
-// libpng reports errors by longjmp: this function holds no object with a destructor, and
-// returns libpng's message (empty when the file was written).
-struct PngError {
-  char message[256] = {};
-};
-void png_error_fn(png_structp png, png_const_charp msg) {
-  auto* e = static_cast<PngError*>(png_get_error_ptr(png));
-  std::snprintf(e->message, sizeof e->message, "%s", msg);
-  png_longjmp(png, 1);
-}
-void png_warning_fn(png_structp, png_const_charp) {}
-
-void png_encode(std::FILE* f, const uint8_t* data, int w, int h, int channels, PngError* err) {
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, png_error_fn, png_warning_fn);
-  if (!png) {
-    std::snprintf(err->message, sizeof err->message, "out of memory");
-    return;
-  }
-  png_infop info = png_create_info_struct(png);
-  if (!info || setjmp(png_jmpbuf(png))) {
-    if (!err->message[0]) std::snprintf(err->message, sizeof err->message, "libpng failed");
-    png_destroy_write_struct(&png, &info);
-    return;
-  }
-  png_init_io(png, f);
-  // zlib level 1 (fastest) with the Sub filter alone: on the 2048x1024 night previews about
-  // as small as libpng's adaptive filter choice at a fraction of its time (docs/benchmarks.md).
-  png_set_compression_level(png, 1);
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
-  const int type = channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB;
-  png_set_IHDR(png, info, static_cast<png_uint_32>(w), static_cast<png_uint_32>(h), 8, type, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
-  png_write_info(png, info);
-  const size_t stride = static_cast<size_t>(w) * channels;
-  for (int y = 0; y < h; ++y) png_write_row(png, data + stride * static_cast<size_t>(y));
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
-}
-}  // namespace
-
 void write_png8(const std::string& path, const ImageU8& image) {
   const int ch = image.channels();
   if (ch != 1 && ch != 3) internal_error(fmt::format("write_png8: {} channels", ch));
+  // One filter for every row and one whole-buffer deflate (core/png_codec.h; the setting and
+  // its measurement against the others in docs/cli.md "PNG input and output").
+  const std::string bytes = png::encode(image.data(), image.width(), image.height(), ch, png::default_encode_options());
   atomic_write(path, [&](const std::string& tmp) {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
-    PngError err;
-    png_encode(f, image.data(), image.width(), image.height(), ch, &err);
-    const bool flushed = std::fflush(f) == 0 && !std::ferror(f);
+    const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fflush(f) == 0;
     const int close_errno = std::fclose(f) == 0 ? 0 : errno;
-    if (err.message[0]) fail_at(path, std::string("write failed (") + err.message + ")");
-    if (!flushed || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
+    if (!written || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
   });
 }
 

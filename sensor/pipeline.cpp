@@ -65,52 +65,100 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
   return m;
 }
 
-ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                             const ResolvedExposure& ex) {
-  detail::check_radiance_shape(radiance);
-  const PhotonMatrix m = photon_matrix(p, lens, ex);
-  const int w = radiance.width(), h = radiance.height();
-  ImageF out(w, h, 1, uninitialized, unit::electrons);
-  // cos⁴θ natural vignetting (the image is a centred crop of the sensor at its native pitch):
-  // tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
-  const double pitch_over_f = lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0;
-  const double cx = 0.5 * (w - 1), cy = 0.5 * (h - 1);
-  // Veiling glare of the lens (sensor/glare.h): the reduced-resolution pyramid first, then its
-  // last upsample and the mix, one row at a time, fused into this loop. It acts on the
-  // irradiance before the cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle
-  // of the pixel where it lands, not of its source; docs/model_glare.md).
-  const GlareSkirt skirt =
-      glare_skirt(radiance, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um)));
-  int bad_x = -1, bad_y = -1;
-#pragma omp parallel
-  {
-  std::vector<float> glared(skirt.active() ? 3 * static_cast<size_t>(w) : 0);
-  std::vector<float> tmp(skirt.active() ? 3 * (static_cast<size_t>(skirt.acc1.width()) + w) : 0);
-#pragma omp for schedule(static)
-  for (int y = 0; y < h; ++y) {
+namespace {
+// The photon stage of one frame: e = M[c]·(R, G, B) with the cos⁴θ falloff, the lens glare
+// fused in row by row. One row at a time (photon_row), so that mean_signal_electrons() writes
+// the rows to an image and expose() hands each row straight to the sense stage.
+struct PhotonStage {
+  const ImageF& radiance;
+  const CameraPreset& p;
+  PhotonMatrix m;
+  int w, h;
+  double pitch_over_f, cx, cy;
+  GlareSkirt skirt;
+
+  PhotonStage(const ImageF& rad, const CameraPreset& preset, const LensPreset& lens, const ResolvedExposure& ex)
+      : radiance(rad), p(preset), m(photon_matrix(preset, lens, ex)), w(rad.width()), h(rad.height()),
+        // cos⁴θ natural vignetting (the image is a centred crop of the sensor at its native
+        // pitch): tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
+        pitch_over_f(lens.cos4_falloff ? preset.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0),
+        cx(0.5 * (w - 1)), cy(0.5 * (h - 1)),
+        // Veiling glare of the lens (sensor/glare.h): the reduced-resolution pyramid first, then
+        // its last upsample and the mix, one row at a time. It acts on the irradiance before the
+        // cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle of the pixel
+        // where it lands, not of its source; docs/model_glare.md).
+        skirt(glare_skirt(rad, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, preset.pixel_pitch_um)))) {}
+
+  // Per-thread scratch of photon_row.
+  struct Scratch {
+    std::vector<float> glared, tmp;
+    explicit Scratch(const PhotonStage& st)
+        : glared(st.skirt.active() ? 3 * static_cast<size_t>(st.w) : 0),
+          tmp(st.skirt.active() ? 3 * (static_cast<size_t>(st.skirt.acc1.width()) + st.w) : 0) {}
+  };
+  // Row y of the mean signal into o[0, w); returns the first x whose radiance is not physical
+  // (NaN, Inf, negative; its o[x] is 0), or -1.
+  int row(int y, float* o, Scratch& sc) const {
     const float* r = radiance.row(y);
     const float* g = r;
     if (skirt.active()) {
-      glare_row(skirt, y, r, glared.data(), tmp.data());
-      g = glared.data();
+      glare_row(skirt, y, r, sc.glared.data(), sc.tmp.data());
+      g = sc.glared.data();
     }
-    float* o = out.row(y);
     const double dy2 = (y - cy) * (y - cy);
-    for (int x = 0; x < w; ++x) {
-      const float R = r[3 * x], G = r[3 * x + 1], B = r[3 * x + 2];
-      if (!shader::radiance_is_physical(R, G, B)) {
-#pragma omp critical
-        if (bad_y < 0 || y < bad_y || (y == bad_y && x < bad_x)) bad_x = x, bad_y = y;
-        continue;
+    // The CFA colour of a pixel depends on the parity of x along a row (cfa_color).
+    electrons_row(g, w, m[static_cast<int>(cfa_color(p.cfa, 0, y))].data(),
+                  m[static_cast<int>(cfa_color(p.cfa, 1, y))].data(), cx, dy2, pitch_over_f, o);
+    if (physical_row(r, w)) return -1;
+    int bad = -1;  // the rare damaged row: the first bad pixel, and 0 where the radiance is not physical
+    for (int x = 0; x < w; ++x)
+      if (!shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2])) {
+        if (bad < 0) bad = x;
+        o[x] = 0.f;
       }
-      // kernels/common/sensor_pixel.glsl: e = M[c]·(R, G, B), cos⁴θ falloff.
-      const auto& row = m[static_cast<int>(cfa_color(p.cfa, x, y))];
-      o[x] = shader::photon_electrons(row[0], row[1], row[2], g[3 * x], g[3 * x + 1], g[3 * x + 2], x - cx, dy2,
-                                      pitch_over_f);
+    return bad;
+  }
+  // kernels/common/sensor_pixel.glsl's photon_electrons over a row (e = M[c]·(R, G, B), cos⁴θ
+  // falloff; me, mo: the M rows of even and odd x). An AVX2 clone where it vectorizes: the same
+  // IEEE operations in the same order per pixel, so the same bits on either clone.
+  __attribute__((target_clones("avx2", "default")))
+  static void electrons_row(const float* __restrict g, int w, const double* me, const double* mo, double cx,
+                            double dy2, double pitch_over_f, float* __restrict o) {
+    const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
+    for (int x = 0; x < w; ++x) {
+      const bool odd = x & 1;
+      o[x] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, g[3 * x], g[3 * x + 1],
+                                      g[3 * x + 2], x - cx, dy2, pitch_over_f);
     }
   }
+  // Whether every pixel of the row is physical (shader::radiance_is_physical), as one reduction.
+  __attribute__((target_clones("avx2", "default")))
+  static bool physical_row(const float* __restrict r, int w) {
+    bool all = true;
+    for (int x = 0; x < w; ++x) all &= shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2]);
+    return all;
   }
-  if (bad_y >= 0) detail::fail_bad_radiance(radiance, bad_x, bad_y);
+};
+// The first damaged pixel in reading order over the rows' reports (bad_x[y] = -1: none).
+void fail_first_bad(const ImageF& radiance, const std::vector<int>& bad_x) {
+  for (int y = 0; y < static_cast<int>(bad_x.size()); ++y)
+    if (bad_x[y] >= 0) detail::fail_bad_radiance(radiance, bad_x[y], y);
+}
+}  // namespace
+
+ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                             const ResolvedExposure& ex) {
+  detail::check_radiance_shape(radiance);
+  const PhotonStage st(radiance, p, lens, ex);
+  ImageF out(st.w, st.h, 1, uninitialized, unit::electrons);
+  std::vector<int> bad_x(st.h, -1);
+#pragma omp parallel
+  {
+    PhotonStage::Scratch sc(st);
+#pragma omp for schedule(static)
+    for (int y = 0; y < st.h; ++y) bad_x[y] = st.row(y, out.row(y), sc);
+  }
+  fail_first_bad(radiance, bad_x);
   return out;
 }
 
@@ -173,93 +221,154 @@ void row_column_noise(const CameraPreset& p, uint64_t key, uint32_t frame, int w
 }
 }  // namespace detail
 
-SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
-                   const ExposureSettings& s, const FixedPatternMaps& fpn) {
-  const int w = mean_signal_e.width(), h = mean_signal_e.height();
-  detail::check_sense_inputs(w, h, p, fpn);
-
-  const uint64_t key = detail::temporal_key(fpn.device_seed, s.seed);
-  const uint32_t frame = s.frame;
-  const double dark_mean_e = ex.dark_current_e_per_s * ex.exposure_s;
-  const double K = ex.system_gain_dn_per_e;
-  const double full_well = p.full_well_e;
-  const double max_code = std::ldexp(1.0, p.bit_depth) - 1.0;
-  const double black = p.black_level_dn;
-  const double read_e = p.read_noise_e;
-  const double tukey = p.read_noise_tukey_lambda;
-  const double tukey_norm = tukey != 0 ? 1.0 / tukey_sd(tukey) : 0.0;
-
-  // Row and column temporal noise: one Gaussian per row / column per frame (skipped when zero).
+namespace {
+// The sense stage of one frame, one row at a time (row): shot noise, dark current, fixed
+// pattern, read / row / column noise, full well, gain, black level and the ADC; the mosaic above
+// black for the demosaic in the same pass. sense() runs it over a mean-signal image, expose()
+// over the photon stage's rows as they are made; a row's result depends on y alone.
+struct SenseStage {
+  const CameraPreset& p;
+  const ExposureSettings& s;
+  int w, h;
+  uint64_t key;
+  uint32_t frame;
+  double dark_mean_e, K, full_well, max_code, black, read_e, tukey, tukey_norm;
   std::vector<float> row_e, col_e;
-  detail::row_column_noise(p, key, frame, w, h, row_e, col_e);
+  const float* prnu;
+  const float* dsnu;
+  const float* darkf;
+  // Absent maps and noise terms read from constant rows, so every inner loop is branch-free
+  // and vectorizes; the stages themselves are skipped only in the sense that they add 0 / x1.
+  std::vector<float> ones, zeros;
 
+  SenseStage(int width, int height, const CameraPreset& preset, const ResolvedExposure& ex,
+             const ExposureSettings& settings, const FixedPatternMaps& fpn)
+      : p(preset), s(settings), w(width), h(height) {
+    detail::check_sense_inputs(w, h, p, fpn);
+    key = detail::temporal_key(fpn.device_seed, s.seed);
+    frame = s.frame;
+    dark_mean_e = ex.dark_current_e_per_s * ex.exposure_s;
+    K = ex.system_gain_dn_per_e;
+    full_well = p.full_well_e;
+    max_code = std::ldexp(1.0, p.bit_depth) - 1.0;
+    black = p.black_level_dn;
+    read_e = p.read_noise_e;
+    tukey = p.read_noise_tukey_lambda;
+    tukey_norm = tukey != 0 ? 1.0 / tukey_sd(tukey) : 0.0;
+    // Row and column temporal noise: one Gaussian per row / column per frame (skipped when zero).
+    detail::row_column_noise(p, key, frame, w, h, row_e, col_e);
+    prnu = fpn.prnu_gain.empty() ? nullptr : fpn.prnu_gain.data();
+    dsnu = fpn.dsnu_offset_e.empty() ? nullptr : fpn.dsnu_offset_e.data();
+    darkf = fpn.dark_rate_factor.empty() ? nullptr : fpn.dark_rate_factor.data();
+    ones.assign(w, 1.f);
+    zeros.assign(w, 0.f);
+  }
+  struct Scratch {
+    std::vector<float> mean, read;
+    explicit Scratch(int w) : mean(w), read(w) {}
+  };
+  // Row y: srow the mean signal (e-), into erow (electrons), drow (raw DN) and abrow (DN above
+  // black, the demosaic's input).
+  void row(int y, const float* srow, float* erow, float* drow, float* abrow, Scratch& sc) const {
+    const size_t row0 = static_cast<size_t>(y) * w;
+    const float* g = prnu ? prnu + row0 : ones.data();
+    const float* df = darkf ? darkf + row0 : ones.data();
+    const float* off = dsnu ? dsnu + row0 : zeros.data();
+    const float* col = col_e.empty() ? zeros.data() : col_e.data();
+    float* mean = sc.mean.data();
+    float* read = sc.read.data();
+    // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
+    // kernels/common/sensor_pixel.glsl, has the physics).
+    const float dark = static_cast<float>(dark_mean_e);
+    for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
+    // Shot noise and the read-noise normal from one Philox draw per pixel.
+    poisson_block(mean, erow, read, w, row0, key, frame, static_cast<uint32_t>(Stream::PhotonShot), s.poisson);
+    if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
+      for (int x = 0; x < w; ++x) {
+        const double u = std::clamp(0.5 * std::erfc(-read[x] / std::sqrt(2.0)), 1e-300, 1.0 - 1e-16);
+        read[x] = static_cast<float>((std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm);
+      }
+    }
+    analog_row(erow, off, read, col, row_e.empty() ? 0.f : row_e[y], static_cast<float>(read_e),
+               static_cast<float>(full_well), K, black, max_code, w, drow, abrow);
+  }
+  // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
+  // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one
+  // rounding), and the mosaic above black. A function of its own with an AVX2 clone: its floor
+  // and clamp in double vectorize there (roundpd), the same IEEE operations as the scalar code,
+  // so the same bits on either clone.
+  __attribute__((target_clones("avx2", "default")))
+  static void analog_row(float* __restrict erow, const float* __restrict off, const float* __restrict read,
+                         const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
+                         double max_code, int w, float* __restrict drow, float* __restrict abrow) {
+    const float blk = static_cast<float>(black);
+    for (int x = 0; x < w; ++x) {
+      const float e = shader::sense_electrons(erow[x], fw);
+      erow[x] = e;
+      const float d = shader::sense_raw_dn(e, off[x], rn, read[x], row_noise, col[x], K, black, max_code);
+      drow[x] = d;
+      abrow[x] = d - blk;
+    }
+  }
+};
+
+SensorOutput new_output(int w, int h) {
   SensorOutput out;
   out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
   out.raw_dn = ImageF(w, h, 1, uninitialized, unit::dn);
-  const float* prnu = fpn.prnu_gain.empty() ? nullptr : fpn.prnu_gain.data();
-  const float* dsnu = fpn.dsnu_offset_e.empty() ? nullptr : fpn.dsnu_offset_e.data();
-  const float* darkf = fpn.dark_rate_factor.empty() ? nullptr : fpn.dark_rate_factor.data();
-  const float* sig = mean_signal_e.data();
-  float* el = out.electrons.data();
-  float* dn = out.raw_dn.data();
-  const uint32_t shot_stream = static_cast<uint32_t>(Stream::PhotonShot);
-
-  // Absent maps and noise terms read from constant rows, so every inner loop is branch-free
-  // and vectorizes; the stages themselves are skipped only in the sense that they add 0 / x1.
-  const std::vector<float> ones(w, 1.f), zeros(w, 0.f);
-  const float fw = static_cast<float>(full_well);
-#pragma omp parallel
-  {
-    std::vector<float> mean(w), read(w);
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y) {
-      const size_t row0 = static_cast<size_t>(y) * w;
-      const float* g = prnu ? prnu + row0 : ones.data();
-      const float* df = darkf ? darkf + row0 : ones.data();
-      const float* off = dsnu ? dsnu + row0 : zeros.data();
-      const float* col = col_e.empty() ? zeros.data() : col_e.data();
-      const float* srow = sig + row0;
-      float* erow = el + row0;
-      float* drow = dn + row0;
-      // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
-      // kernels/common/sensor_pixel.glsl, has the physics).
-      const float dark = static_cast<float>(dark_mean_e);
-      for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
-      // Shot noise and the read-noise normal from one Philox draw per pixel.
-      poisson_block(mean.data(), erow, read.data(), w, row0, key, frame, shot_stream, s.poisson);
-      if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
-        for (int x = 0; x < w; ++x) {
-          const double u = std::clamp(0.5 * std::erfc(-read[x] / std::sqrt(2.0)), 1e-300, 1.0 - 1e-16);
-          read[x] = static_cast<float>((std::pow(u, tukey) - std::pow(1.0 - u, tukey)) / tukey * tukey_norm);
-        }
-      }
-      const float row_noise = row_e.empty() ? 0.f : row_e[y];
-      const float rn = static_cast<float>(read_e);
-      // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
-      // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level,
-      // one rounding).
-      for (int x = 0; x < w; ++x) {
-        const float e = shader::sense_electrons(erow[x], fw);
-        erow[x] = e;
-        drow[x] = shader::sense_raw_dn(e, off[x], rn, read[x], row_noise, col[x], K, black, max_code);
-      }
-    }
-  }
-  // Demosaic the black-subtracted mosaic to linear RGB in DN.
-  ImageF above_black(w, h, 1, uninitialized, unit::dn);
-  const float blk = static_cast<float>(black);
-  float* ab = above_black.data();
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < static_cast<int64_t>(above_black.size()); ++i) ab[i] = dn[i] - blk;
+  return out;
+}
+// Demosaic the black-subtracted mosaic to linear RGB in DN.
+void demosaic_into(SensorOutput& out, const ImageF& above_black, const CameraPreset& p, const ExposureSettings& s) {
   out.rgb = demosaic(above_black, p.cfa, s.demosaic);
   out.rgb.set_unit(unit::dn);
+}
+}  // namespace
+
+SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
+                   const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  const int w = mean_signal_e.width(), h = mean_signal_e.height();
+  const SenseStage st(w, h, p, ex, s, fpn);
+  SensorOutput out = new_output(w, h);
+  ImageF above_black(w, h, 1, uninitialized, unit::dn);
+#pragma omp parallel
+  {
+    SenseStage::Scratch sc(w);
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y)
+      st.row(y, mean_signal_e.row(y), out.electrons.row(y), out.raw_dn.row(y), above_black.row(y), sc);
+  }
+  demosaic_into(out, above_black, p, s);
   return out;
 }
 
+// The photon and sense stages fused row by row: the mean signal never goes to memory (each
+// row is made and used by one thread). The same per-row functions as mean_signal_electrons()
+// then sense(), so the same bits.
 SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                     const ExposureSettings& s, const FixedPatternMaps& fpn) {
   const ResolvedExposure ex = resolve(p, lens, s);
-  return sense(mean_signal_electrons(radiance, p, lens, ex), p, ex, s, fpn);
+  detail::check_radiance_shape(radiance);
+  const PhotonStage ph(radiance, p, lens, ex);
+  const int w = ph.w, h = ph.h;
+  const SenseStage st(w, h, p, ex, s, fpn);
+  SensorOutput out = new_output(w, h);
+  ImageF above_black(w, h, 1, uninitialized, unit::dn);
+  std::vector<int> bad_x(h, -1);
+#pragma omp parallel
+  {
+    PhotonStage::Scratch psc(ph);
+    SenseStage::Scratch ssc(w);
+    std::vector<float> mean_e(w);
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      bad_x[y] = ph.row(y, mean_e.data(), psc);
+      st.row(y, mean_e.data(), out.electrons.row(y), out.raw_dn.row(y), above_black.row(y), ssc);
+    }
+  }
+  fail_first_bad(radiance, bad_x);
+  demosaic_into(out, above_black, p, s);
+  return out;
 }
 
 SensorOutput flat_field(double photons, double wavelength_nm, int width, int height,

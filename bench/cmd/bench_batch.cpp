@@ -3,6 +3,14 @@
 // the PNG route (`--format png --layers sensor,labels`), beside its parts measured alone (read +
 // decode + linearize, compute, write) and beside peers writing the same layers in the same run:
 // OpenCV's imwrite (EXR through its own OpenEXR path, PNG through libpng) and oiiotool.
+// Then the PNG route's codecs alone (bench_png.csv, chart bench_png.png): the day and label PNGs
+// decoded by ours (core/png_codec.cpp), OpenImageIO (the previous reader), libspng and libpng;
+// the sensor preview encoded with every filter, zlib strategy and level and libdeflate level
+// (bytes per frame and CPU ms), beside libpng and libspng at the previous setting.
+#include <png.h>
+#include <spng.h>
+#include <time.h>
+#include <zlib.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -19,6 +27,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench.h"
+#include "core/png_codec.h"
 #include "photosite/batch.h"
 #include "photosite/error.h"
 #include "photosite/outputs.h"
@@ -32,7 +41,203 @@ struct BenchBatchOptions {
   std::string root = std::string(PHOTOSITE_SOURCE_DIR) + "/../shared/data/cityscapes";
   std::string out_dir;
   int repeats = 3;
+  bool codecs_only = false;
 };
+
+// CPU time of the calling thread, in ms: what a codec call costs the machine, which the other
+// jobs on a shared VM disturb far less than wall time (a preempted thread's wait is not counted).
+double thread_cpu_ms() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+template <class F>
+double cpu_time_ms(F&& f) {
+  const double c0 = thread_cpu_ms();
+  f();
+  return thread_cpu_ms() - c0;
+}
+
+std::vector<uint8_t> file_bytes(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) fail_at(path, "cannot read");
+  std::vector<uint8_t> b(fs::file_size(path));
+  const size_t got = std::fread(b.data(), 1, b.size(), f);
+  std::fclose(f);
+  if (got != b.size()) fail_at(path, "short read");
+  return b;
+}
+
+// libspng: decode to 8-bit samples as stored (grey or RGB; 16-bit kept), or encode 8-bit.
+size_t spng_decode_bytes(const std::vector<uint8_t>& file) {
+  spng_ctx* c = spng_ctx_new(0);
+  spng_set_png_buffer(c, file.data(), file.size());
+  spng_ihdr ih{};
+  spng_get_ihdr(c, &ih);
+  const int fmt = ih.bit_depth == 16 ? SPNG_FMT_RAW : ih.color_type == SPNG_COLOR_TYPE_GRAYSCALE ? SPNG_FMT_G8 : SPNG_FMT_RGB8;
+  size_t n = 0;
+  spng_decoded_image_size(c, fmt, &n);
+  std::vector<uint8_t> out(n);
+  const int e = spng_decode_image(c, out.data(), n, fmt, 0);
+  spng_ctx_free(c);
+  if (e) internal_error(std::string("bench batch: libspng: ") + spng_strerror(e));
+  return n;
+}
+size_t spng_encode_size(const uint8_t* px, int w, int h, int level, int strategy, int filter_mask) {
+  spng_ctx* c = spng_ctx_new(SPNG_CTX_ENCODER);
+  spng_set_option(c, SPNG_ENCODE_TO_BUFFER, 1);
+  spng_set_option(c, SPNG_IMG_COMPRESSION_LEVEL, level);
+  spng_set_option(c, SPNG_IMG_COMPRESSION_STRATEGY, strategy);
+  spng_set_option(c, SPNG_FILTER_CHOICE, filter_mask);
+  spng_ihdr ih{};
+  ih.width = static_cast<uint32_t>(w);
+  ih.height = static_cast<uint32_t>(h);
+  ih.bit_depth = 8;
+  ih.color_type = SPNG_COLOR_TYPE_TRUECOLOR;
+  spng_set_ihdr(c, &ih);
+  const int e = spng_encode_image(c, px, static_cast<size_t>(w) * h * 3, SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE);
+  size_t n = 0;
+  int err = 0;
+  void* buf = spng_get_png_buffer(c, &n, &err);
+  std::free(buf);
+  spng_ctx_free(c);
+  if (e || err) internal_error("bench batch: libspng encode failed");
+  return n;
+}
+// libpng, the previous writer's calls (level, filter, strategy), into memory; the file's bytes.
+size_t libpng_encode_size(const uint8_t* px, int w, int h, int level, int filter_mask, int strategy) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  size_t n = 0;
+  png_set_write_fn(png, &n, [](png_structp p, png_bytep, png_size_t len) { *static_cast<size_t*>(png_get_io_ptr(p)) += len; },
+                   nullptr);
+  png_set_compression_level(png, level);
+  png_set_compression_strategy(png, strategy);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, filter_mask);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(w), static_cast<png_uint_32>(h), 8, PNG_COLOR_TYPE_RGB,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+  png_write_info(png, info);
+  for (int y = 0; y < h; ++y) png_write_row(png, px + static_cast<size_t>(y) * w * 3);
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return n;
+}
+size_t libpng_decode_bytes(const std::string& path) {
+  png_image im{};
+  im.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&im, path.c_str())) internal_error("bench batch: libpng cannot read " + path);
+  std::vector<uint8_t> out(PNG_IMAGE_SIZE(im));
+  png_image_finish_read(&im, nullptr, out.data(), 0, nullptr);
+  return out.size();
+}
+
+const char* filter_name(png::Filter f) {
+  static const char* names[] = {"none", "sub", "up", "average", "paeth", "adaptive"};
+  return names[static_cast<int>(f)];
+}
+const char* strategy_name(int s) {
+  static const char* names[] = {"default", "filtered", "huffman", "rle"};
+  return names[s];
+}
+
+// The PNG route's codecs alone on the data set's frames and their night previews.
+void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU8>& previews, const std::string& out_dir) {
+  const double n = static_cast<double>(items.size());
+  // ---- decode -------------------------------------------------------------------------------
+  double d_ours = 0, d_oiio = 0, d_spng = 0, d_libpng = 0, l_ours = 0, l_oiio = 0, l_spng = 0, l_libpng = 0;
+  for (const auto& it : items) {
+    d_ours += cpu_time_ms([&] { auto im = read_image(it.image); });
+    d_oiio += cpu_time_ms([&] { auto im = detail::read_image_general(it.image); });
+    d_spng += cpu_time_ms([&] { spng_decode_bytes(file_bytes(it.image)); });
+    d_libpng += cpu_time_ms([&] { libpng_decode_bytes(it.image); });
+    for (const std::string& f : {it.labels, it.instances}) {
+      if (f.empty()) continue;
+      l_ours += cpu_time_ms([&] { auto im = read_image_u16(f); });
+      l_oiio += cpu_time_ms([&] { auto im = detail::read_image_u16_general(f); });
+      l_spng += cpu_time_ms([&] { spng_decode_bytes(file_bytes(f)); });
+      l_libpng += cpu_time_ms([&] { libpng_decode_bytes(f); });
+    }
+  }
+  std::printf("PNG decode, CPU ms per frame (mean of %zu):  day RGB8 to samples  | its labels (labelIds 8-bit + instanceIds 16-bit)\n", items.size());
+  std::printf("  ours (libdeflate inflate, core/png_codec) %6.1f  |  %6.1f   (read_image: floats; read_image_u16)\n", d_ours / n, l_ours / n);
+  std::printf("  OpenImageIO (previous reader)             %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_oiio / n, l_oiio / n, d_ours / d_oiio, l_ours / l_oiio);
+  std::printf("  libspng 0.7 (to 8-bit / raw samples)      %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_spng / n, l_spng / n, d_ours / d_spng, l_ours / l_spng);
+  std::printf("  libpng simplified API (to 8-bit samples)  %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_libpng / n, l_libpng / n, d_ours / d_libpng, l_ours / l_libpng);
+
+  // ---- encode -------------------------------------------------------------------------------
+  struct Setting {
+    std::string encoder, deflate;
+    int level;
+    std::string filter;
+    std::function<size_t(const ImageU8&)> run;
+  };
+  std::vector<Setting> settings;
+  const auto ours = [](png::EncodeOptions o) {
+    return [o](const ImageU8& p) {
+      const std::string f = png::encode(p.data(), p.width(), p.height(), 3, o);
+      const auto back = png::decode(std::vector<uint8_t>(f.begin(), f.end()), int64_t{1} << 40);
+      if (!back || !std::equal(back->u8.begin(), back->u8.end(), p.vec().begin(), p.vec().end())) internal_error("bench batch: a PNG setting did not read back unchanged");
+      return f.size();
+    };
+  };
+  const png::Filter filters[] = {png::Filter::None, png::Filter::Sub, png::Filter::Up, png::Filter::Average,
+                                 png::Filter::Paeth, png::Filter::Adaptive};
+  for (int strategy = 0; strategy < 4; ++strategy)
+    for (const auto f : filters) {
+      png::EncodeOptions o{png::Deflater::Zlib, 1, strategy, f};
+      settings.push_back({"ours", fmt::format("zlib {}", strategy_name(strategy)), 1, filter_name(f), ours(o)});
+    }
+  for (const int level : {2, 3, 6})
+    for (const int strategy : {0, 2, 3}) {
+      png::EncodeOptions o{png::Deflater::Zlib, level, strategy, png::Filter::Sub};
+      settings.push_back({"ours", fmt::format("zlib {}", strategy_name(strategy)), level, "sub", ours(o)});
+    }
+  for (const int level : {1, 2, 4, 6, 9})
+    for (const auto f : filters) {
+      if (level > 2 && (f == png::Filter::Average || f == png::Filter::Up)) continue;
+      png::EncodeOptions o{png::Deflater::Libdeflate, level, 0, f};
+      settings.push_back({"ours", "libdeflate", level, filter_name(f), ours(o)});
+    }
+  settings.push_back({"libpng 1.6 (previous writer)", "zlib default", 1, "sub",
+                      [](const ImageU8& p) { return libpng_encode_size(p.data(), p.width(), p.height(), 1, PNG_FILTER_SUB, Z_DEFAULT_STRATEGY); }});
+  settings.push_back({"libpng 1.6", "zlib huffman", 1, "sub",
+                      [](const ImageU8& p) { return libpng_encode_size(p.data(), p.width(), p.height(), 1, PNG_FILTER_SUB, Z_HUFFMAN_ONLY); }});
+  settings.push_back({"libpng 1.6", "zlib default", 6, "adaptive",
+                      [](const ImageU8& p) { return libpng_encode_size(p.data(), p.width(), p.height(), 6, PNG_ALL_FILTERS, Z_DEFAULT_STRATEGY); }});
+  settings.push_back({"libspng 0.7", "zlib default", 1, "sub",
+                      [](const ImageU8& p) { return spng_encode_size(p.data(), p.width(), p.height(), 1, Z_DEFAULT_STRATEGY, SPNG_FILTER_CHOICE_SUB); }});
+  settings.push_back({"libspng 0.7", "zlib huffman", 1, "sub",
+                      [](const ImageU8& p) { return spng_encode_size(p.data(), p.width(), p.height(), 1, Z_HUFFMAN_ONLY, SPNG_FILTER_CHOICE_SUB); }});
+  const png::EncodeOptions def = png::default_encode_options();
+  std::string csv = "encoder,deflate,level,filter,cpu_ms_per_frame,mb_per_frame,default\n";
+  std::printf("PNG encode of the night previews (2048x1024 RGB8), CPU ms and MB per frame (mean of %zu), all lossless (each read back):\n",
+              previews.size());
+  for (const auto& st : settings) {
+    double ms = 0, mb = 0;
+    for (const auto& p : previews) {
+      size_t bytes = 0;
+      ms += cpu_time_ms([&] { bytes = st.run(p); });
+      mb += bytes / 1e6;
+    }
+    ms /= previews.size();
+    mb /= previews.size();
+    const bool is_default = st.encoder == "ours" &&
+                            st.deflate == (def.deflater == png::Deflater::Libdeflate ? std::string("libdeflate")
+                                                                                     : fmt::format("zlib {}", strategy_name(def.zlib_strategy))) &&
+                            st.level == def.level && st.filter == filter_name(def.filter);
+    std::printf("  %-28s %-16s level %d  %-8s %7.1f ms  %5.2f MB%s\n", st.encoder.c_str(), st.deflate.c_str(), st.level,
+                st.filter.c_str(), ms, mb, is_default ? "   <- default" : "");
+    csv += fmt::format("{},{},{},{},{:.1f},{:.3f},{}\n", st.encoder, st.deflate, st.level, st.filter, ms, mb, is_default ? 1 : 0);
+  }
+  csv += fmt::format("# decode CPU ms per frame, day RGB8 / labels: ours {:.1f} / {:.1f}, OpenImageIO {:.1f} / {:.1f}, libspng {:.1f} / {:.1f}, libpng {:.1f} / {:.1f}\n",
+                     d_ours / n, l_ours / n, d_oiio / n, l_oiio / n, d_spng / n, l_spng / n, d_libpng / n, l_libpng / n);
+  csv += fmt::format("# {} Cityscapes frames' night previews (onsemi-ar0331, night-urban), encode time as the thread's CPU time; {}\n",
+                     items.size(), machine_description());
+  const std::string csv_path = write_bench_csv(out_dir, "bench_png.csv", csv);
+  const std::string chart = fs::path(csv_path).replace_extension(".png").string();
+  const std::string cmd = "/usr/bin/python3 '" + std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_png.py' '" + csv_path + "' '" + chart + "'";
+  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
+}
 
 // CPU time (user + system) this process has used, in ms: on a shared machine the core-hours a
 // run actually took, whatever share of the cores the other jobs left it.
@@ -73,7 +278,8 @@ void run_bench(const BenchBatchOptions& o) {
   // ---- the parts alone, and the peers on the same data ----------------------------------------
   double t_read = 0, t_compute = 0, t_exr = 0, t_png = 0, t_copy = 0;
   double t_cv_exr = 0, t_cv_png = 0, t_oiio_exr = 0, t_oiio_png = 0;
-  double mb_exr = 0, mb_png = 0, mb_cv_exr = 0;
+  double mb_exr = 0, mb_png = 0, mb_cv_exr = 0, t_preview = 0;
+  std::vector<ImageU8> previews;
   for (const auto& it : items) {
     ImageFileInfo info;
     ImageF day;
@@ -102,6 +308,8 @@ void run_bench(const BenchBatchOptions& o) {
     mb_exr += fs::file_size(exr) / 1e6;
     t_png += time_ms([&] { write_png8(png, preview_srgb8(out->rgb, wb)); });
     mb_png += fs::file_size(png) / 1e6;
+    t_preview += time_ms([&] { previews.push_back(preview_srgb8(out->rgb, wb)); });
+    if (o.codecs_only) continue;
     t_copy += time_ms([&] { fs::copy_file(it.labels, tmp / "labels.png", fs::copy_options::overwrite_existing); });
 
     // OpenCV: the same five layers and codec; it writes no UINT channels (float32 for the
@@ -148,8 +356,11 @@ void run_bench(const BenchBatchOptions& o) {
   }
   const double n = static_cast<double>(items.size());
   for (double* t : {&t_read, &t_compute, &t_exr, &t_png, &t_copy, &t_cv_exr, &t_cv_png, &t_oiio_exr, &t_oiio_png,
-                    &mb_exr, &mb_png, &mb_cv_exr})
+                    &mb_exr, &mb_png, &mb_cv_exr, &t_preview})
     *t /= n;
+  codec_bench(items, previews, o.out_dir);
+  std::printf("  preview ISP alone (preview_srgb8, all threads) %.1f ms/image (wall)\n", t_preview);
+  if (o.codecs_only) return;
 
   // ---- end to end: batch::run in this process, as `photosite batch` runs it ------------------
   SensorRunner cpu(Backend::Cpu);
@@ -183,7 +394,7 @@ void run_bench(const BenchBatchOptions& o) {
               mb_cv_exr, t_exr / t_cv_exr);
   std::printf("    peer oiiotool none->piz           %7.1f ms/image            (ours %.2fx its time)\n", t_oiio_exr,
               t_exr / t_oiio_exr);
-  std::printf("  PNG preview alone (sRGB8 + libpng) %7.1f ms/image  %.2f MB\n", t_png, mb_png);
+  std::printf("  PNG preview alone (sRGB8 + encode) %7.1f ms/image  %.2f MB (of it the preview ISP %.1f ms)\n", t_png, mb_png, t_preview);
   std::printf("    peer OpenCV imwrite PNG level 1   %7.1f ms/image            (ours %.2fx its time)\n", t_cv_png,
               t_png / t_cv_png);
   std::printf("    peer oiiotool tif->png level 1    %7.1f ms/image            (ours %.2fx its time)\n", t_oiio_png,
@@ -219,7 +430,9 @@ static BenchRegistrar reg("batch", "batch engine end to end (EXR and PNG routes)
                             sub->add_option("--root", o->root, "Cityscapes-layout root")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "end-to-end runs per route (median)")
                                 ->capture_default_str();
-                            sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
+                            sub->add_option("--out-dir", o->out_dir, "where the CSVs and the chart go (default docs/)");
+                            sub->add_flag("--codecs-only", o->codecs_only,
+                                          "only the PNG codecs (decode and encode settings), not the end-to-end runs");
                             sub->callback([o] { run_bench(*o); });
                           });
 }  // namespace photosite::bench

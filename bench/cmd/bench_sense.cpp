@@ -9,6 +9,9 @@
 //  * the memory floor of the noise + ADC part: one streaming pass with its traffic, reading the
 //    mean signal and the three fixed-pattern maps and writing electrons and DN (6 floats,
 //    24 bytes per pixel), with the sense's mean-electron arithmetic and nothing else.
+//  * the whole sensor as night and batch run it: expose() (photon stage with the lens glare and
+//    the sense stage fused row by row), beside its two stages run apart (mean_signal_electrons()
+//    then sense(), the mean signal going through memory) and the photon stage alone.
 // Each is timed as the mean of --inner calls, twice: wall time, and the process's CPU time (all threads), which a loaded
 // machine disturbs less (a preempted thread's wait is not counted); the ratios are taken on CPU
 // time.
@@ -112,8 +115,12 @@ void run_bench(const BenchSenseOptions& o) {
   };
 
   Timing sense_t{o.inner}, demosaic_t{o.inner}, p10{o.inner}, p7{o.inner}, floor_t{o.inner};
+  Timing expose_t{o.inner}, apart_t{o.inner}, photon_t{o.inner};
   uint32_t sink = 0;
   for (int r = 0; r < o.repeats; ++r) {
+    expose_t.add([&] { so = expose(radiance, cam, lens, s, fpn); });
+    apart_t.add([&] { so = sense(mean_signal_electrons(radiance, cam, lens, ex), cam, ex, s, fpn); });
+    photon_t.add([&] { auto m = mean_signal_electrons(radiance, cam, lens, ex); });
     sense_t.add([&] { so = sense(mean_e, cam, ex, s, fpn); });
     demosaic_t.add([&] { auto rgb = demosaic(so.raw_dn, cam.cfa, DemosaicMethod::Bilinear); });
     p10.add([&] { sink ^= frame_words(10, w, h); });
@@ -127,6 +134,9 @@ void run_bench(const BenchSenseOptions& o) {
   std::printf("machine: %s\n\n", machine_description().c_str());
   std::printf("                                            wall ms   CPU ms (all threads)\n");
   auto row = [](const char* name, double wall, double cpu) { std::printf("%-42s %8.2f %8.2f\n", name, wall, cpu); };
+  row("expose (photon + glare + sense, fused rows)", expose_t.wall, expose_t.cpu);
+  row("  the same two stages apart (via memory)", apart_t.wall, apart_t.cpu);
+  row("  photon stage alone (with the lens glare)", photon_t.wall, photon_t.cpu);
   row("sense (noise + ADC + bilinear demosaic)", sense_t.wall, sense_t.cpu);
   row("  bilinear demosaic alone", demosaic_t.wall, demosaic_t.cpu);
   row("  noise + ADC (the difference)", noise_adc_wall, noise_adc_cpu);
@@ -134,10 +144,12 @@ void run_bench(const BenchSenseOptions& o) {
   row("Philox4x32-7 words (not used for results)", p7.wall, p7.cpu);
   row("memory floor of noise + ADC (24 B/pixel)", floor_t.wall, floor_t.cpu);
   std::printf("\nCPU-time ratios: Philox-7 / Philox-10 %.2f; Philox-10 share of noise + ADC %.0f%%; "
-              "noise + ADC / its memory floor %.1f\n",
-              p7.cpu / p10.cpu, 100.0 * p10.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu);
+              "noise + ADC / its memory floor %.1f; expose fused / its stages apart %.2f\n",
+              p7.cpu / p10.cpu, 100.0 * p10.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu, expose_t.cpu / apart_t.cpu);
   std::printf("(xor of the words: %08x)\n", sink);
   std::string csv = "quantity,wall_ms,cpu_ms_all_threads\n";
+  csv += fmt::format("expose_fused,{:.3f},{:.3f}\nexpose_stages_apart,{:.3f},{:.3f}\nphoton_stage,{:.3f},{:.3f}\n",
+                     expose_t.wall, expose_t.cpu, apart_t.wall, apart_t.cpu, photon_t.wall, photon_t.cpu);
   csv += fmt::format("sense,{:.3f},{:.3f}\nbilinear_demosaic,{:.3f},{:.3f}\nnoise_adc,{:.3f},{:.3f}\n"
                      "philox4x32_10_words,{:.3f},{:.3f}\nphilox4x32_7_words,{:.3f},{:.3f}\n"
                      "memory_floor_noise_adc,{:.3f},{:.3f}\n",
