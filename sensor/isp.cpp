@@ -150,9 +150,10 @@ void box_mean(const float* src, float* dst, int w, int h, int r) {
       prefix[0] = 0;
       for (int x = 0; x < w; ++x) prefix[x + 1] = prefix[x] + s[x];
       float* t = tmp.data() + static_cast<size_t>(y) * w;
+      const double inv = 1.0 / (2 * r + 1);  // full windows: a multiply instead of a division
       for (int x = 0; x < w; ++x) {
         const int a = std::max(x - r, 0), b = std::min(x + r + 1, w);
-        t[x] = static_cast<float>((prefix[b] - prefix[a]) / (b - a));
+        t[x] = static_cast<float>(b - a == 2 * r + 1 ? (prefix[b] - prefix[a]) * inv : (prefix[b] - prefix[a]) / (b - a));
       }
     }
   }
@@ -170,8 +171,8 @@ void box_mean(const float* src, float* dst, int w, int h, int r) {
         for (int x = x0; x < x1; ++x) acc[x - x0] += tmp[static_cast<size_t>(y + r) * w + x];
       if (y - r - 1 >= 0)
         for (int x = x0; x < x1; ++x) acc[x - x0] -= tmp[static_cast<size_t>(y - r - 1) * w + x];
-      const int n = std::min(y + r + 1, h) - std::max(y - r, 0);
-      for (int x = x0; x < x1; ++x) dst[static_cast<size_t>(y) * w + x] = static_cast<float>(acc[x - x0] / n);
+      const double inv = 1.0 / (std::min(y + r + 1, h) - std::max(y - r, 0));
+      for (int x = x0; x < x1; ++x) dst[static_cast<size_t>(y) * w + x] = static_cast<float>(acc[x - x0] * inv);
     }
   }
 }
@@ -269,34 +270,13 @@ ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, cons
   if (o.sharpen > 0 || o.jpeg_quality > 0) {
     cv::Mat m(h, w, CV_8UC3, out.data());
     if (o.sharpen > 0) {
-      // Unsharp mask, out = in + amount·(in - G_σ=1 ∗ in), on each channel; a 5-tap binomial
-      // kernel (σ = 1 px) in integer arithmetic, so it is exact and the same on every machine.
-      std::vector<int> tmp(static_cast<size_t>(n) * 3), blur(static_cast<size_t>(n) * 3);
-      const int kw[5] = {1, 4, 6, 4, 1};
-      const uint8_t* s = out.data();
-#pragma omp parallel for schedule(static)
-      for (int yy = 0; yy < h; ++yy)
-        for (int x = 0; x < w; ++x)
-          for (int ch = 0; ch < 3; ++ch) {
-            int acc = 0;
-            for (int d = -2; d <= 2; ++d) acc += kw[d + 2] * s[(static_cast<size_t>(yy) * w + std::clamp(x + d, 0, w - 1)) * 3 + ch];
-            tmp[(static_cast<size_t>(yy) * w + x) * 3 + ch] = acc;
-          }
-#pragma omp parallel for schedule(static)
-      for (int yy = 0; yy < h; ++yy)
-        for (int x = 0; x < w; ++x)
-          for (int ch = 0; ch < 3; ++ch) {
-            int acc = 0;
-            for (int d = -2; d <= 2; ++d) acc += kw[d + 2] * tmp[(static_cast<size_t>(std::clamp(yy + d, 0, h - 1)) * w + x) * 3 + ch];
-            blur[(static_cast<size_t>(yy) * w + x) * 3 + ch] = acc;  // × 256
-          }
-      const int amount256 = static_cast<int>(std::lround(o.sharpen * 256));
-      uint8_t* d = out.data();
-#pragma omp parallel for schedule(static)
-      for (int64_t i = 0; i < n * 3; ++i) {
-        const int64_t v = d[i] * 65536LL + amount256 * (d[i] * 256LL - blur[i]);  // × 65536
-        d[i] = static_cast<uint8_t>(std::clamp<int64_t>((v + 32768) >> 16, 0, 255));
-      }
+      // Unsharp mask, out = in + amount·(in - G_σ=1 ∗ in), on each channel. OpenCV's Gaussian
+      // blur of 8-bit images is bit-exact (fixed-point, since OpenCV 4.0), and addWeighted rounds
+      // and saturates, so the result is the same on every run and thread count.
+      cv::Mat blur, sharp;
+      cv::GaussianBlur(m, blur, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+      cv::addWeighted(m, 1.0 + o.sharpen, blur, -o.sharpen, 0.0, sharp);
+      sharp.copyTo(m);
     }
     if (o.jpeg_quality > 0) {
       // OpenCV's codecs take BGR order; encode and decode in memory (libjpeg, 4:2:0 by default).

@@ -223,9 +223,13 @@ void run(const Opts& o) {
       std::printf("%-28s %-34s %10.1f\n", v.method.c_str(), f.name.c_str(), ms);
       if (v.method != "photosite") continue;
       const PreviewNoise noise{ex.system_gain_dn_per_e, cam.read_noise_e};
-      // The simple ISP alone, timed like the camera ISP, for the ratio.
+      // The float preview inside `ms` (replaced by the camera ISP in its methods' ms), and the
+      // peer of the camera ISP: the simple ISP as `night --preview` runs it (8-bit codes).
       const double simple_ms = best_ms(o.repeats, [&] { preview = preview_srgb(so.rgb, wb, v.white_percentile); });
-      std::printf("%-28s %-34s %10.1f\n", "(simple preview ISP alone)", f.name.c_str(), simple_ms);
+      ImageU8 simple8;
+      const double simple8_ms = best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile); });
+      std::printf("%-28s %-34s %10.1f  (float preview %.1f ms)\n", "(simple ISP, 8-bit, alone)", f.name.c_str(),
+                  simple8_ms, simple_ms);
       for (const CameraVariant& cv : camera_variants) {
         ImageU8 p8;
         const double isp_ms = best_ms(o.repeats, [&] { p8 = preview_camera8(so.rgb, wb, noise, cv.options); });
