@@ -249,11 +249,16 @@ ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, cons
   }
   // 2. noise reduction, ε from the noise of each channel (unit noise per stabilised channel).
   const double sy = std::sqrt(3.0) / 3, sc1 = std::sqrt(2.0) / 2, sc2 = std::sqrt(6.0) / 4;
-  if (o.denoise > 0) y = guided_filter_self(y, o.luma_radius_px, std::pow(o.denoise * sy, 2));
-  if (o.chroma_denoise > 0) {
-    c1 = guided_filter_self(c1, o.chroma_radius_px, std::pow(o.chroma_denoise * sc1, 2));
-    c2 = guided_filter_self(c2, o.chroma_radius_px, std::pow(o.chroma_denoise * sc2, 2));
-  }
+  // The three planes in parallel, one thread each: the filters' own loops then run inside this
+  // region (nested, so serially) and a loaded machine pays one barrier, not one per loop. Each
+  // plane's arithmetic is the same in either case.
+  ImageF* planes[3] = {&y, &c1, &c2};
+  const int radius[3] = {o.luma_radius_px, o.chroma_radius_px, o.chroma_radius_px};
+  const double eps[3] = {std::pow(o.denoise * sy, 2), std::pow(o.chroma_denoise * sc1, 2),
+                         std::pow(o.chroma_denoise * sc2, 2)};
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < 3; ++k)
+    if (eps[k] > 0) *planes[k] = guided_filter_self(*planes[k], radius[k], eps[k]);
   // 3. back to DN: inverse opponent transform, algebraic inverse of the stabilisation.
   ImageF lin(w, h, 3, uninitialized);
 #pragma omp parallel for schedule(static)
