@@ -7,6 +7,13 @@
 #include <cmath>
 #include <vector>
 
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "photosite/error.h"
+
 namespace photosite {
 
 std::array<double, 3> white_balance_gains(const CameraPreset& p) {
@@ -124,6 +131,171 @@ ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb, double p
   for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
     for (int c = 0; c < 3; ++c)
       out[3 * i + c] = static_cast<float>(srgb_encode(rgb[3 * i + c] * wb[c] * scale));
+  return out;
+}
+
+// ---- camera-ISP preview (isp.h: CameraIspOptions) ----
+namespace {
+// Mean over the (2r+1)² window clipped at the image border (the mean over the pixels inside).
+// Two separable passes of running sums in double: each row (first pass) and each column (second)
+// is summed by one thread in a fixed order, so the result does not depend on the thread count.
+void box_mean(const float* src, float* dst, int w, int h, int r) {
+  std::vector<float> tmp(static_cast<size_t>(w) * h);
+#pragma omp parallel
+  {
+    std::vector<double> prefix(w + 1);
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      const float* s = src + static_cast<size_t>(y) * w;
+      prefix[0] = 0;
+      for (int x = 0; x < w; ++x) prefix[x + 1] = prefix[x] + s[x];
+      float* t = tmp.data() + static_cast<size_t>(y) * w;
+      const double inv = 1.0 / (2 * r + 1);  // full windows: a multiply instead of a division
+      for (int x = 0; x < w; ++x) {
+        const int a = std::max(x - r, 0), b = std::min(x + r + 1, w);
+        t[x] = static_cast<float>(b - a == 2 * r + 1 ? (prefix[b] - prefix[a]) * inv : (prefix[b] - prefix[a]) / (b - a));
+      }
+    }
+  }
+  constexpr int kStrip = 64;  // columns per task: each column is still summed top to bottom
+  const int strips = (w + kStrip - 1) / kStrip;
+#pragma omp parallel for schedule(static)
+  for (int sidx = 0; sidx < strips; ++sidx) {
+    const int x0 = sidx * kStrip, x1 = std::min(w, x0 + kStrip);
+    double acc[kStrip] = {};
+    // Window rows [y - r, y + r] ∩ [0, h): start with rows 0..r-1, then add y + r, drop y - r - 1.
+    for (int y = 0; y < std::min(r, h); ++y)
+      for (int x = x0; x < x1; ++x) acc[x - x0] += tmp[static_cast<size_t>(y) * w + x];
+    for (int y = 0; y < h; ++y) {
+      if (y + r < h)
+        for (int x = x0; x < x1; ++x) acc[x - x0] += tmp[static_cast<size_t>(y + r) * w + x];
+      if (y - r - 1 >= 0)
+        for (int x = x0; x < x1; ++x) acc[x - x0] -= tmp[static_cast<size_t>(y - r - 1) * w + x];
+      const double inv = 1.0 / (std::min(y + r + 1, h) - std::max(y - r, 0));
+      for (int x = x0; x < x1; ++x) dst[static_cast<size_t>(y) * w + x] = static_cast<float>(acc[x - x0] * inv);
+    }
+  }
+}
+}  // namespace
+
+ImageF guided_filter_self(const ImageF& p, int r, double eps) {
+  if (p.channels() != 1) internal_error("guided_filter_self: one plane expected");
+  const int w = p.width(), h = p.height();
+  const size_t n = p.pixel_count();
+  ImageF out(w, h, 1, uninitialized);
+  if (r <= 0 || eps <= 0 || n == 0) {
+    std::copy(p.data(), p.data() + n, out.data());
+    return out;
+  }
+  std::vector<float> sq(n), mean(n), mean_sq(n), a(n), b(n);
+  for (size_t i = 0; i < n; ++i) sq[i] = p[i] * p[i];
+  box_mean(p.data(), mean.data(), w, h, r);
+  box_mean(sq.data(), mean_sq.data(), w, h, r);
+  // He et al. 2010, eqs. 5-6 with I = p: a = var/(var + ε), b = (1 - a)·mean.
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < static_cast<int64_t>(n); ++i) {
+    const double var = std::max(0.0, static_cast<double>(mean_sq[i]) - static_cast<double>(mean[i]) * mean[i]);
+    const double ai = var / (var + eps);
+    a[i] = static_cast<float>(ai);
+    b[i] = static_cast<float>((1 - ai) * mean[i]);
+  }
+  box_mean(a.data(), mean.data(), w, h, r);
+  box_mean(b.data(), mean_sq.data(), w, h, r);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < static_cast<int64_t>(n); ++i) out[i] = mean[i] * p[i] + mean_sq[i];
+  return out;
+}
+
+void check_camera_isp_options(const CameraIspOptions& o) {
+  auto bad = [](const char* name, const std::string& why) { fail_parameter(name, "", ": " + why); };
+  if (!(o.denoise >= 0 && o.denoise <= 10))
+    bad("preview_denoise", fmt::format("{} is not a strength in [0, 10] (0: off, 1: ε = σ²)", o.denoise));
+  if (!(o.chroma_denoise >= 0 && o.chroma_denoise <= 20))
+    bad("preview_chroma_denoise", fmt::format("{} is not a strength in [0, 20]", o.chroma_denoise));
+  if (o.luma_radius_px < 1 || o.luma_radius_px > 16)
+    bad("preview_luma_radius", fmt::format("{} px is not in [1, 16]", o.luma_radius_px));
+  if (o.chroma_radius_px < 1 || o.chroma_radius_px > 16)
+    bad("preview_chroma_radius", fmt::format("{} px is not in [1, 16]", o.chroma_radius_px));
+  if (!(o.sharpen >= 0 && o.sharpen <= 4))
+    bad("preview_sharpen", fmt::format("{} is not an unsharp-mask amount in [0, 4]", o.sharpen));
+  if (o.jpeg_quality < 0 || o.jpeg_quality > 100)
+    bad("preview_jpeg_quality", fmt::format("{} is not 0 (no JPEG) or a quality 1-100", o.jpeg_quality));
+  if (!(o.percentile > 0 && o.percentile <= 1) || !(o.white_point > 0))
+    bad("preview_percentile", fmt::format("percentile {} / white point {} out of range", o.percentile, o.white_point));
+}
+
+ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, const PreviewNoise& noise,
+                        const CameraIspOptions& o) {
+  check_camera_isp_options(o);
+  if (rgb.channels() != 3) internal_error("preview_camera8: 3-channel RGB expected");
+  if (!(noise.gain_dn_per_e > 0) || !(noise.read_noise_e >= 0))
+    fail(fmt::format("preview_camera8: noise model gain {} DN/e-, read noise {} e- out of range", noise.gain_dn_per_e,
+                     noise.read_noise_e));
+  const int w = rgb.width(), h = rgb.height();
+  const int64_t n = static_cast<int64_t>(rgb.pixel_count());
+  const double k = noise.gain_dn_per_e;
+  // Read noise plus ADC quantization (1/12 DN²), in e-².
+  const double var0_e = noise.read_noise_e * noise.read_noise_e + 1.0 / 12.0 / (k * k);
+  const double c = var0_e + 3.0 / 8.0;
+  // 1. variance stabilisation and the opponent transform.
+  ImageF y(w, h, 1, uninitialized), c1(w, h, 1, uninitialized), c2(w, h, 1, uninitialized);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    float t[3];
+    for (int ch = 0; ch < 3; ++ch) t[ch] = static_cast<float>(2.0 * std::sqrt(std::max(rgb[3 * i + ch] / k + c, 0.0)));
+    y[i] = (t[0] + t[1] + t[2]) / 3.f;
+    c1[i] = (t[0] - t[2]) / 2.f;
+    c2[i] = (t[0] - 2.f * t[1] + t[2]) / 4.f;
+  }
+  // 2. noise reduction, ε from the noise of each channel (unit noise per stabilised channel).
+  const double sy = std::sqrt(3.0) / 3, sc1 = std::sqrt(2.0) / 2, sc2 = std::sqrt(6.0) / 4;
+  // The three planes in parallel, one thread each: the filters' own loops then run inside this
+  // region (nested, so serially) and a loaded machine pays one barrier, not one per loop. Each
+  // plane's arithmetic is the same in either case.
+  ImageF* planes[3] = {&y, &c1, &c2};
+  const int radius[3] = {o.luma_radius_px, o.chroma_radius_px, o.chroma_radius_px};
+  const double eps[3] = {std::pow(o.denoise * sy, 2), std::pow(o.chroma_denoise * sc1, 2),
+                         std::pow(o.chroma_denoise * sc2, 2)};
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < 3; ++k)
+    if (eps[k] > 0) *planes[k] = guided_filter_self(*planes[k], radius[k], eps[k]);
+  // 3. back to DN: inverse opponent transform, algebraic inverse of the stabilisation.
+  ImageF lin(w, h, 3, uninitialized);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const float t[3] = {y[i] + c1[i] + 2.f * c2[i] / 3.f, y[i] - 4.f * c2[i] / 3.f, y[i] - c1[i] + 2.f * c2[i] / 3.f};
+    for (int ch = 0; ch < 3; ++ch) {
+      const double half = 0.5 * t[ch];
+      lin[3 * i + ch] = static_cast<float>((half * half - c) * k);
+    }
+  }
+  // 4. white balance, exposure, sRGB, 8 bits (preview_srgb8's path).
+  ImageU8 out = preview_srgb8(lin, wb, o.percentile, o.white_point);
+  // 5. sharpening and JPEG.
+  if (o.sharpen > 0 || o.jpeg_quality > 0) {
+    cv::Mat m(h, w, CV_8UC3, out.data());
+    if (o.sharpen > 0) {
+      // Unsharp mask, out = in + amount·(in - G_σ=1 ∗ in), on each channel. OpenCV's Gaussian
+      // blur of 8-bit images is bit-exact (fixed-point, since OpenCV 4.0), and addWeighted rounds
+      // and saturates, so the result is the same on every run and thread count.
+      cv::Mat blur, sharp;
+      cv::GaussianBlur(m, blur, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+      cv::addWeighted(m, 1.0 + o.sharpen, blur, -o.sharpen, 0.0, sharp);
+      sharp.copyTo(m);
+    }
+    if (o.jpeg_quality > 0) {
+      // OpenCV's codecs take BGR order; encode and decode in memory (libjpeg, 4:2:0 by default).
+      cv::Mat bgr;
+      cv::cvtColor(m, bgr, cv::COLOR_RGB2BGR);
+      std::vector<uint8_t> buf;
+      if (!cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
+        internal_error("preview_camera8: JPEG encoding failed");
+      const cv::Mat dec = cv::imdecode(buf, cv::IMREAD_COLOR);
+      if (dec.rows != h || dec.cols != w) internal_error("preview_camera8: JPEG decoding failed");
+      cv::Mat back(h, w, CV_8UC3, out.data());
+      cv::cvtColor(dec, back, cv::COLOR_BGR2RGB);
+    }
+  }
   return out;
 }
 

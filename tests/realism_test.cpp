@@ -2,13 +2,21 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
+#include <filesystem>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include <omp.h>
+
+#include <random>
+
 #include "photosite/error.h"
+#include "photosite/io.h"
 #include "photosite/scene/labels.h"
+#include "photosite/sensor/isp.h"
 #include "photosite/thesis_baseline.h"
 #include "test_util.h"
 
@@ -122,6 +130,190 @@ TEST(ThesisBaseline, RefusesMismatchedInputs) {
   ImageU16 bad = s.labels;
   bad[5] = 40;
   EXPECT_THROW(thesis_night(s.day, bad), Error);
+}
+
+// ---- the camera-ISP preview (isp.h: preview_camera8) ----
+
+// A plane of independent Gaussian noise (σ 1) on a step from `lo` to `hi` at the middle column.
+ImageF noisy_step(int w, int h, float lo, float hi, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> n(0.f, 1.f);
+  ImageF p(w, h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) p.at(x, y) = (x < w / 2 ? lo : hi) + n(rng);
+  return p;
+}
+
+TEST(CameraIsp, GuidedFilterLimits) {
+  const ImageF p = noisy_step(37, 23, 0.f, 5.f, 1);
+  // ε → ∞: a = 0, b = box mean, output = the box mean of the box mean (He et al. eq. 8, a = 0).
+  // ε → 0 with var > 0: a = 1, b = 0, output = the box mean of 1 times p = p. Brute force here.
+  const int r = 2;
+  auto box = [&](const ImageF& im, int x, int y) {
+    double s = 0;
+    int n = 0;
+    for (int yy = std::max(0, y - r); yy <= std::min(im.height() - 1, y + r); ++yy)
+      for (int xx = std::max(0, x - r); xx <= std::min(im.width() - 1, x + r); ++xx) s += im.at(xx, yy), ++n;
+    return s / n;
+  };
+  ImageF m(p.width(), p.height(), 1);
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) m.at(x, y) = static_cast<float>(box(p, x, y));
+  const ImageF big = guided_filter_self(p, r, 1e30), small = guided_filter_self(p, r, 1e-12);
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) {
+      // Float storage of double sums: relative rounding 2^-24 per stored step, a few steps.
+      EXPECT_NEAR(big.at(x, y), box(m, x, y), 1e-5) << x << "," << y;
+      EXPECT_NEAR(small.at(x, y), p.at(x, y), 1e-4) << x << "," << y;
+    }
+}
+
+TEST(CameraIsp, GuidedFilterSmoothsNoiseAndKeepsAStep) {
+  // A step of 40σ with ε = σ²: in flat parts the local variance is ~σ², a ≈ 1/2 and the noise
+  // falls; at the step the variance is ~(40σ)²/4 ≫ ε, a ≈ 1, the step stays.
+  const ImageF p = noisy_step(200, 200, 0.f, 40.f, 2);
+  const ImageF q = guided_filter_self(p, 2, 1.0);
+  auto stats = [](const ImageF& im, int x0, int x1) {
+    double s = 0, s2 = 0;
+    int n = 0;
+    for (int y = 0; y < im.height(); ++y)
+      for (int x = x0; x < x1; ++x) s += im.at(x, y), s2 += im.at(x, y) * im.at(x, y), ++n;
+    const double mean = s / n;
+    return std::pair{mean, std::sqrt(s2 / n - mean * mean)};
+  };
+  const auto [m_in, sd_in] = stats(p, 10, 90);
+  const auto [m_out, sd_out] = stats(q, 10, 90);
+  EXPECT_NEAR(sd_in, 1.0, 5 * 1.0 / std::sqrt(2.0 * 16000));  // 5 SE of a sample σ over 16000 px
+  // At most half the noise left: a ≤ 1/2 on average plus the box mean's 1/5 (a 5x5 window).
+  EXPECT_LT(sd_out, 0.6 * sd_in);
+  EXPECT_NEAR(m_out, m_in, 0.05);  // the mean kept (5 SE of the mean: 5/sqrt(16000) = 0.04)
+  // The step: the columns just beside the edge keep 90% of their side's level.
+  for (int y = 5; y < 195; ++y) {
+    EXPECT_LT(q.at(99, y), 4.0f) << y;
+    EXPECT_GT(q.at(100, y), 36.0f) << y;
+  }
+}
+
+// A flat field in DN above black with Poisson-Gaussian noise (K DN/e-, read noise in e-).
+ImageF flat_dn(int w, int h, double electrons, double k, double read_e, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::poisson_distribution<int> shot(electrons);
+  std::normal_distribution<double> read(0, read_e);
+  ImageF rgb(w, h, 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<float>((shot(rng) + read(rng)) * k);
+  return rgb;
+}
+
+TEST(CameraIsp, NoiseReductionFromTheNoiseModel) {
+  const double k = 0.25, read_e = 3;
+  const ImageF rgb = flat_dn(256, 128, 40, k, read_e, 3);
+  ImageF bright = rgb;
+  for (size_t i = 0; i < 3 * 200; ++i) bright[i] = 400.f;  // 200 px (0.6 %) of lamp at 40x the field
+  const std::array<double, 3> wb{1, 1, 1};
+  CameraIspOptions off;
+  off.denoise = off.chroma_denoise = 0;
+  off.jpeg_quality = 0;
+  const ImageU8 plain = preview_camera8(bright, wb, {k, read_e}, off);
+  // Without noise reduction, sharpening or JPEG the camera ISP is the simple one: the
+  // stabilisation and its inverse round-trip to float rounding, which moves a sample across an
+  // 8-bit decision level only when it lies within ~1e-6 of it.
+  const ImageU8 simple = preview_srgb8(bright, wb);
+  int differ = 0, max_diff = 0;
+  for (size_t i = 0; i < plain.size(); ++i) {
+    const int d = std::abs(int(plain[i]) - int(simple[i]));
+    differ += d != 0;
+    max_diff = std::max(max_diff, d);
+  }
+  EXPECT_LE(max_diff, 1);
+  EXPECT_LT(differ, static_cast<int>(plain.size() / 1000));
+  CameraIspOptions on = off;
+  on.denoise = 1;
+  on.chroma_denoise = 2;
+  const ImageU8 nr = preview_camera8(bright, wb, {k, read_e}, on);
+  auto sd = [](const ImageU8& im) {
+    double s = 0, s2 = 0;
+    int n = 0;
+    for (int y = 8; y < im.height(); ++y)  // below the bright rows
+      for (int x = 0; x < im.width(); ++x)
+        for (int c = 0; c < 3; ++c) s += im.at(x, y, c), s2 += double(im.at(x, y, c)) * im.at(x, y, c), ++n;
+    return std::sqrt(s2 / n - (s / n) * (s / n));
+  };
+  // ε = σ² in the stabilised domain leaves at most ~0.6 of the noise (GuidedFilterSmoothsNoise...).
+  EXPECT_LT(sd(nr), 0.6 * sd(plain)) << sd(nr) << " vs " << sd(plain);
+  EXPECT_GT(sd(plain), 2.0);  // the test has noise to remove: several codes
+}
+
+TEST(CameraIsp, DeterministicForAnyThreadCount) {
+  const ImageF rgb = flat_dn(301, 97, 30, 0.5, 2, 4);
+  CameraIspOptions o;
+  o.sharpen = 0.5;
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ImageU8 one = preview_camera8(rgb, {1.5, 1, 2}, {0.5, 2}, o);
+  omp_set_num_threads(3);
+  const ImageU8 three = preview_camera8(rgb, {1.5, 1, 2}, {0.5, 2}, o);
+  omp_set_num_threads(before);
+  ASSERT_EQ(one.size(), three.size());
+  EXPECT_TRUE(std::equal(one.data(), one.data() + one.size(), three.data()));
+}
+
+TEST(CameraIsp, BadOptionsAreRefused) {
+  const ImageF rgb = flat_dn(8, 8, 10, 1, 1, 5);
+  auto refused = [&](CameraIspOptions o, const char* what) {
+    try {
+      preview_camera8(rgb, {1, 1, 1}, {1, 1}, o);
+      ADD_FAILURE() << what << " accepted";
+    } catch (const ParameterError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  CameraIspOptions o;
+  o.denoise = -1;
+  refused(o, "preview_denoise");
+  o = {};
+  o.jpeg_quality = 101;
+  refused(o, "preview_jpeg_quality");
+  o = {};
+  o.sharpen = std::nan("");
+  refused(o, "preview_sharpen");
+}
+
+TEST(CameraIsp, NightPreviewChangesButTheExrDoesNot) {
+  test::TempDir tmp;
+  const auto s = test::run_cli("night --out '" + tmp.file("s.exr") + "' --preview '" + tmp.file("s.png") + "'");
+  ASSERT_EQ(s.exit_code, 0) << s.output;
+  const auto c = test::run_cli("night --out '" + tmp.file("c.exr") + "' --preview '" + tmp.file("c.png") +
+                               "' --preview-isp camera --preview-denoise 2 --preview-jpeg-quality 85");
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  const ExrContents a = read_exr(tmp.file("s.exr")), b = read_exr(tmp.file("c.exr"));
+  ASSERT_EQ(a.channels.size(), b.channels.size());
+  for (const auto& [name, im] : a.channels) {
+    const ImageF& other = b.channels.at(name);
+    ASSERT_EQ(im.size(), other.size()) << name;
+    EXPECT_EQ(0, std::memcmp(im.data(), other.data(), im.size() * sizeof(float))) << name;
+  }
+  const ImageF ps = read_image(tmp.file("s.png")), pc = read_image(tmp.file("c.png"));
+  ASSERT_EQ(ps.size(), pc.size());
+  EXPECT_NE(0, std::memcmp(ps.data(), pc.data(), ps.size() * sizeof(float)));
+  // The same options give the same bytes.
+  const auto again = test::run_cli("night --out '" + tmp.file("c2.exr") + "' --preview '" + tmp.file("c2.png") +
+                                   "' --preview-isp camera --preview-denoise 2 --preview-jpeg-quality 85");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  const ImageF pc2 = read_image(tmp.file("c2.png"));
+  EXPECT_EQ(0, std::memcmp(pc.data(), pc2.data(), pc.size() * sizeof(float)));
+}
+
+TEST(CameraIsp, NightRefusesBadPreviewOptions) {
+  test::TempDir tmp;
+  for (const auto& [args, what] : std::vector<std::pair<std::string, std::string>>{
+           {"--preview-isp jpeg", "--preview-isp: 'jpeg' is not simple or camera"},
+           {"--preview-isp camera --preview-denoise -0.5", "--preview-denoise"},
+           {"--preview-isp camera --preview-jpeg-quality 101", "--preview-jpeg-quality"}}) {
+    const auto r = test::run_cli("night --out '" + tmp.file("o.exr") + "' --preview '" + tmp.file("o.png") + "' " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(tmp.file("o.exr"))) << args;  // refused before any output
+  }
 }
 
 TEST(RealismBench, BadRealFolderIsRefused) {

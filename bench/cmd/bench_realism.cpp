@@ -100,6 +100,13 @@ struct Variant {
   bool lens_glare = true;          // false: the lens preset's [glare] off (sensor/glare.h)
 };
 
+// A camera-ISP preview (preview_camera8, isp.h) of the default variant's sensor frame: the chain
+// is not rerun; its ms per frame is the default chain's plus the ISP's own (timed apart).
+struct CameraVariant {
+  std::string method;
+  CameraIspOptions options;
+};
+
 // A camera ISP's highlight handling, as dcraw's default (-H 0, "clip"; D. Coffin, dcraw.c): white
 // balance gains normalised so the smallest is 1, applied to the DN; every channel clipped at the
 // sensor's full scale S; S shown as white (fixed exposure and gain: no rescaling to the scene).
@@ -163,6 +170,16 @@ void run(const Opts& o) {
       // A darker night: quarter moon and a dark sky (0.01 lx, night-photometry.md §3).
       {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01); }, 0.99},
   };
+  // The camera-ISP previews (`night --preview-isp camera`): its defaults, without the JPEG, with
+  // twice the noise-reduction strength, and with in-camera sharpening.
+  std::vector<CameraVariant> camera_variants = {{"photosite camera ISP", {}}};
+  camera_variants.push_back({"photosite camera ISP no JPEG", {}});
+  camera_variants.back().options.jpeg_quality = 0;
+  camera_variants.push_back({"photosite camera ISP NR x2", {}});
+  camera_variants.back().options.denoise *= 2;
+  camera_variants.back().options.chroma_denoise *= 2;
+  camera_variants.push_back({"photosite camera ISP sharpen 0.5", {}});
+  camera_variants.back().options.sharpen = 0.5;
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
   auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
     manifest += fmt::format("\"{}\",{},{},\"{}\",{:.3f},{},{}\n", method, f.dataset, f.name, file.string(), ms, w, h);
@@ -191,11 +208,12 @@ void run(const Opts& o) {
       LensPreset lens = lens_preset;
       if (!v.lens_glare) lens.glare.enabled = false;
       ImageF preview;
+      SensorOutput so;
       const double ms = best_ms(o.repeats, [&] {
         const ImageF lin = scene::linearize(raw, info);
         const scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
         const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
-        const SensorOutput so = sense(mean_e, cam, ex, es, fpn);
+        so = sense(mean_e, cam, ex, es, fpn);
         preview = v.full_scale_isp ? preview_full_scale(so.rgb, wb, full_scale_dn)
                                    : preview_srgb(so.rgb, wb, v.white_percentile);
       });
@@ -203,6 +221,24 @@ void run(const Opts& o) {
       write_png(file.string(), preview);
       add(v.method, f, file, ms, raw.width(), raw.height());
       std::printf("%-28s %-34s %10.1f\n", v.method.c_str(), f.name.c_str(), ms);
+      if (v.method != "photosite") continue;
+      const PreviewNoise noise{ex.system_gain_dn_per_e, cam.read_noise_e};
+      // The float preview inside `ms` (replaced by the camera ISP in its methods' ms), and the
+      // peer of the camera ISP: the simple ISP as `night --preview` runs it (8-bit codes).
+      const double simple_ms = best_ms(o.repeats, [&] { preview = preview_srgb(so.rgb, wb, v.white_percentile); });
+      ImageU8 simple8;
+      const double simple8_ms = best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile); });
+      std::printf("%-28s %-34s %10.1f  (float preview %.1f ms)\n", "(simple ISP, 8-bit, alone)", f.name.c_str(),
+                  simple8_ms, simple_ms);
+      for (const CameraVariant& cv : camera_variants) {
+        ImageU8 p8;
+        const double isp_ms = best_ms(o.repeats, [&] { p8 = preview_camera8(so.rgb, wb, noise, cv.options); });
+        const fs::path cfile = prev / fmt::format("{}__{}.png", f.name, cv.method);
+        write_png8(cfile.string(), p8);
+        add(cv.method, f, cfile, ms - simple_ms + isp_ms, raw.width(), raw.height());
+        std::printf("%-28s %-34s %10.1f  (ISP alone %.1f ms)\n", cv.method.c_str(), f.name.c_str(),
+                    ms - simple_ms + isp_ms, isp_ms);
+      }
     }
     // The thesis baseline on the 8-bit day image.
     ImageU8 day8(raw.width(), raw.height(), 3, uninitialized);

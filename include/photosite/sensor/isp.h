@@ -7,6 +7,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <string>
 
 #include "photosite/image.h"
 #include "photosite/sensor/pipeline.h"
@@ -28,5 +29,47 @@ ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb_gains,
 uint8_t srgb_encode8(float linear);  // that code for one sample (NaN and below 0: 0)
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
                       double percentile = 0.99, double white_point = 1.0);
+
+// The camera-ISP preview (`photosite night --preview-isp camera`, docs/realism.md): an
+// approximation of a generic in-camera ISP, what a dashcam or phone JPEG went through, for
+// previews that are compared with real night photos. Not any one camera's ISP; the EXR sensor
+// layers never pass through it. Steps, on the demosaiced DN above black:
+//  1. variance stabilisation: the generalized Anscombe transform of the sensor's Poisson-Gaussian
+//     noise (Murtagh, Starck & Bijaoui 1995; Makitalo & Foi 2013),
+//     t = 2·sqrt(max(x/K + σ_r² + 3/8, 0)), x in DN, K the system gain in DN/e-, σ_r the read
+//     noise in e- (ADC quantization, 1/12 DN², added to σ_r²): the noise of t is about 1 at every
+//     level (an approximation: demosaicing correlates and shrinks the noise of the interpolated
+//     channels);
+//  2. noise reduction: the guided filter (He, Sun & Tang, ECCV 2010, self-guided: an edge-preserving
+//     smoother) on an opponent transform of t, luma Y = (R+G+B)/3 and chroma C1 = (R-B)/2,
+//     C2 = (R-2G+B)/4, with ε = (strength·σ)², σ the noise of that channel in the stabilised domain
+//     (Y: √3/3, C1: √2/2, C2: √6/4 for unit independent channel noise); chroma over a larger window
+//     (cameras filter colour noise harder than luma);
+//  3. back to DN by the algebraic inverse of 1 (biased below a few electrons; a preview);
+//  4. white balance and exposure as preview_srgb (the `percentile` luminance maps to
+//     `white_point`), the sRGB transfer function, 8 bits;
+//  5. optional unsharp mask on the 8-bit image (in-camera sharpening) and a JPEG round trip
+//     (libjpeg via OpenCV, 4:2:0 chroma), as the real photos' cameras stored them.
+struct CameraIspOptions {
+  double denoise = 1.0;         // luma noise-reduction strength (ε = (denoise·σ_Y)²); 0: off
+  double chroma_denoise = 2.0;  // chroma strength; 0: off
+  int luma_radius_px = 2;       // guided-filter window (2r+1)² for luma
+  int chroma_radius_px = 4;     // and for chroma
+  double sharpen = 0.0;         // unsharp-mask amount (0: none), Gaussian σ 1 px
+  int jpeg_quality = 90;        // JPEG round trip at this quality (1-100); 0: none
+  double percentile = 0.99, white_point = 1.0;  // exposure, as preview_srgb
+};
+// The sensor's noise model for step 1: K (system gain, DN per e-) and the read noise (e-).
+struct PreviewNoise {
+  double gain_dn_per_e = 1.0;
+  double read_noise_e = 0.0;
+};
+// Throws photosite::Error naming the field when an option is out of range.
+void check_camera_isp_options(const CameraIspOptions& o);
+ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb_gains, const PreviewNoise& noise,
+                        const CameraIspOptions& options = {});
+// The guided filter of step 2 on one float plane (exposed for tests): mean over a (2r+1)² window
+// clipped at the borders, deterministic for any thread count.
+ImageF guided_filter_self(const ImageF& plane, int radius_px, double eps);
 
 }  // namespace photosite
