@@ -9,6 +9,7 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
 #include "photosite/sensor/spectrum.h"
@@ -574,10 +575,14 @@ std::vector<ImageF> light_kinds(const ImageF& full, const ImageF& tex, const Lab
 // vanishing point (whose jitter from crop to crop is printed). Per kind (light_kinds) it prints
 // each kind's energy, the share of it that matches on its own, and its part of the unmatched
 // energy of the whole light map (each unmatched pixel's energy shared out by the kinds' parts).
+// `sequence`: the crops as one sequence (SequenceState: the reflectance texture's class means and
+// the street luminaires carried from frame to frame, every crop at pose 0 — a crop moves the
+// principal point, not the camera); else each crop alone.
 std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const CameraRig& base, int k, int frames,
-                                   const char* name) {
+                                   const char* name, bool sequence) {
   const int CW = lin.width() - k * (frames - 1), CH = lin.height();
   ScenePreset p = urban();
+  SequenceState st;
   std::vector<ImageF> lights;
   std::vector<std::vector<ImageF>> kinds;
   for (int t = 0; t < frames; ++t) {
@@ -599,11 +604,13 @@ std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const
     const NightScene n = night_scene(day, lm, p, 5);
     const CameraGeometry g = camera_geometry(p.rig, CW, CH, VanishingPoint{});
     const ImageF depth = metric_depth(lm, g, p.max_depth_m);
-    const ImageF tex = reflectance_texture(day, lm.ids, p);
+    const ImageF tex = reflectance_texture(day, lm.ids, p, sequence ? &st.reflectance : nullptr);
+    const StreetLighting plan = plan_street_lighting(lm, g, p, 5);
+    const StreetLighting sl = sequence ? st.luminaires.update(plan, g, CW, CH, CameraPose{}, p, 5) : plan;
     const double vx = g.cx_px, vy = g.horizon_y;  // the ramp (sign retroreflection) from the same horizon
     LightMap m = light_map(day, tex, lm, ImageU8(CW, CH, 1, 0), coarse_depth(CW, CH, vx, vy),
-                           VanishingPoint{vx, vy, 0, VpMethod::ImageCentre, 0, ""}, p, 5, &g, &depth);
-    const StreetLighting sl = plan_street_lighting(lm, g, p, 5);
+                           VanishingPoint{vx, vy, 0, VpMethod::ImageCentre, 0, ""}, p, 5, &g, &depth, nullptr, nullptr,
+                           &sl);
     kinds.push_back(light_kinds(m.radiance, tex, lm, g, depth, sl, p, 5));
     lights.push_back(std::move(m.radiance));
     std::fprintf(stderr, "[panning %s] frame %d: chain's VP horizon %.2f (%s); rig horizon %.2f: %d street lamps (%s), "
@@ -640,8 +647,8 @@ std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const
           for (int q = 0; q < kKinds; ++q) kin_unmatched[q] += a * kinds[t][q].at(x + k, y) / parts;
       }
     shares.push_back(total > 0 ? matched / total : 0);
-    std::fprintf(stderr, "[panning %s] frames %d->%d: %.2f%% of the light energy matches\n", name, t, t + 1,
-                 100 * shares.back());
+    std::fprintf(stderr, "[panning %s%s] frames %d->%d: %.2f%% of the light energy matches\n", name,
+                 sequence ? ", as a sequence" : ", frame by frame", t, t + 1, 100 * shares.back());
     std::fprintf(stderr, "  %-22s %9s %10s %12s\n", "kind", "energy %", "self-match", "unmatched %");
     for (int q = 0; q < kKinds; ++q)
       if (kin[q] > 0)
@@ -655,11 +662,10 @@ std::vector<double> panning_shares(const ImageF& lin, const LabelMap& lab, const
 // Lights stay put when the camera moves (issue 14 §3): the lights layer of frame t+1 equals frame
 // t shifted by k for at least 95% of the light energy away from the borders. A pixel matches when
 // the two agree to 1% (float sums in another order differ by ~1e-6; a lamp disc edge moving by
-// half a pixel is a mismatch). k = 32: the bloom's mip chain (5 octaves, 2^5) stays aligned. On
-// the scene rendered from a known camera (road-edge luminaires, façade windows, vehicles), where
-// nothing enters or leaves the view that the lights depend on. (On a real frame a labelled pole
-// leaving the view takes its luminaire with it: the per-frame inference cannot know it is still
-// there; the Cityscapes measurement is printed by the next test.)
+// half a pixel is a mismatch). On the scene rendered from a known camera (road-edge luminaires,
+// façade windows, vehicles), where nothing enters or leaves the view that the lights depend on:
+// frame by frame and as a sequence. (On a real frame a labelled pole leaving the view takes its
+// luminaire with it frame by frame: the next test.)
 TEST(MetricLights, PanningCropsKeepLightsInTheWorld) {
   SyntheticCameraOptions o = camera_scene(1088, 512);
   o.camera = camera_geometry(load_camera_rig("cityscapes"), 1024, 512, VanishingPoint{});
@@ -670,11 +676,17 @@ TEST(MetricLights, PanningCropsKeepLightsInTheWorld) {
   rig.cx_px = o.camera.cx_px;
   rig.cy_px = o.camera.cy_px;
   rig.pitch_deg = o.camera.pitch_rad * 180 / M_PI;
-  for (double share : panning_shares(s.day_linear_srgb, s.labels, rig, 32, 3, "synthetic")) EXPECT_GE(share, 0.95);
+  for (bool sequence : {false, true})
+    for (double share : panning_shares(s.day_linear_srgb, s.labels, rig, 32, 3, "synthetic", sequence))
+      EXPECT_GE(share, 0.95);
 }
 
-// The same measurement on a real Cityscapes frame (aachen_000000_000019), reported: the pole
-// lamps make it depend on which poles are in view.
+// The same measurement on a real Cityscapes frame (aachen_000000_000019), the crops as a sequence
+// (SequenceState): a pole that leaves the view keeps its luminaire while its light reaches the
+// view, and the reflectance texture keeps the class means of the first crop (the mean over the
+// visible part of a class moves with the view). Frame by frame (each crop alone, reported, not
+// asserted) the luminaire of the pole that leaves and the per-frame class means cost the first
+// pair its 95%; docs/night.md has the table by kind.
 TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
   const auto dir = test::shared_dir() / "data/cityscapes";
@@ -683,11 +695,13 @@ TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
   const LabelMap lab = read_labels((dir / "gtFine/aachen_000000_000019_gtFine_labelIds.png").string(),
                                    (dir / "gtFine/aachen_000000_000019_gtFine_instanceIds.png").string(), 2048, 1024,
                                    LabelFormat::Auto, ResizeLabels::None);
-  const auto shares = panning_shares(linearize(day, info), lab, load_camera_rig("cityscapes"), 32, 3, "aachen_000000");
-  for (double share : shares) {
+  const ImageF lin = linearize(day, info);
+  const CameraRig rig = load_camera_rig("cityscapes");
+  for (double share : panning_shares(lin, lab, rig, 32, 3, "aachen_000000", false)) {
     EXPECT_GT(share, 0.0);
     EXPECT_LE(share, 1.0);
   }
+  for (double share : panning_shares(lin, lab, rig, 32, 3, "aachen_000000", true)) EXPECT_GE(share, 0.95);
 }
 
 // The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on
