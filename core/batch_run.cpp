@@ -32,6 +32,7 @@
 
 #include "photosite/batch.h"
 #include "photosite/error.h"
+#include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
 #include "photosite/sensor/isp.h"
 
@@ -157,6 +158,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
       {"poisson", to_string(r.settings.poisson)},
       {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
+  if (o.sequences) params["sequences"] = true;  // only when set: earlier manifests stay valid
   const std::string params_text = params.dump();
 
   // ---- the resume manifest ------------------------------------------------------------------
@@ -194,8 +196,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     return true;
   };
   std::vector<Item> todo;
+  std::set<std::string> redo;  // with sequences: groups with an unfinished frame, redone whole
   for (const auto& it : items)
-    if (!finished(it)) todo.push_back(it);
+    if (o.sequences && !finished(it)) redo.insert(it.group);
+  for (const auto& it : items)
+    if (redo.count(it.group) || !finished(it)) todo.push_back(it);
   // Every output we are about to write must be new, or one of ours from an unfinished item.
   std::set<std::string> ours;
   for (const auto& [k, rec] : done)
@@ -301,6 +306,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   // The compute stage, on this thread. One fixed-pattern map per frame size, loaded once.
   std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
   const auto wb = white_balance_gains(r.camera);
+  scene::SequenceState seq;  // o.sequences: the current group's (items arrive by group, then frame)
+  std::string seq_group;
   while (auto l = loaded.pop()) {
     Computed c;
     c.item = l->item;
@@ -319,8 +326,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         with_camera.rig = *l->rig;
         spi = &with_camera;
       }
+      if (o.sequences && it.group != seq_group) {
+        seq = scene::SequenceState();
+        seq_group = it.group;
+      }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, *spi, seed, false, runner));
+          scene::night_scene(l->day, l->labels, *spi, seed, false, runner, o.sequences ? &seq : nullptr));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);

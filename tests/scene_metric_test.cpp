@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <vector>
 
 #include "photosite/error.h"
@@ -12,6 +13,7 @@
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
+#include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "test_util.h"
 
@@ -702,6 +704,142 @@ TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
     EXPECT_LE(share, 1.0);
   }
   for (double share : panning_shares(lin, lab, rig, 32, 3, "aachen_000000", true)) EXPECT_GE(share, 0.95);
+}
+
+// LuminaireSet (scene/luminaires.cpp): a pole luminaire seen once stays where it is in the world
+// as the camera moves (its frame coordinates follow the pose exactly), the road-edge layout stays
+// on its world positions, a re-detection from nearer moves it and one from farther does not, and
+// a luminaire whose light no longer reaches the view is forgotten. Two sets fed the same frames
+// give the same lamps.
+TEST(Luminaires, PolesStayInTheWorldAsTheCameraMoves) {
+  const ScenePreset p = urban();
+  VanishingPoint none;
+  const CameraGeometry g = camera_geometry(load_camera_rig("cityscapes"), 1024, 512, none);
+  const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m, phase = street_layout_phase_m(p, 7);
+  auto plan = [&](std::vector<StreetLamp> poles) {
+    StreetLighting s;
+    s.road_left_m = -5;
+    s.road_right_m = 5;
+    s.peak_intensity_cd = 1000;
+    s.lamps = std::move(poles);
+    return s;
+  };
+  auto pole_in = [](const StreetLighting& s) {
+    std::vector<StreetLamp> v;
+    for (const auto& l : s.lamps)
+      if (l.from_pole) v.push_back(l);
+    return v;
+  };
+  LuminaireSet set, twin;
+  auto step = [&](const StreetLighting& pl, const CameraPose& pose) {
+    const StreetLighting a = set.update(pl, g, 1024, 512, pose, p, 7), b = twin.update(pl, g, 1024, 512, pose, p, 7);
+    EXPECT_EQ(a.lamps.size(), b.lamps.size());
+    for (size_t i = 0; i < std::min(a.lamps.size(), b.lamps.size()); ++i) {
+      EXPECT_EQ(a.lamps[i].X_m, b.lamps[i].X_m);
+      EXPECT_EQ(a.lamps[i].D_m, b.lamps[i].D_m);
+    }
+    return a;
+  };
+  // Frame 0: a pole 6 m left, 20 m ahead (seen from 20.9 m).
+  StreetLighting s = step(plan({{-6, 8, 20, true}}), CameraPose{});
+  ASSERT_EQ(pole_in(s).size(), 1u);
+  EXPECT_EQ(pole_in(s)[0].D_m, 20);
+  // The layout's right row at D = phase + k·S (pose 0: the frame is the world).
+  for (const auto& l : s.lamps)
+    if (!l.from_pole && l.X_m > 0) EXPECT_NEAR(std::remainder(l.D_m - phase, S), 0, 1e-9) << l.D_m;
+  // Frame 1: 5 m further along, no pole detected (hidden): the luminaire stays, 15 m ahead.
+  s = step(plan({}), CameraPose{0, 5, 0});
+  ASSERT_EQ(pole_in(s).size(), 1u);
+  EXPECT_NEAR(pole_in(s)[0].D_m, 15, 1e-12);
+  EXPECT_NEAR(pole_in(s)[0].X_m, -6, 1e-12);
+  for (const auto& l : s.lamps)  // the layout did not move in the world
+    if (!l.from_pole && l.X_m > 0) EXPECT_NEAR(std::remainder(l.D_m + 5 - phase, S), 0, 1e-9) << l.D_m;
+  // Frame 2: re-detected 0.4 m off from farther away (camera back at 0): kept where it was.
+  s = step(plan({{-6.4, 8, 20, true}}), CameraPose{0, 0, 0});
+  ASSERT_EQ(pole_in(s).size(), 1u);
+  EXPECT_NEAR(pole_in(s)[0].X_m, -6, 1e-12);
+  // Frame 3: re-detected 0.4 m off from nearer (camera 10 m on): moved there.
+  s = step(plan({{-6.4, 8, 10, true}}), CameraPose{0, 10, 0});
+  ASSERT_EQ(set.poles().size(), 1u);
+  EXPECT_NEAR(set.poles()[0].X_m, -6.4, 1e-12);
+  EXPECT_NEAR(set.poles()[0].D_m, 20, 1e-12);
+  // Turned by 10° to the right: the same world point in the frame's rotated road coordinates.
+  const double yaw = 10 * M_PI / 180;
+  s = step(plan({}), CameraPose{0, 10, yaw});
+  ASSERT_EQ(pole_in(s).size(), 1u);
+  EXPECT_NEAR(pole_in(s)[0].X_m, -6.4 * std::cos(yaw) - 10 * std::sin(yaw), 1e-12);
+  EXPECT_NEAR(pole_in(s)[0].D_m, -6.4 * std::sin(yaw) + 10 * std::cos(yaw), 1e-12);
+  // Driven past: 20 m + the pole's reach behind the camera, its light cannot reach the view.
+  const double reach = street_lamp_reach_m(8, p);
+  s = step(plan({}), CameraPose{0, 20 + reach + 1, 0});
+  EXPECT_TRUE(pole_in(s).empty());
+  EXPECT_TRUE(set.poles().empty());
+}
+
+// `batch --sequence` over a KITTI-layout sequence of two frames of one view (the camera at
+// rest), the second with a lamp pole's labels taken out (as if hidden): frame by frame the
+// pole's lamp head goes out in frame 1; as a sequence it stays lit, at the value of frame 0.
+// (--rig cityscapes: the scene was rendered with that rig.)
+TEST(Luminaires, BatchSequenceKeepsAPolesLampWhenItsLabelGoes) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();  // nothing in front of the pole's foot
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const int W = o.width, H = o.height;
+  // A 0.3 m pole 7 m tall on the right sidewalk, 50 m ahead (its top in view).
+  double u0, v0, z0, u1, v1, z1;
+  ASSERT_TRUE(o.camera.project(8.0, 0, 50, &u0, &v0, &z0));
+  ASSERT_TRUE(o.camera.project(8.0, 7, 50, &u1, &v1, &z1));
+  ASSERT_GT(v1, 10);
+  const double half = 0.5 * o.camera.f_px * 0.3 / z0;
+  LabelMap with_pole = sc.labels;
+  for (int y = static_cast<int>(std::ceil(v1)); y <= static_cast<int>(std::floor(v0)); ++y)
+    for (int x = static_cast<int>(std::ceil(u0 - half)); x <= static_cast<int>(std::floor(u0 + half)); ++x)
+      with_pole.ids.at(x, y) = static_cast<uint16_t>(Label::Pole);
+  test::TempDir dir;
+  const auto root = dir.path() / "kitti";
+  std::filesystem::create_directories(root / "image_2" / "seq");
+  std::filesystem::create_directories(root / "semantic" / "seq");
+  ImageF srgb = sc.day_linear_srgb;
+  for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
+  for (int f = 0; f < 2; ++f) {
+    const std::string name = f == 0 ? "seq/0000000000.png" : "seq/0000000001.png";
+    write_png((root / "image_2" / name).string(), srgb);
+    const LabelMap& lm = f == 0 ? with_pole : sc.labels;
+    ImageF ids(W, H, 1);
+    for (size_t k = 0; k < ids.size(); ++k) ids[k] = lm.ids[k] / 255.0f;
+    write_png((root / "semantic" / name).string(), ids);
+  }
+  auto lights = [&](bool sequence, const std::string& out) {
+    const auto r = test::run_cli("batch --dataset kitti --root '" + root.string() + "' --out '" + dir.file(out) +
+                                 "' --rig cityscapes --layers lights --quiet --seed 3 --device-store '" + dir.file("store") + "'" +
+                                 (sequence ? " --sequence" : ""));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::vector<ImageF> v;
+    for (const char* f : {"/image_2/seq/0000000000.exr", "/image_2/seq/0000000001.exr"})
+      v.push_back(read_exr(dir.file(out) + f).channels.at("lights.G"));
+    return v;
+  };
+  const auto alone = lights(false, "alone"), seq = lights(true, "seq");
+  // The lamp head: frame 0's brightest light within 1 m (at the pole's distance) of its top.
+  const int r = static_cast<int>(std::ceil(o.camera.f_px / z1));
+  int hx = -1, hy = -1;
+  float best = 0;
+  for (int y = std::max(0, static_cast<int>(v1) - r); y <= std::min(H - 1, static_cast<int>(v1) + r); ++y)
+    for (int x = std::max(0, static_cast<int>(u1) - r); x <= std::min(W - 1, static_cast<int>(u1) + r); ++x)
+      if (alone[0].at(x, y) > best) {
+        best = alone[0].at(x, y);
+        hx = x;
+        hy = y;
+      }
+  ASSERT_GE(hx, 0);
+  // A lamp head (streetlamp_luminance_cd_m2, 10^4 cd/m² and more) against anything lit around it.
+  const ScenePreset p = urban();
+  EXPECT_GE(best, 0.01 * p.streetlamp_luminance_cd_m2 / 683) << "no lamp head at the pole's top";
+  EXPECT_EQ(seq[0].at(hx, hy), alone[0].at(hx, hy));
+  EXPECT_EQ(seq[1].at(hx, hy), seq[0].at(hx, hy)) << "as a sequence the lamp stays";
+  EXPECT_LT(alone[1].at(hx, hy), 0.01f * best) << "frame by frame it goes out";
+  std::fprintf(stderr, "[batch sequence] lamp head at (%d, %d): frame 0 %.4g, frame 1 alone %.4g, as a sequence %.4g\n",
+               hx, hy, best, alone[1].at(hx, hy), seq[1].at(hx, hy));
 }
 
 // The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on
