@@ -125,6 +125,9 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
   sub->add_option("--rig", c->rig, "camera rig (presets/rigs name, .toml path or Cityscapes camera .json; auto: each Cityscapes image's own camera file where the data set has it, else the data set's rig, else by aspect ratio)")
       ->capture_default_str();
+  sub->add_flag("--sequence", o.sequences,
+                "carry each sequence's street luminaires, reflectance normalisation and pitch from frame to frame "
+                "(camera at rest or crops of one view; ego-motion is not read)");
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false);
   add_backend_option(sub, c->backend);

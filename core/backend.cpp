@@ -153,12 +153,12 @@ scene::PixelTail SensorRunner::night_tail(const ImageF& texture, ImageF& lights,
 
 namespace scene {
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
-                       bool keep_darkened, SensorRunner& backend) {
+                       bool keep_darkened, SensorRunner& backend, SequenceState* sequence) {
   NightTail tail;  // empty on the CPU: night_scene's own path (the same operations, its own timings)
   if (backend.backend() == Backend::Vulkan)
     tail = [&backend](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& beam_lux,
                       const ScenePreset& q, bool keep) { return backend.night_tail(t, lights, ids, beam_lux, q, keep); };
-  return night_scene_with(day, labels, p, seed, keep_darkened, tail);
+  return night_scene_with(day, labels, p, seed, keep_darkened, tail, sequence);
 }
 }  // namespace scene
 

@@ -34,6 +34,7 @@
 #include "photosite/backend.h"
 #include "photosite/batch.h"
 #include "photosite/error.h"
+#include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
 #include "photosite/sensor/isp.h"
 
@@ -159,6 +160,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"seed", r.settings.seed}, {"device_id", r.device_id}, {"demosaic", to_string(r.settings.demosaic)},
       {"poisson", to_string(r.settings.poisson)},
       {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
+  if (o.sequences) params["sequences"] = true;  // only when set: earlier manifests stay valid
   const std::string params_text = params.dump();
 
   // ---- the resume manifest ------------------------------------------------------------------
@@ -196,8 +198,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     return true;
   };
   std::vector<Item> todo;
+  std::set<std::string> redo;  // with sequences: groups with an unfinished frame, redone whole
   for (const auto& it : items)
-    if (!finished(it)) todo.push_back(it);
+    if (o.sequences && !finished(it)) redo.insert(it.group);
+  for (const auto& it : items)
+    if (redo.count(it.group) || !finished(it)) todo.push_back(it);
   // Every output we are about to write must be new, or one of ours from an unfinished item.
   std::set<std::string> ours;
   for (const auto& [k, rec] : done)
@@ -254,7 +259,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   // run their OpenMP loops (linearize, the preview) on one thread too, so that every thread of
   // the run is one of the cores' jobs and none waits at a barrier for a preempted partner.
   const int team = omp_get_max_threads();
-  const int workers = runner.backend() == Backend::Cpu && o.compute_threads == 0 && team >= 2 ? 2 : 1;
+  // A sequence's frames share state from frame to frame (o.sequences), so one worker computes
+  // them in order.
+  const int workers =
+      !o.sequences && runner.backend() == Backend::Cpu && o.compute_threads == 0 && team >= 2 ? 2 : 1;
   std::thread reader([&] {
     if (workers > 1) omp_set_num_threads(1);
     for (const auto& it : todo) {
@@ -311,6 +319,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
   std::mutex fpn_m;
   const auto wb = white_balance_gains(r.camera);
+  // o.sequences: the current group's state (items arrive by group, then frame, and one worker
+  // computes them in that order: see `workers`).
+  scene::SequenceState seq;
+  std::string seq_group;
   auto compute = [&](Loaded* l, SensorRunner& rn) {
     Computed c;
     c.item = l->item;
@@ -328,8 +340,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         with_camera.rig = *l->rig;
         spi = &with_camera;
       }
+      if (o.sequences && it.group != seq_group) {
+        seq = scene::SequenceState();
+        seq_group = it.group;
+      }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, *spi, seed, false, rn));
+          scene::night_scene(l->day, l->labels, *spi, seed, false, rn, o.sequences ? &seq : nullptr));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);

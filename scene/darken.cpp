@@ -199,7 +199,7 @@ void box_rgb_block(const float* s, int n, const std::array<std::array<double, 3>
 }
 }  // namespace
 
-ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
+ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const auto& M = spectrum::linear_srgb_to_box();
   // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
@@ -242,7 +242,9 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
   float scale[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id) {
-    const double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
+    double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
+    if (carried && carried->mean[id] > 0) mean = carried->mean[id];
+    else if (carried && mean > 1e-9 && cnt[id] >= kClassMeanMinShare * static_cast<double>(n)) carried->mean[id] = mean;
     scale[id] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black

@@ -295,7 +295,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
-                   const ImageF* beam_lux, const BuildingFacades* facades) {
+                   const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -311,10 +311,12 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   auto lab_at = [&](int i) { return to_lab(day.data() + 3 * static_cast<size_t>(i)); };
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
-  // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). In the same
-  // pass, traffic signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn
-  // over the pixel's own retroreflection (each pixel is written by itself only, so the pass's
-  // order does not matter).
+  // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). E_⊥ on signs:
+  // the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx), the same for every sign with the
+  // metric geometry (an approximation); the image-space map scales it by the coarse ramp, which
+  // runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
+  // signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn over the pixel's
+  // own retroreflection (each pixel is written by itself only, so the pass's order does not matter).
   // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
   // the frame, so contiguous halves would leave one thread most of the work.)
   int signals = 0;
@@ -328,7 +330,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       double lum = 0;
       if (lanes[i]) lum = beam_lux ? p.marking_RL * (*beam_lux)[i] : 0.0;
       else if (id == static_cast<int>(Label::TrafficSign))
-        lum = p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(depth[i]));
+        lum = p.sign_RA * p.beam_sign_lux * (geometry ? 1.0 : std::max(0.05, static_cast<double>(depth[i])));
       if (lum > 0) {
         const double rho = class_reflectance(id, p);
         for (int k = 0; k < 3; ++k) {
@@ -429,7 +431,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // share (veh_parked_lit_fraction) with parking lights, keyed by the instance code or by the
   // ground position on a 2 m grid, so a vehicle keeps its draw from frame to frame.
   StreetLighting sl;
-  if (geometry) sl = plan_street_lighting(lm, *geometry, p, seed);
+  if (geometry) sl = street ? *street : plan_street_lighting(lm, *geometry, p, seed);
   const bool extent = sl.road_right_m > sl.road_left_m;
   const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
   struct VehState { int state = 0; double X = 0, D = 0, z = 0, width_m = 0; };  // 0 dark, 1 traffic, 2 parked lit

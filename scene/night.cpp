@@ -1,20 +1,22 @@
 // The whole day-to-night chain with per-stage timings (thesis Table 6 counterpart).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <vector>
 
+#include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "scene/night_detail.h"
 
 namespace photosite::scene {
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
-                       bool keep_darkened) {
-  return night_scene_with(day, labels, p, seed, keep_darkened, {});
+                       bool keep_darkened, SequenceState* sequence) {
+  return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence);
 }
 
 NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
-                            uint64_t seed, bool keep_darkened, const NightTail& tail) {
+                            uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -24,7 +26,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     t = now;
   };
   const int W = day.width(), H = day.height();
-  const ImageF texture = reflectance_texture(day, labels.ids, p);
+  const ImageF texture = reflectance_texture(day, labels.ids, p, seq ? &seq->reflectance : nullptr);
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
@@ -42,6 +44,14 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.vp = vp;
   lap("vanishing");
   s.geometry = camera_geometry(p.rig.name.empty() ? rig_for_image(W, H) : p.rig, W, H, vp);
+  if (seq) {  // the sequence keeps its first frame's pitch (SequenceState::pitch_rad)
+    if (std::isnan(seq->pitch_rad)) seq->pitch_rad = s.geometry.pitch_rad;
+    else if (seq->pitch_rad != s.geometry.pitch_rad) {
+      s.geometry.pitch_rad = seq->pitch_rad;
+      s.geometry.horizon_y = s.geometry.cy_px - s.geometry.f_px * std::tan(seq->pitch_rad);
+      s.geometry.horizon_source = "sequence";
+    }
+  }
   // The façade planes, fitted once: depth, windows and the street light on façades read them.
   const BuildingFacades facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
   s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
@@ -62,8 +72,12 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
   s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
   lap("depth");
+  StreetLighting tracked;
+  if (seq) tracked = seq->luminaires.update(plan_street_lighting(labels, s.geometry, p, seed), s.geometry, W, H, seq->pose,
+                                            p, seed);
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades);
+                          &facades, seq ? &tracked : nullptr);
+  if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   lap("lights");
   if (tail) {

@@ -13,6 +13,7 @@ using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights,
                                           const ImageF& beam_lux, const ScenePreset& p, bool keep_darkened)>;
 // An empty tail: the CPU path (darken before the geometry, compose at the end).
 NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                            uint64_t seed, bool keep_darkened, const NightTail& tail);
+                            uint64_t seed, bool keep_darkened, const NightTail& tail,
+                            SequenceState* sequence = nullptr);
 
 }  // namespace photosite::scene

@@ -131,6 +131,11 @@ const bool kHaveAvx = __builtin_cpu_supports("avx");
 bool is_pole(int id) { return id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup); }
 }  // namespace
 
+double street_lamp_reach_m(double H, const ScenePreset& p) { return reach_m(H, p); }
+double street_layout_phase_m(const ScenePreset& p, uint64_t seed) {
+  return p.lamp_spacing_ratio * p.lamp_mount_height_m * uniform_open(random_words(seed, 0, 0x57ee7u, Stream::Scene)[0]);
+}
+
 double street_illuminance_lux(double X, double D, const StreetLighting& s, const ScenePreset& p) {
   double e = 0;
   const RelTable& t = rel_table(p);
@@ -244,8 +249,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   std::vector<StreetLamp> poles;
   poles.swap(s.lamps);
   {
-    const auto w = random_words(seed, 0, 0x57ee7u, Stream::Scene);
-    const double phase = S * uniform_open(w[0]);
+    const double phase = street_layout_phase_m(p, seed);
     const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
     for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
       const double D = phase + k * S;

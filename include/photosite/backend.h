@@ -79,8 +79,9 @@ namespace scene {
 // (SensorRunner::night_tail): on Vulkan the radiance stays on the device under
 // NightScene::resident_radiance for the same runner's sensor stages; on the CPU it is
 // scene::night_scene itself.
+// `sequence`: as for scene::night_scene.
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened, SensorRunner& backend);
+                       uint64_t seed, bool keep_darkened, SensorRunner& backend, SequenceState* sequence = nullptr);
 }  // namespace scene
 
 }  // namespace photosite

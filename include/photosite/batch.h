@@ -83,6 +83,13 @@ struct Options {
   // Items with a camera file (Cityscapes) use it as their rig in place of scene.rig: their own
   // height, pitch and intrinsics. The command line turns this off when --rig is given.
   bool item_cameras = true;
+  // Each group's frames (a sequence: Cityscapes _sequence naming, numbered KITTI files) as one
+  // sequence: a scene::SequenceState (scene/luminaires.h: street luminaires in the world, the
+  // reflectance normalisation and pitch of its first frame) carried from frame to frame, every
+  // frame at pose 0 — a camera at rest, or crops of one view with their own principal points
+  // (per-item camera files); ego-motion is not read. A group with an unfinished frame is
+  // recomputed whole on a re-run, as its state starts at its first frame.
+  bool sequences = false;
   int jobs = 1;               // writer threads
   int queue_depth = 2;        // items in flight between read, compute and write (bounds memory)
   int compute_threads = 0;    // OpenMP team of the compute stage; 0: OpenMP's default

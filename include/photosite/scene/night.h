@@ -19,6 +19,9 @@
 
 namespace photosite::scene {
 
+struct SequenceState;   // scene/luminaires.h
+struct StreetLighting;  // scene/street.h
+
 // ---- linearize --------------------------------------------------------------------------
 // Day image → linear sRGB (3 channels). Integer files are sRGB-decoded (IEC 61966-2-1); float
 // files (EXR) are taken as linear. Grey images are replicated, alpha dropped.
@@ -40,7 +43,16 @@ double class_reflectance(int label_id, const ScenePreset& p);
 // A Lambertian surface under illuminance E (lx) with relative spectral tint t then has
 //   L_k = f_k · t_k · E / π    (W·sr⁻¹·m⁻²),  with luminance ρ·E/π for the class mean.
 // Takes linear sRGB and converts to the box basis on the fly.
-ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
+// `carried` (a sequence's state, scene/luminaires.h SequenceState): the class means to normalise
+// by, so that a surface keeps its reflectance from frame to frame of a sequence (the mean over the
+// visible part of a class changes as the view moves). A class with a carried mean > 0 takes it; a
+// class without one takes this frame's mean, which is recorded when the class covers at least
+// kClassMeanMinShare of the frame (below that, a sliver at a border, it is not fixed yet).
+// Null: this frame's means (a single frame).
+inline constexpr double kClassMeanMinShare = 1e-3;
+struct ClassMeans { std::array<double, kLabelCount> mean{}; };
+ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
+                           ClassMeans* carried = nullptr);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
 // The per-pixel darkening, shared by darken() and compose(): the ambient night illuminance (moon
@@ -218,13 +230,16 @@ struct LightMap {
 };
 // `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
 // pools; with them lamps, pools and windows are placed and sized in metres. `depth` is the
-// coarse ramp (coarse_depth), the sign-illuminance proxy. `beam_lux` (low_beam_illuminance)
+// coarse ramp (coarse_depth), the sign-illuminance proxy of the image-space map only (with
+// `geometry` signs get the preset's beam_sign_lux: the ramp runs to the image border and moved
+// with the view). `street` (a sequence's luminaires, scene/luminaires.h): the street lighting to
+// use; null: plan_street_lighting of this frame. `beam_lux` (low_beam_illuminance)
 // lights the lane markings (R_L·E); null: markings stay dark.
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
                    const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr,
-                   const BuildingFacades* facades = nullptr);
+                   const BuildingFacades* facades = nullptr, const StreetLighting* street = nullptr);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
@@ -261,8 +276,12 @@ struct PixelTail {
 // The chain on the CPU. To run its per-pixel tail where a backend runs (on Vulkan the radiance
 // then stays on the device for the sensor): night_scene(..., SensorRunner&) in
 // include/photosite/backend.h.
+// `sequence` (scene/luminaires.h): the state carried from the previous frames of a sequence, its
+// `pose` set for this frame; updated here. With it the frame keeps the sequence's reflectance
+// normalisation, camera pitch and street luminaires (issue 14 §3); null: a single frame, inferred
+// from what it shows alone.
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened = false);
+                       uint64_t seed, bool keep_darkened = false, SequenceState* sequence = nullptr);
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {

@@ -21,6 +21,12 @@ struct StreetLighting {
 // The cut-off distribution relative to its peak: 1 up to cutoff_deg from the nadir, then
 // exp(-(γ - cutoff)/falloff).
 double lamp_relative_intensity(double gamma_rad, const ScenePreset& p);
+// The horizontal distance from a lamp's foot beyond which its light is dropped (the pools' and the
+// vertical street light's footprint): H·tan(min(85°, cutoff + 2·falloff)).
+double street_lamp_reach_m(double mount_height_m, const ScenePreset& p);
+// The road-edge layout's phase along the road, S·u with u uniform from the run seed (the first
+// right-hand luminaire of plan_street_lighting's layout stands at D = phase).
+double street_layout_phase_m(const ScenePreset& p, uint64_t seed);
 // Horizontal illuminance (lx) at ground point (X, D) from all lamps at peak intensity I0.
 double street_illuminance_lux(double X_m, double D_m, const StreetLighting& s, const ScenePreset& p);
 // Places the luminaires and scales them to the preset's road luminance (no lamps when it is 0).

@@ -1,0 +1,80 @@
+// Street luminaires carried from frame to frame of a sequence, in world coordinates
+// (scene/luminaires.cpp), and the rest of a sequence's scene state (issue 14 §3: lights stay put
+// when the camera moves).
+//
+// A single frame infers its street lighting from what it shows (plan_street_lighting): the
+// luminaire on a labelled pole, the road-edge layout anchored to the camera. Over a sequence that
+// makes a lamp vanish when its pole leaves the view, though its light still falls on what is in
+// view. A LuminaireSet keeps, in world coordinates (the road coordinates of the sequence's first
+// frame), the road-edge layout fixed where it was first anchored and every pole luminaire seen,
+// while its light can still reach the view.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "photosite/scene/night.h"
+#include "photosite/scene/street.h"
+
+namespace photosite::scene {
+
+// A camera pose in the sequence's world frame: the camera's foot at (X_m, D_m) in the road
+// coordinates of the sequence's first frame, its heading turned by yaw_rad from that frame's
+// (positive toward +X). Crops of one frame (a pan of the image plane) and a camera at rest: all
+// zero — a crop's shifted principal point is in its rig (CameraGeometry::cx_px), and the road
+// coordinates of every crop are the same.
+struct CameraPose { double X_m = 0, D_m = 0, yaw_rad = 0; };
+
+class LuminaireSet {
+ public:
+  // A pole luminaire in world coordinates; seen_m: the horizontal distance from the camera of the
+  // observation its position comes from (the nearest so far: a pole's ground contact is located
+  // better from nearer).
+  struct Lamp { double X_m, Y_m, D_m, seen_m; };
+
+  // The street lighting of one frame of the sequence, from this frame's own plan `frame_plan`
+  // (plan_street_lighting with the frame's geometry `g`, width x height pixels, run seed `seed`)
+  // and the frame's pose:
+  //  * the road-edge layout is anchored in the world at the first frame whose plan has a road
+  //    extent (its edges and the seed's phase) and kept there: a later frame's road edges (their
+  //    medians move with what is in view) do not move it;
+  //  * each pole luminaire of `frame_plan` is matched to a remembered one within
+  //    max(1 m, 2 px of ground-contact row at its distance: 2·D²/(f·h)) and replaces it when seen
+  //    from nearer, else it is added;
+  //  * remembered luminaires stay while their light can reach the view: the distance from their
+  //    foot to the horizontal view wedge (X/D between the image borders' (u − c_x)/f, an
+  //    approximation that neglects the pitch's few-percent effect on X/D) is at most their reach
+  //    (street_lamp_reach_m); others are forgotten;
+  //  * each pole replaces the layout's luminaire nearest to it on its side within half a spacing
+  //    (plan_street_lighting's rule), in world coordinates.
+  // The result is in the frame's road coordinates, sorted by (D, X); the peak intensity is the
+  // plan's (a property of the installation), the EN 13201 field (L_avg, U0) is recomputed on
+  // these lamps. Deterministic: the same frames in the same order give the same lamps.
+  // Before any frame had a road extent: `frame_plan` unchanged.
+  StreetLighting update(const StreetLighting& frame_plan, const CameraGeometry& g, int width, int height,
+                        const CameraPose& pose, const ScenePreset& p, uint64_t seed);
+
+  const std::vector<Lamp>& poles() const { return poles_; }
+  bool anchored() const { return anchored_; }
+
+ private:
+  bool anchored_ = false;
+  double left_m_ = 0, right_m_ = 0, phase_m_ = 0;  // world road edges (X) and layout phase (D)
+  std::vector<Lamp> poles_;
+};
+
+// Everything a sequence carries from frame to frame (night_scene's `sequence`). The caller sets
+// `pose` before each frame; the rest is filled in as frames are computed.
+struct SequenceState {
+  CameraPose pose;          // of the frame about to be computed
+  LuminaireSet luminaires;  // street lamps in the world
+  ClassMeans reflectance;   // reflectance_texture's class means, fixed when a class is first seen
+  // The camera pitch of the first frame (its horizon: the vanishing point's when accepted, else
+  // the rig's), kept for the sequence: a camera on a vehicle keeps its mounting pitch, while the
+  // per-frame vanishing point jitters with what is in view (crops of one Cityscapes frame 32 px
+  // apart: horizon 426 → 444 → 432 px). NaN until the first frame.
+  double pitch_rad = NAN;
+  int frames = 0;           // frames computed so far
+};
+
+}  // namespace photosite::scene
