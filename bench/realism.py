@@ -211,7 +211,7 @@ def charts(per_image, summary, spread, methods, out_dir, machine):
         ax.axvspan(lo, hi, color="0.85", label="real spread")
         for i, m in enumerate(allm):
             v = [r[k] for r in per_image if r["method"] == m and np.isfinite(r[k])]
-            ax.plot(v, [i] * len(v), "o", ms=4, alpha=0.7, color="k" if m == "real night" else f"C{i}")
+            ax.plot(v, [i] * len(v), "o", ms=4, alpha=0.7, color="k" if m == "real night" else plt.get_cmap("tab20")(i % 20))
         ax.set_yticks(range(len(allm)))
         ax.set_yticklabels(allm if k in (STATS[0], STATS[3], STATS[6]) else [""] * len(allm), fontsize=7)
         if k in ("blobs_per_mpx", "blob_median_px", "blob_p90_px", "highlight_fraction"):
@@ -228,19 +228,28 @@ def charts(per_image, summary, spread, methods, out_dir, machine):
     print(p)
     plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    # Realism against speed: the luma-histogram EMD and the classifier's balanced accuracy (the
+    # test that counts) against ms per frame; one colour and marker per method (tab20, so the
+    # 12+ methods stay apart).
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     real = next(r for r in summary if r["method"] == "real night")
-    ax.axhline(real["luma_emd"], color="0.5", ls="--", label="real photos, leave-one-out median")
-    for i, r in enumerate(summary):
-        if r["method"] == "real night":
-            continue
+    axes[0].axhline(real["luma_emd"], color="0.5", ls="--", label="real photos, leave-one-out median")
+    axes[1].axhline(rs.TARGET_BA, color="0.5", ls="--", label=f"target {rs.TARGET_BA}")
+    axes[1].axhline(0.5, color="0.8", ls=":", label="chance")
+    cmap = plt.get_cmap("tab20")
+    for i, r in enumerate(r for r in summary if r["method"] != "real night"):
         ms = max(r["ms_per_frame"], 0.1)  # the day photo: 0 ms, drawn at 0.1
-        ax.plot(ms, r["luma_emd"], "o", color=f"C{i}", label=r["method"])
-    ax.set_xscale("log")
-    ax.set_xlabel("ms per frame (median; no file I/O)" + (f"\n{machine}" if machine else ""), fontsize=8)
-    ax.set_ylabel("luma-histogram EMD to the real photos (median)")
-    ax.legend(fontsize=7)
-    ax.set_title("realism against speed (photosite bench realism)", fontsize=10)
+        style = dict(color=cmap(i % 20), marker="osD^v<>"[i % 7], ls="none", label=r["method"])
+        axes[0].plot(ms, r["luma_emd"], **style)
+        if "balanced_accuracy" in r:
+            axes[1].errorbar(ms, r["balanced_accuracy"], yerr=r["balanced_accuracy_se"], capsize=3, **style)
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_xlabel("ms per frame (median; no file I/O)" + (f"\n{machine}" if machine else ""), fontsize=8)
+    axes[0].set_ylabel("luma-histogram EMD to the real photos (median)")
+    axes[1].set_ylabel("classifier balanced accuracy ± SE (0.5: indistinguishable)")
+    axes[1].legend(fontsize=7, loc="lower left")
+    fig.suptitle("realism against speed (photosite bench realism)", fontsize=10)
     fig.tight_layout()
     p = os.path.join(out_dir, "realism_speed.png")
     fig.savefig(p + ".tmp.png", dpi=90)

@@ -148,6 +148,7 @@ struct SensorResult {
   py::array_t<float> electrons;   // e-
   py::dict metadata;
   std::array<double, 3> wb_gains{1, 1, 1};
+  PreviewNoise noise;  // the camera-ISP preview's noise model: system gain and read noise
 };
 
 SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam) {
@@ -158,16 +159,36 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
   r.electrons = to_array(std::move(out.electrons));
   r.metadata = attributes_dict(attrs);
   r.wb_gains = white_balance_gains(cam);
+  if (auto it = attrs.find("photosite/system_gain_dn_per_e"); it != attrs.end())
+    if (const double* k = std::get_if<double>(&it->second)) r.noise.gain_dn_per_e = *k;
+  r.noise.read_noise_e = cam.read_noise_e;
   return r;
 }
 
-// The simple ISP's sRGB preview (photosite/sensor/isp.h) as uint8, rounded as a PNG preview is.
-py::array_t<uint8_t> preview_u8(const SensorResult& s) {
+// The sRGB preview (photosite/sensor/isp.h) as uint8, rounded as a PNG preview is: the simple
+// ISP, or with isp="camera" the camera-ISP preview (`night --preview-isp camera`).
+py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp = "simple", double denoise = 1.0,
+                                int jpeg_quality = 90) {
+  if (isp != "simple" && isp != "camera") throw Error("isp: '" + isp + "' is not simple or camera");
   const auto rgb = s.rgb;
   ImageF in(static_cast<int>(rgb.shape(1)), static_cast<int>(rgb.shape(0)), 3, uninitialized);
   std::memcpy(in.data(), rgb.data(), in.size() * sizeof(float));
   ImageU8 out(in.width(), in.height(), 3, uninitialized);
-  {
+  if (isp == "camera") {
+    CameraIspOptions o;
+    o.denoise = denoise;
+    o.chroma_denoise = 2 * denoise;  // isp.h's default ratio, as the command line
+    o.jpeg_quality = jpeg_quality;
+    try {
+      check_camera_isp_options(o);
+    } catch (const ParameterError& e) {  // the keyword's name: denoise, jpeg_quality
+      std::string kw = e.parameter();
+      if (kw.rfind("preview_", 0) == 0) kw = kw.substr(8);
+      throw Error(e.message_for(kw));
+    }
+    py::gil_scoped_release nogil;
+    out = preview_camera8(in, s.wb_gains, s.noise, o);
+  } else {
     py::gil_scoped_release nogil;
     const ImageF srgb = preview_srgb(in, s.wb_gains);
     OIIO::convert_pixel_values(OIIO::TypeDesc::FLOAT, srgb.data(), OIIO::TypeDesc::UINT8, out.data(),
@@ -486,7 +507,10 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("rgb", &SensorResult::rgb, "float32 H x W x 3: demosaiced DN above black")
       .def_readonly("electrons", &SensorResult::electrons, "float32 H x W: collected e- per pixel")
       .def_readonly("metadata", &SensorResult::metadata, "dict: the EXR header attributes (without 'photosite/')")
-      .def("preview", &preview_u8, "uint8 H x W x 3 sRGB preview through the simple ISP");
+      .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = 90,
+           "uint8 H x W x 3 sRGB preview: isp='simple' (white balance, p99 exposure, sRGB) or 'camera' (+ noise "
+           "reduction of strength `denoise` from the sensor's noise model and a JPEG round trip at `jpeg_quality`, 0: "
+           "none; docs/realism.md)");
 
   py::class_<NightResult>(m, "NightResult")
       .def_readonly("radiance", &NightResult::radiance, "float32 H x W x 3: night scene radiance, W.sr-1.m-2")
@@ -496,8 +520,10 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("vanishing_point", &NightResult::vanishing_point, "(x px, y px, confidence 0..1, method)")
       .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")
       .def_readonly("chain_ms", &NightResult::chain_ms, "ms spent in the library chain (labels .. sensor)")
-      .def("preview", [](const NightResult& r) { return preview_u8(r.sensor); },
-           "uint8 H x W x 3 sRGB preview of the sensor frame");
+      .def("preview", [](const NightResult& r, const std::string& isp, double denoise, int jpeg_quality) {
+             return preview_u8(r.sensor, isp, denoise, jpeg_quality);
+           }, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = 90,
+           "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality: as SensorResult.preview)");
 
   py::class_<Camera>(m, "Camera")
       .def(py::init<const std::string&, std::optional<std::string>, std::optional<std::string>,

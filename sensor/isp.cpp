@@ -220,6 +220,7 @@ void check_camera_isp_options(const CameraIspOptions& o) {
     bad("preview_sharpen", fmt::format("{} is not an unsharp-mask amount in [0, 4]", o.sharpen));
   if (o.jpeg_quality < 0 || o.jpeg_quality > 100)
     bad("preview_jpeg_quality", fmt::format("{} is not 0 (no JPEG) or a quality 1-100", o.jpeg_quality));
+  if (!(o.full_scale_dn >= 0)) bad("preview_full_scale", fmt::format("{} DN is not a full scale (0: percentile exposure)", o.full_scale_dn));
   if (!(o.percentile > 0 && o.percentile <= 1) || !(o.white_point > 0))
     bad("preview_percentile", fmt::format("percentile {} / white point {} out of range", o.percentile, o.white_point));
 }
@@ -270,7 +271,18 @@ ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, cons
     }
   }
   // 4. white balance, exposure, sRGB, 8 bits (preview_srgb8's path).
-  ImageU8 out = preview_srgb8(lin, wb, o.percentile, o.white_point);
+  ImageU8 out(w, h, 3, uninitialized, "sRGB code");
+  if (o.full_scale_dn > 0) {
+    const double g_min = std::min({wb[0], wb[1], wb[2]});
+    const float g[3] = {static_cast<float>(wb[0] / g_min / o.full_scale_dn), static_cast<float>(wb[1] / g_min / o.full_scale_dn),
+                        static_cast<float>(wb[2] / g_min / o.full_scale_dn)};
+    const Srgb8Levels& encode = srgb8_levels();  // 1 and above: 255 (the clip)
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < n; ++i)
+      for (int ch = 0; ch < 3; ++ch) out[3 * i + ch] = encode(lin[3 * i + ch] * g[ch]);
+  } else {
+    out = preview_srgb8(lin, wb, o.percentile, o.white_point);
+  }
   // 5. sharpening and JPEG.
   if (o.sharpen > 0 || o.jpeg_quality > 0) {
     cv::Mat m(h, w, CV_8UC3, out.data());

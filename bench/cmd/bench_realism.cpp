@@ -180,6 +180,7 @@ void run(const Opts& o) {
   camera_variants.back().options.chroma_denoise *= 2;
   camera_variants.push_back({"photosite camera ISP sharpen 0.5", {}});
   camera_variants.back().options.sharpen = 0.5;
+  camera_variants.push_back({"photosite camera ISP full scale", {}});  // full_scale_dn set per camera below
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
   auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
     manifest += fmt::format("\"{}\",{},{},\"{}\",{:.3f},{},{}\n", method, f.dataset, f.name, file.string(), ms, w, h);
@@ -230,7 +231,8 @@ void run(const Opts& o) {
       const double simple8_ms = best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile); });
       std::printf("%-28s %-34s %10.1f  (float preview %.1f ms)\n", "(simple ISP, 8-bit, alone)", f.name.c_str(),
                   simple8_ms, simple_ms);
-      for (const CameraVariant& cv : camera_variants) {
+      for (CameraVariant cv : camera_variants) {
+        if (cv.method == "photosite camera ISP full scale") cv.options.full_scale_dn = full_scale_dn;
         ImageU8 p8;
         const double isp_ms = best_ms(o.repeats, [&] { p8 = preview_camera8(so.rgb, wb, noise, cv.options); });
         const fs::path cfile = prev / fmt::format("{}__{}.png", f.name, cv.method);

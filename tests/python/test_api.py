@@ -290,3 +290,24 @@ def test_bad_input_message_is_the_clis(py_call, cli_args, cli):
     r = cli(*cli_args, check=False)
     assert r.returncode == 2
     assert str(e.value) in r.stderr, (str(e.value), r.stderr)
+
+
+def test_camera_preview_matches_cli(kitti, cli, store, tmp_path):
+    """preview(isp="camera") is `night --preview-isp camera`'s PNG, byte for byte; it differs from
+    the simple preview, and bad values raise ValueError naming the keyword."""
+    from PIL import Image
+    day, labels = kitti
+    cli("night", "--image", KITTI_IMAGE, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--seed", 5,
+        "--exposure-s", 0.03, "--backend", "cpu", "--out", tmp_path / "n.exr", "--preview", tmp_path / "n.png",
+        "--preview-isp", "camera", "--preview-denoise", 2, "--preview-jpeg-quality", 80)
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    r = ps.night(day, labels, camera=cam, exposure_s=0.03, seed=5, backend="cpu")
+    pv = r.preview(isp="camera", denoise=2, jpeg_quality=80)
+    np.testing.assert_array_equal(pv, np.asarray(Image.open(tmp_path / "n.png").convert("RGB")))
+    assert not np.array_equal(pv, r.preview())
+    with pytest.raises(ValueError, match="denoise"):
+        r.preview(isp="camera", denoise=-1)
+    with pytest.raises(ValueError, match="jpeg_quality"):
+        r.sensor.preview(isp="camera", jpeg_quality=101)
+    with pytest.raises(ValueError, match="isp"):
+        r.preview(isp="jpeg")

@@ -130,3 +130,23 @@ def test_leave_one_source_out_keeps_a_real_difference_and_holds_out_whole_source
     # every image of one class out of training.
     t = rs.two_sample_test(dark, bright, sources_a=["x", "x", "y", "y"], sources_b=["x", "x", "y", "y"])
     assert t["balanced_accuracy"] == 1.0
+
+
+def test_blobs_are_attributed_to_the_class_under_most_of_their_pixels(tmp_path):
+    """bench/realism_analyse.py: a blob on building pixels counts as 'building/wall', one mostly on
+    a car as 'vehicle'; the painted mask has the group colours there."""
+    from PIL import Image
+    import realism_analyse as ra
+    w, h = realism.BLOB_WIDTH, 64  # already at the blob width: no resize
+    img = np.zeros((h, w, 3), np.uint8)
+    lab = np.full((h, w), 7, np.uint8)  # road
+    img[10:20, 100:110] = 255           # 100 px blob on a building
+    lab[5:25, 95:115] = 11
+    img[30:40, 300:310] = 255           # 100 px blob, 60 px on a car (26), 40 on road
+    lab[30:40, 300:306] = 26
+    Image.fromarray(img).save(tmp_path / "p.png")
+    Image.fromarray(lab).save(tmp_path / "l.png")
+    out = ra.blob_classes(tmp_path / "p.png", tmp_path / "l.png", tmp_path / "m.png")
+    assert sorted(out) == sorted([(g, 100) for g in ra.GROUPS if g.startswith(("building", "vehicle"))])
+    m = np.asarray(Image.open(tmp_path / "m.png"))
+    assert tuple(m[15, 105]) == ra.COLOURS[next(g for g in ra.GROUPS if g.startswith("building"))]

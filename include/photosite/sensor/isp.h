@@ -58,6 +58,9 @@ struct CameraIspOptions {
   double sharpen = 0.0;         // unsharp-mask amount (0: none), Gaussian σ 1 px
   int jpeg_quality = 90;        // JPEG round trip at this quality (1-100); 0: none
   double percentile = 0.99, white_point = 1.0;  // exposure, as preview_srgb
+  // > 0: fixed exposure instead: white balance gains divided by the smallest, every channel
+  // clipped at this full scale (DN above black), shown as white (the bench's "ISP full scale").
+  double full_scale_dn = 0;
 };
 // The sensor's noise model for step 1: K (system gain, DN per e-) and the read noise (e-).
 struct PreviewNoise {
