@@ -11,13 +11,22 @@
 // CFA colour: the mirrored border is a valid mosaic of the mirrored scene.
 #pragma once
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "photosite/error.h"
 #include "photosite/image.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/demosaic.h"
+
+namespace photosite::shader {
+#include "common/prelude.glsl"
+#include "common/border.glsl"
+#include "common/prelude_end.glsl"
+}  // namespace photosite::shader
 
 namespace photosite::detail {
 
@@ -53,14 +62,9 @@ inline bool bayer_path_ok(const ImageF& m, CfaPattern p) {
   return has_bayer_geometry(p) && m.width() >= 2 && m.height() >= 2;
 }
 
-// Reflect-101 index into [0, n), n >= 2 (period 2(n-1), even: parity is kept).
-inline int reflect(int i, int n) {
-  if (i >= 0 && i < n) return i;
-  const int period = 2 * (n - 1);
-  i %= period;
-  if (i < 0) i += period;
-  return i < n ? i : period - i;
-}
+// Reflect-101 index into [0, n), n >= 2 (period 2(n-1), even: parity is kept), written once in
+// kernels/common/border.glsl for this file and the demosaic .comp files.
+inline int reflect(int i, int n) { return shader::reflect101(i, n); }
 
 // RCCB: planes (R, C, B) at a pixel become R, G = C - R - B, B (cfa.h: a clear filter passes
 // R+G+B).

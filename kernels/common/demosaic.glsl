@@ -17,14 +17,10 @@ layout(local_size_x = 256) in;
 #include "params_demosaic.glsl"
 layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
 
-// demosaic_detail.h reflect(): reflect-101 into [0, n), n >= 2 (keeps parity, hence the colour).
-int reflect101(int i, int n) {
-  if (i >= 0 && i < n) return i;
-  const int period = 2 * (n - 1);
-  i %= period;
-  if (i < 0) i += period;
-  return i < n ? i : period - i;
-}
+// reflect101: common/border.glsl, shared with the C++ kernels (sensor/demosaic_detail.h).
+#include "prelude.glsl"
+#include "border.glsl"
+#include "prelude_end.glsl"
 
 int W, H;
 // The black-subtracted mosaic sample at (x, y), mirrored at the borders.
