@@ -51,12 +51,14 @@ ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
 //  5. optional unsharp mask on the 8-bit image (in-camera sharpening) and a JPEG round trip
 //     (libjpeg via OpenCV, 4:2:0 chroma), as the real photos' cameras stored them.
 struct CameraIspOptions {
-  double denoise = 1.0;         // luma noise-reduction strength (ε = (denoise·σ_Y)²); 0: off
+  double denoise = 1.0;         // luma noise-reduction strength (ε = (denoise·σ_Y)²: 1 smooths what is
+                                // within the noise and keeps what stands above it); 0: off
   double chroma_denoise = 2.0;  // chroma strength; 0: off
   int luma_radius_px = 2;       // guided-filter window (2r+1)² for luma
   int chroma_radius_px = 4;     // and for chroma
   double sharpen = 0.0;         // unsharp-mask amount (0: none), Gaussian σ 1 px
-  int jpeg_quality = 90;        // JPEG round trip at this quality (1-100); 0: none
+  int jpeg_quality = 90;        // JPEG round trip at this quality (1-100); 0: none. 90: photosite choice
+                                // (the real photos' qualities are unknown; BDD100K, nuScenes were JPEGs)
   double percentile = 0.99, white_point = 1.0;  // exposure, as preview_srgb
   // > 0: fixed exposure instead: white balance gains divided by the smallest, every channel
   // clipped at this full scale (DN above black), shown as white (the bench's "ISP full scale").
