@@ -18,6 +18,7 @@ struct ExposeCmd {
   std::string layers;  // empty: every layer expose writes
   std::string compression = kDefaultExrCompression;
   SensorOptions sensor;
+  PreviewFlags preview_flags;
   std::string backend = "auto";
 };
 
@@ -46,6 +47,7 @@ ImageF load_radiance(const std::string& path) {
 void run(const ExposeCmd& c) {
   const LayerSet layers = c.layers.empty() ? kExposeLayers : parse_layers(c.layers, kExposeLayers, "--layers", "expose");
   check_exr_compression(c.compression, "--compression");
+  const PreviewOptions preview_options = c.preview_flags.resolve();
   auto r = c.sensor.resolve();
   SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
@@ -75,7 +77,7 @@ void run(const ExposeCmd& c) {
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) {
-      write_png8(previews[f], preview_srgb8(out.rgb, white_balance_gains(r.camera)));
+      write_png8(previews[f], preview_image(out, r, ex, preview_options));
       std::printf("%s\n", previews[f].c_str());
     }
   }
@@ -89,7 +91,8 @@ static Registrar reg("b-expose", [](CLI::App& app) {
   sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
   cmd->sensor.add(sub);
   add_backend_option(sub, cmd->backend);
-  sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (simple ISP, docs/sensor.md)");
+  sub->add_option("--preview", cmd->preview, "also write an sRGB PNG preview (docs/sensor.md; never changes the EXR)");
+  cmd->preview_flags.add(sub);
   sub->add_flag("--half", cmd->half, "store channels as half floats");
   sub->add_option("--layers", cmd->layers, "comma list of layers to write: sensor,raw,electrons,radiance (default: all)");
   sub->add_option("--compression", cmd->compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();

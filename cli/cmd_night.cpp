@@ -36,8 +36,7 @@ struct NightCmd {
   std::string backend = "auto";
   std::string layers;  // empty: every layer
   std::string compression = kDefaultExrCompression;
-  std::string preview_isp = "simple";  // simple (preview_srgb8) or camera (preview_camera8)
-  CameraIspOptions camera_isp;
+  PreviewFlags preview_flags;
 };
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
@@ -49,10 +48,7 @@ std::string night_sample_dir() {
 void run_night(NightCmd c) {
   const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
   check_exr_compression(c.compression, "--compression");
-  if (c.preview_isp != "simple" && c.preview_isp != "camera")
-    fail("--preview-isp: '" + c.preview_isp + "' is not simple or camera");
-  c.camera_isp.chroma_denoise = 2 * c.camera_isp.denoise;  // isp.h's default ratio
-  check_camera_isp_options(c.camera_isp);
+  const PreviewOptions preview_options = c.preview_flags.resolve();
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -115,10 +111,7 @@ void run_night(NightCmd c) {
     write_exr(outputs[f], groups, attrs, wo);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) {
-      const auto wb = white_balance_gains(r.camera);
-      write_png8(previews[f], c.preview_isp == "camera"
-                                  ? preview_camera8(out.rgb, wb, {chain.exposure.system_gain_dn_per_e, r.camera.read_noise_e}, c.camera_isp)
-                                  : preview_srgb8(out.rgb, wb));
+      write_png8(previews[f], preview_image(out, r, chain.exposure, preview_options));
       std::printf("%s\n", previews[f].c_str());
     }
     lap("write outputs");
@@ -165,9 +158,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--resize-labels", c.resize_labels, "none or nearest (labels of another size)")
       ->capture_default_str();
   sub->add_option("--preview", c.preview, "also write an sRGB PNG preview (never changes the EXR)");
-  sub->add_option("--preview-isp", c.preview_isp, "preview ISP: simple (white balance, p99 exposure, sRGB) or camera (+ noise reduction from the sensor's noise model, JPEG; docs/realism.md)")->capture_default_str();
-  sub->add_option("--preview-denoise", c.camera_isp.denoise, "camera ISP: luma noise-reduction strength, 0-10 (0: off; chroma gets twice it)")->capture_default_str();
-  sub->add_option("--preview-jpeg-quality", c.camera_isp.jpeg_quality, "camera ISP: JPEG round trip quality 1-100 (0: none)")->capture_default_str();
+  c.preview_flags.add(sub);
   sub->add_flag("--timings", c.timings, "print the per-stage time table");
   sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
   sub->add_flag("--half", c.half, "store channels as half floats");

@@ -54,4 +54,19 @@ std::vector<std::string> frame_outputs(const std::string& pattern, int frames, b
   return out;
 }
 
+void PreviewFlags::add(CLI::App* sub) {
+  sub->add_option("--preview-isp", isp, "preview ISP: simple (white balance, p99 exposure, sRGB) or camera (+ noise reduction from the sensor's noise model, JPEG; docs/realism.md)")->capture_default_str();
+  sub->add_option("--preview-denoise", camera.denoise, "camera ISP: luma noise-reduction strength, 0-10 (0: off; chroma gets twice it)")->capture_default_str();
+  sub->add_option("--preview-jpeg-quality", camera.jpeg_quality, "camera ISP: JPEG round trip quality 1-100 (0: none)")->capture_default_str();
+}
+
+PreviewOptions PreviewFlags::resolve() const {
+  PreviewOptions o;
+  o.isp = parse_preview_isp(isp);
+  o.camera = camera;
+  o.camera.chroma_denoise = 2 * camera.denoise;  // isp.h's default ratio
+  check_camera_isp_options(o.camera);
+  return o;
+}
+
 }  // namespace photosite::cli

@@ -38,6 +38,15 @@ struct SensorOptions {
   Resolved resolve() const;
 };
 
+// The preview flags of the commands that write a PNG preview (expose, night): --preview-isp,
+// --preview-denoise, --preview-jpeg-quality, resolved into the library's PreviewOptions.
+struct PreviewFlags {
+  std::string isp = "simple";
+  CameraIspOptions camera;
+  void add(CLI::App* sub);
+  PreviewOptions resolve() const;  // throws ParameterError naming the parameter
+};
+
 // Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);
 

@@ -150,4 +150,17 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   return attrs;
 }
 
+PreviewIsp parse_preview_isp(const std::string& name) {
+  if (name == "simple") return PreviewIsp::Simple;
+  if (name == "camera") return PreviewIsp::Camera;
+  fail_parameter("preview_isp", "", ": '" + name + "' is not simple or camera");
+}
+
+ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
+                      const PreviewOptions& options) {
+  const auto wb = white_balance_gains(setup.camera);
+  if (options.isp == PreviewIsp::Simple) return preview_srgb8(out.rgb, wb);
+  return preview_camera8(out.rgb, wb, {exposure.system_gain_dn_per_e, setup.camera.read_noise_e}, options.camera);
+}
+
 }  // namespace photosite

@@ -15,6 +15,7 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/outputs.h"
 #include "photosite/scene/labels.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/thesis_baseline.h"
@@ -369,4 +370,51 @@ TEST(RealismBench, OneFramePerDataSetGivesEveryMethodAndTheRealSet) {
 }
 
 }  // namespace
+}  // namespace photosite
+
+namespace photosite {
+// The library's preview choice (outputs.h preview_image), which expose and night write: the
+// simple ISP is preview_srgb8, the camera ISP preview_camera8 with the exposure's system gain and
+// the preset's read noise as its noise model; an unknown name is a ParameterError.
+TEST(CameraIsp, PreviewImageDispatchesToTheChosenIsp) {
+  SensorSetup setup;
+  setup.camera = load_camera_preset("onsemi-ar0331");
+  setup.lens = load_lens_preset(setup.camera.default_lens);
+  setup.settings.exposure_s = 0.02;
+  const ResolvedExposure ex = resolve(setup.camera, setup.lens, setup.settings);
+  SensorOutput out;
+  out.rgb = ImageF(64, 48, 3, 0.f);
+  for (size_t i = 0; i < out.rgb.size(); ++i) out.rgb[i] = static_cast<float>((i * 7919) % 4000) / 4.0f;
+  const auto wb = white_balance_gains(setup.camera);
+  const ImageU8 s = preview_image(out, setup, ex);
+  const ImageU8 s_ref = preview_srgb8(out.rgb, wb);
+  ASSERT_EQ(s.size(), s_ref.size());
+  EXPECT_EQ(0, std::memcmp(s.data(), s_ref.data(), s.size()));
+  PreviewOptions o;
+  o.isp = PreviewIsp::Camera;
+  o.camera.jpeg_quality = 0;
+  const ImageU8 c = preview_image(out, setup, ex, o);
+  const ImageU8 c_ref = preview_camera8(out.rgb, wb, {ex.system_gain_dn_per_e, setup.camera.read_noise_e}, o.camera);
+  ASSERT_EQ(c.size(), c_ref.size());
+  EXPECT_EQ(0, std::memcmp(c.data(), c_ref.data(), c.size()));
+  EXPECT_NE(0, std::memcmp(c.data(), s.data(), c.size()));
+  EXPECT_EQ(parse_preview_isp("camera"), PreviewIsp::Camera);
+  try {
+    parse_preview_isp("jpeg");
+    ADD_FAILURE() << "no error";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.parameter(), "preview_isp");
+    EXPECT_EQ(e.message_for("--preview-isp"), "--preview-isp: 'jpeg' is not simple or camera");
+  }
+}
+
+// expose takes the same preview flags as night, checked before anything is read or written.
+TEST(CameraIsp, ExposeRefusesBadPreviewOptions) {
+  test::TempDir tmp;
+  const auto r = test::run_cli("expose --preset onsemi-ar0331 --radiance '" + tmp.file("none.exr") + "' --out '" +
+                               tmp.file("o.exr") + "' --preview '" + tmp.file("o.png") + "' --preview-isp jpeg");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--preview-isp: 'jpeg' is not simple or camera"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("o.exr")));
+}
 }  // namespace photosite

@@ -10,6 +10,7 @@
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/fpn.h"
+#include "photosite/sensor/isp.h"
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 
@@ -77,5 +78,21 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& setup,
                                                      const scene::NightScene& ns,
                                                      const scene::LabelMap& labels,
                                                      const NightInputs& in);
+
+// The 8-bit sRGB preview that `expose` and `night` write beside the EXR (never part of it):
+// the simple ISP (preview_srgb8: white balance, the 99th percentile of luminance as white, sRGB)
+// or the camera ISP (preview_camera8: noise reduction from the sensor's own noise model,
+// sharpening and a JPEG round trip, an approximation of a generic in-camera ISP; docs/realism.md).
+enum class PreviewIsp { Simple, Camera };
+struct PreviewOptions {
+  PreviewIsp isp = PreviewIsp::Simple;
+  CameraIspOptions camera;  // read with PreviewIsp::Camera
+};
+// "simple" or "camera"; anything else throws a ParameterError for the parameter "preview_isp".
+PreviewIsp parse_preview_isp(const std::string& name);
+// The preview of one exposure: the camera preset's white balance, and for the camera ISP the
+// exposure's system gain and the preset's read noise (the noise model its denoise is scaled to).
+ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
+                      const PreviewOptions& options = {});
 
 }  // namespace photosite
