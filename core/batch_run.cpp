@@ -15,7 +15,6 @@
 #include <cmath>
 #include <condition_variable>
 #include <deque>
-#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -31,7 +30,6 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "photosite/backend.h"
 #include "photosite/batch.h"
 #include "photosite/error.h"
 #include "photosite/scene/luminaires.h"
@@ -255,16 +253,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   // writer then runs single-threaded while compute idles. compute_threads caps the compute
   // stage's team (e.g. beside other jobs on a shared node).
   const OmpThreads omp_team(o.compute_threads);
-  // Compute workers (below, where the compute stage is): with two, the reader and the writers
-  // run their OpenMP loops (linearize, the preview) on one thread too, so that every thread of
-  // the run is one of the cores' jobs and none waits at a barrier for a preempted partner.
-  const int team = omp_get_max_threads();
-  // A sequence's frames share state from frame to frame (o.sequences), so one worker computes
-  // them in order.
-  const int workers =
-      !o.sequences && runner.backend() == Backend::Cpu && o.compute_threads == 0 && team >= 2 ? 2 : 1;
   std::thread reader([&] {
-    if (workers > 1) omp_set_num_threads(1);
     for (const auto& it : todo) {
       if (stopped()) {
         result.interrupted = true;  // read by the calling thread only after join()
@@ -289,7 +278,6 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   std::vector<std::thread> writers;
   for (int j = 0; j < o.jobs; ++j)
     writers.emplace_back([&] {
-      if (workers > 1) omp_set_num_threads(1);
       while (auto cmp = computed.pop()) {
         std::string error = cmp->error;
         nlohmann::json files = nlohmann::json::array();
@@ -315,20 +303,18 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       }
     });
 
-  // The compute stage. One fixed-pattern map per frame size, loaded once.
+  // The compute stage, on this thread. One fixed-pattern map per frame size, loaded once.
   std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
-  std::mutex fpn_m;
   const auto wb = white_balance_gains(r.camera);
-  // o.sequences: the current group's state (items arrive by group, then frame, and one worker
-  // computes them in that order: see `workers`).
-  scene::SequenceState seq;
+  scene::SequenceState seq;  // o.sequences: the current group's (items arrive by group, then frame)
   std::string seq_group;
-  auto compute = [&](Loaded* l, SensorRunner& rn) {
+  while (auto l = loaded.pop()) {
     Computed c;
     c.item = l->item;
     if (!l->error.empty()) {
       c.error = l->error;
-      return c;
+      computed.push(std::move(c));
+      continue;
     }
     try {
       const Item& it = l->item;
@@ -345,22 +331,17 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         seq_group = it.group;
       }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, *spi, seed, false, rn, o.sequences ? &seq : nullptr));
+          scene::night_scene(l->day, l->labels, *spi, seed, false, runner, o.sequences ? &seq : nullptr));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
       const ResolvedExposure ex = resolve(rr->camera, rr->lens, rr->settings);
       const int w = ns->radiance.width(), h = ns->radiance.height();
       const auto key = std::make_pair(w, h);
-      const FixedPatternMaps* fpn_p;
-      {
-        std::lock_guard fl(fpn_m);  // map nodes stay put: the reference outlives the lock
-        if (!fpn_cache.count(key)) fpn_cache[key] = store.load_or_create(r.camera, r.device_id, w, h);
-        fpn_p = &fpn_cache[key];
-      }
-      const FixedPatternMaps& fpn = *fpn_p;
+      if (!fpn_cache.count(key)) fpn_cache[key] = store.load_or_create(r.camera, r.device_id, w, h);
+      const FixedPatternMaps& fpn = fpn_cache[key];
       auto so = std::make_shared<SensorOutput>(
-          rn.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
+          runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
       auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
       const NightInputs in{it.image, it.labels, it.instances};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
@@ -394,46 +375,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     } catch (const Error& e) {
       c.error = l->item.image + ": " + e.what();
     }
-    return c;
-  };
-  // On the CPU backend with OpenMP's default team, two images are computed at once, each by
-  // half the team (on 2 cores: one thread each), rather than one image by the whole team: the
-  // scene and sensor stages are many parallel loops, and with the reader and writer sharing
-  // the cores a team waits at every loop's end for its thread that the OS gave to them. Each
-  // worker has its own CPU runner (it holds no state); the results do not depend on the worker
-  // or the team (thread-count independence), so the files are the same bytes.
-  std::exception_ptr failure;  // a worker's exception other than a photosite Error
-  std::mutex failure_m;
-  auto work = [&](SensorRunner& rn) {
-    while (auto l = loaded.pop()) {
-      {
-        std::lock_guard fl(failure_m);
-        if (failure) continue;  // drain, so that the reader is never left blocked
-      }
-      try {
-        computed.push(compute(&*l, rn));
-      } catch (...) {
-        std::lock_guard fl(failure_m);
-        if (!failure) failure = std::current_exception();
-      }
-    }
-  };
-  if (workers == 1) {
-    work(runner);
-  } else {
-    std::vector<std::thread> pool;
-    for (int k = 0; k < workers; ++k)
-      pool.emplace_back([&, k] {
-        omp_set_num_threads(std::max(1, team / workers + (k < team % workers ? 1 : 0)));
-        SensorRunner cpu(Backend::Cpu);
-        work(cpu);
-      });
-    for (auto& t : pool) t.join();
+    computed.push(std::move(c));
   }
   reader.join();
   computed.close();
   for (auto& t : writers) t.join();
-  if (failure) std::rethrow_exception(failure);
   std::lock_guard l(state_m);
   pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include "photosite/error.h"
@@ -131,12 +132,18 @@ struct PhotonStage {
                                       g[3 * x + 2], x - cx, dy2, pitch_over_f);
     }
   }
-  // Whether every pixel of the row is physical (shader::radiance_is_physical), as one reduction.
+  // Whether every pixel of the row is physical, as one reduction that vectorizes:
+  // shader::radiance_is_physical's test (no channel negative or NaN, R+G+B finite) with
+  // "finite" written |R+G+B| <= FLT_MAX, which is false for Inf and NaN alike.
   __attribute__((target_clones("avx2", "default")))
   static bool physical_row(const float* __restrict r, int w) {
-    bool all = true;
-    for (int x = 0; x < w; ++x) all &= shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2]);
-    return all;
+    int bad = 0;
+    for (int x = 0; x < w; ++x) {
+      const float R = r[3 * x], G = r[3 * x + 1], B = r[3 * x + 2];
+      const float sum = R + G + B;
+      bad |= !(R >= 0.0f) | !(G >= 0.0f) | !(B >= 0.0f) | !(std::fabs(sum) <= std::numeric_limits<float>::max());
+    }
+    return bad == 0;
   }
 };
 // The first damaged pixel in reading order over the rows' reports (bad_x[y] = -1: none).
