@@ -39,19 +39,52 @@ double srgb_decode(double v) {
   return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
 }
 
+// The k-th smallest of v (0-based), the value std::nth_element would put at k, by a radix
+// select: floats map to unsigned keys in the same order (sign bit flipped for positives, all bits
+// for negatives; -0 sorts just below +0, which compare equal), a histogram of the keys' top 16
+// bits (per-thread counts summed in a fixed order: exact, any thread count) finds the bucket that
+// holds rank k, and nth_element runs over that bucket's values only. v holds no NaN.
+float kth_smallest(const std::vector<float>& v, size_t k) {
+  auto key = [](float f) {
+    const uint32_t u = std::bit_cast<uint32_t>(f);
+    return u & 0x80000000u ? ~u : u | 0x80000000u;
+  };
+  constexpr int kBuckets = 1 << 16;
+  const int64_t n = static_cast<int64_t>(v.size());
+  std::vector<uint64_t> hist(kBuckets, 0);
+#pragma omp parallel
+  {
+    std::vector<uint32_t> h(kBuckets, 0);
+#pragma omp for schedule(static) nowait
+    for (int64_t i = 0; i < n; ++i) ++h[key(v[i]) >> 16];
+#pragma omp critical
+    for (int b = 0; b < kBuckets; ++b) hist[b] += h[b];  // integer sums: order does not matter
+  }
+  uint64_t below = 0;
+  int bucket = 0;
+  while (below + hist[bucket] <= k) below += hist[bucket++];
+  std::vector<float> in;
+  in.reserve(hist[bucket]);
+  for (int64_t i = 0; i < n; ++i)
+    if (static_cast<int>(key(v[i]) >> 16) == bucket) in.push_back(v[i]);
+  std::nth_element(in.begin(), in.begin() + static_cast<int64_t>(k - below), in.end());
+  return in[k - below];
+}
+
 namespace {
 // The exposure scale of a preview: the `percentile` luminance maps to `white_point`.
 double preview_scale(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point) {
   const size_t n = rgb.pixel_count();
   std::vector<float> lum(n);
-  for (size_t i = 0; i < n; ++i)
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
     lum[i] = static_cast<float>(0.2126 * wb[0] * rgb[3 * i] + 0.7152 * wb[1] * rgb[3 * i + 1] +
                                 0.0722 * wb[2] * rgb[3 * i + 2]);
   double scale = 1.0;
   if (n) {
-    size_t k = std::min(n - 1, static_cast<size_t>(percentile * (n - 1)));
-    std::nth_element(lum.begin(), lum.begin() + k, lum.end());
-    if (lum[k] > 0) scale = white_point / lum[k];
+    const size_t k = std::min(n - 1, static_cast<size_t>(percentile * (n - 1)));
+    const float at_k = kth_smallest(lum, k);
+    if (at_k > 0) scale = white_point / at_k;
   }
   return scale;
 }

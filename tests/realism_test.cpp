@@ -418,3 +418,23 @@ TEST(CameraIsp, ExposeRefusesBadPreviewOptions) {
   EXPECT_FALSE(std::filesystem::exists(tmp.file("o.exr")));
 }
 }  // namespace photosite
+
+namespace photosite {
+// kth_smallest (the previews' percentile) against std::nth_element: negatives, ±0, ties and a
+// bucket that holds most of the values, at several ranks and thread counts.
+TEST(CameraIsp, KthSmallestIsNthElement) {
+  std::mt19937 rng(7);
+  std::normal_distribution<float> z(0.f, 1.f);
+  std::vector<float> v(300001);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = i % 5 == 0 ? 0.f : i % 7 == 0 ? -0.f : i % 3 == 0 ? 1.0f + 1e-7f * (i % 4) : 50 * z(rng);
+  const int team = omp_get_max_threads();
+  for (const size_t k : {size_t{0}, size_t{1}, v.size() / 3, v.size() / 2, v.size() * 99 / 100, v.size() - 1})
+    for (const int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      std::vector<float> ref = v;
+      std::nth_element(ref.begin(), ref.begin() + static_cast<long>(k), ref.end());
+      EXPECT_EQ(kth_smallest(v, k), ref[k]) << k << " " << threads;
+    }
+  omp_set_num_threads(team);
+}
+}  // namespace photosite

@@ -6,6 +6,7 @@
 //  4. tone curve: the sRGB transfer function (IEC 61966-2-1), clipped to [0, 1].
 #pragma once
 #include <array>
+#include <vector>
 #include <cstdint>
 #include <string>
 
@@ -73,6 +74,9 @@ struct PreviewNoise {
 void check_camera_isp_options(const CameraIspOptions& o);
 ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb_gains, const PreviewNoise& noise,
                         const CameraIspOptions& options = {});
+// The k-th smallest value of v (0-based; v without NaN): the value std::nth_element would put at
+// k, found by a radix select (exposed for tests; the previews' percentile exposure uses it).
+float kth_smallest(const std::vector<float>& v, size_t k);
 // The guided filter of step 2 on one float plane (exposed for tests): mean over a (2r+1)² window
 // clipped at the borders, deterministic for any thread count.
 ImageF guided_filter_self(const ImageF& plane, int radius_px, double eps);
