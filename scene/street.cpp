@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <immintrin.h>
 #include <opencv2/imgproc.hpp>
 #include <unordered_set>
@@ -246,7 +247,16 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
     for (int y = 0; y < H; ++y) {
       const uint8_t* m = mask.ptr<uint8_t>(y);
       const int* l = cc.ptr<int>(y);
-      for (int x = 0; x < W; ++x)
+      for (int x = 0; x < W; ++x) {
+        // Pole pixels are sparse: eight mask bytes at a time skip the empty stretches.
+        if ((x & 7) == 0 && x + 8 <= W) {
+          uint64_t w8;
+          std::memcpy(&w8, m + x, sizeof w8);
+          if (!w8) {
+            x += 7;
+            continue;
+          }
+        }
         if (m[x]) {
           Box& b = box[l[x]];
           b.x0 = std::min(b.x0, x);
@@ -254,6 +264,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
           b.y0 = std::min(b.y0, y);
           b.y1 = y;  // rows ascend
         }
+      }
     }
     for (int c = 1; c < n; ++c) {
       const int x0 = box[c].x0, w = box[c].x1 - box[c].x0 + 1;
@@ -454,7 +465,7 @@ struct RowGeom { double cx, f, kD, kY, h; };
 struct LampArrays {
   std::vector<double> X, Y, D;
   std::vector<float> reach;
-  double max_reach = 0;
+  double max_reach = 0, max_Y = -1e300;
 };
 // The lamps k = lo .. hi − 1 whose D lies within max_reach (plus 1 m, so that the rounding of the
 // bounds never leaves one out) of [Dmin, Dmax]: every lamp outside is beyond its own reach
@@ -625,6 +636,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     la.D.push_back(l.D_m);
     la.reach.push_back(static_cast<float>(reach_m(l.Y_m, p)));
     la.max_reach = std::max(la.max_reach, reach_m(l.Y_m, p));
+    la.max_Y = std::max(la.max_Y, l.Y_m);
   }
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
@@ -635,6 +647,9 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
   const float I0 = static_cast<float>(s.peak_intensity_cd);
+  // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
+  // sorted by D).
+  const double D_lo = la.D.front() - la.max_reach - 1.0, D_hi = la.D.back() + la.max_reach + 1.0;
   // Per row: the lit pixels compacted (scalar), then their points, normals and E_v over the lamps
   // (vectorized), then the reflection into L. Each pixel's sum is its own, so rows may go to any
   // thread.
@@ -655,6 +670,10 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       if (k == sky || (k < kLabelCount && ground[k])) continue;
       const float zz = z[x];
       if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
+      // A point at or above every lamp (v_Y ≤ 0 for each) or beyond every lamp's reach along the
+      // road gets exactly nothing (vertical_term): not compacted (vertical_point's D and Y).
+      const double Dp = zz * q.kD, Yp = q.h - zz * q.kY;
+      if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
       // On buildings the pixel's façade plane (BuildingFacades::plane_at, inlined).
       const FacadePlane* f = nullptr;
       if (k == building && reg[x] >= 0) {
