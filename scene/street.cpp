@@ -410,10 +410,13 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       if (!any) continue;
       const float* tx = texture.row(y);
       float* o = L.row(y);
+      const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
       for (int x = xa; x < xb; ++x) {
         if (id[x] >= kLabelCount || !ground[id[x]]) continue;
         const float ef = acc[x];
-        for (int k = 0; k < 3; ++k) o[3 * x + k] += tx[3 * x + k] * tlf[k] * ef;
+        o[3 * x] += tx[3 * x] * t0 * ef;
+        o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
+        o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
       }
     }
   }
@@ -697,11 +700,16 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     }
     const float* tx = texture.row(y);
     float* o = L.row(y);
+    const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
+    const float* e = r.e.data();
+    const int32_t* xs = r.x.data();
     for (int i = 0; i < n; ++i) {
-      const float ef = r.e[i];
+      const float ef = e[i];
       if (!(ef > 0)) continue;
-      const int x = r.x[i];
-      for (int qq = 0; qq < 3; ++qq) o[3 * x + qq] += tx[3 * x + qq] * tlf[qq] * ef;
+      const int x = xs[i];
+      o[3 * x] += tx[3 * x] * t0 * ef;
+      o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
+      o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
     }
   }
   }
