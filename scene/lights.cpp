@@ -494,6 +494,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       const size_t i = static_cast<size_t>(y) * W + x;
       const int c = comp[i];
       if (!c) continue;
+      // Necessary conditions first, in to_lab's own expressions (so the same doubles): both cues
+      // need L* > 25 and L* = 116·f(Y) − 16 is non-decreasing in Y (lab_f's table lerp too, up
+      // to the float rounding of its entries, ~1e-8), with L*(0.04) = 23.7: Y ≤ 0.04 is neither.
+      // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
+      // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
+      // the same cues.
+      const float* s = day.data() + 3 * i;
+      const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
+      const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
+      if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;
       const Lab l = lab_at(static_cast<int>(i));
       // The hue angle only where the red test can pass (the same tests in the same order).
       if (l.a > 40 && l.L > 25) {

@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <immintrin.h>
 #include <opencv2/imgproc.hpp>
 #include <unordered_set>
@@ -40,7 +42,16 @@ double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI 
 struct RelTable {
   double cc = 0, step = 0, cutoff = -1, falloff = -1;
   std::vector<double> v;
-  std::vector<double> vd;  // (v[i], v[i + 1] − v[i]) pairs, i = 0 .. 4095: one load per lane
+  // The float32 copy the image paths use (pools, vertical light): v[i] and v[i + 1] − v[i] rounded
+  // to float, cos γ_c rounded, and the inverse step, so the argument is one product (atf).
+  std::vector<float> fv, fdv;
+  float fcc = 0, finv_step = 0;
+  float atf(float c) const {
+    if (!(c < fcc)) return 1.f;
+    const float u = c * finv_step;
+    const int i = std::max(0, std::min(4095, static_cast<int>(u)));
+    return fv[i] + fdv[i] * (u - static_cast<float>(i));
+  }
   // I(γ)/I0 at cos γ = c: 1 inside the cut-off cone (c >= cc), else linear between the entries.
   double at(double c) const {
     if (!(c < cc)) return 1.0;
@@ -58,11 +69,14 @@ const RelTable& rel_table(const ScenePreset& p) {
     t.v.resize(4097);
     t.step = t.cc / 4096;
     for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
-    t.vd.resize(2 * 4096);
+    t.fv.resize(4096);
+    t.fdv.resize(4096);
     for (int i = 0; i < 4096; ++i) {
-      t.vd[2 * i] = t.v[i];
-      t.vd[2 * i + 1] = t.v[i + 1] - t.v[i];
+      t.fv[i] = static_cast<float>(t.v[i]);
+      t.fdv[i] = static_cast<float>(t.v[i + 1] - t.v[i]);
     }
+    t.fcc = static_cast<float>(t.cc);
+    t.finv_step = static_cast<float>(1 / t.step);
   }
   return t;
 }
@@ -70,54 +84,87 @@ inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& 
   const double d2 = dx * dx + dz * dz + H * H, d = std::sqrt(d2), c = H / d;
   return I0 * t.at(c) * c / d2;
 }
-// One lamp's E over the ground points X = (x − c_x)·k_x of a row (x = x0 .. x0 + n − 1, at the
-// lamp distance dz along the road), into e: lamp_E's operations in the same order (the path
-// without AVX2; with it, pool_row_avx2 below gives the same bits).
-void lamp_row_scalar(double* e, int x0, int n, double cx, double kx, double Xl, double dz, double Hl, double I0,
+// The ground pools in float32, eight lanes (issue 16 §3: the rounding difference stated here).
+// The row's lamps within reach: X_l (double), and dz², H², H, I0 rounded to float once per row.
+// Per pixel and lamp, with u = 2⁻²⁴ and every IEEE operation correctly rounded (|rel. err.| ≤ u):
+//   dx = fl(X − X_l)            the difference in double, rounded once     1u
+//   d² = (dx² + dz²) + H²       dx² 3u, dz² and H² 1u each (positive: the sum keeps the largest), 2 adds   5u
+//   d = √d², c = H/d            2.5 + 1; then H 1 + d 3.5 + 1            d 3.5u, c 5.5u
+//   inside the cut-off (rel = 1): e = ((I0·1)·c)/d²: I0 1 + c 5.5 + 1 + d² 5 + 1          13.5u
+//   beyond it, rel(c) from the float table at c·(1/step) (argument 5.5 + 1 + 1 = 7.5u, amplified by
+//   s = |d ln rel/d ln cos γ| = cot γ/φ_f ≤ cot γ_c/φ_f, φ_f the falloff in radians; the entries
+//   and the lerp 3u) and one more product: 13.5 + 1 + 3 + 7.5·s
+//   so per term k = 17.5 + 7.5·s (s = 5.34 at the presets' 65° + 5°: k = 57.6),
+// and the sum of n positive terms adds n roundings of partial sums ≤ E, so to first order
+//   |E_float − E| ≤ (k + n)·2⁻²⁴·Σ|terms| = (k + n)·2⁻²⁴·E,
+// E the exact value of the same formula (and table): at most 3.6e-6·E for 3 lamps at the presets'
+// angles. (The double path this replaced was within ~1e-15·E; the image stores E as a float
+// anyway, 2⁻²⁴.) pool_row_avx2 and pool_row_scalar perform the same float operations in the same
+// order, so the same bits with or without AVX2.
+struct PoolLamps {
+  std::vector<double> Xl;
+  std::vector<float> dz2, H2, Hl;
+  void clear() { Xl.clear(); dz2.clear(); H2.clear(); Hl.clear(); }
+  void add(double X, double dz, double H) {
+    Xl.push_back(X);
+    dz2.push_back(static_cast<float>(dz * dz));
+    H2.push_back(static_cast<float>(H * H));
+    Hl.push_back(static_cast<float>(H));
+  }
+  int size() const { return static_cast<int>(Xl.size()); }
+};
+[[gnu::always_inline]] inline float pool_term(float dx, float dz2, float H2, float Hl, float I0, const RelTable& t) {
+  const float d2 = (dx * dx + dz2) + H2, d = std::sqrt(d2), c = Hl / d;
+  return ((I0 * t.atf(c)) * c) / d2;
+}
+// The pools of one row: e[i] for the pixels of the groups of eight holding a ground pixel
+// (mask[i/8] != 0), from the pixels' ground X (Xg, the row's (x − c_x)·k_x); other groups are
+// not computed (nothing reads them).
+void pool_row_scalar(float* e, const double* Xg, const uint8_t* mask, int n, const PoolLamps& pl, float I0,
                      const RelTable& t) {
-  for (int i = 0; i < n; ++i) e[i] = lamp_E((x0 + i - cx) * kx - Xl, dz, Hl, I0, t);
+  const int nl = pl.size();
+  for (int i = 0; i < n; ++i) {
+    if (!mask[i / 8]) continue;
+    float acc = 0.f;
+    for (int k = 0; k < nl; ++k)
+      acc += pool_term(static_cast<float>(Xg[i] - pl.Xl[k]), pl.dz2[k], pl.H2[k], pl.Hl[k], I0, t);
+    e[i] = acc;
+  }
 }
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
-// RelTable::at's interpolation v[j] + (v[j + 1] − v[j])·(u − j) for four lanes, the pairs read by
-// one 16-byte load per lane instead of two gathers; j clamped to [0, 4095] so that lanes whose
-// result is dropped stay inside the table. The same operations, so the same bits.
-__attribute__((target("avx2"), always_inline)) inline __m256d rel_lerp(const RelTable& t, __m256d u) {
-  const __m128i j = _mm_max_epi32(_mm_min_epi32(_mm256_cvttpd_epi32(u), _mm_set1_epi32(4095)), _mm_setzero_si128());
-  const double* vd = t.vd.data();
-  const __m128d p0 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 0)), p1 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 1));
-  const __m128d p2 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 2)), p3 = _mm_loadu_pd(vd + 2 * _mm_extract_epi32(j, 3));
-  const __m256d a = _mm256_set_m128d(p2, p0), b = _mm256_set_m128d(p3, p1);
-  const __m256d v0 = _mm256_unpacklo_pd(a, b), dv = _mm256_unpackhi_pd(a, b);
-  return _mm256_add_pd(v0, _mm256_mul_pd(dv, _mm256_sub_pd(u, _mm256_cvtepi32_pd(j))));
+// PHOTOSITE_SCALAR_LIGHTS=1 takes the scalar paths on an AVX2 machine (to check that both give
+// the same bits).
+const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && !std::getenv("PHOTOSITE_SCALAR_LIGHTS");
+// RelTable::atf for eight lanes (the entries by gathers; the index clamped to [0, 4095] so that
+// lanes whose result is dropped stay inside the table): the same operations.
+__attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const RelTable& t, __m256 c) {
+  const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.finv_step));
+  const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(4095)),
+                                     _mm256_setzero_si256());
+  const __m256 v = _mm256_i32gather_ps(t.fv.data(), j, 4), dv = _mm256_i32gather_ps(t.fdv.data(), j, 4);
+  return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
 }
-// The ground pools of one row, lamps inner: for each group of four pixels holding a ground pixel
-// (mask[g] != 0, g = i/4), E = Σ_k lamp_E over the row's lamps k = 0 .. nl − 1 in their order, from
-// the pixels' ground X (Xg, the row's (x − c_x)·k_x) and each lamp's X_l, dz², H², H. The same IEEE
-// operations per lane as lamp_row_avx2 and the per-row sum over the lamps (the first lamp's E
-// added to +0.0 is that E), so the same bits; the sum stays in a register instead of a row
-// buffer. Groups without ground pixels are not computed (nothing reads them).
+// pool_row_scalar eight pixels at a time (Xg padded to a multiple of 8; e written for whole groups).
 __attribute__((target("avx2")))
-void pool_row_avx2(double* e, const double* Xg, const uint8_t* mask, int n, const double* Xl, const double* dz2,
-                   const double* H2, const double* Hl, int nl, double I0, const RelTable& t) {
-  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), vI0 = _mm256_set1_pd(I0);
-  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
-  for (int i = 0; i < n; i += 4) {
-    if (!mask[i / 4]) continue;
-    const __m256d X = _mm256_loadu_pd(Xg + i);
-    __m256d acc = zero;
+void pool_row_avx2(float* e, const double* Xg, const uint8_t* mask, int n, const PoolLamps& pl, float I0,
+                   const RelTable& t) {
+  const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
+  const int nl = pl.size();
+  for (int i = 0; i < n; i += 8) {
+    if (!mask[i / 8]) continue;
+    const __m256d X0 = _mm256_loadu_pd(Xg + i), X1 = _mm256_loadu_pd(Xg + i + 4);
+    __m256 acc = _mm256_setzero_ps();
     for (int k = 0; k < nl; ++k) {
-      const __m256d dx = _mm256_sub_pd(X, _mm256_broadcast_sd(Xl + k));
-      const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_broadcast_sd(dz2 + k)),
-                                       _mm256_broadcast_sd(H2 + k));
-      const __m256d c = _mm256_div_pd(_mm256_broadcast_sd(Hl + k), _mm256_sqrt_pd(d2));
-      const __m256d beyond = _mm256_cmp_pd(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
-      __m256d rel = one;
-      if (_mm256_movemask_pd(beyond)) {
-        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(c, vstep)), beyond);
-      }
-      acc = _mm256_add_pd(acc, _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), c), d2));
+      const __m256d xl = _mm256_broadcast_sd(&pl.Xl[k]);
+      const __m256 dx = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(X1, xl)), _mm256_cvtpd_ps(_mm256_sub_pd(X0, xl)));
+      const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_broadcast_ss(&pl.dz2[k])),
+                                      _mm256_broadcast_ss(&pl.H2[k]));
+      const __m256 c = _mm256_div_ps(_mm256_broadcast_ss(&pl.Hl[k]), _mm256_sqrt_ps(d2));
+      const __m256 beyond = _mm256_cmp_ps(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
+      __m256 rel = one;
+      if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, c), beyond);
+      acc = _mm256_add_ps(acc, _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), c), d2));
     }
-    _mm256_storeu_pd(e + i, acc);
+    _mm256_storeu_ps(e + i, acc);
   }
   _mm256_zeroupper();
 }
@@ -200,7 +247,16 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
     for (int y = 0; y < H; ++y) {
       const uint8_t* m = mask.ptr<uint8_t>(y);
       const int* l = cc.ptr<int>(y);
-      for (int x = 0; x < W; ++x)
+      for (int x = 0; x < W; ++x) {
+        // Pole pixels are sparse: eight mask bytes at a time skip the empty stretches.
+        if ((x & 7) == 0 && x + 8 <= W) {
+          uint64_t w8;
+          std::memcpy(&w8, m + x, sizeof w8);
+          if (!w8) {
+            x += 7;
+            continue;
+          }
+        }
         if (m[x]) {
           Box& b = box[l[x]];
           b.x0 = std::min(b.x0, x);
@@ -208,6 +264,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
           b.y0 = std::min(b.y0, y);
           b.y1 = y;  // rows ascend
         }
+      }
     }
     for (int c = 1; c < n; ++c) {
       const int x0 = box[c].x0, w = box[c].x1 - box[c].x0 + 1;
@@ -312,8 +369,11 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const auto& ground = ground_classes();
 #pragma omp parallel
   {
-    std::vector<double> acc(W + 4), one(W), Xg(W + 4), Xl, dz2, H2, Hl;
-    std::vector<uint8_t> gmask(W / 4 + 2);
+    std::vector<float> acc(W + 8);
+    std::vector<double> Xg(W + 8);
+    std::vector<uint8_t> gmask(W / 8 + 2);
+    PoolLamps pl;
+    const float I0 = static_cast<float>(s.peak_intensity_cd);
 #pragma omp for schedule(static, 8)
     for (int y = y_start; y < H; ++y) {
       double D0, t;
@@ -325,56 +385,38 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       if (xa == xb) continue;
       // Each lamp over its footprint, the band of rows within its reach along the road (the
       // ground row is a line of constant D; reach_m: beyond it a lamp gives at most
-      // rel(γ_reach)·cos³γ_reach = 0.24% of its nadir illuminance I0/H², dropped), added over the
-      // row's ground span in the lamps' order: every pixel's sum runs over the same lamps in the
-      // same order as a per-pixel loop would, so the result is the same to the bit. (A disc of
-      // radius reach_m around the foot instead of the band measured 5% faster on the bench frame
-      // and changed dim pixels by up to 4%: not taken.)
-      bool any = false;
+      // rel(γ_reach)·cos³γ_reach = 0.24% of its nadir illuminance I0/H², dropped), summed per
+      // pixel over the row's lamps in their order (float32: see pool_term). (A disc of radius
+      // reach_m around the foot instead of the band measured 5% faster on the bench frame and
+      // changed dim pixels by up to 4%: not taken.)
       const double kx = t / g.f_px;
-      if (kHaveAvx2) {
-        Xl.clear();
-        dz2.clear();
-        H2.clear();
-        Hl.clear();
-        for (const auto& l : s.lamps) {
-          if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
-          const double dz = D0 - l.D_m;
-          Xl.push_back(l.X_m);
-          dz2.push_back(dz * dz);
-          H2.push_back(l.Y_m * l.Y_m);
-          Hl.push_back(l.Y_m);
-        }
-        any = !Xl.empty();
-        if (!any) continue;
-        // Pixels from xa in groups of four (the last padded with columns past xb, computed
-        // and not read); a group is computed when it holds a ground pixel.
-        const int n = xb - xa;
-        for (int i = 0; i < n + 3; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // lamp_row's (x − c_x)·k_x
-        for (int q = 0; 4 * q < n; ++q) {
-          uint8_t m = 0;
-          for (int x = xa + 4 * q; x < std::min(xb, xa + 4 * q + 4); ++x) m |= id[x] < kLabelCount && ground[id[x]];
-          gmask[q] = m;
-        }
-        pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, Xl.data(), dz2.data(), H2.data(), Hl.data(),
-                      static_cast<int>(Xl.size()), s.peak_intensity_cd, table);
-      } else {
-        for (const auto& l : s.lamps) {
-          if (!(std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p))) continue;
-          lamp_row_scalar(any ? one.data() : acc.data() + xa, xa, xb - xa, g.cx_px, kx, l.X_m, D0 - l.D_m, l.Y_m,
-                   s.peak_intensity_cd, table);
-          if (any)
-            for (int x = xa; x < xb; ++x) acc[x] += one[x - xa];
-          any = true;
-        }
+      pl.clear();
+      for (const auto& l : s.lamps)
+        if (std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p)) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      const bool any = pl.size() > 0;
+      // Pixels from xa in groups of eight (the last padded with columns past xb, computed and
+      // not read); a group is computed when it holds a ground pixel.
+      const int n = xb - xa;
+      for (int i = 0; i < n + 7; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
+      for (int q = 0; 8 * q < n; ++q) {
+        uint8_t m = 0;
+        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= id[x] < kLabelCount && ground[id[x]];
+        gmask[q] = m;
+      }
+      if (any) {
+        if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
+        else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
       }
       if (!any) continue;
       const float* tx = texture.row(y);
       float* o = L.row(y);
+      const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
       for (int x = xa; x < xb; ++x) {
         if (id[x] >= kLabelCount || !ground[id[x]]) continue;
-        const float ef = static_cast<float>(acc[x]);
-        for (int k = 0; k < 3; ++k) o[3 * x + k] += tx[3 * x + k] * tlf[k] * ef;
+        const float ef = acc[x];
+        o[3 * x] += tx[3 * x] * t0 * ef;
+        o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
+        o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
       }
     }
   }
@@ -404,12 +446,12 @@ namespace {
 // camera, from the point). Padded to a multiple of 4 by repeating the last pixel (its lanes are
 // computed and dropped).
 struct VerticalRow {
-  std::vector<int32_t> x;
-  std::vector<int64_t> plane;
-  std::vector<double> z, pnX, pnD, e;
-  explicit VerticalRow(int W) : x(W + 4), plane(W + 4), z(W + 4), pnX(W + 4), pnD(W + 4), e(W + 4) {}
+  std::vector<int32_t> x, plane;
+  std::vector<double> z, pnX, pnD;
+  std::vector<float> e;
+  explicit VerticalRow(int W) : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8) {}
   void pad(int n) {
-    for (int i = n; i % 4; ++i) {
+    for (int i = n; i % 8; ++i) {
       x[i] = x[n - 1];
       plane[i] = plane[n - 1];
       z[i] = z[n - 1];
@@ -422,10 +464,11 @@ struct VerticalRow {
 // its camera z: X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, with the row's kD = cos θ − y_n·sin θ
 // and kY = y_n·cos θ + sin θ.
 struct RowGeom { double cx, f, kD, kY, h; };
-// The lamps as arrays, with each one's reach along the road.
+// The lamps as arrays, with each one's reach along the road (float: see vertical_term).
 struct LampArrays {
-  std::vector<double> X, Y, D, reach;
-  double max_reach = 0;
+  std::vector<double> X, Y, D;
+  std::vector<float> reach;
+  double max_reach = 0, max_Y = -1e300;
 };
 // The lamps k = lo .. hi − 1 whose D lies within max_reach (plus 1 m, so that the rounding of the
 // bounds never leaves one out) of [Dmin, Dmax]: every lamp outside is beyond its own reach
@@ -436,100 +479,141 @@ inline void lamp_window(const LampArrays& la, double Dmin, double Dmax, size_t* 
   *lo = std::lower_bound(la.D.begin(), la.D.end(), Dmin - pad) - la.D.begin();
   *hi = std::upper_bound(la.D.begin() + *lo, la.D.end(), Dmax + pad) - la.D.begin();
 }
-// E_v = Σ_k I0·rel(cos γ)·(cos β)/max(d², d²_min) over the lamps in order, per pixel (a skipped
-// lamp adds nothing; in the vector path it adds +0.0, which leaves the non-negative sum's bits
-// unchanged). A pixel whose camera-facing normal is undefined (X = D = 0) gets 0.
-void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, double I0, double d2_min,
+// The pixel's point (X, Y, D) and its lit normal (nX, nD) in double; ok = false where the
+// camera-facing normal is undefined (X = D = 0).
+[[gnu::always_inline]] inline bool vertical_point(const VerticalRow& r, int i, const RowGeom& q, double* X, double* Y,
+                                                  double* D, double* nX, double* nD) {
+  const double zz = r.z[i];
+  *X = zz * (r.x[i] - q.cx) / q.f;
+  *D = zz * q.kD;
+  *Y = q.h - zz * q.kY;
+  if (r.plane[i]) {
+    *nX = r.pnX[i];
+    *nD = r.pnD[i];
+    return true;
+  }
+  // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
+  // approximation: their own orientation is not known from the labels).
+  const double rr = std::sqrt(*X * *X + *D * *D);
+  if (!(rr > 0)) return false;
+  *nX = -*X / rr;
+  *nD = -*D / rr;
+  return true;
+}
+// One lamp's E_v at a pixel in float32: v = lamp − point (the difference in double, rounded once),
+// nothing beyond the lamp's reach along the road (|v_D| ≤ reach, both rounded to float: a pixel
+// within 2⁻²³·reach of the rim may fall either side), above the luminaire (a cut-off luminaire
+// emits no light upward: γ < 90°, an approximation of its upward light output ratio as 0) or on
+// faces turned away; else I0·rel(γ)·(cos β)/max(d², d²_min). The error per term as pool_term's
+// (u = 2⁻²⁴): v 1u each; d² = (v_X² + v_Y²) + v_D² 5u; d 3.5u; cos γ = v_Y/d 5.5u;
+// |v|·cos β = n_X·v_X + n_D·v_D with the normal rounded 1u: (3κ + 1)u with the condition number
+// κ = (|n_X·v_X| + |n_D·v_D|)/(n·v) ≥ 1 (1 for a face squarely lit); cos β = that/d: 3κ + 5.5;
+// e = ((I0·rel)·cos β)/max(d², d²_min): inside the cut-off 1 + (3κ + 5.5) + 1 + 5 + 1 = 13.5 + 3κ,
+// beyond it + 1 + 3 + 7.5·s (the table, as pool_term): per term k = 17.5 + 3κ + 7.5·s, and for
+// the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E to first order.
+[[gnu::always_inline]] inline float vertical_term(float vX, float vY, float vD, float nX, float nD, float reach,
+                                                  float I0, float d2_min, const RelTable& t) {
+  if (!(std::fabs(vD) <= reach)) return 0.f;
+  const float cb = nX * vX + nD * vD;  // |v|·cos β
+  if (!(vY > 0) || !(cb > 0)) return 0.f;
+  const float dv2 = (vX * vX + vY * vY) + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
+  return ((I0 * t.atf(cg)) * (cb / dv)) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+}
+// E_v = Σ_k vertical_term over the lamps in order, per pixel (a skipped lamp adds +0.0, which
+// leaves the non-negative sum's bits unchanged). A pixel whose camera-facing normal is undefined
+// gets 0.
+void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float d2_min,
                        const RelTable& t) {
   for (int i = 0; i < n; ++i) {
-    const double zz = r.z[i];
-    const double X = zz * (r.x[i] - q.cx) / q.f, D = zz * q.kD, Y = q.h - zz * q.kY;
-    double nX, nD;  // the surface's horizontal unit normal, toward the half-space it is lit from
+    double X, Y, D, nX, nD;
     r.e[i] = 0;
-    if (r.plane[i]) {
-      nX = r.pnX[i];
-      nD = r.pnD[i];
-    } else {
-      // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
-      // approximation: their own orientation is not known from the labels).
-      const double rr = std::sqrt(X * X + D * D);
-      if (!(rr > 0)) continue;
-      nX = -X / rr;
-      nD = -D / rr;
-    }
+    if (!vertical_point(r, i, q, &X, &Y, &D, &nX, &nD)) continue;
     size_t lo, hi;
     lamp_window(la, D, D, &lo, &hi);
-    double e = 0;
-    for (size_t k = lo; k < hi; ++k) {
-      // The ground pools' footprint rule: a lamp is evaluated only within reach_m of its foot
-      // along the road.
-      if (!(std::fabs(D - la.D[k]) <= la.reach[k])) continue;
-      const double vX = la.X[k] - X, vY = la.Y[k] - Y, vD = la.D[k] - D;
-      const double cb = nX * vX + nD * vD;  // |v|·cos β
-      // Nothing above the luminaire (a cut-off luminaire emits no light upward: γ < 90°, an
-      // approximation of its upward light output ratio as 0) nor on faces turned away.
-      if (!(vY > 0) || !(cb > 0)) continue;
-      const double dv2 = vX * vX + vY * vY + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-      e += I0 * t.at(cg) * (cb / dv) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
-    }
+    const float nXf = static_cast<float>(nX), nDf = static_cast<float>(nD);
+    float e = 0;
+    for (size_t k = lo; k < hi; ++k)
+      e += vertical_term(static_cast<float>(la.X[k] - X), static_cast<float>(la.Y[k] - Y),
+                         static_cast<float>(la.D[k] - D), nXf, nDf, la.reach[k], I0, d2_min, t);
     r.e[i] = e;
   }
 }
-// vertical_e_scalar four pixels at a time: the same IEEE operations in the same order per lane
-// (the table read by masked gathers; a lamp's lanes outside its reach, above it or facing away
-// masked to +0.0), so the same bits. Lamps whose every lane is masked are skipped whole: their
-// contribution is exactly zero. Ends with vzeroupper (see clear_upper_vector_state).
-__attribute__((target("avx2")))
-void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, double I0, double d2_min,
-                     const RelTable& t) {
-  const __m256d vI0 = _mm256_set1_pd(I0), vd2min = _mm256_set1_pd(d2_min), zero = _mm256_setzero_pd();
-  const __m256d vstep = _mm256_set1_pd(t.step), vcc = _mm256_set1_pd(t.cc), one = _mm256_set1_pd(1.0);
-  const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
+// vertical_point for the four pixels from i0: the same double operations per lane; the normal
+// rounded to float and the lane mask (ok) as float lanes.
+__attribute__((target("avx2"), always_inline)) inline void point4(const VerticalRow& r, int i0, const RowGeom& q,
+                                                                  __m256d& X, __m256d& Y, __m256d& D, __m128& nX,
+                                                                  __m128& nD, __m128& ok) {
+  const __m256d zerod = _mm256_setzero_pd();
   const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
-  const __m256d cx = _mm256_set1_pd(q.cx), f = _mm256_set1_pd(q.f), kD = _mm256_set1_pd(q.kD),
-                kY = _mm256_set1_pd(q.kY), h = _mm256_set1_pd(q.h);
-  for (int i = 0; i < n; i += 4) {
-    const __m256d zz = _mm256_loadu_pd(&r.z[i]);
-    const __m256d xd = _mm256_cvtepi32_pd(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.x[i])));  // exact
-    const __m256d X = _mm256_div_pd(_mm256_mul_pd(zz, _mm256_sub_pd(xd, cx)), f);
-    const __m256d D = _mm256_mul_pd(zz, kD), Y = _mm256_sub_pd(h, _mm256_mul_pd(zz, kY));
-    const __m256d pm = _mm256_castsi256_pd(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.plane[i])));
-    __m256d nX = _mm256_loadu_pd(&r.pnX[i]), nD = _mm256_loadu_pd(&r.pnD[i]), ok = pm;
-    if (_mm256_movemask_pd(pm) != 0xf) {
-      const __m256d rr = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(X, X), _mm256_mul_pd(D, D)));
-      ok = _mm256_or_pd(pm, _mm256_cmp_pd(rr, zero, _CMP_GT_OQ));
-      nX = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(X, sign), rr), nX, pm);
-      nD = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(D, sign), rr), nD, pm);
+  const __m256d zz = _mm256_loadu_pd(&r.z[i0]);
+  const __m256d xd = _mm256_cvtepi32_pd(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.x[i0])));  // exact
+  X = _mm256_div_pd(_mm256_mul_pd(zz, _mm256_sub_pd(xd, _mm256_set1_pd(q.cx))), _mm256_set1_pd(q.f));
+  D = _mm256_mul_pd(zz, _mm256_set1_pd(q.kD));
+  Y = _mm256_sub_pd(_mm256_set1_pd(q.h), _mm256_mul_pd(zz, _mm256_set1_pd(q.kY)));
+  const __m128 pm = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.plane[i0])));
+  __m256d nXd = _mm256_loadu_pd(&r.pnX[i0]), nDd = _mm256_loadu_pd(&r.pnD[i0]);
+  ok = pm;
+  if (_mm_movemask_ps(pm) != 0xf) {
+    const __m256d pmd = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_castps_si128(pm)));
+    const __m256d rr = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(X, X), _mm256_mul_pd(D, D)));
+    const __m256d okd = _mm256_or_pd(pmd, _mm256_cmp_pd(rr, zerod, _CMP_GT_OQ));
+    ok = _mm_cmp_ps(_mm256_cvtpd_ps(_mm256_and_pd(okd, _mm256_set1_pd(-1.0))), _mm_setzero_ps(), _CMP_NEQ_OQ);
+    nXd = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(X, sign), rr), nXd, pmd);
+    nDd = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(D, sign), rr), nDd, pmd);
+  }
+  nX = _mm256_cvtpd_ps(nXd);
+  nD = _mm256_cvtpd_ps(nDd);
+}
+// vertical_e_scalar eight pixels at a time: the points and normals per pixel in double as there,
+// then the same float operations per lane (a lamp's lanes outside its reach, above it or facing
+// away masked to +0.0), so the same bits. Lamps whose every lane is masked are skipped whole:
+// their contribution is exactly zero. Ends with vzeroupper (see clear_upper_vector_state).
+__attribute__((target("avx2")))
+void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float d2_min,
+                     const RelTable& t) {
+  const __m256 vI0 = _mm256_set1_ps(I0), vd2min = _mm256_set1_ps(d2_min), zero = _mm256_setzero_ps();
+  const __m256 vcc = _mm256_set1_ps(t.fcc), one = _mm256_set1_ps(1.f);
+  const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  for (int i = 0; i < n; i += 8) {
+    __m256d X0, X1, Y0, Y1, D0, D1;
+    __m128 nXa, nXb, nDa, nDb, oka, okb;
+    point4(r, i, q, X0, Y0, D0, nXa, nDa, oka);
+    point4(r, i + 4, q, X1, Y1, D1, nXb, nDb, okb);
+    const __m256 ok = _mm256_set_m128(okb, oka);
+    if (!_mm256_movemask_ps(ok)) {
+      _mm256_storeu_ps(&r.e[i], zero);
+      continue;
     }
-    const __m256d m1 = _mm256_min_pd(D, _mm256_permute2f128_pd(D, D, 1)), M1 = _mm256_max_pd(D, _mm256_permute2f128_pd(D, D, 1));
+    const __m256 vnX = _mm256_set_m128(nXb, nXa), vnD = _mm256_set_m128(nDb, nDa);
+    const __m256d Dlo = _mm256_min_pd(D0, D1), Dhi = _mm256_max_pd(D0, D1);
+    const __m256d m1 = _mm256_min_pd(Dlo, _mm256_permute2f128_pd(Dlo, Dlo, 1)), M1 = _mm256_max_pd(Dhi, _mm256_permute2f128_pd(Dhi, Dhi, 1));
     const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
     const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
     size_t lo, hi;
     lamp_window(la, Dmin, Dmax, &lo, &hi);
-    __m256d acc = zero;
+    __m256 acc = zero;
     for (size_t k = lo; k < hi; ++k) {
       const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
-      const __m256d in_reach = _mm256_and_pd(
-          ok, _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(D, lD), absmask), _mm256_broadcast_sd(&la.reach[k]), _CMP_LE_OQ));
-      if (!_mm256_movemask_pd(in_reach)) continue;
-      const __m256d vX = _mm256_sub_pd(_mm256_broadcast_sd(&la.X[k]), X);
-      const __m256d vY = _mm256_sub_pd(_mm256_broadcast_sd(&la.Y[k]), Y);
-      const __m256d vD = _mm256_sub_pd(lD, D);
-      const __m256d cb = _mm256_add_pd(_mm256_mul_pd(nX, vX), _mm256_mul_pd(nD, vD));
-      const __m256d lit = _mm256_and_pd(in_reach, _mm256_and_pd(_mm256_cmp_pd(vY, zero, _CMP_GT_OQ),
-                                                                _mm256_cmp_pd(cb, zero, _CMP_GT_OQ)));
-      if (!_mm256_movemask_pd(lit)) continue;
-      const __m256d dv2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vX, vX), _mm256_mul_pd(vY, vY)), _mm256_mul_pd(vD, vD));
-      const __m256d dv = _mm256_sqrt_pd(dv2), cg = _mm256_div_pd(vY, dv);
-      const __m256d beyond = _mm256_and_pd(lit, _mm256_cmp_pd(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
-      __m256d rel = one;
-      if (_mm256_movemask_pd(beyond)) {
-        rel = _mm256_blendv_pd(one, rel_lerp(t, _mm256_div_pd(cg, vstep)), beyond);
-      }
-      const __m256d ek = _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(vI0, rel), _mm256_div_pd(cb, dv)), _mm256_max_pd(dv2, vd2min));
-      acc = _mm256_add_pd(acc, _mm256_and_pd(lit, ek));
+      const __m256 vD = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lD, D1)), _mm256_cvtpd_ps(_mm256_sub_pd(lD, D0)));
+      const __m256 in_reach =
+          _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_and_ps(vD, absmask), _mm256_broadcast_ss(&la.reach[k]), _CMP_LE_OQ));
+      if (!_mm256_movemask_ps(in_reach)) continue;
+      const __m256d lX = _mm256_broadcast_sd(&la.X[k]), lY = _mm256_broadcast_sd(&la.Y[k]);
+      const __m256 vX = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lX, X1)), _mm256_cvtpd_ps(_mm256_sub_pd(lX, X0)));
+      const __m256 vY = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lY, Y1)), _mm256_cvtpd_ps(_mm256_sub_pd(lY, Y0)));
+      const __m256 cb = _mm256_add_ps(_mm256_mul_ps(vnX, vX), _mm256_mul_ps(vnD, vD));
+      const __m256 lit = _mm256_and_ps(in_reach, _mm256_and_ps(_mm256_cmp_ps(vY, zero, _CMP_GT_OQ),
+                                                               _mm256_cmp_ps(cb, zero, _CMP_GT_OQ)));
+      if (!_mm256_movemask_ps(lit)) continue;
+      const __m256 dv2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX, vX), _mm256_mul_ps(vY, vY)), _mm256_mul_ps(vD, vD));
+      const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY, dv);
+      const __m256 beyond = _mm256_and_ps(lit, _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
+      __m256 rel = one;
+      if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
+      const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), _mm256_div_ps(cb, dv)), _mm256_max_ps(dv2, vd2min));
+      acc = _mm256_add_ps(acc, _mm256_and_ps(lit, ek));
     }
-    _mm256_storeu_pd(&r.e[i], acc);
+    _mm256_storeu_ps(&r.e[i], acc);
   }
   _mm256_zeroupper();
 }
@@ -553,18 +637,22 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     la.X.push_back(l.X_m);
     la.Y.push_back(l.Y_m);
     la.D.push_back(l.D_m);
-    la.reach.push_back(reach_m(l.Y_m, p));
-    la.max_reach = std::max(la.max_reach, la.reach.back());
+    la.reach.push_back(static_cast<float>(reach_m(l.Y_m, p)));
+    la.max_reach = std::max(la.max_reach, reach_m(l.Y_m, p));
+    la.max_Y = std::max(la.max_Y, l.Y_m);
   }
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
   // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
   // E finite. (The ground pools do not apply it: their d is at least the mounting height, 8-10 m
   // in the presets.)
-  const double d2_min = 25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
+  const float d2_min = static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m);
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
-  const double I0 = s.peak_intensity_cd;
+  const float I0 = static_cast<float>(s.peak_intensity_cd);
+  // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
+  // sorted by D).
+  const double D_lo = la.D.front() - la.max_reach - 1.0, D_hi = la.D.back() + la.max_reach + 1.0;
   // Per row: the lit pixels compacted (scalar), then their points, normals and E_v over the lamps
   // (vectorized), then the reflection into L. Each pixel's sum is its own, so rows may go to any
   // thread.
@@ -585,6 +673,10 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       if (k == sky || (k < kLabelCount && ground[k])) continue;
       const float zz = z[x];
       if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
+      // A point at or above every lamp (v_Y ≤ 0 for each) or beyond every lamp's reach along the
+      // road gets exactly nothing (vertical_term): not compacted (vertical_point's D and Y).
+      const double Dp = zz * q.kD, Yp = q.h - zz * q.kY;
+      if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
       // On buildings the pixel's façade plane (BuildingFacades::plane_at, inlined).
       const FacadePlane* f = nullptr;
       if (k == building && reg[x] >= 0) {
@@ -608,12 +700,16 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     }
     const float* tx = texture.row(y);
     float* o = L.row(y);
+    const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
+    const float* e = r.e.data();
+    const int32_t* xs = r.x.data();
     for (int i = 0; i < n; ++i) {
-      const double e = r.e[i];
-      if (!(e > 0)) continue;
-      const int x = r.x[i];
-      const float ef = static_cast<float>(e);
-      for (int qq = 0; qq < 3; ++qq) o[3 * x + qq] += tx[3 * x + qq] * tlf[qq] * ef;
+      const float ef = e[i];
+      if (!(ef > 0)) continue;
+      const int x = xs[i];
+      o[3 * x] += tx[3 * x] * t0 * ef;
+      o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
+      o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
     }
   }
   }
