@@ -176,6 +176,10 @@ struct BeamF {
   float hl = 0, hl2 = 0, xl[2] = {0, 0}, cv = 0, cmax = 0, rise = 0, deg = 0;
   int nh = 0, nv = 0;
   std::vector<float> H, V, rH, rV, I;
+  // Grids of at most 8 angles also as one vector each (zero-padded), read by a lane permutation
+  // instead of a gather (the same values).
+  bool small = false;
+  float H8[8] = {}, V8[8] = {}, rH8[8] = {}, rV8[8] = {};
 };
 BeamF beam_f(const ScenePreset& p) {
   BeamF b;
@@ -196,6 +200,11 @@ BeamF beam_f(const ScenePreset& p) {
   for (int j = 0; j + 1 < b.nh; ++j) b.rH.push_back(1.f / (b.H[j + 1] - b.H[j]));
   for (int i = 0; i + 1 < b.nv; ++i) b.rV.push_back(1.f / (b.V[i + 1] - b.V[i]));
   for (double c : p.beam_intensity_cd) b.I.push_back(static_cast<float>(c));
+  b.small = b.nh <= 8 && b.nv <= 8;
+  if (b.small) {
+    std::copy(b.H.begin(), b.H.end(), b.H8), std::copy(b.rH.begin(), b.rH.end(), b.rH8);
+    std::copy(b.V.begin(), b.V.end(), b.V8), std::copy(b.rV.begin(), b.rV.end(), b.rV8);
+  }
   return b;
 }
 
@@ -229,8 +238,18 @@ BeamF beam_f(const ScenePreset& p) {
 __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   const __m256 sign = _mm256_set1_ps(-0.f), one = _mm256_set1_ps(1.f);
   const __m256 ax = _mm256_andnot_ps(sign, x);
-  const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
   const __m256 mid = _mm256_cmp_ps(ax, _mm256_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
+  if (_mm256_movemask_ps(mid) == 0) {
+    // No lane reduced (the common case for both angles): r = ax/1 = ax and y0 = 0 exactly, the
+    // scalar's operations without the division by 1.
+    const __m256 z = _mm256_mul_ps(ax, ax);
+    __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
+    P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
+    P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
+    const __m256 a = _mm256_add_ps(_mm256_setzero_ps(), _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax));
+    return _mm256_or_ps(a, _mm256_and_ps(x, sign));
+  }
+  const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
   const __m256 num = _mm256_blendv_ps(_mm256_blendv_ps(ax, _mm256_sub_ps(ax, one), mid), _mm256_set1_ps(-1.f), big);
   const __m256 den = _mm256_blendv_ps(_mm256_blendv_ps(one, _mm256_add_ps(ax, one), mid), ax, big);
   const __m256 y0 = _mm256_blendv_ps(_mm256_and_ps(mid, _mm256_set1_ps(0.7853981633974483096f)),
@@ -245,7 +264,8 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
 
 // One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
 // CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
-// lane by lane (the table by gathers), the rest by beam_lux_f itself; the same bits.
+// lane by lane (the table by gathers; grid angles by permutations when at most 8), the rest by
+// beam_lux_f itself; the same bits.
 constexpr int kBeamChunk = 256;
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, float* out) {
@@ -256,6 +276,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   const __m256 h_lo = _mm256_set1_ps(b.H[0]), h_hi = _mm256_set1_ps(b.H[b.nh - 1]);
   const __m256 v_lo = _mm256_set1_ps(b.V[0]), v_hi = _mm256_set1_ps(b.V[b.nv - 1]);
   const __m256i vnh = _mm256_set1_epi32(b.nh);
+  const __m256 H8 = _mm256_loadu_ps(b.H8), rH8 = _mm256_loadu_ps(b.rH8), V8 = _mm256_loadu_ps(b.V8), rV8 = _mm256_loadu_ps(b.rV8);
   const __m256d vt = _mm256_set1_pd(t);
   const float* I = b.I.data();
   int x = 0;
@@ -280,8 +301,15 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
         j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
       for (int m = 1; m + 1 < b.nv; ++m)
         i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
-      const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, _mm256_i32gather_ps(b.H.data(), j, 4)), _mm256_i32gather_ps(b.rH.data(), j, 4));
-      const __m256 c = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_i32gather_ps(b.V.data(), i, 4)), _mm256_i32gather_ps(b.rV.data(), i, 4));
+      __m256 Hj, rHj, Vi, rVi;
+      if (b.small) {
+        Hj = _mm256_permutevar8x32_ps(H8, j), rHj = _mm256_permutevar8x32_ps(rH8, j);
+        Vi = _mm256_permutevar8x32_ps(V8, i), rVi = _mm256_permutevar8x32_ps(rV8, i);
+      } else {
+        Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
+        Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+      }
+      const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
       const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);  // r0 + j
       const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
       const __m256 r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
@@ -320,9 +348,11 @@ float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
 
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels, const ImageU8* lanes) {
-  ImageF E(width, height, 1, 0.f);
   const BeamF b = beam_f(p);
-  if (!b.ok) return E;  // no table: no light (as beam_intensity_cd)
+  if (!b.ok) return ImageF(width, height, 1, 0.f);  // no table: no light (as beam_intensity_cd)
+  // Written whole by the rows below (zeros where nothing is computed), in parallel: no separate
+  // zeroing pass, and each thread touches its own rows first.
+  ImageF E(width, height, 1, uninitialized);
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given.
   const auto& read = ground_classes();
@@ -339,13 +369,16 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
     float sum[kBeamChunk];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < height; ++y) {
+      float* e = E.row(y);
       const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
-      if (den <= 0) continue;  // at or above the horizon: no ground point
       const double t = g.mount_height_m / den, D = t * (c - yn * s);
       const float Df = static_cast<float>(D);
-      if (!(D > 0) || !(Df > 0)) continue;
+      // At or above the horizon (den <= 0): no ground point.
+      if (den <= 0 || !(D > 0) || !(Df > 0)) {
+        std::fill_n(e, width, 0.f);
+        continue;
+      }
       const float D2 = Df * Df, invD = 1.f / Df;
-      float* e = E.row(y);
       const uint16_t* id = labels ? labels->row(y) : nullptr;
       const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
       auto needed = [&](int x) { return !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]); };
@@ -354,15 +387,16 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
         int a = x0, bx = x1;
         while (a < bx && !needed(a)) ++a;
         while (bx > a && !needed(bx - 1)) --bx;
+        std::fill(e + x0, e + a, 0.f);
+        std::fill(e + bx, e + x1, 0.f);
         if (a == bx) continue;
         if (avx2) {
           beam_row_avx2(xn.data() + a, bx - a, t, D2, invD, b, sum);
-          for (int x = a; x < bx; ++x)
-            if (needed(x)) e[x] = sum[x - a];
+          for (int x = a; x < bx; ++x) e[x] = needed(x) ? sum[x - a] : 0.f;
           continue;
         }
         for (int x = a; x < bx; ++x)
-          if (needed(x)) e[x] = beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b);
+          e[x] = needed(x) ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
       }
     }
   }
