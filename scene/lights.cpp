@@ -124,7 +124,7 @@ double beam_intensity_cd(double h_deg, double v_deg, double tan_rise, const Scen
 
 // The geometry of one lamp and ground point (X, D), D > 0: the angles of the ground point seen
 // from the lamp, h = atan(dx/D) (= atan2(dx, D) for D > 0) and v = −atan(h_l/√(dx² + D²)) in
-// degrees, cos θ = h_l/d and d². Shared by low_beam_lux and the image (bit-equal).
+// degrees, cos θ = h_l/d and d²: low_beam_lux's geometry (the image evaluates it in float below).
 struct BeamRay { double h_deg, v_deg, cos_theta, d2; };
 [[gnu::always_inline]] inline BeamRay beam_ray(double dx, double D2, double D_m, double hl, double hl2) {
   const double horiz2 = dx * dx + D2, horiz = std::sqrt(horiz2);
@@ -143,79 +143,185 @@ double beam_lux(double X_m, double D_m, double tan_rise, const ScenePreset& p) {
   return E;
 }
 
-// One row's rays for both lamps over pixels x0 .. x0 + n − 1 (the ground points
-// X = t·(x − c_x)/f at the row's D): the transcendental part of the beam, vectorized (AVX2 where
-// the CPU has it; the same IEEE operations either way, so the same bits).
-constexpr int kBeamChunk = 256;
-struct BeamRows { double h[2][kBeamChunk], v[2][kBeamChunk], c[2][kBeamChunk], d2[2][kBeamChunk]; };
-__attribute__((target_clones("avx2", "default")))
-void beam_rays(int x0, int n, double cx, double f, double t, double D_m, double hl, const double xl[2], BeamRows& o) {
-  const double D2 = D_m * D_m, hl2 = hl * hl;
-  for (int k = 0; k < 2; ++k)
-    for (int i = 0; i < n; ++i) {
-      const double X = t * ((x0 + i - cx) / f);  // CameraGeometry::ground_point's X
-      const BeamRay r = beam_ray(X - xl[k], D2, D_m, hl, hl2);
-      o.h[k][i] = r.h_deg;
-      o.v[k][i] = r.v_deg;
-      o.c[k][i] = r.cos_theta;
-      o.d2[k][i] = r.d2;
-    }
+// ---- The image: float, 8 lanes --------------------------------------------------------------
+// The image (low_beam_illuminance) evaluates the same E = Σ_lamps I(h, v)·cos θ/d² in float
+// (IEEE binary32), 8 pixels per AVX2 vector, and is bit-equal to low_beam_lux_f32 at the pixel's
+// ground point (the scalar twin below: the same operations in the same order; no FMA
+// contraction, -ffp-contract=off). Against the double reference low_beam_lux the relative error
+// is a few 2⁻²⁴ plus the table's slope times the angles' float error; pixels within that angular
+// error of the cut-off line or the table's edge may flip between lit and 0
+// (tests/scene_metric_test.cpp derives and checks both).
+
+// atan(x) for finite x in float: Cephes' atanf (S. L. Moshier, Cephes Math Library 2.8,
+// atanf.c): reduction to |r| <= tan(π/8) by atan(x) = π/4 + atan((x − 1)/(x + 1)) for
+// tan(π/8) < |x| <= tan(3π/8) and π/2 + atan(−1/x) above, then Cephes' degree-4 polynomial in
+// z = r². Cephes' stated peak relative error 1.9e-7 (IEEE, ±10, 10⁵ points) ≈ 3.2·2⁻²⁴.
+// Branch-free (selects); IEEE +, −, ×, ÷ only, so the scalar and the AVX2 lanes give the same bits.
+[[gnu::always_inline]] inline float atanf_cephes(float x) {
+  const float ax = std::fabs(x);
+  const bool big = ax > 2.414213562373095f, mid = ax > 0.4142135623730950f;
+  const float num = big ? -1.f : (mid ? ax - 1.f : ax);
+  const float den = big ? ax : (mid ? ax + 1.f : 1.f);
+  const float y0 = big ? 1.5707963267948966192f : (mid ? 0.7853981633974483096f : 0.f);
+  const float r = num / den, z = r * r;
+  const float P = ((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z - 3.33329491539e-1f;
+  const float a = y0 + (P * z * r + r);  // >= 0
+  return std::copysign(a, x);
 }
 
-// beam_intensity_cd times cos θ / d² summed over the two lamps for pixels 0 .. n − 1 of a chunk
-// of rays, four pixels at a time: the same operations as the scalar path (the cell index by
-// counting the grid angles at or below the angle, which is upper_bound − 1 clamped to the last
-// cell; the table read by gathers), so the same bits.
+// The preset's beam in float: the lamps, the cut-off, the grid with the reciprocal cell widths
+// (one multiplication per bilinear weight instead of a division) and the intensities.
+struct BeamF {
+  bool ok = false;
+  float hl = 0, hl2 = 0, xl[2] = {0, 0}, cv = 0, cmax = 0, rise = 0, deg = 0;
+  int nh = 0, nv = 0;
+  std::vector<float> H, V, rH, rV, I;
+  // Grids of at most 8 angles also as one vector each (zero-padded), read by a lane permutation
+  // instead of a gather (the same values).
+  bool small = false;
+  float H8[8] = {}, V8[8] = {}, rH8[8] = {}, rV8[8] = {};
+};
+BeamF beam_f(const ScenePreset& p) {
+  BeamF b;
+  b.nh = static_cast<int>(p.beam_h_deg.size());
+  b.nv = static_cast<int>(p.beam_v_deg.size());
+  b.ok = b.nh >= 2 && b.nv >= 2 && p.beam_intensity_cd.size() == p.beam_h_deg.size() * p.beam_v_deg.size();
+  if (!b.ok) return b;
+  b.hl = static_cast<float>(p.beam_lamp_height_m);
+  b.hl2 = b.hl * b.hl;
+  b.xl[0] = static_cast<float>(-0.5 * p.beam_lamp_spacing_m);
+  b.xl[1] = static_cast<float>(0.5 * p.beam_lamp_spacing_m);
+  b.cv = static_cast<float>(p.beam_cutoff_v_deg);
+  b.cmax = static_cast<float>(p.beam_cutoff_max_v_deg);
+  b.rise = static_cast<float>(std::tan(p.beam_cutoff_rise_deg * M_PI / 180));
+  b.deg = static_cast<float>(180 / M_PI);
+  for (double h : p.beam_h_deg) b.H.push_back(static_cast<float>(h));
+  for (double v : p.beam_v_deg) b.V.push_back(static_cast<float>(v));
+  for (int j = 0; j + 1 < b.nh; ++j) b.rH.push_back(1.f / (b.H[j + 1] - b.H[j]));
+  for (int i = 0; i + 1 < b.nv; ++i) b.rV.push_back(1.f / (b.V[i + 1] - b.V[i]));
+  for (double c : p.beam_intensity_cd) b.I.push_back(static_cast<float>(c));
+  b.small = b.nh <= 8 && b.nv <= 8;
+  if (b.small) {
+    std::copy(b.H.begin(), b.H.end(), b.H8), std::copy(b.rH.begin(), b.rH.end(), b.rH8);
+    std::copy(b.V.begin(), b.V.end(), b.V8), std::copy(b.rV.begin(), b.rV.end(), b.rV8);
+  }
+  return b;
+}
+
+// One lamp's I·cos θ/d² at the ground point dx = X − x_l right of it, D ahead (D2 = D², invD =
+// 1/D in float): h = atan(dx/D), v = −atan(h_l/√(dx² + D²)) in degrees, the cut-off and the
+// table as beam_intensity_cd (the cell index by counting the grid angles at or below the angle,
+// upper_bound − 1 clamped to the last cell), cos θ/d² = h_l/(d²·d).
+[[gnu::always_inline]] inline float beam_lamp_f(float dx, float D2, float invD, const BeamF& b) {
+  const float horiz2 = dx * dx + D2, horiz = std::sqrt(horiz2);
+  const float d2 = horiz2 + b.hl2, d = std::sqrt(d2);
+  const float h = atanf_cephes(dx * invD) * b.deg, v = -(atanf_cephes(b.hl / horiz) * b.deg);
+  const float cut = std::min(b.cv + std::max(h, 0.f) * b.rise, b.cmax);
+  if (!(v <= cut && h >= b.H[0] && h <= b.H[b.nh - 1] && v >= b.V[0] && v <= b.V[b.nv - 1])) return 0.f;
+  int j = 0, i = 0;
+  for (int m = 1; m + 1 < b.nh; ++m) j += b.H[m] <= h;
+  for (int m = 1; m + 1 < b.nv; ++m) i += b.V[m] <= v;
+  const float a = (h - b.H[j]) * b.rH[j], c = (v - b.V[i]) * b.rV[i];
+  const float* r0 = b.I.data() + i * b.nh + j;
+  const float* r1 = r0 + b.nh;
+  const float ia = 1.f - a, ic = 1.f - c;
+  const float I = ic * (ia * r0[0] + a * r0[1]) + c * (ia * r1[0] + a * r1[1]);
+  return I * (b.hl / (d2 * d));
+}
+[[gnu::always_inline]] inline float beam_lux_f(float X, float D2, float invD, const BeamF& b) {
+  float E = 0.f;
+  for (int k = 0; k < 2; ++k) E += beam_lamp_f(X - b.xl[k], D2, invD, b);
+  return E;
+}
+
+// atanf_cephes on 8 lanes: the same operations (selects by blends, the sign put back by OR: a >= 0).
+__attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
+  const __m256 sign = _mm256_set1_ps(-0.f), one = _mm256_set1_ps(1.f);
+  const __m256 ax = _mm256_andnot_ps(sign, x);
+  const __m256 mid = _mm256_cmp_ps(ax, _mm256_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
+  if (_mm256_movemask_ps(mid) == 0) {
+    // No lane reduced (the common case for both angles): r = ax/1 = ax and y0 = 0 exactly, the
+    // scalar's operations without the division by 1.
+    const __m256 z = _mm256_mul_ps(ax, ax);
+    __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
+    P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
+    P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
+    const __m256 a = _mm256_add_ps(_mm256_setzero_ps(), _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax));
+    return _mm256_or_ps(a, _mm256_and_ps(x, sign));
+  }
+  const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
+  const __m256 num = _mm256_blendv_ps(_mm256_blendv_ps(ax, _mm256_sub_ps(ax, one), mid), _mm256_set1_ps(-1.f), big);
+  const __m256 den = _mm256_blendv_ps(_mm256_blendv_ps(one, _mm256_add_ps(ax, one), mid), ax, big);
+  const __m256 y0 = _mm256_blendv_ps(_mm256_and_ps(mid, _mm256_set1_ps(0.7853981633974483096f)),
+                                     _mm256_set1_ps(1.5707963267948966192f), big);
+  const __m256 r = _mm256_div_ps(num, den), z = _mm256_mul_ps(r, r);
+  __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
+  P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
+  P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
+  const __m256 a = _mm256_add_ps(y0, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), r), r));
+  return _mm256_or_ps(a, _mm256_and_ps(x, sign));
+}
+
+// One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
+// CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
+// lane by lane (the table by gathers; grid angles by permutations when at most 8), the rest by
+// beam_lux_f itself; the same bits.
+constexpr int kBeamChunk = 256;
 __attribute__((target("avx2")))
-void beam_sum_avx2(const BeamRows& r, int n, double tan_rise, const ScenePreset& p, double* sum) {
-  const auto& H = p.beam_h_deg;
-  const auto& V = p.beam_v_deg;
-  const int nh = static_cast<int>(H.size()), nv = static_cast<int>(V.size());
-  const double* I = p.beam_intensity_cd.data();
-  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-  const __m256d cmax = _mm256_set1_pd(p.beam_cutoff_max_v_deg), cv = _mm256_set1_pd(p.beam_cutoff_v_deg);
-  const __m256d rise = _mm256_set1_pd(tan_rise);
-  const __m256d h_lo = _mm256_set1_pd(H.front()), h_hi = _mm256_set1_pd(H.back());
-  const __m256d v_lo = _mm256_set1_pd(V.front()), v_hi = _mm256_set1_pd(V.back());
-  const __m128i vnh = _mm_set1_epi32(nh);
+void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, float* out) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
+  const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
+               hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
+  const __m256 cv = _mm256_set1_ps(b.cv), cmax = _mm256_set1_ps(b.cmax), rise = _mm256_set1_ps(b.rise);
+  const __m256 h_lo = _mm256_set1_ps(b.H[0]), h_hi = _mm256_set1_ps(b.H[b.nh - 1]);
+  const __m256 v_lo = _mm256_set1_ps(b.V[0]), v_hi = _mm256_set1_ps(b.V[b.nv - 1]);
+  const __m256i vnh = _mm256_set1_epi32(b.nh);
+  const __m256 H8 = _mm256_loadu_ps(b.H8), rH8 = _mm256_loadu_ps(b.rH8), V8 = _mm256_loadu_ps(b.V8), rV8 = _mm256_loadu_ps(b.rV8);
+  const __m256d vt = _mm256_set1_pd(t);
+  const float* I = b.I.data();
   int x = 0;
-  for (; x + 4 <= n; x += 4) {
-    __m256d acc = zero;
+  for (; x + 8 <= n; x += 8) {
+    const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x)));
+    const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x + 4)));
+    const __m256 X = _mm256_set_m128(hi, lo);
+    __m256 acc = zero;
     for (int k = 0; k < 2; ++k) {
-      const __m256d h = _mm256_loadu_pd(r.h[k] + x), v = _mm256_loadu_pd(r.v[k] + x);
-      // cut = min(cmax, cv + max(0, h)·tan_rise); lit: v <= cut and (h, v) inside the table.
-      const __m256d cut = _mm256_min_pd(_mm256_add_pd(cv, _mm256_mul_pd(_mm256_max_pd(h, zero), rise)), cmax);
-      __m256d lit = _mm256_cmp_pd(v, cut, _CMP_LE_OQ);
-      lit = _mm256_and_pd(lit, _mm256_and_pd(_mm256_cmp_pd(h, h_lo, _CMP_GE_OQ), _mm256_cmp_pd(h, h_hi, _CMP_LE_OQ)));
-      lit = _mm256_and_pd(lit, _mm256_and_pd(_mm256_cmp_pd(v, v_lo, _CMP_GE_OQ), _mm256_cmp_pd(v, v_hi, _CMP_LE_OQ)));
-      if (_mm256_movemask_pd(lit) == 0) continue;
-      __m256d jd = zero, id = zero;  // cell indices as counts
-      for (int m = 1; m + 1 < nh; ++m) jd = _mm256_add_pd(jd, _mm256_and_pd(_mm256_cmp_pd(_mm256_set1_pd(H[m]), h, _CMP_LE_OQ), one));
-      for (int m = 1; m + 1 < nv; ++m) id = _mm256_add_pd(id, _mm256_and_pd(_mm256_cmp_pd(_mm256_set1_pd(V[m]), v, _CMP_LE_OQ), one));
-      const __m128i j = _mm256_cvtpd_epi32(jd), i = _mm256_cvtpd_epi32(id);
-#define PHOTOSITE_GATHER(base, idx) _mm256_mask_i32gather_pd(zero, (base), (idx), all, 8)
-      const __m256d Hj = PHOTOSITE_GATHER(H.data(), j), Hj1 = PHOTOSITE_GATHER(H.data() + 1, j);
-      const __m256d Vi = PHOTOSITE_GATHER(V.data(), i), Vi1 = PHOTOSITE_GATHER(V.data() + 1, i);
-      const __m256d a = _mm256_div_pd(_mm256_sub_pd(h, Hj), _mm256_sub_pd(Hj1, Hj));
-      const __m256d b = _mm256_div_pd(_mm256_sub_pd(v, Vi), _mm256_sub_pd(Vi1, Vi));
-      const __m128i c0 = _mm_add_epi32(_mm_mullo_epi32(i, vnh), j);  // r0 + j
-      const __m256d r00 = PHOTOSITE_GATHER(I, c0), r01 = PHOTOSITE_GATHER(I + 1, c0);
-      const __m256d r10 = PHOTOSITE_GATHER(I + nh, c0), r11 = PHOTOSITE_GATHER(I + nh + 1, c0);
-#undef PHOTOSITE_GATHER
-      const __m256d ia = _mm256_sub_pd(one, a), ib = _mm256_sub_pd(one, b);
-      const __m256d top = _mm256_add_pd(_mm256_mul_pd(ia, r00), _mm256_mul_pd(a, r01));
-      const __m256d bot = _mm256_add_pd(_mm256_mul_pd(ia, r10), _mm256_mul_pd(a, r11));
-      const __m256d Iv = _mm256_and_pd(lit, _mm256_add_pd(_mm256_mul_pd(ib, top), _mm256_mul_pd(b, bot)));
-      const __m256d c = _mm256_loadu_pd(r.c[k] + x), d2 = _mm256_loadu_pd(r.d2[k] + x);
-      acc = _mm256_add_pd(acc, _mm256_div_pd(_mm256_mul_pd(Iv, c), d2));
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(b.xl[k]));
+      const __m256 horiz2 = _mm256_add_ps(_mm256_mul_ps(dx, dx), vD2), horiz = _mm256_sqrt_ps(horiz2);
+      const __m256 d2 = _mm256_add_ps(horiz2, hl2), d = _mm256_sqrt_ps(d2);
+      const __m256 h = _mm256_mul_ps(atanf_cephes8(_mm256_mul_ps(dx, vinvD)), deg);
+      const __m256 v = _mm256_xor_ps(_mm256_mul_ps(atanf_cephes8(_mm256_div_ps(hl, horiz)), deg), sign);
+      const __m256 cut = _mm256_min_ps(_mm256_add_ps(cv, _mm256_mul_ps(_mm256_max_ps(h, zero), rise)), cmax);
+      __m256 lit = _mm256_cmp_ps(v, cut, _CMP_LE_OQ);
+      lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)));
+      lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
+      if (_mm256_movemask_ps(lit) == 0) continue;
+      __m256i j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
+      for (int m = 1; m + 1 < b.nh; ++m)
+        j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
+      for (int m = 1; m + 1 < b.nv; ++m)
+        i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
+      __m256 Hj, rHj, Vi, rVi;
+      if (b.small) {
+        Hj = _mm256_permutevar8x32_ps(H8, j), rHj = _mm256_permutevar8x32_ps(rH8, j);
+        Vi = _mm256_permutevar8x32_ps(V8, i), rVi = _mm256_permutevar8x32_ps(rV8, i);
+      } else {
+        Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
+        Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+      }
+      const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
+      const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);  // r0 + j
+      const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
+      const __m256 r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
+      const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
+      const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
+      const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
+      const __m256 Iv = _mm256_and_ps(lit, _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot)));
+      acc = _mm256_add_ps(acc, _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2, d))));
     }
-    _mm256_storeu_pd(sum + x, acc);
+    _mm256_storeu_ps(out + x, acc);
   }
-  for (; x < n; ++x) {
-    double s = 0;
-    for (int k = 0; k < 2; ++k) s += beam_intensity_cd(r.h[k][x], r.v[k][x], tan_rise, p) * r.c[k][x] / r.d2[k][x];
-    sum[x] = s;
-  }
+  for (; x < n; ++x) out[x] = beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b);
 }
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
 }  // namespace
@@ -233,59 +339,64 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
+float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
+  const BeamF b = beam_f(p);
+  const float D = static_cast<float>(D_m);
+  if (!b.ok || !(D > 0)) return 0.f;
+  return beam_lux_f(static_cast<float>(X_m), D * D, 1.f / D, b);
+}
+
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels, const ImageU8* lanes) {
-  ImageF E(width, height, 1, 0.f);
-  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
-  const double hl = p.beam_lamp_height_m;
-  const double xl[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
+  const BeamF b = beam_f(p);
+  if (!b.ok) return ImageF(width, height, 1, 0.f);  // no table: no light (as beam_intensity_cd)
+  // Written whole by the rows below (zeros where nothing is computed), in parallel: no separate
+  // zeroing pass, and each thread touches its own rows first.
+  ImageF E(width, height, 1, uninitialized);
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given.
   const auto& read = ground_classes();
   // On the flat ground a row is one forward distance D and its ground points are X = t·x_n
-  // (CameraGeometry::ground_point, whose expressions are repeated here so that E is bit-equal
-  // to low_beam_lux at the pixel's ground point): D and t once per row, the two atan per lamp
-  // and pixel in vectorized chunks (beam_rays), then the table per pixel that reads it.
+  // (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
+  // column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
+  // low_beam_lux_f32 at (X, D), 8 pixels at a time with AVX2, one by one otherwise: the same bits.
   const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
-  // The vectorized table (beam_sum_avx2) for grids of at least two angles each (the preset's
-  // rule); the scalar path otherwise and without AVX2. The same bits either way.
-  const bool avx2 = kHaveAvx2 && p.beam_h_deg.size() >= 2 && p.beam_v_deg.size() >= 2 &&
-                    p.beam_intensity_cd.size() == p.beam_h_deg.size() * p.beam_v_deg.size();
+  std::vector<double> xn(width);
+  for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
+  const bool avx2 = kHaveAvx2;
 #pragma omp parallel
   {
-    BeamRows rays;
-    double sum[kBeamChunk];
+    float sum[kBeamChunk];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < height; ++y) {
-      const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
-      if (den <= 0) continue;  // at or above the horizon: no ground point
-      const double t = g.mount_height_m / den, D = t * (c - yn * s);
-      if (!(D > 0)) continue;
       float* e = E.row(y);
+      const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+      const double t = g.mount_height_m / den, D = t * (c - yn * s);
+      const float Df = static_cast<float>(D);
+      // At or above the horizon (den <= 0): no ground point.
+      if (den <= 0 || !(D > 0) || !(Df > 0)) {
+        std::fill_n(e, width, 0.f);
+        continue;
+      }
+      const float D2 = Df * Df, invD = 1.f / Df;
       const uint16_t* id = labels ? labels->row(y) : nullptr;
       const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
       auto needed = [&](int x) { return !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]); };
       for (int x0 = 0; x0 < width; x0 += kBeamChunk) {
         const int x1 = std::min(width, x0 + kBeamChunk);
-        int a = x0, b = x1;
-        while (a < b && !needed(a)) ++a;
-        while (b > a && !needed(b - 1)) --b;
-        if (a == b) continue;
-        beam_rays(a, b - a, g.cx_px, g.f_px, t, D, hl, xl, rays);
+        int a = x0, bx = x1;
+        while (a < bx && !needed(a)) ++a;
+        while (bx > a && !needed(bx - 1)) --bx;
+        std::fill(e + x0, e + a, 0.f);
+        std::fill(e + bx, e + x1, 0.f);
+        if (a == bx) continue;
         if (avx2) {
-          beam_sum_avx2(rays, b - a, tan_rise, p, sum);
-          for (int x = a; x < b; ++x)
-            if (needed(x)) e[x] = static_cast<float>(sum[x - a]);
+          beam_row_avx2(xn.data() + a, bx - a, t, D2, invD, b, sum);
+          for (int x = a; x < bx; ++x) e[x] = needed(x) ? sum[x - a] : 0.f;
           continue;
         }
-        for (int x = a; x < b; ++x) {
-          if (!needed(x)) continue;
-          const int i = x - a;
-          double E_x = 0;
-          for (int k = 0; k < 2; ++k)
-            E_x += beam_intensity_cd(rays.h[k][i], rays.v[k][i], tan_rise, p) * rays.c[k][i] / rays.d2[k][i];
-          e[x] = static_cast<float>(E_x);
-        }
+        for (int x = a; x < bx; ++x)
+          e[x] = needed(x) ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
       }
     }
   }

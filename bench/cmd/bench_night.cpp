@@ -160,7 +160,17 @@ void run(const Opts& o) {
       auto tv3 = clock::now();
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));
+      // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
+      // pixels (the chain adds the lane-marking pixels, which lie on the road almost all).
+      const double cb0 = cpu_ms();
+      auto tb0 = clock::now();
+      const ImageF beam = scene::low_beam_illuminance(ns.geometry, day.width(), day.height(), sp, &lm.ids);
+      auto tb1 = clock::now();
+      const double cb1 = cpu_ms();
+      add("ego low beam image (alone)", ms(tb0, tb1));
+      (void)beam;
       if (o.cpu_clock) {
+        add("cpu: ego low beam image (alone)", cb1 - cb0);
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);

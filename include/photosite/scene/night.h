@@ -207,7 +207,12 @@ double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p);
 // Illuminance (lx) of the headlamp pair on the road at road coordinates (X_m right, D_m forward):
 // E = Σ_lamps I(h, v)·cos θ / d², θ the incidence from the road's normal, d the lamp distance.
 double low_beam_lux(double X_m, double D_m, const ScenePreset& p);
-// E_beam per pixel (1 channel, lx): low_beam_lux at each pixel's flat-ground point
+// The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
+// bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the
+// angles' float error; may differ between lit and 0 within that error of the cut-off line or the
+// table's edge (the bound and the band: tests/scene_metric_test.cpp).
+float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p);
+// E_beam per pixel (1 channel, lx): low_beam_lux_f32 at each pixel's flat-ground point
 // (CameraGeometry::ground_point), 0 at and above the horizon. What compose() reads.
 // labels (and lanes) given: computed only where it is read, on ground-class pixels (compose) and
 // lane-marking pixels (the light map's retroreflection); 0 elsewhere.
