@@ -22,6 +22,7 @@ const char* name(Var v) {
     case Var::VkSyncValidation: return "PHOTOSITE_VK_SYNC_VALIDATION";
     case Var::VkStaging: return "PHOTOSITE_VK_STAGING";
     case Var::SampleDir: return "PHOTOSITE_SAMPLE_DIR";
+    case Var::ScalarLights: return "PHOTOSITE_SCALAR_LIGHTS";
   }
   return "";
 }

@@ -8,6 +8,7 @@
 #include <map>
 #include <opencv2/imgproc.hpp>
 
+#include "photosite/environment.h"
 #include "photosite/rng.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
@@ -323,7 +324,8 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   }
   for (; x < n; ++x) out[x] = beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b);
 }
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
+// PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
+const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
 }  // namespace
 
 double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {

@@ -16,6 +16,7 @@
 #include <opencv2/imgproc.hpp>
 #include <unordered_set>
 
+#include "photosite/environment.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/spectrum.h"
 
@@ -133,7 +134,7 @@ void pool_row_scalar(float* e, const double* Xg, const uint8_t* mask, int n, con
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 takes the scalar paths on an AVX2 machine (to check that both give
 // the same bits).
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && !std::getenv("PHOTOSITE_SCALAR_LIGHTS");
+const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
 // RelTable::atf for eight lanes (the entries by gathers; the index clamped to [0, 4095] so that
 // lanes whose result is dropped stay inside the table): the same operations.
 __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const RelTable& t, __m256 c) {

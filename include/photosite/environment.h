@@ -10,6 +10,8 @@
 //   PHOTOSITE_VK_SYNC_VALIDATION  0: without synchronization validation (when validation is on)
 //   PHOTOSITE_VK_STAGING          1|0: force staged copies or mapped buffers
 //   PHOTOSITE_SAMPLE_DIR          the bundled sample images (the command's `night` default input)
+//   PHOTOSITE_SCALAR_LIGHTS       1: the light map's street light and low beam take their scalar
+//                                 paths on an AVX2 machine (read once; to check both give the same bits)
 //
 // The Vulkan loader's own variables (VK_DRIVER_FILES, VK_ICD_FILENAMES) are read by the loader.
 #pragma once
@@ -29,6 +31,7 @@ enum class Var {
   VkSyncValidation,
   VkStaging,
   SampleDir,
+  ScalarLights,
 };
 
 const char* name(Var v);                 // "PHOTOSITE_DATA_DIR", ...
