@@ -183,7 +183,7 @@ ImageFileInfo probe_image(const std::string& path) {
 }
 
 namespace {
-// The plain PNGs of the data sets (8/16-bit grey or RGB, not interlaced, no colour chunks)
+// The plain PNGs of the data sets (8/16-bit grey or RGB, not interlaced, no colour chunks but sRGB's)
 // decoded by core/png_codec.cpp: 1.2x to 2.6x less CPU than OpenImageIO's libpng reader and
 // float conversion (`photosite bench batch`, docs/cli.md "PNG input and output"). Anything else
 // (another format, a PNG the decoder does not take, a damaged file) returns nullopt and goes
@@ -212,7 +212,7 @@ std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInf
     info->channels = d->channels;
     info->bits_per_sample = d->bits;
     info->is_float = false;
-    info->srgb_encoded = true;  // no gAMA / iCCP / sRGB chunk: OpenImageIO names it sRGB
+    info->srgb_encoded = true;  // no colour chunk, or sRGB's: OpenImageIO names it sRGB
   }
   return d;
 }

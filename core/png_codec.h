@@ -1,7 +1,7 @@
 // PNG by hand for the data-set route (private header, core/ and tests only): the plain files
-// Cityscapes, KITTI and BDD100K ship (8- or 16-bit grey or RGB, not interlaced, no transparency
-// or colour chunks) decoded with libdeflate's inflate, and 8-bit grey / RGB written with one
-// filter for every row and one whole-buffer deflate (libdeflate, or zlib with a chosen
+// Cityscapes, KITTI and BDD100K ship (8- or 16-bit grey or RGB, not interlaced, no transparency,
+// no colour chunk but sRGB's) decoded with libdeflate's inflate, and 8-bit grey / RGB written
+// with one filter for every row and one whole-buffer deflate (libdeflate, or zlib with a chosen
 // strategy). The file format is the PNG specification's (ISO/IEC 15948:2004, W3C PNG 2nd ed.):
 // signature, IHDR, IDAT (a zlib stream of filtered rows), IEND, each chunk with its CRC-32.
 // Files the decoder does not take (anything else) go through OpenImageIO (core/io.cpp); the
@@ -32,9 +32,9 @@ struct Decoded {
 };
 
 // Decodes `bytes` (a whole file) when it is a PNG this decoder takes; std::nullopt when it is
-// not (another format, interlaced, palette, alpha, tRNS / gAMA / iCCP / cHRM / sBIT chunks,
-// any damage: bad CRC, short data, unknown filter), so the caller's general reader handles it
-// and reports damage in its own words. `max_pixels` refuses oversized frames before allocating.
+// not (another format, interlaced, palette, alpha, tRNS / iCCP / sBIT chunks, gAMA or cHRM
+// without an sRGB chunk, any damage: bad CRC, short data, unknown filter), so the caller's
+// general reader handles it and reports damage in its own words. `max_pixels` refuses oversized frames before allocating.
 std::optional<Decoded> decode(const std::vector<uint8_t>& bytes, int64_t max_pixels);
 
 // The row filter (PNG filter type 0..4; Adaptive: per row the one of the five with the smallest

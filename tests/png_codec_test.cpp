@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 #include <opencv2/imgcodecs.hpp>
+#include <zlib.h>
 
 #include "core/png_codec.h"
 #include "photosite/error.h"
@@ -32,6 +33,21 @@ std::vector<std::string> data_set_pngs() {
 }
 
 std::vector<uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
+
+// `png` with ancillary chunks (type, data) inserted after IHDR, each with its CRC-32.
+std::string with_chunks(const std::string& png, const std::vector<std::pair<std::string, std::string>>& chunks) {
+  std::string out = png.substr(0, 8 + 12 + 13);  // signature and IHDR
+  for (const auto& [type, data] : chunks) {
+    const std::string td = type + data;
+    const uint32_t n = static_cast<uint32_t>(data.size());
+    const uint32_t crc = static_cast<uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(td.data()), td.size()));
+    for (int s = 24; s >= 0; s -= 8) out += static_cast<char>(n >> s & 0xff);
+    out += td;
+    for (int s = 24; s >= 0; s -= 8) out += static_cast<char>(crc >> s & 0xff);
+  }
+  return out + png.substr(8 + 12 + 13);
+}
+std::string be32s(uint32_t v) { return {char(v >> 24), char(v >> 16 & 0xff), char(v >> 8 & 0xff), char(v & 0xff)}; }
 
 // A test image: smooth ramps, a noisy band and flat runs, so every filter type wins somewhere.
 std::vector<uint8_t> test_image(int w, int h, int ch, uint32_t seed) {
@@ -157,4 +173,36 @@ TEST(PngCodec, OtherAndDamagedFilesGoToOpenImageIO) {
   std::ofstream(dir.file("cut.png"), std::ios::binary) << good.substr(0, good.size() / 2);
   const std::string e = test::error_of([&] { read_image(dir.file("cut.png")); });
   EXPECT_NE(e.find("cut.png"), std::string::npos) << e;
+}
+
+// Files re-saved by image tools carry sRGB (with the gAMA and cHRM that the PNG specification
+// asks writers to put beside it), pHYs and tEXt chunks, as the shared Cityscapes frames do: the
+// decoder takes them, with OpenImageIO's samples and colour space; gAMA alone (here 1.0, linear)
+// changes the colour space, so it goes to OpenImageIO, which reads it as linear.
+TEST(PngCodec, AncillaryChunksBesideSrgbAreTakenGammaAloneIsNot) {
+  test::TempDir dir;
+  const auto px = test_image(40, 30, 3, 5);
+  const std::string plain = png::encode(px.data(), 40, 30, 3, png::default_encode_options());
+  const std::string chrm = be32s(31270) + be32s(32900) + be32s(64000) + be32s(33000) + be32s(30000) +
+                           be32s(60000) + be32s(15000) + be32s(6000);  // the sRGB chromaticities x 1e5
+  const std::string tagged = with_chunks(plain, {{"gAMA", be32s(45455)}, {"sRGB", std::string(1, '\0')},
+                                                 {"cHRM", chrm}, {"pHYs", be32s(2835) + be32s(2835) + "\x01"},
+                                                 {"tEXt", std::string("Software\0by hand", 16)}});
+  ASSERT_TRUE(png::decode(bytes_of(tagged), max_frame_pixels())) << "sRGB with gAMA/cHRM, pHYs, tEXt: taken";
+  std::ofstream(dir.file("tagged.png"), std::ios::binary) << tagged;
+  ImageFileInfo a, b;
+  const ImageF fast = read_image(dir.file("tagged.png"), &a), general = detail::read_image_general(dir.file("tagged.png"), &b);
+  EXPECT_EQ(fast.vec(), general.vec());
+  EXPECT_TRUE(a.srgb_encoded);
+  EXPECT_EQ(a.srgb_encoded, b.srgb_encoded);
+
+  const std::string linear = with_chunks(plain, {{"gAMA", be32s(100000)}});
+  EXPECT_FALSE(png::decode(bytes_of(linear), max_frame_pixels())) << "gAMA without sRGB: left to OpenImageIO";
+  std::ofstream(dir.file("linear.png"), std::ios::binary) << linear;
+  ImageFileInfo c;
+  const ImageF lin = read_image(dir.file("linear.png"), &c);
+  EXPECT_FALSE(c.srgb_encoded) << "OpenImageIO reads gamma 1.0 as linear";
+  EXPECT_EQ(lin.vec(), general.vec()) << "the same samples";
+  EXPECT_FALSE(png::decode(bytes_of(with_chunks(plain, {{"cHRM", chrm}})), max_frame_pixels()));
+  EXPECT_FALSE(png::decode(bytes_of(with_chunks(plain, {{"iCCP", std::string("x\0\0", 3)}})), max_frame_pixels()));
 }
