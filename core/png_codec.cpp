@@ -10,6 +10,7 @@
 #include <memory>
 #include <new>
 
+#include "core/huffman_deflate.h"
 #include "photosite/error.h"
 
 #if defined(__SSE2__)
@@ -285,7 +286,9 @@ std::string encode(const uint8_t* samples, int width, int height, int channels, 
   ihdr[10] = ihdr[11] = ihdr[12] = 0;
   chunk("IHDR", ihdr, 13);
   std::vector<uint8_t> z;
-  if (o.deflater == Deflater::Libdeflate) {
+  if (o.deflater == Deflater::HuffmanOnly) {
+    z = huffman_only::zlib_stream(rows.data(), rows.size());
+  } else if (o.deflater == Deflater::Libdeflate) {
     const Compressor c{libdeflate_alloc_compressor(std::clamp(o.level, 1, 12))};
     if (!c.c) throw std::bad_alloc();
     z.resize(libdeflate_zlib_compress_bound(c.c, rows.size()));

@@ -40,17 +40,18 @@ std::optional<Decoded> decode(const std::vector<uint8_t>& bytes, int64_t max_pix
 // The row filter (PNG filter type 0..4; Adaptive: per row the one of the five with the smallest
 // sum of |signed bytes|, libpng's heuristic).
 enum class Filter { None = 0, Sub = 1, Up = 2, Average = 3, Paeth = 4, Adaptive = 5 };
-enum class Deflater { Libdeflate, Zlib };
+// HuffmanOnly: core/huffman_deflate.h's literal-only blocks (level and strategy unused).
+enum class Deflater { Libdeflate, Zlib, HuffmanOnly };
 struct EncodeOptions {
-  Deflater deflater = Deflater::Zlib;
+  Deflater deflater = Deflater::HuffmanOnly;
   int level = 1;         // libdeflate 1..12, zlib 0..9
   int zlib_strategy = 2;  // Z_DEFAULT_STRATEGY 0, Z_FILTERED 1, Z_HUFFMAN_ONLY 2, Z_RLE 3 (zlib only)
   Filter filter = Filter::Average;
 };
-// What write_png8 uses: zlib Huffman-only coding (no string matching) of Average-filtered rows.
-// On the night previews: 0.57x the CPU time and 0.79x the bytes of libpng at zlib level 1 with
-// Sub, the previous writer (bench_png.csv, docs/cli.md "PNG input and output"); sensor noise
-// leaves LZ77 few matches, so zlib's match search costs time and its matches cost bits.
+// What write_png8 uses: Huffman-only coding (no string matching) of Average-filtered rows, by
+// core/huffman_deflate.h: the stream zlib's Z_HUFFMAN_ONLY strategy writes, in less time
+// (bench_png.csv, docs/cli.md "PNG input and output"). Sensor noise leaves LZ77 few matches,
+// so a match search costs time and its matches cost bits.
 EncodeOptions default_encode_options();
 
 // The whole PNG file of an 8-bit grey (channels 1) or RGB (3) image.

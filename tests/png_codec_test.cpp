@@ -98,7 +98,7 @@ TEST(PngCodec, DecodesTheDataSetsFilesAsOpenImageIODoes) {
 TEST(PngCodec, EveryEncoderSettingReadsBackThroughOpenCVUnchanged) {
   const std::pair<png::Deflater, int> deflaters[] = {
       {png::Deflater::Zlib, 0}, {png::Deflater::Zlib, 1}, {png::Deflater::Zlib, 2}, {png::Deflater::Zlib, 3},
-      {png::Deflater::Libdeflate, -1}};
+      {png::Deflater::Libdeflate, -1}, {png::Deflater::HuffmanOnly, -1}};
   for (const int ch : {1, 3})
     for (const auto [w, h] : {std::pair{37, 23}, std::pair{1, 1}, std::pair{256, 5}}) {
       const auto img = test_image(w, h, ch, static_cast<uint32_t>(w * 10 + ch));

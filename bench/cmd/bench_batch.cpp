@@ -181,6 +181,10 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
   };
   const png::Filter filters[] = {png::Filter::None, png::Filter::Sub, png::Filter::Up, png::Filter::Average,
                                  png::Filter::Paeth, png::Filter::Adaptive};
+  for (const auto f : filters) {  // core/huffman_deflate.h: literal-only blocks of 64 KiB
+    png::EncodeOptions o{png::Deflater::HuffmanOnly, 0, 0, f};
+    settings.push_back({"ours", "huffman-only", 0, filter_name(f), ours(o)});
+  }
   for (int strategy = 0; strategy < 4; ++strategy)
     for (const auto f : filters) {
       png::EncodeOptions o{png::Deflater::Zlib, 1, strategy, f};
@@ -226,10 +230,12 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
     }
     ms /= previews.size();
     mb /= previews.size();
-    const bool is_default = st.encoder == "ours" &&
-                            st.deflate == (def.deflater == png::Deflater::Libdeflate ? std::string("libdeflate")
-                                                                                     : fmt::format("zlib {}", strategy_name(def.zlib_strategy))) &&
-                            st.level == def.level && st.filter == filter_name(def.filter);
+    const std::string def_deflate = def.deflater == png::Deflater::Libdeflate    ? std::string("libdeflate")
+                                    : def.deflater == png::Deflater::HuffmanOnly ? std::string("huffman-only")
+                                                                                 : fmt::format("zlib {}", strategy_name(def.zlib_strategy));
+    const bool is_default = st.encoder == "ours" && st.deflate == def_deflate &&
+                            (def.deflater == png::Deflater::HuffmanOnly || st.level == def.level) &&
+                            st.filter == filter_name(def.filter);
     std::printf("  %-28s %-16s level %d  %-8s %7.1f ms  %5.2f MB%s\n", st.encoder.c_str(), st.deflate.c_str(), st.level,
                 st.filter.c_str(), ms, mb, is_default ? "   <- default" : "");
     csv += fmt::format("{},{},{},{},{:.1f},{:.3f},{}\n", st.encoder, st.deflate, st.level, st.filter, ms, mb, is_default ? 1 : 0);
