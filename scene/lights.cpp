@@ -506,14 +506,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   auto vehicle_instance = [&](uint16_t q) {
     return v_range ? static_cast<uint16_t>(q - q_lo) <= q_span : q >= 1000 && vehicle(q / 1000);
   };
-  ImageI32 comp(W, H, 1, uninitialized);  // zeroed row by row in the scan below
+  // Vehicle component per pixel; only the vehicle rows [ry0, ry1] are zeroed and used (the
+  // discs below read it through `mine`, which is false outside them), so the other rows are
+  // never written, nor their pages touched.
+  ImageI32 comp(W, H, 1, uninitialized);
   int ncomp = 0;
   std::vector<int> comp_class(1, 0);
   // The rows holding any vehicle pixel: all vehicle work below stays inside them.
   int ry0 = H, ry1 = -1;
 #pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
   for (int y = 0; y < H; ++y) {
-    std::fill_n(comp.row(y), W, 0);
     const uint16_t* r = labels.row(y);
     const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
     // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block).
@@ -531,6 +533,8 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       ry1 = std::max(ry1, y);
     }
   }
+#pragma omp parallel for schedule(static)
+  for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
   const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
   const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
   if (ry1 >= 0) {
@@ -650,7 +654,10 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // bright white is rare (so not a white body), near-white highlights in the lower half.
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-  ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows)
+  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
+  // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
+  ImageU8 cue(W, H, 1, uninitialized);
+  for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
   std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
 #pragma omp parallel for schedule(static, 8)
   for (int y = std::max(0, ry0); y <= ry1; ++y) {
@@ -721,7 +728,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   for (int c = 1; c <= ncomp; ++c) {
     const Box& b = boxes[c];
     const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
-    auto mine = [&](int x, int y) { return comp.at(x, y) == c; };
+    auto mine = [&](int x, int y) { return y >= ry0 && y <= ry1 && comp.at(x, y) == c; };
     const int cls = comp_class[c];
     const bool two_wheeler = cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle);
     if (geometry) {
