@@ -368,11 +368,13 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
   const auto& ground = ground_classes();
+  std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
+  for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
 #pragma omp parallel
   {
     std::vector<float> acc(W + 8);
     std::vector<double> Xg(W + 8);
-    std::vector<uint8_t> gmask(W / 8 + 2);
+    std::vector<uint8_t> gmask(W / 8 + 2), gpix(W + 8);
     PoolLamps pl;
     const float I0 = static_cast<float>(s.peak_intensity_cd);
 #pragma omp for schedule(static, 8)
@@ -392,28 +394,29 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       // changed dim pixels by up to 4%: not taken.)
       const double kx = t / g.f_px;
       pl.clear();
-      for (const auto& l : s.lamps)
-        if (std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p)) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      for (size_t k = 0; k < s.lamps.size(); ++k) {
+        const auto& l = s.lamps[k];
+        if (std::fabs(D0 - l.D_m) <= reach[k]) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      }
       const bool any = pl.size() > 0;
+      if (!any) continue;  // nothing is written in this row
       // Pixels from xa in groups of eight (the last padded with columns past xb, computed and
       // not read); a group is computed when it holds a ground pixel.
       const int n = xb - xa;
       for (int i = 0; i < n + 7; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
+      for (int x = xa; x < xb; ++x) gpix[x] = id[x] < kLabelCount && ground[id[x]];  // the row's ground pixels
       for (int q = 0; 8 * q < n; ++q) {
         uint8_t m = 0;
-        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= id[x] < kLabelCount && ground[id[x]];
+        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= gpix[x];
         gmask[q] = m;
       }
-      if (any) {
-        if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-        else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-      }
-      if (!any) continue;
+      if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
+      else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
       const float* tx = texture.row(y);
       float* o = L.row(y);
       const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
       for (int x = xa; x < xb; ++x) {
-        if (id[x] >= kLabelCount || !ground[id[x]]) continue;
+        if (!gpix[x]) continue;
         const float ef = acc[x];
         o[3 * x] += tx[3 * x] * t0 * ef;
         o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
