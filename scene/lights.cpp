@@ -4,6 +4,7 @@
 // (sensor/glare.h), not here.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <immintrin.h>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -58,6 +59,12 @@ Rgb amber_lamp(double L) { return coloured(1.0, 0.45, 0.0, L); }   // amber sign
 Rgb green_lamp(double L) { return coloured(0.0, 1.0, 0.6, L); }    // blue-green signal
 Rgb blackbody(double cct, double L) { return spectrum::blackbody_rgb(cct, L); }
 
+// Whether the eight ints from p are all zero.
+inline bool all_zero8(const int32_t* p) {
+  uint64_t w[4];
+  std::memcpy(w, p, sizeof w);
+  return !(w[0] | w[1] | w[2] | w[3]);
+}
 void put_max(ImageF& img, int x, int y, const Rgb& c) {
   for (int k = 0; k < 3; ++k) img.at(x, y, k) = std::max(img.at(x, y, k), static_cast<float>(c[k]));
 }
@@ -434,24 +441,34 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // the frame, so contiguous halves would leave one thread most of the work.)
   int signals = 0;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
+  const int traffic_sign = static_cast<int>(Label::TrafficSign);
 #pragma omp parallel for schedule(static, 8) reduction(+ : signals)
   for (int y = 0; y < H; ++y) {
-    std::fill_n(L.row(y), 3 * static_cast<size_t>(W), 0.f);
+    // Row pointers (stores to L through the images' own accessors made the compiler reload them
+    // per pixel), and pixels that are no marking, sign or signal left at once: they get nothing.
+    float* Lr = L.row(y);
+    std::fill_n(Lr, 3 * static_cast<size_t>(W), 0.f);
+    const uint16_t* idr = labels.row(y);
+    const uint8_t* lr = lanes.row(y);
+    const float* br = beam_lux ? beam_lux->row(y) : nullptr;
+    const float* dr = depth.row(y);
+    const float* tr = texture.row(y);
     for (int x = 0; x < W; ++x) {
-      const size_t i = static_cast<size_t>(y) * W + x;
-      const int id = labels[i];
+      const int id = idr[x];
+      if (!lr[x] && id != traffic_sign && id != traffic_light) continue;
       double lum = 0;
-      if (lanes[i]) lum = beam_lux ? p.marking_RL * (*beam_lux)[i] : 0.0;
-      else if (id == static_cast<int>(Label::TrafficSign))
-        lum = p.sign_RA * p.beam_sign_lux * (geometry ? 1.0 : std::max(0.05, static_cast<double>(depth[i])));
+      if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
+      else if (id == traffic_sign)
+        lum = p.sign_RA * p.beam_sign_lux * (geometry ? 1.0 : std::max(0.05, static_cast<double>(dr[x])));
       if (lum > 0) {
         const double rho = class_reflectance(id, p);
         for (int k = 0; k < 3; ++k) {
-          const double pattern = lanes[i] ? 1.0 / ktb : texture[3 * i + k] / rho;
-          L[3 * i + k] = static_cast<float>(lum * tb[k] * pattern);
+          const double pattern = lr[x] ? 1.0 / ktb : tr[3 * x + k] / rho;
+          Lr[3 * x + k] = static_cast<float>(lum * tb[k] * pattern);
         }
       }
       if (id != traffic_light) continue;
+      const size_t i = static_cast<size_t>(y) * W + x;
       const Lab c = lab_at(static_cast<int>(i));
       const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
       if (c.L < 25 || chroma < 30) continue;
@@ -471,23 +488,53 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   bool vehicle_id[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id) vehicle_id[id] = is_vehicle(id);
   auto vehicle = [&](int id) { return id >= 0 && id < kLabelCount && vehicle_id[id]; };
-  ImageI32 comp(W, H, 1, uninitialized);  // zeroed row by row in the scan below
+  // The vehicle ids form one range [v_lo, v_hi] (labels.cpp: 26..33); where they do, a label is
+  // a vehicle when (uint16)(id − v_lo) ≤ v_hi − v_lo and an instance id q (class·1000 + n) when
+  // q ∈ [1000·v_lo, 1000·v_hi + 999] (q/1000 a vehicle, and q ≥ 1000): the same tests as
+  // vehicle(), without the table or the division per pixel.
+  int v_lo = -1, v_hi = -1;
+  for (int id = 0; id < kLabelCount; ++id)
+    if (vehicle_id[id]) {
+      if (v_lo < 0) v_lo = id;
+      v_hi = id;
+    }
+  bool v_range = v_lo > 0;
+  for (int id = std::max(0, v_lo); id <= v_hi; ++id) v_range = v_range && vehicle_id[id];
+  const uint16_t v_span = static_cast<uint16_t>(v_hi - v_lo);
+  const uint16_t q_lo = static_cast<uint16_t>(1000 * std::max(0, v_lo)), q_span = static_cast<uint16_t>(1000 * (v_hi - v_lo) + 999);
+  auto vehicle_label = [&](uint16_t id) { return v_range ? static_cast<uint16_t>(id - v_lo) <= v_span : vehicle(id); };
+  auto vehicle_instance = [&](uint16_t q) {
+    return v_range ? static_cast<uint16_t>(q - q_lo) <= q_span : q >= 1000 && vehicle(q / 1000);
+  };
+  // Vehicle component per pixel; only the vehicle rows [ry0, ry1] are zeroed and used (the
+  // discs below read it through `mine`, which is false outside them), so the other rows are
+  // never written, nor their pages touched.
+  ImageI32 comp(W, H, 1, uninitialized);
   int ncomp = 0;
   std::vector<int> comp_class(1, 0);
   // The rows holding any vehicle pixel: all vehicle work below stays inside them.
   int ry0 = H, ry1 = -1;
 #pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
   for (int y = 0; y < H; ++y) {
-    std::fill_n(comp.row(y), W, 0);
     const uint16_t* r = labels.row(y);
     const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
-    for (int x = 0; x < W; ++x)
-      if (vehicle(r[x]) || (q && q[x] >= 1000 && vehicle(q[x] / 1000))) {
-        ry0 = std::min(ry0, y);
-        ry1 = std::max(ry1, y);
-        break;
-      }
+    // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block).
+    bool any = false;
+    for (int x0 = 0; x0 < W && !any; x0 += 64) {
+      const int x1 = std::min(W, x0 + 64);
+      unsigned acc = 0;
+      for (int x = x0; x < x1; ++x) acc |= vehicle_label(r[x]);
+      if (q)
+        for (int x = x0; x < x1; ++x) acc |= vehicle_instance(q[x]);
+      any = acc != 0;
+    }
+    if (any) {
+      ry0 = std::min(ry0, y);
+      ry1 = std::max(ry1, y);
+    }
   }
+#pragma omp parallel for schedule(static)
+  for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
   const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
   const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
   if (ry1 >= 0) {
@@ -496,7 +543,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       int last_v = -1, last_c = 0;
       for (size_t i = i_begin; i < i_end; ++i) {
         const int v = lm.instances[i];
-        if (v >= 1000 && vehicle(v / 1000)) {
+        if (vehicle_instance(static_cast<uint16_t>(v))) {
           if (v != last_v) {
             auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
             if (fresh) comp_class.push_back(v / 1000);
@@ -528,15 +575,22 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   }
   struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
   std::vector<Box> boxes(ncomp + 1);
-  for (int y = ry0; y <= ry1; ++y)
+  for (int y = ry0; y <= ry1; ++y) {
+    const int32_t* cr = comp.row(y);
     for (int x = 0; x < W; ++x) {
-      const int c = comp.at(x, y);
+      // Vehicle pixels are a minority of these rows: eight ids at a time skip the empty stretches.
+      if ((x & 7) == 0 && x + 8 <= W && all_zero8(cr + x)) {
+        x += 7;
+        continue;
+      }
+      const int c = cr[x];
       if (!c) continue;
       Box& b = boxes[c];
       b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
       b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
       ++b.n;
     }
+  }
   // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
   // lowest row; the labels just below it (3 rows across the middle half of its width) say what
   // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
@@ -600,9 +654,13 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // bright white is rare (so not a white body), near-white highlights in the lower half.
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-  ImageU8 cue(W, H, 1, 0);  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows)
+  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
+  // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
+  ImageU8 cue(W, H, 1, uninitialized);
+  for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
+  std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
 #pragma omp parallel for schedule(static, 8)
-  for (int y = std::max(0, ry0); y <= ry1; ++y)
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
       const int c = comp[i];
@@ -628,18 +686,28 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       }
       if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
     }
-  for (size_t i = i_begin; i < i_end; ++i)
-    if (cue[i] == 2) ++boxes[comp[i]].white;
-  for (size_t i = i_begin; i < i_end; ++i)
-    if (cue[i] == 2) {
-      const Box& b = boxes[comp[i]];
-      const int y = static_cast<int>(i / W);
-      if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
-    }
+    const uint8_t* cr = cue.row(y);
+    cue_row[y] = std::any_of(cr, cr + W, [](uint8_t v) { return v != 0; });
+  }
+  // The white cues, in the cue rows only (elsewhere cue is 0), in the order of the full scan.
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    if (!cue_row[y]) continue;
+    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+      if (cue[i] == 2) ++boxes[comp[i]].white;
+  }
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    if (!cue_row[y]) continue;
+    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+      if (cue[i] == 2) {
+        const Box& b = boxes[comp[i]];
+        if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
+      }
+  }
   // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
   // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
   auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
-  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
+  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
+    if (!cue_row[y]) continue;
     for (int x = 1; x < W - 1; ++x) {
       const uint8_t v = cue.at(x, y);
       if (!v) continue;
@@ -648,6 +716,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
       if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(L, x, y, v == 1 ? tail : head);
     }
+  }
   // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
   // ground contact, veh_lamp_inset_m in from its sides (its metric width from its pixel width at
   // the contact depth), one lamp for two-wheelers; discs of the lens diameter at intensity I
@@ -659,7 +728,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   for (int c = 1; c <= ncomp; ++c) {
     const Box& b = boxes[c];
     const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
-    auto mine = [&](int x, int y) { return comp.at(x, y) == c; };
+    auto mine = [&](int x, int y) { return y >= ry0 && y <= ry1 && comp.at(x, y) == c; };
     const int cls = comp_class[c];
     const bool two_wheeler = cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle);
     if (geometry) {

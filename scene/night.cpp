@@ -10,6 +10,21 @@
 
 namespace photosite::scene {
 
+ImageU8 lanes_at_frame(const ImageU8& lanes_work, int W, int H) {
+  if (lanes_work.width() == W) return lanes_work;
+  ImageU8 full(W, H, 1, uninitialized);
+  const int ww = lanes_work.width(), wh = lanes_work.height();
+  std::vector<int> sx(W);
+  for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    const uint8_t* src = lanes_work.row(std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+    uint8_t* dst = full.row(y);
+    for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
+  }
+  return full;
+}
+
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
                        bool keep_darkened, SequenceState* sequence) {
   return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence);
@@ -56,20 +71,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   const BuildingFacades facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
   s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
   s.beam_input = coarse_depth(W, H, vp.x, vp.y);
-  ImageU8 lanes_full;
-  if (s.lanes_work.width() == W) lanes_full = s.lanes_work;
-  else {
-    lanes_full = ImageU8(W, H, 1, uninitialized);
-    const int ww = s.lanes_work.width(), wh = s.lanes_work.height();
-    std::vector<int> sx(W);
-    for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
-#pragma omp parallel for schedule(static)
-    for (int y = 0; y < H; ++y) {
-      const uint8_t* src = s.lanes_work.row(std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
-      uint8_t* dst = lanes_full.row(y);
-      for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
-    }
-  }
+  const ImageU8 lanes_full = lanes_at_frame(s.lanes_work, W, H);
   s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
   lap("depth");
   StreetLighting tracked;

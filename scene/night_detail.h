@@ -15,5 +15,9 @@ using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights,
 NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail,
                             SequenceState* sequence = nullptr);
+// The lane-marking mask at the frame's resolution: the working-resolution mask read at the pixel
+// centres (nearest), or the mask itself when it has the frame's width. What the light map and
+// the low beam read (night_scene_with; `bench night` times the light map alone on it).
+ImageU8 lanes_at_frame(const ImageU8& lanes_work, int width, int height);
 
 }  // namespace photosite::scene

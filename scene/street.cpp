@@ -368,11 +368,13 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
   const auto& ground = ground_classes();
+  std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
+  for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
 #pragma omp parallel
   {
     std::vector<float> acc(W + 8);
     std::vector<double> Xg(W + 8);
-    std::vector<uint8_t> gmask(W / 8 + 2);
+    std::vector<uint8_t> gmask(W / 8 + 2), gpix(W + 8);
     PoolLamps pl;
     const float I0 = static_cast<float>(s.peak_intensity_cd);
 #pragma omp for schedule(static, 8)
@@ -392,28 +394,29 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       // changed dim pixels by up to 4%: not taken.)
       const double kx = t / g.f_px;
       pl.clear();
-      for (const auto& l : s.lamps)
-        if (std::fabs(D0 - l.D_m) <= reach_m(l.Y_m, p)) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      for (size_t k = 0; k < s.lamps.size(); ++k) {
+        const auto& l = s.lamps[k];
+        if (std::fabs(D0 - l.D_m) <= reach[k]) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      }
       const bool any = pl.size() > 0;
+      if (!any) continue;  // nothing is written in this row
       // Pixels from xa in groups of eight (the last padded with columns past xb, computed and
       // not read); a group is computed when it holds a ground pixel.
       const int n = xb - xa;
       for (int i = 0; i < n + 7; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
+      for (int x = xa; x < xb; ++x) gpix[x] = id[x] < kLabelCount && ground[id[x]];  // the row's ground pixels
       for (int q = 0; 8 * q < n; ++q) {
         uint8_t m = 0;
-        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= id[x] < kLabelCount && ground[id[x]];
+        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= gpix[x];
         gmask[q] = m;
       }
-      if (any) {
-        if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-        else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-      }
-      if (!any) continue;
+      if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
+      else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
       const float* tx = texture.row(y);
       float* o = L.row(y);
       const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
       for (int x = xa; x < xb; ++x) {
-        if (id[x] >= kLabelCount || !ground[id[x]]) continue;
+        if (!gpix[x]) continue;
         const float ef = acc[x];
         o[3 * x] += tx[3 * x] * t0 * ef;
         o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
@@ -618,6 +621,47 @@ void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& 
   }
   _mm256_zeroupper();
 }
+// add_vertical_street_light's candidate test for the pixels 0 .. 8⌊W/8⌋ − 1, eight at a time:
+// the class not in `dark` (bit k of the mask; ids of 64 and above are in no class), 0 < z <
+// kDepthInfinity_m in float, and in double Y = h − z·kY < max_Y, D_lo ≤ D = z·kD ≤ D_hi (the
+// scalar loop's operations and comparisons); keep(x) for each candidate in column order.
+// Returns the first column not examined.
+template <class Keep>
+__attribute__((target("avx2"))) int vertical_candidates_avx2(const uint16_t* id, const float* z, int W, const RowGeom& q,
+                                                            uint64_t dark, double max_Y, double D_lo, double D_hi,
+                                                            Keep&& keep) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(dark & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(dark >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32);
+  const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(kDepthInfinity_m);
+  const __m256d kD = _mm256_set1_pd(q.kD), kY = _mm256_set1_pd(q.kY), h = _mm256_set1_pd(q.h),
+                mY = _mm256_set1_pd(max_Y), lo = _mm256_set1_pd(D_lo), hi = _mm256_set1_pd(D_hi);
+  int x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    // Bit k of the mask: the low word shifted by k (0 for k ≥ 32), the high word by k − 32 (0
+    // for k < 32, where the count wraps to a huge unsigned value, and for k ≥ 64).
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    const __m256 zz = _mm256_loadu_ps(z + x);
+    const __m256 zok = _mm256_and_ps(_mm256_cmp_ps(zz, zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, inf, _CMP_LT_OQ));
+    int m = _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one)), zok));
+    if (!m) continue;
+    const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zz)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zz, 1));
+    const __m256d D0 = _mm256_mul_pd(z0, kD), Y0 = _mm256_sub_pd(h, _mm256_mul_pd(z0, kY));
+    const __m256d D1 = _mm256_mul_pd(z1, kD), Y1 = _mm256_sub_pd(h, _mm256_mul_pd(z1, kY));
+    const __m256d in0 = _mm256_and_pd(_mm256_cmp_pd(Y0, mY, _CMP_LT_OQ),
+                                      _mm256_and_pd(_mm256_cmp_pd(D0, lo, _CMP_GE_OQ), _mm256_cmp_pd(D0, hi, _CMP_LE_OQ)));
+    const __m256d in1 = _mm256_and_pd(_mm256_cmp_pd(Y1, mY, _CMP_LT_OQ),
+                                      _mm256_and_pd(_mm256_cmp_pd(D1, lo, _CMP_GE_OQ), _mm256_cmp_pd(D1, hi, _CMP_LE_OQ)));
+    m &= _mm256_movemask_pd(in0) | _mm256_movemask_pd(in1) << 4;
+    while (m) {
+      keep(x + __builtin_ctz(m));
+      m &= m - 1;
+    }
+  }
+  return x;
+}
 }  // namespace
 
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
@@ -649,7 +693,13 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   // in the presets.)
   const float d2_min = static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m);
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  const int sky = static_cast<int>(Label::Sky), building = static_cast<int>(Label::Building);
+  const int building = static_cast<int>(Label::Building);
+  // The classes that get no vertical light (sky and the ground classes) as a bit mask over the
+  // label ids (all below 64); ids beyond kLabelCount are not among them.
+  static_assert(kLabelCount <= 64);
+  uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky);
+  for (int k = 0; k < kLabelCount; ++k)
+    if (ground[k]) dark_classes |= uint64_t{1} << k;
   const float I0 = static_cast<float>(s.peak_intensity_cd);
   // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
   // sorted by D).
@@ -669,28 +719,36 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     const double yn = (y - g.cy_px) / g.f_px;
     const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
     int n = 0;
-    for (int x = 0; x < W; ++x) {
-      const int k = id[x];
-      if (k == sky || (k < kLabelCount && ground[k])) continue;
-      const float zz = z[x];
-      if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
-      // A point at or above every lamp (v_Y ≤ 0 for each) or beyond every lamp's reach along the
-      // road gets exactly nothing (vertical_term): not compacted (vertical_point's D and Y).
-      const double Dp = zz * q.kD, Yp = q.h - zz * q.kY;
-      if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
+    auto keep = [&](int x) {
       // On buildings the pixel's façade plane (BuildingFacades::plane_at, inlined).
       const FacadePlane* f = nullptr;
-      if (k == building && reg[x] >= 0) {
+      if (id[x] == building && reg[x] >= 0) {
         const BuildingFacades::Region& R = fac.regions[reg[x]];
         const int pi = R.column_plane[x - R.x0];
         if (pi >= 0) f = &fac.planes[pi];
       }
       r.x[n] = x;
-      r.z[n] = zz;
+      r.z[n] = z[x];
       r.plane[n] = f ? -1 : 0;
       r.pnX[n] = f ? -f->nX : 0.0;
       r.pnD[n] = f ? -f->nD : 0.0;
       ++n;
+    };
+    // The pixels lit at all: not sky or ground, a finite positive depth, and a point below the
+    // highest lamp and within reach of one along the road (a point at or above every lamp, v_Y ≤ 0
+    // for each, or beyond every lamp's reach gets exactly nothing in vertical_term: not compacted;
+    // vertical_point's D and Y). Eight pixels at a time with AVX2 (the same tests: the class by
+    // a bit mask, the depth in float, D and Y in double), then one by one.
+    int x0 = 0;
+    if (kHaveAvx2) x0 = vertical_candidates_avx2(id, z, W, q, dark_classes, la.max_Y, D_lo, D_hi, keep);
+    for (int x = x0; x < W; ++x) {
+      const int k = id[x];
+      if (k < 64 && (dark_classes >> k & 1)) continue;
+      const float zz = z[x];
+      if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
+      const double Dp = zz * q.kD, Yp = q.h - zz * q.kY;
+      if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
+      keep(x);
     }
     if (n == 0) continue;
     if (kHaveAvx2) {
@@ -719,6 +777,101 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 }  // namespace photosite::scene
 
 namespace photosite::scene {
+
+namespace {
+// The window layout's geometry for one row (add_facade_windows): the pixel's point from its camera
+// z (X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, kD and kY the row's), s along its façade, the
+// storey j = ⌊Y/storey⌋ and the window-pitch cell ⌊s/pitch⌋; a pixel is in a pane (upper storeys:
+// a window_width_m × window_height_m window centred in its cell; ground floor: a shop pane
+// shop_width_m wide from shop_sill_m to shop_sill_m + shop_height_m) or not. The twins below
+// (scalar and AVX2, four pixels a lane each) do the same IEEE double operations, so the same panes.
+struct WindowGeom {
+  double cx, f, kD, kY, h;
+  double storey, pitch, frontage, half_pitch, half_width, half_storey, half_height, half_shop, sill, sill_top;
+};
+// One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
+// (tX, tD) and camera z; out: kind (0 none, 1 window, 2 shop pane), storey j and cell (upper
+// storeys: the pitch cell; ground floor: the shop, ⌊s/frontage⌋). Padded to a multiple of 4.
+struct WindowRow {
+  std::vector<int32_t> x, j;
+  std::vector<double> z, tX, tD;
+  std::vector<int64_t> cell;
+  std::vector<uint8_t> kind;
+  explicit WindowRow(int W) : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), kind(W + 4) {}
+  void pad(int n) {
+    for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1];
+  }
+};
+void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
+  for (int i = 0; i < n; ++i) {
+    r.kind[i] = 0;
+    const double zz = r.z[i], X = zz * (r.x[i] - w.cx) / w.f, D = zz * w.kD, Y = w.h - zz * w.kY;
+    if (Y < 0) continue;
+    const double s = r.tX[i] * X + r.tD[i] * D;  // along the façade (m)
+    const int j = static_cast<int>(std::floor(Y / w.storey));
+    const double y_in = Y - j * w.storey;
+    const int64_t c = static_cast<int64_t>(std::floor(s / w.pitch));
+    const double s_in = s - c * w.pitch;
+    if (j != 0) {
+      if (std::fabs(s_in - w.half_pitch) > w.half_width || std::fabs(y_in - w.half_storey) > w.half_height) continue;
+      r.kind[i] = 1;
+      r.cell[i] = c;
+    } else {
+      if (std::fabs(s_in - w.half_pitch) > w.half_shop || y_in < w.sill || y_in > w.sill_top) continue;
+      r.kind[i] = 2;
+      r.cell[i] = static_cast<int64_t>(std::floor(s / w.frontage));
+    }
+    r.j[i] = j;
+  }
+}
+// window_geom_scalar four pixels at a time: the floors as doubles (exact integers; j·storey and
+// c·pitch then equal the scalar's int→double products for |j| < 2³¹, |c| < 2⁶³: the points lie
+// within max_depth of the camera), converted to integers only for the pane pixels (the same
+// conversions as the scalar's). A shop cell ⌊s/frontage⌋ is computed for every lane and kept
+// only on the ground floor.
+__attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w) {
+  const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
+                h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
+                frontage = _mm256_set1_pd(w.frontage), half_pitch = _mm256_set1_pd(w.half_pitch),
+                half_width = _mm256_set1_pd(w.half_width), half_storey = _mm256_set1_pd(w.half_storey),
+                half_height = _mm256_set1_pd(w.half_height), half_shop = _mm256_set1_pd(w.half_shop),
+                sill = _mm256_set1_pd(w.sill), sill_top = _mm256_set1_pd(w.sill_top), zero = _mm256_setzero_pd();
+  const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
+  for (int i = 0; i < n; i += 4) {
+    const __m256d zz = _mm256_loadu_pd(&r.z[i]);
+    const __m256d xd = _mm256_cvtepi32_pd(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.x[i])));  // exact
+    const __m256d X = _mm256_div_pd(_mm256_mul_pd(zz, _mm256_sub_pd(xd, cx)), f);
+    const __m256d D = _mm256_mul_pd(zz, kD), Y = _mm256_sub_pd(h, _mm256_mul_pd(zz, kY));
+    const __m256d s = _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(&r.tX[i]), X), _mm256_mul_pd(_mm256_loadu_pd(&r.tD[i]), D));
+    const __m256d jd = _mm256_floor_pd(_mm256_div_pd(Y, storey));
+    const __m256d y_in = _mm256_sub_pd(Y, _mm256_mul_pd(jd, storey));
+    const __m256d cd = _mm256_floor_pd(_mm256_div_pd(s, pitch));
+    const __m256d s_off = _mm256_and_pd(_mm256_sub_pd(_mm256_sub_pd(s, _mm256_mul_pd(cd, pitch)), half_pitch), absmask);
+    // Skip tests as the scalar's (ordered comparisons: a NaN skips nothing there either).
+    const __m256d below = _mm256_cmp_pd(Y, zero, _CMP_LT_OQ);
+    const __m256d ground_floor = _mm256_cmp_pd(jd, zero, _CMP_EQ_OQ);
+    const __m256d out_up = _mm256_or_pd(_mm256_cmp_pd(s_off, half_width, _CMP_GT_OQ),
+                                        _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(y_in, half_storey), absmask), half_height, _CMP_GT_OQ));
+    const __m256d out_shop = _mm256_or_pd(_mm256_cmp_pd(s_off, half_shop, _CMP_GT_OQ),
+                                          _mm256_or_pd(_mm256_cmp_pd(y_in, sill, _CMP_LT_OQ), _mm256_cmp_pd(y_in, sill_top, _CMP_GT_OQ)));
+    const __m256d out = _mm256_or_pd(below, _mm256_blendv_pd(out_up, out_shop, ground_floor));
+    const int hit = ~_mm256_movemask_pd(out) & 0xf, shop = _mm256_movemask_pd(ground_floor);
+    std::memset(&r.kind[i], 0, 4);
+    if (!hit) continue;
+    alignas(32) double jv[4], cv[4], fv[4];
+    _mm256_store_pd(jv, jd);
+    _mm256_store_pd(cv, cd);
+    if (hit & shop) _mm256_store_pd(fv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
+    for (int k = 0; k < 4; ++k) {
+      if (!(hit >> k & 1)) continue;
+      const bool gf = shop >> k & 1;
+      r.kind[i + k] = gf ? 2 : 1;
+      r.j[i + k] = static_cast<int>(jv[k]);
+      r.cell[i + k] = static_cast<int64_t>(gf ? fv[k] : cv[k]);
+    }
+  }
+}
+}  // namespace
 
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                        const ScenePreset& p, uint64_t seed, const BuildingFacades* facades) {
@@ -751,49 +904,47 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
 #pragma omp parallel
   {
     std::unordered_set<uint64_t> seen;
+    WindowRow r(W);
+    std::vector<int32_t> plane_of(W + 4);
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
       const float* z = depth_m.row(y);
       const int32_t* reg = fac.region.row(y);
       float* o = L.row(y);
-      uint64_t last_key = ~0ull;
-      bool last_lit = false;
-      float last_col[3] = {0, 0, 0};
       const double yn = (y - g.cy_px) / g.f_px;
+      // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
+      int n = 0;
       for (int x = 0; x < W; ++x) {
         if (reg[x] < 0 || z[x] > max_z) continue;
-        // The pixel's façade plane (BuildingFacades::plane_at, inlined).
         const BuildingFacades::Region& R = fac.regions[reg[x]];
         const int pi = R.column_plane[x - R.x0];
         if (pi < 0) continue;
-        const Frame& fr = frames[pi];
-        const double zz = z[x], X = zz * (x - g.cx_px) / g.f_px, D = zz * (c - yn * sn), Y = h - zz * (yn * c + sn);
-        if (Y < 0) continue;
-        const double s = fr.tX * X + fr.tD * D;  // along the façade (m)
-        const int j = static_cast<int>(std::floor(Y / p.window_storey_m));
-        const double y_in = Y - j * p.window_storey_m;
-        uint64_t cell;
-        bool shop = j == 0;
-        if (!shop) {
-          // Upper storeys: a window_width_m x window_height_m window centred in each pitch x storey cell.
-          const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
-          const double s_in = s - i * p.window_pitch_m;
-          if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * p.window_width_m ||
-              std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * p.window_height_m)
-            continue;
-          cell = static_cast<uint64_t>(i + (1 << 19)) & 0xfffff;
-        } else {
-          // Ground floor: shops of shop_frontage_m, each a row of panes shop_width_m wide on the
-          // window pitch (piers between them), from shop_sill_m to shop_sill_m + shop_height_m;
-          // a shop is lit or dark as a whole.
-          const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
-          const double s_in = s - i * p.window_pitch_m;
-          if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * p.shop_width_m || y_in < p.shop_sill_m ||
-              y_in > p.shop_sill_m + p.shop_height_m)
-            continue;
-          cell = static_cast<uint64_t>(static_cast<int64_t>(std::floor(s / p.shop_frontage_m)) + (1 << 19)) & 0xfffff;
-        }
-        const uint64_t key = (fr.key << 40) | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff);
+        r.x[n] = x;
+        r.z[n] = z[x];
+        r.tX[n] = frames[pi].tX;
+        r.tD[n] = frames[pi].tD;
+        plane_of[n] = pi;
+        ++n;
+      }
+      if (n == 0) continue;
+      const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
+                          p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
+                          0.5 * p.window_width_m, 0.5 * p.window_storey_m, 0.5 * p.window_height_m,
+                          0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
+      if (kHaveAvx2) {
+        r.pad(n);
+        window_geom_avx2(r, n, wg);
+      } else {
+        window_geom_scalar(r, n, wg);
+      }
+      uint64_t last_key = ~0ull;
+      bool last_lit = false;
+      float last_col[3] = {0, 0, 0};
+      for (int i = 0; i < n; ++i) {
+        if (!r.kind[i]) continue;
+        const bool shop = r.kind[i] == 2;
+        const uint64_t cell = static_cast<uint64_t>(r.cell[i] + (1 << 19)) & 0xfffff;
+        const uint64_t key = (frames[plane_of[i]].key << 40) | (cell << 12) | (static_cast<uint64_t>(r.j[i]) & 0xfff);
         // Neighbouring pixels of a row mostly share a window: its draw is kept.
         if (key != last_key) {
           last_key = key;
@@ -808,6 +959,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
           }
         }
         if (!last_lit) continue;
+        const int x = r.x[i];
         for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
       }
     }
