@@ -24,10 +24,18 @@ using shader::glare_mirror;
 using shader::glare_up_tap;
 using UpTap = shader::GlareTap;
 
+// The row kernels below carry an AVX2 clone (target_clones): the same IEEE operations in the
+// same order per sample on either clone (no FMA: -ffp-contract=off, and the avx2 target has no
+// fma), so the same bits; the default clone is the SSE2 baseline the library is built for.
+
 // One row of the bilinear 2x upsampling along x: u[3x + c] = w0·t[3·i0 + c] + w1·t[3·i1 + c]
-// with glare_up_tap's taps, for x < width; t holds cw pixels. The interior pairs (x = 2j, 2j + 1)
-// need no clamping; the arithmetic is glare_up_tap's.
-inline void upsample_row(const float* t, int cw, int width, float* u) {
+// with glare_up_tap's taps, for x < width; t holds cw pixels; e, o: scratch of 3·cw floats
+// each. The interior pairs (x = 2j, 2j + 1) need no clamping: their even and odd samples
+// e[k] = ¼·t[k − 3] + ¾·t[k], o[k] = ¾·t[k] + ¼·t[k + 3] (glare_up_tap's arithmetic) are formed
+// first over the contiguous row, where they vectorize, then interleaved pixel by pixel.
+__attribute__((target_clones("avx2", "default")))
+void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
+                  float* __restrict o) {
   auto one = [&](int x) {
     const UpTap tx = glare_up_tap(x, cw);
     for (int c = 0; c < 3; ++c) u[3 * x + c] = glare_lerp(tx.w0, t[3 * tx.i0 + c], tx.w1, t[3 * tx.i1 + c]);
@@ -38,17 +46,53 @@ inline void upsample_row(const float* t, int cw, int width, float* u) {
   }
   one(0);
   one(1);
-  for (int j = 1; j < cw - 1; ++j) {  // x = 2j and 2j + 1 < 2cw − 2 <= width
-    const float* a = t + 3 * (j - 1);
-    const float* b = t + 3 * j;
-    const float* d = t + 3 * (j + 1);
-    float* o = u + 6 * j;
-    for (int c = 0; c < 3; ++c) {
-      o[c] = glare_lerp(0.25f, a[c], 0.75f, b[c]);
-      o[3 + c] = glare_lerp(0.75f, b[c], 0.25f, d[c]);
-    }
+  const int k_end = 3 * (cw - 1);  // x = 2j and 2j + 1 for 1 <= j < cw − 1, below 2cw − 2 <= width
+  for (int k = 3; k < k_end; ++k) {
+    e[k] = glare_lerp(0.25f, t[k - 3], 0.75f, t[k]);
+    o[k] = glare_lerp(0.75f, t[k], 0.25f, t[k + 3]);
+  }
+  for (int k = 3; k < k_end; k += 3) {
+    float* d = u + 2 * k;
+    d[0] = e[k], d[1] = e[k + 1], d[2] = e[k + 2];
+    d[3] = o[k], d[4] = o[k + 1], d[5] = o[k + 2];
   }
   for (int x = 2 * (cw - 1); x < width; ++x) one(x);
+}
+
+// out[j] = glare_lerp(w0, a[j], w1, b[j]) over n samples (the vertical bilinear step).
+__attribute__((target_clones("avx2", "default")))
+void lerp_row(float w0, const float* __restrict a, float w1, const float* __restrict b, size_t n,
+              float* __restrict out) {
+  for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
+}
+
+// o[j] = o[j] + w·p[j] over n samples (one tap of a blur).
+__attribute__((target_clones("avx2", "default")))
+void add_tap(float* __restrict o, float w, const float* __restrict p, size_t n) {
+  for (size_t j = 0; j < n; ++j) o[j] = o[j] + w * p[j];
+}
+
+// o[j] = w·o[j] + u[j] (u given) or w·o[j] (u null): a level's weighted blur plus the upsampled
+// coarser accumulator.
+__attribute__((target_clones("avx2", "default")))
+void weigh_add(float* __restrict o, float w, const float* __restrict u, size_t n) {
+  if (u)
+    for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
+  else
+    for (size_t j = 0; j < n; ++j) o[j] = w * o[j];
+}
+
+// out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
+// of 24 (8 pixels: a whole number of vectors and of pixels) with the scales laid out per lane.
+__attribute__((target_clones("avx2", "default")))
+void mix_row(float keep, const float* s3, const float* __restrict in, const float* __restrict u, size_t n,
+             float* __restrict out) {
+  float sl[24];
+  for (int i = 0; i < 24; ++i) sl[i] = s3[i % 3];
+  size_t k = 0;
+  for (; k + 24 <= n; k += 24)
+    for (int i = 0; i < 24; ++i) out[k + i] = shader::glare_mix(keep, in[k + i], sl[i], u[k + i]);
+  for (; k < n; ++k) out[k] = shader::glare_mix(keep, in[k], sl[k % 24], u[k]);
 }
 
 // Σ_j n_x(j)·v over one level-1 row (n = number of full-resolution children), per channel, in
@@ -74,6 +118,23 @@ std::array<double, 3> combine_rows(const std::vector<std::array<double, 3>>& row
 // Levels this small run on one thread: under load, a barrier costs more than their work.
 constexpr int64_t kParallelPixels = int64_t{1} << 18;
 
+// One output row of down2 from input rows ra, rb (w pixels): pixel x averages the pairs at 2x
+// and min(2x + 1, w − 1), in the order ((a0 + a1) + (b0 + b1))·¼; the interior pairs without
+// the clamp, so that the loop vectorizes.
+__attribute__((target_clones("avx2", "default")))
+void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
+  const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
+  for (int x = 0; x < pairs; ++x)
+    for (int c = 0; c < 3; ++c) {
+      const int k = 6 * x + c;
+      o[3 * x + c] = ((ra[k] + ra[k + 3]) + (rb[k] + rb[k + 3])) * 0.25f;
+    }
+  for (int x = pairs; x < w2; ++x) {  // odd w: the last pixel averages with itself
+    const int xa = 3 * (2 * x), xb = 3 * std::min(2 * x + 1, w - 1);
+    for (int c = 0; c < 3; ++c) o[3 * x + c] = ((ra[xa + c] + ra[xb + c]) + (rb[xa + c] + rb[xb + c])) * 0.25f;
+  }
+}
+
 // 2x2 box average, edge clamped (the last row/column of an odd size averages with itself).
 // With `rows`: also each output row's level1_row_sum (the level-1 energy of the input).
 ImageF down2(const ImageF& src, std::vector<std::array<double, 3>>* rows = nullptr) {
@@ -86,14 +147,26 @@ ImageF down2(const ImageF& src, std::vector<std::array<double, 3>>* rows = nullp
     const float* ra = src.row(2 * y);
     const float* rb = src.row(std::min(2 * y + 1, h - 1));
     float* o = dst.row(y);
-    for (int x = 0; x < w2; ++x) {
-      const int xa = 3 * (2 * x), xb = 3 * std::min(2 * x + 1, w - 1);
-      for (int c = 0; c < 3; ++c)
-        o[3 * x + c] = ((ra[xa + c] + ra[xb + c]) + (rb[xa + c] + rb[xb + c])) * 0.25f;
-    }
+    down2_row(ra, rb, w, o);
     if (rows) (*rows)[y] = level1_row_sum(o, w2, w);
   }
   return dst;
+}
+
+// down_1331's interior along a row: o[3x + k] for 1 <= x < end, from s[3(2x − 1) + k] on.
+__attribute__((target_clones("avx2", "default")))
+void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
+  for (int x = 1; x < end; ++x) {
+    const float* a = s + 3 * (2 * x - 1);
+    for (int k = 0; k < 3; ++k)
+      o[3 * x + k] = (0.125f * a[k] + 0.375f * a[3 + k]) + (0.375f * a[6 + k] + 0.125f * a[9 + k]);
+  }
+}
+// down_1331 along columns: one output row from its four input rows.
+__attribute__((target_clones("avx2", "default")))
+void taps1331_cols(const float* __restrict a, const float* __restrict b, const float* __restrict c,
+                   const float* __restrict d, size_t n, float* __restrict o) {
+  for (size_t j = 0; j < n; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
 }
 
 // Down one octave with the taps (1, 3, 3, 1)/8 per axis, the transpose of the bilinear
@@ -118,11 +191,7 @@ ImageF down_1331(const ImageF& src) {
     };
     const int inner_end = std::max(1, (w - 1) / 2);  // x < inner_end: 2x + 2 <= w − 1, no mirror
     at(0);
-    for (int x = 1; x < inner_end; ++x) {
-      const float* a = s + 3 * (2 * x - 1);
-      for (int k = 0; k < 3; ++k)
-        o[3 * x + k] = (0.125f * a[k] + 0.375f * a[3 + k]) + (0.375f * a[6 + k] + 0.125f * a[9 + k]);
-    }
+    taps1331_row(s, inner_end, o);
     for (int x = std::max(1, inner_end); x < w2; ++x) at(x);
   }
 #pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels)
@@ -131,8 +200,7 @@ ImageF down_1331(const ImageF& src) {
     const float* b = t.row(glare_mirror(2 * y, h));
     const float* c = t.row(glare_mirror(2 * y + 1, h));
     const float* d = t.row(glare_mirror(2 * y + 2, h));
-    float* o = dst.row(y);
-    for (int j = 0; j < 3 * w2; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
+    taps1331_cols(a, b, c, d, 3 * static_cast<size_t>(w2), dst.row(y));
   }
   return dst;
 }
@@ -155,8 +223,7 @@ ImageF blur_rows(const ImageF& src, const std::array<float, kGlareBlurRadius + 1
       for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
       for (int k = -R; k <= R; ++k) {
         const float wk = g[std::abs(k)];
-        const float* p = pad.data() + 3 * (R + k);
-        for (int j = 0; j < 3 * w; ++j) o[j] = o[j] + wk * p[j];
+        add_tap(o, wk, pad.data() + 3 * (R + k), 3 * static_cast<size_t>(w));
       }
     }
   }
@@ -179,7 +246,7 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
   if (rows) rows->assign(height, {0, 0, 0});
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
-    std::vector<float> tmp(up ? 3 * static_cast<size_t>(cw) : 0), u(up ? n : 0);
+    std::vector<float> tmp(up ? 9 * static_cast<size_t>(cw) : 0), u(up ? n : 0);  // t, then e, o of upsample_row
 #pragma omp for schedule(static)
     for (int y = 0; y < height; ++y) {
       float* o = dst.row(y);
@@ -187,8 +254,8 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
         const UpTap ty = glare_up_tap(y, ch);
         const float* r0 = coarse.row(ty.i0);
         const float* r1 = coarse.row(ty.i1);
-        for (int j = 0; j < 3 * cw; ++j) tmp[j] = glare_lerp(ty.w0, r0[j], ty.w1, r1[j]);
-        upsample_row(tmp.data(), cw, width, blur ? u.data() : o);
+        lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(cw), tmp.data());
+        upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + 3 * cw, tmp.data() + 6 * cw);
       }
       if (!blur) {
         if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
@@ -197,13 +264,9 @@ ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, 
       for (size_t j = 0; j < n; ++j) o[j] = 0.f;
       for (int k = -R; k <= R; ++k) {
         const float wk = g[std::abs(k)];
-        const float* v = t.row(glare_mirror(y + k, height));
-        for (size_t j = 0; j < n; ++j) o[j] = o[j] + wk * v[j];
+        add_tap(o, wk, t.row(glare_mirror(y + k, height)), n);
       }
-      if (up)
-        for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
-      else
-        for (size_t j = 0; j < n; ++j) o[j] = w * o[j];
+      weigh_add(o, w, up ? u.data() : nullptr, n);
       if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
     }
   }
@@ -309,14 +372,10 @@ void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* t
   const float* r1 = a.row(ty.i1);
   float* t = tmp;                  // 3·aw: the vertical interpolation
   float* u = tmp + 3 * aw;         // 3·width: then the horizontal one
-  for (int j = 0; j < 3 * aw; ++j) t[j] = glare_lerp(ty.w0, r0[j], ty.w1, r1[j]);
-  upsample_row(t, aw, s.width, u);
-  const float keep = s.keep, s0 = s.scale[0], s1 = s.scale[1], s2 = s.scale[2];
-  for (int x = 0; x < s.width; ++x) {
-    out[3 * x] = shader::glare_mix(keep, in[3 * x], s0, u[3 * x]);
-    out[3 * x + 1] = shader::glare_mix(keep, in[3 * x + 1], s1, u[3 * x + 1]);
-    out[3 * x + 2] = shader::glare_mix(keep, in[3 * x + 2], s2, u[3 * x + 2]);
-  }
+  float* e = u + 3 * static_cast<size_t>(s.width);  // 2·3·aw: upsample_row's scratch
+  lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(aw), t);
+  upsample_row(t, aw, s.width, u, e, e + 3 * aw);
+  mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
 }
 
 ImageF apply_glare(const ImageF& in, const LensGlare& glare, double px_per_deg) {
@@ -325,7 +384,7 @@ ImageF apply_glare(const ImageF& in, const LensGlare& glare, double px_per_deg) 
   ImageF out(in.width(), in.height(), 3, uninitialized, in.unit());
 #pragma omp parallel
   {
-    std::vector<float> tmp(3 * (static_cast<size_t>(s.acc1.width()) + s.width));
+    std::vector<float> tmp(glare_row_scratch(s));
 #pragma omp for schedule(static)
     for (int y = 0; y < in.height(); ++y) glare_row(s, y, in.row(y), out.row(y), tmp.data());
   }

@@ -95,7 +95,7 @@ struct PhotonStage {
     std::vector<float> glared, tmp;
     explicit Scratch(const PhotonStage& st)
         : glared(st.skirt.active() ? 3 * static_cast<size_t>(st.w) : 0),
-          tmp(st.skirt.active() ? 3 * (static_cast<size_t>(st.skirt.acc1.width()) + st.w) : 0) {}
+          tmp(st.skirt.active() ? glare_row_scratch(st.skirt) : 0) {}
   };
   // Row y of the mean signal into o[0, w); returns the first x whose radiance is not physical
   // (NaN, Inf, negative; its o[x] is 0), or -1.

@@ -256,9 +256,10 @@ int select_lanes(const float* keep, int m, int* idx) {
 }
 
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
-// first_pixel + i, own words w0[i], w1[i]); other lanes get a value the caller overwrites.
+// first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
+// lanes get a value the caller overwrites.
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
-                uint64_t key, uint32_t frame, uint32_t stream) {
+                uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
   alignas(64) float cmu[kBlock], ck[kBlock], cus[kBlock], cv[kBlock], acc[kBlock];
   alignas(64) int sel[kBlock + 8], sel2[kBlock + 8];
@@ -287,7 +288,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   alignas(64) float qmu[kBlock], again[kBlock];
   int nr = select_lanes(rejected, m, sel);
   for (int j = 0; j < nr; ++j) {
-    const uint64_t pixel = first_pixel + static_cast<uint64_t>(sel[j]);
+    const uint64_t pixel = first_pixel + static_cast<uint64_t>(lane ? lane[sel[j]] : sel[j]);
     cmu[j] = mu[sel[j]];
     plo[j] = static_cast<uint32_t>(pixel);
     phi[j] = static_cast<uint32_t>(pixel >> 32);
@@ -319,6 +320,31 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   }
   for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
 }
+// ptrs_block on the lanes of a block whose mean is >= 10 only, compacted (a night frame's
+// blocks mix dark pixels, drawn by the inversion, with lit ones): none, skip; all, in place;
+// else gathered, drawn with their own pixel indices, and scattered back. Each lane's draw
+// depends on its mean, words and pixel alone, so the compaction changes no result.
+void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out,
+                     uint64_t first_pixel, uint64_t key, uint32_t frame, uint32_t stream) {
+  alignas(64) float high[kBlock], hmean[kBlock], hout[kBlock];
+  alignas(64) uint32_t hw0[kBlock], hw1[kBlock];
+  alignas(64) int idx[kBlock + 8];
+  const float threshold = static_cast<float>(kPoissonApproxThreshold);
+  for (int i = 0; i < m; ++i) high[i] = mean[i] >= threshold ? 1.f : 0.f;
+  const int nh = select_lanes(high, m, idx);
+  if (nh == 0) return;
+  if (nh == m) {
+    ptrs_block(mean, w0, w1, m, out, first_pixel, key, frame, stream);
+    return;
+  }
+  for (int j = 0; j < nh; ++j) {
+    hmean[j] = mean[idx[j]];
+    hw0[j] = w0[idx[j]];
+    hw1[j] = w1[idx[j]];
+  }
+  ptrs_block(hmean, hw0, hw1, nh, hout, first_pixel, key, frame, stream, idx);
+  for (int j = 0; j < nh; ++j) out[idx[j]] = hout[j];
+}
 }  // namespace
 
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
@@ -342,7 +368,7 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
       normals(w0, w1, z, m);
       corrected_normal_block(mu, z, o, m);
     } else {
-      ptrs_block(mu, w0, w1, m, o, first_pixel + start, key, frame, stream);
+      ptrs_high_lanes(mu, w0, w1, m, o, first_pixel + start, key, frame, stream);
     }
     // Means below 10: exact inversion on word 0, on the compacted low-mean lanes; zero,
     // negative or NaN means: no electrons.

@@ -46,7 +46,7 @@ ImageF wide_radiance(int w, int h) {
 ImageF skirt_image(const ImageF& in, const LensGlare& g, double ppd) {
   const GlareSkirt s = glare_skirt(in, plan_glare(g, ppd));
   ImageF out(in.width(), in.height(), 3, 0.f);
-  std::vector<float> zero(3 * static_cast<size_t>(in.width()), 0.f), tmp(3 * (static_cast<size_t>(s.acc1.width()) + s.width));
+  std::vector<float> zero(3 * static_cast<size_t>(in.width()), 0.f), tmp(glare_row_scratch(s));
   for (int y = 0; y < in.height(); ++y) glare_row(s, y, zero.data(), out.row(y), tmp.data());
   return out;
 }

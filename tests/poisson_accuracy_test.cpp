@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <vector>
 
@@ -150,6 +151,46 @@ TEST(PoissonAccuracy, PtrsBlockEqualsScalarReference) {
     const auto w = random_words(key, 4, first + i, Stream::PhotonShot);
     ASSERT_EQ(out[i], detail::ptrs_sample(mean[i], w[0], w[1], key, 4, first + i, 1)) << i << " mean " << mean[i];
   }
+}
+
+// Blocks that mix dark (inversion) and lit (PTRS) pixels, as a night frame's rows do: the block
+// kernel draws PTRS on the lit lanes compacted (ptrs_high_lanes in sensor/poisson.cpp), with each
+// lane's own pixel index for its retries. Every pixel must still equal the scalar reference:
+// ptrs_sample for mean >= 10 (means near 10, where PTRS rejects most often, so retries occur in
+// mixed blocks), inversion below, 0 for zero, negative and NaN means. Runs of 256 pixels (one
+// block) are all dark, all lit, or mixed at random, and the range crosses a 2^32 pixel boundary.
+TEST(PoissonAccuracy, MixedBlocksEqualScalarReference) {
+  const int n = 64 * 256;
+  std::vector<float> mean(n), out(n);
+  uint64_t h = 12345;
+  auto next = [&] {  // SplitMix64: deterministic test data
+    uint64_t z = (h += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  };
+  for (int i = 0; i < n; ++i) {
+    const int kind = (i / 256) % 4;  // 0: all dark, 1: all lit, 2, 3: mixed
+    const double u = static_cast<double>(next() >> 11) * 0x1p-53;
+    const bool lit = kind == 1 || (kind >= 2 && (next() & (kind == 2 ? 1 : 7)) == 0);
+    mean[i] = lit ? static_cast<float>(10.0 + 30.0 * u) : static_cast<float>(10.0 * u);
+    if (!lit && i % 97 == 0) mean[i] = i % 2 ? -1.f : std::numeric_limits<float>::quiet_NaN();
+  }
+  const uint64_t first = 0xFFFFF000ull + 37, key = 7;
+  poisson_fill(mean.data(), out.data(), n, first, key, 2, 1, PoissonMethod::Exact);
+  int retried = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto w = random_words(key, 2, first + i, Stream::PhotonShot);
+    float want = 0.f;
+    if (mean[i] >= 10.f) {
+      want = detail::ptrs_sample(mean[i], w[0], w[1], key, 2, first + i, 1);
+      retried += detail::ptrs_attempt(detail::ptrs_setup(mean[i]), w[0], w[1]) < 0.f;
+    } else if (mean[i] > 0.f) {
+      want = detail::poisson_inversion(mean[i], w[0]);
+    }
+    ASSERT_EQ(out[i], want) << i << " mean " << mean[i];
+  }
+  EXPECT_GT(retried, 0);  // the retry path with compacted lanes was exercised
 }
 
 // log p(k) of ptrs.glsl against lgamma in double, within 8σ of the mean, up to μ = 1e6. Bound

@@ -102,15 +102,19 @@ void run(const Opts& o) {
     auto t1 = clock::now();
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
     auto t2 = clock::now();
+    const double cs0 = cpu_ms();
     const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
     es.frame = static_cast<uint32_t>(r);
     SensorOutput so = sense(mean_e, cam, ex, es, fpn);
     auto t3 = clock::now();
+    const double cs1 = cpu_ms();
     // The lens glare alone (it runs inside the sensor's optics stage above): its pyramid, and
     // the pyramid plus the full-resolution mix as an image of its own (apply_glare).
+    const double cg0 = cpu_ms();
     auto tg0 = clock::now();
     const GlareSkirt skirt = glare_skirt(ns.radiance, glare_plan);
     auto tg1 = clock::now();
+    const double cg1 = cpu_ms();
     const ImageF glared = apply_glare(ns.radiance, lens.glare, ppd);
     auto tg2 = clock::now();
     std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
@@ -129,6 +133,10 @@ void run(const Opts& o) {
     if (glare_plan.active) {
       add("lens glare pyramid (inside sensor)", ms(tg0, tg1));
       add("lens glare alone (pyramid + mix)", ms(tg1, tg2));
+    }
+    if (o.cpu_clock) {
+      add("cpu: sensor (expose)", cs1 - cs0);
+      if (glare_plan.active) add("cpu: lens glare pyramid", cg1 - cg0);
     }
     (void)skirt;
     (void)glared;
@@ -233,7 +241,7 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
                             sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
                             sub->add_flag("--cpu-clock", o->cpu_clock,
-                                          "also time the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
+                                          "also time the sensor, the glare pyramid, the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
                             sub->add_flag("--no-glare", o->no_glare, "the lens without its [glare] (for the glare's cost)");
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });

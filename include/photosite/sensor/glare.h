@@ -28,6 +28,7 @@
 // already conserve energy; s_c corrects what odd level sizes leave).
 #pragma once
 #include <array>
+#include <cstddef>
 #include <vector>
 
 #include "photosite/image.h"
@@ -81,8 +82,11 @@ struct GlareSkirt {
 GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan);
 
 // One full-resolution row of the glared image, out = keep·in + s_c·bilinear(acc_1) (float, in
-// this order). `tmp` holds 3·(acc1.width() + width) floats (the row's vertical, then horizontal
-// interpolation).
+// this order). `tmp` holds glare_row_scratch(skirt) floats (the row's vertical, then horizontal
+// interpolation, and the latter's scratch).
+inline size_t glare_row_scratch(const GlareSkirt& s) {
+  return 3 * (3 * static_cast<size_t>(s.acc1.width()) + static_cast<size_t>(s.width));
+}
 void glare_row(const GlareSkirt& skirt, int y, const float* in_rgb, float* out_rgb, float* tmp);
 
 // The whole glare as an image (tests, docs); mean_signal_electrons() fuses glare_row instead.
