@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "photosite/scene/night.h"
+#include "scene/runs_detail.h"
 
 namespace photosite::scene {
 
@@ -84,24 +85,6 @@ bool single_plane_class(int id) {
 int find(std::vector<int>& p, int a) {
   while (p[a] != a) a = p[a] = p[p[a]];
   return a;
-}
-
-// The end of the run of values equal to p[x] in p[x..limit): the first index whose value differs,
-// or limit. Four 16-bit labels at a time as one 64-bit word (the first differing lane from the
-// lowest set bit of the XOR: little-endian lane order), the rest one at a time.
-inline int run_end(const uint16_t* p, int x, int limit) {
-  const uint16_t v = p[x];
-  int e = x + 1;
-  if constexpr (std::endian::native == std::endian::little) {
-    const uint64_t vv = v * 0x0001000100010001ull;
-    for (; e + 4 <= limit; e += 4) {
-      uint64_t w;
-      std::memcpy(&w, p + e, sizeof w);
-      if (const uint64_t d = w ^ vv) return e + std::countr_zero(d) / 16;
-    }
-  }
-  while (e < limit && p[e] == v) ++e;
-  return e;
 }
 
 // Runs of equal key per row and their 4-connected components: a union-find over runs of one key

@@ -1,4 +1,6 @@
 // The whole day-to-night chain with per-stage timings (thesis Table 6 counterpart).
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,6 +12,12 @@
 
 namespace photosite::scene {
 
+double process_cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
                        bool keep_darkened, SequenceState* sequence) {
   return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence);
@@ -20,10 +28,13 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
+  double c = process_cpu_ms();
   auto lap = [&](const char* name) {
     const auto now = clock::now();
-    s.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
+    const double cn = process_cpu_ms();
+    s.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count(), cn - c});
     t = now;
+    c = cn;
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p, seq ? &seq->reflectance : nullptr);

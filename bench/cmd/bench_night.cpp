@@ -36,11 +36,7 @@ struct Opts {
 
 // The process CPU time (ms): with --threads 1 a stage's own work, which other processes on a
 // loaded machine do not stretch as they do the wall time.
-double cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+double cpu_ms() { return scene::process_cpu_ms(); }
 
 void run(const Opts& o) {
   namespace fs = std::filesystem;
@@ -96,9 +92,11 @@ void run(const Opts& o) {
   cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
   for (int r = 0; r < o.repeats + 1; ++r) {  // the first round warms caches and is dropped
     const bool keep = r > 0;
+    const double cl0 = cpu_ms();
     auto t0 = clock::now();
     const ImageF lin = scene::linearize(day, info);
     auto t1 = clock::now();
+    const double cl1 = cpu_ms();
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
     auto t2 = clock::now();
     const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
@@ -170,6 +168,14 @@ void run(const Opts& o) {
       add("ego low beam image (alone)", ms(tb0, tb1));
       (void)beam;
       if (o.cpu_clock) {
+        // The chain's stages by the CPU clock (night_scene's own laps), and their sum.
+        add("cpu: linearize", cl1 - cl0);
+        double scene_cpu = cl1 - cl0;
+        for (const auto& st : ns.timings) {
+          add("cpu: " + st.stage, st.cpu_ms);
+          scene_cpu += st.cpu_ms;
+        }
+        add("cpu: scene stages (linearize..compose)", scene_cpu);
         add("cpu: ego low beam image (alone)", cb1 - cb0);
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
@@ -221,7 +227,7 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
                             sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
                             sub->add_flag("--cpu-clock", o->cpu_clock,
-                                          "also time the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
+                                          "also time the stages, the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
                             sub->add_flag("--no-glare", o->no_glare, "the lens without its [glare] (for the glare's cost)");
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });
