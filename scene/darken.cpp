@@ -16,6 +16,7 @@
 #include "photosite/units.h"
 #include "scene/darken_detail.h"
 #include "scene/runs_detail.h"
+#include "scene/texture_detail.h"
 
 namespace photosite::scene {
 
@@ -37,6 +38,8 @@ void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t in
 }
 
 namespace {
+// The widest instruction set the per-pixel loops below may take (texture_detail.h).
+int max_isa = 2;
 // The decode of a value v in [0, 1]: linear interpolation in srgb_decode_table.
 inline float decode_interp(float v, const float* lut) {
   const float t = v * 4096.f;
@@ -108,7 +111,7 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
       const int n = 3 * day.width();
       for (int j = 0; j < n; ++j) {
 #if defined(__x86_64__)
-        if (avx2 && (j & 7) == 0) {  // eight at a time while all eight are table codes
+        if (avx2 && max_isa >= 1 && (j & 7) == 0) {  // eight at a time while all eight are table codes
           j = decode8_codes_avx2(in, j, n, *d8, o);
           if (j >= n) break;
         }
@@ -267,24 +270,89 @@ __attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, cons
   }
   box_scaled_scalar(s + 3 * i, n - i, c, scale, cap, o + 3 * i);
 }
-const bool kAvx2 = __builtin_cpu_supports("avx2");
+// The same, eight pixels at a time in 512-bit registers: the 24 floats of eight pixels split into
+// R, G and B by two-register permutes (and joined back the same way).
+// (GCC 12's 512-bit intrinsics start from _mm512_undefined_*(), a self-initialised variable
+// that -Wmaybe-uninitialized reports inside avx512fintrin.h: silenced for these functions only.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define PHOTOSITE_AVX512 __attribute__((target("avx512f")))
+struct BoxV8 { __m512d v[3]; };
+PHOTOSITE_AVX512 inline BoxV8 box_x8(const float* s, const BoxCoef& c) {
+  const __m512 a = _mm512_loadu_ps(s), b = _mm512_castps256_ps512(_mm256_loadu_ps(s + 16));
+  const __m512i iR = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512i iG = _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512i iB = _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512d r = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iR, b)));
+  const __m512d g = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iG, b)));
+  const __m512d bl = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iB, b)));
+  const __m512d zero = _mm512_setzero_pd();
+  BoxV8 o;
+  for (int k = 0; k < 3; ++k) {
+    const __m512d m = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(c.M[k][0]), r),
+                                                  _mm512_mul_pd(_mm512_set1_pd(c.M[k][1]), g)),
+                                    _mm512_mul_pd(_mm512_set1_pd(c.M[k][2]), bl));
+    o.v[k] = _mm512_max_pd(m, zero);
+  }
+  return o;
+}
+PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, double* y) {
+  const __m512d K0 = _mm512_set1_pd(c.K[0]), K1 = _mm512_set1_pd(c.K[1]), K2 = _mm512_set1_pd(c.K[2]);
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const BoxV8 b = box_x8(s + 3 * i, c);
+    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_add_pd(_mm512_setzero_pd(), _mm512_mul_pd(K0, b.v[0])),
+                                                  _mm512_mul_pd(K1, b.v[1])),
+                                    _mm512_mul_pd(K2, b.v[2]));
+    _mm512_storeu_pd(y + i, t);
+  }
+  box_y_scalar(s + 3 * i, n - i, c, y + i);
+}
+PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+  const __m256 sc = _mm256_set1_ps(scale), cp = _mm256_set1_ps(cap);
+  // Output lanes: r0 g0 b0 r1 ... from R (lanes 0-7 of rg), G (lanes 8-15 of rg) and B (lanes 0-7 of bb).
+  const __m512i i0 = _mm512_setr_epi32(0, 8, 16, 1, 9, 17, 2, 10, 18, 3, 11, 19, 4, 12, 20, 5);
+  const __m512i i1 = _mm512_setr_epi32(13, 21, 6, 14, 22, 7, 15, 23, 0, 0, 0, 0, 0, 0, 0, 0);
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const BoxV8 b = box_x8(s + 3 * i, c);
+    const __m256 R = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[0])));
+    const __m256 G = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[1])));
+    const __m256 B = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[2])));
+    const __m512 rg = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(R)), _mm256_castps_pd(G), 1));
+    const __m512 bb = _mm512_castps256_ps512(B);
+    _mm512_storeu_ps(o + 3 * i, _mm512_permutex2var_ps(rg, i0, bb));
+    _mm256_storeu_ps(o + 3 * i + 16, _mm512_castps512_ps256(_mm512_permutex2var_ps(rg, i1, bb)));
+  }
+  box_scaled_scalar(s + 3 * i, n - i, c, scale, cap, o + 3 * i);
+}
+#undef PHOTOSITE_AVX512
+#pragma GCC diagnostic pop
+// 2: AVX-512, 1: AVX2, 0: scalar; texture_max_isa() caps it (tests run each path).
+const int kIsa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
 #else
-constexpr bool kAvx2 = false;
+constexpr int kIsa = 0;
 #endif
 void box_y_block(const float* s, int n, const BoxCoef& c, double* y) {
 #if defined(__x86_64__)
-  if (kAvx2) return box_y_avx2(s, n, c, y);
+  const int isa = std::min(kIsa, max_isa);
+  if (isa == 2) return box_y_avx512(s, n, c, y);
+  if (isa == 1) return box_y_avx2(s, n, c, y);
 #endif
   box_y_scalar(s, n, c, y);
 }
 void box_scaled_block(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
 #if defined(__x86_64__)
-  if (kAvx2) return box_scaled_avx2(s, n, c, scale, cap, o);
+  const int isa = std::min(kIsa, max_isa);
+  if (isa == 2) return box_scaled_avx512(s, n, c, scale, cap, o);
+  if (isa == 1) return box_scaled_avx2(s, n, c, scale, cap, o);
 #endif
   box_scaled_scalar(s, n, c, scale, cap, o);
 }
 constexpr int kBoxBlock = 256;
 }  // namespace
+
+void texture_max_isa(int isa) { max_isa = isa; }
 
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();

@@ -16,6 +16,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/srgb_detail.h"
+#include "scene/texture_detail.h"
 #include "photosite/error.h"
 #include "test_util.h"
 
@@ -42,8 +43,8 @@ bool all_finite_nonneg(const ImageF& img) {
 // v = max(0, M·s) and Y = Σ K_r·v_r in double, class sums of Y over 64 fixed chunks of the
 // frame in pixel order, added chunk by chunk; texture = min(float(ρ/Ȳ)·float(v), cap), or the flat
 // grey where a class is black. Bit for bit, on an odd size (rows and runs not multiples of the
-// four-pixel blocks) with out-of-gamut negatives, values above white and a black class, for 1
-// and 2 threads.
+// four- and eight-pixel blocks) with out-of-gamut negatives, values above white and a black
+// class, for 1 and 2 threads and each instruction-set path.
 TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   const int W = 203, H = 37;
   ImageF day(W, H, 3, 0.f);
@@ -89,13 +90,45 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
                               : std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap);
   }
   const int saved = omp_get_max_threads();
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    const ImageF got = reflectance_texture(day, ids, p);
-    ASSERT_EQ(got.size(), want.size());
-    EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << threads << " threads";
-  }
+  for (int isa : {2, 1, 0})  // AVX-512, AVX2 and scalar loops (those the machine has)
+    for (int threads : {1, 2}) {
+      texture_max_isa(isa);
+      omp_set_num_threads(threads);
+      const ImageF got = reflectance_texture(day, ids, p);
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << threads << " threads, isa " << isa;
+    }
+  texture_max_isa(2);
   omp_set_num_threads(saved);
+}
+
+// linearize's 8-bit path (table reads eight samples at a time while all are code values,
+// interpolation otherwise) against its definition per sample: v clipped to [0, 1], then
+// the linear interpolation in srgb_decode_table (which the table of the 256 codes holds for them).
+// Every code, values between codes, negatives and values above white, at positions that cut the
+// vector blocks, for each instruction-set path.
+TEST(SceneDarken, Linearize8BitIsItsDefinitionBitForBit) {
+  const int W = 301, H = 5;
+  ImageF day(W, H, 3, 0.f);
+  for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(i % 256) * (1.f / 255);
+  const size_t odd[] = {7, 40, 41, 500, 1000, 1023, 2047, day.size() - 1};
+  const float vals[] = {0.5004f, -0.25f, 1.5f, 1e-7f, 0.99999f, 3.f, -0.f, 0.25f};
+  for (size_t k = 0; k < 8; ++k) day[odd[k]] = vals[k];
+  ImageFileInfo info;
+  info.bits_per_sample = 8;
+  const std::vector<float>& lut = srgb_decode_table();
+  ImageF want(W, H, 3, 0.f);
+  for (size_t i = 0; i < day.size(); ++i) {
+    const float v = std::min(std::max(day[i], 0.f), 1.f), t = v * 4096.f;
+    const int j = std::min(4095, static_cast<int>(t));
+    want[i] = lut[j] + (lut[j + 1] - lut[j]) * (t - j);
+  }
+  for (int isa : {1, 0}) {  // AVX2 (where the machine has it) and scalar
+    texture_max_isa(isa);
+    const ImageF got = linearize(day, info);
+    EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << "isa " << isa;
+  }
+  texture_max_isa(2);
 }
 
 TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
