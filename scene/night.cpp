@@ -72,13 +72,18 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   else {
     lanes_full = ImageU8(W, H, 1, uninitialized);
     const int ww = s.lanes_work.width(), wh = s.lanes_work.height();
-    std::vector<int> sx(W);
+    std::vector<int> sx(W), sy(H);
     for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
+    for (int y = 0; y < H; ++y) sy[y] = std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H));
+    // sy is non-decreasing: the rows that read one working row are consecutive; the first of
+    // them is filled and copied to the others.
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
-      const uint8_t* src = s.lanes_work.row(std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+      if (y > 0 && sy[y] == sy[y - 1]) continue;
+      const uint8_t* src = s.lanes_work.row(sy[y]);
       uint8_t* dst = lanes_full.row(y);
       for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
+      for (int z = y + 1; z < H && sy[z] == sy[y]; ++z) std::copy_n(dst, W, lanes_full.row(z));
     }
   }
   s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);

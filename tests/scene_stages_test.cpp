@@ -17,6 +17,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "scene/srgb_detail.h"
 #include "scene/texture_detail.h"
+#include "scene/runs_detail.h"
 #include "photosite/error.h"
 #include "test_util.h"
 
@@ -129,6 +130,33 @@ TEST(SceneDarken, Linearize8BitIsItsDefinitionBitForBit) {
     EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << "isa " << isa;
   }
   texture_max_isa(2);
+}
+
+// run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
+// values per compare) against the one-at-a-time scan, for 16- and 32-bit values, every start and
+// several limits, on runs of lengths 1 to 40 (across and within the compare blocks).
+TEST(SceneDarken, RunEndIsTheFirstDifferentValue) {
+  auto check = [](auto zero) {
+    using T = decltype(zero);
+    std::vector<T> v;
+    uint32_t st = 7;
+    for (int run = 0; v.size() < 600; ++run) {
+      st = st * 1664525u + 1013904223u;
+      const int len = 1 + static_cast<int>((st >> 8) % 40);
+      const T val = static_cast<T>(run % 3 == 2 ? -1 - run % 5 : (st >> 20) % 4);  // repeats, negatives for int32
+      v.insert(v.end(), len, val);
+    }
+    const int n = static_cast<int>(v.size());
+    for (int limit : {n, n - 1, n - 17, 333})
+      for (int x = 0; x < limit; ++x) {
+        int e = x + 1;
+        while (e < limit && v[e] == v[x]) ++e;
+        ASSERT_EQ(run_end(v.data(), x, limit), e) << "x " << x << " limit " << limit << " bytes " << sizeof(T);
+        ASSERT_EQ(run_end(v.data(), static_cast<size_t>(x), static_cast<size_t>(limit)), static_cast<size_t>(e));
+      }
+  };
+  check(uint16_t{0});
+  check(int32_t{0});
 }
 
 TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
