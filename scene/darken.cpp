@@ -1,6 +1,7 @@
 // Linearization and per-class darkening under night illumination (stage 1).
 #include <algorithm>
 #include <climits>
+#include <cstdint>
 #include <cmath>
 #include <fmt/format.h>
 #include <vector>
@@ -14,6 +15,8 @@
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
 #include "scene/darken_detail.h"
+#include "scene/runs_detail.h"
+#include "scene/texture_detail.h"
 
 namespace photosite::scene {
 
@@ -35,6 +38,8 @@ void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t in
 }
 
 namespace {
+// The widest instruction set the per-pixel loops below may take (texture_detail.h).
+int max_isa = 2;
 // The decode of a value v in [0, 1]: linear interpolation in srgb_decode_table.
 inline float decode_interp(float v, const float* lut) {
   const float t = v * 4096.f;
@@ -72,7 +77,10 @@ int decode8_codes_avx2(const float* in, int j, int n, const Decode8& d8, float* 
     // Out-of-range lanes index code 0 (the mask keeps the gather inside the table).
     const __m256i code = _mm256_and_si256(_mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(v, k255), half)),
                                           _mm256_castps_si256(in_range));
-    const __m256 is_code = _mm256_cmp_ps(_mm256_i32gather_ps(d8.in, code, 4), v, _CMP_EQ_OQ);
+    // d8.in[code] is code·(1/255) rounded to float: computed here as Decode8 computes it (an
+    // exact int-to-float conversion and one rounded product) rather than gathered.
+    const __m256 in_code = _mm256_mul_ps(_mm256_cvtepi32_ps(code), _mm256_set1_ps(1.f / 255));
+    const __m256 is_code = _mm256_cmp_ps(in_code, v, _CMP_EQ_OQ);
     if (_mm256_movemask_ps(_mm256_and_ps(in_range, is_code)) != 0xff) return j;
     _mm256_storeu_ps(o + j, _mm256_i32gather_ps(d8.out, code, 4));
   }
@@ -103,7 +111,7 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
       const int n = 3 * day.width();
       for (int j = 0; j < n; ++j) {
 #if defined(__x86_64__)
-        if (avx2 && (j & 7) == 0) {  // eight at a time while all eight are table codes
+        if (avx2 && max_isa >= 1 && (j & 7) == 0) {  // eight at a time while all eight are table codes
           j = decode8_codes_avx2(in, j, n, *d8, o);
           if (j >= n) break;
         }
@@ -176,65 +184,244 @@ double class_reflectance(int id, const ScenePreset& p) {
 }
 
 namespace {
-// Box RGB (M·s, negatives clipped) of n pixels into f and each pixel's luminous efficacy
-// Y = Σ_r K_r·(M·s)_r into y: per pixel the same operations in the same order whatever the
-// instruction set (no contraction into fused multiply-adds: -ffp-contract=off), so the same bits;
-// the loop carries no dependence, so the AVX2 clone runs four pixels at once.
-constexpr int kBoxBlock = 256;
-__attribute__((target_clones("avx2", "default")))
-void box_rgb_block(const float* s, int n, const std::array<std::array<double, 3>, 3>& Mr,
-                   const std::array<double, 3>& Kr, float* f, double* y) {
-  const double M00 = Mr[0][0], M01 = Mr[0][1], M02 = Mr[0][2], M10 = Mr[1][0], M11 = Mr[1][1], M12 = Mr[1][2],
-               M20 = Mr[2][0], M21 = Mr[2][1], M22 = Mr[2][2], K0 = Kr[0], K1 = Kr[1], K2 = Kr[2];
+// Box RGB v = M·s of a linear sRGB pixel s, negatives clipped (std::max(0.0, ·)), and its luminous
+// efficacy Y = Σ_r K_r·v_r, in double: per pixel the same operations in the same order on every
+// path below (no contraction into fused multiply-adds: -ffp-contract=off), so the same bits.
+struct BoxCoef {
+  double M[3][3], K[3];
+};
+BoxCoef box_coef() {
+  const auto& M = spectrum::linear_srgb_to_box();
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  BoxCoef c;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) c.M[r][k] = M[r][k];
+    c.K[r] = K[r];
+  }
+  return c;
+}
+inline void box_px(const float* s, const BoxCoef& c, double v[3]) {
+  const double r = s[0], g = s[1], b = s[2];
+  for (int k = 0; k < 3; ++k) v[k] = std::max(0.0, c.M[k][0] * r + c.M[k][1] * g + c.M[k][2] * b);
+}
+inline double box_y(const double v[3], const BoxCoef& c) { return ((0.0 + c.K[0] * v[0]) + c.K[1] * v[1]) + c.K[2] * v[2]; }
+
+// Y of n pixels into y (pass 1 of reflectance_texture), and min(scale·float(v), cap) of n pixels
+// into o (pass 2): the scalar loops, and AVX2 ones four pixels at a time with the same operations
+// per pixel (max_pd(v, 0) is std::max(0.0, v) for every v, NaN and -0 included; min_ps(cap, p) is
+// std::min(p, cap)).
+void box_y_scalar(const float* s, int n, const BoxCoef& c, double* y) {
   for (int i = 0; i < n; ++i) {
-    const double r = s[3 * i], g = s[3 * i + 1], b = s[3 * i + 2];
-    const double v0 = std::max(0.0, M00 * r + M01 * g + M02 * b);
-    const double v1 = std::max(0.0, M10 * r + M11 * g + M12 * b);
-    const double v2 = std::max(0.0, M20 * r + M21 * g + M22 * b);
-    f[3 * i] = static_cast<float>(v0);
-    f[3 * i + 1] = static_cast<float>(v1);
-    f[3 * i + 2] = static_cast<float>(v2);
-    y[i] = ((0.0 + K0 * v0) + K1 * v1) + K2 * v2;
+    double v[3];
+    box_px(s + 3 * i, c, v);
+    y[i] = box_y(v, c);
   }
 }
+void box_scaled_scalar(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+  for (int i = 0; i < n; ++i) {
+    double v[3];
+    box_px(s + 3 * i, c, v);
+    for (int k = 0; k < 3; ++k) o[3 * i + k] = std::min(scale * static_cast<float>(v[k]), cap);
+  }
+}
+#if defined(__x86_64__)
+constexpr int sh(int a, int b, int c, int d) { return a | b << 2 | c << 4 | d << 6; }
+struct BoxV { __m256d v[3]; };
+// Four interleaved RGB pixels (12 floats from s) to their box RGB in double.
+__attribute__((target("avx2"))) inline BoxV box_x4(const float* s, const BoxCoef& c) {
+  const __m128 a = _mm_loadu_ps(s), b = _mm_loadu_ps(s + 4), d = _mm_loadu_ps(s + 8);  // r0g0b0r1 g1b1r2g2 b2r3g3b3
+  const __m128 R = _mm_shuffle_ps(a, _mm_shuffle_ps(b, d, sh(2, 2, 1, 1)), sh(0, 3, 0, 2));
+  const __m128 G = _mm_shuffle_ps(_mm_shuffle_ps(a, b, sh(1, 1, 0, 0)), _mm_shuffle_ps(b, d, sh(3, 3, 2, 2)), sh(0, 2, 0, 2));
+  const __m128 B = _mm_shuffle_ps(_mm_shuffle_ps(a, b, sh(2, 2, 1, 1)), _mm_shuffle_ps(d, d, sh(0, 3, 0, 3)), sh(0, 2, 0, 1));
+  const __m256d r = _mm256_cvtps_pd(R), g = _mm256_cvtps_pd(G), bl = _mm256_cvtps_pd(B), zero = _mm256_setzero_pd();
+  BoxV o;
+  for (int k = 0; k < 3; ++k) {
+    const __m256d m = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(c.M[k][0]), r),
+                                                  _mm256_mul_pd(_mm256_set1_pd(c.M[k][1]), g)),
+                                    _mm256_mul_pd(_mm256_set1_pd(c.M[k][2]), bl));
+    o.v[k] = _mm256_max_pd(m, zero);
+  }
+  return o;
+}
+__attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const BoxCoef& c, double* y) {
+  const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const BoxV b = box_x4(s + 3 * i, c);
+    const __m256d t = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_setzero_pd(), _mm256_mul_pd(K0, b.v[0])),
+                                                  _mm256_mul_pd(K1, b.v[1])),
+                                    _mm256_mul_pd(K2, b.v[2]));
+    _mm256_storeu_pd(y + i, t);
+  }
+  box_y_scalar(s + 3 * i, n - i, c, y + i);
+}
+__attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+  const __m128 sc = _mm_set1_ps(scale), cp = _mm_set1_ps(cap);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const BoxV b = box_x4(s + 3 * i, c);
+    const __m128 R = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[0])));
+    const __m128 G = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[1])));
+    const __m128 B = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[2])));
+    float* q = o + 3 * i;
+    _mm_storeu_ps(q, _mm_shuffle_ps(_mm_shuffle_ps(R, G, sh(0, 0, 0, 0)), _mm_shuffle_ps(B, R, sh(0, 0, 1, 1)), sh(0, 2, 0, 2)));
+    _mm_storeu_ps(q + 4, _mm_shuffle_ps(_mm_shuffle_ps(G, B, sh(1, 1, 1, 1)), _mm_shuffle_ps(R, G, sh(2, 2, 2, 2)), sh(0, 2, 0, 2)));
+    _mm_storeu_ps(q + 8, _mm_shuffle_ps(_mm_shuffle_ps(B, R, sh(2, 2, 3, 3)), _mm_shuffle_ps(G, B, sh(3, 3, 3, 3)), sh(0, 2, 0, 2)));
+  }
+  box_scaled_scalar(s + 3 * i, n - i, c, scale, cap, o + 3 * i);
+}
+// The same, eight pixels at a time in 512-bit registers: the 24 floats of eight pixels split into
+// R, G and B by two-register permutes (and joined back the same way).
+// (GCC 12's 512-bit intrinsics start from _mm512_undefined_*(), a self-initialised variable
+// that -Wmaybe-uninitialized reports inside avx512fintrin.h: silenced for these functions only.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define PHOTOSITE_AVX512 __attribute__((target("avx512f")))
+struct BoxV8 { __m512d v[3]; };
+PHOTOSITE_AVX512 inline BoxV8 box_x8(const float* s, const BoxCoef& c) {
+  const __m512 a = _mm512_loadu_ps(s), b = _mm512_castps256_ps512(_mm256_loadu_ps(s + 16));
+  const __m512i iR = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512i iG = _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512i iB = _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 0, 0, 0, 0, 0, 0, 0, 0);
+  const __m512d r = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iR, b)));
+  const __m512d g = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iG, b)));
+  const __m512d bl = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(a, iB, b)));
+  const __m512d zero = _mm512_setzero_pd();
+  BoxV8 o;
+  for (int k = 0; k < 3; ++k) {
+    const __m512d m = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(c.M[k][0]), r),
+                                                  _mm512_mul_pd(_mm512_set1_pd(c.M[k][1]), g)),
+                                    _mm512_mul_pd(_mm512_set1_pd(c.M[k][2]), bl));
+    o.v[k] = _mm512_max_pd(m, zero);
+  }
+  return o;
+}
+PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, double* y) {
+  const __m512d K0 = _mm512_set1_pd(c.K[0]), K1 = _mm512_set1_pd(c.K[1]), K2 = _mm512_set1_pd(c.K[2]);
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const BoxV8 b = box_x8(s + 3 * i, c);
+    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_add_pd(_mm512_setzero_pd(), _mm512_mul_pd(K0, b.v[0])),
+                                                  _mm512_mul_pd(K1, b.v[1])),
+                                    _mm512_mul_pd(K2, b.v[2]));
+    _mm512_storeu_pd(y + i, t);
+  }
+  box_y_scalar(s + 3 * i, n - i, c, y + i);
+}
+PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+  const __m256 sc = _mm256_set1_ps(scale), cp = _mm256_set1_ps(cap);
+  // Output lanes: r0 g0 b0 r1 ... from R (lanes 0-7 of rg), G (lanes 8-15 of rg) and B (lanes 0-7 of bb).
+  const __m512i i0 = _mm512_setr_epi32(0, 8, 16, 1, 9, 17, 2, 10, 18, 3, 11, 19, 4, 12, 20, 5);
+  const __m512i i1 = _mm512_setr_epi32(13, 21, 6, 14, 22, 7, 15, 23, 0, 0, 0, 0, 0, 0, 0, 0);
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const BoxV8 b = box_x8(s + 3 * i, c);
+    const __m256 R = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[0])));
+    const __m256 G = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[1])));
+    const __m256 B = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[2])));
+    const __m512 rg = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(R)), _mm256_castps_pd(G), 1));
+    const __m512 bb = _mm512_castps256_ps512(B);
+    _mm512_storeu_ps(o + 3 * i, _mm512_permutex2var_ps(rg, i0, bb));
+    _mm256_storeu_ps(o + 3 * i + 16, _mm512_castps512_ps256(_mm512_permutex2var_ps(rg, i1, bb)));
+  }
+  box_scaled_scalar(s + 3 * i, n - i, c, scale, cap, o + 3 * i);
+}
+#undef PHOTOSITE_AVX512
+#pragma GCC diagnostic pop
+// 2: AVX-512, 1: AVX2, 0: scalar; texture_max_isa() caps it (tests run each path).
+const int kIsa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+constexpr int kIsa = 0;
+#endif
+void box_y_block(const float* s, int n, const BoxCoef& c, double* y) {
+#if defined(__x86_64__)
+  const int isa = std::min(kIsa, max_isa);
+  if (isa == 2) return box_y_avx512(s, n, c, y);
+  if (isa == 1) return box_y_avx2(s, n, c, y);
+#endif
+  box_y_scalar(s, n, c, y);
+}
+void box_scaled_block(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+#if defined(__x86_64__)
+  const int isa = std::min(kIsa, max_isa);
+  if (isa == 2) return box_scaled_avx512(s, n, c, scale, cap, o);
+  if (isa == 1) return box_scaled_avx2(s, n, c, scale, cap, o);
+#endif
+  box_scaled_scalar(s, n, c, scale, cap, o);
+}
+constexpr int kBoxBlock = 256;
 }  // namespace
+
+void texture_max_isa(int isa) { max_isa = isa; }
 
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const auto& M = spectrum::linear_srgb_to_box();
+  const BoxCoef coef = box_coef();
   // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
-  // (before clipping negatives, which only out-of-gamut colours have).
+  // (after clipping negatives, which only out-of-gamut colours have).
   const size_t n = day.pixel_count();
   ImageF f(day.width(), day.height(), 3, uninitialized, "W.lm-1");
-  // Pass 1: box RGB into f (reused as scratch) and the class sums of Y, over a fixed set of
-  // chunks summed in order afterwards, so the result does not depend on the thread count.
+  // Pass 1: the class sums of Y, over a fixed set of chunks summed in order afterwards, so the
+  // result does not depend on the thread count. The box RGB is not stored: pass 2 computes it
+  // again from the day image (cheaper than writing it out and reading it back).
   constexpr int kChunks = 64;
   std::vector<std::array<double, 2 * kLabelCount>> part(kChunks);
+  // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
+  // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
+  // side, pixel j of each in turn, so that their chains overlap. A class's running sum is held in
+  // a register along a run of one label and stored at its end. Per chunk, the same additions in
+  // the same order as adding pixel by pixel into its sums: the same bits.
+  constexpr int kStreams = 4;
+  static_assert(kChunks % kStreams == 0);
 #pragma omp parallel for schedule(static)
-  for (int ch = 0; ch < kChunks; ++ch) {
-    auto& ps = part[ch];
-    ps.fill(0.0);
-    const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
-    // The class's running sum is held in a register along a run of one label and stored at its
-    // end: the same additions in the same order as adding into ps per pixel, without a store and
-    // reload between them (which would bound the loop by their latency).
+  for (int grp = 0; grp < kChunks / kStreams; ++grp) {
     const uint16_t* lab = labels.data();
     const float* day_px = day.data();
-    float* f_px = f.data();
-    double ys[kBoxBlock];
-    for (size_t i = i0; i < i1;) {
-      const int id = lab[i];
-      double acc = ps[id];
-      size_t e = i + 1;
-      while (e < i1 && lab[e] == id) ++e;
-      for (size_t b = i; b < e; b += kBoxBlock) {
-        const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
-        box_rgb_block(day_px + 3 * b, nb, M, K, f_px + 3 * b, ys);
-        for (int j = 0; j < nb; ++j) acc += ys[j];
+    struct Stream {
+      size_t base = 0, len = 0, start = 0;  // chunk's first pixel, its length, current run's start (from base)
+      int cur = 0;                          // current run's label
+      double acc = 0;                       // its class's running sum
+      double* ps = nullptr;                 // the chunk's sums, then counts
+    } st[kStreams];
+    size_t common = SIZE_MAX;
+    for (int k = 0; k < kStreams; ++k) {
+      const int ch = grp * kStreams + k;
+      Stream& S = st[k];
+      S.ps = part[ch].data();
+      part[ch].fill(0.0);
+      S.base = n * ch / kChunks;
+      S.len = n * (ch + 1) / kChunks - S.base;
+      S.cur = S.len > 0 ? lab[S.base] : 0;
+      common = std::min(common, S.len);
+    }
+    auto step = [&](Stream& S, size_t j, double y) {
+      const int id = lab[S.base + j];
+      if (id != S.cur) [[unlikely]] {
+        S.ps[S.cur] = S.acc;
+        S.ps[kLabelCount + S.cur] += static_cast<double>(j - S.start);  // a count: exact in a double (< 2^53)
+        S.cur = id;
+        S.acc = S.ps[id];
+        S.start = j;
       }
-      ps[id] = acc;
-      ps[kLabelCount + id] += static_cast<double>(e - i);  // a count: exact in a double (< 2^53)
-      i = e;
+      S.acc += y;
+    };
+    double ys[kStreams][kBoxBlock];
+    for (size_t b = 0; b < common; b += kBoxBlock) {
+      const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, common - b));
+      for (int k = 0; k < kStreams; ++k) box_y_block(day_px + 3 * (st[k].base + b), nb, coef, ys[k]);
+      for (int j = 0; j < nb; ++j) {
+#pragma GCC unroll 4
+        for (int k = 0; k < kStreams; ++k) step(st[k], b + j, ys[k][j]);
+      }
+    }
+    for (Stream& S : st) {  // the chunks' last pixels beyond the common length (at most one)
+      for (size_t j = common; j < S.len; ++j) {
+        double y;
+        box_y_block(day_px + 3 * (S.base + j), 1, coef, &y);
+        step(S, j, y);
+      }
+      S.ps[S.cur] = S.acc;
+      S.ps[kLabelCount + S.cur] += static_cast<double>(S.len - S.start);
     }
   }
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -249,23 +436,24 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
   const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
-  // Pass 2, per run of one label: its scale on every sample (or its flat grey), capped.
+  // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped.
 #pragma omp parallel for schedule(static)
   for (int ch = 0; ch < kChunks; ++ch) {
     const uint16_t* lab = labels.data();
+    const float* day_px = day.data();
     float* f_px = f.data();
     const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
     for (size_t i = i0; i < i1;) {
       const int id = lab[i];
-      size_t e = i + 1;
-      while (e < i1 && lab[e] == id) ++e;
+      const size_t e = run_end(lab, i, i1);
       float* o = f_px + 3 * i;
-      const size_t m = 3 * (e - i);
       if (scale[id] > 0) {
-        const float s = scale[id];
-        for (size_t j = 0; j < m; ++j) o[j] = std::min(s * o[j], cap);
+        for (size_t b = i; b < e; b += kBoxBlock) {
+          const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
+          box_scaled_block(day_px + 3 * b, nb, coef, scale[id], cap, f_px + 3 * b);
+        }
       } else {
-        std::fill(o, o + m, std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
+        std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
       }
       i = e;
     }

@@ -1,4 +1,6 @@
 // The whole day-to-night chain with per-stage timings (thesis Table 6 counterpart).
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,15 +16,26 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, int W, int H) {
   if (lanes_work.width() == W) return lanes_work;
   ImageU8 full(W, H, 1, uninitialized);
   const int ww = lanes_work.width(), wh = lanes_work.height();
-  std::vector<int> sx(W);
+  std::vector<int> sx(W), sy(H);
   for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
+  for (int y = 0; y < H; ++y) sy[y] = std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H));
+  // sy is non-decreasing: the rows that read one working row are consecutive; the first of
+  // them is filled and copied to the others.
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
-    const uint8_t* src = lanes_work.row(std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+    if (y > 0 && sy[y] == sy[y - 1]) continue;
+    const uint8_t* src = lanes_work.row(sy[y]);
     uint8_t* dst = full.row(y);
     for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
+    for (int z = y + 1; z < H && sy[z] == sy[y]; ++z) std::copy_n(dst, W, full.row(z));
   }
   return full;
+}
+
+double process_cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
@@ -35,10 +48,13 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
+  double c = process_cpu_ms();
   auto lap = [&](const char* name) {
     const auto now = clock::now();
-    s.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
+    const double cn = process_cpu_ms();
+    s.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count(), cn - c});
     t = now;
+    c = cn;
   };
   const int W = day.width(), H = day.height();
   const ImageF texture = reflectance_texture(day, labels.ids, p, seq ? &seq->reflectance : nullptr);

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 #include <opencv2/imgproc.hpp>
 #include <fstream>
@@ -15,6 +16,8 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/srgb_detail.h"
+#include "scene/texture_detail.h"
+#include "scene/runs_detail.h"
 #include "photosite/error.h"
 #include "test_util.h"
 
@@ -36,6 +39,125 @@ bool all_finite_nonneg(const ImageF& img) {
   return true;
 }
 }  // namespace
+
+// reflectance_texture's vectorised passes against its definition written out per pixel: box RGB
+// v = max(0, M·s) and Y = Σ K_r·v_r in double, class sums of Y over 64 fixed chunks of the
+// frame in pixel order, added chunk by chunk; texture = min(float(ρ/Ȳ)·float(v), cap), or the flat
+// grey where a class is black. Bit for bit, on an odd size (rows and runs not multiples of the
+// four- and eight-pixel blocks) with out-of-gamut negatives, values above white and a black
+// class, for 1 and 2 threads and each instruction-set path.
+TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
+  const int W = 203, H = 37;
+  ImageF day(W, H, 3, 0.f);
+  ImageU16 ids(W, H, 1, 0);
+  uint64_t st = 12345;
+  auto rnd = [&] {  // xorshift64*: a fixed pseudo-random input
+    st ^= st >> 12; st ^= st << 25; st ^= st >> 27;
+    return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
+  };
+  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {
+      const int len = 1 + static_cast<int>(rnd() * 13), id = classes[static_cast<int>(rnd() * 5)];
+      for (int e = std::min(W, x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
+    }
+  for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
+  for (size_t i = 0; i < ids.size(); ++i)  // vegetation black: its flat grey
+    if (ids[i] == int(Label::Vegetation)) day[3 * i] = day[3 * i + 1] = day[3 * i + 2] = 0.f;
+  const ScenePreset& p = preset();
+  const auto& M = spectrum::linear_srgb_to_box();
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const size_t n = day.pixel_count();
+  std::vector<double> v(3 * n);
+  double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
+  for (int ch = 0; ch < 64; ++ch) {
+    double ps[kLabelCount] = {}, pc[kLabelCount] = {};
+    for (size_t i = n * ch / 64; i < n * (ch + 1) / 64; ++i) {
+      for (int r = 0; r < 3; ++r)
+        v[3 * i + r] = std::max(0.0, M[r][0] * day[3 * i] + M[r][1] * day[3 * i + 1] + M[r][2] * day[3 * i + 2]);
+      ps[ids[i]] += ((0.0 + K[0] * v[3 * i]) + K[1] * v[3 * i + 1]) + K[2] * v[3 * i + 2];
+      pc[ids[i]] += 1;
+    }
+    for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += pc[id]; }
+  }
+  const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2])), cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));
+  ImageF want(W, H, 3, 0.f);
+  for (size_t i = 0; i < n; ++i) {
+    const int id = ids[i];
+    const double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
+    const float s = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
+    for (int r = 0; r < 3; ++r)
+      want[3 * i + r] = s > 0 ? std::min(s * static_cast<float>(v[3 * i + r]), cap)
+                              : std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap);
+  }
+  const int saved = omp_get_max_threads();
+  for (int isa : {2, 1, 0})  // AVX-512, AVX2 and scalar loops (those the machine has)
+    for (int threads : {1, 2}) {
+      texture_max_isa(isa);
+      omp_set_num_threads(threads);
+      const ImageF got = reflectance_texture(day, ids, p);
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << threads << " threads, isa " << isa;
+    }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
+}
+
+// linearize's 8-bit path (table reads eight samples at a time while all are code values,
+// interpolation otherwise) against its definition per sample: v clipped to [0, 1], then
+// the linear interpolation in srgb_decode_table (which the table of the 256 codes holds for them).
+// Every code, values between codes, negatives and values above white, at positions that cut the
+// vector blocks, for each instruction-set path.
+TEST(SceneDarken, Linearize8BitIsItsDefinitionBitForBit) {
+  const int W = 301, H = 5;
+  ImageF day(W, H, 3, 0.f);
+  for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(i % 256) * (1.f / 255);
+  const size_t odd[] = {7, 40, 41, 500, 1000, 1023, 2047, day.size() - 1};
+  const float vals[] = {0.5004f, -0.25f, 1.5f, 1e-7f, 0.99999f, 3.f, -0.f, 0.25f};
+  for (size_t k = 0; k < 8; ++k) day[odd[k]] = vals[k];
+  ImageFileInfo info;
+  info.bits_per_sample = 8;
+  const std::vector<float>& lut = srgb_decode_table();
+  ImageF want(W, H, 3, 0.f);
+  for (size_t i = 0; i < day.size(); ++i) {
+    const float v = std::min(std::max(day[i], 0.f), 1.f), t = v * 4096.f;
+    const int j = std::min(4095, static_cast<int>(t));
+    want[i] = lut[j] + (lut[j + 1] - lut[j]) * (t - j);
+  }
+  for (int isa : {1, 0}) {  // AVX2 (where the machine has it) and scalar
+    texture_max_isa(isa);
+    const ImageF got = linearize(day, info);
+    EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << "isa " << isa;
+  }
+  texture_max_isa(2);
+}
+
+// run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
+// values per compare) against the one-at-a-time scan, for 16- and 32-bit values, every start and
+// several limits, on runs of lengths 1 to 40 (across and within the compare blocks).
+TEST(SceneDarken, RunEndIsTheFirstDifferentValue) {
+  auto check = [](auto zero) {
+    using T = decltype(zero);
+    std::vector<T> v;
+    uint32_t st = 7;
+    for (int run = 0; v.size() < 600; ++run) {
+      st = st * 1664525u + 1013904223u;
+      const int len = 1 + static_cast<int>((st >> 8) % 40);
+      const T val = static_cast<T>(run % 3 == 2 ? -1 - run % 5 : (st >> 20) % 4);  // repeats, negatives for int32
+      v.insert(v.end(), len, val);
+    }
+    const int n = static_cast<int>(v.size());
+    for (int limit : {n, n - 1, n - 17, 333})
+      for (int x = 0; x < limit; ++x) {
+        int e = x + 1;
+        while (e < limit && v[e] == v[x]) ++e;
+        ASSERT_EQ(run_end(v.data(), x, limit), e) << "x " << x << " limit " << limit << " bytes " << sizeof(T);
+        ASSERT_EQ(run_end(v.data(), static_cast<size_t>(x), static_cast<size_t>(limit)), static_cast<size_t>(e));
+      }
+  };
+  check(uint16_t{0});
+  check(int32_t{0});
+}
 
 TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   SyntheticOptions o;

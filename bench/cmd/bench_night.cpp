@@ -37,11 +37,7 @@ struct Opts {
 
 // The process CPU time (ms): with --threads 1 a stage's own work, which other processes on a
 // loaded machine do not stretch as they do the wall time.
-double cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+double cpu_ms() { return scene::process_cpu_ms(); }
 
 void run(const Opts& o) {
   namespace fs = std::filesystem;
@@ -97,9 +93,11 @@ void run(const Opts& o) {
   cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
   for (int r = 0; r < o.repeats + 1; ++r) {  // the first round warms caches and is dropped
     const bool keep = r > 0;
+    const double cl0 = cpu_ms();
     auto t0 = clock::now();
     const ImageF lin = scene::linearize(day, info);
     auto t1 = clock::now();
+    const double cl1 = cpu_ms();
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
     auto t2 = clock::now();
     const double cs0 = cpu_ms();
@@ -181,13 +179,21 @@ void run(const Opts& o) {
       // The whole light map alone (the "lights" stage above) on this round's inputs, as
       // night_scene hands them to it, by the process CPU clock.
       const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
-      const double cl0 = cpu_ms();
+      const double cm0 = cpu_ms();
       const scene::LightMap lmap = scene::light_map(lin, tex, lm, lanes_full, ns.beam_input, ns.vp, sp, 1, &ns.geometry,
                                                     &ns.depth, &ns.beam_lux, &fac);
-      const double cl1 = cpu_ms();
+      const double cm1 = cpu_ms();
       (void)lmap;
       if (o.cpu_clock) {
-        add("cpu: light map (alone)", cl1 - cl0);
+        add("cpu: light map (alone)", cm1 - cm0);
+        // The chain's stages by the CPU clock (night_scene's own laps), and their sum.
+        add("cpu: linearize", cl1 - cl0);
+        double scene_cpu = cl1 - cl0;
+        for (const auto& st : ns.timings) {
+          add("cpu: " + st.stage, st.cpu_ms);
+          scene_cpu += st.cpu_ms;
+        }
+        add("cpu: scene stages (linearize..compose)", scene_cpu);
         add("cpu: ego low beam image (alone)", cb1 - cb0);
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
@@ -241,7 +247,7 @@ static BenchRegistrar reg("night", "the night chain without file I/O at 2048x102
                             sub->add_option("--repeats", o->repeats, "timed repetitions")->capture_default_str();
                             sub->add_option("--threads", o->threads, "OpenMP/OpenCV threads")->capture_default_str();
                             sub->add_flag("--cpu-clock", o->cpu_clock,
-                                          "also time the sensor, the glare pyramid, the light map's parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
+                                          "also time the stages, the sensor, the glare pyramid, the light map and its parts alone and the peer by the process CPU clock (with --threads 1: their own work, on a loaded machine)");
                             sub->add_flag("--no-glare", o->no_glare, "the lens without its [glare] (for the glare's cost)");
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([o] { run(*o); });

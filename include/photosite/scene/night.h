@@ -252,7 +252,10 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
                const ImageF& beam_lux, const ScenePreset& p);
 
 // ---- the chain ----------------------------------------------------------------------------
-struct StageTiming { std::string stage; double ms; };
+// A stage's wall time, and the process CPU time it took (with one thread: its own work, which
+// other processes on a loaded machine do not stretch as they do the wall time).
+struct StageTiming { std::string stage; double ms; double cpu_ms = 0; };
+double process_cpu_ms();  // CLOCK_PROCESS_CPUTIME_ID in ms
 struct NightScene {
   ImageF darkened;  // full resolution, kept only with keep_darkened
   ImageF lights, radiance;  // full resolution
