@@ -404,10 +404,12 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       // not read); a group is computed when it holds a ground pixel.
       const int n = xb - xa;
       for (int i = 0; i < n + 7; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
-      for (int x = xa; x < xb; ++x) gpix[x] = id[x] < kLabelCount && ground[id[x]];  // the row's ground pixels
-      for (int q = 0; 8 * q < n; ++q) {
+      for (int q = 0; 8 * q < n; ++q) {  // the row's ground pixels, and the groups holding one
         uint8_t m = 0;
-        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) m |= gpix[x];
+        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) {
+          gpix[x] = id[x] < kLabelCount && ground[id[x]];
+          m |= gpix[x];
+        }
         gmask[q] = m;
       }
       if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);

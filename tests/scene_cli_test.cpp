@@ -203,8 +203,9 @@ TEST(SceneNightCli, FramesKeepTheirLightsAndVaryTheNoise) {
   EXPECT_EQ(a.attributes.at("photosite/fpn_checksum"), b.attributes.at("photosite/fpn_checksum"));
 }
 
-// The light map's AVX2 paths (street-light pools and vertical surfaces in float, 8 lanes; the
-// ego low beam) against their scalar twins, which do the same IEEE operations in the same order:
+// The light map's AVX2 paths (street-light pools and vertical surfaces in float, 8 lanes, and the
+// vertical surfaces' candidate test; the façade windows' geometry in double, 4 lanes; the ego low
+// beam) against their scalar twins, which do the same IEEE operations in the same order:
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) forces the scalar paths in a child process, and every
 // EXR channel of the bundled frame's night must be the same bits. (On a machine without AVX2 both
 // runs take the scalar path and the test still checks determinism.)
@@ -227,4 +228,7 @@ TEST(SceneNightCli, ScalarAndAvx2LightPathsGiveTheSameBits) {
       for (size_t i = 0; i < im.size(); ++i) lights += im[i];
   }
   EXPECT_GT(lights, 0.0);  // the frame has lights to compare
+  // and lit façade windows (the windows' twins were compared on them), as many on both paths
+  EXPECT_GT(std::stoi(v.attributes.at("photosite/night/lights_windows")), 0);
+  EXPECT_EQ(v.attributes.at("photosite/night/lights_windows"), s.attributes.at("photosite/night/lights_windows"));
 }
