@@ -320,6 +320,14 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   }
   for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
 }
+// How many of a[0, n) are >= t (a vectorized count: it runs on every block).
+__attribute__((target_clones("avx2", "default")))
+int count_at_least(const float* __restrict a, int n, float t) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += a[i] >= t ? 1 : 0;
+  return count;
+}
+
 // ptrs_block on the lanes of a block whose mean is >= 10 (the rest are the inversion's): none,
 // skipped; more than half (the common case on the night bench frame, where dark current and
 // sky glow lift most pixels above 10 e-), in place on every lane; a few, gathered, drawn with
@@ -332,8 +340,7 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
   alignas(64) uint32_t hw0[kBlock], hw1[kBlock];
   alignas(64) int idx[kBlock + 8];
   const float threshold = static_cast<float>(kPoissonApproxThreshold);
-  int count = 0;
-  for (int i = 0; i < m; ++i) count += mean[i] >= threshold ? 1 : 0;
+  const int count = count_at_least(mean, m, threshold);
   if (count == 0) return;
   if (2 * count > m) {
     ptrs_block(mean, w0, w1, m, out, first_pixel, key, frame, stream);
