@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <immintrin.h>
 
 #include "photosite/error.h"
 #include "photosite/units.h"
@@ -51,10 +52,12 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
     e[k] = glare_lerp(0.25f, t[k - 3], 0.75f, t[k]);
     o[k] = glare_lerp(0.75f, t[k], 0.25f, t[k + 3]);
   }
+  // Interleaved by 4-float stores that overlap: e[k..k+3] to u[2k..], then o[k..k+3] to u[2k+3..]
+  // over e's fourth float, whose own fourth float the next pixel pair (or one(), past the
+  // interior) overwrites in turn. e, o hold 3·cw floats, so the reads stay inside them.
   for (int k = 3; k < k_end; k += 3) {
-    float* d = u + 2 * k;
-    d[0] = e[k], d[1] = e[k + 1], d[2] = e[k + 2];
-    d[3] = o[k], d[4] = o[k + 1], d[5] = o[k + 2];
+    _mm_storeu_ps(u + 2 * k, _mm_loadu_ps(e + k));
+    _mm_storeu_ps(u + 2 * k + 3, _mm_loadu_ps(o + k));
   }
   for (int x = 2 * (cw - 1); x < width; ++x) one(x);
 }

@@ -320,23 +320,34 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   }
   for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
 }
-// ptrs_block on the lanes of a block whose mean is >= 10 only, compacted (a night frame's
-// blocks mix dark pixels, drawn by the inversion, with lit ones): none, skip; all, in place;
-// else gathered, drawn with their own pixel indices, and scattered back. Each lane's draw
-// depends on its mean, words and pixel alone, so the compaction changes no result.
+// How many of a[0, n) are >= t (a vectorized count: it runs on every block).
+__attribute__((target_clones("avx2", "default")))
+int count_at_least(const float* __restrict a, int n, float t) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += a[i] >= t ? 1 : 0;
+  return count;
+}
+
+// ptrs_block on the lanes of a block whose mean is >= 10 (the rest are the inversion's): none,
+// skipped; more than half (the common case on the night bench frame, where dark current and
+// sky glow lift most pixels above 10 e-), in place on every lane; a few, gathered, drawn with
+// their own pixel indices, and scattered back (a dark block with some lit pixels: PTRS's first
+// attempt costs a square root and three divisions a lane). Each lane's draw depends on its
+// mean, words and pixel alone, so neither choice changes a result.
 void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out,
                      uint64_t first_pixel, uint64_t key, uint32_t frame, uint32_t stream) {
   alignas(64) float high[kBlock], hmean[kBlock], hout[kBlock];
   alignas(64) uint32_t hw0[kBlock], hw1[kBlock];
   alignas(64) int idx[kBlock + 8];
   const float threshold = static_cast<float>(kPoissonApproxThreshold);
-  for (int i = 0; i < m; ++i) high[i] = mean[i] >= threshold ? 1.f : 0.f;
-  const int nh = select_lanes(high, m, idx);
-  if (nh == 0) return;
-  if (nh == m) {
+  const int count = count_at_least(mean, m, threshold);
+  if (count == 0) return;
+  if (2 * count > m) {
     ptrs_block(mean, w0, w1, m, out, first_pixel, key, frame, stream);
     return;
   }
+  for (int i = 0; i < m; ++i) high[i] = mean[i] >= threshold ? 1.f : 0.f;
+  const int nh = select_lanes(high, m, idx);
   for (int j = 0; j < nh; ++j) {
     hmean[j] = mean[idx[j]];
     hw0[j] = w0[idx[j]];
