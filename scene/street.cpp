@@ -756,8 +756,8 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       const float* z = depth_m.row(y);
       const int32_t* reg = fac.region.row(y);
       float* o = L.row(y);
-      uint64_t last_key = ~0ull;
-      bool last_lit = false;
+      uint64_t last_key = ~0ull, last_unit = ~0ull;
+      bool last_lit = false, last_unit_shop = false;
       float last_col[3] = {0, 0, 0};
       const double yn = (y - g.cy_px) / g.f_px;
       for (int x = 0; x < W; ++x) {
@@ -773,13 +773,28 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
         const int j = static_cast<int>(std::floor(Y / p.window_storey_m));
         const double y_in = Y - j * p.window_storey_m;
         uint64_t cell;
-        bool shop = j == 0;
+        bool shop = false;
+        if (j == 0) {
+          // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+          // along the façade), each unit's draw keyed like the windows' (world coordinates).
+          const uint64_t unit = static_cast<uint64_t>(static_cast<int64_t>(std::floor(s / p.shop_frontage_m)) + (1 << 19)) & 0xfffff;
+          const uint64_t ukey = (fr.key << 40) | (unit << 12);
+          if (ukey != last_unit) {
+            last_unit = ukey;
+            last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+          }
+          shop = last_unit_shop;
+        }
         if (!shop) {
-          // Upper storeys: a window_width_m x window_height_m window centred in each pitch x storey cell.
+          // Windows (upper storeys, and ground floors without a shop): a window_width_m x
+          // window_height_m opening centred in each pitch x storey cell; its glass is inset by the
+          // frame (window_frame_m on every side) and split by a central mullion of window_mullion_m
+          // (a two-sash window: two lights).
           const int64_t i = static_cast<int64_t>(std::floor(s / p.window_pitch_m));
-          const double s_in = s - i * p.window_pitch_m;
-          if (std::fabs(s_in - 0.5 * p.window_pitch_m) > 0.5 * p.window_width_m ||
-              std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * p.window_height_m)
+          const double s_in = s - i * p.window_pitch_m, ds = std::fabs(s_in - 0.5 * p.window_pitch_m);
+          if (ds > 0.5 * p.window_width_m - p.window_frame_m ||
+              std::fabs(y_in - 0.5 * p.window_storey_m) > 0.5 * p.window_height_m - p.window_frame_m ||
+              ds < 0.5 * p.window_mullion_m)
             continue;
           cell = static_cast<uint64_t>(i + (1 << 19)) & 0xfffff;
         } else {
@@ -793,7 +808,10 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
             continue;
           cell = static_cast<uint64_t>(static_cast<int64_t>(std::floor(s / p.shop_frontage_m)) + (1 << 19)) & 0xfffff;
         }
-        const uint64_t key = (fr.key << 40) | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff);
+        // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+        // apart from the shop unit of the same cell index.
+        const uint64_t key = (fr.key << 40) | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff) |
+                             (j == 0 && !shop ? 1ull << 39 : 0);
         // Neighbouring pixels of a row mostly share a window: its draw is kept.
         if (key != last_key) {
           last_key = key;
@@ -802,6 +820,10 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
           if (last_lit) {
             double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
             const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+            // A share of the lit windows is seen through drawn curtains or blinds: their
+            // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+            if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+              lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
             if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
             for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
             seen.insert(key);
