@@ -56,13 +56,18 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
   g.mount_height_m = rig.mount_height_m;
   const double vp_pitch = std::atan((k.cy_px - vp.y) / k.f_px);
   // A Hough VP is at least 0.31 confident (vanishing.cpp); the label priors are at most 0.2 and
-  // are guesses about where the horizon might be, not measurements of it.
-  if (vp.method == VpMethod::Hough && vp.confidence >= 0.3 && std::fabs(vp_pitch) <= 15 * M_PI / 180) {
+  // are guesses about where the horizon might be, not measurements of it. The VP's pitch must also
+  // agree with the rig's nominal pitch within what a car-mounted camera's pitch varies
+  // (rig.pitch_tolerance_deg, derived in rig.cpp): further off, the lines that made it are not the
+  // road's (façade edges, a turning road) and the nominal pitch is the better horizon.
+  const double nominal_pitch = rig.pitch_deg * M_PI / 180;
+  if (vp.method == VpMethod::Hough && vp.confidence >= 0.3 &&
+      std::fabs(vp_pitch - nominal_pitch) <= rig.pitch_tolerance_deg * M_PI / 180) {
     g.pitch_rad = vp_pitch;
     g.horizon_source = "vanishing_point";
     g.horizon_confidence = vp.confidence;
   } else {
-    g.pitch_rad = rig.pitch_deg * M_PI / 180;
+    g.pitch_rad = nominal_pitch;
     g.horizon_source = "rig";
     g.horizon_confidence = 0;
   }

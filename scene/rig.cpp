@@ -9,6 +9,29 @@
 #include "photosite/sensor/preset.h"
 
 namespace photosite::scene {
+
+// kPitchToleranceDeg (rig.h): how far a car-mounted camera's pitch to the road it stands on strays
+// from its calibrated nominal pitch. The camera is bolted to the body, so it is the body's pitch
+// on its suspension (stated physical limits; [U]: figures from general knowledge, not in
+// /work/shared):
+//  1. Load. ECE R48 §6.2.6.1 keeps a car's dipped-beam inclination within −0.5 % … −2.5 % over
+//     the loading states of its Annex 5 (driver only to fully laden) [U]: the body pitch the load
+//     causes spans at most 2 % = 1.15°; the calibration lies inside that span, so ±0.57° about it.
+//  2. Braking and acceleration. Weight transfer ΔF = m·a·h_cg/L compresses the front wheel
+//     springs (rate k each) by ΔF/2k and extends the rear ones as much: θ = ΔF/(k·L) =
+//     m·a·h_cg/(k·L²) (no anti-dive geometry: an upper bound). Passenger car m = 1500 kg, h_cg =
+//     0.55 m, wheelbase L = 2.7 m, wheel rate k = (m/4)·(2π·1.2 Hz)² = 21.3 kN/m (ride frequency
+//     1–1.5 Hz, Gillespie, Fundamentals of Vehicle Dynamics, 1992, ch. 5 [U]) → 0.30° per m/s².
+//     At AASHTO's design deceleration 3.4 m/s² (A Policy on Geometric Design of Highways and
+//     Streets, 2011, §3.2.2: most drivers brake harder than this only in emergencies [U]): 1.03°.
+//  Sum: 0.57 + 1.03 = 1.6°. Not included: emergency stops (8 m/s²: 2.4°), rare in recorded
+//  frames; and road grade: on a constant grade the car pitches with the road (no change relative
+//  to it), while a change of grade ahead bends the road away from the one plane of the flat-ground
+//  model, which no single horizon fixes. A vanishing point 2° off the nominal pitch (aachen_000003
+//  of the shared frames: horizon 345.5 px against the rig's 427 px at f 2262 px) is therefore a
+//  mis-detection, not the camera's pitch.
+static_assert(kPitchToleranceDeg > 0);
+
 namespace {
 using schema::Kind;
 using schema::Need;
@@ -33,6 +56,9 @@ const std::vector<schema::Param<CameraRig>>& rig_schema() {
        "optical centre above the road", "data set paper"},
       {"pitch_deg", Kind::Number, PHOTOSITE_AT(P, pitch_deg), "°", -30, 30, Need::Required,
        "nominal pitch, positive looking down", "estimate"},
+      {"pitch_tolerance_deg", Kind::Number, PHOTOSITE_AT(P, pitch_tolerance_deg), "°", 0, 30, Need::Optional,
+       "largest |VP pitch − pitch_deg| accepted (default 1.6: passenger car, load + service braking)",
+       "scene/rig.cpp derivation"},
   };
   return rows;
 }

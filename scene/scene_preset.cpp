@@ -3,6 +3,7 @@
 // attributes "photosite/scene/<key>" (every number: num() and integer() mark their rows).
 #include "photosite/scene/scene_preset.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -122,6 +123,10 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "share of lit windows at window_cct_K, the rest at window_cool_cct_K", "[U] photosite choice"),
       num("lamps.window_cool_cct_K", PHOTOSITE_AT(P, window_cool_cct_K), "K", 1000, 20000,
           "the other windows' CCT", "NP §0"),
+      num("lamps.window_curtained_share", PHOTOSITE_AT(P, window_curtained_share), "fraction", 0, 1,
+          "seeded share of lit windows behind curtains or blinds", "[E]"),
+      num("lamps.window_curtained_luminance_cd_m2", PHOTOSITE_AT(P, window_curtained_luminance_cd_m2), "cd/m²", 0,
+          1e4, "lit window behind curtains (0.5..1.5× this)", "NP §4"),
       table("windows", "façade window layout (scene/street.cpp)", "[U] architectural rules of thumb"),
       num("windows.storey_m", PHOTOSITE_AT(P, window_storey_m), "m", 1.5, 10, "floor-to-floor height", "[U]"),
       num("windows.pitch_m", PHOTOSITE_AT(P, window_pitch_m), "m", 0.3, 10, "window axis spacing", "[U]"),
@@ -129,6 +134,12 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "≤ windows.pitch_m"),
       num("windows.height_m", PHOTOSITE_AT(P, window_height_m), "m", 0.1, 10, "window height", "[U]",
           "≤ windows.storey_m"),
+      num("windows.frame_m", PHOTOSITE_AT(P, window_frame_m), "m", 0, 1,
+          "window frame and sash face around the glass, each side", "[U]", "< windows.width_m/2, windows.height_m/2"),
+      num("windows.mullion_m", PHOTOSITE_AT(P, window_mullion_m), "m", 0, 1,
+          "central mullion between a window's two sashes", "[U]", "≤ windows.width_m − 2·windows.frame_m"),
+      num("windows.shop_share", PHOTOSITE_AT(P, shop_share), "fraction", 0, 1,
+          "seeded share of ground-floor shop units that are shops", "[E]"),
       num("windows.shop_luminance_factor", PHOTOSITE_AT(P, shop_luminance_factor), "—", 0, 100,
           "ground-floor shop front luminance over a lit window's", "photosite choice (NP §3)"),
       num("windows.shop_cct_K", PHOTOSITE_AT(P, shop_cct_K), "K", 1000, 20000, "shop lighting CCT", "NP §0"),
@@ -219,6 +230,10 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.window_width_m > p.window_pitch_m) err("windows.width_m", "exceeds windows.pitch_m");
   if (p.window_height_m > p.window_storey_m) err("windows.height_m", "exceeds windows.storey_m");
   if (p.shop_width_m > p.window_pitch_m) err("windows.shop_width_m", "exceeds windows.pitch_m");
+  if (2 * p.window_frame_m >= std::min(p.window_width_m, p.window_height_m))
+    err("windows.frame_m", "leaves no glass (2·frame_m ≥ width_m or height_m)");
+  if (p.window_mullion_m > p.window_width_m - 2 * p.window_frame_m)
+    err("windows.mullion_m", "exceeds the glass width windows.width_m − 2·frame_m");
   if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
     err("windows.shop_height_m", "shop_sill_m + shop_height_m exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");

@@ -783,23 +783,31 @@ namespace photosite::scene {
 namespace {
 // The window layout's geometry for one row (add_facade_windows): the pixel's point from its camera
 // z (X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, kD and kY the row's), s along its façade, the
-// storey j = ⌊Y/storey⌋ and the window-pitch cell ⌊s/pitch⌋; a pixel is in a pane (upper storeys:
-// a window_width_m × window_height_m window centred in its cell; ground floor: a shop pane
-// shop_width_m wide from shop_sill_m to shop_sill_m + shop_height_m) or not. The twins below
-// (scalar and AVX2, four pixels a lane each) do the same IEEE double operations, so the same panes.
+// storey j = ⌊Y/storey⌋, the window-pitch cell ⌊s/pitch⌋ and (ground floor) the shop unit
+// ⌊s/frontage⌋. Two pane tests per pixel: a window's glass (a window_width_m × window_height_m
+// opening centred in its pitch × storey cell, inset by the frame window_frame_m on every side and
+// split by a central mullion window_mullion_m: two lights), and on the ground floor a shop pane
+// (shop_width_m wide on the pitch, from shop_sill_m to shop_sill_m + shop_height_m). Which of the
+// two a ground-floor pixel shows depends on its unit's seeded shop draw, made by the caller. The
+// twins below (scalar and AVX2, four pixels a lane each) do the same IEEE double operations, so the
+// same panes.
 struct WindowGeom {
   double cx, f, kD, kY, h;
-  double storey, pitch, frontage, half_pitch, half_width, half_storey, half_height, half_shop, sill, sill_top;
+  double storey, pitch, frontage, half_pitch;
+  double half_glass_width, half_storey, half_glass_height, half_mullion;  // frame and mullion taken off
+  double half_shop, sill, sill_top;
 };
 // One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
-// (tX, tD) and camera z; out: kind (0 none, 1 window, 2 shop pane), storey j and cell (upper
-// storeys: the pitch cell; ground floor: the shop, ⌊s/frontage⌋). Padded to a multiple of 4.
+// (tX, tD) and camera z; out: kind (bit 1: in a window's glass; bit 2: in a shop pane, ground floor
+// only; 0: neither), and where kind ≠ 0 the storey j, the pitch cell and (j = 0) the shop unit.
+// Padded to a multiple of 4.
 struct WindowRow {
   std::vector<int32_t> x, j;
   std::vector<double> z, tX, tD;
-  std::vector<int64_t> cell;
+  std::vector<int64_t> cell, unit;
   std::vector<uint8_t> kind;
-  explicit WindowRow(int W) : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), kind(W + 4) {}
+  explicit WindowRow(int W)
+      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 4) {}
   void pad(int n) {
     for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1];
   }
@@ -813,31 +821,30 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
     const int j = static_cast<int>(std::floor(Y / w.storey));
     const double y_in = Y - j * w.storey;
     const int64_t c = static_cast<int64_t>(std::floor(s / w.pitch));
-    const double s_in = s - c * w.pitch;
-    if (j != 0) {
-      if (std::fabs(s_in - w.half_pitch) > w.half_width || std::fabs(y_in - w.half_storey) > w.half_height) continue;
-      r.kind[i] = 1;
-      r.cell[i] = c;
-    } else {
-      if (std::fabs(s_in - w.half_pitch) > w.half_shop || y_in < w.sill || y_in > w.sill_top) continue;
-      r.kind[i] = 2;
-      r.cell[i] = static_cast<int64_t>(std::floor(s / w.frontage));
-    }
+    const double ds = std::fabs(s - c * w.pitch - w.half_pitch);
+    const bool glass = !(ds > w.half_glass_width || std::fabs(y_in - w.half_storey) > w.half_glass_height ||
+                         ds < w.half_mullion);
+    const bool pane = j == 0 && !(ds > w.half_shop || y_in < w.sill || y_in > w.sill_top);
+    r.kind[i] = static_cast<uint8_t>((glass ? 1 : 0) | (pane ? 2 : 0));
+    if (!r.kind[i]) continue;
     r.j[i] = j;
+    r.cell[i] = c;
+    if (j == 0) r.unit[i] = static_cast<int64_t>(std::floor(s / w.frontage));
   }
 }
 // window_geom_scalar four pixels at a time: the floors as doubles (exact integers; j·storey and
 // c·pitch then equal the scalar's int→double products for |j| < 2³¹, |c| < 2⁶³: the points lie
 // within max_depth of the camera), converted to integers only for the pane pixels (the same
-// conversions as the scalar's). A shop cell ⌊s/frontage⌋ is computed for every lane and kept
-// only on the ground floor.
+// conversions as the scalar's). The shop unit ⌊s/frontage⌋ only where a ground-floor lane is in
+// either pane.
 __attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w) {
   const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
                 h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
                 frontage = _mm256_set1_pd(w.frontage), half_pitch = _mm256_set1_pd(w.half_pitch),
-                half_width = _mm256_set1_pd(w.half_width), half_storey = _mm256_set1_pd(w.half_storey),
-                half_height = _mm256_set1_pd(w.half_height), half_shop = _mm256_set1_pd(w.half_shop),
-                sill = _mm256_set1_pd(w.sill), sill_top = _mm256_set1_pd(w.sill_top), zero = _mm256_setzero_pd();
+                half_glass_width = _mm256_set1_pd(w.half_glass_width), half_storey = _mm256_set1_pd(w.half_storey),
+                half_glass_height = _mm256_set1_pd(w.half_glass_height), half_mullion = _mm256_set1_pd(w.half_mullion),
+                half_shop = _mm256_set1_pd(w.half_shop), sill = _mm256_set1_pd(w.sill), sill_top = _mm256_set1_pd(w.sill_top),
+                zero = _mm256_setzero_pd();
   const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffll));
   for (int i = 0; i < n; i += 4) {
     const __m256d zz = _mm256_loadu_pd(&r.z[i]);
@@ -848,28 +855,30 @@ __attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const
     const __m256d jd = _mm256_floor_pd(_mm256_div_pd(Y, storey));
     const __m256d y_in = _mm256_sub_pd(Y, _mm256_mul_pd(jd, storey));
     const __m256d cd = _mm256_floor_pd(_mm256_div_pd(s, pitch));
-    const __m256d s_off = _mm256_and_pd(_mm256_sub_pd(_mm256_sub_pd(s, _mm256_mul_pd(cd, pitch)), half_pitch), absmask);
-    // Skip tests as the scalar's (ordered comparisons: a NaN skips nothing there either).
+    const __m256d ds = _mm256_and_pd(_mm256_sub_pd(_mm256_sub_pd(s, _mm256_mul_pd(cd, pitch)), half_pitch), absmask);
+    // The scalar's tests (ordered comparisons: a NaN fails none there either).
     const __m256d below = _mm256_cmp_pd(Y, zero, _CMP_LT_OQ);
     const __m256d ground_floor = _mm256_cmp_pd(jd, zero, _CMP_EQ_OQ);
-    const __m256d out_up = _mm256_or_pd(_mm256_cmp_pd(s_off, half_width, _CMP_GT_OQ),
-                                        _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(y_in, half_storey), absmask), half_height, _CMP_GT_OQ));
-    const __m256d out_shop = _mm256_or_pd(_mm256_cmp_pd(s_off, half_shop, _CMP_GT_OQ),
+    const __m256d out_glass = _mm256_or_pd(
+        _mm256_or_pd(_mm256_cmp_pd(ds, half_glass_width, _CMP_GT_OQ), _mm256_cmp_pd(ds, half_mullion, _CMP_LT_OQ)),
+        _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(y_in, half_storey), absmask), half_glass_height, _CMP_GT_OQ));
+    const __m256d out_shop = _mm256_or_pd(_mm256_cmp_pd(ds, half_shop, _CMP_GT_OQ),
                                           _mm256_or_pd(_mm256_cmp_pd(y_in, sill, _CMP_LT_OQ), _mm256_cmp_pd(y_in, sill_top, _CMP_GT_OQ)));
-    const __m256d out = _mm256_or_pd(below, _mm256_blendv_pd(out_up, out_shop, ground_floor));
-    const int hit = ~_mm256_movemask_pd(out) & 0xf, shop = _mm256_movemask_pd(ground_floor);
+    const int not_below = ~_mm256_movemask_pd(below) & 0xf, gf = _mm256_movemask_pd(ground_floor);
+    const int glass = ~_mm256_movemask_pd(out_glass) & not_below, pane = ~_mm256_movemask_pd(out_shop) & not_below & gf;
     std::memset(&r.kind[i], 0, 4);
+    const int hit = glass | pane;
     if (!hit) continue;
-    alignas(32) double jv[4], cv[4], fv[4];
+    alignas(32) double jv[4], cv[4], uv[4];
     _mm256_store_pd(jv, jd);
     _mm256_store_pd(cv, cd);
-    if (hit & shop) _mm256_store_pd(fv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
+    if (hit & gf) _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
     for (int k = 0; k < 4; ++k) {
       if (!(hit >> k & 1)) continue;
-      const bool gf = shop >> k & 1;
-      r.kind[i + k] = gf ? 2 : 1;
+      r.kind[i + k] = static_cast<uint8_t>((glass >> k & 1) | (pane >> k & 1) << 1);
       r.j[i + k] = static_cast<int>(jv[k]);
-      r.cell[i + k] = static_cast<int64_t>(gf ? fv[k] : cv[k]);
+      r.cell[i + k] = static_cast<int64_t>(cv[k]);
+      if (gf >> k & 1) r.unit[i + k] = static_cast<int64_t>(uv[k]);
     }
   }
 }
@@ -931,7 +940,8 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       if (n == 0) continue;
       const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
                           p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
-                          0.5 * p.window_width_m, 0.5 * p.window_storey_m, 0.5 * p.window_height_m,
+                          0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
+                          0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
                           0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
       if (kHaveAvx2) {
         r.pad(n);
@@ -939,14 +949,32 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       } else {
         window_geom_scalar(r, n, wg);
       }
-      uint64_t last_key = ~0ull;
-      bool last_lit = false;
+      uint64_t last_key = ~0ull, last_unit = ~0ull;
+      bool last_lit = false, last_unit_shop = false;
       float last_col[3] = {0, 0, 0};
       for (int i = 0; i < n; ++i) {
-        if (!r.kind[i]) continue;
-        const bool shop = r.kind[i] == 2;
-        const uint64_t cell = static_cast<uint64_t>(r.cell[i] + (1 << 19)) & 0xfffff;
-        const uint64_t key = (frames[plane_of[i]].key << 40) | (cell << 12) | (static_cast<uint64_t>(r.j[i]) & 0xfff);
+        const uint8_t kind = r.kind[i];
+        if (!kind) continue;
+        const uint64_t fkey = frames[plane_of[i]].key << 40;
+        bool shop = false;
+        if (r.j[i] == 0) {
+          // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+          // along the façade), each unit's draw keyed like the windows' (world coordinates).
+          const uint64_t unit = static_cast<uint64_t>(r.unit[i] + (1 << 19)) & 0xfffff;
+          const uint64_t ukey = fkey | (unit << 12);
+          if (ukey != last_unit) {
+            last_unit = ukey;
+            last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+          }
+          shop = last_unit_shop;
+        }
+        // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
+        if (!(kind & (shop ? 2 : 1))) continue;
+        const uint64_t cell = static_cast<uint64_t>((shop ? r.unit[i] : r.cell[i]) + (1 << 19)) & 0xfffff;
+        // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+        // apart from the shop unit of the same cell index.
+        const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(r.j[i]) & 0xfff) |
+                             (r.j[i] == 0 && !shop ? 1ull << 39 : 0);
         // Neighbouring pixels of a row mostly share a window: its draw is kept.
         if (key != last_key) {
           last_key = key;
@@ -955,6 +983,10 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
           if (last_lit) {
             double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
             const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+            // A share of the lit windows is seen through drawn curtains or blinds: their
+            // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+            if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+              lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
             if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
             for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
             seen.insert(key);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <vector>
 
 #include "photosite/error.h"
@@ -192,6 +193,64 @@ TEST(MetricDepth, FallbackHorizonStaysMetric) {
   for (int y : {200, 250, 319})
     EXPECT_NEAR(n.depth.at(100, y), k.f_px * p.rig.mount_height_m / ((y - yh) * std::cos(th)), 1e-4 * n.depth.at(100, y));
   EXPECT_EQ(n.depth.at(100, 10), kDepthInfinity_m);
+}
+
+// The horizon gate (issue 14 §1): a Hough vanishing point is used only when its pitch agrees with
+// the rig's nominal pitch within the rig's pitch tolerance (1.6° by default: a passenger car's body
+// pitch under load and service braking, derived in scene/rig.cpp); further off it falls back to
+// the nominal horizon, with the header contract kept (source "rig", confidence 0). The case that
+// motivated it: aachen_000003's VP at y = 345.5 px (pitch 4.24°, 2.06° above the Cityscapes rig's
+// 2.18°), accepted by the old ±15° gate.
+TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
+  const CameraRig rig = load_camera_rig("cityscapes");
+  ASSERT_DOUBLE_EQ(rig.pitch_tolerance_deg, kPitchToleranceDeg);  // no key in the bundled file: the default
+  const int W = 2048, H = 1024;
+  const auto k = scaled_intrinsics(rig, W, H);
+  auto vp_at_pitch = [&](double pitch_deg) {
+    VanishingPoint vp;
+    vp.x = k.cx_px;
+    vp.y = k.cy_px - k.f_px * std::tan(pitch_deg * M_PI / 180);
+    vp.confidence = 0.91;
+    vp.method = VpMethod::Hough;
+    vp.support = 100;
+    return vp;
+  };
+  const double nominal = rig.pitch_deg, tol = rig.pitch_tolerance_deg;
+  // Within the bound (either side, up to 0.01° inside it): the VP's horizon is kept.
+  for (const double d : {0.0, 0.5, -1.0, tol - 0.01, -(tol - 0.01)}) {
+    const VanishingPoint vp = vp_at_pitch(nominal + d);
+    const CameraGeometry g = camera_geometry(rig, W, H, vp);
+    EXPECT_EQ(g.horizon_source, "vanishing_point") << d;
+    EXPECT_DOUBLE_EQ(g.horizon_confidence, 0.91) << d;
+    EXPECT_NEAR(g.horizon_y, vp.y, 1e-6) << d;
+  }
+  // Beyond it: the rig's horizon, confidence 0.
+  const double yh_rig = k.cy_px - k.f_px * std::tan(nominal * M_PI / 180);
+  for (const double d : {tol + 0.01, -(tol + 0.01), 3.0, -5.0, 14.0}) {
+    const CameraGeometry g = camera_geometry(rig, W, H, vp_at_pitch(nominal + d));
+    EXPECT_EQ(g.horizon_source, "rig") << d;
+    EXPECT_EQ(g.horizon_confidence, 0) << d;
+    EXPECT_NEAR(g.horizon_y, yh_rig, 1e-9) << d;
+  }
+  // aachen_000003's VP row, at its own 2048x1024 size.
+  VanishingPoint aachen = vp_at_pitch(0);
+  aachen.y = 345.5;
+  EXPECT_EQ(camera_geometry(rig, W, H, aachen).horizon_source, "rig");
+  EXPECT_NEAR(camera_geometry(rig, W, H, aachen).horizon_y, 427, 1);  // the rig's horizon, 427 px
+  // The tolerance is the rig file's key: a rig that allows 15° keeps that VP.
+  const CameraRig loose = parse_camera_rig(
+      "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 2262.52\ncx_px = 1096.98\ncy_px = 513.137\n"
+      "mount_height_m = 1.22\npitch_deg = 2.18\npitch_tolerance_deg = 15\n",
+      "loose.toml");
+  EXPECT_DOUBLE_EQ(loose.pitch_tolerance_deg, 15);
+  const CameraGeometry gl = camera_geometry(loose, W, H, aachen);
+  EXPECT_EQ(gl.horizon_source, "vanishing_point");
+  EXPECT_NEAR(gl.horizon_y, 345.5, 1e-9);
+  // A label prior is never used, however near the nominal pitch.
+  VanishingPoint prior = vp_at_pitch(nominal);
+  prior.method = VpMethod::RoadPrior;
+  prior.confidence = 0.2;
+  EXPECT_EQ(camera_geometry(rig, W, H, prior).horizon_source, "rig");
 }
 
 // The EXR says which horizon was used, how sure, and with which rig; depth.Z is in metres.
@@ -1115,27 +1174,30 @@ TEST(Facades, PlaneFittedThroughAnOccludedFootHoldsFivePercent) {
 }
 
 // Windows are laid out in the façade plane (issue 14 §2): on the right façade of the synthetic
-// street, with every window lit, the lit run on the image row through a window's centre has its
-// centre where the window's two vertical edges (s_c ± width/2 along the fitted plane) project on
-// that row. Pixel quantisation: a run covers the pixel centres inside [u_left, u_right], so its
-// midpoint (first + last)/2 lies within 0.5 px of (u_left + u_right)/2; the spacing of two
-// neighbouring windows' centres then matches the pitch projected at their depth,
-//   Δu = u(s_c + pitch) − u(s_c) ≈ f·pitch·d/D² on a plane d to the side,
+// street, with every window lit, the lit run on the image row through a light's centre (a
+// window's glass is two lights: the opening s_c ± width/2 less the frame on each side, split by
+// the mullion) has its centre where the light's two vertical edges (along the fitted plane)
+// project on that row. Pixel quantisation: a run covers the pixel centres inside [u_left,
+// u_right], so its midpoint (first + last)/2 lies within 0.5 px of (u_left + u_right)/2; the
+// spacing of two neighbouring lights' centres then matches their spacing projected at their depth,
+//   Δu = u(s_2) − u(s_1) ≈ f·Δs·d/D² on a plane d to the side,
 // within 2·0.5 = 1 px. (float depth.Z adds a relative 6e-8 of the position: 1e-3 px margin.)
-// Ground-floor shops: panes of shop_width_m on the same pitch, checked alike, with piers between
-// them (runs end: not a filled block).
+// Ground-floor shops (shop_share 1): panes of shop_width_m on the same pitch, checked alike, with
+// piers between them (runs end: not a filled block); with shop_share 0 the ground floor has the
+// upper storeys' windows instead.
 TEST(Facades, WindowSpacingIsThePitchInPerspective) {
-  SyntheticCameraOptions o = camera_scene();
+  // Full Cityscapes size: the 0.1 m mullion spans ≥ 2 px (f·0.1·d/D² with d = 10 m) up to D = 34 m,
+  // and the right façade enters the view at D = 24 m; at 1024 px both are 24 m.
+  SyntheticCameraOptions o = camera_scene(2048, 1024);
   o.boxes.clear();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
   const CameraGeometry& g = o.camera;
-  ScenePreset p = urban();
-  p.window_lit_fraction = 1.0;
-  p.max_depth_m = 1000;
-  const ImageF depth = metric_depth(s.labels, g, p.max_depth_m);
-  const BuildingFacades fac = building_facades(s.labels.ids, g, p.max_depth_m);
-  ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
-  add_facade_windows(L, s.labels.ids, depth, g, p, 3);
+  const ScenePreset bundled = urban();
+  ASSERT_GT(bundled.window_frame_m, 0);  // the bundled windows have frames and two lights
+  ASSERT_GT(bundled.window_mullion_m, 0);
+  const double max_depth_m = 1000;
+  const ImageF depth = metric_depth(s.labels, g, max_depth_m);
+  const BuildingFacades fac = building_facades(s.labels.ids, g, max_depth_m);
   // The right façade's plane (normal toward +X).
   const FacadePlane* f = nullptr;
   for (const auto& q : fac.planes)
@@ -1150,42 +1212,131 @@ TEST(Facades, WindowSpacingIsThePitchInPerspective) {
     const double k = c - (y - g.cy_px) / g.f_px * sn;
     return g.cx_px + g.f_px * k * (f->d_m * tD - s_m * f->nD) / (s_m * f->nX - f->d_m * tX);
   };
-  auto lit = [&](int x, int y) { return L.at(x, y, 0) + L.at(x, y, 1) + L.at(x, y, 2) > 0; };
-  for (int storey : {0, 1, 2}) {
-    const bool shop = storey == 0;
-    const double width = shop ? p.shop_width_m : p.window_width_m;
-    const double Yc = shop ? p.shop_sill_m + 0.5 * p.shop_height_m : (storey + 0.5) * p.window_storey_m;
-    double prev_meas = NAN, prev_pred = NAN;
-    int windows = 0, pairs = 0;
-    for (int i = 0; i < 200; ++i) {
-      const double sc = (i + 0.5) * p.window_pitch_m;
-      double u, v;
-      // The window's centre point on the plane: d·n + s·t.
-      if (!g.project(f->d_m * f->nX + sc * tX, Yc, f->d_m * f->nD + sc * tD, &u, &v, nullptr)) { prev_meas = NAN; continue; }
-      const int y = static_cast<int>(std::lround(v));
-      const double ul = u_at(sc - 0.5 * width, y), ur = u_at(sc + 0.5 * width, y);
-      const double lo = std::min(ul, ur), hi = std::max(ul, ur);
-      const double gap = std::fabs(u_at(sc + p.window_pitch_m - 0.5 * width, y) - ur);  // to the next window
-      if (y < 0 || y >= o.height || lo < 1 || hi > o.width - 2 || hi - lo < 3 || gap < 2) { prev_meas = NAN; continue; }
-      const int xc = static_cast<int>(std::lround(0.5 * (lo + hi)));
-      ASSERT_TRUE(lit(xc, y)) << "storey " << storey << " window " << i << " at " << xc << "," << y;
-      int a = xc, b = xc;
-      while (a > 0 && lit(a - 1, y)) --a;
-      while (b + 1 < o.width && lit(b + 1, y)) ++b;
-      const double meas = 0.5 * (a + b), pred = 0.5 * (lo + hi);
-      EXPECT_LE(std::fabs(meas - pred), 0.5 + 1e-3) << "storey " << storey << " window " << i << " run " << a << ".." << b
-                                                    << " predicted " << lo << ".." << hi;
-      ++windows;
-      if (std::isfinite(prev_meas)) {
-        EXPECT_LE(std::fabs((meas - prev_meas) - (pred - prev_pred)), 1.0 + 2e-3) << "storey " << storey << " pair " << i;
-        ++pairs;
+  for (const double shop_share : {1.0, 0.0}) {
+    ScenePreset p = bundled;
+    p.window_lit_fraction = 1.0;
+    p.window_curtained_share = 0.5;  // curtained windows are lit too (dimmer)
+    p.shop_share = shop_share;
+    p.max_depth_m = max_depth_m;
+    ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+    add_facade_windows(L, s.labels.ids, depth, g, p, 3);
+    auto lit = [&](int x, int y) { return L.at(x, y, 0) + L.at(x, y, 1) + L.at(x, y, 2) > 0; };
+    // Storeys 0 and 1: storey 2 (Y 6-9 m) enters the view only beyond D = 34 m, where the mullion
+    // is under 2 px.
+    for (int storey : {0, 1}) {
+      const bool shop = storey == 0 && shop_share == 1.0;
+      const double Yc = shop ? p.shop_sill_m + 0.5 * p.shop_height_m : (storey + 0.5) * p.window_storey_m;
+      // The lit pieces along the façade, [s_left, s_right] in m, in order.
+      std::vector<std::pair<double, double>> pieces;
+      for (int i = 0; i < 200; ++i) {
+        const double sc = (i + 0.5) * p.window_pitch_m;
+        if (shop) {
+          pieces.push_back({sc - 0.5 * p.shop_width_m, sc + 0.5 * p.shop_width_m});
+        } else {
+          const double half = 0.5 * p.window_width_m - p.window_frame_m, m = 0.5 * p.window_mullion_m;
+          pieces.push_back({sc - half, sc - m});
+          pieces.push_back({sc + m, sc + half});
+        }
       }
-      prev_meas = meas;
-      prev_pred = pred;
+      double prev_meas = NAN, prev_pred = NAN;
+      int lights = 0, pairs = 0;
+      for (size_t k = 0; k + 1 < pieces.size(); ++k) {
+        const auto [sl, sr] = pieces[k];
+        const double sc = 0.5 * (sl + sr);
+        double u, v;
+        // The light's centre point on the plane: d·n + s·t.
+        if (!g.project(f->d_m * f->nX + sc * tX, Yc, f->d_m * f->nD + sc * tD, &u, &v, nullptr)) { prev_meas = NAN; continue; }
+        const int y = static_cast<int>(std::lround(v));
+        const double ul = u_at(sl, y), ur = u_at(sr, y);
+        const double lo = std::min(ul, ur), hi = std::max(ul, ur);
+        const double gap = std::fabs(u_at(pieces[k + 1].first, y) - ur);  // to the next light
+        const double gap_before = k > 0 ? std::fabs(ul - u_at(pieces[k - 1].second, y)) : 1e9;
+        if (y < 0 || y >= o.height || lo < 1 || hi > o.width - 2 || hi - lo < 3 || gap < 2 || gap_before < 2) {
+          prev_meas = NAN;
+          continue;
+        }
+        const int xc = static_cast<int>(std::lround(0.5 * (lo + hi)));
+        ASSERT_TRUE(lit(xc, y)) << "storey " << storey << " light " << k << " at " << xc << "," << y;
+        int a = xc, b = xc;
+        while (a > 0 && lit(a - 1, y)) --a;
+        while (b + 1 < o.width && lit(b + 1, y)) ++b;
+        const double meas = 0.5 * (a + b), pred = 0.5 * (lo + hi);
+        EXPECT_LE(std::fabs(meas - pred), 0.5 + 1e-3) << "storey " << storey << " light " << k << " run " << a << ".."
+                                                      << b << " predicted " << lo << ".." << hi;
+        ++lights;
+        if (std::isfinite(prev_meas)) {
+          EXPECT_LE(std::fabs((meas - prev_meas) - (pred - prev_pred)), 1.0 + 2e-3) << "storey " << storey << " pair " << k;
+          ++pairs;
+        }
+        prev_meas = meas;
+        prev_pred = pred;
+      }
+      std::fprintf(stderr, "[windows] shop_share %g storey %d: %d lights measured, %d spacings\n", shop_share, storey,
+                   lights, pairs);
+      EXPECT_GE(pairs, 5) << "storey " << storey;
     }
-    std::fprintf(stderr, "[windows] storey %d: %d windows measured, %d spacings\n", storey, windows, pairs);
-    EXPECT_GE(pairs, 5) << "storey " << storey;
   }
+}
+
+// Shop fronts only on a seeded share of the ground-floor units (shop_frontage_m along the
+// façade, issue 14 §2): on the synthetic street with every window and shop lit, the ground-floor
+// units whose lit pixels have the shops' colour (shop_cct_K set to 1000 K, which no window has:
+// blue under 3% of red, against ~10% at 2700 K) are near shop_share of the units seen. Bound: the
+// units are independent Bernoulli(0.3) draws, so over n units the share's standard error is
+// sqrt(0.3·0.7/n); 4.5 SE is asserted. shop_share 0 and 1 give none and all.
+TEST(Facades, ShopFrontsOnASeededShareOfGroundFloorUnits) {
+  SyntheticCameraOptions o = camera_scene(2048, 1024);
+  o.boxes.clear();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const CameraGeometry& g = o.camera;
+  const double max_depth_m = 1000;
+  const ImageF depth = metric_depth(s.labels, g, max_depth_m);
+  const BuildingFacades fac = building_facades(s.labels.ids, g, max_depth_m);
+  auto share_of_shops = [&](double shop_share, int* units_seen) {
+    ScenePreset p = urban();
+    p.window_lit_fraction = 1.0;
+    p.window_curtained_share = 0;
+    p.shop_share = shop_share;
+    p.shop_cct_K = 1000;  // a colour no window has: the shops are told apart by it
+    ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+    add_facade_windows(L, s.labels.ids, depth, g, p, 11);
+    // Per façade plane and ground-floor unit (floor(s / shop_frontage_m)), whether a shop-coloured
+    // pixel is in it and whether any lit pixel is.
+    std::map<std::pair<int, int64_t>, std::pair<bool, bool>> units;
+    const double cth = std::cos(g.pitch_rad), sth = std::sin(g.pitch_rad);
+    for (int y = 0; y < o.height; ++y) {
+      const double yn = (y - g.cy_px) / g.f_px;
+      for (int x = 0; x < o.width; ++x) {
+        const float* v = &L.at(x, y, 0);
+        if (!(v[0] + v[1] + v[2] > 0)) continue;
+        bool on = false;
+        const FacadePlane* pl = fac.plane_at(x, y, &on);
+        if (!pl) continue;
+        const double z = depth.at(x, y), X = z * (x - g.cx_px) / g.f_px, D = z * (cth - yn * sth),
+                     Y = g.mount_height_m - z * (yn * cth + sth);
+        if (Y >= p.window_storey_m) continue;
+        double tX = pl->nD, tD = -pl->nX;
+        if (tD < 0 || (tD == 0 && tX < 0)) tX = -tX, tD = -tD;
+        const int64_t unit = static_cast<int64_t>(std::floor((tX * X + tD * D) / p.shop_frontage_m));
+        auto& u = units[{static_cast<int>(pl - fac.planes.data()), unit}];
+        u.second = true;
+        if (v[2] < 0.03f * v[0]) u.first = true;
+      }
+    }
+    int n = 0, shops = 0;
+    for (const auto& [k, u] : units)
+      if (u.second) { ++n; shops += u.first; }
+    *units_seen = n;
+    return n ? static_cast<double>(shops) / n : NAN;
+  };
+  int n = 0;
+  const double share = share_of_shops(0.3, &n);
+  const double se = std::sqrt(0.3 * 0.7 / n);
+  std::fprintf(stderr, "[shops] %d ground-floor units seen, shop share %.3f (expected 0.3 ± %.3f SE)\n", n, share, se);
+  ASSERT_GE(n, 20);
+  EXPECT_LE(std::fabs(share - 0.3), 4.5 * se);
+  EXPECT_EQ(share_of_shops(0.0, &n), 0.0);
+  EXPECT_EQ(share_of_shops(1.0, &n), 1.0);
 }
 
 // The bundled KITTI frame (samples/kitti): the façades the fit finds, per building region,

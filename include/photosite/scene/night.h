@@ -131,8 +131,9 @@ struct CameraGeometry {
   bool project(double X, double Y, double D, double* u, double* v, double* z) const;
 };
 // The rig's intrinsics at width x height, the horizon from the vanishing point when it is a
-// Hough estimate (confidence >= 0.3) whose pitch atan((c_y − y_vp)/f) is within ±15°, else from
-// the rig's nominal pitch.
+// Hough estimate (confidence >= 0.3) whose pitch atan((c_y − y_vp)/f) is within
+// rig.pitch_tolerance_deg (1.6° by default, derived in rig.cpp) of the rig's nominal pitch, else
+// from the rig's nominal pitch (horizon_source "rig", confidence 0).
 CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, const VanishingPoint& vp);
 // Metric depth (m): ground classes (and ego vehicle, rectification border, out of ROI) by the
 // flat-ground model; every object — an instance, or a 4-connected region of one non-ground

@@ -8,12 +8,20 @@
 
 namespace photosite::scene {
 
+// The default pitch tolerance of a camera fixed to a passenger car (derivation in scene/rig.cpp):
+// body pitch under load (0.57°) plus under service braking (1.03°).
+inline constexpr double kPitchToleranceDeg = 1.6;
+
 struct CameraRig {
   std::string name, file, description;
   double native_width_px = 0, native_height_px = 0;  // the image size the intrinsics refer to
   double fx_px = 0, cx_px = 0, cy_px = 0;            // pinhole focal length and principal point
   double mount_height_m = 0;                         // optical centre above the road
   double pitch_deg = 0;                              // nominal pitch, positive looking down
+  // How far the camera's actual pitch to the road under it may stray from pitch_deg while
+  // driving: a vanishing-point horizon further off than this is a mis-detection (camera_geometry
+  // falls back to the nominal pitch). Default kPitchToleranceDeg (rig.cpp derives it).
+  double pitch_tolerance_deg = kPitchToleranceDeg;
 };
 
 CameraRig parse_camera_rig(const std::string& toml_text, const std::string& file);

@@ -44,6 +44,9 @@ struct ScenePreset {
   double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,
          shop_luminance_factor = 3, shop_cct_K = 3000;
   double shop_width_m = 1.1, shop_sill_m = 0.4, shop_height_m = 2.0, shop_frontage_m = 6.5;
+  // The glass of a window: inset by the frame on every side, split by a central mullion; the
+  // seeded share of ground-floor shop units that are shops (the others have windows).
+  double window_frame_m = 0, window_mullion_m = 0, shop_share = 1;
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
@@ -51,6 +54,8 @@ struct ScenePreset {
   double signal_luminance_cd_m2 = 1e4;
   double window_luminance_cd_m2 = 30, window_cct_K = 2700, window_lit_fraction = 0.3;
   double window_cell_fraction = 0.02;  // window grid cell, fraction of the image width
+  // Seeded share of lit windows seen through curtains or blinds, and their luminance.
+  double window_curtained_share = 0, window_curtained_luminance_cd_m2 = 5;
   double window_warm_share = 0.7, window_cool_cct_K = 4000;  // share of windows at window_cct_K; the rest at this CCT
   // [retroreflection] EN 1436 R_L (cd·m⁻²·lx⁻¹) for lane markings, EN 12899 R_A (cd·lx⁻¹·m⁻²).
   double marking_RL = 0.2, sign_RA = 180;

@@ -59,8 +59,12 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // height: storeys of window_storey_m, windows of window_width_m x window_height_m centred in cells
 // of window_pitch_m, perspective following from the projection. The lit draw is keyed by (run
 // seed, the plane's azimuth in 5° and distance in 5 m steps, cell, storey), all in world
-// coordinates, so windows stay on their façade when the camera moves. The ground floor holds
-// shops of shop_frontage_m, each lit or dark as a whole: panes of shop_width_m on the window
+// coordinates, so windows stay on their façade when the camera moves. A window's glass is its
+// opening less window_frame_m on every side, split by a central window_mullion_m (two lights); a
+// lit window is behind curtains with probability window_curtained_share (luminance
+// window_curtained_luminance_cd_m2 instead of window_luminance_cd_m2, each ×0.5..1.5). The ground
+// floor is cut into units of shop_frontage_m, a seeded shop_share of them shops (the others get the
+// storeys' windows), each lit or dark as a whole: panes of shop_width_m on the window
 // pitch from shop_sill_m to shop_sill_m + shop_height_m, shop_luminance_factor brighter, at
 // shop_cct_K. Pixels whose footprint exceeds half a window width (z/f > window_width_m/2) get
 // none (they would alias). Returns the number of lit windows and shops drawn.
