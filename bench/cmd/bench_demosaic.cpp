@@ -23,7 +23,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -36,6 +35,7 @@
 #include "bench.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/scene/night.h"
 #include "photosite/sensor/demosaic.h"
 
 namespace photosite::bench {
@@ -501,11 +501,7 @@ void run_bench(const BenchDemosaicOptions& o) {
   // counts as CPU time).
   {
     std::vector<double> tm, tv, ratio, cm, cv_;
-    auto cpu_ms = [] {
-      timespec ts;
-      clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-      return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-    };
+    const auto cpu_ms = scene::process_cpu_ms;
     for (int r = 0; r < o.repeats; ++r) {
       double c0 = cpu_ms();
       tm.push_back(time_ms([&] { ImageF out = demosaic(mos, CfaPattern::RGGB, DemosaicMethod::Mlri); }));

@@ -16,7 +16,6 @@
 // machine disturbs less (a preempted thread's wait is not counted); the ratios are taken on CPU
 // time.
 #include <omp.h>
-#include <time.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -27,6 +26,7 @@
 
 #include "bench.h"
 #include "photosite/error.h"
+#include "photosite/scene/night.h"
 #include "photosite/sensor/demosaic.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/pipeline.h"
@@ -60,11 +60,7 @@ uint32_t frame_words(int rounds, int w, int h) {
   return sum;
 }
 
-double process_cpu_ms() {
-  timespec t;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
+using scene::process_cpu_ms;  // the process CPU clock in ms (scene/night.h)
 // Wall and CPU time per call of f over `inner` calls, kept as the best of each over the rounds.
 struct Timing {
   int inner = 1;
