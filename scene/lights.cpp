@@ -873,6 +873,67 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   return out;
 }
 
+namespace {
+// One row of compose for the pixels x0 .. x1 − 1: darken_pixel, then the beam's diffuse reflection
+// on ground classes and the light map, o_k = d_k + ((t_k·tint_k/π)·E + l_k).
+void compose_row_scalar(float* o, const float* t, const float* l, const float* b, const uint16_t* id, int x0, int x1,
+                        const DarkenParams& dp, const float* tbf) {
+  for (int x = x0; x < x1; ++x) {
+    darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
+    // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π, E from
+    // low_beam_illuminance (0 above the horizon and beyond the cut-off).
+    const float e = dp.ground_class[id[x]] ? b[x] : 0.f;
+    for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
+  }
+}
+// compose_row_scalar eight pixels at a time where none of them is sky (darken_pixel's lit branch,
+// d_k = t_k·ambient_k) and every class id is below kLabelCount: the same float operations per
+// channel on the 24 floats of the eight pixels (E and the ground test spread to the channels by
+// lane permutations); groups with a sky pixel, and the row's tail, by the scalar loop.
+__attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, const float* l, const float* b,
+                                                     const uint16_t* id, int W, const DarkenParams& dp,
+                                                     const float* tbf, uint64_t ground_mask) {
+  const __m256i s0 = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2), s1 = _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
+                s2 = _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7);
+  const float* a = dp.ambient;
+  const __m256 am0 = _mm256_setr_ps(a[0], a[1], a[2], a[0], a[1], a[2], a[0], a[1]),
+               am1 = _mm256_setr_ps(a[2], a[0], a[1], a[2], a[0], a[1], a[2], a[0]),
+               am2 = _mm256_setr_ps(a[1], a[2], a[0], a[1], a[2], a[0], a[1], a[2]);
+  const __m256 tb0 = _mm256_setr_ps(tbf[0], tbf[1], tbf[2], tbf[0], tbf[1], tbf[2], tbf[0], tbf[1]),
+               tb1 = _mm256_setr_ps(tbf[2], tbf[0], tbf[1], tbf[2], tbf[0], tbf[1], tbf[2], tbf[0]),
+               tb2 = _mm256_setr_ps(tbf[1], tbf[2], tbf[0], tbf[1], tbf[2], tbf[0], tbf[1], tbf[2]);
+  const __m256i sky = _mm256_set1_epi32(static_cast<int>(Label::Sky)), count = _mm256_set1_epi32(kLabelCount - 1);
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(ground_mask & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(ground_mask >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32);
+  int x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    if (_mm256_movemask_epi8(_mm256_or_si256(_mm256_cmpeq_epi32(k, sky), _mm256_cmpgt_epi32(k, count)))) {
+      compose_row_scalar(o, t, l, b, id, x, x + 8, dp, tbf);
+      continue;
+    }
+    // The ground test by the class bit mask (as dp.ground_class[id] for ids below kLabelCount ≤ 64).
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    const __m256 e = _mm256_and_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one)), _mm256_loadu_ps(b + x));
+    const float* t3 = t + 3 * x;
+    const float* l3 = l + 3 * x;
+    float* o3 = o + 3 * x;
+    const __m256 tv0 = _mm256_loadu_ps(t3), tv1 = _mm256_loadu_ps(t3 + 8), tv2 = _mm256_loadu_ps(t3 + 16);
+    const __m256 d0 = _mm256_mul_ps(tv0, am0), d1 = _mm256_mul_ps(tv1, am1), d2 = _mm256_mul_ps(tv2, am2);
+    _mm256_storeu_ps(o3, _mm256_add_ps(d0, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(tv0, tb0), _mm256_permutevar8x32_ps(e, s0)),
+                                                         _mm256_loadu_ps(l3))));
+    _mm256_storeu_ps(o3 + 8, _mm256_add_ps(d1, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(tv1, tb1), _mm256_permutevar8x32_ps(e, s1)),
+                                                             _mm256_loadu_ps(l3 + 8))));
+    _mm256_storeu_ps(o3 + 16, _mm256_add_ps(d2, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(tv2, tb2), _mm256_permutevar8x32_ps(e, s2)),
+                                                              _mm256_loadu_ps(l3 + 16))));
+  }
+  compose_row_scalar(o, t, l, b, id, x, W, dp, tbf);
+  _mm256_zeroupper();
+}
+}  // namespace
+
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& beam_lux, const ScenePreset& p) {
   const int W = texture.width(), H = texture.height();
@@ -881,20 +942,15 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
   const auto tb = illuminant_tint(p.beam_cct_K);
   const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
                         static_cast<float>(tb[2] / M_PI)};
+  static_assert(kLabelCount <= 64);
+  uint64_t ground_mask = 0;  // dp.ground_class as bits
+  for (int k = 0; k < kLabelCount; ++k)
+    if (dp.ground_class[k]) ground_mask |= uint64_t{1} << k;
+  const bool avx2 = kHaveAvx2;
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
-    float* o = night.row(y);
-    const float* t = texture.row(y);
-    const float* l = lights.row(y);
-    const float* b = beam_lux.row(y);
-    const uint16_t* id = labels.row(y);
-    for (int x = 0; x < W; ++x) {
-      darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
-      // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π, E from
-      // low_beam_illuminance (0 above the horizon and beyond the cut-off).
-      const float e = dp.ground_class[id[x]] ? b[x] : 0.f;
-      for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
-    }
+    if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, ground_mask);
+    else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf);
   }
   return night;
 }

@@ -169,6 +169,75 @@ void pool_row_avx2(float* e, const double* Xg, const uint8_t* mask, int n, const
   }
   _mm256_zeroupper();
 }
+// The ground pixels of a row as bits, one byte per aligned group of eight (bit k of bits[q]: pixel
+// 8q + k): class id in `classes` (bit id of the mask; ids of 64 and above in no class). Scalar,
+// and eight pixels at a time with AVX2 (the same bits).
+void class_bits_scalar(const uint16_t* id, int W, uint64_t classes, uint8_t* bits) {
+  for (int q = 0; 8 * q < W; ++q) {
+    unsigned m = 0;
+    for (int k = 0; k < 8 && 8 * q + k < W; ++k) {
+      const int c = id[8 * q + k];
+      m |= static_cast<unsigned>(c < 64 && (classes >> c & 1)) << k;
+    }
+    bits[q] = static_cast<uint8_t>(m);
+  }
+}
+__attribute__((target("avx2"))) void class_bits_avx2(const uint16_t* id, int W, uint64_t classes, uint8_t* bits) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(classes & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(classes >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32);
+  int q = 0;
+  for (; 8 * q + 8 <= W; ++q) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + 8 * q)));
+    // Bit k of the mask: the low word shifted by k (0 for k ≥ 32), the high word by k − 32 (0
+    // for k < 32, where the count wraps to a huge unsigned value, and for k ≥ 64).
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    bits[q] = static_cast<uint8_t>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one))));
+  }
+  if (8 * q < W) class_bits_scalar(id + 8 * q, W - 8 * q, classes, bits + q);
+}
+// The pools' reflection into L over the groups qa .. qb − 1: o += (t·tint)·e on the pixels whose
+// bit is set (the same float operations per channel as the scalar loop; the other pixels keep
+// their bits). AVX2 for whole groups (the 24 floats of eight pixels, e and the bits spread to
+// the channels by lane permutations), the scalar loop for the rest.
+void add_reflection_scalar(float* o, const float* tx, const float* e, const uint8_t* bits, int qa, int qb, int W,
+                           const float* tint) {
+  const float t0 = tint[0], t1 = tint[1], t2 = tint[2];  // in registers (o's stores may alias tint otherwise)
+  for (int x = 8 * qa; x < std::min(W, 8 * qb); ++x) {
+    if (!(bits[x / 8] >> (x % 8) & 1)) continue;
+    const float ef = e[x];
+    o[3 * x] += tx[3 * x] * t0 * ef;
+    o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
+    o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
+  }
+}
+__attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* tx, const float* e, const uint8_t* bits,
+                                                        int qa, int qb, int W, const float* tint) {
+  const __m256i s0 = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2), s1 = _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
+                s2 = _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7);
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const float t0 = tint[0], t1 = tint[1], t2 = tint[2];
+  const __m256 tp0 = _mm256_setr_ps(t0, t1, t2, t0, t1, t2, t0, t1), tp1 = _mm256_setr_ps(t2, t0, t1, t2, t0, t1, t2, t0),
+               tp2 = _mm256_setr_ps(t1, t2, t0, t1, t2, t0, t1, t2);
+  const int qfull = std::min(qb, W / 8);
+  for (int q = qa; q < qfull; ++q) {
+    if (!bits[q]) continue;
+    const __m256 ef = _mm256_loadu_ps(e + 8 * q);
+    const __m256i m = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits[q]), lane_bit), lane_bit);
+    float* o3 = o + 24 * q;
+    const float* t3 = tx + 24 * q;
+    const __m256 ov0 = _mm256_loadu_ps(o3), ov1 = _mm256_loadu_ps(o3 + 8), ov2 = _mm256_loadu_ps(o3 + 16);
+    const __m256 n0 = _mm256_add_ps(ov0, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3), tp0), _mm256_permutevar8x32_ps(ef, s0)));
+    const __m256 n1 = _mm256_add_ps(ov1, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 8), tp1), _mm256_permutevar8x32_ps(ef, s1)));
+    const __m256 n2 = _mm256_add_ps(ov2, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 16), tp2), _mm256_permutevar8x32_ps(ef, s2)));
+    _mm256_storeu_ps(o3, _mm256_blendv_ps(ov0, n0, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s0))));
+    _mm256_storeu_ps(o3 + 8, _mm256_blendv_ps(ov1, n1, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s1))));
+    _mm256_storeu_ps(o3 + 16, _mm256_blendv_ps(ov2, n2, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s2))));
+  }
+  if (qfull < qb) add_reflection_scalar(o, tx, e, bits, std::max(qa, qfull), qb, W, tint);
+  _mm256_zeroupper();
+}
 // vzeroupper: clears the upper halves of the vector registers. Vector code run earlier in the
 // chain leaves them dirty, and every SSE (non-VEX) instruction after it then waits on a merge with
 // them: add_vertical_street_light's loop ran 3.3× slower inside the light map than alone on the
@@ -230,25 +299,46 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
   // at least min_pole_height_m tall, not capped by a sign or signal (those carry none).
   {
+    // The pole mask, and per row the first and last pole column (-1 where the row has none).
     cv::Mat mask(H, W, CV_8U);
+    std::vector<int> row_x0(H, -1), row_x1(H, -1);
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
       const uint16_t* r = ids.row(y);
       uint8_t* m = mask.ptr<uint8_t>(y);
       for (int x = 0; x < W; ++x) m[x] = is_pole(r[x]) ? 255 : 0;
+      int a = 0, b = W;  // eight mask bytes at a time over the empty stretches, then one by one
+      for (uint64_t w8; a + 8 <= b && (std::memcpy(&w8, m + a, 8), w8 == 0);) a += 8;
+      while (a < b && !m[a]) ++a;
+      for (uint64_t w8; b - 8 >= a && (std::memcpy(&w8, m + b - 8, 8), w8 == 0);) b -= 8;
+      while (b > a && !m[b - 1]) --b;
+      if (a < b) row_x0[y] = a, row_x1[y] = b - 1;
     }
     // The components' labels from OpenCV, their bounding boxes from the pole pixels here: what
     // connectedComponentsWithStats gives (LEFT, TOP, WIDTH, HEIGHT), without its per-pixel area
     // and centroid sums over the whole frame, background included (12 of this function's 14 ms
-    // on a 2048x1024 frame).
+    // on a 2048x1024 frame). The components over the bounding box of the pole pixels only (the rest of the mask is 0
+    // and belongs to no component), its corner moved to even coordinates: OpenCV's 8-connected
+    // labelling (Spaghetti/BBDT) scans 2x2 blocks and numbers the components in the order of
+    // their first block; with the block grid kept, the box gives the same components in the
+    // same order as the whole frame (the lamps below are taken in that order).
+    int by0 = H, by1 = -1, bx0 = W, bx1 = -1;
+    for (int y = 0; y < H; ++y)
+      if (row_x0[y] >= 0) {
+        by0 = std::min(by0, y), by1 = y;
+        bx0 = std::min(bx0, row_x0[y]), bx1 = std::max(bx1, row_x1[y]);
+      }
+    by0 &= ~1, bx0 &= ~1;
     cv::Mat cc;
-    const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
+    int n = 1;  // the background only
+    if (by1 >= 0) n = cv::connectedComponents(mask(cv::Rect(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1)), cc, 8, CV_32S);
     struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1; };
     std::vector<Box> box(n);
-    for (int y = 0; y < H; ++y) {
+    for (int y = by0; y <= by1; ++y) {
+      if (row_x0[y] < 0) continue;
       const uint8_t* m = mask.ptr<uint8_t>(y);
-      const int* l = cc.ptr<int>(y);
-      for (int x = 0; x < W; ++x) {
+      const int* l = cc.ptr<int>(y - by0) - bx0;  // indexed by the frame's column
+      for (int x = row_x0[y]; x <= row_x1[y]; ++x) {
         // Pole pixels are sparse: eight mask bytes at a time skip the empty stretches.
         if ((x & 7) == 0 && x + 8 <= W) {
           uint64_t w8;
@@ -367,14 +457,19 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
-  const auto& ground = ground_classes();
+  // The ground classes as a bit mask over the label ids (all below 64); ids beyond kLabelCount
+  // are not among them.
+  static_assert(kLabelCount <= 64);
+  uint64_t ground_mask = 0;
+  for (int k = 0; k < kLabelCount; ++k)
+    if (ground_classes()[k]) ground_mask |= uint64_t{1} << k;
   std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
   for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
 #pragma omp parallel
   {
     std::vector<float> acc(W + 8);
     std::vector<double> Xg(W + 8);
-    std::vector<uint8_t> gmask(W / 8 + 2), gpix(W + 8);
+    std::vector<uint8_t> gbits(W / 8 + 2);
     PoolLamps pl;
     const float I0 = static_cast<float>(s.peak_intensity_cd);
 #pragma omp for schedule(static, 8)
@@ -382,10 +477,15 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       double D0, t;
       if (!g.ground_point(g.cx_px, y, nullptr, &D0, &t)) continue;
       const uint16_t* id = labels.row(y);
-      int xa = 0, xb = W;  // the row's ground pixels lie in [xa, xb)
-      while (xa < xb && (id[xa] >= kLabelCount || !ground[id[xa]])) ++xa;
-      while (xb > xa && (id[xb - 1] >= kLabelCount || !ground[id[xb - 1]])) --xb;
-      if (xa == xb) continue;
+      // The row's ground pixels as bits per group of eight columns (from column 0), and the
+      // groups qa .. qb − 1 from the first to the last holding one.
+      const int ng = (W + 7) / 8;
+      if (kHaveAvx2) class_bits_avx2(id, W, ground_mask, gbits.data());
+      else class_bits_scalar(id, W, ground_mask, gbits.data());
+      int qa = 0, qb = ng;
+      while (qa < qb && !gbits[qa]) ++qa;
+      while (qb > qa && !gbits[qb - 1]) --qb;
+      if (qa == qb) continue;
       // Each lamp over its footprint, the band of rows within its reach along the road (the
       // ground row is a line of constant D; reach_m: beyond it a lamp gives at most
       // rel(γ_reach)·cos³γ_reach = 0.24% of its nadir illuminance I0/H², dropped), summed per
@@ -398,31 +498,20 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
         const auto& l = s.lamps[k];
         if (std::fabs(D0 - l.D_m) <= reach[k]) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
       }
-      const bool any = pl.size() > 0;
-      if (!any) continue;  // nothing is written in this row
-      // Pixels from xa in groups of eight (the last padded with columns past xb, computed and
-      // not read); a group is computed when it holds a ground pixel.
-      const int n = xb - xa;
-      for (int i = 0; i < n + 7; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
-      for (int q = 0; 8 * q < n; ++q) {  // the row's ground pixels, and the groups holding one
-        uint8_t m = 0;
-        for (int x = xa + 8 * q; x < std::min(xb, xa + 8 * q + 8); ++x) {
-          gpix[x] = id[x] < kLabelCount && ground[id[x]];
-          m |= gpix[x];
-        }
-        gmask[q] = m;
-      }
-      if (kHaveAvx2) pool_row_avx2(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-      else pool_row_scalar(acc.data() + xa, Xg.data(), gmask.data(), n, pl, I0, table);
-      const float* tx = texture.row(y);
+      if (pl.size() == 0) continue;  // nothing is written in this row
+      // The groups holding a ground pixel are computed (a pixel's E does not depend on its
+      // group: each lane is its own), the others not; the columns past W of the last group are
+      // computed and not read.
+      const int xa = 8 * qa, n = 8 * (qb - qa);
+      for (int i = 0; i < n; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
       float* o = L.row(y);
-      const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
-      for (int x = xa; x < xb; ++x) {
-        if (!gpix[x]) continue;
-        const float ef = acc[x];
-        o[3 * x] += tx[3 * x] * t0 * ef;
-        o[3 * x + 1] += tx[3 * x + 1] * t1 * ef;
-        o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
+      const float* tx = texture.row(y);
+      if (kHaveAvx2) {
+        pool_row_avx2(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
+        add_reflection_avx2(o, tx, acc.data(), gbits.data(), qa, qb, W, tlf);
+      } else {
+        pool_row_scalar(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
+        add_reflection_scalar(o, tx, acc.data(), gbits.data(), qa, qb, W, tlf);
       }
     }
   }
@@ -626,12 +715,14 @@ void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& 
 // add_vertical_street_light's candidate test for the pixels 0 .. 8⌊W/8⌋ − 1, eight at a time:
 // the class not in `dark` (bit k of the mask; ids of 64 and above are in no class), 0 < z <
 // kDepthInfinity_m in float, and in double Y = h − z·kY < max_Y, D_lo ≤ D = z·kD ≤ D_hi (the
-// scalar loop's operations and comparisons); keep(x) for each candidate in column order.
-// Returns the first column not examined.
-template <class Keep>
+// scalar loop's operations and comparisons); the candidates' columns go to xs in column order,
+// their count to *n. Returns the first column not examined. (The columns only, in a local count:
+// storing more per candidate here made the compiler reload the count and the arrays' pointers
+// at every candidate, as its int stores might alias them.)
 __attribute__((target("avx2"))) int vertical_candidates_avx2(const uint16_t* id, const float* z, int W, const RowGeom& q,
                                                             uint64_t dark, double max_Y, double D_lo, double D_hi,
-                                                            Keep&& keep) {
+                                                            int32_t* xs, int* n_out) {
+  int n = 0;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(dark & 0xffffffffu)),
                 mhi = _mm256_set1_epi32(static_cast<int32_t>(dark >> 32)), one = _mm256_set1_epi32(1),
                 k32 = _mm256_set1_epi32(32);
@@ -658,10 +749,11 @@ __attribute__((target("avx2"))) int vertical_candidates_avx2(const uint16_t* id,
                                       _mm256_and_pd(_mm256_cmp_pd(D1, lo, _CMP_GE_OQ), _mm256_cmp_pd(D1, hi, _CMP_LE_OQ)));
     m &= _mm256_movemask_pd(in0) | _mm256_movemask_pd(in1) << 4;
     while (m) {
-      keep(x + __builtin_ctz(m));
+      xs[n++] = x + __builtin_ctz(m);
       m &= m - 1;
     }
   }
+  *n_out = n;
   return x;
 }
 }  // namespace
@@ -721,28 +813,14 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     const double yn = (y - g.cy_px) / g.f_px;
     const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
     int n = 0;
-    auto keep = [&](int x) {
-      // On buildings the pixel's façade plane (BuildingFacades::plane_at, inlined).
-      const FacadePlane* f = nullptr;
-      if (id[x] == building && reg[x] >= 0) {
-        const BuildingFacades::Region& R = fac.regions[reg[x]];
-        const int pi = R.column_plane[x - R.x0];
-        if (pi >= 0) f = &fac.planes[pi];
-      }
-      r.x[n] = x;
-      r.z[n] = z[x];
-      r.plane[n] = f ? -1 : 0;
-      r.pnX[n] = f ? -f->nX : 0.0;
-      r.pnD[n] = f ? -f->nD : 0.0;
-      ++n;
-    };
     // The pixels lit at all: not sky or ground, a finite positive depth, and a point below the
     // highest lamp and within reach of one along the road (a point at or above every lamp, v_Y ≤ 0
     // for each, or beyond every lamp's reach gets exactly nothing in vertical_term: not compacted;
     // vertical_point's D and Y). Eight pixels at a time with AVX2 (the same tests: the class by
     // a bit mask, the depth in float, D and Y in double), then one by one.
     int x0 = 0;
-    if (kHaveAvx2) x0 = vertical_candidates_avx2(id, z, W, q, dark_classes, la.max_Y, D_lo, D_hi, keep);
+    int32_t* xs = r.x.data();
+    if (kHaveAvx2) x0 = vertical_candidates_avx2(id, z, W, q, dark_classes, la.max_Y, D_lo, D_hi, xs, &n);
     for (int x = x0; x < W; ++x) {
       const int k = id[x];
       if (k < 64 && (dark_classes >> k & 1)) continue;
@@ -750,9 +828,29 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       if (!(zz > 0) || zz >= kDepthInfinity_m) continue;
       const double Dp = zz * q.kD, Yp = q.h - zz * q.kY;
       if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
-      keep(x);
+      xs[n++] = x;
     }
     if (n == 0) continue;
+    // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
+    // inlined), through local pointers.
+    {
+      int32_t* plane = r.plane.data();
+      double *zs = r.z.data(), *pnX = r.pnX.data(), *pnD = r.pnD.data();
+      const int count = n;  // a copy: n's address was taken above
+      for (int i = 0; i < count; ++i) {
+        const int x = xs[i];
+        const FacadePlane* f = nullptr;
+        if (id[x] == building && reg[x] >= 0) {
+          const BuildingFacades::Region& R = fac.regions[reg[x]];
+          const int pi = R.column_plane[x - R.x0];
+          if (pi >= 0) f = &fac.planes[pi];
+        }
+        zs[i] = z[x];
+        plane[i] = f ? -1 : 0;
+        pnX[i] = f ? -f->nX : 0.0;
+        pnD[i] = f ? -f->nD : 0.0;
+      }
+    }
     if (kHaveAvx2) {
       r.pad(n);
       vertical_e_avx2(r, n, q, la, I0, d2_min, table);
@@ -763,7 +861,6 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     float* o = L.row(y);
     const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
     const float* e = r.e.data();
-    const int32_t* xs = r.x.data();
     for (int i = 0; i < n; ++i) {
       const float ef = e[i];
       if (!(ef > 0)) continue;

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <opencv2/imgproc.hpp>
+#include <random>
 #include <vector>
 
 #include "photosite/error.h"
@@ -298,6 +300,65 @@ TEST(StreetLighting, PointSourceInverseSquareAndCosine) {
   const double e_far = 5000 * std::exp(-(g - 65 * M_PI / 180) / (5 * M_PI / 180)) * std::cos(g) / (d * d);
   EXPECT_NEAR(street_illuminance_lux(0, 20 + r2, s, p), e_far, 1e-6 * e_far);  // the table's interpolation (street.cpp)
   EXPECT_DOUBLE_EQ(lamp_relative_intensity(0.5, p), 1.0);
+}
+
+// plan_street_lighting labels the pole components over the bounding box of the pole pixels only,
+// its corner moved to even coordinates, and takes the poles in the order of their labels: this
+// relies on OpenCV's 8-connected labelling giving such a box the same components, numbered in
+// the same order, as the whole frame (its block scan keeps the 2x2 block grid). Checked here on
+// random masks of thin poles, blobs and single pixels against the whole-frame labels, with the
+// foreground's box at odd and even offsets, so that a labelling whose numbering depends on the
+// crop fails.
+TEST(StreetLighting, PoleComponentsOfTheAlignedBoxAreTheWholeFrames) {
+  std::mt19937 rng(20261128);
+  int compared = 0, multi = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const int W = 40 + static_cast<int>(rng() % 300), H = 40 + static_cast<int>(rng() % 200);
+    cv::Mat m(H, W, CV_8U, cv::Scalar(0));
+    // The foreground inside a random sub-box (odd or even corner), so the crop differs from the frame.
+    const int x0 = 1 + static_cast<int>(rng() % (W / 3)), y0 = 1 + static_cast<int>(rng() % (H / 3));
+    const int x1 = W - 1 - static_cast<int>(rng() % (W / 3)), y1 = H - 1 - static_cast<int>(rng() % (H / 3));
+    auto rx = [&] { return x0 + static_cast<int>(rng() % (x1 - x0)); };
+    auto ry = [&] { return y0 + static_cast<int>(rng() % (y1 - y0)); };
+    for (int k = static_cast<int>(rng() % 12); k > 0; --k) {  // poles: 1-3 px wide vertical bars, some with an arm
+      const int x = rx(), ya = ry(), yb = ry(), w = 1 + static_cast<int>(rng() % 3);
+      for (int y = std::min(ya, yb); y <= std::max(ya, yb); ++y)
+        for (int dx = 0; dx < w && x + dx < x1; ++dx) m.at<uint8_t>(y, x + dx) = 255;
+      if (rng() % 2)
+        for (int dx = 0; dx < 6 && x + dx < x1; ++dx) m.at<uint8_t>(std::min(ya, yb), x + dx) = 255;
+    }
+    for (int k = static_cast<int>(rng() % 40); k > 0; --k) m.at<uint8_t>(ry(), rx()) = 255;  // single pixels
+    for (int k = static_cast<int>(rng() % 4); k > 0; --k) {  // blobs
+      const int cx = rx(), cy = ry(), r = 1 + static_cast<int>(rng() % 5);
+      for (int y = std::max(y0, cy - r); y < std::min(y1, cy + r); ++y)
+        for (int x = std::max(x0, cx - r); x < std::min(x1, cx + r); ++x)
+          if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r) m.at<uint8_t>(y, x) = 255;
+    }
+    cv::Mat full, part;
+    const int n_full = cv::connectedComponents(m, full, 8, CV_32S);
+    // The foreground's bounding box, corner moved to even coordinates (street.cpp's rule).
+    int bx0 = W, bx1 = -1, by0 = H, by1 = -1;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (m.at<uint8_t>(y, x)) bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = y;
+    if (by1 < 0) continue;
+    bx0 &= ~1, by0 &= ~1;
+    const int n_part = cv::connectedComponents(m(cv::Rect(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1)), part, 8, CV_32S);
+    ASSERT_EQ(n_part, n_full) << "trial " << trial;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const bool inside = x >= bx0 && x <= bx1 && y >= by0 && y <= by1;
+        if (!inside) {
+          ASSERT_EQ(full.at<int>(y, x), 0) << "trial " << trial;
+          continue;
+        }
+        ASSERT_EQ(part.at<int>(y - by0, x - bx0), full.at<int>(y, x)) << "trial " << trial << " at " << x << "," << y;
+      }
+    ++compared;
+    multi += n_full > 3;
+  }
+  EXPECT_GT(compared, 250);
+  EXPECT_GT(multi, 100);  // many masks with several components, whose order is what is compared
 }
 
 // Without poles the lamps go along the road edges at the preset's height and spacing; their
