@@ -454,6 +454,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     const float* dr = depth.row(y);
     const float* tr = texture.row(y);
     for (int x = 0; x < W; ++x) {
+      // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
+      // the compiler vectorizes): most of the frame.
+      if ((x & 31) == 0 && x + 32 <= W) {
+        unsigned any = 0;
+        for (int k = x; k < x + 32; ++k) any |= (lr[k] != 0) | (idr[k] == traffic_sign) | (idr[k] == traffic_light);
+        if (!any) {
+          x += 31;
+          continue;
+        }
+      }
       const int id = idr[x];
       if (!lr[x] && id != traffic_sign && id != traffic_light) continue;
       double lum = 0;

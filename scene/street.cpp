@@ -197,7 +197,7 @@ __attribute__((target("avx2"))) void class_bits_avx2(const uint16_t* id, int W, 
   }
   if (8 * q < W) class_bits_scalar(id + 8 * q, W - 8 * q, classes, bits + q);
 }
-// The pools' reflection into L over the groups qa .. qb − 1: o += (t·tint)·e on the pixels whose
+// The reflection into L (pools, vertical surfaces) over the groups qa .. qb − 1: o += (t·tint)·e on the pixels whose
 // bit is set (the same float operations per channel as the scalar loop; the other pixels keep
 // their bits). AVX2 for whole groups (the 24 floats of eight pixels, e and the bits spread to
 // the channels by lane permutations), the scalar loop for the rest.
@@ -544,7 +544,11 @@ struct VerticalRow {
   std::vector<int32_t> x, plane;
   std::vector<double> z, pnX, pnD;
   std::vector<float> e;
-  explicit VerticalRow(int W) : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8) {}
+  // The lit pixels' E by column and as bits per group of eight (add_reflection_avx2's input).
+  std::vector<float> e_col;
+  std::vector<uint8_t> lit_bits;
+  explicit VerticalRow(int W)
+      : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8), e_col(W + 8), lit_bits(W / 8 + 2) {}
   void pad(int n) {
     for (int i = n; i % 8; ++i) {
       x[i] = x[n - 1];
@@ -859,8 +863,24 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     }
     const float* tx = texture.row(y);
     float* o = L.row(y);
-    const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
     const float* e = r.e.data();
+    if (kHaveAvx2) {
+      // The lit pixels (E > 0) spread back to their columns, then the reflection eight columns
+      // at a time over the candidates' groups (add_reflection_avx2: the loop below's operations).
+      uint8_t* bits = r.lit_bits.data();
+      float* e_col = r.e_col.data();
+      const int count = n, qa = xs[0] / 8, qb = xs[count - 1] / 8 + 1;  // the columns ascend
+      std::fill(bits + qa, bits + qb, uint8_t{0});
+      for (int i = 0; i < count; ++i) {
+        if (!(e[i] > 0)) continue;
+        const int x = xs[i];
+        e_col[x] = e[i];
+        bits[x >> 3] = static_cast<uint8_t>(bits[x >> 3] | 1u << (x & 7));
+      }
+      add_reflection_avx2(o, tx, e_col, bits, qa, qb, W, tlf);
+      continue;
+    }
+    const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
     for (int i = 0; i < n; ++i) {
       const float ef = e[i];
       if (!(ef > 0)) continue;
@@ -1023,6 +1043,13 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
       int n = 0;
       for (int x = 0; x < W; ++x) {
+        // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
+        // only when every one has it) skipped at once: building pixels come in long runs.
+        if ((x & 7) == 0 && x + 8 <= W &&
+            (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
+          x += 7;
+          continue;
+        }
         if (reg[x] < 0 || z[x] > max_z) continue;
         const BuildingFacades::Region& R = fac.regions[reg[x]];
         const int pi = R.column_plane[x - R.x0];
