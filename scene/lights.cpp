@@ -331,6 +331,31 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   }
   for (; x < n; ++x) out[x] = beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b);
 }
+// e[x] = sum[x − a] where the pixel is read (class id in `read_mask`, bit id for ids below 64,
+// or a lane marking when `lane` is given), else 0, for x = a .. b − 1; id non-null. Eight pixels
+// at a time (the class by the bit mask, the marking byte), then one by one: the same values as
+// low_beam_illuminance's scalar test (read[id] for ids below kLabelCount ≤ 64).
+__attribute__((target("avx2"))) void beam_keep_avx2(float* e, const float* sum, int a, int b, const uint16_t* id,
+                                                   const uint8_t* lane, uint64_t read_mask) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(read_mask >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32), zero = _mm256_setzero_si256();
+  int x = a;
+  for (; x + 8 <= b; x += 8) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    __m256i keep = _mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one), one);
+    if (lane) {
+      const __m256i m = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
+      keep = _mm256_or_si256(keep, _mm256_xor_si256(_mm256_cmpeq_epi32(m, zero), _mm256_set1_epi32(-1)));
+    }
+    _mm256_storeu_ps(e + x, _mm256_and_ps(_mm256_castsi256_ps(keep), _mm256_loadu_ps(sum + (x - a))));
+  }
+  for (; x < b; ++x) {
+    const int c = id[x];
+    e[x] = (c < 64 && (read_mask >> c & 1)) || (lane && lane[x]) ? sum[x - a] : 0.f;
+  }
+}
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
 }  // namespace
@@ -365,6 +390,10 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given.
   const auto& read = ground_classes();
+  static_assert(kLabelCount <= 64);
+  uint64_t read_mask = 0;  // `read` as bits (ids of kLabelCount and above: not read)
+  for (int k = 0; k < kLabelCount; ++k)
+    if (read[k]) read_mask |= uint64_t{1} << k;
   // On the flat ground a row is one forward distance D and its ground points are X = t·x_n
   // (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
   // column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
@@ -401,7 +430,8 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
         if (a == bx) continue;
         if (avx2) {
           beam_row_avx2(xn.data() + a, bx - a, t, D2, invD, b, sum);
-          for (int x = a; x < bx; ++x) e[x] = needed(x) ? sum[x - a] : 0.f;
+          if (id) beam_keep_avx2(e, sum, a, bx, id, lane, read_mask);
+          else std::copy(sum, sum + (bx - a), e + a);
           continue;
         }
         for (int x = a; x < bx; ++x)
@@ -528,14 +558,25 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   for (int y = 0; y < H; ++y) {
     const uint16_t* r = labels.row(y);
     const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
-    // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block).
+    // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block;
+    // with the vehicle range, on local copies of the bounds, which the compiler vectorizes: the
+    // lambdas read them from the shared frame at every pixel).
     bool any = false;
-    for (int x0 = 0; x0 < W && !any; x0 += 64) {
-      const int x1 = std::min(W, x0 + 64);
+    const int Wr = W;
+    const bool range = v_range;
+    const uint16_t lo = static_cast<uint16_t>(std::max(0, v_lo)), span = v_span, qlo = q_lo, qspan = q_span;
+    for (int x0 = 0; x0 < Wr && !any; x0 += 64) {
+      const int x1 = std::min(Wr, x0 + 64);
       unsigned acc = 0;
-      for (int x = x0; x < x1; ++x) acc |= vehicle_label(r[x]);
-      if (q)
-        for (int x = x0; x < x1; ++x) acc |= vehicle_instance(q[x]);
+      if (range) {
+        for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(r[x] - lo) <= span;
+        if (q)
+          for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(q[x] - qlo) <= qspan;
+      } else {
+        for (int x = x0; x < x1; ++x) acc |= vehicle_label(r[x]);
+        if (q)
+          for (int x = x0; x < x1; ++x) acc |= vehicle_instance(q[x]);
+      }
       any = acc != 0;
     }
     if (any) {
@@ -566,8 +607,12 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
     cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
     const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
+    // (Through local pointers: the byte stores might alias the images' and the table's fields.)
+    const uint16_t* lab = labels.data();
+    const int32_t* cp = comp.data();
+    uint8_t* md = mask.data;
 #pragma omp parallel for schedule(static)
-    for (long i = nb; i < ne; ++i) mask.data[i - nb] = vehicle(labels[i]) && comp[i] == 0 ? 255 : 0;
+    for (long i = nb; i < ne; ++i) md[i - nb] = vehicle_label(lab[i]) && cp[i] == 0 ? 255 : 0;
     cv::Mat cc;
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
     const int base = static_cast<int>(inst_index.size());

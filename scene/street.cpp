@@ -304,10 +304,14 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
     std::vector<int> row_x0(H, -1), row_x1(H, -1);
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
+      // (The width in a local and the two ids compared: a loop the compiler vectorizes; with the
+      // shared W, which the byte stores might alias, it reloaded W at every pixel.)
       const uint16_t* r = ids.row(y);
       uint8_t* m = mask.ptr<uint8_t>(y);
-      for (int x = 0; x < W; ++x) m[x] = is_pole(r[x]) ? 255 : 0;
-      int a = 0, b = W;  // eight mask bytes at a time over the empty stretches, then one by one
+      const int Wr = W;
+      const uint16_t pole = static_cast<uint16_t>(Label::Pole), group = static_cast<uint16_t>(Label::PoleGroup);
+      for (int x = 0; x < Wr; ++x) m[x] = (r[x] == pole) | (r[x] == group) ? 255 : 0;
+      int a = 0, b = Wr;  // eight mask bytes at a time over the empty stretches, then one by one
       for (uint64_t w8; a + 8 <= b && (std::memcpy(&w8, m + a, 8), w8 == 0);) a += 8;
       while (a < b && !m[a]) ++a;
       for (uint64_t w8; b - 8 >= a && (std::memcpy(&w8, m + b - 8, 8), w8 == 0);) b -= 8;
