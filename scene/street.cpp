@@ -1045,24 +1045,31 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       float* o = L.row(y);
       const double yn = (y - g.cy_px) / g.f_px;
       // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
+      // (Through local pointers and copies of the width and the depth limit: the stores might
+      // alias the shared ones otherwise, which the compiler would reload at every pixel.)
       int n = 0;
-      for (int x = 0; x < W; ++x) {
+      const int Wr = W;
+      const double zmax = max_z;
+      int32_t *rx = r.x.data(), *rp = plane_of.data();
+      double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+      const Frame* fr = frames.data();
+      for (int x = 0; x < Wr; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
         // only when every one has it) skipped at once: building pixels come in long runs.
-        if ((x & 7) == 0 && x + 8 <= W &&
+        if ((x & 7) == 0 && x + 8 <= Wr &&
             (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
           x += 7;
           continue;
         }
-        if (reg[x] < 0 || z[x] > max_z) continue;
+        if (reg[x] < 0 || z[x] > zmax) continue;
         const BuildingFacades::Region& R = fac.regions[reg[x]];
         const int pi = R.column_plane[x - R.x0];
         if (pi < 0) continue;
-        r.x[n] = x;
-        r.z[n] = z[x];
-        r.tX[n] = frames[pi].tX;
-        r.tD[n] = frames[pi].tD;
-        plane_of[n] = pi;
+        rx[n] = x;
+        rz[n] = z[x];
+        rtX[n] = fr[pi].tX;
+        rtD[n] = fr[pi].tD;
+        rp[n] = pi;
         ++n;
       }
       if (n == 0) continue;
