@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <random>
 #include <vector>
 
 #include "photosite/scene/night.h"
@@ -185,4 +187,62 @@ TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
   // Beyond the cut-off (farther than h_l / tan 0.57° ≈ 65 m, left of the axis) and behind the car: dark.
   EXPECT_EQ(low_beam_lux(-3, 100, p), 0.0);
   EXPECT_EQ(low_beam_lux(0, -5, p), 0.0);
+}
+
+// compose() (scene/lights.cpp) against its definition, bit for bit: the darkened texture
+// (darken(), the same darken_pixel) plus, per channel, (t_k·fl(tint_k/π))·E + l_k, E the beam's
+// illuminance on ground classes (darken_params' ground_class) and 0 elsewhere. Its vector path
+// takes eight pixels at a time where none is sky and the scalar loop elsewhere; the scene here
+// mixes runs of one class (whole groups of eight without sky), single sky pixels inside them
+// and every class id, at an odd width (a scalar tail on every row), so both paths and their
+// seams are compared.
+TEST(SceneCompose, IsDarkenPlusBeamPlusLightsBitForBit) {
+  const ScenePreset p = no_bloom();
+  const int W = 203, H = 37;
+  std::mt19937 rng(1128);
+  std::uniform_real_distribution<float> u01(0.f, 1.f);
+  ImageF tex(W, H, 3, 0.f, unit::dimensionless), lights(W, H, 3, 0.f, unit::radiance), beam(W, H, 1, 0.f);
+  ImageU16 ids(W, H, 1, 0);
+  int sky = 0;
+  for (int y = 0; y < H; ++y) {
+    int x = 0;
+    while (x < W) {  // runs of one class, 1..24 pixels
+      const int run = 1 + static_cast<int>(rng() % 24);
+      const uint16_t id = static_cast<uint16_t>(rng() % kLabelCount);
+      for (int k = 0; k < run && x < W; ++k, ++x) {
+        ids.at(x, y) = rng() % 16 == 0 ? static_cast<uint16_t>(Label::Sky) : id;
+        sky += ids.at(x, y) == static_cast<uint16_t>(Label::Sky);
+      }
+    }
+    for (int x2 = 0; x2 < W; ++x2) {
+      for (int k = 0; k < 3; ++k) {
+        tex.at(x2, y, k) = rng() % 8 == 0 ? 0.f : u01(rng);
+        lights.at(x2, y, k) = rng() % 2 ? 0.f : 100.f * u01(rng);
+      }
+      beam.at(x2, y) = rng() % 4 == 0 ? 0.f : 50.f * u01(rng);
+    }
+  }
+  ASSERT_GT(sky, 100);
+  const ImageF got = compose(tex, lights, ids, beam, p);
+  const ImageF dark = darken(tex, ids, p);
+  const DarkenParams dp = darken_params(p);
+  const auto tb = illuminant_tint(p.beam_cct_K);
+  const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI), static_cast<float>(tb[2] / M_PI)};
+  ImageF want(W, H, 3, 0.f, unit::radiance);
+  size_t lit = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = ids.at(x, y);
+      const float e = dp.ground_class[id] ? beam.at(x, y) : 0.f;
+      lit += e > 0;
+      for (int k = 0; k < 3; ++k) {
+        const float t = tex.at(x, y, k), b = t * tbf[k], be = b * e, le = be + lights.at(x, y, k);
+        want.at(x, y, k) = dark.at(x, y, k) + le;
+      }
+    }
+  EXPECT_GT(lit, 500u);  // the beam term is exercised
+  ASSERT_EQ(got.size(), want.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < got.size(); ++i) differ += std::memcmp(&got[i], &want[i], sizeof(float)) != 0;
+  EXPECT_EQ(differ, 0u);
 }
