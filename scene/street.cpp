@@ -341,7 +341,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
     for (int y = by0; y <= by1; ++y) {
       if (row_x0[y] < 0) continue;
       const uint8_t* m = mask.ptr<uint8_t>(y);
-      const int* l = cc.ptr<int>(y - by0) - bx0;  // indexed by the frame's column
+      const int* l = cc.ptr<int>(y - by0);  // the box's row: column x at l[x − bx0]
       for (int x = row_x0[y]; x <= row_x1[y]; ++x) {
         // Pole pixels are sparse: eight mask bytes at a time skip the empty stretches.
         if ((x & 7) == 0 && x + 8 <= W) {
@@ -353,7 +353,7 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
           }
         }
         if (m[x]) {
-          Box& b = box[l[x]];
+          Box& b = box[l[x - bx0]];
           b.x0 = std::min(b.x0, x);
           b.x1 = std::max(b.x1, x);
           b.y0 = std::min(b.y0, y);
