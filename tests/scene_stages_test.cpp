@@ -469,6 +469,29 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
   omp_set_num_threads(saved);
 }
 
+// resize_nearest (scene/labels.cpp) against its definition, each output pixel the source pixel at
+// its centre, for the exact halving of a one-channel map (the vector path: odd columns sixteen at
+// a time, with a tail, values up to 65535), another ratio, and two channels; 1 and 2 threads.
+TEST(SceneGeometry, ResizeNearestIsTheSourcePixelAtEachCentre) {
+  const int saved = omp_get_max_threads();
+  for (const auto [W, H, w, h, c] : {std::array{74, 22, 37, 11, 1}, std::array{64, 8, 32, 4, 1}, std::array{100, 30, 37, 11, 1},
+                                     std::array{74, 22, 37, 11, 2}}) {
+    ImageU16 in(W, H, c, 0);
+    for (size_t i = 0; i < in.size(); ++i) in[i] = static_cast<uint16_t>((i * 40503u) % 65536u);
+    ImageU16 want(w, h, c, 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int k = 0; k < c; ++k)
+          want.at(x, y, k) = in.at(std::min(W - 1, static_cast<int>((x + 0.5) * W / w)),
+                                   std::min(H - 1, static_cast<int>((y + 0.5) * H / h)), k);
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      EXPECT_EQ(resize_nearest(in, w, h).vec(), want.vec()) << W << "x" << H << "x" << c << ", " << threads << " threads";
+    }
+  }
+  omp_set_num_threads(saved);
+}
+
 // lanes_at_frame (scene/night.cpp) against its definition, the working mask read at each pixel
 // centre (nearest), for the exact doubling (the vector path, with a tail shorter than its block)
 // and another ratio, for 1 and 2 threads.
