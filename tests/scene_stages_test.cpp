@@ -492,6 +492,43 @@ TEST(SceneGeometry, ResizeNearestIsTheSourcePixelAtEachCentre) {
   omp_set_num_threads(saved);
 }
 
+// segmentation_edges' grey rendering (scene/edges.cpp: branch-free rows in clones) against its
+// definition through is_vehicle: markings 255, road and parking 80, vehicles 160, else 0, then
+// the same Canny; on random labels (every class id and ids beyond the table) and markings, a
+// width that leaves vector tails, 1 and 2 threads.
+TEST(SceneGeometry, SegmentationEdgesAreCannyOfTheClassRendering) {
+  const int W = 203, H = 61;
+  ImageU16 labels(W, H, 1, 0);
+  ImageU8 lanes(W, H, 1, 0);
+  XorShift rnd{99};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {  // runs of one id, so that Canny finds boundaries between them
+      const int len = 1 + static_cast<int>(rnd() * 9);
+      const double u = rnd();
+      const int id = u < 0.9 ? static_cast<int>(u / 0.9 * (kLabelCount + 2)) : 1000 + static_cast<int>(u * 64000);
+      for (int e = std::min(W, x + len); x < e; ++x) {
+        labels.at(x, y) = static_cast<uint16_t>(id);
+        lanes.at(x, y) = rnd() < 0.05 ? 255 : 0;
+      }
+    }
+  ImageU8 grey(W, H, 1, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = labels.at(x, y);
+      grey.at(x, y) = lanes.at(x, y) ? 255 : id == int(Label::Road) || id == int(Label::Parking) ? 80 : is_vehicle(id) ? 160 : 0;
+    }
+  ImageU8 want(W, H, 1, 0);
+  cv::Mat in(H, W, CV_8U, grey.data()), e(H, W, CV_8U, want.data());
+  cv::Canny(in, e, preset().canny_low, preset().canny_high, 3, true);
+  ASSERT_GT(std::count(want.vec().begin(), want.vec().end(), 255), 100);
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    EXPECT_EQ(segmentation_edges(labels, lanes, preset()).vec(), want.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(saved);
+}
+
 // lanes_at_frame (scene/night.cpp) against its definition, the working mask read at each pixel
 // centre (nearest), for the exact doubling (the vector path, with a tail shorter than its block)
 // and another ratio, for 1 and 2 threads.
