@@ -15,6 +15,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
 #include "scene/darken_detail.h"
+#include "scene/lanes_detail.h"
 #include "scene/runs_detail.h"
 #include "scene/texture_detail.h"
 
@@ -355,6 +356,13 @@ constexpr int kBoxBlock = 256;
 void texture_max_isa(int isa) { max_isa = isa; }
 
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
+  return reflectance_texture_with(day, labels, p, carried, nullptr);
+}
+
+ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
+                                ImageF* work_luma) {
+  if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
+    fail("reflectance_texture: the working luminance must be half the frame's size");
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   const BoxCoef coef = box_coef();
   // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
@@ -456,6 +464,14 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
         std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
       }
       i = e;
+    }
+    // The working luminance's rows whose last day pixel lies in this chunk, (2y + 2)·W in
+    // (i0, i1]: read back from cache (the chunk's day pixels were just read above), each row
+    // computed by one chunk, so the same rows whatever the thread count.
+    if (work_luma) {
+      const size_t row_pair = 2 * static_cast<size_t>(day.width());
+      for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y)
+        work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
     }
   }
   return f;

@@ -11,6 +11,8 @@
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
+#include "photosite/error.h"
+#include "scene/lanes_detail.h"
 #include "scene/srgb_detail.h"
 
 namespace photosite::scene {
@@ -142,39 +144,142 @@ void srgb_encode_floats(const float* v, int n, float* out) {
     else
 #endif
       srgb_encode_block(v + b, m, fast, exact);
+    // Most blocks have no value to take exactly: copied whole (a loop the compiler vectorises).
+    int32_t any = 0;
+    for (int i = 0; i < m; ++i) any |= exact[i];
+    if (!any) {
+      std::copy_n(fast, m, out + b);
+      continue;
+    }
     for (int i = 0; i < m; ++i)
       out[b + i] = exact[i] ? static_cast<float>(srgb_encode(std::clamp(v[b + i], 0.f, 1.f))) : fast[i];
   }
 }
 
+WorkSize work_size(int W, int H, int work_max_width) {
+  WorkSize s;
+  s.scale = W > work_max_width ? static_cast<double>(work_max_width) / W : 1.0;
+  s.width = std::max(1, static_cast<int>(std::lround(W * s.scale)));
+  s.height = std::max(1, static_cast<int>(std::lround(H * s.scale)));
+  s.halving = W == 2 * s.width && H == 2 * s.height && s.width % 16 == 0;
+  return s;
+}
+
+namespace {
+// Luminance (Rec. 709 weights on linear sRGB) of pixel x of an interleaved RGB row.
+inline float luma_at(const float* r, int x) { return 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2]; }
+// The widest instruction set work_luma_row's 2x2 means may take (work_luma_max_isa).
+int luma_max_isa = 2;
+#if defined(__x86_64__)
+// The 2x2 means of work_luma_row, eight working pixels at a time from x (a multiple of 8) up to
+// n: each pixel's luminance (0.2126·r + 0.7152·g) + 0.0722·b, then ((a + b) + (c + d))·0.25, the
+// same float operations per pixel as the scalar loop (no fused multiply-adds), so the same bits.
+// Four source pixels per 128-bit lane split into R, G and B by in-lane shuffles; returns where it
+// stopped.
+constexpr int shf(int a, int b, int c, int d) { return a | b << 2 | c << 4 | d << 6; }
+__attribute__((target("avx2"))) inline __m256 luma8(const float* s) {
+  // Lane 0: pixels 0-3 (s[0..11]), lane 1: pixels 4-7 (s[12..23]).
+  const __m256 a = _mm256_loadu2_m128(s + 12, s), b = _mm256_loadu2_m128(s + 16, s + 4), d = _mm256_loadu2_m128(s + 20, s + 8);
+  const __m256 R = _mm256_shuffle_ps(a, _mm256_shuffle_ps(b, d, shf(2, 2, 1, 1)), shf(0, 3, 0, 2));
+  const __m256 G = _mm256_shuffle_ps(_mm256_shuffle_ps(a, b, shf(1, 1, 0, 0)), _mm256_shuffle_ps(b, d, shf(3, 3, 2, 2)), shf(0, 2, 0, 2));
+  const __m256 B = _mm256_shuffle_ps(_mm256_shuffle_ps(a, b, shf(2, 2, 1, 1)), _mm256_shuffle_ps(d, d, shf(0, 3, 0, 3)), shf(0, 2, 0, 1));
+  return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0.2126f), R), _mm256_mul_ps(_mm256_set1_ps(0.7152f), G)),
+                       _mm256_mul_ps(_mm256_set1_ps(0.0722f), B));
+}
+// a + b of eight working pixels of one row (16 source pixels from s): lanes w0 w1 w4 w5 | w2 w3 w6 w7.
+__attribute__((target("avx2"))) inline __m256 pair_sums8(const float* s) {
+  const __m256 L = luma8(s), L2 = luma8(s + 24);  // l0-3 | l4-7, l8-11 | l12-15
+  return _mm256_add_ps(_mm256_shuffle_ps(L, L2, shf(0, 2, 0, 2)), _mm256_shuffle_ps(L, L2, shf(1, 3, 1, 3)));
+}
+__attribute__((target("avx2"))) int work_luma_avx2(const float* r0, const float* r1, int x, int n, float* o) {
+  for (; x + 8 <= n; x += 8) {
+    const __m256 m = _mm256_mul_ps(_mm256_add_ps(pair_sums8(r0 + 6 * x), pair_sums8(r1 + 6 * x)), _mm256_set1_ps(0.25f));
+    // 64-bit pairs (w0 w1)(w4 w5)(w2 w3)(w6 w7) into order.
+    _mm256_storeu_ps(o + x, _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(m), shf(0, 2, 1, 3))));
+  }
+  return x;
+}
+// Sixteen working pixels at a time in 512-bit registers: the 48 floats of 16 source pixels split
+// into R, G and B by two two-register permutes each, the even and odd pixels' luminances of 32
+// source pixels by one more each.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
+__attribute__((target("avx512f"))) inline __m512 luma16(const float* s) {
+  const __m512 a = _mm512_loadu_ps(s), b = _mm512_loadu_ps(s + 16), c = _mm512_loadu_ps(s + 32);
+  // Pixel k's sample j is float 3k + j of a‖b (0-31) for the first pixels, of c (16 + (3k + j − 32)) after.
+  const __m512i r1 = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 0, 0, 0, 0, 0);
+  const __m512i r2 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 17, 20, 23, 26, 29);
+  const __m512i g1 = _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31, 0, 0, 0, 0, 0);
+  const __m512i g2 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 18, 21, 24, 27, 30);
+  const __m512i b1 = _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 0, 0, 0, 0, 0, 0);
+  const __m512i b2 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 19, 22, 25, 28, 31);
+  const __m512 R = _mm512_permutex2var_ps(_mm512_permutex2var_ps(a, r1, b), r2, c);
+  const __m512 G = _mm512_permutex2var_ps(_mm512_permutex2var_ps(a, g1, b), g2, c);
+  const __m512 B = _mm512_permutex2var_ps(_mm512_permutex2var_ps(a, b1, b), b2, c);
+  return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(_mm512_set1_ps(0.2126f), R), _mm512_mul_ps(_mm512_set1_ps(0.7152f), G)),
+                       _mm512_mul_ps(_mm512_set1_ps(0.0722f), B));
+}
+__attribute__((target("avx512f"))) inline __m512 pair_sums16(const float* s) {
+  const __m512 L = luma16(s), L2 = luma16(s + 48);
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+  return _mm512_add_ps(_mm512_permutex2var_ps(L, even, L2), _mm512_permutex2var_ps(L, odd, L2));
+}
+__attribute__((target("avx512f"))) int work_luma_avx512(const float* r0, const float* r1, int x, int n, float* o) {
+  for (; x + 16 <= n; x += 16)
+    _mm512_storeu_ps(o + x, _mm512_mul_ps(_mm512_add_ps(pair_sums16(r0 + 6 * x), pair_sums16(r1 + 6 * x)), _mm512_set1_ps(0.25f)));
+  return x;
+}
+#pragma GCC diagnostic pop
+const int kLumaIsa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+#endif
+}  // namespace
+
+void work_luma_max_isa(int isa) { luma_max_isa = isa; }
+
+void work_luma_row(const ImageF& day, int y, float* o) {
+  // Exact halving: each working pixel is the mean of a 2x2 block, summed as (a + b) + (c + d)
+  // and scaled by 0.25 — the arithmetic of OpenCV's INTER_AREA for this case (its vector path,
+  // which covers rows whose width is a multiple of 16), so the same bits as cv::resize, in one
+  // pass per pair of rows without the full-resolution luminance image.
+  const float* r0 = day.row(2 * y);
+  const float* r1 = day.row(2 * y + 1);
+  const int ww = day.width() / 2;
+  int x = 0;
+#if defined(__x86_64__)
+  const int isa = std::min(kLumaIsa, luma_max_isa);
+  if (isa == 2) x = work_luma_avx512(r0, r1, x, ww, o);
+  if (isa >= 1) x = work_luma_avx2(r0, r1, x, ww, o);
+#endif
+  for (; x < ww; ++x) {
+    const float a = luma_at(r0, 2 * x), b = luma_at(r0, 2 * x + 1);
+    const float c = luma_at(r1, 2 * x), d = luma_at(r1, 2 * x + 1);
+    o[x] = ((a + b) + (c + d)) * 0.25f;
+  }
+  srgb_encode_floats(o, ww, o);
+}
+
 WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_max_width) {
+  return make_work_images_with(day, labels, work_max_width, nullptr);
+}
+
+WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int work_max_width, ImageF* luma) {
   WorkImages w;
   const int W = day.width(), H = day.height();
-  w.scale = W > work_max_width ? static_cast<double>(work_max_width) / W : 1.0;
-  const int ww = std::max(1, static_cast<int>(std::lround(W * w.scale)));
-  const int wh = std::max(1, static_cast<int>(std::lround(H * w.scale)));
-  // Luminance (Rec. 709 weights on linear sRGB), area-averaged to the working size, then
-  // sRGB-encoded so that contrasts are perceptual.
-  auto luma_at = [](const float* r, int x) { return 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2]; };
-  w.luma = ImageF(ww, wh, 1, uninitialized);
-  if (W == 2 * ww && H == 2 * wh && ww % 16 == 0) {
-    // Exact halving (the usual case): each working pixel is the mean of a 2x2 block, summed as
-    // (a + b) + (c + d) and scaled by 0.25 — the arithmetic of OpenCV's INTER_AREA for this case
-    // (its vector path, which covers rows whose width is a multiple of 16), so the same bits as
-    // cv::resize, in one pass per pair of rows without the full-resolution luminance image.
+  const WorkSize ws = work_size(W, H, work_max_width);
+  w.scale = ws.scale;
+  const int ww = ws.width, wh = ws.height;
+  // Luminance, area-averaged to the working size, then sRGB-encoded so that contrasts are
+  // perceptual.
+  if (luma) {
+    if (!luma->same_shape(ww, wh) || luma->channels() != 1) fail("make_work_images: a made luminance of the wrong size");
+    w.luma = std::move(*luma);
+  } else if (ws.halving) {
+    w.luma = ImageF(ww, wh, 1, uninitialized);
 #pragma omp parallel for schedule(static)
-    for (int y = 0; y < wh; ++y) {
-      const float* r0 = day.row(2 * y);
-      const float* r1 = day.row(2 * y + 1);
-      float* o = w.luma.row(y);
-      for (int x = 0; x < ww; ++x) {
-        const float a = luma_at(r0, 2 * x), b = luma_at(r0, 2 * x + 1);
-        const float c = luma_at(r1, 2 * x), d = luma_at(r1, 2 * x + 1);
-        o[x] = ((a + b) + (c + d)) * 0.25f;
-      }
-      srgb_encode_floats(o, ww, o);
-    }
+    for (int y = 0; y < wh; ++y) work_luma_row(day, y, w.luma.row(y));
   } else {
+    w.luma = ImageF(ww, wh, 1, uninitialized);
     cv::Mat lum(H, W, CV_32F);
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
@@ -195,6 +300,37 @@ WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_
   w.labels = ww == W ? labels : resize_nearest(labels, ww, wh);
   return w;
 }
+
+namespace {
+// One row of lane_markings, columns [w, W − w): 255 where the pixel is road (or parking) and
+// brighter than both sides. Horizontal accumulation (Batista et al.): h = 2c − l − r − |l − r|,
+// brighter than both sides by the threshold, with the side asymmetry subtracted so road edges
+// and shadows do not respond; with rows up and down (u, d: null where the vertical pass does not
+// reach), the same across rows, else v = 0. Branch-free per pixel so that the clones take 8 or 16
+// pixels at a time; the same float operations per pixel on every path (no contraction).
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void lane_row(const float* __restrict r, const float* __restrict up, const float* __restrict down,
+              const uint16_t* __restrict lab, int W, int w, float thr, uint8_t* __restrict o) {
+  const uint16_t road = static_cast<uint16_t>(Label::Road), parking = static_cast<uint16_t>(Label::Parking);
+  if (up) {
+    for (int x = w; x < W - w; ++x) {
+      const float l = r[x - w], c = r[x], rr = r[x + w];
+      const float h = 2 * c - l - rr - std::fabs(l - rr);
+      const float u = up[x], d = down[x];
+      const float v = 2 * c - u - d - std::fabs(u - d);
+      const bool on_road = lab[x] == road || lab[x] == parking;
+      o[x] = on_road && (h > 2 * thr || v > 2 * thr) ? 255 : o[x];
+    }
+  } else {
+    for (int x = w; x < W - w; ++x) {
+      const float l = r[x - w], c = r[x], rr = r[x + w];
+      const float h = 2 * c - l - rr - std::fabs(l - rr);
+      const bool on_road = lab[x] == road || lab[x] == parking;
+      o[x] = on_road && (h > 2 * thr || 0.f > 2 * thr) ? 255 : o[x];
+    }
+  }
+}
+}  // namespace
 
 ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePreset& p) {
   const int W = luma.width(), H = luma.height();
@@ -217,22 +353,11 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
   const double span = std::max(1, H - 1 - y_top);
 #pragma omp parallel for schedule(static, 8)  // road pixels crowd the lower rows: interleave
   for (int y = y_top; y < H; ++y) {
-    const float* r = blur.ptr<float>(y);
     const int w = std::max(2, static_cast<int>(std::lround(0.015 * W * (y - y_top) / span)));
     const int wv = std::max(1, w / 2);
-    for (int x = w; x < W - w; ++x) {
-      if (!road(x, y)) continue;
-      // Horizontal accumulation (Batista et al.): brighter than both sides by the threshold,
-      // with the side asymmetry subtracted so road edges and shadows do not respond.
-      const float l = r[x - w], c = r[x], rr = r[x + w];
-      const float h = 2 * c - l - rr - std::fabs(l - rr);
-      float v = 0;
-      if (y - wv >= 0 && y + wv < H) {  // vertical pass: transverse markings, stop lines
-        const float u = blur.ptr<float>(y - wv)[x], d = blur.ptr<float>(y + wv)[x];
-        v = 2 * c - u - d - std::fabs(u - d);
-      }
-      if (h > 2 * thr || v > 2 * thr) out.at(x, y) = 255;
-    }
+    const bool vertical = y - wv >= 0 && y + wv < H;  // vertical pass: transverse markings, stop lines
+    lane_row(blur.ptr<float>(y), vertical ? blur.ptr<float>(y - wv) : nullptr, vertical ? blur.ptr<float>(y + wv) : nullptr,
+             labels.row(y), W, w, thr, out.row(y));
   }
   return out;
 }

@@ -5,10 +5,15 @@
 #include <chrono>
 #include <cmath>
 #include <vector>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
+#include "scene/lanes_detail.h"
 #include "scene/night_detail.h"
+#include "scene/texture_detail.h"
 
 namespace photosite::scene {
 
@@ -19,6 +24,10 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, int W, int H) {
   std::vector<int> sx(W), sy(H);
   for (int x = 0; x < W; ++x) sx[x] = std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W));
   for (int y = 0; y < H; ++y) sy[y] = std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H));
+  // Where every column reads working column x/2 (the exact doubling, W = 2·ww), a row is each
+  // working byte written twice: sixteen bytes at a time by interleaving a vector with itself.
+  bool doubling = W == 2 * ww;
+  for (int x = 0; x < W && doubling; ++x) doubling = sx[x] == x / 2;
   // sy is non-decreasing: the rows that read one working row are consecutive; the first of
   // them is filled and copied to the others.
 #pragma omp parallel for schedule(static)
@@ -26,7 +35,18 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, int W, int H) {
     if (y > 0 && sy[y] == sy[y - 1]) continue;
     const uint8_t* src = lanes_work.row(sy[y]);
     uint8_t* dst = full.row(y);
-    for (int x = 0; x < W; ++x) dst[x] = src[sx[x]];
+    int x = 0;
+    if (doubling) {
+#if defined(__x86_64__)
+      for (; x + 32 <= W; x += 32) {
+        const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + x / 2));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + x), _mm_unpacklo_epi8(v, v));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + x + 16), _mm_unpackhi_epi8(v, v));
+      }
+#endif
+      for (; x < W; ++x) dst[x] = src[x / 2];
+    }
+    for (; x < W; ++x) dst[x] = src[sx[x]];
     for (int z = y + 1; z < H && sy[z] == sy[y]; ++z) std::copy_n(dst, W, full.row(z));
   }
   return full;
@@ -57,10 +77,16 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     c = cn;
   };
   const int W = day.width(), H = day.height();
-  const ImageF texture = reflectance_texture(day, labels.ids, p, seq ? &seq->reflectance : nullptr);
+  // In the exact-halving case (a 2048-wide frame to the 1024 working width) the lane stage's
+  // working luminance is made inside the texture's second pass, while each chunk's day pixels
+  // are in cache, instead of in a pass of its own over the frame (its time is in "darken").
+  const WorkSize ws = work_size(W, H, p.work_max_width);
+  ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
+  const ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
+                                                  ws.halving ? &work_luma : nullptr);
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
-  WorkImages w = make_work_images(day, labels.ids, p.work_max_width);
+  WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
   s.work_scale = w.scale;
   s.lanes_work = lane_markings(w.luma, w.labels, p);
   lap("lanes");

@@ -1,5 +1,7 @@
-// Private (not installed): a test hook of scene/darken.cpp's linearize and reflectance_texture.
+// Private (not installed): a test hook of scene/darken.cpp's linearize and reflectance_texture,
+// and the texture pass that also makes the lane stage's working luminance.
 #pragma once
+#include "photosite/scene/night.h"
 
 namespace photosite::scene {
 
@@ -7,5 +9,11 @@ namespace photosite::scene {
 // 0 the scalar loops (default 2; the machine's own support caps it). All give the same bits; the
 // test runs each.
 void texture_max_isa(int isa);
+
+// reflectance_texture, and with work_luma (a ww x wh image for a 2ww x 2wh frame: the exact
+// halving of scene/lanes_detail.h) also the working luminance, work_luma_row of every row,
+// made in the texture's second pass while each chunk's day pixels are in cache (night_scene).
+ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
+                                ClassMeans* carried, ImageF* work_luma);
 
 }  // namespace photosite::scene

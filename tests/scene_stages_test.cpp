@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 #include <vector>
 #include <opencv2/imgproc.hpp>
 #include <fstream>
@@ -15,6 +17,8 @@
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/lanes_detail.h"
+#include "scene/night_detail.h"
 #include "scene/srgb_detail.h"
 #include "scene/texture_detail.h"
 #include "scene/runs_detail.h"
@@ -33,6 +37,14 @@ double luminance(const ImageF& img, size_t i) {
   float c[3] = {img[3 * i], img[3 * i + 1], img[3 * i + 2]};
   return spectrum::luminance_cd_m2(c);
 }
+// xorshift64*: a fixed pseudo-random sequence, uniform in [0, 1), for the tests' inputs.
+struct XorShift {
+  uint64_t st;
+  double operator()() {
+    st ^= st >> 12; st ^= st << 25; st ^= st >> 27;
+    return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
+  }
+};
 bool all_finite_nonneg(const ImageF& img) {
   for (size_t i = 0; i < img.size(); ++i)
     if (!std::isfinite(img[i]) || img[i] < 0) return false;
@@ -50,11 +62,7 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   const int W = 203, H = 37;
   ImageF day(W, H, 3, 0.f);
   ImageU16 ids(W, H, 1, 0);
-  uint64_t st = 12345;
-  auto rnd = [&] {  // xorshift64*: a fixed pseudo-random input
-    st ^= st >> 12; st ^= st << 25; st ^= st >> 27;
-    return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
-  };
+  XorShift rnd{12345};
   const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W;) {
@@ -344,6 +352,227 @@ TEST(SceneGeometry, WorkLumaHalvingIsOpenCvsAreaResize) {
       differ += std::bit_cast<uint32_t>(ref) != std::bit_cast<uint32_t>(w.luma.at(x, y));
     }
   EXPECT_EQ(differ, 0);
+}
+
+// night_scene's fused pass (scene/night.cpp): the working luminance made inside the texture's
+// second pass, row y by the chunk that holds its last day pixel, against make_work_images on its
+// own, and the texture against reflectance_texture; bit for bit, for 1 and 2 threads, on sizes
+// whose 64 chunks do not fall on row pairs (several chunks per row pair, several row pairs per
+// chunk), with out-of-gamut negatives and values above white in the day image.
+TEST(SceneGeometry, WorkLumaMadeInTheTexturePassIsMakeWorkImages) {
+  XorShift rnd{777};
+  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car)};
+  const int saved = omp_get_max_threads();
+  for (const auto [W, H] : {std::pair{96, 50}, std::pair{544, 98}}) {
+    ImageF day(W, H, 3, 0.f);
+    ImageU16 ids(W, H, 1, 0);
+    for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
+    for (size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<uint16_t>(classes[static_cast<int>(rnd() * 4)]);
+    const WorkSize ws = work_size(W, H, W / 2);
+    ASSERT_TRUE(ws.halving) << W << "x" << H;
+    omp_set_num_threads(1);
+    const ImageF want_tex = reflectance_texture(day, ids, preset());
+    const WorkImages want = make_work_images(day, ids, W / 2);
+    for (int isa : {2, 1, 0})  // the 2x2 means' AVX-512, AVX2 and scalar loops (those the machine has)
+    for (int threads : {1, 2}) {
+      work_luma_max_isa(isa);
+      omp_set_num_threads(threads);
+      ImageF luma(ws.width, ws.height, 1, uninitialized);
+      std::fill(luma.vec().begin(), luma.vec().end(), -1.f);  // a row left unmade would show
+      const ImageF tex = reflectance_texture_with(day, ids, preset(), nullptr, &luma);
+      const WorkImages got = make_work_images_with(day, ids, W / 2, &luma);
+      ASSERT_EQ(got.luma.size(), want.luma.size());
+      EXPECT_EQ(0, std::memcmp(got.luma.data(), want.luma.data(), want.luma.size() * sizeof(float)))
+          << W << "x" << H << ", " << threads << " threads, isa " << isa;
+      EXPECT_EQ(0, std::memcmp(tex.data(), want_tex.data(), want_tex.size() * sizeof(float)))
+          << W << "x" << H << ", " << threads << " threads, isa " << isa;
+      EXPECT_EQ(got.labels.vec(), want.labels.vec());
+      EXPECT_EQ(got.scale, want.scale);
+    }
+  }
+  work_luma_max_isa(2);
+  omp_set_num_threads(saved);
+  // work_luma_row on its own against the definition per working pixel (the Rec. 709 luminance of
+  // each of the 2x2 pixels, ((a + b) + (c + d))·0.25, the exact sRGB encode), on a width that
+  // leaves an AVX2 block and a scalar tail after the AVX-512 blocks (27 = 16 + 8 + 3), each path.
+  {
+    const int W = 54, H = 6;
+    ImageF day(W, H, 3, 0.f);
+    for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
+    auto lum = [&](int x, int y) { const float* r = day.row(y) + 3 * x; return 0.2126f * r[0] + 0.7152f * r[1] + 0.0722f * r[2]; };
+    long differ = 0;
+    for (int isa : {2, 1, 0}) {
+      work_luma_max_isa(isa);
+      std::vector<float> out(W / 2);
+      for (int y = 0; y < H / 2; ++y) {
+        work_luma_row(day, y, out.data());
+        for (int x = 0; x < W / 2; ++x) {
+          const float m = ((lum(2 * x, 2 * y) + lum(2 * x + 1, 2 * y)) + (lum(2 * x, 2 * y + 1) + lum(2 * x + 1, 2 * y + 1))) * 0.25f;
+          const float want = static_cast<float>(srgb_encode(std::clamp(m, 0.f, 1.f)));
+          differ += std::bit_cast<uint32_t>(want) != std::bit_cast<uint32_t>(out[x]);
+        }
+      }
+    }
+    work_luma_max_isa(2);
+    EXPECT_EQ(differ, 0);
+  }
+  // A luminance of another size is refused, not written out of bounds.
+  ImageF day(64, 32, 3, 0.5f);
+  ImageU16 ids(64, 32, 1, int(Label::Road));
+  ImageF wrong(16, 16, 1, 0.f);
+  EXPECT_THROW(reflectance_texture_with(day, ids, preset(), nullptr, &wrong), Error);
+}
+
+// lane_markings' branch-free row (scene/lanes.cpp, clones 8 or 16 pixels at a time) against the
+// stage's definition per pixel: on road and parking pixels of the blurred luminance, h = 2c − l − r
+// − |l − r| at the row's marking width, v the same across rows where the vertical pass reaches,
+// 255 where either exceeds twice the threshold. Random luminance and labels, a width that leaves
+// vector tails, 1 and 2 threads.
+TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
+  const int W = 203, H = 61;
+  ImageF luma(W, H, 1, 0.f);
+  ImageU16 labels(W, H, 1, 0);
+  XorShift rnd{4242};
+  for (size_t i = 0; i < luma.size(); ++i) luma[i] = static_cast<float>(rnd());
+  const int classes[] = {int(Label::Road), int(Label::Parking), int(Label::Sidewalk), int(Label::Car)};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) labels.at(x, y) = static_cast<uint16_t>(y < 9 ? int(Label::Sky) : classes[static_cast<int>(rnd() * 4)]);
+  const ScenePreset& p = preset();
+  cv::Mat src(H, W, CV_32F, luma.data()), blur;
+  cv::GaussianBlur(src, blur, cv::Size(0, 0), p.lane_blur_sigma_px);
+  const float thr = static_cast<float>(p.lane_contrast_threshold);
+  const int y_top = 9;  // the first row with road
+  ImageU8 want(W, H, 1, 0);
+  long marked = 0;
+  for (int y = y_top; y < H; ++y) {
+    const int w = std::max(2, static_cast<int>(std::lround(0.015 * W * (y - y_top) / std::max(1, H - 1 - y_top))));
+    const int wv = std::max(1, w / 2);
+    for (int x = w; x < W - w; ++x) {
+      const int id = labels.at(x, y);
+      if (id != int(Label::Road) && id != int(Label::Parking)) continue;
+      const float l = blur.at<float>(y, x - w), c = blur.at<float>(y, x), r = blur.at<float>(y, x + w);
+      const float h = 2 * c - l - r - std::fabs(l - r);
+      float v = 0;
+      if (y - wv >= 0 && y + wv < H) {
+        const float u = blur.at<float>(y - wv, x), d = blur.at<float>(y + wv, x);
+        v = 2 * c - u - d - std::fabs(u - d);
+      }
+      if (h > 2 * thr || v > 2 * thr) { want.at(x, y) = 255; ++marked; }
+    }
+  }
+  ASSERT_GT(marked, 100);  // the check sees marked and unmarked pixels
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    EXPECT_EQ(lane_markings(luma, labels, p).vec(), want.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(saved);
+}
+
+// resize_nearest (scene/labels.cpp) against its definition, each output pixel the source pixel at
+// its centre, for the exact halving of a one-channel map (the vector path: odd columns sixteen at
+// a time, with a tail, values up to 65535), another ratio, and two channels; 1 and 2 threads.
+TEST(SceneGeometry, ResizeNearestIsTheSourcePixelAtEachCentre) {
+  const int saved = omp_get_max_threads();
+  for (const auto [W, H, w, h, c] : {std::array{74, 22, 37, 11, 1}, std::array{64, 8, 32, 4, 1}, std::array{100, 30, 37, 11, 1},
+                                     std::array{74, 22, 37, 11, 2}}) {
+    ImageU16 in(W, H, c, 0);
+    for (size_t i = 0; i < in.size(); ++i) in[i] = static_cast<uint16_t>((i * 40503u) % 65536u);
+    ImageU16 want(w, h, c, 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int k = 0; k < c; ++k)
+          want.at(x, y, k) = in.at(std::min(W - 1, static_cast<int>((x + 0.5) * W / w)),
+                                   std::min(H - 1, static_cast<int>((y + 0.5) * H / h)), k);
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      EXPECT_EQ(resize_nearest(in, w, h).vec(), want.vec()) << W << "x" << H << "x" << c << ", " << threads << " threads";
+    }
+  }
+  omp_set_num_threads(saved);
+}
+
+// segmentation_edges' grey rendering (scene/edges.cpp: branch-free rows in clones) against its
+// definition through is_vehicle: markings 255, road and parking 80, vehicles 160, else 0, then
+// the same Canny; on random labels (every class id and ids beyond the table) and markings, a
+// width that leaves vector tails, 1 and 2 threads.
+TEST(SceneGeometry, SegmentationEdgesAreCannyOfTheClassRendering) {
+  const int W = 203, H = 61;
+  ImageU16 labels(W, H, 1, 0);
+  ImageU8 lanes(W, H, 1, 0);
+  XorShift rnd{99};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {  // runs of one id, so that Canny finds boundaries between them
+      const int len = 1 + static_cast<int>(rnd() * 9);
+      const double u = rnd();
+      const int id = u < 0.9 ? static_cast<int>(u / 0.9 * (kLabelCount + 2)) : 1000 + static_cast<int>(u * 64000);
+      for (int e = std::min(W, x + len); x < e; ++x) {
+        labels.at(x, y) = static_cast<uint16_t>(id);
+        lanes.at(x, y) = rnd() < 0.05 ? 255 : 0;
+      }
+    }
+  ImageU8 grey(W, H, 1, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = labels.at(x, y);
+      grey.at(x, y) = lanes.at(x, y) ? 255 : id == int(Label::Road) || id == int(Label::Parking) ? 80 : is_vehicle(id) ? 160 : 0;
+    }
+  ImageU8 want(W, H, 1, 0);
+  cv::Mat in(H, W, CV_8U, grey.data()), e(H, W, CV_8U, want.data());
+  cv::Canny(in, e, preset().canny_low, preset().canny_high, 3, true);
+  ASSERT_GT(std::count(want.vec().begin(), want.vec().end(), 255), 100);
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    EXPECT_EQ(segmentation_edges(labels, lanes, preset()).vec(), want.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(saved);
+}
+
+// lanes_at_frame (scene/night.cpp) against its definition, the working mask read at each pixel
+// centre (nearest), for the exact doubling (the vector path, with a tail shorter than its block)
+// and another ratio, for 1 and 2 threads.
+TEST(SceneGeometry, LanesAtFrameIsTheNearestWorkingPixel) {
+  const int saved = omp_get_max_threads();
+  for (const auto [ww, wh, W, H] : {std::array{37, 11, 74, 22}, std::array{64, 9, 128, 18}, std::array{37, 11, 100, 30}}) {
+    ImageU8 work(ww, wh, 1, 0);
+    for (int y = 0; y < wh; ++y)
+      for (int x = 0; x < ww; ++x) work.at(x, y) = static_cast<uint8_t>((x * 7 + y * 13) % 251);
+    ImageU8 want(W, H, 1, 0);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        want.at(x, y) = work.at(std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W)),
+                                std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      EXPECT_EQ(lanes_at_frame(work, W, H).vec(), want.vec()) << W << "x" << H << ", " << threads << " threads";
+    }
+  }
+  omp_set_num_threads(saved);
+}
+
+// coarse_depth's row clones (AVX-512, AVX2 where the machine has them) against the expression
+// per pixel, bit for bit, for 1 and 2 threads, with the vanishing point on a pixel and between
+// pixels, and a width that leaves a tail after the vector blocks.
+TEST(SceneGeometry, CoarseDepthIsItsPerPixelDefinitionBitForBit) {
+  const int saved = omp_get_max_threads();
+  const int W = 203, H = 37;
+  for (const auto [vx, vy] : {std::pair{30.0, 20.0}, std::pair{101.3, 5.7}}) {
+    ImageF want(W, H, 1, 0.f);
+    const double left = vx, right = W - 1 - vx, top = vy, bottom = H - 1 - vy;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const double tx = x >= vx ? (x - vx) / right : (vx - x) / left;
+        const double ty = y >= vy ? (y - vy) / bottom : (vy - y) / top;
+        want.at(x, y) = static_cast<float>(std::min(1.0, std::max(tx, ty)));
+      }
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const ImageF got = coarse_depth(W, H, vx, vy);
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << vx << ", " << threads << " threads";
+    }
+  }
+  omp_set_num_threads(saved);
 }
 
 TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {

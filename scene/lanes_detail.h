@@ -1,0 +1,30 @@
+// Private (not installed): the working luminance of make_work_images (scene/lanes.cpp) row by
+// row, so that the texture's second pass (scene/darken.cpp) computes it while the day image's
+// rows are still in cache (night_scene, scene/night.cpp), instead of a pass of its own over the
+// 24 MB frame.
+#pragma once
+#include "photosite/scene/night.h"
+
+namespace photosite::scene {
+
+// The working size of a W x H frame for work_max_width (make_work_images' rule), and whether it
+// is the exact halving (W = 2·ww, H = 2·wh, ww a multiple of 16) whose rows work_luma_row makes.
+struct WorkSize {
+  int width = 1, height = 1;
+  double scale = 1.0;
+  bool halving = false;
+};
+WorkSize work_size(int width, int height, int work_max_width);
+// Row y of the working luminance in the halving case: the 2x2 mean of day rows 2y and 2y + 1
+// (Rec. 709 luminance of linear sRGB), sRGB-encoded, into out (ww floats).
+void work_luma_row(const ImageF& day_linear_srgb, int y, float* out);
+// The widest instruction set work_luma_row's 2x2 means may take: 2 AVX-512, 1 AVX2, 0 the
+// scalar loop (default 2; the machine's own support caps it). All give the same bits; the test
+// runs each.
+void work_luma_max_isa(int isa);
+// make_work_images with its luminance already made (work_luma_row over every row, a
+// ww x wh image moved in), or computed here when luma is null.
+WorkImages make_work_images_with(const ImageF& day_linear_srgb, const ImageU16& labels, int work_max_width,
+                                 ImageF* luma);
+
+}  // namespace photosite::scene
