@@ -195,4 +195,14 @@ ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
   return out;
 }
 
+bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_path_ok(w, h, pattern); }
+
+void detail::demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below,
+                                   int y, int w, int h, float* rgb_row, float* planar) {
+  const auto ph = bayer_phase(pattern);
+  const float* const rows[1][3] = {{above, centre, below}};
+  if (ph.clear) stencil_row<true, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
+  else stencil_row<false, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
+}
+
 }  // namespace photosite
