@@ -19,6 +19,7 @@
 // machine disturbs less (a preempted thread's wait is not counted); the ratios are taken on CPU
 // time.
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -65,16 +66,29 @@ uint32_t frame_words(int rounds, int w, int h) {
 
 using scene::process_cpu_ms;  // the process CPU clock in ms (scene/night.h)
 // Wall and CPU time per call of f over `inner` calls, kept as the best of each over the rounds.
+// Minor page faults per call too (getrusage; first touches of fresh pages, which the kernel
+// zeroes: what a caller-owned output buffer saves), the mean over every call of every round
+// (whether a fresh image faults depends on what the allocator has kept from earlier frees).
+long minor_faults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
 struct Timing {
   int inner = 1;
-  double wall = 1e300, cpu = 1e300;
+  double wall = 1e300, cpu = 1e300, faults = 0;
+  long fault_sum = 0, calls = 0;
   template <class F>
   void add(F&& f) {
     const double c0 = process_cpu_ms();
+    const long f0 = minor_faults();
     wall = std::min(wall, time_ms([&] {
                       for (int i = 0; i < inner; ++i) f();
                     }) / inner);
     cpu = std::min(cpu, (process_cpu_ms() - c0) / inner);
+    fault_sum += minor_faults() - f0;
+    calls += inner;
+    faults = static_cast<double>(fault_sum) / calls;
   }
 };
 
@@ -133,13 +147,16 @@ void run_bench(const BenchSenseOptions& o) {
   std::printf("photosite bench sense: onsemi-ar0331, %dx%d, %d threads, best of %d alternating rounds of %d calls\n", w, h,
               threads, o.repeats, o.inner);
   std::printf("machine: %s\n\n", machine_description().c_str());
-  std::printf("                                            wall ms   CPU ms (all threads)\n");
+  std::printf("                                            wall ms   CPU ms (all threads)   page faults/call\n");
   auto row = [](const char* name, double wall, double cpu) { std::printf("%-42s %8.2f %8.2f\n", name, wall, cpu); };
-  row("expose (photon + glare + sense, fused rows)", expose_t.wall, expose_t.cpu);
-  row("  the same into reused outputs", reused_t.wall, reused_t.cpu);
-  row("  the same two stages apart (via memory)", apart_t.wall, apart_t.cpu);
+  auto frow = [](const char* name, const Timing& t) {
+    std::printf("%-42s %8.2f %8.2f %12.0f\n", name, t.wall, t.cpu, t.faults);
+  };
+  frow("expose (photon + glare + sense, fused rows)", expose_t);
+  frow("  the same into reused outputs", reused_t);
+  frow("  the same two stages apart (via memory)", apart_t);
   row("  photon stage alone (with the lens glare)", photon_t.wall, photon_t.cpu);
-  row("sense (noise + ADC + bilinear demosaic)", sense_t.wall, sense_t.cpu);
+  frow("sense (noise + ADC + bilinear demosaic)", sense_t);
   row("  bilinear demosaic alone", demosaic_t.wall, demosaic_t.cpu);
   row("  noise + ADC (the difference)", noise_adc_wall, noise_adc_cpu);
   row("Philox4x32-10 words, every pixel", p10.wall, p10.cpu);
