@@ -288,8 +288,7 @@ struct SenseStage {
     float* read = sc.read.data();
     // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
     // kernels/common/sensor_pixel.glsl, has the physics).
-    const float dark = static_cast<float>(dark_mean_e);
-    for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
+    mean_row(srow, g, static_cast<float>(dark_mean_e), df, w, mean);
     // Shot noise and the read-noise normal from one Philox draw per pixel.
     poisson_block(mean, erow, read, w, row0, key, frame, static_cast<uint32_t>(Stream::PhotonShot), s.poisson);
     if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
@@ -300,6 +299,13 @@ struct SenseStage {
     }
     analog_row(erow, off, read, col, row_e.empty() ? 0.f : row_e[y], static_cast<float>(read_e),
                static_cast<float>(full_well), K, black, max_code, w, drow, abrow);
+  }
+  // sense_mean_e over a row, with an AVX2 clone (two products and their sum per pixel, no
+  // FMA: the same bits on either clone).
+  __attribute__((target_clones("avx2", "default")))
+  static void mean_row(const float* __restrict srow, const float* __restrict g, float dark,
+                       const float* __restrict df, int w, float* __restrict mean) {
+    for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
   }
   // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
   // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one

@@ -365,6 +365,9 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
 }
 }  // namespace
 
+// An AVX2 clone for its own loops (the lane selections and the low-mean gathers: compares and
+// copies, no arithmetic on the draws), so the same bits on either clone.
+__attribute__((target_clones("avx2", "default")))
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];
