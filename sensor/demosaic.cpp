@@ -195,4 +195,19 @@ ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
   return out;
 }
 
+bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_path_ok(w, h, pattern); }
+
+// With an AVX2 clone (flatten: the row code inlined into each clone): the pair loop's adds and
+// quarter/half scalings are the same IEEE operations per pixel at any vector width (no FMA:
+// -ffp-contract=off), so the same bits as demosaic_bilinear's SSE2 build (test
+// SenseFused.EqualsTheUnfusedDefinition).
+__attribute__((flatten, target_clones("avx2", "default")))
+void detail::demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below,
+                                   int y, int w, int h, float* rgb_row, float* planar) {
+  const auto ph = bayer_phase(pattern);
+  const float* const rows[1][3] = {{above, centre, below}};
+  if (ph.clear) stencil_row<true, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
+  else stencil_row<false, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
+}
+
 }  // namespace photosite

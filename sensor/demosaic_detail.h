@@ -58,9 +58,8 @@ inline int cell_type(const BayerPhase& ph, int x, int y) {
 }
 
 // The mirrored Bayer path needs a Bayer-geometry pattern and at least 2x2 pixels.
-inline bool bayer_path_ok(const ImageF& m, CfaPattern p) {
-  return has_bayer_geometry(p) && m.width() >= 2 && m.height() >= 2;
-}
+inline bool bayer_path_ok(int w, int h, CfaPattern p) { return has_bayer_geometry(p) && w >= 2 && h >= 2; }
+inline bool bayer_path_ok(const ImageF& m, CfaPattern p) { return bayer_path_ok(m.width(), m.height(), p); }
 
 // Reflect-101 index into [0, n), n >= 2 (period 2(n-1), even: parity is kept), written once in
 // kernels/common/border.glsl for this file and the demosaic .comp files.
@@ -109,6 +108,59 @@ inline void pair_loop(const K& k, const float* const (&rows)[NPlanes][2 * Rad + 
   }
 }
 
+// One output row y of kernel K (see run_stencil): rows[p][Rad + d] is plane p's mosaic row
+// reflect(y + d, h), o the output row (K::kOut channels), planar a 3w-float scratch row (unused
+// for a 1-channel output). Rows away from the top and bottom take the pitch-addressed fast path
+// when their 2Rad+1 rows lie one after the other at pitch w in memory (whole images, and the
+// band buffer of the fused sensor loop, sensor/pipeline.cpp); otherwise the same formula reads
+// through the row pointers: the same values and operations, so the same bits.
+template <bool Clear, int NPlanes, int Rad, class K>
+void stencil_row(const K& k, const BayerPhase& ph, const float* const (&rows)[NPlanes][2 * Rad + 1], int y,
+                 int w, int h, float* o, float* planar) {
+  constexpr int kOut = K::kOut;
+  // First column >= Rad at the red site's column parity, and the pair count that keeps every
+  // fast-path stencil inside the image.
+  const int xs = Rad + ((Rad - ph.ox) & 1);
+  const int npairs = std::max(0, (w - Rad - xs) / 2);
+  const int xe = xs + 2 * npairs;
+  const bool red_row = ((y - ph.oy) & 1) == 0;
+  auto slow = [&](int x) {
+    auto f = [&](int p, int dx, int dy) { return rows[p][dy + Rad][reflect(x + dx, w)]; };
+    const PixelOut ox{o + static_cast<size_t>(kOut) * x, 1};
+    switch (cell_type(ph, x, y)) {
+      case kR: k.template px<kR>(f, ox); break;
+      case kGr: k.template px<kGr>(f, ox); break;
+      case kGb: k.template px<kGb>(f, ox); break;
+      default: k.template px<kB>(f, ox); break;
+    }
+    if constexpr (Clear && kOut == 3) clear_to_rgb(&ox[0]);
+  };
+  for (int x = 0; x < std::min(xs, w); ++x) slow(x);
+  for (int x = std::max(xe, xs); x < w; ++x) slow(x);
+  float* base = kOut == 1 ? o : planar;
+  const int stride = kOut == 1 ? 0 : w;
+  const ptrdiff_t pitch = w;  // every plane is one channel wide
+  bool contiguous = y >= Rad && y < h - Rad;
+  for (int p = 0; p < NPlanes && contiguous; ++p)
+    for (int d = 0; d < 2 * Rad; ++d) contiguous = contiguous && rows[p][d] + pitch == rows[p][d + 1];
+  if (contiguous) {
+    if (red_row) pair_loop<kR, kGr, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
+    else pair_loop<kGb, kB, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
+  } else {
+    if (red_row) pair_loop<kR, kGr, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
+    else pair_loop<kGb, kB, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
+  }
+  if constexpr (kOut == 3) {
+    float* r = planar;
+    if constexpr (Clear) {  // G = C - R - B
+      float* g = r + w;
+      const float* bl = r + 2 * w;
+      for (int x = xs; x < xe; ++x) g[x] = g[x] - r[x] - bl[x];
+    }
+    interleave_rgb(r + xs, r + w + xs, r + 2 * w + xs, o + 3 * xs, xe - xs);
+  }
+}
+
 // Runs kernel K over every pixel: K::template px<T>(f, out) writes K::kOut values for a pixel
 // of cell type T, reading inputs through f(plane, dx, dy). `planes` are the input images (same
 // size, one channel each), Rad the stencil radius. out has K::kOut channels.
@@ -117,11 +169,6 @@ void run_stencil_impl(const ImageF* const (&planes)[NPlanes], const BayerPhase& 
                       const K& k) {
   const int w = out.width(), h = out.height();
   constexpr int kOut = K::kOut;
-  // First column >= Rad at the red site's column parity, and the pair count that keeps every
-  // fast-path stencil inside the image.
-  const int xs = Rad + ((Rad - ph.ox) & 1);
-  const int npairs = std::max(0, (w - Rad - xs) / 2);
-  const int xe = xs + 2 * npairs;
 #pragma omp parallel
   {
     // Planar row buffers for 3-channel output (a 1-channel output is written in place).
@@ -131,40 +178,7 @@ void run_stencil_impl(const ImageF* const (&planes)[NPlanes], const BayerPhase& 
       const float* rows[NPlanes][2 * Rad + 1];
       for (int p = 0; p < NPlanes; ++p)
         for (int d = -Rad; d <= Rad; ++d) rows[p][d + Rad] = planes[p]->row(reflect(y + d, h));
-      float* o = out.row(y);
-      const bool red_row = ((y - ph.oy) & 1) == 0;
-      auto slow = [&](int x) {
-        auto f = [&](int p, int dx, int dy) { return rows[p][dy + Rad][reflect(x + dx, w)]; };
-        const PixelOut ox{o + static_cast<size_t>(kOut) * x, 1};
-        switch (cell_type(ph, x, y)) {
-          case kR: k.template px<kR>(f, ox); break;
-          case kGr: k.template px<kGr>(f, ox); break;
-          case kGb: k.template px<kGb>(f, ox); break;
-          default: k.template px<kB>(f, ox); break;
-        }
-        if constexpr (Clear && kOut == 3) clear_to_rgb(&ox[0]);
-      };
-      for (int x = 0; x < std::min(xs, w); ++x) slow(x);
-      for (int x = std::max(xe, xs); x < w; ++x) slow(x);
-      float* base = kOut == 1 ? o : planar.data();
-      const int stride = kOut == 1 ? 0 : w;
-      const ptrdiff_t pitch = w;  // every plane is one channel wide
-      if (y >= Rad && y < h - Rad) {
-        if (red_row) pair_loop<kR, kGr, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
-        else pair_loop<kGb, kB, NPlanes, Rad, true>(k, rows, pitch, base, stride, xs, npairs);
-      } else {
-        if (red_row) pair_loop<kR, kGr, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
-        else pair_loop<kGb, kB, NPlanes, Rad, false>(k, rows, pitch, base, stride, xs, npairs);
-      }
-      if constexpr (kOut == 3) {
-        float* r = planar.data();
-        if constexpr (Clear) {  // G = C - R - B
-          float* g = r + w;
-          const float* bl = r + 2 * w;
-          for (int x = xs; x < xe; ++x) g[x] = g[x] - r[x] - bl[x];
-        }
-        interleave_rgb(r + xs, r + w + xs, r + 2 * w + xs, o + 3 * xs, xe - xs);
-      }
+      stencil_row<Clear, NPlanes, Rad>(k, ph, rows, y, w, h, out.row(y), planar.data());
     }
   }
 }

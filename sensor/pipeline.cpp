@@ -1,5 +1,7 @@
 #include "photosite/sensor/pipeline.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -286,8 +288,7 @@ struct SenseStage {
     float* read = sc.read.data();
     // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
     // kernels/common/sensor_pixel.glsl, has the physics).
-    const float dark = static_cast<float>(dark_mean_e);
-    for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
+    mean_row(srow, g, static_cast<float>(dark_mean_e), df, w, mean);
     // Shot noise and the read-noise normal from one Philox draw per pixel.
     poisson_block(mean, erow, read, w, row0, key, frame, static_cast<uint32_t>(Stream::PhotonShot), s.poisson);
     if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
@@ -298,6 +299,13 @@ struct SenseStage {
     }
     analog_row(erow, off, read, col, row_e.empty() ? 0.f : row_e[y], static_cast<float>(read_e),
                static_cast<float>(full_well), K, black, max_code, w, drow, abrow);
+  }
+  // sense_mean_e over a row, with an AVX2 clone (two products and their sum per pixel, no
+  // FMA: the same bits on either clone).
+  __attribute__((target_clones("avx2", "default")))
+  static void mean_row(const float* __restrict srow, const float* __restrict g, float dark,
+                       const float* __restrict df, int w, float* __restrict mean) {
+    for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
   }
   // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
   // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one
@@ -319,63 +327,128 @@ struct SenseStage {
   }
 };
 
-SensorOutput new_output(int w, int h) {
-  SensorOutput out;
-  out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
-  out.raw_dn = ImageF(w, h, 1, uninitialized, unit::dn);
-  return out;
+// `img` as a w×h×c image of `unit`: its buffer kept where it has that shape already (a reused
+// SensorOutput: no fresh pages to fault in), else a new one. Every sample is written after.
+void reuse_or_make(ImageF& img, int w, int h, int c, const char* unit) {
+  if (!img.same_shape(w, h) || img.channels() != c) img = ImageF(w, h, c, uninitialized, unit);
+  img.set_unit(unit);
 }
-// Demosaic the black-subtracted mosaic to linear RGB in DN.
-void demosaic_into(SensorOutput& out, const ImageF& above_black, const CameraPreset& p, const ExposureSettings& s) {
-  out.rgb = demosaic(above_black, p.cfa, s.demosaic);
-  out.rgb.set_unit(unit::dn);
+
+// Rows of the bands of the fused sense + demosaic loop (sense_frame): the band buffer holds
+// kBandRows + 2 rows of the mosaic above black (2048 px: 272 KB, inside L2).
+constexpr int kBandRows = 32;
+
+// The sense stage over a frame, into out (electrons, raw DN, RGB): make_worker() gives each
+// thread a row maker work(y, erow, drow, abrow, own) that writes row y's electrons, raw DN and
+// mosaic above black (own: the row is this thread's to report on; the halo rows below are not).
+//
+// With the bilinear demosaic on a Bayer or RCCB mosaic (the default) the demosaic is fused into
+// the row loop: the rows are split into one contiguous range per thread; each thread walks its
+// range in order, keeping the mosaic above black of its last kBandRows + 2 rows in a band
+// buffer, and demosaics row y as soon as row y+1 is made. So the whole-frame mosaic above black
+// is never written (8 MB a 2048×1024 frame, with its page faults) and the demosaic reads its
+// input from cache. The bilinear stencil reaches one row up and one down: the rows just outside
+// a thread's range are made again into scratch (their outputs are the neighbour's to write).
+// Each row's values depend on y alone, and the row demosaic is demosaic_bilinear's own row code
+// (detail::demosaic_bilinear_row), so the split, i.e. the thread count, changes no bit, and the
+// result equals demosaic(mosaic above black) of the unfused path below (test
+// SenseFused.EqualsTheUnfusedDefinition). Other methods and patterns: the whole frame first.
+template <class MakeWorker>
+void sense_frame(int w, int h, const CameraPreset& p, const ExposureSettings& s, SensorOutput& out,
+                 const MakeWorker& make_worker) {
+  reuse_or_make(out.electrons, w, h, 1, unit::electrons);
+  reuse_or_make(out.raw_dn, w, h, 1, unit::dn);
+  if (s.demosaic != DemosaicMethod::Bilinear || !detail::bilinear_row_path(w, h, p.cfa)) {
+    ImageF above_black(w, h, 1, uninitialized, unit::dn);
+#pragma omp parallel
+    {
+      auto work = make_worker();
+#pragma omp for schedule(static)
+      for (int y = 0; y < h; ++y) work(y, out.electrons.row(y), out.raw_dn.row(y), above_black.row(y), true);
+    }
+    out.rgb = demosaic(above_black, p.cfa, s.demosaic);
+    out.rgb.set_unit(unit::dn);
+    return;
+  }
+  reuse_or_make(out.rgb, w, h, 3, unit::dn);
+#pragma omp parallel
+  {
+    const int nt = omp_get_num_threads(), t = omp_get_thread_num();
+    const int ya = static_cast<int>(static_cast<int64_t>(h) * t / nt);
+    const int yb = static_cast<int>(static_cast<int64_t>(h) * (t + 1) / nt);
+    if (ya < yb) {
+      auto work = make_worker();
+      const size_t ws = static_cast<size_t>(w);
+      std::vector<float> band((kBandRows + 2) * ws), planar(3 * ws), halo_e(ws), halo_d(ws);
+      int first = std::max(0, ya - 1), filled = 0;  // band row i holds mosaic row first + i
+      auto at = [&](int y) { return band.data() + static_cast<size_t>(y - first) * ws; };
+      auto demosaic_row = [&](int y) {  // rows y-1 and y+1 mirrored at the edges (reflect-101; h >= 2)
+        detail::demosaic_bilinear_row(p.cfa, at(y > 0 ? y - 1 : 1), at(y), at(y < h - 1 ? y + 1 : h - 2), y, w, h,
+                                      out.rgb.row(y), planar.data());
+      };
+      for (int y = first; y <= std::min(h - 1, yb); ++y) {
+        if (filled == kBandRows + 2) {  // keep the last two rows: row y-1's stencil needs them
+          std::copy_n(band.data() + kBandRows * ws, 2 * ws, band.data());
+          first += kBandRows;
+          filled = 2;
+        }
+        const bool own = y >= ya && y < yb;
+        work(y, own ? out.electrons.row(y) : halo_e.data(), own ? out.raw_dn.row(y) : halo_d.data(),
+             band.data() + filled * ws, own);
+        ++filled;
+        if (y - 1 >= ya) demosaic_row(y - 1);
+      }
+      if (yb == h) demosaic_row(h - 1);
+    }
+  }
 }
 }  // namespace
 
 SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  SensorOutput out;
+  sense(mean_signal_e, p, ex, s, fpn, out);
+  return out;
+}
+
+void sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex, const ExposureSettings& s,
+           const FixedPatternMaps& fpn, SensorOutput& out) {
   const int w = mean_signal_e.width(), h = mean_signal_e.height();
   const SenseStage st(w, h, p, ex, s, fpn);
-  SensorOutput out = new_output(w, h);
-  ImageF above_black(w, h, 1, uninitialized, unit::dn);
-#pragma omp parallel
-  {
-    SenseStage::Scratch sc(w);
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y)
-      st.row(y, mean_signal_e.row(y), out.electrons.row(y), out.raw_dn.row(y), above_black.row(y), sc);
-  }
-  demosaic_into(out, above_black, p, s);
+  sense_frame(w, h, p, s, out, [&] {
+    return [&st, &mean_signal_e, sc = SenseStage::Scratch(st.w)](int y, float* e, float* d, float* ab, bool) mutable {
+      st.row(y, mean_signal_e.row(y), e, d, ab, sc);
+    };
+  });
+}
+
+SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
+                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
+  SensorOutput out;
+  expose(radiance, p, lens, s, fpn, out);
   return out;
 }
 
 // The photon and sense stages fused row by row: the mean signal never goes to memory (each
 // row is made and used by one thread). The same per-row functions as mean_signal_electrons()
 // then sense(), so the same bits.
-SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
+void expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens, const ExposureSettings& s,
+            const FixedPatternMaps& fpn, SensorOutput& out) {
   const ResolvedExposure ex = resolve(p, lens, s);
   detail::check_radiance_shape(radiance);
   const PhotonStage ph(radiance, p, lens, ex);
   const int w = ph.w, h = ph.h;
   const SenseStage st(w, h, p, ex, s, fpn);
-  SensorOutput out = new_output(w, h);
-  ImageF above_black(w, h, 1, uninitialized, unit::dn);
   std::vector<int> bad_x(h, -1);
-#pragma omp parallel
-  {
-    PhotonStage::Scratch psc(ph);
-    SenseStage::Scratch ssc(w);
-    std::vector<float> mean_e(w);
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y) {
-      bad_x[y] = ph.row(y, mean_e.data(), psc);
-      st.row(y, mean_e.data(), out.electrons.row(y), out.raw_dn.row(y), above_black.row(y), ssc);
-    }
-  }
+  sense_frame(w, h, p, s, out, [&] {
+    return [&ph, &st, &bad_x, psc = PhotonStage::Scratch(ph), ssc = SenseStage::Scratch(st.w),
+            mean_e = std::vector<float>(st.w)](int y, float* e, float* d, float* ab, bool own) mutable {
+      const int bad = ph.row(y, mean_e.data(), psc);
+      if (own) bad_x[y] = bad;
+      st.row(y, mean_e.data(), e, d, ab, ssc);
+    };
+  });
   fail_first_bad(radiance, bad_x);
-  demosaic_into(out, above_black, p, s);
-  return out;
 }
 
 SensorOutput flat_field(double photons, double wavelength_nm, int width, int height,

@@ -257,7 +257,13 @@ int select_lanes(const float* keep, int m, int* idx) {
 
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
 // first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
-// lanes get a value the caller overwrites.
+// lanes get a value the caller overwrites. An AVX2 clone for its own loops (verdict flags,
+// gathers and scatters of the compacted lanes: copies and compares, no arithmetic on the draws).
+// GCC's -Wmaybe-uninitialized cannot see that pad8 fills the lanes [n, round8(n)) that the
+// whole-vector passes read past the n compacted ones; every lane read is written first.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+__attribute__((target_clones("avx2", "default")))
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
@@ -320,6 +326,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   }
   for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
 }
+#pragma GCC diagnostic pop
 // How many of a[0, n) are >= t (a vectorized count: it runs on every block).
 __attribute__((target_clones("avx2", "default")))
 int count_at_least(const float* __restrict a, int n, float t) {
@@ -358,6 +365,9 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
 }
 }  // namespace
 
+// An AVX2 clone for its own loops (the lane selections and the low-mean gathers: compares and
+// copies, no arithmetic on the draws), so the same bits on either clone.
+__attribute__((target_clones("avx2", "default")))
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];

@@ -7,6 +7,9 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <utility>
+
+#include <fmt/format.h>
 
 #include "photosite/error.h"
 #include "photosite/sensor/cfa.h"
@@ -454,4 +457,101 @@ TEST(Expose, WholeChainOnEveryBundledCamera) {
     }
   }
   EXPECT_GE(cameras, 1);
+}
+
+// The fused sense + demosaic loop (sensor/pipeline.cpp, sense_frame) against its definition:
+// RGB = demosaic(raw DN − black level) of the whole mosaic, computed apart here from the raw
+// output, bit for bit, at 1, 2 and 3 threads (thread ranges, their halo rows and the band
+// buffer's wrap all move with the thread count and the height), for every Bayer phase, RCCB
+// (the fused path), RCCC and a non-bilinear method (the whole-frame path), heights from 2 rows
+// to several bands per thread. The electrons and raw DN must not move with the thread count.
+TEST(SenseFused, EqualsTheUnfusedDefinition) {
+  const std::pair<CfaPattern, DemosaicMethod> cases[] = {
+      {CfaPattern::RGGB, DemosaicMethod::Bilinear}, {CfaPattern::BGGR, DemosaicMethod::Bilinear},
+      {CfaPattern::GRBG, DemosaicMethod::Bilinear}, {CfaPattern::GBRG, DemosaicMethod::Bilinear},
+      {CfaPattern::RCCB, DemosaicMethod::Bilinear}, {CfaPattern::RCCC, DemosaicMethod::Bilinear},
+      {CfaPattern::RGGB, DemosaicMethod::Malvar}};
+  const std::pair<int, int> sizes[] = {{2, 2}, {7, 3}, {33, 5}, {150, 71}, {64, 140}};
+  const int saved = omp_get_max_threads();
+  int fused_cases = 0;
+  for (const auto& [cfa, method] : cases)
+    for (const auto& [w, h] : sizes) {
+      CameraPreset p = flat_qe_camera();
+      p.cfa = cfa;
+      p.prnu_percent = 1;
+      p.row_noise_e = 1;
+      p.column_noise_e = 0.5;
+      const auto fpn = generate_fixed_pattern(p, w, h, "fused");
+      ImageF sig(w, h, 1);
+      for (size_t i = 0; i < sig.size(); ++i) sig[i] = static_cast<float>((i * 7919) % 1013) * 4.0f;
+      ExposureSettings s;
+      s.seed = 5;
+      s.frame = 3;
+      s.demosaic = method;
+      const auto ex = resolve(p, simple_lens(), s);
+      fused_cases += method == DemosaicMethod::Bilinear && detail::bilinear_row_path(w, h, cfa);
+      SensorOutput first;
+      for (int threads : {1, 2, 3}) {
+        omp_set_num_threads(threads);
+        const SensorOutput out = sense(sig, p, ex, s, fpn);
+        ImageF above_black(w, h, 1);
+        for (size_t i = 0; i < above_black.size(); ++i)
+          above_black[i] = out.raw_dn[i] - static_cast<float>(p.black_level_dn);
+        const ImageF ref = demosaic(above_black, cfa, method);
+        const std::string what = fmt::format("{} {} {}x{} at {} threads", to_string(cfa), to_string(method), w, h, threads);
+        ASSERT_EQ(out.rgb.channels(), 3) << what;
+        EXPECT_EQ(out.rgb.vec(), ref.vec()) << what;
+        if (threads == 1) {
+          first = out;
+        } else {
+          EXPECT_EQ(out.electrons.vec(), first.electrons.vec()) << what;
+          EXPECT_EQ(out.raw_dn.vec(), first.raw_dn.vec()) << what;
+        }
+      }
+    }
+  omp_set_num_threads(saved);
+  EXPECT_EQ(fused_cases, 5 * 5);  // every Bayer phase and RCCB at every size took the fused path
+}
+
+// expose() (the photon stage with the lens glare, fused row by row into sense and the band
+// demosaic, its halo rows made twice) against its definition, mean_signal_electrons() then
+// sense() through the whole-frame mean signal, at 1 and 2 threads; and both into a reused
+// SensorOutput (a previous frame's images of the same shape, overwritten) against fresh ones.
+TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
+  const CameraPreset p = load_camera_preset("onsemi-ar0331");
+  const LensPreset lens = load_lens_preset(p.default_lens);
+  const int w = 160, h = 90;
+  ImageF radiance(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)  // a dim scene with a few bright lamps (the glare's skirt)
+        radiance.at(x, y, c) = ((x * 31 + y * 17 + c * 7) % 97 == 0 ? 40.f : 0.002f * ((x + 2 * y + c) % 13));
+  const auto fpn = generate_fixed_pattern(p, w, h, "fused-expose");
+  ExposureSettings s;
+  s.seed = 11;
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    s.frame = 0;
+    const ResolvedExposure ex = resolve(p, lens, s);
+    const SensorOutput ref = sense(mean_signal_electrons(radiance, p, lens, ex), p, ex, s, fpn);
+    SensorOutput out = expose(radiance, p, lens, s, fpn);
+    EXPECT_EQ(out.electrons.vec(), ref.electrons.vec()) << threads;
+    EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec()) << threads;
+    EXPECT_EQ(out.rgb.vec(), ref.rgb.vec()) << threads;
+    // Frame 1 into frame 0's outputs, against frame 1 fresh.
+    s.frame = 1;
+    const float* kept = out.rgb.data();
+    expose(radiance, p, lens, s, fpn, out);
+    EXPECT_EQ(out.rgb.data(), kept) << "the reused RGB buffer was replaced";
+    const SensorOutput fresh = expose(radiance, p, lens, s, fpn);
+    EXPECT_EQ(out.electrons.vec(), fresh.electrons.vec()) << threads;
+    EXPECT_EQ(out.raw_dn.vec(), fresh.raw_dn.vec()) << threads;
+    EXPECT_EQ(out.rgb.vec(), fresh.rgb.vec()) << threads;
+    EXPECT_NE(out.raw_dn.vec(), ref.raw_dn.vec()) << "frame 1 drew the same noise as frame 0";
+    SensorOutput sensed = ref;
+    sense(mean_signal_electrons(radiance, p, lens, ex), p, ex, s, fpn, sensed);
+    EXPECT_EQ(sensed.rgb.vec(), fresh.rgb.vec()) << threads;
+  }
+  omp_set_num_threads(saved);
 }

@@ -11,11 +11,15 @@
 //    24 bytes per pixel), with the sense's mean-electron arithmetic and nothing else.
 //  * the whole sensor as night and batch run it: expose() (photon stage with the lens glare and
 //    the sense stage fused row by row), beside its two stages run apart (mean_signal_electrons()
-//    then sense(), the mean signal going through memory) and the photon stage alone.
+//    then sense(), the mean signal going through memory) and the photon stage alone; and
+//    expose() into a caller-owned SensorOutput kept across calls (no fresh output pages).
+//  Since sense() fuses the bilinear demosaic into its row loop, "noise + ADC" (sense minus the
+//  demosaic run alone) understates the noise + ADC part by what the fusion saves.
 // Each is timed as the mean of --inner calls, twice: wall time, and the process's CPU time (all threads), which a loaded
 // machine disturbs less (a preempted thread's wait is not counted); the ratios are taken on CPU
 // time.
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -62,16 +66,29 @@ uint32_t frame_words(int rounds, int w, int h) {
 
 using scene::process_cpu_ms;  // the process CPU clock in ms (scene/night.h)
 // Wall and CPU time per call of f over `inner` calls, kept as the best of each over the rounds.
+// Minor page faults per call too (getrusage; first touches of fresh pages, which the kernel
+// zeroes: what a caller-owned output buffer saves), the mean over every call of every round
+// (whether a fresh image faults depends on what the allocator has kept from earlier frees).
+long minor_faults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
 struct Timing {
   int inner = 1;
-  double wall = 1e300, cpu = 1e300;
+  double wall = 1e300, cpu = 1e300, faults = 0;
+  long fault_sum = 0, calls = 0;
   template <class F>
   void add(F&& f) {
     const double c0 = process_cpu_ms();
+    const long f0 = minor_faults();
     wall = std::min(wall, time_ms([&] {
                       for (int i = 0; i < inner; ++i) f();
                     }) / inner);
     cpu = std::min(cpu, (process_cpu_ms() - c0) / inner);
+    fault_sum += minor_faults() - f0;
+    calls += inner;
+    faults = static_cast<double>(fault_sum) / calls;
   }
 };
 
@@ -111,10 +128,12 @@ void run_bench(const BenchSenseOptions& o) {
   };
 
   Timing sense_t{o.inner}, demosaic_t{o.inner}, p10{o.inner}, p7{o.inner}, floor_t{o.inner};
-  Timing expose_t{o.inner}, apart_t{o.inner}, photon_t{o.inner};
+  Timing expose_t{o.inner}, apart_t{o.inner}, photon_t{o.inner}, reused_t{o.inner};
+  SensorOutput reused = so;  // caller-owned outputs, overwritten by every call of its row
   uint32_t sink = 0;
   for (int r = 0; r < o.repeats; ++r) {
     expose_t.add([&] { so = expose(radiance, cam, lens, s, fpn); });
+    reused_t.add([&] { expose(radiance, cam, lens, s, fpn, reused); });
     apart_t.add([&] { so = sense(mean_signal_electrons(radiance, cam, lens, ex), cam, ex, s, fpn); });
     photon_t.add([&] { auto m = mean_signal_electrons(radiance, cam, lens, ex); });
     sense_t.add([&] { so = sense(mean_e, cam, ex, s, fpn); });
@@ -128,12 +147,16 @@ void run_bench(const BenchSenseOptions& o) {
   std::printf("photosite bench sense: onsemi-ar0331, %dx%d, %d threads, best of %d alternating rounds of %d calls\n", w, h,
               threads, o.repeats, o.inner);
   std::printf("machine: %s\n\n", machine_description().c_str());
-  std::printf("                                            wall ms   CPU ms (all threads)\n");
+  std::printf("                                            wall ms   CPU ms (all threads)   page faults/call\n");
   auto row = [](const char* name, double wall, double cpu) { std::printf("%-42s %8.2f %8.2f\n", name, wall, cpu); };
-  row("expose (photon + glare + sense, fused rows)", expose_t.wall, expose_t.cpu);
-  row("  the same two stages apart (via memory)", apart_t.wall, apart_t.cpu);
+  auto frow = [](const char* name, const Timing& t) {
+    std::printf("%-42s %8.2f %8.2f %12.0f\n", name, t.wall, t.cpu, t.faults);
+  };
+  frow("expose (photon + glare + sense, fused rows)", expose_t);
+  frow("  the same into reused outputs", reused_t);
+  frow("  the same two stages apart (via memory)", apart_t);
   row("  photon stage alone (with the lens glare)", photon_t.wall, photon_t.cpu);
-  row("sense (noise + ADC + bilinear demosaic)", sense_t.wall, sense_t.cpu);
+  frow("sense (noise + ADC + bilinear demosaic)", sense_t);
   row("  bilinear demosaic alone", demosaic_t.wall, demosaic_t.cpu);
   row("  noise + ADC (the difference)", noise_adc_wall, noise_adc_cpu);
   row("Philox4x32-10 words, every pixel", p10.wall, p10.cpu);
@@ -144,6 +167,7 @@ void run_bench(const BenchSenseOptions& o) {
               p7.cpu / p10.cpu, 100.0 * p10.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu, expose_t.cpu / apart_t.cpu);
   std::printf("(xor of the words: %08x)\n", sink);
   std::string csv = "quantity,wall_ms,cpu_ms_all_threads\n";
+  csv += fmt::format("expose_reused_outputs,{:.3f},{:.3f}\n", reused_t.wall, reused_t.cpu);
   csv += fmt::format("expose_fused,{:.3f},{:.3f}\nexpose_stages_apart,{:.3f},{:.3f}\nphoton_stage,{:.3f},{:.3f}\n",
                      expose_t.wall, expose_t.cpu, apart_t.wall, apart_t.cpu, photon_t.wall, photon_t.cpu);
   csv += fmt::format("sense,{:.3f},{:.3f}\nbilinear_demosaic,{:.3f},{:.3f}\nnoise_adc,{:.3f},{:.3f}\n"

@@ -78,6 +78,15 @@ ImageF demosaic_mlri_baseline(const ImageF& mosaic, CfaPattern pattern);
 ImageF demosaic_mlri_avx2(const ImageF& mosaic, CfaPattern pattern);    // needs lmmse_have_avx2()
 ImageF demosaic_mlri_avx512(const ImageF& mosaic, CfaPattern pattern);  // needs mlri_have_avx512()
 bool mlri_have_avx512();  // AVX-512 F, VL, BW and DQ
+// Bilinear demosaic one row at a time, for a caller that makes the mosaic row by row (the fused
+// sensor loop, sensor/pipeline.cpp): whether a w×h mosaic of `pattern` takes demosaic_bilinear's
+// mirrored Bayer path (Bayer phases and RCCB, at least 2×2; the row form exists only for it),
+// and output row y of that path: above, centre, below are the mosaic rows reflect101(y-1), y,
+// reflect101(y+1); rgb_row gets 3w floats; planar is 3w floats of scratch. The same code as
+// demosaic_bilinear's rows, so the same bits as demosaic_bilinear on the whole mosaic.
+bool bilinear_row_path(int w, int h, CfaPattern pattern);
+void demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below, int y,
+                           int w, int h, float* rgb_row, float* planar);
 }  // namespace detail
 
 // Writes n pixels of planar R, G, B rows as interleaved RGB (SSE2 shuffles where available).
