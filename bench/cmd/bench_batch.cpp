@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <thread>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +43,7 @@ struct BenchBatchOptions {
   std::string out_dir;
   int repeats = 3;
   bool codecs_only = false;
+  bool end_to_end_only = false;
 };
 
 // CPU time of the calling thread, in ms: what a codec call costs the machine, which the other
@@ -290,11 +292,13 @@ void run_bench(const BenchBatchOptions& o) {
   const FixedPatternMaps fpn = store.load_or_create(r.camera, r.device_id, 2048, 1024);
 
   // ---- the parts alone, and the peers on the same data ----------------------------------------
+  const bool parts = !o.end_to_end_only;
   double t_read = 0, t_compute = 0, t_exr = 0, t_png = 0, t_copy = 0;
   double t_cv_exr = 0, t_cv_png = 0, t_oiio_exr = 0, t_oiio_png = 0;
   double mb_exr = 0, mb_png = 0, mb_cv_exr = 0, t_preview = 0;
   std::vector<ImageU8> previews;
   for (const auto& it : items) {
+    if (!parts) break;
     ImageFileInfo info;
     ImageF day;
     scene::LabelMap labels;
@@ -372,15 +376,19 @@ void run_bench(const BenchBatchOptions& o) {
   for (double* t : {&t_read, &t_compute, &t_exr, &t_png, &t_copy, &t_cv_exr, &t_cv_png, &t_oiio_exr, &t_oiio_png,
                     &mb_exr, &mb_png, &mb_cv_exr, &t_preview})
     *t /= n;
-  codec_bench(items, previews, o.out_dir);
-  std::printf("  preview ISP alone (preview_srgb8, all threads) %.1f ms/image (wall)\n", t_preview);
+  if (parts) {
+    codec_bench(items, previews, o.out_dir);
+    std::printf("  preview ISP alone (preview_srgb8, all threads) %.1f ms/image (wall)\n", t_preview);
+  }
   if (o.codecs_only) return;
 
   // ---- end to end: batch::run in this process, as `photosite batch` runs it ------------------
   SensorRunner cpu(Backend::Cpu);
   // Wall ms per image (median) and CPU ms per image (median) of each route.
+  // Where the threads went (batch::Result::stages), per image, the mean over the runs.
   auto end_to_end = [&](const std::string& name, batch::Options opt) {
     std::vector<double> ms, cpu_per_image;
+    batch::StageTimes sum;
     for (int k = 0; k < o.repeats; ++k) {
       opt.out = (tmp / fmt::format("{}-{}", name, k)).string();
       const double c0 = cpu_ms();
@@ -389,7 +397,18 @@ void run_bench(const BenchBatchOptions& o) {
       if (!res.errors.empty()) internal_error("bench batch: " + res.errors.front());
       ms.push_back(res.progress.elapsed_s * 1e3 / n);
       fs::remove_all(opt.out);
+      const auto& s = res.stages;
+      for (auto [acc, v] : {std::pair{&sum.reader_cpu_ms, s.reader_cpu_ms}, {&sum.compute_cpu_ms, s.compute_cpu_ms},
+                            {&sum.writer_cpu_ms, s.writer_cpu_ms}, {&sum.reader_wait_ms, s.reader_wait_ms},
+                            {&sum.compute_wait_in_ms, s.compute_wait_in_ms}, {&sum.compute_wait_out_ms, s.compute_wait_out_ms},
+                            {&sum.writer_wait_ms, s.writer_wait_ms}})
+        *acc += v / (n * o.repeats);
     }
+    std::printf("  %s route, per image (mean of %d runs): CPU reader %.1f, compute thread %.1f, process rest (OpenMP workers) %.1f, writers %.1f ms; "
+                "waits: reader on full queue %.1f, compute for input %.1f, compute on full queue %.1f, writers for work %.1f ms\n",
+                name.c_str(), o.repeats, sum.reader_cpu_ms, sum.compute_cpu_ms,
+                median(cpu_per_image) - sum.reader_cpu_ms - sum.compute_cpu_ms - sum.writer_cpu_ms, sum.writer_cpu_ms,
+                sum.reader_wait_ms, sum.compute_wait_in_ms, sum.compute_wait_out_ms, sum.writer_wait_ms);
     return std::pair{median(ms), median(cpu_per_image)};
   };
   const auto [e2e_exr, cpu_exr] = end_to_end("exr", bo);
@@ -398,6 +417,14 @@ void run_bench(const BenchBatchOptions& o) {
   png_opt.layers = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
   const auto [e2e_png, cpu_png] = end_to_end("png", png_opt);
 
+  if (!parts) {  // --end-to-end-only: no parts to compare with, no CSV
+    std::printf("batch, %zu Cityscapes images (2048x1024), %s; end to end the median of %d runs\n", items.size(),
+                machine_description().c_str(), o.repeats);
+    for (const auto& [name, ms, c] : {std::tuple{"EXR default route", e2e_exr, cpu_exr}, {"PNG sensor,labels", e2e_png, cpu_png}})
+      std::printf("  end to end, %-18s %8.1f ms/image: %.0f images per core-hour of wall time x %d cores; CPU %.1f ms/image: %.0f images per CPU core-hour used\n",
+                  name, ms, per_core_hour(ms), cores, c, 3.6e6 / c);
+    return;
+  }
   const double exr_parts = t_read + t_compute + t_exr + t_copy, png_parts = t_read + t_compute + t_png + t_copy;
   std::printf("batch, %zu Cityscapes images (2048x1024), %s; end to end the median of %d runs\n", items.size(),
               machine_description().c_str(), o.repeats);
@@ -447,6 +474,8 @@ static BenchRegistrar reg("batch", "batch engine end to end (EXR and PNG routes)
                             sub->add_option("--out-dir", o->out_dir, "where the CSVs and the chart go (default docs/)");
                             sub->add_flag("--codecs-only", o->codecs_only,
                                           "only the PNG codecs (decode and encode settings), not the end-to-end runs");
+                            sub->add_flag("--end-to-end-only", o->end_to_end_only,
+                                          "only the end-to-end runs of both routes (no parts, peers, codecs or CSV)");
                             sub->callback([o] { run_bench(*o); });
                           });
 }  // namespace photosite::bench
