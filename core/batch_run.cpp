@@ -387,15 +387,16 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
 
   StageTimes& st = result.stages;
   const int cores = std::max(1, omp_get_num_procs());
-  if (runner.backend() == Backend::Cpu) {
-    // ---- on the CPU: workers that each take an item through all three stages ------------------
-    // Measured on 2 cores (docs/benchmarks.md "Batch throughput", 2026-11-28): a reader and a
-    // writer thread beside a compute stage whose OpenMP team spans every core leave the cores
-    // idle and spinning: the team's barriers wait while the reader or the writer holds a core,
-    // and its spinning threads take the cores from them. Independent workers, one item each
-    // with an OpenMP team of cores / (workers busy) threads (one each while all are busy), need
-    // no barrier between them; the stages of different items overlap as the OS shares the
-    // cores. Images in flight: the workers, at most queue_depth. With sequences a worker takes
+  // On the CPU, when EXR files are written: workers. Measured on 2 cores (docs/benchmarks.md
+  // "Batch throughput", 2026-11-28 second session): with a reader, a compute team spanning the
+  // cores and a writer whose OpenEXR pool spans them too, the team's barriers wait while the
+  // others hold a core; independent workers, one image each with an OpenMP team of cores /
+  // (workers busy) threads, used 10% less CPU per image on the EXR route. On the PNG-only route
+  // (a light writer) they did not: more CPU in most alternating pairs, so it keeps the stages.
+  if (runner.backend() == Backend::Cpu && o.format != "png") {
+    // ---- workers that each take an item through all three stages -------------------------------
+    // The stages of different items overlap as the OS shares the cores; no barrier spans two
+    // items. Images in flight: the workers, at most queue_depth. With sequences a worker takes
     // a whole group, in frame order, with the group's own state.
     std::vector<std::pair<size_t, size_t>> units;  // [begin, end) of todo
     for (size_t i = 0; i < todo.size();) {
@@ -455,7 +456,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       st.writer_cpu_ms += t.writer_cpu_ms;
     }
   } else {
-    // ---- on a GPU: a reader thread, compute on this thread, writer threads, bounded queues ----
+    // ---- a reader thread, compute on this thread, writer threads, bounded queues ------------------
     BoundedQueue<Loaded> loaded(static_cast<size_t>(o.queue_depth));
     BoundedQueue<Computed> computed(static_cast<size_t>(o.queue_depth));
     // The writer (EXR encoding) gets OpenEXR's own thread pool and the compute stage a full

@@ -373,6 +373,17 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   EXPECT_EQ(tc.size(), 6u * 3);
   ASSERT_EQ(tc.size(), td.size());
   for (const auto& [k, v] : tc) EXPECT_TRUE(td.count(k) && td.at(k) == v) << k << " differs with sequences";
+
+  // PNG only (the reader / compute / writer stages on the CPU): the same files as the workers'.
+  auto e = a, f = b;
+  e.out = dir.file("e"), f.out = dir.file("f");
+  e.format = f.format = "png";
+  const auto re = batch::run(items, e, cpu), rf = batch::run(items, f, cpu);
+  EXPECT_TRUE(re.errors.empty() && rf.errors.empty());
+  const auto te = tree_bytes(dir.path() / "e"), tf = tree_bytes(dir.path() / "f");
+  EXPECT_EQ(te.size(), 6u * 2);  // png and the label copy per image
+  EXPECT_TRUE(te == tf);
+  for (const auto& [k, v] : te) EXPECT_TRUE(ta.count(k) && ta.at(k) == v) << k << " differs from the workers' file";
 }
 
 // An interrupted run resumes where it stopped and ends with the bytes of an uninterrupted one;

@@ -90,10 +90,10 @@ struct Options {
   // (per-item camera files); ego-motion is not read. A group with an unfinished frame is
   // recomputed whole on a re-run, as its state starts at its first frame.
   bool sequences = false;
-  int jobs = 1;               // writer threads (GPU backend; on the CPU each worker writes its items)
-  int queue_depth = 2;        // images in flight (bounds memory); on the CPU at most this many workers
-  // OpenMP team of the compute stage (on the CPU: of each worker); 0: automatic (GPU backend:
-  // OpenMP's default; CPU: the cores shared among the workers still busy).
+  int jobs = 1;               // writer threads (not with workers: each writes its own items)
+  int queue_depth = 2;        // images in flight (bounds memory); with workers at most this many
+  // OpenMP team of the compute stage (with workers: of each); 0: automatic (OpenMP's default;
+  // with workers the cores shared among those still busy).
   int compute_threads = 0;
   // Set (e.g. from a signal handler) to stop reading new items; those in flight are finished.
   const std::atomic<bool>* stop = nullptr;
@@ -130,10 +130,11 @@ struct Result {
 };
 
 // Runs shard (shard_index, shard_count) of `items` (all of them: whole groups go to a shard, as
-// in shard()). On the CPU backend min(queue_depth, cores) workers each take an item (with
-// sequences: a group) through reading, the scene and sensor, and writing, with an OpenMP team of
-// the cores left to the workers still busy. On a GPU backend a reader thread decodes, the
-// calling thread computes, `jobs` writer threads encode; bounded queues keep memory flat. Every file is
+// in shard()). On the CPU backend with EXR files to write, min(queue_depth, cores) workers each
+// take an item (with sequences: a group) through reading, the scene and sensor, and writing,
+// with an OpenMP team of the cores left to the workers still busy. Otherwise (a GPU backend, or
+// PNG only) a reader thread decodes, the calling thread computes, `jobs` writer threads encode;
+// bounded queues keep memory flat. Every file is
 // written under a temporary name and renamed; temporaries of killed runs are removed first. A
 // per-shard manifest (<out>/.photosite-batch/) records each finished item with its files'
 // checksums: items whose files are intact are skipped. Bad input (Error) before any work: a
