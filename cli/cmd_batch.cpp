@@ -117,11 +117,11 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: sensor,raw,electrons,depth,labels)");
   sub->add_flag("--half", o.half, "store the float EXR layers as half floats");
   sub->add_option("--compression", o.compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();
-  sub->add_option("--jobs", o.jobs, "writer threads")->capture_default_str();
+  sub->add_option("--jobs", o.jobs, "writer threads (--format png or a GPU backend; otherwise each worker writes its images)")->capture_default_str();
   sub->add_option("--compute-threads", o.compute_threads,
-                  "OpenMP threads for the scene and sensor (0: all hardware threads)")
+                  "OpenMP threads for the scene and sensor, per worker where there are workers (0: automatic)")
       ->capture_default_str();
-  sub->add_option("--queue-depth", o.queue_depth, "images in flight between stages (bounds memory)")->capture_default_str();
+  sub->add_option("--queue-depth", o.queue_depth, "images in flight (bounds memory; at most this many workers)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
   sub->add_option("--rig", c->rig, "camera rig (presets/rigs name, .toml path or Cityscapes camera .json; auto: each Cityscapes image's own camera file where the data set has it, else the data set's rig, else by aspect ratio)")
       ->capture_default_str();

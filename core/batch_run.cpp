@@ -7,10 +7,12 @@
 // its files' checksums and the run's parameters, so a re-run skips finished items and refuses to
 // mix results of other parameters.
 #include <signal.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -40,19 +42,38 @@ namespace photosite::batch {
 namespace fs = std::filesystem;
 
 namespace {
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+// CPU time of the calling thread, in ms.
+double thread_cpu_ms() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+
+// A FIFO of at most cap items; push and pop add the time they were blocked to *waited_ms.
 template <class T>
 class BoundedQueue {
  public:
   explicit BoundedQueue(size_t cap) : cap_(cap) {}
-  void push(T v) {
+  void push(T v, double* waited_ms) {
     std::unique_lock l(m_);
-    not_full_.wait(l, [&] { return q_.size() < cap_; });
+    if (q_.size() >= cap_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      not_full_.wait(l, [&] { return q_.size() < cap_; });
+      *waited_ms += ms_since(t0);
+    }
     q_.push_back(std::move(v));
     not_empty_.notify_one();
   }
-  std::optional<T> pop() {
+  std::optional<T> pop(double* waited_ms) {
     std::unique_lock l(m_);
-    not_empty_.wait(l, [&] { return !q_.empty() || closed_; });
+    if (q_.empty() && !closed_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      not_empty_.wait(l, [&] { return !q_.empty() || closed_; });
+      *waited_ms += ms_since(t0);
+    }
     if (q_.empty()) return std::nullopt;
     T v = std::move(q_.front());
     q_.pop_front();
@@ -243,87 +264,44 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   report();
   auto stopped = [&] { return o.stop && o.stop->load(); };
 
-  // ---- the pipeline -----------------------------------------------------------------------
-  BoundedQueue<Loaded> loaded(static_cast<size_t>(o.queue_depth));
-  BoundedQueue<Computed> computed(static_cast<size_t>(o.queue_depth));
-  // By default every part may use every core: the writer (EXR encoding) gets OpenEXR's own
-  // thread pool and the compute stage a full OpenMP team, and the OS shares the cores between
-  // them. Measured on 2 cores (docs/benchmarks.md, bench batch): pinning the writer and the
-  // reader to one thread each and giving compute the rest made the run 1.6x slower, since the
-  // writer then runs single-threaded while compute idles. compute_threads caps the compute
-  // stage's team (e.g. beside other jobs on a shared node).
-  const OmpThreads omp_team(o.compute_threads);
-  std::thread reader([&] {
-    for (const auto& it : todo) {
-      if (stopped()) {
-        result.interrupted = true;  // read by the calling thread only after join()
-        break;
-      }
-      Loaded l;
-      l.item = it;
-      try {
-        ImageFileInfo info;
-        ImageF day = read_image(it.image, &info);
-        l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
-                                      scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
-        if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
-        l.day = scene::linearize(day, info);
-      } catch (const Error& e) {
-        l.error = e.what();
-      }
-      loaded.push(std::move(l));
+  // ---- one item's stages ------------------------------------------------------------------
+  // Read: decode the image and labels, linearize.
+  auto load = [&](const Item& it) {
+    Loaded l;
+    l.item = it;
+    try {
+      ImageFileInfo info;
+      ImageF day = read_image(it.image, &info);
+      l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
+                                    scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
+      if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
+      l.day = scene::linearize(day, info);
+    } catch (const Error& e) {
+      l.error = e.what();
     }
-    loaded.close();
-  });
-  std::vector<std::thread> writers;
-  for (int j = 0; j < o.jobs; ++j)
-    writers.emplace_back([&] {
-      while (auto cmp = computed.pop()) {
-        std::string error = cmp->error;
-        nlohmann::json files = nlohmann::json::array();
-        if (error.empty()) try {
-            for (auto& [relp, write] : cmp->writes) {
-              const fs::path p = out / relp;
-              fs::create_directories(p.parent_path());
-              write(p.string());
-              files.push_back({{"path", relp}, {"fnv", fmt::format("{:016x}", fnv1a_file(p.string()))}});
-            }
-          } catch (const Error& e) {
-            error = e.what();
-          }
-        std::lock_guard l(state_m);
-        if (!error.empty()) {
-          result.errors.push_back(error);
-          ++pr.failed;
-        } else {
-          mout << nlohmann::json({{"key", cmp->item.key}, {"files", files}}).dump() << "\n" << std::flush;
-          ++pr.written;
-        }
-        report();
-      }
-    });
-
-  // The compute stage, on this thread. One fixed-pattern map per frame size, loaded once.
+    return l;
+  };
+  // Compute: the scene and the sensor; the files' writers (encoding included) for the write
+  // stage. One fixed-pattern map per frame size, loaded once.
   std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
+  std::mutex fpn_m;
   const auto wb = white_balance_gains(r.camera);
-  scene::SequenceState seq;  // o.sequences: the current group's (items arrive by group, then frame)
-  std::string seq_group;
-  while (auto l = loaded.pop()) {
+  // seq, seq_group: o.sequences, the current group's state (a group's items in frame order).
+  auto compute = [&](Loaded& l, scene::SequenceState& seq, std::string& seq_group) {
     Computed c;
-    c.item = l->item;
-    if (!l->error.empty()) {
-      c.error = l->error;
-      computed.push(std::move(c));
-      continue;
+    c.item = l.item;
+    if (!l.error.empty()) {
+      c.error = l.error;
+      return c;
     }
     try {
-      const Item& it = l->item;
+      const Item& it = l.item;
       const uint64_t seed = group_seed(r.settings.seed, it.group);
       const scene::ScenePreset* spi = &sp;
       scene::ScenePreset with_camera;
-      if (l->rig) {
+      if (l.rig) {
         with_camera = sp;
-        with_camera.rig = *l->rig;
+        with_camera.rig = *l.rig;
         spi = &with_camera;
       }
       if (o.sequences && it.group != seq_group) {
@@ -331,18 +309,23 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         seq_group = it.group;
       }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l->day, l->labels, *spi, seed, false, runner, o.sequences ? &seq : nullptr));
+          scene::night_scene(l.day, l.labels, *spi, seed, false, runner, o.sequences ? &seq : nullptr));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
       const ResolvedExposure ex = resolve(rr->camera, rr->lens, rr->settings);
       const int w = ns->radiance.width(), h = ns->radiance.height();
-      const auto key = std::make_pair(w, h);
-      if (!fpn_cache.count(key)) fpn_cache[key] = store.load_or_create(r.camera, r.device_id, w, h);
-      const FixedPatternMaps& fpn = fpn_cache[key];
+      const FixedPatternMaps* fpn_p;
+      {
+        std::lock_guard g(fpn_m);  // std::map: references stay valid as entries are added
+        const auto key = std::make_pair(w, h);
+        if (!fpn_cache.count(key)) fpn_cache[key] = store.load_or_create(r.camera, r.device_id, w, h);
+        fpn_p = &fpn_cache[key];
+      }
+      const FixedPatternMaps& fpn = *fpn_p;
       auto so = std::make_shared<SensorOutput>(
           runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
-      auto labels = std::make_shared<scene::LabelMap>(std::move(l->labels));
+      auto labels = std::make_shared<scene::LabelMap>(std::move(l.labels));
       const NightInputs in{it.image, it.labels, it.instances};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
       // three maps): only when an EXR is written.
@@ -373,13 +356,146 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
             });
           });
     } catch (const Error& e) {
-      c.error = l->item.image + ": " + e.what();
+      c.error = l.item.image + ": " + e.what();
     }
-    computed.push(std::move(c));
+    return c;
+  };
+  // Write: every file under a temporary name, renamed when complete; then the manifest record.
+  auto write = [&](Computed& cmp) {
+    std::string error = cmp.error;
+    nlohmann::json files = nlohmann::json::array();
+    if (error.empty()) try {
+        for (auto& [relp, write_file] : cmp.writes) {
+          const fs::path p = out / relp;
+          fs::create_directories(p.parent_path());
+          write_file(p.string());
+          files.push_back({{"path", relp}, {"fnv", fmt::format("{:016x}", fnv1a_file(p.string()))}});
+        }
+      } catch (const Error& e) {
+        error = e.what();
+      }
+    std::lock_guard l(state_m);
+    if (!error.empty()) {
+      result.errors.push_back(error);
+      ++pr.failed;
+    } else {
+      mout << nlohmann::json({{"key", cmp.item.key}, {"files", files}}).dump() << "\n" << std::flush;
+      ++pr.written;
+    }
+    report();
+  };
+
+  StageTimes& st = result.stages;
+  const int cores = std::max(1, omp_get_num_procs());
+  // On the CPU, when EXR files are written: workers. Measured on 2 cores (docs/benchmarks.md
+  // "Batch throughput", 2026-11-28 second session): with a reader, a compute team spanning the
+  // cores and a writer whose OpenEXR pool spans them too, the team's barriers wait while the
+  // others hold a core; independent workers, one image each with an OpenMP team of cores /
+  // (workers busy) threads, used 10% less CPU per image on the EXR route. On the PNG-only route
+  // (a light writer) they did not: more CPU in most alternating pairs, so it keeps the stages.
+  if (runner.backend() == Backend::Cpu && o.format != "png") {
+    // ---- workers that each take an item through all three stages -------------------------------
+    // The stages of different items overlap as the OS shares the cores; no barrier spans two
+    // items. Images in flight: the workers, at most queue_depth. With sequences a worker takes
+    // a whole group, in frame order, with the group's own state.
+    std::vector<std::pair<size_t, size_t>> units;  // [begin, end) of todo
+    for (size_t i = 0; i < todo.size();) {
+      size_t e = i + 1;
+      if (o.sequences)
+        while (e < todo.size() && todo[e].group == todo[i].group) ++e;
+      units.emplace_back(i, e);
+      i = e;
+    }
+    const int n_workers = static_cast<int>(std::min<size_t>({static_cast<size_t>(o.queue_depth),
+                                                              static_cast<size_t>(cores), std::max<size_t>(1, units.size())}));
+    std::atomic<size_t> next_unit{0};
+    std::atomic<int> busy{n_workers};
+    std::atomic<bool> interrupted{false};
+    std::vector<StageTimes> times(n_workers);
+    auto team = [&] {  // the OpenMP team of a worker's next stage
+      omp_set_num_threads(o.compute_threads > 0 ? o.compute_threads : std::max(1, cores / std::max(1, busy.load())));
+    };
+    auto worker = [&](int j) {
+      StageTimes& t = times[j];
+      scene::SequenceState seq;
+      std::string seq_group;
+      for (;;) {
+        if (stopped()) {
+          interrupted = true;
+          break;
+        }
+        const size_t u = next_unit++;
+        if (u >= units.size()) break;
+        for (size_t i = units[u].first; i < units[u].second; ++i) {
+          double c0 = thread_cpu_ms();
+          team();
+          Loaded l = load(todo[i]);
+          const double c1 = thread_cpu_ms();
+          t.reader_cpu_ms += c1 - c0;
+          team();
+          Computed c = compute(l, seq, seq_group);
+          l = Loaded();  // the day image and the labels' copy are no longer needed
+          const double c2 = thread_cpu_ms();
+          t.compute_cpu_ms += c2 - c1;
+          team();
+          write(c);
+          t.writer_cpu_ms += thread_cpu_ms() - c2;
+        }
+      }
+      --busy;  // the others' next stages get this worker's cores
+    };
+    std::vector<std::thread> workers;
+    for (int j = 1; j < n_workers; ++j) workers.emplace_back(worker, j);
+    const OmpThreads restore(0);  // the calling thread's team size, restored when the run ends
+    worker(0);
+    for (auto& t : workers) t.join();
+    if (interrupted) result.interrupted = true;
+    for (const auto& t : times) {
+      st.reader_cpu_ms += t.reader_cpu_ms;
+      st.compute_cpu_ms += t.compute_cpu_ms;
+      st.writer_cpu_ms += t.writer_cpu_ms;
+    }
+  } else {
+    // ---- a reader thread, compute on this thread, writer threads, bounded queues ------------------
+    BoundedQueue<Loaded> loaded(static_cast<size_t>(o.queue_depth));
+    BoundedQueue<Computed> computed(static_cast<size_t>(o.queue_depth));
+    // The writer (EXR encoding) gets OpenEXR's own thread pool and the compute stage a full
+    // OpenMP team, and the OS shares the cores between them. compute_threads caps the compute
+    // stage's team (e.g. beside other jobs on a shared node).
+    const OmpThreads omp_team(o.compute_threads);
+    std::thread reader([&] {
+      const double cpu0 = thread_cpu_ms();
+      for (const auto& it : todo) {
+        if (stopped()) {
+          result.interrupted = true;  // read by the calling thread only after join()
+          break;
+        }
+        loaded.push(load(it), &st.reader_wait_ms);
+      }
+      st.reader_cpu_ms = thread_cpu_ms() - cpu0;  // read by the calling thread only after join()
+      loaded.close();
+    });
+    std::vector<std::thread> writers;
+    std::vector<double> writer_cpu_ms(o.jobs, 0.0), writer_wait_ms(o.jobs, 0.0);
+    for (int j = 0; j < o.jobs; ++j)
+      writers.emplace_back([&, j] {
+        const double cpu0 = thread_cpu_ms();
+        while (auto cmp = computed.pop(&writer_wait_ms[j])) write(*cmp);
+        writer_cpu_ms[j] = thread_cpu_ms() - cpu0;
+      });
+    scene::SequenceState seq;
+    std::string seq_group;
+    const double compute_cpu0 = thread_cpu_ms();
+    while (auto l = loaded.pop(&st.compute_wait_in_ms)) computed.push(compute(*l, seq, seq_group), &st.compute_wait_out_ms);
+    st.compute_cpu_ms = thread_cpu_ms() - compute_cpu0;
+    reader.join();
+    computed.close();
+    for (auto& t : writers) t.join();
+    for (int j = 0; j < o.jobs; ++j) {
+      st.writer_cpu_ms += writer_cpu_ms[j];
+      st.writer_wait_ms += writer_wait_ms[j];
+    }
   }
-  reader.join();
-  computed.close();
-  for (auto& t : writers) t.join();
   std::lock_guard l(state_m);
   pr.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

@@ -354,6 +354,36 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   EXPECT_EQ(ta.size(), 6u * 3);  // exr, png and the label copy per image
   ASSERT_EQ(ta.size(), tb.size());
   for (const auto& [k, v] : ta) EXPECT_TRUE(tb.count(k) && tb.at(k) == v) << k << " differs";
+  for (const auto* r : {&ra, &rb}) {  // every stage's CPU time is counted
+    EXPECT_GT(r->stages.reader_cpu_ms, 0);
+    EXPECT_GT(r->stages.compute_cpu_ms, 0);
+    EXPECT_GT(r->stages.writer_cpu_ms, 0);
+  }
+
+  // On the CPU, items go to min(queue_depth, cores) workers; with sequences a worker takes a
+  // whole group in frame order with the group's own state: one worker of one thread and two of
+  // two threads each write the same bytes.
+  auto c = a, d = b;
+  c.out = dir.file("c"), d.out = dir.file("d");
+  c.sequences = d.sequences = true;
+  const auto rc = batch::run(items, c, cpu), rd = batch::run(items, d, cpu);
+  EXPECT_TRUE(rc.errors.empty() && rd.errors.empty());
+  EXPECT_EQ(rd.progress.written, 6u);
+  const auto tc = tree_bytes(dir.path() / "c"), td = tree_bytes(dir.path() / "d");
+  EXPECT_EQ(tc.size(), 6u * 3);
+  ASSERT_EQ(tc.size(), td.size());
+  for (const auto& [k, v] : tc) EXPECT_TRUE(td.count(k) && td.at(k) == v) << k << " differs with sequences";
+
+  // PNG only (the reader / compute / writer stages on the CPU): the same files as the workers'.
+  auto e = a, f = b;
+  e.out = dir.file("e"), f.out = dir.file("f");
+  e.format = f.format = "png";
+  const auto re = batch::run(items, e, cpu), rf = batch::run(items, f, cpu);
+  EXPECT_TRUE(re.errors.empty() && rf.errors.empty());
+  const auto te = tree_bytes(dir.path() / "e"), tf = tree_bytes(dir.path() / "f");
+  EXPECT_EQ(te.size(), 6u * 2);  // png and the label copy per image
+  EXPECT_TRUE(te == tf);
+  for (const auto& [k, v] : te) EXPECT_TRUE(ta.count(k) && ta.at(k) == v) << k << " differs from the workers' file";
 }
 
 // An interrupted run resumes where it stopped and ends with the bytes of an uninterrupted one;

@@ -46,6 +46,41 @@ TEST(Outputs, Srgb8CodesAreTheNearestToTheTransferFunction) {
   EXPECT_EQ(srgb_encode8(std::numeric_limits<float>::infinity()), 255);
 }
 
+// preview_srgb8's vector path (AVX2, eight samples a lane each) gives the scalar codes for every
+// float in [2^-15, 2) (the whole table and both ends), the specials, and the per-channel gains
+// (rows of pixels whose lengths leave a scalar tail); the per-sample gain is applied in float as
+// in srgb_encode8(x · g).
+TEST(Outputs, Srgb8VectorPathGivesTheScalarCodes) {
+  const float ones[3] = {1.f, 1.f, 1.f};
+  constexpr size_t kBlock = 3 << 16;
+  std::vector<float> x(kBlock);
+  std::vector<uint8_t> vec(kBlock), ref(kBlock);
+  const uint32_t lo = std::bit_cast<uint32_t>(0x1p-15f), hi = std::bit_cast<uint32_t>(2.f);
+  for (uint32_t b0 = lo; b0 < hi; b0 += kBlock) {
+    const size_t n = std::min<size_t>(kBlock, hi - b0) / 3 * 3;
+    for (size_t j = 0; j < n; ++j) x[j] = std::bit_cast<float>(static_cast<uint32_t>(b0 + j));
+    srgb_encode8_rgb(x.data(), n, ones, vec.data(), true);
+    srgb_encode8_rgb(x.data(), n, ones, ref.data(), false);
+    for (size_t j = 0; j < n; ++j) ASSERT_EQ(vec[j], ref[j]) << "x = " << x[j];
+  }
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> specials = {nan, -nan, inf, -inf, -0.f, 0.f, -1.f, 1e-30f, 0x1p-14f, std::nextafter(0x1p-14f, 0.f),
+                                 std::nextafter(1.f, 0.f), 1.f, 3e38f, 0.5f, 0.04f, 0.0031308f, 7e-5f, 1e-4f};
+  while (specials.size() % 24) specials.push_back(0.25f);
+  std::vector<uint8_t> v2(specials.size()), r2(specials.size());
+  srgb_encode8_rgb(specials.data(), specials.size(), ones, v2.data(), true);
+  for (size_t j = 0; j < specials.size(); ++j) EXPECT_EQ(v2[j], srgb_encode8(specials[j])) << "x = " << specials[j];
+  // Gains per channel, 1 to 101 pixels (the tails).
+  const float gains[3] = {1.83f, 0.97f, 1.41f};
+  for (size_t px = 1; px <= 101; px += 4) {
+    std::vector<float> s(3 * px);
+    for (size_t j = 0; j < s.size(); ++j) s[j] = static_cast<float>(uniform_open(random_words(3, px, j, Stream::ReadNoise)[0]));
+    std::vector<uint8_t> v(s.size());
+    srgb_encode8_rgb(s.data(), s.size(), gains, v.data(), true);
+    for (size_t j = 0; j < s.size(); ++j) ASSERT_EQ(v[j], srgb_encode8(s[j] * gains[j % 3])) << px << " pixels, sample " << j;
+  }
+}
+
 // The 8-bit preview is the float preview's codes: the same scale and white balance, each code
 // within one of round(255 · preview_srgb) (the float preview rounds x through double, the 8-bit
 // one decides on the float x; they differ only at a decision level), and equal for almost all.

@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <thread>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +43,8 @@ struct BenchBatchOptions {
   std::string out_dir;
   int repeats = 3;
   bool codecs_only = false;
+  bool end_to_end_only = false;
+  int cycles = 1;
 };
 
 // CPU time of the calling thread, in ms: what a codec call costs the machine, which the other
@@ -266,6 +269,7 @@ cv::Mat mat_of(const ImageF& img) {
 
 void run_bench(const BenchBatchOptions& o) {
   if (o.repeats < 1 || o.repeats > 20) fail("--repeats must be in [1, 20]");
+  if (o.cycles < 1 || o.cycles > 100) fail("--cycles must be in [1, 100]");
   const auto items = batch::discover(batch::Dataset::Cityscapes, o.root);
   const ScratchDir scratch("batch");
   const fs::path& tmp = scratch.path();
@@ -290,11 +294,13 @@ void run_bench(const BenchBatchOptions& o) {
   const FixedPatternMaps fpn = store.load_or_create(r.camera, r.device_id, 2048, 1024);
 
   // ---- the parts alone, and the peers on the same data ----------------------------------------
+  const bool parts = !o.end_to_end_only;
   double t_read = 0, t_compute = 0, t_exr = 0, t_png = 0, t_copy = 0;
   double t_cv_exr = 0, t_cv_png = 0, t_oiio_exr = 0, t_oiio_png = 0;
   double mb_exr = 0, mb_png = 0, mb_cv_exr = 0, t_preview = 0;
   std::vector<ImageU8> previews;
   for (const auto& it : items) {
+    if (!parts) break;
     ImageFileInfo info;
     ImageF day;
     scene::LabelMap labels;
@@ -372,24 +378,56 @@ void run_bench(const BenchBatchOptions& o) {
   for (double* t : {&t_read, &t_compute, &t_exr, &t_png, &t_copy, &t_cv_exr, &t_cv_png, &t_oiio_exr, &t_oiio_png,
                     &mb_exr, &mb_png, &mb_cv_exr, &t_preview})
     *t /= n;
-  codec_bench(items, previews, o.out_dir);
-  std::printf("  preview ISP alone (preview_srgb8, all threads) %.1f ms/image (wall)\n", t_preview);
+  if (parts) {
+    codec_bench(items, previews, o.out_dir);
+    std::printf("  preview ISP alone (preview_srgb8, all threads) %.1f ms/image (wall)\n", t_preview);
+  }
   if (o.codecs_only) return;
 
   // ---- end to end: batch::run in this process, as `photosite batch` runs it ------------------
   SensorRunner cpu(Backend::Cpu);
   // Wall ms per image (median) and CPU ms per image (median) of each route.
+  // --cycles N: each run takes the frames N times over (copy k under cycle<k>/, its own group,
+  // so its own seed), the data set's steady state: a run's fixed costs (the fixed-pattern maps'
+  // load, the first read, the last write with the other cores idle) spread over N times the
+  // images.
+  std::vector<batch::Item> run_items;
+  for (int k = 0; k < o.cycles; ++k)
+    for (batch::Item it : items) {
+      if (o.cycles > 1) {
+        const std::string pre = fmt::format("cycle{}/", k);
+        it.key = pre + it.key, it.group = pre + it.group;
+        if (!it.labels_rel.empty()) it.labels_rel = pre + it.labels_rel;
+        if (!it.instances_rel.empty()) it.instances_rel = pre + it.instances_rel;
+      }
+      run_items.push_back(it);
+    }
+  const double n_run = static_cast<double>(run_items.size());
+  // Where the threads went (batch::Result::stages), per image, the mean over the runs.
   auto end_to_end = [&](const std::string& name, batch::Options opt) {
     std::vector<double> ms, cpu_per_image;
+    batch::StageTimes sum;
+    const double n = n_run;
     for (int k = 0; k < o.repeats; ++k) {
       opt.out = (tmp / fmt::format("{}-{}", name, k)).string();
       const double c0 = cpu_ms();
-      const auto res = batch::run(items, opt, cpu);
+      const auto res = batch::run(run_items, opt, cpu);
       cpu_per_image.push_back((cpu_ms() - c0) / n);
       if (!res.errors.empty()) internal_error("bench batch: " + res.errors.front());
       ms.push_back(res.progress.elapsed_s * 1e3 / n);
       fs::remove_all(opt.out);
+      const auto& s = res.stages;
+      for (auto [acc, v] : {std::pair{&sum.reader_cpu_ms, s.reader_cpu_ms}, {&sum.compute_cpu_ms, s.compute_cpu_ms},
+                            {&sum.writer_cpu_ms, s.writer_cpu_ms}, {&sum.reader_wait_ms, s.reader_wait_ms},
+                            {&sum.compute_wait_in_ms, s.compute_wait_in_ms}, {&sum.compute_wait_out_ms, s.compute_wait_out_ms},
+                            {&sum.writer_wait_ms, s.writer_wait_ms}})
+        *acc += v / (n * o.repeats);
     }
+    std::printf("  %s route, per image (mean of %d runs): CPU reader %.1f, compute thread %.1f, process rest (OpenMP workers) %.1f, writers %.1f ms; "
+                "waits: reader on full queue %.1f, compute for input %.1f, compute on full queue %.1f, writers for work %.1f ms\n",
+                name.c_str(), o.repeats, sum.reader_cpu_ms, sum.compute_cpu_ms,
+                median(cpu_per_image) - sum.reader_cpu_ms - sum.compute_cpu_ms - sum.writer_cpu_ms, sum.writer_cpu_ms,
+                sum.reader_wait_ms, sum.compute_wait_in_ms, sum.compute_wait_out_ms, sum.writer_wait_ms);
     return std::pair{median(ms), median(cpu_per_image)};
   };
   const auto [e2e_exr, cpu_exr] = end_to_end("exr", bo);
@@ -398,9 +436,17 @@ void run_bench(const BenchBatchOptions& o) {
   png_opt.layers = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
   const auto [e2e_png, cpu_png] = end_to_end("png", png_opt);
 
+  if (!parts) {  // --end-to-end-only: no parts to compare with, no CSV
+    std::printf("batch, %zu Cityscapes images (2048x1024) x %d cycles, %s; end to end the median of %d runs\n", items.size(),
+                o.cycles, machine_description().c_str(), o.repeats);
+    for (const auto& [name, ms, c] : {std::tuple{"EXR default route", e2e_exr, cpu_exr}, {"PNG sensor,labels", e2e_png, cpu_png}})
+      std::printf("  end to end, %-18s %8.1f ms/image: %.0f images per core-hour of wall time x %d cores; CPU %.1f ms/image: %.0f images per CPU core-hour used\n",
+                  name, ms, per_core_hour(ms), cores, c, 3.6e6 / c);
+    return;
+  }
   const double exr_parts = t_read + t_compute + t_exr + t_copy, png_parts = t_read + t_compute + t_png + t_copy;
-  std::printf("batch, %zu Cityscapes images (2048x1024), %s; end to end the median of %d runs\n", items.size(),
-              machine_description().c_str(), o.repeats);
+  std::printf("batch, %zu Cityscapes images (2048x1024), %s; end to end the median of %d runs of %d cycle(s) of the images\n",
+              items.size(), machine_description().c_str(), o.repeats, o.cycles);
   std::printf("  read + decode + linearize alone   %8.1f ms/image\n", t_read);
   std::printf("  compute (scene + sensor) alone    %8.1f ms/image\n", t_compute);
   std::printf("  EXR write alone (%s, default layers) %5.1f ms/image  %.2f MB\n", bo.compression.c_str(), t_exr, mb_exr);
@@ -431,9 +477,9 @@ void run_bench(const BenchBatchOptions& o) {
   csv += fmt::format("end_to_end_png_sensor_labels,{:.1f},,{:.0f}\n", e2e_png, per_core_hour(e2e_png));
   csv += fmt::format("end_to_end_exr_default_cpu_time,{:.1f},,{:.0f}\n", cpu_exr, 3.6e6 / cpu_exr);
   csv += fmt::format("end_to_end_png_sensor_labels_cpu_time,{:.1f},,{:.0f}\n", cpu_png, 3.6e6 / cpu_png);
-  csv += fmt::format("# {} Cityscapes 2048x1024 images, onsemi-ar0331, batch::run in process (CPU backend), "
+  csv += fmt::format("# {} Cityscapes 2048x1024 images ({} cycle(s) per end-to-end run), onsemi-ar0331, batch::run in process (CPU backend), "
                      "default layers {} with {}; images_per_core_hour from wall time x {} hardware threads, and (rows *_cpu_time) from the CPU time the run used; {}\n",
-                     items.size(), layers_text(kBatchLayers), bo.compression, cores, machine_description());
+                     items.size(), o.cycles, layers_text(kBatchLayers), bo.compression, cores, machine_description());
   write_bench_csv(o.out_dir, "bench_batch.csv", csv);
 }
 }  // namespace
@@ -447,6 +493,11 @@ static BenchRegistrar reg("batch", "batch engine end to end (EXR and PNG routes)
                             sub->add_option("--out-dir", o->out_dir, "where the CSVs and the chart go (default docs/)");
                             sub->add_flag("--codecs-only", o->codecs_only,
                                           "only the PNG codecs (decode and encode settings), not the end-to-end runs");
+                            sub->add_option("--cycles", o->cycles,
+                                            "end to end: the frames this many times per run (the data set's steady state)")
+                                ->capture_default_str();
+                            sub->add_flag("--end-to-end-only", o->end_to_end_only,
+                                          "only the end-to-end runs of both routes (no parts, peers, codecs or CSV)");
                             sub->callback([o] { run_bench(*o); });
                           });
 }  // namespace photosite::bench

@@ -90,9 +90,11 @@ struct Options {
   // (per-item camera files); ego-motion is not read. A group with an unfinished frame is
   // recomputed whole on a re-run, as its state starts at its first frame.
   bool sequences = false;
-  int jobs = 1;               // writer threads
-  int queue_depth = 2;        // items in flight between read, compute and write (bounds memory)
-  int compute_threads = 0;    // OpenMP team of the compute stage; 0: OpenMP's default
+  int jobs = 1;               // writer threads (not with workers: each writes its own items)
+  int queue_depth = 2;        // images in flight (bounds memory); with workers at most this many
+  // OpenMP team of the compute stage (with workers: of each); 0: automatic (OpenMP's default;
+  // with workers the cores shared among those still busy).
+  int compute_threads = 0;
   // Set (e.g. from a signal handler) to stop reading new items; those in flight are finished.
   const std::atomic<bool>* stop = nullptr;
 };
@@ -109,15 +111,30 @@ struct Progress {
 // engine's threads one at a time.
 using ProgressFn = std::function<void(const Progress&)>;
 
+// Where the engine's threads spent a run, in ms (bench batch prints them per image): the CPU
+// time of each stage's own threads (compute: the calling thread only; its OpenMP workers count in
+// the process total) and the wall time each stage was blocked on a queue.
+struct StageTimes {
+  double reader_cpu_ms = 0, compute_cpu_ms = 0, writer_cpu_ms = 0;
+  double reader_wait_ms = 0;       // on a full queue of loaded images
+  double compute_wait_in_ms = 0;   // for a loaded image
+  double compute_wait_out_ms = 0;  // on a full queue of computed images
+  double writer_wait_ms = 0;       // for a computed image (all writers)
+};
+
 struct Result {
   Progress progress;                // the final counts
+  StageTimes stages;
   std::vector<std::string> errors;  // one per failed item: "<input>: <problem>"
   bool interrupted = false;         // *stop was set before every item was read
 };
 
 // Runs shard (shard_index, shard_count) of `items` (all of them: whole groups go to a shard, as
-// in shard()). A reader thread decodes, the calling thread computes (scene and sensor on
-// `backend`), `jobs` writer threads encode; bounded queues keep memory flat. Every file is
+// in shard()). On the CPU backend with EXR files to write, min(queue_depth, cores) workers each
+// take an item (with sequences: a group) through reading, the scene and sensor, and writing,
+// with an OpenMP team of the cores left to the workers still busy. Otherwise (a GPU backend, or
+// PNG only) a reader thread decodes, the calling thread computes, `jobs` writer threads encode;
+// bounded queues keep memory flat. Every file is
 // written under a temporary name and renamed; temporaries of killed runs are removed first. A
 // per-shard manifest (<out>/.photosite-batch/) records each finished item with its files'
 // checksums: items whose files are intact are skipped. Bad input (Error) before any work: a

@@ -28,6 +28,9 @@ ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb_gains,
 // as the smallest float not below its double value, so for a float x the comparison decides as
 // the double one would.
 uint8_t srgb_encode8(float linear);  // that code for one sample (NaN and below 0: 0)
+// preview_srgb8's inner loop, exposed for tests: dst[j] = srgb_encode8(src[j] · gain[j mod 3])
+// for the n samples of n / 3 RGB pixels; `vector`: AVX2 where the CPU has it (the same codes).
+void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* dst, bool vector = true);
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
                       double percentile = 0.99, double white_point = 1.0);
 
