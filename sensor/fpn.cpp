@@ -222,6 +222,11 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   if (groups.empty()) groups.push_back({{"none.Y"}, &none, ""});  // a preset without FPN
   ExrWriteOptions wo;
   wo.create_only = true;
+  // Uncompressed: the maps are per-pixel noise (PRNU, DSNU, dark-rate factors), which deflate
+  // cannot shrink (ZIP gave 24.5 MB for 24 MB of float32 at 2048x1024), while inflating them
+  // cost every run that loads the map (each `night`, each `batch` run) its decode time. Maps
+  // written before with ZIP are read as they are.
+  wo.compression = "none";
   const bool published = write_exr(path, groups,
                                    {{"photosite/version", std::string(PHOTOSITE_VERSION)},
                                     {"photosite/preset", preset.name},
