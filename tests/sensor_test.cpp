@@ -10,8 +10,10 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <OpenImageIO/imageio.h>
 
 #include "photosite/error.h"
+#include "photosite/io.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/pipeline.h"
@@ -270,6 +272,49 @@ TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
   }
   EXPECT_THROW(store.load_or_create(p, "cam7", 64, 48), Error);
   EXPECT_TRUE(std::filesystem::exists(path));
+}
+
+// Maps are written uncompressed (sensor/fpn.cpp: noise does not deflate); a map that an earlier
+// version wrote with ZIP, same attributes and pixels, still loads to the same maps.
+TEST(DeviceStore, WritesUncompressedAndReadsEarlierZipMaps) {
+  test::TempDir dir;
+  CameraPreset p = flat_qe_camera();
+  p.prnu_percent = 1;
+  p.dsnu_e = 2;
+  DeviceStore store((dir.path() / "new").string());
+  const auto a = store.load_or_create(p, "cam7", 64, 48);
+  const std::string path = store.path_for(p, "cam7", 64, 48);
+  {
+    auto in = OIIO::ImageInput::open(path);
+    ASSERT_TRUE(in);
+    EXPECT_EQ(in->spec().get_string_attribute("compression"), "none");
+  }
+  // The same file rewritten with ZIP into another store, as the store wrote maps before.
+  ExrContents c = read_exr(path);
+  std::map<std::string, ExrAttribute> attrs;
+  for (const char* k : {"photosite/version", "photosite/preset", "photosite/device_id", "photosite/fpn_params",
+                        "photosite/checksum"})
+    attrs[k] = c.attributes.at(k);
+  std::vector<ExrChannelGroup> groups;
+  for (const char* ch : {"prnu.Y", "dsnu.Y", "dark_rate.Y"})
+    if (c.channels.count(ch)) groups.push_back({{ch}, &c.channels.at(ch), ""});
+  ASSERT_FALSE(groups.empty());
+  DeviceStore old_store((dir.path() / "old").string());
+  const std::string old_path = old_store.path_for(p, "cam7", 64, 48);
+  std::filesystem::create_directories(std::filesystem::path(old_path).parent_path());
+  ExrWriteOptions wo;
+  wo.compression = "zip";
+  ASSERT_TRUE(write_exr(old_path, groups, attrs, wo));
+  {
+    auto in = OIIO::ImageInput::open(old_path);
+    ASSERT_TRUE(in);
+    EXPECT_EQ(in->spec().get_string_attribute("compression"), "zip");
+  }
+  const auto b = old_store.load_or_create(p, "cam7", 64, 48);
+  EXPECT_EQ(a.checksum, b.checksum);
+  EXPECT_EQ(a.prnu_gain.vec(), b.prnu_gain.vec());
+  EXPECT_EQ(a.dsnu_offset_e.vec(), b.dsnu_offset_e.vec());
+  EXPECT_EQ(a.dark_rate_factor.vec(), b.dark_rate_factor.vec());
 }
 
 TEST(Sequence, FramesShareFixedPatternAndHaveIndependentTemporalNoise) {
