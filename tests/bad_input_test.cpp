@@ -94,9 +94,10 @@ void exr_declare_size(const std::string& path, int32_t w, int32_t h) {
     const int32_t box[4] = {0, 0, w - 1, h - 1};
     std::memcpy(b.data() + at + tag.size() + 4, box, sizeof box);  // after the int32 size
   }
-  // Room for the chunk offset table the header now implies, so OpenEXR opens the file and it is
-  // photosite's size check that refuses it.
-  put(path, b + std::string(64 * 1024, '\0'));
+  // Room for the chunk offset table the header now implies (at most one 8-byte offset per line,
+  // as an uncompressed file has: the device maps are stored so), so OpenEXR opens the file and
+  // it is photosite's size check that refuses it.
+  put(path, b + std::string(static_cast<size_t>(h) * 8 + 64 * 1024, '\0'));
 }
 
 // Sets the declared size of an EXR header attribute (the int32 after "name\0type\0") to `bytes`,
