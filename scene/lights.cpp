@@ -390,10 +390,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
   // the labels are given.
   const auto& read = ground_classes();
-  static_assert(kLabelCount <= 64);
-  uint64_t read_mask = 0;  // `read` as bits (ids of kLabelCount and above: not read)
-  for (int k = 0; k < kLabelCount; ++k)
-    if (read[k]) read_mask |= uint64_t{1} << k;
+  const uint64_t read_mask = label_bits(read);  // ids of kLabelCount and above: not read
   // On the flat ground a row is one forward distance D and its ground points are X = t·x_n
   // (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
   // column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
@@ -997,10 +994,7 @@ ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labe
   const auto tb = illuminant_tint(p.beam_cct_K);
   const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
                         static_cast<float>(tb[2] / M_PI)};
-  static_assert(kLabelCount <= 64);
-  uint64_t ground_mask = 0;  // dp.ground_class as bits
-  for (int k = 0; k < kLabelCount; ++k)
-    if (dp.ground_class[k]) ground_mask |= uint64_t{1} << k;
+  const uint64_t ground_mask = label_bits(dp.ground_class);
   const bool avx2 = kHaveAvx2;
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) {

@@ -461,12 +461,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
-  // The ground classes as a bit mask over the label ids (all below 64); ids beyond kLabelCount
-  // are not among them.
-  static_assert(kLabelCount <= 64);
-  uint64_t ground_mask = 0;
-  for (int k = 0; k < kLabelCount; ++k)
-    if (ground_classes()[k]) ground_mask |= uint64_t{1} << k;
+  const uint64_t ground_mask = label_bits(ground_classes());
   std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
   for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
 #pragma omp parallel
@@ -798,10 +793,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   const int building = static_cast<int>(Label::Building);
   // The classes that get no vertical light (sky and the ground classes) as a bit mask over the
   // label ids (all below 64); ids beyond kLabelCount are not among them.
-  static_assert(kLabelCount <= 64);
-  uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky);
-  for (int k = 0; k < kLabelCount; ++k)
-    if (ground[k]) dark_classes |= uint64_t{1} << k;
+  const uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky) | label_bits(ground);
   const float I0 = static_cast<float>(s.peak_intensity_cd);
   // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
   // sorted by D).

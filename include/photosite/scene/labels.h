@@ -34,6 +34,18 @@ bool is_ground(int label_id);   // road, sidewalk, parking, ground, rail track, 
 // the low beam, the street lamps' pools).
 const std::array<bool, kLabelCount>& ground_classes();
 
+// A per-label-id table (kLabelCount entries: std::array or a C array of bool) as a bit mask, bit k
+// for label id k, for the vector loops' class tests (`classes >> id & 1`); ids of kLabelCount and
+// above are in no set.
+template <class Table>
+uint64_t label_bits(const Table& in_set) {
+  static_assert(kLabelCount <= 64);
+  uint64_t bits = 0;
+  for (int k = 0; k < kLabelCount; ++k)
+    if (in_set[k]) bits |= uint64_t{1} << k;
+  return bits;
+}
+
 struct LabelMap {
   ImageU16 ids;             // labelIds 0..33, one channel
   LabelFormat format = LabelFormat::LabelIds;  // what the file held
