@@ -173,8 +173,6 @@ class Srgb8Levels {
   }
 #endif
 
- public:
-
  private:
   static constexpr float kLow = 0x1p-14f;
   static constexpr uint32_t kLowBits = 113u << 23;  // 2^-14
