@@ -50,20 +50,6 @@ uint64_t fnv1a_text(const std::string& text, uint64_t h) {
   return h;
 }
 
-uint64_t fnv1a_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return 0;
-  uint64_t h = 0xcbf29ce484222325ull;
-  char buf[1 << 16];
-  while (f) {
-    f.read(buf, sizeof buf);
-    for (std::streamsize i = 0; i < f.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buf[i]);
-      h *= 0x100000001b3ull;
-    }
-  }
-  return h;
-}
 
 uint64_t group_seed(uint64_t base_seed, const std::string& group) {
   uint64_t z = fnv1a_text(group) ^ (base_seed * 0x9e3779b97f4a7c15ull);

@@ -33,6 +33,7 @@
 #include <nlohmann/json.hpp>
 
 #include "photosite/batch.h"
+#include "photosite/checksum.h"
 #include "photosite/error.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
@@ -211,8 +212,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     if (d == done.end()) return false;
     for (const auto& f : d->second["files"]) {
       const fs::path p = out / f["path"].get<std::string>();
-      if (!fs::exists(p) || fmt::format("{:016x}", fnv1a_file(p.string())) != f["fnv"].get<std::string>())
-        return false;
+      // Records name their checksum by its algorithm: "xxh3_64" now, "fnv" (FNV-1a 64) in
+      // manifests written before XXH3 was adopted. A record with neither is not trusted.
+      const bool xxh3 = f.contains("xxh3_64");
+      if (!xxh3 && !f.contains("fnv")) return false;
+      const auto sum = file_checksum_hex(p.string(), xxh3 ? ChecksumAlgorithm::Xxh3_64 : ChecksumAlgorithm::Fnv1a_64);
+      if (!sum || *sum != f[xxh3 ? "xxh3_64" : "fnv"].get<std::string>()) return false;
     }
     return true;
   };
@@ -369,7 +374,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           const fs::path p = out / relp;
           fs::create_directories(p.parent_path());
           write_file(p.string());
-          files.push_back({{"path", relp}, {"fnv", fmt::format("{:016x}", fnv1a_file(p.string()))}});
+          const auto sum = file_checksum_hex(p.string(), ChecksumAlgorithm::Xxh3_64);
+          if (!sum) fail_at(p.string(), "cannot read back the file just written (for its checksum)");
+          files.push_back({{"path", relp}, {"xxh3_64", *sum}});
         }
       } catch (const Error& e) {
         error = e.what();

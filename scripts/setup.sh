@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/lib.sh
 PKGS=(build-essential cmake ninja-build pkg-config
-      libopenimageio-dev openimageio-tools libopenexr-dev libimath-dev libopencv-dev libpng-dev libdeflate-dev zlib1g-dev libspng-dev
+      libopenimageio-dev openimageio-tools libopenexr-dev libimath-dev libopencv-dev libpng-dev libdeflate-dev zlib1g-dev libspng-dev libxxhash-dev
       libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
       libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
       libgtest-dev libbenchmark-dev python3-matplotlib python3-numpy

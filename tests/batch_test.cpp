@@ -15,6 +15,7 @@
 #include <functional>
 
 #include "photosite/batch.h"
+#include "photosite/checksum.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -445,6 +446,57 @@ TEST(Batch, LibraryResumesRefusesAndCleansUp) {
   auto f = kitti_options(dir, root, dir.file("foreign"));
   EXPECT_NE(error_of([&] { batch::run(items, f, cpu); }).find("never overwrites"), std::string::npos);
   EXPECT_EQ(tree_bytes(dir.path() / "foreign").size(), 1u);
+}
+
+// Each written file is recorded with its XXH3-64 checksum; records of earlier runs carry FNV-1a
+// 64 under "fnv" and still verify, so their finished items are skipped. A damaged output fails
+// either check and its item is done again, back to the same bytes.
+TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 0);
+  const std::string root = dir.file("kitti");
+  const auto items = batch::discover(batch::Dataset::Kitti, root);
+  SensorRunner cpu(Backend::Cpu);
+  const auto o = kitti_options(dir, root, dir.file("out"));
+  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
+  const auto out = tree_bytes(dir.path() / "out");
+  const fs::path manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
+  std::vector<nlohmann::json> lines;
+  {
+    std::ifstream in(manifest);
+    for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
+  }
+  ASSERT_EQ(lines.size(), 3u);  // the parameters, then one record per item
+  size_t recorded = 0;
+  for (size_t i = 1; i < lines.size(); ++i)
+    for (auto& f : lines[i]["files"]) {
+      const std::string path = (dir.path() / "out" / f["path"].get<std::string>()).string();
+      ASSERT_EQ(f["xxh3_64"].get<std::string>(), file_checksum_hex(path, ChecksumAlgorithm::Xxh3_64)) << path;
+      ASSERT_FALSE(f.contains("fnv"));
+      f.erase("xxh3_64");
+      f["fnv"] = *file_checksum_hex(path, ChecksumAlgorithm::Fnv1a_64);
+      ++recorded;
+    }
+  EXPECT_EQ(recorded, 2u * 3u);  // EXR, PNG and the labels' copy per item
+  {
+    std::ofstream mo(manifest);
+    for (const auto& j : lines) mo << j.dump() << "\n";
+  }
+  auto again = batch::run(items, o, cpu);
+  EXPECT_EQ(again.progress.already_done, 2u);
+  EXPECT_EQ(again.progress.to_do, 0u);
+  // One byte of one PNG changed: that item is redone, and the tree is the first run's again.
+  const std::string png = lines[1]["files"][1]["path"].get<std::string>();
+  ASSERT_NE(png.find(".png"), std::string::npos) << png;
+  {
+    std::fstream f(dir.file("out/" + png), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(100);
+    f.put('\x5a');
+  }
+  again = batch::run(items, o, cpu);
+  EXPECT_EQ(again.progress.already_done, 1u);
+  EXPECT_EQ(again.progress.written, 1u);
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
 }
 
 // A data set reached through a symbolic link is the same data set: writing into its root is

@@ -276,7 +276,7 @@ TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
 
 // Maps are written uncompressed (sensor/fpn.cpp: noise does not deflate); a map that an earlier
 // version wrote with ZIP, same attributes and pixels, still loads to the same maps.
-TEST(DeviceStore, WritesUncompressedAndReadsEarlierZipMaps) {
+TEST(DeviceStore, WritesUncompressedWithXxh3AndReadsEarlierZipFnvMaps) {
   test::TempDir dir;
   CameraPreset p = flat_qe_camera();
   p.prnu_percent = 1;
@@ -289,32 +289,55 @@ TEST(DeviceStore, WritesUncompressedAndReadsEarlierZipMaps) {
     ASSERT_TRUE(in);
     EXPECT_EQ(in->spec().get_string_attribute("compression"), "none");
   }
-  // The same file rewritten with ZIP into another store, as the store wrote maps before.
+  // Both checksums recorded: FNV-1a 64 (the identity outputs carry) and XXH3-64 (verified).
   ExrContents c = read_exr(path);
-  std::map<std::string, ExrAttribute> attrs;
-  for (const char* k : {"photosite/version", "photosite/preset", "photosite/device_id", "photosite/fpn_params",
-                        "photosite/checksum"})
-    attrs[k] = c.attributes.at(k);
+  EXPECT_EQ(c.attributes.at("photosite/checksum"), fixed_pattern_checksum(a, ChecksumAlgorithm::Fnv1a_64));
+  EXPECT_EQ(c.attributes.at("photosite/checksum_xxh3_64"), fixed_pattern_checksum(a, ChecksumAlgorithm::Xxh3_64));
+  EXPECT_EQ(a.checksum, c.attributes.at("photosite/checksum"));
+  EXPECT_EQ(a.checksum_xxh3, c.attributes.at("photosite/checksum_xxh3_64"));
+  const auto reloaded = store.load_or_create(p, "cam7", 64, 48);
+  EXPECT_EQ(reloaded.checksum, a.checksum);
+  EXPECT_EQ(reloaded.checksum_xxh3, a.checksum_xxh3);
+  // The same maps rewritten as the store wrote them before (ZIP, the FNV-1a only), or with one
+  // checksum damaged, each into a store of its own.
   std::vector<ExrChannelGroup> groups;
   for (const char* ch : {"prnu.Y", "dsnu.Y", "dark_rate.Y"})
     if (c.channels.count(ch)) groups.push_back({{ch}, &c.channels.at(ch), ""});
   ASSERT_FALSE(groups.empty());
-  DeviceStore old_store((dir.path() / "old").string());
-  const std::string old_path = old_store.path_for(p, "cam7", 64, 48);
-  std::filesystem::create_directories(std::filesystem::path(old_path).parent_path());
-  ExrWriteOptions wo;
-  wo.compression = "zip";
-  ASSERT_TRUE(write_exr(old_path, groups, attrs, wo));
+  auto rewritten = [&](const std::string& store_name, const std::string& fnv, const std::string& xxh3) {
+    std::map<std::string, ExrAttribute> attrs;
+    for (const char* k : {"photosite/version", "photosite/preset", "photosite/device_id", "photosite/fpn_params"})
+      attrs[k] = c.attributes.at(k);
+    attrs["photosite/checksum"] = fnv;
+    if (!xxh3.empty()) attrs["photosite/checksum_xxh3_64"] = xxh3;
+    DeviceStore s((dir.path() / store_name).string());
+    const std::string old_path = s.path_for(p, "cam7", 64, 48);
+    std::filesystem::create_directories(std::filesystem::path(old_path).parent_path());
+    ExrWriteOptions wo;
+    wo.compression = "zip";
+    EXPECT_TRUE(write_exr(old_path, groups, attrs, wo));
+    return s;
+  };
+  const DeviceStore old_store = rewritten("old", a.checksum, "");
   {
-    auto in = OIIO::ImageInput::open(old_path);
+    auto in = OIIO::ImageInput::open(old_store.path_for(p, "cam7", 64, 48));
     ASSERT_TRUE(in);
     EXPECT_EQ(in->spec().get_string_attribute("compression"), "zip");
   }
   const auto b = old_store.load_or_create(p, "cam7", 64, 48);
-  EXPECT_EQ(a.checksum, b.checksum);
+  EXPECT_EQ(b.checksum, a.checksum);
+  EXPECT_TRUE(b.checksum_xxh3.empty());
   EXPECT_EQ(a.prnu_gain.vec(), b.prnu_gain.vec());
   EXPECT_EQ(a.dsnu_offset_e.vec(), b.dsnu_offset_e.vec());
   EXPECT_EQ(a.dark_rate_factor.vec(), b.dark_rate_factor.vec());
+  const std::string flipped_fnv = a.checksum.substr(0, 15) + (a.checksum.back() == '0' ? "1" : "0");
+  const std::string flipped_xxh3 = a.checksum_xxh3.substr(0, 15) + (a.checksum_xxh3.back() == '0' ? "1" : "0");
+  const DeviceStore bad_old = rewritten("bad_old", flipped_fnv, "");
+  const std::string e1 = test::error_of([&] { bad_old.load_or_create(p, "cam7", 64, 48); });
+  EXPECT_NE(e1.find("corrupt (FNV-1a 64 checksum"), std::string::npos) << e1;
+  const DeviceStore bad_new = rewritten("bad_new", a.checksum, flipped_xxh3);
+  const std::string e2 = test::error_of([&] { bad_new.load_or_create(p, "cam7", 64, 48); });
+  EXPECT_NE(e2.find("corrupt (XXH3-64 checksum"), std::string::npos) << e2;
 }
 
 TEST(Sequence, FramesShareFixedPatternAndHaveIndependentTemporalNoise) {

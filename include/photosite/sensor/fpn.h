@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "photosite/checksum.h"
 #include "photosite/image.h"
 #include "photosite/sensor/preset.h"
 
@@ -20,12 +21,18 @@ struct FixedPatternMaps {
   ImageF prnu_gain;         // 1 + δ (dimensionless); empty when the preset has no PRNU
   ImageF dsnu_offset_e;     // e-; empty when the preset has no offset DSNU
   ImageF dark_rate_factor;  // multiplies the mean dark rate; empty when uniform and no hot pixels
-  std::string checksum;     // of the map contents (FNV-1a 64, hex)
+  // FNV-1a 64 of the map contents (hex): the map's identity, recorded in every output's header
+  // (photosite/fpn_checksum) since the first device store.
+  std::string checksum;
+  // XXH3-64 of the same bytes (hex), what a load verifies (the faster of the two, see
+  // photosite/checksum.h); empty for a map loaded from a file written before it was recorded, which is
+  // verified by its FNV-1a instead.
+  std::string checksum_xxh3;
 };
 
 FixedPatternMaps generate_fixed_pattern(const CameraPreset& preset, int width, int height,
                                         const std::string& device_id);
-std::string fixed_pattern_checksum(const FixedPatternMaps& maps);
+std::string fixed_pattern_checksum(const FixedPatternMaps& maps, ChecksumAlgorithm algorithm);
 
 class DeviceStore {
  public:
