@@ -101,7 +101,7 @@ const std::array<bool, kLabelCount>& ground_classes() {
 LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::string& file) {
   LabelMap m;
   const int w = raw.width(), h = raw.height();
-  m.ids = ImageU16(w, h, 1, 0, unit::label_id);
+  m.ids = ImageU16(w, h, 1, uninitialized, unit::label_id);  // every pixel is written below, or it throws
   auto where_px = [&](size_t i) {
     return " at pixel (" + std::to_string(i % w) + ", " + std::to_string(i / w) + ")";
   };
@@ -138,6 +138,11 @@ LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::strin
     else format = LabelFormat::LabelIds;  // values 0..18 only are ambiguous: labelIds (the common file)
   }
   m.format = format;
+  if (format == LabelFormat::LabelIds && !has255 && maxv < kLabelCount) {
+    // Every value is a labelId already (the first pass saw them all): the ids are the codes.
+    std::copy_n(raw.data(), raw.size(), m.ids.data());
+    return m;
+  }
   for (size_t i = 0; i < raw.pixel_count(); ++i) {
     const int v = raw[i];
     int id = -1;
@@ -224,17 +229,18 @@ LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, i
   }
   LabelMap m = decode_labels(raw, format, labels_path);
   if (instances) {
-    ImageU16 inst = *instances;
-    if (inst.channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
-    if (!inst.same_shape(width, height)) {
+    if (instances->channels() != 1) fail_at(instances_path, "instance ids must be a one-channel image");
+    ImageU16 resized;  // only when the instance ids must be resampled; otherwise read in place
+    if (!instances->same_shape(width, height)) {
       if (resize == ResizeLabels::None)
         fail_parameter("resize_labels",
-                       instances_path + ": instance ids are " + std::to_string(inst.width()) + "x" +
-                           std::to_string(inst.height()) + " but the image is " + std::to_string(width) + "x" +
+                       instances_path + ": instance ids are " + std::to_string(instances->width()) + "x" +
+                           std::to_string(instances->height()) + " but the image is " + std::to_string(width) + "x" +
                            std::to_string(height) + " (pass ",
                        "=nearest to resample them)");
-      inst = resize_nearest(inst, width, height);
+      resized = resize_nearest(*instances, width, height);
     }
+    const ImageU16& inst = resized.empty() ? *instances : resized;
     m.instances = ImageU16(width, height, 1, 0, "instance id");
     // Cityscapes codes are class*1000 + n; KITTI's instance PNGs use class*256 + n. Decide by
     // which one agrees with the labels on every pixel carrying an instance.
