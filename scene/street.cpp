@@ -514,12 +514,21 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       }
     }
   }
-  // Lamp heads: discs of the head's diameter at its projected size, only over their footprint.
-  const auto head = spectrum::blackbody_rgb(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
+  // Lamp heads: discs of the head's diameter at its projected size, only over their footprint,
+  // at the luminance the luminaire's own intensity distribution sends toward the camera:
+  // L = I0·rel(γ) / (π d²/4), γ the angle from the nadir of the lamp-to-camera direction, so the
+  // flux per steradian reaching the lens is I(γ), the distribution that lights the pools (as the
+  // vehicle lamps are drawn at I/A). A cut-off luminaire seen in the frame is beyond its cut-off;
+  // its peak luminance I0/A (4e4 cd/m² for night-urban) is seen only from below.
+  const auto head1 = spectrum::blackbody_rgb(p.streetlamp_cct_K, 1.0);
+  const double head_area_m2 = M_PI * 0.25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
   int drawn = 0;
   for (const auto& l : s.lamps) {
     double u, v, z;
     if (!g.project(l.X_m, l.Y_m, l.D_m, &u, &v, &z)) continue;
+    const double gamma = std::atan2(std::hypot(l.X_m, l.D_m), l.Y_m - g.mount_height_m);
+    const double Lh = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / head_area_m2;
+    const std::array<double, 3> head{head1[0] * Lh, head1[1] * Lh, head1[2] * Lh};
     const double r = std::max(0.5, 0.5 * g.f_px * p.lamp_head_diameter_m / z);
     if (u + r < 0 || u - r >= W || v + r < 0 || v - r >= H) continue;
     bool any = false;

@@ -194,9 +194,10 @@ void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* 
   srgb8_levels().encode_rgb(src, n, gain, dst, vector);
 }
 
-ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point) {
+namespace {
+// 8-bit sRGB codes of rgb · wb · scale (preview_srgb8's and preview_srgb8_auto's encoding).
+ImageU8 preview_srgb8_scaled(const ImageF& rgb, const std::array<double, 3>& wb, double scale) {
   const Srgb8Levels& encode = srgb8_levels();
-  const double scale = preview_scale(rgb, wb, percentile, white_point);
   const float g[3] = {static_cast<float>(wb[0] * scale), static_cast<float>(wb[1] * scale),
                       static_cast<float>(wb[2] * scale)};
   const int64_t n = static_cast<int64_t>(rgb.pixel_count());
@@ -208,6 +209,85 @@ ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double
   for (int64_t i = 0; i < n; i += kChunk)
     encode.encode_rgb(src + 3 * i, static_cast<size_t>(3 * std::min(kChunk, n - i)), g, dst + 3 * i, true);
   return out;
+}
+}  // namespace
+
+ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point) {
+  return preview_srgb8_scaled(rgb, wb, preview_scale(rgb, wb, percentile, white_point));
+}
+
+// ---- auto-exposure preview (isp.h: AutoExposure) ----
+double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure) {
+  return std::min(std::ldexp(1.0, camera.bit_depth) - 1 - camera.black_level_dn,
+                  camera.full_well_e * exposure.system_gain_dn_per_e);
+}
+
+AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExposure& exposure) {
+  AutoExposure ae;
+  ae.max_gain = std::max(1.0, std::pow(10.0, camera.max_gain_db / 20) / exposure.gain_linear);
+  return ae;
+}
+
+double auto_exposure_gain(const ImageF& rgb, const std::array<double, 3>& wb, double full_scale_dn,
+                          const AutoExposure& ae) {
+  if (!(full_scale_dn > 0) || !std::isfinite(full_scale_dn))
+    fail_parameter("full_scale_dn", "", fmt::format(": {} is not a sensor full scale", full_scale_dn));
+  if (!(ae.target > 0 && ae.target < 1))
+    fail_parameter("auto_exposure_target", "", fmt::format(": {} is not a fraction of full scale in (0, 1)", ae.target));
+  if (!(ae.max_gain >= 1) || !std::isfinite(ae.max_gain))
+    fail_parameter("auto_exposure_max_gain", "", fmt::format(": {} is not a gain of at least 1", ae.max_gain));
+  if (!(ae.clip_fraction >= 0 && ae.clip_fraction < 1))
+    fail_parameter("auto_exposure_clip_fraction", "", fmt::format(": {} is not a fraction in [0, 1)", ae.clip_fraction));
+  const double g_min = std::min({wb[0], wb[1], wb[2]});
+  const double k = 1.0 / (g_min * full_scale_dn);
+  const int64_t n = static_cast<int64_t>(rgb.pixel_count());
+  if (n == 0) return ae.max_gain;
+  std::vector<float> y(n);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const double v = k * (0.2126 * wb[0] * rgb[3 * i] + 0.7152 * wb[1] * rgb[3 * i + 1] + 0.0722 * wb[2] * rgb[3 * i + 2]);
+    y[i] = std::isfinite(v) ? static_cast<float>(std::max(v, 0.0)) : 0.f;  // NaN (no signal) meters as black
+  }
+  // The metered mean at gain G: per-chunk sums in double over fixed chunks, added in chunk order,
+  // so the result is the same for any thread count.
+  constexpr int64_t kChunk = 1 << 16;
+  const int64_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> part(chunks);
+  auto metered = [&](double gain) {
+    const float g = static_cast<float>(gain);
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < chunks; ++c) {
+      double s = 0;
+      for (int64_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) s += std::min(g * y[i], 1.f);
+      part[c] = s;
+    }
+    double s = 0;
+    for (double v : part) s += v;
+    return s / static_cast<double>(n);
+  };
+  double max_gain = ae.max_gain;
+  if (ae.clip_fraction > 0) {  // highlight protection: y_(k) * G <= 1
+    const size_t kth = static_cast<size_t>((1 - ae.clip_fraction) * static_cast<double>(n - 1));
+    const double y_k = kth_smallest(y, std::min(kth, static_cast<size_t>(n - 1)));
+    if (y_k > 0) max_gain = std::clamp(1.0 / y_k, 1.0, max_gain);
+  }
+  if (metered(max_gain) <= ae.target) return max_gain;  // the night case: out of the gain range
+  if (metered(1.0) >= ae.target) return 1.0;
+  // The metered mean rises monotonically with the gain: bisection in log gain. 48 halvings of at
+  // most ln(max_gain) (60 dB: 6.9) leave 2.5e-14 relative, below the float product's rounding.
+  double lo = 0, hi = std::log(max_gain);
+  for (int it = 0; it < 48; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (metered(std::exp(mid)) < ae.target ? lo : hi) = mid;
+  }
+  return std::exp(0.5 * (lo + hi));
+}
+
+ImageU8 preview_srgb8_auto(const ImageF& rgb, const std::array<double, 3>& wb, double full_scale_dn,
+                           const AutoExposure& ae, double* gain_out) {
+  const double gain = auto_exposure_gain(rgb, wb, full_scale_dn, ae);
+  if (gain_out) *gain_out = gain;
+  return preview_srgb8_scaled(rgb, wb, gain / (std::min({wb[0], wb[1], wb[2]}) * full_scale_dn));
 }
 
 ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb, double percentile,

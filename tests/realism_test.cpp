@@ -369,6 +369,30 @@ TEST(RealismBench, OneFramePerDataSetGivesEveryMethodAndTheRealSet) {
   EXPECT_TRUE(seen_day);
 }
 
+// --methods writes only the methods named (the photosite chain still runs: the auto-exposure
+// previews are of its sensor frame), in the manifest and as files.
+TEST(RealismBench, MethodsListWritesOnlyThoseMethods) {
+  PHOTOSITE_REQUIRE_SHARED("data/night_real");
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  PHOTOSITE_REQUIRE_SHARED("data/kitti");
+  test::TempDir tmp;
+  const auto r = test::run_cli("bench realism --max-frames 1 --no-stats --previews '" + tmp.file("prev") +
+                               "' --methods 'photosite auto exposure,day photo'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream f(tmp.file("prev") + "/manifest.csv");
+  ASSERT_TRUE(f) << r.output;
+  std::string line;
+  std::getline(f, line);
+  std::vector<std::string> methods;
+  while (std::getline(f, line)) methods.push_back(line.substr(0, line.find(',')));
+  EXPECT_EQ(methods, (std::vector<std::string>{"\"photosite auto exposure\"", "\"day photo\"",
+                                               "\"photosite auto exposure\"", "\"day photo\""}))
+      << r.output;
+  int pngs = 0;
+  for (const auto& e : std::filesystem::directory_iterator(tmp.file("prev"))) pngs += e.path().extension() == ".png";
+  EXPECT_EQ(pngs, 2);  // the two auto-exposure previews; the day photos are the inputs themselves
+}
+
 }  // namespace
 }  // namespace photosite
 
@@ -436,5 +460,138 @@ TEST(CameraIsp, KthSmallestIsNthElement) {
       EXPECT_EQ(kth_smallest(v, k), ref[k]) << k << " " << threads;
     }
   omp_set_num_threads(team);
+}
+}  // namespace photosite
+
+namespace photosite {
+namespace {
+// The metered mean at gain g, in double, straight from the definition (isp.h auto_exposure_gain).
+double metered_mean(const ImageF& rgb, const std::array<double, 3>& wb, double fs, double g) {
+  const double k = 1.0 / (std::min({wb[0], wb[1], wb[2]}) * fs);
+  double s = 0;
+  for (size_t i = 0; i < rgb.pixel_count(); ++i)
+    s += std::min(1.0, g * k * (0.2126 * wb[0] * rgb[3 * i] + 0.7152 * wb[1] * rgb[3 * i + 1] + 0.0722 * wb[2] * rgb[3 * i + 2]));
+  return s / static_cast<double>(rgb.pixel_count());
+}
+}  // namespace
+
+// The AE reaches its target when the target is within the gain range. Frame: 5 % of the pixels
+// at half of full scale (clipped at any gain >= 2), 95 % at 1 % of full scale; the metered mean
+// is 0.05 + 0.95 * 0.01 * G, so G = (target - 0.05) / 0.0095 = 13.31 (inside 1 .. 15.85).
+// Tolerance: the luminance is stored as float and multiplied by the gain in float (each a
+// relative rounding of at most 2^-24, so 2^-23 on each clipped-or-not term), the sums are in
+// double: the metered mean is off by at most 2^-23 * target, which moves G by
+// 2^-23 * target / 0.0095 / G = 2.1e-7 relative; the bisection ends at 2.5e-14. 1e-6 is 4.7x that.
+TEST(AutoExposure, MeteringReachesItsTarget) {
+  const int w = 200, h = 100, bright = w * h / 20;
+  const double fs = 1000;
+  ImageF rgb(w, h, 3, 10.f);
+  for (int i = 0; i < bright; ++i)
+    for (int c = 0; c < 3; ++c) rgb[3 * static_cast<size_t>(i) * 20 + c] = 500.f;  // every 20th pixel
+  const std::array<double, 3> wb{1, 1, 1};
+  AutoExposure ae;
+  ae.max_gain = std::pow(10.0, 24.0 / 20);
+  const double g = auto_exposure_gain(rgb, wb, fs, ae);
+  const double expected = (ae.target - 0.05) / (0.95 * 0.01);
+  EXPECT_NEAR(g / expected, 1.0, 1e-6) << g;
+  EXPECT_NEAR(metered_mean(rgb, wb, fs, g) / ae.target, 1.0, 1e-6);
+  // The preview shows full scale / G as white: the dim pixels at 0.01 * G of white, the bright ones white.
+  double got = 0;
+  const ImageU8 p = preview_srgb8_auto(rgb, wb, fs, ae, &got);
+  EXPECT_EQ(got, g);
+  EXPECT_EQ(p[0], 255);
+  EXPECT_EQ(p[3], srgb_encode8(static_cast<float>(10.0 * (g / fs))));
+  // The white-balance gains count in the metering and are normalised to the smallest: with
+  // gains (2, 1, 4) and the frame divided by them, the balanced frame is the same grey.
+  const std::array<double, 3> wb2{2, 1, 4};
+  ImageF rgb2 = rgb;
+  for (size_t i = 0; i < rgb2.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c) rgb2[3 * i + c] = static_cast<float>(rgb[3 * i + c] / wb2[c]);
+  EXPECT_NEAR(auto_exposure_gain(rgb2, wb2, fs, ae) / expected, 1.0, 1e-6);
+  // Highlight protection: with at most 1 % clipping, the 5 % at half of full scale hold the gain
+  // at 2 (their 99th percentile is 0.5 of full scale), where the frame meters 0.069 < target.
+  ae.clip_fraction = 0.01;
+  EXPECT_DOUBLE_EQ(auto_exposure_gain(rgb, wb, fs, ae), 2.0);
+  ae.clip_fraction = 0.2;  // the 80th percentile is a dim pixel: 1 / 0.01 = 100 > max_gain, no limit
+  EXPECT_NEAR(auto_exposure_gain(rgb, wb, fs, ae) / expected, 1.0, 1e-6);
+}
+
+// Out of range: a dim frame (the night case) and an all-black one get the largest gain, a frame
+// that meters above the target at the simulated exposure keeps it (gain 1), and a frame saturated
+// in every channel is white whatever the camera's white balance.
+TEST(AutoExposure, GainRangeLimitsAndDegenerateFrames) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const auto wb = white_balance_gains(cam);
+  const double fs = 3780;
+  AutoExposure ae;
+  ae.max_gain = 8;
+  EXPECT_EQ(auto_exposure_gain(ImageF(64, 32, 3, 1.f), wb, fs, ae), 8.0);  // meters 2.6e-4 * 8 << target
+  const ImageF black(64, 32, 3, 0.f);
+  double g = 0;
+  const ImageU8 pb = preview_srgb8_auto(black, wb, fs, ae, &g);
+  EXPECT_EQ(g, 8.0);
+  EXPECT_TRUE(std::all_of(pb.data(), pb.data() + pb.size(), [](uint8_t v) { return v == 0; }));
+  ImageF nan_frame(8, 8, 3, 0.f);
+  nan_frame[5] = std::nanf("");
+  EXPECT_EQ(auto_exposure_gain(nan_frame, wb, fs, ae), 8.0);
+  EXPECT_EQ(auto_exposure_gain(ImageF(64, 32, 3, 0.5f * 3780), wb, fs, ae), 1.0);  // meters >= 0.5
+  const ImageF saturated(64, 32, 3, static_cast<float>(fs));
+  const ImageU8 ps = preview_srgb8_auto(saturated, wb, fs, ae, &g);
+  EXPECT_EQ(g, 1.0);
+  EXPECT_TRUE(std::all_of(ps.data(), ps.data() + ps.size(), [](uint8_t v) { return v == 255; }));
+  // The camera's range: 24 dB above a 0 dB exposure, nothing above a 24 dB one; the AR0331's full
+  // scale is its full well (9000 e- x 0.42 DN/e- = 3780 DN), below the ADC's 4095 - 168.
+  LensPreset lens = load_lens_preset(cam.default_lens);
+  ExposureSettings s;
+  EXPECT_NEAR(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, std::pow(10.0, 24.0 / 20), 1e-12);
+  EXPECT_DOUBLE_EQ(sensor_full_scale_dn(cam, resolve(cam, lens, s)), 3780);
+  s.gain_db = 24;
+  EXPECT_EQ(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, 1.0);
+}
+
+TEST(AutoExposure, DeterministicForAnyThreadCount) {
+  std::mt19937 rng(7);
+  std::exponential_distribution<float> e(1.0f / 40);  // a dim frame with a long bright tail
+  ImageF rgb(333, 211, 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = std::min(e(rng), 1000.f);
+  AutoExposure ae;
+  ae.max_gain = 16;
+  const int before = omp_get_max_threads();
+  std::vector<double> g;
+  for (int t : {1, 2, 3}) {
+    omp_set_num_threads(t);
+    g.push_back(auto_exposure_gain(rgb, {1.5, 1, 2}, 1000, ae));
+  }
+  omp_set_num_threads(before);
+  EXPECT_GT(g[0], 1.0);
+  EXPECT_LT(g[0], 16.0);  // the target is inside the range: the bisection ran
+  EXPECT_EQ(g[0], g[1]);
+  EXPECT_EQ(g[0], g[2]);
+}
+
+TEST(AutoExposure, BadSettingsAreRefused) {
+  const ImageF rgb(4, 4, 3, 1.f);
+  auto parameter_of = [&](double fs, double target, double max_gain) -> std::string {
+    AutoExposure ae;
+    ae.target = target;
+    ae.max_gain = max_gain;
+    try {
+      auto_exposure_gain(rgb, {1, 1, 1}, fs, ae);
+    } catch (const ParameterError& e) {
+      return e.parameter();
+    }
+    return "";
+  };
+  EXPECT_EQ(parameter_of(0, 0.2, 2), "full_scale_dn");
+  EXPECT_EQ(parameter_of(NAN, 0.2, 2), "full_scale_dn");
+  EXPECT_EQ(parameter_of(1000, 0, 2), "auto_exposure_target");
+  EXPECT_EQ(parameter_of(1000, 1, 2), "auto_exposure_target");
+  EXPECT_EQ(parameter_of(1000, 0.2, 0.5), "auto_exposure_max_gain");
+  EXPECT_EQ(parameter_of(1000, 0.2, INFINITY), "auto_exposure_max_gain");
+  EXPECT_EQ(parameter_of(1000, 0.2, 2), "");
+  AutoExposure bad;
+  bad.max_gain = 2;
+  bad.clip_fraction = 1;
+  EXPECT_THROW(auto_exposure_gain(rgb, {1, 1, 1}, 1000, bad), ParameterError);
 }
 }  // namespace photosite

@@ -439,6 +439,25 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
   EXPECT_LE(under / gap, e_under / e_gap * 1.1 / 0.9 * (1 + slack));
 }
 
+namespace {
+// The synthetic street without boxes and its planned luminaires (seed 7).
+struct OpenStreet {
+  SyntheticCameraOptions o;
+  SyntheticCameraScene sc;
+  ScenePreset p;
+  StreetLighting s;
+};
+OpenStreet open_street() {
+  OpenStreet r;
+  r.o = camera_scene();
+  r.o.boxes.clear();
+  r.sc = make_synthetic_camera_scene(r.o);
+  r.p = urban();
+  r.s = plan_street_lighting(r.sc.labels, r.o.camera, r.p, 7);
+  return r;
+}
+}  // namespace
+
 // Each luminaire is drawn only over its footprint, the ground within R = H·tan(γ_R),
 // γ_R = min(85°, cut-off + 2·falloff), of its foot along the road (|D − D_l| ≤ R, street.cpp).
 // On every road pixel the pools then hold E from exactly the lamps whose band holds the pixel's
@@ -452,11 +471,8 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
 // at most (number of lamps dropped there)·E_R. Pixels within 1e-6·R of a band's edge are skipped
 // (the image's and the test's rounding may put them on either side).
 TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
-  SyntheticCameraOptions o = camera_scene();
-  o.boxes.clear();
-  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const StreetLighting s = plan_street_lighting(sc.labels, o.camera, p, 7);
+  const OpenStreet street = open_street();
+  const auto& [o, sc, p, s] = street;
   ASSERT_GT(s.lamps.size(), 4u);
   const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
   ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
@@ -505,6 +521,52 @@ TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
                "%.2e of the average (bound %.2e), %d pixels checked, %d on a rim\n",
                R, E_R, E_R / E_avg, E_avg, worst_share, worst_bound_share, checked, rim);
   std::fprintf(stderr, "[street] float32 pools: worst relative error %.2e (bound up to %.2e)\n", worst_rel, worst_tol);
+}
+
+// A lamp head is drawn at the luminance its own intensity distribution sends toward the camera:
+// L = I0·rel(γ) / A_head, γ the angle from the nadir of the lamp-to-camera direction, A_head the
+// head's disc (π d²/4), so the flux per steradian toward the lens is the luminaire's I(γ) (the
+// same I(γ) that lights the pools), not its peak. With a black texture only the heads are drawn;
+// at each head's centre pixel (heads of at least 2 px radius, not overlapped by a nearer one)
+// the luminance is that value to float rounding: blackbody_rgb's three channels scaled in
+// double, stored as float (2^-24 each) and summed back with the luminous efficacies: 4·2^-24.
+TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
+  const OpenStreet street = open_street();
+  const auto& [o, sc, p, s] = street;
+  ASSERT_GT(s.lamps.size(), 4u);
+  const ImageF black(o.width, o.height, 3, 0.f);
+  ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(L, black, sc.labels.ids, o.camera, s, p);
+  const double area = M_PI * 0.25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
+  int checked = 0;
+  double lowest = 1e300, highest = 0;
+  for (const auto& l : s.lamps) {
+    double u, v, z;
+    if (!o.camera.project(l.X_m, l.Y_m, l.D_m, &u, &v, &z)) continue;
+    const double r = 0.5 * o.camera.f_px * p.lamp_head_diameter_m / z;
+    const long x = std::lround(u), y = std::lround(v);
+    if (r < 2 || x < 0 || y < 0 || x >= o.width || y >= o.height) continue;
+    bool overlapped = false;  // another head's disc over this pixel
+    for (const auto& m : s.lamps) {
+      double um, vm, zm;
+      if (&m == &l || !o.camera.project(m.X_m, m.Y_m, m.D_m, &um, &vm, &zm)) continue;
+      const double rm = 0.5 * o.camera.f_px * p.lamp_head_diameter_m / zm;
+      overlapped |= (x - um) * (x - um) + (y - vm) * (y - vm) <= rm * rm;
+    }
+    if (overlapped) continue;
+    const double gamma = std::atan2(std::hypot(l.X_m, l.D_m), l.Y_m - o.camera.mount_height_m);
+    const double want = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / area;
+    const size_t i = static_cast<size_t>(y) * o.width + x;
+    const float c[3] = {L[3 * i], L[3 * i + 1], L[3 * i + 2]};
+    EXPECT_NEAR(spectrum::luminance_cd_m2(c) / want, 1.0, 4 * 0x1p-24) << "lamp at D " << l.D_m << " m";
+    EXPECT_LT(want, s.peak_intensity_cd / area * (1 + 1e-12));  // never above the peak's luminance
+    lowest = std::min(lowest, want);
+    highest = std::max(highest, want);
+    ++checked;
+  }
+  EXPECT_GE(checked, 2);
+  std::fprintf(stderr, "[lamp heads] %d checked, I0 %.0f cd, head luminance %.0f-%.0f cd/m² (peak %.0f)\n", checked,
+               s.peak_intensity_cd, lowest, highest, s.peak_intensity_cd / area);
 }
 
 // Vertical surfaces lit by the same lamps (street.cpp add_vertical_street_light): one lamp of

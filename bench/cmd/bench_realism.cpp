@@ -45,6 +45,7 @@ struct Opts {
   int threads = 2, repeats = 1;
   int max_frames = 0;  // per data set; 0: all
   bool no_stats = false;
+  std::string methods;  // comma list of the methods to write (empty: all); "photosite" always runs
 };
 
 struct Frame {
@@ -172,6 +173,19 @@ void run(const Opts& o) {
   };
   // The camera-ISP previews (`night --preview-isp camera`): its defaults, without the JPEG, with
   // twice the noise-reduction strength, and with in-camera sharpening.
+  // The auto-exposure previews (preview_srgb8_auto, isp.h) of the default variant's sensor frame:
+  // the AE's gain range the camera preset's (0 to max_gain_db), and TI's ADAS set-up's analog
+  // cap of 8x (e2e.ti.com FAQ 1262114) as an automotive AE's narrower range.
+  // With highlight protection (at most 1 % of the pixels clip, the old preview rule) the AE is
+  // the 99th-percentile preview held inside the camera's gain range, white at full scale / gain.
+  struct AeVariant {
+    std::string method;
+    double max_gain = 0;       // 0: the camera preset's
+    double clip_fraction = 0;  // AutoExposure::clip_fraction
+  };
+  const std::vector<AeVariant> ae_variants = {{"photosite auto exposure", 0, 0},
+                                              {"photosite auto exposure max 8x", 8, 0},
+                                              {"photosite auto exposure clip 1%", 0, 0.01}};
   std::vector<CameraVariant> camera_variants = {{"photosite camera ISP", {}}};
   camera_variants.push_back({"photosite camera ISP no JPEG", {}});
   camera_variants.back().options.jpeg_quality = 0;
@@ -181,6 +195,11 @@ void run(const Opts& o) {
   camera_variants.push_back({"photosite camera ISP sharpen 0.5", {}});
   camera_variants.back().options.sharpen = 0.5;
   camera_variants.push_back({"photosite camera ISP full scale", {}});  // full_scale_dn set per camera below
+  auto wanted = [&](const std::string& method) {
+    if (o.methods.empty()) return true;
+    std::string list = "," + o.methods + ",";
+    return list.find("," + method + ",") != std::string::npos;
+  };
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
   auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
     manifest += fmt::format("\"{}\",{},{},\"{}\",{:.3f},{},{}\n", method, f.dataset, f.name, file.string(), ms, w, h);
@@ -200,10 +219,9 @@ void run(const Opts& o) {
     const ResolvedExposure ex = resolve(cam, lens_preset, es);
     const FixedPatternMaps fpn = generate_fixed_pattern(cam, raw.width(), raw.height(), cam.name + "-0");
     const auto wb = white_balance_gains(cam);
-    // The sensor's full scale in DN above black: the ADC's top code or the full well, the lower.
-    const double full_scale_dn = std::min(std::ldexp(1.0, cam.bit_depth) - 1 - cam.black_level_dn,
-                                          cam.full_well_e * ex.system_gain_dn_per_e);
+    const double full_scale_dn = sensor_full_scale_dn(cam, ex);
     for (const Variant& v : variants) {
+      if (v.method != "photosite" && !wanted(v.method)) continue;
       scene::ScenePreset sp = scene::load_scene_preset("night-urban");
       if (v.scene) v.scene(sp);
       LensPreset lens = lens_preset;
@@ -218,10 +236,12 @@ void run(const Opts& o) {
         preview = v.full_scale_isp ? preview_full_scale(so.rgb, wb, full_scale_dn)
                                    : preview_srgb(so.rgb, wb, v.white_percentile);
       });
-      const fs::path file = prev / fmt::format("{}__{}.png", f.name, v.method);
-      write_png(file.string(), preview);
-      add(v.method, f, file, ms, raw.width(), raw.height());
-      std::printf("%-28s %-34s %10.1f\n", v.method.c_str(), f.name.c_str(), ms);
+      if (wanted(v.method)) {
+        const fs::path file = prev / fmt::format("{}__{}.png", f.name, v.method);
+        write_png(file.string(), preview);
+        add(v.method, f, file, ms, raw.width(), raw.height());
+        std::printf("%-28s %-34s %10.1f\n", v.method.c_str(), f.name.c_str(), ms);
+      }
       if (v.method != "photosite") continue;
       const PreviewNoise noise{ex.system_gain_dn_per_e, cam.read_noise_e};
       // The float preview inside `ms` (replaced by the camera ISP in its methods' ms), and the
@@ -231,7 +251,22 @@ void run(const Opts& o) {
       const double simple8_ms = best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile); });
       std::printf("%-28s %-34s %10.1f  (float preview %.1f ms)\n", "(simple ISP, 8-bit, alone)", f.name.c_str(),
                   simple8_ms, simple_ms);
+      for (const AeVariant& av : ae_variants) {
+        if (!wanted(av.method)) continue;
+        AutoExposure ae = camera_auto_exposure(cam, ex);
+        if (av.max_gain > 0) ae.max_gain = std::max(1.0, av.max_gain / ex.gain_linear);
+        ae.clip_fraction = av.clip_fraction;
+        ImageU8 p8;
+        double gain = 0;
+        const double ae_ms = best_ms(o.repeats, [&] { p8 = preview_srgb8_auto(so.rgb, wb, full_scale_dn, ae, &gain); });
+        const fs::path afile = prev / fmt::format("{}__{}.png", f.name, av.method);
+        write_png8(afile.string(), p8);
+        add(av.method, f, afile, ms - simple_ms + ae_ms, raw.width(), raw.height());
+        std::printf("%-28s %-34s %10.1f  (AE preview alone %.1f ms, gain %.3f = %+.2f dB)\n", av.method.c_str(),
+                    f.name.c_str(), ms - simple_ms + ae_ms, ae_ms, gain, 20 * std::log10(gain));
+      }
       for (CameraVariant cv : camera_variants) {
+        if (!wanted(cv.method)) continue;
         if (cv.method == "photosite camera ISP full scale") cv.options.full_scale_dn = full_scale_dn;
         ImageU8 p8;
         const double isp_ms = best_ms(o.repeats, [&] { p8 = preview_camera8(so.rgb, wb, noise, cv.options); });
@@ -243,19 +278,21 @@ void run(const Opts& o) {
       }
     }
     // The thesis baseline on the 8-bit day image.
-    ImageU8 day8(raw.width(), raw.height(), 3, uninitialized);
-    for (size_t i = 0; i < raw.pixel_count(); ++i)
-      for (int k = 0; k < 3; ++k)
-        day8[3 * i + k] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(raw[i * raw.channels() + std::min(k, raw.channels() - 1)], 0.f, 1.f)));
-    ThesisBaselineOptions to;
-    ImageU8 night8;
-    const double ms = best_ms(o.repeats, [&] { night8 = thesis_night(day8, lm.ids, to); });
-    fs::path file = prev / fmt::format("{}__thesis baseline.png", f.name);
-    write_png(file.string(), u8_to_f(night8));
-    add("thesis baseline", f, file, ms, raw.width(), raw.height());
-    std::printf("%-28s %-34s %10.1f\n", "thesis baseline", f.name.c_str(), ms);
+    if (wanted("thesis baseline")) {
+      ImageU8 day8(raw.width(), raw.height(), 3, uninitialized);
+      for (size_t i = 0; i < raw.pixel_count(); ++i)
+        for (int k = 0; k < 3; ++k)
+          day8[3 * i + k] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(raw[i * raw.channels() + std::min(k, raw.channels() - 1)], 0.f, 1.f)));
+      ThesisBaselineOptions to;
+      ImageU8 night8;
+      const double ms = best_ms(o.repeats, [&] { night8 = thesis_night(day8, lm.ids, to); });
+      fs::path file = prev / fmt::format("{}__thesis baseline.png", f.name);
+      write_png(file.string(), u8_to_f(night8));
+      add("thesis baseline", f, file, ms, raw.width(), raw.height());
+      std::printf("%-28s %-34s %10.1f\n", "thesis baseline", f.name.c_str(), ms);
+    }
     // The day photo itself: the classifier's easy case (no translation, 0 ms).
-    add("day photo", f, fs::path(f.image), 0, raw.width(), raw.height());
+    if (wanted("day photo")) add("day photo", f, fs::path(f.image), 0, raw.width(), raw.height());
   }
   const fs::path manifest_path = prev / "manifest.csv";
   {
@@ -288,6 +325,9 @@ static BenchRegistrar reg("realism",
                             sub->add_option("--threads", o->threads, "OpenMP threads")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "timed runs per frame (best kept)")->capture_default_str();
                             sub->add_option("--max-frames", o->max_frames, "frames per data set (0: all)")->capture_default_str();
+                            sub->add_option("--methods", o->methods,
+                                            "comma list of methods to write (default: all), e.g. "
+                                            "'photosite,photosite auto exposure,thesis baseline,day photo'");
                             sub->add_flag("--no-stats", o->no_stats, "only write the previews and the manifest");
                             sub->callback([o] { run(*o); });
                           });

@@ -34,6 +34,49 @@ void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* 
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
                       double percentile = 0.99, double white_point = 1.0);
 
+// Auto exposure of a preview (`photosite night --preview-exposure auto`; docs/realism.md): the
+// gain a camera's auto exposure (AE) settles at, applied to the simulated frame, and the sensor's
+// full scale divided by that gain shown as white, instead of the frame's 99th percentile.
+// The AE meters the frame's mean luminance (white-balanced camera RGB, Rec. 709 weights, each
+// pixel clipped at the sensor's full scale: a saturated pixel reports no more than full scale)
+// and raises the gain until that mean reaches `target` of the full scale or the gain reaches
+// `max_gain`. The exposure time stays the simulated one (an ADAS AE of this kind fixes it and
+// moves only the gain: TI's AE set-up for the IMX390 on TDA4/AM6xA, exposure 11 ms fixed, analog
+// gain 1-8x; e2e.ti.com FAQ thread 1262114). The gain is applied digitally to the simulated
+// frame; a camera applies it before the ADC, which lowers the ADC's quantization and the read
+// noise after the gain relative to the signal (the preview keeps the simulated frame's noise).
+// The AE cannot go below the simulated exposure (min gain 1): the frame's clipping is done.
+struct AutoExposure {
+  // Mean metered luminance / full scale. TI's AE for ADAS cameras: targetBrightness 45 on 0-255,
+  // "45 for 18% gray" (linear raw statistics; the same FAQ) [D]. The ISO 2720 / ISO 12232 meter
+  // calibration puts the mean at 12.7-12.8 % of saturation instead (K = 12.5-14 cd s/m2);
+  // 45/255 = 17.6 % is the automotive ISP's value.
+  double target = 45.0 / 255.0;
+  double max_gain = 1.0;  // linear gain headroom above the simulated frame: 10^(max_gain_db/20) / its gain
+  // Highlight protection, 0: none. > 0: the gain is also kept at or below the one at which this
+  // fraction of the pixels clips (their metered luminance reaches full scale), as AEs that limit
+  // the clipped share of the frame do. 0.01 is photosite's own 99th-percentile preview rule [E],
+  // not a measured camera setting.
+  double clip_fraction = 0;
+};
+// The gain G in [1, max_gain] at which mean_i min(G * y_i, 1) = target, y_i a pixel's luminance
+// over the white-balanced full scale (wb gains divided by the smallest, so a pixel saturated in
+// every channel has y >= 1); max_gain when the target is out of reach (an all-black frame too),
+// 1 when the frame already meters above it. With clip_fraction h > 0, G is at most 1 / y_(k),
+// y_(k) the k-th smallest y, k = floor((1 - h)(n - 1)) (no more than about h of the pixels clip),
+// and still at least 1. Deterministic for any thread count.
+double auto_exposure_gain(const ImageF& rgb, const std::array<double, 3>& wb_gains, double full_scale_dn,
+                          const AutoExposure& ae);
+// The 8-bit sRGB preview at that gain: sample x -> srgb_encode8(x * wb_c * G / (min(wb) * full scale)).
+ImageU8 preview_srgb8_auto(const ImageF& rgb, const std::array<double, 3>& wb_gains, double full_scale_dn,
+                           const AutoExposure& ae, double* gain_out = nullptr);
+// The sensor's full scale in DN above black at this exposure: the ADC's top code above black or
+// the full well times the system gain, the lower.
+double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure);
+// The AE of a camera at this exposure: the target above and the preset's gain range,
+// max_gain = 10^(max_gain_db / 20) / the exposure's own linear gain (at least 1).
+AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExposure& exposure);
+
 // The camera-ISP preview (`photosite night --preview-isp camera`, docs/realism.md): an
 // approximation of a generic in-camera ISP, what a dashcam or phone JPEG went through, for
 // previews that are compared with real night photos. Not any one camera's ISP; the EXR sensor
