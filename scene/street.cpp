@@ -740,9 +740,40 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
     const int m = candidates8_avx2(id, z, x, cc);
     if (!m) continue;
     // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
-    // inlined); the other lanes repeat the first candidate.
+    // inlined); the other lanes repeat the first candidate. Inside a façade (most groups: eight
+    // candidates on one building region whose eight columns take one plane) the same values
+    // without the per-lane lookups.
     const int first = __builtin_ctz(m);
-    for (int k = 0; k < 8; ++k) {
+    const int r0 = reg[x];
+    bool one_plane = false;
+    if (m == 0xff && r0 >= 0) {
+      const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+      const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+      const BuildingFacades::Region& R = fac.regions[r0];
+      const int c0 = x - R.x0;
+      if (_mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
+                                                _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1 &&
+          c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
+        const int pi = R.column_plane[c0];
+        const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
+        if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
+          const FacadePlane& f = fac.planes[pi];
+          const __m256i xv = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), _mm256_set1_epi32(-1));
+          const __m256 zv = _mm256_loadu_ps(z + x);
+          _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));
+          _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
+          const __m256d nx = _mm256_set1_pd(-f.nX), nd = _mm256_set1_pd(-f.nD);
+          _mm256_store_pd(gr.pnX, nx);
+          _mm256_store_pd(gr.pnX + 4, nx);
+          _mm256_store_pd(gr.pnD, nd);
+          _mm256_store_pd(gr.pnD + 4, nd);
+          one_plane = true;
+        }
+      }
+    }
+    for (int k = 0; k < 8 && !one_plane; ++k) {
       const int xk = x + ((m >> k & 1) ? k : first);
       const FacadePlane* f = nullptr;
       if (id[xk] == v.building && reg[xk] >= 0) {
@@ -1014,6 +1045,73 @@ __attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const
     }
   }
 }
+// A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
+// draws (add_facade_windows).
+struct FacadeFrame { double tX, tD; uint64_t key; };
+// Pixel x of the row as a window candidate (a building pixel with a plane, z ≤ zmax): its column,
+// z, plane axis and plane index appended at n.
+[[gnu::always_inline]] inline void window_candidate(int x, const int32_t* reg, const float* z, double zmax,
+                                                    const BuildingFacades& fac, const FacadeFrame* fr, int32_t* rx,
+                                                    double* rz, double* rtX, double* rtD, int32_t* rp, int& n) {
+  if (reg[x] < 0 || z[x] > zmax) return;
+  const BuildingFacades::Region& R = fac.regions[reg[x]];
+  const int pi = R.column_plane[x - R.x0];
+  if (pi < 0) return;
+  rx[n] = x;
+  rz[n] = z[x];
+  rtX[n] = fr[pi].tX;
+  rtD[n] = fr[pi].tD;
+  rp[n] = pi;
+  ++n;
+}
+// add_facade_windows's compaction of one row (its scalar loop: a building pixel with a plane and
+// z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
+// region whose eight columns take one plane and whose depths are all within zmax (inside a façade:
+// most groups) by vector loads and stores, groups of no building pixel skipped, other groups and
+// the last W mod 8 columns one by one. The same entries in the same order. Returns their count.
+__attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, const float* z, int W, double zmax,
+                                                          const BuildingFacades& fac, const FacadeFrame* fr,
+                                                          WindowRow& r, int32_t* rp) {
+  int32_t* rx = r.x.data();
+  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+  int n = 0;
+  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
+  const __m256d vzmax = _mm256_set1_pd(zmax);
+  int x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+    const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
+    if (neg == 0xff) continue;  // no building region
+    const int r0 = reg[x];
+    if (neg == 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) == -1) {
+      const BuildingFacades::Region& R = fac.regions[r0];
+      const int c0 = x - R.x0, pi = c0 >= 0 && c0 < static_cast<int>(R.column_plane.size()) ? R.column_plane[c0] : -1;
+      const __m256 zv = _mm256_loadu_ps(z + x);
+      const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zv)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1));
+      if (pi >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size()) &&
+          _mm256_movemask_epi8(_mm256_cmpeq_epi32(
+              _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)), _mm256_set1_epi32(pi))) == -1 &&
+          !(_mm256_movemask_pd(_mm256_cmp_pd(z0, vzmax, _CMP_GT_OQ)) | _mm256_movemask_pd(_mm256_cmp_pd(z1, vzmax, _CMP_GT_OQ)))) {
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(rx + n),
+                            _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(rp + n), _mm256_set1_epi32(pi));
+        _mm256_storeu_pd(rz + n, z0);
+        _mm256_storeu_pd(rz + n + 4, z1);
+        const __m256d tX = _mm256_set1_pd(fr[pi].tX), tD = _mm256_set1_pd(fr[pi].tD);
+        _mm256_storeu_pd(rtX + n, tX);
+        _mm256_storeu_pd(rtX + n + 4, tX);
+        _mm256_storeu_pd(rtD + n, tD);
+        _mm256_storeu_pd(rtD + n + 4, tD);
+        n += 8;
+        continue;
+      }
+    }
+    for (int k = 0; k < 8; ++k) one(x + k);
+  }
+  for (; x < W; ++x) one(x);
+  _mm256_zeroupper();
+  return n;
+}
 }  // namespace
 
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
@@ -1029,8 +1127,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
   // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
   // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in
   // the world, so a façade keeps its windows' draws when the camera moves.
-  struct Frame { double tX, tD; uint64_t key; };
-  std::vector<Frame> frames(fac.planes.size());
+  std::vector<FacadeFrame> frames(fac.planes.size());
   for (size_t k = 0; k < fac.planes.size(); ++k) {
     const FacadePlane& f = fac.planes[k];
     double tX = f.nD, tD = -f.nX;
@@ -1063,8 +1160,9 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       const double zmax = max_z;
       int32_t *rx = r.x.data(), *rp = plane_of.data();
       double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
-      const Frame* fr = frames.data();
-      for (int x = 0; x < Wr; ++x) {
+      const FacadeFrame* fr = frames.data();
+      if (kHaveAvx2) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, r, rp);
+      for (int x = 0; x < Wr && !kHaveAvx2; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
         // only when every one has it) skipped at once: building pixels come in long runs.
         if ((x & 7) == 0 && x + 8 <= Wr &&
@@ -1072,16 +1170,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
           x += 7;
           continue;
         }
-        if (reg[x] < 0 || z[x] > zmax) continue;
-        const BuildingFacades::Region& R = fac.regions[reg[x]];
-        const int pi = R.column_plane[x - R.x0];
-        if (pi < 0) continue;
-        rx[n] = x;
-        rz[n] = z[x];
-        rtX[n] = fr[pi].tX;
-        rtD[n] = fr[pi].tD;
-        rp[n] = pi;
-        ++n;
+        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
       }
       if (n == 0) continue;
       const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
