@@ -732,7 +732,13 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
 #pragma omp parallel for schedule(static, 8)
   for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    const int32_t* comp_row = comp.row(y);
     for (int x = 0; x < W; ++x) {
+      // Eight pixels of no vehicle skipped at once (as in the boxes' scan).
+      if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
+        x += 7;
+        continue;
+      }
       const size_t i = static_cast<size_t>(y) * W + x;
       const int c = comp[i];
       if (!c) continue;

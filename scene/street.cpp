@@ -576,6 +576,22 @@ inline void lamp_window(const LampArrays& la, double Dmin, double Dmax, size_t* 
   *lo = std::lower_bound(la.D.begin(), la.D.end(), Dmin - pad) - la.D.begin();
   *hi = std::upper_bound(la.D.begin() + *lo, la.D.end(), Dmax + pad) - la.D.begin();
 }
+// lamp_window from the window of a nearby range (*lo, *hi: any indices in [0, n]; the groups of a
+// row move along it slowly): each bound stepped down or up to the same index as the binary
+// searches', lo the first lamp with D >= Dmin − pad, hi the first after it with D > Dmax + pad.
+inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, size_t* lo, size_t* hi) {
+  const double pad = la.max_reach + 1.0, a = Dmin - pad, b = Dmax + pad;
+  const double* D = la.D.data();
+  const size_t n = la.D.size();
+  size_t l = *lo, h = *hi;
+  while (l > 0 && D[l - 1] >= a) --l;
+  while (l < n && D[l] < a) ++l;
+  if (h < l) h = l;
+  while (h > l && D[h - 1] > b) --h;
+  while (h < n && D[h] <= b) ++h;
+  *lo = l;
+  *hi = h;
+}
 // The pixel's point (X, Y, D) and its lit normal (nX, nD) in double; ok = false where the
 // camera-facing normal is undefined (X = D = 0).
 [[gnu::always_inline]] inline bool vertical_point(const VerticalRow& r, int i, const RowGeom& q, double* X, double* Y,
@@ -735,6 +751,7 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
   const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
   const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   VerticalGroup gr;
+  size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
   int x = 0;
   for (; x + 8 <= W; x += 8) {
     const int m = candidates8_avx2(id, z, x, cc);
@@ -800,8 +817,8 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
     const __m256d m1 = _mm256_min_pd(Dlo, _mm256_permute2f128_pd(Dlo, Dlo, 1)), M1 = _mm256_max_pd(Dhi, _mm256_permute2f128_pd(Dhi, Dhi, 1));
     const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
     const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
-    size_t lo, hi;
-    lamp_window(la, Dmin, Dmax, &lo, &hi);
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
     __m256 acc = zero;
     for (size_t k = lo; k < hi; ++k) {
       const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
