@@ -253,7 +253,6 @@ __attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* 
 // 33 ms there after a vzeroupper). Where the state is left dirty is not found yet.
 __attribute__((target("avx"))) void clear_upper_vector_state() { _mm256_zeroupper(); }
 const bool kHaveAvx = __builtin_cpu_supports("avx");
-bool is_pole(int id) { return id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup); }
 }  // namespace
 
 double street_lamp_reach_m(double H, const ScenePreset& p) { return reach_m(H, p); }
