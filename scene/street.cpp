@@ -212,29 +212,37 @@ void add_reflection_scalar(float* o, const float* tx, const float* e, const uint
     o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
   }
 }
+// add_reflection_avx2's constants: the lane permutations spreading eight pixels' E and bits to
+// their 24 channel floats, and the tint in channel order.
+struct Reflect8 {
+  __m256i s0, s1, s2, lane_bit;
+  __m256 tp0, tp1, tp2;
+};
+__attribute__((target("avx2"), always_inline)) inline Reflect8 reflect8_consts(const float* tint) {
+  const float t0 = tint[0], t1 = tint[1], t2 = tint[2];
+  return {_mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2), _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
+          _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7), _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128),
+          _mm256_setr_ps(t0, t1, t2, t0, t1, t2, t0, t1), _mm256_setr_ps(t2, t0, t1, t2, t0, t1, t2, t0),
+          _mm256_setr_ps(t1, t2, t0, t1, t2, t0, t1, t2)};
+}
+// One group of eight pixels (o3, t3: their 24 floats): o += (t·tint)·e where bit k of `bits` is set.
+__attribute__((target("avx2"), always_inline)) inline void reflect8_avx2(float* o3, const float* t3, __m256 ef,
+                                                                         unsigned bits, const Reflect8& c) {
+  const __m256i m = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(bits)), c.lane_bit), c.lane_bit);
+  const __m256 ov0 = _mm256_loadu_ps(o3), ov1 = _mm256_loadu_ps(o3 + 8), ov2 = _mm256_loadu_ps(o3 + 16);
+  const __m256 n0 = _mm256_add_ps(ov0, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3), c.tp0), _mm256_permutevar8x32_ps(ef, c.s0)));
+  const __m256 n1 = _mm256_add_ps(ov1, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 8), c.tp1), _mm256_permutevar8x32_ps(ef, c.s1)));
+  const __m256 n2 = _mm256_add_ps(ov2, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 16), c.tp2), _mm256_permutevar8x32_ps(ef, c.s2)));
+  _mm256_storeu_ps(o3, _mm256_blendv_ps(ov0, n0, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, c.s0))));
+  _mm256_storeu_ps(o3 + 8, _mm256_blendv_ps(ov1, n1, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, c.s1))));
+  _mm256_storeu_ps(o3 + 16, _mm256_blendv_ps(ov2, n2, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, c.s2))));
+}
 __attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* tx, const float* e, const uint8_t* bits,
                                                         int qa, int qb, int W, const float* tint) {
-  const __m256i s0 = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2), s1 = _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
-                s2 = _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7);
-  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  const float t0 = tint[0], t1 = tint[1], t2 = tint[2];
-  const __m256 tp0 = _mm256_setr_ps(t0, t1, t2, t0, t1, t2, t0, t1), tp1 = _mm256_setr_ps(t2, t0, t1, t2, t0, t1, t2, t0),
-               tp2 = _mm256_setr_ps(t1, t2, t0, t1, t2, t0, t1, t2);
+  const Reflect8 c = reflect8_consts(tint);
   const int qfull = std::min(qb, W / 8);
-  for (int q = qa; q < qfull; ++q) {
-    if (!bits[q]) continue;
-    const __m256 ef = _mm256_loadu_ps(e + 8 * q);
-    const __m256i m = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits[q]), lane_bit), lane_bit);
-    float* o3 = o + 24 * q;
-    const float* t3 = tx + 24 * q;
-    const __m256 ov0 = _mm256_loadu_ps(o3), ov1 = _mm256_loadu_ps(o3 + 8), ov2 = _mm256_loadu_ps(o3 + 16);
-    const __m256 n0 = _mm256_add_ps(ov0, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3), tp0), _mm256_permutevar8x32_ps(ef, s0)));
-    const __m256 n1 = _mm256_add_ps(ov1, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 8), tp1), _mm256_permutevar8x32_ps(ef, s1)));
-    const __m256 n2 = _mm256_add_ps(ov2, _mm256_mul_ps(_mm256_mul_ps(_mm256_loadu_ps(t3 + 16), tp2), _mm256_permutevar8x32_ps(ef, s2)));
-    _mm256_storeu_ps(o3, _mm256_blendv_ps(ov0, n0, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s0))));
-    _mm256_storeu_ps(o3 + 8, _mm256_blendv_ps(ov1, n1, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s1))));
-    _mm256_storeu_ps(o3 + 16, _mm256_blendv_ps(ov2, n2, _mm256_castsi256_ps(_mm256_permutevar8x32_epi32(m, s2))));
-  }
+  for (int q = qa; q < qfull; ++q)
+    if (bits[q]) reflect8_avx2(o + 24 * q, tx + 24 * q, _mm256_loadu_ps(e + 8 * q), bits[q], c);
   if (qfull < qb) add_reflection_scalar(o, tx, e, bits, std::max(qa, qfull), qb, W, tint);
   _mm256_zeroupper();
 }
@@ -245,7 +253,6 @@ __attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* 
 // 33 ms there after a vzeroupper). Where the state is left dirty is not found yet.
 __attribute__((target("avx"))) void clear_upper_vector_state() { _mm256_zeroupper(); }
 const bool kHaveAvx = __builtin_cpu_supports("avx");
-bool is_pole(int id) { return id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup); }
 }  // namespace
 
 double street_lamp_reach_m(double H, const ScenePreset& p) { return reach_m(H, p); }
@@ -544,28 +551,19 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 }
 
 namespace {
-// One row's vertical-surface pixels, compacted (add_vertical_street_light): column, camera z and,
-// for façade pixels, the lit normal of their plane (plane = -1; 0: the normal turned to the
-// camera, from the point). Padded to a multiple of 4 by repeating the last pixel (its lanes are
-// computed and dropped).
+// One row's vertical-surface pixels, compacted (add_vertical_street_light's scalar path):
+// column, camera z and, for façade pixels, the lit normal of their plane (plane = -1; 0: the
+// normal turned to the camera, from the point).
 struct VerticalRow {
   std::vector<int32_t> x, plane;
   std::vector<double> z, pnX, pnD;
   std::vector<float> e;
-  // The lit pixels' E by column and as bits per group of eight (add_reflection_avx2's input).
-  std::vector<float> e_col;
-  std::vector<uint8_t> lit_bits;
-  explicit VerticalRow(int W)
-      : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8), e_col(W + 8), lit_bits(W / 8 + 2) {}
-  void pad(int n) {
-    for (int i = n; i % 8; ++i) {
-      x[i] = x[n - 1];
-      plane[i] = plane[n - 1];
-      z[i] = z[n - 1];
-      pnX[i] = pnX[n - 1];
-      pnD[i] = pnD[n - 1];
-    }
-  }
+  explicit VerticalRow(int W) : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8) {}
+};
+// The AVX2 path's eight pixels of one group of columns, as VerticalRow's fields.
+struct VerticalGroup {
+  alignas(32) double z[8], pnX[8], pnD[8];
+  alignas(32) int32_t x[8], plane[8];
 };
 // The pixel's point in road coordinates (X right, Y up, D ahead; camera foot at the origin) from
 // its camera z: X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, with the row's kD = cos θ − y_n·sin θ
@@ -585,6 +583,22 @@ inline void lamp_window(const LampArrays& la, double Dmin, double Dmax, size_t* 
   const double pad = la.max_reach + 1.0;
   *lo = std::lower_bound(la.D.begin(), la.D.end(), Dmin - pad) - la.D.begin();
   *hi = std::upper_bound(la.D.begin() + *lo, la.D.end(), Dmax + pad) - la.D.begin();
+}
+// lamp_window from the window of a nearby range (*lo, *hi: any indices in [0, n]; the groups of a
+// row move along it slowly): each bound stepped down or up to the same index as the binary
+// searches', lo the first lamp with D >= Dmin − pad, hi the first after it with D > Dmax + pad.
+inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, size_t* lo, size_t* hi) {
+  const double pad = la.max_reach + 1.0, a = Dmin - pad, b = Dmax + pad;
+  const double* D = la.D.data();
+  const size_t n = la.D.size();
+  size_t l = *lo, h = *hi;
+  while (l > 0 && D[l - 1] >= a) --l;
+  while (l < n && D[l] < a) ++l;
+  if (h < l) h = l;
+  while (h > l && D[h - 1] > b) --h;
+  while (h < n && D[h] <= b) ++h;
+  *lo = l;
+  *hi = h;
 }
 // The pixel's point (X, Y, D) and its lit normal (nX, nD) in double; ok = false where the
 // camera-facing normal is undefined (X = D = 0).
@@ -645,11 +659,12 @@ void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays
     r.e[i] = e;
   }
 }
-// vertical_point for the four pixels from i0: the same double operations per lane; the normal
-// rounded to float and the lane mask (ok) as float lanes.
-__attribute__((target("avx2"), always_inline)) inline void point4(const VerticalRow& r, int i0, const RowGeom& q,
-                                                                  __m256d& X, __m256d& Y, __m256d& D, __m128& nX,
-                                                                  __m128& nD, __m128& ok) {
+// vertical_point for the four pixels from i0 (of a VerticalRow or a VerticalGroup): the same double
+// operations per lane; the normal rounded to float and the lane mask (ok) as float lanes.
+template <class Row>
+__attribute__((target("avx2"), always_inline)) inline void point4(const Row& r, int i0, const RowGeom& q, __m256d& X,
+                                                                  __m256d& Y, __m256d& D, __m128& nX, __m128& nD,
+                                                                  __m128& ok) {
   const __m256d zerod = _mm256_setzero_pd();
   const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
   const __m256d zz = _mm256_loadu_pd(&r.z[i0]);
@@ -671,33 +686,147 @@ __attribute__((target("avx2"), always_inline)) inline void point4(const Vertical
   nX = _mm256_cvtpd_ps(nXd);
   nD = _mm256_cvtpd_ps(nDd);
 }
-// vertical_e_scalar eight pixels at a time: the points and normals per pixel in double as there,
-// then the same float operations per lane (a lamp's lanes outside its reach, above it or facing
-// away masked to +0.0), so the same bits. Lamps whose every lane is masked are skipped whole:
-// their contribution is exactly zero. Ends with vzeroupper (see clear_upper_vector_state).
-__attribute__((target("avx2")))
-void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float d2_min,
-                     const RelTable& t) {
-  const __m256 vI0 = _mm256_set1_ps(I0), vd2min = _mm256_set1_ps(d2_min), zero = _mm256_setzero_ps();
+// add_vertical_street_light's candidate test for the eight pixels from column x (id, z: the row's),
+// as bits (bit k: column x + k): the class not in `dark` (bit k of the mask; ids of 64 and above
+// are in no class), 0 < z < kDepthInfinity_m in float, and in double Y = h − z·kY < max_Y,
+// D_lo ≤ D = z·kD ≤ D_hi (the scalar loop's operations and comparisons).
+struct Candidates8 {
+  __m256i mlo, mhi, one, k32;
+  __m256 zero, inf;
+  __m256d kD, kY, h, mY, lo, hi;
+};
+__attribute__((target("avx2"), always_inline)) inline int candidates8_avx2(const uint16_t* id, const float* z, int x,
+                                                                           const Candidates8& c) {
+  const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+  // Bit k of the mask: the low word shifted by k (0 for k ≥ 32), the high word by k − 32 (0
+  // for k < 32, where the count wraps to a huge unsigned value, and for k ≥ 64).
+  const __m256i bit = _mm256_and_si256(
+      _mm256_or_si256(_mm256_srlv_epi32(c.mlo, k), _mm256_srlv_epi32(c.mhi, _mm256_sub_epi32(k, c.k32))), c.one);
+  const __m256 zz = _mm256_loadu_ps(z + x);
+  const __m256 zok = _mm256_and_ps(_mm256_cmp_ps(zz, c.zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, c.inf, _CMP_LT_OQ));
+  const int m = _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, c.one)), zok));
+  if (!m) return 0;
+  const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zz)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zz, 1));
+  const __m256d D0 = _mm256_mul_pd(z0, c.kD), Y0 = _mm256_sub_pd(c.h, _mm256_mul_pd(z0, c.kY));
+  const __m256d D1 = _mm256_mul_pd(z1, c.kD), Y1 = _mm256_sub_pd(c.h, _mm256_mul_pd(z1, c.kY));
+  const __m256d in0 = _mm256_and_pd(_mm256_cmp_pd(Y0, c.mY, _CMP_LT_OQ),
+                                    _mm256_and_pd(_mm256_cmp_pd(D0, c.lo, _CMP_GE_OQ), _mm256_cmp_pd(D0, c.hi, _CMP_LE_OQ)));
+  const __m256d in1 = _mm256_and_pd(_mm256_cmp_pd(Y1, c.mY, _CMP_LT_OQ),
+                                    _mm256_and_pd(_mm256_cmp_pd(D1, c.lo, _CMP_GE_OQ), _mm256_cmp_pd(D1, c.hi, _CMP_LE_OQ)));
+  return m & (_mm256_movemask_pd(in0) | _mm256_movemask_pd(in1) << 4);
+}
+// What the AVX2 row needs besides the row's own data.
+struct VerticalCtx {
+  const LampArrays* la;
+  const BuildingFacades* fac;
+  const RelTable* t;
+  const float* tint;
+  uint64_t dark;
+  double D_lo, D_hi;
+  float I0, d2_min;
+  int building;
+};
+// add_vertical_street_light's row with AVX2, the groups of eight columns 0 .. 8⌊W/8⌋ − 1 (returns
+// 8⌊W/8⌋; the rest go the scalar way): per group the candidates (candidates8_avx2; none: nothing
+// to do), their points and normals (point4; the group's other lanes take the first candidate's
+// column and are dropped), E_v = Σ_k vertical_term over the lamps in order per lane (the same
+// float operations as vertical_e_scalar; a lamp's lanes outside its reach, above it or facing
+// away masked to +0.0, and a lamp whose every lane is masked skipped: its contribution is
+// exactly zero; the lamps outside the group's lamp_window are beyond reach of every lane), then
+// o += (t·tint)·E_v on the candidates with E_v > 0 (reflect8_avx2: add_reflection_scalar's
+// operations). Each lane is its own pixel, so the same bits as the scalar path, where the pixels
+// are compacted first. Ends with vzeroupper (see clear_upper_vector_state).
+__attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx, const uint16_t* id, const float* z,
+                                                     const int32_t* reg, int W, const RowGeom& q, const VerticalCtx& v) {
+  const LampArrays& la = *v.la;
+  const BuildingFacades& fac = *v.fac;
+  const RelTable& t = *v.t;
+  const Candidates8 cc{_mm256_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu)),
+                       _mm256_set1_epi32(static_cast<int32_t>(v.dark >> 32)),
+                       _mm256_set1_epi32(1),
+                       _mm256_set1_epi32(32),
+                       _mm256_setzero_ps(),
+                       _mm256_set1_ps(kDepthInfinity_m),
+                       _mm256_set1_pd(q.kD),
+                       _mm256_set1_pd(q.kY),
+                       _mm256_set1_pd(q.h),
+                       _mm256_set1_pd(la.max_Y),
+                       _mm256_set1_pd(v.D_lo),
+                       _mm256_set1_pd(v.D_hi)};
+  const Reflect8 rc = reflect8_consts(v.tint);
+  const __m256 vI0 = _mm256_set1_ps(v.I0), vd2min = _mm256_set1_ps(v.d2_min), zero = _mm256_setzero_ps();
   const __m256 vcc = _mm256_set1_ps(t.fcc), one = _mm256_set1_ps(1.f);
   const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-  for (int i = 0; i < n; i += 8) {
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  VerticalGroup gr;
+  size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
+  int x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const int m = candidates8_avx2(id, z, x, cc);
+    if (!m) continue;
+    // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
+    // inlined); the other lanes repeat the first candidate. Inside a façade (most groups: eight
+    // candidates on one building region whose eight columns take one plane) the same values
+    // without the per-lane lookups.
+    const int first = __builtin_ctz(m);
+    const int r0 = reg[x];
+    bool one_plane = false;
+    if (m == 0xff && r0 >= 0) {
+      const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+      const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+      const BuildingFacades::Region& R = fac.regions[r0];
+      const int c0 = x - R.x0;
+      if (_mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
+                                                _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1 &&
+          c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
+        const int pi = R.column_plane[c0];
+        const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
+        if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
+          const FacadePlane& f = fac.planes[pi];
+          const __m256i xv = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), _mm256_set1_epi32(-1));
+          const __m256 zv = _mm256_loadu_ps(z + x);
+          _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));
+          _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
+          const __m256d nx = _mm256_set1_pd(-f.nX), nd = _mm256_set1_pd(-f.nD);
+          _mm256_store_pd(gr.pnX, nx);
+          _mm256_store_pd(gr.pnX + 4, nx);
+          _mm256_store_pd(gr.pnD, nd);
+          _mm256_store_pd(gr.pnD + 4, nd);
+          one_plane = true;
+        }
+      }
+    }
+    for (int k = 0; k < 8 && !one_plane; ++k) {
+      const int xk = x + ((m >> k & 1) ? k : first);
+      const FacadePlane* f = nullptr;
+      if (id[xk] == v.building && reg[xk] >= 0) {
+        const BuildingFacades::Region& R = fac.regions[reg[xk]];
+        const int pi = R.column_plane[xk - R.x0];
+        if (pi >= 0) f = &fac.planes[pi];
+      }
+      gr.x[k] = xk;
+      gr.z[k] = z[xk];
+      gr.plane[k] = f ? -1 : 0;
+      gr.pnX[k] = f ? -f->nX : 0.0;
+      gr.pnD[k] = f ? -f->nD : 0.0;
+    }
     __m256d X0, X1, Y0, Y1, D0, D1;
     __m128 nXa, nXb, nDa, nDb, oka, okb;
-    point4(r, i, q, X0, Y0, D0, nXa, nDa, oka);
-    point4(r, i + 4, q, X1, Y1, D1, nXb, nDb, okb);
-    const __m256 ok = _mm256_set_m128(okb, oka);
-    if (!_mm256_movemask_ps(ok)) {
-      _mm256_storeu_ps(&r.e[i], zero);
-      continue;
-    }
+    point4(gr, 0, q, X0, Y0, D0, nXa, nDa, oka);
+    point4(gr, 4, q, X1, Y1, D1, nXb, nDb, okb);
+    const __m256 cand = _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), lane_bit), lane_bit));
+    const __m256 ok = _mm256_and_ps(cand, _mm256_set_m128(okb, oka));
+    if (!_mm256_movemask_ps(ok)) continue;
     const __m256 vnX = _mm256_set_m128(nXb, nXa), vnD = _mm256_set_m128(nDb, nDa);
     const __m256d Dlo = _mm256_min_pd(D0, D1), Dhi = _mm256_max_pd(D0, D1);
     const __m256d m1 = _mm256_min_pd(Dlo, _mm256_permute2f128_pd(Dlo, Dlo, 1)), M1 = _mm256_max_pd(Dhi, _mm256_permute2f128_pd(Dhi, Dhi, 1));
     const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
     const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
-    size_t lo, hi;
-    lamp_window(la, Dmin, Dmax, &lo, &hi);
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
     __m256 acc = zero;
     for (size_t k = lo; k < hi; ++k) {
       const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
@@ -720,52 +849,10 @@ void vertical_e_avx2(VerticalRow& r, int n, const RowGeom& q, const LampArrays& 
       const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), _mm256_div_ps(cb, dv)), _mm256_max_ps(dv2, vd2min));
       acc = _mm256_add_ps(acc, _mm256_and_ps(lit, ek));
     }
-    _mm256_storeu_ps(&r.e[i], acc);
+    const unsigned lit_px = static_cast<unsigned>(m & _mm256_movemask_ps(_mm256_cmp_ps(acc, zero, _CMP_GT_OQ)));
+    if (lit_px) reflect8_avx2(o + 3 * x, tx + 3 * x, acc, lit_px, rc);
   }
   _mm256_zeroupper();
-}
-// add_vertical_street_light's candidate test for the pixels 0 .. 8⌊W/8⌋ − 1, eight at a time:
-// the class not in `dark` (bit k of the mask; ids of 64 and above are in no class), 0 < z <
-// kDepthInfinity_m in float, and in double Y = h − z·kY < max_Y, D_lo ≤ D = z·kD ≤ D_hi (the
-// scalar loop's operations and comparisons); the candidates' columns go to xs in column order,
-// their count to *n. Returns the first column not examined. (The columns only, in a local count:
-// storing more per candidate here made the compiler reload the count and the arrays' pointers
-// at every candidate, as its int stores might alias them.)
-__attribute__((target("avx2"))) int vertical_candidates_avx2(const uint16_t* id, const float* z, int W, const RowGeom& q,
-                                                            uint64_t dark, double max_Y, double D_lo, double D_hi,
-                                                            int32_t* xs, int* n_out) {
-  int n = 0;
-  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(dark & 0xffffffffu)),
-                mhi = _mm256_set1_epi32(static_cast<int32_t>(dark >> 32)), one = _mm256_set1_epi32(1),
-                k32 = _mm256_set1_epi32(32);
-  const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(kDepthInfinity_m);
-  const __m256d kD = _mm256_set1_pd(q.kD), kY = _mm256_set1_pd(q.kY), h = _mm256_set1_pd(q.h),
-                mY = _mm256_set1_pd(max_Y), lo = _mm256_set1_pd(D_lo), hi = _mm256_set1_pd(D_hi);
-  int x = 0;
-  for (; x + 8 <= W; x += 8) {
-    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
-    // Bit k of the mask: the low word shifted by k (0 for k ≥ 32), the high word by k − 32 (0
-    // for k < 32, where the count wraps to a huge unsigned value, and for k ≥ 64).
-    const __m256i bit = _mm256_and_si256(
-        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
-    const __m256 zz = _mm256_loadu_ps(z + x);
-    const __m256 zok = _mm256_and_ps(_mm256_cmp_ps(zz, zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, inf, _CMP_LT_OQ));
-    int m = _mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one)), zok));
-    if (!m) continue;
-    const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zz)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zz, 1));
-    const __m256d D0 = _mm256_mul_pd(z0, kD), Y0 = _mm256_sub_pd(h, _mm256_mul_pd(z0, kY));
-    const __m256d D1 = _mm256_mul_pd(z1, kD), Y1 = _mm256_sub_pd(h, _mm256_mul_pd(z1, kY));
-    const __m256d in0 = _mm256_and_pd(_mm256_cmp_pd(Y0, mY, _CMP_LT_OQ),
-                                      _mm256_and_pd(_mm256_cmp_pd(D0, lo, _CMP_GE_OQ), _mm256_cmp_pd(D0, hi, _CMP_LE_OQ)));
-    const __m256d in1 = _mm256_and_pd(_mm256_cmp_pd(Y1, mY, _CMP_LT_OQ),
-                                      _mm256_and_pd(_mm256_cmp_pd(D1, lo, _CMP_GE_OQ), _mm256_cmp_pd(D1, hi, _CMP_LE_OQ)));
-    m &= _mm256_movemask_pd(in0) | _mm256_movemask_pd(in1) << 4;
-    while (m) {
-      xs[n++] = x + __builtin_ctz(m);
-      m &= m - 1;
-    }
-  }
-  *n_out = n;
   return x;
 }
 }  // namespace
@@ -807,9 +894,11 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
   // sorted by D).
   const double D_lo = la.D.front() - la.max_reach - 1.0, D_hi = la.D.back() + la.max_reach + 1.0;
-  // Per row: the lit pixels compacted (scalar), then their points, normals and E_v over the lamps
-  // (vectorized), then the reflection into L. Each pixel's sum is its own, so rows may go to any
-  // thread.
+  // Per row, with AVX2: groups of eight columns (vertical_row_avx2), the row's last W mod 8
+  // columns then as below; without: the lit pixels compacted, their points, normals and E_v over
+  // the lamps (vertical_e_scalar), then the reflection into L. Each pixel's sum is its own, so
+  // rows may go to any thread.
+  const VerticalCtx ctx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building};
 #pragma omp parallel
   {
   if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
@@ -819,17 +908,17 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     const float* z = depth_m.row(y);
     const uint16_t* id = labels.row(y);
     const int32_t* reg = fac.region.row(y);
+    const float* tx = texture.row(y);
+    float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
     const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
-    int n = 0;
+    const int x0 = kHaveAvx2 ? vertical_row_avx2(o, tx, id, z, reg, W, q, ctx) : 0;
     // The pixels lit at all: not sky or ground, a finite positive depth, and a point below the
     // highest lamp and within reach of one along the road (a point at or above every lamp, v_Y ≤ 0
     // for each, or beyond every lamp's reach gets exactly nothing in vertical_term: not compacted;
-    // vertical_point's D and Y). Eight pixels at a time with AVX2 (the same tests: the class by
-    // a bit mask, the depth in float, D and Y in double), then one by one.
-    int x0 = 0;
+    // vertical_point's D and Y).
+    int n = 0;
     int32_t* xs = r.x.data();
-    if (kHaveAvx2) x0 = vertical_candidates_avx2(id, z, W, q, dark_classes, la.max_Y, D_lo, D_hi, xs, &n);
     for (int x = x0; x < W; ++x) {
       const int k = id[x];
       if (k < 64 && (dark_classes >> k & 1)) continue;
@@ -845,7 +934,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     {
       int32_t* plane = r.plane.data();
       double *zs = r.z.data(), *pnX = r.pnX.data(), *pnD = r.pnD.data();
-      const int count = n;  // a copy: n's address was taken above
+      const int count = n;
       for (int i = 0; i < count; ++i) {
         const int x = xs[i];
         const FacadePlane* f = nullptr;
@@ -860,31 +949,8 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
         pnD[i] = f ? -f->nD : 0.0;
       }
     }
-    if (kHaveAvx2) {
-      r.pad(n);
-      vertical_e_avx2(r, n, q, la, I0, d2_min, table);
-    } else {
-      vertical_e_scalar(r, n, q, la, I0, d2_min, table);
-    }
-    const float* tx = texture.row(y);
-    float* o = L.row(y);
+    vertical_e_scalar(r, n, q, la, I0, d2_min, table);
     const float* e = r.e.data();
-    if (kHaveAvx2) {
-      // The lit pixels (E > 0) spread back to their columns, then the reflection eight columns
-      // at a time over the candidates' groups (add_reflection_avx2: the loop below's operations).
-      uint8_t* bits = r.lit_bits.data();
-      float* e_col = r.e_col.data();
-      const int count = n, qa = xs[0] / 8, qb = xs[count - 1] / 8 + 1;  // the columns ascend
-      std::fill(bits + qa, bits + qb, uint8_t{0});
-      for (int i = 0; i < count; ++i) {
-        if (!(e[i] > 0)) continue;
-        const int x = xs[i];
-        e_col[x] = e[i];
-        bits[x >> 3] = static_cast<uint8_t>(bits[x >> 3] | 1u << (x & 7));
-      }
-      add_reflection_avx2(o, tx, e_col, bits, qa, qb, W, tlf);
-      continue;
-    }
     const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
     for (int i = 0; i < n; ++i) {
       const float ef = e[i];
@@ -1004,6 +1070,73 @@ __attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const
     }
   }
 }
+// A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
+// draws (add_facade_windows).
+struct FacadeFrame { double tX, tD; uint64_t key; };
+// Pixel x of the row as a window candidate (a building pixel with a plane, z ≤ zmax): its column,
+// z, plane axis and plane index appended at n.
+[[gnu::always_inline]] inline void window_candidate(int x, const int32_t* reg, const float* z, double zmax,
+                                                    const BuildingFacades& fac, const FacadeFrame* fr, int32_t* rx,
+                                                    double* rz, double* rtX, double* rtD, int32_t* rp, int& n) {
+  if (reg[x] < 0 || z[x] > zmax) return;
+  const BuildingFacades::Region& R = fac.regions[reg[x]];
+  const int pi = R.column_plane[x - R.x0];
+  if (pi < 0) return;
+  rx[n] = x;
+  rz[n] = z[x];
+  rtX[n] = fr[pi].tX;
+  rtD[n] = fr[pi].tD;
+  rp[n] = pi;
+  ++n;
+}
+// add_facade_windows's compaction of one row (its scalar loop: a building pixel with a plane and
+// z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
+// region whose eight columns take one plane and whose depths are all within zmax (inside a façade:
+// most groups) by vector loads and stores, groups of no building pixel skipped, other groups and
+// the last W mod 8 columns one by one. The same entries in the same order. Returns their count.
+__attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, const float* z, int W, double zmax,
+                                                          const BuildingFacades& fac, const FacadeFrame* fr,
+                                                          WindowRow& r, int32_t* rp) {
+  int32_t* rx = r.x.data();
+  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+  int n = 0;
+  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
+  const __m256d vzmax = _mm256_set1_pd(zmax);
+  int x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+    const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
+    if (neg == 0xff) continue;  // no building region
+    const int r0 = reg[x];
+    if (neg == 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) == -1) {
+      const BuildingFacades::Region& R = fac.regions[r0];
+      const int c0 = x - R.x0, pi = c0 >= 0 && c0 < static_cast<int>(R.column_plane.size()) ? R.column_plane[c0] : -1;
+      const __m256 zv = _mm256_loadu_ps(z + x);
+      const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zv)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1));
+      if (pi >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size()) &&
+          _mm256_movemask_epi8(_mm256_cmpeq_epi32(
+              _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)), _mm256_set1_epi32(pi))) == -1 &&
+          !(_mm256_movemask_pd(_mm256_cmp_pd(z0, vzmax, _CMP_GT_OQ)) | _mm256_movemask_pd(_mm256_cmp_pd(z1, vzmax, _CMP_GT_OQ)))) {
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(rx + n),
+                            _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(rp + n), _mm256_set1_epi32(pi));
+        _mm256_storeu_pd(rz + n, z0);
+        _mm256_storeu_pd(rz + n + 4, z1);
+        const __m256d tX = _mm256_set1_pd(fr[pi].tX), tD = _mm256_set1_pd(fr[pi].tD);
+        _mm256_storeu_pd(rtX + n, tX);
+        _mm256_storeu_pd(rtX + n + 4, tX);
+        _mm256_storeu_pd(rtD + n, tD);
+        _mm256_storeu_pd(rtD + n + 4, tD);
+        n += 8;
+        continue;
+      }
+    }
+    for (int k = 0; k < 8; ++k) one(x + k);
+  }
+  for (; x < W; ++x) one(x);
+  _mm256_zeroupper();
+  return n;
+}
 }  // namespace
 
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
@@ -1019,8 +1152,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
   // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
   // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in
   // the world, so a façade keeps its windows' draws when the camera moves.
-  struct Frame { double tX, tD; uint64_t key; };
-  std::vector<Frame> frames(fac.planes.size());
+  std::vector<FacadeFrame> frames(fac.planes.size());
   for (size_t k = 0; k < fac.planes.size(); ++k) {
     const FacadePlane& f = fac.planes[k];
     double tX = f.nD, tD = -f.nX;
@@ -1053,8 +1185,9 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       const double zmax = max_z;
       int32_t *rx = r.x.data(), *rp = plane_of.data();
       double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
-      const Frame* fr = frames.data();
-      for (int x = 0; x < Wr; ++x) {
+      const FacadeFrame* fr = frames.data();
+      if (kHaveAvx2) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, r, rp);
+      for (int x = 0; x < Wr && !kHaveAvx2; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
         // only when every one has it) skipped at once: building pixels come in long runs.
         if ((x & 7) == 0 && x + 8 <= Wr &&
@@ -1062,16 +1195,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
           x += 7;
           continue;
         }
-        if (reg[x] < 0 || z[x] > zmax) continue;
-        const BuildingFacades::Region& R = fac.regions[reg[x]];
-        const int pi = R.column_plane[x - R.x0];
-        if (pi < 0) continue;
-        rx[n] = x;
-        rz[n] = z[x];
-        rtX[n] = fr[pi].tX;
-        rtD[n] = fr[pi].tD;
-        rp[n] = pi;
-        ++n;
+        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
       }
       if (n == 0) continue;
       const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <tuple>
 
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -231,4 +232,64 @@ TEST(SceneNightCli, ScalarAndAvx2LightPathsGiveTheSameBits) {
   // and lit façade windows (the windows' twins were compared on them), as many on both paths
   EXPECT_GT(std::stoi(v.attributes.at("photosite/night/lights_windows")), 0);
   EXPECT_EQ(v.attributes.at("photosite/night/lights_windows"), s.attributes.at("photosite/night/lights_windows"));
+}
+
+// The light map's fast paths pinned to their definition at one and two threads: a shared
+// Cityscapes frame (façades, poles, parked and moving vehicles) cut to 2043 columns, not a
+// multiple of 8, so the AVX2 rows of the vertical street light (groups of eight columns) end in
+// columns that go the scalar way, as do the pools' and windows' last groups. The light map of the
+// AVX2 paths at 1 and 2 OpenMP threads and of the scalar twins (PHOTOSITE_SCALAR_LIGHTS=1) at 1
+// and 2 threads must be the same bits (each pixel's sums are its own: neither the path nor the
+// thread count may change them).
+TEST(SceneNightCli, LightMapFastPathsEqualScalarAtOneAndTwoThreads) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const fs::path dir = test::shared_dir() / "data/cityscapes";
+  const std::string base = "aachen_000000_000019";
+  test::TempDir tmp;
+  const int Wc = 2043;
+  {
+    const ImageF day = read_image((dir / "leftImg8bit" / (base + "_leftImg8bit.png")).string());
+    const ImageU16 lab = read_image_u16((dir / "gtFine" / (base + "_gtFine_labelIds.png")).string());
+    ASSERT_GT(day.width(), Wc);
+    ImageU8 d8(Wc, day.height(), 3), l8(Wc, day.height(), 1);
+    for (int y = 0; y < day.height(); ++y)
+      for (int x = 0; x < Wc; ++x) {
+        for (int k = 0; k < 3; ++k) d8.at(x, y, k) = static_cast<uint8_t>(std::lround(255 * day.at(x, y, k)));
+        l8.at(x, y) = static_cast<uint8_t>(lab.at(x, y));
+      }
+    write_png8(tmp.file("day.png"), d8);
+    write_png8(tmp.file("labels.png"), l8);
+  }
+  auto run = [&](const std::string& name, const char* threads, bool scalar) {
+    setenv("OMP_NUM_THREADS", threads, 1);
+    if (scalar) setenv("PHOTOSITE_SCALAR_LIGHTS", "1", 1);
+    const auto r = test::run_cli("night --backend cpu --layers lights --compression none --image '" +
+                                 tmp.file("day.png") + "' --labels '" + tmp.file("labels.png") + "' --out '" +
+                                 tmp.file(name) + "' --device-store '" + tmp.file("store") + "'");
+    unsetenv("PHOTOSITE_SCALAR_LIGHTS");
+    unsetenv("OMP_NUM_THREADS");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return read_exr(tmp.file(name));
+  };
+  const ExrContents ref = run("s1.exr", "1", true);
+  ASSERT_EQ(ref.width, Wc);
+  double lights = 0;
+  for (const char* ch : {"lights.R", "lights.G", "lights.B"}) {
+    const ImageF& im = ref.channels.at(ch);
+    for (size_t i = 0; i < im.size(); ++i) lights += im[i];
+  }
+  EXPECT_GT(lights, 0.0);
+  EXPECT_GT(std::stoi(ref.attributes.at("photosite/night/lights_windows")), 0);
+  for (const auto& [name, threads, scalar] :
+       {std::tuple{"s2.exr", "2", true}, std::tuple{"v1.exr", "1", false}, std::tuple{"v2.exr", "2", false}}) {
+    const ExrContents other = run(name, threads, scalar);
+    for (const char* ch : {"lights.R", "lights.G", "lights.B"}) {
+      const ImageF &a = ref.channels.at(ch), &b = other.channels.at(ch);
+      ASSERT_EQ(a.size(), b.size()) << name << " " << ch;
+      size_t differ = 0;
+      for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+      EXPECT_EQ(differ, 0u) << name << " " << ch << ": samples differing from the scalar path at 1 thread";
+    }
+    EXPECT_EQ(ref.attributes.at("photosite/night/lights_windows"), other.attributes.at("photosite/night/lights_windows"));
+  }
 }
