@@ -2,13 +2,16 @@
 // bench frame (onsemi-ar0331, a radiance ramp over three decades, 2048x1024, all threads), in
 // alternating rounds (best of each):
 //  * sense() whole (noise, ADC and the bilinear demosaic), and the demosaic alone;
-//  * the Philox words alone: the AVX2 block generator over every pixel, with 10 rounds
-//    (Philox4x32-10, the generator of every result) and with 7 (Philox4x32-7, used for nothing
-//    but this comparison): what the counter-based generator costs, and what 3 rounds less would
-//    save;
+//  * the words alone, every pixel of the frame in blocks of 256 as the sense loop draws them:
+//    Philox4x32-10 (the generator of every result) on the AVX2 path and, where the CPU has it,
+//    on the AVX-512 path the sampler uses there (the same words); Philox4x32-7 and a keyed
+//    lowbias32 counter hash (cheaper generators with the same keying, used for nothing but this
+//    comparison): what the counter-based generator costs, and what a cheaper one would save;
 //  * the memory floor of the noise + ADC part: one streaming pass with its traffic, reading the
 //    mean signal and the three fixed-pattern maps and writing electrons and DN (6 floats,
-//    24 bytes per pixel), with the sense's mean-electron arithmetic and nothing else.
+//    24 bytes per pixel), with the sense's mean-electron arithmetic and nothing else; and the
+//    floor as bytes over the machine's measured streaming bandwidth (a STREAM-like triad over
+//    arrays far larger than the caches), for noise + ADC and for expose's whole traffic.
 //  * the whole sensor as night and batch run it: expose() (photon stage with the lens glare and
 //    the sense stage fused row by row), beside its two stages run apart (mean_signal_electrons()
 //    then sense(), the mean signal going through memory) and the photon stage alone; and
@@ -24,6 +27,8 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <immintrin.h>
 #include <string>
 #include <vector>
 #include <fmt/format.h>
@@ -46,9 +51,11 @@ struct BenchSenseOptions {
   int width = 2048, height = 1024;
 };
 
-// Philox words for every pixel of a w x h frame in blocks of 256 (as the sense loop draws them),
-// rows split over the threads; returns an xor of the words so nothing is optimised away.
-uint32_t frame_words(int rounds, int w, int h) {
+// Words for every pixel of a w x h frame in blocks of 256 (as the sense loop draws them), rows
+// split over the threads, by gen(first_pixel, n, w0..w3); returns an xor of the words so
+// nothing is optimised away.
+template <class Gen>
+uint32_t frame_words(int w, int h, const Gen& gen) {
   uint32_t sum = 0;
 #pragma omp parallel reduction(^ : sum)
   {
@@ -57,11 +64,106 @@ uint32_t frame_words(int rounds, int w, int h) {
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; x += 256) {
         const int n = std::min(256, w - x);
-        detail::philox_words_rounds(rounds, 1234, 7, static_cast<uint64_t>(y) * w + x, 1, n, w0, w1, w2, w3);
+        gen(static_cast<uint64_t>(y) * w + x, n, w0, w1, w2, w3);
         for (int j = 0; j < n; ++j) sum ^= w0[j] ^ w1[j] ^ w2[j] ^ w3[j];
       }
   }
   return sum;
+}
+constexpr uint64_t kKey = 1234;
+constexpr uint32_t kFrame = 7, kStream = 1;
+auto philox_gen(int rounds, detail::PhiloxPath path) {
+  return [rounds, path](uint64_t p, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+    detail::philox_words_rounds(rounds, path, kKey, kFrame, p, kStream, n, w0, w1, w2, w3);
+  };
+}
+
+// The cheaper generator of the comparison (never used for a result; its statistical quality is
+// not tested): a keyed counter hash with Philox's input (key, frame, pixel, stream), built from
+// C. Wellons' lowbias32 integer hash (x ^= x>>16; x *= 0x7feb352d; x ^= x>>15; x *= 0x846ca68b;
+// x ^= x>>16: a bijection of 32-bit words, https://nullprogram.com/blog/2018/07/31/). The part
+// of the input that is the same over a block (key's high word, pixel's high word, frame, stream)
+// is hashed once into b; per pixel c = lb(lb(pixel_lo ^ key_lo) ^ b) and word i = lb(c ^ s_i)
+// for four odd constants s_i: six hashes, twelve 32-bit multiplies a pixel, against Philox-10's
+// twenty 32x32->64 products.
+inline uint32_t lowbias32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+constexpr uint32_t kHashSalt[4] = {0x9E3779B9u, 0xBB67AE85u, 0x3C6EF372u, 0xA54FF53Au};
+inline uint32_t hash_block_constant(uint64_t key, uint32_t frame, uint64_t pixel, uint32_t stream) {
+  return lowbias32(static_cast<uint32_t>(key >> 32) ^ static_cast<uint32_t>(pixel >> 32) ^
+                   lowbias32(frame ^ lowbias32(stream)));
+}
+void hash_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n, uint32_t* w0,
+                       uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  for (int j = 0; j < n; ++j) {
+    const uint64_t p = first_pixel + j;
+    const uint32_t c = lowbias32(lowbias32(static_cast<uint32_t>(p) ^ static_cast<uint32_t>(key)) ^
+                                 hash_block_constant(key, frame, p, stream));
+    w0[j] = lowbias32(c ^ kHashSalt[0]);
+    w1[j] = lowbias32(c ^ kHashSalt[1]);
+    w2[j] = lowbias32(c ^ kHashSalt[2]);
+    w3[j] = lowbias32(c ^ kHashSalt[3]);
+  }
+}
+__attribute__((target("avx2"))) inline __m256i lowbias32_avx2(__m256i x) {
+  x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
+  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x7feb352d));
+  x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 15));
+  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(static_cast<int>(0x846ca68bu)));
+  return _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
+}
+// The same words, 8 pixels at a time with AVX2 (checked against hash_words_scalar before timing).
+__attribute__((target("avx2")))
+void hash_words_avx2(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n, uint32_t* w0,
+                     uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i klo = _mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(key)));
+  uint32_t* out[4] = {w0, w1, w2, w3};
+  int j = 0;
+  for (; j + 8 <= n && ((first_pixel + j) >> 32) == ((first_pixel + j + 7) >> 32); j += 8) {
+    const uint64_t p = first_pixel + j;
+    const __m256i b = _mm256_set1_epi32(static_cast<int>(hash_block_constant(key, frame, p, stream)));
+    const __m256i lo = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p))), lane);
+    const __m256i c = lowbias32_avx2(_mm256_xor_si256(lowbias32_avx2(_mm256_xor_si256(lo, klo)), b));
+    for (int i = 0; i < 4; ++i)
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out[i] + j),
+                          lowbias32_avx2(_mm256_xor_si256(c, _mm256_set1_epi32(static_cast<int>(kHashSalt[i])))));
+  }
+  if (j < n) hash_words_scalar(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);
+}
+auto hash_gen() {
+  return [](uint64_t p, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+    hash_words_avx2(kKey, kFrame, p, kStream, n, w0, w1, w2, w3);
+  };
+}
+// The AVX2 hash against its scalar definition on one block (a benchmark of wrong words would
+// mean nothing).
+void check_hash_words() {
+  alignas(64) uint32_t a[4][256], b[4][256];
+  const uint64_t first = (uint64_t{1} << 32) - 100;  // a block across the pixel's high half
+  hash_words_avx2(kKey, kFrame, first, kStream, 256, a[0], a[1], a[2], a[3]);
+  hash_words_scalar(kKey, kFrame, first, kStream, 256, b[0], b[1], b[2], b[3]);
+  if (std::memcmp(a, b, sizeof a) != 0) fail("bench sense: the AVX2 counter hash differs from its scalar definition");
+}
+
+// Streaming bandwidth (GB/s, bytes read + written): a[i] = b[i] + s·c[i] over 3 arrays of
+// `mb` MB each (far beyond the caches), all threads, best of `repeats`.
+double triad_gb_per_s(int repeats, size_t mb) {
+  const size_t n = mb * (1u << 20) / sizeof(float);
+  std::vector<float> a(n), b(n, 1.f), c(n, 2.f);
+  auto pass = [&] {
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < static_cast<int64_t>(n); ++i) a[i] = b[i] + 0.5f * c[i];
+  };
+  pass();  // fault the pages in
+  const double ms = best_ms(repeats, pass);
+  return 3.0 * n * sizeof(float) / (ms * 1e6);
 }
 
 using scene::process_cpu_ms;  // the process CPU clock in ms (scene/night.h)
@@ -127,7 +229,10 @@ void run_bench(const BenchSenseOptions& o) {
     }
   };
 
+  check_hash_words();
+  const bool avx512 = detail::best_philox_path() == detail::PhiloxPath::Avx512;
   Timing sense_t{o.inner}, demosaic_t{o.inner}, p10{o.inner}, p7{o.inner}, floor_t{o.inner};
+  Timing p10w{o.inner}, p7w{o.inner}, hash_t{o.inner};
   Timing expose_t{o.inner}, apart_t{o.inner}, photon_t{o.inner}, reused_t{o.inner};
   SensorOutput reused = so;  // caller-owned outputs, overwritten by every call of its row
   uint32_t sink = 0;
@@ -138,8 +243,13 @@ void run_bench(const BenchSenseOptions& o) {
     photon_t.add([&] { auto m = mean_signal_electrons(radiance, cam, lens, ex); });
     sense_t.add([&] { so = sense(mean_e, cam, ex, s, fpn); });
     demosaic_t.add([&] { auto rgb = demosaic(so.raw_dn, cam.cfa, DemosaicMethod::Bilinear); });
-    p10.add([&] { sink ^= frame_words(10, w, h); });
-    p7.add([&] { sink ^= frame_words(7, w, h); });
+    p10.add([&] { sink ^= frame_words(w, h, philox_gen(10, detail::PhiloxPath::Avx2)); });
+    p7.add([&] { sink ^= frame_words(w, h, philox_gen(7, detail::PhiloxPath::Avx2)); });
+    if (avx512) {
+      p10w.add([&] { sink ^= frame_words(w, h, philox_gen(10, detail::PhiloxPath::Avx512)); });
+      p7w.add([&] { sink ^= frame_words(w, h, philox_gen(7, detail::PhiloxPath::Avx512)); });
+    }
+    hash_t.add([&] { sink ^= frame_words(w, h, hash_gen()); });
     floor_t.add(floor_pass);
   }
   const double noise_adc_wall = sense_t.wall - demosaic_t.wall, noise_adc_cpu = sense_t.cpu - demosaic_t.cpu;
@@ -159,34 +269,63 @@ void run_bench(const BenchSenseOptions& o) {
   frow("sense (noise + ADC + bilinear demosaic)", sense_t);
   row("  bilinear demosaic alone", demosaic_t.wall, demosaic_t.cpu);
   row("  noise + ADC (the difference)", noise_adc_wall, noise_adc_cpu);
-  row("Philox4x32-10 words, every pixel", p10.wall, p10.cpu);
-  row("Philox4x32-7 words (not used for results)", p7.wall, p7.cpu);
+  row("Philox4x32-10 words, AVX2", p10.wall, p10.cpu);
+  row("Philox4x32-7 words, AVX2 (no results)", p7.wall, p7.cpu);
+  if (avx512) {
+    row("Philox4x32-10 words, AVX-512", p10w.wall, p10w.cpu);
+    row("Philox4x32-7 words, AVX-512 (no results)", p7w.wall, p7w.cpu);
+  }
+  row("lowbias32 counter hash, AVX2 (no results)", hash_t.wall, hash_t.cpu);
   row("memory floor of noise + ADC (24 B/pixel)", floor_t.wall, floor_t.cpu);
-  std::printf("\nCPU-time ratios: Philox-7 / Philox-10 %.2f; Philox-10 share of noise + ADC %.0f%%; "
-              "noise + ADC / its memory floor %.1f; expose fused / its stages apart %.2f\n",
-              p7.cpu / p10.cpu, 100.0 * p10.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu, expose_t.cpu / apart_t.cpu);
-  std::printf("(xor of the words: %08x)\n", sink);
+  // The floors as bytes over the measured bandwidth. Noise + ADC: 24 B a pixel (above). expose:
+  // the radiance read twice (the glare pyramid, then the photon rows: 24 B), the three
+  // fixed-pattern maps (12 B), electrons, raw and RGB written (20 B), acc_1 (3 floats per 2x2
+  // pixels) written and read back (6 B): 62 B a pixel.
+  const double gbps = triad_gb_per_s(std::max(3, o.repeats), 32);
+  const double px = static_cast<double>(w) * h;
+  const double floor_noise_ms = 24 * px / (gbps * 1e6), floor_expose_ms = 62 * px / (gbps * 1e6);
+  std::printf("streaming bandwidth (triad, 3 x 32 MB, %d threads): %.1f GB/s; floors by bytes / bandwidth: "
+              "noise + ADC %.2f ms, expose %.2f ms\n",
+              threads, gbps, floor_noise_ms, floor_expose_ms);
+  const Timing& philox = avx512 ? p10w : p10;  // the path the sampler runs
+  const Timing& philox7 = avx512 ? p7w : p7;
+  std::printf("\nCPU-time ratios (the sampler's Philox path, %s): Philox-7 / Philox-10 %.2f; counter hash / Philox-10 "
+              "%.2f; Philox-10 share of noise + ADC %.0f%%, the hash's %.0f%%; noise + ADC / its measured floor %.1f; "
+              "expose fused / its stages apart %.2f",
+              avx512 ? "AVX-512" : "AVX2", philox7.cpu / philox.cpu, hash_t.cpu / philox.cpu,
+              100.0 * philox.cpu / noise_adc_cpu, 100.0 * hash_t.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu,
+              expose_t.cpu / apart_t.cpu);
+  if (avx512) std::printf("; Philox-10 AVX-512 / AVX2 %.2f", p10w.cpu / p10.cpu);
+  std::printf("\n(xor of the words: %08x)\n", sink);
   std::string csv = "quantity,wall_ms,cpu_ms_all_threads\n";
   csv += fmt::format("expose_reused_outputs,{:.3f},{:.3f}\n", reused_t.wall, reused_t.cpu);
   csv += fmt::format("expose_fused,{:.3f},{:.3f}\nexpose_stages_apart,{:.3f},{:.3f}\nphoton_stage,{:.3f},{:.3f}\n",
                      expose_t.wall, expose_t.cpu, apart_t.wall, apart_t.cpu, photon_t.wall, photon_t.cpu);
   csv += fmt::format("sense,{:.3f},{:.3f}\nbilinear_demosaic,{:.3f},{:.3f}\nnoise_adc,{:.3f},{:.3f}\n"
-                     "philox4x32_10_words,{:.3f},{:.3f}\nphilox4x32_7_words,{:.3f},{:.3f}\n"
-                     "memory_floor_noise_adc,{:.3f},{:.3f}\n",
+                     "philox4x32_10_words_avx2,{:.3f},{:.3f}\nphilox4x32_7_words_avx2,{:.3f},{:.3f}\n",
                      sense_t.wall, sense_t.cpu, demosaic_t.wall, demosaic_t.cpu, noise_adc_wall, noise_adc_cpu,
-                     p10.wall, p10.cpu, p7.wall, p7.cpu, floor_t.wall, floor_t.cpu);
+                     p10.wall, p10.cpu, p7.wall, p7.cpu);
+  if (avx512)
+    csv += fmt::format("philox4x32_10_words_avx512,{:.3f},{:.3f}\nphilox4x32_7_words_avx512,{:.3f},{:.3f}\n", p10w.wall,
+                       p10w.cpu, p7w.wall, p7w.cpu);
+  csv += fmt::format("lowbias32_counter_hash_words_avx2,{:.3f},{:.3f}\nmemory_floor_noise_adc,{:.3f},{:.3f}\n",
+                     hash_t.wall, hash_t.cpu, floor_t.wall, floor_t.cpu);
+  csv += fmt::format("floor_noise_adc_bytes_over_bandwidth,{:.3f},\nfloor_expose_bytes_over_bandwidth,{:.3f},\n",
+                     floor_noise_ms, floor_expose_ms);
   csv += fmt::format("# onsemi-ar0331, {}x{}, {} threads, best of {} alternating rounds of {} calls, {}\n", w, h,
                      threads, o.repeats, o.inner, machine_description());
-  csv += fmt::format("# cpu-time ratios: philox7_over_philox10={:.3f} philox10_share_of_noise_adc={:.3f} "
-                     "noise_adc_over_floor={:.2f}\n",
-                     p7.cpu / p10.cpu, p10.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu);
+  csv += fmt::format("# triad bandwidth {:.2f} GB/s; cpu-time ratios on the sampler's Philox path ({}): "
+                     "philox7_over_philox10={:.3f} hash_over_philox10={:.3f} philox10_share_of_noise_adc={:.3f} "
+                     "hash_share_of_noise_adc={:.3f} noise_adc_over_floor={:.2f}\n",
+                     gbps, avx512 ? "avx512" : "avx2", philox7.cpu / philox.cpu, hash_t.cpu / philox.cpu,
+                     philox.cpu / noise_adc_cpu, hash_t.cpu / noise_adc_cpu, noise_adc_cpu / floor_t.cpu);
   write_bench_csv(o.out_dir, "bench_sense.csv", csv);
 }
 
 }  // namespace
 
 static BenchRegistrar reg("sense",
-                          "sense stage: its time against its memory floor, and Philox4x32-10 against -7 (docs/bench_sense.csv)",
+                          "sense stage: its time against its memory floor, and Philox4x32-10 against -7 and a counter hash (docs/bench_sense.csv)",
                           [](CLI::App* sub) {
                             auto o = std::make_shared<BenchSenseOptions>();
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
