@@ -161,12 +161,19 @@ void philox_list(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const u
     philox_one(key, frame, (static_cast<uint64_t>(pixel_hi[j]) << 32) | pixel_lo[j], stream, j, w0, w1, w2, w3);
 }
 
-__attribute__((target_clones("avx2", "default")))
+// The float loops below carry AVX-512 (16 lanes), AVX2 (8) and baseline clones
+// (target_clones), dispatched once by the CPU's features: the same IEEE operations per lane in
+// the same order on every clone (no FMA: -ffp-contract=off; sqrt and division correctly
+// rounded at any width), so the same bits. Held to the scalar reference (compiled for the
+// baseline in the tests) by PoissonAccuracy.PtrsBlockEqualsScalarReference,
+// PoissonAccuracy.MixedBlocksEqualScalarReference and Poisson.BlockKernelMatchesScalarPhiloxWords,
+// which run the widest clone the CPU has, and by the CPU/Vulkan parity tests.
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void normals(const uint32_t* a, const uint32_t* b, float* z, int n) {
   for (int j = 0; j < n; ++j) z[j] = detail::normal_from_words_f(a[j], b[j]);
 }
 
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void corrected_normal_block(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j)
     out[j] = detail::cornish_fisher_sample(
@@ -176,7 +183,7 @@ void corrected_normal_block(const float* mean, const float* z, float* out, int n
 // A documented SIMD twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops
 // per lane with a break that keeps it from vectorizing: the same sums in the same order, so the
 // same bits, held to them by the test Poisson.BlockKernelMatchesScalarPhiloxWords.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
   alignas(64) float u[kBlock], p[kBlock], cdf[kBlock], k[kBlock];
   for (int i = 0; i < m; ++i) {
@@ -200,7 +207,7 @@ void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) 
   }
   for (int i = 0; i < m; ++i) k_out[i] = k[i];
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j) out[j] = detail::rounded_normal_sample(mean[j], z[j]);
 }
@@ -212,7 +219,7 @@ void rounded_normal(const float* mean, const float* z, float* out, int n) {
 // attempts per Philox call, until none is left. Compaction is branch-free (select_lanes): the
 // verdicts are random, branches on them would mispredict. Each lane's result is
 // detail::ptrs_sample's, whatever the block, the thread or the other lanes.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                 float* __restrict mu, float* __restrict k, float* __restrict us, float* __restrict v,
                 float* __restrict verdict, int m) {
@@ -235,14 +242,14 @@ template <class T>
 inline void pad8(T* a, int n, T value) {
   for (int i = n; i < round8(n); ++i) a[i] = value;
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const float* __restrict us,
                     const float* __restrict v, float* __restrict accepted, int m) {
   if (m % 8 != 0) __builtin_unreachable();
   for (int i = 0; i < m; ++i)
     accepted[i] = detail::ptrs_accept(detail::ptrs_setup(mu[i]), detail::PtrsCandidate{k[i], us[i], v[i], 0.f}) ? 1.f : 0.f;
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_attempts(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                    float* __restrict k, int m) {
   if (m % 8 != 0) __builtin_unreachable();
@@ -294,13 +301,13 @@ int select_lanes(const float* keep, int m, int* idx) {
 
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
 // first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
-// lanes get a value the caller overwrites. An AVX2 clone for its own loops (verdict flags,
+// lanes get a value the caller overwrites. AVX-512 and AVX2 clones for its own loops (verdict flags,
 // gathers and scatters of the compacted lanes: copies and compares, no arithmetic on the draws).
 // GCC's -Wmaybe-uninitialized cannot see that pad8 fills the lanes [n, round8(n)) that the
 // whole-vector passes read past the n compacted ones; every lane read is written first.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
@@ -365,7 +372,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
 }
 #pragma GCC diagnostic pop
 // How many of a[0, n) are >= t (a vectorized count: it runs on every block).
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 int count_at_least(const float* __restrict a, int n, float t) {
   int count = 0;
   for (int i = 0; i < n; ++i) count += a[i] >= t ? 1 : 0;
@@ -402,9 +409,9 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
 }
 }  // namespace
 
-// An AVX2 clone for its own loops (the lane selections and the low-mean gathers: compares and
-// copies, no arithmetic on the draws), so the same bits on either clone.
-__attribute__((target_clones("avx2", "default")))
+// AVX-512 and AVX2 clones for its own loops (the lane selections and the low-mean gathers:
+// compares and copies, no arithmetic on the draws), so the same bits on every clone.
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];
