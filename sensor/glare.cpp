@@ -5,9 +5,15 @@
 // count never changes a result.
 #include "photosite/sensor/glare.h"
 
+#include <omp.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <immintrin.h>
+#include <memory>
+#include <string>
+#include <utility>
 
 #include "photosite/error.h"
 #include "photosite/units.h"
@@ -138,22 +144,18 @@ void down2_row(const float* __restrict ra, const float* __restrict rb, int w, fl
   }
 }
 
-// 2x2 box average, edge clamped (the last row/column of an odd size averages with itself).
-// With `rows`: also each output row's level1_row_sum (the level-1 energy of the input).
-ImageF down2(const ImageF& src, std::vector<std::array<double, 3>>* rows = nullptr) {
+// 2x2 box average, edge clamped (the last row/column of an odd size averages with itself), into
+// dst, with each output row's level1_row_sum (the level-1 energy of the input) into rows.
+void down2(const ImageF& src, ImageF& dst, std::vector<std::array<double, 3>>& rows) {
   const int w = src.width(), h = src.height();
   const int w2 = (w + 1) / 2, h2 = (h + 1) / 2;
-  ImageF dst(w2, h2, 3, uninitialized, src.unit());
-  if (rows) rows->assign(h2, {0, 0, 0});
+  rows.assign(h2, {0, 0, 0});
 #pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels / 4)
   for (int y = 0; y < h2; ++y) {
-    const float* ra = src.row(2 * y);
-    const float* rb = src.row(std::min(2 * y + 1, h - 1));
     float* o = dst.row(y);
-    down2_row(ra, rb, w, o);
-    if (rows) (*rows)[y] = level1_row_sum(o, w2, w);
+    down2_row(src.row(2 * y), src.row(std::min(2 * y + 1, h - 1)), w, o);
+    rows[y] = level1_row_sum(o, w2, w);
   }
-  return dst;
 }
 
 // down_1331's interior along a row: o[3x + k] for 1 <= x < end, from s[3(2x − 1) + k] on.
@@ -171,109 +173,154 @@ void taps1331_cols(const float* __restrict a, const float* __restrict b, const f
                    const float* __restrict d, size_t n, float* __restrict o) {
   for (size_t j = 0; j < n; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
 }
+// The (1,3,3,1)/8 taps along one row of w pixels (mirror borders): o holds (w + 1)/2 pixels.
+void taps1331_along_row(const float* s, int w, float* o) {
+  const int w2 = (w + 1) / 2;
+  auto at = [&](int x) {
+    const float* a = s + 3 * glare_mirror(2 * x - 1, w);
+    const float* b = s + 3 * glare_mirror(2 * x, w);
+    const float* c = s + 3 * glare_mirror(2 * x + 1, w);
+    const float* d = s + 3 * glare_mirror(2 * x + 2, w);
+    for (int k = 0; k < 3; ++k)
+      o[3 * x + k] = (0.125f * a[k] + 0.375f * b[k]) + (0.375f * c[k] + 0.125f * d[k]);
+  };
+  const int inner_end = std::max(1, (w - 1) / 2);  // x < inner_end: 2x + 2 <= w − 1, no mirror
+  at(0);
+  taps1331_row(s, inner_end, o);
+  for (int x = std::max(1, inner_end); x < w2; ++x) at(x);
+}
+
+// The rows [ya, yb) of n that thread t of nt walks (contiguous ranges in order: any split gives
+// the same rows, each computed by one thread).
+inline std::pair<int, int> thread_rows(int n) {
+  const int nt = omp_get_num_threads(), t = omp_get_thread_num();
+  return {static_cast<int>(static_cast<int64_t>(n) * t / nt), static_cast<int>(static_cast<int64_t>(n) * (t + 1) / nt)};
+}
 
 // Down one octave with the taps (1, 3, 3, 1)/8 per axis, the transpose of the bilinear
 // upsampling (mirror borders): unlike a 2x2 box it keeps a point source's centroid where it
 // was, so coarse levels spread a lamp's glare around the lamp, not around a coarse pixel
-// centre up to 2^(l-1) px away. Rows first, then columns; each sum in this order.
-ImageF down_1331(const ImageF& src) {
-  const int w = src.width(), h = src.height();
+// centre up to 2^(l-1) px away. Rows first, then columns; each sum in this order. The source is
+// w x h pixels, its row j given by src_row(j, k, own, scratch) (k: the unmirrored index asked
+// for; own: k lies in this thread's share of the source rows, [2·ya, 2·yb)). Each thread walks
+// a contiguous range of output rows and keeps the row pass of the four source rows it needs
+// (2y − 1 .. 2y + 2, mirrored) in a ring, making two new ones per output row: the row pass is
+// never written as an image, and every output sample is the same sums in the same order.
+template <class SrcRow>
+void down_1331(int w, int h, const SrcRow& src_row, size_t scratch_floats, bool parallel, ImageF& dst) {
   const int w2 = (w + 1) / 2, h2 = (h + 1) / 2;
-  ImageF t(w2, h, 3, uninitialized, src.unit()), dst(w2, h2, 3, uninitialized, src.unit());
-#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h > kParallelPixels)
-  for (int y = 0; y < h; ++y) {
-    const float* s = src.row(y);
-    float* o = t.row(y);
-    auto at = [&](int x) {
-      const float* a = s + 3 * glare_mirror(2 * x - 1, w);
-      const float* b = s + 3 * glare_mirror(2 * x, w);
-      const float* c = s + 3 * glare_mirror(2 * x + 1, w);
-      const float* d = s + 3 * glare_mirror(2 * x + 2, w);
-      for (int k = 0; k < 3; ++k)
-        o[3 * x + k] = (0.125f * a[k] + 0.375f * b[k]) + (0.375f * c[k] + 0.125f * d[k]);
-    };
-    const int inner_end = std::max(1, (w - 1) / 2);  // x < inner_end: 2x + 2 <= w − 1, no mirror
-    at(0);
-    taps1331_row(s, inner_end, o);
-    for (int x = std::max(1, inner_end); x < w2; ++x) at(x);
-  }
-#pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels)
-  for (int y = 0; y < h2; ++y) {
-    const float* a = t.row(glare_mirror(2 * y - 1, h));
-    const float* b = t.row(glare_mirror(2 * y, h));
-    const float* c = t.row(glare_mirror(2 * y + 1, h));
-    const float* d = t.row(glare_mirror(2 * y + 2, h));
-    taps1331_cols(a, b, c, d, 3 * static_cast<size_t>(w2), dst.row(y));
-  }
-  return dst;
-}
-
-// Separable blur along rows (taps centre first), mirror borders: each row is first copied into
-// a padded row (the mirror resolved once), then every output sums its taps from −R to R.
-ImageF blur_rows(const ImageF& src, const std::array<float, kGlareBlurRadius + 1>& g) {
-  const int w = src.width(), h = src.height();
-  constexpr int R = kGlareBlurRadius;
-  ImageF dst(w, h, 3, uninitialized, src.unit());
-#pragma omp parallel if (static_cast<int64_t>(w) * h > kParallelPixels)
+  const size_t n2 = 3 * static_cast<size_t>(w2);
+#pragma omp parallel if (parallel)
   {
-    std::vector<float> pad(3 * static_cast<size_t>(w + 2 * R));
-#pragma omp for schedule(static)
-    for (int y = 0; y < h; ++y) {
-      const float* s = src.row(y);
-      for (int x = -R; x < w + R; ++x)
-        for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
-      float* o = dst.row(y);
-      for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
-      for (int k = -R; k <= R; ++k) {
-        const float wk = g[std::abs(k)];
-        add_tap(o, wk, pad.data() + 3 * (R + k), 3 * static_cast<size_t>(w));
+    const auto [ya, yb] = thread_rows(h2);
+    std::vector<float> ring(4 * n2), scratch(scratch_floats);
+    auto slot = [&](int k) { return ring.data() + static_cast<size_t>((k + 4) & 3) * n2; };  // k >= −1
+    auto make = [&](int k) {
+      taps1331_along_row(src_row(glare_mirror(k, h), k, k >= 2 * ya && k < 2 * yb, scratch.data()), w, slot(k));
+    };
+    for (int y = ya; y < yb; ++y) {
+      if (y == ya) {
+        make(2 * y - 1);
+        make(2 * y);
       }
+      make(2 * y + 1);
+      make(2 * y + 2);
+      taps1331_cols(slot(2 * y - 1), slot(2 * y), slot(2 * y + 1), slot(2 * y + 2), n2, dst.row(y));
     }
   }
-  return dst;
+}
+// down_1331 of an image.
+void down_1331(const ImageF& src, ImageF& dst) {
+  const int w = src.width(), h = src.height();
+  down_1331(w, h, [&](int j, int, bool, float*) { return src.row(j); }, 0,
+            static_cast<int64_t>((w + 1) / 2) * h > kParallelPixels, dst);
+}
+// Level 2 straight from the irradiance: down_1331 of down2(in), level 1's rows made by the 2x2
+// box as the (1,3,3,1) pass asks for them (so level 1 is never written as an image), with
+// level 1's row sums into rows (each by the thread that owns the row: the same sums as down2's).
+void down2_then_1331(const ImageF& in, ImageF& dst, std::vector<std::array<double, 3>>& rows) {
+  const int w = in.width(), h = in.height();
+  const int w1 = (w + 1) / 2, h1 = (h + 1) / 2;
+  rows.assign(h1, {0, 0, 0});
+  down_1331(
+      w1, h1,
+      [&](int j, int k, bool own, float* buf) {
+        down2_row(in.row(2 * j), in.row(std::min(2 * j + 1, h - 1)), w, buf);
+        if (own && k == j) rows[j] = level1_row_sum(buf, w1, w);
+        return static_cast<const float*>(buf);
+      },
+      3 * static_cast<size_t>(w1), static_cast<int64_t>(w1) * h1 > kParallelPixels / 4, dst);
 }
 
-// The blur along columns, weighted and added to the upsampled coarser accumulator:
-// acc_l = w·blur_col(t) + up(acc_{l+1}) (the second term only when `coarse` is not empty;
-// w = 0 with an empty `t`: acc_l = up(acc_{l+1}), the levels finer than lo). Per sample: the
-// upsampled value u (vertical interpolation first, then horizontal), the column sum
-// a = Σ_{k=−R..R} g_|k|·t(y + k) in that order, then w·a + u.
-ImageF blur_cols_add(const ImageF& t, const ImageF& coarse, float w, int width, int height,
-                     const std::array<float, kGlareBlurRadius + 1>& g,
-                     std::vector<std::array<double, 3>>* rows = nullptr, int full_width = 0) {
+// The Gaussian blur along one row of w pixels (taps centre first), mirror borders: the row is
+// first copied into a padded row (the mirror resolved once; pad holds 3·(w + 2R) floats), then
+// every output sums its taps from −R to R.
+void blur_row(const float* s, int w, const std::array<float, kGlareBlurRadius + 1>& g, float* pad, float* o) {
   constexpr int R = kGlareBlurRadius;
-  ImageF dst(width, height, 3, uninitialized, unit::radiance);
-  const bool blur = !t.empty(), up = !coarse.empty();
-  const int cw = up ? coarse.width() : 0, ch = up ? coarse.height() : 0;
+  for (int x = -R; x < w + R; ++x)
+    for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
+  for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
+  for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], pad + 3 * (R + k), 3 * static_cast<size_t>(w));
+}
+
+// One level of the way up, into dst (width x height): acc_l = w·blur(level) + up(acc_{l+1})
+// (the second term only when coarse is not null; level null: acc_l = up(acc_{l+1}), the levels
+// finer than lo). The blur is separable, rows first (blur_row), mirror borders. Per sample: the
+// upsampled value u (vertical interpolation first, then horizontal), the column sum
+// a = Σ_{k=−R..R} g_|k|·rowblur(y + k) in that order, then w·a + u. Each thread walks a
+// contiguous range of rows and keeps the row blur of the 2R + 1 rows it needs in a ring (one new
+// row per output row), so the row-blurred level is never written as an image.
+void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, int height,
+                const std::array<float, kGlareBlurRadius + 1>& g, ImageF& dst,
+                std::vector<std::array<double, 3>>* rows, int full_width) {
+  constexpr int R = kGlareBlurRadius, kRing = 2 * R + 1;
+  const bool blur = level != nullptr, up = coarse != nullptr;
+  const int cw = up ? coarse->width() : 0, ch = up ? coarse->height() : 0;
   const size_t n = 3 * static_cast<size_t>(width);
   if (rows) rows->assign(height, {0, 0, 0});
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
-    std::vector<float> tmp(up ? 9 * static_cast<size_t>(cw) : 0), u(up ? n : 0);  // t, then e, o of upsample_row
-#pragma omp for schedule(static)
-    for (int y = 0; y < height; ++y) {
+    const auto [ya, yb] = thread_rows(height);
+    // t, then e, o of upsample_row; u; the ring of row blurs and blur_row's padded row
+    std::vector<float> tmp(up ? 9 * static_cast<size_t>(cw) : 0), u(up && blur ? n : 0),
+        ring(blur ? kRing * n : 0), pad(blur ? 3 * static_cast<size_t>(width + 2 * R) : 0);
+    auto slot = [&](int k) { return ring.data() + static_cast<size_t>((k % kRing + kRing) % kRing) * n; };
+    auto make = [&](int k) { blur_row(level->row(glare_mirror(k, height)), width, g, pad.data(), slot(k)); };
+    for (int y = ya; y < yb; ++y) {
       float* o = dst.row(y);
       if (up) {
         const UpTap ty = glare_up_tap(y, ch);
-        const float* r0 = coarse.row(ty.i0);
-        const float* r1 = coarse.row(ty.i1);
-        lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(cw), tmp.data());
+        lerp_row(ty.w0, coarse->row(ty.i0), ty.w1, coarse->row(ty.i1), 3 * static_cast<size_t>(cw), tmp.data());
         upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + 3 * cw, tmp.data() + 6 * cw);
       }
-      if (!blur) {
-        if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
-        continue;
+      if (blur) {
+        if (y == ya)
+          for (int k = y - R; k < y + R; ++k) make(k);
+        make(y + R);
+        for (size_t j = 0; j < n; ++j) o[j] = 0.f;
+        for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], slot(y + k), n);
+        weigh_add(o, w, up ? u.data() : nullptr, n);
       }
-      for (size_t j = 0; j < n; ++j) o[j] = 0.f;
-      for (int k = -R; k <= R; ++k) {
-        const float wk = g[std::abs(k)];
-        add_tap(o, wk, t.row(glare_mirror(y + k, height)), n);
-      }
-      weigh_add(o, w, up ? u.data() : nullptr, n);
       if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
     }
   }
-  return dst;
+}
+
+// The pyramid's images, kept per thread between calls: a caller that runs frame after frame
+// (batch, bench night) reuses their pages instead of faulting in fresh ones each frame (the
+// level and accumulator images of a 2048x1024 frame, about 4 MB, and acc_1, 6 MB). acc_1 is
+// shared with the skirt returned; it is written again only when no skirt holds it any more.
+struct GlareWorkspace {
+  std::vector<ImageF> level, acc;  // [l], l = 1 .. hi (level 1 only when it is blurred; acc 2 .. hi)
+  std::shared_ptr<ImageF> acc1;
+};
+thread_local GlareWorkspace t_workspace;
+
+// img as a w x h x 3 image, its buffer kept where it has that shape already.
+ImageF& shaped(ImageF& img, int w, int h, const std::string& unit) {
+  if (!img.same_shape(w, h) || img.channels() != 3) img = ImageF(w, h, 3, uninitialized, unit);
+  img.set_unit(unit);
+  return img;
 }
 }  // namespace
 
@@ -345,30 +392,46 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
   if (in.channels() != 3) fail("glare: the irradiance must have 3 channels");
   if (in.width() < 1 || in.height() < 1) return s;
   const auto g = glare_blur_taps();
-  // The level-1 energies' row sums come out of the passes that write level 1 and acc_1 (the
+  GlareWorkspace& ws = t_workspace;
+  ws.level.resize(plan.hi + 1);
+  ws.acc.resize(plan.hi + 1);
+  if (!ws.acc1 || ws.acc1.use_count() > 1) ws.acc1 = std::make_shared<ImageF>();
+  std::atomic_thread_fence(std::memory_order_acquire);  // after the last skirt's release of acc1
+  const std::string& unit = in.unit();
+  auto level_image = [&](int l) -> ImageF& {
+    return shaped(ws.level[l], glare_level_size(s.width, l), glare_level_size(s.height, l), unit);
+  };
+  // The level-1 energies' row sums come out of the passes that make level 1 and acc_1 (the
   // same sums as glare_level1_energy, without another pass over memory).
   std::vector<std::array<double, 3>> rows_in, rows_skirt;
-  std::vector<ImageF> lv(plan.hi + 1);
-  lv[1] = down2(in, &rows_in);
-  for (int l = 2; l <= plan.hi; ++l) lv[l] = down_1331(lv[l - 1]);
-  ImageF acc;
-  for (int l = plan.hi; l >= 1; --l) {
-    const int w = lv[l].width(), h = lv[l].height();
-    auto* rows = l == 1 ? &rows_skirt : nullptr;
-    if (l >= plan.lo) acc = blur_cols_add(blur_rows(lv[l], g), acc, plan.weight[l - plan.lo], w, h, g, rows, s.width);
-    else acc = blur_cols_add(ImageF(), acc, 0.f, w, h, g, rows, s.width);
+  int l = 2;
+  if (plan.lo == 1) {
+    down2(in, level_image(1), rows_in);  // level 1 is blurred: kept as an image
+  } else {
+    down2_then_1331(in, level_image(2), rows_in);  // lo >= 2 <= hi: level 1 is only a step
+    l = 3;
+  }
+  for (; l <= plan.hi; ++l) down_1331(ws.level[l - 1], level_image(l));
+  const ImageF* coarse = nullptr;
+  for (l = plan.hi; l >= 1; --l) {
+    const int w = glare_level_size(s.width, l), h = glare_level_size(s.height, l);
+    ImageF& acc = shaped(l == 1 ? *ws.acc1 : ws.acc[l], w, h, unit::radiance);
+    const bool blurred = l >= plan.lo;
+    accumulate(blurred ? &ws.level[l] : nullptr, coarse, blurred ? plan.weight[l - plan.lo] : 0.f, w, h, g, acc,
+               l == 1 ? &rows_skirt : nullptr, s.width);
+    coarse = &acc;
   }
   const auto e_in = combine_rows(rows_in, s.height);
   const auto e_skirt = combine_rows(rows_skirt, s.height);
   for (int c = 0; c < 3; ++c)
     s.scale[c] = e_skirt[c] > 0 ? static_cast<float>(plan.eta * e_in[c] / e_skirt[c]) : 0.f;
   s.keep = plan.keep;
-  s.acc1 = std::move(acc);
+  s.acc1 = ws.acc1;
   return s;
 }
 
 void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
-  const ImageF& a = s.acc1;
+  const ImageF& a = *s.acc1;
   const int aw = a.width(), ah = a.height();
   const UpTap ty = glare_up_tap(y, ah);
   const float* r0 = a.row(ty.i0);

@@ -122,9 +122,9 @@ struct PhotonStage {
     return bad;
   }
   // kernels/common/sensor_pixel.glsl's photon_electrons over a row (e = M[c]·(R, G, B), cos⁴θ
-  // falloff; me, mo: the M rows of even and odd x). An AVX2 clone where it vectorizes: the same
-  // IEEE operations in the same order per pixel, so the same bits on either clone.
-  __attribute__((target_clones("avx2", "default")))
+  // falloff; me, mo: the M rows of even and odd x). AVX-512 and AVX2 clones where it vectorizes:
+  // the same IEEE operations in the same order per pixel, so the same bits on every clone.
+  __attribute__((target_clones("avx512f", "avx2", "default")))
   static void electrons_row(const float* __restrict g, int w, const double* me, const double* mo, double cx,
                             double dy2, double pitch_over_f, float* __restrict o) {
     const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
@@ -137,7 +137,7 @@ struct PhotonStage {
   // Whether every pixel of the row is physical, as one reduction that vectorizes:
   // shader::radiance_is_physical's test (no channel negative or NaN, R+G+B finite) with
   // "finite" written |R+G+B| <= FLT_MAX, which is false for Inf and NaN alike.
-  __attribute__((target_clones("avx2", "default")))
+  __attribute__((target_clones("avx512f", "avx2", "default")))
   static bool physical_row(const float* __restrict r, int w) {
     int bad = 0;
     for (int x = 0; x < w; ++x) {
@@ -300,19 +300,19 @@ struct SenseStage {
     analog_row(erow, off, read, col, row_e.empty() ? 0.f : row_e[y], static_cast<float>(read_e),
                static_cast<float>(full_well), K, black, max_code, w, drow, abrow);
   }
-  // sense_mean_e over a row, with an AVX2 clone (two products and their sum per pixel, no
-  // FMA: the same bits on either clone).
-  __attribute__((target_clones("avx2", "default")))
+  // sense_mean_e over a row, with AVX-512 and AVX2 clones (two products and their sum per
+  // pixel, no FMA: the same bits on every clone).
+  __attribute__((target_clones("avx512f", "avx2", "default")))
   static void mean_row(const float* __restrict srow, const float* __restrict g, float dark,
                        const float* __restrict df, int w, float* __restrict mean) {
     for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
   }
   // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
   // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one
-  // rounding), and the mosaic above black. A function of its own with an AVX2 clone: its floor
+  // rounding), and the mosaic above black. A function of its own with AVX-512 and AVX2 clones: its floor
   // and clamp in double vectorize there (roundpd), the same IEEE operations as the scalar code,
-  // so the same bits on either clone.
-  __attribute__((target_clones("avx2", "default")))
+  // so the same bits on every clone.
+  __attribute__((target_clones("avx512f", "avx2", "default")))
   static void analog_row(float* __restrict erow, const float* __restrict off, const float* __restrict read,
                          const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
                          double max_code, int w, float* __restrict drow, float* __restrict abrow) {

@@ -1,6 +1,7 @@
 #include "photosite/sensor/poisson.h"
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <utility>
@@ -43,93 +44,136 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
   for (int j = 0; j < n; ++j) philox_one(key, frame, first_pixel + j, stream, j, w0, w1, w2, w3);
 }
 
-// The same, 8 pixels at a time with AVX2: a documented SIMD twin of philox4x32_round and
-// philox4x32_10 (kernels/common/philox_round.glsl), held to their bits by the tests that compare
-// poisson_block with the scalar draws on random_words() (Poisson.BlockKernelMatchesScalarPhiloxWords,
-// PoissonAccuracy.PtrsBlockEqualsScalarReference) and by Philox.KnownAnswers. _mm256_mul_epu32 forms
-// the 32x32->64 products of the even lanes; the odd lanes are shifted down and multiplied the
-// same way, and blends put the high and low halves back in place. c0, c1: the pixels' low and
-// high halves. Rounds is kPhiloxRounds (10) everywhere but in the generator benchmark
-// (philox_words_rounds), which times 7 rounds beside 10.
-template <int Rounds = shader::kPhiloxRounds>
-__attribute__((target("avx2")))
-inline void philox8_avx2(__m256i c0, __m256i c1, uint64_t key, uint32_t frame, uint32_t stream, uint32_t* w0,
-                         uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  const __m256i m0 = _mm256_set1_epi32(static_cast<int>(shader::kPhiloxM0));
-  const __m256i m1 = _mm256_set1_epi32(static_cast<int>(shader::kPhiloxM1));
-  __m256i c2 = _mm256_set1_epi32(static_cast<int>(frame));
-  __m256i c3 = _mm256_set1_epi32(static_cast<int>(stream));
-  uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);
-  for (int r = 0; r < Rounds; ++r) {
-    const __m256i e0 = _mm256_mul_epu32(c0, m0), o0 = _mm256_mul_epu32(_mm256_srli_epi64(c0, 32), m0);
-    const __m256i e1 = _mm256_mul_epu32(c2, m1), o1 = _mm256_mul_epu32(_mm256_srli_epi64(c2, 32), m1);
-    const __m256i hi0 = _mm256_blend_epi32(_mm256_srli_epi64(e0, 32), o0, 0xAA);
-    const __m256i lo0 = _mm256_blend_epi32(e0, _mm256_slli_epi64(o0, 32), 0xAA);
-    const __m256i hi1 = _mm256_blend_epi32(_mm256_srli_epi64(e1, 32), o1, 0xAA);
-    const __m256i lo1 = _mm256_blend_epi32(e1, _mm256_slli_epi64(o1, 32), 0xAA);
-    const __m256i n0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32(static_cast<int>(ka)));
-    const __m256i n2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32(static_cast<int>(kb)));
-    c0 = n0;
-    c1 = lo1;
-    c2 = n2;
-    c3 = lo0;
-    ka += shader::kPhiloxW0;
-    kb += shader::kPhiloxW1;
+// The same on vectors of N 32-bit lanes, written once for AVX2 (N = 8) and AVX-512 (N = 16) by
+// the macro PHILOX_SIMD below: a documented SIMD twin of philox4x32_round and philox4x32_10
+// (kernels/common/philox_round.glsl). mul_epu32 forms the 32x32->64 products of the even lanes;
+// the odd lanes are shifted down and multiplied the same way, and blends put the high and low
+// halves back in place (AVX-512: mask blends, and one ternary-logic instruction, 0x96 = a ^ b ^ c,
+// per three-way xor). Integer operations only, so every width gives the scalar Philox's words:
+// Philox.BlockWordsEqualScalarOnEveryPath and Philox.PoissonDrawsEqualOnEveryPathAndThreadCount
+// (tests/sensor_fast_paths_test.cpp), Poisson.BlockKernelMatchesScalarPhiloxWords,
+// PoissonAccuracy.PtrsBlockEqualsScalarReference and Philox.KnownAnswers. Each width defines
+//  * philox_lanes_N(c0, c1, ...): N pixels whose indices' low and high halves are c0, c1;
+//  * philox_words_N: consecutive pixels first_pixel.., N at a time while the high half stays the
+//    same, the rest by TAIL (the next narrower path);
+//  * philox_list_N: the first n & ~(N − 1) of a list of pixels (PTRS retries), pixel_lo/hi the
+//    64-bit indices' halves.
+// Rounds is kPhiloxRounds (10) everywhere but in the generator benchmark (philox_words_rounds),
+// which times 7 rounds beside 10. OP(x) is the width's intrinsic _mm256_x or _mm512_x.
+#define PHILOX_SIMD(ISA, V, N, OP, ODD_BLEND, XOR3, LOAD, STORE, LANES, TAIL)                                      \
+  template <int Rounds = shader::kPhiloxRounds>                                                                  \
+  __attribute__((target(ISA))) inline void philox_lanes_##N(V c0, V c1, uint64_t key, uint32_t frame,             \
+                                                            uint32_t stream, uint32_t* w0, uint32_t* w1,          \
+                                                            uint32_t* w2, uint32_t* w3) {                         \
+    const V m0 = OP(set1_epi32)(static_cast<int>(shader::kPhiloxM0));                                            \
+    const V m1 = OP(set1_epi32)(static_cast<int>(shader::kPhiloxM1));                                            \
+    V c2 = OP(set1_epi32)(static_cast<int>(frame));                                                              \
+    V c3 = OP(set1_epi32)(static_cast<int>(stream));                                                             \
+    uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);                             \
+    for (int r = 0; r < Rounds; ++r) {                                                                           \
+      const V e0 = OP(mul_epu32)(c0, m0), o0 = OP(mul_epu32)(OP(srli_epi64)(c0, 32), m0);                        \
+      const V e1 = OP(mul_epu32)(c2, m1), o1 = OP(mul_epu32)(OP(srli_epi64)(c2, 32), m1);                        \
+      const V hi0 = ODD_BLEND(OP(srli_epi64)(e0, 32), o0), lo0 = ODD_BLEND(e0, OP(slli_epi64)(o0, 32));          \
+      const V hi1 = ODD_BLEND(OP(srli_epi64)(e1, 32), o1), lo1 = ODD_BLEND(e1, OP(slli_epi64)(o1, 32));          \
+      c0 = XOR3(hi1, c1, OP(set1_epi32)(static_cast<int>(ka)));                                                  \
+      c1 = lo1;                                                                                                  \
+      c2 = XOR3(hi0, c3, OP(set1_epi32)(static_cast<int>(kb)));                                                  \
+      c3 = lo0;                                                                                                  \
+      ka += shader::kPhiloxW0;                                                                                   \
+      kb += shader::kPhiloxW1;                                                                                   \
+    }                                                                                                            \
+    STORE(w0, c0);                                                                                               \
+    STORE(w1, c1);                                                                                               \
+    STORE(w2, c2);                                                                                               \
+    STORE(w3, c3);                                                                                               \
+  }                                                                                                              \
+  template <int Rounds = shader::kPhiloxRounds>                                                                  \
+  __attribute__((target(ISA))) void philox_words_##N(uint64_t key, uint32_t frame, uint64_t first_pixel,          \
+                                                     uint32_t stream, int n, uint32_t* w0, uint32_t* w1,          \
+                                                     uint32_t* w2, uint32_t* w3) {                                \
+    const V lane = LANES;                                                                                        \
+    int j = 0;                                                                                                   \
+    for (; j + N <= n && ((first_pixel + j) >> 32) == ((first_pixel + j + N - 1) >> 32); j += N) {               \
+      const uint64_t p = first_pixel + j;                                                                        \
+      const V c0 = OP(add_epi32)(OP(set1_epi32)(static_cast<int>(static_cast<uint32_t>(p))), lane);              \
+      const V c1 = OP(set1_epi32)(static_cast<int>(static_cast<uint32_t>(p >> 32)));                             \
+      philox_lanes_##N<Rounds>(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);                      \
+    }                                                                                                            \
+    if (j < n) TAIL(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);                 \
+  }                                                                                                              \
+  __attribute__((target(ISA))) void philox_list_##N(uint64_t key, uint32_t frame, const uint32_t* pixel_lo,       \
+                                                    const uint32_t* pixel_hi, uint32_t stream, int n,            \
+                                                    uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {    \
+    for (int j = 0; j + N <= n; j += N)                                                                          \
+      philox_lanes_##N(LOAD(pixel_lo + j), LOAD(pixel_hi + j), key, frame, stream, w0 + j, w1 + j, w2 + j,       \
+                       w3 + j);                                                                                  \
   }
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w0), c0);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w1), c1);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w2), c2);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w3), c3);
-}
 
-// Consecutive pixels first_pixel.. (8 at a time while the high half stays the same).
-template <int Rounds = shader::kPhiloxRounds>
-__attribute__((target("avx2")))
-void philox_words_avx2(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
-                       uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  int j = 0;
-  for (; j + 8 <= n && ((first_pixel + j) >> 32) == ((first_pixel + j + 7) >> 32); j += 8) {
-    const uint64_t p = first_pixel + j;
-    const __m256i c0 = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p))), lane);
-    const __m256i c1 = _mm256_set1_epi32(static_cast<int>(static_cast<uint32_t>(p >> 32)));
-    philox8_avx2<Rounds>(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);
-  }
-  if (j < n) philox_words_scalar(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);
-}
+#define PHILOX_AVX2_OP(x) _mm256_##x
+#define PHILOX_AVX2_ODD_BLEND(a, b) _mm256_blend_epi32(a, b, 0xAA)
+#define PHILOX_AVX2_XOR3(a, b, c) _mm256_xor_si256(_mm256_xor_si256(a, b), c)
+#define PHILOX_AVX2_LOAD(p) _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))
+#define PHILOX_AVX2_STORE(p, v) _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v)
+#define PHILOX_AVX2_LANES _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)
+PHILOX_SIMD("avx2", __m256i, 8, PHILOX_AVX2_OP, PHILOX_AVX2_ODD_BLEND, PHILOX_AVX2_XOR3, PHILOX_AVX2_LOAD,
+            PHILOX_AVX2_STORE, PHILOX_AVX2_LANES, philox_words_scalar)
 
-// Any list of pixels (PTRS retries), the first n & ~7 of them: pixel_lo/hi hold the 64-bit
-// indices' halves.
-__attribute__((target("avx2")))
-void philox_list_avx2(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const uint32_t* pixel_hi,
-                      uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  for (int j = 0; j + 8 <= n; j += 8)
-    philox8_avx2(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel_lo + j)),
-                 _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pixel_hi + j)), key, frame, stream, w0 + j,
-                 w1 + j, w2 + j, w3 + j);
-}
+// GCC 12's AVX-512 intrinsics pass _mm512_undefined_epi32() as the unused merge source of their
+// masked builtins, which -Wmaybe-uninitialized reports at every use (GCC bug 105593, fixed in
+// GCC 13): silenced for the AVX-512 functions only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define PHILOX_AVX512_OP(x) _mm512_##x
+#define PHILOX_AVX512_ODD_BLEND(a, b) _mm512_mask_blend_epi32(0xAAAA, a, b)
+#define PHILOX_AVX512_XOR3(a, b, c) _mm512_ternarylogic_epi32(a, b, c, 0x96)
+#define PHILOX_AVX512_LOAD(p) _mm512_loadu_si512(p)
+#define PHILOX_AVX512_STORE(p, v) _mm512_storeu_si512(p, v)
+#define PHILOX_AVX512_LANES _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+PHILOX_SIMD("avx512f", __m512i, 16, PHILOX_AVX512_OP, PHILOX_AVX512_ODD_BLEND, PHILOX_AVX512_XOR3,
+            PHILOX_AVX512_LOAD, PHILOX_AVX512_STORE, PHILOX_AVX512_LANES, philox_words_8<Rounds>)
+#pragma GCC diagnostic pop
 
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
+const bool kHaveAvx512 = __builtin_cpu_supports("avx512f");
+// The Philox path the sampler runs: the widest this CPU has, unless a test or the generator
+// benchmark narrowed it (detail::set_philox_path). 0 scalar, 1 AVX2, 2 AVX-512.
+const int kBestPhiloxPath = kHaveAvx512 ? 2 : kHaveAvx2 ? 1 : 0;
+std::atomic<int> g_philox_path{kBestPhiloxPath};
 
 void philox_words(uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
                   uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
-  if (kHaveAvx2) philox_words_avx2(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  const int path = g_philox_path.load(std::memory_order_relaxed);
+  if (path == 2) philox_words_16(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  else if (path == 1) philox_words_8(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
   else philox_words_scalar(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
 }
 void philox_list(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const uint32_t* pixel_hi,
                  uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  const int path = g_philox_path.load(std::memory_order_relaxed);
   int j = 0;
-  if (kHaveAvx2) philox_list_avx2(key, frame, pixel_lo, pixel_hi, stream, j = n & ~7, w0, w1, w2, w3);
+  if (path == 2) philox_list_16(key, frame, pixel_lo, pixel_hi, stream, j = n & ~15, w0, w1, w2, w3);
+  if (path >= 1) {
+    const int m = (n - j) & ~7;
+    philox_list_8(key, frame, pixel_lo + j, pixel_hi + j, stream, m, w0 + j, w1 + j, w2 + j, w3 + j);
+    j += m;
+  }
   for (; j < n; ++j)
     philox_one(key, frame, (static_cast<uint64_t>(pixel_hi[j]) << 32) | pixel_lo[j], stream, j, w0, w1, w2, w3);
 }
 
-__attribute__((target_clones("avx2", "default")))
+// The float loops below carry AVX-512 (16 lanes), AVX2 (8) and baseline clones
+// (target_clones), dispatched once by the CPU's features: the same IEEE operations per lane in
+// the same order on every clone (no FMA: -ffp-contract=off; sqrt and division correctly
+// rounded at any width), so the same bits. Held to the scalar reference (compiled for the
+// baseline in the tests) by PoissonAccuracy.PtrsBlockEqualsScalarReference,
+// PoissonAccuracy.MixedBlocksEqualScalarReference and Poisson.BlockKernelMatchesScalarPhiloxWords,
+// which run the widest clone the CPU has, and by the CPU/Vulkan parity tests.
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void normals(const uint32_t* a, const uint32_t* b, float* z, int n) {
   for (int j = 0; j < n; ++j) z[j] = detail::normal_from_words_f(a[j], b[j]);
 }
 
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void corrected_normal_block(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j)
     out[j] = detail::cornish_fisher_sample(
@@ -139,7 +183,7 @@ void corrected_normal_block(const float* mean, const float* z, float* out, int n
 // A documented SIMD twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops
 // per lane with a break that keeps it from vectorizing: the same sums in the same order, so the
 // same bits, held to them by the test Poisson.BlockKernelMatchesScalarPhiloxWords.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
   alignas(64) float u[kBlock], p[kBlock], cdf[kBlock], k[kBlock];
   for (int i = 0; i < m; ++i) {
@@ -163,7 +207,7 @@ void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) 
   }
   for (int i = 0; i < m; ++i) k_out[i] = k[i];
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j) out[j] = detail::rounded_normal_sample(mean[j], z[j]);
 }
@@ -175,7 +219,7 @@ void rounded_normal(const float* mean, const float* z, float* out, int n) {
 // attempts per Philox call, until none is left. Compaction is branch-free (select_lanes): the
 // verdicts are random, branches on them would mispredict. Each lane's result is
 // detail::ptrs_sample's, whatever the block, the thread or the other lanes.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                 float* __restrict mu, float* __restrict k, float* __restrict us, float* __restrict v,
                 float* __restrict verdict, int m) {
@@ -198,14 +242,14 @@ template <class T>
 inline void pad8(T* a, int n, T value) {
   for (int i = n; i < round8(n); ++i) a[i] = value;
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const float* __restrict us,
                     const float* __restrict v, float* __restrict accepted, int m) {
   if (m % 8 != 0) __builtin_unreachable();
   for (int i = 0; i < m; ++i)
     accepted[i] = detail::ptrs_accept(detail::ptrs_setup(mu[i]), detail::PtrsCandidate{k[i], us[i], v[i], 0.f}) ? 1.f : 0.f;
 }
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_attempts(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                    float* __restrict k, int m) {
   if (m % 8 != 0) __builtin_unreachable();
@@ -257,13 +301,13 @@ int select_lanes(const float* keep, int m, int* idx) {
 
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
 // first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
-// lanes get a value the caller overwrites. An AVX2 clone for its own loops (verdict flags,
+// lanes get a value the caller overwrites. AVX-512 and AVX2 clones for its own loops (verdict flags,
 // gathers and scatters of the compacted lanes: copies and compares, no arithmetic on the draws).
 // GCC's -Wmaybe-uninitialized cannot see that pad8 fills the lanes [n, round8(n)) that the
 // whole-vector passes read past the n compacted ones; every lane read is written first.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
@@ -328,7 +372,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
 }
 #pragma GCC diagnostic pop
 // How many of a[0, n) are >= t (a vectorized count: it runs on every block).
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 int count_at_least(const float* __restrict a, int n, float t) {
   int count = 0;
   for (int i = 0; i < n; ++i) count += a[i] >= t ? 1 : 0;
@@ -365,9 +409,9 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
 }
 }  // namespace
 
-// An AVX2 clone for its own loops (the lane selections and the low-mean gathers: compares and
-// copies, no arithmetic on the draws), so the same bits on either clone.
-__attribute__((target_clones("avx2", "default")))
+// AVX-512 and AVX2 clones for its own loops (the lane selections and the low-mean gathers:
+// compares and copies, no arithmetic on the draws), so the same bits on every clone.
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];
@@ -410,12 +454,32 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
   }
 }
 
-void detail::philox_words_rounds(int rounds, uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream,
-                                 int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+detail::PhiloxPath detail::set_philox_path(PhiloxPath path) {
+  const int p = std::min(static_cast<int>(path), kBestPhiloxPath);
+  return static_cast<PhiloxPath>(g_philox_path.exchange(p));
+}
+detail::PhiloxPath detail::best_philox_path() { return static_cast<PhiloxPath>(kBestPhiloxPath); }
+
+void detail::philox_block_words(PhiloxPath path, uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream,
+                                int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
+  if (static_cast<int>(path) > kBestPhiloxPath) fail("philox_block_words: this CPU lacks the path");
+  if (path == PhiloxPath::Avx512) philox_words_16(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  else if (path == PhiloxPath::Avx2) philox_words_8(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  else philox_words_scalar(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+}
+
+void detail::philox_words_rounds(int rounds, PhiloxPath path, uint64_t key, uint32_t frame, uint64_t first_pixel,
+                                 uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {
   if (rounds != 7 && rounds != shader::kPhiloxRounds) fail("philox_words_rounds: 7 or 10 rounds");
-  if (!kHaveAvx2) fail("philox_words_rounds: needs AVX2");
-  if (rounds == 7) philox_words_avx2<7>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
-  else philox_words_avx2<shader::kPhiloxRounds>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  if (path == PhiloxPath::Scalar || static_cast<int>(path) > kBestPhiloxPath)
+    fail("philox_words_rounds: an AVX2 or AVX-512 path this CPU has");
+  if (path == PhiloxPath::Avx512) {
+    if (rounds == 7) philox_words_16<7>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+    else philox_words_16<shader::kPhiloxRounds>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  } else {
+    if (rounds == 7) philox_words_8<7>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+    else philox_words_8<shader::kPhiloxRounds>(key, frame, first_pixel, stream, n, w0, w1, w2, w3);
+  }
 }
 
 float poisson_sample(double mean, uint64_t seed, uint32_t frame, uint64_t pixel, uint32_t stream,

@@ -83,10 +83,22 @@ inline float ptrs_sample(float mu, uint32_t w0, uint32_t w1, uint64_t seed, uint
   return shader::ptrs_sample(mu, w0, w1, halves(seed), frame, halves(pixel), stream);
 }
 
-// Benchmark only (bench noise): the AVX2 block generator with `rounds` = 10 (Philox4x32-10, the
-// generator of every result) or 7 (Philox4x32-7, not used for any result), to time what the
-// three extra rounds cost. n a multiple of 8.
-void philox_words_rounds(int rounds, uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
-                         uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3);
+// The block Philox4x32-10 words (poisson_block's generator) come from the widest of three paths
+// the CPU has: scalar (shader::random_words per pixel), AVX2 (8 pixels a vector) or AVX-512
+// (16). Integer operations only, so every path gives the same words (test
+// Philox.BlockWordsEqualScalarOnEveryPath). set_philox_path narrows the path the sampler uses
+// (to at most the best the CPU has; for tests and the generator benchmark) and returns the one
+// before; philox_block_words runs one path directly.
+enum class PhiloxPath { Scalar = 0, Avx2 = 1, Avx512 = 2 };
+PhiloxPath best_philox_path();
+PhiloxPath set_philox_path(PhiloxPath path);
+void philox_block_words(PhiloxPath path, uint64_t key, uint32_t frame, uint64_t first_pixel, uint32_t stream, int n,
+                        uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3);
+
+// Benchmark only (bench sense): the block generator on the AVX2 or AVX-512 path with `rounds` =
+// 10 (Philox4x32-10, the generator of every result) or 7 (Philox4x32-7, not used for any
+// result), to time what the three extra rounds cost.
+void philox_words_rounds(int rounds, PhiloxPath path, uint64_t key, uint32_t frame, uint64_t first_pixel,
+                         uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3);
 
 }  // namespace photosite::detail

@@ -29,6 +29,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "photosite/image.h"
@@ -72,12 +73,15 @@ inline int glare_level_size(int n, int level) {
 }
 
 // The reduced-resolution part: acc_1 (level 1, 3 channels) and the per-channel scale s_c.
+// acc_1's buffer belongs to the calling thread's pyramid workspace (sensor/glare.cpp), shared
+// with the skirt: the thread's next glare_skirt() writes it again once no skirt holds it (and
+// makes a new one while one does), so frame after frame its pages are not faulted in afresh.
 struct GlareSkirt {
-  int width = 0, height = 0;  // full resolution
-  ImageF acc1;                // ceil(w/2) x ceil(h/2) x 3; empty: no glare
-  float keep = 1.0f;          // 1 − η
+  int width = 0, height = 0;           // full resolution
+  std::shared_ptr<const ImageF> acc1;  // ceil(w/2) x ceil(h/2) x 3; null or empty: no glare
+  float keep = 1.0f;                   // 1 − η
   std::array<float, 3> scale{0.f, 0.f, 0.f};
-  bool active() const { return !acc1.empty(); }
+  bool active() const { return acc1 && !acc1->empty(); }
 };
 GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan);
 
@@ -85,7 +89,7 @@ GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan);
 // this order). `tmp` holds glare_row_scratch(skirt) floats (the row's vertical, then horizontal
 // interpolation, and the latter's scratch).
 inline size_t glare_row_scratch(const GlareSkirt& s) {
-  return 3 * (3 * static_cast<size_t>(s.acc1.width()) + static_cast<size_t>(s.width));
+  return 3 * (3 * static_cast<size_t>(s.active() ? s.acc1->width() : 0) + static_cast<size_t>(s.width));
 }
 void glare_row(const GlareSkirt& skirt, int y, const float* in_rgb, float* out_rgb, float* tmp);
 

@@ -1,0 +1,242 @@
+// The sensor's fast paths held to their definitions, bit for bit, at 1, 2 and 3 threads:
+//  * the block Philox words on every path this CPU has (scalar, AVX2, AVX-512) against
+//    rng.h's scalar random_words(), and the Poisson draws of poisson_fill on each path;
+//  * the lens-glare pyramid (sensor/glare.cpp: level 1 made row by row inside the first
+//    (1,3,3,1) step, row passes and row blurs kept in per-thread rings, images reused from a
+//    per-thread workspace) against a direct whole-image transcription of its definition
+//    (include/photosite/sensor/glare.h), one pass per step, no threads, no rings, fresh images.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "photosite/rng.h"
+#include "photosite/sensor/glare.h"
+#include "photosite/sensor/poisson.h"
+#include "sensor/glare_detail.h"
+#include "sensor/poisson_detail.h"
+
+namespace photosite {
+namespace {
+
+// Runs f at 1, 2 and 3 OpenMP threads, restoring the count after.
+template <class F>
+void at_thread_counts(F&& f) {
+  const int saved = omp_get_max_threads();
+  for (int t : {1, 2, 3}) {
+    omp_set_num_threads(t);
+    f(t);
+  }
+  omp_set_num_threads(saved);
+}
+
+std::vector<detail::PhiloxPath> cpu_paths() {
+  std::vector<detail::PhiloxPath> p;
+  for (int i = 0; i <= static_cast<int>(detail::best_philox_path()); ++i) p.push_back(static_cast<detail::PhiloxPath>(i));
+  return p;
+}
+
+// Every path's words are random_words()'s, over lengths that leave every tail (16, 8, scalar)
+// and a range that crosses a 2^32 pixel boundary (where the vector paths fall back).
+TEST(Philox, BlockWordsEqualScalarOnEveryPath) {
+  std::printf("Philox paths on this CPU: %zu (0 scalar, 1 AVX2, 2 AVX-512)\n", cpu_paths().size());
+  for (const auto path : cpu_paths())
+    for (const uint64_t first : {uint64_t{0}, uint64_t{777}, (uint64_t{1} << 32) - 21})
+      for (const int n : {1, 7, 8, 15, 16, 17, 31, 256}) {
+        std::vector<uint32_t> w(4 * 256);
+        detail::philox_block_words(path, 0x1234567890abcdefull, 9, first, 300, n, w.data(), w.data() + 256,
+                                   w.data() + 512, w.data() + 768);
+        for (int j = 0; j < n; ++j) {
+          const auto want = random_words(0x1234567890abcdefull, 9, first + j, static_cast<Stream>(300));
+          for (int k = 0; k < 4; ++k)
+            ASSERT_EQ(w[256 * k + j], want[k]) << "path " << static_cast<int>(path) << " pixel " << first + j;
+        }
+      }
+}
+
+// The sampler's draws (exact and cornish-fisher) do not depend on the Philox path or the
+// thread count: means over every regime (0, inversion, PTRS with retries near 10, large).
+TEST(Philox, PoissonDrawsEqualOnEveryPathAndThreadCount) {
+  const int n = 40000;
+  std::vector<float> mean(n);
+  for (int i = 0; i < n; ++i) mean[i] = i % 11 == 0 ? 0.f : static_cast<float>(0.05 * std::pow(2e5, (i % 4000) / 4000.0));
+  const uint64_t first = (uint64_t{1} << 32) - 5000;
+  for (const auto method : {PoissonMethod::Exact, PoissonMethod::CornishFisher}) {
+    std::vector<float> ref(n);
+    const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
+    poisson_fill(mean.data(), ref.data(), n, first, 31, 2, 1, method);
+    for (const auto path : cpu_paths())
+      at_thread_counts([&](int t) {
+        detail::set_philox_path(path);
+        std::vector<float> out(n);
+        poisson_fill(mean.data(), out.data(), n, first, 31, 2, 1, method);
+        EXPECT_EQ(0, std::memcmp(out.data(), ref.data(), n * sizeof(float)))
+            << "path " << static_cast<int>(path) << ", " << t << " threads, " << to_string(method);
+      });
+    detail::set_philox_path(saved);
+  }
+}
+
+// ---- the glare pyramid's definition, transcribed whole-image (glare.h; kernels/common/glare.glsl) ----
+using shader::glare_lerp;
+using shader::glare_mirror;
+using shader::glare_up_tap;
+
+ImageF ref_down2(const ImageF& s) {
+  const int w = s.width(), h = s.height(), w2 = (w + 1) / 2, h2 = (h + 1) / 2;
+  ImageF d(w2, h2, 3);
+  for (int y = 0; y < h2; ++y)
+    for (int x = 0; x < w2; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const int x1 = std::min(2 * x + 1, w - 1), y1 = std::min(2 * y + 1, h - 1);
+        d.at(x, y, c) = ((s.at(2 * x, 2 * y, c) + s.at(x1, 2 * y, c)) + (s.at(2 * x, y1, c) + s.at(x1, y1, c))) * 0.25f;
+      }
+  return d;
+}
+float taps1331(float a, float b, float c, float d) { return (0.125f * a + 0.375f * b) + (0.375f * c + 0.125f * d); }
+ImageF ref_down1331(const ImageF& s) {
+  const int w = s.width(), h = s.height(), w2 = (w + 1) / 2, h2 = (h + 1) / 2;
+  ImageF t(w2, h, 3), d(w2, h2, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w2; ++x)
+      for (int c = 0; c < 3; ++c)
+        t.at(x, y, c) = taps1331(s.at(glare_mirror(2 * x - 1, w), y, c), s.at(glare_mirror(2 * x, w), y, c),
+                                 s.at(glare_mirror(2 * x + 1, w), y, c), s.at(glare_mirror(2 * x + 2, w), y, c));
+  for (int y = 0; y < h2; ++y)
+    for (int x = 0; x < w2; ++x)
+      for (int c = 0; c < 3; ++c)
+        d.at(x, y, c) = taps1331(t.at(x, glare_mirror(2 * y - 1, h), c), t.at(x, glare_mirror(2 * y, h), c),
+                                 t.at(x, glare_mirror(2 * y + 1, h), c), t.at(x, glare_mirror(2 * y + 2, h), c));
+  return d;
+}
+// Bilinear 2x upsampling of c to w x h: vertical interpolation first, then horizontal.
+ImageF ref_up(const ImageF& c, int w, int h) {
+  const int cw = c.width(), ch = c.height();
+  ImageF v(cw, h, 3), u(w, h, 3);
+  for (int y = 0; y < h; ++y) {
+    const auto ty = glare_up_tap(y, ch);
+    for (int x = 0; x < cw; ++x)
+      for (int k = 0; k < 3; ++k) v.at(x, y, k) = glare_lerp(ty.w0, c.at(x, ty.i0, k), ty.w1, c.at(x, ty.i1, k));
+  }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const auto tx = glare_up_tap(x, cw);
+      for (int k = 0; k < 3; ++k) u.at(x, y, k) = glare_lerp(tx.w0, v.at(tx.i0, y, k), tx.w1, v.at(tx.i1, y, k));
+    }
+  return u;
+}
+// acc = wt·blur(level) + up (blur: rows then columns, taps summed from −R to R from 0).
+ImageF ref_blur_add(const ImageF& s, float wt, const ImageF* up, const std::array<float, kGlareBlurRadius + 1>& g) {
+  const int w = s.width(), h = s.height(), R = kGlareBlurRadius;
+  ImageF t(w, h, 3), a(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float o = 0.f;
+        for (int k = -R; k <= R; ++k) o = o + g[std::abs(k)] * s.at(glare_mirror(x + k, w), y, c);
+        t.at(x, y, c) = o;
+      }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float o = 0.f;
+        for (int k = -R; k <= R; ++k) o = o + g[std::abs(k)] * t.at(x, glare_mirror(y + k, h), c);
+        a.at(x, y, c) = up ? wt * o + up->at(x, y, c) : wt * o;
+      }
+  return a;
+}
+struct RefSkirt {
+  ImageF acc1;
+  std::array<float, 3> scale;
+};
+RefSkirt ref_skirt(const ImageF& in, const GlarePlan& p) {
+  const auto g = glare_blur_taps();
+  std::vector<ImageF> lv(p.hi + 1);
+  lv[1] = ref_down2(in);
+  for (int l = 2; l <= p.hi; ++l) lv[l] = ref_down1331(lv[l - 1]);
+  ImageF acc;
+  for (int l = p.hi; l >= 1; --l) {
+    ImageF up = acc.empty() ? ImageF() : ref_up(acc, lv[l].width(), lv[l].height());
+    acc = l >= p.lo ? ref_blur_add(lv[l], p.weight[l - p.lo], acc.empty() ? nullptr : &up, g) : up;
+  }
+  RefSkirt r{acc, {}};
+  const auto e_in = glare_level1_energy(lv[1], in.width(), in.height());
+  const auto e_skirt = glare_level1_energy(acc, in.width(), in.height());
+  for (int c = 0; c < 3; ++c) r.scale[c] = e_skirt[c] > 0 ? static_cast<float>(p.eta * e_in[c] / e_skirt[c]) : 0.f;
+  return r;
+}
+
+ImageF test_radiance(int w, int h, uint64_t seed) {
+  ImageF r(w, h, 3, 0.f, unit::radiance);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t u = random_words(seed, 0, static_cast<uint64_t>(y) * w + x, Stream::Test)[c];
+        r.at(x, y, c) = static_cast<float>(std::exp(16.0 * uniform_open(u) - 12.0));
+      }
+  return r;
+}
+GlarePlan test_plan(double core_deg, double reach_deg) {
+  LensGlare g;
+  g.enabled = true;
+  g.veiling_glare_index = 0.05;
+  g.core_deg = core_deg;
+  g.reach_deg = reach_deg;
+  return plan_glare(g, 35);
+}
+bool same_bits(const ImageF& a, const ImageF& b) {
+  return a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// Sizes: even and odd, one pixel wide or high, and 2048 x 600 (level 1 above 2^18 pixels, so the
+// passes run in parallel); plans with level 1 blurred (lo = 1: level 1 kept as an image) and not
+// (lo >= 2: made row by row inside the first step), and lo = hi. Calls in a row of different
+// sizes reuse and reshape the workspace's images.
+TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
+  struct Case {
+    int w, h;
+    double core_deg, reach_deg;
+  };
+  const Case cases[] = {{2048, 600, 0.1, 20}, {333, 101, 0.02, 20}, {333, 101, 0.1, 20}, {64, 7, 0.1, 5},
+                        {1, 9, 0.1, 20},      {9, 1, 0.02, 3},     {5, 4, 0.02, 0.05}, {2048, 600, 0.02, 20}};
+  for (const Case& c : cases) {
+    const ImageF in = test_radiance(c.w, c.h, c.w * 31 + c.h);
+    const GlarePlan plan = test_plan(c.core_deg, c.reach_deg);
+    ASSERT_TRUE(plan.active);
+    const RefSkirt want = ref_skirt(in, plan);
+    at_thread_counts([&](int t) {
+      const GlareSkirt s = glare_skirt(in, plan);
+      ASSERT_TRUE(s.active());
+      EXPECT_TRUE(same_bits(*s.acc1, want.acc1))
+          << c.w << "x" << c.h << " lo " << plan.lo << " hi " << plan.hi << ", " << t << " threads";
+      EXPECT_EQ(s.scale, want.scale) << c.w << "x" << c.h << ", " << t << " threads";
+    });
+  }
+}
+
+// A skirt still held keeps its acc_1: the next call writes a new buffer; once no skirt holds the
+// workspace's buffer, the next call reuses it (the same pages) and still gives the definition.
+TEST(GlareFastPath, HeldSkirtsKeepTheirBuffersAndFreedOnesAreReused) {
+  const ImageF a = test_radiance(300, 200, 1), b = test_radiance(300, 200, 2);
+  const GlarePlan plan = test_plan(0.1, 20);
+  const RefSkirt want_a = ref_skirt(a, plan), want_b = ref_skirt(b, plan);
+  const ImageF* second = nullptr;
+  {
+    const GlareSkirt sa = glare_skirt(a, plan);
+    const GlareSkirt sb = glare_skirt(b, plan);  // sa still held
+    EXPECT_NE(sa.acc1.get(), sb.acc1.get());
+    EXPECT_TRUE(same_bits(*sa.acc1, want_a.acc1));
+    EXPECT_TRUE(same_bits(*sb.acc1, want_b.acc1));
+    second = sb.acc1.get();
+  }
+  const GlareSkirt again = glare_skirt(a, plan);
+  EXPECT_EQ(again.acc1.get(), second);  // the freed buffer, written again
+  EXPECT_TRUE(same_bits(*again.acc1, want_a.acc1));
+}
+
+}  // namespace
+}  // namespace photosite
