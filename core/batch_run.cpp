@@ -189,6 +189,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   fs::create_directories(mdir, ec);
   remove_stale_temporaries(out);
   std::map<std::string, nlohmann::json> done;  // key → record
+  std::set<std::string> publishing;            // paths of "writing" records: being published at a kill
   for (const auto& e : fs::directory_iterator(mdir, ec)) {
     if (e.path().extension() != ".jsonl") continue;
     std::ifstream f(e.path());
@@ -205,6 +206,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         continue;
       }
       if (j.contains("key")) done[j["key"]] = j;
+      // An item whose files were being published when the run was killed: they are ours.
+      else if (j.contains("writing") && j.contains("paths"))
+        for (const auto& p : j["paths"])
+          if (p.is_string()) publishing.insert(p.get<std::string>());
     }
   }
   auto finished = [&](const Item& it) {
@@ -228,7 +233,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   for (const auto& it : items)
     if (redo.count(it.group) || !finished(it)) todo.push_back(it);
   // Every output we are about to write must be new, or one of ours from an unfinished item.
-  std::set<std::string> ours;
+  std::set<std::string> ours = publishing;
   for (const auto& [k, rec] : done)
     for (const auto& f : rec["files"]) ours.insert(f["path"].get<std::string>());
   auto outputs_of = [&](const Item& it) {
@@ -370,6 +375,15 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     std::string error = cmp.error;
     nlohmann::json files = nlohmann::json::array();
     if (error.empty()) try {
+        // First the item's output paths, as a "writing" record: a kill between publishing its
+        // first file and recording it finished leaves files that a re-run knows as its own
+        // (and redoes), instead of refusing them as someone else's.
+        nlohmann::json paths = nlohmann::json::array();
+        for (const auto& w : cmp.writes) paths.push_back(w.first);
+        {
+          std::lock_guard l(state_m);
+          mout << nlohmann::json({{"writing", cmp.item.key}, {"paths", paths}}).dump() << "\n" << std::flush;
+        }
         for (auto& [relp, write_file] : cmp.writes) {
           const fs::path p = out / relp;
           fs::create_directories(p.parent_path());

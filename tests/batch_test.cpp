@@ -466,9 +466,12 @@ TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
     std::ifstream in(manifest);
     for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
   }
-  ASSERT_EQ(lines.size(), 3u);  // the parameters, then one record per item
+  ASSERT_EQ(lines.size(), 5u);  // the parameters, then per item its "writing" and finished records
   size_t recorded = 0;
-  for (size_t i = 1; i < lines.size(); ++i)
+  std::vector<size_t> finished;
+  for (size_t i = 1; i < lines.size(); ++i) {
+    if (!lines[i].contains("key")) continue;
+    finished.push_back(i);
     for (auto& f : lines[i]["files"]) {
       const std::string path = (dir.path() / "out" / f["path"].get<std::string>()).string();
       ASSERT_EQ(f["xxh3_64"].get<std::string>(), file_checksum_hex(path, ChecksumAlgorithm::Xxh3_64)) << path;
@@ -477,6 +480,8 @@ TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
       f["fnv"] = *file_checksum_hex(path, ChecksumAlgorithm::Fnv1a_64);
       ++recorded;
     }
+  }
+  ASSERT_EQ(finished.size(), 2u);
   EXPECT_EQ(recorded, 2u * 3u);  // EXR, PNG and the labels' copy per item
   {
     std::ofstream mo(manifest);
@@ -486,7 +491,7 @@ TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
   EXPECT_EQ(again.progress.already_done, 2u);
   EXPECT_EQ(again.progress.to_do, 0u);
   // One byte of one PNG changed: that item is redone, and the tree is the first run's again.
-  const std::string png = lines[1]["files"][1]["path"].get<std::string>();
+  const std::string png = lines[finished[0]]["files"][1]["path"].get<std::string>();
   ASSERT_NE(png.find(".png"), std::string::npos) << png;
   {
     std::fstream f(dir.file("out/" + png), std::ios::in | std::ios::out | std::ios::binary);
@@ -497,6 +502,46 @@ TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
   EXPECT_EQ(again.progress.already_done, 1u);
   EXPECT_EQ(again.progress.written, 1u);
   EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+}
+
+// A run killed after publishing an item's first file but before recording the item finished
+// leaves that file beside a "writing" record only: the re-run knows it as its own and redoes
+// the item (the same bytes). Without the record, the same file is someone else's and refused.
+TEST(Batch, KilledWhilePublishingAnItemResumes) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 0);
+  const std::string root = dir.file("kitti");
+  const auto items = batch::discover(batch::Dataset::Kitti, root);
+  SensorRunner cpu(Backend::Cpu);
+  const auto o = kitti_options(dir, root, dir.file("out"));
+  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
+  const auto out = tree_bytes(dir.path() / "out");
+  const fs::path manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(manifest);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), 5u);
+  // The manifest as the kill left it: the last item's finished record never written.
+  ASSERT_NE(lines.back().find("\"key\""), std::string::npos) << lines.back();
+  const nlohmann::json last = nlohmann::json::parse(lines.back());
+  auto write_manifest = [&](bool with_writing_record) {
+    std::ofstream m(manifest);
+    for (size_t i = 0; i + 1 < lines.size(); ++i) {
+      const nlohmann::json j = nlohmann::json::parse(lines[i]);
+      if (!with_writing_record && j.contains("writing") && j["writing"] == last["key"]) continue;
+      m << lines[i] << "\n";
+    }
+  };
+  write_manifest(true);
+  const auto again = batch::run(items, o, cpu);
+  EXPECT_TRUE(again.errors.empty());
+  EXPECT_EQ(again.progress.already_done, 1u);
+  EXPECT_EQ(again.progress.written, 1u);
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+  write_manifest(false);
+  EXPECT_NE(error_of([&] { batch::run(items, o, cpu); }).find("was not written by this batch"), std::string::npos);
 }
 
 // A data set reached through a symbolic link is the same data set: writing into its root is
