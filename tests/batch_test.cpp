@@ -448,25 +448,41 @@ TEST(Batch, LibraryResumesRefusesAndCleansUp) {
   EXPECT_EQ(tree_bytes(dir.path() / "foreign").size(), 1u);
 }
 
+namespace {
+// Two KITTI items run to the end into dir/out: the options, the output tree, and the manifest's
+// lines (the parameters, then per item its "writing" and its finished record).
+struct FinishedRun {
+  std::vector<batch::Item> items;
+  batch::Options options;
+  std::map<std::string, std::string> out;
+  fs::path manifest;
+  std::vector<std::string> lines;
+};
+FinishedRun finished_two_items(const test::TempDir& dir, SensorRunner& cpu) {
+  make_kitti(dir.path() / "kitti", 2, 0);
+  FinishedRun r;
+  r.items = batch::discover(batch::Dataset::Kitti, dir.file("kitti"));
+  r.options = kitti_options(dir, dir.file("kitti"), dir.file("out"));
+  EXPECT_TRUE(batch::run(r.items, r.options, cpu).errors.empty());
+  r.out = tree_bytes(dir.path() / "out");
+  r.manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
+  std::ifstream in(r.manifest);
+  for (std::string line; std::getline(in, line);) r.lines.push_back(line);
+  return r;
+}
+}  // namespace
+
 // Each written file is recorded with its XXH3-64 checksum; records of earlier runs carry FNV-1a
 // 64 under "fnv" and still verify, so their finished items are skipped. A damaged output fails
 // either check and its item is done again, back to the same bytes.
 TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
   test::TempDir dir;
-  make_kitti(dir.path() / "kitti", 2, 0);
-  const std::string root = dir.file("kitti");
-  const auto items = batch::discover(batch::Dataset::Kitti, root);
   SensorRunner cpu(Backend::Cpu);
-  const auto o = kitti_options(dir, root, dir.file("out"));
-  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
-  const auto out = tree_bytes(dir.path() / "out");
-  const fs::path manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
+  const FinishedRun run = finished_two_items(dir, cpu);
+  const auto& [items, o, out, manifest, text] = run;
   std::vector<nlohmann::json> lines;
-  {
-    std::ifstream in(manifest);
-    for (std::string line; std::getline(in, line);) lines.push_back(nlohmann::json::parse(line));
-  }
-  ASSERT_EQ(lines.size(), 5u);  // the parameters, then per item its "writing" and finished records
+  for (const auto& t : text) lines.push_back(nlohmann::json::parse(t));
+  ASSERT_EQ(lines.size(), 5u);
   size_t recorded = 0;
   std::vector<size_t> finished;
   for (size_t i = 1; i < lines.size(); ++i) {
@@ -509,19 +525,9 @@ TEST(Batch, ChecksumsXxh3AndEarlierFnvRecordsVerify) {
 // the item (the same bytes). Without the record, the same file is someone else's and refused.
 TEST(Batch, KilledWhilePublishingAnItemResumes) {
   test::TempDir dir;
-  make_kitti(dir.path() / "kitti", 2, 0);
-  const std::string root = dir.file("kitti");
-  const auto items = batch::discover(batch::Dataset::Kitti, root);
   SensorRunner cpu(Backend::Cpu);
-  const auto o = kitti_options(dir, root, dir.file("out"));
-  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
-  const auto out = tree_bytes(dir.path() / "out");
-  const fs::path manifest = dir.path() / "out" / ".photosite-batch" / "shard-0-of-1.jsonl";
-  std::vector<std::string> lines;
-  {
-    std::ifstream in(manifest);
-    for (std::string line; std::getline(in, line);) lines.push_back(line);
-  }
+  const FinishedRun run = finished_two_items(dir, cpu);
+  const auto& [items, o, out, manifest, lines] = run;
   ASSERT_EQ(lines.size(), 5u);
   // The manifest as the kill left it: the last item's finished record never written.
   ASSERT_NE(lines.back().find("\"key\""), std::string::npos) << lines.back();
