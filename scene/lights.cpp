@@ -188,6 +188,11 @@ struct BeamF {
   // instead of a gather (the same values).
   bool small = false;
   float H8[8] = {}, V8[8] = {}, rH8[8] = {}, rV8[8] = {};
+  // Both grids non-decreasing in float (the preset's are strictly increasing): then an angle's
+  // count of grid angles m = 1 .. n − 2 at or below it is j exactly when lo[j] <= angle < hi[j],
+  // with lo[j] = H[j] (−∞ for j = 0) and hi[j] = H[j + 1] (+∞ for j = n − 2).
+  bool sorted = false;
+  std::vector<float> Hlo, Hhi, Vlo, Vhi;
 };
 BeamF beam_f(const ScenePreset& p) {
   BeamF b;
@@ -208,6 +213,16 @@ BeamF beam_f(const ScenePreset& p) {
   for (int j = 0; j + 1 < b.nh; ++j) b.rH.push_back(1.f / (b.H[j + 1] - b.H[j]));
   for (int i = 0; i + 1 < b.nv; ++i) b.rV.push_back(1.f / (b.V[i + 1] - b.V[i]));
   for (double c : p.beam_intensity_cd) b.I.push_back(static_cast<float>(c));
+  b.sorted = std::is_sorted(b.H.begin(), b.H.end()) && std::is_sorted(b.V.begin(), b.V.end());
+  auto bounds = [](const std::vector<float>& g, std::vector<float>& lo, std::vector<float>& hi) {
+    const int cells = static_cast<int>(g.size()) - 1;
+    for (int j = 0; j < cells; ++j) {
+      lo.push_back(j == 0 ? -INFINITY : g[j]);
+      hi.push_back(j == cells - 1 ? INFINITY : g[j + 1]);
+    }
+  };
+  bounds(b.H, b.Hlo, b.Hhi);
+  bounds(b.V, b.Vlo, b.Vhi);
   b.small = b.nh <= 8 && b.nv <= 8;
   if (b.small) {
     std::copy(b.H.begin(), b.H.end(), b.H8), std::copy(b.rH.begin(), b.rH.end(), b.rH8);
@@ -278,10 +293,12 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
 // block of eight with none of them is not evaluated at all.
 // The table: the cell (i, j) of each lane by counting grid angles. Along a row the angles change
 // by about 1/f rad (~0.03°) per pixel, so the lit lanes of a block of eight almost always share
-// their cell: then its grid angles and four intensities are the same numbers for every lane and
-// are broadcast from that cell (the values the gathers would read, so the same bits); otherwise
-// they are gathered per lane (grid angles by permutations when at most 8). Unlit lanes are
-// masked to 0 at the end, whatever their cell.
+// their cell, and mostly with the previous block: each lamp carries the cell its last block's
+// lit lanes shared, and where every lit lane of this block lies inside it (two comparisons per
+// angle, BeamF::sorted: the count is then that cell) nothing is counted. A shared cell's grid
+// angles and four intensities are the same numbers for every lane and are broadcast (the values
+// the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
+// permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                    const uint8_t* lane, uint64_t read_mask, float* out) {
@@ -298,6 +315,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
                 k32 = _mm256_set1_epi32(32), izero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
   const __m256d vt = _mm256_set1_pd(t);
   const float* I = b.I.data();
+  int cj[2] = {0, 0}, ci[2] = {0, 0};  // each lamp's carried cell
   int x = 0;
   for (; x + 8 <= n; x += 8) {
     __m256 keep = _mm256_castsi256_ps(all);
@@ -332,18 +350,31 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
       const int lit_bits = _mm256_movemask_ps(lit);
       if (lit_bits == 0) continue;
-      __m256i j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
-      for (int m = 1; m + 1 < b.nh; ++m)
-        j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
-      for (int m = 1; m + 1 < b.nv; ++m)
-        i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
-      // The cell of the first lit lane, and whether every lit lane has it.
-      const __m256i first = _mm256_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit_bits)));
-      const __m256i j0 = _mm256_permutevar8x32_epi32(j, first), i0 = _mm256_permutevar8x32_epi32(i, first);
-      const __m256i same = _mm256_and_si256(_mm256_cmpeq_epi32(j, j0), _mm256_cmpeq_epi32(i, i0));
+      bool shared = false;
+      __m256i j, i;
+      if (b.sorted) {
+        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(_mm256_set1_ps(b.Hlo[cj[k]]), h, _CMP_LE_OQ),
+                                          _mm256_cmp_ps(h, _mm256_set1_ps(b.Hhi[cj[k]]), _CMP_LT_OQ));
+        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(_mm256_set1_ps(b.Vlo[ci[k]]), v, _CMP_LE_OQ),
+                                          _mm256_cmp_ps(v, _mm256_set1_ps(b.Vhi[ci[k]]), _CMP_LT_OQ));
+        shared = (_mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) & lit_bits) == lit_bits;
+      }
+      if (!shared) {
+        j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
+        for (int m = 1; m + 1 < b.nh; ++m)
+          j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
+        for (int m = 1; m + 1 < b.nv; ++m)
+          i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
+        // The cell of the first lit lane, and whether every lit lane has it.
+        const __m256i first = _mm256_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit_bits)));
+        const __m256i j0 = _mm256_permutevar8x32_epi32(j, first), i0 = _mm256_permutevar8x32_epi32(i, first);
+        const __m256i same = _mm256_and_si256(_mm256_cmpeq_epi32(j, j0), _mm256_cmpeq_epi32(i, i0));
+        shared = (_mm256_movemask_ps(_mm256_and_ps(lit, _mm256_castsi256_ps(same))) & lit_bits) == lit_bits;
+        if (shared) cj[k] = _mm256_cvtsi256_si32(j0), ci[k] = _mm256_cvtsi256_si32(i0);
+      }
       __m256 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
-      if ((_mm256_movemask_ps(_mm256_and_ps(lit, _mm256_castsi256_ps(same))) & lit_bits) == lit_bits) {
-        const int js = _mm256_cvtsi256_si32(j0), is = _mm256_cvtsi256_si32(i0);
+      if (shared) {
+        const int js = cj[k], is = ci[k];
         const float* r0 = I + is * b.nh + js;
         Hj = _mm256_set1_ps(b.H[js]), rHj = _mm256_set1_ps(b.rH[js]);
         Vi = _mm256_set1_ps(b.V[is]), rVi = _mm256_set1_ps(b.rV[is]);
