@@ -285,6 +285,18 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   return _mm256_or_ps(a, _mm256_and_ps(x, sign));
 }
 
+// A table cell's numbers as vectors (every lane the same): its bounds (BeamF::sorted), grid
+// angles with their reciprocal widths, and the four intensities at its corners.
+struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline void beam_cell(BeamCell& c, const BeamF& b, int j, int i) {
+  const float* r0 = b.I.data() + i * b.nh + j;
+  c.lo_h = _mm256_set1_ps(b.Hlo[j]), c.hi_h = _mm256_set1_ps(b.Hhi[j]);
+  c.lo_v = _mm256_set1_ps(b.Vlo[i]), c.hi_v = _mm256_set1_ps(b.Vhi[i]);
+  c.Hj = _mm256_set1_ps(b.H[j]), c.rHj = _mm256_set1_ps(b.rH[j]);
+  c.Vi = _mm256_set1_ps(b.V[i]), c.rVi = _mm256_set1_ps(b.rV[i]);
+  c.r00 = _mm256_set1_ps(r0[0]), c.r01 = _mm256_set1_ps(r0[1]);
+  c.r10 = _mm256_set1_ps(r0[b.nh]), c.r11 = _mm256_set1_ps(r0[b.nh + 1]);
+}
 // One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
 // CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
 // lane by lane, the rest by beam_lux_f itself; the same bits. Where `id` is given, only the
@@ -315,7 +327,9 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
                 k32 = _mm256_set1_epi32(32), izero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
   const __m256d vt = _mm256_set1_pd(t);
   const float* I = b.I.data();
-  int cj[2] = {0, 0}, ci[2] = {0, 0};  // each lamp's carried cell
+  BeamCell cell[2];  // each lamp's carried cell
+  beam_cell(cell[0], b, 0, 0);
+  beam_cell(cell[1], b, 0, 0);
   int x = 0;
   for (; x + 8 <= n; x += 8) {
     __m256 keep = _mm256_castsi256_ps(all);
@@ -353,10 +367,8 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       bool shared = false;
       __m256i j, i;
       if (b.sorted) {
-        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(_mm256_set1_ps(b.Hlo[cj[k]]), h, _CMP_LE_OQ),
-                                          _mm256_cmp_ps(h, _mm256_set1_ps(b.Hhi[cj[k]]), _CMP_LT_OQ));
-        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(_mm256_set1_ps(b.Vlo[ci[k]]), v, _CMP_LE_OQ),
-                                          _mm256_cmp_ps(v, _mm256_set1_ps(b.Vhi[ci[k]]), _CMP_LT_OQ));
+        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_h, h, _CMP_LE_OQ), _mm256_cmp_ps(h, cell[k].hi_h, _CMP_LT_OQ));
+        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_v, v, _CMP_LE_OQ), _mm256_cmp_ps(v, cell[k].hi_v, _CMP_LT_OQ));
         shared = (_mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) & lit_bits) == lit_bits;
       }
       if (!shared) {
@@ -370,16 +382,12 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
         const __m256i j0 = _mm256_permutevar8x32_epi32(j, first), i0 = _mm256_permutevar8x32_epi32(i, first);
         const __m256i same = _mm256_and_si256(_mm256_cmpeq_epi32(j, j0), _mm256_cmpeq_epi32(i, i0));
         shared = (_mm256_movemask_ps(_mm256_and_ps(lit, _mm256_castsi256_ps(same))) & lit_bits) == lit_bits;
-        if (shared) cj[k] = _mm256_cvtsi256_si32(j0), ci[k] = _mm256_cvtsi256_si32(i0);
+        if (shared) beam_cell(cell[k], b, _mm256_cvtsi256_si32(j0), _mm256_cvtsi256_si32(i0));
       }
       __m256 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
       if (shared) {
-        const int js = cj[k], is = ci[k];
-        const float* r0 = I + is * b.nh + js;
-        Hj = _mm256_set1_ps(b.H[js]), rHj = _mm256_set1_ps(b.rH[js]);
-        Vi = _mm256_set1_ps(b.V[is]), rVi = _mm256_set1_ps(b.rV[is]);
-        r00 = _mm256_set1_ps(r0[0]), r01 = _mm256_set1_ps(r0[1]);
-        r10 = _mm256_set1_ps(r0[b.nh]), r11 = _mm256_set1_ps(r0[b.nh + 1]);
+        const BeamCell& c = cell[k];
+        Hj = c.Hj, rHj = c.rHj, Vi = c.Vi, rVi = c.rVi, r00 = c.r00, r01 = c.r01, r10 = c.r10, r11 = c.r11;
       } else {
         if (b.small) {
           Hj = _mm256_permutevar8x32_ps(H8, j), rHj = _mm256_permutevar8x32_ps(rH8, j);
