@@ -188,6 +188,11 @@ struct BeamF {
   // instead of a gather (the same values).
   bool small = false;
   float H8[8] = {}, V8[8] = {}, rH8[8] = {}, rV8[8] = {};
+  // Both grids non-decreasing in float (the preset's are strictly increasing): then an angle's
+  // count of grid angles m = 1 .. n − 2 at or below it is j exactly when lo[j] <= angle < hi[j],
+  // with lo[j] = H[j] (−∞ for j = 0) and hi[j] = H[j + 1] (+∞ for j = n − 2).
+  bool sorted = false;
+  std::vector<float> Hlo, Hhi, Vlo, Vhi;
 };
 BeamF beam_f(const ScenePreset& p) {
   BeamF b;
@@ -208,6 +213,16 @@ BeamF beam_f(const ScenePreset& p) {
   for (int j = 0; j + 1 < b.nh; ++j) b.rH.push_back(1.f / (b.H[j + 1] - b.H[j]));
   for (int i = 0; i + 1 < b.nv; ++i) b.rV.push_back(1.f / (b.V[i + 1] - b.V[i]));
   for (double c : p.beam_intensity_cd) b.I.push_back(static_cast<float>(c));
+  b.sorted = std::is_sorted(b.H.begin(), b.H.end()) && std::is_sorted(b.V.begin(), b.V.end());
+  auto bounds = [](const std::vector<float>& g, std::vector<float>& lo, std::vector<float>& hi) {
+    const int cells = static_cast<int>(g.size()) - 1;
+    for (int j = 0; j < cells; ++j) {
+      lo.push_back(j == 0 ? -INFINITY : g[j]);
+      hi.push_back(j == cells - 1 ? INFINITY : g[j + 1]);
+    }
+  };
+  bounds(b.H, b.Hlo, b.Hhi);
+  bounds(b.V, b.Vlo, b.Vhi);
   b.small = b.nh <= 8 && b.nv <= 8;
   if (b.small) {
     std::copy(b.H.begin(), b.H.end(), b.H8), std::copy(b.rH.begin(), b.rH.end(), b.rH8);
@@ -270,13 +285,35 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   return _mm256_or_ps(a, _mm256_and_ps(x, sign));
 }
 
+// A table cell's numbers as vectors (every lane the same): its bounds (BeamF::sorted), grid
+// angles with their reciprocal widths, and the four intensities at its corners.
+struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline void beam_cell(BeamCell& c, const BeamF& b, int j, int i) {
+  const float* r0 = b.I.data() + i * b.nh + j;
+  c.lo_h = _mm256_set1_ps(b.Hlo[j]), c.hi_h = _mm256_set1_ps(b.Hhi[j]);
+  c.lo_v = _mm256_set1_ps(b.Vlo[i]), c.hi_v = _mm256_set1_ps(b.Vhi[i]);
+  c.Hj = _mm256_set1_ps(b.H[j]), c.rHj = _mm256_set1_ps(b.rH[j]);
+  c.Vi = _mm256_set1_ps(b.V[i]), c.rVi = _mm256_set1_ps(b.rV[i]);
+  c.r00 = _mm256_set1_ps(r0[0]), c.r01 = _mm256_set1_ps(r0[1]);
+  c.r10 = _mm256_set1_ps(r0[b.nh]), c.r11 = _mm256_set1_ps(r0[b.nh + 1]);
+}
 // One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
 // CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
-// lane by lane (the table by gathers; grid angles by permutations when at most 8), the rest by
-// beam_lux_f itself; the same bits.
-constexpr int kBeamChunk = 256;
+// lane by lane, the rest by beam_lux_f itself; the same bits. Where `id` is given, only the
+// pixels that read the beam are evaluated (class id in `read_mask`, bit id for ids below 64, or a
+// lane marking when `lane` is given: low_beam_illuminance's scalar test), the others are 0; a
+// block of eight with none of them is not evaluated at all.
+// The table: the cell (i, j) of each lane by counting grid angles. Along a row the angles change
+// by about 1/f rad (~0.03°) per pixel, so the lit lanes of a block of eight almost always share
+// their cell, and mostly with the previous block: each lamp carries the cell its last block's
+// lit lanes shared, and where every lit lane of this block lies inside it (two comparisons per
+// angle, BeamF::sorted: the count is then that cell) nothing is counted. A shared cell's grid
+// angles and four intensities are the same numbers for every lane and are broadcast (the values
+// the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
+// permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
 __attribute__((target("avx2")))
-void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, float* out) {
+void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
+                   const uint8_t* lane, uint64_t read_mask, float* out) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
@@ -285,10 +322,32 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   const __m256 v_lo = _mm256_set1_ps(b.V[0]), v_hi = _mm256_set1_ps(b.V[b.nv - 1]);
   const __m256i vnh = _mm256_set1_epi32(b.nh);
   const __m256 H8 = _mm256_loadu_ps(b.H8), rH8 = _mm256_loadu_ps(b.rH8), V8 = _mm256_loadu_ps(b.V8), rV8 = _mm256_loadu_ps(b.rV8);
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(read_mask >> 32)), ione = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32), izero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
   const __m256d vt = _mm256_set1_pd(t);
   const float* I = b.I.data();
+  BeamCell cell[2];  // each lamp's carried cell
+  beam_cell(cell[0], b, 0, 0);
+  beam_cell(cell[1], b, 0, 0);
   int x = 0;
   for (; x + 8 <= n; x += 8) {
+    __m256 keep = _mm256_castsi256_ps(all);
+    if (id) {
+      const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+      __m256i kk = _mm256_cmpeq_epi32(
+          _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), ione),
+          ione);
+      if (lane) {
+        const __m256i m = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
+        kk = _mm256_or_si256(kk, _mm256_xor_si256(_mm256_cmpeq_epi32(m, izero), all));
+      }
+      keep = _mm256_castsi256_ps(kk);
+      if (_mm256_movemask_ps(keep) == 0) {
+        _mm256_storeu_ps(out + x, zero);
+        continue;
+      }
+    }
     const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x)));
     const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x + 4)));
     const __m256 X = _mm256_set_m128(hi, lo);
@@ -303,57 +362,56 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       __m256 lit = _mm256_cmp_ps(v, cut, _CMP_LE_OQ);
       lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)));
       lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
-      if (_mm256_movemask_ps(lit) == 0) continue;
-      __m256i j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
-      for (int m = 1; m + 1 < b.nh; ++m)
-        j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
-      for (int m = 1; m + 1 < b.nv; ++m)
-        i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
-      __m256 Hj, rHj, Vi, rVi;
-      if (b.small) {
-        Hj = _mm256_permutevar8x32_ps(H8, j), rHj = _mm256_permutevar8x32_ps(rH8, j);
-        Vi = _mm256_permutevar8x32_ps(V8, i), rVi = _mm256_permutevar8x32_ps(rV8, i);
+      const int lit_bits = _mm256_movemask_ps(lit);
+      if (lit_bits == 0) continue;
+      bool shared = false;
+      __m256i j, i;
+      if (b.sorted) {
+        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_h, h, _CMP_LE_OQ), _mm256_cmp_ps(h, cell[k].hi_h, _CMP_LT_OQ));
+        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_v, v, _CMP_LE_OQ), _mm256_cmp_ps(v, cell[k].hi_v, _CMP_LT_OQ));
+        shared = (_mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) & lit_bits) == lit_bits;
+      }
+      if (!shared) {
+        j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
+        for (int m = 1; m + 1 < b.nh; ++m)
+          j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
+        for (int m = 1; m + 1 < b.nv; ++m)
+          i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
+        // The cell of the first lit lane, and whether every lit lane has it.
+        const __m256i first = _mm256_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit_bits)));
+        const __m256i j0 = _mm256_permutevar8x32_epi32(j, first), i0 = _mm256_permutevar8x32_epi32(i, first);
+        const __m256i same = _mm256_and_si256(_mm256_cmpeq_epi32(j, j0), _mm256_cmpeq_epi32(i, i0));
+        shared = (_mm256_movemask_ps(_mm256_and_ps(lit, _mm256_castsi256_ps(same))) & lit_bits) == lit_bits;
+        if (shared) beam_cell(cell[k], b, _mm256_cvtsi256_si32(j0), _mm256_cvtsi256_si32(i0));
+      }
+      __m256 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
+      if (shared) {
+        const BeamCell& c = cell[k];
+        Hj = c.Hj, rHj = c.rHj, Vi = c.Vi, rVi = c.rVi, r00 = c.r00, r01 = c.r01, r10 = c.r10, r11 = c.r11;
       } else {
-        Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
-        Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+        if (b.small) {
+          Hj = _mm256_permutevar8x32_ps(H8, j), rHj = _mm256_permutevar8x32_ps(rH8, j);
+          Vi = _mm256_permutevar8x32_ps(V8, i), rVi = _mm256_permutevar8x32_ps(rV8, i);
+        } else {
+          Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
+          Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+        }
+        const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);  // r0 + j
+        r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
+        r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
       }
       const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
-      const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);  // r0 + j
-      const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
-      const __m256 r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
       const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
       const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
       const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
       const __m256 Iv = _mm256_and_ps(lit, _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot)));
       acc = _mm256_add_ps(acc, _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2, d))));
     }
-    _mm256_storeu_ps(out + x, acc);
+    _mm256_storeu_ps(out + x, _mm256_and_ps(keep, acc));
   }
-  for (; x < n; ++x) out[x] = beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b);
-}
-// e[x] = sum[x − a] where the pixel is read (class id in `read_mask`, bit id for ids below 64,
-// or a lane marking when `lane` is given), else 0, for x = a .. b − 1; id non-null. Eight pixels
-// at a time (the class by the bit mask, the marking byte), then one by one: the same values as
-// low_beam_illuminance's scalar test (read[id] for ids below kLabelCount ≤ 64).
-__attribute__((target("avx2"))) void beam_keep_avx2(float* e, const float* sum, int a, int b, const uint16_t* id,
-                                                   const uint8_t* lane, uint64_t read_mask) {
-  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
-                mhi = _mm256_set1_epi32(static_cast<int32_t>(read_mask >> 32)), one = _mm256_set1_epi32(1),
-                k32 = _mm256_set1_epi32(32), zero = _mm256_setzero_si256();
-  int x = a;
-  for (; x + 8 <= b; x += 8) {
-    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
-    __m256i keep = _mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one), one);
-    if (lane) {
-      const __m256i m = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
-      keep = _mm256_or_si256(keep, _mm256_xor_si256(_mm256_cmpeq_epi32(m, zero), _mm256_set1_epi32(-1)));
-    }
-    _mm256_storeu_ps(e + x, _mm256_and_ps(_mm256_castsi256_ps(keep), _mm256_loadu_ps(sum + (x - a))));
-  }
-  for (; x < b; ++x) {
-    const int c = id[x];
-    e[x] = (c < 64 && (read_mask >> c & 1)) || (lane && lane[x]) ? sum[x - a] : 0.f;
+  for (; x < n; ++x) {
+    const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1)) || (lane && lane[x]);
+    out[x] = need ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
   }
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
@@ -399,41 +457,27 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   std::vector<double> xn(width);
   for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
   const bool avx2 = kHaveAvx2;
-#pragma omp parallel
-  {
-    float sum[kBeamChunk];
-#pragma omp for schedule(static, 8)
-    for (int y = 0; y < height; ++y) {
-      float* e = E.row(y);
-      const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
-      const double t = g.mount_height_m / den, D = t * (c - yn * s);
-      const float Df = static_cast<float>(D);
-      // At or above the horizon (den <= 0): no ground point.
-      if (den <= 0 || !(D > 0) || !(Df > 0)) {
-        std::fill_n(e, width, 0.f);
-        continue;
-      }
-      const float D2 = Df * Df, invD = 1.f / Df;
-      const uint16_t* id = labels ? labels->row(y) : nullptr;
-      const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
-      auto needed = [&](int x) { return !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]); };
-      for (int x0 = 0; x0 < width; x0 += kBeamChunk) {
-        const int x1 = std::min(width, x0 + kBeamChunk);
-        int a = x0, bx = x1;
-        while (a < bx && !needed(a)) ++a;
-        while (bx > a && !needed(bx - 1)) --bx;
-        std::fill(e + x0, e + a, 0.f);
-        std::fill(e + bx, e + x1, 0.f);
-        if (a == bx) continue;
-        if (avx2) {
-          beam_row_avx2(xn.data() + a, bx - a, t, D2, invD, b, sum);
-          if (id) beam_keep_avx2(e, sum, a, bx, id, lane, read_mask);
-          else std::copy(sum, sum + (bx - a), e + a);
-          continue;
-        }
-        for (int x = a; x < bx; ++x)
-          e[x] = needed(x) ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
-      }
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < height; ++y) {
+    float* e = E.row(y);
+    const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+    const double t = g.mount_height_m / den, D = t * (c - yn * s);
+    const float Df = static_cast<float>(D);
+    // At or above the horizon (den <= 0): no ground point.
+    if (den <= 0 || !(D > 0) || !(Df > 0)) {
+      std::fill_n(e, width, 0.f);
+      continue;
+    }
+    const float D2 = Df * Df, invD = 1.f / Df;
+    const uint16_t* id = labels ? labels->row(y) : nullptr;
+    const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
+    if (avx2) {
+      beam_row_avx2(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
+      continue;
+    }
+    for (int x = 0; x < width; ++x) {
+      const bool needed = !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]);
+      e[x] = needed ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
     }
   }
   return E;

@@ -781,3 +781,55 @@ TEST(SceneLights, WindowColourSplitComesFromThePreset) {
   { std::ofstream(dir.file("bad.toml")) << text; }
   EXPECT_THROW(load_scene_preset(dir.file("bad.toml")), Error);
 }
+
+// low_beam_illuminance with the labels and lane markings (scene/lights.cpp: AVX2 rows that skip
+// the blocks of eight no pixel of which reads the beam, and broadcast the table cell that all lit
+// lanes of a block share instead of gathering it) against its definition per pixel: E =
+// low_beam_lux_f32 at the pixel's ground point where the pixel reads the beam (a ground class, or
+// a lane marking on any class), else 0, and 0 above the horizon. Random runs of label ids
+// (ground and not, ids beyond the label table and beyond 64), sparse markings, a width that
+// leaves a vector tail, the full grid of the preset's table (blocks inside one cell and across
+// cells), 1 and 2 threads.
+TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
+  const int W = 1021, H = 512;
+  const ScenePreset& p = preset();
+  VanishingPoint none;
+  const CameraGeometry g = camera_geometry(load_camera_rig("cityscapes"), W, H, none);
+  ImageU16 ids(W, H, 1, 0);
+  ImageU8 lanes(W, H, 1, 0);
+  XorShift rnd{777};
+  const int classes[] = {int(Label::Road), int(Label::Sidewalk), int(Label::Terrain), int(Label::Car),
+                         int(Label::Building), int(Label::EgoVehicle), 40, 70, 300};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {
+      const int len = 1 + static_cast<int>(rnd() * 40), id = classes[static_cast<int>(rnd() * 9)];
+      for (int e = std::min(W, x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
+    }
+  for (size_t i = 0; i < lanes.size(); ++i) lanes[i] = rnd() < 0.01 ? 255 : 0;
+  ImageF want(W, H, 1, 0.f);
+  long lit = 0, skipped = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = ids.at(x, y);
+      double X, D;
+      if (!g.ground_point(x, y, &X, &D, nullptr)) continue;
+      if (!((id < kLabelCount && is_ground(id)) || lanes.at(x, y))) {
+        ++skipped;
+        continue;
+      }
+      want.at(x, y) = low_beam_lux_f32(X, D, p);
+      lit += want.at(x, y) > 0;
+    }
+  ASSERT_GT(lit, W * H / 8);  // lit pixels to compare, and unread ones that must stay 0
+  ASSERT_GT(skipped, W * H / 8);
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
+    ASSERT_EQ(got.size(), want.size());
+    long differ = 0;
+    for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);
+    EXPECT_EQ(differ, 0) << threads << " threads";
+  }
+  omp_set_num_threads(saved);
+}
