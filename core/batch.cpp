@@ -42,14 +42,7 @@ const char* to_string(Dataset d) {
   return "?";
 }
 
-uint64_t fnv1a_text(const std::string& text, uint64_t h) {
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
-
+uint64_t fnv1a_text(const std::string& text, uint64_t h) { return fnv1a_64(text.data(), text.size(), h); }
 
 uint64_t group_seed(uint64_t base_seed, const std::string& group) {
   uint64_t z = fnv1a_text(group) ^ (base_seed * 0x9e3779b97f4a7c15ull);

@@ -11,11 +11,16 @@
 
 namespace photosite {
 
-namespace {
-// FNV-1a 64 (Fowler, Noll, Vo): offset basis and prime of the 64-bit variant.
-constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ull;
-constexpr uint64_t kFnvPrime = 0x100000001b3ull;
-}  // namespace
+uint64_t fnv1a_64(const void* data, size_t n, uint64_t h) {
+  // One multiply per byte, each waiting on the last: why XXH3-64 is what loads verify.
+  constexpr uint64_t kFnvPrime = 0x100000001b3ull;  // the 64-bit FNV prime
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) {
+    h ^= p[i];
+    h *= kFnvPrime;
+  }
+  return h;
+}
 
 std::string_view checksum_algorithm_name(ChecksumAlgorithm a) {
   switch (a) {
@@ -36,7 +41,7 @@ struct Checksum::Xxh3 {
   ~Xxh3() { XXH3_freeState(state); }
 };
 
-Checksum::Checksum(ChecksumAlgorithm a) : algorithm_(a), fnv_(kFnvBasis) {
+Checksum::Checksum(ChecksumAlgorithm a) : algorithm_(a), fnv_(kFnv1a64Basis) {
   if (a == ChecksumAlgorithm::Xxh3_64) {
     xxh3_ = std::make_unique<Xxh3>();
     if (!xxh3_->state || XXH3_64bits_reset(xxh3_->state) != XXH_OK) throw std::bad_alloc();
@@ -51,14 +56,7 @@ void Checksum::update(const void* data, size_t n) {
     XXH3_64bits_update(xxh3_->state, data, n);
     return;
   }
-  // One multiply per byte, each waiting on the last: the reason it is no longer written.
-  const auto* p = static_cast<const unsigned char*>(data);
-  uint64_t h = fnv_;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= p[i];
-    h *= kFnvPrime;
-  }
-  fnv_ = h;
+  fnv_ = fnv1a_64(data, n, fnv_);
 }
 
 uint64_t Checksum::value() const {

@@ -1,5 +1,9 @@
 #include "photosite/rng.h"
 
+#include <cstring>
+
+#include "photosite/checksum.h"
+
 #include "core/rng_detail.h"
 
 namespace photosite {
@@ -15,11 +19,7 @@ std::array<uint32_t, 4> random_words(uint64_t seed, uint32_t frame, uint64_t pix
 }
 
 uint64_t seed_from_device_id(const char* device_id) {
-  uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64-bit offset basis
-  for (const char* p = device_id; *p; ++p) {
-    h ^= static_cast<unsigned char>(*p);
-    h *= 0x100000001b3ull;  // FNV prime
-  }
+  uint64_t h = fnv1a_64(device_id, std::strlen(device_id));
   // SplitMix64 finalizer (Steele, Lea & Flood 2014) to spread the bits.
   h += 0x9e3779b97f4a7c15ull;
   h = (h ^ (h >> 30)) * 0xbf58476d1ce4e5b9ull;

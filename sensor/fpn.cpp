@@ -41,8 +41,6 @@ std::string fpn_params_text(const CameraPreset& p) {
                      p.hot_pixel_fraction, p.hot_pixel_dark_current_e_per_s, p.dark_current_e_per_s);
 }
 
-
-
 void check_device_id(const std::string& id) {
   if (id.empty()) fail("device id is empty");
   for (char c : id)

@@ -62,7 +62,7 @@ uint64_t group_seed(uint64_t base_seed, const std::string& group);
 // (values outside the parameters' ranges, so nothing else is read as null).
 std::string upgrade_params(const std::string& params_json);
 
-uint64_t fnv1a_text(const std::string& text, uint64_t h = 0xcbf29ce484222325ull);
+uint64_t fnv1a_text(const std::string& text, uint64_t h = kFnv1a64Basis);
 
 // ---- the engine ----------------------------------------------------------------------------
 // What a batch run writes and how. Everything but shard, jobs, queue_depth, compute_threads and

@@ -19,6 +19,12 @@ namespace photosite {
 
 enum class ChecksumAlgorithm { Xxh3_64, Fnv1a_64 };
 
+// FNV-1a 64 (Fowler, Noll, Vo) of n bytes, continuing from h (the offset basis to start): the
+// one loop behind the FNV-1a checksums, the batch run's parameter-file and group hashes and the
+// device seed, whose values are recorded in files and seeds and so must not change.
+inline constexpr uint64_t kFnv1a64Basis = 0xcbf29ce484222325ull;
+uint64_t fnv1a_64(const void* data, size_t n, uint64_t h = kFnv1a64Basis);
+
 // "xxh3_64" and "fnv1a_64": the names written beside a checksum.
 std::string_view checksum_algorithm_name(ChecksumAlgorithm a);
 std::optional<ChecksumAlgorithm> checksum_algorithm_from_name(std::string_view name);

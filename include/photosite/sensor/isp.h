@@ -34,7 +34,8 @@ void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* 
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
                       double percentile = 0.99, double white_point = 1.0);
 
-// Auto exposure of a preview (`photosite night --preview-exposure auto`; docs/realism.md): the
+// Auto exposure of a preview (`photosite bench realism`'s auto-exposure methods; not an option of
+// `night`, whose preview keeps the 99th percentile; docs/realism.md): the
 // gain a camera's auto exposure (AE) settles at, applied to the simulated frame, and the sensor's
 // full scale divided by that gain shown as white, instead of the frame's 99th percentile.
 // The AE meters the frame's mean luminance (white-balanced camera RGB, Rec. 709 weights, each
