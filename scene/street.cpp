@@ -13,12 +13,13 @@
 #include <cstdlib>
 #include <cstring>
 #include <immintrin.h>
-#include <opencv2/imgproc.hpp>
+#include <numeric>
 #include <unordered_set>
 
 #include "photosite/environment.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/street_detail.h"
 
 namespace photosite::scene {
 
@@ -132,9 +133,15 @@ void pool_row_scalar(float* e, const double* Xg, const uint8_t* mask, int n, con
     e[i] = acc;
   }
 }
-// PHOTOSITE_SCALAR_LIGHTS=1 takes the scalar paths on an AVX2 machine (to check that both give
-// the same bits).
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
+// The widest instruction set the light paths take: 2 AVX-512 (AVX-512F and VL: the AVX2 code
+// compiled with 32 vector registers), 1 AVX2, 0 the scalar twins; the machine's support, 0 with
+// PHOTOSITE_SCALAR_LIGHTS=1 (to check that all give the same bits), capped by
+// street_light_max_isa (tests).
+const int kMachineIsa = !__builtin_cpu_supports("avx2") || env::get(env::Var::ScalarLights).value_or("0") == "1" ? 0
+                        : __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl")                 ? 2
+                                                                                                                  : 1;
+int g_isa_cap = 2;
+int light_isa() { return std::min(kMachineIsa, g_isa_cap); }
 // RelTable::atf for eight lanes (the entries by gathers; the index clamped to [0, 4095] so that
 // lanes whose result is dropped stay inside the table): the same operations.
 __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const RelTable& t, __m256 c) {
@@ -145,9 +152,9 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const Re
   return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
 }
 // pool_row_scalar eight pixels at a time (Xg padded to a multiple of 8; e written for whole groups).
-__attribute__((target("avx2")))
-void pool_row_avx2(float* e, const double* Xg, const uint8_t* mask, int n, const PoolLamps& pl, float I0,
-                   const RelTable& t) {
+__attribute__((target("avx2"), always_inline)) inline void pool_row_body(float* e, const double* Xg, const uint8_t* mask,
+                                                                          int n, const PoolLamps& pl, float I0,
+                                                                          const RelTable& t) {
   const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
   const int nl = pl.size();
   for (int i = 0; i < n; i += 8) {
@@ -168,6 +175,17 @@ void pool_row_avx2(float* e, const double* Xg, const uint8_t* mask, int n, const
     _mm256_storeu_ps(e + i, acc);
   }
   _mm256_zeroupper();
+}
+__attribute__((target("avx2"))) void pool_row_avx2(float* e, const double* Xg, const uint8_t* mask, int n,
+                                                  const PoolLamps& pl, float I0, const RelTable& t) {
+  pool_row_body(e, Xg, mask, n, pl, I0, t);
+}
+// The same row compiled for AVX-512VL (32 vector registers; the same operations, no FMA
+// contraction: the same bits; see vertical_row_avx512).
+__attribute__((target("avx2,avx512f,avx512vl"))) void pool_row_avx512(float* e, const double* Xg, const uint8_t* mask,
+                                                                     int n, const PoolLamps& pl, float I0,
+                                                                     const RelTable& t) {
+  pool_row_body(e, Xg, mask, n, pl, I0, t);
 }
 // The ground pixels of a row as bits, one byte per aligned group of eight (bit k of bits[q]: pixel
 // 8q + k): class id in `classes` (bit id of the mask; ids of 64 and above in no class). Scalar,
@@ -267,6 +285,93 @@ double street_illuminance_lux(double X, double D, const StreetLighting& s, const
   return e;
 }
 
+void street_light_max_isa(int isa) { g_isa_cap = std::clamp(isa, 0, 2); }
+
+std::vector<PoleBox> pole_components(const ImageU16& labels) {
+  const int W = labels.width(), H = labels.height();
+  // Each row's runs of pole pixels (first and last column, in pairs), rows in parallel; blocks of
+  // 32 labels without a pole pixel skipped by a branch-free test the compiler vectorizes (poles
+  // are a few percent of a street frame).
+  std::vector<std::vector<int>> runs(H);
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* r = labels.row(y);
+    const int Wr = W;  // a local: the pushes might alias the shared one otherwise
+    const uint16_t pole = static_cast<uint16_t>(Label::Pole), group = static_cast<uint16_t>(Label::PoleGroup);
+    std::vector<int>& out = runs[y];
+    for (int x = 0; x < Wr;) {
+      if ((x & 31) == 0 && x + 32 <= Wr) {
+        unsigned any = 0;
+        for (int k = x; k < x + 32; ++k) any |= (r[k] == pole) | (r[k] == group);
+        if (!any) {
+          x += 32;
+          continue;
+        }
+      }
+      if (!((r[x] == pole) | (r[x] == group))) {
+        ++x;
+        continue;
+      }
+      const int a = x;
+      while (x < Wr && ((r[x] == pole) | (r[x] == group))) ++x;
+      out.push_back(a);
+      out.push_back(x - 1);
+    }
+  }
+  // Union-find over the runs (numbered in raster order): runs of neighbouring rows touching in
+  // the 8-neighbourhood (a.x0 ≤ b.x1 + 1 and b.x0 ≤ a.x1 + 1) are one component.
+  std::vector<int> first(H + 1, 0);
+  for (int y = 0; y < H; ++y) first[y + 1] = first[y] + static_cast<int>(runs[y].size() / 2);
+  const int n = first[H];
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (int y = 1; y < H; ++y) {
+    const std::vector<int>&a = runs[y - 1], &b = runs[y];
+    size_t i = 0, j = 0;
+    while (i < a.size() && j < b.size()) {
+      if (a[i + 1] + 1 < b[j]) i += 2;           // a ends before b starts (no diagonal contact)
+      else if (b[j + 1] + 1 < a[i]) j += 2;      // b ends before a starts
+      else {
+        const int ra = find(first[y - 1] + static_cast<int>(i / 2)), rb = find(first[y] + static_cast<int>(j / 2));
+        if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        // The run that ends first touches no later run of the other row (runs of a row are at
+        // least one pixel apart).
+        if (a[i + 1] < b[j + 1]) i += 2;
+        else j += 2;
+      }
+    }
+  }
+  // Per component: its box and its first 2x2 block (y/2, x/2) in raster order of the blocks,
+  // the order OpenCV numbers its components in (cv::connectedComponents, 8-connected: its
+  // block-based scan (Spaghetti/BBDT, and the parallel version's stripes of even height) gives a
+  // new provisional label to the first block of each component, the smallest of the component's
+  // labels, which the final numbering keeps in increasing order).
+  struct Comp { uint64_t key = ~0ull; PoleBox b{1 << 30, 1 << 30, -1, -1}; };
+  std::vector<Comp> comp(n);
+  for (int y = 0; y < H; ++y)
+    for (size_t i = 0; i < runs[y].size(); i += 2) {
+      Comp& c = comp[find(first[y] + static_cast<int>(i / 2))];
+      const int x0 = runs[y][i], x1 = runs[y][i + 1];
+      c.key = std::min(c.key, static_cast<uint64_t>(y >> 1) << 32 | static_cast<uint64_t>(x0 >> 1));
+      c.b.x0 = std::min(c.b.x0, x0);
+      c.b.x1 = std::max(c.b.x1, x1);
+      c.b.y0 = std::min(c.b.y0, y);
+      c.b.y1 = std::max(c.b.y1, y);
+    }
+  std::vector<const Comp*> roots;
+  for (int i = 0; i < n; ++i)
+    if (parent[i] == i) roots.push_back(&comp[i]);
+  std::sort(roots.begin(), roots.end(), [](const Comp* a, const Comp* b) { return a->key < b->key; });
+  std::vector<PoleBox> out;
+  out.reserve(roots.size());
+  for (const Comp* c : roots) out.push_back(c->b);
+  return out;
+}
+
 StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g, const ScenePreset& p, uint64_t seed) {
   StreetLighting s;
   if (p.street_road_luminance_cd_m2 <= 0) return s;
@@ -304,73 +409,13 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   s.road_left_m = 0.25 * std::round(4 * median(lefts));
   s.road_right_m = 0.25 * std::round(4 * median(rights));
   // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
-  // at least min_pole_height_m tall, not capped by a sign or signal (those carry none).
+  // at least min_pole_height_m tall, not capped by a sign or signal (those carry none), taken in
+  // the order of OpenCV's 8-connected labels of the pole mask (pole_components).
   {
-    // The pole mask, and per row the first and last pole column (-1 where the row has none).
-    cv::Mat mask(H, W, CV_8U);
-    std::vector<int> row_x0(H, -1), row_x1(H, -1);
-#pragma omp parallel for schedule(static)
-    for (int y = 0; y < H; ++y) {
-      // (The width in a local and the two ids compared: a loop the compiler vectorizes; with the
-      // shared W, which the byte stores might alias, it reloaded W at every pixel.)
-      const uint16_t* r = ids.row(y);
-      uint8_t* m = mask.ptr<uint8_t>(y);
-      const int Wr = W;
-      const uint16_t pole = static_cast<uint16_t>(Label::Pole), group = static_cast<uint16_t>(Label::PoleGroup);
-      for (int x = 0; x < Wr; ++x) m[x] = (r[x] == pole) | (r[x] == group) ? 255 : 0;
-      int a = 0, b = Wr;  // eight mask bytes at a time over the empty stretches, then one by one
-      for (uint64_t w8; a + 8 <= b && (std::memcpy(&w8, m + a, 8), w8 == 0);) a += 8;
-      while (a < b && !m[a]) ++a;
-      for (uint64_t w8; b - 8 >= a && (std::memcpy(&w8, m + b - 8, 8), w8 == 0);) b -= 8;
-      while (b > a && !m[b - 1]) --b;
-      if (a < b) row_x0[y] = a, row_x1[y] = b - 1;
-    }
-    // The components' labels from OpenCV, their bounding boxes from the pole pixels here: what
-    // connectedComponentsWithStats gives (LEFT, TOP, WIDTH, HEIGHT), without its per-pixel area
-    // and centroid sums over the whole frame, background included (12 of this function's 14 ms
-    // on a 2048x1024 frame). The components over the bounding box of the pole pixels only (the rest of the mask is 0
-    // and belongs to no component), its corner moved to even coordinates: OpenCV's 8-connected
-    // labelling (Spaghetti/BBDT) scans 2x2 blocks and numbers the components in the order of
-    // their first block; with the block grid kept, the box gives the same components in the
-    // same order as the whole frame (the lamps below are taken in that order).
-    int by0 = H, by1 = -1, bx0 = W, bx1 = -1;
-    for (int y = 0; y < H; ++y)
-      if (row_x0[y] >= 0) {
-        by0 = std::min(by0, y), by1 = y;
-        bx0 = std::min(bx0, row_x0[y]), bx1 = std::max(bx1, row_x1[y]);
-      }
-    by0 &= ~1, bx0 &= ~1;
-    cv::Mat cc;
-    int n = 1;  // the background only
-    if (by1 >= 0) n = cv::connectedComponents(mask(cv::Rect(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1)), cc, 8, CV_32S);
-    struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1; };
-    std::vector<Box> box(n);
-    for (int y = by0; y <= by1; ++y) {
-      if (row_x0[y] < 0) continue;
-      const uint8_t* m = mask.ptr<uint8_t>(y);
-      const int* l = cc.ptr<int>(y - by0);  // the box's row: column x at l[x − bx0]
-      for (int x = row_x0[y]; x <= row_x1[y]; ++x) {
-        // Pole pixels are sparse: eight mask bytes at a time skip the empty stretches.
-        if ((x & 7) == 0 && x + 8 <= W) {
-          uint64_t w8;
-          std::memcpy(&w8, m + x, sizeof w8);
-          if (!w8) {
-            x += 7;
-            continue;
-          }
-        }
-        if (m[x]) {
-          Box& b = box[l[x - bx0]];
-          b.x0 = std::min(b.x0, x);
-          b.x1 = std::max(b.x1, x);
-          b.y0 = std::min(b.y0, y);
-          b.y1 = y;  // rows ascend
-        }
-      }
-    }
-    for (int c = 1; c < n; ++c) {
-      const int x0 = box[c].x0, w = box[c].x1 - box[c].x0 + 1;
-      const int y0 = box[c].y0, h = box[c].y1 - box[c].y0 + 1;
+    const std::vector<PoleBox> box = pole_components(ids);
+    for (const PoleBox& pb : box) {
+      const int x0 = pb.x0, w = pb.x1 - pb.x0 + 1;
+      const int y0 = pb.y0, h = pb.y1 - pb.y0 + 1;
       // A pole cut by the left or right border may be a sign post or a lamp column: not used.
       if (x0 == 0 || x0 + w >= W) continue;
       // The base: the pole's lowest pixel, or below it the bottom of whatever object hides it
@@ -469,6 +514,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
   const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
   const uint64_t ground_mask = label_bits(ground_classes());
+  const int isa = light_isa();
   std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
   for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
 #pragma omp parallel
@@ -486,7 +532,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       // The row's ground pixels as bits per group of eight columns (from column 0), and the
       // groups qa .. qb − 1 from the first to the last holding one.
       const int ng = (W + 7) / 8;
-      if (kHaveAvx2) class_bits_avx2(id, W, ground_mask, gbits.data());
+      if (isa >= 1) class_bits_avx2(id, W, ground_mask, gbits.data());
       else class_bits_scalar(id, W, ground_mask, gbits.data());
       int qa = 0, qb = ng;
       while (qa < qb && !gbits[qa]) ++qa;
@@ -512,8 +558,9 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
       for (int i = 0; i < n; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
       float* o = L.row(y);
       const float* tx = texture.row(y);
-      if (kHaveAvx2) {
-        pool_row_avx2(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
+      if (isa >= 1) {
+        if (isa >= 2) pool_row_avx512(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
+        else pool_row_avx2(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
         add_reflection_avx2(o, tx, acc.data(), gbits.data(), qa, qb, W, tlf);
       } else {
         pool_row_scalar(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
@@ -736,8 +783,9 @@ struct VerticalCtx {
 // o += (t·tint)·E_v on the candidates with E_v > 0 (reflect8_avx2: add_reflection_scalar's
 // operations). Each lane is its own pixel, so the same bits as the scalar path, where the pixels
 // are compacted first. Ends with vzeroupper (see clear_upper_vector_state).
-__attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx, const uint16_t* id, const float* z,
-                                                     const int32_t* reg, int W, const RowGeom& q, const VerticalCtx& v) {
+__attribute__((target("avx2"), always_inline)) inline int vertical_row_body(float* o, const float* tx, const uint16_t* id,
+                                                                           const float* z, const int32_t* reg, int W,
+                                                                           const RowGeom& q, const VerticalCtx& v) {
   const LampArrays& la = *v.la;
   const BuildingFacades& fac = *v.fac;
   const RelTable& t = *v.t;
@@ -855,6 +903,19 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
   _mm256_zeroupper();
   return x;
 }
+__attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx, const uint16_t* id, const float* z,
+                                                     const int32_t* reg, int W, const RowGeom& q, const VerticalCtx& v) {
+  return vertical_row_body(o, tx, id, z, reg, W, q, v);
+}
+// The same row compiled for AVX-512VL: 32 vector registers, so the lamp loop's accumulator and
+// constants stay in registers (with 16 the accumulator went through the stack at every lamp);
+// the same IEEE operations in the same order (no FMA contraction: -ffp-contract=off), so the
+// same bits.
+__attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* o, const float* tx, const uint16_t* id,
+                                                                        const float* z, const int32_t* reg, int W,
+                                                                        const RowGeom& q, const VerticalCtx& v) {
+  return vertical_row_body(o, tx, id, z, reg, W, q, v);
+}
 }  // namespace
 
 void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
@@ -899,6 +960,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
   // the lamps (vertical_e_scalar), then the reflection into L. Each pixel's sum is its own, so
   // rows may go to any thread.
   const VerticalCtx ctx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building};
+  const int isa = light_isa();
 #pragma omp parallel
   {
   if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
@@ -912,7 +974,9 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
     float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
     const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
-    const int x0 = kHaveAvx2 ? vertical_row_avx2(o, tx, id, z, reg, W, q, ctx) : 0;
+    const int x0 = isa >= 2 ? vertical_row_avx512(o, tx, id, z, reg, W, q, ctx)
+                   : isa >= 1 ? vertical_row_avx2(o, tx, id, z, reg, W, q, ctx)
+                              : 0;
     // The pixels lit at all: not sky or ground, a finite positive depth, and a point below the
     // highest lamp and within reach of one along the road (a point at or above every lamp, v_Y ≤ 0
     // for each, or beyond every lamp's reach gets exactly nothing in vertical_term: not compacted;
@@ -1025,7 +1089,7 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
 // within max_depth of the camera), converted to integers only for the pane pixels (the same
 // conversions as the scalar's). The shop unit ⌊s/frontage⌋ only where a ground-floor lane is in
 // either pane.
-__attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w) {
+__attribute__((target("avx2"), always_inline)) inline void window_geom_body(WindowRow& r, int n, const WindowGeom& w) {
   const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
                 h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
                 frontage = _mm256_set1_pd(w.frontage), half_pitch = _mm256_set1_pd(w.half_pitch),
@@ -1069,6 +1133,12 @@ __attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const
       if (gf >> k & 1) r.unit[i + k] = static_cast<int64_t>(uv[k]);
     }
   }
+}
+__attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w) { window_geom_body(r, n, w); }
+// The same compiled for AVX-512VL (its sixteen constants and the lanes' values in 32 registers;
+// the same operations, no FMA contraction: the same panes).
+__attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowRow& r, int n, const WindowGeom& w) {
+  window_geom_body(r, n, w);
 }
 // A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
 // draws (add_facade_windows).
@@ -1166,6 +1236,7 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
   const auto warm1 = spectrum::blackbody_rgb(p.window_cct_K, 1.0), cool1 = spectrum::blackbody_rgb(p.window_cool_cct_K, 1.0),
              shop1 = spectrum::blackbody_rgb(p.shop_cct_K, 1.0);
   std::unordered_set<uint64_t> all;
+  const int isa = light_isa();
 #pragma omp parallel
   {
     std::unordered_set<uint64_t> seen;
@@ -1186,8 +1257,8 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
       int32_t *rx = r.x.data(), *rp = plane_of.data();
       double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
       const FacadeFrame* fr = frames.data();
-      if (kHaveAvx2) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, r, rp);
-      for (int x = 0; x < Wr && !kHaveAvx2; ++x) {
+      if (isa >= 1) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, r, rp);
+      for (int x = 0; x < Wr && isa == 0; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
         // only when every one has it) skipped at once: building pixels come in long runs.
         if ((x & 7) == 0 && x + 8 <= Wr &&
@@ -1203,9 +1274,10 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
                           0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
                           0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
                           0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
-      if (kHaveAvx2) {
+      if (isa >= 1) {
         r.pad(n);
-        window_geom_avx2(r, n, wg);
+        if (isa >= 2) window_geom_avx512(r, n, wg);
+        else window_geom_avx2(r, n, wg);
       } else {
         window_geom_scalar(r, n, wg);
       }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -18,6 +19,7 @@
 #include "photosite/scene/street.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/street_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -284,6 +286,20 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
   EXPECT_NE(bad.output.find("nonesuch"), std::string::npos) << bad.output;
 }
 
+// A shared Cityscapes frame (../shared/data/cityscapes, 2048x1024): its day image linearized, and
+// its labels with the instance ids. (The caller skips without ../shared.)
+namespace {
+std::pair<ImageF, LabelMap> cityscapes_frame(const std::string& base) {
+  const auto dir = test::shared_dir() / "data/cityscapes";
+  ImageFileInfo info;
+  const ImageF day = read_image((dir / "leftImg8bit" / (base + "_leftImg8bit.png")).string(), &info);
+  LabelMap lab = read_labels((dir / "gtFine" / (base + "_gtFine_labelIds.png")).string(),
+                             (dir / "gtFine" / (base + "_gtFine_instanceIds.png")).string(), 2048, 1024,
+                             LabelFormat::Auto, ResizeLabels::None);
+  return {linearize(day, info), std::move(lab)};
+}
+}  // namespace
+
 // A luminaire is a point source: E = I(γ)·cos γ / d², i.e. I0/H² at the nadir and
 // I0·H/(r² + H²)^{3/2} at horizontal distance r inside the cut-off; beyond it the distribution's
 // exponential fall.
@@ -302,63 +318,97 @@ TEST(StreetLighting, PointSourceInverseSquareAndCosine) {
   EXPECT_DOUBLE_EQ(lamp_relative_intensity(0.5, p), 1.0);
 }
 
-// plan_street_lighting labels the pole components over the bounding box of the pole pixels only,
-// its corner moved to even coordinates, and takes the poles in the order of their labels: this
-// relies on OpenCV's 8-connected labelling giving such a box the same components, numbered in
-// the same order, as the whole frame (its block scan keeps the 2x2 block grid). Checked here on
-// random masks of thin poles, blobs and single pixels against the whole-frame labels, with the
-// foreground's box at odd and even offsets, so that a labelling whose numbering depends on the
-// crop fails.
-TEST(StreetLighting, PoleComponentsOfTheAlignedBoxAreTheWholeFrames) {
+// plan_street_lighting takes the poles in the order of OpenCV's 8-connected labels of the pole
+// mask (the order decides which layout luminaire a pole replaces when two compete), found from
+// the rows' runs of pole pixels (pole_components, street.cpp) instead of labelling the frame.
+// Checked on random masks of thin poles with arms, blobs and single pixels (small frames, and
+// frames of 2048x1024 so that OpenCV's parallel labelling runs, at 1 and 2 OpenCV threads): the
+// same components, the same boxes, in the same order as cv::connectedComponentsWithStats on the
+// whole mask. A labelling that numbered by the first pixel instead of the first 2x2 block, merged
+// only 4-connected runs or dropped a component fails.
+TEST(StreetLighting, PoleComponentsAreOpenCVsInItsOrder) {
   std::mt19937 rng(20261128);
   int compared = 0, multi = 0;
-  for (int trial = 0; trial < 300; ++trial) {
-    const int W = 40 + static_cast<int>(rng() % 300), H = 40 + static_cast<int>(rng() % 200);
+  const int threads = cv::getNumThreads();
+  for (int trial = 0; trial < 320; ++trial) {
+    const bool big = trial >= 300;
+    const int W = big ? 2048 : 40 + static_cast<int>(rng() % 300), H = big ? 1024 : 40 + static_cast<int>(rng() % 200);
     cv::Mat m(H, W, CV_8U, cv::Scalar(0));
-    // The foreground inside a random sub-box (odd or even corner), so the crop differs from the frame.
+    // The foreground inside a random sub-box (odd or even corner).
     const int x0 = 1 + static_cast<int>(rng() % (W / 3)), y0 = 1 + static_cast<int>(rng() % (H / 3));
     const int x1 = W - 1 - static_cast<int>(rng() % (W / 3)), y1 = H - 1 - static_cast<int>(rng() % (H / 3));
     auto rx = [&] { return x0 + static_cast<int>(rng() % (x1 - x0)); };
     auto ry = [&] { return y0 + static_cast<int>(rng() % (y1 - y0)); };
-    for (int k = static_cast<int>(rng() % 12); k > 0; --k) {  // poles: 1-3 px wide vertical bars, some with an arm
+    const int scale = big ? 20 : 1;
+    for (int k = static_cast<int>(rng() % (12 * scale)); k > 0; --k) {  // poles: 1-3 px wide vertical bars, some with an arm
       const int x = rx(), ya = ry(), yb = ry(), w = 1 + static_cast<int>(rng() % 3);
       for (int y = std::min(ya, yb); y <= std::max(ya, yb); ++y)
         for (int dx = 0; dx < w && x + dx < x1; ++dx) m.at<uint8_t>(y, x + dx) = 255;
       if (rng() % 2)
         for (int dx = 0; dx < 6 && x + dx < x1; ++dx) m.at<uint8_t>(std::min(ya, yb), x + dx) = 255;
     }
-    for (int k = static_cast<int>(rng() % 40); k > 0; --k) m.at<uint8_t>(ry(), rx()) = 255;  // single pixels
-    for (int k = static_cast<int>(rng() % 4); k > 0; --k) {  // blobs
+    for (int k = static_cast<int>(rng() % (40 * scale)); k > 0; --k) m.at<uint8_t>(ry(), rx()) = 255;  // single pixels
+    for (int k = static_cast<int>(rng() % (4 * scale)); k > 0; --k) {  // blobs
       const int cx = rx(), cy = ry(), r = 1 + static_cast<int>(rng() % 5);
       for (int y = std::max(y0, cy - r); y < std::min(y1, cy + r); ++y)
         for (int x = std::max(x0, cx - r); x < std::min(x1, cx + r); ++x)
           if ((x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r) m.at<uint8_t>(y, x) = 255;
     }
-    cv::Mat full, part;
-    const int n_full = cv::connectedComponents(m, full, 8, CV_32S);
-    // The foreground's bounding box, corner moved to even coordinates (street.cpp's rule).
-    int bx0 = W, bx1 = -1, by0 = H, by1 = -1;
+    // The mask as labels: poles and pole groups alike, every other pixel another class.
+    ImageU16 labels(W, H, 1, static_cast<uint16_t>(Label::Building));
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
-        if (m.at<uint8_t>(y, x)) bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y), by1 = y;
-    if (by1 < 0) continue;
-    bx0 &= ~1, by0 &= ~1;
-    const int n_part = cv::connectedComponents(m(cv::Rect(bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1)), part, 8, CV_32S);
-    ASSERT_EQ(n_part, n_full) << "trial " << trial;
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        const bool inside = x >= bx0 && x <= bx1 && y >= by0 && y <= by1;
-        if (!inside) {
-          ASSERT_EQ(full.at<int>(y, x), 0) << "trial " << trial;
-          continue;
-        }
-        ASSERT_EQ(part.at<int>(y - by0, x - bx0), full.at<int>(y, x)) << "trial " << trial << " at " << x << "," << y;
+        if (m.at<uint8_t>(y, x)) labels.at(x, y) = static_cast<uint16_t>((x + y) % 5 ? Label::Pole : Label::PoleGroup);
+    const std::vector<PoleBox> runs = pole_components(labels);
+    for (const int cv_threads : {1, 2}) {
+      if (!big && cv_threads == 2) continue;
+      cv::setNumThreads(cv_threads);
+      cv::Mat cc, stats, cent;
+      const int n = cv::connectedComponentsWithStats(m, cc, stats, cent, 8, CV_32S);
+      cv::setNumThreads(threads);
+      ASSERT_EQ(static_cast<int>(runs.size()), n - 1) << "trial " << trial;
+      for (int c = 1; c < n; ++c) {
+        const PoleBox& b = runs[c - 1];
+        ASSERT_EQ(b.x0, stats.at<int>(c, cv::CC_STAT_LEFT)) << "trial " << trial << " component " << c;
+        ASSERT_EQ(b.y0, stats.at<int>(c, cv::CC_STAT_TOP)) << "trial " << trial << " component " << c;
+        ASSERT_EQ(b.x1 - b.x0 + 1, stats.at<int>(c, cv::CC_STAT_WIDTH)) << "trial " << trial << " component " << c;
+        ASSERT_EQ(b.y1 - b.y0 + 1, stats.at<int>(c, cv::CC_STAT_HEIGHT)) << "trial " << trial << " component " << c;
       }
-    ++compared;
-    multi += n_full > 3;
+      ++compared;
+      multi += n > 3;
+    }
   }
-  EXPECT_GT(compared, 250);
-  EXPECT_GT(multi, 100);  // many masks with several components, whose order is what is compared
+  EXPECT_GT(compared, 300);
+  EXPECT_GT(multi, 150);  // many masks with several components, whose order is what is compared
+}
+
+// The street light's row paths (pools, vertical surfaces, façade windows) at every instruction
+// set this machine has: AVX-512VL (the AVX2 code with 32 registers), AVX2 and the scalar twins
+// (street_light_max_isa) give the light map of a shared Cityscapes frame (poles, façades,
+// vehicles) in the same bits, as do the other per-pixel stages' twins (each lane does the same
+// IEEE operations). Where the machine lacks AVX-512 or AVX2 the capped runs take the same path
+// and the test checks determinism.
+TEST(StreetLighting, LightMapIsTheSameBitsAtEveryInstructionSet) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const auto frame = cityscapes_frame("aachen_000001_000019");
+  const ImageF& lin = frame.first;
+  const LabelMap& lab = frame.second;
+  const ScenePreset p = load_scene_preset("night-urban");
+  std::vector<ImageF> lights;
+  for (const int isa : {2, 1, 0}) {
+    street_light_max_isa(isa);
+    lights.push_back(night_scene(lin, lab, p, 1).lights);
+  }
+  street_light_max_isa(2);
+  double sum = 0;
+  for (size_t i = 0; i < lights[2].size(); ++i) sum += lights[2][i];
+  EXPECT_GT(sum, 0.0);
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_EQ(lights[k].size(), lights[2].size());
+    size_t differ = 0;
+    for (size_t i = 0; i < lights[2].size(); ++i) differ += std::memcmp(&lights[k][i], &lights[2][i], sizeof(float)) != 0;
+    EXPECT_EQ(differ, 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
+  }
 }
 
 // Without poles the lamps go along the road edges at the preset's height and spacing; their
@@ -947,13 +997,9 @@ TEST(MetricLights, PanningCropsKeepLightsInTheWorld) {
 // pair its 95%; docs/night.md has the table by kind.
 TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
-  const auto dir = test::shared_dir() / "data/cityscapes";
-  ImageFileInfo info;
-  const ImageF day = read_image((dir / "leftImg8bit/aachen_000000_000019_leftImg8bit.png").string(), &info);
-  const LabelMap lab = read_labels((dir / "gtFine/aachen_000000_000019_gtFine_labelIds.png").string(),
-                                   (dir / "gtFine/aachen_000000_000019_gtFine_instanceIds.png").string(), 2048, 1024,
-                                   LabelFormat::Auto, ResizeLabels::None);
-  const ImageF lin = linearize(day, info);
+  const auto frame = cityscapes_frame("aachen_000000_000019");
+  const ImageF& lin = frame.first;
+  const LabelMap& lab = frame.second;
   const CameraRig rig = load_camera_rig("cityscapes");
   for (double share : panning_shares(lin, lab, rig, 32, 3, "aachen_000000", false)) {
     EXPECT_GT(share, 0.0);
