@@ -16,6 +16,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/darken_detail.h"
+#include "scene/street_detail.h"
 
 namespace photosite::scene {
 namespace {
@@ -904,9 +905,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // depends on which of their columns are in view, and heads flipping between visible and
     // hidden from frame to frame cost the panning test (MetricLights) 6 points on Cityscapes.
     // Vertical surfaces (cars, façades, people, poles) by the same lamps from their metric
-    // depth, before the heads (drawn as a maximum over whatever light lies there).
-    if (depth_m) add_vertical_street_light(L, texture, labels, *depth_m, *geometry, sl, p, facades);
-    out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
+    // depth, before the heads (drawn as a maximum over whatever light lies there). With metric
+    // depth, the vertical light, the pools and the façade windows (below) in one pass over the
+    // rows (add_street_light_rows: the same bits as the three calls).
+    if (depth_m) {
+      const StreetRowsResult r = add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades);
+      out.stats.pole_lamps = r.pole_lamps;
+      out.stats.windows = r.windows;
+    } else {
+      out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
+    }
     out.stats.street_lamps = static_cast<int>(sl.lamps.size());
     out.stats.street_lamp_source = sl.source;
     out.stats.street_peak_intensity_cd = sl.peak_intensity_cd;
@@ -964,7 +972,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // is drawn when it lies entirely on building pixels and the Philox draw keyed by (seed, cell)
   // says lit.
   if (geometry && depth_m) {
-    out.stats.windows = add_facade_windows(L, labels, *depth_m, *geometry, p, seed, facades);
+    // (drawn with the street light above)
   } else {
     const int cell = std::max(4, static_cast<int>(std::lround(p.window_cell_fraction * W)));
     const int nx = W / cell + 1, ny = H / cell + 1;

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <immintrin.h>
 #include <numeric>
+#include <optional>
 #include <unordered_set>
 
 #include "photosite/environment.h"
@@ -505,69 +506,111 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   return s;
 }
 
+namespace {
+// What the pools and the vertical light share: their inputs, the street light's tint over π (the
+// Lambertian reflection L = ρ·E/π per channel) and the intensity table.
+struct LitRows {
+  const ImageF& texture;
+  const ImageU16& labels;
+  const CameraGeometry& g;
+  const int W;
+  float tlf[3];
+  const RelTable table;  // a copy: the threads each read it
+  LitRows(const ImageF& texture_, const ImageU16& labels_, const CameraGeometry& g_, const ScenePreset& p, int width)
+      : texture(texture_), labels(labels_), g(g_), W(width), table(rel_table(p)) {
+    const auto tl = illuminant_tint(p.street_cct_K);
+    for (int k = 0; k < 3; ++k) tlf[k] = static_cast<float>(tl[k] / M_PI);
+  }
+};
+// add_street_lighting's pools row by row: the set-up once, then any row on any thread with its own
+// scratch (add_street_lighting runs it over the frame; add_street_light_rows with the vertical
+// light and the windows in one pass over the rows).
+struct PoolPass : LitRows {
+  const StreetLighting& s;
+  const int y_start;
+  const uint64_t ground_mask;
+  const int isa;
+  std::vector<double> reach;  // each lamp's reach_m, once (not per row)
+  const float I0;
+  PoolPass(const ImageF& texture_, const ImageU16& labels_, const CameraGeometry& g_, const StreetLighting& s_,
+           const ScenePreset& p, int width)
+      : LitRows(texture_, labels_, g_, p, width), s(s_),
+        y_start(std::max(0, static_cast<int>(std::floor(g_.horizon_y)) + 1)), ground_mask(label_bits(ground_classes())),
+        isa(light_isa()), reach(s_.lamps.size()), I0(static_cast<float>(s_.peak_intensity_cd)) {
+    for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
+  }
+  struct Scratch {
+    std::vector<float> acc;
+    std::vector<double> Xg;
+    std::vector<uint8_t> gbits;
+    PoolLamps pl;
+    explicit Scratch(int W) : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2) {}
+  };
+  void row(ImageF& L, int y, Scratch& sc) const {
+    double D0, t;
+    if (y < y_start || !g.ground_point(g.cx_px, y, nullptr, &D0, &t)) return;
+    const uint16_t* id = labels.row(y);
+    // The row's ground pixels as bits per group of eight columns (from column 0), and the
+    // groups qa .. qb − 1 from the first to the last holding one.
+    const int ng = (W + 7) / 8;
+    if (isa >= 1) class_bits_avx2(id, W, ground_mask, sc.gbits.data());
+    else class_bits_scalar(id, W, ground_mask, sc.gbits.data());
+    int qa = 0, qb = ng;
+    while (qa < qb && !sc.gbits[qa]) ++qa;
+    while (qb > qa && !sc.gbits[qb - 1]) --qb;
+    if (qa == qb) return;
+    // Each lamp over its footprint, the band of rows within its reach along the road (the
+    // ground row is a line of constant D; reach_m: beyond it a lamp gives at most
+    // rel(γ_reach)·cos³γ_reach = 0.24% of its nadir illuminance I0/H², dropped), summed per
+    // pixel over the row's lamps in their order (float32: see pool_term). (A disc of radius
+    // reach_m around the foot instead of the band measured 5% faster on the bench frame and
+    // changed dim pixels by up to 4%: not taken.)
+    const double kx = t / g.f_px;
+    sc.pl.clear();
+    for (size_t k = 0; k < s.lamps.size(); ++k) {
+      const auto& l = s.lamps[k];
+      if (std::fabs(D0 - l.D_m) <= reach[k]) sc.pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+    }
+    if (sc.pl.size() == 0) return;  // nothing is written in this row
+    // The groups holding a ground pixel are computed (a pixel's E does not depend on its
+    // group: each lane is its own), the others not; the columns past W of the last group are
+    // computed and not read.
+    const int xa = 8 * qa, n = 8 * (qb - qa);
+    for (int i = 0; i < n; ++i) sc.Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
+    float* o = L.row(y);
+    const float* tx = texture.row(y);
+    if (isa >= 1) {
+      if (isa >= 2) pool_row_avx512(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
+      else pool_row_avx2(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
+      add_reflection_avx2(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
+    } else {
+      pool_row_scalar(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
+      add_reflection_scalar(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
+    }
+  }
+};
+// The lamp heads (below add_street_lighting).
+int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                    const ImageF* depth_m);
+}  // namespace
+
 int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
                         const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m) {
   if (s.lamps.empty()) return 0;
-  const int W = L.width(), H = L.height();
-  const auto tl = illuminant_tint(p.street_cct_K);
-  const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
-  const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
-  const int y_start = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
-  const uint64_t ground_mask = label_bits(ground_classes());
-  const int isa = light_isa();
-  std::vector<double> reach(s.lamps.size());  // each lamp's reach_m, once (not per row)
-  for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
+  const PoolPass pools(texture, labels, g, s, p, L.width());
 #pragma omp parallel
   {
-    std::vector<float> acc(W + 8);
-    std::vector<double> Xg(W + 8);
-    std::vector<uint8_t> gbits(W / 8 + 2);
-    PoolLamps pl;
-    const float I0 = static_cast<float>(s.peak_intensity_cd);
+    PoolPass::Scratch sc(L.width());
 #pragma omp for schedule(static, 8)
-    for (int y = y_start; y < H; ++y) {
-      double D0, t;
-      if (!g.ground_point(g.cx_px, y, nullptr, &D0, &t)) continue;
-      const uint16_t* id = labels.row(y);
-      // The row's ground pixels as bits per group of eight columns (from column 0), and the
-      // groups qa .. qb − 1 from the first to the last holding one.
-      const int ng = (W + 7) / 8;
-      if (isa >= 1) class_bits_avx2(id, W, ground_mask, gbits.data());
-      else class_bits_scalar(id, W, ground_mask, gbits.data());
-      int qa = 0, qb = ng;
-      while (qa < qb && !gbits[qa]) ++qa;
-      while (qb > qa && !gbits[qb - 1]) --qb;
-      if (qa == qb) continue;
-      // Each lamp over its footprint, the band of rows within its reach along the road (the
-      // ground row is a line of constant D; reach_m: beyond it a lamp gives at most
-      // rel(γ_reach)·cos³γ_reach = 0.24% of its nadir illuminance I0/H², dropped), summed per
-      // pixel over the row's lamps in their order (float32: see pool_term). (A disc of radius
-      // reach_m around the foot instead of the band measured 5% faster on the bench frame and
-      // changed dim pixels by up to 4%: not taken.)
-      const double kx = t / g.f_px;
-      pl.clear();
-      for (size_t k = 0; k < s.lamps.size(); ++k) {
-        const auto& l = s.lamps[k];
-        if (std::fabs(D0 - l.D_m) <= reach[k]) pl.add(l.X_m, D0 - l.D_m, l.Y_m);
-      }
-      if (pl.size() == 0) continue;  // nothing is written in this row
-      // The groups holding a ground pixel are computed (a pixel's E does not depend on its
-      // group: each lane is its own), the others not; the columns past W of the last group are
-      // computed and not read.
-      const int xa = 8 * qa, n = 8 * (qb - qa);
-      for (int i = 0; i < n; ++i) Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
-      float* o = L.row(y);
-      const float* tx = texture.row(y);
-      if (isa >= 1) {
-        if (isa >= 2) pool_row_avx512(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
-        else pool_row_avx2(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
-        add_reflection_avx2(o, tx, acc.data(), gbits.data(), qa, qb, W, tlf);
-      } else {
-        pool_row_scalar(acc.data() + xa, Xg.data(), gbits.data() + qa, n, pl, I0, table);
-        add_reflection_scalar(o, tx, acc.data(), gbits.data(), qa, qb, W, tlf);
-      }
-    }
+    for (int y = pools.y_start; y < L.height(); ++y) pools.row(L, y, sc);
   }
+  return draw_lamp_heads(L, g, s, p, depth_m);
+}
+
+namespace {
+int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                    const ImageF* depth_m) {
+  const int W = L.width(), H = L.height();
   // Lamp heads: discs of the head's diameter at its projected size, only over their footprint,
   // at the luminance the luminaire's own intensity distribution sends toward the camera:
   // L = I0·rel(γ) / (π d²/4), γ the angle from the nadir of the lamp-to-camera direction, so the
@@ -596,6 +639,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
   }
   return drawn;
 }
+}  // namespace
 
 namespace {
 // One row's vertical-surface pixels, compacted (add_vertical_street_light's scalar path):
@@ -918,55 +962,61 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
 }
 }  // namespace
 
-void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
-                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                               const BuildingFacades* facades) {
-  if (s.lamps.empty()) return;
-  const int W = L.width(), H = L.height();
-  const auto tl = illuminant_tint(p.street_cct_K);
-  const float tlf[3] = {static_cast<float>(tl[0] / M_PI), static_cast<float>(tl[1] / M_PI), static_cast<float>(tl[2] / M_PI)};
-  const RelTable table = rel_table(p);  // a copy: the loop's threads each read it
-  const auto& ground = ground_classes();
+namespace {
+// add_vertical_street_light row by row: the set-up once (the lamps as arrays, the façade planes,
+// the constants), then any row on any thread with its own VerticalRow (add_vertical_street_light
+// runs it over the frame; add_street_light_rows with the pools and the windows in one pass).
+struct VerticalPass : LitRows {
+  const ImageF& depth_m;
   // Façade pixels: the plane metric_depth took their depth from (and add_facade_windows lays its
   // windows in); its normal (n_X, n_D) points away from the camera, the lit face the other way.
-  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
-  const BuildingFacades& fac = facades ? *facades : computed;
+  const BuildingFacades computed;
+  const BuildingFacades& fac;
   LampArrays la;
-  for (const auto& l : s.lamps) {
-    la.X.push_back(l.X_m);
-    la.Y.push_back(l.Y_m);
-    la.D.push_back(l.D_m);
-    la.reach.push_back(static_cast<float>(reach_m(l.Y_m, p)));
-    la.max_reach = std::max(la.max_reach, reach_m(l.Y_m, p));
-    la.max_Y = std::max(la.max_Y, l.Y_m);
-  }
   // The point-source law E = I/d² holds to 1% beyond five times the source's size (the
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
   // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
   // E finite. (The ground pools do not apply it: their d is at least the mounting height, 8-10 m
   // in the presets.)
-  const float d2_min = static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m);
-  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const float d2_min;
+  const double c, sn, h;
   const int building = static_cast<int>(Label::Building);
   // The classes that get no vertical light (sky and the ground classes) as a bit mask over the
   // label ids (all below 64); ids beyond kLabelCount are not among them.
-  const uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky) | label_bits(ground);
-  const float I0 = static_cast<float>(s.peak_intensity_cd);
+  const uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky) | label_bits(ground_classes());
+  const float I0;
   // The lamps' D range widened by the largest reach and 1 m (lamp_window's rule; the lamps are
   // sorted by D).
-  const double D_lo = la.D.front() - la.max_reach - 1.0, D_hi = la.D.back() + la.max_reach + 1.0;
-  // Per row, with AVX2: groups of eight columns (vertical_row_avx2), the row's last W mod 8
-  // columns then as below; without: the lit pixels compacted, their points, normals and E_v over
-  // the lamps (vertical_e_scalar), then the reflection into L. Each pixel's sum is its own, so
-  // rows may go to any thread.
-  const VerticalCtx ctx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building};
+  double D_lo = 0, D_hi = 0;
+  VerticalCtx ctx{};
   const int isa = light_isa();
-#pragma omp parallel
-  {
-  if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
-  VerticalRow r(W);
-#pragma omp for schedule(static, 8)
-  for (int y = 0; y < H; ++y) {
+  VerticalPass(const ImageF& texture_, const ImageU16& labels_, const ImageF& depth_m_, const CameraGeometry& g_,
+               const StreetLighting& s, const ScenePreset& p, const BuildingFacades* facades, int width)
+      : LitRows(texture_, labels_, g_, p, width), depth_m(depth_m_),
+        computed(facades ? BuildingFacades() : building_facades(labels_, g_, p.max_depth_m)),
+        fac(facades ? *facades : computed),
+        d2_min(static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m)),
+        c(std::cos(g_.pitch_rad)), sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m),
+        I0(static_cast<float>(s.peak_intensity_cd)) {
+    for (const auto& l : s.lamps) {
+      la.X.push_back(l.X_m);
+      la.Y.push_back(l.Y_m);
+      la.D.push_back(l.D_m);
+      la.reach.push_back(static_cast<float>(reach_m(l.Y_m, p)));
+      la.max_reach = std::max(la.max_reach, reach_m(l.Y_m, p));
+      la.max_Y = std::max(la.max_Y, l.Y_m);
+    }
+    D_lo = la.D.front() - la.max_reach - 1.0;
+    D_hi = la.D.back() + la.max_reach + 1.0;
+    ctx = VerticalCtx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building};
+  }
+  VerticalPass(const VerticalPass&) = delete;
+  VerticalPass& operator=(const VerticalPass&) = delete;
+  // Row y, with AVX2: groups of eight columns (vertical_row_avx2), the row's last W mod 8 columns
+  // then as below; without: the lit pixels compacted, their points, normals and E_v over the
+  // lamps (vertical_e_scalar), then the reflection into L. Each pixel's sum is its own, so rows
+  // may go to any thread.
+  void row(ImageF& L, int y, VerticalRow& r) const {
     const float* z = depth_m.row(y);
     const uint16_t* id = labels.row(y);
     const int32_t* reg = fac.region.row(y);
@@ -992,7 +1042,7 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       if (!(Yp < la.max_Y) || !(Dp >= D_lo && Dp <= D_hi)) continue;
       xs[n++] = x;
     }
-    if (n == 0) continue;
+    if (n == 0) return;
     // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
     // inlined), through local pointers.
     {
@@ -1025,6 +1075,20 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
       o[3 * x + 2] += tx[3 * x + 2] * t2 * ef;
     }
   }
+};
+}  // namespace
+
+void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
+                               const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                               const BuildingFacades* facades) {
+  if (s.lamps.empty()) return;
+  const VerticalPass v(texture, labels, depth_m, g, s, p, facades, L.width());
+#pragma omp parallel
+  {
+    if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
+    VerticalRow r(L.width());
+#pragma omp for schedule(static, 8)
+    for (int y = 0; y < L.height(); ++y) v.row(L, y, r);
   }
 }
 
@@ -1209,130 +1273,198 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
 }
 }  // namespace
 
-int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades) {
-  const int W = L.width(), H = L.height();
-  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  const double max_z = 0.5 * p.window_width_m * g.f_px;  // footprint z/f <= width/2
+namespace {
+// add_facade_windows row by row: the set-up once (the façade planes' frames and draw keys, the
+// window colours), then any row on any thread with its own scratch, whose `seen` collects the
+// keys of the lit windows drawn (add_facade_windows runs it over the frame; add_street_light_rows
+// after the street light in one pass over the rows).
+struct WindowPass {
+  const ImageU16& labels;
+  const ImageF& depth_m;
+  const CameraGeometry& g;
+  const ScenePreset& p;
+  const uint64_t seed;
+  const int W;
+  const double c, sn, h;
+  const double max_z;  // footprint z/f <= width/2
   // Each building pixel's façade: the plane fitted to its region's ground contacts (or the
   // region's unfitted plane), the same that gave metric_depth its depth.
-  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
-  const BuildingFacades& fac = facades ? *facades : computed;
+  const BuildingFacades computed;
+  const BuildingFacades& fac;
   // Per plane: the horizontal unit vector along it, oriented away from the camera (increasing D;
   // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
   // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in
   // the world, so a façade keeps its windows' draws when the camera moves.
-  std::vector<FacadeFrame> frames(fac.planes.size());
-  for (size_t k = 0; k < fac.planes.size(); ++k) {
-    const FacadePlane& f = fac.planes[k];
-    double tX = f.nD, tD = -f.nX;
-    if (tD < 0 || (tD == 0 && tX < 0)) { tX = -tX; tD = -tD; }
-    const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(f.nX, f.nD) * 180 / M_PI / 5.0) + 64) & 127;
-    const uint64_t dist = static_cast<uint64_t>(std::lround(f.d_m / 5.0)) & 1023;
-    frames[k] = {tX, tD, (az << 10) | dist};
-  }
+  std::vector<FacadeFrame> frames;
   // Unit-luminance colours of the three window CCTs (a blackbody's box RGB is linear in its
   // luminance; spectrum::blackbody_rgb integrates Planck's law, far too slow per pixel).
-  const auto warm1 = spectrum::blackbody_rgb(p.window_cct_K, 1.0), cool1 = spectrum::blackbody_rgb(p.window_cool_cct_K, 1.0),
-             shop1 = spectrum::blackbody_rgb(p.shop_cct_K, 1.0);
-  std::unordered_set<uint64_t> all;
+  const decltype(spectrum::blackbody_rgb(0.0, 1.0)) warm1, cool1, shop1;
   const int isa = light_isa();
+  WindowPass(const ImageU16& labels_, const ImageF& depth_m_, const CameraGeometry& g_, const ScenePreset& p_,
+             uint64_t seed_, const BuildingFacades* facades, int width)
+      : labels(labels_), depth_m(depth_m_), g(g_), p(p_), seed(seed_), W(width), c(std::cos(g_.pitch_rad)),
+        sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m), max_z(0.5 * p_.window_width_m * g_.f_px),
+        computed(facades ? BuildingFacades() : building_facades(labels_, g_, p_.max_depth_m)),
+        fac(facades ? *facades : computed), frames(fac.planes.size()),
+        warm1(spectrum::blackbody_rgb(p_.window_cct_K, 1.0)), cool1(spectrum::blackbody_rgb(p_.window_cool_cct_K, 1.0)),
+        shop1(spectrum::blackbody_rgb(p_.shop_cct_K, 1.0)) {
+    for (size_t k = 0; k < fac.planes.size(); ++k) {
+      const FacadePlane& f = fac.planes[k];
+      double tX = f.nD, tD = -f.nX;
+      if (tD < 0 || (tD == 0 && tX < 0)) { tX = -tX; tD = -tD; }
+      const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(f.nX, f.nD) * 180 / M_PI / 5.0) + 64) & 127;
+      const uint64_t dist = static_cast<uint64_t>(std::lround(f.d_m / 5.0)) & 1023;
+      frames[k] = {tX, tD, (az << 10) | dist};
+    }
+  }
+  WindowPass(const WindowPass&) = delete;
+  WindowPass& operator=(const WindowPass&) = delete;
+  struct Scratch {
+    std::unordered_set<uint64_t> seen;
+    WindowRow r;
+    std::vector<int32_t> plane_of;
+    explicit Scratch(int W) : r(W), plane_of(W + 4) {}
+  };
+  void row(ImageF& L, int y, Scratch& sc) const {
+    const float* z = depth_m.row(y);
+    const int32_t* reg = fac.region.row(y);
+    float* o = L.row(y);
+    const double yn = (y - g.cy_px) / g.f_px;
+    // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
+    // (Through local pointers and copies of the width and the depth limit: the stores might
+    // alias the shared ones otherwise, which the compiler would reload at every pixel.)
+    int n = 0;
+    const int Wr = W;
+    const double zmax = max_z;
+    int32_t *rx = sc.r.x.data(), *rp = sc.plane_of.data();
+    double *rz = sc.r.z.data(), *rtX = sc.r.tX.data(), *rtD = sc.r.tD.data();
+    const FacadeFrame* fr = frames.data();
+    if (isa >= 1) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, sc.r, rp);
+    for (int x = 0; x < Wr && isa == 0; ++x) {
+      // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
+      // only when every one has it) skipped at once: building pixels come in long runs.
+      if ((x & 7) == 0 && x + 8 <= Wr &&
+          (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
+        x += 7;
+        continue;
+      }
+      window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
+    }
+    if (n == 0) return;
+    const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
+                        p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
+                        0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
+                        0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
+                        0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
+    if (isa >= 1) {
+      sc.r.pad(n);
+      if (isa >= 2) window_geom_avx512(sc.r, n, wg);
+      else window_geom_avx2(sc.r, n, wg);
+    } else {
+      window_geom_scalar(sc.r, n, wg);
+    }
+    uint64_t last_key = ~0ull, last_unit = ~0ull;
+    bool last_lit = false, last_unit_shop = false;
+    float last_col[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      const uint8_t kind = sc.r.kind[i];
+      if (!kind) continue;
+      const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
+      bool shop = false;
+      if (sc.r.j[i] == 0) {
+        // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+        // along the façade), each unit's draw keyed like the windows' (world coordinates).
+        const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
+        const uint64_t ukey = fkey | (unit << 12);
+        if (ukey != last_unit) {
+          last_unit = ukey;
+          last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+        }
+        shop = last_unit_shop;
+      }
+      // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
+      if (!(kind & (shop ? 2 : 1))) continue;
+      const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
+      // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+      // apart from the shop unit of the same cell index.
+      const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
+                           (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
+      // Neighbouring pixels of a row mostly share a window: its draw is kept.
+      if (key != last_key) {
+        last_key = key;
+        const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+        last_lit = uniform_open(w[0]) < p.window_lit_fraction;
+        if (last_lit) {
+          double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+          const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+          // A share of the lit windows is seen through drawn curtains or blinds: their
+          // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+          if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+            lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
+          if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+          for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
+          sc.seen.insert(key);
+        }
+      }
+      if (!last_lit) continue;
+      const int x = sc.r.x[i];
+      for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
+    }
+  }
+};
+}  // namespace
+
+int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades) {
+  const WindowPass w(labels, depth_m, g, p, seed, facades, L.width());
+  std::unordered_set<uint64_t> all;
 #pragma omp parallel
   {
-    std::unordered_set<uint64_t> seen;
-    WindowRow r(W);
-    std::vector<int32_t> plane_of(W + 4);
+    WindowPass::Scratch sc(L.width());
 #pragma omp for schedule(static, 8)
-    for (int y = 0; y < H; ++y) {
-      const float* z = depth_m.row(y);
-      const int32_t* reg = fac.region.row(y);
-      float* o = L.row(y);
-      const double yn = (y - g.cy_px) / g.f_px;
-      // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
-      // (Through local pointers and copies of the width and the depth limit: the stores might
-      // alias the shared ones otherwise, which the compiler would reload at every pixel.)
-      int n = 0;
-      const int Wr = W;
-      const double zmax = max_z;
-      int32_t *rx = r.x.data(), *rp = plane_of.data();
-      double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
-      const FacadeFrame* fr = frames.data();
-      if (isa >= 1) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, r, rp);
-      for (int x = 0; x < Wr && isa == 0; ++x) {
-        // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
-        // only when every one has it) skipped at once: building pixels come in long runs.
-        if ((x & 7) == 0 && x + 8 <= Wr &&
-            (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
-          x += 7;
-          continue;
-        }
-        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
-      }
-      if (n == 0) continue;
-      const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
-                          p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
-                          0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
-                          0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
-                          0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
-      if (isa >= 1) {
-        r.pad(n);
-        if (isa >= 2) window_geom_avx512(r, n, wg);
-        else window_geom_avx2(r, n, wg);
-      } else {
-        window_geom_scalar(r, n, wg);
-      }
-      uint64_t last_key = ~0ull, last_unit = ~0ull;
-      bool last_lit = false, last_unit_shop = false;
-      float last_col[3] = {0, 0, 0};
-      for (int i = 0; i < n; ++i) {
-        const uint8_t kind = r.kind[i];
-        if (!kind) continue;
-        const uint64_t fkey = frames[plane_of[i]].key << 40;
-        bool shop = false;
-        if (r.j[i] == 0) {
-          // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
-          // along the façade), each unit's draw keyed like the windows' (world coordinates).
-          const uint64_t unit = static_cast<uint64_t>(r.unit[i] + (1 << 19)) & 0xfffff;
-          const uint64_t ukey = fkey | (unit << 12);
-          if (ukey != last_unit) {
-            last_unit = ukey;
-            last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
-          }
-          shop = last_unit_shop;
-        }
-        // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
-        if (!(kind & (shop ? 2 : 1))) continue;
-        const uint64_t cell = static_cast<uint64_t>((shop ? r.unit[i] : r.cell[i]) + (1 << 19)) & 0xfffff;
-        // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
-        // apart from the shop unit of the same cell index.
-        const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(r.j[i]) & 0xfff) |
-                             (r.j[i] == 0 && !shop ? 1ull << 39 : 0);
-        // Neighbouring pixels of a row mostly share a window: its draw is kept.
-        if (key != last_key) {
-          last_key = key;
-          const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
-          last_lit = uniform_open(w[0]) < p.window_lit_fraction;
-          if (last_lit) {
-            double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-            const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
-            // A share of the lit windows is seen through drawn curtains or blinds: their
-            // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
-            if (!shop && uniform_open(w[3]) < p.window_curtained_share)
-              lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
-            if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
-            for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
-            seen.insert(key);
-          }
-        }
-        if (!last_lit) continue;
-        const int x = r.x[i];
-        for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
-      }
-    }
+    for (int y = 0; y < L.height(); ++y) w.row(L, y, sc);
 #pragma omp critical
-    all.insert(seen.begin(), seen.end());
+    all.insert(sc.seen.begin(), sc.seen.end());
   }
   return static_cast<int>(all.size());
+}
+
+StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
+                                       const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                                       uint64_t seed, const BuildingFacades* facades) {
+  const int W = L.width(), H = L.height();
+  const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
+  const BuildingFacades* fac = facades ? facades : &computed;
+  const bool lamps = !s.lamps.empty();
+  std::optional<VerticalPass> vertical;
+  std::optional<PoolPass> pools;
+  if (lamps) {
+    vertical.emplace(texture, labels, depth_m, g, s, p, fac, W);
+    pools.emplace(texture, labels, g, s, p, W);
+  }
+  const WindowPass windows(labels, depth_m, g, p, seed, fac, W);
+  std::unordered_set<uint64_t> all;
+#pragma omp parallel
+  {
+    if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
+    VerticalRow vr(W);
+    PoolPass::Scratch ps(W);
+    WindowPass::Scratch ws(W);
+#pragma omp for schedule(static, 8)
+    for (int y = 0; y < H; ++y) {
+      if (lamps) {
+        vertical->row(L, y, vr);
+        pools->row(L, y, ps);
+      }
+      windows.row(L, y, ws);
+    }
+#pragma omp critical
+    all.insert(ws.seen.begin(), ws.seen.end());
+  }
+  StreetRowsResult out;
+  out.windows = static_cast<int>(all.size());
+  if (lamps) out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);
+  return out;
 }
 
 }  // namespace photosite::scene

@@ -1,9 +1,11 @@
-// Private (not installed): scene/street.cpp's instruction-set cap and the pole components of
-// plan_street_lighting, for the tests that pin them (the same bits on every path; OpenCV's labels).
+// Private (not installed): scene/street.cpp's one pass over the rows for light_map (scene/lights.cpp),
+// and its instruction-set cap and the pole components of plan_street_lighting, for the tests
+// that pin them (the same bits on every path; OpenCV's labels).
 #pragma once
 #include <vector>
 
 #include "photosite/image.h"
+#include "photosite/scene/street.h"
 
 namespace photosite::scene {
 
@@ -12,6 +14,22 @@ namespace photosite::scene {
 // twins (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS=1 cap it). All give the
 // same bits; the test runs each. Not thread-safe: set it before a light map, not during one.
 void street_light_max_isa(int isa);
+
+// The street light and the façade windows of one frame in one pass over its rows (light_map,
+// with geometry and metric depth): per row the light on vertical surfaces and the ground pools
+// (add_vertical_street_light and add_street_lighting's pools: both add, on disjoint pixels, the
+// pools on ground classes only, the vertical light on none of them), then the windows (a maximum,
+// after the added light of the same row), then the lamp heads without a depth test (a maximum
+// over small discs: it commutes with the windows'). Per pixel the same operations in the same
+// order as the three calls one after the other, so the same bits; a row's labels, depth, façade
+// regions, texture and light stay in cache from one part to the next instead of each part
+// streaming the whole frame. Returns the heads drawn and the lit windows (the calls' results).
+struct StreetRowsResult {
+  int pole_lamps = 0, windows = 0;
+};
+StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
+                                       const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                                       uint64_t seed, const BuildingFacades* facades);
 
 // A connected component's bounding box (inclusive pixel bounds).
 struct PoleBox {
