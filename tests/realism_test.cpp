@@ -393,6 +393,21 @@ TEST(RealismBench, MethodsListWritesOnlyThoseMethods) {
   EXPECT_EQ(pngs, 2);  // the two auto-exposure previews; the day photos are the inputs themselves
 }
 
+// A misspelt --methods name is refused with the list of methods, before any frame is run or
+// any preview folder is made (it used to be skipped silently, writing nothing for it).
+TEST(RealismBench, UnknownMethodIsRefused) {
+  PHOTOSITE_REQUIRE_SHARED("data/night_real");
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  test::TempDir tmp;
+  const auto r = test::run_cli("bench realism --max-frames 1 --no-stats --previews '" + tmp.file("prev") +
+                               "' --methods 'photosite,thesis basline'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("unknown method 'thesis basline'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("thesis baseline"), std::string::npos) << r.output;  // the list names the right one
+  EXPECT_EQ(r.output.find("ms/frame"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("prev")));
+}
+
 }  // namespace
 }  // namespace photosite
 

@@ -19,6 +19,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
@@ -154,9 +155,6 @@ void run(const Opts& o) {
     if (photos < 2)  // the leave-one-out histogram and the spread need at least two
       fail_at(real, fmt::format("--real: {} .png/.jpg photos in this folder, at least 2 needed", photos));
   }
-  fs::path prev = o.previews;
-  if (prev.empty()) prev = fs::temp_directory_path() / fmt::format("photosite-realism-{}", ::getpid());
-  fs::create_directories(prev);
 
   std::vector<Variant> variants = {
       {"photosite", {}, 0.99},
@@ -195,6 +193,26 @@ void run(const Opts& o) {
   camera_variants.push_back({"photosite camera ISP sharpen 0.5", {}});
   camera_variants.back().options.sharpen = 0.5;
   camera_variants.push_back({"photosite camera ISP full scale", {}});  // full_scale_dn set per camera below
+  // --methods names methods of this list only: a misspelt name is an error, not a silent skip.
+  if (!o.methods.empty()) {
+    std::vector<std::string> known;
+    for (const Variant& v : variants) known.push_back(v.method);
+    for (const AeVariant& v : ae_variants) known.push_back(v.method);
+    for (const CameraVariant& v : camera_variants) known.push_back(v.method);
+    known.insert(known.end(), {"thesis baseline", "day photo"});
+    std::string_view rest = o.methods;
+    while (true) {
+      const size_t comma = rest.find(',');
+      const std::string name(rest.substr(0, comma));
+      if (std::find(known.begin(), known.end(), name) == known.end())
+        fail(fmt::format("--methods: unknown method '{}'; the methods are: {}", name, fmt::join(known, ", ")));
+      if (comma == std::string_view::npos) break;
+      rest.remove_prefix(comma + 1);
+    }
+  }
+  fs::path prev = o.previews;
+  if (prev.empty()) prev = fs::temp_directory_path() / fmt::format("photosite-realism-{}", ::getpid());
+  fs::create_directories(prev);
   auto wanted = [&](const std::string& method) {
     if (o.methods.empty()) return true;
     std::string list = "," + o.methods + ",";

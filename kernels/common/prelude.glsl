@@ -31,11 +31,17 @@
 #define PHOTOSITE_PRELUDE_GLSL
 #ifdef __cplusplus
 using uint = uint32_t;
+// The constructor with all components is declared, not left to C++20's parenthesized
+// aggregate initialization, which clang before 16 lacks (the fuzz build, scripts/fuzz.sh).
 struct uvec2 {
   uint x, y;
+  uvec2() = default;
+  constexpr uvec2(uint x_, uint y_) : x(x_), y(y_) {}
 };
 struct uvec4 {
   uint x, y, z, w;
+  uvec4() = default;
+  constexpr uvec4(uint x_, uint y_, uint z_, uint w_) : x(x_), y(y_), z(z_), w(w_) {}
 };
 inline float uintBitsToFloat(uint u) { return std::bit_cast<float>(u); }
 inline uint floatBitsToUint(float f) { return std::bit_cast<uint>(f); }
