@@ -92,6 +92,10 @@ inline size_t glare_row_scratch(const GlareSkirt& s) {
   return 3 * (3 * static_cast<size_t>(s.active() ? s.acc1->width() : 0) + static_cast<size_t>(s.width));
 }
 void glare_row(const GlareSkirt& skirt, int y, const float* in_rgb, float* out_rgb, float* tmp);
+// glare_row's first part alone: row y of bilinear(acc_1), the upsampled skirt u (3·width floats,
+// inside tmp, returned), for a caller that fuses the mix keep·in + s_c·u into its own row loop
+// (the photon stage: sensor/pipeline.cpp).
+const float* glare_skirt_row(const GlareSkirt& skirt, int y, float* tmp);
 
 // The whole glare as an image (tests, docs); mean_signal_electrons() fuses glare_row instead.
 ImageF apply_glare(const ImageF& irradiance_rgb, const LensGlare& glare, double px_per_deg);
