@@ -318,8 +318,11 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
     const auto [ya, yb] = thread_rows(height);
-    // t, then e, o of upsample_row; u; the ring of row blurs and blur_row's padded row
-    std::vector<float> tmp(up ? 9 * static_cast<size_t>(cw) : 0), u(up && blur ? n : 0),
+    // t, then e, o of upsample_row, staggered within a page as in glare_row_layout (at cw = 512,
+    // packed, t and o began 3 pages apart); u; the ring of row blurs and blur_row's padded row
+    const size_t ce = glare_page_stagger(3 * static_cast<size_t>(cw), 1),
+                 co = glare_page_stagger(ce + 3 * static_cast<size_t>(cw), 2);
+    std::vector<float> tmp(up ? co + 3 * static_cast<size_t>(cw) : 0), u(up && blur ? n : 0),
         ring(blur ? kRing * n : 0), pad(blur ? 3 * static_cast<size_t>(width + 2 * R) : 0);
     auto slot = [&](int k) { return ring.data() + static_cast<size_t>((k % kRing + kRing) % kRing) * n; };
     auto make = [&](int k) { blur_row(level->row(glare_mirror(k, height)), width, g, pad.data(), slot(k)); };
@@ -328,7 +331,7 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
       if (up) {
         const UpTap ty = glare_up_tap(y, ch);
         lerp_row(ty.w0, coarse->row(ty.i0), ty.w1, coarse->row(ty.i1), 3 * static_cast<size_t>(cw), tmp.data());
-        upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + 3 * cw, tmp.data() + 6 * cw);
+        upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + ce, tmp.data() + co);
       }
       if (blur) {
         if (y == ya)
@@ -473,11 +476,11 @@ const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
   const UpTap ty = glare_up_tap(y, ah);
   const float* r0 = a.row(ty.i0);
   const float* r1 = a.row(ty.i1);
-  float* t = tmp;                  // 3·aw: the vertical interpolation
-  float* u = tmp + 3 * aw;         // 3·width: then the horizontal one
-  float* e = u + 3 * static_cast<size_t>(s.width);  // 2·3·aw: upsample_row's scratch
+  const GlareRowLayout l = glare_row_layout(s);
+  float* t = tmp + l.t;  // 3·aw: the vertical interpolation
+  float* u = tmp + l.u;  // 3·width: then the horizontal one
   lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(aw), t);
-  upsample_row(t, aw, s.width, u, e, e + 3 * aw);
+  upsample_row(t, aw, s.width, u, tmp + l.e, tmp + l.o);  // e, o: upsample_row's scratch
   return u;
 }
 
