@@ -118,7 +118,8 @@ void glare_row(const GlareSkirt& skirt, int y, const float* in_rgb, float* out_r
 // (the photon stage: sensor/pipeline.cpp).
 const float* glare_skirt_row(const GlareSkirt& skirt, int y, float* tmp);
 
-// The whole glare as an image (tests, docs); mean_signal_electrons() fuses glare_row instead.
+// The whole glare as an image (tests, docs); mean_signal_electrons() and expose() fuse
+// glare_skirt_row and the mix into their photon rows instead.
 ImageF apply_glare(const ImageF& irradiance_rgb, const LensGlare& glare, double px_per_deg);
 
 // Energy sums of a level-1 image as the skirt computes them: Σ_i n_y(i)·Σ_j n_x(j)·v, in double,
