@@ -31,16 +31,52 @@ using shader::glare_mirror;
 using shader::glare_up_tap;
 using UpTap = shader::GlareTap;
 
-// The row kernels below carry an AVX2 clone (target_clones): the same IEEE operations in the
-// same order per sample on either clone (no FMA: -ffp-contract=off, and the avx2 target has no
-// fma), so the same bits; the default clone is the SSE2 baseline the library is built for.
+// The row kernels below carry AVX-512 and AVX2 clones (target_clones): the same IEEE operations
+// in the same order per sample on every clone (no FMA: -ffp-contract=off, and neither target
+// has fma), so the same bits; the default clone is the SSE2 baseline the library is built for.
 
 // One row of the bilinear 2x upsampling along x: u[3x + c] = w0·t[3·i0 + c] + w1·t[3·i1 + c]
 // with glare_up_tap's taps, for x < width; t holds cw pixels; e, o: scratch of 3·cw floats
 // each. The interior pairs (x = 2j, 2j + 1) need no clamping: their even and odd samples
 // e[k] = ¼·t[k − 3] + ¾·t[k], o[k] = ¾·t[k] + ¼·t[k + 3] (glare_up_tap's arithmetic) are formed
 // first over the contiguous row, where they vectorize, then interleaved pixel by pixel.
-__attribute__((target_clones("avx2", "default")))
+//
+// The interleave, where the CPU has AVX-512, eight pixel pairs (48 floats of u) at a time:
+// float i of the block is e[3p + c] (c < 3) or o[3p + c − 3] (c >= 3), p = ⌊i/6⌋, c = i mod 6;
+// the 16 floats of output vector v (v = 0, 1, 2) come from pairs p0 = ⌊16v/6⌋ = 0, 2, 5 on, so
+// one two-source permute (vpermt2ps) of e and o loaded from 3·p0 forms each (kPairPerm); copies
+// only, the same floats as the 4-float stores. Returns the first pair j it left (j0 <= j).
+const bool kGlareAvx512 = __builtin_cpu_supports("avx512f");
+struct PairPerm {
+  alignas(64) int32_t idx[3][16];
+  PairPerm() {
+    const int p0[3] = {0, 2, 5};
+    for (int v = 0; v < 3; ++v)
+      for (int l = 0; l < 16; ++l) {
+        const int i = 16 * v + l, p = i / 6, c = i % 6;
+        idx[v][l] = c < 3 ? 3 * (p - p0[v]) + c : 16 + 3 * (p - p0[v]) + c - 3;
+      }
+  }
+};
+const PairPerm kPairPerm;
+__attribute__((target("avx512f")))
+int interleave_pairs_avx512(const float* e, const float* o, int j0, int j_end, float* u) {
+  const __m512i i0 = _mm512_load_si512(kPairPerm.idx[0]), i1 = _mm512_load_si512(kPairPerm.idx[1]),
+                i2 = _mm512_load_si512(kPairPerm.idx[2]);
+  int j = j0;
+  // The block's loads reach e[3(j + 5) + 15] < 3(j + 11) <= 3·j_end: pairs upsample_row formed.
+  for (; j + 11 <= j_end; j += 8) {
+    const float* a = e + 3 * j;
+    const float* b = o + 3 * j;
+    float* w = u + 6 * j;
+    _mm512_storeu_ps(w, _mm512_permutex2var_ps(_mm512_loadu_ps(a), i0, _mm512_loadu_ps(b)));
+    _mm512_storeu_ps(w + 16, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 6), i1, _mm512_loadu_ps(b + 6)));
+    _mm512_storeu_ps(w + 32, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 15), i2, _mm512_loadu_ps(b + 15)));
+  }
+  return j;
+}
+
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
                   float* __restrict o) {
   auto one = [&](int x) {
@@ -61,7 +97,8 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
   // Interleaved by 4-float stores that overlap: e[k..k+3] to u[2k..], then o[k..k+3] to u[2k+3..]
   // over e's fourth float, whose own fourth float the next pixel pair (or one(), past the
   // interior) overwrites in turn. e, o hold 3·cw floats, so the reads stay inside them.
-  for (int k = 3; k < k_end; k += 3) {
+  const int k0 = 3 * (kGlareAvx512 ? interleave_pairs_avx512(e, o, 1, cw - 1, u) : 1);
+  for (int k = k0; k < k_end; k += 3) {
     _mm_storeu_ps(u + 2 * k, _mm_loadu_ps(e + k));
     _mm_storeu_ps(u + 2 * k + 3, _mm_loadu_ps(o + k));
   }
@@ -69,21 +106,21 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
 }
 
 // out[j] = glare_lerp(w0, a[j], w1, b[j]) over n samples (the vertical bilinear step).
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void lerp_row(float w0, const float* __restrict a, float w1, const float* __restrict b, size_t n,
               float* __restrict out) {
   for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
 }
 
 // o[j] = o[j] + w·p[j] over n samples (one tap of a blur).
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void add_tap(float* __restrict o, float w, const float* __restrict p, size_t n) {
   for (size_t j = 0; j < n; ++j) o[j] = o[j] + w * p[j];
 }
 
 // o[j] = w·o[j] + u[j] (u given) or w·o[j] (u null): a level's weighted blur plus the upsampled
 // coarser accumulator.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void weigh_add(float* __restrict o, float w, const float* __restrict u, size_t n) {
   if (u)
     for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
@@ -93,7 +130,7 @@ void weigh_add(float* __restrict o, float w, const float* __restrict u, size_t n
 
 // out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
 // of 24 (8 pixels: a whole number of vectors and of pixels) with the scales laid out per lane.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void mix_row(float keep, const float* s3, const float* __restrict in, const float* __restrict u, size_t n,
              float* __restrict out) {
   float sl[24];
@@ -130,7 +167,7 @@ constexpr int64_t kParallelPixels = int64_t{1} << 18;
 // One output row of down2 from input rows ra, rb (w pixels): pixel x averages the pairs at 2x
 // and min(2x + 1, w − 1), in the order ((a0 + a1) + (b0 + b1))·¼; the interior pairs without
 // the clamp, so that the loop vectorizes.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
   const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
   for (int x = 0; x < pairs; ++x)
@@ -159,7 +196,7 @@ void down2(const ImageF& src, ImageF& dst, std::vector<std::array<double, 3>>& r
 }
 
 // down_1331's interior along a row: o[3x + k] for 1 <= x < end, from s[3(2x − 1) + k] on.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
   for (int x = 1; x < end; ++x) {
     const float* a = s + 3 * (2 * x - 1);
@@ -168,7 +205,7 @@ void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
   }
 }
 // down_1331 along columns: one output row from its four input rows.
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void taps1331_cols(const float* __restrict a, const float* __restrict b, const float* __restrict c,
                    const float* __restrict d, size_t n, float* __restrict o) {
   for (size_t j = 0; j < n; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
@@ -281,8 +318,11 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
     const auto [ya, yb] = thread_rows(height);
-    // t, then e, o of upsample_row; u; the ring of row blurs and blur_row's padded row
-    std::vector<float> tmp(up ? 9 * static_cast<size_t>(cw) : 0), u(up && blur ? n : 0),
+    // t, then e, o of upsample_row, staggered within a page as in glare_row_layout (at cw = 512,
+    // packed, t and o began 3 pages apart); u; the ring of row blurs and blur_row's padded row
+    const size_t ce = glare_page_stagger(3 * static_cast<size_t>(cw), 1),
+                 co = glare_page_stagger(ce + 3 * static_cast<size_t>(cw), 2);
+    std::vector<float> tmp(up ? co + 3 * static_cast<size_t>(cw) : 0), u(up && blur ? n : 0),
         ring(blur ? kRing * n : 0), pad(blur ? 3 * static_cast<size_t>(width + 2 * R) : 0);
     auto slot = [&](int k) { return ring.data() + static_cast<size_t>((k % kRing + kRing) % kRing) * n; };
     auto make = [&](int k) { blur_row(level->row(glare_mirror(k, height)), width, g, pad.data(), slot(k)); };
@@ -291,7 +331,7 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
       if (up) {
         const UpTap ty = glare_up_tap(y, ch);
         lerp_row(ty.w0, coarse->row(ty.i0), ty.w1, coarse->row(ty.i1), 3 * static_cast<size_t>(cw), tmp.data());
-        upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + 3 * cw, tmp.data() + 6 * cw);
+        upsample_row(tmp.data(), cw, width, blur ? u.data() : o, tmp.data() + ce, tmp.data() + co);
       }
       if (blur) {
         if (y == ya)
@@ -430,17 +470,22 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
   return s;
 }
 
-void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
+const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
   const ImageF& a = *s.acc1;
   const int aw = a.width(), ah = a.height();
   const UpTap ty = glare_up_tap(y, ah);
   const float* r0 = a.row(ty.i0);
   const float* r1 = a.row(ty.i1);
-  float* t = tmp;                  // 3·aw: the vertical interpolation
-  float* u = tmp + 3 * aw;         // 3·width: then the horizontal one
-  float* e = u + 3 * static_cast<size_t>(s.width);  // 2·3·aw: upsample_row's scratch
+  const GlareRowLayout l = glare_row_layout(s);
+  float* t = tmp + l.t;  // 3·aw: the vertical interpolation
+  float* u = tmp + l.u;  // 3·width: then the horizontal one
   lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(aw), t);
-  upsample_row(t, aw, s.width, u, e, e + 3 * aw);
+  upsample_row(t, aw, s.width, u, tmp + l.e, tmp + l.o);  // e, o: upsample_row's scratch
+  return u;
+}
+
+void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
+  const float* u = glare_skirt_row(s, y, tmp);
   mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
 }
 

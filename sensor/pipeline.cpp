@@ -13,6 +13,7 @@
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
+#include "sensor/glare_detail.h"
 #include "sensor/pixel_detail.h"
 
 namespace photosite {
@@ -94,24 +95,24 @@ struct PhotonStage {
 
   // Per-thread scratch of photon_row.
   struct Scratch {
-    std::vector<float> glared, tmp;
-    explicit Scratch(const PhotonStage& st)
-        : glared(st.skirt.active() ? 3 * static_cast<size_t>(st.w) : 0),
-          tmp(st.skirt.active() ? glare_row_scratch(st.skirt) : 0) {}
+    std::vector<float> tmp;
+    explicit Scratch(const PhotonStage& st) : tmp(st.skirt.active() ? glare_row_scratch(st.skirt) : 0) {}
   };
   // Row y of the mean signal into o[0, w); returns the first x whose radiance is not physical
   // (NaN, Inf, negative; its o[x] is 0), or -1.
   int row(int y, float* o, Scratch& sc) const {
     const float* r = radiance.row(y);
-    const float* g = r;
-    if (skirt.active()) {
-      glare_row(skirt, y, r, sc.glared.data(), sc.tmp.data());
-      g = sc.glared.data();
-    }
     const double dy2 = (y - cy) * (y - cy);
     // The CFA colour of a pixel depends on the parity of x along a row (cfa_color).
-    electrons_row(g, w, m[static_cast<int>(cfa_color(p.cfa, 0, y))].data(),
-                  m[static_cast<int>(cfa_color(p.cfa, 1, y))].data(), cx, dy2, pitch_over_f, o);
+    const double* me = m[static_cast<int>(cfa_color(p.cfa, 0, y))].data();
+    const double* mo = m[static_cast<int>(cfa_color(p.cfa, 1, y))].data();
+    if (skirt.active()) {
+      // glare_row's mix keep·L + s_c·u fused into the photon row: the glared row is never stored.
+      const float* u = glare_skirt_row(skirt, y, sc.tmp.data());
+      glared_electrons_row(r, u, skirt.keep, skirt.scale.data(), w, me, mo, cx, dy2, pitch_over_f, o);
+    } else {
+      electrons_row(r, w, me, mo, cx, dy2, pitch_over_f, o);
+    }
     if (physical_row(r, w)) return -1;
     int bad = -1;  // the rare damaged row: the first bad pixel, and 0 where the radiance is not physical
     for (int x = 0; x < w; ++x)
@@ -132,6 +133,25 @@ struct PhotonStage {
       const bool odd = x & 1;
       o[x] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, g[3 * x], g[3 * x + 1],
                                       g[3 * x + 2], x - cx, dy2, pitch_over_f);
+    }
+  }
+  // electrons_row of the glared row, its samples g = glare_mix(keep, L, s_c, u) (the lens glare's
+  // mix, kernels/common/glare.glsl, as glare_row forms it) made in the same loop from the
+  // radiance row L and the upsampled skirt row u: the same float operations per sample, so the
+  // same bits as glare_row then electrons_row (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons),
+  // without storing the glared row and reading it back.
+  __attribute__((target_clones("avx512f", "avx2", "default")))
+  static void glared_electrons_row(const float* __restrict l, const float* __restrict u, float keep, const float* s3,
+                                   int w, const double* me, const double* mo, double cx, double dy2,
+                                   double pitch_over_f, float* __restrict o) {
+    const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
+    const float s0 = s3[0], s1 = s3[1], s2 = s3[2];
+    for (int x = 0; x < w; ++x) {
+      const bool odd = x & 1;
+      const float R = shader::glare_mix(keep, l[3 * x], s0, u[3 * x]);
+      const float G = shader::glare_mix(keep, l[3 * x + 1], s1, u[3 * x + 1]);
+      const float B = shader::glare_mix(keep, l[3 * x + 2], s2, u[3 * x + 2]);
+      o[x] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, R, G, B, x - cx, dy2, pitch_over_f);
     }
   }
   // Whether every pixel of the row is physical, as one reduction that vectorizes:

@@ -4,7 +4,11 @@
 //  * the lens-glare pyramid (sensor/glare.cpp: level 1 made row by row inside the first
 //    (1,3,3,1) step, row passes and row blurs kept in per-thread rings, images reused from a
 //    per-thread workspace) against a direct whole-image transcription of its definition
-//    (include/photosite/sensor/glare.h), one pass per step, no threads, no rings, fresh images.
+//    (include/photosite/sensor/glare.h), one pass per step, no threads, no rings, fresh images;
+//  * the photon stage with the glare's mix fused into its row loop (sensor/pipeline.cpp,
+//    glared_electrons_row) against the glared image made whole (the definition: keep·L +
+//    s_c·bilinear(acc_1), glare_mix per sample) and then the photon stage without glare, and
+//    expose() against sense() of that.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -15,7 +19,9 @@
 
 #include "photosite/rng.h"
 #include "photosite/sensor/glare.h"
+#include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/poisson.h"
+#include "photosite/sensor/preset.h"
 #include "sensor/glare_detail.h"
 #include "sensor/poisson_detail.h"
 
@@ -236,6 +242,56 @@ TEST(GlareFastPath, HeldSkirtsKeepTheirBuffersAndFreedOnesAreReused) {
   const GlareSkirt again = glare_skirt(a, plan);
   EXPECT_EQ(again.acc1.get(), second);  // the freed buffer, written again
   EXPECT_TRUE(same_bits(*again.acc1, want_a.acc1));
+}
+
+// The glared image by its definition, whole: g = glare_mix(keep, L, s_c, u) per sample, u the
+// bilinear 2x upsampling of acc_1 (ref_up), from the pyramid glare_skirt() makes (itself held to
+// its definition by SkirtEqualsTheWholeImageDefinition).
+ImageF ref_glared(const ImageF& in, const GlareSkirt& s) {
+  const ImageF u = ref_up(*s.acc1, in.width(), in.height());
+  ImageF g(in.width(), in.height(), 3, 0.f, in.unit());
+  for (int y = 0; y < in.height(); ++y)
+    for (int x = 0; x < in.width(); ++x)
+      for (int c = 0; c < 3; ++c) g.at(x, y, c) = shader::glare_mix(s.keep, in.at(x, y, c), s.scale[c], u.at(x, y, c));
+  return g;
+}
+
+// The photon stage with the glare's mix fused into its rows equals the glared image made whole
+// and then the photon stage without glare, bit for bit, at 1, 2 and 3 threads: odd and even
+// sizes, one pixel wide or high, with and without the cos⁴ falloff; and expose() (the photon
+// rows fused with sense) equals sense() of that mean signal.
+TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const FixedPatternMaps no_fpn;
+  ExposureSettings es;
+  es.seed = 3;
+  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}};
+  for (const bool cos4 : {true, false})
+    for (const auto& wh : sizes) {
+      LensPreset lens = load_lens_preset(cam.default_lens);
+      lens.cos4_falloff = cos4;
+      lens.glare.enabled = true;
+      lens.glare.veiling_glare_index = 0.05;
+      lens.glare.core_deg = 0.1;
+      lens.glare.reach_deg = 20;
+      LensPreset plain = lens;
+      plain.glare = LensGlare{};
+      const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 7 + wh[1]);
+      const ResolvedExposure ex = resolve(cam, lens, es);
+      const GlareSkirt skirt =
+          glare_skirt(in, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)));
+      ASSERT_TRUE(skirt.active());
+      const ImageF want = mean_signal_electrons(ref_glared(in, skirt), cam, plain, ex);
+      const SensorOutput want_out = sense(want, cam, ex, es, no_fpn);
+      at_thread_counts([&](int t) {
+        EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex), want))
+            << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads";
+        const SensorOutput got = expose(in, cam, lens, es, no_fpn);
+        EXPECT_TRUE(same_bits(got.electrons, want_out.electrons) && same_bits(got.raw_dn, want_out.raw_dn) &&
+                    same_bits(got.rgb, want_out.rgb))
+            << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads";
+      });
+    }
 }
 
 }  // namespace

@@ -85,15 +85,41 @@ struct GlareSkirt {
 };
 GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan);
 
+// Where glare_row's four row buffers lie inside its scratch (offsets in floats): t, the vertical
+// interpolation (3·aw, aw = acc_1's width), u, the horizontal one (3·width), and e, o, the
+// latter's even and odd samples (3·aw each). Buffer i starts 256·i floats (1 KiB·i) into a
+// 4 KiB page, counted from the scratch's start, so no two of the streams the row loops load and
+// store at once share their offset within a page: a load whose address bits 0-11 match an
+// earlier store still in flight waits for it ("4K aliasing", Intel optimization manual 3.6.8);
+// packed end to end at width 2048, all four began at one offset (3·1024 floats = 3 pages apart).
+struct GlareRowLayout {
+  size_t t, u, e, o, total;
+};
+// The first offset >= end (floats) that lies 256·i floats into a 4 KiB page.
+inline size_t glare_page_stagger(size_t end, size_t i) { return end + (256 * i + 1024 - end % 1024) % 1024; }
+inline GlareRowLayout glare_row_layout(const GlareSkirt& s) {
+  const size_t aw = s.active() ? static_cast<size_t>(s.acc1->width()) : 0, w = static_cast<size_t>(s.width);
+  constexpr auto place = glare_page_stagger;
+  GlareRowLayout l{};
+  l.t = 0;
+  l.u = place(l.t + 3 * aw, 1);
+  l.e = place(l.u + 3 * w, 2);
+  l.o = place(l.e + 3 * aw, 3);
+  l.total = l.o + 3 * aw;
+  return l;
+}
 // One full-resolution row of the glared image, out = keep·in + s_c·bilinear(acc_1) (float, in
 // this order). `tmp` holds glare_row_scratch(skirt) floats (the row's vertical, then horizontal
-// interpolation, and the latter's scratch).
-inline size_t glare_row_scratch(const GlareSkirt& s) {
-  return 3 * (3 * static_cast<size_t>(s.active() ? s.acc1->width() : 0) + static_cast<size_t>(s.width));
-}
+// interpolation, and the latter's scratch: glare_row_layout).
+inline size_t glare_row_scratch(const GlareSkirt& s) { return glare_row_layout(s).total; }
 void glare_row(const GlareSkirt& skirt, int y, const float* in_rgb, float* out_rgb, float* tmp);
+// glare_row's first part alone: row y of bilinear(acc_1), the upsampled skirt u (3·width floats,
+// inside tmp, returned), for a caller that fuses the mix keep·in + s_c·u into its own row loop
+// (the photon stage: sensor/pipeline.cpp).
+const float* glare_skirt_row(const GlareSkirt& skirt, int y, float* tmp);
 
-// The whole glare as an image (tests, docs); mean_signal_electrons() fuses glare_row instead.
+// The whole glare as an image (tests, docs); mean_signal_electrons() and expose() fuse
+// glare_skirt_row and the mix into their photon rows instead.
 ImageF apply_glare(const ImageF& irradiance_rgb, const LensGlare& glare, double px_per_deg);
 
 // Energy sums of a level-1 image as the skirt computes them: Σ_i n_y(i)·Σ_j n_x(j)·v, in double,
