@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <immintrin.h>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -431,6 +432,28 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
+double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p) {
+  // E⊥ = Σ_lamps I(h, v) / d² on the plane perpendicular to each lamp's ray (the illuminance the
+  // coefficient of retroreflection R_A is defined on, CIE 54.2 / EN 12899-1), from the headlamp
+  // pair at (±spacing/2, lamp_height_m, 0). Below the cut-off the table (beam_intensity_cd);
+  // above it, within the table's horizontal range, the glare zone's beam_above_cutoff_cd.
+  if (!(D_m > 0)) return 0;
+  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  const auto& H = p.beam_h_deg;
+  double E = 0;
+  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+    const double dx = X_m - xl, dy = Y_m - p.beam_lamp_height_m;
+    const double rh = std::hypot(dx, D_m), d2 = dx * dx + dy * dy + D_m * D_m;
+    const double h = std::atan2(dx, D_m) * 180 / M_PI, v = std::atan2(dy, rh) * 180 / M_PI;
+    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
+    double I = 0;
+    if (v <= cut) I = beam_intensity_cd(h, v, tan_rise, p);
+    else if (H.size() >= 2 && h >= H.front() && h <= H.back()) I = p.beam_above_cutoff_cd;
+    E += I / d2;
+  }
+  return E;
+}
+
 float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
   const BeamF b = beam_f(p);
   const float D = static_cast<float>(D_m);
@@ -503,13 +526,24 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
   // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). E_⊥ on signs:
-  // the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx), the same for every sign with the
-  // metric geometry (an approximation); the image-space map scales it by the coarse ramp, which
-  // runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
+  // with the metric geometry the beam's own at the sign pixel's point (sign_beam_lux: the table
+  // below the cut-off, the glare zone's limit above it, where most signs are); the image-space map
+  // takes the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx) scaled by the coarse ramp,
+  // which runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
   // signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn over the pixel's
   // own retroreflection (each pixel is written by itself only, so the pass's order does not matter).
   // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
   // the frame, so contiguous halves would leave one thread most of the work.)
+  // A sign pixel's point: camera z from depth_m, then road coordinates (the inverse of
+  // CameraGeometry::project): X = z·x_n, height Y = h − z·(sin θ + y_n·cos θ), D = z·(cos θ − y_n·sin θ).
+  std::function<double(int, int, float)> sign_pos;
+  if (geometry && depth_m)
+    sign_pos = [&g = *geometry, &p](int x, int y, float z_m) {
+      if (!std::isfinite(z_m) || !(z_m > 0)) return 0.0;
+      const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
+      const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad), z = z_m;
+      return sign_beam_lux(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s), p);
+    };
   int signals = 0;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
   const int traffic_sign = static_cast<int>(Label::TrafficSign);
@@ -523,6 +557,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     const uint8_t* lr = lanes.row(y);
     const float* br = beam_lux ? beam_lux->row(y) : nullptr;
     const float* dr = depth.row(y);
+    const float* dmr = sign_pos ? depth_m->row(y) : nullptr;
     const float* tr = texture.row(y);
     for (int x = 0; x < W; ++x) {
       // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
@@ -540,7 +575,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       double lum = 0;
       if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
       else if (id == traffic_sign)
-        lum = p.sign_RA * p.beam_sign_lux * (geometry ? 1.0 : std::max(0.05, static_cast<double>(dr[x])));
+        lum = p.sign_RA * (sign_pos ? sign_pos(x, y, dmr[x]) : p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x])));
       if (lum > 0) {
         const double rho = class_reflectance(id, p);
         for (int k = 0; k < 3; ++k) {

@@ -67,6 +67,9 @@ struct ScenePreset {
   double beam_cct_K = 3200, beam_sign_lux = 5;
   double beam_lamp_height_m = 0.65, beam_lamp_spacing_m = 1.5;
   double beam_cutoff_v_deg = -0.57, beam_cutoff_rise_deg = 15, beam_cutoff_max_v_deg = 0;
+  // One headlamp's intensity above the cut-off (the glare zone), within the table's horizontal
+  // range: what lights signs with the metric geometry (sign_beam_lux); the road never reads it.
+  double beam_above_cutoff_cd = 0;
   std::vector<double> beam_h_deg, beam_v_deg, beam_intensity_cd;  // intensity row-major over v
   // [geometry] lanes, edges, Hough, vanishing point.
   int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
