@@ -432,26 +432,51 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
+// One headlamp's E⊥ = I(h, v)/d² at road point (X, Y, D), the lamp at (x_l, lamp_height_m, 0): the
+// table below the cut-off, beam_above_cutoff_cd above it within the table's horizontal range.
+namespace {
+double sign_lamp_lux(double X_m, double Y_m, double D_m, double xl, const ScenePreset& p) {
+  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  const auto& H = p.beam_h_deg;
+  const double dx = X_m - xl, dy = Y_m - p.beam_lamp_height_m;
+  const double rh = std::hypot(dx, D_m), d2 = dx * dx + dy * dy + D_m * D_m;
+  const double h = std::atan2(dx, D_m) * 180 / M_PI, v = std::atan2(dy, rh) * 180 / M_PI;
+  const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
+  double I = 0;
+  if (v <= cut) I = beam_intensity_cd(h, v, tan_rise, p);
+  else if (H.size() >= 2 && h >= H.front() && h <= H.back()) I = p.beam_above_cutoff_cd;
+  return I / d2;
+}
+
+}  // namespace
+
 double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p) {
   // E⊥ = Σ_lamps I(h, v) / d² on the plane perpendicular to each lamp's ray (the illuminance the
   // coefficient of retroreflection R_A is defined on, CIE 54.2 / EN 12899-1), from the headlamp
-  // pair at (±spacing/2, lamp_height_m, 0). Below the cut-off the table (beam_intensity_cd);
-  // above it, within the table's horizontal range, the glare zone's beam_above_cutoff_cd.
+  // pair at (±spacing/2, lamp_height_m, 0).
   if (!(D_m > 0)) return 0;
-  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
-  const auto& H = p.beam_h_deg;
-  double E = 0;
+  const double xl = 0.5 * p.beam_lamp_spacing_m;
+  return sign_lamp_lux(X_m, Y_m, D_m, -xl, p) + sign_lamp_lux(X_m, Y_m, D_m, xl, p);
+}
+
+double sign_RA_at(double alpha_deg, const ScenePreset& p) {
+  const double a = std::clamp(alpha_deg, p.sign_RA_alpha_deg, std::max(p.sign_RA_alpha_deg, p.sign_RA_alpha_max_deg));
+  return p.sign_RA * std::pow(a / p.sign_RA_alpha_deg, -p.sign_RA_alpha_exponent);
+}
+
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p) {
+  // L = Σ_lamps R_A(α)·E⊥: each lamp's light returns toward it, and the camera (on the car's
+  // centre line at camera_height_m) sees it at the observation angle α between the sign-to-lamp
+  // and sign-to-camera directions.
+  if (!(D_m > 0)) return 0;
+  const double cX = -X_m, cY = camera_height_m - Y_m, cD = -D_m, cn = std::sqrt(cX * cX + cY * cY + cD * cD);
+  double L = 0;
   for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
-    const double dx = X_m - xl, dy = Y_m - p.beam_lamp_height_m;
-    const double rh = std::hypot(dx, D_m), d2 = dx * dx + dy * dy + D_m * D_m;
-    const double h = std::atan2(dx, D_m) * 180 / M_PI, v = std::atan2(dy, rh) * 180 / M_PI;
-    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
-    double I = 0;
-    if (v <= cut) I = beam_intensity_cd(h, v, tan_rise, p);
-    else if (H.size() >= 2 && h >= H.front() && h <= H.back()) I = p.beam_above_cutoff_cd;
-    E += I / d2;
+    const double lX = xl - X_m, lY = p.beam_lamp_height_m - Y_m, lD = -D_m, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
+    const double cosa = std::clamp((cX * lX + cY * lY + cD * lD) / (cn * ln), -1.0, 1.0);
+    L += sign_RA_at(std::acos(cosa) * 180 / M_PI, p) * sign_lamp_lux(X_m, Y_m, D_m, xl, p);
   }
-  return E;
+  return L;
 }
 
 float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
@@ -527,14 +552,15 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
   // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). E_⊥ on signs:
   // with the metric geometry the beam's own at the sign pixel's point (sign_beam_lux: the table
-  // below the cut-off, the glare zone's limit above it, where most signs are); the image-space map
+  // below the cut-off, the glare zone's limit above it, where most signs are), each lamp's share
+  // at R_A of its observation angle toward the camera (sign_retroreflected_cd_m2); the image-space map
   // takes the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx) scaled by the coarse ramp,
   // which runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
   // signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn over the pixel's
   // own retroreflection (each pixel is written by itself only, so the pass's order does not matter).
   // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
   // the frame, so contiguous halves would leave one thread most of the work.)
-  // A sign pixel's point: camera z from depth_m, then road coordinates (the inverse of
+  // A sign pixel's luminance at its point: camera z from depth_m, then road coordinates (the inverse of
   // CameraGeometry::project): X = z·x_n, height Y = h − z·(sin θ + y_n·cos θ), D = z·(cos θ − y_n·sin θ).
   std::function<double(int, int, float)> sign_pos;
   if (geometry && depth_m)
@@ -542,7 +568,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (!std::isfinite(z_m) || !(z_m > 0)) return 0.0;
       const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
       const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad), z = z_m;
-      return sign_beam_lux(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s), p);
+      return sign_retroreflected_cd_m2(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s), g.mount_height_m, p);
     };
   int signals = 0;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
@@ -575,7 +601,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       double lum = 0;
       if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
       else if (id == traffic_sign)
-        lum = p.sign_RA * (sign_pos ? sign_pos(x, y, dmr[x]) : p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x])));
+        lum = sign_pos ? sign_pos(x, y, dmr[x]) : p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x]));
       if (lum > 0) {
         const double rho = class_reflectance(id, p);
         for (int k = 0; k < 3; ++k) {

@@ -155,6 +155,13 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "lane markings' coefficient of retroreflected luminance R_L", "NP §4 (EN 1436)"),
       num("retroreflection.sign_RA", PHOTOSITE_AT(P, sign_RA), "cd·lx⁻¹·m⁻²", 0, 2000,
           "signs' coefficient of retroreflection R_A", "NP §4 (EN 12899 RA2)"),
+      num("retroreflection.sign_RA_alpha_deg", PHOTOSITE_AT(P, sign_RA_alpha_deg), "°", 0.01, 5,
+          "observation angle at which sign_RA holds", "EN 12899-1 RA2 at 0.33° [S]"),
+      num("retroreflection.sign_RA_alpha_exponent", PHOTOSITE_AT(P, sign_RA_alpha_exponent), "—", 0, 5,
+          "R_A ∝ α^−exponent beyond sign_RA_alpha_deg", "[D] ASTM D4956 Type III white 250 → 95 over 0.2° → 0.5° [S]"),
+      num("retroreflection.sign_RA_alpha_max_deg", PHOTOSITE_AT(P, sign_RA_alpha_max_deg), "°", 0.01, 5,
+          "R_A held at its value here for larger α (an upper bound)", "ASTM D4956's largest tabulated α [S]",
+          "≥ retroreflection.sign_RA_alpha_deg"),
       table("ego_beam", "the camera car's low beam: E = Σ_lamps I(h, v)·cos θ / d² on the metric ground",
             "NP §4; [U] ECE R112 class B, R48"),
       num("ego_beam.cct_K", PHOTOSITE_AT(P, beam_cct_K), "K", 1000, 20000, "low-beam CCT", "NP §4"),
@@ -241,6 +248,8 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
     err("windows.shop_height_m", "shop_sill_m + shop_height_m exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
+  if (p.sign_RA_alpha_max_deg < p.sign_RA_alpha_deg)
+    err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
 }
 }  // namespace
 

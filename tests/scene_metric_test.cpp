@@ -1281,12 +1281,34 @@ TEST(EgoLowBeam, SignsLitByTheTableBelowTheCutOffAndTheGlareLimitAbove) {
   EXPECT_EQ(sign_beam_lux(0, 3.0, 25, p), 0);
 }
 
+// R_A falls with the observation angle α between the lamp and the camera seen from the sign: the
+// preset's 180 (RA2) holds at 0.33°, R_A ∝ α^−1.056 (ASTM D4956 Type III white: 250 → 95 from 0.2°
+// to 0.5°) up to 0.5°, held beyond (an upper bound). The camera (1.22 m up on the car's centre line)
+// sees the headlamps (0.65 m up, ±0.75 m) at α ≈ 1.8° from a sign 30 m ahead, ≈ 0.2° from 300 m.
+TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
+  const ScenePreset p = urban();
+  EXPECT_EQ(sign_RA_at(0.1, p), p.sign_RA);
+  EXPECT_EQ(sign_RA_at(0.33, p), p.sign_RA);
+  const double at05 = p.sign_RA * std::pow(0.5 / 0.33, -p.sign_RA_alpha_exponent);
+  EXPECT_NEAR(sign_RA_at(0.5, p), at05, 1e-12 * at05);
+  EXPECT_NEAR(at05, 116.1, 0.1);  // 0.645 × 180
+  EXPECT_EQ(sign_RA_at(2.0, p), sign_RA_at(0.5, p));
+  // The exponent reproduces the table's two points: 95/250 = 0.38, to its three digits.
+  EXPECT_NEAR(std::pow(0.5 / 0.2, -p.sign_RA_alpha_exponent), 95.0 / 250.0, 0.38 * 5e-4);
+  const double h_cam = 1.22;
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 30, h_cam, p), at05 * sign_beam_lux(0, 3.0, 30, p),
+              1e-12 * at05 * sign_beam_lux(0, 3.0, 30, p));
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 300, h_cam, p), p.sign_RA * sign_beam_lux(0, 3.0, 300, p),
+              1e-12 * p.sign_RA * sign_beam_lux(0, 3.0, 300, p));
+  EXPECT_EQ(sign_retroreflected_cd_m2(0, 3.0, 0, h_cam, p), 0);
+}
+
 // The light map reads the sign pixel's point from depth_m through the camera model: sign pixels
-// in the synthetic scene's sky, placed at chosen camera depths, get R_A·E⊥ in the ratio of
-// sign_beam_lux at the points whose projection they are (the test finds the point by the
-// forward projection CameraGeometry::project, not by the code's inverse). The texture is one
-// colour on every sign pixel, so the ratio of any channel is the ratio of E⊥ (two float products
-// per pixel on each side, the ratio within 8·2⁻²⁴ relative).
+// in the synthetic scene's sky, placed at chosen camera depths, get luminances in the ratio of
+// sign_retroreflected_cd_m2 (Σ R_A(α)·E⊥) at the points whose projection they are (the test finds
+// the point by the forward projection CameraGeometry::project, not by the code's inverse). The
+// texture is one colour on every sign pixel, so the ratio of any channel is the ratio of the
+// luminances (two float products per pixel on each side, the ratio within 8·2⁻²⁴ relative).
 TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
   SyntheticCameraOptions o;
   const SyntheticCameraScene s = free_road(o);
@@ -1312,7 +1334,7 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
                                VanishingPoint{g.cx_px, g.horizon_y, 0, VpMethod::ImageCentre, 0, ""}, p, 1, &g, &depth,
                                nullptr, nullptr, &none);
   // The road point of pixel (x, y) at camera z: found by solving project(X, Y, D) = (x, y, z).
-  auto point_E = [&](int x, int y, double z) {
+  auto point_L = [&](int x, int y, double z) {
     const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
     const double yc = (y - g.cy_px) / g.f_px * z;  // camera y (down) at depth z
     const double D = z * c - yc * sn, Y = g.mount_height_m - (z * sn + yc * c), X = (x - g.cx_px) / g.f_px * z;
@@ -1321,26 +1343,26 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
     EXPECT_NEAR(u, x, 1e-9);
     EXPECT_NEAR(v, y, 1e-9);
     EXPECT_NEAR(zz, z, 1e-9);
-    return sign_beam_lux(X, Y, D, p);
+    return sign_retroreflected_cd_m2(X, Y, D, g.mount_height_m, p);
   };
-  const double E0 = point_E(signs[0].x0, signs[0].y0, signs[0].z);
+  const double Lw0 = point_L(signs[0].x0, signs[0].y0, signs[0].z);
   const double L0 = m.radiance.at(signs[0].x0, signs[0].y0, 1);
-  ASSERT_GT(E0, 0);
+  ASSERT_GT(Lw0, 0);
   ASSERT_GT(L0, 0);
   int n = 0;
   for (const Sign& sg : signs)
     for (int y = sg.y0; y < sg.y0 + 4; ++y)
       for (int x = sg.x0; x < sg.x0 + 4; ++x) {
-        const double E = point_E(x, y, sg.z), L = m.radiance.at(x, y, 1);
-        EXPECT_NEAR(L / L0, E / E0, 8 * std::ldexp(1.0, -24) * (E / E0)) << x << "," << y;
+        const double Lw = point_L(x, y, sg.z), L = m.radiance.at(x, y, 1);
+        EXPECT_NEAR(L / L0, Lw / Lw0, 8 * std::ldexp(1.0, -24) * (Lw / Lw0)) << x << "," << y;
         ++n;
       }
   EXPECT_EQ(n, 32);
-  // Farther and seen from the glare zone: the far sign is dimmer by about the inverse square.
-  const double E1 = point_E(signs[1].x0, signs[1].y0, signs[1].z);
-  EXPECT_LT(E1, E0 * 0.3);
-  std::fprintf(stderr, "[signs] E⊥ %.3f lx at z 20 m, %.3f lx at z 45 m: L = R_A·E⊥ = %.0f and %.0f cd/m²\n", E0, E1,
-               p.sign_RA * E0, p.sign_RA * E1);
+  // Farther and seen from the glare zone: the far sign is dimmer by about the inverse square
+  // (R_A is held at its 0.5° value at both: α > 0.5° at 20 and 45 m).
+  const double Lw1 = point_L(signs[1].x0, signs[1].y0, signs[1].z);
+  EXPECT_LT(Lw1, Lw0 * 0.3);
+  std::fprintf(stderr, "[signs] L = Σ R_A(α)·E⊥ = %.0f cd/m² at z 20 m, %.0f cd/m² at z 45 m\n", Lw0, Lw1);
 }
 
 // Façades (issue 14 §2): each building region's façade is a vertical plane fitted to its

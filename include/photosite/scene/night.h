@@ -213,6 +213,13 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p);
 // the table below the cut-off and the preset's beam_above_cutoff_cd above it (within the table's
 // horizontal range). What lights traffic signs with the metric geometry.
 double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p);
+// A sign's coefficient of retroreflection at observation angle alpha_deg (cd·lx⁻¹·m⁻²): sign_RA at
+// sign_RA_alpha_deg and below, ∝ α^−sign_RA_alpha_exponent up to sign_RA_alpha_max_deg, held beyond.
+double sign_RA_at(double alpha_deg, const ScenePreset& p);
+// The sign's retroreflected luminance toward the camera (cd/m²) at road point (X_m, Y_m, D_m), the
+// camera on the car's centre line camera_height_m up: Σ_lamps R_A(α_lamp)·E⊥_lamp, α_lamp the
+// angle at the sign between the lamp and the camera.
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p);
 // The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
 // bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the
 // angles' float error; may differ between lit and 0 within that error of the cut-off line or the
