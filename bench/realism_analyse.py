@@ -96,7 +96,7 @@ def main(argv=None):
     if a.masks:
         pathlib.Path(a.masks).mkdir(parents=True, exist_ok=True)
 
-    print("== blobs by the class under them (px at %d px wide) ==" % realism.BLOB_WIDTH)
+    print("== blobs by the class under them (per frame: class count/area px, at %d px wide) ==" % realism.BLOB_WIDTH)
     for m in methods:
         rows = [r for r in manifest if r["method"] == m]
         allb = []
@@ -106,7 +106,8 @@ def main(argv=None):
             allb += b
             areas = [x for _, x in b]
             print(f"  {m:24s} {r['frame']:26s} blobs {len(b):4d}  median {np.median(areas) if areas else 0:7.1f}  " +
-                  "  ".join(f"{g.split(' ')[0]} {sum(x for gg, x in b if gg == g)}" for g in GROUPS
+                  "  ".join(f"{g.split(' ')[0]} {sum(1 for gg, _ in b if gg == g)}/{sum(x for gg, x in b if gg == g)}"
+                            for g in GROUPS
                             if any(gg == g for gg, _ in b)))
         total = sum(x for _, x in allb) or 1
         print(f"  {m}: all frames, {len(allb)} blobs, median {np.median([x for _, x in allb]):.1f} px")

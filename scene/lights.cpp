@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <immintrin.h>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -432,6 +433,82 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux(X_m, D_m, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
 }
 
+// One headlamp's E⊥ = I(h, v)/d² at road point (X, Y, D), the lamp at (x_l, lamp_height_m, 0): the
+// table below the cut-off, beam_above_cutoff_cd above it within the table's horizontal range.
+// SignLight holds what does not change from sign pixel to sign pixel (the tangents of the
+// cut-off's top and of the table's horizontal edges, the cosines of R_A's angle range), so that a
+// point above the whole cut-off and inside the table's range (most signs) needs no atan2: v > the
+// rising cut-off's maximum ⟺ dy > rh·tan(max), h in [H₀, H₁] ⟺ D·tan H₀ ≤ dx ≤ D·tan H₁ (D > 0,
+// |angles| < 90°); and an α outside [alpha_deg, alpha_max_deg] no acos and pow. Same values as
+// the angle-by-angle evaluation, up to which side of a threshold a point within rounding of it
+// falls.
+namespace {
+struct SignLight {
+  const ScenePreset& p;
+  double cam_h, tan_rise, tan_vmax, tan_h0, tan_h1, cos_a0, cos_a1, RA_max;
+  bool table;
+  SignLight(const ScenePreset& pr, double camera_height_m)
+      : p(pr), cam_h(camera_height_m), tan_rise(std::tan(pr.beam_cutoff_rise_deg * M_PI / 180)),
+        tan_vmax(std::tan(pr.beam_cutoff_max_v_deg * M_PI / 180)), tan_h0(0), tan_h1(0),
+        cos_a0(std::cos(pr.sign_RA_alpha_deg * M_PI / 180)),
+        cos_a1(std::cos(std::max(pr.sign_RA_alpha_deg, pr.sign_RA_alpha_max_deg) * M_PI / 180)),
+        RA_max(sign_RA_at(pr.sign_RA_alpha_max_deg, pr)), table(pr.beam_h_deg.size() >= 2) {
+    if (table) {
+      tan_h0 = std::tan(pr.beam_h_deg.front() * M_PI / 180);
+      tan_h1 = std::tan(pr.beam_h_deg.back() * M_PI / 180);
+    }
+  }
+  double lamp_lux(double X_m, double Y_m, double D_m, double xl) const {
+    const double dx = X_m - xl, dy = Y_m - p.beam_lamp_height_m;
+    const double rh = std::sqrt(dx * dx + D_m * D_m), d2 = dx * dx + dy * dy + D_m * D_m;
+    if (table && dy > rh * tan_vmax && dx >= D_m * tan_h0 && dx <= D_m * tan_h1) return p.beam_above_cutoff_cd / d2;
+    const double h = std::atan2(dx, D_m) * 180 / M_PI, v = std::atan2(dy, rh) * 180 / M_PI;
+    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
+    double I = 0;
+    if (v <= cut) I = beam_intensity_cd(h, v, tan_rise, p);
+    else if (table && h >= p.beam_h_deg.front() && h <= p.beam_h_deg.back()) I = p.beam_above_cutoff_cd;
+    return I / d2;
+  }
+  double RA(double cos_alpha) const {
+    if (cos_alpha >= cos_a0) return p.sign_RA;
+    if (cos_alpha <= cos_a1) return RA_max;
+    return sign_RA_at(std::acos(cos_alpha) * 180 / M_PI, p);
+  }
+  // L = Σ_lamps R_A(α)·E⊥: each lamp's light returns toward it, and the camera (on the car's
+  // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and
+  // sign-to-camera directions.
+  double luminance(double X_m, double Y_m, double D_m) const {
+    if (!(D_m > 0)) return 0;
+    const double cX = -X_m, cY = cam_h - Y_m, cD = -D_m, cn = std::sqrt(cX * cX + cY * cY + cD * cD);
+    double L = 0;
+    for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+      const double lX = xl - X_m, lY = p.beam_lamp_height_m - Y_m, lD = -D_m, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
+      L += RA((cX * lX + cY * lY + cD * lD) / (cn * ln)) * lamp_lux(X_m, Y_m, D_m, xl);
+    }
+    return L;
+  }
+};
+}  // namespace
+
+double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p) {
+  // E⊥ = Σ_lamps I(h, v) / d² on the plane perpendicular to each lamp's ray (the illuminance the
+  // coefficient of retroreflection R_A is defined on, CIE 54.2 / EN 12899-1), from the headlamp
+  // pair at (±spacing/2, lamp_height_m, 0).
+  if (!(D_m > 0)) return 0;
+  const SignLight s(p, 0);
+  const double xl = 0.5 * p.beam_lamp_spacing_m;
+  return s.lamp_lux(X_m, Y_m, D_m, -xl) + s.lamp_lux(X_m, Y_m, D_m, xl);
+}
+
+double sign_RA_at(double alpha_deg, const ScenePreset& p) {
+  const double a = std::clamp(alpha_deg, p.sign_RA_alpha_deg, std::max(p.sign_RA_alpha_deg, p.sign_RA_alpha_max_deg));
+  return p.sign_RA * std::pow(a / p.sign_RA_alpha_deg, -p.sign_RA_alpha_exponent);
+}
+
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p) {
+  return SignLight(p, camera_height_m).luminance(X_m, Y_m, D_m);
+}
+
 float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
   const BeamF b = beam_f(p);
   const float D = static_cast<float>(D_m);
@@ -504,13 +581,26 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
   // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). E_⊥ on signs:
-  // the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx), the same for every sign with the
-  // metric geometry (an approximation); the image-space map scales it by the coarse ramp, which
-  // runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
+  // with the metric geometry the beam's own at the sign pixel's point (sign_beam_lux: the table
+  // below the cut-off, the glare zone's limit above it, where most signs are), each lamp's share
+  // at R_A of its observation angle toward the camera (sign_retroreflected_cd_m2); the image-space map
+  // takes the preset's beam_sign_lux (NP §4: 10 kcd at 50 m give 4 lx) scaled by the coarse ramp,
+  // which runs to the image border and so moved with the view (issue 14 §3). In the same pass, traffic
   // signals by colour in CIELAB (hue angle and chroma of lit signal lenses), drawn over the pixel's
   // own retroreflection (each pixel is written by itself only, so the pass's order does not matter).
   // (Rows in interleaved chunks here and below: signs, markings and vehicles cluster in bands of
   // the frame, so contiguous halves would leave one thread most of the work.)
+  // A sign pixel's luminance at its point: camera z from depth_m, then road coordinates (the inverse of
+  // CameraGeometry::project): X = z·x_n, height Y = h − z·(sin θ + y_n·cos θ), D = z·(cos θ − y_n·sin θ).
+  std::function<double(int, int, float)> sign_pos;
+  const SignLight sign_light(p, geometry ? geometry->mount_height_m : 0);
+  if (geometry && depth_m)
+    sign_pos = [&g = *geometry, &sign_light, c = std::cos(geometry->pitch_rad), s = std::sin(geometry->pitch_rad)](
+                   int x, int y, float z_m) {
+      if (!std::isfinite(z_m) || !(z_m > 0)) return 0.0;
+      const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px, z = z_m;
+      return sign_light.luminance(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s));
+    };
   int signals = 0;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
   const int traffic_sign = static_cast<int>(Label::TrafficSign);
@@ -524,6 +614,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     const uint8_t* lr = lanes.row(y);
     const float* br = beam_lux ? beam_lux->row(y) : nullptr;
     const float* dr = depth.row(y);
+    const float* dmr = sign_pos ? depth_m->row(y) : nullptr;
     const float* tr = texture.row(y);
     for (int x = 0; x < W; ++x) {
       // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
@@ -541,7 +632,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       double lum = 0;
       if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
       else if (id == traffic_sign)
-        lum = p.sign_RA * p.beam_sign_lux * (geometry ? 1.0 : std::max(0.05, static_cast<double>(dr[x])));
+        lum = sign_pos ? sign_pos(x, y, dmr[x]) : p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x]));
       if (lum > 0) {
         const double rho = class_reflectance(id, p);
         for (int k = 0; k < 3; ++k) {

@@ -155,10 +155,18 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "lane markings' coefficient of retroreflected luminance R_L", "NP §4 (EN 1436)"),
       num("retroreflection.sign_RA", PHOTOSITE_AT(P, sign_RA), "cd·lx⁻¹·m⁻²", 0, 2000,
           "signs' coefficient of retroreflection R_A", "NP §4 (EN 12899 RA2)"),
+      num("retroreflection.sign_RA_alpha_deg", PHOTOSITE_AT(P, sign_RA_alpha_deg), "°", 0.01, 5,
+          "observation angle at which sign_RA holds", "EN 12899-1 RA2 at 0.33° [S]"),
+      num("retroreflection.sign_RA_alpha_exponent", PHOTOSITE_AT(P, sign_RA_alpha_exponent), "—", 0, 5,
+          "R_A ∝ α^−exponent beyond sign_RA_alpha_deg", "[D] ASTM D4956 Type III white 250 → 95 over 0.2° → 0.5° [S]"),
+      num("retroreflection.sign_RA_alpha_max_deg", PHOTOSITE_AT(P, sign_RA_alpha_max_deg), "°", 0.01, 5,
+          "R_A held at its value here for larger α (an upper bound)", "ASTM D4956's largest tabulated α [S]",
+          "≥ retroreflection.sign_RA_alpha_deg"),
       table("ego_beam", "the camera car's low beam: E = Σ_lamps I(h, v)·cos θ / d² on the metric ground",
             "NP §4; [U] ECE R112 class B, R48"),
       num("ego_beam.cct_K", PHOTOSITE_AT(P, beam_cct_K), "K", 1000, 20000, "low-beam CCT", "NP §4"),
-      num("ego_beam.sign_lux", PHOTOSITE_AT(P, beam_sign_lux), "lx", 0, 1000, "illuminance on signs", "NP §4"),
+      num("ego_beam.sign_lux", PHOTOSITE_AT(P, beam_sign_lux), "lx", 0, 1000,
+          "illuminance on signs without the metric geometry (with it: the beam at the sign)", "NP §4"),
       num("ego_beam.lamp_height_m", PHOTOSITE_AT(P, beam_lamp_height_m), "m", 0.2, 2, "headlamps above the road",
           "[U] ECE R48"),
       num("ego_beam.lamp_spacing_m", PHOTOSITE_AT(P, beam_lamp_spacing_m), "m", 0, 3, "headlamp centres apart",
@@ -169,6 +177,9 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "rise of the cut-off right of the elbow", "[U] ECE R112"),
       num("ego_beam.cutoff_max_v_deg", PHOTOSITE_AT(P, beam_cutoff_max_v_deg), "°", -5, 5,
           "where the rising cut-off stops", "photosite choice"),
+      num("ego_beam.above_cutoff_cd", PHOTOSITE_AT(P, beam_above_cutoff_cd), "cd", 0, 1e5,
+          "one headlamp's intensity above the cut-off (lights signs, not the road)",
+          "[S] low-beam glare limit above the cut-off, 1 lx at 25 m (euromotor ECE lighting course)"),
       {"ego_beam.h_deg", Kind::NumberList, PHOTOSITE_AT(P, beam_h_deg), "°", -90, 90, Need::Required,
        "horizontal angles of the intensity grid, positive right", "[U] ECE R112 test points",
        "strictly increasing, ≥ 2 values"},
@@ -237,6 +248,8 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.shop_sill_m + p.shop_height_m > p.window_storey_m)
     err("windows.shop_height_m", "shop_sill_m + shop_height_m exceeds windows.storey_m");
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
+  if (p.sign_RA_alpha_max_deg < p.sign_RA_alpha_deg)
+    err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
 }
 }  // namespace
 

@@ -138,9 +138,9 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
   X(taillamp_luminance_cd_m2) X(signal_luminance_cd_m2) X(window_luminance_cd_m2) X(window_cct_K) \
   X(window_lit_fraction) X(window_cell_fraction) X(window_warm_share) X(window_cool_cct_K) \
   X(window_curtained_share) X(window_curtained_luminance_cd_m2) \
-  X(marking_RL) X(sign_RA) \
+  X(marking_RL) X(sign_RA) X(sign_RA_alpha_deg) X(sign_RA_alpha_exponent) X(sign_RA_alpha_max_deg) \
   X(beam_cct_K) X(beam_sign_lux) X(beam_lamp_height_m) X(beam_lamp_spacing_m) X(beam_cutoff_v_deg) \
-  X(beam_cutoff_rise_deg) X(beam_cutoff_max_v_deg) X(beam_h_deg) X(beam_v_deg) X(beam_intensity_cd) \
+  X(beam_cutoff_rise_deg) X(beam_cutoff_max_v_deg) X(beam_above_cutoff_cd) X(beam_h_deg) X(beam_v_deg) X(beam_intensity_cd) \
   X(work_max_width) X(lane_blur_sigma_px) X(lane_contrast_threshold) X(canny_low) X(canny_high) \
   X(hough_threshold) X(hough_min_length_fraction) X(hough_max_gap_fraction) X(line_reject_angle_deg) \
   X(border_fraction) X(vp_cluster_radius_fraction) X(vp_min_support) X(max_depth_m)
@@ -150,7 +150,8 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // a program that printed each member above by name, and scene_attributes()), member by member and
 // exactly (nlohmann's round-trip text); and the EXR header attributes keep their names, types and
 // values. Keys added since are appended to those files by hand with their bundled values
-// (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2).
+// (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
+// ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))
@@ -236,6 +237,10 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
   EXPECT_NE(error("[0, 0, 0, 0, 0, 0, 0],", "").find(": ego_beam.intensity_cd: needs one row per v_deg entry (8)"),
             std::string::npos);
   EXPECT_NE(error("[2, 4, 6, 8, 8, 6, 2],", "[2, 4, 6, 8, 8, 6, 2e7],").find(": ego_beam.intensity_cd: value 2e7 is out of range, outside [0, 1e6] (cd)"),
+            std::string::npos);
+  EXPECT_NE(error("sign_RA_alpha_max_deg = 0.5", "sign_RA_alpha_max_deg = 0.2")
+                .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
+                      ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
             std::string::npos);
   EXPECT_NE(error("[retroreflection]", "[retro]").find(": retro: unknown key"), std::string::npos);
   const std::string missing = error("sign_RA = 180", "");

@@ -1164,6 +1164,12 @@ double table_cd(const ScenePreset& p, double h, double v) {
   auto I = [&](size_t r, size_t c) { return p.beam_intensity_cd[r * H.size() + c]; };
   return (1 - a) * (1 - b) * I(i, j) + a * (1 - b) * I(i, j + 1) + (1 - a) * b * I(i + 1, j) + a * b * I(i + 1, j + 1);
 }
+// The synthetic camera scene without boxes (the centre line free to the horizon); o its options.
+SyntheticCameraScene free_road(SyntheticCameraOptions& o) {
+  o = camera_scene();
+  o.boxes.clear();
+  return make_synthetic_camera_scene(o);
+}
 }  // namespace
 
 // E at a pixel = Σ over the two lamps (±spacing/2, h_l, 0) of I(h, v)·cos θ/d² for its ground point
@@ -1192,9 +1198,8 @@ double table_cd(const ScenePreset& p, double h, double v) {
 // above the cut-off (for both lamps) exactly 0, and 0 above the horizon. The beam's road luminance ρE/π along
 // the centre line (the column under the principal point) peaks 20-40 m ahead (issue 14 §2).
 TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
-  SyntheticCameraOptions o = camera_scene();
-  o.boxes.clear();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  SyntheticCameraOptions o;
+  const SyntheticCameraScene s = free_road(o);
   const ScenePreset p = urban();
   const CameraGeometry& g = o.camera;
   const ImageF E = low_beam_illuminance(g, o.width, o.height, p);
@@ -1286,6 +1291,124 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
     }
   }
   EXPECT_GT(read, En.size() / 4);  // the ground is a large part of a road scene
+}
+
+// Traffic signs with the metric geometry are lit by the beam's own intensity at their point
+// (sign_beam_lux): E⊥ = Σ_lamps I(h, v)/d², the table below the cut-off and the glare zone's
+// limit above it (night-urban: 625 cd = 1 lx at 25 m), not a constant illuminance.
+TEST(EgoLowBeam, SignsLitByTheTableBelowTheCutOffAndTheGlareLimitAbove) {
+  ScenePreset p = urban();
+  ASSERT_EQ(p.beam_above_cutoff_cd, 625);
+  const double hl = p.beam_lamp_height_m, xl = 0.5 * p.beam_lamp_spacing_m;
+  // Above h-h straight ahead (v ≈ 5.4° for both lamps): the glare limit from each lamp.
+  {
+    const double d2 = xl * xl + (3.0 - hl) * (3.0 - hl) + 25.0 * 25.0;
+    EXPECT_NEAR(sign_beam_lux(0, 3.0, 25, p), 2 * 625 / d2, 1e-12 * 625 / d2);
+    EXPECT_NEAR(sign_beam_lux(0, 3.0, 25, p), 1.98, 0.01);  // ~1 lx per lamp at 25 m: the limit's own figure
+  }
+  // On h-h, 9° right of the right lamp: inside the rising cut-off, where the table is lit
+  // (1500 cd at (9°R, 0°)); the left lamp sees it at 11.8°R, between table columns.
+  {
+    const double D = 30, X = xl + D * std::tan(9 * M_PI / 180);
+    double ref = 0;
+    for (const double x0 : {-xl, xl}) {
+      const double dx = X - x0, d2 = dx * dx + D * D;
+      ref += table_cd(p, std::atan2(dx, D) * 180 / M_PI, 0.0) / d2;
+    }
+    EXPECT_NEAR(table_cd(p, 9, 0), 1500, 1e-9);
+    EXPECT_GT(ref, 0);
+    EXPECT_NEAR(sign_beam_lux(X, hl, D, p), ref, 1e-12 * ref);
+  }
+  // Outside the table's horizontal range (more than 25° left of both lamps): no light.
+  EXPECT_EQ(sign_beam_lux(-20, 3.0, 10, p), 0);
+  EXPECT_EQ(sign_beam_lux(0, 3.0, 0, p), 0);  // at or behind the lamps
+  // Without the glare zone (the table's "nothing above the cut-off") a sign above h-h is dark.
+  p.beam_above_cutoff_cd = 0;
+  EXPECT_EQ(sign_beam_lux(0, 3.0, 25, p), 0);
+}
+
+// R_A falls with the observation angle α between the lamp and the camera seen from the sign: the
+// preset's 180 (RA2) holds at 0.33°, R_A ∝ α^−1.056 (ASTM D4956 Type III white: 250 → 95 from 0.2°
+// to 0.5°) up to 0.5°, held beyond (an upper bound). The camera (1.22 m up on the car's centre line)
+// sees the headlamps (0.65 m up, ±0.75 m) at α ≈ 1.8° from a sign 30 m ahead, ≈ 0.2° from 300 m.
+TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
+  const ScenePreset p = urban();
+  EXPECT_EQ(sign_RA_at(0.1, p), p.sign_RA);
+  EXPECT_EQ(sign_RA_at(0.33, p), p.sign_RA);
+  const double at05 = p.sign_RA * std::pow(0.5 / 0.33, -p.sign_RA_alpha_exponent);
+  EXPECT_NEAR(sign_RA_at(0.5, p), at05, 1e-12 * at05);
+  EXPECT_NEAR(at05, 116.1, 0.1);  // 0.645 × 180
+  EXPECT_EQ(sign_RA_at(2.0, p), sign_RA_at(0.5, p));
+  // The exponent reproduces the table's two points: 95/250 = 0.38, to its three digits.
+  EXPECT_NEAR(std::pow(0.5 / 0.2, -p.sign_RA_alpha_exponent), 95.0 / 250.0, 0.38 * 5e-4);
+  const double h_cam = 1.22;
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 30, h_cam, p), at05 * sign_beam_lux(0, 3.0, 30, p),
+              1e-12 * at05 * sign_beam_lux(0, 3.0, 30, p));
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 300, h_cam, p), p.sign_RA * sign_beam_lux(0, 3.0, 300, p),
+              1e-12 * p.sign_RA * sign_beam_lux(0, 3.0, 300, p));
+  EXPECT_EQ(sign_retroreflected_cd_m2(0, 3.0, 0, h_cam, p), 0);
+}
+
+// The light map reads the sign pixel's point from depth_m through the camera model: sign pixels
+// in the synthetic scene's sky, placed at chosen camera depths, get luminances in the ratio of
+// sign_retroreflected_cd_m2 (Σ R_A(α)·E⊥) at the points whose projection they are (the test finds
+// the point by the forward projection CameraGeometry::project, not by the code's inverse). The
+// texture is one colour on every sign pixel, so the ratio of any channel is the ratio of the
+// luminances (two float products per pixel on each side, the ratio within 8·2⁻²⁴ relative).
+TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
+  SyntheticCameraOptions o;
+  const SyntheticCameraScene s = free_road(o);
+  const ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  LabelMap lm = s.labels;
+  ImageF depth = s.depth_m;
+  ImageF tex(o.width, o.height, 3, 0.f);
+  // Two signs above the horizon: one at camera z 20 m, one at 45 m (4x4 pixels each).
+  struct Sign { int x0, y0; float z; };
+  const Sign signs[2] = {{o.width / 2 + 120, 40, 20.f}, {o.width / 2 + 40, 80, 45.f}};
+  for (const Sign& sg : signs)
+    for (int y = sg.y0; y < sg.y0 + 4; ++y)
+      for (int x = sg.x0; x < sg.x0 + 4; ++x) {
+        ASSERT_LT(y, g.horizon_y);
+        lm.ids.at(x, y) = static_cast<uint16_t>(Label::TrafficSign);
+        depth.at(x, y) = sg.z;
+        for (int c = 0; c < 3; ++c) tex.at(x, y, c) = 0.2f;
+      }
+  StreetLighting none;  // no street lamps: only the beam lights the signs
+  const LightMap m = light_map(s.day_linear_srgb, tex, lm, ImageU8(o.width, o.height, 1, 0),
+                               coarse_depth(o.width, o.height, g.cx_px, g.horizon_y),
+                               VanishingPoint{g.cx_px, g.horizon_y, 0, VpMethod::ImageCentre, 0, ""}, p, 1, &g, &depth,
+                               nullptr, nullptr, &none);
+  // The road point of pixel (x, y) at camera z: found by solving project(X, Y, D) = (x, y, z).
+  auto point_L = [&](int x, int y, double z) {
+    const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
+    const double yc = (y - g.cy_px) / g.f_px * z;  // camera y (down) at depth z
+    const double D = z * c - yc * sn, Y = g.mount_height_m - (z * sn + yc * c), X = (x - g.cx_px) / g.f_px * z;
+    double u, v, zz;
+    EXPECT_TRUE(g.project(X, Y, D, &u, &v, &zz));
+    EXPECT_NEAR(u, x, 1e-9);
+    EXPECT_NEAR(v, y, 1e-9);
+    EXPECT_NEAR(zz, z, 1e-9);
+    return sign_retroreflected_cd_m2(X, Y, D, g.mount_height_m, p);
+  };
+  const double Lw0 = point_L(signs[0].x0, signs[0].y0, signs[0].z);
+  const double L0 = m.radiance.at(signs[0].x0, signs[0].y0, 1);
+  ASSERT_GT(Lw0, 0);
+  ASSERT_GT(L0, 0);
+  int n = 0;
+  for (const Sign& sg : signs)
+    for (int y = sg.y0; y < sg.y0 + 4; ++y)
+      for (int x = sg.x0; x < sg.x0 + 4; ++x) {
+        const double Lw = point_L(x, y, sg.z), L = m.radiance.at(x, y, 1);
+        EXPECT_NEAR(L / L0, Lw / Lw0, 8 * std::ldexp(1.0, -24) * (Lw / Lw0)) << x << "," << y;
+        ++n;
+      }
+  EXPECT_EQ(n, 32);
+  // Farther and seen from the glare zone: the far sign is dimmer by about the inverse square
+  // (R_A is held at its 0.5° value at both: α > 0.5° at 20 and 45 m).
+  const double Lw1 = point_L(signs[1].x0, signs[1].y0, signs[1].z);
+  EXPECT_LT(Lw1, Lw0 * 0.3);
+  std::fprintf(stderr, "[signs] L = Σ R_A(α)·E⊥ = %.0f cd/m² at z 20 m, %.0f cd/m² at z 45 m\n", Lw0, Lw1);
 }
 
 // Façades (issue 14 §2): each building region's façade is a vertical plane fitted to its

@@ -208,6 +208,18 @@ double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p);
 // Illuminance (lx) of the headlamp pair on the road at road coordinates (X_m right, D_m forward):
 // E = Σ_lamps I(h, v)·cos θ / d², θ the incidence from the road's normal, d the lamp distance.
 double low_beam_lux(double X_m, double D_m, const ScenePreset& p);
+// Illuminance (lx) of the headlamp pair on a sign at road coordinates (X_m right, Y_m above the
+// road, D_m forward), on the plane perpendicular to each ray (R_A's E⊥): Σ_lamps I(h, v)/d², with
+// the table below the cut-off and the preset's beam_above_cutoff_cd above it (within the table's
+// horizontal range). What lights traffic signs with the metric geometry.
+double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p);
+// A sign's coefficient of retroreflection at observation angle alpha_deg (cd·lx⁻¹·m⁻²): sign_RA at
+// sign_RA_alpha_deg and below, ∝ α^−sign_RA_alpha_exponent up to sign_RA_alpha_max_deg, held beyond.
+double sign_RA_at(double alpha_deg, const ScenePreset& p);
+// The sign's retroreflected luminance toward the camera (cd/m²) at road point (X_m, Y_m, D_m), the
+// camera on the car's centre line camera_height_m up: Σ_lamps R_A(α_lamp)·E⊥_lamp, α_lamp the
+// angle at the sign between the lamp and the camera.
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p);
 // The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
 // bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the
 // angles' float error; may differ between lit and 0 within that error of the cut-off line or the
@@ -237,7 +249,7 @@ struct LightMap {
 // `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
 // pools; with them lamps, pools and windows are placed and sized in metres. `depth` is the
 // coarse ramp (coarse_depth), the sign-illuminance proxy of the image-space map only (with
-// `geometry` signs get the preset's beam_sign_lux: the ramp runs to the image border and moved
+// `geometry` and `depth_m` signs get sign_beam_lux at their metric point: the ramp runs to the image border and moved
 // with the view). `street` (a sequence's luminaires, scene/luminaires.h): the street lighting to
 // use; null: plan_street_lighting of this frame. `beam_lux` (low_beam_illuminance)
 // lights the lane markings (R_L·E); null: markings stay dark.

@@ -59,6 +59,9 @@ struct ScenePreset {
   double window_warm_share = 0.7, window_cool_cct_K = 4000;  // share of windows at window_cct_K; the rest at this CCT
   // [retroreflection] EN 1436 R_L (cd·m⁻²·lx⁻¹) for lane markings, EN 12899 R_A (cd·lx⁻¹·m⁻²).
   double marking_RL = 0.2, sign_RA = 180;
+  // R_A's fall with the observation angle α (lamp to sign to camera): sign_RA holds at
+  // sign_RA_alpha_deg, R_A ∝ α^−sign_RA_alpha_exponent up to sign_RA_alpha_max_deg, held beyond.
+  double sign_RA_alpha_deg = 0.33, sign_RA_alpha_exponent = 0, sign_RA_alpha_max_deg = 0.33;
   // [ego_beam] low beam: CCT, illuminance on signs, and the headlamp pair: mounting height above
   // the road and lateral spacing (m), the cut-off line (v = cutoff_v_deg left of the v-v line,
   // rising at cutoff_rise_deg to the right up to cutoff_max_v_deg; nothing above it) and one
@@ -67,6 +70,9 @@ struct ScenePreset {
   double beam_cct_K = 3200, beam_sign_lux = 5;
   double beam_lamp_height_m = 0.65, beam_lamp_spacing_m = 1.5;
   double beam_cutoff_v_deg = -0.57, beam_cutoff_rise_deg = 15, beam_cutoff_max_v_deg = 0;
+  // One headlamp's intensity above the cut-off (the glare zone), within the table's horizontal
+  // range: what lights signs with the metric geometry (sign_beam_lux); the road never reads it.
+  double beam_above_cutoff_cd = 0;
   std::vector<double> beam_h_deg, beam_v_deg, beam_intensity_cd;  // intensity row-major over v
   // [geometry] lanes, edges, Hough, vanishing point.
   int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
