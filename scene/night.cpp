@@ -59,12 +59,13 @@ double process_cpu_ms() {
 }
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
-                       bool keep_darkened, SequenceState* sequence) {
-  return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence);
+                       bool keep_darkened, SequenceState* sequence, const TextureSums* sums) {
+  return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence, sums);
 }
 
 NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
-                            uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq) {
+                            uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq,
+                            const TextureSums* sums) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -83,7 +84,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   const WorkSize ws = work_size(W, H, p.work_max_width);
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
   const ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
-                                                  ws.halving ? &work_luma : nullptr);
+                                                  ws.halving ? &work_luma : nullptr, sums);
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);

@@ -7,12 +7,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string>
 #include <utility>
 #include <vector>
 #include <opencv2/imgproc.hpp>
 #include <fstream>
 #include <sstream>
 #include <omp.h>
+#include <fmt/format.h>
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
@@ -45,6 +47,15 @@ struct XorShift {
     return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
   }
 };
+// Runs of 1 to 13 pixels of road, building, sky, car and vegetation along each row.
+void random_label_runs(ImageU16& ids, XorShift& rnd) {
+  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
+  for (int y = 0; y < ids.height(); ++y)
+    for (int x = 0; x < ids.width();) {
+      const int len = 1 + static_cast<int>(rnd() * 13), id = classes[static_cast<int>(rnd() * 5)];
+      for (int e = std::min(ids.width(), x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
+    }
+}
 bool all_finite_nonneg(const ImageF& img) {
   for (size_t i = 0; i < img.size(); ++i)
     if (!std::isfinite(img[i]) || img[i] < 0) return false;
@@ -63,12 +74,7 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   ImageF day(W, H, 3, 0.f);
   ImageU16 ids(W, H, 1, 0);
   XorShift rnd{12345};
-  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W;) {
-      const int len = 1 + static_cast<int>(rnd() * 13), id = classes[static_cast<int>(rnd() * 5)];
-      for (int e = std::min(W, x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
-    }
+  random_label_runs(ids, rnd);
   for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
   for (size_t i = 0; i < ids.size(); ++i)  // vegetation black: its flat grey
     if (ids[i] == int(Label::Vegetation)) day[3 * i] = day[3 * i + 1] = day[3 * i + 2] = 0.f;
@@ -138,6 +144,79 @@ TEST(SceneDarken, Linearize8BitIsItsDefinitionBitForBit) {
     EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << "isa " << isa;
   }
   texture_max_isa(2);
+}
+
+// linearize_with_texture_sums (the linearisation and the texture's pass 1 in one pass, each
+// block summed right after it is linearised) against linearize() and the pass's definition per
+// pixel: the same linear image bit for bit, per chunk of the 64 the sums of Y (box RGB
+// v = max(0, M·s), Y = Σ K_r·v_r in double, added in pixel order) and the counts, and
+// reflectance_texture given the sums equal to reflectance_texture summing itself. 8-bit codes
+// with values off the codes, negatives and values above white; 16-bit; linear float; on an odd
+// size (chunks, blocks and rows not aligned), 1 and 2 threads, each instruction-set path. A
+// damaged pixel is refused at the same pixel as by linearize().
+TEST(SceneDarken, LinearizeWithTextureSumsIsLinearizeThenThePassDefinition) {
+  const int W = 203, H = 37;
+  ImageU16 ids(W, H, 1, 0);
+  XorShift rnd{777};
+  random_label_runs(ids, rnd);
+  const ScenePreset& p = preset();
+  const auto& M = spectrum::linear_srgb_to_box();
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const size_t n = ids.pixel_count();
+  const int saved = omp_get_max_threads();
+  for (int bits : {8, 16, 32}) {
+    ImageF day(W, H, 3, 0.f);
+    ImageFileInfo info;
+    info.bits_per_sample = bits;
+    info.is_float = bits == 32;
+    for (size_t i = 0; i < day.size(); ++i)
+      day[i] = bits == 8 ? static_cast<float>(static_cast<int>(rnd() * 256)) * (1.f / 255) : static_cast<float>(rnd() * 1.2 - 0.05);
+    const size_t odd[] = {7, 40, 41, 500, 1000, 1023, 2047, day.size() - 1};
+    const float vals[] = {0.5004f, -0.25f, 1.5f, 1e-7f, 0.99999f, 3.f, -0.f, 0.25f};
+    for (size_t k = 0; k < 8; ++k) day[odd[k]] = vals[k];
+    for (int isa : {2, 1, 0})
+      for (int threads : {1, 2}) {
+        texture_max_isa(isa);
+        omp_set_num_threads(threads);
+        const ImageF want_lin = linearize(day, info);
+        const ImageF want_tex = reflectance_texture(want_lin, ids, p);
+        TextureSums sums;
+        const ImageF lin = linearize_with_texture_sums(day, info, ids, &sums);
+        const std::string where = fmt::format("{} bits, isa {}, {} threads", bits, isa, threads);
+        ASSERT_EQ(lin.size(), want_lin.size());
+        EXPECT_EQ(0, std::memcmp(lin.data(), want_lin.data(), lin.size() * sizeof(float))) << where;
+        ASSERT_EQ(sums.part.size(), 64u) << where;
+        EXPECT_EQ(sums.image, lin.data());
+        EXPECT_EQ(sums.labels, ids.data());
+        for (int ch = 0; ch < 64; ++ch) {
+          double ps[kLabelCount] = {}, pc[kLabelCount] = {};
+          for (size_t i = n * ch / 64; i < n * (ch + 1) / 64; ++i) {
+            double v[3];
+            for (int r = 0; r < 3; ++r)
+              v[r] = std::max(0.0, M[r][0] * want_lin[3 * i] + M[r][1] * want_lin[3 * i + 1] + M[r][2] * want_lin[3 * i + 2]);
+            ps[ids[i]] += ((0.0 + K[0] * v[0]) + K[1] * v[1]) + K[2] * v[2];
+            pc[ids[i]] += 1;
+          }
+          EXPECT_EQ(0, std::memcmp(ps, sums.part[ch].data(), sizeof ps)) << where << ", chunk " << ch;
+          EXPECT_EQ(0, std::memcmp(pc, sums.part[ch].data() + kLabelCount, sizeof pc)) << where << ", chunk " << ch;
+        }
+        const ImageF tex = reflectance_texture_with(lin, ids, p, nullptr, nullptr, &sums);
+        EXPECT_EQ(0, std::memcmp(tex.data(), want_tex.data(), tex.size() * sizeof(float))) << where;
+      }
+    // A damaged pixel: refused as linearize() refuses it (the first in reading order).
+    if (bits == 32) {
+      day[3 * 4000 + 1] = NAN;
+      day[3 * 5000] = INFINITY;
+      std::string want_msg, got_msg;
+      try { linearize(day, info); } catch (const std::exception& e) { want_msg = e.what(); }
+      TextureSums sums;
+      try { linearize_with_texture_sums(day, info, ids, &sums); } catch (const std::exception& e) { got_msg = e.what(); }
+      EXPECT_FALSE(want_msg.empty());
+      EXPECT_EQ(got_msg, want_msg);
+    }
+  }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
 }
 
 // run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
