@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <vector>
+#include <omp.h>
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
@@ -110,12 +112,35 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       s.geometry.horizon_source = "sequence";
     }
   }
-  // The façade planes, fitted once: depth, windows and the street light on façades read them.
-  const BuildingFacades facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
-  s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
-  s.beam_input = coarse_depth(W, H, vp.x, vp.y);
-  const ImageU8 lanes_full = lanes_at_frame(s.lanes_work, W, H);
-  s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
+  // The depth stage's two independent halves side by side, one per thread where there are two:
+  // the façade planes (fitted once: depth, windows and the street light on façades read them) and
+  // the metric depth, whose label-run components, per-component fits and stack sweep are serial;
+  // and the coarse depth, the lane mask at the frame's size and the ego low beam. Each half's
+  // loops run on its own thread then (nested regions get one thread: OpenMP's default), and
+  // every function gives the same result for any thread count, so the same bits.
+  BuildingFacades facades;
+  ImageU8 lanes_full;
+  std::exception_ptr failed[2];
+#pragma omp parallel sections num_threads(std::min(2, omp_get_max_threads()))
+  {
+#pragma omp section
+    try {
+      facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
+      s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
+    } catch (...) {
+      failed[0] = std::current_exception();
+    }
+#pragma omp section
+    try {
+      s.beam_input = coarse_depth(W, H, vp.x, vp.y);
+      lanes_full = lanes_at_frame(s.lanes_work, W, H);
+      s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
+    } catch (...) {
+      failed[1] = std::current_exception();
+    }
+  }
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(plan_street_lighting(labels, s.geometry, p, seed), s.geometry, W, H, seq->pose,

@@ -831,6 +831,32 @@ TEST(SceneChain, IndependentOfThreadCount) {
   EXPECT_EQ(a.vp.x, b.vp.x);
 }
 
+// night_scene's depth stage runs its two halves side by side where there are two threads
+// (façades and metric depth; coarse depth, the frame-size lane mask and the ego low beam): at 1
+// and 2 threads its outputs are the stage functions called one after the other on the scene's
+// own geometry and lane mask, bit for bit.
+TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  const ScenePreset& p = preset();
+  const int before = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const NightScene ns = night_scene(s.day_linear_srgb, s.labels, p, 5);
+    omp_set_num_threads(1);
+    const int W = s.day_linear_srgb.width(), H = s.day_linear_srgb.height();
+    const BuildingFacades fac = building_facades(s.labels.ids, ns.geometry, p.max_depth_m);
+    const ImageF depth = metric_depth(s.labels, ns.geometry, p.max_depth_m, &fac);
+    const ImageF coarse = coarse_depth(W, H, ns.vp.x, ns.vp.y);
+    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, W, H);
+    const ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);
+    EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
+    EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";
+    EXPECT_EQ(ns.beam_lux.vec(), beam.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(before);
+}
+
 // The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_share,
 // lamps.window_cool_cct_K), not from constants in the code: all-warm windows equal all-cool
 // windows at the same CCT, and moving the cool CCT changes the light map.
