@@ -380,9 +380,11 @@ constexpr int kBoxBlock = 256;
 // The box RGB is not stored: pass 2 computes it again from the linear image (cheaper than
 // writing it out and reading it back).
 constexpr int kTextureChunks = 64;
-template <class Block>
+// group_done(first, end): called by the thread that summed them once the pixels [first, end) of
+// a group of kStreams consecutive chunks are done (and written, when block writes them).
+template <class Block, class GroupDone>
 void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std::array<double, 2 * kLabelCount>* part,
-                        const Block& block) {
+                        const Block& block, const GroupDone& group_done) {
   constexpr int kChunks = kTextureChunks;
   // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
   // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
@@ -440,6 +442,7 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
       S.ps[S.cur] = S.acc;
       S.ps[kLabelCount + S.cur] += static_cast<double>(S.len - S.start);
     }
+    group_done(st[0].base, st[kStreams - 1].base + st[kStreams - 1].len);
   }
 }
 }  // namespace
@@ -470,7 +473,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   if (!have) {
     computed.resize(kTextureChunks);
     texture_class_sums(labels.data(), n, coef, computed.data(),
-                       [&](int, size_t first, int) { return day.data() + 3 * first; });
+                       [&](int, size_t first, int) { return day.data() + 3 * first; }, [](size_t, size_t) {});
   }
   const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -519,10 +522,11 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
 }
 
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums) {
+                                   TextureSums* sums, int work_max_width) {
   sums->part.clear();
   sums->image = nullptr;
   sums->labels = nullptr;
+  sums->work_luma = ImageF();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
     return linearize(day, info);
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
@@ -533,14 +537,40 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
-  texture_class_sums(labels.data(), day.pixel_count(), box_coef(), sums->part.data(),
-                     [&](int ch, size_t first, int count) {
-                       linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count,
-                                             static_cast<int64_t>(first), decode, d8, lut, &bad[ch]);
-                       return static_cast<const float*>(out.data() + 3 * first);
-                     });
+  // The lane stage's working luminance (exact halving): each working row made by the thread of
+  // the group of chunks that holds both its day rows, once the group is linearised (read back
+  // from cache); the rows whose pair straddles two groups afterwards. Each row is work_luma_row
+  // of the same linear rows either way.
+  const WorkSize ws = work_size(day.width(), day.height(), work_max_width);
+  const bool luma = work_max_width > 0 && ws.halving;
+  if (luma) sums->work_luma = ImageF(ws.width, ws.height, 1, uninitialized);
+  const size_t pair = 2 * static_cast<size_t>(day.width());
+  auto inside = [&](size_t first, size_t end, int y) { return first <= y * pair && (y + 1) * pair <= end; };
+  texture_class_sums(
+      labels.data(), day.pixel_count(), box_coef(), sums->part.data(),
+      [&](int ch, size_t first, int count) {
+        linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first),
+                              decode, d8, lut, &bad[ch]);
+        return static_cast<const float*>(out.data() + 3 * first);
+      },
+      [&](size_t first, size_t end) {
+        if (!luma) return;
+        for (int y = static_cast<int>((first + pair - 1) / pair); y < ws.height && inside(first, end, y); ++y)
+          work_luma_row(out, y, sums->work_luma.row(y));
+      });
   const int64_t first_bad = *std::min_element(bad.begin(), bad.end());
   if (first_bad != INT64_MAX) fail_damaged_pixel(day, info, first_bad);
+  if (luma) {
+    constexpr int kGroups = kTextureChunks / 4;  // texture_class_sums' groups of kStreams chunks
+    const size_t n = day.pixel_count();
+    for (int y = 0; y < ws.height; ++y) {
+      const size_t g = y * pair * kGroups / n;  // the group holding the pair's first pixel, or the one before
+      bool made = false;
+      for (size_t h = g == 0 ? 0 : g - 1; h <= g + 1 && h < static_cast<size_t>(kGroups) && !made; ++h)
+        made = inside(n * 4 * h / kTextureChunks, n * 4 * (h + 1) / kTextureChunks, y);
+      if (!made) work_luma_row(out, y, sums->work_luma.row(y));
+    }
+  }
   sums->image = out.data();
   sums->labels = labels.data();
   return out;

@@ -467,6 +467,18 @@ TEST(SceneGeometry, WorkLumaMadeInTheTexturePassIsMakeWorkImages) {
           << W << "x" << H << ", " << threads << " threads, isa " << isa;
       EXPECT_EQ(got.labels.vec(), want.labels.vec());
       EXPECT_EQ(got.scale, want.scale);
+      // Made in the linearisation's pass instead (linearize_with_texture_sums: the rows whose
+      // pair lies in one group of chunks there, the others after it; groups here do not fall on
+      // row pairs): make_work_images of the linear image.
+      ImageFileInfo info;
+      info.is_float = true;
+      info.bits_per_sample = 32;
+      TextureSums sums;
+      const ImageF lin = linearize_with_texture_sums(day, info, ids, &sums, W / 2);
+      const WorkImages want_lin = make_work_images(lin, ids, W / 2);
+      ASSERT_TRUE(sums.work_luma.same_shape(ws.width, ws.height));
+      EXPECT_EQ(0, std::memcmp(sums.work_luma.data(), want_lin.luma.data(), want_lin.luma.size() * sizeof(float)))
+          << W << "x" << H << ", " << threads << " threads, isa " << isa << ", in the linearisation";
     }
   }
   work_luma_max_isa(2);
@@ -853,6 +865,45 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
     EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_lux.vec(), beam.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(before);
+}
+
+// night_scene given the linearisation's texture sums and working luminance
+// (linearize_with_texture_sums; the working width set to half the frame's, the exact halving)
+// runs the texture's second pass beside the lane, edge, line and vanishing-point stages: at 1
+// and 2 threads every output is that of night_scene on the same linear image without them.
+TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  ScenePreset p = preset();
+  p.work_max_width = o.width / 2;
+  ImageFileInfo info;
+  info.is_float = true;
+  info.bits_per_sample = 32;
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ImageF lin0 = linearize(s.day_linear_srgb, info);
+  const NightScene want = night_scene(lin0, s.labels, p, 5, true);
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    TextureSums sums;
+    const ImageF lin = linearize_with_texture_sums(s.day_linear_srgb, info, s.labels.ids, &sums, p.work_max_width);
+    ASSERT_FALSE(sums.work_luma.empty());
+    const NightScene got = night_scene(lin, s.labels, p, 5, true, nullptr, &sums);
+    EXPECT_EQ(got.radiance.vec(), want.radiance.vec()) << threads << " threads";
+    EXPECT_EQ(got.darkened.vec(), want.darkened.vec()) << threads << " threads";
+    EXPECT_EQ(got.lights.vec(), want.lights.vec()) << threads << " threads";
+    EXPECT_EQ(got.depth.vec(), want.depth.vec()) << threads << " threads";
+    EXPECT_EQ(got.beam_lux.vec(), want.beam_lux.vec()) << threads << " threads";
+    EXPECT_EQ(got.lanes_work.vec(), want.lanes_work.vec()) << threads << " threads";
+    EXPECT_EQ(got.edges_work.vec(), want.edges_work.vec()) << threads << " threads";
+    EXPECT_EQ(got.lines_work.size(), want.lines_work.size()) << threads << " threads";
+    EXPECT_EQ(got.vp.x, want.vp.x);
+    EXPECT_EQ(got.vp.y, want.vp.y);
+    std::vector<std::string> stages;
+    for (const StageTiming& st : got.timings) stages.push_back(st.stage);
+    EXPECT_EQ(stages, (std::vector<std::string>{"darken", "lanes", "edges", "lines", "vanishing", "depth", "lights", "compose"}));
   }
   omp_set_num_threads(before);
 }
