@@ -380,11 +380,11 @@ constexpr int kBoxBlock = 256;
 // The box RGB is not stored: pass 2 computes it again from the linear image (cheaper than
 // writing it out and reading it back).
 constexpr int kTextureChunks = 64;
-// group_done(first, end): called by the thread that summed them once the pixels [first, end) of
-// a group of kStreams consecutive chunks are done (and written, when block writes them).
-template <class Block, class GroupDone>
+// done(ch, first, end): called by the thread that sums chunk ch (its first pixel `first`) each
+// time its pixels up to `end` are summed (and written, when block writes them), end ascending.
+template <class Block, class Done>
 void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std::array<double, 2 * kLabelCount>* part,
-                        const Block& block, const GroupDone& group_done) {
+                        const Block& block, const Done& done) {
   constexpr int kChunks = kTextureChunks;
   // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
   // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
@@ -431,6 +431,7 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
 #pragma GCC unroll 4
         for (int k = 0; k < kStreams; ++k) step(st[k], b + j, ys[k][j]);
       }
+      for (int k = 0; k < kStreams; ++k) done(grp * kStreams + k, st[k].base, st[k].base + b + nb);
     }
     for (int k = 0; k < kStreams; ++k) {  // the chunks' last pixels beyond the common length (at most one)
       Stream& S = st[k];
@@ -441,8 +442,8 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
       }
       S.ps[S.cur] = S.acc;
       S.ps[kLabelCount + S.cur] += static_cast<double>(S.len - S.start);
+      done(grp * kStreams + k, S.base, S.base + S.len);
     }
-    group_done(st[0].base, st[kStreams - 1].base + st[kStreams - 1].len);
   }
 }
 }  // namespace
@@ -473,7 +474,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   if (!have) {
     computed.resize(kTextureChunks);
     texture_class_sums(labels.data(), n, coef, computed.data(),
-                       [&](int, size_t first, int) { return day.data() + 3 * first; }, [](size_t, size_t) {});
+                       [&](int, size_t first, int) { return day.data() + 3 * first; }, [](int, size_t, size_t) {});
   }
   const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -538,14 +539,14 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
   // The lane stage's working luminance (exact halving): each working row made by the thread of
-  // the group of chunks that holds both its day rows, once the group is linearised (read back
-  // from cache); the rows whose pair straddles two groups afterwards. Each row is work_luma_row
-  // of the same linear rows either way.
+  // the chunk that holds both its day rows, as soon as the chunk's linearised pixels reach the
+  // row pair's end (read back from cache); the rows whose pair straddles two chunks afterwards.
+  // Each row is work_luma_row of the same linear rows either way.
   const WorkSize ws = work_size(day.width(), day.height(), work_max_width);
   const bool luma = work_max_width > 0 && ws.halving;
   if (luma) sums->work_luma = ImageF(ws.width, ws.height, 1, uninitialized);
   const size_t pair = 2 * static_cast<size_t>(day.width());
-  auto inside = [&](size_t first, size_t end, int y) { return first <= y * pair && (y + 1) * pair <= end; };
+  std::vector<int> next_row(kTextureChunks, -1);  // per chunk, its next row to make
   texture_class_sums(
       labels.data(), day.pixel_count(), box_coef(), sums->part.data(),
       [&](int ch, size_t first, int count) {
@@ -553,22 +554,22 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
                               decode, d8, lut, &bad[ch]);
         return static_cast<const float*>(out.data() + 3 * first);
       },
-      [&](size_t first, size_t end) {
+      [&](int ch, size_t first, size_t end) {
         if (!luma) return;
-        for (int y = static_cast<int>((first + pair - 1) / pair); y < ws.height && inside(first, end, y); ++y)
-          work_luma_row(out, y, sums->work_luma.row(y));
+        int& y = next_row[ch];
+        if (y < 0) y = static_cast<int>((first + pair - 1) / pair);
+        for (; y < ws.height && (y + 1) * pair <= end; ++y) work_luma_row(out, y, sums->work_luma.row(y));
       });
   const int64_t first_bad = *std::min_element(bad.begin(), bad.end());
   if (first_bad != INT64_MAX) fail_damaged_pixel(day, info, first_bad);
   if (luma) {
-    constexpr int kGroups = kTextureChunks / 4;  // texture_class_sums' groups of kStreams chunks
     const size_t n = day.pixel_count();
     for (int y = 0; y < ws.height; ++y) {
-      const size_t g = y * pair * kGroups / n;  // the group holding the pair's first pixel, or the one before
-      bool made = false;
-      for (size_t h = g == 0 ? 0 : g - 1; h <= g + 1 && h < static_cast<size_t>(kGroups) && !made; ++h)
-        made = inside(n * 4 * h / kTextureChunks, n * 4 * (h + 1) / kTextureChunks, y);
-      if (!made) work_luma_row(out, y, sums->work_luma.row(y));
+      const size_t p0 = y * pair;
+      size_t ch = p0 * kTextureChunks / n;  // the chunk holding the pair's first pixel
+      while (ch > 0 && n * ch / kTextureChunks > p0) --ch;
+      while (ch + 1 < static_cast<size_t>(kTextureChunks) && n * (ch + 1) / kTextureChunks <= p0) ++ch;
+      if (p0 + pair > n * (ch + 1) / kTextureChunks) work_luma_row(out, y, sums->work_luma.row(y));
     }
   }
   sums->image = out.data();
