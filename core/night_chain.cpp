@@ -26,7 +26,7 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
   // linear image fewer, the same bits. On Vulkan the kernel linearises and the texture sums.
   const bool cpu = runner.backend() == Backend::Cpu;
   scene::TextureSums sums;
-  ImageF lin = cpu ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums, sp.work_max_width) : runner.linearize(day, info);
+  ImageF lin = cpu ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums) : runner.linearize(day, info);
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)

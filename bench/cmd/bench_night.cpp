@@ -99,7 +99,7 @@ void run(const Opts& o) {
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
     // reflectance texture's class sums (its time is in "linearize", no longer in "darken").
     scene::TextureSums sums;
-    const ImageF lin = scene::linearize_with_texture_sums(day, info, lm.ids, &sums, sp.work_max_width);
+    const ImageF lin = scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums);
