@@ -21,12 +21,20 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
     c.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
     t = now;
   };
-  ImageF lin = runner.linearize(day, info);
+  // On the CPU the linearisation also makes the reflectance texture's class sums (pass 1) from
+  // each block while it is in cache (scene::linearize_with_texture_sums): one pass over the 24 MB
+  // linear image fewer, the same bits. On Vulkan the kernel linearises and the texture sums.
+  const bool cpu = runner.backend() == Backend::Cpu;
+  scene::TextureSums sums;
+  ImageF lin = cpu ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums) : runner.linearize(day, info);
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   lap("linearize");
-  c.scene = scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
+  // On the CPU runner.night_scene is scene::night_scene itself (core/backend.cpp).
+  c.scene = cpu ? scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), nullptr, &sums)
+                : scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
+  sums = scene::TextureSums();  // its working luminance (2 MB) is not held through the sensor stages
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
   if (inspect) {

@@ -90,6 +90,52 @@ int decode8_codes_avx2(const float* in, int j, int n, const Decode8& d8, float* 
 #endif
 }  // namespace
 
+namespace {
+#if defined(__x86_64__)
+const bool kAvx2 = __builtin_cpu_supports("avx2");
+#endif
+// n samples of an RGB day image (3 per pixel, the first of pixel `pixel0`) to linear sRGB: the
+// per-sample definition of linearize() (a flat loop: RGB samples need no channel mapping). `bad`:
+// lowered to the first damaged (NaN, Inf) pixel's index in reading order.
+void linearize_rgb_samples(const float* in, float* o, int n, int64_t pixel0, bool decode, const Decode8* d8,
+                           const float* lut, int64_t* bad) {
+  if (d8) {
+    // 8-bit RGB: the checks below, for a value outside [0, 1] (NaN, Inf, negative, above
+    // white), are taken only when one is.
+    for (int j = 0; j < n; ++j) {
+#if defined(__x86_64__)
+      if (kAvx2 && max_isa >= 1 && (j & 7) == 0) {  // eight at a time while all eight are table codes
+        j = decode8_codes_avx2(in, j, n, *d8, o);
+        if (j >= n) break;
+      }
+#endif
+      float v = in[j];
+      if (!(v >= 0.f && v <= 1.f)) [[unlikely]] {
+        if (!std::isfinite(v)) {
+          *bad = std::min(*bad, pixel0 + j / 3);
+          v = 0;
+        }
+        if (v < 0) v = 0;
+        v = std::min(v, 1.f);
+      }
+      const int code = static_cast<int>(v * 255.f + 0.5f);
+      o[j] = d8->in[code] == v ? d8->out[code] : decode_interp(v, lut);
+    }
+    return;
+  }
+  for (int j = 0; j < n; ++j) {
+    float v = in[j];
+    if (!std::isfinite(v)) {
+      *bad = std::min(*bad, pixel0 + j / 3);
+      v = 0;
+    }
+    if (v < 0) v = 0;
+    if (decode) v = decode_interp(std::min(v, 1.f), lut);
+    o[j] = v;
+  }
+}
+}  // namespace
+
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   const int c = day.channels();
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
@@ -99,36 +145,12 @@ ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   // NaN and Inf in a linear (EXR) day image are damage, not light: refused, first one named.
   // Negatives are kept as out-of-gamut colour and clipped to 0 like integer files' codes.
   int64_t bad = INT64_MAX;  // first damaged pixel in reading order (y·width + x)
-#if defined(__x86_64__)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-#endif
 #pragma omp parallel for schedule(static) reduction(min : bad)
   for (int y = 0; y < day.height(); ++y) {
     const float* in = day.row(y);
     float* o = out.row(y);
-    if (c == 3 && d8) {
-      // 8-bit RGB: one flat loop over the row's samples; the checks below, for a value outside
-      // [0, 1] (NaN, Inf, negative, above white), are taken only when one is.
-      const int n = 3 * day.width();
-      for (int j = 0; j < n; ++j) {
-#if defined(__x86_64__)
-        if (avx2 && max_isa >= 1 && (j & 7) == 0) {  // eight at a time while all eight are table codes
-          j = decode8_codes_avx2(in, j, n, *d8, o);
-          if (j >= n) break;
-        }
-#endif
-        float v = in[j];
-        if (!(v >= 0.f && v <= 1.f)) [[unlikely]] {
-          if (!std::isfinite(v)) {
-            bad = std::min(bad, static_cast<int64_t>(y) * day.width() + j / 3);
-            v = 0;
-          }
-          if (v < 0) v = 0;
-          v = std::min(v, 1.f);
-        }
-        const int code = static_cast<int>(v * 255.f + 0.5f);
-        o[j] = d8->in[code] == v ? d8->out[code] : decode_interp(v, lut);
-      }
+    if (c == 3) {
+      linearize_rgb_samples(in, o, 3 * day.width(), static_cast<int64_t>(y) * day.width(), decode, d8, lut, &bad);
       continue;
     }
     for (int x = 0; x < day.width(); ++x) {
@@ -351,29 +373,19 @@ void box_scaled_block(const float* s, int n, const BoxCoef& c, float scale, floa
   box_scaled_scalar(s, n, c, scale, cap, o);
 }
 constexpr int kBoxBlock = 256;
-}  // namespace
-
-void texture_max_isa(int isa) { max_isa = isa; }
-
-ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
-  return reflectance_texture_with(day, labels, p, carried, nullptr);
-}
-
-ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
-                                ImageF* work_luma) {
-  if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
-    fail("reflectance_texture: the working luminance must be half the frame's size");
-  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const BoxCoef coef = box_coef();
-  // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
-  // (after clipping negatives, which only out-of-gamut colours have).
-  const size_t n = day.pixel_count();
-  ImageF f(day.width(), day.height(), 3, uninitialized, "W.lm-1");
-  // Pass 1: the class sums of Y, over a fixed set of chunks summed in order afterwards, so the
-  // result does not depend on the thread count. The box RGB is not stored: pass 2 computes it
-  // again from the day image (cheaper than writing it out and reading it back).
-  constexpr int kChunks = 64;
-  std::vector<std::array<double, 2 * kLabelCount>> part(kChunks);
+// Pass 1 of reflectance_texture: per chunk ch of kTextureChunks (pixels [n·ch/64, n·(ch+1)/64)),
+// the sums of Y per class (in pixel order) and the pixel counts, into part[ch]. block(ch, first,
+// count) gives the linear sRGB pixels first..first+count-1 (3 floats each) of chunk ch: the
+// image itself, or a block that the linearisation has just written (linearize_with_texture_sums).
+// The box RGB is not stored: pass 2 computes it again from the linear image (cheaper than
+// writing it out and reading it back).
+constexpr int kTextureChunks = 64;
+// done(ch, first, end): called by the thread that sums chunk ch (its first pixel `first`) each
+// time its pixels up to `end` are summed (and written, when block writes them), end ascending.
+template <class Block, class Done>
+void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std::array<double, 2 * kLabelCount>* part,
+                        const Block& block, const Done& done) {
+  constexpr int kChunks = kTextureChunks;
   // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
   // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
   // side, pixel j of each in turn, so that their chains overlap. A class's running sum is held in
@@ -383,8 +395,6 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   static_assert(kChunks % kStreams == 0);
 #pragma omp parallel for schedule(static)
   for (int grp = 0; grp < kChunks / kStreams; ++grp) {
-    const uint16_t* lab = labels.data();
-    const float* day_px = day.data();
     struct Stream {
       size_t base = 0, len = 0, start = 0;  // chunk's first pixel, its length, current run's start (from base)
       int cur = 0;                          // current run's label
@@ -416,22 +426,57 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     double ys[kStreams][kBoxBlock];
     for (size_t b = 0; b < common; b += kBoxBlock) {
       const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, common - b));
-      for (int k = 0; k < kStreams; ++k) box_y_block(day_px + 3 * (st[k].base + b), nb, coef, ys[k]);
+      for (int k = 0; k < kStreams; ++k) box_y_block(block(grp * kStreams + k, st[k].base + b, nb), nb, coef, ys[k]);
       for (int j = 0; j < nb; ++j) {
 #pragma GCC unroll 4
         for (int k = 0; k < kStreams; ++k) step(st[k], b + j, ys[k][j]);
       }
+      for (int k = 0; k < kStreams; ++k) done(grp * kStreams + k, st[k].base, st[k].base + b + nb);
     }
-    for (Stream& S : st) {  // the chunks' last pixels beyond the common length (at most one)
+    for (int k = 0; k < kStreams; ++k) {  // the chunks' last pixels beyond the common length (at most one)
+      Stream& S = st[k];
       for (size_t j = common; j < S.len; ++j) {
         double y;
-        box_y_block(day_px + 3 * (S.base + j), 1, coef, &y);
+        box_y_block(block(grp * kStreams + k, S.base + j, 1), 1, coef, &y);
         step(S, j, y);
       }
       S.ps[S.cur] = S.acc;
       S.ps[kLabelCount + S.cur] += static_cast<double>(S.len - S.start);
+      done(grp * kStreams + k, S.base, S.base + S.len);
     }
   }
+}
+}  // namespace
+
+void texture_max_isa(int isa) { max_isa = isa; }
+
+ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
+  return reflectance_texture_with(day, labels, p, carried, nullptr);
+}
+
+ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
+                                ImageF* work_luma, const TextureSums* sums) {
+  if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
+    fail("reflectance_texture: the working luminance must be half the frame's size");
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const BoxCoef coef = box_coef();
+  // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
+  // (after clipping negatives, which only out-of-gamut colours have).
+  const size_t n = day.pixel_count();
+  ImageF f(day.width(), day.height(), 3, uninitialized, "W.lm-1");
+  // Pass 1: the class sums of Y, over a fixed set of chunks summed in order afterwards, so the
+  // result does not depend on the thread count (texture_class_sums); made by the linearisation's
+  // pass when it was given the labels (linearize_with_texture_sums).
+  std::vector<std::array<double, 2 * kLabelCount>> computed;
+  const bool have = sums && sums->image == day.data() && sums->labels == labels.data() &&
+                    sums->part.size() == static_cast<size_t>(kTextureChunks) && day.channels() == 3 &&
+                    labels.pixel_count() == n;
+  if (!have) {
+    computed.resize(kTextureChunks);
+    texture_class_sums(labels.data(), n, coef, computed.data(),
+                       [&](int, size_t first, int) { return day.data() + 3 * first; }, [](int, size_t, size_t) {});
+  }
+  const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
   for (const auto& ps : part)
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
@@ -446,11 +491,11 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
   // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped.
 #pragma omp parallel for schedule(static)
-  for (int ch = 0; ch < kChunks; ++ch) {
+  for (int ch = 0; ch < kTextureChunks; ++ch) {
     const uint16_t* lab = labels.data();
     const float* day_px = day.data();
     float* f_px = f.data();
-    const size_t i0 = n * ch / kChunks, i1 = n * (ch + 1) / kChunks;
+    const size_t i0 = n * ch / kTextureChunks, i1 = n * (ch + 1) / kTextureChunks;
     for (size_t i = i0; i < i1;) {
       const int id = lab[i];
       const size_t e = run_end(lab, i, i1);
@@ -475,6 +520,61 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     }
   }
   return f;
+}
+
+ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
+                                   TextureSums* sums, int work_max_width) {
+  sums->part.clear();
+  sums->image = nullptr;
+  sums->labels = nullptr;
+  sums->work_luma = ImageF();
+  if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
+    return linearize(day, info);
+  ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
+  const float* lut = srgb_decode_table().data();
+  const bool decode = !info.is_float;
+  const Decode8* d8 = decode && info.bits_per_sample == 8 ? &decode8() : nullptr;
+  // Each block of pixels linearised (linearize()'s per-sample definition) right before pass 1
+  // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
+  std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
+  sums->part.resize(kTextureChunks);
+  // The lane stage's working luminance (exact halving): each working row made by the thread of
+  // the chunk that holds both its day rows, as soon as the chunk's linearised pixels reach the
+  // row pair's end (read back from cache); the rows whose pair straddles two chunks afterwards.
+  // Each row is work_luma_row of the same linear rows either way.
+  const WorkSize ws = work_size(day.width(), day.height(), work_max_width);
+  const bool luma = work_max_width > 0 && ws.halving;
+  if (luma) sums->work_luma = ImageF(ws.width, ws.height, 1, uninitialized);
+  const size_t pair = 2 * static_cast<size_t>(day.width());
+  std::vector<int> next_row(kTextureChunks, -1);  // per chunk, its next row to make
+  texture_class_sums(
+      labels.data(), day.pixel_count(), box_coef(), sums->part.data(),
+      [&](int ch, size_t first, int count) {
+        linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first),
+                              decode, d8, lut, &bad[ch]);
+        return static_cast<const float*>(out.data() + 3 * first);
+      },
+      [&](int ch, size_t first, size_t end) {
+        if (!luma) return;
+        int& y = next_row[ch];
+        if (y < 0) y = static_cast<int>((first + pair - 1) / pair);
+        for (; y < ws.height && (y + 1) * pair <= end; ++y) work_luma_row(out, y, sums->work_luma.row(y));
+      });
+  const int64_t first_bad = *std::min_element(bad.begin(), bad.end());
+  if (first_bad != INT64_MAX) fail_damaged_pixel(day, info, first_bad);
+  if (luma) {
+    const size_t n = day.pixel_count();
+    for (int y = 0; y < ws.height; ++y) {
+      const size_t p0 = y * pair;
+      size_t ch = p0 * kTextureChunks / n;  // the chunk holding the pair's first pixel
+      while (ch > 0 && n * ch / kTextureChunks > p0) --ch;
+      while (ch + 1 < static_cast<size_t>(kTextureChunks) && n * (ch + 1) / kTextureChunks <= p0) ++ch;
+      if (p0 + pair > n * (ch + 1) / kTextureChunks) work_luma_row(out, y, sums->work_luma.row(y));
+    }
+  }
+  sums->image = out.data();
+  sums->labels = labels.data();
+  return out;
 }
 
 std::array<double, 3> illuminant_tint(double cct_K) {

@@ -13,7 +13,8 @@ void texture_max_isa(int isa);
 // reflectance_texture, and with work_luma (a ww x wh image for a 2ww x 2wh frame: the exact
 // halving of scene/lanes_detail.h) also the working luminance, work_luma_row of every row,
 // made in the texture's second pass while each chunk's day pixels are in cache (night_scene).
+// `sums`: pass 1 made by linearize_with_texture_sums (taken when made for day and labels).
 ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
-                                ClassMeans* carried, ImageF* work_luma);
+                                ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
 
 }  // namespace photosite::scene

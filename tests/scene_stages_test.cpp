@@ -7,12 +7,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string>
 #include <utility>
 #include <vector>
 #include <opencv2/imgproc.hpp>
 #include <fstream>
 #include <sstream>
 #include <omp.h>
+#include <fmt/format.h>
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
@@ -45,6 +47,15 @@ struct XorShift {
     return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
   }
 };
+// Runs of 1 to 13 pixels of road, building, sky, car and vegetation along each row.
+void random_label_runs(ImageU16& ids, XorShift& rnd) {
+  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
+  for (int y = 0; y < ids.height(); ++y)
+    for (int x = 0; x < ids.width();) {
+      const int len = 1 + static_cast<int>(rnd() * 13), id = classes[static_cast<int>(rnd() * 5)];
+      for (int e = std::min(ids.width(), x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
+    }
+}
 bool all_finite_nonneg(const ImageF& img) {
   for (size_t i = 0; i < img.size(); ++i)
     if (!std::isfinite(img[i]) || img[i] < 0) return false;
@@ -63,12 +74,7 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   ImageF day(W, H, 3, 0.f);
   ImageU16 ids(W, H, 1, 0);
   XorShift rnd{12345};
-  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W;) {
-      const int len = 1 + static_cast<int>(rnd() * 13), id = classes[static_cast<int>(rnd() * 5)];
-      for (int e = std::min(W, x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
-    }
+  random_label_runs(ids, rnd);
   for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
   for (size_t i = 0; i < ids.size(); ++i)  // vegetation black: its flat grey
     if (ids[i] == int(Label::Vegetation)) day[3 * i] = day[3 * i + 1] = day[3 * i + 2] = 0.f;
@@ -138,6 +144,79 @@ TEST(SceneDarken, Linearize8BitIsItsDefinitionBitForBit) {
     EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << "isa " << isa;
   }
   texture_max_isa(2);
+}
+
+// linearize_with_texture_sums (the linearisation and the texture's pass 1 in one pass, each
+// block summed right after it is linearised) against linearize() and the pass's definition per
+// pixel: the same linear image bit for bit, per chunk of the 64 the sums of Y (box RGB
+// v = max(0, M·s), Y = Σ K_r·v_r in double, added in pixel order) and the counts, and
+// reflectance_texture given the sums equal to reflectance_texture summing itself. 8-bit codes
+// with values off the codes, negatives and values above white; 16-bit; linear float; on an odd
+// size (chunks, blocks and rows not aligned), 1 and 2 threads, each instruction-set path. A
+// damaged pixel is refused at the same pixel as by linearize().
+TEST(SceneDarken, LinearizeWithTextureSumsIsLinearizeThenThePassDefinition) {
+  const int W = 203, H = 37;
+  ImageU16 ids(W, H, 1, 0);
+  XorShift rnd{777};
+  random_label_runs(ids, rnd);
+  const ScenePreset& p = preset();
+  const auto& M = spectrum::linear_srgb_to_box();
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const size_t n = ids.pixel_count();
+  const int saved = omp_get_max_threads();
+  for (int bits : {8, 16, 32}) {
+    ImageF day(W, H, 3, 0.f);
+    ImageFileInfo info;
+    info.bits_per_sample = bits;
+    info.is_float = bits == 32;
+    for (size_t i = 0; i < day.size(); ++i)
+      day[i] = bits == 8 ? static_cast<float>(static_cast<int>(rnd() * 256)) * (1.f / 255) : static_cast<float>(rnd() * 1.2 - 0.05);
+    const size_t odd[] = {7, 40, 41, 500, 1000, 1023, 2047, day.size() - 1};
+    const float vals[] = {0.5004f, -0.25f, 1.5f, 1e-7f, 0.99999f, 3.f, -0.f, 0.25f};
+    for (size_t k = 0; k < 8; ++k) day[odd[k]] = vals[k];
+    for (int isa : {2, 1, 0})
+      for (int threads : {1, 2}) {
+        texture_max_isa(isa);
+        omp_set_num_threads(threads);
+        const ImageF want_lin = linearize(day, info);
+        const ImageF want_tex = reflectance_texture(want_lin, ids, p);
+        TextureSums sums;
+        const ImageF lin = linearize_with_texture_sums(day, info, ids, &sums);
+        const std::string where = fmt::format("{} bits, isa {}, {} threads", bits, isa, threads);
+        ASSERT_EQ(lin.size(), want_lin.size());
+        EXPECT_EQ(0, std::memcmp(lin.data(), want_lin.data(), lin.size() * sizeof(float))) << where;
+        ASSERT_EQ(sums.part.size(), 64u) << where;
+        EXPECT_EQ(sums.image, lin.data());
+        EXPECT_EQ(sums.labels, ids.data());
+        for (int ch = 0; ch < 64; ++ch) {
+          double ps[kLabelCount] = {}, pc[kLabelCount] = {};
+          for (size_t i = n * ch / 64; i < n * (ch + 1) / 64; ++i) {
+            double v[3];
+            for (int r = 0; r < 3; ++r)
+              v[r] = std::max(0.0, M[r][0] * want_lin[3 * i] + M[r][1] * want_lin[3 * i + 1] + M[r][2] * want_lin[3 * i + 2]);
+            ps[ids[i]] += ((0.0 + K[0] * v[0]) + K[1] * v[1]) + K[2] * v[2];
+            pc[ids[i]] += 1;
+          }
+          EXPECT_EQ(0, std::memcmp(ps, sums.part[ch].data(), sizeof ps)) << where << ", chunk " << ch;
+          EXPECT_EQ(0, std::memcmp(pc, sums.part[ch].data() + kLabelCount, sizeof pc)) << where << ", chunk " << ch;
+        }
+        const ImageF tex = reflectance_texture_with(lin, ids, p, nullptr, nullptr, &sums);
+        EXPECT_EQ(0, std::memcmp(tex.data(), want_tex.data(), tex.size() * sizeof(float))) << where;
+      }
+    // A damaged pixel: refused as linearize() refuses it (the first in reading order).
+    if (bits == 32) {
+      day[3 * 4000 + 1] = NAN;
+      day[3 * 5000] = INFINITY;
+      std::string want_msg, got_msg;
+      try { linearize(day, info); } catch (const std::exception& e) { want_msg = e.what(); }
+      TextureSums sums;
+      try { linearize_with_texture_sums(day, info, ids, &sums); } catch (const std::exception& e) { got_msg = e.what(); }
+      EXPECT_FALSE(want_msg.empty());
+      EXPECT_EQ(got_msg, want_msg);
+    }
+  }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
 }
 
 // run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
@@ -388,6 +467,18 @@ TEST(SceneGeometry, WorkLumaMadeInTheTexturePassIsMakeWorkImages) {
           << W << "x" << H << ", " << threads << " threads, isa " << isa;
       EXPECT_EQ(got.labels.vec(), want.labels.vec());
       EXPECT_EQ(got.scale, want.scale);
+      // Made in the linearisation's pass instead (linearize_with_texture_sums: the rows whose
+      // pair lies in one group of chunks there, the others after it; groups here do not fall on
+      // row pairs): make_work_images of the linear image.
+      ImageFileInfo info;
+      info.is_float = true;
+      info.bits_per_sample = 32;
+      TextureSums sums;
+      const ImageF lin = linearize_with_texture_sums(day, info, ids, &sums, W / 2);
+      const WorkImages want_lin = make_work_images(lin, ids, W / 2);
+      ASSERT_TRUE(sums.work_luma.same_shape(ws.width, ws.height));
+      EXPECT_EQ(0, std::memcmp(sums.work_luma.data(), want_lin.luma.data(), want_lin.luma.size() * sizeof(float)))
+          << W << "x" << H << ", " << threads << " threads, isa " << isa << ", in the linearisation";
     }
   }
   work_luma_max_isa(2);
@@ -750,6 +841,71 @@ TEST(SceneChain, IndependentOfThreadCount) {
   EXPECT_EQ(a.radiance.vec(), b.radiance.vec());
   EXPECT_EQ(a.depth.vec(), b.depth.vec());
   EXPECT_EQ(a.vp.x, b.vp.x);
+}
+
+// night_scene's depth stage runs its two halves side by side where there are two threads
+// (façades and metric depth; coarse depth, the frame-size lane mask and the ego low beam): at 1
+// and 2 threads its outputs are the stage functions called one after the other on the scene's
+// own geometry and lane mask, bit for bit.
+TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  const ScenePreset& p = preset();
+  const int before = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const NightScene ns = night_scene(s.day_linear_srgb, s.labels, p, 5);
+    omp_set_num_threads(1);
+    const int W = s.day_linear_srgb.width(), H = s.day_linear_srgb.height();
+    const BuildingFacades fac = building_facades(s.labels.ids, ns.geometry, p.max_depth_m);
+    const ImageF depth = metric_depth(s.labels, ns.geometry, p.max_depth_m, &fac);
+    const ImageF coarse = coarse_depth(W, H, ns.vp.x, ns.vp.y);
+    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, W, H);
+    const ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);
+    EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
+    EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";
+    EXPECT_EQ(ns.beam_lux.vec(), beam.vec()) << threads << " threads";
+  }
+  omp_set_num_threads(before);
+}
+
+// night_scene given the linearisation's texture sums and working luminance
+// (linearize_with_texture_sums; the working width set to half the frame's, the exact halving)
+// runs the texture's second pass beside the lane, edge, line and vanishing-point stages: at 1
+// and 2 threads every output is that of night_scene on the same linear image without them.
+TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
+  SyntheticOptions o;
+  SyntheticScene s = make_synthetic_road(o);
+  ScenePreset p = preset();
+  p.work_max_width = o.width / 2;
+  ImageFileInfo info;
+  info.is_float = true;
+  info.bits_per_sample = 32;
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ImageF lin0 = linearize(s.day_linear_srgb, info);
+  const NightScene want = night_scene(lin0, s.labels, p, 5, true);
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    TextureSums sums;
+    const ImageF lin = linearize_with_texture_sums(s.day_linear_srgb, info, s.labels.ids, &sums, p.work_max_width);
+    ASSERT_FALSE(sums.work_luma.empty());
+    const NightScene got = night_scene(lin, s.labels, p, 5, true, nullptr, &sums);
+    EXPECT_EQ(got.radiance.vec(), want.radiance.vec()) << threads << " threads";
+    EXPECT_EQ(got.darkened.vec(), want.darkened.vec()) << threads << " threads";
+    EXPECT_EQ(got.lights.vec(), want.lights.vec()) << threads << " threads";
+    EXPECT_EQ(got.depth.vec(), want.depth.vec()) << threads << " threads";
+    EXPECT_EQ(got.beam_lux.vec(), want.beam_lux.vec()) << threads << " threads";
+    EXPECT_EQ(got.lanes_work.vec(), want.lanes_work.vec()) << threads << " threads";
+    EXPECT_EQ(got.edges_work.vec(), want.edges_work.vec()) << threads << " threads";
+    EXPECT_EQ(got.lines_work.size(), want.lines_work.size()) << threads << " threads";
+    EXPECT_EQ(got.vp.x, want.vp.x);
+    EXPECT_EQ(got.vp.y, want.vp.y);
+    std::vector<std::string> stages;
+    for (const StageTiming& st : got.timings) stages.push_back(st.stage);
+    EXPECT_EQ(stages, (std::vector<std::string>{"darken", "lanes", "edges", "lines", "vanishing", "depth", "lights", "compose"}));
+  }
+  omp_set_num_threads(before);
 }
 
 // The warm/cool split of lit windows comes from the scene preset (lamps.window_warm_share,

@@ -96,10 +96,13 @@ void run(const Opts& o) {
     const bool keep = r > 0;
     const double cl0 = cpu_ms();
     auto t0 = clock::now();
-    const ImageF lin = scene::linearize(day, info);
+    // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
+    // reflectance texture's class sums (its time is in "linearize", no longer in "darken").
+    scene::TextureSums sums;
+    const ImageF lin = scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
-    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1);
+    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums);
     auto t2 = clock::now();
     const double cs0 = cpu_ms();
     // The sensor as `batch` runs it: expose(), the photon stage (with the lens glare) fused row

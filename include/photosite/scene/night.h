@@ -28,6 +28,26 @@ struct StreetLighting;  // scene/street.h
 ImageF linearize(const ImageF& day, const ImageFileInfo& info);
 // The 4097-entry sRGB-decode table linearize() interpolates (shared with the Vulkan kernel).
 const std::vector<float>& srgb_decode_table();
+// Pass 1 of reflectance_texture (its class sums of Y and pixel counts, per fixed chunk of the
+// frame) made by linearize_with_texture_sums in the same pass as the linearisation: each block
+// of pixels is summed right after it is linearised, from cache, instead of in a second pass over
+// the 24 MB linear image. `image` and `labels` name what the sums are of: reflectance_texture
+// takes them only for that image and label map (else it sums itself). The same additions in the
+// same order either way, so the same texture to the bit.
+struct TextureSums {
+  std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
+  const float* image = nullptr;
+  const uint16_t* labels = nullptr;
+  // The lane stage's working luminance when the working size (work_max_width) halves the frame
+  // exactly (else empty), made in the same pass from cache: night_scene then runs the texture's
+  // second pass beside the lane, edge, line and vanishing-point stages.
+  ImageF work_luma;
+};
+// linearize(), and with it the texture's class sums over `labels` (the frame's size) into
+// `sums`, and the working luminance for work_max_width (the scene preset's; 0: none); other
+// label sizes or channel counts than RGB: linearize() alone (sums left empty).
+ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
+                                   TextureSums* sums, int work_max_width = 0);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
@@ -301,8 +321,10 @@ struct PixelTail {
 // `pose` set for this frame; updated here. With it the frame keeps the sequence's reflectance
 // normalisation, camera pitch and street luminaires (issue 14 §3); null: a single frame, inferred
 // from what it shows alone.
+// `sums`: linearize_with_texture_sums' class sums of this frame (else the texture makes them).
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened = false, SequenceState* sequence = nullptr);
+                       uint64_t seed, bool keep_darkened = false, SequenceState* sequence = nullptr,
+                       const TextureSums* sums = nullptr);
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {
