@@ -34,7 +34,7 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
   // On the CPU runner.night_scene is scene::night_scene itself (core/backend.cpp).
   c.scene = cpu ? scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), nullptr, &sums)
                 : scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
-  sums = scene::TextureSums();  // its working luminance (2 MB) is not held through the sensor stages
+  sums = scene::TextureSums();  // not held through the sensor stages
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
   if (inspect) {

@@ -380,11 +380,9 @@ constexpr int kBoxBlock = 256;
 // The box RGB is not stored: pass 2 computes it again from the linear image (cheaper than
 // writing it out and reading it back).
 constexpr int kTextureChunks = 64;
-// done(ch, first, end): called by the thread that sums chunk ch (its first pixel `first`) each
-// time its pixels up to `end` are summed (and written, when block writes them), end ascending.
-template <class Block, class Done>
+template <class Block>
 void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std::array<double, 2 * kLabelCount>* part,
-                        const Block& block, const Done& done) {
+                        const Block& block) {
   constexpr int kChunks = kTextureChunks;
   // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
   // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
@@ -431,7 +429,6 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
 #pragma GCC unroll 4
         for (int k = 0; k < kStreams; ++k) step(st[k], b + j, ys[k][j]);
       }
-      for (int k = 0; k < kStreams; ++k) done(grp * kStreams + k, st[k].base, st[k].base + b + nb);
     }
     for (int k = 0; k < kStreams; ++k) {  // the chunks' last pixels beyond the common length (at most one)
       Stream& S = st[k];
@@ -442,7 +439,6 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
       }
       S.ps[S.cur] = S.acc;
       S.ps[kLabelCount + S.cur] += static_cast<double>(S.len - S.start);
-      done(grp * kStreams + k, S.base, S.base + S.len);
     }
   }
 }
@@ -474,7 +470,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   if (!have) {
     computed.resize(kTextureChunks);
     texture_class_sums(labels.data(), n, coef, computed.data(),
-                       [&](int, size_t first, int) { return day.data() + 3 * first; }, [](int, size_t, size_t) {});
+                       [&](int, size_t first, int) { return day.data() + 3 * first; });
   }
   const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -523,11 +519,10 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
 }
 
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums, int work_max_width) {
+                                   TextureSums* sums) {
   sums->part.clear();
   sums->image = nullptr;
   sums->labels = nullptr;
-  sums->work_luma = ImageF();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
     return linearize(day, info);
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
@@ -538,40 +533,13 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
-  // The lane stage's working luminance (exact halving): each working row made by the thread of
-  // the chunk that holds both its day rows, as soon as the chunk's linearised pixels reach the
-  // row pair's end (read back from cache); the rows whose pair straddles two chunks afterwards.
-  // Each row is work_luma_row of the same linear rows either way.
-  const WorkSize ws = work_size(day.width(), day.height(), work_max_width);
-  const bool luma = work_max_width > 0 && ws.halving;
-  if (luma) sums->work_luma = ImageF(ws.width, ws.height, 1, uninitialized);
-  const size_t pair = 2 * static_cast<size_t>(day.width());
-  std::vector<int> next_row(kTextureChunks, -1);  // per chunk, its next row to make
-  texture_class_sums(
-      labels.data(), day.pixel_count(), box_coef(), sums->part.data(),
-      [&](int ch, size_t first, int count) {
-        linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first),
-                              decode, d8, lut, &bad[ch]);
-        return static_cast<const float*>(out.data() + 3 * first);
-      },
-      [&](int ch, size_t first, size_t end) {
-        if (!luma) return;
-        int& y = next_row[ch];
-        if (y < 0) y = static_cast<int>((first + pair - 1) / pair);
-        for (; y < ws.height && (y + 1) * pair <= end; ++y) work_luma_row(out, y, sums->work_luma.row(y));
-      });
+  texture_class_sums(labels.data(), day.pixel_count(), box_coef(), sums->part.data(), [&](int ch, size_t first, int count) {
+    linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first), decode,
+                          d8, lut, &bad[ch]);
+    return static_cast<const float*>(out.data() + 3 * first);
+  });
   const int64_t first_bad = *std::min_element(bad.begin(), bad.end());
   if (first_bad != INT64_MAX) fail_damaged_pixel(day, info, first_bad);
-  if (luma) {
-    const size_t n = day.pixel_count();
-    for (int y = 0; y < ws.height; ++y) {
-      const size_t p0 = y * pair;
-      size_t ch = p0 * kTextureChunks / n;  // the chunk holding the pair's first pixel
-      while (ch > 0 && n * ch / kTextureChunks > p0) --ch;
-      while (ch + 1 < static_cast<size_t>(kTextureChunks) && n * (ch + 1) / kTextureChunks <= p0) ++ch;
-      if (p0 + pair > n * (ch + 1) / kTextureChunks) work_luma_row(out, y, sums->work_luma.row(y));
-    }
-  }
   sums->image = out.data();
   sums->labels = labels.data();
   return out;

@@ -109,72 +109,29 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   };
   const int W = day.width(), H = day.height();
   // In the exact-halving case (a 2048-wide frame to the 1024 working width) the lane stage's
-  // working luminance is made while the day pixels are in cache instead of in a pass of its own
-  // over the frame: by the linearisation's pass when it made the texture's class sums
-  // (linearize_with_texture_sums: sums->work_luma), else inside the texture's second pass (its
-  // time then in "darken"). With it made before, the texture's second pass (read by the light
-  // map and compose only) runs beside the lane, edge, line and vanishing-point stages (whose
-  // Hough transform is serial), one half per thread where there are two; each half's loops then
-  // run on its own thread (nested regions get one thread: OpenMP's default), and every stage
-  // gives the same result for any thread count, so the same bits. Each half times its stages by
-  // the wall clock and, side by side, by its thread's CPU clock (their wall times then overlap).
+  // working luminance is made inside the texture's second pass, while each chunk's day pixels
+  // are in cache, instead of in a pass of its own over the frame (its time is in "darken").
+  // `sums`: the texture's pass 1, when the linearisation made it (linearize_with_texture_sums).
   const WorkSize ws = work_size(W, H, p.work_max_width);
-  const bool luma_made = ws.halving && sums && sums->image == day.data() &&
-                         sums->work_luma.same_shape(ws.width, ws.height) && sums->work_luma.channels() == 1;
-  ImageF work_luma = luma_made ? sums->work_luma : ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
-  const int halves_threads = luma_made ? std::min(2, omp_get_max_threads()) : 1;
-  struct HalfClock {
-    bool thread_clock;
-    clock::time_point t = clock::now();
-    double c = cpu();
-    std::vector<StageTiming> out;
-    double cpu() const {
-      if (!thread_clock) return process_cpu_ms();
-      timespec ts;
-      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-      return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-    }
-    void lap(const char* name) {
-      const auto now = clock::now();
-      const double cn = cpu();
-      out.push_back({name, std::chrono::duration<double, std::milli>(now - t).count(), cn - c});
-      t = now;
-      c = cn;
-    }
-  };
-  ImageF texture;
-  WorkImages w;
-  VanishingPoint vp;
-  HalfClock texture_clock{halves_threads > 1}, lanes_clock{halves_threads > 1};
-  auto texture_half = [&] {
-    texture_clock = HalfClock{halves_threads > 1};
-    texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
-                                       ws.halving && !luma_made ? &work_luma : nullptr, sums);
-    if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
-    texture_clock.lap("darken");
-  };
-  auto lanes_half = [&] {
-    lanes_clock = HalfClock{halves_threads > 1};
-    w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
-    s.work_scale = w.scale;
-    s.lanes_work = lane_markings(w.luma, w.labels, p);
-    lanes_clock.lap("lanes");
-    s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
-    lanes_clock.lap("edges");
-    s.lines_work = detect_lines(s.edges_work, p);
-    lanes_clock.lap("lines");
-    vp = vanishing_point(s.lines_work, w.labels, p);
-    // Back to full-resolution pixel coordinates (pixel centres).
-    vp.x = (vp.x + 0.5) / w.scale - 0.5;
-    vp.y = (vp.y + 0.5) / w.scale - 0.5;
-    s.vp = vp;
-    lanes_clock.lap("vanishing");
-  };
-  side_by_side(halves_threads, texture_half, lanes_half);  // alone, the lanes read the luminance the texture makes
-  for (const HalfClock* h : {&texture_clock, &lanes_clock})
-    s.timings.insert(s.timings.end(), h->out.begin(), h->out.end());
-  t = clock::now();
-  c = process_cpu_ms();
+  ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
+  const ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
+                                                  ws.halving ? &work_luma : nullptr, sums);
+  if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
+  lap("darken");
+  WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
+  s.work_scale = w.scale;
+  s.lanes_work = lane_markings(w.luma, w.labels, p);
+  lap("lanes");
+  s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
+  lap("edges");
+  s.lines_work = detect_lines(s.edges_work, p);
+  lap("lines");
+  VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
+  // Back to full-resolution pixel coordinates (pixel centres).
+  vp.x = (vp.x + 0.5) / w.scale - 0.5;
+  vp.y = (vp.y + 0.5) / w.scale - 0.5;
+  s.vp = vp;
+  lap("vanishing");
   s.geometry = camera_geometry(p.rig.name.empty() ? rig_for_image(W, H) : p.rig, W, H, vp);
   if (seq) {  // the sequence keeps its first frame's pitch (SequenceState::pitch_rad)
     if (std::isnan(seq->pitch_rad)) seq->pitch_rad = s.geometry.pitch_rad;

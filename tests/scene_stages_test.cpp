@@ -467,18 +467,6 @@ TEST(SceneGeometry, WorkLumaMadeInTheTexturePassIsMakeWorkImages) {
           << W << "x" << H << ", " << threads << " threads, isa " << isa;
       EXPECT_EQ(got.labels.vec(), want.labels.vec());
       EXPECT_EQ(got.scale, want.scale);
-      // Made in the linearisation's pass instead (linearize_with_texture_sums: the rows whose
-      // pair lies in one group of chunks there, the others after it; groups here do not fall on
-      // row pairs): make_work_images of the linear image.
-      ImageFileInfo info;
-      info.is_float = true;
-      info.bits_per_sample = 32;
-      TextureSums sums;
-      const ImageF lin = linearize_with_texture_sums(day, info, ids, &sums, W / 2);
-      const WorkImages want_lin = make_work_images(lin, ids, W / 2);
-      ASSERT_TRUE(sums.work_luma.same_shape(ws.width, ws.height));
-      EXPECT_EQ(0, std::memcmp(sums.work_luma.data(), want_lin.luma.data(), want_lin.luma.size() * sizeof(float)))
-          << W << "x" << H << ", " << threads << " threads, isa " << isa << ", in the linearisation";
     }
   }
   work_luma_max_isa(2);
@@ -869,10 +857,10 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   omp_set_num_threads(before);
 }
 
-// night_scene given the linearisation's texture sums and working luminance
-// (linearize_with_texture_sums; the working width set to half the frame's, the exact halving)
-// runs the texture's second pass beside the lane, edge, line and vanishing-point stages: at 1
-// and 2 threads every output is that of night_scene on the same linear image without them.
+// night_scene given the linearisation's texture sums (linearize_with_texture_sums; the working
+// width set to half the frame's, the exact halving, whose luminance the texture's second pass
+// makes): at 1 and 2 threads every output is that of night_scene on the same linear image
+// without them.
 TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
   SyntheticOptions o;
   SyntheticScene s = make_synthetic_road(o);
@@ -888,8 +876,8 @@ TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
     TextureSums sums;
-    const ImageF lin = linearize_with_texture_sums(s.day_linear_srgb, info, s.labels.ids, &sums, p.work_max_width);
-    ASSERT_FALSE(sums.work_luma.empty());
+    const ImageF lin = linearize_with_texture_sums(s.day_linear_srgb, info, s.labels.ids, &sums);
+    ASSERT_FALSE(sums.part.empty());
     const NightScene got = night_scene(lin, s.labels, p, 5, true, nullptr, &sums);
     EXPECT_EQ(got.radiance.vec(), want.radiance.vec()) << threads << " threads";
     EXPECT_EQ(got.darkened.vec(), want.darkened.vec()) << threads << " threads";

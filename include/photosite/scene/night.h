@@ -38,16 +38,11 @@ struct TextureSums {
   std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
   const float* image = nullptr;
   const uint16_t* labels = nullptr;
-  // The lane stage's working luminance when the working size (work_max_width) halves the frame
-  // exactly (else empty), made in the same pass from cache: night_scene then runs the texture's
-  // second pass beside the lane, edge, line and vanishing-point stages.
-  ImageF work_luma;
 };
 // linearize(), and with it the texture's class sums over `labels` (the frame's size) into
-// `sums`, and the working luminance for work_max_width (the scene preset's; 0: none); other
-// label sizes or channel counts than RGB: linearize() alone (sums left empty).
+// `sums`; other label sizes or channel counts than RGB: linearize() alone (sums left empty).
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums, int work_max_width = 0);
+                                   TextureSums* sums);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
