@@ -193,7 +193,9 @@ void run(const Opts& o) {
   camera_variants.push_back({"photosite camera ISP sharpen 0.5", {}});
   camera_variants.back().options.sharpen = 0.5;
   camera_variants.push_back({"photosite camera ISP full scale", {}});  // full_scale_dn set per camera below
-  // --methods names methods of this list only: a misspelt name is an error, not a silent skip.
+  // --methods, read once: the names it lists, each one of the methods above (a misspelt name is
+  // an error, not a silent skip); empty: every method.
+  std::vector<std::string> chosen;
   if (!o.methods.empty()) {
     std::vector<std::string> known;
     for (const Variant& v : variants) known.push_back(v.method);
@@ -203,9 +205,9 @@ void run(const Opts& o) {
     std::string_view rest = o.methods;
     while (true) {
       const size_t comma = rest.find(',');
-      const std::string name(rest.substr(0, comma));
-      if (std::find(known.begin(), known.end(), name) == known.end())
-        fail(fmt::format("--methods: unknown method '{}'; the methods are: {}", name, fmt::join(known, ", ")));
+      chosen.emplace_back(rest.substr(0, comma));
+      if (std::find(known.begin(), known.end(), chosen.back()) == known.end())
+        fail(fmt::format("--methods: unknown method '{}'; the methods are: {}", chosen.back(), fmt::join(known, ", ")));
       if (comma == std::string_view::npos) break;
       rest.remove_prefix(comma + 1);
     }
@@ -214,9 +216,7 @@ void run(const Opts& o) {
   if (prev.empty()) prev = fs::temp_directory_path() / fmt::format("photosite-realism-{}", ::getpid());
   fs::create_directories(prev);
   auto wanted = [&](const std::string& method) {
-    if (o.methods.empty()) return true;
-    std::string list = "," + o.methods + ",";
-    return list.find("," + method + ",") != std::string::npos;
+    return chosen.empty() || std::find(chosen.begin(), chosen.end(), method) != chosen.end();
   };
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
   auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
