@@ -51,6 +51,13 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "sky, in the unlabelled mean only (the sky uses ambient.sky_luminance_cd_m2)", "[T1] lunar albedo"),
       num("reflectance.road", PHOTOSITE_AT(P, rho_road), "—", 1e-3, 1, "road, sidewalk, parking: E = π·L/ρ",
           "[T1] asphalt; NP §1 L/E"),
+      num("reflectance.diffuse_max", PHOTOSITE_AT(P, rho_diffuse_max), "—", 1e-3, 1,
+          "band reflectance bound of a texture pixel of a diffuse class (ground, buildings, vegetation, persons)",
+          "energy conservation of a passive Lambertian surface: ρ ≤ 1"),
+      num("reflectance.glint_max", PHOTOSITE_AT(P, rho_glint_max), "—", 1, 100,
+          "band reflectance bound of a texture pixel of a specular or retroreflective class (vehicles, signs, "
+          "traffic lights, poles, guard rails), the sky and unlabelled pixels",
+          "photosite choice (the texture's earlier single cap)"),
       table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
       num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
       num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
