@@ -45,7 +45,7 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "[T1] concrete; NP §4"),
       num("reflectance.human", PHOTOSITE_AT(P, rho_human), "—", 0, 1, "persons, riders", "[T1] skin"),
       num("reflectance.nature", PHOTOSITE_AT(P, rho_nature), "—", 0, 1, "vegetation, terrain",
-          "[T1] vegetation; NP §4"),
+          "NP §4 vegetation, visible (the thesis's [T1] 0.2 is broadband)"),
       num("reflectance.vehicle", PHOTOSITE_AT(P, rho_vehicle), "—", 0, 1, "vehicles", "[T1] steel"),
       num("reflectance.sky", PHOTOSITE_AT(P, rho_sky), "—", 0, 1,
           "sky, in the unlabelled mean only (the sky uses ambient.sky_luminance_cd_m2)", "[T1] lunar albedo"),

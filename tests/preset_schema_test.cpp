@@ -153,7 +153,8 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // values. Keys added since are appended to those files by hand with their bundled values
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
-// reflectance.diffuse_max, glint_max).
+// reflectance.diffuse_max, glint_max). Values changed since, by hand with the commit that changed them:
+// reflectance.nature 0.2 -> 0.08 (the visible reflectance of vegetation, NP §4).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))

@@ -158,7 +158,8 @@ TEST(SceneDarken, DiffuseClassesReflectAtMostAllTheLightGlintsMayExceedIt) {
     texture_max_isa(isa);
     const ImageF tex = reflectance_texture(day, ids, p);
     const double tol = 0x1p-23;
-    // Unbounded, both bright pixels would have Y = 0.2·45·n/(n − 1 + 45) ≈ 7.4 (n = 200 per class).
+    // Unbounded, the bright pixels would have Y = ρ·45·n/(n − 1 + 45) (n = 200 per class): 2.95 on the
+    // crown (ρ 0.08), 7.4 on the car (ρ 0.2).
     const double veg = Y(tex, bright[0], 3), car = Y(tex, bright[1], 3);
     EXPECT_LE(veg, p.rho_diffuse_max * (1 + tol)) << "isa " << isa;
     EXPECT_GE(veg, p.rho_diffuse_max * (1 - tol)) << "isa " << isa;  // held at the bound, not below it
