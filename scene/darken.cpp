@@ -206,6 +206,33 @@ double class_reflectance(int id, const ScenePreset& p) {
   }
 }
 
+double class_reflectance_max(int id, const ScenePreset& p) {
+  switch (static_cast<Label>(id)) {
+    // Specular or retroreflective surfaces: a mirror lobe (car paint's clear coat, glass, chrome,
+    // galvanised steel, a lamp's lens) or a retroreflector's cone sends more light toward the
+    // camera than a white Lambertian surface would, so a pixel may exceed band reflectance 1
+    // there (a glint), up to the preset's glint_max.
+    case Label::Car: case Label::Truck: case Label::Bus: case Label::Caravan: case Label::Trailer:
+    case Label::Train: case Label::Motorcycle: case Label::Bicycle:
+    case Label::TrafficSign: case Label::TrafficLight: case Label::Pole: case Label::PoleGroup:
+    case Label::GuardRail:
+      return p.rho_glint_max;
+    // Diffuse surfaces: a passive Lambertian reflector reflects at most the light it receives
+    // (energy conservation), ρ ≤ 1 at every wavelength and so in every band. A brighter day pixel
+    // under such a label is not the surface (kitti_000000: a sunlit façade seen through a
+    // labelled tree crown) and is held at diffuse_max.
+    case Label::Ground: case Label::Road: case Label::Sidewalk: case Label::Parking: case Label::RailTrack:
+    case Label::Building: case Label::Wall: case Label::Fence: case Label::Bridge: case Label::Tunnel:
+    case Label::Vegetation: case Label::Terrain: case Label::Person: case Label::Rider:
+      return p.rho_diffuse_max;
+    // The sky is no reflector (its texture is the day's relative luminance pattern, darken's
+    // glow scale), and unlabeled, static, dynamic, ego vehicle and border pixels may be any
+    // material: no reflectance bound applies; they keep the glint bound.
+    default:
+      return p.rho_glint_max;
+  }
+}
+
 namespace {
 // Box RGB v = M·s of a linear sRGB pixel s, negatives clipped (std::max(0.0, ·)), and its luminous
 // efficacy Y = Σ_r K_r·v_r, in double: per pixel the same operations in the same order on every
@@ -484,7 +511,12 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     scale[id] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
   }
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
-  const float cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));   // a pixel at most 5× its class
+  // Each band of f at most the class's band reflectance bound ρ_max (class_reflectance_max):
+  // f_k = ρ_max/ΣK is a surface reflecting ρ_max in band k (a grey of that reflectance has
+  // Y = Σ K_k f_k = ρ_max), so the luminance factor Y is at most ρ_max too.
+  float cap[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id)
+    cap[id] = static_cast<float>(class_reflectance_max(id, p) / (K[0] + K[1] + K[2]));
   // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped.
 #pragma omp parallel for schedule(static)
   for (int ch = 0; ch < kTextureChunks; ++ch) {
@@ -499,10 +531,10 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
       if (scale[id] > 0) {
         for (size_t b = i; b < e; b += kBoxBlock) {
           const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
-          box_scaled_block(day_px + 3 * b, nb, coef, scale[id], cap, f_px + 3 * b);
+          box_scaled_block(day_px + 3 * b, nb, coef, scale[id], cap[id], f_px + 3 * b);
         }
       } else {
-        std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap));
+        std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap[id]));
       }
       i = e;
     }

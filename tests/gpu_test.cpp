@@ -396,18 +396,27 @@ static scene::NightTail tail_on(std::shared_ptr<gpu::SceneStages> stages) {
   };
 }
 
+// Also with texture pixels at the per-class caps (scene::class_reflectance_max): every 7th day
+// pixel ×50, so diffuse classes (road, building, vegetation) sit at band reflectance 1 and
+// vehicles and signs at their glint bound (the texture is the CPU's on both paths; the kernel
+// multiplies it by the ambient illuminance, the same float product: bit-equal).
 TEST_F(Gpu, DarkenBitEqualToCpu) {
   scene::SyntheticOptions so;
   so.width = 321, so.height = 161, so.vp_x = 160, so.vp_y = 60;
   const auto road = scene::make_synthetic_road(so);
   const auto sp = scene::load_scene_preset("night-urban");
-  const ImageF tex = scene::reflectance_texture(road.day_linear_srgb, road.labels.ids, sp);
-  const ImageF cpu = scene::darken(tex, road.labels.ids, sp);
-  const ImageF dev = gpu::darken(*ctx, tex, road.labels.ids, sp);
-  ASSERT_EQ(cpu.size(), dev.size());
-  size_t differ = 0;
-  for (size_t i = 0; i < cpu.size(); ++i) differ += std::memcmp(&cpu[i], &dev[i], sizeof(float)) != 0;
-  EXPECT_EQ(differ, 0u);
+  ImageF bright = road.day_linear_srgb;
+  for (size_t i = 0; i < bright.pixel_count(); i += 7)
+    for (int k = 0; k < 3; ++k) bright[3 * i + k] *= 50.f;
+  for (const ImageF* day : std::initializer_list<const ImageF*>{&road.day_linear_srgb, &bright}) {
+    const ImageF tex = scene::reflectance_texture(*day, road.labels.ids, sp);
+    const ImageF cpu = scene::darken(tex, road.labels.ids, sp);
+    const ImageF dev = gpu::darken(*ctx, tex, road.labels.ids, sp);
+    ASSERT_EQ(cpu.size(), dev.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < cpu.size(); ++i) differ += std::memcmp(&cpu[i], &dev[i], sizeof(float)) != 0;
+    EXPECT_EQ(differ, 0u) << (day == &bright ? "capped texture" : "synthetic road");
+  }
 }
 
 // Linearization: the same table and float operations, bit-equal for 1 to 4 channels, integer

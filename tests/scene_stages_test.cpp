@@ -65,10 +65,12 @@ bool all_finite_nonneg(const ImageF& img) {
 
 // reflectance_texture's vectorised passes against its definition written out per pixel: box RGB
 // v = max(0, M·s) and Y = Σ K_r·v_r in double, class sums of Y over 64 fixed chunks of the
-// frame in pixel order, added chunk by chunk; texture = min(float(ρ/Ȳ)·float(v), cap), or the flat
-// grey where a class is black. Bit for bit, on an odd size (rows and runs not multiples of the
-// four- and eight-pixel blocks) with out-of-gamut negatives, values above white and a black
-// class, for 1 and 2 threads and each instruction-set path.
+// frame in pixel order, added chunk by chunk; texture = min(float(ρ/Ȳ)·float(v), cap_class) with
+// cap_class = float(class_reflectance_max / ΣK), or the flat grey where a class is black. Bit for
+// bit, on an odd size (rows and runs not multiples of the four- and eight-pixel blocks) with
+// out-of-gamut negatives, values above white (every 97th pixel ×200, so that the diffuse classes'
+// cap and the car's glint cap both bind: checked) and a black class, for 1 and 2 threads and each
+// instruction-set path.
 TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   const int W = 203, H = 37;
   ImageF day(W, H, 3, 0.f);
@@ -76,6 +78,8 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
   XorShift rnd{12345};
   random_label_runs(ids, rnd);
   for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
+  for (size_t i = 0; i < day.pixel_count(); i += 97)
+    for (int k = 0; k < 3; ++k) day[3 * i + k] *= 200.f;
   for (size_t i = 0; i < ids.size(); ++i)  // vegetation black: its flat grey
     if (ids[i] == int(Label::Vegetation)) day[3 * i] = day[3 * i + 1] = day[3 * i + 2] = 0.f;
   const ScenePreset& p = preset();
@@ -94,16 +98,25 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
     }
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += pc[id]; }
   }
-  const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2])), cap = static_cast<float>(5.0 / (K[0] + K[1] + K[2]));
+  const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));
   ImageF want(W, H, 3, 0.f);
+  size_t capped_diffuse = 0, capped_glint = 0;
   for (size_t i = 0; i < n; ++i) {
     const int id = ids[i];
     const double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
     const float s = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
-    for (int r = 0; r < 3; ++r)
+    const float cap = static_cast<float>(class_reflectance_max(id, p) / (K[0] + K[1] + K[2]));
+    for (int r = 0; r < 3; ++r) {
       want[3 * i + r] = s > 0 ? std::min(s * static_cast<float>(v[3 * i + r]), cap)
                               : std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap);
+      if (s > 0 && s * static_cast<float>(v[3 * i + r]) > cap) {
+        if (id == int(Label::Car)) ++capped_glint;
+        else if (id == int(Label::Road) || id == int(Label::Building)) ++capped_diffuse;
+      }
+    }
   }
+  EXPECT_GT(capped_diffuse, 0u);  // the data exercise both caps
+  EXPECT_GT(capped_glint, 0u);
   const int saved = omp_get_max_threads();
   for (int isa : {2, 1, 0})  // AVX-512, AVX2 and scalar loops (those the machine has)
     for (int threads : {1, 2}) {
@@ -115,6 +128,62 @@ TEST(SceneDarken, TextureIsItsPerPixelDefinitionBitForBit) {
     }
   texture_max_isa(2);
   omp_set_num_threads(saved);
+}
+
+// The texture's physical bound per class (class_reflectance_max): a vegetation pixel far brighter
+// than its class (a sunlit façade seen through a labelled crown, ×45 here) ends at band
+// reflectance diffuse_max = 1 in every band, so its luminance factor Y = Σ K_k f_k is at most 1,
+// while a car pixel as bright (a glint) keeps up to glint_max = 5; the other pixels of both
+// classes keep ρ·Y/Ȳ. Tolerance: the cap is one float rounding of ρ_max/ΣK (relative 2⁻²⁴) and Y
+// three double products and sums of floats (relative < 2⁻⁵⁰): 2⁻²³ relative covers both.
+TEST(SceneDarken, DiffuseClassesReflectAtMostAllTheLightGlintsMayExceedIt) {
+  const ScenePreset& p = preset();
+  ASSERT_EQ(p.rho_diffuse_max, 1.0);
+  ASSERT_GT(p.rho_glint_max, 1.0);
+  ASSERT_EQ(class_reflectance_max(int(Label::Vegetation), p), p.rho_diffuse_max);
+  ASSERT_EQ(class_reflectance_max(int(Label::Car), p), p.rho_glint_max);
+  const int W = 40, H = 10;
+  ImageF day(W, H, 3, 0.02f);  // linear sRGB grey: dark crown and dark car body
+  ImageU16 ids(W, H, 1, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) ids.at(x, y) = static_cast<uint16_t>(x < W / 2 ? int(Label::Vegetation) : int(Label::Car));
+  const int bright[] = {5, W / 2 + 5};  // the façade behind the crown; a glint on the car
+  for (int x : bright)
+    for (int k = 0; k < 3; ++k) day.at(x, 3, k) = 0.9f;
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  auto Y = [&](const ImageF& t, int x, int y) {
+    return K[0] * double(t.at(x, y, 0)) + K[1] * double(t.at(x, y, 1)) + K[2] * double(t.at(x, y, 2));
+  };
+  for (int isa : {2, 1, 0}) {
+    texture_max_isa(isa);
+    const ImageF tex = reflectance_texture(day, ids, p);
+    const double tol = 0x1p-23;
+    // Unbounded, the bright pixels would have Y = ρ·45·n/(n − 1 + 45) (n = 200 per class): 2.95 on the
+    // crown (ρ 0.08), 7.4 on the car (ρ 0.2).
+    const double veg = Y(tex, bright[0], 3), car = Y(tex, bright[1], 3);
+    EXPECT_LE(veg, p.rho_diffuse_max * (1 + tol)) << "isa " << isa;
+    EXPECT_GE(veg, p.rho_diffuse_max * (1 - tol)) << "isa " << isa;  // held at the bound, not below it
+    for (int k = 0; k < 3; ++k)
+      EXPECT_LE(double(tex.at(bright[0], 3, k)) * (K[0] + K[1] + K[2]), p.rho_diffuse_max * (1 + tol));
+    EXPECT_GT(car, 1.5 * p.rho_diffuse_max) << "isa " << isa;  // a glint exceeds a white Lambertian
+    EXPECT_LE(car, p.rho_glint_max * (1 + tol)) << "isa " << isa;
+    // The dark pixels of each class are untouched by the caps: in the ratio of their day values.
+    const double veg_dark = Y(tex, 0, 0), car_dark = Y(tex, W - 1, 0);
+    const double n = W / 2 * H, mean_ratio = n / (n - 1 + 45);  // Y_dark / mean(Y) of a class
+    EXPECT_NEAR(veg_dark, p.rho_nature * mean_ratio, 1e-6 * p.rho_nature);
+    EXPECT_NEAR(car_dark, p.rho_vehicle * mean_ratio, 1e-6 * p.rho_vehicle);
+    // Night radiance (darken: L_k = f_k·E_k): the crown pixel's luminance is at most diffuse_max
+    // times the ambient E/π, a white Lambertian surface's.
+    const ImageF dark = darken(tex, ids, p);
+    const DarkenParams d = darken_params(p);
+    double white = 0, got = 0;
+    for (int k = 0; k < 3; ++k) {
+      white += K[k] * (p.rho_diffuse_max / (K[0] + K[1] + K[2])) * d.ambient[k];
+      got += K[k] * double(dark.at(bright[0], 3, k));
+    }
+    EXPECT_LE(got, white * (1 + 2 * tol));
+  }
+  texture_max_isa(2);
 }
 
 // linearize's 8-bit path (table reads eight samples at a time while all are code values,

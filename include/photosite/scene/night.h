@@ -51,10 +51,15 @@ ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
 // ---- darken -----------------------------------------------------------------------------
 // Representative reflectance of a class (Table 1 of Baek 2020; unlabeled: mean of the others).
 double class_reflectance(int label_id, const ScenePreset& p);
+// The bound of a class's band reflectance in the texture: reflectance.diffuse_max for diffuse
+// classes (ground, buildings, walls, fences, vegetation, terrain, persons: energy conservation,
+// ρ ≤ 1), reflectance.glint_max for specular and retroreflective ones (vehicles, signs, traffic
+// lights, poles, guard rails), the sky and the unlabelled classes.
+double class_reflectance_max(int label_id, const ScenePreset& p);
 // Per-pixel reflectance texture f (W/lm, per band): the day image normalised so that the
 // luminance-weighted mean of each class equals the class reflectance ρ:
 //   f_k(x) = ρ_class · c_k(x) / mean_class(Y(c)),  Y(c) = Σ_k K_k c_k  (band efficacies, lm/W),
-// c the day pixel in the box basis.
+// c the day pixel in the box basis, each band capped at class_reflectance_max / Σ_k K_k.
 // A Lambertian surface under illuminance E (lx) with relative spectral tint t then has
 //   L_k = f_k · t_k · E / π    (W·sr⁻¹·m⁻²),  with luminance ρ·E/π for the class mean.
 // Takes linear sRGB and converts to the box basis on the fly.

@@ -18,6 +18,10 @@ struct ScenePreset {
   // [reflectance] Table 1 of Baek 2020: representative material per class (dimensionless).
   double rho_sign = 0.7, rho_construction = 0.3, rho_human = 0.25, rho_nature = 0.2,
          rho_vehicle = 0.2, rho_sky = 0.1, rho_road = 0.1;
+  // The texture's bound on a pixel's band reflectance (scene::class_reflectance_max): diffuse
+  // classes at most diffuse_max (energy conservation: ≤ 1), specular/retroreflective ones
+  // (glints), the sky and unlabelled classes at most glint_max.
+  double rho_diffuse_max = 1.0, rho_glint_max = 5.0;
   // [ambient] illuminance on every surface (lx) and the sky's own luminance (cd/m²).
   double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
   double sky_luminance_cd_m2 = 0.02;
