@@ -19,5 +19,9 @@ NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& label
 // centres (nearest), or the mask itself when it has the frame's width. What the light map and
 // the low beam read (night_scene_with; `bench night` times the light map alone on it).
 ImageU8 lanes_at_frame(const ImageU8& lanes_work, int width, int height);
+// The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
+// 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
+// it). All give the same bits; the test runs each.
+void beam_max_isa(int isa);
 
 }  // namespace photosite::scene

@@ -933,7 +933,7 @@ TEST(SceneLights, WindowColourSplitComesFromThePreset) {
 // a lane marking on any class), else 0, and 0 above the horizon. Random runs of label ids
 // (ground and not, ids beyond the label table and beyond 64), sparse markings, a width that
 // leaves a vector tail, the full grid of the preset's table (blocks inside one cell and across
-// cells), 1 and 2 threads.
+// cells), 1 and 2 threads, each instruction-set path (beam_max_isa: 16, 8 and 1 pixels at a time).
 TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   const int W = 1021, H = 512;
   const ScenePreset& p = preset();
@@ -967,13 +967,16 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   ASSERT_GT(lit, W * H / 8);  // lit pixels to compare, and unread ones that must stay 0
   ASSERT_GT(skipped, W * H / 8);
   const int saved = omp_get_max_threads();
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
-    ASSERT_EQ(got.size(), want.size());
-    long differ = 0;
-    for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);
-    EXPECT_EQ(differ, 0) << threads << " threads";
-  }
+  for (int isa : {2, 1, 0})  // AVX-512, AVX2 and scalar rows (those the machine has)
+    for (int threads : {1, 2}) {
+      beam_max_isa(isa);
+      omp_set_num_threads(threads);
+      const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
+      ASSERT_EQ(got.size(), want.size());
+      long differ = 0;
+      for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);
+      EXPECT_EQ(differ, 0) << threads << " threads, isa " << isa;
+    }
+  beam_max_isa(2);
   omp_set_num_threads(saved);
 }
