@@ -374,7 +374,8 @@ TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
 
 // The lane stage's fast sRGB encode (scene/lanes.cpp) against the exact expression, bit for bit,
 // on every float from 0.003 (below the toe's end, 0.0031308) to 1, on a stride through the toe, and
-// on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail.
+// on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail;
+// each instruction-set path (work_luma_max_isa: 8, 4 and 1 values at a time).
 TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
   auto exact = [](float v) { return static_cast<float>(srgb_encode(std::clamp(v, 0.f, 1.f))); };
   std::vector<float> in;
@@ -383,11 +384,16 @@ TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
   for (float v : {-1.f, -0.f, 0.f, 0.0031308f, 1.f, 1.5f, INFINITY, -INFINITY, NAN}) in.push_back(v);
   const size_t n_special = in.size();
   constexpr size_t kBlock = 1 << 16;
-  std::vector<float> out(kBlock);
-  long differ = 0;
+  std::vector<float> out(kBlock), want(kBlock);
+  long differ[3] = {0, 0, 0};  // per isa
   auto check = [&](const float* v, int n) {
-    srgb_encode_floats(v, n, out.data());
-    for (int i = 0; i < n; ++i) differ += std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(exact(v[i]));
+    for (int i = 0; i < n; ++i) want[i] = exact(v[i]);
+    for (int isa : {2, 1, 0}) {
+      work_luma_max_isa(isa);
+      srgb_encode_floats(v, n, out.data());
+      for (int i = 0; i < n; ++i) differ[isa] += std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(want[i]);
+    }
+    work_luma_max_isa(2);
   };
   for (size_t i = 0; i < n_special; i += 7) check(in.data() + i, static_cast<int>(std::min<size_t>(7, n_special - i)));
   std::vector<float> block(kBlock);
@@ -396,7 +402,7 @@ TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
     for (int i = 0; i < n; ++i) block[i] = std::bit_cast<float>(static_cast<uint32_t>(b + i));
     check(block.data(), n);
   }
-  EXPECT_EQ(differ, 0);
+  for (int isa : {2, 1, 0}) EXPECT_EQ(differ[isa], 0) << "isa " << isa;
   // In place (out == v) as make_work_images calls it.
   std::vector<float> v = {0.2f, 0.5f, 0.001f, 0.9f, 0.04f};
   std::vector<float> ref(v.size());
