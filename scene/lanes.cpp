@@ -376,6 +376,26 @@ void lane_row(const float* __restrict r, const float* __restrict up, const float
 }
 }  // namespace
 
+ImageF lane_blur(const ImageF& luma, double sigma_px) {
+  const int W = luma.width(), H = luma.height();
+  ImageF out(W, H, 1, uninitialized);
+  cv::Mat src(H, W, CV_32F, const_cast<float*>(luma.data())), dst(H, W, CV_32F, out.data());
+  // Fixed bands of rows, blurred in parallel: each band a view (ROI) of the whole image, whose
+  // rows beyond the band OpenCV's filter reads as its border (it takes the parent's pixels
+  // outside an ROI unless told BORDER_ISOLATED; the image's own edges get the default
+  // BORDER_REFLECT_101 as before), so every pixel is the whole image's blur: the same bits for
+  // any band or thread count (the serial blur was the lane stage's part that did not scale).
+  constexpr int kBands = 8;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < kBands; ++b) {
+    const int y0 = H * b / kBands, y1 = H * (b + 1) / kBands;
+    if (y1 <= y0) continue;
+    cv::Mat band = dst.rowRange(y0, y1);
+    cv::GaussianBlur(src.rowRange(y0, y1), band, cv::Size(0, 0), sigma_px);
+  }
+  return out;
+}
+
 ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePreset& p) {
   const int W = luma.width(), H = luma.height();
   ImageU8 out(W, H, 1, 0);
@@ -388,9 +408,8 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
     for (int x = 0; x < W; ++x)
       if (road(x, y)) { y_top = y; break; }
   if (y_top < 0) return out;  // no road: no markings
-  cv::Mat src(H, W, CV_32F, const_cast<float*>(luma.data())), blur;
-  if (p.lane_blur_sigma_px > 0) cv::GaussianBlur(src, blur, cv::Size(0, 0), p.lane_blur_sigma_px);
-  else blur = src;
+  const ImageF blurred = p.lane_blur_sigma_px > 0 ? lane_blur(luma, p.lane_blur_sigma_px) : ImageF();
+  const ImageF& blur = p.lane_blur_sigma_px > 0 ? blurred : luma;
   const float thr = static_cast<float>(p.lane_contrast_threshold);
   // Marking width in pixels grows linearly below the top of the road (perspective): about 1.5%
   // of the width at the bottom row (a 0.15 m line on a ~10 m wide view), at least 2 px.
@@ -400,8 +419,8 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
     const int w = std::max(2, static_cast<int>(std::lround(0.015 * W * (y - y_top) / span)));
     const int wv = std::max(1, w / 2);
     const bool vertical = y - wv >= 0 && y + wv < H;  // vertical pass: transverse markings, stop lines
-    lane_row(blur.ptr<float>(y), vertical ? blur.ptr<float>(y - wv) : nullptr, vertical ? blur.ptr<float>(y + wv) : nullptr,
-             labels.row(y), W, w, thr, out.row(y));
+    lane_row(blur.row(y), vertical ? blur.row(y - wv) : nullptr, vertical ? blur.row(y + wv) : nullptr, labels.row(y), W, w,
+             thr, out.row(y));
   }
   return out;
 }

@@ -554,6 +554,31 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
   omp_set_num_threads(saved);
 }
 
+// lane_blur (the lane stage's Gaussian blur in fixed row bands, in parallel) against
+// cv::GaussianBlur of the whole image, bit for bit: sizes whose bands are shorter than the
+// kernel's reach (rows from several bands away) and longer, odd widths, the preset's σ and
+// others, 1 and 2 threads.
+TEST(SceneGeometry, LaneBlurInBandsIsTheWholeImagesBlur) {
+  XorShift rnd{99};
+  const int saved = omp_get_max_threads();
+  for (auto [W, H] : {std::pair{203, 61}, std::pair{1024, 512}, std::pair{37, 9}, std::pair{64, 3}})
+    for (double sigma : {preset().lane_blur_sigma_px, 0.6, 2.5}) {
+      ImageF luma(W, H, 1, 0.f);
+      for (size_t i = 0; i < luma.size(); ++i) luma[i] = static_cast<float>(rnd());
+      cv::Mat src(H, W, CV_32F, luma.data()), want;
+      cv::GaussianBlur(src, want, cv::Size(0, 0), sigma);
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        const ImageF got = lane_blur(luma, sigma);
+        long differ = 0;
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) differ += std::bit_cast<uint32_t>(got.at(x, y)) != std::bit_cast<uint32_t>(want.at<float>(y, x));
+        EXPECT_EQ(differ, 0) << W << "x" << H << ", sigma " << sigma << ", " << threads << " threads";
+      }
+    }
+  omp_set_num_threads(saved);
+}
+
 // resize_nearest (scene/labels.cpp) against its definition, each output pixel the source pixel at
 // its centre, for the exact halving of a one-channel map (the vector path: odd columns sixteen at
 // a time, with a tail, values up to 65535), another ratio, and two channels; 1 and 2 threads.
