@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <omp.h>
 #include <opencv2/imgproc.hpp>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -376,19 +377,22 @@ void lane_row(const float* __restrict r, const float* __restrict up, const float
 }
 }  // namespace
 
-ImageF lane_blur(const ImageF& luma, double sigma_px) {
+ImageF lane_blur(const ImageF& luma, double sigma_px, int bands) {
   const int W = luma.width(), H = luma.height();
   ImageF out(W, H, 1, uninitialized);
   cv::Mat src(H, W, CV_32F, const_cast<float*>(luma.data())), dst(H, W, CV_32F, out.data());
-  // Fixed bands of rows, blurred in parallel: each band a view (ROI) of the whole image, whose
-  // rows beyond the band OpenCV's filter reads as its border (it takes the parent's pixels
-  // outside an ROI unless told BORDER_ISOLATED; the image's own edges get the default
-  // BORDER_REFLECT_101 as before), so every pixel is the whole image's blur: the same bits for
-  // any band or thread count (the serial blur was the lane stage's part that did not scale).
-  constexpr int kBands = 8;
+  // Bands of rows, blurred in parallel: each band a view (ROI) of the whole image, whose rows
+  // beyond the band OpenCV's filter reads as its border (it takes the parent's pixels outside an
+  // ROI unless told BORDER_ISOLATED; the image's own edges get the default BORDER_REFLECT_101 as
+  // before), so every pixel is the whole image's blur: the same bits for any band count, and
+  // so for any thread count (the serial blur was the lane stage's part that did not scale). One
+  // band per thread: each band filters the kernel's reach beyond it again (4 rows a side at
+  // σ = 1), so no more bands than threads.
+  if (bands <= 0) bands = std::clamp(omp_get_max_threads(), 1, 8);
+  bands = std::min(bands, std::max(1, H));
 #pragma omp parallel for schedule(static)
-  for (int b = 0; b < kBands; ++b) {
-    const int y0 = H * b / kBands, y1 = H * (b + 1) / kBands;
+  for (int b = 0; b < bands; ++b) {
+    const int y0 = H * b / bands, y1 = H * (b + 1) / bands;
     if (y1 <= y0) continue;
     cv::Mat band = dst.rowRange(y0, y1);
     cv::GaussianBlur(src.rowRange(y0, y1), band, cv::Size(0, 0), sigma_px);

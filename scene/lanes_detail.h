@@ -23,8 +23,9 @@ void work_luma_row(const ImageF& day_linear_srgb, int y, float* out);
 // All give the same bits; the tests run each.
 void work_luma_max_isa(int isa);
 // The lane stage's Gaussian blur of the working luminance (σ in pixels): cv::GaussianBlur of the
-// whole image (default border), computed in fixed row bands in parallel, the same bits.
-ImageF lane_blur(const ImageF& luma, double sigma_px);
+// whole image (default border), computed in `bands` row bands in parallel (0: one per OpenMP
+// thread, at most 8), the same bits for any band count.
+ImageF lane_blur(const ImageF& luma, double sigma_px, int bands = 0);
 // make_work_images with its luminance already made (work_luma_row over every row, a
 // ww x wh image moved in), or computed here when luma is null.
 WorkImages make_work_images_with(const ImageF& day_linear_srgb, const ImageU16& labels, int work_max_width,

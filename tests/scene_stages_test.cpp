@@ -557,7 +557,7 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
 // lane_blur (the lane stage's Gaussian blur in fixed row bands, in parallel) against
 // cv::GaussianBlur of the whole image, bit for bit: sizes whose bands are shorter than the
 // kernel's reach (rows from several bands away) and longer, odd widths, the preset's σ and
-// others, 1 and 2 threads.
+// others, one band per thread (1 and 2 threads) and 3, 8 and 64 bands.
 TEST(SceneGeometry, LaneBlurInBandsIsTheWholeImagesBlur) {
   XorShift rnd{99};
   const int saved = omp_get_max_threads();
@@ -567,14 +567,15 @@ TEST(SceneGeometry, LaneBlurInBandsIsTheWholeImagesBlur) {
       for (size_t i = 0; i < luma.size(); ++i) luma[i] = static_cast<float>(rnd());
       cv::Mat src(H, W, CV_32F, luma.data()), want;
       cv::GaussianBlur(src, want, cv::Size(0, 0), sigma);
-      for (int threads : {1, 2}) {
-        omp_set_num_threads(threads);
-        const ImageF got = lane_blur(luma, sigma);
-        long differ = 0;
-        for (int y = 0; y < H; ++y)
-          for (int x = 0; x < W; ++x) differ += std::bit_cast<uint32_t>(got.at(x, y)) != std::bit_cast<uint32_t>(want.at<float>(y, x));
-        EXPECT_EQ(differ, 0) << W << "x" << H << ", sigma " << sigma << ", " << threads << " threads";
-      }
+      for (int threads : {1, 2})
+        for (int bands : {0, 3, 8, 64}) {
+          omp_set_num_threads(threads);
+          const ImageF got = lane_blur(luma, sigma, bands);
+          long differ = 0;
+          for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) differ += std::bit_cast<uint32_t>(got.at(x, y)) != std::bit_cast<uint32_t>(want.at<float>(y, x));
+          EXPECT_EQ(differ, 0) << W << "x" << H << ", sigma " << sigma << ", " << threads << " threads, bands " << bands;
+        }
     }
   omp_set_num_threads(saved);
 }
