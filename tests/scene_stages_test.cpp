@@ -889,6 +889,39 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   omp_set_num_threads(before);
 }
 
+// metric_depth_with given metric_depth_runs (the labels-only part, which night_scene makes beside
+// the Hough stage) against metric_depth on its own, bit for bit: the synthetic road with its cars'
+// instance ids and without them, 1 and 2 threads; runs made of other labels are not taken (the
+// depth of these labels, not of those).
+TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
+  SyntheticOptions o;
+  o.cars = 4;
+  const SyntheticScene s = make_synthetic_road(o);
+  const ScenePreset& p = preset();
+  const NightScene ns = night_scene(s.day_linear_srgb, s.labels, p, 5);
+  LabelMap no_instances = s.labels;
+  no_instances.instances = ImageU16();
+  ASSERT_FALSE(s.labels.instances.empty());
+  SyntheticOptions o2 = o;  // another scene of the same size: other runs
+  o2.cars = 1;
+  o2.vp_x = 250;
+  o2.vp_y = 150;
+  const SyntheticScene elsewhere = make_synthetic_road(o2);
+  const int saved = omp_get_max_threads();
+  for (const LabelMap* lm : {static_cast<const LabelMap*>(&s.labels), static_cast<const LabelMap*>(&no_instances)})
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const BuildingFacades fac = building_facades(lm->ids, ns.geometry, p.max_depth_m);
+      const ImageF want = metric_depth(*lm, ns.geometry, p.max_depth_m, &fac);
+      const auto runs = metric_depth_runs(*lm);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, runs.get()).vec(), want.vec())
+          << threads << " threads, " << (lm->instances.empty() ? "without" : "with") << " instances";
+      const auto other = metric_depth_runs(elsewhere.labels);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, other.get()).vec(), want.vec()) << threads << " threads";
+    }
+  omp_set_num_threads(saved);
+}
+
 // night_scene given the linearisation's texture sums (linearize_with_texture_sums; the working
 // width set to half the frame's, the exact halving, whose luminance the texture's second pass
 // makes): at 1 and 2 threads every output is that of night_scene on the same linear image
