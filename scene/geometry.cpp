@@ -5,9 +5,11 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numeric>
 
 #include "photosite/scene/night.h"
+#include "scene/night_detail.h"
 #include "scene/runs_detail.h"
 
 namespace photosite::scene {
@@ -201,29 +203,34 @@ void plane_fill(float* o, const double* D, int n, double p, double max_depth_m) 
 }
 }  // namespace
 
-ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_depth_m, const BuildingFacades* facades) {
+// metric_depth's part that reads only the labels (scene/night_detail.h): the object pixels'
+// label-run components, each component's extent and kind, and the per-column lowest rows.
+struct MetricDepthRuns {
+  struct Comp { int ymax = -1, x0 = 1 << 30, x1 = -1; bool single = false; size_t col_off = 0; };
+  const uint16_t* ids = nullptr;        // the labels it was made of (metric_depth takes it for those only)
+  const uint16_t* instances = nullptr;
+  int width = 0, height = 0;
+  RunComponents rc;
+  std::vector<Comp> comps;
+  std::vector<int> col_ymax;
+};
+
+std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm) {
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
   const bool inst = !lm.instances.empty();
-  ImageF depth(W, H, 1, uninitialized, "m");
-  // Per-row ground depth, and the horizontal distance D of the ground at each row's lower pixel
-  // edge (y + 0.5: an object's lowest pixel meets the ground at its lower edge).
-  std::vector<float> zg(H);
-  std::vector<double> d_edge(H), plane(H);  // plane[y]: z per metre of D at row y (plane_depth_m(y, 1))
-  for (int y = 0; y < H; ++y) {
-    plane[y] = g.plane_depth_m(y, 1.0);
-    const double z = g.ground_depth_m(y);
-    zg[y] = static_cast<float>(std::isfinite(z) ? std::min(z, max_depth_m) : max_depth_m);
-    double D = 0;
-    d_edge[y] = g.ground_point(g.cx_px, y + 0.5, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
-  }
-  // Components of equal key (class id, or instance code for instance pixels) on object pixels.
+  auto m = std::make_shared<MetricDepthRuns>();
+  m->ids = ids.data();
+  m->instances = inst ? lm.instances.data() : nullptr;
+  m->width = W;
+  m->height = H;
   uint8_t kinds[kLabelCount];
   for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
   auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
+  // Components of equal key (class id, or instance code for instance pixels) on object pixels.
   // The key of a pixel: -1 off objects, else its instance code + 1000 where it has one (>= 1000),
   // else its class id. Pieces: runs of one class id, cut where the instance code changes.
-  const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
+  m->rc = run_components(H, [&](int y, auto&& emit) {
     const uint16_t* r = ids.row(y);
     const uint16_t* in = inst ? lm.instances.row(y) : nullptr;
     for (int x = 0; x < W;) {
@@ -239,15 +246,14 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
       x = e;
     }
   });
-  const std::vector<KeyedRun>& runs = rc.runs;
-  const std::vector<int>& row_start = rc.row_start;
-  const std::vector<int>& comp = rc.comp;
+  const std::vector<KeyedRun>& runs = m->rc.runs;
+  const std::vector<int>& comp = m->rc.comp;
   // Components: lowest row, x range; per-column lowest rows for the per-column kind.
-  struct Comp { int ymax = -1, x0 = 1 << 30, x1 = -1; bool single = false; size_t col_off = 0; };
-  std::vector<Comp> comps(rc.count);
-  std::vector<uint8_t> seen(rc.count, 0);
+  std::vector<MetricDepthRuns::Comp>& comps = m->comps;
+  comps.resize(m->rc.count);
+  std::vector<uint8_t> seen(m->rc.count, 0);
   for (size_t i = 0; i < runs.size(); ++i) {
-    Comp& c = comps[comp[i]];
+    MetricDepthRuns::Comp& c = comps[comp[i]];
     if (!seen[comp[i]]) {  // the component's first run gives its key
       seen[comp[i]] = 1;
       c.single = runs[i].key >= 1000 || single_plane_class(runs[i].key);
@@ -259,10 +265,53 @@ ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_dept
   size_t cols = 0;
   for (auto& c : comps)
     if (!c.single) { c.col_off = cols; cols += c.x1 - c.x0 + 1; }
-  std::vector<int> col_ymax(cols, -1);
+  m->col_ymax.assign(cols, -1);
   lowest_rows(
-      runs, W, [&](size_t i) { const Comp& c = comps[comp[i]]; return c.single ? -1L : static_cast<long>(c.col_off); },
-      [&](size_t i) { return comps[comp[i]].x0; }, col_ymax.data());
+      runs, W,
+      [&](size_t i) { const MetricDepthRuns::Comp& c = comps[comp[i]]; return c.single ? -1L : static_cast<long>(c.col_off); },
+      [&](size_t i) { return comps[comp[i]].x0; }, m->col_ymax.data());
+  return m;
+}
+
+ImageF metric_depth(const LabelMap& lm, const CameraGeometry& g, double max_depth_m, const BuildingFacades* facades) {
+  return metric_depth_with(lm, g, max_depth_m, facades, nullptr);
+}
+
+ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max_depth_m, const BuildingFacades* facades,
+                         const MetricDepthRuns* made) {
+  const ImageU16& ids = lm.ids;
+  const int W = ids.width(), H = ids.height();
+  const bool inst = !lm.instances.empty();
+  ImageF depth(W, H, 1, uninitialized, "m");
+  // Per-row ground depth, and the horizontal distance D of the ground at each row's lower pixel
+  // edge (y + 0.5: an object's lowest pixel meets the ground at its lower edge).
+  std::vector<float> zg(H);
+  std::vector<double> d_edge(H), plane(H);  // plane[y]: z per metre of D at row y (plane_depth_m(y, 1))
+  for (int y = 0; y < H; ++y) {
+    plane[y] = g.plane_depth_m(y, 1.0);
+    const double z = g.ground_depth_m(y);
+    zg[y] = static_cast<float>(std::isfinite(z) ? std::min(z, max_depth_m) : max_depth_m);
+    double D = 0;
+    d_edge[y] = g.ground_point(g.cx_px, y + 0.5, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
+  }
+  uint8_t kinds[kLabelCount];
+  for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
+  auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
+  // The label-only part (metric_depth_runs): made beside the Hough stage by night_scene, else
+  // here; taken only when made of these labels.
+  std::shared_ptr<const MetricDepthRuns> computed_runs;
+  if (!(made && made->ids == ids.data() && made->instances == (inst ? lm.instances.data() : nullptr) &&
+        made->width == W && made->height == H)) {
+    computed_runs = metric_depth_runs(lm);
+    made = computed_runs.get();
+  }
+  using Comp = MetricDepthRuns::Comp;
+  const std::vector<KeyedRun>& runs = made->rc.runs;
+  const std::vector<int>& row_start = made->rc.row_start;
+  const std::vector<int>& comp = made->rc.comp;
+  const std::vector<Comp>& comps = made->comps;
+  const std::vector<int>& col_ymax = made->col_ymax;
+  const size_t cols = col_ymax.size();
   // The ground line of a vertical plane is a straight image line. Columns whose lowest pixel
   // stands on a ground class show the contact and keep it; a straight line fitted to them (least
   // squares, at least 8 columns and a fifth of the region's) gives the hidden columns theirs, so

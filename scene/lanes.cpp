@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <omp.h>
 #include <opencv2/imgproc.hpp>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -125,7 +126,53 @@ void srgb_encode_block_avx2(const float* v, int n, float* out, int32_t* exact) {
   }
   srgb_encode_block(v + i, n - i, out + i, exact + i);
 }
+// The same, eight values at a time with AVX-512F: the doubles in 512-bit registers (the float
+// tests and integer steps in 256-bit AVX2 ones, as above), the same operations in the same order
+// on each value, the tables read by gathers, so the same floats and the same `exact`.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
+__attribute__((target("avx512f")))
+void srgb_encode_block_avx512(const float* v, int n, float* out, int32_t* exact) {
+  const PowTables& T = pow_tables();
+  const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
+  const __m512d c1 = _mm512_set1_pd(T.c1), c2 = _mm512_set1_pd(T.c2), c3 = _mm512_set1_pd(T.c3), c4 = _mm512_set1_pd(T.c4);
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m256 xf = _mm256_loadu_ps(v + i);
+    const __m256 fast = _mm256_and_ps(_mm256_cmp_ps(xf, _mm256_set1_ps(0.0031308f), _CMP_GT_OQ),
+                                      _mm256_cmp_ps(xf, _mm256_set1_ps(1.f), _CMP_LT_OQ));
+    const __m256i bits = _mm256_castps_si256(_mm256_blendv_ps(_mm256_set1_ps(0.5f), xf, fast));
+    const __m256i e9 = _mm256_sub_epi32(_mm256_srli_epi32(bits, 23), _mm256_set1_epi32(127 - 9));
+    const __m256i mant = _mm256_and_si256(bits, _mm256_set1_epi32(0x7fffff));
+    const __m256i k = _mm256_srli_epi32(mant, 13);
+    const __m512d m = _mm512_add_pd(one, _mm512_mul_pd(_mm512_cvtepi32_pd(mant), _mm512_set1_pd(0x1p-23)));
+    const __m512d m0 = _mm512_add_pd(one, _mm512_mul_pd(_mm512_cvtepi32_pd(k), _mm512_set1_pd(0x1p-10)));
+    const __m512d t = _mm512_mul_pd(_mm512_sub_pd(m, m0), _mm512_i32gather_pd(k, T.inv_m0, 8));
+    __m512d s = _mm512_add_pd(c3, _mm512_mul_pd(t, c4));
+    s = _mm512_add_pd(c2, _mm512_mul_pd(t, s));
+    s = _mm512_add_pd(c1, _mm512_mul_pd(t, s));
+    s = _mm512_add_pd(one, _mm512_mul_pd(t, s));
+    const __m512d p = _mm512_mul_pd(_mm512_mul_pd(_mm512_i32gather_pd(e9, T.two_e, 8), _mm512_i32gather_pd(k, T.m0a, 8)), s);
+    const __m512d y = _mm512_sub_pd(_mm512_mul_pd(_mm512_set1_pd(1.055), p), _mm512_set1_pd(0.055));
+    const __m256 f = _mm512_cvtpd_ps(y);
+    const __m256i fb = _mm256_castps_si256(f);
+    const __m512d fd = _mm512_cvtps_pd(f);
+    const __m512d lo = _mm512_mul_pd(half, _mm512_add_pd(_mm512_cvtps_pd(_mm256_castsi256_ps(_mm256_sub_epi32(fb, _mm256_set1_epi32(1)))), fd));
+    const __m512d hi = _mm512_mul_pd(half, _mm512_add_pd(_mm512_cvtps_pd(_mm256_castsi256_ps(_mm256_add_epi32(fb, _mm256_set1_epi32(1)))), fd));
+    const __m512d tol = _mm512_mul_pd(_mm512_set1_pd(1e-12), y);
+    const __mmask8 ok = _mm512_cmp_pd_mask(_mm512_sub_pd(y, tol), lo, _CMP_GT_OQ) & _mm512_cmp_pd_mask(_mm512_add_pd(y, tol), hi, _CMP_LT_OQ);
+    const __mmask16 good = static_cast<__mmask16>(ok & _mm256_movemask_ps(fast));
+    _mm256_storeu_ps(out + i, f);
+    // exact: 0 where good, else 1 (lanes 0-7 of a 512-bit vector).
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(exact + i),
+                        _mm512_castsi512_si256(_mm512_mask_mov_epi32(_mm512_set1_epi32(1), good, _mm512_setzero_si512())));
+  }
+  srgb_encode_block(v + i, n - i, out + i, exact + i);
+}
+#pragma GCC diagnostic pop
 #endif
+// The widest instruction set work_luma_row's 2x2 means and the encode may take (work_luma_max_isa).
+int luma_max_isa = 2;
 }  // namespace
 
 void srgb_encode_floats(const float* v, int n, float* out) {
@@ -133,14 +180,14 @@ void srgb_encode_floats(const float* v, int n, float* out) {
   float fast[kBlock];
   int32_t exact[kBlock];
 #if defined(__x86_64__)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-#else
-  constexpr bool avx2 = false;
+  static const int have = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+  const int isa = std::min(have, luma_max_isa);
 #endif
   for (int b = 0; b < n; b += kBlock) {
     const int m = std::min(kBlock, n - b);
 #if defined(__x86_64__)
-    if (avx2) srgb_encode_block_avx2(v + b, m, fast, exact);
+    if (isa == 2) srgb_encode_block_avx512(v + b, m, fast, exact);
+    else if (isa == 1) srgb_encode_block_avx2(v + b, m, fast, exact);
     else
 #endif
       srgb_encode_block(v + b, m, fast, exact);
@@ -168,8 +215,6 @@ WorkSize work_size(int W, int H, int work_max_width) {
 namespace {
 // Luminance (Rec. 709 weights on linear sRGB) of pixel x of an interleaved RGB row.
 inline float luma_at(const float* r, int x) { return 0.2126f * r[3 * x] + 0.7152f * r[3 * x + 1] + 0.0722f * r[3 * x + 2]; }
-// The widest instruction set work_luma_row's 2x2 means may take (work_luma_max_isa).
-int luma_max_isa = 2;
 #if defined(__x86_64__)
 // The 2x2 means of work_luma_row, eight working pixels at a time from x (a multiple of 8) up to
 // n: each pixel's luminance (0.2126·r + 0.7152·g) + 0.0722·b, then ((a + b) + (c + d))·0.25, the
@@ -332,6 +377,29 @@ void lane_row(const float* __restrict r, const float* __restrict up, const float
 }
 }  // namespace
 
+ImageF lane_blur(const ImageF& luma, double sigma_px, int bands) {
+  const int W = luma.width(), H = luma.height();
+  ImageF out(W, H, 1, uninitialized);
+  cv::Mat src(H, W, CV_32F, const_cast<float*>(luma.data())), dst(H, W, CV_32F, out.data());
+  // Bands of rows, blurred in parallel: each band a view (ROI) of the whole image, whose rows
+  // beyond the band OpenCV's filter reads as its border (it takes the parent's pixels outside an
+  // ROI unless told BORDER_ISOLATED; the image's own edges get the default BORDER_REFLECT_101 as
+  // before), so every pixel is the whole image's blur: the same bits for any band count, and
+  // so for any thread count (the serial blur was the lane stage's part that did not scale). One
+  // band per thread: each band filters the kernel's reach beyond it again (4 rows a side at
+  // σ = 1), so no more bands than threads.
+  if (bands <= 0) bands = std::clamp(omp_get_max_threads(), 1, 8);
+  bands = std::min(bands, std::max(1, H));
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < bands; ++b) {
+    const int y0 = H * b / bands, y1 = H * (b + 1) / bands;
+    if (y1 <= y0) continue;
+    cv::Mat band = dst.rowRange(y0, y1);
+    cv::GaussianBlur(src.rowRange(y0, y1), band, cv::Size(0, 0), sigma_px);
+  }
+  return out;
+}
+
 ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePreset& p) {
   const int W = luma.width(), H = luma.height();
   ImageU8 out(W, H, 1, 0);
@@ -344,9 +412,8 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
     for (int x = 0; x < W; ++x)
       if (road(x, y)) { y_top = y; break; }
   if (y_top < 0) return out;  // no road: no markings
-  cv::Mat src(H, W, CV_32F, const_cast<float*>(luma.data())), blur;
-  if (p.lane_blur_sigma_px > 0) cv::GaussianBlur(src, blur, cv::Size(0, 0), p.lane_blur_sigma_px);
-  else blur = src;
+  const ImageF blurred = p.lane_blur_sigma_px > 0 ? lane_blur(luma, p.lane_blur_sigma_px) : ImageF();
+  const ImageF& blur = p.lane_blur_sigma_px > 0 ? blurred : luma;
   const float thr = static_cast<float>(p.lane_contrast_threshold);
   // Marking width in pixels grows linearly below the top of the road (perspective): about 1.5%
   // of the width at the bottom row (a 0.15 m line on a ~10 m wide view), at least 2 px.
@@ -356,8 +423,8 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
     const int w = std::max(2, static_cast<int>(std::lround(0.015 * W * (y - y_top) / span)));
     const int wv = std::max(1, w / 2);
     const bool vertical = y - wv >= 0 && y + wv < H;  // vertical pass: transverse markings, stop lines
-    lane_row(blur.ptr<float>(y), vertical ? blur.ptr<float>(y - wv) : nullptr, vertical ? blur.ptr<float>(y + wv) : nullptr,
-             labels.row(y), W, w, thr, out.row(y));
+    lane_row(blur.row(y), vertical ? blur.row(y - wv) : nullptr, vertical ? blur.row(y + wv) : nullptr, labels.row(y), W, w,
+             thr, out.row(y));
   }
   return out;
 }

@@ -17,6 +17,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/darken_detail.h"
+#include "scene/night_detail.h"
 #include "scene/street_detail.h"
 
 namespace photosite::scene {
@@ -418,7 +419,165 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
 const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
+
+// ---- The image: 16 lanes (AVX-512F) ---------------------------------------------------------
+// beam_row_avx2 sixteen pixels at a time: the same operations on each lane in the same order
+// (lane masks in mask registers instead of vectors; AVX-512F has no float and/or/xor, so the
+// sign bits are set and flipped by integer operations, which are the same bit operations), the
+// same carried-cell test, so the same bits; the remainder (under 16 pixels) by beam_row_avx2.
+// (GCC 12's 512-bit intrinsics start from _mm512_undefined_*(), which -Wmaybe-uninitialized
+// reports inside avx512fintrin.h: silenced for these functions, as in scene/darken.cpp.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define PHOTOSITE_AVX512 __attribute__((target("avx512f")))
+PHOTOSITE_AVX512 inline __m512 or_ps16(__m512 a, __m512i bits) {
+  return _mm512_castsi512_ps(_mm512_or_si512(_mm512_castps_si512(a), bits));
+}
+// atanf_cephes8 on 16 lanes.
+PHOTOSITE_AVX512 inline __m512 atanf_cephes16(__m512 x) {
+  const __m512 one = _mm512_set1_ps(1.f);
+  const __m512i sign = _mm512_and_si512(_mm512_castps_si512(x), _mm512_set1_epi32(INT32_MIN));
+  const __m512 ax = _mm512_castsi512_ps(_mm512_andnot_si512(_mm512_set1_epi32(INT32_MIN), _mm512_castps_si512(x)));
+  const __mmask16 mid = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
+  if (mid == 0) {
+    const __m512 z = _mm512_mul_ps(ax, ax);
+    __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
+    P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
+    P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
+    const __m512 a = _mm512_add_ps(_mm512_setzero_ps(), _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax));
+    return or_ps16(a, sign);
+  }
+  const __mmask16 big = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(2.414213562373095f), _CMP_GT_OQ);
+  // _mm512_mask_blend_ps(k, a, b): b where k, else a.
+  const __m512 num = _mm512_mask_blend_ps(big, _mm512_mask_blend_ps(mid, ax, _mm512_sub_ps(ax, one)), _mm512_set1_ps(-1.f));
+  const __m512 den = _mm512_mask_blend_ps(big, _mm512_mask_blend_ps(mid, one, _mm512_add_ps(ax, one)), ax);
+  const __m512 y0 = _mm512_mask_blend_ps(big, _mm512_maskz_mov_ps(mid, _mm512_set1_ps(0.7853981633974483096f)),
+                                         _mm512_set1_ps(1.5707963267948966192f));
+  const __m512 r = _mm512_div_ps(num, den), z = _mm512_mul_ps(r, r);
+  __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
+  P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
+  P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
+  const __m512 a = _mm512_add_ps(y0, _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), r), r));
+  return or_ps16(a, sign);
+}
+struct BeamCell16 { __m512 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline void beam_cell16(BeamCell16& c, const BeamF& b, int j, int i) {
+  const float* r0 = b.I.data() + i * b.nh + j;
+  c.lo_h = _mm512_set1_ps(b.Hlo[j]), c.hi_h = _mm512_set1_ps(b.Hhi[j]);
+  c.lo_v = _mm512_set1_ps(b.Vlo[i]), c.hi_v = _mm512_set1_ps(b.Vhi[i]);
+  c.Hj = _mm512_set1_ps(b.H[j]), c.rHj = _mm512_set1_ps(b.rH[j]);
+  c.Vi = _mm512_set1_ps(b.V[i]), c.rVi = _mm512_set1_ps(b.rV[i]);
+  c.r00 = _mm512_set1_ps(r0[0]), c.r01 = _mm512_set1_ps(r0[1]);
+  c.r10 = _mm512_set1_ps(r0[b.nh]), c.r11 = _mm512_set1_ps(r0[b.nh + 1]);
+}
+PHOTOSITE_AVX512
+void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
+                     const uint8_t* lane, uint64_t read_mask, float* out) {
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f);
+  const __m512i sign = _mm512_set1_epi32(INT32_MIN);
+  const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
+               hl2 = _mm512_set1_ps(b.hl2), deg = _mm512_set1_ps(b.deg);
+  const __m512 cv = _mm512_set1_ps(b.cv), cmax = _mm512_set1_ps(b.cmax), rise = _mm512_set1_ps(b.rise);
+  const __m512 h_lo = _mm512_set1_ps(b.H[0]), h_hi = _mm512_set1_ps(b.H[b.nh - 1]);
+  const __m512 v_lo = _mm512_set1_ps(b.V[0]), v_hi = _mm512_set1_ps(b.V[b.nv - 1]);
+  const __m512i vnh = _mm512_set1_epi32(b.nh);
+  // The grids of at most 8 angles (BeamF::small) in the low lanes, read by a lane permutation.
+  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
+  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
+                mhi = _mm512_set1_epi32(static_cast<int32_t>(read_mask >> 32)), ione = _mm512_set1_epi32(1),
+                k32 = _mm512_set1_epi32(32);
+  const __m512d vt = _mm512_set1_pd(t);
+  const float* I = b.I.data();
+  BeamCell16 cell[2];  // each lamp's carried cell
+  beam_cell16(cell[0], b, 0, 0);
+  beam_cell16(cell[1], b, 0, 0);
+  int x = 0;
+  for (; x + 16 <= n; x += 16) {
+    __mmask16 keep = 0xffff;
+    if (id) {
+      const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
+      keep = _mm512_test_epi32_mask(_mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))),
+                                    ione);
+      if (lane) {
+        const __m512i m = _mm512_cvtepu8_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lane + x)));
+        keep = static_cast<__mmask16>(keep | _mm512_test_epi32_mask(m, m));
+      }
+      if (keep == 0) {
+        _mm512_storeu_ps(out + x, zero);
+        continue;
+      }
+    }
+    const __m256 lo = _mm512_cvtpd_ps(_mm512_mul_pd(vt, _mm512_loadu_pd(xn + x)));
+    const __m256 hi = _mm512_cvtpd_ps(_mm512_mul_pd(vt, _mm512_loadu_pd(xn + x + 8)));
+    const __m512 X = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
+    __m512 acc = zero;
+    for (int k = 0; k < 2; ++k) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(b.xl[k]));
+      const __m512 horiz2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), vD2), horiz = _mm512_sqrt_ps(horiz2);
+      const __m512 d2 = _mm512_add_ps(horiz2, hl2), d = _mm512_sqrt_ps(d2);
+      const __m512 h = _mm512_mul_ps(atanf_cephes16(_mm512_mul_ps(dx, vinvD)), deg);
+      const __m512 v = _mm512_castsi512_ps(
+          _mm512_xor_si512(_mm512_castps_si512(_mm512_mul_ps(atanf_cephes16(_mm512_div_ps(hl, horiz)), deg)), sign));
+      const __m512 cut = _mm512_min_ps(_mm512_add_ps(cv, _mm512_mul_ps(_mm512_max_ps(h, zero), rise)), cmax);
+      __mmask16 lit = _mm512_cmp_ps_mask(v, cut, _CMP_LE_OQ);
+      lit &= _mm512_cmp_ps_mask(h, h_lo, _CMP_GE_OQ) & _mm512_cmp_ps_mask(h, h_hi, _CMP_LE_OQ);
+      lit &= _mm512_cmp_ps_mask(v, v_lo, _CMP_GE_OQ) & _mm512_cmp_ps_mask(v, v_hi, _CMP_LE_OQ);
+      if (lit == 0) continue;
+      bool shared = false;
+      __m512i j, i;
+      if (b.sorted) {
+        const __mmask16 in_h = _mm512_cmp_ps_mask(cell[k].lo_h, h, _CMP_LE_OQ) & _mm512_cmp_ps_mask(h, cell[k].hi_h, _CMP_LT_OQ);
+        const __mmask16 in_v = _mm512_cmp_ps_mask(cell[k].lo_v, v, _CMP_LE_OQ) & _mm512_cmp_ps_mask(v, cell[k].hi_v, _CMP_LT_OQ);
+        shared = (in_h & in_v & lit) == lit;
+      }
+      if (!shared) {
+        j = _mm512_setzero_si512(), i = _mm512_setzero_si512();  // cell indices as counts
+        for (int m = 1; m + 1 < b.nh; ++m)
+          j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
+        for (int m = 1; m + 1 < b.nv; ++m)
+          i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+        const __m512i first = _mm512_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit)));
+        const __m512i j0 = _mm512_permutexvar_epi32(first, j), i0 = _mm512_permutexvar_epi32(first, i);
+        const __mmask16 same = _mm512_cmpeq_epi32_mask(j, j0) & _mm512_cmpeq_epi32_mask(i, i0);
+        shared = (lit & same) == lit;
+        if (shared) beam_cell16(cell[k], b, _mm512_cvtsi512_si32(j0), _mm512_cvtsi512_si32(i0));
+      }
+      __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
+      if (shared) {
+        const BeamCell16& c = cell[k];
+        Hj = c.Hj, rHj = c.rHj, Vi = c.Vi, rVi = c.rVi, r00 = c.r00, r01 = c.r01, r10 = c.r10, r11 = c.r11;
+      } else {
+        if (b.small) {
+          Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
+          Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
+        } else {
+          Hj = _mm512_i32gather_ps(j, b.H.data(), 4), rHj = _mm512_i32gather_ps(j, b.rH.data(), 4);
+          Vi = _mm512_i32gather_ps(i, b.V.data(), 4), rVi = _mm512_i32gather_ps(i, b.rV.data(), 4);
+        }
+        const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j);  // r0 + j
+        r00 = _mm512_i32gather_ps(c0, I, 4), r01 = _mm512_i32gather_ps(c0, I + 1, 4);
+        r10 = _mm512_i32gather_ps(c0, I + b.nh, 4), r11 = _mm512_i32gather_ps(c0, I + b.nh + 1, 4);
+      }
+      const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
+      const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
+      const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
+      const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
+      const __m512 Iv = _mm512_maskz_mov_ps(lit, _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot)));
+      acc = _mm512_add_ps(acc, _mm512_mul_ps(Iv, _mm512_div_ps(hl, _mm512_mul_ps(d2, d))));
+    }
+    _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
+  }
+  if (x < n) beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x);
+}
+#undef PHOTOSITE_AVX512
+#pragma GCC diagnostic pop
+// The widest path the beam image may take (beam_max_isa): 2 AVX-512, 1 AVX2, 0 scalar.
+const bool kHaveAvx512 = kHaveAvx2 && __builtin_cpu_supports("avx512f");
+int beam_isa_cap = 2;
 }  // namespace
+
+void beam_max_isa(int isa) { beam_isa_cap = isa; }
 
 double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
   return beam_intensity_cd(h_deg, v_deg, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
@@ -534,7 +693,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
   std::vector<double> xn(width);
   for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
-  const bool avx2 = kHaveAvx2;
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < height; ++y) {
     float* e = E.row(y);
@@ -549,6 +708,10 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
     const float D2 = Df * Df, invD = 1.f / Df;
     const uint16_t* id = labels ? labels->row(y) : nullptr;
     const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
+    if (avx512) {
+      beam_row_avx512(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
+      continue;
+    }
     if (avx2) {
       beam_row_avx2(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
       continue;

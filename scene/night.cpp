@@ -124,7 +124,14 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("lanes");
   s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
   lap("edges");
-  s.lines_work = detect_lines(s.edges_work, p);
+  // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
+  // and beside it on this one the part of the metric depth that reads only the labels
+  // (metric_depth_runs): nothing else can start before the vanishing point, which needs the
+  // lines. At 1 thread both in turn (this lap then holds the runs' time, no longer "depth").
+  std::shared_ptr<const MetricDepthRuns> depth_runs;
+  side_by_side(
+      std::min(2, omp_get_max_threads()), [&] { depth_runs = metric_depth_runs(labels); },
+      [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
   VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
   // Back to full-resolution pixel coordinates (pixel centres).
@@ -153,13 +160,14 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
-        s.depth = metric_depth(labels, s.geometry, p.max_depth_m, &facades);
+        s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
       },
       [&] {
         s.beam_input = coarse_depth(W, H, vp.x, vp.y);
         lanes_full = lanes_at_frame(s.lanes_work, W, H);
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
       });
+  depth_runs.reset();
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(plan_street_lighting(labels, s.geometry, p, seed), s.geometry, W, H, seq->pose,

@@ -4,6 +4,7 @@
 // of their own context.
 #pragma once
 #include <functional>
+#include <memory>
 
 #include "photosite/scene/night.h"
 
@@ -19,5 +20,17 @@ NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& label
 // centres (nearest), or the mask itself when it has the frame's width. What the light map and
 // the low beam read (night_scene_with; `bench night` times the light map alone on it).
 ImageU8 lanes_at_frame(const ImageU8& lanes_work, int width, int height);
+// metric_depth's part that reads only the labels (the object pixels' label-run components, their
+// extents and per-column lowest rows; scene/geometry.cpp), so that night_scene makes it beside
+// the Hough stage, before the vanishing point and the camera geometry exist; metric_depth_with
+// takes it for the labels it was made of (else makes it): the same depth.
+struct MetricDepthRuns;
+std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels);
+ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
+                         const BuildingFacades* facades, const MetricDepthRuns* runs);
+// The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
+// 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
+// it). All give the same bits; the test runs each.
+void beam_max_isa(int isa);
 
 }  // namespace photosite::scene

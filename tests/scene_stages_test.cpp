@@ -443,7 +443,8 @@ TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
 
 // The lane stage's fast sRGB encode (scene/lanes.cpp) against the exact expression, bit for bit,
 // on every float from 0.003 (below the toe's end, 0.0031308) to 1, on a stride through the toe, and
-// on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail.
+// on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail;
+// each instruction-set path (work_luma_max_isa: 8, 4 and 1 values at a time).
 TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
   auto exact = [](float v) { return static_cast<float>(srgb_encode(std::clamp(v, 0.f, 1.f))); };
   std::vector<float> in;
@@ -452,11 +453,16 @@ TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
   for (float v : {-1.f, -0.f, 0.f, 0.0031308f, 1.f, 1.5f, INFINITY, -INFINITY, NAN}) in.push_back(v);
   const size_t n_special = in.size();
   constexpr size_t kBlock = 1 << 16;
-  std::vector<float> out(kBlock);
-  long differ = 0;
+  std::vector<float> out(kBlock), want(kBlock);
+  long differ[3] = {0, 0, 0};  // per isa
   auto check = [&](const float* v, int n) {
-    srgb_encode_floats(v, n, out.data());
-    for (int i = 0; i < n; ++i) differ += std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(exact(v[i]));
+    for (int i = 0; i < n; ++i) want[i] = exact(v[i]);
+    for (int isa : {2, 1, 0}) {
+      work_luma_max_isa(isa);
+      srgb_encode_floats(v, n, out.data());
+      for (int i = 0; i < n; ++i) differ[isa] += std::bit_cast<uint32_t>(out[i]) != std::bit_cast<uint32_t>(want[i]);
+    }
+    work_luma_max_isa(2);
   };
   for (size_t i = 0; i < n_special; i += 7) check(in.data() + i, static_cast<int>(std::min<size_t>(7, n_special - i)));
   std::vector<float> block(kBlock);
@@ -465,7 +471,7 @@ TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
     for (int i = 0; i < n; ++i) block[i] = std::bit_cast<float>(static_cast<uint32_t>(b + i));
     check(block.data(), n);
   }
-  EXPECT_EQ(differ, 0);
+  for (int isa : {2, 1, 0}) EXPECT_EQ(differ[isa], 0) << "isa " << isa;
   // In place (out == v) as make_work_images calls it.
   std::vector<float> v = {0.2f, 0.5f, 0.001f, 0.9f, 0.04f};
   std::vector<float> ref(v.size());
@@ -614,6 +620,32 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
     omp_set_num_threads(threads);
     EXPECT_EQ(lane_markings(luma, labels, p).vec(), want.vec()) << threads << " threads";
   }
+  omp_set_num_threads(saved);
+}
+
+// lane_blur (the lane stage's Gaussian blur in fixed row bands, in parallel) against
+// cv::GaussianBlur of the whole image, bit for bit: sizes whose bands are shorter than the
+// kernel's reach (rows from several bands away) and longer, odd widths, the preset's σ and
+// others, one band per thread (1 and 2 threads) and 3, 8 and 64 bands.
+TEST(SceneGeometry, LaneBlurInBandsIsTheWholeImagesBlur) {
+  XorShift rnd{99};
+  const int saved = omp_get_max_threads();
+  for (auto [W, H] : {std::pair{203, 61}, std::pair{1024, 512}, std::pair{37, 9}, std::pair{64, 3}})
+    for (double sigma : {preset().lane_blur_sigma_px, 0.6, 2.5}) {
+      ImageF luma(W, H, 1, 0.f);
+      for (size_t i = 0; i < luma.size(); ++i) luma[i] = static_cast<float>(rnd());
+      cv::Mat src(H, W, CV_32F, luma.data()), want;
+      cv::GaussianBlur(src, want, cv::Size(0, 0), sigma);
+      for (int threads : {1, 2})
+        for (int bands : {0, 3, 8, 64}) {
+          omp_set_num_threads(threads);
+          const ImageF got = lane_blur(luma, sigma, bands);
+          long differ = 0;
+          for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) differ += std::bit_cast<uint32_t>(got.at(x, y)) != std::bit_cast<uint32_t>(want.at<float>(y, x));
+          EXPECT_EQ(differ, 0) << W << "x" << H << ", sigma " << sigma << ", " << threads << " threads, bands " << bands;
+        }
+    }
   omp_set_num_threads(saved);
 }
 
@@ -926,6 +958,39 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   omp_set_num_threads(before);
 }
 
+// metric_depth_with given metric_depth_runs (the labels-only part, which night_scene makes beside
+// the Hough stage) against metric_depth on its own, bit for bit: the synthetic road with its cars'
+// instance ids and without them, 1 and 2 threads; runs made of other labels are not taken (the
+// depth of these labels, not of those).
+TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
+  SyntheticOptions o;
+  o.cars = 4;
+  const SyntheticScene s = make_synthetic_road(o);
+  const ScenePreset& p = preset();
+  const NightScene ns = night_scene(s.day_linear_srgb, s.labels, p, 5);
+  LabelMap no_instances = s.labels;
+  no_instances.instances = ImageU16();
+  ASSERT_FALSE(s.labels.instances.empty());
+  SyntheticOptions o2 = o;  // another scene of the same size: other runs
+  o2.cars = 1;
+  o2.vp_x = 250;
+  o2.vp_y = 150;
+  const SyntheticScene elsewhere = make_synthetic_road(o2);
+  const int saved = omp_get_max_threads();
+  for (const LabelMap* lm : {static_cast<const LabelMap*>(&s.labels), static_cast<const LabelMap*>(&no_instances)})
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const BuildingFacades fac = building_facades(lm->ids, ns.geometry, p.max_depth_m);
+      const ImageF want = metric_depth(*lm, ns.geometry, p.max_depth_m, &fac);
+      const auto runs = metric_depth_runs(*lm);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, runs.get()).vec(), want.vec())
+          << threads << " threads, " << (lm->instances.empty() ? "without" : "with") << " instances";
+      const auto other = metric_depth_runs(elsewhere.labels);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, other.get()).vec(), want.vec()) << threads << " threads";
+    }
+  omp_set_num_threads(saved);
+}
+
 // night_scene given the linearisation's texture sums (linearize_with_texture_sums; the working
 // width set to half the frame's, the exact halving, whose luminance the texture's second pass
 // makes): at 1 and 2 threads every output is that of night_scene on the same linear image
@@ -1002,7 +1067,7 @@ TEST(SceneLights, WindowColourSplitComesFromThePreset) {
 // a lane marking on any class), else 0, and 0 above the horizon. Random runs of label ids
 // (ground and not, ids beyond the label table and beyond 64), sparse markings, a width that
 // leaves a vector tail, the full grid of the preset's table (blocks inside one cell and across
-// cells), 1 and 2 threads.
+// cells), 1 and 2 threads, each instruction-set path (beam_max_isa: 16, 8 and 1 pixels at a time).
 TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   const int W = 1021, H = 512;
   const ScenePreset& p = preset();
@@ -1036,13 +1101,16 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   ASSERT_GT(lit, W * H / 8);  // lit pixels to compare, and unread ones that must stay 0
   ASSERT_GT(skipped, W * H / 8);
   const int saved = omp_get_max_threads();
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
-    ASSERT_EQ(got.size(), want.size());
-    long differ = 0;
-    for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);
-    EXPECT_EQ(differ, 0) << threads << " threads";
-  }
+  for (int isa : {2, 1, 0})  // AVX-512, AVX2 and scalar rows (those the machine has)
+    for (int threads : {1, 2}) {
+      beam_max_isa(isa);
+      omp_set_num_threads(threads);
+      const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
+      ASSERT_EQ(got.size(), want.size());
+      long differ = 0;
+      for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);
+      EXPECT_EQ(differ, 0) << threads << " threads, isa " << isa;
+    }
+  beam_max_isa(2);
   omp_set_num_threads(saved);
 }
