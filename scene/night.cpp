@@ -164,10 +164,20 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(plan_street_lighting(labels, s.geometry, p, seed), s.geometry, W, H, seq->pose,
                                             p, seed);
+  // On the CPU the light map composes the night radiance row by row inside its row pass, each row
+  // once its light is final (LightMap::composed: the same bits as compose() after it, without a
+  // pass of its own over four full-frame images); the stage is then timed as one,
+  // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades, seq ? &tracked : nullptr);
+                          &facades, seq ? &tracked : nullptr, !tail);
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
+  if (!lm.composed.empty()) {
+    s.radiance = std::move(lm.composed);
+    s.lights = std::move(lm.radiance);
+    lap("lights+compose");
+    return s;
+  }
   lap("lights");
   if (tail) {
     PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);
