@@ -3,11 +3,13 @@
 // vehicle instance, lamp heads on poles, seeded window lights on buildings. Glare is the lens's, in the sensor's optics stage
 // (sensor/glare.h), not here.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <functional>
 #include <immintrin.h>
 #include <map>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 
 #include "photosite/environment.h"
@@ -71,9 +73,40 @@ inline bool all_zero8(const int32_t* p) {
 void put_max(ImageF& img, int x, int y, const Rgb& c) {
   for (int k = 0; k < 3; ++k) img.at(x, y, k) = std::max(img.at(x, y, k), static_cast<float>(c[k]));
 }
-// A filled disc of radiance, limited to pixels where `keep(x,y)`.
-template <class Keep>
-int disc(ImageF& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
+// put_max's on an image of width x height, recorded (pixel and float colour) and drawn later row
+// by row: a maximum per channel, so the order of the draws on a pixel does not matter.
+class MaxDraws {
+ public:
+  MaxDraws(int width, int height) : W(width), H(height) {}
+  int width() const { return W; }
+  int height() const { return H; }
+  void add(int x, int y, const Rgb& c) {
+    px_.push_back({x, y, {static_cast<float>(c[0]), static_cast<float>(c[1]), static_cast<float>(c[2])}});
+  }
+  // Sorts the draws by row; draw_row after it.
+  void finish() {
+    std::sort(px_.begin(), px_.end(), [](const Px& a, const Px& b) { return a.y < b.y; });
+    start_.assign(H + 1, 0);
+    for (const Px& p : px_) ++start_[p.y + 1];
+    for (int y = 0; y < H; ++y) start_[y + 1] += start_[y];
+  }
+  // Row y's draws over img.
+  void draw_row(ImageF& img, int y) const {
+    float* r = img.row(y);
+    for (size_t i = start_[y]; i < start_[y + 1]; ++i)
+      for (int k = 0; k < 3; ++k) r[3 * px_[i].x + k] = std::max(r[3 * px_[i].x + k], px_[i].c[k]);
+  }
+
+ private:
+  struct Px { int x, y; float c[3]; };
+  int W, H;
+  std::vector<Px> px_;
+  std::vector<size_t> start_;
+};
+void put_max(MaxDraws& d, int x, int y, const Rgb& c) { d.add(x, y, c); }
+// A filled disc of radiance, limited to pixels where `keep(x,y)`, on an image or recorded.
+template <class Target, class Keep>
+int disc(Target& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
   int n = 0;
   const int x0 = std::max(0, static_cast<int>(std::floor(cx - r))),
             x1 = std::min(img.width() - 1, static_cast<int>(std::ceil(cx + r)));
@@ -575,9 +608,11 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
 // The widest path the beam image may take (beam_max_isa): 2 AVX-512, 1 AVX2, 0 scalar.
 const bool kHaveAvx512 = kHaveAvx2 && __builtin_cpu_supports("avx512f");
 int beam_isa_cap = 2;
+bool g_fused_rows = true;  // light_map_fused_rows
 }  // namespace
 
 void beam_max_isa(int isa) { beam_isa_cap = isa; }
+void light_map_fused_rows(bool on) { g_fused_rows = on; }
 
 double low_beam_intensity_cd(double h_deg, double v_deg, const ScenePreset& p) {
   return beam_intensity_cd(h_deg, v_deg, std::tan(p.beam_cutoff_rise_deg * M_PI / 180), p);
@@ -727,7 +762,8 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
-                   const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street) {
+                   const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
+                   bool with_radiance) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -764,11 +800,17 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px, z = z_m;
       return sign_light.luminance(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s));
     };
-  int signals = 0;
+  // With the metric geometry the light map has one pass over the rows (add_street_light_rows),
+  // which makes each row from the start: this retroreflection and the signals (retro_row), the
+  // vehicle lamps (veh, recorded below), then the street light, the windows and the heads, and,
+  // when asked, the night radiance. Otherwise this pass runs over the frame here and the vehicle
+  // lamps are drawn after it. Per pixel the same operations in the same order either way.
+  const bool row_pass = geometry && depth_m && g_fused_rows;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
   const int traffic_sign = static_cast<int>(Label::TrafficSign);
-#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
-  for (int y = 0; y < H; ++y) {
+  // Row y of L written whole (zeros where nothing retroreflects); returns its signals.
+  auto retro_row = [&](int y) {
+    int signals = 0;
     // Row pointers (stores to L through the images' own accessors made the compiler reload them
     // per pixel), and pixels that are no marking, sign or signal left at once: they get nothing.
     float* Lr = L.row(y);
@@ -816,8 +858,14 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       put_max(L, x, y, col);
       ++signals;
     }
+    return signals;
+  };
+  if (!row_pass) {
+    int signals = 0;
+#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
+    for (int y = 0; y < H; ++y) signals += retro_row(y);
+    out.stats.signals = signals;
   }
-  out.stats.signals = signals;
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
@@ -1024,6 +1072,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // bright white is rare (so not a white body), near-white highlights in the lower half.
   const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
   const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
+  // The vehicle lamps' pixels (maxima over L), recorded while the vehicle scratch is alive and
+  // drawn after the retroreflection, row by row.
+  MaxDraws veh(W, H);
   // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
   // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
   ImageU8 cue(W, H, 1, uninitialized);
@@ -1090,7 +1141,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       int n = 0;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
-      if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(L, x, y, v == 1 ? tail : head);
+      if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(veh, x, y, v == 1 ? tail : head);
     }
   }
   // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
@@ -1131,10 +1182,10 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
         const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
         int n = 0;
-        if (r >= 0.6) n = disc(L, u, vv, r, col, mine);
+        if (r >= 0.6) n = disc(veh, u, vv, r, col, mine);
         else {
           const int px = static_cast<int>(std::lround(u)), py = static_cast<int>(std::lround(vv));
-          if (px >= 0 && py >= 0 && px < W && py < H && mine(px, py)) { put_max(L, px, py, col); n = 1; }
+          if (px >= 0 && py >= 0 && px < W && py < H && mine(px, py)) { put_max(veh, px, py, col); n = 1; }
         }
         out.stats.vehicle_lamps += n > 0;
       }
@@ -1145,12 +1196,19 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     const Rgb& col = oncoming ? head : tail;
     const double r = std::max(1.5, 0.05 * bw), ly = b.y0 + 0.55 * bh;
     if (two_wheeler) {
-      if (disc(L, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
+      if (disc(veh, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
     } else {
-      out.stats.vehicle_lamps += disc(L, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
-      out.stats.vehicle_lamps += disc(L, b.x1 - 0.15 * bw, ly, r, col, mine) > 0;
+      out.stats.vehicle_lamps += disc(veh, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
+      out.stats.vehicle_lamps += disc(veh, b.x1 - 0.15 * bw, ly, r, col, mine) > 0;
     }
   }
+
+  // The vehicle scratch is done with: its pages go back before the row pass touches new ones.
+  comp = ImageI32();
+  cue = ImageU8();
+  veh.finish();
+  if (!row_pass)
+    for (int y = 0; y < H; ++y) veh.draw_row(L, y);
 
   // Street lighting in metres: luminaires on poles or along the road edges, their pools on the
   // ground and their heads (scene/street.cpp).
@@ -1163,7 +1221,22 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // depth, the vertical light, the pools and the façade windows (below) in one pass over the
     // rows (add_street_light_rows: the same bits as the three calls).
     if (depth_m) {
-      const StreetRowsResult r = add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades);
+      // Asked for the night radiance (and given the beam): each row composed in the row pass once
+      // its light is final (nothing after the pass writes L on this path).
+      std::optional<ComposeRows> rows;
+      if (with_radiance && beam_lux && row_pass) {
+        out.composed = ImageF(W, H, 3, uninitialized, unit::radiance);
+        rows.emplace(texture, L, labels, *beam_lux, p, out.composed);
+      }
+      // Each row begins with its retroreflection and signals, then its vehicle lamps.
+      std::atomic<int> signals{0};
+      const std::function<void(int)> first = [&](int y) {
+        signals += retro_row(y);
+        veh.draw_row(L, y);
+      };
+      const StreetRowsResult r = add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades,
+                                                       rows ? &*rows : nullptr, row_pass ? &first : nullptr);
+      out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;
     } else {
@@ -1317,21 +1390,26 @@ __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, 
 }
 }  // namespace
 
+ComposeRows::ComposeRows(const ImageF& texture_, const ImageF& lights_, const ImageU16& labels_,
+                         const ImageF& beam_lux_, const ScenePreset& p, ImageF& night_)
+    : texture(texture_), lights(lights_), labels(labels_), beam_lux(beam_lux_), night(night_), dp(darken_params(p)),
+      ground_mask(label_bits(dp.ground_class)), avx2(kHaveAvx2) {
+  const auto tb = illuminant_tint(p.beam_cct_K);
+  for (int k = 0; k < 3; ++k) tbf[k] = static_cast<float>(tb[k] / M_PI);
+}
+
+void ComposeRows::row(int y) const {
+  const int W = texture.width();
+  if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, ground_mask);
+  else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf);
+}
+
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,
                const ImageF& beam_lux, const ScenePreset& p) {
-  const int W = texture.width(), H = texture.height();
-  ImageF night(W, H, 3, uninitialized, unit::radiance);
-  const DarkenParams dp = darken_params(p);
-  const auto tb = illuminant_tint(p.beam_cct_K);
-  const float tbf[3] = {static_cast<float>(tb[0] / M_PI), static_cast<float>(tb[1] / M_PI),
-                        static_cast<float>(tb[2] / M_PI)};
-  const uint64_t ground_mask = label_bits(dp.ground_class);
-  const bool avx2 = kHaveAvx2;
+  ImageF night(texture.width(), texture.height(), 3, uninitialized, unit::radiance);
+  const ComposeRows rows(texture, lights, labels, beam_lux, p, night);
 #pragma omp parallel for schedule(static, 8)
-  for (int y = 0; y < H; ++y) {
-    if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, ground_mask);
-    else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf);
-  }
+  for (int y = 0; y < texture.height(); ++y) rows.row(y);
   return night;
 }
 

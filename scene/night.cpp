@@ -154,13 +154,18 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // and the coarse depth, the lane mask at the frame's size and the ego low beam. Each half's
   // loops run on its own thread then (nested regions get one thread: OpenMP's default), and
   // every function gives the same result for any thread count, so the same bits.
+  // The street-lamp plan (plan_street_lighting: labels and geometry only) goes with the first half,
+  // which measured the shorter one (the low beam's image makes the second the longer), so at two
+  // threads it costs no wall time; the light map is handed it (and a sequence tracks it).
   BuildingFacades facades;
   ImageU8 lanes_full;
+  StreetLighting planned;
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
+        planned = plan_street_lighting(labels, s.geometry, p, seed);
       },
       [&] {
         s.beam_input = coarse_depth(W, H, vp.x, vp.y);
@@ -170,12 +175,21 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   depth_runs.reset();
   lap("depth");
   StreetLighting tracked;
-  if (seq) tracked = seq->luminaires.update(plan_street_lighting(labels, s.geometry, p, seed), s.geometry, W, H, seq->pose,
-                                            p, seed);
+  if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
+  // On the CPU the light map composes the night radiance row by row inside its row pass, each row
+  // once its light is final (LightMap::composed: the same bits as compose() after it, without a
+  // pass of its own over four full-frame images); the stage is then timed as one,
+  // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades, seq ? &tracked : nullptr);
+                          &facades, seq ? &tracked : &planned, !tail);
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
+  if (!lm.composed.empty()) {
+    s.radiance = std::move(lm.composed);
+    s.lights = std::move(lm.radiance);
+    lap("lights+compose");
+    return s;
+  }
   lap("lights");
   if (tail) {
     PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);

@@ -608,33 +608,52 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 }
 
 namespace {
-int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                    const ImageF* depth_m) {
-  const int W = L.width(), H = L.height();
-  // Lamp heads: discs of the head's diameter at its projected size, only over their footprint,
-  // at the luminance the luminaire's own intensity distribution sends toward the camera:
-  // L = I0·rel(γ) / (π d²/4), γ the angle from the nadir of the lamp-to-camera direction, so the
-  // flux per steradian reaching the lens is I(γ), the distribution that lights the pools (as the
-  // vehicle lamps are drawn at I/A). A cut-off luminaire seen in the frame is beyond its cut-off;
-  // its peak luminance I0/A (4e4 cd/m² for night-urban) is seen only from below.
+// The lamp heads in the frame: discs of the head's diameter at its projected size, only over their
+// footprint, at the luminance the luminaire's own intensity distribution sends toward the camera:
+// L = I0·rel(γ) / (π d²/4), γ the angle from the nadir of the lamp-to-camera direction, so the
+// flux per steradian reaching the lens is I(γ), the distribution that lights the pools (as the
+// vehicle lamps are drawn at I/A). A cut-off luminaire seen in the frame is beyond its cut-off;
+// its peak luminance I0/A (4e4 cd/m² for night-urban) is seen only from below.
+struct HeadDisc {
+  double u, v, r, z;
+  std::array<double, 3> head;
+  int y0, y1, x0, x1;  // the rows and columns of its bounding box inside the frame
+};
+std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p, int W,
+                                      int H) {
   const auto head1 = spectrum::blackbody_rgb(p.streetlamp_cct_K, 1.0);
   const double head_area_m2 = M_PI * 0.25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
-  int drawn = 0;
+  std::vector<HeadDisc> out;
   for (const auto& l : s.lamps) {
     double u, v, z;
     if (!g.project(l.X_m, l.Y_m, l.D_m, &u, &v, &z)) continue;
     const double gamma = std::atan2(std::hypot(l.X_m, l.D_m), l.Y_m - g.mount_height_m);
     const double Lh = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / head_area_m2;
-    const std::array<double, 3> head{head1[0] * Lh, head1[1] * Lh, head1[2] * Lh};
     const double r = std::max(0.5, 0.5 * g.f_px * p.lamp_head_diameter_m / z);
     if (u + r < 0 || u - r >= W || v + r < 0 || v - r >= H) continue;
+    out.push_back({u, v, r, z, {head1[0] * Lh, head1[1] * Lh, head1[2] * Lh},
+                   std::max(0, static_cast<int>(std::floor(v - r))), std::min(H - 1, static_cast<int>(std::ceil(v + r))),
+                   std::max(0, static_cast<int>(std::floor(u - r))), std::min(W - 1, static_cast<int>(std::ceil(u + r)))});
+  }
+  return out;
+}
+// Disc d's pixels in row y (inside its box rows) as a maximum over L, where no depth is given or
+// the pixel's depth is not in front of the head by more than 1 m; whether any was drawn.
+bool draw_head_row(ImageF& L, const HeadDisc& d, int y, const ImageF* depth_m) {
+  bool any = false;
+  for (int x = d.x0; x <= d.x1; ++x)
+    if ((x - d.u) * (x - d.u) + (y - d.v) * (y - d.v) <= d.r * d.r && (!depth_m || depth_m->at(x, y) >= d.z - 1.0)) {
+      for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(d.head[k]));
+      any = true;
+    }
+  return any;
+}
+int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                    const ImageF* depth_m) {
+  int drawn = 0;
+  for (const HeadDisc& d : lamp_head_discs(g, s, p, L.width(), L.height())) {
     bool any = false;
-    for (int y = std::max(0, static_cast<int>(std::floor(v - r))); y <= std::min(H - 1, static_cast<int>(std::ceil(v + r))); ++y)
-      for (int x = std::max(0, static_cast<int>(std::floor(u - r))); x <= std::min(W - 1, static_cast<int>(std::ceil(u + r))); ++x)
-        if ((x - u) * (x - u) + (y - v) * (y - v) <= r * r && (!depth_m || depth_m->at(x, y) >= z - 1.0)) {
-          for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(head[k]));
-          any = true;
-        }
+    for (int y = d.y0; y <= d.y1; ++y) any |= draw_head_row(L, d, y, depth_m);
     drawn += any;
   }
   return drawn;
@@ -1431,7 +1450,8 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
 
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                                       uint64_t seed, const BuildingFacades* facades) {
+                                       uint64_t seed, const BuildingFacades* facades, const ComposeRows* compose,
+                                       const std::function<void(int)>* first) {
   const int W = L.width(), H = L.height();
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades* fac = facades ? facades : &computed;
@@ -1443,6 +1463,11 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     pools.emplace(texture, labels, g, s, p, W);
   }
   const WindowPass windows(labels, depth_m, g, p, seed, fac, W);
+  // With compose, the heads row by row in the pass (each row's share of every disc crossing it,
+  // a maximum after the row's windows, as draw_lamp_heads' after all rows), and each head's
+  // "drawn" from any thread's rows.
+  const std::vector<HeadDisc> heads = compose && lamps ? lamp_head_discs(g, s, p, W, H) : std::vector<HeadDisc>();
+  std::vector<uint8_t> head_drawn(heads.size(), 0);
   std::unordered_set<uint64_t> all;
 #pragma omp parallel
   {
@@ -1450,20 +1475,33 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     VerticalRow vr(W);
     PoolPass::Scratch ps(W);
     WindowPass::Scratch ws(W);
+    std::vector<uint8_t> drawn(heads.size(), 0);
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
+      if (first) (*first)(y);
       if (lamps) {
         vertical->row(L, y, vr);
         pools->row(L, y, ps);
       }
       windows.row(L, y, ws);
+      if (compose) {
+        for (size_t k = 0; k < heads.size(); ++k)
+          if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
+        compose->row(y);
+      }
     }
 #pragma omp critical
-    all.insert(ws.seen.begin(), ws.seen.end());
+    {
+      all.insert(ws.seen.begin(), ws.seen.end());
+      for (size_t k = 0; k < heads.size(); ++k) head_drawn[k] |= drawn[k];
+    }
   }
   StreetRowsResult out;
   out.windows = static_cast<int>(all.size());
-  if (lamps) out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);
+  if (lamps) {
+    if (compose) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));
+    else out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);
+  }
   return out;
 }
 

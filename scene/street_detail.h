@@ -2,9 +2,11 @@
 // and its instruction-set cap and the pole components of plan_street_lighting, for the tests
 // that pin them (the same bits on every path; OpenCV's labels).
 #pragma once
+#include <functional>
 #include <vector>
 
 #include "photosite/image.h"
+#include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
 
 namespace photosite::scene {
@@ -24,12 +26,46 @@ void street_light_max_isa(int isa);
 // order as the three calls one after the other, so the same bits; a row's labels, depth, façade
 // regions, texture and light stay in cache from one part to the next instead of each part
 // streaming the whole frame. Returns the heads drawn and the lit windows (the calls' results).
+// With `compose` (light_map asked for the night radiance): each row, once its light is final
+// (after its windows and its share of the lamp heads), is composed at once (compose->row(y)), while
+// it is in cache, instead of in a pass of its own over the finished frame; the lamp heads are
+// then drawn row by row inside the pass (the same maxima over the same pixels). compose->lights
+// must be L. With `first`: (*first)(y) begins each row, before its street light (light_map's
+// retroreflection and vehicle lamps, which then need no pass of their own over the frame).
+struct ComposeRows;
 struct StreetRowsResult {
   int pole_lamps = 0, windows = 0;
 };
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                                       uint64_t seed, const BuildingFacades* facades);
+                                       uint64_t seed, const BuildingFacades* facades,
+                                       const ComposeRows* compose = nullptr,
+                                       const std::function<void(int)>* first = nullptr);
+
+// compose() (scene/lights.cpp) one row at a time: the constants once, then any row y on any
+// thread writes night's row y from the same rows of texture, lights, labels and beam_lux (the
+// same float operations per pixel as compose(), which runs it over the frame).
+struct ComposeRows {
+  const ImageF& texture;
+  const ImageF& lights;
+  const ImageU16& labels;
+  const ImageF& beam_lux;
+  ImageF& night;
+  const DarkenParams dp;
+  const uint64_t ground_mask;
+  const bool avx2;
+  float tbf[3];  // the beam's tint over π per channel
+  ComposeRows(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& beam_lux,
+              const ScenePreset& p, ImageF& night);
+  void row(int y) const;
+};
+
+// Whether light_map with the metric geometry makes each row in its one row pass from the start
+// (its retroreflection and vehicle lamps begin the row, and with_radiance composes it at the end:
+// on, the default) or in the separate steps that define it (the retroreflection over the frame,
+// the vehicle lamps, the street rows, the lamp heads after them, no LightMap::composed): the same
+// bits, which the test compares. Not thread-safe: set it before a light map, not during one.
+void light_map_fused_rows(bool on);
 
 // A connected component's bounding box (inclusive pixel bounds).
 struct PoleBox {

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <omp.h>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "photosite/scene/street.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/night_detail.h"
 #include "scene/street_detail.h"
 #include "test_util.h"
 
@@ -298,6 +300,13 @@ std::pair<ImageF, LabelMap> cityscapes_frame(const std::string& base) {
                              LabelFormat::Auto, ResizeLabels::None);
   return {linearize(day, info), std::move(lab)};
 }
+// The samples of two images whose bits differ (all of both when their sizes differ).
+size_t differing_samples(const ImageF& a, const ImageF& b) {
+  if (a.size() != b.size()) return a.size() + b.size();
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); ++i) n += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+  return n;
+}
 }  // namespace
 
 // A luminaire is a point source: E = I(γ)·cos γ / d², i.e. I0/H² at the nadir and
@@ -403,12 +412,58 @@ TEST(StreetLighting, LightMapIsTheSameBitsAtEveryInstructionSet) {
   double sum = 0;
   for (size_t i = 0; i < lights[2].size(); ++i) sum += lights[2][i];
   EXPECT_GT(sum, 0.0);
-  for (int k = 0; k < 2; ++k) {
-    ASSERT_EQ(lights[k].size(), lights[2].size());
-    size_t differ = 0;
-    for (size_t i = 0; i < lights[2].size(); ++i) differ += std::memcmp(&lights[k][i], &lights[2][i], sizeof(float)) != 0;
-    EXPECT_EQ(differ, 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
-  }
+  for (int k = 0; k < 2; ++k)
+    EXPECT_EQ(differing_samples(lights[k], lights[2]), 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
+}
+
+// The light map's one pass over the rows (light_map_fused_rows on, the default: each row begins
+// with its retroreflection and vehicle lamps, and night_scene's ends with its night radiance,
+// LightMap::composed, the lamp heads then drawn row by row) pinned to its definition, the separate
+// steps (light_map_fused_rows off: the retroreflection over the frame, the vehicle lamps, the
+// street rows, the heads after them, then compose()): on a shared Cityscapes frame (poles with
+// heads, façade windows, vehicles, signs) at 1 and 2 threads and at AVX-512, AVX2 and the scalar
+// twins, the chain's lights and the light map alone equal the steps' light map, the chain's
+// radiance equals compose() of it, bit for bit, with the same counts.
+TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const auto [lin, lab] = cityscapes_frame("aachen_000000_000019");
+  const ScenePreset p = load_scene_preset("night-urban");
+  const ImageF tex = reflectance_texture(lin, lab.ids, p);
+  const int before = omp_get_max_threads();
+  for (const int isa : {2, 1, 0})
+    for (const int threads : {1, 2}) {
+      street_light_max_isa(isa);
+      omp_set_num_threads(threads);
+      const NightScene ns = night_scene(lin, lab, p, 1);
+      bool fused = false;
+      for (const StageTiming& st : ns.timings) fused |= st.stage == "lights+compose";
+      EXPECT_TRUE(fused) << "the chain composed after the light map, not inside it";
+      const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
+      const ImageU8 lanes = lanes_at_frame(ns.lanes_work, lin.width(), lin.height());
+      auto map = [&](bool rows) {
+        light_map_fused_rows(rows);
+        LightMap m = light_map(lin, tex, lab, lanes, ns.beam_input, ns.vp, p, 1, &ns.geometry, &ns.depth, &ns.beam_lux, &fac);
+        light_map_fused_rows(true);
+        return m;
+      };
+      const LightMap steps = map(false), alone = map(true);
+      ASSERT_TRUE(steps.composed.empty());
+      EXPECT_GT(steps.stats.pole_lamps, 0);  // heads to draw row by row
+      EXPECT_GT(steps.stats.windows, 0);
+      EXPECT_GT(steps.stats.vehicle_lamps, 0);
+      for (const LightStats* st : {&ns.light_stats, &alone.stats}) {
+        EXPECT_EQ(st->pole_lamps, steps.stats.pole_lamps);
+        EXPECT_EQ(st->windows, steps.stats.windows);
+        EXPECT_EQ(st->signals, steps.stats.signals);
+        EXPECT_EQ(st->vehicle_lamps, steps.stats.vehicle_lamps);
+      }
+      EXPECT_EQ(differing_samples(ns.lights, steps.radiance), 0u) << "chain's lights, isa " << isa << ", " << threads << " threads";
+      EXPECT_EQ(differing_samples(alone.radiance, steps.radiance), 0u) << "light map, isa " << isa << ", " << threads << " threads";
+      const ImageF want = compose(tex, steps.radiance, lab.ids, ns.beam_lux, p);
+      EXPECT_EQ(differing_samples(ns.radiance, want), 0u) << "radiance, isa " << isa << ", " << threads << " threads";
+    }
+  street_light_max_isa(2);
+  omp_set_num_threads(before);
 }
 
 // Without poles the lamps go along the road edges at the preset's height and spacing; their

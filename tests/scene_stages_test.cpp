@@ -1025,7 +1025,7 @@ TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
     EXPECT_EQ(got.vp.y, want.vp.y);
     std::vector<std::string> stages;
     for (const StageTiming& st : got.timings) stages.push_back(st.stage);
-    EXPECT_EQ(stages, (std::vector<std::string>{"darken", "lanes", "edges", "lines", "vanishing", "depth", "lights", "compose"}));
+    EXPECT_EQ(stages, (std::vector<std::string>{"darken", "lanes", "edges", "lines", "vanishing", "depth", "lights+compose"}));
   }
   omp_set_num_threads(before);
 }

@@ -201,10 +201,15 @@ void run(const Opts& o) {
       // The whole light map alone (the "lights" stage above) on this round's inputs, as
       // night_scene hands them to it, by the process CPU clock.
       const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
+      // (The chain's light map also composes the night radiance row by row in its row pass: its
+      // stage is "lights+compose"; this one makes the lights layer only.)
       const double cm0 = cpu_ms();
+      auto tm0 = clock::now();
       const scene::LightMap lmap = scene::light_map(lin, tex, lm, lanes_full, ns.beam_input, ns.vp, sp, 1, &ns.geometry,
                                                     &ns.depth, &ns.beam_lux, &fac);
+      auto tm1 = clock::now();
       const double cm1 = cpu_ms();
+      add("light map (alone)", ms(tm0, tm1));
       (void)lmap;
       if (o.cpu_clock) {
         add("cpu: light map (alone)", cm1 - cm0);
@@ -245,7 +250,8 @@ void run(const Opts& o) {
   }
   const double scene_ms = median(t["scene stages (linearize..compose)"]);
   const double whole_ms = median(t["whole chain"]);
-  const double lights_ms = t.count("lights") ? median(t["lights"]) : 0;
+  // The light map's target on the light map alone where the chain composes inside it.
+  const double lights_ms = t.count("lights") ? median(t["lights"]) : median(t["light map (alone)"]);
   std::printf("\ntargets: scene stages < 30 ms: %s (%.1f ms); whole chain <= 50 ms: %s (%.1f ms); "
               "light map <= 10 ms: %s (%.1f ms)\n",
               scene_ms < 30 ? "met" : "NOT met", scene_ms, whole_ms <= 50 ? "met" : "NOT met", whole_ms,

@@ -264,6 +264,10 @@ struct LightStats {
 };
 struct LightMap {
   ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected (the lens's glare comes later, in the sensor)
+  // With `with_radiance`, where the light map has its row pass (geometry, depth_m and beam_lux
+  // given): the night radiance compose(texture, radiance, labels, *beam_lux, p), the same bits,
+  // each row composed inside that pass once its light is final. Empty otherwise (compose it then).
+  ImageF composed;
   LightStats stats;
 };
 // `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
@@ -277,7 +281,8 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
                    const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr,
-                   const BuildingFacades* facades = nullptr, const StreetLighting* street = nullptr);
+                   const BuildingFacades* facades = nullptr, const StreetLighting* street = nullptr,
+                   bool with_radiance = false);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
