@@ -32,8 +32,9 @@ namespace {
 // retried ~35 lanes per call, padded to whole vectors, with the per-call cost on each. On the
 // night bench frame's means (poisson_block over 2048x1024, 1 thread, best of 30 CPU times):
 // 21.3-22.3 ms at 256 before pack_lanes, 20.8-21.9 at 256 with it, 19.0-19.5 at 1024 (2048: the same).
-// The stack arrays of a block (~150 KB over ptrs_block, ptrs_high_lanes and poisson_block) fit
-// any thread's stack. No draw depends on the block size.
+// The stack arrays of a block take ~150 KB over ptrs_block, ptrs_high_lanes and poisson_block
+// (a default glibc thread stack is 8 MB, a macOS secondary thread's 512 KB). No draw depends on
+// the block size.
 constexpr int kBlock = 1024;
 
 // The scalar Philox (kernels/common/philox_round.glsl) for one pixel, its four words stored at
