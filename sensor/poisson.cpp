@@ -188,33 +188,44 @@ void corrected_normal_block(const float* mean, const float* z, float* out, int n
     out[j] = detail::cornish_fisher_sample(
         detail::cornish_fisher_setup(std::max(mean[j], static_cast<float>(kPoissonApproxThreshold))), z[j]);
 }
-// Inversion for the compacted low-mean pixels of a block, all lanes in step: K = Σ_k [F(k) < u].
-// A documented SIMD twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops
-// per lane with a break that keeps it from vectorizing: the same sums in the same order, so the
-// same bits, held to them by the test Poisson.BlockKernelMatchesScalarPhiloxWords.
+// Inversion for the compacted low-mean pixels of a block: K = Σ_k [F(k) < u]. A documented SIMD
+// twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops per lane with a
+// break that keeps it from vectorizing: the same sums in the same order, so the same bits, held
+// to them by the tests Poisson.BlockKernelMatchesScalarPhiloxWords and
+// Philox.PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes. The lanes go in groups of
+// kInversionLanes, all lanes of a group in step, each group until its own lanes have stopped,
+// its state in registers (four AVX-512 vectors: independent chains of multiply and add).
+// m is a multiple of kInversionLanes: the caller pads the last group with mean 0, whose lanes
+// stop at once (u < 1 = F(0)).
+constexpr int kInversionLanes = 64;
+static_assert(kBlock % kInversionLanes == 0);
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
-  alignas(64) float u[kBlock], p[kBlock], cdf[kBlock], k[kBlock];
-  for (int i = 0; i < m; ++i) {
-    u[i] = detail::inversion_uniform(w[i]);
-    p[i] = detail::fast_exp(-mean[i]);
-    cdf[i] = p[i];
-    k[i] = 0.f;
-  }
-  for (int j = 1; j < 64; ++j) {
-    int active = 0;
-    for (int i = 0; i < m; ++i) {
-      p[i] *= mean[i] * detail::kInverseInteger[j];
-      // Lanes that stopped stay stopped: once u <= cdf it remains so as cdf only grows, and p
-      // only shrinks past the mode; k and cdf advance together exactly as in the scalar loop.
-      const bool go = u[i] > cdf[i] && p[i] > detail::kInversionMinPmf;
-      k[i] += go ? 1.f : 0.f;
-      cdf[i] += go ? p[i] : 0.f;
-      active += go;
+  if (m % kInversionLanes != 0) __builtin_unreachable();
+  for (int i0 = 0; i0 < m; i0 += kInversionLanes) {
+    float mu[kInversionLanes], u[kInversionLanes], p[kInversionLanes], cdf[kInversionLanes], k[kInversionLanes];
+    for (int i = 0; i < kInversionLanes; ++i) {
+      mu[i] = mean[i0 + i];
+      u[i] = detail::inversion_uniform(w[i0 + i]);
+      p[i] = detail::fast_exp(-mu[i]);
+      cdf[i] = p[i];
+      k[i] = 0.f;
     }
-    if (!active) break;
+    for (int j = 1; j < 64; ++j) {
+      int active = 0;
+      for (int i = 0; i < kInversionLanes; ++i) {
+        p[i] *= mu[i] * detail::kInverseInteger[j];
+        // Lanes that stopped stay stopped: once u <= cdf it remains so as cdf only grows, and p
+        // only shrinks past the mode; k and cdf advance together exactly as in the scalar loop.
+        const bool go = u[i] > cdf[i] && p[i] > detail::kInversionMinPmf;
+        k[i] += go ? 1.f : 0.f;
+        cdf[i] += go ? p[i] : 0.f;
+        active += go;
+      }
+      if (!active) break;
+    }
+    for (int i = 0; i < kInversionLanes; ++i) k_out[i0 + i] = k[i];
   }
-  for (int i = 0; i < m; ++i) k_out[i] = k[i];
 }
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
@@ -478,7 +489,9 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
     for (int j = 0; j < m; ++j) z[j] = (mu[j] < threshold) & (mu[j] > 0.f) ? 1.f : 0.f;
     const int nl = pack_lanes(z, m, low_idx, {{mu, low_mean}, {w0, low_w}});
     if (nl) {
-      inversion_block(low_mean, low_w, low_k, nl);
+      const int padded = (nl + kInversionLanes - 1) / kInversionLanes * kInversionLanes;  // <= kBlock
+      for (int i = nl; i < padded; ++i) low_mean[i] = 0.f, low_w[i] = 0u;
+      inversion_block(low_mean, low_w, low_k, padded);
       for (int i = 0; i < nl; ++i) o[low_idx[i]] = low_k[i];
     }
   }
