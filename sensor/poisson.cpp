@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <utility>
 #include <immintrin.h>
 
@@ -26,7 +27,15 @@ const float kInverseInteger[64] = {
 }  // namespace shader
 
 namespace {
-constexpr int kBlock = 256;
+// Pixels per block of poisson_block (a 2048-pixel row in two blocks). Larger blocks give the
+// compacted PTRS passes (full test, retries) more lanes per call: at 256, a night frame's block
+// retried ~35 lanes per call, padded to whole vectors, with the per-call cost on each. On the
+// night bench frame's means (poisson_block over 2048x1024, 1 thread, best of 30 CPU times):
+// 21.3-22.3 ms at 256 before pack_lanes, 20.8-21.9 at 256 with it, 19.0-19.5 at 1024 (2048: the same).
+// The stack arrays of a block take ~150 KB over ptrs_block, ptrs_high_lanes and poisson_block
+// (a default glibc thread stack is 8 MB, a macOS secondary thread's 512 KB). No draw depends on
+// the block size.
+constexpr int kBlock = 1024;
 
 // The scalar Philox (kernels/common/philox_round.glsl) for one pixel, its four words stored at
 // index j of w0..w3.
@@ -179,33 +188,44 @@ void corrected_normal_block(const float* mean, const float* z, float* out, int n
     out[j] = detail::cornish_fisher_sample(
         detail::cornish_fisher_setup(std::max(mean[j], static_cast<float>(kPoissonApproxThreshold))), z[j]);
 }
-// Inversion for the compacted low-mean pixels of a block, all lanes in step: K = Σ_k [F(k) < u].
-// A documented SIMD twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops
-// per lane with a break that keeps it from vectorizing: the same sums in the same order, so the
-// same bits, held to them by the test Poisson.BlockKernelMatchesScalarPhiloxWords.
+// Inversion for the compacted low-mean pixels of a block: K = Σ_k [F(k) < u]. A documented SIMD
+// twin of poisson_inversion (kernels/common/poisson_draws.glsl), which stops per lane with a
+// break that keeps it from vectorizing: the same sums in the same order, so the same bits, held
+// to them by the tests Poisson.BlockKernelMatchesScalarPhiloxWords and
+// Philox.PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes. The lanes go in groups of
+// kInversionLanes, all lanes of a group in step, each group until its own lanes have stopped,
+// its state in registers (four AVX-512 vectors: independent chains of multiply and add).
+// m is a multiple of kInversionLanes: the caller pads the last group with mean 0, whose lanes
+// stop at once (u < 1 = F(0)).
+constexpr int kInversionLanes = 64;
+static_assert(kBlock % kInversionLanes == 0);
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
-  alignas(64) float u[kBlock], p[kBlock], cdf[kBlock], k[kBlock];
-  for (int i = 0; i < m; ++i) {
-    u[i] = detail::inversion_uniform(w[i]);
-    p[i] = detail::fast_exp(-mean[i]);
-    cdf[i] = p[i];
-    k[i] = 0.f;
-  }
-  for (int j = 1; j < 64; ++j) {
-    int active = 0;
-    for (int i = 0; i < m; ++i) {
-      p[i] *= mean[i] * detail::kInverseInteger[j];
-      // Lanes that stopped stay stopped: once u <= cdf it remains so as cdf only grows, and p
-      // only shrinks past the mode; k and cdf advance together exactly as in the scalar loop.
-      const bool go = u[i] > cdf[i] && p[i] > detail::kInversionMinPmf;
-      k[i] += go ? 1.f : 0.f;
-      cdf[i] += go ? p[i] : 0.f;
-      active += go;
+  if (m % kInversionLanes != 0) __builtin_unreachable();
+  for (int i0 = 0; i0 < m; i0 += kInversionLanes) {
+    float mu[kInversionLanes], u[kInversionLanes], p[kInversionLanes], cdf[kInversionLanes], k[kInversionLanes];
+    for (int i = 0; i < kInversionLanes; ++i) {
+      mu[i] = mean[i0 + i];
+      u[i] = detail::inversion_uniform(w[i0 + i]);
+      p[i] = detail::fast_exp(-mu[i]);
+      cdf[i] = p[i];
+      k[i] = 0.f;
     }
-    if (!active) break;
+    for (int j = 1; j < 64; ++j) {
+      int active = 0;
+      for (int i = 0; i < kInversionLanes; ++i) {
+        p[i] *= mu[i] * detail::kInverseInteger[j];
+        // Lanes that stopped stay stopped: once u <= cdf it remains so as cdf only grows, and p
+        // only shrinks past the mode; k and cdf advance together exactly as in the scalar loop.
+        const bool go = u[i] > cdf[i] && p[i] > detail::kInversionMinPmf;
+        k[i] += go ? 1.f : 0.f;
+        cdf[i] += go ? p[i] : 0.f;
+        active += go;
+      }
+      if (!active) break;
+    }
+    for (int i = 0; i < kInversionLanes; ++i) k_out[i0 + i] = k[i];
   }
-  for (int i = 0; i < m; ++i) k_out[i] = k[i];
 }
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
@@ -299,6 +319,48 @@ int select_lanes(const float* keep, int m, int* idx) {
   return n;
 }
 
+// pack_lanes: the lanes i < m where keep[i] != 0, in order, their indices into idx and, for
+// each LaneCopy, their 32-bit values (floats or words) from src[i] into dst[0, count);
+// returns the count. idx and every dst hold m + kPackRoom lanes (whole vectors are stored past
+// the count). On the AVX-512 path (the sampler's vector path, set_philox_path) one
+// vpcompressd per array and 16 lanes packs the values with the indices, the mask from one
+// compare; elsewhere select_lanes' indices, then a gather per array. Copies only, the same
+// lanes in the same order on every path, so no draw depends on the path (test
+// Philox.PoissonDrawsEqualOnEveryPathAndThreadCount).
+constexpr int kPackRoom = 16;
+struct LaneCopy {
+  const void* src;
+  void* dst;
+};
+__attribute__((target("avx512f")))
+int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy* copies, int nc) {
+  const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  int n = 0;
+  for (int i = 0; i < m; i += 16) {
+    // The last group's lanes past m are neither read nor kept (masked loads do not fault).
+    const __mmask16 valid = m - i >= 16 ? __mmask16(0xffff) : static_cast<__mmask16>((1u << (m - i)) - 1);
+    const __mmask16 k =
+        _mm512_mask_cmp_ps_mask(valid, _mm512_maskz_loadu_ps(valid, keep + i), _mm512_setzero_ps(), _CMP_NEQ_UQ);
+    _mm512_storeu_si512(idx + n, _mm512_maskz_compress_epi32(k, _mm512_add_epi32(iota, _mm512_set1_epi32(i))));
+    for (int c = 0; c < nc; ++c) {
+      const __m512i v = _mm512_maskz_loadu_epi32(k, static_cast<const uint32_t*>(copies[c].src) + i);
+      _mm512_storeu_si512(static_cast<uint32_t*>(copies[c].dst) + n, _mm512_maskz_compress_epi32(k, v));
+    }
+    n += __builtin_popcount(static_cast<unsigned>(k));
+  }
+  return n;
+}
+int pack_lanes(const float* keep, int m, int* idx, std::initializer_list<LaneCopy> copies) {
+  if (g_philox_path.load(std::memory_order_relaxed) == 2)
+    return pack_lanes_avx512(keep, m, idx, copies.begin(), static_cast<int>(copies.size()));
+  const int n = select_lanes(keep, m, idx);
+  for (const LaneCopy& c : copies)
+    for (int j = 0; j < n; ++j)
+      std::memcpy(static_cast<char*>(c.dst) + 4 * static_cast<size_t>(j),
+                  static_cast<const char*>(c.src) + 4 * static_cast<size_t>(idx[j]), 4);
+  return n;
+}
+
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
 // first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
 // lanes get a value the caller overwrites. AVX-512 and AVX2 clones for its own loops (verdict flags,
@@ -310,9 +372,10 @@ int select_lanes(const float* keep, int m, int* idx) {
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
+  constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
   alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
-  alignas(64) float cmu[kBlock], ck[kBlock], cus[kBlock], cv[kBlock], acc[kBlock];
-  alignas(64) int sel[kBlock + 8], sel2[kBlock + 8];
+  alignas(64) float cmu[R], ck[R], cus[R], cv[R], acc[kBlock];
+  alignas(64) int sel[R], sel2[R];
   // Pass 1: every lane's first candidate, k straight into out.
   ptrs_first(mean, w0, w1, mu, out, us, v, rejected, m);
   for (int i = 0; i < m; ++i) {
@@ -320,26 +383,17 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     rejected[i] = rejected[i] < 0.f ? 1.f : 0.f;
   }
   // Pass 2: the full test on the undecided lanes, compacted.
-  const int nu = select_lanes(undecided, m, sel);
-  for (int j = 0; j < nu; ++j) {
-    const int i = sel[j];
-    cmu[j] = mu[i];
-    ck[j] = out[i];
-    cus[j] = us[i];
-    cv[j] = v[i];
-  }
+  const int nu = pack_lanes(undecided, m, sel, {{mu, cmu}, {out, ck}, {us, cus}, {v, cv}});
   pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
   ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
   for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
   // Pass 3: the rejected lanes retried, compacted, until each is accepted: per retry call, the
   // first attempt on all of them, the second on those the first rejected.
-  alignas(64) uint32_t plo[kBlock], phi[kBlock], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[kBlock],
-      q3[kBlock];
-  alignas(64) float qmu[kBlock], again[kBlock];
-  int nr = select_lanes(rejected, m, sel);
+  alignas(64) uint32_t plo[kBlock], phi[kBlock], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[R], q3[R];
+  alignas(64) float qmu[R], again[kBlock];
+  int nr = pack_lanes(rejected, m, sel, {{mu, cmu}});
   for (int j = 0; j < nr; ++j) {
     const uint64_t pixel = first_pixel + static_cast<uint64_t>(lane ? lane[sel[j]] : sel[j]);
-    cmu[j] = mu[sel[j]];
     plo[j] = static_cast<uint32_t>(pixel);
     phi[j] = static_cast<uint32_t>(pixel >> 32);
   }
@@ -348,12 +402,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     philox_list(key, frame, plo, phi, detail::ptrs_retry_stream(stream, r), round8(nr), r0, r1, r2, r3);
     ptrs_attempts(cmu, r0, r1, ck, round8(nr));
     for (int j = 0; j < nr; ++j) again[j] = ck[j] < 0.f ? 1.f : 0.f;
-    const int n2 = select_lanes(again, nr, sel2);
-    for (int t = 0; t < n2; ++t) {
-      qmu[t] = cmu[sel2[t]];
-      q2[t] = r2[sel2[t]];
-      q3[t] = r3[sel2[t]];
-    }
+    const int n2 = pack_lanes(again, nr, sel2, {{cmu, qmu}, {r2, q2}, {r3, q3}});
     pad8(qmu, n2, 10.f), pad8(q2, n2, 0u), pad8(q3, n2, 0u);
     ptrs_attempts(qmu, q2, q3, cv, round8(n2));
     for (int t = 0; t < n2; ++t) ck[sel2[t]] = cv[t];
@@ -387,9 +436,10 @@ int count_at_least(const float* __restrict a, int n, float t) {
 // mean, words and pixel alone, so neither choice changes a result.
 void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out,
                      uint64_t first_pixel, uint64_t key, uint32_t frame, uint32_t stream) {
-  alignas(64) float high[kBlock], hmean[kBlock], hout[kBlock];
-  alignas(64) uint32_t hw0[kBlock], hw1[kBlock];
-  alignas(64) int idx[kBlock + 8];
+  constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
+  alignas(64) float high[kBlock], hmean[R], hout[kBlock];
+  alignas(64) uint32_t hw0[R], hw1[R];
+  alignas(64) int idx[R];
   const float threshold = static_cast<float>(kPoissonApproxThreshold);
   const int count = count_at_least(mean, m, threshold);
   if (count == 0) return;
@@ -398,12 +448,7 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
     return;
   }
   for (int i = 0; i < m; ++i) high[i] = mean[i] >= threshold ? 1.f : 0.f;
-  const int nh = select_lanes(high, m, idx);
-  for (int j = 0; j < nh; ++j) {
-    hmean[j] = mean[idx[j]];
-    hw0[j] = w0[idx[j]];
-    hw1[j] = w1[idx[j]];
-  }
+  const int nh = pack_lanes(high, m, idx, {{mean, hmean}, {w0, hw0}, {w1, hw1}});
   ptrs_block(hmean, hw0, hw1, nh, hout, first_pixel, key, frame, stream, idx);
   for (int j = 0; j < nh; ++j) out[idx[j]] = hout[j];
 }
@@ -438,17 +483,15 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
     // Means below 10: exact inversion on word 0, on the compacted low-mean lanes; zero,
     // negative or NaN means: no electrons.
     for (int j = 0; j < m; ++j) o[j] = mu[j] >= threshold ? o[j] : 0.f;
-    alignas(64) float low_mean[kBlock], low_k[kBlock];
-    alignas(64) uint32_t low_w[kBlock];
-    alignas(64) int low_idx[kBlock + 8];
+    alignas(64) float low_mean[kBlock + kPackRoom], low_k[kBlock];
+    alignas(64) uint32_t low_w[kBlock + kPackRoom];
+    alignas(64) int low_idx[kBlock + kPackRoom];
     for (int j = 0; j < m; ++j) z[j] = (mu[j] < threshold) & (mu[j] > 0.f) ? 1.f : 0.f;
-    const int nl = select_lanes(z, m, low_idx);
+    const int nl = pack_lanes(z, m, low_idx, {{mu, low_mean}, {w0, low_w}});
     if (nl) {
-      for (int i = 0; i < nl; ++i) {
-        low_mean[i] = mu[low_idx[i]];
-        low_w[i] = w0[low_idx[i]];
-      }
-      inversion_block(low_mean, low_w, low_k, nl);
+      const int padded = (nl + kInversionLanes - 1) / kInversionLanes * kInversionLanes;  // <= kBlock
+      for (int i = nl; i < padded; ++i) low_mean[i] = 0.f, low_w[i] = 0u;
+      inversion_block(low_mean, low_w, low_k, padded);
       for (int i = 0; i < nl; ++i) o[low_idx[i]] = low_k[i];
     }
   }

@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "photosite/rng.h"
@@ -84,6 +85,63 @@ TEST(Philox, PoissonDrawsEqualOnEveryPathAndThreadCount) {
       });
     detail::set_philox_path(saved);
   }
+}
+
+// The sampler's lane packing (sensor/poisson.cpp, pack_lanes: AVX-512 compresses on that path,
+// index selection and gathers on the others) and its block passes, held to the per-pixel
+// definition: ptrs_sample for mean >= 10, poisson_inversion below, 0 for zero, negative and NaN
+// means, and the read-noise normal normal_from_words_f(w2, w3), on every path, at 1, 2 and 3
+// threads (poisson_fill splits into chunks of 4096), and at sizes that end inside a 16-lane
+// group, a block (1024 pixels) or a chunk. Means: runs of dark, lit and mixed pixels, lit near
+// 10 where PTRS retries most, so every packed pass (undecided, rejected, retried twice, the lit
+// lanes of a mostly dark block, the dark lanes of any block) has lanes.
+TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
+  const int n_max = 9000;
+  std::vector<float> mean(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const auto r = random_words(4242, 0, static_cast<uint64_t>(i), Stream::Test);  // deterministic test data
+    const int kind = (i / 700) % 4;  // 0: all dark, 1: all lit, 2: half lit, 3: one in eight lit
+    const bool lit = kind == 1 || (kind >= 2 && (r[1] & (kind == 2 ? 1u : 7u)) == 0);
+    const double u = uniform_open(r[0]);
+    mean[i] = lit ? static_cast<float>(10.0 + 40.0 * u * u) : static_cast<float>(10.0 * u);
+    if (!lit && i % 89 == 0) mean[i] = i % 2 ? -1.f : (i % 3 ? 0.f : std::numeric_limits<float>::quiet_NaN());
+  }
+  const uint64_t first = (uint64_t{1} << 32) - 3001, key = 0x5eed;
+  const uint32_t frame = 3, stream = 1;
+  std::vector<float> want(n_max), want_z(n_max);
+  int retried = 0;
+  for (int i = 0; i < n_max; ++i) {
+    const auto w = random_words(key, frame, first + i, static_cast<Stream>(stream));
+    if (mean[i] >= 10.f) {
+      want[i] = detail::ptrs_sample(mean[i], w[0], w[1], key, frame, first + i, stream);
+      retried += detail::ptrs_attempt(detail::ptrs_setup(mean[i]), w[0], w[1]) < 0.f;
+    } else {
+      want[i] = mean[i] > 0.f ? detail::poisson_inversion(mean[i], w[0]) : 0.f;
+    }
+    want_z[i] = detail::normal_from_words_f(w[2], w[3]);
+  }
+  ASSERT_GT(retried, 100);
+  const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
+  for (const auto path : cpu_paths()) {
+    detail::set_philox_path(path);
+    for (const int n : {1, 15, 17, 333, 1023, 1025, 2049, 4097, n_max}) {
+      std::vector<float> out(n), z(n);
+      poisson_block(mean.data(), out.data(), z.data(), n, first, key, frame, stream, PoissonMethod::Exact);
+      for (int i = 0; i < n; ++i) {
+        ASSERT_EQ(out[i], want[i]) << "path " << static_cast<int>(path) << " n " << n << " pixel " << i << " mean " << mean[i];
+        ASSERT_EQ(z[i], want_z[i]) << "path " << static_cast<int>(path) << " n " << n << " pixel " << i;
+      }
+    }
+    at_thread_counts([&](int t) {
+      for (const int n : {4097, n_max}) {
+        std::vector<float> out(n);
+        poisson_fill(mean.data(), out.data(), n, first, key, frame, stream, PoissonMethod::Exact);
+        EXPECT_EQ(0, std::memcmp(out.data(), want.data(), n * sizeof(float)))
+            << "path " << static_cast<int>(path) << ", " << t << " threads, n " << n;
+      }
+    });
+  }
+  detail::set_philox_path(saved);
 }
 
 // ---- the glare pyramid's definition, transcribed whole-image (glare.h; kernels/common/glare.glsl) ----
