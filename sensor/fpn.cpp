@@ -12,6 +12,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -19,6 +20,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <fmt/format.h>
 
 #include "photosite/checksum.h"
@@ -104,6 +107,68 @@ std::string fixed_pattern_checksum(const FixedPatternMaps& m, ChecksumAlgorithm 
 }
 
 DeviceStore::DeviceStore(std::string dir) : dir_(dir.empty() ? default_dir() : std::move(dir)) {}
+
+// The maps kept by keep_loaded, by file path, with what identifies the file and the request they
+// were read for.
+struct DeviceStore::Kept {
+  struct Entry {
+    dev_t dev = 0;
+    ino_t ino = 0;
+    off_t size = 0;
+    int64_t mtime_ns = 0;
+    std::string fpn_params;
+    FixedPatternMaps maps;
+  };
+  std::mutex mutex;
+  std::map<std::string, Entry> entries;
+};
+
+namespace {
+// The file's identity for DeviceStore::Kept; false where it cannot be read.
+bool file_identity(const std::string& path, dev_t* dev, ino_t* ino, off_t* size, int64_t* mtime_ns) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return false;
+  *dev = st.st_dev, *ino = st.st_ino, *size = st.st_size;
+  *mtime_ns = static_cast<int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+  return true;
+}
+}  // namespace
+
+void DeviceStore::keep_loaded(bool on) { kept_ = on ? std::make_shared<Kept>() : nullptr; }
+
+void DeviceStore::keep(const std::string& path, const CameraPreset& preset, const FixedPatternMaps& m) const {
+  if (!kept_) return;
+  Kept::Entry e;
+  if (!file_identity(path, &e.dev, &e.ino, &e.size, &e.mtime_ns)) return;
+  e.fpn_params = fpn_params_text(preset);
+  e.maps = m;
+  std::lock_guard<std::mutex> lock(kept_->mutex);
+  kept_->entries[path] = std::move(e);
+}
+
+FixedPatternMaps DeviceStore::load_or_keep(const std::string& path, const CameraPreset& preset,
+                                           const std::string& device_id, int width, int height) const {
+  if (kept_) {
+    dev_t dev;
+    ino_t ino;
+    off_t size;
+    int64_t mtime_ns;
+    if (file_identity(path, &dev, &ino, &size, &mtime_ns)) {
+      std::lock_guard<std::mutex> lock(kept_->mutex);
+      auto it = kept_->entries.find(path);
+      if (it != kept_->entries.end()) {
+        const Kept::Entry& e = it->second;
+        if (e.dev == dev && e.ino == ino && e.size == size && e.mtime_ns == mtime_ns &&
+            e.fpn_params == fpn_params_text(preset) && e.maps.device_id == device_id && e.maps.width == width &&
+            e.maps.height == height)
+          return e.maps;
+      }
+    }
+  }
+  FixedPatternMaps m = load(path, preset, device_id, width, height);
+  keep(path, preset, m);
+  return m;
+}
 
 std::string DeviceStore::default_dir() {
   if (auto e = env::get(env::Var::DeviceStore)) return *e;
@@ -192,7 +257,7 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   // Maps are only ever published whole (temporary + link), so one that exists is complete and
   // is read without a lock: a read-only store shared by many jobs works as long as it holds
   // every map they need.
-  if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
+  if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
     fail_at(dir, "cannot create the device store folder (" + (ec ? ec.message() : "not a folder") +
@@ -218,7 +283,7 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   if (fd >= 0)
     while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
     }
-  if (fs::exists(path, ec)) return load(path, preset, device_id, width, height);
+  if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
   FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);
   std::vector<ExrChannelGroup> groups;
   if (!m.prnu_gain.empty()) groups.push_back({{"prnu.Y"}, &m.prnu_gain, unit::dimensionless});
@@ -242,8 +307,9 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                                     {"photosite/checksum", m.checksum},
                                     {"photosite/checksum_xxh3_64", m.checksum_xxh3}},
                                    wo);
-  if (!published) return load(path, preset, device_id, width, height);
+  if (!published) return load_or_keep(path, preset, device_id, width, height);
   std::fprintf(stderr, "photosite: created the fixed-pattern map %s\n", path.c_str());
+  keep(path, preset, m);
   return m;
 }
 

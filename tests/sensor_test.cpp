@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <utility>
 
@@ -14,6 +15,7 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/night_chain.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/pipeline.h"
@@ -239,11 +241,26 @@ TEST(FixedPattern, HotPixelsAppearAtTheirFraction) {
   EXPECT_NEAR(hot / 1e5, 0.01, 0.0015);
 }
 
-TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
-  test::TempDir dir;
+// A camera with PRNU (1 %) and DSNU (2 e-): a device map with two channels.
+static CameraPreset fpn_camera() {
   CameraPreset p = flat_qe_camera();
   p.prnu_percent = 1;
   p.dsnu_e = 2;
+  return p;
+}
+// 64 bytes near a file's end overwritten in place (same inode and size; the time moves).
+static void corrupt_in_place(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "r+b");
+  ASSERT_TRUE(f);
+  std::fseek(f, -200, SEEK_END);
+  const char junk[64] = "corrupted bytes corrupted bytes corrupted bytes corrupted by";
+  std::fwrite(junk, 1, sizeof junk, f);
+  std::fclose(f);
+}
+
+TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
+  test::TempDir dir;
+  const CameraPreset p = fpn_camera();
   DeviceStore store(dir.path().string());
   auto a = store.load_or_create(p, "cam7", 64, 48);
   const std::string path = store.path_for(p, "cam7", 64, 48);
@@ -263,24 +280,70 @@ TEST(DeviceStore, CreatesOnceReusesAndRefusesMismatches) {
   EXPECT_THROW(store.load(path, q, "cam7", 64, 48), Error);
   EXPECT_THROW(store.load_or_create(p, "bad/id", 64, 48), Error);
   // A corrupted map is an error, never silently regenerated.
-  {
-    std::FILE* f = std::fopen(path.c_str(), "r+b");
-    std::fseek(f, -200, SEEK_END);
-    const char junk[64] = "corrupted bytes corrupted bytes corrupted bytes corrupted by";
-    std::fwrite(junk, 1, sizeof junk, f);
-    std::fclose(f);
-  }
+  corrupt_in_place(path);
   EXPECT_THROW(store.load_or_create(p, "cam7", 64, 48), Error);
   EXPECT_TRUE(std::filesystem::exists(path));
+}
+
+// image_from_codes (the Python faces' codes to floats) by its table: every sample as OIIO's own
+// conversion of that sample, for every 8- and 16-bit code, at 1 and 2 threads, on an odd size.
+TEST(ImageFromCodes, IsOiiosConversionOfEveryCode) {
+  const int saved_threads = omp_get_max_threads();
+  for (int bits : {8, 16}) {
+    const int W = 257, H = 131, C = 3;  // 101,001 samples: every 16-bit code at least once
+    std::vector<uint16_t> c16(static_cast<size_t>(W) * H * C);
+    std::vector<uint8_t> c8(c16.size());
+    for (size_t i = 0; i < c16.size(); ++i) {
+      c16[i] = static_cast<uint16_t>((i * 40503u) & 0xffffu);  // odd multiplier: a permutation
+      c8[i] = static_cast<uint8_t>(i * 7u);
+    }
+    const void* codes = bits == 8 ? static_cast<const void*>(c8.data()) : static_cast<const void*>(c16.data());
+    std::vector<float> ref(c16.size());
+    ASSERT_TRUE(OIIO::convert_pixel_values(bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16, codes,
+                                           OIIO::TypeDesc::FLOAT, ref.data(), static_cast<int>(ref.size())));
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const ImageF img = image_from_codes(codes, bits, W, H, C);
+      ASSERT_EQ(img.size(), ref.size());
+      EXPECT_EQ(std::memcmp(img.data(), ref.data(), ref.size() * sizeof(float)), 0) << bits << "-bit, " << threads;
+    }
+  }
+  omp_set_num_threads(saved_threads);
+}
+
+// keep_loaded (the Python Camera's store): a later load of an unchanged file is answered from
+// memory, so bytes damaged in place behind the same size and modification time go unseen by it
+// but not by a store that reads the file; once the file's modification time (or inode, size)
+// changes, the file is read and verified again. A copy of the store shares what it keeps; other
+// parameters or another device id never take a kept map.
+TEST(DeviceStore, KeepLoadedAnswersFromMemoryWhileTheFileIsUnchanged) {
+  test::TempDir dir;
+  const CameraPreset p = fpn_camera();
+  DeviceStore kept(dir.path().string());
+  kept.keep_loaded(true);
+  const auto a = kept.load_or_create(p, "cam7", 64, 48);  // made, and kept
+  const std::string path = kept.path_for(p, "cam7", 64, 48);
+  const auto mtime = std::filesystem::last_write_time(path);
+  corrupt_in_place(path);
+  std::filesystem::last_write_time(path, mtime);  // same inode, size and time: unchanged to stat
+  const DeviceStore copy = kept;
+  const auto b = copy.load_or_create(p, "cam7", 64, 48);
+  EXPECT_EQ(b.checksum, a.checksum);
+  EXPECT_EQ(b.prnu_gain.vec(), a.prnu_gain.vec());
+  EXPECT_EQ(b.dsnu_offset_e.vec(), a.dsnu_offset_e.vec());
+  EXPECT_THROW(DeviceStore(dir.path().string()).load_or_create(p, "cam7", 64, 48), Error);  // reads the file
+  CameraPreset q = p;
+  q.prnu_percent = 2;
+  EXPECT_THROW(kept.load_or_create(q, "cam7", 64, 48), Error);  // other parameters: the file, refused
+  std::filesystem::last_write_time(path, mtime + std::chrono::seconds(1));
+  EXPECT_THROW(kept.load_or_create(p, "cam7", 64, 48), Error);  // changed: read again, and refused
 }
 
 // Maps are written uncompressed (sensor/fpn.cpp: noise does not deflate); a map that an earlier
 // version wrote with ZIP, same attributes and pixels, still loads to the same maps.
 TEST(DeviceStore, WritesUncompressedWithXxh3AndReadsEarlierZipFnvMaps) {
   test::TempDir dir;
-  CameraPreset p = flat_qe_camera();
-  p.prnu_percent = 1;
-  p.dsnu_e = 2;
+  const CameraPreset p = fpn_camera();
   DeviceStore store((dir.path() / "new").string());
   const auto a = store.load_or_create(p, "cam7", 64, 48);
   const std::string path = store.path_for(p, "cam7", 64, 48);

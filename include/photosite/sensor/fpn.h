@@ -5,6 +5,7 @@
 // on any machine. The DeviceStore keeps them as EXR files, verified on every load.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "photosite/checksum.h"
@@ -50,9 +51,21 @@ class DeviceStore {
                                   int width, int height) const;
   FixedPatternMaps load(const std::string& path, const CameraPreset& preset,
                         const std::string& device_id, int width, int height) const;
+  // Keep every map this store (or a copy of it) loads or makes in memory, and answer a later
+  // load_or_create of the same map from there while its file is unchanged (same device, inode,
+  // size and modification time; the preset's FPN parameters and the device id as when it was
+  // read): the copy costs a memcpy instead of reading and verifying the file again. For callers
+  // that run frame after frame in one process (the Python Camera); off by default, as the CLI
+  // loads a map once per process and its peak memory should not carry a second copy.
+  void keep_loaded(bool on);
 
  private:
+  struct Kept;
+  FixedPatternMaps load_or_keep(const std::string& path, const CameraPreset& preset, const std::string& device_id,
+                                int width, int height) const;
+  void keep(const std::string& path, const CameraPreset& preset, const FixedPatternMaps& m) const;
   std::string dir_;
+  std::shared_ptr<Kept> kept_;  // null: nothing kept
 };
 
 }  // namespace photosite
