@@ -118,9 +118,15 @@ struct DeviceStore::Kept {
     int64_t mtime_ns = 0;
     std::string fpn_params;
     FixedPatternMaps maps;
+    uint64_t last_use = 0;
   };
+  // At most this many maps (about 24 MB each at 2048x1024): a Camera fed frames of a few sizes
+  // (KITTI's sequences differ by a few pixels) keeps one per size; beyond it, the least recently
+  // used goes.
+  static constexpr size_t kMaxEntries = 4;
   std::mutex mutex;
   std::map<std::string, Entry> entries;
+  uint64_t uses = 0;
 };
 
 namespace {
@@ -143,7 +149,14 @@ void DeviceStore::keep(const std::string& path, const CameraPreset& preset, cons
   e.fpn_params = fpn_params_text(preset);
   e.maps = m;
   std::lock_guard<std::mutex> lock(kept_->mutex);
+  e.last_use = ++kept_->uses;
   kept_->entries[path] = std::move(e);
+  while (kept_->entries.size() > Kept::kMaxEntries) {
+    auto oldest = kept_->entries.begin();
+    for (auto it = kept_->entries.begin(); it != kept_->entries.end(); ++it)
+      if (it->second.last_use < oldest->second.last_use) oldest = it;
+    kept_->entries.erase(oldest);
+  }
 }
 
 FixedPatternMaps DeviceStore::load_or_keep(const std::string& path, const CameraPreset& preset,
@@ -157,11 +170,13 @@ FixedPatternMaps DeviceStore::load_or_keep(const std::string& path, const Camera
       std::lock_guard<std::mutex> lock(kept_->mutex);
       auto it = kept_->entries.find(path);
       if (it != kept_->entries.end()) {
-        const Kept::Entry& e = it->second;
+        Kept::Entry& e = it->second;
         if (e.dev == dev && e.ino == ino && e.size == size && e.mtime_ns == mtime_ns &&
             e.fpn_params == fpn_params_text(preset) && e.maps.device_id == device_id && e.maps.width == width &&
-            e.maps.height == height)
+            e.maps.height == height) {
+          e.last_use = ++kept_->uses;
           return e.maps;
+        }
       }
     }
   }

@@ -337,6 +337,19 @@ TEST(DeviceStore, KeepLoadedAnswersFromMemoryWhileTheFileIsUnchanged) {
   EXPECT_THROW(kept.load_or_create(q, "cam7", 64, 48), Error);  // other parameters: the file, refused
   std::filesystem::last_write_time(path, mtime + std::chrono::seconds(1));
   EXPECT_THROW(kept.load_or_create(p, "cam7", 64, 48), Error);  // changed: read again, and refused
+  // At most 4 maps kept, the least recently used going first: of five sizes, the first one made
+  // is read from its file again (its damage seen), the most recent still kept (its damage not).
+  DeviceStore few((dir.path() / "few").string());
+  few.keep_loaded(true);
+  for (int w : {40, 41, 42, 43, 44}) few.load_or_create(p, "cam8", w, 30);
+  for (int w : {40, 44}) {
+    const std::string pw = few.path_for(p, "cam8", w, 30);
+    const auto t = std::filesystem::last_write_time(pw);
+    corrupt_in_place(pw);
+    std::filesystem::last_write_time(pw, t);
+  }
+  EXPECT_THROW(few.load_or_create(p, "cam8", 40, 30), Error);
+  EXPECT_NO_THROW(few.load_or_create(p, "cam8", 44, 30));
 }
 
 // Maps are written uncompressed (sensor/fpn.cpp: noise does not deflate); a map that an earlier
