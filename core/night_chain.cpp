@@ -73,16 +73,25 @@ SensorOutput night_frame(SensorRunner& runner, const NightChain& c, const Sensor
 }
 
 namespace {
-// OIIO's float for every code of type T (all 2^bits of them), in code order.
+// OIIO's float for every code of type T (all 2^bits of them), in code order; made on first use.
 template <class T>
-std::vector<float> oiio_code_table(OIIO::TypeDesc type) {
-  constexpr size_t n = size_t{1} << (8 * sizeof(T));
-  std::vector<T> c(n);
-  std::vector<float> t(n);
-  for (size_t i = 0; i < n; ++i) c[i] = static_cast<T>(i);
-  if (!OIIO::convert_pixel_values(type, c.data(), OIIO::TypeDesc::FLOAT, t.data(), static_cast<int>(n)))
-    internal_error("image_from_codes: conversion failed");
-  return t;
+const float* oiio_code_table() {
+  static const std::vector<float> table = [] {
+    constexpr size_t n = size_t{1} << (8 * sizeof(T));
+    std::vector<T> c(n);
+    std::vector<float> t(n);
+    for (size_t i = 0; i < n; ++i) c[i] = static_cast<T>(i);
+    if (!OIIO::convert_pixel_values(OIIO::BaseTypeFromC<T>::value, c.data(), OIIO::TypeDesc::FLOAT, t.data(),
+                                    static_cast<int>(n)))
+      internal_error("image_from_codes: conversion failed");
+    return t;
+  }();
+  return table.data();
+}
+// The floats of n codes, from their table.
+template <class T>
+void codes_row(const T* c, size_t n, const float* table, float* o) {
+  for (size_t i = 0; i < n; ++i) o[i] = table[c[i]];
 }
 }  // namespace
 
@@ -93,20 +102,13 @@ ImageF image_from_codes(const void* codes, int bits, int width, int height, int 
   // per bit depth for all 256 or 65,536 codes: a table read per sample then gives the same bits
   // as converting the samples with OIIO, which converted 8-bit codes one value at a time at
   // about 2 ns each (12 ms of `ps.night`'s own time for a 2048x1024 frame, perf, 2026-11-28).
-  static const std::vector<float> table8 = oiio_code_table<uint8_t>(OIIO::TypeDesc::UINT8);
-  static const std::vector<float> table16 = oiio_code_table<uint16_t>(OIIO::TypeDesc::UINT16);
+  // (Made here, outside the parallel loop, where a failure can be thrown.)
+  const float* table = bits == 8 ? oiio_code_table<uint8_t>() : oiio_code_table<uint16_t>();
   const size_t row = static_cast<size_t>(width) * channels;
-  const float* t = bits == 8 ? table8.data() : table16.data();
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < height; ++y) {
-    float* o = img.row(y);
-    if (bits == 8) {
-      const uint8_t* c = static_cast<const uint8_t*>(codes) + y * row;
-      for (size_t i = 0; i < row; ++i) o[i] = t[c[i]];
-    } else {
-      const uint16_t* c = static_cast<const uint16_t*>(codes) + y * row;
-      for (size_t i = 0; i < row; ++i) o[i] = t[c[i]];
-    }
+    if (bits == 8) codes_row(static_cast<const uint8_t*>(codes) + y * row, row, table, img.row(y));
+    else codes_row(static_cast<const uint16_t*>(codes) + y * row, row, table, img.row(y));
   }
   return img;
 }

@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <fmt/format.h>
 
 #include "photosite/checksum.h"
@@ -108,14 +109,30 @@ std::string fixed_pattern_checksum(const FixedPatternMaps& m, ChecksumAlgorithm 
 
 DeviceStore::DeviceStore(std::string dir) : dir_(dir.empty() ? default_dir() : std::move(dir)) {}
 
-// The maps kept by keep_loaded, by file path, with what identifies the file and the request they
-// were read for.
+namespace {
+// What identifies a file's contents for DeviceStore::Kept: a map is only ever published whole and
+// never rewritten in place, so the same device, inode, size and modification time are the same
+// bytes.
+struct FileId {
+  dev_t dev = 0;
+  ino_t ino = 0;
+  off_t size = 0;
+  int64_t mtime_ns = 0;
+  bool operator==(const FileId&) const = default;
+};
+std::optional<FileId> file_id(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return FileId{st.st_dev, st.st_ino, st.st_size,
+                static_cast<int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec};
+}
+}  // namespace
+
+// The maps kept by keep_loaded, by file path (which names the preset, the device id and the
+// size), with the file's identity and the preset's FPN parameters they were read for.
 struct DeviceStore::Kept {
   struct Entry {
-    dev_t dev = 0;
-    ino_t ino = 0;
-    off_t size = 0;
-    int64_t mtime_ns = 0;
+    FileId file;
     std::string fpn_params;
     FixedPatternMaps maps;
     uint64_t last_use = 0;
@@ -127,61 +144,44 @@ struct DeviceStore::Kept {
   std::mutex mutex;
   std::map<std::string, Entry> entries;
   uint64_t uses = 0;
-};
 
-namespace {
-// The file's identity for DeviceStore::Kept; false where it cannot be read.
-bool file_identity(const std::string& path, dev_t* dev, ino_t* ino, off_t* size, int64_t* mtime_ns) {
-  struct stat st;
-  if (::stat(path.c_str(), &st) != 0) return false;
-  *dev = st.st_dev, *ino = st.st_ino, *size = st.st_size;
-  *mtime_ns = static_cast<int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
-  return true;
-}
-}  // namespace
+  // The kept maps of `path` if they were read from this very file for these parameters.
+  std::optional<FixedPatternMaps> find(const std::string& path, const FileId& file, const std::string& fpn_params) {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = entries.find(path);
+    if (it == entries.end() || !(it->second.file == file) || it->second.fpn_params != fpn_params) return std::nullopt;
+    it->second.last_use = ++uses;
+    return it->second.maps;
+  }
+  void put(const std::string& path, const FileId& file, std::string fpn_params, const FixedPatternMaps& maps) {
+    std::lock_guard<std::mutex> lock(mutex);
+    entries[path] = Entry{file, std::move(fpn_params), maps, ++uses};
+    while (entries.size() > kMaxEntries) {
+      auto oldest = entries.begin();
+      for (auto it = entries.begin(); it != entries.end(); ++it)
+        if (it->second.last_use < oldest->second.last_use) oldest = it;
+      entries.erase(oldest);
+    }
+  }
+};
 
 void DeviceStore::keep_loaded(bool on) { kept_ = on ? std::make_shared<Kept>() : nullptr; }
 
 void DeviceStore::keep(const std::string& path, const CameraPreset& preset, const FixedPatternMaps& m) const {
   if (!kept_) return;
-  Kept::Entry e;
-  if (!file_identity(path, &e.dev, &e.ino, &e.size, &e.mtime_ns)) return;
-  e.fpn_params = fpn_params_text(preset);
-  e.maps = m;
-  std::lock_guard<std::mutex> lock(kept_->mutex);
-  e.last_use = ++kept_->uses;
-  kept_->entries[path] = std::move(e);
-  while (kept_->entries.size() > Kept::kMaxEntries) {
-    auto oldest = kept_->entries.begin();
-    for (auto it = kept_->entries.begin(); it != kept_->entries.end(); ++it)
-      if (it->second.last_use < oldest->second.last_use) oldest = it;
-    kept_->entries.erase(oldest);
-  }
+  if (const std::optional<FileId> file = file_id(path)) kept_->put(path, *file, fpn_params_text(preset), m);
 }
 
 FixedPatternMaps DeviceStore::load_or_keep(const std::string& path, const CameraPreset& preset,
                                            const std::string& device_id, int width, int height) const {
-  if (kept_) {
-    dev_t dev;
-    ino_t ino;
-    off_t size;
-    int64_t mtime_ns;
-    if (file_identity(path, &dev, &ino, &size, &mtime_ns)) {
-      std::lock_guard<std::mutex> lock(kept_->mutex);
-      auto it = kept_->entries.find(path);
-      if (it != kept_->entries.end()) {
-        Kept::Entry& e = it->second;
-        if (e.dev == dev && e.ino == ino && e.size == size && e.mtime_ns == mtime_ns &&
-            e.fpn_params == fpn_params_text(preset) && e.maps.device_id == device_id && e.maps.width == width &&
-            e.maps.height == height) {
-          e.last_use = ++kept_->uses;
-          return e.maps;
-        }
-      }
-    }
-  }
+  if (!kept_) return load(path, preset, device_id, width, height);
+  // The identity taken before the read: a file replaced during it is then read again next time.
+  const std::optional<FileId> file = file_id(path);
+  const std::string params = fpn_params_text(preset);
+  if (file)
+    if (std::optional<FixedPatternMaps> m = kept_->find(path, *file, params)) return std::move(*m);
   FixedPatternMaps m = load(path, preset, device_id, width, height);
-  keep(path, preset, m);
+  if (file) kept_->put(path, *file, params, m);
   return m;
 }
 

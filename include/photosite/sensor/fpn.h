@@ -53,11 +53,11 @@ class DeviceStore {
                         const std::string& device_id, int width, int height) const;
   // Keep every map this store (or a copy of it) loads or makes in memory, and answer a later
   // load_or_create of the same map from there while its file is unchanged (same device, inode,
-  // size and modification time; the preset's FPN parameters and the device id as when it was
-  // read), up to 4 maps, the least recently used going first: the copy costs a memcpy instead of
-  // reading and verifying the file again. For callers
-  // that run frame after frame in one process (the Python Camera); off by default, as the CLI
-  // loads a map once per process and its peak memory should not carry a second copy.
+  // size and modification time; the preset's FPN parameters as when it was read), up to 4 maps,
+  // the least recently used going first: the copy costs a memcpy instead of reading and
+  // verifying the file again. For callers that run frame after frame in one process (the Python
+  // Camera); off by default, as the CLI loads a map once per process and its peak memory should
+  // not carry a second copy.
   void keep_loaded(bool on);
 
  private:
