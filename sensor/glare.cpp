@@ -79,10 +79,7 @@ int interleave_pairs_avx512(const float* e, const float* o, int j0, int j_end, f
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
                   float* __restrict o) {
-  auto one = [&](int x) {
-    const UpTap tx = glare_up_tap(x, cw);
-    for (int c = 0; c < 3; ++c) u[3 * x + c] = glare_lerp(tx.w0, t[3 * tx.i0 + c], tx.w1, t[3 * tx.i1 + c]);
-  };
+  auto one = [&](int x) { detail::glare_up_pixel(t, cw, x, u + 3 * x); };
   if (cw < 3) {
     for (int x = 0; x < width; ++x) one(x);
     return;
@@ -470,17 +467,19 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
   return s;
 }
 
-const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
+const float* detail::glare_skirt_vertical_row(const GlareSkirt& s, int y, float* tmp) {
   const ImageF& a = *s.acc1;
-  const int aw = a.width(), ah = a.height();
-  const UpTap ty = glare_up_tap(y, ah);
-  const float* r0 = a.row(ty.i0);
-  const float* r1 = a.row(ty.i1);
+  const UpTap ty = glare_up_tap(y, a.height());
+  float* t = tmp + glare_row_layout(s).t;  // 3·aw: the vertical interpolation
+  lerp_row(ty.w0, a.row(ty.i0), ty.w1, a.row(ty.i1), 3 * static_cast<size_t>(a.width()), t);
+  return t;
+}
+
+const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
   const GlareRowLayout l = glare_row_layout(s);
-  float* t = tmp + l.t;  // 3·aw: the vertical interpolation
-  float* u = tmp + l.u;  // 3·width: then the horizontal one
-  lerp_row(ty.w0, r0, ty.w1, r1, 3 * static_cast<size_t>(aw), t);
-  upsample_row(t, aw, s.width, u, tmp + l.e, tmp + l.o);  // e, o: upsample_row's scratch
+  const float* t = detail::glare_skirt_vertical_row(s, y, tmp);
+  float* u = tmp + l.u;  // 3·width: then the horizontal interpolation
+  upsample_row(t, s.acc1->width(), s.width, u, tmp + l.e, tmp + l.o);  // e, o: upsample_row's scratch
   return u;
 }
 

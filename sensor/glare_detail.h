@@ -8,8 +8,24 @@
 #include <cmath>
 #include <cstdint>
 
+#include "photosite/sensor/glare.h"
+
 namespace photosite::shader {
 #include "common/prelude.glsl"
 #include "common/glare.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
+
+namespace photosite::detail {
+// glare_skirt_row's vertical step alone: row y of acc_1 interpolated between its two nearest
+// rows, t (3·acc_1 width floats, interleaved RGB, inside tmp at glare_row_layout's t, returned),
+// for a caller that forms the horizontal step in its own loop (the photon stage's AVX-512 row).
+const float* glare_skirt_vertical_row(const GlareSkirt& skirt, int y, float* tmp);
+
+// Pixel x of the bilinear 2x upsampling along a row (glare_up_tap's taps, edge clamped) of t,
+// cw interleaved RGB pixels, into u3[0..2].
+inline void glare_up_pixel(const float* t, int cw, int x, float* u3) {
+  const shader::GlareTap tx = shader::glare_up_tap(x, cw);
+  for (int c = 0; c < 3; ++c) u3[c] = shader::glare_lerp(tx.w0, t[3 * tx.i0 + c], tx.w1, t[3 * tx.i1 + c]);
+}
+}  // namespace photosite::detail

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <immintrin.h>
 #include <limits>
 #include <fmt/format.h>
 
@@ -70,6 +71,8 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
 }
 
 namespace {
+const bool kPhotonAvx512 = __builtin_cpu_supports("avx512f");
+
 // The photon stage of one frame: e = M[c]·(R, G, B) with the cos⁴θ falloff, the lens glare
 // fused in row by row. One row at a time (photon_row), so that mean_signal_electrons() writes
 // the rows to an image and expose() hands each row straight to the sense stage.
@@ -106,14 +109,19 @@ struct PhotonStage {
     // The CFA colour of a pixel depends on the parity of x along a row (cfa_color).
     const double* me = m[static_cast<int>(cfa_color(p.cfa, 0, y))].data();
     const double* mo = m[static_cast<int>(cfa_color(p.cfa, 1, y))].data();
-    if (skirt.active()) {
+    bool physical;
+    if (skirt.active() && kPhotonAvx512) {
+      physical = glared_row_avx512(y, r, me, mo, dy2, o, sc);
+    } else if (skirt.active()) {
       // glare_row's mix keep·L + s_c·u fused into the photon row: the glared row is never stored.
       const float* u = glare_skirt_row(skirt, y, sc.tmp.data());
-      glared_electrons_row(r, u, skirt.keep, skirt.scale.data(), w, me, mo, cx, dy2, pitch_over_f, o);
+      glared_electrons_row(r, u, skirt.keep, skirt.scale.data(), 0, w, me, mo, cx, dy2, pitch_over_f, o);
+      physical = physical_row(r, w);
     } else {
       electrons_row(r, w, me, mo, cx, dy2, pitch_over_f, o);
+      physical = physical_row(r, w);
     }
-    if (physical_row(r, w)) return -1;
+    if (physical) return -1;
     int bad = -1;  // the rare damaged row: the first bad pixel, and 0 where the radiance is not physical
     for (int x = 0; x < w; ++x)
       if (!shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2])) {
@@ -140,20 +148,150 @@ struct PhotonStage {
   // radiance row L and the upsampled skirt row u: the same float operations per sample, so the
   // same bits as glare_row then electrons_row (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons),
   // without storing the glared row and reading it back.
+  // Here over the n pixels x0 .. x0 + n − 1 of the row (l, u and o start at pixel x0).
   __attribute__((target_clones("avx512f", "avx2", "default")))
   static void glared_electrons_row(const float* __restrict l, const float* __restrict u, float keep, const float* s3,
-                                   int w, const double* me, const double* mo, double cx, double dy2,
+                                   int x0, int n, const double* me, const double* mo, double cx, double dy2,
                                    double pitch_over_f, float* __restrict o) {
     const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
     const float s0 = s3[0], s1 = s3[1], s2 = s3[2];
-    for (int x = 0; x < w; ++x) {
+    for (int i = 0; i < n; ++i) {
+      const int x = x0 + i;
       const bool odd = x & 1;
-      const float R = shader::glare_mix(keep, l[3 * x], s0, u[3 * x]);
-      const float G = shader::glare_mix(keep, l[3 * x + 1], s1, u[3 * x + 1]);
-      const float B = shader::glare_mix(keep, l[3 * x + 2], s2, u[3 * x + 2]);
-      o[x] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, R, G, B, x - cx, dy2, pitch_over_f);
+      const float R = shader::glare_mix(keep, l[3 * i], s0, u[3 * i]);
+      const float G = shader::glare_mix(keep, l[3 * i + 1], s1, u[3 * i + 1]);
+      const float B = shader::glare_mix(keep, l[3 * i + 2], s2, u[3 * i + 2]);
+      o[i] = shader::photon_electrons(odd ? o0 : e0, odd ? o1 : e1, odd ? o2 : e2, R, G, B, x - cx, dy2, pitch_over_f);
     }
   }
+
+  // The glared photon row where the CPU has AVX-512: glare_skirt_row's horizontal step, the
+  // mix, the photon integral and physical_row's test in one loop over 16 pixels (8 pixel pairs
+  // of acc_1's row t) at a time, in registers: u, the upsampled skirt row, is never stored, and
+  // the radiance row is read once. Per sample the same IEEE operations in the same order as
+  // upsample_row's interior (even pixel 2j: ¼·t[j − 1] + ¾·t[j]; odd 2j + 1: ¾·t[j] + ¼·t[j + 1]),
+  // glare_mix and photon_electrons (double: (m0·R + m1·G) + m2·B, divided by (1 + t²)² with
+  // t² = ((dx² + dy²)·p)·p), no FMA, so the same bits as glare_skirt_row then glared_electrons_row
+  // (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons). The row's ends (pixels 0, 1 and
+  // from the last whole block of pairs on) take glared_electrons_row with glare_up_pixel's u.
+  // Returns whether every pixel's radiance is physical (physical_row's test).
+  bool glared_row_avx512(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
+                         Scratch& sc) const {
+    const float* t = detail::glare_skirt_vertical_row(skirt, y, sc.tmp.data());
+    const int cw = skirt.acc1->width();
+    bool physical = true;
+    const int j_end = glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f,
+                                          o, physical);
+    // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
+    float* u = sc.tmp.data() + glare_row_layout(skirt).u;
+    auto rest = [&](int xa, int xb) {
+      if (xa >= xb) return;
+      for (int x = xa; x < xb; ++x) detail::glare_up_pixel(t, cw, x, u + 3 * (x - xa));
+      glared_electrons_row(l + 3 * xa, u, skirt.keep, skirt.scale.data(), xa, xb - xa, me, mo, cx, dy2, pitch_over_f,
+                           o + xa);
+      physical = physical_row(l + 3 * xa, xb - xa) && physical;
+    };
+    rest(0, std::min(2, w));
+    rest(std::max(2, 2 * j_end), w);
+    return physical;
+  }
+  // glared_row_avx512's blocks: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for j0 = 1,
+  // 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
+  // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
+  // not done; physical is cleared if a pixel's radiance is not physical.
+  // (GCC 12's AVX-512 intrinsics trip -Wmaybe-uninitialized, GCC bug 105593: silenced here.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+  __attribute__((target("avx512f")))
+  static int glared_pairs_avx512(const float* l, const float* t, int cw, float keep, const float* s3,
+                                 const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
+                                 float* o, bool& physical) {
+    const PairIndex& ix = kPairIndex;
+    const __m512 w0 = _mm512_load_ps(ix.w0), w1 = _mm512_load_ps(ix.w1), vkeep = _mm512_set1_ps(keep);
+    const __m512 sc[3] = {_mm512_set1_ps(s3[0]), _mm512_set1_ps(s3[1]), _mm512_set1_ps(s3[2])};
+    const __m512d m[3] = {_mm512_setr_pd(me[0], mo[0], me[0], mo[0], me[0], mo[0], me[0], mo[0]),
+                          _mm512_setr_pd(me[1], mo[1], me[1], mo[1], me[1], mo[1], me[1], mo[1]),
+                          _mm512_setr_pd(me[2], mo[2], me[2], mo[2], me[2], mo[2], me[2], mo[2])};
+    const __m512d vcx = _mm512_set1_pd(cx), vdy2 = _mm512_set1_pd(dy2), vp = _mm512_set1_pd(pitch_over_f),
+                  one = _mm512_set1_pd(1.0);
+    const bool falloff = pitch_over_f > 0.0;
+    const __m512 zero = _mm512_setzero_ps(), fmax = _mm512_set1_ps(std::numeric_limits<float>::max());
+    const __m512i sign = _mm512_set1_epi32(0x7fffffff);
+    const __m256i lane8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    __mmask16 ok = 0xffff;
+    constexpr int kPrefetchFloats = 768;
+    int j0 = 1;
+    for (; j0 + 10 <= cw; j0 += 8) {
+      const int x0 = 2 * j0;
+      const float* tw = t + 3 * (j0 - 1);
+      const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+      const float* lw = l + 3 * x0;
+      for (int k = 0; k < 48; k += 16) _mm_prefetch(reinterpret_cast<const char*>(lw + kPrefetchFloats + k), _MM_HINT_T0);
+      const __m512 la = _mm512_loadu_ps(lw), lb = _mm512_loadu_ps(lw + 16), lc = _mm512_loadu_ps(lw + 32);
+      __m512 g[3], L[3];
+      for (int c = 0; c < 3; ++c) {
+        // u: w0·X + w1·Y with X, Y the taps of each pixel (upsample_row's interior, interleaved)
+        const __m512 X = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.x[c]), tb);
+        const __m512 Y = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.y[c]), tb);
+        const __m512 u = _mm512_add_ps(_mm512_mul_ps(w0, X), _mm512_mul_ps(w1, Y));
+        // L: channel c of the 16 pixels, from the 48 interleaved floats
+        L[c] = _mm512_permutex2var_ps(_mm512_permutex2var_ps(la, _mm512_load_si512(ix.la[c]), lb),
+                                      _mm512_load_si512(ix.lb[c]), lc);
+        g[c] = _mm512_add_ps(_mm512_mul_ps(vkeep, L[c]), _mm512_mul_ps(sc[c], u));  // glare_mix
+      }
+      const __m512 sum = _mm512_add_ps(_mm512_add_ps(L[0], L[1]), L[2]);
+      ok &= _mm512_cmp_ps_mask(L[0], zero, _CMP_GE_OQ) & _mm512_cmp_ps_mask(L[1], zero, _CMP_GE_OQ) &
+            _mm512_cmp_ps_mask(L[2], zero, _CMP_GE_OQ) &
+            _mm512_cmp_ps_mask(_mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(sum), sign)), fmax,
+                               _CMP_LE_OQ);
+      __m512d gd[2][3];  // the 16 pixels' glared R, G, B in double, pixels 0-7 then 8-15
+      for (int c = 0; c < 3; ++c) {
+        gd[0][c] = _mm512_cvtps_pd(_mm512_castps512_ps256(g[c]));
+        gd[1][c] = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(g[c]), 1)));
+      }
+      for (int h = 0; h < 2; ++h) {  // photon_electrons on 8 pixels in double
+        __m512d e = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(m[0], gd[h][0]), _mm512_mul_pd(m[1], gd[h][1])),
+                                  _mm512_mul_pd(m[2], gd[h][2]));
+        if (falloff) {
+          const __m512d dx =
+              _mm512_sub_pd(_mm512_cvtepi32_pd(_mm256_add_epi32(_mm256_set1_epi32(x0 + 8 * h), lane8)), vcx);
+          const __m512d t2 = _mm512_mul_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), vdy2), vp), vp);
+          const __m512d q = _mm512_add_pd(one, t2);
+          e = _mm512_div_pd(e, _mm512_mul_pd(q, q));
+        }
+        _mm256_storeu_ps(o + x0 + 8 * h, _mm512_cvtpd_ps(e));
+      }
+    }
+    if (ok != 0xffff) physical = false;
+    return j0;
+  }
+#pragma GCC diagnostic pop
+  // glared_pairs_avx512's permutes and weights: pixel p of a block (pair i = p/2) takes
+  // X = t[3(j0 − 1 + i) + c], Y = t[3(j0 + i) + c] when even and X = t[3(j0 + i) + c],
+  // Y = t[3(j0 + 1 + i) + c] when odd (window offsets 3i + c or 3i + 3 + c, and 3i + 3 + c or
+  // 3i + 6 + c), weights (¼, ¾) when even and (¾, ¼) when odd; channel c of pixel p of the
+  // radiance is float 3p + c of the block's 48: first from the first 32 (la), then the rest from
+  // the third vector (lb: lanes kept, or 16 + the float's index in it).
+  struct PairIndex {
+    alignas(64) int32_t x[3][16], y[3][16], la[3][16], lb[3][16];
+    alignas(64) float w0[16], w1[16];
+    PairIndex() {
+      for (int c = 0; c < 3; ++c)
+        for (int p = 0; p < 16; ++p) {
+          const int i = p / 2, odd = p & 1;
+          x[c][p] = 3 * i + c + 3 * odd;
+          y[c][p] = 3 * i + 3 + c + 3 * odd;
+          const int f = 3 * p + c;
+          la[c][p] = f < 32 ? f : 0;
+          lb[c][p] = f < 32 ? p : 16 + (f - 32);
+        }
+      for (int p = 0; p < 16; ++p) {
+        w0[p] = p & 1 ? 0.75f : 0.25f;
+        w1[p] = p & 1 ? 0.25f : 0.75f;
+      }
+    }
+  };
+  static const PairIndex kPairIndex;
   // Whether every pixel of the row is physical, as one reduction that vectorizes:
   // shader::radiance_is_physical's test (no channel negative or NaN, R+G+B finite) with
   // "finite" written |R+G+B| <= FLT_MAX, which is false for Inf and NaN alike.
@@ -168,6 +306,7 @@ struct PhotonStage {
     return bad == 0;
   }
 };
+const PhotonStage::PairIndex PhotonStage::kPairIndex;
 // The first damaged pixel in reading order over the rows' reports (bad_x[y] = -1: none).
 void fail_first_bad(const ImageF& radiance, const std::vector<int>& bad_x) {
   for (int y = 0; y < static_cast<int>(bad_x.size()); ++y)

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "photosite/rng.h"
@@ -317,13 +318,16 @@ ImageF ref_glared(const ImageF& in, const GlareSkirt& s) {
 // The photon stage with the glare's mix fused into its rows equals the glared image made whole
 // and then the photon stage without glare, bit for bit, at 1, 2 and 3 threads: odd and even
 // sizes, one pixel wide or high, with and without the cos⁴ falloff; and expose() (the photon
-// rows fused with sense) equals sense() of that mean signal.
+// rows fused with sense) equals sense() of that mean signal. Where the CPU has AVX-512 the
+// glared rows run 16 pixels a step (PhotonStage::glared_row_avx512) and the rest by the plain
+// row: widths 21 (one block of pixels 2-17) and 20 (none), 64, 333 and 2048 put the blocks'
+// ends and the row's rest at different places.
 TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
   const CameraPreset cam = load_camera_preset("onsemi-ar0331");
   const FixedPatternMaps no_fpn;
   ExposureSettings es;
   es.seed = 3;
-  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}};
+  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}, {21, 5}, {20, 3}};
   for (const bool cos4 : {true, false})
     for (const auto& wh : sizes) {
       LensPreset lens = load_lens_preset(cam.default_lens);
@@ -349,6 +353,36 @@ TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
                     same_bits(got.rgb, want_out.rgb))
             << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads";
       });
+    }
+}
+
+// A radiance that is not physical (NaN, Inf, negative, or R + G + B overflowing) is reported at
+// its pixel by the glared photon stage wherever it lies in the row: in the AVX-512 blocks' first,
+// middle and last lanes and in the row's rest (pixels 0, 1 and past the last block).
+TEST(GlareFastPath, GlaredRowsReportRadianceThatIsNotPhysical) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  LensPreset lens = load_lens_preset(cam.default_lens);
+  lens.glare.enabled = true;
+  lens.glare.veiling_glare_index = 0.05;
+  lens.glare.core_deg = 0.1;
+  lens.glare.reach_deg = 20;
+  const ResolvedExposure ex = resolve(cam, lens, ExposureSettings{});
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const float big = std::numeric_limits<float>::max();
+  const int w = 333, h = 6, y = 4;
+  for (const int x : {0, 1, 2, 9, 17, 18, 150, 321, 322, 332})
+    for (const std::array<float, 3> bad :
+         {std::array<float, 3>{nan, 1.f, 1.f}, {1.f, inf, 1.f}, {1.f, 1.f, -2.f}, {big, big, 1.f}}) {
+      ImageF in = test_radiance(w, h, 5);
+      for (int c = 0; c < 3; ++c) in.at(x, y, c) = bad[c];
+      std::string msg;
+      try {
+        mean_signal_electrons(in, cam, lens, ex);
+      } catch (const std::exception& e) {
+        msg = e.what();
+      }
+      EXPECT_NE(msg.find("(" + std::to_string(x) + ", " + std::to_string(y) + ")"), std::string::npos)
+          << "x " << x << ": '" << msg << "'";
     }
 }
 
