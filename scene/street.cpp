@@ -166,10 +166,6 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 join16(__m256 lo
 __attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a, __m512d b0, __m512d b1) {
   return join16(_mm512_cvtpd_ps(_mm512_sub_pd(a, b0)), _mm512_cvtpd_ps(_mm512_sub_pd(a, b1)));
 }
-// fl(b − a) per lane for sixteen lanes held as two float64x8 (b0: lanes 0-7, b1: 8-15), a broadcast.
-__attribute__((target("avx512f"), always_inline)) inline __m512 diff16_rev(__m512d b0, __m512d b1, __m512d a) {
-  return join16(_mm512_cvtpd_ps(_mm512_sub_pd(b0, a)), _mm512_cvtpd_ps(_mm512_sub_pd(b1, a)));
-}
 // RelTable::atf (rel_lerp_f) for sixteen lanes: on the lanes of `beyond` (beyond the cut-off) the
 // same operations, the entries gathered for those lanes only; 1 on the others.
 __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
@@ -213,37 +209,14 @@ __attribute__((target("avx2"))) void pool_row_avx2(float* e, const double* Xg, c
 }
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
-// pool_row_body for AVX-512: sixteen pixels at a time (two groups of eight, computed when either
-// holds a ground pixel; e written for both), a last group of eight as pool_row_body. Per lane the
-// same IEEE operations in the same order (the table's entries gathered for the lanes beyond the
-// cut-off only, the others keep 1 as there; no FMA contraction: -ffp-contract=off), so the same
-// bits as the AVX2 and scalar paths.
+// The same row compiled for AVX-512VL (32 vector registers; the same operations, no FMA
+// contraction: the same bits; see vertical_row_avx512). (Sixteen lanes at a time, as the vertical
+// light, measured no faster here: pools + heads alone 9.7-10.7 ms against 10.1-10.2, 1 thread.)
 __attribute__((target("avx2,avx512f,avx512vl"))) void pool_row_avx512(float* e, const double* Xg, const uint8_t* mask,
                                                                      int n, const PoolLamps& pl, float I0,
                                                                      const RelTable& t) {
-  const __m512 vcc = _mm512_set1_ps(t.fcc), vI0 = _mm512_set1_ps(I0), one = _mm512_set1_ps(1.f),
-               zero = _mm512_setzero_ps();
-  const int nl = pl.size();
-  int i = 0;
-  for (; i + 16 <= n; i += 16) {
-    if (!mask[i / 8] && !mask[i / 8 + 1]) continue;
-    const __m512d X0 = _mm512_loadu_pd(Xg + i), X1 = _mm512_loadu_pd(Xg + i + 8);
-    __m512 acc = zero;
-    for (int k = 0; k < nl; ++k) {
-      const __m512 dx = diff16_rev(X0, X1, _mm512_set1_pd(pl.Xl[k]));
-      const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_set1_ps(pl.dz2[k])),
-                                      _mm512_set1_ps(pl.H2[k]));
-      const __m512 c = _mm512_div_ps(_mm512_set1_ps(pl.Hl[k]), _mm512_sqrt_ps(d2));
-      const __mmask16 beyond = _mm512_cmp_ps_mask(c, vcc, _CMP_LT_OQ);  // γ beyond the cut-off: the table
-      const __m512 rel = beyond ? rel_lerp16(t, c, beyond) : one;
-      acc = _mm512_add_ps(acc, _mm512_div_ps(_mm512_mul_ps(_mm512_mul_ps(vI0, rel), c), d2));
-    }
-    _mm512_storeu_ps(e + i, acc);
-  }
-  if (i < n) pool_row_body(e + i, Xg + i, mask + i / 8, n - i, pl, I0, t);
-  _mm256_zeroupper();
+  pool_row_body(e, Xg, mask, n, pl, I0, t);
 }
-#pragma GCC diagnostic pop
 // The ground pixels of a row as bits, one byte per aligned group of eight (bit k of bits[q]: pixel
 // 8q + k): class id in `classes` (bit id of the mask; ids of 64 and above in no class). Scalar,
 // and eight pixels at a time with AVX2 (the same bits).
