@@ -867,6 +867,11 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     out.stats.signals = signals;
   }
 
+  // The street lighting (the plan or the one given): the vehicles' states read its road extent.
+  StreetLighting sl;
+  if (geometry) sl = street ? *street : plan_street_lighting(lm, *geometry, p, seed);
+  const bool extent = sl.road_right_m > sl.road_left_m;
+  const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
   bool vehicle_id[kLabelCount];
@@ -890,12 +895,6 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   auto vehicle_instance = [&](uint16_t q) {
     return v_range ? static_cast<uint16_t>(q - q_lo) <= q_span : q >= 1000 && vehicle(q / 1000);
   };
-  // Vehicle component per pixel; only the vehicle rows [ry0, ry1] are zeroed and used (the
-  // discs below read it through `mine`, which is false outside them), so the other rows are
-  // never written, nor their pages touched.
-  ImageI32 comp(W, H, 1, uninitialized);
-  int ncomp = 0;
-  std::vector<int> comp_class(1, 0);
   // The rows holding any vehicle pixel: all vehicle work below stays inside them.
   int ry0 = H, ry1 = -1;
 #pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
@@ -928,287 +927,296 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       ry1 = std::max(ry1, y);
     }
   }
+  // The vehicle lamps' pixels (maxima over L), recorded by vehicle_lamps (below) and drawn
+  // after the retroreflection, row by row; all lie in the vehicle rows [ry0, ry1].
+  MaxDraws veh(W, H);
+  // The vehicles' components, boxes, states, colour cues and placed lamps, recorded in veh.
+  // With the row pass, one thread runs it while the others make the rows outside [ry0, ry1]
+  // (add_street_light_rows' side job: those rows read nothing it writes); otherwise before
+  // the lamps are drawn. Its scratch (component ids, cues) is freed when it returns.
+  auto vehicle_lamps = [&] {
+    // Vehicle component per pixel; only the vehicle rows [ry0, ry1] are zeroed and used (the
+    // discs below read it through `mine`, which is false outside them), so the other rows are
+    // never written, nor their pages touched.
+    ImageI32 comp(W, H, 1, uninitialized);
+    int ncomp = 0;
+    std::vector<int> comp_class(1, 0);
 #pragma omp parallel for schedule(static)
-  for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
-  const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
-  const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
-  if (ry1 >= 0) {
-    std::map<int, int> inst_index;
-    if (!lm.instances.empty()) {
-      int last_v = -1, last_c = 0;
-      const uint16_t* qd = lm.instances.data();
-      const bool range = v_range;
-      const uint16_t qlo = q_lo, qspan = q_span;
+    for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
+    const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
+    const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
+    if (ry1 >= 0) {
+      std::map<int, int> inst_index;
+      if (!lm.instances.empty()) {
+        int last_v = -1, last_c = 0;
+        const uint16_t* qd = lm.instances.data();
+        const bool range = v_range;
+        const uint16_t qlo = q_lo, qspan = q_span;
+        for (size_t i = i_begin; i < i_end; ++i) {
+          // Sixteen pixels of no vehicle instance skipped at once (a branch-free test the compiler
+          // vectorizes, on local copies of the range): such pixels change nothing here.
+          if (range && (i & 15) == 0 && i + 16 <= i_end) {
+            unsigned any = 0;
+            for (size_t k = i; k < i + 16; ++k) any |= static_cast<uint16_t>(qd[k] - qlo) <= qspan;
+            if (!any) {
+              i += 15;
+              continue;
+            }
+          }
+          const int v = qd[i];
+          if (vehicle_instance(static_cast<uint16_t>(v))) {
+            if (v != last_v) {
+              auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
+              if (fresh) comp_class.push_back(v / 1000);
+              last_v = v;
+              last_c = it->second;
+            }
+            comp[i] = last_c;
+          }
+        }
+      }
+      cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
+      const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
+      // (Through local pointers: the byte stores might alias the images' and the table's fields.)
+      const uint16_t* lab = labels.data();
+      const int32_t* cp = comp.data();
+      uint8_t* md = mask.data;
+#pragma omp parallel for schedule(static)
+      for (long i = nb; i < ne; ++i) md[i - nb] = vehicle_label(lab[i]) && cp[i] == 0 ? 255 : 0;
+      cv::Mat cc;
+      const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
+      const int base = static_cast<int>(inst_index.size());
+      for (int c = 1; c < n; ++c) comp_class.push_back(0);
+      // Class of each new component: the label at its first pixel (a component is one class
+      // group, vehicles; mixed-class blobs take the first met).
+      const int32_t* ccd = reinterpret_cast<const int32_t*>(cc.data);
       for (size_t i = i_begin; i < i_end; ++i) {
-        // Sixteen pixels of no vehicle instance skipped at once (a branch-free test the compiler
-        // vectorizes, on local copies of the range): such pixels change nothing here.
-        if (range && (i & 15) == 0 && i + 16 <= i_end) {
-          unsigned any = 0;
-          for (size_t k = i; k < i + 16; ++k) any |= static_cast<uint16_t>(qd[k] - qlo) <= qspan;
-          if (!any) {
-            i += 15;
+        // Eight pixels of no new component (label 0) skipped at once: most of these rows.
+        if (((i - i_begin) & 7) == 0 && i + 8 <= i_end && all_zero8(ccd + (i - i_begin))) {
+          i += 7;
+          continue;
+        }
+        const int c = ccd[i - i_begin];
+        if (c > 0) {
+          comp[i] = base + c;
+          if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
+        }
+      }
+      ncomp = static_cast<int>(comp_class.size()) - 1;
+    }
+    struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
+    std::vector<Box> boxes(ncomp + 1);
+    for (int y = ry0; y <= ry1; ++y) {
+      const int32_t* cr = comp.row(y);
+      for (int x = 0; x < W; ++x) {
+        // Vehicle pixels are a minority of these rows: eight ids at a time skip the empty stretches.
+        if ((x & 7) == 0 && x + 8 <= W && all_zero8(cr + x)) {
+          x += 7;
+          continue;
+        }
+        const int c = cr[x];
+        if (!c) continue;
+        Box& b = boxes[c];
+        b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
+        b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
+        ++b.n;
+      }
+    }
+    // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
+    // lowest row; the labels just below it (3 rows across the middle half of its width) say what
+    // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
+    // of the road edges, where vehicles park on the road). Others are parked: dark, except a seeded
+    // share (veh_parked_lit_fraction) with parking lights, keyed by the instance code or by the
+    // ground position on a 2 m grid, so a vehicle keeps its draw from frame to frame.
+    struct VehState { int state = 0; double X = 0, D = 0, z = 0, width_m = 0; };  // 0 dark, 1 traffic, 2 parked lit
+    std::vector<VehState> vs(ncomp + 1);
+    if (geometry) {
+      const CameraGeometry& g = *geometry;
+      std::vector<int> inst_of(ncomp + 1, 0);
+      if (!lm.instances.empty())
+        for (size_t i = i_begin; i < i_end; ++i)
+          if (comp[i] && lm.instances[i] >= 1000) inst_of[comp[i]] = lm.instances[i];
+      for (int c = 1; c <= ncomp; ++c) {
+        const Box& b = boxes[c];
+        if (b.n == 0) continue;
+        VehState& v = vs[c];
+        if (!g.ground_point(0.5 * (b.x0 + b.x1), b.y1 + 0.5, &v.X, &v.D, nullptr)) continue;
+        v.z = g.plane_depth_m(b.y1 + 0.5, v.D);
+        v.width_m = (b.x1 - b.x0 + 1) * v.z / g.f_px;
+        int road = 0, other = 0;
+        const int q = (b.x1 - b.x0 + 1) / 4;
+        for (int y = b.y1 + 1; y <= std::min(H - 1, b.y1 + 3); ++y)
+          for (int x = b.x0 + q; x <= b.x1 - q; ++x) {
+            const int id = labels.at(x, y);
+            if (id == static_cast<int>(Label::Road)) ++road;
+            else if (!is_vehicle(id)) ++other;
+          }
+        // The outer side (toward the nearer road edge) at the contact depth: a parked vehicle's
+        // lies within the kerb strip of the edge.
+        double Xo = v.X;
+        g.ground_point(v.X < road_mid ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
+        const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
+        // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
+        // the conservative reading (an approximation: a passing vehicle there stays dark too).
+        const bool cut = b.x0 == 0 || b.x1 == W - 1;
+        const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
+                                                  Xo < sl.road_right_m - p.veh_kerb_strip_m));
+        if (on_road && in_lane) {
+          v.state = 1;
+          ++out.stats.vehicles_in_traffic;
+        } else {
+          ++out.stats.vehicles_parked;
+          const uint64_t key = inst_of[c] ? static_cast<uint64_t>(inst_of[c])
+                                          : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
+                                                static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
+          const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
+          if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
+            v.state = 2;
+            ++out.stats.vehicles_parked_lit;
+          }
+        }
+      }
+    }
+    // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
+    // bright white is rare (so not a white body), near-white highlights in the lower half.
+    const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
+    const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
+    // The vehicle lamps' pixels (maxima over L), recorded while the vehicle scratch is alive and
+    // drawn after the retroreflection, row by row.
+    // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
+    // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
+    ImageU8 cue(W, H, 1, uninitialized);
+    for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
+    std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
+#pragma omp parallel for schedule(static, 8)
+    for (int y = std::max(0, ry0); y <= ry1; ++y) {
+      const int32_t* comp_row = comp.row(y);
+      for (int x = 0; x < W; ++x) {
+        // Eight pixels of no vehicle skipped at once (as in the boxes' scan).
+        if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
+          x += 7;
+          continue;
+        }
+        const size_t i = static_cast<size_t>(y) * W + x;
+        const int c = comp[i];
+        if (!c) continue;
+        // Necessary conditions first, in to_lab's own expressions (so the same doubles): both cues
+        // need L* > 25 and L* = 116·f(Y) − 16 is non-decreasing in Y (lab_f's table lerp too, up
+        // to the float rounding of its entries, ~1e-8), with L*(0.04) = 23.7: Y ≤ 0.04 is neither.
+        // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
+        // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
+        // the same cues.
+        const float* s = day.data() + 3 * i;
+        const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
+        const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
+        if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;
+        const Lab l = lab_at(static_cast<int>(i));
+        // The hue angle only where the red test can pass (the same tests in the same order).
+        if (l.a > 40 && l.L > 25) {
+          const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+          if (hue > -20 && hue < 40) {
+            cue[i] = 1;
             continue;
           }
         }
-        const int v = qd[i];
-        if (vehicle_instance(static_cast<uint16_t>(v))) {
-          if (v != last_v) {
-            auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
-            if (fresh) comp_class.push_back(v / 1000);
-            last_v = v;
-            last_c = it->second;
-          }
-          comp[i] = last_c;
+        if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
+      }
+      const uint8_t* cr = cue.row(y);
+      cue_row[y] = std::any_of(cr, cr + W, [](uint8_t v) { return v != 0; });
+    }
+    // The white cues, in the cue rows only (elsewhere cue is 0), in the order of the full scan.
+    for (int y = std::max(0, ry0); y <= ry1; ++y) {
+      if (!cue_row[y]) continue;
+      for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+        if (cue[i] == 2) ++boxes[comp[i]].white;
+    }
+    for (int y = std::max(0, ry0); y <= ry1; ++y) {
+      if (!cue_row[y]) continue;
+      for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+        if (cue[i] == 2) {
+          const Box& b = boxes[comp[i]];
+          if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
         }
+    }
+    // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
+    // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
+    auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
+    for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
+      if (!cue_row[y]) continue;
+      for (int x = 1; x < W - 1; ++x) {
+        const uint8_t v = cue.at(x, y);
+        if (!v) continue;
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
+        if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(veh, x, y, v == 1 ? tail : head);
       }
     }
-    cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
-    const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
-    // (Through local pointers: the byte stores might alias the images' and the table's fields.)
-    const uint16_t* lab = labels.data();
-    const int32_t* cp = comp.data();
-    uint8_t* md = mask.data;
-#pragma omp parallel for schedule(static)
-    for (long i = nb; i < ne; ++i) md[i - nb] = vehicle_label(lab[i]) && cp[i] == 0 ? 255 : 0;
-    cv::Mat cc;
-    const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
-    const int base = static_cast<int>(inst_index.size());
-    for (int c = 1; c < n; ++c) comp_class.push_back(0);
-    // Class of each new component: the label at its first pixel (a component is one class
-    // group, vehicles; mixed-class blobs take the first met).
-    const int32_t* ccd = reinterpret_cast<const int32_t*>(cc.data);
-    for (size_t i = i_begin; i < i_end; ++i) {
-      // Eight pixels of no new component (label 0) skipped at once: most of these rows.
-      if (((i - i_begin) & 7) == 0 && i + 8 <= i_end && all_zero8(ccd + (i - i_begin))) {
-        i += 7;
-        continue;
-      }
-      const int c = ccd[i - i_begin];
-      if (c > 0) {
-        comp[i] = base + c;
-        if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
-      }
-    }
-    ncomp = static_cast<int>(comp_class.size()) - 1;
-  }
-  struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
-  std::vector<Box> boxes(ncomp + 1);
-  for (int y = ry0; y <= ry1; ++y) {
-    const int32_t* cr = comp.row(y);
-    for (int x = 0; x < W; ++x) {
-      // Vehicle pixels are a minority of these rows: eight ids at a time skip the empty stretches.
-      if ((x & 7) == 0 && x + 8 <= W && all_zero8(cr + x)) {
-        x += 7;
-        continue;
-      }
-      const int c = cr[x];
-      if (!c) continue;
-      Box& b = boxes[c];
-      b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
-      b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
-      ++b.n;
-    }
-  }
-  // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
-  // lowest row; the labels just below it (3 rows across the middle half of its width) say what
-  // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
-  // of the road edges, where vehicles park on the road). Others are parked: dark, except a seeded
-  // share (veh_parked_lit_fraction) with parking lights, keyed by the instance code or by the
-  // ground position on a 2 m grid, so a vehicle keeps its draw from frame to frame.
-  StreetLighting sl;
-  if (geometry) sl = street ? *street : plan_street_lighting(lm, *geometry, p, seed);
-  const bool extent = sl.road_right_m > sl.road_left_m;
-  const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
-  struct VehState { int state = 0; double X = 0, D = 0, z = 0, width_m = 0; };  // 0 dark, 1 traffic, 2 parked lit
-  std::vector<VehState> vs(ncomp + 1);
-  if (geometry) {
-    const CameraGeometry& g = *geometry;
-    std::vector<int> inst_of(ncomp + 1, 0);
-    if (!lm.instances.empty())
-      for (size_t i = i_begin; i < i_end; ++i)
-        if (comp[i] && lm.instances[i] >= 1000) inst_of[comp[i]] = lm.instances[i];
+    // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
+    // ground contact, veh_lamp_inset_m in from its sides (its metric width from its pixel width at
+    // the contact depth), one lamp for two-wheelers; discs of the lens diameter at intensity I
+    // (luminance I/area; a lens smaller than a pixel puts I over the pixel's footprint (z/f)²).
+    // Direction of travel, right-hand traffic: left of the road's centre line in road coordinates
+    // oncoming (head lamps toward the camera), right of it going away (tail lamps). Parked lit
+    // vehicles show position lamps: red if parked facing away (right side), white otherwise.
+    // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
     for (int c = 1; c <= ncomp; ++c) {
       const Box& b = boxes[c];
-      if (b.n == 0) continue;
-      VehState& v = vs[c];
-      if (!g.ground_point(0.5 * (b.x0 + b.x1), b.y1 + 0.5, &v.X, &v.D, nullptr)) continue;
-      v.z = g.plane_depth_m(b.y1 + 0.5, v.D);
-      v.width_m = (b.x1 - b.x0 + 1) * v.z / g.f_px;
-      int road = 0, other = 0;
-      const int q = (b.x1 - b.x0 + 1) / 4;
-      for (int y = b.y1 + 1; y <= std::min(H - 1, b.y1 + 3); ++y)
-        for (int x = b.x0 + q; x <= b.x1 - q; ++x) {
-          const int id = labels.at(x, y);
-          if (id == static_cast<int>(Label::Road)) ++road;
-          else if (!is_vehicle(id)) ++other;
+      const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
+      auto mine = [&](int x, int y) { return y >= ry0 && y <= ry1 && comp.at(x, y) == c; };
+      const int cls = comp_class[c];
+      const bool two_wheeler = cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle);
+      if (geometry) {
+        const VehState& v = vs[c];
+        if (v.state == 0) continue;
+        const bool oncoming = v.X < road_mid;
+        double I, dia;
+        bool red;
+        if (v.state == 1) {
+          I = oncoming ? p.veh_head_intensity_cd : p.veh_tail_intensity_cd;
+          dia = oncoming ? p.veh_head_diameter_m : p.veh_tail_diameter_m;
+          red = !oncoming;
+        } else {
+          I = p.veh_parking_intensity_cd;
+          dia = p.veh_tail_diameter_m;
+          red = !oncoming;
         }
-      // The outer side (toward the nearer road edge) at the contact depth: a parked vehicle's
-      // lies within the kerb strip of the edge.
-      double Xo = v.X;
-      g.ground_point(v.X < road_mid ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
-      const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
-      // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
-      // the conservative reading (an approximation: a passing vehicle there stays dark too).
-      const bool cut = b.x0 == 0 || b.x1 == W - 1;
-      const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
-                                                Xo < sl.road_right_m - p.veh_kerb_strip_m));
-      if (on_road && in_lane) {
-        v.state = 1;
-        ++out.stats.vehicles_in_traffic;
-      } else {
-        ++out.stats.vehicles_parked;
-        const uint64_t key = inst_of[c] ? static_cast<uint64_t>(inst_of[c])
-                                        : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
-                                              static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
-        const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
-        if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
-          v.state = 2;
-          ++out.stats.vehicles_parked_lit;
+        const double half = std::max(0.0, 0.5 * v.width_m - p.veh_lamp_inset_m);
+        std::vector<double> xs = two_wheeler ? std::vector<double>{v.X} : std::vector<double>{v.X - half, v.X + half};
+        for (double X : xs) {
+          double u, vv, z;
+          if (!geometry->project(X, p.veh_lamp_height_m, v.D, &u, &vv, &z)) continue;
+          const double r = 0.5 * geometry->f_px * dia / z;
+          const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
+          const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
+          int n = 0;
+          if (r >= 0.6) n = disc(veh, u, vv, r, col, mine);
+          else {
+            const int px = static_cast<int>(std::lround(u)), py = static_cast<int>(std::lround(vv));
+            if (px >= 0 && py >= 0 && px < W && py < H && mine(px, py)) { put_max(veh, px, py, col); n = 1; }
+          }
+          out.stats.vehicle_lamps += n > 0;
         }
-      }
-    }
-  }
-  // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
-  // bright white is rare (so not a white body), near-white highlights in the lower half.
-  const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
-  const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-  // The vehicle lamps' pixels (maxima over L), recorded while the vehicle scratch is alive and
-  // drawn after the retroreflection, row by row.
-  MaxDraws veh(W, H);
-  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
-  // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
-  ImageU8 cue(W, H, 1, uninitialized);
-  for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
-  std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
-#pragma omp parallel for schedule(static, 8)
-  for (int y = std::max(0, ry0); y <= ry1; ++y) {
-    const int32_t* comp_row = comp.row(y);
-    for (int x = 0; x < W; ++x) {
-      // Eight pixels of no vehicle skipped at once (as in the boxes' scan).
-      if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
-        x += 7;
         continue;
       }
-      const size_t i = static_cast<size_t>(y) * W + x;
-      const int c = comp[i];
-      if (!c) continue;
-      // Necessary conditions first, in to_lab's own expressions (so the same doubles): both cues
-      // need L* > 25 and L* = 116·f(Y) − 16 is non-decreasing in Y (lab_f's table lerp too, up
-      // to the float rounding of its entries, ~1e-8), with L*(0.04) = 23.7: Y ≤ 0.04 is neither.
-      // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
-      // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
-      // the same cues.
-      const float* s = day.data() + 3 * i;
-      const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
-      const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
-      if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;
-      const Lab l = lab_at(static_cast<int>(i));
-      // The hue angle only where the red test can pass (the same tests in the same order).
-      if (l.a > 40 && l.L > 25) {
-        const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
-        if (hue > -20 && hue < 40) {
-          cue[i] = 1;
-          continue;
-        }
-      }
-      if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
-    }
-    const uint8_t* cr = cue.row(y);
-    cue_row[y] = std::any_of(cr, cr + W, [](uint8_t v) { return v != 0; });
-  }
-  // The white cues, in the cue rows only (elsewhere cue is 0), in the order of the full scan.
-  for (int y = std::max(0, ry0); y <= ry1; ++y) {
-    if (!cue_row[y]) continue;
-    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
-      if (cue[i] == 2) ++boxes[comp[i]].white;
-  }
-  for (int y = std::max(0, ry0); y <= ry1; ++y) {
-    if (!cue_row[y]) continue;
-    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
-      if (cue[i] == 2) {
-        const Box& b = boxes[comp[i]];
-        if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
-      }
-  }
-  // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
-  // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
-  auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
-  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
-    if (!cue_row[y]) continue;
-    for (int x = 1; x < W - 1; ++x) {
-      const uint8_t v = cue.at(x, y);
-      if (!v) continue;
-      int n = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
-      if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(veh, x, y, v == 1 ? tail : head);
-    }
-  }
-  // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
-  // ground contact, veh_lamp_inset_m in from its sides (its metric width from its pixel width at
-  // the contact depth), one lamp for two-wheelers; discs of the lens diameter at intensity I
-  // (luminance I/area; a lens smaller than a pixel puts I over the pixel's footprint (z/f)²).
-  // Direction of travel, right-hand traffic: left of the road's centre line in road coordinates
-  // oncoming (head lamps toward the camera), right of it going away (tail lamps). Parked lit
-  // vehicles show position lamps: red if parked facing away (right side), white otherwise.
-  // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
-  for (int c = 1; c <= ncomp; ++c) {
-    const Box& b = boxes[c];
-    const int bw = b.x1 - b.x0 + 1, bh = b.y1 - b.y0 + 1;
-    auto mine = [&](int x, int y) { return y >= ry0 && y <= ry1 && comp.at(x, y) == c; };
-    const int cls = comp_class[c];
-    const bool two_wheeler = cls == static_cast<int>(Label::Motorcycle) || cls == static_cast<int>(Label::Bicycle);
-    if (geometry) {
-      const VehState& v = vs[c];
-      if (v.state == 0) continue;
-      const bool oncoming = v.X < road_mid;
-      double I, dia;
-      bool red;
-      if (v.state == 1) {
-        I = oncoming ? p.veh_head_intensity_cd : p.veh_tail_intensity_cd;
-        dia = oncoming ? p.veh_head_diameter_m : p.veh_tail_diameter_m;
-        red = !oncoming;
+      if (b.n < 40 || bw < 8 || bh < 6) continue;
+      const bool oncoming = b.x1 < vp.x;
+      const Rgb& col = oncoming ? head : tail;
+      const double r = std::max(1.5, 0.05 * bw), ly = b.y0 + 0.55 * bh;
+      if (two_wheeler) {
+        if (disc(veh, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
       } else {
-        I = p.veh_parking_intensity_cd;
-        dia = p.veh_tail_diameter_m;
-        red = !oncoming;
+        out.stats.vehicle_lamps += disc(veh, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
+        out.stats.vehicle_lamps += disc(veh, b.x1 - 0.15 * bw, ly, r, col, mine) > 0;
       }
-      const double half = std::max(0.0, 0.5 * v.width_m - p.veh_lamp_inset_m);
-      std::vector<double> xs = two_wheeler ? std::vector<double>{v.X} : std::vector<double>{v.X - half, v.X + half};
-      for (double X : xs) {
-        double u, vv, z;
-        if (!geometry->project(X, p.veh_lamp_height_m, v.D, &u, &vv, &z)) continue;
-        const double r = 0.5 * geometry->f_px * dia / z;
-        const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
-        const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
-        int n = 0;
-        if (r >= 0.6) n = disc(veh, u, vv, r, col, mine);
-        else {
-          const int px = static_cast<int>(std::lround(u)), py = static_cast<int>(std::lround(vv));
-          if (px >= 0 && py >= 0 && px < W && py < H && mine(px, py)) { put_max(veh, px, py, col); n = 1; }
-        }
-        out.stats.vehicle_lamps += n > 0;
-      }
-      continue;
     }
-    if (b.n < 40 || bw < 8 || bh < 6) continue;
-    const bool oncoming = b.x1 < vp.x;
-    const Rgb& col = oncoming ? head : tail;
-    const double r = std::max(1.5, 0.05 * bw), ly = b.y0 + 0.55 * bh;
-    if (two_wheeler) {
-      if (disc(veh, b.x0 + 0.5 * bw, ly, r, col, mine)) ++out.stats.vehicle_lamps;
-    } else {
-      out.stats.vehicle_lamps += disc(veh, b.x0 + 0.15 * bw, ly, r, col, mine) > 0;
-      out.stats.vehicle_lamps += disc(veh, b.x1 - 0.15 * bw, ly, r, col, mine) > 0;
-    }
-  }
 
-  // The vehicle scratch is done with: its pages go back before the row pass touches new ones.
-  comp = ImageI32();
-  cue = ImageU8();
-  veh.finish();
-  if (!row_pass)
+    veh.finish();
+  };
+  if (!row_pass) {
+    vehicle_lamps();
     for (int y = 0; y < H; ++y) veh.draw_row(L, y);
+  }
 
   // Street lighting in metres: luminaires on poles or along the road edges, their pools on the
   // ground and their heads (scene/street.cpp).
@@ -1232,10 +1240,12 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       std::atomic<int> signals{0};
       const std::function<void(int)> first = [&](int y) {
         signals += retro_row(y);
-        veh.draw_row(L, y);
+        if (y >= ry0 && y <= ry1) veh.draw_row(L, y);
       };
-      const StreetRowsResult r = add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades,
-                                                       rows ? &*rows : nullptr, row_pass ? &first : nullptr);
+      const std::function<void()> side = vehicle_lamps;
+      const StreetRowsResult r =
+          add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades, rows ? &*rows : nullptr,
+                                row_pass ? &first : nullptr, row_pass ? &side : nullptr, ry0, ry1);
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;

@@ -9,12 +9,16 @@
 #include "photosite/scene/street.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <immintrin.h>
 #include <numeric>
+#include <omp.h>
 #include <optional>
+#include <thread>
 #include <unordered_set>
 
 #include "photosite/environment.h"
@@ -152,6 +156,28 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const Re
   const __m256 v = _mm256_i32gather_ps(t.fv.data(), j, 4), dv = _mm256_i32gather_ps(t.fdv.data(), j, 4);
   return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
 }
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
+// Two float32x8 halves as one float32x16 (lo in lanes 0-7).
+__attribute__((target("avx512f"), always_inline)) inline __m512 join16(__m256 lo, __m256 hi) {
+  return _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
+}
+// fl(a − b) per lane for sixteen lanes held as two float64x8 (b0: lanes 0-7, b1: 8-15), a broadcast.
+__attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a, __m512d b0, __m512d b1) {
+  return join16(_mm512_cvtpd_ps(_mm512_sub_pd(a, b0)), _mm512_cvtpd_ps(_mm512_sub_pd(a, b1)));
+}
+// RelTable::atf (rel_lerp_f) for sixteen lanes: on the lanes of `beyond` (beyond the cut-off) the
+// same operations, the entries gathered for those lanes only; 1 on the others.
+__attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
+                                                                          __mmask16 beyond) {
+  const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step)), zero = _mm512_setzero_ps();
+  const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(4095)),
+                                     _mm512_setzero_si512());
+  const __m512 v = _mm512_mask_i32gather_ps(zero, beyond, j, t.fv.data(), 4);
+  const __m512 dv = _mm512_mask_i32gather_ps(zero, beyond, j, t.fdv.data(), 4);
+  return _mm512_mask_add_ps(_mm512_set1_ps(1.f), beyond, v, _mm512_mul_ps(dv, _mm512_sub_ps(u, _mm512_cvtepi32_ps(j))));
+}
+#pragma GCC diagnostic pop
 // pool_row_scalar eight pixels at a time (Xg padded to a multiple of 8; e written for whole groups).
 __attribute__((target("avx2"), always_inline)) inline void pool_row_body(float* e, const double* Xg, const uint8_t* mask,
                                                                           int n, const PoolLamps& pl, float I0,
@@ -181,8 +207,11 @@ __attribute__((target("avx2"))) void pool_row_avx2(float* e, const double* Xg, c
                                                   const PoolLamps& pl, float I0, const RelTable& t) {
   pool_row_body(e, Xg, mask, n, pl, I0, t);
 }
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
 // The same row compiled for AVX-512VL (32 vector registers; the same operations, no FMA
-// contraction: the same bits; see vertical_row_avx512).
+// contraction: the same bits; see vertical_row_avx512). (Sixteen lanes at a time, as the vertical
+// light, measured no faster here: pools + heads alone 9.7-10.7 ms against 10.1-10.2, 1 thread.)
 __attribute__((target("avx2,avx512f,avx512vl"))) void pool_row_avx512(float* e, const double* Xg, const uint8_t* mask,
                                                                      int n, const PoolLamps& pl, float I0,
                                                                      const RelTable& t) {
@@ -836,6 +865,75 @@ struct VerticalCtx {
   float I0, d2_min;
   int building;
 };
+// Candidates8 for the row (vertical_row_body's and vertical_row_avx512's).
+__attribute__((target("avx2"), always_inline)) inline Candidates8 candidates8_consts(const RowGeom& q,
+                                                                                    const VerticalCtx& v) {
+  return {_mm256_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu)),
+          _mm256_set1_epi32(static_cast<int32_t>(v.dark >> 32)),
+          _mm256_set1_epi32(1),
+          _mm256_set1_epi32(32),
+          _mm256_setzero_ps(),
+          _mm256_set1_ps(kDepthInfinity_m),
+          _mm256_set1_pd(q.kD),
+          _mm256_set1_pd(q.kY),
+          _mm256_set1_pd(q.h),
+          _mm256_set1_pd(v.la->max_Y),
+          _mm256_set1_pd(v.D_lo),
+          _mm256_set1_pd(v.D_hi)};
+}
+// One group's eight lanes (columns x .. x + 7) in gr: the candidates' (bit k of m: column x + k)
+// depth and, on buildings, their façade plane (BuildingFacades::plane_at, inlined); the other lanes
+// take column `fill` (a candidate's, so that their values are a real pixel's; they are dropped).
+// Inside a façade (most groups: eight candidates on one building region whose eight columns take
+// one plane) the same values without the per-lane lookups.
+__attribute__((target("avx2"), always_inline)) inline void vertical_group(VerticalGroup& gr, int x, int m, int fill,
+                                                                         const uint16_t* id, const float* z,
+                                                                         const int32_t* reg, const VerticalCtx& v) {
+  const BuildingFacades& fac = *v.fac;
+  const int r0 = reg[x];
+  bool one_plane = false;
+  if (m == 0xff && r0 >= 0) {
+    const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+    const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    const BuildingFacades::Region& R = fac.regions[r0];
+    const int c0 = x - R.x0;
+    if (_mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
+                                              _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1 &&
+        c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
+      const int pi = R.column_plane[c0];
+      const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
+      if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
+        const FacadePlane& f = fac.planes[pi];
+        const __m256i xv = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), _mm256_set1_epi32(-1));
+        const __m256 zv = _mm256_loadu_ps(z + x);
+        _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));
+        _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
+        const __m256d nx = _mm256_set1_pd(-f.nX), nd = _mm256_set1_pd(-f.nD);
+        _mm256_store_pd(gr.pnX, nx);
+        _mm256_store_pd(gr.pnX + 4, nx);
+        _mm256_store_pd(gr.pnD, nd);
+        _mm256_store_pd(gr.pnD + 4, nd);
+        one_plane = true;
+      }
+    }
+  }
+  for (int k = 0; k < 8 && !one_plane; ++k) {
+    const int xk = (m >> k & 1) ? x + k : fill;
+    const FacadePlane* f = nullptr;
+    if (id[xk] == v.building && reg[xk] >= 0) {
+      const BuildingFacades::Region& R = fac.regions[reg[xk]];
+      const int pi = R.column_plane[xk - R.x0];
+      if (pi >= 0) f = &fac.planes[pi];
+    }
+    gr.x[k] = xk;
+    gr.z[k] = z[xk];
+    gr.plane[k] = f ? -1 : 0;
+    gr.pnX[k] = f ? -f->nX : 0.0;
+    gr.pnD[k] = f ? -f->nD : 0.0;
+  }
+}
 // add_vertical_street_light's row with AVX2, the groups of eight columns 0 .. 8⌊W/8⌋ − 1 (returns
 // 8⌊W/8⌋; the rest go the scalar way): per group the candidates (candidates8_avx2; none: nothing
 // to do), their points and normals (point4; the group's other lanes take the first candidate's
@@ -850,20 +948,8 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
                                                                            const float* z, const int32_t* reg, int W,
                                                                            const RowGeom& q, const VerticalCtx& v) {
   const LampArrays& la = *v.la;
-  const BuildingFacades& fac = *v.fac;
   const RelTable& t = *v.t;
-  const Candidates8 cc{_mm256_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu)),
-                       _mm256_set1_epi32(static_cast<int32_t>(v.dark >> 32)),
-                       _mm256_set1_epi32(1),
-                       _mm256_set1_epi32(32),
-                       _mm256_setzero_ps(),
-                       _mm256_set1_ps(kDepthInfinity_m),
-                       _mm256_set1_pd(q.kD),
-                       _mm256_set1_pd(q.kY),
-                       _mm256_set1_pd(q.h),
-                       _mm256_set1_pd(la.max_Y),
-                       _mm256_set1_pd(v.D_lo),
-                       _mm256_set1_pd(v.D_hi)};
+  const Candidates8 cc = candidates8_consts(q, v);
   const Reflect8 rc = reflect8_consts(v.tint);
   const __m256 vI0 = _mm256_set1_ps(v.I0), vd2min = _mm256_set1_ps(v.d2_min), zero = _mm256_setzero_ps();
   const __m256 vcc = _mm256_set1_ps(t.fcc), one = _mm256_set1_ps(1.f);
@@ -875,54 +961,7 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
   for (; x + 8 <= W; x += 8) {
     const int m = candidates8_avx2(id, z, x, cc);
     if (!m) continue;
-    // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
-    // inlined); the other lanes repeat the first candidate. Inside a façade (most groups: eight
-    // candidates on one building region whose eight columns take one plane) the same values
-    // without the per-lane lookups.
-    const int first = __builtin_ctz(m);
-    const int r0 = reg[x];
-    bool one_plane = false;
-    if (m == 0xff && r0 >= 0) {
-      const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
-      const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
-      const BuildingFacades::Region& R = fac.regions[r0];
-      const int c0 = x - R.x0;
-      if (_mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
-                                                _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1 &&
-          c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
-        const int pi = R.column_plane[c0];
-        const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
-        if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
-          const FacadePlane& f = fac.planes[pi];
-          const __m256i xv = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
-          _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), _mm256_set1_epi32(-1));
-          const __m256 zv = _mm256_loadu_ps(z + x);
-          _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));
-          _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
-          const __m256d nx = _mm256_set1_pd(-f.nX), nd = _mm256_set1_pd(-f.nD);
-          _mm256_store_pd(gr.pnX, nx);
-          _mm256_store_pd(gr.pnX + 4, nx);
-          _mm256_store_pd(gr.pnD, nd);
-          _mm256_store_pd(gr.pnD + 4, nd);
-          one_plane = true;
-        }
-      }
-    }
-    for (int k = 0; k < 8 && !one_plane; ++k) {
-      const int xk = x + ((m >> k & 1) ? k : first);
-      const FacadePlane* f = nullptr;
-      if (id[xk] == v.building && reg[xk] >= 0) {
-        const BuildingFacades::Region& R = fac.regions[reg[xk]];
-        const int pi = R.column_plane[xk - R.x0];
-        if (pi >= 0) f = &fac.planes[pi];
-      }
-      gr.x[k] = xk;
-      gr.z[k] = z[xk];
-      gr.plane[k] = f ? -1 : 0;
-      gr.pnX[k] = f ? -f->nX : 0.0;
-      gr.pnD[k] = f ? -f->nD : 0.0;
-    }
+    vertical_group(gr, x, m, x + __builtin_ctz(m), id, z, reg, v);
     __m256d X0, X1, Y0, Y1, D0, D1;
     __m128 nXa, nXb, nDa, nDb, oka, okb;
     point4(gr, 0, q, X0, Y0, D0, nXa, nDa, oka);
@@ -970,15 +1009,82 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
                                                      const int32_t* reg, int W, const RowGeom& q, const VerticalCtx& v) {
   return vertical_row_body(o, tx, id, z, reg, W, q, v);
 }
-// The same row compiled for AVX-512VL: 32 vector registers, so the lamp loop's accumulator and
-// constants stay in registers (with 16 the accumulator went through the stack at every lamp);
-// the same IEEE operations in the same order (no FMA contraction: -ffp-contract=off), so the
-// same bits.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
+// vertical_row_body for AVX-512: groups of sixteen columns (two of vertical_row_body's groups of
+// eight side by side: their candidates, façade planes, points and normals as there, group by
+// group), and the lamp loop on sixteen lanes at once, over the lamps of the union of the two
+// groups' windows (a lamp outside one group's window is beyond reach of its lanes, which add +0.0
+// for it: the same sums). Per lane the same IEEE operations in the same order as vertical_term
+// (the differences in double rounded to float, the masks as k-registers where the AVX2 row ANDs
+// with all-ones lanes: a masked lane adds +0.0 either way; no FMA contraction: -ffp-contract=off),
+// so the same bits as the AVX2 and scalar paths. Columns 16⌊W/16⌋ .. W − 1 go the scalar way.
+// 32 vector registers keep the lamp loop's constants and accumulator in registers.
 __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* o, const float* tx, const uint16_t* id,
                                                                         const float* z, const int32_t* reg, int W,
                                                                         const RowGeom& q, const VerticalCtx& v) {
-  return vertical_row_body(o, tx, id, z, reg, W, q, v);
+  const LampArrays& la = *v.la;
+  const RelTable& t = *v.t;
+  const Candidates8 cc = candidates8_consts(q, v);
+  const Reflect8 rc = reflect8_consts(v.tint);
+  const __m512 vI0 = _mm512_set1_ps(v.I0), vd2min = _mm512_set1_ps(v.d2_min), zero = _mm512_setzero_ps();
+  const __m512 vcc = _mm512_set1_ps(t.fcc), one = _mm512_set1_ps(1.f);
+  VerticalGroup gr[2];
+  size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
+  int x = 0;
+  for (; x + 16 <= W; x += 16) {
+    const int m = candidates8_avx2(id, z, x, cc) | candidates8_avx2(id, z, x + 8, cc) << 8;
+    if (!m) continue;
+    const int fill = x + __builtin_ctz(m);  // a candidate's column for the lanes dropped
+    __m256d X[4], Y[4], D[4];
+    __m128 nX[4], nD[4], ok[4];
+    for (int h = 0; h < 2; ++h) {
+      const int mh = m >> (8 * h) & 0xff;
+      vertical_group(gr[h], x + 8 * h, mh, mh ? x + 8 * h + __builtin_ctz(mh) : fill, id, z, reg, v);
+      point4(gr[h], 0, q, X[2 * h], Y[2 * h], D[2 * h], nX[2 * h], nD[2 * h], ok[2 * h]);
+      point4(gr[h], 4, q, X[2 * h + 1], Y[2 * h + 1], D[2 * h + 1], nX[2 * h + 1], nD[2 * h + 1], ok[2 * h + 1]);
+    }
+    const __mmask16 okm = static_cast<__mmask16>(
+        m & (_mm_movemask_ps(ok[0]) | _mm_movemask_ps(ok[1]) << 4 | _mm_movemask_ps(ok[2]) << 8 | _mm_movemask_ps(ok[3]) << 12));
+    if (!okm) continue;
+    const __m512 vnX = join16(_mm256_set_m128(nX[1], nX[0]), _mm256_set_m128(nX[3], nX[2]));
+    const __m512 vnD = join16(_mm256_set_m128(nD[1], nD[0]), _mm256_set_m128(nD[3], nD[2]));
+    const __m512d X0 = _mm512_insertf64x4(_mm512_castpd256_pd512(X[0]), X[1], 1),
+                  X1 = _mm512_insertf64x4(_mm512_castpd256_pd512(X[2]), X[3], 1);
+    const __m512d Y0 = _mm512_insertf64x4(_mm512_castpd256_pd512(Y[0]), Y[1], 1),
+                  Y1 = _mm512_insertf64x4(_mm512_castpd256_pd512(Y[2]), Y[3], 1);
+    const __m512d D0 = _mm512_insertf64x4(_mm512_castpd256_pd512(D[0]), D[1], 1),
+                  D1 = _mm512_insertf64x4(_mm512_castpd256_pd512(D[2]), D[3], 1);
+    const double Dmin = _mm512_reduce_min_pd(_mm512_min_pd(D0, D1)), Dmax = _mm512_reduce_max_pd(_mm512_max_pd(D0, D1));
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
+    __m512 acc = zero;
+    for (size_t k = lo; k < hi; ++k) {
+      const __m512 vD = diff16(_mm512_set1_pd(la.D[k]), D0, D1);
+      const __mmask16 in_reach = _mm512_mask_cmp_ps_mask(okm, _mm512_abs_ps(vD), _mm512_set1_ps(la.reach[k]), _CMP_LE_OQ);
+      if (!in_reach) continue;
+      const __m512 vX = diff16(_mm512_set1_pd(la.X[k]), X0, X1), vY = diff16(_mm512_set1_pd(la.Y[k]), Y0, Y1);
+      const __m512 cb = _mm512_add_ps(_mm512_mul_ps(vnX, vX), _mm512_mul_ps(vnD, vD));
+      const __mmask16 lit =
+          _mm512_mask_cmp_ps_mask(_mm512_mask_cmp_ps_mask(in_reach, vY, zero, _CMP_GT_OQ), cb, zero, _CMP_GT_OQ);
+      if (!lit) continue;
+      const __m512 dv2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX, vX), _mm512_mul_ps(vY, vY)), _mm512_mul_ps(vD, vD));
+      const __m512 dv = _mm512_sqrt_ps(dv2), cg = _mm512_div_ps(vY, dv);
+      const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit, cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
+      const __m512 rel = beyond ? rel_lerp16(t, cg, beyond) : one;
+      const __m512 ek = _mm512_div_ps(_mm512_mul_ps(_mm512_mul_ps(vI0, rel), _mm512_div_ps(cb, dv)), _mm512_max_ps(dv2, vd2min));
+      acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
+    }
+    const unsigned lit_px = m & _mm512_cmp_ps_mask(acc, zero, _CMP_GT_OQ);
+    if (lit_px & 0xff) reflect8_avx2(o + 3 * x, tx + 3 * x, _mm512_castps512_ps256(acc), lit_px & 0xff, rc);
+    if (lit_px >> 8)
+      reflect8_avx2(o + 3 * (x + 8), tx + 3 * (x + 8),
+                    _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(acc), 1)), lit_px >> 8, rc);
+  }
+  _mm256_zeroupper();
+  return x;
 }
+#pragma GCC diagnostic pop
 }  // namespace
 
 namespace {
@@ -1451,7 +1557,8 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                        uint64_t seed, const BuildingFacades* facades, const ComposeRows* compose,
-                                       const std::function<void(int)>* first) {
+                                       const std::function<void(int)>* first, const std::function<void()>* side,
+                                       int side_y0, int side_y1) {
   const int W = L.width(), H = L.height();
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades* fac = facades ? facades : &computed;
@@ -1469,25 +1576,61 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
   const std::vector<HeadDisc> heads = compose && lamps ? lamp_head_discs(g, s, p, W, H) : std::vector<HeadDisc>();
   std::vector<uint8_t> head_drawn(heads.size(), 0);
   std::unordered_set<uint64_t> all;
+  // The rows in chunks of 8, those outside the side job's band [b0, b1] first, then the band's;
+  // each thread takes the next chunk. With `side`, thread 0 first runs it while the others take
+  // the chunks outside the band; a chunk in the band waits until it has returned (at one thread:
+  // the side job, then every row). Each row is made by the same function whichever thread takes
+  // it, and nothing a row writes is read by another, so the order changes no bit.
+  const int b0 = side ? std::max(0, side_y0) : 0, b1 = side ? std::min(H - 1, side_y1) : -1;
+  std::vector<std::pair<int, int>> chunks;
+  auto add_chunks = [&](int y0, int y1) {  // rows y0 .. y1 − 1
+    for (int y = y0; y < y1; y += 8) chunks.push_back({y, std::min(y1, y + 8)});
+  };
+  const size_t outside_end = [&] {
+    if (b1 < b0) {
+      add_chunks(0, H);
+      return chunks.size();
+    }
+    add_chunks(0, b0);
+    add_chunks(b1 + 1, H);
+    const size_t n = chunks.size();
+    add_chunks(b0, b1 + 1);
+    return n;
+  }();
+  std::atomic<size_t> next{0};
+  std::atomic<bool> side_done{side == nullptr};
+  std::exception_ptr side_failed;
 #pragma omp parallel
   {
+    if (side && omp_get_thread_num() == 0) {
+      try {
+        (*side)();
+      } catch (...) {
+        side_failed = std::current_exception();
+      }
+      side_done.store(true, std::memory_order_release);
+    }
     if (kHaveAvx) clear_upper_vector_state();  // on each thread (see clear_upper_vector_state)
     VerticalRow vr(W);
     PoolPass::Scratch ps(W);
     WindowPass::Scratch ws(W);
     std::vector<uint8_t> drawn(heads.size(), 0);
-#pragma omp for schedule(static, 8)
-    for (int y = 0; y < H; ++y) {
-      if (first) (*first)(y);
-      if (lamps) {
-        vertical->row(L, y, vr);
-        pools->row(L, y, ps);
-      }
-      windows.row(L, y, ws);
-      if (compose) {
-        for (size_t k = 0; k < heads.size(); ++k)
-          if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
-        compose->row(y);
+    for (size_t c = next++; c < chunks.size(); c = next++) {
+      if (c >= outside_end)
+        while (!side_done.load(std::memory_order_acquire)) std::this_thread::yield();
+      if (side_failed) break;  // (its exception is rethrown below; the rows are not needed)
+      for (int y = chunks[c].first; y < chunks[c].second; ++y) {
+        if (first) (*first)(y);
+        if (lamps) {
+          vertical->row(L, y, vr);
+          pools->row(L, y, ps);
+        }
+        windows.row(L, y, ws);
+        if (compose) {
+          for (size_t k = 0; k < heads.size(); ++k)
+            if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
+          compose->row(y);
+        }
       }
     }
 #pragma omp critical
@@ -1496,6 +1639,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
       for (size_t k = 0; k < heads.size(); ++k) head_drawn[k] |= drawn[k];
     }
   }
+  if (side_failed) std::rethrow_exception(side_failed);
   StreetRowsResult out;
   out.windows = static_cast<int>(all.size());
   if (lamps) {

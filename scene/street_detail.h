@@ -32,6 +32,10 @@ void street_light_max_isa(int isa);
 // then drawn row by row inside the pass (the same maxima over the same pixels). compose->lights
 // must be L. With `first`: (*first)(y) begins each row, before its street light (light_map's
 // retroreflection and vehicle lamps, which then need no pass of their own over the frame).
+// With `side` (light_map's vehicle analysis): one thread runs it at the start of the pass while
+// the others make the rows outside [side_y0, side_y1], which must not depend on it; the rows
+// inside wait until it has returned (one thread: it runs first). An exception from it is
+// rethrown after the pass.
 struct ComposeRows;
 struct StreetRowsResult {
   int pole_lamps = 0, windows = 0;
@@ -40,7 +44,9 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                        uint64_t seed, const BuildingFacades* facades,
                                        const ComposeRows* compose = nullptr,
-                                       const std::function<void(int)>* first = nullptr);
+                                       const std::function<void(int)>* first = nullptr,
+                                       const std::function<void()>* side = nullptr, int side_y0 = 0,
+                                       int side_y1 = -1);
 
 // compose() (scene/lights.cpp) one row at a time: the constants once, then any row y on any
 // thread writes night's row y from the same rows of texture, lights, labels and beam_lux (the

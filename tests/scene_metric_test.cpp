@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -11,6 +13,7 @@
 #include <omp.h>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "photosite/error.h"
@@ -466,6 +469,7 @@ TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
   omp_set_num_threads(before);
 }
 
+
 // Without poles the lamps go along the road edges at the preset's height and spacing; their
 // intensity is set so the design layout's EN 13201 calculation field averages the class
 // luminance; the road shows pools under the lamps and darker gaps between them.
@@ -562,6 +566,46 @@ OpenStreet open_street() {
   return r;
 }
 }  // namespace
+
+// add_street_light_rows' side job (light_map's vehicle analysis) runs on one thread while the
+// others make the rows outside its band, and the rows inside the band wait for it. On the open
+// synthetic street the side job sleeps 200 ms, then marks itself done; each row's `first` records
+// whether it was. Every band row must see it done (with the wait removed, the second thread
+// reaches them during the sleep), at two threads some row outside the band is made before it is
+// (the overlap), and the light equals the pass without a side job, bit for bit.
+TEST(StreetLighting, RowPassSideJobOverlapsTheRowsOutsideItsBand) {
+  const OpenStreet r = open_street();
+  const ImageF tex = reflectance_texture(r.sc.day_linear_srgb, r.sc.labels.ids, r.p);
+  const int W = r.o.width, H = r.o.height, b0 = H / 2, b1 = H / 2 + 40;
+  ImageF want(W, H, 3, 0.f, unit::radiance);
+  add_street_light_rows(want, tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p, 1, nullptr);
+  double sum = 0;
+  for (size_t i = 0; i < want.size(); ++i) sum += want[i];
+  EXPECT_GT(sum, 0.0);
+  const int before = omp_get_max_threads();
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    ImageF L(W, H, 3, 0.f, unit::radiance);
+    std::atomic<bool> done{false};
+    std::vector<int> saw(H, -1);
+    const std::function<void()> side = [&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      done = true;
+    };
+    const std::function<void(int)> first = [&](int y) { saw[y] = done ? 1 : 0; };
+    add_street_light_rows(L, tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p, 1, nullptr, nullptr, &first,
+                          &side, b0, b1);
+    int early = 0;
+    for (int y = 0; y < H; ++y) {
+      ASSERT_NE(saw[y], -1) << "row " << y << " not made";
+      if (y >= b0 && y <= b1) EXPECT_EQ(saw[y], 1) << "band row " << y << " made before the side job returned";
+      else early += saw[y] == 0;
+    }
+    if (threads == 2) EXPECT_GT(early, 0) << "no row made beside the side job";
+    EXPECT_EQ(differing_samples(L, want), 0u) << threads << " threads";
+  }
+  omp_set_num_threads(before);
+}
 
 // Each luminaire is drawn only over its footprint, the ground within R = H·tan(γ_R),
 // γ_R = min(85°, cut-off + 2·falloff), of its foot along the road (|D − D_l| ≤ R, street.cpp).
