@@ -83,17 +83,22 @@ void run_night(NightCmd c) {
   if (!std::filesystem::exists(c.image)) fail_at(c.image, "image file not found");
   if (!c.maps.empty() && !std::filesystem::is_directory(c.maps)) fail_at(c.maps, "--maps: folder does not exist");
   ImageFileInfo info;
-  ImageF day_raw = read_image(c.image, &info);
-  const scene::LabelMap labels =
-      scene::read_labels(c.labels, c.instances, day_raw.width(), day_raw.height(), fmt_label, resize);
-  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_raw.width(), day_raw.height(), c.image);
+  // A plain 8-bit RGB PNG (Cityscapes' frames) stays as its codes: the chain linearises them
+  // directly (prepare_night), the same bits as from read_image()'s floats.
+  std::optional<ImageU8> day_codes = read_image_codes8(c.image, &info);
+  ImageF day_raw = day_codes ? ImageF() : read_image(c.image, &info);
+  const int day_w = day_codes ? day_codes->width() : day_raw.width();
+  const int day_h = day_codes ? day_codes->height() : day_raw.height();
+  const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
+  sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);
   lap("read inputs");
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
     maps = [&](const ImageF& day, const scene::NightScene& ns) {
       write_pictures(c.maps, night_map_pictures(day, labels, ns), c.overwrite);
     };
-  const NightChain chain = prepare_night(runner, std::move(day_raw), info, labels, sp, r, r.store, maps);
+  const NightChain chain = day_codes ? prepare_night(runner, std::move(*day_codes), info, labels, sp, r, r.store, maps)
+                                     : prepare_night(runner, std::move(day_raw), info, labels, sp, r, r.store, maps);
   const scene::NightScene& ns = chain.scene;
   const int frame_w = chain.width, frame_h = chain.height;
   for (const auto& st : chain.timings) times.push_back(st);

@@ -21,6 +21,7 @@
 #include "core/png_codec.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
+#include "photosite/night_chain.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -242,6 +243,16 @@ ImageF read_image(const std::string& path, ImageFileInfo* info) {
     return img;
   }
   return detail::read_image_general(path, info);
+}
+
+std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo* info) {
+  ImageFileInfo got;
+  auto d = read_plain_png(path, &got);
+  if (!d || d->bits != 8 || d->channels != 3) return std::nullopt;
+  ImageU8 img(d->width, d->height, d->channels, uninitialized);
+  std::copy(d->u8.begin(), d->u8.end(), img.data());
+  if (info) *info = got;
+  return img;
 }
 
 ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {

@@ -321,13 +321,22 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     info.is_float = day_float;
     info.bits_per_sample = day_float ? 32 : day_u8 ? 8 : 16;
     info.srgb_encoded = !day_float;
+    // uint8 codes go to the chain as codes (linearised directly, as `night` takes an 8-bit PNG:
+    // the same bits as their floats); uint16 codes and float32 as floats.
+    ImageU8 codes;
+    if (day_u8) {
+      codes = ImageU8(ds.width, ds.height, 3, uninitialized);
+      std::memcpy(codes.data(), day_rgb.data(), codes.size());
+    }
     ImageF day = day_float ? float_image(day_rgb, "day_rgb", ds)
+                 : day_u8  ? ImageF()
                            : image_from_codes(day_rgb.data(), info.bits_per_sample, ds.width, ds.height, 3);
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
     SensorRunner runner = make_backend(backend);
-    chain.emplace(prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
+    chain.emplace(day_u8 ? prepare_night(runner, std::move(codes), info, lm, sp, s, camera.store)
+                         : prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, frame));
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
                              {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : ""});

@@ -577,6 +577,68 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   return out;
 }
 
+namespace {
+// n samples of 8-bit sRGB codes to linear sRGB: d8.out[code], which is what linearize() gives
+// their floats code·(1/255) (each is one of the 256 values Decode8::in, so it reads the table).
+void decode8_samples_scalar(const uint8_t* c, int n, const Decode8& d8, float* o) {
+  for (int j = 0; j < n; ++j) o[j] = d8.out[c[j]];
+}
+#if defined(__x86_64__)
+// The same table read eight (AVX2) or sixteen (AVX-512) samples at a time by a gather.
+__attribute__((target("avx2"))) void decode8_samples_avx2(const uint8_t* c, int n, const Decode8& d8, float* o) {
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const __m256i code = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(c + j)));
+    _mm256_storeu_ps(o + j, _mm256_i32gather_ps(d8.out, code, 4));
+  }
+  decode8_samples_scalar(c + j, n - j, d8, o + j);
+}
+__attribute__((target("avx512f"))) void decode8_samples_avx512(const uint8_t* c, int n, const Decode8& d8, float* o) {
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    const __m512i code = _mm512_cvtepu8_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(c + j)));
+    _mm512_storeu_ps(o + j, _mm512_i32gather_ps(code, d8.out, 4));
+  }
+  decode8_samples_scalar(c + j, n - j, d8, o + j);
+}
+#endif
+void decode8_samples(const uint8_t* c, int n, const Decode8& d8, float* o) {
+#if defined(__x86_64__)
+  const int isa = std::min(kIsa, max_isa);
+  if (isa == 2) return decode8_samples_avx512(c, n, d8, o);
+  if (isa == 1) return decode8_samples_avx2(c, n, d8, o);
+#endif
+  decode8_samples_scalar(c, n, d8, o);
+}
+}  // namespace
+
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
+  sums->part.clear();
+  sums->image = nullptr;
+  sums->labels = nullptr;
+  const Decode8& d8 = decode8();
+  if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height()) {
+    // Not the fused case: linearize() of the codes' floats (as read_image gives them).
+    ImageF day(codes.width(), codes.height(), codes.channels(), uninitialized);
+    for (size_t i = 0; i < codes.size(); ++i) day[i] = d8.in[codes[i]];
+    ImageFileInfo info;
+    info.bits_per_sample = 8;
+    info.srgb_encoded = true;
+    return linearize(day, info);
+  }
+  ImageF out(codes.width(), codes.height(), 3, uninitialized, "linear sRGB");
+  // Each block of pixels decoded right before pass 1 reads it back from L1 (as
+  // linearize_with_texture_sums; codes have no damaged values to look for).
+  sums->part.resize(kTextureChunks);
+  texture_class_sums(labels.data(), codes.pixel_count(), box_coef(), sums->part.data(), [&](int, size_t first, int count) {
+    decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);
+    return static_cast<const float*>(out.data() + 3 * first);
+  });
+  sums->image = out.data();
+  sums->labels = labels.data();
+  return out;
+}
+
 std::array<double, 3> illuminant_tint(double cct_K) {
   const auto a = spectrum::blackbody_rgb(cct_K, 1.0), d = spectrum::blackbody_rgb(6504.0, 1.0);
   return {a[0] / d[0], a[1] / d[1], a[2] / d[2]};

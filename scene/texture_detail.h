@@ -17,4 +17,10 @@ void texture_max_isa(int isa);
 ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                                 ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
 
+// linearize_with_texture_sums of an 8-bit sRGB file's codes (interleaved RGB, the frame's size;
+// other channel counts: linearize() alone): the same image and sums to the bit as from the
+// codes' floats code·(1/255) that read_image() gives, reading a quarter of the bytes (each code's
+// linear value from linearize()'s own 256-entry table for 8-bit files).
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums);
+
 }  // namespace photosite::scene

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <numeric>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,6 +26,7 @@
 #include "scene/texture_detail.h"
 #include "scene/runs_detail.h"
 #include "photosite/error.h"
+#include "photosite/night_chain.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -286,6 +288,58 @@ TEST(SceneDarken, LinearizeWithTextureSumsIsLinearizeThenThePassDefinition) {
   }
   texture_max_isa(2);
   omp_set_num_threads(saved);
+}
+
+// linearize_codes_with_texture_sums (an 8-bit file's codes linearised directly, the chain's path
+// for plain 8-bit PNGs) against linearize_with_texture_sums of the codes' floats code·(1/255) as
+// read_image() and image_from_codes() give them: the same linear image and the same 64 chunks'
+// sums to the bit, every code value, an odd size, each instruction-set path, 1 and 2 threads; a
+// grey image and labels of another size: linearize() of the floats.
+TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
+  const int W = 203, H = 37;
+  ImageU16 ids(W, H, 1, 0);
+  XorShift rnd{4242};
+  random_label_runs(ids, rnd);
+  ImageU8 codes(W, H, 3, 0);
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<uint8_t>(i < 256 ? i : static_cast<int>(rnd() * 256));
+  ImageF day(W, H, 3, 0.f);
+  for (size_t i = 0; i < codes.size(); ++i) day[i] = codes[i] * (1.f / 255);  // read_image's conversion
+  const ImageF from_codes = image_from_codes(codes.data(), 8, W, H, 3);
+  ASSERT_EQ(0, std::memcmp(from_codes.data(), day.data(), day.size() * sizeof(float)));  // the array path's, the same
+  ImageFileInfo info;
+  info.bits_per_sample = 8;
+  info.srgb_encoded = true;
+  const int saved = omp_get_max_threads();
+  for (int isa : {2, 1, 0})
+    for (int threads : {1, 2}) {
+      texture_max_isa(isa);
+      omp_set_num_threads(threads);
+      const std::string where = fmt::format("isa {}, {} threads", isa, threads);
+      TextureSums want_sums, sums;
+      const ImageF want = linearize_with_texture_sums(day, info, ids, &want_sums);
+      const ImageF got = linearize_codes_with_texture_sums(codes, ids, &sums);
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << where;
+      ASSERT_EQ(sums.part.size(), want_sums.part.size()) << where;
+      for (size_t ch = 0; ch < sums.part.size(); ++ch)
+        EXPECT_EQ(0, std::memcmp(sums.part[ch].data(), want_sums.part[ch].data(), sizeof(sums.part[ch]))) << where << ", chunk " << ch;
+      EXPECT_EQ(sums.image, got.data());
+      EXPECT_EQ(sums.labels, ids.data());
+    }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
+  // Not the fused case: one channel; labels of another size (no sums either way).
+  ImageU8 grey(W, H, 1, 0);
+  ImageF grey_f(W, H, 1, 0.f);
+  for (size_t i = 0; i < grey.size(); ++i) grey_f[i] = (grey[i] = static_cast<uint8_t>(i % 256)) * (1.f / 255);
+  TextureSums sums;
+  const ImageF g = linearize_codes_with_texture_sums(grey, ids, &sums), gw = linearize(grey_f, info);
+  EXPECT_TRUE(sums.part.empty());
+  ASSERT_EQ(g.size(), gw.size());
+  EXPECT_EQ(0, std::memcmp(g.data(), gw.data(), g.size() * sizeof(float)));
+  const ImageF o = linearize_codes_with_texture_sums(codes, ImageU16(W + 1, H, 1, 0), &sums), ow = linearize(day, info);
+  EXPECT_TRUE(sums.part.empty());
+  EXPECT_EQ(0, std::memcmp(o.data(), ow.data(), o.size() * sizeof(float)));
 }
 
 // run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
@@ -753,6 +807,104 @@ TEST(SceneGeometry, CoarseDepthIsItsPerPixelDefinitionBitForBit) {
     }
   }
   omp_set_num_threads(saved);
+}
+
+// The label prior of vanishing_point (taken with fewer than two lines) against its per-pixel
+// definition: the road's (else a ground class's) row counts scanned pixel by pixel, its top row
+// and the mean column of the rows below it; else the sky's lowest row per column scanned down
+// each column; else the image centre. Maps with road, with ground classes only, with sky only and
+// with none, ids beyond the label table included; a width that leaves vector tails.
+TEST(SceneGeometry, LabelPriorIsItsPerPixelDefinition) {
+  auto definition = [](const ImageU16& labels) {
+    const int W = labels.width(), H = labels.height();
+    VanishingPoint vp;
+    auto far_end = [&](auto&& member, VpMethod method, double confidence) {
+      std::vector<size_t> rows(H, 0);
+      size_t total = 0;
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+          if (member(labels.at(x, y))) { ++rows[y]; ++total; }
+      if (total < std::max<size_t>(16, labels.pixel_count() / 500)) return false;
+      // The top row: the first whose running count reaches 0.5% of the class's pixels (+1).
+      std::vector<size_t> cum(H);
+      std::partial_sum(rows.begin(), rows.end(), cum.begin());
+      const int y_top = static_cast<int>(std::lower_bound(cum.begin(), cum.end(), total / 200 + 1) - cum.begin());
+      if (y_top >= H - 1) return false;
+      double sx = 0, n = 0;
+      const int y_end = std::min(H - 1, y_top + std::max(1, H / 50));
+      for (int y = y_top; y <= y_end; ++y)
+        for (int x = 0; x < W; ++x)
+          if (member(labels.at(x, y))) { sx += x; ++n; }
+      vp.x = n > 0 ? sx / n : W / 2.0;
+      vp.y = y_top;
+      vp.method = method;
+      vp.confidence = confidence;
+      return true;
+    };
+    if (far_end([](int id) { return id == int(Label::Road) || id == int(Label::Parking); }, VpMethod::RoadPrior, 0.3)) return vp;
+    if (far_end([](int id) { return is_ground(id); }, VpMethod::GroundPrior, 0.2)) return vp;
+    std::vector<int> sky_bottom;
+    for (int x = 0; x < W; ++x) {
+      int low = -1;
+      for (int y = 0; y < H; ++y)
+        if (labels.at(x, y) == int(Label::Sky)) low = y;
+      if (low >= 0 && low < H - 1) sky_bottom.push_back(low);
+    }
+    // The 90th percentile of the sorted lowest rows, with a tenth of the columns at least.
+    std::sort(sky_bottom.begin(), sky_bottom.end());
+    const bool sky = !sky_bottom.empty() && 10 * sky_bottom.size() >= static_cast<size_t>(std::max(10, W - W % 10));
+    vp.method = sky ? VpMethod::SkyPrior : VpMethod::ImageCentre;
+    vp.confidence = sky ? 0.1 : 0.0;
+    vp.x = W / 2.0;
+    vp.y = sky ? sky_bottom[sky_bottom.size() * 9 / 10] : H / 2.0;
+    return vp;
+  };
+  const int W = 333, H = 171;
+  uint64_t state = 12345;
+  auto rnd = [&](int n) {  // a 64-bit LCG's high bits, uniform enough for picking ids and rows
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<int>((state >> 33) % static_cast<uint64_t>(n));
+  };
+  // Per row y, a pixel is "near" class `a` below row `top` of its column, else `b` ; one pixel in
+  // eight any id (0..40, or 1000 beyond the table).
+  auto make = [&](uint16_t a, uint16_t b, int top) {
+    ImageU16 m(W, H, 1, uint16_t(0));
+    std::vector<int> col_top(W);
+    for (int x = 0; x < W; ++x) col_top[x] = std::clamp(top + rnd(21) - 10, 0, H);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        uint16_t v = y >= col_top[x] ? a : b;
+        if (rnd(8) == 0) v = rnd(5) == 0 ? 1000 : static_cast<uint16_t>(rnd(41));
+        m.at(x, y) = v;
+      }
+    return m;
+  };
+  struct Case { const char* name; ImageU16 m; VpMethod want; };
+  std::vector<Case> cases;
+  cases.push_back({"road", make(uint16_t(Label::Road), uint16_t(Label::Building), 90), VpMethod::RoadPrior});
+  cases.push_back({"parking", make(uint16_t(Label::Parking), uint16_t(Label::Sky), 120), VpMethod::RoadPrior});
+  {  // ground classes but no road or parking (the noise's road ids removed)
+    ImageU16 m = make(uint16_t(Label::Sidewalk), uint16_t(Label::Vegetation), 100);
+    for (size_t i = 0; i < m.pixel_count(); ++i)
+      if (m[i] == uint16_t(Label::Road) || m[i] == uint16_t(Label::Parking)) m[i] = uint16_t(Label::Terrain);
+    cases.push_back({"ground", std::move(m), VpMethod::GroundPrior});
+  }
+  {  // sky above buildings, nothing of the ground
+    ImageU16 m = make(uint16_t(Label::Building), uint16_t(Label::Sky), 60);
+    for (size_t i = 0; i < m.pixel_count(); ++i)
+      if (is_ground(m[i])) m[i] = uint16_t(Label::Wall);
+    cases.push_back({"sky", std::move(m), VpMethod::SkyPrior});
+  }
+  cases.push_back({"nothing", ImageU16(W, H, 1, uint16_t(Label::Building)), VpMethod::ImageCentre});
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    const VanishingPoint want = definition(c.m), got = vanishing_point({}, c.m, preset());
+    EXPECT_EQ(want.method, c.want);  // the case exercises the branch it is named for
+    EXPECT_EQ(got.method, want.method);
+    EXPECT_EQ(got.x, want.x);
+    EXPECT_EQ(got.y, want.y);
+    EXPECT_EQ(got.confidence, want.confidence);
+  }
 }
 
 TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -19,6 +20,7 @@
 #include "bench.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/night_chain.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
 #include "photosite/sensor/fpn.h"
@@ -26,6 +28,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 #include "scene/night_detail.h"
+#include "scene/texture_detail.h"
 
 namespace photosite::bench {
 namespace {
@@ -52,10 +55,13 @@ void run(const Opts& o) {
     instances = (shared / "gtFine/aachen_000000_000019_gtFine_instanceIds.png").string();
   }
   ImageF day;
+  std::optional<ImageU8> codes;
   scene::LabelMap lm;
   ImageFileInfo info;
   if (!image.empty()) {
     const ImageF raw = read_image(image, &info);
+    // As `night` reads a plain 8-bit RGB PNG: its codes, linearised directly (the same bits).
+    codes = read_image_codes8(image, &info);
     lm = scene::read_labels(labels, instances, raw.width(), raw.height(), scene::LabelFormat::Auto,
                             scene::ResizeLabels::None);
     day = raw;
@@ -97,9 +103,11 @@ void run(const Opts& o) {
     const double cl0 = cpu_ms();
     auto t0 = clock::now();
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
-    // reflectance texture's class sums (its time is in "linearize", no longer in "darken").
+    // reflectance texture's class sums (its time is in "linearize", no longer in "darken"); an
+    // 8-bit PNG's codes are linearised directly.
     scene::TextureSums sums;
-    const ImageF lin = scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
+    const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums)
+                             : scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums);

@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,17 @@ NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& 
                          const scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,
                          const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
+
+// The same from an 8-bit sRGB file's codes (interleaved, as read_image_codes8 gives them): on the
+// CPU linearised from the codes (a quarter of the bytes of their floats), the same scene to the
+// bit as prepare_night of read_image()'s floats of the same file.
+NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
+// A plain 8-bit RGB PNG's codes with its file info (the info read_image() gives), else nothing
+// (any other file: read_image() then).
+std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo* info);
 
 // Sets the night ambient illuminance (moon + sky glow) to `lux` in [0, 10] lx, keeping the
 // preset's moon/sky-glow proportions; bad input naming `what` outside that range.
