@@ -3,6 +3,7 @@
 #include <climits>
 #include <cstdint>
 #include <cmath>
+#include <cstring>
 #include <fmt/format.h>
 #include <vector>
 #if defined(__x86_64__)
@@ -530,26 +531,42 @@ SunGrid sun_grid(int width, int height, double window_fraction) {
 }
 // Separable masked min (erode) or max (dilate) over a (2r+1)² square of a grid field; absent
 // blocks (present[b] == 0) neither give nor take a value.
-void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, const SunGrid& g, bool erode) {
+struct BlockBox { int x0, x1, y0, y1; };  // the present blocks' bounding box (inclusive)
+void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, const SunGrid& g, const BlockBox& bb,
+                  bool erode) {
+  // Blocks outside bb are all absent, so the loops stay inside it: the same values as over the grid.
+  // Absent blocks hold the operation's neutral value (+inf for min, -inf for max), so each pass is
+  // a plain min or max over shifted rows (vectorised), window clipped at the box.
   const float none = erode ? INFINITY : -INFINITY;
-  std::vector<float> t(v.size());
+  const int w = bb.x1 - bb.x0 + 1;
   auto pick = [erode](float a, float b) { return erode ? std::min(a, b) : std::max(a, b); };
-  for (int by = 0; by < g.nby; ++by)
-    for (int bx = 0; bx < g.nbx; ++bx) {
-      float m = none;
-      for (int k = std::max(0, bx - g.r); k <= std::min(g.nbx - 1, bx + g.r); ++k) {
-        const size_t b = static_cast<size_t>(by) * g.nbx + k;
-        if (present[b]) m = pick(m, v[b]);
-      }
-      t[static_cast<size_t>(by) * g.nbx + bx] = m;
-    }
-  for (int by = 0; by < g.nby; ++by)
-    for (int bx = 0; bx < g.nbx; ++bx) {
+  std::vector<float> src(static_cast<size_t>(w) * (bb.y1 - bb.y0 + 1)), t(src.size(), none);
+  for (int by = bb.y0; by <= bb.y1; ++by)
+    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
       const size_t b = static_cast<size_t>(by) * g.nbx + bx;
-      if (!present[b]) continue;
-      float m = none;
-      for (int k = std::max(0, by - g.r); k <= std::min(g.nby - 1, by + g.r); ++k) m = pick(m, t[static_cast<size_t>(k) * g.nbx + bx]);
-      v[b] = m;
+      src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)] = present[b] ? v[b] : none;
+    }
+  const int h = bb.y1 - bb.y0 + 1;
+  for (int y = 0; y < h; ++y) {  // along rows
+    const float* in = src.data() + static_cast<size_t>(y) * w;
+    float* o = t.data() + static_cast<size_t>(y) * w;
+    for (int d = -g.r; d <= g.r; ++d) {
+      const int x0 = std::max(0, -d), x1 = std::min(w, w - d);
+      for (int x = x0; x < x1; ++x) o[x] = pick(o[x], in[x + d]);
+    }
+  }
+  std::fill(src.begin(), src.end(), none);
+  for (int y = 0; y < h; ++y) {  // along columns
+    float* o = src.data() + static_cast<size_t>(y) * w;
+    for (int yy = std::max(0, y - g.r); yy <= std::min(h - 1, y + g.r); ++yy) {
+      const float* in = t.data() + static_cast<size_t>(yy) * w;
+      for (int x = 0; x < w; ++x) o[x] = pick(o[x], in[x]);
+    }
+  }
+  for (int by = bb.y0; by <= bb.y1; ++by)
+    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
+      const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+      if (present[b]) v[b] = src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)];
     }
 }
 }  // namespace
@@ -603,40 +620,45 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     const double* C = ycnt.data() + s * nb;
     std::vector<uint8_t> present(nb);
     std::vector<float> v(nb, 0.f);
+    std::vector<uint32_t> list;  // the present blocks, in grid order
+    BlockBox bb{g.nbx, -1, g.nby, -1};
     double samples = 0;
     for (size_t b = 0; b < nb; ++b) {
       present[b] = C[b] > 0;
-      if (present[b]) v[b] = static_cast<float>(std::log(std::max(S[b] / C[b], 1e-30)));
+      if (!present[b]) continue;
+      v[b] = static_cast<float>(std::log(std::max(S[b] / C[b], 1e-30)));
       samples += C[b];
+      list.push_back(static_cast<uint32_t>(b));
+      const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
+      bb = {std::min(bb.x0, bx), std::max(bb.x1, bx), std::min(bb.y0, by), std::max(bb.y1, by)};
     }
     if (samples == 0) continue;  // the class only on rows the blocks do not sample
-    masked_morph(v, present, g, true);
-    masked_morph(v, present, g, false);
+    masked_morph(v, present, g, bb, true);
+    masked_morph(v, present, g, bb, false);
     // Isodata threshold on the opened levels, weighted by the blocks' samples.
     double t = 0;
-    for (size_t b = 0; b < nb; ++b) t += C[b] * v[b];
+    for (uint32_t b : list) t += C[b] * v[b];
     t /= samples;
     for (int it = 0; it < 100; ++it) {
       double w[2] = {0, 0}, m[2] = {0, 0};
-      for (size_t b = 0; b < nb; ++b)
-        if (present[b]) {
-          const int k = v[b] > t;
-          w[k] += C[b];
-          m[k] += C[b] * v[b];
-        }
+      for (uint32_t b : list) {
+        const int k = v[b] > t;
+        w[k] += C[b];
+        m[k] += C[b] * v[b];
+      }
       if (w[0] == 0 || w[1] == 0) break;
       const double nt = 0.5 * (m[0] / w[0] + m[1] / w[1]);
       if (nt == t) break;
       t = nt;
     }
-    std::vector<uint8_t> sd(nb, 0), ed(nb, 0);
-    for (size_t b = 0; b < nb; ++b) sd[b] = present[b] && v[b] > t;
+    std::vector<uint8_t> sd(nb, 0), ed(nb, 1);  // absent blocks (all outside bb) are edge blocks
+    for (uint32_t b : list) sd[b] = v[b] > t;
     // Edge blocks: absent, or with a present neighbour (8-connected) on the other side. The
     // levels' means are taken over the interior blocks (a block across the edge is neither).
     double sum[2] = {0, 0}, cnt[2] = {0, 0}, all_sum[2] = {0, 0}, all_cnt[2] = {0, 0}, lev[2] = {0, 0},
            all_lev[2] = {0, 0};
-    for (int by = 0; by < g.nby; ++by)
-      for (int bx = 0; bx < g.nbx; ++bx) {
+    for (int by = bb.y0; by <= bb.y1; ++by)
+      for (int bx = bb.x0; bx <= bb.x1; ++bx) {
         const size_t b = static_cast<size_t>(by) * g.nbx + bx;
         bool e = !present[b];
         for (int dy = -1; dy <= 1 && !e; ++dy)
@@ -669,11 +691,10 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       // grey texture takes the colour of the light it is under. From one pixel at the centre of
       // each interior block: per side the sums of the box bands' B and R.
       double br[2][3] = {{0, 0, 0}, {0, 0, 0}};
-      for (int by = 0; by < g.nby; ++by)
-        for (int bx = 0; bx < g.nbx; ++bx) {
-          const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+      for (uint32_t b : list) {
+          const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
           const int cx = std::min(W - 1, bx * g.B + g.B / 2), cy = std::min(H - 1, by * g.B + g.B / 2);
-          if (!present[b] || ed[b] || labels.at(cx, cy) != id) continue;
+          if (ed[b] || labels.at(cx, cy) != id) continue;
           double c[3];
           box_px(day.row(cy) + 3 * cx, coef, c);
           for (int k = 0; k < 3; ++k) br[sd[b]][k] += c[k];
@@ -755,7 +776,11 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       uint8_t* mr = out.sunlit.data() + static_cast<size_t>(y) * W;
       const uint8_t* tr = tested.data() + static_cast<size_t>(y) * W;
       for (int x = 0; x < W; ++x) {
-        if (!tr[x]) continue;
+        if (!tr[x]) {  // to the next tested pixel
+          const void* next = std::memchr(tr + x, 1, W - x);
+          if (!next) break;
+          x = static_cast<int>(static_cast<const uint8_t*>(next) - tr);
+        }
         int n_all = 0, n_sun = 0;
         for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy)
           for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx)
@@ -767,7 +792,11 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       }
       double* rs = row_sum.data() + static_cast<size_t>(y) * kLabelCount;
       for (int x = 0; x < W;) {
-        if (!mr[x]) { ++x; continue; }
+        if (!mr[x]) {  // to the next sunlit pixel
+          const void* next = std::memchr(mr + x, 1, W - x);
+          if (!next) break;
+          x = static_cast<int>(static_cast<const uint8_t*>(next) - mr);
+        }
         const int id = lr[x];
         int xj = x;
         while (xj < W && mr[xj] && lr[xj] == id) ++xj;
