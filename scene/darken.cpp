@@ -502,9 +502,11 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
 // and does, since its block values never enter the level decision) and sunlit slivers too thin to
 // be told from texture, and keeps the level of larger regions with their edges in place. The two
 // levels are split by the isodata threshold (Ridler and Calvard 1978: the threshold halfway between
-// the means of the two sides). A class is split only when each level covers at least one square
-// and their ratio is at least sun_shade_ratio_min (a smaller step is as likely a change of material
-// or of orientation as a shadow; photosite choice). In the blocks at the edge between the levels,
+// the means of the two sides). A class is split only when each level covers at least one square,
+// their ratio is at least sun_shade_ratio_min (a smaller step is as likely a change of material
+// or of orientation as a shadow; photosite choice), and the shade is bluer than the sunlit level
+// (B/R at least 10 % higher: the sky against the sun; two levels of one colour are a material, an
+// orientation or an overcast sky's shading). In the blocks at the edge between the levels,
 // each pixel is placed by its own light: by its luminance against the levels' geometric mean and
 // by its colour, since the shade is lit by the blue sky alone and the sunlit level mostly by the
 // far redder sun, while a white marking takes the colour of the light it lies under; then by the
@@ -710,8 +712,14 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
         const double y_shade = box_y(br[0], coef), y_sun = box_y(br[1], coef);
         for (int k = 0; k < 3; ++k) out.shade_tint[id][k] = (br[1][k] / y_sun) / (br[0][k] / y_shade);
       }
-      // Separated when the shade's B/R exceeds the sun's by at least 10 % (photosite choice).
+      // A shadow cast by the sun has a bluer shade: the split is taken only when the shade's B/R
+      // exceeds the sunlit level's by at least 10 % (photosite choice). Two levels of one colour
+      // are a step of material or orientation, or an overcast sky's shading, not the sun's.
       chroma[s] = coloured && q_shade > 1.1 * q_sun ? std::sqrt(q_shade * q_sun) : 0;
+      if (chroma[s] == 0) {
+        out.shade_tint[id] = {1.0, 1.0, 1.0};
+        continue;
+      }
       lum_mid[s] = std::sqrt((sum[1] / cnt[1]) * (sum[0] / cnt[0]));
       out.ratio[id] = std::min(ratio, p.sun_shade_ratio_max);
       side[s] = std::move(sd);
@@ -745,15 +753,14 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
           if (sd[b]) std::fill(mr + x, mr + xe, uint8_t{1});
         } else {
           // Each pixel by its own light: sunlit when brighter than the two levels' geometric
-          // mean and, where the levels' colours separate, of the sun's colour (B/R below their
-          // geometric mean); shade when darker and of the shade's colour. A pixel whose
-          // luminance and colour disagree (a white marking in the shade is bright but sky-blue;
+          // mean and of the sun's colour (B/R below the levels' geometric mean); shade when
+          // darker and of the shade's colour. A pixel whose luminance and colour disagree (a white marking in the shade is bright but sky-blue;
           // a dark material in the sun is dark but sun-coloured) keeps its block's level.
           for (int xi = x; xi < xe; ++xi) {
             double c[3];
             box_px(day.row(y) + 3 * xi, coef, c);
             const bool lum = box_y(c, coef) > lum_mid[s];
-            const bool col = chroma[s] > 0 ? c[2] < chroma[s] * c[0] : lum;
+            const bool col = c[2] < chroma[s] * c[0];
             mr[xi] = lum == col ? lum : sd[b];
             tr[xi] = 1;
           }

@@ -40,7 +40,7 @@ struct Scene {
   ImageU16 ids{kW, kH, 1, 0};
   std::vector<double> rho;
 };
-Scene road_scene(bool step, int id = int(Label::Road), double sun = kSun) {
+Scene road_scene(bool step, int id = int(Label::Road), double sun = kSun, bool tinted = true) {
   Scene s;
   s.rho.resize(static_cast<size_t>(kW) * kH);
   Rnd rnd;
@@ -50,7 +50,7 @@ Scene road_scene(bool step, int id = int(Label::Road), double sun = kSun) {
       const bool lit = step && y >= kStepY;
       const double E = lit ? sun : 1.0;
       s.rho[static_cast<size_t>(y) * kW + x] = rho;
-      for (int k = 0; k < 3; ++k) s.day.at(x, y, k) = static_cast<float>(0.1 * rho * E * (lit ? kSunTint[k] : kSkyTint[k]));
+      for (int k = 0; k < 3; ++k) s.day.at(x, y, k) = static_cast<float>(0.1 * rho * E * (!tinted ? 1.0 : lit ? kSunTint[k] : kSkyTint[k]));
       s.ids.at(x, y) = static_cast<uint16_t>(id);
     }
   return s;
@@ -171,7 +171,8 @@ TEST(SunShade, RatioHeldAtTheBoundAndTheThreadCountChangesNothing) {
 }
 
 // What it leaves alone, each time with the texture bit for bit the texture without the split:
-// a class in the shade only (its texture, ±20 %, is no second level); a class too small for two
+// a class in the shade only (its texture, ±20 %, is no second level); a step of 6 of one colour
+// (the shade not bluer: a material, an orientation or an overcast sky's shading); a class too small for two
 // squares of the opening; a specular class (a car's sunlit side: its texture keeps glints, no
 // Lambertian model applies); a class with no pixels (ratio 1, nothing allocated); and a frame of
 // sky alone.
@@ -186,6 +187,7 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   };
   unchanged(road_scene(false), "all in the shade");
   unchanged(road_scene(true, int(Label::Car)), "a car in the sun");
+  unchanged(road_scene(true, int(Label::Road), kSun, false), "a grey step (no bluer shade: not the sun's)");
   unchanged(road_scene(true, int(Label::Sky)), "sky");
   {
     // A sidewalk of 8 x 8 px with its own step, in a car: below two squares (2·7² = 98 px > 64).
