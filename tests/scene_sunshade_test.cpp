@@ -133,7 +133,8 @@ TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
     for (int x = 0; x < kW; ++x) sum += Y(tex, x, y);
   EXPECT_NEAR(sum / (kW * kH), p.rho_road, 1e-5 * p.rho_road);
   // The marking in the sun and in the shade: paint over asphalt kPaint/kAsphalt = 5 on both sides
-  // (means over its 4 columns and the asphalt's, ±5 SE of the texture's sampling: ≈ 3 %).
+  // (means over its 4 columns and the asphalt's: the marking's 4 x 64 = 256 pixels per side, each of
+  // relative SD 0.2/√3 = 0.115, give an SE of 0.72 %; 5 SE = 3.6 %).
   for (int side = 0; side < 2; ++side) {
     double mark = 0, asph = 0, nm = 0, na = 0;
     for (int y = side ? kStepY : 0; y < (side ? kH : kStepY); ++y)
@@ -142,7 +143,7 @@ TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
         (m ? mark : asph) += Y(tex, x, y);
         (m ? nm : na) += 1;
       }
-    EXPECT_NEAR((mark / nm) / (asph / na), kPaint / kAsphalt, 0.03 * kPaint / kAsphalt) << "side " << side;
+    EXPECT_NEAR((mark / nm) / (asph / na), kPaint / kAsphalt, 0.036 * kPaint / kAsphalt) << "side " << side;
   }
   // The same with the split off: the sun side keeps its 6×.
   const ImageF before = reflectance_texture(s.day, s.ids, off(p));
