@@ -602,13 +602,20 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     for (int by = 0; by < g.nby; ++by)
       for (int y = by * g.B; y < std::min(H, (by + 1) * g.B); y += (g.B > 1 ? 2 : 1)) {
         const uint16_t* lr = labels.row(y);
-        box_y_block(day.row(y), W, coef, yrow.data());
-        for (int x = 0; x < W; ++x) {
+        for (int x = 0; x < W;) {  // per run of one label; Y only where the class may split
+          const int e = run_end(lr, x, W);
           const int s = lr[x] < kLabelCount ? slot[lr[x]] : -1;
-          if (s < 0) continue;
-          const size_t b = s * nb + static_cast<size_t>(by) * g.nbx + x / g.B;
-          ysum[b] += yrow[x];
-          ycnt[b] += 1;
+          if (s < 0) { x = e; continue; }
+          box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
+          for (int bx = x / g.B; x < e; ++bx) {  // the run's part in each block, in pixel order
+            const int xe = std::min(e, (bx + 1) * g.B);
+            const size_t b = s * nb + static_cast<size_t>(by) * g.nbx + bx;
+            double acc = ysum[b];
+            for (int xi = x; xi < xe; ++xi) acc += yrow[xi];
+            ysum[b] = acc;
+            ycnt[b] += xe - x;
+            x = xe;
+          }
         }
       }
   }
