@@ -3,6 +3,7 @@
 #include <climits>
 #include <cstdint>
 #include <cmath>
+#include <cstring>
 #include <fmt/format.h>
 #include <vector>
 #if defined(__x86_64__)
@@ -206,7 +207,23 @@ double class_reflectance(int id, const ScenePreset& p) {
   }
 }
 
+bool diffuse_class(int id) {
+  switch (static_cast<Label>(id)) {
+    case Label::Ground: case Label::Road: case Label::Sidewalk: case Label::Parking: case Label::RailTrack:
+    case Label::Building: case Label::Wall: case Label::Fence: case Label::Bridge: case Label::Tunnel:
+    case Label::Vegetation: case Label::Terrain: case Label::Person: case Label::Rider:
+      return true;
+    default:
+      return false;
+  }
+}
+
 double class_reflectance_max(int id, const ScenePreset& p) {
+  // Diffuse surfaces (diffuse_class): a passive Lambertian reflector reflects at most the light it
+  // receives (energy conservation), ρ ≤ 1 at every wavelength and so in every band. A brighter day
+  // pixel under such a label is not the surface (kitti_000000: a sunlit façade seen through a
+  // labelled tree crown) and is held at diffuse_max.
+  if (diffuse_class(id)) return p.rho_diffuse_max;
   switch (static_cast<Label>(id)) {
     // Specular or retroreflective surfaces: a mirror lobe (car paint's clear coat, glass, chrome,
     // galvanised steel, a lamp's lens) or a retroreflector's cone sends more light toward the
@@ -217,14 +234,6 @@ double class_reflectance_max(int id, const ScenePreset& p) {
     case Label::TrafficSign: case Label::TrafficLight: case Label::Pole: case Label::PoleGroup:
     case Label::GuardRail:
       return p.rho_glint_max;
-    // Diffuse surfaces: a passive Lambertian reflector reflects at most the light it receives
-    // (energy conservation), ρ ≤ 1 at every wavelength and so in every band. A brighter day pixel
-    // under such a label is not the surface (kitti_000000: a sunlit façade seen through a
-    // labelled tree crown) and is held at diffuse_max.
-    case Label::Ground: case Label::Road: case Label::Sidewalk: case Label::Parking: case Label::RailTrack:
-    case Label::Building: case Label::Wall: case Label::Fence: case Label::Bridge: case Label::Tunnel:
-    case Label::Vegetation: case Label::Terrain: case Label::Person: case Label::Rider:
-      return p.rho_diffuse_max;
     // The sky is no reflector (its texture is the day's relative luminance pattern, darken's
     // glow scale), and unlabeled, static, dynamic, ego vehicle and border pixels may be any
     // material: no reflectance bound applies; they keep the glint bound.
@@ -256,8 +265,8 @@ inline void box_px(const float* s, const BoxCoef& c, double v[3]) {
 }
 inline double box_y(const double v[3], const BoxCoef& c) { return ((0.0 + c.K[0] * v[0]) + c.K[1] * v[1]) + c.K[2] * v[2]; }
 
-// Y of n pixels into y (pass 1 of reflectance_texture), and min(scale·float(v), cap) of n pixels
-// into o (pass 2): the scalar loops, and AVX2 ones four pixels at a time with the same operations
+// Y of n pixels into y (pass 1 of reflectance_texture), and min(scale_k·float(v_k), cap) of n pixels
+// into o (pass 2; one scale per band): the scalar loops, and AVX2 ones four pixels at a time with the same operations
 // per pixel (max_pd(v, 0) is std::max(0.0, v) for every v, NaN and -0 included; min_ps(cap, p) is
 // std::min(p, cap)).
 void box_y_scalar(const float* s, int n, const BoxCoef& c, double* y) {
@@ -267,11 +276,11 @@ void box_y_scalar(const float* s, int n, const BoxCoef& c, double* y) {
     y[i] = box_y(v, c);
   }
 }
-void box_scaled_scalar(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+void box_scaled_scalar(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
   for (int i = 0; i < n; ++i) {
     double v[3];
     box_px(s + 3 * i, c, v);
-    for (int k = 0; k < 3; ++k) o[3 * i + k] = std::min(scale * static_cast<float>(v[k]), cap);
+    for (int k = 0; k < 3; ++k) o[3 * i + k] = std::min(scale[k] * static_cast<float>(v[k]), cap);
   }
 }
 #if defined(__x86_64__)
@@ -305,14 +314,14 @@ __attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const Box
   }
   box_y_scalar(s + 3 * i, n - i, c, y + i);
 }
-__attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
-  const __m128 sc = _mm_set1_ps(scale), cp = _mm_set1_ps(cap);
+__attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
+  const __m128 sR = _mm_set1_ps(scale[0]), sG = _mm_set1_ps(scale[1]), sB = _mm_set1_ps(scale[2]), cp = _mm_set1_ps(cap);
   int i = 0;
   for (; i + 4 <= n; i += 4) {
     const BoxV b = box_x4(s + 3 * i, c);
-    const __m128 R = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[0])));
-    const __m128 G = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[1])));
-    const __m128 B = _mm_min_ps(cp, _mm_mul_ps(sc, _mm256_cvtpd_ps(b.v[2])));
+    const __m128 R = _mm_min_ps(cp, _mm_mul_ps(sR, _mm256_cvtpd_ps(b.v[0])));
+    const __m128 G = _mm_min_ps(cp, _mm_mul_ps(sG, _mm256_cvtpd_ps(b.v[1])));
+    const __m128 B = _mm_min_ps(cp, _mm_mul_ps(sB, _mm256_cvtpd_ps(b.v[2])));
     float* q = o + 3 * i;
     _mm_storeu_ps(q, _mm_shuffle_ps(_mm_shuffle_ps(R, G, sh(0, 0, 0, 0)), _mm_shuffle_ps(B, R, sh(0, 0, 1, 1)), sh(0, 2, 0, 2)));
     _mm_storeu_ps(q + 4, _mm_shuffle_ps(_mm_shuffle_ps(G, B, sh(1, 1, 1, 1)), _mm_shuffle_ps(R, G, sh(2, 2, 2, 2)), sh(0, 2, 0, 2)));
@@ -358,17 +367,18 @@ PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, doub
   }
   box_y_scalar(s + 3 * i, n - i, c, y + i);
 }
-PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
-  const __m256 sc = _mm256_set1_ps(scale), cp = _mm256_set1_ps(cap);
+PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
+  const __m256 sR = _mm256_set1_ps(scale[0]), sG = _mm256_set1_ps(scale[1]), sB = _mm256_set1_ps(scale[2]);
+  const __m256 cp = _mm256_set1_ps(cap);
   // Output lanes: r0 g0 b0 r1 ... from R (lanes 0-7 of rg), G (lanes 8-15 of rg) and B (lanes 0-7 of bb).
   const __m512i i0 = _mm512_setr_epi32(0, 8, 16, 1, 9, 17, 2, 10, 18, 3, 11, 19, 4, 12, 20, 5);
   const __m512i i1 = _mm512_setr_epi32(13, 21, 6, 14, 22, 7, 15, 23, 0, 0, 0, 0, 0, 0, 0, 0);
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     const BoxV8 b = box_x8(s + 3 * i, c);
-    const __m256 R = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[0])));
-    const __m256 G = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[1])));
-    const __m256 B = _mm256_min_ps(cp, _mm256_mul_ps(sc, _mm512_cvtpd_ps(b.v[2])));
+    const __m256 R = _mm256_min_ps(cp, _mm256_mul_ps(sR, _mm512_cvtpd_ps(b.v[0])));
+    const __m256 G = _mm256_min_ps(cp, _mm256_mul_ps(sG, _mm512_cvtpd_ps(b.v[1])));
+    const __m256 B = _mm256_min_ps(cp, _mm256_mul_ps(sB, _mm512_cvtpd_ps(b.v[2])));
     const __m512 rg = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(R)), _mm256_castps_pd(G), 1));
     const __m512 bb = _mm512_castps256_ps512(B);
     _mm512_storeu_ps(o + 3 * i, _mm512_permutex2var_ps(rg, i0, bb));
@@ -391,7 +401,7 @@ void box_y_block(const float* s, int n, const BoxCoef& c, double* y) {
 #endif
   box_y_scalar(s, n, c, y);
 }
-void box_scaled_block(const float* s, int n, const BoxCoef& c, float scale, float cap, float* o) {
+void box_scaled_block(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
 #if defined(__x86_64__)
   const int isa = std::min(kIsa, max_isa);
   if (isa == 2) return box_scaled_avx512(s, n, c, scale, cap, o);
@@ -471,6 +481,358 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
 }
 }  // namespace
 
+// ---- The day's sunlight in the texture ------------------------------------------------------
+// Model. A diffuse (Lambertian) surface of reflectance ρ(x) under the day's illuminance E(x) is
+// seen as Y(x) ∝ ρ(x)·E(x). Outdoors E is two levels: the shade, lit by the sky alone, and the
+// sunlit parts, lit by the sky and the direct sun, brighter by g = (E_sky + E_sun)/E_sky: about 5
+// at midday under a clear sky (bright sunlight 110,000 lx against 20,000 lx in the shade lit by the
+// whole clear sky; Wikipedia "Daylight" table) and up to 10 in the shade of a tree (100,000 lx in
+// the open, 10,000 lx under a tree, summer, cloudless; CIBSE via the IES VE manual, "Examples of
+// illuminance"), both read through the `search` tool [S]. At night neither the sun nor the sky
+// lights the scene, so the texture must carry ρ alone: the sunlit level is divided by g. Within a
+// class, sunlit and shaded regions are assumed to share one distribution of reflectance (the same
+// asphalt, the same façade), so g is the ratio of the two levels' mean luminances, held to
+// [1, sun_shade_ratio_max].
+// Where the sun falls is found from the illumination's scale: sunlit and shaded regions are large
+// (metres), the texture and the reflectance's own fine detail are small. Per class: the mean Y over
+// blocks of the image (about 1/256 of its width; every other row sampled), its log, then a
+// grey-scale opening (erosion then dilation, each over the class's own blocks only) with a square
+// of sun_shade_window_fraction of the image width. The opening removes every bright structure
+// narrower than the square, such as a lane marking (white paint, a reflectance: it must survive
+// and does, since its block values never enter the level decision) and sunlit slivers too thin to
+// be told from texture, and keeps the level of larger regions with their edges in place. The two
+// levels are split by the isodata threshold (Ridler and Calvard 1978: the threshold halfway between
+// the means of the two sides). A class is split only when each level covers at least one square,
+// their ratio is at least sun_shade_ratio_min (a smaller step is as likely a change of material
+// or of orientation as a shadow; photosite choice), and the shade is bluer than the sunlit level
+// (B/R at least 10 % higher: the sky against the sun; two levels of one colour are a material, an
+// orientation or an overcast sky's shading). In the blocks at the edge between the levels,
+// each pixel is placed by its own light: by its luminance against the levels' geometric mean and
+// by its colour, since the shade is lit by the blue sky alone and the sunlit level mostly by the
+// far redder sun, while a white marking takes the colour of the light it lies under; then by the
+// majority of its 3 x 3 neighbours. So shadow edges are placed to the pixel, not on the block
+// grid, and a marking in the shade at the edge stays in the shade. The shade level also loses the
+// sky's blue cast: per band, the factor that gives it the sunlit level's colour at its own
+// luminance (von Kries; the day camera's white balance made the sunlit level neutral).
+// What it does not model: penumbrae and gradual shading (one ratio per class, two levels), surfaces
+// at several angles to the sun (one g per class), and a step of material that looks like a shadow
+// (a white façade beside a dark one is flattened as one material would be).
+namespace {
+struct SunGrid {
+  int B = 1, nbx = 0, nby = 0, r = 1;
+  size_t nb() const { return static_cast<size_t>(nbx) * nby; }
+};
+SunGrid sun_grid(int width, int height, double window_fraction) {
+  SunGrid g;
+  g.B = std::max(1, (width + 255) / 256);
+  g.nbx = (width + g.B - 1) / g.B;
+  g.nby = (height + g.B - 1) / g.B;
+  // The opening's square, (2r + 1) blocks: the odd count nearest window_fraction of the width (at least 3).
+  g.r = std::max(1, static_cast<int>(std::lround((window_fraction * width / g.B - 1) / 2)));
+  return g;
+}
+// Separable masked min (erode) or max (dilate) over a (2r+1)² square of a grid field; absent
+// blocks (present[b] == 0) neither give nor take a value.
+struct BlockBox { int x0, x1, y0, y1; };  // the present blocks' bounding box (inclusive)
+void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, const SunGrid& g, const BlockBox& bb,
+                  bool erode) {
+  // Blocks outside bb are all absent, so the loops stay inside it: the same values as over the grid.
+  // Absent blocks hold the operation's neutral value (+inf for min, -inf for max), so each pass is
+  // a plain min or max over shifted rows (vectorised), window clipped at the box.
+  const float none = erode ? INFINITY : -INFINITY;
+  const int w = bb.x1 - bb.x0 + 1;
+  auto pick = [erode](float a, float b) { return erode ? std::min(a, b) : std::max(a, b); };
+  std::vector<float> src(static_cast<size_t>(w) * (bb.y1 - bb.y0 + 1)), t(src.size(), none);
+  for (int by = bb.y0; by <= bb.y1; ++by)
+    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
+      const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+      src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)] = present[b] ? v[b] : none;
+    }
+  const int h = bb.y1 - bb.y0 + 1;
+  for (int y = 0; y < h; ++y) {  // along rows
+    const float* in = src.data() + static_cast<size_t>(y) * w;
+    float* o = t.data() + static_cast<size_t>(y) * w;
+    for (int d = -g.r; d <= g.r; ++d) {
+      const int x0 = std::max(0, -d), x1 = std::min(w, w - d);
+      for (int x = x0; x < x1; ++x) o[x] = pick(o[x], in[x + d]);
+    }
+  }
+  std::fill(src.begin(), src.end(), none);
+  for (int y = 0; y < h; ++y) {  // along columns
+    float* o = src.data() + static_cast<size_t>(y) * w;
+    for (int yy = std::max(0, y - g.r); yy <= std::min(h - 1, y + g.r); ++yy) {
+      const float* in = t.data() + static_cast<size_t>(yy) * w;
+      for (int x = 0; x < w; ++x) o[x] = pick(o[x], in[x]);
+    }
+  }
+  for (int by = bb.y0; by <= bb.y1; ++by)
+    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
+      const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+      if (present[b]) v[b] = src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)];
+    }
+}
+}  // namespace
+
+SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px) {
+  SunShadeSplit out;
+  out.ratio.fill(1.0);
+  out.shade_tint.fill({1.0, 1.0, 1.0});
+  const int W = day.width(), H = day.height();
+  if (p.sun_shade_ratio_max <= 1 || W == 0 || H == 0) return out;
+  const SunGrid g = sun_grid(W, H, p.sun_shade_window_fraction);
+  out.block_px = g.B;
+  out.opening_radius_blocks = g.r;
+  const double square_px = std::pow((2.0 * g.r + 1) * g.B, 2);
+  // The classes that may split: diffuse, and large enough for two levels of a square each.
+  int slot[kLabelCount], ids[kLabelCount], ns = 0;
+  for (int id = 0; id < kLabelCount; ++id) {
+    slot[id] = -1;
+    if (diffuse_class(id) && class_px[id] >= 2 * square_px) ids[slot[id] = ns++] = id;
+  }
+  if (ns == 0) return out;
+  const BoxCoef coef = box_coef();
+  const size_t nb = g.nb();
+  // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
+  // level is a mean, and the opening's square spans several blocks). One block row per task.
+  std::vector<double> ysum(ns * nb, 0.0), ycnt(ns * nb, 0.0);
+#pragma omp parallel
+  {
+    std::vector<double> yrow(W);
+#pragma omp for schedule(static)
+    for (int by = 0; by < g.nby; ++by)
+      for (int y = by * g.B; y < std::min(H, (by + 1) * g.B); y += (g.B > 1 ? 2 : 1)) {
+        const uint16_t* lr = labels.row(y);
+        for (int x = 0; x < W;) {  // per run of one label; Y only where the class may split
+          const int e = run_end(lr, x, W);
+          const int s = lr[x] < kLabelCount ? slot[lr[x]] : -1;
+          if (s < 0) { x = e; continue; }
+          box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
+          for (int bx = x / g.B; x < e; ++bx) {  // the run's part in each block, in pixel order
+            const int xe = std::min(e, (bx + 1) * g.B);
+            const size_t b = s * nb + static_cast<size_t>(by) * g.nbx + bx;
+            double acc = ysum[b];
+            for (int xi = x; xi < xe; ++xi) acc += yrow[xi];
+            ysum[b] = acc;
+            ycnt[b] += xe - x;
+            x = xe;
+          }
+        }
+      }
+  }
+  // Per class: the opened log level per block, its split, and g.
+  std::vector<std::vector<uint8_t>> side(ns), edge(ns);
+  std::vector<double> chroma(ns, 0.0), lum_mid(ns, 0.0);
+  bool any = false;
+#pragma omp parallel for schedule(dynamic) reduction(|| : any)
+  for (int s = 0; s < ns; ++s) {
+    const double* S = ysum.data() + s * nb;
+    const double* C = ycnt.data() + s * nb;
+    std::vector<uint8_t> present(nb);
+    std::vector<float> v(nb, 0.f);
+    std::vector<uint32_t> list;  // the present blocks, in grid order
+    BlockBox bb{g.nbx, -1, g.nby, -1};
+    double samples = 0;
+    for (size_t b = 0; b < nb; ++b) {
+      present[b] = C[b] > 0;
+      if (!present[b]) continue;
+      v[b] = static_cast<float>(std::log(std::max(S[b] / C[b], 1e-30)));
+      samples += C[b];
+      list.push_back(static_cast<uint32_t>(b));
+      const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
+      bb = {std::min(bb.x0, bx), std::max(bb.x1, bx), std::min(bb.y0, by), std::max(bb.y1, by)};
+    }
+    if (samples == 0) continue;  // the class only on rows the blocks do not sample
+    masked_morph(v, present, g, bb, true);
+    masked_morph(v, present, g, bb, false);
+    // Isodata threshold on the opened levels, weighted by the blocks' samples.
+    double t = 0;
+    for (uint32_t b : list) t += C[b] * v[b];
+    t /= samples;
+    for (int it = 0; it < 100; ++it) {
+      double w[2] = {0, 0}, m[2] = {0, 0};
+      for (uint32_t b : list) {
+        const int k = v[b] > t;
+        w[k] += C[b];
+        m[k] += C[b] * v[b];
+      }
+      if (w[0] == 0 || w[1] == 0) break;
+      const double nt = 0.5 * (m[0] / w[0] + m[1] / w[1]);
+      if (nt == t) break;
+      t = nt;
+    }
+    std::vector<uint8_t> sd(nb, 0), ed(nb, 1);  // absent blocks (all outside bb) are edge blocks
+    for (uint32_t b : list) sd[b] = v[b] > t;
+    // Edge blocks: absent, or with a present neighbour (8-connected) on the other side. The
+    // levels' means are taken over the interior blocks (a block across the edge is neither).
+    double sum[2] = {0, 0}, cnt[2] = {0, 0}, all_sum[2] = {0, 0}, all_cnt[2] = {0, 0}, lev[2] = {0, 0},
+           all_lev[2] = {0, 0};
+    for (int by = bb.y0; by <= bb.y1; ++by)
+      for (int bx = bb.x0; bx <= bb.x1; ++bx) {
+        const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+        bool e = !present[b];
+        for (int dy = -1; dy <= 1 && !e; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = by + dy, xx = bx + dx;
+            if (yy < 0 || yy >= g.nby || xx < 0 || xx >= g.nbx) continue;
+            const size_t q = static_cast<size_t>(yy) * g.nbx + xx;
+            if (present[q] && sd[q] != sd[b]) { e = true; break; }
+          }
+        ed[b] = e;
+        if (!present[b]) continue;
+        all_sum[sd[b]] += S[b];
+        all_cnt[sd[b]] += C[b];
+        all_lev[sd[b]] += C[b] * v[b];
+        if (!e) { sum[sd[b]] += S[b]; cnt[sd[b]] += C[b]; lev[sd[b]] += C[b] * v[b]; }
+      }
+    for (int k = 0; k < 2; ++k)
+      if (cnt[k] == 0) { sum[k] = all_sum[k]; cnt[k] = all_cnt[k]; lev[k] = all_lev[k]; }
+    const int id = ids[s];
+    const double px_per_sample = class_px[id] / samples;
+    const bool big = all_cnt[0] * px_per_sample >= square_px && all_cnt[1] * px_per_sample >= square_px;
+    // Two levels of illumination: the opened levels' (geometric) means apart by ratio_min, which
+    // a bright structure narrower than the square cannot fake (the opening took it out), and the
+    // levels' mean luminances too; g is the latter, the ratio that makes the two sides' means equal.
+    const double level_ratio = big && cnt[0] > 0 && cnt[1] > 0 ? std::exp(lev[1] / cnt[1] - lev[0] / cnt[0]) : 1.0;
+    const double ratio = big && sum[0] > 0 ? (sum[1] / cnt[1]) / (sum[0] / cnt[0]) : 1.0;
+    if (std::min(ratio, level_ratio) >= p.sun_shade_ratio_min && ratio > 1) {
+      // The two illuminants' colours: the shade is lit by the blue sky alone, the sunlit level by
+      // the sun and the sky (far redder), so the levels' B/R differ while a white marking or a
+      // grey texture takes the colour of the light it is under. From one pixel at the centre of
+      // each interior block: per side the sums of the box bands' B and R.
+      double br[2][3] = {{0, 0, 0}, {0, 0, 0}};
+      for (uint32_t b : list) {
+          const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
+          const int cx = std::min(W - 1, bx * g.B + g.B / 2), cy = std::min(H - 1, by * g.B + g.B / 2);
+          if (ed[b] || labels.at(cx, cy) != id) continue;
+          double c[3];
+          box_px(day.row(cy) + 3 * cx, coef, c);
+          for (int k = 0; k < 3; ++k) br[sd[b]][k] += c[k];
+        }
+      bool coloured = true;
+      for (int k = 0; k < 3; ++k) coloured = coloured && br[0][k] > 0 && br[1][k] > 0;
+      const double q_shade = coloured ? br[0][2] / br[0][0] : 0, q_sun = coloured ? br[1][2] / br[1][0] : 0;
+      // The shade's colour cast: per band, the sunlit level's mean colour over the shade's, at
+      // equal luminance (Σ K_k t_k m_shade,k = Y_shade): a von Kries correction that gives the
+      // shade the colour of the sunlit level, which the day camera's white balance made neutral.
+      // The class mean then stays ρ to within the spread of the shade pixels' colours.
+      if (coloured) {
+        const double y_shade = box_y(br[0], coef), y_sun = box_y(br[1], coef);
+        for (int k = 0; k < 3; ++k) out.shade_tint[id][k] = (br[1][k] / y_sun) / (br[0][k] / y_shade);
+      }
+      // A shadow cast by the sun has a bluer shade: the split is taken only when the shade's B/R
+      // exceeds the sunlit level's by at least 10 % (photosite choice). Two levels of one colour
+      // are a step of material or orientation, or an overcast sky's shading, not the sun's.
+      chroma[s] = coloured && q_shade > 1.1 * q_sun ? std::sqrt(q_shade * q_sun) : 0;
+      if (chroma[s] == 0) {
+        out.shade_tint[id] = {1.0, 1.0, 1.0};
+        continue;
+      }
+      lum_mid[s] = std::sqrt((sum[1] / cnt[1]) * (sum[0] / cnt[0]));
+      out.ratio[id] = std::min(ratio, p.sun_shade_ratio_max);
+      side[s] = std::move(sd);
+      edge[s] = std::move(ed);
+      any = true;
+    }
+  }
+  if (!any) return out;
+  // Per pixel of a split class: its block's side, or in an edge block the side of the opened level
+  // interpolated bilinearly between the centres of the class's four nearest blocks. The sums of Y
+  // over the sunlit pixels per row, then over rows in order (the same whatever the thread count).
+  // Pass A: each pixel's side into `first` (tested: 1 where the pixel was placed by its own light).
+  std::vector<uint8_t> first(static_cast<size_t>(W) * H, 0), tested(static_cast<size_t>(W) * H, 0);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* lr = labels.row(y);
+    uint8_t* mr = first.data() + static_cast<size_t>(y) * W;
+    uint8_t* tr = tested.data() + static_cast<size_t>(y) * W;
+    const int by = y / g.B;
+    for (int x = 0; x < W;) {
+      const int id = lr[x];
+      const int e = run_end(lr, x, W);
+      const int s = id < kLabelCount ? slot[id] : -1;
+      if (s < 0 || side[s].empty()) { x = e; continue; }
+      const uint8_t* sd = side[s].data();
+      const uint8_t* ed = edge[s].data();
+      for (int bx = x / g.B; x < e; ++bx) {
+        const int xe = std::min(e, (bx + 1) * g.B);
+        const size_t b = static_cast<size_t>(by) * g.nbx + bx;
+        if (!ed[b]) {
+          if (sd[b]) std::fill(mr + x, mr + xe, uint8_t{1});
+        } else {
+          // Each pixel by its own light: sunlit when brighter than the two levels' geometric
+          // mean and of the sun's colour (B/R below the levels' geometric mean); shade when
+          // darker and of the shade's colour. A pixel whose luminance and colour disagree (a white marking in the shade is bright but sky-blue;
+          // a dark material in the sun is dark but sun-coloured) keeps its block's level.
+          for (int xi = x; xi < xe; ++xi) {
+            double c[3];
+            box_px(day.row(y) + 3 * xi, coef, c);
+            const bool lum = box_y(c, coef) > lum_mid[s];
+            const bool col = c[2] < chroma[s] * c[0];
+            mr[xi] = lum == col ? lum : sd[b];
+            tr[xi] = 1;
+          }
+        }
+        x = xe;
+      }
+    }
+  }
+  // Pass B: a tested pixel takes the majority of its class's pixels in its 3 x 3 neighbourhood
+  // (a single pixel of texture does not flip alone), then the sums of Y over the sunlit pixels per
+  // row and over rows in order (the same whatever the thread count).
+  out.sunlit = first;
+  std::vector<double> row_sum(static_cast<size_t>(H) * kLabelCount, 0.0);
+#pragma omp parallel
+  {
+    std::vector<double> yrow(W);
+#pragma omp for schedule(static)
+    for (int y = 0; y < H; ++y) {
+      const uint16_t* lr = labels.row(y);
+      uint8_t* mr = out.sunlit.data() + static_cast<size_t>(y) * W;
+      const uint8_t* tr = tested.data() + static_cast<size_t>(y) * W;
+      for (int x = 0; x < W; ++x) {
+        if (!tr[x]) {  // to the next tested pixel
+          const void* next = std::memchr(tr + x, 1, W - x);
+          if (!next) break;
+          x = static_cast<int>(static_cast<const uint8_t*>(next) - tr);
+        }
+        int n_all = 0, n_sun = 0;
+        for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy)
+          for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx)
+            if (labels.at(xx, yy) == lr[x]) {
+              ++n_all;
+              n_sun += first[static_cast<size_t>(yy) * W + xx];
+            }
+        mr[x] = 2 * n_sun > n_all;
+      }
+      double* rs = row_sum.data() + static_cast<size_t>(y) * kLabelCount;
+      for (int x = 0; x < W;) {
+        if (!mr[x]) {  // to the next sunlit pixel
+          const void* next = std::memchr(mr + x, 1, W - x);
+          if (!next) break;
+          x = static_cast<int>(static_cast<const uint8_t*>(next) - mr);
+        }
+        const int id = lr[x];
+        int xj = x;
+        while (xj < W && mr[xj] && lr[xj] == id) ++xj;
+        box_y_block(day.row(y) + 3 * x, xj - x, coef, yrow.data());
+        for (int k = 0; k < xj - x; ++k) rs[id] += yrow[k];
+        x = xj;
+      }
+    }
+  }
+  for (int y = 0; y < H; ++y)
+    for (int id = 0; id < kLabelCount; ++id) out.sun_sum[id] += row_sum[static_cast<size_t>(y) * kLabelCount + id];
+  return out;
+}
+
+SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
+  double px[kLabelCount] = {};
+  const size_t n = labels.pixel_count();
+  for (size_t i = 0; i < n; ++i)
+    if (labels[i] < kLabelCount) px[labels[i]] += 1;
+  return sun_shade_split(day, labels, p, px);
+}
+
 void texture_max_isa(int isa) { max_isa = isa; }
 
 ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
@@ -503,13 +865,23 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
   for (const auto& ps : part)
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
-  float scale[kLabelCount];
+  // The day's sunlight out of the diffuse classes: their sunlit pixels divided by g, so the class
+  // mean is taken over Y with that division, Σ Y − (1 − 1/g)·Σ_sunlit Y (sun_shade_split).
+  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt);
+  float scale[kLabelCount], scale_sun[kLabelCount], scale_shade[kLabelCount][3];
   for (int id = 0; id < kLabelCount; ++id) {
-    double mean = cnt[id] > 0 ? sum[id] / cnt[id] : 0;
+    const double g = sun.ratio[id];
+    const double flattened = g > 1 ? sum[id] - (1 - 1 / g) * sun.sun_sum[id] : sum[id];
+    double mean = cnt[id] > 0 ? flattened / cnt[id] : 0;
     if (carried && carried->mean[id] > 0) mean = carried->mean[id];
     else if (carried && mean > 1e-9 && cnt[id] >= kClassMeanMinShare * static_cast<double>(n)) carried->mean[id] = mean;
     scale[id] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean) : 0.f;
+    scale_sun[id] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / (mean * g)) : 0.f;
+    // The shade's pixels of a split class also lose the blue sky's colour cast (shade_tint).
+    for (int k = 0; k < 3; ++k)
+      scale_shade[id][k] = mean > 1e-9 ? static_cast<float>(class_reflectance(id, p) / mean * sun.shade_tint[id][k]) : 0.f;
   }
+  const uint8_t* sunlit = sun.sunlit.empty() ? nullptr : sun.sunlit.data();
   const float flat = static_cast<float>(1.0 / (K[0] + K[1] + K[2]));  // grey where the class is black
   // Each band of f at most the class's band reflectance bound ρ_max (class_reflectance_max):
   // f_k = ρ_max/ΣK is a surface reflecting ρ_max in band k (a grey of that reflectance has
@@ -526,12 +898,19 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     const size_t i0 = n * ch / kTextureChunks, i1 = n * (ch + 1) / kTextureChunks;
     for (size_t i = i0; i < i1;) {
       const int id = lab[i];
-      const size_t e = run_end(lab, i, i1);
+      size_t e = run_end(lab, i, i1);
+      float sc[3] = {scale[id], scale[id], scale[id]};
+      if (sunlit && sun.ratio[id] > 1) {  // runs of one label and one side of the sun/shade split
+        const uint8_t m = sunlit[i];
+        for (size_t k = i + 1; k < e; ++k)
+          if (sunlit[k] != m) { e = k; break; }
+        for (int k = 0; k < 3; ++k) sc[k] = m ? scale_sun[id] : scale_shade[id][k];
+      }
       float* o = f_px + 3 * i;
       if (scale[id] > 0) {
         for (size_t b = i; b < e; b += kBoxBlock) {
           const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
-          box_scaled_block(day_px + 3 * b, nb, coef, scale[id], cap[id], f_px + 3 * b);
+          box_scaled_block(day_px + 3 * b, nb, coef, sc, cap[id], f_px + 3 * b);
         }
       } else {
         std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap[id]));

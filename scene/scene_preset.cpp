@@ -58,6 +58,14 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "band reflectance bound of a texture pixel of a specular or retroreflective class (vehicles, signs, "
           "traffic lights, poles, guard rails), the sky and unlabelled pixels",
           "photosite choice (the texture's earlier single cap)"),
+      num("reflectance.sun_shade_ratio_max", PHOTOSITE_AT(P, sun_shade_ratio_max), "—", 1, 100,
+          "the day's sun/shade ratio divided out of a diffuse class's sunlit level at most (1: off)",
+          "[S] daylight: 100,000 lx in the open against 10,000 lx in a tree's shade (CIBSE via IES VE)"),
+      num("reflectance.sun_shade_ratio_min", PHOTOSITE_AT(P, sun_shade_ratio_min), "—", 1, 100,
+          "a class whose two levels differ by less is not split", "photosite choice",
+          "≤ reflectance.sun_shade_ratio_max"),
+      num("reflectance.sun_shade_window_fraction", PHOTOSITE_AT(P, sun_shade_window_fraction), "fraction", 1e-3,
+          0.5, "the sun/shade opening's square, of the image width (wider than a lane marking)", "photosite choice"),
       table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
       num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
       num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
@@ -257,6 +265,8 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
   if (p.sign_RA_alpha_max_deg < p.sign_RA_alpha_deg)
     err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
+  if (p.sun_shade_ratio_min > p.sun_shade_ratio_max && p.sun_shade_ratio_max > 1)
+    err("reflectance.sun_shade_ratio_min", "is above sun_shade_ratio_max (no class could split)");
 }
 }  // namespace
 

@@ -1,6 +1,10 @@
 // Private (not installed): a test hook of scene/darken.cpp's linearize and reflectance_texture,
 // and the texture pass that also makes the lane stage's working luminance.
 #pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
 #include "photosite/scene/night.h"
 
 namespace photosite::scene {
@@ -14,6 +18,24 @@ void texture_max_isa(int isa);
 // halving of scene/lanes_detail.h) also the working luminance, work_luma_row of every row,
 // made in the texture's second pass while each chunk's day pixels are in cache (night_scene).
 // `sums`: pass 1 made by linearize_with_texture_sums (taken when made for day and labels).
+// The day's sunlight in a diffuse class's texture (reflectance.sun_shade_*; darken.cpp has the
+// model): which pixels lie on their class's sunlit level, and per class the sun/shade ratio g
+// divided out of them (1: the class is not split) with the sum of Y = Σ K_k c_k over them.
+struct SunShadeSplit {
+  std::vector<uint8_t> sunlit;              // per pixel, 1 on a sunlit level; empty when no class is split
+  std::array<double, kLabelCount> ratio{};  // g per class, 1 where not split
+  std::array<double, kLabelCount> sun_sum{};
+  // Per class, the factors per box band that take the shade level's colour to the sunlit level's
+  // at the same luminance (the blue sky's cast out); 1 where not split.
+  std::array<std::array<double, 3>, kLabelCount> shade_tint{};
+  int block_px = 0, opening_radius_blocks = 0;  // the block grid's edge, the opening's radius (blocks)
+};
+// `class_px`: each class's pixel count in the frame (kLabelCount entries).
+SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
+                              const double* class_px);
+// The same, counting the classes' pixels itself.
+SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
+
 ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                                 ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
 

@@ -125,7 +125,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // Every member of ScenePreset that a scene file sets.
 #define PHOTOSITE_SCENE_FIELDS(X) \
   X(rho_sign) X(rho_construction) X(rho_human) X(rho_nature) X(rho_vehicle) X(rho_sky) X(rho_road) \
-  X(rho_diffuse_max) X(rho_glint_max) \
+  X(rho_diffuse_max) X(rho_glint_max) X(sun_shade_ratio_max) X(sun_shade_ratio_min) X(sun_shade_window_fraction) \
   X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
   X(street_road_luminance_cd_m2) X(street_cct_K) \
   X(lamp_mount_height_m) X(lamp_spacing_ratio) X(lamp_setback_m) X(lamp_cutoff_deg) X(lamp_falloff_deg) \
@@ -153,7 +153,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // values. Keys added since are appended to those files by hand with their bundled values
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
-// reflectance.diffuse_max, glint_max). Values changed since, by hand with the commit that changed them:
+// reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction). Values changed since, by hand with the commit that changed them:
 // reflectance.nature 0.2 -> 0.08 (the visible reflectance of vegetation, NP §4).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
@@ -244,6 +244,10 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
   EXPECT_NE(error("sign_RA_alpha_max_deg = 0.5", "sign_RA_alpha_max_deg = 0.2")
                 .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
                       ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
+            std::string::npos);
+  EXPECT_NE(error("sun_shade_ratio_min = 2 ", "sun_shade_ratio_min = 20 ")
+                .find("s.toml:" + line_of("sun_shade_ratio_min") +
+                      ": reflectance.sun_shade_ratio_min: is above sun_shade_ratio_max"),
             std::string::npos);
   EXPECT_NE(error("[retroreflection]", "[retro]").find(": retro: unknown key"), std::string::npos);
   const std::string missing = error("sign_RA = 180", "");

@@ -56,6 +56,9 @@ double class_reflectance(int label_id, const ScenePreset& p);
 // ρ ≤ 1), reflectance.glint_max for specular and retroreflective ones (vehicles, signs, traffic
 // lights, poles, guard rails), the sky and the unlabelled classes.
 double class_reflectance_max(int label_id, const ScenePreset& p);
+// The diffuse (Lambertian) classes: road, sidewalk, parking, ground, rail track, building, wall,
+// fence, bridge, tunnel, vegetation, terrain, person, rider.
+bool diffuse_class(int label_id);
 // Per-pixel reflectance texture f (W/lm, per band): the day image normalised so that the
 // luminance-weighted mean of each class equals the class reflectance ρ:
 //   f_k(x) = ρ_class · c_k(x) / mean_class(Y(c)),  Y(c) = Σ_k K_k c_k  (band efficacies, lm/W),

@@ -22,6 +22,12 @@ struct ScenePreset {
   // classes at most diffuse_max (energy conservation: ≤ 1), specular/retroreflective ones
   // (glints), the sky and unlabelled classes at most glint_max.
   double rho_diffuse_max = 1.0, rho_glint_max = 5.0;
+  // The day's sunlight taken out of the texture of diffuse classes (scene/darken.cpp
+  // sun_shade_split): within a class, a region lit by the sun is told from the class's shade by a
+  // class-masked smoothing of log luminance over a window of window_fraction of the image width,
+  // and divided by the measured sun/shade ratio, held at most ratio_max; a class whose two levels
+  // differ by less than ratio_min is left as it is. ratio_max = 1 turns it off.
+  double sun_shade_ratio_min = 2, sun_shade_ratio_max = 10, sun_shade_window_fraction = 0.03;
   // [ambient] illuminance on every surface (lx) and the sky's own luminance (cd/m²).
   double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
   double sky_luminance_cd_m2 = 0.02;

@@ -1,0 +1,212 @@
+// The day's sunlight out of the reflectance texture (scene/darken.cpp sun_shade_split): a synthetic
+// road whose reflectance (fine texture and a lane marking) is known, lit by a sun/shade step.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+#include <omp.h>
+
+#include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
+#include "scene/texture_detail.h"
+
+using namespace photosite;
+using namespace photosite::scene;
+
+namespace {
+// xorshift64*: a fixed pseudo-random sequence, uniform in [0, 1).
+struct Rnd {
+  uint64_t st = 0x9e3779b97f4a7c15ull;
+  double operator()() {
+    st ^= st >> 12; st ^= st << 25; st ^= st >> 27;
+    return static_cast<double>((st * 2685821657736338717ull) >> 11) * 0x1p-53;
+  }
+};
+constexpr int kW = 256, kH = 128;           // block grid of 1 px (width ≤ 256), opening square 7 px
+constexpr int kStepY = 64;                  // sun below this row, shade above
+constexpr int kMark0 = 100, kMark1 = 104;   // a lane marking, 4 px wide (narrower than the square)
+constexpr double kSun = 6;                  // E_sun+sky / E_sky of the step
+constexpr double kAsphalt = 0.1, kPaint = 0.5, kTexture = 0.2;  // ρ, and the texture's ±20 % spread
+// The light's colour (linear sRGB, relative): the shade lit by the blue sky alone, the sunlit
+// level by the sun and the sky, redder (B/R 1.5 against 0.85).
+constexpr double kSkyTint[3] = {0.85, 1.0, 1.275}, kSunTint[3] = {1.05, 1.0, 0.8925};
+// Day image (linear sRGB) = ρ(x)·E(x)·0.1 in the light's colour, ρ the grey asphalt with a uniform
+// ±kTexture texture and the marking; E = kSun below kStepY (when `step`), 1 above. All pixels one
+// class, `id`.
+struct Scene {
+  ImageF day{kW, kH, 3, 0.f};
+  ImageU16 ids{kW, kH, 1, 0};
+  std::vector<double> rho;
+};
+Scene road_scene(bool step, int id = int(Label::Road), double sun = kSun, bool tinted = true) {
+  Scene s;
+  s.rho.resize(static_cast<size_t>(kW) * kH);
+  Rnd rnd;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) {
+      const double rho = (x >= kMark0 && x < kMark1 ? kPaint : kAsphalt) * (1 + kTexture * (2 * rnd() - 1));
+      const bool lit = step && y >= kStepY;
+      const double E = lit ? sun : 1.0;
+      s.rho[static_cast<size_t>(y) * kW + x] = rho;
+      for (int k = 0; k < 3; ++k) s.day.at(x, y, k) = static_cast<float>(0.1 * rho * E * (!tinted ? 1.0 : lit ? kSunTint[k] : kSkyTint[k]));
+      s.ids.at(x, y) = static_cast<uint16_t>(id);
+    }
+  return s;
+}
+ScenePreset off(ScenePreset p) {
+  p.sun_shade_ratio_max = 1;
+  return p;
+}
+double Y(const ImageF& t, int x, int y) {
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  return K[0] * double(t.at(x, y, 0)) + K[1] * double(t.at(x, y, 1)) + K[2] * double(t.at(x, y, 2));
+}
+// The step's luminance ratio: kSun times the luminance of the sun's colour over the sky's, each
+// Y = Σ K_k (M·tint)_k as the texture weighs a pixel.
+double step_ratio() {
+  const auto& M = spectrum::linear_srgb_to_box();
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  auto lum = [&](const double* t) {
+    double y = 0;
+    for (int k = 0; k < 3; ++k) y += K[k] * (M[k][0] * t[0] + M[k][1] * t[1] + M[k][2] * t[2]);
+    return y;
+  };
+  return kSun * lum(kSunTint) / lum(kSkyTint);
+}
+bool same_bits(const ImageF& a, const ImageF& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i], &b[i], sizeof(float)) != 0) return false;
+  return true;
+}
+}  // namespace
+
+// The step is found where it is, its ratio measured, and divided out: the texture's luminance
+// factor is then ρ(x) times one constant on both sides (the class mean ρ̄ over the mean of ρ), so
+// the fine texture and the marking keep their ratios to the asphalt in the sun and in the shade.
+// Tolerances: g is the ratio of the two sides' mean Y, whose reflectance means differ only by the
+// texture's sampling: relative SD of one pixel's ρ kTexture/√3 (uniform ±20 %), over the ≈ 8,000
+// interior pixels of a side (the marking's 4/256 share the same on both): the ratio's relative SE is
+// √2·0.115/√8000 = 0.0018 (plus the marking's own texture, the same order); 5 SE ≈ 1 %. Within a side
+// f/ρ is one float product of ρ·E·0.1 (rounded to float) by a float scale after the box matrix in
+// double: relative 4·2⁻²⁴ covers it (3·2⁻²⁴ from the float roundings, slack for the matrix).
+TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  ASSERT_GT(p.sun_shade_ratio_max, kSun);
+  ASSERT_LT(p.sun_shade_ratio_min, kSun);
+  const Scene s = road_scene(true);
+  const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+  ASSERT_EQ(split.block_px, 1);
+  EXPECT_EQ(split.opening_radius_blocks, 3);  // 0.03·256 = 7.7 px: the odd 7 nearest
+  const double r = step_ratio();  // 6.09
+  EXPECT_NEAR(split.ratio[int(Label::Road)], r, 0.01 * r);
+  for (int id = 0; id < kLabelCount; ++id)
+    if (id != int(Label::Road)) EXPECT_EQ(split.ratio[id], 1.0) << id;
+  // The edge where it is, and the marking on both sides left with its side (it never splits).
+  ASSERT_EQ(split.sunlit.size(), static_cast<size_t>(kW) * kH);
+  int wrong = 0;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) wrong += split.sunlit[static_cast<size_t>(y) * kW + x] != (y >= kStepY);
+  EXPECT_EQ(wrong, 0);
+  const ImageF tex = reflectance_texture(s.day, s.ids, p);
+  // f's luminance factor over ρ: one constant c per side, the same for both.
+  double c[2] = {0, 0};
+  for (int side = 0; side < 2; ++side) {
+    const int y = side ? kH - 1 : 0;
+    c[side] = Y(tex, 0, y) / s.rho[static_cast<size_t>(y) * kW];
+    for (int yy = side ? kStepY : 0; yy < (side ? kH : kStepY); ++yy)
+      for (int x = 0; x < kW; ++x)
+        EXPECT_NEAR(Y(tex, x, yy) / s.rho[static_cast<size_t>(yy) * kW + x], c[side], 4 * 0x1p-24 * c[side])
+            << x << "," << yy;
+  }
+  EXPECT_NEAR(c[1] / c[0], 1.0, 0.01);  // unflattened, the sun side would be 6× the shade
+  // And the colour: the shade has lost the sky's blue cast, each band in the sunlit level's ratio
+  // (grey ρ: every pixel's box colour is its light's, so the factors are exact to float rounding).
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(tex.at(0, 0, k) / Y(tex, 0, 0), tex.at(0, kH - 1, k) / Y(tex, 0, kH - 1),
+                1e-5 * tex.at(0, kH - 1, k) / Y(tex, 0, kH - 1)) << "band " << k;
+  // The class mean is still ρ_road.
+  double sum = 0;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) sum += Y(tex, x, y);
+  EXPECT_NEAR(sum / (kW * kH), p.rho_road, 1e-5 * p.rho_road);
+  // The marking in the sun and in the shade: paint over asphalt kPaint/kAsphalt = 5 on both sides
+  // (means over its 4 columns and the asphalt's: the marking's 4 x 64 = 256 pixels per side, each of
+  // relative SD 0.2/√3 = 0.115, give an SE of 0.72 %; 5 SE = 3.6 %).
+  for (int side = 0; side < 2; ++side) {
+    double mark = 0, asph = 0, nm = 0, na = 0;
+    for (int y = side ? kStepY : 0; y < (side ? kH : kStepY); ++y)
+      for (int x = 0; x < kW; ++x) {
+        const bool m = x >= kMark0 && x < kMark1;
+        (m ? mark : asph) += Y(tex, x, y);
+        (m ? nm : na) += 1;
+      }
+    EXPECT_NEAR((mark / nm) / (asph / na), kPaint / kAsphalt, 0.036 * kPaint / kAsphalt) << "side " << side;
+  }
+  // The same with the split off: the sun side keeps its 6×.
+  const ImageF before = reflectance_texture(s.day, s.ids, off(p));
+  EXPECT_NEAR(Y(before, 0, kH - 1) / s.rho[static_cast<size_t>(kH - 1) * kW] /
+                  (Y(before, 0, 0) / s.rho[0]),
+              r, 1e-5 * r);
+}
+
+// A ratio beyond the bound divides by the bound only (a step of 20 reads as 10 of sunlight and 2
+// of material); the same bits with 1 and 2 threads.
+TEST(SunShade, RatioHeldAtTheBoundAndTheThreadCountChangesNothing) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  const Scene s = road_scene(true, int(Label::Sidewalk), 20.0);
+  const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+  EXPECT_EQ(split.ratio[int(Label::Sidewalk)], p.sun_shade_ratio_max);
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ImageF one = reflectance_texture(s.day, s.ids, p);
+  const SunShadeSplit split1 = sun_shade_split(s.day, s.ids, p);
+  omp_set_num_threads(2);
+  const ImageF two = reflectance_texture(s.day, s.ids, p);
+  omp_set_num_threads(saved);
+  EXPECT_TRUE(same_bits(one, two));
+  EXPECT_EQ(split1.sunlit, split.sunlit);
+  EXPECT_EQ(split1.sun_sum, split.sun_sum);
+}
+
+// What it leaves alone, each time with the texture bit for bit the texture without the split:
+// a class in the shade only (its texture, ±20 %, is no second level); a step of 6 of one colour
+// (the shade not bluer: a material, an orientation or an overcast sky's shading); a class too small for two
+// squares of the opening; a specular class (a car's sunlit side: its texture keeps glints, no
+// Lambertian model applies); a class with no pixels (ratio 1, nothing allocated); and a frame of
+// sky alone.
+TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  auto unchanged = [&](const Scene& s, const char* what) {
+    SCOPED_TRACE(what);
+    const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+    for (int id = 0; id < kLabelCount; ++id) EXPECT_EQ(split.ratio[id], 1.0) << id;
+    EXPECT_TRUE(split.sunlit.empty());
+    EXPECT_TRUE(same_bits(reflectance_texture(s.day, s.ids, p), reflectance_texture(s.day, s.ids, off(p))));
+  };
+  unchanged(road_scene(false), "all in the shade");
+  unchanged(road_scene(true, int(Label::Car)), "a car in the sun");
+  unchanged(road_scene(true, int(Label::Road), kSun, false), "a grey step (no bluer shade: not the sun's)");
+  unchanged(road_scene(true, int(Label::Sky)), "sky");
+  {
+    // A sidewalk of 8 x 8 px with its own step, in a car: below two squares (2·7² = 98 px > 64).
+    Scene s = road_scene(true, int(Label::Car));
+    for (int y = kStepY - 4; y < kStepY + 4; ++y)
+      for (int x = 20; x < 28; ++x) s.ids.at(x, y) = static_cast<uint16_t>(Label::Sidewalk);
+    unchanged(s, "a tiny sidewalk");
+  }
+  {
+    // A sunlit strip 3 px high along the top: narrower than the opening's 7 px square, so no level.
+    Scene s = road_scene(false);
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < kW; ++x)
+        for (int k = 0; k < 3; ++k) s.day.at(x, y, k) *= static_cast<float>(kSun);
+    unchanged(s, "a sunlit sliver");
+  }
+  // An empty frame: nothing to split.
+  const ImageF none(0, 0, 3, 0.f);
+  const ImageU16 no_ids(0, 0, 1, 0);
+  EXPECT_TRUE(sun_shade_split(none, no_ids, p).sunlit.empty());
+}
