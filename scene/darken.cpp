@@ -991,20 +991,36 @@ void decode8_samples(const uint8_t* c, int n, const Decode8& d8, float* o) {
 }
 }  // namespace
 
+namespace {
+// linearize() of the codes' floats, as read_image gives them (channel counts other than RGB).
+ImageF linearize_code_floats(const ImageU8& codes, const Decode8& d8) {
+  ImageF day(codes.width(), codes.height(), codes.channels(), uninitialized);
+  for (size_t i = 0; i < codes.size(); ++i) day[i] = d8.in[codes[i]];
+  ImageFileInfo info;
+  info.bits_per_sample = 8;
+  info.srgb_encoded = true;
+  return linearize(day, info);
+}
+}  // namespace
+
+ImageF linearize_codes(const ImageU8& codes) {
+  const Decode8& d8 = decode8();
+  if (codes.channels() != 3) return linearize_code_floats(codes, d8);
+  ImageF out(codes.width(), codes.height(), 3, uninitialized, "linear sRGB");
+  const int n = 3 * codes.width();
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < codes.height(); ++y) decode8_samples(codes.row(y), n, d8, out.row(y));
+  return out;
+}
+
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
   sums->part.clear();
   sums->image = nullptr;
   sums->labels = nullptr;
   const Decode8& d8 = decode8();
-  if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height()) {
-    // Not the fused case: linearize() of the codes' floats (as read_image gives them).
-    ImageF day(codes.width(), codes.height(), codes.channels(), uninitialized);
-    for (size_t i = 0; i < codes.size(); ++i) day[i] = d8.in[codes[i]];
-    ImageFileInfo info;
-    info.bits_per_sample = 8;
-    info.srgb_encoded = true;
-    return linearize(day, info);
-  }
+  // Not the fused case: linearize() of the codes' floats.
+  if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height())
+    return linearize_code_floats(codes, d8);
   ImageF out(codes.width(), codes.height(), 3, uninitialized, "linear sRGB");
   // Each block of pixels decoded right before pass 1 reads it back from L1 (as
   // linearize_with_texture_sums; codes have no damaged values to look for).
