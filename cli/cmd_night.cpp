@@ -85,10 +85,8 @@ void run_night(NightCmd c) {
   ImageFileInfo info;
   // A plain 8-bit RGB PNG (Cityscapes' frames) stays as its codes: the chain linearises them
   // directly (prepare_night), the same bits as from read_image()'s floats.
-  std::optional<ImageU8> day_codes = read_image_codes8(c.image, &info);
-  ImageF day_raw = day_codes ? ImageF() : read_image(c.image, &info);
-  const int day_w = day_codes ? day_codes->width() : day_raw.width();
-  const int day_h = day_codes ? day_codes->height() : day_raw.height();
+  DayImage day_file = read_day_image(c.image, &info);
+  const int day_w = day_file.width(), day_h = day_file.height();
   const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
   sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);
   lap("read inputs");
@@ -97,8 +95,9 @@ void run_night(NightCmd c) {
     maps = [&](const ImageF& day, const scene::NightScene& ns) {
       write_pictures(c.maps, night_map_pictures(day, labels, ns), c.overwrite);
     };
-  const NightChain chain = day_codes ? prepare_night(runner, std::move(*day_codes), info, labels, sp, r, r.store, maps)
-                                     : prepare_night(runner, std::move(day_raw), info, labels, sp, r, r.store, maps);
+  const NightChain chain = day_file.codes
+                               ? prepare_night(runner, std::move(*day_file.codes), info, labels, sp, r, r.store, maps)
+                               : prepare_night(runner, std::move(day_file.floats), info, labels, sp, r, r.store, maps);
   const scene::NightScene& ns = chain.scene;
   const int frame_w = chain.width, frame_h = chain.height;
   for (const auto& st : chain.timings) times.push_back(st);

@@ -285,13 +285,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       ImageFileInfo info;
       // A plain 8-bit RGB PNG's codes are linearised directly (6 MB read for a 2048x1024 frame
       // instead of their 24 MB of floats; the same bits), as `night` reads its image.
-      std::optional<ImageU8> codes = read_image_codes8(it.image, &info);
-      ImageF day = codes ? ImageF() : read_image(it.image, &info);
-      l.labels = scene::read_labels(it.labels, it.instances, codes ? codes->width() : day.width(),
-                                    codes ? codes->height() : day.height(), scene::parse_label_format(it.label_format),
-                                    scene::ResizeLabels::None);
+      const DayImage day = read_day_image(it.image, &info);
+      l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
+                                    scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
       if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
-      l.day = codes ? scene::linearize_codes(*codes) : scene::linearize(day, info);
+      l.day = day.codes ? scene::linearize_codes(*day.codes) : scene::linearize(day.floats, info);
     } catch (const Error& e) {
       l.error = e.what();
     }

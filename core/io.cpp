@@ -255,6 +255,13 @@ std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo*
   return img;
 }
 
+DayImage read_day_image(const std::string& path, ImageFileInfo* info) {
+  DayImage d;
+  d.codes = read_image_codes8(path, info);
+  if (!d.codes) d.floats = read_image(path, info);
+  return d;
+}
+
 ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
   if (auto d = read_plain_png(path, info)) {
     ImageU16 img(d->width, d->height, d->channels, uninitialized);

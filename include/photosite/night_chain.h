@@ -51,6 +51,15 @@ NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFil
 // A plain 8-bit RGB PNG's codes with its file info (the info read_image() gives), else nothing
 // (any other file: read_image() then).
 std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo* info);
+// A day image file as the chain takes it (`night`, `batch`): a plain 8-bit RGB PNG's codes
+// (read_image_codes8: linearised directly, a quarter of the bytes), else read_image()'s floats.
+struct DayImage {
+  std::optional<ImageU8> codes;
+  ImageF floats;  // empty when `codes` holds the image
+  int width() const { return codes ? codes->width() : floats.width(); }
+  int height() const { return codes ? codes->height() : floats.height(); }
+};
+DayImage read_day_image(const std::string& path, ImageFileInfo* info);
 
 // Sets the night ambient illuminance (moon + sky glow) to `lux` in [0, 10] lx, keeping the
 // preset's moon/sky-glow proportions; bad input naming `what` outside that range.
