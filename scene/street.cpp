@@ -884,8 +884,8 @@ __attribute__((target("avx2"), always_inline)) inline Candidates8 candidates8_co
 // One group's eight lanes (columns x .. x + 7) in gr: the candidates' (bit k of m: column x + k)
 // depth and, on buildings, their façade plane (BuildingFacades::plane_at, inlined); the other lanes
 // take column `fill` (a candidate's, so that their values are a real pixel's; they are dropped).
-// Inside a façade (most groups: eight candidates on one building region whose eight columns take
-// one plane) the same values without the per-lane lookups.
+// Inside a façade (eight candidates on one building region whose eight columns take one plane:
+// 45% of the groups on the bench frame) the same values without the per-lane lookups.
 __attribute__((target("avx2"), always_inline)) inline void vertical_group(VerticalGroup& gr, int x, int m, int fill,
                                                                          const uint16_t* id, const float* z,
                                                                          const int32_t* reg, const VerticalCtx& v) {
@@ -919,20 +919,61 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
       }
     }
   }
-  for (int k = 0; k < 8 && !one_plane; ++k) {
+  if (one_plane) return;
+  // The other groups (cars, people, poles, vegetation, a region's edge, dropped lanes: more than
+  // half of them on the bench frame) lane by lane, lane k at column xk (x + k for a candidate,
+  // else `fill`): its depth; on a building pixel with a region, the plane of its column
+  // (column_plane; -1: none); plane −1 and the lit normal −(n_X, n_D) where it has one, else 0
+  // and +0.0. The lanes are built in vector registers and stored whole, as the façade groups'
+  // are: point4 reads them with vector loads, which per-lane stores would stall (a load is not
+  // forwarded from several smaller stores).
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i bit = _mm256_sllv_epi32(_mm256_set1_epi32(1), lane);
+  const __m256i cand = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), bit), bit);
+  const __m256i xv = _mm256_blendv_epi8(_mm256_set1_epi32(fill), _mm256_add_epi32(_mm256_set1_epi32(x), lane), cand);
+  const __m256i idv = _mm256_blendv_epi8(_mm256_set1_epi32(id[fill]),
+                                         _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x))), cand);
+  const __m256i rv = _mm256_blendv_epi8(_mm256_set1_epi32(reg[fill]),
+                                        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x)), cand);
+  const __m256 zv = _mm256_blendv_ps(_mm256_set1_ps(z[fill]), _mm256_loadu_ps(z + x), _mm256_castsi256_ps(cand));
+  _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+  _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));  // float to double: exact
+  _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
+  int bm = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
+      _mm256_cmpeq_epi32(idv, _mm256_set1_epi32(v.building)), _mm256_cmpgt_epi32(rv, _mm256_set1_epi32(-1)))));
+  __m256i pv = _mm256_set1_epi32(-1);  // the lanes' plane indices
+  while (bm) {
+    const int k = __builtin_ctz(bm);
+    bm &= bm - 1;
     const int xk = (m >> k & 1) ? x + k : fill;
-    const FacadePlane* f = nullptr;
-    if (id[xk] == v.building && reg[xk] >= 0) {
-      const BuildingFacades::Region& R = fac.regions[reg[xk]];
-      const int pi = R.column_plane[xk - R.x0];
-      if (pi >= 0) f = &fac.planes[pi];
-    }
-    gr.x[k] = xk;
-    gr.z[k] = z[xk];
-    gr.plane[k] = f ? -1 : 0;
-    gr.pnX[k] = f ? -f->nX : 0.0;
-    gr.pnD[k] = f ? -f->nD : 0.0;
+    const BuildingFacades::Region& R = fac.regions[reg[xk]];
+    pv = _mm256_blendv_epi8(pv, _mm256_set1_epi32(R.column_plane[xk - R.x0]), _mm256_cmpeq_epi32(lane, _mm256_set1_epi32(k)));
   }
+  const __m256i has = _mm256_cmpgt_epi32(pv, _mm256_set1_epi32(-1));
+  _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), has);  // −1 with a plane, else 0
+  __m256d nx0 = _mm256_setzero_pd(), nx1 = nx0, nd0 = nx0, nd1 = nx0;
+  if (_mm256_movemask_epi8(has)) {
+    // −n_X and −n_D gathered from the planes (a masked lane keeps +0.0), the sign flipped: the
+    // exact negation, as −f->nX.
+    static_assert(sizeof(FacadePlane) % sizeof(double) == 0, "planes gathered in steps of doubles");
+    const __m256i ix = _mm256_mullo_epi32(_mm256_max_epi32(pv, _mm256_setzero_si256()),
+                                          _mm256_set1_epi32(static_cast<int>(sizeof(FacadePlane) / sizeof(double))));
+    const __m128i i0 = _mm256_castsi256_si128(ix), i1 = _mm256_extracti128_si256(ix, 1);
+    const __m256d h0 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(has)));
+    const __m256d h1 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(has, 1)));
+    const double* bX = &fac.planes[0].nX;
+    const double* bD = &fac.planes[0].nD;
+    const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
+    const __m256d zd = _mm256_setzero_pd();
+    nx0 = _mm256_and_pd(h0, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bX, i0, h0, 8)));
+    nx1 = _mm256_and_pd(h1, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bX, i1, h1, 8)));
+    nd0 = _mm256_and_pd(h0, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bD, i0, h0, 8)));
+    nd1 = _mm256_and_pd(h1, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bD, i1, h1, 8)));
+  }
+  _mm256_store_pd(gr.pnX, nx0);
+  _mm256_store_pd(gr.pnX + 4, nx1);
+  _mm256_store_pd(gr.pnD, nd0);
+  _mm256_store_pd(gr.pnD + 4, nd1);
 }
 // add_vertical_street_light's row with AVX2, the groups of eight columns 0 .. 8⌊W/8⌋ − 1 (returns
 // 8⌊W/8⌋; the rest go the scalar way): per group the candidates (candidates8_avx2; none: nothing
