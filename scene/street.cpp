@@ -52,6 +52,9 @@ struct RelTable {
   // The float32 copy the image paths use (pools, vertical light): v[i] and v[i + 1] − v[i] rounded
   // to float, cos γ_c rounded, and the inverse step, so the argument is one product (atf).
   std::vector<float> fv, fdv;
+  // The same pairs interleaved (fv[i], fdv[i] at 2i, 2i + 1), 8-byte aligned: the vector paths
+  // fetch both by one 64-bit gather per lane, half the loads of a gather from each.
+  std::vector<double> fpair;
   float fcc = 0, finv_step = 0;
   float atf(float c) const {
     if (!(c < fcc)) return 1.f;
@@ -78,9 +81,12 @@ const RelTable& rel_table(const ScenePreset& p) {
     for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
     t.fv.resize(4096);
     t.fdv.resize(4096);
+    t.fpair.resize(4096);
     for (int i = 0; i < 4096; ++i) {
       t.fv[i] = static_cast<float>(t.v[i]);
       t.fdv[i] = static_cast<float>(t.v[i + 1] - t.v[i]);
+      const float pr[2] = {t.fv[i], t.fdv[i]};
+      std::memcpy(&t.fpair[i], pr, sizeof pr);
     }
     t.fcc = static_cast<float>(t.cc);
     t.finv_step = static_cast<float>(1 / t.step);
@@ -153,7 +159,14 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const Re
   const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.finv_step));
   const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(4095)),
                                      _mm256_setzero_si256());
-  const __m256 v = _mm256_i32gather_ps(t.fv.data(), j, 4), dv = _mm256_i32gather_ps(t.fdv.data(), j, 4);
+  // The pairs of lanes 0-3 and 4-7 (each 64-bit lane: fv, fdv), split into the eight fv and fdv
+  // (within each 128-bit half the even and odd floats of both gathers, then the halves' middle
+  // quarters swapped into lane order).
+  const double* tp = t.fpair.data();
+  const __m256 g0 = _mm256_castpd_ps(_mm256_i32gather_pd(tp, _mm256_castsi256_si128(j), 8));
+  const __m256 g1 = _mm256_castpd_ps(_mm256_i32gather_pd(tp, _mm256_extracti128_si256(j, 1), 8));
+  const __m256 v = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xd8));
+  const __m256 dv = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xdd)), 0xd8));
   return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
 }
 #pragma GCC diagnostic push
@@ -173,8 +186,17 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const
   const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step)), zero = _mm512_setzero_ps();
   const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(4095)),
                                      _mm512_setzero_si512());
-  const __m512 v = _mm512_mask_i32gather_ps(zero, beyond, j, t.fv.data(), 4);
-  const __m512 dv = _mm512_mask_i32gather_ps(zero, beyond, j, t.fdv.data(), 4);
+  // Lanes 0-7 and 8-15 as pairs (fv, fdv) by one 64-bit gather each, then the even and odd
+  // floats of both: the sixteen fv and the sixteen fdv in lane order.
+  const double* tp = t.fpair.data();
+  const __m512d zd = _mm512_setzero_pd();
+  const __m512 g0 = _mm512_castpd_ps(
+      _mm512_mask_i32gather_pd(zd, static_cast<__mmask8>(beyond), _mm512_castsi512_si256(j), tp, 8));
+  const __m512 g1 = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
+      zd, static_cast<__mmask8>(beyond >> 8), _mm256_castpd_si256(_mm512_extractf64x4_pd(_mm512_castsi512_pd(j), 1)), tp, 8));
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512 v = _mm512_permutex2var_ps(g0, even, g1);
+  const __m512 dv = _mm512_permutex2var_ps(g0, _mm512_add_epi32(even, _mm512_set1_epi32(1)), g1);
   return _mm512_mask_add_ps(_mm512_set1_ps(1.f), beyond, v, _mm512_mul_ps(dv, _mm512_sub_ps(u, _mm512_cvtepi32_ps(j))));
 }
 #pragma GCC diagnostic pop

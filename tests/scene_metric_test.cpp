@@ -880,7 +880,9 @@ TEST(VerticalStreetLight, PoolIsContinuousAtTheBoxFoot) {
 // vertical_e_scalar), bit for bit, on the synthetic street: façades on both sides (groups at their
 // edges and between a façade and the sky or the road), cars and a hedge (camera-facing normals),
 // with lamps 40 m apart at the kerbs and 1 m apart at the kerbs and over the road (a group's window
-// of some 280 lamps). It failed with the gathered normal's sign left unflipped.
+// of some 280 lamps; far lamps beyond the cut-off, whose rel(γ) the vector rows take from the
+// table's interleaved (entry, step) pairs). It failed with the gathered normal's sign left
+// unflipped, and with the pairs' steps read as their entries.
 TEST(VerticalStreetLight, VectorRowsBuildTheScalarLanes) {
   SyntheticCameraOptions o = camera_scene();
   o.boxes.push_back({5.5, 26, 6.0, 1.2, 1.0, Label::Vegetation});  // a hedge at the right kerb
