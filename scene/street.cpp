@@ -162,9 +162,12 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const Re
   // The pairs of lanes 0-3 and 4-7 (each 64-bit lane: fv, fdv), split into the eight fv and fdv
   // (within each 128-bit half the even and odd floats of both gathers, then the halves' middle
   // quarters swapped into lane order).
+  // (The masked form with every lane on: the unmasked one starts from an undefined register, which
+  // GCC 12 warns of.)
   const double* tp = t.fpair.data();
-  const __m256 g0 = _mm256_castpd_ps(_mm256_i32gather_pd(tp, _mm256_castsi256_si128(j), 8));
-  const __m256 g1 = _mm256_castpd_ps(_mm256_i32gather_pd(tp, _mm256_extracti128_si256(j, 1), 8));
+  const __m256d zd = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  const __m256 g0 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zd, tp, _mm256_castsi256_si128(j), all, 8));
+  const __m256 g1 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zd, tp, _mm256_extracti128_si256(j, 1), all, 8));
   const __m256 v = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xd8));
   const __m256 dv = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xdd)), 0xd8));
   return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
@@ -183,7 +186,7 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a
 // same operations, the entries gathered for those lanes only; 1 on the others.
 __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
                                                                           __mmask16 beyond) {
-  const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step)), zero = _mm512_setzero_ps();
+  const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step));
   const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(4095)),
                                      _mm512_setzero_si512());
   // Lanes 0-7 and 8-15 as pairs (fv, fdv) by one 64-bit gather each, then the even and odd
@@ -1098,15 +1101,31 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
   for (; x + 16 <= W; x += 16) {
     const int m = candidates8_avx2(id, z, x, cc) | candidates8_avx2(id, z, x + 8, cc) << 8;
     if (!m) continue;
-    const int fill = x + __builtin_ctz(m);  // a candidate's column for the lanes dropped
     __m256d X[4], Y[4], D[4];
     __m128 nX[4], nD[4], ok[4];
+    // The groups of eight and the quads of four holding a candidate (their lanes' points and
+    // normals); a quad without one takes those of the first quad with one (q0): its lanes are
+    // dropped (okm), and its D are candidates' as those of the dropped lanes filled with a
+    // candidate's column were, so the lamp window (the candidates' D range) is the same.
+    int quads = 0;
+    for (int k = 0; k < 4; ++k) quads |= ((m >> (4 * k) & 0xf) != 0) << k;
     for (int h = 0; h < 2; ++h) {
       const int mh = m >> (8 * h) & 0xff;
-      vertical_group(gr[h], x + 8 * h, mh, mh ? x + 8 * h + __builtin_ctz(mh) : fill, id, z, reg, v);
-      point4(gr[h], 0, q, X[2 * h], Y[2 * h], D[2 * h], nX[2 * h], nD[2 * h], ok[2 * h]);
-      point4(gr[h], 4, q, X[2 * h + 1], Y[2 * h + 1], D[2 * h + 1], nX[2 * h + 1], nD[2 * h + 1], ok[2 * h + 1]);
+      if (!mh) continue;
+      vertical_group(gr[h], x + 8 * h, mh, x + 8 * h + __builtin_ctz(mh), id, z, reg, v);
+      for (int k = 2 * h; k < 2 * h + 2; ++k)
+        if (quads >> k & 1) point4(gr[h], 4 * (k - 2 * h), q, X[k], Y[k], D[k], nX[k], nD[k], ok[k]);
     }
+    const int q0 = __builtin_ctz(quads);
+    for (int k = 0; k < 4; ++k)
+      if (!(quads >> k & 1)) {
+        X[k] = X[q0];
+        Y[k] = Y[q0];
+        D[k] = D[q0];
+        nX[k] = nX[q0];
+        nD[k] = nD[q0];
+        ok[k] = ok[q0];
+      }
     const __mmask16 okm = static_cast<__mmask16>(
         m & (_mm_movemask_ps(ok[0]) | _mm_movemask_ps(ok[1]) << 4 | _mm_movemask_ps(ok[2]) << 8 | _mm_movemask_ps(ok[3]) << 12));
     if (!okm) continue;

@@ -882,7 +882,8 @@ TEST(VerticalStreetLight, PoolIsContinuousAtTheBoxFoot) {
 // with lamps 40 m apart at the kerbs and 1 m apart at the kerbs and over the road (a group's window
 // of some 280 lamps; far lamps beyond the cut-off, whose rel(γ) the vector rows take from the
 // table's interleaved (entry, step) pairs). It failed with the gathered normal's sign left
-// unflipped, and with the pairs' steps read as their entries.
+// unflipped, with the pairs' steps read as their entries, and with the AVX-512 row's quads of
+// four lanes skipped when only their fourth lane is a candidate.
 TEST(VerticalStreetLight, VectorRowsBuildTheScalarLanes) {
   SyntheticCameraOptions o = camera_scene();
   o.boxes.push_back({5.5, 26, 6.0, 1.2, 1.0, Label::Vegetation});  // a hedge at the right kerb
