@@ -52,6 +52,9 @@ struct RelTable {
   // The float32 copy the image paths use (pools, vertical light): v[i] and v[i + 1] − v[i] rounded
   // to float, cos γ_c rounded, and the inverse step, so the argument is one product (atf).
   std::vector<float> fv, fdv;
+  // The same pairs interleaved (fv[i], fdv[i] at 2i, 2i + 1), 8-byte aligned: the vector paths
+  // fetch both by one 64-bit gather per lane, half the loads of a gather from each.
+  std::vector<double> fpair;
   float fcc = 0, finv_step = 0;
   float atf(float c) const {
     if (!(c < fcc)) return 1.f;
@@ -78,9 +81,12 @@ const RelTable& rel_table(const ScenePreset& p) {
     for (int i = 0; i <= 4096; ++i) t.v[i] = lamp_relative_intensity(std::acos(std::min(1.0, i * t.step)), p);
     t.fv.resize(4096);
     t.fdv.resize(4096);
+    t.fpair.resize(4096);
     for (int i = 0; i < 4096; ++i) {
       t.fv[i] = static_cast<float>(t.v[i]);
       t.fdv[i] = static_cast<float>(t.v[i + 1] - t.v[i]);
+      const float pr[2] = {t.fv[i], t.fdv[i]};
+      std::memcpy(&t.fpair[i], pr, sizeof pr);
     }
     t.fcc = static_cast<float>(t.cc);
     t.finv_step = static_cast<float>(1 / t.step);
@@ -153,7 +159,17 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const Re
   const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.finv_step));
   const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(4095)),
                                      _mm256_setzero_si256());
-  const __m256 v = _mm256_i32gather_ps(t.fv.data(), j, 4), dv = _mm256_i32gather_ps(t.fdv.data(), j, 4);
+  // The pairs of lanes 0-3 and 4-7 (each 64-bit lane: fv, fdv), split into the eight fv and fdv
+  // (within each 128-bit half the even and odd floats of both gathers, then the halves' middle
+  // quarters swapped into lane order).
+  // (The masked form with every lane on: the unmasked one starts from an undefined register, which
+  // GCC 12 warns of.)
+  const double* tp = t.fpair.data();
+  const __m256d zd = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  const __m256 g0 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zd, tp, _mm256_castsi256_si128(j), all, 8));
+  const __m256 g1 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(zd, tp, _mm256_extracti128_si256(j, 1), all, 8));
+  const __m256 v = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0x88)), 0xd8));
+  const __m256 dv = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, 0xdd)), 0xd8));
   return _mm256_add_ps(v, _mm256_mul_ps(dv, _mm256_sub_ps(u, _mm256_cvtepi32_ps(j))));
 }
 #pragma GCC diagnostic push
@@ -170,11 +186,20 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a
 // same operations, the entries gathered for those lanes only; 1 on the others.
 __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
                                                                           __mmask16 beyond) {
-  const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step)), zero = _mm512_setzero_ps();
+  const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step));
   const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(4095)),
                                      _mm512_setzero_si512());
-  const __m512 v = _mm512_mask_i32gather_ps(zero, beyond, j, t.fv.data(), 4);
-  const __m512 dv = _mm512_mask_i32gather_ps(zero, beyond, j, t.fdv.data(), 4);
+  // Lanes 0-7 and 8-15 as pairs (fv, fdv) by one 64-bit gather each, then the even and odd
+  // floats of both: the sixteen fv and the sixteen fdv in lane order.
+  const double* tp = t.fpair.data();
+  const __m512d zd = _mm512_setzero_pd();
+  const __m512 g0 = _mm512_castpd_ps(
+      _mm512_mask_i32gather_pd(zd, static_cast<__mmask8>(beyond), _mm512_castsi512_si256(j), tp, 8));
+  const __m512 g1 = _mm512_castpd_ps(_mm512_mask_i32gather_pd(
+      zd, static_cast<__mmask8>(beyond >> 8), _mm256_castpd_si256(_mm512_extractf64x4_pd(_mm512_castsi512_pd(j), 1)), tp, 8));
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512 v = _mm512_permutex2var_ps(g0, even, g1);
+  const __m512 dv = _mm512_permutex2var_ps(g0, _mm512_add_epi32(even, _mm512_set1_epi32(1)), g1);
   return _mm512_mask_add_ps(_mm512_set1_ps(1.f), beyond, v, _mm512_mul_ps(dv, _mm512_sub_ps(u, _mm512_cvtepi32_ps(j))));
 }
 #pragma GCC diagnostic pop
@@ -884,8 +909,8 @@ __attribute__((target("avx2"), always_inline)) inline Candidates8 candidates8_co
 // One group's eight lanes (columns x .. x + 7) in gr: the candidates' (bit k of m: column x + k)
 // depth and, on buildings, their façade plane (BuildingFacades::plane_at, inlined); the other lanes
 // take column `fill` (a candidate's, so that their values are a real pixel's; they are dropped).
-// Inside a façade (most groups: eight candidates on one building region whose eight columns take
-// one plane) the same values without the per-lane lookups.
+// Inside a façade (eight candidates on one building region whose eight columns take one plane:
+// 45% of the groups on the bench frame) the same values without the per-lane lookups.
 __attribute__((target("avx2"), always_inline)) inline void vertical_group(VerticalGroup& gr, int x, int m, int fill,
                                                                          const uint16_t* id, const float* z,
                                                                          const int32_t* reg, const VerticalCtx& v) {
@@ -919,20 +944,61 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
       }
     }
   }
-  for (int k = 0; k < 8 && !one_plane; ++k) {
+  if (one_plane) return;
+  // The other groups (cars, people, poles, vegetation, a region's edge, dropped lanes: more than
+  // half of them on the bench frame) lane by lane, lane k at column xk (x + k for a candidate,
+  // else `fill`): its depth; on a building pixel with a region, the plane of its column
+  // (column_plane; -1: none); plane −1 and the lit normal −(n_X, n_D) where it has one, else 0
+  // and +0.0. The lanes are built in vector registers and stored whole, as the façade groups'
+  // are: point4 reads them with vector loads, which per-lane stores would stall (a load is not
+  // forwarded from several smaller stores).
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i bit = _mm256_sllv_epi32(_mm256_set1_epi32(1), lane);
+  const __m256i cand = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), bit), bit);
+  const __m256i xv = _mm256_blendv_epi8(_mm256_set1_epi32(fill), _mm256_add_epi32(_mm256_set1_epi32(x), lane), cand);
+  const __m256i idv = _mm256_blendv_epi8(_mm256_set1_epi32(id[fill]),
+                                         _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x))), cand);
+  const __m256i rv = _mm256_blendv_epi8(_mm256_set1_epi32(reg[fill]),
+                                        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x)), cand);
+  const __m256 zv = _mm256_blendv_ps(_mm256_set1_ps(z[fill]), _mm256_loadu_ps(z + x), _mm256_castsi256_ps(cand));
+  _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+  _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));  // float to double: exact
+  _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
+  int bm = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
+      _mm256_cmpeq_epi32(idv, _mm256_set1_epi32(v.building)), _mm256_cmpgt_epi32(rv, _mm256_set1_epi32(-1)))));
+  __m256i pv = _mm256_set1_epi32(-1);  // the lanes' plane indices
+  while (bm) {
+    const int k = __builtin_ctz(bm);
+    bm &= bm - 1;
     const int xk = (m >> k & 1) ? x + k : fill;
-    const FacadePlane* f = nullptr;
-    if (id[xk] == v.building && reg[xk] >= 0) {
-      const BuildingFacades::Region& R = fac.regions[reg[xk]];
-      const int pi = R.column_plane[xk - R.x0];
-      if (pi >= 0) f = &fac.planes[pi];
-    }
-    gr.x[k] = xk;
-    gr.z[k] = z[xk];
-    gr.plane[k] = f ? -1 : 0;
-    gr.pnX[k] = f ? -f->nX : 0.0;
-    gr.pnD[k] = f ? -f->nD : 0.0;
+    const BuildingFacades::Region& R = fac.regions[reg[xk]];
+    pv = _mm256_blendv_epi8(pv, _mm256_set1_epi32(R.column_plane[xk - R.x0]), _mm256_cmpeq_epi32(lane, _mm256_set1_epi32(k)));
   }
+  const __m256i has = _mm256_cmpgt_epi32(pv, _mm256_set1_epi32(-1));
+  _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), has);  // −1 with a plane, else 0
+  __m256d nx0 = _mm256_setzero_pd(), nx1 = nx0, nd0 = nx0, nd1 = nx0;
+  if (_mm256_movemask_epi8(has)) {
+    // −n_X and −n_D gathered from the planes (a masked lane keeps +0.0), the sign flipped: the
+    // exact negation, as −f->nX.
+    static_assert(sizeof(FacadePlane) % sizeof(double) == 0, "planes gathered in steps of doubles");
+    const __m256i ix = _mm256_mullo_epi32(_mm256_max_epi32(pv, _mm256_setzero_si256()),
+                                          _mm256_set1_epi32(static_cast<int>(sizeof(FacadePlane) / sizeof(double))));
+    const __m128i i0 = _mm256_castsi256_si128(ix), i1 = _mm256_extracti128_si256(ix, 1);
+    const __m256d h0 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(has)));
+    const __m256d h1 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256(has, 1)));
+    const double* bX = &fac.planes[0].nX;
+    const double* bD = &fac.planes[0].nD;
+    const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
+    const __m256d zd = _mm256_setzero_pd();
+    nx0 = _mm256_and_pd(h0, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bX, i0, h0, 8)));
+    nx1 = _mm256_and_pd(h1, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bX, i1, h1, 8)));
+    nd0 = _mm256_and_pd(h0, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bD, i0, h0, 8)));
+    nd1 = _mm256_and_pd(h1, _mm256_xor_pd(sign, _mm256_mask_i32gather_pd(zd, bD, i1, h1, 8)));
+  }
+  _mm256_store_pd(gr.pnX, nx0);
+  _mm256_store_pd(gr.pnX + 4, nx1);
+  _mm256_store_pd(gr.pnD, nd0);
+  _mm256_store_pd(gr.pnD + 4, nd1);
 }
 // add_vertical_street_light's row with AVX2, the groups of eight columns 0 .. 8⌊W/8⌋ − 1 (returns
 // 8⌊W/8⌋; the rest go the scalar way): per group the candidates (candidates8_avx2; none: nothing
@@ -1035,15 +1101,31 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
   for (; x + 16 <= W; x += 16) {
     const int m = candidates8_avx2(id, z, x, cc) | candidates8_avx2(id, z, x + 8, cc) << 8;
     if (!m) continue;
-    const int fill = x + __builtin_ctz(m);  // a candidate's column for the lanes dropped
     __m256d X[4], Y[4], D[4];
     __m128 nX[4], nD[4], ok[4];
+    // The groups of eight and the quads of four holding a candidate (their lanes' points and
+    // normals); a quad without one takes those of the first quad with one (q0): its lanes are
+    // dropped (okm), and its D are candidates' as those of the dropped lanes filled with a
+    // candidate's column were, so the lamp window (the candidates' D range) is the same.
+    int quads = 0;
+    for (int k = 0; k < 4; ++k) quads |= ((m >> (4 * k) & 0xf) != 0) << k;
     for (int h = 0; h < 2; ++h) {
       const int mh = m >> (8 * h) & 0xff;
-      vertical_group(gr[h], x + 8 * h, mh, mh ? x + 8 * h + __builtin_ctz(mh) : fill, id, z, reg, v);
-      point4(gr[h], 0, q, X[2 * h], Y[2 * h], D[2 * h], nX[2 * h], nD[2 * h], ok[2 * h]);
-      point4(gr[h], 4, q, X[2 * h + 1], Y[2 * h + 1], D[2 * h + 1], nX[2 * h + 1], nD[2 * h + 1], ok[2 * h + 1]);
+      if (!mh) continue;
+      vertical_group(gr[h], x + 8 * h, mh, x + 8 * h + __builtin_ctz(mh), id, z, reg, v);
+      for (int k = 2 * h; k < 2 * h + 2; ++k)
+        if (quads >> k & 1) point4(gr[h], 4 * (k - 2 * h), q, X[k], Y[k], D[k], nX[k], nD[k], ok[k]);
     }
+    const int q0 = __builtin_ctz(quads);
+    for (int k = 0; k < 4; ++k)
+      if (!(quads >> k & 1)) {
+        X[k] = X[q0];
+        Y[k] = Y[q0];
+        D[k] = D[q0];
+        nX[k] = nX[q0];
+        nD[k] = nD[q0];
+        ok[k] = ok[q0];
+      }
     const __mmask16 okm = static_cast<__mmask16>(
         m & (_mm_movemask_ps(ok[0]) | _mm_movemask_ps(ok[1]) << 4 | _mm_movemask_ps(ok[2]) << 8 | _mm_movemask_ps(ok[3]) << 12));
     if (!okm) continue;

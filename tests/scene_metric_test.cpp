@@ -872,6 +872,48 @@ TEST(VerticalStreetLight, PoolIsContinuousAtTheBoxFoot) {
   }
 }
 
+// The vertical light's vector rows (AVX-512: groups of sixteen columns; AVX2: eight) build each
+// group's lanes in registers (street.cpp, vertical_group): inside one façade plane by broadcast,
+// elsewhere lane by lane (a candidate's column or the group's fill column, its depth, its façade
+// plane by region and column, the lit normal gathered and negated, +0.0 without a plane). Pinned to
+// its definition, the scalar twin's per-pixel loop (the candidates compacted, plane_at inlined,
+// vertical_e_scalar), bit for bit, on the synthetic street: façades on both sides (groups at their
+// edges and between a façade and the sky or the road), cars and a hedge (camera-facing normals),
+// with lamps 40 m apart at the kerbs and 1 m apart at the kerbs and over the road (a group's window
+// of some 280 lamps; far lamps beyond the cut-off, whose rel(γ) the vector rows take from the
+// table's interleaved (entry, step) pairs). It failed with the gathered normal's sign left
+// unflipped, with the pairs' steps read as their entries, and with the AVX-512 row's quads of
+// four lanes skipped when only their fourth lane is a candidate.
+TEST(VerticalStreetLight, VectorRowsBuildTheScalarLanes) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.push_back({5.5, 26, 6.0, 1.2, 1.0, Label::Vegetation});  // a hedge at the right kerb
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+  for (const double spacing_m : {40.0, 1.0}) {
+    StreetLighting s;
+    s.peak_intensity_cd = 5000;
+    // Lamps sorted by D (as plan_street_lighting gives them), at both kerbs and over the road.
+    for (double D = 4; D < 120; D += spacing_m)
+      for (const double X : {-8.0, 8.0, -2.0, 2.0}) {
+        if (spacing_m > 10 && std::fabs(X) < 5) continue;
+        s.lamps.push_back({X, std::fabs(X) < 5 ? 9.0 : 8.0, D, false});
+      }
+    std::vector<ImageF> L;
+    for (const int isa : {2, 1, 0}) {
+      street_light_max_isa(isa);
+      L.emplace_back(o.width, o.height, 3, 0.f, unit::radiance);
+      add_vertical_street_light(L.back(), tex, sc.labels.ids, sc.depth_m, o.camera, s, p);
+    }
+    street_light_max_isa(2);
+    size_t lit = 0;
+    for (size_t i = 0; i < L[2].size(); ++i) lit += L[2][i] > 0;
+    EXPECT_GT(lit, 30000u) << spacing_m << " m";  // façades and boxes lit
+    EXPECT_EQ(differing_samples(L[0], L[2]), 0u) << "AVX-512 against the scalar twin, lamps " << spacing_m << " m apart";
+    EXPECT_EQ(differing_samples(L[1], L[2]), 0u) << "AVX2 against the scalar twin, lamps " << spacing_m << " m apart";
+  }
+}
+
 namespace {
 // The light map split by kind, to say where unmatched energy lies (1 channel: R+G+B radiance).
 // Built from the same public stages light_map() calls, on the same street-lighting plan and
