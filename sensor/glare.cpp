@@ -109,20 +109,47 @@ void lerp_row(float w0, const float* __restrict a, float w1, const float* __rest
   for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
 }
 
-// o[j] = o[j] + w·p[j] over n samples (one tap of a blur).
+// The 2R + 1 = 7 taps of a blur over n samples in one pass: a = Σ_k g_k·p_k[j], summed from 0
+// in the order k = 0 .. 6 (a = 0; a = a + g_k·p_k[j]: the order of the blur's definition, term
+// by term), then o[j] = a (weigh false), or o[j] = w·a + u[j] (u given) or w·a (u null): a
+// level's weighted blur plus the upsampled coarser accumulator. The same IEEE operations in the
+// same order per sample as forming the sum tap by tap over the row, without storing and
+// reloading it between taps.
+static_assert(kGlareBlurRadius == 3, "blur_taps is written for 7 taps");
 __attribute__((target_clones("avx512f", "avx2", "default")))
-void add_tap(float* __restrict o, float w, const float* __restrict p, size_t n) {
-  for (size_t j = 0; j < n; ++j) o[j] = o[j] + w * p[j];
-}
-
-// o[j] = w·o[j] + u[j] (u given) or w·o[j] (u null): a level's weighted blur plus the upsampled
-// coarser accumulator.
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void weigh_add(float* __restrict o, float w, const float* __restrict u, size_t n) {
-  if (u)
-    for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
+void blur_taps(const float* const* p, const float* gk, size_t n, bool weigh, float w, const float* __restrict u,
+               float* __restrict o) {
+  const float* __restrict p0 = p[0];
+  const float* __restrict p1 = p[1];
+  const float* __restrict p2 = p[2];
+  const float* __restrict p3 = p[3];
+  const float* __restrict p4 = p[4];
+  const float* __restrict p5 = p[5];
+  const float* __restrict p6 = p[6];
+  const float g0 = gk[0], g1 = gk[1], g2 = gk[2], g3 = gk[3], g4 = gk[4], g5 = gk[5], g6 = gk[6];
+  auto sum = [&](size_t j) {
+    float a = 0.f;
+    a = a + g0 * p0[j];
+    a = a + g1 * p1[j];
+    a = a + g2 * p2[j];
+    a = a + g3 * p3[j];
+    a = a + g4 * p4[j];
+    a = a + g5 * p5[j];
+    a = a + g6 * p6[j];
+    return a;
+  };
+  if (!weigh)
+    for (size_t j = 0; j < n; ++j) o[j] = sum(j);
+  else if (u)
+    for (size_t j = 0; j < n; ++j) o[j] = w * sum(j) + u[j];
   else
-    for (size_t j = 0; j < n; ++j) o[j] = w * o[j];
+    for (size_t j = 0; j < n; ++j) o[j] = w * sum(j);
+}
+// g_|k| for k = −R .. R.
+std::array<float, 2 * kGlareBlurRadius + 1> blur_weights(const std::array<float, kGlareBlurRadius + 1>& g) {
+  std::array<float, 2 * kGlareBlurRadius + 1> gk{};
+  for (int k = -kGlareBlurRadius; k <= kGlareBlurRadius; ++k) gk[k + kGlareBlurRadius] = g[std::abs(k)];
+  return gk;
 }
 
 // out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
@@ -164,10 +191,53 @@ constexpr int64_t kParallelPixels = int64_t{1} << 18;
 // One output row of down2 from input rows ra, rb (w pixels): pixel x averages the pairs at 2x
 // and min(2x + 1, w − 1), in the order ((a0 + a1) + (b0 + b1))·¼; the interior pairs without
 // the clamp, so that the loop vectorizes.
+//
+// Where the CPU has AVX-512, down2_row's interior 16 output pixels (48 floats) at a time
+// (down2_pairs_avx512): output float i = 3x + c reads input float k(i) = 6x + c = 2i − (i mod 3)
+// and k(i) + 3 of each row. For output vector v (i = 16v .. 16v + 15) the k(i) lie in a window
+// of 32 floats from b_v = k(16v) = 0, 31, 62 (k(16v + 15) − b_v = 30); the pair sums
+// ra[k] + ra[k + 3] and rb[k] + rb[k + 3] and their sum are formed over the whole window (two
+// vectors, the second term from a load 3 floats on), one two-source permute (vpermt2ps) picks
+// the 16 lanes k(i), then the ·¼: per output float the same IEEE operations in the same order,
+// ((a0 + a1) + (b0 + b1))·¼, so the same bits (test GlareFastPath.SkirtEqualsTheWholeImageDefinition).
+// Returns the first output pixel it left.
+struct Down2Perm {
+  alignas(64) int32_t idx[3][16];
+  Down2Perm() {
+    for (int v = 0; v < 3; ++v)
+      for (int l = 0; l < 16; ++l) {
+        const int i = 16 * v + l, base = 32 * v - (16 * v) % 3;
+        idx[v][l] = 2 * i - i % 3 - base;
+      }
+  }
+};
+const Down2Perm kDown2Perm;
+__attribute__((target("avx512f")))
+int down2_pairs_avx512(const float* ra, const float* rb, int w, float* o) {
+  const int pairs = w / 2;
+  const __m512 quarter = _mm512_set1_ps(0.25f);
+  int x = 0;
+  // A block reads input floats 6x .. 6x + 96 (the last load's lane 15 lies one float past the
+  // block's 32 pixels): inside the row while 6x + 97 <= 3w; its pixels are pairs while x + 16 <= pairs.
+  for (; x + 16 <= pairs && 6 * x + 97 <= 3 * w; x += 16) {
+    for (int v = 0; v < 3; ++v) {
+      const int b = 6 * x + 32 * v - (16 * v) % 3;
+      const __m512 sa0 = _mm512_add_ps(_mm512_loadu_ps(ra + b), _mm512_loadu_ps(ra + b + 3));
+      const __m512 sa1 = _mm512_add_ps(_mm512_loadu_ps(ra + b + 16), _mm512_loadu_ps(ra + b + 19));
+      const __m512 sb0 = _mm512_add_ps(_mm512_loadu_ps(rb + b), _mm512_loadu_ps(rb + b + 3));
+      const __m512 sb1 = _mm512_add_ps(_mm512_loadu_ps(rb + b + 16), _mm512_loadu_ps(rb + b + 19));
+      const __m512 q = _mm512_permutex2var_ps(_mm512_add_ps(sa0, sb0), _mm512_load_si512(kDown2Perm.idx[v]),
+                                              _mm512_add_ps(sa1, sb1));
+      _mm512_storeu_ps(o + 3 * x + 16 * v, _mm512_mul_ps(q, quarter));
+    }
+  }
+  return x;
+}
+
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
   const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
-  for (int x = 0; x < pairs; ++x)
+  for (int x = kGlareAvx512 ? down2_pairs_avx512(ra, rb, w, o) : 0; x < pairs; ++x)
     for (int c = 0; c < 3; ++c) {
       const int k = 6 * x + c;
       o[3 * x + c] = ((ra[k] + ra[k + 3]) + (rb[k] + rb[k + 3])) * 0.25f;
@@ -193,9 +263,33 @@ void down2(const ImageF& src, ImageF& dst, std::vector<std::array<double, 3>>& r
 }
 
 // down_1331's interior along a row: o[3x + k] for 1 <= x < end, from s[3(2x − 1) + k] on.
+// Where the CPU has AVX-512, 16 output pixels at a time (taps1331_avx512): output float i = 3x + k
+// reads s[m], s[m + 3], s[m + 6], s[m + 9] with m = 6x − 3 + k = k(i) − 3, k(i) = 2i − (i mod 3)
+// as in down2_pairs_avx512, so the taps are summed over the same three windows of 32 floats
+// (from 6x − 3 + 0, 31, 62) and the same permute picks the lanes: per output float the same IEEE
+// operations in the same order, (⅛·a0 + ⅜·a1) + (⅜·a2 + ⅛·a3). A block's loads reach s[6x + 99]:
+// inside the row (3w floats, w >= 2·end + 1) while x + 17 <= end. Returns the first x it left.
+// The taps at the 16 positions a .. a + 15.
+__attribute__((target("avx512f"))) inline __m512 taps1331_window(const float* a, __m512 c1, __m512 c3) {
+  return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(c1, _mm512_loadu_ps(a)), _mm512_mul_ps(c3, _mm512_loadu_ps(a + 3))),
+                       _mm512_add_ps(_mm512_mul_ps(c3, _mm512_loadu_ps(a + 6)), _mm512_mul_ps(c1, _mm512_loadu_ps(a + 9))));
+}
+__attribute__((target("avx512f")))
+int taps1331_avx512(const float* s, int end, float* o) {
+  const __m512 c1 = _mm512_set1_ps(0.125f), c3 = _mm512_set1_ps(0.375f);
+  int x = 1;
+  for (; x + 17 <= end; x += 16)
+    for (int v = 0; v < 3; ++v) {
+      const float* a = s + 6 * x - 3 + 32 * v - (16 * v) % 3;
+      _mm512_storeu_ps(o + 3 * x + 16 * v,
+                       _mm512_permutex2var_ps(taps1331_window(a, c1, c3), _mm512_load_si512(kDown2Perm.idx[v]),
+                                              taps1331_window(a + 16, c1, c3)));
+    }
+  return x;
+}
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
-  for (int x = 1; x < end; ++x) {
+  for (int x = kGlareAvx512 ? taps1331_avx512(s, end, o) : 1; x < end; ++x) {
     const float* a = s + 3 * (2 * x - 1);
     for (int k = 0; k < 3; ++k)
       o[3 * x + k] = (0.125f * a[k] + 0.375f * a[3 + k]) + (0.375f * a[6 + k] + 0.125f * a[9 + k]);
@@ -291,10 +385,16 @@ void down2_then_1331(const ImageF& in, ImageF& dst, std::vector<std::array<doubl
 // every output sums its taps from −R to R.
 void blur_row(const float* s, int w, const std::array<float, kGlareBlurRadius + 1>& g, float* pad, float* o) {
   constexpr int R = kGlareBlurRadius;
-  for (int x = -R; x < w + R; ++x)
+  // The interior x in [0, w) is its own mirror: copied whole; glare_mirror (a division) only on
+  // the 2R border pixels.
+  std::copy_n(s, 3 * static_cast<size_t>(w), pad + 3 * R);
+  for (int x = -R; x < 0; ++x)
     for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
-  for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
-  for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], pad + 3 * (R + k), 3 * static_cast<size_t>(w));
+  for (int x = w; x < w + R; ++x)
+    for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
+  const float* p[2 * R + 1];
+  for (int k = -R; k <= R; ++k) p[k + R] = pad + 3 * (R + k);
+  blur_taps(p, blur_weights(g).data(), 3 * static_cast<size_t>(w), false, 0.f, nullptr, o);
 }
 
 // One level of the way up, into dst (width x height): acc_l = w·blur(level) + up(acc_{l+1})
@@ -312,6 +412,7 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
   const int cw = up ? coarse->width() : 0, ch = up ? coarse->height() : 0;
   const size_t n = 3 * static_cast<size_t>(width);
   if (rows) rows->assign(height, {0, 0, 0});
+  const auto gk = blur_weights(g);
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
     const auto [ya, yb] = thread_rows(height);
@@ -334,9 +435,9 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
         if (y == ya)
           for (int k = y - R; k < y + R; ++k) make(k);
         make(y + R);
-        for (size_t j = 0; j < n; ++j) o[j] = 0.f;
-        for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], slot(y + k), n);
-        weigh_add(o, w, up ? u.data() : nullptr, n);
+        const float* p[kRing];
+        for (int k = -R; k <= R; ++k) p[k + R] = slot(y + k);
+        blur_taps(p, gk.data(), n, true, w, up ? u.data() : nullptr, o);
       }
       if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
     }
