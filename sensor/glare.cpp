@@ -41,39 +41,47 @@ using UpTap = shader::GlareTap;
 // e[k] = ¼·t[k − 3] + ¾·t[k], o[k] = ¾·t[k] + ¼·t[k + 3] (glare_up_tap's arithmetic) are formed
 // first over the contiguous row, where they vectorize, then interleaved pixel by pixel.
 //
-// The interleave, where the CPU has AVX-512, eight pixel pairs (48 floats of u) at a time:
-// float i of the block is e[3p + c] (c < 3) or o[3p + c − 3] (c >= 3), p = ⌊i/6⌋, c = i mod 6;
-// the 16 floats of output vector v (v = 0, 1, 2) come from pairs p0 = ⌊16v/6⌋ = 0, 2, 5 on, so
-// one two-source permute (vpermt2ps) of e and o loaded from 3·p0 forms each (kPairPerm); copies
-// only, the same floats as the 4-float stores. Returns the first pair j it left (j0 <= j).
+// Where the CPU has AVX-512, the interior is formed eight pixel pairs (48 floats of u) at a time
+// in registers, e and o never stored (upsample_pairs_avx512): float i of the block of pairs
+// j0 .. j0 + 7 is channel c = r mod 3 of pair q = ⌊i/6⌋'s even (r = i mod 6 < 3) or odd pixel,
+// glare_lerp(w0, X, w1, Y) with X = t[3(j0 + q − 1) + c], Y = t[3(j0 + q) + c], (w0, w1) = (¼, ¾)
+// when even, and X = t[3(j0 + q) + c], Y = t[3(j0 + q + 1) + c], (¾, ¼) when odd: e's and o's
+// operations on the same operands, so the same bits. X and Y of each output vector come from
+// the 32 floats of t from 3(j0 − 1) (offsets up to 3·7 + 6 + 2 = 29) by one two-source permute
+// each (kUpPairIndex). Returns the first pair it left.
 const bool kGlareAvx512 = __builtin_cpu_supports("avx512f");
-struct PairPerm {
-  alignas(64) int32_t idx[3][16];
-  PairPerm() {
-    const int p0[3] = {0, 2, 5};
+struct UpPairIndex {
+  alignas(64) int32_t x[3][16], y[3][16];
+  alignas(64) float w0[3][16], w1[3][16];
+  UpPairIndex() {
     for (int v = 0; v < 3; ++v)
       for (int l = 0; l < 16; ++l) {
-        const int i = 16 * v + l, p = i / 6, c = i % 6;
-        idx[v][l] = c < 3 ? 3 * (p - p0[v]) + c : 16 + 3 * (p - p0[v]) + c - 3;
+        const int i = 16 * v + l, q = i / 6, r = i % 6, odd = r >= 3 ? 1 : 0, c = r % 3;
+        x[v][l] = 3 * (q + odd) + c;
+        y[v][l] = 3 * (q + 1 + odd) + c;
+        w0[v][l] = odd ? 0.75f : 0.25f;
+        w1[v][l] = odd ? 0.25f : 0.75f;
       }
   }
 };
-const PairPerm kPairPerm;
+const UpPairIndex kUpPairIndex;
 __attribute__((target("avx512f")))
-int interleave_pairs_avx512(const float* e, const float* o, int j0, int j_end, float* u) {
-  const __m512i i0 = _mm512_load_si512(kPairPerm.idx[0]), i1 = _mm512_load_si512(kPairPerm.idx[1]),
-                i2 = _mm512_load_si512(kPairPerm.idx[2]);
-  int j = j0;
-  // The block's loads reach e[3(j + 5) + 15] < 3(j + 11) <= 3·j_end: pairs upsample_row formed.
-  for (; j + 11 <= j_end; j += 8) {
-    const float* a = e + 3 * j;
-    const float* b = o + 3 * j;
-    float* w = u + 6 * j;
-    _mm512_storeu_ps(w, _mm512_permutex2var_ps(_mm512_loadu_ps(a), i0, _mm512_loadu_ps(b)));
-    _mm512_storeu_ps(w + 16, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 6), i1, _mm512_loadu_ps(b + 6)));
-    _mm512_storeu_ps(w + 32, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 15), i2, _mm512_loadu_ps(b + 15)));
+int upsample_pairs_avx512(const float* t, int cw, float* u) {
+  const UpPairIndex& ix = kUpPairIndex;
+  int j0 = 1;
+  // Pairs j0 .. j0 + 7 are interior (j0 + 7 <= cw − 2) and the window t[3(j0 − 1), +32) lies
+  // inside t's 3·cw floats while j0 + 10 <= cw.
+  for (; j0 + 10 <= cw; j0 += 8) {
+    const float* tw = t + 3 * (j0 - 1);
+    const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+    for (int v = 0; v < 3; ++v) {
+      const __m512 X = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.x[v]), tb);
+      const __m512 Y = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.y[v]), tb);
+      _mm512_storeu_ps(u + 6 * j0 + 16 * v, _mm512_add_ps(_mm512_mul_ps(_mm512_load_ps(ix.w0[v]), X),
+                                                          _mm512_mul_ps(_mm512_load_ps(ix.w1[v]), Y)));
+    }
   }
-  return j;
+  return j0;
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
@@ -87,14 +95,14 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
   one(0);
   one(1);
   const int k_end = 3 * (cw - 1);  // x = 2j and 2j + 1 for 1 <= j < cw − 1, below 2cw − 2 <= width
-  for (int k = 3; k < k_end; ++k) {
+  const int k0 = 3 * (kGlareAvx512 ? upsample_pairs_avx512(t, cw, u) : 1);  // pairs below k0/3 done
+  for (int k = k0; k < k_end; ++k) {
     e[k] = glare_lerp(0.25f, t[k - 3], 0.75f, t[k]);
     o[k] = glare_lerp(0.75f, t[k], 0.25f, t[k + 3]);
   }
   // Interleaved by 4-float stores that overlap: e[k..k+3] to u[2k..], then o[k..k+3] to u[2k+3..]
   // over e's fourth float, whose own fourth float the next pixel pair (or one(), past the
   // interior) overwrites in turn. e, o hold 3·cw floats, so the reads stay inside them.
-  const int k0 = 3 * (kGlareAvx512 ? interleave_pairs_avx512(e, o, 1, cw - 1, u) : 1);
   for (int k = k0; k < k_end; k += 3) {
     _mm_storeu_ps(u + 2 * k, _mm_loadu_ps(e + k));
     _mm_storeu_ps(u + 2 * k + 3, _mm_loadu_ps(o + k));
