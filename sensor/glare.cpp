@@ -65,20 +65,43 @@ struct UpPairIndex {
   }
 };
 const UpPairIndex kUpPairIndex;
+// Output vector v of the block whose window of t is ta, tb.
+__attribute__((target("avx512f"))) inline __m512 up_pair_vector(__m512 ta, __m512 tb, int v) {
+  const UpPairIndex& ix = kUpPairIndex;
+  const __m512 X = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.x[v]), tb);
+  const __m512 Y = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.y[v]), tb);
+  return _mm512_add_ps(_mm512_mul_ps(_mm512_load_ps(ix.w0[v]), X), _mm512_mul_ps(_mm512_load_ps(ix.w1[v]), Y));
+}
+// Pairs j0 .. j0 + 7 are interior (j0 + 7 <= cw − 2) and the window t[3(j0 − 1), +32) lies
+// inside t's 3·cw floats while j0 + 10 <= cw.
+inline bool up_pairs_fit(int j0, int cw) { return j0 + 10 <= cw; }
 __attribute__((target("avx512f")))
 int upsample_pairs_avx512(const float* t, int cw, float* u) {
-  const UpPairIndex& ix = kUpPairIndex;
   int j0 = 1;
-  // Pairs j0 .. j0 + 7 are interior (j0 + 7 <= cw − 2) and the window t[3(j0 − 1), +32) lies
-  // inside t's 3·cw floats while j0 + 10 <= cw.
-  for (; j0 + 10 <= cw; j0 += 8) {
+  for (; up_pairs_fit(j0, cw); j0 += 8) {
+    const float* tw = t + 3 * (j0 - 1);
+    const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+    for (int v = 0; v < 3; ++v) _mm512_storeu_ps(u + 6 * j0 + 16 * v, up_pair_vector(ta, tb, v));
+  }
+  return j0;
+}
+// glare_row's interior where the CPU has AVX-512: the same blocks of pairs, each output vector
+// mixed at once, out = glare_mix(keep, in, s_c, u) = keep·in + s_c·u (the channel's scale per
+// lane), so the upsampled row u is never stored. Returns the first pair it left.
+__attribute__((target("avx512f")))
+int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s3, const float* in, float* out) {
+  alignas(64) float sl[3][16];
+  for (int v = 0; v < 3; ++v)
+    for (int l = 0; l < 16; ++l) sl[v][l] = s3[(16 * v + l) % 3];
+  const __m512 vkeep = _mm512_set1_ps(keep);
+  int j0 = 1;
+  for (; up_pairs_fit(j0, cw); j0 += 8) {
     const float* tw = t + 3 * (j0 - 1);
     const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
     for (int v = 0; v < 3; ++v) {
-      const __m512 X = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.x[v]), tb);
-      const __m512 Y = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.y[v]), tb);
-      _mm512_storeu_ps(u + 6 * j0 + 16 * v, _mm512_add_ps(_mm512_mul_ps(_mm512_load_ps(ix.w0[v]), X),
-                                                          _mm512_mul_ps(_mm512_load_ps(ix.w1[v]), Y)));
+      const size_t k = 6 * static_cast<size_t>(j0) + 16 * v;
+      _mm512_storeu_ps(out + k, _mm512_add_ps(_mm512_mul_ps(vkeep, _mm512_loadu_ps(in + k)),
+                                              _mm512_mul_ps(_mm512_load_ps(sl[v]), up_pair_vector(ta, tb, v))));
     }
   }
   return j0;
@@ -593,8 +616,24 @@ const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
 }
 
 void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
-  const float* u = glare_skirt_row(s, y, tmp);
-  mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
+  const int cw = s.acc1->width();
+  if (!kGlareAvx512 || cw < 3) {
+    const float* u = glare_skirt_row(s, y, tmp);
+    mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
+    return;
+  }
+  // Where the CPU has AVX-512: the interior pairs upsampled and mixed in registers
+  // (upsample_mix_pairs_avx512), the rest (pixels 0, 1 and from the first pair left on, by
+  // upsample_row's per-pixel step glare_up_pixel) by mix_row: the same operations per sample.
+  const float* t = detail::glare_skirt_vertical_row(s, y, tmp);
+  const int j1 = upsample_mix_pairs_avx512(t, cw, s.keep, s.scale.data(), in, out);
+  float* u = tmp + glare_row_layout(s).u;
+  auto rest = [&](int xa, int xb) {
+    for (int x = xa; x < xb; ++x) detail::glare_up_pixel(t, cw, x, u + 3 * (x - xa));
+    mix_row(s.keep, s.scale.data(), in + 3 * xa, u, 3 * static_cast<size_t>(xb - xa), out + 3 * xa);
+  };
+  rest(0, 2);
+  rest(2 * j1, s.width);
 }
 
 ImageF apply_glare(const ImageF& in, const LensGlare& glare, double px_per_deg) {
