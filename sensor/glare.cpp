@@ -41,39 +41,70 @@ using UpTap = shader::GlareTap;
 // e[k] = ¼·t[k − 3] + ¾·t[k], o[k] = ¾·t[k] + ¼·t[k + 3] (glare_up_tap's arithmetic) are formed
 // first over the contiguous row, where they vectorize, then interleaved pixel by pixel.
 //
-// The interleave, where the CPU has AVX-512, eight pixel pairs (48 floats of u) at a time:
-// float i of the block is e[3p + c] (c < 3) or o[3p + c − 3] (c >= 3), p = ⌊i/6⌋, c = i mod 6;
-// the 16 floats of output vector v (v = 0, 1, 2) come from pairs p0 = ⌊16v/6⌋ = 0, 2, 5 on, so
-// one two-source permute (vpermt2ps) of e and o loaded from 3·p0 forms each (kPairPerm); copies
-// only, the same floats as the 4-float stores. Returns the first pair j it left (j0 <= j).
+// Where the CPU has AVX-512, the interior is formed eight pixel pairs (48 floats of u) at a time
+// in registers, e and o never stored (upsample_pairs_avx512): float i of the block of pairs
+// j0 .. j0 + 7 is channel c = r mod 3 of pair q = ⌊i/6⌋'s even (r = i mod 6 < 3) or odd pixel,
+// glare_lerp(w0, X, w1, Y) with X = t[3(j0 + q − 1) + c], Y = t[3(j0 + q) + c], (w0, w1) = (¼, ¾)
+// when even, and X = t[3(j0 + q) + c], Y = t[3(j0 + q + 1) + c], (¾, ¼) when odd: e's and o's
+// operations on the same operands, so the same bits. X and Y of each output vector come from
+// the 32 floats of t from 3(j0 − 1) (offsets up to 3·7 + 6 + 2 = 29) by one two-source permute
+// each (kUpPairIndex). Returns the first pair it left.
 const bool kGlareAvx512 = __builtin_cpu_supports("avx512f");
-struct PairPerm {
-  alignas(64) int32_t idx[3][16];
-  PairPerm() {
-    const int p0[3] = {0, 2, 5};
+struct UpPairIndex {
+  alignas(64) int32_t x[3][16], y[3][16];
+  alignas(64) float w0[3][16], w1[3][16];
+  UpPairIndex() {
     for (int v = 0; v < 3; ++v)
       for (int l = 0; l < 16; ++l) {
-        const int i = 16 * v + l, p = i / 6, c = i % 6;
-        idx[v][l] = c < 3 ? 3 * (p - p0[v]) + c : 16 + 3 * (p - p0[v]) + c - 3;
+        const int i = 16 * v + l, q = i / 6, r = i % 6, odd = r >= 3 ? 1 : 0, c = r % 3;
+        x[v][l] = 3 * (q + odd) + c;
+        y[v][l] = 3 * (q + 1 + odd) + c;
+        w0[v][l] = odd ? 0.75f : 0.25f;
+        w1[v][l] = odd ? 0.25f : 0.75f;
       }
   }
 };
-const PairPerm kPairPerm;
+const UpPairIndex kUpPairIndex;
+// Output vector v of the block whose window of t is ta, tb.
+__attribute__((target("avx512f"))) inline __m512 up_pair_vector(__m512 ta, __m512 tb, int v) {
+  const UpPairIndex& ix = kUpPairIndex;
+  const __m512 X = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.x[v]), tb);
+  const __m512 Y = _mm512_permutex2var_ps(ta, _mm512_load_si512(ix.y[v]), tb);
+  return _mm512_add_ps(_mm512_mul_ps(_mm512_load_ps(ix.w0[v]), X), _mm512_mul_ps(_mm512_load_ps(ix.w1[v]), Y));
+}
+// Pairs j0 .. j0 + 7 are interior (j0 + 7 <= cw − 2) and the window t[3(j0 − 1), +32) lies
+// inside t's 3·cw floats while j0 + 10 <= cw.
+inline bool up_pairs_fit(int j0, int cw) { return j0 + 10 <= cw; }
 __attribute__((target("avx512f")))
-int interleave_pairs_avx512(const float* e, const float* o, int j0, int j_end, float* u) {
-  const __m512i i0 = _mm512_load_si512(kPairPerm.idx[0]), i1 = _mm512_load_si512(kPairPerm.idx[1]),
-                i2 = _mm512_load_si512(kPairPerm.idx[2]);
-  int j = j0;
-  // The block's loads reach e[3(j + 5) + 15] < 3(j + 11) <= 3·j_end: pairs upsample_row formed.
-  for (; j + 11 <= j_end; j += 8) {
-    const float* a = e + 3 * j;
-    const float* b = o + 3 * j;
-    float* w = u + 6 * j;
-    _mm512_storeu_ps(w, _mm512_permutex2var_ps(_mm512_loadu_ps(a), i0, _mm512_loadu_ps(b)));
-    _mm512_storeu_ps(w + 16, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 6), i1, _mm512_loadu_ps(b + 6)));
-    _mm512_storeu_ps(w + 32, _mm512_permutex2var_ps(_mm512_loadu_ps(a + 15), i2, _mm512_loadu_ps(b + 15)));
+int upsample_pairs_avx512(const float* t, int cw, float* u) {
+  int j0 = 1;
+  for (; up_pairs_fit(j0, cw); j0 += 8) {
+    const float* tw = t + 3 * (j0 - 1);
+    const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+    for (int v = 0; v < 3; ++v) _mm512_storeu_ps(u + 6 * j0 + 16 * v, up_pair_vector(ta, tb, v));
   }
-  return j;
+  return j0;
+}
+// glare_row's interior where the CPU has AVX-512: the same blocks of pairs, each output vector
+// mixed at once, out = glare_mix(keep, in, s_c, u) = keep·in + s_c·u (the channel's scale per
+// lane), so the upsampled row u is never stored. Returns the first pair it left.
+__attribute__((target("avx512f")))
+int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s3, const float* in, float* out) {
+  alignas(64) float sl[3][16];
+  for (int v = 0; v < 3; ++v)
+    for (int l = 0; l < 16; ++l) sl[v][l] = s3[(16 * v + l) % 3];
+  const __m512 vkeep = _mm512_set1_ps(keep);
+  int j0 = 1;
+  for (; up_pairs_fit(j0, cw); j0 += 8) {
+    const float* tw = t + 3 * (j0 - 1);
+    const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+    for (int v = 0; v < 3; ++v) {
+      const size_t k = 6 * static_cast<size_t>(j0) + 16 * v;
+      _mm512_storeu_ps(out + k, _mm512_add_ps(_mm512_mul_ps(vkeep, _mm512_loadu_ps(in + k)),
+                                              _mm512_mul_ps(_mm512_load_ps(sl[v]), up_pair_vector(ta, tb, v))));
+    }
+  }
+  return j0;
 }
 
 __attribute__((target_clones("avx512f", "avx2", "default")))
@@ -87,14 +118,14 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
   one(0);
   one(1);
   const int k_end = 3 * (cw - 1);  // x = 2j and 2j + 1 for 1 <= j < cw − 1, below 2cw − 2 <= width
-  for (int k = 3; k < k_end; ++k) {
+  const int k0 = 3 * (kGlareAvx512 ? upsample_pairs_avx512(t, cw, u) : 1);  // pairs below k0/3 done
+  for (int k = k0; k < k_end; ++k) {
     e[k] = glare_lerp(0.25f, t[k - 3], 0.75f, t[k]);
     o[k] = glare_lerp(0.75f, t[k], 0.25f, t[k + 3]);
   }
   // Interleaved by 4-float stores that overlap: e[k..k+3] to u[2k..], then o[k..k+3] to u[2k+3..]
   // over e's fourth float, whose own fourth float the next pixel pair (or one(), past the
   // interior) overwrites in turn. e, o hold 3·cw floats, so the reads stay inside them.
-  const int k0 = 3 * (kGlareAvx512 ? interleave_pairs_avx512(e, o, 1, cw - 1, u) : 1);
   for (int k = k0; k < k_end; k += 3) {
     _mm_storeu_ps(u + 2 * k, _mm_loadu_ps(e + k));
     _mm_storeu_ps(u + 2 * k + 3, _mm_loadu_ps(o + k));
@@ -109,20 +140,47 @@ void lerp_row(float w0, const float* __restrict a, float w1, const float* __rest
   for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
 }
 
-// o[j] = o[j] + w·p[j] over n samples (one tap of a blur).
+// The 2R + 1 = 7 taps of a blur over n samples in one pass: a = Σ_k g_k·p_k[j], summed from 0
+// in the order k = 0 .. 6 (a = 0; a = a + g_k·p_k[j]: the order of the blur's definition, term
+// by term), then o[j] = a (weigh false), or o[j] = w·a + u[j] (u given) or w·a (u null): a
+// level's weighted blur plus the upsampled coarser accumulator. The same IEEE operations in the
+// same order per sample as forming the sum tap by tap over the row, without storing and
+// reloading it between taps.
+static_assert(kGlareBlurRadius == 3, "blur_taps is written for 7 taps");
 __attribute__((target_clones("avx512f", "avx2", "default")))
-void add_tap(float* __restrict o, float w, const float* __restrict p, size_t n) {
-  for (size_t j = 0; j < n; ++j) o[j] = o[j] + w * p[j];
-}
-
-// o[j] = w·o[j] + u[j] (u given) or w·o[j] (u null): a level's weighted blur plus the upsampled
-// coarser accumulator.
-__attribute__((target_clones("avx512f", "avx2", "default")))
-void weigh_add(float* __restrict o, float w, const float* __restrict u, size_t n) {
-  if (u)
-    for (size_t j = 0; j < n; ++j) o[j] = w * o[j] + u[j];
+void blur_taps(const float* const* p, const float* gk, size_t n, bool weigh, float w, const float* __restrict u,
+               float* __restrict o) {
+  const float* __restrict p0 = p[0];
+  const float* __restrict p1 = p[1];
+  const float* __restrict p2 = p[2];
+  const float* __restrict p3 = p[3];
+  const float* __restrict p4 = p[4];
+  const float* __restrict p5 = p[5];
+  const float* __restrict p6 = p[6];
+  const float g0 = gk[0], g1 = gk[1], g2 = gk[2], g3 = gk[3], g4 = gk[4], g5 = gk[5], g6 = gk[6];
+  auto sum = [&](size_t j) {
+    float a = 0.f;
+    a = a + g0 * p0[j];
+    a = a + g1 * p1[j];
+    a = a + g2 * p2[j];
+    a = a + g3 * p3[j];
+    a = a + g4 * p4[j];
+    a = a + g5 * p5[j];
+    a = a + g6 * p6[j];
+    return a;
+  };
+  if (!weigh)
+    for (size_t j = 0; j < n; ++j) o[j] = sum(j);
+  else if (u)
+    for (size_t j = 0; j < n; ++j) o[j] = w * sum(j) + u[j];
   else
-    for (size_t j = 0; j < n; ++j) o[j] = w * o[j];
+    for (size_t j = 0; j < n; ++j) o[j] = w * sum(j);
+}
+// g_|k| for k = −R .. R.
+std::array<float, 2 * kGlareBlurRadius + 1> blur_weights(const std::array<float, kGlareBlurRadius + 1>& g) {
+  std::array<float, 2 * kGlareBlurRadius + 1> gk{};
+  for (int k = -kGlareBlurRadius; k <= kGlareBlurRadius; ++k) gk[k + kGlareBlurRadius] = g[std::abs(k)];
+  return gk;
 }
 
 // out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
@@ -164,10 +222,53 @@ constexpr int64_t kParallelPixels = int64_t{1} << 18;
 // One output row of down2 from input rows ra, rb (w pixels): pixel x averages the pairs at 2x
 // and min(2x + 1, w − 1), in the order ((a0 + a1) + (b0 + b1))·¼; the interior pairs without
 // the clamp, so that the loop vectorizes.
+//
+// Where the CPU has AVX-512, down2_row's interior 16 output pixels (48 floats) at a time
+// (down2_pairs_avx512): output float i = 3x + c reads input float k(i) = 6x + c = 2i − (i mod 3)
+// and k(i) + 3 of each row. For output vector v (i = 16v .. 16v + 15) the k(i) lie in a window
+// of 32 floats from b_v = k(16v) = 0, 31, 62 (k(16v + 15) − b_v = 30); the pair sums
+// ra[k] + ra[k + 3] and rb[k] + rb[k + 3] and their sum are formed over the whole window (two
+// vectors, the second term from a load 3 floats on), one two-source permute (vpermt2ps) picks
+// the 16 lanes k(i), then the ·¼: per output float the same IEEE operations in the same order,
+// ((a0 + a1) + (b0 + b1))·¼, so the same bits (test GlareFastPath.SkirtEqualsTheWholeImageDefinition).
+// Returns the first output pixel it left.
+struct Down2Perm {
+  alignas(64) int32_t idx[3][16];
+  Down2Perm() {
+    for (int v = 0; v < 3; ++v)
+      for (int l = 0; l < 16; ++l) {
+        const int i = 16 * v + l, base = 32 * v - (16 * v) % 3;
+        idx[v][l] = 2 * i - i % 3 - base;
+      }
+  }
+};
+const Down2Perm kDown2Perm;
+__attribute__((target("avx512f")))
+int down2_pairs_avx512(const float* ra, const float* rb, int w, float* o) {
+  const int pairs = w / 2;
+  const __m512 quarter = _mm512_set1_ps(0.25f);
+  int x = 0;
+  // A block reads input floats 6x .. 6x + 96 (the last load's lane 15 lies one float past the
+  // block's 32 pixels): inside the row while 6x + 97 <= 3w; its pixels are pairs while x + 16 <= pairs.
+  for (; x + 16 <= pairs && 6 * x + 97 <= 3 * w; x += 16) {
+    for (int v = 0; v < 3; ++v) {
+      const int b = 6 * x + 32 * v - (16 * v) % 3;
+      const __m512 sa0 = _mm512_add_ps(_mm512_loadu_ps(ra + b), _mm512_loadu_ps(ra + b + 3));
+      const __m512 sa1 = _mm512_add_ps(_mm512_loadu_ps(ra + b + 16), _mm512_loadu_ps(ra + b + 19));
+      const __m512 sb0 = _mm512_add_ps(_mm512_loadu_ps(rb + b), _mm512_loadu_ps(rb + b + 3));
+      const __m512 sb1 = _mm512_add_ps(_mm512_loadu_ps(rb + b + 16), _mm512_loadu_ps(rb + b + 19));
+      const __m512 q = _mm512_permutex2var_ps(_mm512_add_ps(sa0, sb0), _mm512_load_si512(kDown2Perm.idx[v]),
+                                              _mm512_add_ps(sa1, sb1));
+      _mm512_storeu_ps(o + 3 * x + 16 * v, _mm512_mul_ps(q, quarter));
+    }
+  }
+  return x;
+}
+
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
   const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
-  for (int x = 0; x < pairs; ++x)
+  for (int x = kGlareAvx512 ? down2_pairs_avx512(ra, rb, w, o) : 0; x < pairs; ++x)
     for (int c = 0; c < 3; ++c) {
       const int k = 6 * x + c;
       o[3 * x + c] = ((ra[k] + ra[k + 3]) + (rb[k] + rb[k + 3])) * 0.25f;
@@ -193,9 +294,33 @@ void down2(const ImageF& src, ImageF& dst, std::vector<std::array<double, 3>>& r
 }
 
 // down_1331's interior along a row: o[3x + k] for 1 <= x < end, from s[3(2x − 1) + k] on.
+// Where the CPU has AVX-512, 16 output pixels at a time (taps1331_avx512): output float i = 3x + k
+// reads s[m], s[m + 3], s[m + 6], s[m + 9] with m = 6x − 3 + k = k(i) − 3, k(i) = 2i − (i mod 3)
+// as in down2_pairs_avx512, so the taps are summed over the same three windows of 32 floats
+// (from 6x − 3 + 0, 31, 62) and the same permute picks the lanes: per output float the same IEEE
+// operations in the same order, (⅛·a0 + ⅜·a1) + (⅜·a2 + ⅛·a3). A block's loads reach s[6x + 99]:
+// inside the row (3w floats, w >= 2·end + 1) while x + 17 <= end. Returns the first x it left.
+// The taps at the 16 positions a .. a + 15.
+__attribute__((target("avx512f"))) inline __m512 taps1331_window(const float* a, __m512 c1, __m512 c3) {
+  return _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(c1, _mm512_loadu_ps(a)), _mm512_mul_ps(c3, _mm512_loadu_ps(a + 3))),
+                       _mm512_add_ps(_mm512_mul_ps(c3, _mm512_loadu_ps(a + 6)), _mm512_mul_ps(c1, _mm512_loadu_ps(a + 9))));
+}
+__attribute__((target("avx512f")))
+int taps1331_avx512(const float* s, int end, float* o) {
+  const __m512 c1 = _mm512_set1_ps(0.125f), c3 = _mm512_set1_ps(0.375f);
+  int x = 1;
+  for (; x + 17 <= end; x += 16)
+    for (int v = 0; v < 3; ++v) {
+      const float* a = s + 6 * x - 3 + 32 * v - (16 * v) % 3;
+      _mm512_storeu_ps(o + 3 * x + 16 * v,
+                       _mm512_permutex2var_ps(taps1331_window(a, c1, c3), _mm512_load_si512(kDown2Perm.idx[v]),
+                                              taps1331_window(a + 16, c1, c3)));
+    }
+  return x;
+}
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
-  for (int x = 1; x < end; ++x) {
+  for (int x = kGlareAvx512 ? taps1331_avx512(s, end, o) : 1; x < end; ++x) {
     const float* a = s + 3 * (2 * x - 1);
     for (int k = 0; k < 3; ++k)
       o[3 * x + k] = (0.125f * a[k] + 0.375f * a[3 + k]) + (0.375f * a[6 + k] + 0.125f * a[9 + k]);
@@ -291,10 +416,16 @@ void down2_then_1331(const ImageF& in, ImageF& dst, std::vector<std::array<doubl
 // every output sums its taps from −R to R.
 void blur_row(const float* s, int w, const std::array<float, kGlareBlurRadius + 1>& g, float* pad, float* o) {
   constexpr int R = kGlareBlurRadius;
-  for (int x = -R; x < w + R; ++x)
+  // The interior x in [0, w) is its own mirror: copied whole; glare_mirror (a division) only on
+  // the 2R border pixels.
+  std::copy_n(s, 3 * static_cast<size_t>(w), pad + 3 * R);
+  for (int x = -R; x < 0; ++x)
     for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
-  for (int j = 0; j < 3 * w; ++j) o[j] = 0.f;
-  for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], pad + 3 * (R + k), 3 * static_cast<size_t>(w));
+  for (int x = w; x < w + R; ++x)
+    for (int c = 0; c < 3; ++c) pad[3 * (x + R) + c] = s[3 * glare_mirror(x, w) + c];
+  const float* p[2 * R + 1];
+  for (int k = -R; k <= R; ++k) p[k + R] = pad + 3 * (R + k);
+  blur_taps(p, blur_weights(g).data(), 3 * static_cast<size_t>(w), false, 0.f, nullptr, o);
 }
 
 // One level of the way up, into dst (width x height): acc_l = w·blur(level) + up(acc_{l+1})
@@ -312,6 +443,7 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
   const int cw = up ? coarse->width() : 0, ch = up ? coarse->height() : 0;
   const size_t n = 3 * static_cast<size_t>(width);
   if (rows) rows->assign(height, {0, 0, 0});
+  const auto gk = blur_weights(g);
 #pragma omp parallel if (static_cast<int64_t>(width) * height > kParallelPixels)
   {
     const auto [ya, yb] = thread_rows(height);
@@ -334,9 +466,9 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
         if (y == ya)
           for (int k = y - R; k < y + R; ++k) make(k);
         make(y + R);
-        for (size_t j = 0; j < n; ++j) o[j] = 0.f;
-        for (int k = -R; k <= R; ++k) add_tap(o, g[std::abs(k)], slot(y + k), n);
-        weigh_add(o, w, up ? u.data() : nullptr, n);
+        const float* p[kRing];
+        for (int k = -R; k <= R; ++k) p[k + R] = slot(y + k);
+        blur_taps(p, gk.data(), n, true, w, up ? u.data() : nullptr, o);
       }
       if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
     }
@@ -484,8 +616,24 @@ const float* glare_skirt_row(const GlareSkirt& s, int y, float* tmp) {
 }
 
 void glare_row(const GlareSkirt& s, int y, const float* in, float* out, float* tmp) {
-  const float* u = glare_skirt_row(s, y, tmp);
-  mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
+  const int cw = s.acc1->width();
+  if (!kGlareAvx512 || cw < 3) {
+    const float* u = glare_skirt_row(s, y, tmp);
+    mix_row(s.keep, s.scale.data(), in, u, 3 * static_cast<size_t>(s.width), out);
+    return;
+  }
+  // Where the CPU has AVX-512: the interior pairs upsampled and mixed in registers
+  // (upsample_mix_pairs_avx512), the rest (pixels 0, 1 and from the first pair left on, by
+  // upsample_row's per-pixel step glare_up_pixel) by mix_row: the same operations per sample.
+  const float* t = detail::glare_skirt_vertical_row(s, y, tmp);
+  const int j1 = upsample_mix_pairs_avx512(t, cw, s.keep, s.scale.data(), in, out);
+  float* u = tmp + glare_row_layout(s).u;
+  auto rest = [&](int xa, int xb) {
+    for (int x = xa; x < xb; ++x) detail::glare_up_pixel(t, cw, x, u + 3 * (x - xa));
+    mix_row(s.keep, s.scale.data(), in + 3 * xa, u, 3 * static_cast<size_t>(xb - xa), out + 3 * xa);
+  };
+  rest(0, 2);
+  rest(2 * j1, s.width);
 }
 
 ImageF apply_glare(const ImageF& in, const LensGlare& glare, double px_per_deg) {

@@ -356,6 +356,28 @@ TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
     }
 }
 
+// apply_glare (glare_row: on AVX-512 the interior pixel pairs upsampled and mixed in registers,
+// the row's ends by the per-pixel step and mix_row) equals the glared image made whole, bit for
+// bit, at 1, 2 and 3 threads: widths 21 (one block of pairs) and 20 (none), 333, 64, 2048, one
+// pixel wide or high, and 5 (acc_1 3 pixels wide: no block).
+TEST(GlareFastPath, GlaredImageEqualsTheWholeImageDefinition) {
+  LensGlare g;
+  g.enabled = true;
+  g.veiling_glare_index = 0.05;
+  g.core_deg = 0.1;
+  g.reach_deg = 20;
+  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}, {21, 5}, {20, 3}, {5, 4}};
+  for (const auto& wh : sizes) {
+    const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 5 + wh[1]);
+    const GlareSkirt skirt = glare_skirt(in, plan_glare(g, 35));
+    ASSERT_TRUE(skirt.active());
+    const ImageF want = ref_glared(in, skirt);
+    at_thread_counts([&](int t) {
+      EXPECT_TRUE(same_bits(apply_glare(in, g, 35), want)) << wh[0] << "x" << wh[1] << ", " << t << " threads";
+    });
+  }
+}
+
 // A radiance that is not physical (NaN, Inf, negative, or R + G + B overflowing) is reported at
 // its pixel by the glared photon stage wherever it lies in the row: in the AVX-512 blocks' first,
 // middle and last lanes and in the row's rest (pixels 0, 1 and past the last block).
