@@ -411,6 +411,7 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
                  : i + 1;
   }
   const double cp = std::cos(g.pitch_rad), sp = std::sin(g.pitch_rad);
+  constexpr int kBuildingId = static_cast<int>(Label::Building);
   // One pass per row: ground and sky per pixel between the object runs, each object run from its
   // component's plane, and on building pixels (all inside object runs: the building class is an
   // object) the façade plane over that.
@@ -441,7 +442,13 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
         const int cx0 = c.x0, x1 = u.x1;  // locals: the stores below cannot change them
         plane_fill(o + u.x0, cd + (u.x0 - cx0), x1 + 1 - u.x0, py, max_depth_m);
       }
-      // Per span of one region and, within it, of one façade plane (and on-plane flag).
+      // Per span of one region and, within it, of one façade plane (and on-plane flag). The region
+      // image is -1 off the building class (building_regions), so a run keyed by another class id
+      // (key < 1000: no instance code, one class) holds no region and is not scanned.
+      if (u.key < 1000 && u.key != kBuildingId) {
+        x = u.x1 + 1;
+        continue;
+      }
       for (int xx = u.x0, x1 = u.x1; xx <= x1;) {
         const int rr = reg[xx];
         const int xe = run_end(reg, xx, x1 + 1);
@@ -555,10 +562,24 @@ bool fit_line(const std::vector<Contact>& c, const std::vector<uint8_t>& free, L
 }
 }  // namespace
 
-BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m) {
+// building_facades' part that reads only the labels (scene/night_detail.h): the building
+// regions, their columns' lowest rows and the region image.
+struct BuildingRegions {
+  const uint16_t* ids = nullptr;  // the labels it was made of (building_facades_with takes it for those only)
+  int width = 0, height = 0;
+  std::vector<BuildingFacades::Region> regions;  // x0 and the per-column vectors sized (-1, 0)
+  std::vector<long> col_off;                     // region r's columns at ymax_all[col_off[r]...]
+  std::vector<int> ymax_all;                     // each column's lowest row of its region
+  ImageI32 region;                               // per pixel: region index, -1 off the building class
+};
+
+std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
   const int W = ids.width(), H = ids.height();
   const uint16_t building = static_cast<uint16_t>(Label::Building);
-  BuildingFacades out;
+  auto m = std::make_shared<BuildingRegions>();
+  m->ids = ids.data();
+  m->width = W;
+  m->height = H;
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
   const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
     const uint16_t* r = ids.row(y);
@@ -570,31 +591,33 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
   });
   const std::vector<KeyedRun>& runs = rc.runs;
   const std::vector<int>& run_region = rc.comp;
-  out.regions.resize(rc.count);
+  std::vector<BuildingFacades::Region>& regions = m->regions;
+  regions.resize(rc.count);
   std::vector<int> x1s(rc.count, -1);
-  for (auto& r : out.regions) r.x0 = 1 << 30;
+  for (auto& r : regions) r.x0 = 1 << 30;
   for (size_t i = 0; i < runs.size(); ++i) {
     const int r = run_region[i];
-    out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
+    regions[r].x0 = std::min(regions[r].x0, runs[i].x0);
     x1s[r] = std::max(x1s[r], runs[i].x1);
   }
   // Per region, its columns' lowest rows, one block of them for all regions (col_off[r] onwards).
-  std::vector<long> col_off(out.regions.size() + 1, 0);
-  for (size_t r = 0; r < out.regions.size(); ++r) {
-    const int w = x1s[r] - out.regions[r].x0 + 1;
-    out.regions[r].column_plane.assign(w, -1);
-    out.regions[r].on_plane.assign(w, 0);
+  std::vector<long>& col_off = m->col_off;
+  col_off.assign(regions.size() + 1, 0);
+  for (size_t r = 0; r < regions.size(); ++r) {
+    const int w = x1s[r] - regions[r].x0 + 1;
+    regions[r].column_plane.assign(w, -1);
+    regions[r].on_plane.assign(w, 0);
     col_off[r + 1] = col_off[r] + w;
   }
-  std::vector<int> ymax_all(col_off.back(), -1);
+  m->ymax_all.assign(col_off.back(), -1);
   lowest_rows(
       runs, W, [&](size_t i) { return col_off[run_region[i]]; },
-      [&](size_t i) { return out.regions[run_region[i]].x0; }, ymax_all.data());
+      [&](size_t i) { return regions[run_region[i]].x0; }, m->ymax_all.data());
   // The region of every pixel (-1 off the building class), one pass per row.
-  out.region = ImageI32(W, H, 1, uninitialized, "region");
+  m->region = ImageI32(W, H, 1, uninitialized, "region");
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
-    int32_t* o = out.region.row(y);
+    int32_t* o = m->region.row(y);
     int x = 0;
     for (int i = rc.row_start[y]; i < rc.row_start[y + 1]; ++i) {
       std::fill(o + x, o + runs[i].x0, -1);
@@ -603,6 +626,29 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
     }
     std::fill(o + x, o + W, -1);
   }
+  return m;
+}
+
+BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m) {
+  return building_facades_with(ids, g, max_depth_m, nullptr);
+}
+
+BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
+                                      BuildingRegions* made) {
+  const int H = ids.height();
+  // The labels-only part: made beside the Hough stage by night_scene, else here; taken (its
+  // regions and region image moved out) only when made of these labels.
+  std::shared_ptr<BuildingRegions> computed;
+  if (!(made && made->ids == ids.data() && made->width == ids.width() && made->height == H)) {
+    computed = building_regions(ids);
+    made = computed.get();
+  }
+  BuildingFacades out;
+  out.regions = std::move(made->regions);
+  out.region = std::move(made->region);
+  made->ids = nullptr;  // taken: a second call makes its own
+  const std::vector<long>& col_off = made->col_off;
+  const std::vector<int>& ymax_all = made->ymax_all;
   auto object = [&](int id) {  // neither ground nor sky: something standing in front
     return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
            id != static_cast<int>(Label::RectificationBorder) && id != static_cast<int>(Label::OutOfRoi);
