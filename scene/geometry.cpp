@@ -411,7 +411,6 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
                  : i + 1;
   }
   const double cp = std::cos(g.pitch_rad), sp = std::sin(g.pitch_rad);
-  constexpr int kBuildingId = static_cast<int>(Label::Building);
   // One pass per row: ground and sky per pixel between the object runs, each object run from its
   // component's plane, and on building pixels (all inside object runs: the building class is an
   // object) the façade plane over that.
@@ -442,13 +441,7 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
         const int cx0 = c.x0, x1 = u.x1;  // locals: the stores below cannot change them
         plane_fill(o + u.x0, cd + (u.x0 - cx0), x1 + 1 - u.x0, py, max_depth_m);
       }
-      // Per span of one region and, within it, of one façade plane (and on-plane flag). The region
-      // image is -1 off the building class (building_regions), so a run keyed by another class id
-      // (key < 1000: no instance code, one class) holds no region and is not scanned.
-      if (u.key < 1000 && u.key != kBuildingId) {
-        x = u.x1 + 1;
-        continue;
-      }
+      // Per span of one region and, within it, of one façade plane (and on-plane flag).
       for (int xx = u.x0, x1 = u.x1; xx <= x1;) {
         const int rr = reg[xx];
         const int xe = run_end(reg, xx, x1 + 1);
