@@ -556,14 +556,14 @@ bool fit_line(const std::vector<Contact>& c, const std::vector<uint8_t>& free, L
 }  // namespace
 
 // building_facades' part that reads only the labels (scene/night_detail.h): the building
-// regions, their columns' lowest rows and the region image.
+// regions (their label runs and components) and their columns' lowest rows.
 struct BuildingRegions {
   const uint16_t* ids = nullptr;  // the labels it was made of (building_facades_with takes it for those only)
   int width = 0, height = 0;
+  RunComponents rc;                              // the building class's runs and their regions
   std::vector<BuildingFacades::Region> regions;  // x0 and the per-column vectors sized (-1, 0)
   std::vector<long> col_off;                     // region r's columns at ymax_all[col_off[r]...]
   std::vector<int> ymax_all;                     // each column's lowest row of its region
-  ImageI32 region;                               // per pixel: region index, -1 off the building class
 };
 
 std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
@@ -574,7 +574,7 @@ std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
   m->width = W;
   m->height = H;
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
-  const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
+  m->rc = run_components(H, [&](int y, auto&& emit) {
     const uint16_t* r = ids.row(y);
     for (int x = 0; x < W;) {
       const int e = run_end(r, x, W);
@@ -582,6 +582,7 @@ std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
       x = e;
     }
   });
+  const RunComponents& rc = m->rc;
   const std::vector<KeyedRun>& runs = rc.runs;
   const std::vector<int>& run_region = rc.comp;
   std::vector<BuildingFacades::Region>& regions = m->regions;
@@ -606,19 +607,6 @@ std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
   lowest_rows(
       runs, W, [&](size_t i) { return col_off[run_region[i]]; },
       [&](size_t i) { return regions[run_region[i]].x0; }, m->ymax_all.data());
-  // The region of every pixel (-1 off the building class), one pass per row.
-  m->region = ImageI32(W, H, 1, uninitialized, "region");
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
-    int32_t* o = m->region.row(y);
-    int x = 0;
-    for (int i = rc.row_start[y]; i < rc.row_start[y + 1]; ++i) {
-      std::fill(o + x, o + runs[i].x0, -1);
-      std::fill(o + runs[i].x0, o + runs[i].x1 + 1, run_region[i]);
-      x = runs[i].x1 + 1;
-    }
-    std::fill(o + x, o + W, -1);
-  }
   return m;
 }
 
@@ -628,20 +616,35 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
 
 BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
                                       BuildingRegions* made) {
-  const int H = ids.height();
+  const int W = ids.width(), H = ids.height();
   // The labels-only part: made beside the Hough stage by night_scene, else here; taken (its
-  // regions and region image moved out) only when made of these labels.
+  // regions moved out) only when made of these labels.
   std::shared_ptr<BuildingRegions> computed;
-  if (!(made && made->ids == ids.data() && made->width == ids.width() && made->height == H)) {
+  if (!(made && made->ids == ids.data() && made->width == W && made->height == H)) {
     computed = building_regions(ids);
     made = computed.get();
   }
   BuildingFacades out;
   out.regions = std::move(made->regions);
-  out.region = std::move(made->region);
   made->ids = nullptr;  // taken: a second call makes its own
   const std::vector<long>& col_off = made->col_off;
   const std::vector<int>& ymax_all = made->ymax_all;
+  const std::vector<KeyedRun>& runs = made->rc.runs;
+  const std::vector<int>& row_start = made->rc.row_start;
+  const std::vector<int>& run_region = made->rc.comp;
+  // The region of every pixel (-1 off the building class), one pass per row.
+  out.region = ImageI32(W, H, 1, uninitialized, "region");
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    int32_t* o = out.region.row(y);
+    int x = 0;
+    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
+      std::fill(o + x, o + runs[i].x0, -1);
+      std::fill(o + runs[i].x0, o + runs[i].x1 + 1, run_region[i]);
+      x = runs[i].x1 + 1;
+    }
+    std::fill(o + x, o + W, -1);
+  }
   auto object = [&](int id) {  // neither ground nor sky: something standing in front
     return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
            id != static_cast<int>(Label::RectificationBorder) && id != static_cast<int>(Label::OutOfRoi);

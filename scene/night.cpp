@@ -126,9 +126,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
-  // labels (metric_depth_runs, building_regions): nothing else can start before the vanishing
-  // point, which needs the lines. At 1 thread both in turn (this lap then holds their time, no
-  // longer "depth").
+  // labels (metric_depth_runs, building_regions) and the lane mask at the frame's size: nothing
+  // else can start before the vanishing point, which needs the lines. At 1 thread both in turn
+  // (this lap then holds their time, no longer "depth").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
   std::shared_ptr<BuildingRegions> regions;
   ImageU8 lanes_full;
@@ -137,11 +137,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       [&] {
         depth_runs = metric_depth_runs(labels);
         regions = building_regions(labels.ids);
-      },
-      [&] {
-        s.lines_work = detect_lines(s.edges_work, p);
         lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
-      });
+      },
+      [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
   VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
   // Back to full-resolution pixel coordinates (pixel centres).
@@ -160,13 +158,13 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
   // The depth stage's two independent halves side by side, one per thread where there are two:
   // the façade planes (fitted once: depth, windows and the street light on façades read them), the
-  // metric depth, whose per-component fits and stack sweep are serial, the street-lamp plan
+  // metric depth, whose per-component fits and stack sweep are serial, and the street-lamp plan
   // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
-  // tracks it) and the coarse depth; and the ego low beam. Each half's loops run on its own thread
+  // tracks it); and the coarse depth and the ego low beam. Each half's loops run on its own thread
   // then (nested regions get one thread: OpenMP's default), and every function gives the same
-  // result for any thread count, so the same bits. With the labels-only parts made beside Hough
-  // (above) and the lane mask at the frame's size after it, the halves measured about 5-6 ms of
-  // thread CPU each at 2 threads (the coarse depth ~1.2 ms in either; 2026-11-28).
+  // result for any thread count, so the same bits. Split so (with the labels-only parts beside
+  // Hough, above), each side-by-side section's two halves took about the same thread CPU at 2
+  // threads (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
   StreetLighting planned;
   side_by_side(
@@ -175,9 +173,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
         planned = plan_street_lighting(labels, s.geometry, p, seed);
-        s.beam_input = coarse_depth(W, H, vp.x, vp.y);
       },
       [&] {
+        s.beam_input = coarse_depth(W, H, vp.x, vp.y);
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
       });
   depth_runs.reset();

@@ -28,11 +28,11 @@ struct MetricDepthRuns;
 std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels);
 ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
                          const BuildingFacades* facades, const MetricDepthRuns* runs);
-// building_facades' part that reads only the labels (the building class's 4-connected regions,
-// their columns' lowest rows and the region image; scene/geometry.cpp), so that night_scene makes
-// it beside the Hough stage with metric_depth_runs; building_facades_with takes it (moving its
-// regions and region image out) when it was made of these labels `ids`, else makes it: the same
-// façades.
+// building_facades' part that reads only the labels (the building class's label runs, their
+// 4-connected regions and the regions' columns' lowest rows; scene/geometry.cpp), so that
+// night_scene makes it beside the Hough stage with metric_depth_runs; building_facades_with takes
+// it (moving its regions out; it then writes the region image from its runs) when it was made of
+// these labels `ids`, else makes it: the same façades.
 struct BuildingRegions;
 std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids);
 BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
