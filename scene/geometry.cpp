@@ -555,12 +555,26 @@ bool fit_line(const std::vector<Contact>& c, const std::vector<uint8_t>& free, L
 }
 }  // namespace
 
-BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m) {
+// building_facades' part that reads only the labels (scene/night_detail.h): the building
+// regions (their label runs and components) and their columns' lowest rows.
+struct BuildingRegions {
+  const uint16_t* ids = nullptr;  // the labels it was made of (building_facades_with takes it for those only)
+  int width = 0, height = 0;
+  RunComponents rc;                              // the building class's runs and their regions
+  std::vector<BuildingFacades::Region> regions;  // x0 and the per-column vectors sized (-1, 0)
+  std::vector<long> col_off;                     // region r's columns at ymax_all[col_off[r]...]
+  std::vector<int> ymax_all;                     // each column's lowest row of its region
+};
+
+std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
   const int W = ids.width(), H = ids.height();
   const uint16_t building = static_cast<uint16_t>(Label::Building);
-  BuildingFacades out;
+  auto m = std::make_shared<BuildingRegions>();
+  m->ids = ids.data();
+  m->width = W;
+  m->height = H;
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
-  const RunComponents rc = run_components(H, [&](int y, auto&& emit) {
+  m->rc = run_components(H, [&](int y, auto&& emit) {
     const uint16_t* r = ids.row(y);
     for (int x = 0; x < W;) {
       const int e = run_end(r, x, W);
@@ -568,35 +582,63 @@ BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, d
       x = e;
     }
   });
+  const RunComponents& rc = m->rc;
   const std::vector<KeyedRun>& runs = rc.runs;
   const std::vector<int>& run_region = rc.comp;
-  out.regions.resize(rc.count);
+  std::vector<BuildingFacades::Region>& regions = m->regions;
+  regions.resize(rc.count);
   std::vector<int> x1s(rc.count, -1);
-  for (auto& r : out.regions) r.x0 = 1 << 30;
+  for (auto& r : regions) r.x0 = 1 << 30;
   for (size_t i = 0; i < runs.size(); ++i) {
     const int r = run_region[i];
-    out.regions[r].x0 = std::min(out.regions[r].x0, runs[i].x0);
+    regions[r].x0 = std::min(regions[r].x0, runs[i].x0);
     x1s[r] = std::max(x1s[r], runs[i].x1);
   }
   // Per region, its columns' lowest rows, one block of them for all regions (col_off[r] onwards).
-  std::vector<long> col_off(out.regions.size() + 1, 0);
-  for (size_t r = 0; r < out.regions.size(); ++r) {
-    const int w = x1s[r] - out.regions[r].x0 + 1;
-    out.regions[r].column_plane.assign(w, -1);
-    out.regions[r].on_plane.assign(w, 0);
+  std::vector<long>& col_off = m->col_off;
+  col_off.assign(regions.size() + 1, 0);
+  for (size_t r = 0; r < regions.size(); ++r) {
+    const int w = x1s[r] - regions[r].x0 + 1;
+    regions[r].column_plane.assign(w, -1);
+    regions[r].on_plane.assign(w, 0);
     col_off[r + 1] = col_off[r] + w;
   }
-  std::vector<int> ymax_all(col_off.back(), -1);
+  m->ymax_all.assign(col_off.back(), -1);
   lowest_rows(
       runs, W, [&](size_t i) { return col_off[run_region[i]]; },
-      [&](size_t i) { return out.regions[run_region[i]].x0; }, ymax_all.data());
+      [&](size_t i) { return regions[run_region[i]].x0; }, m->ymax_all.data());
+  return m;
+}
+
+BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m) {
+  return building_facades_with(ids, g, max_depth_m, nullptr);
+}
+
+BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
+                                      BuildingRegions* made) {
+  const int W = ids.width(), H = ids.height();
+  // The labels-only part: made beside the Hough stage by night_scene, else here; taken (its
+  // regions moved out) only when made of these labels.
+  std::shared_ptr<BuildingRegions> computed;
+  if (!(made && made->ids == ids.data() && made->width == W && made->height == H)) {
+    computed = building_regions(ids);
+    made = computed.get();
+  }
+  BuildingFacades out;
+  out.regions = std::move(made->regions);
+  made->ids = nullptr;  // taken: a second call makes its own
+  const std::vector<long>& col_off = made->col_off;
+  const std::vector<int>& ymax_all = made->ymax_all;
+  const std::vector<KeyedRun>& runs = made->rc.runs;
+  const std::vector<int>& row_start = made->rc.row_start;
+  const std::vector<int>& run_region = made->rc.comp;
   // The region of every pixel (-1 off the building class), one pass per row.
   out.region = ImageI32(W, H, 1, uninitialized, "region");
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < H; ++y) {
     int32_t* o = out.region.row(y);
     int x = 0;
-    for (int i = rc.row_start[y]; i < rc.row_start[y + 1]; ++i) {
+    for (int i = row_start[y]; i < row_start[y + 1]; ++i) {
       std::fill(o + x, o + runs[i].x0, -1);
       std::fill(o + runs[i].x0, o + runs[i].x1 + 1, run_region[i]);
       x = runs[i].x1 + 1;

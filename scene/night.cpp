@@ -125,12 +125,20 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
-  // and beside it on this one the part of the metric depth that reads only the labels
-  // (metric_depth_runs): nothing else can start before the vanishing point, which needs the
-  // lines. At 1 thread both in turn (this lap then holds the runs' time, no longer "depth").
+  // and beside it on this one the parts of the metric depth and of the façades that read only the
+  // labels (metric_depth_runs, building_regions) and the lane mask at the frame's size: nothing
+  // else can start before the vanishing point, which needs the lines. At 1 thread both in turn
+  // (this lap then holds their time, no longer "depth").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
+  std::shared_ptr<BuildingRegions> regions;
+  ImageU8 lanes_full;
   side_by_side(
-      std::min(2, omp_get_max_threads()), [&] { depth_runs = metric_depth_runs(labels); },
+      std::min(2, omp_get_max_threads()),
+      [&] {
+        depth_runs = metric_depth_runs(labels);
+        regions = building_regions(labels.ids);
+        lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
+      },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
   VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
@@ -149,30 +157,29 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     }
   }
   // The depth stage's two independent halves side by side, one per thread where there are two:
-  // the façade planes (fitted once: depth, windows and the street light on façades read them) and
-  // the metric depth, whose label-run components, per-component fits and stack sweep are serial;
-  // and the coarse depth, the lane mask at the frame's size and the ego low beam. Each half's
-  // loops run on its own thread then (nested regions get one thread: OpenMP's default), and
-  // every function gives the same result for any thread count, so the same bits.
-  // The street-lamp plan (plan_street_lighting: labels and geometry only) goes with the first half,
-  // which measured the shorter one (the low beam's image makes the second the longer), so at two
-  // threads it costs no wall time; the light map is handed it (and a sequence tracks it).
+  // the façade planes (fitted once: depth, windows and the street light on façades read them), the
+  // metric depth, whose per-component fits and stack sweep are serial, and the street-lamp plan
+  // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
+  // tracks it); and the coarse depth and the ego low beam. Each half's loops run on its own thread
+  // then (nested regions get one thread: OpenMP's default), and every function gives the same
+  // result for any thread count, so the same bits. Split so (with the labels-only parts beside
+  // Hough, above), each side-by-side section's two halves took about the same thread CPU at 2
+  // threads (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
-  ImageU8 lanes_full;
   StreetLighting planned;
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
-        facades = building_facades(labels.ids, s.geometry, p.max_depth_m);
+        facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
         planned = plan_street_lighting(labels, s.geometry, p, seed);
       },
       [&] {
         s.beam_input = coarse_depth(W, H, vp.x, vp.y);
-        lanes_full = lanes_at_frame(s.lanes_work, W, H);
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
       });
   depth_runs.reset();
+  regions.reset();
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);

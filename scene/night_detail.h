@@ -28,6 +28,15 @@ struct MetricDepthRuns;
 std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels);
 ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
                          const BuildingFacades* facades, const MetricDepthRuns* runs);
+// building_facades' part that reads only the labels (the building class's label runs, their
+// 4-connected regions and the regions' columns' lowest rows; scene/geometry.cpp), so that
+// night_scene makes it beside the Hough stage with metric_depth_runs; building_facades_with takes
+// it (moving its regions out; it then writes the region image from its runs) when it was made of
+// these labels `ids`, else makes it: the same façades.
+struct BuildingRegions;
+std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids);
+BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
+                                      BuildingRegions* regions);
 // The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
 // 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
 // it). All give the same bits; the test runs each.

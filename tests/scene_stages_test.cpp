@@ -1149,6 +1149,67 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
   omp_set_num_threads(saved);
 }
 
+// building_facades_with given building_regions (the labels-only part, which night_scene makes
+// beside the Hough stage) against building_facades on its own, field for field: the synthetic road
+// (its façades unfitted) and a street rendered from a known camera with parked cars and a hedge in
+// front of the façades (fitted and occluded planes), 1 and 2 threads; regions made of other labels
+// are not taken, and regions once taken are not taken again (the region image moved out).
+TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
+  const SyntheticScene road = make_synthetic_road(SyntheticOptions());
+  const NightScene ns = night_scene(road.day_linear_srgb, road.labels, preset(), 5);
+  SyntheticCameraOptions co;
+  VanishingPoint none;  // the rig's pitch
+  co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
+  co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {8.4, 26, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
+  const SyntheticCameraScene street = make_synthetic_camera_scene(co);
+  auto same = [](const BuildingFacades& a, const BuildingFacades& b) {
+    EXPECT_EQ(a.region.width(), b.region.width());
+    EXPECT_EQ(a.region.vec(), b.region.vec());
+    ASSERT_EQ(a.planes.size(), b.planes.size());
+    for (size_t i = 0; i < a.planes.size(); ++i) {
+      const FacadePlane &p = a.planes[i], &q = b.planes[i];
+      EXPECT_TRUE(p.nX == q.nX && p.nD == q.nD && p.d_m == q.d_m && p.line_a == q.line_a && p.line_b == q.line_b &&
+                  p.inliers == q.inliers && p.fitted == q.fitted && p.occluded == q.occluded)
+          << "plane " << i;
+    }
+    ASSERT_EQ(a.regions.size(), b.regions.size());
+    for (size_t r = 0; r < a.regions.size(); ++r) {
+      EXPECT_EQ(a.regions[r].x0, b.regions[r].x0) << r;
+      EXPECT_EQ(a.regions[r].contacts, b.regions[r].contacts) << r;
+      EXPECT_EQ(a.regions[r].column_plane, b.regions[r].column_plane) << r;
+      EXPECT_EQ(a.regions[r].on_plane, b.regions[r].on_plane) << r;
+    }
+  };
+  const int saved = omp_get_max_threads();
+  int fitted = 0;
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    for (int scene = 0; scene < 2; ++scene) {
+      const ImageU16& ids = scene == 0 ? road.labels.ids : street.labels.ids;
+      const CameraGeometry& g = scene == 0 ? ns.geometry : co.camera;
+      const ImageU16& other = scene == 0 ? street.labels.ids : road.labels.ids;
+      const BuildingFacades want = building_facades(ids, g, 1000);
+      ASSERT_FALSE(want.regions.empty()) << "scene " << scene;
+      for (const FacadePlane& f : want.planes) fitted += f.fitted;
+      const auto made = building_regions(ids);
+      {
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, made ahead", scene, threads));
+        same(building_facades_with(ids, g, 1000, made.get()), want);
+      }
+      {
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, taken twice", scene, threads));
+        same(building_facades_with(ids, g, 1000, made.get()), want);
+      }
+      {
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, other labels", scene, threads));
+        same(building_facades_with(ids, g, 1000, building_regions(other).get()), want);
+      }
+    }
+  }
+  omp_set_num_threads(saved);
+  EXPECT_GT(fitted, 0);  // the street's façades are fitted planes, not only the road's unfitted ones
+}
+
 // night_scene given the linearisation's texture sums (linearize_with_texture_sums; the working
 // width set to half the frame's, the exact halving, whose luminance the texture's second pass
 // makes): at 1 and 2 threads every output is that of night_scene on the same linear image
