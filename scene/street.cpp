@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -1323,14 +1324,14 @@ struct WindowGeom {
 // One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
 // (tX, tD) and camera z; out: kind (bit 1: in a window's glass; bit 2: in a shop pane, ground floor
 // only; 0: neither), and where kind ≠ 0 the storey j, the pitch cell and (j = 0) the shop unit.
-// Padded to a multiple of 4.
+// Padded to a multiple of 4 (kind to 8: read a word at a time).
 struct WindowRow {
   std::vector<int32_t> x, j;
   std::vector<double> z, tX, tD;
   std::vector<int64_t> cell, unit;
   std::vector<uint8_t> kind;
   explicit WindowRow(int W)
-      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 4) {}
+      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 8) {}
   void pad(int n) {
     for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1];
   }
@@ -1360,6 +1361,10 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
 // within max_depth of the camera), converted to integers only for the pane pixels (the same
 // conversions as the scalar's). The shop unit ⌊s/frontage⌋ only where a ground-floor lane is in
 // either pane.
+// Four lanes' bits (bit k of the index) as the bytes of a little-endian word (byte k: 0 or 1).
+constexpr uint32_t kLaneBytes[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
+                                     0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
+                                     0x01010000, 0x01010001, 0x01010100, 0x01010101};
 __attribute__((target("avx2"), always_inline)) inline void window_geom_body(WindowRow& r, int n, const WindowGeom& w) {
   const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
                 h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
@@ -1389,19 +1394,20 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
                                           _mm256_or_pd(_mm256_cmp_pd(y_in, sill, _CMP_LT_OQ), _mm256_cmp_pd(y_in, sill_top, _CMP_GT_OQ)));
     const int not_below = ~_mm256_movemask_pd(below) & 0xf, gf = _mm256_movemask_pd(ground_floor);
     const int glass = ~_mm256_movemask_pd(out_glass) & not_below, pane = ~_mm256_movemask_pd(out_shop) & not_below & gf;
-    std::memset(&r.kind[i], 0, 4);
-    const int hit = glass | pane;
-    if (!hit) continue;
-    alignas(32) double jv[4], cv[4], uv[4];
-    _mm256_store_pd(jv, jd);
+    // Without a branch on the lanes' panes (they change every few quads along a row: a
+    // mispredicted branch there exposed the divisions' latency): the four kinds in one store, and
+    // the storey, cell and (a ground-floor lane in the quad) unit of every lane, read only where
+    // the kind is not 0 (there the scalar's conversions, the same truncations).
+    const uint32_t kinds = kLaneBytes[glass] | kLaneBytes[pane] << 1;
+    std::memcpy(&r.kind[i], &kinds, 4);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.j[i]), _mm256_cvttpd_epi32(jd));
+    alignas(32) double cv[4];
     _mm256_store_pd(cv, cd);
-    if (hit & gf) _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
-    for (int k = 0; k < 4; ++k) {
-      if (!(hit >> k & 1)) continue;
-      r.kind[i + k] = static_cast<uint8_t>((glass >> k & 1) | (pane >> k & 1) << 1);
-      r.j[i + k] = static_cast<int>(jv[k]);
-      r.cell[i + k] = static_cast<int64_t>(cv[k]);
-      if (gf >> k & 1) r.unit[i + k] = static_cast<int64_t>(uv[k]);
+    for (int k = 0; k < 4; ++k) r.cell[i + k] = static_cast<int64_t>(cv[k]);
+    if (gf & (glass | pane)) {
+      alignas(32) double uv[4];
+      _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
+      for (int k = 0; k < 4; ++k) r.unit[i + k] = static_cast<int64_t>(uv[k]);
     }
   }
 }
@@ -1573,49 +1579,58 @@ struct WindowPass {
     uint64_t last_key = ~0ull, last_unit = ~0ull;
     bool last_lit = false, last_unit_shop = false;
     float last_col[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i) {
-      const uint8_t kind = sc.r.kind[i];
-      if (!kind) continue;
-      const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
-      bool shop = false;
-      if (sc.r.j[i] == 0) {
-        // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
-        // along the façade), each unit's draw keyed like the windows' (world coordinates).
-        const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
-        const uint64_t ukey = fkey | (unit << 12);
-        if (ukey != last_unit) {
-          last_unit = ukey;
-          last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+    // The candidates in a pane (kind ≠ 0), in column order, eight kinds a word: a word of none
+    // skipped, the others' pane bytes found by their high bits (a byte's 7 low bits plus 0x7f
+    // carry into its high bit unless 0); the bytes from n on masked off.
+    for (int i8 = 0; i8 < n; i8 += 8) {
+      uint64_t kinds;
+      std::memcpy(&kinds, &sc.r.kind[i8], 8);
+      if (n - i8 < 8) kinds &= (1ull << (8 * (n - i8))) - 1;
+      uint64_t in_pane = (((kinds & 0x7f7f7f7f7f7f7f7full) + 0x7f7f7f7f7f7f7f7full) | kinds) & 0x8080808080808080ull;
+      for (; in_pane; in_pane &= in_pane - 1) {
+        const int i = i8 + (std::countr_zero(in_pane) >> 3);
+        const uint8_t kind = sc.r.kind[i];
+        const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
+        bool shop = false;
+        if (sc.r.j[i] == 0) {
+          // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+          // along the façade), each unit's draw keyed like the windows' (world coordinates).
+          const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
+          const uint64_t ukey = fkey | (unit << 12);
+          if (ukey != last_unit) {
+            last_unit = ukey;
+            last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+          }
+          shop = last_unit_shop;
         }
-        shop = last_unit_shop;
-      }
-      // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
-      if (!(kind & (shop ? 2 : 1))) continue;
-      const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
-      // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
-      // apart from the shop unit of the same cell index.
-      const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
-                           (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
-      // Neighbouring pixels of a row mostly share a window: its draw is kept.
-      if (key != last_key) {
-        last_key = key;
-        const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
-        last_lit = uniform_open(w[0]) < p.window_lit_fraction;
-        if (last_lit) {
-          double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-          const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
-          // A share of the lit windows is seen through drawn curtains or blinds: their
-          // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
-          if (!shop && uniform_open(w[3]) < p.window_curtained_share)
-            lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
-          if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
-          for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
-          sc.seen.insert(key);
+        // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
+        if (!(kind & (shop ? 2 : 1))) continue;
+        const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
+        // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+        // apart from the shop unit of the same cell index.
+        const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
+                             (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
+        // Neighbouring pixels of a row mostly share a window: its draw is kept.
+        if (key != last_key) {
+          last_key = key;
+          const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+          last_lit = uniform_open(w[0]) < p.window_lit_fraction;
+          if (last_lit) {
+            double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+            const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+            // A share of the lit windows is seen through drawn curtains or blinds: their
+            // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+            if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+              lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
+            if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+            for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
+            sc.seen.insert(key);
+          }
         }
+        if (!last_lit) continue;
+        const int x = sc.r.x[i];
+        for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
       }
-      if (!last_lit) continue;
-      const int x = sc.r.x[i];
-      for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
     }
   }
 };
