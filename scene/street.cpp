@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -1323,14 +1324,14 @@ struct WindowGeom {
 // One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
 // (tX, tD) and camera z; out: kind (bit 1: in a window's glass; bit 2: in a shop pane, ground floor
 // only; 0: neither), and where kind ≠ 0 the storey j, the pitch cell and (j = 0) the shop unit.
-// Padded to a multiple of 4.
+// Padded to a multiple of 4 (kind to 8: read a word at a time).
 struct WindowRow {
   std::vector<int32_t> x, j;
   std::vector<double> z, tX, tD;
   std::vector<int64_t> cell, unit;
   std::vector<uint8_t> kind;
   explicit WindowRow(int W)
-      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 4) {}
+      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 8) {}
   void pad(int n) {
     for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1];
   }
@@ -1360,6 +1361,10 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
 // within max_depth of the camera), converted to integers only for the pane pixels (the same
 // conversions as the scalar's). The shop unit ⌊s/frontage⌋ only where a ground-floor lane is in
 // either pane.
+// Four lanes' bits (bit k of the index) as the bytes of a little-endian word (byte k: 0 or 1).
+constexpr uint32_t kLaneBytes[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
+                                     0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
+                                     0x01010000, 0x01010001, 0x01010100, 0x01010101};
 __attribute__((target("avx2"), always_inline)) inline void window_geom_body(WindowRow& r, int n, const WindowGeom& w) {
   const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
                 h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
@@ -1389,19 +1394,20 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
                                           _mm256_or_pd(_mm256_cmp_pd(y_in, sill, _CMP_LT_OQ), _mm256_cmp_pd(y_in, sill_top, _CMP_GT_OQ)));
     const int not_below = ~_mm256_movemask_pd(below) & 0xf, gf = _mm256_movemask_pd(ground_floor);
     const int glass = ~_mm256_movemask_pd(out_glass) & not_below, pane = ~_mm256_movemask_pd(out_shop) & not_below & gf;
-    std::memset(&r.kind[i], 0, 4);
-    const int hit = glass | pane;
-    if (!hit) continue;
-    alignas(32) double jv[4], cv[4], uv[4];
-    _mm256_store_pd(jv, jd);
+    // Without a branch on the lanes' panes (they change every few quads along a row: a
+    // mispredicted branch there exposed the divisions' latency): the four kinds in one store, and
+    // the storey, cell and (a ground-floor lane in the quad) unit of every lane, read only where
+    // the kind is not 0 (there the scalar's conversions, the same truncations).
+    const uint32_t kinds = kLaneBytes[glass] | kLaneBytes[pane] << 1;
+    std::memcpy(&r.kind[i], &kinds, 4);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(&r.j[i]), _mm256_cvttpd_epi32(jd));
+    alignas(32) double cv[4];
     _mm256_store_pd(cv, cd);
-    if (hit & gf) _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
-    for (int k = 0; k < 4; ++k) {
-      if (!(hit >> k & 1)) continue;
-      r.kind[i + k] = static_cast<uint8_t>((glass >> k & 1) | (pane >> k & 1) << 1);
-      r.j[i + k] = static_cast<int>(jv[k]);
-      r.cell[i + k] = static_cast<int64_t>(cv[k]);
-      if (gf >> k & 1) r.unit[i + k] = static_cast<int64_t>(uv[k]);
+    for (int k = 0; k < 4; ++k) r.cell[i + k] = static_cast<int64_t>(cv[k]);
+    if (gf & (glass | pane)) {
+      alignas(32) double uv[4];
+      _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
+      for (int k = 0; k < 4; ++k) r.unit[i + k] = static_cast<int64_t>(uv[k]);
     }
   }
 }
@@ -1430,12 +1436,12 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
   rp[n] = pi;
   ++n;
 }
-// add_facade_windows's compaction of one row (its scalar loop: a building pixel with a plane and
+// add_facade_windows's compaction of columns x0 .. x1 − 1 of a row (its scalar loop: a building pixel with a plane and
 // z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
 // region whose eight columns take one plane and whose depths are all within zmax (inside a façade:
 // most groups) by vector loads and stores, groups of no building pixel skipped, other groups and
-// the last W mod 8 columns one by one. The same entries in the same order. Returns their count.
-__attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, const float* z, int W, double zmax,
+// the last (x1 − x0) mod 8 columns one by one. The same entries in the same order. Returns their count.
+__attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, const float* z, int x0, int x1, double zmax,
                                                           const BuildingFacades& fac, const FacadeFrame* fr,
                                                           WindowRow& r, int32_t* rp) {
   int32_t* rx = r.x.data();
@@ -1443,8 +1449,8 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
   int n = 0;
   auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
   const __m256d vzmax = _mm256_set1_pd(zmax);
-  int x = 0;
-  for (; x + 8 <= W; x += 8) {
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) {
     const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
     const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
     if (neg == 0xff) continue;  // no building region
@@ -1474,7 +1480,7 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
     }
     for (int k = 0; k < 8; ++k) one(x + k);
   }
-  for (; x < W; ++x) one(x);
+  for (; x < x1; ++x) one(x);
   _mm256_zeroupper();
   return n;
 }
@@ -1486,6 +1492,7 @@ namespace {
 // keys of the lit windows drawn (add_facade_windows runs it over the frame; add_street_light_rows
 // after the street light in one pass over the rows).
 struct WindowPass {
+  static constexpr int kWindowBlock = 256;  // columns a step (a multiple of 8: the same groups)
   const ImageU16& labels;
   const ImageF& depth_m;
   const CameraGeometry& g;
@@ -1530,92 +1537,108 @@ struct WindowPass {
     std::unordered_set<uint64_t> seen;
     WindowRow r;
     std::vector<int32_t> plane_of;
-    explicit Scratch(int W) : r(W), plane_of(W + 4) {}
+    explicit Scratch(int W) : r(std::min(W, kWindowBlock)), plane_of(std::min(W, kWindowBlock) + 4) {}  // a block's
   };
   void row(ImageF& L, int y, Scratch& sc) const {
     const float* z = depth_m.row(y);
     const int32_t* reg = fac.region.row(y);
     float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
-    // The row's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
     // (Through local pointers and copies of the width and the depth limit: the stores might
     // alias the shared ones otherwise, which the compiler would reload at every pixel.)
-    int n = 0;
     const int Wr = W;
     const double zmax = max_z;
     int32_t *rx = sc.r.x.data(), *rp = sc.plane_of.data();
     double *rz = sc.r.z.data(), *rtX = sc.r.tX.data(), *rtD = sc.r.tD.data();
     const FacadeFrame* fr = frames.data();
-    if (isa >= 1) n = window_candidates_avx2(reg, z, Wr, zmax, fac, fr, sc.r, rp);
-    for (int x = 0; x < Wr && isa == 0; ++x) {
-      // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
-      // only when every one has it) skipped at once: building pixels come in long runs.
-      if ((x & 7) == 0 && x + 8 <= Wr &&
-          (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
-        x += 7;
-        continue;
-      }
-      window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
-    }
-    if (n == 0) return;
     const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
                         p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
                         0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
                         0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
                         0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
-    if (isa >= 1) {
-      sc.r.pad(n);
-      if (isa >= 2) window_geom_avx512(sc.r, n, wg);
-      else window_geom_avx2(sc.r, n, wg);
-    } else {
-      window_geom_scalar(sc.r, n, wg);
-    }
     uint64_t last_key = ~0ull, last_unit = ~0ull;
     bool last_lit = false, last_unit_shop = false;
     float last_col[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i) {
-      const uint8_t kind = sc.r.kind[i];
-      if (!kind) continue;
-      const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
-      bool shop = false;
-      if (sc.r.j[i] == 0) {
-        // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
-        // along the façade), each unit's draw keyed like the windows' (world coordinates).
-        const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
-        const uint64_t ukey = fkey | (unit << 12);
-        if (ukey != last_unit) {
-          last_unit = ukey;
-          last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+    // The row in blocks of kWindowBlock columns, each compacted, laid out and drawn before the
+    // next (the block's candidates, ~13 kB, stay in the first-level cache between the three
+    // steps; a whole row's, ~110 kB, did not). The candidates and their draws in column order
+    // as over the whole row: the same windows.
+    for (int x0 = 0; x0 < Wr; x0 += kWindowBlock) {
+      const int x1 = std::min(Wr, x0 + kWindowBlock);
+      // The block's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
+      int n = 0;
+      if (isa >= 1) n = window_candidates_avx2(reg, z, x0, x1, zmax, fac, fr, sc.r, rp);
+      for (int x = x0; x < x1 && isa == 0; ++x) {
+        // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
+        // only when every one has it) skipped at once: building pixels come in long runs.
+        if ((x & 7) == 0 && x + 8 <= x1 &&
+            (reg[x] & reg[x + 1] & reg[x + 2] & reg[x + 3] & reg[x + 4] & reg[x + 5] & reg[x + 6] & reg[x + 7]) < 0) {
+          x += 7;
+          continue;
         }
-        shop = last_unit_shop;
+        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
       }
-      // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
-      if (!(kind & (shop ? 2 : 1))) continue;
-      const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
-      // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
-      // apart from the shop unit of the same cell index.
-      const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
-                           (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
-      // Neighbouring pixels of a row mostly share a window: its draw is kept.
-      if (key != last_key) {
-        last_key = key;
-        const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
-        last_lit = uniform_open(w[0]) < p.window_lit_fraction;
-        if (last_lit) {
-          double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-          const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
-          // A share of the lit windows is seen through drawn curtains or blinds: their
-          // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
-          if (!shop && uniform_open(w[3]) < p.window_curtained_share)
-            lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
-          if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
-          for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
-          sc.seen.insert(key);
+      if (n == 0) continue;
+      if (isa >= 1) {
+        sc.r.pad(n);
+        if (isa >= 2) window_geom_avx512(sc.r, n, wg);
+        else window_geom_avx2(sc.r, n, wg);
+      } else {
+        window_geom_scalar(sc.r, n, wg);
+      }
+      // The candidates in a pane (kind ≠ 0), in column order, eight kinds a word: a word of none
+      // skipped, the others' pane bytes found by their high bits (a byte's 7 low bits plus 0x7f
+      // carry into its high bit unless 0); the bytes from n on masked off.
+      for (int i8 = 0; i8 < n; i8 += 8) {
+        uint64_t kinds;
+        std::memcpy(&kinds, &sc.r.kind[i8], 8);
+        if (n - i8 < 8) kinds &= (1ull << (8 * (n - i8))) - 1;
+        uint64_t in_pane = (((kinds & 0x7f7f7f7f7f7f7f7full) + 0x7f7f7f7f7f7f7f7full) | kinds) & 0x8080808080808080ull;
+        for (; in_pane; in_pane &= in_pane - 1) {
+          const int i = i8 + (std::countr_zero(in_pane) >> 3);
+          const uint8_t kind = sc.r.kind[i];
+          const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
+          bool shop = false;
+          if (sc.r.j[i] == 0) {
+            // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+            // along the façade), each unit's draw keyed like the windows' (world coordinates).
+            const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
+            const uint64_t ukey = fkey | (unit << 12);
+            if (ukey != last_unit) {
+              last_unit = ukey;
+              last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+            }
+            shop = last_unit_shop;
+          }
+          // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
+          if (!(kind & (shop ? 2 : 1))) continue;
+          const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
+          // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+          // apart from the shop unit of the same cell index.
+          const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
+                               (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
+          // Neighbouring pixels of a row mostly share a window: its draw is kept.
+          if (key != last_key) {
+            last_key = key;
+            const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+            last_lit = uniform_open(w[0]) < p.window_lit_fraction;
+            if (last_lit) {
+              double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+              const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+              // A share of the lit windows is seen through drawn curtains or blinds: their
+              // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+              if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+                lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
+              if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+              for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
+              sc.seen.insert(key);
+            }
+          }
+          if (!last_lit) continue;
+          const int x = sc.r.x[i];
+          for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
         }
       }
-      if (!last_lit) continue;
-      const int x = sc.r.x[i];
-      for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
     }
   }
 };

@@ -419,6 +419,41 @@ TEST(StreetLighting, LightMapIsTheSameBitsAtEveryInstructionSet) {
     EXPECT_EQ(differing_samples(lights[k], lights[2]), 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
 }
 
+// The façade windows alone (add_facade_windows) at every instruction set this machine has: the
+// AVX-512VL and AVX2 rows (the candidates' compaction, the pane geometry with its kinds stored
+// four at a time, the pane pixels found eight kinds a word) give the scalar twins' windows in the
+// same bits and count, on three shared Cityscapes frames (their depth and façades as the chain
+// makes them), at 1 and 2 threads.
+TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const ScenePreset p = load_scene_preset("night-urban");
+  const int before = omp_get_max_threads();
+  for (const char* base : {"aachen_000000_000019", "aachen_000001_000019", "aachen_000003_000019"}) {
+    const auto [lin, lab] = cityscapes_frame(base);
+    const NightScene ns = night_scene(lin, lab, p, 1);
+    const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
+    for (const int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      std::vector<ImageF> maps;
+      std::vector<int> counts;
+      for (const int isa : {2, 1, 0}) {
+        street_light_max_isa(isa);
+        ImageF L(lin.width(), lin.height(), 3, 0.f, unit::radiance);
+        counts.push_back(add_facade_windows(L, lab.ids, ns.depth, ns.geometry, p, 7, &fac));
+        maps.push_back(std::move(L));
+      }
+      street_light_max_isa(2);
+      EXPECT_GT(counts[2], 0) << base;
+      for (int k = 0; k < 2; ++k) {
+        EXPECT_EQ(counts[k], counts[2]) << base << (k == 0 ? " AVX-512" : " AVX2") << ", " << threads << " threads";
+        EXPECT_EQ(differing_samples(maps[k], maps[2]), 0u)
+            << base << (k == 0 ? " AVX-512" : " AVX2") << " against the scalar twins, " << threads << " threads";
+      }
+    }
+  }
+  omp_set_num_threads(before);
+}
+
 // The light map's one pass over the rows (light_map_fused_rows on, the default: each row begins
 // with its retroreflection and vehicle lamps, and night_scene's ends with its night radiance,
 // LightMap::composed, the lamp heads then drawn row by row) pinned to its definition, the separate
