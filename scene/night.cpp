@@ -15,6 +15,7 @@
 #include "photosite/scene/night.h"
 #include "scene/lanes_detail.h"
 #include "scene/night_detail.h"
+#include "scene/street_detail.h"
 #include "scene/texture_detail.h"
 
 namespace photosite::scene {
@@ -122,7 +123,16 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.work_scale = w.scale;
   s.lanes_work = lane_markings(w.luma, w.labels, p);
   lap("lanes");
-  s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
+  // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
+  // them on a second one the street-lamp plan's labels-only part, its poles' components
+  // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
+  // thread both in turn (this lap then holds the poles' time, no longer "depth").
+  std::shared_ptr<const PoleComponents> poles;
+  side_by_side(
+      std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges(w.labels, s.lanes_work, p); },
+      [&] {
+        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids);  // else no plan
+      });
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
@@ -172,7 +182,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       [&] {
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
-        planned = plan_street_lighting(labels, s.geometry, p, seed);
+        planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
       },
       [&] {
         s.beam_input = coarse_depth(W, H, vp.x, vp.y);
@@ -180,6 +190,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       });
   depth_runs.reset();
   regions.reset();
+  poles.reset();
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
