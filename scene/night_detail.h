@@ -5,6 +5,7 @@
 #pragma once
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "photosite/scene/night.h"
 
@@ -46,6 +47,19 @@ struct PoleComponents;
 std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids);
 StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
                                          uint64_t seed, const PoleComponents* poles);
+// coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a
+// width x height image `d` written by row(d, y), the same values as coarse_depth's, from any
+// thread (night_scene's depth halves share its rows, each taking the next ones once its own work
+// is done).
+struct CoarseDepthRows {
+  CoarseDepthRows(int width, int height, double vp_x, double vp_y);
+  void row(ImageF& d, int y) const;
+  int width, height;
+
+ private:
+  std::vector<double> txs;
+  double vy_, top, bottom;
+};
 // The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
 // 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
 // it). All give the same bits; the test runs each.

@@ -1092,9 +1092,9 @@ TEST(SceneChain, IndependentOfThreadCount) {
 }
 
 // night_scene's depth stage runs its two halves side by side where there are two threads
-// (façades and metric depth; coarse depth, the frame-size lane mask and the ego low beam): at 1
-// and 2 threads its outputs are the stage functions called one after the other on the scene's
-// own geometry and lane mask, bit for bit.
+// (façades, metric depth and the lamp plan; the ego low beam; then both share the coarse depth's
+// rows): at 1 and 2 threads its outputs are the stage functions called one after the other on
+// the scene's own geometry and lane mask, bit for bit.
 TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   SyntheticOptions o;
   SyntheticScene s = make_synthetic_road(o);
