@@ -2,6 +2,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -15,6 +16,7 @@
 #include "photosite/scene/night.h"
 #include "scene/lanes_detail.h"
 #include "scene/night_detail.h"
+#include "scene/street_detail.h"
 #include "scene/texture_detail.h"
 
 namespace photosite::scene {
@@ -122,7 +124,16 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.work_scale = w.scale;
   s.lanes_work = lane_markings(w.luma, w.labels, p);
   lap("lanes");
-  s.edges_work = segmentation_edges(w.labels, s.lanes_work, p);
+  // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
+  // them on a second one the street-lamp plan's labels-only part, its poles' components
+  // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
+  // thread both in turn (this lap then holds the poles' time, no longer "depth").
+  std::shared_ptr<const PoleComponents> poles;
+  side_by_side(
+      std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges(w.labels, s.lanes_work, p); },
+      [&] {
+        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids);  // else no plan
+      });
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
@@ -160,26 +171,40 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // the façade planes (fitted once: depth, windows and the street light on façades read them), the
   // metric depth, whose per-component fits and stack sweep are serial, and the street-lamp plan
   // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
-  // tracks it); and the coarse depth and the ego low beam. Each half's loops run on its own thread
-  // then (nested regions get one thread: OpenMP's default), and every function gives the same
-  // result for any thread count, so the same bits. Split so (with the labels-only parts beside
-  // Hough, above), each side-by-side section's two halves took about the same thread CPU at 2
-  // threads (docs/benchmarks.md, 2026-11-28, seventh session).
+  // tracks it; its poles made beside the edges, above); and the ego low beam; then the coarse
+  // depth's rows, shared between them. Each half's loops run on its own thread then (nested
+  // regions get one thread: OpenMP's default), and every function gives the same result for any
+  // thread count, so the same bits. Split so (with the labels-only parts beside Hough and Canny,
+  // above), each side-by-side section's two halves took about the same thread CPU at 2 threads
+  // (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
   StreetLighting planned;
+  // The coarse depth's rows (0.4 ms of work at 1 thread) go to whichever half is free first, in
+  // chunks of 32 rows from a shared counter: each row is written by the same function whichever
+  // thread takes it, so the same bits. (At 1 thread the first half makes them all.)
+  s.beam_input = ImageF(W, H, 1, uninitialized, unit::dimensionless);
+  const CoarseDepthRows coarse(W, H, vp.x, vp.y);
+  std::atomic<int> coarse_next{0};
+  auto coarse_rows = [&] {
+    constexpr int kRows = 32;
+    for (int y0; (y0 = coarse_next.fetch_add(kRows)) < H;)
+      for (int y = y0; y < std::min(H, y0 + kRows); ++y) coarse.row(s.beam_input, y);
+  };
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
-        planned = plan_street_lighting(labels, s.geometry, p, seed);
+        planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
+        coarse_rows();
       },
       [&] {
-        s.beam_input = coarse_depth(W, H, vp.x, vp.y);
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
+        coarse_rows();
       });
   depth_runs.reset();
   regions.reset();
+  poles.reset();
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);

@@ -5,6 +5,7 @@
 #pragma once
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "photosite/scene/night.h"
 
@@ -37,6 +38,28 @@ struct BuildingRegions;
 std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids);
 BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
                                       BuildingRegions* regions);
+// plan_street_lighting's part that reads only the labels (its poles' 8-connected components,
+// pole_components in scene/street_detail.h), so that night_scene makes it beside the edges stage
+// (OpenCV's Canny), long before the camera geometry the plan needs exists;
+// plan_street_lighting_with takes it when it was made of these labels (lm.ids), else makes it:
+// the same plan.
+struct PoleComponents;
+std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids);
+StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
+                                         uint64_t seed, const PoleComponents* poles);
+// coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a
+// width x height image `d` written by row(d, y), the same values as coarse_depth's, from any
+// thread (night_scene's depth halves share its rows, each taking the next ones once its own work
+// is done).
+struct CoarseDepthRows {
+  CoarseDepthRows(int width, int height, double vp_x, double vp_y);
+  void row(ImageF& d, int y) const;
+  int width, height;
+
+ private:
+  std::vector<double> txs;
+  double vy_, top, bottom;
+};
 // The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
 // 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
 // it). All give the same bits; the test runs each.

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <memory>
 #include <immintrin.h>
 #include <numeric>
 #include <omp.h>
@@ -25,6 +26,7 @@
 #include "photosite/environment.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/night_detail.h"
 #include "scene/street_detail.h"
 
 namespace photosite::scene {
@@ -428,7 +430,21 @@ std::vector<PoleBox> pole_components(const ImageU16& labels) {
   return out;
 }
 
+std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids) {
+  auto m = std::make_shared<PoleComponents>();
+  m->ids = ids.data();
+  m->width = ids.width();
+  m->height = ids.height();
+  m->boxes = pole_components(ids);
+  return m;
+}
+
 StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g, const ScenePreset& p, uint64_t seed) {
+  return plan_street_lighting_with(lm, g, p, seed, nullptr);
+}
+
+StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometry& g, const ScenePreset& p,
+                                         uint64_t seed, const PoleComponents* components) {
   StreetLighting s;
   if (p.street_road_luminance_cd_m2 <= 0) return s;
   const ImageU16& ids = lm.ids;
@@ -466,10 +482,13 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
   s.road_right_m = 0.25 * std::round(4 * median(rights));
   // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
   // at least min_pole_height_m tall, not capped by a sign or signal (those carry none), taken in
-  // the order of OpenCV's 8-connected labels of the pole mask (pole_components).
+  // the order of OpenCV's 8-connected labels of the pole mask (pole_components; made ahead from
+  // these same labels, else made here).
   {
-    const std::vector<PoleBox> box = pole_components(ids);
-    for (const PoleBox& pb : box) {
+    const bool ahead = components && components->ids == ids.data() && components->width == W &&
+                       components->height == H;
+    const std::vector<PoleBox> made = ahead ? std::vector<PoleBox>() : pole_components(ids);
+    for (const PoleBox& pb : ahead ? components->boxes : made) {
       const int x0 = pb.x0, w = pb.x1 - pb.x0 + 1;
       const int y0 = pb.y0, h = pb.y1 - pb.y0 + 1;
       // A pole cut by the left or right border may be a sign post or a lamp column: not used.

@@ -83,5 +83,12 @@ struct PoleBox {
 // component. Found from the rows' runs of pole pixels (union-find over the runs), without a
 // mask image or a labelling of the whole frame.
 std::vector<PoleBox> pole_components(const ImageU16& labels);
+// pole_components of a label image, with the image it was made of (pole_components_of,
+// scene/night_detail.h): plan_street_lighting_with takes the boxes for those labels only.
+struct PoleComponents {
+  const uint16_t* ids = nullptr;
+  int width = 0, height = 0;
+  std::vector<PoleBox> boxes;
+};
 
 }  // namespace photosite::scene

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "photosite/scene/night.h"
+#include "scene/night_detail.h"
 
 namespace photosite::scene {
 
@@ -182,21 +183,27 @@ void coarse_depth_row(float* row, const double* txs, double ty, int W) {
 }
 }  // namespace
 
-ImageF coarse_depth(int W, int H, double vx, double vy) {
+CoarseDepthRows::CoarseDepthRows(int W, int H, double vx, double vy) : width(W), height(H), txs(W) {
   vx = std::clamp(vx, 0.0, W - 1.0);
-  vy = std::clamp(vy, 0.0, H - 1.0);
-  ImageF d(W, H, 1, uninitialized, unit::dimensionless);
+  vy_ = std::clamp(vy, 0.0, H - 1.0);
   const double left = std::max(vx, 1e-9), right = std::max(W - 1 - vx, 1e-9);
-  const double top = std::max(vy, 1e-9), bottom = std::max(H - 1 - vy, 1e-9);
+  top = std::max(vy_, 1e-9);
+  bottom = std::max(H - 1 - vy_, 1e-9);
   // The column term once per column (the same expression, so the same values): one division
   // per column instead of one per pixel.
-  std::vector<double> txs(W);
   for (int x = 0; x < W; ++x) txs[x] = x >= vx ? (x - vx) / right : (vx - x) / left;
+}
+
+void CoarseDepthRows::row(ImageF& d, int y) const {
+  const double ty = y >= vy_ ? (y - vy_) / bottom : (vy_ - y) / top;
+  coarse_depth_row(d.row(y), txs.data(), ty, width);
+}
+
+ImageF coarse_depth(int W, int H, double vx, double vy) {
+  ImageF d(W, H, 1, uninitialized, unit::dimensionless);
+  const CoarseDepthRows rows(W, H, vx, vy);
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
-    const double ty = y >= vy ? (y - vy) / bottom : (vy - y) / top;
-    coarse_depth_row(d.row(y), txs.data(), ty, W);
-  }
+  for (int y = 0; y < H; ++y) rows.row(d, y);
   return d;
 }
 

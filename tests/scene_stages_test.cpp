@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "photosite/scene/night.h"
+#include "photosite/scene/street.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/lanes_detail.h"
@@ -1091,9 +1092,9 @@ TEST(SceneChain, IndependentOfThreadCount) {
 }
 
 // night_scene's depth stage runs its two halves side by side where there are two threads
-// (façades and metric depth; coarse depth, the frame-size lane mask and the ego low beam): at 1
-// and 2 threads its outputs are the stage functions called one after the other on the scene's
-// own geometry and lane mask, bit for bit.
+// (façades, metric depth and the lamp plan; the ego low beam; then both share the coarse depth's
+// rows): at 1 and 2 threads its outputs are the stage functions called one after the other on
+// the scene's own geometry and lane mask, bit for bit.
 TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   SyntheticOptions o;
   SyntheticScene s = make_synthetic_road(o);
@@ -1208,6 +1209,59 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
   }
   omp_set_num_threads(saved);
   EXPECT_GT(fitted, 0);  // the street's façades are fitted planes, not only the road's unfitted ones
+}
+
+// plan_street_lighting_with given pole_components_of (the labels-only part, which night_scene
+// makes beside the edges stage) against plan_street_lighting on its own, lamp for lamp: a street
+// rendered from a known camera with two lamp poles on the sidewalks (which replace layout
+// luminaires: the plan's poles matter), 1 and 2 threads; components made of other labels (the
+// same street with its poles elsewhere) are not taken.
+TEST(SceneChain, PoleComponentsMadeAheadAreTheSamePlan) {
+  SyntheticCameraOptions co;
+  VanishingPoint none;  // the rig's pitch
+  co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
+  SyntheticCameraOptions elsewhere = co;
+  co.boxes = {{-8.5, 25, 0.3, 8, 0.3, Label::Pole}, {8.6, 45, 0.3, 8, 0.3, Label::Pole}};
+  elsewhere.boxes = {{-8.5, 40, 0.3, 8, 0.3, Label::Pole}, {8.6, 28, 0.3, 8, 0.3, Label::Pole}};
+  const SyntheticCameraScene street = make_synthetic_camera_scene(co);
+  const SyntheticCameraScene other = make_synthetic_camera_scene(elsewhere);
+  const ScenePreset& p = preset();
+  ASSERT_GT(p.street_road_luminance_cd_m2, 0);  // a preset that plans street lighting
+  auto same = [](const StreetLighting& a, const StreetLighting& b) {
+    EXPECT_EQ(a.source, b.source);
+    EXPECT_TRUE(a.road_left_m == b.road_left_m && a.road_right_m == b.road_right_m &&
+                a.peak_intensity_cd == b.peak_intensity_cd && a.grid_D0_m == b.grid_D0_m &&
+                a.avg_luminance_cd_m2 == b.avg_luminance_cd_m2 && a.uniformity_u0 == b.uniformity_u0);
+    ASSERT_EQ(a.lamps.size(), b.lamps.size());
+    for (size_t i = 0; i < a.lamps.size(); ++i) {
+      const StreetLamp &l = a.lamps[i], &m = b.lamps[i];
+      EXPECT_TRUE(l.X_m == m.X_m && l.Y_m == m.Y_m && l.D_m == m.D_m && l.from_pole == m.from_pole) << "lamp " << i;
+    }
+  };
+  auto from_poles = [](const StreetLighting& s) {
+    std::vector<double> d;
+    for (const StreetLamp& l : s.lamps)
+      if (l.from_pole) d.push_back(l.D_m);
+    return d;
+  };
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const StreetLighting want = plan_street_lighting(street.labels, co.camera, p, 5);
+    ASSERT_EQ(from_poles(want).size(), 2u) << threads << " threads";  // both poles carry a luminaire
+    // Elsewhere the poles stand at other distances: their plan differs, so taking their
+    // components for these labels would show.
+    ASSERT_NE(from_poles(plan_street_lighting(other.labels, co.camera, p, 5)), from_poles(want));
+    {
+      SCOPED_TRACE(fmt::format("{} threads, made ahead", threads));
+      same(plan_street_lighting_with(street.labels, co.camera, p, 5, pole_components_of(street.labels.ids).get()), want);
+    }
+    {
+      SCOPED_TRACE(fmt::format("{} threads, other labels", threads));
+      same(plan_street_lighting_with(street.labels, co.camera, p, 5, pole_components_of(other.labels.ids).get()), want);
+    }
+  }
+  omp_set_num_threads(saved);
 }
 
 // night_scene given the linearisation's texture sums (linearize_with_texture_sums; the working
