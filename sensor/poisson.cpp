@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
-#include <initializer_list>
 #include <utility>
 #include <immintrin.h>
 
@@ -332,8 +331,18 @@ struct LaneCopy {
   const void* src;
   void* dst;
 };
+// NC, the number of arrays, is a template argument: the copy loop unrolls with every source and
+// destination pointer in a register (a run-time count reloaded both pointers from the list and
+// advanced them for every array of every 16 lanes).
+template <int NC>
 __attribute__((target("avx512f")))
-int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy* copies, int nc) {
+int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
+  const uint32_t* src[NC];
+  uint32_t* dst[NC];
+  for (int c = 0; c < NC; ++c) {
+    src[c] = static_cast<const uint32_t*>(copies[c].src);
+    dst[c] = static_cast<uint32_t*>(copies[c].dst);
+  }
   const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   int n = 0;
   for (int i = 0; i < m; i += 16) {
@@ -342,17 +351,18 @@ int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy* copies
     const __mmask16 k =
         _mm512_mask_cmp_ps_mask(valid, _mm512_maskz_loadu_ps(valid, keep + i), _mm512_setzero_ps(), _CMP_NEQ_UQ);
     _mm512_storeu_si512(idx + n, _mm512_maskz_compress_epi32(k, _mm512_add_epi32(iota, _mm512_set1_epi32(i))));
-    for (int c = 0; c < nc; ++c) {
-      const __m512i v = _mm512_maskz_loadu_epi32(k, static_cast<const uint32_t*>(copies[c].src) + i);
-      _mm512_storeu_si512(static_cast<uint32_t*>(copies[c].dst) + n, _mm512_maskz_compress_epi32(k, v));
+#pragma GCC unroll 8
+    for (int c = 0; c < NC; ++c) {
+      const __m512i v = _mm512_maskz_loadu_epi32(k, src[c] + i);
+      _mm512_storeu_si512(dst[c] + n, _mm512_maskz_compress_epi32(k, v));
     }
     n += __builtin_popcount(static_cast<unsigned>(k));
   }
   return n;
 }
-int pack_lanes(const float* keep, int m, int* idx, std::initializer_list<LaneCopy> copies) {
-  if (g_philox_path.load(std::memory_order_relaxed) == 2)
-    return pack_lanes_avx512(keep, m, idx, copies.begin(), static_cast<int>(copies.size()));
+template <int NC>
+int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
+  if (g_philox_path.load(std::memory_order_relaxed) == 2) return pack_lanes_avx512<NC>(keep, m, idx, copies);
   const int n = select_lanes(keep, m, idx);
   for (const LaneCopy& c : copies)
     for (int j = 0; j < n; ++j)
