@@ -342,8 +342,13 @@ int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy (&copie
   const uint32_t* src[NC];
   uint32_t* dst[NC];
   for (int c = 0; c < NC; ++c) {
-    src[c] = static_cast<const uint32_t*>(copies[c].src);
-    dst[c] = static_cast<uint32_t*>(copies[c].dst);
+    // One 8-byte load per pointer (the empty asm keeps GCC from loading the caller's list, just
+    // stored pointer by pointer, as 32-byte vectors that its stores cannot forward to).
+    const void* s = copies[c].src;
+    void* d = copies[c].dst;
+    asm("" : "+r"(s), "+r"(d));
+    src[c] = static_cast<const uint32_t*>(s);
+    dst[c] = static_cast<uint32_t*>(d);
   }
   const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   int n = 0;
