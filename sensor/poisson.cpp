@@ -4,7 +4,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
-#include <initializer_list>
 #include <utility>
 #include <immintrin.h>
 
@@ -322,7 +321,9 @@ int select_lanes(const float* keep, int m, int* idx) {
 // pack_lanes: the lanes i < m where keep[i] != 0, in order, their indices into idx and, for
 // each LaneCopy, their 32-bit values (floats or words) from src[i] into dst[0, count);
 // returns the count. idx and every dst hold m + kPackRoom lanes (whole vectors are stored past
-// the count). On the AVX-512 path (the sampler's vector path, set_philox_path) one
+// the count). A dst may be its own src (packing in place): every path moves lane i to a place
+// <= i in increasing order, and the AVX-512 path's store for a group of 16 lanes from i reaches
+// at most lane i + 15, which that group has already read. On the AVX-512 path (the sampler's vector path, set_philox_path) one
 // vpcompressd per array and 16 lanes packs the values with the indices, the mask from one
 // compare; elsewhere select_lanes' indices, then a gather per array. Copies only, the same
 // lanes in the same order on every path, so no draw depends on the path (test
@@ -332,8 +333,23 @@ struct LaneCopy {
   const void* src;
   void* dst;
 };
+// NC, the number of arrays, is a template argument: the copy loop unrolls with every source and
+// destination pointer in a register (a run-time count reloaded both pointers from the list and
+// advanced them for every array of every 16 lanes).
+template <int NC>
 __attribute__((target("avx512f")))
-int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy* copies, int nc) {
+int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
+  const uint32_t* src[NC];
+  uint32_t* dst[NC];
+  for (int c = 0; c < NC; ++c) {
+    // One 8-byte load per pointer (the empty asm keeps GCC from loading the caller's list, just
+    // stored pointer by pointer, as 32-byte vectors that its stores cannot forward to).
+    const void* s = copies[c].src;
+    void* d = copies[c].dst;
+    asm("" : "+r"(s), "+r"(d));
+    src[c] = static_cast<const uint32_t*>(s);
+    dst[c] = static_cast<uint32_t*>(d);
+  }
   const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   int n = 0;
   for (int i = 0; i < m; i += 16) {
@@ -342,21 +358,22 @@ int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy* copies
     const __mmask16 k =
         _mm512_mask_cmp_ps_mask(valid, _mm512_maskz_loadu_ps(valid, keep + i), _mm512_setzero_ps(), _CMP_NEQ_UQ);
     _mm512_storeu_si512(idx + n, _mm512_maskz_compress_epi32(k, _mm512_add_epi32(iota, _mm512_set1_epi32(i))));
-    for (int c = 0; c < nc; ++c) {
-      const __m512i v = _mm512_maskz_loadu_epi32(k, static_cast<const uint32_t*>(copies[c].src) + i);
-      _mm512_storeu_si512(static_cast<uint32_t*>(copies[c].dst) + n, _mm512_maskz_compress_epi32(k, v));
+#pragma GCC unroll 8
+    for (int c = 0; c < NC; ++c) {
+      const __m512i v = _mm512_maskz_loadu_epi32(k, src[c] + i);
+      _mm512_storeu_si512(dst[c] + n, _mm512_maskz_compress_epi32(k, v));
     }
     n += __builtin_popcount(static_cast<unsigned>(k));
   }
   return n;
 }
-int pack_lanes(const float* keep, int m, int* idx, std::initializer_list<LaneCopy> copies) {
-  if (g_philox_path.load(std::memory_order_relaxed) == 2)
-    return pack_lanes_avx512(keep, m, idx, copies.begin(), static_cast<int>(copies.size()));
+template <int NC>
+int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
+  if (g_philox_path.load(std::memory_order_relaxed) == 2) return pack_lanes_avx512<NC>(keep, m, idx, copies);
   const int n = select_lanes(keep, m, idx);
   for (const LaneCopy& c : copies)
     for (int j = 0; j < n; ++j)
-      std::memcpy(static_cast<char*>(c.dst) + 4 * static_cast<size_t>(j),
+      std::memmove(static_cast<char*>(c.dst) + 4 * static_cast<size_t>(j),
                   static_cast<const char*>(c.src) + 4 * static_cast<size_t>(idx[j]), 4);
   return n;
 }
@@ -389,7 +406,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
   for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
   // Pass 3: the rejected lanes retried, compacted, until each is accepted: per retry call, the
   // first attempt on all of them, the second on those the first rejected.
-  alignas(64) uint32_t plo[kBlock], phi[kBlock], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[R], q3[R];
+  alignas(64) uint32_t plo[R], phi[R], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[R], q3[R];
   alignas(64) float qmu[R], again[kBlock];
   int nr = pack_lanes(rejected, m, sel, {{mu, cmu}});
   for (int j = 0; j < nr; ++j) {
@@ -406,16 +423,13 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     pad8(qmu, n2, 10.f), pad8(q2, n2, 0u), pad8(q3, n2, 0u);
     ptrs_attempts(qmu, q2, q3, cv, round8(n2));
     for (int t = 0; t < n2; ++t) ck[sel2[t]] = cv[t];
-    int left = 0;
     for (int j = 0; j < nr; ++j) {
       out[sel[j]] = ck[j];  // a lane still rejected (k < 0) is written again later
-      sel[left] = sel[j];
-      cmu[left] = cmu[j];
-      plo[left] = plo[j];
-      phi[left] = phi[j];
-      left += ck[j] < 0.f ? 1 : 0;
+      again[j] = ck[j] < 0.f ? 1.f : 0.f;
     }
-    nr = left;
+    // The lanes still rejected, packed in place (pack_lanes allows it: lane j moves to a place
+    // <= j, and a group's whole-vector stores reach no lane past those it has read).
+    nr = pack_lanes(again, nr, sel2, {{sel, sel}, {cmu, cmu}, {plo, plo}, {phi, phi}});
   }
   for (int j = 0; j < nr; ++j) out[sel[j]] = std::floor(cmu[j]);  // P < 1e-37 (ptrs.glsl)
 }
