@@ -55,9 +55,9 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
 // The same on vectors of N 32-bit lanes, written once for AVX2 (N = 8) and AVX-512 (N = 16) by
 // the macro PHILOX_SIMD below: a documented SIMD twin of philox4x32_round and philox4x32_10
 // (kernels/common/philox_round.glsl). mul_epu32 forms the 32x32->64 products of the even lanes;
-// the odd lanes are shifted down and multiplied the same way, and blends put the high and low
-// halves back in place (AVX-512: mask blends, and one ternary-logic instruction, 0x96 = a ^ b ^ c,
-// per three-way xor). Integer operations only, so every width gives the scalar Philox's words:
+// the odd lanes are shifted down and multiplied the same way, and the high and low halves are
+// put back in place (AVX2: a shift and a blend each; AVX-512: one masked dword swap each, and one
+// ternary-logic instruction, 0x96 = a ^ b ^ c, per three-way xor). Integer operations only, so every width gives the scalar Philox's words:
 // Philox.BlockWordsEqualScalarOnEveryPath and Philox.PoissonDrawsEqualOnEveryPathAndThreadCount
 // (tests/sensor_fast_paths_test.cpp), Poisson.BlockKernelMatchesScalarPhiloxWords,
 // PoissonAccuracy.PtrsBlockEqualsScalarReference and Philox.KnownAnswers. Each width defines
@@ -68,27 +68,51 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
 //    64-bit indices' halves.
 // Rounds is kPhiloxRounds (10) everywhere but in the generator benchmark (philox_words_rounds),
 // which times 7 rounds beside 10. OP(x) is the width's intrinsic _mm256_x or _mm512_x.
-#define PHILOX_SIMD(ISA, V, N, OP, ODD_BLEND, XOR3, LOAD, STORE, LANES, TAIL)                                      \
+// Two things are done once per call rather than once per N pixels: the round keys (ka, kb
+// advanced by the Weyl constants), kept in a table ks[2r], ks[2r + 1] whose entries the
+// rounds broadcast from memory (no shuffle-port work), and the first round's product of the
+// counter's word 2 (the frame, the same for every pixel): its halves first_hi, first_lo.
+// MULHILO(c, m, hi, lo) forms the high and low 32-bit halves of the products of the 32-bit
+// lanes c by m (see each width below).
+#define PHILOX_SIMD(ISA, V, N, OP, MULHILO, XOR3, LOAD, STORE, LANES, TAIL)                                        \
+  template <int Rounds>                                                                                          \
+  struct PhiloxKeys##N {                                                                                         \
+    uint32_t ks[2 * Rounds];                                                                                     \
+    uint32_t first_hi[N], first_lo[N];                                                                           \
+    __attribute__((target(ISA))) PhiloxKeys##N(uint64_t key, uint32_t frame) {                                    \
+      uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);                           \
+      for (int r = 0; r < Rounds; ++r) {                                                                         \
+        ks[2 * r] = ka;                                                                                          \
+        ks[2 * r + 1] = kb;                                                                                      \
+        ka += shader::kPhiloxW0;                                                                                 \
+        kb += shader::kPhiloxW1;                                                                                 \
+      }                                                                                                          \
+      V hi, lo;                                                                                                  \
+      MULHILO(OP(set1_epi32)(static_cast<int>(frame)), OP(set1_epi32)(static_cast<int>(shader::kPhiloxM1)), hi, lo); \
+      STORE(first_hi, hi);                                                                                       \
+      STORE(first_lo, lo);                                                                                       \
+    }                                                                                                            \
+  };                                                                                                             \
   template <int Rounds = shader::kPhiloxRounds>                                                                  \
-  __attribute__((target(ISA))) inline void philox_lanes_##N(V c0, V c1, uint64_t key, uint32_t frame,             \
+  __attribute__((target(ISA))) inline void philox_lanes_##N(V c0, V c1, const PhiloxKeys##N<Rounds>& k,          \
                                                             uint32_t stream, uint32_t* w0, uint32_t* w1,          \
                                                             uint32_t* w2, uint32_t* w3) {                         \
     const V m0 = OP(set1_epi32)(static_cast<int>(shader::kPhiloxM0));                                            \
     const V m1 = OP(set1_epi32)(static_cast<int>(shader::kPhiloxM1));                                            \
-    V c2 = OP(set1_epi32)(static_cast<int>(frame));                                                              \
-    V c3 = OP(set1_epi32)(static_cast<int>(stream));                                                             \
-    uint32_t ka = static_cast<uint32_t>(key), kb = static_cast<uint32_t>(key >> 32);                             \
-    for (int r = 0; r < Rounds; ++r) {                                                                           \
-      const V e0 = OP(mul_epu32)(c0, m0), o0 = OP(mul_epu32)(OP(srli_epi64)(c0, 32), m0);                        \
-      const V e1 = OP(mul_epu32)(c2, m1), o1 = OP(mul_epu32)(OP(srli_epi64)(c2, 32), m1);                        \
-      const V hi0 = ODD_BLEND(OP(srli_epi64)(e0, 32), o0), lo0 = ODD_BLEND(e0, OP(slli_epi64)(o0, 32));          \
-      const V hi1 = ODD_BLEND(OP(srli_epi64)(e1, 32), o1), lo1 = ODD_BLEND(e1, OP(slli_epi64)(o1, 32));          \
-      c0 = XOR3(hi1, c1, OP(set1_epi32)(static_cast<int>(ka)));                                                  \
+    V hi0, lo0;                                                                                                  \
+    MULHILO(c0, m0, hi0, lo0);                                                                                   \
+    c0 = XOR3(LOAD(k.first_hi), c1, OP(set1_epi32)(static_cast<int>(k.ks[0])));                                 \
+    c1 = LOAD(k.first_lo);                                                                                       \
+    V c2 = XOR3(hi0, OP(set1_epi32)(static_cast<int>(stream)), OP(set1_epi32)(static_cast<int>(k.ks[1])));      \
+    V c3 = lo0;                                                                                                  \
+    for (int r = 1; r < Rounds; ++r) {                                                                           \
+      V hi1, lo1;                                                                                                \
+      MULHILO(c0, m0, hi0, lo0);                                                                                 \
+      MULHILO(c2, m1, hi1, lo1);                                                                                 \
+      c0 = XOR3(hi1, c1, OP(set1_epi32)(static_cast<int>(k.ks[2 * r])));                                        \
       c1 = lo1;                                                                                                  \
-      c2 = XOR3(hi0, c3, OP(set1_epi32)(static_cast<int>(kb)));                                                  \
+      c2 = XOR3(hi0, c3, OP(set1_epi32)(static_cast<int>(k.ks[2 * r + 1])));                                    \
       c3 = lo0;                                                                                                  \
-      ka += shader::kPhiloxW0;                                                                                   \
-      kb += shader::kPhiloxW1;                                                                                   \
     }                                                                                                            \
     STORE(w0, c0);                                                                                               \
     STORE(w1, c1);                                                                                               \
@@ -100,30 +124,39 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
                                                      uint32_t stream, int n, uint32_t* w0, uint32_t* w1,          \
                                                      uint32_t* w2, uint32_t* w3) {                                \
     const V lane = LANES;                                                                                        \
+    const PhiloxKeys##N<Rounds> k(key, frame);                                                                   \
     int j = 0;                                                                                                   \
     for (; j + N <= n && ((first_pixel + j) >> 32) == ((first_pixel + j + N - 1) >> 32); j += N) {               \
       const uint64_t p = first_pixel + j;                                                                        \
       const V c0 = OP(add_epi32)(OP(set1_epi32)(static_cast<int>(static_cast<uint32_t>(p))), lane);              \
       const V c1 = OP(set1_epi32)(static_cast<int>(static_cast<uint32_t>(p >> 32)));                             \
-      philox_lanes_##N<Rounds>(c0, c1, key, frame, stream, w0 + j, w1 + j, w2 + j, w3 + j);                      \
+      philox_lanes_##N<Rounds>(c0, c1, k, stream, w0 + j, w1 + j, w2 + j, w3 + j);                               \
     }                                                                                                            \
     if (j < n) TAIL(key, frame, first_pixel + j, stream, n - j, w0 + j, w1 + j, w2 + j, w3 + j);                 \
   }                                                                                                              \
   __attribute__((target(ISA))) void philox_list_##N(uint64_t key, uint32_t frame, const uint32_t* pixel_lo,       \
                                                     const uint32_t* pixel_hi, uint32_t stream, int n,            \
                                                     uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3) {    \
+    if (n < N) return;                                                                                           \
+    const PhiloxKeys##N<shader::kPhiloxRounds> k(key, frame);                                                    \
     for (int j = 0; j + N <= n; j += N)                                                                          \
-      philox_lanes_##N(LOAD(pixel_lo + j), LOAD(pixel_hi + j), key, frame, stream, w0 + j, w1 + j, w2 + j,       \
-                       w3 + j);                                                                                  \
+      philox_lanes_##N(LOAD(pixel_lo + j), LOAD(pixel_hi + j), k, stream, w0 + j, w1 + j, w2 + j, w3 + j);       \
   }
 
 #define PHILOX_AVX2_OP(x) _mm256_##x
-#define PHILOX_AVX2_ODD_BLEND(a, b) _mm256_blend_epi32(a, b, 0xAA)
+// The products of the even lanes by mul_epu32, of the odd lanes shifted down the same way; the
+// halves put back in place by blends.
+#define PHILOX_AVX2_MULHILO(c, m, hi, lo)                                                    \
+  do {                                                                                       \
+    const __m256i e_ = _mm256_mul_epu32(c, m), o_ = _mm256_mul_epu32(_mm256_srli_epi64(c, 32), m); \
+    hi = _mm256_blend_epi32(_mm256_srli_epi64(e_, 32), o_, 0xAA);                            \
+    lo = _mm256_blend_epi32(e_, _mm256_slli_epi64(o_, 32), 0xAA);                            \
+  } while (0)
 #define PHILOX_AVX2_XOR3(a, b, c) _mm256_xor_si256(_mm256_xor_si256(a, b), c)
 #define PHILOX_AVX2_LOAD(p) _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))
 #define PHILOX_AVX2_STORE(p, v) _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v)
 #define PHILOX_AVX2_LANES _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)
-PHILOX_SIMD("avx2", __m256i, 8, PHILOX_AVX2_OP, PHILOX_AVX2_ODD_BLEND, PHILOX_AVX2_XOR3, PHILOX_AVX2_LOAD,
+PHILOX_SIMD("avx2", __m256i, 8, PHILOX_AVX2_OP, PHILOX_AVX2_MULHILO, PHILOX_AVX2_XOR3, PHILOX_AVX2_LOAD,
             PHILOX_AVX2_STORE, PHILOX_AVX2_LANES, philox_words_scalar)
 
 // GCC 12's AVX-512 intrinsics pass _mm512_undefined_epi32() as the unused merge source of their
@@ -132,12 +165,22 @@ PHILOX_SIMD("avx2", __m256i, 8, PHILOX_AVX2_OP, PHILOX_AVX2_ODD_BLEND, PHILOX_AV
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #define PHILOX_AVX512_OP(x) _mm512_##x
-#define PHILOX_AVX512_ODD_BLEND(a, b) _mm512_mask_blend_epi32(0xAAAA, a, b)
+// The products of the even lanes by mul_epu32, of the odd lanes shifted down the same way; each
+// half put in place by one masked dword swap (vpshufd CDAB under a mask): hi takes the even
+// products' high dwords swapped down into the even lanes over the odd products (whose high
+// dwords are in the odd lanes already), lo the odd products' low dwords swapped up into the odd
+// lanes over the even products. One instruction a half where a shift and a blend were two.
+#define PHILOX_AVX512_MULHILO(c, m, hi, lo)                                                  \
+  do {                                                                                       \
+    const __m512i e_ = _mm512_mul_epu32(c, m), o_ = _mm512_mul_epu32(_mm512_srli_epi64(c, 32), m); \
+    hi = _mm512_mask_shuffle_epi32(o_, 0x5555, e_, _MM_PERM_CDAB);                           \
+    lo = _mm512_mask_shuffle_epi32(e_, 0xAAAA, o_, _MM_PERM_CDAB);                           \
+  } while (0)
 #define PHILOX_AVX512_XOR3(a, b, c) _mm512_ternarylogic_epi32(a, b, c, 0x96)
 #define PHILOX_AVX512_LOAD(p) _mm512_loadu_si512(p)
 #define PHILOX_AVX512_STORE(p, v) _mm512_storeu_si512(p, v)
 #define PHILOX_AVX512_LANES _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
-PHILOX_SIMD("avx512f", __m512i, 16, PHILOX_AVX512_OP, PHILOX_AVX512_ODD_BLEND, PHILOX_AVX512_XOR3,
+PHILOX_SIMD("avx512f", __m512i, 16, PHILOX_AVX512_OP, PHILOX_AVX512_MULHILO, PHILOX_AVX512_XOR3,
             PHILOX_AVX512_LOAD, PHILOX_AVX512_STORE, PHILOX_AVX512_LANES, philox_words_8<Rounds>)
 #pragma GCC diagnostic pop
 

@@ -48,21 +48,31 @@ std::vector<detail::PhiloxPath> cpu_paths() {
 }
 
 // Every path's words are random_words()'s, over lengths that leave every tail (16, 8, scalar)
-// and a range that crosses a 2^32 pixel boundary (where the vector paths fall back).
+// and a range that crosses a 2^32 pixel boundary (where the vector paths fall back), for keys,
+// frames and streams whose words have high and low bits set (the vector paths make the round
+// keys and the first round's product of the frame once per call).
 TEST(Philox, BlockWordsEqualScalarOnEveryPath) {
   std::printf("Philox paths on this CPU: %zu (0 scalar, 1 AVX2, 2 AVX-512)\n", cpu_paths().size());
-  for (const auto path : cpu_paths())
-    for (const uint64_t first : {uint64_t{0}, uint64_t{777}, (uint64_t{1} << 32) - 21})
-      for (const int n : {1, 7, 8, 15, 16, 17, 31, 256}) {
-        std::vector<uint32_t> w(4 * 256);
-        detail::philox_block_words(path, 0x1234567890abcdefull, 9, first, 300, n, w.data(), w.data() + 256,
-                                   w.data() + 512, w.data() + 768);
-        for (int j = 0; j < n; ++j) {
-          const auto want = random_words(0x1234567890abcdefull, 9, first + j, static_cast<Stream>(300));
-          for (int k = 0; k < 4; ++k)
-            ASSERT_EQ(w[256 * k + j], want[k]) << "path " << static_cast<int>(path) << " pixel " << first + j;
+  struct Counter {
+    uint64_t key;
+    uint32_t frame, stream;
+  };
+  for (const Counter c : {Counter{0x1234567890abcdefull, 9, 300}, Counter{0, 0, 0},
+                          Counter{0xffffffffffffffffull, 0xffffffffu, 0xffffffffu},
+                          Counter{0x8000000180000001ull, 0x80000001u, 0x7fffffffu}})
+    for (const auto path : cpu_paths())
+      for (const uint64_t first : {uint64_t{0}, uint64_t{777}, (uint64_t{1} << 32) - 21})
+        for (const int n : {1, 7, 8, 15, 16, 17, 31, 256}) {
+          std::vector<uint32_t> w(4 * 256);
+          detail::philox_block_words(path, c.key, c.frame, first, c.stream, n, w.data(), w.data() + 256,
+                                     w.data() + 512, w.data() + 768);
+          for (int j = 0; j < n; ++j) {
+            const auto want = random_words(c.key, c.frame, first + j, static_cast<Stream>(c.stream));
+            for (int k = 0; k < 4; ++k)
+              ASSERT_EQ(w[256 * k + j], want[k]) << "path " << static_cast<int>(path) << " pixel " << first + j
+                                                 << " key " << c.key << " frame " << c.frame;
+          }
         }
-      }
 }
 
 // The sampler's draws (exact and cornish-fisher) do not depend on the Philox path or the
