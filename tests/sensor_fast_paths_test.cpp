@@ -155,6 +155,41 @@ TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
   detail::set_philox_path(saved);
 }
 
+// fast_cos_2pi (kernels/common/fastmath.glsl) folds u = |v − round(v)| in [0, ½] to
+// min(u, ½ − u), which replaced the select flip ? ½ − u : u (flip = u > ¼) that GCC vectorized
+// as two polynomials. Held bit for bit to the function as it was (its select, its Taylor
+// polynomial to x¹², sign by flip: transcribed here as the reference) on every input of the
+// read-noise normal (v on the 2^-24 grid of normal_from_words_f: all 2^24 of them) and on two
+// million other floats of [0, 1); the vectorized normals equal the scalar ones
+// (Philox.PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes).
+float cos_2pi_with_select(float v) {
+  float u = std::fabs(v - std::floor(v + 0.5f));
+  const bool flip = u > 0.25f;
+  u = flip ? 0.5f - u : u;
+  const float x = 6.28318531f * u, x2 = x * x;
+  const float c = 1.0f + x2 * (-0.5f + x2 * (4.16666667e-2f + x2 * (-1.38888889e-3f + x2 * (2.48015873e-5f +
+                  x2 * (-2.75573192e-7f + x2 * 2.08767570e-9f)))));
+  return flip ? -c : c;
+}
+TEST(FastMath, CosFoldByMinEqualsTheSelectItReplaced) {
+  auto bits = [](float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, 4);
+    return b;
+  };
+  int64_t bad = 0;
+  auto check = [&](float v) { bad += bits(detail::fast_cos_2pi(v)) != bits(cos_2pi_with_select(v)); };
+  for (uint32_t j = 0; j < (1u << 24); ++j) check(static_cast<float>(j) * 5.9604644775390625e-8f);
+  for (uint64_t i = 0; i < 1000000; ++i) {
+    const auto r = random_words(77, 0, i, Stream::Test);
+    for (const uint32_t w : {r[0], r[1]}) {
+      const float v = static_cast<float>(w >> 8) * 5.9604644775390625e-8f + static_cast<float>(w & 0xffu) * 0x1p-32f;
+      check(v < 1.f ? v : 0.f);
+    }
+  }
+  EXPECT_EQ(bad, 0);
+}
+
 // ---- the glare pyramid's definition, transcribed whole-image (glare.h; kernels/common/glare.glsl) ----
 using shader::glare_lerp;
 using shader::glare_mirror;

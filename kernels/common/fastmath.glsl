@@ -48,8 +48,12 @@ PS_FN float fast_log(float x) {
 PS_FN float fast_cos_2pi(float v) {
   precise float u = abs(v - floor(v + 0.5f));  // [0, 0.5]; cos is even
   const bool flip = u > 0.25f;
-  u = flip ? 0.5f - u : u;  // cos(2π(½−u)) = −cos(2πu)
-  precise float x = 6.28318531f * u;
+  // cos(2π(½−u)) = −cos(2πu): fold to min(u, ½ − u), the same float as flip ? ½ − u : u (when
+  // flip, u is in (¼, ½] and ½ − u is exact (Sterbenz) and below u; else ½ − u rounds to >= ¼
+  // >= u). A min rather than a select on flip, which GCC's vectorizer split into two
+  // polynomials, one per side, selected after (16 more vector instructions per 16 normals).
+  precise float folded = min(u, 0.5f - u);
+  precise float x = 6.28318531f * folded;
   precise float x2 = x * x;
   precise float c = 1.0f + x2 * (-0.5f + x2 * (4.16666667e-2f + x2 * (-1.38888889e-3f +
                     x2 * (2.48015873e-5f + x2 * (-2.75573192e-7f + x2 * 2.08767570e-9f)))));
