@@ -96,6 +96,10 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "placed lamps (no poles labelled) reach this far ahead", "photosite choice"),
       num("street_lamps.min_pole_height_m", PHOTOSITE_AT(P, lamp_min_pole_height_m), "m", 1, 30,
           "a taller labelled pole carries a luminaire", "photosite choice"),
+      num("street_lamps.interp_tolerance", PHOTOSITE_AT(P, lamp_interp_tolerance), "fraction", 0, 0.1,
+          "the ground pools evaluated at adaptive sample columns of each row and interpolated within "
+          "this relative error (0: every pixel exactly)",
+          "[C] ≤ 1/(4·√full_well) of the largest camera full well, 168,000 e- (sony-a7s2): 6.1e-4 (scene/street.cpp)"),
       table("vehicle_lamps", "head, tail and parking lamps per vehicle (scene/lights.cpp)", "[U] ECE R48, R7, R112"),
       num("vehicle_lamps.height_m", PHOTOSITE_AT(P, veh_lamp_height_m), "m", 0.2, 3,
           "lamp height above the ground contact", "[U] ECE R48"),

@@ -581,6 +581,127 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
 }
 
 namespace {
+// ---- The ground pools at adaptive sample columns (scene preset street_lamps.interp_tolerance) ----
+// On the flat ground an image row is one forward distance D, and the row's lamps are fixed (those
+// within reach of D, for every pixel alike), so E(X) = Σ I(γ)·cos γ/d² is one continuous function
+// of the column, smooth except at each lamp's cut-off knee (γ = γ_c, where I(γ) turns from constant
+// to the exponential falloff): it varies over metres (a luminaire 8-12 m up: tens to hundreds of
+// pixels). It is evaluated exactly (the per-pixel kernel, the same bits) at sample columns only
+// and linearly interpolated between (tol = the preset's tolerance, relative):
+//   1. samples every `step` columns from the span's first column, and at its last: step =
+//      kInterpStep_m_per_H·H_min of ground (H_min the row's lowest luminaire, so a lamp's pool,
+//      whose scale is its height, spans at least 4 steps), at most kInterpStep_px, at least 2;
+//   2. each interval [a, b] (b − a ≥ 4; shorter ones: every column evaluated) is tested at its
+//      midpoint m and its quarters q1, q3: E(m) against the chord through E(a) and E(b), E(q1)
+//      against the chord through E(a) and E(m), E(q3) against the one through E(m) and E(b). It is
+//      accepted when the five samples' signatures agree (which lamps are beyond their cut-off: a
+//      knee between two samples makes them differ) and each deviation is ≤ tol·min(the five E);
+//      then [a, b] is filled by the four quarter chords; else [a, m] and [m, b] are tested the same
+//      way (their midpoints known: q1, q3), down to intervals shorter than 4 columns (all exact).
+//      So every knee is bracketed by samples at adjacent columns, and an accepted interval holds
+//      none.
+// The bound. For f with a constant second derivative a chord's error on an interval of length h
+// is f''·(x − a)(b − x)/2, largest at the midpoint, h²f''/8. The quarter test measures the half
+// chord's (length h/2) midpoint deviation, f''h²/32; the quarter chords drawn err by at most
+// f''h²/128, a quarter of it: ≤ (tol/4)·min E. So the result stays within tol·E while |f''| varies
+// by less than a factor 4 over each half (within a knee-free interval f is analytic; its curvature
+// changes over the lamps' height scale, which `step` keeps at 4 or more intervals). Testing each
+// half (not only the midpoint of the whole, which an inflection, f'' changing sign across m, can
+// leave on the chord while both halves bend: measured 3.8x the tolerance on a Cityscapes row
+// before the quarters were tested) leaves an inflection inside one quarter, where |f''| is near 0.
+// What it does not cover: a lamp's whole cone crossing between two samples (its chord across the
+// row shorter than the interval, both knees in it: the signatures agree), where I exceeds the
+// exponential by the small excess near γ_c only. The tests check every ground pixel of the
+// synthetic street and of three Cityscapes frames against tol·E (worst measured: 0.35·tol at
+// 6e-4; docs/lightmap_interp.csv for the chain's lights layer).
+// The vertical light stays exact (its reach, the γ = 90° limit and faces turning away are steps
+// within a façade run; an interpolated façade path measured slower than the exact AVX-512 one:
+// docs/night.md §7). The sample columns depend on the row and its span only (labels, geometry,
+// the preset), never on threads or bands.
+// The tolerance: the smallest relative noise any output pixel can show is the photon shot noise
+// at full well, 1/√(full well); the presets' largest well (sony-a7s2, 168,000 e-) gives 2.4e-3,
+// so tol ≤ 1/(4·√168,000) = 6.1e-4 stays 4x below the noise of the brightest pixel of any camera
+// preset (a bias, not noise: averaged over ≥ 16 pixels of one grey level the shot noise falls
+// below it, so it is not invisible to every statistic).
+constexpr int kInterpStep_px = 128;
+constexpr double kInterpStep_m_per_H = 0.25;
+struct AdaptiveScratch {
+  std::vector<int32_t> xs, a, b, na, nb;
+  std::vector<uint8_t> mid, nmid;
+};
+// The chord from (a, ev[a]) to (b, ev[b]) over the columns strictly between.
+inline void fill_chord(float* ev, int a, int b) {
+  const float fa = ev[a], d = ev[b] - fa, inv = 1.f / static_cast<float>(b - a);
+  for (int x = a + 1; x < b; ++x) ev[x] = fa + d * (static_cast<float>(x - a) * inv);
+}
+// ev[x] for x0 ≤ x ≤ x1 by the scheme above, first samples every `step` columns; eval(xs, n)
+// writes the exact ev[xs[i]] and the structure signature sig[xs[i]] for n columns. Intervals of
+// fewer than 4 columns get every column evaluated. An interval's entry `mid` says its midpoint
+// is known already (the children of a rejected interval: their midpoints are its quarters).
+template <class Eval>
+void adaptive_span(int x0, int x1, int step, float tol, float* ev, const uint32_t* sig, AdaptiveScratch& s,
+                   Eval&& eval) {
+  s.xs.clear();
+  s.a.clear();
+  s.b.clear();
+  s.mid.clear();
+  for (int x = x0; x < x1; x += step) s.xs.push_back(x);
+  s.xs.push_back(x1);
+  eval(s.xs.data(), static_cast<int>(s.xs.size()));
+  for (size_t i = 0; i + 1 < s.xs.size(); ++i)
+    if (s.xs[i + 1] - s.xs[i] >= 2) {
+      s.a.push_back(s.xs[i]);
+      s.b.push_back(s.xs[i + 1]);
+      s.mid.push_back(0);
+    }
+  // The deviation of f(m) from the chord through (a, f(a)) and (b, f(b)) within the tolerance.
+  auto on_chord = [&](int a, int m, int b, float lo) {
+    const float fa = ev[a];
+    const float chord = fa + (ev[b] - fa) * (static_cast<float>(m - a) / static_cast<float>(b - a));
+    return std::fabs(ev[m] - chord) <= tol * lo;
+  };
+  while (!s.a.empty()) {  // one level per pass, its new samples evaluated in one call
+    const size_t n = s.a.size();
+    s.xs.clear();
+    for (size_t j = 0; j < n; ++j) {
+      const int a = s.a[j], b = s.b[j], m = (a + b) / 2;
+      if (b - a < 4) {
+        for (int x = a + 1; x < b; ++x)
+          if (x != m || !s.mid[j]) s.xs.push_back(x);
+        continue;
+      }
+      if (!s.mid[j]) s.xs.push_back(m);
+      s.xs.push_back((a + m) / 2);
+      s.xs.push_back((m + b) / 2);
+    }
+    if (!s.xs.empty()) eval(s.xs.data(), static_cast<int>(s.xs.size()));
+    s.na.clear();
+    s.nb.clear();
+    s.nmid.clear();
+    for (size_t j = 0; j < n; ++j) {
+      const int a = s.a[j], b = s.b[j];
+      if (b - a < 4) continue;  // every column exact
+      const int m = (a + b) / 2, q1 = (a + m) / 2, q3 = (m + b) / 2;
+      const bool smooth = sig[a] == sig[q1] && sig[q1] == sig[m] && sig[m] == sig[q3] && sig[q3] == sig[b];
+      const float lo = std::min(std::min(std::min(ev[a], ev[q1]), std::min(ev[m], ev[q3])), ev[b]);
+      if (smooth && on_chord(a, m, b, lo) && on_chord(a, q1, m, lo) && on_chord(m, q3, b, lo)) {
+        fill_chord(ev, a, q1);
+        fill_chord(ev, q1, m);
+        fill_chord(ev, m, q3);
+        fill_chord(ev, q3, b);
+        continue;
+      }
+      s.na.push_back(a), s.nb.push_back(m), s.nmid.push_back(1);
+      s.na.push_back(m), s.nb.push_back(b), s.nmid.push_back(1);
+    }
+    s.a.swap(s.na);
+    s.b.swap(s.nb);
+    s.mid.swap(s.nmid);
+  }
+}
+}  // namespace
+
+namespace {
 // What the pools and the vertical light share: their inputs, the street light's tint over π (the
 // Lambertian reflection L = ρ·E/π per channel) and the intensity table.
 struct LitRows {
@@ -606,11 +727,13 @@ struct PoolPass : LitRows {
   const int isa;
   std::vector<double> reach;  // each lamp's reach_m, once (not per row)
   const float I0;
+  const float tol;  // street_lamps.interp_tolerance (0: every pixel exactly)
   PoolPass(const ImageF& texture_, const ImageU16& labels_, const CameraGeometry& g_, const StreetLighting& s_,
            const ScenePreset& p, int width)
       : LitRows(texture_, labels_, g_, p, width), s(s_),
         y_start(std::max(0, static_cast<int>(std::floor(g_.horizon_y)) + 1)), ground_mask(label_bits(ground_classes())),
-        isa(light_isa()), reach(s_.lamps.size()), I0(static_cast<float>(s_.peak_intensity_cd)) {
+        isa(light_isa()), reach(s_.lamps.size()), I0(static_cast<float>(s_.peak_intensity_cd)),
+        tol(static_cast<float>(p.lamp_interp_tolerance)) {
     for (size_t k = 0; k < s.lamps.size(); ++k) reach[k] = reach_m(s.lamps[k].Y_m, p);
   }
   struct Scratch {
@@ -618,8 +741,26 @@ struct PoolPass : LitRows {
     std::vector<double> Xg;
     std::vector<uint8_t> gbits;
     PoolLamps pl;
-    explicit Scratch(int W) : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2) {}
+    // The interpolated path: the sample columns' ground X and E (compacted), all-ground bits.
+    std::vector<double> Xs;
+    std::vector<float> es;
+    std::vector<uint8_t> ones;
+    std::vector<uint32_t> sig;  // per column: the samples' signatures
+    AdaptiveScratch ad;
+    explicit Scratch(int W)
+        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff), sig(W + 8) {}
   };
+  // The exact pools at n columns xs (compacted, into sc.es): the row kernel on their ground X
+  // (the same expression as the full row's), each lane its own pixel: the same bits as at those
+  // columns in the full row.
+  void pool_at(const int32_t* xs, int n, double kx, Scratch& sc) const {
+    for (int i = 0; i < n; ++i) sc.Xs[i] = (xs[i] - g.cx_px) * kx;
+    const int np = (n + 7) / 8 * 8;
+    for (int i = n; i < np; ++i) sc.Xs[i] = sc.Xs[n - 1];
+    if (isa >= 2) pool_row_avx512(sc.es.data(), sc.Xs.data(), sc.ones.data(), np, sc.pl, I0, table);
+    else if (isa >= 1) pool_row_avx2(sc.es.data(), sc.Xs.data(), sc.ones.data(), np, sc.pl, I0, table);
+    else pool_row_scalar(sc.es.data(), sc.Xs.data(), sc.ones.data(), np, sc.pl, I0, table);
+  }
   void row(ImageF& L, int y, Scratch& sc) const {
     double D0, t;
     if (y < y_start || !g.ground_point(g.cx_px, y, nullptr, &D0, &t)) return;
@@ -650,9 +791,37 @@ struct PoolPass : LitRows {
     // group: each lane is its own), the others not; the columns past W of the last group are
     // computed and not read.
     const int xa = 8 * qa, n = 8 * (qb - qa);
-    for (int i = 0; i < n; ++i) sc.Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
     float* o = L.row(y);
     const float* tx = texture.row(y);
+    if (tol > 0) {
+      // Adaptive samples over the span's columns (adaptive_span: E(X) is one smooth function
+      // along the row, also across the non-ground pixels between), then the reflection.
+      float* acc = sc.acc.data();
+      double Hmin = 1e300;
+      for (int k = 0; k < sc.pl.size(); ++k) Hmin = std::min(Hmin, static_cast<double>(sc.pl.Hl[k]));
+      const int step = static_cast<int>(std::clamp(kInterpStep_m_per_H * Hmin / kx, 2.0, double{kInterpStep_px}));
+      // The signature: which of the row's lamps are beyond their cut-off at the column (H² <
+      // cos²γ_c·d², in double), as bits (lamp k: bit k mod 32): the knee of each lamp's I(γ) is
+      // bracketed by samples on both sides, so an accepted interval holds no knee at all.
+      const double cc2 = table.cc * table.cc;
+      uint32_t* sig = sc.sig.data();
+      adaptive_span(xa, std::min(W, xa + n) - 1, step, tol, acc, sig, sc.ad, [&](const int32_t* xs, int m) {
+        pool_at(xs, m, kx, sc);
+        for (int i = 0; i < m; ++i) {
+          acc[xs[i]] = sc.es[i];
+          uint32_t b = 0;
+          for (int k = 0; k < sc.pl.size(); ++k) {
+            const double dx = sc.Xs[i] - sc.pl.Xl[k], H2 = sc.pl.H2[k];
+            b |= static_cast<uint32_t>(H2 < cc2 * (dx * dx + sc.pl.dz2[k] + H2)) << (k % 32);
+          }
+          sig[xs[i]] = b;
+        }
+      });
+      if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
+      else add_reflection_scalar(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
+      return;
+    }
+    for (int i = 0; i < n; ++i) sc.Xg[i] = (xa + i - g.cx_px) * kx;  // the pixel's ground X
     if (isa >= 1) {
       if (isa >= 2) pool_row_avx512(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
       else pool_row_avx2(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);

@@ -129,7 +129,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
   X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
   X(street_road_luminance_cd_m2) X(street_cct_K) \
   X(lamp_mount_height_m) X(lamp_spacing_ratio) X(lamp_setback_m) X(lamp_cutoff_deg) X(lamp_falloff_deg) \
-  X(lamp_head_diameter_m) X(lamp_max_distance_m) X(lamp_min_pole_height_m) \
+  X(lamp_head_diameter_m) X(lamp_max_distance_m) X(lamp_min_pole_height_m) X(lamp_interp_tolerance) \
   X(veh_lamp_height_m) X(veh_lamp_inset_m) X(veh_head_diameter_m) X(veh_tail_diameter_m) \
   X(veh_head_intensity_cd) X(veh_tail_intensity_cd) X(veh_parking_intensity_cd) X(veh_parked_lit_fraction) \
   X(veh_kerb_strip_m) \
@@ -153,7 +153,8 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // values. Keys added since are appended to those files by hand with their bundled values
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
-// reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction). Values changed since, by hand with the commit that changed them:
+// reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
+// street_lamps.interp_tolerance). Values changed since, by hand with the commit that changed them:
 // reflectance.nature 0.2 -> 0.08 (the visible reflectance of vegetation, NP §4).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;

@@ -655,7 +655,8 @@ TEST(StreetLighting, RowPassSideJobOverlapsTheRowsOutsideItsBand) {
 // at most (number of lamps dropped there)·E_R. Pixels within 1e-6·R of a band's edge are skipped
 // (the image's and the test's rounding may put them on either side).
 TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
-  const OpenStreet street = open_street();
+  OpenStreet street = open_street();
+  street.p.lamp_interp_tolerance = 0;  // the exact per-pixel path (the interpolated one: below)
   const auto& [o, sc, p, s] = street;
   ASSERT_GT(s.lamps.size(), 4u);
   const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
@@ -705,6 +706,153 @@ TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
                "%.2e of the average (bound %.2e), %d pixels checked, %d on a rim\n",
                R, E_R, E_R / E_avg, E_avg, worst_share, worst_bound_share, checked, rim);
   std::fprintf(stderr, "[street] float32 pools: worst relative error %.2e (bound up to %.2e)\n", worst_rel, worst_tol);
+}
+
+// The ground pools at adaptive sample columns (street_lamps.interp_tolerance = tol > 0,
+// scene/street.cpp adaptive_span) against the exact per-pixel evaluation (tol = 0, the reference
+// and the oracle). The bound: the samples are the exact path's own values (the same kernel on the
+// same ground X: the same bits), and between them the quarter chords stay within tol/4·E of the
+// exact E where |E''| varies by less than 4x over each tested half, no cut-off knee lying in an
+// accepted interval (street.cpp's derivation: within tol·E with that margin). On top of that
+// float rounding: the chord fa + (fb − fa)·((x − a)·(1/(b − a)))
+// rounds 4 times on values up to max(fa, fb) ≤ (1 + tol)·2·E within an accepted interval (its
+// ends within 2x of E: the midpoint test admits no steeper interval at these tolerances, checked
+// by the bound itself), 8u, and L = (t·tint)·E in both images 2 products each, 4u more: so every
+// pool sample (each channel) of the interpolated image is within (tol + 12·2⁻²⁴)·L_exact of the
+// exact image, and a pixel the exact path leaves dark stays dark. The pixels off the ground are
+// not touched by the pools: the same bits.
+namespace {
+struct InterpCheck {
+  double worst_rel = 0;
+  size_t checked = 0, differ = 0, bad = 0;
+};
+InterpCheck pools_against_exact(const ImageF& tex, const ImageU16& ids, const CameraGeometry& g, const StreetLighting& s,
+                                ScenePreset p, double tol) {
+  const int W = ids.width(), H = ids.height();
+  ImageF exact(W, H, 3, 0.f, unit::radiance), approx(W, H, 3, 0.f, unit::radiance);
+  p.lamp_interp_tolerance = 0;
+  add_street_lighting(exact, tex, ids, g, s, p);
+  p.lamp_interp_tolerance = tol;
+  add_street_lighting(approx, tex, ids, g, s, p);
+  const double bound = tol + 12 * std::ldexp(1.0, -24);
+  InterpCheck r;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double e = exact.at(x, y, c), a = approx.at(x, y, c);
+        if (!is_ground(ids.at(x, y)) || !(e > 0)) {
+          const float ef = exact.at(x, y, c), af = approx.at(x, y, c);
+          if (std::memcmp(&ef, &af, sizeof ef) != 0 && ++r.bad <= 5)
+            ADD_FAILURE() << "pixel " << x << "," << y << " channel " << c << ": " << a << " where the exact path has " << e;
+          continue;
+        }
+        const double rel = std::fabs(a / e - 1);
+        r.worst_rel = std::max(r.worst_rel, rel);
+        ++r.checked;
+        r.differ += a != e;
+        if (rel > bound && ++r.bad <= 5)
+          ADD_FAILURE() << "pixel " << x << "," << y << " channel " << c << ": relative error " << rel << " > " << bound
+                        << " (tolerance " << tol << ")";
+      }
+  return r;
+}
+}  // namespace
+
+// On the synthetic street (open, and with its boxes): every lit ground sample within the bound
+// above for three tolerances, some samples interpolated (the path runs), and the EN 13201 L_avg and
+// U0 the header reports are the same numbers (they come from the luminaires' double formula on
+// the calculation grid, not from the image: the tolerance cannot move them).
+TEST(StreetLighting, InterpolatedPoolsStayWithinTheirTolerance) {
+  for (const bool boxes : {false, true}) {
+    SyntheticCameraOptions o = camera_scene();
+    if (!boxes) o.boxes.clear();
+    const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+    ScenePreset p = urban();
+    p.lamp_interp_tolerance = 0;
+    const StreetLighting s0 = plan_street_lighting(sc.labels, o.camera, p, 7);
+    const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+    for (const double tol : {6e-4, 1e-3, 1e-2}) {
+      ScenePreset pt = p;
+      pt.lamp_interp_tolerance = tol;
+      const StreetLighting st = plan_street_lighting(sc.labels, o.camera, pt, 7);
+      EXPECT_EQ(st.avg_luminance_cd_m2, s0.avg_luminance_cd_m2);
+      EXPECT_EQ(st.uniformity_u0, s0.uniformity_u0);
+      EXPECT_EQ(st.peak_intensity_cd, s0.peak_intensity_cd);
+      const InterpCheck r = pools_against_exact(tex, sc.labels.ids, o.camera, s0, p, tol);
+      EXPECT_EQ(r.bad, 0u) << (boxes ? "boxes" : "open") << ", tolerance " << tol;
+      EXPECT_GT(r.checked, 100000u);
+      EXPECT_GT(r.differ, r.checked / 2) << "the interpolated path did not run";
+      std::fprintf(stderr, "[street] interpolated pools (%s street), tolerance %.0e: worst relative error %.2e over %zu "
+                   "samples, %zu differ from the exact path\n", boxes ? "boxed" : "open", tol, r.worst_rel, r.checked,
+                   r.differ);
+    }
+  }
+}
+
+// The same on three shared Cityscapes frames (their geometry and luminaires as the chain plans them).
+TEST(StreetLighting, InterpolatedPoolsStayWithinTheirToleranceOnCityscapes) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  for (const char* base : {"aachen_000000_000019", "aachen_000001_000019", "aachen_000003_000019"}) {
+    const auto [lin, lab] = cityscapes_frame(base);
+    ScenePreset p = load_scene_preset("night-urban");
+    p.lamp_interp_tolerance = 0;
+    const NightScene ns = night_scene(lin, lab, p, 1);
+    const StreetLighting s = plan_street_lighting(lab, ns.geometry, p, 1);
+    ASSERT_FALSE(s.lamps.empty());
+    const ImageF tex = reflectance_texture(lin, lab.ids, p);
+    for (const double tol : {1e-4, 6e-4, 1e-2}) {
+      const InterpCheck r = pools_against_exact(tex, lab.ids, ns.geometry, s, p, tol);
+      EXPECT_EQ(r.bad, 0u) << base << ", tolerance " << tol;
+      EXPECT_GT(r.differ, r.checked / 2) << "the interpolated path did not run";
+      std::fprintf(stderr, "[street] interpolated pools (%s), tolerance %.0e: worst relative error %.2e over %zu "
+                   "samples\n", base, tol, r.worst_rel, r.checked);
+    }
+  }
+}
+
+// The sample columns depend on the row and its span only: the street rows (add_street_light_rows,
+// pools, vertical light, windows, heads) with a tolerance give the same bits at 1 and 2 threads
+// and at every instruction set (AVX-512, AVX2, the scalar twins).
+TEST(StreetLighting, InterpolatedPoolsAreTheSameAtEveryThreadCountAndInstructionSet) {
+  OpenStreet r = open_street();
+  r.p.lamp_interp_tolerance = 1e-3;
+  const ImageF tex = reflectance_texture(r.sc.day_linear_srgb, r.sc.labels.ids, r.p);
+  const int before = omp_get_max_threads();
+  std::vector<ImageF> maps;
+  for (const int threads : {1, 2})
+    for (const int isa : {2, 1, 0}) {
+      omp_set_num_threads(threads);
+      street_light_max_isa(isa);
+      ImageF L(r.o.width, r.o.height, 3, 0.f, unit::radiance);
+      add_street_light_rows(L, tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p, 1, nullptr);
+      maps.push_back(std::move(L));
+    }
+  street_light_max_isa(2);
+  omp_set_num_threads(before);
+  for (size_t k = 1; k < maps.size(); ++k) EXPECT_EQ(differing_samples(maps[k], maps[0]), 0u) << "run " << k;
+}
+
+// A degenerate case falls back to exact values: on an image 3 columns wide (the open street's
+// luminaires over the same rig's centre columns) every row's span has
+// at most 3 columns, all of them samples (an interval of 2 columns has its midpoint evaluated),
+// so the interpolated image is the exact one bit for bit.
+TEST(StreetLighting, InterpolatedPoolsOnATinyImageAreExact) {
+  const OpenStreet street = open_street();  // its luminaires (in metres), planned at 1024 x 512
+  const StreetLighting& s = street.s;
+  SyntheticCameraOptions o = camera_scene(3, 512);
+  o.boxes.clear();
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  ImageF exact(3, 512, 3, 0.f, unit::radiance), approx(3, 512, 3, 0.f, unit::radiance);
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+  p.lamp_interp_tolerance = 0;
+  add_street_lighting(exact, tex, sc.labels.ids, o.camera, s, p);
+  p.lamp_interp_tolerance = 1e-2;
+  add_street_lighting(approx, tex, sc.labels.ids, o.camera, s, p);
+  double sum = 0;
+  for (size_t i = 0; i < exact.size(); ++i) sum += exact[i];
+  EXPECT_GT(sum, 0.0);
+  EXPECT_EQ(differing_samples(approx, exact), 0u);
 }
 
 // A lamp head is drawn at the luminance its own intensity distribution sends toward the camera:

@@ -44,6 +44,11 @@ struct ScenePreset {
   double lamp_mount_height_m = 10, lamp_spacing_ratio = 3.5, lamp_setback_m = 0.5;
   double lamp_cutoff_deg = 65, lamp_falloff_deg = 5, lamp_head_diameter_m = 0.5;
   double lamp_max_distance_m = 150, lamp_min_pole_height_m = 5;
+  // The ground pools' interpolation tolerance (relative; 0, a default-constructed preset's: every
+  // pixel evaluated exactly): scene/street.cpp evaluates the pools at adaptively refined sample
+  // columns of each row and interpolates linearly between them within it (the bundled scene
+  // presets: 6e-4).
+  double lamp_interp_tolerance = 0;
   // [vehicle_lamps] lamps in metres per vehicle (scene/lights.cpp): height above the ground
   // contact, inset from the vehicle's side, lens diameters, intensities toward the camera, the
   // seeded share of parked vehicles with parking lights, the kerb strip where vehicles park.
