@@ -624,6 +624,45 @@ namespace {
 // preset (a bias, not noise: averaged over ≥ 16 pixels of one grey level the shot noise falls
 // below it, so it is not invisible to every statistic).
 constexpr int kInterpStep_px = 128;
+}  // namespace
+
+bool beyond_cutoff(double X_m, double lamp_X_m, float dz2_m2, float H2_m2, double cc2) {
+  const double dx = X_m - lamp_X_m, H2 = H2_m2;
+  return H2 < cc2 * (dx * dx + dz2_m2 + H2);
+}
+
+void cutoff_columns(double lamp_X_m, float dz2_m2, float H2_m2, double cc2, double cx_px, double kx, int x0, int x1,
+                    int* lo, int* hi) {
+  // The predicate grows with |dx| only (each rounded step, dx², + dz², + H², · cos²γ_c, is
+  // monotone), and dx with the column (k_x > 0 below the horizon), so the columns within the cone
+  // are one run, around the column of the smallest |dx|. Its ends from the knee, then each moved
+  // column by column until the predicate itself changes there (a rounding step or two at most).
+  const auto X = [&](int x) { return (x - cx_px) * kx; };
+  const auto in_cone = [&](int x) { return !beyond_cutoff(X(x), lamp_X_m, dz2_m2, H2_m2, cc2); };
+  const auto column = [&](double Xm) {  // the column at ground X, clamped to [x0 − 1, x1 + 1]
+    return static_cast<int>(std::clamp(std::floor(Xm / kx + cx_px), x0 - 1.0, x1 + 1.0));
+  };
+  int c = std::clamp(column(lamp_X_m), x0, x1);  // the last column with X ≤ X_l (or x0)
+  while (c < x1 && X(c + 1) <= lamp_X_m) ++c;
+  while (c > x0 && X(c) > lamp_X_m) --c;
+  const int z = in_cone(c) ? c : (c < x1 && in_cone(c + 1) ? c + 1 : x0 - 1);
+  if (z < x0) {  // the smallest |dx| is beyond the cut-off: every column is
+    *lo = *hi = x0;
+    return;
+  }
+  // The knee: γ = γ_c at |X − X_l| = sqrt((H·tan γ_c)² − dz²), H²·tan²γ_c = H²·(1/cos²γ_c − 1).
+  const double r2 = H2_m2 * (1 / cc2 - 1) - dz2_m2, r = r2 > 0 ? std::sqrt(r2) : 0.0;
+  int h = std::clamp(column(lamp_X_m + r) + 1, z + 1, x1 + 1);  // the first column past the cone
+  while (h > z + 1 && !in_cone(h - 1)) --h;
+  while (h <= x1 && in_cone(h)) ++h;
+  int l = std::clamp(column(lamp_X_m - r), x0, z);  // the first column within it
+  while (l < z && !in_cone(l)) ++l;
+  while (l > x0 && in_cone(l - 1)) --l;
+  *lo = l;
+  *hi = h;
+}
+
+namespace {
 constexpr double kInterpStep_m_per_H = 0.25;
 struct AdaptiveScratch {
   std::vector<int32_t> xs, a, b, na, nb;
@@ -635,12 +674,12 @@ inline void fill_chord(float* ev, int a, int b) {
   for (int x = a + 1; x < b; ++x) ev[x] = fa + d * (static_cast<float>(x - a) * inv);
 }
 // ev[x] for x0 ≤ x ≤ x1 by the scheme above, first samples every `step` columns; eval(xs, n)
-// writes the exact ev[xs[i]] and the structure signature sig[xs[i]] for n columns. Intervals of
+// writes the exact ev[xs[i]] for n columns; same(a, q1, m, q3, b) says whether the five samples'
+// structure signatures agree (no knee separates them). Intervals of
 // fewer than 4 columns get every column evaluated. An interval's entry `mid` says its midpoint
 // is known already (the children of a rejected interval: their midpoints are its quarters).
-template <class Eval>
-void adaptive_span(int x0, int x1, int step, float tol, float* ev, const uint32_t* sig, AdaptiveScratch& s,
-                   Eval&& eval) {
+template <class Eval, class Same>
+void adaptive_span(int x0, int x1, int step, float tol, float* ev, AdaptiveScratch& s, Eval&& eval, Same&& same) {
   s.xs.clear();
   s.a.clear();
   s.b.clear();
@@ -682,7 +721,7 @@ void adaptive_span(int x0, int x1, int step, float tol, float* ev, const uint32_
       const int a = s.a[j], b = s.b[j];
       if (b - a < 4) continue;  // every column exact
       const int m = (a + b) / 2, q1 = (a + m) / 2, q3 = (m + b) / 2;
-      const bool smooth = sig[a] == sig[q1] && sig[q1] == sig[m] && sig[m] == sig[q3] && sig[q3] == sig[b];
+      const bool smooth = same(a, q1, m, q3, b);
       const float lo = std::min(std::min(std::min(ev[a], ev[q1]), std::min(ev[m], ev[q3])), ev[b]);
       if (smooth && on_chord(a, m, b, lo) && on_chord(a, q1, m, lo) && on_chord(m, q3, b, lo)) {
         fill_chord(ev, a, q1);
@@ -745,10 +784,10 @@ struct PoolPass : LitRows {
     std::vector<double> Xs;
     std::vector<float> es;
     std::vector<uint8_t> ones;
-    std::vector<uint32_t> sig;  // per column: the samples' signatures
+    std::vector<int> lo, hi, ends;  // per lamp: its columns within the cone [lo, hi); their ends, sorted
     AdaptiveScratch ad;
     explicit Scratch(int W)
-        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff), sig(W + 8) {}
+        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff) {}
   };
   // The exact pools at n columns xs (compacted, into sc.es): the row kernel on their ground X
   // (the same expression as the full row's), each lane its own pixel: the same bits as at those
@@ -800,23 +839,43 @@ struct PoolPass : LitRows {
       double Hmin = 1e300;
       for (int k = 0; k < sc.pl.size(); ++k) Hmin = std::min(Hmin, static_cast<double>(sc.pl.Hl[k]));
       const int step = static_cast<int>(std::clamp(kInterpStep_m_per_H * Hmin / kx, 2.0, double{kInterpStep_px}));
-      // The signature: which of the row's lamps are beyond their cut-off at the column (H² <
+      // The signature: which of the row's lamps are beyond their cut-off at a column (H² <
       // cos²γ_c·d², in double), as bits (lamp k: bit k mod 32): the knee of each lamp's I(γ) is
-      // bracketed by samples on both sides, so an accepted interval holds no knee at all.
+      // bracketed by samples on both sides, so an accepted interval holds no knee at all. Each
+      // lamp's columns within its cone, [lo, hi), once per row (cutoff_columns: from the knee's X,
+      // the same decisions as the predicate column by column), and their ends sorted: an interval
+      // with no end in (a, b] has one signature throughout; one holding an end compares the five
+      // samples' signatures as the bits (the same equality as per-sample bits, k mod 32 included).
       const double cc2 = table.cc * table.cc;
-      uint32_t* sig = sc.sig.data();
-      adaptive_span(xa, std::min(W, xa + n) - 1, step, tol, acc, sig, sc.ad, [&](const int32_t* xs, int m) {
-        pool_at(xs, m, kx, sc);
-        for (int i = 0; i < m; ++i) {
-          acc[xs[i]] = sc.es[i];
-          uint32_t b = 0;
-          for (int k = 0; k < sc.pl.size(); ++k) {
-            const double dx = sc.Xs[i] - sc.pl.Xl[k], H2 = sc.pl.H2[k];
-            b |= static_cast<uint32_t>(H2 < cc2 * (dx * dx + sc.pl.dz2[k] + H2)) << (k % 32);
-          }
-          sig[xs[i]] = b;
-        }
-      });
+      const int x1 = std::min(W, xa + n) - 1;
+      const int nl = sc.pl.size();
+      sc.lo.resize(nl);
+      sc.hi.resize(nl);
+      sc.ends.clear();
+      for (int k = 0; k < nl; ++k) {
+        cutoff_columns(sc.pl.Xl[k], sc.pl.dz2[k], sc.pl.H2[k], cc2, g.cx_px, kx, xa, x1, &sc.lo[k], &sc.hi[k]);
+        if (sc.lo[k] == sc.hi[k]) continue;  // beyond its cut-off on every column
+        if (sc.lo[k] > xa) sc.ends.push_back(sc.lo[k]);
+        if (sc.hi[k] <= x1) sc.ends.push_back(sc.hi[k]);
+      }
+      std::sort(sc.ends.begin(), sc.ends.end());
+      auto sig = [&](int x) {
+        uint32_t b = 0;
+        for (int k = 0; k < nl; ++k) b |= static_cast<uint32_t>(x < sc.lo[k] || x >= sc.hi[k]) << (k % 32);
+        return b;
+      };
+      adaptive_span(
+          xa, x1, step, tol, acc, sc.ad,
+          [&](const int32_t* xs, int m) {
+            pool_at(xs, m, kx, sc);
+            for (int i = 0; i < m; ++i) acc[xs[i]] = sc.es[i];
+          },
+          [&](int a, int q1, int m, int q3, int b) {
+            const auto e = std::upper_bound(sc.ends.begin(), sc.ends.end(), a);
+            if (e == sc.ends.end() || *e > b) return true;  // no lamp's bit changes over (a, b]
+            const uint32_t sa = sig(a);
+            return sig(q1) == sa && sig(m) == sa && sig(q3) == sa && sig(b) == sa;
+          });
       if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       else add_reflection_scalar(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       return;

@@ -73,6 +73,18 @@ struct ComposeRows {
 // bits, which the test compares. Not thread-safe: set it before a light map, not during one.
 void light_map_fused_rows(bool on);
 
+// The ground pools' cut-off signature at adaptive samples (scene/street.cpp, street_lamps.
+// interp_tolerance): at ground X_m a lamp (its X, its dz² along the road and H² of its height,
+// floats as the pool kernel keeps them) is beyond its cut-off γ_c when H² < cos²γ_c·(dx² + dz² + H²),
+// in double (cc2 = cos²γ_c).
+bool beyond_cutoff(double X_m, double lamp_X_m, float dz2_m2, float H2_m2, double cc2);
+// On a ground row whose column x lies at X = (x − c_x)·k_x (k_x > 0), the columns [lo, hi) of
+// x0..x1 where that lamp is within its cone (not beyond_cutoff; lo == hi: none), found from its
+// knee |X − X_l| = sqrt((H·tan γ_c)² − dz²) and checked against the predicate at the run's ends:
+// beyond_cutoff at column x is exactly x < lo || x ≥ hi (the test compares every column).
+void cutoff_columns(double lamp_X_m, float dz2_m2, float H2_m2, double cc2, double cx_px, double kx, int x0, int x1,
+                    int* lo, int* hi);
+
 // A connected component's bounding box (inclusive pixel bounds).
 struct PoleBox {
   int x0, y0, x1, y1;

@@ -855,6 +855,49 @@ TEST(StreetLighting, InterpolatedPoolsOnATinyImageAreExact) {
   EXPECT_EQ(differing_samples(approx, exact), 0u);
 }
 
+// The pools' knee test: cutoff_columns (each lamp's run of columns within its cone on a row, from
+// the knee's X) against beyond_cutoff (the per-sample predicate the first version of the adaptive
+// pools evaluated at every sample) at every column, over lamps at many heights, offsets along the
+// road (dz from 0 to past the cone's reach: no run at all), feet inside, between and outside the
+// columns, row scales k_x from far rows to near ones, cut-off angles, and knees placed on a
+// column's X exactly (the rounding boundary). The decisions must agree column by column (so the
+// adaptive samples, their signatures and the image are those of the per-sample predicate).
+TEST(StreetLighting, PoolKneeColumnsAreThePredicateAtEveryColumn) {
+  const double cx = 511.5;
+  size_t columns = 0, runs = 0, cut_both = 0, empty = 0, mismatches = 0;
+  for (const double gamma_deg : {60.0, 70.0, 72.5, 80.0}) {
+    const double cc = std::cos(gamma_deg * M_PI / 180), cc2 = cc * cc;
+    for (const double kx : {0.004, 0.0173, 0.05, 0.21})
+      for (const double H : {6.0, 8.5, 10.0, 12.0})
+        for (int iz = 0; iz < 9; ++iz)
+          for (const double foot_col : {-300.0, 0.0, 37.25, 200.5, 511.5, 700.0, 1023.0, 1500.0}) {
+            const double tanc2 = 1 / cc2 - 1, reach = H * std::sqrt(tanc2);
+            const float H2 = static_cast<float>(H * H);
+            const double Xl = (foot_col - cx) * kx;
+            // dz over [0, 1.1·reach]; iz 8: the knee on column 600's X exactly (dz² from it).
+            float dz2 = static_cast<float>(std::pow(iz * reach * 1.1 / 7, 2));
+            if (iz == 8) {
+              const double dX = (600 - cx) * kx - Xl;
+              dz2 = static_cast<float>(H2 * tanc2 - dX * dX);
+              if (dz2 < 0) dz2 = 0;
+            }
+            for (const auto& [x0, x1] : {std::pair{0, 1023}, std::pair{100, 700}, std::pair{600, 601}}) {
+              int lo = 0, hi = 0;
+              cutoff_columns(Xl, dz2, H2, cc2, cx, kx, x0, x1, &lo, &hi);
+              runs += lo < hi;
+              empty += lo == hi;
+              cut_both += lo > x0 && hi <= x1;
+              for (int x = x0; x <= x1; ++x, ++columns)
+                mismatches += beyond_cutoff((x - cx) * kx, Xl, dz2, H2, cc2) != (x < lo || x >= hi);
+            }
+          }
+  }
+  EXPECT_EQ(mismatches, 0u) << "of " << columns << " columns";
+  EXPECT_GT(cut_both, 100u);  // runs with both knees inside the columns
+  EXPECT_GT(empty, 100u);     // lamps beyond their cut-off everywhere
+  EXPECT_GT(runs, 1000u);
+}
+
 // A lamp head is drawn at the luminance its own intensity distribution sends toward the camera:
 // L = I0·rel(γ) / A_head, γ the angle from the nadir of the lamp-to-camera direction, A_head the
 // head's disc (π d²/4), so the flux per steradian toward the lens is the luminaire's I(γ) (the
