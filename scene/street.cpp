@@ -594,8 +594,8 @@ namespace {
 //   2. each interval [a, b] (b − a ≥ 4; shorter ones: every column evaluated) is tested at its
 //      midpoint m and its quarters q1, q3: E(m) against the chord through E(a) and E(b), E(q1)
 //      against the chord through E(a) and E(m), E(q3) against the one through E(m) and E(b). It is
-//      accepted when the five samples' signatures agree (which lamps are beyond their cut-off: a
-//      knee between two samples makes them differ) and each deviation is ≤ tol·min(the five E);
+//      accepted when no lamp's cut-off knee lies in (a, b] (each lamp's knee columns found per row,
+//      below) and each deviation is ≤ tol·min(the five E);
 //      then [a, b] is filled by the four quarter chords; else [a, m] and [m, b] are tested the same
 //      way (their midpoints known: q1, q3), down to intervals shorter than 4 columns (all exact).
 //      So every knee is bracketed by samples at adjacent columns, and an accepted interval holds
@@ -609,10 +609,9 @@ namespace {
 // half (not only the midpoint of the whole, which an inflection, f'' changing sign across m, can
 // leave on the chord while both halves bend: measured 3.8x the tolerance on a Cityscapes row
 // before the quarters were tested) leaves an inflection inside one quarter, where |f''| is near 0.
-// What it does not cover: a lamp's whole cone crossing between two samples (its chord across the
-// row shorter than the interval, both knees in it: the signatures agree), where I exceeds the
-// exponential by the small excess near γ_c only. The tests check every ground pixel of the
-// synthetic street and of three Cityscapes frames against tol·E (worst measured: 0.35·tol at
+// A lamp's whole cone crossing between two samples (both knees inside one interval) is caught
+// too: the test is on the knee columns, not on the samples' sides of them. The tests check every
+// ground pixel of the synthetic street and of three Cityscapes frames against tol·E (worst measured: 0.35·tol at
 // 6e-4; docs/lightmap_interp.csv for the chain's lights layer).
 // The vertical light stays exact (its reach, the γ = 90° limit and faces turning away are steps
 // within a façade run; an interpolated façade path measured slower than the exact AVX-512 one:
@@ -674,8 +673,8 @@ inline void fill_chord(float* ev, int a, int b) {
   for (int x = a + 1; x < b; ++x) ev[x] = fa + d * (static_cast<float>(x - a) * inv);
 }
 // ev[x] for x0 ≤ x ≤ x1 by the scheme above, first samples every `step` columns; eval(xs, n)
-// writes the exact ev[xs[i]] for n columns; same(a, q1, m, q3, b) says whether the five samples'
-// structure signatures agree (no knee separates them). Intervals of
+// writes the exact ev[xs[i]] for n columns; same(a, q1, m, q3, b) says whether the interval
+// is free of structure (no knee in it: the pools' own test looks at a and b only). Intervals of
 // fewer than 4 columns get every column evaluated. An interval's entry `mid` says its midpoint
 // is known already (the children of a rejected interval: their midpoints are its quarters).
 template <class Eval, class Same>
@@ -839,13 +838,11 @@ struct PoolPass : LitRows {
       double Hmin = 1e300;
       for (int k = 0; k < sc.pl.size(); ++k) Hmin = std::min(Hmin, static_cast<double>(sc.pl.Hl[k]));
       const int step = static_cast<int>(std::clamp(kInterpStep_m_per_H * Hmin / kx, 2.0, double{kInterpStep_px}));
-      // The signature: which of the row's lamps are beyond their cut-off at a column (H² <
-      // cos²γ_c·d², in double), as bits (lamp k: bit k mod 32): the knee of each lamp's I(γ) is
-      // bracketed by samples on both sides, so an accepted interval holds no knee at all. Each
-      // lamp's columns within its cone, [lo, hi), once per row (cutoff_columns: from the knee's X,
-      // the same decisions as the predicate column by column), and their ends sorted: an interval
-      // with no end in (a, b] has one signature throughout; one holding an end compares the five
-      // samples' signatures as the bits (the same equality as per-sample bits, k mod 32 included).
+      // The knees: each lamp's columns within its cone, [lo, hi), once per row (cutoff_columns:
+      // from the knee's X, moved to where the double predicate H² < cos²γ_c·d² itself changes,
+      // column by column), and their ends sorted. An interval holding an end in (a, b] is never
+      // accepted, so every knee is bracketed by exact samples at adjacent columns and an accepted
+      // interval holds no knee at all.
       const double cc2 = table.cc * table.cc;
       const int x1 = std::min(W, xa + n) - 1;
       const int nl = sc.pl.size();
@@ -859,22 +856,18 @@ struct PoolPass : LitRows {
         if (sc.hi[k] <= x1) sc.ends.push_back(sc.hi[k]);
       }
       std::sort(sc.ends.begin(), sc.ends.end());
-      auto sig = [&](int x) {
-        uint32_t b = 0;
-        for (int k = 0; k < nl; ++k) b |= static_cast<uint32_t>(x < sc.lo[k] || x >= sc.hi[k]) << (k % 32);
-        return b;
-      };
       adaptive_span(
           xa, x1, step, tol, acc, sc.ad,
           [&](const int32_t* xs, int m) {
             pool_at(xs, m, kx, sc);
             for (int i = 0; i < m; ++i) acc[xs[i]] = sc.es[i];
           },
-          [&](int a, int q1, int m, int q3, int b) {
+          [&](int a, int, int, int, int b) {
+            // Accepted only with no run end in (a, b]: no lamp's knee inside, also where a whole
+            // cone crosses between two samples (both its ends inside, the samples' signatures
+            // alike): such an interval is split down to exact columns on both sides of each knee.
             const auto e = std::upper_bound(sc.ends.begin(), sc.ends.end(), a);
-            if (e == sc.ends.end() || *e > b) return true;  // no lamp's bit changes over (a, b]
-            const uint32_t sa = sig(a);
-            return sig(q1) == sa && sig(m) == sa && sig(q3) == sa && sig(b) == sa;
+            return e == sc.ends.end() || *e > b;
           });
       if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       else add_reflection_scalar(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
