@@ -1,13 +1,10 @@
 // Linearization and per-class darkening under night illumination (stage 1).
 #include <algorithm>
-#include <atomic>
 #include <climits>
 #include <cstdint>
 #include <cmath>
 #include <cstring>
-#include <exception>
 #include <fmt/format.h>
-#include <omp.h>
 #include <vector>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -843,7 +840,7 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
 }
 
 ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
-                                ImageF* work_luma, const TextureSums* sums, const std::function<void()>& beside) {
+                                ImageF* work_luma, const TextureSums* sums) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
     fail("reflectance_texture: the working luminance must be half the frame's size");
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
@@ -893,7 +890,8 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   for (int id = 0; id < kLabelCount; ++id)
     cap[id] = static_cast<float>(class_reflectance_max(id, p) / (K[0] + K[1] + K[2]));
   // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped.
-  auto pass2_chunk = [&](int ch) {
+#pragma omp parallel for schedule(static)
+  for (int ch = 0; ch < kTextureChunks; ++ch) {
     const uint16_t* lab = labels.data();
     const float* day_px = day.data();
     float* f_px = f.data();
@@ -927,35 +925,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
       for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y)
         work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
     }
-  };
-  // Each chunk's pixels (and working-luminance rows) are written by pass2_chunk alone, whichever
-  // thread takes it: the same bits for any thread count and any assignment of chunks to threads.
-  // `beside` (night_scene: the labels-only parts of later stages) runs on the calling thread while
-  // the others take the chunks from a shared counter, and the calling thread then takes what is
-  // left: pass 2 is bound by its 48 MB of loads and stores, and a second thread speeds it up by
-  // only ~1.3x on this machine (docs/benchmarks.md), so work that is mostly not memory traffic
-  // fits beside it at little cost to the pass.
-  const int threads = omp_get_max_threads();
-  if (!beside || threads < 2) {
-    if (beside) beside();
-#pragma omp parallel for schedule(static)
-    for (int ch = 0; ch < kTextureChunks; ++ch) pass2_chunk(ch);
-    return f;
   }
-  std::atomic<int> next{0};
-  std::exception_ptr failed;
-#pragma omp parallel num_threads(threads)
-  {
-    if (omp_get_thread_num() == 0) {
-      try {
-        beside();
-      } catch (...) {
-        failed = std::current_exception();
-      }
-    }
-    for (int ch; (ch = next.fetch_add(1, std::memory_order_relaxed)) < kTextureChunks;) pass2_chunk(ch);
-  }
-  if (failed) std::rethrow_exception(failed);
   return f;
 }
 

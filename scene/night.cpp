@@ -116,22 +116,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // `sums`: the texture's pass 1, when the linearisation made it (linearize_with_texture_sums).
   const WorkSize ws = work_size(W, H, p.work_max_width);
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
-  // The parts of later stages that read only the labels, made on this thread while the other
-  // threads start the texture's second pass (bound by its memory traffic: a second thread speeds
-  // it up by ~1.3x) and joining it after: the metric depth's and the façades' label runs
-  // (metric_depth_runs, building_regions) and the street-lamp plan's poles (pole_components_of;
-  // the plan itself needs the camera geometry, in the depth stage). Each is the same whichever
-  // thread makes it and whenever. At 1 thread they run first (this lap then holds their time).
-  std::shared_ptr<const MetricDepthRuns> depth_runs;
-  std::shared_ptr<BuildingRegions> regions;
-  std::shared_ptr<const PoleComponents> poles;
   const ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
-                                                  ws.halving ? &work_luma : nullptr, sums, [&] {
-                                                    depth_runs = metric_depth_runs(labels);
-                                                    regions = building_regions(labels.ids);
-                                                    if (p.street_road_luminance_cd_m2 > 0)  // else no plan
-                                                      poles = pole_components_of(labels.ids);
-                                                  });
+                                                  ws.halving ? &work_luma : nullptr, sums);
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
@@ -141,18 +127,33 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   ImageU8 grey;
   s.lanes_work = lane_markings_with_grey(w.luma, w.labels, p, &grey);
   lap("lanes");
-  // The edges: OpenCV's Canny of the grey rendering made with the markings.
-  s.edges_work = segmentation_edges_of_grey(grey, p);
+  // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
+  // them on a second one the street-lamp plan's labels-only part, its poles' components
+  // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
+  // thread both in turn (this lap then holds the poles' time, no longer "depth").
+  std::shared_ptr<const PoleComponents> poles;
+  side_by_side(
+      std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
+      [&] {
+        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids);  // else no plan
+      });
   grey = ImageU8();
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
-  // and beside it on this one the lane mask at the frame's size (read by the low beam and the light
-  // map): nothing else can start before the vanishing point, which needs the lines. At 1 thread
-  // both in turn.
+  // and beside it on this one the parts of the metric depth and of the façades that read only the
+  // labels (metric_depth_runs, building_regions) and the lane mask at the frame's size: nothing
+  // else can start before the vanishing point, which needs the lines. At 1 thread both in turn
+  // (this lap then holds their time, no longer "depth").
+  std::shared_ptr<const MetricDepthRuns> depth_runs;
+  std::shared_ptr<BuildingRegions> regions;
   ImageU8 lanes_full;
   side_by_side(
       std::min(2, omp_get_max_threads()),
-      [&] { lanes_full = lanes_at_frame(s.lanes_work, W, H); },
+      [&] {
+        depth_runs = metric_depth_runs(labels);
+        regions = building_regions(labels.ids);
+        lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
+      },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
   VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
@@ -174,12 +175,12 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // the façade planes (fitted once: depth, windows and the street light on façades read them), the
   // metric depth, whose per-component fits and stack sweep are serial, and the street-lamp plan
   // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
-  // tracks it; its poles made beside the texture's second pass, above); and the ego low beam; then the coarse
+  // tracks it; its poles made beside the edges, above); and the ego low beam; then the coarse
   // depth's rows, shared between them. Each half's loops run on its own thread then (nested
   // regions get one thread: OpenMP's default), and every function gives the same result for any
-  // thread count, so the same bits. Split so (with the labels-only parts made beforehand, above),
-  // the two halves took about the same thread CPU at 2 threads (docs/benchmarks.md, 2026-11-28,
-  // seventh session).
+  // thread count, so the same bits. Split so (with the labels-only parts beside Hough and Canny,
+  // above), each side-by-side section's two halves took about the same thread CPU at 2 threads
+  // (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
   StreetLighting planned;
   // The coarse depth's rows (0.4 ms of work at 1 thread) go to whichever half is free first, in

@@ -3,7 +3,6 @@
 #pragma once
 #include <array>
 #include <cstdint>
-#include <functional>
 #include <vector>
 
 #include "photosite/scene/night.h"
@@ -37,12 +36,8 @@ SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& lab
 // The same, counting the classes' pixels itself.
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 
-// `beside`: a job run on the calling thread while the other threads start the second pass (which
-// is bound by memory traffic); the calling thread then joins the pass (at 1 thread: the job, then
-// the pass). The texture and the working luminance are the same to the bit with or without it.
 ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
-                                ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr,
-                                const std::function<void()>& beside = {});
+                                ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
 
 // linearize_with_texture_sums of an 8-bit sRGB file's codes (interleaved RGB, the frame's size;
 // other channel counts: linearize() alone): the same image and sums to the bit as from the

@@ -684,57 +684,6 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
   omp_set_num_threads(saved);
 }
 
-// reflectance_texture_with given a job to run beside its second pass (night_scene: the
-// labels-only parts of later stages, on the calling thread while the other threads take the
-// pass's chunks from a counter) against the same call without it: texture and working luminance
-// bit for bit at 1, 2 and 3 threads, on a frame whose 64 chunks do not fall on row pairs; the
-// job runs once, on the calling thread, and its own parallel loop (lane_blur's bands: nested,
-// one thread) gives the same bits as alone; a job's exception reaches the caller after the pass.
-TEST(SceneChain, JobBesideTheTexturePassLeavesTheTextureAndItsJobUnchanged) {
-  XorShift rnd{4711};
-  const int classes[] = {int(Label::Road), int(Label::Building), int(Label::Sky), int(Label::Car), int(Label::Vegetation)};
-  const int W = 544, H = 98;
-  ImageF day(W, H, 3, 0.f);
-  ImageU16 ids(W, H, 1, 0);
-  for (size_t i = 0; i < day.size(); ++i) day[i] = static_cast<float>(rnd() * 1.3 - 0.1);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W;) {
-      const int id = classes[static_cast<int>(rnd() * 5)];
-      for (int e = std::min(W, x + 1 + static_cast<int>(rnd() * 40)); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
-    }
-  ImageF blur_in(1024, 512, 1, 0.f);
-  for (size_t i = 0; i < blur_in.size(); ++i) blur_in[i] = static_cast<float>(rnd());
-  const ImageF blur_want = lane_blur(blur_in, 1.0);
-  const WorkSize ws = work_size(W, H, W / 2);
-  ASSERT_TRUE(ws.halving);
-  const int saved = omp_get_max_threads();
-  omp_set_num_threads(1);
-  ImageF luma_want(ws.width, ws.height, 1, 0.f);
-  const ImageF want = reflectance_texture_with(day, ids, preset(), nullptr, &luma_want);
-  for (int threads : {1, 2, 3}) {
-    omp_set_num_threads(threads);
-    ImageF luma(ws.width, ws.height, 1, uninitialized);
-    std::fill(luma.vec().begin(), luma.vec().end(), -1.f);  // a row left unmade would show
-    int runs = 0, thread = -1;
-    ImageF blurred;
-    const ImageF got = reflectance_texture_with(day, ids, preset(), nullptr, &luma, nullptr, [&] {
-      ++runs;
-      thread = omp_get_thread_num();
-      blurred = lane_blur(blur_in, 1.0);
-    });
-    EXPECT_EQ(runs, 1) << threads << " threads";
-    EXPECT_EQ(thread, 0) << threads << " threads";
-    EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << threads << " threads";
-    EXPECT_EQ(0, std::memcmp(luma.data(), luma_want.data(), luma_want.size() * sizeof(float))) << threads << " threads";
-    ASSERT_EQ(blurred.size(), blur_want.size());
-    EXPECT_EQ(0, std::memcmp(blurred.data(), blur_want.data(), blur_want.size() * sizeof(float))) << threads << " threads";
-    EXPECT_THROW(reflectance_texture_with(day, ids, preset(), nullptr, nullptr, nullptr, [] { fail("the job beside failed"); }),
-                 Error)
-        << threads << " threads";
-  }
-  omp_set_num_threads(saved);
-}
-
 // lane_markings_with_grey (night_scene's lane stage: the edges' grey rendering made row by row
 // with the markings) against its unfused twins: the markings of lane_markings, the grey rendering
 // by its per-pixel definition (markings 255, road and parking 80, vehicles 160, else 0) and the
