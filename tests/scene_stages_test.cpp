@@ -1200,6 +1200,13 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
           << threads << " threads, " << (lm->instances.empty() ? "without" : "with") << " instances";
       const auto other = metric_depth_runs(elsewhere.labels);
       EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, other.get()).vec(), want.vec()) << threads << " threads";
+      // Made inside a parallel region, as in night_scene's side-by-side halves (its loops get one
+      // thread there, and its per-column lowest rows one strip).
+      std::shared_ptr<const MetricDepthRuns> nested;
+#pragma omp parallel num_threads(2)
+      if (omp_get_thread_num() == 0) nested = metric_depth_runs(*lm);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, nested.get()).vec(), want.vec())
+          << threads << " threads, made inside a parallel region";
     }
   omp_set_num_threads(saved);
 }
@@ -1258,6 +1265,13 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
       {
         SCOPED_TRACE(fmt::format("scene {}, {} threads, other labels", scene, threads));
         same(building_facades_with(ids, g, 1000, building_regions(other).get()), want);
+      }
+      {  // made inside a parallel region, as in night_scene's side-by-side halves
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, made inside a parallel region", scene, threads));
+        std::shared_ptr<BuildingRegions> nested;
+#pragma omp parallel num_threads(2)
+        if (omp_get_thread_num() == 0) nested = building_regions(ids);
+        same(building_facades_with(ids, g, 1000, nested.get()), want);
       }
     }
   }
