@@ -7,6 +7,7 @@
 #include <cstring>
 #include <memory>
 #include <numeric>
+#include <omp.h>
 
 #include "photosite/scene/night.h"
 #include "scene/night_detail.h"
@@ -169,7 +170,10 @@ RunComponents run_components(int H, const Segments& segments) {
 template <class ColOff, class X0>
 void lowest_rows(const std::vector<KeyedRun>& runs, int W, const ColOff& col_off, const X0& x0_of,
                  int* col_ymax) {
-  constexpr int kStrips = 8;
+  // One strip per thread the loop gets (at most 8): each strip walks the whole run list, so
+  // strips beyond the threads only repeat that walk (inside night_scene's side-by-side halves,
+  // a nested region, the loop gets one thread).
+  const int kStrips = omp_in_parallel() ? 1 : std::clamp(omp_get_max_threads(), 1, 8);
 #pragma omp parallel for schedule(static)
   for (int s = 0; s < kStrips; ++s) {
     const int sa = W * s / kStrips, sb = W * (s + 1) / kStrips;

@@ -401,8 +401,16 @@ ImageF lane_blur(const ImageF& luma, double sigma_px, int bands) {
 }
 
 ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePreset& p) {
+  return lane_markings_with_grey(luma, labels, p, nullptr);
+}
+
+ImageU8 lane_markings_with_grey(const ImageF& luma, const ImageU16& labels, const ScenePreset& p, ImageU8* grey) {
   const int W = luma.width(), H = luma.height();
   ImageU8 out(W, H, 1, 0);
+  if (grey) {
+    if (!labels.same_shape(W, H)) fail("lane_markings: labels of another size than the luminance");
+    *grey = ImageU8(W, H, 1, uninitialized);
+  }
   auto road = [&](int x, int y) {
     const int id = labels.at(x, y);
     return id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking);
@@ -411,6 +419,12 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
   for (int y = 0; y < H && y_top < 0; ++y)
     for (int x = 0; x < W; ++x)
       if (road(x, y)) { y_top = y; break; }
+  // The grey rendering's rows above the road (every row where there is none): no markings there.
+  if (grey) {
+    const int y_end = y_top < 0 ? H : y_top;
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < y_end; ++y) segmentation_grey_row(labels.row(y), out.row(y), W, grey->row(y));
+  }
   if (y_top < 0) return out;  // no road: no markings
   const ImageF blurred = p.lane_blur_sigma_px > 0 ? lane_blur(luma, p.lane_blur_sigma_px) : ImageF();
   const ImageF& blur = p.lane_blur_sigma_px > 0 ? blurred : luma;
@@ -425,6 +439,8 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
     const bool vertical = y - wv >= 0 && y + wv < H;  // vertical pass: transverse markings, stop lines
     lane_row(blur.row(y), vertical ? blur.row(y - wv) : nullptr, vertical ? blur.row(y + wv) : nullptr, labels.row(y), W, w,
              thr, out.row(y));
+    // The row's markings are final (each row is written by its own iteration only).
+    if (grey) segmentation_grey_row(labels.row(y), out.row(y), W, grey->row(y));
   }
   return out;
 }

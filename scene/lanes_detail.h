@@ -30,5 +30,17 @@ ImageF lane_blur(const ImageF& luma, double sigma_px, int bands = 0);
 // ww x wh image moved in), or computed here when luma is null.
 WorkImages make_work_images_with(const ImageF& day_linear_srgb, const ImageU16& labels, int work_max_width,
                                  ImageF* luma);
+// One row of segmentation_edges' grey-level rendering of the selected classes (scene/edges.cpp):
+// markings 255, road and parking 80, vehicles 160, everything else 0, from a row of labels and
+// of lane markings (W pixels each) into o.
+void segmentation_grey_row(const uint16_t* labels, const uint8_t* lanes, int W, uint8_t* o);
+// lane_markings, and with `grey` also segmentation_edges' grey rendering of the same labels and
+// these markings (segmentation_grey_row of every row, a W x H image made here), each row right
+// after its markings while both rows are in cache, on the threads of the markings' own loop
+// (night_scene; segmentation_edges_of_grey then runs Canny on it).
+ImageU8 lane_markings_with_grey(const ImageF& luma, const ImageU16& labels, const ScenePreset& p, ImageU8* grey);
+// segmentation_edges given its grey rendering (segmentation_grey_row of every row of the labels
+// and markings): Canny of it; the same edges to the bit.
+ImageU8 segmentation_edges_of_grey(const ImageU8& grey, const ScenePreset& p);
 
 }  // namespace photosite::scene

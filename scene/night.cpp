@@ -122,7 +122,10 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
   s.work_scale = w.scale;
-  s.lanes_work = lane_markings(w.luma, w.labels, p);
+  // The edges' grey rendering of the classes and markings is made row by row with the markings,
+  // on both threads (lane_markings_with_grey), rather than on one thread inside the edges' pair.
+  ImageU8 grey;
+  s.lanes_work = lane_markings_with_grey(w.luma, w.labels, p, &grey);
   lap("lanes");
   // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
   // them on a second one the street-lamp plan's labels-only part, its poles' components
@@ -130,10 +133,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // thread both in turn (this lap then holds the poles' time, no longer "depth").
   std::shared_ptr<const PoleComponents> poles;
   side_by_side(
-      std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges(w.labels, s.lanes_work, p); },
+      std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
       [&] {
         if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids);  // else no plan
       });
+  grey = ImageU8();
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the

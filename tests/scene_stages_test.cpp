@@ -684,6 +684,60 @@ TEST(SceneGeometry, LaneMarkingsAreTheirPerPixelDefinition) {
   omp_set_num_threads(saved);
 }
 
+// lane_markings_with_grey (night_scene's lane stage: the edges' grey rendering made row by row
+// with the markings) against its unfused twins: the markings of lane_markings, the grey rendering
+// by its per-pixel definition (markings 255, road and parking 80, vehicles 160, else 0) and the
+// edges of segmentation_edges, bit for bit; random luminance and labels with sky rows above the
+// road (the rows rendered before the markings' loop), a frame with no road (every row there), a
+// width with vector tails, 1 and 2 threads; labels of another size refused.
+TEST(SceneGeometry, MarkingsWithTheirGreyAreTheMarkingsAndTheEdgesGrey) {
+  const int W = 203, H = 61;
+  ImageF luma(W, H, 1, 0.f);
+  XorShift rnd{777};
+  for (size_t i = 0; i < luma.size(); ++i) luma[i] = static_cast<float>(rnd());
+  const int classes[] = {int(Label::Road), int(Label::Parking), int(Label::Sidewalk), int(Label::Car), int(Label::Bus)};
+  ImageU16 street(W, H, 1, 0), no_road(W, H, 1, 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {  // runs of one class, so that Canny finds boundaries between them
+      const int len = 1 + static_cast<int>(rnd() * 9);
+      const int id = y < 11 ? int(Label::Sky) : classes[static_cast<int>(rnd() * 5)];
+      const int other = rnd() < 0.5 ? int(Label::Truck) : int(Label::Vegetation);
+      for (int e = std::min(W, x + len); x < e; ++x) {
+        street.at(x, y) = static_cast<uint16_t>(id);
+        no_road.at(x, y) = static_cast<uint16_t>(other);
+      }
+    }
+  const ScenePreset& p = preset();
+  const int saved = omp_get_max_threads();
+  for (const ImageU16* labels : {&street, &no_road})
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const std::string what = fmt::format("{}, {} threads", labels == &street ? "street" : "no road", threads);
+      ImageU8 grey;
+      const ImageU8 lanes = lane_markings_with_grey(luma, *labels, p, &grey);
+      const ImageU8 alone = lane_markings(luma, *labels, p);
+      EXPECT_EQ(lanes.vec(), alone.vec()) << what;
+      if (labels == &street) ASSERT_GT(std::count(alone.vec().begin(), alone.vec().end(), 255), 50) << what;
+      ASSERT_TRUE(grey.same_shape(W, H)) << what;
+      long differ = 0, vehicles = 0;
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          const int id = labels->at(x, y);
+          const int want = alone.at(x, y) ? 255 : id == int(Label::Road) || id == int(Label::Parking) ? 80 : is_vehicle(id) ? 160 : 0;
+          differ += grey.at(x, y) != want;
+          vehicles += want == 160;
+        }
+      EXPECT_EQ(differ, 0) << what;
+      EXPECT_GT(vehicles, 100) << what;
+      const ImageU8 edges = segmentation_edges_of_grey(grey, p);
+      EXPECT_EQ(edges.vec(), segmentation_edges(*labels, alone, p).vec()) << what;
+      EXPECT_GT(std::count(edges.vec().begin(), edges.vec().end(), 255), 100) << what;
+    }
+  omp_set_num_threads(saved);
+  ImageU8 grey;
+  EXPECT_THROW(lane_markings_with_grey(luma, ImageU16(W + 1, H, 1, 0), p, &grey), Error);
+}
+
 // lane_blur (the lane stage's Gaussian blur in fixed row bands, in parallel) against
 // cv::GaussianBlur of the whole image, bit for bit: sizes whose bands are shorter than the
 // kernel's reach (rows from several bands away) and longer, odd widths, the preset's σ and
@@ -1146,6 +1200,13 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
           << threads << " threads, " << (lm->instances.empty() ? "without" : "with") << " instances";
       const auto other = metric_depth_runs(elsewhere.labels);
       EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, other.get()).vec(), want.vec()) << threads << " threads";
+      // Made inside a parallel region, as in night_scene's side-by-side halves (its loops get one
+      // thread there, and its per-column lowest rows one strip).
+      std::shared_ptr<const MetricDepthRuns> nested;
+#pragma omp parallel num_threads(2)
+      if (omp_get_thread_num() == 0) nested = metric_depth_runs(*lm);
+      EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, nested.get()).vec(), want.vec())
+          << threads << " threads, made inside a parallel region";
     }
   omp_set_num_threads(saved);
 }
@@ -1204,6 +1265,13 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
       {
         SCOPED_TRACE(fmt::format("scene {}, {} threads, other labels", scene, threads));
         same(building_facades_with(ids, g, 1000, building_regions(other).get()), want);
+      }
+      {  // made inside a parallel region, as in night_scene's side-by-side halves
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, made inside a parallel region", scene, threads));
+        std::shared_ptr<BuildingRegions> nested;
+#pragma omp parallel num_threads(2)
+        if (omp_get_thread_num() == 0) nested = building_regions(ids);
+        same(building_facades_with(ids, g, 1000, nested.get()), want);
       }
     }
   }
