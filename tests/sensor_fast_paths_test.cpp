@@ -8,7 +8,9 @@
 //  * the photon stage with the glare's mix fused into its row loop (sensor/pipeline.cpp,
 //    glared_electrons_row) against the glared image made whole (the definition: keep·L +
 //    s_c·bilinear(acc_1), glare_mix per sample) and then the photon stage without glare, and
-//    expose() against sense() of that.
+//    expose() against sense() of that;
+//  * the sense stage's analog row (detail::analog_row: AVX-512 8 pixels a step where the CPU has
+//    it) against sense_electrons and sense_raw_dn applied pixel by pixel.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -25,6 +27,7 @@
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/preset.h"
 #include "sensor/glare_detail.h"
+#include "sensor/pixel_detail.h"
 #include "sensor/poisson_detail.h"
 
 namespace photosite {
@@ -451,6 +454,53 @@ TEST(GlareFastPath, GlaredRowsReportRadianceThatIsNotPhysical) {
       EXPECT_NE(msg.find("(" + std::to_string(x) + ", " + std::to_string(y) + ")"), std::string::npos)
           << "x " << x << ": '" << msg << "'";
     }
+}
+
+// detail::analog_row (the full well, the analog chain to DN and the mosaic above black; an
+// AVX-512 path of 8 pixels a step where the CPU has it) equals sense_electrons then sense_raw_dn
+// (kernels/common/sensor_pixel.glsl) pixel by pixel, bit for bit, and so does the per-pixel
+// loop analog_row_definition: at lengths that leave every tail of the 8-wide path, with
+// electrons below 0 and above the full well, codes clipped at 0 and at max_code, and NaN, ±inf,
+// −0 and the largest float among the inputs.
+TEST(SenseFastPath, AnalogRowEqualsItsDefinition) {
+  const float fw = 10000.f, rn = 3.5f, row_noise = -1.25f;
+  const double K = 0.5, black = 64, max_code = 4095;
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const float special[] = {nan, inf, -inf, -0.f, std::numeric_limits<float>::max(), fw, -128.f};
+  auto unit = [](uint32_t u) { return static_cast<float>(u) * 0x1p-32f; };
+  int checked = 0;
+  for (const int w : {1, 7, 8, 9, 15, 16, 17, 23, 40, 2051}) {
+    std::vector<float> e(w), off(w), read(w), col(w);
+    for (int x = 0; x < w; ++x) {
+      const auto r = random_words(91, 0, static_cast<uint64_t>(w) * 4096 + x, Stream::Test);
+      e[x] = (unit(r[0]) * 1.4f - 0.2f) * fw;  // -2000 .. 14000 e: both clips of the 12-bit ADC
+      off[x] = (unit(r[1]) - 0.5f) * 40.f;
+      read[x] = (unit(r[2]) - 0.5f) * 10.f;
+      col[x] = (unit(r[3]) - 0.5f) * 4.f;
+      if (x % 5 == 3) {  // a special value in one of the four inputs
+        float* in[] = {e.data(), off.data(), read.data(), col.data()};
+        in[(x / 5) % 4][x] = special[(x / 20) % 7];
+      }
+    }
+    std::vector<float> e_fast = e, d_fast(w), ab_fast(w), e_def = e, d_def(w), ab_def(w), e_px(w), d_px(w), ab_px(w);
+    detail::analog_row(e_fast.data(), off.data(), read.data(), col.data(), row_noise, rn, fw, K, black, max_code, w,
+                       d_fast.data(), ab_fast.data());
+    detail::analog_row_definition(e_def.data(), off.data(), read.data(), col.data(), row_noise, rn, fw, K, black,
+                                  max_code, w, d_def.data(), ab_def.data());
+    for (int x = 0; x < w; ++x) {
+      e_px[x] = shader::sense_electrons(e[x], fw);
+      d_px[x] = shader::sense_raw_dn(e_px[x], off[x], rn, read[x], row_noise, col[x], K, black, max_code);
+      ab_px[x] = d_px[x] - static_cast<float>(black);
+    }
+    for (const auto* got : {&e_fast, &e_def})
+      EXPECT_EQ(std::memcmp(got->data(), e_px.data(), 4 * static_cast<size_t>(w)), 0) << "electrons, w " << w;
+    for (const auto* got : {&d_fast, &d_def})
+      EXPECT_EQ(std::memcmp(got->data(), d_px.data(), 4 * static_cast<size_t>(w)), 0) << "DN, w " << w;
+    for (const auto* got : {&ab_fast, &ab_def})
+      EXPECT_EQ(std::memcmp(got->data(), ab_px.data(), 4 * static_cast<size_t>(w)), 0) << "above black, w " << w;
+    for (int x = 0; x < w; ++x) checked += d_px[x] == 0.f || d_px[x] == static_cast<float>(max_code) ? 1 : 0;
+  }
+  EXPECT_GT(checked, 100) << "the inputs reach both clips of the ADC";
 }
 
 }  // namespace
