@@ -158,6 +158,53 @@ TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
   detail::set_philox_path(saved);
 }
 
+// The sampler's retry attempts (ptrs_attempt_lanes with the squeeze first: the full test only
+// on the lanes the squeeze left undecided, compacted) equal the definition (ptrs_attempt on
+// every lane, the full test evaluated everywhere) and ptrs_attempt lane by lane, bit for bit: at
+// lane counts from one vector to a whole block, means from 10 (where PTRS rejects most) to 2e6,
+// with the words of retry streams, on every Philox path (pack_lanes' compaction differs by path).
+// Each verdict occurs: accepted by the squeeze, accepted and rejected by the full test, rejected
+// outright.
+TEST(Philox, PtrsAttemptsEqualTheirDefinition) {
+  const int n_max = 1024;
+  std::vector<float> mu(n_max);
+  std::vector<uint32_t> wu(n_max), wv(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const auto r = random_words(606, 0, static_cast<uint64_t>(i), Stream::Test);  // deterministic test data
+    const double u = uniform_open(r[0]);
+    mu[i] = static_cast<float>(i % 3 == 0 ? 10.0 + 5.0 * u : 10.0 * std::pow(2e5, u));
+    wu[i] = r[1];
+    wv[i] = r[2];
+  }
+  int squeezed = 0, full_accepted = 0, full_rejected = 0, rejected = 0;
+  std::vector<float> want(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const detail::PtrsSetup st = detail::ptrs_setup(mu[i]);
+    want[i] = detail::ptrs_attempt(st, wu[i], wv[i]);
+    const detail::PtrsCandidate c = detail::ptrs_candidate(st, wu[i], wv[i]);
+    squeezed += c.verdict == 1.f;
+    rejected += c.verdict == -1.f;
+    if (c.verdict == 0.f) (want[i] < 0.f ? full_rejected : full_accepted) += 1;
+  }
+  EXPECT_GT(squeezed, 0);
+  EXPECT_GT(full_accepted, 0);
+  EXPECT_GT(full_rejected, 0);
+  EXPECT_GT(rejected, 0);
+  const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
+  for (const auto path : cpu_paths()) {
+    detail::set_philox_path(path);
+    for (const int m : {8, 16, 24, 136, 1000, n_max}) {
+      for (const bool squeeze_first : {true, false}) {
+        std::vector<float> k(m, 7.f);
+        detail::ptrs_attempt_lanes(squeeze_first, mu.data(), wu.data(), wv.data(), k.data(), m);
+        EXPECT_EQ(0, std::memcmp(k.data(), want.data(), m * sizeof(float)))
+            << "path " << static_cast<int>(path) << " m " << m << " squeeze first " << squeeze_first;
+      }
+    }
+  }
+  detail::set_philox_path(saved);
+}
+
 // fast_cos_2pi (kernels/common/fastmath.glsl) folds u = |v − round(v)| in [0, ½] to
 // min(u, ½ − u), which replaced the select flip ? ½ − u : u (flip = u > ¼) that GCC vectorized
 // as two polynomials. Held bit for bit to the function as it was (its select, its Taylor
