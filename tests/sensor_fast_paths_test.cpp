@@ -378,6 +378,49 @@ TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
   }
 }
 
+// The pyramid's level-1 row sums, eight rows at a time (detail::glare_level1_row_sums: eight
+// independent chains, AVX2 where the CPU has it) equal glare_level1_energy's row by row (its
+// sum over a one-row image with full height 1 is the row's sum times 1), bit for bit: at 1 to 8
+// rows, widths that end the 4-float loads at every offset, even and odd full widths (the last
+// pixel's n = 1 or 2), values over twelve decades so that any other order of the adds would
+// round differently.
+TEST(GlareFastPath, Level1RowSumsEqualTheRowByRowSums) {
+  int rounding_visible = 0;
+  for (const int w : {1, 2, 3, 4, 5, 17, 1024, 1025})
+    for (const int full_width : {2 * w - 1, 2 * w}) {
+      std::vector<ImageF> rows;
+      for (int i = 0; i < 8; ++i) {
+        ImageF r(w, 1, 3, 0.f, unit::radiance);
+        for (int x = 0; x < w; ++x)
+          for (int c = 0; c < 3; ++c) {
+            const auto u = random_words(31, 0, static_cast<uint64_t>(w) * 100000 + i * 5000 + x, Stream::Test);
+            r.at(x, 0, c) = static_cast<float>(std::pow(10.0, 12.0 * uniform_open(u[c]) - 6.0));
+          }
+        rows.push_back(std::move(r));
+      }
+      for (int nr = 1; nr <= 8; ++nr) {
+        std::vector<const float*> p;
+        for (int i = 0; i < nr; ++i) p.push_back(rows[i].row(0));
+        std::vector<std::array<double, 3>> got(nr);
+        detail::glare_level1_row_sums(p.data(), nr, w, full_width, got.data());
+        for (int i = 0; i < nr; ++i) {
+          const auto want = glare_level1_energy(rows[i], full_width, 1);
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_EQ(std::memcmp(&got[i][c], &want[c], sizeof(double)), 0)
+                << "w " << w << " full width " << full_width << " rows " << nr << " row " << i << " channel " << c;
+            if (w >= 17) {  // the same values summed from the other end round differently somewhere
+              double back = 0;
+              for (int x = w - 1; x >= 0; --x)
+                back += (2 * x + 1 < full_width ? 2.0 : 1.0) * static_cast<double>(rows[i].at(x, 0, c));
+              rounding_visible += back != want[c];
+            }
+          }
+        }
+      }
+    }
+  EXPECT_GT(rounding_visible, 0) << "the test values must make the order of the adds visible";
+}
+
 // A skirt still held keeps its acc_1: the next call writes a new buffer; once no skirt holds the
 // workspace's buffer, the next call reuses it (the same pages) and still gives the definition.
 TEST(GlareFastPath, HeldSkirtsKeepTheirBuffersAndFreedOnesAreReused) {
