@@ -208,6 +208,45 @@ inline std::array<double, 3> level1_row_sum(const float* r, int w, int full_widt
   }
   return {s0, s1, s2};
 }
+// level1_row_sum of nr <= 8 rows r[0 .. nr) at once, into out[0 .. nr): each row's three sums
+// in its own order, so the same sums. The scalar sum is a chain of dependent double adds (about
+// 4 cycles each: a 1024-pixel row waits ~4,000 cycles on it, which the profile showed as half of
+// accumulate's and down2_then_1331's time); eight rows give eight independent chains. Where the
+// CPU has AVX2, one 4-double vector per row holds (s0, s1, s2, −): pixel j adds
+// n·(r[3j], r[3j + 1], r[3j + 2], r[3j + 3]) (a 4-float load; the fourth float, the next
+// pixel's, lands in the unused lane), n = 2 for every j < w − 1 (2j + 1 <= 2w − 3 < full_width,
+// full_width >= 2w − 1); the last pixel, its n and its three floats, by the scalar step after.
+// Per lane the scalar code's IEEE operations (double(v), n·v, s + n·v) in its order: the same bits
+// (test GlareFastPath.Level1RowSumsEqualTheRowByRowSums).
+const bool kGlareAvx2 = __builtin_cpu_supports("avx2");
+__attribute__((target("avx2")))
+void level1_row_sums_avx2(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out) {
+  constexpr int N = 8;
+  const float* row[N];
+  for (int i = 0; i < N; ++i) row[i] = r[i < nr ? i : 0];  // rows past nr repeat row 0, unused
+  __m256d acc[N];
+  for (int i = 0; i < N; ++i) acc[i] = _mm256_setzero_pd();
+  const __m256d two = _mm256_set1_pd(2.0);
+  for (int j = 0; j + 1 < w; ++j)
+#pragma GCC unroll 8
+    for (int i = 0; i < N; ++i)
+      acc[i] = _mm256_add_pd(acc[i], _mm256_mul_pd(two, _mm256_cvtps_pd(_mm_loadu_ps(row[i] + 3 * j))));
+  const int j = w - 1;
+  const double n = 2 * j + 1 < full_width ? 2.0 : 1.0;
+  for (int i = 0; i < nr; ++i) {
+    alignas(32) double s[4];
+    _mm256_store_pd(s, acc[i]);
+    for (int c = 0; c < 3; ++c) out[i][c] = s[c] + n * static_cast<double>(row[i][3 * j + c]);
+  }
+}
+void level1_row_sums(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out) {
+  if (kGlareAvx2 && w >= 1) {
+    level1_row_sums_avx2(r, nr, w, full_width, out);
+    return;
+  }
+  for (int i = 0; i < nr; ++i) out[i] = level1_row_sum(r[i], w, full_width);
+}
+constexpr int kRowSumBatch = 8;
 std::array<double, 3> combine_rows(const std::vector<std::array<double, 3>>& rows, int full_height) {
   std::array<double, 3> e{0, 0, 0};
   for (size_t i = 0; i < rows.size(); ++i) {
@@ -280,16 +319,23 @@ void down2_row(const float* __restrict ra, const float* __restrict rb, int w, fl
 }
 
 // 2x2 box average, edge clamped (the last row/column of an odd size averages with itself), into
-// dst, with each output row's level1_row_sum (the level-1 energy of the input) into rows.
+// dst, with each output row's level1_row_sum (the level-1 energy of the input) into rows
+// (level1_row_sums, eight rows at a time).
 void down2(const ImageF& src, ImageF& dst, std::vector<std::array<double, 3>>& rows) {
   const int w = src.width(), h = src.height();
   const int w2 = (w + 1) / 2, h2 = (h + 1) / 2;
   rows.assign(h2, {0, 0, 0});
+  const int batches = (h2 + kRowSumBatch - 1) / kRowSumBatch;  // eight rows, then their sums
 #pragma omp parallel for schedule(static) if (static_cast<int64_t>(w2) * h2 > kParallelPixels / 4)
-  for (int y = 0; y < h2; ++y) {
-    float* o = dst.row(y);
-    down2_row(src.row(2 * y), src.row(std::min(2 * y + 1, h - 1)), w, o);
-    rows[y] = level1_row_sum(o, w2, w);
+  for (int b = 0; b < batches; ++b) {
+    const int y0 = b * kRowSumBatch, y1 = std::min(h2, y0 + kRowSumBatch);
+    const float* r[kRowSumBatch];
+    for (int y = y0; y < y1; ++y) {
+      float* o = dst.row(y);
+      down2_row(src.row(2 * y), src.row(std::min(2 * y + 1, h - 1)), w, o);
+      r[y - y0] = o;
+    }
+    level1_row_sums(r, y1 - y0, w2, w, rows.data() + y0);
   }
 }
 
@@ -360,8 +406,8 @@ inline std::pair<int, int> thread_rows(int n) {
 // upsampling (mirror borders): unlike a 2x2 box it keeps a point source's centroid where it
 // was, so coarse levels spread a lamp's glare around the lamp, not around a coarse pixel
 // centre up to 2^(l-1) px away. Rows first, then columns; each sum in this order. The source is
-// w x h pixels, its row j given by src_row(j, k, own, scratch) (k: the unmirrored index asked
-// for; own: k lies in this thread's share of the source rows, [2·ya, 2·yb)). Each thread walks
+// w x h pixels, its row j given by src_row(j, k, ka, kb, scratch) (k: the unmirrored index asked
+// for; [ka, kb) = [2·ya, 2·yb): this thread's share of the source rows, asked for in order). Each thread walks
 // a contiguous range of output rows and keeps the row pass of the four source rows it needs
 // (2y − 1 .. 2y + 2, mirrored) in a ring, making two new ones per output row: the row pass is
 // never written as an image, and every output sample is the same sums in the same order.
@@ -375,7 +421,7 @@ void down_1331(int w, int h, const SrcRow& src_row, size_t scratch_floats, bool 
     std::vector<float> ring(4 * n2), scratch(scratch_floats);
     auto slot = [&](int k) { return ring.data() + static_cast<size_t>((k + 4) & 3) * n2; };  // k >= −1
     auto make = [&](int k) {
-      taps1331_along_row(src_row(glare_mirror(k, h), k, k >= 2 * ya && k < 2 * yb, scratch.data()), w, slot(k));
+      taps1331_along_row(src_row(glare_mirror(k, h), k, 2 * ya, 2 * yb, scratch.data()), w, slot(k));
     };
     for (int y = ya; y < yb; ++y) {
       if (y == ya) {
@@ -391,24 +437,36 @@ void down_1331(int w, int h, const SrcRow& src_row, size_t scratch_floats, bool 
 // down_1331 of an image.
 void down_1331(const ImageF& src, ImageF& dst) {
   const int w = src.width(), h = src.height();
-  down_1331(w, h, [&](int j, int, bool, float*) { return src.row(j); }, 0,
+  down_1331(w, h, [&](int j, int, int, int, float*) { return src.row(j); }, 0,
             static_cast<int64_t>((w + 1) / 2) * h > kParallelPixels, dst);
 }
 // Level 2 straight from the irradiance: down_1331 of down2(in), level 1's rows made by the 2x2
 // box as the (1,3,3,1) pass asks for them (so level 1 is never written as an image), with
 // level 1's row sums into rows (each by the thread that owns the row: the same sums as down2's).
+// A thread's own rows k in [ka, kb) ∩ [0, h1) (asked for once each, in order) go to slot k mod 8
+// of its scratch and are summed eight at a time (level1_row_sums) when slot 7 or the last of
+// them is made; rows outside that range (the halo, the mirrored rows) use a ninth slot.
 void down2_then_1331(const ImageF& in, ImageF& dst, std::vector<std::array<double, 3>>& rows) {
   const int w = in.width(), h = in.height();
   const int w1 = (w + 1) / 2, h1 = (h + 1) / 2;
+  const size_t n1 = 3 * static_cast<size_t>(w1);
   rows.assign(h1, {0, 0, 0});
   down_1331(
       w1, h1,
-      [&](int j, int k, bool own, float* buf) {
-        down2_row(in.row(2 * j), in.row(std::min(2 * j + 1, h - 1)), w, buf);
-        if (own && k == j) rows[j] = level1_row_sum(buf, w1, w);
-        return static_cast<const float*>(buf);
+      [&](int j, int k, int ka, int kb, float* buf) {
+        const bool own = k == j && k >= ka && k < kb;
+        float* o = buf + n1 * static_cast<size_t>(own ? k % kRowSumBatch : kRowSumBatch);
+        down2_row(in.row(2 * j), in.row(std::min(2 * j + 1, h - 1)), w, o);
+        const int last = std::min(kb, h1) - 1;
+        if (own && (k % kRowSumBatch == kRowSumBatch - 1 || k == last)) {
+          const int k0 = std::max(ka, k - k % kRowSumBatch);
+          const float* r[kRowSumBatch];
+          for (int i = k0; i <= k; ++i) r[i - k0] = buf + n1 * static_cast<size_t>(i % kRowSumBatch);
+          level1_row_sums(r, k - k0 + 1, w1, w, rows.data() + k0);
+        }
+        return static_cast<const float*>(o);
       },
-      3 * static_cast<size_t>(w1), static_cast<int64_t>(w1) * h1 > kParallelPixels / 4, dst);
+      (kRowSumBatch + 1) * n1, static_cast<int64_t>(w1) * h1 > kParallelPixels / 4, dst);
 }
 
 // The Gaussian blur along one row of w pixels (taps centre first), mirror borders: the row is
@@ -470,7 +528,13 @@ void accumulate(const ImageF* level, const ImageF* coarse, float w, int width, i
         for (int k = -R; k <= R; ++k) p[k + R] = slot(y + k);
         blur_taps(p, gk.data(), n, true, w, up ? u.data() : nullptr, o);
       }
-      if (rows) (*rows)[y] = level1_row_sum(o, width, full_width);
+      // The row sums eight rows at a time (level1_row_sums), each batch while its rows are in cache.
+      if (rows && ((y - ya) % kRowSumBatch == kRowSumBatch - 1 || y == yb - 1)) {
+        const int y0 = y - (y - ya) % kRowSumBatch;
+        const float* r[kRowSumBatch];
+        for (int k = y0; k <= y; ++k) r[k - y0] = dst.row(k);
+        level1_row_sums(r, y - y0 + 1, width, full_width, rows->data() + y0);
+      }
     }
   }
 }
@@ -545,6 +609,11 @@ GlarePlan plan_glare(const LensGlare& glare, double px_per_deg) {
   for (int l = p.lo; l <= p.hi; ++l)
     p.weight.push_back(static_cast<float>(std::pow(sigma(l), 2.0 - glare.skirt_exponent) / total));
   return p;
+}
+
+void detail::glare_level1_row_sums(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out) {
+  if (nr < 0 || nr > kRowSumBatch) fail("glare_level1_row_sums: at most 8 rows");
+  level1_row_sums(r, nr, w, full_width, out);
 }
 
 std::array<double, 3> glare_level1_energy(const ImageF& v, int full_width, int full_height) {

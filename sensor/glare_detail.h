@@ -28,4 +28,9 @@ inline void glare_up_pixel(const float* t, int cw, int x, float* u3) {
   const shader::GlareTap tx = shader::glare_up_tap(x, cw);
   for (int c = 0; c < 3; ++c) u3[c] = shader::glare_lerp(tx.w0, t[3 * tx.i0 + c], tx.w1, t[3 * tx.i1 + c]);
 }
+// glare_level1_energy's row sums (Σ_j n_x(j)·v per channel, in double and in order) of nr <= 8
+// rows r[0 .. nr) of w pixels at once into out[0 .. nr), as the pyramid forms them
+// (sensor/glare.cpp: eight independent chains of adds; AVX2 where the CPU has it).
+void glare_level1_row_sums(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out);
+
 }  // namespace photosite::detail

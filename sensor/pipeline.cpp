@@ -70,6 +70,74 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
   return m;
 }
 
+// detail::analog_row (sensor/pixel_detail.h). The per-pixel definition, with AVX-512 and AVX2
+// clones: its floor and clamp in double vectorize there (roundpd), the same IEEE operations as
+// the scalar code, so the same bits on every clone.
+__attribute__((target_clones("avx512f", "avx2", "default")))
+void detail::analog_row_definition(float* __restrict erow, const float* __restrict off, const float* __restrict read,
+                                   const float* __restrict col, float row_noise, float rn, float fw, double K,
+                                   double black, double max_code, int w, float* __restrict drow,
+                                   float* __restrict abrow) {
+  const float blk = static_cast<float>(black);
+  for (int x = 0; x < w; ++x) {
+    const float e = shader::sense_electrons(erow[x], fw);
+    erow[x] = e;
+    const float d = shader::sense_raw_dn(e, off[x], rn, read[x], row_noise, col[x], K, black, max_code);
+    drow[x] = d;
+    abrow[x] = d - blk;
+  }
+}
+namespace {
+// analog_row where the CPU has AVX-512: 8 pixels a step, each float input loaded 8 wide and
+// widened once (vcvtps2pd), where GCC's vectorization of the definition loaded 16 floats and
+// split each load into halves (vextractf64x4). Per pixel the same IEEE operations in the same
+// order as sense_electrons and sense_raw_dn (kernels/common/sensor_pixel.glsl):
+//   e = min(drawn, fw)              std::min(a, b) = b < a ? b : a = vminps(b, a)
+//   rn·z in float, then (((e + dsnu) + rn·z) + row) + col in double, ·K, + black, + 0.5,
+//   floor (vrndscalepd toward −∞), clamp(dn, 0, max) = dn < 0 ? 0 : (max < dn ? max : dn)
+//   = vmaxpd(0, vminpd(max, dn)) (NaN passes through both, as through std::clamp), float(dn),
+//   d − black in float.
+// Returns the first pixel it left (the definition finishes the row).
+// The full-mask maskz forms: GCC 12's unmasked ones pass an uninitialized vector as the merge
+// source (-Wmaybe-uninitialized); every lane is written either way.
+__attribute__((target("avx512f"))) inline __m512d cvt8(__m256 a) { return _mm512_maskz_cvtps_pd(0xff, a); }
+__attribute__((target("avx512f")))
+int analog_row_avx512(float* __restrict erow, const float* __restrict off, const float* __restrict read,
+                      const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
+                      double max_code, int w, float* __restrict drow, float* __restrict abrow) {
+  const __m256 vfw = _mm256_set1_ps(fw), vrn = _mm256_set1_ps(rn), vblk = _mm256_set1_ps(static_cast<float>(black));
+  const __m512d vrow = _mm512_set1_pd(static_cast<double>(row_noise)), vK = _mm512_set1_pd(K),
+                vblack = _mm512_set1_pd(black), vhalf = _mm512_set1_pd(static_cast<double>(0.5f)),
+                vmax = _mm512_set1_pd(max_code), vzero = _mm512_setzero_pd();
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const __m256 e = _mm256_min_ps(vfw, _mm256_loadu_ps(erow + x));
+    _mm256_storeu_ps(erow + x, e);
+    const __m256 rz = _mm256_mul_ps(vrn, _mm256_loadu_ps(read + x));
+    __m512d v = _mm512_add_pd(cvt8(e), cvt8(_mm256_loadu_ps(off + x)));
+    v = _mm512_add_pd(v, cvt8(rz));
+    v = _mm512_add_pd(v, vrow);
+    v = _mm512_add_pd(v, cvt8(_mm256_loadu_ps(col + x)));
+    __m512d dn = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(v, vK), vblack), vhalf);
+    dn = _mm512_maskz_roundscale_pd(0xff, dn, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    dn = _mm512_maskz_max_pd(0xff, vzero, _mm512_maskz_min_pd(0xff, vmax, dn));
+    const __m256 d = _mm512_maskz_cvtpd_ps(0xff, dn);
+    _mm256_storeu_ps(drow + x, d);
+    _mm256_storeu_ps(abrow + x, _mm256_sub_ps(d, vblk));
+  }
+  return x;
+}
+const bool kAnalogAvx512 = __builtin_cpu_supports("avx512f");
+}  // namespace
+void detail::analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn,
+                        float fw, double K, double black, double max_code, int w, float* drow, float* abrow) {
+  const int x = kAnalogAvx512 ? analog_row_avx512(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w,
+                                                  drow, abrow)
+                              : 0;
+  analog_row_definition(erow + x, off + x, read + x, col + x, row_noise, rn, fw, K, black, max_code, w - x, drow + x,
+                        abrow + x);
+}
+
 namespace {
 const bool kPhotonAvx512 = __builtin_cpu_supports("avx512f");
 
@@ -466,23 +534,11 @@ struct SenseStage {
                        const float* __restrict df, int w, float* __restrict mean) {
     for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);
   }
-  // The full well, then the analog chain to DN (sense_electrons, sense_raw_dn in
-  // kernels/common/sensor_pixel.glsl: DSNU, read, row and column noise, gain, black level, one
-  // rounding), and the mosaic above black. A function of its own with AVX-512 and AVX2 clones: its floor
-  // and clamp in double vectorize there (roundpd), the same IEEE operations as the scalar code,
-  // so the same bits on every clone.
-  __attribute__((target_clones("avx512f", "avx2", "default")))
+  // The full well, then the analog chain to DN: detail::analog_row (sensor/pixel_detail.h).
   static void analog_row(float* __restrict erow, const float* __restrict off, const float* __restrict read,
                          const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
                          double max_code, int w, float* __restrict drow, float* __restrict abrow) {
-    const float blk = static_cast<float>(black);
-    for (int x = 0; x < w; ++x) {
-      const float e = shader::sense_electrons(erow[x], fw);
-      erow[x] = e;
-      const float d = shader::sense_raw_dn(e, off[x], rn, read[x], row_noise, col[x], K, black, max_code);
-      drow[x] = d;
-      abrow[x] = d - blk;
-    }
+    detail::analog_row(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w, drow, abrow);
   }
 };
 

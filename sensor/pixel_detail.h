@@ -15,3 +15,16 @@ namespace photosite::shader {
 #include "common/sensor_pixel.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
+
+namespace photosite::detail {
+// sense_electrons then sense_raw_dn over a row of w pixels (the full well, then the analog chain
+// to DN), and the mosaic above black d − black: erow (drawn electrons in, collected out), drow,
+// abrow; off, read, col: the DSNU, read-noise normal and column noise per pixel. analog_row
+// takes the AVX-512 path where the CPU has it (sensor/pipeline.cpp), analog_row_definition is
+// the per-pixel loop; the same bits (test SenseFastPath.AnalogRowEqualsItsDefinition).
+void analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn, float fw,
+                double K, double black, double max_code, int w, float* drow, float* abrow);
+void analog_row_definition(float* erow, const float* off, const float* read, const float* col, float row_noise,
+                           float rn, float fw, double K, double black, double max_code, int w, float* drow,
+                           float* abrow);
+}  // namespace photosite::detail

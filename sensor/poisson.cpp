@@ -354,9 +354,11 @@ void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const
   for (int i = 0; i < m; ++i)
     accepted[i] = detail::ptrs_accept(detail::ptrs_setup(mu[i]), detail::PtrsCandidate{k[i], us[i], v[i], 0.f}) ? 1.f : 0.f;
 }
+// ptrs_attempts_definition: detail::ptrs_attempt lane by lane, the full test evaluated on every
+// lane (branch-free); the twin of ptrs_attempts below (test Philox.PtrsAttemptsEqualTheirDefinition).
 __attribute__((target_clones("avx512f", "avx2", "default")))
-void ptrs_attempts(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
-                   float* __restrict k, int m) {
+void ptrs_attempts_definition(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
+                              float* __restrict k, int m) {
   if (m % 8 != 0) __builtin_unreachable();
   for (int i = 0; i < m; ++i) k[i] = detail::ptrs_attempt(detail::ptrs_setup(mu[i]), wu[i], wv[i]);
 }
@@ -464,6 +466,28 @@ int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC])
   return n;
 }
 
+// detail::ptrs_attempt over m lanes (m a multiple of 8, m <= kBlock; every mu >= 10, the PTRS
+// lanes' and pad8's): k[i] >= 0 accepted, −1 rejected. In the passes of ptrs_block's first
+// attempt: every lane's candidate and squeeze (ptrs_first: with mu >= 10 it keeps mu and gives
+// the candidate's own verdict), then the full test only on the lanes the squeeze left undecided
+// (verdict 0: 609,780 of the 1,580,389 first attempts of a night frame, docs/benchmarks.md),
+// compacted. ptrs_attempt evaluates the full test on every lane
+// and keeps it where the verdict is 0: the same k for every lane, since the full test of a lane
+// is the same function of the same (mu, k, u_s, v) wherever it runs.
+void ptrs_attempts(const float* mu, const uint32_t* wu, const uint32_t* wv, float* k, int m) {
+  constexpr int R = kBlock + kPackRoom;
+  alignas(64) float mu_kept[kBlock], us[kBlock], v[kBlock], verdict[kBlock], undecided[kBlock], acc[kBlock];
+  alignas(64) float cmu[R], ck[R], cus[R], cv[R];
+  alignas(64) int sel[R];
+  ptrs_first(mu, wu, wv, mu_kept, k, us, v, verdict, m);
+  for (int i = 0; i < m; ++i) undecided[i] = verdict[i] == 0.f ? 1.f : 0.f;
+  const int nu = pack_lanes(undecided, m, sel, {{mu, cmu}, {k, ck}, {us, cus}, {v, cv}});
+  pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
+  ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
+  for (int i = 0; i < m; ++i) k[i] = verdict[i] == 1.f ? k[i] : -1.f;
+  for (int j = 0; j < nu; ++j) k[sel[j]] = acc[j] != 0.f ? ck[j] : -1.f;
+}
+
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
 // first_pixel + lane[i], or first_pixel + i when lane is null; own words w0[i], w1[i]); other
 // lanes get a value the caller overwrites. AVX-512 and AVX2 clones for its own loops (verdict flags,
@@ -553,6 +577,13 @@ void ptrs_high_lanes(const float* mean, const uint32_t* w0, const uint32_t* w1, 
   for (int j = 0; j < nh; ++j) out[idx[j]] = hout[j];
 }
 }  // namespace
+
+void detail::ptrs_attempt_lanes(bool squeeze_first, const float* mu, const uint32_t* wu, const uint32_t* wv, float* k,
+                                int m) {
+  if (m % 8 != 0 || m > kBlock) fail("ptrs_attempt_lanes: m must be a multiple of 8 up to the block size");
+  if (squeeze_first) ptrs_attempts(mu, wu, wv, k, m);
+  else ptrs_attempts_definition(mu, wu, wv, k, m);
+}
 
 // AVX-512 and AVX2 clones for its own loops (the lane selections and the low-mean gathers:
 // compares and copies, no arithmetic on the draws), so the same bits on every clone.

@@ -101,4 +101,10 @@ void philox_block_words(PhiloxPath path, uint64_t key, uint32_t frame, uint64_t 
 void philox_words_rounds(int rounds, PhiloxPath path, uint64_t key, uint32_t frame, uint64_t first_pixel,
                          uint32_t stream, int n, uint32_t* w0, uint32_t* w1, uint32_t* w2, uint32_t* w3);
 
+// One PTRS attempt (ptrs_attempt) per lane i < m (m a multiple of 8, at most 1024; mu[i] >= 10)
+// from the words wu[i], wv[i]: k[i] >= 0 accepted, −1 rejected; the sampler's retries.
+// squeeze_first: its path (candidates and squeeze on every lane, the full test only on the
+// undecided lanes, compacted); otherwise the definition (the full test on every lane).
+void ptrs_attempt_lanes(bool squeeze_first, const float* mu, const uint32_t* wu, const uint32_t* wv, float* k, int m);
+
 }  // namespace photosite::detail

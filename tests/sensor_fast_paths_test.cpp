@@ -8,7 +8,9 @@
 //  * the photon stage with the glare's mix fused into its row loop (sensor/pipeline.cpp,
 //    glared_electrons_row) against the glared image made whole (the definition: keep·L +
 //    s_c·bilinear(acc_1), glare_mix per sample) and then the photon stage without glare, and
-//    expose() against sense() of that.
+//    expose() against sense() of that;
+//  * the sense stage's analog row (detail::analog_row: AVX-512 8 pixels a step where the CPU has
+//    it) against sense_electrons and sense_raw_dn applied pixel by pixel.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -25,6 +27,7 @@
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/preset.h"
 #include "sensor/glare_detail.h"
+#include "sensor/pixel_detail.h"
 #include "sensor/poisson_detail.h"
 
 namespace photosite {
@@ -151,6 +154,53 @@ TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
             << "path " << static_cast<int>(path) << ", " << t << " threads, n " << n;
       }
     });
+  }
+  detail::set_philox_path(saved);
+}
+
+// The sampler's retry attempts (ptrs_attempt_lanes with the squeeze first: the full test only
+// on the lanes the squeeze left undecided, compacted) equal the definition (ptrs_attempt on
+// every lane, the full test evaluated everywhere) and ptrs_attempt lane by lane, bit for bit: at
+// lane counts from one vector to a whole block, means from 10 (where PTRS rejects most) to 2e6,
+// with the words of retry streams, on every Philox path (pack_lanes' compaction differs by path).
+// Each verdict occurs: accepted by the squeeze, accepted and rejected by the full test, rejected
+// outright.
+TEST(Philox, PtrsAttemptsEqualTheirDefinition) {
+  const int n_max = 1024;
+  std::vector<float> mu(n_max);
+  std::vector<uint32_t> wu(n_max), wv(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const auto r = random_words(606, 0, static_cast<uint64_t>(i), Stream::Test);  // deterministic test data
+    const double u = uniform_open(r[0]);
+    mu[i] = static_cast<float>(i % 3 == 0 ? 10.0 + 5.0 * u : 10.0 * std::pow(2e5, u));
+    wu[i] = r[1];
+    wv[i] = r[2];
+  }
+  int squeezed = 0, full_accepted = 0, full_rejected = 0, rejected = 0;
+  std::vector<float> want(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const detail::PtrsSetup st = detail::ptrs_setup(mu[i]);
+    want[i] = detail::ptrs_attempt(st, wu[i], wv[i]);
+    const detail::PtrsCandidate c = detail::ptrs_candidate(st, wu[i], wv[i]);
+    squeezed += c.verdict == 1.f;
+    rejected += c.verdict == -1.f;
+    if (c.verdict == 0.f) (want[i] < 0.f ? full_rejected : full_accepted) += 1;
+  }
+  EXPECT_GT(squeezed, 0);
+  EXPECT_GT(full_accepted, 0);
+  EXPECT_GT(full_rejected, 0);
+  EXPECT_GT(rejected, 0);
+  const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
+  for (const auto path : cpu_paths()) {
+    detail::set_philox_path(path);
+    for (const int m : {8, 16, 24, 136, 1000, n_max}) {
+      for (const bool squeeze_first : {true, false}) {
+        std::vector<float> k(m, 7.f);
+        detail::ptrs_attempt_lanes(squeeze_first, mu.data(), wu.data(), wv.data(), k.data(), m);
+        EXPECT_EQ(0, std::memcmp(k.data(), want.data(), m * sizeof(float)))
+            << "path " << static_cast<int>(path) << " m " << m << " squeeze first " << squeeze_first;
+      }
+    }
   }
   detail::set_philox_path(saved);
 }
@@ -328,6 +378,49 @@ TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
   }
 }
 
+// The pyramid's level-1 row sums, eight rows at a time (detail::glare_level1_row_sums: eight
+// independent chains, AVX2 where the CPU has it) equal glare_level1_energy's row by row (its
+// sum over a one-row image with full height 1 is the row's sum times 1), bit for bit: at 1 to 8
+// rows, widths that end the 4-float loads at every offset, even and odd full widths (the last
+// pixel's n = 1 or 2), values over twelve decades so that any other order of the adds would
+// round differently.
+TEST(GlareFastPath, Level1RowSumsEqualTheRowByRowSums) {
+  int rounding_visible = 0;
+  for (const int w : {1, 2, 3, 4, 5, 17, 1024, 1025})
+    for (const int full_width : {2 * w - 1, 2 * w}) {
+      std::vector<ImageF> rows;
+      for (int i = 0; i < 8; ++i) {
+        ImageF r(w, 1, 3, 0.f, unit::radiance);
+        for (int x = 0; x < w; ++x)
+          for (int c = 0; c < 3; ++c) {
+            const auto u = random_words(31, 0, static_cast<uint64_t>(w) * 100000 + i * 5000 + x, Stream::Test);
+            r.at(x, 0, c) = static_cast<float>(std::pow(10.0, 12.0 * uniform_open(u[c]) - 6.0));
+          }
+        rows.push_back(std::move(r));
+      }
+      for (int nr = 1; nr <= 8; ++nr) {
+        std::vector<const float*> p;
+        for (int i = 0; i < nr; ++i) p.push_back(rows[i].row(0));
+        std::vector<std::array<double, 3>> got(nr);
+        detail::glare_level1_row_sums(p.data(), nr, w, full_width, got.data());
+        for (int i = 0; i < nr; ++i) {
+          const auto want = glare_level1_energy(rows[i], full_width, 1);
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_EQ(std::memcmp(&got[i][c], &want[c], sizeof(double)), 0)
+                << "w " << w << " full width " << full_width << " rows " << nr << " row " << i << " channel " << c;
+            if (w >= 17) {  // the same values summed from the other end round differently somewhere
+              double back = 0;
+              for (int x = w - 1; x >= 0; --x)
+                back += (2 * x + 1 < full_width ? 2.0 : 1.0) * static_cast<double>(rows[i].at(x, 0, c));
+              rounding_visible += back != want[c];
+            }
+          }
+        }
+      }
+    }
+  EXPECT_GT(rounding_visible, 0) << "the test values must make the order of the adds visible";
+}
+
 // A skirt still held keeps its acc_1: the next call writes a new buffer; once no skirt holds the
 // workspace's buffer, the next call reuses it (the same pages) and still gives the definition.
 TEST(GlareFastPath, HeldSkirtsKeepTheirBuffersAndFreedOnesAreReused) {
@@ -451,6 +544,53 @@ TEST(GlareFastPath, GlaredRowsReportRadianceThatIsNotPhysical) {
       EXPECT_NE(msg.find("(" + std::to_string(x) + ", " + std::to_string(y) + ")"), std::string::npos)
           << "x " << x << ": '" << msg << "'";
     }
+}
+
+// detail::analog_row (the full well, the analog chain to DN and the mosaic above black; an
+// AVX-512 path of 8 pixels a step where the CPU has it) equals sense_electrons then sense_raw_dn
+// (kernels/common/sensor_pixel.glsl) pixel by pixel, bit for bit, and so does the per-pixel
+// loop analog_row_definition: at lengths that leave every tail of the 8-wide path, with
+// electrons below 0 and above the full well, codes clipped at 0 and at max_code, and NaN, ±inf,
+// −0 and the largest float among the inputs.
+TEST(SenseFastPath, AnalogRowEqualsItsDefinition) {
+  const float fw = 10000.f, rn = 3.5f, row_noise = -1.25f;
+  const double K = 0.5, black = 64, max_code = 4095;
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const float special[] = {nan, inf, -inf, -0.f, std::numeric_limits<float>::max(), fw, -128.f};
+  auto unit = [](uint32_t u) { return static_cast<float>(u) * 0x1p-32f; };
+  int checked = 0;
+  for (const int w : {1, 7, 8, 9, 15, 16, 17, 23, 40, 2051}) {
+    std::vector<float> e(w), off(w), read(w), col(w);
+    for (int x = 0; x < w; ++x) {
+      const auto r = random_words(91, 0, static_cast<uint64_t>(w) * 4096 + x, Stream::Test);
+      e[x] = (unit(r[0]) * 1.4f - 0.2f) * fw;  // -2000 .. 14000 e: both clips of the 12-bit ADC
+      off[x] = (unit(r[1]) - 0.5f) * 40.f;
+      read[x] = (unit(r[2]) - 0.5f) * 10.f;
+      col[x] = (unit(r[3]) - 0.5f) * 4.f;
+      if (x % 5 == 3) {  // a special value in one of the four inputs
+        float* in[] = {e.data(), off.data(), read.data(), col.data()};
+        in[(x / 5) % 4][x] = special[(x / 20) % 7];
+      }
+    }
+    std::vector<float> e_fast = e, d_fast(w), ab_fast(w), e_def = e, d_def(w), ab_def(w), e_px(w), d_px(w), ab_px(w);
+    detail::analog_row(e_fast.data(), off.data(), read.data(), col.data(), row_noise, rn, fw, K, black, max_code, w,
+                       d_fast.data(), ab_fast.data());
+    detail::analog_row_definition(e_def.data(), off.data(), read.data(), col.data(), row_noise, rn, fw, K, black,
+                                  max_code, w, d_def.data(), ab_def.data());
+    for (int x = 0; x < w; ++x) {
+      e_px[x] = shader::sense_electrons(e[x], fw);
+      d_px[x] = shader::sense_raw_dn(e_px[x], off[x], rn, read[x], row_noise, col[x], K, black, max_code);
+      ab_px[x] = d_px[x] - static_cast<float>(black);
+    }
+    for (const auto* got : {&e_fast, &e_def})
+      EXPECT_EQ(std::memcmp(got->data(), e_px.data(), 4 * static_cast<size_t>(w)), 0) << "electrons, w " << w;
+    for (const auto* got : {&d_fast, &d_def})
+      EXPECT_EQ(std::memcmp(got->data(), d_px.data(), 4 * static_cast<size_t>(w)), 0) << "DN, w " << w;
+    for (const auto* got : {&ab_fast, &ab_def})
+      EXPECT_EQ(std::memcmp(got->data(), ab_px.data(), 4 * static_cast<size_t>(w)), 0) << "above black, w " << w;
+    for (int x = 0; x < w; ++x) checked += d_px[x] == 0.f || d_px[x] == static_cast<float>(max_code) ? 1 : 0;
+  }
+  EXPECT_GT(checked, 100) << "the inputs reach both clips of the ADC";
 }
 
 }  // namespace
