@@ -466,26 +466,37 @@ int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC])
   return n;
 }
 
-// detail::ptrs_attempt over m lanes (m a multiple of 8, m <= kBlock; every mu >= 10, the PTRS
-// lanes' and pad8's): k[i] >= 0 accepted, −1 rejected. In the passes of ptrs_block's first
-// attempt: every lane's candidate and squeeze (ptrs_first: with mu >= 10 it keeps mu and gives
-// the candidate's own verdict), then the full test only on the lanes the squeeze left undecided
-// (verdict 0: 609,780 of the 1,580,389 first attempts of a night frame, docs/benchmarks.md),
-// compacted. ptrs_attempt evaluates the full test on every lane
-// and keeps it where the verdict is 0: the same k for every lane, since the full test of a lane
-// is the same function of the same (mu, k, u_s, v) wherever it runs.
-void ptrs_attempts(const float* mu, const uint32_t* wu, const uint32_t* wv, float* k, int m) {
-  constexpr int R = kBlock + kPackRoom;
-  alignas(64) float mu_kept[kBlock], us[kBlock], v[kBlock], verdict[kBlock], undecided[kBlock], acc[kBlock];
+// The first PTRS attempt over m lanes (m a multiple of 8, m <= kBlock), in two passes: (1) every
+// lane's candidate from its words wu, wv and the squeeze (ptrs_first: mu, and the candidate k, for
+// lanes below mean 10 run on 10 and accepted, left to the inversion); (2) the full acceptance test
+// only on the lanes the squeeze left undecided (verdict 0: 609,780 of the 1,580,389 first attempts
+// of a night frame, docs/benchmarks.md), compacted. rejected[i]: 1 where the attempt failed, else 0.
+void ptrs_first_attempt(const float* mean, const uint32_t* wu, const uint32_t* wv, float* mu, float* k,
+                        float* rejected, int m) {
+  constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
+  alignas(64) float undecided[kBlock], acc[kBlock];
   alignas(64) float cmu[R], ck[R], cus[R], cv[R];
+  alignas(64) float us[kBlock], v[kBlock];
   alignas(64) int sel[R];
-  ptrs_first(mu, wu, wv, mu_kept, k, us, v, verdict, m);
-  for (int i = 0; i < m; ++i) undecided[i] = verdict[i] == 0.f ? 1.f : 0.f;
+  ptrs_first(mean, wu, wv, mu, k, us, v, rejected, m);
+  for (int i = 0; i < m; ++i) {
+    undecided[i] = rejected[i] == 0.f ? 1.f : 0.f;
+    rejected[i] = rejected[i] < 0.f ? 1.f : 0.f;
+  }
   const int nu = pack_lanes(undecided, m, sel, {{mu, cmu}, {k, ck}, {us, cus}, {v, cv}});
   pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
   ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
-  for (int i = 0; i < m; ++i) k[i] = verdict[i] == 1.f ? k[i] : -1.f;
-  for (int j = 0; j < nu; ++j) k[sel[j]] = acc[j] != 0.f ? ck[j] : -1.f;
+  for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
+}
+// detail::ptrs_attempt over m lanes (m a multiple of 8, m <= kBlock; every mu >= 10, the PTRS
+// lanes' and pad8's): k[i] >= 0 accepted, −1 rejected, by ptrs_first_attempt (the full test only
+// on the undecided lanes). ptrs_attempt evaluates the full test on every lane and keeps it where
+// the verdict is 0: the same k for every lane, since the full test of a lane is the same function
+// of the same (mu, k, u_s, v) wherever it runs.
+void ptrs_attempts(const float* mu, const uint32_t* wu, const uint32_t* wv, float* k, int m) {
+  alignas(64) float mu_kept[kBlock], rejected[kBlock];
+  ptrs_first_attempt(mu, wu, wv, mu_kept, k, rejected, m);
+  for (int i = 0; i < m; ++i) k[i] = rejected[i] != 0.f ? -1.f : k[i];
 }
 
 // out[i] = the PTRS draw for every lane i of the block whose mean is >= 10 (pixel
@@ -500,20 +511,11 @@ __attribute__((target_clones("avx512f", "avx2", "default")))
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
-  alignas(64) float mu[kBlock], us[kBlock], v[kBlock], undecided[kBlock], rejected[kBlock];
-  alignas(64) float cmu[R], ck[R], cus[R], cv[R], acc[kBlock];
+  alignas(64) float mu[kBlock], rejected[kBlock];
+  alignas(64) float cmu[R], ck[R], cv[R];
   alignas(64) int sel[R], sel2[R];
-  // Pass 1: every lane's first candidate, k straight into out.
-  ptrs_first(mean, w0, w1, mu, out, us, v, rejected, m);
-  for (int i = 0; i < m; ++i) {
-    undecided[i] = rejected[i] == 0.f ? 1.f : 0.f;
-    rejected[i] = rejected[i] < 0.f ? 1.f : 0.f;
-  }
-  // Pass 2: the full test on the undecided lanes, compacted.
-  const int nu = pack_lanes(undecided, m, sel, {{mu, cmu}, {out, ck}, {us, cus}, {v, cv}});
-  pad8(cmu, nu, 10.f), pad8(ck, nu, 10.f), pad8(cus, nu, 0.5f), pad8(cv, nu, 0.5f);
-  ptrs_full_test(cmu, ck, cus, cv, acc, round8(nu));
-  for (int j = 0; j < nu; ++j) rejected[sel[j]] = 1.f - acc[j];
+  // Passes 1 and 2: every lane's first attempt, k straight into out.
+  ptrs_first_attempt(mean, w0, w1, mu, out, rejected, m);
   // Pass 3: the rejected lanes retried, compacted, until each is accepted: per retry call, the
   // first attempt on all of them, the second on those the first rejected.
   alignas(64) uint32_t plo[R], phi[R], r0[kBlock], r1[kBlock], r2[kBlock], r3[kBlock], q2[R], q3[R];
