@@ -623,6 +623,7 @@ namespace {
 // preset (a bias, not noise: averaged over ≥ 16 pixels of one grey level the shot noise falls
 // below it, so it is not invisible to every statistic).
 constexpr int kInterpStep_px = 128;
+constexpr double kInterpStep_m_per_H = 0.25;
 }  // namespace
 
 bool beyond_cutoff(double X_m, double lamp_X_m, float dz2_m2, float H2_m2, double cc2) {
@@ -662,7 +663,6 @@ void cutoff_columns(double lamp_X_m, float dz2_m2, float H2_m2, double cc2, doub
 }
 
 namespace {
-constexpr double kInterpStep_m_per_H = 0.25;
 struct AdaptiveScratch {
   std::vector<int32_t> xs, a, b, na, nb;
   std::vector<uint8_t> mid, nmid;
@@ -673,12 +673,13 @@ inline void fill_chord(float* ev, int a, int b) {
   for (int x = a + 1; x < b; ++x) ev[x] = fa + d * (static_cast<float>(x - a) * inv);
 }
 // ev[x] for x0 ≤ x ≤ x1 by the scheme above, first samples every `step` columns; eval(xs, n)
-// writes the exact ev[xs[i]] for n columns; same(a, q1, m, q3, b) says whether the interval
-// is free of structure (no knee in it: the pools' own test looks at a and b only). Intervals of
+// writes the exact ev[xs[i]] for n columns; knee_free(a, b) says whether no knee lies in (a, b].
+// Intervals of
 // fewer than 4 columns get every column evaluated. An interval's entry `mid` says its midpoint
 // is known already (the children of a rejected interval: their midpoints are its quarters).
-template <class Eval, class Same>
-void adaptive_span(int x0, int x1, int step, float tol, float* ev, AdaptiveScratch& s, Eval&& eval, Same&& same) {
+template <class Eval, class KneeFree>
+void adaptive_span(int x0, int x1, int step, float tol, float* ev, AdaptiveScratch& s, Eval&& eval,
+                   KneeFree&& knee_free) {
   s.xs.clear();
   s.a.clear();
   s.b.clear();
@@ -720,9 +721,8 @@ void adaptive_span(int x0, int x1, int step, float tol, float* ev, AdaptiveScrat
       const int a = s.a[j], b = s.b[j];
       if (b - a < 4) continue;  // every column exact
       const int m = (a + b) / 2, q1 = (a + m) / 2, q3 = (m + b) / 2;
-      const bool smooth = same(a, q1, m, q3, b);
       const float lo = std::min(std::min(std::min(ev[a], ev[q1]), std::min(ev[m], ev[q3])), ev[b]);
-      if (smooth && on_chord(a, m, b, lo) && on_chord(a, q1, m, lo) && on_chord(m, q3, b, lo)) {
+      if (knee_free(a, b) && on_chord(a, m, b, lo) && on_chord(a, q1, m, lo) && on_chord(m, q3, b, lo)) {
         fill_chord(ev, a, q1);
         fill_chord(ev, q1, m);
         fill_chord(ev, m, q3);
@@ -862,7 +862,7 @@ struct PoolPass : LitRows {
             pool_at(xs, m, kx, sc);
             for (int i = 0; i < m; ++i) acc[xs[i]] = sc.es[i];
           },
-          [&](int a, int, int, int, int b) {
+          [&](int a, int b) {
             // Accepted only with no run end in (a, b]: no lamp's knee inside, also where a whole
             // cone crosses between two samples (both its ends inside, the samples' signatures
             // alike): such an interval is split down to exact columns on both sides of each knee.
