@@ -1560,6 +1560,7 @@ struct WindowGeom {
   double storey, pitch, frontage, half_pitch;
   double half_glass_width, half_storey, half_glass_height, half_mullion;  // frame and mullion taken off
   double half_shop, sill, sill_top;
+  double inv_storey, inv_pitch, inv_frontage;  // 1/storey, 1/pitch, 1/frontage (window_block_avx512's floors)
 };
 // One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
 // (tX, tD) and camera z; out: kind (bit 1: in a window's glass; bit 2: in a shop pane, ground floor
@@ -1760,6 +1761,33 @@ struct WindowPanes {
 __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d fabs8(__m512d v, __m512i absmask) {
   return _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(v), absmask));
 }
+// ⌊a/b⌋ on eight lanes with the quotient a/b rounded as a division rounds it, from q' = a·(1/b)
+// (inv_b = 1/b rounded) instead of the division (one AVX-512 division of doubles takes 16
+// cycles of the divider for eight lanes). With u = 2⁻⁵³: |q' − a/b| <= 2u·|a/b| (two roundings,
+// to second order) and the division's q = RN(a/b) has |q − a/b| <= u·|a/b|. Where q' lies more
+// than 8u·|q'| from its nearest integer n, a/b (within 2u·|a/b| of q', and 8u·|q'| >= 7u·|a/b|) and
+// q (within u·|a/b| of a/b) lie on q''s side of n, strictly, and no other integer is nearer:
+// ⌊q⌋ = ⌊q'⌋. A lane nearer an integer (probability ~10⁻¹⁴ a lane), a NaN or a zero: the
+// division itself, for the eight lanes.
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d floor_div8(__m512d a, double b, double inv_b,
+                                                                                         __m512i absmask) {
+  constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC, kNearest = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+  const __m512d q = _mm512_mul_pd(a, _mm512_set1_pd(inv_b));
+  const __m512d off = fabs8(_mm512_sub_pd(q, _mm512_roundscale_pd(q, kNearest)), absmask);
+  if (_mm512_cmp_pd_mask(off, _mm512_mul_pd(fabs8(q, absmask), _mm512_set1_pd(0x1p-50)), _CMP_GT_OQ) != 0xff)
+    return _mm512_roundscale_pd(_mm512_div_pd(a, _mm512_set1_pd(b)), kFloor);
+  return _mm512_roundscale_pd(q, kFloor);
+}
+__attribute__((target("avx2,avx512f,avx512vl"))) void floor_div_avx512(const double* a, int n, double b, double* out) {
+  const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
+  const double inv_b = 1.0 / b;
+  for (int i = 0; i < n; i += 8) {
+    const __mmask8 m = static_cast<__mmask8>(n - i >= 8 ? 0xff : (1u << (n - i)) - 1);
+    // (The lanes past n as 1: a value of no concern to the floors of the others.)
+    const __m512d v = _mm512_mask_loadu_pd(_mm512_set1_pd(1.0), m, a + i);
+    _mm512_mask_storeu_pd(out + i, m, floor_div8(v, b, inv_b, absmask));
+  }
+}
 // v on eight lanes.
 __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d bcast8(double v) { return _mm512_set1_pd(v); }
 __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const int32_t* reg, const float* z, int x0, int x1,
@@ -1775,7 +1803,6 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
   const __m512d zero = _mm512_setzero_pd(), iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
   const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
   const __m256i iota32 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), one32 = _mm256_set1_epi32(1), two32 = _mm256_set1_epi32(2);
-  constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;  // = _mm256_floor_pd's rounding
   int x = x0;
   for (; x + 8 <= x1; x += 8) {
     const int pi = window_group_plane(reg, x, fac);
@@ -1787,9 +1814,9 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
         const __m512d X = _mm512_div_pd(_mm512_mul_pd(zz, _mm512_sub_pd(xd, bcast8(w.cx))), bcast8(w.f));
         const __m512d D = _mm512_mul_pd(zz, bcast8(w.kD)), Y = _mm512_sub_pd(bcast8(w.h), _mm512_mul_pd(zz, bcast8(w.kY)));
         const __m512d s = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(fr[pi].tX), X), _mm512_mul_pd(_mm512_set1_pd(fr[pi].tD), D));
-        const __m512d jd = _mm512_roundscale_pd(_mm512_div_pd(Y, bcast8(w.storey)), kFloor);
+        const __m512d jd = floor_div8(Y, w.storey, w.inv_storey, absmask);
         const __m512d y_in = _mm512_sub_pd(Y, _mm512_mul_pd(jd, bcast8(w.storey)));
-        const __m512d cd = _mm512_roundscale_pd(_mm512_div_pd(s, bcast8(w.pitch)), kFloor);
+        const __m512d cd = floor_div8(s, w.pitch, w.inv_pitch, absmask);
         const __m512d ds = fabs8(_mm512_sub_pd(_mm512_sub_pd(s, _mm512_mul_pd(cd, bcast8(w.pitch))), bcast8(w.half_pitch)), absmask);
         const __mmask8 not_below = static_cast<__mmask8>(~_mm512_cmp_pd_mask(Y, zero, _CMP_LT_OQ));
         const __mmask8 gf = _mm512_cmp_pd_mask(jd, zero, _CMP_EQ_OQ);
@@ -1808,7 +1835,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
         _mm256_mask_compressstoreu_epi32(
             P.kind.data() + np, in, _mm256_or_si256(_mm256_maskz_mov_epi32(glass, one32), _mm256_maskz_mov_epi32(pane, two32)));
         _mm512_mask_compressstoreu_pd(P.cell.data() + np, in, cd);
-        if (gf & in) _mm512_mask_compressstoreu_pd(P.unit.data() + np, in, _mm512_roundscale_pd(_mm512_div_pd(s, bcast8(w.frontage)), kFloor));
+        if (gf & in) _mm512_mask_compressstoreu_pd(P.unit.data() + np, in, floor_div8(s, w.frontage, w.inv_frontage, absmask));
         np += __builtin_popcount(in);
         continue;
       }
@@ -1943,7 +1970,8 @@ struct WindowPass {
                         p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
                         0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
                         0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
-                        0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
+                        0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m,
+                        1.0 / p.window_storey_m, 1.0 / p.window_pitch_m, 1.0 / p.shop_frontage_m};
     DrawMemo memo;
     // The row in blocks of kWindowBlock columns, each compacted, laid out and drawn before the
     // next (the block's candidates, ~13 kB, stay in the first-level cache between the three
@@ -2016,6 +2044,12 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
     all.insert(sc.seen.begin(), sc.seen.end());
   }
   return static_cast<int>(all.size());
+}
+
+bool window_floor_div_avx512(const double* a, int n, double b, double* out) {
+  if (kMachineIsa < 2) return false;
+  floor_div_avx512(a, n, b, out);
+  return true;
 }
 
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
