@@ -300,12 +300,14 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   const __m256 mid = _mm256_cmp_ps(ax, _mm256_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
   if (_mm256_movemask_ps(mid) == 0) {
     // No lane reduced (the common case for both angles): r = ax/1 = ax and y0 = 0 exactly, the
-    // scalar's operations without the division by 1.
+    // scalar's operations without the division by 1 and without the addition of y0 = +0: t =
+    // P·z·ax + ax is +0 for ax = +0 and positive otherwise (|P·z| < 1 for ax <= tan(π/8)), a NaN
+    // stays that NaN, so +0 + t = t.
     const __m256 z = _mm256_mul_ps(ax, ax);
     __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
     P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
     P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
-    const __m256 a = _mm256_add_ps(_mm256_setzero_ps(), _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax));
+    const __m256 a = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax);
     return _mm256_or_ps(a, _mm256_and_ps(x, sign));
   }
   const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
@@ -477,7 +479,7 @@ PHOTOSITE_AVX512 inline __m512 atanf_cephes16(__m512 x) {
     __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
     P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
     P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-    const __m512 a = _mm512_add_ps(_mm512_setzero_ps(), _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax));
+    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax);  // (+0 + t = t: atanf_cephes8)
     return or_ps16(a, sign);
   }
   const __mmask16 big = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(2.414213562373095f), _CMP_GT_OQ);
@@ -517,7 +519,7 @@ PHOTOSITE_AVX512 inline void atanf_cephes16x4(const __m512 (&x)[4], __m512 (&out
     __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
     P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
     P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-    const __m512 a = _mm512_add_ps(_mm512_setzero_ps(), _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax[q]), ax[q]));
+    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax[q]), ax[q]);
     out[q] = or_ps16(a, sign);
   }
 }
