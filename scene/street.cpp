@@ -1975,8 +1975,9 @@ struct WindowPass {
     DrawMemo memo;
     // The row in blocks of kWindowBlock columns, each compacted, laid out and drawn before the
     // next (the block's candidates, ~13 kB, stay in the first-level cache between the three
-    // steps; a whole row's, ~110 kB, did not). The candidates and their draws in column order
-    // as over the whole row: the same windows.
+    // steps; a whole row's, ~110 kB, did not). Each pane's draw is a function of its key and
+    // the colour goes in as a maximum, so the order of the draws (column order, or with AVX-512
+    // the groups laid out straight from the depth row first) does not change the windows.
     for (int x0 = 0; x0 < Wr; x0 += kWindowBlock) {
       const int x1 = std::min(Wr, x0 + kWindowBlock);
       // The block's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
