@@ -302,12 +302,14 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   const __m256 mid = _mm256_cmp_ps(ax, _mm256_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
   if (_mm256_movemask_ps(mid) == 0) {
     // No lane reduced (the common case for both angles): r = ax/1 = ax and y0 = 0 exactly, the
-    // scalar's operations without the division by 1.
+    // scalar's operations without the division by 1 and without the addition of y0 = +0: t =
+    // P·z·ax + ax is +0 for ax = +0 and positive otherwise (|P·z| < 1 for ax <= tan(π/8)), a NaN
+    // stays that NaN, so +0 + t = t.
     const __m256 z = _mm256_mul_ps(ax, ax);
     __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
     P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
     P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
-    const __m256 a = _mm256_add_ps(_mm256_setzero_ps(), _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax));
+    const __m256 a = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax);
     return _mm256_or_ps(a, _mm256_and_ps(x, sign));
   }
   const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
@@ -479,7 +481,7 @@ PHOTOSITE_AVX512 inline __m512 atanf_cephes16(__m512 x) {
     __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
     P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
     P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-    const __m512 a = _mm512_add_ps(_mm512_setzero_ps(), _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax));
+    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax);  // (+0 + t = t: atanf_cephes8)
     return or_ps16(a, sign);
   }
   const __mmask16 big = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(2.414213562373095f), _CMP_GT_OQ);
@@ -494,6 +496,34 @@ PHOTOSITE_AVX512 inline __m512 atanf_cephes16(__m512 x) {
   P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
   const __m512 a = _mm512_add_ps(y0, _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), r), r));
   return or_ps16(a, sign);
+}
+// atanf_cephes16 of four vectors (both lamps' h and v arguments) at once: where no lane of any of
+// them is reduced (the common case) their four polynomials as one straight run of independent
+// operations, which the core overlaps (one at a time, each waited on its own chain of dependent
+// multiplications); otherwise atanf_cephes16 of each. The same operations on every lane.
+PHOTOSITE_AVX512 inline void atanf_cephes16x4(const __m512 (&x)[4], __m512 (&out)[4]) {
+  const __m512i absbits = _mm512_set1_epi32(INT32_MAX);
+  const __m512 lim = _mm512_set1_ps(0.4142135623730950f);
+  __m512 ax[4];
+  __mmask16 mid = 0;
+  for (int q = 0; q < 4; ++q) {
+    ax[q] = _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(x[q]), absbits));
+    mid |= _mm512_cmp_ps_mask(ax[q], lim, _CMP_GT_OQ);
+  }
+  if (mid != 0) {
+    for (int q = 0; q < 4; ++q) out[q] = atanf_cephes16(x[q]);
+    return;
+  }
+  // atanf_cephes16's unreduced path, four times over.
+  for (int q = 0; q < 4; ++q) {
+    const __m512i sign = _mm512_and_si512(_mm512_castps_si512(x[q]), _mm512_set1_epi32(INT32_MIN));
+    const __m512 z = _mm512_mul_ps(ax[q], ax[q]);
+    __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
+    P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
+    P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
+    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax[q]), ax[q]);
+    out[q] = or_ps16(a, sign);
+  }
 }
 struct BeamCell16 { __m512 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
 [[gnu::always_inline]] PHOTOSITE_AVX512 inline void beam_cell16(BeamCell16& c, const BeamF& b, int j, int i) {
@@ -547,13 +577,21 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     const __m256 hi = _mm512_cvtpd_ps(_mm512_mul_pd(vt, _mm512_loadu_pd(xn + x + 8)));
     const __m512 X = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
     __m512 acc = zero;
+    // Both lamps' geometry first, as independent runs of operations (the core overlaps the two
+    // lamps' chains of dependent square roots, divisions and polynomials), then each lamp's table.
+    __m512 d2s[2], ds[2], args[4], angles[4];
     for (int k = 0; k < 2; ++k) {
       const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(b.xl[k]));
       const __m512 horiz2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), vD2), horiz = _mm512_sqrt_ps(horiz2);
-      const __m512 d2 = _mm512_add_ps(horiz2, hl2), d = _mm512_sqrt_ps(d2);
-      const __m512 h = _mm512_mul_ps(atanf_cephes16(_mm512_mul_ps(dx, vinvD)), deg);
-      const __m512 v = _mm512_castsi512_ps(
-          _mm512_xor_si512(_mm512_castps_si512(_mm512_mul_ps(atanf_cephes16(_mm512_div_ps(hl, horiz)), deg)), sign));
+      d2s[k] = _mm512_add_ps(horiz2, hl2), ds[k] = _mm512_sqrt_ps(d2s[k]);
+      args[2 * k] = _mm512_mul_ps(dx, vinvD);
+      args[2 * k + 1] = _mm512_div_ps(hl, horiz);
+    }
+    atanf_cephes16x4(args, angles);
+    for (int k = 0; k < 2; ++k) {
+      const __m512 d2 = d2s[k], d = ds[k];
+      const __m512 h = _mm512_mul_ps(angles[2 * k], deg);
+      const __m512 v = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(_mm512_mul_ps(angles[2 * k + 1], deg)), sign));
       const __m512 cut = _mm512_min_ps(_mm512_add_ps(cv, _mm512_mul_ps(_mm512_max_ps(h, zero), rise)), cmax);
       __mmask16 lit = _mm512_cmp_ps_mask(v, cut, _CMP_LE_OQ);
       lit &= _mm512_cmp_ps_mask(h, h_lo, _CMP_GE_OQ) & _mm512_cmp_ps_mask(h, h_hi, _CMP_LE_OQ);

@@ -1560,6 +1560,7 @@ struct WindowGeom {
   double storey, pitch, frontage, half_pitch;
   double half_glass_width, half_storey, half_glass_height, half_mullion;  // frame and mullion taken off
   double half_shop, sill, sill_top;
+  double inv_storey, inv_pitch, inv_frontage;  // 1/storey, 1/pitch, 1/frontage (window_block_avx512's floors)
 };
 // One row's building pixels with a façade plane, compacted: column, the plane's along-façade axis
 // (tX, tD) and camera z; out: kind (bit 1: in a window's glass; bit 2: in a shop pane, ground floor
@@ -1676,6 +1677,25 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
   rp[n] = pi;
   ++n;
 }
+// Columns x .. x + 7 of a row as a group: −2 when none is a building pixel (region −1 on each),
+// the façade plane when all eight lie in one building region whose eight columns take one plane,
+// else −1 (the group then goes column by column).
+__attribute__((target("avx2"), always_inline)) inline int window_group_plane(const int32_t* reg, int x,
+                                                                             const BuildingFacades& fac) {
+  const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+  const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
+  if (neg == 0xff) return -2;
+  const int r0 = reg[x];
+  if (neg != 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) != -1) return -1;
+  const BuildingFacades::Region& R = fac.regions[r0];
+  const int c0 = x - R.x0;
+  if (c0 < 0 || c0 + 8 > static_cast<int>(R.column_plane.size())) return -1;
+  const int pi = R.column_plane[c0];
+  if (pi < 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)),
+                                                        _mm256_set1_epi32(pi))) != -1)
+    return -1;
+  return pi;
+}
 // add_facade_windows's compaction of columns x0 .. x1 − 1 of a row (its scalar loop: a building pixel with a plane and
 // z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
 // region whose eight columns take one plane and whose depths are all within zmax (inside a façade:
@@ -1691,19 +1711,12 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
   const __m256d vzmax = _mm256_set1_pd(zmax);
   int x = x0;
   for (; x + 8 <= x1; x += 8) {
-    const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
-    const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
-    if (neg == 0xff) continue;  // no building region
-    const int r0 = reg[x];
-    if (neg == 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) == -1) {
-      const BuildingFacades::Region& R = fac.regions[r0];
-      const int c0 = x - R.x0, pi = c0 >= 0 && c0 < static_cast<int>(R.column_plane.size()) ? R.column_plane[c0] : -1;
+    const int pi = window_group_plane(reg, x, fac);
+    if (pi == -2) continue;  // no building region
+    if (pi >= 0) {
       const __m256 zv = _mm256_loadu_ps(z + x);
       const __m256d z0 = _mm256_cvtps_pd(_mm256_castps256_ps128(zv)), z1 = _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1));
-      if (pi >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size()) &&
-          _mm256_movemask_epi8(_mm256_cmpeq_epi32(
-              _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)), _mm256_set1_epi32(pi))) == -1 &&
-          !(_mm256_movemask_pd(_mm256_cmp_pd(z0, vzmax, _CMP_GT_OQ)) | _mm256_movemask_pd(_mm256_cmp_pd(z1, vzmax, _CMP_GT_OQ)))) {
+      if (!(_mm256_movemask_pd(_mm256_cmp_pd(z0, vzmax, _CMP_GT_OQ)) | _mm256_movemask_pd(_mm256_cmp_pd(z1, vzmax, _CMP_GT_OQ)))) {
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(rx + n),
                             _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(rp + n), _mm256_set1_epi32(pi));
@@ -1723,6 +1736,116 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
   for (; x < x1; ++x) one(x);
   _mm256_zeroupper();
   return n;
+}
+// A block's candidates in a pane (kind ≠ 0) only, as add_facade_windows draws them: column,
+// plane, storey, kind, and the floors of the pitch cell and (ground floor) the shop unit as
+// doubles (the draw converts them with the scalar's truncation). Sized for a block plus one
+// group's compressed stores.
+struct WindowPanes {
+  std::vector<int32_t> x, plane, j, kind;
+  std::vector<double> cell, unit;
+  explicit WindowPanes(int n) : x(n + 16), plane(n + 16), j(n + 16), kind(n + 16), cell(n + 16), unit(n + 16) {}
+};
+// The compaction and the geometry of columns x0 .. x1 − 1 fused, eight lanes of double in one
+// AVX-512 register: a group of eight columns of one building region and one façade plane with
+// every depth within zmax (window_candidates_avx2's fast case, most groups inside a façade) is
+// laid out straight from the depth row, without storing its candidates, and only its lanes in a
+// pane are appended to P (compressed stores; most façade pixels are in none). The lanes' operations
+// are window_geom_scalar's, in its order (the column as an exact double, the divisions, floors by
+// rounding toward −∞, the ordered comparisons): the same panes, storeys, cells and units. Every
+// other group and the last (x1 − x0) mod 8 columns go to the candidates in r and rp as
+// window_candidate compacts them (*n_slow of them), for window_geom_avx512 after. Returns the
+// count appended to P. Each pane's draw is a function of its key alone, so drawing P's entries and
+// then the rest, instead of in column order, draws the same windows.
+// |v| on eight lanes (the sign bit cleared: fabs).
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d fabs8(__m512d v, __m512i absmask) {
+  return _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(v), absmask));
+}
+// ⌊a/b⌋ on eight lanes with the quotient a/b rounded as a division rounds it, from q' = a·(1/b)
+// (inv_b = 1/b rounded) instead of the division (one AVX-512 division of doubles takes 16
+// cycles of the divider for eight lanes). With u = 2⁻⁵³: |q' − a/b| <= 2u·|a/b| (two roundings,
+// to second order) and the division's q = RN(a/b) has |q − a/b| <= u·|a/b|. Where q' lies more
+// than 8u·|q'| from its nearest integer n, a/b (within 2u·|a/b| of q', and 8u·|q'| >= 7u·|a/b|) and
+// q (within u·|a/b| of a/b) lie on q''s side of n, strictly, and no other integer is nearer:
+// ⌊q⌋ = ⌊q'⌋. A lane nearer an integer (probability ~10⁻¹⁴ a lane), a NaN or a zero: the
+// division itself, for the eight lanes.
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d floor_div8(__m512d a, double b, double inv_b,
+                                                                                         __m512i absmask) {
+  constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC, kNearest = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+  const __m512d q = _mm512_mul_pd(a, _mm512_set1_pd(inv_b));
+  const __m512d off = fabs8(_mm512_sub_pd(q, _mm512_roundscale_pd(q, kNearest)), absmask);
+  if (_mm512_cmp_pd_mask(off, _mm512_mul_pd(fabs8(q, absmask), _mm512_set1_pd(0x1p-50)), _CMP_GT_OQ) != 0xff)
+    return _mm512_roundscale_pd(_mm512_div_pd(a, _mm512_set1_pd(b)), kFloor);
+  return _mm512_roundscale_pd(q, kFloor);
+}
+__attribute__((target("avx2,avx512f,avx512vl"))) void floor_div_avx512(const double* a, int n, double b, double* out) {
+  const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
+  const double inv_b = 1.0 / b;
+  for (int i = 0; i < n; i += 8) {
+    const __mmask8 m = static_cast<__mmask8>(n - i >= 8 ? 0xff : (1u << (n - i)) - 1);
+    // (The lanes past n as 1: a value of no concern to the floors of the others.)
+    const __m512d v = _mm512_mask_loadu_pd(_mm512_set1_pd(1.0), m, a + i);
+    _mm512_mask_storeu_pd(out + i, m, floor_div8(v, b, inv_b, absmask));
+  }
+}
+// v on eight lanes.
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512d bcast8(double v) { return _mm512_set1_pd(v); }
+__attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const int32_t* reg, const float* z, int x0, int x1,
+                                                                          double zmax, const BuildingFacades& fac,
+                                                                          const FacadeFrame* fr, const WindowGeom& w,
+                                                                          WindowRow& r, int32_t* rp, int* n_slow,
+                                                                          WindowPanes& P) {
+  int32_t* rx = r.x.data();
+  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+  int n = 0, np = 0;
+  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
+  // (The preset's numbers broadcast where used: AVX-512 reads them as memory operands.)
+  const __m512d zero = _mm512_setzero_pd(), iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
+  const __m256i iota32 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), one32 = _mm256_set1_epi32(1), two32 = _mm256_set1_epi32(2);
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) {
+    const int pi = window_group_plane(reg, x, fac);
+    if (pi == -2) continue;  // no building region
+    if (pi >= 0) {
+      const __m512d zz = _mm512_cvtps_pd(_mm256_loadu_ps(z + x));  // exact
+      if (_mm512_cmp_pd_mask(zz, bcast8(zmax), _CMP_GT_OQ) == 0) {
+        const __m512d xd = _mm512_add_pd(_mm512_set1_pd(x), iota);  // exact integers
+        const __m512d X = _mm512_div_pd(_mm512_mul_pd(zz, _mm512_sub_pd(xd, bcast8(w.cx))), bcast8(w.f));
+        const __m512d D = _mm512_mul_pd(zz, bcast8(w.kD)), Y = _mm512_sub_pd(bcast8(w.h), _mm512_mul_pd(zz, bcast8(w.kY)));
+        const __m512d s = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(fr[pi].tX), X), _mm512_mul_pd(_mm512_set1_pd(fr[pi].tD), D));
+        const __m512d jd = floor_div8(Y, w.storey, w.inv_storey, absmask);
+        const __m512d y_in = _mm512_sub_pd(Y, _mm512_mul_pd(jd, bcast8(w.storey)));
+        const __m512d cd = floor_div8(s, w.pitch, w.inv_pitch, absmask);
+        const __m512d ds = fabs8(_mm512_sub_pd(_mm512_sub_pd(s, _mm512_mul_pd(cd, bcast8(w.pitch))), bcast8(w.half_pitch)), absmask);
+        const __mmask8 not_below = static_cast<__mmask8>(~_mm512_cmp_pd_mask(Y, zero, _CMP_LT_OQ));
+        const __mmask8 gf = _mm512_cmp_pd_mask(jd, zero, _CMP_EQ_OQ);
+        const __mmask8 out_glass = _mm512_cmp_pd_mask(ds, bcast8(w.half_glass_width), _CMP_GT_OQ) |
+                                   _mm512_cmp_pd_mask(ds, bcast8(w.half_mullion), _CMP_LT_OQ) |
+                                   _mm512_cmp_pd_mask(fabs8(_mm512_sub_pd(y_in, bcast8(w.half_storey)), absmask), bcast8(w.half_glass_height), _CMP_GT_OQ);
+        const __mmask8 out_shop = _mm512_cmp_pd_mask(ds, bcast8(w.half_shop), _CMP_GT_OQ) | _mm512_cmp_pd_mask(y_in, bcast8(w.sill), _CMP_LT_OQ) |
+                                  _mm512_cmp_pd_mask(y_in, bcast8(w.sill_top), _CMP_GT_OQ);
+        const __mmask8 glass = static_cast<__mmask8>(~out_glass & not_below);
+        const __mmask8 pane = static_cast<__mmask8>(~out_shop & not_below & gf);
+        const __mmask8 in = glass | pane;
+        if (in == 0) continue;
+        _mm256_mask_compressstoreu_epi32(P.x.data() + np, in, _mm256_add_epi32(_mm256_set1_epi32(x), iota32));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(P.plane.data() + np), _mm256_set1_epi32(pi));
+        _mm256_mask_compressstoreu_epi32(P.j.data() + np, in, _mm512_cvttpd_epi32(jd));
+        _mm256_mask_compressstoreu_epi32(
+            P.kind.data() + np, in, _mm256_or_si256(_mm256_maskz_mov_epi32(glass, one32), _mm256_maskz_mov_epi32(pane, two32)));
+        _mm512_mask_compressstoreu_pd(P.cell.data() + np, in, cd);
+        if (gf & in) _mm512_mask_compressstoreu_pd(P.unit.data() + np, in, floor_div8(s, w.frontage, w.inv_frontage, absmask));
+        np += __builtin_popcount(in);
+        continue;
+      }
+    }
+    for (int k = 0; k < 8; ++k) one(x + k);
+  }
+  for (; x < x1; ++x) one(x);
+  _mm256_zeroupper();
+  *n_slow = n;
+  return np;
 }
 }  // namespace
 
@@ -1777,8 +1900,60 @@ struct WindowPass {
     std::unordered_set<uint64_t> seen;
     WindowRow r;
     std::vector<int32_t> plane_of;
-    explicit Scratch(int W) : r(std::min(W, kWindowBlock)), plane_of(std::min(W, kWindowBlock) + 4) {}  // a block's
+    WindowPanes panes;
+    explicit Scratch(int W)  // a block's
+        : r(std::min(W, kWindowBlock)), plane_of(std::min(W, kWindowBlock) + 4), panes(std::min(W, kWindowBlock)) {}
   };
+  // The draw's memo: neighbouring pane pixels mostly share a window (and a ground floor its shop
+  // unit), whose draw is kept; each draw is a function of its key only.
+  struct DrawMemo {
+    uint64_t last_key = ~0ull, last_unit = ~0ull;
+    bool last_lit = false, last_unit_shop = false;
+    float col[3] = {0, 0, 0};
+  };
+  // One pane pixel (column x, plane pi, storey j, kind: bit 1 window glass, bit 2 shop pane; the
+  // pitch cell and, on the ground floor, the shop unit): its window's or shop's draw, and where lit
+  // its colour as a maximum into the row o.
+  [[gnu::always_inline]] inline void draw_pane(float* o, int x, int pi, int j, int kind, int64_t cell_i, int64_t unit_i,
+                                               DrawMemo& m, std::unordered_set<uint64_t>& seen) const {
+    const uint64_t fkey = frames[pi].key << 40;
+    bool shop = false;
+    if (j == 0) {
+      // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
+      // along the façade), each unit's draw keyed like the windows' (world coordinates).
+      const uint64_t unit = static_cast<uint64_t>(unit_i + (1 << 19)) & 0xfffff;
+      const uint64_t ukey = fkey | (unit << 12);
+      if (ukey != m.last_unit) {
+        m.last_unit = ukey;
+        m.last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
+      }
+      shop = m.last_unit_shop;
+    }
+    // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
+    if (!(kind & (shop ? 2 : 1))) return;
+    const uint64_t cell = static_cast<uint64_t>((shop ? unit_i : cell_i) + (1 << 19)) & 0xfffff;
+    // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
+    // apart from the shop unit of the same cell index.
+    const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff) | (j == 0 && !shop ? 1ull << 39 : 0);
+    if (key != m.last_key) {
+      m.last_key = key;
+      const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+      m.last_lit = uniform_open(w[0]) < p.window_lit_fraction;
+      if (m.last_lit) {
+        double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+        const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+        // A share of the lit windows is seen through drawn curtains or blinds: their
+        // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+        if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+          lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
+        if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+        for (int k = 0; k < 3; ++k) m.col[k] = static_cast<float>((*unit)[k] * lum);
+        seen.insert(key);
+      }
+    }
+    if (!m.last_lit) return;
+    for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], m.col[k]);
+  }
   void row(ImageF& L, int y, Scratch& sc) const {
     const float* z = depth_m.row(y);
     const int32_t* reg = fac.region.row(y);
@@ -1795,19 +1970,31 @@ struct WindowPass {
                         p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
                         0.5 * p.window_width_m - p.window_frame_m, 0.5 * p.window_storey_m,
                         0.5 * p.window_height_m - p.window_frame_m, 0.5 * p.window_mullion_m,
-                        0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m};
-    uint64_t last_key = ~0ull, last_unit = ~0ull;
-    bool last_lit = false, last_unit_shop = false;
-    float last_col[3] = {0, 0, 0};
+                        0.5 * p.shop_width_m, p.shop_sill_m, p.shop_sill_m + p.shop_height_m,
+                        1.0 / p.window_storey_m, 1.0 / p.window_pitch_m, 1.0 / p.shop_frontage_m};
+    DrawMemo memo;
     // The row in blocks of kWindowBlock columns, each compacted, laid out and drawn before the
     // next (the block's candidates, ~13 kB, stay in the first-level cache between the three
-    // steps; a whole row's, ~110 kB, did not). The candidates and their draws in column order
-    // as over the whole row: the same windows.
+    // steps; a whole row's, ~110 kB, did not). Each pane's draw is a function of its key and
+    // the colour goes in as a maximum, so the order of the draws (column order, or with AVX-512
+    // the groups laid out straight from the depth row first) does not change the windows.
     for (int x0 = 0; x0 < Wr; x0 += kWindowBlock) {
       const int x1 = std::min(Wr, x0 + kWindowBlock);
       // The block's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
       int n = 0;
-      if (isa >= 1) n = window_candidates_avx2(reg, z, x0, x1, zmax, fac, fr, sc.r, rp);
+      if (isa >= 2) {
+        // With AVX-512: the groups inside one façade plane laid out as they are read, their pane
+        // pixels drawn; the other candidates below (window_block_avx512).
+        const WindowPanes& P = sc.panes;
+        const int np = window_block_avx512(reg, z, x0, x1, zmax, fac, fr, wg, sc.r, rp, &n, sc.panes);
+        for (int i = 0; i < np; ++i) {
+          const int j = P.j[i];
+          draw_pane(o, P.x[i], P.plane[i], j, P.kind[i], static_cast<int64_t>(P.cell[i]),
+                    j == 0 ? static_cast<int64_t>(P.unit[i]) : 0, memo, sc.seen);
+        }
+      } else if (isa == 1) {
+        n = window_candidates_avx2(reg, z, x0, x1, zmax, fac, fr, sc.r, rp);
+      }
       for (int x = x0; x < x1 && isa == 0; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
         // only when every one has it) skipped at once: building pixels come in long runs.
@@ -1836,47 +2023,8 @@ struct WindowPass {
         uint64_t in_pane = (((kinds & 0x7f7f7f7f7f7f7f7full) + 0x7f7f7f7f7f7f7f7full) | kinds) & 0x8080808080808080ull;
         for (; in_pane; in_pane &= in_pane - 1) {
           const int i = i8 + (std::countr_zero(in_pane) >> 3);
-          const uint8_t kind = sc.r.kind[i];
-          const uint64_t fkey = frames[sc.plane_of[i]].key << 40;
-          bool shop = false;
-          if (sc.r.j[i] == 0) {
-            // The ground floor is a shop front on a seeded share of the shop units (shop_frontage_m
-            // along the façade), each unit's draw keyed like the windows' (world coordinates).
-            const uint64_t unit = static_cast<uint64_t>(sc.r.unit[i] + (1 << 19)) & 0xfffff;
-            const uint64_t ukey = fkey | (unit << 12);
-            if (ukey != last_unit) {
-              last_unit = ukey;
-              last_unit_shop = uniform_open(random_words(seed, 0, 0x5a0b000000000000ull ^ ukey, Stream::Scene)[0]) < p.shop_share;
-            }
-            shop = last_unit_shop;
-          }
-          // A shop unit shows its panes (kind bit 2), every other cell its window lights (bit 1).
-          if (!(kind & (shop ? 2 : 1))) continue;
-          const uint64_t cell = static_cast<uint64_t>((shop ? sc.r.unit[i] : sc.r.cell[i]) + (1 << 19)) & 0xfffff;
-          // Bits 32-39 are free (cell: 20 bits from bit 12); bit 39 keeps a ground floor's windows
-          // apart from the shop unit of the same cell index.
-          const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(sc.r.j[i]) & 0xfff) |
-                               (sc.r.j[i] == 0 && !shop ? 1ull << 39 : 0);
-          // Neighbouring pixels of a row mostly share a window: its draw is kept.
-          if (key != last_key) {
-            last_key = key;
-            const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
-            last_lit = uniform_open(w[0]) < p.window_lit_fraction;
-            if (last_lit) {
-              double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-              const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
-              // A share of the lit windows is seen through drawn curtains or blinds: their
-              // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
-              if (!shop && uniform_open(w[3]) < p.window_curtained_share)
-                lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
-              if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
-              for (int k = 0; k < 3; ++k) last_col[k] = static_cast<float>((*unit)[k] * lum);
-              sc.seen.insert(key);
-            }
-          }
-          if (!last_lit) continue;
-          const int x = sc.r.x[i];
-          for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], last_col[k]);
+          const int j = sc.r.j[i];
+          draw_pane(o, sc.r.x[i], sc.plane_of[i], j, sc.r.kind[i], sc.r.cell[i], j == 0 ? sc.r.unit[i] : 0, memo, sc.seen);
         }
       }
     }
@@ -1897,6 +2045,12 @@ int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m,
     all.insert(sc.seen.begin(), sc.seen.end());
   }
   return static_cast<int>(all.size());
+}
+
+bool window_floor_div_avx512(const double* a, int n, double b, double* out) {
+  if (kMachineIsa < 2) return false;
+  floor_div_avx512(a, n, b, out);
+  return true;
 }
 
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,

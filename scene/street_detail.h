@@ -20,6 +20,12 @@ namespace photosite::scene {
 // same bits; the test runs each. Not thread-safe: set it before a light map, not during one.
 void street_light_max_isa(int isa);
 
+// ⌊a[i]/b⌋ for i < n as the façade windows' AVX-512 layout takes its storeys, pitch cells and shop
+// units (floor_div8: from a·(1/b), the division itself where that product lies within 8·2⁻⁵³ of
+// an integer), for the test that compares them with std::floor(a/b) on every lane. Returns false
+// (nothing written) on a machine without AVX-512F and VL.
+bool window_floor_div_avx512(const double* a, int n, double b, double* out);
+
 // The street light and the façade windows of one frame in one pass over its rows (light_map,
 // with geometry and metric depth): per row the light on vertical surfaces and the ground pools
 // (add_vertical_street_light and add_street_lighting's pools: both add, on disjoint pixels, the

@@ -456,6 +456,56 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
   omp_set_num_threads(before);
 }
 
+// The AVX-512 window layout's floors ⌊a/b⌋ (storey, pitch cell, shop unit) from the product with
+// the reciprocal (window_floor_div_avx512) are the division's floors on every lane, where they
+// matter most: a = k·b rounded and its neighbours one and two ulps away on either side (where the
+// product and the division can round to different sides of the integer k), a few ulps off k·b
+// in relative terms, zeros, and random values, for the three divisors the urban preset takes and
+// awkward ones. Fails if the fallback to the division is dropped (the product alone gives other
+// floors next to the multiples) or its margin taken below the error of the product.
+TEST(FacadeWindows, ReciprocalFloorsAreTheDivisionsFloors) {
+  std::vector<double> a;
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> U(-3000.0, 3000.0);
+  const ScenePreset p = load_scene_preset("night-urban");
+  const double divisors[] = {p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.1, 1.0 / 3, 7.77, 2.9999999999999996};
+  long checked = 0, off_product = 0;
+  for (const double b : divisors) {
+    a.clear();
+    for (int k = -1000; k <= 1000; ++k) {
+      double v = k * b;
+      a.push_back(v);
+      for (int step = 0; step < 2; ++step) {
+        v = std::nextafter(v, INFINITY);
+        a.push_back(v);
+      }
+      v = k * b;
+      for (int step = 0; step < 2; ++step) {
+        v = std::nextafter(v, -INFINITY);
+        a.push_back(v);
+      }
+      for (const double r : {1 - 0x1p-52, 1 + 0x1p-52, 1 - 0x1p-50, 1 + 0x1p-50, 1 - 0x1p-48, 1 + 0x1p-48})
+        a.push_back(k * b * r);
+    }
+    a.push_back(0.0);
+    a.push_back(-0.0);
+    for (int i = 0; i < 200000; ++i) a.push_back(U(rng));
+    std::vector<double> got(a.size());
+    if (!window_floor_div_avx512(a.data(), static_cast<int>(a.size()), b, got.data()))
+      GTEST_SKIP() << "no AVX-512F/VL here (or PHOTOSITE_SCALAR_LIGHTS=1): the AVX-512 window layout is not taken";
+    const double inv = 1.0 / b;
+    for (size_t i = 0; i < a.size(); ++i) {
+      const double want = std::floor(a[i] / b);
+      ASSERT_EQ(std::bit_cast<uint64_t>(got[i]), std::bit_cast<uint64_t>(want)) << a[i] << " / " << b;
+      off_product += std::floor(a[i] * inv) != want;
+      ++checked;
+    }
+  }
+  std::fprintf(stderr, "[windows] %ld floors equal the division's; the product alone would differ on %ld\n", checked,
+               off_product);
+  EXPECT_GT(off_product, 0);  // the inputs reach the cases the fallback exists for
+}
+
 // The light map's one pass over the rows (light_map_fused_rows on, the default: each row begins
 // with its retroreflection and vehicle lamps, and night_scene's ends with its night radiance,
 // LightMap::composed, the lamp heads then drawn row by row) pinned to its definition, the separate
