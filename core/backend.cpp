@@ -97,14 +97,15 @@ gpu::Buffer* resident(gpu::SceneStages& scene, DeviceImage token, const ImageF& 
 #endif
 
 ImageF SensorRunner::mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                           const ResolvedExposure& ex, DeviceImage resident_radiance) {
+                                           const ResolvedExposure& ex, DeviceImage resident_radiance,
+                                           const GlareLevel1* glare_level1) {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_)
     return device_->chain.mean_signal_electrons(radiance, p, lens, ex,
                                                 resident(*device_->scene, resident_radiance, radiance));
 #endif
   (void)resident_radiance;
-  return photosite::mean_signal_electrons(radiance, p, lens, ex);
+  return photosite::mean_signal_electrons(radiance, p, lens, ex, glare_level1);
 }
 
 DeviceImage SensorRunner::resident_mean_e() const {

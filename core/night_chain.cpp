@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "photosite/error.h"
+#include "photosite/sensor/glare.h"
 #include "scene/texture_detail.h"
 
 namespace photosite {
@@ -45,7 +46,13 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   codes = ImageU8();
   lap("linearize");
   // On the CPU runner.night_scene is scene::night_scene itself (core/backend.cpp).
-  c.scene = cpu ? scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), nullptr, &sums)
+  // On the CPU the compose pass also makes the lens glare's level 1 (its 2x2 box) from each row
+  // pair while it is in cache, so that the sensor's glare never reads the full-resolution
+  // radiance again (NightScene::glare_level1; the same bits).
+  const bool glare = plan_glare(setup.lens.glare, px_per_degree(setup.lens.focal_length_mm,
+                                                                setup.camera.pixel_pitch_um)).active;
+  c.scene = cpu ? scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), nullptr, &sums,
+                                     glare)
                 : scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
   sums = scene::TextureSums();  // not held through the sensor stages
   for (auto& st : c.scene.timings) c.timings.push_back(st);
@@ -59,8 +66,9 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
   // device for every frame (the host copies are for the outputs and the CPU path).
   c.mean_e = runner.mean_signal_electrons(c.scene.radiance, setup.camera, setup.lens, c.exposure,
-                                          c.scene.resident_radiance);
+                                          c.scene.resident_radiance, c.scene.glare_level1.get());
   c.mean_e_on_device = runner.resident_mean_e();
+  c.scene.glare_level1.reset();  // read by the glare above only (peak memory)
   c.fpn = store.load_or_create(setup.camera, setup.device_id, c.scene.radiance.width(),
                                c.scene.radiance.height());
   lap("sensor: optics, FPN");

@@ -13,9 +13,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "photosite/environment.h"
+#include "photosite/error.h"
 #include "photosite/rng.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/darken_detail.h"
@@ -801,7 +803,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                    const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
-                   bool with_radiance) {
+                   bool with_radiance, bool with_glare_level1) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -1272,7 +1274,16 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       std::optional<ComposeRows> rows;
       if (with_radiance && beam_lux && row_pass) {
         out.composed = ImageF(W, H, 3, uninitialized, unit::radiance);
-        rows.emplace(texture, L, labels, *beam_lux, p, out.composed);
+        if (with_glare_level1) {
+          // The level's buffer is kept per thread between frames (as the glare pyramid's own,
+          // sensor/glare.cpp): reused once no scene holds it, so that its 6 MB (2048x1024) are not
+          // faulted in afresh each frame; every row and sum is written again below.
+          static thread_local std::shared_ptr<GlareLevel1> t_level1;
+          if (!t_level1 || t_level1.use_count() > 1 || t_level1->full_width != W || t_level1->full_height != H)
+            t_level1 = std::make_shared<GlareLevel1>(W, H);
+          out.glare_level1 = t_level1;
+        }
+        rows.emplace(texture, L, labels, *beam_lux, p, out.composed, out.glare_level1.get());
       }
       // Each row begins with its retroreflection and signals, then its vehicle lamps.
       std::atomic<int> signals{0};
@@ -1439,17 +1450,38 @@ __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, 
 }  // namespace
 
 ComposeRows::ComposeRows(const ImageF& texture_, const ImageF& lights_, const ImageU16& labels_,
-                         const ImageF& beam_lux_, const ScenePreset& p, ImageF& night_)
+                         const ImageF& beam_lux_, const ScenePreset& p, ImageF& night_, GlareLevel1* level1_)
     : texture(texture_), lights(lights_), labels(labels_), beam_lux(beam_lux_), night(night_), dp(darken_params(p)),
-      ground_mask(label_bits(dp.ground_class)), avx2(kHaveAvx2) {
+      ground_mask(label_bits(dp.ground_class)), avx2(kHaveAvx2), level1(level1_) {
   const auto tb = illuminant_tint(p.beam_cct_K);
   for (int k = 0; k < 3; ++k) tbf[k] = static_cast<float>(tb[k] / M_PI);
+  if (level1) {
+    if (level1->full_width != night.width() || level1->full_height != night.height())
+      fail("compose: the glare level 1 is not of the radiance's size");
+    const int h1 = level1->image.height(), batches = (h1 + kGlareLevel1SumRows - 1) / kGlareLevel1SumRows;
+    pair_rows = std::make_unique<std::atomic<uint8_t>[]>(h1);
+    for (int j = 0; j < h1; ++j) pair_rows[j].store(0, std::memory_order_relaxed);
+    batch_rows = std::make_unique<std::atomic<uint8_t>[]>(batches);
+    for (int b = 0; b < batches; ++b) batch_rows[b].store(0, std::memory_order_relaxed);
+  }
 }
 
 void ComposeRows::row(int y) const {
   const int W = texture.width();
   if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, ground_mask);
   else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf);
+  if (level1) {
+    // The second of the pair's rows to be composed makes the level row (acq_rel: the other
+    // row's stores, released by its own count, are seen here).
+    const int j = y / 2, rows = 2 * j + 1 < night.height() ? 2 : 1;
+    if (pair_rows[j].fetch_add(1, std::memory_order_acq_rel) + 1 == rows) {
+      glare_level1_row(night, j, *level1);
+      // The batch's sums once its last level row is made (eight chains at once, the rows in cache).
+      constexpr int B = kGlareLevel1SumRows;
+      const int b = j / B, j0 = b * B, j1 = std::min(level1->image.height(), j0 + B);
+      if (batch_rows[b].fetch_add(1, std::memory_order_acq_rel) + 1 == j1 - j0) glare_level1_sums(*level1, j0, j1);
+    }
+  }
 }
 
 ImageF compose(const ImageF& texture, const ImageF& lights, const ImageU16& labels,

@@ -91,13 +91,13 @@ double process_cpu_ms() {
 }
 
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
-                       bool keep_darkened, SequenceState* sequence, const TextureSums* sums) {
-  return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence, sums);
+                       bool keep_darkened, SequenceState* sequence, const TextureSums* sums, bool glare_level1) {
+  return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence, sums, glare_level1);
 }
 
 NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq,
-                            const TextureSums* sums) {
+                            const TextureSums* sums, bool glare_level1) {
   NightScene s;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
@@ -217,12 +217,13 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // pass of its own over four full-frame images); the stage is then timed as one,
   // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
   LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades, seq ? &tracked : &planned, !tail);
+                          &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail);
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   if (!lm.composed.empty()) {
     s.radiance = std::move(lm.composed);
     s.lights = std::move(lm.radiance);
+    s.glare_level1 = std::move(lm.glare_level1);
     lap("lights+compose");
     return s;
   }

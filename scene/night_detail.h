@@ -16,7 +16,8 @@ using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights,
 // An empty tail: the CPU path (darken before the geometry, compose at the end).
 NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail,
-                            SequenceState* sequence = nullptr, const TextureSums* sums = nullptr);
+                            SequenceState* sequence = nullptr, const TextureSums* sums = nullptr,
+                            bool glare_level1 = false);
 // The lane-marking mask at the frame's resolution: the working-resolution mask read at the pixel
 // centres (nearest), or the mask itself when it has the frame's width. What the light map and
 // the low beam read (night_scene_with; `bench night` times the light map alone on it).

@@ -2,7 +2,10 @@
 // and its instruction-set cap and the pole components of plan_street_lighting, for the tests
 // that pin them (the same bits on every path; OpenCV's labels).
 #pragma once
+#include <atomic>
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "photosite/image.h"
@@ -67,8 +70,16 @@ struct ComposeRows {
   const uint64_t ground_mask;
   const bool avx2;
   float tbf[3];  // the beam's tint over π per channel
+  // With level1 (the lens glare's level 1 of night, sensor/glare.h): level row j is made
+  // (glare_level1_row) by whichever thread composes the second of night's rows 2j, 2j + 1 (one
+  // row at an odd height's end), counted per pair, and the energy sums of level rows 8b .. 8b + 7
+  // (glare_level1_sums) by whichever makes the last of them, counted per batch; any order of the
+  // rows gives the same level and sums.
+  GlareLevel1* level1 = nullptr;
+  std::unique_ptr<std::atomic<uint8_t>[]> pair_rows;   // night rows composed per level row
+  std::unique_ptr<std::atomic<uint8_t>[]> batch_rows;  // level rows made per batch of eight
   ComposeRows(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& beam_lux,
-              const ScenePreset& p, ImageF& night);
+              const ScenePreset& p, ImageF& night, GlareLevel1* level1 = nullptr);
   void row(int y) const;
 };
 

@@ -622,7 +622,31 @@ std::array<double, 3> glare_level1_energy(const ImageF& v, int full_width, int f
   return combine_rows(rows, full_height);
 }
 
-GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
+GlareLevel1::GlareLevel1(int w, int h)
+    : full_width(w), full_height(h),
+      image(glare_level_size(w, 1), glare_level_size(h, 1), 3, uninitialized, unit::radiance),
+      row_sums(static_cast<size_t>(glare_level_size(h, 1)), {0, 0, 0}) {}
+
+static_assert(kGlareLevel1SumRows == kRowSumBatch);
+void glare_level1_row(const ImageF& in, int j, GlareLevel1& l1) {
+  // down2's row j: the same level row as glare_skirt's.
+  const int h = in.height();
+  down2_row(in.row(2 * j), in.row(std::min(2 * j + 1, h - 1)), in.width(), l1.image.row(j));
+}
+void glare_level1_sums(GlareLevel1& l1, int j0, int j1) {
+  // level1_row_sums eight rows at a time (each row's sums its own chain, whatever the batch): the
+  // same sums as glare_skirt's.
+  for (int k0 = j0; k0 < j1; k0 += kRowSumBatch) {
+    const int k1 = std::min(j1, k0 + kRowSumBatch);
+    const float* r[kRowSumBatch];
+    for (int k = k0; k < k1; ++k) r[k - k0] = l1.image.row(k);
+    level1_row_sums(r, k1 - k0, l1.image.width(), l1.full_width, l1.row_sums.data() + k0);
+  }
+}
+
+GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) { return glare_skirt(in, plan, nullptr); }
+
+GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan, const GlareLevel1* level1) {
   GlareSkirt s;
   s.width = in.width();
   s.height = in.height();
@@ -642,20 +666,36 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan) {
   // The level-1 energies' row sums come out of the passes that make level 1 and acc_1 (the
   // same sums as glare_level1_energy, without another pass over memory).
   std::vector<std::array<double, 3>> rows_in, rows_skirt;
+  // level[l]: the level images (level 1 the caller's where it made it).
+  const ImageF* level[kMaxLevel + 1] = {};
   int l = 2;
-  if (plan.lo == 1) {
+  if (level1) {
+    if (level1->full_width != s.width || level1->full_height != s.height ||
+        !level1->image.same_shape(glare_level_size(s.width, 1), glare_level_size(s.height, 1)) ||
+        level1->image.channels() != 3 || static_cast<int>(level1->row_sums.size()) != level1->image.height())
+      fail("glare: the level 1 handed in is not that of a " + std::to_string(s.width) + "x" +
+           std::to_string(s.height) + " image");
+    level[1] = &level1->image;
+    rows_in = level1->row_sums;
+  } else if (plan.lo == 1) {
     down2(in, level_image(1), rows_in);  // level 1 is blurred: kept as an image
+    level[1] = &ws.level[1];
   } else {
     down2_then_1331(in, level_image(2), rows_in);  // lo >= 2 <= hi: level 1 is only a step
+    level[2] = &ws.level[2];
     l = 3;
   }
-  for (; l <= plan.hi; ++l) down_1331(ws.level[l - 1], level_image(l));
+  // (down_1331 of level 1 is down2_then_1331's level 2: the same rows into the same taps.)
+  for (; l <= plan.hi; ++l) {
+    down_1331(*level[l - 1], level_image(l));
+    level[l] = &ws.level[l];
+  }
   const ImageF* coarse = nullptr;
   for (l = plan.hi; l >= 1; --l) {
     const int w = glare_level_size(s.width, l), h = glare_level_size(s.height, l);
     ImageF& acc = shaped(l == 1 ? *ws.acc1 : ws.acc[l], w, h, unit::radiance);
     const bool blurred = l >= plan.lo;
-    accumulate(blurred ? &ws.level[l] : nullptr, coarse, blurred ? plan.weight[l - plan.lo] : 0.f, w, h, g, acc,
+    accumulate(blurred ? level[l] : nullptr, coarse, blurred ? plan.weight[l - plan.lo] : 0.f, w, h, g, acc,
                l == 1 ? &rows_skirt : nullptr, s.width);
     coarse = &acc;
   }

@@ -152,7 +152,8 @@ struct PhotonStage {
   double pitch_over_f, cx, cy;
   GlareSkirt skirt;
 
-  PhotonStage(const ImageF& rad, const CameraPreset& preset, const LensPreset& lens, const ResolvedExposure& ex)
+  PhotonStage(const ImageF& rad, const CameraPreset& preset, const LensPreset& lens, const ResolvedExposure& ex,
+              const GlareLevel1* level1)
       : radiance(rad), p(preset), m(photon_matrix(preset, lens, ex)), w(rad.width()), h(rad.height()),
         // cos⁴θ natural vignetting (the image is a centred crop of the sensor at its native
         // pitch): tan θ = r / f, cos⁴θ = 1 / (1 + r²/f²)².
@@ -162,7 +163,9 @@ struct PhotonStage {
         // its last upsample and the mix, one row at a time. It acts on the irradiance before the
         // cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle of the pixel
         // where it lands, not of its source; docs/model_glare.md).
-        skirt(glare_skirt(rad, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, preset.pixel_pitch_um)))) {}
+        // level1: the pyramid's level 1 made by the caller (the scene's compose pass), or null.
+        skirt(glare_skirt(rad, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, preset.pixel_pitch_um)),
+                          level1)) {}
 
   // Per-thread scratch of photon_row.
   struct Scratch {
@@ -383,9 +386,9 @@ void fail_first_bad(const ImageF& radiance, const std::vector<int>& bad_x) {
 }  // namespace
 
 ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                             const ResolvedExposure& ex) {
+                             const ResolvedExposure& ex, const GlareLevel1* level1) {
   detail::check_radiance_shape(radiance);
-  const PhotonStage st(radiance, p, lens, ex);
+  const PhotonStage st(radiance, p, lens, ex, level1);
   ImageF out(st.w, st.h, 1, uninitialized, unit::electrons);
   std::vector<int> bad_x(st.h, -1);
 #pragma omp parallel
@@ -638,9 +641,9 @@ void sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExp
 }
 
 SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
+                    const ExposureSettings& s, const FixedPatternMaps& fpn, const GlareLevel1* level1) {
   SensorOutput out;
-  expose(radiance, p, lens, s, fpn, out);
+  expose(radiance, p, lens, s, fpn, out, level1);
   return out;
 }
 
@@ -648,10 +651,10 @@ SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPre
 // row is made and used by one thread). The same per-row functions as mean_signal_electrons()
 // then sense(), so the same bits.
 void expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens, const ExposureSettings& s,
-            const FixedPatternMaps& fpn, SensorOutput& out) {
+            const FixedPatternMaps& fpn, SensorOutput& out, const GlareLevel1* level1) {
   const ResolvedExposure ex = resolve(p, lens, s);
   detail::check_radiance_shape(radiance);
-  const PhotonStage ph(radiance, p, lens, ex);
+  const PhotonStage ph(radiance, p, lens, ex, level1);
   const int w = ph.w, h = ph.h;
   const SenseStage st(w, h, p, ex, s, fpn);
   std::vector<int> bad_x(h, -1);

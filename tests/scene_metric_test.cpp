@@ -18,9 +18,11 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/rng.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/night_detail.h"
@@ -554,6 +556,88 @@ TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
   omp_set_num_threads(before);
 }
 
+
+namespace {
+// Level 1 of an image by glare_level1_row, row after row, then its sums (itself held to the
+// pyramid's whole-image definition by GlareFastPath.Level1MadeByTheCallerGivesTheSameSkirt).
+GlareLevel1 level1_in_order(const ImageF& radiance) {
+  GlareLevel1 l1(radiance.width(), radiance.height());
+  for (int j = 0; j < l1.image.height(); ++j) glare_level1_row(radiance, j, l1);
+  glare_level1_sums(l1, 0, l1.image.height());
+  return l1;
+}
+bool same_level1(const GlareLevel1& a, const GlareLevel1& b) {
+  return differing_samples(a.image, b.image) == 0 && a.row_sums.size() == b.row_sums.size() &&
+         std::memcmp(a.row_sums.data(), b.row_sums.data(), a.row_sums.size() * sizeof(a.row_sums[0])) == 0;
+}
+}  // namespace
+
+// ComposeRows with the lens glare's level 1: rows composed in any order on any thread (here two
+// threads taking rows from both ends, and one thread in a shuffled order) make every level row,
+// each from its pair once both are composed, equal to glare_level1_row over the finished image,
+// bit for bit: odd and even heights (the last level row from one row), an odd width; the night
+// radiance itself equals compose()'s.
+TEST(SceneChain, ComposePassMakesTheGlareLevel1OfItsRadiance) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  for (const auto& size : {std::pair{333, 101}, std::pair{64, 40}, std::pair{17, 1}}) {
+    const int W = size.first, H = size.second;
+    ImageF tex(W, H, 3, 0.f), lights(W, H, 3, 0.f, unit::radiance), beam(W, H, 1, 0.f);
+    ImageU16 ids(W, H, 1, uint16_t{0});
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const auto u = random_words(17, 0, static_cast<uint64_t>(y) * W + x, Stream::Test);
+        for (int c = 0; c < 3; ++c) {
+          tex.at(x, y, c) = static_cast<float>(uniform_open(u[c]));
+          lights.at(x, y, c) = static_cast<float>(std::pow(10.0, 8.0 * uniform_open(u[3]) - 4.0) * (c + 1));
+        }
+        beam.at(x, y) = static_cast<float>(40.0 * uniform_open(u[3] ^ u[0]));
+        ids.at(x, y) = static_cast<uint16_t>(u[0] % kLabelCount);
+      }
+    const ImageF want = compose(tex, lights, ids, beam, p);
+    const GlareLevel1 want1 = level1_in_order(want);
+    // Two threads from both ends (rows meet in the middle, pairs split between the threads).
+    {
+      ImageF night(W, H, 3, 0.f, unit::radiance);
+      GlareLevel1 l1(W, H);
+      const ComposeRows rows(tex, lights, ids, beam, p, night, &l1);
+#pragma omp parallel for num_threads(2) schedule(static, 1)
+      for (int i = 0; i < H; ++i) rows.row(i % 2 == 0 ? i / 2 : H - 1 - i / 2);
+      EXPECT_EQ(differing_samples(night, want), 0u) << W << "x" << H;
+      EXPECT_TRUE(same_level1(l1, want1)) << W << "x" << H << ", two threads";
+    }
+    // One thread, the rows shuffled.
+    {
+      std::vector<int> order(H);
+      for (int y = 0; y < H; ++y) order[y] = y;
+      std::shuffle(order.begin(), order.end(), std::mt19937(7));
+      ImageF night(W, H, 3, 0.f, unit::radiance);
+      GlareLevel1 l1(W, H);
+      const ComposeRows rows(tex, lights, ids, beam, p, night, &l1);
+      for (const int y : order) rows.row(y);
+      EXPECT_TRUE(same_level1(l1, want1)) << W << "x" << H << ", shuffled";
+    }
+  }
+}
+
+// night_scene asked for the glare's level 1 makes it in the light map's row pass: the radiance is
+// the same as without it, and the level equals glare_level1_row over that radiance, bit for bit,
+// on a shared Cityscapes frame at 1 and 2 threads; not asked, none is made.
+TEST(SceneChain, NightSceneMakesTheGlareLevel1OfItsRadiance) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const auto [lin, lab] = cityscapes_frame("aachen_000003_000019");
+  const ScenePreset p = load_scene_preset("night-urban");
+  const int before = omp_get_max_threads();
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const NightScene plain = night_scene(lin, lab, p, 1);
+    EXPECT_EQ(plain.glare_level1, nullptr);
+    const NightScene ns = night_scene(lin, lab, p, 1, false, nullptr, nullptr, true);
+    ASSERT_NE(ns.glare_level1, nullptr) << threads << " threads";
+    EXPECT_EQ(differing_samples(ns.radiance, plain.radiance), 0u) << threads << " threads";
+    EXPECT_TRUE(same_level1(*ns.glare_level1, level1_in_order(ns.radiance))) << threads << " threads";
+  }
+  omp_set_num_threads(before);
+}
 
 // Without poles the lamps go along the road edges at the preset's height and spacing; their
 // intensity is set so the design layout's EN 13201 calculation field averages the class

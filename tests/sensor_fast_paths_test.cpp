@@ -355,8 +355,10 @@ bool same_bits(const ImageF& a, const ImageF& b) {
 // Sizes: even and odd, one pixel wide or high, and 2048 x 600 (level 1 above 2^18 pixels, so the
 // passes run in parallel); plans with level 1 blurred (lo = 1: level 1 kept as an image) and not
 // (lo >= 2: made row by row inside the first step), and lo = hi. Calls in a row of different
-// sizes reuse and reshape the workspace's images.
-TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
+// sizes reuse and reshape the workspace's images. make(in, plan) gives each case's skirt, held
+// to the whole-image definition bit for bit at 1, 2 and 3 threads.
+template <class Make>
+void expect_skirts_of_the_definition(int seed, const Make& make) {
   struct Case {
     int w, h;
     double core_deg, reach_deg;
@@ -364,18 +366,53 @@ TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
   const Case cases[] = {{2048, 600, 0.1, 20}, {333, 101, 0.02, 20}, {333, 101, 0.1, 20}, {64, 7, 0.1, 5},
                         {1, 9, 0.1, 20},      {9, 1, 0.02, 3},     {5, 4, 0.02, 0.05}, {2048, 600, 0.02, 20}};
   for (const Case& c : cases) {
-    const ImageF in = test_radiance(c.w, c.h, c.w * 31 + c.h);
+    const ImageF in = test_radiance(c.w, c.h, c.w * seed + c.h);
     const GlarePlan plan = test_plan(c.core_deg, c.reach_deg);
     ASSERT_TRUE(plan.active);
     const RefSkirt want = ref_skirt(in, plan);
     at_thread_counts([&](int t) {
-      const GlareSkirt s = glare_skirt(in, plan);
+      const GlareSkirt s = make(in, plan);
       ASSERT_TRUE(s.active());
       EXPECT_TRUE(same_bits(*s.acc1, want.acc1))
           << c.w << "x" << c.h << " lo " << plan.lo << " hi " << plan.hi << ", " << t << " threads";
       EXPECT_EQ(s.scale, want.scale) << c.w << "x" << c.h << ", " << t << " threads";
     });
   }
+}
+TEST(GlareFastPath, SkirtEqualsTheWholeImageDefinition) {
+  expect_skirts_of_the_definition(31, [](const ImageF& in, const GlarePlan& plan) { return glare_skirt(in, plan); });
+}
+
+// Level 1 made by a caller row by row (glare_level1_row: the scene's compose pass makes it so, in
+// whatever order its threads finish the row pairs), here in reverse order, and its sums in uneven
+// spans (glare_level1_sums), gives the skirt of the whole-image definition, bit for bit, on the
+// cases above (odd heights: the last level row from one input row; plans with level 1 blurred and
+// not: level 2 from it by the (1,3,3,1) step); and the photon stage and expose() handed it give
+// the same electrons. A level 1 of another size is refused.
+TEST(GlareFastPath, Level1MadeByTheCallerGivesTheSameSkirt) {
+  expect_skirts_of_the_definition(29, [](const ImageF& in, const GlarePlan& plan) {
+    GlareLevel1 l1(in.width(), in.height());
+    for (int j = l1.image.height() - 1; j >= 0; --j) glare_level1_row(in, j, l1);
+    for (int j0 = 0, n = 1; j0 < l1.image.height(); j0 += n, n = n % 11 + 1)
+      glare_level1_sums(l1, j0, std::min(l1.image.height(), j0 + n));
+    return glare_skirt(in, plan, &l1);
+  });
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  LensPreset lens = load_lens_preset(cam.default_lens);
+  ASSERT_TRUE(plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)).active);
+  ExposureSettings es;
+  es.seed = 5;
+  const ResolvedExposure ex = resolve(cam, lens, es);
+  const FixedPatternMaps no_fpn;
+  const ImageF in = test_radiance(333, 101, 12);
+  GlareLevel1 l1(333, 101);
+  for (int j = 0; j < l1.image.height(); ++j) glare_level1_row(in, j, l1);
+  glare_level1_sums(l1, 0, l1.image.height());
+  EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex, &l1), mean_signal_electrons(in, cam, lens, ex)));
+  const SensorOutput a = expose(in, cam, lens, es, no_fpn, &l1), b = expose(in, cam, lens, es, no_fpn);
+  EXPECT_TRUE(same_bits(a.electrons, b.electrons) && same_bits(a.raw_dn, b.raw_dn) && same_bits(a.rgb, b.rgb));
+  const GlareLevel1 other(332, 101);
+  EXPECT_THROW(glare_skirt(in, test_plan(0.1, 20), &other), std::exception);
 }
 
 // The pyramid's level-1 row sums, eight rows at a time (detail::glare_level1_row_sums: eight

@@ -110,13 +110,16 @@ void run(const Opts& o) {
                              : scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
-    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums);
+    // As the chain on the CPU: the compose pass also makes the lens glare's level 1, which the
+    // sensor rows below start from (its time is in "lights+compose", no longer in the sensor).
+    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums, glare_plan.active);
+    const GlareLevel1* level1 = ns.glare_level1.get();
     auto t2 = clock::now();
     const double cs0 = cpu_ms();
     // The sensor as `batch` runs it: expose(), the photon stage (with the lens glare) fused row
     // by row with sense and the bilinear demosaic, into fresh outputs.
     es.frame = static_cast<uint32_t>(r);
-    SensorOutput so = expose(ns.radiance, cam, lens, es, fpn);
+    SensorOutput so = expose(ns.radiance, cam, lens, es, fpn, level1);
     auto t3 = clock::now();
     const double cs1 = cpu_ms();
     // The sensor as `night` runs it (core/night_chain.cpp: the mean signal made once for all
@@ -124,18 +127,19 @@ void run(const Opts& o) {
     // caller-owned SensorOutput: no fresh pages to fault in).
     // (Its images are freed after the timings, like the expose row's.)
     auto tn0 = clock::now();
-    const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
+    const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex, level1);
     const SensorOutput so_night = sense(mean_e, cam, ex, es, fpn);
     auto tn1 = clock::now();
     const double cn1 = cpu_ms();
-    expose(ns.radiance, cam, lens, es, fpn, reused);
+    expose(ns.radiance, cam, lens, es, fpn, reused, level1);
     auto tn2 = clock::now();
     const double cn2 = cpu_ms();
-    // The lens glare alone (it runs inside the sensor's optics stage above): its pyramid, and
+    // The lens glare alone (it runs inside the sensor's optics stage above): its pyramid (from the
+    // compose pass's level 1, as in the chain), and
     // the pyramid plus the full-resolution mix as an image of its own (apply_glare).
     const double cg0 = cpu_ms();
     auto tg0 = clock::now();
-    const GlareSkirt skirt = glare_skirt(ns.radiance, glare_plan);
+    const GlareSkirt skirt = glare_skirt(ns.radiance, glare_plan, level1);
     auto tg1 = clock::now();
     const double cg1 = cpu_ms();
     const ImageF glared = apply_glare(ns.radiance, lens.glare, ppd);

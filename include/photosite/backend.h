@@ -38,7 +38,7 @@ class SensorRunner {
   // (a stale or empty handle uploads the host image, with the same result).
   ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
                                const LensPreset& lens, const ResolvedExposure& exposure,
-                               DeviceImage resident_radiance = {});
+                               DeviceImage resident_radiance = {}, const GlareLevel1* glare_level1 = nullptr);
   // resident_mean_e(): a handle on the mean signal of the last mean_signal_electrons(), which on
   // Vulkan stays on the device; sense() given it uploads nothing for a run of frames.
   DeviceImage resident_mean_e() const;

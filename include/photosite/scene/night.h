@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,10 @@
 #include "photosite/io.h"
 #include "photosite/scene/labels.h"
 #include "photosite/scene/scene_preset.h"
+
+namespace photosite {
+struct GlareLevel1;  // include/photosite/sensor/glare.h
+}
 
 namespace photosite::scene {
 
@@ -271,6 +276,11 @@ struct LightMap {
   // given): the night radiance compose(texture, radiance, labels, *beam_lux, p), the same bits,
   // each row composed inside that pass once its light is final. Empty otherwise (compose it then).
   ImageF composed;
+  // With `composed` and `with_glare_level1`: the lens glare's level 1 of `composed` (its 2x2 box
+  // and row energies, glare_level1_row), each level row made in the row pass as soon as its two
+  // rows are composed, while they are in cache; the sensor's glare then starts from it
+  // (mean_signal_electrons, expose) instead of reading the full-resolution frame again.
+  std::shared_ptr<GlareLevel1> glare_level1;
   LightStats stats;
 };
 // `geometry` and `depth_m` (metric_depth) null: the image-space light map without street-lamp
@@ -285,7 +295,7 @@ LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const L
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
                    const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr,
                    const BuildingFacades* facades = nullptr, const StreetLighting* street = nullptr,
-                   bool with_radiance = false);
+                   bool with_radiance = false, bool with_glare_level1 = false);
 // The night radiance: the darkened texture (darken_pixel, computed on the fly rather than read
 // back from a darkened image: one pass over memory less) + diffuse low-beam light on ground
 // classes, f·t·E/π with E = beam_lux (low_beam_illuminance, lx, 1 channel) + the light map.
@@ -311,6 +321,9 @@ struct NightScene {
   LightStats light_stats;
   std::vector<StageTiming> timings;
   DeviceImage resident_radiance;  // PixelTail::resident: `radiance` is still on the device
+  // The lens glare's level 1 of `radiance` (LightMap::glare_level1) where night_scene was asked
+  // for it and its light map composed the radiance; else null (the sensor makes it then).
+  std::shared_ptr<const GlareLevel1> glare_level1;
 };
 // The full-resolution per-pixel tail of night_scene() (per-class darkening, low beam and
 // composition, from the reflectance texture, the light map and the low beam's illuminance) as a
@@ -330,9 +343,11 @@ struct PixelTail {
 // normalisation, camera pitch and street luminaires (issue 14 §3); null: a single frame, inferred
 // from what it shows alone.
 // `sums`: linearize_with_texture_sums' class sums of this frame (else the texture makes them).
+// `glare_level1`: make the lens glare's level 1 inside the compose pass (NightScene::glare_level1),
+// for a sensor whose lens has glare.
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                        uint64_t seed, bool keep_darkened = false, SequenceState* sequence = nullptr,
-                       const TextureSums* sums = nullptr);
+                       const TextureSums* sums = nullptr, bool glare_level1 = false);
 
 // ---- synthetic test scenes -----------------------------------------------------------------
 struct SyntheticOptions {

@@ -85,6 +85,28 @@ struct GlareSkirt {
 };
 GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan);
 
+// The pyramid's level 1 (the 2x2 box of the irradiance, ceil(w/2) x ceil(h/2) x 3) and each of
+// its rows' level-1 energy sums, made by a caller that writes the irradiance row by row while
+// the row pair is in cache (the scene's compose pass: scene::light_map), so that the glare never
+// reads the full-resolution frame again. glare_level1_row makes level row j from input rows 2j
+// and min(2j + 1, h − 1) with the pyramid's own row kernels (the same operations in the same
+// order: the same bits), in any order and on any thread (each row alone); glare_level1_sums
+// then the energy sums of level rows [j0, j1) (made already), eight rows at a time as the
+// pyramid sums them (each row's sum its own chain in its own order: any split gives the same).
+struct GlareLevel1 {
+  int full_width = 0, full_height = 0;
+  ImageF image;                                 // level 1 (radiance units of the input)
+  std::vector<std::array<double, 3>> row_sums;  // [j]: Σ_x n_x·v over level row j, per channel
+  GlareLevel1() = default;
+  GlareLevel1(int full_width, int full_height);
+};
+void glare_level1_row(const ImageF& irradiance_rgb, int j, GlareLevel1& level1);
+void glare_level1_sums(GlareLevel1& level1, int j0, int j1);
+inline constexpr int kGlareLevel1SumRows = 8;  // the rows glare_level1_sums takes at once
+// glare_skirt with level 1 made already (null: as glare_skirt(in, plan)): the same skirt, bit for
+// bit; level1 must be that of `in` (its sizes are checked, its values are not).
+GlareSkirt glare_skirt(const ImageF& irradiance_rgb, const GlarePlan& plan, const GlareLevel1* level1);
+
 // Where glare_row's four row buffers lie inside its scratch (offsets in floats): t, the vertical
 // interpolation (3·aw, aw = acc_1's width), u, the horizontal one (3·width), and e, o, the
 // latter's even and odd samples (3·aw each). Buffer i starts 256·i floats (1 KiB·i) into a

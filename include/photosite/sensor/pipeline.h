@@ -51,10 +51,15 @@ using PhotonMatrix = std::array<std::array<double, 3>, 4>;
 PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
                            const ResolvedExposure& exposure);
 
+struct GlareLevel1;  // sensor/glare.h
+
 // Mean photo-electrons per pixel (before PRNU and noise), sampled through the CFA. Rejects NaN,
-// Inf and negative radiance (bad input).
+// Inf and negative radiance (bad input). `glare_level1`: the lens glare's level 1 of this
+// radiance, made by the caller (glare_level1_row: the scene's compose pass), or null; the same
+// result either way.
 ImageF mean_signal_electrons(const ImageF& radiance_rgb, const CameraPreset& preset,
-                             const LensPreset& lens, const ResolvedExposure& exposure);
+                             const LensPreset& lens, const ResolvedExposure& exposure,
+                             const GlareLevel1* glare_level1 = nullptr);
 
 struct SensorOutput {
   ImageF electrons;  // e-, collected (signal + dark) after shot noise, integer-valued
@@ -71,7 +76,8 @@ SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& preset,
 
 // The whole chain from scene radiance.
 SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
-                    const ExposureSettings& settings, const FixedPatternMaps& fpn);
+                    const ExposureSettings& settings, const FixedPatternMaps& fpn,
+                    const GlareLevel1* glare_level1 = nullptr);
 
 // sense() and expose() into a caller-owned SensorOutput: the same results, with out's images
 // reused where they already have the frame's shape (else made). A caller that runs frame after
@@ -81,7 +87,8 @@ SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, cons
 void sense(const ImageF& mean_signal_e, const CameraPreset& preset, const ResolvedExposure& exposure,
            const ExposureSettings& settings, const FixedPatternMaps& fpn, SensorOutput& out);
 void expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
-            const ExposureSettings& settings, const FixedPatternMaps& fpn, SensorOutput& out);
+            const ExposureSettings& settings, const FixedPatternMaps& fpn, SensorOutput& out,
+            const GlareLevel1* glare_level1 = nullptr);
 
 // A flat field of `photons_per_pixel` mean photons of one wavelength on every pixel (0: dark).
 SensorOutput flat_field(double photons_per_pixel, double wavelength_nm, int width, int height,
