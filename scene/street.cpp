@@ -614,8 +614,8 @@ namespace {
 // ground pixel of the synthetic street and of three Cityscapes frames against tol·E (worst measured: 0.35·tol at
 // 6e-4; docs/lightmap_interp.csv for the chain's lights layer).
 // The vertical light stays exact (its reach, the γ = 90° limit and faces turning away are steps
-// within a façade run; an interpolated façade path measured slower than the exact AVX-512 one:
-// docs/night.md §7). The sample columns depend on the row and its span only (labels, geometry,
+// within a façade run; an interpolated façade path, and one interpolating down the columns
+// between exact even rows, measured slower than the exact AVX-512 one: docs/night.md §7). The sample columns depend on the row and its span only (labels, geometry,
 // the preset), never on threads or bands.
 // The tolerance: the smallest relative noise any output pixel can show is the photon shot noise
 // at full well, 1/√(full well); the presets' largest well (sony-a7s2, 168,000 e-) gives 2.4e-3,
