@@ -434,9 +434,7 @@ std::vector<PoleBox> pole_components(const ImageU16& labels) {
 
 std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids) {
   auto m = std::make_shared<PoleComponents>();
-  m->ids = ids.data();
-  m->width = ids.width();
-  m->height = ids.height();
+  m->labels = LabelsMadeOf(ids);
   m->boxes = pole_components(ids);
   return m;
 }
@@ -487,8 +485,7 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // the order of OpenCV's 8-connected labels of the pole mask (pole_components; made ahead from
   // these same labels, else made here).
   {
-    const bool ahead = components && components->ids == ids.data() && components->width == W &&
-                       components->height == H;
+    const bool ahead = components && components->labels.same_labels(LabelsMadeOf(ids));
     const std::vector<PoleBox> made = ahead ? std::vector<PoleBox>() : pole_components(ids);
     for (const PoleBox& pb : ahead ? components->boxes : made) {
       const int x0 = pb.x0, w = pb.x1 - pb.x0 + 1;
