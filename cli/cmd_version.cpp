@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "registry.h"
 #ifdef PHOTOSITE_HAVE_VULKAN
@@ -15,7 +16,7 @@ namespace photosite::cli {
 namespace {
 void print_backends() {
   std::printf("cpu: native C++, %d OpenMP threads%s\n", omp_get_max_threads(),
-              __builtin_cpu_supports("avx2") ? ", AVX2" : "");
+              photosite::detail::have_avx2() ? ", AVX2" : "");
 #ifdef PHOTOSITE_HAVE_VULKAN
   try {
     const gpu::Context& ctx = gpu::shared_context();

@@ -10,6 +10,7 @@
 #include <immintrin.h>
 #endif
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
@@ -93,7 +94,7 @@ int decode8_codes_avx2(const float* in, int j, int n, const Decode8& d8, float* 
 
 namespace {
 #if defined(__x86_64__)
-const bool kAvx2 = __builtin_cpu_supports("avx2");
+const bool kAvx2 = photosite::detail::have_avx2();
 #endif
 // n samples of an RGB day image (3 per pixel, the first of pixel `pixel0`) to linear sRGB: the
 // per-sample definition of linearize() (a flat loop: RGB samples need no channel mapping). `bad`:
@@ -389,7 +390,7 @@ PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c,
 #undef PHOTOSITE_AVX512
 #pragma GCC diagnostic pop
 // 2: AVX-512, 1: AVX2, 0: scalar; texture_max_isa() caps it (tests run each path).
-const int kIsa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+const int kIsa = photosite::detail::machine_isa_level();
 #else
 constexpr int kIsa = 0;
 #endif

@@ -211,9 +211,7 @@ void plane_fill(float* o, const double* D, int n, double p, double max_depth_m) 
 // label-run components, each component's extent and kind, and the per-column lowest rows.
 struct MetricDepthRuns {
   struct Comp { int ymax = -1, x0 = 1 << 30, x1 = -1; bool single = false; size_t col_off = 0; };
-  const uint16_t* ids = nullptr;        // the labels it was made of (metric_depth takes it for those only)
-  const uint16_t* instances = nullptr;
-  int width = 0, height = 0;
+  LabelsMadeOf labels;  // the labels it was made of (metric_depth takes it for those only)
   RunComponents rc;
   std::vector<Comp> comps;
   std::vector<int> col_ymax;
@@ -224,10 +222,7 @@ std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm) {
   const int W = ids.width(), H = ids.height();
   const bool inst = !lm.instances.empty();
   auto m = std::make_shared<MetricDepthRuns>();
-  m->ids = ids.data();
-  m->instances = inst ? lm.instances.data() : nullptr;
-  m->width = W;
-  m->height = H;
+  m->labels = LabelsMadeOf(lm);
   uint8_t kinds[kLabelCount];
   for (int i = 0; i < kLabelCount; ++i) kinds[i] = static_cast<uint8_t>(kind_of(i));
   auto kind_fast = [&](int id) { return id < kLabelCount ? kinds[id] : 2; };
@@ -285,7 +280,6 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
                          const MetricDepthRuns* made) {
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
-  const bool inst = !lm.instances.empty();
   ImageF depth(W, H, 1, uninitialized, "m");
   // Per-row ground depth, and the horizontal distance D of the ground at each row's lower pixel
   // edge (y + 0.5: an object's lowest pixel meets the ground at its lower edge).
@@ -304,8 +298,7 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
   // The label-only part (metric_depth_runs): made beside the Hough stage by night_scene, else
   // here; taken only when made of these labels.
   std::shared_ptr<const MetricDepthRuns> computed_runs;
-  if (!(made && made->ids == ids.data() && made->instances == (inst ? lm.instances.data() : nullptr) &&
-        made->width == W && made->height == H)) {
+  if (!(made && made->labels.same_labels(LabelsMadeOf(lm)))) {
     computed_runs = metric_depth_runs(lm);
     made = computed_runs.get();
   }
@@ -562,8 +555,7 @@ bool fit_line(const std::vector<Contact>& c, const std::vector<uint8_t>& free, L
 // building_facades' part that reads only the labels (scene/night_detail.h): the building
 // regions (their label runs and components) and their columns' lowest rows.
 struct BuildingRegions {
-  const uint16_t* ids = nullptr;  // the labels it was made of (building_facades_with takes it for those only)
-  int width = 0, height = 0;
+  LabelsMadeOf labels;  // the labels it was made of (building_facades_with takes it for those only)
   RunComponents rc;                              // the building class's runs and their regions
   std::vector<BuildingFacades::Region> regions;  // x0 and the per-column vectors sized (-1, 0)
   std::vector<long> col_off;                     // region r's columns at ymax_all[col_off[r]...]
@@ -574,9 +566,7 @@ std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
   const int W = ids.width(), H = ids.height();
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   auto m = std::make_shared<BuildingRegions>();
-  m->ids = ids.data();
-  m->width = W;
-  m->height = H;
+  m->labels = LabelsMadeOf(ids);
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
   m->rc = run_components(H, [&](int y, auto&& emit) {
     const uint16_t* r = ids.row(y);
@@ -624,13 +614,13 @@ BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry&
   // The labels-only part: made beside the Hough stage by night_scene, else here; taken (its
   // regions moved out) only when made of these labels.
   std::shared_ptr<BuildingRegions> computed;
-  if (!(made && made->ids == ids.data() && made->width == W && made->height == H)) {
+  if (!(made && made->labels.same_labels(LabelsMadeOf(ids)))) {
     computed = building_regions(ids);
     made = computed.get();
   }
   BuildingFacades out;
   out.regions = std::move(made->regions);
-  made->ids = nullptr;  // taken: a second call makes its own
+  made->labels = LabelsMadeOf();  // taken: a second call makes its own
   const std::vector<long>& col_off = made->col_off;
   const std::vector<int>& ymax_all = made->ymax_all;
   const std::vector<KeyedRun>& runs = made->rc.runs;

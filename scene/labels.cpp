@@ -10,6 +10,7 @@
 #include <immintrin.h>
 #endif
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 
@@ -171,7 +172,7 @@ __attribute__((target("avx2"))) int odd_values_avx2(const uint16_t* src, int n, 
   }
   return x;
 }
-const bool kAvx2 = __builtin_cpu_supports("avx2");
+const bool kAvx2 = photosite::detail::have_avx2();
 #endif
 }  // namespace
 

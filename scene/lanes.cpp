@@ -12,6 +12,7 @@
 
 #include "photosite/scene/night.h"
 #include "photosite/sensor/isp.h"
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "scene/lanes_detail.h"
 #include "scene/srgb_detail.h"
@@ -180,7 +181,7 @@ void srgb_encode_floats(const float* v, int n, float* out) {
   float fast[kBlock];
   int32_t exact[kBlock];
 #if defined(__x86_64__)
-  static const int have = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+  static const int have = photosite::detail::machine_isa_level();
   const int isa = std::min(have, luma_max_isa);
 #endif
   for (int b = 0; b < n; b += kBlock) {
@@ -276,7 +277,7 @@ __attribute__((target("avx512f"))) int work_luma_avx512(const float* r0, const f
   return x;
 }
 #pragma GCC diagnostic pop
-const int kLumaIsa = __builtin_cpu_supports("avx512f") ? 2 : __builtin_cpu_supports("avx2") ? 1 : 0;
+const int kLumaIsa = photosite::detail::machine_isa_level();
 #endif
 }  // namespace
 

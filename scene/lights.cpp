@@ -12,6 +12,7 @@
 #include <optional>
 #include <opencv2/imgproc.hpp>
 
+#include "core/isa_detail.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/rng.h"
@@ -455,7 +456,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   }
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2") && env::get(env::Var::ScalarLights).value_or("0") != "1";
+const bool kHaveAvx2 = photosite::detail::have_avx2() && env::get(env::Var::ScalarLights).value_or("0") != "1";
 
 // ---- The image: 16 lanes (AVX-512F) ---------------------------------------------------------
 // beam_row_avx2 sixteen pixels at a time: the same operations on each lane in the same order
@@ -646,7 +647,7 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
 #undef PHOTOSITE_AVX512
 #pragma GCC diagnostic pop
 // The widest path the beam image may take (beam_max_isa): 2 AVX-512, 1 AVX2, 0 scalar.
-const bool kHaveAvx512 = kHaveAvx2 && __builtin_cpu_supports("avx512f");
+const bool kHaveAvx512 = kHaveAvx2 && photosite::detail::have_avx512();
 int beam_isa_cap = 2;
 bool g_fused_rows = true;  // light_map_fused_rows
 }  // namespace

@@ -11,6 +11,27 @@
 
 namespace photosite::scene {
 
+// The label image a part made ahead of its stage was made of (metric_depth_runs,
+// building_regions, pole_components_of below): its buffers and size. The stage takes the part
+// only for the same labels: the same buffers (night_scene hands every stage its one LabelMap;
+// comparing addresses costs nothing) of the same size; else it makes its own.
+struct LabelsMadeOf {
+  const uint16_t* ids = nullptr;
+  const uint16_t* instances = nullptr;  // null: made without instance ids (or not reading them)
+  int width = 0, height = 0;
+  LabelsMadeOf() = default;  // of no labels: never the same (a part once taken)
+  explicit LabelsMadeOf(const ImageU16& label_ids, const ImageU16* instance_ids = nullptr)
+      : ids(label_ids.data()),
+        instances(instance_ids && !instance_ids->empty() ? instance_ids->data() : nullptr),
+        width(label_ids.width()),
+        height(label_ids.height()) {}
+  explicit LabelsMadeOf(const LabelMap& lm) : LabelsMadeOf(lm.ids, &lm.instances) {}
+  bool same_labels(const LabelsMadeOf& at_hand) const {
+    return ids && ids == at_hand.ids && instances == at_hand.instances && width == at_hand.width &&
+           height == at_hand.height;
+  }
+};
+
 using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
                                           const ImageF& beam_lux, const ScenePreset& p, bool keep_darkened)>;
 // An empty tail: the CPU path (darken before the geometry, compose at the end).

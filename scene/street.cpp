@@ -23,6 +23,7 @@
 #include <thread>
 #include <unordered_set>
 
+#include "core/isa_detail.h"
 #include "photosite/environment.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/spectrum.h"
@@ -147,13 +148,12 @@ void pool_row_scalar(float* e, const double* Xg, const uint8_t* mask, int n, con
     e[i] = acc;
   }
 }
-// The widest instruction set the light paths take: 2 AVX-512 (AVX-512F and VL: the AVX2 code
-// compiled with 32 vector registers), 1 AVX2, 0 the scalar twins; the machine's support, 0 with
-// PHOTOSITE_SCALAR_LIGHTS=1 (to check that all give the same bits), capped by
-// street_light_max_isa (tests).
-const int kMachineIsa = !__builtin_cpu_supports("avx2") || env::get(env::Var::ScalarLights).value_or("0") == "1" ? 0
-                        : __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl")                 ? 2
-                                                                                                                  : 1;
+// The widest instruction set the light paths take: 2 AVX-512 (its functions use F and VL: the
+// AVX2 code compiled with 32 vector registers), 1 AVX2, 0 the scalar twins; the machine's level
+// (core/isa_detail.h), 0 with PHOTOSITE_SCALAR_LIGHTS=1 (to check that all give the same bits),
+// capped by street_light_max_isa (tests).
+const int kMachineIsa =
+    env::get(env::Var::ScalarLights).value_or("0") == "1" ? 0 : photosite::detail::machine_isa_level();
 int g_isa_cap = 2;
 int light_isa() { return std::min(kMachineIsa, g_isa_cap); }
 // RelTable::atf for eight lanes (the entries by gathers; the index clamped to [0, 4095] so that
@@ -328,6 +328,8 @@ __attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* 
 // same inputs (bench night, AMD EPYC with AVX-512, 2026-11-25: 105 ms against 32 ms, one thread;
 // 33 ms there after a vzeroupper). Where the state is left dirty is not found yet.
 __attribute__((target("avx"))) void clear_upper_vector_state() { _mm256_zeroupper(); }
+// Not the paths' level (core/isa_detail.h) on purpose: any CPU with AVX has the upper vector
+// state to clear, also one without AVX2.
 const bool kHaveAvx = __builtin_cpu_supports("avx");
 }  // namespace
 
@@ -432,9 +434,7 @@ std::vector<PoleBox> pole_components(const ImageU16& labels) {
 
 std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids) {
   auto m = std::make_shared<PoleComponents>();
-  m->ids = ids.data();
-  m->width = ids.width();
-  m->height = ids.height();
+  m->labels = LabelsMadeOf(ids);
   m->boxes = pole_components(ids);
   return m;
 }
@@ -485,8 +485,7 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // the order of OpenCV's 8-connected labels of the pole mask (pole_components; made ahead from
   // these same labels, else made here).
   {
-    const bool ahead = components && components->ids == ids.data() && components->width == W &&
-                       components->height == H;
+    const bool ahead = components && components->labels.same_labels(LabelsMadeOf(ids));
     const std::vector<PoleBox> made = ahead ? std::vector<PoleBox>() : pole_components(ids);
     for (const PoleBox& pb : ahead ? components->boxes : made) {
       const int x0 = pb.x0, w = pb.x1 - pb.x0 + 1;
@@ -614,8 +613,8 @@ namespace {
 // ground pixel of the synthetic street and of three Cityscapes frames against tol·E (worst measured: 0.35·tol at
 // 6e-4; docs/lightmap_interp.csv for the chain's lights layer).
 // The vertical light stays exact (its reach, the γ = 90° limit and faces turning away are steps
-// within a façade run; an interpolated façade path measured slower than the exact AVX-512 one:
-// docs/night.md §7). The sample columns depend on the row and its span only (labels, geometry,
+// within a façade run; an interpolated façade path, and one interpolating down the columns
+// between exact even rows, measured slower than the exact AVX-512 one: docs/night.md §7). The sample columns depend on the row and its span only (labels, geometry,
 // the preset), never on threads or bands.
 // The tolerance: the smallest relative noise any output pixel can show is the photon shot noise
 // at full well, 1/√(full well); the presets' largest well (sony-a7s2, 168,000 e-) gives 2.4e-3,

@@ -11,6 +11,7 @@
 #include "photosite/image.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
+#include "scene/night_detail.h"
 
 namespace photosite::scene {
 
@@ -115,8 +116,7 @@ std::vector<PoleBox> pole_components(const ImageU16& labels);
 // pole_components of a label image, with the image it was made of (pole_components_of,
 // scene/night_detail.h): plan_street_lighting_with takes the boxes for those labels only.
 struct PoleComponents {
-  const uint16_t* ids = nullptr;
-  int width = 0, height = 0;
+  LabelsMadeOf labels;
   std::vector<PoleBox> boxes;
 };
 

@@ -10,6 +10,7 @@
 #include <immintrin.h>
 #endif
 
+#include "core/isa_detail.h"
 #include "demosaic_detail.h"
 #include "photosite/error.h"
 
@@ -110,7 +111,7 @@ struct RgbPerm {
   }
 };
 const RgbPerm kRgbPerm;
-const bool kInterleaveAvx512 = __builtin_cpu_supports("avx512f");
+const bool kInterleaveAvx512 = photosite::detail::have_avx512();
 __attribute__((target("avx512f")))
 int interleave_rgb_avx512(const float* r, const float* g, const float* b, float* rgb, int n) {
   int x = 0;

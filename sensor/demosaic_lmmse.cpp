@@ -24,6 +24,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/isa_detail.h"
 #include "demosaic_detail.h"
 #include "photosite/sensor/demosaic.h"
 
@@ -111,7 +112,7 @@ namespace detail {
 #include "demosaic_lmmse_body.inc"
 #undef LMMSE_ATTR
 #undef LMMSE_NAME
-bool lmmse_have_avx2() { return __builtin_cpu_supports("avx2"); }
+bool lmmse_have_avx2() { return photosite::detail::have_avx2(); }
 #else
 ImageF demosaic_lmmse_avx2(const ImageF& m, CfaPattern pattern) { return demosaic_lmmse_baseline(m, pattern); }
 bool lmmse_have_avx2() { return false; }

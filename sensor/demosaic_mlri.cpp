@@ -57,6 +57,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "core/isa_detail.h"
 #include "demosaic_detail.h"
 #include "photosite/sensor/demosaic.h"
 
@@ -149,8 +150,7 @@ ImageF demosaic_mlri_baseline(const ImageF& m, CfaPattern pattern) { return mlri
 ImageF demosaic_mlri_avx2(const ImageF& m, CfaPattern pattern) { return mlri_avx2::run(m, pattern); }
 ImageF demosaic_mlri_avx512(const ImageF& m, CfaPattern pattern) { return mlri_avx512::run(m, pattern); }
 bool mlri_have_avx512() {
-  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-         __builtin_cpu_supports("avx512dq");
+  return photosite::detail::have_avx512();  // F, VL, BW, DQ: the four its pragma names
 }
 #else
 ImageF demosaic_mlri_avx2(const ImageF& m, CfaPattern pattern) { return mlri_base::run(m, pattern); }

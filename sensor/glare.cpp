@@ -15,6 +15,7 @@
 #include <string>
 #include <utility>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/units.h"
 #include "sensor/glare_detail.h"
@@ -49,7 +50,7 @@ using UpTap = shader::GlareTap;
 // operations on the same operands, so the same bits. X and Y of each output vector come from
 // the 32 floats of t from 3(j0 − 1) (offsets up to 3·7 + 6 + 2 = 29) by one two-source permute
 // each (kUpPairIndex). Returns the first pair it left.
-const bool kGlareAvx512 = __builtin_cpu_supports("avx512f");
+const bool kGlareAvx512 = photosite::detail::have_avx512();
 struct UpPairIndex {
   alignas(64) int32_t x[3][16], y[3][16];
   alignas(64) float w0[3][16], w1[3][16];
@@ -218,7 +219,7 @@ inline std::array<double, 3> level1_row_sum(const float* r, int w, int full_widt
 // full_width >= 2w − 1); the last pixel, its n and its three floats, by the scalar step after.
 // Per lane the scalar code's IEEE operations (double(v), n·v, s + n·v) in its order: the same bits
 // (test GlareFastPath.Level1RowSumsEqualTheRowByRowSums).
-const bool kGlareAvx2 = __builtin_cpu_supports("avx2");
+const bool kGlareAvx2 = photosite::detail::have_avx2();
 __attribute__((target("avx2")))
 void level1_row_sums_avx2(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out) {
   constexpr int N = 8;

@@ -16,6 +16,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 
 namespace photosite {
@@ -130,7 +131,7 @@ class Srgb8Levels {
   void encode_rgb(const float* src, size_t n, const float gain[3], uint8_t* dst, bool vector) const {
     size_t j = 0;
 #if defined(__x86_64__)
-    static const bool avx2 = __builtin_cpu_supports("avx2");
+    static const bool avx2 = photosite::detail::have_avx2();
     if (avx2 && vector) j = encode_rgb_avx2(src, n, gain, dst);
 #endif
     for (; j < n; ++j) dst[j] = (*this)(src[j] * gain[j % 3]);

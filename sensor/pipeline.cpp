@@ -8,6 +8,7 @@
 #include <limits>
 #include <fmt/format.h>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/glare.h"
@@ -127,7 +128,7 @@ int analog_row_avx512(float* __restrict erow, const float* __restrict off, const
   }
   return x;
 }
-const bool kAnalogAvx512 = __builtin_cpu_supports("avx512f");
+const bool kAnalogAvx512 = photosite::detail::have_avx512();
 }  // namespace
 void detail::analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn,
                         float fw, double K, double black, double max_code, int w, float* drow, float* abrow) {
@@ -139,7 +140,7 @@ void detail::analog_row(float* erow, const float* off, const float* read, const 
 }
 
 namespace {
-const bool kPhotonAvx512 = __builtin_cpu_supports("avx512f");
+const bool kPhotonAvx512 = photosite::detail::have_avx512();
 
 // The photon stage of one frame: e = M[c]·(R, G, B) with the cos⁴θ falloff, the lens glare
 // fused in row by row. One row at a time (photon_row), so that mean_signal_electrons() writes

@@ -7,6 +7,7 @@
 #include <utility>
 #include <immintrin.h>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "sensor/poisson_detail.h"
 
@@ -184,8 +185,8 @@ PHILOX_SIMD("avx512f", __m512i, 16, PHILOX_AVX512_OP, PHILOX_AVX512_MULHILO, PHI
             PHILOX_AVX512_LOAD, PHILOX_AVX512_STORE, PHILOX_AVX512_LANES, philox_words_8<Rounds>)
 #pragma GCC diagnostic pop
 
-const bool kHaveAvx2 = __builtin_cpu_supports("avx2");
-const bool kHaveAvx512 = __builtin_cpu_supports("avx512f");
+const bool kHaveAvx2 = photosite::detail::have_avx2();
+const bool kHaveAvx512 = photosite::detail::have_avx512();
 // The Philox path the sampler runs: the widest this CPU has, unless a test or the generator
 // benchmark narrowed it (detail::set_philox_path). 0 scalar, 1 AVX2, 2 AVX-512.
 const int kBestPhiloxPath = kHaveAvx512 ? 2 : kHaveAvx2 ? 1 : 0;

@@ -1171,10 +1171,23 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
   omp_set_num_threads(before);
 }
 
+// Writes `other` (of the same size) into `im`'s own buffer: the labels change, the buffer a part
+// made ahead remembers does not (LabelsMadeOf compares buffers), so that a test can hand a stage
+// a part made of the old labels as if made of the new and see whether the stage takes it.
+static void overwrite_labels(ImageU16& im, const ImageU16& other) {
+  ASSERT_TRUE(im.width() == other.width() && im.height() == other.height() && im.channels() == other.channels());
+  const uint16_t* const before = im.data();
+  std::copy(other.vec().begin(), other.vec().end(), im.data());
+  ASSERT_EQ(im.data(), before);
+}
+
 // metric_depth_with given metric_depth_runs (the labels-only part, which night_scene makes beside
 // the Hough stage) against metric_depth on its own, bit for bit: the synthetic road with its cars'
-// instance ids and without them, 1 and 2 threads; runs made of other labels are not taken (the
-// depth of these labels, not of those).
+// instance ids and without them, and a street with a hedge before its façades, 1 and 2 threads;
+// runs made of other labels are not taken (the depth of these labels, not of those), nor runs made with the instance ids for the same ids
+// without them or the reverse; and runs made ahead are taken: made of the labels the buffers
+// held before another scene was written into them, they give another depth than that scene's
+// own (so the equalities above compare the made-ahead path, not the path that makes its own).
 TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
   SyntheticOptions o;
   o.cars = 4;
@@ -1200,6 +1213,16 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
           << threads << " threads, " << (lm->instances.empty() ? "without" : "with") << " instances";
       const auto other = metric_depth_runs(elsewhere.labels);
       EXPECT_EQ(metric_depth_with(*lm, ns.geometry, p.max_depth_m, &fac, other.get()).vec(), want.vec()) << threads << " threads";
+      {  // taken: runs of the labels these buffers held, handed over for the labels they hold now
+        LabelMap now = *lm;
+        const auto stale = metric_depth_runs(now);
+        overwrite_labels(now.ids, elsewhere.labels.ids);
+        if (!now.instances.empty()) overwrite_labels(now.instances, elsewhere.labels.instances);
+        const BuildingFacades fac_now = building_facades(now.ids, ns.geometry, p.max_depth_m);
+        EXPECT_NE(metric_depth_with(now, ns.geometry, p.max_depth_m, &fac_now, stale.get()).vec(),
+                  metric_depth(now, ns.geometry, p.max_depth_m, &fac_now).vec())
+            << threads << " threads: the runs made ahead were not taken";
+      }
       // Made inside a parallel region, as in night_scene's side-by-side halves (its loops get one
       // thread there, and its per-column lowest rows one strip).
       std::shared_ptr<const MetricDepthRuns> nested;
@@ -1209,13 +1232,49 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
           << threads << " threads, made inside a parallel region";
     }
   omp_set_num_threads(saved);
+  // A street rendered from a known camera with parked cars and a hedge in front of the façades.
+  // The road's depth reads nothing of the runs' multi-column components (with every one of them
+  // skipped on the made-ahead path it stays the same: broken on purpose); the street's hedge
+  // columns (their hidden contacts from the line through the visible ones) read them.
+  SyntheticCameraOptions co;
+  VanishingPoint none;  // the rig's pitch
+  co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
+  co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {8.4, 26, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
+  const SyntheticCameraScene street = make_synthetic_camera_scene(co);
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const BuildingFacades fac = building_facades(street.labels.ids, co.camera, p.max_depth_m);
+    const auto runs = metric_depth_runs(street.labels);
+    EXPECT_EQ(metric_depth_with(street.labels, co.camera, p.max_depth_m, &fac, runs.get()).vec(),
+              metric_depth(street.labels, co.camera, p.max_depth_m, &fac).vec())
+        << threads << " threads, the street";
+  }
+  omp_set_num_threads(saved);
+  // The same ids buffer with and without instance ids: runs made with them are not taken without
+  // them, nor the reverse. Seen as in the taken case above (the road's own depth is the same with
+  // and without its instance ids: its cars never touch): the buffer rewritten with the other
+  // scene, runs of the old labels, if taken, would give another depth than the new labels' own.
+  for (bool made_with : {true, false}) {
+    LabelMap now = s.labels;
+    if (!made_with) now.instances = ImageU16();
+    const auto stale = metric_depth_runs(now);
+    overwrite_labels(now.ids, elsewhere.labels.ids);
+    now.instances = made_with ? ImageU16() : elsewhere.labels.instances;
+    const BuildingFacades fac_now = building_facades(now.ids, ns.geometry, p.max_depth_m);
+    EXPECT_EQ(metric_depth_with(now, ns.geometry, p.max_depth_m, &fac_now, stale.get()).vec(),
+              metric_depth(now, ns.geometry, p.max_depth_m, &fac_now).vec())
+        << (made_with ? "made with instance ids, taken without them" : "made without instance ids, taken with them");
+  }
 }
 
 // building_facades_with given building_regions (the labels-only part, which night_scene makes
 // beside the Hough stage) against building_facades on its own, field for field: the synthetic road
 // (its façades unfitted) and a street rendered from a known camera with parked cars and a hedge in
 // front of the façades (fitted and occluded planes), 1 and 2 threads; regions made of other labels
-// are not taken, and regions once taken are not taken again (the region image moved out).
+// (the other scene, and another of the same size) are not taken, and regions once taken are not
+// taken again (the region image moved out); and regions made ahead are taken: made of the labels
+// the buffer held before another scene of the same size was written into it, they give other
+// regions than that scene's own.
 TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
   const SyntheticScene road = make_synthetic_road(SyntheticOptions());
   const NightScene ns = night_scene(road.day_linear_srgb, road.labels, preset(), 5);
@@ -1224,6 +1283,15 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
   co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
   co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {8.4, 26, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
   const SyntheticCameraScene street = make_synthetic_camera_scene(co);
+  // Of each scene's size, other labels: the road toward another vanishing point, the street with
+  // its cars and hedge elsewhere.
+  SyntheticOptions ro;
+  ro.vp_x = 250;
+  ro.vp_y = 150;
+  const SyntheticScene road_elsewhere = make_synthetic_road(ro);
+  SyntheticCameraOptions so = co;
+  so.boxes = {{3.5, 18, 1.8, 1.5, 4.5}, {-8.4, 30, 1.8, 1.5, 4.5}, {9.0, 14, 1.0, 2.2, 14, Label::Vegetation}};
+  const SyntheticCameraScene street_elsewhere = make_synthetic_camera_scene(so);
   auto same = [](const BuildingFacades& a, const BuildingFacades& b) {
     EXPECT_EQ(a.region.width(), b.region.width());
     EXPECT_EQ(a.region.vec(), b.region.vec());
@@ -1250,6 +1318,7 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
       const ImageU16& ids = scene == 0 ? road.labels.ids : street.labels.ids;
       const CameraGeometry& g = scene == 0 ? ns.geometry : co.camera;
       const ImageU16& other = scene == 0 ? street.labels.ids : road.labels.ids;
+      const ImageU16& elsewhere = scene == 0 ? road_elsewhere.labels.ids : street_elsewhere.labels.ids;
       const BuildingFacades want = building_facades(ids, g, 1000);
       ASSERT_FALSE(want.regions.empty()) << "scene " << scene;
       for (const FacadePlane& f : want.planes) fitted += f.fitted;
@@ -1265,6 +1334,18 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
       {
         SCOPED_TRACE(fmt::format("scene {}, {} threads, other labels", scene, threads));
         same(building_facades_with(ids, g, 1000, building_regions(other).get()), want);
+      }
+      {  // of the same size (not taken by the size alone)
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, other labels of the same size", scene, threads));
+        same(building_facades_with(ids, g, 1000, building_regions(elsewhere).get()), want);
+      }
+      {
+        SCOPED_TRACE(fmt::format("scene {}, {} threads, taken", scene, threads));
+        ImageU16 now = ids;
+        const auto stale = building_regions(now);
+        overwrite_labels(now, elsewhere);
+        EXPECT_NE(building_facades_with(now, g, 1000, stale.get()).region.vec(), building_facades(now, g, 1000).region.vec())
+            << "the regions made ahead were not taken";
       }
       {  // made inside a parallel region, as in night_scene's side-by-side halves
         SCOPED_TRACE(fmt::format("scene {}, {} threads, made inside a parallel region", scene, threads));
@@ -1283,7 +1364,9 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
 // makes beside the edges stage) against plan_street_lighting on its own, lamp for lamp: a street
 // rendered from a known camera with two lamp poles on the sidewalks (which replace layout
 // luminaires: the plan's poles matter), 1 and 2 threads; components made of other labels (the
-// same street with its poles elsewhere) are not taken.
+// same street with its poles elsewhere) are not taken; components made ahead are taken (made of
+// the street's labels, handed over after the poles-elsewhere street was written into the same
+// buffer, they give the street's pole lamps, not those of the labels the buffer holds).
 TEST(SceneChain, PoleComponentsMadeAheadAreTheSamePlan) {
   SyntheticCameraOptions co;
   VanishingPoint none;  // the rig's pitch
@@ -1327,6 +1410,15 @@ TEST(SceneChain, PoleComponentsMadeAheadAreTheSamePlan) {
     {
       SCOPED_TRACE(fmt::format("{} threads, other labels", threads));
       same(plan_street_lighting_with(street.labels, co.camera, p, 5, pole_components_of(other.labels.ids).get()), want);
+    }
+    {
+      SCOPED_TRACE(fmt::format("{} threads, taken", threads));
+      LabelMap now = street.labels;
+      const auto stale = pole_components_of(now.ids);
+      overwrite_labels(now.ids, other.labels.ids);
+      EXPECT_NE(from_poles(plan_street_lighting_with(now, co.camera, p, 5, stale.get())),
+                from_poles(plan_street_lighting(now, co.camera, p, 5)))
+          << "the pole components made ahead were not taken";
     }
   }
   omp_set_num_threads(saved);
