@@ -125,13 +125,14 @@ SensorOutput SensorRunner::sense(const ImageF& mean_e, const CameraPreset& p, co
 }
 
 SensorOutput SensorRunner::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
-                                  const ExposureSettings& s, const FixedPatternMaps& fpn, DeviceImage resident_radiance) {
+                                  const ExposureSettings& s, const FixedPatternMaps& fpn, DeviceImage resident_radiance,
+                                  const GlareLevel1* glare_level1) {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_)
     return device_->chain.expose(radiance, p, lens, s, fpn, resident(*device_->scene, resident_radiance, radiance));
 #endif
   (void)resident_radiance;
-  return photosite::expose(radiance, p, lens, s, fpn);
+  return photosite::expose(radiance, p, lens, s, fpn, glare_level1);
 }
 
 ImageF SensorRunner::demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method) {
@@ -154,12 +155,15 @@ scene::PixelTail SensorRunner::night_tail(const ImageF& texture, ImageF& lights,
 
 namespace scene {
 NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
-                       bool keep_darkened, SensorRunner& backend, SequenceState* sequence) {
+                       bool keep_darkened, SensorRunner& backend, SequenceState* sequence, const TextureSums* sums,
+                       bool glare_level1) {
   NightTail tail;  // empty on the CPU: night_scene's own path (the same operations, its own timings)
   if (backend.backend() == Backend::Vulkan)
     tail = [&backend](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& beam_lux,
                       const ScenePreset& q, bool keep) { return backend.night_tail(t, lights, ids, beam_lux, q, keep); };
-  return night_scene_with(day, labels, p, seed, keep_darkened, tail, sequence);
+  // The texture sums are the CPU linearisation's (the device makes its own); the glare's level 1
+  // is made by the CPU compose pass only (night_scene_with: not with a tail).
+  return night_scene_with(day, labels, p, seed, keep_darkened, tail, sequence, tail ? nullptr : sums, glare_level1);
 }
 }  // namespace scene
 

@@ -323,7 +323,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         seq_group = it.group;
       }
       auto ns = std::make_shared<scene::NightScene>(
-          scene::night_scene(l.day, l.labels, *spi, seed, false, runner, o.sequences ? &seq : nullptr));
+          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &seq : nullptr));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
@@ -338,7 +338,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       }
       const FixedPatternMaps& fpn = *fpn_p;
       auto so = std::make_shared<SensorOutput>(
-          runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance));
+          runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance,
+                        ns->glare_level1.get()));
+      ns->glare_level1.reset();  // read by the glare above only (peak memory)
       auto labels = std::make_shared<scene::LabelMap>(std::move(l.labels));
       const NightInputs in{it.image, it.labels, it.instances};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its

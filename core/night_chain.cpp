@@ -45,15 +45,8 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   codes = ImageU8();
   lap("linearize");
-  // On the CPU runner.night_scene is scene::night_scene itself (core/backend.cpp).
-  // On the CPU the compose pass also makes the lens glare's level 1 (its 2x2 box) from each row
-  // pair while it is in cache, so that the sensor's glare never reads the full-resolution
-  // radiance again (NightScene::glare_level1; the same bits).
-  const bool glare = plan_glare(setup.lens.glare, px_per_degree(setup.lens.focal_length_mm,
-                                                                setup.camera.pixel_pitch_um)).active;
-  c.scene = cpu ? scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), nullptr, &sums,
-                                     glare)
-                : scene::night_scene(lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), runner);
+  c.scene = night_scene_for(runner, lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), setup, nullptr,
+                            &sums);
   sums = scene::TextureSums();  // not held through the sensor stages
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
@@ -75,6 +68,19 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   return c;
 }
 }  // namespace
+
+scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
+                                  const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,
+                                  const SensorSetup& setup, scene::SequenceState* sequence,
+                                  const scene::TextureSums* sums) {
+  // On the CPU runner.night_scene is scene::night_scene itself (core/backend.cpp), and its compose
+  // pass also makes the lens glare's level 1 (its 2x2 box) from each row pair while it is in
+  // cache, so that the sensor's glare never reads the full-resolution radiance again
+  // (NightScene::glare_level1; the same bits).
+  const bool glare = plan_glare(setup.lens.glare, px_per_degree(setup.lens.focal_length_mm,
+                                                                setup.camera.pixel_pitch_um)).active;
+  return scene::night_scene(day_linear, labels, sp, seed, keep_darkened, runner, sequence, sums, glare);
+}
 
 NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
                          const scene::LabelMap& labels, const scene::ScenePreset& sp,

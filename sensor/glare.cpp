@@ -549,6 +549,7 @@ struct GlareWorkspace {
   std::shared_ptr<ImageF> acc1;
 };
 thread_local GlareWorkspace t_workspace;
+std::atomic<uint64_t> g_full_resolution_level1{0};  // detail::glare_full_resolution_level1_count
 
 // img as a w x h x 3 image, its buffer kept where it has that shape already.
 ImageF& shaped(ImageF& img, int w, int h, const std::string& unit) {
@@ -617,6 +618,10 @@ void detail::glare_level1_row_sums(const float* const* r, int nr, int w, int ful
   level1_row_sums(r, nr, w, full_width, out);
 }
 
+uint64_t detail::glare_full_resolution_level1_count() {
+  return g_full_resolution_level1.load(std::memory_order_relaxed);
+}
+
 std::array<double, 3> glare_level1_energy(const ImageF& v, int full_width, int full_height) {
   std::vector<std::array<double, 3>> rows(v.height());
   for (int i = 0; i < v.height(); ++i) rows[i] = level1_row_sum(v.row(i), v.width(), full_width);
@@ -679,9 +684,11 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan, const GlareLevel
     level[1] = &level1->image;
     rows_in = level1->row_sums;
   } else if (plan.lo == 1) {
+    g_full_resolution_level1.fetch_add(1, std::memory_order_relaxed);
     down2(in, level_image(1), rows_in);  // level 1 is blurred: kept as an image
     level[1] = &ws.level[1];
   } else {
+    g_full_resolution_level1.fetch_add(1, std::memory_order_relaxed);
     down2_then_1331(in, level_image(2), rows_in);  // lo >= 2 <= hi: level 1 is only a step
     level[2] = &ws.level[2];
     l = 3;

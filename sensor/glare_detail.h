@@ -32,5 +32,9 @@ inline void glare_up_pixel(const float* t, int cw, int x, float* u3) {
 // rows r[0 .. nr) of w pixels at once into out[0 .. nr), as the pyramid forms them
 // (sensor/glare.cpp: eight independent chains of adds; AVX2 where the CPU has it).
 void glare_level1_row_sums(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out);
+// The glare skirts (process-wide, since start) whose pyramid read the full-resolution irradiance
+// for its level 1 because no level 1 was handed in (glare_skirt(in, plan, nullptr), plan
+// active): what shows that a caller (batch, the night chain) handed the compose pass's level on.
+uint64_t glare_full_resolution_level1_count();
 
 }  // namespace photosite::detail

@@ -20,8 +20,10 @@
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/rig.h"
+#include "photosite/sensor/glare.h"
 #include "photosite/sensor/preset.h"
 #include "photosite/sensor/isp.h"
+#include "sensor/glare_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -336,7 +338,11 @@ batch::Options kitti_options(const test::TempDir& dir, const std::string& root, 
 }  // namespace
 
 // Writer threads, compute threads and queue depth change only the order in which items are
-// done, never a byte of what is written.
+// done, never a byte of what is written. Every run hands each frame's lens-glare level 1, made in
+// the scene's compose pass, on to the sensor (night_scene_for, as the night chain does): no
+// frame's glare reads the full-resolution radiance for its pyramid's level 1
+// (detail::glare_full_resolution_level1_count stays put through all the runs; a skirt made
+// without the level, at the end, moves it).
 TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   test::TempDir dir;
   make_kitti(dir.path() / "kitti", 3, 3);
@@ -344,6 +350,10 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   const auto items = batch::discover(batch::Dataset::Kitti, root);
   SensorRunner cpu(Backend::Cpu);
   auto a = kitti_options(dir, root, dir.file("a"));
+  const GlarePlan plan =
+      plan_glare(a.sensor.lens.glare, px_per_degree(a.sensor.lens.focal_length_mm, a.sensor.camera.pixel_pitch_um));
+  ASSERT_TRUE(plan.active) << a.sensor.lens.name << " has no glare: the level-1 check needs a lens with one";
+  const uint64_t full_resolution_level1 = detail::glare_full_resolution_level1_count();
   a.jobs = 1, a.queue_depth = 1, a.compute_threads = 1;
   auto b = kitti_options(dir, root, dir.file("b"));
   b.jobs = 3, b.queue_depth = 5, b.compute_threads = 2;
@@ -385,6 +395,13 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   EXPECT_EQ(te.size(), 6u * 2);  // png and the label copy per image
   EXPECT_TRUE(te == tf);
   for (const auto& [k, v] : te) EXPECT_TRUE(ta.count(k) && ta.at(k) == v) << k << " differs from the workers' file";
+
+  EXPECT_EQ(detail::glare_full_resolution_level1_count(), full_resolution_level1)
+      << "a batch frame's glare made its level 1 from the full-resolution radiance";
+  ImageF radiance(160, 80, 3);
+  radiance.vec().assign(radiance.size(), 1.f);
+  (void)glare_skirt(radiance, plan);
+  EXPECT_EQ(detail::glare_full_resolution_level1_count(), full_resolution_level1 + 1);
 }
 
 // An interrupted run resumes where it stopped and ends with the bytes of an uninterrupted one;

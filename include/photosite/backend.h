@@ -47,7 +47,9 @@ class SensorRunner {
                      const FixedPatternMaps& fpn, DeviceImage resident_mean_e = {});
   SensorOutput expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPreset& lens,
                       const ExposureSettings& settings, const FixedPatternMaps& fpn,
-                      DeviceImage resident_radiance = {});
+                      DeviceImage resident_radiance = {}, const GlareLevel1* glare_level1 = nullptr);
+  // glare_level1 (mean_signal_electrons, expose): NightScene::glare_level1 of the radiance, read
+  // by the CPU's lens glare instead of the full-resolution radiance (the same bits), or null.
   // demosaic() of a single-channel mosaic (every method has kernels).
   ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method);
   // The night chain's full-resolution per-pixel tail: darken (`darkened` only with
@@ -79,9 +81,11 @@ namespace scene {
 // (SensorRunner::night_tail): on Vulkan the radiance stays on the device under
 // NightScene::resident_radiance for the same runner's sensor stages; on the CPU it is
 // scene::night_scene itself.
-// `sequence`: as for scene::night_scene.
+// `sequence`, `sums`, `glare_level1`: as for scene::night_scene; on Vulkan the device makes its
+// own texture sums and no glare level 1 (both ignored there).
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
-                       uint64_t seed, bool keep_darkened, SensorRunner& backend, SequenceState* sequence = nullptr);
+                       uint64_t seed, bool keep_darkened, SensorRunner& backend, SequenceState* sequence = nullptr,
+                       const TextureSums* sums = nullptr, bool glare_level1 = false);
 }  // namespace scene
 
 }  // namespace photosite

@@ -48,6 +48,15 @@ NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFil
                          const scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,
                          const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
+// The scene of a day image for the sensor `setup` on `runner`: night_scene(..., runner) with,
+// on the CPU and where setup's lens has a glare (plan_glare active), the glare's level 1 made in
+// the compose pass (NightScene::glare_level1, for mean_signal_electrons / expose). What
+// prepare_night and `batch` both run. `seed`: the scene's seed (batch: the group's).
+scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
+                                  const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,
+                                  const SensorSetup& setup, scene::SequenceState* sequence = nullptr,
+                                  const scene::TextureSums* sums = nullptr);
+
 // A plain 8-bit RGB PNG's codes with its file info (the info read_image() gives), else nothing
 // (any other file: read_image() then).
 std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo* info);
