@@ -17,6 +17,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -98,12 +99,27 @@ ImageF float_image(const py::array& a, const std::string& what, const ArrayShape
 }
 
 // Integer codes as ImageU16 (labels, instance ids).
+// n codes from an array's buffer into a fresh image, converted to Dst, in blocks over the threads:
+// the destination's first touch (its page faults) and the copy shared by the cores, as the
+// chain's own passes are. Each element is written once from its own source: any thread count,
+// the same bytes.
+template <class Src, class Dst>
+void copy_codes(const Src* src, Dst* dst, size_t n) {
+  constexpr int64_t kBlock = 1 << 16;
+  const int64_t blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+#pragma omp parallel for schedule(static)
+  for (int64_t b = 0; b < blocks; ++b) {
+    const size_t i0 = static_cast<size_t>(b) * kBlock, i1 = std::min(n, i0 + kBlock);
+    std::copy(src + i0, src + i1, dst + i0);
+  }
+}
+
 ImageU16 code_image(const py::array& a, const std::string& what, const ArrayShape& s) {
   ImageU16 img(s.width, s.height, s.channels, uninitialized);
   if (is_dtype(a, py::dtype::of<uint16_t>()))
-    std::memcpy(img.data(), a.data(), img.size() * sizeof(uint16_t));
+    copy_codes(static_cast<const uint16_t*>(a.data()), img.data(), img.size());
   else if (is_dtype(a, py::dtype::of<uint8_t>()))
-    std::copy_n(static_cast<const uint8_t*>(a.data()), img.size(), img.data());
+    copy_codes(static_cast<const uint8_t*>(a.data()), img.data(), img.size());
   else
     fail(what + ": expected dtype uint8 or uint16 (label codes), got " + dtype_name(a));
   return img;
@@ -326,7 +342,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     ImageU8 codes;
     if (day_u8) {
       codes = ImageU8(ds.width, ds.height, 3, uninitialized);
-      std::memcpy(codes.data(), day_rgb.data(), codes.size());
+      copy_codes(static_cast<const uint8_t*>(day_rgb.data()), codes.data(), codes.size());
     }
     ImageF day = day_float ? float_image(day_rgb, "day_rgb", ds)
                  : day_u8  ? ImageF()
