@@ -296,6 +296,15 @@ BeamF beam_f(const ScenePreset& p) {
   return E;
 }
 
+// Cephes atanf's polynomial of the reduced argument r (z = r²): P(z)·z·r + r, on 8 lanes (its
+// operations in atanf_cephes' order).
+__attribute__((target("avx2"))) inline __m256 atan_poly8(__m256 r) {
+  const __m256 z = _mm256_mul_ps(r, r);
+  __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
+  P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
+  P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
+  return _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), r), r);
+}
 // atanf_cephes on 8 lanes: the same operations (selects by blends, the sign put back by OR: a >= 0).
 __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   const __m256 sign = _mm256_set1_ps(-0.f), one = _mm256_set1_ps(1.f);
@@ -306,23 +315,14 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
     // scalar's operations without the division by 1 and without the addition of y0 = +0: t =
     // P·z·ax + ax is +0 for ax = +0 and positive otherwise (|P·z| < 1 for ax <= tan(π/8)), a NaN
     // stays that NaN, so +0 + t = t.
-    const __m256 z = _mm256_mul_ps(ax, ax);
-    __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
-    P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
-    P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
-    const __m256 a = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), ax), ax);
-    return _mm256_or_ps(a, _mm256_and_ps(x, sign));
+    return _mm256_or_ps(atan_poly8(ax), _mm256_and_ps(x, sign));
   }
   const __m256 big = _mm256_cmp_ps(ax, _mm256_set1_ps(2.414213562373095f), _CMP_GT_OQ);
   const __m256 num = _mm256_blendv_ps(_mm256_blendv_ps(ax, _mm256_sub_ps(ax, one), mid), _mm256_set1_ps(-1.f), big);
   const __m256 den = _mm256_blendv_ps(_mm256_blendv_ps(one, _mm256_add_ps(ax, one), mid), ax, big);
   const __m256 y0 = _mm256_blendv_ps(_mm256_and_ps(mid, _mm256_set1_ps(0.7853981633974483096f)),
                                      _mm256_set1_ps(1.5707963267948966192f), big);
-  const __m256 r = _mm256_div_ps(num, den), z = _mm256_mul_ps(r, r);
-  __m256 P = _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(8.05374449538e-2f), z), _mm256_set1_ps(1.38776856032e-1f));
-  P = _mm256_add_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(1.99777106478e-1f));
-  P = _mm256_sub_ps(_mm256_mul_ps(P, z), _mm256_set1_ps(3.33329491539e-1f));
-  const __m256 a = _mm256_add_ps(y0, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(P, z), r), r));
+  const __m256 a = _mm256_add_ps(y0, atan_poly8(_mm256_div_ps(num, den)));
   return _mm256_or_ps(a, _mm256_and_ps(x, sign));
 }
 
@@ -471,31 +471,28 @@ const bool kHaveAvx2 = photosite::detail::have_avx2() && env::get(env::Var::Scal
 PHOTOSITE_AVX512 inline __m512 or_ps16(__m512 a, __m512i bits) {
   return _mm512_castsi512_ps(_mm512_or_si512(_mm512_castps_si512(a), bits));
 }
+// atan_poly8 on 16 lanes.
+PHOTOSITE_AVX512 inline __m512 atan_poly16(__m512 r) {
+  const __m512 z = _mm512_mul_ps(r, r);
+  __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
+  P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
+  P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
+  return _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), r), r);
+}
 // atanf_cephes8 on 16 lanes.
 PHOTOSITE_AVX512 inline __m512 atanf_cephes16(__m512 x) {
   const __m512 one = _mm512_set1_ps(1.f);
   const __m512i sign = _mm512_and_si512(_mm512_castps_si512(x), _mm512_set1_epi32(INT32_MIN));
   const __m512 ax = _mm512_castsi512_ps(_mm512_andnot_si512(_mm512_set1_epi32(INT32_MIN), _mm512_castps_si512(x)));
   const __mmask16 mid = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(0.4142135623730950f), _CMP_GT_OQ);
-  if (mid == 0) {
-    const __m512 z = _mm512_mul_ps(ax, ax);
-    __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
-    P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
-    P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax), ax);  // (+0 + t = t: atanf_cephes8)
-    return or_ps16(a, sign);
-  }
+  if (mid == 0) return or_ps16(atan_poly16(ax), sign);  // (+0 + t = t: atanf_cephes8)
   const __mmask16 big = _mm512_cmp_ps_mask(ax, _mm512_set1_ps(2.414213562373095f), _CMP_GT_OQ);
   // _mm512_mask_blend_ps(k, a, b): b where k, else a.
   const __m512 num = _mm512_mask_blend_ps(big, _mm512_mask_blend_ps(mid, ax, _mm512_sub_ps(ax, one)), _mm512_set1_ps(-1.f));
   const __m512 den = _mm512_mask_blend_ps(big, _mm512_mask_blend_ps(mid, one, _mm512_add_ps(ax, one)), ax);
   const __m512 y0 = _mm512_mask_blend_ps(big, _mm512_maskz_mov_ps(mid, _mm512_set1_ps(0.7853981633974483096f)),
                                          _mm512_set1_ps(1.5707963267948966192f));
-  const __m512 r = _mm512_div_ps(num, den), z = _mm512_mul_ps(r, r);
-  __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
-  P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
-  P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-  const __m512 a = _mm512_add_ps(y0, _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), r), r));
+  const __m512 a = _mm512_add_ps(y0, atan_poly16(_mm512_div_ps(num, den)));
   return or_ps16(a, sign);
 }
 // atanf_cephes16 of four vectors (both lamps' h and v arguments) at once: where no lane of any of
@@ -516,15 +513,8 @@ PHOTOSITE_AVX512 inline void atanf_cephes16x4(const __m512 (&x)[4], __m512 (&out
     return;
   }
   // atanf_cephes16's unreduced path, four times over.
-  for (int q = 0; q < 4; ++q) {
-    const __m512i sign = _mm512_and_si512(_mm512_castps_si512(x[q]), _mm512_set1_epi32(INT32_MIN));
-    const __m512 z = _mm512_mul_ps(ax[q], ax[q]);
-    __m512 P = _mm512_sub_ps(_mm512_mul_ps(_mm512_set1_ps(8.05374449538e-2f), z), _mm512_set1_ps(1.38776856032e-1f));
-    P = _mm512_add_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(1.99777106478e-1f));
-    P = _mm512_sub_ps(_mm512_mul_ps(P, z), _mm512_set1_ps(3.33329491539e-1f));
-    const __m512 a = _mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(P, z), ax[q]), ax[q]);
-    out[q] = or_ps16(a, sign);
-  }
+  for (int q = 0; q < 4; ++q)
+    out[q] = or_ps16(atan_poly16(ax[q]), _mm512_and_si512(_mm512_castps_si512(x[q]), _mm512_set1_epi32(INT32_MIN)));
 }
 struct BeamCell16 { __m512 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
 [[gnu::always_inline]] PHOTOSITE_AVX512 inline void beam_cell16(BeamCell16& c, const BeamF& b, int j, int i) {
