@@ -7,6 +7,7 @@
 
 #include "photosite/error.h"
 #include "photosite/sensor/glare.h"
+#include "photosite/sensor/pipeline.h"
 #include "scene/texture_detail.h"
 
 namespace photosite {
@@ -77,8 +78,7 @@ scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear
   // pass also makes the lens glare's level 1 (its 2x2 box) from each row pair while it is in
   // cache, so that the sensor's glare never reads the full-resolution radiance again
   // (NightScene::glare_level1; the same bits).
-  const bool glare = plan_glare(setup.lens.glare, px_per_degree(setup.lens.focal_length_mm,
-                                                                setup.camera.pixel_pitch_um)).active;
+  const bool glare = lens_glare_plan(setup.camera, setup.lens).active;
   return scene::night_scene(day_linear, labels, sp, seed, keep_darkened, runner, sequence, sums, glare);
 }
 

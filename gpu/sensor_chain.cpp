@@ -35,7 +35,7 @@ void SensorChain::record_photon(Sequence& s, const ImageF& radiance, const Camer
   bad.store(UINT32_MAX);
   // The lens's veiling glare (sensor/glare.h): the pyramid on the device, its last upsample and
   // mix inside the photon kernel.
-  const GlarePlan plan = plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um));
+  const GlarePlan plan = lens_glare_plan(p, lens);
   const bool glare = plan.active && record_glare(s, rad, w, h, plan);
   PhotonParams pp{static_cast<uint32_t>(w), static_cast<uint32_t>(h), pack_cfa(p.cfa), glare ? 1u : 0u,
                   lens.cos4_falloff ? p.pixel_pitch_um * 1e-3 / lens.focal_length_mm : 0.0,

@@ -51,6 +51,10 @@ double irradiance_per_radiance(double f_number, double magnification, double tra
   return units::pi * transmittance / (1.0 + 4.0 * q * q);
 }
 
+GlarePlan lens_glare_plan(const CameraPreset& p, const LensPreset& lens) {
+  return plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um));
+}
+
 PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
                            const ResolvedExposure& ex) {
   PhotonMatrix m{};
@@ -165,8 +169,7 @@ struct PhotonStage {
         // cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle of the pixel
         // where it lands, not of its source; docs/model_glare.md).
         // level1: the pyramid's level 1 made by the caller (the scene's compose pass), or null.
-        skirt(glare_skirt(rad, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, preset.pixel_pitch_um)),
-                          level1)) {}
+        skirt(glare_skirt(rad, lens_glare_plan(preset, lens), level1)) {}
 
   // Per-thread scratch of photon_row.
   struct Scratch {

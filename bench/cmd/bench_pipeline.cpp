@@ -118,7 +118,7 @@ void run(const Opts& o) {
     add(cpu, "darken only", time_ms([&] { (void)scene::darken(texture, lm.ids, sp); }));
     add(cpu, "linearize", time_ms([&] { (void)scene::linearize(raw, raw_info); }));
     add(cpu, "compose only", time_ms([&] { (void)scene::compose(texture, ns.lights, lm.ids, ns.beam_lux, sp); }));
-    const GlarePlan gplan = plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um));
+    const GlarePlan gplan = lens_glare_plan(cam, lens);
     if (gplan.active) add(cpu, "glare", time_ms([&] { (void)glare_skirt(ns.radiance, gplan); }));
     ImageF mean_e;
     add(cpu, "photon", time_ms([&] { mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex); }));

@@ -51,7 +51,13 @@ using PhotonMatrix = std::array<std::array<double, 3>, 4>;
 PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
                            const ResolvedExposure& exposure);
 
+// The lens's veiling-glare plan on this camera: plan_glare at the lens's pixels per degree on the
+// sensor's pitch. The one plan the CPU and Vulkan photon stages use, and by which the night chain
+// decides whether its compose pass makes the glare's level 1.
+GlarePlan lens_glare_plan(const CameraPreset& preset, const LensPreset& lens);
+
 struct GlareLevel1;  // sensor/glare.h
+
 
 // Mean photo-electrons per pixel (before PRNU and noise), sampled through the CFA. Rejects NaN,
 // Inf and negative radiance (bad input). `glare_level1`: the lens glare's level 1 of this
