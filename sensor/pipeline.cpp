@@ -279,8 +279,8 @@ struct PhotonStage {
     rest(std::max(2, 2 * j_end), w);
     return physical;
   }
-  // glared_row_avx512's blocks: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for j0 = 1,
-  // 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
+  // glared_row_simd's blocks on AVX-512: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for
+  // j0 = 1, 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
   // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
   // not done; physical is cleared if a pixel's radiance is not physical.
   // (GCC 12's AVX-512 intrinsics trip -Wmaybe-uninitialized, GCC bug 105593: silenced here.)

@@ -505,35 +505,37 @@ TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
   ExposureSettings es;
   es.seed = 3;
   const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}, {21, 5}, {20, 3}, {17, 4}, {16, 3}};
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
   for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
-  for (const bool cos4 : {true, false})
-    for (const auto& wh : sizes) {
-      detail::photon_row_max_isa(isa);
-      LensPreset lens = load_lens_preset(cam.default_lens);
-      lens.cos4_falloff = cos4;
-      lens.glare.enabled = true;
-      lens.glare.veiling_glare_index = 0.05;
-      lens.glare.core_deg = 0.1;
-      lens.glare.reach_deg = 20;
-      LensPreset plain = lens;
-      plain.glare = LensGlare{};
-      const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 7 + wh[1]);
-      const ResolvedExposure ex = resolve(cam, lens, es);
-      const GlareSkirt skirt =
-          glare_skirt(in, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)));
-      ASSERT_TRUE(skirt.active());
-      const ImageF want = mean_signal_electrons(ref_glared(in, skirt), cam, plain, ex);
-      const SensorOutput want_out = sense(want, cam, ex, es, no_fpn);
-      at_thread_counts([&](int t) {
-        EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex), want))
-            << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
-        const SensorOutput got = expose(in, cam, lens, es, no_fpn);
-        EXPECT_TRUE(same_bits(got.electrons, want_out.electrons) && same_bits(got.raw_dn, want_out.raw_dn) &&
-                    same_bits(got.rgb, want_out.rgb))
-            << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
-      });
-    }
-  detail::photon_row_max_isa(2);
+    for (const bool cos4 : {true, false})
+      for (const auto& wh : sizes) {
+        detail::photon_row_max_isa(isa);
+        LensPreset lens = load_lens_preset(cam.default_lens);
+        lens.cos4_falloff = cos4;
+        lens.glare.enabled = true;
+        lens.glare.veiling_glare_index = 0.05;
+        lens.glare.core_deg = 0.1;
+        lens.glare.reach_deg = 20;
+        LensPreset plain = lens;
+        plain.glare = LensGlare{};
+        const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 7 + wh[1]);
+        const ResolvedExposure ex = resolve(cam, lens, es);
+        const GlareSkirt skirt =
+            glare_skirt(in, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)));
+        ASSERT_TRUE(skirt.active());
+        const ImageF want = mean_signal_electrons(ref_glared(in, skirt), cam, plain, ex);
+        const SensorOutput want_out = sense(want, cam, ex, es, no_fpn);
+        at_thread_counts([&](int t) {
+          EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex), want))
+              << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
+          const SensorOutput got = expose(in, cam, lens, es, no_fpn);
+          EXPECT_TRUE(same_bits(got.electrons, want_out.electrons) && same_bits(got.raw_dn, want_out.raw_dn) &&
+                      same_bits(got.rgb, want_out.rgb))
+              << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
+        });
+      }
 }
 
 // apply_glare (glare_row: on AVX-512 the interior pixel pairs upsampled and mixed in registers,
