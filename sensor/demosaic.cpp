@@ -2,6 +2,7 @@
 #include "photosite/sensor/demosaic.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -84,6 +85,17 @@ ImageF demosaic(const ImageF& mosaic, CfaPattern pattern, DemosaicMethod method)
   internal_error("demosaic: unhandled method");
 }
 
+namespace {
+// interleave_rgb's pixels [x0, x1) one at a time (the vector paths' heads and the row's tail).
+inline void interleave_rgb_scalar(const float* r, const float* g, const float* b, float* rgb, int x0, int x1) {
+  for (int x = x0; x < x1; ++x) {
+    rgb[3 * x] = r[x];
+    rgb[3 * x + 1] = g[x];
+    rgb[3 * x + 2] = b[x];
+  }
+}
+}  // namespace
+
 #ifdef __x86_64__
 namespace {
 // interleave_rgb sixteen pixels (48 floats) at a time where the CPU has AVX-512: float i of the
@@ -111,18 +123,16 @@ struct RgbPerm {
   }
 };
 const RgbPerm kRgbPerm;
-const bool kInterleaveAvx512 = photosite::detail::have_avx512();
+// The widest level interleave_rgb takes: the machine's, capped by detail::interleave_rgb_max_isa (tests).
+std::atomic<int> g_interleave_isa_cap{2};
 __attribute__((target("avx512f")))
 int interleave_rgb_avx512(const float* r, const float* g, const float* b, float* rgb, int n) {
   int x = 0;
   const uintptr_t a = reinterpret_cast<uintptr_t>(rgb);
   if (a % 4 == 0 && n >= 64) {
     const int x0 = static_cast<int>((11 * ((64 - a % 64) / 4)) % 16);  // 3·x0 ≡ −a/4 (mod 16)
-    for (; x < x0; ++x) {
-      rgb[3 * x] = r[x];
-      rgb[3 * x + 1] = g[x];
-      rgb[3 * x + 2] = b[x];
-    }
+    interleave_rgb_scalar(r, g, b, rgb, 0, x0);
+    x = x0;
     for (; x + 16 <= n; x += 16) {
       const __m512 R = _mm512_loadu_ps(r + x), G = _mm512_loadu_ps(g + x), B = _mm512_loadu_ps(b + x);
       for (int v = 0; v < 3; ++v) {
@@ -142,13 +152,63 @@ int interleave_rgb_avx512(const float* r, const float* g, const float* b, float*
   }
   return x;
 }
+// The same eight pixels (24 floats) at a time where the CPU has AVX2 but not AVX-512: each of the
+// three output vectors takes R, G and B moved into its lanes by one in-lane permute (vpermps)
+// each and merged by two blends, output vector v's float k being plane (8v + k) mod 3 at pixel
+// ⌊(8v + k)/3⌋. Copies only. From 64 pixels on, non-temporal stores (as the AVX-512 form, for
+// the same reason) after a scalar run of x0 < 8 pixels up to the output's first 32-byte
+// boundary (12·x0 ≡ −address mod 32: as 3·3 ≡ 1 mod 8, x0 = 3·(−address/4) mod 8); shorter
+// rows take the SSE2 loop. Returns the pixels it wrote.
+struct RgbPerm8 {
+  alignas(32) int32_t p[3][3][8];  // [v][plane][k]: the pixel whose plane value lane k of output v takes
+  RgbPerm8() {
+    for (int v = 0; v < 3; ++v)
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 8; ++k) p[v][c][k] = (8 * v + k) % 3 == c ? (8 * v + k) / 3 : 0;
+  }
+};
+const RgbPerm8 kRgbPerm8;
+template <int V>
+__attribute__((target("avx2"))) inline __m256 rgb_vector8(__m256 R, __m256 G, __m256 B) {
+  // the blends' masks: the lanes k of output V whose float 8V + k is G ((8V + k) mod 3 = 1), B (= 2)
+  const __m256 r = _mm256_permutevar8x32_ps(R, _mm256_load_si256(reinterpret_cast<const __m256i*>(kRgbPerm8.p[V][0])));
+  const __m256 g = _mm256_permutevar8x32_ps(G, _mm256_load_si256(reinterpret_cast<const __m256i*>(kRgbPerm8.p[V][1])));
+  const __m256 b = _mm256_permutevar8x32_ps(B, _mm256_load_si256(reinterpret_cast<const __m256i*>(kRgbPerm8.p[V][2])));
+  constexpr int kG = V == 0 ? 0x92 : V == 1 ? 0x24 : 0x49, kB = V == 0 ? 0x24 : V == 1 ? 0x49 : 0x92;
+  return _mm256_blend_ps(_mm256_blend_ps(r, g, kG), b, kB);
+}
+__attribute__((target("avx2")))
+int interleave_rgb_avx2(const float* r, const float* g, const float* b, float* rgb, int n) {
+  int x = 0;
+  const uintptr_t a = reinterpret_cast<uintptr_t>(rgb);
+  if (a % 4 != 0 || n < 64) return x;
+  const int x0 = static_cast<int>((3 * ((32 - a % 32) / 4)) % 8);  // 3·x0 ≡ −a/4 (mod 8)
+  interleave_rgb_scalar(r, g, b, rgb, 0, x0);
+  x = x0;
+  for (; x + 8 <= n; x += 8) {
+    const __m256 R = _mm256_loadu_ps(r + x), G = _mm256_loadu_ps(g + x), B = _mm256_loadu_ps(b + x);
+    _mm256_stream_ps(rgb + 3 * x, rgb_vector8<0>(R, G, B));
+    _mm256_stream_ps(rgb + 3 * x + 8, rgb_vector8<1>(R, G, B));
+    _mm256_stream_ps(rgb + 3 * x + 16, rgb_vector8<2>(R, G, B));
+  }
+  _mm_sfence();
+  return x;
+}
 }  // namespace
+#endif
+
+#ifdef __x86_64__
+void detail::interleave_rgb_max_isa(int isa) { g_interleave_isa_cap.store(std::clamp(isa, 0, 2)); }
+#else
+void detail::interleave_rgb_max_isa(int) {}
 #endif
 
 void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, int n) {
   int x = 0;
 #ifdef __x86_64__
-  if (kInterleaveAvx512) x = interleave_rgb_avx512(r, g, b, rgb, n);
+  const int isa = std::min(detail::machine_isa_level(), g_interleave_isa_cap.load(std::memory_order_relaxed));
+  if (isa >= 2) x = interleave_rgb_avx512(r, g, b, rgb, n);
+  else if (isa == 1) x = interleave_rgb_avx2(r, g, b, rgb, n);
 #endif
 #ifdef __SSE2__
   // Four pixels per step: (r0 g0 b0 r1) (g1 b1 r2 g2) (b2 r3 g3 b3).
@@ -168,11 +228,7 @@ void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, 
     _mm_storeu_ps(rgb + 3 * x + 8, o2);
   }
 #endif
-  for (; x < n; ++x) {
-    rgb[3 * x] = r[x];
-    rgb[3 * x + 1] = g[x];
-    rgb[3 * x + 2] = b[x];
-  }
+  interleave_rgb_scalar(r, g, b, rgb, x, n);
 }
 
 void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3]) {

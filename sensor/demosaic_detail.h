@@ -191,4 +191,7 @@ void run_stencil(const ImageF* const (&planes)[NPlanes], const BayerPhase& ph, I
   else run_stencil_impl<false, NPlanes, Rad>(planes, ph, out, k);
 }
 
+// Caps the vector level of interleave_rgb (0 SSE2 and scalar, 1 AVX2, 2 AVX-512; the machine's
+// level is the most it takes); the tests run each level. Every level writes the same floats.
+void interleave_rgb_max_isa(int isa);
 }  // namespace photosite::detail

@@ -19,7 +19,7 @@ namespace photosite::shader {
 namespace photosite::detail {
 // glare_skirt_row's vertical step alone: row y of acc_1 interpolated between its two nearest
 // rows, t (3·acc_1 width floats, interleaved RGB, inside tmp at glare_row_layout's t, returned),
-// for a caller that forms the horizontal step in its own loop (the photon stage's AVX-512 row).
+// for a caller that forms the horizontal step in its own loop (the photon stage's AVX-512 and AVX2 rows).
 const float* glare_skirt_vertical_row(const GlareSkirt& skirt, int y, float* tmp);
 
 // Pixel x of the bilinear 2x upsampling along a row (glare_up_tap's taps, edge clamped) of t,

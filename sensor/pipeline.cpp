@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <immintrin.h>
+#include <atomic>
 #include <limits>
 #include <fmt/format.h>
 
@@ -144,7 +145,9 @@ void detail::analog_row(float* erow, const float* off, const float* read, const 
 }
 
 namespace {
-const bool kPhotonAvx512 = photosite::detail::have_avx512();
+// The widest vector level the glared photon row may take: the machine's (core/isa_detail.h),
+// capped by detail::photon_row_max_isa (tests).
+std::atomic<int> g_photon_isa_cap{2};
 
 // The photon stage of one frame: e = M[c]·(R, G, B) with the cos⁴θ falloff, the lens glare
 // fused in row by row. One row at a time (photon_row), so that mean_signal_electrons() writes
@@ -156,6 +159,7 @@ struct PhotonStage {
   int w, h;
   double pitch_over_f, cx, cy;
   GlareSkirt skirt;
+  int isa;  // the glared row's path: 2 AVX-512, 1 AVX2, 0 the per-pixel loops
 
   PhotonStage(const ImageF& rad, const CameraPreset& preset, const LensPreset& lens, const ResolvedExposure& ex,
               const GlareLevel1* level1)
@@ -169,7 +173,8 @@ struct PhotonStage {
         // cos⁴ falloff (APPROXIMATION: scattered light falls off with the angle of the pixel
         // where it lands, not of its source; docs/model_glare.md).
         // level1: the pyramid's level 1 made by the caller (the scene's compose pass), or null.
-        skirt(glare_skirt(rad, lens_glare_plan(preset, lens), level1)) {}
+        skirt(glare_skirt(rad, lens_glare_plan(preset, lens), level1)),
+        isa(std::min(detail::machine_isa_level(), g_photon_isa_cap.load(std::memory_order_relaxed))) {}
 
   // Per-thread scratch of photon_row.
   struct Scratch {
@@ -185,8 +190,8 @@ struct PhotonStage {
     const double* me = m[static_cast<int>(cfa_color(p.cfa, 0, y))].data();
     const double* mo = m[static_cast<int>(cfa_color(p.cfa, 1, y))].data();
     bool physical;
-    if (skirt.active() && kPhotonAvx512) {
-      physical = glared_row_avx512(y, r, me, mo, dy2, o, sc);
+    if (skirt.active() && isa >= 1) {
+      physical = glared_row_simd(y, r, me, mo, dy2, o, sc);
     } else if (skirt.active()) {
       // glare_row's mix keep·L + s_c·u fused into the photon row: the glared row is never stored.
       const float* u = glare_skirt_row(skirt, y, sc.tmp.data());
@@ -240,25 +245,29 @@ struct PhotonStage {
     }
   }
 
-  // The glared photon row where the CPU has AVX-512: glare_skirt_row's horizontal step, the
-  // mix, the photon integral and physical_row's test in one loop over 16 pixels (8 pixel pairs
-  // of acc_1's row t) at a time, in registers: u, the upsampled skirt row, is never stored, and
-  // the radiance row is read once. Per sample the same IEEE operations in the same order as
-  // upsample_row's interior (even pixel 2j: ¼·t[j − 1] + ¾·t[j]; odd 2j + 1: ¾·t[j] + ¼·t[j + 1]),
-  // glare_mix and photon_electrons (double: (m0·R + m1·G) + m2·B, divided by (1 + t²)² with
-  // t² = ((dx² + dy²)·p)·p), no FMA, so the same bits as glare_skirt_row then glared_electrons_row
-  // (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons). The row's ends (pixels 0, 1 and
-  // from the last whole block of pairs on) take glared_electrons_row with glare_up_pixel's u.
-  // Returns whether every pixel's radiance is physical (physical_row's test).
-  bool glared_row_avx512(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
-                         Scratch& sc) const {
+  // The glared photon row where the CPU has AVX-512 or AVX2: glare_skirt_row's horizontal step,
+  // the mix, the photon integral and physical_row's test in one loop over 16 (AVX-512) or 8
+  // (AVX2) pixels at a time (8 or 4 pixel pairs of acc_1's row t), in registers: u, the
+  // upsampled skirt row, is never stored, and the radiance row is read once. Per sample the same
+  // IEEE operations in the same order as upsample_row's interior (even pixel 2j: ¼·t[j − 1] +
+  // ¾·t[j]; odd 2j + 1: ¾·t[j] + ¼·t[j + 1]), glare_mix and photon_electrons (double: (m0·R +
+  // m1·G) + m2·B, divided by (1 + t²)² with t² = ((dx² + dy²)·p)·p), no FMA, so the same bits as
+  // glare_skirt_row then glared_electrons_row (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons,
+  // at every level). The row's ends (pixels 0, 1 and from the last whole block of pairs on)
+  // take glared_electrons_row with glare_up_pixel's u. Returns whether every pixel's radiance
+  // is physical (physical_row's test).
+  bool glared_row_simd(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
+                       Scratch& sc) const {
     const float* t = detail::glare_skirt_vertical_row(skirt, y, sc.tmp.data());
     const int cw = skirt.acc1->width();
     bool physical = true;
-    const int j_end = glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f,
-                                          o, physical);
-    // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
+    // u: the ends' upsampled pixels below; before them, the AVX2 blocks' planar copy of t (3·cw <= 3·w floats)
     float* u = sc.tmp.data() + glare_row_layout(skirt).u;
+    const int j_end = isa >= 2 ? glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                                                     pitch_over_f, o, physical)
+                               : glared_pairs_avx2(l, t, cw, u, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                                                   pitch_over_f, o, physical);
+    // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
     auto rest = [&](int xa, int xb) {
       if (xa >= xb) return;
       for (int x = xa; x < xb; ++x) detail::glare_up_pixel(t, cw, x, u + 3 * (x - xa));
@@ -270,8 +279,8 @@ struct PhotonStage {
     rest(std::max(2, 2 * j_end), w);
     return physical;
   }
-  // glared_row_avx512's blocks: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for j0 = 1,
-  // 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
+  // glared_row_simd's blocks on AVX-512: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for
+  // j0 = 1, 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
   // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
   // not done; physical is cleared if a pixel's radiance is not physical.
   // (GCC 12's AVX-512 intrinsics trip -Wmaybe-uninitialized, GCC bug 105593: silenced here.)
@@ -341,6 +350,81 @@ struct PhotonStage {
     return j0;
   }
 #pragma GCC diagnostic pop
+  // glared_row_simd's blocks on AVX2: pixel pairs j0 .. j0 + 3 (pixels 2·j0 .. 2·j0 + 7) for
+  // j0 = 1, 5, 9, ... while j0 + 8 <= cw (the pairs are interior, and the eight floats of each
+  // channel of t read from j0 − 1 and from j0 lie inside its cw). t is first copied into planar
+  // rows tp[c·cw + j] (3·cw floats of scratch), so that each channel's taps of the 8 pixels are
+  // one in-lane permute of 8 consecutive floats: X = t_c[j0 − 1 + ⌊(p + 1)/2⌋], Y =
+  // t_c[j0 + ⌊(p + 1)/2⌋] for pixel p of the block (even 2i: t_c[j0 − 1 + i], t_c[j0 + i]; odd
+  // 2i + 1: t_c[j0 + i], t_c[j0 + 1 + i]), weights (¼, ¾) even, (¾, ¼) odd. The radiance's 24
+  // interleaved floats are split into R, G, B by two blends each (channel c of the 8 pixels
+  // sits in distinct lanes of the three vectors) and one permute. Returns the first pair not
+  // done; physical is cleared if a pixel's radiance is not physical.
+  __attribute__((target("avx2")))
+  static int glared_pairs_avx2(const float* l, const float* t, int cw, float* tp, float keep, const float* s3,
+                               const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
+                               float* o, bool& physical) {
+    int j0 = 1;
+    if (j0 + 8 > cw) return j0;
+    for (int j = 0; j < cw; ++j)
+      for (int c = 0; c < 3; ++c) tp[c * static_cast<size_t>(cw) + j] = t[3 * j + c];
+    const __m256i tap = _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4);
+    // pixel k of channel c at lane perm[c][k] after the blends (R: floats 3k from lanes 0,3,6 of
+    // la, 1,4,7 of lb, 2,5 of lc; G and B likewise, one lane further)
+    const __m256i perm[3] = {_mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5), _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
+                             _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7)};
+    const __m256 w0 = _mm256_setr_ps(0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f);
+    const __m256 w1 = _mm256_setr_ps(0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f);
+    const __m256 vkeep = _mm256_set1_ps(keep), zero = _mm256_setzero_ps(),
+                 fmax = _mm256_set1_ps(std::numeric_limits<float>::max()),
+                 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    const __m256 sc[3] = {_mm256_set1_ps(s3[0]), _mm256_set1_ps(s3[1]), _mm256_set1_ps(s3[2])};
+    const __m256d m[3] = {_mm256_setr_pd(me[0], mo[0], me[0], mo[0]), _mm256_setr_pd(me[1], mo[1], me[1], mo[1]),
+                          _mm256_setr_pd(me[2], mo[2], me[2], mo[2])};
+    const __m256d vcx = _mm256_set1_pd(cx), vdy2 = _mm256_set1_pd(dy2), vp = _mm256_set1_pd(pitch_over_f),
+                  one = _mm256_set1_pd(1.0);
+    const __m128i lane4 = _mm_setr_epi32(0, 1, 2, 3);
+    const bool falloff = pitch_over_f > 0.0;
+    int ok = 0xff;
+    for (; j0 + 8 <= cw; j0 += 4) {
+      const int x0 = 2 * j0;
+      const float* lw = l + 3 * x0;
+      const __m256 la = _mm256_loadu_ps(lw), lb = _mm256_loadu_ps(lw + 8), lc = _mm256_loadu_ps(lw + 16);
+      const __m256 L[3] = {
+          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x92), lc, 0x24), perm[0]),
+          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x24), lc, 0x49), perm[1]),
+          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x49), lc, 0x92), perm[2])};
+      __m256 g[3];
+      for (int c = 0; c < 3; ++c) {
+        const float* tc = tp + c * static_cast<size_t>(cw) + j0;
+        const __m256 X = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tc - 1), tap);
+        const __m256 Y = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tc), tap);
+        const __m256 u = _mm256_add_ps(_mm256_mul_ps(w0, X), _mm256_mul_ps(w1, Y));
+        g[c] = _mm256_add_ps(_mm256_mul_ps(vkeep, L[c]), _mm256_mul_ps(sc[c], u));  // glare_mix
+      }
+      const __m256 sum = _mm256_add_ps(_mm256_add_ps(L[0], L[1]), L[2]);
+      ok &= _mm256_movemask_ps(_mm256_cmp_ps(L[0], zero, _CMP_GE_OQ)) &
+            _mm256_movemask_ps(_mm256_cmp_ps(L[1], zero, _CMP_GE_OQ)) &
+            _mm256_movemask_ps(_mm256_cmp_ps(L[2], zero, _CMP_GE_OQ)) &
+            _mm256_movemask_ps(_mm256_cmp_ps(_mm256_and_ps(sum, abs_mask), fmax, _CMP_LE_OQ));
+      for (int h = 0; h < 2; ++h) {  // photon_electrons on 4 pixels in double
+        __m256d gd[3];
+        for (int c = 0; c < 3; ++c)
+          gd[c] = _mm256_cvtps_pd(h == 0 ? _mm256_castps256_ps128(g[c]) : _mm256_extractf128_ps(g[c], 1));
+        __m256d e = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(m[0], gd[0]), _mm256_mul_pd(m[1], gd[1])),
+                                  _mm256_mul_pd(m[2], gd[2]));
+        if (falloff) {
+          const __m256d dx = _mm256_sub_pd(_mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(x0 + 4 * h), lane4)), vcx);
+          const __m256d t2 = _mm256_mul_pd(_mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), vdy2), vp), vp);
+          const __m256d q = _mm256_add_pd(one, t2);
+          e = _mm256_div_pd(e, _mm256_mul_pd(q, q));
+        }
+        _mm_storeu_ps(o + x0 + 4 * h, _mm256_cvtpd_ps(e));
+      }
+    }
+    if (ok != 0xff) physical = false;
+    return j0;
+  }
   // glared_pairs_avx512's permutes and weights: pixel p of a block (pair i = p/2) takes
   // X = t[3(j0 − 1 + i) + c], Y = t[3(j0 + i) + c] when even and X = t[3(j0 + i) + c],
   // Y = t[3(j0 + 1 + i) + c] when odd (window offsets 3i + c or 3i + 3 + c, and 3i + 3 + c or
@@ -388,6 +472,8 @@ void fail_first_bad(const ImageF& radiance, const std::vector<int>& bad_x) {
     if (bad_x[y] >= 0) detail::fail_bad_radiance(radiance, bad_x[y], y);
 }
 }  // namespace
+
+void detail::photon_row_max_isa(int isa) { g_photon_isa_cap.store(std::clamp(isa, 0, 2)); }
 
 ImageF mean_signal_electrons(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
                              const ResolvedExposure& ex, const GlareLevel1* level1) {

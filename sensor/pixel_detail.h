@@ -27,4 +27,8 @@ void analog_row(float* erow, const float* off, const float* read, const float* c
 void analog_row_definition(float* erow, const float* off, const float* read, const float* col, float row_noise,
                            float rn, float fw, double K, double black, double max_code, int w, float* drow,
                            float* abrow);
+// Caps the vector level of the photon stage's glared row (0 the per-pixel loops, 1 AVX2, 2
+// AVX-512; the machine's level is the most it takes) for the stages made after the call; the
+// tests run each level. Every level gives the same bits.
+void photon_row_max_isa(int isa);
 }  // namespace photosite::detail

@@ -313,6 +313,45 @@ void inversion_block_avx512(const float* mean, const uint32_t* w, float* k_out, 
     for (int v = 0; v < V; ++v) _mm512_storeu_ps(k_out + i0 + 16 * v, vk[v]);
   }
 }
+// The same on the AVX2 path (GCC's AVX2 clone of inversion_block sums the go flags through a
+// horizontal add every step, as its AVX-512 clone did): eight vectors of 8 lanes in registers,
+// the stop test one OR of their go masks. k + 1 and cdf + p where a lane goes on, + 0 where it
+// does not (the select of inversion_block, then its add), so the same draws.
+__attribute__((target("avx2")))
+void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, int m) {
+  if (m % kInversionLanes != 0) __builtin_unreachable();
+  constexpr int V = kInversionLanes / 8;
+  for (int i0 = 0; i0 < m; i0 += kInversionLanes) {
+    alignas(32) float u[kInversionLanes], p[kInversionLanes];
+    for (int i = 0; i < kInversionLanes; ++i) {
+      u[i] = detail::inversion_uniform(w[i0 + i]);
+      p[i] = detail::fast_exp(-mean[i0 + i]);
+    }
+    __m256 vmu[V], vu[V], vp[V], vcdf[V], vk[V];
+    for (int v = 0; v < V; ++v) {
+      vmu[v] = _mm256_loadu_ps(mean + i0 + 8 * v);
+      vu[v] = _mm256_load_ps(u + 8 * v);
+      vp[v] = _mm256_load_ps(p + 8 * v);
+      vcdf[v] = vp[v];
+      vk[v] = _mm256_setzero_ps();
+    }
+    const __m256 one = _mm256_set1_ps(1.f), min_pmf = _mm256_set1_ps(detail::kInversionMinPmf);
+    for (int j = 1; j < 64; ++j) {
+      const __m256 inv_j = _mm256_set1_ps(detail::kInverseInteger[j]);
+      __m256 any = _mm256_setzero_ps();
+      for (int v = 0; v < V; ++v) {
+        vp[v] = _mm256_mul_ps(vp[v], _mm256_mul_ps(vmu[v], inv_j));
+        const __m256 go =
+            _mm256_and_ps(_mm256_cmp_ps(vu[v], vcdf[v], _CMP_GT_OQ), _mm256_cmp_ps(vp[v], min_pmf, _CMP_GT_OQ));
+        vk[v] = _mm256_add_ps(vk[v], _mm256_and_ps(go, one));
+        vcdf[v] = _mm256_add_ps(vcdf[v], _mm256_and_ps(go, vp[v]));
+        any = _mm256_or_ps(any, go);
+      }
+      if (_mm256_testz_ps(any, any)) break;
+    }
+    for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, vk[v]);
+  }
+}
 __attribute__((target_clones("avx512f", "avx2", "default")))
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j) out[j] = detail::rounded_normal_sample(mean[j], z[j]);
@@ -411,10 +450,11 @@ int select_lanes(const float* keep, int m, int* idx) {
 // each LaneCopy, their 32-bit values (floats or words) from src[i] into dst[0, count);
 // returns the count. idx and every dst hold m + kPackRoom lanes (whole vectors are stored past
 // the count). A dst may be its own src (packing in place): every path moves lane i to a place
-// <= i in increasing order, and the AVX-512 path's store for a group of 16 lanes from i reaches
-// at most lane i + 15, which that group has already read. On the AVX-512 path (the sampler's vector path, set_philox_path) one
-// vpcompressd per array and 16 lanes packs the values with the indices, the mask from one
-// compare; elsewhere select_lanes' indices, then a gather per array. Copies only, the same
+// <= i in increasing order, and the vector paths' store for a group of 16 (8) lanes from i
+// reaches at most lane i + 15 (i + 7), which that group has already read. On the AVX-512 path
+// (the sampler's vector path, set_philox_path) one vpcompressd per array and 16 lanes packs the
+// values with the indices, the mask from one compare; on the AVX2 path one permute per array and
+// 8 lanes (pack_lanes_avx2); on the scalar path select_lanes' indices, then a gather per array. Copies only, the same
 // lanes in the same order on every path, so no draw depends on the path (test
 // Philox.PoissonDrawsEqualOnEveryPathAndThreadCount).
 constexpr int kPackRoom = 16;
@@ -456,9 +496,47 @@ int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy (&copie
   }
   return n;
 }
+// The same on the AVX2 path, 8 lanes at a time: the compare's sign mask picks select_lanes'
+// left-packing permutation (kPack), which moves the kept lanes' indices and each array's values
+// to the front of the vector, stored whole at the count (AVX2 has no compress); the last group's
+// lanes past m are neither read (masked loads do not fault) nor kept. The same lanes in the same
+// order as the other paths; in place as safe as there (a group's stores reach no lane past its
+// own, which it has read).
+template <int NC>
+__attribute__((target("avx2")))
+int pack_lanes_avx2(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
+  const uint32_t* src[NC];
+  uint32_t* dst[NC];
+  for (int c = 0; c < NC; ++c) {
+    const void* s = copies[c].src;
+    void* d = copies[c].dst;
+    asm("" : "+r"(s), "+r"(d));  // as in pack_lanes_avx512
+    src[c] = static_cast<const uint32_t*>(s);
+    dst[c] = static_cast<uint32_t*>(d);
+  }
+  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  int n = 0;
+  for (int i = 0; i < m; i += 8) {
+    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(m - i), iota);  // lanes i + l < m
+    const __m256 kv = _mm256_maskload_ps(keep + i, valid);
+    const int mask = _mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(valid),
+                                                      _mm256_cmp_ps(kv, _mm256_setzero_ps(), _CMP_NEQ_UQ)));
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
+#pragma GCC unroll 8
+    for (int c = 0; c < NC; ++c) {
+      const __m256i v = _mm256_maskload_epi32(reinterpret_cast<const int*>(src[c] + i), valid);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst[c] + n), _mm256_permutevar8x32_epi32(v, perm));
+    }
+    n += __builtin_popcount(static_cast<unsigned>(mask));
+  }
+  return n;
+}
 template <int NC>
 int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC]) {
-  if (g_philox_path.load(std::memory_order_relaxed) == 2) return pack_lanes_avx512<NC>(keep, m, idx, copies);
+  const int path = g_philox_path.load(std::memory_order_relaxed);
+  if (path == 2) return pack_lanes_avx512<NC>(keep, m, idx, copies);
+  if (path == 1) return pack_lanes_avx2<NC>(keep, m, idx, copies);
   const int n = select_lanes(keep, m, idx);
   for (const LaneCopy& c : copies)
     for (int j = 0; j < n; ++j)
@@ -625,7 +703,9 @@ void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_
     if (nl) {
       const int padded = (nl + kInversionLanes - 1) / kInversionLanes * kInversionLanes;  // <= kBlock
       for (int i = nl; i < padded; ++i) low_mean[i] = 0.f, low_w[i] = 0u;
-      if (g_philox_path.load(std::memory_order_relaxed) == 2) inversion_block_avx512(low_mean, low_w, low_k, padded);
+      const int path = g_philox_path.load(std::memory_order_relaxed);
+      if (path == 2) inversion_block_avx512(low_mean, low_w, low_k, padded);
+      else if (path == 1) inversion_block_avx2(low_mean, low_w, low_k, padded);
       else inversion_block(low_mean, low_w, low_k, padded);
       for (int i = 0; i < nl; ++i) o[low_idx[i]] = low_k[i];
     }

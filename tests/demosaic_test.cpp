@@ -9,9 +9,11 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/sensor/demosaic.h"
+#include "sensor/demosaic_detail.h"
 #include "test_util.h"
 
 namespace photosite {
@@ -127,28 +129,35 @@ TEST(Demosaic, EveryBayerPhaseGivesTheSameInterior) {
   }
 }
 
-// interleave_rgb (the planar-to-RGB step of every stencil method): AVX-512 blocks of 16 (where
-// the CPU has it; from 64 pixels on, non-temporal stores after a scalar run up to the first
-// 64-byte boundary of the output), SSE blocks of 4 and the scalar tail give exactly
-// r0 g0 b0 r1 ..., at every length and misalignment of the planes and of the output (every
-// float offset within 64 bytes).
+// interleave_rgb (the planar-to-RGB step of every stencil method): AVX-512 blocks of 16 or AVX2
+// blocks of 8 (at every level the CPU has, detail::interleave_rgb_max_isa; from 64 pixels on,
+// non-temporal stores after a scalar run up to the first 64- or 32-byte boundary of the
+// output), SSE blocks of 4 and the scalar tail give exactly r0 g0 b0 r1 ..., at every length
+// and misalignment of the planes and of the output (every float offset within 64 bytes).
 TEST(Demosaic, InterleaveRgbIsExactAtEveryLengthAndOffset) {
   std::vector<float> planes(3 * 128);
   for (size_t i = 0; i < planes.size(); ++i) planes[i] = static_cast<float>(i) + 0.25f;
-  for (int off = 0; off < 3; ++off)
-    for (int out_off = 1; out_off <= 17; ++out_off)
-      for (int n = 0; n <= 100; ++n) {
-        const float *r = planes.data() + off, *g = r + 128, *b = g + 128;
-        std::vector<float> out(3 * n + 20, -1.f);
-        interleave_rgb(r, g, b, out.data() + out_off, n);
-        EXPECT_EQ(out[out_off - 1], -1.f) << n;
-        EXPECT_EQ(out[3 * n + out_off], -1.f) << n;  // nothing written past the end
-        for (int x = 0; x < n; ++x) {
-          ASSERT_EQ(out[out_off + 3 * x], r[x]) << "n " << n << " x " << x << " output offset " << out_off;
-          ASSERT_EQ(out[out_off + 1 + 3 * x], g[x]) << "n " << n << " x " << x << " output offset " << out_off;
-          ASSERT_EQ(out[out_off + 2 + 3 * x], b[x]) << "n " << n << " x " << x << " output offset " << out_off;
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::interleave_rgb_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
+    for (int off = 0; off < 3; ++off)
+      for (int out_off = 1; out_off <= 17; ++out_off)
+        for (int n = 0; n <= 100; ++n) {
+          const float *r = planes.data() + off, *g = r + 128, *b = g + 128;
+          std::vector<float> out(3 * n + 20, -1.f);
+          detail::interleave_rgb_max_isa(isa);
+          interleave_rgb(r, g, b, out.data() + out_off, n);
+          EXPECT_EQ(out[out_off - 1], -1.f) << n;
+          EXPECT_EQ(out[3 * n + out_off], -1.f) << n;  // nothing written past the end
+          for (int x = 0; x < n; ++x) {
+            const std::string at = "n " + std::to_string(n) + " x " + std::to_string(x) + " output offset " +
+                                   std::to_string(out_off) + " isa " + std::to_string(isa);
+            ASSERT_EQ(out[out_off + 3 * x], r[x]) << at;
+            ASSERT_EQ(out[out_off + 1 + 3 * x], g[x]) << at;
+            ASSERT_EQ(out[out_off + 2 + 3 * x], b[x]) << at;
+          }
         }
-      }
 }
 
 TEST(Demosaic, LmmseAvx2AndBaselineBuildsAreBitIdentical) {

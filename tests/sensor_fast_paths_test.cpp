@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/isa_detail.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/pipeline.h"
@@ -493,42 +494,48 @@ ImageF ref_glared(const ImageF& in, const GlareSkirt& s) {
 // The photon stage with the glare's mix fused into its rows equals the glared image made whole
 // and then the photon stage without glare, bit for bit, at 1, 2 and 3 threads: odd and even
 // sizes, one pixel wide or high, with and without the cos⁴ falloff; and expose() (the photon
-// rows fused with sense) equals sense() of that mean signal. Where the CPU has AVX-512 the
-// glared rows run 16 pixels a step (PhotonStage::glared_row_avx512) and the rest by the plain
-// row: widths 21 (one block of pixels 2-17) and 20 (none), 64, 333 and 2048 put the blocks'
-// ends and the row's rest at different places.
+// rows fused with sense) equals sense() of that mean signal, at every vector level the CPU has
+// (detail::photon_row_max_isa): on AVX-512 the glared rows run 16 pixels a step, on AVX2 8
+// (PhotonStage::glared_row_simd), and the rest by the plain row: widths 21 (one AVX-512 block of
+// pixels 2-17, one AVX2 block of pixels 2-9) and 20 (no AVX-512 block), 17 (one AVX2 block) and
+// 16 (none), 64, 333 and 2048 put the blocks' ends and the row's rest at different places.
 TEST(GlareFastPath, FusedPhotonRowEqualsGlareThenPhotons) {
   const CameraPreset cam = load_camera_preset("onsemi-ar0331");
   const FixedPatternMaps no_fpn;
   ExposureSettings es;
   es.seed = 3;
-  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}, {21, 5}, {20, 3}};
-  for (const bool cos4 : {true, false})
-    for (const auto& wh : sizes) {
-      LensPreset lens = load_lens_preset(cam.default_lens);
-      lens.cos4_falloff = cos4;
-      lens.glare.enabled = true;
-      lens.glare.veiling_glare_index = 0.05;
-      lens.glare.core_deg = 0.1;
-      lens.glare.reach_deg = 20;
-      LensPreset plain = lens;
-      plain.glare = LensGlare{};
-      const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 7 + wh[1]);
-      const ResolvedExposure ex = resolve(cam, lens, es);
-      const GlareSkirt skirt =
-          glare_skirt(in, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)));
-      ASSERT_TRUE(skirt.active());
-      const ImageF want = mean_signal_electrons(ref_glared(in, skirt), cam, plain, ex);
-      const SensorOutput want_out = sense(want, cam, ex, es, no_fpn);
-      at_thread_counts([&](int t) {
-        EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex), want))
-            << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads";
-        const SensorOutput got = expose(in, cam, lens, es, no_fpn);
-        EXPECT_TRUE(same_bits(got.electrons, want_out.electrons) && same_bits(got.raw_dn, want_out.raw_dn) &&
-                    same_bits(got.rgb, want_out.rgb))
-            << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads";
-      });
-    }
+  const int sizes[][2] = {{333, 101}, {64, 7}, {1, 9}, {9, 1}, {2048, 40}, {21, 5}, {20, 3}, {17, 4}, {16, 3}};
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
+    for (const bool cos4 : {true, false})
+      for (const auto& wh : sizes) {
+        detail::photon_row_max_isa(isa);
+        LensPreset lens = load_lens_preset(cam.default_lens);
+        lens.cos4_falloff = cos4;
+        lens.glare.enabled = true;
+        lens.glare.veiling_glare_index = 0.05;
+        lens.glare.core_deg = 0.1;
+        lens.glare.reach_deg = 20;
+        LensPreset plain = lens;
+        plain.glare = LensGlare{};
+        const ImageF in = test_radiance(wh[0], wh[1], wh[0] * 7 + wh[1]);
+        const ResolvedExposure ex = resolve(cam, lens, es);
+        const GlareSkirt skirt =
+            glare_skirt(in, plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um)));
+        ASSERT_TRUE(skirt.active());
+        const ImageF want = mean_signal_electrons(ref_glared(in, skirt), cam, plain, ex);
+        const SensorOutput want_out = sense(want, cam, ex, es, no_fpn);
+        at_thread_counts([&](int t) {
+          EXPECT_TRUE(same_bits(mean_signal_electrons(in, cam, lens, ex), want))
+              << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
+          const SensorOutput got = expose(in, cam, lens, es, no_fpn);
+          EXPECT_TRUE(same_bits(got.electrons, want_out.electrons) && same_bits(got.raw_dn, want_out.raw_dn) &&
+                      same_bits(got.rgb, want_out.rgb))
+              << "expose " << wh[0] << "x" << wh[1] << " cos4 " << cos4 << ", " << t << " threads, isa " << isa;
+        });
+      }
 }
 
 // apply_glare (glare_row: on AVX-512 the interior pixel pairs upsampled and mixed in registers,
