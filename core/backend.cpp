@@ -154,7 +154,7 @@ scene::PixelTail SensorRunner::night_tail(const ImageF& texture, ImageF& lights,
 }
 
 namespace scene {
-NightScene night_scene(const DayLinear& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
+NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
                        bool keep_darkened, SensorRunner& backend, SequenceState* sequence, const TextureSums* sums,
                        bool glare_level1) {
   NightTail tail;  // empty on the CPU: night_scene's own path (the same operations, its own timings)

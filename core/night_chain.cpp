@@ -32,36 +32,30 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   // linear image fewer, the same bits. On Vulkan the kernel linearises and the texture sums.
   const bool cpu = runner.backend() == Backend::Cpu;
   scene::TextureSums sums;
-  // An 8-bit RGB file's codes are read by the scene stages themselves on the CPU, each through
-  // the 256-entry table of their decodes (scene::DayLinear; the same floats, so the same bits):
-  // this stage then makes only the texture's sums (scene::codes_texture_sums, 6 MB read for a
-  // 2048x1024 frame), and the 24 MB linear image is made only for `inspect`. The device takes
-  // floats.
+  // An 8-bit file's codes are linearised from the codes themselves on the CPU (6 MB read for a
+  // 2048x1024 frame instead of their 24 MB of floats; the same bits); the device takes floats.
   if (!codes.empty() && !cpu) {
     day = image_from_codes(codes.data(), 8, codes.width(), codes.height(), codes.channels());
     codes = ImageU8();
   }
-  const bool from_codes = !codes.empty() && scene::codes_texture_sums(codes, labels.ids, &sums);
-  ImageF lin = from_codes            ? ImageF()
-               : !codes.empty()      ? scene::linearize_codes(codes)
-               : cpu                 ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums)
-                                     : runner.linearize(day, info);
-  if (!from_codes) codes = ImageU8();
-  c.width = from_codes ? codes.width() : lin.width();
-  c.height = from_codes ? codes.height() : lin.height();
+  ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums)
+               : cpu          ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums)
+                              : runner.linearize(day, info);
+  c.width = lin.width();
+  c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
+  codes = ImageU8();
   lap("linearize");
-  c.scene = night_scene_for(runner, from_codes ? scene::DayLinear(codes) : scene::DayLinear(lin), labels, sp,
-                            setup.settings.seed, static_cast<bool>(inspect), setup, nullptr, &sums);
+  c.scene = night_scene_for(runner, lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), setup, nullptr,
+                            &sums);
   sums = scene::TextureSums();  // not held through the sensor stages
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
   if (inspect) {
-    inspect(from_codes ? scene::linearize_codes(codes) : lin, c.scene);
+    inspect(lin, c.scene);
     lap("write maps");
   }
   lin = ImageF();
-  codes = ImageU8();
   c.exposure = resolve(setup.camera, setup.lens, setup.settings);
   // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
   // device for every frame (the host copies are for the outputs and the CPU path).
@@ -76,7 +70,7 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
 }
 }  // namespace
 
-scene::NightScene night_scene_for(SensorRunner& runner, const scene::DayLinear& day_linear, const scene::LabelMap& labels,
+scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
                                   const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,
                                   const SensorSetup& setup, scene::SequenceState* sequence,
                                   const scene::TextureSums* sums) {

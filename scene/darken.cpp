@@ -836,11 +836,11 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
 
 void texture_max_isa(int isa) { max_isa = isa; }
 
-ImageF reflectance_texture(const DayLinear& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
+ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried) {
   return reflectance_texture_with(day, labels, p, carried, nullptr);
 }
 
-ImageF reflectance_texture_with(const DayLinear& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
+ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
                                 ImageF* work_luma, const TextureSums* sums) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
     fail("reflectance_texture: the working luminance must be half the frame's size");
@@ -854,15 +854,13 @@ ImageF reflectance_texture_with(const DayLinear& day, const ImageU16& labels, co
   // result does not depend on the thread count (texture_class_sums); made by the linearisation's
   // pass when it was given the labels (linearize_with_texture_sums).
   std::vector<std::array<double, 2 * kLabelCount>> computed;
-  const bool rgb = !day.linear() || day.linear()->channels() == 3;
   const bool have = sums && sums->image == day.data() && sums->labels == labels.data() &&
-                    sums->part.size() == static_cast<size_t>(kTextureChunks) && rgb && labels.pixel_count() == n;
+                    sums->part.size() == static_cast<size_t>(kTextureChunks) && day.channels() == 3 &&
+                    labels.pixel_count() == n;
   if (!have) {
     computed.resize(kTextureChunks);
-    texture_class_sums(labels.data(), n, coef, computed.data(), [&](int, size_t first, int count) {
-      thread_local float buf[3 * kBoxBlock];
-      return day.pixels(first, count, buf);
-    });
+    texture_class_sums(labels.data(), n, coef, computed.data(),
+                       [&](int, size_t first, int) { return day.data() + 3 * first; });
   }
   const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -870,10 +868,7 @@ ImageF reflectance_texture_with(const DayLinear& day, const ImageU16& labels, co
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
   // The day's sunlight out of the diffuse classes: their sunlit pixels divided by g, so the class
   // mean is taken over Y with that division, Σ Y − (1 − 1/g)·Σ_sunlit Y (sun_shade_split).
-  // (It reads the linear image itself: made from the codes when it is on.)
-  ImageF made;
-  const SunShadeSplit sun = sun_shade_split(p.sun_shade_ratio_max > 1 ? day.image(made) : made, labels, p, cnt);
-  made = ImageF();
+  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt);
   float scale[kLabelCount], scale_sun[kLabelCount], scale_shade[kLabelCount][3];
   for (int id = 0; id < kLabelCount; ++id) {
     const double g = sun.ratio[id];
@@ -895,14 +890,16 @@ ImageF reflectance_texture_with(const DayLinear& day, const ImageU16& labels, co
   float cap[kLabelCount];
   for (int id = 0; id < kLabelCount; ++id)
     cap[id] = static_cast<float>(class_reflectance_max(id, p) / (K[0] + K[1] + K[2]));
-  // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped; over
-  // pixels [a, e) given as px (pixel a's floats).
-  const uint16_t* lab = labels.data();
-  float* f_px = f.data();
-  auto texture_span = [&](size_t a, size_t e_span, const float* px) {
-    for (size_t i = a; i < e_span;) {
+  // Pass 2, per run of one label: its scale times the box RGB (or its flat grey), capped.
+#pragma omp parallel for schedule(static)
+  for (int ch = 0; ch < kTextureChunks; ++ch) {
+    const uint16_t* lab = labels.data();
+    const float* day_px = day.data();
+    float* f_px = f.data();
+    const size_t i0 = n * ch / kTextureChunks, i1 = n * (ch + 1) / kTextureChunks;
+    for (size_t i = i0; i < i1;) {
       const int id = lab[i];
-      size_t e = run_end(lab, i, e_span);
+      size_t e = run_end(lab, i, i1);
       float sc[3] = {scale[id], scale[id], scale[id]};
       if (sunlit && sun.ratio[id] > 1) {  // runs of one label and one side of the sun/shade split
         const uint8_t m = sunlit[i];
@@ -914,49 +911,20 @@ ImageF reflectance_texture_with(const DayLinear& day, const ImageU16& labels, co
       if (scale[id] > 0) {
         for (size_t b = i; b < e; b += kBoxBlock) {
           const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, e - b));
-          box_scaled_block(px + 3 * (b - a), nb, coef, sc, cap[id], f_px + 3 * b);
+          box_scaled_block(day_px + 3 * b, nb, coef, sc, cap[id], f_px + 3 * b);
         }
       } else {
         std::fill(o, o + 3 * (e - i), std::min(static_cast<float>(class_reflectance(id, p)) * flat, cap[id]));
       }
       i = e;
     }
-  };
-  // The working luminance's rows whose last day pixel lies in a chunk, (2y + 2)·W in (i0, i1],
-  // are made by that chunk, read back from cache (the chunk's day pixels were just read), so the
-  // same rows whatever the thread count. From codes, the chunk is taken in pieces of at most a
-  // row pair (a pair's part in the chunk), each decoded into a buffer of the thread's (48 KB for
-  // a 2048-wide frame) and read there by the runs and the working luminance; a pair that starts
-  // in the chunk before is decoded again whole for its working row.
-  const ImageF* lin = day.linear();
-  const size_t row_pair = 2 * static_cast<size_t>(day.width());
-#pragma omp parallel
-  {
-    std::vector<float> piece, pair;
-#pragma omp for schedule(static)
-    for (int ch = 0; ch < kTextureChunks; ++ch) {
-      const size_t i0 = n * ch / kTextureChunks, i1 = n * (ch + 1) / kTextureChunks;
-      if (lin) {
-        texture_span(i0, i1, lin->data() + 3 * i0);
-        if (work_luma)
-          for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y)
-            work_luma_row(*lin, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
-        continue;
-      }
-      piece.resize(3 * std::min(row_pair, i1 - i0));
-      for (size_t a = i0, e; a < i1; a = e) {
-        const size_t y = a / row_pair, pair_end = (y + 1) * row_pair;
-        e = std::min(i1, pair_end);
-        const float* px = day.pixels(a, static_cast<int>(e - a), piece.data());
-        texture_span(a, e, px);
-        if (!work_luma || e != pair_end) continue;
-        const float* r0 = px;
-        if (a != y * row_pair) {
-          pair.resize(3 * row_pair);
-          r0 = day.pixels(y * row_pair, static_cast<int>(row_pair), pair.data());
-        }
-        work_luma_row(r0, r0 + 3 * (row_pair / 2), day.width() / 2, work_luma->row(static_cast<int>(y)));
-      }
+    // The working luminance's rows whose last day pixel lies in this chunk, (2y + 2)·W in
+    // (i0, i1]: read back from cache (the chunk's day pixels were just read above), each row
+    // computed by one chunk, so the same rows whatever the thread count.
+    if (work_luma) {
+      const size_t row_pair = 2 * static_cast<size_t>(day.width());
+      for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y)
+        work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
     }
   }
   return f;
@@ -1046,40 +1014,25 @@ ImageF linearize_codes(const ImageU8& codes) {
   return out;
 }
 
-DayLinear::DayLinear(const ImageU8& codes)
-    : codes_(&codes), table_(decode8().out), width_(codes.width()), height_(codes.height()) {
-  if (codes.channels() != 3) fail("DayLinear: the codes of an RGB file (3 channels) only; linearize() the others");
-}
-
-const float* DayLinear::pixels(size_t first, int count, float* buf) const {
-  if (linear_) return linear_->data() + 3 * first;
-  decode8_samples(codes_->data() + 3 * first, 3 * count, decode8(), buf);
-  return buf;
-}
-
-const ImageF& DayLinear::image(ImageF& made) const {
-  if (linear_) return *linear_;
-  made = linearize_codes(*codes_);
-  return made;
-}
-
-bool codes_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
   sums->part.clear();
   sums->image = nullptr;
   sums->labels = nullptr;
-  if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height()) return false;
-  // Each block of pixels decoded into the thread's buffer right before pass 1 reads it back from
-  // L1 (as linearize_with_texture_sums, without its 24 MB of stores; codes have no damaged values
-  // to look for).
-  const DayLinear day(codes);
+  const Decode8& d8 = decode8();
+  // Not the fused case: linearize() of the codes' floats.
+  if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height())
+    return linearize_code_floats(codes, d8);
+  ImageF out(codes.width(), codes.height(), 3, uninitialized, "linear sRGB");
+  // Each block of pixels decoded right before pass 1 reads it back from L1 (as
+  // linearize_with_texture_sums; codes have no damaged values to look for).
   sums->part.resize(kTextureChunks);
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(), sums->part.data(), [&](int, size_t first, int count) {
-    thread_local float buf[3 * kBoxBlock];
-    return day.pixels(first, count, buf);
+    decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);
+    return static_cast<const float*>(out.data() + 3 * first);
   });
-  sums->image = codes.data();
+  sums->image = out.data();
   sums->labels = labels.data();
-  return true;
+  return out;
 }
 
 std::array<double, 3> illuminant_tint(double cct_K) {

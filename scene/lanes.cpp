@@ -284,14 +284,13 @@ const int kLumaIsa = photosite::detail::machine_isa_level();
 void work_luma_max_isa(int isa) { luma_max_isa = isa; }
 
 void work_luma_row(const ImageF& day, int y, float* o) {
-  work_luma_row(day.row(2 * y), day.row(2 * y + 1), day.width() / 2, o);
-}
-
-void work_luma_row(const float* r0, const float* r1, int ww, float* o) {
   // Exact halving: each working pixel is the mean of a 2x2 block, summed as (a + b) + (c + d)
   // and scaled by 0.25 — the arithmetic of OpenCV's INTER_AREA for this case (its vector path,
   // which covers rows whose width is a multiple of 16), so the same bits as cv::resize, in one
   // pass per pair of rows without the full-resolution luminance image.
+  const float* r0 = day.row(2 * y);
+  const float* r1 = day.row(2 * y + 1);
+  const int ww = day.width() / 2;
   int x = 0;
 #if defined(__x86_64__)
   const int isa = std::min(kLumaIsa, luma_max_isa);
@@ -306,16 +305,13 @@ void work_luma_row(const float* r0, const float* r1, int ww, float* o) {
   srgb_encode_floats(o, ww, o);
 }
 
-WorkImages make_work_images(const DayLinear& day, const ImageU16& labels, int work_max_width) {
+WorkImages make_work_images(const ImageF& day, const ImageU16& labels, int work_max_width) {
   return make_work_images_with(day, labels, work_max_width, nullptr);
 }
 
-WorkImages make_work_images_with(const DayLinear& day_image, const ImageU16& labels, int work_max_width, ImageF* luma) {
+WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int work_max_width, ImageF* luma) {
   WorkImages w;
-  const int W = day_image.width(), H = day_image.height();
-  // The linear image itself where the luminance is computed here (made from the codes if need be).
-  ImageF made;
-  const ImageF& day = luma ? made : day_image.image(made);
+  const int W = day.width(), H = day.height();
   const WorkSize ws = work_size(W, H, work_max_width);
   w.scale = ws.scale;
   const int ww = ws.width, wh = ws.height;

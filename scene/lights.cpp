@@ -790,7 +790,7 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   return E;
 }
 
-LightMap light_map(const DayLinear& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
+LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                    const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
@@ -807,12 +807,7 @@ LightMap light_map(const DayLinear& day, const ImageF& texture, const LabelMap& 
   // Σ_k K_k t_k / Σ_k K_k t_k = 1 (the tint preserves the luminance of D65 white, not of a flat
   // spectrum, so 1/ΣK per band would be off by Σ K t / ΣK, 2.6% for a 3200 K beam).
   const double ktb = K[0] * tb[0] + K[1] * tb[1] + K[2] * tb[2];
-  // The day pixel's linear sRGB: its floats, or its codes through the decode table (DayLinear).
-  auto lab_at = [&](int i) {
-    float s[3];
-    day.pixel(static_cast<size_t>(i), s);
-    return to_lab(s);
-  };
+  auto lab_at = [&](int i) { return to_lab(day.data() + 3 * static_cast<size_t>(i)); };
 
   // Retroreflection: markings L = R_L·E_beam (EN 1436), signs L = R_A·E_⊥ (EN 12899), with the
   // day texture as relative pattern (texture/ρ has mean 1/ΣK per class, hence ·ΣK). E_⊥ on signs:
@@ -1142,8 +1137,7 @@ LightMap light_map(const DayLinear& day, const ImageF& texture, const LabelMap& 
         // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
         // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
         // the same cues.
-        float s[3];
-        day.pixel(i, s);
+        const float* s = day.data() + 3 * i;
         const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
         const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
         if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;

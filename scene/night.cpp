@@ -90,12 +90,12 @@ double process_cpu_ms() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
-NightScene night_scene(const DayLinear& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
+NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePreset& p, uint64_t seed,
                        bool keep_darkened, SequenceState* sequence, const TextureSums* sums, bool glare_level1) {
   return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence, sums, glare_level1);
 }
 
-NightScene night_scene_with(const DayLinear& day, const LabelMap& labels, const ScenePreset& p,
+NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq,
                             const TextureSums* sums, bool glare_level1) {
   NightScene s;

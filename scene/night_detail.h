@@ -35,7 +35,7 @@ struct LabelsMadeOf {
 using NightTail = std::function<PixelTail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
                                           const ImageF& beam_lux, const ScenePreset& p, bool keep_darkened)>;
 // An empty tail: the CPU path (darken before the geometry, compose at the end).
-NightScene night_scene_with(const DayLinear& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail,
                             SequenceState* sequence = nullptr, const TextureSums* sums = nullptr,
                             bool glare_level1 = false);

@@ -36,12 +36,16 @@ SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& lab
 // The same, counting the classes' pixels itself.
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 
-ImageF reflectance_texture_with(const DayLinear& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
+ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                                 ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
 
-// linearize() of an 8-bit sRGB file's codes (batch's reader, and DayLinear::image): the same image
-// to the bit as linearize() of their floats code·(1/255), each code through the same 256-entry
-// table.
+// linearize_with_texture_sums of an 8-bit sRGB file's codes (interleaved RGB, the frame's size;
+// other channel counts: linearize() alone): the same image and sums to the bit as from the
+// codes' floats code·(1/255) that read_image() gives, reading a quarter of the bytes (each code's
+// linear value from linearize()'s own 256-entry table for 8-bit files).
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums);
+// linearize() of an 8-bit sRGB file's codes without the sums (batch's reader): the same image to
+// the bit as linearize() of their floats, each code through the same 256-entry table.
 ImageF linearize_codes(const ImageU8& codes);
 
 }  // namespace photosite::scene

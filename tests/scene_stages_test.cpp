@@ -291,85 +291,62 @@ TEST(SceneDarken, LinearizeWithTextureSumsIsLinearizeThenThePassDefinition) {
   omp_set_num_threads(saved);
 }
 
-// An 8-bit file's codes read by the stages themselves (scene::DayLinear, the chain's path for plain
-// 8-bit PNGs) against linearize_with_texture_sums of the codes' floats code·(1/255) as read_image()
-// and image_from_codes() give them: codes_texture_sums gives the same 64 chunks' sums to the bit,
-// the DayLinear the same pixels and linear image, and the texture's pass 2 with the working
-// luminance (each chunk's codes decoded into a buffer) the same texture and luminance; every code
-// value, sizes whose chunks do not fall on row pairs, each instruction-set path, 1 and 2 threads;
-// a grey image and labels of another size: no sums (linearize_codes then, as linearize() of the
-// floats).
-TEST(SceneDarken, CodesReadThroughTheTableAreLinearizeOfTheirFloats) {
-  const ScenePreset& p = preset();
+// linearize_codes_with_texture_sums (an 8-bit file's codes linearised directly, the chain's path
+// for plain 8-bit PNGs) against linearize_with_texture_sums of the codes' floats code·(1/255) as
+// read_image() and image_from_codes() give them: the same linear image and the same 64 chunks'
+// sums to the bit, every code value, an odd size, each instruction-set path, 1 and 2 threads; a
+// grey image and labels of another size: linearize() of the floats.
+TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
+  const int W = 203, H = 37;
+  ImageU16 ids(W, H, 1, 0);
+  XorShift rnd{4242};
+  random_label_runs(ids, rnd);
+  ImageU8 codes(W, H, 3, 0);
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<uint8_t>(i < 256 ? i : static_cast<int>(rnd() * 256));
+  ImageF day(W, H, 3, 0.f);
+  for (size_t i = 0; i < codes.size(); ++i) day[i] = codes[i] * (1.f / 255);  // read_image's conversion
+  const ImageF from_codes = image_from_codes(codes.data(), 8, W, H, 3);
+  ASSERT_EQ(0, std::memcmp(from_codes.data(), day.data(), day.size() * sizeof(float)));  // the array path's, the same
   ImageFileInfo info;
   info.bits_per_sample = 8;
   info.srgb_encoded = true;
   const int saved = omp_get_max_threads();
-  for (const auto& [W, H] : {std::pair{203, 37}, std::pair{96, 70}, std::pair{32, 300}}) {
-    ImageU16 ids(W, H, 1, 0);
-    XorShift rnd{4242u + static_cast<uint32_t>(W)};
-    random_label_runs(ids, rnd);
-    ImageU8 codes(W, H, 3, 0);
-    for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<uint8_t>(i < 256 ? i : static_cast<int>(rnd() * 256));
-    ImageF day(W, H, 3, 0.f);
-    for (size_t i = 0; i < codes.size(); ++i) day[i] = codes[i] * (1.f / 255);  // read_image's conversion
-    const ImageF from_codes = image_from_codes(codes.data(), 8, W, H, 3);
-    ASSERT_EQ(0, std::memcmp(from_codes.data(), day.data(), day.size() * sizeof(float)));  // the array path's, the same
-    const bool halving = W % 32 == 0 && H % 2 == 0;  // work_luma_row's exact halving (ww a multiple of 16)
-    for (int isa : {2, 1, 0})
-      for (int threads : {1, 2}) {
-        texture_max_isa(isa);
-        omp_set_num_threads(threads);
-        const std::string where = fmt::format("{}x{}, isa {}, {} threads", W, H, isa, threads);
-        TextureSums want_sums, sums;
-        const ImageF want = linearize_with_texture_sums(day, info, ids, &want_sums);
-        ASSERT_TRUE(codes_texture_sums(codes, ids, &sums)) << where;
-        ASSERT_EQ(sums.part.size(), want_sums.part.size()) << where;
-        for (size_t ch = 0; ch < sums.part.size(); ++ch)
-          EXPECT_EQ(0, std::memcmp(sums.part[ch].data(), want_sums.part[ch].data(), sizeof(sums.part[ch]))) << where << ", chunk " << ch;
-        EXPECT_EQ(sums.image, static_cast<const void*>(codes.data()));
-        EXPECT_EQ(sums.labels, ids.data());
-        const DayLinear d(codes);
-        EXPECT_EQ(d.data(), static_cast<const void*>(codes.data()));
-        ImageF made;
-        const ImageF& img = d.image(made);
-        ASSERT_EQ(img.size(), want.size());
-        EXPECT_EQ(0, std::memcmp(img.data(), want.data(), want.size() * sizeof(float))) << where;
-        for (size_t i : {size_t{0}, size_t{85}, d.pixel_count() - 1}) {
-          float px[3];
-          d.pixel(i, px);
-          EXPECT_EQ(0, std::memcmp(px, want.data() + 3 * i, sizeof px)) << where << ", pixel " << i;
-        }
-        // Pass 2 from the codes (with the sums made of them, and making its own) and the
-        // working luminance made in it, against the float path's.
-        ImageF want_luma = halving ? ImageF(W / 2, H / 2, 1, -1.f) : ImageF();
-        ImageF luma = halving ? ImageF(W / 2, H / 2, 1, -1.f) : ImageF();
-        const ImageF want_tex = reflectance_texture_with(want, ids, p, nullptr, halving ? &want_luma : nullptr, &want_sums);
-        const ImageF tex = reflectance_texture_with(d, ids, p, nullptr, halving ? &luma : nullptr, &sums);
-        EXPECT_EQ(0, std::memcmp(tex.data(), want_tex.data(), tex.size() * sizeof(float))) << where;
-        EXPECT_EQ(0, std::memcmp(luma.data(), want_luma.data(), luma.size() * sizeof(float))) << where;
-        const ImageF tex_own = reflectance_texture(d, ids, p);
-        EXPECT_EQ(0, std::memcmp(tex_own.data(), want_tex.data(), tex.size() * sizeof(float))) << where;
-        const ImageF alone = linearize_codes(codes);  // batch's reader
-        ASSERT_EQ(alone.size(), want.size());
-        EXPECT_EQ(0, std::memcmp(alone.data(), want.data(), want.size() * sizeof(float))) << where;
-      }
-    texture_max_isa(2);
-    omp_set_num_threads(saved);
-    // Not the fused case: one channel; labels of another size (no sums).
-    ImageU8 grey(W, H, 1, 0);
-    ImageF grey_f(W, H, 1, 0.f);
-    for (size_t i = 0; i < grey.size(); ++i) grey_f[i] = (grey[i] = static_cast<uint8_t>(i % 256)) * (1.f / 255);
-    TextureSums sums;
-    EXPECT_FALSE(codes_texture_sums(grey, ids, &sums));
-    EXPECT_TRUE(sums.part.empty());
-    EXPECT_THROW(DayLinear{grey}, Error);
-    const ImageF gw = linearize(grey_f, info), ga = linearize_codes(grey);
-    ASSERT_EQ(ga.size(), gw.size());
-    EXPECT_EQ(0, std::memcmp(ga.data(), gw.data(), ga.size() * sizeof(float)));
-    EXPECT_FALSE(codes_texture_sums(codes, ImageU16(W + 1, H, 1, 0), &sums));
-    EXPECT_TRUE(sums.part.empty());
-  }
+  for (int isa : {2, 1, 0})
+    for (int threads : {1, 2}) {
+      texture_max_isa(isa);
+      omp_set_num_threads(threads);
+      const std::string where = fmt::format("isa {}, {} threads", isa, threads);
+      TextureSums want_sums, sums;
+      const ImageF want = linearize_with_texture_sums(day, info, ids, &want_sums);
+      const ImageF got = linearize_codes_with_texture_sums(codes, ids, &sums);
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), want.size() * sizeof(float))) << where;
+      ASSERT_EQ(sums.part.size(), want_sums.part.size()) << where;
+      for (size_t ch = 0; ch < sums.part.size(); ++ch)
+        EXPECT_EQ(0, std::memcmp(sums.part[ch].data(), want_sums.part[ch].data(), sizeof(sums.part[ch]))) << where << ", chunk " << ch;
+      EXPECT_EQ(sums.image, got.data());
+      EXPECT_EQ(sums.labels, ids.data());
+      const ImageF alone = linearize_codes(codes);  // batch's reader: no sums
+      ASSERT_EQ(alone.size(), want.size());
+      EXPECT_EQ(0, std::memcmp(alone.data(), want.data(), want.size() * sizeof(float))) << where;
+    }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
+  // Not the fused case: one channel; labels of another size (no sums either way).
+  ImageU8 grey(W, H, 1, 0);
+  ImageF grey_f(W, H, 1, 0.f);
+  for (size_t i = 0; i < grey.size(); ++i) grey_f[i] = (grey[i] = static_cast<uint8_t>(i % 256)) * (1.f / 255);
+  TextureSums sums;
+  const ImageF g = linearize_codes_with_texture_sums(grey, ids, &sums), gw = linearize(grey_f, info);
+  EXPECT_TRUE(sums.part.empty());
+  ASSERT_EQ(g.size(), gw.size());
+  EXPECT_EQ(0, std::memcmp(g.data(), gw.data(), g.size() * sizeof(float)));
+  const ImageF ga = linearize_codes(grey);
+  ASSERT_EQ(ga.size(), gw.size());
+  EXPECT_EQ(0, std::memcmp(ga.data(), gw.data(), ga.size() * sizeof(float)));
+  const ImageF o = linearize_codes_with_texture_sums(codes, ImageU16(W + 1, H, 1, 0), &sums), ow = linearize(day, info);
+  EXPECT_TRUE(sums.part.empty());
+  EXPECT_EQ(0, std::memcmp(o.data(), ow.data(), o.size() * sizeof(float)));
 }
 
 // run_end (scene/runs_detail.h: the label-run scan of the darken and depth stages, several
@@ -1482,49 +1459,6 @@ TEST(SceneChain, WithTheLinearisationsSumsIsTheSameScene) {
     std::vector<std::string> stages;
     for (const StageTiming& st : got.timings) stages.push_back(st.stage);
     EXPECT_EQ(stages, (std::vector<std::string>{"darken", "lanes", "edges", "lines", "vanishing", "depth", "lights+compose"}));
-  }
-  omp_set_num_threads(before);
-}
-
-// The scene of an 8-bit file's codes read by the stages themselves (DayLinear, with
-// codes_texture_sums: the chain's path, no linear image written) is the scene of their linear
-// image: every output to the bit, 1 and 2 threads, at the exact halving (the working luminance
-// made in the texture's pass from the decoded chunks) and at another working width (the linear
-// image made from the codes for make_work_images).
-TEST(SceneChain, FromTheCodesIsTheSameScene) {
-  SyntheticOptions o;
-  o.cars = 3;
-  const SyntheticScene s = make_synthetic_road(o);
-  ImageU8 codes(o.width, o.height, 3, 0);
-  std::vector<float> enc(s.day_linear_srgb.size());
-  srgb_encode_floats(s.day_linear_srgb.data(), static_cast<int>(enc.size()), enc.data());
-  for (size_t i = 0; i < codes.size(); ++i)
-    codes[i] = static_cast<uint8_t>(std::lround(std::clamp(enc[i], 0.f, 1.f) * 255.f));
-  const ImageF lin = linearize_codes(codes);
-  const int before = omp_get_max_threads();
-  for (int work_width : {o.width / 2, 400}) {
-    ScenePreset p = preset();
-    p.work_max_width = work_width;
-    omp_set_num_threads(1);
-    const NightScene want = night_scene(lin, s.labels, p, 5, true);
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      const std::string where = fmt::format("work width {}, {} threads", work_width, threads);
-      TextureSums sums;
-      ASSERT_TRUE(codes_texture_sums(codes, s.labels.ids, &sums));
-      const NightScene got = night_scene(DayLinear(codes), s.labels, p, 5, true, nullptr, &sums);
-      EXPECT_EQ(got.radiance.vec(), want.radiance.vec()) << where;
-      EXPECT_EQ(got.darkened.vec(), want.darkened.vec()) << where;
-      EXPECT_EQ(got.lights.vec(), want.lights.vec()) << where;
-      EXPECT_EQ(got.depth.vec(), want.depth.vec()) << where;
-      EXPECT_EQ(got.beam_lux.vec(), want.beam_lux.vec()) << where;
-      EXPECT_EQ(got.lanes_work.vec(), want.lanes_work.vec()) << where;
-      EXPECT_EQ(got.edges_work.vec(), want.edges_work.vec()) << where;
-      EXPECT_EQ(got.lines_work.size(), want.lines_work.size()) << where;
-      EXPECT_EQ(got.vp.x, want.vp.x) << where;
-      EXPECT_EQ(got.vp.y, want.vp.y) << where;
-      EXPECT_EQ(got.light_stats.vehicle_lamps, want.light_stats.vehicle_lamps) << where;
-    }
   }
   omp_set_num_threads(before);
 }

@@ -97,26 +97,22 @@ void run(const Opts& o) {
     t[k].push_back(ms);
   };
   cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
-  // The linear day image, made once outside the timings, for the peer's input and the parts timed
-  // alone below (the chain itself reads an 8-bit PNG's codes: scene::DayLinear).
-  const ImageF lin = codes ? scene::linearize_codes(*codes) : scene::linearize(day, info);
   SensorOutput reused;  // the caller-owned outputs of the "reused outputs" row, kept across rounds
   for (int r = 0; r < o.repeats + 1; ++r) {  // the first round warms caches and is dropped
     const bool keep = r > 0;
     const double cl0 = cpu_ms();
     auto t0 = clock::now();
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
-    // reflectance texture's class sums (its time is in "linearize", no longer in "darken"); of an
-    // 8-bit PNG's codes it makes only the sums, and the stages read the codes themselves.
+    // reflectance texture's class sums (its time is in "linearize", no longer in "darken"); an
+    // 8-bit PNG's codes are linearised directly.
     scene::TextureSums sums;
-    const bool from_codes = codes && scene::codes_texture_sums(*codes, lm.ids, &sums);
-    const ImageF day_lin = from_codes ? ImageF() : scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
-    const scene::DayLinear day_image = from_codes ? scene::DayLinear(*codes) : scene::DayLinear(day_lin);
+    const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums)
+                             : scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
     // As the chain on the CPU: the compose pass also makes the lens glare's level 1, which the
     // sensor rows below start from (its time is in "lights+compose", no longer in the sensor).
-    scene::NightScene ns = scene::night_scene(day_image, lm, sp, 1, false, nullptr, &sums, glare_plan.active);
+    scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums, glare_plan.active);
     const GlareLevel1* level1 = ns.glare_level1.get();
     auto t2 = clock::now();
     const double cs0 = cpu_ms();

@@ -83,7 +83,7 @@ namespace scene {
 // scene::night_scene itself.
 // `sequence`, `sums`, `glare_level1`: as for scene::night_scene; on Vulkan the device makes its
 // own texture sums and no glare level 1 (both ignored there).
-NightScene night_scene(const DayLinear& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                        uint64_t seed, bool keep_darkened, SensorRunner& backend, SequenceState* sequence = nullptr,
                        const TextureSums* sums = nullptr, bool glare_level1 = false);
 }  // namespace scene

@@ -52,7 +52,7 @@ NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFil
 // on the CPU and where setup's lens has a glare (plan_glare active), the glare's level 1 made in
 // the compose pass (NightScene::glare_level1, for mean_signal_electrons / expose). What
 // prepare_night and `batch` both run. `seed`: the scene's seed (batch: the group's).
-scene::NightScene night_scene_for(SensorRunner& runner, const scene::DayLinear& day_linear, const scene::LabelMap& labels,
+scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
                                   const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,
                                   const SensorSetup& setup, scene::SequenceState* sequence = nullptr,
                                   const scene::TextureSums* sums = nullptr);

@@ -41,7 +41,7 @@ const std::vector<float>& srgb_decode_table();
 // same order either way, so the same texture to the bit.
 struct TextureSums {
   std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
-  const void* image = nullptr;  // DayLinear::data() of the day they were summed from
+  const float* image = nullptr;
   const uint16_t* labels = nullptr;
 };
 // linearize(), and with it the texture's class sums over `labels` (the frame's size) into
@@ -52,54 +52,6 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
 ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
-
-// The linear sRGB day image as the scene stages read it (the texture's passes, the working
-// luminance, the light map's colour cues): its floats (linearize()), or an 8-bit sRGB file's
-// codes (interleaved RGB) read through the 256-entry table of their decodes: code c reads the
-// float linearize() gives c·(1/255), so every stage sees the same values to the bit, and the
-// 24 MB linear image is never written (a 2048x1024 frame's codes are 6 MB). A view: the image it
-// names must outlive it.
-class DayLinear {
- public:
-  DayLinear(const ImageF& linear_srgb)  // NOLINT(google-explicit-constructor): every float caller
-      : linear_(&linear_srgb), width_(linear_srgb.width()), height_(linear_srgb.height()) {}
-  // The codes of an 8-bit sRGB file with 3 channels (others: linearize() them instead).
-  explicit DayLinear(const ImageU8& srgb_codes);
-  int width() const { return width_; }
-  int height() const { return height_; }
-  size_t pixel_count() const { return static_cast<size_t>(width_) * height_; }
-  const ImageF* linear() const { return linear_; }  // null for codes
-  const ImageU8* codes() const { return codes_; }   // null for floats
-  const void* data() const { return linear_ ? static_cast<const void*>(linear_->data()) : codes_->data(); }
-  // Pixel i's (reading order) linear sRGB.
-  void pixel(size_t i, float rgb[3]) const {
-    if (linear_) {
-      const float* s = linear_->data() + 3 * i;
-      rgb[0] = s[0], rgb[1] = s[1], rgb[2] = s[2];
-    } else {
-      const uint8_t* c = codes_->data() + 3 * i;
-      rgb[0] = table_[c[0]], rgb[1] = table_[c[1]], rgb[2] = table_[c[2]];
-    }
-  }
-  // Pixels first..first + count - 1 as 3·count floats: where they lie in the linear image, or
-  // decoded from the codes into buf (3·count floats).
-  const float* pixels(size_t first, int count, float* buf) const;
-  // The whole linear image: the one named, or linearize() of the codes made into `made` (for the
-  // readers that want the image itself: `night --maps`, the sun/shade split, a working size
-  // that is not the exact halving).
-  const ImageF& image(ImageF& made) const;
-
- private:
-  const ImageF* linear_ = nullptr;
-  const ImageU8* codes_ = nullptr;
-  const float* table_ = nullptr;  // the 256 codes' decodes
-  int width_ = 0, height_ = 0;
-};
-// The texture's pass 1 (TextureSums) of an 8-bit sRGB file's codes (3 channels, the labels' size),
-// each block of pixels decoded through DayLinear's table into a buffer in L1 right before it is
-// summed: the same sums to the bit as linearize_with_texture_sums of the codes' floats, without
-// writing the linear image (sums->image is the codes'). False (sums empty) when not that case.
-bool codes_texture_sums(const ImageU8& srgb_codes, const ImageU16& labels, TextureSums* sums);
 
 // ---- darken -----------------------------------------------------------------------------
 // Representative reflectance of a class (Table 1 of Baek 2020; unlabeled: mean of the others).
@@ -127,7 +79,7 @@ bool diffuse_class(int label_id);
 // Null: this frame's means (a single frame).
 inline constexpr double kClassMeanMinShare = 1e-3;
 struct ClassMeans { std::array<double, kLabelCount> mean{}; };
-ImageF reflectance_texture(const DayLinear& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
+ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                            ClassMeans* carried = nullptr);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
@@ -155,7 +107,7 @@ struct WorkImages {
   ImageF luma;         // sRGB-encoded luminance [0,1] of the day image
   ImageU16 labels;     // nearest-neighbour labels
 };
-WorkImages make_work_images(const DayLinear& day_linear_srgb, const ImageU16& labels,
+WorkImages make_work_images(const ImageF& day_linear_srgb, const ImageU16& labels,
                             int work_max_width);
 // Lane markings inside the road class (255 = marking): Gaussian blur, then Batista et al.'s
 // horizontal contrast accumulation (brighter than both neighbours at the perspective-scaled
@@ -338,7 +290,7 @@ struct LightMap {
 // with the view). `street` (a sequence's luminaires, scene/luminaires.h): the street lighting to
 // use; null: plan_street_lighting of this frame. `beam_lux` (low_beam_illuminance)
 // lights the lane markings (R_L·E); null: markings stay dark.
-LightMap light_map(const DayLinear& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
+LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
                    const ImageF* depth_m = nullptr, const ImageF* beam_lux = nullptr,
@@ -393,7 +345,7 @@ struct PixelTail {
 // `sums`: linearize_with_texture_sums' class sums of this frame (else the texture makes them).
 // `glare_level1`: make the lens glare's level 1 inside the compose pass (NightScene::glare_level1),
 // for a sensor whose lens has glare.
-NightScene night_scene(const DayLinear& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
+NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                        uint64_t seed, bool keep_darkened = false, SequenceState* sequence = nullptr,
                        const TextureSums* sums = nullptr, bool glare_level1 = false);
 
