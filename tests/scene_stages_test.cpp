@@ -1183,7 +1183,8 @@ static void overwrite_labels(ImageU16& im, const ImageU16& other) {
 
 // metric_depth_with given metric_depth_runs (the labels-only part, which night_scene makes beside
 // the Hough stage) against metric_depth on its own, bit for bit: the synthetic road with its cars'
-// instance ids and without them, and a street with a hedge before its façades, 1 and 2 threads;
+// instance ids and without them, and two streets with a hedge before their façades (in the second a
+// person hides part of the hedge's foot, so that its contact line is read), 1 and 2 threads;
 // runs made of other labels are not taken (the depth of these labels, not of those), nor runs made with the instance ids for the same ids
 // without them or the reverse; and runs made ahead are taken: made of the labels the buffers
 // held before another scene was written into them, they give another depth than that scene's
@@ -1241,14 +1242,44 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
   co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
   co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {8.4, 26, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
   const SyntheticCameraScene street = make_synthetic_camera_scene(co);
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    const BuildingFacades fac = building_facades(street.labels.ids, co.camera, p.max_depth_m);
-    const auto runs = metric_depth_runs(street.labels);
-    EXPECT_EQ(metric_depth_with(street.labels, co.camera, p.max_depth_m, &fac, runs.get()).vec(),
-              metric_depth(street.labels, co.camera, p.max_depth_m, &fac).vec())
-        << threads << " threads, the street";
+  // In that street the near car hides most of the hedge's foot: the few columns that show it
+  // (under a fifth, all on the front face's foot, one image row) are too few for the line, and
+  // their median row, which reading a neighbouring column does not change, is the contact. In a
+  // second street a person on the road hides a part of the hedge's foot: those columns take their
+  // contact from the line fitted through the visible ones, whose foot bends (the front face's is
+  // an image row, the side face's runs toward the vanishing point), so a fit that reads a
+  // column's lowest row from another column gives another line and another depth there (broken
+  // on purpose, each column's row read one column over on the taken path: fails; with the first
+  // street alone it passed).
+  SyntheticCameraOptions hidden = co;
+  hidden.boxes = {{-3.3, 12, 0.7, 1.8, 0.5, Label::Person}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
+  const SyntheticCameraScene street_hidden = make_synthetic_camera_scene(hidden);
+  {  // the case is what it says: hedge columns whose lowest pixel stands on the person, and enough
+     // that stand on the ground for the line (at least 8 and a fifth of the hedge's columns)
+    const ImageU16& ids = street_hidden.labels.ids;
+    int on_person = 0, on_ground = 0, columns = 0;
+    for (int x = 0; x < ids.width(); ++x)
+      for (int y = ids.height() - 2; y >= 0; --y)
+        if (ids.at(x, y) == static_cast<uint16_t>(Label::Vegetation)) {
+          const int below = ids.at(x, y + 1);
+          on_person += below == static_cast<int>(Label::Person);
+          on_ground += is_ground(below);
+          ++columns;
+          break;
+        }
+    EXPECT_GT(on_person, 0);
+    EXPECT_GE(on_ground, 8);
+    EXPECT_GE(5 * on_ground, columns);
   }
+  for (const SyntheticCameraScene* sc : {&street, &street_hidden})
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const BuildingFacades fac = building_facades(sc->labels.ids, co.camera, p.max_depth_m);
+      const auto runs = metric_depth_runs(sc->labels);
+      EXPECT_EQ(metric_depth_with(sc->labels, co.camera, p.max_depth_m, &fac, runs.get()).vec(),
+                metric_depth(sc->labels, co.camera, p.max_depth_m, &fac).vec())
+          << threads << " threads, " << (sc == &street ? "the street" : "the street with the hedge's foot hidden");
+    }
   omp_set_num_threads(saved);
   // The same ids buffer with and without instance ids: runs made with them are not taken without
   // them, nor the reverse. Seen as in the taken case above (the road's own depth is the same with
