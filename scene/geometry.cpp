@@ -217,9 +217,61 @@ struct MetricDepthRuns {
   std::vector<int> col_ymax;
 };
 
-std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm) {
+std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids) {
+  const int W = ids.width(), H = ids.height();
+  auto m = std::make_shared<LabelRuns>();
+  m->labels = LabelsMadeOf(ids);
+  m->width = W;
+  // Rows in fixed bands, joined in row order: the same runs for any thread count.
+  constexpr int kBands = 16;
+  std::vector<std::vector<int>> bx(kBands);
+  std::vector<std::vector<uint16_t>> bid(kBands);
+  std::vector<int> row_runs(H);
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < kBands; ++b)
+    for (int y = H * b / kBands; y < H * (b + 1) / kBands; ++y) {
+      const uint16_t* r = ids.row(y);
+      const size_t before = bx[b].size();
+      for (int x = 0; x < W; x = run_end(r, x, W)) {
+        bx[b].push_back(x);
+        bid[b].push_back(r[x]);
+      }
+      row_runs[y] = static_cast<int>(bx[b].size() - before);
+    }
+  m->row_start.assign(H + 1, 0);
+  for (int y = 0; y < H; ++y) m->row_start[y + 1] = m->row_start[y] + row_runs[y];
+  m->x0.reserve(m->row_start[H]);
+  m->id.reserve(m->row_start[H]);
+  for (int b = 0; b < kBands; ++b) {
+    m->x0.insert(m->x0.end(), bx[b].begin(), bx[b].end());
+    m->id.insert(m->id.end(), bid[b].begin(), bid[b].end());
+  }
+  return m;
+}
+
+namespace {
+// Calls f(x0, x1, id) for row y's runs of one label (x1 inclusive), from `runs` when made of
+// `ids`, else by scanning the row.
+template <class F>
+inline void for_label_runs(const ImageU16& ids, const LabelRuns* runs, int y, const F& f) {
+  if (runs) {
+    for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i) f(runs->x0[i], runs->end(i, y) - 1, runs->id[i]);
+    return;
+  }
+  const uint16_t* r = ids.row(y);
+  const int W = ids.width();
+  for (int x = 0; x < W;) {
+    const int e = run_end(r, x, W);
+    f(x, e - 1, static_cast<int>(r[x]));
+    x = e;
+  }
+}
+}  // namespace
+
+std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm, const LabelRuns* lruns) {
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
+  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(ids))) lruns = nullptr;
   const bool inst = !lm.instances.empty();
   auto m = std::make_shared<MetricDepthRuns>();
   m->labels = LabelsMadeOf(lm);
@@ -230,20 +282,18 @@ std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm) {
   // The key of a pixel: -1 off objects, else its instance code + 1000 where it has one (>= 1000),
   // else its class id. Pieces: runs of one class id, cut where the instance code changes.
   m->rc = run_components(H, [&](int y, auto&& emit) {
-    const uint16_t* r = ids.row(y);
     const uint16_t* in = inst ? lm.instances.row(y) : nullptr;
-    for (int x = 0; x < W;) {
-      const int e = run_end(r, x, W), id = r[x];
-      if (kind_fast(id) != 2) emit(x, e - 1, -1);
-      else if (!in) emit(x, e - 1, id);
+    for_label_runs(ids, lruns, y, [&](int x, int x1, int id) {
+      const int e = x1 + 1;
+      if (kind_fast(id) != 2) emit(x, x1, -1);
+      else if (!in) emit(x, x1, id);
       else
         for (int s = x; s < e;) {
           const int t = run_end(in, s, e), c = in[s];
           emit(s, t - 1, c >= 1000 ? 1000 + c : id);
           s = t;
         }
-      x = e;
-    }
+    });
   });
   const std::vector<KeyedRun>& runs = m->rc.runs;
   const std::vector<int>& comp = m->rc.comp;
@@ -562,19 +612,15 @@ struct BuildingRegions {
   std::vector<int> ymax_all;                     // each column's lowest row of its region
 };
 
-std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids) {
+std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids, const LabelRuns* lruns) {
   const int W = ids.width(), H = ids.height();
+  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(ids))) lruns = nullptr;
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   auto m = std::make_shared<BuildingRegions>();
   m->labels = LabelsMadeOf(ids);
   // 4-connected regions of building pixels, numbered in reading order, with their column extent.
   m->rc = run_components(H, [&](int y, auto&& emit) {
-    const uint16_t* r = ids.row(y);
-    for (int x = 0; x < W;) {
-      const int e = run_end(r, x, W);
-      emit(x, e - 1, r[x] == building ? 0 : -1);
-      x = e;
-    }
+    for_label_runs(ids, lruns, y, [&](int x, int x1, int id) { emit(x, x1, id == building ? 0 : -1); });
   });
   const RunComponents& rc = m->rc;
   const std::vector<KeyedRun>& runs = rc.runs;

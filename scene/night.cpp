@@ -128,30 +128,33 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   s.lanes_work = lane_markings_with_grey(w.luma, w.labels, p, &grey);
   lap("lanes");
   // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
-  // them on a second one the street-lamp plan's labels-only part, its poles' components
+  // them on a second one the label image's runs (label_runs: one scan for the three labels-only
+  // parts) and the street-lamp plan's labels-only part, its poles' components
   // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
-  // thread both in turn (this lap then holds the poles' time, no longer "depth").
+  // thread both in turn (this lap then holds their time, no longer "depth").
   std::shared_ptr<const PoleComponents> poles;
+  std::shared_ptr<const LabelRuns> label_row_runs;
   side_by_side(
       std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
       [&] {
-        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids);  // else no plan
+        label_row_runs = label_runs(labels.ids);
+        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids, label_row_runs.get());  // else no plan
       });
   grey = ImageU8();
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
-  // labels (metric_depth_runs, building_regions) and the lane mask at the frame's size: nothing
-  // else can start before the vanishing point, which needs the lines. At 1 thread both in turn
-  // (this lap then holds their time, no longer "depth").
+  // labels (metric_depth_runs, building_regions, from the label runs made beside Canny) and the
+  // lane mask at the frame's size: nothing else can start before the vanishing point, which
+  // needs the lines. At 1 thread both in turn (this lap then holds their time, no longer "depth").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
   std::shared_ptr<BuildingRegions> regions;
   ImageU8 lanes_full;
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
-        depth_runs = metric_depth_runs(labels);
-        regions = building_regions(labels.ids);
+        depth_runs = metric_depth_runs(labels, label_row_runs.get());
+        regions = building_regions(labels.ids, label_row_runs.get());
         lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
       },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
@@ -208,6 +211,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       });
   depth_runs.reset();
   regions.reset();
+  label_row_runs.reset();
   poles.reset();
   lap("depth");
   StreetLighting tracked;

@@ -47,8 +47,22 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, int width, int height);
 // extents and per-column lowest rows; scene/geometry.cpp), so that night_scene makes it beside
 // the Hough stage, before the vanishing point and the camera geometry exist; metric_depth_with
 // takes it for the labels it was made of (else makes it): the same depth.
+// The label image's runs of one id per row (run_end, scene/runs_detail.h), scanned once for the
+// three labels-only parts below (metric_depth_runs, building_regions, pole_components_of), which
+// otherwise scan the 4 MB image each; each takes it when made of its labels (`ids`), else scans
+// itself: the same runs either way. Row y's runs are row_start[y] .. row_start[y + 1] - 1; run i
+// covers [x0[i], end(i)) and holds label id[i].
+struct LabelRuns {
+  LabelsMadeOf labels;
+  int width = 0;
+  std::vector<int> x0;
+  std::vector<uint16_t> id;
+  std::vector<int> row_start;
+  int end(int i, int y) const { return i + 1 < row_start[y + 1] ? x0[i + 1] : width; }
+};
+std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids);
 struct MetricDepthRuns;
-std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels);
+std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels, const LabelRuns* runs = nullptr);
 ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
                          const BuildingFacades* facades, const MetricDepthRuns* runs);
 // building_facades' part that reads only the labels (the building class's label runs, their
@@ -57,7 +71,7 @@ ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double
 // it (moving its regions out; it then writes the region image from its runs) when it was made of
 // these labels `ids`, else makes it: the same façades.
 struct BuildingRegions;
-std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids);
+std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids, const LabelRuns* runs = nullptr);
 BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry& g, double max_depth_m,
                                       BuildingRegions* regions);
 // plan_street_lighting's part that reads only the labels (its poles' 8-connected components,
@@ -66,7 +80,7 @@ BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry&
 // plan_street_lighting_with takes it when it was made of these labels (lm.ids), else makes it:
 // the same plan.
 struct PoleComponents;
-std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids);
+std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids, const LabelRuns* runs = nullptr);
 StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
                                          uint64_t seed, const PoleComponents* poles);
 // coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a

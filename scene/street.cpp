@@ -347,14 +347,37 @@ double street_illuminance_lux(double X, double D, const StreetLighting& s, const
 
 void street_light_max_isa(int isa) { g_isa_cap = std::clamp(isa, 0, 2); }
 
-std::vector<PoleBox> pole_components(const ImageU16& labels) {
+std::vector<PoleBox> pole_components(const ImageU16& labels) { return pole_components(labels, nullptr); }
+
+std::vector<PoleBox> pole_components(const ImageU16& labels, const LabelRuns* lruns) {
   const int W = labels.width(), H = labels.height();
-  // Each row's runs of pole pixels (first and last column, in pairs), rows in parallel; blocks of
-  // 32 labels without a pole pixel skipped by a branch-free test the compiler vectorizes (poles
-  // are a few percent of a street frame).
+  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(labels))) lruns = nullptr;
+  // Each row's runs of pole pixels (first and last column, in pairs), rows in parallel: from the
+  // label runs when given (touching runs of the two pole classes joined), else by a scan in which
+  // blocks of 32 labels without a pole pixel are skipped by a branch-free test the compiler
+  // vectorizes (poles are a few percent of a street frame).
   std::vector<std::vector<int>> runs(H);
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) {
+    if (lruns) {
+      const uint16_t pole = static_cast<uint16_t>(Label::Pole), group = static_cast<uint16_t>(Label::PoleGroup);
+      std::vector<int>& out = runs[y];
+      bool open = false;
+      for (int i = lruns->row_start[y]; i < lruns->row_start[y + 1]; ++i) {
+        const uint16_t id = lruns->id[i];
+        if (id != pole && id != group) {
+          open = false;
+          continue;
+        }
+        if (open) out.back() = lruns->end(i, y) - 1;
+        else {
+          out.push_back(lruns->x0[i]);
+          out.push_back(lruns->end(i, y) - 1);
+          open = true;
+        }
+      }
+      continue;
+    }
     const uint16_t* r = labels.row(y);
     const int Wr = W;  // a local: the pushes might alias the shared one otherwise
     const uint16_t pole = static_cast<uint16_t>(Label::Pole), group = static_cast<uint16_t>(Label::PoleGroup);
@@ -432,10 +455,10 @@ std::vector<PoleBox> pole_components(const ImageU16& labels) {
   return out;
 }
 
-std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids) {
+std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids, const LabelRuns* runs) {
   auto m = std::make_shared<PoleComponents>();
   m->labels = LabelsMadeOf(ids);
-  m->boxes = pole_components(ids);
+  m->boxes = pole_components(ids, runs);
   return m;
 }
 

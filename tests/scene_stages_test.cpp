@@ -24,6 +24,7 @@
 #include "scene/lanes_detail.h"
 #include "scene/night_detail.h"
 #include "scene/srgb_detail.h"
+#include "scene/street_detail.h"
 #include "scene/texture_detail.h"
 #include "scene/runs_detail.h"
 #include "photosite/error.h"
@@ -1183,7 +1184,8 @@ static void overwrite_labels(ImageU16& im, const ImageU16& other) {
 
 // metric_depth_with given metric_depth_runs (the labels-only part, which night_scene makes beside
 // the Hough stage) against metric_depth on its own, bit for bit: the synthetic road with its cars'
-// instance ids and without them, and a street with a hedge before its façades, 1 and 2 threads;
+// instance ids and without them, and two streets with a hedge before their façades (in the second a
+// person hides part of the hedge's foot, so that its contact line is read), 1 and 2 threads;
 // runs made of other labels are not taken (the depth of these labels, not of those), nor runs made with the instance ids for the same ids
 // without them or the reverse; and runs made ahead are taken: made of the labels the buffers
 // held before another scene was written into them, they give another depth than that scene's
@@ -1241,14 +1243,44 @@ TEST(SceneChain, MetricDepthRunsMadeAheadAreTheSameDepth) {
   co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
   co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {8.4, 26, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
   const SyntheticCameraScene street = make_synthetic_camera_scene(co);
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    const BuildingFacades fac = building_facades(street.labels.ids, co.camera, p.max_depth_m);
-    const auto runs = metric_depth_runs(street.labels);
-    EXPECT_EQ(metric_depth_with(street.labels, co.camera, p.max_depth_m, &fac, runs.get()).vec(),
-              metric_depth(street.labels, co.camera, p.max_depth_m, &fac).vec())
-        << threads << " threads, the street";
+  // In that street the near car hides most of the hedge's foot: the few columns that show it
+  // (under a fifth, all on the front face's foot, one image row) are too few for the line, and
+  // their median row, which reading a neighbouring column does not change, is the contact. In a
+  // second street a person on the road hides a part of the hedge's foot: those columns take their
+  // contact from the line fitted through the visible ones, whose foot bends (the front face's is
+  // an image row, the side face's runs toward the vanishing point), so a fit that reads a
+  // column's lowest row from another column gives another line and another depth there (broken
+  // on purpose, each column's row read one column over on the taken path: fails; with the first
+  // street alone it passed).
+  SyntheticCameraOptions hidden = co;
+  hidden.boxes = {{-3.3, 12, 0.7, 1.8, 0.5, Label::Person}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation}};
+  const SyntheticCameraScene street_hidden = make_synthetic_camera_scene(hidden);
+  {  // the case is what it says: hedge columns whose lowest pixel stands on the person, and enough
+     // that stand on the ground for the line (at least 8 and a fifth of the hedge's columns)
+    const ImageU16& ids = street_hidden.labels.ids;
+    int on_person = 0, on_ground = 0, columns = 0;
+    for (int x = 0; x < ids.width(); ++x)
+      for (int y = ids.height() - 2; y >= 0; --y)
+        if (ids.at(x, y) == static_cast<uint16_t>(Label::Vegetation)) {
+          const int below = ids.at(x, y + 1);
+          on_person += below == static_cast<int>(Label::Person);
+          on_ground += is_ground(below);
+          ++columns;
+          break;
+        }
+    EXPECT_GT(on_person, 0);
+    EXPECT_GE(on_ground, 8);
+    EXPECT_GE(5 * on_ground, columns);
   }
+  for (const SyntheticCameraScene* sc : {&street, &street_hidden})
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      const BuildingFacades fac = building_facades(sc->labels.ids, co.camera, p.max_depth_m);
+      const auto runs = metric_depth_runs(sc->labels);
+      EXPECT_EQ(metric_depth_with(sc->labels, co.camera, p.max_depth_m, &fac, runs.get()).vec(),
+                metric_depth(sc->labels, co.camera, p.max_depth_m, &fac).vec())
+          << threads << " threads, " << (sc == &street ? "the street" : "the street with the hedge's foot hidden");
+    }
   omp_set_num_threads(saved);
   // The same ids buffer with and without instance ids: runs made with them are not taken without
   // them, nor the reverse. Seen as in the taken case above (the road's own depth is the same with
@@ -1358,6 +1390,85 @@ TEST(SceneChain, BuildingRegionsMadeAheadAreTheSameFacades) {
   }
   omp_set_num_threads(saved);
   EXPECT_GT(fitted, 0);  // the street's façades are fitted planes, not only the road's unfitted ones
+}
+
+// label_runs (the label image's runs, scanned once for the three labels-only parts) against the
+// per-pixel definition (each row covered left to right by maximal runs of one label), and the
+// three parts made from it against the parts that scan the labels themselves: metric depth's
+// runs (the synthetic road with and without instance ids, a street with a hedge), the façades'
+// regions (the same scenes) and the poles' components (random rows of road, pole and pole group,
+// whose touching pole and pole-group runs are one pole run; a street with two poles), 1 and 2
+// threads; runs of other labels of the same size are not taken (broken on purpose: the pole and
+// pole-group runs of a row not joined, fails).
+TEST(SceneChain, LabelRunsMadeOnceFeedTheThreeLabelsOnlyParts) {
+  SyntheticOptions o;
+  o.cars = 4;
+  const SyntheticScene road = make_synthetic_road(o);
+  const NightScene ns = night_scene(road.day_linear_srgb, road.labels, preset(), 5);
+  SyntheticCameraOptions co;
+  VanishingPoint none;
+  co.camera = camera_geometry(load_camera_rig("cityscapes"), co.width, co.height, none);
+  co.boxes = {{-3.5, 12, 1.8, 1.5, 4.5}, {-9.0, 24, 1.0, 2.2, 14, Label::Vegetation},
+              {-8.5, 25, 0.3, 8, 0.3, Label::Pole}, {8.6, 45, 0.3, 8, 0.3, Label::Pole}};
+  const SyntheticCameraScene street = make_synthetic_camera_scene(co);
+  ImageU16 poles(203, 37, 1, 0);
+  XorShift rnd{99};
+  const uint16_t ids3[] = {uint16_t(Label::Road), uint16_t(Label::Pole), uint16_t(Label::PoleGroup)};
+  for (size_t i = 0; i < poles.size();) {
+    const uint16_t id = ids3[static_cast<int>(rnd() * 3)];
+    for (size_t e = std::min(poles.size(), i + 1 + static_cast<size_t>(rnd() * 6)); i < e; ++i) poles[i] = id;
+  }
+  const double max_m = preset().max_depth_m;
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    for (const ImageU16* ids : {&road.labels.ids, &street.labels.ids, static_cast<const ImageU16*>(&poles)}) {
+      const auto runs = label_runs(*ids);
+      const std::string where = fmt::format("{}x{}, {} threads", ids->width(), ids->height(), threads);
+      ASSERT_EQ(runs->row_start.size(), static_cast<size_t>(ids->height() + 1)) << where;
+      for (int y = 0; y < ids->height(); ++y) {
+        int x = 0;
+        for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i) {
+          ASSERT_EQ(runs->x0[i], x) << where << ", row " << y;
+          const int e = runs->end(i, y);
+          ASSERT_GT(e, x);
+          for (; x < e; ++x) ASSERT_EQ(ids->at(x, y), runs->id[i]) << where << ", row " << y;
+          if (e < ids->width()) ASSERT_NE(ids->at(e, y), runs->id[i]) << where << ", row " << y;
+        }
+        ASSERT_EQ(x, ids->width()) << where << ", row " << y;
+      }
+      const auto boxes = pole_components(*ids, runs.get()), want = pole_components(*ids);
+      ASSERT_EQ(boxes.size(), want.size()) << where;
+      for (size_t b = 0; b < want.size(); ++b)
+        EXPECT_TRUE(boxes[b].x0 == want[b].x0 && boxes[b].x1 == want[b].x1 && boxes[b].y0 == want[b].y0 &&
+                    boxes[b].y1 == want[b].y1)
+            << where << ", box " << b;
+      EXPECT_EQ(pole_components_of(*ids, runs.get())->boxes.size(), want.size()) << where;
+    }
+    EXPECT_GT(pole_components(street.labels.ids).size(), 1u);
+    for (int scene = 0; scene < 2; ++scene) {
+      const LabelMap& lm = scene == 0 ? road.labels : street.labels;
+      const CameraGeometry& g = scene == 0 ? ns.geometry : co.camera;
+      const auto runs = label_runs(lm.ids);
+      const auto elsewhere = label_runs(scene == 0 ? street.labels.ids : road.labels.ids);  // not taken
+      const BuildingFacades want_fac = building_facades(lm.ids, g, max_m);
+      for (const LabelRuns* r : {runs.get(), elsewhere.get()}) {
+        const std::string where = fmt::format("scene {}, {} threads, {}", scene, threads, r == runs.get() ? "its runs" : "other runs");
+        const BuildingFacades fac = building_facades_with(lm.ids, g, max_m, building_regions(lm.ids, r).get());
+        EXPECT_EQ(fac.region.vec(), want_fac.region.vec()) << where;
+        ASSERT_EQ(fac.planes.size(), want_fac.planes.size()) << where;
+        for (size_t i = 0; i < fac.planes.size(); ++i)
+          EXPECT_TRUE(fac.planes[i].d_m == want_fac.planes[i].d_m && fac.planes[i].nX == want_fac.planes[i].nX) << where;
+        LabelMap no_instances = lm;
+        no_instances.instances = ImageU16();
+        for (const LabelMap* l : {&lm, static_cast<const LabelMap*>(&no_instances)})
+          EXPECT_EQ(metric_depth_with(*l, g, max_m, &want_fac, metric_depth_runs(*l, r).get()).vec(),
+                    metric_depth(*l, g, max_m, &want_fac).vec())
+              << where << (l == &lm ? "" : ", without instance ids");
+      }
+    }
+  }
+  omp_set_num_threads(saved);
 }
 
 // plan_street_lighting_with given pole_components_of (the labels-only part, which night_scene
