@@ -133,61 +133,13 @@ int analog_row_avx512(float* __restrict erow, const float* __restrict off, const
   }
   return x;
 }
-// analog_row where the CPU has AVX2 but not AVX-512: analog_row_avx512's step, 8 pixels a step
-// as two halves of 4 in double (vcvtps2pd of each 128-bit half), the floor as vroundpd toward
-// −∞ and the clamp as vmaxpd(0, vminpd(max, dn)); the same IEEE operations in the same order,
-// no FMA (GCC's AVX2 clone of the definition, which this replaces, widened and narrowed
-// through lane shuffles). Returns the first pixel it left.
-__attribute__((target("avx2"))) inline __m256d analog_dn_avx2(__m128 e, __m128 off, __m128 rz, __m128 col,
-                                                               __m256d vrow, __m256d vK, __m256d vblack,
-                                                               __m256d vhalf, __m256d vmax) {
-  __m256d v = _mm256_add_pd(_mm256_cvtps_pd(e), _mm256_cvtps_pd(off));
-  v = _mm256_add_pd(v, _mm256_cvtps_pd(rz));
-  v = _mm256_add_pd(v, vrow);
-  v = _mm256_add_pd(v, _mm256_cvtps_pd(col));
-  __m256d dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(v, vK), vblack), vhalf);
-  dn = _mm256_round_pd(dn, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-  return _mm256_max_pd(_mm256_setzero_pd(), _mm256_min_pd(vmax, dn));
-}
-__attribute__((target("avx2")))
-int analog_row_avx2(float* __restrict erow, const float* __restrict off, const float* __restrict read,
-                    const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
-                    double max_code, int w, float* __restrict drow, float* __restrict abrow) {
-  const __m256 vfw = _mm256_set1_ps(fw), vrn = _mm256_set1_ps(rn), vblk = _mm256_set1_ps(static_cast<float>(black));
-  const __m256d vrow = _mm256_set1_pd(static_cast<double>(row_noise)), vK = _mm256_set1_pd(K),
-                vblack = _mm256_set1_pd(black), vhalf = _mm256_set1_pd(static_cast<double>(0.5f)),
-                vmax = _mm256_set1_pd(max_code);
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    const __m256 e = _mm256_min_ps(vfw, _mm256_loadu_ps(erow + x));
-    _mm256_storeu_ps(erow + x, e);
-    const __m256 rz = _mm256_mul_ps(vrn, _mm256_loadu_ps(read + x));
-    const __m256 o = _mm256_loadu_ps(off + x), c = _mm256_loadu_ps(col + x);
-    const __m256d lo = analog_dn_avx2(_mm256_castps256_ps128(e), _mm256_castps256_ps128(o),
-                                      _mm256_castps256_ps128(rz), _mm256_castps256_ps128(c), vrow, vK, vblack, vhalf,
-                                      vmax);
-    const __m256d hi = analog_dn_avx2(_mm256_extractf128_ps(e, 1), _mm256_extractf128_ps(o, 1),
-                                      _mm256_extractf128_ps(rz, 1), _mm256_extractf128_ps(c, 1), vrow, vK, vblack,
-                                      vhalf, vmax);
-    const __m256 d = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm256_cvtpd_ps(lo)), _mm256_cvtpd_ps(hi), 1);
-    _mm256_storeu_ps(drow + x, d);
-    _mm256_storeu_ps(abrow + x, _mm256_sub_ps(d, vblk));
-  }
-  return x;
-}
-// The widest vector level analog_row may take: the machine's, capped by
-// detail::analog_row_max_isa (tests).
-std::atomic<int> g_analog_isa_cap{2};
+const bool kAnalogAvx512 = photosite::detail::have_avx512();
 }  // namespace
-void detail::analog_row_max_isa(int isa) { g_analog_isa_cap.store(std::clamp(isa, 0, 2)); }
 void detail::analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn,
                         float fw, double K, double black, double max_code, int w, float* drow, float* abrow) {
-  const int isa = std::min(machine_isa_level(), g_analog_isa_cap.load(std::memory_order_relaxed));
-  const int x = isa >= 2   ? analog_row_avx512(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w, drow,
-                                               abrow)
-                : isa == 1 ? analog_row_avx2(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w, drow,
-                                             abrow)
-                           : 0;
+  const int x = kAnalogAvx512 ? analog_row_avx512(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w,
+                                                  drow, abrow)
+                              : 0;
   analog_row_definition(erow + x, off + x, read + x, col + x, row_noise, rn, fw, K, black, max_code, w - x, drow + x,
                         abrow + x);
 }
