@@ -325,6 +325,24 @@ __attribute__((target("avx2"))) inline __m256 atanf_cephes8(__m256 x) {
   const __m256 a = _mm256_add_ps(y0, atan_poly8(_mm256_div_ps(num, den)));
   return _mm256_or_ps(a, _mm256_and_ps(x, sign));
 }
+// atanf_cephes8 of four vectors (both lamps' h and v arguments) at once: where no lane of any of
+// them is reduced (the common case) their four polynomials as one straight run of independent
+// operations, which the core overlaps (one at a time, each waited on its own chain of dependent
+// multiplications); otherwise atanf_cephes8 of each. The same operations on every lane.
+__attribute__((target("avx2"))) inline void atanf_cephes8x4(const __m256 (&x)[4], __m256 (&out)[4]) {
+  const __m256 sign = _mm256_set1_ps(-0.f), lim = _mm256_set1_ps(0.4142135623730950f);
+  __m256 ax[4], mid = _mm256_setzero_ps();
+  for (int q = 0; q < 4; ++q) {
+    ax[q] = _mm256_andnot_ps(sign, x[q]);
+    mid = _mm256_or_ps(mid, _mm256_cmp_ps(ax[q], lim, _CMP_GT_OQ));
+  }
+  if (_mm256_movemask_ps(mid) != 0) {
+    for (int q = 0; q < 4; ++q) out[q] = atanf_cephes8(x[q]);
+    return;
+  }
+  // atanf_cephes8's unreduced path, four times over.
+  for (int q = 0; q < 4; ++q) out[q] = _mm256_or_ps(atan_poly8(ax[q]), _mm256_and_ps(x[q], sign));
+}
 
 // A table cell's numbers as vectors (every lane the same): its bounds (BeamF::sorted), grid
 // angles with their reciprocal widths, and the four intensities at its corners.
@@ -393,12 +411,22 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x + 4)));
     const __m256 X = _mm256_set_m128(hi, lo);
     __m256 acc = zero;
+    // Both lamps' geometry first, as independent runs of operations (the core overlaps the two
+    // lamps' chains of dependent square roots, divisions and polynomials), then each lamp's table
+    // (as beam_row_avx512).
+    __m256 d2s[2], ds[2], args[4], angles[4];
     for (int k = 0; k < 2; ++k) {
       const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(b.xl[k]));
       const __m256 horiz2 = _mm256_add_ps(_mm256_mul_ps(dx, dx), vD2), horiz = _mm256_sqrt_ps(horiz2);
-      const __m256 d2 = _mm256_add_ps(horiz2, hl2), d = _mm256_sqrt_ps(d2);
-      const __m256 h = _mm256_mul_ps(atanf_cephes8(_mm256_mul_ps(dx, vinvD)), deg);
-      const __m256 v = _mm256_xor_ps(_mm256_mul_ps(atanf_cephes8(_mm256_div_ps(hl, horiz)), deg), sign);
+      d2s[k] = _mm256_add_ps(horiz2, hl2), ds[k] = _mm256_sqrt_ps(d2s[k]);
+      args[2 * k] = _mm256_mul_ps(dx, vinvD);
+      args[2 * k + 1] = _mm256_div_ps(hl, horiz);
+    }
+    atanf_cephes8x4(args, angles);
+    for (int k = 0; k < 2; ++k) {
+      const __m256 d2 = d2s[k], d = ds[k];
+      const __m256 h = _mm256_mul_ps(angles[2 * k], deg);
+      const __m256 v = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
       const __m256 cut = _mm256_min_ps(_mm256_add_ps(cv, _mm256_mul_ps(_mm256_max_ps(h, zero), rise)), cmax);
       __m256 lit = _mm256_cmp_ps(v, cut, _CMP_LE_OQ);
       lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)));
