@@ -58,7 +58,6 @@ GlarePlan lens_glare_plan(const CameraPreset& preset, const LensPreset& lens);
 
 struct GlareLevel1;  // sensor/glare.h
 
-
 // Mean photo-electrons per pixel (before PRNU and noise), sampled through the CFA. Rejects NaN,
 // Inf and negative radiance (bad input). `glare_level1`: the lens glare's level 1 of this
 // radiance, made by the caller (glare_level1_row: the scene's compose pass), or null; the same
