@@ -31,6 +31,7 @@
 #include "photosite/backend.h"
 #include "photosite/characterize.h"
 #include "photosite/error.h"
+#include "photosite/frame_buffers.h"
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
 #include "photosite/outputs.h"
@@ -513,6 +514,26 @@ PYBIND11_MODULE(_photosite, m) {
   m.def("_before_fork", &before_fork);
   m.def("_after_fork_in_parent", &after_fork_in_parent);
 
+  // A frame loop in Python would otherwise page-fault every frame's buffers in afresh (glibc
+  // returns freed ones to the kernel; the module must not change the host process's malloc
+  // settings): the library keeps its own freed frame buffers, up to the default limit
+  // (include/photosite/frame_buffers.h, docs/python.md).
+  set_frame_buffer_cache_limit(kFrameBufferDefaultLimit);
+  m.def("frame_buffer_cache", [](std::optional<int64_t> limit_bytes) {
+    if (limit_bytes) {
+      if (*limit_bytes < 0) throw Error(fmt::format("frame_buffer_cache: limit_bytes is {}: must be 0 or more", *limit_bytes));
+      set_frame_buffer_cache_limit(static_cast<size_t>(*limit_bytes));
+    }
+    const FrameBufferCacheStats s = frame_buffer_cache_stats();
+    py::dict d;
+    d["limit_bytes"] = s.limit_bytes;
+    d["held_bytes"] = s.held_bytes;
+    d["held_buffers"] = s.held_blocks;
+    d["reused"] = s.reused;
+    d["allocated"] = s.allocated;
+    return d;
+  }, py::arg("limit_bytes") = py::none());
+
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -543,7 +564,7 @@ PYBIND11_MODULE(_photosite, m) {
   py::class_<NightResult>(m, "NightResult")
       .def_readonly("radiance", &NightResult::radiance, "float32 H x W x 3: night scene radiance, W.sr-1.m-2")
       .def_readonly("lights", &NightResult::lights, "float32 H x W x 3: artificial light radiance, W.sr-1.m-2")
-      .def_readonly("depth", &NightResult::depth, "float32 H x W: relative depth 0..1 (vanishing-point ramp)")
+      .def_readonly("depth", &NightResult::depth, "float32 H x W: metres along the optical axis (sky 65504, the largest half), from the rig")
       .def_readonly("labels", &NightResult::labels, "uint16 H x W: Cityscapes labelIds")
       .def_readonly("vanishing_point", &NightResult::vanishing_point, "(x px, y px, confidence 0..1, method)")
       .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")

@@ -12,16 +12,27 @@
 #include <utility>
 #include <vector>
 
+#include "photosite/frame_buffers.h"
+
 namespace photosite {
 
 // An allocator whose value-initialisation is default-initialisation: a buffer that a stage is
 // about to overwrite in full is not first zero-filled (a 2048x1024 RGB float image is 25 MB:
 // the memset alone costs about as much as a simple per-pixel stage).
+// Buffers of a megabyte and more go through the frame-buffer cache (frame_buffers.h), which a
+// program running frame after frame can turn on so that freed frames are reused, not faulted in
+// again; with the cache off (the default) they come from and go to ::operator new and delete.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
+  static_assert(alignof(T) <= __STDCPP_DEFAULT_NEW_ALIGNMENT__, "over-aligned samples need an aligned allocation");
   template <class U>
   struct rebind { using other = DefaultInitAllocator<U>; };
   using std::allocator<T>::allocator;
+  T* allocate(size_t n) {
+    if (n > static_cast<size_t>(-1) / sizeof(T)) throw std::bad_array_new_length();
+    return static_cast<T*>(detail::frame_buffer_allocate(n * sizeof(T)));
+  }
+  void deallocate(T* p, size_t n) noexcept { detail::frame_buffer_release(p, n * sizeof(T)); }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
   template <class U, class... Args>

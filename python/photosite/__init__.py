@@ -32,7 +32,7 @@ from . import presets
 os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent)
 
 __all__ = ["Camera", "NightResult", "SensorResult", "night", "chart", "demosaic", "characterize", "read_exr",
-           "write_exr", "read_image", "read_codes", "presets"]
+           "write_exr", "read_image", "read_codes", "frame_buffer_cache", "presets"]
 
 Camera.__doc__ = """Camera(preset, lens=None, device_id=None, device_store=None)
 
@@ -173,3 +173,20 @@ def read_codes(path: str) -> np.ndarray:
     """Read an 8/16-bit image's integer codes unscaled: uint8 for 8-bit files, else uint16
     (day PNGs for night(), label and instance PNGs)."""
     return _photosite.read_codes(path)
+
+
+def frame_buffer_cache(limit_bytes: Optional[int] = None) -> dict:
+    """The library's cache of freed frame buffers: read it, or set its limit in bytes.
+
+    A loop of night() or expose() calls frees and allocates the same full-resolution buffers every
+    frame (about 100 MB at 2048x1024). glibc hands large freed buffers back to the kernel, so each
+    frame would fault its pages in and have them zeroed again; the module does not change the host
+    process's malloc settings, so the library keeps buffers of 1 MiB and more, once freed, for
+    reuse by an allocation of the same size. On import the limit is 1 GiB (a few frames' buffers at
+    2048x1024); the buffers held count in the process's memory. limit_bytes=0 frees them all and
+    turns the cache off.
+
+    Returns {"limit_bytes", "held_bytes", "held_buffers", "reused", "allocated"}: the limit, what it
+    holds now, and how many buffers of 1 MiB or more were taken from it or from the allocator.
+    """
+    return _photosite.frame_buffer_cache(limit_bytes)

@@ -16,7 +16,7 @@ class SensorResult:
 class NightResult:
     radiance: npt.NDArray[np.float32]  # H x W x 3, W.sr-1.m-2
     lights: npt.NDArray[np.float32]    # H x W x 3, W.sr-1.m-2
-    depth: npt.NDArray[np.float32]     # H x W, relative 0..1
+    depth: npt.NDArray[np.float32]     # H x W, metres along the optical axis (sky 65504)
     labels: npt.NDArray[np.uint16]     # H x W Cityscapes labelIds
     vanishing_point: Tuple[float, float, float, str]  # x px, y px, confidence 0..1, method
     sensor: SensorResult
@@ -59,3 +59,4 @@ def chart(width: int = ..., height: int = ..., illuminance_lux: float = ..., cct
           lamp_cd_m2: float = ..., background_cd_m2: float = ...) -> npt.NDArray[np.float32]: ...
 def read_image(path: str) -> npt.NDArray[np.float32]: ...
 def read_codes(path: str) -> npt.NDArray[Union[np.uint8, np.uint16]]: ...
+def frame_buffer_cache(limit_bytes: Optional[int] = ...) -> dict: ...

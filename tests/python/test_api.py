@@ -311,3 +311,54 @@ def test_camera_preview_matches_cli(kitti, cli, store, tmp_path):
         r.sensor.preview(isp="camera", jpeg_quality=101)
     with pytest.raises(ValueError, match="isp"):
         r.preview(isp="jpeg")
+
+
+def test_frame_buffer_cache_is_on_after_import_and_reuses_every_large_buffer(kitti, store):
+    # The module turns the library's frame-buffer cache on (1 GiB); a call repeating the last one
+    # then takes every buffer of 1 MiB and more from it: none goes to the allocator.
+    assert ps.frame_buffer_cache()["limit_bytes"] == 1 << 30
+    day, labels = kitti
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    for _ in range(2):  # the first call also makes the device's maps, the second reads them back
+        r = ps.night(day, labels, camera=cam, backend="cpu")
+        del r  # its arrays' buffers go back to the cache
+    before = ps.frame_buffer_cache()
+    r = ps.night(day, labels, camera=cam, backend="cpu")
+    after = ps.frame_buffer_cache()
+    assert after["reused"] > before["reused"]
+    assert after["allocated"] == before["allocated"], (before, after)
+    assert after["held_bytes"] <= after["limit_bytes"]
+
+
+def test_frame_buffer_cache_does_not_change_results(kitti, store):
+    # A reused buffer holds another frame's samples where fresh memory holds zeros: frame A alone
+    # with the cache off, then frame B and A again with it on, give A's arrays to the bit.
+    day, labels = kitti
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    outputs = lambda r: [r.radiance, r.lights, r.depth, r.sensor.raw, r.sensor.rgb, r.sensor.electrons]
+    limit = ps.frame_buffer_cache()["limit_bytes"]
+    try:
+        ps.frame_buffer_cache(0)
+        ref = outputs(ps.night(day, labels, camera=cam, backend="cpu", seed=3))
+        ps.frame_buffer_cache(limit)
+        flipped = ps.night(np.ascontiguousarray(day[:, ::-1]), np.ascontiguousarray(labels[:, ::-1]), camera=cam,
+                           backend="cpu", seed=4)
+        del flipped
+        reused = ps.frame_buffer_cache()["reused"]
+        again = outputs(ps.night(day, labels, camera=cam, backend="cpu", seed=3))
+        assert ps.frame_buffer_cache()["reused"] > reused
+        for a, b in zip(ref, again):
+            np.testing.assert_array_equal(a, b)
+    finally:
+        ps.frame_buffer_cache(limit)
+
+
+def test_frame_buffer_cache_limit(store):
+    limit = ps.frame_buffer_cache()["limit_bytes"]
+    try:
+        assert ps.frame_buffer_cache(0) == {**ps.frame_buffer_cache(), "limit_bytes": 0, "held_bytes": 0,
+                                            "held_buffers": 0}
+        with pytest.raises(ValueError, match="limit_bytes is -1: must be 0 or more"):
+            ps.frame_buffer_cache(-1)
+    finally:
+        ps.frame_buffer_cache(limit)

@@ -1,0 +1,98 @@
+// The cache of freed frame buffers (include/photosite/frame_buffers.h): off by default, reuse by
+// exact size within its limit, and results that do not depend on what a reused buffer held.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "photosite/frame_buffers.h"
+#include "photosite/image.h"
+#include "photosite/scene/night.h"
+#include "photosite/scene/rig.h"
+#include "photosite/scene/scene_preset.h"
+
+using namespace photosite;
+
+namespace {
+// Each test leaves the process's cache as it found it (off, in this binary).
+struct CacheLimit {
+  explicit CacheLimit(size_t bytes) { set_frame_buffer_cache_limit(bytes); }
+  ~CacheLimit() { set_frame_buffer_cache_limit(0); }
+};
+bool same_bits(const ImageF& a, const ImageF& b) {
+  return a.same_shape(b) && a.channels() == b.channels() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+}  // namespace
+
+TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
+  ASSERT_EQ(frame_buffer_cache_stats().limit_bytes, 0u) << "a program turns the cache on; the library does not";
+  const FrameBufferCacheStats s0 = frame_buffer_cache_stats();
+  { ImageF a(1024, 512, 1, 0.f); }  // 2 MiB, freed with the cache off: not held
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, 0u);
+
+  const size_t plane = size_t{1024} * 512 * sizeof(float);  // 2 MiB
+  CacheLimit on(3 * plane);
+  const float* first;
+  {
+    ImageF a(1024, 512, 1, 0.f);
+    first = a.data();
+  }
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, plane);
+  {
+    ImageF other(512, 512, 1, 0.f);  // another size: not the held buffer
+    EXPECT_NE(other.data(), first);
+    ImageF b(1024, 512, 1, uninitialized);  // the same size: the held buffer
+    EXPECT_EQ(b.data(), first);
+  }
+  FrameBufferCacheStats s = frame_buffer_cache_stats();
+  EXPECT_EQ(s.reused - s0.reused, 1u);
+  EXPECT_EQ(s.held_bytes, plane + plane / 2);  // b's 2 MiB and other's 1 MiB, freed into the cache
+  EXPECT_EQ(s.held_blocks, 2u);
+  {  // Five planes freed into a cache of three: it holds what fits and frees the rest.
+    std::vector<ImageF> v;
+    for (int i = 0; i < 5; ++i) v.emplace_back(1024, 512, 1, 1.f);
+  }
+  s = frame_buffer_cache_stats();
+  EXPECT_LE(s.held_bytes, 3 * plane);
+  EXPECT_GE(s.held_bytes, 2 * plane);
+  { ImageU8 small(512, 512, 1, 0); }  // 256 KiB: below kFrameBufferMinBytes, never held
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, s.held_bytes);
+  set_frame_buffer_cache_limit(plane);  // a lower limit frees what is held beyond it at once
+  EXPECT_LE(frame_buffer_cache_stats().held_bytes, plane);
+  set_frame_buffer_cache_limit(0);
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, 0u);
+  EXPECT_EQ(frame_buffer_cache_stats().held_blocks, 0u);
+}
+
+// A buffer taken from the cache holds its last owner's samples, where fresh memory would be
+// zero pages: a stage that read a sample before writing it would give other numbers after another
+// scene. Scene A alone (cache off), then B and A again with the cache on: A's radiance, light map
+// and depth are the same bits, and the second A took buffers from the cache (else the check
+// would not have exercised it).
+TEST(FrameBuffers, ReusedBuffersDoNotChangeResults) {
+  using namespace photosite::scene;
+  const int W = 768, H = 384;
+  auto options = [&](std::vector<SyntheticBox> boxes) {
+    SyntheticCameraOptions o;
+    o.width = W;
+    o.height = H;
+    VanishingPoint none;
+    o.camera = camera_geometry(load_camera_rig("cityscapes"), W, H, none);
+    o.boxes = std::move(boxes);
+    return o;
+  };
+  const SyntheticCameraScene a = make_synthetic_camera_scene(options({{-3.5, 12, 1.8, 1.5, 4.5}, {0.0, 32, 2.5, 3.0, 10}}));
+  const SyntheticCameraScene b = make_synthetic_camera_scene(
+      options({{2.5, 8, 1.8, 1.5, 4.5}, {-4.0, 15, 2.2, 2.8, 8}, {3.0, 40, 1.8, 1.5, 4.5}}));
+  const ScenePreset p = load_scene_preset("night-urban");
+  const NightScene ref = night_scene(a.day_linear_srgb, a.labels, p, 1);
+
+  CacheLimit on(kFrameBufferDefaultLimit);
+  { const NightScene nb = night_scene(b.day_linear_srgb, b.labels, p, 1); }
+  const uint64_t reused0 = frame_buffer_cache_stats().reused;
+  const NightScene again = night_scene(a.day_linear_srgb, a.labels, p, 1);
+  EXPECT_GT(frame_buffer_cache_stats().reused, reused0) << "scene A took no buffer from the cache";
+  EXPECT_TRUE(same_bits(ref.radiance, again.radiance));
+  EXPECT_TRUE(same_bits(ref.lights, again.lights));
+  EXPECT_TRUE(same_bits(ref.depth, again.depth));
+}
