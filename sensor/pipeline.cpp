@@ -133,56 +133,13 @@ int analog_row_avx512(float* __restrict erow, const float* __restrict off, const
   }
   return x;
 }
-// analog_row_avx512's steps on AVX2: 8 pixels a step, the double part in two halves of 4 (each
-// float input loaded 4 wide and widened once), where GCC's AVX2 clone of the definition loaded 8
-// floats and split each into halves (vextractf128) and joined the two halves' float DN
-// (vinsertf128). The same operations per pixel in the same order; floor by vroundpd toward −∞;
-// the clamp as vmaxpd(0, vminpd(max, dn)). Returns the first pixel it left.
-__attribute__((target("avx2"))) inline __m256d cvt4(const float* p) { return _mm256_cvtps_pd(_mm_loadu_ps(p)); }
-__attribute__((target("avx2")))
-int analog_row_avx2(float* __restrict erow, const float* __restrict off, const float* __restrict read,
-                    const float* __restrict col, float row_noise, float rn, float fw, double K, double black,
-                    double max_code, int w, float* __restrict drow, float* __restrict abrow) {
-  const __m256 vfw = _mm256_set1_ps(fw), vrn = _mm256_set1_ps(rn), vblk = _mm256_set1_ps(static_cast<float>(black));
-  const __m256d vrow = _mm256_set1_pd(static_cast<double>(row_noise)), vK = _mm256_set1_pd(K),
-                vblack = _mm256_set1_pd(black), vhalf = _mm256_set1_pd(static_cast<double>(0.5f)),
-                vmax = _mm256_set1_pd(max_code), vzero = _mm256_setzero_pd();
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    const __m256 e = _mm256_min_ps(vfw, _mm256_loadu_ps(erow + x));
-    _mm256_storeu_ps(erow + x, e);
-    const __m256 rz = _mm256_mul_ps(vrn, _mm256_loadu_ps(read + x));
-    __m128 d4[2];
-    for (int h = 0; h < 2; ++h) {
-      const int xh = x + 4 * h;
-      __m256d v = _mm256_add_pd(_mm256_cvtps_pd(h == 0 ? _mm256_castps256_ps128(e) : _mm256_extractf128_ps(e, 1)),
-                                cvt4(off + xh));
-      v = _mm256_add_pd(v, _mm256_cvtps_pd(h == 0 ? _mm256_castps256_ps128(rz) : _mm256_extractf128_ps(rz, 1)));
-      v = _mm256_add_pd(v, vrow);
-      v = _mm256_add_pd(v, cvt4(col + xh));
-      __m256d dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(v, vK), vblack), vhalf);
-      dn = _mm256_round_pd(dn, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-      dn = _mm256_max_pd(vzero, _mm256_min_pd(vmax, dn));
-      d4[h] = _mm256_cvtpd_ps(dn);
-      _mm_storeu_ps(drow + xh, d4[h]);
-      _mm_storeu_ps(abrow + xh, _mm_sub_ps(d4[h], _mm256_castps256_ps128(vblk)));
-    }
-  }
-  return x;
-}
-// The level analog_row takes: the machine's (core/isa_detail.h), capped by
-// detail::analog_row_max_isa (tests).
-std::atomic<int> g_analog_isa_cap{2};
+const bool kAnalogAvx512 = photosite::detail::have_avx512();
 }  // namespace
-void detail::analog_row_max_isa(int isa) { g_analog_isa_cap.store(std::clamp(isa, 0, 2)); }
 void detail::analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn,
                         float fw, double K, double black, double max_code, int w, float* drow, float* abrow) {
-  const int isa = std::min(detail::machine_isa_level(), g_analog_isa_cap.load(std::memory_order_relaxed));
-  const int x = isa >= 2   ? analog_row_avx512(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w, drow,
-                                               abrow)
-                : isa == 1 ? analog_row_avx2(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w, drow,
-                                             abrow)
-                           : 0;
+  const int x = kAnalogAvx512 ? analog_row_avx512(erow, off, read, col, row_noise, rn, fw, K, black, max_code, w,
+                                                  drow, abrow)
+                              : 0;
   analog_row_definition(erow + x, off + x, read + x, col + x, row_noise, rn, fw, K, black, max_code, w - x, drow + x,
                         abrow + x);
 }

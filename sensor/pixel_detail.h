@@ -20,16 +20,13 @@ namespace photosite::detail {
 // sense_electrons then sense_raw_dn over a row of w pixels (the full well, then the analog chain
 // to DN), and the mosaic above black d − black: erow (drawn electrons in, collected out), drow,
 // abrow; off, read, col: the DSNU, read-noise normal and column noise per pixel. analog_row
-// takes the AVX-512 or AVX2 path where the CPU has it (sensor/pipeline.cpp), analog_row_definition is
+// takes the AVX-512 path where the CPU has it (sensor/pipeline.cpp), analog_row_definition is
 // the per-pixel loop; the same bits (test SenseFastPath.AnalogRowEqualsItsDefinition).
 void analog_row(float* erow, const float* off, const float* read, const float* col, float row_noise, float rn, float fw,
                 double K, double black, double max_code, int w, float* drow, float* abrow);
 void analog_row_definition(float* erow, const float* off, const float* read, const float* col, float row_noise,
                            float rn, float fw, double K, double black, double max_code, int w, float* drow,
                            float* abrow);
-// Caps analog_row's vector level (0 the definition, 1 AVX2, 2 AVX-512; the machine's level is the
-// most it takes) for the calls after it; the tests run each level. Every level gives the same bits.
-void analog_row_max_isa(int isa);
 // Caps the vector level of the photon stage's glared row (0 the per-pixel loops, 1 AVX2, 2
 // AVX-512; the machine's level is the most it takes) for the stages made after the call; the
 // tests run each level. Every level gives the same bits.
