@@ -261,11 +261,11 @@ struct PhotonStage {
     const float* t = detail::glare_skirt_vertical_row(skirt, y, sc.tmp.data());
     const int cw = skirt.acc1->width();
     bool physical = true;
-    // u: the ends' upsampled pixels below; before them, the AVX2 blocks' planar copy of t (3·cw <= 3·w floats)
+    // u: the ends' upsampled pixels below
     float* u = sc.tmp.data() + glare_row_layout(skirt).u;
     const int j_end = isa >= 2 ? glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
                                                      pitch_over_f, o, physical)
-                               : glared_pairs_avx2(l, t, cw, u, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                               : glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
                                                    pitch_over_f, o, physical);
     // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
     auto rest = [&](int xa, int xb) {
@@ -279,6 +279,11 @@ struct PhotonStage {
     rest(std::max(2, 2 * j_end), w);
     return physical;
   }
+  // How far ahead of the block the glared pairs' loops prefetch the radiance row (3 KB, 256
+  // pixels): a frame's radiance comes from memory (the pyramid read it before), and the hardware
+  // prefetcher stops at each 4 KiB page (docs/benchmarks.md: on the Intel Xeon 13.5 -> 9.7 ms for
+  // the photon stage; on the AMD EPYC the AVX2 loop's, 2026-11-29, 3-6 %).
+  static constexpr int kPrefetchFloats = 768;
   // glared_row_simd's blocks on AVX-512: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for
   // j0 = 1, 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
   // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
@@ -303,7 +308,6 @@ struct PhotonStage {
     const __m512i sign = _mm512_set1_epi32(0x7fffffff);
     const __m256i lane8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     __mmask16 ok = 0xffff;
-    constexpr int kPrefetchFloats = 768;
     int j0 = 1;
     for (; j0 + 10 <= cw; j0 += 8) {
       const int x0 = 2 * j0;
@@ -351,28 +355,42 @@ struct PhotonStage {
   }
 #pragma GCC diagnostic pop
   // glared_row_simd's blocks on AVX2: pixel pairs j0 .. j0 + 3 (pixels 2·j0 .. 2·j0 + 7) for
-  // j0 = 1, 5, 9, ... while j0 + 8 <= cw (the pairs are interior, and the eight floats of each
-  // channel of t read from j0 − 1 and from j0 lie inside its cw). t is first copied into planar
-  // rows tp[c·cw + j] (3·cw floats of scratch), so that each channel's taps of the 8 pixels are
-  // one in-lane permute of 8 consecutive floats: X = t_c[j0 − 1 + ⌊(p + 1)/2⌋], Y =
-  // t_c[j0 + ⌊(p + 1)/2⌋] for pixel p of the block (even 2i: t_c[j0 − 1 + i], t_c[j0 + i]; odd
-  // 2i + 1: t_c[j0 + i], t_c[j0 + 1 + i]), weights (¼, ¾) even, (¾, ¼) odd. The radiance's 24
-  // interleaved floats are split into R, G, B by two blends each (channel c of the 8 pixels
-  // sits in distinct lanes of the three vectors) and one permute. Returns the first pair not
-  // done; physical is cleared if a pixel's radiance is not physical.
+  // j0 = 1, 5, 9, ... while j0 + 8 <= cw (the pairs are interior, and the 24 floats of t read
+  // from 3·(j0 − 1) lie inside its 3·cw). Pixel p of the block takes the taps X = t_c[j0 − 1 +
+  // tap(p)], Y = t_c[j0 + tap(p)] with tap(p) = ⌊(p + 1)/2⌋ (even 2i: t_c[j0 − 1 + i], t_c[j0 +
+  // i]; odd 2i + 1: t_c[j0 + i], t_c[j0 + 1 + i]), weights (¼, ¾) even, (¾, ¼) odd. The 24
+  // interleaved floats of t from 3·(j0 − 1) (pairs j0 − 1 .. j0 + 6) and those of the radiance
+  // are split by channel the same way: two blends put channel c of the 8 pairs or pixels in
+  // distinct lanes of one vector (pair or pixel k at lane perm[c][k]), and one permute orders
+  // them (L), or, for t, picks each pixel's taps at once: X's index perm[c][tap(p)], Y's
+  // perm[c][tap(p) + 1]. The radiance is prefetched kPrefetchFloats ahead (two lines cover a
+  // block's 96 bytes). Returns the first pair not done; physical is cleared if a pixel's
+  // radiance is not physical.
+  // Channel c of 8 interleaved RGB triples a, b, c (24 floats) into distinct lanes of v[c]:
+  // element k's channel c at lane perm[c][k] of glared_pairs_avx2 (R: floats 3k from lanes 0, 3,
+  // 6 of a, 1, 4, 7 of b, 2, 5 of c; G and B likewise, one lane further).
+  __attribute__((target("avx2"), always_inline)) static inline void blend_channels_avx2(__m256 a, __m256 b, __m256 c,
+                                                                                       __m256 v[3]) {
+    v[0] = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x92), c, 0x24);
+    v[1] = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x24), c, 0x49);
+    v[2] = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x49), c, 0x92);
+  }
   __attribute__((target("avx2")))
-  static int glared_pairs_avx2(const float* l, const float* t, int cw, float* tp, float keep, const float* s3,
+  static int glared_pairs_avx2(const float* l, const float* t, int cw, float keep, const float* s3,
                                const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
                                float* o, bool& physical) {
     int j0 = 1;
     if (j0 + 8 > cw) return j0;
-    for (int j = 0; j < cw; ++j)
-      for (int c = 0; c < 3; ++c) tp[c * static_cast<size_t>(cw) + j] = t[3 * j + c];
-    const __m256i tap = _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4);
-    // pixel k of channel c at lane perm[c][k] after the blends (R: floats 3k from lanes 0,3,6 of
-    // la, 1,4,7 of lb, 2,5 of lc; G and B likewise, one lane further)
+    const __m256i tap = _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4), one_i = _mm256_set1_epi32(1);
+    // pixel k of channel c at lane perm[c][k] after blend_channels_avx2
     const __m256i perm[3] = {_mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5), _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
                              _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7)};
+    // the taps' lanes in the blended t: perm[c][tap(p)] and perm[c][tap(p) + 1]
+    const __m256i xi[3] = {_mm256_permutevar8x32_epi32(perm[0], tap), _mm256_permutevar8x32_epi32(perm[1], tap),
+                           _mm256_permutevar8x32_epi32(perm[2], tap)};
+    const __m256i yi[3] = {_mm256_permutevar8x32_epi32(perm[0], _mm256_add_epi32(tap, one_i)),
+                           _mm256_permutevar8x32_epi32(perm[1], _mm256_add_epi32(tap, one_i)),
+                           _mm256_permutevar8x32_epi32(perm[2], _mm256_add_epi32(tap, one_i))};
     const __m256 w0 = _mm256_setr_ps(0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f);
     const __m256 w1 = _mm256_setr_ps(0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f, 0.75f, 0.25f);
     const __m256 vkeep = _mm256_set1_ps(keep), zero = _mm256_setzero_ps(),
@@ -389,16 +407,17 @@ struct PhotonStage {
     for (; j0 + 8 <= cw; j0 += 4) {
       const int x0 = 2 * j0;
       const float* lw = l + 3 * x0;
+      for (int k = 0; k < 24; k += 16) _mm_prefetch(reinterpret_cast<const char*>(lw + kPrefetchFloats + k), _MM_HINT_T0);
       const __m256 la = _mm256_loadu_ps(lw), lb = _mm256_loadu_ps(lw + 8), lc = _mm256_loadu_ps(lw + 16);
-      const __m256 L[3] = {
-          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x92), lc, 0x24), perm[0]),
-          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x24), lc, 0x49), perm[1]),
-          _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(la, lb, 0x49), lc, 0x92), perm[2])};
+      __m256 L[3], T[3];
+      blend_channels_avx2(la, lb, lc, L);
+      for (int c = 0; c < 3; ++c) L[c] = _mm256_permutevar8x32_ps(L[c], perm[c]);
+      const float* tw = t + 3 * (j0 - 1);
+      blend_channels_avx2(_mm256_loadu_ps(tw), _mm256_loadu_ps(tw + 8), _mm256_loadu_ps(tw + 16), T);
       __m256 g[3];
       for (int c = 0; c < 3; ++c) {
-        const float* tc = tp + c * static_cast<size_t>(cw) + j0;
-        const __m256 X = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tc - 1), tap);
-        const __m256 Y = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tc), tap);
+        const __m256 X = _mm256_permutevar8x32_ps(T[c], xi[c]);
+        const __m256 Y = _mm256_permutevar8x32_ps(T[c], yi[c]);
         const __m256 u = _mm256_add_ps(_mm256_mul_ps(w0, X), _mm256_mul_ps(w1, Y));
         g[c] = _mm256_add_ps(_mm256_mul_ps(vkeep, L[c]), _mm256_mul_ps(sc[c], u));  // glare_mix
       }

@@ -51,8 +51,10 @@ std::vector<detail::PhiloxPath> cpu_paths() {
   return p;
 }
 
-// Every path's words are random_words()'s, over lengths that leave every tail (16, 8, scalar)
-// and a range that crosses a 2^32 pixel boundary (where the vector paths fall back), for keys,
+// Every path's words are random_words()'s, over lengths that leave every tail (AVX2's runs of
+// four interleaved vectors, 16, 8, scalar) and ranges that cross a 2^32 pixel boundary (where
+// the vector paths fall back; from 2^32 - 45 the AVX2 path runs one block of four, then single
+// vectors, then the scalar tail), for keys,
 // frames and streams whose words have high and low bits set (the vector paths make the round
 // keys and the first round's product of the frame once per call).
 TEST(Philox, BlockWordsEqualScalarOnEveryPath) {
@@ -65,8 +67,8 @@ TEST(Philox, BlockWordsEqualScalarOnEveryPath) {
                           Counter{0xffffffffffffffffull, 0xffffffffu, 0xffffffffu},
                           Counter{0x8000000180000001ull, 0x80000001u, 0x7fffffffu}})
     for (const auto path : cpu_paths())
-      for (const uint64_t first : {uint64_t{0}, uint64_t{777}, (uint64_t{1} << 32) - 21})
-        for (const int n : {1, 7, 8, 15, 16, 17, 31, 256}) {
+      for (const uint64_t first : {uint64_t{0}, uint64_t{777}, (uint64_t{1} << 32) - 21, (uint64_t{1} << 32) - 45})
+        for (const int n : {1, 7, 8, 15, 16, 17, 31, 32, 33, 40, 63, 64, 65, 100, 256}) {
           std::vector<uint32_t> w(4 * 256);
           detail::philox_block_words(path, c.key, c.frame, first, c.stream, n, w.data(), w.data() + 256,
                                      w.data() + 512, w.data() + 768);
