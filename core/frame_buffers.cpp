@@ -1,6 +1,8 @@
 // The cache of freed whole-frame buffers (include/photosite/frame_buffers.h).
 #include "photosite/frame_buffers.h"
 
+#include <pthread.h>
+
 #include <mutex>
 #include <new>
 #include <unordered_map>
@@ -30,11 +32,18 @@ struct Cache {
   }
 };
 
+Cache* g_cache = nullptr;  // made once by cache(), read by the fork handlers
+
 // Never destroyed: Images with static storage may be freed after any other static's destructor,
 // and a buffer handed back then must still find the cache. At exit the held buffers go with the
-// process.
+// process. A fork (a DataLoader's workers) while another thread holds the lock would leave the
+// child's copy locked for good, so the lock is taken around fork() and released on both sides.
 Cache& cache() {
-  static Cache* c = new Cache;
+  static Cache* c = [] {
+    g_cache = new Cache;
+    pthread_atfork([] { g_cache->m.lock(); }, [] { g_cache->m.unlock(); }, [] { g_cache->m.unlock(); });
+    return g_cache;
+  }();
   return *c;
 }
 
