@@ -3,6 +3,7 @@
 
 #include <pthread.h>
 
+#include <list>
 #include <mutex>
 #include <new>
 #include <unordered_map>
@@ -12,23 +13,27 @@ namespace photosite {
 namespace {
 
 struct Cache {
+  using Held = std::list<std::pair<size_t, void*>>;  // (bytes, buffer), the least recently freed first
   std::mutex m;
-  size_t limit = 0, held = 0, blocks = 0;
+  size_t limit = 0, held = 0;
   uint64_t reused = 0, allocated = 0;
-  std::unordered_map<size_t, std::vector<void*>> by_size;  // most recently freed last
+  Held order;
+  // Per size, its buffers in `order`, the most recently freed last.
+  std::unordered_map<size_t, std::vector<Held::iterator>> by_size;
 
-  // Frees held buffers until at most `target` bytes remain (under the lock).
+  // Frees the least recently freed buffer (under the lock). Per size the buffers stand in `order`
+  // in the order of their vector, so the list's first is its size's first.
+  void evict_oldest() {
+    const auto [bytes, p] = order.front();
+    auto it = by_size.find(bytes);
+    it->second.erase(it->second.begin());
+    if (it->second.empty()) by_size.erase(it);
+    order.pop_front();
+    held -= bytes;
+    ::operator delete(p);
+  }
   void trim_to(size_t target) {
-    for (auto it = by_size.begin(); held > target && it != by_size.end();) {
-      auto& v = it->second;
-      while (held > target && !v.empty()) {
-        ::operator delete(v.front());  // the oldest of this size first
-        v.erase(v.begin());
-        held -= it->first;
-        --blocks;
-      }
-      it = v.empty() ? by_size.erase(it) : std::next(it);
-    }
+    while (held > target) evict_oldest();
   }
 };
 
@@ -52,7 +57,7 @@ Cache& cache() {
 FrameBufferCacheStats frame_buffer_cache_stats() {
   Cache& c = cache();
   std::lock_guard<std::mutex> lock(c.m);
-  return {c.limit, c.held, c.blocks, c.reused, c.allocated};
+  return {c.limit, c.held, c.order.size(), c.reused, c.allocated};
 }
 
 void set_frame_buffer_cache_limit(size_t bytes) {
@@ -69,11 +74,13 @@ void* frame_buffer_allocate(size_t bytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
     const auto it = c.by_size.find(bytes);
-    if (it != c.by_size.end() && !it->second.empty()) {
-      void* p = it->second.back();
+    if (it != c.by_size.end()) {  // the most recently freed of this size (warmest in the caches)
+      const auto held_it = it->second.back();
+      void* p = held_it->second;
       it->second.pop_back();
+      if (it->second.empty()) c.by_size.erase(it);
+      c.order.erase(held_it);
       c.held -= bytes;
-      --c.blocks;
       ++c.reused;
       return p;
     }
@@ -86,11 +93,19 @@ void frame_buffer_release(void* p, size_t bytes) noexcept {
   if (bytes >= kFrameBufferMinBytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
-    if (c.held + bytes <= c.limit) {
+    if (bytes <= c.limit) {
+      // Room is made by freeing the least recently freed buffers: a loop whose sizes change
+      // (KITTI's frames differ by a few pixels) keeps the sizes it is using now, not stale ones.
       try {
-        c.by_size[bytes].push_back(p);
+        c.trim_to(c.limit - bytes);
+        const auto held_it = c.order.emplace(c.order.end(), bytes, p);
+        try {
+          c.by_size[bytes].push_back(held_it);
+        } catch (...) {
+          c.order.erase(held_it);
+          throw;
+        }
         c.held += bytes;
-        ++c.blocks;
         return;
       } catch (...) {  // no memory for the entry: free the buffer instead
       }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <vector>
 
 #include "photosite/frame_buffers.h"
 #include "photosite/image.h"
@@ -48,13 +49,25 @@ TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
   EXPECT_EQ(s.reused - s0.reused, 1u);
   EXPECT_EQ(s.held_bytes, plane + plane / 2);  // b's 2 MiB and other's 1 MiB, freed into the cache
   EXPECT_EQ(s.held_blocks, 2u);
-  {  // Five planes freed into a cache of three: it holds what fits and frees the rest.
+  // Five planes freed into a cache of three (holding b's plane and other's half plane): it makes
+  // room by freeing what was freed longest ago, so it ends with the last three planes freed, and
+  // hands out the most recently freed first.
+  std::vector<const float*> freed;
+  {
     std::vector<ImageF> v;
     for (int i = 0; i < 5; ++i) v.emplace_back(1024, 512, 1, 1.f);
+    for (auto& im : v) freed.push_back(im.data());
+  }  // destroyed in order v[0] .. v[4]
+  s = frame_buffer_cache_stats();
+  EXPECT_EQ(s.held_bytes, 3 * plane);
+  EXPECT_EQ(s.held_blocks, 3u);  // b's plane went first (freed before other), then other's, v[0] and v[1]
+  {
+    ImageF c1(1024, 512, 1, uninitialized), c2(1024, 512, 1, uninitialized), c3(1024, 512, 1, uninitialized);
+    EXPECT_EQ(c1.data(), freed[4]);
+    EXPECT_EQ(c2.data(), freed[3]);
+    EXPECT_EQ(c3.data(), freed[2]);
   }
   s = frame_buffer_cache_stats();
-  EXPECT_LE(s.held_bytes, 3 * plane);
-  EXPECT_GE(s.held_bytes, 2 * plane);
   { ImageU8 small(512, 512, 1, 0); }  // 256 KiB: below kFrameBufferMinBytes, never held
   EXPECT_EQ(frame_buffer_cache_stats().held_bytes, s.held_bytes);
   set_frame_buffer_cache_limit(plane);  // a lower limit frees what is held beyond it at once

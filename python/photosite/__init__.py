@@ -182,8 +182,9 @@ def frame_buffer_cache(limit_bytes: Optional[int] = None) -> dict:
     frame (about 100 MB at 2048x1024). glibc hands large freed buffers back to the kernel, so each
     frame would fault its pages in and have them zeroed again; the module does not change the host
     process's malloc settings, so the library keeps buffers of 1 MiB and more, once freed, for
-    reuse by an allocation of the same size. On import the limit is 1 GiB (a few frames' buffers at
-    2048x1024); the buffers held count in the process's memory. limit_bytes=0 frees them all and
+    reuse by an allocation of the same size. On import the limit is 512 MiB (a 2048x1024 frame's freed
+    buffers are about 220 MB); the buffers held count in the process's memory, and the ones freed
+    longest ago go first when it is full. limit_bytes=0 frees them all and
     turns the cache off.
 
     Returns {"limit_bytes", "held_bytes", "held_buffers", "reused", "allocated"}: the limit, what it

@@ -314,9 +314,9 @@ def test_camera_preview_matches_cli(kitti, cli, store, tmp_path):
 
 
 def test_frame_buffer_cache_is_on_after_import_and_reuses_every_large_buffer(kitti, store):
-    # The module turns the library's frame-buffer cache on (1 GiB); a call repeating the last one
+    # The module turns the library's frame-buffer cache on (512 MiB); a call repeating the last one
     # then takes every buffer of 1 MiB and more from it: none goes to the allocator.
-    assert ps.frame_buffer_cache()["limit_bytes"] == 1 << 30
+    assert ps.frame_buffer_cache()["limit_bytes"] == 1 << 29
     day, labels = kitti
     cam = ps.Camera(KITTI_CAMERA, device_store=store)
     for _ in range(2):  # the first call also makes the device's maps, the second reads them back
