@@ -271,7 +271,7 @@ inline void for_label_runs(const ImageU16& ids, const LabelRuns* runs, int y, co
 std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& lm, const LabelRuns* lruns) {
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
-  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(ids))) lruns = nullptr;
+  if (lruns && !lruns->made_of(ids)) lruns = nullptr;
   const bool inst = !lm.instances.empty();
   auto m = std::make_shared<MetricDepthRuns>();
   m->labels = LabelsMadeOf(lm);
@@ -614,7 +614,7 @@ struct BuildingRegions {
 
 std::shared_ptr<BuildingRegions> building_regions(const ImageU16& ids, const LabelRuns* lruns) {
   const int W = ids.width(), H = ids.height();
-  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(ids))) lruns = nullptr;
+  if (lruns && !lruns->made_of(ids)) lruns = nullptr;
   const uint16_t building = static_cast<uint16_t>(Label::Building);
   auto m = std::make_shared<BuildingRegions>();
   m->labels = LabelsMadeOf(ids);

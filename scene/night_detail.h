@@ -59,6 +59,7 @@ struct LabelRuns {
   std::vector<uint16_t> id;
   std::vector<int> row_start;
   int end(int i, int y) const { return i + 1 < row_start[y + 1] ? x0[i + 1] : width; }
+  bool made_of(const ImageU16& ids) const { return labels.same_labels(LabelsMadeOf(ids)); }
 };
 std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids);
 struct MetricDepthRuns;

@@ -347,11 +347,9 @@ double street_illuminance_lux(double X, double D, const StreetLighting& s, const
 
 void street_light_max_isa(int isa) { g_isa_cap = std::clamp(isa, 0, 2); }
 
-std::vector<PoleBox> pole_components(const ImageU16& labels) { return pole_components(labels, nullptr); }
-
 std::vector<PoleBox> pole_components(const ImageU16& labels, const LabelRuns* lruns) {
   const int W = labels.width(), H = labels.height();
-  if (lruns && !lruns->labels.same_labels(LabelsMadeOf(labels))) lruns = nullptr;
+  if (lruns && !lruns->made_of(labels)) lruns = nullptr;
   // Each row's runs of pole pixels (first and last column, in pairs), rows in parallel: from the
   // label runs when given (touching runs of the two pole classes joined), else by a scan in which
   // blocks of 32 labels without a pole pixel are skipped by a branch-free test the compiler

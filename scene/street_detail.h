@@ -112,9 +112,9 @@ struct PoleBox {
 // the first 2x2 block (on the even grid, in raster order of the blocks) holding a pixel of the
 // component. Found from the rows' runs of pole pixels (union-find over the runs), without a
 // mask image or a labelling of the whole frame.
-std::vector<PoleBox> pole_components(const ImageU16& labels);
-// The same from the label image's runs (night_detail.h label_runs) when made of `labels`.
-std::vector<PoleBox> pole_components(const ImageU16& labels, const LabelRuns* runs);
+// From the label image's runs (night_detail.h label_runs) when `runs` were made of `labels`, else
+// by scanning the image: the same boxes.
+std::vector<PoleBox> pole_components(const ImageU16& labels, const LabelRuns* runs = nullptr);
 // pole_components of a label image, with the image it was made of (pole_components_of,
 // scene/night_detail.h): plan_street_lighting_with takes the boxes for those labels only.
 struct PoleComponents {
