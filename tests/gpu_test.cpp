@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 
@@ -806,5 +808,24 @@ TEST_F(Gpu, CliVersionListsTheBackends) {
   EXPECT_NE(r.output.find(ctx->device().staged ? "staged transfers" : "mapped buffers"), std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find(ctx->device().cpu ? "auto: cpu" : "auto: vulkan"), std::string::npos) << r.output;
+}
+
+// `bench night --backend vulkan` (issue 16 §4's command for a GPU machine): the chain timed on the
+// device beside the CPU rows in the same run, the device named, and its results within the
+// parity test's bounds (CliBackendsAgreeOnFlatAndNight: radiance to 2e-6 of its peak).
+TEST_F(Gpu, BenchNightTimesTheChainOnTheDevice) {
+  test::TempDir dir;
+  const auto r = test::run_cli("bench night --backend vulkan --repeats 1 --out-dir '" + dir.path().string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("vulkan device: " + ctx->device().name), std::string::npos) << r.output;
+  std::ifstream f(dir.file("night_bench.csv"));
+  const std::string csv((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (const char* row : {"\"whole chain\"", "\"vulkan: whole chain\"", "\"vulkan: sensor (expose)\"",
+                          "\"vulkan: compose\"", "\"host probe: compute-bound, 1 thread\""})
+    EXPECT_NE(csv.find(row), std::string::npos) << row << "\n" << csv;
+  const std::string key = "radiance max |diff| ";
+  const size_t at = r.output.find(key);
+  ASSERT_NE(at, std::string::npos) << r.output;
+  EXPECT_LT(std::stod(r.output.substr(at + key.size())), 2e-6) << r.output;
 }
 }  // namespace photosite
