@@ -528,7 +528,7 @@ PYBIND11_MODULE(_photosite, m) {
     py::dict d;
     d["limit_bytes"] = s.limit_bytes;
     d["held_bytes"] = s.held_bytes;
-    d["held_buffers"] = s.held_blocks;
+    d["held_buffers"] = s.held_buffers;
     d["reused"] = s.reused;
     d["allocated"] = s.allocated;
     return d;

@@ -48,7 +48,7 @@ TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
   FrameBufferCacheStats s = frame_buffer_cache_stats();
   EXPECT_EQ(s.reused - s0.reused, 1u);
   EXPECT_EQ(s.held_bytes, plane + plane / 2);  // b's 2 MiB and other's 1 MiB, freed into the cache
-  EXPECT_EQ(s.held_blocks, 2u);
+  EXPECT_EQ(s.held_buffers, 2u);
   // Five planes freed into a cache of three (holding b's plane and other's half plane): it makes
   // room by freeing what was freed longest ago, so it ends with the last three planes freed, and
   // hands out the most recently freed first.
@@ -60,7 +60,7 @@ TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
   }  // destroyed in order v[0] .. v[4]
   s = frame_buffer_cache_stats();
   EXPECT_EQ(s.held_bytes, 3 * plane);
-  EXPECT_EQ(s.held_blocks, 3u);  // b's plane went first (freed before other), then other's, v[0] and v[1]
+  EXPECT_EQ(s.held_buffers, 3u);  // b's plane went first (freed before other), then other's, v[0] and v[1]
   {
     ImageF c1(1024, 512, 1, uninitialized), c2(1024, 512, 1, uninitialized), c3(1024, 512, 1, uninitialized);
     EXPECT_EQ(c1.data(), freed[4]);
@@ -74,7 +74,7 @@ TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
   EXPECT_LE(frame_buffer_cache_stats().held_bytes, plane);
   set_frame_buffer_cache_limit(0);
   EXPECT_EQ(frame_buffer_cache_stats().held_bytes, 0u);
-  EXPECT_EQ(frame_buffer_cache_stats().held_blocks, 0u);
+  EXPECT_EQ(frame_buffer_cache_stats().held_buffers, 0u);
 }
 
 // A buffer taken from the cache holds its last owner's samples, where fresh memory would be

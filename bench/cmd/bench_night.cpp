@@ -50,32 +50,6 @@ struct Opts {
 // loaded machine do not stretch as they do the wall time.
 double cpu_ms() { return scene::process_cpu_ms(); }
 
-// A compute-bound probe of the machine, timed in the same rounds as the chain: a fixed number of
-// multiply-add steps on 48 floats held in registers (12 independent 4-wide chains, nothing read
-// from memory), split over `threads`. On N cores of their own, N threads take 1/N of one
-// thread's time. Where the vCPUs share one physical core's vector units (SMT siblings on the
-// host, or a host busy with other guests), they do not, and no parallel stage of the chain can
-// do better than this probe's speed-up there either.
-double probe_ms(int threads) {
-  constexpr long kSteps = 1L << 22;  // steps in all, over every thread (about 8 ms on one core)
-  float sink = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-#pragma omp parallel num_threads(threads) reduction(+ : sink)
-  {
-    float a[48];
-    for (int i = 0; i < 48; ++i) a[i] = 1.f + 1e-3f * static_cast<float>(i + omp_get_thread_num());
-    const long steps = kSteps / omp_get_num_threads();
-    for (long k = 0; k < steps; ++k) {
-#pragma omp simd
-      for (int i = 0; i < 48; ++i) a[i] = a[i] * 0.99999f + 1e-5f;
-    }
-    for (int i = 0; i < 48; ++i) sink += a[i];
-  }
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (sink == 0.5f) std::printf(" ");  // keeps the loop (the sum is never 0.5)
-  return ms;
-}
-
 void run(const Opts& o) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
@@ -333,10 +307,6 @@ void run(const Opts& o) {
     }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
     for (const auto& [k, v] : device_rows) add(k, v);
-    if (o.threads > 1) {
-      add("host probe: compute-bound, 1 thread", probe_ms(1));
-      add(fmt::format("host probe: the same work, {} threads", o.threads), probe_ms(o.threads));
-    }
   }
   const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);
   const std::string machine = machine_description();
@@ -369,12 +339,6 @@ void run(const Opts& o) {
   if (device) {
     const double dev_ms = median(t["vulkan: whole chain"]);
     std::printf("vulkan: whole chain <= 25 ms: %s (%.1f ms)\n", met(dev_ms <= 25), dev_ms);
-  }
-  if (o.threads > 1) {
-    const double p1 = median(t["host probe: compute-bound, 1 thread"]);
-    const double pn = median(t[fmt::format("host probe: the same work, {} threads", o.threads)]);
-    std::printf("host: %d threads do compute-bound work %.2fx as fast as 1 (%d on %d cores of their own)\n",
-                o.threads, p1 / pn, o.threads, o.threads);
   }
   if (device)
     std::printf("vulkan chain against the CPU's (first timed round): radiance max |diff| %.3g of its peak, "

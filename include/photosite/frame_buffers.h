@@ -34,7 +34,7 @@ inline constexpr size_t kFrameBufferDefaultLimit = size_t{1} << 29;
 struct FrameBufferCacheStats {
   size_t limit_bytes = 0;  // the most the cache holds
   size_t held_bytes = 0;   // freed buffers held now
-  size_t held_blocks = 0;
+  size_t held_buffers = 0;
   uint64_t reused = 0;     // allocations of at least kFrameBufferMinBytes served from the cache
   uint64_t allocated = 0;  // ... and those that went to the allocator
 };
