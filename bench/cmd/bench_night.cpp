@@ -214,6 +214,17 @@ void run(const Opts& o) {
     cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
     auto t5 = clock::now();
     const double c5 = cpu_ms();
+    // The peer again at one thread: its own N-thread speed-up, measured in the same round, says
+    // how much N threads gain on this host now (on a shared VM, two busy vCPUs can each run
+    // slower than one alone, for OpenCV's code as for the chain's).
+    double peer1_ms = 0;
+    if (o.threads > 1) {
+      cv::setNumThreads(1);
+      auto tq0 = clock::now();
+      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+      peer1_ms = std::chrono::duration<double, std::milli>(clock::now() - tq0).count();
+      cv::setNumThreads(o.threads);
+    }
     if (!keep) continue;
     auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     add("linearize", ms(t0, t1));
@@ -306,6 +317,7 @@ void run(const Opts& o) {
       }
     }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
+    if (o.threads > 1) add("peer at 1 thread", peer1_ms);
     for (const auto& [k, v] : device_rows) add(k, v);
   }
   const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);
@@ -340,6 +352,9 @@ void run(const Opts& o) {
     const double dev_ms = median(t["vulkan: whole chain"]);
     std::printf("vulkan: whole chain <= 25 ms: %s (%.1f ms)\n", met(dev_ms <= 25), dev_ms);
   }
+  if (o.threads > 1)
+    std::printf("peer's %d-thread speed-up on this host in this run: %.2fx (its time at 1 thread over its time at %d)\n",
+                o.threads, median(t["peer at 1 thread"]) / peer, o.threads);
   if (device)
     std::printf("vulkan chain against the CPU's (first timed round): radiance max |diff| %.3g of its peak, "
                 "raw samples differing %.3g%%; per frame %.1f MB host->device, %.1f MB device->host\n",
