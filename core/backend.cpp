@@ -161,9 +161,10 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   if (backend.backend() == Backend::Vulkan)
     tail = [&backend](const ImageF& t, ImageF& lights, const ImageU16& ids, const ImageF& beam_lux,
                       const ScenePreset& q, bool keep) { return backend.night_tail(t, lights, ids, beam_lux, q, keep); };
-  // The texture sums are the CPU linearisation's (the device makes its own); the glare's level 1
-  // is made by the CPU compose pass only (night_scene_with: not with a tail).
-  return night_scene_with(day, labels, p, seed, keep_darkened, tail, sequence, tail ? nullptr : sums, glare_level1);
+  // The texture sums are the CPU linearisation's on every backend (the texture is made on the
+  // CPU); the glare's level 1 is made by the CPU compose pass only (night_scene_with: not with a
+  // tail).
+  return night_scene_with(day, labels, p, seed, keep_darkened, tail, sequence, sums, glare_level1);
 }
 }  // namespace scene
 

@@ -27,20 +27,16 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
     c.timings.push_back({name, std::chrono::duration<double, std::milli>(now - t).count()});
     t = now;
   };
-  // On the CPU the linearisation also makes the reflectance texture's class sums (pass 1) from
-  // each block while it is in cache (scene::linearize_with_texture_sums): one pass over the 24 MB
-  // linear image fewer, the same bits. On Vulkan the kernel linearises and the texture sums.
-  const bool cpu = runner.backend() == Backend::Cpu;
+  // The linearisation runs on the CPU on every backend, as `batch`'s does: the scene stages that
+  // read its result (the texture, the lanes' luminance) run on the CPU, so on Vulkan the kernel
+  // would send the day image up and the linear image back (2 × 24 MB at 2048x1024) for a per-pixel
+  // table lookup. It also makes the reflectance texture's class sums (pass 1) from each block while
+  // it is in cache (scene::linearize_with_texture_sums): one pass over the 24 MB linear image
+  // fewer. An 8-bit file's codes are linearised from the codes themselves (6 MB read instead of
+  // their 24 MB of floats). All three give the same bits as the kernel (Gpu.LinearizeBitEqualToCpu).
   scene::TextureSums sums;
-  // An 8-bit file's codes are linearised from the codes themselves on the CPU (6 MB read for a
-  // 2048x1024 frame instead of their 24 MB of floats; the same bits); the device takes floats.
-  if (!codes.empty() && !cpu) {
-    day = image_from_codes(codes.data(), 8, codes.width(), codes.height(), codes.channels());
-    codes = ImageU8();
-  }
   ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums)
-               : cpu          ? scene::linearize_with_texture_sums(day, info, labels.ids, &sums)
-                              : runner.linearize(day, info);
+                              : scene::linearize_with_texture_sums(day, info, labels.ids, &sums);
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)

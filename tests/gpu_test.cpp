@@ -665,11 +665,63 @@ TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
 }  // namespace photosite
 #endif
 
+#include "photosite/backend.h"
 #include "photosite/io.h"
+#include "photosite/night_chain.h"
 #include "test_util.h"
 
 #ifdef PHOTOSITE_HAVE_VULKAN
 namespace photosite {
+
+// prepare_night on Vulkan linearises on the host, as `batch` does (core/night_chain.cpp): the
+// day image does not go up and the linear image does not come back. What must cross: the tail's
+// texture, light map (3 floats each), beam illuminance (1 float) and labels (uint16) up, 30 bytes
+// a pixel (NightChainKeepsImagesOnTheDevice counts them); the radiance (12 bytes) and the mean
+// signal (4) down; besides those only the photon stage's small tables (under a byte a pixel).
+// The day image would add 12 bytes a pixel each way. The scene equals the CPU's within the
+// parity bound (compose: 2e-6 of the peak), its depth and labels exactly.
+TEST_F(Gpu, PrepareNightLinearizesOnTheHost) {
+  scene::SyntheticOptions so;
+  so.width = 320;
+  so.height = 160;
+  const auto road = scene::make_synthetic_road(so);
+  const int w = road.labels.ids.width(), h = road.labels.ids.height();
+  const size_t n = static_cast<size_t>(w) * h;
+  ImageU8 codes(w, h, 3);  // an 8-bit frame's codes, as read_image_codes8 gives them
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<uint8_t>((i * 37 + i / 97) % 251);
+  ImageFileInfo info;  // as read_image_codes8 describes an 8-bit sRGB PNG
+  info.format = "png";
+  info.width = w;
+  info.height = h;
+  info.channels = 3;
+  info.bits_per_sample = 8;
+  info.srgb_encoded = true;
+  const auto sp = scene::load_scene_preset("night-urban");
+  SensorSetup setup;
+  setup.camera = load_camera_preset("onsemi-ar0331");
+  setup.lens = load_lens_preset(setup.camera.default_lens);
+  setup.settings.exposure_s = 0.03;
+  setup.device_id = "prepare-night-host";
+  test::TempDir dir;
+  const DeviceStore store(dir.file("store"));
+  SensorRunner cpu(Backend::Cpu), vk(Backend::Vulkan);
+  const NightChain a = prepare_night(cpu, codes, info, road.labels, sp, setup, store);
+  const auto before = vk.transfers();
+  const NightChain b = prepare_night(vk, codes, info, road.labels, sp, setup, store);
+  const auto after = vk.transfers();
+  EXPECT_LT(after.uploaded - before.uploaded, n * 31);
+  EXPECT_GE(after.uploaded - before.uploaded, n * 30);
+  EXPECT_LT(after.downloaded - before.downloaded, n * 17);
+  EXPECT_GE(after.downloaded - before.downloaded, n * 16);
+  EXPECT_EQ(count_differences(a.scene.depth, b.scene.depth), 0u);
+  double peak = 0, worst = 0;
+  for (size_t i = 0; i < a.scene.radiance.size(); ++i) {
+    peak = std::max(peak, static_cast<double>(a.scene.radiance[i]));
+    worst = std::max(worst, std::abs(static_cast<double>(a.scene.radiance[i]) - b.scene.radiance[i]));
+  }
+  EXPECT_GT(peak, 0);
+  EXPECT_LE(worst, 2e-6 * peak);
+}
 
 // `--backend vulkan` gives the same output as `--backend cpu` (flat and night through the CLI);
 // the children inherit PHOTOSITE_VK_VALIDATION=1 and print any validation message.

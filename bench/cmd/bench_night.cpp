@@ -3,8 +3,8 @@
 // per-stage medians over repeats, each also as a ratio to an OpenCV peer measured in the same
 // run (cv::cvtColor RGB→Lab on the same float frame). CSV to docs/night_bench.csv.
 // --backend vulkan also times the chain as `night --backend vulkan` and `batch` run it there (the
-// device's linearize, the CPU's scene stages, the device's darken + compose tail and sensor, the
-// radiance left on the device between them), in the same rounds as the CPU rows, and says how
+// CPU's linearize and scene stages, the device's darken + compose tail and sensor, the radiance
+// left on the device between them), in the same rounds as the CPU rows, and says how
 // far its results are from the CPU's.
 #include <omp.h>
 #include <time.h>
@@ -172,16 +172,16 @@ void run(const Opts& o) {
     std::vector<std::pair<std::string, double>> device_rows;
     if (device) {
       // The chain on the device, as prepare_night + night_frame run it there (core/night_chain.cpp):
-      // an 8-bit file's codes become read_image()'s floats on the host (the device takes floats),
-      // the kernel linearises them and makes the texture sums, the scene stages before the tail
-      // run on the CPU, then darken + compose and the sensor on the device, the radiance left
-      // there in between. Into fresh outputs, as the CPU's "sensor (expose)" row.
+      // the linearisation (with the texture's class sums) and the scene stages before the tail on
+      // the CPU, then darken + compose and the sensor on the device, the radiance left there in
+      // between. Into fresh outputs, as the CPU's "sensor (expose)" row.
       const auto tr0 = device->transfers();
       auto td0 = clock::now();
-      const ImageF lin_d = device->linearize(
-          codes ? image_from_codes(codes->data(), 8, codes->width(), codes->height(), codes->channels()) : day, info);
+      scene::TextureSums sums_d;
+      const ImageF lin_d = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums_d)
+                                 : scene::linearize_with_texture_sums(day, info, lm.ids, &sums_d);
       auto td1 = clock::now();
-      scene::NightScene ns_d = scene::night_scene(lin_d, lm, sp, 1, false, *device);
+      scene::NightScene ns_d = scene::night_scene(lin_d, lm, sp, 1, false, *device, nullptr, &sums_d);
       auto td2 = clock::now();
       const SensorOutput so_d = device->expose(ns_d.radiance, cam, lens, es, fpn, ns_d.resident_radiance);
       auto td3 = clock::now();

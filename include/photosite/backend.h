@@ -81,8 +81,8 @@ namespace scene {
 // (SensorRunner::night_tail): on Vulkan the radiance stays on the device under
 // NightScene::resident_radiance for the same runner's sensor stages; on the CPU it is
 // scene::night_scene itself.
-// `sequence`, `sums`, `glare_level1`: as for scene::night_scene; on Vulkan the device makes its
-// own texture sums and no glare level 1 (both ignored there).
+// `sequence`, `sums`, `glare_level1`: as for scene::night_scene (the texture is made on the CPU on
+// every backend, so `sums` is read on both); on Vulkan no glare level 1 (compose runs on the device).
 NightScene night_scene(const ImageF& day_linear_srgb, const LabelMap& labels, const ScenePreset& p,
                        uint64_t seed, bool keep_darkened, SensorRunner& backend, SequenceState* sequence = nullptr,
                        const TextureSums* sums = nullptr, bool glare_level1 = false);
