@@ -101,6 +101,9 @@ struct Loaded {
   Item item;
   ImageF day;  // linear sRGB
   scene::LabelMap labels;
+  // The texture's class sums made with the linearisation (linearize_with_texture_sums), which
+  // the texture then does not make again (its pass 1); taken only for this day and these labels.
+  scene::TextureSums sums;
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::string error;
 };
@@ -284,12 +287,15 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     try {
       ImageFileInfo info;
       // A plain 8-bit RGB PNG's codes are linearised directly (6 MB read for a 2048x1024 frame
-      // instead of their 24 MB of floats; the same bits), as `night` reads its image.
+      // instead of their 24 MB of floats; the same bits), as `night` reads its image, and with
+      // the texture's class sums, as `night` makes them (prepare_night): on this reader thread
+      // while each block is in cache, instead of in a pass of the compute stage's own.
       const DayImage day = read_day_image(it.image, &info);
       l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                     scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
       if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
-      l.day = day.codes ? scene::linearize_codes(*day.codes) : scene::linearize(day.floats, info);
+      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums)
+                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums);
     } catch (const Error& e) {
       l.error = e.what();
     }
@@ -323,7 +329,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         seq_group = it.group;
       }
       auto ns = std::make_shared<scene::NightScene>(
-          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &seq : nullptr));
+          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &seq : nullptr, &l.sums));
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);

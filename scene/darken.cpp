@@ -1,5 +1,6 @@
 // Linearization and per-class darkening under night illumination (stage 1).
 #include <algorithm>
+#include <atomic>
 #include <climits>
 #include <cstdint>
 #include <cmath>
@@ -840,6 +841,11 @@ ImageF reflectance_texture(const ImageF& day, const ImageU16& labels, const Scen
   return reflectance_texture_with(day, labels, p, carried, nullptr);
 }
 
+namespace {
+std::atomic<uint64_t> g_texture_own_class_sums{0};  // texture_own_class_sums_count
+}  // namespace
+uint64_t texture_own_class_sums_count() { return g_texture_own_class_sums.load(std::memory_order_relaxed); }
+
 ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
                                 ImageF* work_luma, const TextureSums* sums) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
@@ -858,6 +864,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
                     sums->part.size() == static_cast<size_t>(kTextureChunks) && day.channels() == 3 &&
                     labels.pixel_count() == n;
   if (!have) {
+    g_texture_own_class_sums.fetch_add(1, std::memory_order_relaxed);
     computed.resize(kTextureChunks);
     texture_class_sums(labels.data(), n, coef, computed.data(),
                        [&](int, size_t first, int) { return day.data() + 3 * first; });

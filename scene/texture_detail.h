@@ -14,6 +14,11 @@ namespace photosite::scene {
 // test runs each.
 void texture_max_isa(int isa);
 
+// How many textures made their own class sums (pass 1) because none were handed to them (or
+// the ones handed were made for another image): the chain's callers (prepare_night, batch) hand
+// the linearisation's, and tests check that the count stays put.
+uint64_t texture_own_class_sums_count();
+
 // reflectance_texture, and with work_luma (a ww x wh image for a 2ww x 2wh frame: the exact
 // halving of scene/lanes_detail.h) also the working luminance, work_luma_row of every row,
 // made in the texture's second pass while each chunk's day pixels are in cache (night_scene).

@@ -23,6 +23,7 @@
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/preset.h"
 #include "photosite/sensor/isp.h"
+#include "scene/texture_detail.h"
 #include "sensor/glare_detail.h"
 #include "test_util.h"
 
@@ -354,6 +355,7 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
       plan_glare(a.sensor.lens.glare, px_per_degree(a.sensor.lens.focal_length_mm, a.sensor.camera.pixel_pitch_um));
   ASSERT_TRUE(plan.active) << a.sensor.lens.name << " has no glare: the level-1 check needs a lens with one";
   const uint64_t full_resolution_level1 = detail::glare_full_resolution_level1_count();
+  const uint64_t own_class_sums = scene::texture_own_class_sums_count();
   a.jobs = 1, a.queue_depth = 1, a.compute_threads = 1;
   auto b = kitti_options(dir, root, dir.file("b"));
   b.jobs = 3, b.queue_depth = 5, b.compute_threads = 2;
@@ -398,6 +400,9 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
 
   EXPECT_EQ(detail::glare_full_resolution_level1_count(), full_resolution_level1)
       << "a batch frame's glare made its level 1 from the full-resolution radiance";
+  // Every frame's texture took the class sums its reader made with the linearisation.
+  EXPECT_EQ(scene::texture_own_class_sums_count(), own_class_sums)
+      << "a batch frame's texture made its own class sums (the reader's were not handed on)";
   ImageF radiance(160, 80, 3);
   radiance.vec().assign(radiance.size(), 1.f);
   (void)glare_skirt(radiance, plan);

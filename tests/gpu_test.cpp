@@ -668,6 +668,7 @@ TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
 #include "photosite/backend.h"
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
+#include "scene/texture_detail.h"
 #include "test_util.h"
 
 #ifdef PHOTOSITE_HAVE_VULKAN
@@ -705,10 +706,13 @@ TEST_F(Gpu, PrepareNightLinearizesOnTheHost) {
   test::TempDir dir;
   const DeviceStore store(dir.file("store"));
   SensorRunner cpu(Backend::Cpu), vk(Backend::Vulkan);
+  const uint64_t own_class_sums = scene::texture_own_class_sums_count();
   const NightChain a = prepare_night(cpu, codes, info, road.labels, sp, setup, store);
   const auto before = vk.transfers();
   const NightChain b = prepare_night(vk, codes, info, road.labels, sp, setup, store);
   const auto after = vk.transfers();
+  // On both backends the texture took the class sums made with the linearisation.
+  EXPECT_EQ(scene::texture_own_class_sums_count(), own_class_sums);
   EXPECT_LT(after.uploaded - before.uploaded, n * 31);
   EXPECT_GE(after.uploaded - before.uploaded, n * 30);
   EXPECT_LT(after.downloaded - before.downloaded, n * 17);
