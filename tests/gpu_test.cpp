@@ -842,6 +842,10 @@ TEST(GpuCli, BackendVulkanWithoutADeviceIsBadInput) {
   auto r = test::run_cli("flat --backend vulkan" + args + dir.file("v.exr") + "'");
   auto a = test::run_cli("flat --backend auto" + args + dir.file("a.exr") + "'");
   auto v = test::run_cli("version --backends");
+  // bench night checks its --backend before it reads or times anything (a missing image is not
+  // what it reports), and writes no CSV.
+  auto bn = test::run_cli("bench night --backend vulkan --image '" + dir.file("no-such-day.png") + "' --labels '" +
+                          dir.file("no-such-labels.png") + "' --out-dir '" + dir.path().string() + "'");
   if (saved_icd) setenv("VK_ICD_FILENAMES", keep_icd.c_str(), 1); else unsetenv("VK_ICD_FILENAMES");
   if (saved_drv) setenv("VK_DRIVER_FILES", keep_drv.c_str(), 1); else unsetenv("VK_DRIVER_FILES");
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -852,6 +856,10 @@ TEST(GpuCli, BackendVulkanWithoutADeviceIsBadInput) {
   EXPECT_EQ(v.exit_code, 0) << v.output;
   EXPECT_NE(v.output.find("vulkan: unavailable: Vulkan: no Vulkan driver found"), std::string::npos) << v.output;
   EXPECT_NE(v.output.find("auto: cpu"), std::string::npos) << v.output;
+  EXPECT_EQ(bn.exit_code, 2) << bn.output;
+  EXPECT_NE(bn.output.find("--backend vulkan"), std::string::npos) << bn.output;
+  EXPECT_EQ(bn.output.find("no-such-day.png"), std::string::npos) << bn.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("night_bench.csv")));
 }
 
 // With lavapipe: the device, its transfer mode, and auto still on the CPU (lavapipe is slower

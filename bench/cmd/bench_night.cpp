@@ -51,6 +51,10 @@ struct Opts {
 double cpu_ms() { return scene::process_cpu_ms(); }
 
 void run(const Opts& o) {
+  // --backend: the CPU rows always; on Vulkan also the chain as `night --backend vulkan` runs it.
+  // Checked before anything is read: a name it does not know, or Vulkan where no device can be
+  // opened, is bad input (exit 2).
+  const Backend backend = resolve_backend(o.backend);
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   omp_set_num_threads(o.threads);
@@ -97,9 +101,6 @@ void run(const Opts& o) {
   const FixedPatternMaps fpn = generate_fixed_pattern(cam, day.width(), day.height(), "bench-0");
   const double ppd = px_per_degree(lens.focal_length_mm, cam.pixel_pitch_um);
   const GlarePlan glare_plan = plan_glare(lens.glare, ppd);
-  // --backend: the CPU rows always; on Vulkan also the chain as `night --backend vulkan` runs it
-  // (resolve_backend fails here, exit 2, where no device can be opened).
-  const Backend backend = resolve_backend(o.backend);
   std::optional<SensorRunner> device;
   std::string device_name;
   if (backend == Backend::Vulkan) {
