@@ -215,17 +215,6 @@ void run(const Opts& o) {
     cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
     auto t5 = clock::now();
     const double c5 = cpu_ms();
-    // The peer again at one thread: its own N-thread speed-up, measured in the same round, says
-    // how much N threads gain on this host now (on a shared VM, two busy vCPUs can each run
-    // slower than one alone, for OpenCV's code as for the chain's).
-    double peer1_ms = 0;
-    if (o.threads > 1) {
-      cv::setNumThreads(1);
-      auto tq0 = clock::now();
-      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
-      peer1_ms = std::chrono::duration<double, std::milli>(clock::now() - tq0).count();
-      cv::setNumThreads(o.threads);
-    }
     if (!keep) continue;
     auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     add("linearize", ms(t0, t1));
@@ -318,8 +307,30 @@ void run(const Opts& o) {
       }
     }
     add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
-    if (o.threads > 1) add("peer at 1 thread", peer1_ms);
     for (const auto& [k, v] : device_rows) add(k, v);
+  }
+  // The peer at 1 thread and at N, alternately, right after the rounds: its own N-thread
+  // speed-up says how much N threads gain on this host now (on a shared VM two busy vCPUs can
+  // each run slower than one alone, for OpenCV's code as for the chain's). Not inside the rounds:
+  // changing OpenCV's thread count rebuilds its pool, which made the rounds' next N-thread peer
+  // about 2 ms slower (16 of 16 pairs, docs/benchmarks.md, twelfth session). Each N-thread call
+  // follows an untimed one that rebuilds the pool.
+  if (o.threads > 1) {
+    for (int r = 0; r < o.repeats + 1; ++r) {
+      cv::setNumThreads(1);
+      auto q0 = clock::now();
+      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+      auto q1 = clock::now();
+      cv::setNumThreads(o.threads);
+      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+      auto q2 = clock::now();
+      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+      auto q3 = clock::now();
+      if (r == 0) continue;
+      add("peer at 1 thread (after the rounds)", std::chrono::duration<double, std::milli>(q1 - q0).count());
+      add(fmt::format("peer at {} threads (after the rounds)", o.threads),
+          std::chrono::duration<double, std::milli>(q3 - q2).count());
+    }
   }
   const double peer = median(t["peer: OpenCV cvtColor RGB2Lab"]);
   const std::string machine = machine_description();
@@ -354,8 +365,12 @@ void run(const Opts& o) {
     std::printf("vulkan: whole chain <= 25 ms: %s (%.1f ms)\n", met(dev_ms <= 25), dev_ms);
   }
   if (o.threads > 1)
-    std::printf("peer's %d-thread speed-up on this host in this run: %.2fx (its time at 1 thread over its time at %d)\n",
-                o.threads, median(t["peer at 1 thread"]) / peer, o.threads);
+    std::printf("peer's %d-thread speed-up on this host right after the rounds: %.2fx (its time at 1 thread over its "
+                "time at %d, alternately)\n",
+                o.threads,
+                median(t["peer at 1 thread (after the rounds)"]) /
+                    median(t[fmt::format("peer at {} threads (after the rounds)", o.threads)]),
+                o.threads);
   if (device)
     std::printf("vulkan chain against the CPU's (first timed round): radiance max |diff| %.3g of its peak, "
                 "raw samples differing %.3g%%; per frame %.1f MB host->device, %.1f MB device->host\n",
