@@ -168,13 +168,6 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
 }
 }  // namespace scene
 
-ImageF SensorRunner::linearize(const ImageF& day, const ImageFileInfo& info) {
-#ifdef PHOTOSITE_HAVE_VULKAN
-  if (device_) return gpu::linearize(device_->chain.context(), day, info);
-#endif
-  return scene::linearize(day, info);
-}
-
 SensorRunner::Transfers SensorRunner::transfers() const {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_) {

@@ -1011,16 +1011,6 @@ ImageF linearize_code_floats(const ImageU8& codes, const Decode8& d8) {
 }
 }  // namespace
 
-ImageF linearize_codes(const ImageU8& codes) {
-  const Decode8& d8 = decode8();
-  if (codes.channels() != 3) return linearize_code_floats(codes, d8);
-  ImageF out(codes.width(), codes.height(), 3, uninitialized, "linear sRGB");
-  const int n = 3 * codes.width();
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < codes.height(); ++y) decode8_samples(codes.row(y), n, d8, out.row(y));
-  return out;
-}
-
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
   sums->part.clear();
   sums->image = nullptr;

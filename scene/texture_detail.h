@@ -49,8 +49,5 @@ ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& l
 // codes' floats code·(1/255) that read_image() gives, reading a quarter of the bytes (each code's
 // linear value from linearize()'s own 256-entry table for 8-bit files).
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums);
-// linearize() of an 8-bit sRGB file's codes without the sums (batch's reader): the same image to
-// the bit as linearize() of their floats, each code through the same 256-entry table.
-ImageF linearize_codes(const ImageU8& codes);
 
 }  // namespace photosite::scene

@@ -327,9 +327,6 @@ TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
         EXPECT_EQ(0, std::memcmp(sums.part[ch].data(), want_sums.part[ch].data(), sizeof(sums.part[ch]))) << where << ", chunk " << ch;
       EXPECT_EQ(sums.image, got.data());
       EXPECT_EQ(sums.labels, ids.data());
-      const ImageF alone = linearize_codes(codes);  // batch's reader: no sums
-      ASSERT_EQ(alone.size(), want.size());
-      EXPECT_EQ(0, std::memcmp(alone.data(), want.data(), want.size() * sizeof(float))) << where;
     }
   texture_max_isa(2);
   omp_set_num_threads(saved);
@@ -342,9 +339,6 @@ TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
   EXPECT_TRUE(sums.part.empty());
   ASSERT_EQ(g.size(), gw.size());
   EXPECT_EQ(0, std::memcmp(g.data(), gw.data(), g.size() * sizeof(float)));
-  const ImageF ga = linearize_codes(grey);
-  ASSERT_EQ(ga.size(), gw.size());
-  EXPECT_EQ(0, std::memcmp(ga.data(), gw.data(), ga.size() * sizeof(float)));
   const ImageF o = linearize_codes_with_texture_sums(codes, ImageU16(W + 1, H, 1, 0), &sums), ow = linearize(day, info);
   EXPECT_TRUE(sums.part.empty());
   EXPECT_EQ(0, std::memcmp(o.data(), ow.data(), o.size() * sizeof(float)));

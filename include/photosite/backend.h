@@ -58,8 +58,6 @@ class SensorRunner {
   // CPU scene::darken and scene::compose.
   scene::PixelTail night_tail(const ImageF& texture, ImageF& lights, const ImageU16& labels,
                               const ImageF& beam_lux, const scene::ScenePreset& p, bool keep_darkened);
-  // scene::linearize() on this backend (kernel linearize on Vulkan).
-  ImageF linearize(const ImageF& day, const ImageFileInfo& info);
   // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
   struct Transfers {
     uint64_t uploaded = 0, downloaded = 0;
