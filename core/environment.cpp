@@ -18,6 +18,7 @@ const char* name(Var v) {
     case Var::XdgDataHome: return "XDG_DATA_HOME";
     case Var::Home: return "HOME";
     case Var::MaxPixels: return "PHOTOSITE_MAX_PIXELS";
+    case Var::ExrThreads: return "PHOTOSITE_EXR_THREADS";
     case Var::VkValidation: return "PHOTOSITE_VK_VALIDATION";
     case Var::VkSyncValidation: return "PHOTOSITE_VK_SYNC_VALIDATION";
     case Var::VkStaging: return "PHOTOSITE_VK_STAGING";

@@ -1,8 +1,18 @@
 #include "photosite/io.h"
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imageio.h>
 #include <Imath/half.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfDoubleAttribute.h>
+#include <OpenEXR/ImfFloatAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfIntAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
+#include <spng.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,17 +25,21 @@
 #include <cctype>
 #include <optional>
 #include <filesystem>
+#include <ctime>
+#include <thread>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include "core/png_codec.h"
+#include "core/raster_codecs.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/night_chain.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
-using namespace OIIO;
+using codec::Raster;
+using codec::Sample;
 
 namespace {
 // OpenEXR header walk, before OpenEXR reads it. The header is a list of attributes, each
@@ -50,7 +64,7 @@ int64_t exr_fixed_size(const std::string& type) {
 
 void check_exr_header(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return;  // OpenImageIO reports it
+  if (!f) return;  // the reader reports it
   struct Closer {
     std::FILE* f;
     ~Closer() { std::fclose(f); }
@@ -120,36 +134,299 @@ void check_exr_header(const std::string& path) {
   }
 }
 
-std::unique_ptr<ImageInput> open_input(const std::string& path) {
+
+// ---- the formats ----------------------------------------------------------------------------
+enum class Format { Png, Jpeg, Tiff, Exr, Unknown };
+
+// By the file's first bytes (its signature), not its name: PNG 89 50 4E 47 0D 0A 1A 0A, JPEG
+// FF D8 FF, TIFF "II*\0" or "MM\0*", OpenEXR 76 2F 31 01.
+Format sniff(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) fail_at(path, std::string("cannot open (") + std::strerror(errno) + ")");
+  unsigned char b[8] = {};
+  const size_t n = std::fread(b, 1, 8, f);
+  std::fclose(f);
+  static const unsigned char png_sig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  if (n >= 8 && std::memcmp(b, png_sig, 8) == 0) return Format::Png;
+  if (n >= 3 && b[0] == 0xff && b[1] == 0xd8 && b[2] == 0xff) return Format::Jpeg;
+  if (n >= 4 && ((b[0] == 'I' && b[1] == 'I' && b[2] == 42 && b[3] == 0) || (b[0] == 'M' && b[1] == 'M' && b[2] == 0 && b[3] == 42)))
+    return Format::Tiff;
+  if (n >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01) return Format::Exr;
+  return Format::Unknown;
+}
+
+std::vector<uint8_t> slurp(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) fail_at(path, std::string("cannot open (") + std::strerror(errno) + ")");
+  std::vector<uint8_t> bytes;
+  unsigned char chunk[1 << 16];
+  for (size_t got; (got = std::fread(chunk, 1, sizeof chunk, f)) > 0;) bytes.insert(bytes.end(), chunk, chunk + got);
+  const bool bad = std::ferror(f);
+  std::fclose(f);
+  if (bad) fail_at(path, "read error");
+  return bytes;
+}
+
+// Any PNG through libspng (the plain data-set files go through core/png_codec.h first): 8- and
+// 16-bit samples as stored; palette images expanded to RGB, 1/2/4-bit grey to 8 bits, a tRNS
+// chunk to an alpha channel (what libpng's png_set_expand gives, OpenImageIO's reader).
+// Alpha is kept as stored, not premultiplied into the colour.
+Raster read_png_any(const std::string& path) {
+  const std::vector<uint8_t> bytes = slurp(path);
+  std::unique_ptr<spng_ctx, void (*)(spng_ctx*)> ctx(spng_ctx_new(0), spng_ctx_free);
+  if (!ctx) internal_error("libspng: no context");
+  const auto check = [&](int e, const char* what) {
+    if (e) fail_at(path, fmt::format("corrupt or truncated image (PNG {}: {})", what, spng_strerror(e)));
+  };
+  check(spng_set_png_buffer(ctx.get(), bytes.data(), bytes.size()), "header");
+  spng_ihdr ihdr{};
+  check(spng_get_ihdr(ctx.get(), &ihdr), "header");
+  check_frame_size(path, ihdr.width, ihdr.height);
+  spng_trns trns{};
+  const bool has_trns = spng_get_trns(ctx.get(), &trns) == 0;
+  Raster r;
+  r.format = "png";
+  r.width = static_cast<int>(ihdr.width);
+  r.height = static_cast<int>(ihdr.height);
+  const bool deep = ihdr.bit_depth == 16;
+  int fmt_ = SPNG_FMT_PNG, flags = 0;
+  switch (ihdr.color_type) {
+    case SPNG_COLOR_TYPE_GRAYSCALE:
+      r.channels = has_trns ? 2 : 1;
+      if (has_trns) fmt_ = deep ? SPNG_FMT_GA16 : SPNG_FMT_GA8, flags = SPNG_DECODE_TRNS;
+      else if (ihdr.bit_depth < 8) fmt_ = SPNG_FMT_G8;
+      break;
+    case SPNG_COLOR_TYPE_TRUECOLOR:
+      r.channels = has_trns ? 4 : 3;
+      if (has_trns) fmt_ = deep ? SPNG_FMT_RGBA16 : SPNG_FMT_RGBA8, flags = SPNG_DECODE_TRNS;
+      break;
+    case SPNG_COLOR_TYPE_INDEXED:
+      r.channels = has_trns ? 4 : 3;
+      fmt_ = has_trns ? SPNG_FMT_RGBA8 : SPNG_FMT_RGB8;
+      flags = has_trns ? SPNG_DECODE_TRNS : 0;
+      break;
+    case SPNG_COLOR_TYPE_GRAYSCALE_ALPHA: r.channels = 2; break;
+    case SPNG_COLOR_TYPE_TRUECOLOR_ALPHA: r.channels = 4; break;
+    default: fail_at(path, "corrupt or truncated image (PNG colour type)");
+  }
+  r.sample = deep && ihdr.color_type != SPNG_COLOR_TYPE_INDEXED ? Sample::U16 : Sample::U8;
+  r.channel_samples.assign(r.channels, r.sample);
+  size_t size = 0;
+  check(spng_decoded_image_size(ctx.get(), fmt_, &size), "size");
+  if (size != static_cast<size_t>(r.width) * r.height * r.channels * codec::sample_bytes(r.sample))
+    internal_error(fmt::format("{}: libspng's decoded size {} differs from the expected layout", path, size));
+  r.bytes.resize(size);
+  check(spng_decode_image(ctx.get(), r.bytes.data(), size, fmt_, flags), "data");
+  // A gAMA of 1.0 without an sRGB chunk says the codes are linear (OpenImageIO names it "Linear").
+  uint8_t intent = 0;
+  double gamma = 0;
+  r.linear = spng_get_srgb(ctx.get(), &intent) != 0 && spng_get_gama(ctx.get(), &gamma) == 0 &&
+             gamma > 0.99 && gamma < 1.01;
+  return r;
+}
+
+// OpenImageIO's order of an OpenEXR file's channels (its exrinput.cpp, query_channels): by layer
+// (the name up to its last '.'), then within a layer R, G, B, Y, ..., A, ..., Z (or R, G, B, X, Y,
+// Z, ... where X comes with Y or Z), then the file's own (alphabetical) order. So a file's "B",
+// "G", "R" read as R, G, B, as every reader of the library has had them.
+std::vector<int> exr_channel_order(const std::vector<std::string>& names) {
+  struct Ch { std::string layer, suffix; int n, special; };
+  std::vector<Ch> ch;
+  for (int i = 0; i < static_cast<int>(names.size()); ++i) {
+    const auto dot = names[i].find_last_of('.');
+    ch.push_back(dot == std::string::npos ? Ch{"", names[i], i, 10000}
+                                          : Ch{names[i].substr(0, dot + 1), names[i].substr(dot + 1), i, 10000});
+  }
+  const auto iequals = [](const std::string& a, const char* b) {
+    return a.size() == std::strlen(b) && std::equal(a.begin(), a.end(), b, [](char x, char y) {
+             return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+           });
+  };
+  std::stable_sort(ch.begin(), ch.end(), [](const Ch& a, const Ch& b) { return a.layer < b.layer; });
+  static const char* usual[] = {"R", "Red", "G", "Green", "B", "Blue", "Y", "real", "imag", "A", "Alpha",
+                                "AR", "RA", "AG", "GA", "AB", "BA", "Z", "Depth", "Zback", nullptr};
+  static const char* xyz[] = {"R", "Red", "G", "Green", "B", "Blue", "X", "Y", "Z", "real", "imag", "A",
+                              "Alpha", "AR", "RA", "AG", "GA", "AB", "BA", "Depth", "Zback", nullptr};
+  for (auto b = ch.begin(); b != ch.end();) {
+    auto e = b + 1;
+    while (e != ch.end() && e->layer == b->layer) ++e;
+    const auto has = [&](const char* s) { return std::any_of(b, e, [&](const Ch& c) { return iequals(c.suffix, s); }); };
+    const char** table = has("X") && (has("Y") || has("Z")) ? xyz : usual;
+    for (auto c = b; c != e; ++c)
+      for (int i = 0; table[i]; ++i)
+        if (iequals(c->suffix, table[i])) { c->special = i; break; }
+    std::sort(b, e, [](const Ch& x, const Ch& y) { return x.special != y.special ? x.special < y.special : x.n < y.n; });
+    b = e;
+  }
+  std::vector<int> order;
+  for (const auto& c : ch) order.push_back(c.n);
+  return order;
+}
+
+Sample sample_of(Imf::PixelType t) {
+  return t == Imf::UINT ? Sample::U32 : t == Imf::HALF ? Sample::Half : Sample::F32;
+}
+Imf::PixelType pixel_type_of(Sample s) {
+  return s == Sample::U32 ? Imf::UINT : s == Sample::Half ? Imf::HALF : Imf::FLOAT;
+}
+
+// The names OpenImageIO gave OpenEXR's compressions (and `--compression` takes).
+const std::pair<const char*, Imf::Compression> kExrCompressions[] = {
+    {"none", Imf::NO_COMPRESSION}, {"rle", Imf::RLE_COMPRESSION},     {"zips", Imf::ZIPS_COMPRESSION},
+    {"zip", Imf::ZIP_COMPRESSION}, {"piz", Imf::PIZ_COMPRESSION},     {"pxr24", Imf::PXR24_COMPRESSION},
+    {"b44", Imf::B44_COMPRESSION}, {"b44a", Imf::B44A_COMPRESSION},   {"dwaa", Imf::DWAA_COMPRESSION},
+    {"dwab", Imf::DWAB_COMPRESSION}};
+
+// OpenEXR's worker threads (its global pool), one per hardware thread, set once: line blocks are
+// compressed and decompressed in parallel. $PHOTOSITE_EXR_THREADS (fuzzing: 0, no pool) overrides.
+void init_exr_threads() {
+  static const bool once = [] {
+    int n = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (const auto e = env::get(env::Var::ExrThreads)) {
+      char* end = nullptr;
+      const long v = std::strtol(e->c_str(), &end, 10);
+      if (!end || *end || v < 0 || v > 1024) fail(std::string("PHOTOSITE_EXR_THREADS='") + *e + "' is not a whole number from 0 to 1024");
+      n = static_cast<int>(v);
+    }
+    Imf::setGlobalThreadCount(n);
+    return true;
+  }();
+  (void)once;
+}
+
+// An attribute's value as text: strings as they are, numbers as OpenImageIO printed them (%g for
+// floats), vectors and boxes as comma lists; other types by their type name.
+std::string attribute_text(const Imf::Attribute& a) {
+  if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&a)) return s->value();
+  if (const auto* i = dynamic_cast<const Imf::IntAttribute*>(&a)) return fmt::format("{}", i->value());
+  if (const auto* f = dynamic_cast<const Imf::FloatAttribute*>(&a)) return fmt::format("{:g}", f->value());
+  if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&a)) return fmt::format("{:g}", d->value());
+  return a.typeName();
+}
+
+// The whole first part of an OpenEXR file (scan lines or tiles) in each channel's own type,
+// channels in OpenImageIO's order (exr_channel_order).
+Raster read_exr_raster(const std::string& path) {
+  init_exr_threads();
+  check_exr_header(path);
+  Raster r;
+  r.format = "openexr";
+  r.linear = true;
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imf::Header& h = file.header();
+    const Imath::Box2i dw = h.dataWindow();
+    const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, hh = int64_t{dw.max.y} - dw.min.y + 1;
+    check_frame_size(path, w, hh);
+    std::vector<std::string> names;
+    std::vector<Imf::Channel> chans;
+    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
+      if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+        fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(),
+                                  it.channel().xSampling, it.channel().ySampling));
+      names.push_back(it.name());
+      chans.push_back(it.channel());
+    }
+    if (names.empty()) fail_at(path, "image has no channels");
+    if (names.size() > 64) fail_at(path, fmt::format("image declares {} channels", names.size()));
+    r.width = static_cast<int>(w);
+    r.height = static_cast<int>(hh);
+    r.channels = static_cast<int>(names.size());
+    size_t pixel_bytes = 0;
+    std::vector<size_t> offset;
+    for (int i : exr_channel_order(names)) {
+      r.channel_names.push_back(names[i]);
+      r.channel_samples.push_back(sample_of(chans[i].type));
+      offset.push_back(pixel_bytes);
+      pixel_bytes += codec::sample_bytes(r.channel_samples.back());
+    }
+    r.sample = r.channel_samples[0];
+    r.bytes.resize(static_cast<size_t>(w) * hh * pixel_bytes);
+    const size_t row_bytes = static_cast<size_t>(w) * pixel_bytes;
+    // OpenEXR addresses pixel (x, y) of the data window at base + x·xStride + y·yStride.
+    char* base = reinterpret_cast<char*>(r.bytes.data()) - static_cast<ptrdiff_t>(dw.min.x) * static_cast<ptrdiff_t>(pixel_bytes) -
+                 static_cast<ptrdiff_t>(dw.min.y) * static_cast<ptrdiff_t>(row_bytes);
+    Imf::FrameBuffer fb;
+    for (int c = 0; c < r.channels; ++c)
+      fb.insert(r.channel_names[c], Imf::Slice(pixel_type_of(r.channel_samples[c]), base + offset[c], pixel_bytes, row_bytes));
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+    // Attributes beyond the layout, by name; capDate as OpenImageIO's DateTime.
+    for (auto it = h.begin(); it != h.end(); ++it) {
+      const std::string n = it.name();
+      if (n == "channels" || n == "dataWindow" || n == "displayWindow" || n == "lineOrder" || n == "compression") continue;
+      r.attributes[n == "capDate" ? "DateTime" : n] = attribute_text(it.attribute());
+    }
+    for (const auto& [name, c] : kExrCompressions)
+      if (c == h.compression()) r.attributes["compression"] = name;
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // OpenEXR's Iex exceptions
+    fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
+  }
+  return r;
+}
+
+// The file as it is stored: by its signature, through its format's codec.
+Raster read_raster(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_at(path, "no such file");
   if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
-  check_exr_header(path);
-  auto in = ImageInput::open(path);
-  if (!in) {
-    std::string msg = OIIO::geterror();
-    fail_at(path, "cannot read image (" + (msg.empty() ? std::string("unknown format") : msg) + ")");
+  Raster r;
+  switch (sniff(path)) {
+    case Format::Png: r = read_png_any(path); break;
+    case Format::Jpeg: r = codec::read_jpeg(path); break;
+    case Format::Tiff: r = codec::read_tiff(path); break;
+    case Format::Exr: r = read_exr_raster(path); break;
+    case Format::Unknown: fail_at(path, "cannot read image (not a PNG, JPEG, TIFF or OpenEXR file)");
   }
-  const ImageSpec& spec = in->spec();
-  if (spec.nchannels <= 0) fail_at(path, "image has no channels");
-  check_frame_size(path, spec.width, spec.height);
-  if (spec.nchannels > 64) fail_at(path, fmt::format("image declares {} channels", spec.nchannels));
-  return in;
+  if (r.channels <= 0) fail_at(path, "image has no channels");
+  if (r.channels > 64) fail_at(path, fmt::format("image declares {} channels", r.channels));
+  return r;
 }
 
-ImageFileInfo info_from(const std::string& path, const ImageInput& in) {
-  const ImageSpec& spec = in.spec();
+ImageFileInfo info_of(const std::string& path, const Raster& r) {
   ImageFileInfo info;
   info.path = path;
-  info.format = in.format_name();
-  info.width = spec.width;
-  info.height = spec.height;
-  info.channels = spec.nchannels;
-  info.bits_per_sample = static_cast<int>(spec.format.size() * 8);
-  info.is_float = spec.format.is_floating_point();
-  std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-  info.srgb_encoded = !info.is_float && cs != "Linear" && cs != "linear";
+  info.format = r.format;
+  info.width = r.width;
+  info.height = r.height;
+  info.channels = r.channels;
+  info.bits_per_sample = codec::sample_bytes(r.sample) * 8;
+  info.is_float = r.sample == Sample::Half || r.sample == Sample::F32;
+  info.srgb_encoded = !info.is_float && !r.linear;
   return info;
+}
+
+// A stored sample as float, as OpenImageIO converts: integers scaled to [0, 1] by their largest
+// code (code · (1/max) in float), half and float as they are.
+ImageF to_float(const Raster& r) {
+  ImageF img(r.width, r.height, r.channels, uninitialized);
+  const size_t n = static_cast<size_t>(r.width) * r.height;
+  size_t pixel_bytes = 0;
+  for (Sample s : r.channel_samples) pixel_bytes += codec::sample_bytes(s);
+  size_t off = 0;
+  for (int c = 0; c < r.channels; ++c) {
+    const Sample s = r.channel_samples[c];
+    const uint8_t* src = r.bytes.data() + off;
+    float* dst = img.data() + c;
+    const int ch = r.channels;
+    switch (s) {
+      case Sample::U8: for (size_t p = 0; p < n; ++p) dst[p * ch] = src[p * pixel_bytes] * (1.f / 255); break;
+      case Sample::U16:
+        for (size_t p = 0; p < n; ++p) { uint16_t v; std::memcpy(&v, src + p * pixel_bytes, 2); dst[p * ch] = v * (1.f / 65535); }
+        break;
+      case Sample::U32:
+        for (size_t p = 0; p < n; ++p) { uint32_t v; std::memcpy(&v, src + p * pixel_bytes, 4); dst[p * ch] = static_cast<float>(v) * (1.f / 4294967295.f); }
+        break;
+      case Sample::Half:
+        for (size_t p = 0; p < n; ++p) { half v; std::memcpy(&v, src + p * pixel_bytes, 2); dst[p * ch] = static_cast<float>(v); }
+        break;
+      case Sample::F32: for (size_t p = 0; p < n; ++p) std::memcpy(&dst[p * ch], src + p * pixel_bytes, 4); break;
+    }
+    off += codec::sample_bytes(s);
+  }
+  return img;
 }
 }  // namespace
 
@@ -177,10 +454,37 @@ void check_frame_size(const std::string& what, int64_t width, int64_t height) {
 }
 
 ImageFileInfo probe_image(const std::string& path) {
-  auto in = open_input(path);
-  auto info = info_from(path, *in);
-  in->close();
-  return info;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail_at(path, "no such file");
+  if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
+  if (sniff(path) == Format::Exr) {  // the header alone
+    init_exr_threads();
+    check_exr_header(path);
+    try {
+      Imf::InputFile file(path.c_str());
+      const Imf::Header& h = file.header();
+      const Imath::Box2i dw = h.dataWindow();
+      check_frame_size(path, int64_t{dw.max.x} - dw.min.x + 1, int64_t{dw.max.y} - dw.min.y + 1);
+      std::vector<std::string> names;
+      std::vector<Imf::PixelType> types;
+      for (auto it = h.channels().begin(); it != h.channels().end(); ++it)
+        names.push_back(it.name()), types.push_back(it.channel().type);
+      if (names.empty()) fail_at(path, "image has no channels");
+      Raster r;
+      r.format = "openexr";
+      r.linear = true;
+      r.width = dw.max.x - dw.min.x + 1;
+      r.height = dw.max.y - dw.min.y + 1;
+      r.channels = static_cast<int>(names.size());
+      r.sample = sample_of(types[exr_channel_order(names)[0]]);
+      return info_of(path, r);
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
+    }
+  }
+  return info_of(path, read_raster(path));
 }
 
 namespace {
@@ -220,16 +524,9 @@ std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInf
 }  // namespace
 
 ImageF detail::read_image_general(const std::string& path, ImageFileInfo* info) {
-  auto in = open_input(path);
-  const ImageSpec& spec = in->spec();
-  ImageF img(spec.width, spec.height, spec.nchannels, uninitialized);
-  // Some readers (libtiff's strips) report damage as an error message but still "succeed"
-  // with the missing part zero-filled: any reported error is a corrupt file.
-  if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, img.data()) || in->has_error())
-    fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
-  if (info) *info = info_from(path, *in);
-  in->close();
-  return img;
+  const Raster r = read_raster(path);
+  if (info) *info = info_of(path, r);
+  return to_float(r);
 }
 
 ImageF read_image(const std::string& path, ImageFileInfo* info) {
@@ -273,24 +570,14 @@ ImageU16 read_image_u16(const std::string& path, ImageFileInfo* info) {
 }
 
 ImageU16 detail::read_image_u16_general(const std::string& path, ImageFileInfo* info) {
-  auto in = open_input(path);
-  const ImageSpec& spec = in->spec();
-  if (spec.format.is_floating_point())
+  const Raster r = read_raster(path);
+  if (r.sample == Sample::Half || r.sample == Sample::F32)
     fail_at(path, "expected an integer (8- or 16-bit) image, found floating point");
-  ImageU16 img(spec.width, spec.height, spec.nchannels, uninitialized);
-  bool ok;
-  if (spec.format.size() == 1) {
-    ImageU8 tmp(spec.width, spec.height, spec.nchannels, uninitialized);
-    ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::UINT8, tmp.data());
-    for (size_t i = 0; i < tmp.size(); ++i) img[i] = tmp[i];
-  } else if (spec.format.size() == 2) {
-    ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::UINT16, img.data());
-  } else {
-    fail_at(path, fmt::format("unsupported {}-bit integer samples", spec.format.size() * 8));
-  }
-  if (!ok || in->has_error()) fail_at(path, "corrupt or truncated image (" + in->geterror() + ")");
-  if (info) *info = info_from(path, *in);
-  in->close();
+  if (r.sample == Sample::U32) fail_at(path, "unsupported 32-bit integer samples");
+  ImageU16 img(r.width, r.height, r.channels, uninitialized);
+  if (r.sample == Sample::U8) std::copy(r.bytes.begin(), r.bytes.end(), img.data());
+  else std::memcpy(img.data(), r.bytes.data(), r.bytes.size());
+  if (info) *info = info_of(path, r);
   return img;
 }
 
@@ -324,8 +611,9 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
                const ExrWriteOptions& options) {
   if (groups.empty()) internal_error("write_exr: no channels");
   check_exr_compression(options.compression, "EXR compression");
+  init_exr_threads();
   std::vector<std::string> names;
-  std::vector<TypeDesc> formats;  // per channel
+  std::vector<Sample> formats;  // per channel
   const auto shape = [](const ExrChannelGroup& g) {
     return g.image ? std::array<int, 3>{g.image->width(), g.image->height(), g.image->channels()}
            : g.image_u16 ? std::array<int, 3>{g.image_u16->width(), g.image_u16->height(), g.image_u16->channels()}
@@ -336,98 +624,122 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
     if (!g.image == !g.image_u16 || (g.image_u16 && g.pixel != ExrPixel::Uint) ||
         shape(g) != std::array<int, 3>{w, h, static_cast<int>(g.channel_names.size())})
       internal_error("write_exr: channel group shape mismatch for " + path);
-    const TypeDesc t = g.pixel == ExrPixel::Uint ? TypeDesc::UINT
-                       : g.pixel == ExrPixel::Half || options.half ? TypeDesc::HALF
-                                                                   : TypeDesc::FLOAT;
+    const Sample t = g.pixel == ExrPixel::Uint ? Sample::U32
+                     : g.pixel == ExrPixel::Half || options.half ? Sample::Half
+                                                                 : Sample::F32;
     for (const auto& n : g.channel_names) names.push_back(n), formats.push_back(t);
   }
   const int nch = static_cast<int>(names.size());
-  const bool mixed = std::any_of(formats.begin(), formats.end(), [&](TypeDesc t) { return t != formats[0]; });
-  ImageSpec spec(w, h, nch, formats[0]);
-  spec.channelnames = names;
-  if (mixed) spec.channelformats = formats;
-  spec.alpha_channel = -1;
-  spec.attribute("compression", options.compression);
-  spec.attribute("oiio:ColorSpace", "Linear");
-  if (options.reproducible) spec.attribute("DateTime", "0000:00:00 00:00:00");
+  // The header: OpenEXR's required attributes (data and display window the frame, pixel aspect
+  // 1, increasing-y line order), the compression, and the units and provenance.
+  Imf::Header header(w, h);
+  for (const auto& [n, c] : kExrCompressions)
+    if (options.compression == n) header.compression() = c;
+  // DWA's quality in the header, at OpenEXR's default 45, as OpenImageIO wrote it.
+  if (header.compression() == Imf::DWAA_COMPRESSION || header.compression() == Imf::DWAB_COMPRESSION)
+    header.insert("dwaCompressionLevel", Imf::FloatAttribute(45.f));
+  for (int c = 0; c < nch; ++c) {
+    if (header.channels().findChannel(names[c])) internal_error("write_exr: channel " + names[c] + " twice in " + path);
+    header.channels().insert(names[c], Imf::Channel(pixel_type_of(formats[c])));
+  }
+  // The capture date OpenImageIO wrote (its "DateTime"): the wall clock, or a fixed string for
+  // byte-reproducible files.
+  std::string date = "0000:00:00 00:00:00";
+  if (!options.reproducible) {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    localtime_r(&now, &tm);
+    char b[32];
+    std::strftime(b, sizeof b, "%Y:%m:%d %H:%M:%S", &tm);
+    date = b;
+  }
+  Imf::addCapDate(header, date);
   for (const auto& g : groups)
     if (!g.unit.empty())
-      for (const auto& n : g.channel_names) spec.attribute("photosite/unit/" + n, g.unit);
+      for (const auto& n : g.channel_names) header.insert("photosite/unit/" + n, Imf::StringAttribute(g.unit));
   for (const auto& [key, v] : attributes) {
     const std::string& k = key;  // a plain reference: clang 14 cannot capture a structured binding
     std::visit([&](const auto& x) {
       using X = std::decay_t<decltype(x)>;
-      if constexpr (std::is_same_v<X, std::string>) spec.attribute(k, x);
-      else if constexpr (std::is_same_v<X, int>) spec.attribute(k, x);
-      else spec.attribute(k, static_cast<float>(x));
+      if constexpr (std::is_same_v<X, std::string>) header.insert(k, Imf::StringAttribute(x));
+      else if constexpr (std::is_same_v<X, int>) header.insert(k, Imf::IntAttribute(x));
+      else header.insert(k, Imf::FloatAttribute(static_cast<float>(x)));
     }, v);
     if (std::holds_alternative<double>(v))  // keep full precision as text too
-      spec.attribute(k + "_text", fmt::format("{:.17g}", std::get<double>(v)));
+      header.insert(k + "_text", Imf::StringAttribute(fmt::format("{:.17g}", std::get<double>(v))));
   }
   // Interleaved and written a strip of rows at a time: a night result has 13 channels, and one
   // interleaved copy of the whole frame (109 MB at 2048x1024) was the largest single buffer of
   // a run. Strips are a multiple of 32 rows (OpenEXR's largest line block, PIZ/B44) and about
   // 16 MB, so OpenEXR still compresses several blocks of each strip in parallel. The file's
   // bytes do not depend on the strip height.
-  // Each pixel is stored in the file's own per-channel types (OpenImageIO's "native" layout,
-  // TypeUnknown), so integers go to UINT channels without a float detour and half channels are
-  // converted once, here.
+  // Each pixel is stored in the file's own per-channel types, so integers go to UINT channels
+  // without a float detour and half channels are converted once, here.
   std::vector<size_t> offset(nch);
   size_t pixel_bytes = 0;
-  for (int c = 0; c < nch; ++c) offset[c] = pixel_bytes, pixel_bytes += formats[c].size();
+  for (int c = 0; c < nch; ++c) offset[c] = pixel_bytes, pixel_bytes += codec::sample_bytes(formats[c]);
   const size_t row_bytes = static_cast<size_t>(w) * pixel_bytes;
   const int strip = std::max(32, static_cast<int>((16u << 20) / row_bytes) / 32 * 32);
   std::vector<unsigned char> buf(row_bytes * std::min(strip, h));
   const auto write = [&](const std::string& tmp) {
-    auto out = ImageOutput::create("openexr");
-    if (!out) internal_error("OpenImageIO has no OpenEXR writer");
-    if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
-    for (int y0 = 0; y0 < h; y0 += strip) {
-      const int y1 = std::min(h, y0 + strip);
-      int c0 = 0;
-      for (const auto& g : groups) {
-        const int gc = static_cast<int>(g.channel_names.size());
-        const size_t n = static_cast<size_t>(w) * (y1 - y0);
-        if (g.image_u16) {  // integers widened as they are
-          const uint16_t* src = g.image_u16->data() + static_cast<size_t>(y0) * w * gc;
+    try {
+      Imf::OutputFile out(tmp.c_str(), header, Imf::globalThreadCount());
+      for (int y0 = 0; y0 < h; y0 += strip) {
+        const int y1 = std::min(h, y0 + strip);
+        int c0 = 0;
+        for (const auto& g : groups) {
+          const int gc = static_cast<int>(g.channel_names.size());
+          const size_t n = static_cast<size_t>(w) * (y1 - y0);
+          if (g.image_u16) {  // integers widened as they are
+            const uint16_t* src = g.image_u16->data() + static_cast<size_t>(y0) * w * gc;
+            for (int c = 0; c < gc; ++c) {
+              unsigned char* dst = buf.data() + offset[c0 + c];
+              for (size_t p = 0; p < n; ++p) {
+                const uint32_t u = src[p * gc + c];
+                std::memcpy(dst + p * pixel_bytes, &u, 4);
+              }
+            }
+            c0 += gc;
+            continue;
+          }
+          const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
           for (int c = 0; c < gc; ++c) {
             unsigned char* dst = buf.data() + offset[c0 + c];
-            for (size_t p = 0; p < n; ++p) {
-              const uint32_t u = src[p * gc + c];
-              std::memcpy(dst + p * pixel_bytes, &u, 4);
+            const Sample t = formats[c0 + c];
+            if (t == Sample::U32) {
+              for (size_t p = 0; p < n; ++p) {
+                const float v = src[p * gc + c];
+                if (!(v >= 0.f && v < 4294967296.f) || v != std::floor(v))
+                  internal_error(fmt::format("write_exr: {} holds {} at pixel {}, not a 32-bit unsigned integer",
+                                             names[c0 + c], v, p));
+                const uint32_t u = static_cast<uint32_t>(v);
+                std::memcpy(dst + p * pixel_bytes, &u, 4);
+              }
+            } else if (t == Sample::Half) {
+              for (size_t p = 0; p < n; ++p) {
+                const half v(src[p * gc + c]);
+                std::memcpy(dst + p * pixel_bytes, &v, 2);
+              }
+            } else {
+              for (size_t p = 0; p < n; ++p) std::memcpy(dst + p * pixel_bytes, &src[p * gc + c], 4);
             }
           }
           c0 += gc;
-          continue;
         }
-        const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
-        for (int c = 0; c < gc; ++c) {
-          unsigned char* dst = buf.data() + offset[c0 + c];
-          const TypeDesc t = formats[c0 + c];
-          if (t == TypeDesc::UINT) {
-            for (size_t p = 0; p < n; ++p) {
-              const float v = src[p * gc + c];
-              if (!(v >= 0.f && v < 4294967296.f) || v != std::floor(v))
-                internal_error(fmt::format("write_exr: {} holds {} at pixel {}, not a 32-bit unsigned integer",
-                                           names[c0 + c], v, p));
-              const uint32_t u = static_cast<uint32_t>(v);
-              std::memcpy(dst + p * pixel_bytes, &u, 4);
-            }
-          } else if (t == TypeDesc::HALF) {
-            for (size_t p = 0; p < n; ++p) {
-              const half v(src[p * gc + c]);
-              std::memcpy(dst + p * pixel_bytes, &v, 2);
-            }
-          } else {
-            for (size_t p = 0; p < n; ++p) std::memcpy(dst + p * pixel_bytes, &src[p * gc + c], 4);
-          }
-        }
-        c0 += gc;
+        // OpenEXR addresses pixel (x, y) at base + x·xStride + y·yStride: the strip's row y0 is
+        // the buffer's first.
+        char* base = reinterpret_cast<char*>(buf.data()) - static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(row_bytes);
+        Imf::FrameBuffer fb;
+        for (int c = 0; c < nch; ++c)
+          fb.insert(names[c], Imf::Slice(pixel_type_of(formats[c]), base + offset[c], pixel_bytes, row_bytes));
+        out.setFrameBuffer(fb);
+        out.writePixels(y1 - y0);
       }
-      if (!out->write_scanlines(y0, y1, 0, TypeUnknown, buf.data()))
-        fail_at(path, "write failed (" + out->geterror() + ")");
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {  // OpenEXR's Iex exceptions: a full disk, a lost folder
+      fail_at(path, std::string("write failed (") + e.what() + ")");
     }
-    if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
   };
   if (options.create_only) return atomic_create(path, write);
   atomic_write(path, write);
@@ -435,56 +747,91 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
 }
 
 ExrContents read_exr(const std::string& path) {
-  auto in = open_input(path);
-  const ImageSpec& spec = in->spec();
+  if (sniff(path) != Format::Exr) fail_at(path, "not an OpenEXR file");
+  const Raster raster = read_exr_raster(path);
   ExrContents r;
-  r.width = spec.width;
-  r.height = spec.height;
-  const int nch = spec.nchannels;
-  // Read in the file's own per-channel types (OpenImageIO would scale UINT to [0, 1] when asked
-  // for float), then widen each channel to float: UINT values below 2^24 and every half are exact.
-  const size_t pixel_bytes = spec.pixel_bytes(true);
-  std::vector<unsigned char> buf(static_cast<size_t>(spec.width) * spec.height * pixel_bytes);
-  if (!in->read_image(0, 0, 0, nch, TypeUnknown, buf.data()) || in->has_error())
-    fail_at(path, "corrupt or truncated EXR (" + in->geterror() + ")");
-  for (int c = 0, offset = 0; c < nch; offset += static_cast<int>(spec.channelformat(c).size()), ++c) {
-    ImageF ch(spec.width, spec.height, 1, uninitialized);
-    const TypeDesc t = spec.channelformat(c);
-    const unsigned char* src = buf.data() + offset;
+  r.width = raster.width;
+  r.height = raster.height;
+  // Each channel widened to float: UINT values below 2^24 and every half are exact.
+  size_t pixel_bytes = 0;
+  for (Sample s : raster.channel_samples) pixel_bytes += codec::sample_bytes(s);
+  size_t offset = 0;
+  for (int c = 0; c < raster.channels; ++c) {
+    ImageF ch(raster.width, raster.height, 1, uninitialized);
+    const Sample t = raster.channel_samples[c];
+    const unsigned char* src = raster.bytes.data() + offset;
     for (size_t p = 0, n = ch.size(); p < n; ++p, src += pixel_bytes) {
-      if (t == TypeDesc::UINT) { uint32_t u; std::memcpy(&u, src, 4); ch[p] = static_cast<float>(u); }
-      else if (t == TypeDesc::HALF) { half v; std::memcpy(&v, src, 2); ch[p] = static_cast<float>(v); }
-      else if (t == TypeDesc::FLOAT) std::memcpy(&ch[p], src, 4);
-      else fail_at(path, fmt::format("channel {} has pixel type {}, not float, half or uint", c, t.c_str()));
+      if (t == Sample::U32) { uint32_t u; std::memcpy(&u, src, 4); ch[p] = static_cast<float>(u); }
+      else if (t == Sample::Half) { half v; std::memcpy(&v, src, 2); ch[p] = static_cast<float>(v); }
+      else std::memcpy(&ch[p], src, 4);
     }
-    std::string name = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c]
-                                                                       : fmt::format("ch{}", c);
-    auto u = spec.find_attribute("photosite/unit/" + name);
-    if (u) ch.set_unit(u->get_string());
-    r.pixel_types[name] = t == TypeDesc::UINT ? ExrPixel::Uint : t == TypeDesc::HALF ? ExrPixel::Half : ExrPixel::Float;
+    offset += codec::sample_bytes(t);
+    const std::string& name = raster.channel_names[c];
+    if (const auto u = raster.attributes.find("photosite/unit/" + name); u != raster.attributes.end()) ch.set_unit(u->second);
+    r.pixel_types[name] = t == Sample::U32 ? ExrPixel::Uint : t == Sample::Half ? ExrPixel::Half : ExrPixel::Float;
     r.channels.emplace(name, std::move(ch));
   }
-  for (const auto& a : spec.extra_attribs) r.attributes[a.name().string()] = a.get_string();
-  in->close();
+  r.attributes = raster.attributes;
   return r;
 }
 
+uint8_t float_to_code8(float v) {
+  // OpenImageIO's scaled conversion: v·255 ± 0.5 (away from zero), clamped, truncated.
+  float s = v * 255.f;
+  s += s < 0 ? -0.5f : 0.5f;
+  return static_cast<uint8_t>(std::clamp(s, 0.f, 255.f));
+}
+uint16_t float_to_code16(float v) {
+  float s = v * 65535.f;
+  s += s < 0 ? -0.5f : 0.5f;
+  return static_cast<uint16_t>(std::clamp(s, 0.f, 65535.f));
+}
+
 void write_png(const std::string& path, const ImageF& image, int bits) {
-  ImageSpec spec(image.width(), image.height(), image.channels(),
-                 bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8);
-  spec.attribute("DateTime", "0000:00:00 00:00:00");  // previews carry no wall-clock time
-  // zlib level 1 instead of OpenImageIO's default 6: `batch --format png --layers sensor,labels`
-  // went from 716 to 352 ms per 2048x1024 image end to end for 6 % larger files
-  // (docs/benchmarks.md); PNG stays lossless either way.
-  spec.attribute("png:compressionLevel", 1);
+  if (bits != 8 && bits != 16) internal_error("write_png: bits must be 8 or 16");
+  const int w = image.width(), h = image.height(), ch = image.channels();
+  if (ch < 1 || ch > 4) fail_at(path, fmt::format("cannot write {} channels as an image file (1 to 4)", ch));
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  Raster r;
+  r.width = w;
+  r.height = h;
+  r.channels = ch;
+  r.sample = bits == 16 ? Sample::U16 : Sample::U8;
+  r.channel_samples.assign(ch, r.sample);
+  r.bytes.resize(image.size() * (bits / 8));
+  if (bits == 8) for (size_t i = 0; i < image.size(); ++i) r.bytes[i] = float_to_code8(image[i]);
+  else for (size_t i = 0; i < image.size(); ++i) { const uint16_t v = float_to_code16(image[i]); std::memcpy(&r.bytes[2 * i], &v, 2); }
+  if (ext == ".tif" || ext == ".tiff") {
+    atomic_write(path, [&](const std::string& tmp) { codec::write_tiff(tmp, r); });
+    return;
+  }
+  if (ext != ".png") fail_at(path, "no image writer for this file extension (.png, .tif or .tiff)");
+  // zlib level 1 (libspng's default is 6): `batch --format png --layers sensor,labels` went from
+  // 716 to 352 ms per 2048x1024 image end to end for 6 % larger files when this was set
+  // (docs/benchmarks.md); PNG stays lossless either way. No time or text chunks.
+  std::unique_ptr<spng_ctx, void (*)(spng_ctx*)> ctx(spng_ctx_new(SPNG_CTX_ENCODER), spng_ctx_free);
+  if (!ctx) internal_error("libspng: no encoder context");
+  spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1);
+  spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, 1);
+  spng_ihdr ihdr{};
+  ihdr.width = static_cast<uint32_t>(w);
+  ihdr.height = static_cast<uint32_t>(h);
+  ihdr.bit_depth = static_cast<uint8_t>(bits);
+  ihdr.color_type = ch == 1 ? SPNG_COLOR_TYPE_GRAYSCALE : ch == 2 ? SPNG_COLOR_TYPE_GRAYSCALE_ALPHA
+                    : ch == 3 ? SPNG_COLOR_TYPE_TRUECOLOR : SPNG_COLOR_TYPE_TRUECOLOR_ALPHA;
+  int e = spng_set_ihdr(ctx.get(), &ihdr);
+  if (!e) e = spng_encode_image(ctx.get(), r.bytes.data(), r.bytes.size(), SPNG_FMT_PNG, SPNG_ENCODE_FINALIZE);
+  if (e) fail_at(path, fmt::format("cannot write ({})", spng_strerror(e)));
+  size_t len = 0;
+  std::unique_ptr<void, void (*)(void*)> png(spng_get_png_buffer(ctx.get(), &len, &e), std::free);
+  if (!png || e) fail_at(path, fmt::format("cannot write ({})", spng_strerror(e)));
   atomic_write(path, [&](const std::string& tmp) {
-    // Keep the real extension on the temporary so OIIO picks the right writer.
-    auto out = ImageOutput::create(path);
-    if (!out) fail_at(path, "no image writer for this file extension");
-    if (!out->open(tmp, spec)) fail_at(path, "cannot write (" + out->geterror() + ")");
-    if (!out->write_image(TypeDesc::FLOAT, image.data()))
-      fail_at(path, "write failed (" + out->geterror() + ")");
-    if (!out->close()) fail_at(path, "write failed (" + out->geterror() + ")");
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
+    const bool written = std::fwrite(png.get(), 1, len, f) == len && std::fflush(f) == 0;
+    const int close_errno = std::fclose(f) == 0 ? 0 : errno;
+    if (!written || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
   });
 }
 

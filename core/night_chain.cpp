@@ -2,7 +2,6 @@
 
 #include <chrono>
 
-#include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 
 #include "photosite/error.h"
@@ -112,17 +111,17 @@ SensorOutput night_frame(SensorRunner& runner, const NightChain& c, const Sensor
 }
 
 namespace {
-// OIIO's float for every code of type T (all 2^bits of them), in code order; made on first use.
+// The float of every code of type T (all 2^bits of them), in code order, made on first use:
+// code · (1/max code) in float, OpenImageIO's conversion, which every reader of the library
+// (core/io.cpp to_float) and the data sets' files read through it have used
+// (tests/sensor_test.cpp compares the table with OpenImageIO's own convert_pixel_values).
 template <class T>
-const float* oiio_code_table() {
+const float* code_table() {
   static const std::vector<float> table = [] {
     constexpr size_t n = size_t{1} << (8 * sizeof(T));
-    std::vector<T> c(n);
+    constexpr float scale = 1.f / static_cast<float>(n - 1);
     std::vector<float> t(n);
-    for (size_t i = 0; i < n; ++i) c[i] = static_cast<T>(i);
-    if (!OIIO::convert_pixel_values(OIIO::BaseTypeFromC<T>::value, c.data(), OIIO::TypeDesc::FLOAT, t.data(),
-                                    static_cast<int>(n)))
-      internal_error("image_from_codes: conversion failed");
+    for (size_t i = 0; i < n; ++i) t[i] = static_cast<float>(i) * scale;
     return t;
   }();
   return table.data();
@@ -137,12 +136,11 @@ void codes_row(const T* c, size_t n, const float* table, float* o) {
 ImageF image_from_codes(const void* codes, int bits, int width, int height, int channels) {
   if (bits != 8 && bits != 16) internal_error("image_from_codes: bits must be 8 or 16");
   ImageF img(width, height, channels, uninitialized);
-  // Every code's float is OIIO's own conversion (convert_pixel_values, code / max code), made once
-  // per bit depth for all 256 or 65,536 codes: a table read per sample then gives the same bits
-  // as converting the samples with OIIO, which converted 8-bit codes one value at a time at
-  // about 2 ns each (12 ms of `ps.night`'s own time for a 2048x1024 frame, perf, 2026-11-28).
-  // (Made here, outside the parallel loop, where a failure can be thrown.)
-  const float* table = bits == 8 ? oiio_code_table<uint8_t>() : oiio_code_table<uint16_t>();
+  // Every code's float (code_table) made once per bit depth for all 256 or 65,536 codes and read
+  // per sample: converting one value at a time (OpenImageIO's convert_pixel_values, before)
+  // took about 2 ns each (12 ms of `ps.night`'s own time for a 2048x1024 frame, perf,
+  // 2026-11-28).
+  const float* table = bits == 8 ? code_table<uint8_t>() : code_table<uint16_t>();
   const size_t row = static_cast<size_t>(width) * channels;
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < height; ++y) {

@@ -1,7 +1,7 @@
 // libFuzzer target: label-format detection and loading. Byte 0 picks the path and the format
 // (auto, labelIds, trainIds, color), bytes 1-2 the frame size (2..65). Path 0 decodes a label
 // image built straight from the remaining bytes (detection and decoding only, fast); path 1
-// writes them to a file and loads it as labels through OpenImageIO (any format it detects),
+// writes them to a file and loads it as labels through core/io.cpp (PNG, JPEG, TIFF or OpenEXR),
 // resized to the frame; path 2 loads the file as instance ids beside constant labels.
 #include <sys/stat.h>
 #include <unistd.h>
@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <string>
 
-#include <OpenImageIO/imageio.h>
 
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -22,7 +21,6 @@ std::string g_file, g_labels;
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   setenv("PHOTOSITE_MAX_PIXELS", "1048576", 1);  // declared sizes above 1 Mpx are refused
-  OIIO::attribute("threads", 1);
   const std::string dir = "/tmp/photosite-fuzz-labels-" + std::to_string(getpid());
   mkdir(dir.c_str(), 0700);
   g_file = dir + "/input";

@@ -25,7 +25,7 @@
 #include <optional>
 
 #include <OpenEXR/ImfThreading.h>
-#include <OpenImageIO/imageio.h>
+#include <Imath/half.h>
 #include <fmt/format.h>
 
 #include "photosite/backend.h"
@@ -208,8 +208,7 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp = 
   } else {
     py::gil_scoped_release nogil;
     const ImageF srgb = preview_srgb(in, s.wb_gains);
-    OIIO::convert_pixel_values(OIIO::TypeDesc::FLOAT, srgb.data(), OIIO::TypeDesc::UINT8, out.data(),
-                               static_cast<int>(out.size()));
+    for (size_t i = 0; i < out.size(); ++i) out[i] = float_to_code8(srgb[i]);
   }
   return to_array(std::move(out));
 }
@@ -447,8 +446,9 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
     } else if (is_dtype(a, py::dtype("float16"))) {
       const ImageF f(s.width, s.height, s.channels, uninitialized);
       images.push_back(f);
-      OIIO::convert_pixel_values(OIIO::TypeDesc::HALF, a.data(), OIIO::TypeDesc::FLOAT, images.back().data(),
-                                 static_cast<int>(f.size()));
+      const Imath::half* hv = static_cast<const Imath::half*>(a.data());
+      float* fv = images.back().data();
+      for (size_t i = 0; i < f.size(); ++i) fv[i] = static_cast<float>(hv[i]);  // exact
       g.pixel = ExrPixel::Half;
     } else if (is_dtype(a, py::dtype::of<uint8_t>()) || is_dtype(a, py::dtype::of<uint16_t>()) ||
                is_dtype(a, py::dtype::of<uint32_t>())) {

@@ -50,7 +50,7 @@ inline float decode_interp(float v, const float* lut) {
   const int i = std::min(4095, static_cast<int>(t));
   return lut[i] + (lut[i + 1] - lut[i]) * (t - i);
 }
-// 8-bit files: read_image gives the 256 values code·(1/255) (OpenImageIO's conversion). Their
+// 8-bit files: read_image gives the 256 values code·(1/255) (OpenImageIO's conversion, kept). Their
 // decodes, by decode_interp itself, in a 256-entry table: a value that is one of them reads the
 // table, any other value interpolates, so the result is the same to the bit either way.
 struct Decode8 { float in[256], out[256]; };

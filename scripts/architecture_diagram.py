@@ -30,7 +30,7 @@ BOXES = {
     "gpu": (7.8, 2.9, 2.3, 1.8, "gpu/ + kernels/\nVulkan host layer (dlopen)\n*.comp → SPIR-V,\nembedded", "#d5e8d4"),
     "libs": (0.3, 0.3, 9.8, 1.6, "object libraries photosite_core + photosite_gpu, combined twice:\n"
              "photosite_lib (static: cli, tests, python module)   and   libphotosite.so = photosite::photosite (installed)\n"
-             "private to both: OpenCV, OpenImageIO, nlohmann-json, fmt, toml++, OpenMP (photosite_deps)", "#e1d5e7"),
+             "private to both: OpenCV, OpenEXR, libspng, libjpeg, libtiff, nlohmann-json, fmt, toml++, OpenMP (photosite_deps)", "#e1d5e7"),
 }
 
 ARROWS = [  # (from, to, label)

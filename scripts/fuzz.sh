@@ -55,6 +55,21 @@ seeds = {"labelids": bytes([1, w - 2, h - 2]) + png(w, h, 1, 8, ids),
 for k, v in seeds.items():
     open(f"{out}/seed-{k}", "wb").write(v)
 PY
+# The same labelIds as a TIFF and as a JPEG (lossy, so the ids are approximate: it feeds the
+# JPEG reader) and a 16-bit TIFF of the instance ids: the readers of core/io.cpp besides PNG's.
+/usr/bin/python3 - "$C/labels" <<'PY'
+import io, sys
+from PIL import Image
+out, w, h = sys.argv[1], 16, 8
+ids = [23 if y < 3 else 11 if y < 5 else 7 for y in range(h) for x in range(w)]
+im = Image.new("L", (w, h)); im.putdata(ids)
+for fmt, name, kw in (("TIFF", "tiff", {"compression": "tiff_deflate"}), ("JPEG", "jpeg", {"quality": 95})):
+    b = io.BytesIO(); im.save(b, fmt, **kw)
+    open(f"{out}/seed-{name}", "wb").write(bytes([1, w - 2, h - 2]) + b.getvalue())
+inst = Image.new("I;16", (w, h)); inst.putdata([26001 if v == 11 else v for v in ids])
+b = io.BytesIO(); inst.save(b, "TIFF")
+open(f"{out}/seed-instances-tiff", "wb").write(bytes([2, w - 2, h - 2]) + b.getvalue())
+PY
 # Device map: a real 8x4 map made by the normal build (scripts/setup.sh built build/photosite).
 store=$(mktemp -d)
 build/photosite flat --preset sony-imx174 --device-id dev --device-store "$store" --width 8 --height 4 \

@@ -4,8 +4,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/lib.sh
+# The image codecs: OpenEXR, libspng, libjpeg-turbo, libtiff (and libpng, libdeflate, zlib). OpenImageIO
+# is for the tests (the reference the codecs are checked against) and its tools (oiiotool, a
+# bench peer; idiff, scripts/bitcheck.sh); the library and the command do not link it.
 PKGS=(build-essential cmake ninja-build pkg-config
-      libopenimageio-dev openimageio-tools libopenexr-dev libimath-dev libopencv-dev libpng-dev libdeflate-dev zlib1g-dev libspng-dev libxxhash-dev
+      libopenexr-dev libimath-dev libspng-dev libjpeg-dev libtiff-dev libpng-dev libdeflate-dev zlib1g-dev libxxhash-dev
+      libopenimageio-dev openimageio-tools libopencv-dev
       libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools glslang-tools
       libtomlplusplus-dev libcli11-dev libfmt-dev nlohmann-json3-dev
       libgtest-dev libbenchmark-dev python3-matplotlib python3-numpy

@@ -13,10 +13,10 @@
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/isa_detail.h"
+#include "core/raster_codecs.h"
 #include "photosite/error.h"
 
 namespace photosite {
@@ -465,16 +465,12 @@ ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, cons
       sharp.copyTo(m);
     }
     if (o.jpeg_quality > 0) {
-      // OpenCV's codecs take BGR order; encode and decode in memory (libjpeg, 4:2:0 by default).
-      cv::Mat bgr;
-      cv::cvtColor(m, bgr, cv::COLOR_RGB2BGR);
-      std::vector<uint8_t> buf;
-      if (!cv::imencode(".jpg", bgr, buf, {cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}))
-        internal_error("preview_camera8: JPEG encoding failed");
-      const cv::Mat dec = cv::imdecode(buf, cv::IMREAD_COLOR);
-      if (dec.rows != h || dec.cols != w) internal_error("preview_camera8: JPEG decoding failed");
-      cv::Mat back(h, w, CV_8UC3, out.data());
-      cv::cvtColor(dec, back, cv::COLOR_BGR2RGB);
+      // Encode and decode in memory through libjpeg-turbo with its defaults (4:2:0 chroma, the
+      // islow DCT, fancy upsampling): the bytes and pixels OpenCV's imencode / imdecode gave,
+      // which made this preview before (tests/codecs_test.cpp compares the two).
+      const std::vector<uint8_t> jpeg = codec::encode_jpeg_rgb8(out.data(), w, h, o.jpeg_quality);
+      const std::vector<uint8_t> back = codec::decode_jpeg_rgb8(jpeg, w, h);
+      std::copy(back.begin(), back.end(), out.data());
     }
   }
   return out;

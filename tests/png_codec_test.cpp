@@ -1,5 +1,5 @@
-// PNG by hand (core/png_codec.h): the decoder gives what OpenImageIO gives for the data sets'
-// files, and every file the encoder writes reads back through OpenCV's libpng equal to the
+// PNG by hand (core/png_codec.h): the decoder gives what the general reader (libspng, core/io.cpp)
+// and OpenImageIO give for the data sets' files, and every file the encoder writes reads back through OpenCV's libpng equal to the
 // image in memory, for every filter and deflater.
 #include <gtest/gtest.h>
 
@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <OpenImageIO/imageio.h>
 #include <opencv2/imgcodecs.hpp>
 #include <zlib.h>
 
@@ -65,7 +66,7 @@ std::vector<uint8_t> test_image(int w, int h, int ch, uint32_t seed) {
 }
 }  // namespace
 
-TEST(PngCodec, DecodesTheDataSetsFilesAsOpenImageIODoes) {
+TEST(PngCodec, DecodesTheDataSetsFilesAsTheGeneralReaderAndOpenImageIODo) {
   const auto files = data_set_pngs();
   if (files.empty()) GTEST_SKIP() << "no PNG under ../shared/data/cityscapes or samples/";
   int fast = 0;
@@ -91,6 +92,12 @@ TEST(PngCodec, DecodesTheDataSetsFilesAsOpenImageIODoes) {
     EXPECT_EQ(std::memcmp(im.data(), img.data(), im.size() * sizeof(float)), 0) << "float samples differ";
     EXPECT_EQ(a.srgb_encoded, b.srgb_encoded);
     EXPECT_EQ(a.bits_per_sample, b.bits_per_sample);
+    // And OpenImageIO's floats, which photosite read these files through before.
+    auto oiio = OIIO::ImageInput::open(f);
+    ASSERT_TRUE(oiio);
+    std::vector<float> ref(im.size());
+    ASSERT_TRUE(oiio->read_image(0, 0, 0, oiio->spec().nchannels, OIIO::TypeDesc::FLOAT, ref.data()));
+    EXPECT_EQ(std::memcmp(im.data(), ref.data(), im.size() * sizeof(float)), 0) << "OpenImageIO's float samples differ";
   }
   EXPECT_GT(fast, 0) << "the decoder took none of the data sets' files";
 }
@@ -143,7 +150,7 @@ TEST(PngCodec, WritePng8FilesAreStandardPngs) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       for (int c = 0; c < 3; ++c) ASSERT_EQ(m.ptr<uint8_t>(y)[3 * x + 2 - c], img.at(x, y, c));
-  // And through our reader (the decoder) and OpenImageIO's.
+  // And through our reader (the decoder) and the general one.
   const ImageU16 a = read_image_u16(dir.file("p.png")), b = detail::read_image_u16_general(dir.file("p.png"));
   for (size_t i = 0; i < img.size(); ++i) {
     ASSERT_EQ(a[i], img[i]);
@@ -151,9 +158,9 @@ TEST(PngCodec, WritePng8FilesAreStandardPngs) {
   }
 }
 
-// What the decoder does not take goes to OpenImageIO: RGBA, damage (a flipped bit in the data:
-// CRC; a cut file), and errors keep OpenImageIO's wording.
-TEST(PngCodec, OtherAndDamagedFilesGoToOpenImageIO) {
+// What the decoder does not take goes to the general reader (libspng): RGBA, damage (a flipped bit
+// in the data: CRC; a cut file), whose errors name the file.
+TEST(PngCodec, OtherAndDamagedFilesGoToTheGeneralReader) {
   test::TempDir dir;
   const auto rgba = test_image(9, 7, 4, 3);
   cv::imwrite(dir.file("rgba.png"), cv::Mat(7, 9, CV_8UC4, const_cast<uint8_t*>(rgba.data())));
@@ -177,8 +184,8 @@ TEST(PngCodec, OtherAndDamagedFilesGoToOpenImageIO) {
 
 // Files re-saved by image tools carry sRGB (with the gAMA and cHRM that the PNG specification
 // asks writers to put beside it), pHYs and tEXt chunks, as the shared Cityscapes frames do: the
-// decoder takes them, with OpenImageIO's samples and colour space; gAMA alone (here 1.0, linear)
-// changes the colour space, so it goes to OpenImageIO, which reads it as linear.
+// decoder takes them, with the general reader's samples and colour space; gAMA alone (here 1.0,
+// linear) changes the colour space, so it goes to the general reader, which reads it as linear.
 TEST(PngCodec, AncillaryChunksBesideSrgbAreTakenGammaAloneIsNot) {
   test::TempDir dir;
   const auto px = test_image(40, 30, 3, 5);
@@ -197,7 +204,7 @@ TEST(PngCodec, AncillaryChunksBesideSrgbAreTakenGammaAloneIsNot) {
   EXPECT_EQ(a.srgb_encoded, b.srgb_encoded);
 
   const std::string linear = with_chunks(plain, {{"gAMA", be32s(100000)}});
-  EXPECT_FALSE(png::decode(bytes_of(linear), max_frame_pixels())) << "gAMA without sRGB: left to OpenImageIO";
+  EXPECT_FALSE(png::decode(bytes_of(linear), max_frame_pixels())) << "gAMA without sRGB: left to the general reader";
   std::ofstream(dir.file("linear.png"), std::ios::binary) << linear;
   ImageFileInfo c;
   const ImageF lin = read_image(dir.file("linear.png"), &c);

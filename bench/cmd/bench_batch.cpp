@@ -2,9 +2,11 @@
 // batch` runs) end to end on the Cityscapes samples (2048x1024), for the default EXR route and
 // the PNG route (`--format png --layers sensor,labels`), beside its parts measured alone (read +
 // decode + linearize, compute, write) and beside peers writing the same layers in the same run:
-// OpenCV's imwrite (EXR through its own OpenEXR path, PNG through libpng) and oiiotool.
+// OpenCV's imwrite (EXR through its own OpenEXR path, PNG through libpng; a module loaded when the
+// bench runs, bench/peers/opencv_imwrite.cpp) and oiiotool.
 // Then the PNG route's codecs alone (bench_png.csv, chart bench_png.png): the day and label PNGs
-// decoded by ours (core/png_codec.cpp), OpenImageIO (the previous reader), libspng and libpng;
+// decoded by ours (core/png_codec.cpp), the general reader (libspng through core/io.cpp, for the
+// files ours does not take), libspng alone and libpng;
 // the sensor preview encoded with every filter, zlib strategy and level and libdeflate level
 // (bytes per frame and CPU ms), beside libpng and libspng at the previous setting.
 #include <png.h>
@@ -12,6 +14,7 @@
 #include <time.h>
 #include <zlib.h>
 #include <sys/resource.h>
+#include <dlfcn.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -163,7 +166,7 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
   }
   std::printf("PNG decode, CPU ms per frame (mean of %zu):  day RGB8 to samples  | its labels (labelIds 8-bit + instanceIds 16-bit)\n", items.size());
   std::printf("  ours (libdeflate inflate, core/png_codec) %6.1f  |  %6.1f   (read_image: floats; read_image_u16)\n", d_ours / n, l_ours / n);
-  std::printf("  OpenImageIO (previous reader)             %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_oiio / n, l_oiio / n, d_ours / d_oiio, l_ours / l_oiio);
+  std::printf("  general reader (libspng, read_image_general) %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_oiio / n, l_oiio / n, d_ours / d_oiio, l_ours / l_oiio);
   std::printf("  libspng 0.7 (to 8-bit / raw samples)      %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_spng / n, l_spng / n, d_ours / d_spng, l_ours / l_spng);
   std::printf("  libpng simplified API (to 8-bit samples)  %6.1f  |  %6.1f   (ours %.2fx | %.2fx its time)\n", d_libpng / n, l_libpng / n, d_ours / d_libpng, l_ours / l_libpng);
 
@@ -243,7 +246,7 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
                 st.filter.c_str(), ms, mb, is_default ? "   <- default" : "");
     csv += fmt::format("{},{},{},{},{:.1f},{:.3f},{}\n", st.encoder, st.deflate, st.level, st.filter, ms, mb, is_default ? 1 : 0);
   }
-  csv += fmt::format("# decode CPU ms per frame, day RGB8 / labels: ours {:.1f} / {:.1f}, OpenImageIO {:.1f} / {:.1f}, libspng {:.1f} / {:.1f}, libpng {:.1f} / {:.1f}\n",
+  csv += fmt::format("# decode CPU ms per frame, day RGB8 / labels: ours {:.1f} / {:.1f}, general reader (libspng) {:.1f} / {:.1f}, libspng {:.1f} / {:.1f}, libpng {:.1f} / {:.1f}\n",
                      d_ours / n, l_ours / n, d_oiio / n, l_oiio / n, d_spng / n, l_spng / n, d_libpng / n, l_libpng / n);
   csv += fmt::format("# {} Cityscapes frames' night previews (onsemi-ar0331, night-urban), encode time as the thread's CPU time; {}\n",
                      items.size(), machine_description());
@@ -263,6 +266,26 @@ double cpu_ms() {
 }
 
 // A float image as an OpenCV matrix (no copy).
+// OpenCV's imwrite from the module beside the command (libphotosite_opencv_peers.so), loaded on
+// first use; bad input if it is missing (a build without it), before anything is timed.
+using ImwriteFn = int (*)(const char*, int, int, int, void*, size_t, const int*, int);
+ImwriteFn opencv_imwrite_fn() {
+  static const ImwriteFn fn = [] {
+    std::error_code ec;
+    const fs::path module = fs::read_symlink("/proc/self/exe", ec).parent_path() / "libphotosite_opencv_peers.so";
+    void* h = ec ? nullptr : dlopen(module.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!h) fail_at(module.string(), std::string("bench batch: cannot load OpenCV's peer module (") + (ec ? ec.message() : dlerror()) + "); build the target photosite_opencv_peers");
+    auto f = reinterpret_cast<ImwriteFn>(dlsym(h, "photosite_peer_imwrite"));
+    if (!f) fail_at(module.string(), "bench batch: no photosite_peer_imwrite in the module");
+    return f;
+  }();
+  return fn;
+}
+void cv_imwrite(const std::string& path, const cv::Mat& m, const std::vector<int>& params) {
+  if (!opencv_imwrite_fn()(path.c_str(), m.rows, m.cols, m.type(), m.data, m.step, params.data(), static_cast<int>(params.size())))
+    internal_error("bench batch: OpenCV's imwrite failed for " + path);
+}
+
 cv::Mat mat_of(const ImageF& img) {
   return cv::Mat(img.height(), img.width(), CV_32FC(img.channels()), const_cast<float*>(img.data()));
 }
@@ -299,6 +322,7 @@ void run_bench(const BenchBatchOptions& o) {
   double t_cv_exr = 0, t_cv_png = 0, t_oiio_exr = 0, t_oiio_png = 0;
   double mb_exr = 0, mb_png = 0, mb_cv_exr = 0, t_preview = 0;
   std::vector<ImageU8> previews;
+  if (!o.codecs_only) (void)opencv_imwrite_fn();  // the peer's module loaded before anything is timed
   for (const auto& it : items) {
     if (!parts) break;
     ImageFileInfo info;
@@ -342,11 +366,11 @@ void run_bench(const BenchBatchOptions& o) {
       for (size_t i = 0; i < label_f.size(); ++i) label_f[i] = labels.ids[i];
       cv::Mat bgr;
       cv::cvtColor(mat_of(out->rgb), bgr, cv::COLOR_RGB2BGR);
-      cv::imwrite((tmp / "cv_sensor.exr").string(), bgr, piz);
-      cv::imwrite((tmp / "cv_raw.exr").string(), mat_of(out->raw_dn), piz);
-      cv::imwrite((tmp / "cv_electrons.exr").string(), mat_of(out->electrons), piz);
-      cv::imwrite((tmp / "cv_depth.exr").string(), mat_of(ns->depth), piz_half);
-      cv::imwrite((tmp / "cv_labels.exr").string(), mat_of(label_f), piz);
+      cv_imwrite((tmp / "cv_sensor.exr").string(), bgr, piz);
+      cv_imwrite((tmp / "cv_raw.exr").string(), mat_of(out->raw_dn), piz);
+      cv_imwrite((tmp / "cv_electrons.exr").string(), mat_of(out->electrons), piz);
+      cv_imwrite((tmp / "cv_depth.exr").string(), mat_of(ns->depth), piz_half);
+      cv_imwrite((tmp / "cv_labels.exr").string(), mat_of(label_f), piz);
     });
     for (const char* f : {"cv_sensor", "cv_raw", "cv_electrons", "cv_depth", "cv_labels"})
       mb_cv_exr += fs::file_size(tmp / (std::string(f) + ".exr")) / 1e6;
@@ -354,7 +378,7 @@ void run_bench(const BenchBatchOptions& o) {
     const cv::Mat p8(preview.height(), preview.width(), CV_8UC3, const_cast<uint8_t*>(preview.data()));
     cv::Mat p8_bgr;
     cv::cvtColor(p8, p8_bgr, cv::COLOR_RGB2BGR);
-    t_cv_png += time_ms([&] { cv::imwrite((tmp / "cv.png").string(), p8_bgr, {cv::IMWRITE_PNG_COMPRESSION, 1}); });
+    t_cv_png += time_ms([&] { cv_imwrite((tmp / "cv.png").string(), p8_bgr, {cv::IMWRITE_PNG_COMPRESSION, 1}); });
 
     // oiiotool: rewrites our uncompressed file of the same layers (types kept) with PIZ, and the
     // preview from uncompressed TIFF to PNG at zlib level 1; its time includes starting the
@@ -362,7 +386,7 @@ void run_bench(const BenchBatchOptions& o) {
     ExrWriteOptions none = wo;
     none.compression = "none";
     write_exr((tmp / "none.exr").string(), groups, attrs, none);
-    cv::imwrite((tmp / "preview.tif").string(), p8_bgr, {cv::IMWRITE_TIFF_COMPRESSION, 1});
+    cv_imwrite((tmp / "preview.tif").string(), p8_bgr, {cv::IMWRITE_TIFF_COMPRESSION, 1});
     t_oiio_exr += time_ms([&] {
       const std::string cmd = fmt::format("oiiotool '{}' --compression piz -o '{}'", (tmp / "none.exr").string(),
                                           (tmp / "oiio.exr").string());

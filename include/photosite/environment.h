@@ -27,6 +27,7 @@ enum class Var {
   XdgDataHome,
   Home,
   MaxPixels,
+  ExrThreads,
   VkValidation,
   VkSyncValidation,
   VkStaging,

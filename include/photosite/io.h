@@ -1,6 +1,7 @@
-// Image files through OpenImageIO: reading any format it knows into float or integer images,
-// writing multi-channel OpenEXR with named layers, units and provenance in the header, and
-// PNG previews. Every write goes to a temporary name in the target folder and is renamed into
+// Image files: PNG (libspng, and core/png_codec.h for the data sets' plain files), JPEG
+// (libjpeg-turbo), TIFF (libtiff) and OpenEXR (OpenEXR) read into float or integer images,
+// multi-channel OpenEXR written with named layers, units and provenance in the header, and PNG
+// (or TIFF) previews. Every write goes to a temporary name in the target folder and is renamed into
 // place only when complete, so a failed or killed run never leaves a half-written file.
 #pragma once
 #include <cstdint>
@@ -56,7 +57,7 @@ struct ExrChannelGroup {
 };
 using ExrAttribute = std::variant<std::string, int, float, double>;
 
-// The compressions this OpenEXR (3.1) writes, by OpenImageIO's names: none, rle, zips, zip, piz
+// The compressions this OpenEXR (3.1) writes, by the names OpenImageIO gave them: none, rle, zips, zip, piz
 // (lossless), pxr24 (lossy for float32: rounds to 24 bits), b44, b44a, dwaa, dwab (lossy for
 // half and float; integer channels are always stored losslessly, OpenEXR's rule).
 const std::vector<std::string>& exr_compressions();
@@ -71,8 +72,9 @@ inline constexpr const char* kDefaultExrCompression = "piz";
 struct ExrWriteOptions {
   bool half = false;                // store as half instead of float32
   std::string compression = "zip";  // none, rle, zips, zip, piz, pxr24, b44, dwaa, dwab
-  // Byte-reproducible files: no wall-clock DateTime in the header (OpenImageIO adds one by
-  // default), so the same inputs give the same bytes on any machine and any day.
+  // Byte-reproducible files: the header's capture date (capDate, read back as "DateTime") is
+  // "0000:00:00 00:00:00" instead of the wall clock, so the same inputs give the same bytes on
+  // any machine and any day.
   bool reproducible = false;
   // Never replace: the finished file is published with link(), which fails when the name
   // exists; write_exr then discards its own file and returns false (someone else's is there).
@@ -92,8 +94,13 @@ struct ExrContents {
 };
 ExrContents read_exr(const std::string& path);
 
-// 8- or 16-bit PNG (or any OIIO format by extension) from float [0,1] samples, rounded.
+// 8- or 16-bit PNG (or TIFF, by the extension .tif / .tiff) from float [0,1] samples, rounded
+// by float_to_code8 / float_to_code16; 1 to 4 channels.
 void write_png(const std::string& path, const ImageF& image, int bits = 8);
+// A [0, 1] sample as an 8- or 16-bit code, as OpenImageIO converted (and the files photosite
+// wrote through it hold): v·max + 0.5 (− 0.5 below zero), clamped to the codes, truncated.
+uint8_t float_to_code8(float v);
+uint16_t float_to_code16(float v);
 // 8-bit PNG of the codes as they are (1 grey or 3 RGB channels), through libpng: zlib
 // level 1 and the Sub filter, no time or text chunks (the same bytes on any day). Written
 // atomically like every output.

@@ -1,0 +1,411 @@
+// JPEG through libjpeg-turbo and TIFF through libtiff (core/raster_codecs.h). The samples are the
+// ones OpenImageIO 2.4's readers gave for the same files in their native types; the in-memory JPEG
+// pair gives OpenCV 4.6's imencode / imdecode bytes and pixels (both link the same libjpeg).
+#include <algorithm>
+#include <csetjmp>
+#include <cerrno>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <type_traits>
+
+#include <fmt/format.h>
+#include <jpeglib.h>  // after <cstdio>: it uses size_t and FILE without including them
+#include <tiffio.h>
+
+#include "core/raster_codecs.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+
+namespace photosite::codec {
+
+int sample_bytes(Sample s) {
+  switch (s) {
+    case Sample::U8: return 1;
+    case Sample::U16: case Sample::Half: return 2;
+    case Sample::U32: case Sample::F32: return 4;
+  }
+  internal_error("sample_bytes: unknown sample type");
+}
+
+namespace {
+// ---------------------------------------------------------------------------------------- JPEG
+// libjpeg reports a fatal error through error_exit, which must not return (libjpeg.txt "Error
+// handling"): ours keeps the message and longjmps back. Warnings (corrupt or missing data, which
+// libjpeg pads with grey) come through emit_message(-1); we count them instead of printing.
+struct JpegErr {
+  jpeg_error_mgr pub;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX] = "";
+  int warnings = 0;
+};
+void on_error(j_common_ptr c) {
+  auto* e = reinterpret_cast<JpegErr*>(c->err);
+  c->err->format_message(c, e->message);
+  std::longjmp(e->jump, 1);
+}
+void on_message(j_common_ptr c, int level) {
+  auto* e = reinterpret_cast<JpegErr*>(c->err);
+  if (level < 0 && e->warnings++ == 0) c->err->format_message(c, e->message);  // keep the first
+}
+// Runs libjpeg calls under setjmp. `f` must create no object with a destructor: longjmp skips
+// destructors. Returns false on a libjpeg error (message in e.message).
+template <class F> bool guarded(JpegErr& e, F&& f) {
+  if (setjmp(e.jump)) return false;
+  f();
+  return true;
+}
+
+struct JpegDecoder {
+  jpeg_decompress_struct cinfo{};
+  JpegErr err;
+  JpegDecoder() {
+    cinfo.err = jpeg_std_error(&err.pub);
+    err.pub.error_exit = on_error;
+    err.pub.emit_message = on_message;
+    jpeg_create_decompress(&cinfo);  // cannot fail: it only allocates the memory manager
+  }
+  ~JpegDecoder() { jpeg_destroy_decompress(&cinfo); }
+  JpegDecoder(const JpegDecoder&) = delete;  // libjpeg keeps &err
+  JpegDecoder& operator=(const JpegDecoder&) = delete;
+};
+
+// Decodes with libjpeg's defaults (JDCT_ISLOW, fancy upsampling), as OpenImageIO and OpenCV do.
+// rgb: every file as 3-channel RGB (imdecode IMREAD_COLOR; greyscale is replicated by libjpeg);
+// otherwise 1 channel for greyscale files, 3 for colour (OpenImageIO). `header` sees w, h, channels
+// before the pixels are allocated and may throw. Returns "" or libjpeg's message.
+template <class H>
+std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_fatal, H&& header,
+                        Raster& out) {
+  JpegDecoder d;
+  jpeg_decompress_struct* c = &d.cinfo;
+  if (!guarded(d.err, [&] {
+        jpeg_mem_src(c, in.data(), static_cast<unsigned long>(in.size()));
+        jpeg_read_header(c, TRUE);
+      }))
+    return d.err.message;
+  out.width = static_cast<int>(c->image_width);
+  out.height = static_cast<int>(c->image_height);
+  out.channels = c->num_components;
+  header(out);  // may throw: outside `guarded`, and d's destructor releases libjpeg's memory
+  if (c->num_components != 1 && c->num_components != 3)
+    return fmt::format("{} colour components (CMYK / YCCK JPEG is not supported)", c->num_components);
+  c->out_color_space = rgb || c->num_components == 3 ? JCS_RGB : JCS_GRAYSCALE;
+  if (!guarded(d.err, [&] { jpeg_calc_output_dimensions(c); })) return d.err.message;
+  out.channels = c->output_components;  // scale 1/1: output size == image size
+  const size_t row = static_cast<size_t>(out.width) * out.channels;
+  out.bytes.resize(row * out.height);
+  uint8_t* base = out.bytes.data();
+  if (!guarded(d.err, [&] {
+        jpeg_start_decompress(c);
+        while (c->output_scanline < c->output_height) {
+          JSAMPROW r = base + row * c->output_scanline;
+          jpeg_read_scanlines(c, &r, 1);
+        }
+        jpeg_finish_decompress(c);
+      }))
+    return d.err.message;
+  if (warnings_fatal && d.err.warnings) return d.err.message;
+  return {};
+}
+}  // namespace
+
+Raster read_jpeg(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) fail_at(path, fmt::format("cannot read image ({})", std::strerror(errno)));
+  const std::vector<uint8_t> data{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  Raster r;
+  r.format = "jpeg";
+  r.sample = Sample::U8;
+  // Any libjpeg warning is an error: OpenImageIO's reader reports each one ("Premature end of
+  // JPEG file" for a truncated file, "Corrupt JPEG data: ..." for damaged entropy data).
+  const std::string err = jpeg_decode(data, false, true, [&](const Raster& h) {
+    check_frame_size(path, h.width, h.height);
+    // OpenImageIO converted CMYK / YCCK (Adobe) JPEGs to RGB; we refuse them, clearly.
+    if (h.channels != 1 && h.channels != 3)
+      fail_at(path, fmt::format("unsupported JPEG ({} colour components: CMYK or YCCK)", h.channels));
+  }, r);
+  if (!err.empty()) fail_at(path, "corrupt or truncated image (" + err + ")");
+  r.channel_samples.assign(r.channels, Sample::U8);
+  return r;
+}
+
+std::vector<uint8_t> decode_jpeg_rgb8(const std::vector<uint8_t>& jpeg, int expect_width, int expect_height) {
+  Raster r;
+  // Warnings are not errors here: imdecode returns libjpeg's padded pixels.
+  const std::string err = jpeg_decode(jpeg, true, false, [&](const Raster& h) {
+    if (h.width != expect_width || h.height != expect_height)
+      internal_error(fmt::format("decode_jpeg_rgb8: JPEG is {}x{}, expected {}x{}", h.width, h.height,
+                                 expect_width, expect_height));
+  }, r);
+  if (!err.empty()) internal_error("decode_jpeg_rgb8: " + err);
+  return std::move(r.bytes);
+}
+
+std::vector<uint8_t> encode_jpeg_rgb8(const uint8_t* rgb, int width, int height, int quality) {
+  // OpenCV's JpegEncoder::write: jpeg_set_defaults (4:2:0, baseline, Huffman tables not optimised,
+  // JFIF header), then jpeg_set_quality(q, force_baseline TRUE), rows handed over as JCS_RGB.
+  jpeg_compress_struct c{};
+  JpegErr e;
+  c.err = jpeg_std_error(&e.pub);
+  e.pub.error_exit = on_error;
+  e.pub.emit_message = on_message;
+  unsigned char* buf = nullptr;  // jpeg_mem_dest grows it with malloc; we free it
+  unsigned long size = 0;
+  const bool ok = guarded(e, [&] {
+    jpeg_create_compress(&c);
+    jpeg_mem_dest(&c, &buf, &size);
+    c.image_width = static_cast<JDIMENSION>(width);
+    c.image_height = static_cast<JDIMENSION>(height);
+    c.input_components = 3;
+    c.in_color_space = JCS_RGB;
+    jpeg_set_defaults(&c);
+    jpeg_set_quality(&c, std::clamp(quality, 0, 100), TRUE);
+    jpeg_start_compress(&c, TRUE);
+    while (c.next_scanline < c.image_height) {
+      JSAMPROW r = const_cast<uint8_t*>(rgb) + static_cast<size_t>(c.next_scanline) * width * 3;
+      jpeg_write_scanlines(&c, &r, 1);
+    }
+    jpeg_finish_compress(&c);
+  });
+  jpeg_destroy_compress(&c);
+  std::vector<uint8_t> out;
+  if (ok) out.assign(buf, buf + size);
+  std::free(buf);
+  if (!ok) internal_error(std::string("encode_jpeg_rgb8: ") + e.message);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------- TIFF
+namespace {
+// Per-file handlers (libtiff 4.5 TIFFOpenOptionsSetErrorHandlerExtR): the first error message is
+// kept in this call's string (so concurrent reads never share state, and the process-wide handlers
+// other code may rely on stay untouched), warnings are dropped; returning 1 stops the global handler.
+int tiff_error(TIFF*, void* user, const char* module, const char* f, va_list ap) {
+  auto* msg = static_cast<std::string*>(user);
+  if (msg->empty()) {
+    char b[1024];
+    std::vsnprintf(b, sizeof b, f, ap);
+    *msg = module && *module ? fmt::format("{}: {}", module, b) : b;
+  }
+  return 1;
+}
+int tiff_warning(TIFF*, void*, const char*, const char*, va_list) { return 1; }
+
+struct Tiff {
+  std::string error;
+  TIFF* tif = nullptr;
+  Tiff(const std::string& path, const char* mode) {
+    TIFFOpenOptions* o = TIFFOpenOptionsAlloc();
+    TIFFOpenOptionsSetErrorHandlerExtR(o, tiff_error, &error);
+    TIFFOpenOptionsSetWarningHandlerExtR(o, tiff_warning, nullptr);
+    tif = TIFFOpenExt(path.c_str(), mode, o);
+    TIFFOpenOptionsFree(o);
+  }
+  ~Tiff() { if (tif) TIFFClose(tif); }
+  Tiff(const Tiff&) = delete;  // libtiff keeps &error
+  Tiff& operator=(const Tiff&) = delete;
+  std::string message(const char* fallback) const { return error.empty() ? fallback : error; }
+};
+
+template <class T> void premultiply(uint8_t* p, size_t pixels, int nch, int alpha) {
+  // OpenImageIO delivers associated alpha: colour * alpha in float, rounded back (OIIO::premult).
+  for (size_t i = 0; i < pixels; ++i) {
+    T* px = reinterpret_cast<T*>(p) + i * nch;
+    if constexpr (std::is_floating_point_v<T>) {
+      for (int c = 0; c < nch; ++c) if (c != alpha) px[c] *= px[alpha];
+    } else {
+      constexpr float mx = static_cast<float>(std::numeric_limits<T>::max());
+      const float a = px[alpha] * (1.0f / mx);
+      for (int c = 0; c < nch; ++c)
+        if (c != alpha) px[c] = static_cast<T>(std::clamp(a * (px[c] * (1.0f / mx)) * mx + 0.5f, 0.0f, mx));
+    }
+  }
+}
+}  // namespace
+
+Raster read_tiff(const std::string& path) {
+  Tiff t(path, "rm");  // "m": no memory-mapping, so a truncated file reads as an error, not SIGBUS
+  // The caller (core/io.cpp) found TIFF's signature, so a file libtiff cannot open is damaged.
+  if (!t.tif) fail_at(path, "corrupt or truncated image (" + t.message("not a TIFF file") + ")");
+  TIFF* tif = t.tif;
+  const auto bad = [&](const char* fallback) { fail_at(path, "corrupt or truncated image (" + t.message(fallback) + ")"); };
+  uint32_t w = 0, h = 0;
+  uint16_t spp = 1, bps = 1, format = SAMPLEFORMAT_UINT, planar = PLANARCONFIG_CONTIG, photo = PHOTOMETRIC_MINISBLACK;
+  if (!TIFFGetField(tif, TIFFTAG_IMAGEWIDTH, &w) || !TIFFGetField(tif, TIFFTAG_IMAGELENGTH, &h)) bad("no image size");
+  TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLESPERPIXEL, &spp);
+  TIFFGetFieldDefaulted(tif, TIFFTAG_BITSPERSAMPLE, &bps);
+  TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLEFORMAT, &format);
+  TIFFGetFieldDefaulted(tif, TIFFTAG_PLANARCONFIG, &planar);
+  TIFFGetField(tif, TIFFTAG_PHOTOMETRIC, &photo);
+  check_frame_size(path, w, h);
+  if (spp > 64) fail_at(path, fmt::format("image declares {} channels", spp));
+  if (spp == 0) fail_at(path, "image declares 0 channels");
+  uint16_t compression = COMPRESSION_NONE;
+  TIFFGetFieldDefaulted(tif, TIFFTAG_COMPRESSION, &compression);
+  if (photo == PHOTOMETRIC_YCBCR && compression == COMPRESSION_JPEG) {  // libtiff converts (tiff(3) JPEGCOLORMODE)
+    TIFFSetField(tif, TIFFTAG_JPEGCOLORMODE, JPEGCOLORMODE_RGB);
+    photo = PHOTOMETRIC_RGB;
+  }
+
+  if (format == SAMPLEFORMAT_INT || format == SAMPLEFORMAT_COMPLEXINT || format == SAMPLEFORMAT_COMPLEXIEEEFP)
+    fail_at(path, "unsupported TIFF (signed integer or complex samples)");
+  Raster r;
+  r.format = "tiff";
+  r.width = static_cast<int>(w);
+  r.height = static_cast<int>(h);
+  const bool palette = photo == PHOTOMETRIC_PALETTE && spp == 1 && bps <= 8;
+  const bool ints = format == SAMPLEFORMAT_UINT || format == SAMPLEFORMAT_VOID;
+  const bool direct = (photo == PHOTOMETRIC_MINISBLACK || photo == PHOTOMETRIC_MINISWHITE || photo == PHOTOMETRIC_RGB) &&
+                      ((ints && (bps == 1 || bps == 2 || bps == 4 || bps == 8 || bps == 16 || bps == 32)) ||
+                       (format == SAMPLEFORMAT_IEEEFP && (bps == 16 || bps == 32)));
+  if (!palette && !direct) {
+    // Everything else (CMYK, YCbCr without JPEG, CIELab, LogLuv, odd bit depths...): libtiff's RGBA
+    // interface, 8-bit RGBA top row first (TIFFReadRGBAImage(3tiff)).
+    r.channels = 4;
+    r.sample = Sample::U8;
+    r.bytes.resize(size_t{w} * h * 4);
+    char emsg[1024] = "";
+    if (!TIFFRGBAImageOK(tif, emsg)) fail_at(path, fmt::format("unsupported TIFF layout ({})", emsg));
+    if (!TIFFReadRGBAImageOriented(tif, w, h, reinterpret_cast<uint32_t*>(r.bytes.data()), ORIENTATION_TOPLEFT, 1))
+      bad("cannot decode as RGBA");
+    for (size_t i = 0; i < size_t{w} * h; ++i) {  // ABGR in a host uint32 -> R, G, B, A bytes
+      uint32_t v;
+      std::memcpy(&v, &r.bytes[i * 4], 4);
+      const uint8_t px[4] = {uint8_t(TIFFGetR(v)), uint8_t(TIFFGetG(v)), uint8_t(TIFFGetB(v)), uint8_t(TIFFGetA(v))};
+      std::memcpy(&r.bytes[i * 4], px, 4);
+    }
+    r.channel_samples.assign(4, Sample::U8);
+    return r;
+  }
+
+  // Read the packed samples: one buffer per plane (planar separate: one channel a plane), rows of
+  // ceil(width * values * bits / 8) bytes, from strips (scanline by scanline) or tiles.
+  const bool separate = planar == PLANARCONFIG_SEPARATE && spp > 1;
+  const int planes = separate ? spp : 1, vals = separate ? 1 : spp;
+  const size_t rowbytes = (size_t{w} * vals * bps + 7) / 8, planebytes = rowbytes * h;
+  std::vector<uint8_t> packed(planebytes * planes);
+  if (TIFFIsTiled(tif)) {
+    uint32_t tw = 0, th = 0;
+    TIFFGetField(tif, TIFFTAG_TILEWIDTH, &tw);
+    TIFFGetField(tif, TIFFTAG_TILELENGTH, &th);
+    const tmsize_t tsize = TIFFTileSize(tif), trow = TIFFTileRowSize(tif);
+    if (tw == 0 || th == 0 || tsize <= 0 || trow <= 0) bad("bad tile size");
+    std::vector<uint8_t> tile(static_cast<size_t>(tsize));
+    for (int p = 0; p < planes; ++p)
+      for (uint32_t ty = 0; ty < h; ty += th)
+        for (uint32_t tx = 0; tx < w; tx += tw) {
+          if (TIFFReadTile(tif, tile.data(), tx, ty, 0, static_cast<uint16_t>(p)) < 0) bad("cannot read a tile");
+          const size_t x0 = size_t{tx} * vals * bps / 8;  // tile widths are multiples of 16 (TIFF 6.0)
+          const size_t n = std::min<size_t>(static_cast<size_t>(trow), rowbytes - x0);
+          for (uint32_t y = ty; y < std::min(h, ty + th); ++y)
+            std::memcpy(&packed[p * planebytes + y * rowbytes + x0], &tile[(y - ty) * static_cast<size_t>(trow)], n);
+        }
+  } else {
+    if (static_cast<size_t>(TIFFScanlineSize(tif)) != rowbytes) bad("bad scanline size");
+    for (int p = 0; p < planes; ++p)  // plane by plane: libtiff reads compressed strips in order
+      for (uint32_t y = 0; y < h; ++y)
+        if (TIFFReadScanline(tif, &packed[p * planebytes + y * rowbytes], y, static_cast<uint16_t>(p)) < 0)
+          bad("cannot read a scanline");
+  }
+  if (!t.error.empty()) bad("");
+
+  // Unpack value i of a packed row (TIFF 6.0: most significant bits first).
+  const auto value = [&](const uint8_t* row, size_t i) -> uint32_t {
+    const size_t bit = i * bps;
+    return (row[bit / 8] >> (8 - bps - bit % 8)) & ((1u << bps) - 1);
+  };
+  const size_t pixels = size_t{w} * h;
+  if (palette) {  // OpenImageIO: 8-bit RGB, the 16-bit colour map divided by 257
+    uint16_t *cr = nullptr, *cg = nullptr, *cb = nullptr;
+    if (!TIFFGetField(tif, TIFFTAG_COLORMAP, &cr, &cg, &cb)) bad("palette image without a colour map");
+    r.channels = 3;
+    r.sample = Sample::U8;
+    r.bytes.resize(pixels * 3);
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const uint32_t i = bps == 8 ? packed[y * rowbytes + x] : value(&packed[y * rowbytes], x);
+        uint8_t* o = &r.bytes[(size_t{y} * w + x) * 3];
+        o[0] = cr[i] / 257, o[1] = cg[i] / 257, o[2] = cb[i] / 257;
+      }
+  } else {
+    r.channels = spp;
+    r.sample = format == SAMPLEFORMAT_IEEEFP ? (bps == 16 ? Sample::Half : Sample::F32)
+               : bps <= 8 ? Sample::U8 : bps == 16 ? Sample::U16 : Sample::U32;
+    r.linear = format == SAMPLEFORMAT_IEEEFP;
+    const int sb = sample_bytes(r.sample);
+    r.bytes.resize(pixels * spp * sb);
+    if (bps < 8) {  // OpenImageIO scales 1/2/4-bit values to 8 bits: v * 255 / (2^bits - 1)
+      for (int p = 0; p < planes; ++p)
+        for (uint32_t y = 0; y < h; ++y)
+          for (size_t i = 0; i < size_t{w} * vals; ++i)
+            r.bytes[(size_t{y} * w * spp) + (separate ? i * spp + p : i)] =
+                static_cast<uint8_t>(value(&packed[p * planebytes + y * rowbytes], i) * 255 / ((1u << bps) - 1));
+    } else if (!separate) {
+      r.bytes = std::move(packed);
+    } else {
+      for (size_t i = 0; i < pixels; ++i)
+        for (int p = 0; p < planes; ++p)
+          std::memcpy(&r.bytes[(i * spp + p) * sb], &packed[p * planebytes + i * sb], sb);
+    }
+    // OpenImageIO inverts min-is-white only for 8-bit results (TIFFInput::invert_photometric).
+    if (photo == PHOTOMETRIC_MINISWHITE && r.sample == Sample::U8)
+      for (auto& b : r.bytes) b = static_cast<uint8_t>(255 - b);
+    // Unassociated alpha is premultiplied, as OpenImageIO's reader does unless told otherwise.
+    uint16_t nextra = 0;
+    uint16_t* extra = nullptr;
+    TIFFGetField(tif, TIFFTAG_EXTRASAMPLES, &nextra, &extra);
+    for (int i = 0; i < nextra; ++i)
+      if (extra[i] == EXTRASAMPLE_UNASSALPHA) {
+        const int alpha = spp - nextra + i;
+        if (r.sample == Sample::U8) premultiply<uint8_t>(r.bytes.data(), pixels, spp, alpha);
+        else if (r.sample == Sample::U16) premultiply<uint16_t>(r.bytes.data(), pixels, spp, alpha);
+        else if (r.sample == Sample::F32) premultiply<float>(r.bytes.data(), pixels, spp, alpha);
+        break;
+      }
+  }
+  r.channel_samples.assign(r.channels, r.sample);
+  return r;
+}
+
+void write_tiff(const std::string& path, const Raster& image) {
+  const int nch = image.channels, sb = image.sample == Sample::U16 ? 2 : 1;
+  if ((image.sample != Sample::U8 && image.sample != Sample::U16) || nch < 1 || nch > 4 ||
+      image.bytes.size() != size_t(image.width) * image.height * nch * sb)
+    internal_error(fmt::format("write_tiff: {}x{}x{} image of {} bytes", image.width, image.height, nch, image.bytes.size()));
+  Tiff t(path, "w");
+  if (!t.tif) fail_at(path, "cannot write (" + t.message("cannot create the file") + ")");
+  TIFF* tif = t.tif;
+  // As OpenImageIO's TIFF writer: contiguous samples, Deflate with the horizontal predictor, and a
+  // 2nd / 4th channel marked as associated alpha, so OpenImageIO (which premultiplies unassociated
+  // alpha when reading) and read_tiff give back the same samples. No DateTime or Software tag.
+  const uint16_t alpha = EXTRASAMPLE_ASSOCALPHA;
+  bool ok = TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, uint32_t(image.width)) &&
+            TIFFSetField(tif, TIFFTAG_IMAGELENGTH, uint32_t(image.height)) &&
+            TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, uint16_t(nch)) &&
+            TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, uint16_t(8 * sb)) &&
+            TIFFSetField(tif, TIFFTAG_SAMPLEFORMAT, SAMPLEFORMAT_UINT) &&
+            TIFFSetField(tif, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG) &&
+            TIFFSetField(tif, TIFFTAG_ORIENTATION, ORIENTATION_TOPLEFT) &&
+            TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, nch >= 3 ? PHOTOMETRIC_RGB : PHOTOMETRIC_MINISBLACK) &&
+            TIFFSetField(tif, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE) &&
+            TIFFSetField(tif, TIFFTAG_PREDICTOR, PREDICTOR_HORIZONTAL) &&
+            TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, uint32_t(64)) &&
+            (nch % 2 == 1 || TIFFSetField(tif, TIFFTAG_EXTRASAMPLES, uint16_t(1), &alpha));
+  const size_t row = size_t(image.width) * nch * sb;
+  std::vector<uint8_t> scratch(row);  // TIFFWriteScanline may modify its buffer (the predictor)
+  for (int y = 0; ok && y < image.height; ++y) {
+    std::memcpy(scratch.data(), &image.bytes[y * row], row);
+    ok = TIFFWriteScanline(tif, scratch.data(), uint32_t(y), 0) >= 0;
+  }
+  ok = ok && TIFFFlush(tif);
+  TIFFClose(tif);
+  t.tif = nullptr;
+  if (!ok || !t.error.empty()) fail_at(path, "cannot write (" + t.message("libtiff failed") + ")");
+}
+
+}  // namespace photosite::codec
