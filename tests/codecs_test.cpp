@@ -437,3 +437,32 @@ TEST(Codecs, TheCommandAndThePythonModuleLoadNeitherOpenImageIONorOpenCVsCodecs)
     EXPECT_LT(std::count(out.begin(), out.end(), '\n'), 80) << b << ":\n" << out;
   }
 }
+
+TEST(Codecs, NightOnAJpegDayImageEqualsNightOnThePngOfItsPixels) {
+  // BDD100K ships JPEG day images: `night` reads them through libjpeg-turbo (read_image's floats,
+  // then the linearisation) where the data sets' PNGs take photosite's 8-bit code path. The bundled
+  // KITTI frame as a JPEG (quality 92) and the PNG of that JPEG's decoded pixels give the same EXR
+  // channels bit for bit.
+  test::TempDir d;
+  const std::string src = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  const ImageU16 codes = read_image_u16(src + "image_2/000000_10.png");
+  const int w = codes.width(), h = codes.height();
+  ASSERT_EQ(codes.channels(), 3);
+  std::vector<uint8_t> rgb(codes.size());
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<uint8_t>(codes[i]);
+  const std::vector<uint8_t> jpeg = codec::encode_jpeg_rgb8(rgb.data(), w, h, 92);
+  put(d.file("day.jpg"), std::string(jpeg.begin(), jpeg.end()));
+  const std::vector<uint8_t> pixels = codec::decode_jpeg_rgb8(jpeg, w, h);
+  ImageU8 png(w, h, 3);
+  std::copy(pixels.begin(), pixels.end(), png.data());
+  write_png8(d.file("day.png"), png);
+  for (const std::string f : {"day.jpg", "day.png"}) {
+    const auto r = test::run_cli("night --image '" + d.file(f) + "' --labels '" + src + "semantic/000000_10.png' --out '" +
+                                 d.file(f + ".exr") + "' --compression none --device-store '" + d.file("store") + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const ExrContents a = read_exr(d.file("day.jpg.exr")), b = read_exr(d.file("day.png.exr"));
+  ASSERT_EQ(a.channels.size(), b.channels.size());
+  for (const auto& [name, ch] : a.channels) EXPECT_EQ(ch.vec(), b.channels.at(name).vec()) << name;
+  EXPECT_EQ(a.attributes.at("photosite/night/image"), d.file("day.jpg"));
+}
