@@ -668,70 +668,98 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
     if (std::holds_alternative<double>(v))  // keep full precision as text too
       header.insert(k + "_text", Imf::StringAttribute(fmt::format("{:.17g}", std::get<double>(v))));
   }
-  // Interleaved and written a strip of rows at a time: a night result has 13 channels, and one
-  // interleaved copy of the whole frame (109 MB at 2048x1024) was the largest single buffer of
-  // a run. Strips are a multiple of 32 rows (OpenEXR's largest line block, PIZ/B44) and about
-  // 16 MB, so OpenEXR still compresses several blocks of each strip in parallel. The file's
-  // bytes do not depend on the strip height.
-  // Each pixel is stored in the file's own per-channel types, so integers go to UINT channels
-  // without a float detour and half channels are converted once, here.
-  std::vector<size_t> offset(nch);
-  size_t pixel_bytes = 0;
-  for (int c = 0; c < nch; ++c) offset[c] = pixel_bytes, pixel_bytes += codec::sample_bytes(formats[c]);
-  const size_t row_bytes = static_cast<size_t>(w) * pixel_bytes;
-  const int strip = std::max(32, static_cast<int>((16u << 20) / row_bytes) / 32 * 32);
-  std::vector<unsigned char> buf(row_bytes * std::min(strip, h));
+  // OpenEXR reads each float channel straight from its image (a slice: the first sample's
+  // address and the steps between pixels and rows) while its worker threads compress the line
+  // blocks before: no interleaved copy of the frame (a night result's 13 channels are 109 MB at
+  // 2048x1024) and no pass of ours over the float layers. Its writer converts no pixel type, so
+  // the half and UINT channels are converted here, a strip at a time (below): half by Imath's
+  // half(float) (round to nearest even), UINT by truncation, exact on the integers checked here;
+  // 16-bit class ids are widened to 32 bits, never through float. The file's bytes are those
+  // written before, through OpenImageIO (Codecs.ExrWrittenAsOpenImageIOWroteIt). UINT channels
+  // from float images must hold integers in [0, 2^32).
+  for (const auto& g : groups) {
+    if (g.image_u16 || g.pixel != ExrPixel::Uint) continue;
+    const int gc = static_cast<int>(g.channel_names.size());
+    const float* src = g.image->data();
+    const size_t n = g.image->size();
+    bool ok = true;
+    for (size_t i = 0; i < n; ++i) ok &= src[i] >= 0.f && src[i] < 4294967296.f && src[i] == std::floor(src[i]);
+    if (!ok)
+      for (size_t i = 0; i < n; ++i)
+        if (!(src[i] >= 0.f && src[i] < 4294967296.f) || src[i] != std::floor(src[i]))
+          internal_error(fmt::format("write_exr: {} holds {} at pixel {}, not a 32-bit unsigned integer",
+                                     g.channel_names[i % gc], src[i], i / gc));
+  }
+  // The converted channels, a strip of rows at a time into buffers of their own (a multiple of 32
+  // rows, OpenEXR's largest line block, and about 8 MB; the file's bytes do not depend on the
+  // strip's height), so the conversion holds no copy of the frame.
+  struct Converted {
+    const ExrChannelGroup* g;
+    int c;         // channel within the group
+    Sample type;   // Half or U32
+    size_t offset; // in a strip row of the buffer
+  };
+  std::vector<Converted> conv;
+  size_t conv_row = 0;  // bytes per pixel of the converted channels
+  {
+    int c0 = 0;
+    for (const auto& g : groups) {
+      const int gc = static_cast<int>(g.channel_names.size());
+      for (int c = 0; c < gc; ++c)
+        if (g.image_u16 || formats[c0 + c] != Sample::F32) {
+          conv.push_back({&g, c, formats[c0 + c], conv_row});
+          conv_row += codec::sample_bytes(formats[c0 + c]);
+        }
+      c0 += gc;
+    }
+  }
+  const size_t conv_row_bytes = conv_row * static_cast<size_t>(w);
+  const int strip = conv.empty() ? h : std::min(h, std::max(32, static_cast<int>((8u << 20) / conv_row_bytes) / 32 * 32));
+  std::vector<unsigned char> buf(conv_row_bytes * (conv.empty() ? 0 : strip));
   const auto write = [&](const std::string& tmp) {
     try {
       Imf::OutputFile out(tmp.c_str(), header, Imf::globalThreadCount());
       for (int y0 = 0; y0 < h; y0 += strip) {
         const int y1 = std::min(h, y0 + strip);
-        int c0 = 0;
-        for (const auto& g : groups) {
-          const int gc = static_cast<int>(g.channel_names.size());
-          const size_t n = static_cast<size_t>(w) * (y1 - y0);
-          if (g.image_u16) {  // integers widened as they are
-            const uint16_t* src = g.image_u16->data() + static_cast<size_t>(y0) * w * gc;
-            for (int c = 0; c < gc; ++c) {
-              unsigned char* dst = buf.data() + offset[c0 + c];
-              for (size_t p = 0; p < n; ++p) {
-                const uint32_t u = src[p * gc + c];
-                std::memcpy(dst + p * pixel_bytes, &u, 4);
-              }
-            }
-            c0 += gc;
-            continue;
-          }
-          const float* src = g.image->data() + static_cast<size_t>(y0) * w * gc;
-          for (int c = 0; c < gc; ++c) {
-            unsigned char* dst = buf.data() + offset[c0 + c];
-            const Sample t = formats[c0 + c];
-            if (t == Sample::U32) {
-              for (size_t p = 0; p < n; ++p) {
-                const float v = src[p * gc + c];
-                if (!(v >= 0.f && v < 4294967296.f) || v != std::floor(v))
-                  internal_error(fmt::format("write_exr: {} holds {} at pixel {}, not a 32-bit unsigned integer",
-                                             names[c0 + c], v, p));
-                const uint32_t u = static_cast<uint32_t>(v);
-                std::memcpy(dst + p * pixel_bytes, &u, 4);
-              }
-            } else if (t == Sample::Half) {
-              for (size_t p = 0; p < n; ++p) {
-                const half v(src[p * gc + c]);
-                std::memcpy(dst + p * pixel_bytes, &v, 2);
-              }
-            } else {
-              for (size_t p = 0; p < n; ++p) std::memcpy(dst + p * pixel_bytes, &src[p * gc + c], 4);
-            }
-          }
-          c0 += gc;
-        }
-        // OpenEXR addresses pixel (x, y) at base + x·xStride + y·yStride: the strip's row y0 is
-        // the buffer's first.
-        char* base = reinterpret_cast<char*>(buf.data()) - static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(row_bytes);
+        const size_t n = static_cast<size_t>(w) * (y1 - y0);
         Imf::FrameBuffer fb;
-        for (int c = 0; c < nch; ++c)
-          fb.insert(names[c], Imf::Slice(pixel_type_of(formats[c]), base + offset[c], pixel_bytes, row_bytes));
+        for (const auto& g : groups) {  // float channels: straight from the image
+          if (g.image_u16) continue;
+          const int gc = static_cast<int>(g.channel_names.size());
+          char* base = reinterpret_cast<char*>(const_cast<float*>(g.image->data()));
+          for (int c = 0; c < gc; ++c)
+            if (std::none_of(conv.begin(), conv.end(), [&](const Converted& v) { return v.g == &g && v.c == c; }))
+              fb.insert(g.channel_names[c], Imf::Slice(Imf::FLOAT, base + 4 * c, 4 * gc, static_cast<size_t>(w) * gc * 4));
+        }
+        // The strip's row y0 is the buffer's first: OpenEXR addresses pixel (x, y) at
+        // base + x·xStride + y·yStride.
+        char* sbase = reinterpret_cast<char*>(buf.data()) - static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(conv_row_bytes);
+        for (const auto& v : conv) {
+          const int gc = static_cast<int>(v.g->channel_names.size());
+          unsigned char* dst = buf.data() + v.offset;
+          const size_t first = static_cast<size_t>(y0) * w;
+          if (v.g->image_u16) {
+            const uint16_t* src = v.g->image_u16->data() + first * gc + v.c;
+            for (size_t p = 0; p < n; ++p) {
+              const uint32_t u = src[p * gc];
+              std::memcpy(dst + p * conv_row, &u, 4);
+            }
+          } else if (v.type == Sample::U32) {
+            const float* src = v.g->image->data() + first * gc + v.c;
+            for (size_t p = 0; p < n; ++p) {
+              const uint32_t u = static_cast<uint32_t>(src[p * gc]);
+              std::memcpy(dst + p * conv_row, &u, 4);
+            }
+          } else {
+            const float* src = v.g->image->data() + first * gc + v.c;
+            for (size_t p = 0; p < n; ++p) {
+              const half hv(src[p * gc]);
+              std::memcpy(dst + p * conv_row, &hv, 2);
+            }
+          }
+          fb.insert(v.g->channel_names[v.c], Imf::Slice(v.type == Sample::Half ? Imf::HALF : Imf::UINT, sbase + v.offset,
+                                                         conv_row, conv_row_bytes));
+        }
         out.setFrameBuffer(fb);
         out.writePixels(y1 - y0);
       }
