@@ -304,6 +304,20 @@ std::string attribute_text(const Imf::Attribute& a) {
   return a.typeName();
 }
 
+// The header's attributes beyond the layout, by name, as text (attribute_text); capDate as
+// OpenImageIO's DateTime, the compression by its name.
+std::map<std::string, std::string> exr_attributes(const Imf::Header& h) {
+  std::map<std::string, std::string> a;
+  for (auto it = h.begin(); it != h.end(); ++it) {
+    const std::string n = it.name();
+    if (n == "channels" || n == "dataWindow" || n == "displayWindow" || n == "lineOrder" || n == "compression") continue;
+    a[n == "capDate" ? "DateTime" : n] = attribute_text(it.attribute());
+  }
+  for (const auto& [name, c] : kExrCompressions)
+    if (c == h.compression()) a["compression"] = name;
+  return a;
+}
+
 // The whole first part of an OpenEXR file (scan lines or tiles) in each channel's own type,
 // channels in OpenImageIO's order (exr_channel_order).
 Raster read_exr_raster(const std::string& path) {
@@ -351,14 +365,7 @@ Raster read_exr_raster(const std::string& path) {
       fb.insert(r.channel_names[c], Imf::Slice(pixel_type_of(r.channel_samples[c]), base + offset[c], pixel_bytes, row_bytes));
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
-    // Attributes beyond the layout, by name; capDate as OpenImageIO's DateTime.
-    for (auto it = h.begin(); it != h.end(); ++it) {
-      const std::string n = it.name();
-      if (n == "channels" || n == "dataWindow" || n == "displayWindow" || n == "lineOrder" || n == "compression") continue;
-      r.attributes[n == "capDate" ? "DateTime" : n] = attribute_text(it.attribute());
-    }
-    for (const auto& [name, c] : kExrCompressions)
-      if (c == h.compression()) r.attributes["compression"] = name;
+    r.attributes = exr_attributes(h);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {  // OpenEXR's Iex exceptions
@@ -776,30 +783,46 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
 
 ExrContents read_exr(const std::string& path) {
   if (sniff(path) != Format::Exr) fail_at(path, "not an OpenEXR file");
-  const Raster raster = read_exr_raster(path);
+  init_exr_threads();
+  check_exr_header(path);
+  // Each channel read straight into a float plane of its own: OpenEXR widens half and UINT
+  // samples as it reads ((float) of each, exact for every half and for UINT values below 2^24),
+  // with no interleaved copy of the file's pixels.
   ExrContents r;
-  r.width = raster.width;
-  r.height = raster.height;
-  // Each channel widened to float: UINT values below 2^24 and every half are exact.
-  size_t pixel_bytes = 0;
-  for (Sample s : raster.channel_samples) pixel_bytes += codec::sample_bytes(s);
-  size_t offset = 0;
-  for (int c = 0; c < raster.channels; ++c) {
-    ImageF ch(raster.width, raster.height, 1, uninitialized);
-    const Sample t = raster.channel_samples[c];
-    const unsigned char* src = raster.bytes.data() + offset;
-    for (size_t p = 0, n = ch.size(); p < n; ++p, src += pixel_bytes) {
-      if (t == Sample::U32) { uint32_t u; std::memcpy(&u, src, 4); ch[p] = static_cast<float>(u); }
-      else if (t == Sample::Half) { half v; std::memcpy(&v, src, 2); ch[p] = static_cast<float>(v); }
-      else std::memcpy(&ch[p], src, 4);
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imf::Header& h = file.header();
+    const Imath::Box2i dw = h.dataWindow();
+    const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, hh = int64_t{dw.max.y} - dw.min.y + 1;
+    check_frame_size(path, w, hh);
+    r.width = static_cast<int>(w);
+    r.height = static_cast<int>(hh);
+    r.attributes = exr_attributes(h);
+    int count = 0;
+    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) ++count;
+    if (count == 0) fail_at(path, "image has no channels");
+    if (count > 64) fail_at(path, fmt::format("image declares {} channels", count));
+    Imf::FrameBuffer fb;
+    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
+      const Imf::Channel& c = it.channel();
+      if (c.xSampling != 1 || c.ySampling != 1)
+        fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(), c.xSampling, c.ySampling));
+      const std::string name = it.name();
+      ImageF& plane = r.channels.emplace(name, ImageF(r.width, r.height, 1, uninitialized)).first->second;
+      if (const auto u = r.attributes.find("photosite/unit/" + name); u != r.attributes.end()) plane.set_unit(u->second);
+      r.pixel_types[name] = c.type == Imf::UINT ? ExrPixel::Uint : c.type == Imf::HALF ? ExrPixel::Half : ExrPixel::Float;
+      // OpenEXR addresses pixel (x, y) of the data window at base + x·xStride + y·yStride.
+      char* base = reinterpret_cast<char*>(plane.data()) - static_cast<ptrdiff_t>(dw.min.x) * 4 -
+                   static_cast<ptrdiff_t>(dw.min.y) * static_cast<ptrdiff_t>(w) * 4;
+      fb.insert(name, Imf::Slice(Imf::FLOAT, base, 4, static_cast<size_t>(w) * 4));
     }
-    offset += codec::sample_bytes(t);
-    const std::string& name = raster.channel_names[c];
-    if (const auto u = raster.attributes.find("photosite/unit/" + name); u != raster.attributes.end()) ch.set_unit(u->second);
-    r.pixel_types[name] = t == Sample::U32 ? ExrPixel::Uint : t == Sample::Half ? ExrPixel::Half : ExrPixel::Float;
-    r.channels.emplace(name, std::move(ch));
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // OpenEXR's Iex exceptions
+    fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
   }
-  r.attributes = raster.attributes;
   return r;
 }
 

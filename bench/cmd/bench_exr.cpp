@@ -77,7 +77,7 @@ void run(const ExrBench& b) {
                          channels, median(ms), best, mb);
     }
   }
-  csv += fmt::format("# {} ({}x{}), onsemi-ar0331, night-urban; write_exr through OpenImageIO 2.4 / OpenEXR 3.1; {}\n",
+  csv += fmt::format("# {} ({}x{}), onsemi-ar0331, night-urban; write_exr through OpenEXR 3.1; {}\n",
                      fs::path(it.image).filename().string(), day.width(), day.height(), machine_description());
   const std::string csv_path = write_bench_csv(b.out_dir, "bench_exr.csv", csv);
   const std::string png = (fs::path(csv_path).parent_path() / "bench_exr.png").string();
