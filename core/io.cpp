@@ -318,20 +318,34 @@ std::map<std::string, std::string> exr_attributes(const Imf::Header& h) {
   return a;
 }
 
+// Runs f(file, data window, width, height) on the first part of the OpenEXR file at `path`,
+// opened after the header walk (check_exr_header) and with the data window's size checked before
+// any pixel is allocated; OpenEXR's exceptions (Iex) become bad input naming the file.
+template <class F>
+auto with_exr_file(const std::string& path, F&& f) {
+  init_exr_threads();
+  check_exr_header(path);
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i dw = file.header().dataWindow();
+    const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, h = int64_t{dw.max.y} - dw.min.y + 1;
+    check_frame_size(path, w, h);
+    return f(file, dw, static_cast<int>(w), static_cast<int>(h));
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
+  }
+}
+
 // The whole first part of an OpenEXR file (scan lines or tiles) in each channel's own type,
 // channels in OpenImageIO's order (exr_channel_order).
 Raster read_exr_raster(const std::string& path) {
-  init_exr_threads();
-  check_exr_header(path);
-  Raster r;
-  r.format = "openexr";
-  r.linear = true;
-  try {
-    Imf::InputFile file(path.c_str());
+  return with_exr_file(path, [&](Imf::InputFile& file, const Imath::Box2i& dw, int w, int hh) {
     const Imf::Header& h = file.header();
-    const Imath::Box2i dw = h.dataWindow();
-    const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, hh = int64_t{dw.max.y} - dw.min.y + 1;
-    check_frame_size(path, w, hh);
+    Raster r;
+    r.format = "openexr";
+    r.linear = true;
     std::vector<std::string> names;
     std::vector<Imf::Channel> chans;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
@@ -343,8 +357,8 @@ Raster read_exr_raster(const std::string& path) {
     }
     if (names.empty()) fail_at(path, "image has no channels");
     if (names.size() > 64) fail_at(path, fmt::format("image declares {} channels", names.size()));
-    r.width = static_cast<int>(w);
-    r.height = static_cast<int>(hh);
+    r.width = w;
+    r.height = hh;
     r.channels = static_cast<int>(names.size());
     size_t pixel_bytes = 0;
     std::vector<size_t> offset;
@@ -366,12 +380,8 @@ Raster read_exr_raster(const std::string& path) {
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     r.attributes = exr_attributes(h);
-  } catch (const Error&) {
-    throw;
-  } catch (const std::exception& e) {  // OpenEXR's Iex exceptions
-    fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
-  }
-  return r;
+    return r;
+  });
 }
 
 // The file as it is stored: by its signature, through its format's codec.
@@ -464,33 +474,22 @@ ImageFileInfo probe_image(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_at(path, "no such file");
   if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
-  if (sniff(path) == Format::Exr) {  // the header alone
-    init_exr_threads();
-    check_exr_header(path);
-    try {
-      Imf::InputFile file(path.c_str());
-      const Imf::Header& h = file.header();
-      const Imath::Box2i dw = h.dataWindow();
-      check_frame_size(path, int64_t{dw.max.x} - dw.min.x + 1, int64_t{dw.max.y} - dw.min.y + 1);
+  if (sniff(path) == Format::Exr)  // the header alone
+    return with_exr_file(path, [&](Imf::InputFile& file, const Imath::Box2i&, int w, int h) {
       std::vector<std::string> names;
       std::vector<Imf::PixelType> types;
-      for (auto it = h.channels().begin(); it != h.channels().end(); ++it)
+      for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
         names.push_back(it.name()), types.push_back(it.channel().type);
       if (names.empty()) fail_at(path, "image has no channels");
       Raster r;
       r.format = "openexr";
       r.linear = true;
-      r.width = dw.max.x - dw.min.x + 1;
-      r.height = dw.max.y - dw.min.y + 1;
+      r.width = w;
+      r.height = h;
       r.channels = static_cast<int>(names.size());
       r.sample = sample_of(types[exr_channel_order(names)[0]]);
       return info_of(path, r);
-    } catch (const Error&) {
-      throw;
-    } catch (const std::exception& e) {
-      fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
-    }
-  }
+    });
   return info_of(path, read_raster(path));
 }
 
@@ -783,20 +782,14 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
 
 ExrContents read_exr(const std::string& path) {
   if (sniff(path) != Format::Exr) fail_at(path, "not an OpenEXR file");
-  init_exr_threads();
-  check_exr_header(path);
   // Each channel read straight into a float plane of its own: OpenEXR widens half and UINT
   // samples as it reads ((float) of each, exact for every half and for UINT values below 2^24),
   // with no interleaved copy of the file's pixels.
-  ExrContents r;
-  try {
-    Imf::InputFile file(path.c_str());
+  return with_exr_file(path, [&](Imf::InputFile& file, const Imath::Box2i& dw, int w, int hh) {
     const Imf::Header& h = file.header();
-    const Imath::Box2i dw = h.dataWindow();
-    const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, hh = int64_t{dw.max.y} - dw.min.y + 1;
-    check_frame_size(path, w, hh);
-    r.width = static_cast<int>(w);
-    r.height = static_cast<int>(hh);
+    ExrContents r;
+    r.width = w;
+    r.height = hh;
     r.attributes = exr_attributes(h);
     int count = 0;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) ++count;
@@ -808,7 +801,7 @@ ExrContents read_exr(const std::string& path) {
       if (c.xSampling != 1 || c.ySampling != 1)
         fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(), c.xSampling, c.ySampling));
       const std::string name = it.name();
-      ImageF& plane = r.channels.emplace(name, ImageF(r.width, r.height, 1, uninitialized)).first->second;
+      ImageF& plane = r.channels.emplace(name, ImageF(w, hh, 1, uninitialized)).first->second;
       if (const auto u = r.attributes.find("photosite/unit/" + name); u != r.attributes.end()) plane.set_unit(u->second);
       r.pixel_types[name] = c.type == Imf::UINT ? ExrPixel::Uint : c.type == Imf::HALF ? ExrPixel::Half : ExrPixel::Float;
       // OpenEXR addresses pixel (x, y) of the data window at base + x·xStride + y·yStride.
@@ -818,12 +811,8 @@ ExrContents read_exr(const std::string& path) {
     }
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
-  } catch (const Error&) {
-    throw;
-  } catch (const std::exception& e) {  // OpenEXR's Iex exceptions
-    fail_at(path, std::string("corrupt or truncated EXR (") + e.what() + ")");
-  }
-  return r;
+    return r;
+  });
 }
 
 uint8_t float_to_code8(float v) {
