@@ -155,24 +155,28 @@ Format sniff(const std::string& path) {
   return Format::Unknown;
 }
 
-std::vector<uint8_t> slurp(const std::string& path) {
+}  // namespace
+
+std::vector<uint8_t> codec::read_file(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) fail_at(path, std::string("cannot open (") + std::strerror(errno) + ")");
-  std::vector<uint8_t> bytes;
-  unsigned char chunk[1 << 16];
-  for (size_t got; (got = std::fread(chunk, 1, sizeof chunk, f)) > 0;) bytes.insert(bytes.end(), chunk, chunk + got);
-  const bool bad = std::ferror(f);
+  std::error_code ec;
+  std::vector<uint8_t> bytes(fs::file_size(path, ec));
+  const size_t got = ec ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
+  const bool bad = ec || got != bytes.size() || std::ferror(f);
   std::fclose(f);
-  if (bad) fail_at(path, "read error");
+  if (bad) fail_at(path, "read error" + (ec ? " (" + ec.message() + ")" : std::string()));
   return bytes;
 }
+
+namespace {
 
 // Any PNG through libspng (the plain data-set files go through core/png_codec.h first): 8- and
 // 16-bit samples as stored; palette images expanded to RGB, 1/2/4-bit grey to 8 bits, a tRNS
 // chunk to an alpha channel (what libpng's png_set_expand gives, OpenImageIO's reader).
 // Alpha is kept as stored, not premultiplied into the colour.
 Raster read_png_any(const std::string& path) {
-  const std::vector<uint8_t> bytes = slurp(path);
+  const std::vector<uint8_t> bytes = codec::read_file(path);
   std::unique_ptr<spng_ctx, void (*)(spng_ctx*)> ctx(spng_ctx_new(0), spng_ctx_free);
   if (!ctx) internal_error("libspng: no context");
   const auto check = [&](int e, const char* what) {
@@ -319,8 +323,9 @@ std::map<std::string, std::string> exr_attributes(const Imf::Header& h) {
 }
 
 // Runs f(file, data window, width, height) on the first part of the OpenEXR file at `path`,
-// opened after the header walk (check_exr_header) and with the data window's size checked before
-// any pixel is allocated; OpenEXR's exceptions (Iex) become bad input naming the file.
+// opened after the header walk (check_exr_header), with the data window's size and the channel
+// list (1 to 64 channels, none subsampled) checked before any pixel is allocated; OpenEXR's
+// exceptions (Iex) become bad input naming the file.
 template <class F>
 auto with_exr_file(const std::string& path, F&& f) {
   init_exr_threads();
@@ -330,6 +335,13 @@ auto with_exr_file(const std::string& path, F&& f) {
     const Imath::Box2i dw = file.header().dataWindow();
     const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, h = int64_t{dw.max.y} - dw.min.y + 1;
     check_frame_size(path, w, h);
+    int channels = 0;
+    for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it, ++channels)
+      if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+        fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(),
+                                  it.channel().xSampling, it.channel().ySampling));
+    if (channels == 0) fail_at(path, "image has no channels");
+    if (channels > 64) fail_at(path, fmt::format("image declares {} channels", channels));
     return f(file, dw, static_cast<int>(w), static_cast<int>(h));
   } catch (const Error&) {
     throw;
@@ -349,14 +361,9 @@ Raster read_exr_raster(const std::string& path) {
     std::vector<std::string> names;
     std::vector<Imf::Channel> chans;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
-      if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
-        fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(),
-                                  it.channel().xSampling, it.channel().ySampling));
       names.push_back(it.name());
       chans.push_back(it.channel());
     }
-    if (names.empty()) fail_at(path, "image has no channels");
-    if (names.size() > 64) fail_at(path, fmt::format("image declares {} channels", names.size()));
     r.width = w;
     r.height = hh;
     r.channels = static_cast<int>(names.size());
@@ -384,13 +391,18 @@ Raster read_exr_raster(const std::string& path) {
   });
 }
 
-// The file as it is stored: by its signature, through its format's codec.
-Raster read_raster(const std::string& path) {
+// The format of the image file at `path`, which must exist and not be a folder.
+Format format_of_file(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_at(path, "no such file");
   if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
+  return sniff(path);
+}
+
+// The file as it is stored: by its signature, through its format's codec.
+Raster read_raster(const std::string& path) {
   Raster r;
-  switch (sniff(path)) {
+  switch (format_of_file(path)) {
     case Format::Png: r = read_png_any(path); break;
     case Format::Jpeg: r = codec::read_jpeg(path); break;
     case Format::Tiff: r = codec::read_tiff(path); break;
@@ -471,16 +483,12 @@ void check_frame_size(const std::string& what, int64_t width, int64_t height) {
 }
 
 ImageFileInfo probe_image(const std::string& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) fail_at(path, "no such file");
-  if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
-  if (sniff(path) == Format::Exr)  // the header alone
+  if (format_of_file(path) == Format::Exr)  // the header alone
     return with_exr_file(path, [&](Imf::InputFile& file, const Imath::Box2i&, int w, int h) {
       std::vector<std::string> names;
       std::vector<Imf::PixelType> types;
       for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it)
         names.push_back(it.name()), types.push_back(it.channel().type);
-      if (names.empty()) fail_at(path, "image has no channels");
       Raster r;
       r.format = "openexr";
       r.linear = true;
@@ -505,13 +513,7 @@ std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInf
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   std::error_code ec;
   if (ext != ".png" || !fs::is_regular_file(p, ec)) return std::nullopt;
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return std::nullopt;
-  std::vector<uint8_t> bytes(fs::file_size(p, ec));
-  const size_t got = ec ? 0 : std::fread(bytes.data(), 1, bytes.size(), f);
-  std::fclose(f);
-  if (ec || got != bytes.size()) return std::nullopt;
-  auto d = png::decode(bytes, max_frame_pixels());
+  auto d = png::decode(codec::read_file(path), max_frame_pixels());
   if (!d) return std::nullopt;
   check_frame_size(path, d->width, d->height);
   if (info) {  // as info_from() reports OpenImageIO's spec of the same file
@@ -722,21 +724,27 @@ bool write_exr(const std::string& path, const std::vector<ExrChannelGroup>& grou
   const size_t conv_row_bytes = conv_row * static_cast<size_t>(w);
   const int strip = conv.empty() ? h : std::min(h, std::max(32, static_cast<int>((8u << 20) / conv_row_bytes) / 32 * 32));
   std::vector<unsigned char> buf(conv_row_bytes * (conv.empty() ? 0 : strip));
+  // The float channels' slices: the same for every strip.
+  Imf::FrameBuffer direct;
+  {
+    int c0 = 0;
+    for (const auto& g : groups) {
+      const int gc = static_cast<int>(g.channel_names.size());
+      if (!g.image_u16 && formats[c0] == Sample::F32) {
+        char* base = reinterpret_cast<char*>(const_cast<float*>(g.image->data()));
+        for (int c = 0; c < gc; ++c)
+          direct.insert(g.channel_names[c], Imf::Slice(Imf::FLOAT, base + 4 * c, 4 * gc, static_cast<size_t>(w) * gc * 4));
+      }
+      c0 += gc;
+    }
+  }
   const auto write = [&](const std::string& tmp) {
     try {
       Imf::OutputFile out(tmp.c_str(), header, Imf::globalThreadCount());
       for (int y0 = 0; y0 < h; y0 += strip) {
         const int y1 = std::min(h, y0 + strip);
         const size_t n = static_cast<size_t>(w) * (y1 - y0);
-        Imf::FrameBuffer fb;
-        for (const auto& g : groups) {  // float channels: straight from the image
-          if (g.image_u16) continue;
-          const int gc = static_cast<int>(g.channel_names.size());
-          char* base = reinterpret_cast<char*>(const_cast<float*>(g.image->data()));
-          for (int c = 0; c < gc; ++c)
-            if (std::none_of(conv.begin(), conv.end(), [&](const Converted& v) { return v.g == &g && v.c == c; }))
-              fb.insert(g.channel_names[c], Imf::Slice(Imf::FLOAT, base + 4 * c, 4 * gc, static_cast<size_t>(w) * gc * 4));
-        }
+        Imf::FrameBuffer fb = direct;
         // The strip's row y0 is the buffer's first: OpenEXR addresses pixel (x, y) at
         // base + x·xStride + y·yStride.
         char* sbase = reinterpret_cast<char*>(buf.data()) - static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(conv_row_bytes);
@@ -791,15 +799,9 @@ ExrContents read_exr(const std::string& path) {
     r.width = w;
     r.height = hh;
     r.attributes = exr_attributes(h);
-    int count = 0;
-    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) ++count;
-    if (count == 0) fail_at(path, "image has no channels");
-    if (count > 64) fail_at(path, fmt::format("image declares {} channels", count));
     Imf::FrameBuffer fb;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
       const Imf::Channel& c = it.channel();
-      if (c.xSampling != 1 || c.ySampling != 1)
-        fail_at(path, fmt::format("cannot read image (channel {} is subsampled, {}x{})", it.name(), c.xSampling, c.ySampling));
       const std::string name = it.name();
       ImageF& plane = r.channels.emplace(name, ImageF(w, hh, 1, uninitialized)).first->second;
       if (const auto u = r.attributes.find("photosite/unit/" + name); u != r.attributes.end()) plane.set_unit(u->second);

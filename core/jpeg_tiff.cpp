@@ -8,8 +8,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <type_traits>
 
@@ -115,9 +113,7 @@ std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_
 }  // namespace
 
 Raster read_jpeg(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail_at(path, fmt::format("cannot read image ({})", std::strerror(errno)));
-  const std::vector<uint8_t> data{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  const std::vector<uint8_t> data = read_file(path);
   Raster r;
   r.format = "jpeg";
   r.sample = Sample::U8;

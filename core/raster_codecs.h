@@ -30,6 +30,9 @@ struct Raster {
   std::map<std::string, std::string> attributes;  // OpenEXR's header attributes as text
 };
 
+// The whole file at `path`; bad input naming it when it cannot be opened or read.
+std::vector<uint8_t> read_file(const std::string& path);
+
 // Every reader refuses (fail_at(path, ...), exit 2) a damaged or truncated file, a frame outside
 // check_frame_size before allocating it, and more than 64 channels.
 Raster read_jpeg(const std::string& path);
