@@ -210,10 +210,10 @@ std::vector<Item> read_manifest(const std::string& manifest) {
     it.labels = resolve(parts[1]).string();
     if (parts.size() == 3) it.instances = resolve(parts[2]).string();
     std::error_code ec;
-    if (!fs::exists(it.image, ec)) fail(where(manifest, lineno) + ": image " + it.image + " not found");
-    if (!fs::exists(it.labels, ec)) fail(where(manifest, lineno) + ": labels " + it.labels + " not found");
+    if (!fs::exists(it.image, ec)) throw MissingFileError(where(manifest, lineno) + ": image " + it.image + " not found");
+    if (!fs::exists(it.labels, ec)) throw MissingFileError(where(manifest, lineno) + ": labels " + it.labels + " not found");
     if (!it.instances.empty() && !fs::exists(it.instances, ec))
-      fail(where(manifest, lineno) + ": instances " + it.instances + " not found");
+      throw MissingFileError(where(manifest, lineno) + ": instances " + it.instances + " not found");
     it.key = fs::path(mirror(it.image)).replace_extension().generic_string();
     it.labels_rel = "labels/" + mirror(it.labels);
     if (!it.instances.empty()) it.instances_rel = "labels/" + mirror(it.instances);

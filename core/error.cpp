@@ -26,6 +26,9 @@ void fail(const std::string& message) { throw Error(message, Error::Kind::BadInp
 void fail_at(const std::string& file, const std::string& message) {
   throw Error(file + ": " + message, Error::Kind::BadInput);
 }
+void fail_missing(const std::string& file, const std::string& message) {
+  throw MissingFileError(file + ": " + message, Error::Kind::BadInput);
+}
 void fail_parameter(const std::string& parameter, const std::string& before, const std::string& after) {
   throw ParameterError(parameter, {before, after});
 }

@@ -394,7 +394,7 @@ Raster read_exr_raster(const std::string& path) {
 // The format of the image file at `path`, which must exist and not be a folder.
 Format format_of_file(const std::string& path) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) fail_at(path, "no such file");
+  if (!fs::exists(path, ec)) fail_missing(path, "no such file");
   if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
   return sniff(path);
 }

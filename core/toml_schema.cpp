@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -53,7 +54,11 @@ std::string comma_list(const std::vector<std::string>& names) {
 
 std::string read_text(const std::string& path, const std::string& what) {
   std::ifstream in(path);
-  if (!in) fail_at(path, "cannot read " + what);
+  if (!in) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) fail_missing(path, "cannot read " + what + " (no such file)");
+    fail_at(path, "cannot read " + what);
+  }
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();

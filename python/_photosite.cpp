@@ -47,13 +47,9 @@ using namespace photosite;
 
 namespace {
 
-// A missing input file: FileNotFoundError in Python.
-struct MissingFile : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
+// A missing input file: MissingFileError, FileNotFoundError in Python.
 void require_file(const std::string& path, const std::string& what) {
-  if (!std::filesystem::exists(path)) throw MissingFile(path + ": " + what + " not found");
+  if (!std::filesystem::exists(path)) fail_missing(path, what + " not found");
 }
 
 // ---- arrays in ----------------------------------------------------------------------------
@@ -537,14 +533,11 @@ PYBIND11_MODULE(_photosite, m) {
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
-    } catch (const MissingFile& e) {
+    } catch (const MissingFileError& e) {
       PyErr_SetString(PyExc_FileNotFoundError, e.what());
     } catch (const Error& e) {
       if (e.kind() == Error::Kind::BadInput) {
-        const std::string msg = e.what();
-        const bool missing = msg.find("file not found") != std::string::npos ||
-                             msg.find("no such file") != std::string::npos;
-        PyErr_SetString(missing ? PyExc_FileNotFoundError : PyExc_ValueError, e.what());
+        PyErr_SetString(PyExc_ValueError, e.what());
       } else {
         PyErr_SetString(PyExc_RuntimeError, e.what());
       }

@@ -206,11 +206,11 @@ ImageU16 resize_nearest(const ImageU16& in, int width, int height) {
 
 LabelMap read_labels(const std::string& labels_path, const std::string& instances_path, int width,
                      int height, LabelFormat format, ResizeLabels resize) {
-  if (!std::filesystem::exists(labels_path)) fail_at(labels_path, "labels file not found");
+  if (!std::filesystem::exists(labels_path)) fail_missing(labels_path, "labels file not found");
   ImageU16 raw = read_image_u16(labels_path);
   ImageU16 inst;
   if (!instances_path.empty()) {
-    if (!std::filesystem::exists(instances_path)) fail_at(instances_path, "instances file not found");
+    if (!std::filesystem::exists(instances_path)) fail_missing(instances_path, "instances file not found");
     inst = read_image_u16(instances_path);
   }
   return labels_from_codes(std::move(raw), instances_path.empty() ? nullptr : &inst, width, height, format,

@@ -155,19 +155,20 @@ std::string read_text(const std::string& path) {
   return ss.str();
 }
 
-std::string resolve_preset_path(const std::string& name_or_path, const std::string& kind) {
+// kind: the presets' folder ("cameras" or "lenses"); singular: its entries' kind as list_presets
+// names it ("camera", "lens").
+std::string resolve_preset_path(const std::string& name_or_path, const std::string& kind, const std::string& singular) {
   std::error_code ec;
   if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml")) {
-    if (!fs::exists(name_or_path, ec)) fail_at(name_or_path, "no such preset file");
+    if (!fs::exists(name_or_path, ec)) fail_missing(name_or_path, "no such preset file");
     return name_or_path;
   }
   fs::path p = fs::path(preset_dir()) / kind / (name_or_path + ".toml");
   if (fs::exists(p, ec)) return p.string();
   std::string known;
   for (const auto& e : list_presets())
-    if (e.kind + "s" == kind) known += (known.empty() ? "" : ", ") + e.name;
-  fail("unknown " + kind.substr(0, kind.size() - 1) + " preset '" + name_or_path +
-       "' (bundled: " + known + ")");
+    if (e.kind == singular) known += (known.empty() ? "" : ", ") + e.name;
+  fail("unknown " + singular + " preset '" + name_or_path + "' (bundled: " + known + ")");
 }
 
 }  // namespace
@@ -224,12 +225,12 @@ LensPreset parse_lens_preset(const std::string& text, const std::string& file) {
 }
 
 CameraPreset load_camera_preset(const std::string& name_or_path) {
-  std::string path = resolve_preset_path(name_or_path, "cameras");
+  std::string path = resolve_preset_path(name_or_path, "cameras", "camera");
   return parse_camera_preset(read_text(path), path);
 }
 
 LensPreset load_lens_preset(const std::string& name_or_path) {
-  std::string path = resolve_preset_path(name_or_path, "lenses");
+  std::string path = resolve_preset_path(name_or_path, "lenses", "lens");
   return parse_lens_preset(read_text(path), path);
 }
 

@@ -38,11 +38,20 @@ class ParameterError : public Error {
   std::vector<std::string> parts_;
 };
 
+// Bad input that is a missing input file ("file: message"): the command line treats it as any bad
+// input (exit status 2); the Python module raises FileNotFoundError for it, ValueError for the rest.
+class MissingFileError : public Error {
+ public:
+  using Error::Error;
+};
+
 // "file:line: key: problem" — the form every preset and input error takes.
 std::string where(const std::string& file, int line = 0, const std::string& key = {});
 
 [[noreturn]] void fail(const std::string& message);                        // BadInput
 [[noreturn]] void fail_at(const std::string& file, const std::string& message);  // "file: message"
+// MissingFileError "file: message": `file` does not exist.
+[[noreturn]] void fail_missing(const std::string& file, const std::string& message);
 // ParameterError: before + <parameter> + after.
 [[noreturn]] void fail_parameter(const std::string& parameter, const std::string& before,
                                  const std::string& after = {});
