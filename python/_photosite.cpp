@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <optional>
 
 #include <OpenEXR/ImfThreading.h>
@@ -58,24 +59,45 @@ struct ArrayShape {
 };
 
 // Checks C-contiguity, dimensions (2 or 3) and allowed channel counts; `what` names the argument.
+// The sizes are checked as NumPy's 64-bit values before they become int: a side of 2^31 or more
+// is refused, never truncated.
 ArrayShape check_image_array(const py::array& a, const std::string& what, std::initializer_list<int> channels) {
   if (!(a.flags() & py::array::c_style))
     fail(what + ": the array must be C-contiguous (use numpy.ascontiguousarray)");
   if (a.ndim() != 2 && a.ndim() != 3)
     fail(fmt::format("{}: expected an H x W or H x W x C array, got {} dimensions", what, a.ndim()));
-  ArrayShape s;
-  s.height = static_cast<int>(a.shape(0));
-  s.width = static_cast<int>(a.shape(1));
-  s.channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+  const int64_t h = a.shape(0), w = a.shape(1), nc = a.ndim() == 3 ? a.shape(2) : 1;
   bool ok = false;
-  for (int c : channels) ok |= c == s.channels;
+  for (int c : channels) ok |= c == nc;
   if (!ok) {
     std::string list;
     for (int c : channels) list += (list.empty() ? "" : " or ") + std::to_string(c);
-    fail(fmt::format("{}: expected {} channel(s), got {}", what, list, s.channels));
+    fail(fmt::format("{}: expected {} channel(s), got {}", what, list, nc));
   }
-  check_frame_size(what, s.width, s.height);
+  constexpr int64_t kMaxSide = std::numeric_limits<int>::max();
+  if (w > kMaxSide || h > kMaxSide)
+    fail(fmt::format("{}: frame size too large: {}x{} (a side of 2^31 pixels or more)", what, w, h));
+  check_frame_size(what, w, h);
+  ArrayShape s;
+  s.height = static_cast<int>(h);
+  s.width = static_cast<int>(w);
+  s.channels = static_cast<int>(nc);
   return s;
+}
+
+// An integer argument (a Python int, bool or NumPy integer: anything with __index__) in
+// [lo, hi], checked at any size; a TypeError or ValueError naming the argument otherwise
+// (pybind11's own casters answer with the whole signature, or wrap a negative value).
+template <class T>
+T int_arg(const py::handle& v, const char* name, T lo = std::numeric_limits<T>::min(),
+          T hi = std::numeric_limits<T>::max()) {
+  if (PyFloat_Check(v.ptr()) || !PyIndex_Check(v.ptr()))
+    throw py::type_error(fmt::format("{}: expected an int, got {}", name, Py_TYPE(v.ptr())->tp_name));
+  const auto i = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
+  if (!i) throw py::error_already_set();
+  if (i < py::int_(lo) || i > py::int_(hi))
+    fail(fmt::format("{} {} must be in [{}, {}]", name, py::str(i).cast<std::string>(), lo, hi));
+  return i.cast<T>();
 }
 
 std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
@@ -238,28 +260,30 @@ struct Camera {
   }
 
   // The settings of one call, validated before any work (as the CLI's SensorOptions::resolve).
+  // seed and frame: Python ints, range-checked here (uint64, uint32).
   SensorSetup with(double exposure_s, std::optional<double> f_number, double gain_db,
-                   std::optional<double> temperature_c, uint64_t seed, uint32_t frame,
-                   const std::string& demosaic) const {
+                   std::optional<double> temperature_c, const py::object& seed, const py::object& frame,
+                   const std::string& demosaic, const std::string& poisson) const {
     SensorSetup s = setup;
     s.settings.exposure_s = exposure_s;
     s.settings.f_number = f_number;
     s.settings.gain_db = gain_db;
     s.settings.temperature_c = temperature_c;
-    s.settings.seed = seed;
-    s.settings.frame = frame;
+    s.settings.seed = int_arg<uint64_t>(seed, "seed");
+    s.settings.frame = int_arg<uint32_t>(frame, "frame");
     s.settings.demosaic = parse_demosaic_method(demosaic);
+    s.settings.poisson = parse_poisson_method(poisson);
     photosite::resolve(s.camera, s.lens, s.settings);
     return s;
   }
 
   SensorResult expose(const py::array& radiance, double exposure_s, std::optional<double> f_number, double gain_db,
-                      std::optional<double> temperature_c, uint64_t seed, uint32_t frame,
-                      const std::string& demosaic, const std::string& backend) const {
+                      std::optional<double> temperature_c, const py::object& seed, const py::object& frame,
+                      const std::string& demosaic, const std::string& backend, const std::string& poisson) const {
     if (!is_dtype(radiance, py::dtype::of<float>()))
       fail("radiance: expected dtype float32 (W.sr-1.m-2, linear), got " + dtype_name(radiance));
     const ArrayShape shape = check_image_array(radiance, "radiance", {1, 3});
-    const SensorSetup s = with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
+    const SensorSetup s = with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, poisson);
     SensorOutput out;
     ResolvedExposure ex;
     FixedPatternMaps fpn;
@@ -289,11 +313,12 @@ struct Camera {
 
 NightResult night(const py::array& day_rgb, const py::array& labels, const std::optional<py::array>& instances,
                   const Camera& camera, const std::string& scene_preset, double exposure_s,
-                  std::optional<double> f_number, double gain_db, std::optional<double> temperature_c, uint64_t seed,
-                  uint32_t frame, const std::string& demosaic, const std::string& backend,
-                  const std::string& label_format, std::optional<double> ambient_lux,
-                  const std::string& resize_labels, const std::string& rig) {
-  const ArrayShape ds = check_image_array(day_rgb, "day_rgb", {3});
+                  std::optional<double> f_number, double gain_db, std::optional<double> temperature_c,
+                  const py::object& seed, const py::object& frame, const std::string& demosaic,
+                  const std::string& backend, const std::string& label_format, std::optional<double> ambient_lux,
+                  const std::string& resize_labels, const std::string& rig, const std::string& poisson) {
+  // H x W (grey) or H x W x 3, as `night --image` takes a grey or an RGB file.
+  const ArrayShape ds = check_image_array(day_rgb, "day_rgb", {1, 3});
   const bool day_float = is_dtype(day_rgb, py::dtype::of<float>());
   const bool day_u8 = is_dtype(day_rgb, py::dtype::of<uint8_t>());
   const bool day_u16 = is_dtype(day_rgb, py::dtype::of<uint16_t>());
@@ -315,7 +340,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   // As `night --rig`: "auto" picks by aspect ratio (an array has no data-set path to find a
   // Cityscapes camera file by; pass the file itself).
   sp.rig = scene::resolve_camera_rig(rig, ds.width, ds.height);
-  SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic);
+  SensorSetup s = camera.with(exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, poisson);
 
   NightResult r;
   std::optional<NightChain> chain;
@@ -333,23 +358,25 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     info.is_float = day_float;
     info.bits_per_sample = day_float ? 32 : day_u8 ? 8 : 16;
     info.srgb_encoded = !day_float;
-    // uint8 codes go to the chain as codes (linearised directly, as `night` takes an 8-bit PNG:
-    // the same bits as their floats); uint16 codes and float32 as floats.
+    // RGB uint8 codes go to the chain as codes (linearised directly, as `night` takes an 8-bit
+    // RGB PNG: the same bits as their floats); grey or uint16 codes and float32 as floats, as
+    // `night` reads any other file (read_day_image).
+    const bool as_codes = day_u8 && ds.channels == 3;
     ImageU8 codes;
-    if (day_u8) {
+    if (as_codes) {
       codes = ImageU8(ds.width, ds.height, 3, uninitialized);
       copy_codes(static_cast<const uint8_t*>(day_rgb.data()), codes.data(), codes.size());
     }
     ImageF day = day_float ? float_image(day_rgb, "day_rgb", ds)
-                 : day_u8  ? ImageF()
-                           : image_from_codes(day_rgb.data(), info.bits_per_sample, ds.width, ds.height, 3);
+                 : as_codes ? ImageF()
+                            : image_from_codes(day_rgb.data(), info.bits_per_sample, ds.width, ds.height, ds.channels);
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
     SensorRunner runner = make_backend(backend);
-    chain.emplace(day_u8 ? prepare_night(runner, std::move(codes), info, lm, sp, s, camera.store)
+    chain.emplace(as_codes ? prepare_night(runner, std::move(codes), info, lm, sp, s, camera.store)
                          : prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
-    out.emplace(night_frame(runner, *chain, s, frame));
+    out.emplace(night_frame(runner, *chain, s, s.settings.frame));
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
                              {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : ""});
     // The intermediates no output keeps are released here, as a C++ caller's scope would.
@@ -390,17 +417,24 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
 }
 
 py::dict characterize_py(const py::object& camera, std::optional<std::string> lens, std::optional<std::string> device_id,
-                         std::optional<std::string> device_store, double exposure_s, double gain_db, uint64_t seed,
-                         int roi, double wavelength_nm, const std::string& backend) {
+                         std::optional<std::string> device_store, double exposure_s, double gain_db,
+                         const py::object& seed, const py::object& roi_arg, double wavelength_nm,
+                         const std::string& backend, std::optional<double> temperature_c,
+                         const std::string& poisson) {
   std::optional<Camera> own;
   const Camera* cam = nullptr;
   if (py::isinstance<py::str>(camera)) {
     own.emplace(camera.cast<std::string>(), lens, device_id, device_store);
     cam = &*own;
-  } else {
+  } else if (py::isinstance<Camera>(camera)) {
     cam = &camera.cast<const Camera&>();
+  } else {
+    throw py::type_error(fmt::format("camera: expected a Camera or a camera preset name (str), got {}",
+                                     Py_TYPE(camera.ptr())->tp_name));
   }
-  const SensorSetup s = cam->with(exposure_s, std::nullopt, gain_db, std::nullopt, seed, 0, "bilinear");
+  const int roi = int_arg<int>(roi_arg, "roi", 16, 4096);  // the library's range (characterize.h)
+  const SensorSetup s =
+      cam->with(exposure_s, std::nullopt, gain_db, temperature_c, seed, py::int_(0), "bilinear", poisson);
   nlohmann::json j;
   {
     py::gil_scoped_release nogil;
@@ -425,20 +459,68 @@ py::tuple read_exr_py(const std::string& path) {
   return py::make_tuple(channels, attrs, types);
 }
 
+// Why `name` cannot be a write_exr attribute (empty: it can). OpenEXR keeps names of at most 255
+// bytes (Imf::Name cuts longer ones short), and the header's own attributes are reserved: the
+// required ones, those of multi-part, tiled and multi-view files, and what the library's
+// write_exr sets (capDate, dwaCompressionLevel, photosite/unit/<channel>).
+std::string exr_attribute_name_problem(const std::string& name) {
+  static const char* const reserved[] = {"channels", "compression", "dataWindow", "displayWindow", "lineOrder",
+                                         "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth", "tiles",
+                                         "name", "type", "version", "chunkCount", "view", "capDate",
+                                         "dwaCompressionLevel"};
+  if (name.empty()) return "an attribute name cannot be empty";
+  if (name.size() > 255) return fmt::format("a name of {} bytes, more than OpenEXR's 255", name.size());
+  for (const char* r : reserved)
+    if (name == r) return "reserved: the EXR header sets this attribute itself";
+  if (name.rfind("photosite/unit/", 0) == 0) return "reserved: write_exr sets photosite/unit/<channel> itself";
+  return {};
+}
+
+// Every check is made before the file is opened, so bad input leaves no file; each names the
+// layer or attribute (`layers['b']`, `attributes['k']`).
 void write_exr_py(const std::string& path, const py::dict& layers, const py::dict& attributes, bool half,
                   bool overwrite) {
   check_output_path(path, overwrite);
+  if (layers.empty()) fail("layers: no layers (give at least one name -> array)");
   std::vector<ImageF> images;
   images.reserve(layers.size());
   std::vector<ExrChannelGroup> groups;
+  std::map<std::string, std::string> channel_layer;  // channel name -> the layer that made it
+  std::string first_layer;
+  ArrayShape first;
   for (const auto& [k, v] : layers) {
+    if (!py::isinstance<py::str>(k))
+      throw Error(fmt::format("layers[{}]: a layer name must be a str, got {}", py::repr(k).cast<std::string>(),
+                              Py_TYPE(k.ptr())->tp_name));
     const std::string name = k.cast<std::string>();
-    if (!py::isinstance<py::array>(v)) fail("layers['" + name + "']: expected a NumPy array");
+    const std::string what = "layers['" + name + "']";
+    if (!py::isinstance<py::array>(v)) fail(what + ": expected a NumPy array");
     const py::array a = v.cast<py::array>();
-    const ArrayShape s = check_image_array(a, "layers['" + name + "']", {1, 2, 3, 4});
+    const ArrayShape s = check_image_array(a, what, {1, 2, 3, 4});
+    if (groups.empty()) {
+      first_layer = name;
+      first = s;
+    } else if (s.width != first.width || s.height != first.height) {
+      fail(fmt::format("{}: {}x{} pixels, but layers['{}'] is {}x{} (every layer must have the same size)", what,
+                       s.width, s.height, first_layer, first.width, first.height));
+    }
+    if (name.empty() && s.channels == 1)
+      fail(what + ": the name \"\" is for an H x W x 3 or 4 layer (channels R, G, B, A); name a one-channel layer");
     ExrChannelGroup g;
+    static const char* rgba[] = {"R", "G", "B", "A"};
+    if (s.channels == 1) g.channel_names = {name};
+    else
+      for (int c = 0; c < s.channels; ++c)
+        g.channel_names.push_back(name.empty() ? rgba[c] : name + "." + (s.channels >= 3 ? rgba[c] : std::to_string(c)));
+    for (const auto& n : g.channel_names) {
+      // OpenEXR keeps names of at most 255 bytes (Imf::Name), cutting longer ones short.
+      if (n.size() > 255) fail(fmt::format("{}: channel name of {} bytes, more than OpenEXR's 255", what, n.size()));
+      const auto [it, fresh] = channel_layer.emplace(n, name);
+      if (!fresh)
+        fail(fmt::format("{}: channel '{}' is also made by layers['{}'] (each channel once)", what, n, it->second));
+    }
     if (is_dtype(a, py::dtype::of<float>())) {
-      images.push_back(float_image(a, "layers['" + name + "']", s, false));
+      images.push_back(float_image(a, what, s, false));
     } else if (is_dtype(a, py::dtype("float16"))) {
       const ImageF f(s.width, s.height, s.channels, uninitialized);
       images.push_back(f);
@@ -457,32 +539,43 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
       else {
         const auto* p = static_cast<const uint32_t*>(a.data());
         for (size_t i = 0; i < n; ++i) {
-          if (p[i] > (1u << 24)) fail("layers['" + name + "']: uint32 value above 2^24 cannot be stored exactly");
+          if (p[i] > (1u << 24)) fail(what + ": uint32 value above 2^24 cannot be stored exactly");
           f[i] = static_cast<float>(p[i]);
         }
       }
       images.push_back(std::move(f));
       g.pixel = ExrPixel::Uint;
     } else {
-      fail("layers['" + name + "']: expected dtype float32, float16 or uint8/16/32, got " + dtype_name(a));
+      fail(what + ": expected dtype float32, float16 or uint8/16/32, got " + dtype_name(a));
     }
-    static const char* rgba[] = {"R", "G", "B", "A"};
-    if (s.channels == 1) g.channel_names = {name};
-    else
-      for (int c = 0; c < s.channels; ++c)
-        g.channel_names.push_back(name.empty() ? rgba[c] : name + "." + (s.channels >= 3 ? rgba[c] : std::to_string(c)));
     groups.push_back(std::move(g));
   }
   for (size_t i = 0; i < groups.size(); ++i) groups[i].image = &images[i];
   std::map<std::string, ExrAttribute> attrs;
   for (const auto& [k, v] : attributes) {
+    if (!py::isinstance<py::str>(k))
+      throw Error(fmt::format("attributes[{}]: an attribute name must be a str, got {}",
+                              py::repr(k).cast<std::string>(), Py_TYPE(k.ptr())->tp_name));
     const std::string key = k.cast<std::string>();
+    const std::string what = "attributes['" + key + "']";
+    if (const std::string why = exr_attribute_name_problem(key); !why.empty()) fail(what + ": " + why);
     if (py::isinstance<py::bool_>(v)) attrs[key] = static_cast<int>(v.cast<bool>());
-    else if (py::isinstance<py::int_>(v)) attrs[key] = v.cast<int>();
+    else if (py::isinstance<py::int_>(v)) {  // an EXR int attribute is 32-bit
+      constexpr int lo = std::numeric_limits<int>::min(), hi = std::numeric_limits<int>::max();
+      if (v < py::int_(lo) || v > py::int_(hi))
+        fail(fmt::format("{}: {} is outside an EXR int attribute's range [{}, {}] (pass a float or str)", what,
+                         py::str(v).cast<std::string>(), lo, hi));
+      attrs[key] = v.cast<int>();
+    }
     else if (py::isinstance<py::float_>(v)) attrs[key] = v.cast<double>();
     else if (py::isinstance<py::str>(v)) attrs[key] = v.cast<std::string>();
-    else fail("attributes['" + key + "']: expected str, int or float");
+    else fail(what + ": expected str, int or float");
   }
+  // A float attribute x is also written as the text x_text (write_exr): that name is taken.
+  for (const auto& [key, v] : attrs)
+    if (std::holds_alternative<double>(v) && attrs.count(key + "_text"))
+      fail(fmt::format("attributes['{}_text']: write_exr writes that name itself, the text copy of the float "
+                       "attributes['{}']", key, key));
   ExrWriteOptions wo;
   wo.half = half;
   py::gil_scoped_release nogil;
@@ -515,10 +608,12 @@ PYBIND11_MODULE(_photosite, m) {
   // settings): the library keeps its own freed frame buffers, up to the default limit
   // (include/photosite/frame_buffers.h, docs/python.md).
   set_frame_buffer_cache_limit(kFrameBufferDefaultLimit);
-  m.def("frame_buffer_cache", [](std::optional<int64_t> limit_bytes) {
-    if (limit_bytes) {
-      if (*limit_bytes < 0) throw Error(fmt::format("frame_buffer_cache: limit_bytes is {}: must be 0 or more", *limit_bytes));
-      set_frame_buffer_cache_limit(static_cast<size_t>(*limit_bytes));
+  m.def("frame_buffer_cache", [](const py::object& limit_bytes) {
+    if (!limit_bytes.is_none()) {
+      if (PyIndex_Check(limit_bytes.ptr()) && !PyFloat_Check(limit_bytes.ptr()) && limit_bytes < py::int_(0))
+        throw Error(fmt::format("frame_buffer_cache: limit_bytes is {}: must be 0 or more",
+                                py::str(limit_bytes).cast<std::string>()));
+      set_frame_buffer_cache_limit(static_cast<size_t>(int_arg<int64_t>(limit_bytes, "limit_bytes", 0)));
     }
     const FrameBufferCacheStats s = frame_buffer_cache_stats();
     py::dict d;
@@ -548,7 +643,8 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("raw", &SensorResult::raw, "uint16 H x W: raw DN mosaic (with black level)")
       .def_readonly("rgb", &SensorResult::rgb, "float32 H x W x 3: demosaiced DN above black")
       .def_readonly("electrons", &SensorResult::electrons, "float32 H x W: collected e- per pixel")
-      .def_readonly("metadata", &SensorResult::metadata, "dict: the EXR header attributes (without 'photosite/')")
+      .def_readonly("metadata", &SensorResult::metadata, "dict: the command's photosite/ header attributes without the prefix, less the *_text copies, "
+                    "unit/<channel> and radiance_file; floats in full, seed a str (docs/python.md)")
       .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = 90,
            "uint8 H x W x 3 sRGB preview: isp='simple' (white balance, p99 exposure, sRGB) or 'camera' (+ noise "
            "reduction of strength `denoise` from the sensor's noise model and a JPEG round trip at `jpeg_quality`, 0: "
@@ -582,25 +678,26 @@ PYBIND11_MODULE(_photosite, m) {
       .def_property_readonly("cfa", [](const Camera& c) { return std::string(to_string(c.setup.camera.cfa)); })
       .def("expose", &Camera::expose, py::arg("radiance"), py::arg("exposure_s") = 0.02,
            py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
-           py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto");
+           py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",
+           py::arg("poisson") = "exact");
 
   m.def("night", &night, py::arg("day_rgb"), py::arg("labels"), py::arg("instances") = py::none(),
         py::arg("camera"), py::arg("scene_preset") = "night-urban", py::arg("exposure_s") = 0.02,
         py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
         py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",
         py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none",
-        py::arg("rig") = "auto");
+        py::arg("rig") = "auto", py::arg("poisson") = "exact");
   m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
         py::arg("backend") = "auto");
   m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),
         py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
         py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,
-        py::arg("backend") = "auto");
-  m.def("chart", [](int width, int height, double illuminance_lux, double cct_k, double lamp_cd_m2,
+        py::arg("backend") = "auto", py::arg("temperature_c") = py::none(), py::arg("poisson") = "exact");
+  m.def("chart", [](const py::object& width_arg, const py::object& height_arg, double illuminance_lux, double cct_k, double lamp_cd_m2,
                     double background_cd_m2) {
     scene::ChartOptions o;
-    o.width = width;
-    o.height = height;
+    o.width = int_arg<int>(width_arg, "width");
+    o.height = int_arg<int>(height_arg, "height");
     o.illuminance_lux = illuminance_lux;
     o.cct_k = cct_k;
     o.lamp_cd_m2 = lamp_cd_m2;

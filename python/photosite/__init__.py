@@ -3,7 +3,8 @@
 The same C++ library as the ``photosite`` command, in process: arrays in, arrays out, no files in
 between. Arrays are C-contiguous NumPy arrays, H x W (one channel) or H x W x C:
 
-- day images: uint8 / uint16 sRGB codes (as in a PNG; read as code / max code) or float32 linear,
+- day images (H x W x 3 or H x W grey): uint8 / uint16 sRGB codes (as in a PNG; read as code /
+  max code) or float32 linear,
 - labels: uint8 / uint16 Cityscapes labelIds or trainIds (H x W) or the colour palette (H x W x 3),
 - radiance: float32, W.sr-1.m-2 (band radiance per R, G, B),
 - outputs: uint16 raw DN, float32 DN above black, float32 electrons (e-), uint8 sRGB previews.
@@ -38,21 +39,25 @@ Camera.__doc__ = """Camera(preset, lens=None, device_id=None, device_store=None)
 
 A camera: a camera preset (bundled name such as "onsemi-ar0331" or a .toml path), a lens preset
 (default: the camera's default lens) and one device of it. The device's fixed-pattern maps (PRNU,
-DSNU, hot pixels) are created once per device_id and frame size and kept in device_store (default:
-$PHOTOSITE_DEVICE_STORE or ~/.local/share/photosite/devices), exactly as the command line does.
+DSNU, hot pixels) are created once per device_id and frame size and kept in device_store (default,
+the first that is set: $PHOTOSITE_DEVICE_STORE, $XDG_DATA_HOME/photosite/devices,
+~/.local/share/photosite/devices), exactly as the command line does (docs/sensor.md).
 
 Camera.expose(radiance, exposure_s=0.02, f_number=None, gain_db=0, temperature_c=None, seed=0,
-              frame=0, demosaic="bilinear", backend="auto") -> SensorResult
+              frame=0, demosaic="bilinear", backend="auto", poisson="exact") -> SensorResult
     radiance     float32 H x W x 3 (or H x W, grey), scene radiance in W.sr-1.m-2
     exposure_s   exposure time in seconds
     f_number     f-number N (None: the lens preset's)
     gain_db      analog gain in dB above the base system gain
     temperature_c  die temperature in deg C (None: the preset's)
-    seed, frame  the temporal noise key: results are deterministic per (device, seed, frame)
+    seed, frame  the temporal noise key: results are deterministic per (device, seed, frame);
+                 ints, seed in [0, 2^64 - 1], frame in [0, 2^32 - 1]
     demosaic     demosaic method for .rgb (bilinear, malvar, hamilton-adams, lmmse, ...)
     backend      "cpu", "vulkan" or "auto" (a real GPU when present, else cpu)
+    poisson      shot-noise sampler: "exact", "cornish-fisher" or "normal" (`expose --poisson`)
 Returns .raw (uint16 DN mosaic), .rgb (float32 DN above black), .electrons (float32 e-) and
-.metadata (dict: the EXR header attributes `photosite expose` writes).
+.metadata (dict: the photosite/ header attributes `photosite expose` writes, without the
+"photosite/" prefix, the *_text copies, unit/<channel> and radiance_file; docs/python.md).
 """
 
 CameraLike = Union[Camera, str, None]
@@ -63,6 +68,8 @@ def _camera(camera: CameraLike, default: str) -> Camera:
         return Camera(default)
     if isinstance(camera, str):
         return Camera(camera)
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, a camera preset name (str) or None, got {type(camera).__name__}")
     return camera
 
 
@@ -71,10 +78,11 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
           f_number: Optional[float] = None, gain_db: float = 0.0, temperature_c: Optional[float] = None,
           seed: int = 0, frame: int = 0, demosaic: str = "bilinear", backend: str = "auto",
           label_format: str = "auto", ambient_lux: Optional[float] = None,
-          resize_labels: str = "none", rig: str = "auto") -> NightResult:
+          resize_labels: str = "none", rig: str = "auto", poisson: str = "exact") -> NightResult:
     """Translate a day photo to night and expose it through a camera (`photosite night`).
 
-    day_rgb       H x W x 3, uint8/uint16 sRGB codes (as a PNG holds them) or float32 linear sRGB
+    day_rgb       H x W x 3 or H x W (grey, as `night --image grey.png`), uint8/uint16 sRGB codes (as a
+                  PNG holds them) or float32 linear sRGB
     labels        H x W uint8/uint16 Cityscapes labelIds or trainIds, or H x W x 3 palette colours
     instances     H x W uint16 Cityscapes instance ids (class*1000+n), for per-vehicle lights; optional
     camera        a Camera, a camera preset name, or None for "onsemi-ar0331" (Cityscapes' camera)
@@ -83,7 +91,8 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     f_number      f-number (None: the lens preset's)
     gain_db       analog gain in dB above the base system gain
     temperature_c die temperature in deg C (None: the preset's)
-    seed          scene and temporal-noise seed; frame: the frame number (noise key)
+    seed          scene and temporal-noise seed, an int in [0, 2^64 - 1]
+    frame         the frame number (noise key), an int in [0, 2^32 - 1]
     demosaic      demosaic method of sensor.rgb
     backend       "cpu", "vulkan" or "auto"
     label_format  "auto", "labelIds", "trainIds" or "color"
@@ -91,16 +100,18 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     resize_labels "none" or "nearest" (labels of another size than the image)
     rig           camera rig: "auto" (by aspect ratio), a name in presets/rigs, a .toml path or a
                   Cityscapes camera .json (camera/<split>/<city>/<stem>_camera.json)
+    poisson       shot-noise sampler: "exact", "cornish-fisher" or "normal" (`night --poisson`)
 
     Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,
-    W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; from the rig), .labels (uint16 labelIds),
-    .vanishing_point (x px, y px, confidence 0..1, method), .sensor (a SensorResult, metadata as in
-    the EXR header) and .preview() (uint8 sRGB). The pixels equal those of the `photosite night`
-    EXR for the same inputs, camera, seed and frame.
+    W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; from the rig),
+    .labels (uint16 labelIds), .vanishing_point (x px, y px, confidence 0..1, method), .sensor (a
+    SensorResult; its metadata: the photosite/ attributes of the EXR header) and .preview() (uint8
+    sRGB). The pixels equal those of the `photosite night` EXR for the same inputs, camera, seed
+    and frame.
     """
     return _photosite.night(day_rgb, labels, instances, _camera(camera, "onsemi-ar0331"), scene_preset,
                             exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, backend,
-                            label_format, ambient_lux, resize_labels, rig)
+                            label_format, ambient_lux, resize_labels, rig, poisson)
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto") -> np.ndarray:
@@ -117,27 +128,33 @@ def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", ba
 
 def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_id: Optional[str] = None,
                  device_store: Optional[str] = None, exposure_s: float = 0.02, gain_db: float = 0.0,
-                 seed: int = 0, roi: int = 256, wavelength_nm: float = 525.0, backend: str = "auto") -> dict:
+                 seed: int = 0, roi: int = 256, wavelength_nm: float = 525.0, backend: str = "auto",
+                 temperature_c: Optional[float] = None, poisson: str = "exact") -> dict:
     """EMVA 1288 (R4.0) photon-transfer measurement of a simulated camera (`photosite characterize --json`).
 
     camera        a Camera or a camera preset name (then lens, device_id, device_store apply)
     exposure_s    exposure time of the dark frames in seconds; gain_db: analog gain in dB
     roi           side of the measured region in pixels, [16, 4096]
     wavelength_nm wavelength of the light in nm
+    temperature_c die temperature in deg C (None: the preset's); sets the dark current
+    poisson       shot-noise sampler: "exact", "cornish-fisher" or "normal" (`characterize --poisson`)
     Returns the same dict as the command's JSON: per quantity (system_gain_dn_per_e, read_noise_e,
     qe_525nm, saturation_capacity_e, dark_current_e_per_s, dsnu_e, prnu_percent, snr_max_db,
     dynamic_range_db) its measured value, uncertainty (1 standard error), preset value and z score,
     and "photon_transfer": [[photons, mean DN, temporal variance DN^2], ...].
     """
     return _photosite.characterize(camera, lens, device_id, device_store, exposure_s, gain_db, seed, roi,
-                                   wavelength_nm, backend)
+                                   wavelength_nm, backend, temperature_c, poisson)
 
 
 def read_exr(path: str) -> tuple:
     """Read an OpenEXR file: (channels, attributes, pixel_types).
 
     channels     dict channel name -> float32 H x W array (UINT channels exact as float32)
-    attributes   dict of every header attribute, as text
+    attributes   dict of the header attributes as text, except the layout (channels, dataWindow,
+                 displayWindow, lineOrder): ints in decimal, floats to 6 significant digits (the
+                 photosite *_text attributes hold them in full), the compression by name, capDate
+                 as "DateTime", other types (screenWindowCenter) as their type name ("v2f")
     pixel_types  dict channel name -> "float", "half" or "uint"
     """
     return _photosite.read_exr(path)
@@ -150,7 +167,11 @@ def write_exr(path: str, layers: dict, attributes: Optional[dict] = None, half: 
     layers      dict name -> array. H x W: one channel named `name`; H x W x 3 or 4: channels
                 name.R, name.G, name.B (, name.A), or R, G, B (, A) for the name "".
                 float32 -> float (half with half=True), float16 -> half, uint8/16/32 -> uint (exact).
-    attributes  dict name -> str, int or float header attributes
+    attributes  dict name -> str, int (32-bit) or float header attributes; a float x is also
+                written as the 17-digit text x_text. The header's own names (compression,
+                dataWindow, channels, capDate, ...) are refused.
+    Bad input (layers of different sizes, a channel made twice, an attribute out of range...)
+    is a ValueError naming the layer or attribute, raised before any file is made.
     """
     _photosite.write_exr(path, layers, attributes or {}, half, overwrite)
 

@@ -10,7 +10,7 @@ class SensorResult:
     raw: npt.NDArray[np.uint16]        # H x W raw DN mosaic (with black level)
     rgb: npt.NDArray[np.float32]       # H x W x 3 demosaiced DN above black
     electrons: npt.NDArray[np.float32] # H x W collected e-
-    metadata: Dict[str, Union[str, int, float]]  # the EXR header attributes, without "photosite/"
+    metadata: Dict[str, Union[str, int, float]]  # the photosite/ header attributes, without the prefix (docs/python.md)
     def preview(self, isp: str = "simple", denoise: float = 1.0, jpeg_quality: int = 90) -> npt.NDArray[np.uint8]: ...  # H x W x 3 sRGB
 
 class NightResult:
@@ -36,22 +36,23 @@ class Camera:
                  device_store: Optional[str] = ...) -> None: ...
     def expose(self, radiance: npt.NDArray[np.float32], exposure_s: float = ..., f_number: Optional[float] = ...,
                gain_db: float = ..., temperature_c: Optional[float] = ..., seed: int = ..., frame: int = ...,
-               demosaic: str = ..., backend: str = ...) -> SensorResult: ...
+               demosaic: str = ..., backend: str = ..., poisson: str = ...) -> SensorResult: ...
 
 CameraLike = Union[Camera, str, None]
 
-def night(day_rgb: npt.NDArray[Union[np.uint8, np.uint16, np.float32]],
+def night(day_rgb: npt.NDArray[Union[np.uint8, np.uint16, np.float32]],  # H x W x 3 or H x W (grey)
           labels: npt.NDArray[Union[np.uint8, np.uint16]],
           instances: Optional[npt.NDArray[Union[np.uint8, np.uint16]]] = ..., camera: CameraLike = ...,
           scene_preset: str = ..., exposure_s: float = ..., f_number: Optional[float] = ..., gain_db: float = ...,
           temperature_c: Optional[float] = ..., seed: int = ..., frame: int = ..., demosaic: str = ...,
           backend: str = ..., label_format: str = ..., ambient_lux: Optional[float] = ...,
-          resize_labels: str = ...) -> NightResult: ...
+          resize_labels: str = ..., rig: str = ..., poisson: str = ...) -> NightResult: ...
 def demosaic(mosaic: npt.NDArray[Union[np.float32, np.uint8, np.uint16]], cfa: str = ..., method: str = ...,
              backend: str = ...) -> npt.NDArray[np.float32]: ...
 def characterize(camera: Union[Camera, str], lens: Optional[str] = ..., device_id: Optional[str] = ...,
                  device_store: Optional[str] = ..., exposure_s: float = ..., gain_db: float = ..., seed: int = ...,
-                 roi: int = ..., wavelength_nm: float = ..., backend: str = ...) -> dict: ...
+                 roi: int = ..., wavelength_nm: float = ..., backend: str = ..., temperature_c: Optional[float] = ...,
+                 poisson: str = ...) -> dict: ...
 def read_exr(path: str) -> Tuple[Dict[str, npt.NDArray[np.float32]], Dict[str, str], Dict[str, str]]: ...
 def write_exr(path: str, layers: Dict[str, np.ndarray], attributes: Optional[Dict[str, Union[str, int, float]]] = ...,
               half: bool = ..., overwrite: bool = ...) -> None: ...

@@ -2,7 +2,7 @@
 
     from photosite.torch import NightTransform
     t = NightTransform(camera="onsemi-ar0331", seed=7)
-    image, target = t((day_uint8_hwc, labels_hw), index=i)   # or in a Dataset: t.for_index(i)
+    image, target = t((day_uint8_hwc, labels_hw), index=i)   # in a Dataset's __getitem__(i)
 
 torch is optional: importing photosite works without it; this module needs it.
 """
@@ -75,12 +75,28 @@ class NightTransform:
             x = x.numpy()
         return np.ascontiguousarray(x)
 
+    @staticmethod
+    def _uint16_labels(labels: np.ndarray) -> np.ndarray:
+        """Label ids of another dtype as uint16, checked first: a value that is not a whole number
+        in [0, 65535] would wrap or round in the cast, so it is refused with the value given."""
+        if labels.dtype.kind not in "biuf":
+            raise ValueError(f"labels: expected integer label ids, got dtype {labels.dtype}")
+        bad = ~((labels >= 0) & (labels <= 65535))
+        if labels.dtype.kind == "f":
+            bad |= ~np.isfinite(labels) | (labels != np.floor(labels))
+        if bad.any():
+            pos = tuple(int(i) for i in np.argwhere(bad)[0])
+            where = f"pixel ({pos[1]}, {pos[0]})" if len(pos) >= 2 else f"index {pos}"
+            raise ValueError(f"labels: value {labels[pos]} at {where} is not a label id in 0..65535 "
+                             f"(uint16 labelIds, trainIds or palette values)")
+        return labels.astype(np.uint16)
+
     def __call__(self, sample: Tuple[Any, Any], index: int = 0):
         image, target = sample
         day = self._numpy(image)
         labels = self._numpy(target)
         if labels.dtype not in (np.uint8, np.uint16):
-            labels = labels.astype(np.uint16)
+            labels = self._uint16_labels(labels)
         r = night(day, labels, camera=self._camera(), exposure_s=self.exposure_s,
                   seed=_frame_seed(self.seed, index), frame=0, **self.night_kwargs)
         if self.output == "preview":

@@ -1,5 +1,6 @@
 """photosite's Python module against the command line: same numbers, every function."""
 import json
+import pathlib
 import pickle
 import subprocess
 import sys
@@ -237,7 +238,8 @@ BAD = [
     ("day float64", lambda: ps.night(_day(dtype=np.float64), _labels()), ValueError, "day_rgb: expected dtype"),
     ("day not contiguous", lambda: ps.night(np.zeros((32, 96, 3), np.uint8)[:, ::2], _labels()), ValueError,
      "C-contiguous"),
-    ("day 2-D", lambda: ps.night(np.zeros((32, 48), np.uint8), _labels()), ValueError, "day_rgb: expected 3"),
+    ("day 2 channels", lambda: ps.night(np.zeros((32, 48, 2), np.uint8), _labels()), ValueError,
+     "day_rgb: expected 1 or 3 channel(s), got 2"),
     ("day 4 channels", lambda: ps.night(np.zeros((32, 48, 4), np.uint8), _labels()), ValueError, "channel"),
     ("day 4-D", lambda: ps.night(np.zeros((1, 32, 48, 3), np.uint8), _labels()), ValueError, "dimensions"),
     ("day NaN", lambda: ps.night(NAN_DAY, _labels()), ValueError, "not finite"),
@@ -269,7 +271,64 @@ BAD = [
                                                      {"k": [1]}), ValueError, "attributes['k']"),
     ("write_exr missing folder", lambda: ps.write_exr("/nonexistent/dir/x.exr", {"a": np.zeros((4, 4), np.float32)}),
      ValueError, "/nonexistent/dir"),
+    # integer arguments: range-checked at any size, named (not pybind11's signature dump)
+    ("seed negative", lambda: ps.night(_day(), _labels(), seed=-1), ValueError,
+     "seed -1 must be in [0, 18446744073709551615]"),
+    ("seed 2^64", lambda: ps.night(_day(), _labels(), seed=2**64), ValueError, "seed 18446744073709551616 must be in"),
+    ("seed float", lambda: ps.night(_day(), _labels(), seed=1.5), TypeError, "seed: expected an int, got float"),
+    ("frame 2^32", lambda: ps.night(_day(), _labels(), frame=2**32), ValueError,
+     "frame 4294967296 must be in [0, 4294967295]"),
+    ("expose seed negative", lambda: ps.Camera("sony-imx174").expose(np.zeros((8, 8, 3), np.float32), seed=-3),
+     ValueError, "seed -3 must be in [0, "),
+    ("expose frame negative", lambda: ps.Camera("sony-imx174").expose(np.zeros((8, 8, 3), np.float32), frame=-1),
+     ValueError, "frame -1 must be in [0, 4294967295]"),
+    ("characterize camera int", lambda: ps.characterize(3), TypeError,
+     "camera: expected a Camera or a camera preset name (str), got int"),
+    ("characterize roi huge", lambda: ps.characterize("sony-imx174", roi=2**40), ValueError,
+     "roi 1099511627776 must be in [16, 4096]"),
+    ("characterize seed negative", lambda: ps.characterize("sony-imx174", seed=-1), ValueError, "seed -1 must be in"),
+    ("night camera int", lambda: ps.night(_day(), _labels(), camera=3), TypeError,
+     "camera: expected a Camera, a camera preset name (str) or None, got int"),
+    ("frame_buffer_cache 2^70", lambda: ps.frame_buffer_cache(2**70), ValueError,
+     "limit_bytes 1180591620717411303424 must be in [0, 9223372036854775807]"),
+    ("chart width 2^40", lambda: ps.chart(width=2**40), ValueError, "width 1099511627776 must be in"),
+    ("poisson", lambda: ps.night(_day(), _labels(), poisson="gauss"), ValueError, "unknown Poisson method 'gauss'"),
+    ("expose poisson", lambda: ps.Camera("sony-imx174").expose(np.zeros((8, 8, 3), np.float32), poisson="gauss"),
+     ValueError, "unknown Poisson method 'gauss'"),
+    ("characterize poisson", lambda: ps.characterize("sony-imx174", poisson="gauss"), ValueError,
+     "unknown Poisson method 'gauss'"),
 ]
+
+_Z = np.zeros((4, 4), np.float32)
+# write_exr's bad inputs: (id, layers, attributes, message)
+BAD_EXR = [
+    ("sizes differ", {"a": _Z, "b": np.zeros((5, 4), np.float32)}, {},
+     "layers['b']: 4x5 pixels, but layers['a'] is 4x4"),
+    ("no layers", {}, {}, "layers: no layers"),
+    ("channel twice", {"a": np.zeros((4, 4, 3), np.float32), "a.R": _Z}, {},
+     "layers['a.R']: channel 'a.R' is also made by layers['a']"),
+    ("empty name 2-D", {"": _Z}, {}, "layers['']: the name \"\" is for an H x W x 3 or 4 layer"),
+    ("layer name not str", {1: _Z}, {}, "layers[1]: a layer name must be a str, got int"),
+    ("channel name too long", {"c" * 256: _Z}, {}, "channel name of 256 bytes, more than OpenEXR's 255"),
+    ("int above int32", {"a": _Z}, {"k": 2**40}, "attributes['k']: 1099511627776 is outside an EXR int attribute's range"),
+    ("int below int32", {"a": _Z}, {"k": -2**31 - 1}, "attributes['k']: -2147483649 is outside"),
+    ("empty attribute name", {"a": _Z}, {"": 5}, "attributes['']: an attribute name cannot be empty"),
+    ("attribute name not str", {"a": _Z}, {(1, 2): 5}, "attributes[(1, 2)]: an attribute name must be a str, got tuple"),
+    ("attribute name too long", {"a": _Z}, {"k" * 300: 5}, "a name of 300 bytes, more than OpenEXR's 255"),
+    ("text copy taken", {"a": _Z}, {"x": 0.5, "x_text": "y"}, "attributes['x_text']: write_exr writes that name itself"),
+    ("unit taken", {"a": _Z}, {"photosite/unit/a": "m"}, "attributes['photosite/unit/a']: reserved"),
+] + [(f"reserved {n}", {"a": _Z}, {n: v}, f"attributes['{n}']: reserved")
+     for n, v in (("compression", "zip"), ("dataWindow", 1), ("displayWindow", "x"), ("channels", "R"),
+                  ("lineOrder", 0), ("pixelAspectRatio", 2.0), ("screenWindowCenter", 0.5), ("capDate", "today"))]
+
+
+@pytest.mark.parametrize("layers,attributes,match", [b[1:] for b in BAD_EXR], ids=[b[0] for b in BAD_EXR])
+def test_write_exr_bad_input(layers, attributes, match, tmp_path):
+    """Each bad layer or attribute is a ValueError naming it, raised before any file is made."""
+    with pytest.raises(ValueError) as e:
+        ps.write_exr(str(tmp_path / "x.exr"), layers, attributes)
+    assert match in str(e.value), str(e.value)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("name,call,exc,match", BAD, ids=[b[0] for b in BAD])
@@ -280,7 +339,8 @@ def test_bad_input(name, call, exc, match, store):
 
 
 @pytest.mark.parametrize("py_call,cli_args", [
-    (lambda: ps.Camera("no-such-camera"), ["presets", "show", "no-such-camera"]),
+    # `presets show` also lists lenses (508080d); characterize loads a camera as Camera() does
+    (lambda: ps.Camera("no-such-camera"), ["characterize", "--preset", "no-such-camera"]),
     (lambda: ps.night(_day(), _labels(), exposure_s=-1, camera=KITTI_CAMERA),
      ["night", "--preset", KITTI_CAMERA, "--exposure-s", "-1", "--out", "/tmp/never.exr"]),
 ])
@@ -362,3 +422,125 @@ def test_frame_buffer_cache_limit(store):
             ps.frame_buffer_cache(-1)
     finally:
         ps.frame_buffer_cache(limit)
+
+
+def test_array_sides_of_2_31_or_more_are_refused(tmp_path):
+    # A sparse 2 x (2^32 + 4) file: its width cast to int would read as 4.
+    m = np.memmap(tmp_path / "sparse.bin", dtype=np.uint8, mode="w+", shape=(2, 2**32 + 4))
+    with pytest.raises(ValueError, match=r"mosaic: frame size too large: 4294967300x2"):
+        ps.demosaic(m, backend="cpu")
+    with pytest.raises(ValueError, match=r"layers\['a'\]: frame size too large"):
+        ps.write_exr(str(tmp_path / "x.exr"), {"a": m})
+    assert not (tmp_path / "x.exr").exists()
+    del m
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+def test_night_grey_day_matches_cli(bits, kitti, cli, store, tmp_path):
+    """An H x W day array is `night --image grey.png` (8- or 16-bit): every layer bit for bit."""
+    from PIL import Image
+    day, labels = kitti
+    grey = day.astype(np.uint32).sum(axis=2) // 3
+    grey = (grey * 257).astype(np.uint16) if bits == 16 else grey.astype(np.uint8)
+    png = tmp_path / "grey.png"
+    Image.fromarray(grey).save(png)
+    codes = ps.read_codes(str(png))
+    assert codes.dtype == grey.dtype and codes.shape == labels.shape
+    np.testing.assert_array_equal(codes, grey)
+    cli("night", "--image", png, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--seed", 3, "--backend", "cpu",
+        "--out", tmp_path / "n.exr")
+    ch, _, _ = exr_pixels(tmp_path / "n.exr")
+    r = ps.night(grey, labels, camera=ps.Camera(KITTI_CAMERA, device_store=store), seed=3, backend="cpu")
+    np.testing.assert_array_equal(ch["raw.Y"], r.sensor.raw.astype(np.float32))
+    np.testing.assert_array_equal(np.stack([ch["night_radiance." + c] for c in "RGB"], -1), r.radiance)
+    np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), r.sensor.rgb)
+
+
+def test_poisson_keyword_matches_cli(kitti, cli, store, tmp_path):
+    """poisson= is the commands' --poisson: expose and night equal the CLI's EXR for a sampler
+    other than the default, and the sampler changes the frame (means of 10 e- and more)."""
+    rng = np.random.default_rng(4)
+    radiance = rng.uniform(0, 0.5, (48, 64, 3)).astype(np.float32)
+    ps.write_exr(str(tmp_path / "rad.exr"), {"": radiance})
+    cli("expose", "--radiance", tmp_path / "rad.exr", "--preset", "sony-imx174", "--exposure-s", 0.02, "--seed", 2,
+        "--backend", "cpu", "--poisson", "cornish-fisher", "--out", tmp_path / "e.exr")
+    ch, _, _ = exr_pixels(tmp_path / "e.exr")
+    cam = ps.Camera("sony-imx174", device_store=store)
+    o = cam.expose(radiance, seed=2, backend="cpu", poisson="cornish-fisher")
+    np.testing.assert_array_equal(ch["raw.Y"], o.raw.astype(np.float32))
+    assert o.metadata["poisson"] == "cornish-fisher"
+    assert o.electrons.mean() > 10
+    assert (o.raw != cam.expose(radiance, seed=2, backend="cpu").raw).any()
+    day, labels = kitti
+    cli("night", "--image", KITTI_IMAGE, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--seed", 2,
+        "--backend", "cpu", "--poisson", "normal", "--out", tmp_path / "n.exr")
+    ch, _, _ = exr_pixels(tmp_path / "n.exr")
+    r = ps.night(day, labels, camera=ps.Camera(KITTI_CAMERA, device_store=store), seed=2, backend="cpu",
+                 poisson="normal")
+    np.testing.assert_array_equal(ch["raw.Y"], r.sensor.raw.astype(np.float32))
+    assert r.sensor.metadata["poisson"] == "normal"
+
+
+def test_characterize_temperature_and_poisson_match_cli(cli, store):
+    d = ps.characterize("sony-imx174", roi=32, device_store=store, backend="cpu", temperature_c=80,
+                        poisson="normal")
+    j = json.loads(cli("characterize", "--preset", "sony-imx174", "--roi", 32, "--json", "--backend", "cpu",
+                       "--temperature-c", 80, "--poisson", "normal").stdout)
+    assert d == j
+    cool = ps.characterize("sony-imx174", roi=32, device_store=store, backend="cpu")
+    # the dark current doubles every few degrees: far above the preset temperature's at 80 C
+    assert d["dark_current_e_per_s"]["preset"] > 10 * cool["dark_current_e_per_s"]["preset"]
+
+
+def test_metadata_is_the_photosite_header_attributes(cli, store, tmp_path):
+    """SensorResult.metadata (docs/python.md): the header's photosite/ attributes without the
+    prefix, less the *_text copies, unit/<channel> and radiance_file; floats at full precision
+    (the *_text values), seed a str (a 64-bit value)."""
+    radiance = np.random.default_rng(5).uniform(0, 0.05, (48, 64, 3)).astype(np.float32)
+    ps.write_exr(str(tmp_path / "rad.exr"), {"": radiance})
+    cli("expose", "--radiance", tmp_path / "rad.exr", "--preset", "sony-imx174", "--seed", 7, "--backend", "cpu",
+        "--out", tmp_path / "e.exr")
+    _, attrs, _ = exr_pixels(tmp_path / "e.exr")
+    md = ps.Camera("sony-imx174", device_store=store).expose(radiance, seed=7, backend="cpu").metadata
+    p = "photosite/"
+    want = {k[len(p):] for k in attrs if k.startswith(p) and not k.endswith("_text")
+            and not k.startswith(p + "unit/") and k != p + "radiance_file"}
+    assert set(md) == want
+    assert md["seed"] == "7" and md["frame"] == 0
+    for k, v in md.items():
+        if isinstance(v, float):
+            assert v == float(attrs[p + k + "_text"]), k
+
+
+def _stub_signatures():
+    import ast
+    tree = ast.parse((pathlib.Path(ps.__file__).parent / "__init__.pyi").read_text())
+    out = {}
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef):
+            out[node.name] = [a.arg for a in node.args.args]
+        elif isinstance(node, ast.ClassDef):
+            for f in node.body:
+                if isinstance(f, ast.FunctionDef):
+                    out[f"{node.name}.{f.name}"] = [a.arg for a in f.args.args]
+    return out
+
+
+def test_stubs_name_every_parameter():
+    """__init__.pyi's parameters are the functions' own, in order (night's rig= was missing)."""
+    import inspect
+    import re
+    stubs = _stub_signatures()
+    for name in ps.__all__:
+        f = getattr(ps, name)
+        if inspect.isfunction(f):
+            assert stubs[name] == list(inspect.signature(f).parameters), name
+    # pybind11's methods: the names in their docstring's signature line
+    for cls, meth in (("Camera", "expose"), ("SensorResult", "preview"), ("NightResult", "preview")):
+        doc = getattr(getattr(ps, cls), meth).__doc__.splitlines()[0]
+        assert stubs[f"{cls}.{meth}"] == re.findall(r"(\w+):", doc[doc.index("(") + 1:]), (cls, meth, doc)
+
+
+def test_camera_doc_names_the_device_store_order():
+    doc = " ".join(ps.Camera.__doc__.split())
+    assert "$PHOTOSITE_DEVICE_STORE, $XDG_DATA_HOME/photosite/devices, ~/.local/share/photosite/devices" in doc

@@ -71,3 +71,13 @@ def test_dataloader_two_workers_cityscapes(store):
     for (x1, y1), (x2, y2) in zip(one, two):
         assert x1.shape == (3, 1024, 2048)
         assert torch.equal(x1, x2) and torch.equal(y1, y2)
+
+
+@pytest.mark.parametrize("value", [65536 + 7, -1])
+def test_transform_refuses_label_values_outside_uint16(value, store):
+    # Checked before the cast to uint16: 65543 would wrap to 7 (road), -1 to 65535.
+    t = NightTransform(camera="sony-icx267-flea2", seed=7, device_store=store)
+    day, lab = ps.read_codes(str(KITTI_IMAGE)), ps.read_codes(str(KITTI_LABELS)).astype(np.int64)
+    lab[2, 5] = value
+    with pytest.raises(ValueError, match=rf"labels: value {value} at pixel \(5, 2\) is not a label id in 0..65535"):
+        t((day, torch.from_numpy(lab)), index=0)
