@@ -11,6 +11,8 @@ import sys
 
 import matplotlib
 matplotlib.use("Agg")
+import matplotlib.colors as mcolors
+import matplotlib.patches as mpatches
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -53,8 +55,16 @@ fig, ax = plt.subplots(1, 3, figsize=(15, 3.4))
 ax[0].imshow(day); ax[0].set_title("day (sRGB codes)")
 im = ax[1].imshow(log_lum(night.radiance), cmap="magma", vmin=-4, vmax=1)
 ax[1].set_title("night radiance, log10 (W.sr-1.m-2, luma weights)"); fig.colorbar(im, ax=ax[1], fraction=0.025)
-im = ax[2].imshow(night.depth, cmap="viridis"); ax[2].plot([x], [y], "r+", ms=12)
-ax[2].set_title("relative depth 0..1, + vanishing point"); fig.colorbar(im, ax=ax[2], fraction=0.025)
+# night.depth is metres along the optical axis; the sky holds 65504 (the largest half), drawn
+# apart in grey. Log colour scale from 1 m to 1000 m (night-urban's max_depth_m).
+sky = night.depth >= 65504
+depth = np.ma.masked_array(night.depth, mask=sky)
+cmap = matplotlib.colormaps["viridis"].with_extremes(bad="0.75")
+im = ax[2].imshow(depth, cmap=cmap, norm=mcolors.LogNorm(vmin=1, vmax=1000)); ax[2].plot([x], [y], "r+", ms=12)
+ax[2].legend(handles=[mpatches.Patch(color="0.75", label="sky")], loc="upper right", fontsize=8)
+ax[2].set_title("depth, m along the optical axis (log), + vanishing point", fontsize=10)
+fig.colorbar(im, ax=ax[2], fraction=0.025, label="m")
+print(f"depth {night.depth[~sky].min():.2f} .. {night.depth[~sky].max():.1f} m, sky {sky.mean():.1%} of the frame")
 for a in ax: a.axis("off")
 fig.tight_layout(); fig.savefig(OUT / "radiance_depth.png", dpi=80)
 
@@ -63,6 +73,7 @@ times = [0.005, 0.02, 0.08]
 fig, ax = plt.subplots(1, 3, figsize=(15, 3.4))
 for a, t in zip(ax, times):
     out = cam.expose(night.radiance, exposure_s=t, seed=0)
+    print(f"exposure_s={t}: mean {out.electrons.mean():.1f} e-, raw max {out.raw.max()} DN")
     a.imshow(out.preview()); a.axis("off")
     a.set_title(f"exposure_s={t}: mean {out.electrons.mean():.0f} e-, raw max {out.raw.max()} DN")
 fig.tight_layout(); fig.savefig(OUT / "exposures.png", dpi=80)
