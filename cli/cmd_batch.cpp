@@ -42,6 +42,14 @@ void run(BatchCmd& c) {
   if (!c.dataset.empty() && c.root.empty()) fail("batch: --dataset needs --root");
   if (o.format != "exr" && o.format != "png" && o.format != "both") fail("--format must be exr, png or both");
   o.layers = c.layers.empty() ? kBatchLayers : parse_layers(c.layers, kNightLayers, "--layers", "batch");
+  // The PNG route writes the sensor preview and copies the labels: another layer would be
+  // silently left out, so it is bad input there.
+  if (o.format == "png" && !c.layers.empty()) {
+    const LayerSet png = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
+    parse_layers(c.layers, png, "--layers", "batch --format png");
+    if (!has(o.layers, Layer::Sensor))
+      fail("--layers " + c.layers + ": batch --format png writes the sensor preview, so the list must name sensor");
+  }
   check_exr_compression(o.compression, "--compression");
   if (o.jobs < 1 || o.jobs > 64) fail("--jobs must be in [1, 64]");
   std::tie(o.shard_index, o.shard_count) = batch::parse_shard(c.shard);

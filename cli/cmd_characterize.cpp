@@ -48,7 +48,7 @@ void run(const CharacterizeCmd& c) {
 static Registrar reg("e-characterize", [](CLI::App& app) {
   auto cmd = std::make_shared<CharacterizeCmd>();
   auto* sub = app.add_subcommand("characterize", "measure a simulated camera with the EMVA 1288 method");
-  cmd->sensor.add(sub);
+  cmd->sensor.add(sub, true, 0);  // the measurement sets its own exposures and frames
   sub->add_flag("--json", cmd->json, "print JSON (measured, uncertainty and preset value per quantity)");
   sub->add_option("--roi", cmd->roi, "side of the measured region in pixels")->capture_default_str();
   sub->add_option("--wavelength-nm", cmd->wavelength_nm, "wavelength of the light")->capture_default_str();

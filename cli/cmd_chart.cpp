@@ -6,6 +6,7 @@
 #include "photosite/io.h"
 #include "photosite/scene/chart.h"
 #include "registry.h"
+#include "sensor_options.h"
 
 namespace photosite::cli {
 namespace {
@@ -18,6 +19,7 @@ struct ChartCmd {
 void run(const ChartCmd& c) {
   const ImageF img = scene::render_chart(c.chart);  // checks the options before any output
   check_output_path(c.out, c.overwrite);
+  check_run_outputs({{"--out", {c.out}, ".exr"}});
   ExrWriteOptions wo;
   wo.reproducible = true;
   write_exr(c.out, {{{"R", "G", "B"}, &img, unit::radiance}}, scene::chart_attributes(c.chart), wo);

@@ -32,13 +32,14 @@ ImageF load_radiance(const std::string& path) {
     ImageF rgb(img.width(), img.height(), 3);
     for (size_t i = 0; i < img.pixel_count(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = img[i];
     img = std::move(rgb);
-  } else if (img.channels() > 3) {
+  } else if (img.channels() > 3) {  // R, G, B first (read_image's order), then alpha or others: left out
     ImageF rgb(img.width(), img.height(), 3);
     for (size_t i = 0; i < img.pixel_count(); ++i)
       for (int c = 0; c < 3; ++c) rgb[3 * i + c] = img[i * img.channels() + c];
     img = std::move(rgb);
   } else if (img.channels() != 3) {
-    fail_at(path, "scene radiance must have 1 or 3 channels");
+    fail_at(path, "scene radiance must have 1 channel (grey) or R, G, B (further channels, such as alpha, are ignored); found " +
+                      std::to_string(img.channels()));
   }
   img.set_unit(unit::radiance);
   return img;
@@ -53,7 +54,9 @@ void run(const ExposeCmd& c) {
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
+  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}});
   ImageF radiance = load_radiance(c.radiance);
+  if (!previews.empty()) check_preview_frame(preview_options, radiance.width(), radiance.height());
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   ImageF mean_e;
   try {

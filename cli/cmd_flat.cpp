@@ -26,6 +26,7 @@ void run(const FlatCmd& c) {
   check_frame_size("--width/--height", c.width, c.height);
   SensorRunner runner(resolve_backend(c.backend));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
+  check_run_outputs({{"--out", outputs, ".exr"}});
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);
   const ImageF mean = detail::flat_field_mean(c.photons, c.wavelength_nm, c.width, c.height, r.camera);

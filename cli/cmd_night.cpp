@@ -72,6 +72,10 @@ void run_night(NightCmd c) {
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
+  std::vector<std::string> map_files;
+  if (!c.maps.empty())
+    for (const auto& f : night_map_picture_files()) map_files.push_back((std::filesystem::path(c.maps) / f).string());
+  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}, {"--maps", map_files, ""}});
 
   std::vector<scene::StageTiming> times;
   auto t = clock::now();
@@ -87,6 +91,7 @@ void run_night(NightCmd c) {
   // directly (prepare_night), the same bits as from read_image()'s floats.
   DayImage day_file = read_day_image(c.image, &info);
   const int day_w = day_file.width(), day_h = day_file.height();
+  if (!previews.empty()) check_preview_frame(preview_options, day_w, day_h);
   const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
   sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);
   lap("read inputs");

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "photosite/error.h"
+#include "photosite/io.h"
 #include "registry.h"
 
 namespace photosite::cli {
@@ -26,6 +27,11 @@ std::string message(const std::exception& e) {
   if (const auto* p = dynamic_cast<const ParameterError*>(&e)) return p->message_for(flag_for(p->parameter()));
   return e.what();
 }
+extern "C" void on_interrupt(int sig) {
+  remove_partial_outputs();
+  signal(sig, SIG_DFL);
+  raise(sig);
+}
 int exit_status(const std::exception& e) {
   const auto* err = dynamic_cast<const Error*>(&e);
   return err && err->kind() == Error::Kind::BadInput ? 2 : 1;
@@ -44,6 +50,10 @@ int main(int argc, char** argv) {
   // middle of a write; ignored, the write fails with EFBIG and is reported as bad input (exit 2)
   // after the temporary file is removed.
   signal(SIGXFSZ, SIG_IGN);
+  // Interrupted (Ctrl-C, a scheduler's SIGTERM, a closed terminal): the temporaries of the writes
+  // in progress are removed, then the signal takes its default course (batch sets its own
+  // handlers, which stop after the items in progress).
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) signal(sig, cli::on_interrupt);
   CLI::App app{"photosite " PHOTOSITE_VERSION
                ": a camera-sensor simulator in physical units, with a day-to-night front end"};
   app.set_version_flag("--version", "photosite " PHOTOSITE_VERSION);

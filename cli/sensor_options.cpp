@@ -1,26 +1,50 @@
 #include "sensor_options.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+
 #include <fmt/format.h>
 
 #include "photosite/error.h"
 
 namespace photosite::cli {
 
-void SensorOptions::add(CLI::App* sub, bool preset_required) {
+namespace {
+// --seed as written: a whole number from 0 to 2^64 − 1. CLI11 reads it with strtoull, which takes
+// "-1" as 2^64 − 1 and gives 2^64 − 1 for anything larger, so two different seeds would make one noise.
+const CLI::Validator kSeedText(
+    [](std::string& s) -> std::string {
+      errno = 0;
+      if (!s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); })) {
+        std::strtoull(s.c_str(), nullptr, 10);
+        if (errno != ERANGE) return {};
+      }
+      return "'" + s + "' is not a whole number from 0 to 18446744073709551615";
+    },
+    "UINT64");
+}  // namespace
+
+void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {
   auto* p = sub->add_option("--preset", preset, "camera preset: a bundled name or a .toml path");
   if (preset_required) p->required();
   sub->add_option("--lens", lens, "lens preset (default: the camera's default lens)");
-  sub->add_option("--exposure-s", exposure_s, "exposure time in seconds")->capture_default_str();
-  sub->add_option("--f-number", f_number, "f-number N (default: the lens preset's)");
+  if (extras & kExposure) sub->add_option("--exposure-s", exposure_s, "exposure time in seconds")->capture_default_str();
+  if (extras & kFNumber) sub->add_option("--f-number", f_number, "f-number N (default: the lens preset's)");
   sub->add_option("--gain-db", gain_db, "analog gain in dB above the base system gain")->capture_default_str();
   sub->add_option("--temperature-c", temperature_c, "die temperature in C (default: the preset's)");
-  sub->add_option("--seed", seed, "seed of the temporal noise")->capture_default_str();
-  sub->add_option("--frames", frames, "number of frames (output name needs a # run)")->capture_default_str();
+  sub->add_option("--seed", seed, "seed of the temporal noise")->capture_default_str()->check(kSeedText);
+  if (extras & kFrames)
+    sub->add_option("--frames", frames, "number of frames (output name needs a # run)")->capture_default_str();
   sub->add_option("--device-id", device_id, "device identity for the fixed-pattern maps (default <preset>-0)");
   sub->add_option("--device-store", device_store,
-                  "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE or "
-                  "~/.local/share/photosite/devices)");
-  sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
+                  "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE, else "
+                  "$XDG_DATA_HOME/photosite/devices, else ~/.local/share/photosite/devices)");
+  if (extras & kDemosaic)
+    sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
   sub->add_option("--poisson", poisson, "shot-noise sampler: exact, cornish-fisher or normal")->capture_default_str();
 }
 
@@ -52,6 +76,27 @@ std::vector<std::string> frame_outputs(const std::string& pattern, int frames, b
     check_output_path(out.back(), overwrite);
   }
   return out;
+}
+
+void check_run_outputs(const std::vector<RunOutput>& outputs) {
+  namespace fs = std::filesystem;
+  std::map<std::string, std::string> seen;  // the file, made absolute and normal, to its option
+  for (const auto& o : outputs)
+    for (const auto& p : o.paths) {
+      std::error_code ec;
+      fs::path key = fs::weakly_canonical(fs::absolute(p, ec), ec);
+      if (ec) key = fs::absolute(p).lexically_normal();
+      const auto [it, fresh] = seen.emplace(key.string(), o.option);
+      if (!fresh) fail_at(p, o.option + ": the same file is also the run's " + it->second + " output (one file per output)");
+    }
+  for (const auto& o : outputs)
+    for (const auto& p : o.paths) {
+      if (o.extension.empty()) continue;
+      std::string ext = fs::path(p).extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+      if (ext != o.extension)
+        fail_at(p, o.option + ": the file is written as " + o.extension.substr(1) + ", so its name must end in " + o.extension);
+    }
 }
 
 void PreviewFlags::add(CLI::App* sub) {

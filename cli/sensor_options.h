@@ -28,8 +28,11 @@ struct SensorOptions {
   std::string demosaic = "bilinear";
   std::string poisson = "exact";
 
+  // The options only some commands use (characterize measures with its own exposures and frames,
+  // through no lens aperture and no demosaic): a command adds just those it reads.
+  enum Extra : unsigned { kExposure = 1, kFNumber = 2, kFrames = 4, kDemosaic = 8, kAllExtras = 15 };
   // Adds the options; `preset_required` for commands where --preset has no default.
-  void add(CLI::App* sub, bool preset_required = true);
+  void add(CLI::App* sub, bool preset_required = true, unsigned extras = kAllExtras);
 
   // The camera, lens, settings and device id (what outputs record) and the device store.
   struct Resolved : SensorSetup {
@@ -49,5 +52,16 @@ struct PreviewFlags {
 
 // Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);
+
+// One output option of a run and the files it names.
+struct RunOutput {
+  std::string option;              // "--out"
+  std::vector<std::string> paths;
+  std::string extension;           // ".exr", ".png" (compared case-insensitively); empty: any
+};
+// Bad input (exit 2) before anything is written: a file named by two outputs of the run (the
+// second write would replace the first: --out and --preview one file, or a --maps picture), or an
+// output without its format's extension (an EXR written to x.png).
+void check_run_outputs(const std::vector<RunOutput>& outputs);
 
 }  // namespace photosite::cli

@@ -182,7 +182,7 @@ std::vector<Item> read_manifest(const std::string& manifest) {
   const fs::path base = fs::path(manifest).parent_path();
   std::vector<Item> items;
   std::map<std::string, long> order;
-  std::set<std::string> keys;
+  std::map<std::string, std::pair<int, std::string>> keys;  // output key -> (line, image)
   std::string line;
   int lineno = 0;
   auto resolve = [&](const std::string& s) { return fs::path(s).is_absolute() ? fs::path(s) : base / s; };
@@ -217,7 +217,11 @@ std::vector<Item> read_manifest(const std::string& manifest) {
     it.key = fs::path(mirror(it.image)).replace_extension().generic_string();
     it.labels_rel = "labels/" + mirror(it.labels);
     if (!it.instances.empty()) it.instances_rel = "labels/" + mirror(it.instances);
-    if (!keys.insert(it.key).second) fail(where(manifest, lineno) + ": image listed twice: " + it.image);
+    if (const auto [k, fresh] = keys.emplace(it.key, std::make_pair(lineno, it.image)); !fresh)
+      fail(where(manifest, lineno) + (k->second.second == it.image
+                                          ? ": image listed twice (also on line " + std::to_string(k->second.first) + "): " + it.image
+                                          : ": " + it.image + " and " + k->second.second + " (line " +
+                                                std::to_string(k->second.first) + ") would both write " + it.key + ".*"));
     it.group = it.key;
     order[it.key] = lineno;
     items.push_back(std::move(it));

@@ -904,6 +904,25 @@ void check_output_path(const std::string& path, bool overwrite) {
 }
 
 namespace {
+// The temporaries being written, for remove_partial_outputs(): each slot null or the name of a
+// live temporary (the std::string stays put while its write runs). Lock-free, so a signal handler
+// may read them.
+constexpr int kTemporarySlots = 64;
+std::atomic<const char*> g_temporaries[kTemporarySlots];
+static_assert(std::atomic<const char*>::is_always_lock_free);
+struct TemporarySlot {
+  int slot = -1;
+  explicit TemporarySlot(const char* name) {
+    for (int k = 0; k < kTemporarySlots && slot < 0; ++k) {
+      const char* empty = nullptr;
+      if (g_temporaries[k].compare_exchange_strong(empty, name)) slot = k;
+    }
+  }
+  ~TemporarySlot() {
+    if (slot >= 0) g_temporaries[slot].store(nullptr);
+  }
+};
+
 // Writes through a temporary beside the target ('.<stem>.tmp-<pid>-<n><ext>', the extension kept
 // so OpenImageIO picks the writer), then publishes it: rename (replacing) or link (never
 // replacing). The temporary is removed on every error.
@@ -919,6 +938,7 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
       fs::remove(tmp, ec);
     }
   } remove{tmp};
+  const TemporarySlot slot(tmp.c_str());  // released before `remove` runs
   write(tmp);
   if (replace) {
     std::error_code ec;
@@ -931,6 +951,11 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
   fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
 }
 }  // namespace
+
+void remove_partial_outputs() noexcept {
+  for (auto& t : g_temporaries)
+    if (const char* name = t.load()) ::unlink(name);
+}
 
 void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write) {
   write_then_publish(path, write, true);

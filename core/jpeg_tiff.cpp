@@ -142,6 +142,8 @@ std::vector<uint8_t> decode_jpeg_rgb8(const std::vector<uint8_t>& jpeg, int expe
   return std::move(r.bytes);
 }
 
+int jpeg_max_dimension() { return static_cast<int>(JPEG_MAX_DIMENSION); }
+
 std::vector<uint8_t> encode_jpeg_rgb8(const uint8_t* rgb, int width, int height, int quality) {
   // OpenCV's JpegEncoder::write: jpeg_set_defaults (4:2:0, baseline, Huffman tables not optimised,
   // JFIF header), then jpeg_set_quality(q, force_baseline TRUE), rows handed over as JCS_RGB.

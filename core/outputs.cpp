@@ -156,6 +156,10 @@ PreviewIsp parse_preview_isp(const std::string& name) {
   fail_parameter("preview_isp", "", ": '" + name + "' is not simple or camera");
 }
 
+void check_preview_frame(const PreviewOptions& o, int width, int height) {
+  if (o.isp == PreviewIsp::Camera) check_camera_isp_frame(o.camera, width, height);
+}
+
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options) {
   const auto wb = white_balance_gains(setup.camera);

@@ -45,6 +45,8 @@ void write_tiff(const std::string& path, const Raster& image);
 // imencode(".jpg", quality) / imdecode(IMREAD_COLOR) of the same image (libjpeg-turbo with
 // jpeg_set_defaults: 4:2:0 chroma, baseline, the islow DCT, fancy upsampling).
 std::vector<uint8_t> encode_jpeg_rgb8(const uint8_t* rgb, int width, int height, int quality);
+// The largest width or height a JPEG holds (libjpeg's JPEG_MAX_DIMENSION, 65500 px).
+int jpeg_max_dimension();
 std::vector<uint8_t> decode_jpeg_rgb8(const std::vector<uint8_t>& jpeg, int expect_width, int expect_height);
 
 }  // namespace photosite::codec

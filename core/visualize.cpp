@@ -56,23 +56,30 @@ ImageF log_luminance_picture(const ImageF& rad) {
   return f;
 }
 
+const std::vector<std::string>& night_map_picture_files() {
+  static const std::vector<std::string> files = {"lanes.png", "edges.png", "lines_vp.png", "depth.png", "lights_log.png",
+                                                 "darkened_log.png", "night_radiance_log.png", "labels.png", "day.png"};
+  return files;
+}
+
 std::vector<NamedPicture> night_map_pictures(const ImageF& day, const scene::LabelMap& labels,
                                              const scene::NightScene& ns) {
+  const auto& name = night_map_picture_files();
   std::vector<NamedPicture> p;
-  p.push_back({"lanes.png", u8_to_unit(ns.lanes_work)});
-  p.push_back({"edges.png", u8_to_unit(ns.edges_work)});
-  p.push_back({"lines_vp.png", lines_picture(ns)});
-  p.push_back({"depth.png", depth_picture(ns.depth)});
-  p.push_back({"lights_log.png", log_luminance_picture(ns.lights)});
-  p.push_back({"darkened_log.png", log_luminance_picture(ns.darkened)});
-  p.push_back({"night_radiance_log.png", log_luminance_picture(ns.radiance)});
+  p.push_back({name[0], u8_to_unit(ns.lanes_work)});
+  p.push_back({name[1], u8_to_unit(ns.edges_work)});
+  p.push_back({name[2], lines_picture(ns)});
+  p.push_back({name[3], depth_picture(ns.depth)});
+  p.push_back({name[4], log_luminance_picture(ns.lights)});
+  p.push_back({name[5], log_luminance_picture(ns.darkened)});
+  p.push_back({name[6], log_luminance_picture(ns.radiance)});
   ImageF pal(labels.ids.width(), labels.ids.height(), 3);
   for (size_t i = 0; i < labels.ids.pixel_count(); ++i)
     for (int k = 0; k < 3; ++k) pal[3 * i + k] = scene::label_color(labels.ids[i])[k] / 255.f;
-  p.push_back({"labels.png", std::move(pal)});
+  p.push_back({name[7], std::move(pal)});
   ImageF dayp(day.width(), day.height(), 3);
   for (size_t i = 0; i < dayp.size(); ++i) dayp[i] = static_cast<float>(srgb_encode(std::min(1.f, day[i])));
-  p.push_back({"day.png", std::move(dayp)});
+  p.push_back({name[8], std::move(dayp)});
   return p;
 }
 

@@ -10,6 +10,10 @@
 #include "photosite/sensor/emva_sim.h"
 
 namespace photosite {
+namespace {
+// The QE row's key names the wavelength it was measured at ("qe_525nm", "qe_532.5nm").
+std::string qe_key(double wavelength_nm) { return fmt::format("qe_{:g}nm", wavelength_nm); }
+}  // namespace
 
 Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
                               int roi, double wavelength_nm) {
@@ -35,7 +39,7 @@ Characterization characterize(const SensorSetup& setup, const DeviceStore& store
   c.rows = {
       {"system_gain_dn_per_e", "system gain K", "DN/e-", m.system_gain_dn_per_e, e.system_gain_dn_per_e},
       {"read_noise_e", "temporal dark noise", "e-", m.temporal_dark_noise_e, e.temporal_dark_noise_e},
-      {"qe_525nm", "quantum efficiency", "", m.qe, e.qe},
+      {qe_key(wavelength_nm), "quantum efficiency", "", m.qe, e.qe},
       {"saturation_capacity_e", "saturation capacity", "e-", m.saturation_capacity_e, e.saturation_capacity_e},
       {"dark_current_e_per_s", "dark current", "e-/s", m.dark_current_e_per_s, e.dark_current_e_per_s},
       {"dsnu_e", "DSNU1288", "e-", m.dsnu_e, e.dsnu_e},

@@ -394,9 +394,18 @@ void check_camera_isp_options(const CameraIspOptions& o) {
     bad("preview_percentile", fmt::format("percentile {} / white point {} out of range", o.percentile, o.white_point));
 }
 
+void check_camera_isp_frame(const CameraIspOptions& o, int width, int height) {
+  check_camera_isp_options(o);
+  const int limit = codec::jpeg_max_dimension();
+  if (o.jpeg_quality > 0 && (width > limit || height > limit))
+    fail_parameter("preview_jpeg_quality", "",
+                   fmt::format(" {}: the camera ISP's JPEG round trip takes frames of at most {} px a side, this one is "
+                               "{}x{} (0 skips the round trip)", o.jpeg_quality, limit, width, height));
+}
+
 ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, const PreviewNoise& noise,
                         const CameraIspOptions& o) {
-  check_camera_isp_options(o);
+  check_camera_isp_frame(o, rgb.width(), rgb.height());
   if (rgb.channels() != 3) internal_error("preview_camera8: 3-channel RGB expected");
   if (!(noise.gain_dn_per_e > 0) || !(noise.read_noise_e >= 0))
     fail(fmt::format("preview_camera8: noise model gain {} DN/e-, read noise {} e- out of range", noise.gain_dn_per_e,

@@ -538,9 +538,13 @@ void check_radiance_shape(const ImageF& radiance) {
 
 void fail_bad_radiance(const ImageF& radiance, int x, int y) {
   const float* r = radiance.row(y) + 3 * x;
-  fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): NaN, Inf and negative radiance "
-                   "are not physical",
-                   x, y, r[0], r[1], r[2]));
+  // radiance_is_physical: each band finite and non-negative, and their sum finite in float (the
+  // photon integral's sum): a pixel of finite bands can fail the last.
+  const bool finite_bands = std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]) && r[0] >= 0 &&
+                            r[1] >= 0 && r[2] >= 0;
+  fail(fmt::format("radiance at pixel ({}, {}) is ({}, {}, {}): {}", x, y, r[0], r[1], r[2],
+                   finite_bands ? "too large (R + G + B beyond float's range, 3.4e38)"
+                                : "NaN, Inf and negative radiance are not physical"));
 }
 
 void check_sense_inputs(int w, int h, const CameraPreset& p, const FixedPatternMaps& fpn) {

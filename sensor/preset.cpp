@@ -174,7 +174,11 @@ std::string resolve_preset_path(const std::string& name_or_path, const std::stri
 }  // namespace
 
 std::string preset_dir() {
-  if (auto e = env::get(env::Var::PresetDir)) return *e;
+  if (auto e = env::get(env::Var::PresetDir)) {
+    std::error_code ec;
+    if (!fs::is_directory(*e, ec)) fail("PHOTOSITE_PRESET_DIR=" + *e + ": no such folder (it names the folder of the presets)");
+    return *e;
+  }
   return (fs::path(data_dir()) / "presets").string();
 }
 

@@ -4,6 +4,7 @@
 // problem, and no output left behind (not even a temporary). The good-input controls at the end
 // run the same commands on the unbroken inputs and must succeed, so a row cannot pass because
 // its inputs were broken in some other way.
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -257,7 +258,7 @@ std::vector<Row> rows() {
   t.push_back({"expose_one_row", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 64, 1); }, kExpose, {"radiance.exr", "64x1", "too small"}});
   t.push_back({"expose_declared_40000_exr", [](Ctx& c) { exr_declare_size(c.in("radiance.exr"), 40000, 40000); }, kExpose, {"radiance.exr", "40000x40000", "refused before allocating"}});
   t.push_back({"expose_exr_attribute_size_2gb", [](Ctx& c) { exr_attribute_size(c.in("radiance.exr"), "channels", "chlist", 2000000000); }, kExpose, {"radiance.exr", "corrupt EXR header", "'channels' declares 2000000000 bytes"}});
-  t.push_back({"expose_two_channels", [](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, 1.f, 2); }, kExpose, {"radiance.exr", "1 or 3 channels"}});
+  t.push_back({"expose_two_channels", [](Ctx& c) { write_radiance(c.in("radiance.exr"), kW, kH, 1.f, 2); }, kExpose, {"radiance.exr", "must have 1 channel (grey) or R, G, B"}});
   t.push_back({"expose_radiance_is_folder", [](Ctx& c) { fs::remove(c.in("radiance.exr")); fs::create_directory(c.in("radiance.exr")); }, kExpose, {"radiance.exr", "is a folder"}});
   t.push_back({"expose_output_folder_missing", {}, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
   t.push_back({"expose_output_exists", [](Ctx& c) { put(c.out("o.exr"), "user data"); }, kExpose, {"o.exr", "already exists"}});
@@ -360,6 +361,35 @@ std::vector<Row> rows() {
   t.push_back({"expose_unknown_compression", {}, kExpose + "--compression zip9", {"--compression", "zip9", "piz"}});
   t.push_back({"night_unknown_compression", {}, kNight + "--compression lzw", {"--compression", "lzw", "piz"}});
   t.push_back({"batch_unknown_compression", {}, kBatch + "--manifest '{in}/manifest.txt' --compression jpeg", {"--compression", "jpeg", "piz"}});
+  // ---- one run's outputs: each file once, each with its format's extension -------------------
+  // (before: --preview at --out's path replaced the EXR with the PNG, exit 0)
+  t.push_back({"night_preview_at_the_out_path", {}, kNight + "--preview '{out}/o.exr'", {"o.exr", "--preview", "also the run's --out"}});
+  t.push_back({"expose_preview_at_the_out_path", {}, kExpose + "--preview '{out}/o.exr'", {"o.exr", "--preview", "also the run's --out"}});
+  t.push_back({"night_preview_among_the_maps", {}, kNight + "--maps '{out}' --preview '{out}/depth.png'", {"depth.png", "--maps", "--preview"}});
+  t.push_back({"night_exr_named_png", {}, "night " + kSensor + "--image '{in}/day.png' --labels '{in}/labels.png' --out '{out}/o.png'", {"o.png", "--out", "must end in .exr"}});
+  t.push_back({"expose_preview_named_exr", {}, kExpose + "--preview '{out}/p.exr'", {"p.exr", "--preview", "must end in .png"}});
+  t.push_back({"chart_named_png", {}, "chart --out '{out}/c.png'", {"c.png", "--out", "must end in .exr"}});
+  // The camera ISP's JPEG round trip beyond JPEG's 65500 px: refused before any file is written
+  // (before: exit 1 from libjpeg after the EXR was published).
+  t.push_back({"expose_camera_preview_beyond_jpeg", [](Ctx& c) { write_radiance(c.in("radiance.exr"), 65501, 2); }, kExpose + "--preview '{out}/p.png' --preview-isp camera", {"--preview-jpeg-quality", "65500", "65501x2"}});
+  // ---- --seed as written (before: -1 read as 2^64 − 1, larger values clamped to it) -----------
+  t.push_back({"night_negative_seed", {}, kNight + "--seed -1", {"--seed", "'-1' is not a whole number"}});
+  t.push_back({"expose_seed_beyond_64_bits", {}, kExpose + "--seed 18446744073709551616", {"--seed", "18446744073709551616"}});
+  // ---- presets -------------------------------------------------------------------------------
+  t.push_back({"expose_unknown_lens", {}, kExpose + "--lens nope", {"unknown lens preset 'nope'", "cityscapes-5mm"}});
+  t.push_back({"night_preset_folder_missing", {}, kNight, {"PHOTOSITE_PRESET_DIR", "no such folder"}, "PHOTOSITE_PRESET_DIR=/nonexistent/presets "});
+  t.push_back({"presets_list_folder_missing", {}, "presets list", {"PHOTOSITE_PRESET_DIR", "no such folder"}, "PHOTOSITE_PRESET_DIR=/nonexistent/presets "});
+  // ---- batch ---------------------------------------------------------------------------------
+  t.push_back({"batch_png_with_an_exr_layer", {}, kBatch + "--manifest '{in}/manifest.txt' --format png --layers sensor,depth", {"--layers", "batch --format png", "depth"}});
+  t.push_back({"batch_png_without_sensor", {}, kBatch + "--manifest '{in}/manifest.txt' --format png --layers labels", {"--layers", "must name sensor"}});
+  t.push_back({"batch_image_listed_twice", [](Ctx& c) {
+    put(c.in("m2.txt"), c.in("day.png") + " " + c.in("labels.png") + "\n" + c.in("day.png") + " " + c.in("labels.png") + "\n");
+  }, kBatch + "--manifest '{in}/m2.txt'", {"m2.txt:2", "image listed twice (also on line 1)"}});
+  // (before: "image listed twice: day.jpg" for an image listed once)
+  t.push_back({"batch_two_images_one_output", [](Ctx& c) {
+    fs::copy_file(c.in("day.png"), c.in("day.jpg"));
+    put(c.in("m2.txt"), c.in("day.png") + " " + c.in("labels.png") + "\n" + c.in("day.jpg") + " " + c.in("labels.png") + "\n");
+  }, kBatch + "--manifest '{in}/m2.txt'", {"m2.txt:2", "day.jpg and", "(line 1) would both write"}});
   return t;
 }
 
@@ -483,6 +513,48 @@ TEST(BadInput, GoodInputControlsSucceed) {
     const auto r = test::run_cli(expand(args, c));
     EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
     if (args.rfind("batch", 0) != 0) EXPECT_TRUE(fs::exists(c.out(out))) << args;
+  }
+}
+
+// An interrupted run leaves no temporary behind (cli/main.cpp's SIGINT/SIGTERM/SIGHUP handler
+// calls io.cpp's remove_partial_outputs, then dies of the signal). `night` on a 2048x1024 frame is
+// signalled as soon as its EXR's temporary appears in the output folder (the write takes about a
+// second; the folder is polled every millisecond). Before the handler, the temporary stayed for good.
+TEST(BadInput, InterruptedNightLeavesNoTemporary) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    test::TempDir tmp;
+    Ctx c{tmp.path()};
+    fs::create_directories(c.dir / "in");
+    fs::create_directories(c.dir / "out");
+    write_png(c.in("day.png"), day_image(2048, 1024));
+    write_png(c.in("labels.png"), label_ids(2048, 1024));
+    const std::string out = c.out("o.exr"), store = c.store();
+    std::fflush(stdout);  // else the child's copy of the buffer is written again when it closes stdout
+    std::fflush(stderr);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const std::string day = c.in("day.png"), labels = c.in("labels.png");
+      std::freopen("/dev/null", "w", stdout);
+      execl(PHOTOSITE_BIN, PHOTOSITE_BIN, "night", "--image", day.c_str(), "--labels", labels.c_str(), "--out",
+            out.c_str(), "--device-store", store.c_str(), static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    bool seen = false;
+    int status = 0;
+    for (int ms = 0; ms < 120000 && !seen; ++ms) {
+      for (const auto& e : fs::directory_iterator(c.dir / "out"))
+        if (e.path().filename().string().find(".tmp-") != std::string::npos) seen = true;
+      if (!seen) {
+        ASSERT_EQ(waitpid(pid, &status, WNOHANG), 0) << "night ended before its EXR's temporary was seen";
+        usleep(1000);
+      }
+    }
+    ASSERT_TRUE(seen) << "no temporary within 120 s";
+    kill(pid, sig);
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
+    EXPECT_EQ(files_under(c.dir / "out"), std::vector<std::string>{}) << "signal " << sig;
   }
 }
 

@@ -19,7 +19,7 @@ struct Characterization {
   char cfa_colour = 'G';  // the CFA colour of the measured sub-lattice
   int roi_w = 0, roi_h = 0;
   struct Row {
-    const char* key;    // JSON key
+    std::string key;    // JSON key (the QE's names its wavelength: qe_525nm)
     const char* label;  // words for people
     const char* unit;
     emva::Value measured, preset;

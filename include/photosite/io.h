@@ -113,6 +113,10 @@ void check_output_path(const std::string& path, bool overwrite);
 void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write);
 // The same, but never replacing: false (temporary removed) when path already exists.
 bool atomic_create(const std::string& path, const std::function<void(const std::string&)>& write);
+// Removes the temporaries of the writes in progress (unlink only: async-signal-safe). A program
+// calls it from its SIGINT/SIGTERM handler before it dies, so an interrupted run leaves no
+// half-written file behind (the error paths remove theirs as they unwind).
+void remove_partial_outputs() noexcept;
 // Replaces the run of '#' in a pattern with the zero-padded frame number ("out_###.exr").
 std::string frame_path(const std::string& pattern, int frame);
 

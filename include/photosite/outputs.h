@@ -90,6 +90,9 @@ struct PreviewOptions {
 };
 // "simple" or "camera"; anything else throws a ParameterError for the parameter "preview_isp".
 PreviewIsp parse_preview_isp(const std::string& name);
+// Bad input when the preview cannot be made for a width x height frame (the camera ISP's JPEG round
+// trip beyond JPEG's size limit): checked before a run writes anything.
+void check_preview_frame(const PreviewOptions& o, int width, int height);
 // The preview of one exposure: the camera preset's white balance, and for the camera ISP the
 // exposure's system gain and the preset's read noise (the noise model its denoise is scaled to).
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,

@@ -23,6 +23,8 @@ struct NamedPicture {
 // day_linear: the linear sRGB day image the scene was made from.
 std::vector<NamedPicture> night_map_pictures(const ImageF& day_linear, const scene::LabelMap& labels,
                                              const scene::NightScene& ns);
+// Their file names, in that order (known before the scene is made: a run checks its outputs first).
+const std::vector<std::string>& night_map_picture_files();
 
 // Metric depth (m) on a log scale: 1 m white, 1000 m and beyond (the sky) black.
 ImageF depth_picture(const ImageF& depth_m);

@@ -133,13 +133,14 @@ def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_
     """EMVA 1288 (R4.0) photon-transfer measurement of a simulated camera (`photosite characterize --json`).
 
     camera        a Camera or a camera preset name (then lens, device_id, device_store apply)
-    exposure_s    exposure time of the dark frames in seconds; gain_db: analog gain in dB
+    exposure_s    no effect: the EMVA plan sets its own exposure times (the command has no
+                  --exposure-s); kept so that existing calls still run. gain_db: analog gain in dB
     roi           side of the measured region in pixels, [16, 4096]
     wavelength_nm wavelength of the light in nm
     temperature_c die temperature in deg C (None: the preset's); sets the dark current
     poisson       shot-noise sampler: "exact", "cornish-fisher" or "normal" (`characterize --poisson`)
     Returns the same dict as the command's JSON: per quantity (system_gain_dn_per_e, read_noise_e,
-    qe_525nm, saturation_capacity_e, dark_current_e_per_s, dsnu_e, prnu_percent, snr_max_db,
+    qe_<wavelength>nm (qe_525nm by default), saturation_capacity_e, dark_current_e_per_s, dsnu_e, prnu_percent, snr_max_db,
     dynamic_range_db) its measured value, uncertainty (1 standard error), preset value and z score,
     and "photon_transfer": [[photons, mean DN, temporal variance DN^2], ...].
     """

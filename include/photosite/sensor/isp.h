@@ -119,6 +119,9 @@ struct PreviewNoise {
 };
 // Throws photosite::Error naming the field when an option is out of range.
 void check_camera_isp_options(const CameraIspOptions& o);
+// The same for a width x height frame: the JPEG round trip (jpeg_quality > 0) takes frames of at most
+// 65500 px a side, JPEG's limit (bad input naming preview_jpeg_quality beyond it).
+void check_camera_isp_frame(const CameraIspOptions& o, int width, int height);
 ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb_gains, const PreviewNoise& noise,
                         const CameraIspOptions& options = {});
 // The k-th smallest value of v (0-based; v without NaN): the value std::nth_element would put at
