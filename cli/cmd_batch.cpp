@@ -66,7 +66,6 @@ void run(BatchCmd& c) {
     if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;  // where an item has no camera file
   }
   if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
-  if (c.sensor.frames != 1) fail("batch: --frames does not apply (sequences come from the data set's own frames)");
   auto r = c.sensor.resolve();
   o.sensor = r;
   o.device_store = r.store.dir();
@@ -137,7 +136,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
                 "carry each sequence's street luminaires, reflectance normalisation and pitch from frame to frame "
                 "(camera at rest or crops of one view; ego-motion is not read)");
   sub->add_flag("--quiet", c->quiet, "no progress output");
-  c->sensor.add(sub, false);
+  c->sensor.add(sub, false, SensorOptions::kAllExtras & ~SensorOptions::kFrames);  // frames come from the data set
   add_backend_option(sub, c->backend);
   sub->callback([c] { run(*c); });
 });

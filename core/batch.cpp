@@ -52,7 +52,12 @@ uint64_t group_seed(uint64_t base_seed, const std::string& group) {
 }
 
 namespace {
-std::string rel(const fs::path& p, const fs::path& root) { return fs::relative(p, root).generic_string(); }
+// p relative to root as the paths are written, links not followed: fs::relative resolves them,
+// so a linked file's output was named after its target and could land outside --out.
+fs::path lexical_relative(const fs::path& p, const fs::path& root) {
+  return fs::absolute(p).lexically_normal().lexically_relative(fs::absolute(root).lexically_normal());
+}
+std::string rel(const fs::path& p, const fs::path& root) { return lexical_relative(p, root).generic_string(); }
 
 bool all_digits(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
@@ -113,7 +118,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
         const std::string name = p.filename().string();
         if (!std::regex_match(name, m, name_re)) continue;
         const std::string stem = name.substr(0, name.size() - std::string("_leftImg8bit.png").size());
-        const fs::path sub = fs::relative(p.parent_path(), root / top);
+        const fs::path sub = lexical_relative(p.parent_path(), root / top);
         Item it;
         it.image = p.string();
         it.key = (fs::path(top) / sub / (stem + "_leftImg8bit")).generic_string();
@@ -135,7 +140,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
     // <root>/image_2/<name>.png with <root>/semantic/<name>.png (+ instance/<name>.png). Purely
     // numbered files (0000000123.png) in a folder form one sequence.
     for (const auto& p : files_under(root / "image_2", {".png"})) {
-      const fs::path sub = fs::relative(p, root / "image_2");
+      const fs::path sub = lexical_relative(p, root / "image_2");
       Item it;
       it.image = p.string();
       it.key = (fs::path("image_2") / sub).replace_extension().generic_string();
@@ -147,7 +152,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
         it.instances_rel = rel(ins, root);
       }
       const std::string stem = p.stem().string();
-      it.group = all_digits(stem) ? (fs::path("image_2") / sub.parent_path()).generic_string() + "/seq" : it.key;
+      it.group = all_digits(stem) ? (fs::path("image_2") / sub.parent_path() / "seq").generic_string() : it.key;
       require_labels(it);
       order[it.key] = all_digits(stem) ? std::stol(stem) : 0;
       items.push_back(std::move(it));
@@ -156,7 +161,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
     // BDD100K: <root>/images/10k/<split>/<name>.jpg with <root>/labels/sem_seg/masks/<split>/<name>.png
     // (trainIds).
     for (const auto& p : files_under(root / "images" / "10k", {".jpg", ".jpeg", ".png"})) {
-      const fs::path sub = fs::relative(p, root / "images" / "10k");
+      const fs::path sub = lexical_relative(p, root / "images" / "10k");
       Item it;
       it.image = p.string();
       it.key = (fs::path("images/10k") / sub).replace_extension().generic_string();
@@ -189,7 +194,7 @@ std::vector<Item> read_manifest(const std::string& manifest) {
   // The output path mirrors the input path: relative to the manifest's folder when inside it,
   // else the path with its root and any leading "../" removed.
   auto mirror = [&](const fs::path& p) {
-    fs::path r = fs::relative(fs::absolute(p), fs::absolute(base.empty() ? fs::path(".") : base));
+    fs::path r = lexical_relative(p, base.empty() ? fs::path(".") : base);
     fs::path clean;
     for (const auto& part : r.lexically_normal())
       if (part != ".." && part != "." && !part.empty() && part != r.root_path()) clean /= part;

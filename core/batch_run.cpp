@@ -105,10 +105,12 @@ struct Loaded {
   // the texture then does not make again (its pass 1); taken only for this day and these labels.
   scene::TextureSums sums;
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
+  std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string error;
 };
 struct Computed {
   Item item;
+  std::optional<std::string> camera_sum;  // Loaded's
   std::string error;
   std::vector<std::pair<std::string, std::function<void(const std::string&)>>> writes;  // rel path, writer
 };
@@ -217,9 +219,19 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           if (p.is_string()) publishing.insert(p.get<std::string>());
     }
   }
+  // An item's own camera file (Cityscapes camera/...json) is a parameter of that item alone: its
+  // record keeps the file's checksum, and an item whose file changed since is redone.
+  auto camera_checksum = [&](const Item& it) -> std::optional<std::string> {
+    if (!item_cameras || it.camera.empty()) return std::nullopt;
+    return file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
+  };
   auto finished = [&](const Item& it) {
     auto d = done.find(it.key);
     if (d == done.end()) return false;
+    if (d->second.contains("camera_file_xxh3_64")) {
+      const auto now = camera_checksum(it);
+      if (!now || *now != d->second["camera_file_xxh3_64"].get<std::string>()) return false;
+    }
     for (const auto& f : d->second["files"]) {
       const fs::path p = out / f["path"].get<std::string>();
       // Records name their checksum by its algorithm: "xxh3_64" now, "fnv" (FNV-1a 64) in
@@ -293,7 +305,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       const DayImage day = read_day_image(it.image, &info);
       l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                     scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
-      if (item_cameras && !it.camera.empty()) l.rig = scene::load_cityscapes_camera(it.camera);
+      if (item_cameras && !it.camera.empty()) {
+        l.camera_sum = file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
+        l.rig = scene::load_cityscapes_camera(it.camera);
+      }
       l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums)
                         : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums);
     } catch (const Error& e) {
@@ -310,6 +325,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   auto compute = [&](Loaded& l, scene::SequenceState& seq, std::string& seq_group) {
     Computed c;
     c.item = l.item;
+    c.camera_sum = l.camera_sum;
     if (!l.error.empty()) {
       c.error = l.error;
       return c;
@@ -412,7 +428,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       result.errors.push_back(error);
       ++pr.failed;
     } else {
-      mout << nlohmann::json({{"key", cmp.item.key}, {"files", files}}).dump() << "\n" << std::flush;
+      nlohmann::json rec = {{"key", cmp.item.key}, {"files", files}};
+      if (cmp.camera_sum) rec["camera_file_xxh3_64"] = *cmp.camera_sum;
+      mout << rec.dump() << "\n" << std::flush;
       ++pr.written;
     }
     report();

@@ -38,6 +38,7 @@ double wedge_distance(double X, double D, double ul, double ur) {
 StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeometry& g, int width, int /*height*/,
                                     const CameraPose& pose, const ScenePreset& p, uint64_t seed) {
   const Pose2 P(pose);
+  if (p.street_road_luminance_cd_m2 <= 0) return plan;  // no street lighting: nothing to keep (the plan has the road's extent)
   if (!anchored_) {
     if (!(plan.road_right_m > plan.road_left_m)) return plan;  // nothing to anchor the layout to yet
     double d;

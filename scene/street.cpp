@@ -467,7 +467,6 @@ StreetLighting plan_street_lighting(const LabelMap& lm, const CameraGeometry& g,
 StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometry& g, const ScenePreset& p,
                                          uint64_t seed, const PoleComponents* components) {
   StreetLighting s;
-  if (p.street_road_luminance_cd_m2 <= 0) return s;
   const ImageU16& ids = lm.ids;
   const int W = ids.width(), H = ids.height();
   const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
@@ -501,6 +500,9 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // rows that enter the medians change with the view.
   s.road_left_m = 0.25 * std::round(4 * median(lefts));
   s.road_right_m = 0.25 * std::round(4 * median(rights));
+  // A scene without street lighting (rural) keeps the road's extent, measured from the labels
+  // alone: the vehicle lamps' in-traffic test reads it (the kerb strip), lit or not.
+  if (p.street_road_luminance_cd_m2 <= 0) return s;
   // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
   // at least min_pole_height_m tall, not capped by a sign or signal (those carry none), taken in
   // the order of OpenCV's 8-connected labels of the pole mask (pole_components; made ahead from

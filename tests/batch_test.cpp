@@ -613,6 +613,78 @@ TEST(Batch, LinkedDataSetAndCompressionName) {
   }
 }
 
+// Linked files keep the names they are listed or found under (fs::relative resolved the links:
+// a linked label's "copy" went outside --out, a linked KITTI image was paired with itself as
+// labels, a manifest's outputs took the targets' names), and numbered KITTI frames at the top of
+// image_2 form the group "image_2/seq" (was "image_2//seq").
+TEST(Batch, LinkedFilesKeepTheirListedNames) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "real", 1, 0);
+  const fs::path ds = dir.path() / "ds";
+  fs::create_directories(ds / "image_2");
+  fs::create_directories(ds / "semantic");
+  fs::create_symlink(dir.path() / "real/image_2/000000_10.png", ds / "image_2/000000_10.png");
+  fs::create_symlink(dir.path() / "real/semantic/000000_10.png", ds / "semantic/000000_10.png");
+  fs::copy_file(dir.path() / "real/image_2/000000_10.png", ds / "image_2/0000000007.png");
+  fs::copy_file(dir.path() / "real/semantic/000000_10.png", ds / "semantic/0000000007.png");
+  auto items = batch::discover(batch::Dataset::Kitti, ds.string());
+  ASSERT_EQ(items.size(), 2u);
+  std::sort(items.begin(), items.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
+  EXPECT_EQ(items[0].key, "image_2/0000000007");
+  EXPECT_EQ(items[0].group, "image_2/seq");
+  EXPECT_EQ(items[1].key, "image_2/000000_10");
+  EXPECT_EQ(items[1].labels, (ds / "semantic/000000_10.png").string());
+  EXPECT_EQ(items[1].labels_rel, "semantic/000000_10.png");
+  SensorRunner cpu(Backend::Cpu);
+  auto o = kitti_options(dir, ds.string(), dir.file("out"));
+  o.format = "png";
+  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
+  EXPECT_TRUE(fs::is_regular_file(dir.path() / "out/image_2/000000_10.png"));
+  EXPECT_TRUE(fs::is_regular_file(dir.path() / "out/semantic/000000_10.png"));
+  // A manifest of links: the outputs take the listed names.
+  fs::create_symlink(dir.path() / "real/image_2/000000_10.png", dir.path() / "day.png");
+  fs::create_symlink(dir.path() / "real/semantic/000000_10.png", dir.path() / "lab.png");
+  std::ofstream(dir.file("m.txt")) << "day.png lab.png\n";
+  const auto m = batch::read_manifest(dir.file("m.txt"));
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].key, "day");
+  EXPECT_EQ(m[0].labels_rel, "labels/lab.png");
+}
+
+// An item's own Cityscapes camera file is a parameter of that item: edited after the item was
+// written, the item is redone on the next run (before, "1 already done" kept the output made with
+// the old file; an edited --rig file is refused as other parameters).
+TEST(Batch, AnItemWhoseCameraFileChangedIsRedone) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "cs";
+  for (const char* d : {"leftImg8bit/val/city", "gtFine/val/city", "camera/val/city"}) fs::create_directories(root / d);
+  make_kitti(dir.path() / "k", 1, 0);
+  fs::copy_file(dir.path() / "k/image_2/000000_10.png", root / "leftImg8bit/val/city/city_000000_000019_leftImg8bit.png");
+  fs::copy_file(dir.path() / "k/semantic/000000_10.png", root / "gtFine/val/city/city_000000_000019_gtFine_labelIds.png");
+  const fs::path cam = root / "camera/val/city/city_000000_000019_camera.json";
+  auto write_camera = [&](double pitch) {
+    std::ofstream(cam) << fmt::format(R"({{"extrinsic": {{"pitch": {}, "z": 1.2}}, "intrinsic": {{"fx": 200, "fy": 200, "u0": 80, "v0": 40}}}})", pitch);
+  };
+  write_camera(0.05);
+  const auto items = batch::discover(batch::Dataset::Cityscapes, root.string());
+  ASSERT_EQ(items.size(), 1u);
+  ASSERT_EQ(items[0].camera, cam.string());
+  SensorRunner cpu(Backend::Cpu);
+  auto o = kitti_options(dir, root.string(), dir.file("out"));
+  o.format = "exr";
+  o.layers = static_cast<unsigned>(Layer::Depth);
+  o.item_cameras = true;
+  const std::string exr = dir.file("out/leftImg8bit/val/city/city_000000_000019_leftImg8bit.exr");
+  auto pitch = [&] { return read_exr(exr).attributes.at("photosite/night/camera_pitch_deg"); };
+  ASSERT_EQ(batch::run(items, o, cpu).progress.written, 1u);
+  const std::string before = pitch();
+  EXPECT_EQ(batch::run(items, o, cpu).progress.written, 0u);  // unchanged: done
+  write_camera(0.03);
+  EXPECT_EQ(batch::run(items, o, cpu).progress.written, 1u);  // edited: redone
+  EXPECT_NE(pitch(), before);
+  EXPECT_EQ(batch::run(items, o, cpu).progress.written, 0u);
+}
+
 // Every data set's default camera is a bundled camera preset and its rig a bundled rig (or auto).
 TEST(Batch, DatasetCamerasAreBundledPresets) {
   for (auto d : {batch::Dataset::Cityscapes, batch::Dataset::Kitti, batch::Dataset::Bdd100k}) {

@@ -639,6 +639,26 @@ TEST(SceneChain, NightSceneMakesTheGlareLevel1OfItsRadiance) {
   omp_set_num_threads(before);
 }
 
+// A scene without street lighting (night-rural: road luminance 0) still measures the road's extent
+// from the labels, as the lit one does: the vehicle lamps' in-traffic test (the kerb strip) reads
+// it. Before, the plan returned at once and every vehicle on road pixels counted as in traffic
+// (KITTI 000000_10: 4 in traffic under night-rural, 2 under night-urban).
+TEST(StreetLighting, RoadExtentIsMeasuredWithoutStreetLighting) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  ScenePreset lit = urban(), unlit = urban();
+  unlit.street_road_luminance_cd_m2 = 0;
+  const StreetLighting a = plan_street_lighting(sc.labels, o.camera, lit, 7);
+  const StreetLighting b = plan_street_lighting(sc.labels, o.camera, unlit, 7);
+  EXPECT_FALSE(a.lamps.empty());
+  EXPECT_TRUE(b.lamps.empty());
+  EXPECT_NEAR(b.road_left_m, -o.road_half_width_m, 0.1);
+  EXPECT_NEAR(b.road_right_m, o.road_half_width_m, 0.1);
+  EXPECT_EQ(b.road_left_m, a.road_left_m);
+  EXPECT_EQ(b.road_right_m, a.road_right_m);
+}
+
 // Without poles the lamps go along the road edges at the preset's height and spacing; their
 // intensity is set so the design layout's EN 13201 calculation field averages the class
 // luminance; the road shows pools under the lamps and darker gaps between them.
