@@ -923,9 +923,9 @@ struct TemporarySlot {
   }
 };
 
-// Writes through a temporary beside the target ('.<stem>.tmp-<pid>-<n><ext>', the extension kept
-// so OpenImageIO picks the writer), then publishes it: rename (replacing) or link (never
-// replacing). The temporary is removed on every error.
+// Writes through a temporary beside the target ('.<stem>.tmp-<pid>-<n><ext>': hidden, its kind
+// still shown by its extension), then publishes it: rename (replacing) or link (never
+// replacing). The temporary is removed on every error, and by remove_partial_outputs.
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
                         bool replace) {
   static std::atomic<unsigned> counter{0};
