@@ -202,9 +202,11 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
 
 // The sRGB preview (photosite/sensor/isp.h) as uint8, rounded as a PNG preview is: the simple
 // ISP, or with isp="camera" the camera-ISP preview (`night --preview-isp camera`).
-py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp = "simple", double denoise = 1.0,
-                                int jpeg_quality = 90) {
+// jpeg_quality: a Python int, range-checked at any size (0: no JPEG round trip, else 1-100).
+py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, double denoise,
+                                const py::object& jpeg_quality_arg) {
   if (isp != "simple" && isp != "camera") throw Error("isp: '" + isp + "' is not simple or camera");
+  const int jpeg_quality = int_arg<int>(jpeg_quality_arg, "jpeg_quality", 0, 100);
   const auto rgb = s.rgb;
   ImageF in(static_cast<int>(rgb.shape(1)), static_cast<int>(rgb.shape(0)), 3, uninitialized);
   std::memcpy(in.data(), rgb.data(), in.size() * sizeof(float));
@@ -215,7 +217,7 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp = 
     o.chroma_denoise = 2 * denoise;  // isp.h's default ratio, as the command line
     o.jpeg_quality = jpeg_quality;
     try {
-      check_camera_isp_options(o);
+      check_camera_isp_frame(o, in.width(), in.height());  // the options, and JPEG's 65500 px a side
     } catch (const ParameterError& e) {  // the keyword's name: denoise, jpeg_quality
       std::string kw = e.parameter();
       if (kw.rfind("preview_", 0) == 0) kw = kw.substr(8);
@@ -645,7 +647,7 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("electrons", &SensorResult::electrons, "float32 H x W: collected e- per pixel")
       .def_readonly("metadata", &SensorResult::metadata, "dict: the command's photosite/ header attributes without the prefix, less the *_text copies, "
                     "unit/<channel> and radiance_file; floats in full, seed a str (docs/python.md)")
-      .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = 90,
+      .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90),
            "uint8 H x W x 3 sRGB preview: isp='simple' (white balance, p99 exposure, sRGB) or 'camera' (+ noise "
            "reduction of strength `denoise` from the sensor's noise model and a JPEG round trip at `jpeg_quality`, 0: "
            "none; docs/realism.md)");
@@ -658,9 +660,9 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("vanishing_point", &NightResult::vanishing_point, "(x px, y px, confidence 0..1, method)")
       .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")
       .def_readonly("chain_ms", &NightResult::chain_ms, "ms spent in the library chain (labels .. sensor)")
-      .def("preview", [](const NightResult& r, const std::string& isp, double denoise, int jpeg_quality) {
+      .def("preview", [](const NightResult& r, const std::string& isp, double denoise, const py::object& jpeg_quality) {
              return preview_u8(r.sensor, isp, denoise, jpeg_quality);
-           }, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = 90,
+           }, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90),
            "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality: as SensorResult.preview)");
 
   py::class_<Camera>(m, "Camera")

@@ -369,6 +369,11 @@ def test_camera_preview_matches_cli(kitti, cli, store, tmp_path):
         r.preview(isp="camera", denoise=-1)
     with pytest.raises(ValueError, match="jpeg_quality"):
         r.sensor.preview(isp="camera", jpeg_quality=101)
+    # Any Python int is range-checked (pybind11's int caster answered 2**40 with the signature).
+    with pytest.raises(ValueError, match=r"jpeg_quality 1099511627776 must be in \[0, 100\]"):
+        r.preview(isp="camera", jpeg_quality=2**40)
+    with pytest.raises(TypeError, match="jpeg_quality: expected an int"):
+        r.sensor.preview(jpeg_quality=1.5)
     with pytest.raises(ValueError, match="isp"):
         r.preview(isp="jpeg")
 
