@@ -14,6 +14,7 @@
 #include "backend.h"
 #include "photosite/sensor/demosaic.h"
 #include "registry.h"
+#include "sensor_options.h"
 
 namespace photosite::cli {
 namespace {
@@ -21,12 +22,6 @@ struct DemosaicCmd {
   std::string in, out, cfa = "RGGB", method = "bilinear", backend = "auto";
   bool list = false, overwrite = false;
 };
-
-std::string lower_ext(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  for (auto& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  return e;
-}
 
 void run(const DemosaicCmd& c) {
   if (c.list) {

@@ -78,6 +78,12 @@ std::vector<std::string> frame_outputs(const std::string& pattern, int frames, b
   return out;
 }
 
+std::string lower_ext(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (auto& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return e;
+}
+
 void check_run_outputs(const std::vector<RunOutput>& outputs) {
   namespace fs = std::filesystem;
   std::map<std::string, std::string> seen;  // the file, made absolute and normal, to its option
@@ -91,10 +97,7 @@ void check_run_outputs(const std::vector<RunOutput>& outputs) {
     }
   for (const auto& o : outputs)
     for (const auto& p : o.paths) {
-      if (o.extension.empty()) continue;
-      std::string ext = fs::path(p).extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-      if (ext != o.extension)
+      if (!o.extension.empty() && lower_ext(p) != o.extension)
         fail_at(p, o.option + ": the file is written as " + o.extension.substr(1) + ", so its name must end in " + o.extension);
     }
 }
