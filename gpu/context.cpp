@@ -2,10 +2,12 @@
 // layer and a recording debug messenger on request), and one device with a compute queue.
 #include <dlfcn.h>
 #include <link.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <fmt/format.h>
 
 #include "photosite/environment.h"
@@ -365,7 +367,24 @@ bool available(std::string* why, DeviceInfo* info) {
 }
 
 Context& shared_context() {
-  static Context* ctx = new Context;  // a failed construction throws and is retried next call
+  // Made on first use (a failed construction throws and is retried next call), in the process
+  // that uses it. A process forked after the context was opened (a DataLoader worker, a
+  // multiprocessing pool) inherits the driver's objects but not its threads: its first submission
+  // would wait for ever. It is refused instead (`auto` then runs the CPU path, which gives the
+  // same bits); a child of a process that never opened Vulkan opens its own.
+  static std::mutex m;
+  static Context* ctx = nullptr;
+  static pid_t owner = 0;
+  std::lock_guard<std::mutex> lock(m);
+  if (ctx && owner != getpid())
+    fail(fmt::format("Vulkan: the device was opened by process {} before this process (pid {}) was forked from it, "
+                     "and a forked process cannot use it (its driver threads did not survive the fork): open the "
+                     "Vulkan backend only after forking, or start workers with the 'spawn' method",
+                     owner, getpid()));
+  if (!ctx) {
+    ctx = new Context;
+    owner = getpid();
+  }
   return *ctx;
 }
 

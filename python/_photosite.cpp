@@ -12,6 +12,7 @@
 //  - The GIL is released for every computation, so Python threads run concurrently.
 //  - photosite::Error of kind BadInput becomes ValueError with the library's message, missing
 //    files FileNotFoundError, internal errors RuntimeError.
+#include <omp.h>
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -597,6 +598,12 @@ void before_fork() {
 void after_fork_in_parent() {
   if (exr_threads_before_fork > 0) Imf::setGlobalThreadCount(exr_threads_before_fork);
 }
+// GNU OpenMP's thread team does not survive fork() either: a child's first parallel region with
+// more than one thread waits for the parent's workers, which it does not have. The child runs its
+// OpenMP regions on one thread (as torch's DataLoader workers do); the results do not depend on
+// the thread count. The Vulkan device a parent opened is refused in the child
+// (gpu::shared_context), whose `auto` runs the CPU path.
+void after_fork_in_child() { omp_set_num_threads(1); }
 
 }  // namespace
 
@@ -604,6 +611,7 @@ PYBIND11_MODULE(_photosite, m) {
   m.doc() = "photosite's C++ library (the extension under the photosite package)";
   m.def("_before_fork", &before_fork);
   m.def("_after_fork_in_parent", &after_fork_in_parent);
+  m.def("_after_fork_in_child", &after_fork_in_child);
 
   // A frame loop in Python would otherwise page-fault every frame's buffers in afresh (glibc
   // returns freed ones to the kernel; the module must not change the host process's malloc

@@ -29,8 +29,11 @@ from ._photosite import Camera, NightResult, SensorResult
 from . import presets
 
 # Fork safety (DataLoader workers, multiprocessing): OpenEXR's thread pool is stopped before a
-# fork and restarted in the parent, so a forked child reads EXRs without it (_photosite.cpp).
-os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent)
+# fork and restarted in the parent, so a forked child reads EXRs without it; the child runs its
+# OpenMP regions on one thread (GNU OpenMP's team does not survive a fork), and a Vulkan device
+# the parent opened is refused there (_photosite.cpp, gpu/context.cpp).
+os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent,
+                    after_in_child=_photosite._after_fork_in_child)
 
 __all__ = ["Camera", "NightResult", "SensorResult", "night", "chart", "demosaic", "characterize", "read_exr",
            "write_exr", "read_image", "read_codes", "frame_buffer_cache", "presets"]

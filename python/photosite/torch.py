@@ -9,6 +9,7 @@ torch is optional: importing photosite works without it; this module needs it.
 from __future__ import annotations
 
 import hashlib
+import os
 from typing import Any, Optional, Tuple
 
 import numpy as np
@@ -52,6 +53,7 @@ class NightTransform:
         self.device_store = device_store
         self.night_kwargs = dict(night_kwargs)
         self._cam: Optional[Camera] = None
+        self._cam_pid = 0
 
     def __getstate__(self):
         state = self.__dict__.copy()
@@ -62,8 +64,11 @@ class NightTransform:
         self.__dict__.update(state)
 
     def _camera(self) -> Camera:
-        if self._cam is None:
+        # One per process: a forked worker (DataLoader's default on Linux) inherits the parent's
+        # Camera object, whose Vulkan device, if it opened one, cannot be used after the fork.
+        if self._cam is None or self._cam_pid != os.getpid():
             self._cam = Camera(self.camera, device_store=self.device_store)
+            self._cam_pid = os.getpid()
         return self._cam
 
     @staticmethod
@@ -91,9 +96,21 @@ class NightTransform:
                              f"(uint16 labelIds, trainIds or palette values)")
         return labels.astype(np.uint16)
 
-    def __call__(self, sample: Tuple[Any, Any], index: int = 0):
+    def __call__(self, sample: Tuple[Any, Any], index: Optional[int] = None):
+        # The noise is keyed by (seed, index): without the sample's index every sample of one size
+        # would get the same noise field (correlation 0.98 between two images' noise).
+        if index is None or isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            got = "nothing" if index is None else type(index).__name__
+            raise TypeError(f"index: expected the sample's int index, got {got}; call t((image, target), index=i) "
+                            "(the noise is keyed by (seed, index))")
+        if not isinstance(sample, (tuple, list)) or len(sample) != 2:
+            raise TypeError(f"sample: expected an (image, target) pair, got {type(sample).__name__}")
         image, target = sample
         day = self._numpy(image)
+        if day.dtype not in (np.uint8, np.uint16):
+            raise ValueError(f"image: expected 8- or 16-bit sRGB codes (uint8 or uint16), got {day.dtype}; a float "
+                             "image would be read as linear (torchvision's ToTensor output is sRGB in [0, 1]): pass "
+                             "the uint8 image, or call photosite.night with a linear float image")
         labels = self._numpy(target)
         if labels.dtype not in (np.uint8, np.uint16):
             labels = self._uint16_labels(labels)

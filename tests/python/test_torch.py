@@ -81,3 +81,18 @@ def test_transform_refuses_label_values_outside_uint16(value, store):
     lab[2, 5] = value
     with pytest.raises(ValueError, match=rf"labels: value {value} at pixel \(5, 2\) is not a label id in 0..65535"):
         t((day, torch.from_numpy(lab)), index=0)
+
+
+def test_transform_needs_the_index_and_sRGB_codes(store):
+    """Without the sample's index every sample of a size would share one noise field; a float
+    image (torchvision's ToTensor output, sRGB in [0, 1]) would be read as linear."""
+    t = NightTransform(camera="sony-icx267-flea2", seed=3, device_store=store)
+    day, lab = ps.read_codes(str(KITTI_IMAGE)), ps.read_codes(str(KITTI_LABELS))
+    with pytest.raises(TypeError, match="index: expected the sample's int index, got nothing"):
+        t((day, lab))
+    with pytest.raises(TypeError, match="index: expected the sample's int index, got ndarray"):
+        t(day, lab)  # the torchvision call t(image, target)
+    with pytest.raises(ValueError, match="image: expected 8- or 16-bit sRGB codes"):
+        t((day.astype(np.float32) / 255, lab), index=0)
+    img, _ = t((day, lab), index=np.int64(2))  # a NumPy integer index is an index
+    assert img.shape[0] == 3
