@@ -42,6 +42,7 @@ void run(const CharacterizeCmd& c) {
                 row.measured.uncertainty, row.preset.value, row.preset.uncertainty, dev, z_score(row), row.unit);
   }
   std::printf("z: deviation in combined standard errors (measurement and finite-device sampling)\n");
+  for (const auto& w : ch.warnings) std::printf("warning: %s\n", w.c_str());
 }
 }  // namespace
 

@@ -18,6 +18,7 @@ std::string qe_key(double wavelength_nm) { return fmt::format("qe_{:g}nm", wavel
 Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
                               int roi, double wavelength_nm) {
   if (roi < 16 || roi > 4096) fail_parameter("roi", "", fmt::format(" {} must be in [16, 4096]", roi));
+  detail::check_flat_field_wavelength(wavelength_nm, setup.camera);  // before the device store is touched
   const int w = std::min(roi, setup.camera.width_px), h = std::min(roi, setup.camera.height_px);
   const FixedPatternMaps fpn = store.load_or_create(setup.camera, setup.device_id, w, h);
   emva::SimulatedCamera cam(setup.camera, setup.lens, setup.settings, fpn, wavelength_nm,
@@ -48,6 +49,8 @@ Characterization characterize(const SensorSetup& setup, const DeviceStore& store
       {"dynamic_range_db", "dynamic range", "dB", m.dynamic_range_db, e.dynamic_range_db},
   };
   c.photon_transfer = m.ptc;
+  c.dark_exposures_s = m.dark_exposures_s;
+  c.warnings = m.warnings;
   return c;
 }
 
@@ -71,6 +74,8 @@ std::string to_json(const Characterization& c, int indent) {
   nlohmann::json ptc = nlohmann::json::array();
   for (const auto& p : c.photon_transfer) ptc.push_back({p.photons, p.mean_dn, p.var_dn2});
   j["photon_transfer"] = ptc;
+  j["dark_exposures_s"] = c.dark_exposures_s;
+  j["warnings"] = c.warnings;
   return j.dump(indent);
 }
 

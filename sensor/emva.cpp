@@ -81,6 +81,25 @@ double temporal_variance(const Plan& p, const std::vector<ImageF>& frames) {
   return total / n;
 }
 
+// Φ(z), the standard normal distribution function.
+double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+// The relative variance lost when a normal signal is clipped from below at its p-quantile
+// c = Φ⁻¹(p): Y = max(X, c), X ~ N(0, 1), E[Y] = c·Φ(c) + φ(c), E[Y²] = c²·Φ(c) + (1 − Φ(c)) +
+// c·φ(c), and δ(p) = 1 − (E[Y²] − E[Y]²). (δ(0.005) = 0.032, δ(0.05) = 0.16.) c by bisection.
+double clipped_variance_loss(double p) {
+  if (!(p > 0)) return 0;
+  if (p >= 0.5) return 1;  // the median is clipped: the estimate says nothing
+  double lo = -40, hi = 0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (normal_cdf(mid) < p ? lo : hi) = mid;
+  }
+  const double c = 0.5 * (lo + hi), P = normal_cdf(c), d = std::exp(-0.5 * c * c) / std::sqrt(2 * M_PI);
+  const double m1 = c * P + d, m2 = c * c * P + (1 - P) + c * d;
+  return 1 - (m2 - m1 * m1);
+}
+
 struct Fit {
   double slope = 0, intercept = 0, slope_se = 0;
 };
@@ -127,7 +146,16 @@ Result measure(Camera& cam, const Plan& plan) {
     return pair_stats(plan, f[0], f[1]);
   };
   const double t = plan.exposure_s;
-  const Stats dark = pair(0.0, t);
+  Stats dark;
+  {
+    const auto f = cam.acquire(0.0, t, 2);
+    dark = pair_stats(plan, f[0], f[1]);
+    // The dark signal clipped at code 0 (a black level too small for the gain: EMVA 1288 needs
+    // an offset that keeps the dark signal above 0).
+    int zeros = 0;
+    for (const auto& fr : f) for_lattice(plan, w, h, [&](size_t i) { zeros += fr[i] <= 0.f; });
+    r.dark_clipped_fraction = zeros / (2.0 * dark.n);
+  }
   r.pixels_measured = dark.n;
 
   // 1. Find saturation coarsely: double the irradiation until the temporal variance collapses
@@ -213,10 +241,14 @@ Result measure(Camera& cam, const Plan& plan) {
   r.sensitivity_threshold_photons = p_min;
   r.dynamic_range_db = {20 * std::log10(p_sat / p_min),
                         20 / std::log(10.0) * std::hypot(step_sat / p_sat, r.qe.uncertainty / eta)};
-  // 6. Dark current: slope of the dark mean against exposure time, in e⁻/s (§6.1).
+  // 6. Dark current: slope of the dark mean against exposure time, in e⁻/s (§6.1), over
+  //    exposures whose dark signal stays within the linear range (70 % of the saturation signal,
+  //    as the photon-transfer fit): a dark frame that has filled the well no longer grows with
+  //    time. Where the plan's exposures leave fewer than three such points (a hot sensor: at
+  //    120 °C an automotive sensor fills 22,000 e⁻ in 15 ms), four shorter ones are measured, up
+  //    to the longest that stays within the range, found by halving.
   {
-    std::vector<double> tx, my;
-    for (double te : plan.dark_exposures_s) {
+    auto dark_mean = [&](double te) {
       auto frames = cam.acquire(0.0, te, plan.dark_frames);
       double m = 0;
       for (const auto& f : frames) {
@@ -228,9 +260,28 @@ Result measure(Camera& cam, const Plan& plan) {
         });
         m += s / n;
       }
-      tx.push_back(te);
-      my.push_back(m / frames.size());
+      return m / frames.size();
+    };
+    const double limit = dark.mean + 0.7 * mean_sat;
+    std::vector<double> tx, my;
+    for (double te : plan.dark_exposures_s) {
+      const double m = dark_mean(te);
+      if (m <= limit) {
+        tx.push_back(te);
+        my.push_back(m);
+      }
     }
+    if (tx.size() < 3) {
+      double te = *std::min_element(plan.dark_exposures_s.begin(), plan.dark_exposures_s.end());
+      for (int i = 0; i < 60 && dark_mean(te) > limit; ++i) te *= 0.5;
+      tx.clear();
+      my.clear();
+      for (int k = 1; k <= 4; ++k) {
+        tx.push_back(te * k / 4);
+        my.push_back(dark_mean(te * k / 4));
+      }
+    }
+    r.dark_exposures_s = tx;
     const Fit dc = linear_fit(tx, my);
     r.dark_current_e_per_s = {dc.slope / K, std::hypot(dc.slope_se / K, dc.slope * ptc.slope_se / (K * K))};
   }
@@ -257,8 +308,26 @@ Result measure(Camera& cam, const Plan& plan) {
     // Standard error: the variance of a spatial variance over N pixels is ≈ 2 s⁴/N.
     const double var_s2 = 2 * (s2_half + half_tvar / L) * (s2_half + half_tvar / L) / hs.n +
                           2 * (s2_dark + dark_tvar / L) * (s2_dark + dark_tvar / L) / ds.n;
-    r.prnu_percent = {prnu, s2_prnu > 0 ? 0.5 * std::sqrt(var_s2) / s2_prnu * prnu : 0.0};
+    // Where the estimate is clamped at 0 (the half-saturation variance no larger than the dark
+    // one), one standard error of the variance difference, as a PRNU: the estimate is 0 within
+    // it, not exactly 0 (as DSNU1288 above).
+    r.prnu_percent = {prnu, s2_prnu > 0 ? 0.5 * std::sqrt(var_s2) / s2_prnu * prnu
+                                        : std::sqrt(std::sqrt(var_s2)) / signal * 100.0};
   }
+  // 8. Warnings. The dark noise's standard error is √(2/N) of its variance (a variance over N
+  //    pixel pairs); clipping at code 0 biases it low by δ(p) (clipped_variance_loss), which
+  //    passes that standard error once p reaches about 0.5 % of the pixels at N = 16,384.
+  const double loss = clipped_variance_loss(r.dark_clipped_fraction);
+  if (loss > std::sqrt(2.0 / dark.n))
+    r.warnings.push_back(fmt::format(
+        "{:.2f}% of the dark pixels read 0 DN: the ADC clips the dark signal (black level too low for "
+        "this gain), so the temporal dark noise, DSNU1288, sensitivity threshold and dynamic range are "
+        "biased (dark variance about {:.1f}% low, against a standard error of {:.1f}%)",
+        100 * r.dark_clipped_fraction, 100 * loss, 100 * std::sqrt(2.0 / dark.n)));
+  if (r.dark_exposures_s != plan.dark_exposures_s)
+    r.warnings.push_back(fmt::format(
+        "the dark signal fills the well within the planned exposures: dark current fitted over {:.3g} to {:.3g} s",
+        r.dark_exposures_s.front(), r.dark_exposures_s.back()));
   return r;
 }
 

@@ -26,6 +26,9 @@ struct Characterization {
   };
   std::vector<Row> rows;
   std::vector<emva::PtcPoint> photon_transfer;
+  std::vector<double> dark_exposures_s;  // what the dark current was fitted over
+  // Conditions under which some rows are biased (emva::Result::warnings); empty: none found.
+  std::vector<std::string> warnings;
 };
 
 // roi: side of the measured region in pixels, [16, 4096] (ParameterError "roi" otherwise).

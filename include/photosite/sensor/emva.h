@@ -30,7 +30,10 @@ struct Plan {
   double exposure_s = 1e-3;          // photon-transfer sweep exposure (short: little dark charge)
   int levels = 40;                   // photon levels from dark to beyond saturation
   int nonuniformity_frames = 16;     // L frames averaged for DSNU1288 and PRNU1288
-  std::vector<double> dark_exposures_s = {0.01, 0.5, 1.0, 2.0, 4.0};  // dark current slope
+  // Dark current slope. Exposures whose dark signal passes 70 % of the saturation signal (the
+  // linear range of §5.2) are left out; where fewer than three remain, the fit uses four shorter
+  // ones up to the longest that stays within it.
+  std::vector<double> dark_exposures_s = {0.01, 0.5, 1.0, 2.0, 4.0};
   int dark_frames = 4;
 };
 
@@ -58,6 +61,13 @@ struct Result {
   double wavelength_nm = 0;
   int pixels_measured = 0;
   std::vector<PtcPoint> ptc;
+  // Share of the dark pair's measured pixels at code 0 (the ADC clipped the dark signal).
+  double dark_clipped_fraction = 0;
+  // The exposures the dark current was fitted over (the plan's, or shorter ones where the plan's
+  // longest fill the well: a hot sensor).
+  std::vector<double> dark_exposures_s;
+  // Conditions under which some results are biased, in words (empty: none found).
+  std::vector<std::string> warnings;
 };
 
 Result measure(Camera& camera, const Plan& plan);
