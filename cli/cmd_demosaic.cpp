@@ -33,7 +33,7 @@ void run(const DemosaicCmd& c) {
   const CfaPattern cfa = parse_cfa(c.cfa);
   const DemosaicMethod method = parse_demosaic_method(c.method);
   SensorRunner runner(resolve_backend(c.backend));
-  const std::string ext = lower_ext(c.out);
+  const std::string ext = lower_extension(c.out);
   if (ext != ".exr" && ext != ".png")
     fail_at(c.out, "output must be .exr or .png (got '" + ext + "')");
   check_output_path(c.out, c.overwrite);

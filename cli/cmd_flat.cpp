@@ -28,8 +28,10 @@ void run(const FlatCmd& c) {
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   check_run_outputs({{"--out", outputs, ".exr"}});
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
-  const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);
+  // The flat field's inputs are checked before the device store is touched (no map for a run
+  // that cannot go on).
   const ImageF mean = detail::flat_field_mean(c.photons, c.wavelength_nm, c.width, c.height, r.camera);
+  const FixedPatternMaps fpn = r.store.load_or_create(r.camera, r.device_id, c.width, c.height);
   for (int f = 0; f < c.sensor.frames; ++f) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = runner.sense(mean, r.camera, ex, r.settings, fpn);

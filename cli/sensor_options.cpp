@@ -26,6 +26,11 @@ const CLI::Validator kSeedText(
       return "'" + s + "' is not a whole number from 0 to 18446744073709551615";
     },
     "UINT64");
+// An empty --device-store (an unset shell variable in --device-store "$STORE") would fall back to
+// the default store in the home folder without a word: refused instead.
+const CLI::Validator kNonEmptyFolder(
+    [](std::string& s) -> std::string { return s.empty() ? "an empty folder name is not a device store" : ""; },
+    "DIR");
 }  // namespace
 
 void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {
@@ -42,7 +47,8 @@ void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {
   sub->add_option("--device-id", device_id, "device identity for the fixed-pattern maps (default <preset>-0)");
   sub->add_option("--device-store", device_store,
                   "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE, else "
-                  "$XDG_DATA_HOME/photosite/devices, else ~/.local/share/photosite/devices)");
+                  "$XDG_DATA_HOME/photosite/devices, else ~/.local/share/photosite/devices)")
+      ->check(kNonEmptyFolder);
   if (extras & kDemosaic)
     sub->add_option("--demosaic", demosaic, "demosaic method for the R,G,B output")->capture_default_str();
   sub->add_option("--poisson", poisson, "shot-noise sampler: exact, cornish-fisher or normal")->capture_default_str();
@@ -78,12 +84,6 @@ std::vector<std::string> frame_outputs(const std::string& pattern, int frames, b
   return out;
 }
 
-std::string lower_ext(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  for (auto& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  return e;
-}
-
 void check_run_outputs(const std::vector<RunOutput>& outputs) {
   namespace fs = std::filesystem;
   std::map<std::string, std::string> seen;  // the file, made absolute and normal, to its option
@@ -97,7 +97,7 @@ void check_run_outputs(const std::vector<RunOutput>& outputs) {
     }
   for (const auto& o : outputs)
     for (const auto& p : o.paths) {
-      if (!o.extension.empty() && lower_ext(p) != o.extension)
+      if (!o.extension.empty() && lower_extension(p) != o.extension)
         fail_at(p, o.option + ": the file is written as " + o.extension.substr(1) + ", so its name must end in " + o.extension);
     }
 }

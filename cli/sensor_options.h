@@ -53,9 +53,6 @@ struct PreviewFlags {
 // Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);
 
-// A path's extension in lower case (".exr" for "x.EXR"; "" without one).
-std::string lower_ext(const std::string& path);
-
 // One output option of a run and the files it names.
 struct RunOutput {
   std::string option;              // "--out"

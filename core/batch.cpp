@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "photosite/error.h"
+#include "photosite/io.h"
 #include "photosite/scene/rig.h"
 
 namespace photosite::batch {
@@ -87,8 +88,7 @@ std::vector<fs::path> files_under(const fs::path& dir, const std::vector<std::st
        it != fs::recursive_directory_iterator(); it.increment(ec)) {
     if (ec) break;
     if (!it->is_regular_file()) continue;
-    std::string e = it->path().extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+    const std::string e = lower_extension(it->path().string());
     if (std::find(exts.begin(), exts.end(), e) != exts.end()) out.push_back(it->path());
   }
   std::sort(out.begin(), out.end());

@@ -509,8 +509,7 @@ namespace {
 // through OpenImageIO, which also words the errors.
 std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInfo* info) {
   const fs::path p(path);
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = lower_extension(path);
   std::error_code ec;
   if (ext != ".png" || !fs::is_regular_file(p, ec)) return std::nullopt;
   auto d = png::decode(codec::read_file(path), max_frame_pixels());
@@ -833,8 +832,7 @@ void write_png(const std::string& path, const ImageF& image, int bits) {
   if (bits != 8 && bits != 16) internal_error("write_png: bits must be 8 or 16");
   const int w = image.width(), h = image.height(), ch = image.channels();
   if (ch < 1 || ch > 4) fail_at(path, fmt::format("cannot write {} channels as an image file (1 to 4)", ch));
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = lower_extension(path);
   Raster r;
   r.width = w;
   r.height = h;
@@ -898,6 +896,8 @@ void check_output_path(const std::string& path, bool overwrite) {
   fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) fail_at(path, "output folder " + dir.string() + " does not exist");
+  // A folder there is never replaced, --overwrite or not (the rename would fail after the work).
+  if (fs::is_directory(p, ec)) fail_at(path, "is a folder; name the output file");
   if (fs::exists(p, ec) && !overwrite)
     fail_parameter("overwrite", path + ": already exists; photosite never overwrites a file unless ", " is given");
   if (access(dir.c_str(), W_OK) != 0) fail_at(path, "output folder is not writable");
@@ -963,6 +963,12 @@ void atomic_write(const std::string& path, const std::function<void(const std::s
 
 bool atomic_create(const std::string& path, const std::function<void(const std::string&)>& write) {
   return write_then_publish(path, write, false);
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string e = fs::path(path).extension().string();
+  for (auto& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return e;
 }
 
 std::string frame_path(const std::string& pattern, int frame) {

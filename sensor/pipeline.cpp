@@ -25,18 +25,20 @@ ResolvedExposure resolve(const CameraPreset& p, const LensPreset& lens, const Ex
   ResolvedExposure r{};
   r.exposure_s = s.exposure_s;
   if (!std::isfinite(r.exposure_s) || r.exposure_s < 0)
-    fail(fmt::format("exposure time {} s is impossible (must be >= 0)", r.exposure_s));
-  if (r.exposure_s > 3600) fail(fmt::format("exposure time {} s is beyond one hour", r.exposure_s));
+    fail_parameter("exposure_s", "", fmt::format(" {} s is impossible: an exposure time must be in [0, 3600] s", r.exposure_s));
+  if (r.exposure_s > 3600)
+    fail_parameter("exposure_s", "", fmt::format(" {} s is beyond one hour: an exposure time must be in [0, 3600] s", r.exposure_s));
   r.f_number = s.f_number.value_or(lens.f_number);
   if (!std::isfinite(r.f_number) || r.f_number < 0.5 || r.f_number > 64)
-    fail(fmt::format("f-number {} is impossible (must be in [0.5, 64])", r.f_number));
+    fail_parameter("f_number", "", fmt::format(" {} is impossible (must be in [0.5, 64])", r.f_number));
   r.gain_db = s.gain_db;
   if (!std::isfinite(r.gain_db) || r.gain_db < 0 || r.gain_db > p.max_gain_db)
-    fail(fmt::format("gain {} dB is outside the camera's range [0, {}] dB", r.gain_db, p.max_gain_db));
+    fail_parameter("gain_db", "", fmt::format(" {} dB is outside the camera's range [0, {}] dB", r.gain_db, p.max_gain_db));
   r.gain_linear = units::db_to_gain(r.gain_db);
   r.temperature_c = s.temperature_c.value_or(p.temperature_c);
   if (!std::isfinite(r.temperature_c) || r.temperature_c < -100 || r.temperature_c > 200)
-    fail(fmt::format("sensor temperature {} C is impossible", r.temperature_c));
+    fail_parameter("temperature_c", "",
+                   fmt::format(" {} C is impossible: the sensor temperature must be in [-100, 200] C", r.temperature_c));
   r.system_gain_dn_per_e = p.system_gain_dn_per_e * r.gain_linear;
   // Dark current doubles every dark_current_doubling_c degrees (Arrhenius behaviour of
   // depletion-region generation near room temperature; EMVA 1288 R4.0 Sec. 7.1, Janesick 2007).
@@ -790,12 +792,23 @@ SensorOutput flat_field(double photons, double wavelength_nm, int width, int hei
   return sense(mean, p, ex, s, fpn);
 }
 
+void detail::check_flat_field_wavelength(double wavelength_nm, const CameraPreset& p) {
+  if (!(wavelength_nm >= 200 && wavelength_nm <= 1200))
+    fail_parameter("wavelength_nm", "", fmt::format(" {} nm is outside [200, 1200] nm", wavelength_nm));
+  // The preset's QE is known on its table's grid only (QeTable::at answers 0 outside it): a flat
+  // field there would be a dark frame labelled with photons.
+  const auto& grid = p.qe.wavelength_nm;
+  if (grid.empty() || wavelength_nm < grid.front() || wavelength_nm > grid.back())
+    fail_parameter("wavelength_nm", "",
+                   fmt::format(" {} nm is outside the QE table of {} ({:g} to {:g} nm)", wavelength_nm, p.name,
+                               grid.empty() ? 0.0 : grid.front(), grid.empty() ? 0.0 : grid.back()));
+}
+
 ImageF detail::flat_field_mean(double photons, double wavelength_nm, int width, int height,
                                const CameraPreset& p) {
   if (!std::isfinite(photons) || photons < 0)
     fail(fmt::format("photons per pixel {} is impossible (must be >= 0)", photons));
-  if (!(wavelength_nm >= 200 && wavelength_nm <= 1200))
-    fail(fmt::format("wavelength {} nm is outside [200, 1200] nm", wavelength_nm));
+  check_flat_field_wavelength(wavelength_nm, p);
   if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
     fail(fmt::format("flat-field size {}x{} is impossible", width, height));
   // Photons falling on the pixel area; the fill factor and QE turn them into electrons

@@ -1,6 +1,8 @@
 // The sensor model: optics, photon integral, dark current, fixed pattern, read noise and ADC,
 // sequences and determinism.
 #include <gtest/gtest.h>
+
+#include <limits>
 #include <omp.h>
 
 #include <algorithm>
@@ -196,6 +198,36 @@ TEST(Adc, FullWellAndAdcClip) {
   s.gain_db = 12;
   out = sense(huge, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
   for (float v : out.raw_dn.vec()) ASSERT_EQ(v, 4095.f);
+}
+
+// A mean signal beyond float (+Inf: a radiance or photon count near float's largest value, which
+// the radiance check lets through when each band is finite) or merely enormous fills the well and
+// reads the saturation code, with every Poisson sampler, on the CPU: sense_mean_e holds the mean
+// at 2^31 e⁻ (kernels/common/sensor_pixel.glsl). Before, the exact sampler drew NaN (the run
+// failed in the EXR writer, exit 1), and Cornish-Fisher and the rounded normal read 0 e⁻, black.
+TEST(Adc, AnOverflowedSignalSaturatesThePixel) {
+  CameraPreset p = flat_qe_camera();
+  const int w = 16, h = 16;
+  ImageF sig(w, h, 1, 100.f);
+  const float kInf = std::numeric_limits<float>::infinity();
+  const float big[] = {kInf, 3.4e38f, 1e34f, 2147483648.f, 1e12f};
+  for (int i = 0; i < w * h; i += 7) sig[i] = big[(i / 7) % 5];
+  for (PoissonMethod m : {PoissonMethod::Exact, PoissonMethod::CornishFisher, PoissonMethod::Normal}) {
+    ExposureSettings s;
+    s.poisson = m;
+    const auto out = sense(sig, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
+    // Full well 20000 e⁻ at K = 0.2 DN/e⁻ above black 64: 4064 DN ± read noise (3 e⁻ = 0.6 DN,
+    // so ±4 DN is over 6σ).
+    for (int i = 0; i < w * h; ++i) {
+      ASSERT_TRUE(std::isfinite(out.electrons[i])) << to_string(m) << " pixel " << i;
+      if (i % 7 == 0) {
+        ASSERT_EQ(out.electrons[i], 20000.f) << to_string(m) << " pixel " << i << " mean " << sig[i];
+        ASSERT_NEAR(out.raw_dn[i], 64 + 0.2 * 20000, 4) << to_string(m) << " pixel " << i;
+      } else {
+        ASSERT_LT(out.electrons[i], 200.f) << to_string(m) << " pixel " << i;
+      }
+    }
+  }
 }
 
 TEST(Adc, SignalMeanFollowsGainAndBlackLevel) {

@@ -117,6 +117,9 @@ bool atomic_create(const std::string& path, const std::function<void(const std::
 // calls it from its SIGINT/SIGTERM handler before it dies, so an interrupted run leaves no
 // half-written file behind (the error paths remove theirs as they unwind).
 void remove_partial_outputs() noexcept;
+// A path's extension in lower case, with its dot (".png"; "" when it has none): what the readers,
+// the writers, batch's file search and the command line's output checks compare.
+std::string lower_extension(const std::string& path);
 // Replaces the run of '#' in a pattern with the zero-padded frame number ("out_###.exr").
 std::string frame_path(const std::string& pattern, int frame);
 

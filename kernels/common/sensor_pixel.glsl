@@ -31,9 +31,16 @@ PS_FN float photon_electrons(double m0, double m1, double m2, float r, float g, 
 // Mean collected electrons: photo-signal through the pixel's PRNU gain, plus dark charge at
 // this pixel's dark rate. One Poisson draw of the sum is exactly the sum of the two independent
 // Poisson processes (photon shot noise and dark-current shot noise).
+//
+// The mean is held at kMeanElectronsCap = 2^31 e⁻, twenty times the largest full well a preset may
+// have (1e8 e⁻, sensor/preset.cpp): a draw there is 2^31 ± 5·2^15.5 (5σ), far above any well, so
+// the pixel saturates exactly as with a larger mean, and a signal that overflowed float (+Inf, from
+// a radiance or a photon count near float's largest value) saturates it too instead of making the
+// draw NaN. Below the cap min() changes nothing.
+const float kMeanElectronsCap = 2147483648.0f;  // 2^31, exact in float
 PS_FN float sense_mean_e(float signal_e, float prnu_gain, float dark_mean_e, float dark_rate_factor) {
   precise float mean = signal_e * prnu_gain + dark_mean_e * dark_rate_factor;
-  return mean;
+  return min(mean, kMeanElectronsCap);
 }
 // The well holds no more than its capacity.
 PS_FN float sense_electrons(float drawn_e, float full_well_e) { return min(drawn_e, full_well_e); }

@@ -115,6 +115,9 @@ void check_radiance_shape(const ImageF& radiance);
 // One Gaussian per row and per column per frame (e-); empty vectors when the preset has none.
 void row_column_noise(const CameraPreset& preset, uint64_t key, uint32_t frame, int width, int height,
                       std::vector<float>& row_e, std::vector<float>& col_e);
+// ParameterError "wavelength_nm" unless the wavelength lies in [200, 1200] nm and on the preset's
+// QE table (QeTable::at is 0 outside it: a flat field there would be a dark frame).
+void check_flat_field_wavelength(double wavelength_nm, const CameraPreset& preset);
 // flat_field()'s mean photo-electrons per pixel (before sense()).
 ImageF flat_field_mean(double photons_per_pixel, double wavelength_nm, int width, int height,
                        const CameraPreset& preset);
