@@ -132,6 +132,10 @@ void run_night(NightCmd c) {
               ns.geometry.horizon_y, ns.geometry.horizon_source == "rig" ? "rig's nominal pitch" : "vanishing point",
               ns.geometry.horizon_confidence, ns.geometry.rig.c_str(), ns.geometry.f_px, ns.geometry.mount_height_m,
               ns.geometry.pitch_rad * 180 / M_PI);
+  std::printf("labels read as %s%s\n", scene::label_format_name(labels.format),
+              c.label_format == "auto" ? " (detected)" : "");
+  if (!labels.note.empty()) std::printf("note: %s\n", labels.note.c_str());
+  if (!ns.geometry.note.empty()) std::printf("note: %s\n", ns.geometry.note.c_str());
   if (c.timings) {
     std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());

@@ -360,7 +360,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       }
       const FixedPatternMaps& fpn = *fpn_p;
       auto so = std::make_shared<SensorOutput>(
-          runner.expose(ns->radiance, rr->camera, rr->lens, rr->settings, fpn, ns->resident_radiance,
+          runner.expose(ns->radiance, rr->camera, lens_for_frame(rr->lens, rr->camera, ns->geometry), rr->settings, fpn,
+                        ns->resident_radiance,
                         ns->glare_level1.get()));
       ns->glare_level1.reset();  // read by the glare above only (peak memory)
       auto labels = std::make_shared<scene::LabelMap>(std::move(l.labels));

@@ -1,6 +1,7 @@
 #include "photosite/night_chain.h"
 
 #include <chrono>
+#include <cmath>
 
 #include <fmt/format.h>
 
@@ -54,7 +55,8 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   c.exposure = resolve(setup.camera, setup.lens, setup.settings);
   // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
   // device for every frame (the host copies are for the outputs and the CPU path).
-  c.mean_e = runner.mean_signal_electrons(c.scene.radiance, setup.camera, setup.lens, c.exposure,
+  c.mean_e = runner.mean_signal_electrons(c.scene.radiance, setup.camera,
+                                          lens_for_frame(setup.lens, setup.camera, c.scene.geometry), c.exposure,
                                           c.scene.resident_radiance, c.scene.glare_level1.get());
   c.mean_e_on_device = runner.resident_mean_e();
   c.scene.glare_level1.reset();  // read by the glare above only (peak memory)
@@ -75,6 +77,13 @@ scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear
   // (NightScene::glare_level1; the same bits).
   const bool glare = lens_glare_plan(setup.camera, setup.lens).active;
   return scene::night_scene(day_linear, labels, sp, seed, keep_darkened, runner, sequence, sums, glare);
+}
+
+LensPreset lens_for_frame(const LensPreset& lens, const CameraPreset& camera, const scene::CameraGeometry& g) {
+  if (!(g.f_px > 0) || !std::isfinite(g.f_px)) internal_error("lens_for_frame: the geometry has no focal length");
+  LensPreset l = lens;
+  l.focal_length_mm = g.f_px * camera.pixel_pitch_um * 1e-3;
+  return l;
 }
 
 NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "photosite/error.h"
+#include "photosite/night_chain.h"
 
 namespace photosite {
 
@@ -128,9 +129,12 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/horizon_y"] = g.horizon_y;
   attrs["photosite/night/horizon_source"] = g.horizon_source;
   attrs["photosite/night/horizon_confidence"] = g.horizon_confidence;
+  if (!g.note.empty()) attrs["photosite/night/geometry_note"] = g.note;
   attrs["photosite/night/camera_rig"] = g.rig;
   attrs["photosite/night/camera_pitch_deg"] = g.pitch_rad * 180 / M_PI;
   attrs["photosite/night/focal_length_px"] = g.f_px;
+  // The focal length the optics used (cos⁴ falloff, glare): the frame's own, lens_for_frame.
+  attrs["photosite/night/optics_focal_length_mm"] = lens_for_frame(r.lens, r.camera, g).focal_length_mm;
   attrs["photosite/night/mount_height_m"] = g.mount_height_m;
   attrs["photosite/night/depth_infinity_m"] = static_cast<double>(scene::kDepthInfinity_m);
   attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());

@@ -9,6 +9,8 @@
 #include <numeric>
 #include <omp.h>
 
+#include <fmt/format.h>
+
 #include "photosite/scene/night.h"
 #include "scene/night_detail.h"
 #include "scene/runs_detail.h"
@@ -75,6 +77,23 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
     g.horizon_confidence = 0;
   }
   g.horizon_y = k.cy_px - k.f_px * std::tan(g.pitch_rad);
+  // What the user should hear about (each a likely wrong --rig, or a frame no rig describes).
+  auto add = [&](const std::string& s) { g.note += (g.note.empty() ? "" : "; ") + s; };
+  const double aspect = static_cast<double>(width) / height, native = rig.native_width_px / rig.native_height_px;
+  if (std::fabs(aspect / native - 1) > 0.01)  // scaled_intrinsics' crop branch
+    add(fmt::format("the frame's aspect ratio {:.3f} is not rig {}'s ({:.0f}x{:.0f}, {:.3f}): taken as a centred "
+                    "crop of that frame at its f {:.1f} px{}; pass --rig with this camera's intrinsics",
+                    aspect, rig.name, rig.native_width_px, rig.native_height_px, native, k.f_px,
+                    width > rig.native_width_px || height > rig.native_height_px ? ", although it is larger" : ""));
+  if (vp.method == VpMethod::Hough && vp.confidence >= 0.3 && g.horizon_source == "rig")
+    add(fmt::format("the vanishing point (confidence {:.2f}) puts the pitch at {:.2f} deg, {:.2f} deg from rig {}'s "
+                    "{:.2f} deg (tolerance {:.2f} deg): the rig's horizon is used; check --rig",
+                    vp.confidence, vp_pitch * 180 / M_PI, std::fabs(vp_pitch - nominal_pitch) * 180 / M_PI, rig.name,
+                    rig.pitch_deg, rig.pitch_tolerance_deg));
+  if (g.horizon_y >= height - 0.5)
+    add(fmt::format("the horizon (y {:.1f} px) lies below the frame: no ground is in view and every ground pixel "
+                    "is at the depth cap; check --rig's pitch",
+                    g.horizon_y));
   return g;
 }
 

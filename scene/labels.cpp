@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cctype>
+
+#include <fmt/format.h>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
@@ -137,6 +139,10 @@ LabelMap decode_labels(const ImageU16& raw, LabelFormat format, const std::strin
   if (format == LabelFormat::Auto) {
     if (has255 && !has_mid) format = LabelFormat::TrainIds;
     else format = LabelFormat::LabelIds;  // values 0..18 only are ambiguous: labelIds (the common file)
+    if (!has255 && !has_mid)
+      m.note = file + ": only values 0.." + std::to_string(maxv) +
+               ", which labelIds and trainIds both use: read as labelIds; pass --label-format trainIds if they are "
+               "trainIds";
   }
   m.format = format;
   if (format == LabelFormat::LabelIds && !has255 && maxv < kLabelCount) {
@@ -254,6 +260,24 @@ LabelMap labels_from_codes(ImageU16 raw, const ImageU16* instances, int width, i
       kitti_ok += (v >> 8) == m.ids[i];
     }
     const bool kitti = with_inst > 0 && kitti_ok == with_inst && city_ok < with_inst;
+    // A frame's own instance ids agree with its labels on every instance pixel (each code's class
+    // is the label there, also after both are resampled alike). When most disagree, the file is
+    // another frame's (a mixed-up manifest line): its vehicles would put lamps on road, façades
+    // and cyclists. Refused rather than drawn; a minority of disagreeing pixels (another tool's
+    // instance boundaries) is let through.
+    if (!kitti && with_inst > 0 && 2 * city_ok < with_inst) {
+      size_t first = 0;
+      for (size_t i = 0; i < inst.pixel_count(); ++i)
+        if (inst[i] >= kLabelCount && !(inst[i] >= 1000 && inst[i] / 1000 == m.ids[i])) {
+          first = i;
+          break;
+        }
+      fail_at(instances_path,
+              fmt::format("the instance ids disagree with the labels on {:.1f}% of their pixels (first at ({}, {}): "
+                          "instance {} of class {}, label {}): are they another frame's?",
+                          100.0 * static_cast<double>(with_inst - city_ok) / static_cast<double>(with_inst),
+                          first % width, first / width, inst[first], inst[first] / 1000, m.ids[first]));
+    }
     for (size_t i = 0; i < inst.pixel_count(); ++i) {
       const int v = inst[i];
       if (kitti) {

@@ -1117,7 +1117,15 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
         // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
         // the conservative reading (an approximation: a passing vehicle there stays dark too).
-        const bool cut = b.x0 == 0 || b.x1 == W - 1;
+        // The border is the image's, or the labels' frame of no image content beside the box
+        // (Cityscapes' gtFine has 5-6 columns of "out of roi" at each side; KITTI's rectified
+        // frames a "rectification border"), read at the box's middle row.
+        const int ymid = (b.y0 + b.y1) / 2;
+        auto frame_label = [&](int x) {
+          const int id = labels.at(x, ymid);
+          return id == static_cast<int>(Label::OutOfRoi) || id == static_cast<int>(Label::RectificationBorder);
+        };
+        const bool cut = b.x0 == 0 || b.x1 == W - 1 || frame_label(b.x0 - 1) || frame_label(b.x1 + 1);
         const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
                                                   Xo < sl.road_right_m - p.veh_kerb_strip_m));
         if (on_road && in_lane) {
@@ -1199,7 +1207,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     }
     // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
     // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
+    // The red blobs' pixels per vehicle are counted too: they tell which way it faces (below).
     auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
+    std::vector<int> red_blob_px(ncomp + 1, 0);
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
       if (!cue_row[y]) continue;
       for (int x = 1; x < W - 1; ++x) {
@@ -1208,6 +1218,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         int n = 0;
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
+        if (n >= 5 && v == 1) ++red_blob_px[cue_comp(x, y)];
         if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(veh, x, y, v == 1 ? tail : head);
       }
     }
@@ -1215,9 +1226,15 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // ground contact, veh_lamp_inset_m in from its sides (its metric width from its pixel width at
     // the contact depth), one lamp for two-wheelers; discs of the lens diameter at intensity I
     // (luminance I/area; a lens smaller than a pixel puts I over the pixel's footprint (z/f)²).
-    // Direction of travel, right-hand traffic: left of the road's centre line in road coordinates
-    // oncoming (head lamps toward the camera), right of it going away (tail lamps). Parked lit
-    // vehicles show position lamps: red if parked facing away (right side), white otherwise.
+    // Which way it faces. Red lamps are at a vehicle's rear only (UN ECE R48's colours: rear
+    // position, stop and rear fog lamps red; front position and headlamps white [R]), so a vehicle
+    // whose day photo shows red lamp-like blobs (the cues above) faces away: tail lamps. A blob
+    // share of at least 0.2 % of its pixels (and 3 px) counts, at most 20 % (more is a red body,
+    // not lenses: a car's two rear lamp lenses are a few % of its rear view); both bounds are
+    // photosite choices. Otherwise the direction of travel, right-hand traffic: left of the road's
+    // centre line in road coordinates oncoming (head lamps toward the camera), right of it going
+    // away (tail lamps). Parked lit vehicles show position lamps: red when facing away, white
+    // otherwise.
     // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
     for (int c = 1; c <= ncomp; ++c) {
       const Box& b = boxes[c];
@@ -1228,7 +1245,9 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (geometry) {
         const VehState& v = vs[c];
         if (v.state == 0) continue;
-        const bool oncoming = v.X < road_mid;
+        const int red_px = red_blob_px[c];
+        const bool rear_seen = red_px >= 3 && red_px * 500 >= b.n && red_px * 5 <= b.n;
+        const bool oncoming = !rear_seen && v.X < road_mid;
         double I, dia;
         bool red;
         if (v.state == 1) {

@@ -138,7 +138,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
       [&] {
         label_row_runs = label_runs(labels.ids);
-        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids, label_row_runs.get());  // else no plan
+        // The poles only where the preset has street lighting: unlit, the plan keeps no lamps (it
+        // still measures the road's extent, from the labels alone; scene/luminaires.cpp).
+        if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids, label_row_runs.get());
       });
   grey = ImageU8();
   lap("edges");

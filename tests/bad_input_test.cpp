@@ -310,6 +310,17 @@ std::vector<Row> rows() {
   t.push_back({"flat_40000", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 40000 --height 40000 --out '{out}/o.exr'", {"--width", "40000x40000", "limit"}});
   t.push_back({"flat_negative_photons", {}, "flat --preset sony-imx174 " + kSensor + "--photons -5 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"photons"}});
   t.push_back({"flat_output_folder_missing", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 64 --height 32 --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
+  // A wavelength off the preset's QE table (400-700 nm for sony-imx174): a flat field there would be a dark
+  // frame labelled with photons; characterize failed with "too few points in the linear range".
+  t.push_back({"flat_wavelength_off_the_qe_table", {}, "flat --preset sony-imx174 " + kSensor + "--photons 100 --wavelength-nm 399 --width 64 --height 32 --out '{out}/o.exr'", {"--wavelength-nm", "399", "outside the QE table of sony-imx174 (400 to 700 nm)"}});
+  t.push_back({"characterize_wavelength_off_the_qe_table", {}, "characterize --preset sony-imx174 " + kSensor + "--roi 32 --wavelength-nm 750", {"--wavelength-nm", "750", "QE table"}});
+  // An empty --device-store (an unset shell variable) fell back to the home folder's store.
+  t.push_back({"flat_empty_device_store", {}, "flat --preset sony-imx174 --device-id dev --device-store '' --photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"--device-store", "empty folder name"}});
+  // Impossible settings name their option.
+  t.push_back({"flat_negative_exposure", {}, kFlat + "--exposure-s -1", {"--exposure-s", "-1", "[0, 3600]"}});
+  t.push_back({"flat_temperature_300", {}, kFlat + "--temperature-c 300", {"--temperature-c", "300", "[-100, 200]"}});
+  // An output path that is a folder: refused before any work, --overwrite or not.
+  t.push_back({"night_output_is_a_folder", [](Ctx& c) { fs::create_directories(c.dir / "out" / "o.exr"); }, kNight + "--overwrite", {"o.exr", "is a folder"}});
   t.push_back({"chart_too_small", {}, "chart --width 10 --height 10 --out '{out}/c.exr'", {"chart size"}});
   t.push_back({"chart_bad_cct", {}, "chart --cct-k 100 --out '{out}/c.exr'", {"CCT"}});
   t.push_back({"chart_output_folder_missing", {}, "chart --out '{out}/nope/c.exr'", {"nope", "does not exist"}});

@@ -115,6 +115,33 @@ TEST(ScenePreset, BundledPresetsLoadAndBadKeysAreNamed) {
   EXPECT_THROW(load_scene_preset("no-such-scene"), Error);
 }
 
+// Another frame's instance ids (a mixed-up manifest line): their vehicles' classes disagree with
+// these labels on most instance pixels. Refused, naming the file and the first such pixel; a
+// minority of disagreeing pixels (another tool's boundaries) is let through.
+TEST(SceneLabels, InstancesOfAnotherFrameAreRefused) {
+  test::TempDir d;
+  ImageU16 lab(8, 4, 1, 7);  // road, a car at columns 0-1
+  for (int y = 0; y < 4; ++y) lab.at(0, y) = lab.at(1, y) = 26;
+  write_codes(d.file("l.png"), lab, 8);
+  ImageU16 other(8, 4, 1, 7);  // the other frame's car at columns 5-7
+  for (int y = 0; y < 4; ++y)
+    for (int x = 5; x < 8; ++x) other.at(x, y) = 26004;
+  write_codes(d.file("other.png"), other, 16);
+  const std::string m = error_of([&] {
+    read_labels(d.file("l.png"), d.file("other.png"), 8, 4, LabelFormat::Auto, ResizeLabels::None);
+  });
+  EXPECT_NE(m.find("other.png"), std::string::npos) << m;
+  EXPECT_NE(m.find("disagree with the labels on 100.0% of their pixels (first at (5, 0)"), std::string::npos) << m;
+  // Its own ids with one boundary pixel off (1 of 8 instance pixels): accepted.
+  ImageU16 own(8, 4, 1, 7);
+  for (int y = 0; y < 4; ++y) own.at(0, y) = own.at(1, y) = 26001;
+  own.at(2, 0) = 26001;  // on road: disagrees
+  own.at(1, 3) = 7;
+  write_codes(d.file("own.png"), own, 16);
+  const LabelMap ok = read_labels(d.file("l.png"), d.file("own.png"), 8, 4, LabelFormat::Auto, ResizeLabels::None);
+  EXPECT_EQ(ok.instances.at(0, 0), 26001);
+}
+
 TEST(SceneLabels, KittiInstanceCodesAreRecognised) {
   test::TempDir d;
   ImageU16 lab(4, 2, 1, 7);

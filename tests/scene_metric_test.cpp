@@ -234,6 +234,7 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     EXPECT_EQ(g.horizon_source, "vanishing_point") << d;
     EXPECT_DOUBLE_EQ(g.horizon_confidence, 0.91) << d;
     EXPECT_NEAR(g.horizon_y, vp.y, 1e-6) << d;
+    EXPECT_EQ(g.note, "") << d;  // nothing to tell: the VP agrees with the rig
   }
   // Beyond it: the rig's horizon, confidence 0.
   const double yh_rig = k.cy_px - k.f_px * std::tan(nominal * M_PI / 180);
@@ -242,7 +243,22 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     EXPECT_EQ(g.horizon_source, "rig") << d;
     EXPECT_EQ(g.horizon_confidence, 0) << d;
     EXPECT_NEAR(g.horizon_y, yh_rig, 1e-9) << d;
+    // The refused VP is reported (a likely wrong --rig: a sign-flipped pitch, another data set's rig).
+    EXPECT_NE(g.note.find("the vanishing point (confidence 0.91)"), std::string::npos) << d << ": " << g.note;
+    EXPECT_NE(g.note.find("check --rig"), std::string::npos) << g.note;
   }
+  // A frame of another aspect ratio (BDD100K's 1280x720) is a crop of the rig's frame: said so.
+  const CameraGeometry bdd = camera_geometry(rig, 1280, 720, vp_at_pitch(nominal));
+  EXPECT_NE(bdd.note.find("aspect ratio 1.778 is not rig cityscapes's"), std::string::npos) << bdd.note;
+  EXPECT_EQ(bdd.note.find("larger"), std::string::npos) << bdd.note;
+  EXPECT_NE(camera_geometry(rig, 4000, 1000, vp_at_pitch(nominal)).note.find("although it is larger"),
+            std::string::npos);
+  // A horizon below the frame: no ground in view.
+  const CameraRig down = parse_camera_rig(
+      "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 2262.52\ncx_px = 1096.98\ncy_px = 513.137\n"
+      "mount_height_m = 1.22\npitch_deg = -20\n",
+      "down.toml");
+  EXPECT_NE(camera_geometry(down, W, H, VanishingPoint{}).note.find("lies below the frame"), std::string::npos);
   // aachen_000003's VP row, at its own 2048x1024 size.
   VanishingPoint aachen = vp_at_pitch(0);
   aachen.y = 345.5;
@@ -1494,6 +1510,64 @@ std::vector<double> chain_shares(const ImageF& lin, const LabelMap& lab, const C
 // façade windows, vehicles), where nothing enters or leaves the view that the lights depend on:
 // frame by frame and as a sequence. (On a real frame a labelled pole leaving the view takes its
 // luminaire with it frame by frame: the next test.)
+// Which way a vehicle faces, and the border rule, on the scene rendered from a known camera. Box 0
+// (X = −3.5 m, D = 12 m) stands left of the road's centre line: by the side rule it is oncoming,
+// with white head lamps. Red lamp-like blobs in its day pixels (a tail lamp's lens) say it shows
+// its rear: then tail lamps, red, wherever it stands. And a vehicle whose box meets the labels'
+// frame of no image content (Cityscapes' "out of roi" columns) is cut by the border: parked, dark.
+TEST(MetricLights, RedLampsInTheDayPhotoMeanTailLampsAndTheLabelBorderCutsAVehicle) {
+  const SyntheticCameraOptions o = camera_scene();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  struct Seen { double lum = 0, r_over_g = 0; int in_traffic = 0; };
+  auto brightest_on_box0 = [&](const ImageF& day, const LabelMap& lm) {
+    const NightScene n = night_scene(day, lm, p, 1);
+    Seen r;
+    r.in_traffic = n.light_stats.vehicles_in_traffic;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        if (lm.instances.at(x, y) != 26000) continue;
+        float c[3] = {n.lights.at(x, y, 0), n.lights.at(x, y, 1), n.lights.at(x, y, 2)};
+        const double L = spectrum::luminance_cd_m2(c);
+        if (L > r.lum) {
+          r.lum = L;
+          r.r_over_g = c[1] > 0 ? c[0] / c[1] : 1e9;
+        }
+      }
+    return r;
+  };
+  const Seen plain = brightest_on_box0(s.day_linear_srgb, s.labels);
+  ASSERT_GT(plain.lum, 1000.0);     // a head lamp (350 cd over a 0.18 m disc: about 13,750 cd/m²)
+  EXPECT_LT(plain.r_over_g, 3.0);  // white: a 3200 K blackbody's R/G in the box basis is about 1.5
+  // A red lens, 12 x 8 px, on box 0's front face (0.4 % of its pixels; a red body would be > 20 %).
+  int x0 = o.width, y0 = o.height, x1 = -1, y1 = -1, n0 = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x)
+      if (s.labels.instances.at(x, y) == 26000) {
+        x0 = std::min(x0, x); x1 = std::max(x1, x); y0 = std::min(y0, y); y1 = std::max(y1, y); ++n0;
+      }
+  ASSERT_GT(n0, 5000);
+  ImageF red_day = s.day_linear_srgb;
+  const int bx = x0 + (x1 - x0) / 5, by = y0 + 6 * (y1 - y0) / 10;
+  for (int y = by; y < by + 8; ++y)
+    for (int x = bx; x < bx + 12; ++x) {
+      ASSERT_EQ(s.labels.instances.at(x, y), 26000);
+      red_day.at(x, y, 0) = 0.8f; red_day.at(x, y, 1) = 0.02f; red_day.at(x, y, 2) = 0.02f;
+    }
+  const Seen rear = brightest_on_box0(red_day, s.labels);
+  EXPECT_EQ(rear.in_traffic, plain.in_traffic);
+  EXPECT_GT(rear.r_over_g, 10.0);  // red: tail lamps and the lens itself
+  EXPECT_LT(rear.lum, 0.2 * plain.lum);  // no head lamp left
+  // A column of the labels' border frame beside the box: cut, so parked (dark unless its seeded
+  // share lit it).
+  LabelMap framed = s.labels;
+  for (int y = 0; y < o.height; ++y) framed.ids.at(x0 - 1, y) = static_cast<uint16_t>(Label::OutOfRoi);
+  const Seen cut = brightest_on_box0(s.day_linear_srgb, framed);
+  EXPECT_EQ(cut.in_traffic, plain.in_traffic - 1);
+  EXPECT_LT(cut.lum, 0.2 * plain.lum);
+}
+
 TEST(MetricLights, PanningCropsKeepLightsInTheWorld) {
   SyntheticCameraOptions o = camera_scene(1088, 512);
   o.camera = camera_geometry(load_camera_rig("cityscapes"), 1024, 512, VanishingPoint{});

@@ -29,6 +29,7 @@
 #include "scene/runs_detail.h"
 #include "photosite/error.h"
 #include "photosite/night_chain.h"
+#include "photosite/scene/rig.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -1651,4 +1652,75 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
     }
   beam_max_isa(2);
   omp_set_num_threads(saved);
+}
+
+// The night chain images a day frame through its own camera's field angles: the optics (cos⁴
+// falloff, the glare's pixels per degree) use f = f_px · pixel pitch, with f_px the rig's focal
+// length in pixels at the frame's size (lens_for_frame), not the lens preset's nominal focal
+// length. On KITTI's rig (rectified fx 721.5377 px at 1242x375) and the Flea2's 4.65 µm pixels a
+// 414x125 frame (KITTI's resized by 1/3) has f_px = 721.5377/3 = 240.5 and f = f_px · 4.65 µm =
+// 1.118 mm: its corner is 41.9° off axis (cos⁴ 0.31), where the nominal 4 mm lens would make the
+// frame a narrow crop of the sensor (corner 14.1°, cos⁴ 0.89). prepare_night's mean signal is
+// mean_signal_electrons through the frame's lens, bit for bit, and the header records the focal
+// length used.
+TEST(SceneChain, OpticsUseTheFramesOwnFocalLength) {
+  SyntheticOptions so;
+  so.width = 414;
+  so.height = 125;
+  so.vp_x = 207;
+  so.vp_y = 47;
+  const auto road = make_synthetic_road(so);
+  ScenePreset sp = preset();
+  sp.rig = load_camera_rig("kitti");
+  SensorSetup setup;
+  setup.camera = load_camera_preset("sony-icx267-flea2");
+  setup.lens = load_lens_preset("kitti-edmund-4mm");
+  setup.settings.exposure_s = 0.02;
+  setup.device_id = "optics-focal-length";
+  test::TempDir dir;
+  const DeviceStore store(dir.file("store"));
+  SensorRunner cpu(Backend::Cpu);
+  ImageFileInfo info;
+  info.format = "exr";
+  info.width = so.width;
+  info.height = so.height;
+  info.channels = 3;
+  info.is_float = true;
+  const NightChain c = prepare_night(cpu, road.day_linear_srgb, info, road.labels, sp, setup, store);
+  const double f_px = 721.5377 * 414.0 / 1242.0;
+  EXPECT_NEAR(c.scene.geometry.f_px, f_px, 1e-9 * f_px);
+  const LensPreset lens = lens_for_frame(setup.lens, setup.camera, c.scene.geometry);
+  EXPECT_NEAR(lens.focal_length_mm, f_px * 4.65e-3, 1e-12);
+  EXPECT_EQ(lens.f_number, setup.lens.f_number);
+  EXPECT_EQ(lens.transmittance, setup.lens.transmittance);
+  const ImageF own = mean_signal_electrons(c.scene.radiance, setup.camera, lens, c.exposure);
+  ASSERT_TRUE(own.same_shape(c.mean_e.width(), c.mean_e.height()));
+  size_t differ = 0;
+  for (size_t i = 0; i < own.size(); ++i) differ += own[i] != c.mean_e[i];
+  EXPECT_EQ(differ, 0u);
+  // Uniform radiance shows the falloff alone: the corner over the centre is cos⁴θ of the corner's
+  // angle, tan θ = r·pitch/f (the glare off: it moves light between them).
+  LensPreset flat_lens = lens, nominal = setup.lens;
+  flat_lens.glare = LensGlare{};
+  nominal.glare = LensGlare{};
+  ImageF uniform(so.width, so.height, 3);
+  for (size_t i = 0; i < uniform.size(); ++i) uniform[i] = 0.01f;
+  const ImageF a = mean_signal_electrons(uniform, setup.camera, flat_lens, c.exposure);
+  const ImageF b = mean_signal_electrons(uniform, setup.camera, nominal, c.exposure);
+  auto cos4 = [&](double f_mm, double x, double y) {
+    const double rx = (x - 0.5 * (so.width - 1)) * 4.65e-3, ry = (y - 0.5 * (so.height - 1)) * 4.65e-3;
+    const double t2 = (rx * rx + ry * ry) / (f_mm * f_mm);
+    return 1.0 / ((1 + t2) * (1 + t2));
+  };
+  const int cx = so.width / 2 & ~1, cy = so.height / 2 & ~1;  // even, as the corner (0, 0): one CFA colour
+  const double ra = a.at(0, 0) / a.at(cx, cy), rb = b.at(0, 0) / b.at(cx, cy);
+  const double ea = cos4(lens.focal_length_mm, 0, 0) / cos4(lens.focal_length_mm, cx, cy);
+  const double eb = cos4(4.0, 0, 0) / cos4(4.0, cx, cy);
+  // float electrons: relative rounding 2^-24 each, so 1e-6 is a wide bound.
+  EXPECT_NEAR(ra, ea, 1e-6);
+  EXPECT_NEAR(rb, eb, 1e-6);
+  EXPECT_LT(ra, rb - 0.05);
+  const auto attrs = night_attributes(setup, c.exposure, c.fpn, sp, c.scene, road.labels, {"day.png", "labels.png", ""});
+  ASSERT_TRUE(attrs.count("photosite/night/optics_focal_length_mm"));
+  EXPECT_NEAR(std::get<double>(attrs.at("photosite/night/optics_focal_length_mm")), f_px * 4.65e-3, 1e-12);
 }

@@ -94,7 +94,10 @@ void run(const Opts& o) {
   scene::ScenePreset sp = scene::load_scene_preset("night-urban");
   sp.rig = scene::rig_for_image(day.width(), day.height());  // as `night --rig auto` (read once, outside the timing)
   const CameraPreset cam = load_camera_preset(o.preset);
-  LensPreset lens = load_lens_preset(cam.default_lens);
+  // The lens as the chain images this frame through it (lens_for_frame: the rig's focal length in
+  // pixels at this size; the vanishing point moves only the horizon, not f_px).
+  LensPreset lens = lens_for_frame(load_lens_preset(cam.default_lens), cam,
+                                   scene::camera_geometry(sp.rig, day.width(), day.height(), scene::VanishingPoint{}));
   if (o.no_glare) lens.glare = LensGlare{};
   ExposureSettings es;
   const ResolvedExposure ex = resolve(cam, lens, es);

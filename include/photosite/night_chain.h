@@ -57,6 +57,14 @@ scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear
                                   const SensorSetup& setup, scene::SequenceState* sequence = nullptr,
                                   const scene::TextureSums* sums = nullptr);
 
+// The lens as a day frame is imaged through it: the frame's field angles are those of the camera
+// that took it, whose focal length in pixels at this image size the rig gives (g.f_px), so the
+// optics' cos⁴ falloff and the glare's pixels per degree use f = f_px · pixel pitch in place of
+// the lens preset's nominal focal length (KITTI's rectified frames: 721.5 px · 4.65 µm = 3.36 mm
+// against the nominal 4 mm lens; Cityscapes: 2262.5 px · 2.2 µm = 4.98 mm, the preset's own).
+// Everything else (f-number, transmittance, glare shape) is the preset's.
+LensPreset lens_for_frame(const LensPreset& lens, const CameraPreset& camera, const scene::CameraGeometry& g);
+
 // A plain 8-bit RGB PNG's codes with its file info (the info read_image() gives), else nothing
 // (any other file: read_image() then).
 std::optional<ImageU8> read_image_codes8(const std::string& path, ImageFileInfo* info);

@@ -50,6 +50,9 @@ struct LabelMap {
   ImageU16 ids;             // labelIds 0..33, one channel
   LabelFormat format = LabelFormat::LabelIds;  // what the file held
   ImageU16 instances;       // Cityscapes instance code class*1000+n (>= 1000), 0: none; empty without a file
+  // Set when the format was detected and the file fits another reading too (values 0..18 only:
+  // trainIds or labelIds); the console prints it.
+  std::string note;
 };
 
 // Interprets raw codes (1 channel: ids; 3 channels: palette) in `format` (Auto: detect). An

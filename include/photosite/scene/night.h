@@ -148,6 +148,10 @@ struct CameraGeometry {
   double horizon_y = 0;
   std::string horizon_source = "rig";  // "vanishing_point" or "rig"
   double horizon_confidence = 0;        // the VP's confidence, or 0 for the rig's nominal pitch
+  // Why the geometry may not be this camera's, in words ("" when nothing was found): a frame of
+  // no rig's aspect ratio taken as a crop, a confident vanishing point the pitch gate refused,
+  // a horizon below the frame. The console prints it; the EXR header keeps it.
+  std::string note;
   // Ground point of a pixel (Y = 0): false above the horizon. Flat-ground model:
   //   z = f·h / ((v − y_h)·cos θ).
   bool ground_point(double u, double v, double* X, double* D, double* z) const;
