@@ -6,6 +6,8 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 
@@ -22,29 +24,69 @@ namespace photosite::cli {
 namespace fs = std::filesystem;
 
 namespace {
+// SIGINT, SIGTERM and SIGHUP stop the run after the items in progress (batch::Options::stop);
+// g_signal keeps which one came, for the exit status 128 + signal (the shell's convention).
 std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
+std::atomic<int> g_signal{0};
+static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free);  // signal-safe
+void on_signal(int sig) {
+  g_signal = sig;
+  g_stop = true;
+}
+
+// The sensor settings' checks (photosite::resolve) name the quantity ("exposure time -1 s is
+// impossible"); the command line's contract is a message naming the option.
+SensorOptions::Resolved resolve_naming_options(const SensorOptions& sensor) {
+  try {
+    return sensor.resolve();
+  } catch (const ParameterError&) {
+    throw;
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    for (const auto& [quantity, flag] : {std::pair{"exposure time ", "--exposure-s"}, std::pair{"f-number ", "--f-number"},
+                                         std::pair{"gain ", "--gain-db"}, std::pair{"sensor temperature ", "--temperature-c"}}) {
+      const size_t n = std::char_traits<char>::length(quantity);
+      // "<quantity> <value> ...", the value a number, inf or nan (not a preset file's name)
+      if (m.rfind(quantity, 0) == 0 && m.size() > n && std::strchr("-0123456789in", m[n]))
+        fail(std::string(flag) + ": " + m);
+    }
+    throw;
+  }
+}
+
+// An absolute, lexically normal path without a trailing separator ("cs/" and "./cs" are "cs"),
+// as the manifest records the source.
+std::string normal_absolute(const std::string& path) {
+  fs::path p = fs::absolute(path).lexically_normal();
+  if (!p.has_filename() && p != p.root_path()) p = p.parent_path();
+  return p.string();
+}
 
 struct BatchCmd {
   std::string dataset, root, manifest, shard = "0/1", scene_preset = "night-urban";
   std::string rig = "auto";  // auto: the data set's rig (kitti, cityscapes), else by aspect ratio
-  std::string layers;  // empty: kBatchLayers
+  std::string layers;  // not given: kBatchLayers
+  CLI::Option* layers_option = nullptr;
   bool quiet = false;
   batch::Options options;
   SensorOptions sensor;
   std::string backend = "auto";
 };
 
-void run(BatchCmd& c) {
+// The run; its exit status when that is not 0 or 2 (bad input is thrown as Error): 128 + the
+// signal when one stopped the run before every item of the shard was written.
+int run(BatchCmd& c) {
   batch::Options& o = c.options;
   const bool rig_given = c.rig != "auto";
   if (c.dataset.empty() == c.manifest.empty()) fail("batch: give either --dataset with --root, or --manifest");
   if (!c.dataset.empty() && c.root.empty()) fail("batch: --dataset needs --root");
   if (o.format != "exr" && o.format != "png" && o.format != "both") fail("--format must be exr, png or both");
-  o.layers = c.layers.empty() ? kBatchLayers : parse_layers(c.layers, kNightLayers, "--layers", "batch");
+  // Given, even as '' (parse_layers refuses a list naming no layer); not given: the default set.
+  const bool layers_given = c.layers_option && c.layers_option->count() > 0;
+  o.layers = layers_given ? parse_layers(c.layers, kNightLayers, "--layers", "batch") : kBatchLayers;
   // The PNG route writes the sensor preview and copies the labels: another layer would be
   // silently left out, so it is bad input there.
-  if (o.format == "png" && !c.layers.empty()) {
+  if (o.format == "png" && layers_given) {
     const LayerSet png = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
     parse_layers(c.layers, png, "--layers", "batch --format png");
     if (!has(o.layers, Layer::Sensor))
@@ -56,17 +98,17 @@ void run(BatchCmd& c) {
   std::vector<batch::Item> items;
   if (!c.manifest.empty()) {
     items = batch::read_manifest(c.manifest);
-    o.source = "manifest " + fs::absolute(c.manifest).lexically_normal().string();
+    o.source = "manifest " + normal_absolute(c.manifest);
   } else {
     const auto ds = batch::parse_dataset(c.dataset);
-    items = batch::discover(ds, c.root);
-    o.source = std::string(batch::to_string(ds)) + " " + fs::absolute(c.root).lexically_normal().string();
+    items = batch::discover(ds, c.root, o.out);
+    o.source = std::string(batch::to_string(ds)) + " " + normal_absolute(c.root);
     o.root = c.root;
     if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(ds).camera;
     if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;  // where an item has no camera file
   }
   if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
-  auto r = c.sensor.resolve();
+  auto r = resolve_naming_options(c.sensor);
   o.sensor = r;
   o.device_store = r.store.dir();
   o.scene = scene::load_scene_preset(c.scene_preset);
@@ -74,8 +116,7 @@ void run(BatchCmd& c) {
   o.item_cameras = !rig_given;  // an explicit --rig wins over Cityscapes' per-image camera files
   SensorRunner runner(resolve_backend(c.backend));
 
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_signal);
   o.stop = &g_stop;
   const bool tty = !c.quiet && isatty(2);
   bool started = false;
@@ -98,16 +139,28 @@ void run(BatchCmd& c) {
   };
   const batch::Result res = batch::run(items, o, runner, progress);
   const auto& p = res.progress;
+  // Stopped by a signal with items of the shard not yet tried: 128 + the signal, so a scheduler
+  // tells an interruption (run it again) from bad input or failed items (2). A signal that came
+  // after the last item was done changes nothing.
+  const bool interrupted = (res.interrupted || g_stop) && p.already_done + p.written + p.failed < p.items;
   if (tty) std::fprintf(stderr, "\n");
   if (!c.quiet)
     std::fprintf(stderr, "batch: wrote %zu items in %.1f s (%.2f s per item)%s\n", p.written, p.elapsed_s,
-                 p.written ? p.elapsed_s / p.written : 0.0, res.interrupted || g_stop ? ", interrupted" : "");
-  if (!res.errors.empty()) {
-    for (const auto& e : res.errors) std::fprintf(stderr, "photosite: error: %s\n", e.c_str());
-    fail(fmt::format("batch: {} of {} items failed (the others are written; re-run to retry)", res.errors.size(),
-                     p.to_do));
+                 p.written ? p.elapsed_s / p.written : 0.0, interrupted ? ", interrupted" : "");
+  for (const auto& e : res.errors) std::fprintf(stderr, "photosite: error: %s\n", e.c_str());
+  const std::string failed =
+      res.errors.empty() ? std::string()
+                         : fmt::format("batch: {} of {} items failed ({}; re-run to retry)", res.errors.size(), p.to_do,
+                                       p.written ? "the others are written" : "none was written");
+  if (interrupted) {
+    if (!failed.empty()) std::fprintf(stderr, "photosite: error: %s\n", failed.c_str());
+    const int sig = g_signal.load();
+    std::fprintf(stderr, "photosite: batch: interrupted by signal %d with %zu of %zu items not written; re-run the same "
+                 "command to finish\n", sig, p.items - p.already_done - p.written, p.items);
+    return 128 + sig;
   }
-  if (res.interrupted || g_stop) throw Error("batch: interrupted; re-run the same command to finish", Error::Kind::BadInput);
+  if (!failed.empty()) fail(failed);
+  return 0;
 }
 }  // namespace
 
@@ -121,7 +174,7 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_option("--out", o.out, "output folder (mirrors the data set's layout)")->required();
   sub->add_option("--shard", c->shard, "I/N: process the I-th of N deterministic shards")->capture_default_str();
   sub->add_option("--format", o.format, "exr, png (8-bit sRGB preview) or both")->capture_default_str();
-  sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: sensor,raw,electrons,depth,labels)");
+  c->layers_option = sub->add_option("--layers", c->layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: sensor,raw,electrons,depth,labels)");
   sub->add_flag("--half", o.half, "store the float EXR layers as half floats");
   sub->add_option("--compression", o.compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();
   sub->add_option("--jobs", o.jobs, "writer threads (--format png or a GPU backend; otherwise each worker writes its images)")->capture_default_str();
@@ -138,7 +191,13 @@ static Registrar reg("f-batch", [](CLI::App& app) {
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false, SensorOptions::kAllExtras & ~SensorOptions::kFrames);  // frames come from the data set
   add_backend_option(sub, c->backend);
-  sub->callback([c] { run(*c); });
+  sub->callback([c] {
+    // The runner and the engine are gone when run returns; only the status is left to give.
+    if (const int status = run(*c); status != 0) {
+      std::fflush(nullptr);
+      std::exit(status);
+    }
+  });
 });
 
 }  // namespace photosite::cli

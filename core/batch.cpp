@@ -80,13 +80,32 @@ void number_frames(std::vector<Item>& items, const std::map<std::string, long>& 
   }
 }
 
-std::vector<fs::path> files_under(const fs::path& dir, const std::vector<std::string>& exts) {
+// Files under dir with one of the extensions (any case), sorted. Folder links are followed: data
+// sets on other volumes are usually linked in, and skipping them lost their images silently.
+// A cycle is not: a folder is not entered when it is (canonically) one of the folders the walk
+// is already inside. Nor is `exclude` (the canonical output folder, when it lies in the data
+// set: its previews would be found as day images).
+std::vector<fs::path> files_under(const fs::path& dir, const std::vector<std::string>& exts,
+                                  const fs::path& exclude) {
   std::vector<fs::path> out;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return out;
-  for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::skip_permission_denied, ec);
-       it != fs::recursive_directory_iterator(); it.increment(ec)) {
+  std::vector<fs::path> inside{fs::canonical(dir, ec)};  // [d]: the folder of the entries at depth d
+  if (!exclude.empty() && inside[0] == exclude)
+    fail_at(exclude.string(), "the output folder is the data set's own image folder; choose another --out");
+  constexpr auto options = fs::directory_options::skip_permission_denied | fs::directory_options::follow_directory_symlink;
+  for (auto it = fs::recursive_directory_iterator(dir, options, ec); it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
     if (ec) break;
+    if (std::error_code dec; it->is_directory(dec)) {
+      const fs::path c = fs::canonical(it->path(), dec);
+      inside.resize(static_cast<size_t>(it.depth()) + 1);
+      if (dec || c == exclude || std::find(inside.begin(), inside.end(), c) != inside.end())
+        it.disable_recursion_pending();
+      else
+        inside.push_back(c);
+      continue;
+    }
     if (!it->is_regular_file()) continue;
     const std::string e = lower_extension(it->path().string());
     if (std::find(exts.begin(), exts.end(), e) != exts.end()) out.push_back(it->path());
@@ -102,18 +121,22 @@ void require_labels(const Item& it) {
 }
 }  // namespace
 
-std::vector<Item> discover(Dataset d, const std::string& root_s) {
+std::vector<Item> discover(Dataset d, const std::string& root_s, const std::string& out) {
   const fs::path root(root_s);
   std::error_code ec;
   if (!fs::is_directory(root, ec)) fail_at(root_s, "data set root is not a folder");
+  // Canonical as files_under compares; weakly, as the output folder may not exist yet (another
+  // shard may create it and write into it while this one walks).
+  const fs::path exclude = out.empty() ? fs::path() : fs::weakly_canonical(fs::absolute(out), ec);
   std::vector<Item> items;
   std::map<std::string, long> order;
   if (d == Dataset::Cityscapes) {
     // <root>/leftImg8bit[_sequence]/<split>/<city>/<city>_<seq>_<frame>_leftImg8bit.png and
     // <root>/gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_labelIds.png (+ _instanceIds).
-    static const std::regex name_re(R"((.*)_(\d{6})_(\d{6})_leftImg8bit\.png)");
+    // ".png" in any case, as files_under matches it (a "_leftImg8bit.PNG" was skipped silently).
+    static const std::regex name_re(R"((.*)_(\d{6})_(\d{6})_leftImg8bit\.[pP][nN][gG])");
     for (const char* top : {"leftImg8bit", "leftImg8bit_sequence"})
-      for (const auto& p : files_under(root / top, {".png"})) {
+      for (const auto& p : files_under(root / top, {".png"}, exclude)) {
         std::smatch m;
         const std::string name = p.filename().string();
         if (!std::regex_match(name, m, name_re)) continue;
@@ -139,7 +162,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
   } else if (d == Dataset::Kitti) {
     // <root>/image_2/<name>.png with <root>/semantic/<name>.png (+ instance/<name>.png). Purely
     // numbered files (0000000123.png) in a folder form one sequence.
-    for (const auto& p : files_under(root / "image_2", {".png"})) {
+    for (const auto& p : files_under(root / "image_2", {".png"}, exclude)) {
       const fs::path sub = lexical_relative(p, root / "image_2");
       Item it;
       it.image = p.string();
@@ -160,7 +183,7 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
   } else {
     // BDD100K: <root>/images/10k/<split>/<name>.jpg with <root>/labels/sem_seg/masks/<split>/<name>.png
     // (trainIds).
-    for (const auto& p : files_under(root / "images" / "10k", {".jpg", ".jpeg", ".png"})) {
+    for (const auto& p : files_under(root / "images" / "10k", {".jpg", ".jpeg", ".png"}, exclude)) {
       const fs::path sub = lexical_relative(p, root / "images" / "10k");
       Item it;
       it.image = p.string();
@@ -176,12 +199,14 @@ std::vector<Item> discover(Dataset d, const std::string& root_s) {
     }
   }
   if (items.empty())
-    fail_at(root_s, std::string("no ") + to_string(d) + " images found in the data set's layout (see docs/scale.md)");
+    fail_at(root_s, std::string("no ") + to_string(d) + " images found in the data set's layout (see docs/cli.md, batch)");
   number_frames(items, order);
   return items;
 }
 
 std::vector<Item> read_manifest(const std::string& manifest) {
+  std::error_code dir_ec;
+  if (fs::is_directory(manifest, dir_ec)) fail_at(manifest, "is a folder, not a manifest file");
   std::ifstream f(manifest);
   if (!f) fail_at(manifest, "cannot read the manifest");
   const fs::path base = fs::path(manifest).parent_path();
@@ -202,6 +227,8 @@ std::vector<Item> read_manifest(const std::string& manifest) {
   };
   while (std::getline(f, line)) {
     ++lineno;
+    // A byte-order mark (editors on Windows save one) is not part of the first path.
+    if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
     std::replace(line.begin(), line.end(), ',', ' ');
     std::istringstream ss(line);
@@ -228,6 +255,7 @@ std::vector<Item> read_manifest(const std::string& manifest) {
                                           : ": " + it.image + " and " + k->second.second + " (line " +
                                                 std::to_string(k->second.first) + ") would both write " + it.key + ".*"));
     it.group = it.key;
+    it.origin = where(manifest, lineno);
     order[it.key] = lineno;
     items.push_back(std::move(it));
   }
@@ -254,6 +282,13 @@ std::string upgrade_params(const std::string& params_json) {
   if (!j.is_object()) return params_json;
   if (j.contains("f_number") && j["f_number"] == -1.0) j["f_number"] = nullptr;
   if (j.contains("temperature_c") && j["temperature_c"] == -999.0) j["temperature_c"] = nullptr;
+  if (j.contains("source") && j["source"].is_string()) {
+    std::string src = j["source"].get<std::string>();  // "<kind> <absolute path>"
+    while (src.size() > 1 && src.back() == '/' && src[src.size() - 2] != ' ') src.pop_back();
+    j["source"] = src;
+  }
+  if (j.contains("format") && j["format"] == "png")
+    j["layers"] = layers_text(static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels));
   return j.dump();
 }
 

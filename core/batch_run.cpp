@@ -6,11 +6,13 @@
 // and renamed; a small per-shard manifest (out/.photosite-batch/) records each finished item with
 // its files' checksums and the run's parameters, so a re-run skips finished items and refuses to
 // mix results of other parameters.
+#include <fcntl.h>
 #include <signal.h>
 #include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstring>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -35,6 +37,7 @@
 #include "photosite/batch.h"
 #include "photosite/checksum.h"
 #include "photosite/error.h"
+#include "photosite/io.h"
 #include "photosite/night_chain.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
@@ -122,17 +125,115 @@ std::string read_text(const std::string& p) {
   return ss.str();
 }
 
-// Removes temporaries left by a killed run (".<name>.tmp-<pid>-<n>.<ext>" whose pid is gone).
+// Removes temporaries left by a killed run: files of exactly io.cpp's temporary pattern, of this
+// machine's pid space, whose process is gone (is_stale_temporary). A shared --out holds other
+// machines' temporaries, being written while this one starts (their pids mean nothing here),
+// and perhaps the user's own files: neither is touched.
 void remove_stale_temporaries(const fs::path& out) {
   std::error_code ec;
-  for (auto it = fs::recursive_directory_iterator(out, ec); it != fs::recursive_directory_iterator(); it.increment(ec)) {
+  for (auto it = fs::recursive_directory_iterator(out, fs::directory_options::skip_permission_denied, ec);
+       it != fs::recursive_directory_iterator(); it.increment(ec)) {
     if (ec) break;
-    const std::string n = it->path().filename().string();
-    const auto t = n.find(".tmp-");
-    if (n.empty() || n[0] != '.' || t == std::string::npos) continue;
-    const int pid = std::atoi(n.c_str() + t + 5);
-    if (pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH)) continue;  // still running
-    fs::remove(it->path(), ec);
+    std::error_code fec;
+    if (!it->is_regular_file(fec) || it->is_symlink(fec)) continue;
+    if (is_stale_temporary(it->path().filename().string())) fs::remove(it->path(), fec);
+  }
+}
+
+// The resume manifest of this shard, appended to one record (one line) at a time. Every write is
+// checked: a record that cannot be written (disk full, quota, a file-size limit, a network file
+// system's error) fails its item, naming the file, instead of a run that reports success while
+// its results are unrecorded (a re-run then refused them as someone else's). After one failure
+// every later record fails too: a line cut short must not be followed by the next.
+class Journal {
+ public:
+  explicit Journal(std::string path) : path_(std::move(path)) {
+    fd_ = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0666);
+    if (fd_ < 0) fail_at(path_, std::string("cannot write the batch manifest: ") + std::strerror(errno));
+  }
+  ~Journal() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Journal(const Journal&) = delete;
+  Journal& operator=(const Journal&) = delete;
+  // Appends text (whole lines); Error naming the file when it cannot.
+  void append(const std::string& text) {
+    if (failed_) fail_at(path_, "cannot write the batch manifest (an earlier record failed: " + failure_ + ")");
+    for (size_t done = 0; done < text.size();) {
+      const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        failed_ = true;
+        failure_ = n < 0 ? std::strerror(errno) : "nothing written";
+        fail_at(path_, "cannot write the batch manifest: " + failure_);
+      }
+      done += static_cast<size_t>(n);
+    }
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  bool failed_ = false;
+  std::string failure_;
+};
+
+// "seed: 0 in the folder, 1 now": the first parameter (in name order) that differs between a
+// manifest's record and this run's, so a refused user knows what to change back.
+std::string first_difference(const nlohmann::json& was, const nlohmann::json& now) {
+  std::set<std::string> names;
+  for (const auto* j : {&was, &now})
+    if (j->is_object())
+      for (const auto& [k, v] : j->items()) names.insert(k);
+  auto value = [](const nlohmann::json& j, const std::string& k) {
+    return j.is_object() && j.contains(k) ? j[k].dump() : std::string("not set");
+  };
+  for (const auto& k : names)
+    if (value(was, k) != value(now, k)) return k + ": " + value(was, k) + " in the folder, " + value(now, k) + " now";
+  return "";
+}
+
+// A finished record as this engine writes it: {"key": "...", "files": [{"path": "...", ...}]}.
+// Anything else (a line of another tool, a damaged one that still parses) is not trusted.
+bool is_finished_record(const nlohmann::json& j) {
+  if (!j.is_object() || !j.contains("key") || !j["key"].is_string() || !j.contains("files") || !j["files"].is_array())
+    return false;
+  return std::all_of(j["files"].begin(), j["files"].end(),
+                     [](const nlohmann::json& f) { return f.is_object() && f.contains("path") && f["path"].is_string(); });
+}
+
+// Every output path of the run comes from one input. Two different inputs written to one path
+// (a manifest's "x/lab.png" and "../x/lab.png" both mirror to labels/x/lab.png; a preview and a
+// label copy of one name) left one item beside another's file, and a re-run that never
+// finished. Checked among all items, not only the shard's, so every shard refuses alike. The
+// same input copied to one path twice (two images sharing one label file) is one file.
+void check_outputs_unique(const std::vector<Item>& all, const std::string& format) {
+  struct Source {
+    std::string what, input;
+    const Item* item;
+  };
+  auto describe = [](const Source& s) {
+    return s.what + " " + s.input + (s.item->origin.empty() ? std::string() : " (" + s.item->origin + ")");
+  };
+  std::map<std::string, Source> by_path;
+  for (const Item& it : all) {
+    const std::vector<std::string> paths = output_paths(it, format);
+    for (size_t k = 0; k < paths.size(); ++k) {
+      // output_paths' order: the night images first, then the label copies.
+      const bool labels_copy = paths[k] == it.labels_rel || paths[k] == it.instances_rel;
+      Source src = labels_copy ? Source{paths[k] == it.labels_rel ? "labels" : "instances",
+                                        paths[k] == it.labels_rel ? it.labels : it.instances, &it}
+                               : Source{"the night frame of", it.image, &it};
+      const auto [at, fresh] = by_path.emplace(paths[k], src);
+      if (fresh || at->second.item == &it) continue;
+      std::error_code ec;
+      const Source& first = at->second;
+      const bool same_input = labels_copy && first.what != "the night frame of" &&
+                              (first.input == src.input || fs::equivalent(first.input, src.input, ec));
+      if (!same_input)
+        fail(describe(src) + " and " + describe(first) + " would both be written to " + paths[k] +
+             " under --out; photosite never writes two files to one name");
+    }
   }
 }
 
@@ -146,6 +247,15 @@ struct OmpThreads {
 };
 }  // namespace
 
+std::vector<std::string> output_paths(const Item& it, const std::string& format) {
+  std::vector<std::string> v;
+  if (format != "png") v.push_back(it.key + ".exr");
+  if (format != "exr") v.push_back(it.key + ".png");
+  if (!it.labels_rel.empty()) v.push_back(it.labels_rel);
+  if (!it.instances_rel.empty()) v.push_back(it.instances_rel);
+  return v;
+}
+
 Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner, const ProgressFn& progress) {
   // ---- options and parameters -------------------------------------------------------------
   if (o.format != "exr" && o.format != "png" && o.format != "both") fail("--format must be exr, png or both");
@@ -157,6 +267,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   if (o.shard_count < 1 || o.shard_index < 0 || o.shard_index >= o.shard_count)
     fail(fmt::format("--shard {}/{} must be I/N with 0 <= I < N", o.shard_index, o.shard_count));
   if (o.out.empty()) fail("batch: no output folder given");
+  check_outputs_unique(all, o.format);
   std::error_code ec;
   if (!o.root.empty() && fs::exists(o.out, ec) && fs::equivalent(o.out, o.root, ec))
     fail_at(o.out, "the output folder is the data set's own root; choose another --out");
@@ -188,6 +299,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"poisson", to_string(r.settings.poisson)},
       {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
   if (o.sequences) params["sequences"] = true;  // only when set: earlier manifests stay valid
+  // The PNG route writes the preview and the label copies whatever the set (as upgrade_params
+  // reads the records of earlier runs): `--format png` with or without `--layers sensor,labels`
+  // is one run.
+  if (o.format == "png")
+    params["layers"] = layers_text(static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels));
   const std::string params_text = params.dump();
 
   // ---- the resume manifest ------------------------------------------------------------------
@@ -195,11 +311,19 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   const fs::path mdir = out / ".photosite-batch";
   fs::create_directories(mdir, ec);
   remove_stale_temporaries(out);
+  const std::string mname = fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count);
+  const std::string mfile = (mdir / mname).string();
   std::map<std::string, nlohmann::json> done;  // key → record
   std::set<std::string> publishing;            // paths of "writing" records: being published at a kill
+  // This shard's manifest as found: whether it holds its parameter record yet (a kill or a full
+  // disk between creating it and writing the record leaves it empty, or holding a cut line), and
+  // whether it ends in a whole line (a record cut short by a power loss or a full disk).
+  bool own_has_params = false, own_ends_whole = true;
   for (const auto& e : fs::directory_iterator(mdir, ec)) {
     if (e.path().extension() != ".jsonl") continue;
-    std::ifstream f(e.path());
+    const std::string text = read_text(e.path().string());
+    if (e.path().filename() == mname) own_ends_whole = text.empty() || text.back() == '\n';
+    std::istringstream f(text);
     std::string line;
     bool first = true;
     while (std::getline(f, line)) {
@@ -207,14 +331,19 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       if (j.is_discarded()) continue;  // a line cut short by a kill
       if (first) {
         first = false;
-        if (!j.contains("params") || batch::upgrade_params(j["params"].dump()) != params_text)
-          fail_at(o.out, "was written by a batch run with other parameters (" + e.path().filename().string() +
+        if (!j.is_object() || !j.contains("params") || !j["params"].is_object())
+          fail_at(e.path().string(), "is a damaged batch manifest: its first readable line is not the run's "
+                                     "parameters, so which run wrote this folder is unknown; use a new --out");
+        if (const std::string was = batch::upgrade_params(j["params"].dump()); was != params_text)
+          fail_at(o.out, "was written by a batch run with other parameters (" + e.path().filename().string() + ": " +
+                             first_difference(nlohmann::json::parse(was), params) +
                              "); photosite does not mix results: use a new --out");
+        if (e.path().filename() == mname) own_has_params = true;
         continue;
       }
-      if (j.contains("key")) done[j["key"]] = j;
+      if (is_finished_record(j)) done[j["key"].get<std::string>()] = j;
       // An item whose files were being published when the run was killed: they are ours.
-      else if (j.contains("writing") && j.contains("paths"))
+      else if (j.is_object() && j.contains("writing") && j.contains("paths") && j["paths"].is_array())
         for (const auto& p : j["paths"])
           if (p.is_string()) publishing.insert(p.get<std::string>());
     }
@@ -228,9 +357,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   auto finished = [&](const Item& it) {
     auto d = done.find(it.key);
     if (d == done.end()) return false;
+    const auto now = camera_checksum(it);
     if (d->second.contains("camera_file_xxh3_64")) {
-      const auto now = camera_checksum(it);
-      if (!now || *now != d->second["camera_file_xxh3_64"].get<std::string>()) return false;
+      if (!now || d->second["camera_file_xxh3_64"] != *now) return false;
+    } else if (now) {
+      return false;  // finished without a camera file, and one exists now: made with another rig
     }
     for (const auto& f : d->second["files"]) {
       const fs::path p = out / f["path"].get<std::string>();
@@ -239,7 +370,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       const bool xxh3 = f.contains("xxh3_64");
       if (!xxh3 && !f.contains("fnv")) return false;
       const auto sum = file_checksum_hex(p.string(), xxh3 ? ChecksumAlgorithm::Xxh3_64 : ChecksumAlgorithm::Fnv1a_64);
-      if (!sum || *sum != f[xxh3 ? "xxh3_64" : "fnv"].get<std::string>()) return false;
+      if (!sum || f[xxh3 ? "xxh3_64" : "fnv"] != *sum) return false;
     }
     return true;
   };
@@ -253,16 +384,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   std::set<std::string> ours = publishing;
   for (const auto& [k, rec] : done)
     for (const auto& f : rec["files"]) ours.insert(f["path"].get<std::string>());
-  auto outputs_of = [&](const Item& it) {
-    std::vector<std::string> v;
-    if (o.format != "png") v.push_back(it.key + ".exr");
-    if (o.format != "exr") v.push_back(it.key + ".png");
-    if (!it.labels_rel.empty()) v.push_back(it.labels_rel);
-    if (!it.instances_rel.empty()) v.push_back(it.instances_rel);
-    return v;
-  };
   for (const auto& it : todo)
-    for (const auto& rel : outputs_of(it)) {
+    for (const auto& rel : output_paths(it, o.format)) {
       const fs::path p = out / rel;
       if (fs::exists(p, ec) && !ours.count(rel))
         fail_at(p.string(), "exists and was not written by this batch; photosite never overwrites other files");
@@ -271,11 +394,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           if (!in.empty() && fs::equivalent(p, in, ec)) fail_at(p.string(), "output would overwrite an input");
       }
     }
-  const std::string mfile = (mdir / fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count)).string();
-  const bool new_manifest = !fs::exists(mfile, ec);
-  std::ofstream mout(mfile, std::ios::app);
-  if (!mout) fail_at(mfile, "cannot write the batch manifest");
-  if (new_manifest) mout << nlohmann::json({{"params", params}}).dump() << "\n" << std::flush;
+  Journal journal(mfile);
+  // The next record starts on a line of its own (else it is glued to a cut one and lost with it),
+  // and a manifest without its parameter record gets one (else the first item's record is read
+  // as the parameters and the folder refused by every later run).
+  journal.append(std::string(own_ends_whole ? "" : "\n") +
+                 (own_has_params ? std::string() : nlohmann::json({{"params", params}}).dump() + "\n"));
 
   Result result;
   Progress& pr = result.progress;
@@ -313,6 +437,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
                         : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums);
     } catch (const Error& e) {
       l.error = e.what();
+    } catch (const std::exception& e) {  // no exception may leave a worker's thread (terminate)
+      l.error = it.image + ": " + e.what();
     }
     return l;
   };
@@ -365,7 +491,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
                         ns->glare_level1.get()));
       ns->glare_level1.reset();  // read by the glare above only (peak memory)
       auto labels = std::make_shared<scene::LabelMap>(std::move(l.labels));
-      const NightInputs in{it.image, it.labels, it.instances};
+      // The inputs as recorded in the header: lexically normal, so `--root ./cs` and `--root cs`
+      // write the same bytes (the manifest's source is normal too).
+      auto normal = [](const std::string& p) { return fs::path(p).lexically_normal().string(); };
+      const NightInputs in{normal(it.image), normal(it.labels), normal(it.instances)};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
       // three maps): only when an EXR is written.
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>();
@@ -394,7 +523,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
               if (e2) fail_at(p, "cannot copy labels: " + e2.message());
             });
           });
-    } catch (const Error& e) {
+    } catch (const std::exception& e) {  // Error, or anything else: no exception may leave a thread
       c.error = l.item.image + ": " + e.what();
     }
     return c;
@@ -411,11 +540,14 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         for (const auto& w : cmp.writes) paths.push_back(w.first);
         {
           std::lock_guard l(state_m);
-          mout << nlohmann::json({{"writing", cmp.item.key}, {"paths", paths}}).dump() << "\n" << std::flush;
+          journal.append(nlohmann::json({{"writing", cmp.item.key}, {"paths", paths}}).dump() + "\n");
         }
         for (auto& [relp, write_file] : cmp.writes) {
           const fs::path p = out / relp;
-          fs::create_directories(p.parent_path());
+          // Not the throwing overload: its exception left the worker's thread (terminate).
+          std::error_code dec;
+          fs::create_directories(p.parent_path(), dec);
+          if (dec) fail_at(p.parent_path().string(), "cannot create the folder: " + dec.message());
           write_file(p.string());
           const auto sum = file_checksum_hex(p.string(), ChecksumAlgorithm::Xxh3_64);
           if (!sum) fail_at(p.string(), "cannot read back the file just written (for its checksum)");
@@ -423,15 +555,21 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         }
       } catch (const Error& e) {
         error = e.what();
+      } catch (const std::exception& e) {  // no exception may leave a writer's thread (terminate)
+        error = cmp.item.image + ": " + e.what();
       }
     std::lock_guard l(state_m);
+    if (error.empty()) try {
+        nlohmann::json rec = {{"key", cmp.item.key}, {"files", files}};
+        if (cmp.camera_sum) rec["camera_file_xxh3_64"] = *cmp.camera_sum;
+        journal.append(rec.dump() + "\n");
+      } catch (const Error& e) {
+        error = e.what();  // published, unrecorded: its "writing" record has them redone
+      }
     if (!error.empty()) {
       result.errors.push_back(error);
       ++pr.failed;
     } else {
-      nlohmann::json rec = {{"key", cmp.item.key}, {"files", files}};
-      if (cmp.camera_sum) rec["camera_file_xxh3_64"] = *cmp.camera_sum;
-      mout << rec.dump() << "\n" << std::flush;
       ++pr.written;
     }
     report();

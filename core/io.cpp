@@ -12,6 +12,7 @@
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfThreading.h>
+#include <signal.h>
 #include <spng.h>
 #include <unistd.h>
 
@@ -24,7 +25,9 @@
 #include <cstring>
 #include <cctype>
 #include <optional>
+#include <regex>
 #include <filesystem>
+#include <fstream>
 #include <ctime>
 #include <thread>
 #include <fmt/format.h>
@@ -32,6 +35,7 @@
 
 #include "core/png_codec.h"
 #include "core/raster_codecs.h"
+#include "photosite/checksum.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/night_chain.h"
@@ -923,14 +927,18 @@ struct TemporarySlot {
   }
 };
 
-// Writes through a temporary beside the target ('.<stem>.tmp-<pid>-<n><ext>': hidden, its kind
-// still shown by its extension), then publishes it: rename (replacing) or link (never
-// replacing). The temporary is removed on every error, and by remove_partial_outputs.
+// Writes through a temporary beside the target ('.<stem>.tmp-<scope>-<pid>-<n><ext>':
+// hidden, its kind still shown by its extension, temporary_pid_scope() naming where its pid has
+// a meaning), then publishes it: rename (replacing) or link (never replacing). The temporary is
+// removed on every error, and by remove_partial_outputs.
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
                         bool replace) {
   static std::atomic<unsigned> counter{0};
   fs::path p(path);
-  std::string tmp = (p.parent_path() / ("." + p.stem().string() + fmt::format(".tmp-{}-{}", getpid(), counter++))).string() + p.extension().string();
+  std::string tmp = (p.parent_path() / ("." + p.stem().string() +
+                                        fmt::format(".tmp-{}-{}-{}", temporary_pid_scope(), getpid(), counter++)))
+                        .string() +
+                    p.extension().string();
   struct Remove {
     const std::string& tmp;
     ~Remove() {
@@ -951,6 +959,35 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
   fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
 }
 }  // namespace
+
+const std::string& temporary_pid_scope() {
+  // A pid names a process only on its own machine, during one boot, in its own pid namespace (a
+  // container, or `unshare --pid`): all three go into the hash, so a shared output folder tells
+  // the temporaries of this pid space from those of every other machine or container, even
+  // machines of one host name. (The boot id also keeps a pid of an earlier boot, reused by
+  // another process since, from being taken for that process.)
+  static const std::string scope = [] {
+    char host[256] = {};
+    if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+    std::string boot;
+    std::ifstream("/proc/sys/kernel/random/boot_id") >> boot;
+    std::error_code ec;
+    const std::string ns = fs::read_symlink("/proc/self/ns/pid", ec).string();  // "pid:[4026531836]"
+    const std::string id = std::string(host) + "\n" + boot + "\n" + ns;
+    return fmt::format("{:08x}", static_cast<uint32_t>(fnv1a_64(id.data(), id.size()) >> 32));
+  }();
+  return scope;
+}
+
+bool is_stale_temporary(const std::string& filename) {
+  // Exactly write_then_publish's pattern, so no file of anyone else's is taken for one.
+  static const std::regex pattern(R"(\..+\.tmp-([0-9a-f]{8})-([0-9]{1,9})-[0-9]{1,10}(\.[^.]*)?)");
+  std::smatch m;
+  if (!std::regex_match(filename, m, pattern) || m[1].str() != temporary_pid_scope()) return false;
+  const long pid = std::stol(m[2].str());
+  if (pid <= 0 || pid == getpid()) return false;  // our own: a write in progress
+  return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;  // EPERM: alive, someone else's
+}
 
 void remove_partial_outputs() noexcept {
   for (auto& t : g_temporaries)

@@ -361,7 +361,7 @@ std::vector<Row> rows() {
   // ---- batch --------------------------------------------------------------------------------
   t.push_back({"batch_missing_manifest", {}, kBatch + "--manifest '{in}/none.txt'", {"none.txt"}});
   t.push_back({"batch_manifest_missing_image", [](Ctx& c) { put(c.in("manifest.txt"), c.in("gone.png") + " " + c.in("labels.png") + "\n"); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt", "gone.png", "not found"}});
-  t.push_back({"batch_truncated_image", [](Ctx& c) { truncate_to(c.in("day.png"), 0.5); }, kBatch + "--manifest '{in}/manifest.txt'", {"day.png", "corrupt or truncated", "1 of 1 items failed"}});
+  t.push_back({"batch_truncated_image", [](Ctx& c) { truncate_to(c.in("day.png"), 0.5); }, kBatch + "--manifest '{in}/manifest.txt'", {"day.png", "corrupt or truncated", "1 of 1 items failed (none was written"}});
   t.push_back({"batch_wrong_size_labels", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(64, 32)); }, kBatch + "--manifest '{in}/manifest.txt'", {"labels.png", "64x32", "1 of 1 items failed"}});
   t.push_back({"batch_manifest_garbage", [](Ctx& c) { put(c.in("manifest.txt"), std::string("\0\1\2 x y z w v\n", 14)); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt"}});
   t.push_back({"batch_unknown_dataset", {}, kBatch + "--dataset mnist --root '{in}'", {"mnist"}});
@@ -397,6 +397,9 @@ std::vector<Row> rows() {
     put(c.in("m2.txt"), c.in("day.png") + " " + c.in("labels.png") + "\n" + c.in("day.png") + " " + c.in("labels.png") + "\n");
   }, kBatch + "--manifest '{in}/m2.txt'", {"m2.txt:2", "image listed twice (also on line 1)"}});
   // (before: "image listed twice: day.jpg" for an image listed once)
+  t.push_back({"batch_manifest_is_a_folder", {}, kBatch + "--manifest '{in}'", {"{in}: is a folder, not a manifest file"}});
+  t.push_back({"batch_manifest_layers_empty", {}, kBatch + "--manifest '{in}/manifest.txt' --layers ''", {"--layers", "no layer named"}});
+  t.push_back({"batch_negative_exposure", {}, kBatch + "--manifest '{in}/manifest.txt' --exposure-s -1", {"--exposure-s", "-1 s is impossible"}});
   t.push_back({"batch_two_images_one_output", [](Ctx& c) {
     fs::copy_file(c.in("day.png"), c.in("day.jpg"));
     put(c.in("m2.txt"), c.in("day.png") + " " + c.in("labels.png") + "\n" + c.in("day.jpg") + " " + c.in("labels.png") + "\n");
@@ -504,13 +507,19 @@ TEST(BadInput, TableCoversEverySubcommandTheBinaryHas) {
   }
 }
 
-// The same commands on the unbroken inputs succeed: each row fails for its own reason.
-TEST(BadInput, GoodInputControlsSucceed) {
-  test::TempDir tmp;
+// A context on tmp whose in/ holds the good inputs, with an empty out/.
+Ctx good_inputs_in(const test::TempDir& tmp) {
   Ctx c{tmp.path()};
   fs::create_directories(c.dir / "in");
   fs::create_directories(c.dir / "out");
   write_good_inputs(c);
+  return c;
+}
+
+// The same commands on the unbroken inputs succeed: each row fails for its own reason.
+TEST(BadInput, GoodInputControlsSucceed) {
+  test::TempDir tmp;
+  const Ctx c = good_inputs_in(tmp);
   write_camera(c, base_camera_toml());
   int n = 0;
   for (std::string args : std::vector<std::string>{
@@ -525,6 +534,34 @@ TEST(BadInput, GoodInputControlsSucceed) {
     EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
     if (args.rfind("batch", 0) != 0) EXPECT_TRUE(fs::exists(c.out(out))) << args;
   }
+}
+
+// A resume manifest that cannot grow (here `ulimit -f`; a full disk or a quota alike) fails the
+// items, naming the manifest, exit 2. Before, the run said "wrote 1 items" and exited 0 with its
+// outputs unrecorded, and the next run refused them as someone else's. The same command without
+// the limit then finishes the folder.
+TEST(BadInput, BatchManifestThatCannotGrowFailsTheItems) {
+  test::TempDir tmp;
+  const Ctx c = good_inputs_in(tmp);
+  const std::string args = expand(kBatch + "--manifest '{in}/manifest.txt'", c);
+  auto r = test::run_cli(args);
+  ASSERT_EQ(r.exit_code, 0) << r.output;  // into out/b: the reference, and the parameter record
+  fs::rename(c.out("b"), c.out("ref"));
+  const std::string manifest = c.out("b/.photosite-batch/shard-0-of-1.jsonl");
+  const std::string ref = slurp(c.out("ref/.photosite-batch/shard-0-of-1.jsonl"));
+  const std::string params = ref.substr(0, ref.find('\n') + 1);
+  ASSERT_NE(params.find("\"params\""), std::string::npos) << params;
+  // Blank lines up to 2 MiB less 50 bytes: under `ulimit -f 2048` (blocks of 512 or 1024 bytes,
+  // as the shell counts them) the item's first or second record cannot be written; its frames
+  // (tens of kB) can.
+  fs::create_directories(fs::path(manifest).parent_path());
+  put(manifest, params + std::string((2u << 20) - 50 - params.size(), '\n'));
+  r = run_with_prefix("ulimit -f 2048; ", args);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(manifest + ": cannot write the batch manifest: File too large"), std::string::npos) << r.output;
+  r = test::run_cli(args);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(slurp(c.out("b/day.exr")), slurp(c.out("ref/day.exr")));
 }
 
 // An interrupted run leaves no temporary behind (cli/main.cpp's SIGINT/SIGTERM/SIGHUP handler

@@ -435,8 +435,10 @@ TEST(Batch, LibraryResumesRefusesAndCleansUp) {
   EXPECT_GE(first.progress.written, 1u);
   EXPECT_LE(first.progress.written, 5u);
 
-  const fs::path dead = dir.path() / "out/image_2/.000005_10.tmp-999999999-0.exr";  // above pid_max
-  const fs::path live = dir.path() / fmt::format("out/image_2/.000004_10.tmp-{}-999999.exr", getpid());
+  const fs::path dead = dir.path() / fmt::format("out/image_2/.000005_10.tmp-{}-999999999-0.exr",
+                                                 temporary_pid_scope());  // above pid_max
+  const fs::path live =
+      dir.path() / fmt::format("out/image_2/.000004_10.tmp-{}-{}-999999.exr", temporary_pid_scope(), getpid());
   std::ofstream(dead) << "half-written";
   std::ofstream(live) << "being written";
   o.stop = nullptr;
@@ -694,4 +696,358 @@ TEST(Batch, DatasetCamerasAreBundledPresets) {
   }
   EXPECT_STREQ(batch::dataset_camera(batch::Dataset::Kitti).camera, "sony-icx267-flea2");
   EXPECT_STREQ(batch::dataset_camera(batch::Dataset::Cityscapes).rig, "cityscapes");
+}
+
+// ---- the exploratory test's findings (docs/robustness.md) -------------------------------------
+namespace {
+// A small Cityscapes layout: each frame "SPLIT/CITY/CITY_SEQ_FRAME" gets the KITTI generator's
+// image and labels as leftImg8bit/...png and gtFine/..._gtFine_labelIds.png.
+void make_cityscapes(const fs::path& root, const std::vector<std::string>& frames) {
+  const fs::path src = root.parent_path() / (root.filename().string() + "_src");
+  make_kitti(src, static_cast<int>(frames.size()), 0);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const fs::path f(frames[i]);
+    fs::create_directories(root / "leftImg8bit" / f.parent_path());
+    fs::create_directories(root / "gtFine" / f.parent_path());
+    const std::string k = fmt::format("{:06d}_10.png", i);
+    fs::copy_file(src / "image_2" / k, root / "leftImg8bit" / (frames[i] + "_leftImg8bit.png"));
+    fs::copy_file(src / "semantic" / k, root / "gtFine" / (frames[i] + "_gtFine_labelIds.png"));
+  }
+}
+std::string slurp_text(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(f)), {});
+}
+std::vector<std::string> lines_of(const fs::path& p) {
+  std::vector<std::string> v;
+  std::ifstream f(p);
+  for (std::string line; std::getline(f, line);) v.push_back(line);
+  return v;
+}
+}  // namespace
+
+// Temporaries are named after this machine's pid space ('.name.tmp-<scope>-<pid>-<n>.ext'), and
+// the start-up sweep removes only those of exactly that pattern, of this scope, whose process is
+// gone. Before, it removed any dot-file with ".tmp-" whose pid did not run here: another
+// machine's temporaries being written into a shared --out (its rename then failed) and user files.
+TEST(Batch, SweepRemovesOnlyThisPidSpacesDeadTemporaries) {
+  const std::string scope = temporary_pid_scope();
+  ASSERT_EQ(scope.size(), 8u);
+  EXPECT_EQ(scope.find_first_not_of("0123456789abcdef"), std::string::npos) << scope;
+  test::TempDir dir;
+  // The name atomic_write gives its temporary carries the scope and this pid.
+  std::string seen;
+  atomic_write(dir.file("x.exr"), [&](const std::string& tmp) {
+    seen = fs::path(tmp).filename().string();
+    std::ofstream(tmp) << "x";
+  });
+  EXPECT_EQ(seen.rfind(fmt::format(".x.tmp-{}-{}-", scope, getpid()), 0), 0u) << seen;
+  EXPECT_EQ(fs::path(seen).extension(), ".exr");
+
+  make_kitti(dir.path() / "kitti", 1, 0);
+  const std::string root = dir.file("kitti");
+  const auto items = batch::discover(batch::Dataset::Kitti, root);
+  const std::string other = scope == "00000000" ? "00000001" : "00000000";  // another machine's
+  fs::create_directories(dir.path() / "out/image_2");
+  fs::create_directories(dir.path() / "out/mydocs");
+  const std::vector<std::string> kept = {
+      fmt::format("out/image_2/.000000_10.tmp-{}-999999999-0.exr", other),  // another machine's, its pid unknown here
+      fmt::format("out/image_2/.000000_10.tmp-{}-{}-7.exr", scope, getpid()),  // alive
+      "out/mydocs/.report.tmp-draft.txt",  // the user's: not the pattern
+      "out/mydocs/.cache.tmp-99999-0.bin",  // the pattern before scopes: not ours to judge
+      fmt::format("out/mydocs/notes.tmp-{}-999999999-0.txt", scope),  // no leading dot
+  };
+  const std::string dead = fmt::format("out/image_2/.000000_10.tmp-{}-999999999-3.exr", scope);  // above pid_max
+  for (const auto& f : kept) std::ofstream(dir.file(f)) << "keep";
+  std::ofstream(dir.file(dead)) << "half-written";
+  EXPECT_TRUE(is_stale_temporary(fs::path(dead).filename().string()));
+  for (const auto& f : kept) EXPECT_FALSE(is_stale_temporary(fs::path(f).filename().string())) << f;
+  SensorRunner cpu(Backend::Cpu);
+  auto o = kitti_options(dir, root, dir.file("out"));
+  o.format = "exr";
+  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
+  EXPECT_FALSE(fs::exists(dir.file(dead)));
+  for (const auto& f : kept) EXPECT_EQ(slurp_text(dir.file(f)), "keep") << f;
+}
+
+// The start of a resume manifest is repaired, not trusted blindly: an empty one (a kill between
+// creating it and writing its first record) gets its parameter record; one whose last line was
+// cut short gets a newline before the next record. One whose first readable line is not the
+// parameters is a damaged manifest, named as such (was: "other parameters", and an empty one
+// made every later run refuse the folder).
+TEST(Batch, ManifestStartIsRepairedOrReportedDamaged) {
+  test::TempDir dir;
+  SensorRunner cpu(Backend::Cpu);
+  const FinishedRun run = finished_two_items(dir, cpu);
+  const auto& [items, o, out, manifest, lines] = run;
+  ASSERT_EQ(lines.size(), 5u);
+
+  // Empty: the run writes the parameters first; the next run resumes.
+  fs::remove_all(dir.path() / "out");
+  fs::create_directories(manifest.parent_path());
+  std::ofstream(manifest).close();
+  ASSERT_TRUE(batch::run(items, o, cpu).errors.empty());
+  EXPECT_EQ(lines_of(manifest).at(0), lines[0]);
+  auto again = batch::run(items, o, cpu);
+  EXPECT_EQ(again.progress.already_done, 2u);
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+
+  // The last record cut in half, and one output gone: the redone item's records start on a line
+  // of their own, so they parse, and the next run finds every item finished.
+  const nlohmann::json cut = nlohmann::json::parse(lines_of(manifest).back());  // a finished record
+  ASSERT_TRUE(cut.contains("key")) << cut;
+  {
+    const std::string text = slurp_text(manifest);
+    ASSERT_EQ(text.back(), '\n');
+    std::ofstream(manifest, std::ios::binary | std::ios::trunc) << text.substr(0, text.size() - 40);
+  }
+  fs::remove(dir.path() / "out" / (cut["key"].get<std::string>() + ".exr"));
+  again = batch::run(items, o, cpu);
+  EXPECT_TRUE(again.errors.empty());
+  EXPECT_EQ(again.progress.written, 1u);
+  const auto now = lines_of(manifest);
+  size_t readable = 0;
+  for (const auto& l : now) readable += !nlohmann::json::parse(l, nullptr, false).is_discarded();
+  EXPECT_EQ(readable, now.size() - 1) << "only the cut line is unreadable:\n" << slurp_text(manifest);
+  EXPECT_EQ(batch::run(items, o, cpu).progress.already_done, 2u);
+  EXPECT_TRUE(tree_bytes(dir.path() / "out") == out);
+
+  // The parameter record damaged: named as a damaged manifest, not as other parameters.
+  {
+    const std::string text = slurp_text(manifest);
+    std::ofstream(manifest, std::ios::binary | std::ios::trunc) << "garbage " << text;
+  }
+  const std::string msg = error_of([&] { batch::run(items, o, cpu); });
+  EXPECT_NE(msg.find("shard-0-of-1.jsonl: is a damaged batch manifest"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("other parameters"), std::string::npos) << msg;
+}
+
+// A folder under --out that cannot be made (here a file holds its name) fails the items that go
+// there, naming the folder, exit 2; the other items are written and no temporary is left. Before,
+// create_directories' exception left a worker's or writer's thread: std::terminate, exit 134.
+TEST(Batch, FolderThatCannotBeCreatedFailsItsItems) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 2, 2);
+  for (const char* format : {"exr", "png"}) {
+    const fs::path out = dir.path() / format;
+    fs::create_directories(out / "image_2");
+    std::ofstream(out / "image_2" / "seq01") << "a file where a folder goes";
+    const auto r = test::run_cli("batch --dataset kitti --root '" + dir.file("kitti") + "' --quiet --format " + format +
+                                 " --out '" + out.string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << format << ": " << r.output;
+    EXPECT_NE(r.output.find((out / "image_2" / "seq01").string() + ": cannot create the folder"), std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("2 of 4 items failed (the others are written"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(out / "image_2" / (std::string("000001_10.") + format))) << format;
+    for (const auto& e : fs::recursive_directory_iterator(out))
+      EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  }
+}
+
+// Cityscapes discovery enters linked folders (a split on another volume, linked in) but not a
+// link back up the tree (a cycle), and takes "_leftImg8bit.PNG" as "_leftImg8bit.png". Before,
+// both were skipped without a word.
+TEST(Batch, DiscoveryFollowsFolderLinksAndAnyCaseOfPng) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "cs";
+  make_cityscapes(root, {"train/aachen/aachen_000000_000019", "train/aachen/aachen_000001_000019"});
+  make_cityscapes(dir.path() / "elsewhere", {"val/lindau/lindau_000000_000019"});
+  fs::create_directory_symlink(dir.path() / "elsewhere/leftImg8bit/val", root / "leftImg8bit/val");
+  fs::create_directory_symlink(dir.path() / "elsewhere/gtFine/val", root / "gtFine/val");
+  fs::create_directory_symlink("../..", root / "leftImg8bit/train/aachen/loop");  // back to leftImg8bit
+  fs::rename(root / "leftImg8bit/train/aachen/aachen_000001_000019_leftImg8bit.png",
+             root / "leftImg8bit/train/aachen/aachen_000001_000019_leftImg8bit.PNG");
+  const auto items = batch::discover(batch::Dataset::Cityscapes, root.string());
+  std::set<std::string> keys;
+  for (const auto& it : items) keys.insert(it.key);
+  EXPECT_EQ(keys, (std::set<std::string>{"leftImg8bit/train/aachen/aachen_000000_000019_leftImg8bit",
+                                         "leftImg8bit/train/aachen/aachen_000001_000019_leftImg8bit",
+                                         "leftImg8bit/val/lindau/lindau_000000_000019_leftImg8bit"}));
+  for (const auto& it : items) EXPECT_TRUE(fs::exists(it.labels)) << it.labels;
+  // The layout's error points at the page that describes the layouts.
+  fs::create_directories(dir.path() / "empty");
+  EXPECT_NE(error_of([&] { batch::discover(batch::Dataset::Cityscapes, dir.file("empty")); }).find("docs/cli.md"),
+            std::string::npos);
+}
+
+// Every output path of the run comes from one input: two different label files mirrored to one
+// copy ("x/lab.png" and "../x/lab.png"), or a PNG preview and a label copy of one name, are
+// refused before any work, naming both manifest lines. Before, one item's label copy was the
+// other's, and every re-run rewrote it. One label file shared by two images is fine.
+TEST(Batch, TwoInputsToOneOutputAreRefused) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "k", 3, 0);
+  const fs::path m = dir.path() / "m";
+  for (const char* d : {"m/x", "x", "m/i", "m/labels/x", "m/l"}) fs::create_directories(dir.path() / d);
+  auto img = [&](int i) { return dir.path() / "k/image_2" / fmt::format("{:06d}_10.png", i); };
+  auto lab = [&](int i) { return dir.path() / "k/semantic" / fmt::format("{:06d}_10.png", i); };
+  fs::copy_file(lab(0), m / "x/lab.png");
+  fs::copy_file(lab(1), dir.path() / "x/lab.png");
+  fs::copy_file(img(0), m / "i/a.png");
+  fs::copy_file(img(1), m / "i/b.png");
+  fs::copy_file(img(2), m / "labels/x/a.png");
+  fs::copy_file(lab(2), m / "l/la.png");
+  fs::copy_file(lab(0), m / "x/a.png");
+  SensorRunner cpu(Backend::Cpu);
+  auto run = [&](const std::string& text, const std::string& format) {
+    std::ofstream(m / "m.txt") << text;
+    auto o = kitti_options(dir, "", dir.file("out"));
+    o.format = format;
+    return error_of([&] { batch::run(batch::read_manifest((m / "m.txt").string()), o, cpu); });
+  };
+  std::string msg = run("i/a.png x/lab.png\ni/b.png ../x/lab.png\n", "exr");
+  EXPECT_NE(msg.find("m.txt:2) and labels"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("m.txt:1) would both be written to labels/x/lab.png"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(dir.path() / "out"));
+  // A preview and a label copy: only where previews are written.
+  msg = run("labels/x/a.png l/la.png\ni/b.png x/a.png\n", "png");
+  EXPECT_NE(msg.find("would both be written to labels/x/a.png"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(dir.path() / "out"));
+  EXPECT_EQ(run("labels/x/a.png l/la.png\ni/b.png x/a.png\n", "exr"), "");
+  fs::remove_all(dir.path() / "out");
+  // Two images, one label file: one copy of one file.
+  EXPECT_EQ(run("i/a.png x/lab.png\ni/b.png x/lab.png\n", "exr"), "");
+  EXPECT_EQ(slurp_text(dir.path() / "out/labels/x/lab.png"), slurp_text(m / "x/lab.png"));
+}
+
+// --out inside the data set's image folder: its previews (named like day images) are not found
+// as inputs, so the re-run resumes (was: "no labels found" for its own previews). --out being
+// the image folder itself is refused before any work.
+TEST(Batch, OutputFolderInsideTheDataSetIsNotDiscovered) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "cs";
+  make_cityscapes(root, {"train/aachen/aachen_000000_000019"});
+  const std::string args = "batch --dataset cityscapes --root '" + root.string() + "' --format png --out '" +
+                           (root / "leftImg8bit/night").string() + "'";
+  auto r = test::run_cli(args + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_TRUE(fs::exists(root / "leftImg8bit/night/leftImg8bit/train/aachen/aachen_000000_000019_leftImg8bit.png"));
+  r = test::run_cli(args);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 items in shard 0/1, 1 already done, 0 to do"), std::string::npos) << r.output;
+  const std::string msg = error_of([&] {
+    batch::discover(batch::Dataset::Cityscapes, root.string(), (root / "leftImg8bit").string());
+  });
+  EXPECT_NE(msg.find("data set's own image folder"), std::string::npos) << msg;
+}
+
+// The refusal of other parameters names the first that differs, with both values. `--root DIR/`
+// and `--root ./DIR` are `--root DIR`: the same run (the manifest's source), and the same bytes
+// (the EXR header's input paths, lexically normal).
+TEST(Batch, OtherParametersAreNamedAndRootSpellingsAgree) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 1, 0);
+  const std::string cd = "cd '" + dir.path().string() + "' && '" + PHOTOSITE_BIN + "' ";
+  auto sh = [&](const std::string& args) {  // run_cli with the temp folder as the working folder
+    test::CliResult r;
+    FILE* p = popen((cd + args + " 2>&1").c_str(), "r");
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) r.output.append(buf, n);
+    const int st = pclose(p);
+    r.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return r;
+  };
+  const std::string common = " --format exr --seed 1 --device-store store";
+  auto r = sh("batch --dataset kitti --root kitti --out a" + common);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = sh("batch --dataset kitti --root ./kitti/ --out b" + common);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(slurp_text(dir.path() / "a/image_2/000000_10.exr"), slurp_text(dir.path() / "b/image_2/000000_10.exr"));
+  r = sh("batch --dataset kitti --root kitti/ --out a" + common);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1 already done, 0 to do"), std::string::npos) << r.output;
+  r = sh("batch --dataset kitti --root kitti --out a --format exr --seed 2 --device-store store");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("other parameters (shard-0-of-1.jsonl: seed: 1 in the folder, 2 now)"), std::string::npos)
+      << r.output;
+  // Manifests written with a trailing '/' in the source read as without it.
+  EXPECT_EQ(batch::upgrade_params(R"({"source":"kitti /data/kitti/"})"), R"({"source":"kitti /data/kitti"})");
+  EXPECT_EQ(batch::upgrade_params(R"({"source":"kitti /"})"), R"({"source":"kitti /"})");
+}
+
+// SIGTERM (a scheduler), SIGINT (Ctrl-C) and SIGHUP (a closed terminal) let the items in
+// progress finish, then the run exits with 128 + the signal: not 2, which is bad input or
+// failed items, so a scheduler knows that running the command again finishes the shard.
+TEST(Batch, SignalStopsWithExitStatus128PlusSignal) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 8, 0);
+  for (const int sig : {SIGTERM, SIGHUP}) {
+    const fs::path out = dir.path() / fmt::format("out{}", sig);
+    std::fflush(stdout);
+    std::fflush(stderr);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      std::freopen("/dev/null", "w", stdout);
+      std::freopen("/dev/null", "w", stderr);
+      const std::string root = dir.file("kitti"), o = out.string(), store = dir.file("store");
+      execl(PHOTOSITE_BIN, PHOTOSITE_BIN, "batch", "--dataset", "kitti", "--root", root.c_str(), "--out", o.c_str(),
+            "--device-store", store.c_str(), "--queue-depth", "1", "--format", "exr", "--quiet",
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    // As soon as the first item is recorded finished: 7 are left, one at a time.
+    bool recorded = false;
+    for (int ms = 0; ms < 300000 && !recorded; ms += 2) {
+      recorded = slurp_text(out / ".photosite-batch/shard-0-of-1.jsonl").find("\"key\":") != std::string::npos;
+      if (!recorded) usleep(2000);
+    }
+    ASSERT_TRUE(recorded) << "no item finished within 300 s";
+    kill(pid, sig);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status)) << "died of signal " << WTERMSIG(status);
+    EXPECT_EQ(WEXITSTATUS(status), 128 + sig);
+    const auto r = test::run_cli("batch --dataset kitti --root '" + dir.file("kitti") + "' --out '" + out.string() +
+                                 "' --device-store '" + dir.file("store") + "' --format exr");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(r.output.find("0 to do"), std::string::npos) << "the signal stopped nothing: " << r.output;
+  }
+}
+
+// An item finished without a camera file is redone once one exists for it, as an item whose
+// camera file changed is (before, it stayed "done": a resume differed from a fresh run).
+TEST(Batch, AnItemFinishedWithoutACameraFileIsRedoneWhenOneAppears) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "cs";
+  make_cityscapes(root, {"val/city/city_000000_000019", "val/city/city_000001_000019"});
+  fs::create_directories(root / "camera/val/city");
+  const std::string camera = R"({"extrinsic": {"pitch": 0.05, "z": 1.2}, "intrinsic": {"fx": 200, "fy": 200, "u0": 80, "v0": 40}})";
+  std::ofstream(root / "camera/val/city/city_000000_000019_camera.json") << camera;
+  SensorRunner cpu(Backend::Cpu);
+  auto o = kitti_options(dir, root.string(), dir.file("out"));
+  o.format = "exr";
+  o.layers = static_cast<unsigned>(Layer::Depth);
+  ASSERT_EQ(batch::run(batch::discover(batch::Dataset::Cityscapes, root.string()), o, cpu).progress.written, 2u);
+  std::ofstream(root / "camera/val/city/city_000001_000019_camera.json") << camera;
+  const auto items = batch::discover(batch::Dataset::Cityscapes, root.string());
+  const auto r = batch::run(items, o, cpu);
+  EXPECT_EQ(r.progress.already_done, 1u);
+  EXPECT_EQ(r.progress.written, 1u);
+  EXPECT_EQ(batch::run(items, o, cpu).progress.written, 0u);
+}
+
+// The PNG route writes the preview and the label copies whatever the layer set: `--format png`
+// and `--format png --layers sensor,labels` are one run (a manifest of the former, written before
+// the record followed the files, resumes too). A manifest with a byte-order mark reads as one
+// without; a folder given as the manifest is named as such.
+TEST(Batch, PngRouteLayersManifestBomAndFolder) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 1, 0);
+  auto o = kitti_options(dir, dir.file("kitti"), dir.file("out"));
+  o.format = "png";
+  const auto items = batch::discover(batch::Dataset::Kitti, o.root);
+  SensorRunner cpu(Backend::Cpu);
+  ASSERT_EQ(batch::run(items, o, cpu).progress.written, 1u);
+  o.layers = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
+  EXPECT_EQ(batch::run(items, o, cpu).progress.already_done, 1u);
+  EXPECT_EQ(batch::upgrade_params(R"({"format":"png","layers":"sensor,raw,electrons,depth,labels"})"),
+            R"({"format":"png","layers":"sensor,labels"})");
+  EXPECT_EQ(batch::upgrade_params(R"({"format":"exr","layers":"raw"})"), R"({"format":"exr","layers":"raw"})");
+
+  std::ofstream(dir.file("bom.txt")) << "\xEF\xBB\xBFkitti/image_2/000000_10.png kitti/semantic/000000_10.png\n";
+  const auto m = batch::read_manifest(dir.file("bom.txt"));
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].image, dir.file("kitti/image_2/000000_10.png"));
+  EXPECT_NE(error_of([&] { batch::read_manifest(o.root); }).find("is a folder, not a manifest file"), std::string::npos);
 }

@@ -33,6 +33,7 @@ struct Item {
   std::string image, labels, instances;           // input paths
   std::string labels_rel, instances_rel;          // where the label copies go under --out
   std::string camera;       // the image's own calibration (Cityscapes camera/*.json), or ""
+  std::string origin;       // where the item is listed ("list.txt:3"), for messages; "" for a layout
 
   std::string label_format = "auto";
   std::string group;        // sequence id: frames of one group share device, seed and frame count
@@ -43,9 +44,13 @@ struct Item {
 // KITTI: image_2/ with semantic/ and instance/; BDD100K: images/10k/ with
 // labels/sem_seg/masks/). An image without labels is bad input naming the image. Cityscapes
 // items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists.
-std::vector<Item> discover(Dataset dataset, const std::string& root);
+// Folder links are followed (not into a folder the walk is already inside: a cycle); image names
+// match in any case of ".png" (Cityscapes' "_leftImg8bit.PNG" too). The folder `out` (the run's
+// output folder, when it lies inside the data set) is left out: its previews are not inputs.
+std::vector<Item> discover(Dataset dataset, const std::string& root, const std::string& out = {});
 // One item per line: image, labels and optional instances paths, separated by spaces or commas;
-// relative paths are relative to the manifest's folder; '#' starts a comment.
+// relative paths are relative to the manifest's folder; '#' starts a comment; a UTF-8 byte-order
+// mark at the start is skipped.
 std::vector<Item> read_manifest(const std::string& manifest);
 
 // Items of shard `index` of `count`: whole groups, group g (in sorted order) to shard g mod count.
@@ -59,7 +64,10 @@ uint64_t group_seed(uint64_t base_seed, const std::string& group);
 
 // A resume manifest's parameter record (JSON text) in today's form: manifests written before
 // "the preset's value" was recorded as null hold f_number -1 and temperature_c -999 for it
-// (values outside the parameters' ranges, so nothing else is read as null).
+// (values outside the parameters' ranges, so nothing else is read as null); a source path
+// recorded with a trailing '/' ("--root cs/") is the same folder without it; the PNG route
+// (format "png") recorded the EXR layer set it did not write, and records "sensor,labels" now
+// (the preview and the label copies it writes whatever --layers says).
 std::string upgrade_params(const std::string& params_json);
 
 uint64_t fnv1a_text(const std::string& text, uint64_t h = kFnv1a64Basis);
@@ -128,19 +136,26 @@ struct Result {
   bool interrupted = false;         // *stop was set before every item was read
 };
 
+// The files an item writes under --out (relative paths) with the format ("exr", "png", "both"):
+// its EXR and/or PNG preview, then its label and instance copies.
+std::vector<std::string> output_paths(const Item& item, const std::string& format);
+
 // Runs shard (shard_index, shard_count) of `items` (all of them: whole groups go to a shard, as
 // in shard()). On the CPU backend with EXR files to write, min(queue_depth, cores) workers each
 // take an item (with sequences: a group) through reading, the scene and sensor, and writing,
 // with an OpenMP team of the cores left to the workers still busy. Otherwise (a GPU backend, or
 // PNG only) a reader thread decodes, the calling thread computes, `jobs` writer threads encode;
 // bounded queues keep memory flat. Every file is
-// written under a temporary name and renamed; temporaries of killed runs are removed first. A
+// written under a temporary name and renamed; temporaries of killed runs of this machine and pid
+// namespace are removed first (io.h is_stale_temporary; another machine's are left alone). A
 // per-shard manifest (<out>/.photosite-batch/) records each finished item with its files'
 // checksums: items whose files are intact are skipped. Bad input (Error) before any work: a
-// manifest of other parameters in `out`, an output that exists and is not this run's, `out`
-// being the data set root, a bad option. Items that fail are listed in Result::errors; the
-// others are written. The bytes written depend on neither jobs, queue_depth, compute_threads
-// nor the sharding.
+// manifest of other parameters in `out` (the message names the first differing parameter), a
+// damaged manifest, an output that exists and is not this run's, two different inputs that
+// would be written to one output path (among all items, not only the shard's), `out` being the
+// data set root, a bad option. Items that fail (a manifest record that cannot be written among
+// the reasons) are listed in Result::errors; the others are written. The bytes written depend
+// on neither jobs, queue_depth, compute_threads nor the sharding.
 Result run(const std::vector<Item>& items, const Options& options, SensorRunner& backend,
            const ProgressFn& progress = {});
 

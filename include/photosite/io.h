@@ -113,6 +113,14 @@ void check_output_path(const std::string& path, bool overwrite);
 void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write);
 // The same, but never replacing: false (temporary removed) when path already exists.
 bool atomic_create(const std::string& path, const std::function<void(const std::string&)>& write);
+// The temporaries are named '.<stem>.tmp-<scope>-<pid>-<n><ext>' beside their target. <scope> is
+// this: 8 hex digits of a hash of the host name, the boot id and the pid namespace: the space in which <pid>
+// names a process (several machines or containers may write into one shared folder).
+const std::string& temporary_pid_scope();
+// True for a file name of exactly that pattern, of this pid scope, whose process is gone: a
+// temporary that a killed run left behind and nobody is writing. Anything else is false:
+// another machine's temporaries and other people's files are never taken for stale.
+bool is_stale_temporary(const std::string& filename);
 // Removes the temporaries of the writes in progress (unlink only: async-signal-safe). A program
 // calls it from its SIGINT/SIGTERM handler before it dies, so an interrupted run leaves no
 // half-written file behind (the error paths remove theirs as they unwind).
