@@ -34,26 +34,6 @@ void on_signal(int sig) {
   g_stop = true;
 }
 
-// The sensor settings' checks (photosite::resolve) name the quantity ("exposure time -1 s is
-// impossible"); the command line's contract is a message naming the option.
-SensorOptions::Resolved resolve_naming_options(const SensorOptions& sensor) {
-  try {
-    return sensor.resolve();
-  } catch (const ParameterError&) {
-    throw;
-  } catch (const Error& e) {
-    const std::string m = e.what();
-    for (const auto& [quantity, flag] : {std::pair{"exposure time ", "--exposure-s"}, std::pair{"f-number ", "--f-number"},
-                                         std::pair{"gain ", "--gain-db"}, std::pair{"sensor temperature ", "--temperature-c"}}) {
-      const size_t n = std::char_traits<char>::length(quantity);
-      // "<quantity> <value> ...", the value a number, inf or nan (not a preset file's name)
-      if (m.rfind(quantity, 0) == 0 && m.size() > n && std::strchr("-0123456789in", m[n]))
-        fail(std::string(flag) + ": " + m);
-    }
-    throw;
-  }
-}
-
 // An absolute, lexically normal path without a trailing separator ("cs/" and "./cs" are "cs"),
 // as the manifest records the source.
 std::string normal_absolute(const std::string& path) {
@@ -108,7 +88,7 @@ int run(BatchCmd& c) {
     if (c.rig == "auto") c.rig = batch::dataset_camera(ds).rig;  // where an item has no camera file
   }
   if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
-  auto r = resolve_naming_options(c.sensor);
+  auto r = c.sensor.resolve();  // impossible settings name their option (ParameterError)
   o.sensor = r;
   o.device_store = r.store.dir();
   o.scene = scene::load_scene_preset(c.scene_preset);

@@ -435,6 +435,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       }
       l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums)
                         : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums);
+    } catch (const ParameterError& e) {
+      // batch takes labels of the image's size (it has no --resize-labels): say what to do.
+      l.error = e.parameter() == "resize_labels"
+                    ? e.message_for("--resize-labels") + " (batch has no such option: resample the labels to the "
+                                                         "image's size, or run `night --resize-labels nearest`)"
+                    : e.what();
     } catch (const Error& e) {
       l.error = e.what();
     } catch (const std::exception& e) {  // no exception may leave a worker's thread (terminate)

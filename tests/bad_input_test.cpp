@@ -362,7 +362,7 @@ std::vector<Row> rows() {
   t.push_back({"batch_missing_manifest", {}, kBatch + "--manifest '{in}/none.txt'", {"none.txt"}});
   t.push_back({"batch_manifest_missing_image", [](Ctx& c) { put(c.in("manifest.txt"), c.in("gone.png") + " " + c.in("labels.png") + "\n"); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt", "gone.png", "not found"}});
   t.push_back({"batch_truncated_image", [](Ctx& c) { truncate_to(c.in("day.png"), 0.5); }, kBatch + "--manifest '{in}/manifest.txt'", {"day.png", "corrupt or truncated", "1 of 1 items failed (none was written"}});
-  t.push_back({"batch_wrong_size_labels", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(64, 32)); }, kBatch + "--manifest '{in}/manifest.txt'", {"labels.png", "64x32", "1 of 1 items failed"}});
+  t.push_back({"batch_wrong_size_labels", [](Ctx& c) { write_png(c.in("labels.png"), label_ids(64, 32)); }, kBatch + "--manifest '{in}/manifest.txt'", {"labels.png", "64x32", "1 of 1 items failed", "batch has no such option"}});
   t.push_back({"batch_manifest_garbage", [](Ctx& c) { put(c.in("manifest.txt"), std::string("\0\1\2 x y z w v\n", 14)); }, kBatch + "--manifest '{in}/manifest.txt'", {"manifest.txt"}});
   t.push_back({"batch_unknown_dataset", {}, kBatch + "--dataset mnist --root '{in}'", {"mnist"}});
   t.push_back({"batch_root_missing", {}, kBatch + "--dataset cityscapes --root '{in}/nope'", {"nope"}});
