@@ -3,11 +3,11 @@
 
 #include <algorithm>
 #include <cctype>
-
-#include <fmt/format.h>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
+
+#include <fmt/format.h>
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
