@@ -19,7 +19,9 @@ line prints. Computation releases the GIL.
 """
 from __future__ import annotations
 
+import functools
 import os
+import re
 from typing import Optional, Union
 
 import numpy as np
@@ -34,6 +36,84 @@ from . import presets
 # the parent opened is refused there (_photosite.cpp, gpu/context.cpp).
 os.register_at_fork(before=_photosite._before_fork, after_in_parent=_photosite._after_fork_in_parent,
                     after_in_child=_photosite._after_fork_in_child)
+
+
+# pybind11 answers an argument of the wrong type (a torch tensor or a list for an array, a string
+# for a number) with every accepted signature and the full repr of every argument given (25 KB for
+# a small list), naming none. The extension's functions and methods are wrapped so that such a
+# TypeError names the first argument whose type does not fit, and what it is, instead.
+_SIG = re.compile(r"^\s*1\. \((.*)\) -> ", re.M)
+
+
+def _split_params(text: str) -> list:
+    """'a: int = 1, b: Optional[float] = None' -> [('a', 'int'), ('b', 'Optional[float]')]."""
+    out, depth, cur = [], 0, ""
+    for ch in text + ",":
+        if ch in "[(":
+            depth += 1
+        elif ch in "])":
+            depth -= 1
+        if ch == "," and depth == 0:
+            name, _, rest = cur.strip().partition(":")
+            out.append((name.strip(), rest.split("=")[0].strip()))
+            cur = ""
+        else:
+            cur += ch
+    return out
+
+
+def _fits(value, expected: str) -> bool:
+    if expected.startswith("Optional["):
+        return value is None or _fits(value, expected[len("Optional["):-1])
+    if expected.startswith("numpy.ndarray"):
+        return isinstance(value, np.ndarray)
+    if expected == "float":
+        return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    if expected == "int":
+        return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+    if expected == "str":
+        return isinstance(value, str)
+    if expected == "bool":
+        return isinstance(value, (bool, np.bool_))
+    return True  # other types: pybind11's own check stands
+
+
+def _argument_error(name: str, message: str, args: tuple, kwargs: dict) -> Optional[str]:
+    m = _SIG.search(message)
+    if not m:
+        return None
+    params = _split_params(m.group(1))
+    given = list(zip([p for p, _ in params], args)) + list(kwargs.items())
+    types = dict(params)
+    for pname, value in given:
+        expected = types.get(pname)
+        if expected is not None and not _fits(value, expected):
+            t = type(value)
+            got = t.__name__ if t.__module__ == "builtins" else f"{t.__module__}.{t.__name__}"
+            return f"{name}(): {pname}: expected {expected}, got {got}"
+    return None
+
+
+def _named_type_errors(fn, name: str):
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except TypeError as e:
+            better = _argument_error(name, str(e), args, kwargs) if "incompatible function arguments" in str(e) else None
+            if better is None:
+                raise
+            raise TypeError(better) from None
+    return call
+
+
+for _n in [n for n in dir(_photosite) if not n.startswith("_") and callable(getattr(_photosite, n))
+           and type(getattr(_photosite, n)).__name__ == "builtin_function_or_method"]:
+    setattr(_photosite, _n, _named_type_errors(getattr(_photosite, _n), _n))
+for _cls in (Camera, NightResult, SensorResult):
+    for _n, _m in list(vars(_cls).items()):
+        if type(_m).__name__ == "instancemethod" and not _n.startswith("_"):
+            setattr(_cls, _n, _named_type_errors(getattr(_cls, _n), f"{_cls.__name__}.{_n}"))
 
 __all__ = ["Camera", "NightResult", "SensorResult", "night", "chart", "demosaic", "characterize", "read_exr",
            "write_exr", "read_image", "read_codes", "frame_buffer_cache", "presets"]
