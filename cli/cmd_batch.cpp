@@ -94,7 +94,7 @@ int run(BatchCmd& c) {
   o.scene = scene::load_scene_preset(c.scene_preset);
   if (c.rig != "auto") o.scene.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)
   o.item_cameras = !rig_given;  // an explicit --rig wins over Cityscapes' per-image camera files
-  SensorRunner runner(resolve_backend(c.backend));
+  SensorRunner runner(resolve_backend(c.backend, &r.camera));
 
   for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_signal);
   o.stop = &g_stop;

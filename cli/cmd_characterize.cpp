@@ -25,7 +25,7 @@ struct CharacterizeCmd {
 
 void run(const CharacterizeCmd& c) {
   auto r = c.sensor.resolve();
-  SensorRunner runner = make_backend(c.backend);
+  SensorRunner runner = make_backend(c.backend, &r.camera);
   const Characterization ch = characterize(r, r.store, runner, c.roi, c.wavelength_nm);
   if (c.json) {
     std::printf("%s\n", to_json(ch, 2).c_str());

@@ -50,7 +50,7 @@ void run(const ExposeCmd& c) {
   check_exr_compression(c.compression, "--compression");
   const PreviewOptions preview_options = c.preview_flags.resolve();
   auto r = c.sensor.resolve();
-  SensorRunner runner(resolve_backend(c.backend));
+  SensorRunner runner(resolve_backend(c.backend, &r.camera));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);

@@ -24,7 +24,7 @@ struct FlatCmd {
 void run(const FlatCmd& c) {
   auto r = c.sensor.resolve();
   check_frame_size("--width/--height", c.width, c.height);
-  SensorRunner runner(resolve_backend(c.backend));
+  SensorRunner runner(resolve_backend(c.backend, &r.camera));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   check_run_outputs({{"--out", outputs, ".exr"}});
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);

@@ -68,7 +68,7 @@ void run_night(NightCmd c) {
   else if (c.resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
   else fail("--resize-labels: '" + c.resize_labels + "' is not none or nearest");
   auto r = c.sensor.resolve();
-  SensorRunner runner = make_backend(c.backend);
+  SensorRunner runner = make_backend(c.backend, &r.camera);
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);

@@ -22,7 +22,14 @@ DeviceImage DeviceImage::issue() {
 
 const char* to_string(Backend b) { return b == Backend::Vulkan ? "vulkan" : "cpu"; }
 
-Backend resolve_backend(const std::string& name) {
+bool vulkan_runs_camera(const CameraPreset& camera) { return camera.read_noise_tukey_lambda == 0; }
+
+Backend choose_auto(bool device_is_gpu, const CameraPreset* camera) {
+  if (!device_is_gpu) return Backend::Cpu;
+  return camera && !vulkan_runs_camera(*camera) ? Backend::Cpu : Backend::Vulkan;
+}
+
+Backend resolve_backend(const std::string& name, const CameraPreset* camera) {
   if (name == "cpu") return Backend::Cpu;
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (name == "vulkan") {
@@ -45,7 +52,7 @@ Backend resolve_backend(const std::string& name) {
   }
   if (name == "auto") {
     try {
-      return gpu::shared_context().device().cpu ? Backend::Cpu : Backend::Vulkan;
+      return choose_auto(!gpu::shared_context().device().cpu, camera);
     } catch (const Error&) {
       return Backend::Cpu;  // no loader or device: the native path, silently (that is auto)
     }
@@ -53,6 +60,7 @@ Backend resolve_backend(const std::string& name) {
 #else
   if (name == "vulkan")
     fail_parameter("backend", "", " vulkan: this photosite was built without the Vulkan backend (PHOTOSITE_VULKAN=OFF)");
+  (void)camera;
   if (name == "auto") return Backend::Cpu;
 #endif
   fail_parameter("backend", "unknown ", " '" + name + "' (known: cpu, vulkan, auto)");
@@ -74,8 +82,8 @@ SensorRunner::SensorRunner(Backend b) : backend_(b) {
 }
 SensorRunner::SensorRunner(SensorRunner&&) noexcept = default;
 SensorRunner& SensorRunner::operator=(SensorRunner&&) noexcept = default;
-SensorRunner make_backend(const std::string& name) {
-  return SensorRunner(resolve_backend(name));
+SensorRunner make_backend(const std::string& name, const CameraPreset* camera) {
+  return SensorRunner(resolve_backend(name, camera));
 }
 
 SensorRunner::~SensorRunner() {

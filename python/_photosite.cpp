@@ -299,7 +299,7 @@ struct Camera {
         rad = std::move(rgb);
       }
       rad.set_unit(unit::radiance);
-      SensorRunner runner = make_backend(backend);
+      SensorRunner runner = make_backend(backend, &s.camera);
       ex = photosite::resolve(s.camera, s.lens, s.settings);
       ImageF mean_e;
       try {
@@ -376,7 +376,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
-    SensorRunner runner = make_backend(backend);
+    SensorRunner runner = make_backend(backend, &s.camera);
     chain.emplace(as_codes ? prepare_night(runner, std::move(codes), info, lm, sp, s, camera.store)
                          : prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, s.settings.frame));
@@ -441,7 +441,7 @@ py::dict characterize_py(const py::object& camera, std::optional<std::string> le
   nlohmann::json j;
   {
     py::gil_scoped_release nogil;
-    SensorRunner runner = make_backend(backend);
+    SensorRunner runner = make_backend(backend, &s.camera);
     j = nlohmann::json::parse(to_json(characterize(s, cam->store, runner, roi, wavelength_nm)));
   }
   return json_to_python(j);

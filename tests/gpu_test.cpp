@@ -823,6 +823,22 @@ TEST_F(Gpu, CliBackendsAgreeOnFlatAndNight) {
 #endif
 
 namespace photosite {
+// `auto` on a GPU host picked Vulkan whatever the camera, and sony-a7s2 (Tukey-lambda read noise,
+// which the kernels lack) was then refused: the default flags failed with a bundled preset. auto
+// now keeps the CPU path for a camera the kernels cannot run (the choice as a pure function, so
+// that it is tested on a machine without a GPU too).
+TEST(GpuCli, AutoKeepsTheCpuForACameraTheKernelsCannotRun) {
+  const CameraPreset tukey = load_camera_preset("sony-a7s2"), plain = load_camera_preset("sony-imx174");
+  ASSERT_NE(tukey.read_noise_tukey_lambda, 0);
+  EXPECT_FALSE(vulkan_runs_camera(tukey));
+  EXPECT_TRUE(vulkan_runs_camera(plain));
+  EXPECT_EQ(choose_auto(true, &tukey), Backend::Cpu);
+  EXPECT_EQ(choose_auto(true, &plain), Backend::Vulkan);
+  EXPECT_EQ(choose_auto(true, nullptr), Backend::Vulkan);
+  EXPECT_EQ(choose_auto(false, &plain), Backend::Cpu);  // a CPU Vulkan driver: the native path
+  EXPECT_EQ(resolve_backend("auto", &tukey), Backend::Cpu);
+}
+
 // No Vulkan driver: `--backend vulkan` is a clear error with exit 2, `auto` falls back to the CPU.
 // (Runs with or without the backend built in.)
 TEST(GpuCli, BackendVulkanWithoutADeviceIsBadInput) {

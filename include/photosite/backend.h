@@ -21,8 +21,16 @@ enum class Backend { Cpu, Vulkan };
 const char* to_string(Backend b);
 
 // Resolves "cpu", "vulkan" or "auto"; `vulkan` with no usable device fails here, before any
-// work. Errors are ParameterErrors of "backend" (the command line calls it --backend).
-Backend resolve_backend(const std::string& name);
+// work. Errors are ParameterErrors of "backend" (the command line calls it --backend). With the
+// camera given, `auto` keeps the CPU for a camera the kernels cannot run (choose_auto).
+Backend resolve_backend(const std::string& name, const CameraPreset* camera = nullptr);
+// Whether the Vulkan kernels run this camera's sensor model (not Tukey-lambda read noise: it
+// needs erfc and pow in double, which GLSL lacks; the Vulkan sensor refuses such a preset).
+bool vulkan_runs_camera(const CameraPreset& camera);
+// `auto`'s choice: Vulkan on a real GPU, the CPU path on a CPU Vulkan driver (lavapipe runs the
+// kernels slower than the native code), and the CPU path for a camera the kernels cannot run
+// (both paths give the same bits where both run).
+Backend choose_auto(bool device_is_gpu, const CameraPreset* camera);
 
 // The sensor stages on the chosen backend; on Vulkan the device buffers and fixed-pattern maps
 // are kept from one frame to the next. Not thread-safe: one per thread of work.
@@ -72,7 +80,7 @@ class SensorRunner {
 };
 
 // make_backend("cpu" | "vulkan" | "auto"): resolve_backend() and a runner on the result.
-SensorRunner make_backend(const std::string& name);
+SensorRunner make_backend(const std::string& name, const CameraPreset* camera = nullptr);
 
 namespace scene {
 // The night chain (scene::night_scene) with its per-pixel tail on `backend`
