@@ -7,7 +7,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <string>
 
@@ -67,8 +66,7 @@ int run(BatchCmd& c) {
   // The PNG route writes the sensor preview and copies the labels: another layer would be
   // silently left out, so it is bad input there.
   if (o.format == "png" && layers_given) {
-    const LayerSet png = static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels);
-    parse_layers(c.layers, png, "--layers", "batch --format png");
+    parse_layers(c.layers, kPngRouteLayers, "--layers", "batch --format png");
     if (!has(o.layers, Layer::Sensor))
       fail("--layers " + c.layers + ": batch --format png writes the sensor preview, so the list must name sensor");
   }

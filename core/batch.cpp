@@ -288,7 +288,7 @@ std::string upgrade_params(const std::string& params_json) {
     j["source"] = src;
   }
   if (j.contains("format") && j["format"] == "png")
-    j["layers"] = layers_text(static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels));
+    j["layers"] = layers_text(kPngRouteLayers);
   return j.dump();
 }
 

@@ -303,7 +303,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   // reads the records of earlier runs): `--format png` with or without `--layers sensor,labels`
   // is one run.
   if (o.format == "png")
-    params["layers"] = layers_text(static_cast<unsigned>(Layer::Sensor) | static_cast<unsigned>(Layer::Labels));
+    params["layers"] = layers_text(kPngRouteLayers);
   const std::string params_text = params.dump();
 
   // ---- the resume manifest ------------------------------------------------------------------

@@ -40,6 +40,9 @@ constexpr LayerSet kNightLayers = 127;
 // two float32 radiance layers (6 of 13 channels, most of the bytes and the write time:
 // docs/benchmarks.md, "batch").
 constexpr LayerSet kBatchLayers = 1 | 2 | 4 | 32 | 64;
+// What batch's PNG route writes, whatever --layers says: the sensor's preview and the label copies
+// (sensor, labels).
+constexpr LayerSet kPngRouteLayers = 1 | 64;
 // Parses a comma list of layer names ("sensor,labels"). Bad input (naming `what`, e.g. the flag)
 // for an unknown name, a layer outside `applicable` (named with `command`), or an empty list.
 LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::string& what,
