@@ -81,12 +81,9 @@ double temporal_variance(const Plan& p, const std::vector<ImageF>& frames) {
   return total / n;
 }
 
-// Φ(z), the standard normal distribution function.
-double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
-
 // The relative variance lost when a normal signal is clipped from below at its p-quantile
-// c = Φ⁻¹(p): Y = max(X, c), X ~ N(0, 1), E[Y] = c·Φ(c) + φ(c), E[Y²] = c²·Φ(c) + (1 − Φ(c)) +
-// c·φ(c), and δ(p) = 1 − (E[Y²] − E[Y]²). (δ(0.005) = 0.032, δ(0.05) = 0.16.) c by bisection.
+// c = Φ⁻¹(p): δ(p) = 1 − Var(max(X, c)) for X ~ N(0, 1), which is Var(min(X, −c)) by symmetry.
+// (δ(0.005) = 0.032, δ(0.05) = 0.16.) c by bisection.
 double clipped_variance_loss(double p) {
   if (!(p > 0)) return 0;
   if (p >= 0.5) return 1;  // the median is clipped: the estimate says nothing
@@ -95,9 +92,7 @@ double clipped_variance_loss(double p) {
     const double mid = 0.5 * (lo + hi);
     (normal_cdf(mid) < p ? lo : hi) = mid;
   }
-  const double c = 0.5 * (lo + hi), P = normal_cdf(c), d = std::exp(-0.5 * c * c) / std::sqrt(2 * M_PI);
-  const double m1 = c * P + d, m2 = c * c * P + (1 - P) + c * d;
-  return 1 - (m2 - m1 * m1);
+  return 1 - clipped_normal_variance(0, 1, -0.5 * (lo + hi));
 }
 
 struct Fit {
@@ -132,6 +127,15 @@ Fit linear_fit(const std::vector<double>& x, const std::vector<double>& y) {
 }
 
 }  // namespace
+
+double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+double clipped_normal_variance(double m, double s, double c) {
+  const double a = (c - m) / s, P = normal_cdf(a), d = std::exp(-0.5 * a * a) / std::sqrt(2 * M_PI);
+  const double mean = m * P - s * d + c * (1 - P);
+  const double m2 = (m * m + s * s) * P - s * (m + c) * d + c * c * (1 - P);
+  return m2 - mean * mean;
+}
 
 Result measure(Camera& cam, const Plan& plan) {
   const int w = cam.width(), h = cam.height();
@@ -317,13 +321,13 @@ Result measure(Camera& cam, const Plan& plan) {
   // 8. Warnings. The dark noise's standard error is √(2/N) of its variance (a variance over N
   //    pixel pairs); clipping at code 0 biases it low by δ(p) (clipped_variance_loss), which
   //    passes that standard error once p reaches about 0.5 % of the pixels at N = 16,384.
-  const double loss = clipped_variance_loss(r.dark_clipped_fraction);
-  if (loss > std::sqrt(2.0 / dark.n))
+  const double loss = clipped_variance_loss(r.dark_clipped_fraction), dark_var_se = std::sqrt(2.0 / dark.n);
+  if (loss > dark_var_se)
     r.warnings.push_back(fmt::format(
         "{:.2f}% of the dark pixels read 0 DN: the ADC clips the dark signal (black level too low for "
         "this gain), so the temporal dark noise, DSNU1288, sensitivity threshold and dynamic range are "
         "biased (dark variance about {:.1f}% low, against a standard error of {:.1f}%)",
-        100 * r.dark_clipped_fraction, 100 * loss, 100 * std::sqrt(2.0 / dark.n)));
+        100 * r.dark_clipped_fraction, 100 * loss, 100 * dark_var_se));
   if (r.dark_exposures_s != plan.dark_exposures_s)
     r.warnings.push_back(fmt::format(
         "the dark signal fills the well within the planned exposures: dark current fitted over {:.3g} to {:.3g} s",

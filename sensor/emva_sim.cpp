@@ -42,18 +42,6 @@ Plan plan_for(const CameraPreset& p, double wavelength_nm) {
   return plan;
 }
 
-namespace {
-double phi(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
-double pdf(double z) { return std::exp(-0.5 * z * z) / std::sqrt(2 * 3.141592653589793); }
-// Variance of min(X, c) for X ~ N(m, s²) (the clipped temporal signal near saturation).
-double clipped_variance(double m, double s, double c) {
-  const double a = (c - m) / s, P = phi(a), d = pdf(a);
-  const double mean = m * P - s * d + c * (1 - P);
-  const double m2 = (m * m + s * s) * P - s * (m + c) * d + c * c * (1 - P);
-  return m2 - mean * mean;
-}
-}  // namespace
-
 Result expected(const CameraPreset& p, const ExposureSettings& settings, const Plan& plan, int pixels,
                 double wavelength_nm) {
   LensPreset lens;
@@ -100,11 +88,11 @@ Result expected(const CameraPreset& p, const ExposureSettings& settings, const P
   // signal g·m: average the clipped variance over g (Gauss-Hermite-like grid, ±4σ).
   const double sg = p.prnu_percent / 100.0;
   auto mean_variance = [&](double m) {
-    if (sg <= 0) return clipped_variance(m, std::sqrt(m + sd * sd), clip);
+    if (sg <= 0) return clipped_normal_variance(m, std::sqrt(m + sd * sd), clip);
     double acc = 0, wsum = 0;
     for (int i = -40; i <= 40; ++i) {
       const double z = i / 10.0, w = std::exp(-0.5 * z * z), mg = m * (1 + sg * z);
-      acc += w * clipped_variance(mg, std::sqrt(mg + sd * sd), clip);
+      acc += w * clipped_normal_variance(mg, std::sqrt(mg + sd * sd), clip);
       wsum += w;
     }
     return acc / wsum;

@@ -72,4 +72,12 @@ struct Result {
 
 Result measure(Camera& camera, const Plan& plan);
 
+// Normal-distribution helpers shared by the measurement and the expectation (emva_sim.cpp).
+// Φ(z), the standard normal distribution function.
+double normal_cdf(double z);
+// The variance of min(X, c) for X ~ N(m, s²): a normal signal clipped from above at c (the
+// saturation a measurement sees; by symmetry, max(X, c) clipped from below at c has the variance
+// of min(−X, −c)).
+double clipped_normal_variance(double m, double s, double c);
+
 }  // namespace photosite::emva
