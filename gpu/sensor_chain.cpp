@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "kernels.h"
+#include "photosite/backend.h"
 #include "photosite/error.h"
 #include "photosite/gpu/sensor.h"
 #include "photosite/gpu/stages.h"
@@ -110,7 +111,7 @@ bool SensorChain::record_glare(Sequence& s, Buffer& rad, int w, int h, const Gla
 void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
                                const ExposureSettings& st, const FixedPatternMaps& fpn) {
   detail::check_sense_inputs(w, h, p, fpn);
-  if (p.read_noise_tukey_lambda != 0)
+  if (!vulkan_runs_camera(p))  // the same test as auto's choice (choose_auto)
     fail_parameter("backend",
                    fmt::format("the Vulkan backend has no Tukey-lambda read noise yet (preset '{}', lambda {}); use ",
                                p.name, p.read_noise_tukey_lambda),
