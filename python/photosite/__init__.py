@@ -107,13 +107,13 @@ def _named_type_errors(fn, name: str):
     return call
 
 
-for _n in [n for n in dir(_photosite) if not n.startswith("_") and callable(getattr(_photosite, n))
-           and type(getattr(_photosite, n)).__name__ == "builtin_function_or_method"]:
-    setattr(_photosite, _n, _named_type_errors(getattr(_photosite, _n), _n))
+for _n, _f in list(vars(_photosite).items()):
+    if not _n.startswith("_") and type(_f).__name__ == "builtin_function_or_method":
+        setattr(_photosite, _n, _named_type_errors(_f, _n))
 for _cls in (Camera, NightResult, SensorResult):
     for _n, _m in list(vars(_cls).items()):
         if type(_m).__name__ == "instancemethod" and not _n.startswith("_"):
-            setattr(_cls, _n, _named_type_errors(getattr(_cls, _n), f"{_cls.__name__}.{_n}"))
+            setattr(_cls, _n, _named_type_errors(_m, f"{_cls.__name__}.{_n}"))
 
 __all__ = ["Camera", "NightResult", "SensorResult", "night", "chart", "demosaic", "characterize", "read_exr",
            "write_exr", "read_image", "read_codes", "frame_buffer_cache", "presets"]
