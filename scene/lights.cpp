@@ -931,6 +931,13 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   if (geometry) sl = street ? *street : plan_street_lighting(lm, *geometry, p, seed);
   const bool extent = sl.road_right_m > sl.road_left_m;
   const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
+  // The divide between the two directions of travel (right-hand traffic): the carriageway's
+  // middle; but the ego vehicle drives right of the centre line, so where the road runs straight
+  // ahead (sl.road_straight) the divide is at most the ego lane's left edge, half a lane left of
+  // the camera (mounted on the car's centre line, the car centred in its lane). A vehicle in the
+  // ego lane, or right of it, travels the ego's way (an oncoming one there would be on a collision
+  // course); a camera left of the middle is on a one-way carriageway or its left lane.
+  const double travel_divide = extent && sl.road_straight ? std::min(road_mid, -0.5 * p.veh_lane_width_m) : road_mid;
   // Vehicles: instances from the instance ids, else connected components of each vehicle class.
   // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
   bool vehicle_id[kLabelCount];
@@ -1231,9 +1238,10 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // whose day photo shows red lamp-like blobs (the cues above) faces away: tail lamps. A blob
     // share of at least 0.2 % of its pixels (and 3 px) counts, at most 20 % (more is a red body,
     // not lenses: a car's two rear lamp lenses are a few % of its rear view); both bounds are
-    // photosite choices. Otherwise the direction of travel, right-hand traffic: left of the road's
-    // centre line in road coordinates oncoming (head lamps toward the camera), right of it going
-    // away (tail lamps). Parked lit vehicles show position lamps: red when facing away, white
+    // photosite choices. Otherwise the direction of travel, right-hand traffic: left of the divide
+    // (travel_divide: the road's centre line, on a straight road at most the ego lane's left edge)
+    // in road coordinates oncoming (head lamps toward the camera), right of it going away (tail
+    // lamps). Parked lit vehicles show position lamps: red when facing away, white
     // otherwise.
     // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
     for (int c = 1; c <= ncomp; ++c) {
@@ -1247,7 +1255,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         if (v.state == 0) continue;
         const int red_px = red_blob_px[c];
         const bool rear_seen = red_px >= 3 && red_px * 500 >= b.n && red_px * 5 <= b.n;
-        const bool oncoming = !rear_seen && v.X < road_mid;
+        const bool oncoming = !rear_seen && v.X < travel_divide;
         double I, dia;
         bool red;
         if (v.state == 1) {

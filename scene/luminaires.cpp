@@ -114,6 +114,7 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
 
   StreetLighting s;
   s.peak_intensity_cd = plan.peak_intensity_cd;
+  s.road_straight = plan.road_straight;  // this frame's measurement (the road ahead may bend later)
   s.source = poles_.empty() ? "road_edges" : "poles+road_edges";
   for (const auto& w : world) {
     StreetLamp l = w;

@@ -119,6 +119,8 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "seeded share of parked vehicles with lamps on", "photosite choice"),
       num("vehicle_lamps.kerb_strip_m", PHOTOSITE_AT(P, veh_kerb_strip_m), "m", 0, 10,
           "a vehicle this near the road edge is parked", "photosite choice"),
+      num("vehicle_lamps.lane_width_m", PHOTOSITE_AT(P, veh_lane_width_m), "m", 2, 5,
+          "traffic lane width: the ego lane's half width sets the head-or-tail divide on a straight road", "[U]"),
       table("lamps", "luminances and CCTs of the light sources' own pixels", "NP §3"),
       num("lamps.streetlamp_luminance_cd_m2", PHOTOSITE_AT(P, streetlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
           "street luminaire face", "NP §3"),

@@ -475,7 +475,7 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // first other pixel (the kerb); a run reaching the image border says nothing about that side.
   // Medians over the rows. (Taking this run rather than the outermost road pixels keeps side
   // streets entering the view from moving the edges.)
-  std::vector<double> lefts, rights;
+  std::vector<double> lefts, rights, lefts_seen;
   auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
   const int xc = static_cast<int>(std::lround(g.cx_px));
   for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H && xc >= 0 && xc < W; ++y) {
@@ -489,6 +489,9 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
     g.ground_point(x0 - 0.5, y, &Xa, nullptr, nullptr);
     g.ground_point(x1 + 0.5, y, &Xb, nullptr, nullptr);
     if (x0 > 0) lefts.push_back(Xa);
+    // The run ends on road: its end is the kerb (a run that ends on a vehicle ends where the
+    // vehicle hides the kerb).
+    if (x0 > 0 && !is_vehicle(ids.at(x0, y))) lefts_seen.push_back(Xa);
     if (x1 < W - 1) rights.push_back(Xb);
   }
   if (lefts.empty() || rights.empty()) return s;
@@ -500,6 +503,17 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // rows that enter the medians change with the view.
   s.road_left_m = 0.25 * std::round(4 * median(lefts));
   s.road_right_m = 0.25 * std::round(4 * median(rights));
+  // Straight ahead: enough rows, and the left edge's 10th-90th percentile spread (a kerb that
+  // bends, or a junction's mouth, spreads it) within half a lane. Only rows whose left run ends on
+  // road count: a vehicle taller than the camera hides the kerb of the rows behind it, and a run
+  // that ends on it ends beyond the kerb as at a junction. Ten rows: a photosite choice (fewer are a glimpse of kerb
+  // between vehicles or at a junction's far side).
+  if (lefts_seen.size() >= 10) {
+    std::vector<double> l = lefts_seen;
+    std::sort(l.begin(), l.end());
+    const size_t n = l.size();
+    s.road_straight = l[n - 1 - n / 10] - l[n / 10] <= 0.5 * p.veh_lane_width_m;
+  }
   // A scene without street lighting (rural) keeps the road's extent, measured from the labels
   // alone: the vehicle lamps' in-traffic test reads it (the kerb strip), lit or not.
   if (p.street_road_luminance_cd_m2 <= 0) return s;
@@ -2171,3 +2185,5 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
 }
 
 }  // namespace photosite::scene
+
+

@@ -1568,6 +1568,61 @@ TEST(MetricLights, RedLampsInTheDayPhotoMeanTailLampsAndTheLabelBorderCutsAVehic
   EXPECT_LT(cut.lum, 0.2 * plain.lum);
 }
 
+// Right-hand traffic: the ego car drives right of the centre line, so on a straight road a vehicle
+// in the ego lane (|X| < lane_width_m / 2 = 1.625 m) travels its way and shows its rear (tail
+// lamps), even left of the carriageway's middle (X = 0: the synthetic road is ±7 m); aachen_000001's
+// two cars ahead were drawn with head lamps by the middle alone. Where the left kerb does not run
+// straight (a side road's mouth 40-60 m ahead, the kerb 5 m farther out there) the lane cannot be
+// read and the middle decides again.
+TEST(MetricLights, AVehicleInTheEgoLaneShowsItsRearOnAStraightRoad) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes = {{-1.3, 20, 1.6, 1.5, 4.5}, {-4.0, 14, 1.8, 1.5, 4.5}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  ASSERT_DOUBLE_EQ(p.veh_lane_width_m, 3.25);
+  // The lamps' colour on an instance: R/G of its brightest light (a 3200 K head lamp about 1.5,
+  // a red tail lamp over 10).
+  auto lamp_r_over_g = [&](const SyntheticCameraScene& s, const LabelMap& lm, int instance) {
+    const NightScene n = night_scene(s.day_linear_srgb, lm, p, 1);
+    double best = 0, rg = 0;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        if (lm.instances.at(x, y) != instance) continue;
+        float c[3] = {n.lights.at(x, y, 0), n.lights.at(x, y, 1), n.lights.at(x, y, 2)};
+        const double L = spectrum::luminance_cd_m2(c);
+        if (L > best) {
+          best = L;
+          rg = c[1] > 0 ? c[0] / c[1] : 1e9;
+        }
+      }
+    EXPECT_GT(best, 0.0) << "instance " << instance << " has no lamp";
+    return rg;
+  };
+  EXPECT_TRUE(plan_street_lighting(s.labels, o.camera, p, 1).road_straight);
+  EXPECT_GT(lamp_r_over_g(s, s.labels, 26000), 10.0);  // ego lane: tail lamps
+  EXPECT_LT(lamp_r_over_g(s, s.labels, 26001), 3.0);   // X = -4 m, the other lane: head lamps
+  // The side road's mouth: the sidewalk 7..12 m left of the camera, 40..60 m ahead, becomes road
+  // (in the scene without the second vehicle, which would hide that kerb; each pixel's ground
+  // point where make_synthetic_camera_scene samples it, at (x, y)).
+  o.boxes.resize(1);
+  const SyntheticCameraScene s1 = make_synthetic_camera_scene(o);
+  EXPECT_GT(lamp_r_over_g(s1, s1.labels, 26000), 10.0);
+  LabelMap mouth = s1.labels;
+  int widened = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      double X, D;
+      if (mouth.ids.at(x, y) == static_cast<uint16_t>(Label::Road) || is_vehicle(mouth.ids.at(x, y))) continue;
+      if (!o.camera.ground_point(x, y, &X, &D, nullptr) || D < 40 || D > 60 || X < -12 || X > -7) continue;
+      mouth.ids.at(x, y) = static_cast<uint16_t>(Label::Road);
+      ++widened;
+    }
+  ASSERT_GT(widened, 100);
+  EXPECT_FALSE(plan_street_lighting(mouth, o.camera, p, 1).road_straight);
+  EXPECT_LT(lamp_r_over_g(s1, mouth, 26000), 3.0);  // X = -1 m, left of the middle: head lamps
+}
+
 TEST(MetricLights, PanningCropsKeepLightsInTheWorld) {
   SyntheticCameraOptions o = camera_scene(1088, 512);
   o.camera = camera_geometry(load_camera_rig("cityscapes"), 1024, 512, VanishingPoint{});
@@ -2339,3 +2394,4 @@ TEST(Facades, TwoFacadesAtACornerWithLabelNoise) {
   }
   EXPECT_GT(checked, 200);
 }
+

@@ -54,7 +54,8 @@ struct ScenePreset {
   // seeded share of parked vehicles with parking lights, the kerb strip where vehicles park.
   double veh_lamp_height_m = 0.7, veh_lamp_inset_m = 0.15, veh_head_diameter_m = 0.18,
          veh_tail_diameter_m = 0.12, veh_head_intensity_cd = 350, veh_tail_intensity_cd = 8,
-         veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5;
+         veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5,
+         veh_lane_width_m = 3.25;
   // [windows] façade layout in metres; ground-floor shops: pane width (on the window pitch),
   // sill and pane height above the ground, and the frontage of one shop (lit as a whole).
   double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,

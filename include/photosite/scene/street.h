@@ -14,6 +14,10 @@ struct StreetLighting {
   std::vector<StreetLamp> lamps;         // sorted by D
   std::string source = "none";           // "poles", "road_edges" or "none"
   double road_left_m = 0, road_right_m = 0;  // road extent across (X) used for the grid
+  // The left road edge was measured on at least 10 rows 20..60 m ahead and its 10th-90th
+  // percentile spread is within half a lane (vehicle_lamps.lane_width_m / 2): the carriageway
+  // runs straight ahead, so a vehicle's X there tells its lane (scene/lights.cpp, head or tail).
+  bool road_straight = false;
   double peak_intensity_cd = 0;          // I(γ ≤ cut-off)
   double grid_D0_m = 0;                  // start of the calculation field (one spacing long)
   double avg_luminance_cd_m2 = 0, uniformity_u0 = 0;
