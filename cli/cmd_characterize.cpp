@@ -34,6 +34,9 @@ void run(const CharacterizeCmd& c) {
   std::printf("EMVA 1288 R4.0 photon transfer: %s (device %s), %dx%d region, %d %c pixels, %.0f nm\n",
               ch.preset.c_str(), ch.device_id.c_str(), ch.roi_w, ch.roi_h, ch.pixels_measured, ch.cfa_colour,
               c.wavelength_nm);
+  std::printf("conditions: gain %g dB, die temperature %g C, seed %llu, --poisson %s, preset file XXH3-64 %s\n",
+              ch.gain_db, ch.temperature_c, static_cast<unsigned long long>(ch.seed), ch.poisson.c_str(),
+              ch.preset_xxh3_64.c_str());
   std::printf("%-22s %12s %10s %12s %10s %10s %6s\n", "quantity", "measured", "+/- 1 se", "preset", "+/- device",
               "deviation", "z");
   for (const auto& row : ch.rows) {

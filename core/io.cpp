@@ -12,7 +12,9 @@
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfThreading.h>
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <spng.h>
 #include <unistd.h>
 
@@ -395,11 +397,17 @@ Raster read_exr_raster(const std::string& path) {
   });
 }
 
-// The format of the image file at `path`, which must exist and not be a folder.
+// The format of the image file at `path`, which must be a regular file (or a link to one). A
+// pipe or device is refused: the file is read twice (its signature, then the image), and a
+// pipe's first bytes would be gone by the second read.
 Format format_of_file(const std::string& path) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) fail_missing(path, "no such file");
-  if (fs::is_directory(path, ec)) fail_at(path, "is a folder, not an image file");
+  const fs::file_status st = fs::status(path, ec);
+  if (st.type() == fs::file_type::not_found) fail_missing(path, "no such file");
+  if (ec) fail_at(path, "cannot open (" + ec.message() + ")");  // e.g. a folder on the way the user cannot enter
+  if (fs::is_directory(st)) fail_at(path, "is a folder, not an image file");
+  if (!fs::is_regular_file(st))
+    fail_at(path, "not a regular file (a pipe, socket or device); photosite reads an input file twice, so give a file");
   return sniff(path);
 }
 
@@ -899,7 +907,10 @@ void check_output_path(const std::string& path, bool overwrite) {
   fs::path p(path);
   fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) fail_at(path, "output folder " + dir.string() + " does not exist");
+  const fs::file_status dst = fs::status(dir, ec);
+  if (ec && dst.type() != fs::file_type::not_found)  // e.g. a folder on the way the user cannot enter
+    fail_at(path, "cannot reach the output folder " + dir.string() + " (" + ec.message() + ")");
+  if (!fs::is_directory(dst)) fail_at(path, "output folder " + dir.string() + " does not exist");
   // A folder there is never replaced, --overwrite or not (the rename would fail after the work).
   if (fs::is_directory(p, ec)) fail_at(path, "is a folder; name the output file");
   if (fs::exists(p, ec) && !overwrite)
@@ -931,30 +942,65 @@ struct TemporarySlot {
 // hidden, its kind still shown by its extension, temporary_pid_scope() naming where its pid has
 // a meaning), then publishes it: rename (replacing) or link (never replacing). The temporary is
 // removed on every error, and by remove_partial_outputs.
+//
+// The temporary is created by this process, exclusively (O_CREAT | O_EXCL | O_NOFOLLOW, mode
+// 0666 & ~umask as fopen's): its name is predictable, and in a folder others may write into (a
+// shared device store or output folder) a name planted beforehand, a symbolic link to a file of
+// the user's, would otherwise be opened through and that file overwritten. A name taken is
+// skipped for the next. The writer is then given /proc/self/fd/<fd>, which opens this very file
+// whatever its name has become since (replacing the name after the creation needs write access
+// to the folder too, and reaches only the name); the link is made from the descriptor the same
+// way. Without /proc the writer gets the name (the exclusive creation still stands).
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
                         bool replace) {
   static std::atomic<unsigned> counter{0};
   fs::path p(path);
-  std::string tmp = (p.parent_path() / ("." + p.stem().string() +
-                                        fmt::format(".tmp-{}-{}-{}", temporary_pid_scope(), getpid(), counter++)))
-                        .string() +
-                    p.extension().string();
+  std::string tmp;
+  // Registered before the file exists, so a signal that arrives once it does removes it.
+  std::optional<TemporarySlot> slot;
+  int fd = -1;
+  for (int attempt = 0; fd < 0; ++attempt) {
+    slot.reset();
+    tmp = (p.parent_path() / ("." + p.stem().string() +
+                              fmt::format(".tmp-{}-{}-{}", temporary_pid_scope(), getpid(), counter++)))
+              .string() +
+          p.extension().string();
+    slot.emplace(tmp.c_str());
+    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+    if (fd < 0 && !(errno == EEXIST && attempt < 1000)) {
+      const int e = errno;
+      slot.reset();
+      fail_at(path, std::string("cannot write (") + std::strerror(e) + (e == EEXIST ? ": every temporary name is taken)" : ")"));
+    }
+  }
   struct Remove {
     const std::string& tmp;
+    int fd;
+    std::optional<TemporarySlot>& slot;
     ~Remove() {
+      slot.reset();  // released before the file is removed
       std::error_code ec;
       fs::remove(tmp, ec);
+      ::close(fd);
     }
-  } remove{tmp};
-  const TemporarySlot slot(tmp.c_str());  // released before `remove` runs
-  write(tmp);
+  } remove{tmp, fd, slot};
+  static const bool proc_fd = [] {
+    std::error_code ec;
+    return fs::is_directory("/proc/self/fd", ec);
+  }();
+  const std::string via = proc_fd ? fmt::format("/proc/self/fd/{}", fd) : tmp;
+  write(via);
   if (replace) {
+    // The name must still be this file (else someone replaced it: nothing is published).
+    struct stat a{}, b{};
+    if (::fstat(fd, &a) != 0 || ::lstat(tmp.c_str(), &b) != 0 || a.st_dev != b.st_dev || a.st_ino != b.st_ino)
+      fail_at(path, "the temporary " + tmp + " was replaced by another process while it was written; nothing published");
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
     return true;
   }
-  if (::link(tmp.c_str(), path.c_str()) == 0) return true;
+  if (::linkat(AT_FDCWD, via.c_str(), AT_FDCWD, path.c_str(), proc_fd ? AT_SYMLINK_FOLLOW : 0) == 0) return true;
   if (errno == EEXIST) return false;
   fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
 }

@@ -103,6 +103,15 @@ T int_arg(const py::handle& v, const char* name, T lo = std::numeric_limits<T>::
 
 std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
 
+// device_store: None is the default store (PHOTOSITE_DEVICE_STORE, XDG, home); an empty string is
+// refused, as the command line refuses --device-store "" (an unset variable, e.g.
+// os.environ.get("STORE", ""), would otherwise put the maps in the home store unasked).
+std::string checked_store(const std::optional<std::string>& device_store) {
+  if (device_store && device_store->empty())
+    fail("device_store: an empty folder name is not a device store (None: the default store)");
+  return device_store.value_or("");
+}
+
 bool is_dtype(const py::array& a, const py::dtype& d) { return a.dtype().is(d) || a.dtype().equal(d); }
 
 // A float32 array as an ImageF (one copy); NaN or infinity is bad input naming the pixel.
@@ -251,7 +260,7 @@ struct Camera {
 
   Camera(const std::string& preset, std::optional<std::string> lens, std::optional<std::string> device_id,
          std::optional<std::string> device_store)
-      : store(device_store.value_or("")) {
+      : store(checked_store(device_store)) {
     // A Camera runs frame after frame: its device's maps are read and verified once, then kept
     // (DeviceStore::keep_loaded; about 24 MB at 2048x1024).
     store.keep_loaded(true);
@@ -273,7 +282,9 @@ struct Camera {
     s.settings.gain_db = gain_db;
     s.settings.temperature_c = temperature_c;
     s.settings.seed = int_arg<uint64_t>(seed, "seed");
-    s.settings.frame = int_arg<uint32_t>(frame, "frame");
+    // [0, 2^31 - 1]: the outputs' header keeps the frame as OpenEXR's (signed 32-bit) int attribute,
+    // so a larger one would be recorded negative (and a result not reproducible from its header).
+    s.settings.frame = int_arg<uint32_t>(frame, "frame", 0, static_cast<uint32_t>(std::numeric_limits<int32_t>::max()));
     s.settings.demosaic = parse_demosaic_method(demosaic);
     s.settings.poisson = parse_poisson_method(poisson);
     photosite::resolve(s.camera, s.lens, s.settings);

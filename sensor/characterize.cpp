@@ -32,6 +32,12 @@ Characterization characterize(const SensorSetup& setup, const DeviceStore& store
   Characterization c;
   c.preset = setup.camera.name;
   c.device_id = setup.device_id;
+  c.preset_xxh3_64 = setup.camera.text_xxh3_64;
+  const ResolvedExposure ex = resolve(setup.camera, setup.lens, setup.settings);
+  c.gain_db = ex.gain_db;
+  c.temperature_c = ex.temperature_c;
+  c.seed = setup.settings.seed;
+  c.poisson = to_string(setup.settings.poisson);
   c.wavelength_nm = wavelength_nm;
   c.pixels_measured = m.pixels_measured;
   c.cfa_colour = to_string(cfa_color(setup.camera.cfa, plan.x0, plan.y0))[0];
@@ -67,6 +73,10 @@ std::string to_json(const Characterization& c, int indent) {
   j["pixels_measured"] = c.pixels_measured;
   j["cfa_colour"] = std::string(1, c.cfa_colour);
   j["roi"] = {c.roi_w, c.roi_h};
+  // The seed as text, as in the EXR header (a 64-bit value; JSON readers keep doubles).
+  j["conditions"] = {{"preset_xxh3_64", c.preset_xxh3_64}, {"gain_db", c.gain_db},
+                     {"temperature_c", c.temperature_c}, {"seed", std::to_string(c.seed)},
+                     {"poisson", c.poisson}};
   for (const auto& row : c.rows)
     j[row.key] = {{"measured", row.measured.value}, {"uncertainty", row.measured.uncertainty},
                   {"preset", row.preset.value}, {"preset_device_uncertainty", row.preset.uncertainty},

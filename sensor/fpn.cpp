@@ -187,10 +187,15 @@ FixedPatternMaps DeviceStore::load_or_keep(const std::string& path, const Camera
 
 std::string DeviceStore::default_dir() {
   if (auto e = env::get(env::Var::DeviceStore)) return *e;
-  if (auto x = env::get(env::Var::XdgDataHome)) return (fs::path(*x) / "photosite" / "devices").string();
-  if (auto h = env::get(env::Var::Home))
+  // XDG Base Directory: a relative XDG_DATA_HOME is invalid and is ignored.
+  if (auto x = env::get(env::Var::XdgDataHome); x && fs::path(*x).is_absolute())
+    return (fs::path(*x) / "photosite" / "devices").string();
+  if (auto h = env::get(env::Var::Home); h && fs::path(*h).is_absolute())
     return (fs::path(*h) / ".local" / "share" / "photosite" / "devices").string();
-  return "photosite-devices";
+  // No home (some service, cron and container setups): no folder relative to wherever the
+  // process happens to run; the user names one.
+  fail_parameter("device_store", "no device store folder: neither PHOTOSITE_DEVICE_STORE nor an absolute HOME or "
+                 "XDG_DATA_HOME is set; give ", " (or set PHOTOSITE_DEVICE_STORE)");
 }
 
 std::string DeviceStore::path_for(const CameraPreset& preset, const std::string& device_id,
@@ -295,10 +300,20 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
       }
     }
   } unlock{fd};
-  if (fd >= 0)
+  if (fd >= 0 && ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK) {
+    // Another process is creating a map of this preset (any device or size): say so, then wait.
+    std::fprintf(stderr, "photosite: waiting for another process creating a fixed-pattern map in %s (its lock on the folder)\n",
+                 dir.c_str());
     while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
     }
+  }
   if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
+  // Under the lock: the temporaries of map creations killed outright (SIGKILL: no handler ran)
+  // in this pid space are removed (is_stale_temporary: pattern, scope and a pid that is gone).
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code rec;
+    if (is_stale_temporary(it->path().filename().string())) fs::remove(it->path(), rec);
+  }
   FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);
   std::vector<ExrChannelGroup> groups;
   if (!m.prnu_gain.empty()) groups.push_back({{"prnu.Y"}, &m.prnu_gain, unit::dimensionless});

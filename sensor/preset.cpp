@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "photosite/checksum.h"
 #include "photosite/environment.h"
 #include "core/toml_schema_detail.h"
 #include "photosite/error.h"
@@ -173,6 +174,14 @@ std::string resolve_preset_path(const std::string& name_or_path, const std::stri
 
 }  // namespace
 
+namespace {
+std::string text_checksum(const std::string& text) {
+  Checksum c(ChecksumAlgorithm::Xxh3_64);
+  c.update(text.data(), text.size());
+  return c.hex();
+}
+}  // namespace
+
 std::string preset_dir() {
   if (auto e = env::get(env::Var::PresetDir)) {
     std::error_code ec;
@@ -187,6 +196,7 @@ CameraPreset parse_camera_preset(const std::string& text, const std::string& fil
   CameraPreset p;
   p.file = file;
   p.name = fs::path(file).stem().string();
+  p.text_xxh3_64 = text_checksum(text);
   schema::read<CameraPreset>(t, camera_schema(), file, p);
   validate(p);
   return p;
@@ -206,6 +216,13 @@ void validate(const CameraPreset& p) {
     if (q.size() != wl.size())
       fail(where(f, 0, key) + fmt::format(": has {} values but qe.wavelength_nm has {}", q.size(), wl.size()));
   }
+  // The device store keeps each pixel's dark rate as a factor of the mean rate (fpn.cpp), so hot
+  // pixels need a mean dark current to be a factor of: with none they would vanish silently.
+  if (p.hot_pixel_fraction > 0 && p.hot_pixel_dark_current_e_per_s > 0 && !(p.dark_current_e_per_s > 0))
+    fail(where(f, 0, "dark_current_e_per_s") +
+         fmt::format(": hot pixels ({} of the pixels at {} e-/s) need a mean dark current above 0 (the stored map "
+                     "keeps each pixel's rate as a factor of it); give the array's mean dark current",
+                     p.hot_pixel_fraction, p.hot_pixel_dark_current_e_per_s));
   if (p.full_well_e <= p.read_noise_e)
     fail(where(f, 0, "full_well_e") + fmt::format(": full well {} e- is not above the read noise {} e-",
                                                   p.full_well_e, p.read_noise_e));
@@ -220,6 +237,7 @@ LensPreset parse_lens_preset(const std::string& text, const std::string& file) {
   LensPreset l;
   l.file = file;
   l.name = fs::path(file).stem().string();
+  l.text_xxh3_64 = text_checksum(text);
   schema::read<LensPreset>(t, lens_schema(), file, l);
   const LensGlare& lg = l.glare;
   if (lg.enabled && !(lg.reach_deg > lg.core_deg))

@@ -217,7 +217,7 @@ AsUser as_user(const Ctx& c) {
 struct Row {
   const char* name;
   std::function<void(Ctx&)> setup;  // after the good inputs are written
-  std::string args;                 // {in}/{out}/{store} are replaced by the folders
+  std::string args;                 // {in}/{out}/{store}/{dir} are replaced by the folders
   std::vector<std::string> expect;  // each must appear in the output (file and problem)
   std::string prefix = {};          // shell words before the command (ulimit, setpriv)
 };
@@ -225,7 +225,8 @@ struct Row {
 std::string expand(std::string s, const Ctx& c) {
   for (const auto& [k, v] : {std::pair<std::string, std::string>{"{in}", (c.dir / "in").string()},
                              {"{out}", (c.dir / "out").string()},
-                             {"{store}", c.store()}}) {
+                             {"{store}", c.store()},
+                             {"{dir}", c.dir.string()}}) {
     for (size_t p; (p = s.find(k)) != std::string::npos;) s.replace(p, k.size(), v);
   }
   return s;
@@ -299,6 +300,13 @@ std::vector<Row> rows() {
   t.push_back({"map_box_size_wrong", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); exr_attribute_size(map_path(c, "sony-imx174", 64, 32), "dataWindow", "box2i", 17); }, kFlat, {"dev_64x32.exr", "'dataWindow' of type box2i declares 17 bytes, the type has 16"}});
   t.push_back({"map_declared_40000", [](Ctx& c) { make_map(c, "sony-imx174", 64, 32); exr_declare_size(map_path(c, "sony-imx174", 64, 32), 40000, 40000); }, kFlat, {"dev_64x32.exr", "40000x40000"}});
   t.push_back({"store_read_only", [](Ctx& c) { fs::create_directories(c.store()); fs::permissions(c.store(), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec); }, kFlat, {"store", "device store", "read-only"}});
+  // No store named and no home to put the default in: refused, not a store in the working folder.
+  t.push_back({"flat_no_device_store_and_no_home", {}, "flat --preset sony-imx174 --device-id dev --photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"--device-store", "no device store folder"}, "env -u PHOTOSITE_DEVICE_STORE -u XDG_DATA_HOME -u HOME "});
+  // A pipe as an input (a FIFO here; `<(cat day.png)` in bash) is read twice: refused by name.
+  t.push_back({"night_image_is_a_pipe", [](Ctx& c) { ASSERT_EQ(::mkfifo((c.dir / "in" / "pipe.png").c_str(), 0600), 0); }, "night " + kSensor + "--image '{in}/pipe.png' --labels '{in}/labels.png' --out '{out}/o.exr'", {"pipe.png", "not a regular file"}});
+  // An output folder the user cannot reach exists: its reason, not "does not exist" (run as an
+  // unprivileged user when the tests run as root).
+  t.push_back({"flat_output_folder_unreachable", [](Ctx& c) { fs::create_directories(c.dir / "locked" / "sub"); fs::permissions(c.dir / "locked", fs::perms::none); }, "flat --preset sony-imx174 " + kSensor + "--photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{dir}/locked/sub/o.exr'", {"locked/sub", "Permission denied"}});
   t.push_back({"store_is_a_file", [](Ctx& c) { put(c.store(), "x"); }, kFlat, {"store", "device store"}});
   t.push_back({"demosaic_missing_input", {}, "demosaic --in '{in}/nope.png' --cfa RGGB --method bilinear --out '{out}/o.exr'", {"nope.png", "no such file"}});
   t.push_back({"demosaic_unknown_cfa", {}, "demosaic --in '{in}/day.png' --cfa XYZW --method bilinear --out '{out}/o.exr'", {"XYZW", "unknown CFA pattern"}});
@@ -450,10 +458,10 @@ TEST_P(BadInput, ExitTwoNamesFileAndProblemLeavesNoOutput) {
   write_good_inputs(c);
   if (row.setup) row.setup(c);
   std::string prefix = row.prefix, bin = PHOTOSITE_BIN;
-  if (std::string(row.name) == "store_read_only") {
+  if (std::string(row.name) == "store_read_only" || std::string(row.name) == "flat_output_folder_unreachable") {
     const AsUser u = as_user(c);
     if (!u.skip_reason.empty()) {
-      std::fprintf(stderr, "\n*** SKIPPING store_read_only: %s ***\n\n", u.skip_reason.c_str());
+      std::fprintf(stderr, "\n*** SKIPPING %s: %s ***\n\n", row.name, u.skip_reason.c_str());
       GTEST_SKIP() << u.skip_reason;
     }
     if (!u.bin.empty()) prefix = u.prefix, bin = u.bin;
@@ -469,6 +477,7 @@ TEST_P(BadInput, ExitTwoNamesFileAndProblemLeavesNoOutput) {
   if (std::string(row.name) == "expose_output_exists") EXPECT_EQ(slurp(c.out("o.exr")), "user data");
   std::error_code ec;
   fs::permissions(c.store(), fs::perms::all, ec);  // so TempDir can remove it
+  fs::permissions(c.dir / "locked", fs::perms::all, ec);
 }
 
 INSTANTIATE_TEST_SUITE_P(Table, BadInput, ::testing::ValuesIn(rows()),

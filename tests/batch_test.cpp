@@ -737,9 +737,9 @@ TEST(Batch, SweepRemovesOnlyThisPidSpacesDeadTemporaries) {
   test::TempDir dir;
   // The name atomic_write gives its temporary carries the scope and this pid.
   std::string seen;
-  atomic_write(dir.file("x.exr"), [&](const std::string& tmp) {
-    seen = fs::path(tmp).filename().string();
-    std::ofstream(tmp) << "x";
+  atomic_write(dir.file("x.exr"), [&](const std::string& via) {  // via: /proc/self/fd/<fd> of it
+    for (const auto& e : fs::directory_iterator(dir.path())) seen = e.path().filename().string();
+    std::ofstream(via) << "x";
   });
   EXPECT_EQ(seen.rfind(fmt::format(".x.tmp-{}-{}-", scope, getpid()), 0), 0u) << seen;
   EXPECT_EQ(fs::path(seen).extension(), ".exr");

@@ -3,6 +3,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fmt/format.h>
+#include <unistd.h>
+#include <fstream>
 
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -134,4 +137,48 @@ TEST(Io, RefusesToOverwriteAndMissingFolders) {
   EXPECT_NO_THROW(check_output_path(path, true));
   EXPECT_THROW(check_output_path(dir.file("nope/z.exr"), false), Error);
   EXPECT_THROW(read_image(dir.file("missing.png")), Error);
+}
+
+// A temporary's name is predictable ('.<stem>.tmp-<scope>-<pid>-<n><ext>'), so in a folder others
+// can write to (a shared device store or output folder) a symbolic link may wait under the next
+// names. The write must neither go through it (the link's target is a file of the user's) nor
+// publish it: the temporary is created exclusively and written through its descriptor.
+TEST(Io, TemporaryNeverWritesThroughAPlantedLink) {
+  namespace fs = std::filesystem;
+  test::TempDir dir;
+  const std::string victim = dir.file("victim.txt");
+  std::ofstream(victim) << "precious";
+  auto text = [](const std::string& p) {
+    std::ifstream f(p);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  // This process's next temporary number, from a probe write's temporary (the only file named so).
+  auto next_number = [&](const std::string& stem) {
+    long n = -1;
+    atomic_write(dir.file(stem + ".exr"), [&](const std::string& via) {
+      for (const auto& e : fs::directory_iterator(dir.path())) {
+        const std::string name = e.path().filename().string();
+        const std::string head = fmt::format(".{}.tmp-{}-{}-", stem, temporary_pid_scope(), getpid());
+        if (name.rfind(head, 0) == 0) n = std::stol(name.substr(head.size()));
+      }
+      std::ofstream(via) << "probe";
+    });
+    return n + 1;
+  };
+  for (bool replace : {true, false}) {
+    SCOPED_TRACE(replace ? "atomic_write" : "atomic_create");
+    const std::string stem = replace ? "x" : "y";
+    const long n = next_number(stem + "probe");
+    ASSERT_GT(n, 0);
+    for (long k = n; k < n + 20; ++k)
+      fs::create_symlink(victim, dir.file(fmt::format(".{}.tmp-{}-{}-{}.exr", stem, temporary_pid_scope(), getpid(), k)));
+    auto write = [](const std::string& via) { std::ofstream(via) << "payload"; };
+    if (replace) atomic_write(dir.file(stem + ".exr"), write);
+    else EXPECT_TRUE(atomic_create(dir.file(stem + ".exr"), write));
+    EXPECT_EQ(text(victim), "precious");
+    EXPECT_FALSE(fs::is_symlink(dir.file(stem + ".exr")));
+    EXPECT_EQ(text(dir.file(stem + ".exr")), "payload");
+    // The planted links are someone else's: left as they were.
+    EXPECT_TRUE(fs::is_symlink(dir.file(fmt::format(".{}.tmp-{}-{}-{}.exr", stem, temporary_pid_scope(), getpid(), n))));
+  }
 }

@@ -186,5 +186,20 @@ TEST(Emva1288, CharacterizeCommandPrintsJson) {
   }
   EXPECT_DOUBLE_EQ(j.at("system_gain_dn_per_e").at("preset").get<double>(),
                    load_camera_preset("sony-imx174").system_gain_dn_per_e);
+  // The conditions measured under: the defaults here (0 dB, the preset's die temperature, seed 0,
+  // the exact sampler) and the preset file's checksum; another gain and temperature are recorded.
+  const auto& cond = j.at("conditions");
+  EXPECT_EQ(cond.at("gain_db").get<double>(), 0.0);
+  EXPECT_EQ(cond.at("temperature_c").get<double>(), load_camera_preset("sony-imx174").temperature_c);
+  EXPECT_EQ(cond.at("seed"), "0");
+  EXPECT_EQ(cond.at("poisson"), "exact");
+  EXPECT_EQ(cond.at("preset_xxh3_64"), load_camera_preset("sony-imx174").text_xxh3_64);
+  r = test::run_cli("characterize --preset sony-imx174 --json --roi 16 --gain-db 6 --temperature-c 40 --seed 7 "
+                    "--device-store '" + dir.file("s") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j2 = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  EXPECT_EQ(j2.at("conditions").at("gain_db").get<double>(), 6.0);
+  EXPECT_EQ(j2.at("conditions").at("temperature_c").get<double>(), 40.0);
+  EXPECT_EQ(j2.at("conditions").at("seed"), "7");
   EXPECT_EQ(test::run_cli("characterize --preset nope").exit_code, 2);
 }

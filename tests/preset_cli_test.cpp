@@ -1,15 +1,18 @@
 // Presets (schema, errors with file, line and key) and the sensor commands' contracts.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "photosite/checksum.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/sensor/preset.h"
 #include "test_util.h"
 
 using namespace photosite;
+namespace fs = std::filesystem;
 
 namespace {
 std::string base_camera_toml() {
@@ -48,6 +51,17 @@ TEST(Presets, AllBundledPresetsLoad) {
   }
   EXPECT_GE(cameras, 4);
   EXPECT_GE(lenses, 2);
+}
+
+// The device map keeps each pixel's dark rate as a factor of the mean rate, so hot pixels without
+// a mean dark current would vanish silently: such a preset is refused, naming the key.
+TEST(Presets, HotPixelsNeedAMeanDarkCurrent) {
+  const std::string t = replace_line(base_camera_toml(), "dark_current_e_per_s",
+                                    "dark_current_e_per_s = 0\nhot_pixel_fraction = 0.01\nhot_pixel_dark_current_e_per_s = 50");
+  const std::string msg = error_of(t);
+  EXPECT_NE(msg.find("cam.toml: dark_current_e_per_s: hot pixels"), std::string::npos) << msg;
+  EXPECT_EQ(error_of(replace_line(t, "dark_current_e_per_s", "dark_current_e_per_s = 0.1")), "");
+  EXPECT_EQ(error_of(replace_line(t, "hot_pixel_fraction", "hot_pixel_fraction = 0")), "");
 }
 
 TEST(Presets, UnknownKeyNamesFileLineAndKey) {
@@ -110,6 +124,33 @@ TEST(Cli, PresetsListAndShowJson) {
   EXPECT_TRUE(j["qe"].contains("g"));
   EXPECT_EQ(j["qe"]["g"].size(), j["qe"]["wavelength_nm"].size());
   EXPECT_EQ(test::run_cli("presets show nope --json").exit_code, 2);
+}
+
+// The header names a preset by its file stem, so an edited copy of a bundled preset looks the
+// same by name: the XXH3-64 of each preset file's text tells them apart.
+TEST(Cli, OutputsRecordThePresetFilesChecksums) {
+  test::TempDir dir;
+  const std::string store = "--device-store '" + dir.file("store") + "'";
+  auto r = test::run_cli("chart --out '" + dir.file("scene.exr") + "' --width 64 --height 48");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string bundled = (fs::path(PHOTOSITE_PRESET_DIR) / "cameras/sony-imx490.toml").string();
+  const std::string edited = dir.file("sony-imx490.toml");
+  fs::copy_file(bundled, edited);
+  std::ofstream(edited, std::ios::app) << "\n# a user's edit: a comment changes no figure\n";
+  r = test::run_cli("expose --radiance '" + dir.file("scene.exr") + "' --preset sony-imx490 --out '" +
+                    dir.file("a.exr") + "' " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_cli("expose --radiance '" + dir.file("scene.exr") + "' --preset '" + edited + "' --out '" +
+                    dir.file("b.exr") + "' " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto a = read_exr(dir.file("a.exr"));
+  auto b = read_exr(dir.file("b.exr"));
+  EXPECT_EQ(a.attributes["photosite/preset"], b.attributes["photosite/preset"]);
+  EXPECT_EQ(a.attributes["photosite/preset_xxh3_64"], file_checksum_hex(bundled, ChecksumAlgorithm::Xxh3_64).value());
+  EXPECT_EQ(b.attributes["photosite/preset_xxh3_64"], file_checksum_hex(edited, ChecksumAlgorithm::Xxh3_64).value());
+  EXPECT_NE(a.attributes["photosite/preset_xxh3_64"], b.attributes["photosite/preset_xxh3_64"]);
+  EXPECT_EQ(a.attributes["photosite/lens_xxh3_64"], b.attributes["photosite/lens_xxh3_64"]);
+  EXPECT_EQ(a.attributes["photosite/lens_xxh3_64"].size(), 16u);
 }
 
 TEST(Cli, ExposeWritesTheContractChannelsAndFrames) {

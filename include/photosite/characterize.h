@@ -14,6 +14,13 @@ namespace photosite {
 
 struct Characterization {
   std::string preset, device_id;
+  // The conditions the camera was measured under (the same run at another gain or die
+  // temperature gives other figures): the preset file's XXH3-64 (an edited copy keeps the name),
+  // the analog gain, the die temperature used, the temporal-noise seed and the shot-noise sampler.
+  std::string preset_xxh3_64;
+  double gain_db = 0, temperature_c = 0;
+  uint64_t seed = 0;
+  std::string poisson;
   double wavelength_nm = 525;
   int pixels_measured = 0;
   char cfa_colour = 'G';  // the CFA colour of the measured sub-lattice

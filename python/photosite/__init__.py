@@ -134,7 +134,7 @@ Camera.expose(radiance, exposure_s=0.02, f_number=None, gain_db=0, temperature_c
     gain_db      analog gain in dB above the base system gain
     temperature_c  die temperature in deg C (None: the preset's)
     seed, frame  the temporal noise key: results are deterministic per (device, seed, frame);
-                 ints, seed in [0, 2^64 - 1], frame in [0, 2^32 - 1]
+                 ints, seed in [0, 2^64 - 1], frame in [0, 2^31 - 1]
     demosaic     demosaic method for .rgb (bilinear, malvar, hamilton-adams, lmmse, ...)
     backend      "cpu", "vulkan" or "auto" (a real GPU when present, else cpu)
     poisson      shot-noise sampler: "exact", "cornish-fisher" or "normal" (`expose --poisson`)
@@ -175,7 +175,7 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     gain_db       analog gain in dB above the base system gain
     temperature_c die temperature in deg C (None: the preset's)
     seed          scene and temporal-noise seed, an int in [0, 2^64 - 1]
-    frame         the frame number (noise key), an int in [0, 2^32 - 1]
+    frame         the frame number (noise key), an int in [0, 2^31 - 1] (the header keeps it as a 32-bit int)
     demosaic      demosaic method of sensor.rgb
     backend       "cpu", "vulkan" or "auto"
     label_format  "auto", "labelIds", "trainIds" or "color"

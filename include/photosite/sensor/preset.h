@@ -26,6 +26,8 @@ struct QeTable {
 struct CameraPreset {
   std::string name;         // file stem, e.g. "onsemi-ar0331"
   std::string file;         // where it was loaded from
+  std::string text_xxh3_64; // XXH3-64 of the file's text (16 hex digits): an edited copy of a bundled
+                            // preset keeps its name, not this (outputs record both)
   std::string description;  // free text
   std::string default_lens; // lens preset name, may be empty
   CfaPattern cfa = CfaPattern::RGGB;
@@ -54,6 +56,7 @@ struct CameraPreset {
 
 struct LensPreset {
   std::string name, file, description;
+  std::string text_xxh3_64;  // XXH3-64 of the file's text, as CameraPreset's
   double f_number = 2.0;
   double focal_length_mm = 6.0;
   double transmittance = 0.9;  // lens + IR-cut filter, fraction
