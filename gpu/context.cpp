@@ -247,6 +247,13 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
     fail("Vulkan: no Vulkan driver found (install mesa-vulkan-drivers for lavapipe, or a GPU driver; "
          "VK_DRIVER_FILES / VK_ICD_FILENAMES may point elsewhere)");
+  // The loader also answers VK_ERROR_OUT_OF_HOST_MEMORY when a driver manifest it was pointed to
+  // is not valid JSON (a memory problem is then the wrong lead): name the manifests given.
+  if (created == VK_ERROR_OUT_OF_HOST_MEMORY)
+    for (env::Var v : {env::Var::VkDriverFiles, env::Var::VkIcdFilenames})
+      if (auto files = env::get(v))
+        fail(std::string("Vulkan: creating an instance failed (VK_ERROR_OUT_OF_HOST_MEMORY), which the Vulkan loader also "
+                         "answers for a driver manifest it cannot read: check ") + env::name(v) + "=" + *files);
   vk::check(created, "creating an instance");
 #define PHOTOSITE_VK_LOAD_INSTANCE(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetInstanceProcAddr(I.instance, #name));
   PHOTOSITE_VK_INSTANCE(PHOTOSITE_VK_LOAD_INSTANCE)

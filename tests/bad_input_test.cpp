@@ -307,6 +307,8 @@ std::vector<Row> rows() {
   // An output folder the user cannot reach exists: its reason, not "does not exist" (run as an
   // unprivileged user when the tests run as root).
   t.push_back({"flat_output_folder_unreachable", [](Ctx& c) { fs::create_directories(c.dir / "locked" / "sub"); fs::permissions(c.dir / "locked", fs::perms::none); }, "flat --preset sony-imx174 " + kSensor + "--photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{dir}/locked/sub/o.exr'", {"locked/sub", "Permission denied"}});
+  // A driver manifest that is not JSON: the loader answers "out of host memory"; the message names the manifest.
+  t.push_back({"vulkan_driver_manifest_garbage", [](Ctx& c) { put((c.dir / "garbage_icd.json").string(), "{garbage"); }, kFlat + "--backend vulkan", {"driver manifest", "VK_ICD_FILENAMES=", "garbage_icd.json"}, "env -u VK_DRIVER_FILES VK_ICD_FILENAMES='{dir}/garbage_icd.json' "});
   t.push_back({"store_is_a_file", [](Ctx& c) { put(c.store(), "x"); }, kFlat, {"store", "device store"}});
   t.push_back({"demosaic_missing_input", {}, "demosaic --in '{in}/nope.png' --cfa RGGB --method bilinear --out '{out}/o.exr'", {"nope.png", "no such file"}});
   t.push_back({"demosaic_unknown_cfa", {}, "demosaic --in '{in}/day.png' --cfa XYZW --method bilinear --out '{out}/o.exr'", {"XYZW", "unknown CFA pattern"}});
@@ -466,7 +468,7 @@ TEST_P(BadInput, ExitTwoNamesFileAndProblemLeavesNoOutput) {
     }
     if (!u.bin.empty()) prefix = u.prefix, bin = u.bin;
   }
-  const auto r = prefix.empty() ? test::run_cli(expand(row.args, c)) : run_with_prefix(prefix, expand(row.args, c), bin);
+  const auto r = prefix.empty() ? test::run_cli(expand(row.args, c)) : run_with_prefix(expand(prefix, c), expand(row.args, c), bin);
   EXPECT_EQ(r.exit_code, 2) << r.output;
   for (const auto& e : row.expect) EXPECT_NE(r.output.find(expand(e, c)), std::string::npos) << "missing '" << e << "' in:\n" << r.output;
   EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;

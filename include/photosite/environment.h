@@ -33,6 +33,8 @@ enum class Var {
   VkStaging,
   SampleDir,
   ScalarLights,
+  VkDriverFiles,   // the Vulkan loader's own (read here only to name them in a message)
+  VkIcdFilenames,
 };
 
 const char* name(Var v);                 // "PHOTOSITE_DATA_DIR", ...
