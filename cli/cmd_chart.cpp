@@ -31,8 +31,8 @@ static Registrar reg("d-chart", [](CLI::App& app) {
   auto cmd = std::make_shared<ChartCmd>();
   auto* sub = app.add_subcommand("chart", "render a night test-chart scene in radiance (EXR)");
   sub->add_option("--out", cmd->out, "output EXR")->required();
-  sub->add_option("--width", cmd->chart.width)->capture_default_str();
-  sub->add_option("--height", cmd->chart.height)->capture_default_str();
+  sub->add_option("--width", cmd->chart.width, "chart width in pixels, 64 to 16384")->capture_default_str();
+  sub->add_option("--height", cmd->chart.height, "chart height in pixels, 48 to 16384")->capture_default_str();
   sub->add_option("--illuminance-lux", cmd->chart.illuminance_lux, "illuminance on the chart, lux")->capture_default_str();
   sub->add_option("--cct-k", cmd->chart.cct_k, "colour temperature of the light, K")->capture_default_str();
   sub->add_option("--lamp-cd-m2", cmd->chart.lamp_cd_m2, "luminance of the lamp heads, cd/m2")->capture_default_str();

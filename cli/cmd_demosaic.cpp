@@ -3,9 +3,18 @@
 //   photosite demosaic --list
 // Integer mosaics (8/16-bit PNG, TIFF) are read as code / max code and give a result on that
 // scale: a PNG out keeps the input's bit depth; float mosaics (EXR, float TIFF) keep their units
-// (a PNG out from them is clipped to [0, 1], 16-bit).
+// (a PNG out from them is clipped to [0, 1], 16-bit). A UINT EXR channel holds counts and is read
+// as they are (DN, e-). A photosite mosaic (`expose --layers raw`, `flat`) carries its CFA, bit
+// depth and black level in its header: the CFA is taken from it (a different --cfa is refused),
+// the black level is subtracted from a DN channel (the result is in DN above black level, as
+// expose's R,G,B), and a PNG out is DN / (2^bit_depth - 1).
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -21,7 +30,97 @@ namespace {
 struct DemosaicCmd {
   std::string in, out, cfa = "RGGB", method = "bilinear", backend = "auto";
   bool list = false, overwrite = false;
+  const CLI::Option* cfa_option = nullptr;  // count() > 0: --cfa given
 };
+
+// The mosaic of --in, how its samples are scaled, and the header attributes that say what was used.
+struct Mosaic {
+  ImageF image;
+  CfaPattern cfa = CfaPattern::RGGB;
+  int png_bits = 16;         // a PNG out: this many bits
+  double png_scale = 1;      // a PNG out: sample · png_scale in [0, 1]
+  bool png_possible = true;
+  std::map<std::string, ExrAttribute> attributes;
+};
+
+std::string cfa_flag_source(const DemosaicCmd& c) { return c.cfa_option->count() ? "--cfa" : "--cfa default"; }
+
+// OpenEXR's magic number opens the file (whatever its name).
+bool is_exr_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  unsigned char b[4] = {};
+  return f.read(reinterpret_cast<char*>(b), 4) && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
+}
+
+double header_number(const ExrContents& e, const std::string& in, const std::string& key) {
+  const std::string& text = e.attributes.at(key);
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != 0 || !std::isfinite(v)) fail_at(in, fmt::format("{} '{}' is not a number", key, text));
+  return v;
+}
+
+// A one-channel EXR as stored: UINT channels are counts (OpenEXR widens them to float exactly
+// below 2^24, which every bit depth of a preset, <= 24, stays under), float channels keep their units.
+Mosaic read_exr_mosaic(const DemosaicCmd& c) {
+  const ExrContents e = read_exr(c.in);
+  if (e.channels.size() != 1)
+    fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", e.channels.size()));
+  const auto& [name, plane] = *e.channels.begin();
+  const bool counts = e.pixel_types.at(name) == ExrPixel::Uint;
+  Mosaic m;
+  m.image = plane;
+  const auto has = [&](const char* k) { return e.attributes.count(k) > 0; };
+  m.cfa = parse_cfa(c.cfa);
+  std::string cfa_source = cfa_flag_source(c);
+  if (has("photosite/cfa")) {
+    const CfaPattern file_cfa = parse_cfa(e.attributes.at("photosite/cfa"));
+    if (c.cfa_option->count() && file_cfa != m.cfa)
+      fail_at(c.in, fmt::format("--cfa {} contradicts the mosaic's header, photosite/cfa {} (leave --cfa out to use the header's)",
+                                to_string(m.cfa), to_string(file_cfa)));
+    m.cfa = file_cfa;
+    cfa_source = c.cfa_option->count() ? "input header and --cfa" : "input header";
+  }
+  m.attributes["photosite/cfa_source"] = cfa_source;
+  m.attributes["photosite/source_channel"] = name;
+  std::optional<int> bit_depth;
+  if (has("photosite/bit_depth")) {
+    const double b = header_number(e, c.in, "photosite/bit_depth");
+    if (b != std::floor(b) || b < 1 || b > 32) fail_at(c.in, fmt::format("photosite/bit_depth {} is not a bit depth", b));
+    bit_depth = static_cast<int>(b);
+    m.attributes["photosite/bit_depth"] = *bit_depth;
+  }
+  const bool dn = plane.unit() == unit::dn;
+  if (dn && has("photosite/black_level_dn")) {
+    const double black = header_number(e, c.in, "photosite/black_level_dn");
+    const float b = static_cast<float>(black);
+    for (float& v : m.image.vec()) v -= b;
+    m.image.set_unit("DN above black level");
+    m.attributes["photosite/black_level_dn"] = black;  // subtracted: R,G,B are DN above it
+  }
+  if (counts && !(dn && bit_depth)) {
+    m.png_possible = false;  // counts of no known full scale
+  } else if (counts) {
+    m.png_scale = 1.0 / (std::ldexp(1.0, *bit_depth) - 1);
+  }
+  m.attributes["photosite/scale"] = std::string(counts ? "counts as stored (UINT channel)" : "input units");
+  return m;
+}
+
+Mosaic read_mosaic(const DemosaicCmd& c) {
+  if (is_exr_file(c.in)) return read_exr_mosaic(c);
+  ImageFileInfo info;
+  Mosaic m;
+  m.image = read_image(c.in, &info);
+  if (m.image.channels() != 1)
+    fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", m.image.channels()));
+  if (m.image.unit().empty()) m.image.set_unit(info.is_float ? "" : unit::dimensionless);
+  m.cfa = parse_cfa(c.cfa);
+  m.attributes["photosite/cfa_source"] = cfa_flag_source(c);
+  m.png_bits = !info.is_float && info.bits_per_sample == 8 ? 8 : 16;
+  m.attributes["photosite/scale"] = std::string(info.is_float ? "input units" : "code / max code of the input");
+  return m;
+}
 
 void run(const DemosaicCmd& c) {
   if (c.list) {
@@ -30,31 +129,30 @@ void run(const DemosaicCmd& c) {
   }
   if (c.in.empty()) fail("demosaic: --in MOSAIC is required (or --list)");
   if (c.out.empty()) fail("demosaic: --out RGB.exr is required");
-  const CfaPattern cfa = parse_cfa(c.cfa);
+  parse_cfa(c.cfa);
   const DemosaicMethod method = parse_demosaic_method(c.method);
   SensorRunner runner(resolve_backend(c.backend));
   const std::string ext = lower_extension(c.out);
   if (ext != ".exr" && ext != ".png")
     fail_at(c.out, "output must be .exr or .png (got '" + ext + "')");
+  check_run_outputs({{"--out", {c.out}, ext}}, {{"--in", c.in}});
   check_output_path(c.out, c.overwrite);
   if (!std::filesystem::is_regular_file(c.in)) fail_at(c.in, "no such file");
-  ImageFileInfo info;
-  ImageF mosaic_img = read_image(c.in, &info);
-  if (mosaic_img.channels() != 1)
-    fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", mosaic_img.channels()));
-  if (mosaic_img.width() < 1 || mosaic_img.height() < 1) fail_at(c.in, "empty image");
-  if (mosaic_img.unit().empty()) mosaic_img.set_unit(info.is_float ? "" : unit::dimensionless);
-  ImageF rgb = runner.demosaic(mosaic_img, cfa, method);
-  rgb.set_unit(mosaic_img.unit());
+  Mosaic m = read_mosaic(c);
+  if (ext == ".png" && !m.png_possible)
+    fail_at(c.out, c.in + " holds counts of no known full scale (a UINT channel in " + m.image.unit() +
+                       " without photosite/bit_depth): write .exr");
+  ImageF rgb = runner.demosaic(m.image, m.cfa, method);
+  rgb.set_unit(m.image.unit());
   if (ext == ".png") {
-    write_png(c.out, rgb, !info.is_float && info.bits_per_sample == 8 ? 8 : 16);
+    if (m.png_scale != 1)
+      for (float& v : rgb.vec()) v = static_cast<float>(v * m.png_scale);
+    write_png(c.out, rgb, m.png_bits);
   } else {
-    write_exr(c.out, {{{"R", "G", "B"}, &rgb, rgb.unit()}},
-              {{"photosite/demosaic", std::string(to_string(method))},
-               {"photosite/cfa", std::string(to_string(cfa))},
-               {"photosite/source", c.in},
-               {"photosite/scale", std::string(info.is_float ? "input units" : "code / max code of the input")}},
-              ExrWriteOptions{.reproducible = true});
+    m.attributes["photosite/demosaic"] = std::string(to_string(method));
+    m.attributes["photosite/cfa"] = std::string(to_string(m.cfa));
+    m.attributes["photosite/source"] = c.in;
+    write_exr(c.out, {{{"R", "G", "B"}, &rgb, rgb.unit()}}, m.attributes, ExrWriteOptions{.reproducible = true});
   }
   std::printf("%s\n", c.out.c_str());
 }
@@ -65,7 +163,7 @@ static Registrar reg("c-demosaic", [](CLI::App& app) {
   auto* sub = app.add_subcommand("demosaic", "demosaic a single-channel CFA mosaic (PNG, TIFF, EXR) to RGB");
   sub->add_option("--in", cmd->in, "single-channel mosaic: PNG 8/16-bit, TIFF or EXR");
   sub->add_option("--out", cmd->out, "RGB output, .exr (float) or .png");
-  sub->add_option("--cfa", cmd->cfa, "CFA pattern: RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO")->capture_default_str();
+  cmd->cfa_option = sub->add_option("--cfa", cmd->cfa, "CFA pattern: RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO (default: the input's photosite/cfa, else RGGB)");
   sub->add_option("--method", cmd->method, "demosaic method (see --list)")->capture_default_str();
   sub->add_flag("--list", cmd->list, "list the demosaic methods and exit");
   add_overwrite_flag(sub, cmd->overwrite);

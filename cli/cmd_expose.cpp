@@ -2,8 +2,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include <fmt/format.h>
+
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/exr_attributes.h"
 #include "photosite/sensor/isp.h"
 #include "backend.h"
 #include "registry.h"
@@ -22,12 +25,35 @@ struct ExposeCmd {
   std::string backend = "auto";
 };
 
+// An EXR that records its channels' units (photosite's own outputs: photosite/unit/<channel>)
+// must hold radiance in the channels read (the unlayered R, G, B or Y come first): an expose or
+// night output's R,G,B are DN. The message points to a layer of the file that is radiance.
+void check_radiance_units(const std::string& path) {
+  const auto attrs = read_exr_attributes(path);
+  const std::string prefix = "photosite/unit/";
+  for (const char* ch : {"R", "G", "B", "Y"}) {
+    const auto u = attrs.find(prefix + ch);
+    if (u == attrs.end() || u->second == unit::radiance) continue;
+    std::string layer;
+    for (const auto& [k, v] : attrs)
+      if (k.rfind(prefix, 0) == 0 && v == unit::radiance && k.size() > prefix.size() + 2 && k.compare(k.size() - 2, 2, ".R") == 0)
+        layer = k.substr(prefix.size(), k.size() - prefix.size() - 2);
+    fail_at(path, fmt::format("--radiance: the channel {} is in '{}', not radiance ({}): expose reads R,G,B as scene radiance{}",
+                              ch, u->second, unit::radiance,
+                              layer.empty() ? std::string()
+                                            : fmt::format("; this file's radiance is its {0}.* layer, which expose does not read: "
+                                                          "write {0}.R, {0}.G, {0}.B to an EXR of their own as R, G, B and expose that",
+                                                          layer)));
+  }
+}
+
 ImageF load_radiance(const std::string& path) {
   ImageFileInfo info;
   ImageF img = read_image(path, &info);
   if (!info.is_float)
     fail_at(path, "scene radiance must be a floating-point (linear) image such as EXR, found " +
                       std::to_string(info.bits_per_sample) + "-bit integer " + info.format);
+  if (info.format == "openexr") check_radiance_units(path);
   if (img.channels() == 1) {  // grey radiance: equal band radiance in R, G, B
     ImageF rgb(img.width(), img.height(), 3);
     for (size_t i = 0; i < img.pixel_count(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = img[i];
@@ -48,13 +74,13 @@ ImageF load_radiance(const std::string& path) {
 void run(const ExposeCmd& c) {
   const LayerSet layers = c.layers.empty() ? kExposeLayers : parse_layers(c.layers, kExposeLayers, "--layers", "expose");
   check_exr_compression(c.compression, "--compression");
-  const PreviewOptions preview_options = c.preview_flags.resolve();
+  const PreviewOptions preview_options = c.preview_flags.resolve(c.preview);
   auto r = c.sensor.resolve();
   SensorRunner runner(resolve_backend(c.backend, &r.camera));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
-  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}});
+  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}}, {{"--radiance", c.radiance}});
   ImageF radiance = load_radiance(c.radiance);
   if (!previews.empty()) check_preview_frame(preview_options, radiance.width(), radiance.height());
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);

@@ -36,6 +36,9 @@ void run(const FlatCmd& c) {
     r.settings.frame = static_cast<uint32_t>(f);
     SensorOutput out = runner.sense(mean, r.camera, ex, r.settings, fpn);
     auto attrs = sensor_attributes(r, ex, fpn);
+    attrs.erase("photosite/lens");  // photons per pixel: no lens or aperture acted on them
+    attrs.erase("photosite/f_number");
+    attrs.erase("photosite/lens_xxh3_64");
     attrs["photosite/photons_per_pixel"] = c.photons;
     attrs["photosite/wavelength_nm"] = c.wavelength_nm;
     write_exr(outputs[f], sensor_channels(out), attrs);
@@ -52,7 +55,8 @@ static Registrar reg("c-flat", [](CLI::App& app) {
   sub->add_option("--width", cmd->width, "frame width in pixels")->required();
   sub->add_option("--height", cmd->height, "frame height in pixels")->required();
   sub->add_option("--out", cmd->out, "output EXR (with --frames, a # run takes the frame number)")->required();
-  cmd->sensor.add(sub);
+  // --photons is per pixel: no lens or aperture acts on it, so --lens and --f-number are not taken.
+  cmd->sensor.add(sub, true, SensorOptions::kAllExtras & ~(SensorOptions::kLens | SensorOptions::kFNumber));
   add_backend_option(sub, cmd->backend);
   add_overwrite_flag(sub, cmd->overwrite);
   sub->callback([cmd] { run(*cmd); });

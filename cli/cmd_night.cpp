@@ -48,7 +48,7 @@ std::string night_sample_dir() {
 void run_night(NightCmd c) {
   const LayerSet layers = c.layers.empty() ? kNightLayers : parse_layers(c.layers, kNightLayers, "--layers", "night");
   check_exr_compression(c.compression, "--compression");
-  const PreviewOptions preview_options = c.preview_flags.resolve();
+  const PreviewOptions preview_options = c.preview_flags.resolve(c.preview);
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
   const bool bundled = c.image.empty() && c.labels.empty();
@@ -75,7 +75,8 @@ void run_night(NightCmd c) {
   std::vector<std::string> map_files;
   if (!c.maps.empty())
     for (const auto& f : night_map_picture_files()) map_files.push_back((std::filesystem::path(c.maps) / f).string());
-  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}, {"--maps", map_files, ""}});
+  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}, {"--maps", map_files, ""}},
+                    {{"--image", c.image}, {"--labels", c.labels}, {"--instances", c.instances}});
 
   std::vector<scene::StageTiming> times;
   auto t = clock::now();

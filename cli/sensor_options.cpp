@@ -31,12 +31,21 @@ const CLI::Validator kSeedText(
 const CLI::Validator kNonEmptyFolder(
     [](std::string& s) -> std::string { return s.empty() ? "an empty folder name is not a device store" : ""; },
     "DIR");
+// So too an empty --device-id or --lens: "$DEV" unset would measure the default device (and write
+// its maps), "$LENS" unset would take the camera's default lens.
+const CLI::Validator kNonEmptyDeviceId(
+    [](std::string& s) -> std::string { return s.empty() ? "an empty device id; leave --device-id out for the default <preset>-0" : ""; },
+    "ID");
+const CLI::Validator kNonEmptyLens(
+    [](std::string& s) -> std::string { return s.empty() ? "an empty lens name; leave --lens out for the camera's default lens" : ""; },
+    "LENS");
 }  // namespace
 
 void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {
   auto* p = sub->add_option("--preset", preset, "camera preset: a bundled name or a .toml path");
   if (preset_required) p->required();
-  sub->add_option("--lens", lens, "lens preset (default: the camera's default lens)");
+  this->extras = extras;
+  if (extras & kLens) sub->add_option("--lens", lens, "lens preset (default: the camera's default lens)")->check(kNonEmptyLens);
   if (extras & kExposure) sub->add_option("--exposure-s", exposure_s, "exposure time in seconds")->capture_default_str();
   if (extras & kFNumber) sub->add_option("--f-number", f_number, "f-number N (default: the lens preset's)");
   sub->add_option("--gain-db", gain_db, "analog gain in dB above the base system gain")->capture_default_str();
@@ -44,7 +53,7 @@ void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {
   sub->add_option("--seed", seed, "seed of the temporal noise")->capture_default_str()->check(kSeedText);
   if (extras & kFrames)
     sub->add_option("--frames", frames, "number of frames (output name needs a # run)")->capture_default_str();
-  sub->add_option("--device-id", device_id, "device identity for the fixed-pattern maps (default <preset>-0)");
+  sub->add_option("--device-id", device_id, "device identity for the fixed-pattern maps (default <preset>-0)")->check(kNonEmptyDeviceId);
   sub->add_option("--device-store", device_store,
                   "folder of device fixed-pattern maps (default $PHOTOSITE_DEVICE_STORE, else "
                   "$XDG_DATA_HOME/photosite/devices, else ~/.local/share/photosite/devices)")
@@ -58,8 +67,8 @@ SensorOptions::Resolved SensorOptions::resolve() const {
   if (frames < 1 || frames > 100000) fail(fmt::format("--frames {} must be in [1, 100000]", frames));
   CameraPreset cam = load_camera_preset(preset);
   std::string lens_name = lens.empty() ? cam.default_lens : lens;
-  if (lens_name.empty()) fail("camera preset " + cam.file + " names no default_lens; pass --lens");
-  LensPreset l = load_lens_preset(lens_name);
+  if (lens_name.empty() && (extras & kLens)) fail("camera preset " + cam.file + " names no default_lens; pass --lens");
+  LensPreset l = lens_name.empty() ? LensPreset{} : load_lens_preset(lens_name);  // no lens acts without --lens
   ExposureSettings s;
   s.exposure_s = exposure_s;
   s.f_number = f_number;
@@ -84,8 +93,27 @@ std::vector<std::string> frame_outputs(const std::string& pattern, int frames, b
   return out;
 }
 
-void check_run_outputs(const std::vector<RunOutput>& outputs) {
+namespace {
+// One file under two names: the same file when both exist (links, "./x" and "x"), else the same
+// absolute, lexically normal path.
+bool same_file(const std::string& a, const std::string& b) {
   namespace fs = std::filesystem;
+  std::error_code ea, eb, ec;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) {
+    const bool same = fs::equivalent(a, b, ec);
+    if (!ec) return same;
+  }
+  return fs::absolute(a, ea).lexically_normal() == fs::absolute(b, eb).lexically_normal();
+}
+}  // namespace
+
+void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs) {
+  namespace fs = std::filesystem;
+  for (const auto& o : outputs)
+    for (const auto& p : o.paths)
+      for (const auto& in : inputs)
+        if (!in.path.empty() && same_file(p, in.path))
+          fail_at(p, o.option + " is the run's " + in.option + " input: refused, the output would replace the file being read (even with -y)");
   std::map<std::string, std::string> seen;  // the file, made absolute and normal, to its option
   for (const auto& o : outputs)
     for (const auto& p : o.paths) {
@@ -103,17 +131,26 @@ void check_run_outputs(const std::vector<RunOutput>& outputs) {
 }
 
 void PreviewFlags::add(CLI::App* sub) {
-  sub->add_option("--preview-isp", isp, "preview ISP: simple (white balance, p99 exposure, sRGB) or camera (+ noise reduction from the sensor's noise model, JPEG; docs/realism.md)")->capture_default_str();
-  sub->add_option("--preview-denoise", camera.denoise, "camera ISP: luma noise-reduction strength, 0-10 (0: off; chroma gets twice it)")->capture_default_str();
-  sub->add_option("--preview-jpeg-quality", camera.jpeg_quality, "camera ISP: JPEG round trip quality 1-100 (0: none)")->capture_default_str();
+  isp_option = sub->add_option("--preview-isp", isp, "preview ISP: simple (white balance, p99 exposure, sRGB) or camera (+ noise reduction from the sensor's noise model, JPEG; docs/realism.md); needs --preview")->capture_default_str();
+  denoise_option = sub->add_option("--preview-denoise", camera.denoise, "camera ISP: luma noise-reduction strength, 0-10 (0: off; chroma gets twice it); needs --preview-isp camera")->capture_default_str();
+  jpeg_option = sub->add_option("--preview-jpeg-quality", camera.jpeg_quality, "camera ISP: JPEG round trip quality 1-100 (0: none); needs --preview-isp camera")->capture_default_str();
 }
 
-PreviewOptions PreviewFlags::resolve() const {
+PreviewOptions PreviewFlags::resolve(const std::string& preview) const {
   PreviewOptions o;
   o.isp = parse_preview_isp(isp);
   o.camera = camera;
   o.camera.chroma_denoise = 2 * camera.denoise;  // isp.h's default ratio
   check_camera_isp_options(o.camera);
+  const auto given = [](const CLI::Option* opt) { return opt && opt->count() > 0; };
+  for (const CLI::Option* opt : {isp_option, denoise_option, jpeg_option})
+    if (given(opt) && preview.empty())
+      fail(opt->get_name() + " " + opt->as<std::string>() + ": no preview is written (add --preview FILE.png), so it would do nothing");
+  if (o.isp != PreviewIsp::Camera)
+    for (const CLI::Option* opt : {denoise_option, jpeg_option})
+      if (given(opt))
+        fail(opt->get_name() + " " + opt->as<std::string>() + ": acts only with --preview-isp camera (the " + isp +
+             " ISP has no noise reduction or JPEG step), so it would do nothing");
   return o;
 }
 

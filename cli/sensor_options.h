@@ -30,7 +30,9 @@ struct SensorOptions {
 
   // The options only some commands use (characterize measures with its own exposures and frames,
   // through no lens aperture and no demosaic): a command adds just those it reads.
-  enum Extra : unsigned { kExposure = 1, kFNumber = 2, kFrames = 4, kDemosaic = 8, kAllExtras = 15 };
+  // (flat and characterize are given photons per pixel, so no lens or aperture acts on them.)
+  enum Extra : unsigned { kExposure = 1, kFNumber = 2, kFrames = 4, kDemosaic = 8, kLens = 16, kAllExtras = 31 };
+  unsigned extras = kAllExtras;  // as added
   // Adds the options; `preset_required` for commands where --preset has no default.
   void add(CLI::App* sub, bool preset_required = true, unsigned extras = kAllExtras);
 
@@ -46,8 +48,13 @@ struct SensorOptions {
 struct PreviewFlags {
   std::string isp = "simple";
   CameraIspOptions camera;
+  // The options as added (null when the flags were set in code, e.g. by `demo`): count() > 0
+  // when given on the command line.
+  const CLI::Option *isp_option = nullptr, *denoise_option = nullptr, *jpeg_option = nullptr;
   void add(CLI::App* sub);
-  PreviewOptions resolve() const;  // throws ParameterError naming the parameter
+  // Throws ParameterError naming the parameter; bad input when a flag is given that cannot act:
+  // any of them without a preview (`preview` empty), or the camera ISP's knobs with the simple ISP.
+  PreviewOptions resolve(const std::string& preview) const;
 };
 
 // Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
@@ -59,9 +66,15 @@ struct RunOutput {
   std::vector<std::string> paths;
   std::string extension;           // ".exr", ".png" (compared case-insensitively); empty: any
 };
+// One input option of a run and the file it names.
+struct RunInput {
+  std::string option;  // "--radiance"
+  std::string path;
+};
 // Bad input (exit 2) before anything is written: a file named by two outputs of the run (the
-// second write would replace the first: --out and --preview one file, or a --maps picture), or an
-// output without its format's extension (an EXR written to x.png).
-void check_run_outputs(const std::vector<RunOutput>& outputs);
+// second write would replace the first: --out and --preview one file, or a --maps picture), an
+// output that is one of the run's inputs (-y replaces an existing output, never the input being
+// read), or an output without its format's extension (an EXR written to x.png).
+void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs = {});
 
 }  // namespace photosite::cli

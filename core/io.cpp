@@ -1,4 +1,5 @@
 #include "photosite/io.h"
+#include "photosite/exr_attributes.h"
 
 #include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -826,6 +827,11 @@ ExrContents read_exr(const std::string& path) {
     file.readPixels(dw.min.y, dw.max.y);
     return r;
   });
+}
+
+std::map<std::string, std::string> read_exr_attributes(const std::string& path) {
+  if (sniff(path) != Format::Exr) fail_at(path, "not an OpenEXR file");
+  return with_exr_file(path, [](Imf::InputFile& file, const Imath::Box2i&, int, int) { return exr_attributes(file.header()); });
 }
 
 uint8_t float_to_code8(float v) {

@@ -165,12 +165,19 @@ py::array_t<T> to_array(Image<T>&& img) {
   return py::array_t<T>(shape, owner->data(), cap);
 }
 
-ImageU16 raw_codes(const ImageF& raw_dn) {  // integer-valued DN (0..2^bit_depth-1) as uint16
-  ImageU16 r(raw_dn.width(), raw_dn.height(), 1, uninitialized, unit::dn);
+// Integer-valued DN (0..2^bit_depth-1) as uint16 for cameras of up to 16 bits, else uint32 (the
+// schema allows 24): the codes of the CLI's UINT raw.Y, never wrapped.
+template <class T>
+py::array_t<T> codes_as(const ImageF& raw_dn) {
+  Image<T> r(raw_dn.width(), raw_dn.height(), 1, uninitialized, unit::dn);
   const int64_t n = static_cast<int64_t>(r.size());
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) r[i] = static_cast<uint16_t>(raw_dn[i]);
-  return r;
+  for (int64_t i = 0; i < n; ++i) r[i] = static_cast<T>(raw_dn[i]);
+  return to_array(std::move(r));
+}
+py::array raw_codes(const ImageF& raw_dn, int bit_depth) {
+  if (bit_depth <= 16) return codes_as<uint16_t>(raw_dn);
+  return codes_as<uint32_t>(raw_dn);
 }
 
 py::dict attributes_dict(const std::map<std::string, ExrAttribute>& attrs) {
@@ -188,7 +195,7 @@ py::object json_to_python(const nlohmann::json& j) {
 
 // ---- results ------------------------------------------------------------------------------
 struct SensorResult {
-  py::array_t<uint16_t> raw;      // DN, CFA mosaic with black level
+  py::array raw;                  // DN, CFA mosaic with black level: uint16 (<= 16 bits) or uint32
   py::array_t<float> rgb;         // DN above black, demosaiced
   py::array_t<float> electrons;   // e-
   py::dict metadata;
@@ -198,7 +205,7 @@ struct SensorResult {
 
 SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam) {
   SensorResult r;
-  r.raw = to_array(raw_codes(out.raw_dn));
+  r.raw = raw_codes(out.raw_dn, cam.bit_depth);
   out.raw_dn = ImageF();
   r.rgb = to_array(std::move(out.rgb));
   r.electrons = to_array(std::move(out.electrons));
@@ -661,7 +668,7 @@ PYBIND11_MODULE(_photosite, m) {
   });
 
   py::class_<SensorResult>(m, "SensorResult")
-      .def_readonly("raw", &SensorResult::raw, "uint16 H x W: raw DN mosaic (with black level)")
+      .def_readonly("raw", &SensorResult::raw, "uint16 H x W (uint32 for cameras of more than 16 bits): raw DN mosaic (with black level)")
       .def_readonly("rgb", &SensorResult::rgb, "float32 H x W x 3: demosaiced DN above black")
       .def_readonly("electrons", &SensorResult::electrons, "float32 H x W: collected e- per pixel")
       .def_readonly("metadata", &SensorResult::metadata, "dict: the command's photosite/ header attributes without the prefix, less the *_text copies, "

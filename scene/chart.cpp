@@ -2,7 +2,11 @@
 #include "photosite/scene/chart.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
 
 #include "photosite/error.h"
 #include "photosite/sensor/isp.h"
@@ -19,11 +23,26 @@ constexpr unsigned char kPatches[24][3] = {
     {243, 243, 242}, {200, 200, 200}, {160, 160, 160}, {122, 122, 121}, {85, 85, 85},    {52, 52, 52}};
 
 void check(const ChartOptions& o) {
-  if (o.width < 64 || o.height < 48 || o.width > 16384 || o.height > 16384)
-    fail("chart size must be between 64x48 and 16384x16384");
-  if (!(o.illuminance_lux >= 0) || !(o.cct_k >= 1000 && o.cct_k <= 25000) || !(o.lamp_cd_m2 >= 0) ||
-      !(o.background_cd_m2 >= 0))
-    fail("chart: illuminance, lamp and background luminance must be >= 0, CCT in [1000, 25000] K");
+  if (o.width < 64 || o.width > 16384)
+    fail_parameter("width", "chart size: ", fmt::format(" {} is outside [64, 16384] pixels (the chart size must be between 64x48 and 16384x16384)", o.width));
+  if (o.height < 48 || o.height > 16384)
+    fail_parameter("height", "chart size: ", fmt::format(" {} is outside [48, 16384] pixels (the chart size must be between 64x48 and 16384x16384)", o.height));
+  if (!(o.illuminance_lux >= 0)) fail_parameter("illuminance_lux", "chart: ", fmt::format(" {} lux must be >= 0", o.illuminance_lux));
+  if (!(o.cct_k >= 1000 && o.cct_k <= 25000))
+    fail_parameter("cct_k", "chart: ", fmt::format(" {} K is outside the CCT range [1000, 25000] K", o.cct_k));
+  if (!(o.lamp_cd_m2 >= 0)) fail_parameter("lamp_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be >= 0", o.lamp_cd_m2));
+  if (!(o.background_cd_m2 >= 0))
+    fail_parameter("background_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be >= 0", o.background_cd_m2));
+}
+
+// A radiance the option made must be a finite float (the EXR stores float32; Inf is not a
+// radiance, and `expose` refuses it).
+void check_representable(const float* px, const char* parameter, double value, const char* unit_name) {
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(px[k]))
+      fail_parameter(parameter, "chart: ",
+                     fmt::format(" {:g} {} gives a radiance beyond float's range ({:g} W.sr-1.m-2): not representable",
+                                 value, unit_name, static_cast<double>(std::numeric_limits<float>::max())));
 }
 }  // namespace
 
@@ -63,15 +82,28 @@ ImageF render_chart(const ChartOptions& o) {
       px[k] = static_cast<float>(std::max(0.0, rho / white) * illum[k] * luminance_scale);
     }
   };
-  ImageF img(o.width, o.height, 3, 0.f, unit::radiance);
-  const auto bg = spectrum::blackbody_rgb(4000, o.background_cd_m2);
-  for (size_t i = 0; i < img.pixel_count(); ++i)
-    for (int k = 0; k < 3; ++k) img[3 * i + k] = static_cast<float>(bg[k]);
+  // Every colour first, each checked against the option that sets it, before the frame is made.
+  const auto as_float = [](const auto& v) { return std::array<float, 3>{static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])}; };
+  const auto bg = as_float(spectrum::blackbody_rgb(4000, o.background_cd_m2));
+  check_representable(bg.data(), "background_cd_m2", o.background_cd_m2, "cd/m2");
+  float patch[24][3];
   for (int p = 0; p < 24; ++p) {
     double lin[3];
     for (int j = 0; j < 3; ++j) lin[j] = srgb_decode(kPatches[p][j] / 255.0);
-    float px[3];
-    radiance_of(lin, white_cd_m2, px);
+    radiance_of(lin, white_cd_m2, patch[p]);
+    check_representable(patch[p], "illuminance_lux", o.illuminance_lux, "lux");
+  }
+  const double cts[2] = {2000.0, 4000.0};  // the lamp heads: sodium-like 2000 K and LED 4000 K
+  std::array<float, 3> lamp[2];
+  for (int l = 0; l < 2; ++l) {
+    lamp[l] = as_float(spectrum::blackbody_rgb(cts[l], o.lamp_cd_m2));
+    check_representable(lamp[l].data(), "lamp_cd_m2", o.lamp_cd_m2, "cd/m2");
+  }
+  ImageF img(o.width, o.height, 3, 0.f, unit::radiance);
+  for (size_t i = 0; i < img.pixel_count(); ++i)
+    for (int k = 0; k < 3; ++k) img[3 * i + k] = bg[k];
+  for (int p = 0; p < 24; ++p) {
+    const float* px = patch[p];
     const ChartRect r = chart_patch_rect(o, p);
     for (int y = r.y0; y < r.y1; ++y)
       for (int x = r.x0; x < r.x1; ++x)
@@ -84,10 +116,9 @@ ImageF render_chart(const ChartOptions& o) {
       for (int x = r.x0; x < r.x1; ++x)
         for (int k = 0; k < 3; ++k) img.at(x, y, k) = static_cast<float>(v[k]);
   }
-  // Two lamp heads (sodium-like 2000 K and LED 4000 K) at the right edge, upper area.
-  const double cts[2] = {2000.0, 4000.0};
+  // The two lamp heads at the right edge, upper area.
   for (int l = 0; l < 2; ++l) {
-    const auto v = spectrum::blackbody_rgb(cts[l], o.lamp_cd_m2);
+    const auto& v = lamp[l];
     const int cx = o.width - o.width / 14, cy = o.height / 6 + l * o.height / 4, r = std::max(2, o.width / 80);
     for (int y = cy - r; y <= cy + r; ++y)
       for (int x = cx - r; x <= cx + r; ++x)
@@ -101,7 +132,9 @@ std::map<std::string, ExrAttribute> chart_attributes(const ChartOptions& o) {
   return {{"photosite/version", std::string(PHOTOSITE_VERSION)},
           {"photosite/content", std::string("night test chart: ColorChecker, grey wedge, lamps")},
           {"photosite/illuminance_lux", o.illuminance_lux},
-          {"photosite/cct_k", o.cct_k}};
+          {"photosite/cct_k", o.cct_k},
+          {"photosite/lamp_cd_m2", o.lamp_cd_m2},
+          {"photosite/background_cd_m2", o.background_cd_m2}};
 }
 
 }  // namespace photosite::scene

@@ -17,6 +17,7 @@
 #include "photosite/error.h"
 #include "photosite/scene/rig.h"
 #include "photosite/scene/scene_preset.h"
+#include "photosite/sensor/spectrum.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -104,7 +105,7 @@ const std::vector<Param<CameraPreset>>& camera_schema() {
       {"qe", Kind::Table, {}, "", -inf, inf, Need::Required, "quantum efficiency per filter colour",
        "EMVA 1288 QE where measured, else modelled (scripts/model_qe.py)"},
       {"qe.wavelength_nm", Kind::NumberList, PHOTOSITE_AT(P, qe.wavelength_nm), "nm", 0, inf, Need::Required,
-       "the QE grid", "", "increasing, ≥ 2 values"},
+       "the QE grid", "", "increasing, ≥ 2 values, from ≤ 400 to ≥ 700 (the radiance basis's range)"},
       {"qe.r", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[0]), "fraction", 0, 1, Need::Optional,
        "QE of the red filter on the grid", "", "where the CFA has R; one value per wavelength"},
       {"qe.g", Kind::NumberList, PHOTOSITE_AT(P, qe.qe[1]), "fraction", 0, 1, Need::Optional,
@@ -209,6 +210,15 @@ void validate(const CameraPreset& p) {
   for (size_t i = 1; i < wl.size(); ++i)
     if (!(wl[i] > wl[i - 1]))
       fail(where(f, 0, "qe.wavelength_nm") + ": wavelengths must increase");
+  // expose integrates each radiance band over its box (include/photosite/sensor/spectrum.h): a
+  // grid that stops short of the basis would take QE = 0 beyond it without a word.
+  const double need_lo = std::min({spectrum::kBandLoNm[0], spectrum::kBandLoNm[1], spectrum::kBandLoNm[2]});
+  const double need_hi = std::max({spectrum::kBandHiNm[0], spectrum::kBandHiNm[1], spectrum::kBandHiNm[2]});
+  if (wl.front() > need_lo || wl.back() < need_hi)
+    fail(where(f, 0, "qe.wavelength_nm") +
+         fmt::format(": the grid covers {} to {} nm, but the radiance basis needs QE from {} to {} nm "
+                     "(expose integrates every band over it; outside the grid QE would be taken as 0)",
+                     wl.front(), wl.back(), need_lo, need_hi));
   for (auto c : cfa_colors(p.cfa)) {
     const auto& q = p.qe.qe[static_cast<int>(c)];
     const std::string key = std::string("qe.") + static_cast<char>(std::tolower(to_string(c)[0]));

@@ -165,6 +165,12 @@ std::string replace_line(std::string text, const std::string& key, const std::st
   const auto e = text.find('\n', p + 1);
   return text.substr(0, p + 1) + line + text.substr(e);
 }
+std::string replace_first(std::string text, const std::string& from, const std::string& to) {
+  const auto p = text.find(from);
+  if (p == std::string::npos) ADD_FAILURE() << "no '" << from << "' in the preset";
+  else text.replace(p, from.size(), to);
+  return text;
+}
 void write_camera(const Ctx& c, const std::string& text) { put(c.in("cam.toml"), text); }
 // A device map of one preset and size, made by a real run, placed where another lookup goes.
 void make_map(const Ctx& c, const std::string& preset, int w, int h) {
@@ -334,6 +340,39 @@ std::vector<Row> rows() {
   t.push_back({"chart_too_small", {}, "chart --width 10 --height 10 --out '{out}/c.exr'", {"chart size"}});
   t.push_back({"chart_bad_cct", {}, "chart --cct-k 100 --out '{out}/c.exr'", {"CCT"}});
   t.push_back({"chart_output_folder_missing", {}, "chart --out '{out}/nope/c.exr'", {"nope", "does not exist"}});
+  // Each option named with its value (before: one message for all five); a radiance beyond float's
+  // range was written as Inf (exit 0), which expose then refused.
+  t.push_back({"chart_cct_names_flag_and_value", {}, "chart --cct-k 500 --out '{out}/c.exr'", {"--cct-k", "500", "[1000, 25000]"}});
+  t.push_back({"chart_width_names_flag_and_value", {}, "chart --width 10 --out '{out}/c.exr'", {"--width", "10"}});
+  t.push_back({"chart_lamp_overflows_float", {}, "chart --lamp-cd-m2 1e42 --out '{out}/c.exr'", {"--lamp-cd-m2", "1e+42", "float's range"}});
+  t.push_back({"chart_illuminance_overflows_float", {}, "chart --illuminance-lux 1e300 --out '{out}/c.exr'", {"--illuminance-lux", "1e+300", "float's range"}});
+  t.push_back({"chart_background_overflows_float", {}, "chart --background-cd-m2 1e42 --out '{out}/c.exr'", {"--background-cd-m2", "1e+42", "float's range"}});
+  // ---- an output that is an input: refused even with -y (before: the input was replaced) -----
+  t.push_back({"expose_out_is_the_radiance", {}, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' --out '{in}/./radiance.exr' -y", {"radiance.exr", "--out is the run's --radiance input"}});
+  t.push_back({"demosaic_out_is_the_input", [](Ctx& c) { write_png(c.in("m.png"), label_ids()); }, "demosaic --in '{in}/m.png' --out '{in}/m.png' -y", {"m.png", "--out is the run's --in input"}});
+  t.push_back({"night_out_is_the_image", [](Ctx& c) { write_radiance(c.in("day.exr")); }, "night " + kSensor + "--image '{in}/day.exr' --labels '{in}/labels.png' --out '{in}/day.exr' -y", {"day.exr", "--out is the run's --image input"}});
+  // ---- flags that cannot act: refused (before: accepted and ignored) --------------------------
+  t.push_back({"expose_preview_isp_without_preview", {}, kExpose + "--preview-isp camera", {"--preview-isp camera", "no preview is written"}});
+  t.push_back({"expose_jpeg_quality_without_preview", {}, kExpose + "--preview-jpeg-quality 10", {"--preview-jpeg-quality 10", "no preview is written"}});
+  t.push_back({"expose_denoise_with_simple_isp", {}, kExpose + "--preview '{out}/p.png' --preview-denoise 3", {"--preview-denoise 3", "acts only with --preview-isp camera"}});
+  t.push_back({"night_jpeg_quality_with_simple_isp", {}, kNight + "--preview '{out}/p.png' --preview-isp simple --preview-jpeg-quality 10", {"--preview-jpeg-quality 10", "acts only with --preview-isp camera"}});
+  t.push_back({"flat_lens_refused", {}, kFlat + "--lens generic-50mm-f1.4", {"--lens"}});
+  t.push_back({"flat_f_number_refused", {}, kFlat + "--f-number 16", {"--f-number"}});
+  t.push_back({"characterize_lens_refused", {}, "characterize --preset sony-imx174 " + kSensor + "--roi 32 --lens generic-50mm-f1.4", {"--lens"}});
+  // Empty values (an unset shell variable) meant the default device and lens, as --device-store "" once did.
+  t.push_back({"expose_empty_device_id", {}, "expose --preset sony-imx174 --device-id '' --device-store '{store}' --radiance '{in}/radiance.exr' --out '{out}/o.exr'", {"--device-id", "empty device id"}});
+  t.push_back({"flat_empty_device_id", {}, "flat --preset sony-imx174 --device-id '' --device-store '{store}' --photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"--device-id", "empty device id"}});
+  t.push_back({"expose_empty_lens", {}, kExpose + "--lens ''", {"--lens", "empty lens name"}});
+  // A QE grid that stops short of the radiance basis (400-700 nm): expose took QE = 0 beyond it
+  // without a word while flat and characterize refused those wavelengths; now the preset is refused.
+  t.push_back({"preset_qe_grid_short_of_the_basis", [](Ctx& c) { write_camera(c, replace_first(base_camera_toml(), "wavelength_nm = [400,", "wavelength_nm = [405,")); }, "expose --preset '{in}/cam.toml' " + kSensor + "--radiance '{in}/radiance.exr' --out '{out}/o.exr'", {"cam.toml", "qe.wavelength_nm", "covers 405 to 700 nm", "400 to 700 nm"}});
+  t.push_back({"flat_qe_grid_short_of_the_basis", [](Ctx& c) { write_camera(c, replace_first(base_camera_toml(), ", 700]", ", 695]")); }, "flat --preset '{in}/cam.toml' " + kSensor + "--photons 100 --wavelength-nm 525 --width 64 --height 32 --out '{out}/o.exr'", {"cam.toml", "qe.wavelength_nm", "covers 400 to 695 nm"}});
+  // R,G,B that photosite itself labelled as DN (an expose output) are not radiance; the message
+  // names the unit and the file's radiance layer (before: exposed as radiance, every pixel saturated).
+  t.push_back({"expose_radiance_in_dn", [](Ctx& c) {
+    ImageF dn(kW, kH, 3, 100.f), rad(kW, kH, 3, 0.05f);
+    write_exr(c.in("e.exr"), {{{"R", "G", "B"}, &dn, "DN above black level"}, {{"night_radiance.R", "night_radiance.G", "night_radiance.B"}, &rad, "W.sr-1.m-2"}}, {});
+  }, "expose --preset sony-imx174 " + kSensor + "--radiance '{in}/e.exr' --out '{out}/o.exr'", {"e.exr", "'DN above black level'", "not radiance (W.sr-1.m-2)", "night_radiance.* layer"}});
   t.push_back({"characterize_bad_roi", {}, "characterize --preset sony-imx174 " + kSensor + "--roi 5", {"--roi"}});
   t.push_back({"characterize_bad_preset", [](Ctx& c) { write_camera(c, "[[x"); }, "characterize --preset '{in}/cam.toml' " + kSensor, {"cam.toml", "malformed TOML"}});
   // ---- night: the day image -----------------------------------------------------------------
@@ -544,6 +583,21 @@ TEST(BadInput, GoodInputControlsSucceed) {
     const auto r = test::run_cli(expand(args, c));
     EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
     if (args.rfind("batch", 0) != 0) EXPECT_TRUE(fs::exists(c.out(out))) << args;
+  }
+}
+
+// -y replaces an existing output, never the input being read: the input under its own name and
+// through a symbolic link is refused, and keeps its bytes (before: replaced by the sensor EXR).
+TEST(BadInput, AnOutputThatIsTheInputIsRefusedAndTheInputKept) {
+  test::TempDir tmp;
+  const Ctx c = good_inputs_in(tmp);
+  const std::string before = slurp(c.in("radiance.exr"));
+  fs::create_symlink(c.in("radiance.exr"), c.out("link.exr"));
+  for (const std::string& out : {c.in("radiance.exr"), c.out("link.exr")}) {
+    const auto r = test::run_cli(expand("expose --preset sony-imx174 " + kSensor + "--radiance '{in}/radiance.exr' -y --out '", c) + out + "'");
+    EXPECT_EQ(r.exit_code, 2) << out << "\n" << r.output;
+    EXPECT_NE(r.output.find("--out is the run's --radiance input"), std::string::npos) << r.output;
+    EXPECT_EQ(slurp(c.in("radiance.exr")), before) << out;
   }
 }
 

@@ -86,3 +86,37 @@ TEST(Chart, BadOptionsAreBadInputNamingTheParameter) {
   dark.illuminance_lux = -1;
   EXPECT_EQ(kind_and_text(dark).first, Error::Kind::BadInput);
 }
+
+// A luminance or illuminance whose radiance is beyond float's range (3.4e38) is bad input naming
+// the parameter (before: Inf radiance written, exit 0, which expose then refused); the header
+// records the lamp and background luminances beside the illuminance and CCT.
+TEST(Chart, OverflowingLuminanceIsBadInputAndTheHeaderRecordsEveryLuminance) {
+  const auto parameter_of = [](scene::ChartOptions o) -> std::string {
+    try {
+      scene::render_chart(o);
+    } catch (const ParameterError& e) {
+      return e.parameter();
+    }
+    return "no error";
+  };
+  scene::ChartOptions lamp, lux, bg;
+  lamp.lamp_cd_m2 = 1e42;
+  lux.illuminance_lux = 1e300;
+  bg.background_cd_m2 = 1e42;  // about 1e39 W.sr-1.m-2 (a 4000 K white gives some 300 lm/W)
+  EXPECT_EQ(parameter_of(lamp), "lamp_cd_m2");
+  EXPECT_EQ(parameter_of(lux), "illuminance_lux");
+  EXPECT_EQ(parameter_of(bg), "background_cd_m2");
+  // A lamp 1e30 cd/m2, large but within float, is rendered, all finite.
+  scene::ChartOptions bright;
+  bright.width = 64;
+  bright.height = 48;
+  bright.lamp_cd_m2 = 1e30;
+  const ImageF img = scene::render_chart(bright);
+  for (float v : img.vec()) ASSERT_TRUE(std::isfinite(v));
+  scene::ChartOptions o;
+  o.lamp_cd_m2 = 5000;
+  o.background_cd_m2 = 0.5;
+  const auto a = scene::chart_attributes(o);
+  EXPECT_EQ(std::get<double>(a.at("photosite/lamp_cd_m2")), 5000);
+  EXPECT_EQ(std::get<double>(a.at("photosite/background_cd_m2")), 0.5);
+}

@@ -301,6 +301,60 @@ TEST(DemosaicCli, RoundTripMatchesTheLibraryAndListsMethods) {
   for (const auto& n : demosaic_method_names()) EXPECT_NE(l.output.find(n), std::string::npos) << n;
 }
 
+// photosite's own raw mosaic (`expose --layers raw`: UINT raw.Y in DN, the CFA, bit depth and black
+// level in the header) demosaiced by the command gives expose's own R,G,B for the same method, bit
+// for bit: DN read as counts (before: code / (2^32 - 1), ~1e-7), the header's GRBG (before: the
+// default RGGB) and its black level subtracted. A PNG out is DN / (2^12 - 1).
+TEST(DemosaicCli, PhotositeRawMosaicGivesExposesRgb) {
+  test::TempDir dir;
+  const std::string chart = dir.file("chart.exr"), raw = dir.file("raw.exr"), rgb = dir.file("rgb.exr");
+  auto r = test::run_cli("chart --width 64 --height 48 --out '" + chart + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string expose = "expose --preset onsemi-ar0331 --backend cpu --seed 5 --demosaic malvar --device-store '" +
+                             dir.file("store") + "' --radiance '" + chart + "'";
+  for (const auto& [layers, out] : {std::pair{"raw", raw}, std::pair{"sensor", rgb}}) {
+    r = test::run_cli(expose + " --layers " + layers + " --out '" + out + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const std::string in = "demosaic --backend cpu --method malvar --in '" + raw + "'";
+  r = test::run_cli(in + " --out '" + dir.file("d.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents want = read_exr(rgb), got = read_exr(dir.file("d.exr"));
+  EXPECT_EQ(got.attributes.at("photosite/cfa"), "GRBG");
+  EXPECT_EQ(got.attributes.at("photosite/cfa_source"), "input header");
+  EXPECT_EQ(got.attributes.at("photosite/source_channel"), "raw.Y");
+  EXPECT_EQ(std::stod(got.attributes.at("photosite/black_level_dn")), std::stod(want.attributes.at("photosite/black_level_dn")));
+  EXPECT_EQ(got.attributes.at("photosite/bit_depth"), "12");
+  double peak = 0;
+  for (const char* c : {"R", "G", "B"}) {
+    const ImageF &g = got.channels.at(c), &w = want.channels.at(c);
+    EXPECT_EQ(g.unit(), "DN above black level");
+    EXPECT_EQ(w.unit(), "DN above black level");
+    for (size_t i = 0; i < w.size(); ++i) {
+      ASSERT_EQ(g[i], w[i]) << c << " sample " << i;
+      peak = std::max(peak, static_cast<double>(w[i]));
+    }
+  }
+  EXPECT_GT(peak, 1000);  // DN, not a code fraction
+  // PNG: DN / (2^12 - 1) as 16-bit codes (clipped at 0 below black).
+  r = test::run_cli(in + " --out '" + dir.file("d.png") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ImageU16 png = read_image_u16(dir.file("d.png"));
+  ASSERT_EQ(png.channels(), 3);
+  const char* names[3] = {"R", "G", "B"};
+  for (size_t p = 0; p < png.pixel_count(); ++p)
+    for (int c = 0; c < 3; ++c)
+      ASSERT_EQ(png[3 * p + c], float_to_code16(static_cast<float>(want.channels.at(names[c])[p] * (1.0 / 4095)))) << p;
+  // A --cfa that contradicts the header is refused, naming both; the header's own (any case) is taken.
+  r = test::run_cli(in + " --cfa RGGB --out '" + dir.file("x.exr") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  for (const char* s : {"raw.exr", "--cfa RGGB", "photosite/cfa GRBG"}) EXPECT_NE(r.output.find(s), std::string::npos) << s << "\n" << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.exr")));
+  r = test::run_cli(in + " --cfa grbg --out '" + dir.file("y.exr") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read_exr(dir.file("y.exr")).attributes.at("photosite/cfa_source"), "input header and --cfa");
+}
+
 TEST(DemosaicCli, BadInputExitsWithStatus2) {
   test::TempDir dir;
   write_png(dir.file("m.png"), mosaic(smooth_field(16, 16), CfaPattern::RGGB), 8);
@@ -314,7 +368,8 @@ TEST(DemosaicCli, BadInputExitsWithStatus2) {
       {"demosaic --in '" + dir.file("rgb.png") + "'" + out, "one channel"},
       {"demosaic --in '" + dir.file("missing.png") + "'" + out, "missing.png"},
       {"demosaic" + in + " --out '" + dir.file("o.jpg") + "'", ".exr or .png"},
-      {"demosaic" + in + " --out '" + dir.file("m.png") + "'", "already exists"},
+      {"demosaic" + in + " --out '" + dir.file("m.png") + "'", "--out is the run's --in input"},
+      {"demosaic" + in + " --out '" + dir.file("rgb.png") + "'", "already exists"},
       {"demosaic" + out, "--in"},
   };
   for (const auto& c : cases) {

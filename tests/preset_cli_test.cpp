@@ -153,6 +153,21 @@ TEST(Cli, OutputsRecordThePresetFilesChecksums) {
   EXPECT_EQ(a.attributes["photosite/lens_xxh3_64"].size(), 16u);
 }
 
+// flat is given photons per pixel: no lens or aperture acts on them, so its header names neither
+// (before: the unused --lens and --f-number were recorded as the optics used).
+TEST(Cli, FlatHeaderNamesNoLensOrFNumber) {
+  test::TempDir dir;
+  auto r = test::run_cli("flat --photons 100 --wavelength-nm 525 --width 16 --height 16 --preset sony-imx174 --device-store '" +
+                         dir.file("store") + "' --out '" + dir.file("f.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto a = read_exr(dir.file("f.exr")).attributes;
+  EXPECT_EQ(a.count("photosite/lens"), 0u);
+  EXPECT_EQ(a.count("photosite/f_number"), 0u);
+  EXPECT_EQ(a.count("photosite/lens_xxh3_64"), 0u);
+  EXPECT_EQ(a.count("photosite/photons_per_pixel"), 1u);
+  EXPECT_EQ(a.count("photosite/preset"), 1u);
+}
+
 TEST(Cli, ExposeWritesTheContractChannelsAndFrames) {
   test::TempDir dir;
   const std::string store = "--device-store '" + dir.file("store") + "'";

@@ -138,7 +138,7 @@ Camera.expose(radiance, exposure_s=0.02, f_number=None, gain_db=0, temperature_c
     demosaic     demosaic method for .rgb (bilinear, malvar, hamilton-adams, lmmse, ...)
     backend      "cpu", "vulkan" or "auto" (a real GPU when present, else cpu)
     poisson      shot-noise sampler: "exact", "cornish-fisher" or "normal" (`expose --poisson`)
-Returns .raw (uint16 DN mosaic), .rgb (float32 DN above black), .electrons (float32 e-) and
+Returns .raw (DN mosaic: uint16, or uint32 for a camera of more than 16 bits), .rgb (float32 DN above black), .electrons (float32 e-) and
 .metadata (dict: the photosite/ header attributes `photosite expose` writes, without the
 "photosite/" prefix, the *_text copies, unit/<channel> and radiance_file; docs/python.md).
 """
@@ -225,7 +225,8 @@ def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_
     Returns the same dict as the command's JSON: per quantity (system_gain_dn_per_e, read_noise_e,
     qe_<wavelength>nm (qe_525nm by default), saturation_capacity_e, dark_current_e_per_s, dsnu_e, prnu_percent, snr_max_db,
     dynamic_range_db) its measured value, uncertainty (1 standard error), preset value and z score,
-    and "photon_transfer": [[photons, mean DN, temporal variance DN^2], ...].
+    and "photon_transfer": [[photons, mean DN above dark, temporal variance above dark DN^2], ...]
+    (EMVA 1288's mu_y - mu_y.dark and sigma2_y - sigma2_y.dark; no dark point).
     """
     return _photosite.characterize(camera, lens, device_id, device_store, exposure_s, gain_db, seed, roi,
                                    wavelength_nm, backend, temperature_c, poisson)

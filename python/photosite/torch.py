@@ -32,7 +32,7 @@ class NightTransform:
     seed          base seed; the sample's seed is derived from (seed, index)
     exposure_s    exposure time in seconds; other keywords go to photosite.night()
     output        "preview" (uint8 sRGB H x W x 3 -> float tensor 3 x H x W in [0, 1]),
-                  "rgb" (float32 DN above black, 3 x H x W) or "raw" (uint16 DN mosaic as
+                  "rgb" (float32 DN above black, 3 x H x W) or "raw" (uint16/uint32 DN mosaic as
                   int32 1 x H x W)
 
     image: H x W x 3 uint8/uint16 NumPy array or a 3 x H x W uint8 tensor; target: H x W labelIds

@@ -132,6 +132,27 @@ def test_expose_matches_cli(cli, store, tmp_path):
     np.testing.assert_array_equal(g.raw, g3.raw)
 
 
+def test_raw_deeper_than_16_bits_is_uint32_with_the_clis_codes(cli, store, tmp_path):
+    # A 20-bit camera (the schema allows up to 24) at K = 100 DN/e-: codes up to 2^20 - 1. .raw was
+    # uint16, every code above 65535 wrapped modulo 65536; it must be the CLI's UINT raw.Y exactly.
+    import re
+    text = (ROOT / "presets/cameras/sony-imx174.toml").read_text()
+    text = re.sub(r"(?m)^bit_depth = .*$", "bit_depth = 20", text)
+    text = re.sub(r"(?m)^system_gain_dn_per_e = .*$", "system_gain_dn_per_e = 100", text)
+    (tmp_path / "bd20.toml").write_text(text)
+    radiance = np.random.default_rng(3).uniform(0, 0.05, (48, 64, 3)).astype(np.float32)
+    ps.write_exr(str(tmp_path / "rad.exr"), {"": radiance})
+    cli("expose", "--radiance", tmp_path / "rad.exr", "--preset", tmp_path / "bd20.toml", "--seed", 4,
+        "--backend", "cpu", "--layers", "raw", "--out", tmp_path / "out.exr")
+    ch, _, types = exr_pixels(tmp_path / "out.exr")
+    o = ps.Camera(str(tmp_path / "bd20.toml"), device_store=store).expose(radiance, seed=4, backend="cpu")
+    assert o.raw.dtype == np.uint32
+    assert o.raw.max() > 65535  # the case that wrapped
+    np.testing.assert_array_equal(o.raw.astype(np.int64), ch["raw.Y"].astype(np.int64))
+    # up to 16 bits .raw stays uint16
+    assert ps.Camera("sony-imx174", device_store=store).expose(radiance, backend="cpu").raw.dtype == np.uint16
+
+
 def test_demosaic_matches_cli(cli, tmp_path):
     rng = np.random.default_rng(2)
     mosaic = rng.uniform(0, 1, (32, 40)).astype(np.float32)
