@@ -137,7 +137,7 @@ void run(const DemosaicCmd& c) {
     fail_at(c.out, "output must be .exr or .png (got '" + ext + "')");
   check_run_outputs({{"--out", {c.out}, ext}}, {{"--in", c.in}});
   check_output_path(c.out, c.overwrite);
-  if (!std::filesystem::is_regular_file(c.in)) fail_at(c.in, "no such file");
+  check_input_file(c.in);
   Mosaic m = read_mosaic(c);
   if (ext == ".png" && !m.png_possible)
     fail_at(c.out, c.in + " holds counts of no known full scale (a UINT channel in " + m.image.unit() +

@@ -398,17 +398,9 @@ Raster read_exr_raster(const std::string& path) {
   });
 }
 
-// The format of the image file at `path`, which must be a regular file (or a link to one). A
-// pipe or device is refused: the file is read twice (its signature, then the image), and a
-// pipe's first bytes would be gone by the second read.
+// The format of the image file at `path`, which must be a regular file (check_input_file).
 Format format_of_file(const std::string& path) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) fail_missing(path, "no such file");
-  if (ec) fail_at(path, "cannot open (" + ec.message() + ")");  // e.g. a folder on the way the user cannot enter
-  if (fs::is_directory(st)) fail_at(path, "is a folder, not an image file");
-  if (!fs::is_regular_file(st))
-    fail_at(path, "not a regular file (a pipe, socket or device); photosite reads an input file twice, so give a file");
+  check_input_file(path);
   return sniff(path);
 }
 
@@ -906,6 +898,19 @@ void write_png8(const std::string& path, const ImageU8& image) {
     const int close_errno = std::fclose(f) == 0 ? 0 : errno;
     if (!written || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
   });
+}
+
+// An input file must be a regular file (or a link to one). A pipe or device is refused: the file
+// is read twice (its signature, then the image), and a pipe's first bytes would be gone by the
+// second read.
+void check_input_file(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (st.type() == fs::file_type::not_found) fail_missing(path, "no such file");
+  if (ec) fail_at(path, "cannot open (" + ec.message() + ")");  // e.g. a folder on the way the user cannot enter
+  if (fs::is_directory(st)) fail_at(path, "is a folder, not an image file");
+  if (!fs::is_regular_file(st))
+    fail_at(path, "not a regular file (a pipe, socket or device); photosite reads an input file twice, so give a file");
 }
 
 void check_output_path(const std::string& path, bool overwrite) {

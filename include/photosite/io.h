@@ -106,6 +106,10 @@ uint16_t float_to_code16(float v);
 // atomically like every output.
 void write_png8(const std::string& path, const ImageU8& image);
 
+// Refuses (bad input, exit 2) an input that is missing (MissingFileError), unreachable (the
+// system's reason), a folder, or not a regular file (a pipe: inputs are read twice).
+void check_input_file(const std::string& path);
+
 // ---- safe output ----------------------------------------------------------------------------
 // Refuses (bad input, exit 2) when the folder is missing or the file exists and !overwrite.
 void check_output_path(const std::string& path, bool overwrite);
