@@ -109,14 +109,34 @@ def cli_rate(pairs, exe, store):
     return len(pairs) / (time.perf_counter() - t0)
 
 
+def count(text):
+    """A count of at least 1 (argparse reports anything else as a usage error, exit 2)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number")
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{n} is not allowed: must be at least 1")
+    return n
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--photosite", required=True)
-    ap.add_argument("--frames", type=int, default=4)
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--frames", type=count, default=4)
+    ap.add_argument("--repeats", type=count, default=3)
     ap.add_argument("--out-dir", default=str(ROOT / "docs"))
     a = ap.parse_args()
-    store = tempfile.mkdtemp(prefix="photosite-bench-store-")
+    # Checked before the work, as `photosite bench` checks every target's --out-dir.
+    if not os.path.isdir(a.out_dir):
+        ap.error(f"--out-dir: {a.out_dir}: output folder does not exist (the bench does not create it)")
+    # The fixed-pattern maps the runs make go to a store of this run's own, removed at the end
+    # (also when the run fails).
+    with tempfile.TemporaryDirectory(prefix="photosite-bench-store-") as store:
+        run(a, store)
+
+
+def run(a, store):
     source, pairs = frames_list(a.frames)
     wall, chain, shape = overhead(pairs[0], a.repeats, store)
     ov = (wall - chain) / chain * 100

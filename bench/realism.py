@@ -86,6 +86,11 @@ def statistics(rgb, blob_rgb=None):
 def atomic_write_text(path, text):
     d = os.path.dirname(path) or "."
     fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-", suffix=os.path.basename(path))
+    umask = os.umask(0)
+    os.umask(umask)
+    # mkstemp makes the file 0600; give it the mode a plain open() would (0666 less the umask),
+    # as the charts and every other bench file have.
+    os.chmod(fd, 0o666 & ~umask)
     with os.fdopen(fd, "w") as f:
         f.write(text)
     os.replace(tmp, path)

@@ -155,6 +155,13 @@ TEST(DepthEval, BenchOnARenderedSceneMeetsTheSyntheticBounds) {
   EXPECT_LE(std::stod(f[6]), 0.02 + 0.003) << r.output;
   EXPECT_EQ(std::stol(f[8]), 3) << r.output;  // the three boxes
   EXPECT_LE(std::stod(f[9]), 0.05 + 0.003) << r.output;
+  // The pooled row: the counts summed over the frames (one frame here), in the same columns.
+  const auto& all = rows[2];
+  ASSERT_EQ(all.size(), 10u);
+  EXPECT_EQ(all[0], "all");
+  EXPECT_EQ(all[5], f[5]) << "road_pixels";
+  EXPECT_EQ(all[6], f[6]) << "the median of one frame's median";
+  EXPECT_EQ(all[8], f[8]) << "contacts";
   // Bad input: no ground truth folder.
   fs::remove_all(dir.path() / "k" / "disp_occ_0");
   const auto bad = test::run_cli("bench depth --kitti '" + dir.file("k") + "' --out-dir '" + dir.path().string() + "'");

@@ -179,6 +179,8 @@ TEST(Adc, QuantizationNoiseIsTheIdealTwelfth) {
   s.exposure_s = 0;
   auto out = sense(zero, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
   const double expect = 0.25 * 4.0 + 1.0 / 12;
+  // Over n = 512² samples: the sample variance's relative standard error is sqrt(2 / n) = 0.28 %
+  // (near-normal DN), so 2 % is 7 SE; the mean's is sqrt(expect / n) = 0.0020 DN, so 0.02 DN is 10 SE.
   EXPECT_NEAR(var_of(out.raw_dn), expect, 0.02 * expect);
   EXPECT_NEAR(mean_of(out.raw_dn), 64.0, 0.02);
   for (float v : out.raw_dn.vec()) ASSERT_EQ(v, std::floor(v));
@@ -270,6 +272,8 @@ TEST(FixedPattern, HotPixelsAppearAtTheirFraction) {
   auto m = generate_fixed_pattern(p, 400, 250, "hot");
   size_t hot = 0;
   for (float f : m.dark_rate_factor.vec()) hot += f > 50;
+  // Each pixel is hot with probability 0.01 on its own (sensor/fpn.cpp): the binomial standard
+  // error of the fraction over 1e5 pixels is sqrt(0.01 · 0.99 / 1e5) = 3.1e-4, so 0.0015 is 4.8 SE.
   EXPECT_NEAR(hot / 1e5, 0.01, 0.0015);
 }
 

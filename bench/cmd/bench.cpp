@@ -1,6 +1,7 @@
 // The bench targets' registry and the helpers they share (bench.h).
 #include "bench.h"
 
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -23,8 +24,65 @@ void register_bench(const std::string& name, const std::string& help,
   targets().push_back({name, help, setup});
 }
 
+namespace {
+// An integer option's lower bound, checked while the command line is parsed (exit 2 naming the
+// option, before any work). A value that is not an integer is left to the option's own
+// conversion, which refuses it with its usual message.
+CLI::Validator at_least(long lo) {
+  return CLI::Validator(
+      [lo](std::string& s) -> std::string {
+        size_t end = 0;
+        long v = 0;
+        try {
+          v = std::stol(s, &end);
+        } catch (const std::exception&) {
+          return {};
+        }
+        if (end != s.size() || v >= lo) return {};
+        return fmt::format("{} is not allowed: must be at least {}", s, lo);
+      },
+      fmt::format("at least {}", lo));
+}
+
+// The checks every target shares, added to whichever of these options the target has:
+//  * the counts (--repeats, --frames, --inner, --cycles, --threads) at least 1: none of zero
+//    timings gives a time (a sentinel or a crash), and OpenMP takes no 0 or negative thread
+//    count (it would run the default and the CSV would record the flag's value); a target may
+//    narrow the range further (batch's --repeats in [1, 20]);
+//  * the frame size (--width, --height) at least 2 pixels: the radiance and mean ramps of bench
+//    noise and sense divide by width - 1 (a NaN frame at 1), and the mosaic needs one whole
+//    2x2 Bayer tile (bench sense also wants the width a multiple of 8, its own check);
+//  * the output folder (--out-dir, or docs/ when it is not given) must exist and be writable,
+//    checked when the command line is parsed, so a wrong path fails before minutes of work.
+//    No target creates it (docs/cli.md, "photosite bench").
+constexpr int kMinSide = 2;
+void add_shared_checks(CLI::App* sub) {
+  for (const char* name : {"--repeats", "--frames", "--inner", "--cycles", "--threads"})
+    if (CLI::Option* opt = sub->get_option_no_throw(name)) opt->check(at_least(1));
+  for (const char* name : {"--width", "--height"})
+    if (CLI::Option* opt = sub->get_option_no_throw(name)) opt->check(at_least(kMinSide));
+  if (CLI::Option* opt = sub->get_option_no_throw("--out-dir"))
+    sub->parse_complete_callback([opt] {
+      const std::string given = opt->count() ? opt->as<std::string>() : opt->get_default_str();
+      const std::filesystem::path dir = output_folder(given);
+      std::error_code ec;
+      if (!std::filesystem::is_directory(dir, ec))
+        fail_at(dir.string(), "--out-dir: output folder does not exist (the bench does not create it)");
+      if (access(dir.c_str(), W_OK) != 0) fail_at(dir.string(), "--out-dir: output folder is not writable");
+    });
+}
+}  // namespace
+
 void add_bench_targets(CLI::App* bench) {
-  for (auto& t : targets()) t.setup(bench->add_subcommand(t.name, t.help));
+  for (auto& t : targets()) {
+    CLI::App* sub = bench->add_subcommand(t.name, t.help);
+    t.setup(sub);
+    add_shared_checks(sub);
+  }
+}
+
+std::filesystem::path output_folder(const std::string& out_dir) {
+  return out_dir.empty() ? std::filesystem::path(PHOTOSITE_SOURCE_DIR) / "docs" : std::filesystem::path(out_dir);
 }
 
 std::string machine_description() {
@@ -39,9 +97,7 @@ std::string machine_description() {
 }
 
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv) {
-  namespace fs = std::filesystem;
-  const fs::path dir = out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(out_dir);
-  const std::string path = (dir / name).string();
+  const std::string path = (output_folder(out_dir) / name).string();
   check_output_path(path, true);
   atomic_write(path, [&](const std::string& tmp) {
     std::ofstream f(tmp);

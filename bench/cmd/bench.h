@@ -15,7 +15,9 @@ namespace photosite::bench {
 // setup(sub) adds the target's options to `sub` and sets its callback.
 void register_bench(const std::string& name, const std::string& help,
                     const std::function<void(CLI::App* sub)>& setup);
-// Adds every registered target as a subcommand of `bench` (the command line's `photosite bench`).
+// Adds every registered target as a subcommand of `bench` (the command line's `photosite bench`),
+// with the checks all targets share (bench.cpp: counts at least 1, the frame size, the output
+// folder), run while the command line is parsed.
 void add_bench_targets(CLI::App* bench);
 struct BenchRegistrar {
   BenchRegistrar(const std::string& name, const std::string& help,
@@ -26,6 +28,8 @@ struct BenchRegistrar {
 // Where results go (docs/ in the source tree unless --out-dir is given), and the machine name
 // (CPU model and core count) to print beside absolute times.
 std::string machine_description();
+// The folder a target writes into: out_dir, or docs/ in the source tree when it is empty.
+std::filesystem::path output_folder(const std::string& out_dir);
 // Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
 // The wall time of one call of f, in ms.

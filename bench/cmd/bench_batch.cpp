@@ -250,7 +250,6 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
                      d_ours / n, l_ours / n, d_oiio / n, l_oiio / n, d_spng / n, l_spng / n, d_libpng / n, l_libpng / n);
   csv += fmt::format("# {} Cityscapes frames' night previews (onsemi-ar0331, night-urban), encode time as the thread's CPU time; {}\n",
                      items.size(), machine_description());
-  if (!out_dir.empty()) fs::create_directories(out_dir);
   const std::string csv_path = write_bench_csv(out_dir, "bench_png.csv", csv);
   const std::string chart = fs::path(csv_path).replace_extension(".png").string();
   const std::string cmd = "/usr/bin/python3 '" + std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_png.py' '" + csv_path + "' '" + chart + "'";

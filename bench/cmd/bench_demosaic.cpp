@@ -326,7 +326,6 @@ struct BenchDemosaicOptions {
 
 void run_bench(const BenchDemosaicOptions& o) {
   namespace fs = std::filesystem;
-  if (!fs::is_directory(o.out_dir)) fail_at(o.out_dir, "output folder does not exist");
   if (!fs::is_directory(o.kodak_dir)) fail_at(o.kodak_dir, "Kodak test set folder does not exist");
   const int threads = omp_get_max_threads();
   cv::setNumThreads(threads);

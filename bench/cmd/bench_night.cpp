@@ -342,8 +342,7 @@ void run(const Opts& o) {
   if (device) std::printf("vulkan device: %s\n", device_name.c_str());
   std::printf("\n");
   std::printf("%-36s %10s %12s\n", "stage", "ms", "x peer");
-  const fs::path dir = o.out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(o.out_dir);
-  const std::string csv_path = (dir / "night_bench.csv").string();
+  const std::string csv_path = (output_folder(o.out_dir) / "night_bench.csv").string();
   check_output_path(csv_path, true);
   std::string csv = "stage,median_ms,ratio_to_peer,width,height,threads,machine\n";
   // The "cpu:" rows against the peer's CPU time, the others against its wall time.

@@ -75,7 +75,6 @@ struct BenchNoiseOptions {
 
 void run_bench(const BenchNoiseOptions& o) {
   namespace fs = std::filesystem;
-  if (!fs::is_directory(o.out_dir)) fail_at(o.out_dir, "output folder does not exist");
   const int threads = omp_get_max_threads();
   const size_t n = static_cast<size_t>(o.width) * o.height;
   // Means log-uniform from 0.5 to 5000 along each row (a smooth image-like ramp).

@@ -323,7 +323,7 @@ void run(const Opts& o) {
   }
   std::printf("%s\n", manifest_path.c_str());
   if (o.no_stats) return;
-  const fs::path out = o.out_dir.empty() ? fs::path(PHOTOSITE_SOURCE_DIR) / "docs" : fs::path(o.out_dir);
+  const fs::path out = output_folder(o.out_dir);
   const std::string cmd = fmt::format("/usr/bin/python3 {} --manifest {} --real {} --out-dir {} --machine {}",
                                       quote(std::string(PHOTOSITE_SOURCE_DIR) + "/bench/realism.py"),
                                       quote(manifest_path.string()), quote(real), quote(out.string()),

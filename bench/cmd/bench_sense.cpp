@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 #include <fmt/format.h>
@@ -201,6 +202,15 @@ struct Timing {
 void run_bench(const BenchSenseOptions& o) {
   const int w = o.width, h = o.height;
   if (w % 8 != 0) throw CLI::ValidationError("--width", "must be a multiple of 8");
+  // "noise + ADC" is a difference of two best-of-rounds times (sense minus the demosaic alone).
+  // One round is one sample of each, and on a loaded machine a thread preempted at an OpenMP
+  // barrier stretches either call by milliseconds (seen: both 8 ms at 256x128, against 0.35 and
+  // 0.07 ms unhindered), so --repeats 1 wrote negative durations; a best of 3 is the least that
+  // leaves a round to lose.
+  if (o.repeats < 3)
+    throw CLI::ValidationError("--repeats", fmt::format("{} is not allowed: noise + ADC is the difference of two "
+                                                        "best-of-rounds times and needs at least 3 rounds",
+                                                        o.repeats));
   const CameraPreset cam = load_camera_preset("onsemi-ar0331");
   const LensPreset lens = load_lens_preset(cam.default_lens);
   ImageF radiance(w, h, 3);
@@ -258,7 +268,11 @@ void run_bench(const BenchSenseOptions& o) {
     if (avx512) hash_w.add([&] { sink += frame_words(w, h, hash_gen(true)); });
     floor_t.add(floor_pass);
   }
-  const double noise_adc_wall = sense_t.wall - demosaic_t.wall, noise_adc_cpu = sense_t.cpu - demosaic_t.cpu;
+  double noise_adc_wall = sense_t.wall - demosaic_t.wall, noise_adc_cpu = sense_t.cpu - demosaic_t.cpu;
+  // Still not positive (every round disturbed): no time, so NaN in the table, the CSV and the
+  // ratios built on it rather than a negative duration.
+  const bool noise_adc_resolved = noise_adc_wall > 0 && noise_adc_cpu > 0;
+  if (!noise_adc_resolved) noise_adc_wall = noise_adc_cpu = std::numeric_limits<double>::quiet_NaN();
   const int threads = omp_get_max_threads();
   std::printf("photosite bench sense: onsemi-ar0331, %dx%d, %d threads, best of %d alternating rounds of %d calls\n", w, h,
               threads, o.repeats, o.inner);
@@ -275,6 +289,9 @@ void run_bench(const BenchSenseOptions& o) {
   frow("sense (noise + ADC + bilinear demosaic)", sense_t);
   row("  bilinear demosaic alone", demosaic_t.wall, demosaic_t.cpu);
   row("  noise + ADC (the difference)", noise_adc_wall, noise_adc_cpu);
+  if (!noise_adc_resolved)
+    std::printf("  (noise + ADC not resolved: the sense measured no slower than the demosaic alone in %d rounds; "
+                "the machine is loaded: more --repeats)\n", o.repeats);
   row("Philox4x32-10 words, AVX2", p10.wall, p10.cpu);
   row("Philox4x32-7 words, AVX2 (no results)", p7.wall, p7.cpu);
   if (avx512) {

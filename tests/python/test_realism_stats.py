@@ -1,7 +1,9 @@
 """The statistics and features of bench/realism.py and bench/realism_stats.py on synthetic images
 whose answers are known in closed form."""
 import math
+import os
 import pathlib
+import stat
 import sys
 
 import numpy as np
@@ -150,3 +152,20 @@ def test_blobs_are_attributed_to_the_class_under_most_of_their_pixels(tmp_path):
     assert sorted(out) == sorted([(g, 100) for g in ra.GROUPS if g.startswith(("building", "vehicle"))])
     m = np.asarray(Image.open(tmp_path / "m.png"))
     assert tuple(m[15, 105]) == ra.COLOURS[next(g for g in ra.GROUPS if g.startswith("building"))]
+
+
+def test_csv_written_with_the_umask_mode_like_the_charts(tmp_path):
+    """realism.py's CSVs go through mkstemp (0600); they must end up as a plain open() makes a
+    file, 0666 less the umask (0644 under the usual 022), as the charts are."""
+    old = os.umask(0o022)
+    try:
+        p = tmp_path / "realism.csv"
+        realism.atomic_write_text(str(p), "a,b\n1,2\n")
+        assert p.read_text() == "a,b\n1,2\n"
+        assert stat.S_IMODE(p.stat().st_mode) == 0o644
+        os.umask(0o027)
+        realism.atomic_write_text(str(p), "a\n")
+        assert stat.S_IMODE(p.stat().st_mode) == 0o640
+    finally:
+        os.umask(old)
+    assert not [f for f in os.listdir(tmp_path) if f.startswith(".tmp-")]
