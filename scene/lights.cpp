@@ -1215,18 +1215,37 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
     // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
     // The red blobs' pixels per vehicle are counted too: they tell which way it faces (below).
+    // A white cue on a vehicle that shows its rear is a lit rear lamp (a stop lamp saturates to
+    // white in a day photo): drawn in the tail colour, as the red ones.
     auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
+    auto blob = [&](int x, int y, uint8_t v) {
+      int n = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
+      return n >= 5;
+    };
     std::vector<int> red_blob_px(ncomp + 1, 0);
+    for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
+      if (!cue_row[y]) continue;
+      for (int x = 1; x < W - 1; ++x)
+        if (cue.at(x, y) == 1 && blob(x, y, 1)) ++red_blob_px[cue_comp(x, y)];
+    }
+    // Which way each vehicle faces (with geometry; below).
+    std::vector<char> oncoming(ncomp + 1, 0);
+    if (geometry)
+      for (int c = 1; c <= ncomp; ++c) {
+        const int red_px = red_blob_px[c];
+        const bool rear_seen = red_px >= 3 && red_px * 500 >= boxes[c].n && red_px * 5 <= boxes[c].n;
+        oncoming[c] = !rear_seen && vs[c].X < travel_divide;
+      }
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
       if (!cue_row[y]) continue;
       for (int x = 1; x < W - 1; ++x) {
         const uint8_t v = cue.at(x, y);
-        if (!v) continue;
-        int n = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
-        if (n >= 5 && v == 1) ++red_blob_px[cue_comp(x, y)];
-        if (n >= 5 && (!geometry || vs[cue_comp(x, y)].state == 1)) put_max(veh, x, y, v == 1 ? tail : head);
+        if (!v || !blob(x, y, v)) continue;
+        const int c = cue_comp(x, y);
+        if (!geometry) put_max(veh, x, y, v == 1 ? tail : head);
+        else if (vs[c].state == 1) put_max(veh, x, y, v == 1 || !oncoming[c] ? tail : head);
       }
     }
     // Placed lamps. With geometry, in metres: a pair per vehicle at veh_lamp_height_m above its
@@ -1253,19 +1272,17 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       if (geometry) {
         const VehState& v = vs[c];
         if (v.state == 0) continue;
-        const int red_px = red_blob_px[c];
-        const bool rear_seen = red_px >= 3 && red_px * 500 >= b.n && red_px * 5 <= b.n;
-        const bool oncoming = !rear_seen && v.X < travel_divide;
+        const bool faces_camera = oncoming[c];
         double I, dia;
         bool red;
         if (v.state == 1) {
-          I = oncoming ? p.veh_head_intensity_cd : p.veh_tail_intensity_cd;
-          dia = oncoming ? p.veh_head_diameter_m : p.veh_tail_diameter_m;
-          red = !oncoming;
+          I = faces_camera ? p.veh_head_intensity_cd : p.veh_tail_intensity_cd;
+          dia = faces_camera ? p.veh_head_diameter_m : p.veh_tail_diameter_m;
+          red = !faces_camera;
         } else {
           I = p.veh_parking_intensity_cd;
           dia = p.veh_tail_diameter_m;
-          red = !oncoming;
+          red = !faces_camera;
         }
         const double half = std::max(0.0, 0.5 * v.width_m - p.veh_lamp_inset_m);
         std::vector<double> xs = two_wheeler ? std::vector<double>{v.X} : std::vector<double>{v.X - half, v.X + half};

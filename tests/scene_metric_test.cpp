@@ -1602,6 +1602,25 @@ TEST(MetricLights, AVehicleInTheEgoLaneShowsItsRearOnAStraightRoad) {
   EXPECT_TRUE(plan_street_lighting(s.labels, o.camera, p, 1).road_straight);
   EXPECT_GT(lamp_r_over_g(s, s.labels, 26000), 10.0);  // ego lane: tail lamps
   EXPECT_LT(lamp_r_over_g(s, s.labels, 26001), 3.0);   // X = -4 m, the other lane: head lamps
+  // A lit stop lamp saturates to white in a day photo: a near-white blob (12 x 8 px) in the lower
+  // half of the vehicle going away is a rear lamp, drawn in the tail colour (it was drawn as a head
+  // lamp, the brightest light on that car).
+  {
+    SyntheticCameraScene lit = s;
+    int x0 = o.width, y0 = o.height, x1 = -1, y1 = -1;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x)
+        if (s.labels.instances.at(x, y) == 26000) {
+          x0 = std::min(x0, x); x1 = std::max(x1, x); y0 = std::min(y0, y); y1 = std::max(y1, y);
+        }
+    const int bx = x0 + (x1 - x0) / 5, by = y0 + 6 * (y1 - y0) / 10;
+    for (int y = by; y < by + 8; ++y)
+      for (int x = bx; x < bx + 12; ++x) {
+        ASSERT_EQ(s.labels.instances.at(x, y), 26000);
+        for (int k = 0; k < 3; ++k) lit.day_linear_srgb.at(x, y, k) = 0.95f;
+      }
+    EXPECT_GT(lamp_r_over_g(lit, lit.labels, 26000), 10.0);
+  }
   // The side road's mouth: the sidewalk 7..12 m left of the camera, 40..60 m ahead, becomes road
   // (in the scene without the second vehicle, which would hide that kerb; each pixel's ground
   // point where make_synthetic_camera_scene samples it, at (x, y)).
