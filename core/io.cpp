@@ -146,8 +146,10 @@ void check_exr_header(const std::string& path) {
 enum class Format { Png, Jpeg, Tiff, Exr, Unknown };
 
 // By the file's first bytes (its signature), not its name: PNG 89 50 4E 47 0D 0A 1A 0A, JPEG
-// FF D8 FF, TIFF "II*\0" or "MM\0*", OpenEXR 76 2F 31 01.
+// FF D8 FF, TIFF "II*\0" or "MM\0*", OpenEXR 76 2F 31 01. Every reader starts here, so the
+// input checks are made here (check_input_file: a pipe would block or lose its first bytes).
 Format sniff(const std::string& path) {
+  check_input_file(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) fail_at(path, std::string("cannot open (") + std::strerror(errno) + ")");
   unsigned char b[8] = {};
@@ -398,11 +400,8 @@ Raster read_exr_raster(const std::string& path) {
   });
 }
 
-// The format of the image file at `path`, which must be a regular file (check_input_file).
-Format format_of_file(const std::string& path) {
-  check_input_file(path);
-  return sniff(path);
-}
+// The format of the image file at `path`, which must be a regular file (sniff checks it).
+Format format_of_file(const std::string& path) { return sniff(path); }
 
 // The file as it is stored: by its signature, through its format's codec.
 Raster read_raster(const std::string& path) {

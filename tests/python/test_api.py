@@ -1,5 +1,6 @@
 """photosite's Python module against the command line: same numbers, every function."""
 import json
+import os
 import pathlib
 import pickle
 import subprocess
@@ -170,6 +171,27 @@ def test_demosaic_matches_cli(cli, tmp_path):
     np.testing.assert_allclose(ps.demosaic(codes, backend="cpu"),
                                ps.demosaic((codes.astype(np.float64) / 65535).astype(np.float32), backend="cpu"),
                                rtol=4 * 2.0**-24, atol=0)
+
+
+def test_readers_refuse_a_pipe(tmp_path):
+    """A FIFO given to a reader: refused by name (it blocked read_exr, waiting for a writer)."""
+    fifo = tmp_path / "pipe.exr"
+    os.mkfifo(fifo)
+
+    def unblock():  # should a reader open the FIFO (the old behaviour), feed it junk so the test fails, not hangs
+        for _ in range(100):
+            try:
+                fd = os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)  # succeeds only while a reader has it open
+            except OSError:
+                time.sleep(0.05)
+                continue
+            os.write(fd, b"not an image")
+            os.close(fd)
+
+    threading.Thread(target=unblock, daemon=True).start()
+    for read in (ps.read_exr, ps.read_image):
+        with pytest.raises(ValueError, match="not a regular file"):
+            read(str(fifo))
 
 
 def test_characterize_matches_cli(cli, store):
