@@ -12,7 +12,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <optional>
 
@@ -44,13 +43,6 @@ struct Mosaic {
 };
 
 std::string cfa_flag_source(const DemosaicCmd& c) { return c.cfa_option->count() ? "--cfa" : "--cfa default"; }
-
-// OpenEXR's magic number opens the file (whatever its name).
-bool is_exr_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  unsigned char b[4] = {};
-  return f.read(reinterpret_cast<char*>(b), 4) && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
-}
 
 double header_number(const ExrContents& e, const std::string& in, const std::string& key) {
   const std::string& text = e.attributes.at(key);
@@ -108,7 +100,9 @@ Mosaic read_exr_mosaic(const DemosaicCmd& c) {
 }
 
 Mosaic read_mosaic(const DemosaicCmd& c) {
-  if (is_exr_file(c.in)) return read_exr_mosaic(c);
+  // By the file's signature (probe_image reads the header alone; it refuses a missing file, a
+  // folder or a pipe first).
+  if (probe_image(c.in).format == "openexr") return read_exr_mosaic(c);
   ImageFileInfo info;
   Mosaic m;
   m.image = read_image(c.in, &info);
@@ -137,7 +131,6 @@ void run(const DemosaicCmd& c) {
     fail_at(c.out, "output must be .exr or .png (got '" + ext + "')");
   check_run_outputs({{"--out", {c.out}, ext}}, {{"--in", c.in}});
   check_output_path(c.out, c.overwrite);
-  check_input_file(c.in);
   Mosaic m = read_mosaic(c);
   if (ext == ".png" && !m.png_possible)
     fail_at(c.out, c.in + " holds counts of no known full scale (a UINT channel in " + m.image.unit() +

@@ -6,7 +6,6 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
-#include "photosite/exr_attributes.h"
 #include "photosite/sensor/isp.h"
 #include "backend.h"
 #include "registry.h"

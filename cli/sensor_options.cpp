@@ -26,19 +26,17 @@ const CLI::Validator kSeedText(
       return "'" + s + "' is not a whole number from 0 to 18446744073709551615";
     },
     "UINT64");
-// An empty --device-store (an unset shell variable in --device-store "$STORE") would fall back to
-// the default store in the home folder without a word: refused instead.
-const CLI::Validator kNonEmptyFolder(
-    [](std::string& s) -> std::string { return s.empty() ? "an empty folder name is not a device store" : ""; },
-    "DIR");
-// So too an empty --device-id or --lens: "$DEV" unset would measure the default device (and write
-// its maps), "$LENS" unset would take the camera's default lens.
-const CLI::Validator kNonEmptyDeviceId(
-    [](std::string& s) -> std::string { return s.empty() ? "an empty device id; leave --device-id out for the default <preset>-0" : ""; },
-    "ID");
-const CLI::Validator kNonEmptyLens(
-    [](std::string& s) -> std::string { return s.empty() ? "an empty lens name; leave --lens out for the camera's default lens" : ""; },
-    "LENS");
+// An option given an empty value (an unset shell variable, --device-store "$STORE") is refused
+// with `message`, where it would silently mean the default: the home folder's store, the default
+// device <preset>-0 (whose maps it would write), the camera's default lens.
+CLI::Validator non_empty(const char* message, const char* type) {
+  return CLI::Validator([message](std::string& s) -> std::string { return s.empty() ? message : ""; }, type);
+}
+const CLI::Validator kNonEmptyFolder = non_empty("an empty folder name is not a device store", "DIR");
+const CLI::Validator kNonEmptyDeviceId =
+    non_empty("an empty device id; leave --device-id out for the default <preset>-0", "ID");
+const CLI::Validator kNonEmptyLens =
+    non_empty("an empty lens name; leave --lens out for the camera's default lens", "LENS");
 }  // namespace
 
 void SensorOptions::add(CLI::App* sub, bool preset_required, unsigned extras) {

@@ -125,21 +125,6 @@ std::string read_text(const std::string& p) {
   return ss.str();
 }
 
-// Removes temporaries left by a killed run: files of exactly io.cpp's temporary pattern, of this
-// machine's pid space, whose process is gone (is_stale_temporary). A shared --out holds other
-// machines' temporaries, being written while this one starts (their pids mean nothing here),
-// and perhaps the user's own files: neither is touched.
-void remove_stale_temporaries(const fs::path& out) {
-  std::error_code ec;
-  for (auto it = fs::recursive_directory_iterator(out, fs::directory_options::skip_permission_denied, ec);
-       it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (ec) break;
-    std::error_code fec;
-    if (!it->is_regular_file(fec) || it->is_symlink(fec)) continue;
-    if (is_stale_temporary(it->path().filename().string())) fs::remove(it->path(), fec);
-  }
-}
-
 // The resume manifest of this shard, appended to one record (one line) at a time. Every write is
 // checked: a record that cannot be written (disk full, quota, a file-size limit, a network file
 // system's error) fails its item, naming the file, instead of a run that reports success while
@@ -310,7 +295,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   const fs::path out(o.out);
   const fs::path mdir = out / ".photosite-batch";
   fs::create_directories(mdir, ec);
-  remove_stale_temporaries(out);
+  remove_stale_temporaries(o.out);  // a shared --out: other machines' temporaries and user files untouched
   const std::string mname = fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count);
   const std::string mfile = (mdir / mname).string();
   std::map<std::string, nlohmann::json> done;  // key → record

@@ -1,5 +1,4 @@
 #include "photosite/io.h"
-#include "photosite/exr_attributes.h"
 
 #include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -1043,6 +1042,19 @@ bool is_stale_temporary(const std::string& filename) {
   const long pid = std::stol(m[2].str());
   if (pid <= 0 || pid == getpid()) return false;  // our own: a write in progress
   return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;  // EPERM: alive, someone else's
+}
+
+// Under `folder`, files of exactly write_then_publish's pattern, of this pid space, whose process
+// is gone (is_stale_temporary); links and other files are never touched.
+void remove_stale_temporaries(const std::string& folder) {
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(folder, fs::directory_options::skip_permission_denied, ec);
+       it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (ec) break;
+    std::error_code fec;
+    if (!it->is_regular_file(fec) || it->is_symlink(fec)) continue;
+    if (is_stale_temporary(it->path().filename().string())) fs::remove(it->path(), fec);
+  }
 }
 
 void remove_partial_outputs() noexcept {

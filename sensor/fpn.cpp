@@ -309,11 +309,8 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   }
   if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
   // Under the lock: the temporaries of map creations killed outright (SIGKILL: no handler ran)
-  // in this pid space are removed (is_stale_temporary: pattern, scope and a pid that is gone).
-  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    std::error_code rec;
-    if (is_stale_temporary(it->path().filename().string())) fs::remove(it->path(), rec);
-  }
+  // in this pid space are removed.
+  remove_stale_temporaries(dir);
   FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);
   std::vector<ExrChannelGroup> groups;
   if (!m.prnu_gain.empty()) groups.push_back({{"prnu.Y"}, &m.prnu_gain, unit::dimensionless});

@@ -93,6 +93,10 @@ struct ExrContents {
   std::map<std::string, ExrPixel> pixel_types;    // each channel's stored type
 };
 ExrContents read_exr(const std::string& path);
+// Every header attribute as text, as ExrContents::attributes has them, without the pixels: for a
+// reader that decides from a file's header (photosite/unit/<channel>, photosite/cfa) whether and
+// how to read it. Bad input naming the file when it is missing, not OpenEXR or damaged.
+std::map<std::string, std::string> read_exr_attributes(const std::string& path);
 
 // 8- or 16-bit PNG (or TIFF, by the extension .tif / .tiff) from float [0,1] samples, rounded
 // by float_to_code8 / float_to_code16; 1 to 4 channels.
@@ -125,6 +129,10 @@ const std::string& temporary_pid_scope();
 // temporary that a killed run left behind and nobody is writing. Anything else is false:
 // another machine's temporaries and other people's files are never taken for stale.
 bool is_stale_temporary(const std::string& filename);
+// Removes, under `folder` (recursively), the regular files that are stale temporaries: what a run
+// killed outright (SIGKILL, no handler) left there. Links and every other file are left alone. Used
+// by batch on --out at start and by the device store under its lock.
+void remove_stale_temporaries(const std::string& folder);
 // Removes the temporaries of the writes in progress (unlink only: async-signal-safe). A program
 // calls it from its SIGINT/SIGTERM handler before it dies, so an interrupted run leaves no
 // half-written file behind (the error paths remove theirs as they unwind).
