@@ -28,6 +28,7 @@ namespace photosite::shader {
 #include "common/params_poisson.glsl"
 #include "common/params_glare.glsl"
 #include "common/params_demosaic.glsl"
+#include "common/params_rounding.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
 
@@ -44,6 +45,10 @@ struct U64 {
 using shader::PoissonParams;  // kernels/common/params_poisson.glsl
 static_assert(sizeof(PoissonParams) == 32 && offsetof(PoissonParams, first_pixel) == 16 &&
               offsetof(PoissonParams, key) == 24);
+
+// rounding.comp (gpu::rounding_probe)
+using shader::RoundingParams;  // kernels/common/params_rounding.glsl
+static_assert(sizeof(RoundingParams) == 8 && offsetof(RoundingParams, shift_ulps) == 4);
 
 // A 1-D job of n items in groups of `local`, laid out as x * y groups (x <= 65535, the
 // guaranteed maxComputeWorkGroupCount), matching linear_invocation() in common/philox.glsl.

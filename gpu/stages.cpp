@@ -48,6 +48,22 @@ std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixe
   return out;
 }
 
+std::vector<float> rounding_probe(Context& ctx, const std::vector<float>& ab, int shift_ulps) {
+  const uint64_t n = ab.size() / 2;
+  std::vector<float> out(2 * n);
+  if (n == 0) return out;
+  Buffer in(ctx, ab.size() * sizeof(float)), res(ctx, out.size() * sizeof(float));
+  in.upload(ab.data(), 2 * n * sizeof(float));
+  Kernel& k = ctx.kernel("rounding", 2, sizeof(RoundingParams));
+  const RoundingParams p{static_cast<uint32_t>(n), shift_ulps};
+  Sequence s(ctx);
+  const Grid g = grid_1d(n);
+  s.dispatch(k, {&in, &res}, p, g.x, g.y);
+  s.submit_and_wait();
+  res.download(out.data(), out.size() * sizeof(float));
+  return out;
+}
+
 bool has_demosaic_kernel(DemosaicMethod m) {
   switch (m) {
     case DemosaicMethod::Bilinear:

@@ -25,7 +25,7 @@ float estimate(float o, float s[9], float z[9], out float err) {
     var_s += a * a;
     var_n += b * b;
   }
-  precise float inv = 1.0 / (var_s + var_n);
+  precise float inv = div_rn(1.0, var_s + var_n);
   precise float e = var_s * var_n * inv;
   err = e;
   precise float r = mu + var_s * inv * (o - mu);
@@ -55,6 +55,6 @@ void main() {
     z[k] = dv[yy * W + x];
   }
   precise float xv = estimate(dv[i], s, z, ev);
-  precise float r = (xh * ev + xv * eh) / (eh + ev);
+  precise float r = div_rn(xh * ev + xv * eh, eh + ev);
   d[i] = r;
 }

@@ -24,7 +24,7 @@ void main() {
     dn += P.gw[j] * dif[pidx(1, x, y - 4 + j)];
     ds += P.gw[j] * dif[pidx(1, x, y + 4 - j)];
   }
-  precise float d = (((Wn * dn + Ws * ds) + Ww * dw) + We * de) / (((Wn + Ws) + Ww) + We);
+  precise float d = div_rn(((Wn * dn + Ws * ds) + Ww * dw) + We * de, ((Wn + Ws) + Ww) + We);
   precise float g = r + d;
   green[pidx(0, x, y)] = g;
 }

@@ -18,6 +18,6 @@ void main() {
   int x, y;
   if (!region_setup(x, y)) return;
   precise float s = (row3(x, y - 1) + row3(x, y)) + row3(x, y + 1);
-  precise float w = 1.0 / (s * s + 1e-32);
+  precise float w = div_rn(1.0, s * s + 1e-32);
   wt[pidx(int(P.dir), x, y)] = w;
 }

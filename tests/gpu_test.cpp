@@ -4,6 +4,7 @@
 // PHOTOSITE_ALLOW_NO_VULKAN=1 (then they skip, loudly).
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -28,8 +29,23 @@ namespace {
 
 #ifdef PHOTOSITE_HAVE_VULKAN
 // The test context: lavapipe (when no driver was chosen) and validation on.
-gpu::Context* test_context(std::string* why) {
+std::unique_ptr<gpu::Context>& test_context_holder() {
   static std::unique_ptr<gpu::Context> ctx;
+  return ctx;
+}
+
+// The test context is destroyed when the tests end, not among the static destructors at exit: by
+// then NVIDIA's driver (580.159.04, on an H200) has torn down its own state, and vkDestroyDevice
+// there ended every run of the test binary with a segmentation fault after all tests had passed.
+class GpuContextEnvironment : public ::testing::Environment {
+ public:
+  void TearDown() override { test_context_holder().reset(); }
+};
+[[maybe_unused]] const ::testing::Environment* const kGpuContextEnvironment =
+    ::testing::AddGlobalTestEnvironment(new GpuContextEnvironment);
+
+gpu::Context* test_context(std::string* why) {
+  std::unique_ptr<gpu::Context>& ctx = test_context_holder();
   static std::string error;
   static bool tried = false;
   if (!tried) {
@@ -129,6 +145,48 @@ TEST_F(Gpu, PoissonBitEqualToCpuAtEveryMean) {
       if (cpu[i] != dev[i] && ++differ < 5)
         ADD_FAILURE() << to_string(method) << " pixel " << i << " mean " << mean[i] << ": cpu " << cpu[i] << " gpu " << dev[i];
     EXPECT_EQ(differ, 0u) << to_string(method);
+  }
+}
+
+// The device's division and square root are IEEE 754's (div_rn, sqrt_rn in common/prelude.glsl),
+// whatever the driver's own float division and sqrt give: started from the driver's values moved
+// up to 3 more ulps off (Vulkan allows a 32-bit division 2.5 ulps), they settle on the CPU's bits. Random
+// pairs over 2^-40..2^40 of either sign, and quotients near powers of two (where the float spacing
+// halves) and exact ones; lavapipe divides correctly, so the moved start is what exercises the
+// settling steps there. A settle that stops one step short, or moves the wrong way, fails here.
+TEST_F(Gpu, DivisionAndSquareRootAreCorrectlyRoundedFromAnyStart) {
+  std::vector<float> ab;
+  uint64_t state = 0x9E3779B97F4A7C15ull;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<uint32_t>(state >> 32);
+  };
+  for (int i = 0; i < 100000; ++i) {
+    const auto draw = [&] {
+      const float mant = 1.f + static_cast<float>(next() >> 8) * 0x1p-24f;
+      const int e = static_cast<int>(next() % 81) - 40;
+      return std::ldexp(mant, e) * ((next() & 1) ? -1.f : 1.f);
+    };
+    ab.push_back(draw());
+    ab.push_back(draw());
+  }
+  for (float a : {1.f, 2.f, 3.f, 0.5f, 7.f, 1e-3f, 4.f, std::nextafter(4.f, 5.f), std::nextafter(4.f, 3.f)})
+    for (float b : {1.f, 3.f, 0.5f, 7.f, 1e-3f, std::nextafter(1.f, 2.f), std::nextafter(1.f, 0.f)}) {
+      ab.push_back(a);
+      ab.push_back(b);
+    }
+  for (int shift = -3; shift <= 3; ++shift) {
+    const std::vector<float> dev = gpu::rounding_probe(*ctx, ab, shift);
+    uint64_t wrong = 0;
+    for (size_t i = 0; i < ab.size() / 2; ++i) {
+      const float a = ab[2 * i], b = ab[2 * i + 1], q = a / b, r = std::sqrt(a);
+      const bool q_ok = std::bit_cast<uint32_t>(q) == std::bit_cast<uint32_t>(dev[2 * i]);
+      const bool r_ok = std::isnan(r) ? std::isnan(dev[2 * i + 1]) : std::bit_cast<uint32_t>(r) == std::bit_cast<uint32_t>(dev[2 * i + 1]);
+      if ((!q_ok || !r_ok) && ++wrong <= 5)
+        ADD_FAILURE() << "shift " << shift << ": " << a << " / " << b << " = " << q << " (device " << dev[2 * i]
+                      << "), sqrt " << r << " (device " << dev[2 * i + 1] << ")";
+    }
+    EXPECT_EQ(wrong, 0u) << "shift " << shift;
   }
 }
 

@@ -273,12 +273,15 @@ void run(const Opts& o) {
                      v ? fmt::format("{:.3f}", total_dev) : "", v ? fmt::format("{:.3f}", total_dev / total_cpu) : "",
                      W, H, o.threads, device, machine);
   const double pois_ms = rows[12].dev_ms > 0 ? rows[12].dev_ms : rows[12].cpu_ms;
-  std::printf("\nPoisson: cpu %.3f Gpx/s%s (GPU target > 50 Gpx/s, unmeasured without a GPU)\n",
-              n / (rows[12].cpu_ms * 1e6), v ? fmt::format(", vulkan {:.3f} Gpx/s (device time)", n / (pois_ms * 1e6)).c_str() : "");
   std::string tag = "cpu";
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (ctx) tag = ctx->device().cpu ? "lavapipe" : "gpu";
 #endif
+  // Issue 5's GPU target is judged on a GPU only; a CPU driver (lavapipe) cannot measure it.
+  const double dev_gpx = v ? n / (pois_ms * 1e6) : 0;
+  const std::string target = tag != "gpu" ? "unmeasured without a GPU" : dev_gpx > 50 ? "met" : "NOT met";
+  std::printf("\nPoisson: cpu %.3f Gpx/s%s (GPU target > 50 Gpx/s: %s)\n", n / (rows[12].cpu_ms * 1e6),
+              v ? fmt::format(", vulkan {:.3f} Gpx/s (device time)", dev_gpx).c_str() : "", target.c_str());
   write_bench_csv(o.out_dir, "bench_pipeline_" + tag + ".csv", csv);
 }
 }  // namespace

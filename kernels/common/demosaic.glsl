@@ -65,11 +65,11 @@ vec3 generic_px(int x, int y) {
     }
   }
   precise float planes[4];
-  for (int c = 0; c < 4; ++c) planes[c] = wsum[c] > 0.0 ? sum[c] / wsum[c] : 0.0;
+  for (int c = 0; c < 4; ++c) planes[c] = wsum[c] > 0.0 ? div_rn(sum[c], wsum[c]) : 0.0;
   precise vec3 o;
   if (P.planes_to_rgb == 1u) o = vec3(planes[0], planes[3] - planes[0] - planes[2], planes[2]);
   else if (P.planes_to_rgb == 2u) o = vec3(planes[0], vec2(0.5 * (planes[3] - planes[0])));
-  else if (P.planes_to_rgb == 3u) o = vec3(planes[3] / 3.0);
+  else if (P.planes_to_rgb == 3u) o = vec3(div_rn(planes[3], 3.0));
   else o = vec3(planes[0], planes[1], planes[2]);
   return o;
 }

@@ -36,7 +36,7 @@ PS_FN float fast_log(float x) {
   const bool big = m > 1.41421356f;
   m = big ? m * 0.5f : m;
   e = big ? e + 1 : e;
-  precise float t = (m - 1.0f) / (m + 1.0f);
+  precise float t = div_rn(m - 1.0f, m + 1.0f);
   precise float t2 = t * t;
   precise float s = t * (2.0f + t2 * (0.666666667f + t2 * (0.4f + t2 * (0.285714286f + t2 * 0.222222222f))));
   precise float result = float(e) * 0.693147181f + s;
@@ -65,7 +65,7 @@ PS_FN float fast_cos_2pi(float v) {
 PS_FN float normal_from_words_f(uint a, uint b) {
   precise float u = (float(int(a >> 8)) + 0.5f) * kTwoPowMinus24;
   precise float v = float(int(b >> 8)) * kTwoPowMinus24;
-  precise float z = sqrt(-2.0f * fast_log(u)) * fast_cos_2pi(v);
+  precise float z = sqrt_rn(-2.0f * fast_log(u)) * fast_cos_2pi(v);
   return z;
 }
 

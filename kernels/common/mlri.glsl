@@ -54,7 +54,7 @@ float tent_along(int p, int x, int y, int o) { return P.dir == 0u ? tent[pidx(p,
 void coefficients(float si, float sp, float sip, float sii, float tn, float inv_n, out float a, out float b) {
   precise float t = (tn * si) * si;
   precise float den = max(sii, t);
-  precise float ak = den > 0.0 ? sip / den : 0.0;
+  precise float ak = den > 0.0 ? div_rn(sip, den) : 0.0;
   precise float bk = (sp - ak * si) * inv_n;
   a = ak;
   b = bk;

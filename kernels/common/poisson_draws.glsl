@@ -17,7 +17,7 @@ PS_FN float poisson_inversion(float mean, uint w) {
   const float u = inversion_uniform(w);
   precise float p = fast_exp(-mean);
   precise float cdf = p;
-  float k = 0.0f;
+  precise float k = 0.0f;
   for (int j = 1; j < 64; ++j) {
     p *= mean * kInverseInteger[j];
     const bool go = u > cdf && p > kInversionMinPmf;
@@ -35,22 +35,29 @@ struct CornishFisherCoeffs {
 };
 PS_FN CornishFisherCoeffs cornish_fisher_setup(float mu) {
   precise float k2 = mu - 1.0f / 12.0f;
-  precise float s = sqrt(k2);
-  precise float inv_s = 1.0f / s;
+  precise float s = sqrt_rn(k2);
+  precise float inv_s = div_rn(1.0f, s);
   precise float inv_k2 = inv_s * inv_s;
   precise float g1 = mu * inv_k2 * inv_s;
   precise float g2 = (mu + 1.0f / 120.0f) * inv_k2 * inv_k2;
   precise float g3 = mu * inv_k2 * inv_k2 * inv_s;
   precise float a = g1 * (1.0f / 6.0f), b = g2 * (1.0f / 24.0f), c = g1 * g1 * (1.0f / 36.0f),
                 d = g3 * (1.0f / 120.0f), e = g1 * g2 * (1.0f / 24.0f), f = g1 * g1 * g1 * (1.0f / 324.0f);
+  // Through precise locals: `precise` does not reach an assignment to a struct member, and a driver
+  // could fuse 3·d + … into a fused multiply-add, which C++ (-ffp-contract=off) never does.
+  precise float c0 = -a + 3.0f * d - 2.0f * e + 17.0f * f;
+  precise float c1 = 1.0f - 3.0f * b + 5.0f * c;
+  precise float c2 = a - 6.0f * d + 5.0f * e - 53.0f * f;
+  precise float c3 = b - 2.0f * c;
+  precise float c4 = d - e + 12.0f * f;
   CornishFisherCoeffs cf;
   cf.mean = mu;
   cf.sigma = s;
-  cf.c0 = -a + 3.0f * d - 2.0f * e + 17.0f * f;
-  cf.c1 = 1.0f - 3.0f * b + 5.0f * c;
-  cf.c2 = a - 6.0f * d + 5.0f * e - 53.0f * f;
-  cf.c3 = b - 2.0f * c;
-  cf.c4 = d - e + 12.0f * f;
+  cf.c0 = c0;
+  cf.c1 = c1;
+  cf.c2 = c2;
+  cf.c3 = c3;
+  cf.c4 = c4;
   return cf;
 }
 // K = max(0, ⌊μ + σx(z) + ½⌋), the last sum in double (σ·x of two floats is exact in double).
@@ -63,7 +70,7 @@ PS_FN float cornish_fisher_sample(CornishFisherCoeffs cf, float z) {
 // The plain rounded normal ⌊μ + √μ z + ½⌋ (negative, zero or NaN means: 0).
 PS_FN float rounded_normal_sample(float mean, float z) {
   precise float mu = max(mean, 0.0f);
-  precise float k = floor(mu + sqrt(mu) * z + 0.5f);
+  precise float k = floor(mu + sqrt_rn(mu) * z + 0.5f);
   return max(0.0f, k);
 }
 

@@ -57,4 +57,71 @@ using std::max;
 using std::min;
 using std::sqrt;
 #endif
+
+// div_rn(a, b) and sqrt_rn(x): the float quotient and square root rounded to nearest, as C++'s
+// float division and std::sqrt give them (IEEE 754). Vulkan lets a 32-bit OpFDiv be 2.5 ULP off and
+// sqrt inherit the error of 1/inversesqrt ("Precision and Operation of SPIR-V Instructions" in the
+// Vulkan specification), and GPU drivers use those latitudes: on an NVIDIA H200 (driver
+// 580.159.04, 2026-11-30, scripts/device_check.sh) the MLRI and LMMSE demosaic kernels, the ones
+// that divide, differed from the CPU, and the normal Poisson sampler drew 1 count less at one pixel
+// of the test's (a square root). So GLSL takes the driver's value and settles it exactly, with
+// arithmetic Vulkan must do exactly. For m = |q| and the true quotient A/B (A = |a|, B = |b|), the
+// residual r = A − m·B is exact in double (m·B has 48 significant bits, and r is a multiple of its
+// last bit within a few ulps of m·B of A), and m is the correctly rounded quotient iff r lies
+// within half the gap to m's neighbour on r's side, times B (exact: the gap is a power of two);
+// the square root likewise with r = x − s² and the midpoint's square (s ± h)² = s² ± h·(2s ± h).
+// The quotient or root of floats is never itself a midpoint (an odd 25-bit M would need M·B, or M²,
+// to be a 24-bit significand times a power of two), so no tie arises. Each step moves one float;
+// the first value is the driver's own float division or square root, within 3 ulps of the
+// correctly rounded result for a 2.5-ulp division and within 5 for a square root inherited from
+// 1/inversesqrt (2 + 2.5 ulps, rounded), so 6 steps are enough. Zero, infinite and NaN operands,
+// and results that overflow or underflow to 0, keep the first value.
+#ifdef __cplusplus
+inline float div_rn(float a, float b) { return a / b; }
+inline float sqrt_rn(float x) { return std::sqrt(x); }
+#else
+float next_up_magnitude(float m) { return uintBitsToFloat(floatBitsToUint(m) + 1u); }
+float next_down_magnitude(float m) { return uintBitsToFloat(floatBitsToUint(m) - 1u); }
+// The settling steps from a first value q (div_rn's, or one moved off on purpose by the rounding
+// test's kernel, rounding.comp).
+float div_rn_settle(float a, float b, float q) {
+  if (q == 0.0 || isinf(q) || isnan(q) || isinf(a) || isinf(b)) return q;
+  const double A = abs(double(a)), B = abs(double(b));
+  float m = abs(q);
+  for (int k = 0; k < 6; ++k) {
+    precise double r = A - double(m) * B;
+    if (r >= 0.0lf) {
+      precise double half_gap_b = double(next_up_magnitude(m) - m) * 0.5lf * B;
+      if (r < half_gap_b) break;
+      m = next_up_magnitude(m);
+    } else {
+      precise double half_gap_b = double(m - next_down_magnitude(m)) * 0.5lf * B;
+      if (-r < half_gap_b) break;
+      m = next_down_magnitude(m);
+    }
+  }
+  return (a < 0.0) != (b < 0.0) ? -m : m;
+}
+float div_rn(float a, float b) { return div_rn_settle(a, b, a / b); }
+float sqrt_rn_settle(float x, float s) {
+  if (!(x > 0.0) || isinf(x) || s == 0.0 || isinf(s) || isnan(s)) return s;
+  const double X = double(x);
+  for (int k = 0; k < 6; ++k) {
+    precise double r = X - double(s) * double(s);
+    if (r >= 0.0lf) {
+      precise double h = double(next_up_magnitude(s) - s) * 0.5lf;
+      precise double bound = h * (2.0lf * double(s) + h);
+      if (r < bound) break;
+      s = next_up_magnitude(s);
+    } else {
+      precise double h = double(s - next_down_magnitude(s)) * 0.5lf;
+      precise double bound = h * (2.0lf * double(s) - h);
+      if (-r < bound) break;
+      s = next_down_magnitude(s);
+    }
+  }
+  return s;
+}
+float sqrt_rn(float x) { return sqrt_rn_settle(x, sqrt(x)); }
+#endif
 #endif

@@ -48,11 +48,11 @@ struct PtrsSetup {
 
 PS_FN PtrsSetup ptrs_setup(float mu) {
   PtrsSetup s;
-  precise float smu = sqrt(mu);
+  precise float smu = sqrt_rn(mu);
   precise float b = 0.931f + 2.53f * smu;
   precise float a = -0.059f + 0.02483f * b;
-  precise float inv_alpha = 1.1239f + 1.1328f / (b - 3.4f);
-  precise float v_r = 0.9277f - 3.6224f / (b - 2.0f);
+  precise float inv_alpha = 1.1239f + div_rn(1.1328f, b - 3.4f);
+  precise float v_r = 0.9277f - div_rn(3.6224f, b - 2.0f);
   precise float mu_int = floor(mu);
   precise float mu_frac = mu - mu_int;  // exact (Sterbenz)
   s.mu = mu;
@@ -76,7 +76,7 @@ PS_FN PtrsCandidate ptrs_candidate(PtrsSetup s, uint wu, uint wv) {
   precise float u = uniform23(wu) - 0.5f;  // (−½, ½), exact
   precise float us = 0.5f - abs(u);         // exact
   precise float v = uniform23(wv);
-  precise float t = (2.0f * s.a / us + s.b) * u + (s.mu_frac + 0.43f);
+  precise float t = (div_rn(2.0f * s.a, us) + s.b) * u + (s.mu_frac + 0.43f);
   precise float k = s.mu_int + floor(t);
   c.k = k;
   c.us = us;
@@ -106,18 +106,18 @@ PS_FN PtrsPmf ptrs_pmf(PtrsSetup s, float k) {
   precise float kk = max(k, 10.0f);
   precise float d = kk - s.mu;  // exact when k and μ are within a factor 2 (Sterbenz)
   precise float sum = kk + s.mu;
-  precise float v = d / sum;
+  precise float v = div_rn(d, sum);
   precise float v2 = v * v;
   precise float series = d * v + 2.0f * kk * v * (v2 * (0.333333343f + v2 * (0.200000003f + v2 * (0.142857149f +
                          v2 * (0.111111112f + v2 * (0.0909090936f + v2 * (0.0769230798f + v2 * (0.0666666701f +
                          v2 * (0.0588235296f + v2 * 0.0526315793f)))))))));
-  precise float lg = fast_log(low ? s.mu : kk / s.mu);
+  precise float lg = fast_log(low ? s.mu : div_rn(kk, s.mu));
   precise float direct = kk * lg + (s.mu - kk);
   precise float bd0 = abs(d) < 0.25f * sum ? series : direct;
-  precise float rk = 1.0f / kk;
+  precise float rk = div_rn(1.0f, kk);
   precise float rk2 = rk * rk;
   precise float stirlerr = rk * (0.0833333358f - rk2 * (0.00277777785f - rk2 * 0.000793650805f));
-  precise float q = low ? fact : sqrt(6.28318548f * kk);
+  precise float q = low ? fact : sqrt_rn(6.28318548f * kk);
   precise float r = low ? -s.mu + k * lg : -(stirlerr + bd0);
   PtrsPmf p;
   p.q = q;
@@ -137,7 +137,7 @@ PS_FN bool ptrs_accept(PtrsSetup s, PtrsCandidate c) {
   const PtrsPmf p = ptrs_pmf(s, c.k);
   // V·(1/α)/h with h = a/u_s² + b = (a + b u_s²)/u_s²: one division.
   precise float us2 = c.us * c.us;
-  precise float lhs = fast_log(c.v * s.inv_alpha * us2 / (s.a + s.b * us2) * p.q);
+  precise float lhs = fast_log(div_rn(c.v * s.inv_alpha * us2, s.a + s.b * us2) * p.q);
   return lhs <= p.r;
 }
 

@@ -22,6 +22,11 @@ void record_poisson(Context& ctx, Sequence& s, Buffer& mean, Buffer& out, uint64
 // The four Philox words of pixels first_pixel.. (random_words() on the device), 4n words.
 std::vector<uint32_t> philox_words(Context& ctx, uint64_t n, uint64_t first_pixel, uint64_t seed,
                                    uint32_t frame, uint32_t stream);
+// The device's correctly rounded division and square root (div_rn, sqrt_rn in
+// kernels/common/prelude.glsl), each settled from a first value moved shift_ulps floats away from
+// the driver's own float division and square root: {a0/b0, sqrt(a0), a1/b1, sqrt(a1), ...} for the pairs ab = {a0, b0, a1,
+// b1, ...} (for the test that they reach IEEE 754's result wherever a driver's arithmetic leaves them).
+std::vector<float> rounding_probe(Context& ctx, const std::vector<float>& ab, int shift_ulps);
 
 // The demosaic methods that have kernels: bilinear and Malvar-He-Cutler (one pass each),
 // Hamilton-Adams (green pass, then colour pass), LMMSE (observations, low-pass, estimates and

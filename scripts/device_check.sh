@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Runs on a lent GPU machine, from the repository root, over the bundle scripts/device_bundle.sh
+# made (.dev/, plus .gl/: Debian's Vulkan loader and glvnd packages). It names the machine, runs the
+# Vulkan tests on the real driver (under Khronos' validation layer) and the AVX-512 tests, then
+# `bench night --backend vulkan` and `bench pipeline`. Everything goes to $OUT (log.txt, the CSVs).
+# Locally (no $OUT) it runs the same on whatever driver the loader finds, into /tmp/device-out.
+set -u
+OUT=${OUT:-/tmp/device-out}
+mkdir -p "$OUT"
+exec > >(tee "$OUT/log.txt") 2>&1
+step() { echo; echo "=== $* ($(date -u +%T))"; }
+if [ -d .gl ] && ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+ROOT=/opt/ps   # the path the test binary was built for (device_bundle.sh)
+mkdir -p /opt; [ "$(readlink -f $ROOT)" = "$(pwd -P)" ] || ln -sfn "$(pwd -P)" $ROOT
+cd $ROOT
+# bench pipeline reads its frame from the source folder compiled in (/work/main/../shared).
+[ -e /work/main ] || { mkdir -p /work && ln -s $ROOT /work/main; }
+[ -e /work/shared ] || ln -s $ROOT/.dev/shared /work/shared
+[ -e /opt/shared ] || ln -s $ROOT/.dev/shared /opt/shared   # /work/main/.. is /opt when /work/main links to /opt/ps
+mkdir -p /tmp/psdev && xz -dc .dev/lib.tar.xz | tar -C /tmp/psdev -xf -
+export LD_LIBRARY_PATH=/tmp/psdev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+export VK_LAYER_PATH=/tmp/psdev/lib/layer VK_ADD_LAYER_PATH=/tmp/psdev/lib/layer
+if [ -z "${VK_DRIVER_FILES:-}" ]; then
+  for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json /usr/share/vulkan/icd.d/nvidia_icd.json \
+           /etc/vulkan/icd.d/nvidia_icd.json; do
+    [ -f "$j" ] && { export VK_DRIVER_FILES=$j VK_ICD_FILENAMES=$j; break; }
+  done
+fi
+[ -f /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json ] &&
+  export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+export PHOTOSITE_PRESET_DIR=$ROOT/presets PHOTOSITE_DEVICE_STORE=/tmp/ps-store
+P=.dev/bin/photosite
+mkdir -p "$OUT/t2" "$OUT/t16"
+CS=.dev/shared/data/cityscapes
+IMG=$CS/leftImg8bit/aachen_000000_000019_leftImg8bit.png
+LAB=$CS/gtFine/aachen_000000_000019_gtFine_labelIds.png
+INS=$CS/gtFine/aachen_000000_000019_gtFine_instanceIds.png
+
+step machine
+nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem --format=csv 2>&1 | head -3
+lscpu | grep -E '^(Model name|CPU\(s\)|Thread|Core)' ; uname -r
+echo "AVX-512: $(grep -o 'avx512[a-z_]*' /proc/cpuinfo | sort -u | tr '\n' ' ')"
+echo "driver manifest: ${VK_DRIVER_FILES:-none}"
+$P version 2>&1
+
+T=.dev/bin/photosite_gpu_tests
+FILTER='Gpu.*:GpuCli.*:*Vulkan*:*Avx512*:FacadeWindows.Reciprocal*'
+step "Vulkan and AVX-512 tests (whole output: tests_staged.txt)"
+timeout 200 $T --gtest_filter="$FILTER" > "$OUT/tests_staged.txt" 2>&1
+echo "tests exit: $?"
+grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran|^\[gpu\] device' "$OUT/tests_staged.txt"
+step "the Vulkan tests again with direct (mapped) buffers, not the staged copies a discrete GPU gets by default"
+PHOTOSITE_VK_STAGING=0 timeout 120 $T --gtest_filter='Gpu.*:Batch.Vulkan*' > "$OUT/tests_direct.txt" 2>&1
+echo "tests exit: $?"
+grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran' "$OUT/tests_direct.txt"
+if [ -x .dev/old/photosite_gpu_tests ]; then
+  step "the previous test binary (.dev/old) on the demosaic tests (whole output: tests_old.txt)"
+  timeout 100 .dev/old/photosite_gpu_tests --gtest_filter='Gpu.Demosaic*:Gpu.Mlri*:Gpu.CliDemosaic*' > "$OUT/tests_old.txt" 2>&1
+  echo "tests exit: $?"
+  grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran' "$OUT/tests_old.txt"
+  step "exit status of one trivial Vulkan test, with and without the validation layer"
+  .dev/old/photosite_gpu_tests --gtest_brief=1 --gtest_filter=Gpu.BackendIsBuiltAndADeviceOpens > /dev/null 2>&1; echo "validation on: exit $?"
+  PHOTOSITE_VK_VALIDATION=0 .dev/old/photosite_gpu_tests --gtest_brief=1 --gtest_filter=Gpu.BackendIsBuiltAndADeviceOpens > /dev/null 2>&1; echo "validation off: exit $?"
+  $T --gtest_brief=1 --gtest_filter=Gpu.BackendIsBuiltAndADeviceOpens > /dev/null 2>&1; echo "new binary, validation on: exit $?"
+fi
+
+step "bench night, CPU and Vulkan, 2 threads"
+timeout 100 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+  --repeats 9 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+step "bench night, CPU and Vulkan, 16 threads"
+timeout 70 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+  --repeats 9 --threads 16 --out-dir "$OUT/t16" 2>&1 | tail -n 40
+step "bench pipeline"
+timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+step done
