@@ -4,6 +4,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #define DEMOSAIC_RGB_MAIN
+#define DEMOSAIC_CLEAR_AT_CLEAR_LEVEL  // each plane from its own samples: RCCB's C is read as it is
 #include "common/demosaic.glsl"
 
 vec3 bayer_px(int x, int y, int t) {

@@ -1,6 +1,7 @@
 // MLRI, last stage: per site type the measured value, or the tentative estimate plus the bilinear
 // interpolation of the residuals (mosaic - tentative of the R sites in red rows, of the B sites in
-// blue rows) from the left/right, up/down or diagonal neighbours; RCCB then G = C - R - B.
+// blue rows) from the left/right, up/down or diagonal neighbours; RCCB then G = C - R - B, C from
+// green's level (common/clear_level.glsl).
 #version 450
 #extension GL_GOOGLE_include_directive : enable
 #include "common/mlri.glsl"
@@ -30,7 +31,7 @@ void main() {
     R = qr + (first ? v_res : d_res);
     B = first ? qb + h_res : r;
   }
-  precise float G = P.planes_to_rgb == 1u ? (g - R) - B : g;
+  precise float G = P.planes_to_rgb == 1u ? rccb_green(clear_site(x, y), mosaic_at(x, y), g, R, B) : g;
   const uint i = uint(y) * P.width + uint(x);
   rgb[3 * i] = R;
   rgb[3 * i + 1] = G;

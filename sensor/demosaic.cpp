@@ -319,6 +319,36 @@ ImageF demosaic_bilinear(const ImageF& m, CfaPattern pattern) {
   return out;
 }
 
+// The clear sites of a row: cell types kGr and kGb, the columns of the other parity than the
+// row's red or blue site.
+static int first_clear_column(const detail::BayerPhase& ph, int y) { return (ph.ox + y - ph.oy + 1) & 1; }
+
+detail::GreenLevelMosaic::GreenLevelMosaic(const ImageF& m, const BayerPhase& ph) : m_(m), ph_(ph) {
+  if (!ph.clear) return;
+  const int w = m.width(), h = m.height();
+  scaled_ = ImageF(w, h, 1, uninitialized, m.unit());
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const float* src = m.row(y);
+    float* dst = scaled_.row(y);
+    std::copy(src, src + w, dst);
+    for (int x = first_clear_column(ph, y); x < w; x += 2) dst[x] = shader::clear_to_green_level(src[x]);
+  }
+}
+
+void detail::GreenLevelMosaic::finish(ImageF& rgb) const {
+  if (!ph_.clear) return;
+  const int w = m_.width(), h = m_.height();
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const float* c = m_.row(y);
+    float* o = rgb.row(y);
+    const int xc = first_clear_column(ph_, y);
+    for (int x = 0; x < w; ++x)
+      o[3 * x + 1] = shader::rccb_green(((x ^ xc) & 1) == 0, c[x], o[3 * x + 1], o[3 * x], o[3 * x + 2]);
+  }
+}
+
 bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_path_ok(w, h, pattern); }
 
 // With an AVX2 clone (flatten: the row code inlined into each clone): the pair loop's adds and

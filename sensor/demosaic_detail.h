@@ -25,6 +25,7 @@
 namespace photosite::shader {
 #include "common/prelude.glsl"
 #include "common/border.glsl"
+#include "common/clear_level.glsl"
 #include "common/prelude_end.glsl"
 }  // namespace photosite::shader
 
@@ -66,8 +67,26 @@ inline bool bayer_path_ok(const ImageF& m, CfaPattern p) { return bayer_path_ok(
 inline int reflect(int i, int n) { return shader::reflect101(i, n); }
 
 // RCCB: planes (R, C, B) at a pixel become R, G = C - R - B, B (cfa.h: a clear filter passes
-// R+G+B).
+// R+G+B). Bilinear's conversion; the other methods read C at green's level (GreenLevelMosaic).
 inline void clear_to_rgb(float* o) { o[1] = o[1] - o[0] - o[2]; }
+
+// The mosaic the Bayer methods other than bilinear read: for RCCB a copy with every clear sample
+// times kClearToGreen (kernels/common/clear_level.glsl says why 1/3 and how the arithmetic stays
+// exact where it was), else the mosaic itself. finish() then turns the method's output
+// (R, Ĝ at green's level, B) into (R, G, B). Bilinear takes each plane from its own samples
+// only, where the gain cancels, and reads C as it is.
+class GreenLevelMosaic {
+ public:
+  GreenLevelMosaic(const ImageF& m, const BayerPhase& ph);
+  const ImageF& get() const { return ph_.clear ? scaled_ : m_; }
+  // RCCB: G = (C_hat - R) - B at every pixel of rgb (shader::rccb_green); otherwise nothing.
+  void finish(ImageF& rgb) const;
+
+ private:
+  const ImageF& m_;
+  BayerPhase ph_;
+  ImageF scaled_;
+};
 
 // Where a kernel writes one pixel's kOut values: channel c at p[c * stride]. The fast path
 // writes planar rows (unit-stride, so the pair loop vectorizes) and interleaves them after.

@@ -74,14 +74,16 @@ struct HaColour {
 ImageF demosaic_hamilton_adams(const ImageF& m, CfaPattern pattern) {
   if (!detail::bayer_path_ok(m, pattern)) return detail::demosaic_bilinear_generic(m, pattern);
   const auto ph = detail::bayer_phase(pattern);
+  const detail::GreenLevelMosaic in(m, ph);
   ImageF green(m.width(), m.height(), 1, uninitialized, m.unit());
   {
-    const ImageF* planes[1] = {&m};
+    const ImageF* planes[1] = {&in.get()};
     detail::run_stencil<2>(planes, ph, green, HaGreen{});
   }
   ImageF out(m.width(), m.height(), 3, uninitialized, m.unit());
-  const ImageF* planes[2] = {&m, &green};
-  detail::run_stencil<1>(planes, ph, out, HaColour{}, ph.clear);
+  const ImageF* planes[2] = {&in.get(), &green};
+  detail::run_stencil<1>(planes, ph, out, HaColour{});
+  in.finish(out);
   return out;
 }
 

@@ -48,8 +48,10 @@ ImageF demosaic_malvar(const ImageF& m, CfaPattern pattern) {
   if (!detail::bayer_path_ok(m, pattern)) return detail::demosaic_bilinear_generic(m, pattern);
   const auto ph = detail::bayer_phase(pattern);
   ImageF out(m.width(), m.height(), 3, uninitialized, m.unit());
-  const ImageF* planes[1] = {&m};
-  detail::run_stencil<2>(planes, ph, out, MalvarKernel{}, ph.clear);
+  const detail::GreenLevelMosaic in(m, ph);
+  const ImageF* planes[1] = {&in.get()};
+  detail::run_stencil<2>(planes, ph, out, MalvarKernel{});
+  in.finish(out);
   return out;
 }
 

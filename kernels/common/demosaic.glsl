@@ -1,7 +1,9 @@
 // The frame of every demosaic kernel (demosaic_<method>.comp), mirroring sensor/demosaic.cpp and
 // sensor/demosaic_detail.h: parameters, buffers, reflect-101 borders, the red site's phase, the
 // normalized-convolution bilinear path for RCCC, mono and frames under 2x2
-// (demosaic_bilinear_generic), RCCB's G = C - R - B. The mosaic is binding 0; a kernel declares
+// (demosaic_bilinear_generic), RCCB's clear samples at green's level and G = C - R - B
+// (common/clear_level.glsl; the bilinear kernel defines DEMOSAIC_CLEAR_AT_CLEAR_LEVEL, as
+// sensor/demosaic.cpp's bilinear reads C as it is). The mosaic is binding 0; a kernel declares
 // its outputs (and further inputs) itself. A one-pass method's .comp defines DEMOSAIC_RGB_MAIN
 // before including this file, defines `vec3 bayer_px(int x, int y, int t)` (the pixel of RGGB cell
 // type t: 0 R, 1 G in a red row, 2 G in a blue row, 3 B, summed in the C++ kernel's order), and
@@ -17,14 +19,28 @@ layout(local_size_x = 256) in;
 #include "params_demosaic.glsl"
 layout(std430, binding = 0) readonly buffer Raw { float raw_dn[]; };
 
-// reflect101: common/border.glsl, shared with the C++ kernels (sensor/demosaic_detail.h).
+// reflect101: common/border.glsl; the clear level: common/clear_level.glsl; both shared with
+// the C++ kernels (sensor/demosaic_detail.h).
 #include "prelude.glsl"
 #include "border.glsl"
+#include "clear_level.glsl"
 #include "prelude_end.glsl"
 
 int W, H;
-// The black-subtracted mosaic sample at (x, y), mirrored at the borders.
-float fetch(int x, int y) { return raw_dn[reflect101(y, H) * W + reflect101(x, W)] - P.black_dn; }
+// RCCB's clear sites (FilterColor::C).
+bool clear_site(int x, int y) { return P.planes_to_rgb == 1u && cfa_color(P.cfa_cell, uint(x), uint(y)) == 3u; }
+// The black-subtracted mosaic sample at (x, y) of the frame.
+float mosaic_at(int x, int y) { return raw_dn[y * W + x] - P.black_dn; }
+// The same, mirrored at the borders; on the Bayer path of RCCB, a clear sample at green's level
+// (detail::GreenLevelMosaic) unless the kernel reads C as it is (bilinear).
+float fetch(int x, int y) {
+  const int xr = reflect101(x, W), yr = reflect101(y, H);
+  precise float v = mosaic_at(xr, yr);
+#ifndef DEMOSAIC_CLEAR_AT_CLEAR_LEVEL
+  if (clear_site(xr, yr)) v = clear_to_green_level(v);
+#endif
+  return v;
+}
 
 // Sets W, H; false for invocations past the frame.
 bool frame_setup(uint i) {
@@ -91,7 +107,11 @@ void demosaic_main() {
   precise vec3 o;
   if (bayer_path()) {
     o = bayer_px(x, y, cell_type(x, y));
+#ifdef DEMOSAIC_CLEAR_AT_CLEAR_LEVEL
     if (P.planes_to_rgb == 1u) o.y = o.y - o.x - o.z;  // clear_to_rgb
+#else
+    if (P.planes_to_rgb == 1u) o.y = rccb_green(clear_site(x, y), mosaic_at(x, y), o.y, o.x, o.z);  // finish()
+#endif
   } else {
     o = generic_px(x, y);
   }
