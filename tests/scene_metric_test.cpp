@@ -61,7 +61,7 @@ TEST(CameraRig, BundledRigsCarryTheirCalibration) {
   const CameraRig c = load_camera_rig("cityscapes");
   EXPECT_DOUBLE_EQ(c.fx_px, 2262.52);
   EXPECT_DOUBLE_EQ(c.native_width_px, 2048);
-  EXPECT_NEAR(c.mount_height_m, 1.2, 0.05);
+  EXPECT_DOUBLE_EQ(c.mount_height_m, 1.22);  // presets/rigs/cityscapes.toml: the camera JSON's extrinsic z
   // Auto picks by aspect ratio: KITTI 1242x375, Cityscapes 2048x1024.
   EXPECT_EQ(rig_for_image(1242, 375).name, "kitti");
   EXPECT_EQ(rig_for_image(1224, 370).name, "kitti");
@@ -669,8 +669,9 @@ TEST(StreetLighting, RoadExtentIsMeasuredWithoutStreetLighting) {
   const StreetLighting b = plan_street_lighting(sc.labels, o.camera, unlit, 7);
   EXPECT_FALSE(a.lamps.empty());
   EXPECT_TRUE(b.lamps.empty());
-  EXPECT_NEAR(b.road_left_m, -o.road_half_width_m, 0.1);
-  EXPECT_NEAR(b.road_right_m, o.road_half_width_m, 0.1);
+  // Exact: see PoolsAlongTheRoadEdgesHoldTheClassAverage.
+  EXPECT_EQ(b.road_left_m, -o.road_half_width_m);
+  EXPECT_EQ(b.road_right_m, o.road_half_width_m);
   EXPECT_EQ(b.road_left_m, a.road_left_m);
   EXPECT_EQ(b.road_right_m, a.road_right_m);
 }
@@ -685,8 +686,14 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
   ScenePreset p = urban();
   const StreetLighting s = plan_street_lighting(sc.labels, o.camera, p, 7);
   ASSERT_EQ(s.source, "road_edges");
-  EXPECT_NEAR(s.road_left_m, -o.road_half_width_m, 0.1);
-  EXPECT_NEAR(s.road_right_m, o.road_half_width_m, 0.1);
+  // Each row's edge is the outer boundary of its last road pixel, within one pixel of the true
+  // kerb: at most D/f_px = 60 m / 1131 px = 0.053 m across at the farthest row used (60 m). The
+  // medians are rounded to quarter metres (scene/street.cpp), and 0.053 m < 0.125 m, so a road
+  // edge on the quarter-metre grid (here ±7 m) comes back exactly.
+  ASSERT_LT(60 / o.camera.f_px, 0.125);
+  ASSERT_EQ(std::round(4 * o.road_half_width_m), 4 * o.road_half_width_m);
+  EXPECT_EQ(s.road_left_m, -o.road_half_width_m);
+  EXPECT_EQ(s.road_right_m, o.road_half_width_m);
   const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
   for (size_t i = 1; i < s.lamps.size(); ++i) EXPECT_NEAR(s.lamps[i].D_m - s.lamps[i - 1].D_m, S / 2, 1e-9);
   // The intensity is set on the design layout (one row at the kerb, carriageway as wide as the

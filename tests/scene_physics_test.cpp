@@ -36,8 +36,11 @@ double median(std::vector<double> v) {
 // f_k t_k E / π (f the reflectance texture, t the beam's tint), whose luminance is
 // E · Σ_k K_k t_k f_k / π. So at each marking pixel R_L·E follows from the images alone. Only
 // pixels where the beam term is at least 10% of the night luminance are used, so the float
-// subtraction loses at most a factor 10 of single precision (10 × 6e-8 relative per operand):
-// the ratio is 1 within 1e-4 at the median pixel (lamp discs of the cars may cover a few).
+// subtraction loses at most a factor 10 of single precision: its five roundings (one per
+// operand, two in the subtraction; each operand at most the night value, all terms ≥ 0) cost at
+// most 5u of the night value, 50u of the beam term (u = 2⁻²⁴). The code's own float products of
+// the beam term f_k·t_k·E/π and of the marking's R_L·E add at most 8 roundings each: the ratio is 1
+// within (50 + 16)u at every such pixel, so at the median (lamp discs of the cars may cover a few).
 TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   ScenePreset p = no_bloom();
   p.street_road_luminance_cd_m2 = 0;  // no lamp pools: the light map's markings are retroreflection alone
@@ -61,8 +64,8 @@ TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   }
   ASSERT_GE(ratio.size(), 100u);
   const double m = median(ratio);
-  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f\n", ratio.size(), m);
-  EXPECT_NEAR(m, 1.0, 1e-4);
+  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f (%.3g u off)\n", ratio.size(), m, (m - 1) / 0x1p-24);
+  EXPECT_NEAR(m, 1.0, (10 * 5 + 2 * 8) * 0x1p-24);
 }
 
 namespace {
