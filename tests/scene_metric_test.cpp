@@ -202,7 +202,10 @@ TEST(MetricDepth, FallbackHorizonStaysMetric) {
   const double th = p.rig.pitch_deg * M_PI / 180, yh = k.cy_px - k.f_px * std::tan(th);
   EXPECT_NEAR(n.geometry.horizon_y, yh, 1e-9);
   for (int y : {200, 250, 319})
-    EXPECT_NEAR(n.depth.at(100, y), k.f_px * p.rig.mount_height_m / ((y - yh) * std::cos(th)), 1e-4 * n.depth.at(100, y));
+    // The code's double formula (another order of the same operations, ~1e-15) stored as float:
+    // half an ulp, at most 2⁻²⁴ relative.
+    EXPECT_NEAR(n.depth.at(100, y), k.f_px * p.rig.mount_height_m / ((y - yh) * std::cos(th)),
+                (0x1p-24 + 1e-14) * n.depth.at(100, y));
   EXPECT_EQ(n.depth.at(100, 10), kDepthInfinity_m);
 }
 
@@ -227,13 +230,16 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     return vp;
   };
   const double nominal = rig.pitch_deg, tol = rig.pitch_tolerance_deg;
+  // A horizon row through a pitch and back (atan, tan, a product and a difference in double):
+  // a few roundings of 2⁻⁵³ of numbers below cy + |f·tan θ|; 8 of them bound it.
+  auto row_tol = [&](double y) { return 8 * 0x1p-53 * (k.cy_px + std::fabs(y - k.cy_px)); };
   // Within the bound (either side, up to 0.01° inside it): the VP's horizon is kept.
   for (const double d : {0.0, 0.5, -1.0, tol - 0.01, -(tol - 0.01)}) {
     const VanishingPoint vp = vp_at_pitch(nominal + d);
     const CameraGeometry g = camera_geometry(rig, W, H, vp);
     EXPECT_EQ(g.horizon_source, "vanishing_point") << d;
     EXPECT_DOUBLE_EQ(g.horizon_confidence, 0.91) << d;
-    EXPECT_NEAR(g.horizon_y, vp.y, 1e-6) << d;
+    EXPECT_NEAR(g.horizon_y, vp.y, row_tol(vp.y)) << d;
     EXPECT_EQ(g.note, "") << d;  // nothing to tell: the VP agrees with the rig
   }
   // Beyond it: the rig's horizon, confidence 0.
@@ -242,7 +248,7 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     const CameraGeometry g = camera_geometry(rig, W, H, vp_at_pitch(nominal + d));
     EXPECT_EQ(g.horizon_source, "rig") << d;
     EXPECT_EQ(g.horizon_confidence, 0) << d;
-    EXPECT_NEAR(g.horizon_y, yh_rig, 1e-9) << d;
+    EXPECT_NEAR(g.horizon_y, yh_rig, row_tol(yh_rig)) << d;
     // The refused VP is reported (a likely wrong --rig: a sign-flipped pitch, another data set's rig).
     EXPECT_NE(g.note.find("the vanishing point (confidence 0.91)"), std::string::npos) << d << ": " << g.note;
     EXPECT_NE(g.note.find("check --rig"), std::string::npos) << g.note;
@@ -263,7 +269,7 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
   VanishingPoint aachen = vp_at_pitch(0);
   aachen.y = 345.5;
   EXPECT_EQ(camera_geometry(rig, W, H, aachen).horizon_source, "rig");
-  EXPECT_NEAR(camera_geometry(rig, W, H, aachen).horizon_y, 427, 1);  // the rig's horizon, 427 px
+  EXPECT_NEAR(camera_geometry(rig, W, H, aachen).horizon_y, yh_rig, row_tol(yh_rig));  // the rig's horizon, 427 px
   // The tolerance is the rig file's key: a rig that allows 15° keeps that VP.
   const CameraRig loose = parse_camera_rig(
       "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 2262.52\ncx_px = 1096.98\ncy_px = 513.137\n"

@@ -424,8 +424,9 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   // Texture survives: within the road class each night channel is the day channel times one
   // factor (reflectance texture = ρ·day_k/class mean_k per channel of the day image in box RGB,
   // lit by one illuminance), so in box-RGB green the brightest (lane marking) and darkest (asphalt) road pixels of a row keep their day contrast,
-  // to float32 rounding of a handful of operations (relative 1e-4 bounds it generously: each
-  // rounding is ≤ 6e-8).
+  // to float32 rounding: per sample the box conversion the code does (3 products, 2 sums), its
+  // class scale and the illuminance (2 products) against the test's own box conversion (5): 12
+  // roundings of 2⁻²⁴ relative, two samples in each ratio.
   const int y = o.height - 2;
   int mark = -1, asphalt = -1;
   for (int x = 0; x < o.width; ++x) {
@@ -439,7 +440,7 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
   const double day_contrast = double(box[3 * im + 1]) / box[3 * ia + 1];
   ASSERT_GT(day_contrast, 2.0);  // the synthetic road has painted markings on this row
-  EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 1e-4 * day_contrast);
+  EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 2 * 12 * 0x1p-24 * day_contrast);
   {
   // Texture survives: within the road class every pixel is the day colour times one class scale,
   // times the illuminant tint t_k, times the illuminance, so in each row (one illuminance, however
@@ -999,7 +1000,9 @@ TEST(SceneGeometry, CoarseDepthIsZeroAtTheVanishingPointAndOneOnTheBorder) {
     EXPECT_FLOAT_EQ(d.at(x, 49), 1.f);
   }
   for (int y = 0; y < 50; ++y) EXPECT_FLOAT_EQ(d.at(99, y), 1.f);
-  EXPECT_NEAR(d.at(30, 35), 15.f / 29.f, 1e-5f);  // linear from the VP to the bottom row
+  // Linear from the VP to the bottom row: (35 − 20)/29 in double, stored as float (half an ulp,
+  // 2⁻²⁵ in [0.5, 1)).
+  EXPECT_NEAR(d.at(30, 35), 15.0 / 29.0, 0x1p-25);
 }
 
 // A scene from a known camera (the Cityscapes rig at 1024x512): three boxes in the driving area,
@@ -1752,9 +1755,10 @@ TEST(SceneChain, OpticsUseTheFramesOwnFocalLength) {
   const double ra = a.at(0, 0) / a.at(cx, cy), rb = b.at(0, 0) / b.at(cx, cy);
   const double ea = cos4(lens.focal_length_mm, 0, 0) / cos4(lens.focal_length_mm, cx, cy);
   const double eb = cos4(4.0, 0, 0) / cos4(4.0, cx, cy);
-  // float electrons: relative rounding 2^-24 each, so 1e-6 is a wide bound.
-  EXPECT_NEAR(ra, ea, 1e-6);
-  EXPECT_NEAR(rb, eb, 1e-6);
+  // float electrons, each computed in double and rounded once: 2⁻²⁴ relative each, two in a ratio;
+  // twice that bounds the double arithmetic on both sides too.
+  EXPECT_NEAR(ra, ea, 2 * 2 * 0x1p-24 * ea);
+  EXPECT_NEAR(rb, eb, 2 * 2 * 0x1p-24 * eb);
   EXPECT_LT(ra, rb - 0.05);
   const auto attrs = night_attributes(setup, c.exposure, c.fpn, sp, c.scene, road.labels, {"day.png", "labels.png", ""});
   ASSERT_TRUE(attrs.count("photosite/night/optics_focal_length_mm"));
