@@ -94,10 +94,15 @@ struct Canvas {
 };
 }  // namespace
 
+// A lamp's radiance: its colour scaled to the luminance in double and stored as float, 2⁻²⁴
+// relative per channel; the channels are ≥ 0, so the luminance Σ_k K_k c_k is off by at most 2⁻²⁴
+// of it too (twice that for the double arithmetic on both sides).
+constexpr double kLampRounding = 2 * 0x1p-24;
+
 // Traffic signals: a lit lens (a traffic-light pixel of signal colour, CIELAB L* ≥ 25 and chroma
 // ≥ 30) emits the preset's signal luminance (a 200-400 cd LED signal over a 200 mm lens, ~1e4
 // cd/m²) in its colour; the dark housing, and the same red outside a traffic light, emit nothing.
-// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (1e-6).
+// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (kLampRounding).
 TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   const ScenePreset p = no_bloom();
   Canvas c(64, 40);
@@ -111,7 +116,7 @@ TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   for (int x0 : {4, 14, 24})
     for (int y = 4; y < 10; ++y)
       for (int x = x0; x < x0 + 6; ++x)
-        EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.signal_luminance_cd_m2, 1e-6 * p.signal_luminance_cd_m2) << x << "," << y;
+        EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.signal_luminance_cd_m2, kLampRounding * p.signal_luminance_cd_m2) << x << "," << y;
   auto at = [&](int x, int k) { return m.radiance.at(x, 6, k); };
   EXPECT_GT(at(6, 0), 10 * at(6, 1));                       // red: R dominates
   EXPECT_GT(at(16, 0), at(16, 1));                          // amber: R over G, G well above 0
@@ -137,13 +142,13 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
   // Inside the red lens (pixels with all 8 neighbours red): exactly the tail-lamp luminance.
   for (int y = 47; y < 50; ++y)
     for (int x = 75; x < 79; ++x)
-      EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.taillamp_luminance_cd_m2, 1e-6 * p.taillamp_luminance_cd_m2) << x << "," << y;
+      EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.taillamp_luminance_cd_m2, kLampRounding * p.taillamp_luminance_cd_m2) << x << "," << y;
   // Placed lamps at 55% of the height, 15% in from each side.
   const int ly = static_cast<int>(30 + 0.55 * 24);
   EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(110 - 1 - 0.15 * 40), ly), p.taillamp_luminance_cd_m2,
-              1e-6 * p.taillamp_luminance_cd_m2);
+              kLampRounding * p.taillamp_luminance_cd_m2);
   EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(10 + 0.15 * 40), ly), p.headlamp_luminance_cd_m2,
-              1e-6 * p.headlamp_luminance_cd_m2);
+              kLampRounding * p.headlamp_luminance_cd_m2);
   EXPECT_EQ(c.lum_at(m.radiance, 90, 33), 0.0);  // the body, away from any lamp
   EXPECT_EQ(c.lum_at(m.radiance, 30, 33), 0.0);
 }
