@@ -148,37 +148,55 @@ TEST(Demosaic, RccbEdgeDirectedMethodsBeatBilinearOnACommonTexture) {
   }
 }
 
-TEST(Demosaic, AllMethodsAgreeExactlyOnFlatAreasIncludingBorders) {
+// Flat areas come back to float rounding (not exactly: Malvar's and LMMSE's weighted sums round).
+// Every method forms each output in at most two passes of weighted sums of mosaic samples whose
+// weights sum to 1, at most 13 taps and Σ|w| ≤ 2 (Malvar's 5×5 filters, the widest with negative
+// taps; LMMSE and MLRI combine such estimates with weights summing to 1). A sum of 13 terms errs
+// by at most 12·u·Σ|w_i x_i| (u = 2⁻²⁴, the recursive summation bound), so two passes by
+// 2·12·u·2·max x, max x the largest mosaic sample. RCCB's green is G = (C_hat − R) − B with
+// C_hat = 3·Ĝ, Ĝ interpolated from the clear samples times 1/3 (kernels/common/clear_level.glsl):
+// the same two-pass bound on values up to max x/3, times 3, plus the 1/3 product's and the 3·Ĝ
+// product's roundings (0.5 + 1 u of max x) and the two subtractions' (2 u): (48 + 3.5)·u·max x.
+TEST(Demosaic, AllMethodsRecoverFlatAreasToRoundingIncludingBorders) {
   for (auto p : kColourPatterns)
     for (auto m : all_demosaic_methods()) {
       ImageF rgb(23, 14, 3);
       for (size_t i = 0; i < rgb.pixel_count(); ++i) rgb[3 * i] = 0.2f, rgb[3 * i + 1] = 0.5f, rgb[3 * i + 2] = 0.7f;
       const ImageF truth = representable(rgb, p);
-      const ImageF out = demosaic(mosaic(truth, p), p, m);
+      const ImageF mos = mosaic(truth, p);
+      const double max_x = *std::max_element(mos.vec().begin(), mos.vec().end());
+      const double tol = (2 * 12 * 2 + (p == CfaPattern::RCCB ? 3.5 : 0.0)) * 0x1p-24 * max_x;
+      const ImageF out = demosaic(mos, p, m);
       for (size_t i = 0; i < out.size(); ++i)
-        ASSERT_NEAR(out[i], truth[i], 2e-6) << to_string(m) << " on " << to_string(p) << " at sample " << i;
+        ASSERT_NEAR(out[i], truth[i], tol) << to_string(m) << " on " << to_string(p) << " at sample " << i;
     }
 }
 
 TEST(Demosaic, BordersAreNeitherBlackNorWrappedAround) {
-  // A left-to-right ramp: wrap-around would bring the bright right edge into the left column.
+  // A left-to-right ramp: wrap-around would bring the bright right edge into the left column
+  // (0.78 off), a black border would be 0.1 off. The limit: one pixel's step of the ramp, what
+  // the mirrored border costs a two-tap average (bilinear: the mirror puts x = 1's value in
+  // place of x = −1's, (v(1) + v(1))/2 = v(0) + step), plus float rounding (16 u of values < 1).
+  const float step = 0.02f;
   ImageF rgb(40, 30, 3);
   for (int y = 0; y < 30; ++y)
     for (int x = 0; x < 40; ++x)
-      for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = 0.1f + 0.02f * x;
+      for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = 0.1f + step * x;
+  const double tol = step + 16 * 0x1p-24;
   for (auto m : all_demosaic_methods()) {
     const ImageF out = demosaic(mosaic(rgb, CfaPattern::GRBG), CfaPattern::GRBG, m);
     for (int y = 0; y < 30; ++y)
       for (int c = 0; c < 3; ++c) {
-        EXPECT_NEAR(out.at(0, y, c), 0.1f, 0.03f) << to_string(m);
-        EXPECT_NEAR(out.at(39, y, c), 0.1f + 0.02f * 39, 0.03f) << to_string(m);
+        EXPECT_NEAR(out.at(0, y, c), 0.1f, tol) << to_string(m);
+        EXPECT_NEAR(out.at(39, y, c), 0.1f + step * 39, tol) << to_string(m);
       }
   }
 }
 
 TEST(Demosaic, EveryBayerPhaseGivesTheSameInterior) {
   // Shifting the image by one pixel turns RGGB into GRBG (x), GBRG (y) or BGGR (both): the
-  // methods must give the same result away from the borders.
+  // methods must give the same result away from the borders, bit for bit (each output sample is
+  // the same operations on the same samples in the same order, whatever the phase).
   const ImageF base = smooth_field(80, 60);
   ImageF tex = base;  // add fine detail so the edge-directed paths are exercised
   for (int y = 0; y < 60; ++y)
@@ -199,7 +217,7 @@ TEST(Demosaic, EveryBayerPhaseGivesTheSameInterior) {
       for (int y = e; y < sub.height() - e; ++y)
         for (int x = e; x < sub.width() - e; ++x)
           for (int c = 0; c < 3; ++c)
-            ASSERT_NEAR(out.at(x, y, c), ref.at(x + s.dx, y + s.dy, c), 1e-5)
+            ASSERT_EQ(out.at(x, y, c), ref.at(x + s.dx, y + s.dy, c))
                 << to_string(m) << " " << to_string(s.p) << " at " << x << "," << y;
     }
   }
@@ -371,7 +389,14 @@ TEST(DemosaicCli, RoundTripMatchesTheLibraryAndListsMethods) {
   const ImageF png = read_image(dir.file("o.png"), &info);
   EXPECT_EQ(info.bits_per_sample, 16);
   EXPECT_EQ(png.channels(), 3);
-  EXPECT_NEAR(png.at(30, 20, 1), rgb.at(30, 20, 1), 2e-3);
+  // The PNG holds the library's demosaic of the same input to the 16-bit quantum: half a code,
+  // 0.5/65535, plus the float rounding of the scalings out and back (2⁻²⁴ relative each, values
+  // below 1). An 8-bit scale would be off by up to 0.5/255.
+  const ImageF lmmse = demosaic(read_back, CfaPattern::GRBG, DemosaicMethod::Lmmse);
+  ASSERT_TRUE(png.same_shape(lmmse));
+  double worst = 0;
+  for (size_t i = 0; i < png.size(); ++i) worst = std::max(worst, std::fabs(double(png[i]) - lmmse[i]));
+  EXPECT_LE(worst, 0.5 / 65535 + 4 * 0x1p-24);
   auto l = test::run_cli("demosaic --list");
   ASSERT_EQ(l.exit_code, 0);
   for (const auto& n : demosaic_method_names()) EXPECT_NE(l.output.find(n), std::string::npos) << n;

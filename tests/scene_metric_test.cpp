@@ -61,7 +61,7 @@ TEST(CameraRig, BundledRigsCarryTheirCalibration) {
   const CameraRig c = load_camera_rig("cityscapes");
   EXPECT_DOUBLE_EQ(c.fx_px, 2262.52);
   EXPECT_DOUBLE_EQ(c.native_width_px, 2048);
-  EXPECT_NEAR(c.mount_height_m, 1.2, 0.05);
+  EXPECT_DOUBLE_EQ(c.mount_height_m, 1.22);  // presets/rigs/cityscapes.toml: the camera JSON's extrinsic z
   // Auto picks by aspect ratio: KITTI 1242x375, Cityscapes 2048x1024.
   EXPECT_EQ(rig_for_image(1242, 375).name, "kitti");
   EXPECT_EQ(rig_for_image(1224, 370).name, "kitti");
@@ -202,7 +202,10 @@ TEST(MetricDepth, FallbackHorizonStaysMetric) {
   const double th = p.rig.pitch_deg * M_PI / 180, yh = k.cy_px - k.f_px * std::tan(th);
   EXPECT_NEAR(n.geometry.horizon_y, yh, 1e-9);
   for (int y : {200, 250, 319})
-    EXPECT_NEAR(n.depth.at(100, y), k.f_px * p.rig.mount_height_m / ((y - yh) * std::cos(th)), 1e-4 * n.depth.at(100, y));
+    // The code's double formula (another order of the same operations, ~1e-15) stored as float:
+    // half an ulp, at most 2⁻²⁴ relative.
+    EXPECT_NEAR(n.depth.at(100, y), k.f_px * p.rig.mount_height_m / ((y - yh) * std::cos(th)),
+                (0x1p-24 + 1e-14) * n.depth.at(100, y));
   EXPECT_EQ(n.depth.at(100, 10), kDepthInfinity_m);
 }
 
@@ -227,13 +230,16 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     return vp;
   };
   const double nominal = rig.pitch_deg, tol = rig.pitch_tolerance_deg;
+  // A horizon row through a pitch and back (atan, tan, a product and a difference in double):
+  // a few roundings of 2⁻⁵³ of numbers below cy + |f·tan θ|; 8 of them bound it.
+  auto row_tol = [&](double y) { return 8 * 0x1p-53 * (k.cy_px + std::fabs(y - k.cy_px)); };
   // Within the bound (either side, up to 0.01° inside it): the VP's horizon is kept.
   for (const double d : {0.0, 0.5, -1.0, tol - 0.01, -(tol - 0.01)}) {
     const VanishingPoint vp = vp_at_pitch(nominal + d);
     const CameraGeometry g = camera_geometry(rig, W, H, vp);
     EXPECT_EQ(g.horizon_source, "vanishing_point") << d;
     EXPECT_DOUBLE_EQ(g.horizon_confidence, 0.91) << d;
-    EXPECT_NEAR(g.horizon_y, vp.y, 1e-6) << d;
+    EXPECT_NEAR(g.horizon_y, vp.y, row_tol(vp.y)) << d;
     EXPECT_EQ(g.note, "") << d;  // nothing to tell: the VP agrees with the rig
   }
   // Beyond it: the rig's horizon, confidence 0.
@@ -242,7 +248,7 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
     const CameraGeometry g = camera_geometry(rig, W, H, vp_at_pitch(nominal + d));
     EXPECT_EQ(g.horizon_source, "rig") << d;
     EXPECT_EQ(g.horizon_confidence, 0) << d;
-    EXPECT_NEAR(g.horizon_y, yh_rig, 1e-9) << d;
+    EXPECT_NEAR(g.horizon_y, yh_rig, row_tol(yh_rig)) << d;
     // The refused VP is reported (a likely wrong --rig: a sign-flipped pitch, another data set's rig).
     EXPECT_NE(g.note.find("the vanishing point (confidence 0.91)"), std::string::npos) << d << ": " << g.note;
     EXPECT_NE(g.note.find("check --rig"), std::string::npos) << g.note;
@@ -263,7 +269,7 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
   VanishingPoint aachen = vp_at_pitch(0);
   aachen.y = 345.5;
   EXPECT_EQ(camera_geometry(rig, W, H, aachen).horizon_source, "rig");
-  EXPECT_NEAR(camera_geometry(rig, W, H, aachen).horizon_y, 427, 1);  // the rig's horizon, 427 px
+  EXPECT_NEAR(camera_geometry(rig, W, H, aachen).horizon_y, yh_rig, row_tol(yh_rig));  // the rig's horizon, 427 px
   // The tolerance is the rig file's key: a rig that allows 15° keeps that VP.
   const CameraRig loose = parse_camera_rig(
       "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 2262.52\ncx_px = 1096.98\ncy_px = 513.137\n"
@@ -669,8 +675,9 @@ TEST(StreetLighting, RoadExtentIsMeasuredWithoutStreetLighting) {
   const StreetLighting b = plan_street_lighting(sc.labels, o.camera, unlit, 7);
   EXPECT_FALSE(a.lamps.empty());
   EXPECT_TRUE(b.lamps.empty());
-  EXPECT_NEAR(b.road_left_m, -o.road_half_width_m, 0.1);
-  EXPECT_NEAR(b.road_right_m, o.road_half_width_m, 0.1);
+  // Exact: see PoolsAlongTheRoadEdgesHoldTheClassAverage.
+  EXPECT_EQ(b.road_left_m, -o.road_half_width_m);
+  EXPECT_EQ(b.road_right_m, o.road_half_width_m);
   EXPECT_EQ(b.road_left_m, a.road_left_m);
   EXPECT_EQ(b.road_right_m, a.road_right_m);
 }
@@ -685,8 +692,14 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
   ScenePreset p = urban();
   const StreetLighting s = plan_street_lighting(sc.labels, o.camera, p, 7);
   ASSERT_EQ(s.source, "road_edges");
-  EXPECT_NEAR(s.road_left_m, -o.road_half_width_m, 0.1);
-  EXPECT_NEAR(s.road_right_m, o.road_half_width_m, 0.1);
+  // Each row's edge is the outer boundary of its last road pixel, within one pixel of the true
+  // kerb: at most D/f_px = 60 m / 1131 px = 0.053 m across at the farthest row used (60 m). The
+  // medians are rounded to quarter metres (scene/street.cpp), and 0.053 m < 0.125 m, so a road
+  // edge on the quarter-metre grid (here ±7 m) comes back exactly.
+  ASSERT_LT(60 / o.camera.f_px, 0.125);
+  ASSERT_EQ(std::round(4 * o.road_half_width_m), 4 * o.road_half_width_m);
+  EXPECT_EQ(s.road_left_m, -o.road_half_width_m);
+  EXPECT_EQ(s.road_right_m, o.road_half_width_m);
   const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
   for (size_t i = 1; i < s.lamps.size(); ++i) EXPECT_NEAR(s.lamps[i].D_m - s.lamps[i - 1].D_m, S / 2, 1e-9);
   // The intensity is set on the design layout (one row at the kerb, carriageway as wide as the

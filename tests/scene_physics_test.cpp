@@ -36,8 +36,11 @@ double median(std::vector<double> v) {
 // f_k t_k E / π (f the reflectance texture, t the beam's tint), whose luminance is
 // E · Σ_k K_k t_k f_k / π. So at each marking pixel R_L·E follows from the images alone. Only
 // pixels where the beam term is at least 10% of the night luminance are used, so the float
-// subtraction loses at most a factor 10 of single precision (10 × 6e-8 relative per operand):
-// the ratio is 1 within 1e-4 at the median pixel (lamp discs of the cars may cover a few).
+// subtraction loses at most a factor 10 of single precision: its five roundings (one per
+// operand, two in the subtraction; each operand at most the night value, all terms ≥ 0) cost at
+// most 5u of the night value, 50u of the beam term (u = 2⁻²⁴). The code's own float products of
+// the beam term f_k·t_k·E/π and of the marking's R_L·E add at most 8 roundings each: the ratio is 1
+// within (50 + 16)u at every such pixel, so at the median (lamp discs of the cars may cover a few).
 TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   ScenePreset p = no_bloom();
   p.street_road_luminance_cd_m2 = 0;  // no lamp pools: the light map's markings are retroreflection alone
@@ -61,8 +64,8 @@ TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   }
   ASSERT_GE(ratio.size(), 100u);
   const double m = median(ratio);
-  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f\n", ratio.size(), m);
-  EXPECT_NEAR(m, 1.0, 1e-4);
+  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f (%.3g u off)\n", ratio.size(), m, (m - 1) / 0x1p-24);
+  EXPECT_NEAR(m, 1.0, (10 * 5 + 2 * 8) * 0x1p-24);
 }
 
 namespace {
@@ -91,10 +94,15 @@ struct Canvas {
 };
 }  // namespace
 
+// A lamp's radiance: its colour scaled to the luminance in double and stored as float, 2⁻²⁴
+// relative per channel; the channels are ≥ 0, so the luminance Σ_k K_k c_k is off by at most 2⁻²⁴
+// of it too (twice that for the double arithmetic on both sides).
+constexpr double kLampRounding = 2 * 0x1p-24;
+
 // Traffic signals: a lit lens (a traffic-light pixel of signal colour, CIELAB L* ≥ 25 and chroma
 // ≥ 30) emits the preset's signal luminance (a 200-400 cd LED signal over a 200 mm lens, ~1e4
 // cd/m²) in its colour; the dark housing, and the same red outside a traffic light, emit nothing.
-// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (1e-6).
+// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (kLampRounding).
 TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   const ScenePreset p = no_bloom();
   Canvas c(64, 40);
@@ -108,7 +116,7 @@ TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   for (int x0 : {4, 14, 24})
     for (int y = 4; y < 10; ++y)
       for (int x = x0; x < x0 + 6; ++x)
-        EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.signal_luminance_cd_m2, 1e-6 * p.signal_luminance_cd_m2) << x << "," << y;
+        EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.signal_luminance_cd_m2, kLampRounding * p.signal_luminance_cd_m2) << x << "," << y;
   auto at = [&](int x, int k) { return m.radiance.at(x, 6, k); };
   EXPECT_GT(at(6, 0), 10 * at(6, 1));                       // red: R dominates
   EXPECT_GT(at(16, 0), at(16, 1));                          // amber: R over G, G well above 0
@@ -134,13 +142,13 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
   // Inside the red lens (pixels with all 8 neighbours red): exactly the tail-lamp luminance.
   for (int y = 47; y < 50; ++y)
     for (int x = 75; x < 79; ++x)
-      EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.taillamp_luminance_cd_m2, 1e-6 * p.taillamp_luminance_cd_m2) << x << "," << y;
+      EXPECT_NEAR(c.lum_at(m.radiance, x, y), p.taillamp_luminance_cd_m2, kLampRounding * p.taillamp_luminance_cd_m2) << x << "," << y;
   // Placed lamps at 55% of the height, 15% in from each side.
   const int ly = static_cast<int>(30 + 0.55 * 24);
   EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(110 - 1 - 0.15 * 40), ly), p.taillamp_luminance_cd_m2,
-              1e-6 * p.taillamp_luminance_cd_m2);
+              kLampRounding * p.taillamp_luminance_cd_m2);
   EXPECT_NEAR(c.lum_at(m.radiance, static_cast<int>(10 + 0.15 * 40), ly), p.headlamp_luminance_cd_m2,
-              1e-6 * p.headlamp_luminance_cd_m2);
+              kLampRounding * p.headlamp_luminance_cd_m2);
   EXPECT_EQ(c.lum_at(m.radiance, 90, 33), 0.0);  // the body, away from any lamp
   EXPECT_EQ(c.lum_at(m.radiance, 30, 33), 0.0);
 }

@@ -90,7 +90,12 @@ TEST(PhotonIntegral, MatchesTheClosedFormForAFlatQe) {
   for (int k = 0; k < 3; ++k) {
     const double mid = 0.5 * (spectrum::kBandLoNm[k] + spectrum::kBandHiNm[k]);
     const double expect = 0.01 * area * el * 0.5 / units::photon_energy_J(mid);
-    EXPECT_NEAR(m[0][k] / expect, 1.0, 1e-4) << k;
+    // λ/(hc) is linear in λ, so the code's 0.5 nm midpoint rule is exact on it: what is left is
+    // double rounding, one rounding per term of the n-term sum (n·2⁻⁵³ relative, the recursive
+    // summation bound) and about ten more in each product chain (energy, area, E/L, the scaling),
+    // on both sides: 2·(n + 10)·2⁻⁵³, four times over (9e-14 for n = 200).
+    const double n = (spectrum::kBandHiNm[k] - spectrum::kBandLoNm[k]) / 0.5;
+    EXPECT_NEAR(m[0][k] / expect, 1.0, 4 * 2 * (n + 10) * 0x1p-53) << k;
   }
 }
 
@@ -102,8 +107,10 @@ TEST(PhotonIntegral, Cos4FalloffDarkensTheCorners) {
   const auto ex = resolve(p, l, ExposureSettings{});
   ImageF e = mean_signal_electrons(radiance, p, l, ex);
   // Same filter colour at the centre (100, 50) and a corner (0, 0).
-  const double r2 = (100.0 * 100 + 50.0 * 50) * std::pow(4e-3 / 2.0, 2);
-  EXPECT_NEAR(e.at(0, 0) / e.at(100, 50), 1.0 / ((1 + r2) * (1 + r2)), 1e-5);
+  // The code computes each pixel in double and rounds it to float once (2⁻²⁴ relative each, two
+  // in the ratio); double rounding adds ~1e-15. Twice that bounds it.
+  const double r2 = (100.0 * 100 + 50.0 * 50) * std::pow(4e-3 / 2.0, 2), want = 1.0 / ((1 + r2) * (1 + r2));
+  EXPECT_NEAR(e.at(0, 0) / e.at(100, 50), want, 2 * 2 * 0x1p-24 * want);
 }
 
 TEST(PhotonIntegral, RejectsNanInfAndNegativeRadiance) {
@@ -180,9 +187,11 @@ TEST(Adc, QuantizationNoiseIsTheIdealTwelfth) {
   auto out = sense(zero, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
   const double expect = 0.25 * 4.0 + 1.0 / 12;
   // Over n = 512² samples: the sample variance's relative standard error is sqrt(2 / n) = 0.28 %
-  // (near-normal DN), so 2 % is 7 SE; the mean's is sqrt(expect / n) = 0.0020 DN, so 0.02 DN is 10 SE.
-  EXPECT_NEAR(var_of(out.raw_dn), expect, 0.02 * expect);
-  EXPECT_NEAR(mean_of(out.raw_dn), 64.0, 0.02);
+  // (near-normal DN: kurtosis 3), the mean's sqrt(expect / n) = 0.0020 DN (the rounded normal
+  // centred on the code 64 has mean 64 by symmetry); both within 5 SE.
+  const double n = static_cast<double>(w) * h;
+  EXPECT_NEAR(var_of(out.raw_dn), expect, 5 * std::sqrt(2 / n) * expect);
+  EXPECT_NEAR(mean_of(out.raw_dn), 64.0, 5 * std::sqrt(expect / n));
   for (float v : out.raw_dn.vec()) ASSERT_EQ(v, std::floor(v));
 }
 
@@ -239,8 +248,12 @@ TEST(Adc, SignalMeanFollowsGainAndBlackLevel) {
   ExposureSettings s;
   s.gain_db = 6.0206;  // ×2
   auto out = sense(sig, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
-  EXPECT_NEAR(mean_of(out.raw_dn), 64 + 0.4 * 1000, 0.5);
-  EXPECT_NEAR(var_of(out.raw_dn), 0.16 * (1000 + 9) + 1.0 / 12, 0.05 * 0.16 * 1009);
+  // DN variance K²(μ + σ_read²) + 1/12 with K = 0.4 DN/e⁻ (6.0206 dB is ×2 to 4e-6, which moves the
+  // mean by 0.0007 DN). Over n pixels the mean's standard error is √(var/n) = 0.050 DN and the
+  // sample variance's var·√(2/n) (kurtosis 3 + 1/μ: near normal); both within 5 SE.
+  const double var = 0.16 * (1000 + 9) + 1.0 / 12, n = static_cast<double>(w) * h;
+  EXPECT_NEAR(mean_of(out.raw_dn), 64 + 0.4 * 1000, 5 * std::sqrt(var / n));
+  EXPECT_NEAR(var_of(out.raw_dn), var, 5 * std::sqrt(2 / n) * var);
 }
 
 TEST(FixedPattern, MapsHaveTheirStatisticsAndAreDeterministic) {
@@ -254,11 +267,20 @@ TEST(FixedPattern, MapsHaveTheirStatisticsAndAreDeterministic) {
   auto c = generate_fixed_pattern(p, 300, 200, "unit-b");
   EXPECT_EQ(a.checksum, b.checksum);
   EXPECT_NE(a.checksum, c.checksum);
-  EXPECT_NEAR(mean_of(a.prnu_gain), 1.0, 0.001);
-  EXPECT_NEAR(std::sqrt(var_of(a.prnu_gain)), 0.015, 0.0006);
-  EXPECT_NEAR(std::sqrt(var_of(a.dsnu_offset_e)), 4.0, 0.15);
-  EXPECT_NEAR(mean_of(a.dark_rate_factor), 1.0, 0.01);
-  EXPECT_NEAR(std::sqrt(var_of(a.dark_rate_factor)), 0.30, 0.015);
+  // n independent draws (sensor/fpn.cpp): the mean's standard error is σ/√n; the sample standard
+  // deviation's is σ·√((β₂ − 1)/n)/2 (delta method on Var(s²) = (μ₄ − σ⁴)/n, β₂ the kurtosis):
+  // σ/√(2n) for the normal PRNU and DSNU maps. The dark-rate factor is lognormal with mean 1 and
+  // cv 0.3: β₂ = e^{4s²} + 2e^{3s²} + 3e^{2s²} − 3 with s² = ln(1 + cv²). All within 5 SE.
+  const double n = 300.0 * 200;
+  auto se_sd = [n](double sigma, double beta2) { return sigma * std::sqrt((beta2 - 1) / n) / 2; };
+  const double s2 = std::log1p(0.3 * 0.3);
+  const double beta2_ln = std::exp(4 * s2) + 2 * std::exp(3 * s2) + 3 * std::exp(2 * s2) - 3;
+  EXPECT_NEAR(mean_of(a.prnu_gain), 1.0, 5 * 0.015 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(var_of(a.prnu_gain)), 0.015, 5 * se_sd(0.015, 3));
+  EXPECT_NEAR(mean_of(a.dsnu_offset_e), 0.0, 5 * 4.0 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(var_of(a.dsnu_offset_e)), 4.0, 5 * se_sd(4.0, 3));
+  EXPECT_NEAR(mean_of(a.dark_rate_factor), 1.0, 5 * 0.30 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(var_of(a.dark_rate_factor)), 0.30, 5 * se_sd(0.30, beta2_ln));
   // Stages the preset does not ask for are skipped: no maps at all.
   auto none = generate_fixed_pattern(flat_qe_camera(), 30, 20, "unit-a");
   EXPECT_TRUE(none.prnu_gain.empty() && none.dsnu_offset_e.empty() && none.dark_rate_factor.empty());
@@ -273,8 +295,9 @@ TEST(FixedPattern, HotPixelsAppearAtTheirFraction) {
   size_t hot = 0;
   for (float f : m.dark_rate_factor.vec()) hot += f > 50;
   // Each pixel is hot with probability 0.01 on its own (sensor/fpn.cpp): the binomial standard
-  // error of the fraction over 1e5 pixels is sqrt(0.01 · 0.99 / 1e5) = 3.1e-4, so 0.0015 is 4.8 SE.
-  EXPECT_NEAR(hot / 1e5, 0.01, 0.0015);
+  // error of the fraction over 1e5 pixels is sqrt(0.01 · 0.99 / 1e5) = 3.1e-4; within 5 SE.
+  const double n = 400.0 * 250, f = 0.01;
+  EXPECT_NEAR(hot / n, f, 5 * std::sqrt(f * (1 - f) / n));
 }
 
 // A camera with PRNU (1 %) and DSNU (2 e-): a device map with two channels.
@@ -480,9 +503,14 @@ TEST(Sequence, FramesShareFixedPatternAndHaveIndependentTemporalNoise) {
     sbb += b * b;
   }
   const double corr = sab / std::sqrt(saa * sbb);
-  // Expected correlation = FPN variance / total variance (PRNU 2% of 500 e- = 10 e-, DSNU 5 e-).
-  const double fpn_var = 100 + 25, temporal = 500 + 9;
-  EXPECT_NEAR(corr, fpn_var / (fpn_var + temporal), 0.03);
+  // Expected correlation = FPN variance / total variance (PRNU 2% of 500 e- = 10 e-, DSNU 5 e-;
+  // shot 500 e-, read 3 e-), in DN: K² times each, and the rounding's 1/12 DN² temporal. A sample
+  // correlation of n pairs has standard error (1 − ρ²)/√n (normal pairs, to first order); the
+  // map's own sample variance (relative SE √(2/n) = 0.8 %) moves ρ by less than 0.2 of that.
+  // Within 5 SE.
+  const double K = p.system_gain_dn_per_e, fpn_var = K * K * (100 + 25), temporal = K * K * (500 + 9) + 1.0 / 12;
+  const double rho = fpn_var / (fpn_var + temporal), n = static_cast<double>(w) * h;
+  EXPECT_NEAR(corr, rho, 5 * (1 - rho * rho) / std::sqrt(n));
   (void)cab;
 }
 
@@ -520,8 +548,6 @@ TEST(ReadNoise, TukeyLambdaHasTheStatedStandardDeviationAndHeavierTails) {
   s.exposure_s = 0;
   auto out = sense(zero, p, resolve(p, simple_lens(), s), s, no_fpn(p, w, h));
   const double sd_e = std::sqrt(var_of(out.raw_dn) - 1.0 / 12) / 4.0;
-  EXPECT_NEAR(sd_e, 4.0, 0.12);
-  // Excess kurtosis > 0 (a Gaussian has 0).
   const double m = mean_of(out.raw_dn);
   double m2 = 0, m4 = 0;
   for (float v : out.raw_dn.vec()) {
@@ -529,23 +555,41 @@ TEST(ReadNoise, TukeyLambdaHasTheStatedStandardDeviationAndHeavierTails) {
     m2 += d * d;
     m4 += d * d * d * d;
   }
-  m2 /= out.raw_dn.size();
-  m4 /= out.raw_dn.size();
-  EXPECT_GT(m4 / (m2 * m2) - 3.0, 0.3);
+  const double n = out.raw_dn.size();
+  m2 /= n;
+  m4 /= n;
+  // The sample standard deviation's standard error is σ·√((β₂ − 1)/n)/2 (Var(s²) = (μ₄ − σ⁴)/n
+  // and the delta method), β₂ the kurtosis, here the sample's own m₄/m₂² (the Tukey-λ β₂ has no
+  // short closed form); the rounding's 1/12 DN² is Sheppard's correction, exact to far below
+  // that at σ = 16 DN. Within 5 SE.
+  const double beta2 = m4 / (m2 * m2);
+  EXPECT_NEAR(sd_e, 4.0, 5 * 4.0 * std::sqrt((beta2 - 1) / n) / 2);
+  // Excess kurtosis > 0 (a Gaussian has 0).
+  EXPECT_GT(beta2 - 3.0, 0.3);
 }
 
 TEST(Spectrum, BandEfficaciesAndConversions) {
   const auto& e = spectrum::band_luminous_efficacy_lm_per_W();
   EXPECT_GT(e[1], e[0]);  // green band is the most efficient
   EXPECT_GT(e[1], e[2]);
-  // CIE 1924 V(λ) at 10 nm from 500 to 600 nm (CIE 15:2004 table), trapezoid mean ≈ 0.8105.
+  // CIE 1924 V(λ) at 10 nm from 500 to 600 nm (CIE 15:2004 table), Simpson mean 0.8096. The code
+  // integrates the Wyman et al. fit of ȳ (spectrum.cpp); Simpson's weights are positive and sum
+  // to 1, so the two means differ by at most the fit's largest deviation from the table at its
+  // nodes (0.0066 at 500 nm, computed here) plus Simpson's own error on the smooth fit,
+  // h⁴/180·max|f⁗| ≈ 1e4/180 · 3/45⁴ nm⁻⁴ = 4e-5 (ȳ is about a Gaussian of σ = 45 nm).
   const double v[11] = {0.323, 0.503, 0.710, 0.862, 0.954, 0.995, 0.995, 0.952, 0.870, 0.757, 0.631};
-  double vm = 0;
-  for (int i = 0; i < 10; ++i) vm += 0.5 * (v[i] + v[i + 1]) / 10;
-  EXPECT_NEAR(e[1] / (683.0 * vm), 1.0, 0.01);
+  double vm = 0, worst_node = 0;
+  for (int i = 0; i <= 10; ++i) {
+    vm += (i == 0 || i == 10 ? 1 : i % 2 ? 4 : 2) * v[i] / 30;
+    worst_node = std::max(worst_node, std::fabs(spectrum::cie_y_bar(500 + 10 * i) - v[i]));
+  }
+  EXPECT_NEAR(e[1] / (683.0 * vm), 1.0, (worst_node + 4e-5) / vm);
+  // The luminance of the rounded-to-float colour: each band is off by at most 2⁻²⁴ relative, and
+  // the terms are all positive, so the sum is off by at most 2⁻²⁴ of it (twice that for the double
+  // arithmetic around it).
   const auto rgb = spectrum::blackbody_rgb(3000, 2.5);
   const float f[3] = {float(rgb[0]), float(rgb[1]), float(rgb[2])};
-  EXPECT_NEAR(spectrum::luminance_cd_m2(f), 2.5, 1e-5);
+  EXPECT_NEAR(spectrum::luminance_cd_m2(f), 2.5, 2 * 2.5 * 0x1p-24);
   EXPECT_GT(rgb[0], rgb[2]);  // warm light: more red than blue
   const auto& a = spectrum::box_to_linear_srgb();
   const auto& b = spectrum::linear_srgb_to_box();
@@ -555,10 +599,18 @@ TEST(Spectrum, BandEfficaciesAndConversions) {
       for (int k = 0; k < 3; ++k) s += a[i][k] * b[k][j];
       EXPECT_NEAR(s, i == j ? 1.0 : 0.0, 1e-9);
     }
-  // The sRGB luminance row of box → sRGB equals the band efficacies.
+  // The sRGB luminance row of box → sRGB equals the band efficacies: exactly, for the luminance
+  // row of the inverse of the XYZ→sRGB matrix spectrum.cpp uses (IEC 61966-2-1), here to 14
+  // digits (Rec. 709's 0.2126, 0.7152, 0.0722 round it to 4, which moves y by up to 4e-4). The
+  // tolerance: those 14 digits (5e-15 each) and the double rounding of the three-term sums.
+  const double w[3] = {0.21267284631836, 0.71515216715488, 0.07217499957321};
   for (int k = 0; k < 3; ++k) {
-    const double y = 0.2126 * a[0][k] + 0.7152 * a[1][k] + 0.0722 * a[2][k];
-    EXPECT_NEAR(y / e[k], 1.0, 0.01) << k;
+    double y = 0, bound = 0;
+    for (int i = 0; i < 3; ++i) {
+      y += w[i] * a[i][k];
+      bound += (5e-15 + 16 * 0x1p-53 * w[i]) * std::fabs(a[i][k]);
+    }
+    EXPECT_NEAR(y / e[k], 1.0, bound / e[k]) << k;
   }
 }
 

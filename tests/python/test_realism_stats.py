@@ -30,7 +30,10 @@ def test_statistics_of_a_half_dark_half_saturated_image():
     s, h = realism.statistics(img)
     assert s["dark_fraction"] == pytest.approx(0.5)
     assert s["highlight_fraction"] == pytest.approx(0.5)
-    assert s["median_luma"] == pytest.approx(0.525, abs=1e-6)  # the even count's middle: mean of 0.05 and 1
+    # The even count's middle: the mean of 0.05 and 1, in float32: 0.05 to float32 and its luma's
+    # three products and two sums (2^-24 relative each, on 0.05: 1.8e-8, halved in the mean) and the
+    # mean's rounding (half an ulp of 0.525, 2^-25 = 3e-8): under 2^-24.
+    assert s["median_luma"] == pytest.approx(0.525, abs=2.0**-24)
     assert s["b_over_r"] == pytest.approx(1.0) and s["g_over_r"] == pytest.approx(1.0)
     assert s["blobs_per_mpx"] == pytest.approx(1 / (100 * 200 / 1e6))
     assert s["blob_median_px"] == 100 * 100
@@ -50,8 +53,11 @@ def test_blobs_count_8_connected_regions_and_skip_speckle():
 
 def test_colour_ratios_of_a_known_colour():
     s, _ = realism.statistics(grey(10, 10, 0.0) + np.array([0.4, 0.2, 0.1], np.float32))
-    assert s["b_over_r"] == pytest.approx(0.25, rel=1e-5)
-    assert s["g_over_r"] == pytest.approx(0.5, rel=1e-5)
+    # Exact: the three float32 values share their significand (0.4 = 4 * 0.1 and 0.2 = 2 * 0.1,
+    # powers of two apart, so also after rounding to float32), and scaling by a power of two
+    # commutes with every rounding of the means: the ratios are exactly 1/4 and 1/2.
+    assert s["b_over_r"] == 0.25
+    assert s["g_over_r"] == 0.5
 
 
 def test_emd_of_shifted_deltas_is_the_shift():
@@ -68,8 +74,13 @@ def test_features_of_a_flat_patch():
     assert len(rs.FEATURE_NAMES) == len(rs.features(grey(8, 8, 0.5)))
     assert f["luma_hist_8"] == pytest.approx(1.0)  # 0.5 falls in bin 8 of 16
     assert f["grad_hist_0"] == pytest.approx(1.0)  # no gradient anywhere
-    assert f["luma_std"] == pytest.approx(0, abs=1e-7) and f["local_contrast"] == pytest.approx(0, abs=1e-7)
-    assert f["highlight_fraction"] == 0 and f["mean_luma"] == pytest.approx(0.5, rel=1e-6)
+    # Exact: luma is 0.5 * ((w0 + w1) + w2) with the weights in float32 (halving commutes with
+    # rounding), and that sum rounds to exactly 1 (checked here), so every luma is 0.5; float32 sums
+    # of up to 132^2 halves (the mean, the box filter's integral image) are exact, so the mean is 0.5
+    # and the deviations, the standard deviation and the local contrast are 0.
+    assert (np.float32(0.2126) + np.float32(0.7152)) + np.float32(0.0722) == 1
+    assert f["luma_std"] == 0 and f["local_contrast"] == 0
+    assert f["highlight_fraction"] == 0 and f["mean_luma"] == 0.5
 
 
 def test_features_of_a_ramp_have_its_gradient():
@@ -79,7 +90,13 @@ def test_features_of_a_ramp_have_its_gradient():
     g = 1 / 127
     k = int(np.searchsorted(rs.GRAD_EDGES, g, side="right")) - 1
     assert f[f"grad_hist_{k}"] == pytest.approx(1.0)
-    assert f["luma_std"] == pytest.approx(1 / math.sqrt(12), rel=0.02)  # uniform on [0, 1]
+    # The population standard deviation of n equally spaced values i/(n-1) on [0, 1] is
+    # sqrt((n+1) / (12 (n-1))) (0.6 % above the continuous uniform's 1/sqrt(12)). Tolerance: float32
+    # rounding: luma's three products and two sums (<= 5 eps per value, eps = 2^-24), numpy's
+    # pairwise sums of 2^14 values for the mean and the squares (<= (log2(2^14 / 8) + 8) eps = 19 eps
+    # each), so under 60 eps on the variance, 30 on the standard deviation; 100 eps allowed.
+    n = x.size
+    assert f["luma_std"] == pytest.approx(math.sqrt((n + 1) / (12 * (n - 1))), rel=100 * 2.0**-24)
 
 
 def test_box_mean_of_a_constant_and_of_an_impulse():
