@@ -153,10 +153,11 @@ TEST(Demosaic, RccbEdgeDirectedMethodsBeatBilinearOnACommonTexture) {
 // weights sum to 1, at most 13 taps and Σ|w| ≤ 2 (Malvar's 5×5 filters, the widest with negative
 // taps; LMMSE and MLRI combine such estimates with weights summing to 1). A sum of 13 terms errs
 // by at most 12·u·Σ|w_i x_i| (u = 2⁻²⁴, the recursive summation bound), so two passes by
-// 2·12·u·2·max x, max x the largest mosaic sample. RCCB's green is G = (C_hat − R) − B with
+// 2·12·u·2·max x, max x the largest mosaic sample. RCCB's green is G = (C_hat − R̂) − B̂ with
 // C_hat = 3·Ĝ, Ĝ interpolated from the clear samples times 1/3 (kernels/common/clear_level.glsl):
-// the same two-pass bound on values up to max x/3, times 3, plus the 1/3 product's and the 3·Ĝ
-// product's roundings (0.5 + 1 u of max x) and the two subtractions' (2 u): (48 + 3.5)·u·max x.
+// three interpolated terms, each within that bound (Ĝ's on values up to max x/3, times 3), plus
+// the 1/3 product's and the 3·Ĝ product's roundings (0.5 + 1 u of max x) and the two
+// subtractions' (2 u): (3·48 + 3.5)·u·max x.
 TEST(Demosaic, AllMethodsRecoverFlatAreasToRoundingIncludingBorders) {
   for (auto p : kColourPatterns)
     for (auto m : all_demosaic_methods()) {
@@ -165,7 +166,7 @@ TEST(Demosaic, AllMethodsRecoverFlatAreasToRoundingIncludingBorders) {
       const ImageF truth = representable(rgb, p);
       const ImageF mos = mosaic(truth, p);
       const double max_x = *std::max_element(mos.vec().begin(), mos.vec().end());
-      const double tol = (2 * 12 * 2 + (p == CfaPattern::RCCB ? 3.5 : 0.0)) * 0x1p-24 * max_x;
+      const double tol = (p == CfaPattern::RCCB ? 3 * 48 + 3.5 : 48.0) * 0x1p-24 * max_x;
       const ImageF out = demosaic(mos, p, m);
       for (size_t i = 0; i < out.size(); ++i)
         ASSERT_NEAR(out[i], truth[i], tol) << to_string(m) << " on " << to_string(p) << " at sample " << i;
