@@ -502,8 +502,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         c.writes.emplace_back(it.key + ".exr", [=](const std::string& p) {
           write_exr(p, night_channels(*so, *ns, *labels, layers), *attrs, wo);
         });
-      if (o.format != "exr")
-        c.writes.emplace_back(it.key + ".png", [=](const std::string& p) { write_png8(p, preview_srgb8(so->rgb, wb)); });
+      if (o.format != "exr") {
+        const double min_white = preview_min_white(rr->camera, ex, wb);
+        c.writes.emplace_back(it.key + ".png", [=](const std::string& p) {
+          write_png8(p, preview_srgb8(so->rgb, wb, 0.99, 1.0, min_white));
+        });
+      }
       // Labels carried over unchanged: byte copies, written atomically too.
       for (const auto& [src, dst] : {std::pair{it.labels, it.labels_rel}, std::pair{it.instances, it.instances_rel}})
         if (!dst.empty())

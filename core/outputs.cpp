@@ -169,8 +169,11 @@ void check_preview_frame(const PreviewOptions& o, int width, int height) {
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options) {
   const auto wb = white_balance_gains(setup.camera);
-  if (options.isp == PreviewIsp::Simple) return preview_srgb8(out.rgb, wb);
-  return preview_camera8(out.rgb, wb, {exposure.system_gain_dn_per_e, setup.camera.read_noise_e}, options.camera);
+  const double min_white = preview_min_white(setup.camera, exposure, wb);
+  if (options.isp == PreviewIsp::Simple) return preview_srgb8(out.rgb, wb, 0.99, 1.0, min_white);
+  CameraIspOptions camera = options.camera;
+  if (camera.min_white == 0) camera.min_white = min_white;
+  return preview_camera8(out.rgb, wb, {exposure.system_gain_dn_per_e, setup.camera.read_noise_e}, camera);
 }
 
 }  // namespace photosite

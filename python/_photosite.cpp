@@ -201,9 +201,11 @@ struct SensorResult {
   py::dict metadata;
   std::array<double, 3> wb_gains{1, 1, 1};
   PreviewNoise noise;  // the camera-ISP preview's noise model: system gain and read noise
+  double min_white = 0;  // the previews' white floor (preview_min_white: no more gain than the camera's)
 };
 
-SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam) {
+SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam,
+                         const ResolvedExposure& exposure) {
   SensorResult r;
   r.raw = raw_codes(out.raw_dn, cam.bit_depth);
   out.raw_dn = ImageF();
@@ -214,6 +216,7 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
   if (auto it = attrs.find("photosite/system_gain_dn_per_e"); it != attrs.end())
     if (const double* k = std::get_if<double>(&it->second)) r.noise.gain_dn_per_e = *k;
   r.noise.read_noise_e = cam.read_noise_e;
+  r.min_white = preview_min_white(cam, exposure, r.wb_gains);
   return r;
 }
 
@@ -233,6 +236,7 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
     o.denoise = denoise;
     o.chroma_denoise = 2 * denoise;  // isp.h's default ratio, as the command line
     o.jpeg_quality = jpeg_quality;
+    o.min_white = s.min_white;
     try {
       check_camera_isp_frame(o, in.width(), in.height());  // the options, and JPEG's 65500 px a side
     } catch (const ParameterError& e) {  // the keyword's name: denoise, jpeg_quality
@@ -244,7 +248,7 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
     out = preview_camera8(in, s.wb_gains, s.noise, o);
   } else {
     py::gil_scoped_release nogil;
-    const ImageF srgb = preview_srgb(in, s.wb_gains);
+    const ImageF srgb = preview_srgb(in, s.wb_gains, 0.99, 1.0, s.min_white);
     for (size_t i = 0; i < out.size(); ++i) out[i] = float_to_code8(srgb[i]);
   }
   return to_array(std::move(out));
@@ -328,7 +332,7 @@ struct Camera {
       fpn = store.load_or_create(s.camera, s.device_id, rad.width(), rad.height());
       out = runner.sense(mean_e, s.camera, ex, s.settings, fpn);
     }
-    return wrap_sensor(std::move(out), sensor_attributes(s, ex, fpn), s.camera);
+    return wrap_sensor(std::move(out), sensor_attributes(s, ex, fpn), s.camera, ex);
   }
 };
 
@@ -412,7 +416,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   r.lights = to_array(std::move(ns.lights));
   r.depth = to_array(std::move(ns.depth));
   r.labels = to_array(std::move(lm.ids));
-  r.sensor = wrap_sensor(std::move(*out), std::move(attrs), s.camera);
+  r.sensor = wrap_sensor(std::move(*out), std::move(attrs), s.camera, chain->exposure);
   return r;
 }
 

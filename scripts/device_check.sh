@@ -75,4 +75,9 @@ timeout 70 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --inst
   --repeats 9 --threads 16 --out-dir "$OUT/t16" 2>&1 | tail -n 40
 step "bench pipeline"
 timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+step "bench night and bench pipeline with mapped buffers (PHOTOSITE_VK_STAGING=0: no staging copies)"
+mkdir -p "$OUT/direct"
+PHOTOSITE_VK_STAGING=0 timeout 100 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+  --repeats 9 --threads 2 --out-dir "$OUT/direct" 2>&1 | grep -E '^(vulkan|whole chain|peer:)'
+PHOTOSITE_VK_STAGING=0 timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/direct" 2>&1 | tail -n 30
 step done

@@ -78,7 +78,8 @@ float kth_smallest(const std::vector<float>& v, size_t k) {
 
 namespace {
 // The exposure scale of a preview: the `percentile` luminance maps to `white_point`.
-double preview_scale(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point) {
+double preview_scale(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point,
+                     double min_white) {
   const size_t n = rgb.pixel_count();
   std::vector<float> lum(n);
 #pragma omp parallel for schedule(static)
@@ -88,7 +89,7 @@ double preview_scale(const ImageF& rgb, const std::array<double, 3>& wb, double 
   double scale = 1.0;
   if (n) {
     const size_t k = std::min(n - 1, static_cast<size_t>(percentile * (n - 1)));
-    const float at_k = kth_smallest(lum, k);
+    const double at_k = std::max<double>(kth_smallest(lum, k), min_white);
     if (at_k > 0) scale = white_point / at_k;
   }
   return scale;
@@ -213,8 +214,9 @@ ImageU8 preview_srgb8_scaled(const ImageF& rgb, const std::array<double, 3>& wb,
 }
 }  // namespace
 
-ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point) {
-  return preview_srgb8_scaled(rgb, wb, preview_scale(rgb, wb, percentile, white_point));
+ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double percentile, double white_point,
+                      double min_white) {
+  return preview_srgb8_scaled(rgb, wb, preview_scale(rgb, wb, percentile, white_point, min_white));
 }
 
 // ---- auto-exposure preview (isp.h: AutoExposure) ----
@@ -227,6 +229,12 @@ AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExpo
   AutoExposure ae;
   ae.max_gain = std::max(1.0, std::pow(10.0, camera.max_gain_db / 20) / exposure.gain_linear);
   return ae;
+}
+
+double preview_min_white(const CameraPreset& camera, const ResolvedExposure& exposure,
+                         const std::array<double, 3>& wb) {
+  return std::min({wb[0], wb[1], wb[2]}) * sensor_full_scale_dn(camera, exposure) /
+         camera_auto_exposure(camera, exposure).max_gain;
 }
 
 double auto_exposure_gain(const ImageF& rgb, const std::array<double, 3>& wb, double full_scale_dn,
@@ -292,9 +300,9 @@ ImageU8 preview_srgb8_auto(const ImageF& rgb, const std::array<double, 3>& wb, d
 }
 
 ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb, double percentile,
-                    double white_point) {
+                    double white_point, double min_white) {
   const size_t n = rgb.pixel_count();
-  const double scale = preview_scale(rgb, wb, percentile, white_point);
+  const double scale = preview_scale(rgb, wb, percentile, white_point, min_white);
   ImageF out(rgb.width(), rgb.height(), 3, uninitialized, "sRGB");
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
@@ -390,6 +398,8 @@ void check_camera_isp_options(const CameraIspOptions& o) {
   if (o.jpeg_quality < 0 || o.jpeg_quality > 100)
     bad("preview_jpeg_quality", fmt::format("{} is not 0 (no JPEG) or a quality 1-100", o.jpeg_quality));
   if (!(o.full_scale_dn >= 0)) bad("preview_full_scale", fmt::format("{} DN is not a full scale (0: percentile exposure)", o.full_scale_dn));
+  if (!(o.min_white >= 0) || !std::isfinite(o.min_white))
+    bad("preview_min_white", fmt::format("{} is not a luminance floor (0: none)", o.min_white));
   if (!(o.percentile > 0 && o.percentile <= 1) || !(o.white_point > 0))
     bad("preview_percentile", fmt::format("percentile {} / white point {} out of range", o.percentile, o.white_point));
 }
@@ -459,7 +469,7 @@ ImageU8 preview_camera8(const ImageF& rgb, const std::array<double, 3>& wb, cons
     for (int64_t i = 0; i < n; ++i)
       for (int ch = 0; ch < 3; ++ch) out[3 * i + ch] = encode(lin[3 * i + ch] * g[ch]);
   } else {
-    out = preview_srgb8(lin, wb, o.percentile, o.white_point);
+    out = preview_srgb8(lin, wb, o.percentile, o.white_point, o.min_white);
   }
   // 5. sharpening and JPEG.
   if (o.sharpen > 0 || o.jpeg_quality > 0) {

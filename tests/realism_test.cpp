@@ -16,6 +16,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/outputs.h"
+#include "photosite/rng.h"
 #include "photosite/scene/labels.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/thesis_baseline.h"
@@ -565,6 +566,47 @@ TEST(AutoExposure, GainRangeLimitsAndDegenerateFrames) {
   EXPECT_DOUBLE_EQ(sensor_full_scale_dn(cam, resolve(cam, lens, s)), 3780);
   s.gain_db = 24;
   EXPECT_EQ(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, 1.0);
+}
+
+// The percentile previews' floor (preview_min_white): no more gain than the camera's range. A
+// frame of read noise alone (σ = 3 e- × 0.42 DN/e-, as onsemi-ar0331 at 0 dB; the tester's
+// `night --exposure-s 0`) was stretched to white: its 99th percentile became full brightness.
+// With the floor, white is the full scale over the camera's remaining gain (3780 DN / 10^(24/20)
+// = 238.5 DN, times min(wb)), so no sample brighter than max_sample · max(wb) / floor can reach a
+// higher code than srgb_encode8 of that ratio; without the floor the 99th percentile code is 255.
+// A frame whose 99th percentile is above the floor keeps its preview bit for bit.
+TEST(Preview, NoSignalIsNotStretchedToWhiteButLitFramesKeepTheirPreview) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  const ResolvedExposure ex = resolve(cam, lens, ExposureSettings{});
+  const auto wb = white_balance_gains(cam);
+  const double floor_lum = preview_min_white(cam, ex, wb);
+  EXPECT_NEAR(floor_lum, std::min({wb[0], wb[1], wb[2]}) * 3780 / std::pow(10.0, 24.0 / 20), 1e-9);
+  ImageF noise(256, 128, 3);
+  float top = 0;
+  for (size_t i = 0; i < noise.size(); ++i) {
+    const auto w = random_words(5, 0, i, Stream::Test);
+    const double z = std::sqrt(-2 * std::log(uniform_open(w[0]))) * std::cos(2 * M_PI * uniform_open(w[1]));
+    noise[i] = static_cast<float>(std::max(0.0, 3 * 0.42 * z));  // DN above black, clipped at black as the ADC does
+    top = std::max(top, noise[i]);
+  }
+  auto p99 = [](const ImageU8& p) {
+    std::vector<uint8_t> v(p.data(), p.data() + p.size());
+    std::nth_element(v.begin(), v.begin() + v.size() * 99 / 100, v.end());
+    return v[v.size() * 99 / 100];
+  };
+  EXPECT_EQ(p99(preview_srgb8(noise, wb)), 255);  // the old behaviour: noise at full brightness
+  const ImageU8 floored = preview_srgb8(noise, wb, 0.99, 1.0, floor_lum);
+  const uint8_t bound = srgb_encode8(static_cast<float>(top * std::max({wb[0], wb[1], wb[2]}) / floor_lum));
+  EXPECT_LE(*std::max_element(floored.data(), floored.data() + floored.size()), bound);
+  EXPECT_LT(bound, 128);
+  // A lit frame: 2 % of the pixels at 2000 DN, the rest at 100 DN: its 99th percentile (2000 DN) is
+  // above the floor, so the floor changes nothing.
+  ImageF lit(256, 128, 3, 100.f);
+  for (size_t px = 0; px < lit.pixel_count(); px += 50)
+    for (int c = 0; c < 3; ++c) lit[3 * px + c] = 2000.f;
+  const ImageU8 a = preview_srgb8(lit, wb), b = preview_srgb8(lit, wb, 0.99, 1.0, floor_lum);
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size()), 0);
 }
 
 TEST(AutoExposure, DeterministicForAnyThreadCount) {

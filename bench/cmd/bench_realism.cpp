@@ -241,6 +241,7 @@ void run(const Opts& o) {
     const FixedPatternMaps fpn = generate_fixed_pattern(cam, raw.width(), raw.height(), cam.name + "-0");
     const auto wb = white_balance_gains(cam);
     const double full_scale_dn = sensor_full_scale_dn(cam, ex);
+    const double min_white = preview_min_white(cam, ex, wb);  // as night's previews
     for (const Variant& v : variants) {
       if (v.method != "photosite" && !wanted(v.method)) continue;
       scene::ScenePreset sp = scene::load_scene_preset("night-urban");
@@ -255,7 +256,7 @@ void run(const Opts& o) {
         const ImageF mean_e = mean_signal_electrons(ns.radiance, cam, lens, ex);
         so = sense(mean_e, cam, ex, es, fpn);
         preview = v.full_scale_isp ? preview_full_scale(so.rgb, wb, full_scale_dn)
-                                   : preview_srgb(so.rgb, wb, v.white_percentile);
+                                   : preview_srgb(so.rgb, wb, v.white_percentile, 1.0, min_white);
       });
       if (wanted(v.method)) {
         const fs::path file = prev / fmt::format("{}__{}.png", f.name, v.method);
@@ -267,9 +268,10 @@ void run(const Opts& o) {
       const PreviewNoise noise{ex.system_gain_dn_per_e, cam.read_noise_e};
       // The float preview inside `ms` (replaced by the camera ISP in its methods' ms), and the
       // peer of the camera ISP: the simple ISP as `night --preview` runs it (8-bit codes).
-      const double simple_ms = best_ms(o.repeats, [&] { preview = preview_srgb(so.rgb, wb, v.white_percentile); });
+      const double simple_ms = best_ms(o.repeats, [&] { preview = preview_srgb(so.rgb, wb, v.white_percentile, 1.0, min_white); });
       ImageU8 simple8;
-      const double simple8_ms = best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile); });
+      const double simple8_ms =
+          best_ms(o.repeats, [&] { simple8 = preview_srgb8(so.rgb, wb, v.white_percentile, 1.0, min_white); });
       std::printf("%-28s %-34s %10.1f  (float preview %.1f ms)\n", "(simple ISP, 8-bit, alone)", f.name.c_str(),
                   simple8_ms, simple_ms);
       for (const AeVariant& av : ae_variants) {
@@ -289,6 +291,7 @@ void run(const Opts& o) {
       for (CameraVariant cv : camera_variants) {
         if (!wanted(cv.method)) continue;
         if (cv.method == "photosite camera ISP full scale") cv.options.full_scale_dn = full_scale_dn;
+        cv.options.min_white = min_white;
         ImageU8 p8;
         const double isp_ms = best_ms(o.repeats, [&] { p8 = preview_camera8(so.rgb, wb, noise, cv.options); });
         const fs::path cfile = prev / fmt::format("{}__{}.png", f.name, cv.method);

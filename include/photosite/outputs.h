@@ -83,7 +83,8 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& setup,
                                                      const NightInputs& in);
 
 // The 8-bit sRGB preview that `expose` and `night` write beside the EXR (never part of it):
-// the simple ISP (preview_srgb8: white balance, the 99th percentile of luminance as white, sRGB)
+// the simple ISP (preview_srgb8: white balance, the 99th percentile of luminance as white, sRGB;
+// that white at least preview_min_white(), no more gain than the camera could add)
 // or the camera ISP (preview_camera8: noise reduction from the sensor's own noise model,
 // sharpening and a JPEG round trip, an approximation of a generic in-camera ISP; docs/realism.md).
 enum class PreviewIsp { Simple, Camera };

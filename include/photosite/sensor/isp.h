@@ -20,8 +20,10 @@ double srgb_encode(double linear);  // IEC 61966-2-1 OETF
 double srgb_decode(double encoded);  // its inverse
 
 // rgb: linear camera RGB (any scale, e.g. DN above black). Returns sRGB-encoded [0,1] floats.
+// The exposure maps the `percentile` of the white-balanced luminance to `white_point`, that
+// luminance taken as at least min_white (0: no floor; preview_min_white() gives a camera's).
 ImageF preview_srgb(const ImageF& rgb, const std::array<double, 3>& wb_gains,
-                    double percentile = 0.99, double white_point = 1.0);
+                    double percentile = 0.99, double white_point = 1.0, double min_white = 0.0);
 // The same preview as 8-bit sRGB codes, what a PNG preview stores: each sample's code is the
 // nearest to 255 · srgb_encode(x), x = rgb · wb · scale in float, found by comparing x with the
 // 255 decision levels srgb_decode((k - 1/2) / 255) (no pow per sample). Exact: a level is kept
@@ -32,7 +34,7 @@ uint8_t srgb_encode8(float linear);  // that code for one sample (NaN and below 
 // for the n samples of n / 3 RGB pixels; `vector`: AVX2 where the CPU has it (the same codes).
 void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* dst, bool vector = true);
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
-                      double percentile = 0.99, double white_point = 1.0);
+                      double percentile = 0.99, double white_point = 1.0, double min_white = 0.0);
 
 // Auto exposure of a preview (`photosite bench realism`'s auto-exposure methods; not an option of
 // `night`, whose preview keeps the 99th percentile; docs/realism.md): the
@@ -77,6 +79,15 @@ double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& 
 // The AE of a camera at this exposure: the target above and the preset's gain range,
 // max_gain = 10^(max_gain_db / 20) / the exposure's own linear gain (at least 1).
 AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExposure& exposure);
+// The floor of the percentile previews' white (preview_srgb's min_white, in the white-balanced
+// luminance of DN above black): a preview applies no more gain than the camera itself could add,
+// so the white is at least the full scale over the camera's remaining gain range,
+// min(wb) · sensor_full_scale_dn / camera_auto_exposure().max_gain. Without it a frame with no
+// signal (0 e- everywhere) previewed as its read noise stretched to white. Frames whose 99th
+// percentile lies above it (every night frame of the shared data at the presets' exposures) keep
+// their preview.
+double preview_min_white(const CameraPreset& camera, const ResolvedExposure& exposure,
+                         const std::array<double, 3>& wb_gains);
 
 // The camera-ISP preview (`photosite night --preview-isp camera`, docs/realism.md): an
 // approximation of a generic in-camera ISP, what a dashcam or phone JPEG went through, for
@@ -108,6 +119,7 @@ struct CameraIspOptions {
   int jpeg_quality = 90;        // JPEG round trip at this quality (1-100); 0: none. 90: photosite choice
                                 // (the real photos' qualities are unknown; BDD100K, nuScenes were JPEGs)
   double percentile = 0.99, white_point = 1.0;  // exposure, as preview_srgb
+  double min_white = 0.0;                       // as preview_srgb's (preview_min_white: a camera's)
   // > 0: fixed exposure instead: white balance gains divided by the smallest, every channel
   // clipped at this full scale (DN above black), shown as white (the bench's "ISP full scale").
   double full_scale_dn = 0;
