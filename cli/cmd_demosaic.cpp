@@ -8,6 +8,10 @@
 // depth and black level in its header: the CFA is taken from it (a different --cfa is refused),
 // the black level is subtracted from a DN channel (the result is in DN above black level, as
 // expose's R,G,B), and a PNG out is DN / (2^bit_depth - 1).
+// --white-level V (RCCB and RCCC only): samples stored at V or above are clipped, and the pixels
+// whose 3x3 window holds one come out neutral at (V - black level) / 3 on the output's scale
+// (neutralize_clipped_highlights, sensor/demosaic.h, has the rule). A file does not say where
+// its sensor clipped, so without the flag nothing is done.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -29,6 +33,7 @@ namespace {
 struct DemosaicCmd {
   std::string in, out, cfa = "RGGB", method = "bilinear", backend = "auto";
   bool list = false, overwrite = false;
+  std::optional<double> white_level;        // --white-level, in the input's stored values
   const CLI::Option* cfa_option = nullptr;  // count() > 0: --cfa given
 };
 
@@ -39,6 +44,10 @@ struct Mosaic {
   int png_bits = 16;         // a PNG out: this many bits
   double png_scale = 1;      // a PNG out: sample · png_scale in [0, 1]
   bool png_possible = true;
+  // A stored value v is the sample (v - stored_offset) * stored_scale; integer_codes: v is an
+  // integer code (clipped: code >= V, i.e. above V - 1/2).
+  double stored_offset = 0, stored_scale = 1;
+  bool integer_codes = false;
   std::map<std::string, ExrAttribute> attributes;
 };
 
@@ -87,6 +96,7 @@ Mosaic read_exr_mosaic(const DemosaicCmd& c) {
     const double black = header_number(e, c.in, "photosite/black_level_dn");
     const float b = static_cast<float>(black);
     for (float& v : m.image.vec()) v -= b;
+    m.stored_offset = b;
     m.image.set_unit("DN above black level");
     m.attributes["photosite/black_level_dn"] = black;  // subtracted: R,G,B are DN above it
   }
@@ -112,6 +122,10 @@ Mosaic read_mosaic(const DemosaicCmd& c) {
   m.cfa = parse_cfa(c.cfa);
   m.attributes["photosite/cfa_source"] = cfa_flag_source(c);
   m.png_bits = !info.is_float && info.bits_per_sample == 8 ? 8 : 16;
+  if (!info.is_float) {
+    m.integer_codes = true;
+    m.stored_scale = 1.0 / (std::ldexp(1.0, info.bits_per_sample) - 1);
+  }
   m.attributes["photosite/scale"] = std::string(info.is_float ? "input units" : "code / max code of the input");
   return m;
 }
@@ -135,8 +149,22 @@ void run(const DemosaicCmd& c) {
   if (ext == ".png" && !m.png_possible)
     fail_at(c.out, c.in + " holds counts of no known full scale (a UINT channel in " + m.image.unit() +
                        " without photosite/bit_depth): write .exr");
+  if (c.white_level) {
+    const double v = *c.white_level;
+    if (m.cfa != CfaPattern::RCCB && m.cfa != CfaPattern::RCCC)
+      fail(fmt::format("--white-level: clip handling is for the clear patterns RCCB and RCCC; {} is {}", c.in,
+                       to_string(m.cfa)));
+    if (!(v > m.stored_offset) || !std::isfinite(v))
+      fail(fmt::format("--white-level {} is not above {}'s black level ({})", v, c.in, m.stored_offset));
+  }
   ImageF rgb = runner.demosaic(m.image, m.cfa, method);
   rgb.set_unit(m.image.unit());
+  if (c.white_level) {
+    const double level = (*c.white_level - m.stored_offset) * m.stored_scale;
+    const double at = m.integer_codes ? (*c.white_level - 0.5 - m.stored_offset) * m.stored_scale : level;
+    neutralize_clipped_highlights(rgb, m.image, m.cfa, static_cast<float>(at), static_cast<float>(level / 3));
+    m.attributes["photosite/white_level"] = *c.white_level;
+  }
   if (ext == ".png") {
     if (m.png_scale != 1)
       for (float& v : rgb.vec()) v = static_cast<float>(v * m.png_scale);
@@ -159,6 +187,10 @@ static Registrar reg("c-demosaic", [](CLI::App& app) {
   cmd->cfa_option = sub->add_option("--cfa", cmd->cfa, "CFA pattern: RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO (default: the input's photosite/cfa, else RGGB)");
   sub->add_option("--method", cmd->method, "demosaic method (see --list)")->capture_default_str();
   sub->add_flag("--list", cmd->list, "list the demosaic methods and exit");
+  sub->add_option("--white-level", cmd->white_level,
+                  "RCCB/RCCC: the stored value (integer code; DN with black level for a photosite raw) at which the "
+                  "input clipped: pixels whose 3x3 window holds a sample at or above it come out neutral at "
+                  "(V - black level) / 3 (docs/demosaic.md; default: no clip handling)");
   add_overwrite_flag(sub, cmd->overwrite);
   add_backend_option(sub, cmd->backend);
   sub->callback([cmd] { run(*cmd); });

@@ -166,7 +166,8 @@ void SensorChain::record_sense(Sequence& s, int w, int h, const CameraPreset& p,
   }
 }
 
-SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const ExposureSettings& st) {
+SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
+                                 const ExposureSettings& st) {
   const size_t n = static_cast<size_t>(w) * h;
   SensorOutput out;
   out.electrons = ImageF(w, h, 1, uninitialized, unit::electrons);
@@ -183,6 +184,7 @@ SensorOutput SensorChain::finish(int w, int h, const CameraPreset& p, const Expo
     out.rgb = demosaic(above_black, p.cfa, st.demosaic);
     out.rgb.set_unit(unit::dn);
   }
+  neutralize_clipped_highlights(out, p, ex);
   return out;
 }
 
@@ -222,7 +224,7 @@ SensorOutput SensorChain::sense(const ImageF& mean_e, const CameraPreset& p, con
   record_sense(*seq_, w, h, p, ex, st, fpn);
   seq_->submit_and_wait();
   times_ = seq_->stage_times();
-  return finish(w, h, p, st);
+  return finish(w, h, p, ex, st);
 }
 
 SensorOutput SensorChain::expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
@@ -236,7 +238,7 @@ SensorOutput SensorChain::expose(const ImageF& radiance, const CameraPreset& p, 
   seq_->submit_and_wait();
   times_ = seq_->stage_times();
   check_bad(buffer("bad", sizeof(uint32_t)), radiance);
-  return finish(radiance.width(), radiance.height(), p, st);
+  return finish(radiance.width(), radiance.height(), p, ex, st);
 }
 
 }  // namespace photosite::gpu

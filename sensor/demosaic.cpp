@@ -252,6 +252,50 @@ void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3
   }
 }
 
+size_t neutralize_clipped_highlights(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, float clipped_at,
+                                     float neutral) {
+  if (pattern != CfaPattern::RCCB && pattern != CfaPattern::RCCC) return 0;
+  const int w = mosaic.width(), h = mosaic.height();
+  if (mosaic.channels() != 1 || rgb.channels() != 3 || !rgb.same_shape(w, h))
+    internal_error("neutralize_clipped_highlights: rgb must be the 3-channel image of the 1-channel mosaic");
+  // Rows holding a clipped sample; most frames have none, and are left as they are.
+  std::vector<uint8_t> row_clipped(static_cast<size_t>(h));
+  bool any = false;
+#pragma omp parallel for schedule(static) reduction(|| : any)
+  for (int y = 0; y < h; ++y) {
+    const float* m = mosaic.row(y);
+    bool c = false;
+    for (int x = 0; x < w; ++x) c = c || m[x] >= clipped_at;
+    row_clipped[y] = c;
+    any = any || c;
+  }
+  if (!any) return 0;
+  size_t n = 0;
+#pragma omp parallel reduction(+ : n)
+  {
+    std::vector<uint8_t> col(static_cast<size_t>(w));  // column x holds a clipped sample in rows y-1..y+1
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      const int y0 = std::max(0, y - 1), y1 = std::min(h - 1, y + 1);
+      bool near = false;
+      for (int yy = y0; yy <= y1; ++yy) near = near || row_clipped[yy];
+      if (!near) continue;
+      std::fill(col.begin(), col.end(), uint8_t{0});
+      for (int yy = y0; yy <= y1; ++yy) {
+        const float* m = mosaic.row(yy);
+        for (int x = 0; x < w; ++x) col[x] |= m[x] >= clipped_at;
+      }
+      float* o = rgb.row(y);
+      for (int x = 0; x < w; ++x) {
+        if (!(col[x] | (x > 0 && col[x - 1]) | (x + 1 < w && col[x + 1]))) continue;
+        o[3 * x] = o[3 * x + 1] = o[3 * x + 2] = neutral;
+        ++n;
+      }
+    }
+  }
+  return n;
+}
+
 // Normalized convolution with [1 2 1; 2 4 2; 1 2 1] over the pixels of each filter colour: any
 // pattern, borders use only the neighbours that exist. The path for RCCC, Mono and images too
 // small for the mirrored Bayer path.

@@ -737,6 +737,21 @@ void sense_frame(int w, int h, const CameraPreset& p, const ExposureSettings& s,
 }
 }  // namespace
 
+ClipLevel clip_level(const CameraPreset& p, const ResolvedExposure& ex) {
+  const double K = ex.system_gain_dn_per_e, black = p.black_level_dn;
+  const double top = std::ldexp(1.0, p.bit_depth) - 1.0;
+  const double full_dn = p.full_well_e * K + black;
+  const double sigma_e = std::sqrt(p.read_noise_e * p.read_noise_e + p.dsnu_e * p.dsnu_e +
+                                   p.row_noise_e * p.row_noise_e + p.column_noise_e * p.column_noise_e);
+  return {std::min(top, full_dn - 4 * K * sigma_e - 0.5), (std::min(full_dn, top) - black) / 3};
+}
+
+size_t neutralize_clipped_highlights(SensorOutput& out, const CameraPreset& p, const ResolvedExposure& ex) {
+  const ClipLevel c = clip_level(p, ex);
+  return neutralize_clipped_highlights(out.rgb, out.raw_dn, p.cfa, static_cast<float>(c.clipped_at_dn),
+                                       static_cast<float>(c.neutral_dn));
+}
+
 SensorOutput sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExposure& ex,
                    const ExposureSettings& s, const FixedPatternMaps& fpn) {
   SensorOutput out;
@@ -753,6 +768,7 @@ void sense(const ImageF& mean_signal_e, const CameraPreset& p, const ResolvedExp
       st.row(y, mean_signal_e.row(y), e, d, ab, sc);
     };
   });
+  neutralize_clipped_highlights(out, p, ex);
 }
 
 SensorOutput expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& lens,
@@ -782,6 +798,7 @@ void expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& len
     };
   });
   fail_first_bad(radiance, bad_x);
+  neutralize_clipped_highlights(out, p, ex);
 }
 
 SensorOutput flat_field(double photons, double wavelength_nm, int width, int height,

@@ -319,6 +319,9 @@ std::vector<Row> rows() {
   t.push_back({"demosaic_missing_input", {}, "demosaic --in '{in}/nope.png' --cfa RGGB --method bilinear --out '{out}/o.exr'", {"nope.png", "no such file"}});
   t.push_back({"demosaic_unknown_cfa", {}, "demosaic --in '{in}/day.png' --cfa XYZW --method bilinear --out '{out}/o.exr'", {"XYZW", "unknown CFA pattern"}});
   t.push_back({"demosaic_unknown_method", {}, "demosaic --in '{in}/day.png' --cfa RGGB --method nope --out '{out}/o.exr'", {"nope", "unknown demosaic method"}});
+  // --white-level: clip handling exists for the clear patterns only, and above the black level.
+  t.push_back({"demosaic_white_level_on_bayer", [](Ctx& c) { write_png(c.in("m.png"), label_ids()); }, "demosaic --in '{in}/m.png' --cfa RGGB --white-level 200 --out '{out}/o.exr'", {"--white-level", "RCCB and RCCC", "m.png is RGGB"}});
+  t.push_back({"demosaic_white_level_at_black", [](Ctx& c) { write_png(c.in("m.png"), label_ids()); }, "demosaic --in '{in}/m.png' --cfa RCCB --white-level 0 --out '{out}/o.exr'", {"--white-level 0", "is not above", "m.png's black level (0)"}});
   t.push_back({"store_full", {}, kFlat, {"dev_64x32.exr", "write failed"}, "ulimit -f 8; "});
   // ---- flat and chart ---------------------------------------------------------------------
   t.push_back({"flat_zero_width", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 0 --height 32 --out '{out}/o.exr'", {"--width", "too small"}});

@@ -362,6 +362,52 @@ TEST(Demosaic, KodakCpsnrAgainstPeersInTheSameRun) {
   }
 }
 
+// A clipped disc in an RCCB and an RCCC mosaic: every pixel whose 3x3 window holds a clipped
+// sample is the neutral value exactly, every other pixel keeps the method's bits; a Bayer mosaic
+// and a mosaic with no sample at the clip level are not touched (0 pixels).
+TEST(Demosaic, ClippedClearSamplesGiveNeutralInTheirWindowOnly) {
+  const int w = 40, h = 30;
+  const float clip = 4000.f, neutral = clip / 3;
+  for (CfaPattern p : {CfaPattern::RCCB, CfaPattern::RCCC, CfaPattern::RGGB}) {
+    ImageF field = smooth_field(w, h);
+    for (float& v : field.vec()) v *= 1000.f;
+    ImageF m = mosaic(field, p);
+    std::vector<uint8_t> clipped(m.size(), 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if ((x - 12) * (x - 12) + (y - 9) * (y - 9) <= 25 || (x == 0 && y == h - 1)) {  // a disc and a corner
+          m.at(x, y, 0) = clip;
+          clipped[static_cast<size_t>(y) * w + x] = 1;
+        }
+    for (DemosaicMethod method : all_demosaic_methods()) {
+      const ImageF before = demosaic(m, p, method);
+      ImageF rgb = before;
+      EXPECT_EQ(neutralize_clipped_highlights(rgb, m, p, clip + 1, neutral), 0u);  // nothing at the level
+      EXPECT_EQ(rgb.vec(), before.vec());
+      const size_t n = neutralize_clipped_highlights(rgb, m, p, clip, neutral);
+      size_t want = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          bool near = false;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int xx = x + dx, yy = y + dy;
+              near = near || (xx >= 0 && xx < w && yy >= 0 && yy < h && clipped[static_cast<size_t>(yy) * w + xx]);
+            }
+          near = near && p != CfaPattern::RGGB;
+          want += near;
+          for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(rgb.at(x, y, c), near ? neutral : before.at(x, y, c))
+                << to_string(p) << " " << to_string(method) << " " << x << "," << y << " channel " << c;
+        }
+      EXPECT_EQ(n, want) << to_string(p);
+      if (p == CfaPattern::RGGB) continue;
+      // The old output at the disc's centre: not neutral (RCCB's G about -C, RCCC's G = B = 0).
+      EXPECT_GT(std::abs(before.at(12, 9, 1) - before.at(12, 9, 0)), 0.5f * neutral) << to_string(p);
+    }
+  }
+}
+
 TEST(DemosaicCli, RoundTripMatchesTheLibraryAndListsMethods) {
   test::TempDir dir;
   const ImageF rgb = smooth_field(64, 48);
@@ -457,6 +503,32 @@ TEST(DemosaicCli, PhotositeRawMosaicGivesExposesRgb) {
   EXPECT_EQ(read_exr(dir.file("y.exr")).attributes.at("photosite/cfa_source"), "input header and --cfa");
 }
 
+// --white-level: an 8-bit RCCC mosaic with a disc at code 255 comes out neutral at 255/255/3 where
+// the disc is, with the flag only (without it the clip is unknown and the disc stays red: G = B = 0).
+TEST(DemosaicCli, WhiteLevelMakesClippedClearPixelsNeutral) {
+  test::TempDir dir;
+  ImageF field = smooth_field(24, 20);
+  for (float& v : field.vec()) v *= 0.5f;  // C = R + G + B at most 0.75: no code 255 outside the disc
+  ImageF m = mosaic(field, CfaPattern::RCCC);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 24; ++x)
+      if ((x - 10) * (x - 10) + (y - 10) * (y - 10) <= 9) m.at(x, y, 0) = 1.f;
+  write_png(dir.file("m.png"), m, 8);
+  const std::string base = "demosaic --backend cpu --cfa RCCC --in '" + dir.file("m.png") + "'";
+  auto r = test::run_cli(base + " --white-level 255 --out '" + dir.file("w.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_cli(base + " --out '" + dir.file("n.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents with = read_exr(dir.file("w.exr")), without = read_exr(dir.file("n.exr"));
+  EXPECT_EQ(std::stod(with.attributes.at("photosite/white_level")), 255.0);
+  const size_t centre = 10 * 24 + 10, far = 2 * 24 + 22;
+  for (const char* c : {"R", "G", "B"}) {
+    EXPECT_EQ(with.channels.at(c)[centre], static_cast<float>(1.0 / 3)) << c;
+    EXPECT_EQ(with.channels.at(c)[far], without.channels.at(c)[far]) << c;
+  }
+  EXPECT_EQ(without.channels.at("G")[centre], 0.f);
+}
+
 TEST(DemosaicCli, BadInputExitsWithStatus2) {
   test::TempDir dir;
   write_png(dir.file("m.png"), mosaic(smooth_field(16, 16), CfaPattern::RGGB), 8);
@@ -473,6 +545,8 @@ TEST(DemosaicCli, BadInputExitsWithStatus2) {
       {"demosaic" + in + " --out '" + dir.file("m.png") + "'", "--out is the run's --in input"},
       {"demosaic" + in + " --out '" + dir.file("rgb.png") + "'", "already exists"},
       {"demosaic" + out, "--in"},
+      {"demosaic" + in + out + " --white-level 255", "--white-level: clip handling is for the clear patterns"},
+      {"demosaic" + in + out + " --cfa RCCC --white-level 0", "--white-level 0 is not above"},
   };
   for (const auto& c : cases) {
     auto r = test::run_cli(c.args);

@@ -374,6 +374,13 @@ TEST_F(Gpu, ExposeBitEqualToCpuOnEveryCamera) {
       EXPECT_LT(lo, 10.f) << name;  // the inversion regime is exercised
       EXPECT_GT(hi, 100.f) << name;  // and PTRS
       EXPECT_EQ(hi, static_cast<float>(cam.full_well_e)) << name;  // and full-well clipping
+      if (cam.cfa == CfaPattern::RCCC) {  // and the clear pattern's clipped highlights made neutral
+        const float neutral = static_cast<float>(clip_level(cam, resolve(cam, used, s)).neutral_dn);
+        size_t n = 0;
+        for (size_t i = 0; i < cpu.rgb.pixel_count(); ++i)
+          n += cpu.rgb[3 * i] == neutral && cpu.rgb[3 * i + 1] == neutral && cpu.rgb[3 * i + 2] == neutral;
+        EXPECT_GT(n, 0u) << name << " frame " << frame;
+      }
     }
   }
 }

@@ -211,6 +211,45 @@ TEST(Adc, FullWellAndAdcClip) {
   for (float v : out.raw_dn.vec()) ASSERT_EQ(v, 4095.f);
 }
 
+// A flat field far beyond full well through the clear patterns (F4 of the sensor-extremes
+// exploration): every sample clipped carries no colour, so every pixel reads the white at the clip
+// level, R = G = B = clip / 3 (neutralize_clipped_highlights), never G = -C (RCCB) or G = B = 0
+// (RCCC, a saturated red), with the well clipping first and with the ADC clipping first (12 dB),
+// for every method and on the bundled RCCC camera. An RGGB frame keeps the demosaic's bits.
+TEST(ClipHighlights, BeyondFullWellTheClearPatternsReadNeutralAtTheClipLevel) {
+  const int w = 32, h = 24;
+  ImageF huge(w, h, 1, 1e7f);
+  auto check = [&](const CameraPreset& p, const ExposureSettings& s, const SensorOutput& out, double neutral) {
+    const std::string what = fmt::format("{} {} {} dB", p.name, to_string(s.demosaic), s.gain_db);
+    const float want = static_cast<float>(clip_level(p, resolve(p, simple_lens(), s)).neutral_dn);
+    EXPECT_NEAR(want, neutral, 1e-3) << what;  // the clip level above black, over 3 (float rounding)
+    for (size_t i = 0; i < out.rgb.size(); ++i) ASSERT_EQ(out.rgb[i], want) << what << " sample " << i;
+  };
+  for (CfaPattern cfa : {CfaPattern::RCCB, CfaPattern::RCCC})
+    for (DemosaicMethod m : all_demosaic_methods())
+      for (double gain_db : {0.0, 12.0}) {
+        CameraPreset p = flat_qe_camera();
+        p.cfa = cfa;
+        p.dsnu_e = 2;
+        p.row_noise_e = 1;
+        ExposureSettings s;
+        s.demosaic = m;
+        s.gain_db = gain_db;
+        const SensorOutput out = sense(huge, p, resolve(p, simple_lens(), s), s, generate_fixed_pattern(p, w, h, "clip"));
+        // FW·K = 20000 · 0.2 = 4000 DN; at 12 dB the ADC's top code 4095 less the black level 64.
+        check(p, s, out, gain_db == 0 ? 4000.0 / 3 : (4095.0 - 64) / 3);
+      }
+  const CameraPreset rccc = load_camera_preset("onsemi-ar0132at-rccc");
+  ExposureSettings s;
+  const SensorOutput out = flat_field(1e7, 525, w, h, rccc, simple_lens(), s, generate_fixed_pattern(rccc, w, h, "clip"));
+  check(rccc, s, out, std::min(rccc.full_well_e * rccc.system_gain_dn_per_e, std::ldexp(1.0, rccc.bit_depth) - 1 - rccc.black_level_dn) / 3);
+  CameraPreset bayer = flat_qe_camera();
+  const SensorOutput b = sense(huge, bayer, resolve(bayer, simple_lens(), s), s, no_fpn(bayer, w, h));
+  ImageF above_black(w, h, 1);
+  for (size_t i = 0; i < above_black.size(); ++i) above_black[i] = b.raw_dn[i] - static_cast<float>(bayer.black_level_dn);
+  EXPECT_EQ(b.rgb.vec(), demosaic(above_black, bayer.cfa).vec());
+}
+
 // A mean signal beyond float (+Inf: a radiance or photon count near float's largest value, which
 // the radiance check lets through when each band is finite) or merely enormous fills the well and
 // reads the saturation code, with every Poisson sampler, on the CPU: sense_mean_e holds the mean

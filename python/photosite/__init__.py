@@ -204,7 +204,9 @@ def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", ba
     cfa      RGGB, BGGR, GRBG, GBRG, RCCB, RCCC or MONO
     method   bilinear, malvar, hamilton-adams, lmmse, ... (`photosite demosaic --list`)
     backend  "cpu", "vulkan" or "auto"
-    Returns float32 H x W x 3 in the mosaic's unit.
+    Returns float32 H x W x 3 in the mosaic's unit. No clip handling: an array does not say where its
+    sensor clipped (`photosite demosaic --white-level` and Camera.expose make RCCB/RCCC's clipped
+    highlights neutral; docs/demosaic.md).
     """
     return _photosite.demosaic(mosaic, cfa, method, backend)
 

@@ -55,7 +55,9 @@ class SensorChain {
   static size_t glare_bytes(int w, int h, int level);
   void record_sense(Sequence& s, int w, int h, const CameraPreset& p, const ResolvedExposure& ex,
                     const ExposureSettings& st, const FixedPatternMaps& fpn);
-  SensorOutput finish(int w, int h, const CameraPreset& p, const ExposureSettings& st);
+  // The downloads, the CPU demosaic of the methods with no kernel, and the clear patterns'
+  // clipped highlights (neutralize_clipped_highlights, on the host as in sense()).
+  SensorOutput finish(int w, int h, const CameraPreset& p, const ResolvedExposure& ex, const ExposureSettings& st);
 
   Context& ctx_;
   BufferCache buffers_;

@@ -95,4 +95,21 @@ void interleave_rgb(const float* r, const float* g, const float* b, float* rgb, 
 // Turns per-filter planes (R, G, B, C interpolated at every pixel) into RGB for the pattern.
 void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3]);
 
+// Clipped highlights of the clear patterns (RCCB, RCCC; other patterns: nothing is done, 0 is
+// returned). A sample at the clip level (the well's capacity or the ADC's top code) carries no
+// colour: its true value is only known to be at least the clip level, so G = C - R - B (RCCB)
+// and G = B = (C - R) / 2 (RCCC) read from clipped samples are no colour at all (a clipped white
+// gave G = -C on RCCB and a saturated red on RCCC). The rule: every output pixel whose 3x3 mosaic
+// neighbourhood (the pixels that exist; the smallest window holding a sample of each of the
+// pattern's colours, and the one bilinear reads) holds a sample >= clipped_at becomes
+// R = G = B = neutral. The caller passes neutral = (clip level above black) / 3: a white
+// (R = G = B = L) gives C = R + G + B = 3L on RCCB and C = R + 2G = 3L on RCCC, so its clear
+// samples clip first, at L = clip / 3, the brightest white the sensor records; a clipped pixel is
+// shown as that white (as dcraw's highlight mode 0 clips every channel where the first one
+// saturates on white). mosaic and clipped_at are in the same units (mosaic: one channel, rgb's
+// size), neutral in rgb's. Pixels with no clipped sample in their window keep their bits.
+// Returns the number of pixels set.
+size_t neutralize_clipped_highlights(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, float clipped_at,
+                                     float neutral);
+
 }  // namespace photosite

@@ -95,6 +95,24 @@ void expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPr
             const ExposureSettings& settings, const FixedPatternMaps& fpn, SensorOutput& out,
             const GlareLevel1* glare_level1 = nullptr);
 
+// Where the sensor's output clips, for the clear patterns' highlight handling
+// (neutralize_clipped_highlights, sensor/demosaic.h), which sense() and expose() (on either
+// backend) apply to their R, G, B. A full well reads FW·K + black DN on average (K: the system
+// gain) and the ADC stops at its top code 2^bits - 1; after the well the samples still take the
+// DSNU offset, read, row and column noise (σ in quadrature, e-) and one rounding, so a clipped
+// sample lies at min(top code, FW·K + black ± 4Kσ ± 0.5) but for a 6.3e-5 two-sided tail (a
+// pixel escapes only when all nine samples of its window do). clipped_at_dn (raw DN):
+// min(top code, FW·K + black - 4Kσ - 0.5); neutral_dn (DN above black): the clip level
+// min(FW·K, top code - black) over 3, the white that reaches it.
+struct ClipLevel {
+  double clipped_at_dn;
+  double neutral_dn;
+};
+ClipLevel clip_level(const CameraPreset& preset, const ResolvedExposure& exposure);
+// out.rgb's clipped highlights made neutral (out.raw_dn the mosaic): what sense() and expose() do
+// last; returns the number of pixels set (0 for the Bayer patterns and Mono).
+size_t neutralize_clipped_highlights(SensorOutput& out, const CameraPreset& preset, const ResolvedExposure& exposure);
+
 // A flat field of `photons_per_pixel` mean photons of one wavelength on every pixel (0: dark).
 SensorOutput flat_field(double photons_per_pixel, double wavelength_nm, int width, int height,
                         const CameraPreset& preset, const LensPreset& lens,
