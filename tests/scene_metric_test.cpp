@@ -2147,17 +2147,54 @@ TEST(Facades, PlaneFittedThroughAnOccludedFootHoldsFivePercent) {
       ASSERT_NE(f, nullptr);
       EXPECT_TRUE(f->fitted) << x << "," << y;
     }
+  // The plane is the line through the ground points of its foot line v = a + b·u at the first and
+  // last inlier columns u0, u1. Every inlier lies within kFacadeInlier_px of that line and, a
+  // contact being the boundary between a building pixel's centre and the ground pixel's below
+  // (centres on integer rows: v = y + 0.5), within 0.5 px of the true foot: so at u0 and u1 the line
+  // is within δ = kFacadeInlier_px + 0.5 of it. The bounds on nX and d are the largest changes of
+  // the plane when its two end points move by ±δ in v (the four corners; each end point moves
+  // along its ray, monotonically in v), computed with the geometry's own ground_point.
+  auto plane_through = [&](double u0, double v0, double u1, double v1, double* nX, double* d) {
+    double X0, D0, X1, D1;
+    if (!g.ground_point(u0, v0, &X0, &D0, nullptr) || !g.ground_point(u1, v1, &X1, &D1, nullptr)) return false;
+    const double len = std::hypot(X1 - X0, D1 - D0);
+    *nX = std::fabs(D1 - D0) / len;
+    *d = std::fabs((X0 * (D1 - D0) - D0 * (X1 - X0)) / len);
+    return true;
+  };
   int fitted = 0;
   for (const auto& f : fac.planes)
     if (f.fitted) {
       ++fitted;
-      // The true planes: normal (±1, 0), 10 m from the camera's foot. The distance within the
-      // issue's 5 % (the bound the depth checks below hold too): 0.05·10 m. The normal's 1e-3
-      // (a tilt of at most 2.6°) is a fitted figure, not yet derived from the contacts' half-pixel
-      // quantisation through the line fit.
-      const double d_true = 10.0;
-      EXPECT_NEAR(std::fabs(f.nX), 1.0, 1e-3);
-      EXPECT_NEAR(f.d_m, d_true, 0.05 * d_true);
+      int u0 = -1, u1 = -1;  // the first and last inlier contacts of this plane
+      for (int x = 0; x < W; ++x) {
+        int yb = -1;
+        for (int y = 0; y < H; ++y)
+          if (s.labels.ids.at(x, y) == static_cast<int>(Label::Building)) yb = y;
+        if (yb < 0 || yb + 1 >= H || !is_ground(s.labels.ids.at(x, yb + 1))) continue;
+        if (std::fabs(yb + 0.5 - (f.line_a + f.line_b * x)) > kFacadeInlier_px) continue;
+        if (u0 < 0) u0 = x;
+        u1 = x;
+      }
+      ASSERT_LT(u0, u1);
+      const double delta = kFacadeInlier_px + 0.5, va = f.line_a + f.line_b * u0, vb = f.line_a + f.line_b * u1;
+      double nX0, d0, tol_nX = 0, tol_d = 0;
+      ASSERT_TRUE(plane_through(u0, va, u1, vb, &nX0, &d0));
+      for (const double e0 : {-delta, delta})
+        for (const double e1 : {-delta, delta}) {
+          double nX, d;
+          ASSERT_TRUE(plane_through(u0, va + e0, u1, vb + e1, &nX, &d));
+          tol_nX = std::max(tol_nX, std::fabs(nX - nX0));
+          tol_d = std::max(tol_d, std::fabs(d - d0));
+        }
+      std::fprintf(stderr, "[facade] plane: inliers %d..%d, |nX| %.5f (bound %.2g), d %.3f m (bound %.3f m)\n", u0, u1,
+                   std::fabs(f.nX), tol_nX, f.d_m, tol_d);
+      // The true planes: normal (±1, 0), 10 m from the camera's foot. The normal within its bound
+      // (about 2e-4 here); the distance within the 5 % of 10 m, the requirement the depth
+      // checks below hold too: the quantisation's worst case (0.7 and 0.85 m here, printed) is wider,
+      // so that is the requirement's bound, not a guarantee of the fit.
+      EXPECT_NEAR(std::fabs(f.nX), 1.0, tol_nX);
+      EXPECT_NEAR(f.d_m, 10.0, 0.05 * 10.0);
     }
   std::fprintf(stderr, "[facade] %d planes, %d columns with a hidden foot; building depth worst %.2f%%, median %.3f%%; "
                "hidden-foot columns worst %.2f%%\n", fitted, hidden_cols, 100 * quantile(err, 1.0), 100 * quantile(err, 0.5),
