@@ -166,7 +166,8 @@ TEST(CameraIsp, GuidedFilterLimits) {
   const double eps_big = 1e30, eps_small = 1e-12;
   const ImageF big = guided_filter_self(p, r, eps_big), small = guided_filter_self(p, r, eps_small);
   // Bounds (u = 2⁻²⁴; M = max |p|, which bounds every box mean of p and of b; box_mean sums in
-  // double, whose roundings, (w + h)·2⁻⁵³·M, are added, and stores each of its two passes to float).
+  // double (prefix sums up to w·M over w additions, running column sums: at most 4·(w² + h²)·2⁻⁵³·M
+  // over two box means, added) and stores each of its two passes to float).
   // ε → ∞: out = mean(a)·p + mean(b), b = mean of p (1 − a rounds to 1 in double), a ≤ var/ε ≤ M²/ε.
   // mean(b) is box(box(p)) through 4 float stores (2 per box_mean), the multiply-add 1 more, the
   // reference box(m) one (m stored to float): 6 half-ulps, 3·u·M, plus |mean(a)·p| ≤ M³/ε.
@@ -189,7 +190,7 @@ TEST(CameraIsp, GuidedFilterLimits) {
     }
   const double var_lo = var_min - 4 * u * M * M;
   ASSERT_GT(var_lo, 1e6 * eps_small);  // the premise: a rounds to 1
-  const double dbl = (p.width() + p.height()) * 0x1p-53 * M;
+  const double dbl = 4.0 * (p.width() * p.width() + p.height() * p.height()) * 0x1p-53 * M;
   const double tol_big = 3 * u * M + M * M * M / eps_big + dbl;
   const double tol_small = (2 * eps_small / var_lo + 2 * u) * M + dbl;
   for (int y = 0; y < p.height(); ++y)
