@@ -88,7 +88,8 @@ TEST(Emva1288, RecoversATextbookCamera) {
   // device's own 4096 gains, found on a grid of 1e-4 relative steps (1.2 e⁻). The measured level is the
   // argmax of a noisy curve; the measurement's uncertainty is the half-span of the levels whose
   // variance is within 2 SE of the top (at least one step of its fine sweep) with η's: within 5 of
-  // it. (It lies about one shot-noise σ, √12000 ≈ 110 e⁻, below the well.)
+  // it. (The model's peak is 11,515 e⁻, 4 % below the well: the pixels of higher PRNU gain clip
+  // first, and a clipped pixel's variance falls from about one shot-noise σ below its well.)
   auto model_variance = [&](double p) {
     double v = 0;
     for (size_t i = 0; i < 64 * 64; ++i) {
