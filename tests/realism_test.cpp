@@ -164,12 +164,40 @@ TEST(CameraIsp, GuidedFilterLimits) {
   ImageF m(p.width(), p.height(), 1);
   for (int y = 0; y < p.height(); ++y)
     for (int x = 0; x < p.width(); ++x) m.at(x, y) = static_cast<float>(box(p, x, y));
-  const ImageF big = guided_filter_self(p, r, 1e30), small = guided_filter_self(p, r, 1e-12);
+  const double eps_big = 1e30, eps_small = 1e-12;
+  const ImageF big = guided_filter_self(p, r, eps_big), small = guided_filter_self(p, r, eps_small);
+  // Bounds (u = 2⁻²⁴; M = max |p|, which bounds every box mean of p and of b; box_mean sums in
+  // double (prefix sums up to w·M over w additions, running column sums: at most 4·(w² + h²)·2⁻⁵³·M
+  // over two box means, added) and stores each of its two passes to float).
+  // ε → ∞: out = mean(a)·p + mean(b), b = mean of p (1 − a rounds to 1 in double), a ≤ var/ε ≤ M²/ε.
+  // mean(b) is box(box(p)) through 4 float stores (2 per box_mean), the multiply-add 1 more, the
+  // reference box(m) one (m stored to float): 6 half-ulps, 3·u·M, plus |mean(a)·p| ≤ M³/ε.
+  // ε → 0: a = var/(var + ε) ≥ 1 − ε/var_min; var_min (the smallest window variance, here in
+  // double; the library's, from float means, is within 2·u·M² of it: var_lo is var_min less 4·u·M²)
+  // ≫ ε, so a stores as 1 up to ε/var_lo + u/2 and its box mean as well (a box mean of values within
+  // δ of 1 is within δ + u of 1); |b| = (1 − a)·|mean| ≤ (ε/var_lo)·M. out − p: (1 − mean a)·M + |mean b|
+  // + the multiply-add's half ulp: (2·ε/var_lo + 2·u)·M.
+  const double u = 0x1p-24;
+  double M = 0, var_min = INFINITY;
   for (int y = 0; y < p.height(); ++y)
     for (int x = 0; x < p.width(); ++x) {
-      // Float storage of double sums: relative rounding 2^-24 per stored step, a few steps.
-      EXPECT_NEAR(big.at(x, y), box(m, x, y), 1e-5) << x << "," << y;
-      EXPECT_NEAR(small.at(x, y), p.at(x, y), 1e-4) << x << "," << y;
+      M = std::max(M, static_cast<double>(std::fabs(p.at(x, y))));
+      double s = 0, s2 = 0;
+      int n = 0;
+      for (int yy = std::max(0, y - r); yy <= std::min(p.height() - 1, y + r); ++yy)
+        for (int xx = std::max(0, x - r); xx <= std::min(p.width() - 1, x + r); ++xx)
+          s += p.at(xx, yy), s2 += double(p.at(xx, yy)) * p.at(xx, yy), ++n;
+      var_min = std::min(var_min, s2 / n - (s / n) * (s / n));
+    }
+  const double var_lo = var_min - 4 * u * M * M;
+  ASSERT_GT(var_lo, 1e6 * eps_small);  // the premise: a rounds to 1
+  const double dbl = 4.0 * (p.width() * p.width() + p.height() * p.height()) * 0x1p-53 * M;
+  const double tol_big = 3 * u * M + M * M * M / eps_big + dbl;
+  const double tol_small = (2 * eps_small / var_lo + 2 * u) * M + dbl;
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) {
+      EXPECT_NEAR(big.at(x, y), box(m, x, y), tol_big) << x << "," << y;
+      EXPECT_NEAR(small.at(x, y), p.at(x, y), tol_small) << x << "," << y;
     }
 }
 

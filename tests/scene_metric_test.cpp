@@ -107,9 +107,21 @@ TEST(MetricDepth, GroundModelRoundTrips) {
       double u, v, z, X2, D2, z2;
       ASSERT_TRUE(g.project(X, 0, D, &u, &v, &z));
       ASSERT_TRUE(g.ground_point(u, v, &X2, &D2, &z2));
-      EXPECT_NEAR(X2, X, 1e-9 * D);
-      EXPECT_NEAR(D2, D, 1e-9 * D);
-      EXPECT_NEAR(z2, z, 1e-9 * D);
+      // Double rounding (e = 2⁻⁵³), propagated: u and v carry about 4 roundings of their terms
+      // (δu, δv); ground_point's yn = (v − c_y)/f then errs by δv/f, which the ray's downward
+      // component den = yn·cos θ + sin θ divides (the ill-conditioned step far away, where den is
+      // small), plus den's own 4 roundings: t = h/den and z, X = t·xn, D = t·(cos θ − yn·sin θ)
+      // carry that relative error, a few more roundings (8e), X the error of xn = (u − c_x)/f times
+      // t and D that of its factor, δyn·|sin θ| over it.
+      const double e = 0x1p-53, c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
+      const double yn = (v - g.cy_px) / g.f_px, den = yn * c + sn, fwd = c - yn * sn;
+      const double du = 4 * e * (std::fabs(g.cx_px) + std::fabs(u - g.cx_px));
+      const double dv = 4 * e * (std::fabs(g.cy_px) + std::fabs(v - g.cy_px));
+      const double rel = (dv / g.f_px * c + 4 * e * (std::fabs(yn * c) + std::fabs(sn))) / den + 8 * e;
+      const double rel_D = rel + (dv / g.f_px * std::fabs(sn) + 4 * e * (c + std::fabs(yn * sn))) / fwd;
+      EXPECT_NEAR(X2, X, rel * std::fabs(X) + du / g.f_px * z);
+      EXPECT_NEAR(D2, D, rel_D * D);
+      EXPECT_NEAR(z2, z, rel * z);
       EXPECT_NEAR(g.ground_depth_m(v), g.f_px * g.mount_height_m / ((v - g.horizon_y) * std::cos(g.pitch_rad)), 1e-9 * D);
     }
 }
@@ -1986,7 +1998,12 @@ TEST(EgoLowBeam, SignsLitByTheTableBelowTheCutOffAndTheGlareLimitAbove) {
   {
     const double d2 = xl * xl + (3.0 - hl) * (3.0 - hl) + 25.0 * 25.0;
     EXPECT_NEAR(sign_beam_lux(0, 3.0, 25, p), 2 * 625 / d2, 1e-12 * 625 / d2);
-    EXPECT_NEAR(sign_beam_lux(0, 3.0, 25, p), 1.98, 0.01);  // ~1 lx per lamp at 25 m: the limit's own figure
+    // The limit's own figure, 625 cd = 1 lx per lamp at 25 m on the lamps' axis (2 lx from two),
+    // less only the inverse-square loss of the sign's offset from that axis, off² = xl² + (3 − hl)²:
+    // 2·625/(625 + off²) = 2/(1 + ε), ε = off²/625, within 2·ε below 2 lx (1 − 1/(1 + ε) < ε).
+    const double eps_off = (xl * xl + (3.0 - hl) * (3.0 - hl)) / (25.0 * 25.0);
+    EXPECT_LE(sign_beam_lux(0, 3.0, 25, p), 2.0);
+    EXPECT_GE(sign_beam_lux(0, 3.0, 25, p), 2.0 * (1 - eps_off));
   }
   // On h-h, 9° right of the right lamp: inside the rising cut-off, where the table is lit
   // (1500 cd at (9°R, 0°)); the left lamp sees it at 11.8°R, between table columns.
@@ -2019,10 +2036,11 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
   EXPECT_EQ(sign_RA_at(0.33, p), p.sign_RA);
   const double at05 = p.sign_RA * std::pow(0.5 / 0.33, -p.sign_RA_alpha_exponent);
   EXPECT_NEAR(sign_RA_at(0.5, p), at05, 1e-12 * at05);
-  EXPECT_NEAR(at05, 116.1, 0.1);  // 0.645 × 180
+  EXPECT_NEAR(at05, 116.1, 0.05);  // 0.645 × 180, the figure to its four digits (half a unit of the last)
   EXPECT_EQ(sign_RA_at(2.0, p), sign_RA_at(0.5, p));
-  // The exponent reproduces the table's two points: 95/250 = 0.38, to its three digits.
-  EXPECT_NEAR(std::pow(0.5 / 0.2, -p.sign_RA_alpha_exponent), 95.0 / 250.0, 0.38 * 5e-4);
+  // The exponent reproduces the table's two points: 95/250 = 0.38. The preset states it to four
+  // digits (1.056, within 5e-4 of ln(250/95)/ln(2.5)), which moves 2.5^−k by a relative ln(2.5)·5e-4.
+  EXPECT_NEAR(std::pow(0.5 / 0.2, -p.sign_RA_alpha_exponent), 95.0 / 250.0, 0.38 * std::log(2.5) * 5e-4);
   const double h_cam = 1.22;
   EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 30, h_cam, p), at05 * sign_beam_lux(0, 3.0, 30, p),
               1e-12 * at05 * sign_beam_lux(0, 3.0, 30, p));
@@ -2129,13 +2147,54 @@ TEST(Facades, PlaneFittedThroughAnOccludedFootHoldsFivePercent) {
       ASSERT_NE(f, nullptr);
       EXPECT_TRUE(f->fitted) << x << "," << y;
     }
+  // The plane is the line through the ground points of its foot line v = a + b·u at the first and
+  // last inlier columns u0, u1. Every inlier lies within kFacadeInlier_px of that line and, a
+  // contact being the boundary between a building pixel's centre and the ground pixel's below
+  // (centres on integer rows: v = y + 0.5), within 0.5 px of the true foot: so at u0 and u1 the line
+  // is within δ = kFacadeInlier_px + 0.5 of it. The bounds on nX and d are the largest changes of
+  // the plane when its two end points move by ±δ in v (the four corners; each end point moves
+  // along its ray, monotonically in v), computed with the geometry's own ground_point.
+  auto plane_through = [&](double u0, double v0, double u1, double v1, double* nX, double* d) {
+    double X0, D0, X1, D1;
+    if (!g.ground_point(u0, v0, &X0, &D0, nullptr) || !g.ground_point(u1, v1, &X1, &D1, nullptr)) return false;
+    const double len = std::hypot(X1 - X0, D1 - D0);
+    *nX = std::fabs(D1 - D0) / len;
+    *d = std::fabs((X0 * (D1 - D0) - D0 * (X1 - X0)) / len);
+    return true;
+  };
   int fitted = 0;
   for (const auto& f : fac.planes)
     if (f.fitted) {
       ++fitted;
-      // The true planes: normal (±1, 0), 10 m from the camera's foot.
-      EXPECT_NEAR(std::fabs(f.nX), 1.0, 1e-3);
-      EXPECT_NEAR(f.d_m, 10.0, 0.5);
+      int u0 = -1, u1 = -1;  // the first and last inlier contacts of this plane
+      for (int x = 0; x < W; ++x) {
+        int yb = -1;
+        for (int y = 0; y < H; ++y)
+          if (s.labels.ids.at(x, y) == static_cast<int>(Label::Building)) yb = y;
+        if (yb < 0 || yb + 1 >= H || !is_ground(s.labels.ids.at(x, yb + 1))) continue;
+        if (std::fabs(yb + 0.5 - (f.line_a + f.line_b * x)) > kFacadeInlier_px) continue;
+        if (u0 < 0) u0 = x;
+        u1 = x;
+      }
+      ASSERT_LT(u0, u1);
+      const double delta = kFacadeInlier_px + 0.5, va = f.line_a + f.line_b * u0, vb = f.line_a + f.line_b * u1;
+      double nX0, d0, tol_nX = 0, tol_d = 0;
+      ASSERT_TRUE(plane_through(u0, va, u1, vb, &nX0, &d0));
+      for (const double e0 : {-delta, delta})
+        for (const double e1 : {-delta, delta}) {
+          double nX, d;
+          ASSERT_TRUE(plane_through(u0, va + e0, u1, vb + e1, &nX, &d));
+          tol_nX = std::max(tol_nX, std::fabs(nX - nX0));
+          tol_d = std::max(tol_d, std::fabs(d - d0));
+        }
+      std::fprintf(stderr, "[facade] plane: inliers %d..%d, |nX| %.5f (bound %.2g), d %.3f m (bound %.3f m)\n", u0, u1,
+                   std::fabs(f.nX), tol_nX, f.d_m, tol_d);
+      // The true planes: normal (±1, 0), 10 m from the camera's foot. The normal within its bound
+      // (about 2e-4 here); the distance within the 5 % of 10 m, the requirement the depth
+      // checks below hold too: the quantisation's worst case (0.7 and 0.85 m here, printed) is wider,
+      // so that is the requirement's bound, not a guarantee of the fit.
+      EXPECT_NEAR(std::fabs(f.nX), 1.0, tol_nX);
+      EXPECT_NEAR(f.d_m, 10.0, 0.05 * 10.0);
     }
   std::fprintf(stderr, "[facade] %d planes, %d columns with a hidden foot; building depth worst %.2f%%, median %.3f%%; "
                "hidden-foot columns worst %.2f%%\n", fitted, hidden_cols, 100 * quantile(err, 1.0), 100 * quantile(err, 0.5),

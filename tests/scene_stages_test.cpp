@@ -1729,10 +1729,14 @@ TEST(SceneChain, OpticsUseTheFramesOwnFocalLength) {
   info.channels = 3;
   info.is_float = true;
   const NightChain c = prepare_night(cpu, road.day_linear_srgb, info, road.labels, sp, setup, store);
-  const double f_px = 721.5377 * 414.0 / 1242.0;
-  EXPECT_NEAR(c.scene.geometry.f_px, f_px, 1e-9 * f_px);
+  // Rounding bounds (u = 2⁻⁵³): the geometry's f_px is fx·(414/1242) (scaled_intrinsics), this
+  // one (fx·414)/1242, each two roundings of the exact value: 4u apart at most. The lens's focal
+  // length is (f_px·pitch)·1e-3 with the preset's pitch 4.65 and 1e-3 each rounded once (0.5u),
+  // two products (2u), against f_px·4.65e-3 here (0.5u + 1u), on f_px's 4u: 8.5u.
+  const double u = 0x1p-53, f_px = 721.5377 * 414.0 / 1242.0;
+  EXPECT_NEAR(c.scene.geometry.f_px, f_px, 4 * u * f_px);
   const LensPreset lens = lens_for_frame(setup.lens, setup.camera, c.scene.geometry);
-  EXPECT_NEAR(lens.focal_length_mm, f_px * 4.65e-3, 1e-12);
+  EXPECT_NEAR(lens.focal_length_mm, f_px * 4.65e-3, 8.5 * u * f_px * 4.65e-3);
   EXPECT_EQ(lens.f_number, setup.lens.f_number);
   EXPECT_EQ(lens.transmittance, setup.lens.transmittance);
   const ImageF own = mean_signal_electrons(c.scene.radiance, setup.camera, lens, c.exposure);

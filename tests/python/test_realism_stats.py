@@ -28,16 +28,20 @@ def test_statistics_of_a_half_dark_half_saturated_image():
     img = grey(100, 200, 0.05)
     img[:, 100:] = 1.0  # right half saturated white: one blob of 100x100 px
     s, h = realism.statistics(img)
-    assert s["dark_fraction"] == pytest.approx(0.5)
-    assert s["highlight_fraction"] == pytest.approx(0.5)
+    # Exact, as every fraction below (pytest.approx's default rel=1e-6 was no stated bound): a mean
+    # of booleans is count/size in float64, here 10000/20000.
+    assert s["dark_fraction"] == 0.5
+    assert s["highlight_fraction"] == 0.5
     # The even count's middle: the mean of 0.05 and 1, in float32: 0.05 to float32 and its luma's
     # three products and two sums (2^-24 relative each, on 0.05: 1.8e-8, halved in the mean) and the
     # mean's rounding (half an ulp of 0.525, 2^-25 = 3e-8): under 2^-24.
     assert s["median_luma"] == pytest.approx(0.525, abs=2.0**-24)
-    assert s["b_over_r"] == pytest.approx(1.0) and s["g_over_r"] == pytest.approx(1.0)
-    assert s["blobs_per_mpx"] == pytest.approx(1 / (100 * 200 / 1e6))
+    # Exact: grey, so the three channels' means are the same sums of the same values; blobs_per_mpx
+    # is the same float64 operations as here; the histogram's two bins are 10000/20000 each.
+    assert s["b_over_r"] == 1.0 and s["g_over_r"] == 1.0
+    assert s["blobs_per_mpx"] == 1 / (100 * 200 / 1e6)
     assert s["blob_median_px"] == 100 * 100
-    assert h.sum() == pytest.approx(1.0)
+    assert h.sum() == 1.0
 
 
 def test_blobs_count_8_connected_regions_and_skip_speckle():
@@ -65,15 +69,16 @@ def test_emd_of_shifted_deltas_is_the_shift():
     b = np.zeros(64)
     a[10] = 1
     b[30] = 1
-    assert realism.emd(a, b) == pytest.approx(20 / 64)
+    # Exact: the cumulative sums are 0s and 1s, 20 of them apart, and /64 is a power of two.
+    assert realism.emd(a, b) == 20 / 64
     assert realism.emd(a, a) == 0
 
 
 def test_features_of_a_flat_patch():
     f = dict(zip(rs.FEATURE_NAMES, rs.features(grey(128, 128, 0.5))))
     assert len(rs.FEATURE_NAMES) == len(rs.features(grey(8, 8, 0.5)))
-    assert f["luma_hist_8"] == pytest.approx(1.0)  # 0.5 falls in bin 8 of 16
-    assert f["grad_hist_0"] == pytest.approx(1.0)  # no gradient anywhere
+    assert f["luma_hist_8"] == 1.0  # 0.5 falls in bin 8 of 16 (count/size, exact)
+    assert f["grad_hist_0"] == 1.0  # no gradient anywhere
     # Exact: luma is 0.5 * ((w0 + w1) + w2) with the weights in float32 (halving commutes with
     # rounding), and that sum rounds to exactly 1 (checked here), so every luma is 0.5; float32 sums
     # of up to 132^2 halves (the mean, the box filter's integral image) are exact, so the mean is 0.5
@@ -89,7 +94,7 @@ def test_features_of_a_ramp_have_its_gradient():
     f = dict(zip(rs.FEATURE_NAMES, rs.features(img)))
     g = 1 / 127
     k = int(np.searchsorted(rs.GRAD_EDGES, g, side="right")) - 1
-    assert f[f"grad_hist_{k}"] == pytest.approx(1.0)
+    assert f[f"grad_hist_{k}"] == 1.0  # every pixel's gradient in one bin: count/size, exact
     # The population standard deviation of n equally spaced values i/(n-1) on [0, 1] is
     # sqrt((n+1) / (12 (n-1))) (0.6 % above the continuous uniform's 1/sqrt(12)). Tolerance: float32
     # rounding: luma's three products and two sums (<= 5 eps per value, eps = 2^-24), numpy's
@@ -104,7 +109,8 @@ def test_box_mean_of_a_constant_and_of_an_impulse():
     a = np.zeros((9, 9))
     a[4, 4] = 25
     m = rs.box_mean(a, 5)
-    assert m[4, 4] == pytest.approx(1.0) and m[2, 2] == pytest.approx(1.0) and m[1, 1] == 0
+    # Exact: the integral image's sums of 0 and 25 are integers, 25/25 = 1.
+    assert m[4, 4] == 1.0 and m[2, 2] == 1.0 and m[1, 1] == 0
 
 
 def test_balanced_accuracy_and_its_image_level_standard_error():
@@ -113,8 +119,10 @@ def test_balanced_accuracy_and_its_image_level_standard_error():
     labels = np.array([0, 0, 0, 0, 1, 1, 1, 1])
     groups = np.array([0, 0, 1, 1, 2, 2, 3, 3])
     ba, se, n = rs.balanced_accuracy_by_image(correct, labels, groups)
-    assert ba == pytest.approx(0.5 * (0.75 + 1.0))
-    assert se == pytest.approx(0.5 * math.sqrt(np.var([1, 0.5], ddof=1) / 2))
+    # Exact: means of 1s and 0.5s are dyadic, and the SE is the same float64 operations on the same
+    # per-image fractions (class 1's variance is 0).
+    assert ba == 0.5 * (0.75 + 1.0)
+    assert se == 0.5 * math.sqrt(np.var([1, 0.5], ddof=1) / 2)
     assert n == [2, 2]
 
 
