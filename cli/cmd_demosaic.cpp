@@ -160,9 +160,7 @@ void run(const DemosaicCmd& c) {
   ImageF rgb = runner.demosaic(m.image, m.cfa, method);
   rgb.set_unit(m.image.unit());
   if (c.white_level) {
-    const double level = (*c.white_level - m.stored_offset) * m.stored_scale;
-    const double at = m.integer_codes ? (*c.white_level - 0.5 - m.stored_offset) * m.stored_scale : level;
-    neutralize_clipped_highlights(rgb, m.image, m.cfa, static_cast<float>(at), static_cast<float>(level / 3));
+    neutralize_at_white_level(rgb, m.image, m.cfa, *c.white_level, m.stored_offset, m.stored_scale, m.integer_codes);
     m.attributes["photosite/white_level"] = *c.white_level;
   }
   if (ext == ".png") {

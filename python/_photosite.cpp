@@ -421,7 +421,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
 }
 
 py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cfa, const std::string& method,
-                                  const std::string& backend) {
+                                  const std::string& backend, std::optional<double> white_level) {
   const ArrayShape ms = check_image_array(mosaic, "mosaic", {1});
   const bool f32 = is_dtype(mosaic, py::dtype::of<float>());
   const bool u8 = is_dtype(mosaic, py::dtype::of<uint8_t>()), u16 = is_dtype(mosaic, py::dtype::of<uint16_t>());
@@ -430,6 +430,13 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
          dtype_name(mosaic));
   const CfaPattern pattern = parse_cfa(cfa);
   const DemosaicMethod m = parse_demosaic_method(method);
+  // white_level: in the array's values (codes for uint8/uint16), as the command's --white-level.
+  if (white_level) {
+    if (pattern != CfaPattern::RCCB && pattern != CfaPattern::RCCC)
+      throw Error(fmt::format("white_level: clip handling is for the clear patterns RCCB and RCCC, not {}", to_string(pattern)));
+    if (!(*white_level > 0) || !std::isfinite(*white_level))
+      throw Error(fmt::format("white_level: {} is not a level above 0", *white_level));
+  }
   ImageF rgb;
   {
     py::gil_scoped_release nogil;
@@ -437,6 +444,8 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
                      : image_from_codes(mosaic.data(), u8 ? 8 : 16, ms.width, ms.height, 1);
     SensorRunner runner = make_backend(backend);
     rgb = runner.demosaic(img, pattern, m);
+    if (white_level)
+      neutralize_at_white_level(rgb, img, pattern, *white_level, 0.0, f32 ? 1.0 : 1.0 / (u8 ? 255.0 : 65535.0), !f32);
   }
   return to_array(std::move(rgb));
 }
@@ -720,7 +729,7 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none",
         py::arg("rig") = "auto", py::arg("poisson") = "exact");
   m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
-        py::arg("backend") = "auto");
+        py::arg("backend") = "auto", py::arg("white_level") = py::none());
   m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),
         py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
         py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,

@@ -252,6 +252,13 @@ void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3
   }
 }
 
+size_t neutralize_at_white_level(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, double white_level,
+                                 double stored_offset, double stored_scale, bool integer_codes) {
+  const double level = (white_level - stored_offset) * stored_scale;
+  const double at = integer_codes ? (white_level - 0.5 - stored_offset) * stored_scale : level;
+  return neutralize_clipped_highlights(rgb, mosaic, pattern, static_cast<float>(at), static_cast<float>(level / 3));
+}
+
 size_t neutralize_clipped_highlights(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, float clipped_at,
                                      float neutral) {
   if (pattern != CfaPattern::RCCB && pattern != CfaPattern::RCCC) return 0;

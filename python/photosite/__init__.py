@@ -197,18 +197,22 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
                             label_format, ambient_lux, resize_labels, rig, poisson)
 
 
-def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto") -> np.ndarray:
+def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto",
+             white_level: Optional[float] = None) -> np.ndarray:
     """Demosaic a CFA mosaic (`photosite demosaic`).
 
     mosaic   H x W float32 (any unit, kept) or uint8/uint16 codes (read as code / max code)
     cfa      RGGB, BGGR, GRBG, GBRG, RCCB, RCCC or MONO
     method   bilinear, malvar, hamilton-adams, lmmse, ... (`photosite demosaic --list`)
     backend  "cpu", "vulkan" or "auto"
-    Returns float32 H x W x 3 in the mosaic's unit. No clip handling: an array does not say where its
-    sensor clipped (`photosite demosaic --white-level` and Camera.expose make RCCB/RCCC's clipped
-    highlights neutral; docs/demosaic.md).
+    white_level  RCCB/RCCC only: the level at which the sensor clipped, in the array's values (codes for
+                 uint8/uint16; float data clip at it itself): pixels whose 3x3 window holds a clipped
+                 sample come out neutral at a third of it, as `photosite demosaic --white-level` and
+                 Camera.expose make them (docs/demosaic.md). None (default): no clip handling, since
+                 an array does not say where its sensor clipped.
+    Returns float32 H x W x 3 in the mosaic's unit.
     """
-    return _photosite.demosaic(mosaic, cfa, method, backend)
+    return _photosite.demosaic(mosaic, cfa, method, backend, white_level)
 
 
 def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_id: Optional[str] = None,

@@ -174,6 +174,37 @@ def test_demosaic_matches_cli(cli, tmp_path):
                                rtol=4 * 2.0**-24, atol=0)
 
 
+def test_demosaic_white_level_matches_cli(cli, tmp_path):
+    """RCCB/RCCC clip handling: the same neutral pixels as `photosite demosaic --white-level`."""
+    rng = np.random.default_rng(3)
+    mosaic = rng.uniform(100, 900, (24, 30)).astype(np.float32)
+    mosaic[8:12, 10:15] = 4000.0  # a clipped lamp
+    ps.write_exr(str(tmp_path / "m.exr"), {"Y": mosaic})
+    for cfa in ("RCCC", "RCCB"):
+        out = tmp_path / f"{cfa}.exr"
+        cli("demosaic", "--in", tmp_path / "m.exr", "--cfa", cfa, "--method", "malvar", "--backend", "cpu",
+            "--white-level", 4000, "--out", out)
+        ch, _, _ = exr_pixels(out)
+        rgb = ps.demosaic(mosaic, cfa=cfa, method="malvar", backend="cpu", white_level=4000.0)
+        np.testing.assert_array_equal(np.stack([ch[c] for c in "RGB"], -1), rgb)
+        # the 3x3 windows of the clipped samples: rows 7..12, columns 9..15, neutral at 4000 / 3
+        window = np.zeros(mosaic.shape, bool)
+        window[7:13, 9:16] = True
+        np.testing.assert_array_equal(rgb[window], np.float32(4000.0 / 3))
+        plain = ps.demosaic(mosaic, cfa=cfa, method="malvar", backend="cpu")
+        np.testing.assert_array_equal(rgb[~window], plain[~window])
+        assert not np.array_equal(rgb[window], plain[window])
+    # uint16 codes clip at the code: neutral at a third of code / 65535
+    codes = np.full((16, 16), 1000, np.uint16)
+    codes[6:9, 6:9] = 65535
+    rgb = ps.demosaic(codes, cfa="RCCC", backend="cpu", white_level=65535)
+    assert rgb[7, 7, 0] == rgb[7, 7, 1] == rgb[7, 7, 2] == np.float32(1.0 / 3)
+    with pytest.raises(ValueError, match="RCCB and RCCC"):
+        ps.demosaic(mosaic, cfa="RGGB", white_level=4000.0)
+    with pytest.raises(ValueError, match="white_level"):
+        ps.demosaic(mosaic, cfa="RCCC", white_level=-1.0)
+
+
 def test_readers_refuse_a_pipe(tmp_path):
     """A FIFO given to a reader: refused by name (it blocked read_exr, waiting for a writer)."""
     fifo = tmp_path / "pipe.exr"

@@ -111,5 +111,13 @@ void filter_planes_to_rgb(CfaPattern pattern, const float planes[4], float rgb[3
 // Returns the number of pixels set.
 size_t neutralize_clipped_highlights(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, float clipped_at,
                                      float neutral);
+// The same at a white level V given in a file's or an array's stored values (`photosite demosaic
+// --white-level`, `ps.demosaic(white_level=)`): a stored value v is the sample
+// (v - stored_offset) * stored_scale; the clip level is (V - stored_offset) * stored_scale, and the
+// neutral a third of it. Integer codes (a PNG, TIFF, uint array) clip at code >= V, so the samples
+// at or above (V - 1/2 - stored_offset) * stored_scale count; float data at V itself. The caller
+// has checked that the pattern is RCCB or RCCC and V is above stored_offset.
+size_t neutralize_at_white_level(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, double white_level,
+                                 double stored_offset, double stored_scale, bool integer_codes);
 
 }  // namespace photosite
