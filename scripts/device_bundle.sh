@@ -54,4 +54,11 @@ tar -C .dev -cf - lib | xz -T2 -6 > .dev/lib.tar.xz && rm -rf .dev/lib
 for d in cityscapes; do
   [ -d ../shared/data/$d ] && cp -r ../shared/data/$d .dev/shared/data/
 done
+# Debian's Vulkan loader and glvnd, for a machine whose image has none (device_check.sh unpacks
+# them there): downloaded once from Debian's archive into .gl/.
+if ! ls .gl/libvulkan1_*.deb > /dev/null 2>&1; then
+  mkdir -p .gl /tmp/amd64/partial
+  o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
+  apt-get $o update -qq && (cd .gl && apt-get $o download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
+fi
 du -sh .dev .dev/* >&2
