@@ -220,11 +220,6 @@ ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb, double
 }
 
 // ---- auto-exposure preview (isp.h: AutoExposure) ----
-double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure) {
-  return std::min(std::ldexp(1.0, camera.bit_depth) - 1 - camera.black_level_dn,
-                  camera.full_well_e * exposure.system_gain_dn_per_e);
-}
-
 AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExposure& exposure) {
   AutoExposure ae;
   ae.max_gain = std::max(1.0, std::pow(10.0, camera.max_gain_db / 20) / exposure.gain_linear);

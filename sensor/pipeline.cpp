@@ -737,13 +737,18 @@ void sense_frame(int w, int h, const CameraPreset& p, const ExposureSettings& s,
 }
 }  // namespace
 
+double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure) {
+  return std::min(std::ldexp(1.0, camera.bit_depth) - 1 - camera.black_level_dn,
+                  camera.full_well_e * exposure.system_gain_dn_per_e);
+}
+
 ClipLevel clip_level(const CameraPreset& p, const ResolvedExposure& ex) {
-  const double K = ex.system_gain_dn_per_e, black = p.black_level_dn;
+  const double K = ex.system_gain_dn_per_e;
   const double top = std::ldexp(1.0, p.bit_depth) - 1.0;
-  const double full_dn = p.full_well_e * K + black;
+  const double full_dn = p.full_well_e * K + p.black_level_dn;
   const double sigma_e = std::sqrt(p.read_noise_e * p.read_noise_e + p.dsnu_e * p.dsnu_e +
                                    p.row_noise_e * p.row_noise_e + p.column_noise_e * p.column_noise_e);
-  return {std::min(top, full_dn - 4 * K * sigma_e - 0.5), (std::min(full_dn, top) - black) / 3};
+  return {std::min(top, full_dn - 4 * K * sigma_e - 0.5), sensor_full_scale_dn(p, ex) / 3};
 }
 
 size_t neutralize_clipped_highlights(SensorOutput& out, const CameraPreset& p, const ResolvedExposure& ex) {

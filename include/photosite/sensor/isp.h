@@ -73,9 +73,7 @@ double auto_exposure_gain(const ImageF& rgb, const std::array<double, 3>& wb_gai
 // The 8-bit sRGB preview at that gain: sample x -> srgb_encode8(x * wb_c * G / (min(wb) * full scale)).
 ImageU8 preview_srgb8_auto(const ImageF& rgb, const std::array<double, 3>& wb_gains, double full_scale_dn,
                            const AutoExposure& ae, double* gain_out = nullptr);
-// The sensor's full scale in DN above black at this exposure: the ADC's top code above black or
-// the full well times the system gain, the lower.
-double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure);
+// The sensor's full scale in DN above black: sensor_full_scale_dn (sensor/pipeline.h).
 // The AE of a camera at this exposure: the target above and the preset's gain range,
 // max_gain = 10^(max_gain_db / 20) / the exposure's own linear gain (at least 1).
 AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExposure& exposure);

@@ -95,6 +95,11 @@ void expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPr
             const ExposureSettings& settings, const FixedPatternMaps& fpn, SensorOutput& out,
             const GlareLevel1* glare_level1 = nullptr);
 
+// The sensor's full scale in DN above black at this exposure: the ADC's top code above black or
+// the full well times the system gain, the lower (the previews' exposure, isp.h, and the clip
+// level below).
+double sensor_full_scale_dn(const CameraPreset& camera, const ResolvedExposure& exposure);
+
 // Where the sensor's output clips, for the clear patterns' highlight handling
 // (neutralize_clipped_highlights, sensor/demosaic.h), which sense() and expose() (on either
 // backend) apply to their R, G, B. A full well reads FW·K + black DN on average (K: the system
@@ -103,7 +108,7 @@ void expose(const ImageF& radiance_rgb, const CameraPreset& preset, const LensPr
 // sample lies at min(top code, FW·K + black ± 4Kσ ± 0.5) but for a 6.3e-5 two-sided tail (a
 // pixel escapes only when all nine samples of its window do). clipped_at_dn (raw DN):
 // min(top code, FW·K + black - 4Kσ - 0.5); neutral_dn (DN above black): the clip level
-// min(FW·K, top code - black) over 3, the white that reaches it.
+// sensor_full_scale_dn = min(FW·K, top code - black) over 3, the white that reaches it.
 struct ClipLevel {
   double clipped_at_dn;
   double neutral_dn;
