@@ -304,16 +304,15 @@ __attribute__((target("avx2"))) inline BoxV box_x4(const float* s, const BoxCoef
   }
   return o;
 }
+// Y = ((0 + K0·v0) + K1·v1) + K2·v2 of four pixels' box RGB (box_y's operations).
+__attribute__((target("avx2"), always_inline)) inline __m256d box_y4(const BoxV& b, __m256d K0, __m256d K1, __m256d K2) {
+  return _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_setzero_pd(), _mm256_mul_pd(K0, b.v[0])), _mm256_mul_pd(K1, b.v[1])),
+                       _mm256_mul_pd(K2, b.v[2]));
+}
 __attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const BoxCoef& c, double* y) {
   const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
   int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    const BoxV b = box_x4(s + 3 * i, c);
-    const __m256d t = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_setzero_pd(), _mm256_mul_pd(K0, b.v[0])),
-                                                  _mm256_mul_pd(K1, b.v[1])),
-                                    _mm256_mul_pd(K2, b.v[2]));
-    _mm256_storeu_pd(y + i, t);
-  }
+  for (; i + 4 <= n; i += 4) _mm256_storeu_pd(y + i, box_y4(box_x4(s + 3 * i, c), K0, K1, K2));
   box_y_scalar(s + 3 * i, n - i, c, y + i);
 }
 __attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
@@ -410,6 +409,118 @@ void box_scaled_block(const float* s, int n, const BoxCoef& c, const float* scal
   if (isa == 1) return box_scaled_avx2(s, n, c, scale, cap, o);
 #endif
   box_scaled_scalar(s, n, c, scale, cap, o);
+}
+// The sun/shade split's placement of n pixels by their own light (sun_shade_split): o[i] becomes 1
+// where the pixel is brighter than lum_mid (Y = Σ K_k v_k) and of the sun's colour (v_B <
+// chroma·v_R), 0 where darker and of the shade's colour, and o[i] & 1 (its block's side) where the
+// two disagree. The scalar loop, and AVX2 four pixels at a time with the same operations per
+// pixel (box_x4), so the same bits.
+void own_light_scalar(const float* s, int n, const BoxCoef& c, double lum_mid, double chroma, uint8_t* o) {
+  for (int i = 0; i < n; ++i) {
+    double v[3];
+    box_px(s + 3 * i, c, v);
+    const bool lum = box_y(v, c) > lum_mid;
+    const bool col = v[2] < chroma * v[0];
+    o[i] = lum == col ? lum : o[i] & 1;
+  }
+}
+#if defined(__x86_64__)
+__attribute__((target("avx2"))) void own_light_avx2(const float* s, int n, const BoxCoef& c, double lum_mid, double chroma,
+                                                    uint8_t* o) {
+  const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
+  const __m256d mid = _mm256_set1_pd(lum_mid), ch = _mm256_set1_pd(chroma);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const BoxV b = box_x4(s + 3 * i, c);
+    const __m256d y = box_y4(b, K0, K1, K2);
+    const int lum = _mm256_movemask_pd(_mm256_cmp_pd(y, mid, _CMP_GT_OQ));
+    const int col = _mm256_movemask_pd(_mm256_cmp_pd(b.v[2], _mm256_mul_pd(ch, b.v[0]), _CMP_LT_OQ));
+    for (int k = 0; k < 4; ++k) {
+      const int l = lum >> k & 1;
+      o[i + k] = l == (col >> k & 1) ? static_cast<uint8_t>(l) : o[i + k] & 1;
+    }
+  }
+  own_light_scalar(s + 3 * i, n - i, c, lum_mid, chroma, o + i);
+}
+#endif
+void own_light_block(const float* s, int n, const BoxCoef& c, double lum_mid, double chroma, uint8_t* o) {
+#if defined(__x86_64__)
+  if (std::min(kIsa, max_isa) >= 1) return own_light_avx2(s, n, c, lum_mid, chroma, o);
+#endif
+  own_light_scalar(s, n, c, lum_mid, chroma, o);
+}
+// The sun/shade split's 3 x 3 majority (sun_shade_split) at pixel x of row y: 1 where more than
+// half of the pixels of x's label in its neighbourhood (clipped at the frame's edges; up/dn null
+// at the first and last rows) are sunlit in the levels lv (up, dn: the rows above and below).
+inline uint8_t majority_px(const uint16_t* lu, const uint16_t* lr, const uint16_t* ld, const uint8_t* up,
+                           const uint8_t* lv, const uint8_t* dn, int x, int W) {
+  const int a = std::max(0, x - 1), b = std::min(W - 1, x + 1);
+  const uint16_t id = lr[x];
+  int n_all = 0, n_sun = 0;
+  auto count = [&](const uint16_t* l, const uint8_t* v) {
+    for (int xx = a; xx <= b; ++xx) {
+      const int same = l[xx] == id;
+      n_all += same;
+      n_sun += same & v[xx];
+    }
+  };
+  if (up) count(lu, up);
+  count(lr, lv);
+  if (dn) count(ld, dn);
+  return 2 * n_sun > n_all;
+}
+// majority_px of the pixels x0 .. x1 - 1 into o. With AVX2 sixteen pixels at a time where their
+// neighbourhoods lie inside the row (1 ≤ x, x + 16 ≤ W − 1): the same counts in 16-bit lanes, so
+// the same values; the rest one by one.
+void majority_scalar(const uint16_t* lu, const uint16_t* lr, const uint16_t* ld, const uint8_t* up, const uint8_t* lv,
+                     const uint8_t* dn, int x0, int x1, int W, uint8_t* o) {
+  for (int x = x0; x < x1; ++x) o[x] = majority_px(lu, lr, ld, up, lv, dn, x, W);
+}
+#if defined(__x86_64__)
+// One row's three neighbours of sixteen pixels (l, v at the first pixel) counted into n_all (same
+// label as id) and n_sun (and sunlit).
+__attribute__((target("avx2"), always_inline)) inline void majority_count16(const uint16_t* l, const uint8_t* v, __m256i id,
+                                                                           __m256i& n_all, __m256i& n_sun) {
+  for (int d = -1; d <= 1; ++d) {
+    const __m256i eq = _mm256_cmpeq_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(l + d)), id);
+    const __m256i vv = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(v + d)));
+    n_all = _mm256_sub_epi16(n_all, eq);  // eq is −1 where the label is the same
+    n_sun = _mm256_add_epi16(n_sun, _mm256_and_si256(eq, vv));
+  }
+}
+__attribute__((target("avx2"))) void majority_avx2(const uint16_t* lu, const uint16_t* lr, const uint16_t* ld,
+                                                   const uint8_t* up, const uint8_t* lv, const uint8_t* dn, int x0,
+                                                   int x1, int W, uint8_t* o) {
+  int x = x0;
+  if (x == 0 && x < x1) {
+    o[0] = majority_px(lu, lr, ld, up, lv, dn, 0, W);
+    x = 1;
+  }
+  const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m256i one = _mm256_set1_epi16(1);
+  for (; x < x1 && x + 16 <= W - 1; x += 16) {
+    const __m256i id = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lr + x));
+    __m256i n_all = _mm256_setzero_si256(), n_sun = _mm256_setzero_si256();
+    if (up) majority_count16(lu + x, up + x, id, n_all, n_sun);
+    majority_count16(lr + x, lv + x, id, n_all, n_sun);
+    if (dn) majority_count16(ld + x, dn + x, id, n_all, n_sun);
+    const __m256i maj = _mm256_and_si256(_mm256_cmpgt_epi16(_mm256_slli_epi16(n_sun, 1), n_all), one);
+    // Lanes x + k ≥ x1 keep what o holds.
+    const __m256i in = _mm256_cmpgt_epi16(_mm256_set1_epi16(static_cast<int16_t>(std::min(16, x1 - x))), lane);
+    const __m256i old = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(o + x)));
+    const __m256i r = _mm256_blendv_epi8(old, maj, in);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(o + x),
+                     _mm_packus_epi16(_mm256_castsi256_si128(r), _mm256_extracti128_si256(r, 1)));
+  }
+  majority_scalar(lu, lr, ld, up, lv, dn, x, x1, W, o);
+}
+#endif
+void majority_block(const uint16_t* lu, const uint16_t* lr, const uint16_t* ld, const uint8_t* up, const uint8_t* lv,
+                    const uint8_t* dn, int x0, int x1, int W, uint8_t* o) {
+#if defined(__x86_64__)
+  if (std::min(kIsa, max_isa) >= 1) return majority_avx2(lu, lr, ld, up, lv, dn, x0, x1, W, o);
+#endif
+  majority_scalar(lu, lr, ld, up, lv, dn, x0, x1, W, o);
 }
 constexpr int kBoxBlock = 256;
 // Pass 1 of reflectance_texture: per chunk ch of kTextureChunks (pixels [n·ch/64, n·(ch+1)/64)),
@@ -600,7 +711,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
 #pragma omp parallel
   {
     std::vector<double> yrow(W);
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic)
     for (int by = 0; by < g.nby; ++by)
       for (int y = by * g.B; y < std::min(H, (by + 1) * g.B); y += (g.B > 1 ? 2 : 1)) {
         const uint16_t* lr = labels.row(y);
@@ -647,16 +758,33 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     masked_morph(v, present, g, bb, true);
     masked_morph(v, present, g, bb, false);
     // Isodata threshold on the opened levels, weighted by the blocks' samples.
+    // (The present blocks' weights and levels gathered into two arrays once: each iteration then
+    // reads them in order, the same sums in the same order.)
+    std::vector<double> lw(list.size()), lvl(list.size());
+    for (size_t i = 0; i < list.size(); ++i) {
+      lw[i] = C[list[i]];
+      lvl[i] = v[list[i]];
+    }
     double t = 0;
-    for (uint32_t b : list) t += C[b] * v[b];
+    for (size_t i = 0; i < list.size(); ++i) t += lw[i] * lvl[i];
     t /= samples;
     for (int it = 0; it < 100; ++it) {
+      // Each side's sums in list order; the other side adds +0.0, which leaves a sum as it is,
+      // so the same bits as adding to one side only (branch-free, the sums in registers).
       double w[2] = {0, 0}, m[2] = {0, 0};
-      for (uint32_t b : list) {
-        const int k = v[b] > t;
-        w[k] += C[b];
-        m[k] += C[b] * v[b];
+      double w0 = 0, w1 = 0, m0 = 0, m1 = 0;
+      for (size_t i = 0; i < list.size(); ++i) {
+        const bool k = lvl[i] > t;
+        const double a = lw[i], am = lw[i] * lvl[i];
+        w0 += k ? 0.0 : a;
+        w1 += k ? a : 0.0;
+        m0 += k ? 0.0 : am;
+        m1 += k ? am : 0.0;
       }
+      w[0] = w0;
+      w[1] = w1;
+      m[0] = m0;
+      m[1] = m1;
       if (w[0] == 0 || w[1] == 0) break;
       const double nt = 0.5 * (m[0] / w[0] + m[1] / w[1]);
       if (nt == t) break;
@@ -737,16 +865,28 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     }
   }
   if (!any) return out;
-  // Per pixel of a split class: its block's side, or in an edge block the side of the opened level
-  // interpolated bilinearly between the centres of the class's four nearest blocks. The sums of Y
-  // over the sunlit pixels per row, then over rows in order (the same whatever the thread count).
-  // Pass A: each pixel's side into `first` (tested: 1 where the pixel was placed by its own light).
-  std::vector<uint8_t> first(static_cast<size_t>(W) * H, 0), tested(static_cast<size_t>(W) * H, 0);
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
+  // Per pixel of a split class: its block's side, or in an edge block the pixel placed by its own
+  // light (Level::make below), then in edge blocks a 3 x 3 majority; the sums of Y over the sunlit
+  // pixels per row, then over rows in order (the same whatever the thread count). One pass over the
+  // rows in bands of 32 (schedule(dynamic, 32): the split classes' pixels are not spread evenly
+  // over the frame). Each thread keeps the placed levels of the last three rows it made in a ring,
+  // so a row's placement is made once per band (twice at a band's edges), and no full-frame
+  // intermediate is written.
+  out.sunlit.assign(static_cast<size_t>(W) * H, 0);
+  std::vector<double> row_sum(static_cast<size_t>(H) * kLabelCount, 0.0);
+  // A row's levels (1: sunlit) and the stretches [x0, x1) of pixels placed by their own light (in
+  // an edge block of their class).
+  struct Level {
+    int y = -1;
+    std::vector<uint8_t> lv;
+    std::vector<std::pair<int, int>> own;
+  };
+  auto make_level = [&](int y, Level& L) {
+    L.y = y;
+    L.own.clear();
+    uint8_t* lv = L.lv.data();
+    std::memset(lv, 0, W);
     const uint16_t* lr = labels.row(y);
-    uint8_t* mr = first.data() + static_cast<size_t>(y) * W;
-    uint8_t* tr = tested.data() + static_cast<size_t>(y) * W;
     const int by = y / g.B;
     for (int x = 0; x < W;) {
       const int id = lr[x];
@@ -755,70 +895,89 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       if (s < 0 || side[s].empty()) { x = e; continue; }
       const uint8_t* sd = side[s].data();
       const uint8_t* ed = edge[s].data();
-      for (int bx = x / g.B; x < e; ++bx) {
+      // Per block of the run: its side; an edge block's pixels are also noted as placed by their
+      // own light, consecutive ones as one stretch.
+      const size_t first_own = L.own.size();
+      for (int bx = x / g.B, xb = x; xb < e; ++bx) {
         const int xe = std::min(e, (bx + 1) * g.B);
         const size_t b = static_cast<size_t>(by) * g.nbx + bx;
-        if (!ed[b]) {
-          if (sd[b]) std::fill(mr + x, mr + xe, uint8_t{1});
-        } else {
-          // Each pixel by its own light: sunlit when brighter than the two levels' geometric
-          // mean and of the sun's colour (B/R below the levels' geometric mean); shade when
-          // darker and of the shade's colour. A pixel whose luminance and colour disagree (a white marking in the shade is bright but sky-blue;
-          // a dark material in the sun is dark but sun-coloured) keeps its block's level.
-          for (int xi = x; xi < xe; ++xi) {
-            double c[3];
-            box_px(day.row(y) + 3 * xi, coef, c);
-            const bool lum = box_y(c, coef) > lum_mid[s];
-            const bool col = c[2] < chroma[s] * c[0];
-            mr[xi] = lum == col ? lum : sd[b];
-            tr[xi] = 1;
-          }
+        if (sd[b]) {
+          if (xe - xb == 8) std::memcpy(lv + xb, "\1\1\1\1\1\1\1\1", 8);
+          else std::memset(lv + xb, 1, xe - xb);
         }
-        x = xe;
+        if (ed[b]) {
+          if (L.own.size() > first_own && L.own.back().second == xb) L.own.back().second = xe;
+          else L.own.emplace_back(xb, xe);
+        }
+        xb = xe;
       }
+      // Each pixel of those stretches by its own light (own_light_block): sunlit when brighter
+      // than the two levels' geometric mean and of the sun's colour (B/R below the levels'
+      // geometric mean); shade when darker and of the shade's colour. A pixel whose luminance and
+      // colour disagree (a white marking in the shade is bright but sky-blue; a dark material in
+      // the sun is dark but sun-coloured) keeps its block's level.
+      for (size_t k = first_own; k < L.own.size(); ++k) {
+        const auto [x0, x1] = L.own[k];
+        own_light_block(day.row(y) + 3 * x0, x1 - x0, coef, lum_mid[s], chroma[s], lv + x0);
+      }
+      x = e;
     }
-  }
-  // Pass B: a tested pixel takes the majority of its class's pixels in its 3 x 3 neighbourhood
-  // (a single pixel of texture does not flip alone), then the sums of Y over the sunlit pixels per
-  // row and over rows in order (the same whatever the thread count).
-  out.sunlit = first;
-  std::vector<double> row_sum(static_cast<size_t>(H) * kLabelCount, 0.0);
+  };
 #pragma omp parallel
   {
     std::vector<double> yrow(W);
-#pragma omp for schedule(static)
+    Level ring[3];
+    for (Level& L : ring) L.lv.resize(W);
+    auto level = [&](int y) -> const Level& {  // row y's levels, made once while in the ring
+      Level& L = ring[y % 3];
+      if (L.y != y) make_level(y, L);
+      return L;
+    };
+#pragma omp for schedule(dynamic, 32)
     for (int y = 0; y < H; ++y) {
       const uint16_t* lr = labels.row(y);
       uint8_t* mr = out.sunlit.data() + static_cast<size_t>(y) * W;
-      const uint8_t* tr = tested.data() + static_cast<size_t>(y) * W;
-      for (int x = 0; x < W; ++x) {
-        if (!tr[x]) {  // to the next tested pixel
-          const void* next = std::memchr(tr + x, 1, W - x);
-          if (!next) break;
-          x = static_cast<int>(static_cast<const uint8_t*>(next) - tr);
-        }
-        int n_all = 0, n_sun = 0;
-        for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy)
-          for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx)
-            if (labels.at(xx, yy) == lr[x]) {
-              ++n_all;
-              n_sun += first[static_cast<size_t>(yy) * W + xx];
-            }
-        mr[x] = 2 * n_sun > n_all;
+      const Level& L = level(y);
+      std::memcpy(mr, L.lv.data(), W);
+      if (!L.own.empty()) {
+        // A pixel placed by its own light takes the majority of its class's pixels in its 3 x 3
+        // neighbourhood (a single pixel of texture does not flip alone).
+        const uint8_t* up = y > 0 ? level(y - 1).lv.data() : nullptr;
+        const uint8_t* dn = y + 1 < H ? level(y + 1).lv.data() : nullptr;
+        const uint8_t* lv = L.lv.data();
+        const uint16_t* lu = y > 0 ? labels.row(y - 1) : nullptr;
+        const uint16_t* ld = y + 1 < H ? labels.row(y + 1) : nullptr;
+        for (const auto& [x0, x1] : L.own) majority_block(lu, lr, ld, up, lv, dn, x0, x1, W, mr);
       }
+      // The sums of Y over the row's sunlit pixels per class: per run of a split class, Y of each
+      // pixel (box_y_block), summed in four interleaved partial sums (pixel i of the run into sum
+      // i mod 4; a shaded pixel adds +0.0, which leaves a sum as it is), then (s0 + s1) + (s2 + s3)
+      // added to the row's class sum: the same operations on every path and thread count. (A
+      // reordering against one running sum: the sums differ by rounding, at most ~n·2⁻⁵³
+      // relative for n pixels, and the texture is linear in the class mean.)
       double* rs = row_sum.data() + static_cast<size_t>(y) * kLabelCount;
       for (int x = 0; x < W;) {
-        if (!mr[x]) {  // to the next sunlit pixel
-          const void* next = std::memchr(mr + x, 1, W - x);
-          if (!next) break;
-          x = static_cast<int>(static_cast<const uint8_t*>(next) - mr);
-        }
         const int id = lr[x];
-        int xj = x;
-        while (xj < W && mr[xj] && lr[xj] == id) ++xj;
-        box_y_block(day.row(y) + 3 * x, xj - x, coef, yrow.data());
-        for (int k = 0; k < xj - x; ++k) rs[id] += yrow[k];
-        x = xj;
+        const int e = run_end(lr, x, W);
+        const int s = id < kLabelCount ? slot[id] : -1;
+        if (s < 0 || side[s].empty() || !std::memchr(mr + x, 1, e - x)) { x = e; continue; }
+        const int n = e - x;
+        box_y_block(day.row(y) + 3 * x, n, coef, yrow.data());
+        const double* yy = yrow.data();
+        const uint8_t* m = mr + x;
+        double p0 = 0, p1 = 0, p2 = 0, p3 = 0;
+        int i = 0;
+        for (; i + 4 <= n; i += 4) {
+          p0 += m[i] ? yy[i] : 0.0;
+          p1 += m[i + 1] ? yy[i + 1] : 0.0;
+          p2 += m[i + 2] ? yy[i + 2] : 0.0;
+          p3 += m[i + 3] ? yy[i + 3] : 0.0;
+        }
+        if (i < n) p0 += m[i] ? yy[i] : 0.0;
+        if (i + 1 < n) p1 += m[i + 1] ? yy[i + 1] : 0.0;
+        if (i + 2 < n) p2 += m[i + 2] ? yy[i + 2] : 0.0;
+        rs[id] += (p0 + p1) + (p2 + p3);
+        x = e;
       }
     }
   }

@@ -229,3 +229,43 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   const ImageU16 no_ids(0, 0, 1, 0);
   EXPECT_TRUE(sun_shade_split(none, no_ids, p).sunlit.empty());
 }
+
+// The split's vector paths (the own-light placement and the 3 x 3 majority with AVX2) and its
+// scalar loops give the same mask, sums and ratio: a textured frame 512 px wide (2 px blocks) with
+// a diagonal sun/shade edge, so that edge blocks hold pixels on both sides, placed by their own
+// light, that vote in each other's majority, at every offset of the sixteen-pixel groups.
+TEST(SunShade, EveryInstructionSetGivesTheSameSplit) {
+  constexpr int W = 512, H = 256;
+  ImageF day(W, H, 3, 0.f);
+  ImageU16 ids(W, H, 1, static_cast<uint16_t>(Label::Road));
+  Rnd rnd;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      // A coarse texture (ρ ±60 %, the blue band ±20 % more) and a step of 2.5: pixels on both
+      // sides then cross the levels' geometric mean (√2.5 = 1.58) and their colour midpoint, so
+      // luminance and colour disagree on some of them and the majority flips some.
+      const double rho = kAsphalt * (1 + 0.6 * (2 * rnd() - 1)), blue = 1 + 0.2 * (2 * rnd() - 1);
+      const bool lit = x + 2 * y > W;
+      for (int k = 0; k < 3; ++k)
+        day.at(x, y, k) =
+            static_cast<float>(0.1 * rho * (k == 2 ? blue : 1.0) * (lit ? 2.5 * kSunTint[k] : kSkyTint[k]));
+      // One pixel in ten another class (not split): a neighbourhood then holds an even count of
+      // road pixels at times, and the majority's ties (not more than half: shade) are taken.
+      if (rnd() < 0.1) ids.at(x, y) = static_cast<uint16_t>(Label::Pole);
+    }
+  const ScenePreset p = on(load_scene_preset("night-urban"));
+  texture_max_isa(0);
+  const SunShadeSplit ref = sun_shade_split(day, ids, p);
+  ASSERT_FALSE(ref.sunlit.empty());
+  size_t lit = 0;
+  for (uint8_t m : ref.sunlit) lit += m;
+  EXPECT_GT(lit, static_cast<size_t>(W) * H / 4);  // about 0.6 of the frame is sunlit
+  for (int isa = 1; isa <= 2; ++isa) {
+    texture_max_isa(isa);
+    const SunShadeSplit o = sun_shade_split(day, ids, p);
+    EXPECT_EQ(o.sunlit, ref.sunlit) << "isa " << isa;
+    EXPECT_EQ(o.sun_sum, ref.sun_sum) << "isa " << isa;
+    EXPECT_EQ(o.ratio, ref.ratio) << "isa " << isa;
+  }
+  texture_max_isa(2);
+}
