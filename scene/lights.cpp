@@ -24,8 +24,17 @@
 #include "scene/darken_detail.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
+#include "scene/vehicle_facing_detail.h"
 
 namespace photosite::scene {
+namespace {
+// set_vehicle_decision_sink's sink (scene/vehicle_facing_detail.h): null unless a test set it.
+std::atomic<std::vector<VehicleDecision>*> g_vehicle_decisions{nullptr};
+}  // namespace
+std::vector<VehicleDecision>* set_vehicle_decision_sink(std::vector<VehicleDecision>* sink) {
+  return g_vehicle_decisions.exchange(sink);
+}
+
 namespace {
 using Rgb = std::array<double, 3>;
 
@@ -124,6 +133,38 @@ int disc(Target& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
   return n;
 }
 }  // namespace
+std::array<double, 3> road_grey_gains(const ImageF& day, const ImageU16& labels) {
+  double sum[3] = {0, 0, 0};
+  long n = 0;
+  for (int y = 0; y < labels.height(); y += 4) {
+    const uint16_t* r = labels.row(y);
+    for (int x = 0; x < labels.width(); x += 4) {
+      if (r[x] != static_cast<uint16_t>(Label::Road)) continue;
+      const float* s = day.data() + 3 * (static_cast<size_t>(y) * day.width() + x);
+      for (int k = 0; k < 3; ++k) sum[k] += s[k];
+      ++n;
+    }
+  }
+  if (n < 100 || !(sum[0] > 0) || !(sum[1] > 0) || !(sum[2] > 0)) return {1, 1, 1};
+  const double mean = (sum[0] + sum[1] + sum[2]) / 3;
+  return {mean / sum[0], mean / sum[1], mean / sum[2]};
+}
+bool rear_lens_colour(const float* rgb, const std::array<double, 3>& gain) {
+  const float s[3] = {static_cast<float>(rgb[0] * gain[0]), static_cast<float>(rgb[1] * gain[1]),
+                      static_cast<float>(rgb[2] * gain[2])};
+  // Necessary conditions first: L* > 25 needs Y > 0.04 (L*(0.04) = 23.7), a* > 20 needs X > Y.
+  const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
+  const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
+  if (!(Yn > 0.04) || !(Xn > Yn)) return false;
+  const Lab l = to_lab(s);
+  if (!(l.L > 25 && l.a > 20)) return false;
+  const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+  return hue > -20 && hue < 40;
+}
+bool shows_rear(int red_px, int lens_px, int pixels) {
+  auto share = [&](int px) { return px >= 3 && px * 500 >= pixels && px * 5 <= pixels; };
+  return share(red_px) || share(lens_px);
+}
 
 namespace {
 // low_beam_intensity_cd with tan(cutoff_rise_deg) computed once by the caller.
@@ -1230,14 +1271,55 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       for (int x = 1; x < W - 1; ++x)
         if (cue.at(x, y) == 1 && blob(x, y, 1)) ++red_blob_px[cue_comp(x, y)];
     }
+    // The red lens cue (with geometry: it only tells which way a vehicle faces, below): vehicle
+    // pixels of a red lamp lens's colour once the frame's cast is taken out by the road's grey
+    // (road_grey_gains, rear_lens_colour: an unlit rear lamp in daylight, a* 20-40 where the lit-lamp
+    // cue above needs 40), in blobs (>= 5 of 8 neighbours alike), counted per vehicle. Written and
+    // read in the vehicle rows and the row on either side only.
+    std::vector<int> lens_blob_px(ncomp + 1, 0);
+    if (geometry && ry1 >= 0) {
+      const std::array<double, 3> gain = road_grey_gains(day, labels);
+      ImageU8 lens(W, H, 1, uninitialized);
+      for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(lens.row(y), W, uint8_t{0});
+#pragma omp parallel for schedule(static, 8)
+      for (int y = ry0; y <= ry1; ++y) {
+        const int32_t* comp_row = comp.row(y);
+        uint8_t* lr = lens.row(y);
+        for (int x = 0; x < W; ++x) {
+          if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
+            x += 7;
+            continue;
+          }
+          if (comp_row[x] && rear_lens_colour(day.data() + 3 * (static_cast<size_t>(y) * W + x), gain)) lr[x] = 1;
+        }
+      }
+      for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
+        for (int x = 1; x < W - 1; ++x) {
+          if (!lens.at(x, y)) continue;
+          int n = 0;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && lens.at(x + dx, y + dy) == 1;
+          if (n >= 5) ++lens_blob_px[comp.at(x, y)];
+        }
+    }
     // Which way each vehicle faces (with geometry; below).
     std::vector<char> oncoming(ncomp + 1, 0);
     if (geometry)
+      for (int c = 1; c <= ncomp; ++c)
+        oncoming[c] = !shows_rear(red_blob_px[c], lens_blob_px[c], boxes[c].n) && vs[c].X < travel_divide;
+    // The test hook (scene/vehicle_facing_detail.h): each vehicle's decision, with its instance code.
+    if (std::vector<VehicleDecision>* sink = g_vehicle_decisions.load(); sink && geometry) {
+      std::vector<int> inst(ncomp + 1, 0);
+      if (!lm.instances.empty())
+        for (size_t i = i_begin; i < i_end; ++i)
+          if (comp[i] && lm.instances[i] >= 1000) inst[comp[i]] = lm.instances[i];
       for (int c = 1; c <= ncomp; ++c) {
-        const int red_px = red_blob_px[c];
-        const bool rear_seen = red_px >= 3 && red_px * 500 >= boxes[c].n && red_px * 5 <= boxes[c].n;
-        oncoming[c] = !rear_seen && vs[c].X < travel_divide;
+        const Box& b = boxes[c];
+        if (b.n == 0) continue;
+        sink->push_back({inst[c], comp_class[c], b.x0, b.y0, b.x1, b.y1, b.n, vs[c].state, oncoming[c] != 0,
+                         red_blob_px[c], lens_blob_px[c], vs[c].X, vs[c].D, travel_divide});
       }
+    }
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
       if (!cue_row[y]) continue;
       for (int x = 1; x < W - 1; ++x) {
@@ -1254,13 +1336,12 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // (luminance I/area; a lens smaller than a pixel puts I over the pixel's footprint (z/f)²).
     // Which way it faces. Red lamps are at a vehicle's rear only (UN ECE R48's colours: rear
     // position, stop and rear fog lamps red; front position and headlamps white [R]), so a vehicle
-    // whose day photo shows red lamp-like blobs (the cues above) faces away: tail lamps. A blob
-    // share of at least 0.2 % of its pixels (and 3 px) counts, at most 20 % (more is a red body,
-    // not lenses: a car's two rear lamp lenses are a few % of its rear view); both bounds are
-    // photosite choices. Otherwise the direction of travel, right-hand traffic: left of the divide
-    // (travel_divide: the road's centre line, on a straight road at most the ego lane's left edge)
-    // in road coordinates oncoming (head lamps toward the camera), right of it going away (tail
-    // lamps). Parked lit vehicles show position lamps: red when facing away, white
+    // whose day photo shows red lamp-like blobs (the red cue or the red lens cue above) faces
+    // away: tail lamps (shows_rear, scene/vehicle_facing_detail.h: a blob share of at least 0.2 %
+    // of its pixels and 3 px, at most 20 %; photosite choices). Otherwise the direction of travel,
+    // right-hand traffic: left of the divide (travel_divide: the road's centre line, on a straight
+    // road at most the ego lane's left edge) in road coordinates oncoming (head lamps toward the
+    // camera), right of it going away (tail lamps). Parked lit vehicles show position lamps: red when facing away, white
     // otherwise.
     // Without geometry: the image-space pair at 55% of the box height, 15% in from each side.
     for (int c = 1; c <= ncomp; ++c) {

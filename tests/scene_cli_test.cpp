@@ -178,14 +178,7 @@ TEST(SceneSharedData, EveryKittiSample) {
     if (!fs::exists(lab)) continue;
     ImageFileInfo info;
     const ImageF day = linearize(read_image(e.path().string(), &info), info);
-    // PROVENANCE.txt describes an older copy whose labels were 1242x375 for 1224x370 images,
-    // offset (18, 4): crop such labels, take same-size ones as they are.
-    const ImageU16 raw = read_image_u16(lab.string());
-    ImageU16 crop(day.width(), day.height(), 1);
-    const int ox = raw.width() == day.width() ? 0 : 18, oy = raw.height() == day.height() ? 0 : 4;
-    for (int y = 0; y < day.height(); ++y)
-      for (int x = 0; x < day.width(); ++x)
-        crop.at(x, y) = raw.at(std::min(raw.width() - 1, x + ox), std::min(raw.height() - 1, y + oy));
+    const ImageU16 crop = test::kitti_labels_in_frame(read_image_u16(lab.string()), day.width(), day.height());
     check_scene(e.path().filename().string(), day, decode_labels(crop, LabelFormat::Auto, lab.string()));
     ++runs;
   }

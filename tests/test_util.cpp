@@ -81,6 +81,15 @@ double differing_sensor_samples_bound(const std::map<std::string, photosite::Ima
   return expected + 5 * std::sqrt(expected) + 1;
 }
 
+ImageU16 kitti_labels_in_frame(const ImageU16& raw, int width, int height) {
+  ImageU16 crop(width, height, 1);
+  const int ox = raw.width() == width ? 0 : 18, oy = raw.height() == height ? 0 : 4;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      crop.at(x, y) = raw.at(std::min(raw.width() - 1, x + ox), std::min(raw.height() - 1, y + oy));
+  return crop;
+}
+
 std::filesystem::path shared_dir() {
   std::filesystem::path p = PHOTOSITE_SHARED_DIR;
   std::error_code ec;

@@ -44,6 +44,11 @@ double differing_sensor_samples_bound(const std::map<std::string, photosite::Ima
 // ../shared beside the checkout, or empty when absent.
 std::filesystem::path shared_dir();
 
+// A shared KITTI label image in its day image's frame (width x height): PROVENANCE.txt describes an
+// older copy whose labels were 1242x375 for 1224x370 images, offset (18, 4): such labels are
+// cropped, same-size ones taken as they are.
+photosite::ImageU16 kitti_labels_in_frame(const photosite::ImageU16& raw, int width, int height);
+
 }  // namespace photosite::test
 
 // Skips the current test with a loud message when ../shared/<sub> is absent.
