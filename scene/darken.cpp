@@ -686,6 +686,24 @@ void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, co
 }
 }  // namespace
 
+double sun_blue_contrast(const ScenePreset& p) {
+  // The shade is lit by the sky alone (luminance E_sky), the sunlit level by the sun and the sky,
+  // (g − 1)·E_sky + E_sky at a step g; each light's box bands per unit luminance from its CCT
+  // (Planck's law through the camera-independent box basis). The sunlit level's B/R moves toward
+  // the sun's as g grows, so the contrast is smallest at the smallest step that splits, ratio_min.
+  const auto& M = spectrum::linear_srgb_to_box();
+  auto box = [&](double cct, double* b) {
+    const auto c = spectrum::blackbody_rgb(cct, 1.0);
+    for (int k = 0; k < 3; ++k) b[k] = M[k][0] * c[0] + M[k][1] * c[1] + M[k][2] * c[2];
+  };
+  double sun[3], sky[3];
+  box(p.sun_cct_K, sun);
+  box(p.shade_sky_cct_K, sky);
+  const double g = std::max(1.0, p.sun_shade_ratio_min);
+  const double lit_r = (g - 1) * sun[0] + sky[0], lit_b = (g - 1) * sun[2] + sky[2];
+  return (sky[2] / sky[0]) / (lit_b / lit_r);
+}
+
 SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px) {
   SunShadeSplit out;
   out.ratio.fill(1.0);
@@ -705,6 +723,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   if (ns == 0) return out;
   const BoxCoef coef = box_coef();
   const size_t nb = g.nb();
+  const double q_min = sun_blue_contrast(p);
   // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
   // level is a mean, and the opening's square spans several blocks). One block row per task.
   std::vector<double> ysum(ns * nb, 0.0), ycnt(ns * nb, 0.0);
@@ -850,9 +869,11 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
         for (int k = 0; k < 3; ++k) out.shade_tint[id][k] = (br[1][k] / y_sun) / (br[0][k] / y_shade);
       }
       // A shadow cast by the sun has a bluer shade: the split is taken only when the shade's B/R
-      // exceeds the sunlit level's by at least 10 % (photosite choice). Two levels of one colour
-      // are a step of material or orientation, or an overcast sky's shading, not the sun's.
-      chroma[s] = coloured && q_shade > 1.1 * q_sun ? std::sqrt(q_shade * q_sun) : 0;
+      // exceeds the sunlit level's by at least q_min (sun_blue_contrast: direct sun against the
+      // sky's light at its reddest, at a step of ratio_min). Levels closer in colour are a step of
+      // material or orientation, or an overcast sky's shading (under a car, under eaves), not
+      // the sun's.
+      chroma[s] = coloured && q_shade > q_min * q_sun ? std::sqrt(q_shade * q_sun) : 0;
       if (chroma[s] == 0) {
         out.shade_tint[id] = {1.0, 1.0, 1.0};
         continue;

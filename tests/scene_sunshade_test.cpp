@@ -59,8 +59,8 @@ ScenePreset off(ScenePreset p) {
   p.sun_shade_ratio_max = 1;
   return p;
 }
-// The bundled presets ship the split off (speed; docs/realism.md): these tests turn it on at the
-// sources' bound, g = 10 (100,000 lx in the open against 10,000 lx in a tree's shade, CIBSE).
+// These tests set the split on at the sources' bound, g = 10 (100,000 lx in the open against
+// 10,000 lx in a tree's shade, CIBSE), as the bundled presets ship it.
 ScenePreset on(ScenePreset p) {
   p.sun_shade_ratio_max = 10;
   return p;
@@ -208,6 +208,16 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   unchanged(road_scene(false), "all in the shade");
   unchanged(road_scene(true, int(Label::Car)), "a car in the sun");
   unchanged(road_scene(true, int(Label::Road), kSun, false), "a grey step (no bluer shade: not the sun's)");
+  {
+    // A step whose shade is bluer by a fifth only (B ×1.2 in the shade): less than the sun against
+    // the reddest sky's light makes at a step of ratio_min (sun_blue_contrast: 1.32 with the
+    // bundled 5000 K and 7000 K), as an overcast frame's darker ground under a car shows.
+    Scene s = road_scene(true, int(Label::Road), kSun, false);
+    for (int y = 0; y < kStepY; ++y)
+      for (int x = 0; x < kW; ++x) s.day.at(x, y, 2) *= 1.2f;
+    ASSERT_GT(sun_blue_contrast(p), 1.2);
+    unchanged(s, "a shade bluer by 1.2");
+  }
   unchanged(road_scene(true, int(Label::Sky)), "sky");
   {
     // A sidewalk of 8 x 8 px with its own step, in a car: below two squares (2·7² = 98 px > 64).
