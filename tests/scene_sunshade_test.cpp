@@ -240,6 +240,30 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   EXPECT_TRUE(sun_shade_split(none, no_ids, p).sunlit.empty());
 }
 
+// Sun narrower than the opening's square, away from the opened levels' edge: a sunlit strip 3 px
+// high (the 7 px square takes it out of the opened levels) in the shade, 30 rows above the step.
+// Every pixel of a split class is placed by its own light, so the strip is sunlit and divided by g
+// as the sunlit side is; placed by its blocks' side it would stay in the shade, three times too
+// bright at night.
+TEST(SunShade, SunNarrowerThanTheSquareIsStillFound) {
+  const ScenePreset p = on(load_scene_preset("night-urban"));
+  Scene s = road_scene(true);
+  constexpr int kStrip0 = 30, kStrip1 = 33;
+  for (int y = kStrip0; y < kStrip1; ++y)
+    for (int x = 0; x < kW; ++x)
+      for (int k = 0; k < 3; ++k)
+        s.day.at(x, y, k) = static_cast<float>(0.1 * s.rho[static_cast<size_t>(y) * kW + x] * kSun * kSunTint[k]);
+  const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+  ASSERT_GT(split.ratio[int(Label::Road)], 1.0);
+  int strip = 0, around = 0;
+  for (int x = 0; x < kW; ++x) {
+    for (int y = kStrip0; y < kStrip1; ++y) strip += split.sunlit[static_cast<size_t>(y) * kW + x];
+    around += split.sunlit[static_cast<size_t>(kStrip0 - 2) * kW + x] + split.sunlit[static_cast<size_t>(kStrip1 + 1) * kW + x];
+  }
+  EXPECT_EQ(strip, 3 * kW);  // each strip pixel: brighter and redder than the levels' midpoints
+  EXPECT_EQ(around, 0);      // the shade rows beside it stay shade
+}
+
 // The split's vector paths (the own-light placement and the 3 x 3 majority with AVX2) and its
 // scalar loops give the same mask, sums and ratio: a textured frame 512 px wide (2 px blocks) with
 // a diagonal sun/shade edge, so that edge blocks hold pixels on both sides, placed by their own
