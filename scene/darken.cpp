@@ -618,13 +618,14 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
 // the means of the two sides). A class is split only when each level covers at least one square,
 // their ratio is at least sun_shade_ratio_min (a smaller step is as likely a change of material
 // or of orientation as a shadow; photosite choice), and the shade is bluer than the sunlit level
-// (B/R at least 10 % higher: the sky against the sun; two levels of one colour are a material, an
-// orientation or an overcast sky's shading). In the blocks at the edge between the levels,
-// each pixel is placed by its own light: by its luminance against the levels' geometric mean and
-// by its colour, since the shade is lit by the blue sky alone and the sunlit level mostly by the
-// far redder sun, while a white marking takes the colour of the light it lies under; then by the
-// majority of its 3 x 3 neighbours. So shadow edges are placed to the pixel, not on the block
-// grid, and a marking in the shade at the edge stays in the shade. The shade level also loses the
+// by at least what the sun against the sky's light makes (sun_blue_contrast; levels closer in
+// colour are a material, an orientation or an overcast sky's shading). Then each pixel of the
+// class is placed by its own light: by its luminance against the levels' geometric mean and by its
+// colour, since the shade is lit by the blue sky alone and the sunlit level mostly by the far
+// redder sun, while a white marking takes the colour of the light it lies under (where the two
+// disagree, its block's side); then by the majority of its 3 x 3 neighbours. So shadow edges are
+// placed to the pixel, not on the block grid, a marking in the shade stays in the shade, and sun
+// or shade narrower than the opening's square (a wedge's tip, a pole's shadow) is still found. The shade level also loses the
 // sky's blue cast: per band, the factor that gives it the sunlit level's colour at its own
 // luminance (von Kries; the day camera's white balance made the sunlit level neutral).
 // What it does not model: penumbrae and gradual shading (one ratio per class, two levels), surfaces
@@ -686,6 +687,24 @@ void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, co
 }
 }  // namespace
 
+double sun_blue_contrast(const ScenePreset& p) {
+  // The shade is lit by the sky alone (luminance E_sky), the sunlit level by the sun and the sky,
+  // (g − 1)·E_sky + E_sky at a step g; each light's box bands per unit luminance from its CCT
+  // (Planck's law through the camera-independent box basis). The sunlit level's B/R moves toward
+  // the sun's as g grows, so the contrast is smallest at the smallest step that splits, ratio_min.
+  const auto& M = spectrum::linear_srgb_to_box();
+  auto box = [&](double cct, double* b) {
+    const auto c = spectrum::blackbody_rgb(cct, 1.0);
+    for (int k = 0; k < 3; ++k) b[k] = M[k][0] * c[0] + M[k][1] * c[1] + M[k][2] * c[2];
+  };
+  double sun[3], sky[3];
+  box(p.sun_cct_K, sun);
+  box(p.shade_sky_cct_K, sky);
+  const double g = std::max(1.0, p.sun_shade_ratio_min);
+  const double lit_r = (g - 1) * sun[0] + sky[0], lit_b = (g - 1) * sun[2] + sky[2];
+  return (sky[2] / sky[0]) / (lit_b / lit_r);
+}
+
 SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px) {
   SunShadeSplit out;
   out.ratio.fill(1.0);
@@ -705,6 +724,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   if (ns == 0) return out;
   const BoxCoef coef = box_coef();
   const size_t nb = g.nb();
+  const double q_min = sun_blue_contrast(p);
   // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
   // level is a mean, and the opening's square spans several blocks). One block row per task.
   std::vector<double> ysum(ns * nb, 0.0), ycnt(ns * nb, 0.0);
@@ -733,7 +753,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       }
   }
   // Per class: the opened log level per block, its split, and g.
-  std::vector<std::vector<uint8_t>> side(ns), edge(ns);
+  std::vector<std::vector<uint8_t>> side(ns);
   std::vector<double> chroma(ns, 0.0), lum_mid(ns, 0.0);
   bool any = false;
 #pragma omp parallel for schedule(dynamic) reduction(|| : any)
@@ -850,9 +870,11 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
         for (int k = 0; k < 3; ++k) out.shade_tint[id][k] = (br[1][k] / y_sun) / (br[0][k] / y_shade);
       }
       // A shadow cast by the sun has a bluer shade: the split is taken only when the shade's B/R
-      // exceeds the sunlit level's by at least 10 % (photosite choice). Two levels of one colour
-      // are a step of material or orientation, or an overcast sky's shading, not the sun's.
-      chroma[s] = coloured && q_shade > 1.1 * q_sun ? std::sqrt(q_shade * q_sun) : 0;
+      // exceeds the sunlit level's by at least q_min (sun_blue_contrast: direct sun against the
+      // sky's light at its reddest, at a step of ratio_min). Levels closer in colour are a step of
+      // material or orientation, or an overcast sky's shading (under a car, under eaves), not
+      // the sun's.
+      chroma[s] = coloured && q_shade > q_min * q_sun ? std::sqrt(q_shade * q_sun) : 0;
       if (chroma[s] == 0) {
         out.shade_tint[id] = {1.0, 1.0, 1.0};
         continue;
@@ -860,13 +882,12 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       lum_mid[s] = std::sqrt((sum[1] / cnt[1]) * (sum[0] / cnt[0]));
       out.ratio[id] = std::min(ratio, p.sun_shade_ratio_max);
       side[s] = std::move(sd);
-      edge[s] = std::move(ed);
       any = true;
     }
   }
   if (!any) return out;
-  // Per pixel of a split class: its block's side, or in an edge block the pixel placed by its own
-  // light (Level::make below), then in edge blocks a 3 x 3 majority; the sums of Y over the sunlit
+  // Per pixel of a split class: placed by its own light, its block's side where luminance and
+  // colour disagree (make_level below), then a 3 x 3 majority; the sums of Y over the sunlit
   // pixels per row, then over rows in order (the same whatever the thread count). One pass over the
   // rows in bands of 32 (schedule(dynamic, 32): the split classes' pixels are not spread evenly
   // over the frame). Each thread keeps the placed levels of the last three rows it made in a ring,
@@ -874,8 +895,8 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   // intermediate is written.
   out.sunlit.assign(static_cast<size_t>(W) * H, 0);
   std::vector<double> row_sum(static_cast<size_t>(H) * kLabelCount, 0.0);
-  // A row's levels (1: sunlit) and the stretches [x0, x1) of pixels placed by their own light (in
-  // an edge block of their class).
+  // A row's levels (1: sunlit) and the stretches [x0, x1) of pixels placed by their own light (the
+  // runs of a split class).
   struct Level {
     int y = -1;
     std::vector<uint8_t> lv;
@@ -894,10 +915,14 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       const int s = id < kLabelCount ? slot[id] : -1;
       if (s < 0 || side[s].empty()) { x = e; continue; }
       const uint8_t* sd = side[s].data();
-      const uint8_t* ed = edge[s].data();
-      // Per block of the run: its side; an edge block's pixels are also noted as placed by their
-      // own light, consecutive ones as one stretch.
-      const size_t first_own = L.own.size();
+      // Per block of the run its side (the opened levels' split), then each pixel of the run by its
+      // own light (own_light_block): sunlit when brighter than the two levels' geometric mean and
+      // of the sun's colour (B/R below the levels' geometric mean); shade when darker and of the
+      // shade's colour. A pixel whose luminance and colour disagree (a white marking in the shade
+      // is bright but sky-blue; a dark material in the sun is dark but sun-coloured) keeps its
+      // block's side. Every pixel, not only those near the opened levels' edge: the opening takes
+      // out what is narrower than its square, so a sunlit wedge's tip, a thin shadow across a
+      // sunlit road (a pole's, a trunk's) or a sliver of sun would otherwise take its blocks' side.
       for (int bx = x / g.B, xb = x; xb < e; ++bx) {
         const int xe = std::min(e, (bx + 1) * g.B);
         const size_t b = static_cast<size_t>(by) * g.nbx + bx;
@@ -905,21 +930,10 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
           if (xe - xb == 8) std::memcpy(lv + xb, "\1\1\1\1\1\1\1\1", 8);
           else std::memset(lv + xb, 1, xe - xb);
         }
-        if (ed[b]) {
-          if (L.own.size() > first_own && L.own.back().second == xb) L.own.back().second = xe;
-          else L.own.emplace_back(xb, xe);
-        }
         xb = xe;
       }
-      // Each pixel of those stretches by its own light (own_light_block): sunlit when brighter
-      // than the two levels' geometric mean and of the sun's colour (B/R below the levels'
-      // geometric mean); shade when darker and of the shade's colour. A pixel whose luminance and
-      // colour disagree (a white marking in the shade is bright but sky-blue; a dark material in
-      // the sun is dark but sun-coloured) keeps its block's level.
-      for (size_t k = first_own; k < L.own.size(); ++k) {
-        const auto [x0, x1] = L.own[k];
-        own_light_block(day.row(y) + 3 * x0, x1 - x0, coef, lum_mid[s], chroma[s], lv + x0);
-      }
+      own_light_block(day.row(y) + 3 * x, e - x, coef, lum_mid[s], chroma[s], lv + x);
+      L.own.emplace_back(x, e);
       x = e;
     }
   };

@@ -66,6 +66,14 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "≤ reflectance.sun_shade_ratio_max"),
       num("reflectance.sun_shade_window_fraction", PHOTOSITE_AT(P, sun_shade_window_fraction), "fraction", 1e-3,
           0.5, "the sun/shade opening's square, of the image width (wider than a lane marking)", "photosite choice"),
+      num("reflectance.sun_cct_K", PHOTOSITE_AT(P, sun_cct_K), "K", 1000, 20000,
+          "direct sunlight's CCT (the sunlit level's colour with the sky's)",
+          "[S] noon direct sunlight about 5000-5500 K (photography and lighting references)"),
+      num("reflectance.shade_sky_cct_K", PHOTOSITE_AT(P, shade_sky_cct_K), "K", 1000, 100000,
+          "the CCT of the sky's light in the shade, at its reddest: a class whose shade is not bluer than this "
+          "against the sun (at a step of sun_shade_ratio_min) is not split",
+          "[S] thin cloud or haze 6500-7000 K, clear blue sky 12,000-18,000 K (same references)",
+          "> reflectance.sun_cct_K"),
       table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
       num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
       num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
@@ -273,6 +281,8 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
     err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
   if (p.sun_shade_ratio_min > p.sun_shade_ratio_max && p.sun_shade_ratio_max > 1)
     err("reflectance.sun_shade_ratio_min", "is above sun_shade_ratio_max (no class could split)");
+  if (p.shade_sky_cct_K <= p.sun_cct_K)
+    err("reflectance.shade_sky_cct_K", "is not above sun_cct_K (the shade would not be bluer than the sun)");
 }
 }  // namespace
 

@@ -35,6 +35,10 @@ struct SunShadeSplit {
   std::array<std::array<double, 3>, kLabelCount> shade_tint{};
   int block_px = 0, opening_radius_blocks = 0;  // the block grid's edge, the opening's radius (blocks)
 };
+// The smallest ratio of the shade's B/R (box bands) to the sunlit level's that the sun against the
+// sky makes at a step of sun_shade_ratio_min (reflectance.sun_cct_K, shade_sky_cct_K): a class
+// whose levels differ less in colour is not split.
+double sun_blue_contrast(const ScenePreset& p);
 // `class_px`: each class's pixel count in the frame (kLabelCount entries).
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                               const double* class_px);

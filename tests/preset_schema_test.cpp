@@ -126,6 +126,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 #define PHOTOSITE_SCENE_FIELDS(X) \
   X(rho_sign) X(rho_construction) X(rho_human) X(rho_nature) X(rho_vehicle) X(rho_sky) X(rho_road) \
   X(rho_diffuse_max) X(rho_glint_max) X(sun_shade_ratio_max) X(sun_shade_ratio_min) X(sun_shade_window_fraction) \
+  X(sun_cct_K) X(shade_sky_cct_K) \
   X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
   X(street_road_luminance_cd_m2) X(street_cct_K) \
   X(lamp_mount_height_m) X(lamp_spacing_ratio) X(lamp_setback_m) X(lamp_cutoff_deg) X(lamp_falloff_deg) \
@@ -154,8 +155,9 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
-// street_lamps.interp_tolerance). Values changed since, by hand with the commit that changed them:
-// reflectance.nature 0.2 -> 0.08 (the visible reflectance of vegetation, NP §4).
+// street_lamps.interp_tolerance; reflectance.sun_cct_K, shade_sky_cct_K). Values changed since, by
+// hand with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
+// vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))
@@ -246,16 +248,19 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
                 .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
                       ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
             std::string::npos);
-  {  // the split on (the bundled presets ship it off, max 1) with its lower bound above its upper
+  {  // the split's lower bound above its upper
     std::string bad = urban;
-    const std::string on_max = "sun_shade_ratio_max = 1 ", min20 = "sun_shade_ratio_min = 2 ";
-    bad.replace(bad.find(on_max), on_max.size(), "sun_shade_ratio_max = 10 ");
+    const std::string min20 = "sun_shade_ratio_min = 2 ";
     bad.replace(bad.find(min20), min20.size(), "sun_shade_ratio_min = 20 ");
     EXPECT_NE(error_of([&] { scene::parse_scene_preset(bad, "s.toml"); })
                   .find("s.toml:" + line_of("sun_shade_ratio_min") +
                         ": reflectance.sun_shade_ratio_min: is above sun_shade_ratio_max"),
               std::string::npos);
   }
+  EXPECT_NE(error("shade_sky_cct_K = 7000", "shade_sky_cct_K = 4000")
+                .find("s.toml:" + line_of("shade_sky_cct_K") +
+                      ": reflectance.shade_sky_cct_K: is not above sun_cct_K"),
+            std::string::npos);
   EXPECT_NE(error("[retroreflection]", "[retro]").find(": retro: unknown key"), std::string::npos);
   const std::string missing = error("sign_RA = 180", "");
   EXPECT_NE(missing.find(": retroreflection.sign_RA: required key is missing"), std::string::npos) << missing;

@@ -59,8 +59,8 @@ ScenePreset off(ScenePreset p) {
   p.sun_shade_ratio_max = 1;
   return p;
 }
-// The bundled presets ship the split off (speed; docs/realism.md): these tests turn it on at the
-// sources' bound, g = 10 (100,000 lx in the open against 10,000 lx in a tree's shade, CIBSE).
+// These tests set the split on at the sources' bound, g = 10 (100,000 lx in the open against
+// 10,000 lx in a tree's shade, CIBSE), as the bundled presets ship it.
 ScenePreset on(ScenePreset p) {
   p.sun_shade_ratio_max = 10;
   return p;
@@ -208,6 +208,16 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   unchanged(road_scene(false), "all in the shade");
   unchanged(road_scene(true, int(Label::Car)), "a car in the sun");
   unchanged(road_scene(true, int(Label::Road), kSun, false), "a grey step (no bluer shade: not the sun's)");
+  {
+    // A step whose shade is bluer by a fifth only (B ×1.2 in the shade): less than the sun against
+    // the reddest sky's light makes at a step of ratio_min (sun_blue_contrast: 1.32 with the
+    // bundled 5000 K and 7000 K), as an overcast frame's darker ground under a car shows.
+    Scene s = road_scene(true, int(Label::Road), kSun, false);
+    for (int y = 0; y < kStepY; ++y)
+      for (int x = 0; x < kW; ++x) s.day.at(x, y, 2) *= 1.2f;
+    ASSERT_GT(sun_blue_contrast(p), 1.2);
+    unchanged(s, "a shade bluer by 1.2");
+  }
   unchanged(road_scene(true, int(Label::Sky)), "sky");
   {
     // A sidewalk of 8 x 8 px with its own step, in a car: below two squares (2·7² = 98 px > 64).
@@ -228,6 +238,30 @@ TEST(SunShade, LeavesShadowOnlyTinyEmptyAndSpecularClassesAsTheyAre) {
   const ImageF none(0, 0, 3, 0.f);
   const ImageU16 no_ids(0, 0, 1, 0);
   EXPECT_TRUE(sun_shade_split(none, no_ids, p).sunlit.empty());
+}
+
+// Sun narrower than the opening's square, away from the opened levels' edge: a sunlit strip 3 px
+// high (the 7 px square takes it out of the opened levels) in the shade, 30 rows above the step.
+// Every pixel of a split class is placed by its own light, so the strip is sunlit and divided by g
+// as the sunlit side is; placed by its blocks' side it would stay in the shade, three times too
+// bright at night.
+TEST(SunShade, SunNarrowerThanTheSquareIsStillFound) {
+  const ScenePreset p = on(load_scene_preset("night-urban"));
+  Scene s = road_scene(true);
+  constexpr int kStrip0 = 30, kStrip1 = 33;
+  for (int y = kStrip0; y < kStrip1; ++y)
+    for (int x = 0; x < kW; ++x)
+      for (int k = 0; k < 3; ++k)
+        s.day.at(x, y, k) = static_cast<float>(0.1 * s.rho[static_cast<size_t>(y) * kW + x] * kSun * kSunTint[k]);
+  const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+  ASSERT_GT(split.ratio[int(Label::Road)], 1.0);
+  int strip = 0, around = 0;
+  for (int x = 0; x < kW; ++x) {
+    for (int y = kStrip0; y < kStrip1; ++y) strip += split.sunlit[static_cast<size_t>(y) * kW + x];
+    around += split.sunlit[static_cast<size_t>(kStrip0 - 2) * kW + x] + split.sunlit[static_cast<size_t>(kStrip1 + 1) * kW + x];
+  }
+  EXPECT_EQ(strip, 3 * kW);  // each strip pixel: brighter and redder than the levels' midpoints
+  EXPECT_EQ(around, 0);      // the shade rows beside it stay shade
 }
 
 // The split's vector paths (the own-light placement and the 3 x 3 majority with AVX2) and its

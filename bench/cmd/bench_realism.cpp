@@ -168,9 +168,9 @@ void run(const Opts& o) {
       {"photosite no glare", {}, 0.99, false, false},
       // A darker night: quarter moon and a dark sky (0.01 lx, night-photometry.md §3).
       {"photosite ambient 0.01 lx", [](scene::ScenePreset& sp) { set_ambient_lux(sp, 0.01); }, 0.99},
-      // The day's sunlight out of the texture (sun_shade_split), off in the bundled presets for
-      // its cost: on at the sources' bound g = 10 (docs/night.md §1).
-      {"photosite sun-shade split", [](scene::ScenePreset& sp) { sp.sun_shade_ratio_max = 10; }, 0.99},
+      // The day's sunlight left in the texture (sun_shade_split off; the bundled presets take it
+      // out of the classes whose shade is bluer than the sun's, docs/night.md §1).
+      {"photosite no sun-shade split", [](scene::ScenePreset& sp) { sp.sun_shade_ratio_max = 1; }, 0.99},
   };
   // The camera-ISP previews (`night --preview-isp camera`): its defaults, without the JPEG, with
   // twice the noise-reduction strength, and with in-camera sharpening.

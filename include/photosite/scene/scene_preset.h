@@ -26,9 +26,12 @@ struct ScenePreset {
   // sun_shade_split): within a class, a region lit by the sun is told from the class's shade by a
   // class-masked smoothing of log luminance over a window of window_fraction of the image width,
   // and divided by the measured sun/shade ratio, held at most ratio_max; a class whose two levels
-  // differ by less than ratio_min is left as it is. ratio_max = 1 turns it off, as the bundled presets
-  // ship it (its cost: docs/realism.md); 10 is the sources' bound (presets/scenes/night-urban.toml).
-  double sun_shade_ratio_min = 2, sun_shade_ratio_max = 1, sun_shade_window_fraction = 0.03;
+  // differ by less than ratio_min is left as it is, and so is one whose shade is not bluer than its
+  // sunlit level by at least the colour contrast of direct sun (sun_cct_K) against the sky's light
+  // (shade_sky_cct_K) at a step of ratio_min. ratio_max = 1 turns it off; 10 is the sources' bound
+  // (presets/scenes/night-urban.toml).
+  double sun_shade_ratio_min = 2, sun_shade_ratio_max = 10, sun_shade_window_fraction = 0.03;
+  double sun_cct_K = 5000, shade_sky_cct_K = 7000;
   // [ambient] illuminance on every surface (lx) and the sky's own luminance (cd/m²).
   double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
   double sky_luminance_cd_m2 = 0.02;
