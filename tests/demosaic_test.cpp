@@ -557,6 +557,37 @@ TEST(DemosaicCli, PhotositeRawMosaicGivesExposesRgb) {
   EXPECT_EQ(read_exr(dir.file("y.exr")).attributes.at("photosite/cfa_source"), "input header and --cfa");
 }
 
+// A clear-pattern camera's raw (onsemi AR0132AT, RCCC) with clipped lamp heads (the night chart at
+// 40 ms): the raw's header carries where it clipped (photosite/clipped_at_dn, clip_neutral_dn),
+// and `demosaic` without --white-level makes the clipped pixels neutral as expose made its own
+// R,G,B: the same bits. Without the header's clip level (before), those pixels stayed red.
+TEST(DemosaicCli, ClearPatternRawUsesItsOwnClipLevel) {
+  test::TempDir dir;
+  const std::string chart = dir.file("chart.exr"), raw = dir.file("raw.exr"), rgb = dir.file("rgb.exr");
+  auto r = test::run_cli("chart --width 96 --height 64 --out '" + chart + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string expose = "expose --preset onsemi-ar0132at-rccc --backend cpu --seed 5 --exposure-s 0.04 --device-store '" +
+                             dir.file("store") + "' --radiance '" + chart + "'";
+  for (const auto& [layers, out] : {std::pair{"raw", raw}, std::pair{"sensor", rgb}}) {
+    r = test::run_cli(expose + " --layers " + layers + " --out '" + out + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  const ExrContents raw_exr = read_exr(raw);
+  const double at = std::stod(raw_exr.attributes.at("photosite/clipped_at_dn"));
+  size_t clipped = 0;
+  for (float v : raw_exr.channels.at("raw.Y").vec()) clipped += v >= at;
+  ASSERT_GT(clipped, 0u) << "the chart's lamps must clip for this test";
+  r = test::run_cli("demosaic --backend cpu --in '" + raw + "' --out '" + dir.file("d.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents want = read_exr(rgb), got = read_exr(dir.file("d.exr"));
+  EXPECT_EQ(got.attributes.at("photosite/white_level_source"), "input header (photosite/clipped_at_dn)");
+  EXPECT_EQ(std::stod(got.attributes.at("photosite/white_level")), at);
+  for (const char* c : {"R", "G", "B"}) {
+    const ImageF &g = got.channels.at(c), &w = want.channels.at(c);
+    for (size_t i = 0; i < w.size(); ++i) ASSERT_EQ(g[i], w[i]) << c << " sample " << i;
+  }
+}
+
 // --white-level: an 8-bit RCCC mosaic with a disc at code 255 comes out neutral at 255/255/3 where
 // the disc is, with the flag only (without it the clip is unknown and the disc stays red: G = B = 0).
 TEST(DemosaicCli, WhiteLevelMakesClippedClearPixelsNeutral) {
