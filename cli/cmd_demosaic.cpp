@@ -10,8 +10,9 @@
 // expose's R,G,B), and a PNG out is DN / (2^bit_depth - 1).
 // --white-level V (RCCB and RCCC only): samples stored at V or above are clipped, and the pixels
 // whose 3x3 window holds one come out neutral at (V - black level) / 3 on the output's scale
-// (neutralize_clipped_highlights, sensor/demosaic.h, has the rule). A file does not say where
-// its sensor clipped, so without the flag nothing is done.
+// (neutralize_clipped_highlights, sensor/demosaic.h, has the rule). Without the flag, a photosite
+// raw mosaic's header says where it clipped (photosite/clipped_at_dn, clip_neutral_dn: what
+// expose's own R,G,B used) and that is applied; other files do not say, and nothing is done.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -48,6 +49,9 @@ struct Mosaic {
   // integer code (clipped: code >= V, i.e. above V - 1/2).
   double stored_offset = 0, stored_scale = 1;
   bool integer_codes = false;
+  // A photosite raw's own clip level (header photosite/clipped_at_dn, clip_neutral_dn: raw DN, and
+  // DN above black), the default where --white-level is not given.
+  std::optional<std::pair<double, double>> header_clip;
   std::map<std::string, ExrAttribute> attributes;
 };
 
@@ -99,6 +103,14 @@ Mosaic read_exr_mosaic(const DemosaicCmd& c) {
     m.stored_offset = b;
     m.image.set_unit("DN above black level");
     m.attributes["photosite/black_level_dn"] = black;  // subtracted: R,G,B are DN above it
+    if (has("photosite/clipped_at_dn") && has("photosite/clip_neutral_dn")) {
+      const double at = header_number(e, c.in, "photosite/clipped_at_dn");
+      const double neutral = header_number(e, c.in, "photosite/clip_neutral_dn");
+      if (!(at > black) || !(neutral > 0))
+        fail_at(c.in, fmt::format("photosite/clipped_at_dn {} and clip_neutral_dn {} do not describe a clip above "
+                                  "the black level {}", at, neutral, black));
+      m.header_clip = {{at, neutral}};
+    }
   }
   if (counts && !(dn && bit_depth)) {
     m.png_possible = false;  // counts of no known full scale
@@ -162,6 +174,14 @@ void run(const DemosaicCmd& c) {
   if (c.white_level) {
     neutralize_at_white_level(rgb, m.image, m.cfa, *c.white_level, m.stored_offset, m.stored_scale, m.integer_codes);
     m.attributes["photosite/white_level"] = *c.white_level;
+    m.attributes["photosite/white_level_source"] = std::string("--white-level");
+  } else if (m.header_clip && (m.cfa == CfaPattern::RCCB || m.cfa == CfaPattern::RCCC)) {
+    // As expose made its own R,G,B (neutralize_clipped_highlights, sensor/pipeline.cpp), on the
+    // mosaic with the black level taken off.
+    const auto [at, neutral] = *m.header_clip;
+    neutralize_clipped_highlights(rgb, m.image, m.cfa, static_cast<float>(at - m.stored_offset), static_cast<float>(neutral));
+    m.attributes["photosite/white_level"] = at;
+    m.attributes["photosite/white_level_source"] = std::string("input header (photosite/clipped_at_dn)");
   }
   if (ext == ".png") {
     if (m.png_scale != 1)
@@ -188,7 +208,8 @@ static Registrar reg("c-demosaic", [](CLI::App& app) {
   sub->add_option("--white-level", cmd->white_level,
                   "RCCB/RCCC: the stored value (integer code; DN with black level for a photosite raw) at which the "
                   "input clipped: pixels whose 3x3 window holds a sample at or above it come out neutral at "
-                  "(V - black level) / 3 (docs/demosaic.md; default: no clip handling)");
+                  "(V - black level) / 3 (docs/demosaic.md; default: a photosite raw's own clip level from its "
+                  "header, else no clip handling)");
   add_overwrite_flag(sub, cmd->overwrite);
   add_backend_option(sub, cmd->backend);
   sub->callback([cmd] { run(*cmd); });

@@ -306,13 +306,15 @@ void init_exr_threads() {
   (void)once;
 }
 
-// An attribute's value as text: strings as they are, numbers as OpenImageIO printed them (%g for
-// floats), vectors and boxes as comma lists; other types by their type name.
+// An attribute's value as text: strings as they are, ints and floats as OpenImageIO printed them
+// (%g for floats), doubles as the shortest text that reads back to the same double (%g's six
+// digits lost a raw's clip level, photosite/clipped_at_dn, and any count above 999,999),
+// vectors and boxes as comma lists; other types by their type name.
 std::string attribute_text(const Imf::Attribute& a) {
   if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&a)) return s->value();
   if (const auto* i = dynamic_cast<const Imf::IntAttribute*>(&a)) return fmt::format("{}", i->value());
   if (const auto* f = dynamic_cast<const Imf::FloatAttribute*>(&a)) return fmt::format("{:g}", f->value());
-  if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&a)) return fmt::format("{:g}", d->value());
+  if (const auto* d = dynamic_cast<const Imf::DoubleAttribute*>(&a)) return fmt::format("{}", d->value());
   return a.typeName();
 }
 

@@ -7,6 +7,7 @@
 
 #include "photosite/error.h"
 #include "photosite/night_chain.h"
+#include "photosite/sensor/pipeline.h"
 
 namespace photosite {
 
@@ -54,6 +55,11 @@ std::map<std::string, ExrAttribute> sensor_attributes(const SensorSetup& r,
                                                       const ResolvedExposure& ex,
                                                       const FixedPatternMaps& fpn) {
   std::map<std::string, ExrAttribute> a = camera_attributes(r.camera);  // cfa, bit_depth, black_level_dn
+  // Where this exposure's raw clips (clip_level, sensor/pipeline.h): a raw DN at or above
+  // clipped_at_dn is clipped, and the clear patterns' R,G,B take clip_neutral_dn (DN above black)
+  // there; `demosaic` reads both from a raw mosaic's header.
+  const ClipLevel clip = clip_level(r.camera, ex);
+  a.insert({{"photosite/clipped_at_dn", clip.clipped_at_dn}, {"photosite/clip_neutral_dn", clip.neutral_dn}});
   a.insert({{"photosite/version", std::string(PHOTOSITE_VERSION)},
             {"photosite/preset", r.camera.name},
             {"photosite/lens", r.lens.name},

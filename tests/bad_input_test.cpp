@@ -322,6 +322,14 @@ std::vector<Row> rows() {
   // --white-level: clip handling exists for the clear patterns only, and above the black level.
   t.push_back({"demosaic_white_level_on_bayer", [](Ctx& c) { write_png(c.in("m.png"), label_ids()); }, "demosaic --in '{in}/m.png' --cfa RGGB --white-level 200 --out '{out}/o.exr'", {"--white-level", "RCCB and RCCC", "m.png is RGGB"}});
   t.push_back({"demosaic_white_level_at_black", [](Ctx& c) { write_png(c.in("m.png"), label_ids()); }, "demosaic --in '{in}/m.png' --cfa RCCB --white-level 0 --out '{out}/o.exr'", {"--white-level 0", "is not above", "m.png's black level (0)"}});
+  // A raw mosaic whose header puts its clip below its black level (an edited or foreign header).
+  t.push_back({"demosaic_header_clip_below_black", [](Ctx& c) {
+                 ImageF m(8, 8, 1, 200.f, unit::dn);
+                 write_exr(c.in("raw.exr"), {{{"raw.Y"}, &m, unit::dn, ExrPixel::Uint}},
+                           {{"photosite/cfa", std::string("RCCC")}, {"photosite/black_level_dn", 168.0},
+                            {"photosite/clipped_at_dn", 100.0}, {"photosite/clip_neutral_dn", 1300.0}});
+               },
+               "demosaic --in '{in}/raw.exr' --out '{out}/o.exr'", {"raw.exr", "photosite/clipped_at_dn 100", "black level 168"}});
   t.push_back({"store_full", {}, kFlat, {"dev_64x32.exr", "write failed"}, "ulimit -f 8; "});
   // ---- flat and chart ---------------------------------------------------------------------
   t.push_back({"flat_zero_width", {}, "flat --preset sony-imx174 " + kSensor + "--photons 1 --wavelength-nm 525 --width 0 --height 32 --out '{out}/o.exr'", {"--width", "too small"}});

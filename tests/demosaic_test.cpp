@@ -507,17 +507,27 @@ TEST(DemosaicCli, RoundTripMatchesTheLibraryAndListsMethods) {
 // level in the header) demosaiced by the command gives expose's own R,G,B for the same method, bit
 // for bit: DN read as counts (before: code / (2^32 - 1), ~1e-7), the header's GRBG (before: the
 // default RGGB) and its black level subtracted. A PNG out is DN / (2^12 - 1).
+// The night chart (`chart`, w x h) exposed by `expose <args>` twice, into dir's raw.exr (--layers
+// raw) and rgb.exr (--layers sensor); false (with a failure) where a command failed.
+static bool expose_chart_raw_and_rgb(const test::TempDir& dir, const std::string& size, const std::string& args) {
+  auto r = test::run_cli("chart " + size + " --out '" + dir.file("chart.exr") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  if (r.exit_code != 0) return false;
+  const std::string expose = "expose " + args + " --backend cpu --seed 5 --device-store '" + dir.file("store") +
+                             "' --radiance '" + dir.file("chart.exr") + "'";
+  for (const char* layers : {"raw", "sensor"}) {
+    r = test::run_cli(expose + " --layers " + layers + " --out '" + dir.file(layers == std::string("raw") ? "raw.exr" : "rgb.exr") + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    if (r.exit_code != 0) return false;
+  }
+  return true;
+}
+
 TEST(DemosaicCli, PhotositeRawMosaicGivesExposesRgb) {
   test::TempDir dir;
-  const std::string chart = dir.file("chart.exr"), raw = dir.file("raw.exr"), rgb = dir.file("rgb.exr");
-  auto r = test::run_cli("chart --width 64 --height 48 --out '" + chart + "'");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  const std::string expose = "expose --preset onsemi-ar0331 --backend cpu --seed 5 --demosaic malvar --device-store '" +
-                             dir.file("store") + "' --radiance '" + chart + "'";
-  for (const auto& [layers, out] : {std::pair{"raw", raw}, std::pair{"sensor", rgb}}) {
-    r = test::run_cli(expose + " --layers " + layers + " --out '" + out + "'");
-    ASSERT_EQ(r.exit_code, 0) << r.output;
-  }
+  const std::string raw = dir.file("raw.exr"), rgb = dir.file("rgb.exr");
+  ASSERT_TRUE(expose_chart_raw_and_rgb(dir, "--width 64 --height 48", "--preset onsemi-ar0331 --demosaic malvar"));
+  test::CliResult r;
   const std::string in = "demosaic --backend cpu --method malvar --in '" + raw + "'";
   r = test::run_cli(in + " --out '" + dir.file("d.exr") + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -555,6 +565,31 @@ TEST(DemosaicCli, PhotositeRawMosaicGivesExposesRgb) {
   r = test::run_cli(in + " --cfa grbg --out '" + dir.file("y.exr") + "'");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(read_exr(dir.file("y.exr")).attributes.at("photosite/cfa_source"), "input header and --cfa");
+}
+
+// A clear-pattern camera's raw (onsemi AR0132AT, RCCC) with clipped lamp heads (the night chart at
+// 40 ms): the raw's header carries where it clipped (photosite/clipped_at_dn, clip_neutral_dn),
+// and `demosaic` without --white-level makes the clipped pixels neutral as expose made its own
+// R,G,B: the same bits. Without the header's clip level (before), those pixels stayed red.
+TEST(DemosaicCli, ClearPatternRawUsesItsOwnClipLevel) {
+  test::TempDir dir;
+  const std::string raw = dir.file("raw.exr"), rgb = dir.file("rgb.exr");
+  ASSERT_TRUE(expose_chart_raw_and_rgb(dir, "--width 96 --height 64", "--preset onsemi-ar0132at-rccc --exposure-s 0.04"));
+  test::CliResult r;
+  const ExrContents raw_exr = read_exr(raw);
+  const double at = std::stod(raw_exr.attributes.at("photosite/clipped_at_dn"));
+  size_t clipped = 0;
+  for (float v : raw_exr.channels.at("raw.Y").vec()) clipped += v >= at;
+  ASSERT_GT(clipped, 0u) << "the chart's lamps must clip for this test";
+  r = test::run_cli("demosaic --backend cpu --in '" + raw + "' --out '" + dir.file("d.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents want = read_exr(rgb), got = read_exr(dir.file("d.exr"));
+  EXPECT_EQ(got.attributes.at("photosite/white_level_source"), "input header (photosite/clipped_at_dn)");
+  EXPECT_EQ(std::stod(got.attributes.at("photosite/white_level")), at);
+  for (const char* c : {"R", "G", "B"}) {
+    const ImageF &g = got.channels.at(c), &w = want.channels.at(c);
+    for (size_t i = 0; i < w.size(); ++i) ASSERT_EQ(g[i], w[i]) << c << " sample " << i;
+  }
 }
 
 // --white-level: an 8-bit RCCC mosaic with a disc at code 255 comes out neutral at 255/255/3 where
