@@ -163,7 +163,7 @@ void run(const DemosaicCmd& c) {
                        " without photosite/bit_depth): write .exr");
   if (c.white_level) {
     const double v = *c.white_level;
-    if (m.cfa != CfaPattern::RCCB && m.cfa != CfaPattern::RCCC)
+    if (!is_clear_pattern(m.cfa))
       fail(fmt::format("--white-level: clip handling is for the clear patterns RCCB and RCCC; {} is {}", c.in,
                        to_string(m.cfa)));
     if (!(v > m.stored_offset) || !std::isfinite(v))
@@ -175,7 +175,7 @@ void run(const DemosaicCmd& c) {
     neutralize_at_white_level(rgb, m.image, m.cfa, *c.white_level, m.stored_offset, m.stored_scale, m.integer_codes);
     m.attributes["photosite/white_level"] = *c.white_level;
     m.attributes["photosite/white_level_source"] = std::string("--white-level");
-  } else if (m.header_clip && (m.cfa == CfaPattern::RCCB || m.cfa == CfaPattern::RCCC)) {
+  } else if (m.header_clip && is_clear_pattern(m.cfa)) {
     // As expose made its own R,G,B (neutralize_clipped_highlights, sensor/pipeline.cpp), on the
     // mosaic with the black level taken off.
     const auto [at, neutral] = *m.header_clip;

@@ -432,7 +432,7 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
   const DemosaicMethod m = parse_demosaic_method(method);
   // white_level: in the array's values (codes for uint8/uint16), as the command's --white-level.
   if (white_level) {
-    if (pattern != CfaPattern::RCCB && pattern != CfaPattern::RCCC)
+    if (!is_clear_pattern(pattern))
       throw Error(fmt::format("white_level: clip handling is for the clear patterns RCCB and RCCC, not {}", to_string(pattern)));
     if (!(*white_level > 0) || !std::isfinite(*white_level))
       throw Error(fmt::format("white_level: {} is not a level above 0", *white_level));

@@ -791,7 +791,6 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     for (int it = 0; it < 100; ++it) {
       // Each side's sums in list order; the other side adds +0.0, which leaves a sum as it is,
       // so the same bits as adding to one side only (branch-free, the sums in registers).
-      double w[2] = {0, 0}, m[2] = {0, 0};
       double w0 = 0, w1 = 0, m0 = 0, m1 = 0;
       for (size_t i = 0; i < list.size(); ++i) {
         const bool k = lvl[i] > t;
@@ -801,12 +800,8 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
         m0 += k ? 0.0 : am;
         m1 += k ? am : 0.0;
       }
-      w[0] = w0;
-      w[1] = w1;
-      m[0] = m0;
-      m[1] = m1;
-      if (w[0] == 0 || w[1] == 0) break;
-      const double nt = 0.5 * (m[0] / w[0] + m[1] / w[1]);
+      if (w0 == 0 || w1 == 0) break;
+      const double nt = 0.5 * (m0 / w0 + m1 / w1);
       if (nt == t) break;
       t = nt;
     }

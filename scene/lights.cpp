@@ -1259,12 +1259,13 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     // A white cue on a vehicle that shows its rear is a lit rear lamp (a stop lamp saturates to
     // white in a day photo): drawn in the tail colour, as the red ones.
     auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
-    auto blob = [&](int x, int y, uint8_t v) {
+    auto blob_in = [](const ImageU8& m, int x, int y, uint8_t v) {
       int n = 0;
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && cue.at(x + dx, y + dy) == v;
+        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && m.at(x + dx, y + dy) == v;
       return n >= 5;
     };
+    auto blob = [&](int x, int y, uint8_t v) { return blob_in(cue, x, y, v); };
     std::vector<int> red_blob_px(ncomp + 1, 0);
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
       if (!cue_row[y]) continue;
@@ -1295,11 +1296,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
       }
       for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
         for (int x = 1; x < W - 1; ++x) {
-          if (!lens.at(x, y)) continue;
-          int n = 0;
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && lens.at(x + dx, y + dy) == 1;
-          if (n >= 5) ++lens_blob_px[comp.at(x, y)];
+          if (lens.at(x, y) && blob_in(lens, x, y, 1)) ++lens_blob_px[comp.at(x, y)];
         }
     }
     // Which way each vehicle faces (with geometry; below).

@@ -48,6 +48,8 @@ bool is_bayer(CfaPattern p) {
          p == CfaPattern::GBRG;
 }
 
+bool is_clear_pattern(CfaPattern p) { return p == CfaPattern::RCCB || p == CfaPattern::RCCC; }
+
 std::vector<FilterColor> cfa_colors(CfaPattern p) {
   std::vector<FilterColor> out;
   for (int c = 0; c < kFilterColorCount; ++c)

@@ -261,7 +261,7 @@ size_t neutralize_at_white_level(ImageF& rgb, const ImageF& mosaic, CfaPattern p
 
 size_t neutralize_clipped_highlights(ImageF& rgb, const ImageF& mosaic, CfaPattern pattern, float clipped_at,
                                      float neutral) {
-  if (pattern != CfaPattern::RCCB && pattern != CfaPattern::RCCC) return 0;
+  if (!is_clear_pattern(pattern)) return 0;
   const int w = mosaic.width(), h = mosaic.height();
   if (mosaic.channels() != 1 || rgb.channels() != 3 || !rgb.same_shape(w, h))
     internal_error("neutralize_clipped_highlights: rgb must be the 3-channel image of the 1-channel mosaic");

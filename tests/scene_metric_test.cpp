@@ -2375,11 +2375,10 @@ TEST(Facades, ShopFrontsOnASeededShareOfGroundFloorUnits) {
 // The bundled KITTI frame (samples/kitti): the façades the fit finds, per building region,
 // printed (no ground truth here); every building pixel gets a façade.
 TEST(Facades, KittiSamplePlanesReported) {
-  const std::string src = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
-  ImageFileInfo info;
-  const ImageF day = read_image(src + "image_2/000000_10.png", &info);
-  const LabelMap lab = read_labels(src + "semantic/000000_10.png", "", day.width(), day.height(), LabelFormat::Auto,
-                                   ResizeLabels::None);
+  const test::KittiSample k = test::bundled_kitti_sample();
+  const ImageF& day = k.day;
+  const ImageFileInfo& info = k.info;
+  const LabelMap& lab = k.labels;
   ScenePreset p = urban();
   p.rig = load_camera_rig("kitti");
   const NightScene n = night_scene(linearize(day, info), lab, p, 1);

@@ -9,11 +9,10 @@
 #include <vector>
 #include <omp.h>
 
-#include "photosite/io.h"
-#include "photosite/scene/labels.h"
 #include "photosite/scene/night.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/texture_detail.h"
+#include "test_util.h"
 
 using namespace photosite;
 using namespace photosite::scene;
@@ -318,12 +317,9 @@ TEST(SunShade, EveryInstructionSetGivesTheSameSplit) {
 // class, docs/night.md). With the split off the patch keeps the day's ratio, and the night road
 // shows it.
 TEST(SunShade, BundledKittiRoadLosesTheDaysSunPatch) {
-  const std::string dir = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
-  ImageFileInfo info;
-  const ImageF raw = read_image(dir + "image_2/000000_10.png", &info);
-  const LabelMap lm = read_labels(dir + "semantic/000000_10.png", "", raw.width(), raw.height(), LabelFormat::Auto,
-                                  ResizeLabels::None);
-  const ImageF day = linearize(raw, info);
+  const test::KittiSample k = test::bundled_kitti_sample();
+  const LabelMap& lm = k.labels;
+  const ImageF day = linearize(k.day, k.info);
   const ScenePreset p = load_scene_preset("night-urban");
   ASSERT_GT(p.sun_shade_ratio_max, 1) << "the bundled preset ships the split on";
   auto mean_y = [&](const ImageF& t, int x0, int x1, int y0, int y1) {

@@ -90,6 +90,15 @@ ImageU16 kitti_labels_in_frame(const ImageU16& raw, int width, int height) {
   return crop;
 }
 
+KittiSample bundled_kitti_sample() {
+  const std::string dir = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  KittiSample k;
+  k.day = read_image(dir + "image_2/000000_10.png", &k.info);
+  k.labels = scene::read_labels(dir + "semantic/000000_10.png", "", k.day.width(), k.day.height(),
+                                scene::LabelFormat::Auto, scene::ResizeLabels::None);
+  return k;
+}
+
 std::filesystem::path shared_dir() {
   std::filesystem::path p = PHOTOSITE_SHARED_DIR;
   std::error_code ec;

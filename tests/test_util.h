@@ -10,6 +10,8 @@
 #include <string>
 
 #include "photosite/image.h"
+#include "photosite/io.h"
+#include "photosite/scene/labels.h"
 
 namespace photosite::test {
 
@@ -48,6 +50,15 @@ std::filesystem::path shared_dir();
 // older copy whose labels were 1242x375 for 1224x370 images, offset (18, 4): such labels are
 // cropped, same-size ones taken as they are.
 photosite::ImageU16 kitti_labels_in_frame(const photosite::ImageU16& raw, int width, int height);
+
+// The bundled KITTI sample (samples/kitti/000000_10, the README's main job): its day image as read
+// (read_image), the file's info, and its labels (labelIds, the image's size).
+struct KittiSample {
+  photosite::ImageF day;
+  photosite::ImageFileInfo info;
+  photosite::scene::LabelMap labels;
+};
+KittiSample bundled_kitti_sample();
 
 }  // namespace photosite::test
 

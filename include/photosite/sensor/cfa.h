@@ -21,6 +21,9 @@ const char* to_string(CfaPattern p);
 CfaPattern parse_cfa(const std::string& name);
 std::vector<CfaPattern> all_cfa_patterns();
 bool is_bayer(CfaPattern p);  // one of the four RGB Bayer phases
+// RCCB or RCCC: clear samples beside coloured ones (the patterns whose clipped highlights are
+// made neutral, neutralize_clipped_highlights; Mono is all clear and has no colour to lose).
+bool is_clear_pattern(CfaPattern p);
 
 // The filter over pixel (x, y). Mono is all clear.
 inline FilterColor cfa_color(CfaPattern p, int x, int y) {
