@@ -48,7 +48,8 @@ double reach_m(double H, const ScenePreset& p) {
 }
 double cos_cut(const ScenePreset& p) { return std::cos(p.lamp_cutoff_deg * M_PI / 180); }
 // The distribution beyond the cut-off as a table over cos γ in [0, cos γ_c] (4096 steps, linear
-// interpolation: relative error below 1e-6, as the function is smooth there), built per preset:
+// interpolation: relative error below 1e-6 at the presets' 5° falloff, as the function is smooth
+// there; (h/φ)²/8 in general, h the step in γ), built per preset:
 // acos and exp per pixel and luminaire were most of the light map's time.
 struct RelTable {
   double cc = 0, step = 0, cutoff = -1, falloff = -1;
@@ -60,8 +61,31 @@ struct RelTable {
   // fetch both by one 64-bit gather per lane, half the loads of a gather from each.
   std::vector<double> fpair;
   float fcc = 0, finv_step = 0;
+  // The same distribution as 16 quartic pieces over [0, cos γ_c] (piece j on [j, j + 1]·h, h =
+  // cos γ_c/16, in s = c/h − j ∈ [0, 1]), their float coefficients pc[k][j] of s^k: 16 floats per
+  // power, one vector register on AVX-512 (two on AVX2), so the vector paths take a piece's
+  // coefficients by a permute instead of gathering table entries from memory, most of the
+  // vertical light's time beyond the cut-off. Interpolated at the Chebyshev nodes of each piece;
+  // used (poly) only where its measured relative error, the float coefficients evaluated in
+  // double at 64 points per piece and at both ends, is within kPolyMaxRelErr (the 4096-step
+  // table's own bound): at the presets' 65° + 5° it is 1.2·10⁻⁷; a falloff steeper than about 3°
+  // takes the table instead. (rel_table builds it; poly_max_rel_err records the measured error.)
+  static constexpr double kPolyMaxRelErr = 1e-6;
+  bool poly = false;
+  double poly_max_rel_err = 0;
+  float fseg = 0;  // 16/cos γ_c rounded to float
+  alignas(64) float pc[5][16] = {};
+  // The piece's value at c in float: u = c·fseg, j = ⌊u⌋ clamped to [0, 15], s = u − j (exact),
+  // Horner from the highest power.
+  float polyf(float c) const {
+    const float u = c * fseg;
+    const int j = std::max(0, std::min(15, static_cast<int>(u)));
+    const float x = u - static_cast<float>(j);
+    return (((pc[4][j] * x + pc[3][j]) * x + pc[2][j]) * x + pc[1][j]) * x + pc[0][j];
+  }
   float atf(float c) const {
     if (!(c < fcc)) return 1.f;
+    if (poly) return polyf(c);
     const float u = c * finv_step;
     const int i = std::max(0, std::min(4095, static_cast<int>(u)));
     return fv[i] + fdv[i] * (u - static_cast<float>(i));
@@ -74,6 +98,43 @@ struct RelTable {
     return v[i] + (v[i + 1] - v[i]) * (u - i);
   }
 };
+// RelTable's quartic pieces (see there) and whether they are used.
+void fit_rel_pieces(RelTable& t, const ScenePreset& p) {
+  const double h = t.cc / 16;
+  t.fseg = static_cast<float>(16 / t.cc);
+  auto f = [&](double c) { return lamp_relative_intensity(std::acos(std::min(1.0, std::max(0.0, c))), p); };
+  double worst = 0;
+  for (int j = 0; j < 16; ++j) {
+    // Interpolation at the five Chebyshev nodes of [0, 1]: the Vandermonde system solved by
+    // Gaussian elimination with partial pivoting (5×5, in double).
+    double A[5][6];
+    for (int i = 0; i < 5; ++i) {
+      const double x = 0.5 * (1 + std::cos((2 * i + 1) * M_PI / 10));
+      double xp = 1;
+      for (int k = 0; k < 5; ++k, xp *= x) A[i][k] = xp;
+      A[i][5] = f((j + x) * h);
+    }
+    for (int col = 0; col < 5; ++col) {
+      int piv = col;
+      for (int r = col + 1; r < 5; ++r)
+        if (std::fabs(A[r][col]) > std::fabs(A[piv][col])) piv = r;
+      std::swap(A[col], A[piv]);
+      for (int r = 0; r < 5; ++r) {
+        if (r == col) continue;
+        const double m = A[r][col] / A[col][col];
+        for (int k = col; k < 6; ++k) A[r][k] -= m * A[col][k];
+      }
+    }
+    for (int k = 0; k < 5; ++k) t.pc[k][j] = static_cast<float>(A[k][5] / A[k][k]);
+    for (int i = 0; i <= 64; ++i) {
+      const double x = i / 64.0, c = (j + x) * h;
+      const double v = (((double{t.pc[4][j]} * x + t.pc[3][j]) * x + t.pc[2][j]) * x + t.pc[1][j]) * x + t.pc[0][j];
+      worst = std::max(worst, std::fabs(v / f(c) - 1));
+    }
+  }
+  t.poly_max_rel_err = worst;
+  t.poly = worst <= RelTable::kPolyMaxRelErr;
+}
 const RelTable& rel_table(const ScenePreset& p) {
   thread_local RelTable t;
   if (t.cutoff != p.lamp_cutoff_deg || t.falloff != p.lamp_falloff_deg) {
@@ -94,6 +155,7 @@ const RelTable& rel_table(const ScenePreset& p) {
     }
     t.fcc = static_cast<float>(t.cc);
     t.finv_step = static_cast<float>(1 / t.step);
+    fit_rel_pieces(t, p);
   }
   return t;
 }
@@ -111,11 +173,14 @@ inline double lamp_E(double dx, double dz, double H, double I0, const RelTable& 
 //   beyond it, rel(c) from the float table at c·(1/step) (argument 5.5 + 1 + 1 = 7.5u, amplified by
 //   s = |d ln rel/d ln cos γ| = cot γ/φ_f ≤ cot γ_c/φ_f, φ_f the falloff in radians; the entries
 //   and the lerp 3u) and one more product: 13.5 + 1 + 3 + 7.5·s
-//   so per term k = 17.5 + 7.5·s (s = 5.34 at the presets' 65° + 5°: k = 57.6),
+//   so per term k = 17.5 + 7.5·s (s = 5.34 at the presets' 65° + 5°: k = 57.6);
+//   from the quartic pieces (RelTable::polyf, used where they fit, as at the presets' angles) the
+//   argument c·(16/cos γ_c) is 7.5u as well and Horner's 4 products and 4 sums over positive
+//   coefficients (the presets' pieces) 8u instead of 3u: k = 22.5 + 7.5·s (62.6),
 // and the sum of n positive terms adds n roundings of partial sums ≤ E, so to first order
 //   |E_float − E| ≤ (k + n)·2⁻²⁴·Σ|terms| = (k + n)·2⁻²⁴·E,
-// E the exact value of the same formula (and table): at most 3.6e-6·E for 3 lamps at the presets'
-// angles. (The double path this replaced was within ~1e-15·E; the image stores E as a float
+// E the exact value of the same formula (and table or pieces, each within 10⁻⁶ of the law): at
+// most 3.9e-6·E for 3 lamps at the presets' angles. (The double path this replaced was within ~1e-15·E; the image stores E as a float
 // anyway, 2⁻²⁴.) pool_row_avx2 and pool_row_scalar perform the same float operations in the same
 // order, so the same bits with or without AVX2.
 struct PoolLamps {
@@ -156,9 +221,28 @@ const int kMachineIsa =
     env::get(env::Var::ScalarLights).value_or("0") == "1" ? 0 : photosite::detail::machine_isa_level();
 int g_isa_cap = 2;
 int light_isa() { return std::min(kMachineIsa, g_isa_cap); }
-// RelTable::atf for eight lanes (the entries by gathers; the index clamped to [0, 4095] so that
-// lanes whose result is dropped stay inside the table): the same operations.
+// RelTable::polyf for eight lanes: the piece's coefficients by two permutes of the sixteen (lanes
+// j < 8 from the first eight, else the second) and a blend; the same operations.
+__attribute__((target("avx2"), always_inline)) inline __m256 piece_coef8(const float* pc, __m256i j, __m256 hi) {
+  return _mm256_blendv_ps(_mm256_permutevar8x32_ps(_mm256_load_ps(pc), j), _mm256_permutevar8x32_ps(_mm256_load_ps(pc + 8), j),
+                          hi);
+}
+__attribute__((target("avx2"), always_inline)) inline __m256 rel_poly8(const RelTable& t, __m256 c) {
+  const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.fseg));
+  const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(15)),
+                                     _mm256_setzero_si256());
+  const __m256 x = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
+  const __m256 hi = _mm256_castsi256_ps(_mm256_cmpgt_epi32(j, _mm256_set1_epi32(7)));
+  __m256 v = _mm256_add_ps(_mm256_mul_ps(piece_coef8(t.pc[4], j, hi), x), piece_coef8(t.pc[3], j, hi));
+  v = _mm256_add_ps(_mm256_mul_ps(v, x), piece_coef8(t.pc[2], j, hi));
+  v = _mm256_add_ps(_mm256_mul_ps(v, x), piece_coef8(t.pc[1], j, hi));
+  return _mm256_add_ps(_mm256_mul_ps(v, x), piece_coef8(t.pc[0], j, hi));
+}
+// RelTable::atf for eight lanes beyond the cut-off (the caller blends the others): the pieces
+// (rel_poly8) or the table's entries by gathers (the index clamped to [0, 4095] so that lanes
+// whose result is dropped stay inside the table): the same operations.
 __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const RelTable& t, __m256 c) {
+  if (t.poly) return rel_poly8(t, c);
   const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.finv_step));
   const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(4095)),
                                      _mm256_setzero_si256());
@@ -186,9 +270,23 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a
   return join16(_mm512_cvtpd_ps(_mm512_sub_pd(a, b0)), _mm512_cvtpd_ps(_mm512_sub_pd(a, b1)));
 }
 // RelTable::atf (rel_lerp_f) for sixteen lanes: on the lanes of `beyond` (beyond the cut-off) the
-// same operations, the entries gathered for those lanes only; 1 on the others.
+// same operations (the pieces' coefficients by permutes, or the table's entries gathered for those
+// lanes only); 1 on the others.
 __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
                                                                           __mmask16 beyond) {
+  if (t.poly) {  // RelTable::polyf: the piece's coefficients by one permute each
+    const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.fseg));
+    const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(15)),
+                                       _mm512_setzero_si512());
+    const __m512 x = _mm512_sub_ps(u, _mm512_cvtepi32_ps(j));
+    const __m512 c4 = _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[4])), c3 = _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[3]));
+    const __m512 c2 = _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[2])), c1 = _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[1]));
+    const __m512 c0 = _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[0]));
+    __m512 v = _mm512_add_ps(_mm512_mul_ps(c4, x), c3);
+    v = _mm512_add_ps(_mm512_mul_ps(v, x), c2);
+    v = _mm512_add_ps(_mm512_mul_ps(v, x), c1);
+    return _mm512_mask_add_ps(_mm512_set1_ps(1.f), beyond, _mm512_mul_ps(v, x), c0);
+  }
   const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.finv_step));
   const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(4095)),
                                      _mm512_setzero_si512());
@@ -345,6 +443,12 @@ double street_illuminance_lux(double X, double D, const StreetLighting& s, const
   return e;
 }
 
+float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces, double* max_rel_err) {
+  const RelTable& t = rel_table(p);
+  if (pieces) *pieces = t.poly;
+  if (max_rel_err) *max_rel_err = t.poly_max_rel_err;
+  return t.atf(c);
+}
 void street_light_max_isa(int isa) { g_isa_cap = std::clamp(isa, 0, 2); }
 
 std::vector<PoleBox> pole_components(const ImageU16& labels, const LabelRuns* lruns) {
@@ -1071,8 +1175,9 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
 // |v|·cos β = n_X·v_X + n_D·v_D with the normal rounded 1u: (3κ + 1)u with the condition number
 // κ = (|n_X·v_X| + |n_D·v_D|)/(n·v) ≥ 1 (1 for a face squarely lit); cos β = that/d: 3κ + 5.5;
 // e = ((I0·rel)·cos β)/max(d², d²_min): inside the cut-off 1 + (3κ + 5.5) + 1 + 5 + 1 = 13.5 + 3κ,
-// beyond it + 1 + 3 + 7.5·s (the table, as pool_term): per term k = 17.5 + 3κ + 7.5·s, and for
-// the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E to first order.
+// beyond it + 1 + 3 + 7.5·s (the table, as pool_term; + 1 + 8 + 7.5·s from the pieces): per term
+// k = 17.5 + 3κ + 7.5·s (22.5 + 3κ + 7.5·s), and for the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E
+// to first order.
 [[gnu::always_inline]] inline float vertical_term(float vX, float vY, float vD, float nX, float nD, float reach,
                                                   float I0, float d2_min, const RelTable& t) {
   if (!(std::fabs(vD) <= reach)) return 0.f;

@@ -21,6 +21,12 @@ namespace photosite::scene {
 // same bits; the test runs each. Not thread-safe: set it before a light map, not during one.
 void street_light_max_isa(int isa);
 
+// The street lamps' distribution beyond the cut-off as the float paths (pools, vertical light)
+// evaluate it at cos γ = c: 16 quartic pieces where their measured relative error is within 10⁻⁶
+// (*pieces = true; *max_rel_err: that error), else the 4096-step table (street.cpp, RelTable).
+float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces = nullptr,
+                                    double* max_rel_err = nullptr);
+
 // ⌊a[i]/b⌋ for i < n as the façade windows' AVX-512 layout takes its storeys, pitch cells and shop
 // units (floor_div8: from a·(1/b), the division itself where that product lies within 8·2⁻⁵³ of
 // an integer), for the test that compares them with std::floor(a/b) on every lane. Returns false

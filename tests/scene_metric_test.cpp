@@ -436,23 +436,72 @@ TEST(StreetLighting, PoleComponentsAreOpenCVsInItsOrder) {
 // vehicles) in the same bits, as do the other per-pixel stages' twins (each lane does the same
 // IEEE operations). Where the machine lacks AVX-512 or AVX2 the capped runs take the same path
 // and the test checks determinism.
+// Both forms of the lamps' distribution beyond the cut-off are covered: the quartic pieces (the
+// preset's 5° falloff) and the 4096-step table (a 1° falloff, too steep for the pieces).
 TEST(StreetLighting, LightMapIsTheSameBitsAtEveryInstructionSet) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
   const auto frame = cityscapes_frame("aachen_000001_000019");
   const ImageF& lin = frame.first;
   const LabelMap& lab = frame.second;
-  const ScenePreset p = load_scene_preset("night-urban");
-  std::vector<ImageF> lights;
-  for (const int isa : {2, 1, 0}) {
-    street_light_max_isa(isa);
-    lights.push_back(night_scene(lin, lab, p, 1).lights);
+  for (const double falloff_deg : {5.0, 1.0}) {
+    ScenePreset p = load_scene_preset("night-urban");
+    p.lamp_falloff_deg = falloff_deg;
+    bool pieces = false;
+    lamp_relative_intensity_float(0.5f, p, &pieces);
+    EXPECT_EQ(pieces, falloff_deg == 5.0) << falloff_deg << "°";
+    std::vector<ImageF> lights;
+    for (const int isa : {2, 1, 0}) {
+      street_light_max_isa(isa);
+      lights.push_back(night_scene(lin, lab, p, 1).lights);
+    }
+    street_light_max_isa(2);
+    double sum = 0;
+    for (size_t i = 0; i < lights[2].size(); ++i) sum += lights[2][i];
+    EXPECT_GT(sum, 0.0);
+    for (int k = 0; k < 2; ++k)
+      EXPECT_EQ(differing_samples(lights[k], lights[2]), 0u)
+          << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins, falloff " << falloff_deg << "°";
   }
-  street_light_max_isa(2);
-  double sum = 0;
-  for (size_t i = 0; i < lights[2].size(); ++i) sum += lights[2][i];
-  EXPECT_GT(sum, 0.0);
-  for (int k = 0; k < 2; ++k)
-    EXPECT_EQ(differing_samples(lights[k], lights[2]), 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
+}
+
+// The float paths' lamp distribution beyond the cut-off (pools, vertical light: 16 quartic pieces
+// in cos γ, street.cpp RelTable) against the law rel(γ) = exp(−(γ − γ_c)/φ) in double, at 200,001
+// values of cos γ over [0, cos γ_c]. Bound: the pieces' own error (measured when they are built
+// and used only within 10⁻⁶) plus the float evaluation: Horner's 4 products and 4 sums over
+// positive terms (the presets' pieces have positive coefficients) 8·2⁻²⁴, and the argument
+// c·(16/cos γ_c) rounded twice, 2·2⁻²⁴ relative in c, amplified by s = |d ln rel/d ln cos γ| =
+// cot γ/φ ≤ cot γ_c/φ (5.34 at 65° + 5°). Inside the cut-off the value is exactly 1. A 1° falloff
+// is too steep for 16 pieces: the table is used instead.
+TEST(StreetLighting, LampDistributionPiecesFollowTheLawBeyondTheCutOff) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  bool pieces = false;
+  double fit = 0;
+  lamp_relative_intensity_float(0.5f, p, &pieces, &fit);
+  ASSERT_TRUE(pieces);
+  EXPECT_LE(fit, 1e-6);
+  const double gc = p.lamp_cutoff_deg * M_PI / 180, phi = p.lamp_falloff_deg * M_PI / 180, cc = std::cos(gc);
+  const double s_max = 1 / (std::tan(gc) * phi);
+  const double tol = fit + (8 + 2 * s_max) * std::ldexp(1.0, -24);
+  double worst = 0;
+  for (int i = 0; i <= 200000; ++i) {
+    const float c = static_cast<float>(cc * i / 200000);
+    const double want = lamp_relative_intensity(std::acos(static_cast<double>(c)), p);
+    const double got = lamp_relative_intensity_float(c, p);
+    if (!(c < static_cast<float>(cc))) {
+      EXPECT_EQ(got, 1.0) << c;
+      continue;
+    }
+    worst = std::max(worst, std::fabs(got / want - 1));
+  }
+  EXPECT_LE(worst, tol);
+  std::fprintf(stderr, "[lamp pieces] falloff %.0f°: pieces' fit %.2e, worst relative error in float %.2e (bound %.2e)\n",
+               p.lamp_falloff_deg, fit, worst, tol);
+  ScenePreset steep = p;
+  steep.lamp_falloff_deg = 1;
+  double fit_steep = 0;
+  lamp_relative_intensity_float(0.5f, steep, &pieces, &fit_steep);
+  EXPECT_FALSE(pieces) << "pieces' error " << fit_steep;
+  EXPECT_GT(fit_steep, 1e-6);
 }
 
 // The façade windows alone (add_facade_windows) at every instruction set this machine has: the
