@@ -53,8 +53,9 @@ bool shows_rear(int red_px, int lens_px, int pixels);
 // that row, CameraGeometry::ground_point). Road and the objects standing on it (vehicles, people,
 // poles, signs, static and dynamic objects, unlabelled pixels: they hide the ground, which is
 // taken as road) come first; the first run of off-carriageway labels (sidewalk, parking, terrain,
-// vegetation, ground, fences, walls, buildings, rail track) is the kerb side; road again beyond it
-// makes that run a median. The walk ends at the image's or the labels' frame (ego vehicle,
+// vegetation, ground, fences, guard rails, walls, buildings, bridges, tunnels, rail track) is the
+// kerb side; road again beyond it makes that run a median (objects standing in it do not end
+// it). The walk ends at the image's or the labels' frame (ego vehicle,
 // rectification border, out of ROI, sky) or `max_m` from its start.
 struct BesideProbe {
   double road_m = INFINITY;  // road (and hidden ground) before the first off-carriageway pixel; ∞: none met
