@@ -161,9 +161,54 @@ bool rear_lens_colour(const float* rgb, const std::array<double, 3>& gain) {
   const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
   return hue > -20 && hue < 40;
 }
+// A median, not a kerb: an off-carriageway strip at most kMedianMax_m wide with road beyond it
+// (urban central reservations are 1-10 m: photosite choice); the walk beside a vehicle looks
+// that far and a little more.
+constexpr double kMedianMax_m = 10, kMedianProbe_m = 14;
+// A vehicle whose outer side has an off-carriageway label within this of it at its own contact
+// depth stands at the kerb: parked cars stand 0.2-0.5 m off the kerb [U] (the upper end; moving
+// ones keep about 1 m, vehicle_lamps.kerb_strip_m, which the measured carriageway's edges use).
+constexpr double kKerbContact_m = 0.5;
 bool shows_rear(int red_px, int lens_px, int pixels) {
   auto share = [&](int px) { return px >= 3 && px * 500 >= pixels && px * 5 <= pixels; };
   return share(red_px) || share(lens_px);
+}
+
+BesideProbe probe_beside(const ImageU16& labels, const CameraGeometry& g, int x, int y, int dir, double max_m) {
+  BesideProbe r;
+  const int W = labels.width();
+  if (y < 0 || y >= labels.height()) return r;
+  // Ground X at the pixel edge the walk starts from: the vehicle's side.
+  double X0;
+  if (!g.ground_point(dir > 0 ? x : x + 1, y + 0.5, &X0, nullptr, nullptr)) return r;
+  double strip_from = 0;
+  bool in_strip = false;
+  for (; x >= 0 && x < W; x += dir) {
+    double Xs, Xe;  // the pixel's near and far edges
+    g.ground_point(dir > 0 ? x : x + 1, y + 0.5, &Xs, nullptr, nullptr);
+    g.ground_point(dir > 0 ? x + 1 : x, y + 0.5, &Xe, nullptr, nullptr);
+    const double at_m = std::abs(Xs - X0), far_m = std::abs(Xe - X0);
+    const int id = labels.at(x, y);
+    const Label l = static_cast<Label>(id);
+    if (l == Label::EgoVehicle || l == Label::RectificationBorder || l == Label::OutOfRoi || l == Label::Sky) break;
+    const bool road = l == Label::Road;
+    const bool standing = is_vehicle(id) || l == Label::Person || l == Label::Rider || l == Label::Pole ||
+                          l == Label::PoleGroup || l == Label::TrafficSign || l == Label::TrafficLight ||
+                          l == Label::Static || l == Label::Dynamic || l == Label::Unlabeled;
+    if (!road && !standing) {
+      if (!in_strip) {
+        r.road_m = at_m;
+        strip_from = at_m;
+        in_strip = true;
+      }
+      r.strip_m = far_m - strip_from;
+    } else if (road && in_strip) {
+      r.road_beyond = true;
+      break;
+    }
+    if (far_m > max_m) break;
+  }
+  return r;
 }
 
 namespace {
@@ -1129,17 +1174,37 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         ++b.n;
       }
     }
-    // With the scene geometry: which vehicles are in traffic. A vehicle's ground contact is its
-    // lowest row; the labels just below it (3 rows across the middle half of its width) say what
-    // it stands on. In traffic: on road, and inside the driving area (not within veh_kerb_strip_m
-    // of the road edges, where vehicles park on the road). Others are parked: dark, except a seeded
-    // share (veh_parked_lit_fraction) with parking lights, keyed by the instance code or by the
-    // ground position on a 2 m grid, so a vehicle keeps its draw from frame to frame.
+    // With the scene geometry: which vehicles are in traffic (issue 14 §2 "Which vehicles"). A
+    // vehicle's ground contact is its lowest row; the labels just below it (3 rows across the
+    // middle half of its width) say what it stands on. In traffic: on road, not cut by the frame,
+    // not in a row parked nose to tail (below), and
+    //  - across a median on the oncoming side (probe_beside toward the camera's column: its road,
+    //    a strip of at most kMedianMax_m, road again), or
+    //  - not at the kerb (its outer side more than kKerbContact_m from an off-carriageway label on
+    //    its own contact row, unless that strip is a median) and inside the driving area: its
+    //    outer side more than veh_kerb_strip_m inside the measured carriageway's edges, or inside
+    //    them at all where its outer side faces a median (nobody parks against a median).
+    // Others are parked: dark, except a seeded share (veh_parked_lit_fraction) with parking
+    // lights, keyed by the instance code or by the ground position on a 2 m grid, so a vehicle
+    // keeps its draw from frame to frame.
     struct VehState { int state = 0; double X = 0, D = 0, z = 0, width_m = 0; };  // 0 dark, 1 traffic, 2 parked lit
     std::vector<VehState> vs(ncomp + 1);
+    // What the decision read, per vehicle (reported by the test hook): its outer side's X, the
+    // road beside it before the kerb side and that strip's width (probe_beside), the size of the
+    // parked row it stands in, and the median cues.
+    struct VehWhy {
+      double Xo = 0, kerb_gap = INFINITY, strip_m = 0;
+      int row = 0;
+      bool beside_median = false, across_median = false;
+    };
+    std::vector<VehWhy> why(ncomp + 1);
+    // What each vehicle stands on and beside (here); the states once the facing cues are known
+    // (below: a row of parked vehicles is told by the way they face).
+    std::vector<int> inst_of(ncomp + 1, 0);
+    std::vector<char> contact(ncomp + 1, 0), on_road(ncomp + 1, 0), cut(ncomp + 1, 0), in_lane(ncomp + 1, 0),
+        inside(ncomp + 1, 0), at_kerb(ncomp + 1, 0);
     if (geometry) {
       const CameraGeometry& g = *geometry;
-      std::vector<int> inst_of(ncomp + 1, 0);
       if (!lm.instances.empty())
         for (size_t i = i_begin; i < i_end; ++i)
           if (comp[i] && lm.instances[i] >= 1000) inst_of[comp[i]] = lm.instances[i];
@@ -1148,6 +1213,7 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         if (b.n == 0) continue;
         VehState& v = vs[c];
         if (!g.ground_point(0.5 * (b.x0 + b.x1), b.y1 + 0.5, &v.X, &v.D, nullptr)) continue;
+        contact[c] = 1;
         v.z = g.plane_depth_m(b.y1 + 0.5, v.D);
         v.width_m = (b.x1 - b.x0 + 1) * v.z / g.f_px;
         int road = 0, other = 0;
@@ -1160,9 +1226,11 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
           }
         // The outer side (toward the nearer road edge) at the contact depth: a parked vehicle's
         // lies within the kerb strip of the edge.
-        double Xo = v.X;
-        g.ground_point(v.X < road_mid ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
-        const bool on_road = road > other;  // a vehicle cut by the image bottom shows no contact: parked
+        const bool left = v.X < road_mid;
+        double& Xo = why[c].Xo;
+        Xo = v.X;
+        g.ground_point(left ? b.x0 - 0.5 : b.x1 + 0.5, b.y1 + 0.5, &Xo, nullptr, nullptr);
+        on_road[c] = road > other;  // a vehicle cut by the image bottom shows no contact: parked
         // A vehicle cut by the left or right border hides its outer side: taken as parked (dark),
         // the conservative reading (an approximation: a passing vehicle there stays dark too).
         // The border is the image's, or the labels' frame of no image content beside the box
@@ -1173,22 +1241,28 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
           const int id = labels.at(x, ymid);
           return id == static_cast<int>(Label::OutOfRoi) || id == static_cast<int>(Label::RectificationBorder);
         };
-        const bool cut = b.x0 == 0 || b.x1 == W - 1 || frame_label(b.x0 - 1) || frame_label(b.x1 + 1);
-        const bool in_lane = !cut && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
-                                                  Xo < sl.road_right_m - p.veh_kerb_strip_m));
-        if (on_road && in_lane) {
-          v.state = 1;
-          ++out.stats.vehicles_in_traffic;
-        } else {
-          ++out.stats.vehicles_parked;
-          const uint64_t key = inst_of[c] ? static_cast<uint64_t>(inst_of[c])
-                                          : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
-                                                static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
-          const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
-          if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
-            v.state = 2;
-            ++out.stats.vehicles_parked_lit;
-          }
+        cut[c] = b.x0 == 0 || b.x1 == W - 1 || frame_label(b.x0 - 1) || frame_label(b.x1 + 1);
+        inside[c] = !extent || (Xo > sl.road_left_m && Xo < sl.road_right_m);
+        in_lane[c] = !cut[c] && (!extent || (Xo > sl.road_left_m + p.veh_kerb_strip_m &&
+                                             Xo < sl.road_right_m - p.veh_kerb_strip_m));
+        // Beside it at its contact depth (its own row of the labels: the ground there is at its
+        // depth): outward, the kerb or a median; toward the camera's column, a median between it
+        // and the ego carriageway.
+        const BesideProbe out_p = probe_beside(labels, g, left ? b.x0 - 1 : b.x1 + 1, b.y1, left ? -1 : 1, kMedianProbe_m);
+        why[c].beside_median = out_p.road_beyond && out_p.strip_m <= kMedianMax_m;
+        why[c].kerb_gap = out_p.road_m;
+        why[c].strip_m = out_p.strip_m;
+        at_kerb[c] = out_p.road_m <= kKerbContact_m && !why[c].beside_median;
+        // Across a median on the oncoming side: wholly left of the measured carriageway (its
+        // inner side too), and between it and the camera's column its road, a strip of at most
+        // kMedianMax_m, then road again (the ego carriageway). Right-hand traffic: the far
+        // carriageway of a dual carriageway carries the oncoming traffic (a road beyond a strip on
+        // the right is as often a service road or a car park's aisle: not read).
+        double Xi = v.X;
+        g.ground_point(b.x1 + 0.5, b.y1 + 0.5, &Xi, nullptr, nullptr);
+        if (extent && Xi < sl.road_left_m && b.x1 + 1 < W) {
+          const BesideProbe in_p = probe_beside(labels, g, b.x1 + 1, b.y1, 1, kMedianProbe_m);
+          why[c].across_median = in_p.road_beyond && in_p.strip_m <= kMedianMax_m;
         }
       }
     }
@@ -1304,17 +1378,70 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
     if (geometry)
       for (int c = 1; c <= ncomp; ++c)
         oncoming[c] = !shows_rear(red_blob_px[c], lens_blob_px[c], boxes[c].n) && vs[c].X < travel_divide;
+    if (geometry) {
+      // Rows parked nose to tail: at least three cars (car to trailer; no two-wheelers) standing
+      // on road and facing the camera on the oncoming side (oncoming[]: no rear cue, left of the
+      // divide), each beside the next in the image (boxes overlapping by at most 2/3 of the
+      // narrower one's width, or apart by at most 1/4 of it: a vehicle queued behind another in
+      // its lane is mostly hidden behind it) at a like depth (box heights within a factor 2,
+      // bottoms within half the smaller height). Moving traffic keeps a gap of about 2 s (15 m
+      // and more at 30 km/h; the German "halber Tacho" rule [U]), so oncoming vehicles that
+      // close together stand still, and vehicles standing in a row facing the camera are parked
+      // along the far kerb (where a junction's mouth widens the measured carriageway, or the
+      // kerb hides behind them, the edge rules miss them). A queue of oncoming vehicles waiting
+      // at a light is read as parked too: an approximation. All the bounds are photosite choices.
+      std::vector<int> members;
+      for (int c = 1; c <= ncomp; ++c)
+        if (contact[c] && on_road[c] && !cut[c] && oncoming[c] && comp_class[c] >= static_cast<int>(Label::Car) &&
+            comp_class[c] <= static_cast<int>(Label::Trailer))
+          members.push_back(c);
+      std::vector<int> parent(ncomp + 1);
+      for (int c = 0; c <= ncomp; ++c) parent[c] = c;
+      std::function<int(int)> find = [&](int c) { return parent[c] == c ? c : parent[c] = find(parent[c]); };
+      for (size_t i = 0; i < members.size(); ++i)
+        for (size_t j = i + 1; j < members.size(); ++j) {
+          const Box &a = boxes[members[i]], &b = boxes[members[j]];
+          const int wa = a.x1 - a.x0 + 1, wb = b.x1 - b.x0 + 1, ha = a.y1 - a.y0 + 1, hb = b.y1 - b.y0 + 1;
+          const int overlap = std::min(a.x1, b.x1) - std::max(a.x0, b.x0) + 1;  // < 0: a gap
+          const int narrow = std::min(wa, wb);
+          const bool side_by_side = 3 * overlap <= 2 * narrow && -4 * overlap <= narrow;
+          const bool alike = 2 * std::min(ha, hb) >= std::max(ha, hb) && 2 * std::abs(a.y1 - b.y1) <= std::min(ha, hb);
+          if (side_by_side && alike) parent[find(members[i])] = find(members[j]);
+        }
+      std::map<int, int> row_size;
+      for (int c : members) ++row_size[find(c)];
+      for (int c : members) why[c].row = row_size[find(c)] >= 3 ? row_size[find(c)] : 0;
+      for (int c = 1; c <= ncomp; ++c) {
+        if (!contact[c]) continue;
+        VehState& v = vs[c];
+        const bool driving_area = in_lane[c] || (inside[c] && why[c].beside_median);
+        const bool traffic =
+            on_road[c] && !cut[c] && why[c].row == 0 && (why[c].across_median || (!at_kerb[c] && driving_area));
+        if (traffic) {
+          v.state = 1;
+          ++out.stats.vehicles_in_traffic;
+        } else {
+          ++out.stats.vehicles_parked;
+          const uint64_t key = inst_of[c] ? static_cast<uint64_t>(inst_of[c])
+                                          : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
+                                                static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
+          const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
+          if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
+            v.state = 2;
+            ++out.stats.vehicles_parked_lit;
+          }
+        }
+      }
+    }
     // The test hook (scene/vehicle_facing_detail.h): each vehicle's decision, with its instance code.
     if (std::vector<VehicleDecision>* sink = g_vehicle_decisions.load(); sink && geometry) {
-      std::vector<int> inst(ncomp + 1, 0);
-      if (!lm.instances.empty())
-        for (size_t i = i_begin; i < i_end; ++i)
-          if (comp[i] && lm.instances[i] >= 1000) inst[comp[i]] = lm.instances[i];
       for (int c = 1; c <= ncomp; ++c) {
         const Box& b = boxes[c];
         if (b.n == 0) continue;
-        sink->push_back({inst[c], comp_class[c], b.x0, b.y0, b.x1, b.y1, b.n, vs[c].state, oncoming[c] != 0,
-                         red_blob_px[c], lens_blob_px[c], vs[c].X, vs[c].D, travel_divide});
+        sink->push_back({inst_of[c], comp_class[c], b.x0, b.y0, b.x1, b.y1, b.n, vs[c].state, oncoming[c] != 0,
+                         red_blob_px[c], lens_blob_px[c], vs[c].X, vs[c].D, travel_divide, sl.road_left_m,
+                         sl.road_right_m, why[c].Xo, why[c].row, why[c].beside_median, why[c].across_median,
+                         why[c].kerb_gap, why[c].strip_m});
       }
     }
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {

@@ -4,7 +4,9 @@
 #pragma once
 #include <array>
 #include <vector>
+#include <cmath>
 #include "photosite/image.h"
+#include "photosite/scene/night.h"
 
 namespace photosite::scene {
 
@@ -19,6 +21,14 @@ struct VehicleDecision {
   int lens_px = 0;            // pixels of red lens blobs in its road-balanced day photo (rear_lens_colour)
   double X = 0, D = 0;        // its ground contact in road coordinates, m (X right of the camera)
   double travel_divide = 0;   // the divide between the directions of travel at this frame, m
+  // Which vehicles are in traffic (issue 14 §2 "Which vehicles"), what the decision read:
+  double road_left = 0, road_right = 0;  // the measured carriageway's edges (X, m; equal: none)
+  double outer_X = 0;         // its outer side at the contact depth (toward the nearer edge), m
+  int kerb_row = 0;           // vehicles in the row parked nose to tail it stands in (0: none)
+  bool beside_median = false; // its outer side faces a median (road again beyond a narrow strip)
+  bool across_median = false; // it stands on a road separated from the ego carriageway by a median
+  double kerb_gap_m = INFINITY;  // road beside its outer side before the first off-carriageway label, m
+  double strip_m = 0;            // that off-carriageway run's width, m
 };
 
 // The colour of the frame's road relative to grey: gains g_k = m̄/m_k per linear sRGB channel,
@@ -37,6 +47,22 @@ bool rear_lens_colour(const float* rgb, const std::array<double, 3>& gain);
 // when it is at least 3 px and 0.2 % of the vehicle and at most 20 % (more is a red body, not
 // lenses: a car's two rear lamp lenses are a few % of its rear view; both bounds photosite choices).
 bool shows_rear(int red_px, int lens_px, int pixels);
+
+// What lies beside a vehicle at its contact depth: its labels' row `y` walked from column `x` in
+// direction `dir` (+1 right, −1 left), distances in ground metres across (X of the flat ground at
+// that row, CameraGeometry::ground_point). Road and the objects standing on it (vehicles, people,
+// poles, signs, static and dynamic objects, unlabelled pixels: they hide the ground, which is
+// taken as road) come first; the first run of off-carriageway labels (sidewalk, parking, terrain,
+// vegetation, ground, fences, guard rails, walls, buildings, bridges, tunnels, rail track) is the
+// kerb side; road again beyond it makes that run a median (objects standing in it do not end
+// it). The walk ends at the image's or the labels' frame (ego vehicle,
+// rectification border, out of ROI, sky) or `max_m` from its start.
+struct BesideProbe {
+  double road_m = INFINITY;  // road (and hidden ground) before the first off-carriageway pixel; ∞: none met
+  double strip_m = 0;        // width of that off-carriageway run (to where road resumes or the walk ends)
+  bool road_beyond = false;  // road again after the run, within max_m
+};
+BesideProbe probe_beside(const ImageU16& labels, const CameraGeometry& g, int x, int y, int dir, double max_m);
 
 // The test hook: while a sink is set, every light_map with geometry appends one VehicleDecision
 // per vehicle to it (from the thread that runs the vehicle lamps: one light_map at a time). Null
