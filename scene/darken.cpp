@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstdint>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <fmt/format.h>
 #include <vector>
@@ -1014,6 +1015,288 @@ std::atomic<uint64_t> g_texture_own_class_sums{0};  // texture_own_class_sums_co
 }  // namespace
 uint64_t texture_own_class_sums_count() { return g_texture_own_class_sums.load(std::memory_order_relaxed); }
 
+namespace {
+// The sun/shade split's penumbrae (reflectance_texture_with, after its pass 2). The split puts each
+// pixel of a split class on one level, sunlit (divided by g) or shade; but a shadow's edge is a
+// penumbra a few pixels wide (the sun's disc is 0.53° across: 9 cm at 10 m behind the occluder,
+// several pixels on a near road), whose pixels lie between the levels: those placed in the shade
+// kept their extra light and drew a bright outline round every former sun patch, those placed in
+// the sun a dark one. Near the levels' boundary a pixel whose light lies between the levels takes
+// a sunlit share α ∈ (0, 1) and the scales' geometric mean scale_shade^(1−α)·scale_sun^α:
+//  - the band: pixels of a split class within kPenumbraBand px of a boundary pixel (a pixel of the
+//    class with a 4-neighbour of the class on the other level);
+//  - the levels: per class the median Y on each level outside the band (robust to the markings and
+//    glints a level also holds), and the levels' colours (box B/R); one pair per class, as g is
+//    one per class (local means in a 17 x 17 window round each pixel were tried: they took
+//    `darken` on the bundled KITTI frame from 3.1 to 28 ms);
+//  - the share by light, α_light = ln(Y/Ȳ_shade)/ln(Ȳ_sun/Ȳ_shade), and by colour, α_colour =
+//    ln((B/R)/(B/R)_shade)/ln((B/R)_sun/(B/R)_shade), each clamped to [0, 1]. In the shade the
+//    smaller of the two: a penumbra is both brighter and redder than the shade (part of the sun's
+//    light added to the sky's), a white marking in the shade only brighter. On the sunlit level
+//    α_light: its penumbra keeps the sun's colour (the sun's light dominates it until the sky's is
+//    most of what is left);
+//  - a pixel within kPenumbraTexture of its level (its share within that factor's log over the
+//    levels' log ratio) keeps it; else α is the median (the upper of two middles) of the shares of the 3 x 3 band pixels
+//    of its class on its level (edge-preserving: a pebble's own reflectance, which the share reads
+//    as light, is outvoted by its neighbours), again kept on the level within kPenumbraTexture.
+// What it costs a sharp edge: none within kPenumbraTexture of the level (the texture there keeps
+// its bits: SunShade.FlattensASunlitStep… checks every pixel); a darker or brighter texture next to
+// a boundary may move by up to its own excess. A penumbra's pixels placed on the wrong level were
+// off by up to g (2-10).
+// (A dead zone of two standard deviations of each level's texture was tried and dropped: on the
+// KITTI roads, whose texture includes markings and rails, it covered the penumbrae.)
+// The class means stay those of the two levels (the band is a small share of a class). Each pixel
+// from the day image, the labels and the split's placement only, in a fixed order of sums, so any
+// thread count gives the same bits. Costs nothing where no class splits (the overcast Cityscapes
+// frames).
+constexpr int kPenumbraBand = 3;
+std::atomic<bool> g_sun_penumbrae{true};  // sun_penumbrae_enabled (tests)
+// A pixel within this factor of its level's median Y is on that level: the level's own texture (a
+// road's asphalt varies by some ±20 % in luminance factor; a photosite choice), where a sharp edge
+// keeps its bits; a penumbra's pixels lie further in.
+constexpr double kPenumbraTexture = 1.3;
+void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeSplit& sun, const BoxCoef& coef,
+                      const float (*scale_shade)[3], const float* scale_sun, const float* cap, ImageF& f) {
+  const int W = day.width(), H = day.height();
+  const size_t n = static_cast<size_t>(W) * H;
+  const uint8_t* sunlit = sun.sunlit.data();
+  // Each pixel's class and level as one code, 2·id + sunlit on split classes, 0xffff elsewhere:
+  // two pixels are of one split class on different levels exactly when their codes differ in bit 0
+  // alone (0xffff ^ code is never 1 for a class id below kLabelCount).
+  uint16_t split_code[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) split_code[id] = sun.ratio[id] > 1 ? static_cast<uint16_t>(2 * id) : 0xffff;
+  // Scratch kept by the calling thread from frame to frame (grown, never shrunk): a frame after the
+  // first faults in no fresh pages.
+  struct Scratch {
+    std::vector<uint16_t> code;
+    std::vector<uint8_t> hrow, band;
+    std::vector<float> araw;
+  };
+  thread_local Scratch scratch;
+  if (scratch.code.size() < n) {
+    scratch.code.resize(n);
+    scratch.hrow.resize(n);
+    scratch.band.resize(n);
+    scratch.araw.resize(n);
+  }
+  std::vector<uint16_t>& code = scratch.code;
+#pragma omp parallel for schedule(static, 4)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* l = labels.row(y);
+    const uint8_t* s = sunlit + static_cast<size_t>(y) * W;
+    uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    for (int x = 0; x < W; ++x) {
+      const uint16_t b = l[x] < kLabelCount ? split_code[l[x]] : 0xffff;
+      c[x] = b == 0xffff ? b : static_cast<uint16_t>(b | s[x]);
+    }
+  }
+  // Boundary pixels (a 4-neighbour of the class on the other level), then the band: the boundary
+  // dilated by kPenumbraBand, on split-class pixels (rows, then columns).
+  std::vector<uint8_t>& hrow = scratch.hrow;
+  std::vector<uint8_t>& band = scratch.band;
+  std::vector<uint8_t> row_edge(H, 0), row_band(H, 0);  // rows with a boundary pixel, a band pixel
+#pragma omp parallel for schedule(static, 4)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    const uint16_t* cu = y > 0 ? c - W : c;
+    const uint16_t* cd = y + 1 < H ? c + W : c;
+    uint8_t* h = hrow.data() + static_cast<size_t>(y) * W;
+    std::fill_n(h, W, uint8_t{0});
+    bool any_e = false;
+    for (int x = 0; x < W; ++x) {
+      const uint16_t v = c[x];
+      if (v == 0xffff) continue;
+      const bool e = (v ^ cu[x]) == 1 || (v ^ cd[x]) == 1 || (x > 0 && (v ^ c[x - 1]) == 1) ||
+                     (x + 1 < W && (v ^ c[x + 1]) == 1);
+      if (!e) continue;
+      any_e = true;
+      for (int k = std::max(0, x - kPenumbraBand); k <= std::min(W - 1, x + kPenumbraBand); ++k) h[k] = 1;
+    }
+    row_edge[y] = any_e;
+  }
+  bool any = false;
+#pragma omp parallel for schedule(static, 4) reduction(|| : any)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    uint8_t* __restrict b = band.data() + static_cast<size_t>(y) * W;
+    std::fill_n(b, W, uint8_t{0});
+    bool near = false;
+    for (int yy = std::max(0, y - kPenumbraBand); yy <= std::min(H - 1, y + kPenumbraBand); ++yy) near = near || row_edge[yy];
+    if (!near) continue;
+    for (int yy = std::max(0, y - kPenumbraBand); yy <= std::min(H - 1, y + kPenumbraBand); ++yy) {
+      if (!row_edge[yy]) continue;
+      const uint8_t* __restrict h = hrow.data() + static_cast<size_t>(yy) * W;
+      for (int x = 0; x < W; ++x) b[x] |= h[x];
+    }
+    uint8_t a = 0;
+    for (int x = 0; x < W; ++x) {
+      b[x] = b[x] & (c[x] != 0xffff);
+      a |= b[x];
+    }
+    row_band[y] = a;
+    any = any || a;
+  }
+  if (!any) return;
+  // The levels: per class the median Y on each level outside the band (robust to the markings and
+  // glints a level also holds), over every other row and column, from histograms of log2 Y in
+  // steps of 1/16 (4.4 %; integer counts, the same in any order), and the levels' mean box R and B
+  // (their colours; per-row sums added over the rows in order: any thread count gives the same
+  // bits).
+  constexpr int kBins = 1024;  // log2 Y from −32 to +32
+  auto bin_of = [](double yv) { return std::clamp(static_cast<int>(std::floor((std::log2(yv) + 32) * 16)), 0, kBins - 1); };
+  std::vector<int> split_ids;
+  int slot[kLabelCount];
+  for (int id = 0; id < kLabelCount; ++id) slot[id] = split_code[id] != 0xffff ? (split_ids.push_back(id), static_cast<int>(split_ids.size()) - 1) : -1;
+  const int ns = static_cast<int>(split_ids.size());
+  const int nr = (H + 1) / 2;
+  std::vector<uint64_t> tot_all(static_cast<size_t>(ns) * 2 * kBins, 0);
+  std::vector<double> rb(static_cast<size_t>(nr) * ns * 4, 0.0);
+#pragma omp parallel
+  {
+  std::vector<uint32_t> h(static_cast<size_t>(ns) * 2 * kBins, 0);
+#pragma omp for schedule(static, 4)
+  for (int r = 0; r < nr; ++r) {
+    const int y = 2 * r;
+    const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    const uint8_t* b = band.data() + static_cast<size_t>(y) * W;
+    const float* d = day.row(y);
+    double* q = rb.data() + static_cast<size_t>(r) * ns * 4;
+    for (int x = 0; x < W; x += 2) {
+      if (c[x] == 0xffff || b[x]) continue;
+      double v[3];
+      box_px(d + 3 * x, coef, v);
+      const double yv = box_y(v, coef);
+      if (!(yv > 0)) continue;
+      const int k = 2 * slot[c[x] >> 1] + (c[x] & 1);
+      ++h[static_cast<size_t>(k) * kBins + bin_of(yv)];
+      q[2 * k] += v[0];
+      q[2 * k + 1] += v[2];
+    }
+  }
+#pragma omp critical(penumbra_hist)
+  for (size_t j = 0; j < h.size(); ++j) tot_all[j] += h[j];
+  }
+  double level[kLabelCount][2] = {}, blue_red[kLabelCount][2] = {};
+  for (int si = 0; si < ns; ++si)
+    for (int side = 0; side < 2; ++side) {
+      const int k = 2 * si + side;
+      const uint64_t* tot = tot_all.data() + static_cast<size_t>(k) * kBins;
+      double R = 0, B = 0;
+      for (int r = 0; r < nr; ++r) {
+        R += rb[(static_cast<size_t>(r) * ns * 2 + k) * 2];
+        B += rb[(static_cast<size_t>(r) * ns * 2 + k) * 2 + 1];
+      }
+      uint64_t n_all = 0;
+      for (int j = 0; j < kBins; ++j) n_all += tot[j];
+      if (n_all == 0) continue;
+      auto quantile = [&](double q) {  // the bin's centre where the cumulative count first reaches q
+        uint64_t acc = 0;
+        int j = 0;
+        for (; j < kBins - 1; ++j)
+          if (static_cast<double>(acc += tot[j]) >= q * static_cast<double>(n_all)) break;
+        return std::exp2((j + 0.5) / 16 - 32);
+      };
+      const int id = split_ids[si];
+      level[id][side] = quantile(0.5);
+
+      blue_red[id][side] = R > 0 ? B / R : 0;
+    }
+  // 1/ln(Ȳ_sun/Ȳ_shade) per class (0: levels less than 1.5x apart, placement kept), and
+  // ln(scale_sun/scale_shade_k) per class and band: the band's scales are scale_shade_k·exp(α·that).
+  float inv_log_ratio[kLabelCount] = {}, inv_log_br[kLabelCount] = {}, log_scale_ratio[kLabelCount][3] = {},
+        snap_shade[kLabelCount] = {}, snap_sun[kLabelCount] = {};
+  for (int id = 0; id < kLabelCount; ++id) {
+    if (!(level[id][0] > 0) || !(level[id][1] > 1.5 * level[id][0])) continue;
+    // The shade bluer than the sunlit level (the split's colour test): else no colour share.
+    if (!(blue_red[id][1] > 0) || !(blue_red[id][0] > blue_red[id][1])) continue;
+    inv_log_ratio[id] = static_cast<float>(1 / std::log(level[id][1] / level[id][0]));
+    snap_shade[id] = snap_sun[id] = static_cast<float>(std::log(kPenumbraTexture) / std::log(level[id][1] / level[id][0]));
+    inv_log_br[id] = static_cast<float>(1 / std::log(blue_red[id][1] / blue_red[id][0]));
+    for (int k = 0; k < 3; ++k)
+      if (scale_shade[id][k] > 0 && scale_sun[id] > 0)
+        log_scale_ratio[id][k] = static_cast<float>(std::log(double{scale_sun[id]} / scale_shade[id][k]));
+  }
+  // α_raw per band pixel (−1 elsewhere and where the class keeps its placement).
+  std::vector<float>& araw = scratch.araw;
+#pragma omp parallel for schedule(static, 4)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    const uint8_t* b = band.data() + static_cast<size_t>(y) * W;
+    const float* d = day.row(y);
+    float* o = araw.data() + static_cast<size_t>(y) * W;
+    std::fill_n(o, W, -1.f);
+    if (!row_band[y]) continue;
+    for (int x = 0; x < W; ++x) {
+      if (!b[x]) continue;
+      const int id = c[x] >> 1;
+      if (inv_log_ratio[id] == 0) continue;
+      double v[3];
+      box_px(d + 3 * x, coef, v);
+      const double yp = box_y(v, coef);
+      if (!(yp > 0) || !(v[0] > 0) || !(v[2] > 0)) continue;
+      // In the shade, the share by light and by colour, whichever is smaller: a penumbra is both
+      // brighter and redder than the shade (part of the sun's light added to the sky's), a white
+      // marking in the shade only brighter. On the sunlit level by light alone: its penumbra keeps
+      // the sun's colour (the sun's light dominates it until the sky's is most of what is left).
+      const float by_light = std::clamp(std::log(static_cast<float>(yp / level[id][0])) * inv_log_ratio[id], 0.f, 1.f);
+      const float by_colour =
+          std::clamp(std::log(static_cast<float>(v[2] / v[0] / blue_red[id][0])) * inv_log_br[id], 0.f, 1.f);
+      o[x] = (c[x] & 1) ? by_light : std::min(by_light, by_colour);
+    }
+  }
+  // α, the median of α_raw over the 3 x 3 band pixels of the class; the pixel's texture anew where
+  // it is not its level's.
+#pragma omp parallel for schedule(static, 4)
+  for (int y = 0; y < H; ++y) {
+    if (!row_band[y]) continue;
+    const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
+    const float* ar = araw.data() + static_cast<size_t>(y) * W;
+    for (int x = 0; x < W; ++x) {
+      if (ar[x] < 0) continue;
+      // A pixel whose own light is its level's keeps it (its neighbours' median could move it only
+      // where most of them lie off its level, which a penumbra's pixels on its level's side of
+      // the snap do not need: they are as lit as the level).
+      const bool on_sun = c[x] & 1;
+      const int id = c[x] >> 1;
+      if (on_sun ? ar[x] > 1 - snap_sun[id] : ar[x] < snap_shade[id]) continue;
+      float v[9];
+      int m = 0;
+      for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy) {
+        const size_t o = static_cast<size_t>(yy) * W;
+        for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx)
+          if (code[o + xx] == c[x] && araw[o + xx] >= 0) {
+            // insertion into the sorted prefix
+            const float a = araw[o + xx];
+            int k = m++;
+            while (k > 0 && v[k - 1] > a) { v[k] = v[k - 1]; --k; }
+            v[k] = a;
+          }
+      }
+      // Within a level's texture spread of it is on it.
+      float a = v[m / 2];
+      // On the sunlit level only a pixel more shade than sun (α < 1/2: its own light would have
+      // put it in the shade, the split's 3 x 3 majority put it in the sun) leaves it: a sunlit
+      // pixel near a shadow speck that is only somewhat darker is as likely dark asphalt (on the
+      // bundled KITTI frame, moving those too lifted a sunlit patch's night texture to 2.01x a
+      // shaded stretch of the same road, past asphalt's factor 2; SunShade.BundledKittiRoad…).
+      if (on_sun && a >= 0.5f) a = 1;
+      if (a < snap_shade[id]) a = 0;
+      else if (a > 1 - snap_sun[id]) a = 1;
+      if ((a == 0 && !on_sun) || (a == 1 && on_sun)) continue;  // its level's scale, as before
+      const size_t i = static_cast<size_t>(y) * W + x;
+      double px[3];
+      box_px(day.data() + 3 * i, coef, px);
+      for (int k = 0; k < 3; ++k) {
+        const float sc = scale_shade[id][k] * std::exp(a * log_scale_ratio[id][k]);
+        f.data()[3 * i + k] = std::min(sc * static_cast<float>(px[k]), cap[id]);
+      }
+    }
+  }
+}
+}  // namespace
+
+void sun_penumbrae_enabled(bool on) { g_sun_penumbrae.store(on, std::memory_order_relaxed); }
+
 ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
                                 ImageF* work_luma, const TextureSums* sums) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
@@ -1102,6 +1385,8 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
         work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
     }
   }
+  if (sunlit && g_sun_penumbrae.load(std::memory_order_relaxed))
+    soften_sun_edges(day, labels, sun, coef, scale_shade, scale_sun, cap, f);
   return f;
 }
 

@@ -35,6 +35,9 @@ struct SunShadeSplit {
   std::array<std::array<double, 3>, kLabelCount> shade_tint{};
   int block_px = 0, opening_radius_blocks = 0;  // the block grid's edge, the opening's radius (blocks)
 };
+// Whether reflectance_texture softens the split's penumbrae (darken.cpp soften_sun_edges; on by
+// default): a test hook for the before/after comparison. Not thread-safe: set it between textures.
+void sun_penumbrae_enabled(bool on);
 // The smallest ratio of the shade's B/R (box bands) to the sunlit level's that the sun against the
 // sky makes at a step of sun_shade_ratio_min (reflectance.sun_cct_K, shade_sky_cct_K): a class
 // whose levels differ less in colour is not split.

@@ -2,6 +2,7 @@
 // road whose reflectance (fine texture and a lane marking) is known, lit by a sun/shade step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
@@ -336,6 +337,88 @@ TEST(SunShade, BundledKittiRoadLosesTheDaysSunPatch) {
   std::printf("[sun] kitti_000000 sunlit patch / shade, night texture: %.2f with the split, %.2f without\n", night,
               off_ratio);
   EXPECT_GT(off_ratio, 4.0) << "the patch is sunlit in the day";
+  // The bright outline round the former sun patches: road pixels on the shade level within 3 px of
+  // the sunlit level whose night texture is more than 1.95 times the shade level's median (the
+  // penumbra test's bound). Softening the penumbrae must leave fewer.
+  const SunShadeSplit split = sun_shade_split(day, lm.ids, p);
+  ASSERT_FALSE(split.sunlit.empty());
+  auto outline = [&](const ImageF& t) {
+    const int W = t.width(), H = t.height();
+    std::vector<double> shade;
+    for (int y = 0; y < H; y += 2)
+      for (int x = 0; x < W; x += 2)
+        if (lm.ids.at(x, y) == int(Label::Road) && !split.sunlit[static_cast<size_t>(y) * W + x]) shade.push_back(Y(t, x, y));
+    std::nth_element(shade.begin(), shade.begin() + shade.size() / 2, shade.end());
+    const double bound = 1.3 * 1.2 / 0.8 * shade[shade.size() / 2];
+    int n = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t i = static_cast<size_t>(y) * W + x;
+        if (lm.ids.at(x, y) != int(Label::Road) || split.sunlit[i] || !(Y(t, x, y) > bound)) continue;
+        bool near = false;
+        for (int yy = std::max(0, y - 3); yy <= std::min(H - 1, y + 3) && !near; ++yy)
+          for (int xx = std::max(0, x - 3); xx <= std::min(W - 1, x + 3) && !near; ++xx)
+            near = lm.ids.at(xx, yy) == int(Label::Road) && split.sunlit[static_cast<size_t>(yy) * W + xx];
+        n += near;
+      }
+    return n;
+  };
+  const int outline_on = outline(reflectance_texture(day, lm.ids, p));
+  sun_penumbrae_enabled(false);
+  const int outline_off = outline(reflectance_texture(day, lm.ids, p));
+  sun_penumbrae_enabled(true);
+  std::printf("[sun] kitti_000000 bright outline: %d road pixels in the shade beside the sun above 1.95x its median (%d "
+              "without softening the penumbrae)\n", outline_on, outline_off);
+  EXPECT_LT(outline_on, outline_off);
   EXPECT_GT(night, 0.5);
   EXPECT_LT(night, 2.0);
+}
+
+// A penumbra 8 px wide between the sun and the shade (darken.cpp soften_sun_edges): the sun's
+// visible share s rises by 1/8 a row over rows kStepY − 4 .. kStepY + 3, so a pixel there is lit by
+// the sky and s of the sun, E = 1 + (kSun − 1)·s, in the mixture's colour, sky·kSkyTint +
+// (E − 1)·S with S = (kSun·kSunTint − kSkyTint)/(kSun − 1) (the sunlit level's colour at s = 1).
+// The split places each penumbra pixel on one level by its own light; those placed in the shade kept
+// their share of the sun (E up to √kSun = 2.5, the levels' log midpoint) and drew a bright line at
+// night. Now each such pixel's f/ρ must lie within the factor kPenumbraTexture·(1 + τ)/(1 − τ) =
+// 1.3·1.2/0.8 = 1.95 of the shade's constant: a share within 1.3 of the level is kept on it, and the
+// median of its neighbours' shares, whose textures (±τ = 20 %) are their own, moves it by at most
+// (1 + τ)/(1 − τ). With the softening off the worst is E·(1 + τ) = 3.0 (it fails).
+TEST(SunShade, PenumbraPixelsInTheShadeLoseTheirShareOfTheSun) {
+  const ScenePreset p = on(load_scene_preset("night-urban"));
+  Scene s = road_scene(true);
+  for (int y = kStepY - 4; y < kStepY + 4; ++y) {
+    const double share = (y - (kStepY - 4) + 0.5) / 8, E = 1 + (kSun - 1) * share;
+    for (int x = 0; x < kW; ++x)
+      for (int k = 0; k < 3; ++k) {
+        const double S = (kSun * kSunTint[k] - kSkyTint[k]) / (kSun - 1);
+        s.day.at(x, y, k) = static_cast<float>(0.1 * s.rho[static_cast<size_t>(y) * kW + x] * (kSkyTint[k] + (E - 1) * S));
+      }
+  }
+  const SunShadeSplit split = sun_shade_split(s.day, s.ids, p);
+  ASSERT_GT(split.ratio[int(Label::Road)], 1.0);
+  auto worst = [&](const ImageF& tex, int* n) {
+    const double c = Y(tex, 0, 0) / s.rho[0];  // the shade's constant (row 0: far from the edge)
+    double w = 1;
+    *n = 0;
+    for (int y = kStepY - 4; y < kStepY + 4; ++y)
+      for (int x = 0; x < kW; ++x) {
+        const size_t i = static_cast<size_t>(y) * kW + x;
+        if (split.sunlit[i]) continue;
+        ++*n;
+        const double r = Y(tex, x, y) / s.rho[i] / c;
+        w = std::max(w, std::max(r, 1 / r));
+      }
+    return w;
+  };
+  int n_on = 0, n_off = 0;
+  const double on_w = worst(reflectance_texture(s.day, s.ids, p), &n_on);
+  sun_penumbrae_enabled(false);
+  const double off_w = worst(reflectance_texture(s.day, s.ids, p), &n_off);
+  sun_penumbrae_enabled(true);
+  std::printf("[penumbra] %d shade-placed penumbra pixels: worst f/rho against the shade %.2fx (%.2fx without)\n", n_on,
+              on_w, off_w);
+  ASSERT_GT(n_on, kW);  // the penumbra's darker rows are in the shade
+  EXPECT_LE(on_w, 1.3 * 1.2 / 0.8);
+  EXPECT_GT(off_w, 1.3 * 1.2 / 0.8);
 }
