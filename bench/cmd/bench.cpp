@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 
@@ -85,15 +86,22 @@ std::filesystem::path output_folder(const std::string& out_dir) {
   return out_dir.empty() ? std::filesystem::path(PHOTOSITE_SOURCE_DIR) / "docs" : std::filesystem::path(out_dir);
 }
 
+// The CPU's model name, with its family and model numbers where the name alone does not tell the
+// generation (a virtual machine's "AMD EPYC" was a Zen 3 and a Zen 4 in turn) and the vector
+// level the code paths take (core/isa_detail.h: AVX-512, AVX2 or scalar), and the thread count.
 std::string machine_description() {
   std::ifstream f("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  while (std::getline(f, line))
-    if (line.rfind("model name", 0) == 0) {
-      model = line.substr(line.find(':') + 2);
-      break;
-    }
-  return model + ", " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
+  std::string line, model = "unknown CPU", family, number;
+  auto value = [&] { return line.substr(line.find(':') + 2); };
+  while (std::getline(f, line) && (model == "unknown CPU" || family.empty() || number.empty())) {
+    if (line.rfind("model name", 0) == 0) model = value();
+    else if (line.rfind("cpu family", 0) == 0) family = value();
+    else if (line.rfind("model", 0) == 0 && line.find(':') != std::string::npos && line.rfind("model name", 0) != 0)
+      number = value();
+  }
+  const char* isa = photosite::detail::have_avx512() ? "AVX-512" : photosite::detail::have_avx2() ? "AVX2" : "scalar";
+  std::string what = family.empty() ? std::string(isa) : "family " + family + " model " + number + ", " + isa;
+  return model + " (" + what + "), " + std::to_string(std::thread::hardware_concurrency()) + " hardware threads";
 }
 
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv) {
