@@ -1087,8 +1087,7 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
     const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
     const uint16_t* cu = y > 0 ? c - W : c;
     const uint16_t* cd = y + 1 < H ? c + W : c;
-    uint8_t* h = hrow.data() + static_cast<size_t>(y) * W;
-    std::fill_n(h, W, uint8_t{0});
+    uint8_t* h = hrow.data() + static_cast<size_t>(y) * W;  // zero (a new vector)
     bool any_e = false;
     for (int x = 0; x < W; ++x) {
       const uint16_t v = c[x];
@@ -1105,8 +1104,7 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
 #pragma omp parallel for schedule(static, 4) reduction(|| : any)
   for (int y = 0; y < H; ++y) {
     const uint16_t* c = code.data() + static_cast<size_t>(y) * W;
-    uint8_t* __restrict b = band.data() + static_cast<size_t>(y) * W;
-    std::fill_n(b, W, uint8_t{0});
+    uint8_t* __restrict b = band.data() + static_cast<size_t>(y) * W;  // zero (a new vector)
     bool near = false;
     for (int yy = std::max(0, y - kPenumbraBand); yy <= std::min(H - 1, y + kPenumbraBand); ++yy) near = near || row_edge[yy];
     if (!near) continue;
@@ -1176,28 +1174,26 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
       uint64_t n_all = 0;
       for (int j = 0; j < kBins; ++j) n_all += tot[j];
       if (n_all == 0) continue;
-      auto quantile = [&](double q) {  // the bin's centre where the cumulative count first reaches q
-        uint64_t acc = 0;
-        int j = 0;
-        for (; j < kBins - 1; ++j)
-          if (static_cast<double>(acc += tot[j]) >= q * static_cast<double>(n_all)) break;
-        return std::exp2((j + 0.5) / 16 - 32);
-      };
+      // The median: the centre of the bin where the cumulative count first reaches half.
+      uint64_t acc = 0;
+      int j = 0;
+      for (; j < kBins - 1; ++j)
+        if (static_cast<double>(acc += tot[j]) >= 0.5 * static_cast<double>(n_all)) break;
       const int id = split_ids[si];
-      level[id][side] = quantile(0.5);
-
+      level[id][side] = std::exp2((j + 0.5) / 16 - 32);
       blue_red[id][side] = R > 0 ? B / R : 0;
     }
-  // 1/ln(Ȳ_sun/Ȳ_shade) per class (0: levels less than 1.5x apart, placement kept), and
+  // 1/ln(Ȳ_sun/Ȳ_shade) per class (0: levels less than 1.5x apart, placement kept), the share within
+  // which a pixel is on its level (kPenumbraTexture in that log ratio's units), and
   // ln(scale_sun/scale_shade_k) per class and band: the band's scales are scale_shade_k·exp(α·that).
   float inv_log_ratio[kLabelCount] = {}, inv_log_br[kLabelCount] = {}, log_scale_ratio[kLabelCount][3] = {},
-        snap_shade[kLabelCount] = {}, snap_sun[kLabelCount] = {};
+        snap[kLabelCount] = {};
   for (int id = 0; id < kLabelCount; ++id) {
     if (!(level[id][0] > 0) || !(level[id][1] > 1.5 * level[id][0])) continue;
     // The shade bluer than the sunlit level (the split's colour test): else no colour share.
     if (!(blue_red[id][1] > 0) || !(blue_red[id][0] > blue_red[id][1])) continue;
     inv_log_ratio[id] = static_cast<float>(1 / std::log(level[id][1] / level[id][0]));
-    snap_shade[id] = snap_sun[id] = static_cast<float>(std::log(kPenumbraTexture) / std::log(level[id][1] / level[id][0]));
+    snap[id] = static_cast<float>(std::log(kPenumbraTexture) / std::log(level[id][1] / level[id][0]));
     inv_log_br[id] = static_cast<float>(1 / std::log(blue_red[id][1] / blue_red[id][0]));
     for (int k = 0; k < 3; ++k)
       if (scale_shade[id][k] > 0 && scale_sun[id] > 0)
@@ -1231,8 +1227,8 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
       o[x] = (c[x] & 1) ? by_light : std::min(by_light, by_colour);
     }
   }
-  // α, the median of α_raw over the 3 x 3 band pixels of the class; the pixel's texture anew where
-  // it is not its level's.
+  // α, the median of α_raw over the 3 x 3 band pixels of the class on the pixel's level; the pixel's
+  // texture anew where it is not its level's.
 #pragma omp parallel for schedule(static, 4)
   for (int y = 0; y < H; ++y) {
     if (!row_band[y]) continue;
@@ -1245,7 +1241,7 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
       // the snap do not need: they are as lit as the level).
       const bool on_sun = c[x] & 1;
       const int id = c[x] >> 1;
-      if (on_sun ? ar[x] > 1 - snap_sun[id] : ar[x] < snap_shade[id]) continue;
+      if (on_sun ? ar[x] > 1 - snap[id] : ar[x] < snap[id]) continue;
       float v[9];
       int m = 0;
       for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy) {
@@ -1259,7 +1255,6 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
             v[k] = a;
           }
       }
-      // Within a level's texture spread of it is on it.
       float a = v[m / 2];
       // On the sunlit level only a pixel more shade than sun (α < 1/2: its own light would have
       // put it in the shade, the split's 3 x 3 majority put it in the sun) leaves it: a sunlit
@@ -1267,16 +1262,13 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
       // bundled KITTI frame, moving those too lifted a sunlit patch's night texture to 2.01x a
       // shaded stretch of the same road, past asphalt's factor 2; SunShade.BundledKittiRoad…).
       if (on_sun && a >= 0.5f) a = 1;
-      if (a < snap_shade[id]) a = 0;
-      else if (a > 1 - snap_sun[id]) a = 1;
+      if (a < snap[id]) a = 0;  // within kPenumbraTexture of a level is on it
+      else if (a > 1 - snap[id]) a = 1;
       if ((a == 0 && !on_sun) || (a == 1 && on_sun)) continue;  // its level's scale, as before
       const size_t i = static_cast<size_t>(y) * W + x;
-      double px[3];
-      box_px(day.data() + 3 * i, coef, px);
-      for (int k = 0; k < 3; ++k) {
-        const float sc = scale_shade[id][k] * std::exp(a * log_scale_ratio[id][k]);
-        f.data()[3 * i + k] = std::min(sc * static_cast<float>(px[k]), cap[id]);
-      }
+      float sc[3];
+      for (int k = 0; k < 3; ++k) sc[k] = scale_shade[id][k] * std::exp(a * log_scale_ratio[id][k]);
+      box_scaled_block(day.data() + 3 * i, 1, coef, sc, cap[id], f.data() + 3 * i);  // pass 2's arithmetic
     }
   }
 }
