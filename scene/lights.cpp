@@ -178,16 +178,15 @@ BesideProbe probe_beside(const ImageU16& labels, const CameraGeometry& g, int x,
   BesideProbe r;
   const int W = labels.width();
   if (y < 0 || y >= labels.height()) return r;
-  // Ground X at the pixel edge the walk starts from: the vehicle's side.
-  double X0;
-  if (!g.ground_point(dir > 0 ? x : x + 1, y + 0.5, &X0, nullptr, nullptr)) return r;
+  // Along one row of the flat ground X = z·(u − c_x)/f at one camera z, so each pixel is z/f metres
+  // wide: the walk's k-th pixel spans k·z/f .. (k + 1)·z/f from the vehicle's side.
+  double z;
+  if (!g.ground_point(x, y + 0.5, nullptr, nullptr, &z)) return r;
+  const double px_m = z / g.f_px;
   double strip_from = 0;
   bool in_strip = false;
-  for (; x >= 0 && x < W; x += dir) {
-    double Xs, Xe;  // the pixel's near and far edges
-    g.ground_point(dir > 0 ? x : x + 1, y + 0.5, &Xs, nullptr, nullptr);
-    g.ground_point(dir > 0 ? x + 1 : x, y + 0.5, &Xe, nullptr, nullptr);
-    const double at_m = std::abs(Xs - X0), far_m = std::abs(Xe - X0);
+  for (int k = 0; x >= 0 && x < W; x += dir, ++k) {
+    const double at_m = k * px_m, far_m = (k + 1) * px_m;  // the pixel's near and far edges
     const int id = labels.at(x, y);
     const Label l = static_cast<Label>(id);
     if (l == Label::EgoVehicle || l == Label::RectificationBorder || l == Label::OutOfRoi || l == Label::Sky) break;
