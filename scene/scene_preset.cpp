@@ -179,6 +179,10 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "shop_sill_m + shop_height_m ≤ windows.storey_m"),
       num("windows.shop_frontage_m", PHOTOSITE_AT(P, shop_frontage_m), "m", 0.5, 100,
           "frontage of one shop unit (lit or dark as a whole)", "[U]"),
+      num("windows.detect_contrast", PHOTOSITE_AT(P, window_detect_contrast), "fraction", 0, 1,
+          "the day photo's windows found on each façade: glass darker than its wall's local mean by this share "
+          "(0: not looked for, the grid everywhere)",
+          "photosite choice"),
       table("retroreflection", "retroreflective markings and signs", "NP §4"),
       num("retroreflection.marking_RL", PHOTOSITE_AT(P, marking_RL), "cd·m⁻²·lx⁻¹", 0, 5,
           "lane markings' coefficient of retroreflected luminance R_L", "NP §4 (EN 1436)"),

@@ -1801,7 +1801,13 @@ __attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowR
 }
 // A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
 // draws (add_facade_windows).
-struct FacadeFrame { double tX, tD; uint64_t key; };
+// `found`: the plane's windows are the photo's where it resolves them (FacadeWindowsFound: the
+// grid's panes there are not drawn).
+struct FacadeFrame {
+  double tX, tD;
+  uint64_t key;
+  bool found = false;
+};
 // Pixel x of the row as a window candidate (a building pixel with a plane, z ≤ zmax): its column,
 // z, plane axis and plane index appended at n.
 [[gnu::always_inline]] inline void window_candidate(int x, const int32_t* reg, const float* z, double zmax,
@@ -2018,8 +2024,28 @@ struct WindowPass {
   // luminance; spectrum::blackbody_rgb integrates Planck's law, far too slow per pixel).
   const decltype(spectrum::blackbody_rgb(0.0, 1.0)) warm1, cool1, shop1;
   const int isa = light_isa();
+  // The day photo's windows (find_facade_windows; none without a texture or with
+  // windows.detect_contrast 0), each one's draw keyed by its plane's key and its centre on the
+  // plane in 0.5 m steps (bit 38 keeps the keys apart from the grid's).
+  FacadeWindowsFound found;
+  struct FoundDraw {
+    uint64_t key = 0;
+    bool lit = false;
+    float col[3] = {0, 0, 0};
+  };
+  std::vector<FoundDraw> found_draws;
+  std::vector<std::vector<int32_t>> found_rows;  // per image row, the lit found windows crossing it
+  bool any_found = false;
+  // Whether pixel x (camera z, plane pi) lies in a column of its plane that the photo resolves
+  // (FacadeWindowsFound::Plane::resolved): there the photo's windows replace the grid's.
+  bool photo_resolved(int x, int pi, double zz, const WindowGeom& wg) const {
+    const double X = zz * (x - wg.cx) / wg.f, D = zz * wg.kD;
+    const FacadeWindowsFound::Plane& P = found.planes[pi];
+    const double ci = std::floor((frames[pi].tX * X + frames[pi].tD * D - P.s0) * (1 / FacadeWindowsFound::kCell_m));
+    return ci >= 0 && ci < P.ns && P.resolved[static_cast<size_t>(ci)];
+  }
   WindowPass(const ImageU16& labels_, const ImageF& depth_m_, const CameraGeometry& g_, const ScenePreset& p_,
-             uint64_t seed_, const BuildingFacades* facades, int width)
+             uint64_t seed_, const BuildingFacades* facades, int width, const ImageF* texture = nullptr)
       : labels(labels_), depth_m(depth_m_), g(g_), p(p_), seed(seed_), W(width), c(std::cos(g_.pitch_rad)),
         sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m), max_z(0.5 * p_.window_width_m * g_.f_px),
         computed(facades ? BuildingFacades() : building_facades(labels_, g_, p_.max_depth_m)),
@@ -2034,6 +2060,39 @@ struct WindowPass {
       const uint64_t dist = static_cast<uint64_t>(std::lround(f.d_m / 5.0)) & 1023;
       frames[k] = {tX, tD, (az << 10) | dist};
     }
+    if (texture && p.window_detect_contrast > 0) {
+      std::vector<double> tXs(frames.size()), tDs(frames.size());
+      for (size_t k = 0; k < frames.size(); ++k) tXs[k] = frames[k].tX, tDs[k] = frames[k].tD;
+      found = find_facade_windows(*texture, depth_m_, g_, fac, p_, tXs.data(), tDs.data());
+      for (size_t k = 0; k < frames.size(); ++k) any_found |= frames[k].found = found.planes[k].used;
+      found_draws.resize(found.windows.size());
+      for (size_t i = 0; i < found.windows.size(); ++i) {
+        const FacadeWindowsFound::Window& w = found.windows[i];
+        const uint64_t qs = static_cast<uint64_t>(std::llround((w.s_lo + w.s_hi) / 2 / 0.5) + (1 << 19)) & 0xfffff;
+        const uint64_t qy = static_cast<uint64_t>(std::llround((w.y_lo + w.y_hi) / 2 / 0.5)) & 0x3f;
+        FoundDraw& d = found_draws[i];
+        d.key = frames[w.plane].key << 40 | 1ull << 38 | qs << 12 | qy;
+        d.lit = lit_colour(d.key, false, d.col);
+      }
+      found_rows.resize(depth_m_.height());
+      for (size_t i = 0; i < found.windows.size(); ++i)
+        if (found_draws[i].lit)
+          for (int y = found.windows[i].y0; y <= found.windows[i].y1; ++y) found_rows[y].push_back(static_cast<int32_t>(i));
+    }
+  }
+  // A window's (or, `shop`, a shop unit's) seeded draw: lit or not, and where lit its colour.
+  bool lit_colour(uint64_t key, bool shop, float* col) const {
+    const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
+    if (!(uniform_open(w[0]) < p.window_lit_fraction)) return false;
+    double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
+    const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
+    // A share of the lit windows is seen through drawn curtains or blinds: their
+    // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
+    if (!shop && uniform_open(w[3]) < p.window_curtained_share)
+      lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
+    if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
+    for (int k = 0; k < 3; ++k) col[k] = static_cast<float>((*unit)[k] * lum);
+    return true;
   }
   WindowPass(const WindowPass&) = delete;
   WindowPass& operator=(const WindowPass&) = delete;
@@ -2078,19 +2137,8 @@ struct WindowPass {
     const uint64_t key = fkey | (cell << 12) | (static_cast<uint64_t>(j) & 0xfff) | (j == 0 && !shop ? 1ull << 39 : 0);
     if (key != m.last_key) {
       m.last_key = key;
-      const auto w = random_words(seed, 0, 0xfacade0000000000ull ^ key, Stream::Scene);
-      m.last_lit = uniform_open(w[0]) < p.window_lit_fraction;
-      if (m.last_lit) {
-        double lum = p.window_luminance_cd_m2 * (0.5 + uniform_open(w[1]));  // 0.5..1.5×
-        const auto* unit = uniform_open(w[2]) < p.window_warm_share ? &warm1 : &cool1;
-        // A share of the lit windows is seen through drawn curtains or blinds: their
-        // luminance, 0.5..1.5× window_curtained_luminance_cd_m2, replaces the open window's.
-        if (!shop && uniform_open(w[3]) < p.window_curtained_share)
-          lum = p.window_curtained_luminance_cd_m2 * (0.5 + uniform_open(w[1]));
-        if (shop) { lum *= p.shop_luminance_factor; unit = &shop1; }
-        for (int k = 0; k < 3; ++k) m.col[k] = static_cast<float>((*unit)[k] * lum);
-        seen.insert(key);
-      }
+      m.last_lit = lit_colour(key, shop, m.col);
+      if (m.last_lit) seen.insert(key);
     }
     if (!m.last_lit) return;
     for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], m.col[k]);
@@ -2130,6 +2178,7 @@ struct WindowPass {
         const int np = window_block_avx512(reg, z, x0, x1, zmax, fac, fr, wg, sc.r, rp, &n, sc.panes);
         for (int i = 0; i < np; ++i) {
           const int j = P.j[i];
+          if (fr[P.plane[i]].found && photo_resolved(P.x[i], P.plane[i], z[P.x[i]], wg)) continue;
           draw_pane(o, P.x[i], P.plane[i], j, P.kind[i], static_cast<int64_t>(P.cell[i]),
                     j == 0 ? static_cast<int64_t>(P.unit[i]) : 0, memo, sc.seen);
         }
@@ -2165,17 +2214,38 @@ struct WindowPass {
         for (; in_pane; in_pane &= in_pane - 1) {
           const int i = i8 + (std::countr_zero(in_pane) >> 3);
           const int j = sc.r.j[i];
+          if (fr[sc.plane_of[i]].found && photo_resolved(sc.r.x[i], sc.plane_of[i], sc.r.z[i], wg)) continue;
           draw_pane(o, sc.r.x[i], sc.plane_of[i], j, sc.r.kind[i], sc.r.cell[i], j == 0 ? sc.r.unit[i] : 0, memo, sc.seen);
         }
       }
+    }
+    if (!any_found) return;
+    // The photo's lit windows crossing this row (found_rows), each over its image box: the pixels
+    // of its plane whose façade coordinates lie in the window's box on the plane.
+    for (const int32_t id : found_rows[y]) {
+      const FacadeWindowsFound::Window& w = found.windows[id];
+      const FoundDraw& d = found_draws[id];
+      const int pi = w.plane;
+      bool drawn = false;
+      for (int x = w.x0; x <= w.x1; ++x) {
+        if (reg[x] < 0 || z[x] > zmax) continue;
+        const BuildingFacades::Region& R = fac.regions[reg[x]];
+        if (R.column_plane[x - R.x0] != pi) continue;
+        const double zz = z[x], X = zz * (x - wg.cx) / wg.f, D = zz * wg.kD, Y = wg.h - zz * wg.kY;
+        const double s = fr[pi].tX * X + fr[pi].tD * D;
+        if (!(s >= w.s_lo && s < w.s_hi && Y >= w.y_lo && Y < w.y_hi)) continue;
+        for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], d.col[k]);
+        drawn = true;
+      }
+      if (drawn) sc.seen.insert(d.key);
     }
   }
 };
 }  // namespace
 
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades) {
-  const WindowPass w(labels, depth_m, g, p, seed, facades, L.width());
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades, const ImageF* texture) {
+  const WindowPass w(labels, depth_m, g, p, seed, facades, L.width(), texture);
   std::unordered_set<uint64_t> all;
 #pragma omp parallel
   {
@@ -2209,7 +2279,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     vertical.emplace(texture, labels, depth_m, g, s, p, fac, W);
     pools.emplace(texture, labels, g, s, p, W);
   }
-  const WindowPass windows(labels, depth_m, g, p, seed, fac, W);
+  const WindowPass windows(labels, depth_m, g, p, seed, fac, W, &texture);
   // With compose, the heads row by row in the pass (each row's share of every disc crossing it,
   // a maximum after the row's windows, as draw_lamp_heads' after all rows), and each head's
   // "drawn" from any thread's rows.

@@ -33,6 +33,32 @@ float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces 
 // (nothing written) on a machine without AVX-512F and VL.
 bool window_floor_div_avx512(const double* a, int n, double b, double* out);
 
+// The day photo's windows on each façade plane (scene/facade_windows.cpp), for add_facade_windows:
+// per plane (BuildingFacades::planes, same indices) the columns of its rectified grid (cells of
+// kCell_m along it from s0, with the axis tX, tD) that the photo resolves, where its windows replace
+// the preset's grid (`used` false: a plane not rectified, unfitted or of too few pixels: the grid
+// everywhere on it); per window its plane, its box on the plane (s and Y, m) and the box's bounds
+// in the image (pixels, inclusive).
+struct FacadeWindowsFound {
+  struct Plane {
+    bool used = false;
+    double s0 = 0;
+    int ns = 0;
+    std::vector<uint8_t> resolved;
+  };
+  struct Window {
+    int plane = -1;
+    double s_lo = 0, s_hi = 0, y_lo = 0, y_hi = 0;
+    int x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+  };
+  std::vector<Plane> planes;
+  std::vector<Window> windows;
+  static constexpr double kCell_m = 0.1;
+};
+FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& depth_m, const CameraGeometry& g,
+                                       const BuildingFacades& fac, const ScenePreset& p, const double* tX,
+                                       const double* tD);
+
 // The street light and the façade windows of one frame in one pass over its rows (light_map,
 // with geometry and metric depth): per row the light on vertical surfaces and the ground pools
 // (add_vertical_street_light and add_street_lighting's pools: both add, on disjoint pixels, the

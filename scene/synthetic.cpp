@@ -143,6 +143,14 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
       } else if (facade && hit == -3) {
         l = Label::Building;
         px[0] = 0.25f; px[1] = 0.22f; px[2] = 0.2f;
+        if (o.window_pitch_m > 0) {
+          const double D = best * dD, Y = h + best * dY;
+          const double u = D - o.window_phase_m + 0.5 * o.window_width_m;
+          const double v = Y - o.window_sill_m;
+          if (u - std::floor(u / o.window_pitch_m) * o.window_pitch_m < o.window_width_m && v >= 0 &&
+              v - std::floor(v / o.window_storey_m) * o.window_storey_m < o.window_height_m)
+            px[0] = px[1] = px[2] = 0.04f;
+        }
         s.depth_m.at(x, y) = static_cast<float>(best);
       } else if (hit >= 0) {
         l = o.boxes[hit].label;

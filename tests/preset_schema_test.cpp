@@ -135,7 +135,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
   X(veh_head_intensity_cd) X(veh_tail_intensity_cd) X(veh_parking_intensity_cd) X(veh_parked_lit_fraction) \
   X(veh_kerb_strip_m) X(veh_lane_width_m) \
   X(window_storey_m) X(window_pitch_m) X(window_width_m) X(window_height_m) X(shop_luminance_factor) X(shop_cct_K) \
-  X(shop_width_m) X(shop_sill_m) X(shop_height_m) X(shop_frontage_m) X(window_frame_m) X(window_mullion_m) X(shop_share) \
+  X(shop_width_m) X(shop_sill_m) X(shop_height_m) X(shop_frontage_m) X(window_detect_contrast) X(window_frame_m) X(window_mullion_m) X(shop_share) \
   X(streetlamp_luminance_cd_m2) X(streetlamp_cct_K) X(headlamp_luminance_cd_m2) X(headlamp_cct_K) \
   X(taillamp_luminance_cd_m2) X(signal_luminance_cd_m2) X(window_luminance_cd_m2) X(window_cct_K) \
   X(window_lit_fraction) X(window_cell_fraction) X(window_warm_share) X(window_cool_cct_K) \

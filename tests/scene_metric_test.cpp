@@ -517,22 +517,30 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
     const auto [lin, lab] = cityscapes_frame(base);
     const NightScene ns = night_scene(lin, lab, p, 1);
     const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
+    const ImageF texture = reflectance_texture(lin, lab.ids, p);
     for (const int threads : {1, 2}) {
       omp_set_num_threads(threads);
       std::vector<ImageF> maps;
       std::vector<int> counts;
-      for (const int isa : {2, 1, 0}) {
-        street_light_max_isa(isa);
-        ImageF L(lin.width(), lin.height(), 3, 0.f, unit::radiance);
-        counts.push_back(add_facade_windows(L, lab.ids, ns.depth, ns.geometry, p, 7, &fac));
-        maps.push_back(std::move(L));
-      }
+      // Without the day texture (the grid on every façade) and with it (the photo's windows where it
+      // resolves a façade: those planes' pixels leave the kernels for the per-pixel path).
+      for (const ImageF* tex : {static_cast<const ImageF*>(nullptr), &texture})
+        for (const int isa : {2, 1, 0}) {
+          street_light_max_isa(isa);
+          ImageF L(lin.width(), lin.height(), 3, 0.f, unit::radiance);
+          counts.push_back(add_facade_windows(L, lab.ids, ns.depth, ns.geometry, p, 7, &fac, tex));
+          maps.push_back(std::move(L));
+        }
       street_light_max_isa(2);
-      EXPECT_GT(counts[2], 0) << base;
-      for (int k = 0; k < 2; ++k) {
-        EXPECT_EQ(counts[k], counts[2]) << base << (k == 0 ? " AVX-512" : " AVX2") << ", " << threads << " threads";
-        EXPECT_EQ(differing_samples(maps[k], maps[2]), 0u)
-            << base << (k == 0 ? " AVX-512" : " AVX2") << " against the scalar twins, " << threads << " threads";
+      for (int t = 0; t < 2; ++t) {
+        const char* how = t == 0 ? " (grid)" : " (the photo's windows)";
+        EXPECT_GT(counts[3 * t + 2], 0) << base << how;
+        for (int k = 0; k < 2; ++k) {
+          EXPECT_EQ(counts[3 * t + k], counts[3 * t + 2])
+              << base << how << (k == 0 ? " AVX-512" : " AVX2") << ", " << threads << " threads";
+          EXPECT_EQ(differing_samples(maps[3 * t + k], maps[3 * t + 2]), 0u)
+              << base << how << (k == 0 ? " AVX-512" : " AVX2") << " against the scalar twins, " << threads << " threads";
+        }
       }
     }
   }
@@ -2358,6 +2366,139 @@ TEST(Facades, WindowSpacingIsThePitchInPerspective) {
       EXPECT_GE(pairs, 5) << "storey " << storey;
     }
   }
+}
+
+// The windows lit are the photo's (add_facade_windows with the day texture: scene/facade_windows.cpp).
+// A synthetic street whose façades show dark windows (1.2 x 1.6 m glass every 2.7 m along the road,
+// storeys of 3.4 m: neither is the preset grid's 1.3 m bay or 3 m storey), every window lit
+// (window_lit_fraction 1). Measured over the building pixels up to 30 m ahead (where a 0.1 m cell
+// spans ≥ 1 px along the façade at this size), against the photo's own window pixels:
+// - precision, the lit pixels that are window in the photo: a rectified cell (kCell_m = 0.1 m)
+//   across a window's edge is dark when the window fills enough of it, so lit pixels reach at most
+//   one cell beyond the glass: at most the band 2(w + h)·c around each w x h window is lit wall,
+//   precision ≥ w·h / (w·h + 2(w + h)·c) = 1.92 / 2.48 = 0.77;
+// - recall, the window pixels lit: inside, at most the same band of edge cells falls short,
+//   recall ≥ (w·h − 2(w + h)·c) / (w·h) = 0.71.
+// The preset's grid (windows.detect_contrast 0) on the same street lights wall about as often as
+// the windows cover the façade (1.92 / (2.7·3.4) = 0.21 of it): it must fall below both bounds.
+TEST(Facades, LitWindowsAreThePhotosWindows) {
+  SyntheticCameraOptions o = camera_scene(2048, 1024);
+  o.boxes.clear();
+  o.window_pitch_m = 2.7;
+  o.window_phase_m = 0.35;
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const CameraGeometry& g = o.camera;
+  const double max_depth_m = 1000;
+  const ImageF depth = metric_depth(s.labels, g, max_depth_m);
+  const BuildingFacades fac = building_facades(s.labels.ids, g, max_depth_m);
+  ScenePreset p = urban();
+  ASSERT_GT(p.window_detect_contrast, 0);  // the bundled preset looks for the photo's windows
+  p.window_lit_fraction = 1.0;
+  p.max_depth_m = max_depth_m;
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const double c = FacadeWindowsFound::kCell_m, w = o.window_width_m, hh = o.window_height_m;
+  const double band = 2 * (w + hh) * c, precision_min = w * hh / (w * hh + band), recall_min = (w * hh - band) / (w * hh);
+  auto measure = [&](const ScenePreset& q, double* precision, double* recall) {
+    ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+    add_facade_windows(L, s.labels.ids, depth, g, q, 3, &fac, &tex);
+    double lit_win = 0, lit_wall = 0, win = 0;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        if (s.labels.ids.at(x, y) != static_cast<int>(Label::Building)) continue;
+        const double z = s.depth_m.at(x, y), D = z * (std::cos(g.pitch_rad) - (y - g.cy_px) / g.f_px * std::sin(g.pitch_rad));
+        if (D > 30) continue;
+        const bool window = s.day_linear_srgb.at(x, y, 0) < 0.1f;
+        const bool lit = L.at(x, y, 0) + L.at(x, y, 1) + L.at(x, y, 2) > 0;
+        win += window;
+        lit_win += lit && window;
+        lit_wall += lit && !window;
+      }
+    *precision = lit_win / std::max(1.0, lit_win + lit_wall);
+    *recall = lit_win / std::max(1.0, win);
+    std::fprintf(stderr, "[photo windows] detect_contrast %.2f: %.0f window px, lit %.0f on windows, %.0f on wall: "
+                 "precision %.3f (bound %.3f), recall %.3f (bound %.3f)\n", q.window_detect_contrast, win, lit_win,
+                 lit_wall, *precision, precision_min, *recall, recall_min);
+  };
+  double precision, recall;
+  measure(p, &precision, &recall);
+  EXPECT_GE(precision, precision_min);
+  EXPECT_GE(recall, recall_min);
+  ScenePreset grid = p;
+  grid.window_detect_contrast = 0;
+  measure(grid, &precision, &recall);
+  EXPECT_LT(precision, precision_min);
+  EXPECT_LT(recall, recall_min);
+  // A plain façade shows no windows: where the photo resolves it, none is lit.
+  SyntheticCameraOptions plain = o;
+  plain.window_pitch_m = 0;
+  const SyntheticCameraScene sp = make_synthetic_camera_scene(plain);
+  const ImageF tex_plain = reflectance_texture(sp.day_linear_srgb, sp.labels.ids, p);
+  ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+  add_facade_windows(L, sp.labels.ids, depth, g, p, 3, &fac, &tex_plain);
+  int lit_near = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const double z = sp.depth_m.at(x, y), D = z * (std::cos(g.pitch_rad) - (y - g.cy_px) / g.f_px * std::sin(g.pitch_rad));
+      if (sp.labels.ids.at(x, y) == static_cast<int>(Label::Building) && D <= 30 &&
+          L.at(x, y, 0) + L.at(x, y, 1) + L.at(x, y, 2) > 0)
+        ++lit_near;
+    }
+  EXPECT_EQ(lit_near, 0);
+}
+
+// The same on the five shared Cityscapes frames, where no window is annotated: every window lit
+// (window_lit_fraction 1), the share of the lit façade pixels whose day luminance lies below 0.8 of
+// their building region's median (the photo's dark glass, recesses and shadows), with the photo's
+// windows and with the grid alone. Reported per frame; asserted over the five together: the photo's
+// windows must land on darker pixels than the grid's, which knows nothing of the photo.
+TEST(Facades, SharedFramesLitWindowsOnThePhotosDarkPixels) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  ScenePreset p = urban();
+  p.window_lit_fraction = 1.0;
+  ScenePreset grid = p;
+  grid.window_detect_contrast = 0;
+  double dark_found = 0, lit_found = 0, dark_grid = 0, lit_grid = 0;
+  for (const char* base : {"aachen_000000_000019", "aachen_000001_000019", "aachen_000002_000019",
+                           "aachen_000003_000019", "aachen_000004_000019"}) {
+    const auto [lin, lab] = cityscapes_frame(base);
+    const NightScene ns = night_scene(lin, lab, p, 1);
+    const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
+    const ImageF tex = reflectance_texture(lin, lab.ids, p);
+    // Each building region's median day luminance (Rec. 709 weights on the linear day image).
+    auto Y = [&](int x, int y) { return 0.2126 * lin.at(x, y, 0) + 0.7152 * lin.at(x, y, 1) + 0.0722 * lin.at(x, y, 2); };
+    std::vector<std::vector<float>> values(fac.regions.size());
+    for (int y = 0; y < lin.height(); ++y)
+      for (int x = 0; x < lin.width(); ++x)
+        if (fac.region.at(x, y) >= 0) values[fac.region.at(x, y)].push_back(static_cast<float>(Y(x, y)));
+    std::vector<double> median(values.size(), 0.0);
+    for (size_t r = 0; r < values.size(); ++r)
+      if (!values[r].empty()) {
+        std::nth_element(values[r].begin(), values[r].begin() + values[r].size() / 2, values[r].end());
+        median[r] = values[r][values[r].size() / 2];
+      }
+    double share[2];
+    int windows[2];
+    for (int t = 0; t < 2; ++t) {
+      ImageF L(lin.width(), lin.height(), 3, 0.f, unit::radiance);
+      windows[t] = add_facade_windows(L, lab.ids, ns.depth, ns.geometry, t == 0 ? p : grid, 7, &fac, &tex);
+      double lit = 0, dark = 0;
+      for (int y = 0; y < lin.height(); ++y)
+        for (int x = 0; x < lin.width(); ++x) {
+          const int r = fac.region.at(x, y);
+          if (r < 0 || L.at(x, y, 0) + L.at(x, y, 1) + L.at(x, y, 2) <= 0) continue;
+          lit += 1;
+          dark += Y(x, y) < 0.8 * median[r];
+        }
+      share[t] = dark / std::max(1.0, lit);
+      (t == 0 ? dark_found : dark_grid) += dark;
+      (t == 0 ? lit_found : lit_grid) += lit;
+    }
+    std::fprintf(stderr, "[photo windows] %s: lit façade pixels on the photo's darker pixels: %.3f with its windows "
+                 "(%d drawn), %.3f with the grid (%d drawn)\n", base, share[0], windows[0], share[1], windows[1]);
+  }
+  const double found = dark_found / lit_found, by_grid = dark_grid / lit_grid;
+  std::fprintf(stderr, "[photo windows] the five frames: %.3f with the photo's windows, %.3f with the grid\n", found, by_grid);
+  EXPECT_GT(found, by_grid);
 }
 
 // Shop fronts only on a seeded share of the ground-floor units (shop_frontage_m along the

@@ -279,7 +279,7 @@ void run(const Opts& o) {
       auto tv2 = clock::now();
       const double cv2 = cpu_ms();
       add("street light pools + heads (alone)", ms(tv1, tv2));
-      scene::add_facade_windows(vl, lm.ids, ns.depth, ns.geometry, sp, 1, &fac);
+      scene::add_facade_windows(vl, lm.ids, ns.depth, ns.geometry, sp, 1, &fac, &tex);
       auto tv3 = clock::now();
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));

@@ -383,6 +383,11 @@ struct SyntheticCameraOptions {
   CameraGeometry camera;  // intrinsics and pose at width x height
   double road_half_width_m = 7, lane_width_m = 3.5, sidewalk_m = 3;
   std::vector<SyntheticBox> boxes;
+  // Windows in the façades' day texture (window_pitch_m 0: plain façades): dark glass (0.04
+  // against the wall's 0.25) in boxes window_width_m wide centred at D = window_phase_m + k·pitch
+  // along the road, window_height_m tall from window_sill_m + j·window_storey_m up.
+  double window_pitch_m = 0, window_width_m = 1.2, window_phase_m = 0;
+  double window_storey_m = 3.4, window_height_m = 1.6, window_sill_m = 0.9;
 };
 struct SyntheticCameraScene {
   ImageF day_linear_srgb;

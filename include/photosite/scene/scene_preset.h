@@ -67,6 +67,9 @@ struct ScenePreset {
   // The glass of a window: inset by the frame on every side, split by a central mullion; the
   // seeded share of ground-floor shop units that are shops (the others have windows).
   double window_frame_m = 0, window_mullion_m = 0, shop_share = 1;
+  // The day photo's windows found on each façade (scene/facade_windows.cpp): how much darker than
+  // its wall's local mean a cell of glass is, (t − m)/t; 0: not looked for, the grid everywhere.
+  double window_detect_contrast = 0;
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;

@@ -72,8 +72,12 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // pitch from shop_sill_m to shop_sill_m + shop_height_m, shop_luminance_factor brighter, at
 // shop_cct_K. Pixels whose footprint exceeds half a window width (z/f > window_width_m/2) get
 // none (they would alias). Returns the number of lit windows and shops drawn.
-// `facades` as for add_vertical_street_light.
+// `facades` as for add_vertical_street_light. With the day's reflectance `texture` (and the
+// preset's windows.detect_contrast above 0) the windows are first looked for in the photo: where it
+// resolves a façade, the windows lit are the ones it shows (scene/facade_windows.cpp), each a
+// seeded draw as the grid's; the grid lays out only the parts of the façades it does not resolve.
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades = nullptr);
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades = nullptr,
+                       const ImageF* texture = nullptr);
 
 }  // namespace photosite::scene

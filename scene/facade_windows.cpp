@@ -1,0 +1,220 @@
+// The day photo's windows found on each façade plane (find_facade_windows, scene/street_detail.h).
+//
+// Why. add_facade_windows lays a grid of storeys and bays on each façade (the preset's storey_m
+// and pitch_m, from the ground and from the plane's origin): a rule of thumb whose lit panes fall
+// on wall as often as on the photo's windows, and which lights windows on a blank wall. Where the
+// photo resolves the façade, it shows where its windows are.
+//
+// How. Each fitted façade plane's pixels (building pixels whose column takes the plane and whose
+// depth is the plane's) are mapped to the plane's own coordinates, s along it and Y up it (the
+// grid's coordinates: scene/street.cpp, WindowGeom), and their day luminance averaged in cells of
+// kCell_m x kCell_m: the façade rectified, its windows axis-aligned rectangles at their true size.
+// Where the façade recedes, one pixel spans several cells along s: a gap of up to kMaxGap_m
+// between cells holding samples is filled by linear interpolation along s. A column of cells is
+// resolved when at least half of its filled cells hold samples of their own; the far, stretched
+// part of a grazing façade is not, and keeps the grid there.
+// A window in daylight is a recess of dark glass: darker than its wall. Each cell's darkness is
+// (t − m)/t, m its mean and t the mean of the filled cells within kTrend_m x kTrend_m around it
+// (a façade's storeys and materials differ in brightness: a window is a local dip). Cells darker
+// than the preset's windows.detect_contrast are joined 4-connected; a component is a window when
+// its box is kMinWidth_m–kMaxWidth_m wide and kMinHeight_m–kMaxHeight_m tall with at least
+// kMinFill of the box dark (cornice shadows, plinths and dark wall are too long, too low or too
+// sparse), in resolved columns. Its cells are its glass; each window's lit draw is keyed, like the
+// grid's, by the plane's key and its centre in 0.5 m steps of s and Y (world coordinates).
+// Not found: windows brighter than their wall (sky reflected in the glass, white blinds), and
+// windows whose dark part is split by bars or mullions into parts smaller than the minima.
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "photosite/rng.h"
+#include "scene/street_detail.h"
+
+namespace photosite::scene {
+
+namespace {
+constexpr double kCell_m = FacadeWindowsFound::kCell_m;  // rectified cells (a window spans ≥ 3 of them)
+constexpr double kMaxGap_m = 1.0;                         // gaps along s filled by interpolation (photosite choice)
+constexpr double kTrend_m = 3.1;                          // the wall's local mean: about one bay by one storey [U]
+constexpr double kMinWidth_m = 0.3, kMaxWidth_m = 3.5;    // window openings: narrow sashes to shop bays [U]
+constexpr double kMinHeight_m = 0.5, kMaxHeight_m = 4.5;  // basement lights to arched ground-floor windows [U]
+constexpr double kMinFill = 0.5;                          // dark share of the box (photosite choice)
+constexpr double kMaxAspect = 3.5;                        // box height to width and width to height at most [U]
+constexpr int kRowStep = 3;                               // sampled rows (every column)
+constexpr double kMaxFootprint_m = 2 * kCell_m;           // a pixel's extent along the façade at most
+constexpr int kMaxCells = 4'000'000;                      // a plane's rectified grid at most (400 m x 100 m)
+
+struct Sample {
+  float s, Y, v;  // (float: 0.1 m cells within 200 m of the camera need 2⁻¹¹ relative at most)
+};
+}  // namespace
+
+FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& depth_m, const CameraGeometry& g,
+                                       const BuildingFacades& fac, const ScenePreset& p, const double* tX,
+                                       const double* tD) {
+  FacadeWindowsFound out;
+  const int nplanes = static_cast<int>(fac.planes.size());
+  out.planes.resize(nplanes);
+  const double tau = p.window_detect_contrast;
+  if (nplanes == 0 || texture.empty() || !(tau > 0)) return out;
+  const int W = texture.width(), H = texture.height();
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const double zmax = 0.5 * p.window_width_m * g.f_px;  // as add_facade_windows draws
+  // The samples per plane, in row order (each thread's rows one contiguous block, appended in
+  // thread order: the same order at any thread count).
+  std::vector<std::vector<std::vector<Sample>>> per_thread;
+#pragma omp parallel
+  {
+#pragma omp single
+    per_thread.resize(omp_get_num_threads());
+    std::vector<std::vector<Sample>>& mine = per_thread[omp_get_thread_num()];
+    mine.resize(nplanes);
+#pragma omp for schedule(static)
+    for (int y = 0; y < H; y += kRowStep) {
+      const int32_t* reg = fac.region.row(y);
+      const float* z = depth_m.row(y);
+      const float* t = texture.row(y);
+      const double yn = (y - g.cy_px) / g.f_px, kD = c - yn * sn, kY = yn * c + sn;
+      for (int x = 0; x < W; ++x) {
+        if (reg[x] < 0) continue;
+        const BuildingFacades::Region& R = fac.regions[reg[x]];
+        const int col = x - R.x0;
+        const int pi = R.column_plane[col];
+        if (pi < 0 || !R.on_plane[col] || !fac.planes[pi].fitted) continue;
+        const double zz = z[x];
+        if (!(zz > 0) || zz > zmax) continue;
+        // A pixel spans z²·k_D/(d·f) along the plane (s = z·(t·r), z = d/(n·r) for the ray r =
+        // (x_n, k_D) per unit z, t ⊥ n: ds/dx = d·k_D/(f·(n·r)²)); beyond kMaxFootprint_m the
+        // receding façade is too compressed to show its windows.
+        if (zz * zz * kD > kMaxFootprint_m * fac.planes[pi].d_m * g.f_px) continue;
+        const double X = zz * (x - g.cx_px) / g.f_px, D = zz * kD, Y = h - zz * kY;
+        if (Y < 0) continue;
+        mine[pi].push_back({static_cast<float>(tX[pi] * X + tD[pi] * D), static_cast<float>(Y),
+                            t[3 * x] + t[3 * x + 1] + t[3 * x + 2]});
+      }
+    }
+  }
+  const int gap = static_cast<int>(std::lround(kMaxGap_m / kCell_m));
+  const int half = static_cast<int>(std::lround(0.5 * kTrend_m / kCell_m));
+  std::vector<std::vector<FacadeWindowsFound::Window>> found(nplanes);
+#pragma omp parallel for schedule(dynamic)
+  for (int k = 0; k < nplanes; ++k) {
+    // (Each thread's samples in turn: in row order, as one list.)
+    size_t count = 0;
+    double s_lo = INFINITY, s_hi = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
+    for (auto& th : per_thread)
+      for (const Sample& q : th[k]) {
+        s_lo = std::min<double>(s_lo, q.s), s_hi = std::max<double>(s_hi, q.s);
+        y_lo = std::min<double>(y_lo, q.Y), y_hi = std::max<double>(y_hi, q.Y);
+        ++count;
+      }
+    if (count < 100) continue;
+    const int ns = static_cast<int>((s_hi - s_lo) / kCell_m) + 1, ny = static_cast<int>((y_hi - y_lo) / kCell_m) + 1;
+    if (static_cast<double>(ns) * ny > kMaxCells) continue;
+    // The cells' means (the rectified façade).
+    cv::Mat sum(ny, ns, CV_32F, cv::Scalar(0)), cnt(ny, ns, CV_32F, cv::Scalar(0));
+    for (auto& th : per_thread)
+      for (const Sample& q : th[k]) {
+        const int i = std::min(ns - 1, static_cast<int>((q.s - s_lo) / kCell_m));
+        const int j = std::min(ny - 1, static_cast<int>((q.Y - y_lo) / kCell_m));
+        sum.at<float>(j, i) += q.v;
+        cnt.at<float>(j, i) += 1;
+      }
+    cv::Mat m(ny, ns, CV_32F, cv::Scalar(0)), valid(ny, ns, CV_32F, cv::Scalar(0));
+    std::vector<int> own(ns, 0), filled(ns, 0);
+    for (int j = 0; j < ny; ++j) {
+      const float* S = sum.ptr<float>(j);
+      const float* N = cnt.ptr<float>(j);
+      float* M = m.ptr<float>(j);
+      float* V = valid.ptr<float>(j);
+      int last = -1;
+      for (int i = 0; i < ns; ++i) {
+        if (N[i] == 0) continue;
+        M[i] = S[i] / N[i];
+        V[i] = 1;
+        ++own[i];
+        ++filled[i];
+        if (last >= 0 && i - last > 1 && i - last <= gap + 1)  // fill the gap along s
+          for (int q = last + 1; q < i; ++q) {
+            const double w = static_cast<double>(q - last) / (i - last);
+            M[q] = static_cast<float>((1 - w) * M[last] + w * M[i]);
+            V[q] = 1;
+            ++filled[q];
+          }
+        last = i;
+      }
+    }
+    // The wall's local mean over the filled cells: box sums of m and of the filled mask from their
+    // integral images (double, made in one order: the same sums at any thread count).
+    cv::Mat mi, vi;
+    cv::integral(m, mi, CV_64F);
+    cv::integral(valid, vi, CV_64F);
+    cv::Mat dark(ny, ns, CV_8U, cv::Scalar(0));
+    for (int j = 0; j < ny; ++j) {
+      const float* M = m.ptr<float>(j);
+      const float* V = valid.ptr<float>(j);
+      const int j0 = std::max(0, j - half), j1 = std::min(ny, j + half + 1);
+      const double *mt = mi.ptr<double>(j0), *mb = mi.ptr<double>(j1), *vt = vi.ptr<double>(j0), *vb = vi.ptr<double>(j1);
+      uint8_t* d = dark.ptr<uint8_t>(j);
+      for (int i = 0; i < ns; ++i) {
+        if (V[i] == 0) continue;
+        const int i0 = std::max(0, i - half), i1 = std::min(ns, i + half + 1);
+        const double a = mb[i1] - mb[i0] - mt[i1] + mt[i0], b = vb[i1] - vb[i0] - vt[i1] + vt[i0];
+        if (!(b > 0)) continue;
+        const double t = a / b;
+        d[i] = t > 0 && (t - M[i]) / t > tau;
+      }
+    }
+    cv::Mat lab, stats, cents;
+    const int n = cv::connectedComponentsWithStats(dark, lab, stats, cents, 4, CV_32S);
+    FacadeWindowsFound::Plane& P = out.planes[k];
+    P.used = true;
+    P.s0 = s_lo;
+    P.ns = ns;
+    P.resolved.resize(ns);
+    for (int i = 0; i < ns; ++i) P.resolved[i] = filled[i] > 0 && 2 * own[i] >= filled[i];
+    const FacadePlane& f = fac.planes[k];
+    for (int q = 1; q < n; ++q) {
+      const int bw = stats.at<int>(q, cv::CC_STAT_WIDTH), bh = stats.at<int>(q, cv::CC_STAT_HEIGHT);
+      const int area = stats.at<int>(q, cv::CC_STAT_AREA), left = stats.at<int>(q, cv::CC_STAT_LEFT);
+      const int top = stats.at<int>(q, cv::CC_STAT_TOP);
+      const double w_m = bw * kCell_m, h_m = bh * kCell_m;
+      if (w_m < kMinWidth_m || w_m > kMaxWidth_m || h_m < kMinHeight_m || h_m > kMaxHeight_m) continue;
+      if (area < kMinFill * bw * bh || bh > kMaxAspect * bw || bw > kMaxAspect * bh) continue;
+      if (!P.resolved[std::clamp(left + bw / 2, 0, ns - 1)]) continue;
+      // A window's glass is its component's box (a window is a rectangle: the photo's dark cells
+      // leave out its reflections and the lit side of its recess).
+      FacadeWindowsFound::Window wdw;
+      wdw.plane = k;
+      wdw.s_lo = s_lo + left * kCell_m;
+      wdw.s_hi = s_lo + (left + bw) * kCell_m;
+      wdw.y_lo = y_lo + top * kCell_m;
+      wdw.y_hi = y_lo + (top + bh) * kCell_m;
+      // The box's bounds in the image: its corners projected (the point d·n + s·t at height Y),
+      // widened by a pixel; a corner behind the camera takes the image's bounds.
+      double u0 = W - 1, u1 = 0, v0 = H - 1, v1 = 0;
+      for (const double sc : {wdw.s_lo, wdw.s_hi})
+        for (const double yc : {wdw.y_lo, wdw.y_hi}) {
+          double u, v;
+          if (!g.project(f.d_m * f.nX + sc * tX[k], yc, f.d_m * f.nD + sc * tD[k], &u, &v, nullptr)) {
+            u0 = 0, u1 = W - 1, v0 = 0, v1 = H - 1;
+            continue;
+          }
+          u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+        }
+      wdw.x0 = static_cast<int>(std::clamp(std::floor(u0) - 1, 0.0, W - 1.0));
+      wdw.x1 = static_cast<int>(std::clamp(std::ceil(u1) + 1, 0.0, W - 1.0));
+      wdw.y0 = static_cast<int>(std::clamp(std::floor(v0) - 1, 0.0, H - 1.0));
+      wdw.y1 = static_cast<int>(std::clamp(std::ceil(v1) + 1, 0.0, H - 1.0));
+      found[k].push_back(wdw);
+    }
+  }
+  for (int k = 0; k < nplanes; ++k) out.windows.insert(out.windows.end(), found[k].begin(), found[k].end());
+  return out;
+}
+
+}  // namespace photosite::scene
