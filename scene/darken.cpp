@@ -1,5 +1,6 @@
 // Linearization and per-class darkening under night illumination (stage 1).
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <climits>
 #include <cstdint>
@@ -314,6 +315,14 @@ __attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const Box
   const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
   int i = 0;
   for (; i + 4 <= n; i += 4) _mm256_storeu_pd(y + i, box_y4(box_x4(s + 3 * i, c), K0, K1, K2));
+  // GCC 12 jumps to the scalar tail (a sibling call) without the vzeroupper that it puts before a
+  // return, so the upper halves of the vector registers stayed dirty after every call: then each
+  // SSE instruction of the generic code that follows (the split's block sums, its levels, its
+  // opening, the texture's class sums) paid for them: the split's levels took 0.58 ms and its
+  // opening 0.55 ms at 1 thread on aachen_000000, 0.23 and 0.33 ms with this vzeroupper (Zen 4;
+  // docs/benchmarks.md "twenty-first session"). vzeroupper changes no value: it clears only the
+  // registers' upper halves, and the tail's operands are scalars in the low lanes.
+  _mm256_zeroupper();
   box_y_scalar(s + 3 * i, n - i, c, y + i);
 }
 __attribute__((target("avx2"))) void box_scaled_avx2(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
@@ -367,6 +376,7 @@ PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, doub
                                     _mm512_mul_pd(K2, b.v[2]));
     _mm512_storeu_pd(y + i, t);
   }
+  _mm256_zeroupper();  // before the sibling call to the scalar tail (see box_y_avx2)
   box_y_scalar(s + 3 * i, n - i, c, y + i);
 }
 PHOTOSITE_AVX512 void box_scaled_avx512(const float* s, int n, const BoxCoef& c, const float* scale, float cap, float* o) {
@@ -441,6 +451,7 @@ __attribute__((target("avx2"))) void own_light_avx2(const float* s, int n, const
       o[i + k] = l == (col >> k & 1) ? static_cast<uint8_t>(l) : o[i + k] & 1;
     }
   }
+  _mm256_zeroupper();  // before the sibling call to the scalar tail (see box_y_avx2)
   own_light_scalar(s + 3 * i, n - i, c, lum_mid, chroma, o + i);
 }
 #endif
@@ -646,45 +657,81 @@ SunGrid sun_grid(int width, int height, double window_fraction) {
   g.r = std::max(1, static_cast<int>(std::lround((window_fraction * width / g.B - 1) / 2)));
   return g;
 }
-// Separable masked min (erode) or max (dilate) over a (2r+1)² square of a grid field; absent
-// blocks (present[b] == 0) neither give nor take a value.
-struct BlockBox { int x0, x1, y0, y1; };  // the present blocks' bounding box (inclusive)
-void masked_morph(std::vector<float>& v, const std::vector<uint8_t>& present, const SunGrid& g, const BlockBox& bb,
-                  bool erode) {
-  // Blocks outside bb are all absent, so the loops stay inside it: the same values as over the grid.
-  // Absent blocks hold the operation's neutral value (+inf for min, -inf for max), so each pass is
-  // a plain min or max over shifted rows (vectorised), window clipped at the box.
-  const float none = erode ? INFINITY : -INFINITY;
-  const int w = bb.x1 - bb.x0 + 1;
-  auto pick = [erode](float a, float b) { return erode ? std::min(a, b) : std::max(a, b); };
-  std::vector<float> src(static_cast<size_t>(w) * (bb.y1 - bb.y0 + 1)), t(src.size(), none);
-  for (int by = bb.y0; by <= bb.y1; ++by)
-    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
-      const size_t b = static_cast<size_t>(by) * g.nbx + bx;
-      src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)] = present[b] ? v[b] : none;
+struct BlockBox { int x0, x1, y0, y1; };  // blocks' bounding box (inclusive)
+// The grey-scale opening of a class's block levels v (a w x h box of the grid, row-major): a
+// separable masked min (erosion) then max (dilation), each over a (2r+1)² square clipped at the
+// box; absent blocks (present[i] == 0) neither give nor take a value. Blocks outside the box are
+// all absent, so the same values as over the whole grid. Absent blocks hold the operation's
+// neutral value (+inf for min, -inf for max), so each pass is a plain min or max over shifted rows
+// (vectorised); the eroded field is taken into the dilation as it is, its absent blocks set to
+// -inf.
+void masked_opening(std::vector<float>& v, const std::vector<uint8_t>& present, int w, int h, int r) {
+  const size_t nl = static_cast<size_t>(w) * h;
+  std::vector<float> src(nl), t(nl);
+  for (size_t i = 0; i < nl; ++i) src[i] = present[i] ? v[i] : INFINITY;
+  for (int erode = 1; erode >= 0; --erode) {
+    const float none = erode ? INFINITY : -INFINITY;
+    auto pick = [erode](float a, float b) { return erode ? std::min(a, b) : std::max(a, b); };
+    std::fill(t.begin(), t.end(), none);
+    for (int y = 0; y < h; ++y) {  // along rows
+      const float* in = src.data() + static_cast<size_t>(y) * w;
+      float* o = t.data() + static_cast<size_t>(y) * w;
+      for (int d = -r; d <= r; ++d) {
+        const int x0 = std::max(0, -d), x1 = std::min(w, w - d);
+        for (int x = x0; x < x1; ++x) o[x] = pick(o[x], in[x + d]);
+      }
     }
-  const int h = bb.y1 - bb.y0 + 1;
-  for (int y = 0; y < h; ++y) {  // along rows
-    const float* in = src.data() + static_cast<size_t>(y) * w;
-    float* o = t.data() + static_cast<size_t>(y) * w;
-    for (int d = -g.r; d <= g.r; ++d) {
-      const int x0 = std::max(0, -d), x1 = std::min(w, w - d);
-      for (int x = x0; x < x1; ++x) o[x] = pick(o[x], in[x + d]);
+    std::fill(src.begin(), src.end(), none);
+    for (int y = 0; y < h; ++y) {  // along columns
+      float* o = src.data() + static_cast<size_t>(y) * w;
+      for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy) {
+        const float* in = t.data() + static_cast<size_t>(yy) * w;
+        for (int x = 0; x < w; ++x) o[x] = pick(o[x], in[x]);
+      }
     }
+    if (erode)
+      for (size_t i = 0; i < nl; ++i) src[i] = present[i] ? src[i] : -INFINITY;
   }
-  std::fill(src.begin(), src.end(), none);
-  for (int y = 0; y < h; ++y) {  // along columns
-    float* o = src.data() + static_cast<size_t>(y) * w;
-    for (int yy = std::max(0, y - g.r); yy <= std::min(h - 1, y + g.r); ++yy) {
-      const float* in = t.data() + static_cast<size_t>(yy) * w;
-      for (int x = 0; x < w; ++x) o[x] = pick(o[x], in[x]);
-    }
+  for (size_t i = 0; i < nl; ++i)
+    if (present[i]) v[i] = src[i];
+}
+// The sun/shade split's block sums (sun_shade_split, phase 1): the Y values y[x0 .. x1) of a run
+// of one class in one row added into the sums ys[bx] and counts yc[bx] of the blocks they lie in
+// (bx = x / B). Each block's sum takes its pixels in pixel order, in one running sum, as adding
+// pixel by pixel does; L whole blocks are added side by side, pixel j of each in turn, so that the
+// blocks' chains of dependent additions (each bound by the adder's latency) overlap instead of
+// following each other. The same additions in the same order per block: the same bits.
+template <int L>
+inline void add_blocks_side_by_side(const double* y, int B, double* ys, double* yc) {
+  double acc[L];
+  for (int k = 0; k < L; ++k) acc[k] = ys[k];
+  for (int j = 0; j < B; ++j)
+    for (int k = 0; k < L; ++k) acc[k] += y[k * B + j];
+  for (int k = 0; k < L; ++k) {
+    ys[k] = acc[k];
+    yc[k] += B;
   }
-  for (int by = bb.y0; by <= bb.y1; ++by)
-    for (int bx = bb.x0; bx <= bb.x1; ++bx) {
-      const size_t b = static_cast<size_t>(by) * g.nbx + bx;
-      if (present[b]) v[b] = src[static_cast<size_t>(by - bb.y0) * w + (bx - bb.x0)];
+}
+void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+  for (int x = x0, bx = x0 / B; x < x1;) {
+    const int whole = x % B == 0 ? (x1 - x) / B : 0;  // whole blocks from x on
+    const int k = whole >= 8 ? 8 : whole >= 4 ? 4 : whole >= 2 ? 2 : 1;
+    if (k == 8) add_blocks_side_by_side<8>(y + x, B, ys + bx, yc + bx);
+    else if (k == 4) add_blocks_side_by_side<4>(y + x, B, ys + bx, yc + bx);
+    else if (k == 2) add_blocks_side_by_side<2>(y + x, B, ys + bx, yc + bx);
+    else {  // one block, or the run's part of it
+      const int xe = std::min(x1, (bx + 1) * B);
+      double acc = ys[bx];
+      for (int xi = x; xi < xe; ++xi) acc += y[xi];
+      ys[bx] = acc;
+      yc[bx] += xe - x;
+      x = xe;
+      ++bx;
+      continue;
     }
+    x += k * B;
+    bx += k;
+  }
 }
 }  // namespace
 
@@ -704,6 +751,143 @@ double sun_blue_contrast(const ScenePreset& p) {
   const double g = std::max(1.0, p.sun_shade_ratio_min);
   const double lit_r = (g - 1) * sun[0] + sky[0], lit_b = (g - 1) * sun[2] + sky[2];
   return (sky[2] / sky[0]) / (lit_b / lit_r);
+}
+
+namespace {
+// Whether a sum of the n values a[i] (and of any subset of them, in any order) is exact in double
+// arithmetic, so that every order of the additions gives the same bits: each a[i] is a multiple of
+// 2^e, the quantum of the finest of them (from its exponent and its significand's trailing zeros),
+// and Σ|a[i]| < 2^(52 + e) (a factor 2 below 2^53·2^e, which covers the rounding of that check's own
+// sum, at most n·2⁻⁵³ relative). Then every partial sum is a multiple of 2^e of magnitude below
+// 2^53·2^e, so a double holds it exactly and no addition rounds. False for a NaN or an infinity.
+bool sums_exact(const double* a, size_t n) {
+  int e_min = INT_MAX;
+  double abs_sum = 0;
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t u;
+    std::memcpy(&u, &a[i], sizeof u);
+    const int be = static_cast<int>(u >> 52 & 0x7ff);
+    uint64_t m = u & ((uint64_t{1} << 52) - 1);
+    if (be == 0x7ff) return false;  // NaN or infinity
+    if (be == 0 && m == 0) continue;  // ±0 adds nothing
+    if (be != 0) m |= uint64_t{1} << 52;  // normal: the hidden bit (subnormals have none)
+    e_min = std::min(e_min, (be == 0 ? 1 : be) - 1075 + std::countr_zero(m));
+    abs_sum += std::fabs(a[i]);
+  }
+  return e_min == INT_MAX || abs_sum < std::ldexp(1.0, std::min(52 + e_min, 1100));
+}
+
+// The sums of w[i] and wl[i] over the levels lvl[i] above t, in any order (for sums that
+// sums_exact found exact): four interleaved partial sums, or AVX2's four lanes in two registers
+// each; the levels at most t add +0.0 (masked out).
+void upper_sums_scalar(const double* lvl, const double* w, const double* wl, size_t n, double t, double& w1, double& m1) {
+  double sw[4] = {0, 0, 0, 0}, sm[4] = {0, 0, 0, 0};
+  size_t i = 0;
+  for (; i + 4 <= n; i += 4)
+    for (int k = 0; k < 4; ++k) {
+      const bool up = lvl[i + k] > t;
+      sw[k] += up ? w[i + k] : 0.0;
+      sm[k] += up ? wl[i + k] : 0.0;
+    }
+  for (; i < n; ++i) {
+    const bool up = lvl[i] > t;
+    sw[0] += up ? w[i] : 0.0;
+    sm[0] += up ? wl[i] : 0.0;
+  }
+  w1 = (sw[0] + sw[1]) + (sw[2] + sw[3]);
+  m1 = (sm[0] + sm[1]) + (sm[2] + sm[3]);
+}
+#if defined(__x86_64__)
+__attribute__((target("avx2"))) void upper_sums_avx2(const double* lvl, const double* w, const double* wl, size_t n,
+                                                     double t, double& w1, double& m1) {
+  const __m256d tt = _mm256_set1_pd(t);
+  __m256d wa = _mm256_setzero_pd(), wb = wa, ma = wa, mb = wa;
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m256d ua = _mm256_cmp_pd(_mm256_loadu_pd(lvl + i), tt, _CMP_GT_OQ);
+    const __m256d ub = _mm256_cmp_pd(_mm256_loadu_pd(lvl + i + 4), tt, _CMP_GT_OQ);
+    wa = _mm256_add_pd(wa, _mm256_and_pd(ua, _mm256_loadu_pd(w + i)));
+    wb = _mm256_add_pd(wb, _mm256_and_pd(ub, _mm256_loadu_pd(w + i + 4)));
+    ma = _mm256_add_pd(ma, _mm256_and_pd(ua, _mm256_loadu_pd(wl + i)));
+    mb = _mm256_add_pd(mb, _mm256_and_pd(ub, _mm256_loadu_pd(wl + i + 4)));
+  }
+  double sw[4], sm[4], rw, rm;
+  _mm256_storeu_pd(sw, _mm256_add_pd(wa, wb));
+  _mm256_storeu_pd(sm, _mm256_add_pd(ma, mb));
+  _mm256_zeroupper();  // the rest in generic code (see box_y_avx2)
+  upper_sums_scalar(lvl + i, w + i, wl + i, n - i, t, rw, rm);
+  w1 = ((sw[0] + sw[1]) + (sw[2] + sw[3])) + rw;
+  m1 = ((sm[0] + sm[1]) + (sm[2] + sm[3])) + rm;
+}
+#endif
+void upper_sums(const double* lvl, const double* w, const double* wl, size_t n, double t, double& w1, double& m1) {
+#if defined(__x86_64__)
+  if (std::min(kIsa, max_isa) >= 1) return upper_sums_avx2(lvl, w, wl, n, t, w1, m1);
+#endif
+  upper_sums_scalar(lvl, w, wl, n, t, w1, m1);
+}
+}  // namespace
+
+double sun_isodata_threshold(const double* w, const double* lvl, size_t n, bool* exact) {
+  // The threshold halfway between the weighted means of the levels at most t and above t, from the
+  // weighted mean of all, until it stays put (Ridler and Calvard 1978), at most 100 times. Each
+  // side's sums are the sums in list order of w[i] and w[i]·lvl[i] over its levels.
+  if (n == 0) return 0;
+  std::vector<double> wl(n);
+  for (size_t i = 0; i < n; ++i) wl[i] = w[i] * lvl[i];
+  // When every such sum is exact (sums_exact of the weights and of the products: integer sample
+  // counts, and levels that are floats well away from 0, as the split's are), any order of the
+  // additions gives the same bits as list order. Then the sums above t are taken in four
+  // interleaved partial sums (no chain of dependent additions through the whole list) and the
+  // sums at most t as the totals less them (exact too: a difference that a double holds). Else
+  // list order, one running sum per side: the same bits on both paths.
+  const bool fast = sums_exact(w, n) && sums_exact(wl.data(), n);
+  if (exact) *exact = fast;
+  auto total = [&](const double* a) {
+    double s[4] = {0, 0, 0, 0};
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4)
+      for (int k = 0; k < 4; ++k) s[k] += a[i + k];
+    for (; i < n; ++i) s[0] += a[i];
+    return (s[0] + s[1]) + (s[2] + s[3]);
+  };
+  double t = 0, w_all = 0, m_all = 0;
+  if (fast) {
+    w_all = total(w);
+    m_all = total(wl.data());
+    t = m_all / w_all;
+  } else {
+    double sw = 0;
+    for (size_t i = 0; i < n; ++i) {
+      t += wl[i];
+      sw += w[i];
+    }
+    t /= sw;
+  }
+  for (int it = 0; it < 100; ++it) {
+    double w0 = 0, w1 = 0, m0 = 0, m1 = 0;
+    if (fast) {
+      upper_sums(lvl, w, wl.data(), n, t, w1, m1);
+      w0 = w_all - w1;
+      m0 = m_all - m1;
+    } else {
+      // Each side's sums in list order; the other side adds +0.0, which leaves a sum as it is,
+      // so the same bits as adding to one side only (branch-free, the sums in registers).
+      for (size_t i = 0; i < n; ++i) {
+        const bool k = lvl[i] > t;
+        const double a = w[i], am = wl[i];
+        w0 += k ? 0.0 : a;
+        w1 += k ? a : 0.0;
+        m0 += k ? 0.0 : am;
+        m1 += k ? am : 0.0;
+      }
+    }
+    if (w0 == 0 || w1 == 0) break;
+    const double nt = 0.5 * (m0 / w0 + m1 / w1);
+    if (nt == t) break;
+    t = nt;
+  }
+  return t;
 }
 
 SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px) {
@@ -729,6 +913,8 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
   // level is a mean, and the opening's square spans several blocks). One block row per task.
   std::vector<double> ysum(ns * nb, 0.0), ycnt(ns * nb, 0.0);
+  // Per class and block row, the first and last blocks with samples (none: first > last).
+  std::vector<int> row_x0(static_cast<size_t>(ns) * g.nby, g.nbx), row_x1(static_cast<size_t>(ns) * g.nby, -1);
 #pragma omp parallel
   {
     std::vector<double> yrow(W);
@@ -741,15 +927,12 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
           const int s = lr[x] < kLabelCount ? slot[lr[x]] : -1;
           if (s < 0) { x = e; continue; }
           box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
-          for (int bx = x / g.B; x < e; ++bx) {  // the run's part in each block, in pixel order
-            const int xe = std::min(e, (bx + 1) * g.B);
-            const size_t b = s * nb + static_cast<size_t>(by) * g.nbx + bx;
-            double acc = ysum[b];
-            for (int xi = x; xi < xe; ++xi) acc += yrow[xi];
-            ysum[b] = acc;
-            ycnt[b] += xe - x;
-            x = xe;
-          }
+          const size_t b0 = s * nb + static_cast<size_t>(by) * g.nbx;
+          const size_t r = static_cast<size_t>(s) * g.nby + by;
+          row_x0[r] = std::min(row_x0[r], x / g.B);
+          row_x1[r] = std::max(row_x1[r], (e - 1) / g.B);
+          add_run_to_blocks(yrow.data(), x, e, g.B, ysum.data() + b0, ycnt.data() + b0);
+          x = e;
         }
       }
   }
@@ -761,75 +944,74 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   for (int s = 0; s < ns; ++s) {
     const double* S = ysum.data() + s * nb;
     const double* C = ycnt.data() + s * nb;
-    std::vector<uint8_t> present(nb);
-    std::vector<float> v(nb, 0.f);
-    std::vector<uint32_t> list;  // the present blocks, in grid order
+    // The class's blocks over its bounding box (phase 1 found it; outside it every block is
+    // absent), row-major there: local block i = (by − bb.y0)·w + (bx − bb.x0).
     BlockBox bb{g.nbx, -1, g.nby, -1};
+    for (int by = 0; by < g.nby; ++by) {
+      const size_t r = static_cast<size_t>(s) * g.nby + by;
+      if (row_x0[r] > row_x1[r]) continue;
+      bb = {std::min(bb.x0, row_x0[r]), std::max(bb.x1, row_x1[r]), std::min(bb.y0, by), by};
+    }
+    if (bb.x1 < 0) continue;  // no block: the class only on rows the blocks do not sample
+    const int w = bb.x1 - bb.x0 + 1, h = bb.y1 - bb.y0 + 1;
+    const size_t nl = static_cast<size_t>(w) * h;
+    auto grid = [&](size_t i) { return static_cast<size_t>(bb.y0 + i / w) * g.nbx + bb.x0 + i % w; };
+    std::vector<uint8_t> present(nl);
+    std::vector<float> v(nl, 0.f);
+    std::vector<uint32_t> list;  // the present blocks, in grid order (local indices)
+    std::vector<double> lw;      // their sample counts
+    list.reserve(nl);
+    lw.reserve(nl);
     double samples = 0;
-    for (size_t b = 0; b < nb; ++b) {
-      present[b] = C[b] > 0;
-      if (!present[b]) continue;
-      v[b] = static_cast<float>(std::log(std::max(S[b] / C[b], 1e-30)));
-      samples += C[b];
-      list.push_back(static_cast<uint32_t>(b));
-      const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
-      bb = {std::min(bb.x0, bx), std::max(bb.x1, bx), std::min(bb.y0, by), std::max(bb.y1, by)};
-    }
-    if (samples == 0) continue;  // the class only on rows the blocks do not sample
-    masked_morph(v, present, g, bb, true);
-    masked_morph(v, present, g, bb, false);
-    // Isodata threshold on the opened levels, weighted by the blocks' samples.
-    // (The present blocks' weights and levels gathered into two arrays once: each iteration then
-    // reads them in order, the same sums in the same order.)
-    std::vector<double> lw(list.size()), lvl(list.size());
-    for (size_t i = 0; i < list.size(); ++i) {
-      lw[i] = C[list[i]];
-      lvl[i] = v[list[i]];
-    }
-    double t = 0;
-    for (size_t i = 0; i < list.size(); ++i) t += lw[i] * lvl[i];
-    t /= samples;
-    for (int it = 0; it < 100; ++it) {
-      // Each side's sums in list order; the other side adds +0.0, which leaves a sum as it is,
-      // so the same bits as adding to one side only (branch-free, the sums in registers).
-      double w0 = 0, w1 = 0, m0 = 0, m1 = 0;
-      for (size_t i = 0; i < list.size(); ++i) {
-        const bool k = lvl[i] > t;
-        const double a = lw[i], am = lw[i] * lvl[i];
-        w0 += k ? 0.0 : a;
-        w1 += k ? a : 0.0;
-        m0 += k ? 0.0 : am;
-        m1 += k ? am : 0.0;
+    for (int y = 0; y < h; ++y) {
+      const size_t r = static_cast<size_t>(s) * g.nby + bb.y0 + y;
+      const double* Sr = S + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
+      const double* Cr = C + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
+      for (int x = row_x0[r] - bb.x0; x <= row_x1[r] - bb.x0; ++x) {  // empty where the row has no block
+        if (!(Cr[x] > 0)) continue;
+        const size_t i = static_cast<size_t>(y) * w + x;
+        present[i] = 1;
+        v[i] = static_cast<float>(std::log(std::max(Sr[x] / Cr[x], 1e-30)));
+        samples += Cr[x];
+        list.push_back(static_cast<uint32_t>(i));
+        lw.push_back(Cr[x]);
       }
-      if (w0 == 0 || w1 == 0) break;
-      const double nt = 0.5 * (m0 / w0 + m1 / w1);
-      if (nt == t) break;
-      t = nt;
     }
-    std::vector<uint8_t> sd(nb, 0), ed(nb, 1);  // absent blocks (all outside bb) are edge blocks
-    for (uint32_t b : list) sd[b] = v[b] > t;
+    masked_opening(v, present, w, h, g.r);
+    // Isodata threshold on the opened levels, weighted by the blocks' samples (sun_isodata_threshold).
+    // (The present blocks' weights and levels gathered into two arrays once, in grid order.)
+    std::vector<double> lvl(list.size());
+    for (size_t k = 0; k < list.size(); ++k) lvl[k] = v[list[k]];
+    const double t = sun_isodata_threshold(lw.data(), lvl.data(), list.size());
+    std::vector<uint8_t> sd(nl, 0), ed(nl, 1);  // absent blocks are edge blocks
+    for (uint32_t i : list) sd[i] = v[i] > t;
     // Edge blocks: absent, or with a present neighbour (8-connected) on the other side. The
     // levels' means are taken over the interior blocks (a block across the edge is neither).
+    // (Neighbours outside the box are absent, like those outside the grid.)
     double sum[2] = {0, 0}, cnt[2] = {0, 0}, all_sum[2] = {0, 0}, all_cnt[2] = {0, 0}, lev[2] = {0, 0},
            all_lev[2] = {0, 0};
-    for (int by = bb.y0; by <= bb.y1; ++by)
-      for (int bx = bb.x0; bx <= bb.x1; ++bx) {
-        const size_t b = static_cast<size_t>(by) * g.nbx + bx;
-        bool e = !present[b];
-        for (int dy = -1; dy <= 1 && !e; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int yy = by + dy, xx = bx + dx;
-            if (yy < 0 || yy >= g.nby || xx < 0 || xx >= g.nbx) continue;
-            const size_t q = static_cast<size_t>(yy) * g.nbx + xx;
-            if (present[q] && sd[q] != sd[b]) { e = true; break; }
+    for (int y = 0; y < h; ++y) {
+      const double* Sr = S + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
+      const double* Cr = C + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
+      const int y0 = std::max(0, y - 1), y1 = std::min(h - 1, y + 1);
+      for (int x = 0; x < w; ++x) {
+        const size_t i = static_cast<size_t>(y) * w + x;
+        if (!present[i]) continue;
+        const uint8_t own = sd[i];
+        const int x0 = std::max(0, x - 1), x1 = std::min(w - 1, x + 1);
+        bool e = false;
+        for (int yy = y0; yy <= y1 && !e; ++yy)
+          for (int xx = x0; xx <= x1; ++xx) {
+            const size_t q = static_cast<size_t>(yy) * w + xx;
+            if (present[q] && sd[q] != own) { e = true; break; }
           }
-        ed[b] = e;
-        if (!present[b]) continue;
-        all_sum[sd[b]] += S[b];
-        all_cnt[sd[b]] += C[b];
-        all_lev[sd[b]] += C[b] * v[b];
-        if (!e) { sum[sd[b]] += S[b]; cnt[sd[b]] += C[b]; lev[sd[b]] += C[b] * v[b]; }
+        ed[i] = e;
+        all_sum[own] += Sr[x];
+        all_cnt[own] += Cr[x];
+        all_lev[own] += Cr[x] * v[i];
+        if (!e) { sum[own] += Sr[x]; cnt[own] += Cr[x]; lev[own] += Cr[x] * v[i]; }
       }
+    }
     for (int k = 0; k < 2; ++k)
       if (cnt[k] == 0) { sum[k] = all_sum[k]; cnt[k] = all_cnt[k]; lev[k] = all_lev[k]; }
     const int id = ids[s];
@@ -846,14 +1028,14 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       // grey texture takes the colour of the light it is under. From one pixel at the centre of
       // each interior block: per side the sums of the box bands' B and R.
       double br[2][3] = {{0, 0, 0}, {0, 0, 0}};
-      for (uint32_t b : list) {
-          const int bx = static_cast<int>(b % g.nbx), by = static_cast<int>(b / g.nbx);
-          const int cx = std::min(W - 1, bx * g.B + g.B / 2), cy = std::min(H - 1, by * g.B + g.B / 2);
-          if (ed[b] || labels.at(cx, cy) != id) continue;
-          double c[3];
-          box_px(day.row(cy) + 3 * cx, coef, c);
-          for (int k = 0; k < 3; ++k) br[sd[b]][k] += c[k];
-        }
+      for (uint32_t i : list) {
+        const int bx = bb.x0 + static_cast<int>(i % w), by = bb.y0 + static_cast<int>(i / w);
+        const int cx = std::min(W - 1, bx * g.B + g.B / 2), cy = std::min(H - 1, by * g.B + g.B / 2);
+        if (ed[i] || labels.at(cx, cy) != id) continue;
+        double c[3];
+        box_px(day.row(cy) + 3 * cx, coef, c);
+        for (int k = 0; k < 3; ++k) br[sd[i]][k] += c[k];
+      }
       bool coloured = true;
       for (int k = 0; k < 3; ++k) coloured = coloured && br[0][k] > 0 && br[1][k] > 0;
       const double q_shade = coloured ? br[0][2] / br[0][0] : 0, q_sun = coloured ? br[1][2] / br[1][0] : 0;
@@ -877,7 +1059,8 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
       }
       lum_mid[s] = std::sqrt((sum[1] / cnt[1]) * (sum[0] / cnt[0]));
       out.ratio[id] = std::min(ratio, p.sun_shade_ratio_max);
-      side[s] = std::move(sd);
+      side[s].assign(nb, 0);  // over the grid, for the per-pixel placement
+      for (uint32_t i : list) side[s][grid(i)] = sd[i];
       any = true;
     }
   }

@@ -42,6 +42,12 @@ void sun_penumbrae_enabled(bool on);
 // sky makes at a step of sun_shade_ratio_min (reflectance.sun_cct_K, shade_sky_cct_K): a class
 // whose levels differ less in colour is not split.
 double sun_blue_contrast(const ScenePreset& p);
+// The split's isodata threshold (Ridler and Calvard 1978) of the n levels lvl weighted by w (the
+// blocks' sample counts): from the weighted mean, the point halfway between the weighted means of
+// the levels at most t and above t, until it stays put (at most 100 steps). The sums are those in
+// list order, to the bit; *exact (when given) tells whether they were found exact, so taken in
+// any order (darken.cpp sums_exact), or added in list order.
+double sun_isodata_threshold(const double* w, const double* lvl, size_t n, bool* exact = nullptr);
 // `class_px`: each class's pixel count in the frame (kLabelCount entries).
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                               const double* class_px);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
@@ -305,6 +306,75 @@ TEST(SunShade, EveryInstructionSetGivesTheSameSplit) {
     EXPECT_EQ(o.ratio, ref.ratio) << "isa " << isa;
   }
   texture_max_isa(2);
+}
+
+// The split's isodata threshold (sun_isodata_threshold) against the loop it replaced: each side's
+// sums of w and w·level added in list order, one running sum per side. With integer weights and
+// float levels well away from 0 (the split's: sample counts up to 32, logs of block means) every sum
+// is exact, so the function takes them in any order, on every instruction set; with levels spread
+// over many octaves and fractional weights the order changes the sums, and it must add in list
+// order. Either way the same threshold to the bit.
+double isodata_in_list_order(const std::vector<double>& w, const std::vector<double>& lvl, bool four_sums = false) {
+  // four_sums: each sum as four interleaved partial sums instead (a reordering), to show that the
+  // second data set's threshold depends on the order.
+  auto add = [&](double* acc, size_t i, double a) { acc[four_sums ? i % 4 : 0] += a; };
+  auto fold = [](const double* a) { return (a[0] + a[1]) + (a[2] + a[3]); };
+  double tm[4] = {}, tw[4] = {};
+  for (size_t i = 0; i < w.size(); ++i) {
+    add(tm, i, w[i] * lvl[i]);
+    add(tw, i, w[i]);
+  }
+  double t = fold(tm) / fold(tw);
+  for (int it = 0; it < 100; ++it) {
+    double w0[4] = {}, w1[4] = {}, m0[4] = {}, m1[4] = {};
+    for (size_t i = 0; i < w.size(); ++i) {
+      if (lvl[i] > t) {
+        add(w1, i, w[i]);
+        add(m1, i, w[i] * lvl[i]);
+      } else {
+        add(w0, i, w[i]);
+        add(m0, i, w[i] * lvl[i]);
+      }
+    }
+    if (fold(w0) == 0 || fold(w1) == 0) break;
+    const double nt = 0.5 * (fold(m0) / fold(w0) + fold(m1) / fold(w1));
+    if (nt == t) break;
+    t = nt;
+  }
+  return t;
+}
+TEST(SunShade, IsodataThresholdIsTheListOrderOneToTheBit) {
+  Rnd rnd;
+  // The split's kind: 13,373 blocks (not a multiple of 8: every path's tail), 1 to 32 samples each,
+  // two overlapping levels of log luminance (float, as the opened levels are).
+  std::vector<double> w(13373), lvl(w.size());
+  for (size_t i = 0; i < w.size(); ++i) {
+    w[i] = 1 + std::floor(32 * rnd());
+    lvl[i] = static_cast<float>((i % 3 ? -3.2 : -1.6) + 0.9 * (rnd() + rnd() + rnd() - 1.5));
+  }
+  // Each instruction set's threshold against list order's, and which path it took.
+  auto same_on_every_isa = [&](bool exact_expected) {
+    const double ref = isodata_in_list_order(w, lvl);
+    for (int isa = 0; isa <= 2; ++isa) {
+      texture_max_isa(isa);
+      bool exact = !exact_expected;
+      EXPECT_EQ(std::bit_cast<uint64_t>(sun_isodata_threshold(w.data(), lvl.data(), w.size(), &exact)),
+                std::bit_cast<uint64_t>(ref))
+          << "isa " << isa;
+      EXPECT_EQ(exact, exact_expected) << "isa " << isa;
+    }
+    texture_max_isa(2);
+    return ref;
+  };
+  same_on_every_isa(true);
+  // Levels over many octaves (down to 1e-12 from 0) with fractional weights: the sums round, and
+  // four interleaved sums give another threshold than list order.
+  for (size_t i = 0; i < w.size(); ++i) {
+    w[i] = 0.5 + 31.5 * rnd();
+    lvl[i] = -std::pow(10.0, -12 + 13 * rnd());
+  }
+  const double ref2 = same_on_every_isa(false);
+  EXPECT_NE(std::bit_cast<uint64_t>(isodata_in_list_order(w, lvl, true)), std::bit_cast<uint64_t>(ref2));
 }
 
 // The bundled KITTI frame (samples/kitti, the README's main job): a sunlit patch of road beside the
