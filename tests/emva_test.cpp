@@ -70,6 +70,8 @@ TEST(Emva1288, RecoversATextbookCamera) {
   emva::Plan plan;
   const auto r = emva::measure(cam, plan);
   using C = TextbookCamera;
+  // Each estimate within 4 of its own standard error (emva.cpp propagates the fits' standard
+  // errors; 4σ two-sided: 6e-5 per comparison, 2.5e-4 over these four).
   EXPECT_NEAR(r.system_gain_dn_per_e.value, C::K, 4 * r.system_gain_dn_per_e.uncertainty);
   EXPECT_NEAR(r.qe.value, C::eta, 4 * r.qe.uncertainty);
   const double sd = std::sqrt(C::sigma_r * C::sigma_r + C::dark * plan.exposure_s);
@@ -214,7 +216,10 @@ TEST(Emva1288, CharacterizeCommandPrintsJson) {
     for (double v : {m, e, u, ud, z}) EXPECT_TRUE(std::isfinite(v)) << k;
     EXPECT_GT(u, 0.0) << k;
     EXPECT_GE(ud, 0.0) << k;
-    EXPECT_NEAR(z, (m - e) / std::hypot(u, ud), 1e-9 * (1 + std::fabs(z))) << k;
+    // Exact: the JSON holds each double to round-trip precision (nlohmann::json's shortest
+    // representation, read back by a correctly rounded parse), and z_score (sensor/characterize.cpp)
+    // is this same expression.
+    EXPECT_EQ(z, (m - e) / std::hypot(u, ud)) << k;
     EXPECT_LE(std::fabs(z), 5.0) << k << ": measured " << m << " +/- " << u << ", preset " << e;
   }
   EXPECT_DOUBLE_EQ(j.at("system_gain_dn_per_e").at("preset").get<double>(),

@@ -219,7 +219,7 @@ TEST(CameraIsp, GuidedFilterSmoothsNoiseAndKeepsAStep) {
   EXPECT_NEAR(sd_in, 1.0, 5 * 1.0 / std::sqrt(2.0 * 16000));  // 5 SE of a sample σ over 16000 px
   // At most half the noise left: a ≤ 1/2 on average plus the box mean's 1/5 (a 5x5 window).
   EXPECT_LT(sd_out, 0.6 * sd_in);
-  EXPECT_NEAR(m_out, m_in, 0.05);  // the mean kept (5 SE of the mean: 5/sqrt(16000) = 0.04)
+  EXPECT_NEAR(m_out, m_in, 5 / std::sqrt(16000.0));  // the mean kept (5 SE of the mean: 5/sqrt(16000) = 0.04)
   // The step: the columns just beside the edge keep 90% of their side's level.
   for (int y = 5; y < 195; ++y) {
     EXPECT_LT(q.at(99, y), 4.0f) << y;
@@ -525,10 +525,15 @@ double metered_mean(const ImageF& rgb, const std::array<double, 3>& wb, double f
 // The AE reaches its target when the target is within the gain range. Frame: 5 % of the pixels
 // at half of full scale (clipped at any gain >= 2), 95 % at 1 % of full scale; the metered mean
 // is 0.05 + 0.95 * 0.01 * G, so G = (target - 0.05) / 0.0095 = 13.31 (inside 1 .. 15.85).
-// Tolerance: the luminance is stored as float and multiplied by the gain in float (each a
-// relative rounding of at most 2^-24, so 2^-23 on each clipped-or-not term), the sums are in
-// double: the metered mean is off by at most 2^-23 * target, which moves G by
-// 2^-23 * target / 0.0095 / G = 2.1e-7 relative; the bisection ends at 2.5e-14. 1e-6 is 4.7x that.
+// Tolerance: each pixel's luminance is rounded to float, the gain is rounded to float and the
+// two are multiplied in float (sensor/isp.cpp): three relative roundings of at most 2^-24 on each
+// unclipped term; the clipped terms are exactly 1 and the sums are in double (n u = 20000 * 2^-53
+// = 2e-12, negligible). The unclipped terms sum to 0.0095 G = target - 0.05 of the mean, so the
+// metered mean is off by at most 3 * 2^-24 * 0.0095 G, which moves G by that over the slope
+// 0.0095: 3 * 2^-24 relative; the bisection ends within 2.5e-14 relative (its own comment). The
+// metered mean against the target in double (metered_mean here): the same 3 * 2^-24 *
+// (target - 0.05) / target, less than 3 * 2^-24 relative.
+constexpr double kAeGainTolerance = 3 * 0x1p-24 + 2.5e-14;
 TEST(AutoExposure, MeteringReachesItsTarget) {
   const int w = 200, h = 100, bright = w * h / 20;
   const double fs = 1000;
@@ -540,8 +545,8 @@ TEST(AutoExposure, MeteringReachesItsTarget) {
   ae.max_gain = std::pow(10.0, 24.0 / 20);
   const double g = auto_exposure_gain(rgb, wb, fs, ae);
   const double expected = (ae.target - 0.05) / (0.95 * 0.01);
-  EXPECT_NEAR(g / expected, 1.0, 1e-6) << g;
-  EXPECT_NEAR(metered_mean(rgb, wb, fs, g) / ae.target, 1.0, 1e-6);
+  EXPECT_NEAR(g / expected, 1.0, kAeGainTolerance) << g;
+  EXPECT_NEAR(metered_mean(rgb, wb, fs, g) / ae.target, 1.0, kAeGainTolerance);
   // The preview shows full scale / G as white: the dim pixels at 0.01 * G of white, the bright ones white.
   double got = 0;
   const ImageU8 p = preview_srgb8_auto(rgb, wb, fs, ae, &got);
@@ -554,13 +559,14 @@ TEST(AutoExposure, MeteringReachesItsTarget) {
   ImageF rgb2 = rgb;
   for (size_t i = 0; i < rgb2.pixel_count(); ++i)
     for (int c = 0; c < 3; ++c) rgb2[3 * i + c] = static_cast<float>(rgb[3 * i + c] / wb2[c]);
-  EXPECT_NEAR(auto_exposure_gain(rgb2, wb2, fs, ae) / expected, 1.0, 1e-6);
+  // rgb / 2 and rgb / 4 are exact in float (10, 500 over powers of two): the same bound.
+  EXPECT_NEAR(auto_exposure_gain(rgb2, wb2, fs, ae) / expected, 1.0, kAeGainTolerance);
   // Highlight protection: with at most 1 % clipping, the 5 % at half of full scale hold the gain
   // at 2 (their 99th percentile is 0.5 of full scale), where the frame meters 0.069 < target.
   ae.clip_fraction = 0.01;
   EXPECT_DOUBLE_EQ(auto_exposure_gain(rgb, wb, fs, ae), 2.0);
   ae.clip_fraction = 0.2;  // the 80th percentile is a dim pixel: 1 / 0.01 = 100 > max_gain, no limit
-  EXPECT_NEAR(auto_exposure_gain(rgb, wb, fs, ae) / expected, 1.0, 1e-6);
+  EXPECT_NEAR(auto_exposure_gain(rgb, wb, fs, ae) / expected, 1.0, kAeGainTolerance);
 }
 
 // Out of range: a dim frame (the night case) and an all-black one get the largest gain, a frame
@@ -590,7 +596,8 @@ TEST(AutoExposure, GainRangeLimitsAndDegenerateFrames) {
   // scale is its full well (9000 e- x 0.42 DN/e- = 3780 DN), below the ADC's 4095 - 168.
   LensPreset lens = load_lens_preset(cam.default_lens);
   ExposureSettings s;
-  EXPECT_NEAR(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, std::pow(10.0, 24.0 / 20), 1e-12);
+  // Exact: the code's pow(10, 24 / 20) divided by the 0 dB exposure's gain, pow(10, 0) = 1.
+  EXPECT_EQ(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, std::pow(10.0, 24.0 / 20));
   EXPECT_DOUBLE_EQ(sensor_full_scale_dn(cam, resolve(cam, lens, s)), 3780);
   s.gain_db = 24;
   EXPECT_EQ(camera_auto_exposure(cam, resolve(cam, lens, s)).max_gain, 1.0);
@@ -609,7 +616,10 @@ TEST(Preview, NoSignalIsNotStretchedToWhiteButLitFramesKeepTheirPreview) {
   const ResolvedExposure ex = resolve(cam, lens, ExposureSettings{});
   const auto wb = white_balance_gains(cam);
   const double floor_lum = preview_min_white(cam, ex, wb);
-  EXPECT_NEAR(floor_lum, std::min({wb[0], wb[1], wb[2]}) * 3780 / std::pow(10.0, 24.0 / 20), 1e-9);
+  // The same pow on both sides (so no difference there); the code rounds FW·K, the product by
+  // min(wb) and the quotient, this side the product and the quotient: 5 double roundings, 5u
+  // relative (u = 2⁻⁵³).
+  EXPECT_NEAR(floor_lum, std::min({wb[0], wb[1], wb[2]}) * 3780 / std::pow(10.0, 24.0 / 20), 5 * 0x1p-53 * floor_lum);
   ImageF noise(256, 128, 3);
   float top = 0;
   for (size_t i = 0; i < noise.size(); ++i) {
