@@ -855,7 +855,12 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
       if (std::fabs(D - l.D_m) > reach) far.lamps.push_back(l);
     return street_illuminance_lux(X, D, far, p);
   };
-  const double slack = dropped(lamp->D_m) / e_under + dropped(lamp->D_m + S / 2) / e_gap + 1e-5;
+  // And the float pools' rounding at each of the two pixels, (k + n + 2)·2⁻²⁴ relative (the
+  // derivation at street.cpp's pool_term: k = 22.5 + 7.5·cot γ_c/φ_f for the quartic pieces, n
+  // lamps, and the texture's and tint's products), twice.
+  const double k_pool = 22.5 + 7.5 / std::tan(p.lamp_cutoff_deg * M_PI / 180) / (p.lamp_falloff_deg * M_PI / 180);
+  const double pool_rel = (k_pool + static_cast<double>(s.lamps.size()) + 2) * 0x1p-24;
+  const double slack = dropped(lamp->D_m) / e_under + dropped(lamp->D_m + S / 2) / e_gap + 2 * pool_rel;
   EXPECT_GE(under / gap, e_under / e_gap * 0.9 / 1.1 * (1 - slack));
   EXPECT_LE(under / gap, e_under / e_gap * 1.1 / 0.9 * (1 + slack));
 }
@@ -1217,7 +1222,9 @@ TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
     const size_t i = static_cast<size_t>(y) * o.width + x;
     const float c[3] = {L[3 * i], L[3 * i + 1], L[3 * i + 2]};
     EXPECT_NEAR(spectrum::luminance_cd_m2(c) / want, 1.0, 4 * 0x1p-24) << "lamp at D " << l.D_m << " m";
-    EXPECT_LT(want, s.peak_intensity_cd / area * (1 + 1e-12));  // never above the peak's luminance
+    // Never above the peak's luminance: rel(γ) ≤ 1 (1 inside the cut-off, the falloff below it),
+    // and correctly rounded products and quotients are monotone, so no rounding allowance.
+    EXPECT_LE(want, s.peak_intensity_cd / area);
     lowest = std::min(lowest, want);
     highest = std::max(highest, want);
     ++checked;
@@ -2325,7 +2332,8 @@ TEST(Facades, PlaneFittedThroughAnOccludedFootHoldsFivePercent) {
 // u_right], so its midpoint (first + last)/2 lies within 0.5 px of (u_left + u_right)/2; the
 // spacing of two neighbouring lights' centres then matches their spacing projected at their depth,
 //   Δu = u(s_2) − u(s_1) ≈ f·Δs·d/D² on a plane d to the side,
-// within 2·0.5 = 1 px. (float depth.Z adds a relative 6e-8 of the position: 1e-3 px margin.)
+// within 2·0.5 = 1 px. (float depth.Z adds a relative 2⁻²⁴ = 6e-8 of the position, measured from
+// the principal point, so at most 2⁻²⁴·W px per centre.)
 // Ground-floor shops (shop_share 1): panes of shop_width_m on the same pitch, checked alike, with
 // piers between them (runs end: not a filled block); with shop_share 0 the ground floor has the
 // upper storeys' windows instead.
@@ -2405,11 +2413,12 @@ TEST(Facades, WindowSpacingIsThePitchInPerspective) {
         while (a > 0 && lit(a - 1, y)) --a;
         while (b + 1 < o.width && lit(b + 1, y)) ++b;
         const double meas = 0.5 * (a + b), pred = 0.5 * (lo + hi);
-        EXPECT_LE(std::fabs(meas - pred), 0.5 + 1e-3) << "storey " << storey << " light " << k << " run " << a << ".."
+        EXPECT_LE(std::fabs(meas - pred), 0.5 + 0x1p-24 * o.width) << "storey " << storey << " light " << k << " run " << a << ".."
                                                       << b << " predicted " << lo << ".." << hi;
         ++lights;
         if (std::isfinite(prev_meas)) {
-          EXPECT_LE(std::fabs((meas - prev_meas) - (pred - prev_pred)), 1.0 + 2e-3) << "storey " << storey << " pair " << k;
+          EXPECT_LE(std::fabs((meas - prev_meas) - (pred - prev_pred)), 1.0 + 2 * 0x1p-24 * o.width)
+              << "storey " << storey << " pair " << k;
           ++pairs;
         }
         prev_meas = meas;
