@@ -215,6 +215,8 @@ TEST_F(Gpu, PoissonDrawsHaveThePoissonMeanAndVariance) {
     double s = 0, s2 = 0;
     for (float k : out) s += k, s2 += static_cast<double>(k) * k;
     const double m = s / n, var = s2 / n - m * m;
+    // 5 SE each: the mean's √(μ/n); the sample variance's √((μ₄ − σ⁴)/n) with the Poisson
+    // μ₄ = μ + 3μ², σ⁴ = μ²: √((2μ² + μ)/n).
     EXPECT_NEAR(m, mu, 5 * std::sqrt(mu / n)) << "mean " << mu;
     EXPECT_NEAR(var, mu, 5 * std::sqrt((2.0 * mu * mu + mu) / n)) << "mean " << mu;
   }
