@@ -372,7 +372,12 @@ TEST(VehicleTraffic, AMedianIsNoKerbAndBeyondItIsOncomingTraffic) {
   };
   const std::vector<VehicleDecision> d =
       decisions({{-5.25, 20, 1.8, 1.5, 4.5}, {-1.4, 30, 1.8, 1.5, 4.5}, {6.0, 18, 1.8, 1.5, 4.5}}, median);
-  EXPECT_NEAR(d[0].road_left, -2.5, 0.25);  // the measured ego carriageway ends at the median
+  // The measured ego carriageway ends at the median, exactly: street.cpp measures each row's edge
+  // at 20-60 m to within one pixel of the true boundary (D/f_px ≤ 60/f_px across) and rounds the
+  // rows' median to quarter metres; 60/f_px < 0.125, so an edge on the quarter grid comes back
+  // exactly (as StreetLighting.PoolsAlongTheRoadEdgesHoldTheClassAverage).
+  ASSERT_LT(60 / camera_scene().camera.f_px, 0.125);
+  EXPECT_EQ(d[0].road_left, -2.5);
   EXPECT_TRUE(d[0].across_median);
   EXPECT_EQ(d[0].state, 1);
   EXPECT_TRUE(d[0].faces_camera);
