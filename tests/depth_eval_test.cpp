@@ -101,10 +101,14 @@ TEST(DepthEval, ErrorsOfAKnownScaleError) {
   depth.at(0, 19) = 1;
   const DepthErrors e = depth_errors(depth, truth, lm, 1000, 20);
   EXPECT_EQ(e.road_pixels, static_cast<size_t>(14 * W - 2 * 8 * 6 - 1));
-  EXPECT_NEAR(e.road_median_rel, 0.2, 1e-6);  // float rounding of truth·0.8
-  EXPECT_NEAR(e.road_p90_rel, 0.2, 1e-6);
+  // depth = fl(truth·0.8f): 0.8f is 0.8 within 2⁻²⁴ relative and the product rounds once more,
+  // so depth/truth = 0.8(1 + δ) with |δ| ≤ 2·2⁻²⁴, and |depth − truth|/truth = 0.2 − 0.8δ (the
+  // difference of two floats is exact in double, the quotient rounds once, 2⁻⁵³).
+  const double rel_tol = 0.8 * 2 * 0x1p-24 + 0x1p-53;
+  EXPECT_NEAR(e.road_median_rel, 0.2, rel_tol);
+  EXPECT_NEAR(e.road_p90_rel, 0.2, rel_tol);
   ASSERT_EQ(e.contacts, 2u);
-  EXPECT_NEAR(e.contact_median_rel, 0.2, 1e-6);
+  EXPECT_NEAR(e.contact_median_rel, 0.2, rel_tol);
   // Too small to count as vehicles: none.
   EXPECT_EQ(depth_errors(depth, truth, lm, 1000, 49).contacts, 0u);
   EXPECT_NE(test::error_of([&] { depth_errors(depth, ImageF(W, H + 1, 1), lm, 1000); }).find("must be one size"),

@@ -70,6 +70,8 @@ TEST(Emva1288, RecoversATextbookCamera) {
   emva::Plan plan;
   const auto r = emva::measure(cam, plan);
   using C = TextbookCamera;
+  // Each estimate within 4 of its own standard error (emva.cpp propagates the fits' standard
+  // errors; 4σ two-sided: 6e-5 per comparison, 2.5e-4 over these four).
   EXPECT_NEAR(r.system_gain_dn_per_e.value, C::K, 4 * r.system_gain_dn_per_e.uncertainty);
   EXPECT_NEAR(r.qe.value, C::eta, 4 * r.qe.uncertainty);
   const double sd = std::sqrt(C::sigma_r * C::sigma_r + C::dark * plan.exposure_s);
@@ -112,10 +114,13 @@ TEST(Emva1288, RecoversATextbookCamera) {
               rel_span * r.saturation_photons, C::eta * p_star, p_star);
   EXPECT_NEAR(r.saturation_capacity_e.value, C::eta * p_star, 5 * r.saturation_capacity_e.uncertainty);
   EXPECT_NEAR(r.saturation_photons, p_star, 5 * rel_span * r.saturation_photons);
-  EXPECT_LT(r.saturation_capacity_e.value, C::full_well + 2 * r.saturation_capacity_e.uncertainty);
-  // The uncertainties are real: small but not zero.
+  // The physical limit: no pixel holds more than the well (one-sided, 5 SE as above).
+  EXPECT_LT(r.saturation_capacity_e.value, C::full_well + 5 * r.saturation_capacity_e.uncertainty);
+  // The uncertainties are real: not zero, and small enough for the z tests to have power: the
+  // precision EveryBundledPresetIsRecoveredWithinItsUncertainty requires, 5 % (a 25 % model error
+  // is then 5 SE away).
   EXPECT_GT(r.system_gain_dn_per_e.uncertainty, 0);
-  EXPECT_LT(r.system_gain_dn_per_e.uncertainty, 0.02 * C::K);
+  EXPECT_LT(r.system_gain_dn_per_e.uncertainty, 0.05 * C::K);
 }
 
 TEST(Emva1288, EveryBundledPresetIsRecoveredWithinItsUncertainty) {
@@ -181,12 +186,26 @@ TEST(Emva1288, HotSensorDarkCurrentIsFittedInItsLinearRange) {
 // (`characterize --roi 128 --gain-db 24`: 34.8 %); the clipped dark variance is then biased (dark
 // noise -27 %, z -18.6): the result says so. At the base gain no dark pixel reads 0 and nothing
 // is said.
+//
+// The fraction itself, from the model: a dark pixel reads 0 DN when K·(e + o + σ_r z + row + col)
+// + black < 0.5 (the ADC adds 0.5 and floors, sensor/pipeline.cpp), e the dark charge (mean D·t,
+// Poisson: its variance D·t), o the pixel's DSNU offset (normal, dsnu_e), z the read noise's
+// normal: p₀ = Φ((0.5 − black − K·D·t)/(K·σ)), σ² = σ_r² + dsnu² + D·t + row² + col². Over N
+// lattice pixels in two frames, Var(fraction) = (2p(1 − p) + 2·Cov)/(4N) ≤ p(1 − p)/N (the frames
+// of a pixel share o); within 5 of that SE.
 TEST(Emva1288, ClippedDarkSignalIsWarned) {
   const CameraPreset p = load_camera_preset("sony-icx267-flea2");
   ExposureSettings s;
   s.gain_db = p.max_gain_db;
-  const emva::Result m = measure_preset(p, s, 64, 64, "emva-clip").m;
-  EXPECT_GT(m.dark_clipped_fraction, 0.05);
+  const auto [plan, m, e] = measure_preset(p, s, 64, 64, "emva-clip");
+  const ResolvedExposure ex = resolve(p, load_lens_preset(p.default_lens), s);
+  const double K = ex.system_gain_dn_per_e, dark_e = ex.dark_current_e_per_s * plan.exposure_s;
+  const double sigma = std::sqrt(p.read_noise_e * p.read_noise_e + p.dsnu_e * p.dsnu_e + dark_e +
+                                 p.row_noise_e * p.row_noise_e + p.column_noise_e * p.column_noise_e);
+  const double p0 = 0.5 * std::erfc(-((0.5 - p.black_level_dn - K * dark_e) / (K * sigma)) / std::sqrt(2.0));
+  const double se = std::sqrt(p0 * (1 - p0) / static_cast<double>(m.pixels_measured));
+  std::printf("dark pixels reading 0 DN at %g dB: %.4f, model %.4f (SE %.4f)\n", s.gain_db, m.dark_clipped_fraction, p0, se);
+  EXPECT_NEAR(m.dark_clipped_fraction, p0, 5 * se);
   ASSERT_FALSE(m.warnings.empty());
   EXPECT_NE(m.warnings.front().find("read 0 DN"), std::string::npos) << m.warnings.front();
   const emva::Result mb = measure_preset(p, ExposureSettings{}, 64, 64, "emva-clip").m;
@@ -214,7 +233,10 @@ TEST(Emva1288, CharacterizeCommandPrintsJson) {
     for (double v : {m, e, u, ud, z}) EXPECT_TRUE(std::isfinite(v)) << k;
     EXPECT_GT(u, 0.0) << k;
     EXPECT_GE(ud, 0.0) << k;
-    EXPECT_NEAR(z, (m - e) / std::hypot(u, ud), 1e-9 * (1 + std::fabs(z))) << k;
+    // Exact: the JSON holds each double to round-trip precision (nlohmann::json's shortest
+    // representation, read back by a correctly rounded parse), and z_score (sensor/characterize.cpp)
+    // is this same expression.
+    EXPECT_EQ(z, (m - e) / std::hypot(u, ud)) << k;
     EXPECT_LE(std::fabs(z), 5.0) << k << ": measured " << m << " +/- " << u << ", preset " << e;
   }
   EXPECT_DOUBLE_EQ(j.at("system_gain_dn_per_e").at("preset").get<double>(),

@@ -295,7 +295,12 @@ TEST(Glare, ThreadCountIndependentAndFusedEqualsSeparate) {
 
 TEST(Glare, PxPerDegreeFromFocalLengthAndPitch) {
   // Cityscapes: f = 4.98 mm, 2.2 µm → fx = 2263.6 px per radian, 39.51 px per degree.
-  EXPECT_NEAR(px_per_degree(4.98, 2.2), 4.98e-3 / 2.2e-6 * 3.14159265358979 / 180, 1e-9);
+  // Rounding (u = 2⁻⁵³): glare.cpp reads 4.98, 1e-3, 2.2, 1e-6 and π (half an ulp each) and does
+  // five operations (7.5u); this side reads three literals and does three (4.5u), and its
+  // 15-digit π is short of π by a relative 1.0e-15 (computed here).
+  const double want = 4.98e-3 / 2.2e-6 * 3.14159265358979 / 180;
+  const double pi_short = std::fabs(M_PI - 3.14159265358979) / M_PI;
+  EXPECT_NEAR(px_per_degree(4.98, 2.2), want, (12 * 0x1p-53 + pi_short) * want);
 }
 
 // The lens preset's [glare] table: every key checked; no table, no glare.

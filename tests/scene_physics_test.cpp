@@ -157,8 +157,12 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
 // measuring points (per headlamp, cd = lx at 25 m × 625 m²) and nothing above the cut-off; on
 // the road the pair gives E = Σ I(h, v)·cos θ / d². With the lamps coincident (spacing 0) on the
 // axis (h = 0) at the distance D where v = −atan(h_l/D) is a table row, E = 2·I_row·(h_l/d)/d².
-// Tolerance 1e-12 relative: double rounding of a few operations (~1e-15 each) plus the row
-// angle's rounding through atan/tan (~1e-15 of 1°, times the slope ≤ 2e4 cd/° of a 1e4 cd value).
+// Tolerance (u = 2⁻⁵³): the intensity at the row itself is the table's node exactly (weights 0 and
+// 1); E's own arithmetic is about 6 roundings in the code (d², d, cos θ, the quotient, the
+// product, the angle's scaling) and 5 here, 12u relative; and the code's v = atan(h_l/D)·180/π
+// comes back to the row only to D's 4 roundings here (the product, the quotient by 180, tan, the
+// quotient) and atan's and the scaling's 3, 7u·|row| degrees, which the table's slope next to the
+// node (computed: its larger side, relative to the node, per degree) turns into intensity.
 TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
   ScenePreset p = no_bloom();
   // R112 class B (right-hand traffic), [U] values recalled in presets/scenes/night-urban.toml.
@@ -188,9 +192,16 @@ TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
     const size_t iv = std::find(p.beam_v_deg.begin(), p.beam_v_deg.end(), rows[r]) - p.beam_v_deg.begin();
     const size_t ih = std::find(p.beam_h_deg.begin(), p.beam_h_deg.end(), 0.0) - p.beam_h_deg.begin();
     ASSERT_LT(iv, p.beam_v_deg.size());
-    const double node = p.beam_intensity_cd[iv * p.beam_h_deg.size() + ih];
-    EXPECT_NEAR(I, node, 1e-9 * node);  // v = the row to ~1e-15°: the bilinear weight of the next row ~1e-14
-    EXPECT_NEAR(low_beam_lux(0, D, p), 2 * I * (hl / d) / d2, 1e-12 * 2 * I / d2) << D;
+    const size_t nh = p.beam_h_deg.size();
+    const double node = p.beam_intensity_cd[iv * nh + ih];
+    EXPECT_EQ(I, node);  // exact: v and h are grid values, the bilinear weights 0 and 1
+    double slope = 0;  // relative, per degree
+    for (const size_t jv : {iv - 1, iv + 1})
+      if (jv < p.beam_v_deg.size())
+        slope = std::max(slope, std::fabs(p.beam_intensity_cd[jv * nh + ih] - node) /
+                                    (std::fabs(p.beam_v_deg[jv] - rows[r]) * node));
+    const double u = 0x1p-53, want = 2 * I * (hl / d) / d2;
+    EXPECT_NEAR(low_beam_lux(0, D, p), want, (12 * u + slope * 7 * u * std::fabs(rows[r])) * want) << D;
   }
   // Beyond the cut-off (farther than h_l / tan 0.57° ≈ 65 m, left of the axis) and behind the car: dark.
   EXPECT_EQ(low_beam_lux(-3, 100, p), 0.0);

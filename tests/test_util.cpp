@@ -56,31 +56,6 @@ TempDir::~TempDir() {
   std::filesystem::remove_all(path_, ec);
 }
 
-// The bound on differing sensor samples, derived rather than fitted. A pixel's mean electron
-// count μ is linear in its radiance (the photon integral weights R, G, B by the QE bands), so the
-// two backends' means differ by δμ ≤ μ · r with r = max_c |L_a,c − L_b,c| / L_a,c. An inversion
-// draw F⁻¹(u; μ) changes only when u falls in the slice that F(k; μ) sweeps as μ moves by δμ,
-// which has probability Σ_k |∂F(k; μ)/∂μ| δμ = Σ_k p(k; μ) δμ = δμ; a normal-based draw
-// k = ⌊μ + √μ z + …⌉ crosses a count with probability δμ (1 + |z|/(2√μ)) < 2 δμ for μ ≥ 10 and
-// |z| < 5.9. Read noise, offsets and the ADC are the same function of the count on both
-// backends, so a DN differs only where the count does. Hence E[#differing] ≤ Σ_i min(1, 2 μ_i r_i)
-// (μ_i estimated by the first run's electron sample, unbiased), and the count, a sum of
-// independent Bernoulli trials, stays below E + 5 √E + 1 (5 σ of a Poisson-binomial, variance ≤ E).
-double differing_sensor_samples_bound(const std::map<std::string, photosite::ImageF>& a,
-                                      const std::map<std::string, photosite::ImageF>& b) {
-  const photosite::ImageF& e = a.at("electrons.Y");
-  double expected = 0;
-  for (size_t i = 0; i < e.size(); ++i) {
-    double r = 0;
-    for (const char* c : {"night_radiance.R", "night_radiance.G", "night_radiance.B"}) {
-      const double x = a.at(c)[i], y = b.at(c)[i];
-      if (x != y) r = std::max(r, x > 0 ? std::fabs(x - y) / x : 1.0);
-    }
-    expected += std::min(1.0, 2.0 * std::max<double>(e[i], 1.0) * r);
-  }
-  return expected + 5 * std::sqrt(expected) + 1;
-}
-
 ImageU16 kitti_labels_in_frame(const ImageU16& raw, int width, int height) {
   ImageU16 crop(width, height, 1);
   const int ox = raw.width() == width ? 0 : 18, oy = raw.height() == height ? 0 : 4;

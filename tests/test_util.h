@@ -38,11 +38,6 @@ class TempDir {
   std::filesystem::path path_;
 };
 
-// Two night EXRs of the same run on two backends whose radiance differs by float rounding (compose):
-// the most raw.Y / electrons.Y samples that may differ, derived in test_util.cpp (5σ).
-double differing_sensor_samples_bound(const std::map<std::string, photosite::ImageF>& a,
-                                      const std::map<std::string, photosite::ImageF>& b);
-
 // ../shared beside the checkout, or empty when absent.
 std::filesystem::path shared_dir();
 

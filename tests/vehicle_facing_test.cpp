@@ -231,18 +231,25 @@ VehicleDecision decision(const ImageF& day, const LabelMap& lm, int instance) {
 
 // The road's grey takes out the frame's colour cast: a neutral road photographed with a cast
 // (R, G, B) x c = (0.75, 1, 0.8) gives gains g_k = mean(c)/c_k, so the balanced road is grey at
-// its mean level (float sums of a few thousand samples: 1e-5 relative is far above their rounding).
+// its mean level. Rounding (scene/lights.cpp road_grey_gains sums floats in double): each cast
+// sample is one float product, 2⁻²⁴ relative, so each channel's sum is c_k·S·(1 + Δ_k) with
+// |Δ_k| ≤ 2⁻²⁴ (all terms positive), and a gain, a ratio of such sums, is within 2·2⁻²⁴; the
+// float casts 0.75f, 1.0f are exact and 0.8f is 0.8 within 2⁻²⁴ (this side's m and m/c_k use
+// 0.8); the n ≤ W·H/16 double additions and the gains' 4 operations add (n + 4)·2⁻⁵³.
 TEST(VehicleFacing, RoadGreyGainsUndoACast) {
   const SyntheticCameraOptions o = camera_scene();
   SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  EXPECT_NEAR(road_grey_gains(s.day_linear_srgb, s.labels.ids)[0], 1.0, 1e-5);  // the synthetic road is grey
+  // Exact: the synthetic road's samples are equal in R, G and B, so the three sums are equal.
+  EXPECT_EQ(road_grey_gains(s.day_linear_srgb, s.labels.ids)[0], 1.0);  // the synthetic road is grey
+  const double n = static_cast<double>(s.labels.ids.size()) / 16 + 1;
+  const double tol = 3 * 0x1p-24 + (n + 4) * 0x1p-53;
   const float cast[3] = {0.75f, 1.0f, 0.8f};
   for (size_t i = 0; i < s.day_linear_srgb.size(); ++i) s.day_linear_srgb[i] *= cast[i % 3];
   const auto g = road_grey_gains(s.day_linear_srgb, s.labels.ids);
   const double m = (0.75 + 1 + 0.8) / 3;
-  EXPECT_NEAR(g[0], m / 0.75, 1e-5);
-  EXPECT_NEAR(g[1], m / 1.0, 1e-5);
-  EXPECT_NEAR(g[2], m / 0.8, 1e-5);
+  EXPECT_NEAR(g[0], m / 0.75, tol * m / 0.75);
+  EXPECT_NEAR(g[1], m / 1.0, tol * m);
+  EXPECT_NEAR(g[2], m / 0.8, tol * m / 0.8);
   // No road: no balance.
   LabelMap none = s.labels;
   for (size_t i = 0; i < none.ids.size(); ++i)
@@ -365,7 +372,12 @@ TEST(VehicleTraffic, AMedianIsNoKerbAndBeyondItIsOncomingTraffic) {
   };
   const std::vector<VehicleDecision> d =
       decisions({{-5.25, 20, 1.8, 1.5, 4.5}, {-1.4, 30, 1.8, 1.5, 4.5}, {6.0, 18, 1.8, 1.5, 4.5}}, median);
-  EXPECT_NEAR(d[0].road_left, -2.5, 0.25);  // the measured ego carriageway ends at the median
+  // The measured ego carriageway ends at the median, exactly: street.cpp measures each row's edge
+  // at 20-60 m to within one pixel of the true boundary (D/f_px ≤ 60/f_px across) and rounds the
+  // rows' median to quarter metres; 60/f_px < 0.125, so an edge on the quarter grid comes back
+  // exactly (as StreetLighting.PoolsAlongTheRoadEdgesHoldTheClassAverage).
+  ASSERT_LT(60 / camera_scene().camera.f_px, 0.125);
+  EXPECT_EQ(d[0].road_left, -2.5);
   EXPECT_TRUE(d[0].across_median);
   EXPECT_EQ(d[0].state, 1);
   EXPECT_TRUE(d[0].faces_camera);

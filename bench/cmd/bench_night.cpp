@@ -114,8 +114,8 @@ void run(const Opts& o) {
 #endif
   }
   // How far the device's chain is from the CPU's on the first timed round: the radiance's
-  // largest difference over its peak, and the share of raw samples that differ (the parity tests
-  // allow the radiance 2e-6 of its peak, tests/gpu_test.cpp CliBackendsAgreeOnFlatAndNight).
+  // largest difference over its peak, and the share of raw samples that differ (both 0: the
+  // parity tests require every channel bit-equal, tests/gpu_test.cpp CliBackendsAgreeOnFlatAndNight).
   double device_radiance_diff = -1, device_raw_differ = -1;
   double device_up_mb = 0, device_down_mb = 0;
 

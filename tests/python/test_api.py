@@ -1,5 +1,6 @@
 """photosite's Python module against the command line: same numbers, every function."""
 import json
+import math
 import os
 import pathlib
 import pickle
@@ -581,8 +582,18 @@ def test_characterize_temperature_and_poisson_match_cli(cli, store):
                        "--temperature-c", 80, "--poisson", "normal").stdout)
     assert d == j
     cool = ps.characterize("sony-imx174", roi=32, device_store=store, backend="cpu")
-    # the dark current doubles every few degrees: far above the preset temperature's at 80 C
-    assert d["dark_current_e_per_s"]["preset"] > 10 * cool["dark_current_e_per_s"]["preset"]
+    # The dark current doubles every dark_current_doubling_c: at 80 C it is 2^((80 - T)/d) times
+    # the preset temperature T's (the same device's mean dark-rate factor on both). Rounding
+    # (u = 2^-53): each side's exponent quotient is off by u of its value (8.5 and 1.5 here), which
+    # moves 2^x by ln 2 of that, and each side's exp2 and three products round once each (4u),
+    # the ratio once more: (ln 2 * (|x_hot| + |x_cool| + |x|) + 9) u relative.
+    pr = ps.presets.show("sony-imx174")
+    t_ref, dbl, t_cool = pr["dark_current_reference_c"], pr["dark_current_doubling_c"], pr["temperature_c"]
+    x_hot, x_cool = (80 - t_ref) / dbl, (t_cool - t_ref) / dbl
+    x = x_hot - x_cool
+    rel = (math.log(2) * (abs(x_hot) + abs(x_cool) + abs(x)) + 9) * 2.0**-53
+    ratio = d["dark_current_e_per_s"]["preset"] / cool["dark_current_e_per_s"]["preset"]
+    assert ratio == pytest.approx(2.0**x, rel=rel, abs=0)
 
 
 def test_metadata_is_the_photosite_header_attributes(cli, store, tmp_path):
