@@ -12,7 +12,9 @@
 // Where the façade recedes, one pixel spans several cells along s: a gap of up to kMaxGap_m
 // between cells holding samples is filled by linear interpolation along s. A column of cells is
 // resolved when at least half of its filled cells hold samples of their own; the far, stretched
-// part of a grazing façade is not, and keeps the grid there.
+// part of a grazing façade is not, and keeps the grid there; so does each 8 m stretch of façade on
+// which fewer than a quarter of the grid's windows are found (its glass no darker than its wall, or
+// a blank wall).
 // A window in daylight is a recess of dark glass: darker than its wall. Each cell's darkness is
 // (t − m)/t, m its mean and t the mean of the filled cells within kTrend_m x kTrend_m around it
 // (a façade's storeys and materials differ in brightness: a window is a local dip). Cells darker
@@ -42,6 +44,7 @@ constexpr double kMaxGap_m = 1.0;                         // gaps along s filled
 constexpr double kTrend_m = 3.1;                          // the wall's local mean: about one bay by one storey [U]
 constexpr double kMinWidth_m = 0.3, kMaxWidth_m = 3.5;    // window openings: narrow sashes to shop bays [U]
 constexpr double kMinHeight_m = 0.5, kMaxHeight_m = 4.5;  // basement lights to arched ground-floor windows [U]
+constexpr double kStretch_m = 8;                          // stretches of façade judged alone (about a building's width; photosite choice)
 constexpr double kMinFill = 0.5;                          // dark share of the box (photosite choice)
 constexpr double kMaxAspect = 3.5;                        // box height to width and width to height at most [U]
 constexpr int kRowStep = 3;                               // sampled rows (every column)
@@ -212,6 +215,24 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
       wdw.y1 = static_cast<int>(std::clamp(std::ceil(v1) + 1, 0.0, H - 1.0));
       found[k].push_back(wdw);
     }
+    // A stretch of façade whose windows the photo does not show (its glass no darker than its
+    // wall, or a blank wall): per kStretch_m of s, fewer found windows than a quarter of the grid's
+    // (one per pitch_m x storey_m) over its resolved cells keeps the grid there (photosite choice:
+    // the grid lit such façades before); its columns count as unresolved.
+    const int stretch = std::max(1, static_cast<int>(std::lround(kStretch_m / kCell_m)));
+    std::vector<int> found_in((ns + stretch - 1) / stretch, 0);
+    for (const auto& w : found[k]) ++found_in[std::clamp(static_cast<int>(((w.s_lo + w.s_hi) / 2 - s_lo) / kCell_m), 0, ns - 1) / stretch];
+    std::vector<uint8_t> keep(found_in.size(), 0);
+    for (size_t b = 0; b < found_in.size(); ++b) {
+      double m2 = 0;
+      for (int i = static_cast<int>(b) * stretch; i < std::min(ns, static_cast<int>(b + 1) * stretch); ++i)
+        if (P.resolved[i]) m2 += filled[i] * kCell_m * kCell_m;
+      keep[b] = m2 > 0 && found_in[b] >= 0.25 * m2 / (p.window_pitch_m * p.window_storey_m);
+    }
+    for (int i = 0; i < ns; ++i) P.resolved[i] = P.resolved[i] && keep[i / stretch];
+    std::erase_if(found[k], [&](const FacadeWindowsFound::Window& w) {
+      return !keep[std::clamp(static_cast<int>(((w.s_lo + w.s_hi) / 2 - s_lo) / kCell_m), 0, ns - 1) / stretch];
+    });
   }
   for (int k = 0; k < nplanes; ++k) out.windows.insert(out.windows.end(), found[k].begin(), found[k].end());
   return out;
