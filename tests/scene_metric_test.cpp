@@ -527,7 +527,7 @@ TEST(StreetLighting, LampDistributionPiecesFollowTheLawBeyondTheCutOff) {
 // AVX-512VL and AVX2 rows (the candidates' compaction, the pane geometry with its kinds stored
 // four at a time, the pane pixels found eight kinds a word) give the scalar twins' windows in the
 // same bits and count, on three shared Cityscapes frames (their depth and façades as the chain
-// makes them), at 1 and 2 threads.
+// makes them), at 1 and 2 threads, and the same bits at 2 threads as at 1.
 TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
   const ScenePreset p = load_scene_preset("night-urban");
@@ -537,6 +537,7 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
     const NightScene ns = night_scene(lin, lab, p, 1);
     const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
     const ImageF texture = reflectance_texture(lin, lab.ids, p);
+    std::vector<ImageF> one_thread;  // the scalar twins' maps at 1 thread (grid, photo's windows)
     for (const int threads : {1, 2}) {
       omp_set_num_threads(threads);
       std::vector<ImageF> maps;
@@ -560,6 +561,10 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
           EXPECT_EQ(differing_samples(maps[3 * t + k], maps[3 * t + 2]), 0u)
               << base << how << (k == 0 ? " AVX-512" : " AVX2") << " against the scalar twins, " << threads << " threads";
         }
+        // The thread count changes nothing either (the photo's windows: each thread's rows of samples
+        // appended in row order, the cells' sums in that order).
+        if (threads == 1) one_thread.push_back(maps[3 * t + 2]);
+        else EXPECT_EQ(differing_samples(maps[3 * t + 2], one_thread[t]), 0u) << base << how << " at 2 threads against 1";
       }
     }
   }
