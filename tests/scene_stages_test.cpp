@@ -505,8 +505,17 @@ TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
     EXPECT_GT(n.depth.at(int(vx), int(vy) + 3), 10 * n.depth.at(int(vx), o.height - 1));
     const int far_y = int(vy + (o.height - 1 - vy) * 0.35) - 2, near_y = int(vy + (o.height - 1 - vy) * 0.6) - 2;
     EXPECT_GT(n.depth.at(int(vx), far_y), n.depth.at(int(vx), near_y));
-    // The low-beam ramp: 0 at the VP, 1 at the border.
-    EXPECT_LT(n.beam_input.at(int(vx), int(vy) + 2), 0.05f);
+    // The low-beam ramp: 0 at the VP, 1 at the border. coarse_depth's min(1, max(tx, ty)), tx and
+    // ty the distance from the detected VP (x_d, y_d) over the VP's distance to the border on that
+    // side. At (vx, vy + 2), with the detected VP within e = 6 px of the true one (asserted
+    // above): left of the VP (vp.x - vx)/x_d ≤ e/vx, right of it ≤ e/(W - 1 - vx); above it
+    // (y_d - vy - 2)/y_d ≤ (e - 2)/(vy + 2), below it ≤ (2 + e)/(H - 1 - vy - e). One rounding to
+    // float (u = 2⁻²⁴). Here 0.039-0.049 (the old bound was 0.05).
+    const double e = 6;
+    const double tx = e / std::min(vx, o.width - 1 - vx);
+    const double ty = std::max((e - 2) / (vy + 2), (2 + e) / (o.height - 1 - vy - e));
+    const double ramp = std::max(tx, ty);
+    EXPECT_LE(n.beam_input.at(int(vx), int(vy) + 2), ramp * (1 + 0x1p-24)) << "bound " << ramp;
     EXPECT_FLOAT_EQ(n.beam_input.at(int(vx), o.height - 1), 1.f);
     EXPECT_TRUE(all_finite_nonneg(n.radiance));
   }
