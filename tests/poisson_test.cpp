@@ -52,12 +52,16 @@ TEST(Poisson, CorrectedNormalIsWithinStatedCdfErrorAboveThreshold) {
     if (mu == kPoissonApproxThreshold) EXPECT_NEAR(worst, 2.9e-5, 0.05e-5);
     if (mu == 128.0) EXPECT_NEAR(worst, 1.1e-7, 0.05e-7);
   }
-  // The plain rounded normal is NOT that close at the threshold: the correction matters.
+  // The plain rounded normal is NOT that close at the threshold: the correction matters. The
+  // requirement is that it misses the stated bound (no factor: that is what "matters" means).
+  // For scale, not as a tolerance: its leading error is the skewness term of the Edgeworth
+  // series, (γ₁/6)·He₂(z)·φ(z) with γ₁ = 1/√μ, φ(0)/(6√10) = 0.021 at the mean, 420 times the bound.
   const double mu = kPoissonApproxThreshold;
   double worst = 0;
   for (long k = 0; k < 40; ++k)
     worst = std::max(worst, std::fabs(phi((k + 0.5 - mu) / std::sqrt(mu)) - poisson_cdf(k, mu)));
-  EXPECT_GT(worst, 5 * kPoissonApproxMaxCdfError);
+  std::printf("rounded normal: max |F_n(k) - F(k)| at mean %g: %.2e\n", mu, worst);
+  EXPECT_GT(worst, kPoissonApproxMaxCdfError);
 }
 
 // Chi-square goodness of fit of N draws against the exact pmf, bins with expected count >= 5

@@ -231,10 +231,42 @@ TEST(CameraIsp, GuidedFilterSmoothsNoiseAndKeepsAStep) {
   // At most half the noise left: a ≤ 1/2 on average plus the box mean's 1/5 (a 5x5 window).
   EXPECT_LT(sd_out, 0.6 * sd_in);
   EXPECT_NEAR(m_out, m_in, 5 / std::sqrt(16000.0));  // the mean kept (5 SE of the mean: 5/sqrt(16000) = 0.04)
-  // The step: the columns just beside the edge keep 90% of their side's level.
+  // The step: the columns just beside the edge keep their side's level. With Ā the mean of a
+  // over the 25 windows (5x5, r = 2) that cover a pixel and b_c = (1 - a_c)·μ_c, for any level L
+  //   q - L = Ā·(p - L) + mean_c (1 - a_c)(μ_c - L),   0 ≤ a_c = var_c/(var_c + ε) < 1,
+  // so |q - L| ≤ |p - L| + mean_c ε|μ_c - L|/(var_c + ε). At x = 99 (L = 0, the low side) the
+  // windows' centre columns are 97..101, holding k = 0..4 of the high columns; at x = 100
+  // (L = 40) mirrored. Premises, checked on this input: every pixel of columns 95..104 within
+  // 5σ of its level, and every window mean μ_c within 5 SE of a 25-pixel mean (5/√25 = 1) of its
+  // noise-free 40k/5. Then a flat window (k = 0) adds at most |μ_c - L| ≤ 1, and a mixed one
+  // (k high of 5, f = k/5) has |μ_c - L| ≤ 40f + 1 over a population variance of at least its
+  // two groups' f(1 - f)(40 - 2·5)² (the groups' means are ≥ 30 apart). A box mean (a = 0)
+  // would leave 16 at x = 99. Float rounding (u = 2⁻²⁴): var from mean_sq and mean² stored as
+  // floats, ≤ 6u·45² absolute, which moves a by ≤ ε·6u·45²/(var + ε)² and b by |μ| ≤ 1 times
+  // that in the flat window (the mixed ones' (var + ε)² ≥ 145² make it negligible, bounded by
+  // the same term times 45/145²); a and b stored (u each), their box means (2u), q's product
+  // and sum (2u): 8u·45 on a level of at most 45.
+  const double eps = 1.0, dev = 5.0, mean_dev = 5.0 / 5.0, gap = 40.0 - 2 * dev;
+  for (int y = 1; y < 199; ++y)  // the rows of the windows that cover rows 5..194
+    for (int x = 95; x < 105; ++x) ASSERT_LE(std::fabs(p.at(x, y) - (x < 100 ? 0.0 : 40.0)), dev) << x << "," << y;
+  for (int y = 3; y < 197; ++y)  // the windows' centre rows
+    for (int c = 97; c <= 102; ++c) {
+      double s = 0;
+      for (int yy = y - 2; yy <= y + 2; ++yy)
+        for (int xx = c - 2; xx <= c + 2; ++xx) s += p.at(xx, yy);
+      ASSERT_LE(std::fabs(s / 25 - 40.0 * std::clamp(c + 3 - 100, 0, 5) / 5), mean_dev) << c << "," << y;
+    }
+  double windows = mean_dev;  // the flat window (k = 0)
+  for (int k = 1; k <= 4; ++k) {
+    const double f = k / 5.0;
+    windows += eps * (40 * f + mean_dev) / (f * (1 - f) * gap * gap + eps);
+  }
+  windows /= 5;
+  const double u = 0x1p-24;
+  const double rounding = 6 * u * 45 * 45 * (1 + 45 / (145.0 * 145)) + 8 * u * 45;
   for (int y = 5; y < 195; ++y) {
-    EXPECT_LT(q.at(99, y), 4.0f) << y;
-    EXPECT_GT(q.at(100, y), 36.0f) << y;
+    EXPECT_LE(std::fabs(q.at(99, y) - 0.0), std::fabs(p.at(99, y) - 0.0) + windows + rounding) << y;
+    EXPECT_LE(std::fabs(q.at(100, y) - 40.0), std::fabs(p.at(100, y) - 40.0) + windows + rounding) << y;
   }
 }
 

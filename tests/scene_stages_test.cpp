@@ -502,11 +502,34 @@ TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
     EXPECT_LT(std::hypot(n.vp.x - vx, n.vp.y - vy), 6.0) << n.vp.x << "," << n.vp.y;
     EXPECT_GT(n.vp.confidence, 0.3);
     // Metric depth: far near the horizon, near at the bottom; the far car deeper than the near one.
-    EXPECT_GT(n.depth.at(int(vx), int(vy) + 3), 10 * n.depth.at(int(vx), o.height - 1));
+    // Both pixels are road, on the flat-ground model z = f·h/((v − y_h)·cos θ) (ground_depth_m;
+    // max_depth_m at and above the horizon), so below the horizon the two depths' ratio is
+    // (v_b − y_h)/(v_t − y_h) whatever f, h and θ, v the rows' coordinates (the row plus c, c in
+    // [0, 1) for where in the pixel the code samples). It grows with y_h, so with the horizon no
+    // higher than e = 6 px above the true VP's row (premise, checked: the VP's own horizon by the
+    // 6 px above, the rig's where the pitch gate refuses it) the ratio is at least
+    // (H − 1 − vy + e)/(3 + 1 + e), or the far pixel lies at or above the horizon at max_depth_m.
+    // Each depth one rounding to float (u = 2⁻²⁴), the ratio two. (The old bound was 10.)
+    const double e = 6;
+    ASSERT_EQ(s.labels.ids.at(int(vx), int(vy) + 3), int(Label::Road));
+    ASSERT_EQ(s.labels.ids.at(int(vx), o.height - 1), int(Label::Road));
+    ASSERT_GE(n.geometry.horizon_y, vy - e) << n.geometry.horizon_source;
+    const double k = (o.height - 1 - vy + e) / (3 + 1 + e);
+    EXPECT_GE(n.depth.at(int(vx), int(vy) + 3),
+              std::min(preset().max_depth_m, k * n.depth.at(int(vx), o.height - 1)) * (1 - 2 * 0x1p-24))
+        << "ratio bound " << k;
     const int far_y = int(vy + (o.height - 1 - vy) * 0.35) - 2, near_y = int(vy + (o.height - 1 - vy) * 0.6) - 2;
     EXPECT_GT(n.depth.at(int(vx), far_y), n.depth.at(int(vx), near_y));
-    // The low-beam ramp: 0 at the VP, 1 at the border.
-    EXPECT_LT(n.beam_input.at(int(vx), int(vy) + 2), 0.05f);
+    // The low-beam ramp: 0 at the VP, 1 at the border. coarse_depth's min(1, max(tx, ty)), tx and
+    // ty the distance from the detected VP (x_d, y_d) over the VP's distance to the border on that
+    // side. At (vx, vy + 2), with the detected VP within e = 6 px of the true one (asserted
+    // above): left of the VP (vp.x - vx)/x_d ≤ e/vx, right of it ≤ e/(W - 1 - vx); above it
+    // (y_d - vy - 2)/y_d ≤ (e - 2)/(vy + 2), below it ≤ (2 + e)/(H - 1 - vy - e). One rounding to
+    // float (u = 2⁻²⁴). Here 0.039-0.049 (the old bound was 0.05).
+    const double tx = e / std::min(vx, o.width - 1 - vx);
+    const double ty = std::max((e - 2) / (vy + 2), (2 + e) / (o.height - 1 - vy - e));
+    const double ramp = std::max(tx, ty);
+    EXPECT_LE(n.beam_input.at(int(vx), int(vy) + 2), ramp * (1 + 0x1p-24)) << "bound " << ramp;
     EXPECT_FLOAT_EQ(n.beam_input.at(int(vx), o.height - 1), 1.f);
     EXPECT_TRUE(all_finite_nonneg(n.radiance));
   }
