@@ -33,7 +33,6 @@
 #include <cmath>
 #include <vector>
 
-#include "photosite/rng.h"
 #include "scene/street_detail.h"
 
 namespace photosite::scene {
@@ -58,7 +57,7 @@ struct Sample {
 
 FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& depth_m, const CameraGeometry& g,
                                        const BuildingFacades& fac, const ScenePreset& p, const double* tX,
-                                       const double* tD) {
+                                       const double* tD, double zmax) {
   FacadeWindowsFound out;
   const int nplanes = static_cast<int>(fac.planes.size());
   out.planes.resize(nplanes);
@@ -66,7 +65,6 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
   if (nplanes == 0 || texture.empty() || !(tau > 0)) return out;
   const int W = texture.width(), H = texture.height();
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  const double zmax = 0.5 * p.window_width_m * g.f_px;  // as add_facade_windows draws
   // The samples per plane, in row order (each thread's rows one contiguous block, appended in
   // thread order: the same order at any thread count).
   std::vector<std::vector<std::vector<Sample>>> per_thread;
@@ -220,8 +218,11 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
     // (one per pitch_m x storey_m) over its resolved cells keeps the grid there (photosite choice:
     // the grid lit such façades before); its columns count as unresolved.
     const int stretch = std::max(1, static_cast<int>(std::lround(kStretch_m / kCell_m)));
+    auto stretch_of = [&](const FacadeWindowsFound::Window& w) {  // the stretch of a window's centre
+      return std::clamp(static_cast<int>(((w.s_lo + w.s_hi) / 2 - s_lo) / kCell_m), 0, ns - 1) / stretch;
+    };
     std::vector<int> found_in((ns + stretch - 1) / stretch, 0);
-    for (const auto& w : found[k]) ++found_in[std::clamp(static_cast<int>(((w.s_lo + w.s_hi) / 2 - s_lo) / kCell_m), 0, ns - 1) / stretch];
+    for (const auto& w : found[k]) ++found_in[stretch_of(w)];
     std::vector<uint8_t> keep(found_in.size(), 0);
     for (size_t b = 0; b < found_in.size(); ++b) {
       double m2 = 0;
@@ -230,9 +231,7 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
       keep[b] = m2 > 0 && found_in[b] >= 0.25 * m2 / (p.window_pitch_m * p.window_storey_m);
     }
     for (int i = 0; i < ns; ++i) P.resolved[i] = P.resolved[i] && keep[i / stretch];
-    std::erase_if(found[k], [&](const FacadeWindowsFound::Window& w) {
-      return !keep[std::clamp(static_cast<int>(((w.s_lo + w.s_hi) / 2 - s_lo) / kCell_m), 0, ns - 1) / stretch];
-    });
+    std::erase_if(found[k], [&](const FacadeWindowsFound::Window& w) { return !keep[stretch_of(w)]; });
   }
   for (int k = 0; k < nplanes; ++k) out.windows.insert(out.windows.end(), found[k].begin(), found[k].end());
   return out;

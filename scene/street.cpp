@@ -1801,13 +1801,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowR
 }
 // A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
 // draws (add_facade_windows).
-// `found`: the plane's windows are the photo's where it resolves them (FacadeWindowsFound: the
-// grid's panes there are not drawn).
-struct FacadeFrame {
-  double tX, tD;
-  uint64_t key;
-  bool found = false;
-};
+struct FacadeFrame { double tX, tD; uint64_t key; };
 // Pixel x of the row as a window candidate (a building pixel with a plane, z ≤ zmax): its column,
 // z, plane axis and plane index appended at n.
 [[gnu::always_inline]] inline void window_candidate(int x, const int32_t* reg, const float* z, double zmax,
@@ -2036,12 +2030,18 @@ struct WindowPass {
   std::vector<FoundDraw> found_draws;
   std::vector<std::vector<int32_t>> found_rows;  // per image row, the lit found windows crossing it
   bool any_found = false;
-  // Whether pixel x (camera z, plane pi) lies in a column of its plane that the photo resolves
-  // (FacadeWindowsFound::Plane::resolved): there the photo's windows replace the grid's.
-  bool photo_resolved(int x, int pi, double zz, const WindowGeom& wg) const {
+  // Pixel x's coordinate s along its plane pi from its camera z (window_geom_scalar's X, D and s).
+  double along_plane(int x, int pi, double zz, const WindowGeom& wg) const {
     const double X = zz * (x - wg.cx) / wg.f, D = zz * wg.kD;
+    return frames[pi].tX * X + frames[pi].tD * D;
+  }
+  // Whether pixel x (camera z, plane pi) lies in a column of its plane that the photo resolves
+  // (FacadeWindowsFound::Plane::resolved): there the photo's windows replace the grid's. (Only
+  // with any_found: the planes are found's then.)
+  bool photo_resolved(int x, int pi, double zz, const WindowGeom& wg) const {
     const FacadeWindowsFound::Plane& P = found.planes[pi];
-    const double ci = std::floor((frames[pi].tX * X + frames[pi].tD * D - P.s0) * (1 / FacadeWindowsFound::kCell_m));
+    if (!P.used) return false;
+    const double ci = std::floor((along_plane(x, pi, zz, wg) - P.s0) * (1 / FacadeWindowsFound::kCell_m));
     return ci >= 0 && ci < P.ns && P.resolved[static_cast<size_t>(ci)];
   }
   WindowPass(const ImageU16& labels_, const ImageF& depth_m_, const CameraGeometry& g_, const ScenePreset& p_,
@@ -2063,8 +2063,8 @@ struct WindowPass {
     if (texture && p.window_detect_contrast > 0) {
       std::vector<double> tXs(frames.size()), tDs(frames.size());
       for (size_t k = 0; k < frames.size(); ++k) tXs[k] = frames[k].tX, tDs[k] = frames[k].tD;
-      found = find_facade_windows(*texture, depth_m_, g_, fac, p_, tXs.data(), tDs.data());
-      for (size_t k = 0; k < frames.size(); ++k) any_found |= frames[k].found = found.planes[k].used;
+      found = find_facade_windows(*texture, depth_m_, g_, fac, p_, tXs.data(), tDs.data(), max_z);
+      for (const FacadeWindowsFound::Plane& P : found.planes) any_found |= P.used;
       found_draws.resize(found.windows.size());
       for (size_t i = 0; i < found.windows.size(); ++i) {
         const FacadeWindowsFound::Window& w = found.windows[i];
@@ -2178,7 +2178,7 @@ struct WindowPass {
         const int np = window_block_avx512(reg, z, x0, x1, zmax, fac, fr, wg, sc.r, rp, &n, sc.panes);
         for (int i = 0; i < np; ++i) {
           const int j = P.j[i];
-          if (fr[P.plane[i]].found && photo_resolved(P.x[i], P.plane[i], z[P.x[i]], wg)) continue;
+          if (any_found && photo_resolved(P.x[i], P.plane[i], z[P.x[i]], wg)) continue;
           draw_pane(o, P.x[i], P.plane[i], j, P.kind[i], static_cast<int64_t>(P.cell[i]),
                     j == 0 ? static_cast<int64_t>(P.unit[i]) : 0, memo, sc.seen);
         }
@@ -2214,7 +2214,7 @@ struct WindowPass {
         for (; in_pane; in_pane &= in_pane - 1) {
           const int i = i8 + (std::countr_zero(in_pane) >> 3);
           const int j = sc.r.j[i];
-          if (fr[sc.plane_of[i]].found && photo_resolved(sc.r.x[i], sc.plane_of[i], sc.r.z[i], wg)) continue;
+          if (any_found && photo_resolved(sc.r.x[i], sc.plane_of[i], sc.r.z[i], wg)) continue;
           draw_pane(o, sc.r.x[i], sc.plane_of[i], j, sc.r.kind[i], sc.r.cell[i], j == 0 ? sc.r.unit[i] : 0, memo, sc.seen);
         }
       }
@@ -2231,8 +2231,7 @@ struct WindowPass {
         if (reg[x] < 0 || z[x] > zmax) continue;
         const BuildingFacades::Region& R = fac.regions[reg[x]];
         if (R.column_plane[x - R.x0] != pi) continue;
-        const double zz = z[x], X = zz * (x - wg.cx) / wg.f, D = zz * wg.kD, Y = wg.h - zz * wg.kY;
-        const double s = fr[pi].tX * X + fr[pi].tD * D;
+        const double zz = z[x], Y = wg.h - zz * wg.kY, s = along_plane(x, pi, zz, wg);
         if (!(s >= w.s_lo && s < w.s_hi && Y >= w.y_lo && Y < w.y_hi)) continue;
         for (int k = 0; k < 3; ++k) o[3 * x + k] = std::max(o[3 * x + k], d.col[k]);
         drawn = true;

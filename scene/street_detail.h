@@ -55,9 +55,11 @@ struct FacadeWindowsFound {
   std::vector<Window> windows;
   static constexpr double kCell_m = 0.1;
 };
+// tX, tD: each plane's axis along it (add_facade_windows' orientation); zmax: the camera z beyond
+// which add_facade_windows draws no window (a pixel's footprint above half a window width).
 FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& depth_m, const CameraGeometry& g,
                                        const BuildingFacades& fac, const ScenePreset& p, const double* tX,
-                                       const double* tD);
+                                       const double* tD, double zmax);
 
 // The street light and the façade windows of one frame in one pass over its rows (light_map,
 // with geometry and metric depth): per row the light on vertical surfaces and the ground pools
