@@ -69,6 +69,7 @@ double header_number(const ExrContents& e, const std::string& in, const std::str
 // below 2^24, which every bit depth of a preset, <= 24, stays under), float channels keep their units.
 Mosaic read_exr_mosaic(const DemosaicCmd& c) {
   const ExrContents e = read_exr(c.in);
+  check_frame_size(c.in, e.width, e.height);  // a mosaic: at least one CFA tile
   if (e.channels.size() != 1)
     fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", e.channels.size()));
   const auto& [name, plane] = *e.channels.begin();
@@ -128,6 +129,7 @@ Mosaic read_mosaic(const DemosaicCmd& c) {
   ImageFileInfo info;
   Mosaic m;
   m.image = read_image(c.in, &info);
+  check_frame_size(c.in, m.image.width(), m.image.height());  // a mosaic: at least one CFA tile
   if (m.image.channels() != 1)
     fail_at(c.in, fmt::format("a CFA mosaic has one channel; this image has {}", m.image.channels()));
   if (m.image.unit().empty()) m.image.set_unit(info.is_float ? "" : unit::dimensionless);

@@ -49,6 +49,7 @@ void check_radiance_units(const std::string& path) {
 ImageF load_radiance(const std::string& path) {
   ImageFileInfo info;
   ImageF img = read_image(path, &info);
+  check_frame_size(path, img.width(), img.height());  // the sensor's frame: at least one CFA tile
   if (!info.is_float)
     fail_at(path, "scene radiance must be a floating-point (linear) image such as EXR, found " +
                       std::to_string(info.bits_per_sample) + "-bit integer " + info.format);

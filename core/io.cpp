@@ -193,7 +193,7 @@ Raster read_png_any(const std::string& path) {
   check(spng_set_png_buffer(ctx.get(), bytes.data(), bytes.size()), "header");
   spng_ihdr ihdr{};
   check(spng_get_ihdr(ctx.get(), &ihdr), "header");
-  check_frame_size(path, ihdr.width, ihdr.height);
+  check_image_size(path, ihdr.width, ihdr.height);
   spng_trns trns{};
   const bool has_trns = spng_get_trns(ctx.get(), &trns) == 0;
   Raster r;
@@ -344,7 +344,7 @@ auto with_exr_file(const std::string& path, F&& f) {
     Imf::InputFile file(path.c_str());
     const Imath::Box2i dw = file.header().dataWindow();
     const int64_t w = int64_t{dw.max.x} - dw.min.x + 1, h = int64_t{dw.max.y} - dw.min.y + 1;
-    check_frame_size(path, w, h);
+    check_image_size(path, w, h);
     int channels = 0;
     for (auto it = file.header().channels().begin(); it != file.header().channels().end(); ++it, ++channels)
       if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
@@ -477,14 +477,19 @@ int64_t max_frame_pixels() {
   return limit;
 }
 
-void check_frame_size(const std::string& what, int64_t width, int64_t height) {
-  if (width < 2 || height < 2)
-    fail_at(what, fmt::format("frame size {}x{} is too small (at least 2x2 pixels, one CFA tile)",
-                              width, height));
+void check_image_size(const std::string& what, int64_t width, int64_t height) {
+  if (width < 1 || height < 1) fail_at(what, fmt::format("image size {}x{} is empty", width, height));
   if (width * height > max_frame_pixels())
     fail_at(what, fmt::format("frame size {}x{} is larger than the limit of {} pixels "
                               "(PHOTOSITE_MAX_PIXELS); refused before allocating it",
                               width, height, max_frame_pixels()));
+}
+
+void check_frame_size(const std::string& what, int64_t width, int64_t height) {
+  if (width < 2 || height < 2)
+    fail_at(what, fmt::format("frame size {}x{} is too small (at least 2x2 pixels, one CFA tile)",
+                              width, height));
+  check_image_size(what, width, height);
 }
 
 ImageFileInfo probe_image(const std::string& path) {
@@ -519,7 +524,7 @@ std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInf
   if (ext != ".png" || !fs::is_regular_file(p, ec)) return std::nullopt;
   auto d = png::decode(codec::read_file(path), max_frame_pixels());
   if (!d) return std::nullopt;
-  check_frame_size(path, d->width, d->height);
+  check_image_size(path, d->width, d->height);
   if (info) {  // as info_from() reports OpenImageIO's spec of the same file
     *info = ImageFileInfo{};
     info->path = path;
@@ -568,6 +573,8 @@ DayImage read_day_image(const std::string& path, ImageFileInfo* info) {
   DayImage d;
   d.codes = read_image_codes8(path, info);
   if (!d.codes) d.floats = read_image(path, info);
+  // The day photo becomes the sensor's frame: at least one CFA tile.
+  check_frame_size(path, d.width(), d.height());
   return d;
 }
 

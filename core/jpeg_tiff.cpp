@@ -120,7 +120,7 @@ Raster read_jpeg(const std::string& path) {
   // Any libjpeg warning is an error: OpenImageIO's reader reports each one ("Premature end of
   // JPEG file" for a truncated file, "Corrupt JPEG data: ..." for damaged entropy data).
   const std::string err = jpeg_decode(data, false, true, [&](const Raster& h) {
-    check_frame_size(path, h.width, h.height);
+    check_image_size(path, h.width, h.height);
     // OpenImageIO converted CMYK / YCCK (Adobe) JPEGs to RGB; we refuse them, clearly.
     if (h.channels != 1 && h.channels != 3)
       fail_at(path, fmt::format("unsupported JPEG ({} colour components: CMYK or YCCK)", h.channels));
@@ -240,7 +240,7 @@ Raster read_tiff(const std::string& path) {
   TIFFGetFieldDefaulted(tif, TIFFTAG_SAMPLEFORMAT, &format);
   TIFFGetFieldDefaulted(tif, TIFFTAG_PLANARCONFIG, &planar);
   TIFFGetField(tif, TIFFTAG_PHOTOMETRIC, &photo);
-  check_frame_size(path, w, h);
+  check_image_size(path, w, h);
   if (spp > 64) fail_at(path, fmt::format("image declares {} channels", spp));
   if (spp == 0) fail_at(path, "image declares 0 channels");
   uint16_t compression = COMPRESSION_NONE;

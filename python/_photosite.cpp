@@ -62,7 +62,10 @@ struct ArrayShape {
 // Checks C-contiguity, dimensions (2 or 3) and allowed channel counts; `what` names the argument.
 // The sizes are checked as NumPy's 64-bit values before they become int: a side of 2^31 or more
 // is refused, never truncated.
-ArrayShape check_image_array(const py::array& a, const std::string& what, std::initializer_list<int> channels) {
+// A sensor frame (the default) is at least 2x2, one CFA tile (check_frame_size); with frame = false
+// any image of at least 1x1 (check_image_size: write_exr's layers).
+ArrayShape check_image_array(const py::array& a, const std::string& what, std::initializer_list<int> channels,
+                             bool frame = true) {
   if (!(a.flags() & py::array::c_style))
     fail(what + ": the array must be C-contiguous (use numpy.ascontiguousarray)");
   if (a.ndim() != 2 && a.ndim() != 3)
@@ -78,7 +81,8 @@ ArrayShape check_image_array(const py::array& a, const std::string& what, std::i
   constexpr int64_t kMaxSide = std::numeric_limits<int>::max();
   if (w > kMaxSide || h > kMaxSide)
     fail(fmt::format("{}: frame size too large: {}x{} (a side of 2^31 pixels or more)", what, w, h));
-  check_frame_size(what, w, h);
+  if (frame) check_frame_size(what, w, h);
+  else check_image_size(what, w, h);
   ArrayShape s;
   s.height = static_cast<int>(h);
   s.width = static_cast<int>(w);
@@ -530,7 +534,7 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
     const std::string what = "layers['" + name + "']";
     if (!py::isinstance<py::array>(v)) fail(what + ": expected a NumPy array");
     const py::array a = v.cast<py::array>();
-    const ArrayShape s = check_image_array(a, what, {1, 2, 3, 4});
+    const ArrayShape s = check_image_array(a, what, {1, 2, 3, 4}, /*frame=*/false);
     if (groups.empty()) {
       first_layer = name;
       first = s;

@@ -10,6 +10,7 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/night_chain.h"
 #include "photosite/rng.h"
 #include "photosite/sensor/cfa.h"
 #include "photosite/sensor/demosaic.h"
@@ -135,6 +136,38 @@ TEST(Io, ExrTypedChannelsRoundTripExactly) {
   ImageF frac(7, 5, 1, 0.5f);
   EXPECT_ANY_THROW(write_exr(dir.file("bad.exr"), {{{"raw.Y"}, &frac, "DN", ExrPixel::Uint}}, {}));
   EXPECT_FALSE(std::filesystem::exists(dir.file("bad.exr")));
+}
+
+TEST(Io, OneRowAndOneColumnImagesAreImagesButNoSensorFrames) {
+  // An image of one row or one column (a line profile, a 1-D table) is a valid image: written and
+  // read back as it is, by EXR and by PNG. Only where it becomes the sensor's frame (the day photo
+  // of night and batch) is it refused, naming the file: a frame holds at least one 2x2 CFA tile.
+  test::TempDir dir;
+  for (const auto& [w, h] : {std::pair{5, 1}, std::pair{1, 4}, std::pair{1, 1}}) {
+    ImageF a(w, h, 3);
+    for (size_t i = 0; i < a.size(); ++i) a[i] = 0.125f * static_cast<float>(i);
+    const std::string exr = dir.file(fmt::format("line_{}x{}.exr", w, h));
+    write_exr(exr, {{{"R", "G", "B"}, &a, "x"}}, {});
+    const ExrContents c = read_exr(exr);
+    ASSERT_EQ(c.width, w);
+    ASSERT_EQ(c.height, h);
+    for (size_t p = 0; p < a.pixel_count(); ++p) EXPECT_EQ(c.channels.at("B")[p], a[3 * p + 2]) << p;
+    ImageF codes(w, h, 3);
+    for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<float>(i % 256) * (1.f / 255);  // read_image's codes
+    const std::string png = dir.file(fmt::format("line_{}x{}.png", w, h));
+    write_png(png, codes, 8);
+    const ImageF back = read_image(png);
+    ASSERT_EQ(back.width(), w);
+    ASSERT_EQ(back.height(), h);
+    EXPECT_EQ(back.vec(), codes.vec());
+    try {
+      read_day_image(png, nullptr);
+      ADD_FAILURE() << png << " taken as a day photo";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(png), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("too small"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Io, RefusesToOverwriteAndMissingFolders) {

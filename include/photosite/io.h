@@ -30,8 +30,13 @@ ImageFileInfo probe_image(const std::string& path);
 // Image headers are checked against it before any pixel buffer is allocated, so a file that
 // declares 40000x40000 is refused instead of exhausting memory.
 int64_t max_frame_pixels();
-// Bad input (exit 2, "<what>: ...") unless width x height is a possible frame: at least 2x2
-// (one CFA tile) and at most max_frame_pixels().
+// Bad input (exit 2, "<what>: ...") unless width x height is a possible image: at least 1x1 and
+// at most max_frame_pixels(). The readers and write_exr check this: an image file of one row (a
+// line profile, a 1-D lookup table) is a valid image.
+void check_image_size(const std::string& what, int64_t width, int64_t height);
+// Bad input (exit 2, "<what>: ...") unless width x height is a possible sensor frame: an image
+// (check_image_size) of at least 2x2 pixels, one CFA tile. Checked where an image becomes a frame
+// the sensor exposes or demosaics (expose's radiance, night's and batch's day photo, a mosaic).
 void check_frame_size(const std::string& what, int64_t width, int64_t height);
 
 // Reads every channel as float. Integer files are normalised to [0, 1] (value / max code).

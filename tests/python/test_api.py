@@ -261,6 +261,20 @@ def test_exr_round_trip(tmp_path):
     ps.write_exr(p, {"a": f}, overwrite=True)
 
 
+def test_exr_of_one_row_or_column_round_trips(tmp_path, store):
+    """An image of one row or one column is an image (a line profile): written and read back as
+    it is; only a sensor frame needs a 2x2 CFA tile."""
+    for shape in [(1, 5), (4, 1), (1, 1), (1, 6, 3)]:
+        a = np.arange(np.prod(shape), dtype=np.float32).reshape(shape) / 8
+        p = str(tmp_path / ("line_%dx%d.exr" % shape[:2]))
+        ps.write_exr(p, {"x": a})
+        ch, _, _ = ps.read_exr(p)
+        got = ch["x"] if a.ndim == 2 else np.stack([ch["x." + c] for c in "RGB"], -1)
+        np.testing.assert_array_equal(got, a)
+    with pytest.raises(ValueError, match=r"radiance: frame size 5x1 is too small"):
+        ps.Camera(KITTI_CAMERA, device_store=store).expose(np.ones((1, 5, 3), np.float32), exposure_s=0.01)
+
+
 def test_two_threads_run_night_at_once(kitti, store):
     """Both threads' results equal the sequential ones, and the GIL is free during compute: a
     third (main) thread keeps running Python while night works."""
