@@ -65,66 +65,136 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
   if (nplanes == 0 || texture.empty() || !(tau > 0)) return out;
   const int W = texture.width(), H = texture.height();
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  // The samples per plane, in row order (each thread's rows one contiguous block, appended in
-  // thread order: the same order at any thread count).
+  // The samples per plane in row order: the sampled rows in chunks of kChunkRows, taken by the
+  // threads as they come (building rows cluster in the upper half of a frame: contiguous halves
+  // left one thread most of the work), each chunk's samples appended to its thread's lists and
+  // their range recorded, then read chunk by chunk (for_samples): the same order at any thread
+  // count. Each thread also keeps the samples' bounds per plane.
+  struct Bounds {
+    double s_lo = INFINITY, s_hi = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
+  };
+  constexpr int kChunkRows = 4;
+  const int nrows = (H + kRowStep - 1) / kRowStep, nchunks = (nrows + kChunkRows - 1) / kChunkRows;
   std::vector<std::vector<std::vector<Sample>>> per_thread;
+  std::vector<std::vector<Bounds>> bounds;
+  std::vector<int> chunk_thread(nchunks);
+  std::vector<uint32_t> chunk_begin(static_cast<size_t>(nchunks) * nplanes), chunk_end(chunk_begin.size());
+  // Per plane: fitted, and the footprint limit kMaxFootprint_m·d·f (the test below, z²·k_D against it).
+  std::vector<uint8_t> usable(nplanes);
+  std::vector<double> foot(nplanes);
+  for (int k = 0; k < nplanes; ++k) {
+    usable[k] = fac.planes[k].fitted;
+    foot[k] = kMaxFootprint_m * fac.planes[k].d_m * g.f_px;
+  }
 #pragma omp parallel
   {
 #pragma omp single
-    per_thread.resize(omp_get_num_threads());
-    std::vector<std::vector<Sample>>& mine = per_thread[omp_get_thread_num()];
+    {
+      per_thread.resize(omp_get_num_threads());
+      bounds.resize(omp_get_num_threads());
+    }
+    const int me = omp_get_thread_num();
+    std::vector<std::vector<Sample>>& mine = per_thread[me];
+    std::vector<Bounds>& bmine = bounds[me];
     mine.resize(nplanes);
-#pragma omp for schedule(static)
-    for (int y = 0; y < H; y += kRowStep) {
-      const int32_t* reg = fac.region.row(y);
-      const float* z = depth_m.row(y);
-      const float* t = texture.row(y);
-      const double yn = (y - g.cy_px) / g.f_px, kD = c - yn * sn, kY = yn * c + sn;
-      for (int x = 0; x < W; ++x) {
-        if (reg[x] < 0) continue;
-        const BuildingFacades::Region& R = fac.regions[reg[x]];
-        const int col = x - R.x0;
-        const int pi = R.column_plane[col];
-        if (pi < 0 || !R.on_plane[col] || !fac.planes[pi].fitted) continue;
-        const double zz = z[x];
-        if (!(zz > 0) || zz > zmax) continue;
-        // A pixel spans z²·k_D/(d·f) along the plane (s = z·(t·r), z = d/(n·r) for the ray r =
-        // (x_n, k_D) per unit z, t ⊥ n: ds/dx = d·k_D/(f·(n·r)²)); beyond kMaxFootprint_m the
-        // receding façade is too compressed to show its windows.
-        if (zz * zz * kD > kMaxFootprint_m * fac.planes[pi].d_m * g.f_px) continue;
-        const double X = zz * (x - g.cx_px) / g.f_px, D = zz * kD, Y = h - zz * kY;
-        if (Y < 0) continue;
-        mine[pi].push_back({static_cast<float>(tX[pi] * X + tD[pi] * D), static_cast<float>(Y),
-                            t[3 * x] + t[3 * x + 1] + t[3 * x + 2]});
+    bmine.resize(nplanes);
+#pragma omp for schedule(dynamic)
+    for (int ci = 0; ci < nchunks; ++ci) {
+      chunk_thread[ci] = me;
+      for (int k = 0; k < nplanes; ++k) chunk_begin[static_cast<size_t>(ci) * nplanes + k] = static_cast<uint32_t>(mine[k].size());
+      for (int y = ci * kChunkRows * kRowStep; y < std::min(H, (ci + 1) * kChunkRows * kRowStep); y += kRowStep) {
+        const int32_t* reg = fac.region.row(y);
+        const float* z = depth_m.row(y);
+        const float* t = texture.row(y);
+        const double yn = (y - g.cy_px) / g.f_px, kD = c - yn * sn, kY = yn * c + sn;
+        int x = 0;
+        while (x < W) {
+          // Eight columns off the building class (region −1: the AND of eight negatives is negative)
+          // skipped at once: most of a row.
+          if (x + 8 <= W) {
+            int32_t all = reg[x];
+            for (int q = 1; q < 8; ++q) all &= reg[x + q];
+            if (all < 0) {
+              x += 8;
+              continue;
+            }
+          }
+          if (reg[x] < 0) {
+            ++x;
+            continue;
+          }
+          // A run of one building region: its columns' planes read from the region once.
+          const int r = reg[x];
+          const BuildingFacades::Region& R = fac.regions[r];
+          const int* cp = R.column_plane.data() - R.x0;
+          const uint8_t* on = R.on_plane.data() - R.x0;
+          for (; x < W && reg[x] == r; ++x) {
+            const int pi = cp[x];
+            if (pi < 0 || !on[x] || !usable[pi]) continue;
+            const double zz = z[x];
+            if (!(zz > 0) || zz > zmax) continue;
+            // A pixel spans z²·k_D/(d·f) along the plane (s = z·(t·r), z = d/(n·r) for the ray r =
+            // (x_n, k_D) per unit z, t ⊥ n: ds/dx = d·k_D/(f·(n·r)²)); beyond kMaxFootprint_m the
+            // receding façade is too compressed to show its windows.
+            if (zz * zz * kD > foot[pi]) continue;
+            const double X = zz * (x - g.cx_px) / g.f_px, D = zz * kD, Y = h - zz * kY;
+            if (Y < 0) continue;
+            const Sample q{static_cast<float>(tX[pi] * X + tD[pi] * D), static_cast<float>(Y),
+                           t[3 * x] + t[3 * x + 1] + t[3 * x + 2]};
+            mine[pi].push_back(q);
+            Bounds& b = bmine[pi];
+            b.s_lo = std::min<double>(b.s_lo, q.s), b.s_hi = std::max<double>(b.s_hi, q.s);
+            b.y_lo = std::min<double>(b.y_lo, q.Y), b.y_hi = std::max<double>(b.y_hi, q.Y);
+          }
+        }
       }
+      for (int k = 0; k < nplanes; ++k) chunk_end[static_cast<size_t>(ci) * nplanes + k] = static_cast<uint32_t>(mine[k].size());
     }
   }
+  // Plane k's samples in row order.
+  auto for_samples = [&](int k, auto&& f) {
+    for (int ci = 0; ci < nchunks; ++ci) {
+      const std::vector<Sample>& v = per_thread[chunk_thread[ci]][k];
+      const size_t i = static_cast<size_t>(ci) * nplanes + k;
+      for (uint32_t q = chunk_begin[i]; q < chunk_end[i]; ++q) f(v[q]);
+    }
+  };
   const int gap = static_cast<int>(std::lround(kMaxGap_m / kCell_m));
   const int half = static_cast<int>(std::lround(0.5 * kTrend_m / kCell_m));
   std::vector<std::vector<FacadeWindowsFound::Window>> found(nplanes);
 #pragma omp parallel for schedule(dynamic)
   for (int k = 0; k < nplanes; ++k) {
-    // (Each thread's samples in turn: in row order, as one list.)
     size_t count = 0;
     double s_lo = INFINITY, s_hi = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
-    for (auto& th : per_thread)
-      for (const Sample& q : th[k]) {
-        s_lo = std::min<double>(s_lo, q.s), s_hi = std::max<double>(s_hi, q.s);
-        y_lo = std::min<double>(y_lo, q.Y), y_hi = std::max<double>(y_hi, q.Y);
-        ++count;
-      }
+    for (size_t th = 0; th < per_thread.size(); ++th) {
+      const Bounds& b = bounds[th][k];
+      s_lo = std::min(s_lo, b.s_lo), s_hi = std::max(s_hi, b.s_hi);
+      y_lo = std::min(y_lo, b.y_lo), y_hi = std::max(y_hi, b.y_hi);
+      count += per_thread[th][k].size();
+    }
     if (count < 100) continue;
     const int ns = static_cast<int>((s_hi - s_lo) / kCell_m) + 1, ny = static_cast<int>((y_hi - y_lo) / kCell_m) + 1;
     if (static_cast<double>(ns) * ny > kMaxCells) continue;
     // The cells' means (the rectified façade).
     cv::Mat sum(ny, ns, CV_32F, cv::Scalar(0)), cnt(ny, ns, CV_32F, cv::Scalar(0));
-    for (auto& th : per_thread)
-      for (const Sample& q : th[k]) {
-        const int i = std::min(ns - 1, static_cast<int>((q.s - s_lo) / kCell_m));
-        const int j = std::min(ny - 1, static_cast<int>((q.Y - y_lo) / kCell_m));
-        sum.at<float>(j, i) += q.v;
-        cnt.at<float>(j, i) += 1;
+    // Neighbouring samples of a row mostly fall in one cell: a cell's sum is carried in registers
+    // while they do (the same additions in the same order as adding into the cell each time).
+    float* S0 = sum.ptr<float>(0);
+    float* N0 = cnt.ptr<float>(0);
+    size_t cur = 0;
+    float acc = S0[0], n_acc = N0[0];
+    for_samples(k, [&](const Sample& q) {
+      const int i = std::min(ns - 1, static_cast<int>((q.s - s_lo) / kCell_m));
+      const int j = std::min(ny - 1, static_cast<int>((q.Y - y_lo) / kCell_m));
+      const size_t cell = static_cast<size_t>(j) * ns + i;
+      if (cell != cur) {
+        S0[cur] = acc, N0[cur] = n_acc;
+        cur = cell, acc = S0[cell], n_acc = N0[cell];
       }
+      acc += q.v;
+      n_acc += 1;
+    });
+    S0[cur] = acc, N0[cur] = n_acc;
     cv::Mat m(ny, ns, CV_32F, cv::Scalar(0)), valid(ny, ns, CV_32F, cv::Scalar(0));
     std::vector<int> own(ns, 0), filled(ns, 0);
     for (int j = 0; j < ny; ++j) {
