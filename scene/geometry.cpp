@@ -379,65 +379,56 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
   const std::vector<int>& col_ymax = made->col_ymax;
   const size_t cols = col_ymax.size();
   // The ground line of a vertical plane is a straight image line. Columns whose lowest pixel
-  // stands on a ground class show the contact and keep it; a straight line fitted to them (least
-  // squares, at least 8 columns and a fifth of the region's) gives the hidden columns theirs, so
-  // that a façade behind parked cars or hedges stays one plane; it is never taken above the
-  // column's own lowest pixel. With fewer such columns their median row is the contact (a fronto-parallel
-  // plane); with none, a column's contact is the bottom of the stack of objects below it (a
-  // façade behind a car: the nearest the hidden contact can be, a lower bound on the depth).
+  // stands on a ground class may show the contact; a straight line fitted to them (least squares,
+  // at least 8 columns and a fifth of the region's) gives the hidden columns theirs, so that a
+  // façade behind parked cars or hedges stays one plane; it is never taken above the column's own
+  // lowest pixel. With fewer such columns the median row of the lowest ones is the contact (a
+  // fronto-parallel plane).
+  // Overhangs: a tree's crown, an awning, a balcony, a sign board above the pavement end above
+  // ground that the photo shows beneath them, a contact they do not have. Taken as contacts they
+  // put each such column at the ground's distance there, farther than the object by a different
+  // amount per column. So the line is fitted to the contacts at or below it, trimmed in turn: each
+  // fit drops the contacts more than overhang_px(row) above it and refits (at most 8 times) until
+  // none is dropped. overhang_px is the rows by which a contact may sit above the line before its
+  // depth differs from the line's by more than 5 % (z ∝ 1/(v − y_h): δ rows at Δ rows below the
+  // horizon change z by about δ/Δ), the accuracy issue 14 §1 asks of objects, and at least one row
+  // (the labels' quantisation). Without a line, the contacts within overhang_px of the lowest one
+  // give the median. A column that shows a contact keeps it when it lies within overhang_px above
+  // its line (or median row); one higher up takes the line's.
+  // A region that shows no contact (a tree behind parked cars, a wall behind a hedge) stands
+  // behind the objects below it: a column's bottom of the stack of objects below it is the nearest
+  // its hidden contact can be, where those objects stand in front of it. Where they stand behind
+  // it (the façade seen under a tree's crown) it is no bound at all, and taken column by column
+  // those rows jumped between a car's foot and a building's: the light map lit such crowns in
+  // vertical stripes. So such a region is one fronto-parallel plane at the median of its lowest
+  // stack bottoms (within overhang_px of the lowest: the objects in front of it), every column
+  // alike; no line, which the bottoms of a car's front and side would tilt.
+  constexpr double kObjectDepthTolerance = 0.05;  // issue 14 §1: objects within 5 %
+  auto overhang_px = [&](double row) { return std::max(1.0, kObjectDepthTolerance * (row - g.horizon_y)); };
   std::vector<double> col_D(cols, max_depth_m);
   auto D_at = [&](double row) {  // horizontal distance of the ground at a (fractional) row edge
     double D = 0;
     return g.ground_point(g.cx_px, row, nullptr, &D, nullptr) ? std::min(D, max_depth_m) : max_depth_m;
   };
-  // Columns whose contact is the bottom of the stack of objects below them: answered after the
-  // loop, all at once (below).
+  auto shows_contact = [&](int x, int y) { return y + 1 < H && kind_fast(ids.at(x, y + 1)) == 0; };
+  // The bottom of the stack of objects below (x, y) for every column that shows no contact: the
+  // last row of the column's run of object pixels from y + 1 down (y itself when (x, y + 1) is no
+  // object). One sweep from the bottom row up over the object runs, end[x] the last row of the
+  // object run through (x, r) in column x (-1 off objects), instead of a walk down each column.
   struct StackQuery { size_t col; int x, y; };
   std::vector<StackQuery> stack_q;
-  for (auto& c : comps) {
+  std::vector<int> stack_bottom(cols, -1);
+  for (const auto& c : comps) {
     if (c.single) continue;
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int n = 0, ncol = 0;
-    std::vector<int> rows;
     for (int x = c.x0; x <= c.x1; ++x) {
       const int y = col_ymax[c.col_off + (x - c.x0)];
-      if (y < 0) continue;
-      ++ncol;
-      if (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 0) {
-        sx += x; sy += y; sxx += double(x) * x; sxy += double(x) * y; ++n;
-        rows.push_back(y);
-      }
-    }
-    const double det = n * sxx - sx * sx;
-    const bool line = n >= 8 && 5 * n >= ncol && det > 0;
-    const double b = line ? (n * sxy - sx * sy) / det : 0, a = line ? (sy - b * sx) / n : 0;
-    double med = -1;
-    if (!line && n > 0) {
-      std::nth_element(rows.begin(), rows.begin() + rows.size() / 2, rows.end());
-      med = rows[rows.size() / 2];
-    }
-    for (int x = c.x0; x <= c.x1; ++x) {
-      int y = col_ymax[c.col_off + (x - c.x0)];
-      if (y < 0) continue;
-      double yc;
-      if (y + 1 < H && kind_fast(ids.at(x, y + 1)) == 0) yc = y;  // a column that shows its contact keeps it
-      else if (line) yc = std::max<double>(y, a + b * x);
-      else if (med >= 0) yc = std::max<double>(y, med);
-      else {
-        stack_q.push_back({c.col_off + (x - c.x0), x, y});
-        continue;
-      }
-      col_D[c.col_off + (x - c.x0)] = D_at(yc + 0.5);
+      if (y >= 0 && !shows_contact(x, y)) stack_q.push_back({c.col_off + (x - c.x0), x, y});
     }
   }
-  // The bottom of the stack of objects below (x, y): the last row of the column's run of object
-  // pixels from y + 1 down (y itself when (x, y + 1) is no object). One sweep from the bottom row
-  // up over the object runs, end[x] the last row of the object run through (x, r) in column x
-  // (-1 off objects), instead of a walk down each queried column.
   if (!stack_q.empty()) {
     std::stable_sort(stack_q.begin(), stack_q.end(), [](const StackQuery& a, const StackQuery& b) { return a.y > b.y; });
     size_t qi = 0;
-    for (; qi < stack_q.size() && stack_q[qi].y + 1 >= H; ++qi) col_D[stack_q[qi].col] = D_at(stack_q[qi].y + 0.5);
+    for (; qi < stack_q.size() && stack_q[qi].y + 1 >= H; ++qi) stack_bottom[stack_q[qi].col] = stack_q[qi].y;
     std::vector<int> end(W, -1);
     for (int r = H - 1; r >= 1 && qi < stack_q.size(); --r) {
       int x = 0;
@@ -451,8 +442,63 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
       std::fill(end.begin() + x, end.end(), -1);
       for (; qi < stack_q.size() && stack_q[qi].y + 1 == r; ++qi) {
         const StackQuery& q = stack_q[qi];
-        col_D[q.col] = D_at((end[q.x] >= 0 ? end[q.x] : q.y) + 0.5);
+        stack_bottom[q.col] = end[q.x] >= 0 ? end[q.x] : q.y;
       }
+    }
+  }
+  std::vector<int> px, py;    // a component's contacts (shown, else its stack bottoms): columns, rows
+  std::vector<uint8_t> keep;  // the contacts the current line keeps
+  for (const auto& c : comps) {
+    if (c.single) continue;
+    int ncol = 0;
+    px.clear();
+    py.clear();
+    for (int x = c.x0; x <= c.x1; ++x) {
+      const int y = col_ymax[c.col_off + (x - c.x0)];
+      if (y < 0) continue;
+      ++ncol;
+      if (shows_contact(x, y)) px.push_back(x), py.push_back(y);
+    }
+    const bool shown = !px.empty();
+    if (!shown)
+      for (int x = c.x0; x <= c.x1; ++x)
+        if (col_ymax[c.col_off + (x - c.x0)] >= 0) px.push_back(x), py.push_back(stack_bottom[c.col_off + (x - c.x0)]);
+    const int m = static_cast<int>(px.size());
+    keep.assign(m, 1);
+    bool line = false;
+    double a = 0, b = 0;
+    for (int it = 0; it < 8 && shown; ++it) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      int n = 0;
+      for (int i = 0; i < m; ++i)
+        if (keep[i]) sx += px[i], sy += py[i], sxx += double(px[i]) * px[i], sxy += double(px[i]) * py[i], ++n;
+      const double det = n * sxx - sx * sx;
+      line = n >= 8 && 5 * n >= ncol && det > 0;
+      if (!line) break;
+      b = (n * sxy - sx * sy) / det, a = (sy - b * sx) / n;
+      bool dropped = false;
+      for (int i = 0; i < m; ++i) {
+        const double at = a + b * px[i];
+        if (keep[i] && py[i] < at - overhang_px(at)) keep[i] = 0, dropped = true;
+      }
+      if (!dropped) break;
+    }
+    double med = -1;
+    if (!line && m > 0) {
+      const int lowest = *std::max_element(py.begin(), py.end());
+      std::vector<int> rows;
+      for (int i = 0; i < m; ++i)
+        if (py[i] >= lowest - overhang_px(lowest)) rows.push_back(py[i]);
+      std::nth_element(rows.begin(), rows.begin() + rows.size() / 2, rows.end());
+      med = rows[rows.size() / 2];
+    }
+    for (int x = c.x0; x <= c.x1; ++x) {
+      const int y = col_ymax[c.col_off + (x - c.x0)];
+      if (y < 0) continue;
+      const double ref = line ? a + b * x : med;
+      // (m > 0 here: every column of the component is a contact or a stack bottom, so ref is set.)
+      const double yc = shown && shows_contact(x, y) && y >= ref - overhang_px(ref) ? y : std::max<double>(y, ref);
+      col_D[c.col_off + (x - c.x0)] = D_at(yc + 0.5);
     }
   }
   // Buildings: the fitted façade plane of their column (building_facades), where the column's

@@ -106,10 +106,15 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         const SyntheticBox& B = o.boxes[b];
         auto inside = [&](double t, int face) {
           const double X = t * dX, Y = h + t * dY, D = t * dD;
-          if (Y < 0 || Y > B.height_m) return false;
+          if (Y < B.base_m || Y > B.height_m) return false;
           if (face == 0) return std::fabs(X - B.X_m) <= B.width_m / 2;
+          if (face == 2) return std::fabs(X - B.X_m) <= B.width_m / 2 && D >= B.D_m && D <= B.D_m + B.length_m;
           return D >= B.D_m && D <= B.D_m + B.length_m;
         };
+        if (B.base_m > 0 && dY > 0) {  // the underside of a floating box, seen from below
+          const double t = (B.base_m - h) / dY;
+          if (t > 0 && t < best && inside(t, 2)) { best = t; hit = static_cast<int>(b); front = false; }
+        }
         if (dD > 0) {
           const double t = B.D_m / dD;
           if (t > 0 && t < best && inside(t, 0)) { best = t; hit = static_cast<int>(b); front = true; }

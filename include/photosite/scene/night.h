@@ -373,10 +373,12 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o);
 // solid lines 0.2 m inside the road edges), sidewalks, building façades 12 m tall beyond them
 // (3 to 200 m ahead), terrain beyond, sky above the horizon, and boxes standing on the road (front
 // face at D, sides visible, labelled car with instances, or with another label: vegetation for
-// a hedge, no instance).
+// a hedge, no instance). A box with base_m > 0 floats from base_m to height_m above the road (a
+// tree's crown, its trunk a box of its own), its underside visible from below.
 struct SyntheticBox {
   double X_m, D_m, width_m, height_m, length_m;
   Label label = Label::Car;
+  double base_m = 0;
 };
 struct SyntheticCameraOptions {
   int width = 1024, height = 512;
