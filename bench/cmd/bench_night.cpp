@@ -126,6 +126,16 @@ void run(const Opts& o) {
     t[k].push_back(ms);
   };
   cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
+  // The peer on the round's linear frame: its wall-clock and process CPU-clock times (ms).
+  struct PeerTime { double wall_ms, cpu_ms; };
+  auto run_peer = [&](const ImageF& lin) {
+    std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
+    const double c0 = cpu_ms();
+    const auto p0 = clock::now();
+    cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
+    const auto p1 = clock::now();
+    return PeerTime{std::chrono::duration<double, std::milli>(p1 - p0).count(), cpu_ms() - c0};
+  };
   SensorOutput reused;  // the caller-owned outputs of the "reused outputs" row, kept across rounds
   auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   // The chain's rows up to the sensor: linearize, the scene's stages, their sum and expose.
@@ -164,14 +174,11 @@ void run(const Opts& o) {
     // caller-owned SensorOutput: no fresh pages to fault in).
     // (Its images are freed after the timings, like the expose row's.)
     if (o.chain_only) {  // for a profiler: the chain and the peer only
-      std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
-      auto p0 = clock::now();
-      cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
-      auto p1 = clock::now();
+      const PeerTime peer = run_peer(lin);
       if (!keep) continue;
       add_chain_rows(ns, t0, t1, t2, t3);
       add("whole chain", ms(t0, t3));
-      add("peer: OpenCV cvtColor RGB2Lab", ms(p0, p1));
+      add("peer: OpenCV cvtColor RGB2Lab", peer.wall_ms);
       continue;
     }
     auto tn0 = clock::now();
@@ -230,12 +237,7 @@ void run(const Opts& o) {
         }
       }
     }
-    std::copy_n(lin.data(), lin.size(), reinterpret_cast<float*>(peer_in.data));
-    const double c4 = cpu_ms();
-    auto t4 = clock::now();
-    cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
-    auto t5 = clock::now();
-    const double c5 = cpu_ms();
+    const PeerTime peer = run_peer(lin);
     if (!keep) continue;
     add_chain_rows(ns, t0, t1, t2, t3);
     add("sensor (optics, then sense: as night)", ms(tn0, tn1));
@@ -320,10 +322,10 @@ void run(const Opts& o) {
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);
         add("cpu: facade windows (alone)", cv3 - cv2);
-        add("cpu: peer", c5 - c4);
+        add("cpu: peer", peer.cpu_ms);
       }
     }
-    add("peer: OpenCV cvtColor RGB2Lab", ms(t4, t5));
+    add("peer: OpenCV cvtColor RGB2Lab", peer.wall_ms);
     for (const auto& [k, v] : device_rows) add(k, v);
   }
   // The peer at 1 thread and at N, alternately, right after the rounds: its own N-thread
