@@ -13,6 +13,9 @@ namespace photosite::scene {
 // 0 the scalar loops (default 2; the machine's own support caps it). All give the same bits; the
 // test runs each.
 void texture_max_isa(int isa);
+// Whether linearize's 8-bit decode takes the AVX-512 VBMI byte permutes where the CPU has them
+// (default) or the AVX-512 gathers; the same floats either way (the test runs both).
+void texture_decode_vbmi(bool on);
 
 // How many textures made their own class sums (pass 1) because none were handed to them (or
 // the ones handed were made for another image): the chain's callers (prepare_night, batch) hand

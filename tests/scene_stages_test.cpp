@@ -299,7 +299,8 @@ TEST(SceneDarken, LinearizeWithTextureSumsIsLinearizeThenThePassDefinition) {
 // linearize_codes_with_texture_sums (an 8-bit file's codes linearised directly, the chain's path
 // for plain 8-bit PNGs) against linearize_with_texture_sums of the codes' floats code·(1/255) as
 // read_image() and image_from_codes() give them: the same linear image and the same 64 chunks'
-// sums to the bit, every code value, an odd size, each instruction-set path, 1 and 2 threads; a
+// sums to the bit, every code value, an odd size, each instruction-set path (VBMI byte permutes
+// and gathers on AVX-512), 1 and 2 threads; a
 // grey image and labels of another size: linearize() of the floats.
 TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
   const int W = 203, H = 37;
@@ -316,9 +317,12 @@ TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
   info.bits_per_sample = 8;
   info.srgb_encoded = true;
   const int saved = omp_get_max_threads();
-  for (int isa : {2, 1, 0})
+  // isa 3: AVX-512 with the VBMI byte permutes for the decode where the CPU has them (else the
+  // gathers again); 2: AVX-512's gathers.
+  for (int isa : {3, 2, 1, 0})
     for (int threads : {1, 2}) {
-      texture_max_isa(isa);
+      texture_max_isa(std::min(isa, 2));
+      texture_decode_vbmi(isa == 3);
       omp_set_num_threads(threads);
       const std::string where = fmt::format("isa {}, {} threads", isa, threads);
       TextureSums want_sums, sums;
@@ -333,6 +337,7 @@ TEST(SceneDarken, LinearizeCodesIsLinearizeOfTheirFloats) {
       EXPECT_EQ(sums.labels, ids.data());
     }
   texture_max_isa(2);
+  texture_decode_vbmi(true);
   omp_set_num_threads(saved);
   // Not the fused case: one channel; labels of another size (no sums either way).
   ImageU8 grey(W, H, 1, 0);
