@@ -312,6 +312,10 @@ struct BeamF {
   // instead of a gather (the same values).
   bool small = false;
   float H8[8] = {}, V8[8] = {}, rH8[8] = {}, rV8[8] = {};
+  // With small grids the table itself (at most 64 values) zero-padded to 64, read by two
+  // two-register lane permutations and a blend instead of a gather (the same values; a 16-lane
+  // gather is slow on AMD Zen 4).
+  alignas(64) float I64[64] = {};
   // Both grids non-decreasing in float (the preset's are strictly increasing): then an angle's
   // count of grid angles m = 1 .. n − 2 at or below it is j exactly when lo[j] <= angle < hi[j],
   // with lo[j] = H[j] (−∞ for j = 0) and hi[j] = H[j + 1] (+∞ for j = n − 2).
@@ -351,6 +355,7 @@ BeamF beam_f(const ScenePreset& p) {
   if (b.small) {
     std::copy(b.H.begin(), b.H.end(), b.H8), std::copy(b.rH.begin(), b.rH.end(), b.rH8);
     std::copy(b.V.begin(), b.V.end(), b.V8), std::copy(b.rV.begin(), b.rV.end(), b.rV8);
+    std::copy(b.I.begin(), b.I.end(), b.I64);
   }
   return b;
 }
@@ -658,6 +663,13 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
                 k32 = _mm512_set1_epi32(32);
   const __m512d vt = _mm512_set1_pd(t);
   const float* I = b.I.data();
+  // The table's 64 values (BeamF::I64, small grids) in four registers: value k of a lane's index k
+  // (< 64) from the two-register permute of its half, chosen by bit 5.
+  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
+               I3 = _mm512_load_ps(b.I64 + 48);
+  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
+    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
+  };
   BeamCell16 cell[2];  // each lamp's carried cell
   beam_cell16(cell[0], b, 0, 0);
   beam_cell16(cell[1], b, 0, 0);
@@ -733,8 +745,14 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
           Vi = _mm512_i32gather_ps(i, b.V.data(), 4), rVi = _mm512_i32gather_ps(i, b.rV.data(), 4);
         }
         const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j);  // r0 + j
-        r00 = _mm512_i32gather_ps(c0, I, 4), r01 = _mm512_i32gather_ps(c0, I + 1, 4);
-        r10 = _mm512_i32gather_ps(c0, I + b.nh, 4), r11 = _mm512_i32gather_ps(c0, I + b.nh + 1, 4);
+        if (b.small) {
+          const __m512i c1 = _mm512_add_epi32(c0, vnh);
+          r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione));
+          r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
+        } else {
+          r00 = _mm512_i32gather_ps(c0, I, 4), r01 = _mm512_i32gather_ps(c0, I + 1, 4);
+          r10 = _mm512_i32gather_ps(c0, I + b.nh, 4), r11 = _mm512_i32gather_ps(c0, I + b.nh + 1, 4);
+        }
       }
       const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
       const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
