@@ -256,8 +256,12 @@ std::array<double, 3> combine_rows(const std::vector<std::array<double, 3>>& row
   }
   return e;
 }
-// Levels this small run on one thread: under load, a barrier costs more than their work.
-constexpr int64_t kParallelPixels = int64_t{1} << 18;
+// Levels this small run on one thread: below about 2^14 pixels a barrier costs more than their
+// work. (It was 2^18; on the Zen 4 host, 2 threads, nothing else running, 2^14 took the pyramid of
+// the 2048x1024 bench frame from 1.65-1.69 to 1.07-1.09 ms, 2^16 to 1.17-1.22: docs/benchmarks.md,
+// twenty-second session. Rows are independent and the energy sums combine in row order, so the
+// threshold changes no result.)
+constexpr int64_t kParallelPixels = int64_t{1} << 14;
 
 // One output row of down2 from input rows ra, rb (w pixels): pixel x averages the pairs at 2x
 // and min(2x + 1, w − 1), in the order ((a0 + a1) + (b0 + b1))·¼; the interior pairs without
