@@ -258,17 +258,33 @@ struct PhotonStage {
   // at every level). The row's ends (pixels 0, 1 and from the last whole block of pairs on)
   // take glared_electrons_row with glare_up_pixel's u. Returns whether every pixel's radiance
   // is physical (physical_row's test).
+  //
+  // The vertical step (t, glare_skirt_vertical_row's row of acc_1) is formed on AVX-512 inside
+  // the loop from acc_1's two rows (glared_pairs_avx512), and stored for the row's ends only:
+  // the whole 3·cw-float row t was written and read back per row, a pass that took ~1.4 ms a
+  // 2048×1024 frame at 1 thread on the AMD EPYC Zen 4 (perf, lerp_row, 2026-11-30). AVX2 keeps
+  // the stored row.
   bool glared_row_simd(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
                        Scratch& sc) const {
-    const float* t = detail::glare_skirt_vertical_row(skirt, y, sc.tmp.data());
+    const detail::GlareVerticalTaps vt = detail::glare_skirt_vertical_taps(skirt, y);
+    float* t = sc.tmp.data() + glare_row_layout(skirt).t;
     const int cw = skirt.acc1->width();
+    const size_t tn = 3 * static_cast<size_t>(cw);
     bool physical = true;
     // u: the ends' upsampled pixels below
     float* u = sc.tmp.data() + glare_row_layout(skirt).u;
-    const int j_end = isa >= 2 ? glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
-                                                     pitch_over_f, o, physical)
-                               : glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
-                                                   pitch_over_f, o, physical);
+    int j_end;
+    if (isa >= 2) {
+      j_end = glared_pairs_avx512(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f, o,
+                                  physical);
+      // t of the ends' taps (glare_up_pixel below): pixels 0 and 1 read pairs 0 and 1, pixels
+      // from 2·j_end on the pairs from j_end − 1 on.
+      detail::glare_vertical_lerp(vt, 0, std::min<size_t>(6, tn), t);
+      if (std::max(2, 2 * j_end) < w) detail::glare_vertical_lerp(vt, 3 * static_cast<size_t>(j_end - 1), tn, t);
+    } else {
+      detail::glare_vertical_lerp(vt, 0, tn, t);
+      j_end = glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f, o, physical);
+    }
     // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
     auto rest = [&](int xa, int xb) {
       if (xa >= xb) return;
@@ -288,17 +304,20 @@ struct PhotonStage {
   static constexpr int kPrefetchFloats = 768;
   // glared_row_simd's blocks on AVX-512: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for
   // j0 = 1, 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
-  // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
-  // not done; physical is cleared if a pixel's radiance is not physical.
+  // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). The window of t is formed
+  // from acc_1's two rows vt.a, vt.b as lerp_row forms it (glare_lerp: w0·a + w1·b in float, no
+  // FMA), so the same t. Returns the first pair not done; physical is cleared if a pixel's
+  // radiance is not physical.
   // (GCC 12's AVX-512 intrinsics trip -Wmaybe-uninitialized, GCC bug 105593: silenced here.)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
   __attribute__((target("avx512f")))
-  static int glared_pairs_avx512(const float* l, const float* t, int cw, float keep, const float* s3,
-                                 const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
-                                 float* o, bool& physical) {
+  static int glared_pairs_avx512(const float* l, const detail::GlareVerticalTaps& vt, int cw, float keep,
+                                 const float* s3, const double* me, const double* mo, double cx, double dy2,
+                                 double pitch_over_f, float* o, bool& physical) {
     const PairIndex& ix = kPairIndex;
     const __m512 w0 = _mm512_load_ps(ix.w0), w1 = _mm512_load_ps(ix.w1), vkeep = _mm512_set1_ps(keep);
+    const __m512 tw0 = _mm512_set1_ps(vt.w0), tw1 = _mm512_set1_ps(vt.w1);
     const __m512 sc[3] = {_mm512_set1_ps(s3[0]), _mm512_set1_ps(s3[1]), _mm512_set1_ps(s3[2])};
     const __m512d m[3] = {_mm512_setr_pd(me[0], mo[0], me[0], mo[0], me[0], mo[0], me[0], mo[0]),
                           _mm512_setr_pd(me[1], mo[1], me[1], mo[1], me[1], mo[1], me[1], mo[1]),
@@ -313,8 +332,11 @@ struct PhotonStage {
     int j0 = 1;
     for (; j0 + 10 <= cw; j0 += 8) {
       const int x0 = 2 * j0;
-      const float* tw = t + 3 * (j0 - 1);
-      const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+      // the window of t: glare_lerp(w0, a[k], w1, b[k]) for its 32 floats
+      const float *pa = vt.a + 3 * (j0 - 1), *pb = vt.b + 3 * (j0 - 1);
+      const __m512 ta = _mm512_add_ps(_mm512_mul_ps(tw0, _mm512_loadu_ps(pa)), _mm512_mul_ps(tw1, _mm512_loadu_ps(pb)));
+      const __m512 tb =
+          _mm512_add_ps(_mm512_mul_ps(tw0, _mm512_loadu_ps(pa + 16)), _mm512_mul_ps(tw1, _mm512_loadu_ps(pb + 16)));
       const float* lw = l + 3 * x0;
       for (int k = 0; k < 48; k += 16) _mm_prefetch(reinterpret_cast<const char*>(lw + kPrefetchFloats + k), _MM_HINT_T0);
       const __m512 la = _mm512_loadu_ps(lw), lb = _mm512_loadu_ps(lw + 16), lc = _mm512_loadu_ps(lw + 32);
