@@ -261,9 +261,10 @@ struct PhotonStage {
   //
   // The vertical step (t, glare_skirt_vertical_row's row of acc_1) is formed on AVX-512 inside
   // the loop from acc_1's two rows (glared_pairs_avx512), and stored for the row's ends only:
-  // the whole 3·cw-float row t was written and read back per row, a pass that took ~1.4 ms a
-  // 2048×1024 frame at 1 thread on the AMD EPYC Zen 4 (perf, lerp_row, 2026-11-30). AVX2 keeps
-  // the stored row.
+  // the whole 3·cw-float row t was written and read back per row (lerp_row, ~1.2 % of perf's
+  // samples of `bench night --chain-only --threads 1`; `bench sense`'s photon stage 0.3-0.5 ms
+  // lower without it on the AMD EPYC Zen 4, 2026-11-30, docs/benchmarks.md). AVX2 keeps the
+  // stored row.
   bool glared_row_simd(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
                        Scratch& sc) const {
     const detail::GlareVerticalTaps vt = detail::glare_skirt_vertical_taps(skirt, y);
