@@ -706,7 +706,8 @@ constexpr int kBandRows = 32;
 // input from cache. The bilinear stencil reaches one row up and one down: the rows just outside
 // a thread's range are made again into scratch (their outputs are the neighbour's to write).
 // Each row's values depend on y alone, and the row demosaic is demosaic_bilinear's own row code
-// (detail::demosaic_bilinear_row), so the split, i.e. the thread count, changes no bit, and the
+// (detail::demosaic_bilinear_row; on AVX-512 its interior in one pass with the interleave, the
+// same operations per pixel), so the split, i.e. the thread count, changes no bit, and the
 // result equals demosaic(mosaic above black) of the unfused path below (test
 // SenseFused.EqualsTheUnfusedDefinition). Other methods and patterns: the whole frame first.
 template <class MakeWorker>
