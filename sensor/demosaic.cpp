@@ -194,6 +194,83 @@ int interleave_rgb_avx2(const float* r, const float* g, const float* b, float* r
   _mm_sfence();
   return x;
 }
+
+// The bilinear row's interior fused with the interleave where the CPU has AVX-512
+// (detail::InteriorRow, for demosaic_bilinear_row): 16 pixels a step, their R, G and B formed in
+// registers and interleaved by interleave_rgb_avx512's permutes, so the planar row is never
+// stored and read back. Per pixel the same IEEE operations in the same order as BilinearKernel
+// (lr = left + right, ud = up + down, diag = (up-left + up-right) + (down-left + down-right),
+// ¼·(lr + ud), ¼·diag, ½·lr, ½·ud; RCCB's G = (C − R) − B as clear_to_rgb), no FMA: the lanes of
+// one cell type take them by a mask blend, so the same bits as the pair loop then interleave_rgb
+// (test SenseFused.EqualsTheUnfusedDefinition). Stores as interleave_rgb_avx512's: non-temporal
+// from the first pixel whose output is 64-byte aligned; the pixels before it and those past the
+// last whole step are one step each (from xs, and ending at xe), stored under a mask. Rows of
+// fewer than 64 interior pixels, or an output not 4-byte aligned, take the pair loop.
+// Returns the 16 pixels from x into v[0..2] (48 interleaved floats).
+__attribute__((target("avx512f"), always_inline)) inline void bilinear_rgb16(const float* a, const float* c,
+                                                                           const float* b, int x, bool red_row,
+                                                                           __mmask16 even, bool clear, __m512 v[3]) {
+  const __m512 quarter = _mm512_set1_ps(0.25f), half = _mm512_set1_ps(0.5f);
+  const __m512 C = _mm512_loadu_ps(c + x);
+  const __m512 lr = _mm512_add_ps(_mm512_loadu_ps(c + x - 1), _mm512_loadu_ps(c + x + 1));
+  const __m512 ud = _mm512_add_ps(_mm512_loadu_ps(a + x), _mm512_loadu_ps(b + x));
+  const __m512 diag = _mm512_add_ps(_mm512_add_ps(_mm512_loadu_ps(a + x - 1), _mm512_loadu_ps(a + x + 1)),
+                                    _mm512_add_ps(_mm512_loadu_ps(b + x - 1), _mm512_loadu_ps(b + x + 1)));
+  const __m512 g4 = _mm512_mul_ps(quarter, _mm512_add_ps(lr, ud)), o4 = _mm512_mul_ps(quarter, diag);
+  const __m512 lr2 = _mm512_mul_ps(half, lr), ud2 = _mm512_mul_ps(half, ud);
+  // even: the lanes of the red site's column parity (kR in a red row, kGb in a blue row); the
+  // others kGr, kB. _mm512_mask_blend_ps(k, a, b): b where k is set.
+  __m512 R, G, B;
+  if (red_row) {
+    R = _mm512_mask_blend_ps(even, lr2, C);
+    G = _mm512_mask_blend_ps(even, C, g4);
+    B = _mm512_mask_blend_ps(even, ud2, o4);
+  } else {
+    R = _mm512_mask_blend_ps(even, o4, ud2);
+    G = _mm512_mask_blend_ps(even, g4, C);
+    B = _mm512_mask_blend_ps(even, C, lr2);
+  }
+  if (clear) G = _mm512_sub_ps(_mm512_sub_ps(G, R), B);
+  for (int k = 0; k < 3; ++k) {
+    const __m512 rg = _mm512_permutex2var_ps(R, _mm512_load_si512(kRgbPerm.rg[k]), G);
+    v[k] = _mm512_permutex2var_ps(rg, _mm512_load_si512(kRgbPerm.b[k]), B);
+  }
+}
+// Floats [f0, f1) of the 48 in v stored to o (masked).
+__attribute__((target("avx512f"), always_inline)) inline void store_floats48(float* o, const __m512 v[3], int f0,
+                                                                           int f1) {
+  for (int k = 0; k < 3; ++k) {
+    const int lo = std::clamp(f0 - 16 * k, 0, 16), hi = std::clamp(f1 - 16 * k, 0, 16);
+    const __mmask16 m = static_cast<__mmask16>(((1u << hi) - 1) & ~((1u << lo) - 1));
+    _mm512_mask_storeu_ps(o + 16 * k, m, v[k]);
+  }
+}
+__attribute__((target("avx512f")))
+bool bilinear_interior_avx512(const float* a, const float* c, const float* b, bool red_row, int ox, bool clear,
+                              int xs, int xe, float* o) {
+  const uintptr_t addr = reinterpret_cast<uintptr_t>(o);
+  if (addr % 4 != 0 || xe - xs < 64) return false;
+  // The pixels whose 16-pixel step starts at x: even lanes where (x − ox) is even.
+  auto even = [ox](int x) { return static_cast<__mmask16>(((x - ox) & 1) == 0 ? 0x5555 : 0xaaaa); };
+  int x0 = static_cast<int>((11 * ((64 - addr % 64) / 4)) % 16);  // o + 3·x0 is 64-byte aligned
+  while (x0 < xs) x0 += 16;
+  __m512 v[3];
+  if (x0 > xs) {  // pixels [xs, x0), fewer than 16: the step from xs
+    bilinear_rgb16(a, c, b, xs, red_row, even(xs), clear, v);
+    store_floats48(o + 3 * xs, v, 0, 3 * (x0 - xs));
+  }
+  int x = x0;
+  for (; x + 16 <= xe; x += 16) {
+    bilinear_rgb16(a, c, b, x, red_row, even(x), clear, v);
+    for (int k = 0; k < 3; ++k) _mm512_stream_ps(o + 3 * x + 16 * k, v[k]);
+  }
+  if (x < xe) {  // pixels [x, xe), fewer than 16: the step ending at xe (its reads stay inside the row)
+    bilinear_rgb16(a, c, b, xe - 16, red_row, even(xe - 16), clear, v);
+    store_floats48(o + 3 * (xe - 16), v, 3 * (16 - (xe - x)), 48);
+  }
+  _mm_sfence();
+  return true;
+}
 }  // namespace
 #endif
 
@@ -405,14 +482,25 @@ bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_
 // With an AVX2 clone (flatten: the row code inlined into each clone): the pair loop's adds and
 // quarter/half scalings are the same IEEE operations per pixel at any vector width (no FMA:
 // -ffp-contract=off), so the same bits as demosaic_bilinear's SSE2 build (test
-// SenseFused.EqualsTheUnfusedDefinition).
+// SenseFused.EqualsTheUnfusedDefinition). Where the CPU has AVX-512 the interior is
+// bilinear_interior_avx512 (the pair loop and the interleave in one pass, the same operations):
+// `bench sense` on the AMD EPYC Zen 4, 1 thread, four alternating pairs (2026-11-30): `sense`
+// 18.88, 18.34, 18.51, 18.35 -> 17.55, 17.94, 17.30, 17.56 ms CPU (docs/benchmarks.md). The
+// whole-image demosaic_bilinear (the `demosaic` command) keeps the two loops.
 __attribute__((flatten, target_clones("avx2", "default")))
 void detail::demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below,
                                    int y, int w, int h, float* rgb_row, float* planar) {
   const auto ph = bayer_phase(pattern);
   const float* const rows[1][3] = {{above, centre, below}};
-  if (ph.clear) stencil_row<true, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
-  else stencil_row<false, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar);
+  // The interior fused with the interleave where the CPU has AVX-512 and interleave_rgb may take
+  // it (its level, capped by detail::interleave_rgb_max_isa in the tests).
+  InteriorRow interior = nullptr;
+#ifdef __x86_64__
+  if (std::min(machine_isa_level(), g_interleave_isa_cap.load(std::memory_order_relaxed)) >= 2)
+    interior = bilinear_interior_avx512;
+#endif
+  if (ph.clear) stencil_row<true, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar, interior);
+  else stencil_row<false, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar, interior);
 }
 
 }  // namespace photosite

@@ -127,15 +127,24 @@ inline void pair_loop(const K& k, const float* const (&rows)[NPlanes][2 * Rad + 
   }
 }
 
+// A row's interior pixels [xs, xe) of a one-plane, radius-1, three-channel kernel formed and
+// written to the output row o (interleaved RGB) by other code: rows above, centre and below
+// (the mosaic rows y − 1, y, y + 1), red_row whether row y holds the red (or blue: false) sites,
+// ox the red site's column parity, clear RCCB's G = C − R − B. Returns false where it did not
+// (then the pair loop and the interleave run). The bilinear row on AVX-512 (sensor/demosaic.cpp).
+using InteriorRow = bool (*)(const float* above, const float* centre, const float* below, bool red_row, int ox,
+                             bool clear, int xs, int xe, float* o);
+
 // One output row y of kernel K (see run_stencil): rows[p][Rad + d] is plane p's mosaic row
 // reflect(y + d, h), o the output row (K::kOut channels), planar a 3w-float scratch row (unused
 // for a 1-channel output). Rows away from the top and bottom take the pitch-addressed fast path
 // when their 2Rad+1 rows lie one after the other at pitch w in memory (whole images, and the
 // band buffer of the fused sensor loop, sensor/pipeline.cpp); otherwise the same formula reads
-// through the row pointers: the same values and operations, so the same bits.
+// through the row pointers: the same values and operations, so the same bits. interior, when
+// given, forms the pair loop's pixels instead (InteriorRow).
 template <bool Clear, int NPlanes, int Rad, class K>
 void stencil_row(const K& k, const BayerPhase& ph, const float* const (&rows)[NPlanes][2 * Rad + 1], int y,
-                 int w, int h, float* o, float* planar) {
+                 int w, int h, float* o, float* planar, InteriorRow interior = nullptr) {
   constexpr int kOut = K::kOut;
   // First column >= Rad at the red site's column parity, and the pair count that keeps every
   // fast-path stencil inside the image.
@@ -156,6 +165,8 @@ void stencil_row(const K& k, const BayerPhase& ph, const float* const (&rows)[NP
   };
   for (int x = 0; x < std::min(xs, w); ++x) slow(x);
   for (int x = std::max(xe, xs); x < w; ++x) slow(x);
+  if constexpr (NPlanes == 1 && Rad == 1 && kOut == 3)
+    if (interior && interior(rows[0][0], rows[0][1], rows[0][2], red_row, ph.ox, Clear, xs, xe, o)) return;
   float* base = kOut == 1 ? o : planar;
   const int stride = kOut == 1 ? 0 : w;
   const ptrdiff_t pitch = w;  // every plane is one channel wide

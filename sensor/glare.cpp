@@ -720,11 +720,19 @@ GlareSkirt glare_skirt(const ImageF& in, const GlarePlan& plan, const GlareLevel
   return s;
 }
 
-const float* detail::glare_skirt_vertical_row(const GlareSkirt& s, int y, float* tmp) {
+detail::GlareVerticalTaps detail::glare_skirt_vertical_taps(const GlareSkirt& s, int y) {
   const ImageF& a = *s.acc1;
   const UpTap ty = glare_up_tap(y, a.height());
+  return {a.row(ty.i0), a.row(ty.i1), ty.w0, ty.w1};
+}
+
+void detail::glare_vertical_lerp(const GlareVerticalTaps& v, size_t k0, size_t k1, float* t) {
+  if (k0 < k1) lerp_row(v.w0, v.a + k0, v.w1, v.b + k0, k1 - k0, t + k0);
+}
+
+const float* detail::glare_skirt_vertical_row(const GlareSkirt& s, int y, float* tmp) {
   float* t = tmp + glare_row_layout(s).t;  // 3·aw: the vertical interpolation
-  lerp_row(ty.w0, a.row(ty.i0), ty.w1, a.row(ty.i1), 3 * static_cast<size_t>(a.width()), t);
+  glare_vertical_lerp(glare_skirt_vertical_taps(s, y), 0, 3 * static_cast<size_t>(s.acc1->width()), t);
   return t;
 }
 

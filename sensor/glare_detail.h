@@ -21,6 +21,18 @@ namespace photosite::detail {
 // rows, t (3·acc_1 width floats, interleaved RGB, inside tmp at glare_row_layout's t, returned),
 // for a caller that forms the horizontal step in its own loop (the photon stage's AVX-512 and AVX2 rows).
 const float* glare_skirt_vertical_row(const GlareSkirt& skirt, int y, float* tmp);
+// That step's two rows of acc_1 and their weights for row y: t[k] = glare_lerp(w0, a[k], w1, b[k])
+// for k < 3·acc_1 width, for a caller that forms t inside its own loop (the photon stage's
+// AVX-512 row) instead of storing it and reading it back.
+struct GlareVerticalTaps {
+  const float* a;
+  const float* b;
+  float w0, w1;
+};
+GlareVerticalTaps glare_skirt_vertical_taps(const GlareSkirt& skirt, int y);
+// t[k] of those taps for k in [k0, k1) only, into t[k0, k1): the samples glare_skirt_vertical_row
+// stores there (the same loop over a part of the row).
+void glare_vertical_lerp(const GlareVerticalTaps& v, size_t k0, size_t k1, float* t);
 
 // Pixel x of the bilinear 2x upsampling along a row (glare_up_tap's taps, edge clamped) of t,
 // cw interleaved RGB pixels, into u3[0..2].

@@ -178,6 +178,23 @@ struct PhotonStage {
         skirt(glare_skirt(rad, lens_glare_plan(preset, lens), level1)),
         isa(std::min(detail::machine_isa_level(), g_photon_isa_cap.load(std::memory_order_relaxed))) {}
 
+  // The sense stage's first step (SenseStage::mean_row: sense_mean_e, the mean collected
+  // electrons signal·PRNU + dark·(dark-rate factor), capped) formed by the glared photon row's
+  // AVX-512 loop on the photon electrons it has just made (expose()): the two fixed-pattern maps'
+  // rows g, df are read there, beside the loop's division, instead of in a pass of their own.
+  // The row reports the pixels [xa, xb) whose mean it wrote (none: xa == xb); the caller forms
+  // the rest by mean_row. The same float operations per pixel as mean_row, so the same means
+  // (tests SenseFused.ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh and
+  // SenseFused.ExposeHoldsTheMeanCapInTheGlaredPhotonRow). Measured on the AMD EPYC Zen 4
+  // (`bench night --threads 1 --cpu-clock`, 6 alternating pairs, 2026-11-30): `cpu: sensor
+  // (expose)` median 23.62 -> 22.69 ms, lower in 6 of 6 (docs/benchmarks.md).
+  struct MeanFusion {
+    const float* g;
+    const float* df;
+    float dark;
+    float* mean;
+    int xa = 0, xb = 0;
+  };
   // Per-thread scratch of photon_row.
   struct Scratch {
     std::vector<float> tmp;
@@ -185,7 +202,8 @@ struct PhotonStage {
   };
   // Row y of the mean signal into o[0, w); returns the first x whose radiance is not physical
   // (NaN, Inf, negative; its o[x] is 0), or -1.
-  int row(int y, float* o, Scratch& sc) const {
+  int row(int y, float* o, Scratch& sc, MeanFusion* mf = nullptr) const {
+    if (mf) mf->xa = mf->xb = 0;
     const float* r = radiance.row(y);
     const double dy2 = (y - cy) * (y - cy);
     // The CFA colour of a pixel depends on the parity of x along a row (cfa_color).
@@ -193,7 +211,7 @@ struct PhotonStage {
     const double* mo = m[static_cast<int>(cfa_color(p.cfa, 1, y))].data();
     bool physical;
     if (skirt.active() && isa >= 1) {
-      physical = glared_row_simd(y, r, me, mo, dy2, o, sc);
+      physical = glared_row_simd(y, r, me, mo, dy2, o, sc, mf);
     } else if (skirt.active()) {
       // glare_row's mix keep·L + s_c·u fused into the photon row: the glared row is never stored.
       const float* u = glare_skirt_row(skirt, y, sc.tmp.data());
@@ -204,6 +222,7 @@ struct PhotonStage {
       physical = physical_row(r, w);
     }
     if (physical) return -1;
+    if (mf) mf->xa = mf->xb = 0;  // o changes below: the caller forms every mean
     int bad = -1;  // the rare damaged row: the first bad pixel, and 0 where the radiance is not physical
     for (int x = 0; x < w; ++x)
       if (!shader::radiance_is_physical(r[3 * x], r[3 * x + 1], r[3 * x + 2])) {
@@ -258,17 +277,37 @@ struct PhotonStage {
   // at every level). The row's ends (pixels 0, 1 and from the last whole block of pairs on)
   // take glared_electrons_row with glare_up_pixel's u. Returns whether every pixel's radiance
   // is physical (physical_row's test).
+  //
+  // The vertical step (t, glare_skirt_vertical_row's row of acc_1) is formed on AVX-512 inside
+  // the loop from acc_1's two rows (glared_pairs_avx512), and stored for the row's ends only:
+  // the whole 3·cw-float row t was written and read back per row (lerp_row, ~1.2 % of perf's
+  // samples of `bench night --chain-only --threads 1`; `bench sense`'s photon stage 0.3-0.5 ms
+  // lower without it on the AMD EPYC Zen 4, 2026-11-30, docs/benchmarks.md). AVX2 keeps the
+  // stored row.
   bool glared_row_simd(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
-                       Scratch& sc) const {
-    const float* t = detail::glare_skirt_vertical_row(skirt, y, sc.tmp.data());
+                       Scratch& sc, MeanFusion* mf) const {
+    const detail::GlareVerticalTaps vt = detail::glare_skirt_vertical_taps(skirt, y);
+    float* t = sc.tmp.data() + glare_row_layout(skirt).t;
     const int cw = skirt.acc1->width();
+    const size_t tn = 3 * static_cast<size_t>(cw);
     bool physical = true;
     // u: the ends' upsampled pixels below
     float* u = sc.tmp.data() + glare_row_layout(skirt).u;
-    const int j_end = isa >= 2 ? glared_pairs_avx512(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
-                                                     pitch_over_f, o, physical)
-                               : glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
-                                                   pitch_over_f, o, physical);
+    int j_end;
+    if (isa >= 2) {
+      j_end = mf ? glared_pairs_avx512<true>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                                             pitch_over_f, o, physical, mf)
+                 : glared_pairs_avx512<false>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                                              pitch_over_f, o, physical, nullptr);
+      if (mf && j_end > 1) mf->xa = 2, mf->xb = 2 * j_end;
+      // t of the ends' taps (glare_up_pixel below): pixels 0 and 1 read pairs 0 and 1, pixels
+      // from 2·j_end on the pairs from j_end − 1 on.
+      detail::glare_vertical_lerp(vt, 0, std::min<size_t>(6, tn), t);
+      if (std::max(2, 2 * j_end) < w) detail::glare_vertical_lerp(vt, 3 * static_cast<size_t>(j_end - 1), tn, t);
+    } else {
+      detail::glare_vertical_lerp(vt, 0, tn, t);
+      j_end = glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f, o, physical);
+    }
     // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
     auto rest = [&](int xa, int xb) {
       if (xa >= xb) return;
@@ -288,17 +327,24 @@ struct PhotonStage {
   static constexpr int kPrefetchFloats = 768;
   // glared_row_simd's blocks on AVX-512: pixel pairs j0 .. j0 + 7 (pixels 2·j0 .. 2·j0 + 15) for
   // j0 = 1, 9, 17, ... while j0 + 10 <= cw (the pairs are interior, j + 1 <= cw − 1 unclamped, and the
-  // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). Returns the first pair
-  // not done; physical is cleared if a pixel's radiance is not physical.
+  // window of t read, 32 floats from 3·(j0 − 1), lies inside its 3·cw). The window of t is formed
+  // from acc_1's two rows vt.a, vt.b as lerp_row forms it (glare_lerp: w0·a + w1·b in float, no
+  // FMA), so the same t. Returns the first pair not done; physical is cleared if a pixel's
+  // radiance is not physical.
   // (GCC 12's AVX-512 intrinsics trip -Wmaybe-uninitialized, GCC bug 105593: silenced here.)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+  template <bool Mean>
   __attribute__((target("avx512f")))
-  static int glared_pairs_avx512(const float* l, const float* t, int cw, float keep, const float* s3,
-                                 const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
-                                 float* o, bool& physical) {
+  static int glared_pairs_avx512(const float* l, const detail::GlareVerticalTaps& vt, int cw, float keep,
+                                 const float* s3, const double* me, const double* mo, double cx, double dy2,
+                                 double pitch_over_f, float* o, bool& physical, const MeanFusion* mf) {
+    // The mean's operands (Mean): sense_mean_e's min(s·g + dark·df, cap), std::min(m, cap) =
+    // cap < m ? cap : m = vminps(cap, m) (a NaN m passes, as there).
+    const __m256 vdark = _mm256_set1_ps(Mean ? mf->dark : 0.f), vcap = _mm256_set1_ps(shader::kMeanElectronsCap);
     const PairIndex& ix = kPairIndex;
     const __m512 w0 = _mm512_load_ps(ix.w0), w1 = _mm512_load_ps(ix.w1), vkeep = _mm512_set1_ps(keep);
+    const __m512 tw0 = _mm512_set1_ps(vt.w0), tw1 = _mm512_set1_ps(vt.w1);
     const __m512 sc[3] = {_mm512_set1_ps(s3[0]), _mm512_set1_ps(s3[1]), _mm512_set1_ps(s3[2])};
     const __m512d m[3] = {_mm512_setr_pd(me[0], mo[0], me[0], mo[0], me[0], mo[0], me[0], mo[0]),
                           _mm512_setr_pd(me[1], mo[1], me[1], mo[1], me[1], mo[1], me[1], mo[1]),
@@ -313,8 +359,11 @@ struct PhotonStage {
     int j0 = 1;
     for (; j0 + 10 <= cw; j0 += 8) {
       const int x0 = 2 * j0;
-      const float* tw = t + 3 * (j0 - 1);
-      const __m512 ta = _mm512_loadu_ps(tw), tb = _mm512_loadu_ps(tw + 16);
+      // the window of t: glare_lerp(w0, a[k], w1, b[k]) for its 32 floats
+      const float *pa = vt.a + 3 * (j0 - 1), *pb = vt.b + 3 * (j0 - 1);
+      const __m512 ta = _mm512_add_ps(_mm512_mul_ps(tw0, _mm512_loadu_ps(pa)), _mm512_mul_ps(tw1, _mm512_loadu_ps(pb)));
+      const __m512 tb =
+          _mm512_add_ps(_mm512_mul_ps(tw0, _mm512_loadu_ps(pa + 16)), _mm512_mul_ps(tw1, _mm512_loadu_ps(pb + 16)));
       const float* lw = l + 3 * x0;
       for (int k = 0; k < 48; k += 16) _mm_prefetch(reinterpret_cast<const char*>(lw + kPrefetchFloats + k), _MM_HINT_T0);
       const __m512 la = _mm512_loadu_ps(lw), lb = _mm512_loadu_ps(lw + 16), lc = _mm512_loadu_ps(lw + 32);
@@ -349,7 +398,14 @@ struct PhotonStage {
           const __m512d q = _mm512_add_pd(one, t2);
           e = _mm512_div_pd(e, _mm512_mul_pd(q, q));
         }
-        _mm256_storeu_ps(o + x0 + 8 * h, _mm512_cvtpd_ps(e));
+        const __m256 sig = _mm512_cvtpd_ps(e);
+        _mm256_storeu_ps(o + x0 + 8 * h, sig);
+        if constexpr (Mean) {
+          const int x = x0 + 8 * h;
+          const __m256 m = _mm256_add_ps(_mm256_mul_ps(sig, _mm256_loadu_ps(mf->g + x)),
+                                         _mm256_mul_ps(vdark, _mm256_loadu_ps(mf->df + x)));
+          _mm256_storeu_ps(mf->mean + x, _mm256_min_ps(vcap, m));
+        }
       }
     }
     if (ok != 0xffff) physical = false;
@@ -624,16 +680,27 @@ struct SenseStage {
   // Row y: srow the mean signal (e-), into erow (electrons), drow (raw DN) and abrow (DN above
   // black, the demosaic's input).
   void row(int y, const float* srow, float* erow, float* drow, float* abrow, Scratch& sc) const {
+    // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
+    // kernels/common/sensor_pixel.glsl, has the physics).
+    mean_part(y, srow, 0, w, sc);
+    row_from_mean(y, erow, drow, abrow, sc);
+  }
+  // Row y's PRNU and dark-rate factor maps (constant rows where absent).
+  const float* prnu_row(int y) const { return prnu ? prnu + static_cast<size_t>(y) * w : ones.data(); }
+  const float* dark_row(int y) const { return darkf ? darkf + static_cast<size_t>(y) * w : ones.data(); }
+  float dark_e() const { return static_cast<float>(dark_mean_e); }
+  // The mean of pixels [xa, xb) of row y from its mean signal srow, into sc.mean.
+  void mean_part(int y, const float* srow, int xa, int xb, Scratch& sc) const {
+    if (xa < xb)
+      mean_row(srow + xa, prnu_row(y) + xa, dark_e(), dark_row(y) + xa, xb - xa, sc.mean.data() + xa);
+  }
+  // The rest of row y from the means in sc.mean.
+  void row_from_mean(int y, float* erow, float* drow, float* abrow, Scratch& sc) const {
     const size_t row0 = static_cast<size_t>(y) * w;
-    const float* g = prnu ? prnu + row0 : ones.data();
-    const float* df = darkf ? darkf + row0 : ones.data();
     const float* off = dsnu ? dsnu + row0 : zeros.data();
     const float* col = col_e.empty() ? zeros.data() : col_e.data();
     float* mean = sc.mean.data();
     float* read = sc.read.data();
-    // Mean collected electrons, signal·PRNU + dark·(dark-rate factor) (sense_mean_e,
-    // kernels/common/sensor_pixel.glsl, has the physics).
-    mean_row(srow, g, static_cast<float>(dark_mean_e), df, w, mean);
     // Shot noise and the read-noise normal from one Philox draw per pixel.
     poisson_block(mean, erow, read, w, row0, key, frame, static_cast<uint32_t>(Stream::PhotonShot), s.poisson);
     if (tukey != 0) {  // heavy-tailed read noise: the Tukey-λ quantile of u = Φ(z)
@@ -683,7 +750,8 @@ constexpr int kBandRows = 32;
 // input from cache. The bilinear stencil reaches one row up and one down: the rows just outside
 // a thread's range are made again into scratch (their outputs are the neighbour's to write).
 // Each row's values depend on y alone, and the row demosaic is demosaic_bilinear's own row code
-// (detail::demosaic_bilinear_row), so the split, i.e. the thread count, changes no bit, and the
+// (detail::demosaic_bilinear_row; on AVX-512 its interior in one pass with the interleave, the
+// same operations per pixel), so the split, i.e. the thread count, changes no bit, and the
 // result equals demosaic(mosaic above black) of the unfused path below (test
 // SenseFused.EqualsTheUnfusedDefinition). Other methods and patterns: the whole frame first.
 template <class MakeWorker>
@@ -797,9 +865,16 @@ void expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& len
   sense_frame(w, h, p, s, out, [&] {
     return [&ph, &st, &bad_x, psc = PhotonStage::Scratch(ph), ssc = SenseStage::Scratch(st.w),
             mean_e = std::vector<float>(st.w)](int y, float* e, float* d, float* ab, bool own) mutable {
-      const int bad = ph.row(y, mean_e.data(), psc);
+      PhotonStage::MeanFusion mf{st.prnu_row(y), st.dark_row(y), st.dark_e(), ssc.mean.data()};
+      const int bad = ph.row(y, mean_e.data(), psc, &mf);
       if (own) bad_x[y] = bad;
-      st.row(y, mean_e.data(), e, d, ab, ssc);
+      if (mf.xa < mf.xb) {  // the photon row made the means of [xa, xb)
+        st.mean_part(y, mean_e.data(), 0, mf.xa, ssc);
+        st.mean_part(y, mean_e.data(), mf.xb, st.w, ssc);
+      } else {
+        st.mean_part(y, mean_e.data(), 0, st.w, ssc);
+      }
+      st.row_from_mean(y, e, d, ab, ssc);
     };
   });
   fail_first_bad(radiance, bad_x);

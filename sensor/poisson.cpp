@@ -64,7 +64,7 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
 // PoissonAccuracy.PtrsBlockEqualsScalarReference and Philox.KnownAnswers. Each width defines
 //  * philox_lanes_N<Rounds, B>(c0, c1, ...): B vectors of N pixels whose indices' low and high
 //    halves are c0[b], c1[b], their rounds interleaved (U, the width's B for whole runs: 4 on
-//    AVX2, 1 on AVX-512; see kPhiloxAvx2Blocks);
+//    both; see kPhiloxAvx2Blocks and kPhiloxAvx512Blocks);
 //  * philox_words_N: consecutive pixels first_pixel.., U * N then N at a time while the high
 //    half stays the same, the rest by TAIL (the next narrower path);
 //  * philox_list_N: the first n & ~(N − 1) of a list of pixels (PTRS retries), U * N then N at
@@ -206,6 +206,15 @@ PHILOX_SIMD("avx2", __m256i, 8, kPhiloxAvx2Blocks, PHILOX_AVX2_OP, PHILOX_AVX2_M
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #define PHILOX_AVX512_OP(x) _mm512_##x
+// The AVX-512 path runs four vectors (64 pixels) at once too, for the reason given at
+// kPhiloxAvx2Blocks: one vector's round is a dependent chain (shift, 32x32->64 multiply, masked
+// swap, three-way xor), and on a core that executes 512-bit operations in two 256-bit halves (AMD
+// Zen 4) ten rounds of one vector wait on it. Integer operations only: the same words. Measured
+// (`OMP_NUM_THREADS=1 photosite bench sense --repeats 3 --inner 5`, row "Philox4x32-10 words,
+// AVX-512", the 2,097,152 pixels' words, CPU ms; AMD EPYC Zen 4, 2026-11-30): one vector 3.42,
+// 3.41, 3.49; two 2.85, 2.84, 2.84; three 2.80, 2.81; four 2.62, 2.62, 2.62; six 3.07, 3.08
+// (spills: six vectors' 24 state registers and the keys exceed the 32 zmm registers).
+constexpr int kPhiloxAvx512Blocks = 4;
 // The products of the even lanes by mul_epu32, of the odd lanes shifted down the same way; each
 // half put in place by one masked dword swap (vpshufd CDAB under a mask): hi takes the even
 // products' high dwords swapped down into the even lanes over the odd products (whose high
@@ -221,7 +230,7 @@ PHILOX_SIMD("avx2", __m256i, 8, kPhiloxAvx2Blocks, PHILOX_AVX2_OP, PHILOX_AVX2_M
 #define PHILOX_AVX512_LOAD(p) _mm512_loadu_si512(p)
 #define PHILOX_AVX512_STORE(p, v) _mm512_storeu_si512(p, v)
 #define PHILOX_AVX512_LANES _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
-PHILOX_SIMD("avx512f", __m512i, 16, 1, PHILOX_AVX512_OP, PHILOX_AVX512_MULHILO, PHILOX_AVX512_XOR3,
+PHILOX_SIMD("avx512f", __m512i, 16, kPhiloxAvx512Blocks, PHILOX_AVX512_OP, PHILOX_AVX512_MULHILO, PHILOX_AVX512_XOR3,
             PHILOX_AVX512_LOAD, PHILOX_AVX512_STORE, PHILOX_AVX512_LANES, philox_words_8<Rounds>)
 #pragma GCC diagnostic pop
 

@@ -791,7 +791,10 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
       {CfaPattern::GRBG, DemosaicMethod::Bilinear}, {CfaPattern::GBRG, DemosaicMethod::Bilinear},
       {CfaPattern::RCCB, DemosaicMethod::Bilinear}, {CfaPattern::RCCC, DemosaicMethod::Bilinear},
       {CfaPattern::RGGB, DemosaicMethod::Malvar}};
-  const std::pair<int, int> sizes[] = {{2, 2}, {7, 3}, {33, 5}, {150, 71}, {64, 140}};
+  // 150, 231 and 97 wide: rows of 64 interior pixels and more, which take the AVX-512 bilinear
+  // row (demosaic.cpp's bilinear_interior_avx512) where the CPU has it, with every head and tail
+  // length as the rows' output alignment changes.
+  const std::pair<int, int> sizes[] = {{2, 2}, {7, 3}, {33, 5}, {150, 71}, {64, 140}, {231, 9}, {97, 18}};
   const int saved = omp_get_max_threads();
   int fused_cases = 0;
   for (const auto& [cfa, method] : cases)
@@ -830,13 +833,45 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
       }
     }
   omp_set_num_threads(saved);
-  EXPECT_EQ(fused_cases, 5 * 5);  // every Bayer phase and RCCB at every size took the fused path
+  EXPECT_EQ(fused_cases, 5 * 7);  // every Bayer phase and RCCB at every size took the fused path
 }
 
 // expose() (the photon stage with the lens glare, fused row by row into sense and the band
 // demosaic, its halo rows made twice) against its definition, mean_signal_electrons() then
 // sense() through the whole-frame mean signal, at 1 and 2 threads; and both into a reused
 // SensorOutput (a previous frame's images of the same shape, overwritten) against fresh ones.
+// expose()'s glared photon row forms the sense stage's mean (sense_mean_e: signal·PRNU +
+// dark·(dark-rate factor), held at kMeanElectronsCap = 2^31 e⁻) in its AVX-512 loop: against
+// mean_signal_electrons() then sense() on a scene whose lamps (1e38 W·sr⁻¹·m⁻² a band, R+G+B still
+// finite, so physical) put the photon count past float's range: +Inf at every pixel, the glare
+// skirt carrying it over the frame (6,400 of 6,400 when written). Every draw, raw DN and RGB value
+// equal (without the cap the exact sampler draws NaN from an infinite mean, test
+// Adc.AnOverflowedSignalSaturatesThePixel).
+TEST(SenseFused, ExposeHoldsTheMeanCapInTheGlaredPhotonRow) {
+  const CameraPreset p = load_camera_preset("onsemi-ar0331");
+  const LensPreset lens = load_lens_preset(p.default_lens);
+  ASSERT_TRUE(lens_glare_plan(p, lens).active);
+  const int w = 160, h = 40;
+  ImageF radiance(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)
+        radiance.at(x, y, c) = (x * 31 + y * 17) % 89 == 0 ? 1e38f : 0.002f * ((x + 2 * y + c) % 13);
+  const auto fpn = generate_fixed_pattern(p, w, h, "fused-cap");
+  ExposureSettings s;
+  s.seed = 3;
+  const ResolvedExposure ex = resolve(p, lens, s);
+  const ImageF mean_e = mean_signal_electrons(radiance, p, lens, ex);
+  int capped = 0;
+  for (size_t i = 0; i < mean_e.size(); ++i) capped += mean_e[i] * 0.9f > 2147483648.f;
+  EXPECT_GT(capped, w * h / 2) << "the scene should put the means past the cap";
+  const SensorOutput ref = sense(mean_e, p, ex, s, fpn);
+  const SensorOutput out = expose(radiance, p, lens, s, fpn);
+  EXPECT_EQ(out.electrons.vec(), ref.electrons.vec());
+  EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec());
+  EXPECT_EQ(out.rgb.vec(), ref.rgb.vec());
+}
+
 TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
   const CameraPreset p = load_camera_preset("onsemi-ar0331");
   const LensPreset lens = load_lens_preset(p.default_lens);
