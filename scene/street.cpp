@@ -1272,7 +1272,8 @@ struct VerticalCtx {
   float I0, d2_min;
   int building;
 };
-// Candidates8 for the row (vertical_row_body's and vertical_row_avx512's).
+// Candidates8 for the row (vertical_row_body's; vertical_row_avx512 makes the same test on sixteen
+// lanes).
 __attribute__((target("avx2"), always_inline)) inline Candidates8 candidates8_consts(const RowGeom& q,
                                                                                     const VerticalCtx& v) {
   return {_mm256_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu)),
@@ -1459,67 +1460,188 @@ __attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx,
 }
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
-// vertical_row_body for AVX-512: groups of sixteen columns (two of vertical_row_body's groups of
-// eight side by side: their candidates, façade planes, points and normals as there, group by
-// group), and the lamp loop on sixteen lanes at once, over the lamps of the union of the two
-// groups' windows (a lamp outside one group's window is beyond reach of its lanes, which add +0.0
-// for it: the same sums). Per lane the same IEEE operations in the same order as vertical_term
-// (the differences in double rounded to float, the masks as k-registers where the AVX2 row ANDs
-// with all-ones lanes: a masked lane adds +0.0 either way; no FMA contraction: -ffp-contract=off),
-// so the same bits as the AVX2 and scalar paths. Columns 16⌊W/16⌋ .. W − 1 go the scalar way.
-// 32 vector registers keep the lamp loop's constants and accumulator in registers.
+// reflect8_avx2 for sixteen pixels (o3, t3: their 48 floats, three vectors): the lane of pixel i
+// of channel c, 3i + c, takes e_i, t_c and bit i of `bits` (the lanes' indices i in s0, s1, s2,
+// the tint in tp0..2); o += (t·tint)·e on those bits, the same operations as reflect8_avx2 and
+// add_reflection_scalar.
+struct Reflect16 {
+  __m512i s0, s1, s2;
+  __m512 tp0, tp1, tp2;
+};
+__attribute__((target("avx512f"), always_inline)) inline Reflect16 reflect16_consts(const float* tint) {
+  alignas(64) int32_t s[48];
+  alignas(64) float tp[48];
+  for (int l = 0; l < 48; ++l) {
+    s[l] = l / 3;
+    tp[l] = tint[l % 3];
+  }
+  return {_mm512_load_si512(s), _mm512_load_si512(s + 16), _mm512_load_si512(s + 32),
+          _mm512_load_ps(tp), _mm512_load_ps(tp + 16), _mm512_load_ps(tp + 32)};
+}
+__attribute__((target("avx512f"), always_inline)) inline void reflect16_avx512(float* o3, const float* t3, __m512 ef,
+                                                                               __mmask16 bits, const Reflect16& c) {
+  const __m512i on = _mm512_maskz_set1_epi32(bits, -1);
+  const __m512i s[3] = {c.s0, c.s1, c.s2};
+  const __m512 tp[3] = {c.tp0, c.tp1, c.tp2};
+  for (int j = 0; j < 3; ++j) {
+    const __m512i lit = _mm512_permutexvar_epi32(s[j], on);
+    const __mmask16 k = _mm512_test_epi32_mask(lit, lit);
+    if (!k) continue;
+    const __m512 ov = _mm512_loadu_ps(o3 + 16 * j);
+    _mm512_mask_storeu_ps(o3 + 16 * j, k,
+                          _mm512_add_ps(ov, _mm512_mul_ps(_mm512_mul_ps(_mm512_loadu_ps(t3 + 16 * j), tp[j]),
+                                                          _mm512_permutexvar_ps(s[j], ef))));
+  }
+}
+// −a on the lanes of `k` (the sign bit flipped: exact), a on the others (AVX-512F has no xor_pd).
+__attribute__((target("avx512f"), always_inline)) inline __m512d neg_pd(__m512d a, __mmask8 k) {
+  return _mm512_castsi512_pd(_mm512_mask_xor_epi64(_mm512_castpd_si512(a), k, _mm512_castpd_si512(a),
+                                                   _mm512_set1_epi64(static_cast<int64_t>(0x8000000000000000ull))));
+}
+// One half (eight lanes, columns x .. x + 7) of vertical_row_avx512's group: the lit normals
+// −(n_X, n_D) of the lanes' façade planes in double (+0.0 where a lane has none) and the mask of
+// the lanes with one (has), for the candidates of `mh` (bit k: column x + k): vertical_group's
+// rules (BuildingFacades::plane_at, inlined), without its stores. A half of eight candidates on one
+// building region whose eight columns take one plane (45% of the groups of eight on the bench
+// frame) takes that plane's normal without per-lane lookups; otherwise each candidate building
+// lane with a region looks up its column's plane, and the normals are gathered.
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void facade_normals8(
+    int x, unsigned mh, const uint16_t* id, const int32_t* reg, const VerticalCtx& v, __m512d& nx, __m512d& nd,
+    __mmask8& has) {
+  const BuildingFacades& fac = *v.fac;
+  const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+  const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+  const int r0 = reg[x];
+  if (mh == 0xff && r0 >= 0 &&
+      _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
+                                            _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1) {
+    const BuildingFacades::Region& R = fac.regions[r0];
+    const int c0 = x - R.x0;
+    if (c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
+      const int pi = R.column_plane[c0];
+      const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
+      if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
+        const FacadePlane& f = fac.planes[pi];
+        nx = _mm512_set1_pd(-f.nX);
+        nd = _mm512_set1_pd(-f.nD);
+        has = 0xff;
+        return;
+      }
+    }
+  }
+  unsigned bm = mh & static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
+                         _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)), _mm256_cmpgt_epi32(rv, _mm256_set1_epi32(-1))))));
+  __m256i pv = _mm256_set1_epi32(-1);  // the lanes' plane indices
+  while (bm) {
+    const int k = __builtin_ctz(bm);
+    bm &= bm - 1;
+    const BuildingFacades::Region& R = fac.regions[reg[x + k]];
+    pv = _mm256_mask_set1_epi32(pv, static_cast<__mmask8>(1u << k), R.column_plane[x + k - R.x0]);
+  }
+  has = _mm256_cmpgt_epi32_mask(pv, _mm256_set1_epi32(-1));
+  nx = nd = _mm512_setzero_pd();
+  if (has) {
+    // −n_X and −n_D gathered from the planes (a lane without one keeps +0.0), the sign flipped:
+    // the exact negation, as −f->nX.
+    static_assert(sizeof(FacadePlane) % sizeof(double) == 0, "planes gathered in steps of doubles");
+    const __m256i ix = _mm256_mullo_epi32(_mm256_max_epi32(pv, _mm256_setzero_si256()),
+                                          _mm256_set1_epi32(static_cast<int>(sizeof(FacadePlane) / sizeof(double))));
+    nx = neg_pd(_mm512_maskz_mov_pd(has, _mm512_mask_i32gather_pd(nx, has, ix, &fac.planes[0].nX, 8)), has);
+    nd = neg_pd(_mm512_maskz_mov_pd(has, _mm512_mask_i32gather_pd(nd, has, ix, &fac.planes[0].nD, 8)), has);
+  }
+}
+// One half's points (X, Y, D) and lit normals in double (vertical_point's operations per lane:
+// X = z·(x − c_x)/f, the camera-facing normal −(X, D)/√(X² + D²) where the lane has no façade
+// plane), the normals rounded to float; ok: the lanes with a plane or with √(X² + D²) > 0. (Y and
+// D come from the candidate test, which computes them with the same operations.)
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void points8(int x, __m512d zz, const RowGeom& q,
+                                                                                  __m512d Dv, __m512d nx, __m512d nd,
+                                                                                  __mmask8 has, __m512d& X, __m256& nXf,
+                                                                                  __m256& nDf, __mmask8& ok) {
+  const __m512d xd = _mm512_cvtepi32_pd(_mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+  X = _mm512_div_pd(_mm512_mul_pd(zz, _mm512_sub_pd(xd, _mm512_set1_pd(q.cx))), _mm512_set1_pd(q.f));
+  ok = has;
+  if (has != 0xff) {
+    const __m512d rr = _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(X, X), _mm512_mul_pd(Dv, Dv)));
+    ok = has | _mm512_cmp_pd_mask(rr, _mm512_setzero_pd(), _CMP_GT_OQ);
+    nx = _mm512_mask_blend_pd(has, _mm512_div_pd(neg_pd(X, 0xff), rr), nx);
+    nd = _mm512_mask_blend_pd(has, _mm512_div_pd(neg_pd(Dv, 0xff), rr), nd);
+  }
+  nXf = _mm512_cvtpd_ps(nx);
+  nDf = _mm512_cvtpd_ps(nd);
+}
+// vertical_row_body for AVX-512: groups of sixteen columns, the lamp loop on sixteen lanes at once
+// over the lamps of the group's window (the candidates' D range). Per group the candidate test
+// (candidates8_avx2's operations on sixteen lanes), then each half of eight lanes' façade normals
+// (facade_normals8) and points (points8) straight in 512-bit registers, the candidates' Y and D
+// taken from the test; the lanes that are not candidates are computed from their own column and
+// dropped (okm). Per lane the same IEEE operations in the same order as vertical_point and
+// vertical_term (the differences in double rounded to float, the masks as k-registers where the
+// AVX2 row ANDs with all-ones lanes: a masked lane adds +0.0 either way; no FMA contraction:
+// -ffp-contract=off), so the same bits as the AVX2 and scalar paths. Columns 16⌊W/16⌋ .. W − 1 go
+// the scalar way. 32 vector registers keep the lamp loop's constants and accumulator in registers.
+// (The set-up was four of point4's quads from vertical_group's stores, the candidates as two
+// groups of eight; in 512-bit registers it measured faster: docs/benchmarks.md, "Light map,
+// twenty-second session".)
 __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* o, const float* tx, const uint16_t* id,
                                                                         const float* z, const int32_t* reg, int W,
                                                                         const RowGeom& q, const VerticalCtx& v) {
   const LampArrays& la = *v.la;
   const RelTable& t = *v.t;
-  const Candidates8 cc = candidates8_consts(q, v);
-  const Reflect8 rc = reflect8_consts(v.tint);
+  const Reflect16 rc16 = reflect16_consts(v.tint);
   const __m512 vI0 = _mm512_set1_ps(v.I0), vd2min = _mm512_set1_ps(v.d2_min), zero = _mm512_setzero_ps();
   const __m512 vcc = _mm512_set1_ps(t.fcc), one = _mm512_set1_ps(1.f);
-  VerticalGroup gr[2];
+  // The candidate test's constants (Candidates8's).
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu));
+  const __m512i mhi = _mm512_set1_epi32(static_cast<int32_t>(v.dark >> 32));
+  const __m512i onei = _mm512_set1_epi32(1), k32 = _mm512_set1_epi32(32);
+  const __m512 zinf = _mm512_set1_ps(kDepthInfinity_m);
+  const __m512d kD = _mm512_set1_pd(q.kD), kY = _mm512_set1_pd(q.kY), hh = _mm512_set1_pd(q.h);
+  const __m512d mY = _mm512_set1_pd(la.max_Y), Dlo = _mm512_set1_pd(v.D_lo), Dhi = _mm512_set1_pd(v.D_hi);
+  const __m512d dinf = _mm512_set1_pd(INFINITY);
   size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
   int x = 0;
   for (; x + 16 <= W; x += 16) {
-    const int m = candidates8_avx2(id, z, x, cc) | candidates8_avx2(id, z, x + 8, cc) << 8;
+    // The candidate test (candidates8_avx2 on sixteen lanes): bit k of the class mask off (the
+    // low word shifted by k, the high word by k − 32: 0 outside each word's range), 0 < z <
+    // kDepthInfinity_m, and in double Y = h − z·kY < max_Y, D_lo ≤ D = z·kD ≤ D_hi.
+    const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
+    const __m512i bit = _mm512_and_si512(
+        _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), onei);
+    const __m512 zf = _mm512_loadu_ps(z + x);
+    const __mmask16 m0 = _mm512_mask_cmp_ps_mask(
+        _mm512_mask_cmp_ps_mask(_mm512_cmpneq_epi32_mask(bit, onei), zf, zero, _CMP_GT_OQ), zf, zinf, _CMP_LT_OQ);
+    if (!m0) continue;
+    const __m512d z0 = _mm512_cvtps_pd(_mm512_castps512_ps256(zf));  // float to double: exact
+    const __m512d z1 = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(zf), 1)));
+    const __m512d D0 = _mm512_mul_pd(z0, kD), Y0 = _mm512_sub_pd(hh, _mm512_mul_pd(z0, kY));
+    const __m512d D1 = _mm512_mul_pd(z1, kD), Y1 = _mm512_sub_pd(hh, _mm512_mul_pd(z1, kY));
+    const __mmask8 in0 = _mm512_mask_cmp_pd_mask(
+        _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(Y0, mY, _CMP_LT_OQ), D0, Dlo, _CMP_GE_OQ), D0, Dhi, _CMP_LE_OQ);
+    const __mmask8 in1 = _mm512_mask_cmp_pd_mask(
+        _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(Y1, mY, _CMP_LT_OQ), D1, Dlo, _CMP_GE_OQ), D1, Dhi, _CMP_LE_OQ);
+    const unsigned m = m0 & (in0 | static_cast<unsigned>(in1) << 8);
     if (!m) continue;
-    __m256d X[4], Y[4], D[4];
-    __m128 nX[4], nD[4], ok[4];
-    // The groups of eight and the quads of four holding a candidate (their lanes' points and
-    // normals); a quad without one takes those of the first quad with one (q0): its lanes are
-    // dropped (okm), and its D are candidates' as those of the dropped lanes filled with a
-    // candidate's column were, so the lamp window (the candidates' D range) is the same.
-    int quads = 0;
-    for (int k = 0; k < 4; ++k) quads |= ((m >> (4 * k) & 0xf) != 0) << k;
-    for (int h = 0; h < 2; ++h) {
-      const int mh = m >> (8 * h) & 0xff;
-      if (!mh) continue;
-      vertical_group(gr[h], x + 8 * h, mh, x + 8 * h + __builtin_ctz(mh), id, z, reg, v);
-      for (int k = 2 * h; k < 2 * h + 2; ++k)
-        if (quads >> k & 1) point4(gr[h], 4 * (k - 2 * h), q, X[k], Y[k], D[k], nX[k], nD[k], ok[k]);
+    __m512d nx0 = _mm512_setzero_pd(), nd0 = nx0, nx1 = nx0, nd1 = nx0, X0 = nx0, X1 = nx0;
+    __mmask8 has0 = 0, has1 = 0, ok0 = 0, ok1 = 0;
+    __m256 nXf0 = _mm256_setzero_ps(), nDf0 = nXf0, nXf1 = nXf0, nDf1 = nXf0;
+    if (m & 0xff) {
+      facade_normals8(x, m & 0xff, id, reg, v, nx0, nd0, has0);
+      points8(x, z0, q, D0, nx0, nd0, has0, X0, nXf0, nDf0, ok0);
     }
-    const int q0 = __builtin_ctz(quads);
-    for (int k = 0; k < 4; ++k)
-      if (!(quads >> k & 1)) {
-        X[k] = X[q0];
-        Y[k] = Y[q0];
-        D[k] = D[q0];
-        nX[k] = nX[q0];
-        nD[k] = nD[q0];
-        ok[k] = ok[q0];
-      }
-    const __mmask16 okm = static_cast<__mmask16>(
-        m & (_mm_movemask_ps(ok[0]) | _mm_movemask_ps(ok[1]) << 4 | _mm_movemask_ps(ok[2]) << 8 | _mm_movemask_ps(ok[3]) << 12));
+    if (m >> 8) {
+      facade_normals8(x + 8, m >> 8, id, reg, v, nx1, nd1, has1);
+      points8(x + 8, z1, q, D1, nx1, nd1, has1, X1, nXf1, nDf1, ok1);
+    }
+    const __mmask16 okm = static_cast<__mmask16>(m & (ok0 | static_cast<unsigned>(ok1) << 8));
     if (!okm) continue;
-    const __m512 vnX = join16(_mm256_set_m128(nX[1], nX[0]), _mm256_set_m128(nX[3], nX[2]));
-    const __m512 vnD = join16(_mm256_set_m128(nD[1], nD[0]), _mm256_set_m128(nD[3], nD[2]));
-    const __m512d X0 = _mm512_insertf64x4(_mm512_castpd256_pd512(X[0]), X[1], 1),
-                  X1 = _mm512_insertf64x4(_mm512_castpd256_pd512(X[2]), X[3], 1);
-    const __m512d Y0 = _mm512_insertf64x4(_mm512_castpd256_pd512(Y[0]), Y[1], 1),
-                  Y1 = _mm512_insertf64x4(_mm512_castpd256_pd512(Y[2]), Y[3], 1);
-    const __m512d D0 = _mm512_insertf64x4(_mm512_castpd256_pd512(D[0]), D[1], 1),
-                  D1 = _mm512_insertf64x4(_mm512_castpd256_pd512(D[2]), D[3], 1);
-    const double Dmin = _mm512_reduce_min_pd(_mm512_min_pd(D0, D1)), Dmax = _mm512_reduce_max_pd(_mm512_max_pd(D0, D1));
+    const __m512 vnX = join16(nXf0, nXf1), vnD = join16(nDf0, nDf1);
+    // The lamp window from the candidates' D (the window of every candidate, with or without a
+    // point: vertical_row_body's).
+    const double Dmin = _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m), D0),
+                                                           _mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m >> 8), D1)));
+    const double Dmax = _mm512_reduce_max_pd(_mm512_max_pd(_mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m), D0),
+                                                           _mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m >> 8), D1)));
     lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
     const size_t lo = win_lo, hi = win_hi;
     __m512 acc = zero;
@@ -1540,10 +1662,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
       acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
     }
     const unsigned lit_px = m & _mm512_cmp_ps_mask(acc, zero, _CMP_GT_OQ);
-    if (lit_px & 0xff) reflect8_avx2(o + 3 * x, tx + 3 * x, _mm512_castps512_ps256(acc), lit_px & 0xff, rc);
-    if (lit_px >> 8)
-      reflect8_avx2(o + 3 * (x + 8), tx + 3 * (x + 8),
-                    _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(acc), 1)), lit_px >> 8, rc);
+    if (lit_px) reflect16_avx512(o + 3 * x, tx + 3 * x, acc, static_cast<__mmask16>(lit_px), rc16);
   }
   _mm256_zeroupper();
   return x;
