@@ -418,11 +418,18 @@ ImageF metric_depth_with(const LabelMap& lm, const CameraGeometry& g, double max
   struct StackQuery { size_t col; int x, y; };
   std::vector<StackQuery> stack_q;
   std::vector<int> stack_bottom(cols, -1);
+  // (Only the regions that show no contact read their stack bottoms.)
   for (const auto& c : comps) {
     if (c.single) continue;
+    bool shown = false;
+    for (int x = c.x0; x <= c.x1 && !shown; ++x) {
+      const int y = col_ymax[c.col_off + (x - c.x0)];
+      shown = y >= 0 && shows_contact(x, y);
+    }
+    if (shown) continue;
     for (int x = c.x0; x <= c.x1; ++x) {
       const int y = col_ymax[c.col_off + (x - c.x0)];
-      if (y >= 0 && !shows_contact(x, y)) stack_q.push_back({c.col_off + (x - c.x0), x, y});
+      if (y >= 0) stack_q.push_back({c.col_off + (x - c.x0), x, y});
     }
   }
   if (!stack_q.empty()) {
