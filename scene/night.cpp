@@ -146,11 +146,17 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
-  // labels (metric_depth_runs, building_regions, from the label runs made beside Canny) and the
-  // lane mask at the frame's size: nothing else can start before the vanishing point, which
-  // needs the lines. At 1 thread both in turn (this lap then holds their time, no longer "depth").
+  // labels (metric_depth_runs, building_regions, from the label runs made beside Canny), the
+  // lane mask at the frame's size and the light map's vehicle rows, components and boxes
+  // (vehicle_parts: labels and instance ids only; the light map, much later, takes them): nothing
+  // else can start before the vanishing point, which needs the lines. Of the vehicle analysis
+  // only its components and boxes fit beside Hough's ~2.0 ms: with its colour cues too (0.4 ms of
+  // work) this half outlasted Hough by more than they saved in the light map (docs/benchmarks.md,
+  // "Night chain, twenty-second session: the vehicle analysis beside the Hough transform"). At 1
+  // thread both in turn (this lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
   std::shared_ptr<BuildingRegions> regions;
+  std::shared_ptr<const VehicleParts> vehicles;
   ImageU8 lanes_full;
   side_by_side(
       std::min(2, omp_get_max_threads()),
@@ -158,6 +164,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         depth_runs = metric_depth_runs(labels, label_row_runs.get());
         regions = building_regions(labels.ids, label_row_runs.get());
         lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
+        vehicles = vehicle_parts(labels);
       },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
@@ -222,8 +229,10 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // once its light is final (LightMap::composed: the same bits as compose() after it, without a
   // pass of its own over four full-frame images); the stage is then timed as one,
   // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail);
+  LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
+                               &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
+                               vehicles.get());
+  vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   if (!lm.composed.empty()) {

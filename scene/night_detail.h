@@ -84,6 +84,19 @@ struct PoleComponents;
 std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids, const LabelRuns* runs = nullptr);
 StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
                                          uint64_t seed, const PoleComponents* poles);
+// The vehicle lamps' part that reads only the labels and the instance ids (scene/lights.cpp): the
+// rows holding vehicle pixels, the vehicles' components (instances, or the vehicle classes'
+// 8-connected components) and their boxes; no vanishing point or camera geometry, so night_scene
+// makes it beside the Hough stage. light_map_with takes it when it was made of these labels
+// (lm.ids and lm.instances), else makes it: the same components, boxes and lamps. light_map() is
+// light_map_with(..., nullptr).
+struct VehicleParts;
+std::shared_ptr<const VehicleParts> vehicle_parts(const LabelMap& labels);
+LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
+                        const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
+                        uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m, const ImageF* beam_lux,
+                        const BuildingFacades* facades, const StreetLighting* street, bool with_radiance,
+                        bool with_glare_level1, const VehicleParts* vehicles);
 // coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a
 // width x height image `d` written by row(d, y), the same values as coarse_depth's, from any
 // thread (night_scene's depth halves share its rows, each taking the next ones once its own work
