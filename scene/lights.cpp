@@ -964,25 +964,6 @@ bool blob_in(const ImageU8& m, int x, int y, uint8_t v) {
 }
 }  // namespace
 
-// The vehicle analysis's parts that read only the labels and the instance ids (vehicle_parts,
-// scene/night_detail.h): the vehicle rows, and the vehicles' components and boxes. light_map's
-// vehicle lamps take them when they were made of their labels, else make them.
-struct VehicleParts {
-  LabelsMadeOf labels;  // the labels (and instance ids) it was made of
-  // The rows holding any vehicle pixel: [ry0, ry1] (ry1 < 0: none); all vehicle work stays
-  // inside them.
-  int ry0 = 0, ry1 = -1;
-  // Vehicle component per pixel: instances from the instance ids, else connected components of
-  // the vehicle classes; only the vehicle rows are written (0 off vehicles) and read. Component
-  // c's class comp_class[c] (c = 1..ncomp) and box.
-  ImageI32 comp;
-  std::vector<int> comp_class;
-  int ncomp = 0;
-  struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0; };
-  std::vector<Box> boxes;
-  bool made_of(const LabelMap& lm) const { return labels.same_labels(LabelsMadeOf(lm)); }
-};
-
 namespace {
 // The vehicles' colour cues (vehicle_cues): per pixel 1 red lamp colour, 2 white lamp colour
 // (where the vehicle allows), written in the vehicle rows and the row on either side; the rows
@@ -993,6 +974,34 @@ struct VehicleCues {
   std::vector<int> red_blob_px;
 };
 }  // namespace
+
+// The vehicle analysis's parts that read only the labels, the instance ids and the day image
+// (vehicle_rows_part, add_vehicle_parts: scene/night_detail.h): the vehicle rows; the vehicles'
+// components and boxes; their colour cues. light_map's vehicle lamps take what it holds when it
+// was made of their labels (the cues: and of their day image), else make them.
+struct VehicleParts {
+  LabelsMadeOf labels;  // the labels (and instance ids) it was made of
+  // The rows holding any vehicle pixel: [ry0, ry1] (ry1 < 0: none); all vehicle work stays
+  // inside them.
+  int ry0 = 0, ry1 = -1;
+  // Vehicle component per pixel: instances from the instance ids, else connected components of
+  // the vehicle classes; only the vehicle rows are written (0 off vehicles) and read. Component
+  // c's class comp_class[c] (c = 1..ncomp) and box. `components`: made.
+  bool components = false;
+  ImageI32 comp;
+  std::vector<int> comp_class;
+  int ncomp = 0;
+  struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0; };
+  std::vector<Box> boxes;
+  // The colour cues, made of the day image at `day` (its samples, width and height).
+  std::optional<VehicleCues> cues;
+  const float* day = nullptr;
+  int day_width = 0, day_height = 0;
+  bool made_of(const LabelMap& lm) const { return labels.same_labels(LabelsMadeOf(lm)); }
+  bool cues_of(const ImageF& d) const {
+    return cues && day == d.data() && day_width == d.width() && day_height == d.height();
+  }
+};
 
 namespace {
 // The vehicle rows [ry0, ry1] of VehicleParts: those holding a vehicle label or instance id.
@@ -1253,13 +1262,24 @@ std::vector<int> vehicle_lens(const VehicleParts& m, const ImageF& day, const Im
 }
 }  // namespace
 
-std::shared_ptr<const VehicleParts> vehicle_parts(const LabelMap& lm) {
-  const VehicleIds vid;
+std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& lm) {
   auto m = std::make_shared<VehicleParts>();
   m->labels = LabelsMadeOf(lm);
-  vehicle_rows(lm, vid, m->ry0, m->ry1);
-  vehicle_components(*m, lm, vid);
+  vehicle_rows(lm, VehicleIds(), m->ry0, m->ry1);
   return m;
+}
+void add_vehicle_parts(VehicleParts& m, const ImageF& day, const LabelMap& lm) {
+  if (!m.made_of(lm)) {
+    m = VehicleParts();
+    m.labels = LabelsMadeOf(lm);
+    vehicle_rows(lm, VehicleIds(), m.ry0, m.ry1);
+  }
+  vehicle_components(m, lm, VehicleIds());
+  m.components = true;
+  m.cues = vehicle_cues(m, day);
+  m.day = day.data();
+  m.day_width = day.width();
+  m.day_height = day.height();
 }
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
@@ -1392,8 +1412,10 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   const double travel_divide = extent && sl.road_straight ? std::min(road_mid, -0.5 * p.veh_lane_width_m) : road_mid;
   // Vehicles: instances from the instance ids, else connected components of each vehicle class
   // (VehicleParts, above). The vehicle rows, components and boxes (labels and instance ids only)
-  // come from `vehicles` when it was made of these labels (night_scene makes them beside the
-  // Hough transform, vehicle_parts), else are made here: the same parts.
+  // come from `vehicles` when it was made of these labels and holds them, the colour cues when
+  // it was also made of this day image (night_scene makes the rows beside Canny and the rest
+  // beside the Hough transform: vehicle_rows_part, add_vehicle_parts); the others are made here:
+  // the same parts.
   const VehicleParts* handed = vehicles && vehicles->made_of(lm) ? vehicles : nullptr;
   int ry0 = H, ry1 = -1;
   if (handed) {
@@ -1412,12 +1434,12 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // returns.
   auto vehicle_lamps = [&] {
     VehicleParts own;
-    if (!handed) {
+    if (!handed || !handed->components) {
       own.ry0 = ry0;
       own.ry1 = ry1;
       vehicle_components(own, lm, VehicleIds());
     }
-    const VehicleParts& parts = handed ? *handed : own;
+    const VehicleParts& parts = handed && handed->components ? *handed : own;
     const ImageI32& comp = parts.comp;
     const std::vector<int>& comp_class = parts.comp_class;
     const int ncomp = parts.ncomp;
@@ -1522,7 +1544,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     // lower half; and the red blobs' pixels per vehicle (they tell which way it faces, below).
     const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
     const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-    const VehicleCues cues = vehicle_cues(parts, day);
+    std::optional<VehicleCues> own_cues;
+    if (&parts == &own || !parts.cues_of(day)) own_cues = vehicle_cues(parts, day);
+    const VehicleCues& cues = own_cues ? *own_cues : *parts.cues;
     const ImageU8& cue = cues.cue;
     const std::vector<uint8_t>& cue_row = cues.cue_row;
     const std::vector<int>& red_blob_px = cues.red_blob_px;

@@ -129,11 +129,15 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("lanes");
   // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
   // them on a second one the label image's runs (label_runs: one scan for the three labels-only
-  // parts) and the street-lamp plan's labels-only part, its poles' components
-  // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
-  // thread both in turn (this lap then holds their time, no longer "depth").
+  // parts), the street-lamp plan's labels-only part, its poles' components (pole_components_of;
+  // the plan itself needs the camera geometry, in the depth stage), and the light map's vehicle
+  // rows (vehicle_rows_part: the rows holding vehicle labels or instance ids; a small struct, the
+  // vehicles' images are added beside Hough on this thread). Thread CPU times on the bench frame
+  // (twenty-second session): Canny 0.83 ms, the runs and poles 0.43, the vehicle rows 0.43. At 1
+  // thread both in turn (this lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const PoleComponents> poles;
   std::shared_ptr<const LabelRuns> label_row_runs;
+  std::shared_ptr<VehicleParts> vehicles;
   side_by_side(
       std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
       [&] {
@@ -141,22 +145,24 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         // The poles only where the preset has street lighting: unlit, the plan keeps no lamps (it
         // still measures the road's extent, from the labels alone; scene/luminaires.cpp).
         if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids, label_row_runs.get());
+        vehicles = vehicle_rows_part(labels);
       });
   grey = ImageU8();
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
   // labels (metric_depth_runs, building_regions, from the label runs made beside Canny), the
-  // lane mask at the frame's size and the light map's vehicle rows, components and boxes
-  // (vehicle_parts: labels and instance ids only; the light map, much later, takes them): nothing
-  // else can start before the vanishing point, which needs the lines. Of the vehicle analysis
-  // only its components and boxes fit beside Hough's ~2.0 ms: with its colour cues too (0.4 ms of
-  // work) this half outlasted Hough by more than they saved in the light map (docs/benchmarks.md,
-  // "Night chain, twenty-second session: the vehicle analysis beside the Hough transform"). At 1
-  // thread both in turn (this lap then holds their time, no longer "depth" and "lights").
+  // lane mask at the frame's size, and the light map's vehicle components, boxes and colour cues
+  // (add_vehicle_parts: labels, instance ids and the day image only; the light map, much later,
+  // takes them): nothing else can start before the vanishing point, which needs the lines. Thread
+  // CPU times on the bench frame: Hough 2.05 ms; beside it 0.92 ms, then the vehicles' components
+  // and boxes 0.64 and cues 0.42. The vehicle analysis's red lens cue (0.9 ms with its road grey)
+  // and its states (they need the geometry) stay in the light map: with the lens cue this half
+  // outlasts Hough by more than it saves there (docs/benchmarks.md, "Night chain, twenty-second
+  // session: the vehicle analysis beside the Hough transform"). At 1 thread both in turn (this
+  // lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
   std::shared_ptr<BuildingRegions> regions;
-  std::shared_ptr<const VehicleParts> vehicles;
   ImageU8 lanes_full;
   side_by_side(
       std::min(2, omp_get_max_threads()),
@@ -164,7 +170,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         depth_runs = metric_depth_runs(labels, label_row_runs.get());
         regions = building_regions(labels.ids, label_row_runs.get());
         lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
-        vehicles = vehicle_parts(labels);
+        add_vehicle_parts(*vehicles, day, labels);
       },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");

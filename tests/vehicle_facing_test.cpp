@@ -407,7 +407,8 @@ namespace {
 // (instance 26000) with two dull red rear-lamp lenses (the red lens cue only, as in
 // DullRedRearLampsUnderAColourCastMeanTailLamps), car 1 (26001) with two saturated red lamps
 // (a* > 40: the lit-lamp cue) and a near-white highlight in its lower half (the white cue).
-SyntheticCameraScene cued_cars() {
+// `red_lamps` false: car 1 without its red lamps.
+SyntheticCameraScene cued_cars(bool red_lamps = true) {
   const SyntheticCameraOptions o = camera_scene();
   SyntheticCameraScene s = make_synthetic_camera_scene(o);
   const float cast[3] = {0.75f, 1.0f, 0.8f};
@@ -442,7 +443,8 @@ SyntheticCameraScene cued_cars() {
     }
     if (q == 26001) {
       const float red[3] = {0.8f, 0.02f, 0.02f}, white[3] = {0.95f, 0.95f, 0.95f};
-      for (int bx : {x0 + (x1 - x0) / 8, x1 - (x1 - x0) / 8 - w}) paint(bx, ly, red);
+      if (red_lamps)
+        for (int bx : {x0 + (x1 - x0) / 8, x1 - (x1 - x0) / 8 - w}) paint(bx, ly, red);
       paint((x0 + x1) / 2 - w / 2, y0 + 7 * (y1 - y0) / 10, white);
     }
   }
@@ -508,41 +510,49 @@ void expect_same_run(const VehicleRun& got, const VehicleRun& want, const std::s
 }
 }  // namespace
 
-// The vehicle analysis's labels-only part made ahead (vehicle_parts: night_scene makes it beside
-// the Hough transform: the vehicle rows, components and boxes) and handed to the light map gives
-// the light map's own result bit for bit: the same vehicles (boxes, pixel counts), cue and lens
-// pixels, decisions, lamps and light, with the scene geometry and without (the image-space
-// lamps), for instance ids and for the vehicle classes' connected components (no instance ids).
-// The scene exercises every cue: car 0's lens pixels turn it to tail lamps, car 1's red lamps are
-// red blobs.
+// The vehicle analysis's labels-and-day-image parts made ahead (night_scene makes the vehicle
+// rows beside Canny, vehicle_rows_part, and the components, boxes and colour cues beside the
+// Hough transform, add_vehicle_parts) and handed to the light map, the rows alone or all,
+// give the light map's own result bit for bit: the same vehicles (boxes, pixel counts), cue and
+// lens pixels, decisions, lamps and light, with the scene geometry and without (the image-space
+// lamps), for instance ids, for the vehicle classes' connected components (no instance ids), and
+// for a vehicle in the instance ids only (car 0's labels road: its rows, below and above car 1's,
+// are found in the instance ids). The scene exercises every cue: car 0's lens pixels turn it to
+// tail lamps, car 1's red lamps are red blobs.
 TEST(VehicleParts, MadeAheadTheyGiveTheLightMapItsOwnLampsBitForBit) {
   const SyntheticCameraScene s = cued_cars();
-  LabelMap no_instances = s.labels;
+  LabelMap no_instances = s.labels, instance_only = s.labels;
   no_instances.instances = ImageU16();
-  for (const LabelMap* lm : {&s.labels, static_cast<const LabelMap*>(&no_instances)}) {
-    const std::string kind = lm->instances.empty() ? "components" : "instances";
+  for (size_t i = 0; i < instance_only.ids.size(); ++i)
+    if (instance_only.instances[i] == 26000) instance_only.ids[i] = static_cast<uint16_t>(Label::Road);
+  const std::vector<std::pair<std::string, const LabelMap*>> kinds = {
+      {"instances", &s.labels}, {"components", &no_instances}, {"car 0 in the instance ids only", &instance_only}};
+  for (const auto& [kind, lm] : kinds) {
     const VehicleInputs in(s.day_linear_srgb, *lm);
-    const auto parts = vehicle_parts(*lm);
+    const std::shared_ptr<VehicleParts> rows = vehicle_rows_part(*lm), all = vehicle_rows_part(*lm);
+    add_vehicle_parts(*all, s.day_linear_srgb, *lm);
     for (const bool geometry : {true, false}) {
       const VehicleRun own = in.run(s.day_linear_srgb, *lm, nullptr, geometry);
       EXPECT_GT(own.map.stats.vehicle_lamps, 0) << kind;
-      if (geometry) {
+      if (geometry && lm != &instance_only) {
         ASSERT_EQ(own.seen.size(), 2u) << kind;
         EXPECT_GT(own.seen[0].lens_px, 0) << kind;       // car 0: the lens cue ...
         EXPECT_FALSE(own.seen[0].faces_camera) << kind;  // ... makes it show its rear
         EXPECT_GT(own.seen[1].red_px, 0) << kind;        // car 1: red blobs
       }
-      expect_same_run(in.run(s.day_linear_srgb, *lm, parts.get(), geometry), own,
-                      kind + (geometry ? ", geometry" : ", image space"));
+      const std::string where = kind + (geometry ? ", geometry" : ", image space");
+      expect_same_run(in.run(s.day_linear_srgb, *lm, rows.get(), geometry), own, where + ", the rows");
+      expect_same_run(in.run(s.day_linear_srgb, *lm, all.get(), geometry), own, where + ", all parts");
     }
   }
 }
 
-// A part made of other labels (other buffers: here the same scene with car 1 relabelled as road)
-// is not taken: the light map then makes its own and gives its own result. (Taken, it would not:
-// car 1 would have no lamps.)
-TEST(VehicleParts, APartOfOtherLabelsIsNotTaken) {
-  const SyntheticCameraScene s = cued_cars();
+// Parts made of other labels (other buffers: here the same scene with car 1 relabelled as road)
+// are not taken, nor cues made of another day image (here without car 1's red lamps): the light
+// map then makes them itself and gives its own result. (Taken, they would not: car 1 would have
+// no lamps, or no red blobs.) add_vehicle_parts on rows of other labels makes them again.
+TEST(VehicleParts, PartsOfOtherLabelsOrAnotherDayImageAreNotTaken) {
+  const SyntheticCameraScene s = cued_cars(), plain = cued_cars(false);
   const VehicleInputs in(s.day_linear_srgb, s.labels);
   const VehicleRun own = in.run(s.day_linear_srgb, s.labels, nullptr, true);
   ASSERT_EQ(own.seen.size(), 2u);
@@ -553,6 +563,15 @@ TEST(VehicleParts, APartOfOtherLabelsIsNotTaken) {
       other.instances[i] = static_cast<uint16_t>(Label::Road);
     }
   ASSERT_EQ(in.run(s.day_linear_srgb, other, nullptr, true).seen.size(), 1u);
-  const auto of_other = vehicle_parts(other);
-  expect_same_run(in.run(s.day_linear_srgb, s.labels, of_other.get(), true), own, "a part of other labels");
+  ASSERT_EQ(in.run(plain.day_linear_srgb, s.labels, nullptr, true).seen.at(1).red_px, 0);
+  const std::shared_ptr<VehicleParts> rows_of_other = vehicle_rows_part(other), of_other = vehicle_rows_part(other);
+  add_vehicle_parts(*of_other, s.day_linear_srgb, other);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, rows_of_other.get(), true), own, "rows of other labels");
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, of_other.get(), true), own, "parts of other labels");
+  const std::shared_ptr<VehicleParts> of_plain = vehicle_rows_part(s.labels);
+  add_vehicle_parts(*of_plain, plain.day_linear_srgb, s.labels);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, of_plain.get(), true), own, "cues of another day image");
+  const std::shared_ptr<VehicleParts> remade = vehicle_rows_part(other);
+  add_vehicle_parts(*remade, s.day_linear_srgb, s.labels);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, remade.get(), true), own, "rows of other labels, made again");
 }
