@@ -921,11 +921,380 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   return E;
 }
 
+namespace {
+// The vehicle classes (is_vehicle) as a table (the call per pixel was a visible part of the light
+// map), and as one id range where they form one (labels.cpp: 26..33): then a label is a vehicle
+// when (uint16)(id − lo) ≤ span and an instance id q (class·1000 + n) when q ∈ [1000·lo,
+// 1000·hi + 999] (q/1000 a vehicle, and q ≥ 1000): the same tests as the table's, without it or
+// the division per pixel.
+struct VehicleIds {
+  bool table[kLabelCount];
+  bool range = false;
+  uint16_t lo = 0, span = 0, q_lo = 0, q_span = 0;
+  VehicleIds() {
+    int v_lo = -1, v_hi = -1;
+    for (int id = 0; id < kLabelCount; ++id) {
+      table[id] = is_vehicle(id);
+      if (table[id]) {
+        if (v_lo < 0) v_lo = id;
+        v_hi = id;
+      }
+    }
+    range = v_lo > 0;
+    for (int id = std::max(0, v_lo); id <= v_hi; ++id) range = range && table[id];
+    lo = static_cast<uint16_t>(std::max(0, v_lo));
+    span = static_cast<uint16_t>(v_hi - v_lo);
+    q_lo = static_cast<uint16_t>(1000 * std::max(0, v_lo));
+    q_span = static_cast<uint16_t>(1000 * (v_hi - v_lo) + 999);
+  }
+  bool vehicle(int id) const { return id >= 0 && id < kLabelCount && table[id]; }
+  bool label(uint16_t id) const { return range ? static_cast<uint16_t>(id - lo) <= span : vehicle(id); }
+  bool instance(uint16_t q) const {
+    return range ? static_cast<uint16_t>(q - q_lo) <= q_span : q >= 1000 && vehicle(q / 1000);
+  }
+};
+
+// Whether at least 5 of the 8 neighbours of (x, y) in m are v: a lamp is a blob, not a pixel on
+// a colour fringe.
+bool blob_in(const ImageU8& m, int x, int y, uint8_t v) {
+  int n = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && m.at(x + dx, y + dy) == v;
+  return n >= 5;
+}
+}  // namespace
+
+namespace {
+// The vehicles' colour cues (vehicle_cues): per pixel 1 red lamp colour, 2 white lamp colour
+// (where the vehicle allows), written in the vehicle rows and the row on either side; the rows
+// holding a cue; each vehicle's pixels in red blobs.
+struct VehicleCues {
+  ImageU8 cue;
+  std::vector<uint8_t> cue_row;
+  std::vector<int> red_blob_px;
+};
+}  // namespace
+
+// The vehicle analysis's parts that read only the labels, the instance ids and the day image
+// (vehicle_rows_part, add_vehicle_parts: scene/night_detail.h): the vehicle rows; the vehicles'
+// components and boxes; their colour cues. light_map's vehicle lamps take what it holds when it
+// was made of their labels (the cues: and of their day image), else make them.
+struct VehicleParts {
+  LabelsMadeOf labels;  // the labels (and instance ids) it was made of
+  // The rows holding any vehicle pixel: [ry0, ry1] (ry1 < 0: none); all vehicle work stays
+  // inside them.
+  int ry0 = 0, ry1 = -1;
+  // Vehicle component per pixel: instances from the instance ids, else connected components of
+  // the vehicle classes; only the vehicle rows are written (0 off vehicles) and read. Component
+  // c's class comp_class[c] (c = 1..ncomp) and box. `components`: made.
+  bool components = false;
+  ImageI32 comp;
+  std::vector<int> comp_class;
+  int ncomp = 0;
+  struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0; };
+  std::vector<Box> boxes;
+  // The colour cues, made of the day image at `day` (its samples, width and height).
+  std::optional<VehicleCues> cues;
+  const float* day = nullptr;
+  int day_width = 0, day_height = 0;
+  bool made_of(const LabelMap& lm) const { return labels.same_labels(LabelsMadeOf(lm)); }
+  bool cues_of(const ImageF& d) const {
+    return cues && day == d.data() && day_width == d.width() && day_height == d.height();
+  }
+};
+
+namespace {
+// The vehicle rows [ry0, ry1] of VehicleParts: those holding a vehicle label or instance id.
+void vehicle_rows(const LabelMap& lm, const VehicleIds& vid, int& ry0_out, int& ry1_out) {
+  const ImageU16& labels = lm.ids;
+  const int W = labels.width(), H = labels.height();
+  int ry0 = H, ry1 = -1;
+#pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* r = labels.row(y);
+    const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
+    // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block;
+    // with the vehicle range, on local copies of the bounds, which the compiler vectorizes).
+    bool any = false;
+    const int Wr = W;
+    const bool range = vid.range;
+    const uint16_t lo = vid.lo, span = vid.span, qlo = vid.q_lo, qspan = vid.q_span;
+    for (int x0 = 0; x0 < Wr && !any; x0 += 64) {
+      const int x1 = std::min(Wr, x0 + 64);
+      unsigned acc = 0;
+      if (range) {
+        for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(r[x] - lo) <= span;
+        if (q)
+          for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(q[x] - qlo) <= qspan;
+      } else {
+        for (int x = x0; x < x1; ++x) acc |= vid.label(r[x]);
+        if (q)
+          for (int x = x0; x < x1; ++x) acc |= vid.instance(q[x]);
+      }
+      any = acc != 0;
+    }
+    if (any) {
+      ry0 = std::min(ry0, y);
+      ry1 = std::max(ry1, y);
+    }
+  }
+  ry0_out = ry0;
+  ry1_out = ry1;
+}
+
+// VehicleParts' components and boxes in its vehicle rows (m.ry0, m.ry1 set).
+void vehicle_components(VehicleParts& m, const LabelMap& lm, const VehicleIds& vid) {
+  const ImageU16& labels = lm.ids;
+  const int W = labels.width(), H = labels.height();
+  const int ry0 = m.ry0, ry1 = m.ry1;
+  // Only the vehicle rows [ry0, ry1] are zeroed and used (the lamps' discs read it through
+  // `mine`, which is false outside them), so the other rows are never written, nor their pages
+  // touched.
+  m.comp = ImageI32(W, H, 1, uninitialized);
+  ImageI32& comp = m.comp;
+  std::vector<int>& comp_class = m.comp_class;
+  comp_class.assign(1, 0);
+#pragma omp parallel for schedule(static)
+  for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
+  const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
+  const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
+  if (ry1 >= 0) {
+    std::map<int, int> inst_index;
+    if (!lm.instances.empty()) {
+      int last_v = -1, last_c = 0;
+      const uint16_t* qd = lm.instances.data();
+      const bool range = vid.range;
+      const uint16_t qlo = vid.q_lo, qspan = vid.q_span;
+      for (size_t i = i_begin; i < i_end; ++i) {
+        // Sixteen pixels of no vehicle instance skipped at once (a branch-free test the compiler
+        // vectorizes, on local copies of the range): such pixels change nothing here.
+        if (range && (i & 15) == 0 && i + 16 <= i_end) {
+          unsigned any = 0;
+          for (size_t k = i; k < i + 16; ++k) any |= static_cast<uint16_t>(qd[k] - qlo) <= qspan;
+          if (!any) {
+            i += 15;
+            continue;
+          }
+        }
+        const int v = qd[i];
+        if (vid.instance(static_cast<uint16_t>(v))) {
+          if (v != last_v) {
+            auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
+            if (fresh) comp_class.push_back(v / 1000);
+            last_v = v;
+            last_c = it->second;
+          }
+          comp[i] = last_c;
+        }
+      }
+    }
+      cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
+    const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
+    // (Through local pointers, and with the vehicle range in locals: the byte stores might alias
+    // the images' and the table's fields, which kept the compiler from vectorizing the loop.)
+    const uint16_t* lab = labels.data();
+    const int32_t* cp = comp.data();
+    uint8_t* md = mask.data;
+    if (vid.range) {
+      const uint16_t lo = vid.lo, span = vid.span;
+#pragma omp parallel for schedule(static)
+      for (long i = nb; i < ne; ++i) md[i - nb] = static_cast<uint16_t>(lab[i] - lo) <= span && cp[i] == 0 ? 255 : 0;
+    } else {
+#pragma omp parallel for schedule(static)
+      for (long i = nb; i < ne; ++i) md[i - nb] = vid.label(lab[i]) && cp[i] == 0 ? 255 : 0;
+    }
+      cv::Mat cc;
+    const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
+      const int base = static_cast<int>(inst_index.size());
+    for (int c = 1; c < n; ++c) comp_class.push_back(0);
+    // Class of each new component: the label at its first pixel (a component is one class
+    // group, vehicles; mixed-class blobs take the first met).
+    const int32_t* ccd = reinterpret_cast<const int32_t*>(cc.data);
+    for (size_t i = i_begin; i < i_end; ++i) {
+      // Eight pixels of no new component (label 0) skipped at once: most of these rows.
+      if (((i - i_begin) & 7) == 0 && i + 8 <= i_end && all_zero8(ccd + (i - i_begin))) {
+        i += 7;
+        continue;
+      }
+      const int c = ccd[i - i_begin];
+      if (c > 0) {
+        comp[i] = base + c;
+        if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
+      }
+    }
+    m.ncomp = static_cast<int>(comp_class.size()) - 1;
+    }
+  const int ncomp = m.ncomp;
+  m.boxes.assign(ncomp + 1, VehicleParts::Box{});
+  // Each row's runs of one component: a run [x, e) widens its box once and adds e − x pixels
+  // (the same boxes and counts as pixel by pixel).
+  for (int y = ry0; y <= ry1; ++y) {
+    const int32_t* cr = comp.row(y);
+    for (int x = 0; x < W;) {
+      // Vehicle pixels are a minority of these rows: eight ids at a time skip the empty stretches.
+      if ((x & 7) == 0 && x + 8 <= W && all_zero8(cr + x)) {
+        x += 8;
+        continue;
+      }
+      const int c = cr[x];
+      int e = x + 1;
+      while (e < W && cr[e] == c) ++e;
+      if (c) {
+        VehicleParts::Box& b = m.boxes[c];
+        b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, e - 1);
+        b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
+        b.n += e - x;
+      }
+      x = e;
+    }
+  }
+}
+
+// Colour cues inside vehicles (VehicleCues): saturated red (lamp lenses, reflectors) and,
+// on vehicles where bright white is rare (so not a white body), near-white highlights in the
+// lower half; and each vehicle's red cue pixels in blobs (>= 5 of 8 like neighbours), which tell
+// which way it faces (light_map). Reads the components and boxes of m and the day image.
+VehicleCues vehicle_cues(const VehicleParts& m, const ImageF& day) {
+  const int W = day.width(), H = day.height();
+  const int ry0 = m.ry0, ry1 = m.ry1;
+  const ImageI32& comp = m.comp;
+  VehicleCues out;
+  // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
+  // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
+  out.cue = ImageU8(W, H, 1, uninitialized);
+  ImageU8& cue = out.cue;
+  for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
+  out.cue_row.assign(H, 0);  // rows holding a cue (only those are read again below)
+  std::vector<uint8_t>& cue_row = out.cue_row;
+#pragma omp parallel for schedule(static, 8)
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    const int32_t* comp_row = comp.row(y);
+    for (int x = 0; x < W; ++x) {
+      // Eight pixels of no vehicle skipped at once (as in the boxes' scan).
+      if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
+        x += 7;
+        continue;
+      }
+      const size_t i = static_cast<size_t>(y) * W + x;
+      const int c = comp[i];
+      if (!c) continue;
+      // Necessary conditions first, in to_lab's own expressions (so the same doubles): both cues
+      // need L* > 25 and L* = 116·f(Y) − 16 is non-decreasing in Y (lab_f's table lerp too, up
+      // to the float rounding of its entries, ~1e-8), with L*(0.04) = 23.7: Y ≤ 0.04 is neither.
+      // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
+      // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
+      // the same cues.
+      const float* s = day.data() + 3 * i;
+      const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
+      const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
+      if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;
+      const Lab l = to_lab(s);
+      // The hue angle only where the red test can pass (the same tests in the same order).
+      if (l.a > 40 && l.L > 25) {
+        const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
+        if (hue > -20 && hue < 40) {
+          cue[i] = 1;
+          continue;
+        }
+      }
+      if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
+    }
+    const uint8_t* cr = cue.row(y);
+    cue_row[y] = std::any_of(cr, cr + W, [](uint8_t v) { return v != 0; });
+  }
+  // The white cues, in the cue rows only (elsewhere cue is 0), in the order of the full scan;
+  // kept on vehicles where they are rare (fewer than 1 in 20 of its pixels) and in its lower half.
+  std::vector<int> white(m.ncomp + 1, 0);
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    if (!cue_row[y]) continue;
+    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+      if (cue[i] == 2) ++white[comp[i]];
+  }
+  for (int y = std::max(0, ry0); y <= ry1; ++y) {
+    if (!cue_row[y]) continue;
+    for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
+      if (cue[i] == 2) {
+        const VehicleParts::Box& b = m.boxes[comp[i]];
+        if (!(white[comp[i]] * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
+      }
+  }
+  // The red blobs' pixels per vehicle.
+  out.red_blob_px.assign(m.ncomp + 1, 0);
+  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
+    if (!cue_row[y]) continue;
+    for (int x = 1; x < W - 1; ++x)
+      if (cue.at(x, y) == 1 && blob_in(cue, x, y, 1)) ++out.red_blob_px[comp.at(x, y)];
+  }
+  return out;
+}
+
+// The red lens cue (light_map reads it with the geometry only: it tells which way a vehicle
+// faces): vehicle pixels of a red lamp lens's colour once the frame's cast is taken out by the
+// road's grey (road_grey_gains, rear_lens_colour: an unlit rear lamp in daylight, a* 20-40 where
+// the lit-lamp cue needs 40), in blobs (>= 5 of 8 neighbours alike), counted per vehicle. Written
+// and read in the vehicle rows and the row on either side only.
+std::vector<int> vehicle_lens(const VehicleParts& m, const ImageF& day, const ImageU16& labels) {
+  const int W = day.width(), H = day.height();
+  const int ry0 = m.ry0, ry1 = m.ry1;
+  const ImageI32& comp = m.comp;
+  std::vector<int> lens_blob_px(m.ncomp + 1, 0);
+  if (ry1 < 0) return lens_blob_px;
+  const std::array<double, 3> gain = road_grey_gains(day, labels);
+  ImageU8 lens(W, H, 1, uninitialized);
+  for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(lens.row(y), W, uint8_t{0});
+#pragma omp parallel for schedule(static, 8)
+  for (int y = ry0; y <= ry1; ++y) {
+    const int32_t* comp_row = comp.row(y);
+    uint8_t* lr = lens.row(y);
+    for (int x = 0; x < W; ++x) {
+      if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
+        x += 7;
+        continue;
+      }
+      if (comp_row[x] && rear_lens_colour(day.data() + 3 * (static_cast<size_t>(y) * W + x), gain)) lr[x] = 1;
+    }
+  }
+  for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
+    for (int x = 1; x < W - 1; ++x) {
+      if (lens.at(x, y) && blob_in(lens, x, y, 1)) ++lens_blob_px[comp.at(x, y)];
+    }
+  return lens_blob_px;
+}
+}  // namespace
+
+std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& lm) {
+  auto m = std::make_shared<VehicleParts>();
+  m->labels = LabelsMadeOf(lm);
+  vehicle_rows(lm, VehicleIds(), m->ry0, m->ry1);
+  return m;
+}
+void add_vehicle_parts(VehicleParts& m, const ImageF& day, const LabelMap& lm) {
+  if (!m.made_of(lm)) {
+    m = VehicleParts();
+    m.labels = LabelsMadeOf(lm);
+    vehicle_rows(lm, VehicleIds(), m.ry0, m.ry1);
+  }
+  vehicle_components(m, lm, VehicleIds());
+  m.components = true;
+  m.cues = vehicle_cues(m, day);
+  m.day = day.data();
+  m.day_width = day.width();
+  m.day_height = day.height();
+}
 LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
                    const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                    uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                    const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
                    bool with_radiance, bool with_glare_level1) {
+  return light_map_with(day, texture, lm, lanes, depth, vp, p, seed, geometry, depth_m, beam_lux, facades, street,
+                        with_radiance, with_glare_level1, nullptr);
+}
+
+LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap& lm, const ImageU8& lanes,
+                        const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
+                        uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
+                        const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
+                        bool with_radiance, bool with_glare_level1, const VehicleParts* vehicles) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -1041,156 +1410,43 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
   // ego lane, or right of it, travels the ego's way (an oncoming one there would be on a collision
   // course); a camera left of the middle is on a one-way carriageway or its left lane.
   const double travel_divide = extent && sl.road_straight ? std::min(road_mid, -0.5 * p.veh_lane_width_m) : road_mid;
-  // Vehicles: instances from the instance ids, else connected components of each vehicle class.
-  // (is_vehicle from a table: the call per pixel was a visible part of this stage.)
-  bool vehicle_id[kLabelCount];
-  for (int id = 0; id < kLabelCount; ++id) vehicle_id[id] = is_vehicle(id);
-  auto vehicle = [&](int id) { return id >= 0 && id < kLabelCount && vehicle_id[id]; };
-  // The vehicle ids form one range [v_lo, v_hi] (labels.cpp: 26..33); where they do, a label is
-  // a vehicle when (uint16)(id − v_lo) ≤ v_hi − v_lo and an instance id q (class·1000 + n) when
-  // q ∈ [1000·v_lo, 1000·v_hi + 999] (q/1000 a vehicle, and q ≥ 1000): the same tests as
-  // vehicle(), without the table or the division per pixel.
-  int v_lo = -1, v_hi = -1;
-  for (int id = 0; id < kLabelCount; ++id)
-    if (vehicle_id[id]) {
-      if (v_lo < 0) v_lo = id;
-      v_hi = id;
-    }
-  bool v_range = v_lo > 0;
-  for (int id = std::max(0, v_lo); id <= v_hi; ++id) v_range = v_range && vehicle_id[id];
-  const uint16_t v_span = static_cast<uint16_t>(v_hi - v_lo);
-  const uint16_t q_lo = static_cast<uint16_t>(1000 * std::max(0, v_lo)), q_span = static_cast<uint16_t>(1000 * (v_hi - v_lo) + 999);
-  auto vehicle_label = [&](uint16_t id) { return v_range ? static_cast<uint16_t>(id - v_lo) <= v_span : vehicle(id); };
-  auto vehicle_instance = [&](uint16_t q) {
-    return v_range ? static_cast<uint16_t>(q - q_lo) <= q_span : q >= 1000 && vehicle(q / 1000);
-  };
-  // The rows holding any vehicle pixel: all vehicle work below stays inside them.
+  // Vehicles: instances from the instance ids, else connected components of each vehicle class
+  // (VehicleParts, above). The vehicle rows, components and boxes (labels and instance ids only)
+  // come from `vehicles` when it was made of these labels and holds them, the colour cues when
+  // it was also made of this day image (night_scene makes the rows beside Canny and the rest
+  // beside the Hough transform: vehicle_rows_part, add_vehicle_parts); the others are made here:
+  // the same parts.
+  const VehicleParts* handed = vehicles && vehicles->made_of(lm) ? vehicles : nullptr;
   int ry0 = H, ry1 = -1;
-#pragma omp parallel for schedule(static) reduction(min : ry0) reduction(max : ry1)
-  for (int y = 0; y < H; ++y) {
-    const uint16_t* r = labels.row(y);
-    const uint16_t* q = lm.instances.empty() ? nullptr : lm.instances.row(y);
-    // Whether the row holds a vehicle pixel, 64 pixels at a time (branch-free inside a block;
-    // with the vehicle range, on local copies of the bounds, which the compiler vectorizes: the
-    // lambdas read them from the shared frame at every pixel).
-    bool any = false;
-    const int Wr = W;
-    const bool range = v_range;
-    const uint16_t lo = static_cast<uint16_t>(std::max(0, v_lo)), span = v_span, qlo = q_lo, qspan = q_span;
-    for (int x0 = 0; x0 < Wr && !any; x0 += 64) {
-      const int x1 = std::min(Wr, x0 + 64);
-      unsigned acc = 0;
-      if (range) {
-        for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(r[x] - lo) <= span;
-        if (q)
-          for (int x = x0; x < x1; ++x) acc |= static_cast<uint16_t>(q[x] - qlo) <= qspan;
-      } else {
-        for (int x = x0; x < x1; ++x) acc |= vehicle_label(r[x]);
-        if (q)
-          for (int x = x0; x < x1; ++x) acc |= vehicle_instance(q[x]);
-      }
-      any = acc != 0;
-    }
-    if (any) {
-      ry0 = std::min(ry0, y);
-      ry1 = std::max(ry1, y);
-    }
+  if (handed) {
+    ry0 = handed->ry0;
+    ry1 = handed->ry1;
+  } else {
+    vehicle_rows(lm, VehicleIds(), ry0, ry1);
   }
   // The vehicle lamps' pixels (maxima over L), recorded by vehicle_lamps (below) and drawn
   // after the retroreflection, row by row; all lie in the vehicle rows [ry0, ry1].
   MaxDraws veh(W, H);
-  // The vehicles' components, boxes, states, colour cues and placed lamps, recorded in veh.
-  // With the row pass, one thread runs it while the others make the rows outside [ry0, ry1]
-  // (add_street_light_rows' side job: those rows read nothing it writes); otherwise before
-  // the lamps are drawn. Its scratch (component ids, cues) is freed when it returns.
+  // The vehicles' components, boxes, states, colour cues and placed lamps (those not handed),
+  // recorded in veh. With the row pass, one thread runs it while the others make the rows
+  // outside [ry0, ry1] (add_street_light_rows' side job: those rows read nothing it writes);
+  // otherwise before the lamps are drawn. Its own scratch (component ids, cues) is freed when it
+  // returns.
   auto vehicle_lamps = [&] {
-    // Vehicle component per pixel; only the vehicle rows [ry0, ry1] are zeroed and used (the
-    // discs below read it through `mine`, which is false outside them), so the other rows are
-    // never written, nor their pages touched.
-    ImageI32 comp(W, H, 1, uninitialized);
-    int ncomp = 0;
-    std::vector<int> comp_class(1, 0);
-#pragma omp parallel for schedule(static)
-    for (int y = std::max(0, ry0); y <= ry1; ++y) std::fill_n(comp.row(y), W, 0);
+    VehicleParts own;
+    if (!handed || !handed->components) {
+      own.ry0 = ry0;
+      own.ry1 = ry1;
+      vehicle_components(own, lm, VehicleIds());
+    }
+    const VehicleParts& parts = handed && handed->components ? *handed : own;
+    const ImageI32& comp = parts.comp;
+    const std::vector<int>& comp_class = parts.comp_class;
+    const int ncomp = parts.ncomp;
+    const std::vector<VehicleParts::Box>& boxes = parts.boxes;
     const size_t i_begin = ry1 >= 0 ? static_cast<size_t>(ry0) * W : 0;
     const size_t i_end = ry1 >= 0 ? static_cast<size_t>(ry1 + 1) * W : 0;
-    if (ry1 >= 0) {
-      std::map<int, int> inst_index;
-      if (!lm.instances.empty()) {
-        int last_v = -1, last_c = 0;
-        const uint16_t* qd = lm.instances.data();
-        const bool range = v_range;
-        const uint16_t qlo = q_lo, qspan = q_span;
-        for (size_t i = i_begin; i < i_end; ++i) {
-          // Sixteen pixels of no vehicle instance skipped at once (a branch-free test the compiler
-          // vectorizes, on local copies of the range): such pixels change nothing here.
-          if (range && (i & 15) == 0 && i + 16 <= i_end) {
-            unsigned any = 0;
-            for (size_t k = i; k < i + 16; ++k) any |= static_cast<uint16_t>(qd[k] - qlo) <= qspan;
-            if (!any) {
-              i += 15;
-              continue;
-            }
-          }
-          const int v = qd[i];
-          if (vehicle_instance(static_cast<uint16_t>(v))) {
-            if (v != last_v) {
-              auto [it, fresh] = inst_index.try_emplace(v, static_cast<int>(inst_index.size()) + 1);
-              if (fresh) comp_class.push_back(v / 1000);
-              last_v = v;
-              last_c = it->second;
-            }
-            comp[i] = last_c;
-          }
-        }
-      }
-      cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
-      const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
-      // (Through local pointers: the byte stores might alias the images' and the table's fields.)
-      const uint16_t* lab = labels.data();
-      const int32_t* cp = comp.data();
-      uint8_t* md = mask.data;
-#pragma omp parallel for schedule(static)
-      for (long i = nb; i < ne; ++i) md[i - nb] = vehicle_label(lab[i]) && cp[i] == 0 ? 255 : 0;
-      cv::Mat cc;
-      const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
-      const int base = static_cast<int>(inst_index.size());
-      for (int c = 1; c < n; ++c) comp_class.push_back(0);
-      // Class of each new component: the label at its first pixel (a component is one class
-      // group, vehicles; mixed-class blobs take the first met).
-      const int32_t* ccd = reinterpret_cast<const int32_t*>(cc.data);
-      for (size_t i = i_begin; i < i_end; ++i) {
-        // Eight pixels of no new component (label 0) skipped at once: most of these rows.
-        if (((i - i_begin) & 7) == 0 && i + 8 <= i_end && all_zero8(ccd + (i - i_begin))) {
-          i += 7;
-          continue;
-        }
-        const int c = ccd[i - i_begin];
-        if (c > 0) {
-          comp[i] = base + c;
-          if (comp_class[base + c] == 0) comp_class[base + c] = labels[i];
-        }
-      }
-      ncomp = static_cast<int>(comp_class.size()) - 1;
-    }
-    struct Box { int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1, n = 0, white = 0; };
-    std::vector<Box> boxes(ncomp + 1);
-    for (int y = ry0; y <= ry1; ++y) {
-      const int32_t* cr = comp.row(y);
-      for (int x = 0; x < W; ++x) {
-        // Vehicle pixels are a minority of these rows: eight ids at a time skip the empty stretches.
-        if ((x & 7) == 0 && x + 8 <= W && all_zero8(cr + x)) {
-          x += 7;
-          continue;
-        }
-        const int c = cr[x];
-        if (!c) continue;
-        Box& b = boxes[c];
-        b.x0 = std::min(b.x0, x); b.x1 = std::max(b.x1, x);
-        b.y0 = std::min(b.y0, y); b.y1 = std::max(b.y1, y);
-        ++b.n;
-      }
-    }
+    using Box = VehicleParts::Box;
     // With the scene geometry: which vehicles are in traffic (issue 14 §2 "Which vehicles"). A
     // vehicle's ground contact is its lowest row; the labels just below it (3 rows across the
     // middle half of its width) say what it stands on. In traffic: on road, not cut by the frame,
@@ -1283,113 +1539,26 @@ LightMap light_map(const ImageF& day, const ImageF& texture, const LabelMap& lm,
         }
       }
     }
-    // Colour cues inside vehicles: saturated red (lamp lenses, reflectors) and, on vehicles where
-    // bright white is rare (so not a white body), near-white highlights in the lower half.
+    // Colour cues inside vehicles (vehicle_cues): saturated red (lamp lenses, reflectors) and, on
+    // vehicles where bright white is rare (so not a white body), near-white highlights in the
+    // lower half; and the red blobs' pixels per vehicle (they tell which way it faces, below).
     const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
     const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
-    // The vehicle lamps' pixels (maxima over L), recorded while the vehicle scratch is alive and
-    // drawn after the retroreflection, row by row.
-    // 1: red lamp colour, 2: white lamp colour (if the vehicle allows); written and read only in
-    // the vehicle rows and the row on either side (the neighbour test), so only those are zeroed.
-    ImageU8 cue(W, H, 1, uninitialized);
-    for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(cue.row(y), W, uint8_t{0});
-    std::vector<uint8_t> cue_row(H, 0);  // rows holding a cue (only those are read again below)
-#pragma omp parallel for schedule(static, 8)
-    for (int y = std::max(0, ry0); y <= ry1; ++y) {
-      const int32_t* comp_row = comp.row(y);
-      for (int x = 0; x < W; ++x) {
-        // Eight pixels of no vehicle skipped at once (as in the boxes' scan).
-        if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
-          x += 7;
-          continue;
-        }
-        const size_t i = static_cast<size_t>(y) * W + x;
-        const int c = comp[i];
-        if (!c) continue;
-        // Necessary conditions first, in to_lab's own expressions (so the same doubles): both cues
-        // need L* > 25 and L* = 116·f(Y) − 16 is non-decreasing in Y (lab_f's table lerp too, up
-        // to the float rounding of its entries, ~1e-8), with L*(0.04) = 23.7: Y ≤ 0.04 is neither.
-        // The red cue needs a* = 500·(f(X) − f(Y)) > 40, so X > Y; the white one L* > 92, and
-        // L*(0.8) = 91.7: Y ≤ 0.8 with X ≤ Y is neither. Only the remaining pixels are converted:
-        // the same cues.
-        const float* s = day.data() + 3 * i;
-        const double Xn = (0.4124 * s[0] + 0.3576 * s[1] + 0.1805 * s[2]) / 0.95047;
-        const double Yn = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2];
-        if (!(Yn > 0.04) || (!(Xn > Yn) && !(Yn > 0.8))) continue;
-        const Lab l = lab_at(static_cast<int>(i));
-        // The hue angle only where the red test can pass (the same tests in the same order).
-        if (l.a > 40 && l.L > 25) {
-          const double hue = std::atan2(l.b, l.a) * 180 / M_PI;
-          if (hue > -20 && hue < 40) {
-            cue[i] = 1;
-            continue;
-          }
-        }
-        if (l.L > 92 && std::hypot(l.a, l.b) < 10) cue[i] = 2;
-      }
-      const uint8_t* cr = cue.row(y);
-      cue_row[y] = std::any_of(cr, cr + W, [](uint8_t v) { return v != 0; });
-    }
-    // The white cues, in the cue rows only (elsewhere cue is 0), in the order of the full scan.
-    for (int y = std::max(0, ry0); y <= ry1; ++y) {
-      if (!cue_row[y]) continue;
-      for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
-        if (cue[i] == 2) ++boxes[comp[i]].white;
-    }
-    for (int y = std::max(0, ry0); y <= ry1; ++y) {
-      if (!cue_row[y]) continue;
-      for (size_t i = static_cast<size_t>(y) * W; i < static_cast<size_t>(y + 1) * W; ++i)
-        if (cue[i] == 2) {
-          const Box& b = boxes[comp[i]];
-          if (!(b.white * 20 < b.n && 2 * y > b.y0 + b.y1)) cue[i] = 0;
-        }
-    }
-    // A lamp is a blob, not a pixel on a colour fringe: keep cues with >= 5 of 8 like neighbours.
-    // With geometry, only on vehicles in traffic (a parked car's red reflectors stay unlit).
-    // The red blobs' pixels per vehicle are counted too: they tell which way it faces (below).
-    // A white cue on a vehicle that shows its rear is a lit rear lamp (a stop lamp saturates to
-    // white in a day photo): drawn in the tail colour, as the red ones.
+    std::optional<VehicleCues> own_cues;
+    if (&parts == &own || !parts.cues_of(day)) own_cues = vehicle_cues(parts, day);
+    const VehicleCues& cues = own_cues ? *own_cues : *parts.cues;
+    const ImageU8& cue = cues.cue;
+    const std::vector<uint8_t>& cue_row = cues.cue_row;
+    const std::vector<int>& red_blob_px = cues.red_blob_px;
+    // A lamp is a blob, not a pixel on a colour fringe: the cues with >= 5 of 8 like neighbours
+    // are drawn. With geometry, only on vehicles in traffic (a parked car's red reflectors stay
+    // unlit). A white cue on a vehicle that shows its rear is a lit rear lamp (a stop lamp
+    // saturates to white in a day photo): drawn in the tail colour, as the red ones.
     auto cue_comp = [&](int x, int y) { return comp.at(x, y); };
-    auto blob_in = [](const ImageU8& m, int x, int y, uint8_t v) {
-      int n = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) n += (dx || dy) && m.at(x + dx, y + dy) == v;
-      return n >= 5;
-    };
     auto blob = [&](int x, int y, uint8_t v) { return blob_in(cue, x, y, v); };
-    std::vector<int> red_blob_px(ncomp + 1, 0);
-    for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
-      if (!cue_row[y]) continue;
-      for (int x = 1; x < W - 1; ++x)
-        if (cue.at(x, y) == 1 && blob(x, y, 1)) ++red_blob_px[cue_comp(x, y)];
-    }
-    // The red lens cue (with geometry: it only tells which way a vehicle faces, below): vehicle
-    // pixels of a red lamp lens's colour once the frame's cast is taken out by the road's grey
-    // (road_grey_gains, rear_lens_colour: an unlit rear lamp in daylight, a* 20-40 where the lit-lamp
-    // cue above needs 40), in blobs (>= 5 of 8 neighbours alike), counted per vehicle. Written and
-    // read in the vehicle rows and the row on either side only.
-    std::vector<int> lens_blob_px(ncomp + 1, 0);
-    if (geometry && ry1 >= 0) {
-      const std::array<double, 3> gain = road_grey_gains(day, labels);
-      ImageU8 lens(W, H, 1, uninitialized);
-      for (int y = std::max(0, ry0 - 1); y <= std::min(H - 1, ry1 + 1); ++y) std::fill_n(lens.row(y), W, uint8_t{0});
-#pragma omp parallel for schedule(static, 8)
-      for (int y = ry0; y <= ry1; ++y) {
-        const int32_t* comp_row = comp.row(y);
-        uint8_t* lr = lens.row(y);
-        for (int x = 0; x < W; ++x) {
-          if ((x & 7) == 0 && x + 8 <= W && all_zero8(comp_row + x)) {
-            x += 7;
-            continue;
-          }
-          if (comp_row[x] && rear_lens_colour(day.data() + 3 * (static_cast<size_t>(y) * W + x), gain)) lr[x] = 1;
-        }
-      }
-      for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y)
-        for (int x = 1; x < W - 1; ++x) {
-          if (lens.at(x, y) && blob_in(lens, x, y, 1)) ++lens_blob_px[comp.at(x, y)];
-        }
-    }
+    // The red lens cue (vehicle_lens; with geometry: it only tells which way a vehicle faces,
+    // below).
+    const std::vector<int> lens_blob_px = geometry ? vehicle_lens(parts, day, labels) : std::vector<int>(ncomp + 1, 0);
     // Which way each vehicle faces (with geometry; below).
     std::vector<char> oncoming(ncomp + 1, 0);
     if (geometry)

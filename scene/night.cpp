@@ -129,11 +129,15 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("lanes");
   // The edges (OpenCV's Canny, barely faster at 2 threads than at 1) on this thread, and beside
   // them on a second one the label image's runs (label_runs: one scan for the three labels-only
-  // parts) and the street-lamp plan's labels-only part, its poles' components
-  // (pole_components_of; the plan itself needs the camera geometry, in the depth stage). At 1
-  // thread both in turn (this lap then holds their time, no longer "depth").
+  // parts), the street-lamp plan's labels-only part, its poles' components (pole_components_of;
+  // the plan itself needs the camera geometry, in the depth stage), and the light map's vehicle
+  // rows (vehicle_rows_part: the rows holding vehicle labels or instance ids; a small struct, the
+  // vehicles' images are added beside Hough on this thread). Thread CPU times on the bench frame
+  // (twenty-second session): Canny 0.83 ms, the runs and poles 0.43, the vehicle rows 0.43. At 1
+  // thread both in turn (this lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const PoleComponents> poles;
   std::shared_ptr<const LabelRuns> label_row_runs;
+  std::shared_ptr<VehicleParts> vehicles;
   side_by_side(
       std::min(2, omp_get_max_threads()), [&] { s.edges_work = segmentation_edges_of_grey(grey, p); },
       [&] {
@@ -141,14 +145,22 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         // The poles only where the preset has street lighting: unlit, the plan keeps no lamps (it
         // still measures the road's extent, from the labels alone; scene/luminaires.cpp).
         if (p.street_road_luminance_cd_m2 > 0) poles = pole_components_of(labels.ids, label_row_runs.get());
+        vehicles = vehicle_rows_part(labels);
       });
   grey = ImageU8();
   lap("edges");
   // OpenCV's HoughLinesP (serial: its random point order) on a second thread where there are two,
   // and beside it on this one the parts of the metric depth and of the façades that read only the
-  // labels (metric_depth_runs, building_regions, from the label runs made beside Canny) and the
-  // lane mask at the frame's size: nothing else can start before the vanishing point, which
-  // needs the lines. At 1 thread both in turn (this lap then holds their time, no longer "depth").
+  // labels (metric_depth_runs, building_regions, from the label runs made beside Canny), the
+  // lane mask at the frame's size, and the light map's vehicle components, boxes and colour cues
+  // (add_vehicle_parts: labels, instance ids and the day image only; the light map, much later,
+  // takes them): nothing else can start before the vanishing point, which needs the lines. Thread
+  // CPU times on the bench frame: Hough 2.05 ms; beside it 0.92 ms, then the vehicles' components
+  // and boxes 0.64 and cues 0.42. The vehicle analysis's red lens cue (0.9 ms with its road grey)
+  // and its states (they need the geometry) stay in the light map: with the lens cue this half
+  // outlasts Hough by more than it saves there (docs/benchmarks.md, "Night chain, twenty-second
+  // session: the vehicle analysis beside the Hough transform"). At 1 thread both in turn (this
+  // lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const MetricDepthRuns> depth_runs;
   std::shared_ptr<BuildingRegions> regions;
   ImageU8 lanes_full;
@@ -158,6 +170,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         depth_runs = metric_depth_runs(labels, label_row_runs.get());
         regions = building_regions(labels.ids, label_row_runs.get());
         lanes_full = lanes_at_frame(s.lanes_work, W, H);  // what the low beam and the light map read
+        add_vehicle_parts(*vehicles, day, labels);
       },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
   lap("lines");
@@ -222,8 +235,10 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // once its light is final (LightMap::composed: the same bits as compose() after it, without a
   // pass of its own over four full-frame images); the stage is then timed as one,
   // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
-  LightMap lm = light_map(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth, &s.beam_lux,
-                          &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail);
+  LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
+                               &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
+                               vehicles.get());
+  vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   if (!lm.composed.empty()) {

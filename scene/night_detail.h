@@ -84,6 +84,23 @@ struct PoleComponents;
 std::shared_ptr<const PoleComponents> pole_components_of(const ImageU16& ids, const LabelRuns* runs = nullptr);
 StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
                                          uint64_t seed, const PoleComponents* poles);
+// The vehicle lamps' parts that read only the labels, the instance ids and the day image
+// (scene/lights.cpp), none the vanishing point or the camera geometry, so that night_scene makes
+// them ahead: vehicle_rows_part the rows holding vehicle pixels (beside Canny), then
+// add_vehicle_parts the vehicles' components (instances, or the vehicle classes' 8-connected
+// components), their boxes and their colour cues (CIELAB red and white cues, red blobs per
+// vehicle; beside the Hough transform; it makes the rows again if `parts` was made of other
+// labels). light_map_with takes what `vehicles` holds when it was made of these labels (lm.ids
+// and lm.instances; the cues: and of this day image), else makes it: the same components, boxes,
+// cues and lamps. light_map() is light_map_with(..., nullptr).
+struct VehicleParts;
+std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& labels);
+void add_vehicle_parts(VehicleParts& parts, const ImageF& day_linear_srgb, const LabelMap& labels);
+LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
+                        const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
+                        uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m, const ImageF* beam_lux,
+                        const BuildingFacades* facades, const StreetLighting* street, bool with_radiance,
+                        bool with_glare_level1, const VehicleParts* vehicles);
 // coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a
 // width x height image `d` written by row(d, y), the same values as coarse_depth's, from any
 // thread (night_scene's depth halves share its rows, each taking the next ones once its own work

@@ -3,6 +3,7 @@
 // frames, tests/data/vehicle_facing.csv.
 #include <gtest/gtest.h>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,12 +13,14 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 #include "photosite/io.h"
 #include "photosite/scene/labels.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/rig.h"
 #include "photosite/scene/scene_preset.h"
+#include "scene/night_detail.h"
 #include "scene/vehicle_facing_detail.h"
 #include "test_util.h"
 
@@ -397,4 +400,178 @@ TEST(VehicleTraffic, AMedianIsNoKerbAndBeyondItIsOncomingTraffic) {
   std::printf("kerb gap %.4f m, bound %.4f m (pixel %.4f m)\n", d[2].kerb_gap_m, 0.1 + px_m, px_m);
   EXPECT_LE(d[2].kerb_gap_m, (0.1 + px_m) * (1 + 0x1p-52));
   EXPECT_NE(d[2].state, 1);
+}
+
+namespace {
+// Two grey cars of the synthetic road (camera_scene) under a green cast like Cityscapes': car 0
+// (instance 26000) with two dull red rear-lamp lenses (the red lens cue only, as in
+// DullRedRearLampsUnderAColourCastMeanTailLamps), car 1 (26001) with two saturated red lamps
+// (a* > 40: the lit-lamp cue) and a near-white highlight in its lower half (the white cue).
+// `red_lamps` false: car 1 without its red lamps.
+SyntheticCameraScene cued_cars(bool red_lamps = true) {
+  const SyntheticCameraOptions o = camera_scene();
+  SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const float cast[3] = {0.75f, 1.0f, 0.8f};
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const int q = s.labels.instances.at(x, y);
+      for (int k = 0; k < 3; ++k) {
+        float& v = s.day_linear_srgb.at(x, y, k);
+        if (q == 26000 || q == 26001) v = s.box_front.at(x, y) ? 0.15f : 0.1f;
+        v *= cast[k];
+      }
+    }
+  for (int q : {26000, 26001}) {
+    int x0 = o.width, y0 = o.height, x1 = -1, y1 = -1;
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x)
+        if (s.labels.instances.at(x, y) == q && s.box_front.at(x, y)) {
+          x0 = std::min(x0, x); x1 = std::max(x1, x); y0 = std::min(y0, y); y1 = std::max(y1, y);
+        }
+    EXPECT_GT(x1 - x0, 40) << q;
+    const int w = std::max(4, (x1 - x0) / 10), h = std::max(4, (y1 - y0) / 10);
+    auto paint = [&](int bx, int by, const float* c) {
+      for (int y = by; y < by + h; ++y)
+        for (int x = bx; x < bx + w; ++x)
+          if (s.labels.instances.at(x, y) == q)
+            for (int k = 0; k < 3; ++k) s.day_linear_srgb.at(x, y, k) = c[k];
+    };
+    const int ly = y0 + 4 * (y1 - y0) / 10;
+    if (q == 26000) {
+      const float lens[3] = {0.2f * cast[0], 0.05f * cast[1], 0.04f * cast[2]};
+      for (int bx : {x0 + (x1 - x0) / 8, x1 - (x1 - x0) / 8 - w}) paint(bx, ly, lens);
+    }
+    if (q == 26001) {
+      const float red[3] = {0.8f, 0.02f, 0.02f}, white[3] = {0.95f, 0.95f, 0.95f};
+      if (red_lamps)
+        for (int bx : {x0 + (x1 - x0) / 8, x1 - (x1 - x0) / 8 - w}) paint(bx, ly, red);
+      paint((x0 + x1) / 2 - w / 2, y0 + 7 * (y1 - y0) / 10, white);
+    }
+  }
+  return s;
+}
+
+// The light map of a scene with the chain's own inputs (night_scene's geometry, depth, beam and
+// lane mask), with the vehicle parts `vehicles` (null: made inside), with or without the
+// geometry, and the vehicles' decisions it recorded (the test hook).
+struct VehicleRun {
+  LightMap map;
+  std::vector<VehicleDecision> seen;
+};
+struct VehicleInputs {
+  ScenePreset p;
+  NightScene ns;
+  ImageF tex;
+  BuildingFacades fac;
+  ImageU8 lanes;
+  VehicleInputs(const ImageF& day, const LabelMap& lm) {
+    p = load_scene_preset("night-urban");
+    p.rig = load_camera_rig("cityscapes");
+    ns = night_scene(day, lm, p, 1);
+    tex = reflectance_texture(day, lm.ids, p);
+    fac = building_facades(lm.ids, ns.geometry, p.max_depth_m);
+    lanes = lanes_at_frame(ns.lanes_work, day.width(), day.height());
+  }
+  VehicleRun run(const ImageF& day, const LabelMap& lm, const VehicleParts* vehicles, bool geometry) const {
+    VehicleRun r;
+    set_vehicle_decision_sink(&r.seen);
+    r.map = geometry ? light_map_with(day, tex, lm, lanes, ns.beam_input, ns.vp, p, 1, &ns.geometry, &ns.depth,
+                                      &ns.beam_lux, &fac, nullptr, true, false, vehicles)
+                     : light_map_with(day, tex, lm, lanes, ns.beam_input, ns.vp, p, 1, nullptr, nullptr, nullptr,
+                                      nullptr, nullptr, false, false, vehicles);
+    set_vehicle_decision_sink(nullptr);
+    return r;
+  }
+};
+size_t differing_bytes(const ImageF& a, const ImageF& b) {
+  if (!a.same_shape(b) || a.channels() != b.channels()) return SIZE_MAX;
+  const auto* x = reinterpret_cast<const unsigned char*>(a.data());
+  const auto* y = reinterpret_cast<const unsigned char*>(b.data());
+  size_t n = 0;
+  for (size_t i = 0; i < a.size() * sizeof(float); ++i) n += x[i] != y[i];
+  return n;
+}
+// The same vehicles, decisions, lamps and light (radiance and night radiance) bit for bit.
+void expect_same_run(const VehicleRun& got, const VehicleRun& want, const std::string& what) {
+  EXPECT_EQ(differing_bytes(got.map.radiance, want.map.radiance), 0u) << what;
+  EXPECT_EQ(differing_bytes(got.map.composed, want.map.composed), 0u) << what;
+  EXPECT_EQ(got.map.stats.vehicle_lamps, want.map.stats.vehicle_lamps) << what;
+  EXPECT_EQ(got.map.stats.vehicles_in_traffic, want.map.stats.vehicles_in_traffic) << what;
+  EXPECT_EQ(got.map.stats.vehicles_parked, want.map.stats.vehicles_parked) << what;
+  ASSERT_EQ(got.seen.size(), want.seen.size()) << what;
+  for (size_t i = 0; i < got.seen.size(); ++i) {
+    const VehicleDecision &g = got.seen[i], &w = want.seen[i];
+    EXPECT_EQ(std::make_tuple(g.instance, g.cls, g.x0, g.y0, g.x1, g.y1, g.pixels, g.state, g.faces_camera, g.red_px,
+                              g.lens_px),
+              std::make_tuple(w.instance, w.cls, w.x0, w.y0, w.x1, w.y1, w.pixels, w.state, w.faces_camera, w.red_px,
+                              w.lens_px))
+        << what << ", vehicle " << i;
+  }
+}
+}  // namespace
+
+// The vehicle analysis's labels-and-day-image parts made ahead (night_scene makes the vehicle
+// rows beside Canny, vehicle_rows_part, and the components, boxes and colour cues beside the
+// Hough transform, add_vehicle_parts) and handed to the light map, the rows alone or all,
+// give the light map's own result bit for bit: the same vehicles (boxes, pixel counts), cue and
+// lens pixels, decisions, lamps and light, with the scene geometry and without (the image-space
+// lamps), for instance ids, for the vehicle classes' connected components (no instance ids), and
+// for a vehicle in the instance ids only (car 0's labels road: its rows, below and above car 1's,
+// are found in the instance ids). The scene exercises every cue: car 0's lens pixels turn it to
+// tail lamps, car 1's red lamps are red blobs.
+TEST(VehicleParts, MadeAheadTheyGiveTheLightMapItsOwnLampsBitForBit) {
+  const SyntheticCameraScene s = cued_cars();
+  LabelMap no_instances = s.labels, instance_only = s.labels;
+  no_instances.instances = ImageU16();
+  for (size_t i = 0; i < instance_only.ids.size(); ++i)
+    if (instance_only.instances[i] == 26000) instance_only.ids[i] = static_cast<uint16_t>(Label::Road);
+  const std::vector<std::pair<std::string, const LabelMap*>> kinds = {
+      {"instances", &s.labels}, {"components", &no_instances}, {"car 0 in the instance ids only", &instance_only}};
+  for (const auto& [kind, lm] : kinds) {
+    const VehicleInputs in(s.day_linear_srgb, *lm);
+    const std::shared_ptr<VehicleParts> rows = vehicle_rows_part(*lm), all = vehicle_rows_part(*lm);
+    add_vehicle_parts(*all, s.day_linear_srgb, *lm);
+    for (const bool geometry : {true, false}) {
+      const VehicleRun own = in.run(s.day_linear_srgb, *lm, nullptr, geometry);
+      EXPECT_GT(own.map.stats.vehicle_lamps, 0) << kind;
+      if (geometry && lm != &instance_only) {
+        ASSERT_EQ(own.seen.size(), 2u) << kind;
+        EXPECT_GT(own.seen[0].lens_px, 0) << kind;       // car 0: the lens cue ...
+        EXPECT_FALSE(own.seen[0].faces_camera) << kind;  // ... makes it show its rear
+        EXPECT_GT(own.seen[1].red_px, 0) << kind;        // car 1: red blobs
+      }
+      const std::string where = kind + (geometry ? ", geometry" : ", image space");
+      expect_same_run(in.run(s.day_linear_srgb, *lm, rows.get(), geometry), own, where + ", the rows");
+      expect_same_run(in.run(s.day_linear_srgb, *lm, all.get(), geometry), own, where + ", all parts");
+    }
+  }
+}
+
+// Parts made of other labels (other buffers: here the same scene with car 1 relabelled as road)
+// are not taken, nor cues made of another day image (here without car 1's red lamps): the light
+// map then makes them itself and gives its own result. (Taken, they would not: car 1 would have
+// no lamps, or no red blobs.) add_vehicle_parts on rows of other labels makes them again.
+TEST(VehicleParts, PartsOfOtherLabelsOrAnotherDayImageAreNotTaken) {
+  const SyntheticCameraScene s = cued_cars(), plain = cued_cars(false);
+  const VehicleInputs in(s.day_linear_srgb, s.labels);
+  const VehicleRun own = in.run(s.day_linear_srgb, s.labels, nullptr, true);
+  ASSERT_EQ(own.seen.size(), 2u);
+  LabelMap other = s.labels;
+  for (size_t i = 0; i < other.ids.size(); ++i)
+    if (other.instances[i] == 26001) {
+      other.ids[i] = static_cast<uint16_t>(Label::Road);
+      other.instances[i] = static_cast<uint16_t>(Label::Road);
+    }
+  ASSERT_EQ(in.run(s.day_linear_srgb, other, nullptr, true).seen.size(), 1u);
+  ASSERT_EQ(in.run(plain.day_linear_srgb, s.labels, nullptr, true).seen.at(1).red_px, 0);
+  const std::shared_ptr<VehicleParts> rows_of_other = vehicle_rows_part(other), of_other = vehicle_rows_part(other);
+  add_vehicle_parts(*of_other, s.day_linear_srgb, other);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, rows_of_other.get(), true), own, "rows of other labels");
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, of_other.get(), true), own, "parts of other labels");
+  const std::shared_ptr<VehicleParts> of_plain = vehicle_rows_part(s.labels);
+  add_vehicle_parts(*of_plain, plain.day_linear_srgb, s.labels);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, of_plain.get(), true), own, "cues of another day image");
+  const std::shared_ptr<VehicleParts> remade = vehicle_rows_part(other);
+  add_vehicle_parts(*remade, s.day_linear_srgb, s.labels);
+  expect_same_run(in.run(s.day_linear_srgb, s.labels, remade.get(), true), own, "rows of other labels, made again");
 }
