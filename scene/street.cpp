@@ -1498,12 +1498,32 @@ __attribute__((target("avx512f"), always_inline)) inline __m512d neg_pd(__m512d 
   return _mm512_castsi512_pd(_mm512_mask_xor_epi64(_mm512_castpd_si512(a), k, _mm512_castpd_si512(a),
                                                    _mm512_set1_epi64(static_cast<int64_t>(0x8000000000000000ull))));
 }
+// Columns x .. x + 7 of a row as a group: −2 when none is a building pixel (region −1 on each),
+// the façade plane when all eight lie in one building region whose eight columns take one plane,
+// else −1 (the group then goes column by column).
+__attribute__((target("avx2"), always_inline)) inline int window_group_plane(const int32_t* reg, int x,
+                                                                             const BuildingFacades& fac) {
+  const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+  const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
+  if (neg == 0xff) return -2;
+  const int r0 = reg[x];
+  if (neg != 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) != -1) return -1;
+  const BuildingFacades::Region& R = fac.regions[r0];
+  const int c0 = x - R.x0;
+  if (c0 < 0 || c0 + 8 > static_cast<int>(R.column_plane.size())) return -1;
+  const int pi = R.column_plane[c0];
+  if (pi < 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)),
+                                                        _mm256_set1_epi32(pi))) != -1)
+    return -1;
+  return pi;
+}
 // One half (eight lanes, columns x .. x + 7) of vertical_row_avx512's group: the lit normals
 // −(n_X, n_D) of the lanes' façade planes in double (+0.0 where a lane has none) and the mask of
 // the lanes with one (has), for the candidates of `mh` (bit k: column x + k): vertical_group's
 // rules (BuildingFacades::plane_at, inlined), without its stores. A half of eight candidates on one
-// building region whose eight columns take one plane (45% of the groups of eight on the bench
-// frame) takes that plane's normal without per-lane lookups; otherwise each candidate building
+// building region whose eight columns take one plane (window_group_plane, as the windows' layout
+// tests it; 45% of the groups of eight on the bench frame) takes that plane's normal without
+// per-lane lookups; otherwise each candidate building
 // lane with a region looks up its column's plane, and the normals are gathered.
 __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void facade_normals8(
     int x, unsigned mh, const uint16_t* id, const int32_t* reg, const VerticalCtx& v, __m512d& nx, __m512d& nd,
@@ -1511,22 +1531,14 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void faca
   const BuildingFacades& fac = *v.fac;
   const __m256i iv = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
   const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
-  const int r0 = reg[x];
-  if (mh == 0xff && r0 >= 0 &&
-      _mm256_movemask_epi8(_mm256_and_si256(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0)),
-                                            _mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building)))) == -1) {
-    const BuildingFacades::Region& R = fac.regions[r0];
-    const int c0 = x - R.x0;
-    if (c0 >= 0 && c0 + 8 <= static_cast<int>(R.column_plane.size())) {
-      const int pi = R.column_plane[c0];
-      const __m256i pv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0));
-      if (pi >= 0 && _mm256_movemask_epi8(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(pi))) == -1) {
-        const FacadePlane& f = fac.planes[pi];
-        nx = _mm512_set1_pd(-f.nX);
-        nd = _mm512_set1_pd(-f.nD);
-        has = 0xff;
-        return;
-      }
+  if (mh == 0xff && _mm256_movemask_epi8(_mm256_cmpeq_epi32(iv, _mm256_set1_epi32(v.building))) == -1) {
+    const int pi = window_group_plane(reg, x, fac);
+    if (pi >= 0) {
+      const FacadePlane& f = fac.planes[pi];
+      nx = _mm512_set1_pd(-f.nX);
+      nd = _mm512_set1_pd(-f.nD);
+      has = 0xff;
+      return;
     }
   }
   unsigned bm = mh & static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
@@ -1936,25 +1948,6 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
   rtD[n] = fr[pi].tD;
   rp[n] = pi;
   ++n;
-}
-// Columns x .. x + 7 of a row as a group: −2 when none is a building pixel (region −1 on each),
-// the façade plane when all eight lie in one building region whose eight columns take one plane,
-// else −1 (the group then goes column by column).
-__attribute__((target("avx2"), always_inline)) inline int window_group_plane(const int32_t* reg, int x,
-                                                                             const BuildingFacades& fac) {
-  const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
-  const int neg = _mm256_movemask_ps(_mm256_castsi256_ps(rv));
-  if (neg == 0xff) return -2;
-  const int r0 = reg[x];
-  if (neg != 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))) != -1) return -1;
-  const BuildingFacades::Region& R = fac.regions[r0];
-  const int c0 = x - R.x0;
-  if (c0 < 0 || c0 + 8 > static_cast<int>(R.column_plane.size())) return -1;
-  const int pi = R.column_plane[c0];
-  if (pi < 0 || _mm256_movemask_epi8(_mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(R.column_plane.data() + c0)),
-                                                        _mm256_set1_epi32(pi))) != -1)
-    return -1;
-  return pi;
 }
 // add_facade_windows's compaction of columns x0 .. x1 − 1 of a row (its scalar loop: a building pixel with a plane and
 // z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
