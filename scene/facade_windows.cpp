@@ -177,24 +177,12 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
     if (static_cast<double>(ns) * ny > kMaxCells) continue;
     // The cells' means (the rectified façade).
     cv::Mat sum(ny, ns, CV_32F, cv::Scalar(0)), cnt(ny, ns, CV_32F, cv::Scalar(0));
-    // Neighbouring samples of a row mostly fall in one cell: a cell's sum is carried in registers
-    // while they do (the same additions in the same order as adding into the cell each time).
-    float* S0 = sum.ptr<float>(0);
-    float* N0 = cnt.ptr<float>(0);
-    size_t cur = 0;
-    float acc = S0[0], n_acc = N0[0];
     for_samples(k, [&](const Sample& q) {
       const int i = std::min(ns - 1, static_cast<int>((q.s - s_lo) / kCell_m));
       const int j = std::min(ny - 1, static_cast<int>((q.Y - y_lo) / kCell_m));
-      const size_t cell = static_cast<size_t>(j) * ns + i;
-      if (cell != cur) {
-        S0[cur] = acc, N0[cur] = n_acc;
-        cur = cell, acc = S0[cell], n_acc = N0[cell];
-      }
-      acc += q.v;
-      n_acc += 1;
+      sum.at<float>(j, i) += q.v;
+      cnt.at<float>(j, i) += 1;
     });
-    S0[cur] = acc, N0[cur] = n_acc;
     cv::Mat m(ny, ns, CV_32F, cv::Scalar(0)), valid(ny, ns, CV_32F, cv::Scalar(0));
     std::vector<int> own(ns, 0), filled(ns, 0);
     for (int j = 0; j < ny; ++j) {
