@@ -54,8 +54,12 @@ inline float decode_interp(float v, const float* lut) {
 }
 // 8-bit files: read_image gives the 256 values code·(1/255) (OpenImageIO's conversion, kept). Their
 // decodes, by decode_interp itself, in a 256-entry table: a value that is one of them reads the
-// table, any other value interpolates, so the result is the same to the bit either way.
-struct Decode8 { float in[256], out[256]; };
+// table, any other value interpolates, so the result is the same to the bit either way. `plane`
+// holds byte b of each out[k] in plane[b][k] (decode8_samples_vbmi's byte permutes read them).
+struct Decode8 {
+  float in[256], out[256];
+  alignas(64) uint8_t plane[4][256];
+};
 const Decode8& decode8() {
   static const Decode8 d = [] {
     Decode8 t;
@@ -63,6 +67,9 @@ const Decode8& decode8() {
     for (int c = 0; c < 256; ++c) {
       t.in[c] = c * (1.f / 255);
       t.out[c] = decode_interp(t.in[c], lut);
+      uint32_t u;
+      std::memcpy(&u, &t.out[c], 4);
+      for (int b = 0; b < 4; ++b) t.plane[b][c] = static_cast<uint8_t>(u >> (8 * b));
     }
     return t;
   }();
@@ -1608,22 +1615,7 @@ __attribute__((target("avx512f"))) void decode8_samples_avx512(const uint8_t* c,
 // bytes, 256 bytes a plane in four registers; each plane's 64 bytes by two two-register byte
 // permutes (the code's low 7 bits) and a blend on its top bit; the four byte planes interleaved
 // back into floats (bytes, then 16-bit pairs), whose order the codes' own permute (kDecode8Order)
-// has undone beforehand. The floats are the table's, bit for bit.
-struct Decode8Planes {
-  alignas(64) uint8_t plane[4][256];
-};
-const Decode8Planes& decode8_planes(const Decode8& d8) {
-  static const Decode8Planes p = [&] {
-    Decode8Planes q;
-    for (int k = 0; k < 256; ++k) {
-      uint32_t u;
-      std::memcpy(&u, &d8.out[k], 4);
-      for (int b = 0; b < 4; ++b) q.plane[b][k] = static_cast<uint8_t>(u >> (8 * b));
-    }
-    return q;
-  }();
-  return p;
-}
+// has undone beforehand (Decode8::plane). The floats are the table's, bit for bit.
 // After the unpacks, float e of 16-byte lane L of output vector k is the byte at position
 // 16L + 4k + e; the codes are permuted so that it holds code 16k + 4L + e, making output vector k
 // the floats 16k .. 16k + 15 (the permutation swaps L and k: its own inverse).
@@ -1647,10 +1639,9 @@ const bool kHaveVbmi = [] {
 bool decode8_vbmi = kHaveVbmi;  // texture_decode_vbmi() turns it off (tests run both paths)
 __attribute__((target("avx512f,avx512bw,avx512vbmi"))) void decode8_samples_vbmi(const uint8_t* c, int n, const Decode8& d8,
                                                                                    float* o) {
-  const Decode8Planes& P = decode8_planes(d8);
   __m512i t[4][4];
   for (int b = 0; b < 4; ++b)
-    for (int q = 0; q < 4; ++q) t[b][q] = _mm512_load_si512(P.plane[b] + 64 * q);
+    for (int q = 0; q < 4; ++q) t[b][q] = _mm512_load_si512(d8.plane[b] + 64 * q);
   const __m512i order = _mm512_load_si512(kDecode8Order.idx);
   int j = 0;
   for (; j + 64 <= n; j += 64) {
