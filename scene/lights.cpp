@@ -1088,7 +1088,7 @@ void vehicle_components(VehicleParts& m, const LabelMap& lm, const VehicleIds& v
         }
       }
     }
-      cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
+    cv::Mat mask(ry1 - ry0 + 1, W, CV_8U);
     const long nb = static_cast<long>(i_begin), ne = static_cast<long>(i_end);
     // (Through local pointers, and with the vehicle range in locals: the byte stores might alias
     // the images' and the table's fields, which kept the compiler from vectorizing the loop.)
@@ -1103,9 +1103,9 @@ void vehicle_components(VehicleParts& m, const LabelMap& lm, const VehicleIds& v
 #pragma omp parallel for schedule(static)
       for (long i = nb; i < ne; ++i) md[i - nb] = vid.label(lab[i]) && cp[i] == 0 ? 255 : 0;
     }
-      cv::Mat cc;
+    cv::Mat cc;
     const int n = cv::connectedComponents(mask, cc, 8, CV_32S);
-      const int base = static_cast<int>(inst_index.size());
+    const int base = static_cast<int>(inst_index.size());
     for (int c = 1; c < n; ++c) comp_class.push_back(0);
     // Class of each new component: the label at its first pixel (a component is one class
     // group, vehicles; mixed-class blobs take the first met).
@@ -1123,7 +1123,7 @@ void vehicle_components(VehicleParts& m, const LabelMap& lm, const VehicleIds& v
       }
     }
     m.ncomp = static_cast<int>(comp_class.size()) - 1;
-    }
+  }
   const int ncomp = m.ncomp;
   m.boxes.assign(ncomp + 1, VehicleParts::Box{});
   // Each row's runs of one component: a run [x, e) widens its box once and adds e − x pixels
@@ -1269,11 +1269,7 @@ std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& lm) {
   return m;
 }
 void add_vehicle_parts(VehicleParts& m, const ImageF& day, const LabelMap& lm) {
-  if (!m.made_of(lm)) {
-    m = VehicleParts();
-    m.labels = LabelsMadeOf(lm);
-    vehicle_rows(lm, VehicleIds(), m.ry0, m.ry1);
-  }
+  if (!m.made_of(lm)) m = std::move(*vehicle_rows_part(lm));
   vehicle_components(m, lm, VehicleIds());
   m.components = true;
   m.cues = vehicle_cues(m, day);
