@@ -868,12 +868,9 @@ void expose(const ImageF& radiance, const CameraPreset& p, const LensPreset& len
       PhotonStage::MeanFusion mf{st.prnu_row(y), st.dark_row(y), st.dark_e(), ssc.mean.data()};
       const int bad = ph.row(y, mean_e.data(), psc, &mf);
       if (own) bad_x[y] = bad;
-      if (mf.xa < mf.xb) {  // the photon row made the means of [xa, xb)
-        st.mean_part(y, mean_e.data(), 0, mf.xa, ssc);
-        st.mean_part(y, mean_e.data(), mf.xb, st.w, ssc);
-      } else {
-        st.mean_part(y, mean_e.data(), 0, st.w, ssc);
-      }
+      // The photon row made the means of [xa, xb) (xa = xb = 0: none); the rest here.
+      st.mean_part(y, mean_e.data(), 0, mf.xa, ssc);
+      st.mean_part(y, mean_e.data(), mf.xb, st.w, ssc);
       st.row_from_mean(y, e, d, ab, ssc);
     };
   });

@@ -126,6 +126,8 @@ void run(const Opts& o) {
     t[k].push_back(ms);
   };
   cv::Mat peer_in(day.height(), day.width(), CV_32FC3), peer_out;
+  SensorOutput reused;  // the caller-owned outputs of the "reused outputs" row, kept across rounds
+  auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   // The peer on the round's linear frame: its wall-clock and process CPU-clock times (ms).
   struct PeerTime { double wall_ms, cpu_ms; };
   auto run_peer = [&](const ImageF& lin) {
@@ -134,10 +136,8 @@ void run(const Opts& o) {
     const auto p0 = clock::now();
     cv::cvtColor(peer_in, peer_out, cv::COLOR_RGB2Lab);
     const auto p1 = clock::now();
-    return PeerTime{std::chrono::duration<double, std::milli>(p1 - p0).count(), cpu_ms() - c0};
+    return PeerTime{ms(p0, p1), cpu_ms() - c0};
   };
-  SensorOutput reused;  // the caller-owned outputs of the "reused outputs" row, kept across rounds
-  auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
   // The chain's rows up to the sensor: linearize, the scene's stages, their sum and expose.
   auto add_chain_rows = [&](const scene::NightScene& ns, auto t0, auto t1, auto t2, auto t3) {
     add("linearize", ms(t0, t1));
