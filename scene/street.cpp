@@ -1098,17 +1098,20 @@ int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s,
 namespace {
 // One row's vertical-surface pixels, compacted (add_vertical_street_light's scalar path):
 // column, camera z and, for façade pixels, the lit normal of their plane (plane = -1; 0: the
-// normal turned to the camera, from the point).
+// normal turned to the camera, from the point), and whether it is a crown's (vegetation).
 struct VerticalRow {
   std::vector<int32_t> x, plane;
+  std::vector<uint8_t> crown;
   std::vector<double> z, pnX, pnD;
   std::vector<float> e;
-  explicit VerticalRow(int W) : x(W + 8), plane(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8) {}
+  explicit VerticalRow(int W)
+      : x(W + 8), plane(W + 8), crown(W + 8), z(W + 8), pnX(W + 8), pnD(W + 8), e(W + 8) {}
 };
-// The AVX2 path's eight pixels of one group of columns, as VerticalRow's fields.
+// The AVX2 path's eight pixels of one group of columns, as VerticalRow's fields (crown: −1 on a
+// crown's lane, else 0).
 struct VerticalGroup {
   alignas(32) double z[8], pnX[8], pnD[8];
-  alignas(32) int32_t x[8], plane[8];
+  alignas(32) int32_t x[8], plane[8], crown[8];
 };
 // The pixel's point in road coordinates (X right, Y up, D ahead; camera foot at the origin) from
 // its camera z: X = z·(x − c_x)/f, D = z·kD, Y = h − z·kY, with the row's kD = cos θ − y_n·sin θ
@@ -1145,17 +1148,27 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
   *lo = l;
   *hi = h;
 }
-// The pixel's point (X, Y, D) and its lit normal (nX, nD) in double; ok = false where the
-// camera-facing normal is undefined (X = D = 0).
+// The pixel's point (X, Y, D) and its lit normal (nX, nY, nD) in double; ok = false where the
+// camera-facing normal is undefined (X = D = 0). A crown's "normal" is the unit vector to the
+// camera, (−X, h − Y, −D)/√((X² + D²) + (h − Y)²) (vertical_term's cos α).
 [[gnu::always_inline]] inline bool vertical_point(const VerticalRow& r, int i, const RowGeom& q, double* X, double* Y,
-                                                  double* D, double* nX, double* nD) {
+                                                  double* D, double* nX, double* nY, double* nD) {
   const double zz = r.z[i];
   *X = zz * (r.x[i] - q.cx) / q.f;
   *D = zz * q.kD;
   *Y = q.h - zz * q.kY;
+  *nY = 0;
   if (r.plane[i]) {
     *nX = r.pnX[i];
     *nD = r.pnD[i];
+    return true;
+  }
+  if (r.crown[i]) {
+    const double H = q.h - *Y, rr = std::sqrt((*X * *X + *D * *D) + H * H);
+    if (!(rr > 0)) return false;
+    *nX = -*X / rr;
+    *nY = H / rr;
+    *nD = -*D / rr;
     return true;
   }
   // Cars, people, poles, vegetation, walls: a vertical face turned to the camera (an
@@ -1165,6 +1178,66 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
   *nX = -*X / rr;
   *nD = -*D / rr;
   return true;
+}
+// Tree crowns (Label::Vegetation) are not a face turned to the camera but a volume of leaves
+// showing faces to every side: a lamp beside a crown lights the half of it that the camera sees
+// from the side, which a camera-facing plane (cos β ≤ 0 there) leaves dark. photosite takes a
+// crown as a Lambert sphere (a sphere of Lambertian surface elements of the texture's reflectance
+// ρ): seen at phase angle α (the angle at the crown between the directions to the lamp and to the
+// camera), the mean radiance of its disc is ρ·E⊥/π·Φ(α) with
+//   Φ(α) = (2/(3π))·(sin α + (π − α)·cos α)
+// (Russell 1916, "On the light variations of asteroids and satellites", ApJ 43, 173: the
+// Lambert sphere's phase law; Φ(0) = 2/3 is its geometric albedo over ρ), E⊥ = I(γ)/d² the
+// illuminance normal to the lamp's direction. Stated approximations (photosite's choices): every
+// crown pixel takes the disc's mean, not its own surface element's (the crown's shape is not known
+// from the labels); the sphere is opaque (no light transmitted through the leaves from a lamp
+// behind it, Φ(π) = 0) and has no hot spot (the leaves' own shadows at α → 0). Evaluated from
+// c = cos α: with a = |c| and s = √(1 − a), sin α = s·√(1 + a) and (π − α)·c = a·(π − arccos a)
+// for c ≥ 0, −a·arccos a for c < 0, so Φ = (2/(3π))·(s·Q(a) + [c ≥ 0]·π·a) with the smooth
+// Q(a) = √(1 + a) − a·arccos(a)/√(1 − a), here a degree-5 polynomial within 7.75·10⁻⁷ of Q on
+// [0, 1] (scripts/crown_phase_fit.py, which prints the coefficients and the error): |ΔΦ| ≤
+// 1.7·10⁻⁷ from the polynomial, plus the float evaluation's rounding; one square root. Φ is
+// clamped at 0 (the polynomial's error where s·Q → 0 at α → π).
+// crown_phase, crown_phase8 and crown_phase16: the same IEEE operations in the same order.
+struct CrownPhaseConsts {
+  static constexpr float q0 = 0.999999225f, q1 = -1.07076108f, q2 = 0.0892240331f, q3 = -0.0248672515f,
+                         q4 = 0.00794185605f, q5 = -0.00153741299f;
+  static constexpr float pi = 3.14159265358979f, k = static_cast<float>(2.0 / (3.0 * 3.14159265358979323846));
+};
+[[gnu::always_inline]] inline float crown_phase(float c) {
+  using K = CrownPhaseConsts;
+  const float a = std::min(std::fabs(c), 1.f), sa = std::sqrt(1.f - a);
+  const float q = ((((K::q5 * a + K::q4) * a + K::q3) * a + K::q2) * a + K::q1) * a + K::q0;
+  const float t = sa * q;
+  return std::max(K::k * (c >= 0 ? t + K::pi * a : t), 0.f);
+}
+__attribute__((target("avx2"), always_inline)) inline __m256 crown_phase8(__m256 c) {
+  using K = CrownPhaseConsts;
+  const __m256 a = _mm256_min_ps(_mm256_and_ps(c, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff))), _mm256_set1_ps(1.f));
+  const __m256 sa = _mm256_sqrt_ps(_mm256_sub_ps(_mm256_set1_ps(1.f), a));
+  __m256 q = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(K::q5), a), _mm256_set1_ps(K::q4));
+  q = _mm256_add_ps(_mm256_mul_ps(q, a), _mm256_set1_ps(K::q3));
+  q = _mm256_add_ps(_mm256_mul_ps(q, a), _mm256_set1_ps(K::q2));
+  q = _mm256_add_ps(_mm256_mul_ps(q, a), _mm256_set1_ps(K::q1));
+  q = _mm256_add_ps(_mm256_mul_ps(q, a), _mm256_set1_ps(K::q0));
+  const __m256 t = _mm256_mul_ps(sa, q);
+  const __m256 u = _mm256_blendv_ps(t, _mm256_add_ps(t, _mm256_mul_ps(_mm256_set1_ps(K::pi), a)),
+                                    _mm256_cmp_ps(c, _mm256_setzero_ps(), _CMP_GE_OQ));
+  return _mm256_max_ps(_mm256_mul_ps(_mm256_set1_ps(K::k), u), _mm256_setzero_ps());
+}
+__attribute__((target("avx512f"), always_inline)) inline __m512 crown_phase16(__m512 c) {
+  using K = CrownPhaseConsts;
+  const __m512 a = _mm512_min_ps(_mm512_abs_ps(c), _mm512_set1_ps(1.f));
+  const __m512 sa = _mm512_sqrt_ps(_mm512_sub_ps(_mm512_set1_ps(1.f), a));
+  __m512 q = _mm512_add_ps(_mm512_mul_ps(_mm512_set1_ps(K::q5), a), _mm512_set1_ps(K::q4));
+  q = _mm512_add_ps(_mm512_mul_ps(q, a), _mm512_set1_ps(K::q3));
+  q = _mm512_add_ps(_mm512_mul_ps(q, a), _mm512_set1_ps(K::q2));
+  q = _mm512_add_ps(_mm512_mul_ps(q, a), _mm512_set1_ps(K::q1));
+  q = _mm512_add_ps(_mm512_mul_ps(q, a), _mm512_set1_ps(K::q0));
+  const __m512 t = _mm512_mul_ps(sa, q);
+  const __m512 u = _mm512_mask_add_ps(t, _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_GE_OQ), t,
+                                      _mm512_mul_ps(_mm512_set1_ps(K::pi), a));
+  return _mm512_max_ps(_mm512_mul_ps(_mm512_set1_ps(K::k), u), _mm512_setzero_ps());
 }
 // One lamp's E_v at a pixel in float32: v = lamp − point (the difference in double, rounded once),
 // nothing beyond the lamp's reach along the road (|v_D| ≤ reach, both rounded to float: a pixel
@@ -1178,13 +1251,18 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
 // beyond it + 1 + 3 + 7.5·s (the table, as pool_term; + 1 + 8 + 7.5·s from the pieces): per term
 // k = 17.5 + 3κ + 7.5·s (22.5 + 3κ + 7.5·s), and for the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E
 // to first order.
-[[gnu::always_inline]] inline float vertical_term(float vX, float vY, float vD, float nX, float nD, float reach,
-                                                  float I0, float d2_min, const RelTable& t) {
+// A crown pixel (crown = true; n = (nX, nY, nD) the unit vector to the camera) takes
+// I(γ)·Φ(α)/d² instead, cos α = (n·v)/d with n·v = (n_X·v_X + n_D·v_D) + n_Y·v_Y, and no face
+// turned away (Φ ≥ 0 on every side); crown_phase's error above adds to its terms'.
+[[gnu::always_inline]] inline float vertical_term(float vX, float vY, float vD, float nX, float nY, float nD, bool crown,
+                                                  float reach, float I0, float d2_min, const RelTable& t) {
   if (!(std::fabs(vD) <= reach)) return 0.f;
-  const float cb = nX * vX + nD * vD;  // |v|·cos β
-  if (!(vY > 0) || !(cb > 0)) return 0.f;
+  float cb = nX * vX + nD * vD;  // |v|·cos β
+  if (crown) cb = cb + nY * vY;  // |v|·cos α
+  if (!(vY > 0) || !(crown || cb > 0)) return 0.f;
   const float dv2 = (vX * vX + vY * vY) + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-  return ((I0 * t.atf(cg)) * (cb / dv)) / std::max(dv2, d2_min);  // I(γ)·cos β / d²
+  const float f = crown ? crown_phase(cb / dv) : cb / dv;
+  return ((I0 * t.atf(cg)) * f) / std::max(dv2, d2_min);  // I(γ)·cos β / d², or I(γ)·Φ(α) / d²
 }
 // E_v = Σ_k vertical_term over the lamps in order, per pixel (a skipped lamp adds +0.0, which
 // leaves the non-negative sum's bits unchanged). A pixel whose camera-facing normal is undefined
@@ -1192,25 +1270,25 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
 void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float d2_min,
                        const RelTable& t) {
   for (int i = 0; i < n; ++i) {
-    double X, Y, D, nX, nD;
+    double X, Y, D, nX, nY, nD;
     r.e[i] = 0;
-    if (!vertical_point(r, i, q, &X, &Y, &D, &nX, &nD)) continue;
+    if (!vertical_point(r, i, q, &X, &Y, &D, &nX, &nY, &nD)) continue;
     size_t lo, hi;
     lamp_window(la, D, D, &lo, &hi);
-    const float nXf = static_cast<float>(nX), nDf = static_cast<float>(nD);
+    const float nXf = static_cast<float>(nX), nYf = static_cast<float>(nY), nDf = static_cast<float>(nD);
+    const bool crown = r.crown[i] && !r.plane[i];
     float e = 0;
     for (size_t k = lo; k < hi; ++k)
       e += vertical_term(static_cast<float>(la.X[k] - X), static_cast<float>(la.Y[k] - Y),
-                         static_cast<float>(la.D[k] - D), nXf, nDf, la.reach[k], I0, d2_min, t);
+                         static_cast<float>(la.D[k] - D), nXf, nYf, nDf, crown, la.reach[k], I0, d2_min, t);
     r.e[i] = e;
   }
 }
-// vertical_point for the four pixels from i0 (of a VerticalRow or a VerticalGroup): the same double
-// operations per lane; the normal rounded to float and the lane mask (ok) as float lanes.
-template <class Row>
-__attribute__((target("avx2"), always_inline)) inline void point4(const Row& r, int i0, const RowGeom& q, __m256d& X,
-                                                                  __m256d& Y, __m256d& D, __m128& nX, __m128& nD,
-                                                                  __m128& ok) {
+// vertical_point for the four pixels from i0 of a VerticalGroup: the same double operations per
+// lane; the normal rounded to float and the lane mask (ok) as float lanes.
+__attribute__((target("avx2"), always_inline)) inline void point4(const VerticalGroup& r, int i0, const RowGeom& q,
+                                                                  __m256d& X, __m256d& Y, __m256d& D, __m128& nX,
+                                                                  __m128& nY, __m128& nD, __m128& ok) {
   const __m256d zerod = _mm256_setzero_pd();
   const __m256d sign = _mm256_castsi256_pd(_mm256_set1_epi64x(static_cast<int64_t>(0x8000000000000000ull)));
   const __m256d zz = _mm256_loadu_pd(&r.z[i0]);
@@ -1219,17 +1297,30 @@ __attribute__((target("avx2"), always_inline)) inline void point4(const Row& r, 
   D = _mm256_mul_pd(zz, _mm256_set1_pd(q.kD));
   Y = _mm256_sub_pd(_mm256_set1_pd(q.h), _mm256_mul_pd(zz, _mm256_set1_pd(q.kY)));
   const __m128 pm = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.plane[i0])));
-  __m256d nXd = _mm256_loadu_pd(&r.pnX[i0]), nDd = _mm256_loadu_pd(&r.pnD[i0]);
+  __m256d nXd = _mm256_loadu_pd(&r.pnX[i0]), nDd = _mm256_loadu_pd(&r.pnD[i0]), nYd = zerod;
   ok = pm;
   if (_mm_movemask_ps(pm) != 0xf) {
     const __m256d pmd = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_castps_si128(pm)));
-    const __m256d rr = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(X, X), _mm256_mul_pd(D, D)));
-    const __m256d okd = _mm256_or_pd(pmd, _mm256_cmp_pd(rr, zerod, _CMP_GT_OQ));
-    ok = _mm_cmp_ps(_mm256_cvtpd_ps(_mm256_and_pd(okd, _mm256_set1_pd(-1.0))), _mm_setzero_ps(), _CMP_NEQ_OQ);
+    const __m256d XX_DD = _mm256_add_pd(_mm256_mul_pd(X, X), _mm256_mul_pd(D, D));
+    const __m256d rr = _mm256_sqrt_pd(XX_DD);
+    __m256d okd = _mm256_or_pd(pmd, _mm256_cmp_pd(rr, zerod, _CMP_GT_OQ));
     nXd = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(X, sign), rr), nXd, pmd);
     nDd = _mm256_blendv_pd(_mm256_div_pd(_mm256_xor_pd(D, sign), rr), nDd, pmd);
+    const __m128i cm = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&r.crown[i0]));
+    if (_mm_movemask_ps(_mm_castsi128_ps(cm))) {
+      // Crown lanes (never on a façade plane): the unit vector to the camera (vertical_point's).
+      const __m256d cmd = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(cm));
+      const __m256d H = _mm256_sub_pd(_mm256_set1_pd(q.h), Y);
+      const __m256d r3 = _mm256_sqrt_pd(_mm256_add_pd(XX_DD, _mm256_mul_pd(H, H)));
+      okd = _mm256_blendv_pd(okd, _mm256_cmp_pd(r3, zerod, _CMP_GT_OQ), cmd);
+      nXd = _mm256_blendv_pd(nXd, _mm256_div_pd(_mm256_xor_pd(X, sign), r3), cmd);
+      nDd = _mm256_blendv_pd(nDd, _mm256_div_pd(_mm256_xor_pd(D, sign), r3), cmd);
+      nYd = _mm256_and_pd(cmd, _mm256_div_pd(H, r3));
+    }
+    ok = _mm_cmp_ps(_mm256_cvtpd_ps(_mm256_and_pd(okd, _mm256_set1_pd(-1.0))), _mm_setzero_ps(), _CMP_NEQ_OQ);
   }
   nX = _mm256_cvtpd_ps(nXd);
+  nY = _mm256_cvtpd_ps(nYd);
   nD = _mm256_cvtpd_ps(nDd);
 }
 // add_vertical_street_light's candidate test for the eight pixels from column x (id, z: the row's),
@@ -1270,7 +1361,7 @@ struct VerticalCtx {
   uint64_t dark;
   double D_lo, D_hi;
   float I0, d2_min;
-  int building;
+  int building, vegetation;
 };
 // Candidates8 for the row (vertical_row_body's; vertical_row_avx512 makes the same test on sixteen
 // lanes).
@@ -1315,6 +1406,7 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
         const __m256i xv = _mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
         _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
         _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), _mm256_set1_epi32(-1));
+        _mm256_store_si256(reinterpret_cast<__m256i*>(gr.crown), _mm256_setzero_si256());
         const __m256 zv = _mm256_loadu_ps(z + x);
         _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));
         _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
@@ -1345,6 +1437,7 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
                                         _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x)), cand);
   const __m256 zv = _mm256_blendv_ps(_mm256_set1_ps(z[fill]), _mm256_loadu_ps(z + x), _mm256_castsi256_ps(cand));
   _mm256_store_si256(reinterpret_cast<__m256i*>(gr.x), xv);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(gr.crown), _mm256_cmpeq_epi32(idv, _mm256_set1_epi32(v.vegetation)));
   _mm256_store_pd(gr.z, _mm256_cvtps_pd(_mm256_castps256_ps128(zv)));  // float to double: exact
   _mm256_store_pd(gr.z + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(zv, 1)));
   int bm = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
@@ -1393,6 +1486,53 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
 // o += (t·tint)·E_v on the candidates with E_v > 0 (reflect8_avx2: add_reflection_scalar's
 // operations). Each lane is its own pixel, so the same bits as the scalar path, where the pixels
 // are compacted first. Ends with vzeroupper (see clear_upper_vector_state).
+// One group's lanes for its lamp loop (lamp_sum8): points, lit normals, the lanes with a point
+// (ok) and the crowns' lanes (crown).
+struct LampLanes8 {
+  __m256d X0, X1, Y0, Y1, D0, D1;
+  __m256 nX, nY, nD, ok, crown;
+};
+// E_v = Σ_k vertical_term over the lamps lo .. hi − 1 on eight lanes (vertical_row_body's lamp
+// loop): a lamp's lanes outside its reach, above it or (kCrown: but on a crown's lane) facing away
+// masked to +0.0, and a lamp whose every lane is masked skipped. kCrown adds n_Y·v_Y to n·v on
+// every lane (n_Y = +0.0 off the crowns: the sum's bits stay, up to the sign of a zero, which no
+// comparison or kept term sees) and takes crown_phase8 of cos α on the crowns' lanes.
+template <bool kCrown>
+__attribute__((target("avx2"), always_inline)) inline __m256 lamp_sum8(const LampArrays& la, const RelTable& t, size_t lo,
+                                                                      size_t hi, const LampLanes8& g, __m256 vI0,
+                                                                      __m256 vd2min) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), vcc = _mm256_set1_ps(t.fcc);
+  const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  __m256 acc = zero;
+  for (size_t k = lo; k < hi; ++k) {
+    const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
+    const __m256 vD = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lD, g.D1)), _mm256_cvtpd_ps(_mm256_sub_pd(lD, g.D0)));
+    const __m256 in_reach =
+        _mm256_and_ps(g.ok, _mm256_cmp_ps(_mm256_and_ps(vD, absmask), _mm256_broadcast_ss(&la.reach[k]), _CMP_LE_OQ));
+    if (!_mm256_movemask_ps(in_reach)) continue;
+    const __m256d lX = _mm256_broadcast_sd(&la.X[k]), lY = _mm256_broadcast_sd(&la.Y[k]);
+    const __m256 vX = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lX, g.X1)), _mm256_cvtpd_ps(_mm256_sub_pd(lX, g.X0)));
+    const __m256 vY = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lY, g.Y1)), _mm256_cvtpd_ps(_mm256_sub_pd(lY, g.Y0)));
+    __m256 cb = _mm256_add_ps(_mm256_mul_ps(g.nX, vX), _mm256_mul_ps(g.nD, vD));
+    __m256 facing = _mm256_cmp_ps(cb, zero, _CMP_GT_OQ);
+    if (kCrown) {
+      cb = _mm256_add_ps(cb, _mm256_mul_ps(g.nY, vY));
+      facing = _mm256_or_ps(_mm256_cmp_ps(cb, zero, _CMP_GT_OQ), g.crown);
+    }
+    const __m256 lit = _mm256_and_ps(in_reach, _mm256_and_ps(_mm256_cmp_ps(vY, zero, _CMP_GT_OQ), facing));
+    if (!_mm256_movemask_ps(lit)) continue;
+    const __m256 dv2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX, vX), _mm256_mul_ps(vY, vY)), _mm256_mul_ps(vD, vD));
+    const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY, dv);
+    const __m256 beyond = _mm256_and_ps(lit, _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
+    __m256 rel = one;
+    if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
+    __m256 f = _mm256_div_ps(cb, dv);
+    if (kCrown) f = _mm256_blendv_ps(f, crown_phase8(f), g.crown);
+    const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), f), _mm256_max_ps(dv2, vd2min));
+    acc = _mm256_add_ps(acc, _mm256_and_ps(lit, ek));
+  }
+  return acc;
+}
 __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(float* o, const float* tx, const uint16_t* id,
                                                                            const float* z, const int32_t* reg, int W,
                                                                            const RowGeom& q, const VerticalCtx& v) {
@@ -1401,8 +1541,6 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
   const Candidates8 cc = candidates8_consts(q, v);
   const Reflect8 rc = reflect8_consts(v.tint);
   const __m256 vI0 = _mm256_set1_ps(v.I0), vd2min = _mm256_set1_ps(v.d2_min), zero = _mm256_setzero_ps();
-  const __m256 vcc = _mm256_set1_ps(t.fcc), one = _mm256_set1_ps(1.f);
-  const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
   const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   VerticalGroup gr;
   size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
@@ -1412,42 +1550,24 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
     if (!m) continue;
     vertical_group(gr, x, m, x + __builtin_ctz(m), id, z, reg, v);
     __m256d X0, X1, Y0, Y1, D0, D1;
-    __m128 nXa, nXb, nDa, nDb, oka, okb;
-    point4(gr, 0, q, X0, Y0, D0, nXa, nDa, oka);
-    point4(gr, 4, q, X1, Y1, D1, nXb, nDb, okb);
+    __m128 nXa, nXb, nYa, nYb, nDa, nDb, oka, okb;
+    point4(gr, 0, q, X0, Y0, D0, nXa, nYa, nDa, oka);
+    point4(gr, 4, q, X1, Y1, D1, nXb, nYb, nDb, okb);
     const __m256 cand = _mm256_castsi256_ps(
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), lane_bit), lane_bit));
     const __m256 ok = _mm256_and_ps(cand, _mm256_set_m128(okb, oka));
     if (!_mm256_movemask_ps(ok)) continue;
-    const __m256 vnX = _mm256_set_m128(nXb, nXa), vnD = _mm256_set_m128(nDb, nDa);
+    const __m256 vnX = _mm256_set_m128(nXb, nXa), vnD = _mm256_set_m128(nDb, nDa), vnY = _mm256_set_m128(nYb, nYa);
+    const __m256 crown = _mm256_and_ps(ok, _mm256_load_ps(reinterpret_cast<const float*>(gr.crown)));
     const __m256d Dlo = _mm256_min_pd(D0, D1), Dhi = _mm256_max_pd(D0, D1);
     const __m256d m1 = _mm256_min_pd(Dlo, _mm256_permute2f128_pd(Dlo, Dlo, 1)), M1 = _mm256_max_pd(Dhi, _mm256_permute2f128_pd(Dhi, Dhi, 1));
     const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
     const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
     lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
     const size_t lo = win_lo, hi = win_hi;
-    __m256 acc = zero;
-    for (size_t k = lo; k < hi; ++k) {
-      const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
-      const __m256 vD = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lD, D1)), _mm256_cvtpd_ps(_mm256_sub_pd(lD, D0)));
-      const __m256 in_reach =
-          _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_and_ps(vD, absmask), _mm256_broadcast_ss(&la.reach[k]), _CMP_LE_OQ));
-      if (!_mm256_movemask_ps(in_reach)) continue;
-      const __m256d lX = _mm256_broadcast_sd(&la.X[k]), lY = _mm256_broadcast_sd(&la.Y[k]);
-      const __m256 vX = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lX, X1)), _mm256_cvtpd_ps(_mm256_sub_pd(lX, X0)));
-      const __m256 vY = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lY, Y1)), _mm256_cvtpd_ps(_mm256_sub_pd(lY, Y0)));
-      const __m256 cb = _mm256_add_ps(_mm256_mul_ps(vnX, vX), _mm256_mul_ps(vnD, vD));
-      const __m256 lit = _mm256_and_ps(in_reach, _mm256_and_ps(_mm256_cmp_ps(vY, zero, _CMP_GT_OQ),
-                                                               _mm256_cmp_ps(cb, zero, _CMP_GT_OQ)));
-      if (!_mm256_movemask_ps(lit)) continue;
-      const __m256 dv2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX, vX), _mm256_mul_ps(vY, vY)), _mm256_mul_ps(vD, vD));
-      const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY, dv);
-      const __m256 beyond = _mm256_and_ps(lit, _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
-      __m256 rel = one;
-      if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
-      const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), _mm256_div_ps(cb, dv)), _mm256_max_ps(dv2, vd2min));
-      acc = _mm256_add_ps(acc, _mm256_and_ps(lit, ek));
-    }
+    const LampLanes8 ll{X0, X1, Y0, Y1, D0, D1, vnX, vnY, vnD, ok, crown};
+    const __m256 acc = _mm256_movemask_ps(crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
+                                                 : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min);
     const unsigned lit_px = static_cast<unsigned>(m & _mm256_movemask_ps(_mm256_cmp_ps(acc, zero, _CMP_GT_OQ)));
     if (lit_px) reflect8_avx2(o + 3 * x, tx + 3 * x, acc, lit_px, rc);
   }
@@ -1564,23 +1684,67 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void faca
 }
 // One half's points (X, Y, D) and lit normals in double (vertical_point's operations per lane:
 // X = z·(x − c_x)/f, the camera-facing normal −(X, D)/√(X² + D²) where the lane has no façade
-// plane), the normals rounded to float; ok: the lanes with a plane or with √(X² + D²) > 0. (Y and
-// D come from the candidate test, which computes them with the same operations.)
-__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void points8(int x, __m512d zz, const RowGeom& q,
-                                                                                  __m512d Dv, __m512d nx, __m512d nd,
-                                                                                  __mmask8 has, __m512d& X, __m256& nXf,
-                                                                                  __m256& nDf, __mmask8& ok) {
+// plane, on a crown's lane (crown) the unit vector to the camera), the normals rounded to float;
+// ok: the lanes with a plane or with √(X² + D²) > 0 (a crown's: its √((X² + D²) + (h − Y)²) > 0).
+// (Y and D come from the candidate test, which computes them with the same operations.)
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void points8(
+    int x, __m512d zz, const RowGeom& q, __m512d Dv, __m512d Yv, __m512d nx, __m512d nd, __mmask8 has, __mmask8 crown,
+    __m512d& X, __m256& nXf, __m256& nYf, __m256& nDf, __mmask8& ok) {
   const __m512d xd = _mm512_cvtepi32_pd(_mm256_add_epi32(_mm256_set1_epi32(x), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
   X = _mm512_div_pd(_mm512_mul_pd(zz, _mm512_sub_pd(xd, _mm512_set1_pd(q.cx))), _mm512_set1_pd(q.f));
   ok = has;
+  __m512d ny = _mm512_setzero_pd();
   if (has != 0xff) {
-    const __m512d rr = _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(X, X), _mm512_mul_pd(Dv, Dv)));
+    const __m512d XX_DD = _mm512_add_pd(_mm512_mul_pd(X, X), _mm512_mul_pd(Dv, Dv));
+    const __m512d rr = _mm512_sqrt_pd(XX_DD);
     ok = has | _mm512_cmp_pd_mask(rr, _mm512_setzero_pd(), _CMP_GT_OQ);
     nx = _mm512_mask_blend_pd(has, _mm512_div_pd(neg_pd(X, 0xff), rr), nx);
     nd = _mm512_mask_blend_pd(has, _mm512_div_pd(neg_pd(Dv, 0xff), rr), nd);
+    if (crown) {  // never on a façade plane
+      const __m512d H = _mm512_sub_pd(_mm512_set1_pd(q.h), Yv);
+      const __m512d r3 = _mm512_sqrt_pd(_mm512_add_pd(XX_DD, _mm512_mul_pd(H, H)));
+      ok = (ok & static_cast<__mmask8>(~crown)) | (crown & _mm512_cmp_pd_mask(r3, _mm512_setzero_pd(), _CMP_GT_OQ));
+      nx = _mm512_mask_div_pd(nx, crown, neg_pd(X, 0xff), r3);
+      nd = _mm512_mask_div_pd(nd, crown, neg_pd(Dv, 0xff), r3);
+      ny = _mm512_maskz_div_pd(crown, H, r3);
+    }
   }
   nXf = _mm512_cvtpd_ps(nx);
+  nYf = _mm512_cvtpd_ps(ny);
   nDf = _mm512_cvtpd_ps(nd);
+}
+// lamp_sum8 on sixteen lanes (vertical_row_avx512's lamp loop; the masks as k-registers).
+struct LampLanes16 {
+  __m512d X0, X1, Y0, Y1, D0, D1;
+  __m512 nX, nY, nD;
+  __mmask16 ok, crown;
+};
+template <bool kCrown>
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 lamp_sum16(
+    const LampArrays& la, const RelTable& t, size_t lo, size_t hi, const LampLanes16& g, __m512 vI0, __m512 vd2min) {
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f), vcc = _mm512_set1_ps(t.fcc);
+  __m512 acc = zero;
+  for (size_t k = lo; k < hi; ++k) {
+    const __m512 vD = diff16(_mm512_set1_pd(la.D[k]), g.D0, g.D1);
+    const __mmask16 in_reach = _mm512_mask_cmp_ps_mask(g.ok, _mm512_abs_ps(vD), _mm512_set1_ps(la.reach[k]), _CMP_LE_OQ);
+    if (!in_reach) continue;
+    const __m512 vX = diff16(_mm512_set1_pd(la.X[k]), g.X0, g.X1), vY = diff16(_mm512_set1_pd(la.Y[k]), g.Y0, g.Y1);
+    __m512 cb = _mm512_add_ps(_mm512_mul_ps(g.nX, vX), _mm512_mul_ps(g.nD, vD));
+    if (kCrown) cb = _mm512_add_ps(cb, _mm512_mul_ps(g.nY, vY));
+    const __mmask16 up = _mm512_mask_cmp_ps_mask(in_reach, vY, zero, _CMP_GT_OQ);
+    const __mmask16 lit = kCrown ? static_cast<__mmask16>(_mm512_mask_cmp_ps_mask(up, cb, zero, _CMP_GT_OQ) | (up & g.crown))
+                                 : _mm512_mask_cmp_ps_mask(up, cb, zero, _CMP_GT_OQ);
+    if (!lit) continue;
+    const __m512 dv2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX, vX), _mm512_mul_ps(vY, vY)), _mm512_mul_ps(vD, vD));
+    const __m512 dv = _mm512_sqrt_ps(dv2), cg = _mm512_div_ps(vY, dv);
+    const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit, cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
+    const __m512 rel = beyond ? rel_lerp16(t, cg, beyond) : one;
+    __m512 f = _mm512_div_ps(cb, dv);
+    if (kCrown) f = _mm512_mask_mov_ps(f, g.crown, crown_phase16(f));
+    const __m512 ek = _mm512_div_ps(_mm512_mul_ps(_mm512_mul_ps(vI0, rel), f), _mm512_max_ps(dv2, vd2min));
+    acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
+  }
+  return acc;
 }
 // vertical_row_body for AVX-512: groups of sixteen columns, the lamp loop on sixteen lanes at once
 // over the lamps of the group's window (the candidates' D range). Per group the candidate test
@@ -1602,7 +1766,6 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
   const RelTable& t = *v.t;
   const Reflect16 rc16 = reflect16_consts(v.tint);
   const __m512 vI0 = _mm512_set1_ps(v.I0), vd2min = _mm512_set1_ps(v.d2_min), zero = _mm512_setzero_ps();
-  const __m512 vcc = _mm512_set1_ps(t.fcc), one = _mm512_set1_ps(1.f);
   // The candidate test's constants (Candidates8's).
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu));
   const __m512i mhi = _mm512_set1_epi32(static_cast<int32_t>(v.dark >> 32));
@@ -1611,6 +1774,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
   const __m512d kD = _mm512_set1_pd(q.kD), kY = _mm512_set1_pd(q.kY), hh = _mm512_set1_pd(q.h);
   const __m512d mY = _mm512_set1_pd(la.max_Y), Dlo = _mm512_set1_pd(v.D_lo), Dhi = _mm512_set1_pd(v.D_hi);
   const __m512d dinf = _mm512_set1_pd(INFINITY);
+  const __m512i vveg = _mm512_set1_epi32(v.vegetation);
   size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
   int x = 0;
   for (; x + 16 <= W; x += 16) {
@@ -1636,18 +1800,20 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
     if (!m) continue;
     __m512d nx0 = _mm512_setzero_pd(), nd0 = nx0, nx1 = nx0, nd1 = nx0, X0 = nx0, X1 = nx0;
     __mmask8 has0 = 0, has1 = 0, ok0 = 0, ok1 = 0;
-    __m256 nXf0 = _mm256_setzero_ps(), nDf0 = nXf0, nXf1 = nXf0, nDf1 = nXf0;
+    __m256 nXf0 = _mm256_setzero_ps(), nDf0 = nXf0, nXf1 = nXf0, nDf1 = nXf0, nYf0 = nXf0, nYf1 = nXf0;
+    const unsigned crown = m & _mm512_cmpeq_epi32_mask(k, vveg);
     if (m & 0xff) {
       facade_normals8(x, m & 0xff, id, reg, v, nx0, nd0, has0);
-      points8(x, z0, q, D0, nx0, nd0, has0, X0, nXf0, nDf0, ok0);
+      points8(x, z0, q, D0, Y0, nx0, nd0, has0, static_cast<__mmask8>(crown), X0, nXf0, nYf0, nDf0, ok0);
     }
     if (m >> 8) {
       facade_normals8(x + 8, m >> 8, id, reg, v, nx1, nd1, has1);
-      points8(x + 8, z1, q, D1, nx1, nd1, has1, X1, nXf1, nDf1, ok1);
+      points8(x + 8, z1, q, D1, Y1, nx1, nd1, has1, static_cast<__mmask8>(crown >> 8), X1, nXf1, nYf1, nDf1, ok1);
     }
     const __mmask16 okm = static_cast<__mmask16>(m & (ok0 | static_cast<unsigned>(ok1) << 8));
     if (!okm) continue;
     const __m512 vnX = join16(nXf0, nXf1), vnD = join16(nDf0, nDf1);
+    const __mmask16 crownm = static_cast<__mmask16>(crown) & okm;
     // The lamp window from the candidates' D (the window of every candidate, with or without a
     // point: vertical_row_body's).
     const double Dmin = _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m), D0),
@@ -1656,23 +1822,9 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
                                                            _mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m >> 8), D1)));
     lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
     const size_t lo = win_lo, hi = win_hi;
-    __m512 acc = zero;
-    for (size_t k = lo; k < hi; ++k) {
-      const __m512 vD = diff16(_mm512_set1_pd(la.D[k]), D0, D1);
-      const __mmask16 in_reach = _mm512_mask_cmp_ps_mask(okm, _mm512_abs_ps(vD), _mm512_set1_ps(la.reach[k]), _CMP_LE_OQ);
-      if (!in_reach) continue;
-      const __m512 vX = diff16(_mm512_set1_pd(la.X[k]), X0, X1), vY = diff16(_mm512_set1_pd(la.Y[k]), Y0, Y1);
-      const __m512 cb = _mm512_add_ps(_mm512_mul_ps(vnX, vX), _mm512_mul_ps(vnD, vD));
-      const __mmask16 lit =
-          _mm512_mask_cmp_ps_mask(_mm512_mask_cmp_ps_mask(in_reach, vY, zero, _CMP_GT_OQ), cb, zero, _CMP_GT_OQ);
-      if (!lit) continue;
-      const __m512 dv2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX, vX), _mm512_mul_ps(vY, vY)), _mm512_mul_ps(vD, vD));
-      const __m512 dv = _mm512_sqrt_ps(dv2), cg = _mm512_div_ps(vY, dv);
-      const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit, cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
-      const __m512 rel = beyond ? rel_lerp16(t, cg, beyond) : one;
-      const __m512 ek = _mm512_div_ps(_mm512_mul_ps(_mm512_mul_ps(vI0, rel), _mm512_div_ps(cb, dv)), _mm512_max_ps(dv2, vd2min));
-      acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
-    }
+    const LampLanes16 ll{X0, X1, Y0, Y1, D0, D1, vnX, crownm ? join16(nYf0, nYf1) : zero, vnD, okm, crownm};
+    const __m512 acc = crownm ? lamp_sum16<true>(la, t, lo, hi, ll, vI0, vd2min)
+                              : lamp_sum16<false>(la, t, lo, hi, ll, vI0, vd2min);
     const unsigned lit_px = m & _mm512_cmp_ps_mask(acc, zero, _CMP_GT_OQ);
     if (lit_px) reflect16_avx512(o + 3 * x, tx + 3 * x, acc, static_cast<__mmask16>(lit_px), rc16);
   }
@@ -1701,6 +1853,7 @@ struct VerticalPass : LitRows {
   const float d2_min;
   const double c, sn, h;
   const int building = static_cast<int>(Label::Building);
+  const int vegetation = static_cast<int>(Label::Vegetation);  // crowns (vertical_term)
   // The classes that get no vertical light (sky and the ground classes) as a bit mask over the
   // label ids (all below 64); ids beyond kLabelCount are not among them.
   const uint64_t dark_classes = uint64_t{1} << static_cast<int>(Label::Sky) | label_bits(ground_classes());
@@ -1728,7 +1881,7 @@ struct VerticalPass : LitRows {
     }
     D_lo = la.D.front() - la.max_reach - 1.0;
     D_hi = la.D.back() + la.max_reach + 1.0;
-    ctx = VerticalCtx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building};
+    ctx = VerticalCtx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building, vegetation};
   }
   VerticalPass(const VerticalPass&) = delete;
   VerticalPass& operator=(const VerticalPass&) = delete;
@@ -1767,6 +1920,7 @@ struct VerticalPass : LitRows {
     // inlined), through local pointers.
     {
       int32_t* plane = r.plane.data();
+      uint8_t* crown = r.crown.data();
       double *zs = r.z.data(), *pnX = r.pnX.data(), *pnD = r.pnD.data();
       const int count = n;
       for (int i = 0; i < count; ++i) {
@@ -1778,6 +1932,7 @@ struct VerticalPass : LitRows {
           if (pi >= 0) f = &fac.planes[pi];
         }
         zs[i] = z[x];
+        crown[i] = id[x] == vegetation;
         plane[i] = f ? -1 : 0;
         pnX[i] = f ? -f->nX : 0.0;
         pnD[i] = f ? -f->nD : 0.0;

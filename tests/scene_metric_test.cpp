@@ -1334,9 +1334,9 @@ struct VerticalRig {
   ScenePreset p = urban();
   StreetLighting s;
   ImageF tex, L;
-  explicit VerticalRig(double box_D_m) {
+  explicit VerticalRig(double box_D_m, Label box_label = Label::Car) {
     o = camera_scene();
-    o.boxes = {{0.0, box_D_m, 2.0, 1.5, 4.5}};
+    o.boxes = {{0.0, box_D_m, 2.0, 1.5, 4.5, box_label}};
     sc = make_synthetic_camera_scene(o);
     s.peak_intensity_cd = 5000;
     s.lamps = {{0.0, 8.0, 14.0, false}};
@@ -1405,6 +1405,63 @@ TEST(VerticalStreetLight, BoxFrontGetsIntensityCosOverDistanceSquared) {
   EXPECT_GT(n, 1000);
   std::fprintf(stderr, "[vertical] box front at 20 m, lamp 8 m up at 14 m, I0 %.0f cd: %d pixels, E %.2f..%.2f lx, "
                "worst relative error %.2e (bound up to %.2e)\n", r.s.peak_intensity_cd, n, lo, hi, worst, tol_max);
+}
+
+// Tree crowns (street.cpp crown_phase): a vegetation box stands for a crown, lit as a Lambert
+// sphere, E = I0·rel(γ)·Φ(α)/d² with Φ(α) = (2/(3π))·(sin α + (π − α)·cos α), α the angle at the
+// pixel's point between the directions to the lamp and to the camera (Φ in double here, arccos
+// exact). Lamp A beside the crown and 1 m behind its face (α ≈ 96°): a car's camera-facing face
+// there is turned away from it and gets nothing, the crown gets about a fifth of I0/d². Lamp B in
+// front (the rig's, α ≈ 50°): the crown gets Φ where the face gets cos β. Tolerance, per pixel:
+// the float Φ against the exact one, |ΔΦ| ≤ 1.7·10⁻⁷ (crown_phase's polynomial for Q, within
+// 7.75·10⁻⁷ of it, times 2/(3π): scripts/crown_phase_fit.py) + 6u (its roundings: Horner's ten on
+// values up to 1.1, √(1 − a), s·Q, π·a and the sum, about 23u before the factor 2/(3π), and the
+// last product's 1u) + (2/3)·15u (Φ′ = (2/(3π))·(π − α) ≤ 2/3, times cos α's error: n·v's three
+// products and two sums with n and v rounded, at most 6u·Σ|n_i·v_i| ≤ 6√3u·d, d's 3.5u and the
+// quotient's 1u), u = 2⁻²⁴; then as the face's: d² with v rounded 7u, I0·rel, ·Φ and / d² 3u,
+// the sum 1u and the recovery from L 2u: |E_image/E − 1| ≤ (1.7·10⁻⁷ + 16u)/Φ + 13u, taken as
+// (1.7·10⁻⁷ + 32u)/Φ + 16u.
+TEST(VerticalStreetLight, CrownIsLitAsALambertSphereWhereAFaceIsTurnedAway) {
+  const double u = std::ldexp(1.0, -24);
+  auto phi = [](double c) {
+    const double a = std::acos(std::clamp(c, -1.0, 1.0));
+    return 2 / (3 * M_PI) * (std::sin(a) + (M_PI - a) * c);
+  };
+  for (const bool beside : {true, false}) {
+    VerticalRig crown(20, Label::Vegetation), car(20, Label::Car);
+    for (VerticalRig* r : {&crown, &car}) {
+      if (beside) r->s.lamps = {{4.0, 8.0, 21.0, false}};
+      add_vertical_street_light(r->L, r->tex, r->sc.labels.ids, r->sc.depth_m, r->o.camera, r->s, r->p);
+    }
+    const CameraGeometry& g = crown.o.camera;
+    const StreetLamp& l = crown.s.lamps[0];
+    double worst = 0, lo = 1e300, hi = 0, car_max = 0;
+    int n = 0;
+    for (int y = 0; y < crown.o.height; ++y)
+      for (int x = 0; x < crown.o.width; ++x) {
+        if (!crown.sc.box_front.at(x, y)) continue;
+        ASSERT_EQ(crown.sc.labels.ids.at(x, y), static_cast<int>(Label::Vegetation));
+        const auto P = crown.point(x, y);
+        const double vX = l.X_m - P[0], vY = l.Y_m - P[1], vD = l.D_m - P[2];
+        const double d = std::sqrt(vX * vX + vY * vY + vD * vD);
+        const double cX = -P[0], cY = g.mount_height_m - P[1], cD = -P[2], cn = std::sqrt(cX * cX + cY * cY + cD * cD);
+        const double ph = phi((cX * vX + cY * vY + cD * vD) / (cn * d));
+        const double e = crown.s.peak_intensity_cd * lamp_relative_intensity(std::acos(vY / d), crown.p) * ph / (d * d);
+        ASSERT_GT(e, 0);
+        const double rel = std::fabs(crown.E_at(x, y) / e - 1);
+        EXPECT_LE(rel, (1.7e-7 + 32 * u) / ph + 16 * u) << x << "," << y << (beside ? " beside" : " in front");
+        worst = std::max(worst, rel);
+        lo = std::min(lo, crown.E_at(x, y));
+        hi = std::max(hi, crown.E_at(x, y));
+        if (beside) EXPECT_EQ(car.L.at(x, y, 1), 0.f) << x << "," << y;  // the face turned away
+        car_max = std::max(car_max, static_cast<double>(car.L.at(x, y, 1)) > 0 ? car.E_at(x, y) : 0.0);
+        ++n;
+      }
+    EXPECT_GT(n, 1000);
+    std::fprintf(stderr, "[vertical] crown at 20 m, lamp %s: %d pixels, E %.2f..%.2f lx (a car's face there: up to "
+                 "%.2f lx), worst relative error against the Lambert sphere %.2e\n",
+                 beside ? "beside it and 1 m behind its face" : "8 m up 6 m in front", n, lo, hi, car_max, worst);
+  }
 }
 
 // A box beyond every lamp's reach (its front at 50 m, the lamp's footprint ends at
