@@ -447,3 +447,147 @@ ImageU8 lane_markings_with_grey(const ImageF& luma, const ImageU16& labels, cons
 }
 
 }  // namespace photosite::scene
+
+namespace photosite::scene {
+
+// drop_tram_rails (declared in night.h with its rule). Each marking component's pixels go to the
+// ground (CameraGeometry::ground_point at the pixel centre in frame coordinates) and their line
+// X = a + b·D is fitted by least squares over D; two straight components whose lines run
+// side by side at a rail gauge plus a head's width are a track. The head width: tram groove rails
+// have heads of about 55-60 mm (EN 14811 profiles such as Ri60), Vignole rails 60-75 mm; 0.065 m
+// is taken, and the 0.15 m tolerance covers both and the metric scene's error.
+int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry& g, const ScenePreset& p,
+                    ImageU8* rails) {
+  const int W = lanes_work.width(), H = lanes_work.height();
+  if (rails) *rails = ImageU8(W, H, 1, uint8_t{0});
+  if (p.tram_gauges_m.empty() || W < 2 || H < 2) return 0;
+  constexpr double kHead = 0.065, kTol = 0.15, kMinLength = 3.0, kMaxSlope = 0.3, kMaxRms = 0.15;
+  const cv::Mat mask(H, W, CV_8U, lanes_work.data());
+  cv::Mat lab;
+  const int n = cv::connectedComponents(mask, lab, 8, CV_32S);
+  if (n <= 2) return 0;  // the background and at most one component: no pair
+  struct Fit {
+    double n = 0, sD = 0, sX = 0, sDD = 0, sDX = 0, sXX = 0, Dmin = 1e300, Dmax = -1e300;
+    double a = 0, b = 0;
+    bool line = false, rail = false;
+  };
+  std::vector<Fit> f(n);
+  for (int y = 0; y < H; ++y) {
+    const int32_t* l = lab.ptr<int32_t>(y);
+    const double v = (y + 0.5) / work_scale - 0.5;
+    for (int x = 0; x < W; ++x) {
+      if (!l[x]) continue;
+      double X, D, z;
+      if (!g.ground_point((x + 0.5) / work_scale - 0.5, v, &X, &D, &z)) continue;
+      Fit& c = f[l[x]];
+      c.n += 1;
+      c.sD += D;
+      c.sX += X;
+      c.sDD += D * D;
+      c.sDX += D * X;
+      c.sXX += X * X;
+      c.Dmin = std::min(c.Dmin, D);
+      c.Dmax = std::max(c.Dmax, D);
+    }
+  }
+  std::vector<int> lines;
+  for (int i = 1; i < n; ++i) {
+    Fit& c = f[i];
+    if (c.n < 8 || c.Dmax - c.Dmin < kMinLength) continue;
+    const double mD = c.sD / c.n, mX = c.sX / c.n;
+    const double vDD = c.sDD / c.n - mD * mD, vDX = c.sDX / c.n - mD * mX, vXX = c.sXX / c.n - mX * mX;
+    if (!(vDD > 0)) continue;
+    c.b = vDX / vDD;
+    c.a = mX - c.b * mD;
+    const double rms2 = vXX - c.b * vDX;  // the residual's mean square (least squares' identity)
+    if (std::fabs(c.b) > kMaxSlope || rms2 > kMaxRms * kMaxRms) continue;
+    c.line = true;
+    lines.push_back(i);
+  }
+  for (size_t i = 0; i < lines.size(); ++i)
+    for (size_t j = i + 1; j < lines.size(); ++j) {
+      Fit &p1 = f[lines[i]], &p2 = f[lines[j]];
+      const double lo = std::max(p1.Dmin, p2.Dmin), hi = std::min(p1.Dmax, p2.Dmax);
+      if (hi - lo < kMinLength) continue;
+      const double s_lo = std::fabs((p2.a - p1.a) + (p2.b - p1.b) * lo);
+      const double s_hi = std::fabs((p2.a - p1.a) + (p2.b - p1.b) * hi);
+      for (const double gauge : p.tram_gauges_m)
+        if (std::fabs(s_lo - (gauge + kHead)) <= kTol && std::fabs(s_hi - (gauge + kHead)) <= kTol) {
+          p1.rail = p2.rail = true;
+          break;
+        }
+    }
+  int cleared = 0;
+  for (int y = 0; y < H; ++y) {
+    const int32_t* l = lab.ptr<int32_t>(y);
+    uint8_t* m = lanes_work.row(y);
+    uint8_t* r = rails ? rails->row(y) : nullptr;
+    for (int x = 0; x < W; ++x)
+      if (l[x] && f[l[x]].rail) {
+        m[x] = 0;
+        if (r) r[x] = 255;
+        ++cleared;
+      }
+  }
+  return cleared;
+}
+
+int texture_under_rails(ImageF& texture, const ImageU16& labels, const ImageU8& rails, const CameraGeometry& g) {
+  const int W = texture.width(), H = texture.height(), C = texture.channels();
+  int changed = 0;
+  for (int y = 0; y < H; ++y) {
+    const uint8_t* m = rails.row(y);
+    if (std::find_if(m, m + W, [](uint8_t v) { return v != 0; }) == m + W) continue;  // no rail in this row
+    const double z = g.ground_depth_m(y);
+    if (!(z > 0) || !std::isfinite(z)) continue;
+    const int reach = static_cast<int>(std::min<double>(W, std::ceil(0.12 * g.f_px / z) + 2)) + 3;
+    const uint16_t* id = labels.row(y);
+    float* t = texture.row(y);
+    for (int x = 0; x < W;) {
+      if (!m[x]) {
+        ++x;
+        continue;
+      }
+      int x1 = x;
+      while (x1 < W && m[x1]) ++x1;
+      const uint16_t lab = id[x];
+      auto sum = [&](int k) {
+        float v = 0;
+        for (int c = 0; c < C; ++c) v += t[C * k + c];
+        return v;
+      };
+      auto flank = [&](int k) { return id[k] == lab && !m[k]; };
+      // Each side's sample: the mean texture of the run's label off the mask over the last 3
+      // pixels of its window (`reach` pixels from the run's end, past the rail's top); none where
+      // the image border or other labels leave no such pixel.
+      float lv[4] = {0, 0, 0, 0}, rv[4] = {0, 0, 0, 0};
+      int ln = 0, rn = 0;
+      for (int k = x - reach; k < x - reach + 3; ++k)
+        if (k >= 0 && k < x && flank(k)) {
+          for (int c = 0; c < C && c < 4; ++c) lv[c] += t[C * k + c];
+          ++ln;
+        }
+      for (int k = x1 + reach - 3; k < x1 + reach; ++k)
+        if (k >= x1 && k < W && flank(k)) {
+          for (int c = 0; c < C && c < 4; ++c) rv[c] += t[C * k + c];
+          ++rn;
+        }
+      if (ln || rn) {
+        float v[4] = {0, 0, 0, 0};
+        for (int c = 0; c < C && c < 4; ++c)
+          v[c] = ln && rn ? 0.5f * (lv[c] / ln + rv[c] / rn) : ln ? lv[c] / ln : rv[c] / rn;
+        // Painted: the run and its windows up to the samples.
+        const int a = std::max(0, x - reach + 3), b = std::min(W, x1 + reach - 3);
+        for (int k = a; k < b; ++k) {
+          if (id[k] != lab) continue;
+          for (int c = 0; c < C && c < 4; ++c) t[C * k + c] = v[c];
+          ++changed;
+        }
+      }
+      x = x1;
+    }
+  }
+  return changed;
+}
+
+}  // namespace photosite::scene

@@ -116,7 +116,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // `sums`: the texture's pass 1, when the linearisation made it (linearize_with_texture_sums).
   const WorkSize ws = work_size(W, H, p.work_max_width);
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
-  const ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
+  ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
                                                   ws.halving ? &work_luma : nullptr, sums);
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
@@ -201,6 +201,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
   StreetLighting planned;
+  bool rails_painted = false;
   // The coarse depth's rows (0.4 ms of work at 1 thread) go to whichever half is free first, in
   // chunks of 32 rows from a shared counter: each row is written by the same function whichever
   // thread takes it, so the same bits. (At 1 thread the first half makes them all.)
@@ -221,6 +222,16 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         coarse_rows();
       },
       [&] {
+        // Tram rails that the lane stage took for markings (drop_tram_rails: they led the
+        // vanishing point with the markings) leave the markings that the beam and the light map
+        // light; the frame-size mask is remade only where some were found.
+        // Their texture becomes the road's beside them (texture_under_rails; nothing on the
+        // other thread reads the texture before the light map).
+        ImageU8 rails;
+        if (drop_tram_rails(s.lanes_work, w.scale, s.geometry, p, &rails) > 0) {
+          lanes_full = lanes_at_frame(s.lanes_work, W, H);
+          rails_painted = texture_under_rails(texture, labels.ids, lanes_at_frame(rails, W, H), s.geometry) > 0;
+        }
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
         coarse_rows();
       });
@@ -228,6 +239,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   regions.reset();
   label_row_runs.reset();
   poles.reset();
+  if (rails_painted && keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);

@@ -250,6 +250,9 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
               "fewer intersections in the cluster: no vanishing point", "photosite choice"),
       num("geometry.max_depth_m", PHOTOSITE_AT(P, max_depth_m), "m", 10, 60000,
           "metric depth cap (ground near the horizon, objects without a ground contact)", "photosite choice"),
+      {"geometry.tram_gauges_m", Kind::NumberList, PHOTOSITE_AT(P, tram_gauges_m), "m", 0.5, 2.0, Need::Optional,
+       "tram track gauges: marking pairs this far apart (plus a rail head) are rails, not markings",
+       "[S] standard gauge 1435 mm (UIC) and metre gauge 1000 mm, the gauges of German and Swiss tramways"},
   };
   return rows;
 }

@@ -135,7 +135,9 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
           l = Label::Road;
           const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(D, 9.0) < 3.0;
           const bool edge = std::fabs(ax - (o.road_half_width_m - 0.2)) <= 0.075;
-          const float v = dash || edge ? 0.8f : 0.08f * tex;
+          bool rail = false;
+          for (const double rx : o.rail_X_m) rail = rail || std::fabs(X - rx) <= o.rail_head_m / 2;
+          const float v = dash || edge ? 0.8f : rail ? 0.5f : 0.08f * tex;
           px[0] = px[1] = px[2] = v;
         } else if (ax <= o.road_half_width_m + o.sidewalk_m) {
           l = Label::Sidewalk;

@@ -2890,3 +2890,122 @@ TEST(Facades, TwoFacadesAtACornerWithLabelNoise) {
   EXPECT_GT(checked, 200);
 }
 
+// Tram rails (drop_tram_rails, texture_under_rails): the synthetic street, no boxes, 16 m wide,
+// with a standard-gauge track set in its right lanes (rails 0.065 m wide at X = 3.6 and 5.1 m:
+// 1.435 m gauge plus a head; the markings at X = ±1.75 and ±7.8 m lie 1.85 m or more from either,
+// so no marking pairs with a rail), day value 0.5 against the asphalt's 0.08. The lane stage takes the rails for markings; the rule
+// clears them and nothing else: every marking pixel off the rails is kept, and every pixel it
+// clears lies on a rail: within half the head's width in pixels (0.0325·f/z, across the road: at
+// least its width across the projected line) plus 2.5 px of a rail's projected centre line (half
+// a pixel, and the lane stage's blur, σ = 1 px, to 2σ).
+namespace {
+SyntheticCameraOptions tram_street(bool rails) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();
+  o.road_half_width_m = 8;
+  if (rails) o.rail_X_m = {3.6, 5.1};
+  return o;
+}
+}  // namespace
+TEST(TramRails, APairAtTheGaugeIsClearedFromTheMarkingsAndNothingElse) {
+  const SyntheticCameraOptions o = tram_street(true);
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const WorkImages w = make_work_images(sc.day_linear_srgb, sc.labels.ids, p.work_max_width);
+  ASSERT_EQ(w.scale, 1.0);
+  ImageU8 lanes = lane_markings(w.luma, w.labels, p);
+  const ImageU8 before = lanes;
+  ImageU8 rails;
+  const int cleared = drop_tram_rails(lanes, w.scale, o.camera, p, &rails);
+  int on_rail = 0, rail_found = 0, marking_kept = 0, marking_lost = 0;
+  // Pixel distance from (x, y) to rail X_r's projected centre line (through its points 10 and 30 m ahead).
+  auto line_px = [&](double Xr, double x, double y) {
+    double u1, v1, u2, v2, z;
+    o.camera.project(Xr, 0, 10, &u1, &v1, &z);
+    o.camera.project(Xr, 0, 30, &u2, &v2, &z);
+    return std::fabs((u2 - u1) * (y - v1) - (v2 - v1) * (x - u1)) / std::hypot(u2 - u1, v2 - v1);
+  };
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      double X, D, z;
+      if (!before.at(x, y) || !o.camera.ground_point(x, y, &X, &D, &z)) continue;
+      const double reach = 0.0325 * o.camera.f_px / z + 2.5;
+      const bool rail = line_px(3.6, x, y) <= reach || line_px(5.1, x, y) <= reach;
+      if (rails.at(x, y)) {
+        EXPECT_EQ(lanes.at(x, y), 0);
+        ++rail_found;
+        on_rail += rail;
+      } else if (!rail) {
+        marking_kept += lanes.at(x, y) != 0;
+        marking_lost += lanes.at(x, y) == 0;
+      }
+    }
+  std::fprintf(stderr, "[rails] %d marking pixels cleared as rails (%d on the rails), markings kept %d, lost %d\n",
+               cleared, on_rail, marking_kept, marking_lost);
+  EXPECT_EQ(cleared, rail_found);
+  EXPECT_GT(rail_found, 200);
+  EXPECT_EQ(on_rail, rail_found);
+  EXPECT_GT(marking_kept, 500);
+  EXPECT_EQ(marking_lost, 0);
+  // Without rails nothing is cleared; with no gauge in the preset neither.
+  ScenePreset none = p;
+  none.tram_gauges_m.clear();
+  ImageU8 again = before;
+  EXPECT_EQ(drop_tram_rails(again, w.scale, o.camera, none), 0);
+  const SyntheticCameraScene plain = make_synthetic_camera_scene(tram_street(false));
+  const WorkImages wp = make_work_images(plain.day_linear_srgb, plain.labels.ids, p.work_max_width);
+  ImageU8 plain_lanes = lane_markings(wp.luma, wp.labels, p);
+  EXPECT_EQ(drop_tram_rails(plain_lanes, wp.scale, o.camera, p), 0);
+}
+
+// Through the chain, the rails' night texture is the asphalt's: night_scene's darkened layer
+// (texture times the ambient light: no geometry in it) on the rails that drop_tram_rails finds in
+// the lane stage's markings (as above; the chain's own working images are the same at this size),
+// against the same pixels of the scene without rails, over the
+// same ratio on ordinary road (the class normalisation: the rails raise the road's mean day
+// luminance): within the asphalt's own checker pattern (0.9 and 1.1 of its mean; a rail pixel
+// takes the mean of asphalt pixels nearby, each 0.9 or 1.1, where its own is 0.9 or 1.1 in the
+// scene without rails), [0.9/1.1, 1.1/0.9], widened by 64u (u = 2⁻²⁴: the float texture's and the
+// darkened layer's roundings in the four values of the ratio of ratios, about ten each, and the
+// median's). Before the rule
+// the rails were up to 0.5/0.08 ≈ 6× the asphalt.
+TEST(TramRails, TheirNightTextureIsTheAsphaltsBesideThem) {
+  const SyntheticCameraOptions o = tram_street(true);
+  const SyntheticCameraScene plain = make_synthetic_camera_scene(tram_street(false));
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  const NightScene a = night_scene(sc.day_linear_srgb, sc.labels, p, 1, true);
+  const NightScene b = night_scene(plain.day_linear_srgb, plain.labels, p, 1, true);
+  const WorkImages w = make_work_images(sc.day_linear_srgb, sc.labels.ids, p.work_max_width);
+  ASSERT_EQ(w.scale, 1.0);
+  ImageU8 lanes = lane_markings(w.luma, w.labels, p), rails;
+  ASSERT_GT(drop_tram_rails(lanes, w.scale, o.camera, p, &rails), 200);
+  // The normalisation ratio on road pixels away from the rails (−1.5 < X < −0.5 m).
+  std::vector<double> k;
+  for (int y = 0; y < o.height; y += 3)
+    for (int x = 0; x < o.width; x += 3) {
+      double X, D, z;
+      if (sc.labels.ids.at(x, y) != static_cast<int>(Label::Road) || !o.camera.ground_point(x, y, &X, &D, &z) || X > -0.5 ||
+          X < -1.5)
+        continue;
+      k.push_back(a.darkened.at(x, y, 1) / b.darkened.at(x, y, 1));
+    }
+  ASSERT_GT(k.size(), 100u);
+  const double kn = quantile(k, 0.5), slack = 64 * std::ldexp(1.0, -24);
+  int n = 0, inside = 0;
+  double lo = 1e9, hi = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      if (!rails.at(x, y)) continue;
+      const double r = a.darkened.at(x, y, 1) / b.darkened.at(x, y, 1) / kn;
+      ++n;
+      inside += r >= 0.9 / 1.1 * (1 - slack) && r <= 1.1 / 0.9 * (1 + slack);
+      lo = std::min(lo, r);
+      hi = std::max(hi, r);
+    }
+  std::fprintf(stderr, "[rails] %d pixels on the rails found: night texture over the asphalt's "
+               "%.3f..%.3f (normalisation %.4f), %d inside [0.818, 1.222]\n", n, lo, hi, kn, inside);
+  ASSERT_GT(n, 200);
+  EXPECT_EQ(inside, n);
+}

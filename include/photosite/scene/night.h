@@ -162,6 +162,28 @@ struct CameraGeometry {
   // Projection of a road-coordinate point; false behind the camera (z <= 0.05 m).
   bool project(double X, double Y, double D, double* u, double* v, double* z) const;
 };
+// Tram rails among the lane markings. A polished rail head reads as a bright line in the day
+// photo and lane_markings takes it for one, but a rail is steel, not retroreflecting paint: a
+// marking component (8-connected, at the working resolution `work_scale` of the frame that g
+// describes) that runs straight along the ground (X = a + b·D fitted to its pixels' ground points:
+// at least 3 m long, |b| ≤ 0.3, RMS residual ≤ 0.15 m) and has a partner doing the same at one of
+// the preset's rail gauges (geometry.tram_gauges_m) plus a head's width, over at least 3 m both
+// ways (within 0.15 m: the metric scene's 10 % on the ground, issue 14 §1, over 1.5 m), is a rail:
+// its pixels are cleared from `lanes_work` and, with `rails`, set to 255 in it (a working-size
+// mask made here). Returns the number of pixels cleared. The markings still lead the vanishing
+// point (rails run along the road too); only the light map's retroreflection and the low beam's
+// markings read the cleared mask, and the texture under the rails (texture_under_rails).
+int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry& g, const ScenePreset& p,
+                    ImageU8* rails = nullptr);
+// The reflectance texture under tram rails (a frame-size mask, nonzero on the rails): a rail
+// head's day brightness is the sky mirrored in polished steel, not a diffuse albedo, and its
+// diffuse reflectance is not known, so photosite gives it the ground it is set in: per row, each
+// run of rail pixels and a window on each side as wide as a rail's top on the ground at that row
+// (0.12 m: a grooved rail's head, groove and guard are about 0.11 m, EN 14811 Ri60) plus 2 px of
+// blur take the mean texture of the 3 pixels just beyond each window (of the run's label, off the
+// mask; the two sides' means averaged, one side where the image border or another label leaves
+// the other none; unchanged where neither). Returns the number of pixels changed.
+int texture_under_rails(ImageF& texture, const ImageU16& labels, const ImageU8& rails, const CameraGeometry& g);
 // The rig's intrinsics at width x height, the horizon from the vanishing point when it is a
 // Hough estimate (confidence >= 0.3) whose pitch atan((c_y − y_vp)/f) is within
 // rig.pitch_tolerance_deg (1.6° by default, derived in rig.cpp) of the rig's nominal pitch, else
@@ -390,6 +412,10 @@ struct SyntheticCameraOptions {
   // along the road, window_height_m tall from window_sill_m + j·window_storey_m up.
   double window_pitch_m = 0, window_width_m = 1.2, window_phase_m = 0;
   double window_storey_m = 3.4, window_height_m = 1.6, window_sill_m = 0.9;
+  // Tram rails set in the road (none by default): a polished head rail_head_m wide, of day value
+  // 0.5 against the asphalt's 0.08, centred at each X (a track: two rails gauge + head apart).
+  std::vector<double> rail_X_m;
+  double rail_head_m = 0.065;
 };
 struct SyntheticCameraScene {
   ImageF day_linear_srgb;

@@ -107,6 +107,8 @@ struct ScenePreset {
   double vp_cluster_radius_fraction = 0.04;
   int vp_min_support = 4;
   double max_depth_m = 1000;  // metric depth cap for ground and objects near the horizon
+  // Track gauges of trams whose rails lane_markings may take for markings (drop_tram_rails).
+  std::vector<double> tram_gauges_m = {1.435, 1.0};
   // The camera rig (not a key of the scene file: chosen by `--rig`); an empty name means auto
   // (rig_for_image: the bundled rig of the nearest native aspect ratio).
   CameraRig rig;
