@@ -313,10 +313,11 @@ __attribute__((target("avx2"))) inline BoxV box_x4(const float* s, const BoxCoef
   }
   return o;
 }
-// Y = ((0 + K0·v0) + K1·v1) + K2·v2 of four pixels' box RGB (box_y's operations).
+// Y = ((0 + K0·v0) + K1·v1) + K2·v2 of four pixels' box RGB (box_y's operations). The first
+// addition is left out: K0 > 0 and v0 = max(0, ·) >= +0 (never NaN or -0: max_pd gives its second
+// operand, +0, for those), so K0·v0 is +0 or positive and 0 + K0·v0 is K0·v0 to the bit.
 __attribute__((target("avx2"), always_inline)) inline __m256d box_y4(const BoxV& b, __m256d K0, __m256d K1, __m256d K2) {
-  return _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_setzero_pd(), _mm256_mul_pd(K0, b.v[0])), _mm256_mul_pd(K1, b.v[1])),
-                       _mm256_mul_pd(K2, b.v[2]));
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(K0, b.v[0]), _mm256_mul_pd(K1, b.v[1])), _mm256_mul_pd(K2, b.v[2]));
 }
 __attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const BoxCoef& c, double* y) {
   const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
@@ -378,8 +379,8 @@ PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, doub
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     const BoxV8 b = box_x8(s + 3 * i, c);
-    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_add_pd(_mm512_setzero_pd(), _mm512_mul_pd(K0, b.v[0])),
-                                                  _mm512_mul_pd(K1, b.v[1])),
+    // box_y4's operations (its first addition, of +0, left out to the same bits).
+    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(K0, b.v[0]), _mm512_mul_pd(K1, b.v[1])),
                                     _mm512_mul_pd(K2, b.v[2]));
     _mm512_storeu_pd(y + i, t);
   }
@@ -715,8 +716,11 @@ void masked_opening(std::vector<float>& v, const std::vector<uint8_t>& present, 
 // pixel by pixel does; L whole blocks are added side by side, pixel j of each in turn, so that the
 // blocks' chains of dependent additions (each bound by the adder's latency) overlap instead of
 // following each other. The same additions in the same order per block: the same bits.
-template <int L>
+// (BC: the block edge B as a constant where it is 8 — frames 1793 to 2048 pixels wide, Cityscapes'
+// — so that the compiler unrolls the blocks' pixels; 0: B at run time. The same additions.)
+template <int L, int BC>
 inline void add_blocks_side_by_side(const double* y, int B, double* ys, double* yc) {
+  if constexpr (BC > 0) B = BC;
   double acc[L];
   for (int k = 0; k < L; ++k) acc[k] = ys[k];
   for (int j = 0; j < B; ++j)
@@ -726,13 +730,15 @@ inline void add_blocks_side_by_side(const double* y, int B, double* ys, double* 
     yc[k] += B;
   }
 }
-void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+template <int BC>
+void add_run_to_blocks_b(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+  if constexpr (BC > 0) B = BC;
   for (int x = x0, bx = x0 / B; x < x1;) {  // y[x − x0]: pixel x's Y
     const int whole = x % B == 0 ? (x1 - x) / B : 0;  // whole blocks from x on
     const int k = whole >= 8 ? 8 : whole >= 4 ? 4 : whole >= 2 ? 2 : 1;
-    if (k == 8) add_blocks_side_by_side<8>(y + (x - x0), B, ys + bx, yc + bx);
-    else if (k == 4) add_blocks_side_by_side<4>(y + (x - x0), B, ys + bx, yc + bx);
-    else if (k == 2) add_blocks_side_by_side<2>(y + (x - x0), B, ys + bx, yc + bx);
+    if (k == 8) add_blocks_side_by_side<8, BC>(y + (x - x0), B, ys + bx, yc + bx);
+    else if (k == 4) add_blocks_side_by_side<4, BC>(y + (x - x0), B, ys + bx, yc + bx);
+    else if (k == 2) add_blocks_side_by_side<2, BC>(y + (x - x0), B, ys + bx, yc + bx);
     else {  // one block, or the run's part of it
       const int xe = std::min(x1, (bx + 1) * B);
       double acc = ys[bx];
@@ -746,6 +752,10 @@ void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, doubl
     x += k * B;
     bx += k;
   }
+}
+void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+  if (B == 8) add_run_to_blocks_b<8>(y, x0, x1, B, ys, yc);
+  else add_run_to_blocks_b<0>(y, x0, x1, B, ys, yc);
 }
 // Phase 1 of the split over pixels x0 .. x1 − 1 of row `lr` (labels), a row of block row by: per
 // run of one label whose class has a slot (slot[id] >= 0; runs cut at x0 and x1), its Y
