@@ -68,6 +68,9 @@ struct SunBlockSums {
   std::vector<int> row_x0, row_x1;       // [diffuse slot · nby + block row]
   std::vector<uint8_t> made;             // per block row: 1 where summed here
 };
+// The split's edge blocks of a class's w x h box (row-major): ed[i] = 1 where block i is absent
+// (present[i] = 0) or has a present 8-neighbour whose side sd (0 or 1; 0 where absent) is not its own.
+void sun_edge_blocks(const uint8_t* present, const uint8_t* sd, int w, int h, uint8_t* ed);
 // The diffuse classes' slots in SunBlockSums (-1: not diffuse; ids ≥ kLabelCount have none).
 int sun_diffuse_slot(int id);
 // SunBlockSums of every block row summed the split's own way (reading the day image): the

@@ -653,3 +653,33 @@ TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
   texture_max_isa(2);
   omp_set_num_threads(saved);
 }
+
+// The split's edge blocks (sun_edge_blocks: branch-free rows, vectorised) against the definition,
+// each block's 8 neighbours tested one by one: random boxes of present blocks and sides, 1 to 70
+// blocks wide (the vector loops' widths, their tails and the one- and two-column boxes) and 1 to
+// 5 high, a third of the blocks absent.
+TEST(SunShade, EdgeBlocksAreThoseWithANeighbourOnTheOtherSide) {
+  Rnd rnd;
+  for (int w = 1; w <= 70; ++w)
+    for (int h = 1; h <= 5; ++h) {
+      const size_t n = static_cast<size_t>(w) * h;
+      std::vector<uint8_t> present(n), sd(n), ed(n, 7), want(n);
+      for (size_t i = 0; i < n; ++i) {
+        present[i] = rnd() < 2.0 / 3;
+        sd[i] = present[i] && rnd() < 0.5;
+      }
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          bool e = !present[i];
+          for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+            for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
+              const size_t q = static_cast<size_t>(yy) * w + xx;
+              e = e || (present[q] && sd[q] != sd[i]);
+            }
+          want[i] = e;
+        }
+      sun_edge_blocks(present.data(), sd.data(), w, h, ed.data());
+      ASSERT_EQ(ed, want) << w << " x " << h;
+    }
+}
