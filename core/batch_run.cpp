@@ -418,8 +418,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         l.camera_sum = file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
         l.rig = scene::load_cityscapes_camera(it.camera);
       }
-      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums)
-                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums);
+      // (And the sun/shade split's block sums, from the same pass: the preset says whether it is on.)
+      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums, &sp)
+                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums, &sp);
     } catch (const ParameterError& e) {
       // batch takes labels of the image's size (it has no --resize-labels): say what to do.
       l.error = e.parameter() == "resize_labels"

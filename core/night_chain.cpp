@@ -34,9 +34,12 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   // it is in cache (scene::linearize_with_texture_sums): one pass over the 24 MB linear image
   // fewer. An 8-bit file's codes are linearised from the codes themselves (6 MB read instead of
   // their 24 MB of floats). All three give the same bits as the kernel (Gpu.LinearizeBitEqualToCpu).
+  // With the preset's sun/shade split on, the same pass also makes the split's block sums (its
+  // phase 1) from the Y it computes, for the block rows that lie in one of its chunks (every row
+  // of a 2048x1024 frame), so the split does not read the linear image for them.
   scene::TextureSums sums;
-  ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums)
-                              : scene::linearize_with_texture_sums(day, info, labels.ids, &sums);
+  ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums, &sp)
+                              : scene::linearize_with_texture_sums(day, info, labels.ids, &sums, &sp);
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)

@@ -313,10 +313,11 @@ __attribute__((target("avx2"))) inline BoxV box_x4(const float* s, const BoxCoef
   }
   return o;
 }
-// Y = ((0 + K0·v0) + K1·v1) + K2·v2 of four pixels' box RGB (box_y's operations).
+// Y = ((0 + K0·v0) + K1·v1) + K2·v2 of four pixels' box RGB (box_y's operations). The first
+// addition is left out: K0 > 0 and v0 = max(0, ·) >= +0 (never NaN or -0: max_pd gives its second
+// operand, +0, for those), so K0·v0 is +0 or positive and 0 + K0·v0 is K0·v0 to the bit.
 __attribute__((target("avx2"), always_inline)) inline __m256d box_y4(const BoxV& b, __m256d K0, __m256d K1, __m256d K2) {
-  return _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_setzero_pd(), _mm256_mul_pd(K0, b.v[0])), _mm256_mul_pd(K1, b.v[1])),
-                       _mm256_mul_pd(K2, b.v[2]));
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(K0, b.v[0]), _mm256_mul_pd(K1, b.v[1])), _mm256_mul_pd(K2, b.v[2]));
 }
 __attribute__((target("avx2"))) void box_y_avx2(const float* s, int n, const BoxCoef& c, double* y) {
   const __m256d K0 = _mm256_set1_pd(c.K[0]), K1 = _mm256_set1_pd(c.K[1]), K2 = _mm256_set1_pd(c.K[2]);
@@ -378,8 +379,8 @@ PHOTOSITE_AVX512 void box_y_avx512(const float* s, int n, const BoxCoef& c, doub
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     const BoxV8 b = box_x8(s + 3 * i, c);
-    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_add_pd(_mm512_setzero_pd(), _mm512_mul_pd(K0, b.v[0])),
-                                                  _mm512_mul_pd(K1, b.v[1])),
+    // box_y4's operations (its first addition, of +0, left out to the same bits).
+    const __m512d t = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(K0, b.v[0]), _mm512_mul_pd(K1, b.v[1])),
                                     _mm512_mul_pd(K2, b.v[2]));
     _mm512_storeu_pd(y + i, t);
   }
@@ -549,9 +550,11 @@ constexpr int kBoxBlock = 256;
 // The box RGB is not stored: pass 2 computes it again from the linear image (cheaper than
 // writing it out and reading it back).
 constexpr int kTextureChunks = 64;
-template <class Block>
+// after(first, count, y) is called with the Y of each block of pixels first .. first + count − 1
+// once it is computed (the sun/shade split's block sums take them there: SunPassRows).
+template <class Block, class After>
 void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std::array<double, 2 * kLabelCount>* part,
-                        const Block& block) {
+                        const Block& block, const After& after) {
   constexpr int kChunks = kTextureChunks;
   // Each chunk's sums are a chain of dependent additions (Y of each pixel added to its class's
   // running sum, in pixel order), bound by the adder's latency; kStreams chunks are walked side by
@@ -593,7 +596,10 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
     double ys[kStreams][kBoxBlock];
     for (size_t b = 0; b < common; b += kBoxBlock) {
       const int nb = static_cast<int>(std::min<size_t>(kBoxBlock, common - b));
-      for (int k = 0; k < kStreams; ++k) box_y_block(block(grp * kStreams + k, st[k].base + b, nb), nb, coef, ys[k]);
+      for (int k = 0; k < kStreams; ++k) {
+        box_y_block(block(grp * kStreams + k, st[k].base + b, nb), nb, coef, ys[k]);
+        after(st[k].base + b, nb, ys[k]);
+      }
       for (int j = 0; j < nb; ++j) {
 #pragma GCC unroll 4
         for (int k = 0; k < kStreams; ++k) step(st[k], b + j, ys[k][j]);
@@ -604,6 +610,7 @@ void texture_class_sums(const uint16_t* lab, size_t n, const BoxCoef& coef, std:
       for (size_t j = common; j < S.len; ++j) {
         double y;
         box_y_block(block(grp * kStreams + k, S.base + j, 1), 1, coef, &y);
+        after(S.base + j, 1, &y);
         step(S, j, y);
       }
       S.ps[S.cur] = S.acc;
@@ -672,6 +679,9 @@ struct BlockBox { int x0, x1, y0, y1; };  // blocks' bounding box (inclusive)
 // neutral value (+inf for min, -inf for max), so each pass is a plain min or max over shifted rows
 // (vectorised); the eroded field is taken into the dilation as it is, its absent blocks set to
 // -inf.
+// (Clones for AVX-512 and AVX2: min and max of floats without NaN are exact, so the same values
+// sixteen or eight at a time.)
+__attribute__((target_clones("avx512f", "avx2", "default")))
 void masked_opening(std::vector<float>& v, const std::vector<uint8_t>& present, int w, int h, int r) {
   const size_t nl = static_cast<size_t>(w) * h;
   std::vector<float> src(nl), t(nl);
@@ -702,14 +712,43 @@ void masked_opening(std::vector<float>& v, const std::vector<uint8_t>& present, 
   for (size_t i = 0; i < nl; ++i)
     if (present[i]) v[i] = src[i];
 }
-// The sun/shade split's block sums (sun_shade_split, phase 1): the Y values y[x0 .. x1) of a run
-// of one class in one row added into the sums ys[bx] and counts yc[bx] of the blocks they lie in
+// The split's edge blocks over a class's w x h box: ed[i] = 1 where block i is absent (present[i]
+// = 0), or present with a present neighbour (8-connected, inside the box) on the other side (sd:
+// 0 or 1, 0 where absent). Branch-free over each row's interior columns (an absent neighbour
+// adds present = 0; the block itself adds sd ^ own = 0), so the AVX2 clone takes 32 blocks at a
+// time; the same flags as testing the neighbours one by one.
+__attribute__((target_clones("avx2", "default")))
+void edge_blocks_of(const uint8_t* __restrict present, const uint8_t* __restrict sd, int w, int h, uint8_t* __restrict ed) {
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* own = sd + static_cast<size_t>(y) * w;
+    uint8_t* e = ed + static_cast<size_t>(y) * w;
+    std::fill(e, e + w, 0);
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy) {
+      const uint8_t* P = present + static_cast<size_t>(yy) * w;
+      const uint8_t* S = sd + static_cast<size_t>(yy) * w;
+      for (int x = 1; x + 1 < w; ++x)
+        e[x] |= (P[x - 1] & (S[x - 1] ^ own[x])) | (P[x] & (S[x] ^ own[x])) | (P[x + 1] & (S[x + 1] ^ own[x]));
+      for (int x : {0, w - 1}) {  // the box's first and last columns (one column when w = 1)
+        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) e[x] |= P[xx] & (S[xx] ^ own[x]);
+        if (w == 1) break;
+      }
+    }
+    const uint8_t* pr = present + static_cast<size_t>(y) * w;
+    for (int x = 0; x < w; ++x) e[x] = pr[x] ? e[x] : 1;
+  }
+}
+// The sun/shade split's block sums (sun_shade_split, phase 1): the Y values y[0 .. x1 − x0) of
+// pixels x0 .. x1 − 1, a run of one class in one row (or a piece of it: a run taken in pieces
+// adds the same values in the same order to each block), added into the sums ys[bx] and counts yc[bx] of the blocks they lie in
 // (bx = x / B). Each block's sum takes its pixels in pixel order, in one running sum, as adding
 // pixel by pixel does; L whole blocks are added side by side, pixel j of each in turn, so that the
 // blocks' chains of dependent additions (each bound by the adder's latency) overlap instead of
 // following each other. The same additions in the same order per block: the same bits.
-template <int L>
+// (BC: the block edge B as a constant where it is 8 — frames 1793 to 2048 pixels wide, Cityscapes'
+// — so that the compiler unrolls the blocks' pixels; 0: B at run time. The same additions.)
+template <int L, int BC>
 inline void add_blocks_side_by_side(const double* y, int B, double* ys, double* yc) {
+  if constexpr (BC > 0) B = BC;
   double acc[L];
   for (int k = 0; k < L; ++k) acc[k] = ys[k];
   for (int j = 0; j < B; ++j)
@@ -719,17 +758,19 @@ inline void add_blocks_side_by_side(const double* y, int B, double* ys, double* 
     yc[k] += B;
   }
 }
-void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, double* yc) {
-  for (int x = x0, bx = x0 / B; x < x1;) {
+template <int BC>
+void add_run_to_blocks_b(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+  if constexpr (BC > 0) B = BC;
+  for (int x = x0, bx = x0 / B; x < x1;) {  // y[x − x0]: pixel x's Y
     const int whole = x % B == 0 ? (x1 - x) / B : 0;  // whole blocks from x on
     const int k = whole >= 8 ? 8 : whole >= 4 ? 4 : whole >= 2 ? 2 : 1;
-    if (k == 8) add_blocks_side_by_side<8>(y + x, B, ys + bx, yc + bx);
-    else if (k == 4) add_blocks_side_by_side<4>(y + x, B, ys + bx, yc + bx);
-    else if (k == 2) add_blocks_side_by_side<2>(y + x, B, ys + bx, yc + bx);
+    if (k == 8) add_blocks_side_by_side<8, BC>(y + (x - x0), B, ys + bx, yc + bx);
+    else if (k == 4) add_blocks_side_by_side<4, BC>(y + (x - x0), B, ys + bx, yc + bx);
+    else if (k == 2) add_blocks_side_by_side<2, BC>(y + (x - x0), B, ys + bx, yc + bx);
     else {  // one block, or the run's part of it
       const int xe = std::min(x1, (bx + 1) * B);
       double acc = ys[bx];
-      for (int xi = x; xi < xe; ++xi) acc += y[xi];
+      for (int xi = x; xi < xe; ++xi) acc += y[xi - x0];
       ys[bx] = acc;
       yc[bx] += xe - x;
       x = xe;
@@ -740,6 +781,126 @@ void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, doubl
     bx += k;
   }
 }
+void add_run_to_blocks(const double* y, int x0, int x1, int B, double* ys, double* yc) {
+  if (B == 8) add_run_to_blocks_b<8>(y, x0, x1, B, ys, yc);
+  else add_run_to_blocks_b<0>(y, x0, x1, B, ys, yc);
+}
+// Phase 1 of the split over pixels x0 .. x1 − 1 of row `lr` (labels), a row of block row by: per
+// run of one label whose class has a slot (slot[id] >= 0; runs cut at x0 and x1), its Y
+// (y_of(x, e): a pointer to the Y of pixels x .. e − 1) added into the class's blocks
+// (add_run_to_blocks: ysum, ycnt at slot·nb, block by·nbx + bx) and the block row's range of
+// blocks [row_x0, row_x1] (at slot·nby + by) widened to the run's. The blocks new to the range
+// are zeroed first, so each block's sum starts from 0 whichever run reaches it first (the arrays
+// need not be zeroed beforehand), and the same sums whichever pieces the rows come in.
+template <class YOf>
+void add_row_to_blocks(const uint16_t* lr, int x0, int x1, int by, const int* slot, const SunGrid& g, const YOf& y_of,
+                       double* ysum, double* ycnt, int* row_x0, int* row_x1) {
+  for (int x = x0; x < x1;) {
+    const int e = run_end(lr, x, x1);
+    const int s = lr[x] < kLabelCount ? slot[lr[x]] : -1;
+    if (s < 0) { x = e; continue; }
+    const size_t b0 = s * g.nb() + static_cast<size_t>(by) * g.nbx;
+    const size_t r = static_cast<size_t>(s) * g.nby + by;
+    const int bx0 = x / g.B, bx1 = (e - 1) / g.B;
+    auto zero = [&](int a, int b) {  // blocks a .. b
+      std::fill(ysum + b0 + a, ysum + b0 + b + 1, 0.0);
+      std::fill(ycnt + b0 + a, ycnt + b0 + b + 1, 0.0);
+    };
+    if (row_x0[r] > row_x1[r]) {
+      zero(bx0, bx1);
+      row_x0[r] = bx0;
+      row_x1[r] = bx1;
+    } else {
+      if (bx0 < row_x0[r]) zero(bx0, row_x0[r] - 1), row_x0[r] = bx0;
+      if (bx1 > row_x1[r]) zero(row_x1[r] + 1, bx1), row_x1[r] = bx1;
+    }
+    add_run_to_blocks(y_of(x, e), x, e, g.B, ysum + b0, ycnt + b0);
+    x = e;
+  }
+}
+// Whether row y of the grid is sampled by phase 1 (every other row of a block; all where B = 1).
+inline bool sun_row_sampled(int y, const SunGrid& g) { return g.B == 1 || (y % g.B) % 2 == 0; }
+// The diffuse classes' slots (sun_diffuse_slot) and their count.
+struct DiffuseSlots {
+  int slot[kLabelCount], count = 0;
+  DiffuseSlots() {
+    for (int id = 0; id < kLabelCount; ++id) slot[id] = diffuse_class(id) ? count++ : -1;
+  }
+};
+const DiffuseSlots& diffuse_slots() {
+  static const DiffuseSlots d;
+  return d;
+}
+// SunBlockSums for a W x H frame, its arrays allocated (not zeroed: add_row_to_blocks zeroes what
+// it reaches) and no block row's range set; `chunks` > 0: made only the block rows whose sampled
+// pixels lie in one of that many chunks (pixels [n·c/chunks, n·(c + 1)/chunks), texture_class_sums'),
+// else every block row.
+std::shared_ptr<SunBlockSums> new_sun_block_sums(const float* image, const uint16_t* labels, int W, int H, int chunks) {
+  const SunGrid g = sun_grid(W, H, 0.03);  // (the block edge depends on the width alone)
+  auto s = std::make_shared<SunBlockSums>();
+  s->image = image;
+  s->labels = labels;
+  s->width = W;
+  s->height = H;
+  s->block_px = g.B;
+  s->nbx = g.nbx;
+  s->nby = g.nby;
+  const size_t nd = diffuse_slots().count;
+  s->ysum.reset(new double[nd * g.nb()]);
+  s->ycnt.reset(new double[nd * g.nb()]);
+  s->row_x0.assign(nd * g.nby, g.nbx);
+  s->row_x1.assign(nd * g.nby, -1);
+  s->made.assign(g.nby, 1);
+  const size_t n = static_cast<size_t>(W) * H;
+  for (int by = 0; by < g.nby && chunks > 0; ++by) {
+    const int y0 = by * g.B, y_end = std::min(H, (by + 1) * g.B);
+    int y1 = y0;  // the last sampled row
+    for (int y = y0; y < y_end; ++y)
+      if (sun_row_sampled(y, g)) y1 = y;
+    const size_t first = static_cast<size_t>(y0) * W, last = (static_cast<size_t>(y1) + 1) * W - 1;
+    for (int c = 1; c < chunks; ++c) {
+      const size_t start = n * c / chunks;
+      if (first < start && start <= last) s->made[by] = 0;  // a chunk starts inside the row's samples
+    }
+  }
+  return s;
+}
+// texture_class_sums' `after` for the split's block sums made in the linearisation's pass: the Y
+// of each block of pixels added into the block rows it made (SunBlockSums::made), row piece by
+// row piece. Each made block row lies in one chunk, whose pixels one thread walks in order, so
+// each block's sum takes its pixels in pixel order: the split's own additions (its phase 1).
+struct SunPassRows {
+  SunBlockSums* s = nullptr;  // null: nothing to make
+  SunGrid g;
+  void operator()(size_t first, int count, const double* y) const {
+    if (!s) return;
+    const size_t W = static_cast<size_t>(s->width);
+    for (size_t p = first, end = first + count; p < end;) {
+      const size_t row = p / W, e = std::min(end, (row + 1) * W);
+      const int by = static_cast<int>(row) / g.B;
+      if (s->made[by] && sun_row_sampled(static_cast<int>(row), g)) {
+        const double* yp = y + (p - first);
+        const int x0 = static_cast<int>(p - row * W);
+        add_row_to_blocks(s->labels + row * W, x0, static_cast<int>(e - row * W), by, diffuse_slots().slot, g,
+                          [&](int x, int) { return yp + (x - x0); }, s->ysum.get(), s->ycnt.get(), s->row_x0.data(),
+                          s->row_x1.data());
+      }
+      p = e;
+    }
+  }
+};
+SunPassRows sun_pass_rows(const ScenePreset* split, const float* image, const uint16_t* labels, int W, int H,
+                          TextureSums* sums) {
+  SunPassRows r;
+  if (!split || split->sun_shade_ratio_max <= 1 || W == 0 || H == 0) return r;
+  auto s = new_sun_block_sums(image, labels, W, H, kTextureChunks);
+  if (std::find(s->made.begin(), s->made.end(), 1) == s->made.end()) return r;  // no row lies in one chunk
+  r.s = s.get();
+  r.g = sun_grid(W, H, split->sun_shade_window_fraction);
+  sums->sun = std::move(s);
+  return r;
+}
+std::atomic<uint64_t> g_sun_rows_summed{0};
 }  // namespace
 
 double sun_blue_contrast(const ScenePreset& p) {
@@ -897,7 +1058,32 @@ double sun_isodata_threshold(const double* w, const double* lvl, size_t n, bool*
   return t;
 }
 
-SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px) {
+void sun_edge_blocks(const uint8_t* present, const uint8_t* sd, int w, int h, uint8_t* ed) {
+  edge_blocks_of(present, sd, w, h, ed);
+}
+
+int sun_diffuse_slot(int id) { return id >= 0 && id < kLabelCount ? diffuse_slots().slot[id] : -1; }
+
+uint64_t sun_block_rows_summed_count() { return g_sun_rows_summed.load(std::memory_order_relaxed); }
+
+std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day, const ImageU16& labels) {
+  const int W = day.width(), H = day.height();
+  if (day.channels() != 3 || labels.width() != W || labels.height() != H) fail("sun_block_sums: image and labels differ");
+  auto s = new_sun_block_sums(day.data(), labels.data(), W, H, 0);
+  const SunGrid g = sun_grid(W, H, 0.03);
+  const BoxCoef coef = box_coef();
+  std::vector<double> yrow(W);
+  for (int y = 0; y < H; ++y)
+    if (sun_row_sampled(y, g))
+      add_row_to_blocks(labels.row(y), 0, W, y / g.B, diffuse_slots().slot, g, [&](int x, int e) {
+        box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
+        return yrow.data() + x;
+      }, s->ysum.get(), s->ycnt.get(), s->row_x0.data(), s->row_x1.data());
+  return s;
+}
+
+SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px,
+                              const SunBlockSums* made) {
   SunShadeSplit out;
   out.ratio.fill(1.0);
   out.shade_tint.fill({1.0, 1.0, 1.0});
@@ -918,31 +1104,44 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   const size_t nb = g.nb();
   const double q_min = sun_blue_contrast(p);
   // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
-  // level is a mean, and the opening's square spans several blocks). One block row per task.
+  // level is a mean, and the opening's square spans several blocks). One block row per task:
+  // taken from the linearisation's pass where it made the row (`made`, of this image and these
+  // labels: a copy of each candidate class's blocks), else summed here, reading the day image.
   std::vector<double> ysum(ns * nb, 0.0), ycnt(ns * nb, 0.0);
   // Per class and block row, the first and last blocks with samples (none: first > last).
   std::vector<int> row_x0(static_cast<size_t>(ns) * g.nby, g.nbx), row_x1(static_cast<size_t>(ns) * g.nby, -1);
-#pragma omp parallel
+  const bool take = made && made->image == day.data() && made->labels == labels.data() && made->width == W &&
+                    made->height == H && made->block_px == g.B;
+  uint64_t own_rows = 0;
+#pragma omp parallel reduction(+ : own_rows)
   {
     std::vector<double> yrow(W);
 #pragma omp for schedule(dynamic)
-    for (int by = 0; by < g.nby; ++by)
-      for (int y = by * g.B; y < std::min(H, (by + 1) * g.B); y += (g.B > 1 ? 2 : 1)) {
-        const uint16_t* lr = labels.row(y);
-        for (int x = 0; x < W;) {  // per run of one label; Y only where the class may split
-          const int e = run_end(lr, x, W);
-          const int s = lr[x] < kLabelCount ? slot[lr[x]] : -1;
-          if (s < 0) { x = e; continue; }
-          box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
-          const size_t b0 = s * nb + static_cast<size_t>(by) * g.nbx;
-          const size_t r = static_cast<size_t>(s) * g.nby + by;
-          row_x0[r] = std::min(row_x0[r], x / g.B);
-          row_x1[r] = std::max(row_x1[r], (e - 1) / g.B);
-          add_run_to_blocks(yrow.data(), x, e, g.B, ysum.data() + b0, ycnt.data() + b0);
-          x = e;
+    for (int by = 0; by < g.nby; ++by) {
+      if (take && made->made[by]) {
+        for (int s = 0; s < ns; ++s) {
+          const size_t d = static_cast<size_t>(sun_diffuse_slot(ids[s]));  // a candidate is diffuse
+          const size_t rm = d * g.nby + by, r = static_cast<size_t>(s) * g.nby + by;
+          const int lo = made->row_x0[rm], hi = made->row_x1[rm];
+          if (lo > hi) continue;
+          row_x0[r] = lo;
+          row_x1[r] = hi;
+          const size_t om = d * nb + static_cast<size_t>(by) * g.nbx, o = s * nb + static_cast<size_t>(by) * g.nbx;
+          std::copy(made->ysum.get() + om + lo, made->ysum.get() + om + hi + 1, ysum.data() + o + lo);
+          std::copy(made->ycnt.get() + om + lo, made->ycnt.get() + om + hi + 1, ycnt.data() + o + lo);
         }
+        continue;
       }
+      ++own_rows;
+      for (int y = by * g.B; y < std::min(H, (by + 1) * g.B); ++y)
+        if (sun_row_sampled(y, g))  // per run of one label; Y only where the class may split
+          add_row_to_blocks(labels.row(y), 0, W, by, slot, g, [&](int x, int e) {
+            box_y_block(day.row(y) + 3 * x, e - x, coef, yrow.data() + x);
+            return yrow.data() + x;
+          }, ysum.data(), ycnt.data(), row_x0.data(), row_x1.data());
+    }
   }
+  g_sun_rows_summed.fetch_add(own_rows, std::memory_order_relaxed);
   // Per class: the opened log level per block, its split, and g.
   std::vector<std::vector<uint8_t>> side(ns);
   std::vector<double> chroma(ns, 0.0), lum_mid(ns, 0.0);
@@ -997,22 +1196,15 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     // (Neighbours outside the box are absent, like those outside the grid.)
     double sum[2] = {0, 0}, cnt[2] = {0, 0}, all_sum[2] = {0, 0}, all_cnt[2] = {0, 0}, lev[2] = {0, 0},
            all_lev[2] = {0, 0};
+    edge_blocks_of(present.data(), sd.data(), w, h, ed.data());
     for (int y = 0; y < h; ++y) {
       const double* Sr = S + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
       const double* Cr = C + static_cast<size_t>(bb.y0 + y) * g.nbx + bb.x0;
-      const int y0 = std::max(0, y - 1), y1 = std::min(h - 1, y + 1);
       for (int x = 0; x < w; ++x) {
         const size_t i = static_cast<size_t>(y) * w + x;
         if (!present[i]) continue;
         const uint8_t own = sd[i];
-        const int x0 = std::max(0, x - 1), x1 = std::min(w - 1, x + 1);
-        bool e = false;
-        for (int yy = y0; yy <= y1 && !e; ++yy)
-          for (int xx = x0; xx <= x1; ++xx) {
-            const size_t q = static_cast<size_t>(yy) * w + xx;
-            if (present[q] && sd[q] != own) { e = true; break; }
-          }
-        ed[i] = e;
+        const bool e = ed[i];
         all_sum[own] += Sr[x];
         all_cnt[own] += Cr[x];
         all_lev[own] += Cr[x] * v[i];
@@ -1487,7 +1679,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     g_texture_own_class_sums.fetch_add(1, std::memory_order_relaxed);
     computed.resize(kTextureChunks);
     texture_class_sums(labels.data(), n, coef, computed.data(),
-                       [&](int, size_t first, int) { return day.data() + 3 * first; });
+                       [&](int, size_t first, int) { return day.data() + 3 * first; }, SunPassRows());
   }
   const auto& part = have ? sums->part : computed;
   double sum[kLabelCount] = {}, cnt[kLabelCount] = {};
@@ -1495,7 +1687,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
   // The day's sunlight out of the diffuse classes: their sunlit pixels divided by g, so the class
   // mean is taken over Y with that division, Σ Y − (1 − 1/g)·Σ_sunlit Y (sun_shade_split).
-  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt);
+  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt, have ? sums->sun.get() : nullptr);
   float scale[kLabelCount], scale_sun[kLabelCount], scale_shade[kLabelCount][3];
   for (int id = 0; id < kLabelCount; ++id) {
     const double g = sun.ratio[id];
@@ -1560,10 +1752,8 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
 }
 
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums) {
-  sums->part.clear();
-  sums->image = nullptr;
-  sums->labels = nullptr;
+                                   TextureSums* sums, const ScenePreset* split) {
+  *sums = TextureSums();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
     return linearize(day, info);
   ImageF out(day.width(), day.height(), 3, uninitialized, "linear sRGB");
@@ -1574,11 +1764,13 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
+  // With the split on, its block sums from the same Y (sun_pass_rows).
+  const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), day.width(), day.height(), sums);
   texture_class_sums(labels.data(), day.pixel_count(), box_coef(), sums->part.data(), [&](int ch, size_t first, int count) {
     linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first), decode,
                           d8, lut, &bad[ch]);
     return static_cast<const float*>(out.data() + 3 * first);
-  });
+  }, sun);
   const int64_t first_bad = *std::min_element(bad.begin(), bad.end());
   if (first_bad != INT64_MAX) fail_damaged_pixel(day, info, first_bad);
   sums->image = out.data();
@@ -1692,10 +1884,9 @@ ImageF linearize_code_floats(const ImageU8& codes, const Decode8& d8) {
 }
 }  // namespace
 
-ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums) {
-  sums->part.clear();
-  sums->image = nullptr;
-  sums->labels = nullptr;
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums,
+                                         const ScenePreset* split) {
+  *sums = TextureSums();
   const Decode8& d8 = decode8();
   // Not the fused case: linearize() of the codes' floats.
   if (codes.channels() != 3 || labels.width() != codes.width() || labels.height() != codes.height())
@@ -1704,10 +1895,11 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   // Each block of pixels decoded right before pass 1 reads it back from L1 (as
   // linearize_with_texture_sums; codes have no damaged values to look for).
   sums->part.resize(kTextureChunks);
+  const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(), sums->part.data(), [&](int, size_t first, int count) {
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);
     return static_cast<const float*>(out.data() + 3 * first);
-  });
+  }, sun);
   sums->image = out.data();
   sums->labels = labels.data();
   return out;

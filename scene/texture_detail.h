@@ -3,6 +3,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "photosite/scene/night.h"
@@ -51,9 +52,38 @@ double sun_blue_contrast(const ScenePreset& p);
 // list order, to the bit; *exact (when given) tells whether they were found exact, so taken in
 // any order (darken.cpp sums_exact), or added in list order.
 double sun_isodata_threshold(const double* w, const double* lvl, size_t n, bool* exact = nullptr);
-// `class_px`: each class's pixel count in the frame (kLabelCount entries).
+// The split's phase 1: per diffuse class (diffuse_class) and block of its grid (block_px = B
+// pixels square), the sum of Y = Σ K_k c_k over the class's pixels on every other row of the block
+// (every row when B = 1), added in pixel order, and their count; per class and block row, the
+// first and last blocks holding any (none: first > last). Made in the linearisation's pass
+// (linearize_*_with_texture_sums given the preset) for the block rows whose sampled pixels all lie
+// in one of the pass's chunks (`made`), from the Y that pass computes for the class sums, so the
+// split does not read the day image for them; the split sums the other rows itself. A block's sum
+// is only meaningful inside its row's [row_x0, row_x1] (outside it, not written).
+struct SunBlockSums {
+  const float* image = nullptr;  // what they are of
+  const uint16_t* labels = nullptr;
+  int width = 0, height = 0, block_px = 0, nbx = 0, nby = 0;
+  std::unique_ptr<double[]> ysum, ycnt;  // [diffuse slot · nbx·nby + block]
+  std::vector<int> row_x0, row_x1;       // [diffuse slot · nby + block row]
+  std::vector<uint8_t> made;             // per block row: 1 where summed here
+};
+// The split's edge blocks of a class's w x h box (row-major): ed[i] = 1 where block i is absent
+// (present[i] = 0) or has a present 8-neighbour whose side sd (0 or 1; 0 where absent) is not its own.
+void sun_edge_blocks(const uint8_t* present, const uint8_t* sd, int w, int h, uint8_t* ed);
+// The diffuse classes' slots in SunBlockSums (-1: not diffuse; ids ≥ kLabelCount have none).
+int sun_diffuse_slot(int id);
+// SunBlockSums of every block row summed the split's own way (reading the day image): the
+// reference for the sums made in the linearisation's pass (tests).
+std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day_linear_srgb, const ImageU16& labels);
+// How many block rows the split has summed itself (not taken from the linearisation's pass):
+// tests check that the chain's frames take them.
+uint64_t sun_block_rows_summed_count();
+// `class_px`: each class's pixel count in the frame (kLabelCount entries). `made`: the block sums
+// made in the linearisation's pass (taken for the rows they hold when made of this image and
+// these labels).
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
-                              const double* class_px);
+                              const double* class_px, const SunBlockSums* made = nullptr);
 // The same, counting the classes' pixels itself.
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 
@@ -64,6 +94,8 @@ ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& l
 // other channel counts: linearize() alone): the same image and sums to the bit as from the
 // codes' floats code·(1/255) that read_image() gives, reading a quarter of the bytes (each code's
 // linear value from linearize()'s own 256-entry table for 8-bit files).
-ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums);
+// With `split` (the scene preset, its sun/shade split on) also the split's block sums (sums->sun).
+ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums,
+                                         const ScenePreset* split = nullptr);
 
 }  // namespace photosite::scene

@@ -546,3 +546,140 @@ TEST(SunShade, PenumbraPixelsInTheShadeLoseTheirShareOfTheSun) {
   EXPECT_LE(on_w, 1.3 * 1.2 / 0.8);
   EXPECT_GT(off_w, 1.3 * 1.2 / 0.8);
 }
+
+// The split's block sums (its phase 1) made in the linearisation's pass (linearize_*_with_texture_sums
+// given the preset: the chain's path) are the split's own, bit for bit, for every block row they
+// hold, and the split and the texture made from them are those made without them. Frames of
+// 8-bit codes with a diagonal sun/shade edge over road, a building, poles and a few person
+// pixels (a diffuse class too small to split): 512 x 256 (2 px blocks, every block row inside one
+// of the pass's 64 chunks), 256 x 128 (1 px blocks, every row sampled) and 500 x 250 (chunks
+// of 1953.125 px: block rows across a chunk's start, which the split sums itself); each
+// instruction set, 1 and 2 threads, from the codes and from their floats.
+TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
+  const ScenePreset p = on(load_scene_preset("night-urban"));
+  const int saved = omp_get_max_threads();
+  struct Size { int W, H; bool all_made; };
+  for (const Size sz : {Size{512, 256, true}, Size{256, 128, true}, Size{500, 250, false}}) {
+    const int W = sz.W, H = sz.H;
+    ImageU8 codes(W, H, 3, 0);
+    ImageU16 ids(W, H, 1, static_cast<uint16_t>(Label::Road));
+    Rnd rnd;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const bool lit = x + 2 * y > W;
+        const double rho = 0.5 + 0.3 * (2 * rnd() - 1);
+        for (int k = 0; k < 3; ++k)
+          codes.at(x, y, k) = static_cast<uint8_t>(std::lround(
+              std::min(255.0, 255 * rho * (lit ? 0.9 * kSunTint[k] : 0.3 * kSkyTint[k]))));
+        uint16_t id = static_cast<uint16_t>(Label::Road);
+        if (y < H / 4) id = static_cast<uint16_t>(Label::Building);
+        if (x % 61 == 7) id = static_cast<uint16_t>(Label::Pole);
+        if (rnd() < 0.002) id = static_cast<uint16_t>(Label::Person);
+        ids.at(x, y) = id;
+      }
+    ImageF floats(W, H, 3, 0.f);
+    for (size_t i = 0; i < codes.size(); ++i) floats[i] = codes[i] * (1.f / 255);
+    ImageFileInfo info;
+    info.bits_per_sample = 8;
+    info.srgb_encoded = true;
+    double class_px[kLabelCount] = {};
+    for (size_t i = 0; i < ids.pixel_count(); ++i) class_px[ids[i]] += 1;
+    for (int isa = 0; isa <= 2; ++isa)
+      for (int threads : {1, 2})
+        for (bool from_codes : {true, false}) {
+          texture_max_isa(isa);
+          omp_set_num_threads(threads);
+          const std::string at = "size " + std::to_string(W) + "x" + std::to_string(H) + " isa " +
+                                 std::to_string(isa) + " threads " + std::to_string(threads) +
+                                 (from_codes ? " codes" : " floats");
+          TextureSums sums;
+          const ImageF lin = from_codes ? linearize_codes_with_texture_sums(codes, ids, &sums, &p)
+                                        : linearize_with_texture_sums(floats, info, ids, &sums, &p);
+          ASSERT_TRUE(sums.sun) << at;
+          const SunBlockSums& got = *sums.sun;
+          const auto want = sun_block_sums(lin, ids);
+          ASSERT_EQ(got.nby, want->nby) << at;
+          const size_t nb = static_cast<size_t>(got.nbx) * got.nby;
+          int made = 0;
+          for (int by = 0; by < got.nby; ++by) {
+            made += got.made[by];
+            if (!got.made[by]) continue;
+            for (int id = 0; id < kLabelCount; ++id) {
+              const int d = sun_diffuse_slot(id);
+              if (d < 0) continue;
+              const size_t r = static_cast<size_t>(d) * got.nby + by;
+              ASSERT_EQ(got.row_x0[r], want->row_x0[r]) << at << " row " << by << " class " << id;
+              ASSERT_EQ(got.row_x1[r], want->row_x1[r]) << at << " row " << by << " class " << id;
+              for (int bx = got.row_x0[r]; bx <= got.row_x1[r]; ++bx) {
+                const size_t b = d * nb + static_cast<size_t>(by) * got.nbx + bx;
+                ASSERT_EQ(std::bit_cast<uint64_t>(got.ysum[b]), std::bit_cast<uint64_t>(want->ysum[b]))
+                    << at << " row " << by << " block " << bx << " class " << id;
+                ASSERT_EQ(got.ycnt[b], want->ycnt[b]) << at << " row " << by << " block " << bx << " class " << id;
+              }
+            }
+          }
+          if (sz.all_made) EXPECT_EQ(made, got.nby) << at;
+          else EXPECT_TRUE(made > 0 && made < got.nby) << at << ": " << made << " of " << got.nby;
+          // The split takes the made rows (summing only the others itself) and gives what it gives alone.
+          const uint64_t own0 = sun_block_rows_summed_count();
+          const SunShadeSplit with = sun_shade_split(lin, ids, p, class_px, &got);
+          EXPECT_EQ(sun_block_rows_summed_count() - own0, static_cast<uint64_t>(got.nby - made)) << at;
+          const SunShadeSplit alone = sun_shade_split(lin, ids, p, class_px);
+          ASSERT_FALSE(alone.sunlit.empty()) << at;  // the road splits
+          EXPECT_EQ(with.sunlit, alone.sunlit) << at;
+          EXPECT_EQ(with.ratio, alone.ratio) << at;
+          EXPECT_EQ(with.sun_sum, alone.sun_sum) << at;
+          EXPECT_EQ(with.shade_tint, alone.shade_tint) << at;
+          // The texture (the chain's call) as without them.
+          TextureSums without = sums;
+          without.sun.reset();
+          const uint64_t own1 = sun_block_rows_summed_count();
+          EXPECT_TRUE(same_bits(reflectance_texture_with(lin, ids, p, nullptr, nullptr, &sums),
+                                reflectance_texture_with(lin, ids, p, nullptr, nullptr, &without)))
+              << at;
+          EXPECT_EQ(sun_block_rows_summed_count() - own1, static_cast<uint64_t>(2 * got.nby - made)) << at;
+          // Sums of another image are not taken.
+          const ImageF other = lin;
+          const uint64_t own2 = sun_block_rows_summed_count();
+          EXPECT_EQ(sun_shade_split(other, ids, p, class_px, &got).ratio, alone.ratio) << at;
+          EXPECT_EQ(sun_block_rows_summed_count() - own2, static_cast<uint64_t>(got.nby)) << at;
+        }
+    // With the split off, none are made.
+    TextureSums sums;
+    const ScenePreset no = off(p);
+    linearize_codes_with_texture_sums(codes, ids, &sums, &no);
+    EXPECT_FALSE(sums.sun);
+  }
+  texture_max_isa(2);
+  omp_set_num_threads(saved);
+}
+
+// The split's edge blocks (sun_edge_blocks: branch-free rows, vectorised) against the definition,
+// each block's 8 neighbours tested one by one: random boxes of present blocks and sides, 1 to 70
+// blocks wide (the vector loops' widths, their tails and the one- and two-column boxes) and 1 to
+// 5 high, a third of the blocks absent.
+TEST(SunShade, EdgeBlocksAreThoseWithANeighbourOnTheOtherSide) {
+  Rnd rnd;
+  for (int w = 1; w <= 70; ++w)
+    for (int h = 1; h <= 5; ++h) {
+      const size_t n = static_cast<size_t>(w) * h;
+      std::vector<uint8_t> present(n), sd(n), ed(n, 7), want(n);
+      for (size_t i = 0; i < n; ++i) {
+        present[i] = rnd() < 2.0 / 3;
+        sd[i] = present[i] && rnd() < 0.5;
+      }
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          bool e = !present[i];
+          for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); ++yy)
+            for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); ++xx) {
+              const size_t q = static_cast<size_t>(yy) * w + xx;
+              e = e || (present[q] && sd[q] != sd[i]);
+            }
+          want[i] = e;
+        }
+      sun_edge_blocks(present.data(), sd.data(), w, h, ed.data());
+      ASSERT_EQ(ed, want) << w << " x " << h;
+    }
+}

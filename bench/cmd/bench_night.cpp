@@ -150,11 +150,11 @@ void run(const Opts& o) {
     const double cl0 = cpu_ms();
     auto t0 = clock::now();
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
-    // reflectance texture's class sums (its time is in "linearize", no longer in "darken"); an
-    // 8-bit PNG's codes are linearised directly.
+    // reflectance texture's class sums and the sun/shade split's block sums (their time is in
+    // "linearize", no longer in "darken"); an 8-bit PNG's codes are linearised directly.
     scene::TextureSums sums;
-    const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums)
-                             : scene::linearize_with_texture_sums(day, info, lm.ids, &sums);
+    const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums, &sp)
+                             : scene::linearize_with_texture_sums(day, info, lm.ids, &sums, &sp);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
     // As the chain on the CPU: the compose pass also makes the lens glare's level 1, which the
@@ -208,8 +208,8 @@ void run(const Opts& o) {
       const auto tr0 = device->transfers();
       auto td0 = clock::now();
       scene::TextureSums sums_d;
-      const ImageF lin_d = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums_d)
-                                 : scene::linearize_with_texture_sums(day, info, lm.ids, &sums_d);
+      const ImageF lin_d = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums_d, &sp)
+                                 : scene::linearize_with_texture_sums(day, info, lm.ids, &sums_d, &sp);
       auto td1 = clock::now();
       scene::NightScene ns_d = scene::night_scene(lin_d, lm, sp, 1, false, *device, nullptr, &sums_d);
       auto td2 = clock::now();

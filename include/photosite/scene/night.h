@@ -26,6 +26,7 @@ namespace photosite::scene {
 
 struct SequenceState;   // scene/luminaires.h
 struct StreetLighting;  // scene/street.h
+struct SunBlockSums;    // scene/texture_detail.h
 
 // ---- linearize --------------------------------------------------------------------------
 // Day image → linear sRGB (3 channels). Integer files are sRGB-decoded (IEC 61966-2-1); float
@@ -43,11 +44,15 @@ struct TextureSums {
   std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
   const float* image = nullptr;
   const uint16_t* labels = nullptr;
+  // The sun/shade split's block sums (its phase 1) of the block rows that lie in one chunk, made
+  // from the same Y in the same pass when asked (`split` below); null otherwise.
+  std::shared_ptr<const SunBlockSums> sun;
 };
 // linearize(), and with it the texture's class sums over `labels` (the frame's size) into
 // `sums`; other label sizes or channel counts than RGB: linearize() alone (sums left empty).
+// With `split` (the scene preset, its sun/shade split on) also the split's block sums (sums->sun).
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums);
+                                   TextureSums* sums, const ScenePreset* split = nullptr);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
