@@ -797,7 +797,8 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
 // rising cut-off's maximum ⟺ dy > rh·tan(max), h in [H₀, H₁] ⟺ D·tan H₀ ≤ dx ≤ D·tan H₁ (D > 0,
 // |angles| < 90°); and an α outside [alpha_deg, alpha_max_deg] no acos and pow. Same values as
 // the angle-by-angle evaluation, up to which side of a threshold a point within rounding of it
-// falls.
+// falls. Also without atan2: a point outside the table's horizontal range by a margin gets I = 0
+// (below), the same zero as the angle-by-angle evaluation's.
 namespace {
 struct SignLight {
   const ScenePreset& p;
@@ -818,6 +819,15 @@ struct SignLight {
     const double dx = X_m - xl, dy = Y_m - p.beam_lamp_height_m;
     const double rh = std::sqrt(dx * dx + D_m * D_m), d2 = dx * dx + dy * dy + D_m * D_m;
     if (table && dy > rh * tan_vmax && dx >= D_m * tan_h0 && dx <= D_m * tan_h1) return p.beam_above_cutoff_cd / d2;
+    // Left or right of the table's horizontal range [H₀, H₁] by a margin of 10⁻⁹ of |dx| + D: the
+    // angle path below gives I = 0 there at any v (beam_intensity_cd's grid test below the
+    // cut-off, the glare zone's range test above it), and 0/d2 = +0. The margin: sin(h − H₁) =
+    // cos H₁·(dx − D·tan H₁)/√(dx² + D²) > cos H₁·10⁻⁹ (likewise at H₀), 0.9·10⁻⁹ rad for the
+    // presets' ±25°, against h's rounding of a few ulp in that path (~10⁻¹⁵): the same zero, bit
+    // for bit, without two atan2 (signs beside the road: on aachen_000000 8,631 of the sign
+    // pixels' 69,726 lamp terms, where the fast path above takes 54,602 and 6,493 are left).
+    if (table && (dx - D_m * tan_h0 < -1e-9 * (std::abs(dx) + D_m) || dx - D_m * tan_h1 > 1e-9 * (std::abs(dx) + D_m)))
+      return 0.0;
     const double h = std::atan2(dx, D_m) * 180 / M_PI, v = std::atan2(dy, rh) * 180 / M_PI;
     const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
     double I = 0;
@@ -844,6 +854,77 @@ struct SignLight {
     return L;
   }
 };
+
+// SignLight::luminance at sign_pos's point (light_map_with) for n sign pixels of row y, eight at a
+// time: columns x[i] (as doubles), camera z z[i] (the depth's floats as doubles); kY = sin θ +
+// y_n·cos θ and kD = cos θ − y_n·sin θ of the row, as sign_pos computes them. Per lane the same
+// IEEE operations in the same order as the scalar code (X = z·((x − c_x)/f), Y = h − z·kY,
+// D = z·kD, then luminance's; -ffp-contract=off: no fused multiply-adds), with its branches as
+// lane masks: R_A where α is below alpha_deg or above alpha_max_deg, E⊥ where lamp_lux's two
+// fast paths hold (the glare zone's I/d², or 0 beside the table). A lane that needs anything else
+// (acos and pow for R_A, the atan2 path for E⊥, a depth that is not finite and positive, D ≤ 0)
+// is out[i] = scalar(i), the scalar code itself. So the same bits as sign_pos pixel by pixel.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+__attribute__((target("avx512f"))) inline __m512d neg_pd8(__m512d a) {  // −a (the sign bit flipped)
+  return _mm512_castsi512_pd(
+      _mm512_xor_si512(_mm512_castpd_si512(a), _mm512_set1_epi64(static_cast<int64_t>(0x8000000000000000ull))));
+}
+__attribute__((target("avx512f"))) inline __m512d sq_pd8(__m512d a) { return _mm512_mul_pd(a, a); }
+template <class Scalar>
+__attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& sl, const double* x, const double* z,
+                                                               int n, double cx, double f, double h, double kY,
+                                                               double kD, double* out, Scalar&& scalar) {
+  const ScenePreset& p = sl.p;
+  const __m512d zero = _mm512_setzero_pd(), inf = _mm512_set1_pd(INFINITY);
+  const __m512d vcx = _mm512_set1_pd(cx), vf = _mm512_set1_pd(f), vh = _mm512_set1_pd(h), vkY = _mm512_set1_pd(kY),
+                vkD = _mm512_set1_pd(kD), cam_h = _mm512_set1_pd(sl.cam_h), lh = _mm512_set1_pd(p.beam_lamp_height_m);
+  const __m512d cos_a0 = _mm512_set1_pd(sl.cos_a0), cos_a1 = _mm512_set1_pd(sl.cos_a1),
+                RA0 = _mm512_set1_pd(p.sign_RA), RA1 = _mm512_set1_pd(sl.RA_max);
+  const __m512d tvmax = _mm512_set1_pd(sl.tan_vmax), th0 = _mm512_set1_pd(sl.tan_h0), th1 = _mm512_set1_pd(sl.tan_h1),
+                above = _mm512_set1_pd(p.beam_above_cutoff_cd), lo_margin = _mm512_set1_pd(-1e-9),
+                hi_margin = _mm512_set1_pd(1e-9);
+  const double xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
+  for (int i = 0; i < n; i += 8) {
+    const __mmask8 m = n - i >= 8 ? 0xff : static_cast<__mmask8>((1u << (n - i)) - 1);
+    const __m512d vz = _mm512_maskz_loadu_pd(m, z + i), vx = _mm512_maskz_loadu_pd(m, x + i);
+    __mmask8 fast = m & _mm512_cmp_pd_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(vz, inf, _CMP_LT_OQ);
+    const __m512d X = _mm512_mul_pd(vz, _mm512_div_pd(_mm512_sub_pd(vx, vcx), vf));
+    const __m512d Y = _mm512_sub_pd(vh, _mm512_mul_pd(vz, vkY)), D = _mm512_mul_pd(vz, vkD);
+    fast &= _mm512_cmp_pd_mask(D, zero, _CMP_GT_OQ);
+    const __m512d cX = neg_pd8(X), cY = _mm512_sub_pd(cam_h, Y), cD = neg_pd8(D);
+    const __m512d cn = _mm512_sqrt_pd(_mm512_add_pd(_mm512_add_pd(sq_pd8(cX), sq_pd8(cY)), sq_pd8(cD)));
+    __m512d L = zero;
+    for (const double xl : xls) {
+      const __m512d vxl = _mm512_set1_pd(xl);
+      const __m512d lX = _mm512_sub_pd(vxl, X), lY = _mm512_sub_pd(lh, Y), lD = neg_pd8(D);
+      const __m512d ln = _mm512_sqrt_pd(_mm512_add_pd(_mm512_add_pd(sq_pd8(lX), sq_pd8(lY)), sq_pd8(lD)));
+      const __m512d ca = _mm512_div_pd(
+          _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(cX, lX), _mm512_mul_pd(cY, lY)), _mm512_mul_pd(cD, lD)),
+          _mm512_mul_pd(cn, ln));
+      const __mmask8 ra0 = _mm512_cmp_pd_mask(ca, cos_a0, _CMP_GE_OQ), ra1 = _mm512_cmp_pd_mask(ca, cos_a1, _CMP_LE_OQ);
+      const __m512d RA = _mm512_mask_blend_pd(ra0, RA1, RA0);
+      const __m512d dx = _mm512_sub_pd(X, vxl), dy = _mm512_sub_pd(Y, lh);
+      const __m512d rh = _mm512_sqrt_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(D)));
+      const __m512d d2 = _mm512_add_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(dy)), sq_pd8(D));
+      const __m512d Dh0 = _mm512_mul_pd(D, th0), Dh1 = _mm512_mul_pd(D, th1);
+      const __mmask8 glare = _mm512_cmp_pd_mask(dy, _mm512_mul_pd(rh, tvmax), _CMP_GT_OQ) &
+                             _mm512_cmp_pd_mask(dx, Dh0, _CMP_GE_OQ) & _mm512_cmp_pd_mask(dx, Dh1, _CMP_LE_OQ);
+      const __m512d s = _mm512_add_pd(_mm512_abs_pd(dx), D);
+      const __mmask8 beside = _mm512_cmp_pd_mask(_mm512_sub_pd(dx, Dh0), _mm512_mul_pd(lo_margin, s), _CMP_LT_OQ) |
+                              _mm512_cmp_pd_mask(_mm512_sub_pd(dx, Dh1), _mm512_mul_pd(hi_margin, s), _CMP_GT_OQ);
+      fast &= (ra0 | ra1) & (sl.table ? glare | beside : 0);
+      const __m512d lux = _mm512_maskz_div_pd(glare, above, d2);  // (0 where beside)
+      L = _mm512_add_pd(L, _mm512_mul_pd(RA, lux));
+    }
+    _mm512_mask_storeu_pd(out + i, fast, L);
+    for (unsigned rest = m & ~fast; rest; rest &= rest - 1) {
+      const int k = i + __builtin_ctz(rest);
+      out[k] = scalar(k);
+    }
+  }
+}
+#pragma GCC diagnostic pop
 }  // namespace
 
 double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p) {
@@ -1318,15 +1399,18 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // the frame, so contiguous halves would leave one thread most of the work.)
   // A sign pixel's luminance at its point: camera z from depth_m, then road coordinates (the inverse of
   // CameraGeometry::project): X = z·x_n, height Y = h − z·(sin θ + y_n·cos θ), D = z·(cos θ − y_n·sin θ).
-  std::function<double(int, int, float)> sign_pos;
+  // (A plain lambda, called where has_sign_pos: through a std::function it was an indirect call
+  // per sign pixel.)
+  const bool has_sign_pos = geometry && depth_m;
   const SignLight sign_light(p, geometry ? geometry->mount_height_m : 0);
-  if (geometry && depth_m)
-    sign_pos = [&g = *geometry, &sign_light, c = std::cos(geometry->pitch_rad), s = std::sin(geometry->pitch_rad)](
-                   int x, int y, float z_m) {
-      if (!std::isfinite(z_m) || !(z_m > 0)) return 0.0;
-      const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px, z = z_m;
-      return sign_light.luminance(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s));
-    };
+  static const CameraGeometry kNoGeometry;  // (read only where has_sign_pos)
+  const CameraGeometry& sg = geometry ? *geometry : kNoGeometry;
+  const double sign_c = std::cos(sg.pitch_rad), sign_s = std::sin(sg.pitch_rad);
+  const auto sign_pos = [&g = sg, &sign_light, c = sign_c, s = sign_s](int x, int y, float z_m) {
+    if (!std::isfinite(z_m) || !(z_m > 0)) return 0.0;
+    const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px, z = z_m;
+    return sign_light.luminance(z * xn, g.mount_height_m - z * (s + yn * c), z * (c - yn * s));
+  };
   // With the metric geometry the light map has one pass over the rows (add_street_light_rows),
   // which makes each row from the start: this retroreflection and the signals (retro_row), the
   // vehicle lamps (veh, recorded below), then the street light, the windows and the heads, and,
@@ -1335,6 +1419,19 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   const bool row_pass = geometry && depth_m && g_fused_rows;
   const int traffic_light = static_cast<int>(Label::TrafficLight);
   const int traffic_sign = static_cast<int>(Label::TrafficSign);
+  // With AVX-512 (and beam_max_isa 2), the sign pixels of a row are taken eight at a time
+  // (sign_luminances_avx512: the same bits as sign_pos): the row's loop records their columns
+  // and depths, and they are lit after it (each pixel is written by itself only).
+  const bool sign_avx512 = has_sign_pos && kHaveAvx512 && beam_isa_cap >= 2;
+  // A retroreflecting pixel's radiance: the luminance lum in the beam's colour with the marking's
+  // flat pattern or the day texture's.
+  auto retro_put = [&](float* Lr, const float* tr, int x, bool marking, int id, double lum) {
+    const double rho = class_reflectance(id, p);
+    for (int k = 0; k < 3; ++k) {
+      const double pattern = marking ? 1.0 / ktb : tr[3 * x + k] / rho;
+      Lr[3 * x + k] = static_cast<float>(lum * tb[k] * pattern);
+    }
+  };
   // Row y of L written whole (zeros where nothing retroreflects); returns its signals.
   auto retro_row = [&](int y) {
     int signals = 0;
@@ -1346,8 +1443,15 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     const uint8_t* lr = lanes.row(y);
     const float* br = beam_lux ? beam_lux->row(y) : nullptr;
     const float* dr = depth.row(y);
-    const float* dmr = sign_pos ? depth_m->row(y) : nullptr;
+    const float* dmr = has_sign_pos ? depth_m->row(y) : nullptr;
     const float* tr = texture.row(y);
+    // (sign_avx512: the row's sign pixels' columns, depths and luminances)
+    thread_local std::vector<double> sign_buf;
+    if (sign_avx512 && sign_buf.size() < 3 * static_cast<size_t>(W)) sign_buf.resize(3 * static_cast<size_t>(W));
+    double* const sx = sign_avx512 ? sign_buf.data() : nullptr;
+    double* const sz = sign_avx512 ? sx + W : nullptr;
+    double* const slum = sign_avx512 ? sz + W : nullptr;
+    int nsign = 0;
     for (int x = 0; x < W; ++x) {
       // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
       // the compiler vectorizes): most of the frame.
@@ -1363,15 +1467,14 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       if (!lr[x] && id != traffic_sign && id != traffic_light) continue;
       double lum = 0;
       if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
-      else if (id == traffic_sign)
-        lum = sign_pos ? sign_pos(x, y, dmr[x]) : p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x]));
-      if (lum > 0) {
-        const double rho = class_reflectance(id, p);
-        for (int k = 0; k < 3; ++k) {
-          const double pattern = lr[x] ? 1.0 / ktb : tr[3 * x + k] / rho;
-          Lr[3 * x + k] = static_cast<float>(lum * tb[k] * pattern);
+      else if (id == traffic_sign) {
+        if (sign_avx512) {  // (lit after the loop; a sign pixel is no signal)
+          sx[nsign] = x, sz[nsign] = dmr[x], ++nsign;
+          continue;
         }
+        lum = has_sign_pos ? sign_pos(x, y, dmr[x]) : p.sign_RA * p.beam_sign_lux * std::max(0.05, static_cast<double>(dr[x]));
       }
+      if (lum > 0) retro_put(Lr, tr, x, lr[x] != 0, id, lum);
       if (id != traffic_light) continue;
       const size_t i = static_cast<size_t>(y) * W + x;
       const Lab c = lab_at(static_cast<int>(i));
@@ -1384,6 +1487,15 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       else continue;
       put_max(L, x, y, col);
       ++signals;
+    }
+    if (nsign > 0) {
+      const double yn = (y - sg.cy_px) / sg.f_px;  // (sign_pos's y_n, kY and kD)
+      sign_luminances_avx512(sign_light, sx, sz, nsign, sg.cx_px, sg.f_px, sg.mount_height_m, sign_s + yn * sign_c,
+                             sign_c - yn * sign_s, slum, [&](int i) {
+                               return sign_pos(static_cast<int>(sx[i]), y, static_cast<float>(sz[i]));
+                             });
+      for (int i = 0; i < nsign; ++i)
+        if (slum[i] > 0) retro_put(Lr, tr, static_cast<int>(sx[i]), false, traffic_sign, slum[i]);
     }
     return signals;
   };

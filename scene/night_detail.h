@@ -116,7 +116,8 @@ struct CoarseDepthRows {
 };
 // The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
 // 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap
-// it). All give the same bits; the test runs each.
+// it); the light map's sign pixels lit by the beam: eight at a time at 2, else one by one. All give
+// the same bits; the tests run each.
 void beam_max_isa(int isa);
 
 }  // namespace photosite::scene

@@ -55,6 +55,18 @@ struct FacadeWindowsFound {
   std::vector<Window> windows;
   static constexpr double kCell_m = 0.1;
 };
+// The 4-connected components of the nonzero cells of a w x h mask (row-major, `mask[j·w + i]`)
+// as find_facade_windows reads them: each component's box (left, top, width, height) and its
+// cells (area), in the order of the components' first cells in raster order, which is the order of
+// OpenCV's labels 1 .. n − 1 (cv::connectedComponentsWithStats(mask, ..., 4, CV_32S): their
+// provisional labels are made in raster order and each set takes its smallest), with the same
+// statistics (test FacadeWindows.CellComponentsAreOpenCVs). By runs of cells: a run joins the
+// runs of the row above that share a column with it.
+struct CellComponent {
+  int left = 0, top = 0, width = 0, height = 0, area = 0;
+};
+std::vector<CellComponent> cell_components(const uint8_t* mask, int w, int h);
+
 // tX, tD: each plane's axis along it (add_facade_windows' orientation); zmax: the camera z beyond
 // which add_facade_windows draws no window (a pixel's footprint above half a window width).
 FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& depth_m, const CameraGeometry& g,

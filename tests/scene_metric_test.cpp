@@ -649,6 +649,76 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
   omp_set_num_threads(before);
 }
 
+// find_facade_windows' components of the dark cells (cell_components, by runs) are OpenCV's:
+// cv::connectedComponentsWithStats(4-connected)'s labels 1 .. n − 1 in order, with the same box and
+// area, on random masks of every density (from isolated cells to one component winding through
+// the grid), masks whose components join only rows below their first cells (combs, a spiral, a
+// U whose arms merge at the bottom), a single row or column, an empty and a full mask, with
+// OpenCV at 1 thread and at 2 (its parallel labelling by stripes). Fails if the runs join
+// 8-connected (diagonal runs), if the components come in another order (by their roots' last runs,
+// or by size), or if a run is not joined to every run above it that it touches.
+TEST(FacadeWindows, CellComponentsAreOpenCVs) {
+  std::mt19937_64 rng(2311);
+  std::vector<cv::Mat> masks;
+  for (const auto [w, h] : {std::pair{1, 1}, {1, 37}, {53, 1}, {17, 9}, {64, 64}, {251, 142}, {273, 134}, {95, 30}})
+    for (const double density : {0.0, 0.05, 0.3, 0.5, 0.6, 0.75, 0.95, 1.0}) {
+      cv::Mat m(h, w, CV_8U);
+      std::bernoulli_distribution B(density);
+      for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) m.at<uint8_t>(j, i) = B(rng) ? 1 : 0;
+      masks.push_back(m);
+    }
+  {
+    cv::Mat comb(40, 61, CV_8U, cv::Scalar(0));  // teeth down from row 0, joined by the bottom row
+    for (int i = 0; i < 61; i += 2) comb.col(i).setTo(1);
+    comb.row(39).setTo(1);
+    comb.at<uint8_t>(39, 60) = 0;
+    masks.push_back(comb);
+    cv::Mat up(40, 61, CV_8U, cv::Scalar(0));  // teeth up from the bottom, joined by the top row
+    for (int i = 1; i < 61; i += 2) up.col(i).setTo(1);
+    up.row(0).setTo(1);
+    masks.push_back(up);
+    cv::Mat u(30, 30, CV_8U, cv::Scalar(0));  // arms begun apart, met at the bottom
+    u.col(3).setTo(1), u.col(20).setTo(1), u.row(29).setTo(1);
+    u.at<uint8_t>(5, 10) = 1;
+    masks.push_back(u);
+    cv::Mat spiral(41, 41, CV_8U, cv::Scalar(0));
+    for (int r = 0; 2 * r < 41; r += 2) {
+      cv::rectangle(spiral, cv::Rect(r, r, 41 - 2 * r, 41 - 2 * r), cv::Scalar(1), 1);
+      if (r + 1 < 41) spiral.at<uint8_t>(r + 1, r) = 0;
+    }
+    masks.push_back(spiral);
+    cv::Mat diag(20, 20, CV_8U, cv::Scalar(0));  // diagonal cells: 20 components 4-connected
+    for (int i = 0; i < 20; ++i) diag.at<uint8_t>(i, i) = 1;
+    masks.push_back(diag);
+  }
+  const int before = cv::getNumThreads();
+  long compared = 0;
+  for (const int threads : {1, 2}) {
+    cv::setNumThreads(threads);
+    for (size_t k = 0; k < masks.size(); ++k) {
+      const cv::Mat& m = masks[k];
+      cv::Mat lab, stats, cents;
+      const int n = cv::connectedComponentsWithStats(m, lab, stats, cents, 4, CV_32S);
+      const std::vector<CellComponent> got = cell_components(m.ptr<uint8_t>(0), m.cols, m.rows);
+      ASSERT_EQ(static_cast<int>(got.size()), n - 1) << "mask " << k << " (" << m.cols << "x" << m.rows << "), " << threads
+                                                      << " OpenCV threads";
+      for (int q = 1; q < n; ++q) {
+        const CellComponent& c = got[q - 1];
+        EXPECT_EQ(c.left, stats.at<int>(q, cv::CC_STAT_LEFT)) << "mask " << k << " component " << q;
+        EXPECT_EQ(c.top, stats.at<int>(q, cv::CC_STAT_TOP)) << "mask " << k << " component " << q;
+        EXPECT_EQ(c.width, stats.at<int>(q, cv::CC_STAT_WIDTH)) << "mask " << k << " component " << q;
+        EXPECT_EQ(c.height, stats.at<int>(q, cv::CC_STAT_HEIGHT)) << "mask " << k << " component " << q;
+        ASSERT_EQ(c.area, stats.at<int>(q, cv::CC_STAT_AREA)) << "mask " << k << " component " << q;
+        ++compared;
+      }
+    }
+  }
+  cv::setNumThreads(before);
+  std::fprintf(stderr, "[windows] %ld components equal OpenCV's\n", compared);
+  EXPECT_GT(compared, 1000);
+}
+
 // The AVX-512 window layout's floors ⌊a/b⌋ (storey, pitch cell, shop unit) from the product with
 // the reciprocal (window_floor_div_avx512) are the division's floors on every lane, where they
 // matter most: a = k·b rounded and its neighbours one and two ulps away on either side (where the
@@ -2291,6 +2361,25 @@ TEST(EgoLowBeam, SignsLitByTheTableBelowTheCutOffAndTheGlareLimitAbove) {
   EXPECT_EQ(sign_beam_lux(0, 3.0, 25, p), 0);
 }
 
+// Signs beside the beam table's horizontal range [−25°, 25°] get nothing from that lamp, and a
+// sign just inside it gets the table's light: below the cut-off (0.3 m up, 0.35 m below the
+// lamps), at relative distances ε from the right lamp's 25° edge, dx = D·tan 25°·(1 − ε) (the
+// left lamp sees it beyond 25°). Inside by 10⁻¹¹ to 10⁻⁸ (closer than lights.cpp's 10⁻⁹ margin of
+// the shortcut beside the table, and farther): lit, as the angle path finds h < 25°; outside by
+// as much: dark. Fails if the shortcut's margin is turned inward (then it takes points just
+// inside the range for points beside it) or its test looks at the wrong side.
+TEST(EgoLowBeam, SignsBesideTheBeamTableDarkJustInsideLit) {
+  const ScenePreset p = urban();
+  ASSERT_EQ(p.beam_h_deg.back(), 25);
+  const double xl = 0.5 * p.beam_lamp_spacing_m, t = std::tan(25 * M_PI / 180);
+  for (const double D : {4.0, 10.0, 30.0})
+    for (const double eps : {1e-11, 1e-10, 3e-10, 1e-9, 3e-9, 1e-8}) {
+      EXPECT_GT(sign_beam_lux(xl + D * t * (1 - eps), 0.3, D, p), 0) << "D " << D << " m, inside by " << eps;
+      EXPECT_EQ(sign_beam_lux(xl + D * t * (1 + eps), 0.3, D, p), 0) << "D " << D << " m, outside by " << eps;
+      EXPECT_EQ(sign_beam_lux(-xl - D * t * (1 + eps), 0.3, D, p), 0) << "D " << D << " m, left, outside by " << eps;
+    }
+}
+
 // R_A falls with the observation angle α between the lamp and the camera seen from the sign: the
 // preset's 180 (RA2) holds at 0.33°, R_A ∝ α^−1.056 (ASTM D4956 Type III white: 250 → 95 from 0.2°
 // to 0.5°) up to 0.5°, held beyond (an upper bound). The camera (1.22 m up on the car's centre line)
@@ -2316,6 +2405,67 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
   EXPECT_EQ(sign_retroreflected_cd_m2(0, 3.0, 0, h_cam, p), 0);
 }
 
+// The free road with signs that only the ego beam lights (no street lamps): labels, metric depth
+// and texture to draw the signs into, and the light map of them.
+struct BeamSignScene {
+  SyntheticCameraOptions o;
+  SyntheticCameraScene s = free_road(o);
+  ScenePreset p = urban();
+  LabelMap lm = s.labels;
+  ImageF depth = s.depth_m;
+  ImageF tex = ImageF(o.width, o.height, 3, 0.f);
+  LightMap lights() const {
+    const CameraGeometry& g = o.camera;
+    const StreetLighting none;
+    return light_map(s.day_linear_srgb, tex, lm, ImageU8(o.width, o.height, 1, 0),
+                     coarse_depth(o.width, o.height, g.cx_px, g.horizon_y),
+                     VanishingPoint{g.cx_px, g.horizon_y, 0, VpMethod::ImageCentre, 0, ""}, p, 1, &g, &depth, nullptr,
+                     nullptr, &none);
+  }
+};
+
+// The sign pixels' luminances eight at a time (AVX-512, beam_max_isa 2: sign_luminances_avx512)
+// are the scalar code's bits (beam_max_isa 0), pixel by pixel: every row of the synthetic frame
+// made of signs in runs that leave every remainder of eight, at random camera z from 0.3 to 400 m
+// (R_A at 0.33° and below, between 0.33° and 0.5° (acos and pow), and above; the glare zone
+// above the cut-off, the table below it, and signs beside the table's ±25° both sides of its edge),
+// with depths that are not finite or not positive, and every row from the top to the bottom (D
+// down to its smallest, Y below the lamps). Fails if a lane's branch (R_A's two limits, the glare
+// zone, beside the table) is taken where the scalar code takes another, or a lane is missed.
+TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
+  BeamSignScene b;
+  const int W = b.o.width, H = b.o.height;
+  std::mt19937_64 rng(4242);
+  std::uniform_real_distribution<double> U(0, 1);
+  const float odd[] = {NAN, INFINITY, -INFINITY, 0.f, -0.f, -3.f, 1e-30f, 0.05f};
+  long signs = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W;) {
+      const int run = 1 + static_cast<int>(U(rng) * 19), gap = static_cast<int>(U(rng) * 6);
+      for (int e = std::min(W, x + run); x < e; ++x, ++signs) {
+        b.lm.ids.at(x, y) = static_cast<uint16_t>(Label::TrafficSign);
+        b.depth.at(x, y) = U(rng) < 0.02 ? odd[static_cast<int>(U(rng) * 8)]
+                                         : static_cast<float>(0.3 * std::pow(400 / 0.3, U(rng)));
+        for (int c = 0; c < 3; ++c) b.tex.at(x, y, c) = static_cast<float>(0.05 + 0.3 * U(rng));
+      }
+      x += gap;
+    }
+  std::vector<ImageF> maps;
+  for (const int isa : {2, 0}) {
+    beam_max_isa(isa);
+    maps.push_back(b.lights().radiance);
+  }
+  beam_max_isa(2);
+  long lit = 0, dark = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (b.lm.ids.at(x, y) == static_cast<uint16_t>(Label::TrafficSign)) (maps[1].at(x, y, 1) > 0 ? lit : dark) += 1;
+  std::fprintf(stderr, "[signs] %ld sign pixels: %ld lit, %ld dark\n", signs, lit, dark);
+  EXPECT_GT(lit, signs / 4);
+  EXPECT_GT(dark, signs / 20);  // beside the table, behind the camera, no depth
+  EXPECT_EQ(differing_samples(maps[0], maps[1]), 0u) << "eight at a time against the scalar code";
+}
+
 // The light map reads the sign pixel's point from depth_m through the camera model: sign pixels
 // in the synthetic scene's sky, placed at chosen camera depths, get luminances in the ratio of
 // sign_retroreflected_cd_m2 (Σ R_A(α)·E⊥) at the points whose projection they are (the test finds
@@ -2323,13 +2473,10 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
 // texture is one colour on every sign pixel, so the ratio of any channel is the ratio of the
 // luminances (two float products per pixel on each side, the ratio within 8·2⁻²⁴ relative).
 TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
-  SyntheticCameraOptions o;
-  const SyntheticCameraScene s = free_road(o);
-  const ScenePreset p = urban();
+  BeamSignScene b;
+  const SyntheticCameraOptions& o = b.o;
+  const ScenePreset& p = b.p;
   const CameraGeometry& g = o.camera;
-  LabelMap lm = s.labels;
-  ImageF depth = s.depth_m;
-  ImageF tex(o.width, o.height, 3, 0.f);
   // Two signs above the horizon: one at camera z 20 m, one at 45 m (4x4 pixels each).
   struct Sign { int x0, y0; float z; };
   const Sign signs[2] = {{o.width / 2 + 120, 40, 20.f}, {o.width / 2 + 40, 80, 45.f}};
@@ -2337,15 +2484,11 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
     for (int y = sg.y0; y < sg.y0 + 4; ++y)
       for (int x = sg.x0; x < sg.x0 + 4; ++x) {
         ASSERT_LT(y, g.horizon_y);
-        lm.ids.at(x, y) = static_cast<uint16_t>(Label::TrafficSign);
-        depth.at(x, y) = sg.z;
-        for (int c = 0; c < 3; ++c) tex.at(x, y, c) = 0.2f;
+        b.lm.ids.at(x, y) = static_cast<uint16_t>(Label::TrafficSign);
+        b.depth.at(x, y) = sg.z;
+        for (int c = 0; c < 3; ++c) b.tex.at(x, y, c) = 0.2f;
       }
-  StreetLighting none;  // no street lamps: only the beam lights the signs
-  const LightMap m = light_map(s.day_linear_srgb, tex, lm, ImageU8(o.width, o.height, 1, 0),
-                               coarse_depth(o.width, o.height, g.cx_px, g.horizon_y),
-                               VanishingPoint{g.cx_px, g.horizon_y, 0, VpMethod::ImageCentre, 0, ""}, p, 1, &g, &depth,
-                               nullptr, nullptr, &none);
+  const LightMap m = b.lights();
   // The road point of pixel (x, y) at camera z: found by solving project(X, Y, D) = (x, y, z).
   auto point_L = [&](int x, int y, double z) {
     const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);

@@ -309,6 +309,22 @@ void run(const Opts& o) {
       (void)lmap;
       if (o.cpu_clock) {
         add("cpu: light map (alone)", cm1 - cm0);
+        // What the light map alone spends outside its parts above: the vehicle analysis it makes
+        // itself (the chain makes these parts beside Canny and the Hough transform and hands them
+        // over), and the light map with them handed (the chain's, without compose): that row less
+        // the lamp plan, vertical surfaces, pools + heads and façade windows rows is the
+        // retroreflection pass (markings, signs, signals), the vehicle lamps and the glue.
+        const double cq0 = cpu_ms();
+        const std::shared_ptr<scene::VehicleParts> parts = scene::vehicle_rows_part(lm);
+        scene::add_vehicle_parts(*parts, lin, lm);
+        const double cq1 = cpu_ms();
+        const scene::LightMap lmap_h = scene::light_map_with(lin, tex, lm, lanes_full, ns.beam_input, ns.vp, sp, 1,
+                                                             &ns.geometry, &ns.depth, &ns.beam_lux, &fac, nullptr,
+                                                             false, false, parts.get());
+        const double cq2 = cpu_ms();
+        (void)lmap_h;
+        add("cpu: vehicle parts (alone)", cq1 - cq0);
+        add("cpu: light map, vehicle parts handed (alone)", cq2 - cq1);
         // The chain's stages by the CPU clock (night_scene's own laps), and their sum.
         add("cpu: linearize", cl1 - cl0);
         double scene_cpu = cl1 - cl0;
