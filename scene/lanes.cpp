@@ -488,7 +488,8 @@ ImageU8 lane_markings_with_grey(const ImageF& luma, const ImageU16& labels, cons
 namespace photosite::scene {
 
 // drop_tram_rails (declared in night.h with its rule). Each marking component's pixels go to the
-// ground (CameraGeometry::ground_point at the pixel centre in frame coordinates) and their line
+// ground (CameraGeometry::ground_point at the pixel centre in frame coordinates, per run of a row:
+// its first pixel, the others by X's step along the row) and their line
 // X = a + b·D is fitted by least squares over D; two straight components whose lines run
 // side by side at a rail gauge plus a head's width are a track. The head width: tram groove rails
 // have heads of about 55-60 mm (EN 14811 profiles such as Ri60), Vignole rails 60-75 mm; 0.065 m
@@ -499,38 +500,71 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
   if (rails) *rails = ImageU8(W, H, 1, uint8_t{0});
   if (p.tram_gauges_m.empty() || W < 2 || H < 2) return 0;
   constexpr double kHead = 0.065, kTol = 0.15, kMinLength = 3.0, kMaxSlope = 0.3, kMaxRms = 0.15;
-  const cv::Mat mask(H, W, CV_8U, lanes_work.data());
-  cv::Mat lab;
-  const int n = cv::connectedComponents(mask, lab, 8, CV_32S);
-  if (n <= 2) return 0;  // the background and at most one component: no pair
+  // The marking mask is sparse (a few thousand of half a million working pixels): its 8-connected
+  // components from its horizontal runs, each run joined (union-find) to the runs of the row above
+  // that touch it, diagonals included.
+  struct Run {
+    int y, x0, x1;  // [x0, x1)
+    int parent;
+  };
+  std::vector<Run> runs;
+  std::vector<int> row_first(H + 1, 0);
+  auto root = [&](int i) {
+    while (runs[i].parent != i) i = runs[i].parent = runs[runs[i].parent].parent;
+    return i;
+  };
+  for (int y = 0; y < H; ++y) {
+    row_first[y] = static_cast<int>(runs.size());
+    const uint8_t* m = lanes_work.row(y);
+    for (int x = 0; x < W;) {
+      const uint8_t* f = std::find_if(m + x, m + W, [](uint8_t v) { return v != 0; });
+      if (f == m + W) break;
+      int x0 = static_cast<int>(f - m), x1 = x0;
+      while (x1 < W && m[x1]) ++x1;
+      const int i = static_cast<int>(runs.size());
+      runs.push_back({y, x0, x1, i});
+      if (y > 0)
+        for (int k = row_first[y - 1]; k < row_first[y]; ++k)
+          if (runs[k].x0 <= x1 && runs[k].x1 >= x0) {  // touching, diagonals included
+            const int a = root(k), b = root(i);
+            if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+          }
+      x = x1;
+    }
+  }
+  row_first[H] = static_cast<int>(runs.size());
+  if (runs.size() < 2) return 0;
+  // Per component the least-squares sums of its pixels' ground points (X over D); a row of flat
+  // ground has one D, and X is linear in the column: X = X(x0) + z·Δu/f.
   struct Fit {
     double n = 0, sD = 0, sX = 0, sDD = 0, sDX = 0, sXX = 0, Dmin = 1e300, Dmax = -1e300;
     double a = 0, b = 0;
-    bool line = false, rail = false;
+    bool rail = false;
   };
-  std::vector<Fit> f(n);
-  for (int y = 0; y < H; ++y) {
-    const int32_t* l = lab.ptr<int32_t>(y);
-    const double v = (y + 0.5) / work_scale - 0.5;
-    for (int x = 0; x < W; ++x) {
-      if (!l[x]) continue;
-      double X, D, z;
-      if (!g.ground_point((x + 0.5) / work_scale - 0.5, v, &X, &D, &z)) continue;
-      Fit& c = f[l[x]];
+  std::vector<Fit> f(runs.size());
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const Run& r = runs[i];
+    double X0, D, z;
+    const double v = (r.y + 0.5) / work_scale - 0.5;
+    if (!g.ground_point((r.x0 + 0.5) / work_scale - 0.5, v, &X0, &D, &z)) continue;
+    const double step = z / (work_scale * g.f_px);  // X per working column
+    Fit& c = f[root(static_cast<int>(i))];
+    for (int x = r.x0; x < r.x1; ++x) {
+      const double X = X0 + (x - r.x0) * step;
       c.n += 1;
       c.sD += D;
       c.sX += X;
       c.sDD += D * D;
       c.sDX += D * X;
       c.sXX += X * X;
-      c.Dmin = std::min(c.Dmin, D);
-      c.Dmax = std::max(c.Dmax, D);
     }
+    c.Dmin = std::min(c.Dmin, D);
+    c.Dmax = std::max(c.Dmax, D);
   }
   std::vector<int> lines;
-  for (int i = 1; i < n; ++i) {
+  for (size_t i = 0; i < runs.size(); ++i) {
     Fit& c = f[i];
-    if (c.n < 8 || c.Dmax - c.Dmin < kMinLength) continue;
+    if (runs[i].parent != static_cast<int>(i) || c.n < 8 || c.Dmax - c.Dmin < kMinLength) continue;
     const double mD = c.sD / c.n, mX = c.sX / c.n;
     const double vDD = c.sDD / c.n - mD * mD, vDX = c.sDX / c.n - mD * mX, vXX = c.sXX / c.n - mX * mX;
     if (!(vDD > 0)) continue;
@@ -538,8 +572,7 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
     c.a = mX - c.b * mD;
     const double rms2 = vXX - c.b * vDX;  // the residual's mean square (least squares' identity)
     if (std::fabs(c.b) > kMaxSlope || rms2 > kMaxRms * kMaxRms) continue;
-    c.line = true;
-    lines.push_back(i);
+    lines.push_back(static_cast<int>(i));
   }
   for (size_t i = 0; i < lines.size(); ++i)
     for (size_t j = i + 1; j < lines.size(); ++j) {
@@ -555,16 +588,12 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
         }
     }
   int cleared = 0;
-  for (int y = 0; y < H; ++y) {
-    const int32_t* l = lab.ptr<int32_t>(y);
-    uint8_t* m = lanes_work.row(y);
-    uint8_t* r = rails ? rails->row(y) : nullptr;
-    for (int x = 0; x < W; ++x)
-      if (l[x] && f[l[x]].rail) {
-        m[x] = 0;
-        if (r) r[x] = 255;
-        ++cleared;
-      }
+  for (size_t i = 0; i < runs.size(); ++i) {
+    const Run& r = runs[i];
+    if (!f[root(static_cast<int>(i))].rail) continue;
+    std::fill(lanes_work.row(r.y) + r.x0, lanes_work.row(r.y) + r.x1, uint8_t{0});
+    if (rails) std::fill(rails->row(r.y) + r.x0, rails->row(r.y) + r.x1, uint8_t{255});
+    cleared += r.x1 - r.x0;
   }
   return cleared;
 }
