@@ -147,6 +147,7 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/depth_infinity_m"] = static_cast<double>(scene::kDepthInfinity_m);
   attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
   attrs["photosite/night/work_scale"] = ns.work_scale;
+  attrs["photosite/night/tram_rail_pixels"] = ns.tram_rail_pixels;
   attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
   attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
   attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;

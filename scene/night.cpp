@@ -228,7 +228,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         // Their texture becomes the road's beside them (texture_under_rails; nothing on the
         // other thread reads the texture before the light map).
         ImageU8 rails;
-        if (drop_tram_rails(s.lanes_work, w.scale, s.geometry, p, &rails) > 0) {
+        s.tram_rail_pixels = drop_tram_rails(s.lanes_work, w.scale, s.geometry, p, &rails);
+        if (s.tram_rail_pixels > 0) {
           lanes_full = lanes_at_frame(s.lanes_work, W, H);
           rails_painted = texture_under_rails(texture, labels.ids, lanes_at_frame(rails, W, H), s.geometry) > 0;
         }

@@ -46,6 +46,8 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_GT(u0, 0.0);
   EXPECT_LE(u0, 1.0);
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/street_lamps")), 0);
+  // The bundled KITTI frame's near tram track is taken out of the markings (drop_tram_rails).
+  EXPECT_GT(std::stoi(e.attributes.at("photosite/night/tram_rail_pixels")), 0);
   // night_radiance − lights is the darkened scene plus the low beam's diffuse reflection
   // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
   // the sources s (moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,

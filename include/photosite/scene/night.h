@@ -347,6 +347,7 @@ struct NightScene {
   CameraGeometry geometry;
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;
+  int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
   std::vector<Segment> lines_work;
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
