@@ -617,11 +617,6 @@ int texture_under_rails(ImageF& texture, const ImageU16& labels, const ImageU8& 
       int x1 = x;
       while (x1 < W && m[x1]) ++x1;
       const uint16_t lab = id[x];
-      auto sum = [&](int k) {
-        float v = 0;
-        for (int c = 0; c < C; ++c) v += t[C * k + c];
-        return v;
-      };
       auto flank = [&](int k) { return id[k] == lab && !m[k]; };
       // Each side's sample: the mean texture of the run's label off the mask over the last 3
       // pixels of its window (`reach` pixels from the run's end, past the rail's top); none where
