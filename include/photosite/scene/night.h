@@ -172,8 +172,9 @@ struct CameraGeometry {
 // marking component (8-connected, at the working resolution `work_scale` of the frame that g
 // describes) that runs straight along the ground (X = a + b·D fitted to its pixels' ground points:
 // at least 3 m long, |b| ≤ 0.3, RMS residual ≤ 0.15 m) and has a partner doing the same at one of
-// the preset's rail gauges (geometry.tram_gauges_m) plus a head's width, over at least 3 m both
-// ways (within 0.15 m: the metric scene's 10 % on the ground, issue 14 §1, over 1.5 m), is a rail:
+// the preset's rail gauges (geometry.tram_gauges_m) plus a head's width over at least 3 m of road
+// where both are seen (the two lines' separation at both ends of that stretch within 0.15 m of it:
+// the metric scene's 10 % on the ground, issue 14 §1, over 1.5 m) is a rail:
 // its pixels are cleared from `lanes_work` and, with `rails`, set to 255 in it (a working-size
 // mask made here). Returns the number of pixels cleared. The markings still lead the vanishing
 // point (rails run along the road too); only the light map's retroreflection and the low beam's
