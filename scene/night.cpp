@@ -118,7 +118,6 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
   ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
                                                   ws.halving ? &work_luma : nullptr, sums);
-  if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
   s.work_scale = w.scale;
@@ -201,7 +200,6 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // (docs/benchmarks.md, 2026-11-28, seventh session).
   BuildingFacades facades;
   StreetLighting planned;
-  bool rails_painted = false;
   // The coarse depth's rows (0.4 ms of work at 1 thread) go to whichever half is free first, in
   // chunks of 32 rows from a shared counter: each row is written by the same function whichever
   // thread takes it, so the same bits. (At 1 thread the first half makes them all.)
@@ -231,7 +229,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         s.tram_rail_pixels = drop_tram_rails(s.lanes_work, w.scale, s.geometry, p, &rails);
         if (s.tram_rail_pixels > 0) {
           lanes_full = lanes_at_frame(s.lanes_work, W, H);
-          rails_painted = texture_under_rails(texture, labels.ids, lanes_at_frame(rails, W, H), s.geometry) > 0;
+          texture_under_rails(texture, labels.ids, lanes_at_frame(rails, W, H), s.geometry);
         }
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
         coarse_rows();
@@ -240,7 +238,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   regions.reset();
   label_row_runs.reset();
   poles.reset();
-  if (rails_painted && keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
+  // The darkened layer (asked for; a device tail makes its own) from the texture as it is final,
+  // after the tram rails' painting above (its time then in "depth").
+  if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
