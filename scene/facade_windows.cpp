@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "scene/runs_detail.h"
 #include "scene/street_detail.h"
 
 namespace photosite::scene {
@@ -57,50 +58,16 @@ struct Sample {
 }  // namespace
 
 std::vector<CellComponent> cell_components(const uint8_t* mask, int w, int h) {
-  // Runs in raster order (a run's index is then the raster order of its first cell), each with a
-  // parent; a run joins every run of the row above that shares a column with it (4-connected),
-  // the union keeping the smaller index as the root, so each set's root is its first run.
-  struct Run {
-    int x0, x1, y, parent;  // cells x0 .. x1 − 1 of row y
-  };
-  std::vector<Run> runs;
-  auto find = [&](int r) {
-    while (runs[r].parent != r) r = runs[r].parent = runs[runs[r].parent].parent;
-    return r;
-  };
-  size_t above0 = 0, above1 = 0;  // the row above's runs
-  for (int y = 0; y < h; ++y) {
-    const uint8_t* m = mask + static_cast<size_t>(y) * w;
-    const size_t here0 = runs.size();
-    size_t a = above0;
-    for (int x = 0; x < w;) {
-      if (!m[x]) {
-        ++x;
-        continue;
-      }
-      const int x0 = x;
-      while (x < w && m[x]) ++x;
-      const int me = static_cast<int>(runs.size());
-      runs.push_back({x0, x, y, me});
-      // The runs above ending after x0 and starting before x (those ending at or before x0 are
-      // passed for good: the next run of this row starts after x).
-      while (a < above1 && runs[a].x1 <= x0) ++a;
-      for (size_t b = a; b < above1 && runs[b].x0 < x; ++b) {
-        const int ra = find(static_cast<int>(b)), rb = find(me);
-        if (ra < rb) runs[rb].parent = ra;
-        else if (rb < ra) runs[ra].parent = rb;
-      }
-    }
-    above0 = here0;
-    above1 = runs.size();
-  }
+  // The 4-connected components by runs (mask_runs: each component's root its first run in raster
+  // order).
+  const std::vector<MaskRun> runs = mask_runs(mask, w, h, false);
   // Each root's component numbered in root order (the raster order of first cells).
   std::vector<int> number(runs.size(), -1);
   std::vector<CellComponent> out;
   std::vector<int> right, bottom;
   for (size_t r = 0; r < runs.size(); ++r) {
-    const int root = find(static_cast<int>(r));
-    const Run& q = runs[r];
+    const MaskRun& q = runs[r];
+    const int root = q.root;
     if (number[root] < 0) {
       number[root] = static_cast<int>(out.size());
       out.push_back({q.x0, q.y, 0, 0, 0});

@@ -15,6 +15,7 @@
 #include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "scene/lanes_detail.h"
+#include "scene/runs_detail.h"
 #include "scene/srgb_detail.h"
 
 namespace photosite::scene {
@@ -501,38 +502,8 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
   if (p.tram_gauges_m.empty() || W < 2 || H < 2) return 0;
   constexpr double kHead = 0.065, kTol = 0.15, kMinLength = 3.0, kMaxSlope = 0.3, kMaxRms = 0.15;
   // The marking mask is sparse (a few thousand of half a million working pixels): its 8-connected
-  // components from its horizontal runs, each run joined (union-find) to the runs of the row above
-  // that touch it, diagonals included.
-  struct Run {
-    int y, x0, x1;  // [x0, x1)
-    int parent;
-  };
-  std::vector<Run> runs;
-  std::vector<int> row_first(H + 1, 0);
-  auto root = [&](int i) {
-    while (runs[i].parent != i) i = runs[i].parent = runs[runs[i].parent].parent;
-    return i;
-  };
-  for (int y = 0; y < H; ++y) {
-    row_first[y] = static_cast<int>(runs.size());
-    const uint8_t* m = lanes_work.row(y);
-    for (int x = 0; x < W;) {
-      const uint8_t* f = std::find_if(m + x, m + W, [](uint8_t v) { return v != 0; });
-      if (f == m + W) break;
-      int x0 = static_cast<int>(f - m), x1 = x0;
-      while (x1 < W && m[x1]) ++x1;
-      const int i = static_cast<int>(runs.size());
-      runs.push_back({y, x0, x1, i});
-      if (y > 0)
-        for (int k = row_first[y - 1]; k < row_first[y]; ++k)
-          if (runs[k].x0 <= x1 && runs[k].x1 >= x0) {  // touching, diagonals included
-            const int a = root(k), b = root(i);
-            if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
-          }
-      x = x1;
-    }
-  }
-  row_first[H] = static_cast<int>(runs.size());
+  // components by its runs (mask_runs).
+  const std::vector<MaskRun> runs = mask_runs(lanes_work.data(), W, H, true);
   if (runs.size() < 2) return 0;
   // Per component the least-squares sums of its pixels' ground points (X over D); a row of flat
   // ground has one D, and X is linear in the column: X = X(x0) + z·Δu/f.
@@ -543,12 +514,12 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
   };
   std::vector<Fit> f(runs.size());
   for (size_t i = 0; i < runs.size(); ++i) {
-    const Run& r = runs[i];
+    const MaskRun& r = runs[i];
     double X0, D, z;
     const double v = (r.y + 0.5) / work_scale - 0.5;
     if (!g.ground_point((r.x0 + 0.5) / work_scale - 0.5, v, &X0, &D, &z)) continue;
     const double step = z / (work_scale * g.f_px);  // X per working column
-    Fit& c = f[root(static_cast<int>(i))];
+    Fit& c = f[r.root];
     for (int x = r.x0; x < r.x1; ++x) {
       const double X = X0 + (x - r.x0) * step;
       c.n += 1;
@@ -564,7 +535,7 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
   std::vector<int> lines;
   for (size_t i = 0; i < runs.size(); ++i) {
     Fit& c = f[i];
-    if (runs[i].parent != static_cast<int>(i) || c.n < 8 || c.Dmax - c.Dmin < kMinLength) continue;
+    if (runs[i].root != static_cast<int>(i) || c.n < 8 || c.Dmax - c.Dmin < kMinLength) continue;
     const double mD = c.sD / c.n, mX = c.sX / c.n;
     const double vDD = c.sDD / c.n - mD * mD, vDX = c.sDX / c.n - mD * mX, vXX = c.sXX / c.n - mX * mX;
     if (!(vDD > 0)) continue;
@@ -589,8 +560,8 @@ int drop_tram_rails(ImageU8& lanes_work, double work_scale, const CameraGeometry
     }
   int cleared = 0;
   for (size_t i = 0; i < runs.size(); ++i) {
-    const Run& r = runs[i];
-    if (!f[root(static_cast<int>(i))].rail) continue;
+    const MaskRun& r = runs[i];
+    if (!f[r.root].rail) continue;
     std::fill(lanes_work.row(r.y) + r.x0, lanes_work.row(r.y) + r.x1, uint8_t{0});
     if (rails) std::fill(rails->row(r.y) + r.x0, rails->row(r.y) + r.x1, uint8_t{255});
     cleared += r.x1 - r.x0;
