@@ -147,7 +147,7 @@ static_assert(sizeof(DarkenParams) == 80 && offsetof(DarkenParams, K) == 16 &&
 
 // compose.comp
 using shader::ComposeParams;  // kernels/common/params_compose.glsl
-static_assert(sizeof(ComposeParams) == 32 && offsetof(ComposeParams, ground_mask) == 8 &&
+static_assert(sizeof(ComposeParams) == 32 && offsetof(ComposeParams, beam_mask) == 8 &&
               offsetof(ComposeParams, tint_over_pi) == 16);
 
 // linearize.comp

@@ -10,16 +10,7 @@
 
 namespace photosite::gpu {
 
-namespace {
-// scene::DarkenParams::ground_class as the kernels read it: bit id set for a ground class.
-U64 ground_mask(const scene::DarkenParams& d) {
-  static_assert(scene::kLabelCount <= 64, "ground classes travel as a 64-bit mask");
-  uint64_t mask = 0;
-  for (int id = 0; id < scene::kLabelCount; ++id)
-    if (d.ground_class[id]) mask |= uint64_t{1} << id;
-  return U64::of(mask);
-}
-}  // namespace
+static_assert(scene::kLabelCount <= 64, "the beam's classes travel as a 64-bit mask");
 
 void record_darken(Context& ctx, Sequence& s, Buffer& texture, Buffer& labels, Buffer& out, size_t n,
                    const scene::DarkenParams& d) {
@@ -108,7 +99,7 @@ void SceneStages::record_compose(Sequence& s, Buffer& t, Buffer& l, Buffer& ids,
   record_darken(ctx_, s, t, ids, o, n, dp);
   ComposeParams cp{};
   cp.width = static_cast<uint32_t>(W), cp.height = static_cast<uint32_t>(H);
-  cp.ground_mask = ground_mask(dp);
+  cp.beam_mask = U64::of(scene::beam_lit_class_bits());
   // The CPU's tint / π (scene::compose): the beam's colour relative to D65.
   const auto tb = scene::illuminant_tint(sp.beam_cct_K);
   for (int k = 0; k < 3; ++k) cp.tint_over_pi[k] = static_cast<float>(tb[k] / M_PI);

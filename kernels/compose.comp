@@ -1,9 +1,10 @@
 // Composition, photosite::scene::compose (scene/lights.cpp) after the darken kernel has written
 // each pixel's night ambient radiance into `radiance`: adds the low beam's Lambertian reflection
-// on ground classes and the light map,
+// on the classes it lights (the ground and the vertical surfaces: scene::beam_lit_class_bits) and
+// the light map,
 //   L_k += t_k · (tint_k/π) · E_beam + lights_k,
-// E_beam (lx) read per pixel from `beam` (scene::low_beam_illuminance, computed on the CPU from
-// the metric ground and the preset's intensity table). The float operations are the CPU's, in
+// E_beam (lx) read per pixel from `beam` (scene::low_beam_illuminance and add_low_beam_vertical,
+// computed on the CPU from the metric ground and depth and the preset's intensity table). The float operations are the CPU's, in
 // its order, so the result is bit-equal (tests/gpu_test.cpp).
 #version 450
 #extension GL_GOOGLE_include_directive : enable
@@ -22,9 +23,9 @@ void main() {
   const uint i = linear_invocation();
   if (i >= P.width * P.height) return;
   const uint id = (labels[i >> 1] >> (16u * (i & 1u))) & 0xffffu;
-  const bool ground = id < 32u ? ((P.ground_mask.x >> id) & 1u) != 0u
-                               : id < 64u && ((P.ground_mask.y >> (id - 32u)) & 1u) != 0u;
-  const float e = ground ? beam[i] : 0.0;
+  const bool lit = id < 32u ? ((P.beam_mask.x >> id) & 1u) != 0u
+                            : id < 64u && ((P.beam_mask.y >> (id - 32u)) & 1u) != 0u;
+  const float e = lit ? beam[i] : 0.0;
   for (uint k = 0; k < 3; ++k) {
     precise float add = tex[3 * i + k] * P.tint_over_pi[k] * e + lights[3 * i + k];
     radiance[3 * i + k] = radiance[3 * i + k] + add;

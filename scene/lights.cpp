@@ -21,6 +21,7 @@
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
+#include "scene/crown_phase_detail.h"
 #include "scene/darken_detail.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
@@ -321,6 +322,10 @@ struct BeamF {
   // with lo[j] = H[j] (−∞ for j = 0) and hi[j] = H[j + 1] (+∞ for j = n − 2).
   bool sorted = false;
   std::vector<float> Hlo, Hhi, Vlo, Vhi;
+  // For vertical surfaces (beam_vertical_lamp_f): the glare zone's intensity above the cut-off,
+  // the tangents of the table's horizontal edges and of the cut-off's top, and the least d²
+  // (five lens diameters, squared).
+  float above = 0, th0 = 0, th1 = 0, tvmax = 0, tvmax2 = 0, d2_min = 0;
 };
 BeamF beam_f(const ScenePreset& p) {
   BeamF b;
@@ -342,6 +347,12 @@ BeamF beam_f(const ScenePreset& p) {
   for (int i = 0; i + 1 < b.nv; ++i) b.rV.push_back(1.f / (b.V[i + 1] - b.V[i]));
   for (double c : p.beam_intensity_cd) b.I.push_back(static_cast<float>(c));
   b.sorted = std::is_sorted(b.H.begin(), b.H.end()) && std::is_sorted(b.V.begin(), b.V.end());
+  b.above = static_cast<float>(p.beam_above_cutoff_cd);
+  b.th0 = static_cast<float>(std::tan(p.beam_h_deg.front() * M_PI / 180));
+  b.th1 = static_cast<float>(std::tan(p.beam_h_deg.back() * M_PI / 180));
+  b.tvmax = static_cast<float>(std::tan(p.beam_cutoff_max_v_deg * M_PI / 180));
+  b.tvmax2 = b.tvmax * b.tvmax;
+  b.d2_min = static_cast<float>(25 * p.beam_lens_diameter_m * p.beam_lens_diameter_m);
   auto bounds = [](const std::vector<float>& g, std::vector<float>& lo, std::vector<float>& hi) {
     const int cells = static_cast<int>(g.size()) - 1;
     for (int j = 0; j < cells; ++j) {
@@ -360,6 +371,18 @@ BeamF beam_f(const ScenePreset& p) {
   return b;
 }
 
+// The table's bilinear intensity at angles (h, v) inside its grid, in float: the cell by counting
+// the grid angles at or below the angle (upper_bound − 1 clamped to the last cell).
+[[gnu::always_inline]] inline float beam_table_f(float h, float v, const BeamF& b) {
+  int j = 0, i = 0;
+  for (int m = 1; m + 1 < b.nh; ++m) j += b.H[m] <= h;
+  for (int m = 1; m + 1 < b.nv; ++m) i += b.V[m] <= v;
+  const float a = (h - b.H[j]) * b.rH[j], c = (v - b.V[i]) * b.rV[i];
+  const float* r0 = b.I.data() + i * b.nh + j;
+  const float* r1 = r0 + b.nh;
+  const float ia = 1.f - a, ic = 1.f - c;
+  return ic * (ia * r0[0] + a * r0[1]) + c * (ia * r1[0] + a * r1[1]);
+}
 // One lamp's I·cos θ/d² at the ground point dx = X − x_l right of it, D ahead (D2 = D², invD =
 // 1/D in float): h = atan(dx/D), v = −atan(h_l/√(dx² + D²)) in degrees, the cut-off and the
 // table as beam_intensity_cd (the cell index by counting the grid angles at or below the angle,
@@ -370,15 +393,7 @@ BeamF beam_f(const ScenePreset& p) {
   const float h = atanf_cephes(dx * invD) * b.deg, v = -(atanf_cephes(b.hl / horiz) * b.deg);
   const float cut = std::min(b.cv + std::max(h, 0.f) * b.rise, b.cmax);
   if (!(v <= cut && h >= b.H[0] && h <= b.H[b.nh - 1] && v >= b.V[0] && v <= b.V[b.nv - 1])) return 0.f;
-  int j = 0, i = 0;
-  for (int m = 1; m + 1 < b.nh; ++m) j += b.H[m] <= h;
-  for (int m = 1; m + 1 < b.nv; ++m) i += b.V[m] <= v;
-  const float a = (h - b.H[j]) * b.rH[j], c = (v - b.V[i]) * b.rV[i];
-  const float* r0 = b.I.data() + i * b.nh + j;
-  const float* r1 = r0 + b.nh;
-  const float ia = 1.f - a, ic = 1.f - c;
-  const float I = ic * (ia * r0[0] + a * r0[1]) + c * (ia * r1[0] + a * r1[1]);
-  return I * (b.hl / (d2 * d));
+  return beam_table_f(h, v, b) * (b.hl / (d2 * d));
 }
 [[gnu::always_inline]] inline float beam_lux_f(float X, float D2, float invD, const BeamF& b) {
   float E = 0.f;
@@ -765,6 +780,31 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
   }
   if (x < n) beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x);
 }
+// beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
+// lane permutations): the same operations per lane.
+PHOTOSITE_AVX512 inline __m512 beam_table16(__m512 h, __m512 v, const BeamF& b) {
+  const __m512i ione = _mm512_set1_epi32(1), k32 = _mm512_set1_epi32(32), vnh = _mm512_set1_epi32(b.nh);
+  __m512i j = _mm512_setzero_si512(), i = _mm512_setzero_si512();
+  for (int m = 1; m + 1 < b.nh; ++m) j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
+  for (int m = 1; m + 1 < b.nv; ++m) i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
+  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
+  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
+               I3 = _mm512_load_ps(b.I64 + 48);
+  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
+    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
+  };
+  const __m512 Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
+  const __m512 Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
+  const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j), c1 = _mm512_add_epi32(c0, vnh);
+  const __m512 r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione)), r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
+  const __m512 one = _mm512_set1_ps(1.f);
+  const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
+  const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
+  const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
+  const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
+  return _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot));
+}
 #undef PHOTOSITE_AVX512
 #pragma GCC diagnostic pop
 // The widest path the beam image may take (beam_max_isa): 2 AVX-512, 1 AVX2, 0 scalar.
@@ -1000,6 +1040,368 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
     }
   }
   return E;
+}
+
+// ---- The low beam on vertical surfaces ----------------------------------------------------------
+// The headlamps light what stands in front of the car as well as the road: the legs of a
+// pedestrian, the lower half of the car ahead, a wall's foot, below the cut-off with the table's
+// intensity (tens of lux at 20-40 m); above it, the glare zone's beam_above_cutoff_cd. A vertical
+// surface element with unit normal n at the point P receives from each lamp at L
+//   E = I(h, v)·cos β / d²,   cos β = n·(L − P)/d,   d = |L − P|,
+// with h and v the angles of P seen from the lamp (as the ground's, low_beam_lux), and a tree
+// crown, taken as a Lambert sphere (crown_phase_detail.h), I(h, v)·Φ(α)/d² with α the angle at P
+// between the lamp and the camera (a few degrees: Φ ≈ 2/3). The normal is street.cpp's: a
+// building's façade plane (BuildingFacades), else the face turned to the camera (the labels do
+// not tell an object's own orientation). Stated approximations: the lamps sit beside the camera
+// (their forward offset neglected, as for the ground); nothing casts a shadow; d² is held at
+// (5·lens_diameter_m)² nearer than five lens diameters (the inverse square law's range).
+namespace {
+// Whether a point dy above the lamp at horizontal distance √horiz2 lies above the cut-off's top,
+// v > cutoff_max_v_deg, i.e. dy > √horiz2·t with t = tan(cutoff_max_v_deg), decided without the
+// square root: for t ≥ 0, dy > 0 and dy² > horiz2·t²; for t < 0, dy > 0 or dy² < horiz2·t².
+[[gnu::always_inline]] inline bool beam_above_top(float dy, float horiz2, const BeamF& b) {
+  const float q = dy * dy, r = horiz2 * b.tvmax2;
+  return b.tvmax >= 0 ? (dy > 0 && q > r) : (dy > 0 || q < r);
+}
+// One headlamp's E at a point dx = X − x_l right of it, dy = Y − h_l above it and D > 0 ahead,
+// in float32. The surface's normal is m/s: m = (mX, mY, mD) and its length s (a face turned to the
+// camera: m = (−X, 0, −D), s = √(X² + D²); a façade: its plane's lit normal, s = 1; a crown: the
+// vector to the camera, m = (−X, h − Y, −D), s = |m|), so that no normal is divided out:
+//   beside the table's horizontal range (dx outside [D·tan H₀, D·tan H₁]): 0;
+//   a face turned away (m·(L − P) ≤ 0, not for crowns): 0;
+//   above the cut-off's top (beam_above_top): the glare zone's I, no angle;
+//   else h = atan(dx/D), v = atan(dy/√(dx² + D²)) in degrees: above the cut-off the glare zone's I,
+//   inside the grid the table (beam_table_f), outside it 0;
+// then a face's E = I·(m·(L − P))/(s·d·max(d², d²_min)) (= I·cos β/d²), a crown's
+// I·Φ(m·(L − P)/(s·d))/max(d², d²_min).
+// The vector rows (beam_vertical_row_avx512) do the same operations on their lanes: the same bits.
+[[gnu::always_inline]] inline float beam_vertical_lamp_f(float dx, float dy, float D, float mX, float mY, float mD,
+                                                         float s, bool crown, const BeamF& b) {
+  if (!(dx >= D * b.th0 && dx <= D * b.th1)) return 0.f;
+  const float horiz2 = dx * dx + D * D;
+  const float d2 = horiz2 + dy * dy, d = std::sqrt(d2);
+  float nv = mX * dx + mD * D;  // −m·(L − P)
+  if (crown) nv = nv + mY * dy;
+  const float cb = -nv;  // m·(L − P) = s·d·cos β (cos α for a crown)
+  if (!crown && !(cb > 0)) return 0.f;
+  float I = b.above;
+  if (!beam_above_top(dy, horiz2, b)) {
+    const float horiz = std::sqrt(horiz2);
+    const float h = atanf_cephes(dx / D) * b.deg, v = atanf_cephes(dy / horiz) * b.deg;
+    const float cut = std::min(b.cv + std::max(h, 0.f) * b.rise, b.cmax);
+    if (v <= cut) {
+      if (!(h >= b.H[0] && h <= b.H[b.nh - 1] && v >= b.V[0] && v <= b.V[b.nv - 1])) return 0.f;
+      I = beam_table_f(h, v, b);
+    }
+  }
+  const float sd = s * d, dm = std::max(d2, b.d2_min);
+  return crown ? (I * crown_phase(cb / sd)) / dm : (I * cb) / (sd * dm);
+}
+
+// What the rows of add_low_beam_vertical share: the beam, the camera, per column x_n = (x − c_x)/f,
+// the façades and their planes' lit normals in float, the lit classes.
+struct BeamVerticalCtx {
+  const BeamF& b;
+  const CameraGeometry& g;
+  const BuildingFacades* fac;
+  std::vector<float> xn;
+  std::vector<float> plane_nX, plane_nD;  // each façade plane's lit normal (−n)
+  uint64_t classes;
+  int building, vegetation;
+  float h, xl0, xl1;
+};
+// The pixel's point, X = z·x_n, D = z·kD, H = z·kY (the camera's height above the point),
+// Y = h − H, and its normal as beam_vertical_lamp_f takes it (m, s). False where the pixel is not
+// lit (not of a lit class, a lane marking, no finite depth, D ≤ 0).
+struct BeamPoint {
+  float X, Y, D, mX, mY, mD, s;
+  bool crown;
+};
+[[gnu::always_inline]] inline bool beam_vertical_point(const BeamVerticalCtx& c, int x, const uint16_t* id,
+                                                      const float* z, const uint8_t* lane, const int32_t* reg,
+                                                      float kD, float kY, BeamPoint* p) {
+  const int k = id[x];
+  if (k >= 64 || !(c.classes >> k & 1) || (lane && lane[x])) return false;
+  const float zz = z[x];
+  if (!(zz > 0) || !(zz < kDepthInfinity_m)) return false;
+  p->X = zz * c.xn[x];
+  p->D = zz * kD;
+  const float H = zz * kY;
+  p->Y = c.h - H;
+  if (!(p->D > 0)) return false;
+  p->crown = k == c.vegetation;
+  p->mX = -p->X;
+  p->mY = 0.f;
+  p->mD = -p->D;
+  const float XD2 = p->X * p->X + p->D * p->D;
+  if (k == c.building && reg && reg[x] >= 0) {
+    const BuildingFacades::Region& R = c.fac->regions[reg[x]];
+    const int pi = R.column_plane[x - R.x0];
+    if (pi >= 0) {
+      p->mX = c.plane_nX[pi];
+      p->mD = c.plane_nD[pi];
+      p->s = 1.f;
+      return true;
+    }
+  }
+  if (p->crown) {
+    p->mY = H;
+    p->s = std::sqrt(XD2 + H * H);
+    return true;
+  }
+  p->s = std::sqrt(XD2);
+  return true;
+}
+[[gnu::always_inline]] inline float beam_vertical_e(const BeamVerticalCtx& c, const BeamPoint& q) {
+  const float dy = q.Y - c.b.hl;
+  const float e0 = beam_vertical_lamp_f(q.X - c.xl0, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
+  const float e1 = beam_vertical_lamp_f(q.X - c.xl1, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
+  return e0 + e1;
+}
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// beam_vertical_row_scalar sixteen pixels at a time (AVX-512), over the columns 0 .. 16⌊W/16⌋ − 1
+// (returned; the scalar row does the rest): the same operations per lane as beam_vertical_point
+// and beam_vertical_lamp_f, their branches as lane masks, the angles and the table only for groups
+// with a lane below the cut-off's top; a table that is not small (BeamF::small) takes such lanes by
+// the scalar code. So the same bits as beam_vertical_row_scalar.
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_row_avx512(
+    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const uint8_t* lane, const int32_t* reg,
+    float kD, float kY, float* e) {
+  const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
+  const BeamF& b = c.b;
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
+                mhi = _mm512_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm512_set1_epi32(1),
+                k32 = _mm512_set1_epi32(32), veg = _mm512_set1_epi32(c.vegetation), bld = _mm512_set1_epi32(c.building);
+  const __m512 zero = _mm512_setzero_ps(), zinf = _mm512_set1_ps(kDepthInfinity_m), vkD = _mm512_set1_ps(kD),
+               vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(c.h), vhl = _mm512_set1_ps(b.hl),
+               th0 = _mm512_set1_ps(b.th0), th1 = _mm512_set1_ps(b.th1), tv2 = _mm512_set1_ps(b.tvmax2),
+               above = _mm512_set1_ps(b.above), d2min = _mm512_set1_ps(b.d2_min), fone = _mm512_set1_ps(1.f),
+               sign = _mm512_set1_ps(-0.f), deg = _mm512_set1_ps(b.deg), cv = _mm512_set1_ps(b.cv),
+               cmax = _mm512_set1_ps(b.cmax), rise = _mm512_set1_ps(b.rise), h_lo = _mm512_set1_ps(b.H[0]),
+               h_hi = _mm512_set1_ps(b.H[b.nh - 1]), v_lo = _mm512_set1_ps(b.V[0]), v_hi = _mm512_set1_ps(b.V[b.nv - 1]);
+  const bool small = b.small, t_pos = b.tvmax >= 0;
+  const float xl[2] = {c.xl0, c.xl1};
+  for (int x = 0; x < Wv; x += 16) {
+    const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
+    // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
+    const __m512i bit = _mm512_and_si512(
+        _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
+    __mmask16 m = _mm512_test_epi32_mask(bit, bit);
+    if (lane && m) m &= _mm_cmpeq_epi8_mask(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lane + x)), _mm_setzero_si128());
+    if (!m) continue;
+    const __m512 vz = _mm512_loadu_ps(z + x);
+    m &= _mm512_cmp_ps_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(vz, zinf, _CMP_LT_OQ);
+    if (!m) continue;
+    const __m512 X = _mm512_mul_ps(vz, _mm512_loadu_ps(c.xn.data() + x)), D = _mm512_mul_ps(vz, vkD);
+    const __m512 Hc = _mm512_mul_ps(vz, vkY), Y = _mm512_sub_ps(vh, Hc);
+    m &= _mm512_cmp_ps_mask(D, zero, _CMP_GT_OQ);
+    if (!m) continue;
+    const __mmask16 crown = m & _mm512_cmpeq_epi32_mask(k, veg);
+    // The normals (m, s): a face turned to the camera, a crown's vector to the camera, a façade's plane.
+    const __m512 XD2 = _mm512_add_ps(_mm512_mul_ps(X, X), _mm512_mul_ps(D, D));
+    __m512 mX = _mm512_xor_ps(X, sign), mD = _mm512_xor_ps(D, sign), mY = zero;
+    __m512 s = _mm512_sqrt_ps(XD2);
+    if (crown) {
+      mY = _mm512_maskz_mov_ps(crown, Hc);
+      s = _mm512_mask_sqrt_ps(s, crown, _mm512_add_ps(XD2, _mm512_mul_ps(Hc, Hc)));
+    }
+    if (const __mmask16 bm = m & _mm512_cmpeq_epi32_mask(k, bld); bm && reg) {
+      // The façade planes of the building lanes. All of one region (the common case): the
+      // region's column planes of the sixteen columns in one load, the planes' normals broadcast
+      // (one plane) or gathered; else lane by lane.
+      __mmask16 planar = 0;
+      const int r0 = reg[x + __builtin_ctz(bm)];
+      if (r0 >= 0 && (bm & _mm512_cmpeq_epi32_mask(_mm512_loadu_si512(reg + x), _mm512_set1_epi32(r0))) == bm) {
+        const BuildingFacades::Region& R = c.fac->regions[r0];
+        const __m512i pv = _mm512_maskz_loadu_epi32(bm, R.column_plane.data() + (x - R.x0));
+        planar = bm & _mm512_cmpge_epi32_mask(pv, _mm512_setzero_si512());
+        const int p0 = R.column_plane[x + __builtin_ctz(bm) - R.x0];
+        if (p0 >= 0 && (bm & _mm512_cmpeq_epi32_mask(pv, _mm512_set1_epi32(p0))) == bm) {
+          // One plane for all of them (the common case): its normal broadcast.
+          mX = _mm512_mask_mov_ps(mX, planar, _mm512_set1_ps(c.plane_nX[p0]));
+          mD = _mm512_mask_mov_ps(mD, planar, _mm512_set1_ps(c.plane_nD[p0]));
+        } else {
+          mX = _mm512_mask_i32gather_ps(mX, planar, pv, c.plane_nX.data(), 4);
+          mD = _mm512_mask_i32gather_ps(mD, planar, pv, c.plane_nD.data(), 4);
+        }
+      } else {
+        alignas(64) float pX[16], pD[16];
+        for (unsigned r = bm; r; r &= r - 1) {
+          const int i = __builtin_ctz(r), xi = x + i;
+          if (reg[xi] < 0) continue;
+          const BuildingFacades::Region& R = c.fac->regions[reg[xi]];
+          const int pi = R.column_plane[xi - R.x0];
+          if (pi < 0) continue;
+          pX[i] = c.plane_nX[pi];
+          pD[i] = c.plane_nD[pi];
+          planar |= static_cast<__mmask16>(1u << i);
+        }
+        mX = _mm512_mask_load_ps(mX, planar, pX);
+        mD = _mm512_mask_load_ps(mD, planar, pD);
+      }
+      s = _mm512_mask_mov_ps(s, planar, fone);
+    }
+    const __m512 dy = _mm512_sub_ps(Y, vhl), dy2 = _mm512_mul_ps(dy, dy), D2 = _mm512_mul_ps(D, D);
+    const __m512 Dh0 = _mm512_mul_ps(D, th0), Dh1 = _mm512_mul_ps(D, th1);
+    const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
+    __m512 E = zero;
+    __mmask16 slow = 0;
+    for (const float xlk : xl) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(xlk));
+      const __mmask16 in = _mm512_cmp_ps_mask(dx, Dh0, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dx, Dh1, _CMP_LE_OQ);
+      const __m512 horiz2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), D2);
+      const __m512 d2 = _mm512_add_ps(horiz2, dy2), d = _mm512_sqrt_ps(d2);
+      __m512 nv = _mm512_add_ps(_mm512_mul_ps(mX, dx), _mm512_mul_ps(mD, D));
+      nv = _mm512_mask_add_ps(nv, crown, nv, _mm512_mul_ps(mY, dy));
+      const __m512 cb = _mm512_xor_ps(nv, sign);
+      const __mmask16 lit = in & m & (crown | _mm512_cmp_ps_mask(cb, zero, _CMP_GT_OQ));
+      if (!lit) continue;
+      const __m512 r = _mm512_mul_ps(horiz2, tv2);
+      const __mmask16 top = t_pos ? dy_pos & _mm512_cmp_ps_mask(dy2, r, _CMP_GT_OQ)
+                                  : dy_pos | _mm512_cmp_ps_mask(dy2, r, _CMP_LT_OQ);
+      __m512 I = above;
+      if (const __mmask16 below_top = lit & ~top) {
+        // The angles on these lanes: the glare zone above the cut-off, the table inside its grid
+        // below it, 0 outside the grid.
+        if (!small) {
+          slow |= below_top;
+        } else {
+          const __m512 horiz = _mm512_sqrt_ps(horiz2);
+          const __m512 h = _mm512_mul_ps(atanf_cephes16(_mm512_div_ps(dx, D)), deg);
+          const __m512 v = _mm512_mul_ps(atanf_cephes16(_mm512_div_ps(dy, horiz)), deg);
+          const __m512 cut = _mm512_min_ps(_mm512_add_ps(cv, _mm512_mul_ps(_mm512_max_ps(h, zero), rise)), cmax);
+          const __mmask16 under = below_top & _mm512_cmp_ps_mask(v, cut, _CMP_LE_OQ);
+          const __mmask16 grid = _mm512_cmp_ps_mask(h, h_lo, _CMP_GE_OQ) & _mm512_cmp_ps_mask(h, h_hi, _CMP_LE_OQ) &
+                                 _mm512_cmp_ps_mask(v, v_lo, _CMP_GE_OQ) & _mm512_cmp_ps_mask(v, v_hi, _CMP_LE_OQ);
+          if (under) I = _mm512_mask_mov_ps(I, under, _mm512_maskz_mov_ps(grid, beam_table16(h, v, b)));
+        }
+      }
+      const __m512 sd = _mm512_mul_ps(s, d), dm = _mm512_max_ps(d2, d2min);
+      __m512 el = _mm512_div_ps(_mm512_mul_ps(I, cb), _mm512_mul_ps(sd, dm));
+      if (const __mmask16 cl = crown & lit)
+        el = _mm512_mask_div_ps(el, cl, _mm512_mul_ps(I, crown_phase16(_mm512_div_ps(cb, sd))), dm);
+      E = _mm512_add_ps(E, _mm512_maskz_mov_ps(lit, el));
+    }
+    _mm512_mask_storeu_ps(e + x, m & ~slow, E);
+    for (unsigned r = m & slow; r; r &= r - 1) {
+      const int xi = x + __builtin_ctz(r);
+      BeamPoint q;
+      if (beam_vertical_point(c, xi, id, z, lane, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
+    }
+  }
+  return Wv;
+}
+#pragma GCC diagnostic pop
+void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
+                              const uint8_t* lane, const int32_t* reg, float kD, float kY, float* e) {
+  const int W = static_cast<int>(c.xn.size());
+  for (int x = x0; x < W; ++x) {
+    BeamPoint q;
+    if (beam_vertical_point(c, x, id, z, lane, reg, kD, kY, &q)) e[x] = beam_vertical_e(c, q);
+  }
+}
+}  // namespace
+
+const std::array<bool, kLabelCount>& beam_vertical_classes() {
+  static const std::array<bool, kLabelCount> table = [] {
+    std::array<bool, kLabelCount> t{};
+    const auto& ground = ground_classes();
+    for (int id = 0; id < kLabelCount; ++id) t[id] = !ground[id];
+    // Not lit as a diffuse vertical surface: the sky; the camera car itself (behind its lamps);
+    // the frame's border and outside the region of interest (not scene); traffic signs, whose
+    // beam light is their retroreflection (the light map's sign luminance, R_A holding it).
+    for (const Label l : {Label::Sky, Label::EgoVehicle, Label::RectificationBorder, Label::OutOfRoi, Label::TrafficSign})
+      t[static_cast<int>(l)] = false;
+    return t;
+  }();
+  return table;
+}
+
+uint64_t beam_lit_class_bits() { return label_bits(ground_classes()) | label_bits(beam_vertical_classes()); }
+
+double low_beam_vertical_lux(double X_m, double Y_m, double D_m, double nX, double nY, double nD, bool crown,
+                             const ScenePreset& p) {
+  if (!(D_m > 0)) return 0;
+  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  const double hl = p.beam_lamp_height_m, d2_min = 25 * p.beam_lens_diameter_m * p.beam_lens_diameter_m;
+  const bool table = p.beam_h_deg.size() >= 2;
+  double E = 0;
+  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+    const double vX = xl - X_m, vY = hl - Y_m, vD = -D_m, d2 = vX * vX + vY * vY + vD * vD, d = std::sqrt(d2);
+    const double cb = (nX * vX + nY * vY + nD * vD) / d;
+    if (!crown && !(cb > 0)) continue;
+    const double h = std::atan2(-vX, D_m) * 180 / M_PI, v = std::atan2(-vY, std::hypot(vX, D_m)) * 180 / M_PI;
+    if (!table || h < p.beam_h_deg.front() || h > p.beam_h_deg.back()) continue;
+    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
+    const double I = v > cut ? p.beam_above_cutoff_cd : beam_intensity_cd(h, v, tan_rise, p);
+    double f = cb;
+    if (crown) {
+      const double a = std::acos(std::clamp(cb, -1.0, 1.0));
+      f = 2 / (3 * M_PI) * (std::sin(a) + (M_PI - a) * cb);  // the Lambert sphere's phase law (Russell 1916)
+    }
+    E += I * f / std::max(d2, d2_min);
+  }
+  return E;
+}
+
+struct BeamVerticalRows::Impl {
+  BeamF b;
+  BeamVerticalCtx c;
+  ImageF& beam;
+  const ImageU16& labels;
+  const ImageF& depth;
+  const ImageU8* lanes;
+  const BuildingFacades* fac;
+  double cp, sp;
+  bool avx512;
+  Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
+       const BuildingFacades* facades, const ImageU8* lanes_, const ScenePreset& p)
+      : b(beam_f(p)),
+        c{b, g, facades, std::vector<float>(beam_lux.width()), {}, {}, label_bits(beam_vertical_classes()),
+          static_cast<int>(Label::Building), static_cast<int>(Label::Vegetation), static_cast<float>(g.mount_height_m),
+          b.xl[0], b.xl[1]},
+        beam(beam_lux), labels(labels_), depth(depth_m), lanes(lanes_), fac(facades), cp(std::cos(g.pitch_rad)),
+        sp(std::sin(g.pitch_rad)), avx512(kHaveAvx512 && beam_isa_cap >= 2) {
+    const int W = beam.width(), H = beam.height();
+    if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H ||
+        (lanes && (lanes->width() != W || lanes->height() != H)))
+      fail("low beam on vertical surfaces: the beam, labels, depth and lanes differ in size");
+    for (int x = 0; x < W; ++x) c.xn[x] = static_cast<float>((x - g.cx_px) / g.f_px);
+    if (facades)
+      for (const FacadePlane& f : facades->planes) {
+        c.plane_nX.push_back(static_cast<float>(-f.nX));
+        c.plane_nD.push_back(static_cast<float>(-f.nD));
+      }
+  }
+};
+
+BeamVerticalRows::BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                   const ImageF& depth_m, const BuildingFacades* facades, const ImageU8* lanes,
+                                   const ScenePreset& p)
+    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, lanes, p)) {}
+BeamVerticalRows::~BeamVerticalRows() = default;
+
+void BeamVerticalRows::row(int y) const {
+  const Impl& m = *impl_;
+  if (!m.b.ok) return;  // no table: no light (as low_beam_illuminance)
+  const CameraGeometry& g = m.c.g;
+  const double yn = (y - g.cy_px) / g.f_px;
+  const float kD = static_cast<float>(m.cp - yn * m.sp), kY = static_cast<float>(m.sp + yn * m.cp);
+  const int32_t* reg = m.fac && !m.fac->region.empty() ? m.fac->region.row(y) : nullptr;
+  const uint8_t* lane = m.lanes ? m.lanes->row(y) : nullptr;
+  const uint16_t* id = m.labels.row(y);
+  const float* z = m.depth.row(y);
+  float* e = m.beam.row(y);
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, lane, reg, kD, kY, e) : 0;
+  beam_vertical_row_scalar(m.c, x0, id, z, lane, reg, kD, kY, e);
+}
+
+void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
+                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p) {
+  const BeamVerticalRows rows(beam_lux, g, labels, depth_m, facades, lanes, p);
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < beam_lux.height(); ++y) rows.row(y);
 }
 
 namespace {
@@ -1371,7 +1773,8 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
                         const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                         uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                         const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
-                        bool with_radiance, bool with_glare_level1, const VehicleParts* vehicles) {
+                        bool with_radiance, bool with_glare_level1, const VehicleParts* vehicles,
+                        const BeamVerticalRows* beam_vertical) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -1846,6 +2249,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           out.glare_level1 = t_level1;
         }
         rows.emplace(texture, L, labels, *beam_lux, p, out.composed, out.glare_level1.get());
+        rows->beam_vertical = beam_vertical;
       }
       // Each row begins with its retroreflection and signals, then its vehicle lamps.
       std::atomic<int> signals{0};
@@ -1954,12 +2358,13 @@ namespace {
 // One row of compose for the pixels x0 .. x1 − 1: darken_pixel, then the beam's diffuse reflection
 // on ground classes and the light map, o_k = d_k + ((t_k·tint_k/π)·E + l_k).
 void compose_row_scalar(float* o, const float* t, const float* l, const float* b, const uint16_t* id, int x0, int x1,
-                        const DarkenParams& dp, const float* tbf) {
+                        const DarkenParams& dp, const float* tbf, uint64_t beam_mask) {
   for (int x = x0; x < x1; ++x) {
     darken_pixel(t + 3 * x, id[x], dp, o + 3 * x);
-    // Lambertian diffuse reflection of the low beam on the ground: f_k·t_k·E/π, E from
-    // low_beam_illuminance (0 above the horizon and beyond the cut-off).
-    const float e = dp.ground_class[id[x]] ? b[x] : 0.f;
+    // Lambertian diffuse reflection of the low beam: f_k·t_k·E/π, E from low_beam_illuminance on
+    // the ground classes (0 above the horizon and beyond the cut-off) and add_low_beam_vertical on
+    // the vertical ones (beam_lit_class_bits).
+    const float e = id[x] < 64 && (beam_mask >> id[x] & 1) ? b[x] : 0.f;
     for (int k = 0; k < 3; ++k) o[3 * x + k] += t[3 * x + k] * tbf[k] * e + l[3 * x + k];
   }
 }
@@ -1969,7 +2374,7 @@ void compose_row_scalar(float* o, const float* t, const float* l, const float* b
 // lane permutations); groups with a sky pixel, and the row's tail, by the scalar loop.
 __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, const float* l, const float* b,
                                                      const uint16_t* id, int W, const DarkenParams& dp,
-                                                     const float* tbf, uint64_t ground_mask) {
+                                                     const float* tbf, uint64_t beam_mask) {
   const __m256i s0 = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2), s1 = _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
                 s2 = _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7);
   const float* a = dp.ambient;
@@ -1980,14 +2385,14 @@ __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, 
                tb1 = _mm256_setr_ps(tbf[2], tbf[0], tbf[1], tbf[2], tbf[0], tbf[1], tbf[2], tbf[0]),
                tb2 = _mm256_setr_ps(tbf[1], tbf[2], tbf[0], tbf[1], tbf[2], tbf[0], tbf[1], tbf[2]);
   const __m256i sky = _mm256_set1_epi32(static_cast<int>(Label::Sky)), count = _mm256_set1_epi32(kLabelCount - 1);
-  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(ground_mask & 0xffffffffu)),
-                mhi = _mm256_set1_epi32(static_cast<int32_t>(ground_mask >> 32)), one = _mm256_set1_epi32(1),
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(beam_mask & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(beam_mask >> 32)), one = _mm256_set1_epi32(1),
                 k32 = _mm256_set1_epi32(32);
   int x = 0;
   for (; x + 8 <= W; x += 8) {
     const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
     if (_mm256_movemask_epi8(_mm256_or_si256(_mm256_cmpeq_epi32(k, sky), _mm256_cmpgt_epi32(k, count)))) {
-      compose_row_scalar(o, t, l, b, id, x, x + 8, dp, tbf);
+      compose_row_scalar(o, t, l, b, id, x, x + 8, dp, tbf, beam_mask);
       continue;
     }
     // The ground test by the class bit mask (as dp.ground_class[id] for ids below kLabelCount ≤ 64).
@@ -2006,7 +2411,7 @@ __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, 
     _mm256_storeu_ps(o3 + 16, _mm256_add_ps(d2, _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(tv2, tb2), _mm256_permutevar8x32_ps(e, s2)),
                                                               _mm256_loadu_ps(l3 + 16))));
   }
-  compose_row_scalar(o, t, l, b, id, x, W, dp, tbf);
+  compose_row_scalar(o, t, l, b, id, x, W, dp, tbf, beam_mask);
   _mm256_zeroupper();
 }
 }  // namespace
@@ -2014,7 +2419,7 @@ __attribute__((target("avx2"))) void compose_row_avx2(float* o, const float* t, 
 ComposeRows::ComposeRows(const ImageF& texture_, const ImageF& lights_, const ImageU16& labels_,
                          const ImageF& beam_lux_, const ScenePreset& p, ImageF& night_, GlareLevel1* level1_)
     : texture(texture_), lights(lights_), labels(labels_), beam_lux(beam_lux_), night(night_), dp(darken_params(p)),
-      ground_mask(label_bits(dp.ground_class)), avx2(kHaveAvx2), level1(level1_) {
+      beam_mask(beam_lit_class_bits()), avx2(kHaveAvx2), level1(level1_) {
   const auto tb = illuminant_tint(p.beam_cct_K);
   for (int k = 0; k < 3; ++k) tbf[k] = static_cast<float>(tb[k] / M_PI);
   if (level1) {
@@ -2030,8 +2435,9 @@ ComposeRows::ComposeRows(const ImageF& texture_, const ImageF& lights_, const Im
 
 void ComposeRows::row(int y) const {
   const int W = texture.width();
-  if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, ground_mask);
-  else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf);
+  if (beam_vertical) beam_vertical->row(y);
+  if (avx2) compose_row_avx2(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), W, dp, tbf, beam_mask);
+  else compose_row_scalar(night.row(y), texture.row(y), lights.row(y), beam_lux.row(y), labels.row(y), 0, W, dp, tbf, beam_mask);
   if (level1) {
     // The second of the pair's rows to be composed makes the level row (acq_rel: the other
     // row's stores, released by its own count, are seen here).

@@ -248,9 +248,14 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // once its light is final (LightMap::composed: the same bits as compose() after it, without a
   // pass of its own over four full-frame images); the stage is then timed as one,
   // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
+  // The low beam on vertical surfaces (cars, people, walls, crowns ahead; it needs the metric depth
+  // and the façade planes) into the beam image: each row inside the light map's row pass just
+  // before the row is composed, while its labels and depth are in cache; where the light map does
+  // not compose (a device tail), over the frame before the tail.
+  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, &lanes_full, p);
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
-                               vehicles.get());
+                               vehicles.get(), &beam_vertical);
   vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
@@ -261,6 +266,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     lap("lights+compose");
     return s;
   }
+#pragma omp parallel for schedule(static, 8)
+  for (int y = 0; y < H; ++y) beam_vertical.row(y);
   lap("lights");
   if (tail) {
     PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);

@@ -92,15 +92,35 @@ StreetLighting plan_street_lighting_with(const LabelMap& labels, const CameraGeo
 // vehicle; beside the Hough transform; it makes the rows again if `parts` was made of other
 // labels). light_map_with takes what `vehicles` holds when it was made of these labels (lm.ids
 // and lm.instances; the cues: and of this day image), else makes it: the same components, boxes,
-// cues and lamps. light_map() is light_map_with(..., nullptr).
+// cues and lamps. light_map() is light_map_with(..., nullptr). With beam_vertical (over *beam_lux)
+// and the night radiance composed in the row pass (LightMap::composed not empty), each row's low
+// beam on vertical surfaces is written just before the row is composed; otherwise it is not
+// touched (the caller runs add_low_beam_vertical before composing).
 struct VehicleParts;
+class BeamVerticalRows;
 std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& labels);
 void add_vehicle_parts(VehicleParts& parts, const ImageF& day_linear_srgb, const LabelMap& labels);
 LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                         const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                         uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m, const ImageF* beam_lux,
                         const BuildingFacades* facades, const StreetLighting* street, bool with_radiance,
-                        bool with_glare_level1, const VehicleParts* vehicles);
+                        bool with_glare_level1, const VehicleParts* vehicles,
+                        const BeamVerticalRows* beam_vertical = nullptr);
+// add_low_beam_vertical (scene/lights.cpp) row by row: the set-up once, then row(y) writes the
+// vertical surfaces' beam E of row y into beam_lux (the same values as add_low_beam_vertical's),
+// from any thread. The light map's row pass runs it just before it composes the row (ComposeRows),
+// so that the row's labels, depth and beam are read while in cache, not in a pass of their own.
+class BeamVerticalRows {
+ public:
+  BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
+                   const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p);
+  ~BeamVerticalRows();
+  void row(int y) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 // coarse_depth row by row (scene/vanishing.cpp): its column terms made once, then any row y of a
 // width x height image `d` written by row(d, y), the same values as coarse_depth's, from any
 // thread (night_scene's depth halves share its rows, each taking the next ones once its own work

@@ -114,7 +114,7 @@ struct ComposeRows {
   const ImageF& beam_lux;
   ImageF& night;
   const DarkenParams dp;
-  const uint64_t ground_mask;
+  const uint64_t beam_mask;  // beam_lit_class_bits: where compose adds the beam's reflection
   const bool avx2;
   float tbf[3];  // the beam's tint over π per channel
   // With level1 (the lens glare's level 1 of night, sensor/glare.h): level row j is made
@@ -123,6 +123,9 @@ struct ComposeRows {
   // (glare_level1_sums) by whichever makes the last of them, counted per batch; any order of the
   // rows gives the same level and sums.
   GlareLevel1* level1 = nullptr;
+  // With beam_vertical (the light map's row pass): row(y) first writes the low beam on the row's
+  // vertical surfaces into beam_lux (BeamVerticalRows over the same image), then composes.
+  const BeamVerticalRows* beam_vertical = nullptr;
   std::unique_ptr<std::atomic<uint8_t>[]> pair_rows;   // night rows composed per level row
   std::unique_ptr<std::atomic<uint8_t>[]> batch_rows;  // level rows made per batch of eight
   ComposeRows(const ImageF& texture, const ImageF& lights, const ImageU16& labels, const ImageF& beam_lux,

@@ -2181,6 +2181,21 @@ double table_cd(const ScenePreset& p, double h, double v) {
   auto I = [&](size_t r, size_t c) { return p.beam_intensity_cd[r * H.size() + c]; };
   return (1 - a) * (1 - b) * I(i, j) + a * (1 - b) * I(i, j + 1) + (1 - a) * b * I(i + 1, j) + a * b * I(i + 1, j + 1);
 }
+// The table's largest slopes S_h, S_v (cd/°, between neighbouring grid points) and its largest
+// |grid angles| A_h, A_v (°): the float evaluations' error bounds read them.
+std::array<double, 4> table_slopes(const ScenePreset& p) {
+  const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
+  double S_h = 0, S_v = 0, A_h = 0, A_v = 0;
+  for (size_t i = 0; i < Vg.size(); ++i)
+    for (size_t j = 0; j < Hg.size(); ++j) {
+      const double I = p.beam_intensity_cd[i * Hg.size() + j];
+      if (j + 1 < Hg.size()) S_h = std::max(S_h, std::fabs(p.beam_intensity_cd[i * Hg.size() + j + 1] - I) / (Hg[j + 1] - Hg[j]));
+      if (i + 1 < Vg.size()) S_v = std::max(S_v, std::fabs(p.beam_intensity_cd[(i + 1) * Hg.size() + j] - I) / (Vg[i + 1] - Vg[i]));
+    }
+  for (double a : Hg) A_h = std::max(A_h, std::fabs(a));
+  for (double a : Vg) A_v = std::max(A_v, std::fabs(a));
+  return {S_h, S_v, A_h, A_v};
+}
 // The synthetic camera scene without boxes (the centre line free to the horizon); o its options.
 SyntheticCameraScene free_road(SyntheticCameraOptions& o) {
   o = camera_scene();
@@ -2222,15 +2237,7 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   const ImageF E = low_beam_illuminance(g, o.width, o.height, p);
   const double hl = p.beam_lamp_height_m, u = std::ldexp(1.0, -24), rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
   const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
-  double S_h = 0, S_v = 0, A_h = 0, A_v = 0;  // the table's largest slopes (cd/°) and |grid angles|
-  for (size_t i = 0; i < Vg.size(); ++i)
-    for (size_t j = 0; j < Hg.size(); ++j) {
-      const double I = p.beam_intensity_cd[i * Hg.size() + j];
-      if (j + 1 < Hg.size()) S_h = std::max(S_h, std::fabs(p.beam_intensity_cd[i * Hg.size() + j + 1] - I) / (Hg[j + 1] - Hg[j]));
-      if (i + 1 < Vg.size()) S_v = std::max(S_v, std::fabs(p.beam_intensity_cd[(i + 1) * Hg.size() + j] - I) / (Vg[i + 1] - Vg[i]));
-    }
-  for (double a : Hg) A_h = std::max(A_h, std::fabs(a));
-  for (double a : Vg) A_v = std::max(A_v, std::fabs(a));
+  const auto [S_h, S_v, A_h, A_v] = table_slopes(p);
   int checked = 0, beyond_cutoff = 0, band = 0;
   double worst = 0;  // the largest |E_f − E| / bound seen
   const int xc = static_cast<int>(std::lround(g.cx_px));
@@ -2528,6 +2535,239 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
   const double Lw1 = point_L(signs[1].x0, signs[1].y0, signs[1].z);
   EXPECT_LT(Lw1, Lw0 * 0.3);
   std::fprintf(stderr, "[signs] L = Σ R_A(α)·E⊥ = %.0f cd/m² at z 20 m, %.0f cd/m² at z 45 m\n", Lw0, Lw1);
+}
+
+// ---- The low beam on vertical surfaces (scene/lights.cpp add_low_beam_vertical) -----------------
+namespace {
+// A street with things standing in the beam: a person 15 m ahead on the centre line, a car 20 m
+// ahead to the right, a crown (vegetation) 25 m ahead to the left, a wall 30 m ahead on the left,
+// and a sign 18 m ahead (lit by its retroreflection, not here). (The camera's half field of view,
+// atan(512/1131) = 24.4°, lies inside the table's ±25°: nothing in view is beside the table.)
+struct BeamVerticalScene {
+  SyntheticCameraOptions o;
+  SyntheticCameraScene sc;
+  ScenePreset p = urban();
+  BeamVerticalScene() {
+    o = camera_scene();
+    o.boxes = {{0.0, 15, 0.6, 1.8, 0.4, Label::Person},      {2.6, 20, 1.8, 1.5, 4.5, Label::Car},
+               {-3.0, 25, 3.0, 4.0, 3.0, Label::Vegetation}, {-8.0, 30, 4.0, 2.5, 1.0, Label::Wall},
+               {4.0, 18, 0.7, 2.7, 0.1, Label::TrafficSign, 2.0}};
+    sc = make_synthetic_camera_scene(o);
+  }
+  ImageF beam() const {
+    ImageF E = low_beam_illuminance(o.camera, o.width, o.height, p, &sc.labels.ids);
+    add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, nullptr, p);
+    return E;
+  }
+  // The pixel's point as add_low_beam_vertical takes it (float: X = z·x_n, D = z·kD, H = z·kY,
+  // Y = h − H, the per-column x_n and per-row kD, kY rounded to float once).
+  std::array<float, 4> point(int x, int y) const {
+    const CameraGeometry& g = o.camera;
+    const double yn = (y - g.cy_px) / g.f_px, c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
+    const float xn = static_cast<float>((x - g.cx_px) / g.f_px), kD = static_cast<float>(c - yn * s),
+                kY = static_cast<float>(s + yn * c), z = sc.depth_m.at(x, y);
+    const float H = z * kY;
+    return {z * xn, static_cast<float>(g.mount_height_m) - H, z * kD, H};
+  }
+};
+}  // namespace
+
+// E on a vertical surface element = Σ over the two lamps of I(h, v)·cos β/d² (a crown: I·Φ(α)/d²),
+// the reference low_beam_vertical_lux in double (atan2, the table read by beam_intensity_cd) at
+// the float point the rows use (BeamVerticalScene::point), with the normal turned to the camera
+// (a crown's: the unit vector to the camera). The rows evaluate it in float; to first order in
+// u = 2⁻²⁴ (each IEEE float operation and each rounding to float rel. ≤ u; Cephes' atanf ≤ 4u),
+// per lamp with dx = X − x_l, dy = Y − h_l (|Δdx| ≤ u|dx|, |Δdy| ≤ u|dy|: one subtraction each):
+//   h = atan(dx/D)·(180/π): δh ≤ (180/π)·|Δdx|/D + 7u·|h| + 12u·A_h (÷, atan, 180/π, ×; the grid's
+//     rounded nodes and weights as in TableProjectedOntoTheMetricGround)
+//   v = atan(dy/√(dx² + D²))·(180/π): δv ≤ |v|·(|Δdx|/D + 12u) + 12u·A_v
+//   I: rel. 7u at the float angles, plus S_h·δh + S_v·δv (the table's largest slopes)
+//   m·(L − P) = −(m_X·dx + m_D·D [+ m_Y·dy]), m exact at the float point (−X, H, −D): the
+//     products and sums 3u of Σ|terms|, the inputs |m_X||Δdx| + |m_Y||Δdy|: δ ≤ 4u·Σ|terms|
+//   s = √(X² + D² [+ H²]) 4u (5u), d² = dx² + D² + dy² 6u, d 4u, s·d 9u, s·d·d² 16u, I·cb and ÷ 2u
+// so |E_f − E| ≤ Σ_lamps I·w·(25u·|cb| + 4u·Σ|terms|) + w·|cb|·(S_h·δh + S_v·δv), w = 1/(s·d·d²), for
+// faces; for crowns cos α = cb/(s·d) moves by ≤ 4u·Σ|terms|/(s·d) + 11u, Φ by k·π·that (|dΦ/dc| =
+// k·(π − α) ≤ k·π, k = 2/(3π)) plus the polynomial's 1.7·10⁻⁷ and 12u of its evaluation, and
+// E = I·Φ/d²: the same I terms, and I·|ΔΦ|/d² + I·Φ·9u/d². Times (1 + 10⁻⁶) for the second
+// order and the double reference's own rounding. A lamp whose (h, v) lies within δ of a
+// discontinuity of I (the cut-off, the table's edges, the top of the cut-off) is lit in one
+// evaluation and not the other: those pixels are excluded and counted.
+TEST(EgoLowBeamVertical, FloatRowsAgainstTheDoubleReference) {
+  const BeamVerticalScene s;
+  const ScenePreset& p = s.p;
+  const ImageF ground = low_beam_illuminance(s.o.camera, s.o.width, s.o.height, p, &s.sc.labels.ids);
+  const ImageF E = s.beam();
+  const double u = std::ldexp(1.0, -24), rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180), k = 2 / (3 * M_PI);
+  const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
+  const auto [S_h, S_v, A_h, A_v] = table_slopes(p);
+  const auto& lit_class = beam_vertical_classes();
+  std::map<int, std::array<double, 4>> per;  // class: pixels, E below 0.4 m (sum, n), E above 1.2 m (sum)
+  std::map<int, int> per_hi;
+  int checked = 0, band = 0, unchanged = 0;
+  double worst = 0;
+  for (int y = 0; y < s.o.height; ++y)
+    for (int x = 0; x < s.o.width; ++x) {
+      const int id = s.sc.labels.ids.at(x, y);
+      const float z = s.sc.depth_m.at(x, y);
+      if (!lit_class[id] || !(z > 0 && z < kDepthInfinity_m)) {
+        ASSERT_EQ(E.at(x, y), ground.at(x, y)) << x << "," << y << " class " << id;  // not touched
+        ++unchanged;
+        continue;
+      }
+      const auto P = s.point(x, y);
+      const double X = P[0], Y = P[1], D = P[2], Hc = P[3];
+      const bool crown = id == static_cast<int>(Label::Vegetation);
+      const double mX = -X, mY = crown ? Hc : 0.0, mD = -D, sn = std::sqrt(X * X + D * D + mY * mY);
+      double expect = low_beam_vertical_lux(X, Y, D, mX / sn, mY / sn, mD / sn, crown, p), bound = 0;
+      bool near_edge = false;
+      for (double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+        const double dx = X - xl, dy = Y - p.beam_lamp_height_m, d2 = dx * dx + dy * dy + D * D, d = std::sqrt(d2);
+        const double h = std::atan2(dx, D) * 180 / M_PI, v = std::atan2(dy, std::hypot(dx, D)) * 180 / M_PI;
+        const double dh = 180 / M_PI * u * std::fabs(dx) / D + 7 * u * std::fabs(h) + 12 * u * A_h;
+        const double dv = std::fabs(v) * (u * std::fabs(dx) / D + 12 * u) + 12 * u * A_v;
+        const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * rise);
+        const double dcut = dv + rise * dh +
+                            4 * u * (std::fabs(p.beam_cutoff_v_deg) + std::fabs(p.beam_cutoff_max_v_deg) + std::fabs(h) * rise);
+        near_edge = near_edge || std::fabs(v - cut) <= dcut || std::fabs(v - p.beam_cutoff_max_v_deg) <= dcut ||
+                    std::fabs(h - Hg.front()) <= dh || std::fabs(h - Hg.back()) <= dh || std::fabs(v - Vg.front()) <= dv;
+        const double cb = mX * -dx + mY * -dy + mD * -D, terms = std::fabs(mX * dx) + std::fabs(mY * dy) + std::fabs(mD * D);
+        const double I = std::max(table_cd(p, h, v), v > cut && h >= Hg.front() && h <= Hg.back() ? p.beam_above_cutoff_cd : 0.0);
+        const double w = 1 / (sn * d * d2);
+        if (!crown) {
+          bound += I * w * (25 * u * std::fabs(cb) + 4 * u * terms) + w * std::fabs(cb) * (S_h * dh + S_v * dv);
+        } else {
+          const double c = cb / (sn * d), a = std::acos(std::clamp(c, -1.0, 1.0));
+          const double phi = k * (std::sin(a) + (M_PI - a) * c);
+          const double dphi = k * M_PI * (4 * u * terms / (sn * d) + 11 * u) + 1.7e-7 + 12 * u;
+          bound += (I * phi / d2) * (16 * u) + (I * dphi + phi * (S_h * dh + S_v * dv)) / d2;
+        }
+      }
+      bound *= 1 + 1e-6;
+      if (near_edge) {
+        ++band;
+        continue;
+      }
+      ASSERT_NEAR(E.at(x, y), expect, bound) << x << "," << y << " class " << id;
+      worst = std::max(worst, std::fabs(E.at(x, y) - expect) / bound);
+      ++checked;
+      auto& a = per[id];
+      a[0] += 1;
+      if (Y < 0.4) a[1] += E.at(x, y), a[2] += 1;
+      if (Y > 1.2) a[3] += E.at(x, y), per_hi[id] += 1;
+    }
+  std::fprintf(stderr, "[beam vertical] %d lit pixels within the derived bound (largest error/bound %.3f), %d in the "
+               "cut-off/edge band, %d untouched\n", checked, worst, band, unchanged);
+  for (const auto& [id, a] : per)
+    std::fprintf(stderr, "[beam vertical]   class %2d: %6.0f px, E below 0.4 m %.2f lx, above 1.2 m %.3f lx\n", id, a[0],
+                 a[2] > 0 ? a[1] / a[2] : 0.0, per_hi[id] > 0 ? a[3] / per_hi[id] : 0.0);
+  EXPECT_GT(checked, 5000);
+  EXPECT_LT(band, checked / 50);
+  // The person's legs below 0.4 m (v from −2.5° at the foot to −0.95° at 15 m: below the cut-off,
+  // the table's 800 to 11,000 cd on the v-v line) against its chest above 1.2 m (above the
+  // cut-off: the glare zone's 625 cd): more than 4× brighter on average (the table's mean over that
+  // v range on the centre line is about 6,000 cd), and both lit.
+  const auto& person = per.at(static_cast<int>(Label::Person));
+  ASSERT_GT(person[2], 0);
+  ASSERT_GT(per_hi[static_cast<int>(Label::Person)], 0);
+  EXPECT_GT(person[1] / person[2], 4 * person[3] / per_hi[static_cast<int>(Label::Person)]);
+  EXPECT_GT(person[3], 0);
+  EXPECT_GT(per.count(static_cast<int>(Label::Wall)), 0u);
+  EXPECT_GT(per.count(static_cast<int>(Label::Vegetation)), 0u);
+  // The sign's beam light is its retroreflection (the light map), not this.
+  int sign = 0;
+  for (int y = 0; y < s.o.height; ++y)
+    for (int x = 0; x < s.o.width; ++x)
+      if (s.sc.labels.ids.at(x, y) == static_cast<int>(Label::TrafficSign)) {
+        ASSERT_EQ(E.at(x, y), 0.f);
+        ++sign;
+      }
+  EXPECT_GT(sign, 50);
+}
+
+// The rows sixteen pixels at a time (AVX-512) are the scalar rows' bits: random classes (the lit
+// ones, the ground, sky, signs, ids of 64 and more), depths (odd ones: NaN, ±∞, ±0, negative,
+// tiny, and the sky's), lane markings, and façade planes of a region whose columns change plane
+// (one plane, two, none) and of pixels outside any region.
+TEST(EgoLowBeamVertical, SixteenAtATimeAreTheScalarBits) {
+  SyntheticCameraOptions o = camera_scene();
+  const int W = o.width, H = o.height;
+  const ScenePreset p = urban();
+  std::mt19937_64 rng(909);
+  std::uniform_real_distribution<double> U(0, 1);
+  const uint16_t ids[] = {static_cast<uint16_t>(Label::Car),        static_cast<uint16_t>(Label::Person),
+                          static_cast<uint16_t>(Label::Vegetation), static_cast<uint16_t>(Label::Building),
+                          static_cast<uint16_t>(Label::Building),   static_cast<uint16_t>(Label::Pole),
+                          static_cast<uint16_t>(Label::TrafficSign), static_cast<uint16_t>(Label::Sky),
+                          static_cast<uint16_t>(Label::Road),       70};
+  const float odd[] = {NAN, INFINITY, -INFINITY, 0.f, -0.f, -3.f, 1e-30f, kDepthInfinity_m};
+  ImageU16 lab(W, H, 1, 0);
+  ImageF depth(W, H, 1, 0.f);
+  ImageU8 lanes(W, H, 1, 0);
+  BuildingFacades fac;
+  fac.region = ImageI32(W, H, 1, -1);
+  fac.planes = {{0.3, 0.954, 10, 0, 0, 12, true}, {-1, 0, 6, 0, 0, 12, true}, {0, 1, 40, 0, 0, 0, false}};
+  BuildingFacades::Region R;
+  R.x0 = 100;
+  for (int x = R.x0; x < W - 50; ++x) R.column_plane.push_back(x < 300 ? 0 : x < 420 ? (x % 7 == 0 ? 1 : 0) : x < 600 ? 2 : -1);
+  R.on_plane.assign(R.column_plane.size(), 1);
+  fac.regions = {R};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const uint16_t id = ids[static_cast<int>(U(rng) * 10)];
+      lab.at(x, y) = id;
+      depth.at(x, y) = U(rng) < 0.03 ? odd[static_cast<int>(U(rng) * 8)] : static_cast<float>(0.3 * std::pow(200 / 0.3, U(rng)));
+      lanes.at(x, y) = U(rng) < 0.05 ? 255 : 0;
+      if (id == static_cast<uint16_t>(Label::Building) && x >= R.x0 && x < R.x0 + static_cast<int>(R.column_plane.size()) &&
+          U(rng) < 0.9)
+        fac.region.at(x, y) = 0;
+    }
+  std::vector<ImageF> out;
+  for (const int isa : {2, 0}) {
+    beam_max_isa(isa);
+    ImageF E(W, H, 1, -1.f);  // the untouched pixels keep it
+    add_low_beam_vertical(E, o.camera, lab, depth, &fac, &lanes, p);
+    out.push_back(std::move(E));
+  }
+  beam_max_isa(2);
+  long lit = 0, untouched = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      lit += out[1].at(x, y) > 0;
+      untouched += out[1].at(x, y) == -1.f;
+    }
+  std::fprintf(stderr, "[beam vertical] %ld lit, %ld untouched of %d pixels\n", lit, untouched, W * H);
+  EXPECT_GT(lit, W * H / 10);
+  EXPECT_GT(untouched, W * H / 10);
+  EXPECT_EQ(differing_samples(out[0], out[1]), 0u) << "sixteen at a time against the scalar code";
+}
+
+// compose() adds the beam's diffuse reflection on the vertical classes as on the ground:
+// o = d + (fl(t·fl(tint/π))·E + l), so with the lights 0 the radiance with a beam image differs from
+// the one without by exactly fl(fl(t·tint_f)·E) on every pixel of beam_lit_class_bits, and by
+// nothing on the others (signs, sky). The old compose lit the ground classes only.
+TEST(EgoLowBeamVertical, ComposeReflectsItOnTheVerticalClasses) {
+  const BeamVerticalScene s;
+  const ImageF tex = reflectance_texture(s.sc.day_linear_srgb, s.sc.labels.ids, s.p);
+  const ImageF beam = s.beam();
+  const ImageF none(s.o.width, s.o.height, 3, 0.f, unit::radiance), zero(s.o.width, s.o.height, 1, 0.f);
+  const ImageF with = compose(tex, none, s.sc.labels.ids, beam, s.p), without = compose(tex, none, s.sc.labels.ids, zero, s.p);
+  const auto tint = illuminant_tint(s.p.beam_cct_K);
+  const uint64_t lit = beam_lit_class_bits();
+  int vertical = 0;
+  for (int y = 0; y < s.o.height; ++y)
+    for (int x = 0; x < s.o.width; ++x) {
+      const int id = s.sc.labels.ids.at(x, y);
+      const bool on = id < 64 && (lit >> id & 1);
+      for (int c = 0; c < 3; ++c) {
+        const float tb = static_cast<float>(tint[c] / M_PI);
+        const float add = on ? tex.at(x, y, c) * tb * beam.at(x, y) : 0.f;
+        ASSERT_EQ(with.at(x, y, c), without.at(x, y, c) + (add + 0.f)) << x << "," << y << " class " << id;
+      }
+      vertical += on && !ground_classes()[id] && beam.at(x, y) > 0;
+    }
+  EXPECT_GT(vertical, 1000);
+  EXPECT_FALSE(lit >> static_cast<int>(Label::TrafficSign) & 1);
+  EXPECT_FALSE(lit >> static_cast<int>(Label::Sky) & 1);
 }
 
 // Façades (issue 14 §2): each building region's façade is a vertical plane fitted to its

@@ -210,7 +210,8 @@ TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
 
 // compose() (scene/lights.cpp) against its definition, bit for bit: the darkened texture
 // (darken(), the same darken_pixel) plus, per channel, (t_k·fl(tint_k/π))·E + l_k, E the beam's
-// illuminance on ground classes (darken_params' ground_class) and 0 elsewhere. Its vector path
+// illuminance on the classes it lights (beam_lit_class_bits: the ground and vertical classes) and
+// 0 elsewhere (sky, signs, ...). Its vector path
 // takes eight pixels at a time where none is sky and the scalar loop elsewhere; the scene here
 // mixes runs of one class (whole groups of eight without sky), single sky pixels inside them
 // and every class id, at an odd width (a scalar tail on every row), so both paths and their
@@ -252,7 +253,7 @@ TEST(SceneCompose, IsDarkenPlusBeamPlusLightsBitForBit) {
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const int id = ids.at(x, y);
-      const float e = dp.ground_class[id] ? beam.at(x, y) : 0.f;
+      const float e = (beam_lit_class_bits() >> id & 1) ? beam.at(x, y) : 0.f;
       lit += e > 0;
       for (int k = 0; k < 3; ++k) {
         const float t = tex.at(x, y, k), b = t * tbf[k], be = b * e, le = be + lights.at(x, y, k);

@@ -293,10 +293,18 @@ void run(const Opts& o) {
       auto tb1 = clock::now();
       const double cb1 = cpu_ms();
       add("ego low beam image (alone)", ms(tb0, tb1));
-      (void)beam;
+      const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
+      // The low beam on vertical surfaces over that image (the chain makes each row inside the
+      // light map's row pass, just before composing it).
+      ImageF beam_v = beam;
+      const double cbv0 = cpu_ms();
+      auto tbv0 = clock::now();
+      scene::add_low_beam_vertical(beam_v, ns.geometry, lm.ids, ns.depth, &fac, &lanes_full, sp);
+      auto tbv1 = clock::now();
+      const double cbv1 = cpu_ms();
+      add("ego low beam on vertical surfaces (alone)", ms(tbv0, tbv1));
       // The whole light map alone (the "lights" stage above) on this round's inputs, as
       // night_scene hands them to it, by the process CPU clock.
-      const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
       // (The chain's light map also composes the night radiance row by row in its row pass: its
       // stage is "lights+compose"; this one makes the lights layer only.)
       const double cm0 = cpu_ms();
@@ -334,6 +342,7 @@ void run(const Opts& o) {
         }
         add("cpu: scene stages (linearize..compose)", scene_cpu);
         add("cpu: ego low beam image (alone)", cb1 - cb0);
+        add("cpu: ego low beam on vertical surfaces (alone)", cbv1 - cbv0);
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);

@@ -3,7 +3,7 @@
 PS_PUSH_CONSTANTS(ComposeParams) {
   uint width;
   uint height;
-  uvec2 ground_mask;  // bit id: class id is a ground class
+  uvec2 beam_mask;  // bit id: the beam lights class id (scene::beam_lit_class_bits: ground and vertical)
   float tint_over_pi[3];
   uint pad;
 } PS_PUSH_INSTANCE;

@@ -291,6 +291,29 @@ float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p);
 // lane-marking pixels (the light map's retroreflection); 0 elsewhere.
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels = nullptr, const ImageU8* lanes = nullptr);
+// The low beam on vertical surfaces (scene/lights.cpp): the illuminance (lx) of the headlamp pair
+// on a surface element at road point (X_m, Y_m, D_m) with unit normal (nX, nY, nD) toward the
+// side it is seen from, Σ_lamps I(h, v)·cos β / max(d², (5·lens_diameter_m)²) with the table below
+// the cut-off and beam_above_cutoff_cd above it (within the table's horizontal range), 0 on a face
+// turned away; a tree crown (crown = true, n the unit vector to the camera) as a Lambert sphere,
+// I(h, v)·Φ(α)/d². The double reference of add_low_beam_vertical's float evaluation.
+double low_beam_vertical_lux(double X_m, double Y_m, double D_m, double nX, double nY, double nD, bool crown,
+                             const ScenePreset& p);
+// The classes the beam lights as vertical surfaces: every class but the ground classes (their
+// light is low_beam_illuminance's), the sky, the camera car, the border and out-of-ROI classes and
+// traffic signs (their beam light is their retroreflection, in the light map).
+const std::array<bool, kLabelCount>& beam_vertical_classes();
+// The classes whose pixels compose() lights with beam_lux, as bits by class id: the ground classes
+// and beam_vertical_classes.
+uint64_t beam_lit_class_bits();
+// Writes into beam_lux (low_beam_illuminance's image) the low beam's E on the pixels of
+// beam_vertical_classes with a finite positive depth (depth_m, camera z; the point from the
+// camera geometry) that are not lane markings: low_beam_vertical_lux's float evaluation at the
+// pixel's point, the normal that of its façade plane (facades; buildings) or turned to the camera
+// (a crown's: the unit vector to the camera). Other pixels keep their value. compose() reads it
+// on those classes as on the ground.
+void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
+                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p);
 
 struct LightStats {
   int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;

@@ -94,8 +94,12 @@ struct ScenePreset {
   double beam_lamp_height_m = 0.65, beam_lamp_spacing_m = 1.5;
   double beam_cutoff_v_deg = -0.57, beam_cutoff_rise_deg = 15, beam_cutoff_max_v_deg = 0;
   // One headlamp's intensity above the cut-off (the glare zone), within the table's horizontal
-  // range: what lights signs with the metric geometry (sign_beam_lux); the road never reads it.
+  // range: what lights signs (sign_beam_lux) and vertical surfaces above the cut-off
+  // (low_beam_vertical_lux) with the metric geometry; the road never reads it.
   double beam_above_cutoff_cd = 0;
+  // The headlamp's light-emitting aperture (m): nearer than five of it the inverse-square law no
+  // longer holds (the five-diameter rule), and the vertical surfaces' d² is held there.
+  double beam_lens_diameter_m = 0.2;
   std::vector<double> beam_h_deg, beam_v_deg, beam_intensity_cd;  // intensity row-major over v
   // [geometry] lanes, edges, Hough, vanishing point.
   int work_max_width = 1024;             // stages 2-6 run at this width at most (documented)
