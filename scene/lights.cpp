@@ -1293,6 +1293,135 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
   return Wv;
 }
 #pragma GCC diagnostic pop
+// beam_table_f on eight lanes, the grids and the table read by gathers (any grid; the cell
+// indices, counts of grid angles, lie in the grid on every lane): the same operations per lane.
+__attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, const BeamF& b) {
+  const __m256i vnh = _mm256_set1_epi32(b.nh);
+  __m256i j = _mm256_setzero_si256(), i = _mm256_setzero_si256();
+  for (int m = 1; m + 1 < b.nh; ++m)
+    j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
+  for (int m = 1; m + 1 < b.nv; ++m)
+    i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
+  const __m256 Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
+  const __m256 Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+  const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);
+  const float* I = b.I.data();
+  const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
+  const __m256 r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
+  const __m256 one = _mm256_set1_ps(1.f);
+  const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
+  const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
+  const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
+  const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
+  return _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+}
+// beam_vertical_row_scalar eight pixels at a time (AVX2), over the columns 0 .. 8⌊W/8⌋ − 1
+// (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
+// gathers. The same operations per lane: the same bits as the scalar rows.
+__attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx& c, const uint16_t* id, const float* z,
+                                                           const uint8_t* lane, const int32_t* reg, float kD, float kY,
+                                                           float* e) {
+  const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
+  const BeamF& b = c.b;
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32), veg = _mm256_set1_epi32(c.vegetation), bld = _mm256_set1_epi32(c.building);
+  const __m256 zero = _mm256_setzero_ps(), zinf = _mm256_set1_ps(kDepthInfinity_m), vkD = _mm256_set1_ps(kD),
+               vkY = _mm256_set1_ps(kY), vh = _mm256_set1_ps(c.h), vhl = _mm256_set1_ps(b.hl),
+               th0 = _mm256_set1_ps(b.th0), th1 = _mm256_set1_ps(b.th1), tv2 = _mm256_set1_ps(b.tvmax2),
+               above = _mm256_set1_ps(b.above), d2min = _mm256_set1_ps(b.d2_min), fone = _mm256_set1_ps(1.f),
+               sign = _mm256_set1_ps(-0.f), deg = _mm256_set1_ps(b.deg), cv = _mm256_set1_ps(b.cv),
+               cmax = _mm256_set1_ps(b.cmax), rise = _mm256_set1_ps(b.rise), h_lo = _mm256_set1_ps(b.H[0]),
+               h_hi = _mm256_set1_ps(b.H[b.nh - 1]), v_lo = _mm256_set1_ps(b.V[0]), v_hi = _mm256_set1_ps(b.V[b.nv - 1]);
+  const bool t_pos = b.tvmax >= 0;
+  const float xl[2] = {c.xl0, c.xl1};
+  auto any = [](__m256 m) __attribute__((target("avx2"))) { return _mm256_movemask_ps(m) != 0; };
+  for (int x = 0; x < Wv; x += 8) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    __m256 m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
+    if (!any(m)) continue;
+    if (lane) {
+      const __m256i l = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
+      m = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(l, _mm256_setzero_si256())));
+    }
+    const __m256 vz = _mm256_loadu_ps(z + x);
+    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(vz, zero, _CMP_GT_OQ), _mm256_cmp_ps(vz, zinf, _CMP_LT_OQ)));
+    if (!any(m)) continue;
+    const __m256 X = _mm256_mul_ps(vz, _mm256_loadu_ps(c.xn.data() + x)), D = _mm256_mul_ps(vz, vkD);
+    const __m256 Hc = _mm256_mul_ps(vz, vkY), Y = _mm256_sub_ps(vh, Hc);
+    m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
+    if (!any(m)) continue;
+    const __m256 crown = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, veg)));
+    const bool any_crown = any(crown);
+    const __m256 XD2 = _mm256_add_ps(_mm256_mul_ps(X, X), _mm256_mul_ps(D, D));
+    __m256 mX = _mm256_xor_ps(X, sign), mD = _mm256_xor_ps(D, sign), mY = zero;
+    __m256 s = _mm256_sqrt_ps(XD2);
+    if (any_crown) {
+      mY = _mm256_and_ps(crown, Hc);
+      s = _mm256_blendv_ps(s, _mm256_sqrt_ps(_mm256_add_ps(XD2, _mm256_mul_ps(Hc, Hc))), crown);
+    }
+    if (const __m256 bm = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, bld))); reg && any(bm)) {
+      alignas(32) float pX[8], pD[8];
+      alignas(32) int32_t pm[8];
+      const int bits = _mm256_movemask_ps(bm);
+      for (int i = 0; i < 8; ++i) {
+        pm[i] = 0;
+        pX[i] = pD[i] = 0.f;
+        if (!(bits >> i & 1) || reg[x + i] < 0) continue;
+        const BuildingFacades::Region& R = c.fac->regions[reg[x + i]];
+        const int pi = R.column_plane[x + i - R.x0];
+        if (pi < 0) continue;
+        pX[i] = c.plane_nX[pi];
+        pD[i] = c.plane_nD[pi];
+        pm[i] = -1;
+      }
+      const __m256 planar = _mm256_load_ps(reinterpret_cast<const float*>(pm));
+      mX = _mm256_blendv_ps(mX, _mm256_load_ps(pX), planar);
+      mD = _mm256_blendv_ps(mD, _mm256_load_ps(pD), planar);
+      s = _mm256_blendv_ps(s, fone, planar);
+    }
+    const __m256 dy = _mm256_sub_ps(Y, vhl), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
+    const __m256 Dh0 = _mm256_mul_ps(D, th0), Dh1 = _mm256_mul_ps(D, th1);
+    const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ);
+    __m256 E = zero;
+    for (const float xlk : xl) {
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(xlk));
+      const __m256 in = _mm256_and_ps(_mm256_cmp_ps(dx, Dh0, _CMP_GE_OQ), _mm256_cmp_ps(dx, Dh1, _CMP_LE_OQ));
+      const __m256 horiz2 = _mm256_add_ps(_mm256_mul_ps(dx, dx), D2);
+      const __m256 d2 = _mm256_add_ps(horiz2, dy2), d = _mm256_sqrt_ps(d2);
+      __m256 nv = _mm256_add_ps(_mm256_mul_ps(mX, dx), _mm256_mul_ps(mD, D));
+      if (any_crown) nv = _mm256_blendv_ps(nv, _mm256_add_ps(nv, _mm256_mul_ps(mY, dy)), crown);
+      const __m256 cb = _mm256_xor_ps(nv, sign);
+      const __m256 lit = _mm256_and_ps(_mm256_and_ps(in, m), _mm256_or_ps(crown, _mm256_cmp_ps(cb, zero, _CMP_GT_OQ)));
+      if (!any(lit)) continue;
+      const __m256 r = _mm256_mul_ps(horiz2, tv2);
+      const __m256 top = t_pos ? _mm256_and_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_GT_OQ))
+                               : _mm256_or_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_LT_OQ));
+      __m256 I = above;
+      if (const __m256 below_top = _mm256_andnot_ps(top, lit); any(below_top)) {
+        const __m256 horiz = _mm256_sqrt_ps(horiz2);
+        const __m256 h = _mm256_mul_ps(atanf_cephes8(_mm256_div_ps(dx, D)), deg);
+        const __m256 v = _mm256_mul_ps(atanf_cephes8(_mm256_div_ps(dy, horiz)), deg);
+        const __m256 cut = _mm256_min_ps(_mm256_add_ps(cv, _mm256_mul_ps(_mm256_max_ps(h, zero), rise)), cmax);
+        const __m256 under = _mm256_and_ps(below_top, _mm256_cmp_ps(v, cut, _CMP_LE_OQ));
+        const __m256 grid = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
+        if (any(under)) I = _mm256_blendv_ps(I, _mm256_and_ps(grid, beam_table8(h, v, b)), under);
+      }
+      const __m256 sd = _mm256_mul_ps(s, d), dm = _mm256_max_ps(d2, d2min);
+      __m256 el = _mm256_div_ps(_mm256_mul_ps(I, cb), _mm256_mul_ps(sd, dm));
+      if (const __m256 cl = _mm256_and_ps(crown, lit); any(cl))
+        el = _mm256_blendv_ps(el, _mm256_div_ps(_mm256_mul_ps(I, crown_phase8(_mm256_div_ps(cb, sd))), dm), cl);
+      E = _mm256_add_ps(E, _mm256_and_ps(lit, el));
+    }
+    _mm256_maskstore_ps(e + x, _mm256_castps_si256(m), E);
+  }
+  _mm256_zeroupper();
+  return Wv;
+}
 void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
                               const uint8_t* lane, const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size());
@@ -1354,7 +1483,7 @@ struct BeamVerticalRows::Impl {
   const ImageU8* lanes;
   const BuildingFacades* fac;
   double cp, sp;
-  bool avx512;
+  bool avx512, avx2;
   Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
        const BuildingFacades* facades, const ImageU8* lanes_, const ScenePreset& p)
       : b(beam_f(p)),
@@ -1362,7 +1491,8 @@ struct BeamVerticalRows::Impl {
           static_cast<int>(Label::Building), static_cast<int>(Label::Vegetation), static_cast<float>(g.mount_height_m),
           b.xl[0], b.xl[1]},
         beam(beam_lux), labels(labels_), depth(depth_m), lanes(lanes_), fac(facades), cp(std::cos(g.pitch_rad)),
-        sp(std::sin(g.pitch_rad)), avx512(kHaveAvx512 && beam_isa_cap >= 2) {
+        sp(std::sin(g.pitch_rad)), avx512(kHaveAvx512 && beam_isa_cap >= 2),
+        avx2(kHaveAvx2 && beam_isa_cap >= 1) {
     const int W = beam.width(), H = beam.height();
     if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H ||
         (lanes && (lanes->width() != W || lanes->height() != H)))
@@ -1393,7 +1523,9 @@ void BeamVerticalRows::row(int y) const {
   const uint16_t* id = m.labels.row(y);
   const float* z = m.depth.row(y);
   float* e = m.beam.row(y);
-  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, lane, reg, kD, kY, e) : 0;
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, lane, reg, kD, kY, e)
+                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, lane, reg, kD, kY, e)
+                          : 0;
   beam_vertical_row_scalar(m.c, x0, id, z, lane, reg, kD, kY, e);
 }
 
