@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <functional>
 #include <immintrin.h>
 #include <map>
@@ -2041,18 +2042,6 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     out.stats.signals = signals;
   }
 
-  // The street lighting (the plan or the one given): the vehicles' states read its road extent.
-  StreetLighting sl;
-  if (geometry) sl = street ? *street : plan_street_lighting(lm, *geometry, p, seed);
-  const bool extent = sl.road_right_m > sl.road_left_m;
-  const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
-  // The divide between the two directions of travel (right-hand traffic): the carriageway's
-  // middle; but the ego vehicle drives right of the centre line, so where the road runs straight
-  // ahead (sl.road_straight) the divide is at most the ego lane's left edge, half a lane left of
-  // the camera (mounted on the car's centre line, the car centred in its lane). A vehicle in the
-  // ego lane, or right of it, travels the ego's way (an oncoming one there would be on a collision
-  // course); a camera left of the middle is on a one-way carriageway or its left lane.
-  const double travel_divide = extent && sl.road_straight ? std::min(road_mid, -0.5 * p.veh_lane_width_m) : road_mid;
   // Vehicles: instances from the instance ids, else connected components of each vehicle class
   // (VehicleParts, above). The vehicle rows, components and boxes (labels and instance ids only)
   // come from `vehicles` when it was made of these labels and holds them, the colour cues when
@@ -2064,9 +2053,46 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   if (handed) {
     ry0 = handed->ry0;
     ry1 = handed->ry1;
-  } else {
-    vehicle_rows(lm, VehicleIds(), ry0, ry1);
   }
+  // The street lighting (the plan or the one given): the vehicles' states read its road extent.
+  StreetLighting sl;
+  if (geometry && street) sl = *street;
+  const bool plan_here = geometry && !street;
+  if (plan_here && !handed) {
+    // The plan and the vehicle rows (light_map alone: the chain hands both) each read the whole
+    // label image and nothing of the other: made side by side, one on each of two threads, rather
+    // than one after the other over both (each one's own parallel loop then runs on its thread
+    // alone, OpenMP's nested regions being inactive by default; a serial part of the plan, its
+    // poles' union-find and layout, no longer leaves the other thread idle). The same results at
+    // any thread count: the plan's pole runs are made per row, the rows' bounds are a min and a max.
+    std::exception_ptr plan_failed;
+#pragma omp parallel sections
+    {
+#pragma omp section
+      {
+        try {
+          sl = plan_street_lighting(lm, *geometry, p, seed);
+        } catch (...) {
+          plan_failed = std::current_exception();
+        }
+      }
+#pragma omp section
+      vehicle_rows(lm, VehicleIds(), ry0, ry1);
+    }
+    if (plan_failed) std::rethrow_exception(plan_failed);
+  } else {
+    if (plan_here) sl = plan_street_lighting(lm, *geometry, p, seed);
+    if (!handed) vehicle_rows(lm, VehicleIds(), ry0, ry1);
+  }
+  const bool extent = sl.road_right_m > sl.road_left_m;
+  const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;
+  // The divide between the two directions of travel (right-hand traffic): the carriageway's
+  // middle; but the ego vehicle drives right of the centre line, so where the road runs straight
+  // ahead (sl.road_straight) the divide is at most the ego lane's left edge, half a lane left of
+  // the camera (mounted on the car's centre line, the car centred in its lane). A vehicle in the
+  // ego lane, or right of it, travels the ego's way (an oncoming one there would be on a collision
+  // course); a camera left of the middle is on a one-way carriageway or its left lane.
+  const double travel_divide = extent && sl.road_straight ? std::min(road_mid, -0.5 * p.veh_lane_width_m) : road_mid;
   // The vehicle lamps' pixels (maxima over L), recorded by vehicle_lamps (below) and drawn
   // after the retroreflection, row by row; all lie in the vehicle rows [ry0, ry1].
   MaxDraws veh(W, H);

@@ -2492,10 +2492,13 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     pools.emplace(texture, labels, g, s, p, W);
   }
   const WindowPass windows(labels, depth_m, g, p, seed, fac, W, &texture);
-  // With compose, the heads row by row in the pass (each row's share of every disc crossing it,
-  // a maximum after the row's windows, as draw_lamp_heads' after all rows), and each head's
-  // "drawn" from any thread's rows.
-  const std::vector<HeadDisc> heads = compose && lamps ? lamp_head_discs(g, s, p, W, H) : std::vector<HeadDisc>();
+  // With compose or `first` (light_map's row pass, with or without its night radiance), the heads
+  // row by row in the pass (each row's share of every disc crossing it, a maximum after the row's
+  // windows, as draw_lamp_heads' after all rows), and each head's "drawn" from any thread's rows:
+  // nothing runs on one thread alone after the pass. (Without either, as add_street_lighting, after
+  // the pass: light_map's separate steps, its definition.)
+  const bool heads_in_pass = (compose || first) && lamps;
+  const std::vector<HeadDisc> heads = heads_in_pass ? lamp_head_discs(g, s, p, W, H) : std::vector<HeadDisc>();
   std::vector<uint8_t> head_drawn(heads.size(), 0);
   std::unordered_set<uint64_t> all;
   // The rows in chunks of 8, those outside the side job's band [b0, b1] first, then the band's;
@@ -2548,11 +2551,9 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
           pools->row(L, y, ps);
         }
         windows.row(L, y, ws);
-        if (compose) {
-          for (size_t k = 0; k < heads.size(); ++k)
-            if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
-          compose->row(y);
-        }
+        for (size_t k = 0; k < heads.size(); ++k)
+          if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
+        if (compose) compose->row(y);
       }
     }
 #pragma omp critical
@@ -2565,7 +2566,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
   StreetRowsResult out;
   out.windows = static_cast<int>(all.size());
   if (lamps) {
-    if (compose) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));
+    if (heads_in_pass) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));
     else out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);
   }
   return out;

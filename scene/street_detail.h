@@ -87,7 +87,8 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
 // it is in cache, instead of in a pass of its own over the finished frame; the lamp heads are
 // then drawn row by row inside the pass (the same maxima over the same pixels). compose->lights
 // must be L. With `first`: (*first)(y) begins each row, before its street light (light_map's
-// retroreflection and vehicle lamps, which then need no pass of their own over the frame).
+// retroreflection and vehicle lamps, which then need no pass of their own over the frame), and
+// the heads are drawn row by row in the pass as with `compose`.
 // With `side` (light_map's vehicle analysis): one thread runs it at the start of the pass while
 // the others make the rows outside [side_y0, side_y1], which must not depend on it; the rows
 // inside wait until it has returned (one thread: it runs first). An exception from it is

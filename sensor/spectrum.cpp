@@ -1,6 +1,9 @@
 #include "photosite/sensor/spectrum.h"
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #include "photosite/units.h"
 
@@ -69,10 +72,36 @@ double luminance_cd_m2(const float rgb[3]) {
 }
 
 std::array<double, 3> blackbody_rgb(double cct_K, double luminance) {
-  auto rgb = project_to_rgb([cct_K](double l) { return planck_W_sr_m2_nm(l, cct_K); });
-  const auto& e = band_luminous_efficacy_lm_per_W();
-  const double lum = e[0] * rgb[0] + e[1] * rgb[1] + e[2] * rgb[2];
-  for (auto& v : rgb) v *= luminance / lum;
+  // The band integrals and their luminance depend on the temperature alone: each thread keeps
+  // those of its last kKept temperatures (a frame's light map asks for the same few, the window,
+  // street, beam and head-lamp CCTs, a dozen times or more, each ~800 evaluations of Planck's law
+  // on the thread that sets the frame's passes up). A kept entry holds the very doubles the
+  // integration gives, and the scaling below is the same two operations, so the same bits. (The
+  // temperatures are matched by their bits: +0 and −0 K integrate differently.)
+  struct Kept {
+    double cct = 0;
+    std::array<double, 3> rgb{};
+    double lum = 0;
+  };
+  constexpr int kKept = 8;
+  thread_local Kept kept[kKept];
+  thread_local int n_kept = 0, next = 0;
+  const Kept* hit = nullptr;
+  for (int i = 0; i < n_kept && !hit; ++i)
+    if (std::bit_cast<uint64_t>(kept[i].cct) == std::bit_cast<uint64_t>(cct_K)) hit = &kept[i];
+  if (!hit) {
+    Kept k;
+    k.cct = cct_K;
+    k.rgb = project_to_rgb([cct_K](double l) { return planck_W_sr_m2_nm(l, cct_K); });
+    const auto& e = band_luminous_efficacy_lm_per_W();
+    k.lum = e[0] * k.rgb[0] + e[1] * k.rgb[1] + e[2] * k.rgb[2];
+    kept[next] = k;
+    hit = &kept[next];
+    next = (next + 1) % kKept;
+    n_kept = std::min(n_kept + 1, kKept);
+  }
+  std::array<double, 3> rgb = hit->rgb;
+  for (auto& v : rgb) v *= luminance / hit->lum;
   return rgb;
 }
 

@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <numeric>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 #include <OpenImageIO/imageio.h>
@@ -691,6 +693,44 @@ TEST(Spectrum, BandEfficaciesAndConversions) {
     }
     EXPECT_NEAR(y / e[k], 1.0, bound / e[k]) << k;
   }
+}
+
+// blackbody_rgb keeps each thread's last few temperatures' band integrals (spectrum.cpp): every
+// result must be the definition's bits, the integrals of Planck's law (project_to_rgb) scaled to
+// the luminance, whatever was asked before it. Twelve temperatures (more than are kept, so entries
+// are replaced) asked in three orders, each at three luminances, and ±0 K, whose integrals differ
+// (hc/(λk·T) is ±∞ there): every answer bit for bit the definition's, on each of two threads.
+TEST(Spectrum, BlackbodyRgbIsItsDefinitionWhateverWasAskedBefore) {
+  auto definition = [](double T, double L) {
+    std::array<double, 3> rgb = spectrum::project_to_rgb([T](double l) { return spectrum::planck_W_sr_m2_nm(l, T); });
+    const auto& e = spectrum::band_luminous_efficacy_lm_per_W();
+    const double lum = e[0] * rgb[0] + e[1] * rgb[1] + e[2] * rgb[2];
+    for (auto& v : rgb) v *= L / lum;
+    return rgb;
+  };
+  std::vector<double> temps;
+  for (int i = 0; i < 12; ++i) temps.push_back(1900.0 + 450.0 * i);
+  std::vector<double> order = temps;
+  for (const double T : temps) order.push_back(T);                    // again, in order
+  for (auto it = temps.rbegin(); it != temps.rend(); ++it) order.push_back(*it);  // reversed
+  for (int i = 0; i < 12; ++i) order.push_back(temps[(5 * i) % 12]);  // strided
+  for (int i = 0; i < 6; ++i) order.push_back(temps[i % 2]);          // two alternating
+  order.push_back(0.0);
+  order.push_back(-0.0);
+  order.push_back(0.0);
+  const auto want0 = definition(0.0, 1.0), wantm0 = definition(-0.0, 1.0);
+  EXPECT_NE(std::memcmp(want0.data(), wantm0.data(), sizeof want0), 0) << "+0 and -0 K integrate alike: not a case";
+  long checked = 0;
+#pragma omp parallel num_threads(2) reduction(+ : checked)
+  for (const double T : order)
+    for (const double L : {1.0, 2.5, 4e4}) {
+      const auto got = spectrum::blackbody_rgb(T, L), want = definition(T, L);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(std::bit_cast<uint64_t>(got[k]), std::bit_cast<uint64_t>(want[k])) << T << " K, " << L << ", band " << k;
+        ++checked;
+      }
+    }
+  EXPECT_EQ(checked, 2 * 3 * 3 * static_cast<long>(order.size()));
 }
 
 // Every bundled camera through its default lens, against the photon integral done here
