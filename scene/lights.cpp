@@ -1968,6 +1968,23 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       Lr[3 * x + k] = static_cast<float>(lum * tb[k] * pattern);
     }
   };
+  // A marking's coefficient of retroreflected luminance R_L is defined on the illuminance on a
+  // plane perpendicular to the direction of the incident light, L = R_L·E⊥ (CIE S 017:2020,
+  // ILV 17-24-104; EN 1436's 30 m geometry), not on the road plane: at 30 m the beam meets the
+  // road at 1.2°, and the horizontal E the beam image holds (E_h = Σ_lamps I·cos θ/d², cos θ =
+  // h_l/d) is 1/46 of E⊥ there. With the metric geometry the marking's E⊥ is taken as
+  // E_h·d_c/h_l, d_c the distance of its ground point (X, 0, D) from the lamps' midpoint
+  // (0, h_l, 0): exact for one lamp on the centre line; for the pair at x_l = ±a each lamp's
+  // d_k² = d_c² − 2X·x_l + a², so E_h·d_c/h_l = Σ I_k/d_k²·(d_c/d_k) lies within
+  // [1/√(1 + q), 1/√(1 − q)] of Σ I_k/d_k², q = (2a|X| + a²)/d_c² (1.5 % at X = 1.75 m, D = 10 m;
+  // 6 % at 5 m): an approximation that saves the two lamps' angles per marking pixel. Without the
+  // geometry (the image-space beam) E_h is used as E⊥ (factor 1).
+  const double h_l = p.beam_lamp_height_m;
+  auto marking_perp = [&](int x, int y) {
+    double X, D, z;
+    if (!geometry || !(h_l > 0) || !geometry->ground_point(x, y, &X, &D, &z)) return 1.0;
+    return std::sqrt(X * X + D * D + h_l * h_l) / h_l;
+  };
   // Row y of L written whole (zeros where nothing retroreflects); returns its signals.
   auto retro_row = [&](int y) {
     int signals = 0;
@@ -2002,7 +2019,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       const int id = idr[x];
       if (!lr[x] && id != traffic_sign && id != traffic_light) continue;
       double lum = 0;
-      if (lr[x]) lum = br ? p.marking_RL * br[x] : 0.0;
+      if (lr[x]) lum = br ? p.marking_RL * br[x] * marking_perp(x, y) : 0.0;
       else if (id == traffic_sign) {
         if (sign_avx512) {  // (lit after the loop; a sign pixel is no signal)
           sx[nsign] = x, sz[nsign] = dmr[x], ++nsign;

@@ -30,42 +30,54 @@ double median(std::vector<double> v) {
 }
 }  // namespace
 
-// Retroreflection (EN 1436): a lane marking under the ego beam's illuminance E has luminance
-// L = R_L · E. E is not read from the code's beam model: it is recovered at the same pixel from
-// the beam's diffuse reflection that compose() adds to the ground, night − lights − darkened =
-// f_k t_k E / π (f the reflectance texture, t the beam's tint), whose luminance is
-// E · Σ_k K_k t_k f_k / π. So at each marking pixel R_L·E follows from the images alone. Only
-// pixels where the beam term is at least 10% of the night luminance are used, so the float
-// subtraction loses at most a factor 10 of single precision: its five roundings (one per
-// operand, two in the subtraction; each operand at most the night value, all terms ≥ 0) cost at
-// most 5u of the night value, 50u of the beam term (u = 2⁻²⁴). The code's own float products of
-// the beam term f_k·t_k·E/π and of the marking's R_L·E add at most 8 roundings each: the ratio is 1
-// within (50 + 16)u at every such pixel, so at the median (lamp discs of the cars may cover a few).
+// Retroreflection (EN 1436): a lane marking under the ego beam has luminance L = R_L · E⊥, E⊥ the
+// illuminance on a plane perpendicular to the direction of the incident light (CIE ILV 17-24-104),
+// not the horizontal E_h the beam gives the road. The code takes E⊥ = E_h·d_c/h_l (d_c the ground
+// point's distance from the lamps' midpoint; scene/lights.cpp marking_perp). Checked in two steps:
+// 1. The code's formula: E_h at a marking pixel is the beam image's float value there, which is
+//    low_beam_lux_f32 at the pixel's ground point bit for bit (EgoLowBeam.TableProjectedOntoThe-
+//    MetricGround); L is recovered from the lights layer, Σ_k K_k·fl(lum·t_k/Σ K t) with lum =
+//    R_L·E_h·(d_c/h_l) in double: each channel's float rounding u = 2⁻²⁴ (all terms ≥ 0) and the
+//    double products' 10⁻¹⁵, so L/(R_L·E_h·d_c/h_l) is 1 within 2u at every marking pixel that no
+//    other light reaches, and so at the median (the cars' lamp discs may cover a few).
+// 2. The approximation against the definition, in double: at each such pixel's ground point
+//    E_h·d_c/h_l (low_beam_lux) lies within [1/√(1 + q), 1/√(1 − q)] of E⊥ = Σ_lamps I/d²
+//    (sign_beam_lux at Y = 0), q = (2a|X| + a²)/d_c², a the half spacing (both double, the same
+//    angles: 10⁻¹² for their rounding).
+// The old code used E_h itself: L/(R_L·E_h·d_c/h_l) = h_l/d_c, 0.02-0.1 here: step 1 fails.
 TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   ScenePreset p = no_bloom();
   p.street_road_luminance_cd_m2 = 0;  // no lamp pools: the light map's markings are retroreflection alone
   const SyntheticScene s = make_synthetic_road({});
-  const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1, /*keep_darkened=*/true);
+  const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1);
   ASSERT_EQ(n.lanes_work.width(), n.radiance.width()) << "the synthetic scene is below work_max_width";
-  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
-  const auto tb = illuminant_tint(p.beam_cct_K);
-  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const int W = n.radiance.width();
+  const double hl = p.beam_lamp_height_m, a = 0.5 * p.beam_lamp_spacing_m;
   std::vector<double> ratio;
+  double worst_perp = 0, min_gain = 1e300, max_gain = 0;
   for (size_t i = 0; i < n.radiance.pixel_count(); ++i) {
     if (!n.lanes_work[i]) continue;
-    float beam[3];
-    for (int k = 0; k < 3; ++k) beam[k] = n.radiance[3 * i + k] - n.lights[3 * i + k] - n.darkened[3 * i + k];
-    const double beam_lum = spectrum::luminance_cd_m2(beam);
-    if (beam_lum < 0.1 * lum(n.radiance, i)) continue;
-    double ktf = 0;
-    for (int k = 0; k < 3; ++k) ktf += K[k] * tb[k] * tex[3 * i + k];
-    const double E = M_PI * beam_lum / ktf;
-    ratio.push_back(lum(n.lights, i) / (p.marking_RL * E));
+    double X, D, z;
+    if (!n.geometry.ground_point(static_cast<double>(i % W), static_cast<double>(i / W), &X, &D, &z)) continue;
+    const double E_h = low_beam_lux_f32(X, D, p);
+    if (!(E_h > 0)) continue;
+    const double dc = std::sqrt(X * X + D * D + hl * hl);
+    ratio.push_back(lum(n.lights, i) / (p.marking_RL * E_h * dc / hl));
+    // Step 2, in double at the ground point.
+    const double perp = sign_beam_lux(X, 0, D, p), approx = low_beam_lux(X, D, p) * dc / hl;
+    const double q = (2 * a * std::fabs(X) + a * a) / (dc * dc);
+    ASSERT_GT(perp, 0);
+    EXPECT_GE(approx / perp, 1 / std::sqrt(1 + q) - 1e-12) << X << " " << D;
+    EXPECT_LE(approx / perp, 1 / std::sqrt(1 - q) + 1e-12) << X << " " << D;
+    worst_perp = std::max(worst_perp, std::fabs(approx / perp - 1));
+    min_gain = std::min(min_gain, dc / hl), max_gain = std::max(max_gain, dc / hl);
   }
   ASSERT_GE(ratio.size(), 100u);
   const double m = median(ratio);
-  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E) = %.6f (%.3g u off)\n", ratio.size(), m, (m - 1) / 0x1p-24);
-  EXPECT_NEAR(m, 1.0, (10 * 5 + 2 * 8) * 0x1p-24);
+  std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E_h d_c/h_l) = %.9f (%.3g u off); E⊥/E_h "
+               "%.1f..%.1f; the approximation within %.2g of Σ I/d²\n", ratio.size(), m, (m - 1) / 0x1p-24, min_gain,
+               max_gain, worst_perp);
+  EXPECT_NEAR(m, 1.0, 2 * 0x1p-24);
 }
 
 namespace {
