@@ -392,7 +392,7 @@ namespace {
 // and shadows do not respond; with rows up and down (u, d: null where the vertical pass does not
 // reach), the same across rows, else v = 0. Branch-free per pixel so that the clones take 8 or 16
 // pixels at a time; the same float operations per pixel on every path (no contraction).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void lane_row(const float* __restrict r, const float* __restrict up, const float* __restrict down,
               const uint16_t* __restrict lab, int W, int w, float thr, uint8_t* __restrict o) {
   const uint16_t road = static_cast<uint16_t>(Label::Road), parking = static_cast<uint16_t>(Label::Parking);

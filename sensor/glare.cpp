@@ -108,7 +108,7 @@ int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s
   return j0;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
                   float* __restrict o) {
   auto one = [&](int x) { detail::glare_up_pixel(t, cw, x, u + 3 * x); };
@@ -135,7 +135,7 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
 }
 
 // out[j] = glare_lerp(w0, a[j], w1, b[j]) over n samples (the vertical bilinear step).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void lerp_row(float w0, const float* __restrict a, float w1, const float* __restrict b, size_t n,
               float* __restrict out) {
   for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
@@ -148,7 +148,7 @@ void lerp_row(float w0, const float* __restrict a, float w1, const float* __rest
 // same order per sample as forming the sum tap by tap over the row, without storing and
 // reloading it between taps.
 static_assert(kGlareBlurRadius == 3, "blur_taps is written for 7 taps");
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void blur_taps(const float* const* p, const float* gk, size_t n, bool weigh, float w, const float* __restrict u,
                float* __restrict o) {
   const float* __restrict p0 = p[0];
@@ -186,7 +186,7 @@ std::array<float, 2 * kGlareBlurRadius + 1> blur_weights(const std::array<float,
 
 // out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
 // of 24 (8 pixels: a whole number of vectors and of pixels) with the scales laid out per lane.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void mix_row(float keep, const float* s3, const float* __restrict in, const float* __restrict u, size_t n,
              float* __restrict out) {
   float sl[24];
@@ -309,7 +309,7 @@ int down2_pairs_avx512(const float* ra, const float* rb, int w, float* o) {
   return x;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
   const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
   for (int x = kGlareAvx512 ? down2_pairs_avx512(ra, rb, w, o) : 0; x < pairs; ++x)
@@ -369,7 +369,7 @@ int taps1331_avx512(const float* s, int end, float* o) {
     }
   return x;
 }
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
   for (int x = kGlareAvx512 ? taps1331_avx512(s, end, o) : 1; x < end; ++x) {
     const float* a = s + 3 * (2 * x - 1);
@@ -378,7 +378,7 @@ void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
   }
 }
 // down_1331 along columns: one output row from its four input rows.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void taps1331_cols(const float* __restrict a, const float* __restrict b, const float* __restrict c,
                    const float* __restrict d, size_t n, float* __restrict o) {
   for (size_t j = 0; j < n; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);
