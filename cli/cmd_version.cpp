@@ -15,8 +15,9 @@
 namespace photosite::cli {
 namespace {
 void print_backends() {
-  std::printf("cpu: native C++, %d OpenMP threads%s\n", omp_get_max_threads(),
-              photosite::detail::have_avx2() ? ", AVX2" : "");
+  // The vector level the CPU paths take (core/isa_detail.h: the CPU's, capped by $PHOTOSITE_MAX_ISA).
+  std::printf("cpu: native C++, %d OpenMP threads%s%s\n", omp_get_max_threads(),
+              photosite::detail::have_avx2() ? ", AVX2" : "", photosite::detail::have_avx512() ? ", AVX-512" : "");
 #ifdef PHOTOSITE_HAVE_VULKAN
   try {
     const gpu::Context& ctx = gpu::shared_context();

@@ -24,6 +24,7 @@ const char* name(Var v) {
     case Var::VkStaging: return "PHOTOSITE_VK_STAGING";
     case Var::SampleDir: return "PHOTOSITE_SAMPLE_DIR";
     case Var::ScalarLights: return "PHOTOSITE_SCALAR_LIGHTS";
+    case Var::MaxIsa: return "PHOTOSITE_MAX_ISA";
     case Var::VkDriverFiles: return "VK_DRIVER_FILES";
     case Var::VkIcdFilenames: return "VK_ICD_FILENAMES";
   }

@@ -681,7 +681,7 @@ struct BlockBox { int x0, x1, y0, y1; };  // blocks' bounding box (inclusive)
 // -inf.
 // (Clones for AVX-512 and AVX2: min and max of floats without NaN are exact, so the same values
 // sixteen or eight at a time.)
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void masked_opening(std::vector<float>& v, const std::vector<uint8_t>& present, int w, int h, int r) {
   const size_t nl = static_cast<size_t>(w) * h;
   std::vector<float> src(nl), t(nl);

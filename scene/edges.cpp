@@ -2,6 +2,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "photosite/scene/night.h"
+#include "core/isa_detail.h"
 #include "scene/lanes_detail.h"
 
 namespace photosite::scene {
@@ -10,7 +11,7 @@ namespace {
 // One row of the grey-level rendering below: markings 255, road and parking 80, vehicles 160
 // (is_vehicle: the ids Car..Bicycle, one unsigned range test), everything else 0; branch-free so
 // that the clones take 32 or 64 pixels at a time.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void grey_row_clones(const uint16_t* __restrict id, const uint8_t* __restrict lane, int W, uint8_t* __restrict o) {
   constexpr unsigned road = static_cast<unsigned>(Label::Road), parking = static_cast<unsigned>(Label::Parking);
   constexpr unsigned car = static_cast<unsigned>(Label::Car), vehicles = static_cast<unsigned>(Label::Bicycle) - car;

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "photosite/scene/night.h"
+#include "core/isa_detail.h"
 #include "scene/night_detail.h"
 #include "scene/runs_detail.h"
 
@@ -220,7 +221,7 @@ void facade_span(float* o, const double* xn, int a, int b, double nX, double nD,
 }
 // o[i] = min(p·D[i], max) in double, rounded to float, over n pixels (a row's run of one object
 // component); the clones take four or eight at a time, the same operations per pixel.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void plane_fill(float* o, const double* D, int n, double p, double max_depth_m) {
   for (int i = 0; i < n; ++i) o[i] = static_cast<float>(std::min(p * D[i], max_depth_m));
 }

@@ -33,6 +33,7 @@ struct PowTables {
   // srgb_encode_block_avx512's: m0 = 1 + j/16 (the mantissa's first 4 bits), the series to t^8.
   double m0a16[16], inv_m016[16];
   double c5, c6, c7, c8;
+  double c9, c10, c11;  // srgb_encode_block_avx2's series goes to t^11
 };
 const PowTables& pow_tables() {
   static const PowTables t = [] {
@@ -58,6 +59,9 @@ const PowTables& pow_tables() {
     p.c6 = p.c5 * (a - 5) / 6;
     p.c7 = p.c6 * (a - 6) / 7;
     p.c8 = p.c7 * (a - 7) / 8;
+    p.c9 = p.c8 * (a - 8) / 9;
+    p.c10 = p.c9 * (a - 9) / 10;
+    p.c11 = p.c10 * (a - 10) / 11;
     return p;
   }();
   return t;
@@ -98,46 +102,77 @@ void srgb_encode_block(const float* v, int n, float* out, int32_t* exact) {
 }
 
 #if defined(__x86_64__)
-__attribute__((target("avx2"))) inline __m256d gather_pd(const double* base, __m128i idx) {
-  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, idx, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+// Eight values at a time with AVX2 and FMA, without gathers: srgb_encode_block_avx512's method
+// (below) in 256-bit registers, where a variable permute reads a table of four doubles (vpermps on
+// the doubles' 32-bit halves), so the tables have eight entries, two registers each, the pair
+// chosen by a blend: m0 = 1 + j/8 (the mantissa's first 3 bits; m0a16 and inv_m016 at even
+// entries), t = (m − m0)/m0 in [0, 1/8), (1 + t)^a by its binomial series to t^11 in fused
+// multiply-adds; (2^e)^a for e = −8 .. −1 in two registers, e = −9 (x below 2^-8) by one more
+// blend. (The gathers it replaces, three of four doubles per four values, cost about one element
+// a cycle on Zen 4: docs/benchmarks.md, "AVX2 paths, twenty-fourth session".)
+// Error of the fast y against srgb_encode's own double: srgb_encode_block_avx512's argument with
+// its series bound replaced by this one's first dropped term, |C(a, 12)|·8⁻¹² < 0.0083·8⁻¹² =
+// 1.3e-13 of x^a (alternating, shrinking terms) — under its 1.9e-13 — and a few more roundings
+// (the three more terms; still under 4e-15): under 2e-13 of x^a, so the same margin of 2^15 units
+// of y's last place around the float midpoint decides `exact` (a factor 7 over the bound).
+// Entry k (0-7; only its low 3 bits count) of an eight-double table in two registers, for four
+// lanes whose k is in both 32-bit halves of each 64-bit lane: vpermps reads 32-bit halves
+// 2(k mod 4) and 2(k mod 4) + 1 of both registers (its index's low 3 bits), and k's bit 2,
+// shifted to the lane's sign, picks the register.
+__attribute__((target("avx2"))) inline __m256d lookup8_pd(__m256d lo, __m256d hi, __m256i kk) {
+  const __m256i idx = _mm256_or_si256(_mm256_slli_epi32(kk, 1), _mm256_setr_epi32(0, 1, 0, 1, 0, 1, 0, 1));
+  const __m256d a = _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(lo), idx));
+  const __m256d b = _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(hi), idx));
+  return _mm256_blendv_pd(a, b, _mm256_castsi256_pd(_mm256_slli_epi32(kk, 29)));
 }
-// The same, four values at a time with AVX2: the same operations in the same order on each value
-// (no fused multiply-adds), the tables read by gathers, so the same floats and the same `exact`.
-__attribute__((target("avx2")))
+__attribute__((target("avx2,fma")))
 void srgb_encode_block_avx2(const float* v, int n, float* out, int32_t* exact) {
   const PowTables& T = pow_tables();
-  const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5);
-  const __m256d c1 = _mm256_set1_pd(T.c1), c2 = _mm256_set1_pd(T.c2), c3 = _mm256_set1_pd(T.c3), c4 = _mm256_set1_pd(T.c4);
+  // two_e[e + 9]: e = −8 .. −5, −4 .. −1; e = −9 apart.
+  const __m256d e_lo = _mm256_loadu_pd(T.two_e + 1), e_hi = _mm256_loadu_pd(T.two_e + 5), e_m9 = _mm256_set1_pd(T.two_e[0]);
+  const __m256d a_lo = _mm256_setr_pd(T.m0a16[0], T.m0a16[2], T.m0a16[4], T.m0a16[6]);
+  const __m256d a_hi = _mm256_setr_pd(T.m0a16[8], T.m0a16[10], T.m0a16[12], T.m0a16[14]);
+  const __m256d i_lo = _mm256_setr_pd(T.inv_m016[0], T.inv_m016[2], T.inv_m016[4], T.inv_m016[6]);
+  const __m256d i_hi = _mm256_setr_pd(T.inv_m016[8], T.inv_m016[10], T.inv_m016[12], T.inv_m016[14]);
+  const __m256i low29 = _mm256_set1_epi64x((int64_t{1} << 29) - 1), mid = _mm256_set1_epi64x(int64_t{1} << 28);
+  const __m256i margin = _mm256_set1_epi64x(int64_t{1} << 15), neg_margin = _mm256_set1_epi64x(-(int64_t{1} << 15));
+  const __m256i dup_lo = _mm256_setr_epi32(0, 0, 1, 1, 2, 2, 3, 3), dup_hi = _mm256_setr_epi32(4, 4, 5, 5, 6, 6, 7, 7);
   int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    const __m128 xf = _mm_loadu_ps(v + i);
-    const __m128 fast = _mm_and_ps(_mm_cmpgt_ps(xf, _mm_set1_ps(0.0031308f)), _mm_cmplt_ps(xf, _mm_set1_ps(1.f)));
-    const __m128i bits = _mm_castps_si128(_mm_blendv_ps(_mm_set1_ps(0.5f), xf, fast));
-    const __m128i e9 = _mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127 - 9));
-    const __m128i mant = _mm_and_si128(bits, _mm_set1_epi32(0x7fffff));
-    const __m128i k = _mm_srli_epi32(mant, 13);
-    const __m256d m = _mm256_add_pd(one, _mm256_mul_pd(_mm256_cvtepi32_pd(mant), _mm256_set1_pd(0x1p-23)));
-    const __m256d m0 = _mm256_add_pd(one, _mm256_mul_pd(_mm256_cvtepi32_pd(k), _mm256_set1_pd(0x1p-10)));
-    const __m256d t = _mm256_mul_pd(_mm256_sub_pd(m, m0), gather_pd(T.inv_m0, k));
-    __m256d s = _mm256_add_pd(c3, _mm256_mul_pd(t, c4));
-    s = _mm256_add_pd(c2, _mm256_mul_pd(t, s));
-    s = _mm256_add_pd(c1, _mm256_mul_pd(t, s));
-    s = _mm256_add_pd(one, _mm256_mul_pd(t, s));
-    const __m256d p = _mm256_mul_pd(_mm256_mul_pd(gather_pd(T.two_e, e9), gather_pd(T.m0a, k)), s);
-    const __m256d y = _mm256_sub_pd(_mm256_mul_pd(_mm256_set1_pd(1.055), p), _mm256_set1_pd(0.055));
-    const __m128 f = _mm256_cvtpd_ps(y);
-    const __m128i fb = _mm_castps_si128(f);
-    const __m256d fd = _mm256_cvtps_pd(f);
-    const __m256d lo = _mm256_mul_pd(half, _mm256_add_pd(_mm256_cvtps_pd(_mm_castsi128_ps(_mm_sub_epi32(fb, _mm_set1_epi32(1)))), fd));
-    const __m256d hi = _mm256_mul_pd(half, _mm256_add_pd(_mm256_cvtps_pd(_mm_castsi128_ps(_mm_add_epi32(fb, _mm_set1_epi32(1)))), fd));
-    const __m256d tol = _mm256_mul_pd(_mm256_set1_pd(1e-12), y);
-    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(_mm256_sub_pd(y, tol), lo, _CMP_GT_OQ),
-                                     _mm256_cmp_pd(_mm256_add_pd(y, tol), hi, _CMP_LT_OQ));
-    // The 64-bit lanes' mask to 32 bits (their low halves), and with the float test.
-    const __m128i ok32 = _mm_castps_si128(_mm256_cvtpd_ps(_mm256_and_pd(ok, one)));  // 1.0f where ok, else 0
-    const __m128i good = _mm_and_si128(_mm_cmpeq_epi32(ok32, _mm_castps_si128(_mm_set1_ps(1.f))), _mm_castps_si128(fast));
-    _mm_storeu_ps(out + i, f);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(exact + i), _mm_andnot_si128(good, _mm_set1_epi32(1)));
+  for (; i + 8 <= n; i += 8) {
+    const __m256 xf = _mm256_loadu_ps(v + i);
+    const __m256 fast = _mm256_and_ps(_mm256_cmp_ps(xf, _mm256_set1_ps(0.0031308f), _CMP_GT_OQ),
+                                      _mm256_cmp_ps(xf, _mm256_set1_ps(1.f), _CMP_LT_OQ));
+    const __m256i bits = _mm256_castps_si256(_mm256_blendv_ps(_mm256_set1_ps(0.5f), xf, fast));
+    const __m256i e8 = _mm256_sub_epi32(_mm256_srli_epi32(bits, 23), _mm256_set1_epi32(127 - 8));  // −1 .. 7
+    const __m256i mant = _mm256_and_si256(bits, _mm256_set1_epi32(0x7fffff));
+    const __m256i j = _mm256_srli_epi32(mant, 20);
+    // m − m0 = (mant − j·2^20)·2^-23: the mantissa's low 20 bits, exact.
+    const __m256i low20 = _mm256_and_si256(mant, _mm256_set1_epi32(0xfffff));
+    __m256d y[2];
+    __m256i ok[2];
+    for (int h = 0; h < 2; ++h) {
+      const __m256i dup = h ? dup_hi : dup_lo;
+      const __m256i jj = _mm256_permutevar8x32_epi32(j, dup), ee = _mm256_permutevar8x32_epi32(e8, dup);
+      const __m256d dm = _mm256_mul_pd(_mm256_cvtepi32_pd(h ? _mm256_extracti128_si256(low20, 1) : _mm256_castsi256_si128(low20)),
+                                       _mm256_set1_pd(0x1p-23));
+      const __m256d t = _mm256_mul_pd(dm, lookup8_pd(i_lo, i_hi, jj));
+      __m256d s = _mm256_set1_pd(T.c11);  // Horner: s = C(a, k) + t·s for k = 10 .. 0
+      for (const double ck : {T.c10, T.c9, T.c8, T.c7, T.c6, T.c5, T.c4, T.c3, T.c2, T.c1, 1.0})
+        s = _mm256_fmadd_pd(t, s, _mm256_set1_pd(ck));
+      const __m256d te = _mm256_blendv_pd(lookup8_pd(e_lo, e_hi, ee), e_m9,
+                                          _mm256_castsi256_pd(_mm256_cmpeq_epi32(ee, _mm256_set1_epi32(-1))));
+      const __m256d p = _mm256_mul_pd(_mm256_mul_pd(te, lookup8_pd(a_lo, a_hi, jj)), s);
+      y[h] = _mm256_fmsub_pd(_mm256_set1_pd(1.055), p, _mm256_set1_pd(0.055));
+      // y's 29 bits below the float's 24 at least 2^15 from 2^28 (srgb_encode_block_avx512).
+      const __m256i d = _mm256_sub_epi64(_mm256_and_si256(_mm256_castpd_si256(y[h]), low29), mid);
+      ok[h] = _mm256_or_si256(_mm256_cmpgt_epi64(d, margin), _mm256_cmpgt_epi64(neg_margin, d));
+    }
+    // The two halves' 64-bit masks to eight 32-bit lanes (their low halves), in order.
+    const __m256i ok8 = _mm256_permute4x64_epi64(
+        _mm256_castps_si256(_mm256_shuffle_ps(_mm256_castsi256_ps(ok[0]), _mm256_castsi256_ps(ok[1]), 0x88)), 0xd8);
+    const __m256i good = _mm256_and_si256(ok8, _mm256_castps_si256(fast));
+    _mm256_storeu_ps(out + i, _mm256_set_m128(_mm256_cvtpd_ps(y[1]), _mm256_cvtpd_ps(y[0])));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(exact + i), _mm256_andnot_si256(good, _mm256_set1_epi32(1)));
   }
   srgb_encode_block(v + i, n - i, out + i, exact + i);
 }
@@ -392,7 +427,7 @@ namespace {
 // and shadows do not respond; with rows up and down (u, d: null where the vertical pass does not
 // reach), the same across rows, else v = 0. Branch-free per pixel so that the clones take 8 or 16
 // pixels at a time; the same float operations per pixel on every path (no contraction).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void lane_row(const float* __restrict r, const float* __restrict up, const float* __restrict down,
               const uint16_t* __restrict lab, int W, int w, float thr, uint8_t* __restrict o) {
   const uint16_t road = static_cast<uint16_t>(Label::Road), parking = static_cast<uint16_t>(Label::Parking);

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "photosite/scene/night.h"
+#include "core/isa_detail.h"
 #include "scene/night_detail.h"
 
 namespace photosite::scene {
@@ -23,7 +24,7 @@ const char* vp_method_name(VpMethod m) {
 namespace {
 // The pixels of a row (W ids) that are road or parking: branch-free, so that the clones count 16
 // or 32 at a time (the per-pixel test and branch took ~0.8 ms of a 1024x512 working frame).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 int count_road(const uint16_t* __restrict r, int W) {
   constexpr uint16_t road = static_cast<uint16_t>(Label::Road), parking = static_cast<uint16_t>(Label::Parking);
   int n = 0;
@@ -31,7 +32,7 @@ int count_road(const uint16_t* __restrict r, int W) {
   return n;
 }
 // Per column, the last row so far whose pixel is sky: low[x] = y where row y's pixel is sky.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void sky_rows(const uint16_t* __restrict r, int W, int y, int* __restrict low) {
   constexpr uint16_t sky = static_cast<uint16_t>(Label::Sky);
   for (int x = 0; x < W; ++x) low[x] = r[x] == sky ? y : low[x];
@@ -177,7 +178,7 @@ namespace {
 // One row of coarse_depth: min(1, max(tx, ty)) in double, rounded to float; the clones take four
 // or eight pixels at a time, the same operations per pixel (max and min in the operand order of
 // std::max and std::min).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void coarse_depth_row(float* row, const double* txs, double ty, int W) {
   for (int x = 0; x < W; ++x) row[x] = static_cast<float>(std::min(1.0, std::max(txs[x], ty)));
 }

@@ -108,7 +108,7 @@ int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s
   return j0;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
                   float* __restrict o) {
   auto one = [&](int x) { detail::glare_up_pixel(t, cw, x, u + 3 * x); };
@@ -135,7 +135,7 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
 }
 
 // out[j] = glare_lerp(w0, a[j], w1, b[j]) over n samples (the vertical bilinear step).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void lerp_row(float w0, const float* __restrict a, float w1, const float* __restrict b, size_t n,
               float* __restrict out) {
   for (size_t j = 0; j < n; ++j) out[j] = glare_lerp(w0, a[j], w1, b[j]);
@@ -148,7 +148,7 @@ void lerp_row(float w0, const float* __restrict a, float w1, const float* __rest
 // same order per sample as forming the sum tap by tap over the row, without storing and
 // reloading it between taps.
 static_assert(kGlareBlurRadius == 3, "blur_taps is written for 7 taps");
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void blur_taps(const float* const* p, const float* gk, size_t n, bool weigh, float w, const float* __restrict u,
                float* __restrict o) {
   const float* __restrict p0 = p[0];
@@ -186,7 +186,7 @@ std::array<float, 2 * kGlareBlurRadius + 1> blur_weights(const std::array<float,
 
 // out[3x + c] = glare_mix(keep, in[3x + c], s_c, u[3x + c]) over n = 3·width samples, in blocks
 // of 24 (8 pixels: a whole number of vectors and of pixels) with the scales laid out per lane.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void mix_row(float keep, const float* s3, const float* __restrict in, const float* __restrict u, size_t n,
              float* __restrict out) {
   float sl[24];
@@ -309,10 +309,45 @@ int down2_pairs_avx512(const float* ra, const float* rb, int w, float* o) {
   return x;
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+// With AVX2 (after the AVX-512 blocks, or alone), eight output pixels (24 floats) at a time: the
+// same sums over windows of 16 floats and lanes k(i) picked from them, by two one-source permutes
+// (vpermps) and a blend where AVX-512 has its two-source one. Eight lanes from i0 reach k(i0 + 7)
+// − k(i0) = 14 − ((i0 + 7) mod 3) + (i0 mod 3) ≤ 13 floats on when i0 mod 3 is 0 or 1 (16 when 2,
+// beyond a window), so the block's floats are written by four vectors from i0 = 0, 7, 15, 16
+// (phases 0, 1, 0, 1; the overlaps are written twice with the same values). Returns the first
+// output pixel it left.
+constexpr int kPick8Start[4] = {0, 7, 15, 16};
+// Window offsets k(i0 + l) − k(i0) of the eight lanes: phase 0 (0, 1, 2, 6, 7, 8, 12, 13), phase 1
+// (0, 1, 5, 6, 7, 11, 12, 13); lanes 5-7 from the second window (offset − 8), the rest from the first.
+__attribute__((target("avx2"))) inline __m256 pick8(__m256 w0, __m256 w1, int phase) {
+  const __m256i idx = phase ? _mm256_setr_epi32(0, 1, 5, 6, 7, 3, 4, 5) : _mm256_setr_epi32(0, 1, 2, 6, 7, 0, 4, 5);
+  return _mm256_blend_ps(_mm256_permutevar8x32_ps(w0, idx), _mm256_permutevar8x32_ps(w1, idx), 0xe0);
+}
+__attribute__((target("avx2"))) inline __m256 pair_sums8(const float* ra, const float* rb, int k) {
+  return _mm256_add_ps(_mm256_add_ps(_mm256_loadu_ps(ra + k), _mm256_loadu_ps(ra + k + 3)),
+                       _mm256_add_ps(_mm256_loadu_ps(rb + k), _mm256_loadu_ps(rb + k + 3)));
+}
+__attribute__((target("avx2")))
+int down2_pairs_avx2(const float* ra, const float* rb, int x, int w, float* o) {
+  const int pairs = w / 2;
+  const __m256 quarter = _mm256_set1_ps(0.25f);
+  // A block's last window (i0 = 16: k = 31, floats 31 + 8 .. 31 + 8 + 3 + 7 from 6x) reaches float
+  // 6x + 49: inside the row while 6x + 50 <= 3w.
+  for (; x + 8 <= pairs && 6 * x + 50 <= 3 * w; x += 8)
+    for (const int i0 : kPick8Start) {
+      const int k = 6 * x + 2 * i0 - i0 % 3;
+      const __m256 q = pick8(pair_sums8(ra, rb, k), pair_sums8(ra, rb, k + 8), i0 % 3);
+      _mm256_storeu_ps(o + 3 * x + i0, _mm256_mul_ps(q, quarter));
+    }
+  return x;
+}
+
+PHOTOSITE_TARGET_CLONES
 void down2_row(const float* __restrict ra, const float* __restrict rb, int w, float* __restrict o) {
   const int w2 = (w + 1) / 2, pairs = w / 2;  // pixels 2x, 2x + 1 both inside for x < pairs
-  for (int x = kGlareAvx512 ? down2_pairs_avx512(ra, rb, w, o) : 0; x < pairs; ++x)
+  int x0 = kGlareAvx512 ? down2_pairs_avx512(ra, rb, w, o) : 0;
+  if (kGlareAvx2) x0 = down2_pairs_avx2(ra, rb, x0, w, o);
+  for (int x = x0; x < pairs; ++x)
     for (int c = 0; c < 3; ++c) {
       const int k = 6 * x + c;
       o[3 * x + c] = ((ra[k] + ra[k + 3]) + (rb[k] + rb[k + 3])) * 0.25f;
@@ -369,16 +404,34 @@ int taps1331_avx512(const float* s, int end, float* o) {
     }
   return x;
 }
-__attribute__((target_clones("avx512f", "avx2", "default")))
+// The same with AVX2, eight output pixels at a time (down2_pairs_avx2's windows and picks; the last
+// window's loads reach s[6x − 3 + 31 + 8 + 9 + 7] = s[6x + 52]: inside the row while x + 9 <= end).
+__attribute__((target("avx2"))) inline __m256 taps1331_window8(const float* a, __m256 c1, __m256 c3) {
+  return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(c1, _mm256_loadu_ps(a)), _mm256_mul_ps(c3, _mm256_loadu_ps(a + 3))),
+                       _mm256_add_ps(_mm256_mul_ps(c3, _mm256_loadu_ps(a + 6)), _mm256_mul_ps(c1, _mm256_loadu_ps(a + 9))));
+}
+__attribute__((target("avx2")))
+int taps1331_avx2(const float* s, int x, int end, float* o) {
+  const __m256 c1 = _mm256_set1_ps(0.125f), c3 = _mm256_set1_ps(0.375f);
+  for (; x + 9 <= end; x += 8)
+    for (const int i0 : kPick8Start) {
+      const float* a = s + 6 * x - 3 + 2 * i0 - i0 % 3;
+      _mm256_storeu_ps(o + 3 * x + i0, pick8(taps1331_window8(a, c1, c3), taps1331_window8(a + 8, c1, c3), i0 % 3));
+    }
+  return x;
+}
+PHOTOSITE_TARGET_CLONES
 void taps1331_row(const float* __restrict s, int end, float* __restrict o) {
-  for (int x = kGlareAvx512 ? taps1331_avx512(s, end, o) : 1; x < end; ++x) {
+  int x0 = kGlareAvx512 ? taps1331_avx512(s, end, o) : 1;
+  if (kGlareAvx2) x0 = taps1331_avx2(s, x0, end, o);
+  for (int x = x0; x < end; ++x) {
     const float* a = s + 3 * (2 * x - 1);
     for (int k = 0; k < 3; ++k)
       o[3 * x + k] = (0.125f * a[k] + 0.375f * a[3 + k]) + (0.375f * a[6 + k] + 0.125f * a[9 + k]);
   }
 }
 // down_1331 along columns: one output row from its four input rows.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void taps1331_cols(const float* __restrict a, const float* __restrict b, const float* __restrict c,
                    const float* __restrict d, size_t n, float* __restrict o) {
   for (size_t j = 0; j < n; ++j) o[j] = (0.125f * a[j] + 0.375f * b[j]) + (0.375f * c[j] + 0.125f * d[j]);

@@ -81,7 +81,7 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
 // detail::analog_row (sensor/pixel_detail.h). The per-pixel definition, with AVX-512 and AVX2
 // clones: its floor and clamp in double vectorize there (roundpd), the same IEEE operations as
 // the scalar code, so the same bits on every clone.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void detail::analog_row_definition(float* __restrict erow, const float* __restrict off, const float* __restrict read,
                                    const float* __restrict col, float row_noise, float rn, float fw, double K,
                                    double black, double max_code, int w, float* __restrict drow,
@@ -234,7 +234,7 @@ struct PhotonStage {
   // kernels/common/sensor_pixel.glsl's photon_electrons over a row (e = M[c]·(R, G, B), cos⁴θ
   // falloff; me, mo: the M rows of even and odd x). AVX-512 and AVX2 clones where it vectorizes:
   // the same IEEE operations in the same order per pixel, so the same bits on every clone.
-  __attribute__((target_clones("avx512f", "avx2", "default")))
+  PHOTOSITE_TARGET_CLONES
   static void electrons_row(const float* __restrict g, int w, const double* me, const double* mo, double cx,
                             double dy2, double pitch_over_f, float* __restrict o) {
     const double e0 = me[0], e1 = me[1], e2 = me[2], o0 = mo[0], o1 = mo[1], o2 = mo[2];
@@ -250,7 +250,7 @@ struct PhotonStage {
   // same bits as glare_row then electrons_row (test GlareFastPath.FusedPhotonRowEqualsGlareThenPhotons),
   // without storing the glared row and reading it back.
   // Here over the n pixels x0 .. x0 + n − 1 of the row (l, u and o start at pixel x0).
-  __attribute__((target_clones("avx512f", "avx2", "default")))
+  PHOTOSITE_TARGET_CLONES
   static void glared_electrons_row(const float* __restrict l, const float* __restrict u, float keep, const float* s3,
                                    int x0, int n, const double* me, const double* mo, double cx, double dy2,
                                    double pitch_over_f, float* __restrict o) {
@@ -531,7 +531,7 @@ struct PhotonStage {
   // Whether every pixel of the row is physical, as one reduction that vectorizes:
   // shader::radiance_is_physical's test (no channel negative or NaN, R+G+B finite) with
   // "finite" written |R+G+B| <= FLT_MAX, which is false for Inf and NaN alike.
-  __attribute__((target_clones("avx512f", "avx2", "default")))
+  PHOTOSITE_TARGET_CLONES
   static bool physical_row(const float* __restrict r, int w) {
     int bad = 0;
     for (int x = 0; x < w; ++x) {
@@ -714,7 +714,7 @@ struct SenseStage {
   }
   // sense_mean_e over a row, with AVX-512 and AVX2 clones (two products and their sum per
   // pixel, no FMA: the same bits on every clone).
-  __attribute__((target_clones("avx512f", "avx2", "default")))
+  PHOTOSITE_TARGET_CLONES
   static void mean_row(const float* __restrict srow, const float* __restrict g, float dark,
                        const float* __restrict df, int w, float* __restrict mean) {
     for (int x = 0; x < w; ++x) mean[x] = shader::sense_mean_e(srow[x], g[x], dark, df[x]);

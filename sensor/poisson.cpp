@@ -269,12 +269,12 @@ void philox_list(uint64_t key, uint32_t frame, const uint32_t* pixel_lo, const u
 // baseline in the tests) by PoissonAccuracy.PtrsBlockEqualsScalarReference,
 // PoissonAccuracy.MixedBlocksEqualScalarReference and Poisson.BlockKernelMatchesScalarPhiloxWords,
 // which run the widest clone the CPU has, and by the CPU/Vulkan parity tests.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void normals(const uint32_t* a, const uint32_t* b, float* z, int n) {
   for (int j = 0; j < n; ++j) z[j] = detail::normal_from_words_f(a[j], b[j]);
 }
 
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void corrected_normal_block(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j)
     out[j] = detail::cornish_fisher_sample(
@@ -291,7 +291,7 @@ void corrected_normal_block(const float* mean, const float* z, float* out, int n
 // stop at once (u < 1 = F(0)).
 constexpr int kInversionLanes = 64;
 static_assert(kBlock % kInversionLanes == 0);
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void inversion_block(const float* mean, const uint32_t* w, float* k_out, int m) {
   if (m % kInversionLanes != 0) __builtin_unreachable();
   for (int i0 = 0; i0 < m; i0 += kInversionLanes) {
@@ -401,7 +401,7 @@ void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, in
     for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, vk[v]);
   }
 }
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void rounded_normal(const float* mean, const float* z, float* out, int n) {
   for (int j = 0; j < n; ++j) out[j] = detail::rounded_normal_sample(mean[j], z[j]);
 }
@@ -413,7 +413,7 @@ void rounded_normal(const float* mean, const float* z, float* out, int n) {
 // attempts per Philox call, until none is left. Compaction is branch-free (select_lanes): the
 // verdicts are random, branches on them would mispredict. Each lane's result is
 // detail::ptrs_sample's, whatever the block, the thread or the other lanes.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void ptrs_first(const float* __restrict mean, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                 float* __restrict mu, float* __restrict k, float* __restrict us, float* __restrict v,
                 float* __restrict verdict, int m) {
@@ -436,7 +436,7 @@ template <class T>
 inline void pad8(T* a, int n, T value) {
   for (int i = n; i < round8(n); ++i) a[i] = value;
 }
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const float* __restrict us,
                     const float* __restrict v, float* __restrict accepted, int m) {
   if (m % 8 != 0) __builtin_unreachable();
@@ -445,7 +445,7 @@ void ptrs_full_test(const float* __restrict mu, const float* __restrict k, const
 }
 // ptrs_attempts_definition: detail::ptrs_attempt lane by lane, the full test evaluated on every
 // lane (branch-free); the twin of ptrs_attempts below (test Philox.PtrsAttemptsEqualTheirDefinition).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void ptrs_attempts_definition(const float* __restrict mu, const uint32_t* __restrict wu, const uint32_t* __restrict wv,
                               float* __restrict k, int m) {
   if (m % 8 != 0) __builtin_unreachable();
@@ -635,7 +635,7 @@ void ptrs_attempts(const float* mu, const uint32_t* wu, const uint32_t* wv, floa
 // whole-vector passes read past the n compacted ones; every lane read is written first.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m, float* out, uint64_t first_pixel,
                 uint64_t key, uint32_t frame, uint32_t stream, const int* lane = nullptr) {
   constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
@@ -675,7 +675,7 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
 }
 #pragma GCC diagnostic pop
 // How many of a[0, n) are >= t (a vectorized count: it runs on every block).
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 int count_at_least(const float* __restrict a, int n, float t) {
   int count = 0;
   for (int i = 0; i < n; ++i) count += a[i] >= t ? 1 : 0;
@@ -717,7 +717,7 @@ void detail::ptrs_attempt_lanes(bool squeeze_first, const float* mu, const uint3
 
 // AVX-512 and AVX2 clones for its own loops (the lane selections and the low-mean gathers:
 // compares and copies, no arithmetic on the draws), so the same bits on every clone.
-__attribute__((target_clones("avx512f", "avx2", "default")))
+PHOTOSITE_TARGET_CLONES
 void poisson_block(const float* mean, float* out, float* normal2, int n, uint64_t first_pixel,
                    uint64_t key, uint32_t frame, uint32_t stream, PoissonMethod method) {
   alignas(64) uint32_t w0[kBlock], w1[kBlock], w2[kBlock], w3[kBlock];

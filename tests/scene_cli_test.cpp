@@ -242,6 +242,56 @@ TEST(SceneNightCli, ScalarAndAvx2LightPathsGiveTheSameBits) {
   EXPECT_EQ(v.attributes.at("photosite/night/lights_windows"), s.attributes.at("photosite/night/lights_windows"));
 }
 
+// PHOTOSITE_MAX_ISA (environment.h, core/isa_detail.h) caps the vector level the CPU paths take:
+// `version --backends` names the level taken, and the bundled frame's night, every EXR channel and
+// attribute but the time of writing, is the same bits at each level this machine has — the rule that every path gives the
+// same bits, end to end (the target_clones functions keep the CPU's own level, isa_detail.h). A
+// value not among scalar, avx2 and avx512 is bad input: exit 2 naming the variable, no output.
+TEST(SceneNightCli, EveryIsaCapGivesTheSameNight) {
+  test::TempDir tmp;
+  auto with_cap = [&](const char* cap, const std::string& args) {
+    setenv("PHOTOSITE_MAX_ISA", cap, 1);
+    auto r = test::run_cli(args);
+    unsetenv("PHOTOSITE_MAX_ISA");
+    return r;
+  };
+  const auto machine = test::run_cli("version --backends");
+  ASSERT_EQ(machine.exit_code, 0) << machine.output;
+  const bool avx2 = machine.output.find(", AVX2") != std::string::npos;
+  const bool avx512 = machine.output.find(", AVX-512") != std::string::npos;
+  const auto v0 = with_cap("scalar", "version --backends"), v1 = with_cap("avx2", "version --backends");
+  ASSERT_EQ(v0.exit_code, 0) << v0.output;
+  EXPECT_EQ(v0.output.find(", AVX2"), std::string::npos) << v0.output;
+  EXPECT_EQ(v1.output.find(", AVX-512"), std::string::npos) << v1.output;
+  EXPECT_EQ(v1.output.find(", AVX2") != std::string::npos, avx2) << v1.output;
+  const auto bad = with_cap("avx1024", "night --backend cpu --out '" + tmp.file("bad.exr") + "'");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("PHOTOSITE_MAX_ISA='avx1024'"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(tmp.file("bad.exr")));
+  std::vector<std::pair<std::string, ExrContents>> nights;
+  for (const char* cap : {"avx512", "avx2", "scalar"}) {
+    if ((std::string(cap) == "avx512" && !avx512) || (std::string(cap) == "avx2" && !avx2)) continue;
+    const std::string out = tmp.file(std::string(cap) + ".exr");
+    const auto r = with_cap(cap, "night --backend cpu --out '" + out + "'");
+    ASSERT_EQ(r.exit_code, 0) << cap << ": " << r.output;
+    nights.emplace_back(cap, read_exr(out));
+  }
+  const ExrContents& ref = nights.front().second;
+  for (size_t k = 1; k < nights.size(); ++k) {
+    const auto& [cap, other] = nights[k];
+    ASSERT_EQ(other.channels.size(), ref.channels.size()) << cap;
+    for (const auto& [name, im] : ref.channels) {
+      const ImageF& o = other.channels.at(name);
+      ASSERT_EQ(o.size(), im.size()) << cap << " " << name;
+      EXPECT_EQ(0, std::memcmp(o.data(), im.data(), im.size() * sizeof(float))) << cap << " against " << nights.front().first << ": " << name;
+    }
+    auto a = other.attributes, b = ref.attributes;
+    a.erase("DateTime");  // the time of writing (`cmp -i 48` skips it in the file)
+    b.erase("DateTime");
+    EXPECT_EQ(a, b) << cap;
+  }
+}
+
 // The light map's fast paths pinned to their definition at one and two threads: a shared
 // Cityscapes frame (façades, poles, parked and moving vehicles) cut to 2043 columns, not a
 // multiple of 8, so the AVX2 rows of the vertical street light (groups of eight columns) end in

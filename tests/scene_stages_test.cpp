@@ -571,7 +571,7 @@ TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
 // The lane stage's fast sRGB encode (scene/lanes.cpp) against the exact expression, bit for bit,
 // on every float from 0.003 (below the toe's end, 0.0031308) to 1, on a stride through the toe, and
 // on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail;
-// each instruction-set path (work_luma_max_isa: 8, 4 and 1 values at a time).
+// each instruction-set path (work_luma_max_isa: 8 values at a time with AVX-512 and with AVX2, 1).
 TEST(SceneGeometry, FastSrgbEncodeIsTheExactEncodeOfEveryFloat) {
   auto exact = [](float v) { return static_cast<float>(srgb_encode(std::clamp(v, 0.f, 1.f))); };
   std::vector<float> in;

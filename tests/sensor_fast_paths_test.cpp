@@ -16,10 +16,17 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <limits>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "core/isa_detail.h"
 #include "photosite/rng.h"
@@ -640,4 +647,35 @@ TEST(SenseFastPath, AnalogRowEqualsItsDefinition) {
 }
 
 }  // namespace
+// The paths below the machine's level, tested on it: PHOTOSITE_MAX_ISA (core/isa_detail.h) caps
+// the level of a process, so the fast-path tests run again in child processes of this test
+// program at the AVX2 and scalar caps (on an AVX-512 machine its AVX2 paths, which the
+// whole-image and definition tests then hold to the same bits). IsaCaps.LevelIsAtMostTheCap,
+// run in each child, checks that the cap took (the level read by the library, against the
+// variable read here). The target_clones functions keep the CPU's clone (isa_detail.h).
+TEST(IsaCaps, LevelIsAtMostTheCap) {
+  const char* cap = std::getenv("PHOTOSITE_MAX_ISA");
+  if (!cap) GTEST_SKIP() << "PHOTOSITE_MAX_ISA not set (IsaCaps.FastPathTestsPassAtEachCap sets it in its children)";
+  const std::string c(cap);
+  const int level = c == "scalar" ? 0 : c == "avx2" ? 1 : 2;
+  EXPECT_LE(detail::machine_isa_level(), level) << "PHOTOSITE_MAX_ISA=" << c;
+}
+TEST(IsaCaps, FastPathTestsPassAtEachCap) {
+  if (std::getenv("PHOTOSITE_MAX_ISA")) GTEST_SKIP() << "already a child with a cap";
+  const std::string filter = "IsaCaps.LevelIsAtMostTheCap:GlareFastPath.*:Glare.*:SenseFastPath.*:Philox.*:FastMath.*:"
+                             "SceneGeometry.FastSrgb*:SceneGeometry.WorkLuma*:SceneDarken.*:SceneLights.*";
+  const std::string log = (std::filesystem::temp_directory_path() / ("photosite-isa-caps-" + std::to_string(getpid()) + ".txt")).string();
+  const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();  // this test program
+  for (const char* cap : {"avx2", "scalar"}) {
+    setenv("PHOTOSITE_MAX_ISA", cap, 1);
+    const int rc = std::system(("'" + self + "' --gtest_brief=1 --gtest_filter='" + filter + "' > '" + log + "' 2>&1").c_str());
+    unsetenv("PHOTOSITE_MAX_ISA");
+    std::stringstream out;
+    out << std::ifstream(log).rdbuf();
+    EXPECT_EQ(rc, 0) << "PHOTOSITE_MAX_ISA=" << cap << ":\n" << out.str();
+    EXPECT_NE(out.str().find("PASSED"), std::string::npos) << out.str();
+  }
+  std::remove(log.c_str());
+}
+
 }  // namespace photosite

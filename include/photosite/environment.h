@@ -12,6 +12,10 @@
 //   PHOTOSITE_SAMPLE_DIR          the bundled sample images (the command's `night` default input)
 //   PHOTOSITE_SCALAR_LIGHTS       1: the light map's street light and low beam take their scalar
 //                                 paths on an AVX2 machine (read once; to check both give the same bits)
+//   PHOTOSITE_MAX_ISA             scalar|avx2|avx512: the widest vector level the CPU paths dispatched
+//                                 on core/isa_detail.h take (read once; unset: the CPU's own). Not
+//                                 capped: the target_clones functions (see isa_detail.h). Another
+//                                 value: a message naming the variable, exit status 2
 //
 // The Vulkan loader's own variables (VK_DRIVER_FILES, VK_ICD_FILENAMES) are read by the loader.
 #pragma once
@@ -33,6 +37,7 @@ enum class Var {
   VkStaging,
   SampleDir,
   ScalarLights,
+  MaxIsa,
   VkDriverFiles,   // the Vulkan loader's own (read here only to name them in a message)
   VkIcdFilenames,
 };
