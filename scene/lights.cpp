@@ -1294,8 +1294,9 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
   return Wv;
 }
 #pragma GCC diagnostic pop
-// beam_table_f on eight lanes, the grids and the table read by gathers (any grid; the cell
-// indices, counts of grid angles, lie in the grid on every lane): the same operations per lane.
+// beam_table_f on eight lanes, the table read by gathers and small grids (BeamF::small) by lane
+// permutations (any grid; the cell indices, counts of grid angles, lie in the grid on every lane):
+// the same operations per lane.
 __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, const BeamF& b) {
   const __m256i vnh = _mm256_set1_epi32(b.nh);
   __m256i j = _mm256_setzero_si256(), i = _mm256_setzero_si256();
@@ -1303,8 +1304,14 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
     j = _mm256_sub_epi32(j, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.H[m]), h, _CMP_LE_OQ)));
   for (int m = 1; m + 1 < b.nv; ++m)
     i = _mm256_sub_epi32(i, _mm256_castps_si256(_mm256_cmp_ps(_mm256_set1_ps(b.V[m]), v, _CMP_LE_OQ)));
-  const __m256 Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
-  const __m256 Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+  __m256 Hj, rHj, Vi, rVi;
+  if (b.small) {  // grids of at most 8 angles: one lane permutation each
+    Hj = _mm256_permutevar8x32_ps(_mm256_loadu_ps(b.H8), j), rHj = _mm256_permutevar8x32_ps(_mm256_loadu_ps(b.rH8), j);
+    Vi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(b.V8), i), rVi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(b.rV8), i);
+  } else {
+    Hj = _mm256_i32gather_ps(b.H.data(), j, 4), rHj = _mm256_i32gather_ps(b.rH.data(), j, 4);
+    Vi = _mm256_i32gather_ps(b.V.data(), i, 4), rVi = _mm256_i32gather_ps(b.rV.data(), i, 4);
+  }
   const __m256i c0 = _mm256_add_epi32(_mm256_mullo_epi32(i, vnh), j);
   const float* I = b.I.data();
   const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
@@ -1364,9 +1371,27 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       s = _mm256_blendv_ps(s, _mm256_sqrt_ps(_mm256_add_ps(XD2, _mm256_mul_ps(Hc, Hc))), crown);
     }
     if (const __m256 bm = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, bld))); reg && any(bm)) {
+      // The façade planes of the building lanes: all of one region and one plane (the common
+      // case) its normal broadcast, else lane by lane (beam_vertical_row_avx512's test).
+      const int bits = _mm256_movemask_ps(bm), i0 = __builtin_ctz(static_cast<unsigned>(bits)), r0 = reg[x + i0];
+      const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
+      const int same_region = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))));
+      int p0 = -1;
+      bool one_plane = false;
+      if (r0 >= 0 && (bits & same_region) == bits) {
+        const BuildingFacades::Region& R = c.fac->regions[r0];
+        p0 = R.column_plane[x + i0 - R.x0];
+        one_plane = p0 >= 0;
+        for (int i = i0 + 1; one_plane && i < 8; ++i)
+          one_plane = !(bits >> i & 1) || R.column_plane[x + i - R.x0] == p0;
+      }
+      if (one_plane) {
+        mX = _mm256_blendv_ps(mX, _mm256_set1_ps(c.plane_nX[p0]), bm);
+        mD = _mm256_blendv_ps(mD, _mm256_set1_ps(c.plane_nD[p0]), bm);
+        s = _mm256_blendv_ps(s, fone, bm);
+      } else {
       alignas(32) float pX[8], pD[8];
       alignas(32) int32_t pm[8];
-      const int bits = _mm256_movemask_ps(bm);
       for (int i = 0; i < 8; ++i) {
         pm[i] = 0;
         pX[i] = pD[i] = 0.f;
@@ -1382,6 +1407,7 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       mX = _mm256_blendv_ps(mX, _mm256_load_ps(pX), planar);
       mD = _mm256_blendv_ps(mD, _mm256_load_ps(pD), planar);
       s = _mm256_blendv_ps(s, fone, planar);
+      }
     }
     const __m256 dy = _mm256_sub_ps(Y, vhl), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
     const __m256 Dh0 = _mm256_mul_ps(D, th0), Dh1 = _mm256_mul_ps(D, th1);
