@@ -1075,7 +1075,8 @@ namespace {
 //   inside the grid the table (beam_table_f), outside it 0;
 // then a face's E = I·(m·(L − P))/(s·d·max(d², d²_min)) (= I·cos β/d²), a crown's
 // I·Φ(m·(L − P)/(s·d))/max(d², d²_min).
-// The vector rows (beam_vertical_row_avx512) do the same operations on their lanes: the same bits.
+// The vector rows (beam_vertical_row_avx512, _avx2) do the same operations on their lanes: the same
+// bits.
 [[gnu::always_inline]] inline float beam_vertical_lamp_f(float dx, float dy, float D, float mX, float mY, float mD,
                                                          float s, bool crown, const BeamF& b) {
   if (!(dx >= D * b.th0 && dx <= D * b.th1)) return 0.f;
