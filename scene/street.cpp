@@ -2143,7 +2143,9 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
                                                                           double zmax, const BuildingFacades& fac,
                                                                           const FacadeFrame* fr, const WindowGeom& w,
                                                                           WindowRow& r, int32_t* rp, int* n_slow,
-                                                                          WindowPanes& P) {
+                                                                          WindowPanes& P,
+                                                                          const FacadeWindowsFound::Plane* found,
+                                                                          const uint16_t* id) {
   int32_t* rx = r.x.data();
   double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
   int n = 0, np = 0;
@@ -2152,8 +2154,15 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
   const __m512d zero = _mm512_setzero_pd(), iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
   const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
   const __m256i iota32 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), one32 = _mm256_set1_epi32(1), two32 = _mm256_set1_epi32(2);
+  const __m128i building = _mm_set1_epi16(static_cast<int16_t>(Label::Building));
   int x = x0;
   for (; x + 8 <= x1; x += 8) {
+    // A group of no building label has no building region (the façades are made of these labels:
+    // a region's runs are building pixels): skipped on the 16 bytes of its labels, which the row's
+    // street light has just read, instead of the 32 of its region ids (most groups: the region
+    // image, 8 MB a frame, was the pass's largest wait, perf annotate, twenty-fourth session).
+    if (_mm_movemask_epi8(_mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)), building)) == 0)
+      continue;
     const int pi = window_group_plane(reg, x, fac);
     if (pi == -2) continue;  // no building region
     if (pi >= 0) {
@@ -2176,8 +2185,31 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
                                   _mm512_cmp_pd_mask(y_in, bcast8(w.sill_top), _CMP_GT_OQ);
         const __mmask8 glass = static_cast<__mmask8>(~out_glass & not_below);
         const __mmask8 pane = static_cast<__mmask8>(~out_shop & not_below & gf);
-        const __mmask8 in = glass | pane;
+        __mmask8 in = glass | pane;
         if (in == 0) continue;
+        // Where the photo resolves this plane's column (WindowPass::photo_resolved: its windows
+        // replace the grid's there), the lane leaves P: the same s (along_plane's operations, in
+        // its order), the same cell ⌊(s − s0)·(1/kCell_m)⌋ and ordered tests, the table read for
+        // the lanes in range only (the others read cell 0 and are masked off). Before, each of P's
+        // pixels took these steps in the draw loop, scalar, with a division and two branches that
+        // mispredict along a row (perf annotate, twenty-fourth session).
+        if (found && found[pi].used) {
+          const FacadeWindowsFound::Plane& F = found[pi];
+          const __m512d ci = _mm512_roundscale_pd(
+              _mm512_mul_pd(_mm512_sub_pd(s, bcast8(F.s0)), bcast8(1 / FacadeWindowsFound::kCell_m)),
+              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+          const __mmask8 in_range = static_cast<__mmask8>(
+              in & _mm512_cmp_pd_mask(ci, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(ci, bcast8(F.ns), _CMP_LT_OQ));
+          if (in_range) {  // (then ns >= 1: cell 0 exists)
+            alignas(32) int32_t idx[8];
+            _mm256_store_si256(reinterpret_cast<__m256i*>(idx), _mm512_maskz_cvttpd_epi32(in_range, ci));
+            const uint8_t* res = F.resolved.data();
+            unsigned resolved = 0;
+            for (int k = 0; k < 8; ++k) resolved |= static_cast<unsigned>(res[idx[k]] != 0) << k;
+            in &= static_cast<__mmask8>(~(resolved & in_range));
+            if (in == 0) continue;
+          }
+        }
         // Compressed in registers, then stored whole (P has room for a group past its count): a
         // compress with a memory destination is microcoded on AMD Zen 4, several times slower.
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(P.x.data() + np),
@@ -2388,10 +2420,11 @@ struct WindowPass {
         // With AVX-512: the groups inside one façade plane laid out as they are read, their pane
         // pixels drawn; the other candidates below (window_block_avx512).
         const WindowPanes& P = sc.panes;
-        const int np = window_block_avx512(reg, z, x0, x1, zmax, fac, fr, wg, sc.r, rp, &n, sc.panes);
+        // (Its lanes in a column the photo resolves are left out of P: photo_resolved is done.)
+        const int np = window_block_avx512(reg, z, x0, x1, zmax, fac, fr, wg, sc.r, rp, &n, sc.panes,
+                                           any_found ? found.planes.data() : nullptr, labels.row(y));
         for (int i = 0; i < np; ++i) {
           const int j = P.j[i];
-          if (any_found && photo_resolved(P.x[i], P.plane[i], z[P.x[i]], wg)) continue;
           draw_pane(o, P.x[i], P.plane[i], j, P.kind[i], static_cast<int64_t>(P.cell[i]),
                     j == 0 ? static_cast<int64_t>(P.unit[i]) : 0, memo, sc.seen);
         }
