@@ -28,10 +28,15 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <omp.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "scene/runs_detail.h"
@@ -54,6 +59,36 @@ constexpr int kMaxCells = 4'000'000;                      // a plane's rectified
 
 struct Sample {
   float s, Y, v;  // (float: 0.1 m cells within 200 m of the camera need 2⁻¹¹ relative at most)
+};
+
+// The first column from x (below limit) of a building region (reg[x] ≥ 0), or limit. Off the
+// building class the region is −1: with SSE2 (every x86-64) eight columns at a time by their sign
+// bits (most of a row), asking as it goes for the same columns of `next`, the row read after
+// this one (see the sampling loop); elsewhere one at a time.
+inline int next_building_column(const int32_t* reg, int x, int limit, const int32_t* next) {
+#if defined(__SSE2__)
+  for (; x + 8 <= limit; x += 8) {
+    __builtin_prefetch(next + x);
+    const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(reg + x));
+    const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(reg + x + 4));
+    if (_mm_movemask_ps(_mm_castsi128_ps(_mm_and_si128(a, b))) == 0xf) continue;  // all eight negative
+    const unsigned neg = static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(a))) |
+                         static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(b))) << 4;
+    return x + std::countr_zero(~neg);  // the lowest lane whose sign bit is clear
+  }
+#endif
+  while (x < limit && reg[x] < 0) ++x;
+  return x;
+}
+
+// Samples' bounds: their least and greatest s and Y (floats, so exact: a minimum of minima is the
+// minimum, and a NaN sample is passed over either way).
+struct Bounds {
+  float s_lo = INFINITY, s_hi = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
+  void add(const Bounds& b) {
+    s_lo = std::min(s_lo, b.s_lo), s_hi = std::max(s_hi, b.s_hi);
+    y_lo = std::min(y_lo, b.y_lo), y_hi = std::max(y_hi, b.y_hi);
+  }
 };
 }  // namespace
 
@@ -102,19 +137,29 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
   // threads as they come (building rows cluster in the upper half of a frame: contiguous halves
   // left one thread most of the work), each chunk's samples appended to its thread's lists and
   // their range recorded, then read chunk by chunk (for_samples): the same order at any thread
-  // count. (The samples' bounds per plane are taken from them afterwards: kept per sample, in
-  // memory, they were a sixth of this loop.)
+  // count. Each chunk's bounds per plane are taken from its samples while they are in cache (kept
+  // per sample, in memory, they were a sixth of this loop; taken per plane afterwards, from
+  // memory, an eighth of the plane's work, on the plane's one thread).
   constexpr int kChunkRows = 4;
   const int nrows = (H + kRowStep - 1) / kRowStep, nchunks = (nrows + kChunkRows - 1) / kChunkRows;
   std::vector<std::vector<std::vector<Sample>>> per_thread;
   std::vector<int> chunk_thread(nchunks);
   std::vector<uint32_t> chunk_begin(static_cast<size_t>(nchunks) * nplanes), chunk_end(chunk_begin.size());
-  // Per plane: fitted, and the footprint limit kMaxFootprint_m·d·f (the test below, z²·k_D against it).
-  std::vector<uint8_t> usable(nplanes);
+  std::vector<Bounds> chunk_bounds(chunk_begin.size());
+  // Per plane: the footprint limit kMaxFootprint_m·d·f (the test below, z²·k_D against it).
   std::vector<double> foot(nplanes);
-  for (int k = 0; k < nplanes; ++k) {
-    usable[k] = fac.planes[k].fitted;
-    foot[k] = kMaxFootprint_m * fac.planes[k].d_m * g.f_px;
+  for (int k = 0; k < nplanes; ++k) foot[k] = kMaxFootprint_m * fac.planes[k].d_m * g.f_px;
+  // Per region, its columns' planes where a column is on its plane and the plane fitted, else −1
+  // (the three tests per pixel before, made once per column).
+  std::vector<std::vector<int>> sampled_plane(fac.regions.size());
+  for (size_t r = 0; r < fac.regions.size(); ++r) {
+    const BuildingFacades::Region& R = fac.regions[r];
+    std::vector<int>& sp = sampled_plane[r];
+    sp.resize(R.column_plane.size());
+    for (size_t i = 0; i < sp.size(); ++i) {
+      const int pi = R.column_plane[i];
+      sp[i] = pi >= 0 && R.on_plane[i] && fac.planes[pi].fitted ? pi : -1;
+    }
   }
 #pragma omp parallel
   {
@@ -128,36 +173,37 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
 #pragma omp for schedule(dynamic)
     for (int ci = 0; ci < nchunks; ++ci) {
       chunk_thread[ci] = me;
-      for (int k = 0; k < nplanes; ++k) chunk_begin[static_cast<size_t>(ci) * nplanes + k] = static_cast<uint32_t>(mine[k].size());
+      uint32_t* const begin = chunk_begin.data() + static_cast<size_t>(ci) * nplanes;
+      for (int k = 0; k < nplanes; ++k) begin[k] = static_cast<uint32_t>(mine[k].size());
       for (int y = ci * kChunkRows * kRowStep; y < std::min(H, (ci + 1) * kChunkRows * kRowStep); y += kRowStep) {
         const int32_t* reg = fac.region.row(y);
         const float* z = depth_m.row(y);
         const float* t = texture.row(y);
         const double yn = (y - g.cy_px) / g.f_px, kD = c - yn * sn, kY = yn * c + sn;
-        int x = 0;
-        while (x < W) {
-          // Eight columns off the building class (region −1: the AND of eight negatives is negative)
-          // skipped at once: most of a row.
-          if (x + 8 <= W) {
-            int32_t all = reg[x];
-            for (int q = 1; q < 8; ++q) all &= reg[x + q];
-            if (all < 0) {
-              x += 8;
-              continue;
-            }
-          }
-          if (reg[x] < 0) {
-            ++x;
-            continue;
-          }
-          // A run of one building region: its columns' planes read from the region once.
+        // The next sampled row's lines asked for (__builtin_prefetch) while this one is read: the
+        // sampled rows lie three rows apart, so each started cold, its reads waiting for memory (a
+        // sixth of this loop's profile on the region's load at the head of the column loop, a
+        // twelfth on the texture's). Its regions at every column; its depth and texture at this
+        // row's sampled columns (a façade's columns change little over three rows). Asked for all
+        // at once at a row's start, its regions' 128 lines stalled the loop instead (probably the
+        // prefetches waiting for free miss buffers): docs/benchmarks.md, "The photo's windows,
+        // twenty-fourth session".
+        const int y_next = std::min(H - 1, y + kRowStep);
+        const int32_t* reg_next = fac.region.row(y_next);
+        const float* z_next = depth_m.row(y_next);
+        const float* t_next = texture.row(y_next);
+        // Each run of one building region (the columns off the building class, most of a row,
+        // skipped by next_building_column), its columns' planes read from the region once.
+        for (int x = next_building_column(reg, 0, W, reg_next); x < W; x = next_building_column(reg, x, W, reg_next)) {
           const int r = reg[x];
-          const BuildingFacades::Region& R = fac.regions[r];
-          const int* cp = R.column_plane.data() - R.x0;
-          const uint8_t* on = R.on_plane.data() - R.x0;
-          for (; x < W && reg[x] == r; ++x) {
-            const int pi = cp[x];
-            if (pi < 0 || !on[x] || !usable[pi]) continue;
+          const int e = run_end(reg, x, W);
+          for (int b = x; b < e; b += 16) __builtin_prefetch(reg_next + b);
+          const int* sp = sampled_plane[r].data() - fac.regions[r].x0;
+          for (; x < e; ++x) {
+            const int pi = sp[x];
+            if (pi < 0) continue;
+            __builtin_prefetch(t_next + 3 * x);
+            __builtin_prefetch(z_next + x);
             const double zz = z[x];
             if (!(zz > 0) || zz > zmax) continue;
             // A pixel spans z²·k_D/(d·f) along the plane (s = z·(t·r), z = d/(n·r) for the ray r =
@@ -172,7 +218,17 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
           }
         }
       }
-      for (int k = 0; k < nplanes; ++k) chunk_end[static_cast<size_t>(ci) * nplanes + k] = static_cast<uint32_t>(mine[k].size());
+      uint32_t* const end = chunk_end.data() + static_cast<size_t>(ci) * nplanes;
+      Bounds* const bounds = chunk_bounds.data() + static_cast<size_t>(ci) * nplanes;
+      for (int k = 0; k < nplanes; ++k) {
+        end[k] = static_cast<uint32_t>(mine[k].size());
+        Bounds& b = bounds[k];
+        for (uint32_t i = begin[k]; i < end[k]; ++i) {
+          const Sample& q = mine[k][i];
+          b.s_lo = std::min(b.s_lo, q.s), b.s_hi = std::max(b.s_hi, q.s);
+          b.y_lo = std::min(b.y_lo, q.Y), b.y_hi = std::max(b.y_hi, q.Y);
+        }
+      }
     }
   }
   // Plane k's samples in row order.
@@ -186,20 +242,25 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
   const int gap = static_cast<int>(std::lround(kMaxGap_m / kCell_m));
   const int half = static_cast<int>(std::lround(0.5 * kTrend_m / kCell_m));
   std::vector<std::vector<FacadeWindowsFound::Window>> found(nplanes);
-#pragma omp parallel for schedule(dynamic)
+  // The planes with samples enough, the most samples first (a plane's work grows with its samples
+  // and its cells: taken by the threads as they come, the largest first leaves the least idle
+  // at the end); each plane's results are its own, so the order changes no bit.
+  std::vector<std::pair<size_t, int>> order;
   for (int k = 0; k < nplanes; ++k) {
     size_t count = 0;
     for (size_t th = 0; th < per_thread.size(); ++th) count += per_thread[th][k].size();
-    if (count < 100) continue;
-    // The samples' bounds (floats: their minimum and maximum are exact, and converted to double
-    // the bounds of the samples as doubles).
-    float fs_lo = INFINITY, fs_hi = -INFINITY, fy_lo = INFINITY, fy_hi = -INFINITY;
-    for (size_t th = 0; th < per_thread.size(); ++th)
-      for (const Sample& q : per_thread[th][k]) {
-        fs_lo = std::min(fs_lo, q.s), fs_hi = std::max(fs_hi, q.s);
-        fy_lo = std::min(fy_lo, q.Y), fy_hi = std::max(fy_hi, q.Y);
-      }
-    const double s_lo = fs_lo, s_hi = fs_hi, y_lo = fy_lo, y_hi = fy_hi;
+    if (count >= 100) order.push_back({count, k});
+  }
+  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+#pragma omp parallel for schedule(dynamic)
+  for (size_t o = 0; o < order.size(); ++o) {
+    const int k = order[o].second;
+    // The samples' bounds, its chunks' (converted to double, the bounds of the samples as doubles).
+    Bounds b;
+    for (int ci = 0; ci < nchunks; ++ci) b.add(chunk_bounds[static_cast<size_t>(ci) * nplanes + k]);
+    const double s_lo = b.s_lo, s_hi = b.s_hi, y_lo = b.y_lo, y_hi = b.y_hi;
     const int ns = static_cast<int>((s_hi - s_lo) / kCell_m) + 1, ny = static_cast<int>((y_hi - y_lo) / kCell_m) + 1;
     if (static_cast<double>(ns) * ny > kMaxCells) continue;
     // The cells' means (the rectified façade).
