@@ -1480,24 +1480,22 @@ uint64_t beam_lit_class_bits() { return label_bits(ground_classes()) | label_bit
 double low_beam_vertical_lux(double X_m, double Y_m, double D_m, double nX, double nY, double nD, bool crown,
                              const ScenePreset& p) {
   if (!(D_m > 0)) return 0;
-  const double tan_rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  // Each lamp's E⊥ = I(h, v)/d² is the signs' (SignLight::lamp_lux: the table below the cut-off,
+  // the glare zone's intensity above it, 0 beside the table); a surface element takes it times
+  // cos β (a crown: Φ(α)), with d² held at (5·lens_diameter_m)².
+  const SignLight sl(p, 0);
   const double hl = p.beam_lamp_height_m, d2_min = 25 * p.beam_lens_diameter_m * p.beam_lens_diameter_m;
-  const bool table = p.beam_h_deg.size() >= 2;
   double E = 0;
   for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
     const double vX = xl - X_m, vY = hl - Y_m, vD = -D_m, d2 = vX * vX + vY * vY + vD * vD, d = std::sqrt(d2);
     const double cb = (nX * vX + nY * vY + nD * vD) / d;
     if (!crown && !(cb > 0)) continue;
-    const double h = std::atan2(-vX, D_m) * 180 / M_PI, v = std::atan2(-vY, std::hypot(vX, D_m)) * 180 / M_PI;
-    if (!table || h < p.beam_h_deg.front() || h > p.beam_h_deg.back()) continue;
-    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * tan_rise);
-    const double I = v > cut ? p.beam_above_cutoff_cd : beam_intensity_cd(h, v, tan_rise, p);
     double f = cb;
     if (crown) {
       const double a = std::acos(std::clamp(cb, -1.0, 1.0));
       f = 2 / (3 * M_PI) * (std::sin(a) + (M_PI - a) * cb);  // the Lambert sphere's phase law (Russell 1916)
     }
-    E += I * f / std::max(d2, d2_min);
+    E += sl.lamp_lux(X_m, Y_m, D_m, xl) * d2 * f / std::max(d2, d2_min);
   }
   return E;
 }
