@@ -1119,6 +1119,13 @@ struct BeamPoint {
   float X, Y, D, mX, mY, mD, s;
   bool crown;
 };
+// The index of the façade plane of a building pixel at column x of a row whose region ids are
+// `reg` (BuildingFacades::plane_at's lookup, with the row's ids at hand), -1 where it has none.
+[[gnu::always_inline]] inline int facade_plane_index(const BuildingFacades& fac, const int32_t* reg, int x) {
+  if (reg[x] < 0) return -1;
+  const BuildingFacades::Region& R = fac.regions[reg[x]];
+  return R.column_plane[x - R.x0];
+}
 [[gnu::always_inline]] inline bool beam_vertical_point(const BeamVerticalCtx& c, int x, const uint16_t* id,
                                                       const float* z, const uint8_t* lane, const int32_t* reg,
                                                       float kD, float kY, BeamPoint* p) {
@@ -1136,10 +1143,8 @@ struct BeamPoint {
   p->mY = 0.f;
   p->mD = -p->D;
   const float XD2 = p->X * p->X + p->D * p->D;
-  if (k == c.building && reg && reg[x] >= 0) {
-    const BuildingFacades::Region& R = c.fac->regions[reg[x]];
-    const int pi = R.column_plane[x - R.x0];
-    if (pi >= 0) {
+  if (k == c.building && reg) {
+    if (const int pi = facade_plane_index(*c.fac, reg, x); pi >= 0) {
       p->mX = c.plane_nX[pi];
       p->mD = c.plane_nD[pi];
       p->s = 1.f;
@@ -1230,10 +1235,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
       } else {
         alignas(64) float pX[16], pD[16];
         for (unsigned r = bm; r; r &= r - 1) {
-          const int i = __builtin_ctz(r), xi = x + i;
-          if (reg[xi] < 0) continue;
-          const BuildingFacades::Region& R = c.fac->regions[reg[xi]];
-          const int pi = R.column_plane[xi - R.x0];
+          const int i = __builtin_ctz(r), pi = facade_plane_index(*c.fac, reg, x + i);
           if (pi < 0) continue;
           pX[i] = c.plane_nX[pi];
           pD[i] = c.plane_nD[pi];
@@ -1391,23 +1393,21 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
         mD = _mm256_blendv_ps(mD, _mm256_set1_ps(c.plane_nD[p0]), bm);
         s = _mm256_blendv_ps(s, fone, bm);
       } else {
-      alignas(32) float pX[8], pD[8];
-      alignas(32) int32_t pm[8];
-      for (int i = 0; i < 8; ++i) {
-        pm[i] = 0;
-        pX[i] = pD[i] = 0.f;
-        if (!(bits >> i & 1) || reg[x + i] < 0) continue;
-        const BuildingFacades::Region& R = c.fac->regions[reg[x + i]];
-        const int pi = R.column_plane[x + i - R.x0];
-        if (pi < 0) continue;
-        pX[i] = c.plane_nX[pi];
-        pD[i] = c.plane_nD[pi];
-        pm[i] = -1;
-      }
-      const __m256 planar = _mm256_load_ps(reinterpret_cast<const float*>(pm));
-      mX = _mm256_blendv_ps(mX, _mm256_load_ps(pX), planar);
-      mD = _mm256_blendv_ps(mD, _mm256_load_ps(pD), planar);
-      s = _mm256_blendv_ps(s, fone, planar);
+        alignas(32) float pX[8], pD[8];
+        alignas(32) int32_t pm[8];
+        for (int i = 0; i < 8; ++i) {
+          pm[i] = 0;
+          pX[i] = pD[i] = 0.f;
+          const int pi = bits >> i & 1 ? facade_plane_index(*c.fac, reg, x + i) : -1;
+          if (pi < 0) continue;
+          pX[i] = c.plane_nX[pi];
+          pD[i] = c.plane_nD[pi];
+          pm[i] = -1;
+        }
+        const __m256 planar = _mm256_load_ps(reinterpret_cast<const float*>(pm));
+        mX = _mm256_blendv_ps(mX, _mm256_load_ps(pX), planar);
+        mD = _mm256_blendv_ps(mD, _mm256_load_ps(pD), planar);
+        s = _mm256_blendv_ps(s, fone, planar);
       }
     }
     const __m256 dy = _mm256_sub_ps(Y, vhl), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
