@@ -2004,11 +2004,26 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // [1/√(1 + q), 1/√(1 − q)] of Σ I_k/d_k², q = (2a|X| + a²)/d_c² (1.5 % at X = 1.75 m, D = 10 m;
   // 6 % at 5 m): an approximation that saves the two lamps' angles per marking pixel. Without the
   // geometry (the image-space beam) E_h is used as E⊥ (factor 1).
+  // The ground point is CameraGeometry::ground_point's, its row terms (t, D) made once per row.
   const double h_l = p.beam_lamp_height_m;
-  auto marking_perp = [&](int x, int y) {
-    double X, D, z;
-    if (!geometry || !(h_l > 0) || !geometry->ground_point(x, y, &X, &D, &z)) return 1.0;
-    return std::sqrt(X * X + D * D + h_l * h_l) / h_l;
+  struct MarkingRow {
+    bool ground = false;
+    double t = 0, D = 0;
+  };
+  auto marking_row = [&](int y) {
+    MarkingRow r;
+    if (!geometry || !(h_l > 0)) return r;
+    const double yn = (y - sg.cy_px) / sg.f_px, den = yn * sign_c + sign_s;
+    if (den <= 0) return r;
+    r.ground = true;
+    r.t = sg.mount_height_m / den;
+    r.D = r.t * (sign_c - yn * sign_s);
+    return r;
+  };
+  auto marking_perp = [&](const MarkingRow& r, int x) {
+    if (!r.ground) return 1.0;
+    const double X = r.t * ((x - sg.cx_px) / sg.f_px);
+    return std::sqrt(X * X + r.D * r.D + h_l * h_l) / h_l;
   };
   // Row y of L written whole (zeros where nothing retroreflects); returns its signals.
   auto retro_row = [&](int y) {
@@ -2030,6 +2045,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     double* const sz = sign_avx512 ? sx + W : nullptr;
     double* const slum = sign_avx512 ? sz + W : nullptr;
     int nsign = 0;
+    const MarkingRow mrow = marking_row(y);
     for (int x = 0; x < W; ++x) {
       // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
       // the compiler vectorizes): most of the frame.
@@ -2044,7 +2060,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       const int id = idr[x];
       if (!lr[x] && id != traffic_sign && id != traffic_light) continue;
       double lum = 0;
-      if (lr[x]) lum = br ? p.marking_RL * br[x] * marking_perp(x, y) : 0.0;
+      if (lr[x]) lum = br ? p.marking_RL * br[x] * marking_perp(mrow, x) : 0.0;
       else if (id == traffic_sign) {
         if (sign_avx512) {  // (lit after the loop; a sign pixel is no signal)
           sx[nsign] = x, sz[nsign] = dmr[x], ++nsign;
