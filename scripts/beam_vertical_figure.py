@@ -14,22 +14,16 @@ ego_beam.lens_diameter_m being optional.)
 """
 import argparse
 import os
-import subprocess
 import tempfile
 
 from PIL import Image, ImageDraw
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-OUT = os.path.join(ROOT, "docs", "night")
+from night_figures import OUT, ROOT, run  # the same `photosite night` call as the other pictures
 
 
 def preview(exe, tmp):
-    os.makedirs(tmp, exist_ok=True)
-    png = os.path.join(tmp, "n.png")
-    cmd = [exe, "night", "--out", os.path.join(tmp, "n.exr"), "--preview", png, "--overwrite", "--seed", "1"]
-    print(" ".join(cmd))
-    subprocess.run(cmd, check=True)
-    return Image.open(png).convert("RGB")
+    run(exe, [], tmp, maps=False)  # the bundled KITTI frame
+    return Image.open(os.path.join(tmp, "n.png")).convert("RGB")
 
 
 def main():
