@@ -1492,6 +1492,8 @@ __attribute__((target("avx2"), always_inline)) inline __m256 lamp_sum8(const Lam
   return acc;
 }
 // The lines holding bytes p .. p + kBytes − 1 asked for (for writing: kWrite), whatever p's offset.
+// (prfchw: kWrite as PREFETCHW, which AMD's CPUs have and Intel's since Broadwell; Intel's earlier
+// ones execute it as a no-op.)
 template <int kBytes, int kWrite>
 __attribute__((target("prfchw"), always_inline)) inline void prefetch_lines(const float* p) {
   const char* c = reinterpret_cast<const char*>(p);
