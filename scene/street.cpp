@@ -1433,6 +1433,23 @@ struct LampLanes8 {
   __m256d X0, X1, Y0, Y1, D0, D1;
   __m256 nX, nY, nD, ok, crown;
 };
+// What the row pass (add_street_light_rows) reads after the vertical light, asked for from memory
+// (prefetches) while the vertical light's groups run: its lamp loops are arithmetic (square roots
+// and divisions), the memory idle meanwhile, and the reads after it came from memory one row at a
+// time (perf annotate: most of the pools' reflection samples on its texture loads). The texture
+// of the groups holding a ground-class lane (the pools' reflection reads it right after); with
+// compose, every group's texture, the row's beam illuminance and the composed row (compose reads
+// the first two and writes the third); and, where the next row is this thread's, that row of L
+// (written first: zeroed by light_map's retroreflection row) and its depth (read first by the
+// next vertical row). A prefetch changes no value. (Measured: docs/benchmarks.md, "Light map,
+// twenty-fifth session".)
+struct RowAhead {
+  bool ground = false;                // the pools follow on this row: its ground groups' texture
+  const float* L_next = nullptr;      // row y + 1 of L (nullptr: not this thread's, or none)
+  const float* z_next = nullptr;      // row y + 1 of the depth (likewise)
+  const float* composed = nullptr;    // compose follows: the row of its output (nullptr: no compose)
+  const float* beam = nullptr;        // and of the beam illuminance it reads
+};
 // E_v = Σ_k vertical_term over the lamps lo .. hi − 1 on eight lanes (vertical_row_body's lamp
 // loop): a lamp's lanes outside its reach, above it or (kCrown: but on a crown's lane) facing away
 // masked to +0.0, and a lamp whose every lane is masked skipped. kCrown adds n_Y·v_Y to n·v on
@@ -1474,9 +1491,36 @@ __attribute__((target("avx2"), always_inline)) inline __m256 lamp_sum8(const Lam
   }
   return acc;
 }
-__attribute__((target("avx2"), always_inline)) inline int vertical_row_body(float* o, const float* tx, const uint16_t* id,
-                                                                           const float* z, const int32_t* reg, int W,
-                                                                           const RowGeom& q, const VerticalCtx& v) {
+// The lines holding bytes p .. p + kBytes − 1 asked for (for writing: kWrite), whatever p's offset.
+// (prfchw: kWrite as PREFETCHW, which AMD's CPUs have and Intel's since Broadwell; Intel's earlier
+// ones execute it as a no-op.)
+template <int kBytes, int kWrite>
+__attribute__((target("prfchw"), always_inline)) inline void prefetch_lines(const float* p) {
+  const char* c = reinterpret_cast<const char*>(p);
+  for (int o = 0; o < kBytes; o += 64) __builtin_prefetch(c + o, kWrite, 3);
+  __builtin_prefetch(c + kBytes - 1, kWrite, 3);
+}
+// The look-ahead of one group of kGroup columns from x (RowAhead; dark: the group holds a lane of
+// the classes the vertical light leaves dark, sky or ground): its texture floats, its floats of
+// the next row of L and of the composed row (12·kGroup bytes each), its depths of the next row
+// and beam values (4·kGroup bytes).
+template <int kGroup>
+__attribute__((target("prfchw"), always_inline)) inline void row_ahead(const RowAhead& ahead, int x, bool dark,
+                                                                      const float* tx) {
+  if (ahead.composed) {
+    prefetch_lines<12 * kGroup, 1>(ahead.composed + 3 * x);
+    prefetch_lines<4 * kGroup, 0>(ahead.beam + x);
+  }
+  if (ahead.composed || (ahead.ground && dark)) prefetch_lines<12 * kGroup, 0>(tx + 3 * x);
+  if (ahead.L_next) prefetch_lines<12 * kGroup, 1>(ahead.L_next + 3 * x);
+  if (ahead.z_next) prefetch_lines<4 * kGroup, 0>(ahead.z_next + x);
+}
+template <bool kAhead>
+__attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_body(float* o, const float* tx,
+                                                                                  const uint16_t* id, const float* z,
+                                                                                  const int32_t* reg, int W,
+                                                                                  const RowGeom& q, const VerticalCtx& v,
+                                                                                  const RowAhead& ahead) {
   const LampArrays& la = *v.la;
   const RelTable& t = *v.t;
   const Candidates8 cc = candidates8_consts(q, v);
@@ -1487,6 +1531,13 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
   size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
   int x = 0;
   for (; x + 8 <= W; x += 8) {
+    if (kAhead) {
+      // (The dark classes' lanes as candidates8_avx2 finds them: bit k of the class mask.)
+      const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+      const __m256i bit = _mm256_and_si256(
+          _mm256_or_si256(_mm256_srlv_epi32(cc.mlo, k), _mm256_srlv_epi32(cc.mhi, _mm256_sub_epi32(k, cc.k32))), cc.one);
+      row_ahead<8>(ahead, x, _mm256_movemask_epi8(_mm256_cmpeq_epi32(bit, cc.one)) != 0, tx);
+    }
     const int m = candidates8_avx2(id, z, x, cc);
     if (!m) continue;
     vertical_group(gr, x, m, x + __builtin_ctz(m), id, z, reg, v);
@@ -1515,9 +1566,11 @@ __attribute__((target("avx2"), always_inline)) inline int vertical_row_body(floa
   _mm256_zeroupper();
   return x;
 }
-__attribute__((target("avx2"))) int vertical_row_avx2(float* o, const float* tx, const uint16_t* id, const float* z,
-                                                     const int32_t* reg, int W, const RowGeom& q, const VerticalCtx& v) {
-  return vertical_row_body(o, tx, id, z, reg, W, q, v);
+template <bool kAhead>
+__attribute__((target("avx2,prfchw"))) int vertical_row_avx2(float* o, const float* tx, const uint16_t* id, const float* z,
+                                                             const int32_t* reg, int W, const RowGeom& q,
+                                                             const VerticalCtx& v, const RowAhead& ahead) {
+  return vertical_row_body<kAhead>(o, tx, id, z, reg, W, q, v, ahead);
 }
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
@@ -1700,9 +1753,13 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 la
 // (The set-up was four of point4's quads from vertical_group's stores, the candidates as two
 // groups of eight; in 512-bit registers it measured faster: docs/benchmarks.md, "Light map,
 // twenty-second session".)
-__attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* o, const float* tx, const uint16_t* id,
-                                                                        const float* z, const int32_t* reg, int W,
-                                                                        const RowGeom& q, const VerticalCtx& v) {
+// (prfchw: PREFETCHW, on every CPU with AVX-512. kAhead: any look-ahead asked for; without, the
+// add_vertical_street_light pass's row has none of its tests.)
+template <bool kAhead>
+__attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(float* o, const float* tx,
+                                                                               const uint16_t* id, const float* z,
+                                                                               const int32_t* reg, int W, const RowGeom& q,
+                                                                               const VerticalCtx& v, const RowAhead& ahead) {
   const LampArrays& la = *v.la;
   const RelTable& t = *v.t;
   const Reflect16 rc16 = reflect16_consts(v.tint);
@@ -1726,6 +1783,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int vertical_row_avx512(float* 
     const __m512i bit = _mm512_and_si512(
         _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), onei);
     const __m512 zf = _mm512_loadu_ps(z + x);
+    if (kAhead) row_ahead<16>(ahead, x, _mm512_cmpeq_epi32_mask(bit, onei) != 0, tx);  // (RowAhead)
     const __mmask16 m0 = _mm512_mask_cmp_ps_mask(
         _mm512_mask_cmp_ps_mask(_mm512_cmpneq_epi32_mask(bit, onei), zf, zero, _CMP_GT_OQ), zf, zinf, _CMP_LT_OQ);
     if (!m0) continue;
@@ -1829,8 +1887,8 @@ struct VerticalPass : LitRows {
   // Row y, with AVX2: groups of eight columns (vertical_row_avx2), the row's last W mod 8 columns
   // then as below; without: the lit pixels compacted, their points, normals and E_v over the
   // lamps (vertical_e_scalar), then the reflection into L. Each pixel's sum is its own, so rows
-  // may go to any thread.
-  void row(ImageF& L, int y, VerticalRow& r) const {
+  // may go to any thread. With AVX2 or AVX-512, `ahead` says what the row pass reads next (RowAhead).
+  void row(ImageF& L, int y, VerticalRow& r, const RowAhead& ahead = RowAhead()) const {
     const float* z = depth_m.row(y);
     const uint16_t* id = labels.row(y);
     const int32_t* reg = fac.region.row(y);
@@ -1838,8 +1896,11 @@ struct VerticalPass : LitRows {
     float* o = L.row(y);
     const double yn = (y - g.cy_px) / g.f_px;
     const RowGeom q{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h};
-    const int x0 = isa >= 2 ? vertical_row_avx512(o, tx, id, z, reg, W, q, ctx)
-                   : isa >= 1 ? vertical_row_avx2(o, tx, id, z, reg, W, q, ctx)
+    const bool any = ahead.ground || ahead.L_next || ahead.z_next || ahead.composed;
+    const int x0 = isa >= 2 ? (any ? vertical_row_avx512<true>(o, tx, id, z, reg, W, q, ctx, ahead)
+                                   : vertical_row_avx512<false>(o, tx, id, z, reg, W, q, ctx, ahead))
+                   : isa >= 1 ? (any ? vertical_row_avx2<true>(o, tx, id, z, reg, W, q, ctx, ahead)
+                                     : vertical_row_avx2<false>(o, tx, id, z, reg, W, q, ctx, ahead))
                               : 0;
     // The pixels lit at all: not sky or ground, a finite positive depth, and a point below the
     // highest lamp and within reach of one along the road (a point at or above every lamp, v_Y ≤ 0
@@ -2580,7 +2641,13 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
       for (int y = chunks[c].first; y < chunks[c].second; ++y) {
         if (first) (*first)(y);
         if (lamps) {
-          vertical->row(L, y, vr);
+          // The look-ahead (RowAhead): the next row only where it is this chunk's (another
+          // thread's row of L would move between the cores).
+          const bool next_mine = y + 1 < chunks[c].second;
+          const RowAhead ahead{y >= pools->y_start, next_mine ? L.row(y + 1) : nullptr,
+                               next_mine ? depth_m.row(y + 1) : nullptr, compose ? compose->night.row(y) : nullptr,
+                               compose ? compose->beam_lux.row(y) : nullptr};
+          vertical->row(L, y, vr, ahead);
           pools->row(L, y, ps);
         }
         windows.row(L, y, ws);
