@@ -1114,7 +1114,7 @@ struct BeamVerticalCtx {
 };
 // The pixel's point, X = z·x_n, D = z·kD, H = z·kY (the camera's height above the point),
 // Y = h − H, and its normal as beam_vertical_lamp_f takes it (m, s). False where the pixel is not
-// lit (not of a lit class, a lane marking, no finite depth, D ≤ 0).
+// lit (not of a lit class, no finite depth, D ≤ 0).
 struct BeamPoint {
   float X, Y, D, mX, mY, mD, s;
   bool crown;
@@ -1127,10 +1127,10 @@ struct BeamPoint {
   return R.column_plane[x - R.x0];
 }
 [[gnu::always_inline]] inline bool beam_vertical_point(const BeamVerticalCtx& c, int x, const uint16_t* id,
-                                                      const float* z, const uint8_t* lane, const int32_t* reg,
-                                                      float kD, float kY, BeamPoint* p) {
+                                                      const float* z, const int32_t* reg, float kD, float kY,
+                                                      BeamPoint* p) {
   const int k = id[x];
-  if (k >= 64 || !(c.classes >> k & 1) || (lane && lane[x])) return false;
+  if (k >= 64 || !(c.classes >> k & 1)) return false;
   const float zz = z[x];
   if (!(zz > 0) || !(zz < kDepthInfinity_m)) return false;
   p->X = zz * c.xn[x];
@@ -1173,8 +1173,7 @@ struct BeamPoint {
 // with a lane below the cut-off's top; a table that is not small (BeamF::small) takes such lanes by
 // the scalar code. So the same bits as beam_vertical_row_scalar.
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_row_avx512(
-    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const uint8_t* lane, const int32_t* reg,
-    float kD, float kY, float* e) {
+    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const BeamF& b = c.b;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1194,16 +1193,18 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
     // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
     const __m512i bit = _mm512_and_si512(
         _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
-    __mmask16 m = _mm512_test_epi32_mask(bit, bit);
-    if (lane && m) m &= _mm_cmpeq_epi8_mask(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lane + x)), _mm_setzero_si128());
-    if (!m) continue;
+    // The lanes of the lit classes (cls: each written, 0 where not lit) and of those the lit ones (m).
+    const __mmask16 cls = _mm512_test_epi32_mask(bit, bit);
+    if (!cls) continue;
     const __m512 vz = _mm512_loadu_ps(z + x);
-    m &= _mm512_cmp_ps_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(vz, zinf, _CMP_LT_OQ);
-    if (!m) continue;
+    __mmask16 m = cls & _mm512_cmp_ps_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(vz, zinf, _CMP_LT_OQ);
     const __m512 X = _mm512_mul_ps(vz, _mm512_loadu_ps(c.xn.data() + x)), D = _mm512_mul_ps(vz, vkD);
     const __m512 Hc = _mm512_mul_ps(vz, vkY), Y = _mm512_sub_ps(vh, Hc);
     m &= _mm512_cmp_ps_mask(D, zero, _CMP_GT_OQ);
-    if (!m) continue;
+    if (!m) {
+      _mm512_mask_storeu_ps(e + x, cls, zero);
+      continue;
+    }
     const __mmask16 crown = m & _mm512_cmpeq_epi32_mask(k, veg);
     // The normals (m, s): a face turned to the camera, a crown's vector to the camera, a façade's plane.
     const __m512 XD2 = _mm512_add_ps(_mm512_mul_ps(X, X), _mm512_mul_ps(D, D));
@@ -1287,11 +1288,11 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
         el = _mm512_mask_div_ps(el, cl, _mm512_mul_ps(I, crown_phase16(_mm512_div_ps(cb, sd))), dm);
       E = _mm512_add_ps(E, _mm512_maskz_mov_ps(lit, el));
     }
-    _mm512_mask_storeu_ps(e + x, m & ~slow, E);
+    _mm512_mask_storeu_ps(e + x, cls & ~slow, E);  // (E is +0.0 on the lanes not lit)
     for (unsigned r = m & slow; r; r &= r - 1) {
       const int xi = x + __builtin_ctz(r);
       BeamPoint q;
-      if (beam_vertical_point(c, xi, id, z, lane, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
+      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
     }
   }
   return Wv;
@@ -1330,8 +1331,7 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
 // gathers. The same operations per lane: the same bits as the scalar rows.
 __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx& c, const uint16_t* id, const float* z,
-                                                           const uint8_t* lane, const int32_t* reg, float kD, float kY,
-                                                           float* e) {
+                                                           const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
   const BeamF& b = c.b;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1351,19 +1351,18 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
     const __m256i bit = _mm256_and_si256(
         _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
-    __m256 m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
-    if (!any(m)) continue;
-    if (lane) {
-      const __m256i l = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
-      m = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(l, _mm256_setzero_si256())));
-    }
+    // The lanes of the lit classes (cls: each written, 0 where not lit) and of those the lit ones (m).
+    const __m256 cls = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
+    if (!any(cls)) continue;
     const __m256 vz = _mm256_loadu_ps(z + x);
-    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(vz, zero, _CMP_GT_OQ), _mm256_cmp_ps(vz, zinf, _CMP_LT_OQ)));
-    if (!any(m)) continue;
+    __m256 m = _mm256_and_ps(cls, _mm256_and_ps(_mm256_cmp_ps(vz, zero, _CMP_GT_OQ), _mm256_cmp_ps(vz, zinf, _CMP_LT_OQ)));
     const __m256 X = _mm256_mul_ps(vz, _mm256_loadu_ps(c.xn.data() + x)), D = _mm256_mul_ps(vz, vkD);
     const __m256 Hc = _mm256_mul_ps(vz, vkY), Y = _mm256_sub_ps(vh, Hc);
     m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
-    if (!any(m)) continue;
+    if (!any(m)) {
+      _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), zero);
+      continue;
+    }
     const __m256 crown = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, veg)));
     const bool any_crown = any(crown);
     const __m256 XD2 = _mm256_add_ps(_mm256_mul_ps(X, X), _mm256_mul_ps(D, D));
@@ -1445,17 +1444,21 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
         el = _mm256_blendv_ps(el, _mm256_div_ps(_mm256_mul_ps(I, crown_phase8(_mm256_div_ps(cb, sd))), dm), cl);
       E = _mm256_add_ps(E, _mm256_and_ps(lit, el));
     }
-    _mm256_maskstore_ps(e + x, _mm256_castps_si256(m), E);
+    _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), E);  // (E is +0.0 on the lanes not lit)
   }
   _mm256_zeroupper();
   return Wv;
 }
+// Every pixel of a lit class gets its E, 0 where the rule lights nothing (no finite depth, D ≤ 0,
+// beside the table, a face turned away): the image's value there before (the ground's E on a
+// lane marking, low_beam_illuminance) is not kept.
 void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
-                              const uint8_t* lane, const int32_t* reg, float kD, float kY, float* e) {
+                              const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size());
   for (int x = x0; x < W; ++x) {
+    if (id[x] >= 64 || !(c.classes >> id[x] & 1)) continue;
     BeamPoint q;
-    if (beam_vertical_point(c, x, id, z, lane, reg, kD, kY, &q)) e[x] = beam_vertical_e(c, q);
+    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q) ? beam_vertical_e(c, q) : 0.f;
   }
 }
 }  // namespace
@@ -1506,23 +1509,21 @@ struct BeamVerticalRows::Impl {
   ImageF& beam;
   const ImageU16& labels;
   const ImageF& depth;
-  const ImageU8* lanes;
   const BuildingFacades* fac;
   double cp, sp;
   bool avx512, avx2;
   Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
-       const BuildingFacades* facades, const ImageU8* lanes_, const ScenePreset& p)
+       const BuildingFacades* facades, const ScenePreset& p)
       : b(beam_f(p)),
         c{b, g, facades, std::vector<float>(beam_lux.width()), {}, {}, label_bits(beam_vertical_classes()),
           static_cast<int>(Label::Building), static_cast<int>(Label::Vegetation), static_cast<float>(g.mount_height_m),
           b.xl[0], b.xl[1]},
-        beam(beam_lux), labels(labels_), depth(depth_m), lanes(lanes_), fac(facades), cp(std::cos(g.pitch_rad)),
+        beam(beam_lux), labels(labels_), depth(depth_m), fac(facades), cp(std::cos(g.pitch_rad)),
         sp(std::sin(g.pitch_rad)), avx512(kHaveAvx512 && beam_isa_cap >= 2),
         avx2(kHaveAvx2 && beam_isa_cap >= 1) {
     const int W = beam.width(), H = beam.height();
-    if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H ||
-        (lanes && (lanes->width() != W || lanes->height() != H)))
-      fail("low beam on vertical surfaces: the beam, labels, depth and lanes differ in size");
+    if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H)
+      fail("low beam on vertical surfaces: the beam, labels and depth differ in size");
     for (int x = 0; x < W; ++x) c.xn[x] = static_cast<float>((x - g.cx_px) / g.f_px);
     if (facades)
       for (const FacadePlane& f : facades->planes) {
@@ -1533,9 +1534,8 @@ struct BeamVerticalRows::Impl {
 };
 
 BeamVerticalRows::BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                   const ImageF& depth_m, const BuildingFacades* facades, const ImageU8* lanes,
-                                   const ScenePreset& p)
-    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, lanes, p)) {}
+                                   const ImageF& depth_m, const BuildingFacades* facades, const ScenePreset& p)
+    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, p)) {}
 BeamVerticalRows::~BeamVerticalRows() = default;
 
 void BeamVerticalRows::row(int y) const {
@@ -1545,19 +1545,18 @@ void BeamVerticalRows::row(int y) const {
   const double yn = (y - g.cy_px) / g.f_px;
   const float kD = static_cast<float>(m.cp - yn * m.sp), kY = static_cast<float>(m.sp + yn * m.cp);
   const int32_t* reg = m.fac && !m.fac->region.empty() ? m.fac->region.row(y) : nullptr;
-  const uint8_t* lane = m.lanes ? m.lanes->row(y) : nullptr;
   const uint16_t* id = m.labels.row(y);
   const float* z = m.depth.row(y);
   float* e = m.beam.row(y);
-  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, lane, reg, kD, kY, e)
-                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, lane, reg, kD, kY, e)
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e)
+                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e)
                           : 0;
-  beam_vertical_row_scalar(m.c, x0, id, z, lane, reg, kD, kY, e);
+  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e);
 }
 
 void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p) {
-  const BeamVerticalRows rows(beam_lux, g, labels, depth_m, facades, lanes, p);
+                           const BuildingFacades* facades, const ScenePreset& p) {
+  const BeamVerticalRows rows(beam_lux, g, labels, depth_m, facades, p);
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < beam_lux.height(); ++y) rows.row(y);
 }

@@ -2556,7 +2556,7 @@ struct BeamVerticalScene {
   }
   ImageF beam() const {
     ImageF E = low_beam_illuminance(o.camera, o.width, o.height, p, &sc.labels.ids);
-    add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, nullptr, p);
+    add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, p);
     return E;
   }
   // The pixel's point as add_low_beam_vertical takes it (float: X = z·x_n, D = z·kD, H = z·kY,
@@ -2686,7 +2686,7 @@ TEST(EgoLowBeamVertical, FloatRowsAgainstTheDoubleReference) {
 
 // The rows eight (AVX2) and sixteen (AVX-512) pixels at a time are the scalar rows' bits: random classes (the lit
 // ones, the ground, sky, signs, ids of 64 and more), depths (odd ones: NaN, ±∞, ±0, negative,
-// tiny, and the sky's), lane markings, and façade planes of a region whose columns change plane
+// tiny, and the sky's: the lit classes' pixels there written 0), and façade planes of a region whose columns change plane
 // (one plane, two, none) and of pixels outside any region.
 TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   SyntheticCameraOptions o = camera_scene();
@@ -2702,7 +2702,6 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   const float odd[] = {NAN, INFINITY, -INFINITY, 0.f, -0.f, -3.f, 1e-30f, kDepthInfinity_m};
   ImageU16 lab(W, H, 1, 0);
   ImageF depth(W, H, 1, 0.f);
-  ImageU8 lanes(W, H, 1, 0);
   BuildingFacades fac;
   fac.region = ImageI32(W, H, 1, -1);
   fac.planes = {{0.3, 0.954, 10, 0, 0, 12, true}, {-1, 0, 6, 0, 0, 12, true}, {0, 1, 40, 0, 0, 0, false}};
@@ -2716,7 +2715,6 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
       const uint16_t id = ids[static_cast<int>(U(rng) * 10)];
       lab.at(x, y) = id;
       depth.at(x, y) = U(rng) < 0.03 ? odd[static_cast<int>(U(rng) * 8)] : static_cast<float>(0.3 * std::pow(200 / 0.3, U(rng)));
-      lanes.at(x, y) = U(rng) < 0.05 ? 255 : 0;
       if (id == static_cast<uint16_t>(Label::Building) && x >= R.x0 && x < R.x0 + static_cast<int>(R.column_plane.size()) &&
           U(rng) < 0.9)
         fac.region.at(x, y) = 0;
@@ -2725,7 +2723,7 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   for (const int isa : {0, 1, 2}) {
     beam_max_isa(isa);
     ImageF E(W, H, 1, -1.f);  // the untouched pixels keep it
-    add_low_beam_vertical(E, o.camera, lab, depth, &fac, &lanes, p);
+    add_low_beam_vertical(E, o.camera, lab, depth, &fac, p);
     out.push_back(std::move(E));
   }
   beam_max_isa(2);
@@ -2769,6 +2767,39 @@ TEST(EgoLowBeamVertical, ComposeReflectsItOnTheVerticalClasses) {
   EXPECT_GT(vertical, 1000);
   EXPECT_FALSE(lit >> static_cast<int>(Label::TrafficSign) & 1);
   EXPECT_FALSE(lit >> static_cast<int>(Label::Sky) & 1);
+}
+
+// A lane-marking pixel whose label is a vertical class (the upsampled lane mask's border reaches
+// past the road: lanes_at_frame repeats each working pixel over a block of frame pixels, and the
+// working labels are the frame's resized by nearest neighbour) takes its beam from the vertical
+// rule alone, as every pixel of its class: low_beam_illuminance computes the ground's E on lane
+// pixels (the light map's retroreflection reads it there), and compose applies the image on the
+// vertical classes, so the vertical rule must replace it there (E of the pixel's surface, 0 where
+// the rule lights nothing). The scene marked as lane markings all over against unmarked: every
+// pixel of a vertical class has the same beam, bit for bit, and the ground's E on the marked
+// vertical pixels (nonzero below the horizon) shows the test can see the difference.
+TEST(EgoLowBeamVertical, LaneMarkingPixelsOfAVerticalClassTakeTheVerticalRuleOnly) {
+  const BeamVerticalScene s;
+  const int W = s.o.width, H = s.o.height;
+  const ImageU8 lanes(W, H, 1, 255);
+  const ImageF plain = s.beam();
+  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p, &s.sc.labels.ids, &lanes);
+  ImageF marked = ground;
+  add_low_beam_vertical(marked, s.o.camera, s.sc.labels.ids, s.sc.depth_m, nullptr, s.p);
+  const auto& vertical = beam_vertical_classes();
+  int pixels = 0, ground_lit = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = s.sc.labels.ids.at(x, y);
+      if (!vertical[id]) continue;
+      ++pixels;
+      ground_lit += ground.at(x, y) > 0 && ground.at(x, y) != plain.at(x, y);
+      ASSERT_EQ(marked.at(x, y), plain.at(x, y)) << x << "," << y << " class " << id << ", the ground's E "
+                                                 << ground.at(x, y);
+    }
+  std::fprintf(stderr, "[beam vertical] %d marked pixels of vertical classes, %d with another ground E\n", pixels,
+               ground_lit);
+  EXPECT_GT(ground_lit, 1000);
 }
 
 // Façades (issue 14 §2): each building region's façade is a vertical plane fitted to its

@@ -306,14 +306,16 @@ const std::array<bool, kLabelCount>& beam_vertical_classes();
 // The classes whose pixels compose() lights with beam_lux, as bits by class id: the ground classes
 // and beam_vertical_classes.
 uint64_t beam_lit_class_bits();
-// Writes into beam_lux (low_beam_illuminance's image) the low beam's E on the pixels of
-// beam_vertical_classes with a finite positive depth (depth_m, camera z; the point from the
-// camera geometry) that are not lane markings: low_beam_vertical_lux's float evaluation at the
-// pixel's point, the normal that of its façade plane (facades; buildings) or turned to the camera
-// (a crown's: the unit vector to the camera). Other pixels keep their value. compose() reads it
-// on those classes as on the ground.
+// Writes into beam_lux (low_beam_illuminance's image) the low beam's E on every pixel of
+// beam_vertical_classes: low_beam_vertical_lux's float evaluation at the pixel's point (depth_m,
+// camera z; the point from the camera geometry), the normal that of its façade plane (facades;
+// buildings) or turned to the camera (a crown's: the unit vector to the camera); 0 where the
+// depth is not finite and positive. Lane markings included: the ground's E that
+// low_beam_illuminance gives a marking pixel (for the light map's retroreflection, read before)
+// is replaced on these classes, so that compose() lights a vertical surface by this rule alone.
+// Other pixels keep their value. compose() reads it on those classes as on the ground.
 void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p);
+                           const BuildingFacades* facades, const ScenePreset& p);
 
 struct LightStats {
   int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;
