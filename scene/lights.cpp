@@ -660,10 +660,55 @@ struct BeamCell16 { __m512 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r
   c.r00 = _mm512_set1_ps(r0[0]), c.r01 = _mm512_set1_ps(r0[1]);
   c.r10 = _mm512_set1_ps(r0[b.nh]), c.r11 = _mm512_set1_ps(r0[b.nh + 1]);
 }
+// beam_table_f's steps on sixteen lanes, shared by the ground's rows (beam_row_avx512) and the
+// vertical surfaces' (beam_table16). A small grid's registers (BeamF::small): the grids of at most
+// 8 angles in the low lanes, read by a lane permutation, and the table's 64 values (BeamF::I64)
+// in four, value k of a lane's index k (< 64) from the two-register permute of its half, chosen
+// by bit 5.
+struct BeamSmall16 { __m512 H8, rH8, V8, rV8, I0, I1, I2, I3; };
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline BeamSmall16 beam_small16(const BeamF& b) {
+  return {_mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8)),
+          _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8)),
+          _mm512_load_ps(b.I64),                         _mm512_load_ps(b.I64 + 16),
+          _mm512_load_ps(b.I64 + 32),                    _mm512_load_ps(b.I64 + 48)};
+}
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline __m512 beam_small_value16(const BeamSmall16& S, __m512i k) {
+  return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, _mm512_set1_epi32(32)), _mm512_permutex2var_ps(S.I0, k, S.I1),
+                              _mm512_permutex2var_ps(S.I2, k, S.I3));
+}
+// Each lane's cell (i, j) as counts of the inner grid angles at or below its (h, v).
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline void beam_cell_index16(__m512 h, __m512 v, const BeamF& b, __m512i& j,
+                                                                      __m512i& i) {
+  const __m512i ione = _mm512_set1_epi32(1);
+  j = _mm512_setzero_si512(), i = _mm512_setzero_si512();
+  for (int m = 1; m + 1 < b.nh; ++m) j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
+  for (int m = 1; m + 1 < b.nv; ++m) i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+}
+// A small grid's cell (i, j) per lane: its lower nodes, their reciprocal spacings and its four
+// intensities (r00 = I[i·nh + j], r01 the next along h, r10, r11 the next row along v).
+struct BeamCorners16 { __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline BeamCorners16 beam_small_corners16(const BeamSmall16& S, __m512i j,
+                                                                                 __m512i i, int nh) {
+  const __m512i ione = _mm512_set1_epi32(1), vnh = _mm512_set1_epi32(nh);
+  const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j), c1 = _mm512_add_epi32(c0, vnh);
+  return {_mm512_permutexvar_ps(j, S.H8),           _mm512_permutexvar_ps(j, S.rH8),
+          _mm512_permutexvar_ps(i, S.V8),           _mm512_permutexvar_ps(i, S.rV8),
+          beam_small_value16(S, c0),                beam_small_value16(S, _mm512_add_epi32(c0, ione)),
+          beam_small_value16(S, c1),                beam_small_value16(S, _mm512_add_epi32(c1, ione))};
+}
+// The bilinear interpolation in the cell: beam_table_f's operations in its order.
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline __m512 beam_bilerp16(__m512 h, __m512 v, const BeamCorners16& q) {
+  const __m512 one = _mm512_set1_ps(1.f);
+  const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, q.Hj), q.rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, q.Vi), q.rVi);
+  const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
+  const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, q.r00), _mm512_mul_ps(a, q.r01));
+  const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, q.r10), _mm512_mul_ps(a, q.r11));
+  return _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot));
+}
 PHOTOSITE_AVX512
 void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                      const uint8_t* lane, uint64_t read_mask, float* out) {
-  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f);
+  const __m512 zero = _mm512_setzero_ps();
   const __m512i sign = _mm512_set1_epi32(INT32_MIN);
   const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
                hl2 = _mm512_set1_ps(b.hl2), deg = _mm512_set1_ps(b.deg);
@@ -671,21 +716,12 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
   const __m512 h_lo = _mm512_set1_ps(b.H[0]), h_hi = _mm512_set1_ps(b.H[b.nh - 1]);
   const __m512 v_lo = _mm512_set1_ps(b.V[0]), v_hi = _mm512_set1_ps(b.V[b.nv - 1]);
   const __m512i vnh = _mm512_set1_epi32(b.nh);
-  // The grids of at most 8 angles (BeamF::small) in the low lanes, read by a lane permutation.
-  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
-  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
+  const BeamSmall16 S = beam_small16(b);  // (small grids)
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
                 mhi = _mm512_set1_epi32(static_cast<int32_t>(read_mask >> 32)), ione = _mm512_set1_epi32(1),
                 k32 = _mm512_set1_epi32(32);
   const __m512d vt = _mm512_set1_pd(t);
   const float* I = b.I.data();
-  // The table's 64 values (BeamF::I64, small grids) in four registers: value k of a lane's index k
-  // (< 64) from the two-register permute of its half, chosen by bit 5.
-  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
-               I3 = _mm512_load_ps(b.I64 + 48);
-  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
-    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
-  };
   BeamCell16 cell[2];  // each lamp's carried cell
   beam_cell16(cell[0], b, 0, 0);
   beam_cell16(cell[1], b, 0, 0);
@@ -737,44 +773,27 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
         shared = (in_h & in_v & lit) == lit;
       }
       if (!shared) {
-        j = _mm512_setzero_si512(), i = _mm512_setzero_si512();  // cell indices as counts
-        for (int m = 1; m + 1 < b.nh; ++m)
-          j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
-        for (int m = 1; m + 1 < b.nv; ++m)
-          i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+        beam_cell_index16(h, v, b, j, i);
         const __m512i first = _mm512_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit)));
         const __m512i j0 = _mm512_permutexvar_epi32(first, j), i0 = _mm512_permutexvar_epi32(first, i);
         const __mmask16 same = _mm512_cmpeq_epi32_mask(j, j0) & _mm512_cmpeq_epi32_mask(i, i0);
         shared = (lit & same) == lit;
         if (shared) beam_cell16(cell[k], b, _mm512_cvtsi512_si32(j0), _mm512_cvtsi512_si32(i0));
       }
-      __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
+      BeamCorners16 q;
       if (shared) {
         const BeamCell16& c = cell[k];
-        Hj = c.Hj, rHj = c.rHj, Vi = c.Vi, rVi = c.rVi, r00 = c.r00, r01 = c.r01, r10 = c.r10, r11 = c.r11;
+        q = {c.Hj, c.rHj, c.Vi, c.rVi, c.r00, c.r01, c.r10, c.r11};
+      } else if (b.small) {
+        q = beam_small_corners16(S, j, i, b.nh);
       } else {
-        if (b.small) {
-          Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
-          Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
-        } else {
-          Hj = _mm512_i32gather_ps(j, b.H.data(), 4), rHj = _mm512_i32gather_ps(j, b.rH.data(), 4);
-          Vi = _mm512_i32gather_ps(i, b.V.data(), 4), rVi = _mm512_i32gather_ps(i, b.rV.data(), 4);
-        }
         const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j);  // r0 + j
-        if (b.small) {
-          const __m512i c1 = _mm512_add_epi32(c0, vnh);
-          r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione));
-          r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
-        } else {
-          r00 = _mm512_i32gather_ps(c0, I, 4), r01 = _mm512_i32gather_ps(c0, I + 1, 4);
-          r10 = _mm512_i32gather_ps(c0, I + b.nh, 4), r11 = _mm512_i32gather_ps(c0, I + b.nh + 1, 4);
-        }
+        q = {_mm512_i32gather_ps(j, b.H.data(), 4), _mm512_i32gather_ps(j, b.rH.data(), 4),
+             _mm512_i32gather_ps(i, b.V.data(), 4), _mm512_i32gather_ps(i, b.rV.data(), 4),
+             _mm512_i32gather_ps(c0, I, 4),         _mm512_i32gather_ps(c0, I + 1, 4),
+             _mm512_i32gather_ps(c0, I + b.nh, 4),  _mm512_i32gather_ps(c0, I + b.nh + 1, 4)};
       }
-      const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
-      const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
-      const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
-      const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
-      const __m512 Iv = _mm512_maskz_mov_ps(lit, _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot)));
+      const __m512 Iv = _mm512_maskz_mov_ps(lit, beam_bilerp16(h, v, q));
       acc = _mm512_add_ps(acc, _mm512_mul_ps(Iv, _mm512_div_ps(hl, _mm512_mul_ps(d2, d))));
     }
     _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
@@ -784,27 +803,9 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
 // beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
 // lane permutations): the same operations per lane.
 PHOTOSITE_AVX512 inline __m512 beam_table16(__m512 h, __m512 v, const BeamF& b) {
-  const __m512i ione = _mm512_set1_epi32(1), k32 = _mm512_set1_epi32(32), vnh = _mm512_set1_epi32(b.nh);
-  __m512i j = _mm512_setzero_si512(), i = _mm512_setzero_si512();
-  for (int m = 1; m + 1 < b.nh; ++m) j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
-  for (int m = 1; m + 1 < b.nv; ++m) i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
-  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
-  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
-  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
-               I3 = _mm512_load_ps(b.I64 + 48);
-  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
-    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
-  };
-  const __m512 Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
-  const __m512 Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
-  const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j), c1 = _mm512_add_epi32(c0, vnh);
-  const __m512 r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione)), r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
-  const __m512 one = _mm512_set1_ps(1.f);
-  const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
-  const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
-  const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
-  const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
-  return _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot));
+  __m512i j, i;
+  beam_cell_index16(h, v, b, j, i);
+  return beam_bilerp16(h, v, beam_small_corners16(beam_small16(b), j, i, b.nh));
 }
 #undef PHOTOSITE_AVX512
 #pragma GCC diagnostic pop
@@ -1119,13 +1120,6 @@ struct BeamPoint {
   float X, Y, D, mX, mY, mD, s;
   bool crown;
 };
-// The index of the façade plane of a building pixel at column x of a row whose region ids are
-// `reg` (BuildingFacades::plane_at's lookup, with the row's ids at hand), -1 where it has none.
-[[gnu::always_inline]] inline int facade_plane_index(const BuildingFacades& fac, const int32_t* reg, int x) {
-  if (reg[x] < 0) return -1;
-  const BuildingFacades::Region& R = fac.regions[reg[x]];
-  return R.column_plane[x - R.x0];
-}
 [[gnu::always_inline]] inline bool beam_vertical_point(const BeamVerticalCtx& c, int x, const uint16_t* id,
                                                       const float* z, const int32_t* reg, float kD, float kY,
                                                       BeamPoint* p) {
@@ -1144,7 +1138,7 @@ struct BeamPoint {
   p->mD = -p->D;
   const float XD2 = p->X * p->X + p->D * p->D;
   if (k == c.building && reg) {
-    if (const int pi = facade_plane_index(*c.fac, reg, x); pi >= 0) {
+    if (const int pi = c.fac->plane_index(reg, x); pi >= 0) {
       p->mX = c.plane_nX[pi];
       p->mD = c.plane_nD[pi];
       p->s = 1.f;
@@ -1236,7 +1230,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
       } else {
         alignas(64) float pX[16], pD[16];
         for (unsigned r = bm; r; r &= r - 1) {
-          const int i = __builtin_ctz(r), pi = facade_plane_index(*c.fac, reg, x + i);
+          const int i = __builtin_ctz(r), pi = c.fac->plane_index(reg, x + i);
           if (pi < 0) continue;
           pX[i] = c.plane_nX[pi];
           pD[i] = c.plane_nD[pi];
@@ -1397,7 +1391,7 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
         for (int i = 0; i < 8; ++i) {
           pm[i] = 0;
           pX[i] = pD[i] = 0.f;
-          const int pi = bits >> i & 1 ? facade_plane_index(*c.fac, reg, x + i) : -1;
+          const int pi = bits >> i & 1 ? c.fac->plane_index(reg, x + i) : -1;
           if (pi < 0) continue;
           pX[i] = c.plane_nX[pi];
           pD[i] = c.plane_nD[pi];

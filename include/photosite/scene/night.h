@@ -254,6 +254,14 @@ struct BuildingFacades {
   std::vector<Region> regions;
   // The façade plane of pixel (x, y), or nullptr off buildings.
   const FacadePlane* plane_at(int x, int y, bool* on_plane = nullptr) const;
+  // plane_at's lookup as an index into `planes` (-1: none), for the rows that hold a row's region
+  // ids (reg = region.row(y)) at hand: column x of region r (r >= 0, x in its columns), and of a
+  // pixel whose region is not known to be one (-1 off buildings).
+  int plane_of_region(int r, int x) const {
+    const Region& R = regions[r];
+    return R.column_plane[x - R.x0];
+  }
+  int plane_index(const int32_t* reg, int x) const { return reg[x] < 0 ? -1 : plane_of_region(reg[x], x); }
 };
 BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m);
 // Camera z where the pixel ray through (u, v) meets the vertical plane; INFINITY when it does not
