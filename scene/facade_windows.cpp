@@ -249,6 +249,7 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
   for (int k = 0; k < nplanes; ++k) {
     size_t count = 0;
     for (size_t th = 0; th < per_thread.size(); ++th) count += per_thread[th][k].size();
+    out.planes[k].samples = static_cast<int>(count);
     if (count >= 100) order.push_back({count, k});
   }
   std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {

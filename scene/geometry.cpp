@@ -601,9 +601,8 @@ namespace photosite::scene {
 const FacadePlane* BuildingFacades::plane_at(int x, int y, bool* on_plane) const {
   const int r = region.at(x, y);
   if (r < 0) return nullptr;
-  const Region& R = regions[r];
-  const int i = R.column_plane[x - R.x0];
-  if (on_plane) *on_plane = R.on_plane[x - R.x0] != 0;
+  const int i = plane_of_region(r, x);
+  if (on_plane) *on_plane = regions[r].on_plane[x - regions[r].x0] != 0;
   return i >= 0 ? &planes[i] : nullptr;
 }
 

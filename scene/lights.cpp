@@ -660,10 +660,55 @@ struct BeamCell16 { __m512 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r
   c.r00 = _mm512_set1_ps(r0[0]), c.r01 = _mm512_set1_ps(r0[1]);
   c.r10 = _mm512_set1_ps(r0[b.nh]), c.r11 = _mm512_set1_ps(r0[b.nh + 1]);
 }
+// beam_table_f's steps on sixteen lanes, shared by the ground's rows (beam_row_avx512) and the
+// vertical surfaces' (beam_table16). A small grid's registers (BeamF::small): the grids of at most
+// 8 angles in the low lanes, read by a lane permutation, and the table's 64 values (BeamF::I64)
+// in four, value k of a lane's index k (< 64) from the two-register permute of its half, chosen
+// by bit 5.
+struct BeamSmall16 { __m512 H8, rH8, V8, rV8, I0, I1, I2, I3; };
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline BeamSmall16 beam_small16(const BeamF& b) {
+  return {_mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8)),
+          _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8)),
+          _mm512_load_ps(b.I64),                         _mm512_load_ps(b.I64 + 16),
+          _mm512_load_ps(b.I64 + 32),                    _mm512_load_ps(b.I64 + 48)};
+}
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline __m512 beam_small_value16(const BeamSmall16& S, __m512i k) {
+  return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, _mm512_set1_epi32(32)), _mm512_permutex2var_ps(S.I0, k, S.I1),
+                              _mm512_permutex2var_ps(S.I2, k, S.I3));
+}
+// Each lane's cell (i, j) as counts of the inner grid angles at or below its (h, v).
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline void beam_cell_index16(__m512 h, __m512 v, const BeamF& b, __m512i& j,
+                                                                      __m512i& i) {
+  const __m512i ione = _mm512_set1_epi32(1);
+  j = _mm512_setzero_si512(), i = _mm512_setzero_si512();
+  for (int m = 1; m + 1 < b.nh; ++m) j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
+  for (int m = 1; m + 1 < b.nv; ++m) i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+}
+// A small grid's cell (i, j) per lane: its lower nodes, their reciprocal spacings and its four
+// intensities (r00 = I[i·nh + j], r01 the next along h, r10, r11 the next row along v).
+struct BeamCorners16 { __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline BeamCorners16 beam_small_corners16(const BeamSmall16& S, __m512i j,
+                                                                                 __m512i i, int nh) {
+  const __m512i ione = _mm512_set1_epi32(1), vnh = _mm512_set1_epi32(nh);
+  const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j), c1 = _mm512_add_epi32(c0, vnh);
+  return {_mm512_permutexvar_ps(j, S.H8),           _mm512_permutexvar_ps(j, S.rH8),
+          _mm512_permutexvar_ps(i, S.V8),           _mm512_permutexvar_ps(i, S.rV8),
+          beam_small_value16(S, c0),                beam_small_value16(S, _mm512_add_epi32(c0, ione)),
+          beam_small_value16(S, c1),                beam_small_value16(S, _mm512_add_epi32(c1, ione))};
+}
+// The bilinear interpolation in the cell: beam_table_f's operations in its order.
+[[gnu::always_inline]] PHOTOSITE_AVX512 inline __m512 beam_bilerp16(__m512 h, __m512 v, const BeamCorners16& q) {
+  const __m512 one = _mm512_set1_ps(1.f);
+  const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, q.Hj), q.rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, q.Vi), q.rVi);
+  const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
+  const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, q.r00), _mm512_mul_ps(a, q.r01));
+  const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, q.r10), _mm512_mul_ps(a, q.r11));
+  return _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot));
+}
 PHOTOSITE_AVX512
 void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                      const uint8_t* lane, uint64_t read_mask, float* out) {
-  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f);
+  const __m512 zero = _mm512_setzero_ps();
   const __m512i sign = _mm512_set1_epi32(INT32_MIN);
   const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
                hl2 = _mm512_set1_ps(b.hl2), deg = _mm512_set1_ps(b.deg);
@@ -671,21 +716,12 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
   const __m512 h_lo = _mm512_set1_ps(b.H[0]), h_hi = _mm512_set1_ps(b.H[b.nh - 1]);
   const __m512 v_lo = _mm512_set1_ps(b.V[0]), v_hi = _mm512_set1_ps(b.V[b.nv - 1]);
   const __m512i vnh = _mm512_set1_epi32(b.nh);
-  // The grids of at most 8 angles (BeamF::small) in the low lanes, read by a lane permutation.
-  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
-  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
+  const BeamSmall16 S = beam_small16(b);  // (small grids)
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
                 mhi = _mm512_set1_epi32(static_cast<int32_t>(read_mask >> 32)), ione = _mm512_set1_epi32(1),
                 k32 = _mm512_set1_epi32(32);
   const __m512d vt = _mm512_set1_pd(t);
   const float* I = b.I.data();
-  // The table's 64 values (BeamF::I64, small grids) in four registers: value k of a lane's index k
-  // (< 64) from the two-register permute of its half, chosen by bit 5.
-  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
-               I3 = _mm512_load_ps(b.I64 + 48);
-  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
-    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
-  };
   BeamCell16 cell[2];  // each lamp's carried cell
   beam_cell16(cell[0], b, 0, 0);
   beam_cell16(cell[1], b, 0, 0);
@@ -737,44 +773,27 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
         shared = (in_h & in_v & lit) == lit;
       }
       if (!shared) {
-        j = _mm512_setzero_si512(), i = _mm512_setzero_si512();  // cell indices as counts
-        for (int m = 1; m + 1 < b.nh; ++m)
-          j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
-        for (int m = 1; m + 1 < b.nv; ++m)
-          i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
+        beam_cell_index16(h, v, b, j, i);
         const __m512i first = _mm512_set1_epi32(__builtin_ctz(static_cast<unsigned>(lit)));
         const __m512i j0 = _mm512_permutexvar_epi32(first, j), i0 = _mm512_permutexvar_epi32(first, i);
         const __mmask16 same = _mm512_cmpeq_epi32_mask(j, j0) & _mm512_cmpeq_epi32_mask(i, i0);
         shared = (lit & same) == lit;
         if (shared) beam_cell16(cell[k], b, _mm512_cvtsi512_si32(j0), _mm512_cvtsi512_si32(i0));
       }
-      __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11;
+      BeamCorners16 q;
       if (shared) {
         const BeamCell16& c = cell[k];
-        Hj = c.Hj, rHj = c.rHj, Vi = c.Vi, rVi = c.rVi, r00 = c.r00, r01 = c.r01, r10 = c.r10, r11 = c.r11;
+        q = {c.Hj, c.rHj, c.Vi, c.rVi, c.r00, c.r01, c.r10, c.r11};
+      } else if (b.small) {
+        q = beam_small_corners16(S, j, i, b.nh);
       } else {
-        if (b.small) {
-          Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
-          Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
-        } else {
-          Hj = _mm512_i32gather_ps(j, b.H.data(), 4), rHj = _mm512_i32gather_ps(j, b.rH.data(), 4);
-          Vi = _mm512_i32gather_ps(i, b.V.data(), 4), rVi = _mm512_i32gather_ps(i, b.rV.data(), 4);
-        }
         const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j);  // r0 + j
-        if (b.small) {
-          const __m512i c1 = _mm512_add_epi32(c0, vnh);
-          r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione));
-          r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
-        } else {
-          r00 = _mm512_i32gather_ps(c0, I, 4), r01 = _mm512_i32gather_ps(c0, I + 1, 4);
-          r10 = _mm512_i32gather_ps(c0, I + b.nh, 4), r11 = _mm512_i32gather_ps(c0, I + b.nh + 1, 4);
-        }
+        q = {_mm512_i32gather_ps(j, b.H.data(), 4), _mm512_i32gather_ps(j, b.rH.data(), 4),
+             _mm512_i32gather_ps(i, b.V.data(), 4), _mm512_i32gather_ps(i, b.rV.data(), 4),
+             _mm512_i32gather_ps(c0, I, 4),         _mm512_i32gather_ps(c0, I + 1, 4),
+             _mm512_i32gather_ps(c0, I + b.nh, 4),  _mm512_i32gather_ps(c0, I + b.nh + 1, 4)};
       }
-      const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
-      const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
-      const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
-      const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
-      const __m512 Iv = _mm512_maskz_mov_ps(lit, _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot)));
+      const __m512 Iv = _mm512_maskz_mov_ps(lit, beam_bilerp16(h, v, q));
       acc = _mm512_add_ps(acc, _mm512_mul_ps(Iv, _mm512_div_ps(hl, _mm512_mul_ps(d2, d))));
     }
     _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
@@ -784,27 +803,9 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
 // beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
 // lane permutations): the same operations per lane.
 PHOTOSITE_AVX512 inline __m512 beam_table16(__m512 h, __m512 v, const BeamF& b) {
-  const __m512i ione = _mm512_set1_epi32(1), k32 = _mm512_set1_epi32(32), vnh = _mm512_set1_epi32(b.nh);
-  __m512i j = _mm512_setzero_si512(), i = _mm512_setzero_si512();
-  for (int m = 1; m + 1 < b.nh; ++m) j = _mm512_mask_add_epi32(j, _mm512_cmp_ps_mask(_mm512_set1_ps(b.H[m]), h, _CMP_LE_OQ), j, ione);
-  for (int m = 1; m + 1 < b.nv; ++m) i = _mm512_mask_add_epi32(i, _mm512_cmp_ps_mask(_mm512_set1_ps(b.V[m]), v, _CMP_LE_OQ), i, ione);
-  const __m512 H8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.H8)), rH8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rH8));
-  const __m512 V8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.V8)), rV8 = _mm512_castps256_ps512(_mm256_loadu_ps(b.rV8));
-  const __m512 I0 = _mm512_load_ps(b.I64), I1 = _mm512_load_ps(b.I64 + 16), I2 = _mm512_load_ps(b.I64 + 32),
-               I3 = _mm512_load_ps(b.I64 + 48);
-  auto table = [&](__m512i k) PHOTOSITE_AVX512 {
-    return _mm512_mask_blend_ps(_mm512_test_epi32_mask(k, k32), _mm512_permutex2var_ps(I0, k, I1), _mm512_permutex2var_ps(I2, k, I3));
-  };
-  const __m512 Hj = _mm512_permutexvar_ps(j, H8), rHj = _mm512_permutexvar_ps(j, rH8);
-  const __m512 Vi = _mm512_permutexvar_ps(i, V8), rVi = _mm512_permutexvar_ps(i, rV8);
-  const __m512i c0 = _mm512_add_epi32(_mm512_mullo_epi32(i, vnh), j), c1 = _mm512_add_epi32(c0, vnh);
-  const __m512 r00 = table(c0), r01 = table(_mm512_add_epi32(c0, ione)), r10 = table(c1), r11 = table(_mm512_add_epi32(c1, ione));
-  const __m512 one = _mm512_set1_ps(1.f);
-  const __m512 a = _mm512_mul_ps(_mm512_sub_ps(h, Hj), rHj), c = _mm512_mul_ps(_mm512_sub_ps(v, Vi), rVi);
-  const __m512 ia = _mm512_sub_ps(one, a), ic = _mm512_sub_ps(one, c);
-  const __m512 top = _mm512_add_ps(_mm512_mul_ps(ia, r00), _mm512_mul_ps(a, r01));
-  const __m512 bot = _mm512_add_ps(_mm512_mul_ps(ia, r10), _mm512_mul_ps(a, r11));
-  return _mm512_add_ps(_mm512_mul_ps(ic, top), _mm512_mul_ps(c, bot));
+  __m512i j, i;
+  beam_cell_index16(h, v, b, j, i);
+  return beam_bilerp16(h, v, beam_small_corners16(beam_small16(b), j, i, b.nh));
 }
 #undef PHOTOSITE_AVX512
 #pragma GCC diagnostic pop
@@ -1114,23 +1115,16 @@ struct BeamVerticalCtx {
 };
 // The pixel's point, X = z·x_n, D = z·kD, H = z·kY (the camera's height above the point),
 // Y = h − H, and its normal as beam_vertical_lamp_f takes it (m, s). False where the pixel is not
-// lit (not of a lit class, a lane marking, no finite depth, D ≤ 0).
+// lit (not of a lit class, no finite depth, D ≤ 0).
 struct BeamPoint {
   float X, Y, D, mX, mY, mD, s;
   bool crown;
 };
-// The index of the façade plane of a building pixel at column x of a row whose region ids are
-// `reg` (BuildingFacades::plane_at's lookup, with the row's ids at hand), -1 where it has none.
-[[gnu::always_inline]] inline int facade_plane_index(const BuildingFacades& fac, const int32_t* reg, int x) {
-  if (reg[x] < 0) return -1;
-  const BuildingFacades::Region& R = fac.regions[reg[x]];
-  return R.column_plane[x - R.x0];
-}
 [[gnu::always_inline]] inline bool beam_vertical_point(const BeamVerticalCtx& c, int x, const uint16_t* id,
-                                                      const float* z, const uint8_t* lane, const int32_t* reg,
-                                                      float kD, float kY, BeamPoint* p) {
+                                                      const float* z, const int32_t* reg, float kD, float kY,
+                                                      BeamPoint* p) {
   const int k = id[x];
-  if (k >= 64 || !(c.classes >> k & 1) || (lane && lane[x])) return false;
+  if (k >= 64 || !(c.classes >> k & 1)) return false;
   const float zz = z[x];
   if (!(zz > 0) || !(zz < kDepthInfinity_m)) return false;
   p->X = zz * c.xn[x];
@@ -1144,7 +1138,7 @@ struct BeamPoint {
   p->mD = -p->D;
   const float XD2 = p->X * p->X + p->D * p->D;
   if (k == c.building && reg) {
-    if (const int pi = facade_plane_index(*c.fac, reg, x); pi >= 0) {
+    if (const int pi = c.fac->plane_index(reg, x); pi >= 0) {
       p->mX = c.plane_nX[pi];
       p->mD = c.plane_nD[pi];
       p->s = 1.f;
@@ -1173,8 +1167,7 @@ struct BeamPoint {
 // with a lane below the cut-off's top; a table that is not small (BeamF::small) takes such lanes by
 // the scalar code. So the same bits as beam_vertical_row_scalar.
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_row_avx512(
-    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const uint8_t* lane, const int32_t* reg,
-    float kD, float kY, float* e) {
+    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const BeamF& b = c.b;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1194,16 +1187,18 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
     // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
     const __m512i bit = _mm512_and_si512(
         _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
-    __mmask16 m = _mm512_test_epi32_mask(bit, bit);
-    if (lane && m) m &= _mm_cmpeq_epi8_mask(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lane + x)), _mm_setzero_si128());
-    if (!m) continue;
+    // The lanes of the lit classes (cls: each written, 0 where not lit) and of those the lit ones (m).
+    const __mmask16 cls = _mm512_test_epi32_mask(bit, bit);
+    if (!cls) continue;
     const __m512 vz = _mm512_loadu_ps(z + x);
-    m &= _mm512_cmp_ps_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(vz, zinf, _CMP_LT_OQ);
-    if (!m) continue;
+    __mmask16 m = cls & _mm512_cmp_ps_mask(vz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(vz, zinf, _CMP_LT_OQ);
     const __m512 X = _mm512_mul_ps(vz, _mm512_loadu_ps(c.xn.data() + x)), D = _mm512_mul_ps(vz, vkD);
     const __m512 Hc = _mm512_mul_ps(vz, vkY), Y = _mm512_sub_ps(vh, Hc);
     m &= _mm512_cmp_ps_mask(D, zero, _CMP_GT_OQ);
-    if (!m) continue;
+    if (!m) {
+      _mm512_mask_storeu_ps(e + x, cls, zero);
+      continue;
+    }
     const __mmask16 crown = m & _mm512_cmpeq_epi32_mask(k, veg);
     // The normals (m, s): a face turned to the camera, a crown's vector to the camera, a façade's plane.
     const __m512 XD2 = _mm512_add_ps(_mm512_mul_ps(X, X), _mm512_mul_ps(D, D));
@@ -1235,7 +1230,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
       } else {
         alignas(64) float pX[16], pD[16];
         for (unsigned r = bm; r; r &= r - 1) {
-          const int i = __builtin_ctz(r), pi = facade_plane_index(*c.fac, reg, x + i);
+          const int i = __builtin_ctz(r), pi = c.fac->plane_index(reg, x + i);
           if (pi < 0) continue;
           pX[i] = c.plane_nX[pi];
           pD[i] = c.plane_nD[pi];
@@ -1287,11 +1282,11 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
         el = _mm512_mask_div_ps(el, cl, _mm512_mul_ps(I, crown_phase16(_mm512_div_ps(cb, sd))), dm);
       E = _mm512_add_ps(E, _mm512_maskz_mov_ps(lit, el));
     }
-    _mm512_mask_storeu_ps(e + x, m & ~slow, E);
+    _mm512_mask_storeu_ps(e + x, cls & ~slow, E);  // (E is +0.0 on the lanes not lit)
     for (unsigned r = m & slow; r; r &= r - 1) {
       const int xi = x + __builtin_ctz(r);
       BeamPoint q;
-      if (beam_vertical_point(c, xi, id, z, lane, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
+      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
     }
   }
   return Wv;
@@ -1330,8 +1325,7 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
 // gathers. The same operations per lane: the same bits as the scalar rows.
 __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx& c, const uint16_t* id, const float* z,
-                                                           const uint8_t* lane, const int32_t* reg, float kD, float kY,
-                                                           float* e) {
+                                                           const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
   const BeamF& b = c.b;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1351,19 +1345,18 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
     const __m256i bit = _mm256_and_si256(
         _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
-    __m256 m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
-    if (!any(m)) continue;
-    if (lane) {
-      const __m256i l = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
-      m = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(l, _mm256_setzero_si256())));
-    }
+    // The lanes of the lit classes (cls: each written, 0 where not lit) and of those the lit ones (m).
+    const __m256 cls = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
+    if (!any(cls)) continue;
     const __m256 vz = _mm256_loadu_ps(z + x);
-    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(vz, zero, _CMP_GT_OQ), _mm256_cmp_ps(vz, zinf, _CMP_LT_OQ)));
-    if (!any(m)) continue;
+    __m256 m = _mm256_and_ps(cls, _mm256_and_ps(_mm256_cmp_ps(vz, zero, _CMP_GT_OQ), _mm256_cmp_ps(vz, zinf, _CMP_LT_OQ)));
     const __m256 X = _mm256_mul_ps(vz, _mm256_loadu_ps(c.xn.data() + x)), D = _mm256_mul_ps(vz, vkD);
     const __m256 Hc = _mm256_mul_ps(vz, vkY), Y = _mm256_sub_ps(vh, Hc);
     m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
-    if (!any(m)) continue;
+    if (!any(m)) {
+      _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), zero);
+      continue;
+    }
     const __m256 crown = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, veg)));
     const bool any_crown = any(crown);
     const __m256 XD2 = _mm256_add_ps(_mm256_mul_ps(X, X), _mm256_mul_ps(D, D));
@@ -1398,7 +1391,7 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
         for (int i = 0; i < 8; ++i) {
           pm[i] = 0;
           pX[i] = pD[i] = 0.f;
-          const int pi = bits >> i & 1 ? facade_plane_index(*c.fac, reg, x + i) : -1;
+          const int pi = bits >> i & 1 ? c.fac->plane_index(reg, x + i) : -1;
           if (pi < 0) continue;
           pX[i] = c.plane_nX[pi];
           pD[i] = c.plane_nD[pi];
@@ -1445,17 +1438,21 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
         el = _mm256_blendv_ps(el, _mm256_div_ps(_mm256_mul_ps(I, crown_phase8(_mm256_div_ps(cb, sd))), dm), cl);
       E = _mm256_add_ps(E, _mm256_and_ps(lit, el));
     }
-    _mm256_maskstore_ps(e + x, _mm256_castps_si256(m), E);
+    _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), E);  // (E is +0.0 on the lanes not lit)
   }
   _mm256_zeroupper();
   return Wv;
 }
+// Every pixel of a lit class gets its E, 0 where the rule lights nothing (no finite depth, D ≤ 0,
+// beside the table, a face turned away): the image's value there before (the ground's E on a
+// lane marking, low_beam_illuminance) is not kept.
 void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
-                              const uint8_t* lane, const int32_t* reg, float kD, float kY, float* e) {
+                              const int32_t* reg, float kD, float kY, float* e) {
   const int W = static_cast<int>(c.xn.size());
   for (int x = x0; x < W; ++x) {
+    if (id[x] >= 64 || !(c.classes >> id[x] & 1)) continue;
     BeamPoint q;
-    if (beam_vertical_point(c, x, id, z, lane, reg, kD, kY, &q)) e[x] = beam_vertical_e(c, q);
+    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q) ? beam_vertical_e(c, q) : 0.f;
   }
 }
 }  // namespace
@@ -1506,23 +1503,21 @@ struct BeamVerticalRows::Impl {
   ImageF& beam;
   const ImageU16& labels;
   const ImageF& depth;
-  const ImageU8* lanes;
   const BuildingFacades* fac;
   double cp, sp;
   bool avx512, avx2;
   Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
-       const BuildingFacades* facades, const ImageU8* lanes_, const ScenePreset& p)
+       const BuildingFacades* facades, const ScenePreset& p)
       : b(beam_f(p)),
         c{b, g, facades, std::vector<float>(beam_lux.width()), {}, {}, label_bits(beam_vertical_classes()),
           static_cast<int>(Label::Building), static_cast<int>(Label::Vegetation), static_cast<float>(g.mount_height_m),
           b.xl[0], b.xl[1]},
-        beam(beam_lux), labels(labels_), depth(depth_m), lanes(lanes_), fac(facades), cp(std::cos(g.pitch_rad)),
+        beam(beam_lux), labels(labels_), depth(depth_m), fac(facades), cp(std::cos(g.pitch_rad)),
         sp(std::sin(g.pitch_rad)), avx512(kHaveAvx512 && beam_isa_cap >= 2),
         avx2(kHaveAvx2 && beam_isa_cap >= 1) {
     const int W = beam.width(), H = beam.height();
-    if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H ||
-        (lanes && (lanes->width() != W || lanes->height() != H)))
-      fail("low beam on vertical surfaces: the beam, labels, depth and lanes differ in size");
+    if (labels.width() != W || labels.height() != H || depth.width() != W || depth.height() != H)
+      fail("low beam on vertical surfaces: the beam, labels and depth differ in size");
     for (int x = 0; x < W; ++x) c.xn[x] = static_cast<float>((x - g.cx_px) / g.f_px);
     if (facades)
       for (const FacadePlane& f : facades->planes) {
@@ -1533,9 +1528,8 @@ struct BeamVerticalRows::Impl {
 };
 
 BeamVerticalRows::BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                   const ImageF& depth_m, const BuildingFacades* facades, const ImageU8* lanes,
-                                   const ScenePreset& p)
-    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, lanes, p)) {}
+                                   const ImageF& depth_m, const BuildingFacades* facades, const ScenePreset& p)
+    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, p)) {}
 BeamVerticalRows::~BeamVerticalRows() = default;
 
 void BeamVerticalRows::row(int y) const {
@@ -1545,19 +1539,18 @@ void BeamVerticalRows::row(int y) const {
   const double yn = (y - g.cy_px) / g.f_px;
   const float kD = static_cast<float>(m.cp - yn * m.sp), kY = static_cast<float>(m.sp + yn * m.cp);
   const int32_t* reg = m.fac && !m.fac->region.empty() ? m.fac->region.row(y) : nullptr;
-  const uint8_t* lane = m.lanes ? m.lanes->row(y) : nullptr;
   const uint16_t* id = m.labels.row(y);
   const float* z = m.depth.row(y);
   float* e = m.beam.row(y);
-  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, lane, reg, kD, kY, e)
-                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, lane, reg, kD, kY, e)
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e)
+                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e)
                           : 0;
-  beam_vertical_row_scalar(m.c, x0, id, z, lane, reg, kD, kY, e);
+  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e);
 }
 
 void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p) {
-  const BeamVerticalRows rows(beam_lux, g, labels, depth_m, facades, lanes, p);
+                           const BuildingFacades* facades, const ScenePreset& p) {
+  const BeamVerticalRows rows(beam_lux, g, labels, depth_m, facades, p);
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < beam_lux.height(); ++y) rows.row(y);
 }

@@ -252,7 +252,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // and the façade planes) into the beam image: each row inside the light map's row pass just
   // before the row is composed, while its labels and depth are in cache; where the light map does
   // not compose (a device tail), over the frame before the tail.
-  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, &lanes_full, p);
+  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p);
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
                                vehicles.get(), &beam_vertical);

@@ -109,11 +109,14 @@ LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, co
 // add_low_beam_vertical (scene/lights.cpp) row by row: the set-up once, then row(y) writes the
 // vertical surfaces' beam E of row y into beam_lux (the same values as add_low_beam_vertical's),
 // from any thread. The light map's row pass runs it just before it composes the row (ComposeRows),
-// so that the row's labels, depth and beam are read while in cache, not in a pass of their own.
+// so that the row's labels, depth and beam are read while in cache, not in a pass of their own:
+// after the row's retroreflection, which reads the ground's E on the lane markings (a marking
+// pixel of a vertical class, at the upsampled lane mask's border, included) before this replaces
+// it on the vertical classes.
 class BeamVerticalRows {
  public:
   BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                   const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p);
+                   const BuildingFacades* facades, const ScenePreset& p);
   ~BeamVerticalRows();
   void row(int y) const;
 

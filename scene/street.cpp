@@ -1322,7 +1322,7 @@ __attribute__((target("avx2"), always_inline)) inline Candidates8 candidates8_co
           _mm256_set1_pd(v.D_hi)};
 }
 // One group's eight lanes (columns x .. x + 7) in gr: the candidates' (bit k of m: column x + k)
-// depth and, on buildings, their façade plane (BuildingFacades::plane_at, inlined); the other lanes
+// depth and, on buildings, their façade plane (BuildingFacades::plane_index); the other lanes
 // take column `fill` (a candidate's, so that their values are a real pixel's; they are dropped).
 // Inside a façade (eight candidates on one building region whose eight columns take one plane:
 // 45% of the groups on the bench frame) the same values without the per-lane lookups.
@@ -1388,8 +1388,7 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
     const int k = __builtin_ctz(bm);
     bm &= bm - 1;
     const int xk = (m >> k & 1) ? x + k : fill;
-    const BuildingFacades::Region& R = fac.regions[reg[xk]];
-    pv = _mm256_blendv_epi8(pv, _mm256_set1_epi32(R.column_plane[xk - R.x0]), _mm256_cmpeq_epi32(lane, _mm256_set1_epi32(k)));
+    pv = _mm256_blendv_epi8(pv, _mm256_set1_epi32(fac.plane_of_region(reg[xk], xk)), _mm256_cmpeq_epi32(lane, _mm256_set1_epi32(k)));
   }
   const __m256i has = _mm256_cmpgt_epi32(pv, _mm256_set1_epi32(-1));
   _mm256_store_si256(reinterpret_cast<__m256i*>(gr.plane), has);  // −1 with a plane, else 0
@@ -1634,7 +1633,7 @@ __attribute__((target("avx2"), always_inline)) inline int window_group_plane(con
 // One half (eight lanes, columns x .. x + 7) of vertical_row_avx512's group: the lit normals
 // −(n_X, n_D) of the lanes' façade planes in double (+0.0 where a lane has none) and the mask of
 // the lanes with one (has), for the candidates of `mh` (bit k: column x + k): vertical_group's
-// rules (BuildingFacades::plane_at, inlined), without its stores. A half of eight candidates on one
+// rules (BuildingFacades::plane_index), without its stores. A half of eight candidates on one
 // building region whose eight columns take one plane (window_group_plane, as the windows' layout
 // tests it; 45% of the groups of eight on the bench frame) takes that plane's normal without
 // per-lane lookups; otherwise each candidate building
@@ -1661,8 +1660,7 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void faca
   while (bm) {
     const int k = __builtin_ctz(bm);
     bm &= bm - 1;
-    const BuildingFacades::Region& R = fac.regions[reg[x + k]];
-    pv = _mm256_mask_set1_epi32(pv, static_cast<__mmask8>(1u << k), R.column_plane[x + k - R.x0]);
+    pv = _mm256_mask_set1_epi32(pv, static_cast<__mmask8>(1u << k), fac.plane_of_region(reg[x + k], x + k));
   }
   has = _mm256_cmpgt_epi32_mask(pv, _mm256_set1_epi32(-1));
   nx = nd = _mm512_setzero_pd();
@@ -1918,8 +1916,8 @@ struct VerticalPass : LitRows {
       xs[n++] = x;
     }
     if (n == 0) return;
-    // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_at,
-    // inlined), through local pointers.
+    // The candidates' depth and, on buildings, their façade plane (BuildingFacades::plane_index),
+    // through local pointers.
     {
       int32_t* plane = r.plane.data();
       uint8_t* crown = r.crown.data();
@@ -1928,11 +1926,8 @@ struct VerticalPass : LitRows {
       for (int i = 0; i < count; ++i) {
         const int x = xs[i];
         const FacadePlane* f = nullptr;
-        if (id[x] == building && reg[x] >= 0) {
-          const BuildingFacades::Region& R = fac.regions[reg[x]];
-          const int pi = R.column_plane[x - R.x0];
-          if (pi >= 0) f = &fac.planes[pi];
-        }
+        if (id[x] == building)
+          if (const int pi = fac.plane_index(reg, x); pi >= 0) f = &fac.planes[pi];
         zs[i] = z[x];
         crown[i] = id[x] == vegetation;
         plane[i] = f ? -1 : 0;
@@ -2096,8 +2091,7 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
                                                     const BuildingFacades& fac, const FacadeFrame* fr, int32_t* rx,
                                                     double* rz, double* rtX, double* rtD, int32_t* rp, int& n) {
   if (reg[x] < 0 || z[x] > zmax) return;
-  const BuildingFacades::Region& R = fac.regions[reg[x]];
-  const int pi = R.column_plane[x - R.x0];
+  const int pi = fac.plane_of_region(reg[x], x);
   if (pi < 0) return;
   rx[n] = x;
   rz[n] = z[x];
@@ -2475,7 +2469,7 @@ struct WindowPass {
     // the groups laid out straight from the depth row first) does not change the windows.
     for (int x0 = 0; x0 < Wr; x0 += kWindowBlock) {
       const int x1 = std::min(Wr, x0 + kWindowBlock);
-      // The block's building pixels with a plane (BuildingFacades::plane_at, inlined), compacted.
+      // The block's building pixels with a plane (BuildingFacades::plane_index), compacted.
       int n = 0;
       if (isa >= 2) {
         // With AVX-512: the groups inside one façade plane laid out as they are read, their pane

@@ -42,6 +42,7 @@ bool window_floor_div_avx512(const double* a, int n, double b, double* out);
 struct FacadeWindowsFound {
   struct Plane {
     bool used = false;
+    int samples = 0;  // the pixels find_facade_windows sampled on the plane (every plane's)
     double s0 = 0;
     int ns = 0;
     std::vector<uint8_t> resolved;

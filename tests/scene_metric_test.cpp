@@ -649,6 +649,174 @@ TEST(FacadeWindows, VectorRowsAreTheScalarTwins) {
   omp_set_num_threads(before);
 }
 
+namespace {
+// A synthetic street at 2048x1024 with no boxes whose façades show dark windows: 1.2 x 1.6 m glass
+// every 2.7 m along the road, storeys of 3.4 m (neither is the preset grid's 1.3 m bay or 3 m
+// storey).
+SyntheticCameraOptions windowed_street() {
+  SyntheticCameraOptions o = camera_scene(2048, 1024);
+  o.boxes.clear();
+  o.window_pitch_m = 2.7;
+  o.window_phase_m = 0.35;
+  return o;
+}
+}  // namespace
+
+// window_block_avx512 leaves the photo-resolved pane lanes out of P eight at a time: a lane's cell
+// ⌊(s − s0)/kCell_m⌋ is read from the plane's table only where it lies in [0, ns) (the range
+// mask; the others read cell 0 and are masked off). VectorRowsAreTheScalarTwins did not see that
+// mask: the lanes beyond the table must be pane lanes of groups inside one façade plane (the fast
+// groups) on a plane whose table is used and whose cell 0 is resolved, and its frames show few or
+// none. Here they are the rule: a synthetic street whose façades (the planes X = ±10 m) show dark
+// windows, so that the photo resolves them near the camera (cell 0, the nearest sampled column,
+// holds samples of its own and its 8 m stretch keeps its windows), and run far ahead, where a
+// pixel spans more than kMaxFootprint_m = 2·kCell_m along the façade (z²·k_D > 2·kCell_m·d·f:
+// find_facade_windows samples none of them, so their cells lie past ns) while z stays within the
+// window pass's zmax: there the grid's panes are drawn, by the fast groups. Every window lit. The
+// AVX-512 and AVX2 rows against the scalar twins, bit for bit, and the lit pixels beyond the
+// footprint limit counted (the lanes the range mask keeps).
+TEST(FacadeWindows, VectorRowsKeepThePanesBeyondThePhotosCells) {
+  const SyntheticCameraOptions o = windowed_street();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const CameraGeometry& g = o.camera;
+  ScenePreset p = urban();
+  p.window_lit_fraction = 1.0;
+  p.max_depth_m = 1000;
+  const ImageF depth = metric_depth(s.labels, g, p.max_depth_m);
+  const BuildingFacades fac = building_facades(s.labels.ids, g, p.max_depth_m);
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  std::vector<ImageF> maps;
+  std::vector<int> counts;
+  for (const int isa : {2, 1, 0}) {
+    street_light_max_isa(isa);
+    ImageF L(o.width, o.height, 3, 0.f, unit::radiance);
+    counts.push_back(add_facade_windows(L, s.labels.ids, depth, g, p, 3, &fac, &tex));
+    maps.push_back(std::move(L));
+  }
+  street_light_max_isa(2);
+  const double foot = 2 * FacadeWindowsFound::kCell_m * g.f_px;  // ×d: the footprint limit
+  long far_lit = 0, near_lit = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const FacadePlane* f = fac.plane_at(x, y);
+      if (!f || !(maps[2].at(x, y, 0) + maps[2].at(x, y, 1) + maps[2].at(x, y, 2) > 0)) continue;
+      const double z = depth.at(x, y), kD = std::cos(g.pitch_rad) - (y - g.cy_px) / g.f_px * std::sin(g.pitch_rad);
+      (z * z * kD > foot * f->d_m ? far_lit : near_lit) += 1;
+    }
+  std::fprintf(stderr, "[windows] %d windows; lit pixels %ld within the footprint limit, %ld beyond it\n", counts[2],
+               near_lit, far_lit);
+  EXPECT_GT(near_lit, 1000);
+  EXPECT_GT(far_lit, 1000);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(counts[k], counts[2]) << (k == 0 ? "AVX-512" : "AVX2");
+    EXPECT_EQ(differing_samples(maps[k], maps[2]), 0u) << (k == 0 ? "AVX-512" : "AVX2") << " against the scalar twins";
+  }
+}
+
+// find_facade_windows samples, on the rows y ≡ 0 (mod kRowStep = 3) and every column, the pixels
+// of a building region whose column takes a fitted plane it is on (Region::column_plane,
+// on_plane), with 0 < z ≤ zmax, a footprint along the plane z²·k_D ≤ kMaxFootprint_m·d·f
+// (kMaxFootprint_m = 2·kCell_m) and Y ≥ 0; a sample's s = fl(t_X·X + t_D·D) and Y as floats
+// (X = z·(x − c_x)/f, D = z·k_D, Y = h − z·k_Y). Each plane's count of samples, its cells' origin
+// s0 = min s and their count ns = ⌊(max s − s0)/kCell_m⌋ + 1, and whether its table is used (at
+// least 100 samples and at most kMaxCells cells) are computed here from that definition, on
+// random façades: region runs of every length starting at any column (its SIMD scan for the next
+// building column, eight at a time), columns without a plane, off their plane or on an unfitted
+// one, odd depths (NaN, ±∞, 0, negative, beyond zmax) and depths beyond the footprint limit; at 1
+// and 2 threads (the rows in chunks taken as they come). A change of which pixels are sampled
+// changes a count.
+TEST(FacadeWindows, SampledPixelsAreTheDefinitions) {
+  SyntheticCameraOptions o = camera_scene();
+  const CameraGeometry& g = o.camera;
+  const int W = o.width, H = o.height;
+  ScenePreset p = urban();
+  ASSERT_GT(p.window_detect_contrast, 0);
+  std::mt19937_64 rng(4242);
+  std::uniform_real_distribution<double> U(0, 1);
+  BuildingFacades fac;
+  fac.region = ImageI32(W, H, 1, -1);
+  fac.planes = {{0.98, 0.2, 9, 0, 0, 12, true}, {-0.95, 0.31, 7, 0, 0, 12, true}, {0.1, 0.995, 30, 0, 0, 12, true},
+                {1, 0, 11, 0, 0, 0, false}};
+  const int nplanes = static_cast<int>(fac.planes.size());
+  for (const auto [x0, x1] : {std::pair{0, W}, {137, 611}, {503, W - 9}}) {
+    BuildingFacades::Region R;
+    R.x0 = x0;
+    int pi = 0;
+    for (int x = x0; x < x1; ++x) {
+      if (U(rng) < 0.02) pi = static_cast<int>(U(rng) * (nplanes + 1)) - 1;  // runs of planes, -1 among them
+      R.column_plane.push_back(pi);
+      R.on_plane.push_back(U(rng) < 0.9);
+    }
+    fac.regions.push_back(R);
+  }
+  ImageF depth(W, H, 1, 0.f), tex(W, H, 3, 0.f);
+  const float odd[] = {NAN, INFINITY, -INFINITY, 0.f, -2.f, 900.f};
+  for (int y = 0; y < H; ++y) {
+    for (int x = 0; x < W;) {  // runs of one region (or none) of 1 to 40 columns
+      const int r = static_cast<int>(U(rng) * 4) - 1, len = 1 + static_cast<int>(U(rng) * 40);
+      for (int e = std::min(W, x + len); x < e; ++x) {
+        const bool inside = r >= 0 && x >= fac.regions[r].x0 &&
+                            x < fac.regions[r].x0 + static_cast<int>(fac.regions[r].column_plane.size());
+        fac.region.at(x, y) = inside ? r : -1;
+      }
+    }
+    for (int x = 0; x < W; ++x) {
+      depth.at(x, y) = U(rng) < 0.03 ? odd[static_cast<int>(U(rng) * 6)] : static_cast<float>(2 + 78 * U(rng));
+      for (int c = 0; c < 3; ++c) tex.at(x, y, c) = static_cast<float>(U(rng));
+    }
+  }
+  std::vector<double> tX(nplanes), tD(nplanes);
+  for (int k = 0; k < nplanes; ++k) tX[k] = fac.planes[k].nD, tD[k] = -fac.planes[k].nX;  // along each plane
+  const double zmax = 60;
+  // The definition.
+  struct Ref {
+    long n = 0;
+    float s_lo = INFINITY, s_hi = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
+  };
+  std::vector<Ref> ref(nplanes);
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  for (int y = 0; y < H; y += 3)
+    for (int x = 0; x < W; ++x) {
+      const int r = fac.region.at(x, y);
+      if (r < 0) continue;
+      const BuildingFacades::Region& R = fac.regions[r];
+      const int pi = R.column_plane[x - R.x0];
+      if (pi < 0 || !R.on_plane[x - R.x0] || !fac.planes[pi].fitted) continue;
+      const double zz = depth.at(x, y), yn = (y - g.cy_px) / g.f_px, kD = c - yn * sn, kY = yn * c + sn;
+      if (!(zz > 0) || zz > zmax || zz * zz * kD > 2 * FacadeWindowsFound::kCell_m * fac.planes[pi].d_m * g.f_px) continue;
+      const double X = zz * (x - g.cx_px) / g.f_px, D = zz * kD, Y = h - zz * kY;
+      if (Y < 0) continue;
+      const float s = static_cast<float>(tX[pi] * X + tD[pi] * D), Yf = static_cast<float>(Y);
+      Ref& q = ref[pi];
+      ++q.n;
+      q.s_lo = std::min(q.s_lo, s), q.s_hi = std::max(q.s_hi, s), q.y_lo = std::min(q.y_lo, Yf), q.y_hi = std::max(q.y_hi, Yf);
+    }
+  const int before = omp_get_max_threads();
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const FacadeWindowsFound f = find_facade_windows(tex, depth, g, fac, p, tX.data(), tD.data(), zmax);
+    ASSERT_EQ(f.planes.size(), static_cast<size_t>(nplanes));
+    int used = 0;
+    for (int k = 0; k < nplanes; ++k) {
+      const Ref& q = ref[k];
+      const double cell = FacadeWindowsFound::kCell_m;
+      const long ns = q.n ? static_cast<long>((static_cast<double>(q.s_hi) - q.s_lo) / cell) + 1 : 0;
+      const long ny = q.n ? static_cast<long>((static_cast<double>(q.y_hi) - q.y_lo) / cell) + 1 : 0;
+      std::fprintf(stderr, "[photo windows] %d threads, plane %d: %ld samples, s %.3f..%.3f m, %ld x %ld cells\n",
+                   threads, k, q.n, q.s_lo, q.s_hi, ns, ny);
+      EXPECT_EQ(f.planes[k].samples, q.n) << "plane " << k << ", " << threads << " threads";
+      const bool use = q.n >= 100 && ns * ny <= 4'000'000;
+      ASSERT_EQ(f.planes[k].used, use) << "plane " << k << ", " << threads << " threads";
+      if (!use) continue;
+      ++used;
+      EXPECT_EQ(f.planes[k].s0, static_cast<double>(q.s_lo)) << "plane " << k;
+      EXPECT_EQ(f.planes[k].ns, ns) << "plane " << k;
+    }
+    EXPECT_EQ(used, 3) << "the fitted planes, each with samples enough";
+  }
+  omp_set_num_threads(before);
+}
+
 // find_facade_windows' components of the dark cells (cell_components, by runs) are OpenCV's:
 // cv::connectedComponentsWithStats(4-connected)'s labels 1 .. n − 1 in order, with the same box and
 // area, on random masks of every density (from isolated cells to one component winding through
@@ -2556,7 +2724,7 @@ struct BeamVerticalScene {
   }
   ImageF beam() const {
     ImageF E = low_beam_illuminance(o.camera, o.width, o.height, p, &sc.labels.ids);
-    add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, nullptr, p);
+    add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, p);
     return E;
   }
   // The pixel's point as add_low_beam_vertical takes it (float: X = z·x_n, D = z·kD, H = z·kY,
@@ -2686,7 +2854,7 @@ TEST(EgoLowBeamVertical, FloatRowsAgainstTheDoubleReference) {
 
 // The rows eight (AVX2) and sixteen (AVX-512) pixels at a time are the scalar rows' bits: random classes (the lit
 // ones, the ground, sky, signs, ids of 64 and more), depths (odd ones: NaN, ±∞, ±0, negative,
-// tiny, and the sky's), lane markings, and façade planes of a region whose columns change plane
+// tiny, and the sky's: the lit classes' pixels there written 0), and façade planes of a region whose columns change plane
 // (one plane, two, none) and of pixels outside any region.
 TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   SyntheticCameraOptions o = camera_scene();
@@ -2702,7 +2870,6 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   const float odd[] = {NAN, INFINITY, -INFINITY, 0.f, -0.f, -3.f, 1e-30f, kDepthInfinity_m};
   ImageU16 lab(W, H, 1, 0);
   ImageF depth(W, H, 1, 0.f);
-  ImageU8 lanes(W, H, 1, 0);
   BuildingFacades fac;
   fac.region = ImageI32(W, H, 1, -1);
   fac.planes = {{0.3, 0.954, 10, 0, 0, 12, true}, {-1, 0, 6, 0, 0, 12, true}, {0, 1, 40, 0, 0, 0, false}};
@@ -2716,7 +2883,6 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
       const uint16_t id = ids[static_cast<int>(U(rng) * 10)];
       lab.at(x, y) = id;
       depth.at(x, y) = U(rng) < 0.03 ? odd[static_cast<int>(U(rng) * 8)] : static_cast<float>(0.3 * std::pow(200 / 0.3, U(rng)));
-      lanes.at(x, y) = U(rng) < 0.05 ? 255 : 0;
       if (id == static_cast<uint16_t>(Label::Building) && x >= R.x0 && x < R.x0 + static_cast<int>(R.column_plane.size()) &&
           U(rng) < 0.9)
         fac.region.at(x, y) = 0;
@@ -2725,7 +2891,7 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
   for (const int isa : {0, 1, 2}) {
     beam_max_isa(isa);
     ImageF E(W, H, 1, -1.f);  // the untouched pixels keep it
-    add_low_beam_vertical(E, o.camera, lab, depth, &fac, &lanes, p);
+    add_low_beam_vertical(E, o.camera, lab, depth, &fac, p);
     out.push_back(std::move(E));
   }
   beam_max_isa(2);
@@ -2769,6 +2935,39 @@ TEST(EgoLowBeamVertical, ComposeReflectsItOnTheVerticalClasses) {
   EXPECT_GT(vertical, 1000);
   EXPECT_FALSE(lit >> static_cast<int>(Label::TrafficSign) & 1);
   EXPECT_FALSE(lit >> static_cast<int>(Label::Sky) & 1);
+}
+
+// A lane-marking pixel whose label is a vertical class (the upsampled lane mask's border reaches
+// past the road: lanes_at_frame repeats each working pixel over a block of frame pixels, and the
+// working labels are the frame's resized by nearest neighbour) takes its beam from the vertical
+// rule alone, as every pixel of its class: low_beam_illuminance computes the ground's E on lane
+// pixels (the light map's retroreflection reads it there), and compose applies the image on the
+// vertical classes, so the vertical rule must replace it there (E of the pixel's surface, 0 where
+// the rule lights nothing). The scene marked as lane markings all over against unmarked: every
+// pixel of a vertical class has the same beam, bit for bit, and the ground's E on the marked
+// vertical pixels (nonzero below the horizon) shows the test can see the difference.
+TEST(EgoLowBeamVertical, LaneMarkingPixelsOfAVerticalClassTakeTheVerticalRuleOnly) {
+  const BeamVerticalScene s;
+  const int W = s.o.width, H = s.o.height;
+  const ImageU8 lanes(W, H, 1, 255);
+  const ImageF plain = s.beam();
+  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p, &s.sc.labels.ids, &lanes);
+  ImageF marked = ground;
+  add_low_beam_vertical(marked, s.o.camera, s.sc.labels.ids, s.sc.depth_m, nullptr, s.p);
+  const auto& vertical = beam_vertical_classes();
+  int pixels = 0, ground_lit = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int id = s.sc.labels.ids.at(x, y);
+      if (!vertical[id]) continue;
+      ++pixels;
+      ground_lit += ground.at(x, y) > 0 && ground.at(x, y) != plain.at(x, y);
+      ASSERT_EQ(marked.at(x, y), plain.at(x, y)) << x << "," << y << " class " << id << ", the ground's E "
+                                                 << ground.at(x, y);
+    }
+  std::fprintf(stderr, "[beam vertical] %d marked pixels of vertical classes, %d with another ground E\n", pixels,
+               ground_lit);
+  EXPECT_GT(ground_lit, 1000);
 }
 
 // Façades (issue 14 §2): each building region's façade is a vertical plane fitted to its
@@ -2988,10 +3187,7 @@ TEST(Facades, WindowSpacingIsThePitchInPerspective) {
 // the windows cover the façade (1.92 / (2.7·3.4) = 0.21 of it): it must fall below both bounds.
 // A plain façade (no window to find) keeps the grid.
 TEST(Facades, LitWindowsAreThePhotosWindows) {
-  SyntheticCameraOptions o = camera_scene(2048, 1024);
-  o.boxes.clear();
-  o.window_pitch_m = 2.7;
-  o.window_phase_m = 0.35;
+  const SyntheticCameraOptions o = windowed_street();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
   const CameraGeometry& g = o.camera;
   const double max_depth_m = 1000;

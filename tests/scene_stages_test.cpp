@@ -1247,7 +1247,7 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
     // The beam on the ground, then on the vertical surfaces (which the chain makes row by row in
     // the light map's row pass).
     ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);
-    add_low_beam_vertical(beam, ns.geometry, s.labels.ids, depth, &fac, &lanes, p);
+    add_low_beam_vertical(beam, ns.geometry, s.labels.ids, depth, &fac, p);
     EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_lux.vec(), beam.vec()) << threads << " threads";

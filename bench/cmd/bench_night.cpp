@@ -299,7 +299,7 @@ void run(const Opts& o) {
       ImageF beam_v = beam;
       const double cbv0 = cpu_ms();
       auto tbv0 = clock::now();
-      scene::add_low_beam_vertical(beam_v, ns.geometry, lm.ids, ns.depth, &fac, &lanes_full, sp);
+      scene::add_low_beam_vertical(beam_v, ns.geometry, lm.ids, ns.depth, &fac, sp);
       auto tbv1 = clock::now();
       const double cbv1 = cpu_ms();
       add("ego low beam on vertical surfaces (alone)", ms(tbv0, tbv1));

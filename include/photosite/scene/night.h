@@ -254,6 +254,14 @@ struct BuildingFacades {
   std::vector<Region> regions;
   // The façade plane of pixel (x, y), or nullptr off buildings.
   const FacadePlane* plane_at(int x, int y, bool* on_plane = nullptr) const;
+  // plane_at's lookup as an index into `planes` (-1: none), for the rows that hold a row's region
+  // ids (reg = region.row(y)) at hand: column x of region r (r >= 0, x in its columns), and of a
+  // pixel whose region is not known to be one (-1 off buildings).
+  int plane_of_region(int r, int x) const {
+    const Region& R = regions[r];
+    return R.column_plane[x - R.x0];
+  }
+  int plane_index(const int32_t* reg, int x) const { return reg[x] < 0 ? -1 : plane_of_region(reg[x], x); }
 };
 BuildingFacades building_facades(const ImageU16& ids, const CameraGeometry& g, double max_depth_m);
 // Camera z where the pixel ray through (u, v) meets the vertical plane; INFINITY when it does not
@@ -306,14 +314,16 @@ const std::array<bool, kLabelCount>& beam_vertical_classes();
 // The classes whose pixels compose() lights with beam_lux, as bits by class id: the ground classes
 // and beam_vertical_classes.
 uint64_t beam_lit_class_bits();
-// Writes into beam_lux (low_beam_illuminance's image) the low beam's E on the pixels of
-// beam_vertical_classes with a finite positive depth (depth_m, camera z; the point from the
-// camera geometry) that are not lane markings: low_beam_vertical_lux's float evaluation at the
-// pixel's point, the normal that of its façade plane (facades; buildings) or turned to the camera
-// (a crown's: the unit vector to the camera). Other pixels keep their value. compose() reads it
-// on those classes as on the ground.
+// Writes into beam_lux (low_beam_illuminance's image) the low beam's E on every pixel of
+// beam_vertical_classes: low_beam_vertical_lux's float evaluation at the pixel's point (depth_m,
+// camera z; the point from the camera geometry), the normal that of its façade plane (facades;
+// buildings) or turned to the camera (a crown's: the unit vector to the camera); 0 where the
+// depth is not finite and positive. Lane markings included: the ground's E that
+// low_beam_illuminance gives a marking pixel (for the light map's retroreflection, read before)
+// is replaced on these classes, so that compose() lights a vertical surface by this rule alone.
+// Other pixels keep their value. compose() reads it on those classes as on the ground.
 void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                           const BuildingFacades* facades, const ImageU8* lanes, const ScenePreset& p);
+                           const BuildingFacades* facades, const ScenePreset& p);
 
 struct LightStats {
   int signals = 0, vehicle_lamps = 0, pole_lamps = 0, windows = 0;
