@@ -10,6 +10,7 @@
 #include <functional>
 #include <immintrin.h>
 #include <map>
+#include <omp.h>
 #include <optional>
 #include <opencv2/imgproc.hpp>
 
@@ -1160,41 +1161,59 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   }
   // The solid points, both lamps' maps in one pass (the least D of a cell does not depend on the
   // order the points come in: the same maps for any thread count). A point's X = z·x_n,
-  // D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows).
+  // D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows). Where there are
+  // two threads, each takes every other chunk of rows, the second into its own maps, then the
+  // least of the two per cell (the same maps again).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
-  std::vector<int> cols(W);
   const bool with_runs = runs && runs->made_of(labels);
-  for (int y = 0; y < H; ++y) {
-    const double yn = (y - g.cy_px) / g.f_px;
-    const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
-    // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
-    // above the lamps.
-    if (h > b.hl && !(kY > 0)) continue;
-    const float* z = depth_m.row(y);
-    // The row's solid columns: from the label runs where they are at hand (the chain's, made
-    // beside the Hough stage), else by testing every label.
-    int n = 0;
-    if (with_runs) {
-      for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i)
-        if (runs->id[i] < 64 && (solid >> runs->id[i] & 1))
-          for (int x = runs->x0[i], xe = runs->end(i, y); x < xe; ++x) cols[n++] = x;
-    } else {
-      n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, solid, cols.data());
-    }
-    for (int j = 0; j < n; ++j) {
-      const int x = cols[j];
-      const float zz = z[x];
-      if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
-      const float D = zz * kD, dv = b.hl - (h - zz * kY);
-      if (!(D > 0) || !(dv > 0)) continue;
-      const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
-      for (LampShadowMap& m : maps) {
-        const int i = m.cell((X - m.xl) * invD, v);
-        if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+  const int teams = std::min(2, omp_get_max_threads());
+  std::array<LampShadowMap, 2> maps2;
+  if (teams > 1) maps2 = maps;
+#pragma omp parallel num_threads(teams)
+  {
+    const int team = omp_get_thread_num();
+    std::array<LampShadowMap, 2>& mt = team == 0 ? maps : maps2;
+    std::vector<int> cols(W);
+    constexpr int kChunk = 32;
+    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
+      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) {
+        const double yn = (y - g.cy_px) / g.f_px;
+        const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
+        // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
+        // above the lamps.
+        if (h > b.hl && !(kY > 0)) continue;
+        const float* z = depth_m.row(y);
+        // The row's solid columns: from the label runs where they are at hand (the chain's, made
+        // beside the Hough stage), else by testing every label.
+        int n = 0;
+        if (with_runs) {
+          for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i)
+            if (runs->id[i] < 64 && (solid >> runs->id[i] & 1))
+              for (int x = runs->x0[i], xe = runs->end(i, y); x < xe; ++x) cols[n++] = x;
+        } else {
+          n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, solid, cols.data());
+        }
+        for (int j = 0; j < n; ++j) {
+          const int x = cols[j];
+          const float zz = z[x];
+          if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
+          const float D = zz * kD, dv = b.hl - (h - zz * kY);
+          if (!(D > 0) || !(dv > 0)) continue;
+          const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
+          for (LampShadowMap& m : mt) {
+            const int i = m.cell((X - m.xl) * invD, v);
+            if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+          }
+        }
       }
-    }
   }
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      float* d = maps[k].Dmin.data();
+      const float* d2 = maps2[k].Dmin.data();
+      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+    }
   // Each map row's blocks of kBeamShadowBlock cells: their least D (the rows below skip a block
   // that holds no point near enough).
   for (LampShadowMap& m : maps) {
