@@ -148,6 +148,10 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/lines"] = static_cast<int>(ns.lines_work.size());
   attrs["photosite/night/work_scale"] = ns.work_scale;
   attrs["photosite/night/tram_rail_pixels"] = ns.tram_rail_pixels;
+  // Ground pixels in the shadow of the left lamp only, the right lamp only, both (docs/night.md §6c).
+  attrs["photosite/night/beam_shadow_left_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[0]);
+  attrs["photosite/night/beam_shadow_right_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[1]);
+  attrs["photosite/night/beam_shadow_both_pixels"] = static_cast<int>(ns.beam_shadow.both);
   attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
   attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
   attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;

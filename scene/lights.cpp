@@ -10,6 +10,7 @@
 #include <functional>
 #include <immintrin.h>
 #include <map>
+#include <omp.h>
 #include <optional>
 #include <opencv2/imgproc.hpp>
 
@@ -1043,6 +1044,289 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   }
   return E;
 }
+
+namespace {
+// ---- Shadows of the low beam (docs/night.md §6c, "Shadows of the low beam") ----------------------
+// A shadow map per lamp, built from the metric scene: the lamp at L = (x_l, h_l, 0) looks along
+// the road (the camera's forward direction D, no pitch); a point P = (X, Y, D) ahead of it is seen
+// at u = (X − x_l)/D, v = (h_l − Y)/D, and every point of the ray from L through P has the same
+// (u, v) and a larger D the farther along it lies. Each pixel of a solid class (the classes the
+// beam lights as vertical surfaces, with a finite metric depth) is splatted at its point's (u, v)
+// into a grid of cells, keeping the least D per cell; a lit ground pixel whose point lies beyond
+// the least D of its cell (by the margin below) is in that lamp's shadow. A ray from the lamp to the
+// ground never rises above h_l, so only solid points below the lamp's height (v > 0) can shade
+// the ground, and only they are splatted.
+// The cell is kBeamShadowCellPx image pixels wide and high in (u, v) (a photosite choice): a
+// surface that keeps its depth maps into the lamp's view at the camera's own scale, shifted by
+// the parallax (x_l/D, (h − h_l)/D), so one sample per image pixel fills every cell a surface
+// covers as long as its parallax varies by less than a cell between neighbouring pixels; a
+// shadow's edge is placed to within one cell (the cell takes the least D of every point in it).
+// A ground point is shaded only by a solid point nearer than the ground one cell nearer in the
+// lamp's view, 1/D_Q > 1/D_P + cell/h_l (v of the ground is h_l/D): without that margin the foot
+// of a wall or a car's side that runs along the road, whose points share cells with the ground
+// beside it at about the same D, would shade a strip one cell wide along it. The margin excludes
+// such a foot (its points in P's cell have 1/D_Q ≤ 1/D_P + cell/|X − x_l| and |X − x_l| > h_l for a
+// surface farther from the lamp sideways than the lamp's height) and costs the shadow one cell
+// at its near end, behind the occluder's foot, where the camera (above the lamp) sees no ground
+// behind an occluder that is not much lower than itself.
+constexpr int kBeamShadowCellPx = 2;
+constexpr int kBeamShadowBlock = 16;
+struct LampShadowMap {
+  float xl = 0, u_lo = 0, inv_cell = 0;
+  int nu = 0, nv = 0, nb = 0;
+  std::vector<float> Dmin;  // nv × nu, +∞ where no solid point lies
+  std::vector<float> Bmin;  // nv × nb: the least Dmin of each block of kBeamShadowBlock cells in a row
+  [[gnu::always_inline]] int cell(float u, float v) const {
+    const float cu = (u - u_lo) * inv_cell, cv = v * inv_cell;
+    if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return -1;
+    return static_cast<int>(cv) * nu + static_cast<int>(cu);
+  }
+};
+// The columns of a label row whose class is in `solid` (bits by class id, ids below 64), in
+// order, into out; returns their count. The AVX2 twin tests eight labels at a time (a lane's
+// bit by variable shifts: a shift by 32 or more gives 0), the same columns.
+int solid_columns(const uint16_t* id, int W, uint64_t solid, int* out) {
+  int n = 0;
+  for (int x = 0; x < W; ++x)
+    if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
+  return n;
+}
+__attribute__((target("avx2"))) int solid_columns_avx2(const uint16_t* id, int W, uint64_t solid, int* out) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(solid & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(solid >> 32)), k32 = _mm256_set1_epi32(32),
+                one = _mm256_set1_epi32(1);
+  int n = 0, x = 0;
+  for (; x + 8 <= W; x += 8) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    unsigned m = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one))));
+    while (m) {
+      out[n++] = x + __builtin_ctz(m);
+      m &= m - 1;
+    }
+  }
+  for (; x < W; ++x)
+    if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
+  return n;
+}
+}  // namespace
+
+BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                      const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p) {
+  return shade_low_beam_ground_with(beam_lux, g, labels, depth_m, lanes, p, nullptr);
+}
+
+BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
+                                           const LabelRuns* runs) {
+  BeamShadowStats st;
+  const BeamF b = beam_f(p);
+  if (!b.ok) return st;
+  const int W = beam_lux.width(), H = beam_lux.height();
+  if (labels.width() != W || labels.height() != H || depth_m.width() != W || depth_m.height() != H ||
+      (lanes && (lanes->width() != W || lanes->height() != H)))
+    fail("low beam shadows: the beam, labels, depth and lanes differ in size");
+  if (W == 0 || H == 0) return st;
+  const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
+  std::vector<double> xn(W);
+  std::vector<float> xnf(W);
+  for (int x = 0; x < W; ++x) xnf[x] = static_cast<float>(xn[x] = (x - g.cx_px) / g.f_px);
+  // The ground rows' t and D (low_beam_illuminance's expressions), and each lamp's map over the
+  // (u, v) the ground pixels of the frame take: a solid point outside it shades no ground pixel.
+  struct Row { double t = 0, D = 0; };
+  std::vector<Row> rows(H);
+  const double cell = kBeamShadowCellPx / g.f_px;
+  std::array<LampShadowMap, 2> maps;
+  double u_lo[2] = {INFINITY, INFINITY}, u_hi[2] = {-INFINITY, -INFINITY}, v_hi = 0;
+  for (int y = 0; y < H; ++y) {
+    const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+    const double t = g.mount_height_m / den, D = t * (c - yn * s);
+    if (den <= 0 || !(D > 0) || !(static_cast<float>(D) > 0)) continue;
+    rows[y] = {t, D};
+    v_hi = std::max(v_hi, b.hl / D);
+    for (int k = 0; k < 2; ++k) {
+      u_lo[k] = std::min(u_lo[k], (t * xn[0] - b.xl[k]) / D);
+      u_hi[k] = std::max(u_hi[k], (t * xn[W - 1] - b.xl[k]) / D);
+    }
+  }
+  if (!(v_hi > 0)) return st;  // no ground below the horizon
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = maps[k];
+    m.xl = b.xl[k];
+    m.u_lo = static_cast<float>(u_lo[k] - cell);  // a cell of margin on each side: the floats' rounding
+    m.inv_cell = static_cast<float>(1 / cell);
+    m.nu = static_cast<int>(std::ceil((u_hi[k] - u_lo[k]) / cell)) + 3;
+    m.nv = static_cast<int>(std::ceil(v_hi / cell)) + 2;
+    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+  }
+  // The solid points, both lamps' maps in one pass (the least D of a cell does not depend on the
+  // order the points come in: the same maps for any thread count). A point's X = z·x_n,
+  // D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows). Where there are
+  // two threads, each takes every other chunk of rows, the second into its own maps, then the
+  // least of the two per cell (the same maps again).
+  const uint64_t solid = label_bits(beam_vertical_classes());
+  const float h = static_cast<float>(g.mount_height_m);
+  const bool with_runs = runs && runs->made_of(labels);
+  const int teams = std::min(2, omp_get_max_threads());
+  std::array<LampShadowMap, 2> maps2;
+  if (teams > 1) maps2 = maps;
+#pragma omp parallel num_threads(teams)
+  {
+    const int team = omp_get_thread_num();
+    std::array<LampShadowMap, 2>& mt = team == 0 ? maps : maps2;
+    std::vector<int> cols(W);
+    constexpr int kChunk = 32;
+    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
+      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) {
+        const double yn = (y - g.cy_px) / g.f_px;
+        const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
+        // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
+        // above the lamps.
+        if (h > b.hl && !(kY > 0)) continue;
+        const float* z = depth_m.row(y);
+        // The row's solid columns: from the label runs where they are at hand (the chain's, made
+        // beside the Hough stage), else by testing every label.
+        int n = 0;
+        if (with_runs) {
+          for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i)
+            if (runs->id[i] < 64 && (solid >> runs->id[i] & 1))
+              for (int x = runs->x0[i], xe = runs->end(i, y); x < xe; ++x) cols[n++] = x;
+        } else {
+          n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, solid, cols.data());
+        }
+        for (int j = 0; j < n; ++j) {
+          const int x = cols[j];
+          const float zz = z[x];
+          if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
+          const float D = zz * kD, dv = b.hl - (h - zz * kY);
+          if (!(D > 0) || !(dv > 0)) continue;
+          const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
+          for (LampShadowMap& m : mt) {
+            const int i = m.cell((X - m.xl) * invD, v);
+            if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+          }
+        }
+      }
+  }
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      float* d = maps[k].Dmin.data();
+      const float* d2 = maps2[k].Dmin.data();
+      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+    }
+  // Each map row's blocks of kBeamShadowBlock cells: their least D (the rows below skip a block
+  // that holds no point near enough).
+  for (LampShadowMap& m : maps) {
+    m.nb = (m.nu + kBeamShadowBlock - 1) / kBeamShadowBlock;
+    m.Bmin.assign(static_cast<size_t>(m.nb) * m.nv, INFINITY);
+    for (int iv = 0; iv < m.nv; ++iv) {
+      const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+      for (int jb = 0; jb < m.nb; ++jb) {
+        float bmin = INFINITY;
+        for (int c = jb * kBeamShadowBlock; c < std::min(m.nu, (jb + 1) * kBeamShadowBlock); ++c) bmin = std::min(bmin, dm[c]);
+        m.Bmin[static_cast<size_t>(iv) * m.nb + jb] = bmin;
+      }
+    }
+  }
+  // The lit ground pixels (as low_beam_illuminance evaluates them: ground classes and lane
+  // markings) beyond a solid point of their cell (by the margin above) lose that lamp's share:
+  // the other lamp's E alone (beam_lux_f's sum less the shaded term, the same bits as that lamp's
+  // E), 0 in both shadows.
+  const auto& read = ground_classes();
+  const float cellf = static_cast<float>(cell);
+  long long n0 = 0, n1 = 0, n2 = 0;
+  // Per row: its cells in each lamp's map are one map row (v = h_l/D), and a pixel's cell column
+  // cu(x) = ((X − x_l)/D − u_lo)/cell never decreases with x (X = t·x_n rounded to float, each
+  // step monotone), so the pixels in shaded cells are found from the map row's runs of shaded
+  // cells (skipping blocks of kBeamShadowBlock cells whose least D is not near enough), each run's
+  // first and last pixel by cu's linear estimate corrected by cu itself: the same pixels as
+  // testing each one, without visiting the others.
+#pragma omp parallel reduction(+ : n0, n1, n2)
+  {
+    std::vector<uint8_t> bits(W, 0);
+    std::vector<std::pair<int, int>> spans;
+#pragma omp for schedule(static, 8)
+    for (int y = 0; y < H; ++y) {
+      const Row r = rows[y];
+      if (!(r.D > 0)) continue;
+      const float Df = static_cast<float>(r.D), D2 = Df * Df, invD = 1.f / Df, v = b.hl * invD;
+      const float D_near = b.hl / (v + cellf);  // the ground one cell nearer: a solid point must be nearer still
+      const float cv = v * maps[0].inv_cell;
+      if (!(cv >= 0 && cv < static_cast<float>(maps[0].nv))) continue;
+      const int iv = static_cast<int>(cv);
+      spans.clear();
+      for (int k = 0; k < 2; ++k) {
+        const LampShadowMap& m = maps[k];
+        auto cu = [&](int x) { return ((static_cast<float>(r.t * xn[x]) - m.xl) * invD - m.u_lo) * m.inv_cell; };
+        const float cu0 = cu(0), cu1 = cu(W - 1);
+        if (!(cu1 >= 0) || !(cu0 < static_cast<float>(m.nu))) continue;
+        const double slope = W > 1 ? (static_cast<double>(cu1) - cu0) / (W - 1) : 1;
+        // The first pixel whose cu reaches c (W where none does).
+        auto first_at = [&](int c) {
+          int x = slope > 0 ? static_cast<int>(std::clamp(std::ceil((c - cu0) / slope), 0.0, static_cast<double>(W))) : 0;
+          while (x > 0 && cu(x - 1) >= static_cast<float>(c)) --x;
+          while (x < W && cu(x) < static_cast<float>(c)) ++x;
+          return x;
+        };
+        const int c_lo = std::max(0, static_cast<int>(std::max(cu0, 0.f))), c_hi = std::min(m.nu - 1, static_cast<int>(cu1));
+        const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+        const float* bm = m.Bmin.data() + static_cast<size_t>(iv) * m.nb;
+        const uint8_t bit = static_cast<uint8_t>(1 << k);
+        int run = -1;  // the current run's first cell
+        auto close = [&](int c_end) {  // the run [run, c_end) of shaded cells: its pixels
+          const int x0 = first_at(run), x1 = first_at(c_end);
+          for (int x = x0; x < x1; ++x) bits[x] |= bit;
+          if (x0 < x1) spans.emplace_back(x0, x1);
+          run = -1;
+        };
+        for (int jb = c_lo / kBeamShadowBlock; jb <= c_hi / kBeamShadowBlock; ++jb) {
+          if (!(bm[jb] < D_near)) {
+            if (run >= 0) close(std::max(c_lo, jb * kBeamShadowBlock));
+            continue;
+          }
+          const int c_a = std::max(c_lo, jb * kBeamShadowBlock), c_b = std::min(c_hi + 1, (jb + 1) * kBeamShadowBlock);
+          for (int c = c_a; c < c_b; ++c) {
+            const bool sh = dm[c] < D_near;
+            if (sh && run < 0) run = c;
+            else if (!sh && run >= 0) close(c);
+          }
+        }
+        if (run >= 0) close(c_hi + 1);
+      }
+      const uint16_t* id = labels.row(y);
+      const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
+      float* e = beam_lux.row(y);
+      for (const auto& [x0, x1] : spans)
+        for (int x = x0; x < x1; ++x) {
+          const uint8_t sb = bits[x];
+          if (!sb) continue;  // done in an earlier span
+          bits[x] = 0;
+          if (!(e[x] > 0) || !((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
+          if (sb == 3) {
+            e[x] = 0.f;
+            ++n2;
+          } else {
+            const int lit = sb == 1 ? 1 : 0;
+            e[x] = beam_lamp_f(static_cast<float>(r.t * xn[x]) - b.xl[lit], D2, invD, b);
+            ++(lit ? n0 : n1);
+          }
+        }
+    }
+  }
+  st.one_lamp[0] = n0;
+  st.one_lamp[1] = n1;
+  st.both = n2;
+  return st;
+}
+
+float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset& p) {
+  const BeamF b = beam_f(p);
+  const float D = static_cast<float>(D_m);
+  if (!b.ok || !(D > 0) || lamp < 0 || lamp > 1) return 0.f;
+  return beam_lamp_f(static_cast<float>(X_m) - b.xl[lamp], D * D, 1.f / D, b);
+}
+
 
 // ---- The low beam on vertical surfaces ----------------------------------------------------------
 // The headlamps light what stands in front of the car as well as the road: the legs of a

@@ -234,6 +234,10 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
         coarse_rows();
       });
+  // The low beam's shadows on the ground (the depth and the beam image both made now): each lamp's
+  // share leaves the ground pixels that a solid object hides from it.
+  s.beam_shadow = shade_low_beam_ground_with(s.beam_lux, s.geometry, labels.ids, s.depth, &lanes_full, p,
+                                             label_row_runs.get());
   depth_runs.reset();
   regions.reset();
   label_row_runs.reset();

@@ -62,6 +62,12 @@ struct LabelRuns {
   bool made_of(const ImageU16& ids) const { return labels.same_labels(LabelsMadeOf(ids)); }
 };
 std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids);
+// shade_low_beam_ground (photosite/scene/night.h) reading the solid classes' columns from the
+// label runs `runs` where they were made of these labels (night_scene's, made beside the Hough
+// stage), else from the labels: the same image.
+BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
+                                           const LabelRuns* runs);
 struct MetricDepthRuns;
 std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels, const LabelRuns* runs = nullptr);
 ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,

@@ -14,15 +14,13 @@ ego_beam.lens_diameter_m being optional.)
 """
 import argparse
 import os
-import tempfile
 
-from PIL import Image, ImageDraw
+from PIL import Image
 
-from night_figures import OUT, ROOT, run  # the same `photosite night` call as the other pictures
+from night_figures import kitti_after_before, save_stacked  # the same `photosite night` call as the other pictures
 
 
-def preview(exe, tmp):
-    run(exe, [], tmp, maps=False)  # the bundled KITTI frame
+def preview(tmp):
     return Image.open(os.path.join(tmp, "n.png")).convert("RGB")
 
 
@@ -30,25 +28,11 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--before", required=True, help="an older photosite binary (without the beam on vertical surfaces)")
     a = ap.parse_args()
-    os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
-    with tempfile.TemporaryDirectory() as tmp:
-        after = preview(os.path.join(ROOT, "build", "photosite"), os.path.join(tmp, "after"))
-        before = preview(a.before, os.path.join(tmp, "before"))
+    after, before = kitti_after_before(a.before, preview)
     w, h = after.size
     box = (0, h // 3, w, h)  # the road and what stands on it
-    parts = [(before.crop(box), "before: the low beam on the road only"),
-             (after.crop(box), "after: also on cars, fences, poles and crowns ahead")]
-    ph = box[3] - box[1]
-    out = Image.new("RGB", (w, 2 * ph))
-    for k, (im, label) in enumerate(parts):
-        out.paste(im, (0, k * ph))
-        ImageDraw.Draw(out).text((8, k * ph + 6), label, fill=(255, 255, 0))
-    if out.width > 1024:
-        out = out.resize((1024, round(out.height * 1024 / out.width)), Image.LANCZOS)
-    os.makedirs(OUT, exist_ok=True)
-    dst = os.path.join(OUT, "beam_vertical_kitti.jpg")
-    out.save(dst, quality=85)
-    print("wrote", dst)
+    save_stacked([(before.crop(box), "before: the low beam on the road only"),
+                  (after.crop(box), "after: also on cars, fences, poles and crowns ahead")], "beam_vertical_kitti.jpg")
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ import subprocess
 import tempfile
 
 import matplotlib
-from PIL import Image
+from PIL import Image, ImageDraw
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -34,6 +34,35 @@ def scenes():
             "--image", os.path.join(cs, "leftImg8bit", n + "_leftImg8bit.png"),
             "--labels", os.path.join(cs, "gtFine", n + "_gtFine_labelIds.png"),
             "--instances", os.path.join(cs, "gtFine", n + "_gtFine_instanceIds.png")], "cityscapes")
+
+
+def kitti_after_before(before_exe, read):
+    """`photosite night` of this checkout and of `before_exe` on the bundled KITTI frame (through
+    run, in a temporary folder each); returns (read(after folder), read(before folder)), `read`
+    taking what it needs from the folder (n.exr, n.png) before the folders are removed."""
+    os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
+    with tempfile.TemporaryDirectory() as tmp:
+        got = []
+        for exe, sub in ((os.path.join(ROOT, "build", "photosite"), "after"), (before_exe, "before")):
+            run(exe, [], os.path.join(tmp, sub), maps=False)
+            got.append(read(os.path.join(tmp, sub)))
+    return got[0], got[1]
+
+
+def save_stacked(parts, name, width=1024):
+    """Stacks (image, label) pairs of one size one above the other, each labelled in its corner,
+    and writes them as docs/night/<name> (a JPEG at most `width` px wide)."""
+    w, ph = parts[0][0].size
+    out = Image.new("RGB", (w, len(parts) * ph))
+    for k, (im, label) in enumerate(parts):
+        out.paste(im, (0, k * ph))
+        ImageDraw.Draw(out).text((8, k * ph + 6), label, fill=(255, 255, 0))
+    if out.width > width:
+        out = out.resize((width, round(out.height * width / out.width)), Image.LANCZOS)
+    os.makedirs(OUT, exist_ok=True)
+    dst = os.path.join(OUT, name)
+    out.save(dst, quality=85)
+    print("wrote", dst)
 
 
 def save_small(src, dst, width=1024):

@@ -2480,7 +2480,23 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   ScenePreset pc = p;
   pc.rig = load_camera_rig("cityscapes");
   const NightScene n = night_scene(s.day_linear_srgb, s.labels, pc, 1);
-  const ImageF En = low_beam_illuminance(n.geometry, o.width, o.height, pc);
+  ImageF En = low_beam_illuminance(n.geometry, o.width, o.height, pc);
+  // and shades them where a solid object hides a lamp (shade_low_beam_ground). On this street only
+  // the façades could, and they hide no lamp from the road: their feet run along it (the
+  // margin's case) and end 200 m ahead, where the ground beside a façade's end may share a cell
+  // with it (an edge placed to within a cell): every shaded pixel lies beyond 190 m.
+  const ImageF En_unshaded = En;
+  shade_low_beam_ground(En, n.geometry, s.labels.ids, n.depth, nullptr, pc);
+  int shaded = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      if (En.at(x, y) == En_unshaded.at(x, y)) continue;
+      double X, D, z;
+      ASSERT_TRUE(n.geometry.ground_point(x, y, &X, &D, &z));
+      EXPECT_GT(D, 190) << x << "," << y;
+      ++shaded;
+    }
+  std::fprintf(stderr, "[beam] %d ground pixels shaded, all beyond 190 m\n", shaded);
   ASSERT_EQ(n.beam_lux.size(), En.size());
   size_t read = 0;
   for (size_t i = 0; i < En.size(); ++i) {
@@ -3588,4 +3604,115 @@ TEST(TramRails, TheirNightTextureIsTheAsphaltsBesideThem) {
                "%.3f..%.3f (normalisation %.4f), %d inside [0.818, 1.222]\n", n, lo, hi, kn, inside);
   ASSERT_GT(n, 200);
   EXPECT_EQ(inside, n);
+}
+
+namespace {
+// Whether the segment from the lamp L to the ground point (X, 0, D) passes through the box (its
+// solid volume: |X − X_b| ≤ w/2, base ≤ Y ≤ height, D_b ≤ D ≤ D_b + length), by the slab method
+// on the segment's parameter λ ∈ (0, 1).
+bool segment_hits_box(double xl, double hl, double X, double D, const SyntheticBox& B) {
+  const double o[3] = {xl, hl, 0}, d[3] = {X - xl, -hl, D};
+  const double lo[3] = {B.X_m - B.width_m / 2, B.base_m, B.D_m}, hi[3] = {B.X_m + B.width_m / 2, B.height_m, B.D_m + B.length_m};
+  double t0 = 0, t1 = 1;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (o[a] < lo[a] || o[a] > hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+  }
+  return t0 < t1;
+}
+}  // namespace
+
+// Shadows of the low beam on the ground (shade_low_beam_ground, docs/night.md §6c): a street of
+// road only (the façades out of view) with a lead car 15 m ahead, a car parked on the left, a low
+// block (0.4 m, lower than the lamps: a shadow of finite length) and a pole, their depth the ray
+// cast's. The geometric shadow of each lamp is computed here from the boxes' volumes (the segment
+// from the lamp to the ground point through a box). The shadow map places an edge to within its
+// cell (2 px) and a pixel's samples lie up to a pixel apart, so a pixel whose lamp-view direction
+// (u, v) = ((X − x_l)/D, h_l/D) lies within r = √2·cell + 1.5 px of an edge of the geometric shadow
+// may go either way, and the margin (a solid point must be nearer than the ground one cell nearer)
+// may leave unshaded the ground up to one cell nearer than the shadow's near end: such pixels
+// (the classification not the same for every direction within r, or up to a cell + r nearer) are
+// counted, not checked. Every other lit pixel: outside both shadows the old value exactly, in one
+// lamp's shadow the other lamp's share (low_beam_lamp_lux_f32), in both 0.
+TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
+  SyntheticCameraOptions o = camera_scene();
+  o.road_half_width_m = 1000;  // façades at X = ±1003 m: out of view at every D ≤ 200 m
+  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
+             {-3.5, 10, 1.8, 1.5, 4.5},
+             {2.8, 9, 1.2, 0.4, 0.3, Label::Wall},
+             {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  ImageF E = E0;
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const BeamShadowStats st = shade_low_beam_ground(E, g, s.labels.ids, s.depth_m, nullptr, p);
+  omp_set_num_threads(2);
+  ImageF E2 = E0;
+  shade_low_beam_ground(E2, g, s.labels.ids, s.depth_m, nullptr, p);
+  omp_set_num_threads(threads);
+  ASSERT_EQ(std::memcmp(E.data(), E2.data(), E.size() * sizeof(float)), 0) << "1 and 2 threads differ";
+  // The chain hands its label runs: the same image from them.
+  ImageF E3 = E0;
+  shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
+  ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
+  const double hl = p.beam_lamp_height_m, xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
+  const double cell = 2 / g.f_px, r = (std::sqrt(2.0) * 2 + 1.5) / g.f_px;
+  // Geometric shadow of lamp k at the ground point in lamp-view direction (u, v).
+  auto shadowed = [&](int k, double u, double v) {
+    const double D = hl / v, X = xls[k] + u * D;
+    for (const SyntheticBox& B : o.boxes)
+      if (segment_hits_box(xls[k], hl, X, D, B)) return true;
+    return false;
+  };
+  int kept = 0, one[2] = {0, 0}, both = 0, band = 0, changed_share = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      if (!(E0.at(x, y) > 0)) {
+        ASSERT_EQ(E.at(x, y), E0.at(x, y)) << x << "," << y;
+        continue;
+      }
+      double X, D, z;
+      ASSERT_TRUE(g.ground_point(x, y, &X, &D, &z));
+      bool sh[2], sure = true;
+      for (int k = 0; k < 2 && sure; ++k) {
+        const double u = (X - xls[k]) / D, v = hl / D;
+        sh[k] = shadowed(k, u, v);
+        for (const double dv : {-r, -r / 2, 0.0, r / 2, r, cell + r / 2, cell + r})
+          for (const double du : {-r, -r / 2, 0.0, r / 2, r})
+            if (v + dv > 0 && shadowed(k, u + du, v + dv) != sh[k]) sure = false;
+      }
+      if (!sure) {
+        ++band;
+        continue;
+      }
+      if (!sh[0] && !sh[1]) {
+        ASSERT_EQ(E.at(x, y), E0.at(x, y)) << x << "," << y;
+        ++kept;
+      } else if (sh[0] && sh[1]) {
+        ASSERT_EQ(E.at(x, y), 0.f) << x << "," << y;
+        ++both;
+      } else {
+        const int lit = sh[0] ? 1 : 0;
+        const float share = low_beam_lamp_lux_f32(X, D, lit, p);
+        ASSERT_EQ(E.at(x, y), share) << x << "," << y << " lamp " << lit;
+        changed_share += share != E0.at(x, y);
+        ++one[1 - lit];
+      }
+    }
+  std::fprintf(stderr, "[beam shadow] %d lit pixels kept, %d in the left lamp's shadow only, %d in the right's "
+               "only (%d of them changed), %d in both, %d within the edge band; shaded: %lld left, %lld right, %lld both\n",
+               kept, one[0], one[1], changed_share, both, band, st.one_lamp[0], st.one_lamp[1], st.both);
+  EXPECT_GT(kept, 10000);
+  EXPECT_GT(one[0], 100);
+  EXPECT_GT(one[1], 100);
+  EXPECT_GT(changed_share, 100);
+  EXPECT_GT(both, 100);
 }

@@ -1244,9 +1244,10 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
     const ImageF depth = metric_depth(s.labels, ns.geometry, p.max_depth_m, &fac);
     const ImageF coarse = coarse_depth(W, H, ns.vp.x, ns.vp.y);
     const ImageU8 lanes = lanes_at_frame(ns.lanes_work, W, H);
-    // The beam on the ground, then on the vertical surfaces (which the chain makes row by row in
-    // the light map's row pass).
+    // The beam on the ground, its shadows there (after the depth stage), then the beam on the
+    // vertical surfaces (which the chain makes row by row in the light map's row pass).
     ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);
+    shade_low_beam_ground(beam, ns.geometry, s.labels.ids, depth, &lanes, p);
     add_low_beam_vertical(beam, ns.geometry, s.labels.ids, depth, &fac, p);
     EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";

@@ -294,6 +294,17 @@ void run(const Opts& o) {
       const double cb1 = cpu_ms();
       add("ego low beam image (alone)", ms(tb0, tb1));
       const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
+      // The beam's shadows on the ground over that image (the chain shades its image right after
+      // the depth stage), on this round's depth, with the label runs handed as the chain hands
+      // them (it makes them beside the Hough stage).
+      ImageF beam_s = beam;
+      const std::shared_ptr<const scene::LabelRuns> runs = scene::label_runs(lm.ids);
+      const double cbs0 = cpu_ms();
+      auto tbs0 = clock::now();
+      scene::shade_low_beam_ground_with(beam_s, ns.geometry, lm.ids, ns.depth, &lanes_full, sp, runs.get());
+      auto tbs1 = clock::now();
+      const double cbs1 = cpu_ms();
+      add("ego low beam shadows on the ground (alone)", ms(tbs0, tbs1));
       // The low beam on vertical surfaces over that image (the chain makes each row inside the
       // light map's row pass, just before composing it).
       ImageF beam_v = beam;
@@ -343,6 +354,7 @@ void run(const Opts& o) {
         add("cpu: scene stages (linearize..compose)", scene_cpu);
         add("cpu: ego low beam image (alone)", cb1 - cb0);
         add("cpu: ego low beam on vertical surfaces (alone)", cbv1 - cbv0);
+        add("cpu: ego low beam shadows on the ground (alone)", cbs1 - cbs0);
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);

@@ -299,6 +299,23 @@ float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p);
 // lane-marking pixels (the light map's retroreflection); 0 elsewhere.
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels = nullptr, const ImageU8* lanes = nullptr);
+// One headlamp's share of low_beam_lux_f32 (lamp 0 on the left, x_l = −spacing/2; 1 on the
+// right): the same bits as the pair's E where the other lamp gives 0.
+float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset& p);
+// Shadows of the low beam on the ground (docs/night.md §6c): a shadow map per lamp from the metric
+// scene (the points of beam_vertical_classes' pixels with a finite depth, below the lamps'
+// height, at their direction from the lamp, keeping the nearest forward distance D per cell of
+// kBeamShadowCellPx (2) image pixels); each lit ground pixel of beam_lux (ground classes and lane
+// markings, low_beam_illuminance's) whose flat-ground point lies farther than the nearest solid
+// point in its cell (by one cell's margin: 1/D_solid > 1/D + cell/h_l) loses that lamp's share:
+// it keeps the other lamp's (low_beam_lamp_lux_f32's bits), 0 in both lamps' shadows; every
+// other pixel keeps its value. The same image for any thread count. Returns the pixels in each
+// lamp's shadow alone and in both (those the hidden lamp did not light included).
+struct BeamShadowStats {
+  long long one_lamp[2] = {0, 0}, both = 0;
+};
+BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                      const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p);
 // The low beam on vertical surfaces (scene/lights.cpp): the illuminance (lx) of the headlamp pair
 // on a surface element at road point (X_m, Y_m, D_m) with unit normal (nX, nY, nD) toward the
 // side it is seen from, Σ_lamps I(h, v)·cos β / max(d², (5·lens_diameter_m)²) with the table below
@@ -382,6 +399,7 @@ struct NightScene {
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;
   int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
+  BeamShadowStats beam_shadow;  // ground pixels in the low beam's shadows (shade_low_beam_ground)
   std::vector<Segment> lines_work;
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
