@@ -85,6 +85,14 @@ inline bool all_zero8(const int32_t* p) {
   std::memcpy(w, p, sizeof w);
   return !(w[0] | w[1] | w[2] | w[3]);
 }
+// p[0..96) = +0 by 24 16-byte stores (SSE2, the baseline). (std::fill_n of 96 floats here became
+// `rep stosq`, whose start-up, paid 32 times a row in the retroreflection rows, cost more than the
+// stores: +0.4 ms of CPU per light map at 1 thread, docs/benchmarks.md "Retroreflection rows".)
+inline void zero_floats96(float* p) {
+  const __m128 z = _mm_setzero_ps();
+#pragma GCC unroll 24
+  for (int i = 0; i < 24; ++i) _mm_storeu_ps(p + 4 * i, z);
+}
 void put_max(ImageF& img, int x, int y, const Rgb& c) {
   for (int k = 0; k < 3; ++k) img.at(x, y, k) = std::max(img.at(x, y, k), static_cast<float>(c[k]));
 }
@@ -2263,10 +2271,12 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   const bool sign_avx512 = has_sign_pos && kHaveAvx512 && beam_isa_cap >= 2;
   // A retroreflecting pixel's radiance: the luminance lum in the beam's colour with the marking's
   // flat pattern or the day texture's.
+  // (1/ktb made once: the same quotient as per pixel, without its three divisions per marking pixel.)
+  const double inv_ktb = 1.0 / ktb;
   auto retro_put = [&](float* Lr, const float* tr, int x, bool marking, int id, double lum) {
     const double rho = class_reflectance(id, p);
     for (int k = 0; k < 3; ++k) {
-      const double pattern = marking ? 1.0 / ktb : tr[3 * x + k] / rho;
+      const double pattern = marking ? inv_ktb : tr[3 * x + k] / rho;
       Lr[3 * x + k] = static_cast<float>(lum * tb[k] * pattern);
     }
   };
@@ -2307,8 +2317,14 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     int signals = 0;
     // Row pointers (stores to L through the images' own accessors made the compiler reload them
     // per pixel), and pixels that are no marking, sign or signal left at once: they get nothing.
+    // The row is zeroed block by block as the scan below reaches it (zeros stored where nothing
+    // retroreflects, before any pixel of the block is written), not by a pass of its own first:
+    // the stores of a block, whose lines come from memory (L is 24 MB a frame at 2048x1024), then
+    // overlap the loads of the labels and lanes the scan waits for, and the row is gone over once.
+    // The same values: +0 everywhere, then the same writes over it. (Measured: −0.5 ms of CPU in
+    // lights+compose at 1 thread, nothing at 2 threads: docs/benchmarks.md "Retroreflection rows,
+    // twenty-fifth session".)
     float* Lr = L.row(y);
-    std::fill_n(Lr, 3 * static_cast<size_t>(W), 0.f);
     const uint16_t* idr = labels.row(y);
     const uint8_t* lr = lanes.row(y);
     const float* br = beam_lux ? beam_lux->row(y) : nullptr;
@@ -2326,7 +2342,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     for (int x = 0; x < W; ++x) {
       // Blocks of 32 pixels with no marking, sign or signal skipped whole (a branch-free test
       // the compiler vectorizes): most of the frame.
+      if ((x & 31) == 0 && x + 32 > W) std::fill_n(Lr + 3 * static_cast<size_t>(x), 3 * static_cast<size_t>(W - x), 0.f);
       if ((x & 31) == 0 && x + 32 <= W) {
+        zero_floats96(Lr + 3 * static_cast<size_t>(x));
         unsigned any = 0;
         for (int k = x; k < x + 32; ++k) any |= (lr[k] != 0) | (idr[k] == traffic_sign) | (idr[k] == traffic_light);
         if (!any) {
