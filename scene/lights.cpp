@@ -1872,6 +1872,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
                 k32 = _mm512_set1_epi32(32);
   const __m512 zero = _mm512_setzero_ps(), vkD = _mm512_set1_ps(kD), vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(c.h),
                vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f);
+  const double cell = kBeamShadowCellPx / c.g.f_px;
   int n = 0;
   for (int x = 0; x < Wv; x += 16) {
     const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
@@ -1883,8 +1884,10 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
     const __m512 X = _mm512_mul_ps(vz, _mm512_loadu_ps(c.xn.data() + x));
     const __m512 dy = _mm512_sub_ps(_mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY)), vhl);
     const __m512 v = _mm512_mul_ps(_mm512_xor_ps(dy, sign), invD);
-    __mmask16 cand = 0;
-    for (const LampShadowMap& mp : vs.maps) {
+    __mmask16 cand = 0, cl[2] = {0, 0};
+    __m512 dql[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = vs.maps[l];
       const __m512 cu = _mm512_mul_ps(
           _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(X, _mm512_set1_ps(mp.xl)), invD), _mm512_set1_ps(mp.u_lo)),
           _mm512_set1_ps(mp.inv_cell));
@@ -1896,8 +1899,52 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       if (!in) continue;
       const __m512i i = _mm512_add_epi32(_mm512_mullo_epi32(_mm512_cvttps_epi32(cv), _mm512_set1_epi32(mp.nu)),
                                          _mm512_cvttps_epi32(cu));
-      const __m512 dq = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.data(), 4);
-      cand |= in & _mm512_cmp_ps_mask(dq, D, _CMP_LT_OQ);
+      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.data(), 4);
+      cl[l] = in & _mm512_cmp_ps_mask(dql[l], D, _CMP_LT_OQ);
+      cand |= cl[l];
+    }
+    // The x-neighbours' bound of the own surface's margin (shade_vertical_row's first test) in
+    // float, leaving out only lanes that test certainly drops: where for every neighbour of a lit
+    // class the gap is at most half its bound (the scalar test, in double, takes one of them and
+    // drops when the gap is at most its bound; half: room for the float's rounding of the small
+    // differences Δu, Δv, Δw, relative 10⁻³ at most for steps of a pixel), or no neighbour is lit.
+    // The gap here is the scalar's plus 2⁻¹⁹·w (its slack 2⁻¹⁶·w less 2⁻¹⁹·w), more than the
+    // float roundings of 1/D_Q and w (a few 2⁻²⁴·w) and of Δw where the surface faces the lamp.
+    if (cand && x >= 1 && x + 17 <= W) {
+      const __m512 w = invD, wslack = _mm512_mul_ps(w, _mm512_set1_ps(1.f + 0x1p-16f - 0x1p-19f));
+      const __m512 Y = _mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY));
+      const __m512 c2 = _mm512_set1_ps(static_cast<float>(0.25 * 2 * cell * cell)), big = _mm512_set1_ps(0x1p100f),
+                   tiny = _mm512_set1_ps(0x1p-100f);
+      __mmask16 keep[2] = {0, 0};
+      for (const int sgn : {-1, 1}) {
+        const __m512i kn = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x + sgn)));
+        const __m512i bn = _mm512_and_si512(
+            _mm512_or_si512(_mm512_srlv_epi32(mlo, kn), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(kn, k32))), one);
+        const __m512 zn = _mm512_loadu_ps(z + x + sgn), Dn = _mm512_mul_ps(zn, vkD);
+        const __mmask16 valid = cand & _mm512_test_epi32_mask(bn, bn) & _mm512_cmp_ps_mask(zn, zero, _CMP_GT_OQ) &
+                                _mm512_cmp_ps_mask(zn, _mm512_set1_ps(kDepthInfinity_m), _CMP_LT_OQ) &
+                                _mm512_cmp_ps_mask(Dn, zero, _CMP_GT_OQ);
+        const __m512 wn = _mm512_div_ps(fone, Dn), Xn = _mm512_mul_ps(zn, _mm512_loadu_ps(c.xn.data() + x + sgn));
+        const __m512 Yn = _mm512_sub_ps(vh, _mm512_mul_ps(zn, vkY));
+        const __m512 dw = _mm512_sub_ps(wn, w);
+        for (int l = 0; l < 2; ++l) {
+          const __m512 xl = _mm512_set1_ps(vs.maps[l].xl);
+          const __m512 du = _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(Xn, xl), wn), _mm512_mul_ps(_mm512_sub_ps(X, xl), w));
+          const __m512 dv = _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(vhl, Yn), wn), _mm512_mul_ps(_mm512_sub_ps(vhl, Y), w));
+          const __m512 gap = _mm512_sub_ps(_mm512_div_ps(fone, dql[l]), wslack);
+          const __m512 lhs = _mm512_mul_ps(_mm512_mul_ps(gap, gap), _mm512_add_ps(_mm512_mul_ps(du, du), _mm512_mul_ps(dv, dv)));
+          const __m512 rhs = _mm512_mul_ps(c2, _mm512_mul_ps(dw, dw));
+          // Kept (maybe shaded by lamp l as this neighbour sees it): gap > 0 and gap > bound/2.
+          // (And kept where a square left the float's range, over or under: there the double's
+          // test decides.)
+          const __mmask16 odd = _mm512_cmp_ps_mask(lhs, big, _CMP_NLT_UQ) | _mm512_cmp_ps_mask(rhs, big, _CMP_NLT_UQ) |
+                                _mm512_cmp_ps_mask(lhs, tiny, _CMP_LT_OQ);
+          keep[l] |= valid & cl[l] & _mm512_cmp_ps_mask(gap, zero, _CMP_GT_OQ) & (_mm512_cmp_ps_mask(lhs, rhs, _CMP_GT_OQ) | odd);
+        }
+      }
+      // A lamp no lit neighbour keeps is dropped by the scalar test whichever neighbour it takes;
+      // a lane with no lit neighbour is dropped by it as well.
+      cand &= keep[0] | keep[1];
     }
     for (unsigned r = cand; r; r &= r - 1) out[n++] = x + __builtin_ctz(r);
   }
