@@ -1080,12 +1080,12 @@ namespace {
 constexpr int kBeamShadowCellPx = 2;
 constexpr int kBeamShadowBlock = 16;
 struct LampShadowMap {
-  float xl = 0, u_lo = 0, inv_cell = 0;
+  float xl = 0, u_lo = 0, inv_cell = 0, v_lo = 0;  // v_lo: 0 for the ground's maps (v > 0 only)
   int nu = 0, nv = 0, nb = 0;
   std::vector<float> Dmin;  // nv × nu, +∞ where no solid point lies
   std::vector<float> Bmin;  // nv × nb: the least Dmin of each block of kBeamShadowBlock cells in a row
   [[gnu::always_inline]] int cell(float u, float v) const {
-    const float cu = (u - u_lo) * inv_cell, cv = v * inv_cell;
+    const float cu = (u - u_lo) * inv_cell, cv = (v - v_lo) * inv_cell;
     if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return -1;
     return static_cast<int>(cv) * nu + static_cast<int>(cu);
   }
@@ -1347,7 +1347,8 @@ float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset&
 // between the lamp and the camera (a few degrees: Φ ≈ 2/3). The normal is street.cpp's: a
 // building's façade plane (BuildingFacades), else the face turned to the camera (the labels do
 // not tell an object's own orientation). Stated approximations: the lamps sit beside the camera
-// (their forward offset neglected, as for the ground); nothing casts a shadow; d² is held at
+// (their forward offset neglected, as for the ground); shadows only below the cut-off's top
+// (shade_vertical_row, after the row); d² is held at
 // (5·lens_diameter_m)² nearer than five lens diameters (the inverse square law's range).
 namespace {
 // Whether a point dy above the lamp at horizontal distance √horiz2 lies above the cut-off's top,
@@ -1747,6 +1748,326 @@ void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* 
     e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q) ? beam_vertical_e(c, q) : 0.f;
   }
 }
+
+// ---- Shadows of the low beam on vertical surfaces (docs/night.md §6c, "Shadows of the low beam")
+// A point P = (X, Y, D) of a vertical surface is hidden from the lamp L = (x_l, h_l, 0) by a solid
+// point Q when Q lies on the segment L→P: in the lamp's view the same direction
+// (u, v) = ((X − x_l)/D, (h_l − Y)/D) and a smaller D. The ground's maps hold only the points
+// below the lamps' height (every lamp→ground ray descends); a vertical surface's point may lie
+// above it (v < 0), so these maps are the ground's (the same cell, the least D per cell) over the
+// lamp view that the frame's solid points below the cut-off's top take (below: why only those).
+// Their extent: a point seen by the camera has X/D = x_n/k_D and H/D = k_Y/k_D (the row's and
+// column's terms), so (u, v) = (X/D − x_l/D, H/D + (h_l − h)/D): the frame's range of X/D and H/D
+// widened by the parallax x_l/D and (h − h_l)/D of a point kBeamShadowNear_m ahead (a photosite
+// choice: a point nearer than that near the frame's edge may fall outside; it neither casts nor
+// receives a shadow there, consistently, since a caster and its receiver share a direction).
+// Only what lies below the cut-off's top is shaded (a photosite choice, for the cost: every solid
+// point of the frame would be ~15× the ground's points): above it the lamps give the glare zone's
+// beam_above_cutoff_cd (625 cd: ≤ 1 lx at 25 m), below it the table's thousands of cd. Whether a
+// point lies above the top depends on its direction from the lamp alone (beam_above_top), so a
+// receiver below the top is hidden only by points below the top, the only ones splatted; the maps
+// then start at the top's v (0 for the urban preset's cutoff_max_v_deg = 0: the lamps' height).
+constexpr double kBeamShadowNear_m = 2;
+struct VerticalShadowMaps {
+  std::array<LampShadowMap, 2> maps;
+  double r_min = 0;  // a row whose H/D = k_Y/k_D is below it holds no point of either map (camera above the lamps)
+  bool ok = false;
+};
+VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16& labels, const ImageF& depth,
+                                        double cp, double sp) {
+  VerticalShadowMaps vs;
+  const BeamF& b = c.b;
+  const CameraGeometry& g = c.g;
+  const int W = labels.width(), H = labels.height();
+  if (W == 0 || H == 0) return vs;
+  const double cell = kBeamShadowCellPx / g.f_px;
+  double r_lo = INFINITY, r_hi = -INFINITY, a_lo = INFINITY, a_hi = -INFINITY;
+  for (int y = 0; y < H; ++y) {
+    const double yn = (y - g.cy_px) / g.f_px, kD = cp - yn * sp, kY = sp + yn * cp;
+    if (!(kD > 0)) continue;
+    r_lo = std::min(r_lo, kY / kD), r_hi = std::max(r_hi, kY / kD);
+    a_lo = std::min(a_lo, c.xn[0] / kD), a_hi = std::max(a_hi, c.xn[W - 1] / kD);
+  }
+  if (!(r_hi >= r_lo)) return vs;
+  const double dv = (b.hl - c.h) / kBeamShadowNear_m;
+  vs.r_min = INFINITY;
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = vs.maps[k];
+    const double du = -b.xl[k] / kBeamShadowNear_m;
+    const double u_lo = a_lo + std::min(0.0, du) - cell, u_hi = a_hi + std::max(0.0, du) + cell;
+    // Below the top: dy ≤ t·√(dx² + D²) (t = tan cutoff_max_v_deg), v = −dy/D ≥ −t·√(1 + u²) for
+    // t ≥ 0, v ≥ |t| for t < 0.
+    const double t = b.tvmax, umax = std::max(std::abs(u_lo), std::abs(u_hi));
+    const double v_top = t >= 0 ? -t * std::sqrt(1 + umax * umax) : -t;
+    const double v_lo = std::max(r_lo + std::min(0.0, dv), v_top) - cell, v_hi = r_hi + std::max(0.0, dv) + cell;
+    if (!(v_hi > v_lo)) return vs;
+    vs.r_min = std::min(vs.r_min, v_lo - cell);
+    m.xl = b.xl[k];
+    m.u_lo = static_cast<float>(u_lo), m.v_lo = static_cast<float>(v_lo);
+    m.inv_cell = static_cast<float>(1 / cell);
+    m.nu = static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1;
+    m.nv = static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1;
+    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+  }
+  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass; two threads as the
+  // ground's maps (each every other chunk of rows, the second into its own maps, then the least
+  // of the two per cell: the same maps for any thread count).
+  const int teams = std::min(2, omp_get_max_threads());
+  std::array<LampShadowMap, 2> maps2;
+  if (teams > 1) maps2 = vs.maps;
+#pragma omp parallel num_threads(teams)
+  {
+    const int team = omp_get_thread_num();
+    std::array<LampShadowMap, 2>& mt = team == 0 ? vs.maps : maps2;
+    std::vector<int> cols(W);
+    constexpr int kChunk = 32;
+    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
+      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) {
+        const double yn = (y - g.cy_px) / g.f_px;
+        // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
+        if (c.h > b.hl && !((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) continue;
+        const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
+        const float* z = depth.row(y);
+        const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols.data());
+        for (int j = 0; j < n; ++j) {
+          const int x = cols[j];
+          const float zz = z[x];
+          if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
+          const float D = zz * kD;
+          if (!(D > 0)) continue;
+          const float invD = 1.f / D, X = zz * c.xn[x], dy = (c.h - zz * kY) - b.hl, v = -dy * invD;
+          for (LampShadowMap& m : mt) {
+            const int i = m.cell((X - m.xl) * invD, v);
+            if (i < 0) continue;
+            const float dx = X - m.xl;
+            if (!beam_above_top(dy, dx * dx + D * D, b)) m.Dmin[i] = std::min(m.Dmin[i], D);
+          }
+        }
+      }
+  }
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      float* d = vs.maps[k].Dmin.data();
+      const float* d2 = maps2[k].Dmin.data();
+      for (size_t i = 0; i < vs.maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+    }
+  vs.ok = true;
+  return vs;
+}
+// The row's lit vertical pixels (e as the rule wrote it) that a solid point of their cell hides
+// from a lamp keep the other lamp's share (beam_vertical_lamp_f of that lamp: the same bits as its
+// term of the rule's sum, the vector rows' included), 0 when hidden from both.
+// A surface must not shadow itself: its own points share P's cell. Near P the surface is a plane,
+// on which w = 1/D is linear in the lamp's (u, v) (n·(P − L) = c₀ gives w = (n_X·u − n_Y·v + n_D)/c₀),
+// so its points in P's cell (a cell's diagonal √2·cell from P at most) have w ≤ w_P + √2·cell·|∇w|.
+// ∇w is measured on the depth image: the pixel's neighbours along x and along y (of a lit class,
+// with a finite depth; of each pair the one with the smaller |Δw|, the same surface where one side
+// is another object's edge) give the changes (Δu, Δv, Δw), and ∇w solves
+// [Δu_x Δv_x; Δu_y Δv_y]·∇w = (Δw_x, Δw_y). So a point Q in P's cell hides P only when
+// w_Q > w_P + √2·cell·|∇w| + 2⁻¹⁶·w_P (the last: the floats' rounding of z·k_D, a few units of
+// 2⁻²⁴ on a plane facing the camera, with room: 0.4 mm at 25 m). A pixel with no such neighbour
+// along an axis, or a surface seen edge-on by the lamp (the system singular), is not shaded.
+// The columns 0 .. 16⌊W/16⌋ − 1 of a row whose pixel shade_vertical_row tests further (of a lit
+// class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
+// the scalar test's operations, in order into out; returns their count (the scalar test then
+// decides each one: the same pixels, the same values).
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shadow_candidates_avx512(
+    const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const uint16_t* id, const float* z, const float* e,
+    float kD, float kY, int* out) {
+  const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
+                mhi = _mm512_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm512_set1_epi32(1),
+                k32 = _mm512_set1_epi32(32);
+  const __m512 zero = _mm512_setzero_ps(), vkD = _mm512_set1_ps(kD), vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(c.h),
+               vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f);
+  const double cell = kBeamShadowCellPx / c.g.f_px;
+  int n = 0;
+  for (int x = 0; x < Wv; x += 16) {
+    const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
+    const __m512i bit = _mm512_and_si512(
+        _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
+    __mmask16 m = _mm512_test_epi32_mask(bit, bit) & _mm512_cmp_ps_mask(_mm512_loadu_ps(e + x), zero, _CMP_GT_OQ);
+    if (!m) continue;
+    const __m512 vz = _mm512_loadu_ps(z + x), D = _mm512_mul_ps(vz, vkD), invD = _mm512_div_ps(fone, D);
+    const __m512 X = _mm512_mul_ps(vz, _mm512_loadu_ps(c.xn.data() + x));
+    const __m512 dy = _mm512_sub_ps(_mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY)), vhl);
+    const __m512 v = _mm512_mul_ps(_mm512_xor_ps(dy, sign), invD);
+    __mmask16 cand = 0, cl[2] = {0, 0};
+    __m512 dql[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = vs.maps[l];
+      const __m512 cu = _mm512_mul_ps(
+          _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(X, _mm512_set1_ps(mp.xl)), invD), _mm512_set1_ps(mp.u_lo)),
+          _mm512_set1_ps(mp.inv_cell));
+      const __m512 cv = _mm512_mul_ps(_mm512_sub_ps(v, _mm512_set1_ps(mp.v_lo)), _mm512_set1_ps(mp.inv_cell));
+      const __mmask16 in = m & _mm512_cmp_ps_mask(cu, zero, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(cu, _mm512_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ) &
+                           _mm512_cmp_ps_mask(cv, zero, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(cv, _mm512_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ);
+      if (!in) continue;
+      const __m512i i = _mm512_add_epi32(_mm512_mullo_epi32(_mm512_cvttps_epi32(cv), _mm512_set1_epi32(mp.nu)),
+                                         _mm512_cvttps_epi32(cu));
+      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.data(), 4);
+      cl[l] = in & _mm512_cmp_ps_mask(dql[l], D, _CMP_LT_OQ);
+      cand |= cl[l];
+    }
+    // The x-neighbours' bound of the own surface's margin (shade_vertical_row's first test) in
+    // float, leaving out only lanes that test certainly drops: where for every neighbour of a lit
+    // class the gap is at most half its bound (the scalar test, in double, takes one of them and
+    // drops when the gap is at most its bound; half: room for the float's rounding of the small
+    // differences Δu, Δv, Δw, relative 10⁻³ at most for steps of a pixel), or no neighbour is lit.
+    // The gap here is the scalar's plus 2⁻¹⁹·w (its slack 2⁻¹⁶·w less 2⁻¹⁹·w), more than the
+    // float roundings of 1/D_Q and w (a few 2⁻²⁴·w) and of Δw where the surface faces the lamp.
+    if (cand && x >= 1 && x + 17 <= W) {
+      const __m512 w = invD, wslack = _mm512_mul_ps(w, _mm512_set1_ps(1.f + 0x1p-16f - 0x1p-19f));
+      const __m512 Y = _mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY));
+      const __m512 c2 = _mm512_set1_ps(static_cast<float>(0.25 * 2 * cell * cell)), big = _mm512_set1_ps(0x1p100f),
+                   tiny = _mm512_set1_ps(0x1p-100f);
+      __mmask16 keep[2] = {0, 0};
+      for (const int sgn : {-1, 1}) {
+        const __m512i kn = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x + sgn)));
+        const __m512i bn = _mm512_and_si512(
+            _mm512_or_si512(_mm512_srlv_epi32(mlo, kn), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(kn, k32))), one);
+        const __m512 zn = _mm512_loadu_ps(z + x + sgn), Dn = _mm512_mul_ps(zn, vkD);
+        const __mmask16 valid = cand & _mm512_test_epi32_mask(bn, bn) & _mm512_cmp_ps_mask(zn, zero, _CMP_GT_OQ) &
+                                _mm512_cmp_ps_mask(zn, _mm512_set1_ps(kDepthInfinity_m), _CMP_LT_OQ) &
+                                _mm512_cmp_ps_mask(Dn, zero, _CMP_GT_OQ);
+        const __m512 wn = _mm512_div_ps(fone, Dn), Xn = _mm512_mul_ps(zn, _mm512_loadu_ps(c.xn.data() + x + sgn));
+        const __m512 Yn = _mm512_sub_ps(vh, _mm512_mul_ps(zn, vkY));
+        const __m512 dw = _mm512_sub_ps(wn, w);
+        for (int l = 0; l < 2; ++l) {
+          const __m512 xl = _mm512_set1_ps(vs.maps[l].xl);
+          const __m512 du = _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(Xn, xl), wn), _mm512_mul_ps(_mm512_sub_ps(X, xl), w));
+          const __m512 dv = _mm512_sub_ps(_mm512_mul_ps(_mm512_sub_ps(vhl, Yn), wn), _mm512_mul_ps(_mm512_sub_ps(vhl, Y), w));
+          const __m512 gap = _mm512_sub_ps(_mm512_div_ps(fone, dql[l]), wslack);
+          const __m512 lhs = _mm512_mul_ps(_mm512_mul_ps(gap, gap), _mm512_add_ps(_mm512_mul_ps(du, du), _mm512_mul_ps(dv, dv)));
+          const __m512 rhs = _mm512_mul_ps(c2, _mm512_mul_ps(dw, dw));
+          // Kept (maybe shaded by lamp l as this neighbour sees it): gap > 0 and gap > bound/2.
+          // (And kept where a square left the float's range, over or under: there the double's
+          // test decides.)
+          const __mmask16 odd = _mm512_cmp_ps_mask(lhs, big, _CMP_NLT_UQ) | _mm512_cmp_ps_mask(rhs, big, _CMP_NLT_UQ) |
+                                _mm512_cmp_ps_mask(lhs, tiny, _CMP_LT_OQ);
+          keep[l] |= valid & cl[l] & _mm512_cmp_ps_mask(gap, zero, _CMP_GT_OQ) & (_mm512_cmp_ps_mask(lhs, rhs, _CMP_GT_OQ) | odd);
+        }
+      }
+      // A lamp no lit neighbour keeps is dropped by the scalar test whichever neighbour it takes;
+      // a lane with no lit neighbour is dropped by it as well.
+      cand &= keep[0] | keep[1];
+    }
+    for (unsigned r = cand; r; r &= r - 1) out[n++] = x + __builtin_ctz(r);
+  }
+  return n;
+}
+void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
+                        const ImageF& depth, const int32_t* reg, int y, double cp, double sp, bool avx512, float* e) {
+  const BeamF& b = c.b;
+  const CameraGeometry& g = c.g;
+  const int W = labels.width(), H = labels.height();
+  const double cell = kBeamShadowCellPx / g.f_px;
+  auto ks = [&](int yy, float* kD, float* kY) {
+    const double yn = (yy - g.cy_px) / g.f_px;
+    *kD = static_cast<float>(cp - yn * sp), *kY = static_cast<float>(sp + yn * cp);
+  };
+  if (c.h > b.hl) {  // a row with no point in the maps (vertical_shadow_maps' test)
+    const double yn = (y - g.cy_px) / g.f_px;
+    if (!((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) return;
+  }
+  float kD, kY;
+  ks(y, &kD, &kY);
+  const uint16_t* id = labels.row(y);
+  const float* z = depth.row(y);
+  // A neighbour's point (X, Y, w), false where it is not of a lit class or has no finite depth.
+  auto point = [&](int xx, int yy, double* X, double* Y, double* w) {
+    if (xx < 0 || xx >= W || yy < 0 || yy >= H) return false;
+    const int k = labels.at(xx, yy);
+    if (k >= 64 || !(c.classes >> k & 1)) return false;
+    const float zz = depth.at(xx, yy);
+    if (!(zz > 0) || !(zz < kDepthInfinity_m)) return false;
+    float kDn, kYn;
+    ks(yy, &kDn, &kYn);
+    const float D = zz * kDn;
+    if (!(D > 0)) return false;
+    *X = zz * c.xn[xx], *Y = c.h - zz * kYn, *w = 1.0 / D;
+    return true;
+  };
+  auto pixel = [&](int x) {
+    if (id[x] >= 64 || !(c.classes >> id[x] & 1) || !(e[x] > 0)) return;
+    const float zz = z[x], D = zz * kD, invD = 1.f / D, X = zz * c.xn[x], Y = c.h - zz * kY;
+    const float dy = Y - b.hl, v = -dy * invD;
+    float Dq[2] = {INFINITY, INFINITY};
+    unsigned cand = 0;
+    for (int k = 0; k < 2; ++k) {
+      const LampShadowMap& m = vs.maps[k];
+      const int i = m.cell((X - m.xl) * invD, v);
+      if (i < 0 || !(m.Dmin[i] < D)) continue;
+      const float dx = X - m.xl;
+      if (!beam_above_top(dy, dx * dx + D * D, b)) cand |= 1u << k, Dq[k] = m.Dmin[i];
+    }
+    if (!cand) return;
+    // The own surface's neighbours along x (first: of the same row, and a lower bound of the
+    // margin: the plane's slope along that step, |Δw_x|/|(Δu_x, Δv_x)| ≤ |∇w|, drops most of the
+    // surface's own points before the neighbours along y are read) and y.
+    const double w = 1.0 / D;
+    double nX[2], nY[2], nw[2];
+    bool have[2] = {false, false};
+    for (const int sgn : {-1, 1}) {  // (point()'s test on this row's pointers and k_D, k_Y)
+      const int xx = x + sgn;
+      if (xx < 0 || xx >= W || id[xx] >= 64 || !(c.classes >> id[xx] & 1)) continue;
+      const float zn = z[xx], Dn = zn * kD;
+      if (!(zn > 0) || !(zn < kDepthInfinity_m) || !(Dn > 0)) continue;
+      const double wn = 1.0 / Dn;
+      if (!have[0] || std::abs(wn - w) < std::abs(nw[0] - w))
+        nX[0] = zn * c.xn[xx], nY[0] = c.h - zn * kY, nw[0] = wn, have[0] = true;
+    }
+    if (!have[0]) return;
+    for (int k = 0; k < 2; ++k) {
+      if (!(cand >> k & 1)) continue;
+      const double xl = b.xl[k], du = (nX[0] - xl) * nw[0] - (X - xl) * w, dv = (b.hl - nY[0]) * nw[0] - (b.hl - Y) * w;
+      const double dw = nw[0] - w, gap = 1.0 / Dq[k] - w - std::ldexp(w, -16);
+      // Not shaded when gap ≤ √2·cell·|dw|/|(du, dv)| (squared: both sides ≥ 0).
+      if (!(gap > 0) || gap * gap * (du * du + dv * dv) <= 2 * cell * cell * dw * dw) cand &= ~(1u << k);
+    }
+    if (!cand) return;
+    for (int a = 1; a < 2; ++a)
+      for (const int sgn : {-1, 1}) {
+        double Xn, Yn, wn;
+        if (!point(a == 0 ? x + sgn : x, a == 0 ? y : y + sgn, &Xn, &Yn, &wn)) continue;
+        if (!have[a] || std::abs(wn - w) < std::abs(nw[a] - w)) nX[a] = Xn, nY[a] = Yn, nw[a] = wn, have[a] = true;
+      }
+    if (!have[0] || !have[1]) return;
+    unsigned sh = 0;
+    for (int k = 0; k < 2; ++k) {
+      if (!(cand >> k & 1)) continue;
+      const double xl = b.xl[k], u0 = (X - xl) * w, v0 = (b.hl - Y) * w;
+      double du[2], dv[2], dw[2];
+      for (int a = 0; a < 2; ++a)
+        du[a] = (nX[a] - xl) * nw[a] - u0, dv[a] = (b.hl - nY[a]) * nw[a] - v0, dw[a] = nw[a] - w;
+      const double det = du[0] * dv[1] - dv[0] * du[1];
+      if (!(std::abs(det) > 0)) continue;
+      const double gu = (dw[0] * dv[1] - dv[0] * dw[1]) / det, gv = (du[0] * dw[1] - dw[0] * du[1]) / det;
+      const double margin = std::sqrt(2.0) * cell * std::sqrt(gu * gu + gv * gv) + std::ldexp(w, -16);
+      if (1.0 / Dq[k] > w + margin) sh |= 1u << k;
+    }
+    if (!sh) return;
+    if (sh == 3) {
+      e[x] = 0.f;
+      return;
+    }
+    BeamPoint q;
+    if (!beam_vertical_point(c, x, id, z, reg, kD, kY, &q)) return;
+    const float xl = sh == 1 ? c.xl1 : c.xl0;
+    e[x] = beam_vertical_lamp_f(q.X - xl, q.Y - b.hl, q.D, q.mX, q.mY, q.mD, q.s, q.crown, b);
+  };
+  int x0 = 0;
+  if (avx512) {
+    thread_local std::vector<int> cols;
+    cols.resize(W);
+    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data());
+    for (int j = 0; j < n; ++j) pixel(cols[j]);
+    x0 = W & ~15;
+  }
+  for (int x = x0; x < W; ++x) pixel(x);
+}
 }  // namespace
 
 const std::array<bool, kLabelCount>& beam_vertical_classes() {
@@ -1798,8 +2119,9 @@ struct BeamVerticalRows::Impl {
   const BuildingFacades* fac;
   double cp, sp;
   bool avx512, avx2;
+  VerticalShadowMaps shadow;  // each lamp's view of the solid points (shade_vertical_row)
   Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
-       const BuildingFacades* facades, const ScenePreset& p)
+       const BuildingFacades* facades, const ScenePreset& p, bool shadows)
       : b(beam_f(p)),
         c{b, g, facades, std::vector<float>(beam_lux.width()), {}, {}, label_bits(beam_vertical_classes()),
           static_cast<int>(Label::Building), static_cast<int>(Label::Vegetation), static_cast<float>(g.mount_height_m),
@@ -1816,12 +2138,14 @@ struct BeamVerticalRows::Impl {
         c.plane_nX.push_back(static_cast<float>(-f.nX));
         c.plane_nD.push_back(static_cast<float>(-f.nD));
       }
+    if (b.ok && shadows) shadow = vertical_shadow_maps(c, labels, depth, cp, sp);
   }
 };
 
 BeamVerticalRows::BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                   const ImageF& depth_m, const BuildingFacades* facades, const ScenePreset& p)
-    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, p)) {}
+                                   const ImageF& depth_m, const BuildingFacades* facades, const ScenePreset& p,
+                                   bool shadows)
+    : impl_(std::make_unique<Impl>(beam_lux, g, labels, depth_m, facades, p, shadows)) {}
 BeamVerticalRows::~BeamVerticalRows() = default;
 
 void BeamVerticalRows::row(int y) const {
@@ -1838,6 +2162,19 @@ void BeamVerticalRows::row(int y) const {
                  : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e)
                           : 0;
   beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e);
+  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, reg, y, m.cp, m.sp, m.avx512, e);
+}
+
+float BeamVerticalRows::lamp_lux(int x, int y, int lamp) const {
+  const Impl& m = *impl_;
+  if (!m.b.ok || lamp < 0 || lamp > 1) return 0.f;
+  const double yn = (y - m.c.g.cy_px) / m.c.g.f_px;
+  const float kD = static_cast<float>(m.cp - yn * m.sp), kY = static_cast<float>(m.sp + yn * m.cp);
+  const int32_t* reg = m.fac && !m.fac->region.empty() ? m.fac->region.row(y) : nullptr;
+  BeamPoint q;
+  if (!beam_vertical_point(m.c, x, m.labels.row(y), m.depth.row(y), reg, kD, kY, &q)) return 0.f;
+  return beam_vertical_lamp_f(q.X - (lamp ? m.c.xl1 : m.c.xl0), q.Y - m.b.hl, q.D, q.mX, q.mY, q.mD, q.s, q.crown,
+                              m.b);
 }
 
 void add_low_beam_vertical(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,

@@ -121,10 +121,15 @@ LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, co
 // it on the vertical classes.
 class BeamVerticalRows {
  public:
+  // shadows: the lamps' shadows on these surfaces (docs/night.md §6c, "Shadows of the low beam");
+  // false: the rule alone (the tests' comparison with its double reference).
   BeamVerticalRows(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
-                   const BuildingFacades* facades, const ScenePreset& p);
+                   const BuildingFacades* facades, const ScenePreset& p, bool shadows = true);
   ~BeamVerticalRows();
   void row(int y) const;
+  // The E of pixel (x, y) of a lit vertical class from lamp 0 (left) or 1 (right) alone, without
+  // shadows: the same bits as that lamp's term of the rule's sum (0 where the rule lights nothing).
+  float lamp_lux(int x, int y, int lamp) const;
 
  private:
   struct Impl;

@@ -2743,6 +2743,13 @@ struct BeamVerticalScene {
     add_low_beam_vertical(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, p);
     return E;
   }
+  // The rule alone, without the lamps' shadows (the person 15 m ahead shades what lies behind it).
+  ImageF beam_without_shadows() const {
+    ImageF E = low_beam_illuminance(o.camera, o.width, o.height, p, &sc.labels.ids);
+    const BeamVerticalRows rows(E, o.camera, sc.labels.ids, sc.depth_m, nullptr, p, false);
+    for (int y = 0; y < o.height; ++y) rows.row(y);
+    return E;
+  }
   // The pixel's point as add_low_beam_vertical takes it (float: X = z·x_n, D = z·kD, H = z·kY,
   // Y = h − H, the per-column x_n and per-row kD, kY rounded to float once).
   std::array<float, 4> point(int x, int y) const {
@@ -2780,7 +2787,7 @@ TEST(EgoLowBeamVertical, FloatRowsAgainstTheDoubleReference) {
   const BeamVerticalScene s;
   const ScenePreset& p = s.p;
   const ImageF ground = low_beam_illuminance(s.o.camera, s.o.width, s.o.height, p, &s.sc.labels.ids);
-  const ImageF E = s.beam();
+  const ImageF E = s.beam_without_shadows();
   const double u = std::ldexp(1.0, -24), rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180), k = 2 / (3 * M_PI);
   const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
   const auto [S_h, S_v, A_h, A_v] = table_slopes(p);
@@ -3607,13 +3614,14 @@ TEST(TramRails, TheirNightTextureIsTheAsphaltsBesideThem) {
 }
 
 namespace {
-// Whether the segment from the lamp L to the ground point (X, 0, D) passes through the box (its
-// solid volume: |X − X_b| ≤ w/2, base ≤ Y ≤ height, D_b ≤ D ≤ D_b + length), by the slab method
-// on the segment's parameter λ ∈ (0, 1).
-bool segment_hits_box(double xl, double hl, double X, double D, const SyntheticBox& B) {
-  const double o[3] = {xl, hl, 0}, d[3] = {X - xl, -hl, D};
+// Whether the segment from the lamp L to the point (X, Y, D) (the ground's: Y = 0) passes through
+// the box (its solid volume: |X − X_b| ≤ w/2, base ≤ Y ≤ height, D_b ≤ D ≤ D_b + length), by the
+// slab method on the segment's parameter λ ∈ (0, t_end) (t_end < 1: stop short of a point on a
+// box's face, which the segment reaches at λ = 1).
+bool segment_hits_box(double xl, double hl, double X, double Y, double D, const SyntheticBox& B, double t_end = 1) {
+  const double o[3] = {xl, hl, 0}, d[3] = {X - xl, Y - hl, D};
   const double lo[3] = {B.X_m - B.width_m / 2, B.base_m, B.D_m}, hi[3] = {B.X_m + B.width_m / 2, B.height_m, B.D_m + B.length_m};
-  double t0 = 0, t1 = 1;
+  double t0 = 0, t1 = t_end;
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) {
       if (o[a] < lo[a] || o[a] > hi[a]) return false;
@@ -3669,7 +3677,7 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   auto shadowed = [&](int k, double u, double v) {
     const double D = hl / v, X = xls[k] + u * D;
     for (const SyntheticBox& B : o.boxes)
-      if (segment_hits_box(xls[k], hl, X, D, B)) return true;
+      if (segment_hits_box(xls[k], hl, X, 0, D, B)) return true;
     return false;
   };
   int kept = 0, one[2] = {0, 0}, both = 0, band = 0, changed_share = 0;
@@ -3715,4 +3723,117 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   EXPECT_GT(one[1], 100);
   EXPECT_GT(changed_share, 100);
   EXPECT_GT(both, 100);
+}
+
+// Shadows of the low beam on vertical surfaces (BeamVerticalRows, docs/night.md §6c): the ground
+// test's street with a wall 26 m ahead behind the lead car (each lamp's shadow of the car reaches
+// beside the car's silhouette as the camera sees it) and a pedestrian 13 m ahead behind a low
+// block (0.55 m at 8 m: the camera sees the pedestrian's legs over it, from 0.13 m up; both lamps'
+// shadows cover them up to 0.49 m). Only what lies below the cut-off's top is shaded (the urban
+// preset: below the lamps' height). Each lamp's geometric shadow at a vertical pixel's point P
+// (from the depth, the rule's expressions in double) is computed from the boxes' volumes: the
+// segment from the lamp to P, stopped 0.2 % short of P (P lies on its own box's face; 5 cm at
+// 26 m, far less than any gap between the boxes), where P's direction lies below the top. The
+// map places an edge to within its cell and a pixel's samples lie up to a pixel apart, so a pixel
+// whose lamp-view direction lies within r = √2·cell + 1.5 px of an edge of the geometric shadow
+// (same D) may go either way: counted, not checked. Every other lit vertical pixel: outside both
+// shadows the old value exactly (the two lamps' shares summed, the rule's sum), in one lamp's
+// shadow the other lamp's share (BeamVerticalRows::lamp_lux), in both 0. A front face's own points
+// (one D) and a receding side's (its slope's margin) must not shade it.
+TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
+  SyntheticCameraOptions o = camera_scene();
+  o.road_half_width_m = 1000;
+  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
+             {-3.5, 10, 1.8, 1.5, 4.5},
+             {-1.6, 20, 0.15, 4, 0.15, Label::Pole},
+             {0.0, 26, 8, 3, 0.3, Label::Wall},
+             {-1.2, 8, 2.0, 0.55, 0.3, Label::Wall},
+             {-1.2, 13, 0.6, 1.8, 0.3, Label::Person}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const int threads = omp_get_max_threads();
+  std::vector<ImageF> out;
+  for (const int t : {1, 2}) {
+    omp_set_num_threads(t);
+    for (const int isa : {2, 0}) {
+      beam_max_isa(isa);
+      ImageF E = E0;
+      add_low_beam_vertical(E, g, s.labels.ids, s.depth_m, nullptr, p);
+      out.push_back(std::move(E));
+    }
+  }
+  beam_max_isa(2);
+  omp_set_num_threads(threads);
+  for (size_t i = 1; i < out.size(); ++i)
+    ASSERT_EQ(std::memcmp(out[0].data(), out[i].data(), out[0].size() * sizeof(float)), 0) << "run " << i << " differs";
+  const ImageF& E = out[0];
+  ImageF scratch = E0;
+  const BeamVerticalRows rows(scratch, g, s.labels.ids, s.depth_m, nullptr, p);
+  const auto& cls = beam_vertical_classes();
+  const double hl = p.beam_lamp_height_m, xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
+  const double r = (std::sqrt(2.0) * 2 + 1.5) / g.f_px, c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
+  // Geometric shadow of lamp k at the point D ahead in lamp-view direction (u, v), below the
+  // cut-off's top (dy = −v·D ≤ t·D·√(1 + u²), t = tan cutoff_max_v_deg ≥ 0 here).
+  const double t_top = std::tan(p.beam_cutoff_max_v_deg * M_PI / 180);
+  ASSERT_GE(t_top, 0);
+  auto shadowed = [&](int k, double u, double v, double D) {
+    if (-v > t_top * std::sqrt(1 + u * u)) return false;
+    for (const SyntheticBox& B : o.boxes)
+      if (segment_hits_box(xls[k], hl, xls[k] + u * D, hl - v * D, D, B, 0.998)) return true;
+    return false;
+  };
+  int kept = 0, one[2] = {0, 0}, both = 0, band = 0, changed_share = 0, wall_or_person_shaded = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const int id = s.labels.ids.at(x, y);
+      if (!cls[id]) {
+        ASSERT_EQ(E.at(x, y), E0.at(x, y)) << x << "," << y;
+        continue;
+      }
+      const float s0 = rows.lamp_lux(x, y, 0), s1 = rows.lamp_lux(x, y, 1), old = s0 + s1;
+      if (!(old > 0)) {
+        ASSERT_EQ(E.at(x, y), old) << x << "," << y;
+        continue;
+      }
+      const double z = s.depth_m.at(x, y), xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
+      const double X = z * xn, D = z * (c - yn * sn), Y = g.mount_height_m - z * (sn + yn * c);
+      bool sh[2], sure = true;
+      for (int k = 0; k < 2 && sure; ++k) {
+        const double u = (X - xls[k]) / D, v = (hl - Y) / D;
+        sh[k] = shadowed(k, u, v, D);
+        for (const double dv : {-r, -r / 2, 0.0, r / 2, r})
+          for (const double du : {-r, -r / 2, 0.0, r / 2, r})
+            if (shadowed(k, u + du, v + dv, D) != sh[k]) sure = false;
+      }
+      if (!sure) {
+        ++band;
+        continue;
+      }
+      if (!sh[0] && !sh[1]) {
+        ASSERT_EQ(E.at(x, y), old) << x << "," << y;
+        ++kept;
+        continue;
+      }
+      wall_or_person_shaded += id == static_cast<int>(Label::Wall) || id == static_cast<int>(Label::Person);
+      if (sh[0] && sh[1]) {
+        ASSERT_EQ(E.at(x, y), 0.f) << x << "," << y;
+        ++both;
+      } else {
+        const float share = sh[0] ? s1 : s0;
+        ASSERT_EQ(E.at(x, y), share) << x << "," << y << " lamp " << (sh[0] ? 0 : 1) << " shaded";
+        changed_share += share != old;
+        ++one[sh[0] ? 0 : 1];
+      }
+    }
+  std::fprintf(stderr, "[beam shadow, vertical] %d lit pixels kept, %d in the left lamp's shadow only, %d in the "
+               "right's only (%d of them changed), %d in both (%d of the shaded on the wall or the pedestrian), "
+               "%d within the edge band\n", kept, one[0], one[1], changed_share, both, wall_or_person_shaded, band);
+  EXPECT_GT(kept, 10000);
+  EXPECT_GT(one[0], 100);
+  EXPECT_GT(one[1], 100);
+  EXPECT_GT(changed_share, 100);
+  EXPECT_GT(both, 100);
+  EXPECT_GT(wall_or_person_shaded, 500);
 }
