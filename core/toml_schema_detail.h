@@ -314,7 +314,7 @@ nlohmann::json to_json(std::span<const Param<P>> schema, const P& preset, std::s
 }
 
 // The values of the rows marked Exr::Header as EXR header attributes "<prefix><key>": a Number as
-// double, an Integer as int, Text and Choice as their text.
+// double, an Integer as int, Text and Choice as their text, a Boolean as the int 1 or 0.
 template <class P>
 std::map<std::string, ExrAttribute> attributes(std::span<const Param<P>> schema, const P& preset,
                                                std::string_view prefix) {
@@ -328,7 +328,8 @@ std::map<std::string, ExrAttribute> attributes(std::span<const Param<P>> schema,
       case Kind::Integer: a[name] = detail::slot_ref<P, int>(r, p); break;
       case Kind::Text: a[name] = detail::slot_ref<P, std::string>(r, p); break;
       case Kind::Choice: a[name] = std::get<Choice<P>>(r.slot).get(p); break;
-      default: break;  // lists, tables and flags have no attribute
+      case Kind::Boolean: a[name] = detail::slot_ref<P, bool>(r, p) ? 1 : 0; break;
+      default: break;  // lists and tables have no attribute
     }
   }
   return a;

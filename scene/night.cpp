@@ -236,8 +236,10 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       });
   // The low beam's shadows on the ground (the depth and the beam image both made now): each lamp's
   // share leaves the ground pixels that a solid object hides from it.
-  s.beam_shadow = shade_low_beam_ground_with(s.beam_lux, s.geometry, labels.ids, s.depth, &lanes_full, p,
-                                             label_row_runs.get());
+  // (ego_beam.shadows = false: none, on the ground or on vertical surfaces.)
+  if (p.beam_shadows)
+    s.beam_shadow = shade_low_beam_ground_with(s.beam_lux, s.geometry, labels.ids, s.depth, &lanes_full, p,
+                                               label_row_runs.get());
   depth_runs.reset();
   regions.reset();
   label_row_runs.reset();
@@ -256,7 +258,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // and the façade planes) into the beam image: each row inside the light map's row pass just
   // before the row is composed, while its labels and depth are in cache; where the light map does
   // not compose (a device tail), over the frame before the tail.
-  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p);
+  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p, p.beam_shadows);
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
                                vehicles.get(), &beam_vertical);

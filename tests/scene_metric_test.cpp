@@ -3837,3 +3837,40 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
   EXPECT_GT(both, 100);
   EXPECT_GT(wall_or_person_shaded, 500);
 }
+
+// ego_beam.shadows = false: the chain's beam image is the unshaded one. With the preset's default
+// (true) the same scene (the ground test's boxes: a lead car, a parked car, a block and a pole,
+// through night_scene) has shaded ground and vertical pixels; switched off, no pixel has less
+// beam than with shadows on (shading only removes a lamp's share), some have more, the header's
+// counts are 0, and the preset's value goes into the EXR header as 1 / 0.
+TEST(EgoLowBeamShadow, SwitchedOffTheChainLightsAsIfNothingStoodBetween) {
+  SyntheticCameraOptions o = camera_scene();
+  o.road_half_width_m = 1000;
+  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
+             {-3.5, 10, 1.8, 1.5, 4.5},
+             {2.8, 9, 1.2, 0.4, 0.3, Label::Wall},
+             {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  ASSERT_TRUE(p.beam_shadows);  // the default
+  const NightScene on = night_scene(s.day_linear_srgb, s.labels, p, 1);
+  ScenePreset q = p;
+  q.beam_shadows = false;
+  const NightScene off = night_scene(s.day_linear_srgb, s.labels, q, 1);
+  EXPECT_GT(on.beam_shadow.one_lamp[0] + on.beam_shadow.one_lamp[1] + on.beam_shadow.both, 0);
+  EXPECT_EQ(off.beam_shadow.one_lamp[0] + off.beam_shadow.one_lamp[1] + off.beam_shadow.both, 0);
+  ASSERT_EQ(on.beam_lux.size(), off.beam_lux.size());
+  long long more = 0, less = 0;
+  for (size_t i = 0; i < on.beam_lux.size(); ++i) {
+    const float a = on.beam_lux.data()[i], b = off.beam_lux.data()[i];
+    if (b > a) ++more;
+    if (b < a) ++less;
+  }
+  EXPECT_EQ(less, 0);
+  EXPECT_GT(more, 1000) << "the lead car's wedge alone covers thousands of ground pixels";
+  const auto a_on = scene_attributes(p), a_off = scene_attributes(q);
+  ASSERT_TRUE(a_on.count("photosite/scene/ego_beam.shadows")) << "the header carries the switch";
+  EXPECT_EQ(std::get<int>(a_on.at("photosite/scene/ego_beam.shadows")), 1);
+  EXPECT_EQ(std::get<int>(a_off.at("photosite/scene/ego_beam.shadows")), 0);
+}
