@@ -1090,6 +1090,32 @@ struct LampShadowMap {
     return static_cast<int>(cv) * nu + static_cast<int>(cu);
   }
 };
+// Fills both lamps' maps with the solid points of every row: row(y, maps, cols) places row y's
+// points into `maps` (cols: a scratch of W ints). Where there are two threads, each takes every
+// other chunk of 32 rows, the second into its own copy of the maps, then the least of the two per
+// cell: the least D of a cell does not depend on the order the points come in, so the same maps
+// for any thread count. (The ground's maps and the vertical surfaces' are filled so.)
+template <class RowFn>
+void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, RowFn&& row) {
+  const int teams = std::min(2, omp_get_max_threads());
+  std::array<LampShadowMap, 2> maps2;
+  if (teams > 1) maps2 = maps;
+#pragma omp parallel num_threads(teams)
+  {
+    const int team = omp_get_thread_num();
+    std::array<LampShadowMap, 2>& mt = team == 0 ? maps : maps2;
+    std::vector<int> cols(W);
+    constexpr int kChunk = 32;
+    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
+      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) row(y, mt, cols.data());
+  }
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      float* d = maps[k].Dmin.data();
+      const float* d2 = maps2[k].Dmin.data();
+      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+    }
+}
 // The columns of a label row whose class is in `solid` (bits by class id, ids below 64), in
 // order, into out; returns their count. The AVX2 twin tests eight labels at a time (a lane's
 // bit by variable shifts: a shift by 32 or more gives 0), the same columns.
@@ -1168,61 +1194,42 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     m.nv = static_cast<int>(std::ceil(v_hi / cell)) + 2;
     m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
   }
-  // The solid points, both lamps' maps in one pass (the least D of a cell does not depend on the
-  // order the points come in: the same maps for any thread count). A point's X = z·x_n,
-  // D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows). Where there are
-  // two threads, each takes every other chunk of rows, the second into its own maps, then the
-  // least of the two per cell (the same maps again).
+  // The solid points, both lamps' maps in one pass (fill_shadow_maps: the same maps for any
+  // thread count). A point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the
+  // vertical surfaces' rows).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
   const bool with_runs = runs && runs->made_of(labels);
-  const int teams = std::min(2, omp_get_max_threads());
-  std::array<LampShadowMap, 2> maps2;
-  if (teams > 1) maps2 = maps;
-#pragma omp parallel num_threads(teams)
-  {
-    const int team = omp_get_thread_num();
-    std::array<LampShadowMap, 2>& mt = team == 0 ? maps : maps2;
-    std::vector<int> cols(W);
-    constexpr int kChunk = 32;
-    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
-      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) {
-        const double yn = (y - g.cy_px) / g.f_px;
-        const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
-        // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
-        // above the lamps.
-        if (h > b.hl && !(kY > 0)) continue;
-        const float* z = depth_m.row(y);
-        // The row's solid columns: from the label runs where they are at hand (the chain's, made
-        // beside the Hough stage), else by testing every label.
-        int n = 0;
-        if (with_runs) {
-          for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i)
-            if (runs->id[i] < 64 && (solid >> runs->id[i] & 1))
-              for (int x = runs->x0[i], xe = runs->end(i, y); x < xe; ++x) cols[n++] = x;
-        } else {
-          n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, solid, cols.data());
-        }
-        for (int j = 0; j < n; ++j) {
-          const int x = cols[j];
-          const float zz = z[x];
-          if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
-          const float D = zz * kD, dv = b.hl - (h - zz * kY);
-          if (!(D > 0) || !(dv > 0)) continue;
-          const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
-          for (LampShadowMap& m : mt) {
-            const int i = m.cell((X - m.xl) * invD, v);
-            if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
-          }
-        }
-      }
-  }
-  if (teams > 1)
-    for (int k = 0; k < 2; ++k) {
-      float* d = maps[k].Dmin.data();
-      const float* d2 = maps2[k].Dmin.data();
-      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+  fill_shadow_maps(maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+    const double yn = (y - g.cy_px) / g.f_px;
+    const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
+    // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
+    // above the lamps.
+    if (h > b.hl && !(kY > 0)) return;
+    const float* z = depth_m.row(y);
+    // The row's solid columns: from the label runs where they are at hand (the chain's, made
+    // beside the Hough stage), else by testing every label.
+    int n = 0;
+    if (with_runs) {
+      for (int i = runs->row_start[y]; i < runs->row_start[y + 1]; ++i)
+        if (runs->id[i] < 64 && (solid >> runs->id[i] & 1))
+          for (int x = runs->x0[i], xe = runs->end(i, y); x < xe; ++x) cols[n++] = x;
+    } else {
+      n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, solid, cols);
     }
+    for (int j = 0; j < n; ++j) {
+      const int x = cols[j];
+      const float zz = z[x];
+      if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
+      const float D = zz * kD, dv = b.hl - (h - zz * kY);
+      if (!(D > 0) || !(dv > 0)) continue;
+      const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
+      for (LampShadowMap& m : mt) {
+        const int i = m.cell((X - m.xl) * invD, v);
+        if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+      }
+    }
+  });
   // Each map row's blocks of kBeamShadowBlock cells: their least D (the rows below skip a block
   // that holds no point near enough).
   for (LampShadowMap& m : maps) {
@@ -1809,48 +1816,29 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     m.nv = static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1;
     m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
   }
-  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass; two threads as the
-  // ground's maps (each every other chunk of rows, the second into its own maps, then the least
-  // of the two per cell: the same maps for any thread count).
-  const int teams = std::min(2, omp_get_max_threads());
-  std::array<LampShadowMap, 2> maps2;
-  if (teams > 1) maps2 = vs.maps;
-#pragma omp parallel num_threads(teams)
-  {
-    const int team = omp_get_thread_num();
-    std::array<LampShadowMap, 2>& mt = team == 0 ? vs.maps : maps2;
-    std::vector<int> cols(W);
-    constexpr int kChunk = 32;
-    for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
-      for (int y = y0; y < std::min(H, y0 + kChunk); ++y) {
-        const double yn = (y - g.cy_px) / g.f_px;
-        // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
-        if (c.h > b.hl && !((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) continue;
-        const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
-        const float* z = depth.row(y);
-        const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols.data());
-        for (int j = 0; j < n; ++j) {
-          const int x = cols[j];
-          const float zz = z[x];
-          if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
-          const float D = zz * kD;
-          if (!(D > 0)) continue;
-          const float invD = 1.f / D, X = zz * c.xn[x], dy = (c.h - zz * kY) - b.hl, v = -dy * invD;
-          for (LampShadowMap& m : mt) {
-            const int i = m.cell((X - m.xl) * invD, v);
-            if (i < 0) continue;
-            const float dx = X - m.xl;
-            if (!beam_above_top(dy, dx * dx + D * D, b)) m.Dmin[i] = std::min(m.Dmin[i], D);
-          }
-        }
+  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps).
+  fill_shadow_maps(vs.maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+    const double yn = (y - g.cy_px) / g.f_px;
+    // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
+    if (c.h > b.hl && !((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) return;
+    const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
+    const float* z = depth.row(y);
+    const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols);
+    for (int j = 0; j < n; ++j) {
+      const int x = cols[j];
+      const float zz = z[x];
+      if (!(zz > 0) || !(zz < kDepthInfinity_m)) continue;
+      const float D = zz * kD;
+      if (!(D > 0)) continue;
+      const float invD = 1.f / D, X = zz * c.xn[x], dy = (c.h - zz * kY) - b.hl, v = -dy * invD;
+      for (LampShadowMap& m : mt) {
+        const int i = m.cell((X - m.xl) * invD, v);
+        if (i < 0) continue;
+        const float dx = X - m.xl;
+        if (!beam_above_top(dy, dx * dx + D * D, b)) m.Dmin[i] = std::min(m.Dmin[i], D);
       }
-  }
-  if (teams > 1)
-    for (int k = 0; k < 2; ++k) {
-      float* d = vs.maps[k].Dmin.data();
-      const float* d2 = maps2[k].Dmin.data();
-      for (size_t i = 0; i < vs.maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
     }
+  });
   vs.ok = true;
   return vs;
 }

@@ -3633,6 +3633,17 @@ bool segment_hits_box(double xl, double hl, double X, double Y, double D, const 
   }
   return t0 < t1;
 }
+// The shadows' street: a road without façades in view, a lead car 15 m ahead, a car parked on the
+// left at 10 m, a block 0.4 m high (lower than the lamps) and a 4 m pole.
+SyntheticCameraOptions beam_shadow_street() {
+  SyntheticCameraOptions o = camera_scene();
+  o.road_half_width_m = 1000;  // façades at X = ±1003 m: out of view at every D ≤ 200 m
+  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
+             {-3.5, 10, 1.8, 1.5, 4.5},
+             {2.8, 9, 1.2, 0.4, 0.3, Label::Wall},
+             {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
+  return o;
+}
 }  // namespace
 
 // Shadows of the low beam on the ground (shade_low_beam_ground, docs/night.md §6c): a street of
@@ -3648,12 +3659,7 @@ bool segment_hits_box(double xl, double hl, double X, double Y, double D, const 
 // counted, not checked. Every other lit pixel: outside both shadows the old value exactly, in one
 // lamp's shadow the other lamp's share (low_beam_lamp_lux_f32), in both 0.
 TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
-  SyntheticCameraOptions o = camera_scene();
-  o.road_half_width_m = 1000;  // façades at X = ±1003 m: out of view at every D ≤ 200 m
-  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
-             {-3.5, 10, 1.8, 1.5, 4.5},
-             {2.8, 9, 1.2, 0.4, 0.3, Label::Wall},
-             {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
+  const SyntheticCameraOptions o = beam_shadow_street();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
   const ScenePreset p = urban();
   const CameraGeometry& g = o.camera;
@@ -3844,12 +3850,7 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
 // beam than with shadows on (shading only removes a lamp's share), some have more, the header's
 // counts are 0, and the preset's value goes into the EXR header as 1 / 0.
 TEST(EgoLowBeamShadow, SwitchedOffTheChainLightsAsIfNothingStoodBetween) {
-  SyntheticCameraOptions o = camera_scene();
-  o.road_half_width_m = 1000;
-  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
-             {-3.5, 10, 1.8, 1.5, 4.5},
-             {2.8, 9, 1.2, 0.4, 0.3, Label::Wall},
-             {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
+  const SyntheticCameraOptions o = beam_shadow_street();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
   ScenePreset p = urban();
   p.rig = load_camera_rig("cityscapes");
