@@ -39,10 +39,12 @@ NightScene night_scene_with(const ImageF& day_linear_srgb, const LabelMap& label
                             uint64_t seed, bool keep_darkened, const NightTail& tail,
                             SequenceState* sequence = nullptr, const TextureSums* sums = nullptr,
                             bool glare_level1 = false);
-// The lane-marking mask at the frame's resolution: the working-resolution mask read at the pixel
-// centres (nearest), or the mask itself when it has the frame's width. What the light map and
-// the low beam read (night_scene_with; `bench night` times the light map alone on it).
-ImageU8 lanes_at_frame(const ImageU8& lanes_work, int width, int height);
+// The lane-marking mask at the frame's resolution (the labels' size): the working-resolution mask
+// read at the pixel centres (nearest), cleared wherever the frame's label is not road or parking
+// (a working pixel's block of frame pixels reaches past the road's labels at their border; the
+// lane stage finds markings on those two classes only). What the light map and the low beam read
+// (night_scene_with; `bench night` times the light map alone on it).
+ImageU8 lanes_at_frame(const ImageU8& lanes_work, const ImageU16& labels);
 // metric_depth's part that reads only the labels (the object pixels' label-run components, their
 // extents and per-column lowest rows; scene/geometry.cpp), so that night_scene makes it beside
 // the Hough stage, before the vanishing point and the camera geometry exist; metric_depth_with
@@ -116,9 +118,9 @@ LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, co
 // vertical surfaces' beam E of row y into beam_lux (the same values as add_low_beam_vertical's),
 // from any thread. The light map's row pass runs it just before it composes the row (ComposeRows),
 // so that the row's labels, depth and beam are read while in cache, not in a pass of their own:
-// after the row's retroreflection, which reads the ground's E on the lane markings (a marking
-// pixel of a vertical class, at the upsampled lane mask's border, included) before this replaces
-// it on the vertical classes.
+// after the row's retroreflection, which reads the ground's E on the lane markings (road and
+// parking pixels in the chain, lanes_at_frame; a mask given to the light map directly may mark a
+// pixel of a vertical class, whose E this then replaces).
 class BeamVerticalRows {
  public:
   // shadows: the lamps' shadows on these surfaces (docs/night.md §6c, "Shadows of the low beam");

@@ -960,7 +960,7 @@ TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
       for (const StageTiming& st : ns.timings) fused |= st.stage == "lights+compose";
       EXPECT_TRUE(fused) << "the chain composed after the light map, not inside it";
       const BuildingFacades fac = building_facades(lab.ids, ns.geometry, p.max_depth_m);
-      const ImageU8 lanes = lanes_at_frame(ns.lanes_work, lin.width(), lin.height());
+      const ImageU8 lanes = lanes_at_frame(ns.lanes_work, lab.ids);
       auto map = [&](bool rows) {
         light_map_fused_rows(rows);
         LightMap m = light_map(lin, tex, lab, lanes, ns.beam_input, ns.vp, p, 1, &ns.geometry, &ns.depth, &ns.beam_lux, &fac);

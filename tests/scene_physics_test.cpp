@@ -80,6 +80,68 @@ TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   EXPECT_NEAR(m, 1.0, 2 * 0x1p-24);
 }
 
+// A lane marking's retroreflection belongs to the paint on the road, not to a car, a sign or a
+// person standing on it. The lane mask is found at the working resolution (1024 wide for a
+// 2048-wide frame: each working pixel is the frame pixel (2x + 1, 2y + 1) of the labels, resized
+// by nearest neighbour) and read back over blocks of 2 x 2 frame pixels (lanes_at_frame), so a
+// block can reach frame pixels of another class. Here the synthetic road at 2048 x 1024 is marked
+// once; then, inside every marked block, the three frame pixels that the working labels do not
+// read are relabelled car, traffic sign or person (bands of 16 columns in turn): the working
+// images, and so the working mask, are the same, and on the old code all those pixels took the
+// markings' L = R_L·E⊥. Every relabelled pixel's lights must be the light map's with no lane
+// mask at all, bit for bit (the sign's own retroreflection on the signs, nothing on the car and
+// person pixels), and the chain must still light the road's markings. That the test can see the
+// difference: the light map with the mask read back without the labels differs on many of them.
+TEST(ScenePhysics, MarkingRetroreflectionLeavesPixelsLabelledCarSignOrPerson) {
+  ScenePreset p = no_bloom();
+  p.street_road_luminance_cd_m2 = 0;  // no lamp pools: the lights are emitters and retroreflection
+  SyntheticOptions o;
+  o.width = 2048, o.height = 1024, o.vp_x = 1024, o.vp_y = 416, o.cars = 0;
+  SyntheticScene s = make_synthetic_road(o);
+  const int W = o.width, H = o.height;
+  const ImageU8 work = night_scene(s.day_linear_srgb, s.labels, p, 1).lanes_work;
+  ASSERT_EQ(work.width() * 2, W) << "the exact halving";
+  const Label classes[3] = {Label::Car, Label::TrafficSign, Label::Person};
+  std::vector<uint8_t> relabelled(static_cast<size_t>(W) * H, 0);
+  ImageU8 unlabelled(W, H, 1, 0);  // the working mask read back without the labels (the old code's)
+  int moved = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!work.at(x / 2, y / 2)) continue;
+      unlabelled.at(x, y) = 255;
+      if (x % 2 == 1 && y % 2 == 1) continue;  // read by the working labels: stays road
+      s.labels.ids.at(x, y) = static_cast<uint16_t>(classes[(x / 16) % 3]);
+      relabelled[static_cast<size_t>(y) * W + x] = 1;
+      ++moved;
+    }
+  ASSERT_GT(moved, 1000);
+  const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1);
+  ASSERT_EQ(n.lanes_work.vec(), work.vec()) << "the working mask must not see the relabelling";
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const BuildingFacades fac = building_facades(s.labels.ids, n.geometry, p.max_depth_m);
+  auto map = [&](const ImageU8& lanes) {
+    return light_map(s.day_linear_srgb, tex, s.labels, lanes, n.beam_input, n.vp, p, 1, &n.geometry, &n.depth,
+                     &n.beam_lux, &fac)
+        .radiance;
+  };
+  const ImageF none = map(ImageU8(W, H, 1, 0)), old = map(unlabelled);
+  int differ_old = 0, road_lit = 0;
+  for (size_t i = 0; i < relabelled.size(); ++i) {
+    if (!relabelled[i]) {
+      road_lit += unlabelled[i] && lum(n.lights, i) > 0;
+      continue;
+    }
+    for (int c = 0; c < 3; ++c)
+      ASSERT_EQ(n.lights[3 * i + c], none[3 * i + c])
+          << "pixel " << i % W << "," << i / W << " (class " << s.labels.ids[i] << "), channel " << c;
+    differ_old += old[3 * i] != none[3 * i] || old[3 * i + 1] != none[3 * i + 1] || old[3 * i + 2] != none[3 * i + 2];
+  }
+  std::fprintf(stderr, "[markings] %d pixels relabelled, %d of them lit as markings by the unlabelled mask; %d road "
+               "marking pixels lit\n", moved, differ_old, road_lit);
+  EXPECT_GT(differ_old, moved / 4);
+  EXPECT_GT(road_lit, 1000);
+}
+
 namespace {
 // A small hand-made scene for the light map: every pixel Sky (no lights of its own) unless set.
 struct Canvas {

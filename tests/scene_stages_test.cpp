@@ -891,22 +891,37 @@ TEST(SceneGeometry, SegmentationEdgesAreCannyOfTheClassRendering) {
 }
 
 // lanes_at_frame (scene/night.cpp) against its definition, the working mask read at each pixel
-// centre (nearest), for the exact doubling (the vector path, with a tail shorter than its block)
-// and another ratio, for 1 and 2 threads.
-TEST(SceneGeometry, LanesAtFrameIsTheNearestWorkingPixel) {
+// centre (nearest), kept where the frame's label is road or parking and 0 elsewhere, for the
+// exact doubling (the vector path, with a tail shorter than its block), another ratio and the
+// working size itself, for 1 and 2 threads. The labels cycle through road, parking, sidewalk,
+// car, traffic sign and person, on a period prime to the blocks, so each class falls on marked
+// pixels of every block phase; rows 0-1 of the working mask are empty (the zero rows' path).
+TEST(SceneGeometry, LanesAtFrameIsTheNearestWorkingPixelOnRoadAndParkingOnly) {
   const int saved = omp_get_max_threads();
-  for (const auto [ww, wh, W, H] : {std::array{37, 11, 74, 22}, std::array{64, 9, 128, 18}, std::array{37, 11, 100, 30}}) {
+  const Label cycle[] = {Label::Road, Label::Parking, Label::Sidewalk, Label::Car, Label::TrafficSign, Label::Person, Label::Road};
+  for (const auto [ww, wh, W, H] : {std::array{37, 11, 74, 22}, std::array{64, 9, 128, 18}, std::array{37, 11, 100, 30},
+                                    std::array{37, 11, 37, 11}}) {
     ImageU8 work(ww, wh, 1, 0);
-    for (int y = 0; y < wh; ++y)
+    for (int y = 2; y < wh; ++y)
       for (int x = 0; x < ww; ++x) work.at(x, y) = static_cast<uint8_t>((x * 7 + y * 13) % 251);
-    ImageU8 want(W, H, 1, 0);
+    ImageU16 labels(W, H, 1, 0);
     for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        want.at(x, y) = work.at(std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W)),
-                                std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+      for (int x = 0; x < W; ++x) labels.at(x, y) = static_cast<uint16_t>(cycle[(x + 3 * y) % 7]);
+    ImageU8 want(W, H, 1, 0);
+    int cleared = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const uint8_t v = work.at(std::min(ww - 1, static_cast<int>((x + 0.5) * ww / W)),
+                                  std::min(wh - 1, static_cast<int>((y + 0.5) * wh / H)));
+        const int id = labels.at(x, y);
+        const bool painted = id == static_cast<int>(Label::Road) || id == static_cast<int>(Label::Parking);
+        want.at(x, y) = painted ? v : 0;
+        cleared += !painted && v != 0;
+      }
+    ASSERT_GT(cleared, W * H / 4);  // the marks off the road and parking are many: the clearing is exercised
     for (int threads : {1, 2}) {
       omp_set_num_threads(threads);
-      EXPECT_EQ(lanes_at_frame(work, W, H).vec(), want.vec()) << W << "x" << H << ", " << threads << " threads";
+      EXPECT_EQ(lanes_at_frame(work, labels).vec(), want.vec()) << W << "x" << H << ", " << threads << " threads";
     }
   }
   omp_set_num_threads(saved);
@@ -1243,7 +1258,7 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
     const BuildingFacades fac = building_facades(s.labels.ids, ns.geometry, p.max_depth_m);
     const ImageF depth = metric_depth(s.labels, ns.geometry, p.max_depth_m, &fac);
     const ImageF coarse = coarse_depth(W, H, ns.vp.x, ns.vp.y);
-    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, W, H);
+    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, s.labels.ids);
     // The beam on the ground, its shadows there (after the depth stage), then the beam on the
     // vertical surfaces (which the chain makes row by row in the light map's row pass).
     ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);

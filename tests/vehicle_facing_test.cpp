@@ -470,7 +470,7 @@ struct VehicleInputs {
     ns = night_scene(day, lm, p, 1);
     tex = reflectance_texture(day, lm.ids, p);
     fac = building_facades(lm.ids, ns.geometry, p.max_depth_m);
-    lanes = lanes_at_frame(ns.lanes_work, day.width(), day.height());
+    lanes = lanes_at_frame(ns.lanes_work, lm.ids);
   }
   VehicleRun run(const ImageF& day, const LabelMap& lm, const VehicleParts* vehicles, bool geometry) const {
     VehicleRun r;

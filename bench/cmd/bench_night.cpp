@@ -286,14 +286,15 @@ void run(const Opts& o) {
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));
       // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
-      // pixels (the chain adds the lane-marking pixels, which lie on the road almost all).
+      // pixels (the chain's lane-marking pixels add none: lanes_at_frame keeps them on road and
+      // parking, ground classes both).
       const double cb0 = cpu_ms();
       auto tb0 = clock::now();
       const ImageF beam = scene::low_beam_illuminance(ns.geometry, day.width(), day.height(), sp, &lm.ids);
       auto tb1 = clock::now();
       const double cb1 = cpu_ms();
       add("ego low beam image (alone)", ms(tb0, tb1));
-      const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, day.width(), day.height());
+      const ImageU8 lanes_full = scene::lanes_at_frame(ns.lanes_work, lm.ids);
       // The beam's shadows on the ground over that image (the chain shades its image right after
       // the depth stage), on this round's depth, with the label runs handed as the chain hands
       // them (it makes them beside the Hough stage).
