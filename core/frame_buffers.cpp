@@ -2,11 +2,16 @@
 #include "photosite/frame_buffers.h"
 
 #include <pthread.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 #include <list>
 #include <mutex>
 #include <new>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace photosite {
@@ -52,6 +57,58 @@ Cache& cache() {
   return *c;
 }
 
+// Transparent huge pages for the buffers of at least kHugePageAdviseMinBytes (Linux): each whole 2
+// MiB-aligned block inside a new buffer is backed by one huge page from its next first touch on.
+// Every new buffer's blocks are advised (MADV_HUGEPAGE, one call), so that the kernel faults each
+// in as one huge page where THP is "madvise" (the usual default:
+// /sys/kernel/mm/transparent_hugepage/enabled; "always" does so anyway, "never" ignores the advice;
+// without a free huge page it falls back to small pages); and the first time a block is seen it is
+// emptied before (MADV_DONTNEED: its old 4 KiB pages, if the heap had used that memory before, go
+// back to the kernel, and the next touch faults in a huge page; a new buffer's contents are not
+// read before they are written, image.h). The blocks seen are kept (a set of their addresses), so a
+// buffer on memory the heap reuses frame after frame (the command keeps freed memory in its heap:
+// cli/main.cpp) is not emptied again, and its huge pages stay; a block whose memory went back to
+// the kernel and was mapped anew at the same address (glibc's large buffers in a program that keeps
+// neither them nor its heap) is fresh, and the advice alone gives it huge pages. Only the buffers'
+// interiors: the heap's small allocations keep small pages, so the resident set does not grow
+// (advising the whole heap, tried, put 5-8 MB more in a night run's peak: docs/benchmarks.md
+// "Twenty-sixth session: light map", with the measurements). Why: the chain's passes read and write
+// several whole-frame images row by row (the light map's row pass alone: labels, depth, façade
+// regions, texture, L and the composed radiance), each 4 KiB page an entry of the TLB (Zen 4: 3,072
+// in its L2 TLB, 12 MiB), so every few rows of each image took a page walk; a 2 MiB page covers 512
+// times as much. The advice moves no value; it is only advice, so its result is not checked. A
+// photosite choice for speed.
+// 4 MiB: a buffer this large holds at least one whole 2 MiB-aligned block wherever it lies.
+constexpr size_t kHugePageAdviseMinBytes = size_t{1} << 22;
+constexpr uintptr_t kHugePageBytes = uintptr_t{1} << 21;
+void advise_huge_pages(void* p, size_t bytes) noexcept {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  if (bytes < kHugePageAdviseMinBytes) return;
+  const uintptr_t a = (reinterpret_cast<uintptr_t>(p) + kHugePageBytes - 1) & ~(kHugePageBytes - 1);
+  const uintptr_t b = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHugePageBytes - 1);
+  static std::mutex m;
+  static std::unordered_set<uintptr_t>* seen = new std::unordered_set<uintptr_t>;  // (never destroyed: cache())
+  std::lock_guard<std::mutex> lock(m);
+  try {
+    for (uintptr_t r = a; r < b;) {  // each run of blocks not seen before, one call per run
+      if (seen->count(r)) {
+        r += kHugePageBytes;
+        continue;
+      }
+      uintptr_t e = r;
+      while (e < b && !seen->count(e)) seen->insert(e), e += kHugePageBytes;
+      (void)madvise(reinterpret_cast<void*>(r), e - r, MADV_DONTNEED);
+      r = e;
+    }
+  } catch (...) {  // no memory for the set: the rest of the buffer is advised below, not emptied
+  }
+  (void)madvise(reinterpret_cast<void*>(a), b - a, MADV_HUGEPAGE);
+#else
+  (void)p;
+  (void)bytes;
+#endif
+}
+
 }  // namespace
 
 FrameBufferCacheStats frame_buffer_cache_stats() {
@@ -86,7 +143,9 @@ void* frame_buffer_allocate(size_t bytes) {
     }
     ++c.allocated;
   }
-  return ::operator new(bytes);
+  void* p = ::operator new(bytes);
+  advise_huge_pages(p, bytes);
+  return p;
 }
 
 void frame_buffer_release(void* p, size_t bytes) noexcept {

@@ -2,7 +2,13 @@
 // exact size within its limit, and results that do not depend on what a reused buffer held.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "photosite/frame_buffers.h"
@@ -108,4 +114,62 @@ TEST(FrameBuffers, ReusedBuffersDoNotChangeResults) {
   EXPECT_TRUE(same_bits(ref.radiance, again.radiance));
   EXPECT_TRUE(same_bits(ref.lights, again.lights));
   EXPECT_TRUE(same_bits(ref.depth, again.depth));
+}
+
+// Whole-frame buffers are advised for transparent huge pages (core/frame_buffers.cpp,
+// advise_huge_pages): every whole 2 MiB-aligned block inside a new buffer of 4 MiB or more is
+// marked MADV_HUGEPAGE, which the kernel shows as the "hg" flag of the mapping holding it
+// (/proc/self/smaps, VmFlags; whatever THP's mode, so the test does not depend on the machine's
+// setting). Filled through the image's constructor after the advice (whose MADV_DONTNEED empties
+// the blocks first), the values are the fill. Skipped where the kernel has no THP (no
+// /sys/kernel/mm/transparent_hugepage) or glibc advises its own mappings
+// (GLIBC_TUNABLES=glibc.malloc.hugetlb: the flag would be there without photosite's advice).
+// Failed before the advice (no "hg" on the frame's blocks).
+namespace {
+// The VmFlags of the mapping of /proc/self/smaps that holds address a ("" where none does).
+std::string vm_flags_at(uintptr_t a) {
+  std::ifstream f("/proc/self/smaps");
+  std::string line;
+  bool inside = false;
+  while (std::getline(f, line)) {
+    unsigned long lo = 0, hi = 0;
+    if (std::sscanf(line.c_str(), "%lx-%lx ", &lo, &hi) == 2 && line.find(':') > line.find('-')) {
+      inside = a >= lo && a < hi;
+      continue;
+    }
+    if (inside && line.rfind("VmFlags:", 0) == 0) return line;
+  }
+  return "";
+}
+bool has_flag(const std::string& vm_flags, const std::string& flag) {
+  std::istringstream s(vm_flags.substr(8));
+  std::string f;
+  while (s >> f)
+    if (f == flag) return true;
+  return false;
+}
+}  // namespace
+
+TEST(FrameBuffers, WholeFrameBuffersAreAdvisedForHugePages) {
+#if !defined(__linux__)
+  GTEST_SKIP() << "SKIPPED: transparent huge pages are Linux's";
+#else
+  if (!std::filesystem::exists("/sys/kernel/mm/transparent_hugepage")) GTEST_SKIP() << "SKIPPED: no THP in this kernel";
+  if (const char* t = std::getenv("GLIBC_TUNABLES"); t && std::strstr(t, "hugetlb"))
+    GTEST_SKIP() << "SKIPPED: glibc advises its own mappings here (GLIBC_TUNABLES)";
+  ASSERT_EQ(frame_buffer_cache_stats().limit_bytes, 0u);
+  const uintptr_t huge = uintptr_t{1} << 21;
+  const ImageF frame(2048, 1024, 3, 0.5f);  // 24 MiB
+  const uintptr_t p = reinterpret_cast<uintptr_t>(frame.data());
+  const uintptr_t first = (p + huge - 1) & ~(huge - 1), last = ((p + frame.size() * sizeof(float)) & ~(huge - 1)) - huge;
+  ASSERT_LT(first, last);
+  for (const uintptr_t block : {first, first + huge, last}) {
+    const std::string flags = vm_flags_at(block);
+    ASSERT_FALSE(flags.empty()) << "no mapping holds the buffer's block at " << block;
+    EXPECT_TRUE(has_flag(flags, "hg")) << flags;
+  }
+  EXPECT_EQ(frame.at(0, 0, 0), 0.5f);
+  EXPECT_EQ(frame.at(2047, 1023, 2), 0.5f);
+  EXPECT_EQ(frame.at(1024, 512, 1), 0.5f);
+#endif
 }
