@@ -55,6 +55,11 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
     lap("write maps");
   }
   lin = ImageF();
+  // The low beam's two full-frame images were read by the light map and the compose (or the
+  // device's tail), both inside night_scene; no output and no later stage reads them, so they are
+  // not held through the sensor stages (16 MB at 2048x1024: peak memory, docs/robustness.md).
+  c.scene.beam_input = ImageF();
+  c.scene.beam_lux = ImageF();
   c.exposure = resolve(setup.camera, setup.lens, setup.settings);
   // On Vulkan the radiance is read where the scene tail left it, and the mean signal stays on the
   // device for every frame (the host copies are for the outputs and the CPU path).

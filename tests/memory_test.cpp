@@ -33,9 +33,12 @@ namespace {
 // holds more: labels 0.5, lights 3, radiance 3, depth 1, mean electrons 1, three fixed-pattern
 // maps 3, the label image 1, electrons 1, raw 1, RGB 3 (write_exr writes in strips, no frame
 // copy), and the lens-glare pyramid while it is built (sensor/glare.cpp: level 1 and its
-// accumulator ¾ plane each, the coarser levels and one blur temporary ≤ 1.5), and the ego low
-// beam's illuminance (NightScene::beam_lux, 1, held with the scene from the depth stage on);
-// 21.5. Rounded up to 22 planes, plus 25% for the allocator (page rounding, arenas per thread, freed
+// accumulator ¾ plane each, the coarser levels and one blur temporary ≤ 1.5); 20.5. (The ego low
+// beam's illuminance and the coarse depth, NightScene::beam_lux and beam_input, 1 plane each, are
+// held by the scene phase only: prepare() in core/night_chain.cpp releases them before the
+// sensor. The scene phase at compose holds the day image, texture, light map, radiance 3 each,
+// depth, beam_lux, beam_input 1 each, labels 0.5, working images 1, the glare's level 1 ¾: 17.25.)
+// Rounded up to 22 planes, plus 25% for the allocator (page rounding, arenas per thread, freed
 // blocks not returned), on top of the fixed cost of the binary (libraries, the Vulkan driver
 // probed by --backend auto, thread stacks), measured in the same test as a 64x32 run's peak.
 constexpr double kNightPlanes = 22, kAllocatorAllowance = 0.25;
