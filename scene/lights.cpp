@@ -1079,27 +1079,63 @@ namespace {
 // behind an occluder that is not much lower than itself.
 constexpr int kBeamShadowCellPx = 2;
 constexpr int kBeamShadowBlock = 16;
+// The map's rows (cells of one v) are written +∞ only when a point first falls in them, and the
+// map ends after its last row that holds a point (fill_shadow_maps): the points of a frame take a
+// band of v near the lamps' height (on the bench frame rows 0-43 of the ground's 163 and of the
+// vertical surfaces' 304; a solid point far below the lamp is a near one), so the rest is neither
+// written nor read. A point that falls beyond the last row finds no point there, as it would in
+// a map of the full extent: the same shadows.
 struct LampShadowMap {
   float xl = 0, u_lo = 0, inv_cell = 0, v_lo = 0;  // v_lo: 0 for the ground's maps (v > 0 only)
   int nu = 0, nv = 0, nb = 0;
-  std::vector<float> Dmin;  // nv × nu, +∞ where no solid point lies
+  std::unique_ptr<float[]> Dmin;  // nv × nu, +∞ where no solid point lies (a row once written)
+  std::vector<uint8_t> written;   // per row: +∞ (and its points) written
   std::vector<float> Bmin;  // nv × nb: the least Dmin of each block of kBeamShadowBlock cells in a row
-  [[gnu::always_inline]] int cell(float u, float v) const {
+  // The extent (nu × nv cells) the points are placed over, before any is; the cells not written.
+  void allocate(int nu_, int nv_) {
+    nu = nu_, nv = nv_;
+    Dmin.reset(new float[static_cast<size_t>(nu) * nv]);
+    written.assign(nv, 0);
+  }
+  [[gnu::always_inline]] bool cell_at(float u, float v, int* iv, int* iu) const {
     const float cu = (u - u_lo) * inv_cell, cv = (v - v_lo) * inv_cell;
-    if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return -1;
-    return static_cast<int>(cv) * nu + static_cast<int>(cu);
+    if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return false;
+    *iv = static_cast<int>(cv), *iu = static_cast<int>(cu);
+    return true;
+  }
+  [[gnu::always_inline]] int cell(float u, float v) const {
+    int iv, iu;
+    return cell_at(u, v, &iv, &iu) ? iv * nu + iu : -1;
+  }
+  float* row(int iv) { return Dmin.get() + static_cast<size_t>(iv) * nu; }
+  const float* row(int iv) const { return Dmin.get() + static_cast<size_t>(iv) * nu; }
+  // Keeps D in cell (iv, iu) if it is the least there.
+  [[gnu::always_inline]] void place(int iv, int iu, float D) {
+    float* r = row(iv);
+    if (!written[iv]) [[unlikely]] {
+      std::fill_n(r, nu, INFINITY);
+      written[iv] = 1;
+    }
+    r[iu] = std::min(r[iu], D);
   }
 };
-// Fills both lamps' maps with the solid points of every row: row(y, maps, cols) places row y's
-// points into `maps` (cols: a scratch of W ints). Where there are two threads, each takes every
-// other chunk of 32 rows, the second into its own copy of the maps, then the least of the two per
-// cell: the least D of a cell does not depend on the order the points come in, so the same maps
-// for any thread count. (The ground's maps and the vertical surfaces' are filled so.)
+// Fills both lamps' maps (allocated) with the solid points of every row: row(y, maps, cols) places
+// row y's points into `maps` (LampShadowMap::place; cols: a scratch of W ints). Where there are
+// two threads, each takes every other chunk of 32 rows, the second into its own maps, then the
+// least of the two per cell: the least D of a cell does not depend on the order the points come
+// in, so the same maps for any thread count. (The ground's maps and the vertical surfaces' are
+// filled so.) Then each map ends after its last written row (both lamps' maps after the later of
+// the two where `same_rows`), the rows before it not written made +∞.
 template <class RowFn>
-void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, RowFn&& row) {
+void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, bool same_rows, RowFn&& row) {
   const int teams = std::min(2, omp_get_max_threads());
   std::array<LampShadowMap, 2> maps2;
-  if (teams > 1) maps2 = maps;
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      LampShadowMap& m2 = maps2[k];
+      m2.xl = maps[k].xl, m2.u_lo = maps[k].u_lo, m2.inv_cell = maps[k].inv_cell, m2.v_lo = maps[k].v_lo;
+      m2.allocate(maps[k].nu, maps[k].nv);
+    }
 #pragma omp parallel num_threads(teams)
   {
     const int team = omp_get_thread_num();
@@ -1109,12 +1145,28 @@ void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, RowFn&& 
     for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
       for (int y = y0; y < std::min(H, y0 + kChunk); ++y) row(y, mt, cols.data());
   }
-  if (teams > 1)
-    for (int k = 0; k < 2; ++k) {
-      float* d = maps[k].Dmin.data();
-      const float* d2 = maps2[k].Dmin.data();
-      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+  int end[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = maps[k];
+    for (int iv = 0; iv < m.nv; ++iv) {
+      if (teams > 1 && maps2[k].written[iv]) {
+        const float* d2 = maps2[k].row(iv);
+        float* d = m.row(iv);
+        if (m.written[iv])
+          for (int c = 0; c < m.nu; ++c) d[c] = std::min(d[c], d2[c]);
+        else
+          std::copy_n(d2, m.nu, d);
+        m.written[iv] = 1;
+      }
+      if (m.written[iv]) end[k] = iv + 1;
     }
+  }
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = maps[k];
+    m.nv = same_rows ? std::max(end[0], end[1]) : end[k];
+    for (int iv = 0; iv < m.nv; ++iv)
+      if (!m.written[iv]) std::fill_n(m.row(iv), m.nu, INFINITY), m.written[iv] = 1;
+  }
 }
 // The columns of a label row whose class is in `solid` (bits by class id, ids below 64), in
 // order, into out; returns their count. The AVX2 twin tests eight labels at a time (a lane's
@@ -1143,6 +1195,76 @@ __attribute__((target("avx2"))) int solid_columns_avx2(const uint16_t* id, int W
   for (; x < W; ++x)
     if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
   return n;
+}
+// A row's solid points into both lamps' maps sixteen columns at a time (AVX-512; the last columns
+// by a masked load): the scalar fills' operations on each lane (the ground's when kGround, else
+// the vertical surfaces'), their tests as lane masks, then each point that a map takes placed as
+// the scalar fill places it: the same maps. Most solid points of a row are not placed (above the
+// lamps' height: nearer than (h − h_l)/k_Y on the row), and are dropped here sixteen at a time.
+template <bool kGround>
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void place_row_avx512(
+    const uint16_t* id, const float* z, const float* xn, int W, uint64_t solid, float kD, float kY, float h,
+    const BeamF& b, std::array<LampShadowMap, 2>& mt) {
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(solid & 0xffffffffu)),
+                mhi = _mm512_set1_epi32(static_cast<int32_t>(solid >> 32)), one = _mm512_set1_epi32(1),
+                k32 = _mm512_set1_epi32(32);
+  const __m512 zero = _mm512_setzero_ps(), zinf = _mm512_set1_ps(kDepthInfinity_m), vkD = _mm512_set1_ps(kD),
+               vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(h), vhl = _mm512_set1_ps(b.hl), fone = _mm512_set1_ps(1.f),
+               sign = _mm512_set1_ps(-0.f), tv2 = _mm512_set1_ps(b.tvmax2);
+  const bool t_pos = b.tvmax >= 0;
+  alignas(64) int32_t iv[2][16], iu[2][16];
+  alignas(64) float Ds[16];
+  for (int x = 0; x < W; x += 16) {
+    const __mmask16 lanes = W - x >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (W - x)) - 1);
+    const __m512i k = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(lanes, id + x));
+    // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
+    const __m512i bit = _mm512_and_si512(
+        _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
+    __mmask16 m = lanes & _mm512_test_epi32_mask(bit, bit);
+    if (!m) continue;
+    const __m512 zz = _mm512_maskz_loadu_ps(m, z + x);
+    m &= _mm512_cmp_ps_mask(zz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(zz, zinf, _CMP_LT_OQ);
+    const __m512 D = _mm512_mul_ps(zz, vkD), Y = _mm512_sub_ps(vh, _mm512_mul_ps(zz, vkY));
+    m &= _mm512_cmp_ps_mask(D, zero, _CMP_GT_OQ);
+    // The ground's dv = h_l − Y > 0 (v = dv/D), the vertical surfaces' dy = Y − h_l (v = −dy/D).
+    const __m512 dv = kGround ? _mm512_sub_ps(vhl, Y) : _mm512_xor_ps(_mm512_sub_ps(Y, vhl), sign);
+    if (kGround) m &= _mm512_cmp_ps_mask(dv, zero, _CMP_GT_OQ);
+    if (!m) continue;
+    const __m512 invD = _mm512_div_ps(fone, D), X = _mm512_mul_ps(zz, _mm512_maskz_loadu_ps(lanes, xn + x));
+    const __m512 v = _mm512_mul_ps(dv, invD);
+    __mmask16 put[2];
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = mt[l];
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(mp.xl));
+      const __m512 cu = _mm512_mul_ps(_mm512_sub_ps(_mm512_mul_ps(dx, invD), _mm512_set1_ps(mp.u_lo)),
+                                      _mm512_set1_ps(mp.inv_cell));
+      const __m512 cv = _mm512_mul_ps(_mm512_sub_ps(v, _mm512_set1_ps(mp.v_lo)), _mm512_set1_ps(mp.inv_cell));
+      put[l] = m & _mm512_cmp_ps_mask(cu, zero, _CMP_GE_OQ) &
+               _mm512_cmp_ps_mask(cu, _mm512_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ) &
+               _mm512_cmp_ps_mask(cv, zero, _CMP_GE_OQ) &
+               _mm512_cmp_ps_mask(cv, _mm512_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ);
+      if (!kGround && put[l]) {
+        // beam_above_top(dy, dx² + D², b): dy > 0 and dy² > (dx² + D²)·t² (t ≥ 0), else dy > 0 or dy² < that.
+        const __m512 dy = _mm512_xor_ps(dv, sign), q = _mm512_mul_ps(dy, dy);
+        const __m512 r = _mm512_mul_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(D, D)), tv2);
+        const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
+        const __mmask16 top = t_pos ? dy_pos & _mm512_cmp_ps_mask(q, r, _CMP_GT_OQ)
+                                    : dy_pos | _mm512_cmp_ps_mask(q, r, _CMP_LT_OQ);
+        put[l] &= ~top;
+      }
+      if (put[l]) {
+        _mm512_store_si512(iv[l], _mm512_cvttps_epi32(cv));
+        _mm512_store_si512(iu[l], _mm512_cvttps_epi32(cu));
+      }
+    }
+    if (!(put[0] | put[1])) continue;
+    _mm512_store_ps(Ds, D);
+    for (int l = 0; l < 2; ++l)
+      for (unsigned r = put[l]; r; r &= r - 1) {
+        const int i = __builtin_ctz(r);
+        mt[l].place(iv[l][i], iu[l][i], Ds[i]);
+      }
+  }
 }
 }  // namespace
 
@@ -1190,23 +1312,22 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     m.xl = b.xl[k];
     m.u_lo = static_cast<float>(u_lo[k] - cell);  // a cell of margin on each side: the floats' rounding
     m.inv_cell = static_cast<float>(1 / cell);
-    m.nu = static_cast<int>(std::ceil((u_hi[k] - u_lo[k]) / cell)) + 3;
-    m.nv = static_cast<int>(std::ceil(v_hi / cell)) + 2;
-    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+    m.allocate(static_cast<int>(std::ceil((u_hi[k] - u_lo[k]) / cell)) + 3, static_cast<int>(std::ceil(v_hi / cell)) + 2);
   }
   // The solid points, both lamps' maps in one pass (fill_shadow_maps: the same maps for any
-  // thread count). A point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the
-  // vertical surfaces' rows).
+  // thread count; both lamps' maps end after the same row, as the ground's rows read them). A
+  // point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
-  const bool with_runs = runs && runs->made_of(labels);
-  fill_shadow_maps(maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  fill_shadow_maps(maps, W, H, true, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
     // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
     // above the lamps.
     if (h > b.hl && !(kY > 0)) return;
     const float* z = depth_m.row(y);
+    if (avx512) return place_row_avx512<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
     // The row's solid columns: from the label runs where they are at hand (the chain's, made
     // beside the Hough stage), else by testing every label.
     int n = 0;
@@ -1225,8 +1346,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       if (!(D > 0) || !(dv > 0)) continue;
       const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
       for (LampShadowMap& m : mt) {
-        const int i = m.cell((X - m.xl) * invD, v);
-        if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+        int iv, iu;
+        if (m.cell_at((X - m.xl) * invD, v, &iv, &iu)) m.place(iv, iu, D);
       }
     }
   });
@@ -1236,7 +1357,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     m.nb = (m.nu + kBeamShadowBlock - 1) / kBeamShadowBlock;
     m.Bmin.assign(static_cast<size_t>(m.nb) * m.nv, INFINITY);
     for (int iv = 0; iv < m.nv; ++iv) {
-      const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+      const float* dm = m.row(iv);
       for (int jb = 0; jb < m.nb; ++jb) {
         float bmin = INFINITY;
         for (int c = jb * kBeamShadowBlock; c < std::min(m.nu, (jb + 1) * kBeamShadowBlock); ++c) bmin = std::min(bmin, dm[c]);
@@ -1285,7 +1406,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
           return x;
         };
         const int c_lo = std::max(0, static_cast<int>(std::max(cu0, 0.f))), c_hi = std::min(m.nu - 1, static_cast<int>(cu1));
-        const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+        const float* dm = m.row(iv);
         const float* bm = m.Bmin.data() + static_cast<size_t>(iv) * m.nb;
         const uint8_t bit = static_cast<uint8_t>(1 << k);
         int run = -1;  // the current run's first cell
@@ -1453,10 +1574,13 @@ struct BeamPoint {
   p->s = std::sqrt(XD2);
   return true;
 }
-[[gnu::always_inline]] inline float beam_vertical_e(const BeamVerticalCtx& c, const BeamPoint& q) {
+// Both lamps' E, their terms into *t0, *t1 where asked (the shadows' rows keep one of them).
+[[gnu::always_inline]] inline float beam_vertical_e(const BeamVerticalCtx& c, const BeamPoint& q, float* t0 = nullptr,
+                                                    float* t1 = nullptr) {
   const float dy = q.Y - c.b.hl;
   const float e0 = beam_vertical_lamp_f(q.X - c.xl0, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
   const float e1 = beam_vertical_lamp_f(q.X - c.xl1, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
+  if (t0) *t0 = e0, *t1 = e1;
   return e0 + e1;
 }
 #pragma GCC diagnostic push
@@ -1465,9 +1589,11 @@ struct BeamPoint {
 // (returned; the scalar row does the rest): the same operations per lane as beam_vertical_point
 // and beam_vertical_lamp_f, their branches as lane masks, the angles and the table only for groups
 // with a lane below the cut-off's top; a table that is not small (BeamF::small) takes such lanes by
-// the scalar code. So the same bits as beam_vertical_row_scalar.
+// the scalar code. So the same bits as beam_vertical_row_scalar, the lamps' terms too (into t0, t1
+// where they are asked, on the lit lanes).
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_row_avx512(
-    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e) {
+    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e,
+    float* t0, float* t1) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const BeamF& b = c.b;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1544,10 +1670,10 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
     const __m512 dy = _mm512_sub_ps(Y, vhl), dy2 = _mm512_mul_ps(dy, dy), D2 = _mm512_mul_ps(D, D);
     const __m512 Dh0 = _mm512_mul_ps(D, th0), Dh1 = _mm512_mul_ps(D, th1);
     const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
-    __m512 E = zero;
+    __m512 E = zero, El[2] = {zero, zero};
     __mmask16 slow = 0;
-    for (const float xlk : xl) {
-      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(xlk));
+    for (int l = 0; l < 2; ++l) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(xl[l]));
       const __mmask16 in = _mm512_cmp_ps_mask(dx, Dh0, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dx, Dh1, _CMP_LE_OQ);
       const __m512 horiz2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), D2);
       const __m512 d2 = _mm512_add_ps(horiz2, dy2), d = _mm512_sqrt_ps(d2);
@@ -1580,13 +1706,19 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
       __m512 el = _mm512_div_ps(_mm512_mul_ps(I, cb), _mm512_mul_ps(sd, dm));
       if (const __mmask16 cl = crown & lit)
         el = _mm512_mask_div_ps(el, cl, _mm512_mul_ps(I, crown_phase16(_mm512_div_ps(cb, sd))), dm);
-      E = _mm512_add_ps(E, _mm512_maskz_mov_ps(lit, el));
+      El[l] = _mm512_maskz_mov_ps(lit, el);
+      E = _mm512_add_ps(E, El[l]);
     }
     _mm512_mask_storeu_ps(e + x, cls & ~slow, E);  // (E is +0.0 on the lanes not lit)
+    if (t0) {
+      _mm512_mask_storeu_ps(t0 + x, m & ~slow, El[0]);
+      _mm512_mask_storeu_ps(t1 + x, m & ~slow, El[1]);
+    }
     for (unsigned r = m & slow; r; r &= r - 1) {
       const int xi = x + __builtin_ctz(r);
       BeamPoint q;
-      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
+      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q))
+        e[xi] = beam_vertical_e(c, q, t0 ? t0 + xi : nullptr, t0 ? t1 + xi : nullptr);
     }
   }
   return Wv;
@@ -1623,9 +1755,11 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
 }
 // beam_vertical_row_scalar eight pixels at a time (AVX2), over the columns 0 .. 8⌊W/8⌋ − 1
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
-// gathers. The same operations per lane: the same bits as the scalar rows.
+// gathers. The same operations per lane: the same bits as the scalar rows (the lamps' terms into
+// t0, t1 where asked).
 __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx& c, const uint16_t* id, const float* z,
-                                                           const int32_t* reg, float kD, float kY, float* e) {
+                                                           const int32_t* reg, float kD, float kY, float* e, float* t0,
+                                                           float* t1) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
   const BeamF& b = c.b;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1706,9 +1840,9 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     const __m256 dy = _mm256_sub_ps(Y, vhl), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
     const __m256 Dh0 = _mm256_mul_ps(D, th0), Dh1 = _mm256_mul_ps(D, th1);
     const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ);
-    __m256 E = zero;
-    for (const float xlk : xl) {
-      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(xlk));
+    __m256 E = zero, El[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(xl[l]));
       const __m256 in = _mm256_and_ps(_mm256_cmp_ps(dx, Dh0, _CMP_GE_OQ), _mm256_cmp_ps(dx, Dh1, _CMP_LE_OQ));
       const __m256 horiz2 = _mm256_add_ps(_mm256_mul_ps(dx, dx), D2);
       const __m256 d2 = _mm256_add_ps(horiz2, dy2), d = _mm256_sqrt_ps(d2);
@@ -1736,9 +1870,14 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       __m256 el = _mm256_div_ps(_mm256_mul_ps(I, cb), _mm256_mul_ps(sd, dm));
       if (const __m256 cl = _mm256_and_ps(crown, lit); any(cl))
         el = _mm256_blendv_ps(el, _mm256_div_ps(_mm256_mul_ps(I, crown_phase8(_mm256_div_ps(cb, sd))), dm), cl);
-      E = _mm256_add_ps(E, _mm256_and_ps(lit, el));
+      El[l] = _mm256_and_ps(lit, el);
+      E = _mm256_add_ps(E, El[l]);
     }
     _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), E);  // (E is +0.0 on the lanes not lit)
+    if (t0) {
+      _mm256_maskstore_ps(t0 + x, _mm256_castps_si256(m), El[0]);
+      _mm256_maskstore_ps(t1 + x, _mm256_castps_si256(m), El[1]);
+    }
   }
   _mm256_zeroupper();
   return Wv;
@@ -1746,13 +1885,16 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
 // Every pixel of a lit class gets its E, 0 where the rule lights nothing (no finite depth, D ≤ 0,
 // beside the table, a face turned away): the image's value there before (the ground's E on a
 // lane marking, low_beam_illuminance) is not kept.
+// The lamps' terms into t0, t1 where asked (on the pixels lit).
 void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
-                              const int32_t* reg, float kD, float kY, float* e) {
+                              const int32_t* reg, float kD, float kY, float* e, float* t0, float* t1) {
   const int W = static_cast<int>(c.xn.size());
   for (int x = x0; x < W; ++x) {
     if (id[x] >= 64 || !(c.classes >> id[x] & 1)) continue;
     BeamPoint q;
-    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q) ? beam_vertical_e(c, q) : 0.f;
+    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q)
+               ? beam_vertical_e(c, q, t0 ? t0 + x : nullptr, t0 ? t1 + x : nullptr)
+               : 0.f;
   }
 }
 
@@ -1812,17 +1954,18 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     m.xl = b.xl[k];
     m.u_lo = static_cast<float>(u_lo), m.v_lo = static_cast<float>(v_lo);
     m.inv_cell = static_cast<float>(1 / cell);
-    m.nu = static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1;
-    m.nv = static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1;
-    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+    m.allocate(static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1, static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1);
   }
-  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps).
-  fill_shadow_maps(vs.maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps;
+  // sixteen columns at a time where there is AVX-512, place_row_avx512).
+  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  fill_shadow_maps(vs.maps, W, H, false, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
     if (c.h > b.hl && !((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) return;
     const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
     const float* z = depth.row(y);
+    if (avx512) return place_row_avx512<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
     const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols);
     for (int j = 0; j < n; ++j) {
       const int x = cols[j];
@@ -1832,10 +1975,10 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
       if (!(D > 0)) continue;
       const float invD = 1.f / D, X = zz * c.xn[x], dy = (c.h - zz * kY) - b.hl, v = -dy * invD;
       for (LampShadowMap& m : mt) {
-        const int i = m.cell((X - m.xl) * invD, v);
-        if (i < 0) continue;
+        int iv, iu;
+        if (!m.cell_at((X - m.xl) * invD, v, &iv, &iu)) continue;
         const float dx = X - m.xl;
-        if (!beam_above_top(dy, dx * dx + D * D, b)) m.Dmin[i] = std::min(m.Dmin[i], D);
+        if (!beam_above_top(dy, dx * dx + D * D, b)) m.place(iv, iu, D);
       }
     }
   });
@@ -1843,8 +1986,8 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
   return vs;
 }
 // The row's lit vertical pixels (e as the rule wrote it) that a solid point of their cell hides
-// from a lamp keep the other lamp's share (beam_vertical_lamp_f of that lamp: the same bits as its
-// term of the rule's sum, the vector rows' included), 0 when hidden from both.
+// from a lamp keep the other lamp's share (t0, t1: each lamp's term of the rule's sum as the rule's
+// row wrote it), 0 when hidden from both.
 // A surface must not shadow itself: its own points share P's cell. Near P the surface is a plane,
 // on which w = 1/D is linear in the lamp's (u, v) (n·(P − L) = c₀ gives w = (n_X·u − n_Y·v + n_D)/c₀),
 // so its points in P's cell (a cell's diagonal √2·cell from P at most) have w ≤ w_P + √2·cell·|∇w|.
@@ -1895,7 +2038,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       if (!in) continue;
       const __m512i i = _mm512_add_epi32(_mm512_mullo_epi32(_mm512_cvttps_epi32(cv), _mm512_set1_epi32(mp.nu)),
                                          _mm512_cvttps_epi32(cu));
-      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.data(), 4);
+      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.get(), 4);
       cl[l] = in & _mm512_cmp_ps_mask(dql[l], D, _CMP_LT_OQ);
       cand |= cl[l];
     }
@@ -1946,8 +2089,81 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
   }
   return n;
 }
+// Up to eight candidates of shade_vertical_row (a lit pixel whose cell holds a nearer point, below
+// the top) with their neighbours, each lane as the scalar test reads them (floats), for
+// shade_decide_avx512. Neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1 (valid: of a lit class
+// with a finite depth and D > 0).
+struct ShadeBatch {
+  alignas(32) float D[8], X[8], Y[8], Dq[2][8];
+  alignas(32) float nD[4][8], nX[4][8], nY[4][8];
+  uint8_t cand[2] = {0, 0}, valid[4] = {0, 0, 0, 0};
+  int x[8];
+};
+// shade_vertical_row's decision on eight lanes in double (AVX-512): the same operations per lane
+// (the neighbour of each axis with the smaller |Δw|, the x-neighbours' bound, the plane's gradient
+// from the 2 × 2 system), so the same lamps hidden; returns each lamp's mask of hidden lanes.
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_avx512(const ShadeBatch& t,
+                                                                                        const BeamF& b, double cell,
+                                                                                        __mmask8 sh[2]) {
+  const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd(), slack = _mm512_set1_pd(0x1p-16),
+                hl = _mm512_set1_pd(static_cast<double>(b.hl)), c2 = _mm512_set1_pd(2 * cell * cell),
+                s2c = _mm512_set1_pd(std::sqrt(2.0) * cell);
+  auto ld = [&](const float* f) __attribute__((target("avx512f"))) { return _mm512_cvtps_pd(_mm256_load_ps(f)); };
+  auto abs_pd = [](__m512d v) __attribute__((target("avx512f,avx512dq"))) {
+    return _mm512_andnot_pd(_mm512_set1_pd(-0.0), v);
+  };
+  const __m512d X = ld(t.X), w = _mm512_div_pd(one, ld(t.D));
+  // (b.hl − Y) in float, as the scalar test's.
+  const __m512d hlY = _mm512_cvtps_pd(_mm256_sub_ps(_mm256_set1_ps(b.hl), _mm256_load_ps(t.Y)));
+  __m512d nX[2], nY[2], nw[2];
+  __mmask8 have[2];
+  for (int a = 0; a < 2; ++a) {
+    have[a] = 0;
+    nX[a] = nY[a] = nw[a] = zero;
+    for (int s = 0; s < 2; ++s) {
+      const int j = 2 * a + s;
+      const __m512d wn = _mm512_div_pd(one, ld(t.nD[j]));
+      const __mmask8 take =
+          t.valid[j] & static_cast<__mmask8>(~have[a] | _mm512_cmp_pd_mask(abs_pd(_mm512_sub_pd(wn, w)),
+                                                                         abs_pd(_mm512_sub_pd(nw[a], w)), _CMP_LT_OQ));
+      nX[a] = _mm512_mask_mov_pd(nX[a], take, ld(t.nX[j]));
+      nY[a] = _mm512_mask_mov_pd(nY[a], take, ld(t.nY[j]));
+      nw[a] = _mm512_mask_mov_pd(nw[a], take, wn);
+      have[a] |= t.valid[j];
+    }
+  }
+  const __m512d wsl = _mm512_mul_pd(w, slack);
+  __mmask8 cand[2];
+  for (int k = 0; k < 2; ++k) {
+    const __m512d xl = _mm512_set1_pd(static_cast<double>(b.xl[k]));
+    const __m512d iq = _mm512_div_pd(one, ld(t.Dq[k]));
+    // The x-neighbour's bound.
+    const __m512d du = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(nX[0], xl), nw[0]), _mm512_mul_pd(_mm512_sub_pd(X, xl), w));
+    const __m512d dv = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(hl, nY[0]), nw[0]), _mm512_mul_pd(hlY, w));
+    const __m512d dw = _mm512_sub_pd(nw[0], w), gap = _mm512_sub_pd(_mm512_sub_pd(iq, w), wsl);
+    const __m512d lhs = _mm512_mul_pd(_mm512_mul_pd(gap, gap), _mm512_add_pd(_mm512_mul_pd(du, du), _mm512_mul_pd(dv, dv)));
+    const __m512d rhs = _mm512_mul_pd(_mm512_mul_pd(c2, dw), dw);
+    cand[k] = t.cand[k] & have[0] & _mm512_cmp_pd_mask(gap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(lhs, rhs, _CMP_NLE_UQ);
+    // The plane's gradient from both neighbours.
+    const __m512d u0 = _mm512_mul_pd(_mm512_sub_pd(X, xl), w), v0 = _mm512_mul_pd(hlY, w);
+    __m512d Du[2], Dv[2], Dw[2];
+    for (int a = 0; a < 2; ++a) {
+      Du[a] = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(nX[a], xl), nw[a]), u0);
+      Dv[a] = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(hl, nY[a]), nw[a]), v0);
+      Dw[a] = _mm512_sub_pd(nw[a], w);
+    }
+    const __m512d det = _mm512_sub_pd(_mm512_mul_pd(Du[0], Dv[1]), _mm512_mul_pd(Dv[0], Du[1]));
+    const __m512d gu = _mm512_div_pd(_mm512_sub_pd(_mm512_mul_pd(Dw[0], Dv[1]), _mm512_mul_pd(Dv[0], Dw[1])), det);
+    const __m512d gv = _mm512_div_pd(_mm512_sub_pd(_mm512_mul_pd(Du[0], Dw[1]), _mm512_mul_pd(Dw[0], Du[1])), det);
+    const __m512d margin =
+        _mm512_add_pd(_mm512_mul_pd(s2c, _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(gu, gu), _mm512_mul_pd(gv, gv)))), wsl);
+    sh[k] = cand[k] & have[1] & _mm512_cmp_pd_mask(abs_pd(det), zero, _CMP_GT_OQ) &
+            _mm512_cmp_pd_mask(iq, _mm512_add_pd(w, margin), _CMP_GT_OQ);
+  }
+}
 void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
-                        const ImageF& depth, const int32_t* reg, int y, double cp, double sp, bool avx512, float* e) {
+                        const ImageF& depth, int y, double cp, double sp, bool avx512, float* e, const float* t0,
+                        const float* t1) {
   const BeamF& b = c.b;
   const CameraGeometry& g = c.g;
   const int W = labels.width(), H = labels.height();
@@ -2041,17 +2257,73 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
       e[x] = 0.f;
       return;
     }
-    BeamPoint q;
-    if (!beam_vertical_point(c, x, id, z, reg, kD, kY, &q)) return;
-    const float xl = sh == 1 ? c.xl1 : c.xl0;
-    e[x] = beam_vertical_lamp_f(q.X - xl, q.Y - b.hl, q.D, q.mX, q.mY, q.mD, q.s, q.crown, b);
+    e[x] = sh == 1 ? t1[x] : t0[x];
   };
   int x0 = 0;
   if (avx512) {
     thread_local std::vector<int> cols;
     cols.resize(W);
     const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data());
-    for (int j = 0; j < n; ++j) pixel(cols[j]);
+    // The candidates eight at a time: each one's point, lamps and neighbours read as pixel() reads
+    // them, then the decision in vector double (shade_decide_avx512: the same lamps hidden).
+    float kDy[2], kYy[2];
+    ks(y - 1, &kDy[0], &kYy[0]);
+    ks(y + 1, &kDy[1], &kYy[1]);
+    const uint16_t* idy[2] = {y > 0 ? labels.row(y - 1) : nullptr, y + 1 < H ? labels.row(y + 1) : nullptr};
+    const float* zy[2] = {y > 0 ? depth.row(y - 1) : nullptr, y + 1 < H ? depth.row(y + 1) : nullptr};
+    ShadeBatch t;
+    int nt = 0;
+    auto flush = [&] {
+      __mmask8 sh[2];
+      shade_decide_avx512(t, b, cell, sh);
+      for (int l = 0; l < nt; ++l) {
+        const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
+        if (s) e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
+      }
+      nt = 0;
+      t.cand[0] = t.cand[1] = 0;
+      for (uint8_t& v : t.valid) v = 0;
+    };
+    // A neighbour at column xx of a row (its labels, depth, k_D, k_Y) into slot j of lane l.
+    auto neighbour = [&](int l, int j, int xx, const uint16_t* idr, const float* zr, float kDr, float kYr) {
+      t.nD[j][l] = 1.f, t.nX[j][l] = 0.f, t.nY[j][l] = 0.f;
+      if (!idr || xx < 0 || xx >= W || idr[xx] >= 64 || !(c.classes >> idr[xx] & 1)) return;
+      const float zn = zr[xx], Dn = zn * kDr;
+      if (!(zn > 0) || !(zn < kDepthInfinity_m) || !(Dn > 0)) return;
+      t.nD[j][l] = Dn, t.nX[j][l] = zn * c.xn[xx], t.nY[j][l] = c.h - zn * kYr;
+      t.valid[j] |= static_cast<uint8_t>(1u << l);
+    };
+    for (int jc = 0; jc < n; ++jc) {
+      const int x = cols[jc];
+      if (id[x] >= 64 || !(c.classes >> id[x] & 1) || !(e[x] > 0)) continue;
+      const float zz = z[x], D = zz * kD, invD = 1.f / D, X = zz * c.xn[x], Y = c.h - zz * kY;
+      const float dy = Y - b.hl, v = -dy * invD;
+      unsigned cand = 0;
+      const int l = nt;
+      for (int k = 0; k < 2; ++k) {
+        const LampShadowMap& m = vs.maps[k];
+        const int i = m.cell((X - m.xl) * invD, v);
+        t.Dq[k][l] = INFINITY;
+        if (i < 0 || !(m.Dmin[i] < D)) continue;
+        const float dx = X - m.xl;
+        if (!beam_above_top(dy, dx * dx + D * D, b)) cand |= 1u << k, t.Dq[k][l] = m.Dmin[i];
+      }
+      if (!cand) continue;
+      t.x[l] = x, t.D[l] = D, t.X[l] = X, t.Y[l] = Y;
+      t.cand[0] |= static_cast<uint8_t>((cand & 1) << l), t.cand[1] |= static_cast<uint8_t>((cand >> 1 & 1) << l);
+      neighbour(l, 0, x - 1, id, z, kD, kY);
+      neighbour(l, 1, x + 1, id, z, kD, kY);
+      neighbour(l, 2, x, idy[0], zy[0], kDy[0], kYy[0]);
+      neighbour(l, 3, x, idy[1], zy[1], kDy[1], kYy[1]);
+      if (++nt == 8) flush();
+    }
+    if (nt) {
+      for (int l = nt; l < 8; ++l) {  // unused lanes: finite values, no lamp
+        t.D[l] = t.X[l] = t.Y[l] = 1.f, t.Dq[0][l] = t.Dq[1][l] = 1.f;
+        for (int j = 0; j < 4; ++j) t.nD[j][l] = 1.f, t.nX[j][l] = t.nY[j][l] = 0.f;
+      }
+      flush();
+    }
     x0 = W & ~15;
   }
   for (int x = x0; x < W; ++x) pixel(x);
@@ -2146,11 +2418,18 @@ void BeamVerticalRows::row(int y) const {
   const uint16_t* id = m.labels.row(y);
   const float* z = m.depth.row(y);
   float* e = m.beam.row(y);
-  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e)
-                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e)
+  // Where shadows are on, each lamp's term of the row's E (a shaded pixel keeps the other's).
+  thread_local std::vector<float> terms;
+  float *t0 = nullptr, *t1 = nullptr;
+  if (m.shadow.ok) {
+    terms.resize(2 * static_cast<size_t>(m.beam.width()));
+    t0 = terms.data(), t1 = t0 + m.beam.width();
+  }
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e, t0, t1)
+                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e, t0, t1)
                           : 0;
-  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e);
-  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, reg, y, m.cp, m.sp, m.avx512, e);
+  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e, t0, t1);
+  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1);
 }
 
 float BeamVerticalRows::lamp_lux(int x, int y, int lamp) const {

@@ -3677,6 +3677,15 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   ImageF E3 = E0;
   shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
   ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
+  // The solid points placed one by one (ISA caps 0, 1) and sixteen at a time (AVX-512, where the
+  // machine has it): the same image.
+  for (const int isa : {0, 1}) {
+    beam_max_isa(isa);
+    ImageF E4 = E0;
+    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, nullptr, p);
+    beam_max_isa(2);
+    ASSERT_EQ(std::memcmp(E.data(), E4.data(), E.size() * sizeof(float)), 0) << "ISA cap " << isa;
+  }
   const double hl = p.beam_lamp_height_m, xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
   const double cell = 2 / g.f_px, r = (std::sqrt(2.0) * 2 + 1.5) / g.f_px;
   // Geometric shadow of lamp k at the ground point in lamp-view direction (u, v).
