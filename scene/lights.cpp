@@ -485,9 +485,10 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // angles and four intensities are the same numbers for every lane and are broadcast (the values
 // the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
 // permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
+// With `only` 0 or 1, that lamp's E alone (beam_lamp_f's bits: the ground's shadows keep it).
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                   const uint8_t* lane, uint64_t read_mask, float* out) {
+                   const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
@@ -539,6 +540,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     }
     atanf_cephes8x4(args, angles);
     for (int k = 0; k < 2; ++k) {
+      if (only >= 0 && k != only) continue;
       const __m256 d2 = d2s[k], d = ds[k];
       const __m256 h = _mm256_mul_ps(angles[2 * k], deg);
       const __m256 v = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
@@ -595,7 +597,8 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   }
   for (; x < n; ++x) {
     const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1)) || (lane && lane[x]);
-    out[x] = need ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
+    const float X = static_cast<float>(t * xn[x]);
+    out[x] = !need ? 0.f : only < 0 ? beam_lux_f(X, D2, invD, b) : beam_lamp_f(X - b.xl[only], D2, invD, b);
   }
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
@@ -716,7 +719,7 @@ struct BeamCorners16 { __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
 }
 PHOTOSITE_AVX512
 void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                     const uint8_t* lane, uint64_t read_mask, float* out) {
+                     const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
   const __m512 zero = _mm512_setzero_ps();
   const __m512i sign = _mm512_set1_epi32(INT32_MIN);
   const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
@@ -766,6 +769,7 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     }
     atanf_cephes16x4(args, angles);
     for (int k = 0; k < 2; ++k) {
+      if (only >= 0 && k != only) continue;
       const __m512 d2 = d2s[k], d = ds[k];
       const __m512 h = _mm512_mul_ps(angles[2 * k], deg);
       const __m512 v = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(_mm512_mul_ps(angles[2 * k + 1], deg)), sign));
@@ -807,7 +811,8 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     }
     _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
   }
-  if (x < n) beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x);
+  if (x < n)
+    beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x, only);
 }
 // beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
 // lane permutations): the same operations per lane.
@@ -1196,6 +1201,26 @@ __attribute__((target("avx2"))) int solid_columns_avx2(const uint16_t* id, int W
     if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
   return n;
 }
+// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX-512 twin
+// tests sixteen at a time (out needs room for 16 past the count).
+int positive_columns(const float* e, int x0, int x1, int* out) {
+  int n = 0;
+  for (int x = x0; x < x1; ++x)
+    if (e[x] > 0) out[n++] = x;
+  return n;
+}
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int positive_columns_avx512(const float* e, int x0,
+                                                                                           int x1, int* out) {
+  int n = 0;
+  for (int x = x0; x < x1; x += 16) {
+    const __mmask16 lanes = x1 - x >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (x1 - x)) - 1);
+    const __mmask16 pos = _mm512_mask_cmp_ps_mask(lanes, _mm512_maskz_loadu_ps(lanes, e + x), _mm512_setzero_ps(), _CMP_GT_OQ);
+    _mm512_storeu_si512(out + n, _mm512_maskz_compress_epi32(pos, _mm512_add_epi32(_mm512_set1_epi32(x),
+                                                                                     _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))));
+    n += __builtin_popcount(pos);
+  }
+  return n;
+}
 // A row's solid points into both lamps' maps sixteen columns at a time (AVX-512; the last columns
 // by a masked load): the scalar fills' operations on each lane (the ground's when kGround, else
 // the vertical surfaces'), their tests as lane masks, then each point that a map takes placed as
@@ -1378,10 +1403,17 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   // cells (skipping blocks of kBeamShadowBlock cells whose least D is not near enough), each run's
   // first and last pixel by cu's linear estimate corrected by cu itself: the same pixels as
   // testing each one, without visiting the others.
+  // A pixel in one lamp's shadow takes the other lamp's E, computed for the row's such pixels
+  // together as the beam image's rows compute it (beam_row_avx512 / _avx2 with that lamp only:
+  // beam_lamp_f's bits).
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1;
 #pragma omp parallel reduction(+ : n0, n1, n2)
   {
     std::vector<uint8_t> bits(W, 0);
-    std::vector<std::pair<int, int>> spans;
+    std::vector<int> lit(W + 16), xs(W);
+    std::vector<double> xc(W);
+    std::vector<float> E1(W);
+    std::vector<std::pair<int, int>> spans[2];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
       const Row r = rows[y];
@@ -1391,8 +1423,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       const float cv = v * maps[0].inv_cell;
       if (!(cv >= 0 && cv < static_cast<float>(maps[0].nv))) continue;
       const int iv = static_cast<int>(cv);
-      spans.clear();
       for (int k = 0; k < 2; ++k) {
+        spans[k].clear();
         const LampShadowMap& m = maps[k];
         auto cu = [&](int x) { return ((static_cast<float>(r.t * xn[x]) - m.xl) * invD - m.u_lo) * m.inv_cell; };
         const float cu0 = cu(0), cu1 = cu(W - 1);
@@ -1413,7 +1445,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
         auto close = [&](int c_end) {  // the run [run, c_end) of shaded cells: its pixels
           const int x0 = first_at(run), x1 = first_at(c_end);
           for (int x = x0; x < x1; ++x) bits[x] |= bit;
-          if (x0 < x1) spans.emplace_back(x0, x1);
+          if (x0 < x1) spans[k].emplace_back(x0, x1);
           run = -1;
         };
         for (int jb = c_lo / kBeamShadowBlock; jb <= c_hi / kBeamShadowBlock; ++jb) {
@@ -1433,21 +1465,39 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       const uint16_t* id = labels.row(y);
       const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
       float* e = beam_lux.row(y);
-      for (const auto& [x0, x1] : spans)
-        for (int x = x0; x < x1; ++x) {
-          const uint8_t sb = bits[x];
-          if (!sb) continue;  // done in an earlier span
-          bits[x] = 0;
-          if (!(e[x] > 0) || !((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
-          if (sb == 3) {
-            e[x] = 0.f;
-            ++n2;
-          } else {
-            const int lit = sb == 1 ? 1 : 0;
-            e[x] = beam_lamp_f(static_cast<float>(r.t * xn[x]) - b.xl[lit], D2, invD, b);
-            ++(lit ? n0 : n1);
+      // Each run of lamp k's shadow: its lit pixels (e > 0; most of a run's pixels are the
+      // occluders' own, 0 in the ground's image) in both shadows 0, those in k's only the other
+      // lamp's E (those in the other's only: in that lamp's runs), computed for them together.
+      for (int k = 0; k < 2; ++k) {
+        int m = 0;
+        for (const auto& [x0, x1] : spans[k]) {
+          const int np = (avx512 ? positive_columns_avx512 : positive_columns)(e, x0, x1, lit.data());
+          for (int j = 0; j < np; ++j) {
+            const int x = lit[j];
+            const uint8_t sb = bits[x];
+            if (sb != 3 && sb != 1 << k) continue;  // in the other lamp's shadow only: its runs
+            if (!((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
+            if (sb == 3) {
+              e[x] = 0.f;  // (e ≤ 0 from now on: not taken again in the other lamp's runs)
+              ++n2;
+            } else {
+              xs[m] = x, xc[m] = xn[x], ++m;
+            }
           }
         }
+        if (!m) continue;
+        const int other = 1 - k;
+        if (avx512)
+          beam_row_avx512(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+        else if (avx2)
+          beam_row_avx2(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+        else
+          for (int j = 0; j < m; ++j) E1[j] = beam_lamp_f(static_cast<float>(r.t * xc[j]) - b.xl[other], D2, invD, b);
+        for (int j = 0; j < m; ++j) e[xs[j]] = E1[j];
+        (k == 0 ? n0 : n1) += m;
+      }
+      for (int k = 0; k < 2; ++k)
+        for (const auto& [x0, x1] : spans[k]) std::fill(bits.begin() + x0, bits.begin() + x1, uint8_t{0});
     }
   }
   st.one_lamp[0] = n0;
