@@ -1278,8 +1278,18 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void place_row_avx
         put[l] &= ~top;
       }
       if (put[l]) {
-        _mm512_store_si512(iv[l], _mm512_cvttps_epi32(cv));
-        _mm512_store_si512(iu[l], _mm512_cvttps_epi32(cu));
+        const __m512i jv = _mm512_cvttps_epi32(cv), ju = _mm512_cvttps_epi32(cu);
+        _mm512_store_si512(iv[l], jv);
+        _mm512_store_si512(iu[l], ju);
+        // A lane whose right neighbour falls in the same cell with a D no larger leaves the
+        // cell's least D to it (along a run of lanes in one cell a least D is always kept: the
+        // same maps); neighbouring columns share a 2-pixel cell about every other time.
+        const __m512i cidx = _mm512_add_epi32(_mm512_mullo_epi32(jv, _mm512_set1_epi32(mp.nu)), ju);
+        const __mmask16 same = _mm512_cmpeq_epi32_mask(cidx, _mm512_alignr_epi32(cidx, cidx, 1)) &
+                               _mm512_cmp_ps_mask(D, _mm512_castsi512_ps(_mm512_alignr_epi32(
+                                                         _mm512_castps_si512(D), _mm512_castps_si512(D), 1)),
+                                                  _CMP_GE_OQ);
+        put[l] &= static_cast<__mmask16>(~(same & (put[l] >> 1)));
       }
     }
     if (!(put[0] | put[1])) continue;
