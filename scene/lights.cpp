@@ -2060,8 +2060,8 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
 // along an axis, or a surface seen edge-on by the lamp (the system singular), is not shaded.
 // The columns 0 .. 16⌊W/16⌋ − 1 of a row whose pixel shade_vertical_row tests further (of a lit
 // class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
-// the scalar test's operations, in order into out; returns their count (the scalar test then
-// decides each one: the same pixels, the same values).
+// the scalar test's operations, in order into out; returns their count (shade_vertical_row then
+// decides each one, eight at a time by shade_decide_avx512: the same pixels, the same values).
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shadow_candidates_avx512(
     const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const uint16_t* id, const float* z, const float* e,
     float kD, float kY, int* out) {
