@@ -2062,15 +2062,44 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
 // class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
 // the scalar test's operations, in order into out; returns their count (shade_vertical_row then
 // decides each one, eight at a time by shade_decide_avx512: the same pixels, the same values).
+// The lanes of m, in order, to p (sixteen values stored: p needs room for 16; a compress in a
+// register then a plain store, as the compressing store is slow on some cores, Zen 4's).
+__attribute__((target("avx512f"))) inline void compress_store_ps(float* p, __mmask16 m, __m512 v) {
+  _mm512_storeu_ps(p, _mm512_maskz_compress_ps(m, v));
+}
+__attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, __mmask16 m, __m512i v) {
+  _mm512_storeu_si512(p, _mm512_maskz_compress_epi32(m, v));
+}
+// A row's candidates as shade_vertical_row's test reads them (floats; lane i of each array is the
+// i-th candidate): its point (D, X, Y), each lamp's nearer point Dq where cand (bit k: lamp k's cell
+// holds a nearer point, below the top), and its neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1
+// (valid bit j: of a lit class with a finite depth and D > 0; else D 1, X and Y 0).
+struct ShadeCands {
+  std::vector<float> D, X, Y, Dq[2], nD[4], nX[4], nY[4];
+  std::vector<int32_t> cand, valid;
+  void resize(size_t n) {
+    for (std::vector<float>* v : {&D, &X, &Y, &Dq[0], &Dq[1], &nD[0], &nD[1], &nD[2], &nD[3], &nX[0], &nX[1], &nX[2],
+                                  &nX[3], &nY[0], &nY[1], &nY[2], &nY[3]})
+      v->resize(n);
+    cand.resize(n), valid.resize(n);
+  }
+};
+// The row's neighbours y − 1 and y + 1 (labels and depth, null outside the frame) and their k_D, k_Y.
+struct ShadeRows {
+  const uint16_t* id[2];
+  const float* z[2];
+  float kD[2], kY[2];
+};
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shadow_candidates_avx512(
     const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const uint16_t* id, const float* z, const float* e,
-    float kD, float kY, int* out) {
+    float kD, float kY, int* out, const ShadeRows& ry, ShadeCands& sc) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
                 mhi = _mm512_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm512_set1_epi32(1),
                 k32 = _mm512_set1_epi32(32);
   const __m512 zero = _mm512_setzero_ps(), vkD = _mm512_set1_ps(kD), vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(c.h),
-               vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f);
+               vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f),
+               tv2 = _mm512_set1_ps(c.b.tvmax2);
   const double cell = kBeamShadowCellPx / c.g.f_px;
   int n = 0;
   for (int x = 0; x < Wv; x += 16) {
@@ -2145,7 +2174,59 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       // a lane with no lit neighbour is dropped by it as well.
       cand &= keep[0] | keep[1];
     }
-    for (unsigned r = cand; r; r &= r - 1) out[n++] = x + __builtin_ctz(r);
+    if (!cand) continue;
+    // The candidates as the scalar test reads them: each lamp's cell below the top, the point,
+    // the neighbours (ShadeCands).
+    const __m512 Y = _mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY)), dy2 = _mm512_mul_ps(dy, dy), D2 = _mm512_mul_ps(D, D);
+    const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
+    __m512i cb = _mm512_setzero_si512();
+    __mmask16 any = 0;
+    for (int l = 0; l < 2; ++l) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(vs.maps[l].xl));
+      const __m512 r = _mm512_mul_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), D2), tv2);
+      const __mmask16 top = c.b.tvmax >= 0 ? dy_pos & _mm512_cmp_ps_mask(dy2, r, _CMP_GT_OQ)
+                                           : dy_pos | _mm512_cmp_ps_mask(dy2, r, _CMP_LT_OQ);
+      const __mmask16 ck = cl[l] & ~top;
+      cb = _mm512_mask_mov_epi32(cb, ck, _mm512_or_si512(cb, _mm512_set1_epi32(1 << l)));
+      any |= ck;
+    }
+    const __mmask16 o = cand & any;
+    if (!o) continue;
+    compress_store_ps(sc.D.data() + n, o, D);
+    compress_store_ps(sc.X.data() + n, o, X);
+    compress_store_ps(sc.Y.data() + n, o, Y);
+    compress_store_ps(sc.Dq[0].data() + n, o, dql[0]);
+    compress_store_ps(sc.Dq[1].data() + n, o, dql[1]);
+    compress_store_epi32(sc.cand.data() + n, o, cb);
+    __m512i vb = _mm512_setzero_si512();
+    for (int j = 0; j < 4; ++j) {
+      // The neighbour's row and columns: x ± 1 on this row, x on rows y ∓ 1.
+      const int dxn = j == 0 ? -1 : j == 1 ? 1 : 0;
+      const uint16_t* idr = j < 2 ? id : ry.id[j - 2];
+      const float* zr = j < 2 ? z : ry.z[j - 2];
+      const float kDr = j < 2 ? kD : ry.kD[j - 2], kYr = j < 2 ? kY : ry.kY[j - 2];
+      __mmask16 inside = idr ? o : 0;
+      if (j == 0 && x == 0) inside &= static_cast<__mmask16>(0xfffe);
+      if (j == 1 && x + 16 >= W) inside &= static_cast<__mmask16>((1u << (W - 1 - x)) - 1);
+      const __m512i kn = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(inside, idr ? idr + x + dxn : id));
+      const __m512i bn = _mm512_and_si512(
+          _mm512_or_si512(_mm512_srlv_epi32(mlo, kn), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(kn, k32))), one);
+      const __m512 zn = _mm512_maskz_loadu_ps(inside, zr ? zr + x + dxn : z), Dn = _mm512_mul_ps(zn, _mm512_set1_ps(kDr));
+      const __mmask16 valid = inside & _mm512_test_epi32_mask(bn, bn) & _mm512_cmp_ps_mask(zn, zero, _CMP_GT_OQ) &
+                              _mm512_cmp_ps_mask(zn, _mm512_set1_ps(kDepthInfinity_m), _CMP_LT_OQ) &
+                              _mm512_cmp_ps_mask(Dn, zero, _CMP_GT_OQ);
+      const __m512 xnn = _mm512_maskz_loadu_ps(inside, c.xn.data() + x + dxn);
+      compress_store_ps(sc.nD[j].data() + n, o, _mm512_mask_mov_ps(fone, valid, Dn));
+      compress_store_ps(sc.nX[j].data() + n, o, _mm512_maskz_mov_ps(valid, _mm512_mul_ps(zn, xnn)));
+      compress_store_ps(sc.nY[j].data() + n, o,
+                                    _mm512_maskz_mov_ps(valid, _mm512_sub_ps(vh, _mm512_mul_ps(zn, _mm512_set1_ps(kYr)))));
+      vb = _mm512_mask_mov_epi32(vb, valid, _mm512_or_si512(vb, _mm512_set1_epi32(1 << j)));
+    }
+    compress_store_epi32(sc.valid.data() + n, o, vb);
+    compress_store_epi32(out + n, o,
+                                     _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9,
+                                                                                               10, 11, 12, 13, 14, 15)));
+    n += __builtin_popcount(o);
   }
   return n;
 }
@@ -2159,6 +2240,13 @@ struct ShadeBatch {
   uint8_t cand[2] = {0, 0}, valid[4] = {0, 0, 0, 0};
   int x[8];
 };
+// Eight floats widened to double; |v|.
+[[gnu::always_inline]] __attribute__((target("avx512f"))) inline __m512d ld(const float* f) {
+  return _mm512_cvtps_pd(_mm256_load_ps(f));
+}
+[[gnu::always_inline]] __attribute__((target("avx512f,avx512dq"))) inline __m512d abs_pd(__m512d v) {
+  return _mm512_andnot_pd(_mm512_set1_pd(-0.0), v);
+}
 // shade_vertical_row's decision on eight lanes in double (AVX-512): the same operations per lane
 // (the neighbour of each axis with the smaller |Δw|, the x-neighbours' bound, the plane's gradient
 // from the 2 × 2 system), so the same lamps hidden; returns each lamp's mask of hidden lanes.
@@ -2168,10 +2256,6 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_
   const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd(), slack = _mm512_set1_pd(0x1p-16),
                 hl = _mm512_set1_pd(static_cast<double>(b.hl)), c2 = _mm512_set1_pd(2 * cell * cell),
                 s2c = _mm512_set1_pd(std::sqrt(2.0) * cell);
-  auto ld = [&](const float* f) __attribute__((target("avx512f"))) { return _mm512_cvtps_pd(_mm256_load_ps(f)); };
-  auto abs_pd = [](__m512d v) __attribute__((target("avx512f,avx512dq"))) {
-    return _mm512_andnot_pd(_mm512_set1_pd(-0.0), v);
-  };
   const __m512d X = ld(t.X), w = _mm512_div_pd(one, ld(t.D));
   // (b.hl − Y) in float, as the scalar test's.
   const __m512d hlY = _mm512_cvtps_pd(_mm256_sub_ps(_mm256_set1_ps(b.hl), _mm256_load_ps(t.Y)));
@@ -2322,67 +2406,47 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
   int x0 = 0;
   if (avx512) {
     thread_local std::vector<int> cols;
-    cols.resize(W);
-    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data());
-    // The candidates eight at a time: each one's point, lamps and neighbours read as pixel() reads
-    // them, then the decision in vector double (shade_decide_avx512: the same lamps hidden).
-    float kDy[2], kYy[2];
-    ks(y - 1, &kDy[0], &kYy[0]);
-    ks(y + 1, &kDy[1], &kYy[1]);
-    const uint16_t* idy[2] = {y > 0 ? labels.row(y - 1) : nullptr, y + 1 < H ? labels.row(y + 1) : nullptr};
-    const float* zy[2] = {y > 0 ? depth.row(y - 1) : nullptr, y + 1 < H ? depth.row(y + 1) : nullptr};
+    cols.resize(static_cast<size_t>(W) + 16);
+    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time),
+    // then decided eight at a time in vector double (shade_decide_avx512: the same lamps hidden).
+    ShadeRows ry;
+    for (int s = 0; s < 2; ++s) {
+      const int yy = y + (s == 0 ? -1 : 1);
+      const bool in = yy >= 0 && yy < H;
+      ry.id[s] = in ? labels.row(yy) : nullptr, ry.z[s] = in ? depth.row(yy) : nullptr;
+      ks(yy, &ry.kD[s], &ry.kY[s]);
+    }
+    thread_local ShadeCands sc;
+    sc.resize(static_cast<size_t>(W) + 16);
+    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
     ShadeBatch t;
-    int nt = 0;
-    auto flush = [&] {
+    for (int j0 = 0; j0 < n; j0 += 8) {
+      const int m = std::min(8, n - j0);
+      t.cand[0] = t.cand[1] = 0;
+      for (uint8_t& v : t.valid) v = 0;
+      for (int l = 0; l < 8; ++l) {
+        if (l >= m) {  // unused lanes: finite values, no lamp
+          t.D[l] = t.X[l] = t.Y[l] = 1.f, t.Dq[0][l] = t.Dq[1][l] = 1.f;
+          for (int j = 0; j < 4; ++j) t.nD[j][l] = 1.f, t.nX[j][l] = t.nY[j][l] = 0.f;
+          continue;
+        }
+        const int i = j0 + l;
+        t.x[l] = cols[i], t.D[l] = sc.D[i], t.X[l] = sc.X[i], t.Y[l] = sc.Y[i];
+        for (int k = 0; k < 2; ++k) {
+          t.Dq[k][l] = sc.Dq[k][i];
+          t.cand[k] |= static_cast<uint8_t>((sc.cand[i] >> k & 1) << l);
+        }
+        for (int j = 0; j < 4; ++j) {
+          t.nD[j][l] = sc.nD[j][i], t.nX[j][l] = sc.nX[j][i], t.nY[j][l] = sc.nY[j][i];
+          t.valid[j] |= static_cast<uint8_t>((sc.valid[i] >> j & 1) << l);
+        }
+      }
       __mmask8 sh[2];
       shade_decide_avx512(t, b, cell, sh);
-      for (int l = 0; l < nt; ++l) {
+      for (int l = 0; l < m; ++l) {
         const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
         if (s) e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
       }
-      nt = 0;
-      t.cand[0] = t.cand[1] = 0;
-      for (uint8_t& v : t.valid) v = 0;
-    };
-    // A neighbour at column xx of a row (its labels, depth, k_D, k_Y) into slot j of lane l.
-    auto neighbour = [&](int l, int j, int xx, const uint16_t* idr, const float* zr, float kDr, float kYr) {
-      t.nD[j][l] = 1.f, t.nX[j][l] = 0.f, t.nY[j][l] = 0.f;
-      if (!idr || xx < 0 || xx >= W || idr[xx] >= 64 || !(c.classes >> idr[xx] & 1)) return;
-      const float zn = zr[xx], Dn = zn * kDr;
-      if (!(zn > 0) || !(zn < kDepthInfinity_m) || !(Dn > 0)) return;
-      t.nD[j][l] = Dn, t.nX[j][l] = zn * c.xn[xx], t.nY[j][l] = c.h - zn * kYr;
-      t.valid[j] |= static_cast<uint8_t>(1u << l);
-    };
-    for (int jc = 0; jc < n; ++jc) {
-      const int x = cols[jc];
-      if (id[x] >= 64 || !(c.classes >> id[x] & 1) || !(e[x] > 0)) continue;
-      const float zz = z[x], D = zz * kD, invD = 1.f / D, X = zz * c.xn[x], Y = c.h - zz * kY;
-      const float dy = Y - b.hl, v = -dy * invD;
-      unsigned cand = 0;
-      const int l = nt;
-      for (int k = 0; k < 2; ++k) {
-        const LampShadowMap& m = vs.maps[k];
-        const int i = m.cell((X - m.xl) * invD, v);
-        t.Dq[k][l] = INFINITY;
-        if (i < 0 || !(m.Dmin[i] < D)) continue;
-        const float dx = X - m.xl;
-        if (!beam_above_top(dy, dx * dx + D * D, b)) cand |= 1u << k, t.Dq[k][l] = m.Dmin[i];
-      }
-      if (!cand) continue;
-      t.x[l] = x, t.D[l] = D, t.X[l] = X, t.Y[l] = Y;
-      t.cand[0] |= static_cast<uint8_t>((cand & 1) << l), t.cand[1] |= static_cast<uint8_t>((cand >> 1 & 1) << l);
-      neighbour(l, 0, x - 1, id, z, kD, kY);
-      neighbour(l, 1, x + 1, id, z, kD, kY);
-      neighbour(l, 2, x, idy[0], zy[0], kDy[0], kYy[0]);
-      neighbour(l, 3, x, idy[1], zy[1], kDy[1], kYy[1]);
-      if (++nt == 8) flush();
-    }
-    if (nt) {
-      for (int l = nt; l < 8; ++l) {  // unused lanes: finite values, no lamp
-        t.D[l] = t.X[l] = t.Y[l] = 1.f, t.Dq[0][l] = t.Dq[1][l] = 1.f;
-        for (int j = 0; j < 4; ++j) t.nD[j][l] = 1.f, t.nX[j][l] = t.nY[j][l] = 0.f;
-      }
-      flush();
     }
     x0 = W & ~15;
   }
