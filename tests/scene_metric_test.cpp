@@ -2918,6 +2918,21 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
     out.push_back(std::move(E));
   }
   beam_max_isa(2);
+  // A cut-off whose top lies above the lamps (cutoff_max_v_deg > 0: its shadows' maps reach above
+  // the lamps' height, the top's test decides which points and pixels take part): the same bits.
+  {
+    ScenePreset q = p;
+    q.beam_cutoff_max_v_deg = 3;
+    std::vector<ImageF> outq;
+    for (const int isa : {0, 2}) {
+      beam_max_isa(isa);
+      ImageF E(W, H, 1, -1.f);
+      add_low_beam_vertical(E, o.camera, lab, depth, &fac, q);
+      outq.push_back(std::move(E));
+    }
+    beam_max_isa(2);
+    EXPECT_EQ(differing_samples(outq[1], outq[0]), 0u) << "cut-off top at 3°: AVX-512 against the scalar code";
+  }
   long lit = 0, untouched = 0;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
