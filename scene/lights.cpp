@@ -485,9 +485,10 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // angles and four intensities are the same numbers for every lane and are broadcast (the values
 // the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
 // permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
+// With `only` 0 or 1, that lamp's E alone (beam_lamp_f's bits: the ground's shadows keep it).
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                   const uint8_t* lane, uint64_t read_mask, float* out) {
+                   const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
@@ -539,6 +540,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     }
     atanf_cephes8x4(args, angles);
     for (int k = 0; k < 2; ++k) {
+      if (only >= 0 && k != only) continue;
       const __m256 d2 = d2s[k], d = ds[k];
       const __m256 h = _mm256_mul_ps(angles[2 * k], deg);
       const __m256 v = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
@@ -595,7 +597,8 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   }
   for (; x < n; ++x) {
     const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1)) || (lane && lane[x]);
-    out[x] = need ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
+    const float X = static_cast<float>(t * xn[x]);
+    out[x] = !need ? 0.f : only < 0 ? beam_lux_f(X, D2, invD, b) : beam_lamp_f(X - b.xl[only], D2, invD, b);
   }
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
@@ -716,7 +719,7 @@ struct BeamCorners16 { __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
 }
 PHOTOSITE_AVX512
 void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                     const uint8_t* lane, uint64_t read_mask, float* out) {
+                     const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
   const __m512 zero = _mm512_setzero_ps();
   const __m512i sign = _mm512_set1_epi32(INT32_MIN);
   const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
@@ -766,6 +769,7 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     }
     atanf_cephes16x4(args, angles);
     for (int k = 0; k < 2; ++k) {
+      if (only >= 0 && k != only) continue;
       const __m512 d2 = d2s[k], d = ds[k];
       const __m512 h = _mm512_mul_ps(angles[2 * k], deg);
       const __m512 v = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(_mm512_mul_ps(angles[2 * k + 1], deg)), sign));
@@ -807,7 +811,8 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     }
     _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
   }
-  if (x < n) beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x);
+  if (x < n)
+    beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x, only);
 }
 // beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
 // lane permutations): the same operations per lane.
@@ -1079,27 +1084,63 @@ namespace {
 // behind an occluder that is not much lower than itself.
 constexpr int kBeamShadowCellPx = 2;
 constexpr int kBeamShadowBlock = 16;
+// The map's rows (cells of one v) are written +∞ only when a point first falls in them, and the
+// map ends after its last row that holds a point (fill_shadow_maps): the points of a frame take a
+// band of v near the lamps' height (on the bench frame rows 0-43 of the ground's 163 and of the
+// vertical surfaces' 304; a solid point far below the lamp is a near one), so the rest is neither
+// written nor read. A point that falls beyond the last row finds no point there, as it would in
+// a map of the full extent: the same shadows.
 struct LampShadowMap {
   float xl = 0, u_lo = 0, inv_cell = 0, v_lo = 0;  // v_lo: 0 for the ground's maps (v > 0 only)
   int nu = 0, nv = 0, nb = 0;
-  std::vector<float> Dmin;  // nv × nu, +∞ where no solid point lies
+  std::unique_ptr<float[]> Dmin;  // nv × nu, +∞ where no solid point lies (a row once written)
+  std::vector<uint8_t> written;   // per row: +∞ (and its points) written
   std::vector<float> Bmin;  // nv × nb: the least Dmin of each block of kBeamShadowBlock cells in a row
-  [[gnu::always_inline]] int cell(float u, float v) const {
+  // The extent (nu × nv cells) the points are placed over, before any is; the cells not written.
+  void allocate(int nu_, int nv_) {
+    nu = nu_, nv = nv_;
+    Dmin.reset(new float[static_cast<size_t>(nu) * nv]);
+    written.assign(nv, 0);
+  }
+  [[gnu::always_inline]] bool cell_at(float u, float v, int* iv, int* iu) const {
     const float cu = (u - u_lo) * inv_cell, cv = (v - v_lo) * inv_cell;
-    if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return -1;
-    return static_cast<int>(cv) * nu + static_cast<int>(cu);
+    if (!(cu >= 0 && cu < static_cast<float>(nu) && cv >= 0 && cv < static_cast<float>(nv))) return false;
+    *iv = static_cast<int>(cv), *iu = static_cast<int>(cu);
+    return true;
+  }
+  [[gnu::always_inline]] int cell(float u, float v) const {
+    int iv, iu;
+    return cell_at(u, v, &iv, &iu) ? iv * nu + iu : -1;
+  }
+  float* row(int iv) { return Dmin.get() + static_cast<size_t>(iv) * nu; }
+  const float* row(int iv) const { return Dmin.get() + static_cast<size_t>(iv) * nu; }
+  // Keeps D in cell (iv, iu) if it is the least there.
+  [[gnu::always_inline]] void place(int iv, int iu, float D) {
+    float* r = row(iv);
+    if (!written[iv]) [[unlikely]] {
+      std::fill_n(r, nu, INFINITY);
+      written[iv] = 1;
+    }
+    r[iu] = std::min(r[iu], D);
   }
 };
-// Fills both lamps' maps with the solid points of every row: row(y, maps, cols) places row y's
-// points into `maps` (cols: a scratch of W ints). Where there are two threads, each takes every
-// other chunk of 32 rows, the second into its own copy of the maps, then the least of the two per
-// cell: the least D of a cell does not depend on the order the points come in, so the same maps
-// for any thread count. (The ground's maps and the vertical surfaces' are filled so.)
+// Fills both lamps' maps (allocated) with the solid points of every row: row(y, maps, cols) places
+// row y's points into `maps` (LampShadowMap::place; cols: a scratch of W ints). Where there are
+// two threads, each takes every other chunk of 32 rows, the second into its own maps, then the
+// least of the two per cell: the least D of a cell does not depend on the order the points come
+// in, so the same maps for any thread count. (The ground's maps and the vertical surfaces' are
+// filled so.) Then each map ends after its last written row (both lamps' maps after the later of
+// the two where `same_rows`), the rows before it not written made +∞.
 template <class RowFn>
-void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, RowFn&& row) {
+void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, bool same_rows, RowFn&& row) {
   const int teams = std::min(2, omp_get_max_threads());
   std::array<LampShadowMap, 2> maps2;
-  if (teams > 1) maps2 = maps;
+  if (teams > 1)
+    for (int k = 0; k < 2; ++k) {
+      LampShadowMap& m2 = maps2[k];
+      m2.xl = maps[k].xl, m2.u_lo = maps[k].u_lo, m2.inv_cell = maps[k].inv_cell, m2.v_lo = maps[k].v_lo;
+      m2.allocate(maps[k].nu, maps[k].nv);
+    }
 #pragma omp parallel num_threads(teams)
   {
     const int team = omp_get_thread_num();
@@ -1109,12 +1150,28 @@ void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, RowFn&& 
     for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
       for (int y = y0; y < std::min(H, y0 + kChunk); ++y) row(y, mt, cols.data());
   }
-  if (teams > 1)
-    for (int k = 0; k < 2; ++k) {
-      float* d = maps[k].Dmin.data();
-      const float* d2 = maps2[k].Dmin.data();
-      for (size_t i = 0; i < maps[k].Dmin.size(); ++i) d[i] = std::min(d[i], d2[i]);
+  int end[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = maps[k];
+    for (int iv = 0; iv < m.nv; ++iv) {
+      if (teams > 1 && maps2[k].written[iv]) {
+        const float* d2 = maps2[k].row(iv);
+        float* d = m.row(iv);
+        if (m.written[iv])
+          for (int c = 0; c < m.nu; ++c) d[c] = std::min(d[c], d2[c]);
+        else
+          std::copy_n(d2, m.nu, d);
+        m.written[iv] = 1;
+      }
+      if (m.written[iv]) end[k] = iv + 1;
     }
+  }
+  for (int k = 0; k < 2; ++k) {
+    LampShadowMap& m = maps[k];
+    m.nv = same_rows ? std::max(end[0], end[1]) : end[k];
+    for (int iv = 0; iv < m.nv; ++iv)
+      if (!m.written[iv]) std::fill_n(m.row(iv), m.nu, INFINITY), m.written[iv] = 1;
+  }
 }
 // The columns of a label row whose class is in `solid` (bits by class id, ids below 64), in
 // order, into out; returns their count. The AVX2 twin tests eight labels at a time (a lane's
@@ -1143,6 +1200,106 @@ __attribute__((target("avx2"))) int solid_columns_avx2(const uint16_t* id, int W
   for (; x < W; ++x)
     if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
   return n;
+}
+// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX-512 twin
+// tests sixteen at a time (out needs room for 16 past the count).
+int positive_columns(const float* e, int x0, int x1, int* out) {
+  int n = 0;
+  for (int x = x0; x < x1; ++x)
+    if (e[x] > 0) out[n++] = x;
+  return n;
+}
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int positive_columns_avx512(const float* e, int x0,
+                                                                                           int x1, int* out) {
+  int n = 0;
+  for (int x = x0; x < x1; x += 16) {
+    const __mmask16 lanes = x1 - x >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (x1 - x)) - 1);
+    const __mmask16 pos = _mm512_mask_cmp_ps_mask(lanes, _mm512_maskz_loadu_ps(lanes, e + x), _mm512_setzero_ps(), _CMP_GT_OQ);
+    _mm512_storeu_si512(out + n, _mm512_maskz_compress_epi32(pos, _mm512_add_epi32(_mm512_set1_epi32(x),
+                                                                                     _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))));
+    n += __builtin_popcount(pos);
+  }
+  return n;
+}
+// A row's solid points into both lamps' maps sixteen columns at a time (AVX-512; the last columns
+// by a masked load): the scalar fills' operations on each lane (the ground's when kGround, else
+// the vertical surfaces'), their tests as lane masks, then each point that a map takes placed as
+// the scalar fill places it: the same maps. Most solid points of a row are not placed (above the
+// lamps' height: nearer than (h − h_l)/k_Y on the row), and are dropped here sixteen at a time.
+template <bool kGround>
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void place_row_avx512(
+    const uint16_t* id, const float* z, const float* xn, int W, uint64_t solid, float kD, float kY, float h,
+    const BeamF& b, std::array<LampShadowMap, 2>& mt) {
+  const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(solid & 0xffffffffu)),
+                mhi = _mm512_set1_epi32(static_cast<int32_t>(solid >> 32)), one = _mm512_set1_epi32(1),
+                k32 = _mm512_set1_epi32(32);
+  const __m512 zero = _mm512_setzero_ps(), zinf = _mm512_set1_ps(kDepthInfinity_m), vkD = _mm512_set1_ps(kD),
+               vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(h), vhl = _mm512_set1_ps(b.hl), fone = _mm512_set1_ps(1.f),
+               sign = _mm512_set1_ps(-0.f), tv2 = _mm512_set1_ps(b.tvmax2);
+  const bool t_pos = b.tvmax >= 0;
+  alignas(64) int32_t iv[2][16], iu[2][16];
+  alignas(64) float Ds[16];
+  for (int x = 0; x < W; x += 16) {
+    const __mmask16 lanes = W - x >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (W - x)) - 1);
+    const __m512i k = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(lanes, id + x));
+    // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
+    const __m512i bit = _mm512_and_si512(
+        _mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))), one);
+    __mmask16 m = lanes & _mm512_test_epi32_mask(bit, bit);
+    if (!m) continue;
+    const __m512 zz = _mm512_maskz_loadu_ps(m, z + x);
+    m &= _mm512_cmp_ps_mask(zz, zero, _CMP_GT_OQ) & _mm512_cmp_ps_mask(zz, zinf, _CMP_LT_OQ);
+    const __m512 D = _mm512_mul_ps(zz, vkD), Y = _mm512_sub_ps(vh, _mm512_mul_ps(zz, vkY));
+    m &= _mm512_cmp_ps_mask(D, zero, _CMP_GT_OQ);
+    // The ground's dv = h_l − Y > 0 (v = dv/D), the vertical surfaces' dy = Y − h_l (v = −dy/D).
+    const __m512 dv = kGround ? _mm512_sub_ps(vhl, Y) : _mm512_xor_ps(_mm512_sub_ps(Y, vhl), sign);
+    if (kGround) m &= _mm512_cmp_ps_mask(dv, zero, _CMP_GT_OQ);
+    if (!m) continue;
+    const __m512 invD = _mm512_div_ps(fone, D), X = _mm512_mul_ps(zz, _mm512_maskz_loadu_ps(lanes, xn + x));
+    const __m512 v = _mm512_mul_ps(dv, invD);
+    __mmask16 put[2];
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = mt[l];
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(mp.xl));
+      const __m512 cu = _mm512_mul_ps(_mm512_sub_ps(_mm512_mul_ps(dx, invD), _mm512_set1_ps(mp.u_lo)),
+                                      _mm512_set1_ps(mp.inv_cell));
+      const __m512 cv = _mm512_mul_ps(_mm512_sub_ps(v, _mm512_set1_ps(mp.v_lo)), _mm512_set1_ps(mp.inv_cell));
+      put[l] = m & _mm512_cmp_ps_mask(cu, zero, _CMP_GE_OQ) &
+               _mm512_cmp_ps_mask(cu, _mm512_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ) &
+               _mm512_cmp_ps_mask(cv, zero, _CMP_GE_OQ) &
+               _mm512_cmp_ps_mask(cv, _mm512_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ);
+      if (!kGround && put[l]) {
+        // beam_above_top(dy, dx² + D², b): dy > 0 and dy² > (dx² + D²)·t² (t ≥ 0), else dy > 0 or dy² < that.
+        const __m512 dy = _mm512_xor_ps(dv, sign), q = _mm512_mul_ps(dy, dy);
+        const __m512 r = _mm512_mul_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(D, D)), tv2);
+        const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
+        const __mmask16 top = t_pos ? dy_pos & _mm512_cmp_ps_mask(q, r, _CMP_GT_OQ)
+                                    : dy_pos | _mm512_cmp_ps_mask(q, r, _CMP_LT_OQ);
+        put[l] &= ~top;
+      }
+      if (put[l]) {
+        const __m512i jv = _mm512_cvttps_epi32(cv), ju = _mm512_cvttps_epi32(cu);
+        _mm512_store_si512(iv[l], jv);
+        _mm512_store_si512(iu[l], ju);
+        // A lane whose right neighbour falls in the same cell with a D no larger leaves the
+        // cell's least D to it (along a run of lanes in one cell a least D is always kept: the
+        // same maps); neighbouring columns share a 2-pixel cell about every other time.
+        const __m512i cidx = _mm512_add_epi32(_mm512_mullo_epi32(jv, _mm512_set1_epi32(mp.nu)), ju);
+        const __mmask16 same = _mm512_cmpeq_epi32_mask(cidx, _mm512_alignr_epi32(cidx, cidx, 1)) &
+                               _mm512_cmp_ps_mask(D, _mm512_castsi512_ps(_mm512_alignr_epi32(
+                                                         _mm512_castps_si512(D), _mm512_castps_si512(D), 1)),
+                                                  _CMP_GE_OQ);
+        put[l] &= static_cast<__mmask16>(~(same & (put[l] >> 1)));
+      }
+    }
+    if (!(put[0] | put[1])) continue;
+    _mm512_store_ps(Ds, D);
+    for (int l = 0; l < 2; ++l)
+      for (unsigned r = put[l]; r; r &= r - 1) {
+        const int i = __builtin_ctz(r);
+        mt[l].place(iv[l][i], iu[l][i], Ds[i]);
+      }
+  }
 }
 }  // namespace
 
@@ -1190,23 +1347,22 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     m.xl = b.xl[k];
     m.u_lo = static_cast<float>(u_lo[k] - cell);  // a cell of margin on each side: the floats' rounding
     m.inv_cell = static_cast<float>(1 / cell);
-    m.nu = static_cast<int>(std::ceil((u_hi[k] - u_lo[k]) / cell)) + 3;
-    m.nv = static_cast<int>(std::ceil(v_hi / cell)) + 2;
-    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+    m.allocate(static_cast<int>(std::ceil((u_hi[k] - u_lo[k]) / cell)) + 3, static_cast<int>(std::ceil(v_hi / cell)) + 2);
   }
   // The solid points, both lamps' maps in one pass (fill_shadow_maps: the same maps for any
-  // thread count). A point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the
-  // vertical surfaces' rows).
+  // thread count; both lamps' maps end after the same row, as the ground's rows read them). A
+  // point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
-  const bool with_runs = runs && runs->made_of(labels);
-  fill_shadow_maps(maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  fill_shadow_maps(maps, W, H, true, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
     // Y < h_l needs z·kY > h − h_l: none in a row at or above the horizon when the camera is
     // above the lamps.
     if (h > b.hl && !(kY > 0)) return;
     const float* z = depth_m.row(y);
+    if (avx512) return place_row_avx512<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
     // The row's solid columns: from the label runs where they are at hand (the chain's, made
     // beside the Hough stage), else by testing every label.
     int n = 0;
@@ -1225,8 +1381,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       if (!(D > 0) || !(dv > 0)) continue;
       const float invD = 1.f / D, X = zz * xnf[x], v = dv * invD;
       for (LampShadowMap& m : mt) {
-        const int i = m.cell((X - m.xl) * invD, v);
-        if (i >= 0) m.Dmin[i] = std::min(m.Dmin[i], D);
+        int iv, iu;
+        if (m.cell_at((X - m.xl) * invD, v, &iv, &iu)) m.place(iv, iu, D);
       }
     }
   });
@@ -1236,7 +1392,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     m.nb = (m.nu + kBeamShadowBlock - 1) / kBeamShadowBlock;
     m.Bmin.assign(static_cast<size_t>(m.nb) * m.nv, INFINITY);
     for (int iv = 0; iv < m.nv; ++iv) {
-      const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+      const float* dm = m.row(iv);
       for (int jb = 0; jb < m.nb; ++jb) {
         float bmin = INFINITY;
         for (int c = jb * kBeamShadowBlock; c < std::min(m.nu, (jb + 1) * kBeamShadowBlock); ++c) bmin = std::min(bmin, dm[c]);
@@ -1257,10 +1413,17 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   // cells (skipping blocks of kBeamShadowBlock cells whose least D is not near enough), each run's
   // first and last pixel by cu's linear estimate corrected by cu itself: the same pixels as
   // testing each one, without visiting the others.
+  // A pixel in one lamp's shadow takes the other lamp's E, computed for the row's such pixels
+  // together as the beam image's rows compute it (beam_row_avx512 / _avx2 with that lamp only:
+  // beam_lamp_f's bits).
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1;
 #pragma omp parallel reduction(+ : n0, n1, n2)
   {
     std::vector<uint8_t> bits(W, 0);
-    std::vector<std::pair<int, int>> spans;
+    std::vector<int> lit(W + 16), xs(W);
+    std::vector<double> xc(W);
+    std::vector<float> E1(W);
+    std::vector<std::pair<int, int>> spans[2];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
       const Row r = rows[y];
@@ -1270,8 +1433,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       const float cv = v * maps[0].inv_cell;
       if (!(cv >= 0 && cv < static_cast<float>(maps[0].nv))) continue;
       const int iv = static_cast<int>(cv);
-      spans.clear();
       for (int k = 0; k < 2; ++k) {
+        spans[k].clear();
         const LampShadowMap& m = maps[k];
         auto cu = [&](int x) { return ((static_cast<float>(r.t * xn[x]) - m.xl) * invD - m.u_lo) * m.inv_cell; };
         const float cu0 = cu(0), cu1 = cu(W - 1);
@@ -1285,14 +1448,14 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
           return x;
         };
         const int c_lo = std::max(0, static_cast<int>(std::max(cu0, 0.f))), c_hi = std::min(m.nu - 1, static_cast<int>(cu1));
-        const float* dm = m.Dmin.data() + static_cast<size_t>(iv) * m.nu;
+        const float* dm = m.row(iv);
         const float* bm = m.Bmin.data() + static_cast<size_t>(iv) * m.nb;
         const uint8_t bit = static_cast<uint8_t>(1 << k);
         int run = -1;  // the current run's first cell
         auto close = [&](int c_end) {  // the run [run, c_end) of shaded cells: its pixels
           const int x0 = first_at(run), x1 = first_at(c_end);
           for (int x = x0; x < x1; ++x) bits[x] |= bit;
-          if (x0 < x1) spans.emplace_back(x0, x1);
+          if (x0 < x1) spans[k].emplace_back(x0, x1);
           run = -1;
         };
         for (int jb = c_lo / kBeamShadowBlock; jb <= c_hi / kBeamShadowBlock; ++jb) {
@@ -1312,21 +1475,39 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       const uint16_t* id = labels.row(y);
       const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
       float* e = beam_lux.row(y);
-      for (const auto& [x0, x1] : spans)
-        for (int x = x0; x < x1; ++x) {
-          const uint8_t sb = bits[x];
-          if (!sb) continue;  // done in an earlier span
-          bits[x] = 0;
-          if (!(e[x] > 0) || !((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
-          if (sb == 3) {
-            e[x] = 0.f;
-            ++n2;
-          } else {
-            const int lit = sb == 1 ? 1 : 0;
-            e[x] = beam_lamp_f(static_cast<float>(r.t * xn[x]) - b.xl[lit], D2, invD, b);
-            ++(lit ? n0 : n1);
+      // Each run of lamp k's shadow: its lit pixels (e > 0; most of a run's pixels are the
+      // occluders' own, 0 in the ground's image) in both shadows 0, those in k's only the other
+      // lamp's E (those in the other's only: in that lamp's runs), computed for them together.
+      for (int k = 0; k < 2; ++k) {
+        int m = 0;
+        for (const auto& [x0, x1] : spans[k]) {
+          const int np = (avx512 ? positive_columns_avx512 : positive_columns)(e, x0, x1, lit.data());
+          for (int j = 0; j < np; ++j) {
+            const int x = lit[j];
+            const uint8_t sb = bits[x];
+            if (sb != 3 && sb != 1 << k) continue;  // in the other lamp's shadow only: its runs
+            if (!((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
+            if (sb == 3) {
+              e[x] = 0.f;  // (e ≤ 0 from now on: not taken again in the other lamp's runs)
+              ++n2;
+            } else {
+              xs[m] = x, xc[m] = xn[x], ++m;
+            }
           }
         }
+        if (!m) continue;
+        const int other = 1 - k;
+        if (avx512)
+          beam_row_avx512(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+        else if (avx2)
+          beam_row_avx2(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+        else
+          for (int j = 0; j < m; ++j) E1[j] = beam_lamp_f(static_cast<float>(r.t * xc[j]) - b.xl[other], D2, invD, b);
+        for (int j = 0; j < m; ++j) e[xs[j]] = E1[j];
+        (k == 0 ? n0 : n1) += m;
+      }
+      for (int k = 0; k < 2; ++k)
+        for (const auto& [x0, x1] : spans[k]) std::fill(bits.begin() + x0, bits.begin() + x1, uint8_t{0});
     }
   }
   st.one_lamp[0] = n0;
@@ -1453,10 +1634,13 @@ struct BeamPoint {
   p->s = std::sqrt(XD2);
   return true;
 }
-[[gnu::always_inline]] inline float beam_vertical_e(const BeamVerticalCtx& c, const BeamPoint& q) {
+// Both lamps' E, their terms into *t0, *t1 where asked (the shadows' rows keep one of them).
+[[gnu::always_inline]] inline float beam_vertical_e(const BeamVerticalCtx& c, const BeamPoint& q, float* t0 = nullptr,
+                                                    float* t1 = nullptr) {
   const float dy = q.Y - c.b.hl;
   const float e0 = beam_vertical_lamp_f(q.X - c.xl0, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
   const float e1 = beam_vertical_lamp_f(q.X - c.xl1, dy, q.D, q.mX, q.mY, q.mD, q.s, q.crown, c.b);
+  if (t0) *t0 = e0, *t1 = e1;
   return e0 + e1;
 }
 #pragma GCC diagnostic push
@@ -1465,9 +1649,11 @@ struct BeamPoint {
 // (returned; the scalar row does the rest): the same operations per lane as beam_vertical_point
 // and beam_vertical_lamp_f, their branches as lane masks, the angles and the table only for groups
 // with a lane below the cut-off's top; a table that is not small (BeamF::small) takes such lanes by
-// the scalar code. So the same bits as beam_vertical_row_scalar.
+// the scalar code. So the same bits as beam_vertical_row_scalar, the lamps' terms too (into t0, t1
+// where they are asked, on the lit lanes).
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_row_avx512(
-    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e) {
+    const BeamVerticalCtx& c, const uint16_t* id, const float* z, const int32_t* reg, float kD, float kY, float* e,
+    float* t0, float* t1) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const BeamF& b = c.b;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1544,10 +1730,10 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
     const __m512 dy = _mm512_sub_ps(Y, vhl), dy2 = _mm512_mul_ps(dy, dy), D2 = _mm512_mul_ps(D, D);
     const __m512 Dh0 = _mm512_mul_ps(D, th0), Dh1 = _mm512_mul_ps(D, th1);
     const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
-    __m512 E = zero;
+    __m512 E = zero, El[2] = {zero, zero};
     __mmask16 slow = 0;
-    for (const float xlk : xl) {
-      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(xlk));
+    for (int l = 0; l < 2; ++l) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(xl[l]));
       const __mmask16 in = _mm512_cmp_ps_mask(dx, Dh0, _CMP_GE_OQ) & _mm512_cmp_ps_mask(dx, Dh1, _CMP_LE_OQ);
       const __m512 horiz2 = _mm512_add_ps(_mm512_mul_ps(dx, dx), D2);
       const __m512 d2 = _mm512_add_ps(horiz2, dy2), d = _mm512_sqrt_ps(d2);
@@ -1580,13 +1766,19 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int beam_vertical_
       __m512 el = _mm512_div_ps(_mm512_mul_ps(I, cb), _mm512_mul_ps(sd, dm));
       if (const __mmask16 cl = crown & lit)
         el = _mm512_mask_div_ps(el, cl, _mm512_mul_ps(I, crown_phase16(_mm512_div_ps(cb, sd))), dm);
-      E = _mm512_add_ps(E, _mm512_maskz_mov_ps(lit, el));
+      El[l] = _mm512_maskz_mov_ps(lit, el);
+      E = _mm512_add_ps(E, El[l]);
     }
     _mm512_mask_storeu_ps(e + x, cls & ~slow, E);  // (E is +0.0 on the lanes not lit)
+    if (t0) {
+      _mm512_mask_storeu_ps(t0 + x, m & ~slow, El[0]);
+      _mm512_mask_storeu_ps(t1 + x, m & ~slow, El[1]);
+    }
     for (unsigned r = m & slow; r; r &= r - 1) {
       const int xi = x + __builtin_ctz(r);
       BeamPoint q;
-      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q)) e[xi] = beam_vertical_e(c, q);
+      if (beam_vertical_point(c, xi, id, z, reg, kD, kY, &q))
+        e[xi] = beam_vertical_e(c, q, t0 ? t0 + xi : nullptr, t0 ? t1 + xi : nullptr);
     }
   }
   return Wv;
@@ -1623,9 +1815,11 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
 }
 // beam_vertical_row_scalar eight pixels at a time (AVX2), over the columns 0 .. 8⌊W/8⌋ − 1
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
-// gathers. The same operations per lane: the same bits as the scalar rows.
+// gathers. The same operations per lane: the same bits as the scalar rows (the lamps' terms into
+// t0, t1 where asked).
 __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx& c, const uint16_t* id, const float* z,
-                                                           const int32_t* reg, float kD, float kY, float* e) {
+                                                           const int32_t* reg, float kD, float kY, float* e, float* t0,
+                                                           float* t1) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
   const BeamF& b = c.b;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
@@ -1706,9 +1900,9 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     const __m256 dy = _mm256_sub_ps(Y, vhl), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
     const __m256 Dh0 = _mm256_mul_ps(D, th0), Dh1 = _mm256_mul_ps(D, th1);
     const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ);
-    __m256 E = zero;
-    for (const float xlk : xl) {
-      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(xlk));
+    __m256 E = zero, El[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(xl[l]));
       const __m256 in = _mm256_and_ps(_mm256_cmp_ps(dx, Dh0, _CMP_GE_OQ), _mm256_cmp_ps(dx, Dh1, _CMP_LE_OQ));
       const __m256 horiz2 = _mm256_add_ps(_mm256_mul_ps(dx, dx), D2);
       const __m256 d2 = _mm256_add_ps(horiz2, dy2), d = _mm256_sqrt_ps(d2);
@@ -1736,9 +1930,14 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       __m256 el = _mm256_div_ps(_mm256_mul_ps(I, cb), _mm256_mul_ps(sd, dm));
       if (const __m256 cl = _mm256_and_ps(crown, lit); any(cl))
         el = _mm256_blendv_ps(el, _mm256_div_ps(_mm256_mul_ps(I, crown_phase8(_mm256_div_ps(cb, sd))), dm), cl);
-      E = _mm256_add_ps(E, _mm256_and_ps(lit, el));
+      El[l] = _mm256_and_ps(lit, el);
+      E = _mm256_add_ps(E, El[l]);
     }
     _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), E);  // (E is +0.0 on the lanes not lit)
+    if (t0) {
+      _mm256_maskstore_ps(t0 + x, _mm256_castps_si256(m), El[0]);
+      _mm256_maskstore_ps(t1 + x, _mm256_castps_si256(m), El[1]);
+    }
   }
   _mm256_zeroupper();
   return Wv;
@@ -1746,13 +1945,16 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
 // Every pixel of a lit class gets its E, 0 where the rule lights nothing (no finite depth, D ≤ 0,
 // beside the table, a face turned away): the image's value there before (the ground's E on a
 // lane marking, low_beam_illuminance) is not kept.
+// The lamps' terms into t0, t1 where asked (on the pixels lit).
 void beam_vertical_row_scalar(const BeamVerticalCtx& c, int x0, const uint16_t* id, const float* z,
-                              const int32_t* reg, float kD, float kY, float* e) {
+                              const int32_t* reg, float kD, float kY, float* e, float* t0, float* t1) {
   const int W = static_cast<int>(c.xn.size());
   for (int x = x0; x < W; ++x) {
     if (id[x] >= 64 || !(c.classes >> id[x] & 1)) continue;
     BeamPoint q;
-    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q) ? beam_vertical_e(c, q) : 0.f;
+    e[x] = beam_vertical_point(c, x, id, z, reg, kD, kY, &q)
+               ? beam_vertical_e(c, q, t0 ? t0 + x : nullptr, t0 ? t1 + x : nullptr)
+               : 0.f;
   }
 }
 
@@ -1812,17 +2014,18 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     m.xl = b.xl[k];
     m.u_lo = static_cast<float>(u_lo), m.v_lo = static_cast<float>(v_lo);
     m.inv_cell = static_cast<float>(1 / cell);
-    m.nu = static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1;
-    m.nv = static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1;
-    m.Dmin.assign(static_cast<size_t>(m.nu) * m.nv, INFINITY);
+    m.allocate(static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1, static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1);
   }
-  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps).
-  fill_shadow_maps(vs.maps, W, H, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
+  // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps;
+  // sixteen columns at a time where there is AVX-512, place_row_avx512).
+  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  fill_shadow_maps(vs.maps, W, H, false, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
     if (c.h > b.hl && !((sp + yn * cp) / (cp - yn * sp) >= vs.r_min)) return;
     const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
     const float* z = depth.row(y);
+    if (avx512) return place_row_avx512<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
     const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols);
     for (int j = 0; j < n; ++j) {
       const int x = cols[j];
@@ -1832,10 +2035,10 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
       if (!(D > 0)) continue;
       const float invD = 1.f / D, X = zz * c.xn[x], dy = (c.h - zz * kY) - b.hl, v = -dy * invD;
       for (LampShadowMap& m : mt) {
-        const int i = m.cell((X - m.xl) * invD, v);
-        if (i < 0) continue;
+        int iv, iu;
+        if (!m.cell_at((X - m.xl) * invD, v, &iv, &iu)) continue;
         const float dx = X - m.xl;
-        if (!beam_above_top(dy, dx * dx + D * D, b)) m.Dmin[i] = std::min(m.Dmin[i], D);
+        if (!beam_above_top(dy, dx * dx + D * D, b)) m.place(iv, iu, D);
       }
     }
   });
@@ -1843,8 +2046,8 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
   return vs;
 }
 // The row's lit vertical pixels (e as the rule wrote it) that a solid point of their cell hides
-// from a lamp keep the other lamp's share (beam_vertical_lamp_f of that lamp: the same bits as its
-// term of the rule's sum, the vector rows' included), 0 when hidden from both.
+// from a lamp keep the other lamp's share (t0, t1: each lamp's term of the rule's sum as the rule's
+// row wrote it), 0 when hidden from both.
 // A surface must not shadow itself: its own points share P's cell. Near P the surface is a plane,
 // on which w = 1/D is linear in the lamp's (u, v) (n·(P − L) = c₀ gives w = (n_X·u − n_Y·v + n_D)/c₀),
 // so its points in P's cell (a cell's diagonal √2·cell from P at most) have w ≤ w_P + √2·cell·|∇w|.
@@ -1857,17 +2060,46 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
 // along an axis, or a surface seen edge-on by the lamp (the system singular), is not shaded.
 // The columns 0 .. 16⌊W/16⌋ − 1 of a row whose pixel shade_vertical_row tests further (of a lit
 // class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
-// the scalar test's operations, in order into out; returns their count (the scalar test then
-// decides each one: the same pixels, the same values).
+// the scalar test's operations, in order into out; returns their count (shade_vertical_row then
+// decides each one, eight at a time by shade_decide_avx512: the same pixels, the same values).
+// The lanes of m, in order, to p (sixteen values stored: p needs room for 16; a compress in a
+// register then a plain store, as the compressing store is slow on some cores, Zen 4's).
+__attribute__((target("avx512f"))) inline void compress_store_ps(float* p, __mmask16 m, __m512 v) {
+  _mm512_storeu_ps(p, _mm512_maskz_compress_ps(m, v));
+}
+__attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, __mmask16 m, __m512i v) {
+  _mm512_storeu_si512(p, _mm512_maskz_compress_epi32(m, v));
+}
+// A row's candidates as shade_vertical_row's test reads them (floats; lane i of each array is the
+// i-th candidate): its point (D, X, Y), each lamp's nearer point Dq where cand (bit k: lamp k's cell
+// holds a nearer point, below the top), and its neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1
+// (valid bit j: of a lit class with a finite depth and D > 0; else D 1, X and Y 0).
+struct ShadeCands {
+  std::vector<float> D, X, Y, Dq[2], nD[4], nX[4], nY[4];
+  std::vector<int32_t> cand, valid;
+  void resize(size_t n) {
+    for (std::vector<float>* v : {&D, &X, &Y, &Dq[0], &Dq[1], &nD[0], &nD[1], &nD[2], &nD[3], &nX[0], &nX[1], &nX[2],
+                                  &nX[3], &nY[0], &nY[1], &nY[2], &nY[3]})
+      v->resize(n);
+    cand.resize(n), valid.resize(n);
+  }
+};
+// The row's neighbours y − 1 and y + 1 (labels and depth, null outside the frame) and their k_D, k_Y.
+struct ShadeRows {
+  const uint16_t* id[2];
+  const float* z[2];
+  float kD[2], kY[2];
+};
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shadow_candidates_avx512(
     const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const uint16_t* id, const float* z, const float* e,
-    float kD, float kY, int* out) {
+    float kD, float kY, int* out, const ShadeRows& ry, ShadeCands& sc) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~15;
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
                 mhi = _mm512_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm512_set1_epi32(1),
                 k32 = _mm512_set1_epi32(32);
   const __m512 zero = _mm512_setzero_ps(), vkD = _mm512_set1_ps(kD), vkY = _mm512_set1_ps(kY), vh = _mm512_set1_ps(c.h),
-               vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f);
+               vhl = _mm512_set1_ps(c.b.hl), fone = _mm512_set1_ps(1.f), sign = _mm512_set1_ps(-0.f),
+               tv2 = _mm512_set1_ps(c.b.tvmax2);
   const double cell = kBeamShadowCellPx / c.g.f_px;
   int n = 0;
   for (int x = 0; x < Wv; x += 16) {
@@ -1895,7 +2127,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       if (!in) continue;
       const __m512i i = _mm512_add_epi32(_mm512_mullo_epi32(_mm512_cvttps_epi32(cv), _mm512_set1_epi32(mp.nu)),
                                          _mm512_cvttps_epi32(cu));
-      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.data(), 4);
+      dql[l] = _mm512_mask_i32gather_ps(zero, in, i, mp.Dmin.get(), 4);
       cl[l] = in & _mm512_cmp_ps_mask(dql[l], D, _CMP_LT_OQ);
       cand |= cl[l];
     }
@@ -1942,12 +2174,140 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       // a lane with no lit neighbour is dropped by it as well.
       cand &= keep[0] | keep[1];
     }
-    for (unsigned r = cand; r; r &= r - 1) out[n++] = x + __builtin_ctz(r);
+    if (!cand) continue;
+    // The candidates as the scalar test reads them: each lamp's cell below the top, the point,
+    // the neighbours (ShadeCands).
+    const __m512 Y = _mm512_sub_ps(vh, _mm512_mul_ps(vz, vkY)), dy2 = _mm512_mul_ps(dy, dy), D2 = _mm512_mul_ps(D, D);
+    const __mmask16 dy_pos = _mm512_cmp_ps_mask(dy, zero, _CMP_GT_OQ);
+    __m512i cb = _mm512_setzero_si512();
+    __mmask16 any = 0;
+    for (int l = 0; l < 2; ++l) {
+      const __m512 dx = _mm512_sub_ps(X, _mm512_set1_ps(vs.maps[l].xl));
+      const __m512 r = _mm512_mul_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), D2), tv2);
+      const __mmask16 top = c.b.tvmax >= 0 ? dy_pos & _mm512_cmp_ps_mask(dy2, r, _CMP_GT_OQ)
+                                           : dy_pos | _mm512_cmp_ps_mask(dy2, r, _CMP_LT_OQ);
+      const __mmask16 ck = cl[l] & ~top;
+      cb = _mm512_mask_mov_epi32(cb, ck, _mm512_or_si512(cb, _mm512_set1_epi32(1 << l)));
+      any |= ck;
+    }
+    const __mmask16 o = cand & any;
+    if (!o) continue;
+    compress_store_ps(sc.D.data() + n, o, D);
+    compress_store_ps(sc.X.data() + n, o, X);
+    compress_store_ps(sc.Y.data() + n, o, Y);
+    compress_store_ps(sc.Dq[0].data() + n, o, dql[0]);
+    compress_store_ps(sc.Dq[1].data() + n, o, dql[1]);
+    compress_store_epi32(sc.cand.data() + n, o, cb);
+    __m512i vb = _mm512_setzero_si512();
+    for (int j = 0; j < 4; ++j) {
+      // The neighbour's row and columns: x ± 1 on this row, x on rows y ∓ 1.
+      const int dxn = j == 0 ? -1 : j == 1 ? 1 : 0;
+      const uint16_t* idr = j < 2 ? id : ry.id[j - 2];
+      const float* zr = j < 2 ? z : ry.z[j - 2];
+      const float kDr = j < 2 ? kD : ry.kD[j - 2], kYr = j < 2 ? kY : ry.kY[j - 2];
+      __mmask16 inside = idr ? o : 0;
+      if (j == 0 && x == 0) inside &= static_cast<__mmask16>(0xfffe);
+      if (j == 1 && x + 16 >= W) inside &= static_cast<__mmask16>((1u << (W - 1 - x)) - 1);
+      const __m512i kn = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(inside, idr ? idr + x + dxn : id));
+      const __m512i bn = _mm512_and_si512(
+          _mm512_or_si512(_mm512_srlv_epi32(mlo, kn), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(kn, k32))), one);
+      const __m512 zn = _mm512_maskz_loadu_ps(inside, zr ? zr + x + dxn : z), Dn = _mm512_mul_ps(zn, _mm512_set1_ps(kDr));
+      const __mmask16 valid = inside & _mm512_test_epi32_mask(bn, bn) & _mm512_cmp_ps_mask(zn, zero, _CMP_GT_OQ) &
+                              _mm512_cmp_ps_mask(zn, _mm512_set1_ps(kDepthInfinity_m), _CMP_LT_OQ) &
+                              _mm512_cmp_ps_mask(Dn, zero, _CMP_GT_OQ);
+      const __m512 xnn = _mm512_maskz_loadu_ps(inside, c.xn.data() + x + dxn);
+      compress_store_ps(sc.nD[j].data() + n, o, _mm512_mask_mov_ps(fone, valid, Dn));
+      compress_store_ps(sc.nX[j].data() + n, o, _mm512_maskz_mov_ps(valid, _mm512_mul_ps(zn, xnn)));
+      compress_store_ps(sc.nY[j].data() + n, o,
+                                    _mm512_maskz_mov_ps(valid, _mm512_sub_ps(vh, _mm512_mul_ps(zn, _mm512_set1_ps(kYr)))));
+      vb = _mm512_mask_mov_epi32(vb, valid, _mm512_or_si512(vb, _mm512_set1_epi32(1 << j)));
+    }
+    compress_store_epi32(sc.valid.data() + n, o, vb);
+    compress_store_epi32(out + n, o,
+                                     _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9,
+                                                                                               10, 11, 12, 13, 14, 15)));
+    n += __builtin_popcount(o);
   }
   return n;
 }
+// Up to eight candidates of shade_vertical_row (a lit pixel whose cell holds a nearer point, below
+// the top) with their neighbours, each lane as the scalar test reads them (floats), for
+// shade_decide_avx512. Neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1 (valid: of a lit class
+// with a finite depth and D > 0).
+struct ShadeBatch {
+  alignas(32) float D[8], X[8], Y[8], Dq[2][8];
+  alignas(32) float nD[4][8], nX[4][8], nY[4][8];
+  uint8_t cand[2] = {0, 0}, valid[4] = {0, 0, 0, 0};
+  int x[8];
+};
+// Eight floats widened to double; |v|.
+[[gnu::always_inline]] __attribute__((target("avx512f"))) inline __m512d ld(const float* f) {
+  return _mm512_cvtps_pd(_mm256_load_ps(f));
+}
+[[gnu::always_inline]] __attribute__((target("avx512f,avx512dq"))) inline __m512d abs_pd(__m512d v) {
+  return _mm512_andnot_pd(_mm512_set1_pd(-0.0), v);
+}
+// shade_vertical_row's decision on eight lanes in double (AVX-512): the same operations per lane
+// (the neighbour of each axis with the smaller |Δw|, the x-neighbours' bound, the plane's gradient
+// from the 2 × 2 system), so the same lamps hidden; returns each lamp's mask of hidden lanes.
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_avx512(const ShadeBatch& t,
+                                                                                        const BeamF& b, double cell,
+                                                                                        __mmask8 sh[2]) {
+  const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd(), slack = _mm512_set1_pd(0x1p-16),
+                hl = _mm512_set1_pd(static_cast<double>(b.hl)), c2 = _mm512_set1_pd(2 * cell * cell),
+                s2c = _mm512_set1_pd(std::sqrt(2.0) * cell);
+  const __m512d X = ld(t.X), w = _mm512_div_pd(one, ld(t.D));
+  // (b.hl − Y) in float, as the scalar test's.
+  const __m512d hlY = _mm512_cvtps_pd(_mm256_sub_ps(_mm256_set1_ps(b.hl), _mm256_load_ps(t.Y)));
+  __m512d nX[2], nY[2], nw[2];
+  __mmask8 have[2];
+  for (int a = 0; a < 2; ++a) {
+    have[a] = 0;
+    nX[a] = nY[a] = nw[a] = zero;
+    for (int s = 0; s < 2; ++s) {
+      const int j = 2 * a + s;
+      const __m512d wn = _mm512_div_pd(one, ld(t.nD[j]));
+      const __mmask8 take =
+          t.valid[j] & static_cast<__mmask8>(~have[a] | _mm512_cmp_pd_mask(abs_pd(_mm512_sub_pd(wn, w)),
+                                                                         abs_pd(_mm512_sub_pd(nw[a], w)), _CMP_LT_OQ));
+      nX[a] = _mm512_mask_mov_pd(nX[a], take, ld(t.nX[j]));
+      nY[a] = _mm512_mask_mov_pd(nY[a], take, ld(t.nY[j]));
+      nw[a] = _mm512_mask_mov_pd(nw[a], take, wn);
+      have[a] |= t.valid[j];
+    }
+  }
+  const __m512d wsl = _mm512_mul_pd(w, slack);
+  __mmask8 cand[2];
+  for (int k = 0; k < 2; ++k) {
+    const __m512d xl = _mm512_set1_pd(static_cast<double>(b.xl[k]));
+    const __m512d iq = _mm512_div_pd(one, ld(t.Dq[k]));
+    // The x-neighbour's bound.
+    const __m512d du = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(nX[0], xl), nw[0]), _mm512_mul_pd(_mm512_sub_pd(X, xl), w));
+    const __m512d dv = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(hl, nY[0]), nw[0]), _mm512_mul_pd(hlY, w));
+    const __m512d dw = _mm512_sub_pd(nw[0], w), gap = _mm512_sub_pd(_mm512_sub_pd(iq, w), wsl);
+    const __m512d lhs = _mm512_mul_pd(_mm512_mul_pd(gap, gap), _mm512_add_pd(_mm512_mul_pd(du, du), _mm512_mul_pd(dv, dv)));
+    const __m512d rhs = _mm512_mul_pd(_mm512_mul_pd(c2, dw), dw);
+    cand[k] = t.cand[k] & have[0] & _mm512_cmp_pd_mask(gap, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(lhs, rhs, _CMP_NLE_UQ);
+    // The plane's gradient from both neighbours.
+    const __m512d u0 = _mm512_mul_pd(_mm512_sub_pd(X, xl), w), v0 = _mm512_mul_pd(hlY, w);
+    __m512d Du[2], Dv[2], Dw[2];
+    for (int a = 0; a < 2; ++a) {
+      Du[a] = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(nX[a], xl), nw[a]), u0);
+      Dv[a] = _mm512_sub_pd(_mm512_mul_pd(_mm512_sub_pd(hl, nY[a]), nw[a]), v0);
+      Dw[a] = _mm512_sub_pd(nw[a], w);
+    }
+    const __m512d det = _mm512_sub_pd(_mm512_mul_pd(Du[0], Dv[1]), _mm512_mul_pd(Dv[0], Du[1]));
+    const __m512d gu = _mm512_div_pd(_mm512_sub_pd(_mm512_mul_pd(Dw[0], Dv[1]), _mm512_mul_pd(Dv[0], Dw[1])), det);
+    const __m512d gv = _mm512_div_pd(_mm512_sub_pd(_mm512_mul_pd(Du[0], Dw[1]), _mm512_mul_pd(Dw[0], Du[1])), det);
+    const __m512d margin =
+        _mm512_add_pd(_mm512_mul_pd(s2c, _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(gu, gu), _mm512_mul_pd(gv, gv)))), wsl);
+    sh[k] = cand[k] & have[1] & _mm512_cmp_pd_mask(abs_pd(det), zero, _CMP_GT_OQ) &
+            _mm512_cmp_pd_mask(iq, _mm512_add_pd(w, margin), _CMP_GT_OQ);
+  }
+}
 void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
-                        const ImageF& depth, const int32_t* reg, int y, double cp, double sp, bool avx512, float* e) {
+                        const ImageF& depth, int y, double cp, double sp, bool avx512, float* e, const float* t0,
+                        const float* t1) {
   const BeamF& b = c.b;
   const CameraGeometry& g = c.g;
   const int W = labels.width(), H = labels.height();
@@ -2041,17 +2401,53 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
       e[x] = 0.f;
       return;
     }
-    BeamPoint q;
-    if (!beam_vertical_point(c, x, id, z, reg, kD, kY, &q)) return;
-    const float xl = sh == 1 ? c.xl1 : c.xl0;
-    e[x] = beam_vertical_lamp_f(q.X - xl, q.Y - b.hl, q.D, q.mX, q.mY, q.mD, q.s, q.crown, b);
+    e[x] = sh == 1 ? t1[x] : t0[x];
   };
   int x0 = 0;
   if (avx512) {
     thread_local std::vector<int> cols;
-    cols.resize(W);
-    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data());
-    for (int j = 0; j < n; ++j) pixel(cols[j]);
+    cols.resize(static_cast<size_t>(W) + 16);
+    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time),
+    // then decided eight at a time in vector double (shade_decide_avx512: the same lamps hidden).
+    ShadeRows ry;
+    for (int s = 0; s < 2; ++s) {
+      const int yy = y + (s == 0 ? -1 : 1);
+      const bool in = yy >= 0 && yy < H;
+      ry.id[s] = in ? labels.row(yy) : nullptr, ry.z[s] = in ? depth.row(yy) : nullptr;
+      ks(yy, &ry.kD[s], &ry.kY[s]);
+    }
+    thread_local ShadeCands sc;
+    sc.resize(static_cast<size_t>(W) + 16);
+    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
+    ShadeBatch t;
+    for (int j0 = 0; j0 < n; j0 += 8) {
+      const int m = std::min(8, n - j0);
+      t.cand[0] = t.cand[1] = 0;
+      for (uint8_t& v : t.valid) v = 0;
+      for (int l = 0; l < 8; ++l) {
+        if (l >= m) {  // unused lanes: finite values, no lamp
+          t.D[l] = t.X[l] = t.Y[l] = 1.f, t.Dq[0][l] = t.Dq[1][l] = 1.f;
+          for (int j = 0; j < 4; ++j) t.nD[j][l] = 1.f, t.nX[j][l] = t.nY[j][l] = 0.f;
+          continue;
+        }
+        const int i = j0 + l;
+        t.x[l] = cols[i], t.D[l] = sc.D[i], t.X[l] = sc.X[i], t.Y[l] = sc.Y[i];
+        for (int k = 0; k < 2; ++k) {
+          t.Dq[k][l] = sc.Dq[k][i];
+          t.cand[k] |= static_cast<uint8_t>((sc.cand[i] >> k & 1) << l);
+        }
+        for (int j = 0; j < 4; ++j) {
+          t.nD[j][l] = sc.nD[j][i], t.nX[j][l] = sc.nX[j][i], t.nY[j][l] = sc.nY[j][i];
+          t.valid[j] |= static_cast<uint8_t>((sc.valid[i] >> j & 1) << l);
+        }
+      }
+      __mmask8 sh[2];
+      shade_decide_avx512(t, b, cell, sh);
+      for (int l = 0; l < m; ++l) {
+        const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
+        if (s) e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
+      }
+    }
     x0 = W & ~15;
   }
   for (int x = x0; x < W; ++x) pixel(x);
@@ -2146,11 +2542,18 @@ void BeamVerticalRows::row(int y) const {
   const uint16_t* id = m.labels.row(y);
   const float* z = m.depth.row(y);
   float* e = m.beam.row(y);
-  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e)
-                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e)
+  // Where shadows are on, each lamp's term of the row's E (a shaded pixel keeps the other's).
+  thread_local std::vector<float> terms;
+  float *t0 = nullptr, *t1 = nullptr;
+  if (m.shadow.ok) {
+    terms.resize(2 * static_cast<size_t>(m.beam.width()));
+    t0 = terms.data(), t1 = t0 + m.beam.width();
+  }
+  const int x0 = m.avx512 ? beam_vertical_row_avx512(m.c, id, z, reg, kD, kY, e, t0, t1)
+                 : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e, t0, t1)
                           : 0;
-  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e);
-  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, reg, y, m.cp, m.sp, m.avx512, e);
+  beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e, t0, t1);
+  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1);
 }
 
 float BeamVerticalRows::lamp_lux(int x, int y, int lamp) const {

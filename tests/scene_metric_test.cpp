@@ -2918,6 +2918,21 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
     out.push_back(std::move(E));
   }
   beam_max_isa(2);
+  // A cut-off whose top lies above the lamps (cutoff_max_v_deg > 0: its shadows' maps reach above
+  // the lamps' height, the top's test decides which points and pixels take part): the same bits.
+  {
+    ScenePreset q = p;
+    q.beam_cutoff_max_v_deg = 3;
+    std::vector<ImageF> outq;
+    for (const int isa : {0, 2}) {
+      beam_max_isa(isa);
+      ImageF E(W, H, 1, -1.f);
+      add_low_beam_vertical(E, o.camera, lab, depth, &fac, q);
+      outq.push_back(std::move(E));
+    }
+    beam_max_isa(2);
+    EXPECT_EQ(differing_samples(outq[1], outq[0]), 0u) << "cut-off top at 3°: AVX-512 against the scalar code";
+  }
   long lit = 0, untouched = 0;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
@@ -3677,6 +3692,15 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   ImageF E3 = E0;
   shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
   ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
+  // The solid points placed one by one (ISA caps 0, 1) and sixteen at a time (AVX-512, where the
+  // machine has it): the same image.
+  for (const int isa : {0, 1}) {
+    beam_max_isa(isa);
+    ImageF E4 = E0;
+    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, nullptr, p);
+    beam_max_isa(2);
+    ASSERT_EQ(std::memcmp(E.data(), E4.data(), E.size() * sizeof(float)), 0) << "ISA cap " << isa;
+  }
   const double hl = p.beam_lamp_height_m, xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
   const double cell = 2 / g.f_px, r = (std::sqrt(2.0) * 2 + 1.5) / g.f_px;
   // Geometric shadow of lamp k at the ground point in lamp-view direction (u, v).
