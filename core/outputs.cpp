@@ -152,6 +152,10 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/beam_shadow_left_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[0]);
   attrs["photosite/night/beam_shadow_right_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[1]);
   attrs["photosite/night/beam_shadow_both_pixels"] = static_cast<int>(ns.beam_shadow.both);
+  // The same on vertical surfaces (below the cut-off's top, BeamVerticalRows::shadow_stats).
+  attrs["photosite/night/beam_shadow_vertical_left_pixels"] = static_cast<int>(ns.beam_shadow_vertical.one_lamp[0]);
+  attrs["photosite/night/beam_shadow_vertical_right_pixels"] = static_cast<int>(ns.beam_shadow_vertical.one_lamp[1]);
+  attrs["photosite/night/beam_shadow_vertical_both_pixels"] = static_cast<int>(ns.beam_shadow_vertical.both);
   attrs["photosite/night/lights_signals"] = ns.light_stats.signals;
   attrs["photosite/night/lights_vehicle_lamps"] = ns.light_stats.vehicle_lamps;
   attrs["photosite/night/lights_pole_lamps"] = ns.light_stats.pole_lamps;

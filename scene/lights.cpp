@@ -3,6 +3,7 @@
 // vehicle instance, lamp heads on poles, seeded window lights on buildings. Glare is the lens's, in the sensor's optics stage
 // (sensor/glare.h), not here.
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -2305,9 +2306,11 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_
             _mm512_cmp_pd_mask(iq, _mm512_add_pd(w, margin), _CMP_GT_OQ);
   }
 }
+// counts[0], [1], [2] (zeroed by the caller) take the row's pixels shaded from the left lamp only, the
+// right only, both (sh − 1 for the hidden lamps' bits sh = 1, 2, 3): one add per shaded pixel.
 void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
                         const ImageF& depth, int y, double cp, double sp, bool avx512, float* e, const float* t0,
-                        const float* t1) {
+                        const float* t1, int* counts) {
   const BeamF& b = c.b;
   const CameraGeometry& g = c.g;
   const int W = labels.width(), H = labels.height();
@@ -2397,6 +2400,7 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
       if (1.0 / Dq[k] > w + margin) sh |= 1u << k;
     }
     if (!sh) return;
+    ++counts[sh - 1];
     if (sh == 3) {
       e[x] = 0.f;
       return;
@@ -2445,7 +2449,9 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
       shade_decide_avx512(t, b, cell, sh);
       for (int l = 0; l < m; ++l) {
         const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
-        if (s) e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
+        if (!s) continue;
+        ++counts[s - 1];
+        e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
       }
     }
     x0 = W & ~15;
@@ -2504,6 +2510,10 @@ struct BeamVerticalRows::Impl {
   double cp, sp;
   bool avx512, avx2;
   VerticalShadowMaps shadow;  // each lamp's view of the solid points (shade_vertical_row)
+  // Per row (shadows on): its pixels shaded from the left lamp only, the right only, both. Each
+  // row(y) writes its own entry (any thread, any order, a row run again overwrites it), so their
+  // sum (shadow_stats) is the same for every thread count, with no shared counter in the row pass.
+  mutable std::vector<std::array<int, 3>> shaded;
   Impl(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
        const BuildingFacades* facades, const ScenePreset& p, bool shadows)
       : b(beam_f(p)),
@@ -2523,6 +2533,7 @@ struct BeamVerticalRows::Impl {
         c.plane_nD.push_back(static_cast<float>(-f.nD));
       }
     if (b.ok && shadows) shadow = vertical_shadow_maps(c, labels, depth, cp, sp);
+    if (shadow.ok) shaded.assign(static_cast<size_t>(H), {0, 0, 0});
   }
 };
 
@@ -2553,7 +2564,17 @@ void BeamVerticalRows::row(int y) const {
                  : m.avx2 ? beam_vertical_row_avx2(m.c, id, z, reg, kD, kY, e, t0, t1)
                           : 0;
   beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e, t0, t1);
-  if (m.shadow.ok) shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1);
+  if (m.shadow.ok) {
+    int n[3] = {0, 0, 0};
+    shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1, n);
+    m.shaded[static_cast<size_t>(y)] = {n[0], n[1], n[2]};
+  }
+}
+
+BeamShadowStats BeamVerticalRows::shadow_stats() const {
+  BeamShadowStats st;
+  for (const std::array<int, 3>& n : impl_->shaded) st.one_lamp[0] += n[0], st.one_lamp[1] += n[1], st.both += n[2];
+  return st;
 }
 
 float BeamVerticalRows::lamp_lux(int x, int y, int lamp) const {

@@ -309,6 +309,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   if (!lm.composed.empty()) {
+    s.beam_shadow_vertical = beam_vertical.shadow_stats();  // its rows ran in the row pass
     s.radiance = std::move(lm.composed);
     s.lights = std::move(lm.radiance);
     s.glare_level1 = std::move(lm.glare_level1);
@@ -317,6 +318,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
 #pragma omp parallel for schedule(static, 8)
   for (int y = 0; y < H; ++y) beam_vertical.row(y);
+  s.beam_shadow_vertical = beam_vertical.shadow_stats();
   lap("lights");
   if (tail) {
     PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);

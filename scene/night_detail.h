@@ -132,6 +132,10 @@ class BeamVerticalRows {
   // The E of pixel (x, y) of a lit vertical class from lamp 0 (left) or 1 (right) alone, without
   // shadows: the same bits as that lamp's term of the rule's sum (0 where the rule lights nothing).
   float lamp_lux(int x, int y, int lamp) const;
+  // The pixels the rows run so far shaded (shadows on): from the left lamp only (one_lamp[0]), the
+  // right only, both; as the ground's counts, those whose hidden lamp gave no light included
+  // (their value unchanged). All 0 without shadows. The same for any thread count.
+  BeamShadowStats shadow_stats() const;
 
  private:
   struct Impl;

@@ -1,47 +1,114 @@
 #!/usr/bin/python3
-"""Before/after of the low beam's shadows on the ground (docs/night.md §6c), for docs/night/.
+"""The low beam's shadows (docs/night.md §6c) on the bundled KITTI frame, for docs/night/.
 
-Runs `photosite night` of this checkout (after) and an older build given with --before (main
-before shade_low_beam_ground, e.g. 740432b) on the bundled KITTI frame through night_figures.run
-(the same call as the other pictures) and writes docs/night/beam_shadow_kitti.jpg: the two
-previews' lower halves one above the other, each labelled, and below them the after preview in
-grey with the pixels whose night radiance fell (the shadows) in magenta. The previews are the
-simple ISP's (their 99th percentile to white), each exposed for itself.
+Ground (--before): runs `photosite night` of this checkout (after) and an older build given with
+--before (main before shade_low_beam_ground, e.g. 740432b) on the bundled KITTI frame through
+night_figures.run (the same call as the other pictures) and writes docs/night/beam_shadow_kitti.jpg:
+the two previews' lower halves one above the other, each labelled, and below them the after preview
+in grey with the pixels whose night radiance fell (the shadows) in magenta.
+
+Vertical surfaces (--vertical): runs this checkout's `photosite night` twice, with the
+night-urban preset (ego_beam.shadows = true) and with a copy of it whose only change is
+ego_beam.shadows = false, and writes docs/night/beam_shadow_vertical_kitti.jpg: the two previews'
+lower two thirds and the shadows-on preview in grey with the vertical-surface pixels (every class
+but the ground classes, scene/labels.cpp is_ground) whose night radiance fell in magenta and the
+ground pixels whose night radiance fell in green. Prints the vertical pixels that fell per class
+and the EXR header's photosite/night/beam_shadow_vertical_{left,right,both}_pixels.
+
+The previews are the simple ISP's (their 99th percentile to white), each exposed for itself.
 Usage: scripts/beam_shadow_figure.py --before /path/to/old/photosite
+       scripts/beam_shadow_figure.py --vertical
 """
 import argparse
 import os
+import re
 import sys
+import tempfile
 
 import numpy as np
 from PIL import Image
 
-from night_figures import ROOT, kitti_after_before, save_stacked  # the same `photosite night` call as the other pictures
+from night_figures import ROOT, kitti_after_before, run, save_stacked  # the same `photosite night` call as the other pictures
 
 sys.path.insert(0, os.path.join(ROOT, "build", "python"))
 import photosite as ps  # noqa: E402  (this checkout's module: read_exr)
 
+GROUND_IDS = (6, 7, 8, 9, 10, 22)  # scene/labels.cpp is_ground: ground, road, sidewalk, parking, rail track, terrain
+CLASS_NAMES = {4: "static", 5: "dynamic", 11: "building", 12: "wall", 13: "fence", 17: "pole", 19: "traffic light",
+               21: "vegetation", 24: "person", 25: "rider", 26: "car", 27: "truck", 28: "bus", 32: "motorcycle",
+               33: "bicycle"}
+
 
 def night(tmp):
-    channels = ps.read_exr(os.path.join(tmp, "n.exr"))[0]
-    return Image.open(os.path.join(tmp, "n.png")).convert("RGB"), channels["night_radiance.G"]
+    channels, attrs = ps.read_exr(os.path.join(tmp, "n.exr"))[:2]
+    return Image.open(os.path.join(tmp, "n.png")).convert("RGB"), channels, attrs
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--before", required=True, help="an older photosite binary (without the beam's shadows)")
-    a = ap.parse_args()
-    (after, g1), (before, g0) = kitti_after_before(a.before, night)
-    shaded = g1 < g0
+def lower(im, h):
+    return im.crop((0, h // 3, im.size[0], h))  # the road and what stands on it
+
+
+def ground_figure(before_exe):
+    (after, c1, _), (before, c0, _) = kitti_after_before(before_exe, night)
+    shaded = c1["night_radiance.G"] < c0["night_radiance.G"]
     print("pixels whose night radiance fell:", int(shaded.sum()))
     grey = np.asarray(after.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2)
     grey[shaded] = (255, 0, 255)
     mask = Image.fromarray(grey.astype(np.uint8))
-    w, h = after.size
-    box = (0, h // 3, w, h)  # the road and what stands on it
-    save_stacked([(before.crop(box), "before: the low beam lights every ground point"),
-                  (after.crop(box), "after: the ground behind cars, poles and walls loses the lamps they hide"),
-                  (mask.crop(box), "the ground pixels whose night radiance fell (magenta)")], "beam_shadow_kitti.jpg")
+    h = after.size[1]
+    save_stacked([(lower(before, h), "before: the low beam lights every ground point"),
+                  (lower(after, h), "after: the ground behind cars, poles and walls loses the lamps they hide"),
+                  (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], "beam_shadow_kitti.jpg")
+
+
+def vertical_figure():
+    os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
+    exe = os.path.join(ROOT, "build", "photosite")
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(os.path.join(ROOT, "presets", "scenes", "night-urban.toml")) as f:
+            text, n = re.subn(r"^shadows = true\b", "shadows = false", f.read(), flags=re.M)
+        if n != 1:
+            sys.exit("presets/scenes/night-urban.toml: no single 'shadows = true' line to switch off")
+        off_preset = os.path.join(tmp, "night-urban-no-shadows.toml")
+        with open(off_preset, "w") as f:
+            f.write(text)
+        run(exe, [], os.path.join(tmp, "on"), maps=False)
+        run(exe, ["--scene-preset", off_preset], os.path.join(tmp, "off"), maps=False)
+        on, c1, a1 = night(os.path.join(tmp, "on"))
+        off, c0, _ = night(os.path.join(tmp, "off"))
+    fell = c1["night_radiance.G"] < c0["night_radiance.G"]
+    labels = c1["labels.Y"].astype(np.int32)
+    ground = np.isin(labels, GROUND_IDS)
+    vertical_fell, ground_fell = fell & ~ground, fell & ground
+    print("vertical-surface pixels whose night radiance fell:", int(vertical_fell.sum()),
+          "(ground:", int(ground_fell.sum()), ")")
+    for k in np.unique(labels[vertical_fell]):
+        n = int((vertical_fell & (labels == k)).sum())
+        print(f"  {CLASS_NAMES.get(int(k), 'class ' + str(int(k)))}: {n} of {int((labels == k).sum())}")
+    print("header left / right / both:",
+          " / ".join(a1[f"photosite/night/beam_shadow_vertical_{s}_pixels"] for s in ("left", "right", "both")))
+    grey = np.asarray(on.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * 0.8
+    grey[ground_fell] = (0, 200, 0)
+    grey[vertical_fell] = (255, 0, 255)
+    mask = Image.fromarray(grey.astype(np.uint8))
+    h = on.size[1]
+    save_stacked([(lower(off, h), "ego_beam.shadows = false: the lamps light every point"),
+                  (lower(on, h), "ego_beam.shadows = true: walls, fences, trees and cars lose the lamps others hide"),
+                  (lower(mask, h), "pixels whose night radiance fell: vertical surfaces (magenta), ground (green)")],
+                 "beam_shadow_vertical_kitti.jpg")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--before", help="an older photosite binary (without the beam's shadows): the ground figure")
+    ap.add_argument("--vertical", action="store_true", help="the vertical surfaces' figure (this checkout only)")
+    a = ap.parse_args()
+    if bool(a.before) == a.vertical:
+        ap.error("give either --before PHOTOSITE (the ground figure) or --vertical")
+    if a.vertical:
+        vertical_figure()
+    else:
+        ground_figure(a.before)
 
 
 if __name__ == "__main__":

@@ -48,6 +48,12 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/street_lamps")), 0);
   // The bundled KITTI frame's near tram track is taken out of the markings (drop_tram_rails).
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/tram_rail_pixels")), 0);
+  // Its walls, vegetation, fences and cars hide the low beam's lamps from each other below the
+  // cut-off's top (docs/night.md §6c): the header counts those vertical-surface pixels.
+  int vertical_shaded = 0;
+  for (const char* k : {"left", "right", "both"})
+    vertical_shaded += std::stoi(e.attributes.at(std::string("photosite/night/beam_shadow_vertical_") + k + "_pixels"));
+  EXPECT_GT(vertical_shaded, 0);
   // night_radiance − lights is the darkened scene plus the low beam's diffuse reflection
   // (scene/lights.cpp compose). Its road-class mean luminance is Σ_s Σ_k K_k t_s,k f̄_k E_s / π over
   // the sources s (moon, sky glow, beam) with the class-mean luminance factor Σ K_k f̄_k = ρ,

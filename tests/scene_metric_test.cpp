@@ -3659,6 +3659,20 @@ SyntheticCameraOptions beam_shadow_street() {
              {-1.6, 20, 0.15, 4, 0.15, Label::Pole}};
   return o;
 }
+// The vertical shadows' street: the road of beam_shadow_street with the lead car, the parked car
+// and the pole, a wall 26 m ahead behind the lead car and a pedestrian 13 m ahead behind a low
+// block (0.55 m at 8 m).
+SyntheticCameraOptions beam_shadow_vertical_street() {
+  SyntheticCameraOptions o = camera_scene();
+  o.road_half_width_m = 1000;
+  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
+             {-3.5, 10, 1.8, 1.5, 4.5},
+             {-1.6, 20, 0.15, 4, 0.15, Label::Pole},
+             {0.0, 26, 8, 3, 0.3, Label::Wall},
+             {-1.2, 8, 2.0, 0.55, 0.3, Label::Wall},
+             {-1.2, 13, 0.6, 1.8, 0.3, Label::Person}};
+  return o;
+}
 }  // namespace
 
 // Shadows of the low beam on the ground (shade_low_beam_ground, docs/night.md §6c): a street of
@@ -3771,14 +3785,7 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
 // shadow the other lamp's share (BeamVerticalRows::lamp_lux), in both 0. A front face's own points
 // (one D) and a receding side's (its slope's margin) must not shade it.
 TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
-  SyntheticCameraOptions o = camera_scene();
-  o.road_half_width_m = 1000;
-  o.boxes = {{0.3, 15, 1.8, 1.5, 4.5},
-             {-3.5, 10, 1.8, 1.5, 4.5},
-             {-1.6, 20, 0.15, 4, 0.15, Label::Pole},
-             {0.0, 26, 8, 3, 0.3, Label::Wall},
-             {-1.2, 8, 2.0, 0.55, 0.3, Label::Wall},
-             {-1.2, 13, 0.6, 1.8, 0.3, Label::Person}};
+  const SyntheticCameraOptions o = beam_shadow_vertical_street();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
   const ScenePreset p = urban();
   const CameraGeometry& g = o.camera;
@@ -3868,6 +3875,70 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
   EXPECT_GT(wall_or_person_shaded, 500);
 }
 
+// The vertical shadows' counts (BeamVerticalRows::shadow_stats: the EXR header's
+// photosite/night/beam_shadow_vertical_{left,right,both}_pixels) on the vertical test's street
+// (beam_shadow_vertical_street: the wall behind the lead car lies in each lamp's shadow alone
+// beside the car and in both behind it, the pedestrian's legs in both; the ground test's street
+// has only 13 shaded vertical pixels, all in both shadows, which would not tell the lamps apart;
+// it is the chain's test below): with shadows on,
+// a pixel in the left lamp's shadow alone holds the right lamp's share (lamp_lux(·, 1)), in the
+// right's alone the left's, in both 0, so a direct count of the pixels whose E fell against the
+// rule alone (shadows off), each classed by the value it now holds, gives the three counts. (A
+// shaded pixel whose hidden lamp gave nothing keeps its value and would be counted by the rows
+// only: none on this street, so the counts must match exactly.) Shadows off: all 0. The same at
+// 1 and 2 threads and with the scalar rows (beam_max_isa(0): the counting of pixel()'s path,
+// the AVX-512 decision's otherwise).
+TEST(EgoLowBeamShadow, VerticalCountsAreThePixelsWhoseBeamFell) {
+  const SyntheticCameraOptions o = beam_shadow_vertical_street();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  auto run = [&](ImageF& E, bool shadows) {
+    const BeamVerticalRows rows(E, g, s.labels.ids, s.depth_m, nullptr, p, shadows);
+#pragma omp parallel for schedule(dynamic, 3)
+    for (int y = 0; y < E.height(); ++y) rows.row(y);
+    return rows.shadow_stats();
+  };
+  ImageF off = E0;
+  const BeamShadowStats st_off = run(off, false);
+  EXPECT_EQ(st_off.one_lamp[0], 0);
+  EXPECT_EQ(st_off.one_lamp[1], 0);
+  EXPECT_EQ(st_off.both, 0);
+  const int threads = omp_get_max_threads();
+  for (const int t : {1, 2})
+    for (const int isa : {2, 0}) {
+      omp_set_num_threads(t);
+      beam_max_isa(isa);
+      ImageF on = E0;
+      const BeamShadowStats st = run(on, true);
+      beam_max_isa(2);
+      omp_set_num_threads(threads);
+      ImageF scratch = E0;
+      const BeamVerticalRows rows(scratch, g, s.labels.ids, s.depth_m, nullptr, p, false);
+      long long n[3] = {0, 0, 0};  // left only, right only, both
+      for (int y = 0; y < o.height; ++y)
+        for (int x = 0; x < o.width; ++x) {
+          const float a = on.at(x, y), b = off.at(x, y);
+          ASSERT_LE(a, b) << x << "," << y << " (shading only removes a lamp's share)";
+          if (!(a < b)) continue;
+          if (a == 0.f) ++n[2];
+          else if (a == rows.lamp_lux(x, y, 1)) ++n[0];
+          else if (a == rows.lamp_lux(x, y, 0)) ++n[1];
+          else FAIL() << x << "," << y << ": " << a << " is neither lamp's share of " << b;
+        }
+      std::fprintf(stderr, "[beam shadow, vertical counts] %d thread(s), ISA cap %d: %lld / %lld / %lld (left / "
+                   "right / both), direct %lld / %lld / %lld\n", t, isa, st.one_lamp[0], st.one_lamp[1], st.both,
+                   n[0], n[1], n[2]);
+      EXPECT_GT(n[0], 100);
+      EXPECT_GT(n[1], 100);
+      EXPECT_GT(n[2], 100);
+      EXPECT_EQ(st.one_lamp[0], n[0]) << t << " thread(s), ISA cap " << isa;
+      EXPECT_EQ(st.one_lamp[1], n[1]) << t << " thread(s), ISA cap " << isa;
+      EXPECT_EQ(st.both, n[2]) << t << " thread(s), ISA cap " << isa;
+    }
+}
+
 // ego_beam.shadows = false: the chain's beam image is the unshaded one. With the preset's default
 // (true) the same scene (the ground test's boxes: a lead car, a parked car, a block and a pole,
 // through night_scene) has shaded ground and vertical pixels; switched off, no pixel has less
@@ -3885,6 +3956,9 @@ TEST(EgoLowBeamShadow, SwitchedOffTheChainLightsAsIfNothingStoodBetween) {
   const NightScene off = night_scene(s.day_linear_srgb, s.labels, q, 1);
   EXPECT_GT(on.beam_shadow.one_lamp[0] + on.beam_shadow.one_lamp[1] + on.beam_shadow.both, 0);
   EXPECT_EQ(off.beam_shadow.one_lamp[0] + off.beam_shadow.one_lamp[1] + off.beam_shadow.both, 0);
+  const BeamShadowStats& v_on = on.beam_shadow_vertical, &v_off = off.beam_shadow_vertical;
+  EXPECT_GT(v_on.one_lamp[0] + v_on.one_lamp[1] + v_on.both, 0) << "the chain hands the rows' vertical counts";
+  EXPECT_EQ(v_off.one_lamp[0] + v_off.one_lamp[1] + v_off.both, 0);
   ASSERT_EQ(on.beam_lux.size(), off.beam_lux.size());
   long long more = 0, less = 0;
   for (size_t i = 0; i < on.beam_lux.size(); ++i) {

@@ -400,6 +400,9 @@ struct NightScene {
   double work_scale = 1;
   int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
   BeamShadowStats beam_shadow;  // ground pixels in the low beam's shadows (shade_low_beam_ground)
+  // Vertical-surface pixels in its shadows (below the cut-off's top, docs/night.md §6c), counted
+  // as the ground's: each lamp's alone and both.
+  BeamShadowStats beam_shadow_vertical;
   std::vector<Segment> lines_work;
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
