@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <OpenImageIO/imageio.h>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
@@ -26,6 +27,7 @@
 #include "photosite/sensor/preset.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
+#include "sensor/demosaic_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -825,20 +827,28 @@ TEST(Expose, WholeChainOnEveryBundledCamera) {
 // buffer's wrap all move with the thread count and the height), for every Bayer phase, RCCB
 // (the fused path), RCCC and a non-bilinear method (the whole-frame path), heights from 2 rows
 // to several bands per thread. The electrons and raw DN must not move with the thread count.
+// At every vector level the CPU has (detail::interleave_rgb_max_isa, which also caps the fused
+// bilinear row): the pair loop then interleave_rgb (0), and the interior in one pass with the
+// interleave on AVX2 (1, bilinear_interior_avx2) and AVX-512 (2, bilinear_interior_avx512).
 TEST(SenseFused, EqualsTheUnfusedDefinition) {
   const std::pair<CfaPattern, DemosaicMethod> cases[] = {
       {CfaPattern::RGGB, DemosaicMethod::Bilinear}, {CfaPattern::BGGR, DemosaicMethod::Bilinear},
       {CfaPattern::GRBG, DemosaicMethod::Bilinear}, {CfaPattern::GBRG, DemosaicMethod::Bilinear},
       {CfaPattern::RCCB, DemosaicMethod::Bilinear}, {CfaPattern::RCCC, DemosaicMethod::Bilinear},
       {CfaPattern::RGGB, DemosaicMethod::Malvar}};
-  // 150, 231 and 97 wide: rows of 64 interior pixels and more, which take the AVX-512 bilinear
-  // row (demosaic.cpp's bilinear_interior_avx512) where the CPU has it, with every head and tail
-  // length as the rows' output alignment changes.
+  // 150, 231 and 97 wide: rows of 64 interior pixels and more, which take the AVX-512 or AVX2
+  // bilinear row (demosaic.cpp's bilinear_interior_avx512, _avx2) where the CPU has it, with
+  // every head and tail length as the rows' output alignment changes.
   const std::pair<int, int> sizes[] = {{2, 2}, {7, 3}, {33, 5}, {150, 71}, {64, 140}, {231, 9}, {97, 18}};
   const int saved = omp_get_max_threads();
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::interleave_rgb_max_isa(2); }
+  } uncap;
   int fused_cases = 0;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
   for (const auto& [cfa, method] : cases)
     for (const auto& [w, h] : sizes) {
+      detail::interleave_rgb_max_isa(isa);
       CameraPreset p = flat_qe_camera();
       p.cfa = cfa;
       p.prnu_percent = 1;
@@ -861,7 +871,8 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
         for (size_t i = 0; i < above_black.size(); ++i)
           above_black[i] = out.raw_dn[i] - static_cast<float>(p.black_level_dn);
         const ImageF ref = demosaic(above_black, cfa, method);
-        const std::string what = fmt::format("{} {} {}x{} at {} threads", to_string(cfa), to_string(method), w, h, threads);
+        const std::string what =
+            fmt::format("{} {} {}x{} at {} threads, vector level {}", to_string(cfa), to_string(method), w, h, threads, isa);
         ASSERT_EQ(out.rgb.channels(), 3) << what;
         EXPECT_EQ(out.rgb.vec(), ref.vec()) << what;
         if (threads == 1) {
@@ -873,7 +884,8 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
       }
     }
   omp_set_num_threads(saved);
-  EXPECT_EQ(fused_cases, 5 * 7);  // every Bayer phase and RCCB at every size took the fused path
+  // every Bayer phase and RCCB at every size and level took the fused path
+  EXPECT_EQ(fused_cases, 5 * 7 * (detail::machine_isa_level() + 1));
 }
 
 // expose() (the photon stage with the lens glare, fused row by row into sense and the band
