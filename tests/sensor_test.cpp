@@ -28,6 +28,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
 #include "sensor/demosaic_detail.h"
+#include "sensor/pixel_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -890,10 +891,13 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
 
 // expose() (the photon stage with the lens glare, fused row by row into sense and the band
 // demosaic, its halo rows made twice) against its definition, mean_signal_electrons() then
-// sense() through the whole-frame mean signal, at 1 and 2 threads; and both into a reused
-// SensorOutput (a previous frame's images of the same shape, overwritten) against fresh ones.
+// sense() through the whole-frame mean signal, at 1 and 2 threads and every vector level the CPU
+// has (detail::photon_row_max_isa: the glared photon row's AVX-512 and AVX2 loops form the
+// mean); and both into a reused SensorOutput (a previous frame's images of the same shape,
+// overwritten) against fresh ones.
 // expose()'s glared photon row forms the sense stage's mean (sense_mean_e: signal·PRNU +
-// dark·(dark-rate factor), held at kMeanElectronsCap = 2^31 e⁻) in its AVX-512 loop: against
+// dark·(dark-rate factor), held at kMeanElectronsCap = 2^31 e⁻) in its AVX-512 and AVX2 loops
+// (at every vector level the CPU has, detail::photon_row_max_isa): against
 // mean_signal_electrons() then sense() on a scene whose lamps (1e38 W·sr⁻¹·m⁻² a band, R+G+B still
 // finite, so physical) put the photon count past float's range: +Inf at every pixel, the glare
 // skirt carrying it over the frame (6,400 of 6,400 when written). Every draw, raw DN and RGB value
@@ -913,15 +917,21 @@ TEST(SenseFused, ExposeHoldsTheMeanCapInTheGlaredPhotonRow) {
   ExposureSettings s;
   s.seed = 3;
   const ResolvedExposure ex = resolve(p, lens, s);
-  const ImageF mean_e = mean_signal_electrons(radiance, p, lens, ex);
-  int capped = 0;
-  for (size_t i = 0; i < mean_e.size(); ++i) capped += mean_e[i] * 0.9f > 2147483648.f;
-  EXPECT_GT(capped, w * h / 2) << "the scene should put the means past the cap";
-  const SensorOutput ref = sense(mean_e, p, ex, s, fpn);
-  const SensorOutput out = expose(radiance, p, lens, s, fpn);
-  EXPECT_EQ(out.electrons.vec(), ref.electrons.vec());
-  EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec());
-  EXPECT_EQ(out.rgb.vec(), ref.rgb.vec());
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa) {
+    detail::photon_row_max_isa(isa);
+    const ImageF mean_e = mean_signal_electrons(radiance, p, lens, ex);
+    int capped = 0;
+    for (size_t i = 0; i < mean_e.size(); ++i) capped += mean_e[i] * 0.9f > 2147483648.f;
+    EXPECT_GT(capped, w * h / 2) << "the scene should put the means past the cap";
+    const SensorOutput ref = sense(mean_e, p, ex, s, fpn);
+    const SensorOutput out = expose(radiance, p, lens, s, fpn);
+    EXPECT_EQ(out.electrons.vec(), ref.electrons.vec()) << "vector level " << isa;
+    EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec()) << "vector level " << isa;
+    EXPECT_EQ(out.rgb.vec(), ref.rgb.vec()) << "vector level " << isa;
+  }
 }
 
 TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
@@ -937,7 +947,13 @@ TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
   ExposureSettings s;
   s.seed = 11;
   const int saved = omp_get_max_threads();
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
   for (int threads : {1, 2}) {
+    SCOPED_TRACE(fmt::format("vector level {}", isa));
+    detail::photon_row_max_isa(isa);
     omp_set_num_threads(threads);
     s.frame = 0;
     const ResolvedExposure ex = resolve(p, lens, s);
