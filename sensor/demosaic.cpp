@@ -564,8 +564,12 @@ bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_
 // SenseFused.EqualsTheUnfusedDefinition). Where the CPU has AVX-512 the interior is
 // bilinear_interior_avx512 (the pair loop and the interleave in one pass, the same operations):
 // `bench sense` on the AMD EPYC Zen 4, 1 thread, four alternating pairs (2026-11-30): `sense`
-// 18.88, 18.34, 18.51, 18.35 -> 17.55, 17.94, 17.30, 17.56 ms CPU (docs/benchmarks.md). The
-// whole-image demosaic_bilinear (the `demosaic` command) keeps the two loops.
+// 18.88, 18.34, 18.51, 18.35 -> 17.55, 17.94, 17.30, 17.56 ms CPU (docs/benchmarks.md). Where
+// it has AVX2 but not AVX-512, bilinear_interior_avx2 (8 pixels a step): at PHOTOSITE_MAX_ISA=avx2
+// on the Zen 4, `bench night --threads 1 --cpu-clock`, six alternating rounds (2026-11-30):
+// `cpu: sensor (expose)` median 27.69 -> 27.16 ms, lower in 5 of 6 ("Twenty-sixth session: the
+// sensor's AVX2 rows", docs/benchmarks.md). The whole-image demosaic_bilinear (the `demosaic`
+// command) keeps the two loops.
 __attribute__((flatten, target_clones("avx2", "default")))
 void detail::demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below,
                                    int y, int w, int h, float* rgb_row, float* planar) {

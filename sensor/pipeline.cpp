@@ -180,14 +180,17 @@ struct PhotonStage {
 
   // The sense stage's first step (SenseStage::mean_row: sense_mean_e, the mean collected
   // electrons signal·PRNU + dark·(dark-rate factor), capped) formed by the glared photon row's
-  // AVX-512 or AVX2 loop on the photon electrons it has just made (expose()): the two fixed-pattern maps'
-  // rows g, df are read there, beside the loop's division, instead of in a pass of their own.
+  // AVX-512 or AVX2 loop on the photon electrons it has just made (expose()): the two
+  // fixed-pattern maps' rows g, df are read there, beside the loop's division, instead of in a
+  // pass of their own.
   // The row reports the pixels [xa, xb) whose mean it wrote (none: xa == xb); the caller forms
   // the rest by mean_row. The same float operations per pixel as mean_row, so the same means
   // (tests SenseFused.ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh and
   // SenseFused.ExposeHoldsTheMeanCapInTheGlaredPhotonRow). Measured on the AMD EPYC Zen 4
   // (`bench night --threads 1 --cpu-clock`, 6 alternating pairs, 2026-11-30): `cpu: sensor
-  // (expose)` median 23.62 -> 22.69 ms, lower in 6 of 6 (docs/benchmarks.md).
+  // (expose)` median 23.62 -> 22.69 ms, lower in 6 of 6 (docs/benchmarks.md). The AVX2 loop
+  // (with the vertical step t formed in it, glared_row_simd), at PHOTOSITE_MAX_ISA=avx2, six
+  // rounds: 27.16 -> 26.44 ms, lower in 6 of 6 ("Twenty-sixth session: the sensor's AVX2 rows").
   struct MeanFusion {
     const float* g;
     const float* df;
@@ -482,7 +485,8 @@ struct PhotonStage {
       const float *pa = vt.a + 3 * (j0 - 1), *pb = vt.b + 3 * (j0 - 1);
       __m256 tv[3];
       for (int k = 0; k < 3; ++k)
-        tv[k] = _mm256_add_ps(_mm256_mul_ps(tw0, _mm256_loadu_ps(pa + 8 * k)), _mm256_mul_ps(tw1, _mm256_loadu_ps(pb + 8 * k)));
+        tv[k] = _mm256_add_ps(_mm256_mul_ps(tw0, _mm256_loadu_ps(pa + 8 * k)),
+                              _mm256_mul_ps(tw1, _mm256_loadu_ps(pb + 8 * k)));
       blend_channels_avx2(tv[0], tv[1], tv[2], T);
       __m256 g[3];
       for (int c = 0; c < 3; ++c) {
@@ -512,7 +516,8 @@ struct PhotonStage {
         _mm_storeu_ps(o + x0 + 4 * h, sig);
         if constexpr (Mean) {
           const int x = x0 + 4 * h;
-          const __m128 m = _mm_add_ps(_mm_mul_ps(sig, _mm_loadu_ps(mf->g + x)), _mm_mul_ps(vdark, _mm_loadu_ps(mf->df + x)));
+          const __m128 m =
+              _mm_add_ps(_mm_mul_ps(sig, _mm_loadu_ps(mf->g + x)), _mm_mul_ps(vdark, _mm_loadu_ps(mf->df + x)));
           _mm_storeu_ps(mf->mean + x, _mm_min_ps(vcap, m));
         }
       }

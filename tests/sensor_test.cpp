@@ -873,7 +873,8 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
           above_black[i] = out.raw_dn[i] - static_cast<float>(p.black_level_dn);
         const ImageF ref = demosaic(above_black, cfa, method);
         const std::string what =
-            fmt::format("{} {} {}x{} at {} threads, vector level {}", to_string(cfa), to_string(method), w, h, threads, isa);
+            fmt::format("{} {} {}x{} at {} threads, vector level {}", to_string(cfa), to_string(method), w, h,
+                        threads, isa);
         ASSERT_EQ(out.rgb.channels(), 3) << what;
         EXPECT_EQ(out.rgb.vec(), ref.vec()) << what;
         if (threads == 1) {
