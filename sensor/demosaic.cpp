@@ -271,6 +271,85 @@ bool bilinear_interior_avx512(const float* a, const float* c, const float* b, bo
   _mm_sfence();
   return true;
 }
+
+// The same fused pass where the CPU has AVX2 but not AVX-512 (or PHOTOSITE_MAX_ISA=avx2 caps it
+// there): 8 pixels a step, R, G and B formed as bilinear_rgb16 does (the same adds and ¼/½
+// scalings in the same order, no FMA; each lane takes its cell type's values by a blend, which
+// copies) and interleaved by interleave_rgb_avx2's permutes and blends (rgb_vector8), so the
+// same bits as the pair loop then interleave_rgb (test SenseFused.EqualsTheUnfusedDefinition,
+// which runs it at the AVX2 level). Stores as interleave_rgb_avx2's: non-temporal from the first
+// pixel whose output is 32-byte aligned; the pixels before it and those past the last whole step
+// are one step each (from xs, and ending at xe), stored under a mask. Rows of fewer than 64
+// interior pixels, or an output not 4-byte aligned, take the pair loop.
+// Returns the 8 pixels from x into v[0..2] (24 interleaved floats). even: sign bit set in the
+// lanes of the red site's column parity (_mm256_blendv_ps takes its second operand there).
+__attribute__((target("avx2"), always_inline)) inline void bilinear_rgb8(const float* a, const float* c,
+                                                                       const float* b, int x, bool red_row,
+                                                                       __m256 even, bool clear, __m256 v[3]) {
+  const __m256 quarter = _mm256_set1_ps(0.25f), half = _mm256_set1_ps(0.5f);
+  const __m256 C = _mm256_loadu_ps(c + x);
+  const __m256 lr = _mm256_add_ps(_mm256_loadu_ps(c + x - 1), _mm256_loadu_ps(c + x + 1));
+  const __m256 ud = _mm256_add_ps(_mm256_loadu_ps(a + x), _mm256_loadu_ps(b + x));
+  const __m256 diag = _mm256_add_ps(_mm256_add_ps(_mm256_loadu_ps(a + x - 1), _mm256_loadu_ps(a + x + 1)),
+                                    _mm256_add_ps(_mm256_loadu_ps(b + x - 1), _mm256_loadu_ps(b + x + 1)));
+  const __m256 g4 = _mm256_mul_ps(quarter, _mm256_add_ps(lr, ud)), o4 = _mm256_mul_ps(quarter, diag);
+  const __m256 lr2 = _mm256_mul_ps(half, lr), ud2 = _mm256_mul_ps(half, ud);
+  __m256 R, G, B;
+  if (red_row) {
+    R = _mm256_blendv_ps(lr2, C, even);
+    G = _mm256_blendv_ps(C, g4, even);
+    B = _mm256_blendv_ps(ud2, o4, even);
+  } else {
+    R = _mm256_blendv_ps(o4, ud2, even);
+    G = _mm256_blendv_ps(g4, C, even);
+    B = _mm256_blendv_ps(C, lr2, even);
+  }
+  if (clear) G = _mm256_sub_ps(_mm256_sub_ps(G, R), B);
+  v[0] = rgb_vector8<0>(R, G, B);
+  v[1] = rgb_vector8<1>(R, G, B);
+  v[2] = rgb_vector8<2>(R, G, B);
+}
+// Floats [f0, f1) of the 24 in v stored to o (masked).
+__attribute__((target("avx2"), always_inline)) inline void store_floats24(float* o, const __m256 v[3], int f0,
+                                                                        int f1) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (int k = 0; k < 3; ++k) {
+    const __m256i i = _mm256_add_epi32(lane, _mm256_set1_epi32(8 * k));
+    // f0 <= i < f1: (i > f0 - 1) and (f1 > i)
+    const __m256i m = _mm256_and_si256(_mm256_cmpgt_epi32(i, _mm256_set1_epi32(f0 - 1)),
+                                       _mm256_cmpgt_epi32(_mm256_set1_epi32(f1), i));
+    _mm256_maskstore_ps(o + 8 * k, m, v[k]);
+  }
+}
+__attribute__((target("avx2")))
+bool bilinear_interior_avx2(const float* a, const float* c, const float* b, bool red_row, int ox, bool clear,
+                            int xs, int xe, float* o) {
+  const uintptr_t addr = reinterpret_cast<uintptr_t>(o);
+  if (addr % 4 != 0 || xe - xs < 64) return false;
+  // The red site's column parity in a step from x: the even lanes where (x − ox) is even.
+  const __m256 parity[2] = {_mm256_castsi256_ps(_mm256_setr_epi32(-1, 0, -1, 0, -1, 0, -1, 0)),
+                            _mm256_castsi256_ps(_mm256_setr_epi32(0, -1, 0, -1, 0, -1, 0, -1))};
+  auto odd = [ox](int x) { return (x - ox) & 1; };  // parity[odd(x)]: the mask of a step from x
+  int x0 = static_cast<int>((3 * ((32 - addr % 32) / 4)) % 8);  // o + 3·x0 is 32-byte aligned
+  while (x0 < xs) x0 += 8;
+  __m256 v[3];
+  if (x0 > xs) {  // pixels [xs, x0), fewer than 8: the step from xs
+    bilinear_rgb8(a, c, b, xs, red_row, parity[odd(xs)], clear, v);
+    store_floats24(o + 3 * xs, v, 0, 3 * (x0 - xs));
+  }
+  int x = x0;
+  const __m256 even_x0 = parity[odd(x0)];  // every step of the loop starts at x0's parity
+  for (; x + 8 <= xe; x += 8) {
+    bilinear_rgb8(a, c, b, x, red_row, even_x0, clear, v);
+    for (int k = 0; k < 3; ++k) _mm256_stream_ps(o + 3 * x + 8 * k, v[k]);
+  }
+  if (x < xe) {  // pixels [x, xe), fewer than 8: the step ending at xe (its reads stay inside the row)
+    bilinear_rgb8(a, c, b, xe - 8, red_row, parity[odd(xe - 8)], clear, v);
+    store_floats24(o + 3 * (xe - 8), v, 3 * (8 - (xe - x)), 24);
+  }
+  _mm_sfence();
+  return true;
+}
 }  // namespace
 #endif
 
@@ -485,19 +564,24 @@ bool detail::bilinear_row_path(int w, int h, CfaPattern pattern) { return bayer_
 // SenseFused.EqualsTheUnfusedDefinition). Where the CPU has AVX-512 the interior is
 // bilinear_interior_avx512 (the pair loop and the interleave in one pass, the same operations):
 // `bench sense` on the AMD EPYC Zen 4, 1 thread, four alternating pairs (2026-11-30): `sense`
-// 18.88, 18.34, 18.51, 18.35 -> 17.55, 17.94, 17.30, 17.56 ms CPU (docs/benchmarks.md). The
-// whole-image demosaic_bilinear (the `demosaic` command) keeps the two loops.
+// 18.88, 18.34, 18.51, 18.35 -> 17.55, 17.94, 17.30, 17.56 ms CPU (docs/benchmarks.md). Where
+// it has AVX2 but not AVX-512, bilinear_interior_avx2 (8 pixels a step): at PHOTOSITE_MAX_ISA=avx2
+// on the Zen 4, `bench night --threads 1 --cpu-clock`, six alternating rounds (2026-11-30):
+// `cpu: sensor (expose)` median 27.69 -> 27.16 ms, lower in 5 of 6 ("Twenty-sixth session: the
+// sensor's AVX2 rows", docs/benchmarks.md). The whole-image demosaic_bilinear (the `demosaic`
+// command) keeps the two loops.
 __attribute__((flatten, target_clones("avx2", "default")))
 void detail::demosaic_bilinear_row(CfaPattern pattern, const float* above, const float* centre, const float* below,
                                    int y, int w, int h, float* rgb_row, float* planar) {
   const auto ph = bayer_phase(pattern);
   const float* const rows[1][3] = {{above, centre, below}};
-  // The interior fused with the interleave where the CPU has AVX-512 and interleave_rgb may take
-  // it (its level, capped by detail::interleave_rgb_max_isa in the tests).
+  // The interior fused with the interleave where the CPU has AVX-512 or AVX2 and interleave_rgb
+  // may take that level (its level, capped by detail::interleave_rgb_max_isa in the tests).
   InteriorRow interior = nullptr;
 #ifdef __x86_64__
-  if (std::min(machine_isa_level(), g_interleave_isa_cap.load(std::memory_order_relaxed)) >= 2)
-    interior = bilinear_interior_avx512;
+  const int isa = std::min(machine_isa_level(), g_interleave_isa_cap.load(std::memory_order_relaxed));
+  if (isa >= 2) interior = bilinear_interior_avx512;
+  else if (isa == 1) interior = bilinear_interior_avx2;
 #endif
   if (ph.clear) stencil_row<true, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar, interior);
   else stencil_row<false, 1, 1>(BilinearKernel{}, ph, rows, y, w, h, rgb_row, planar, interior);

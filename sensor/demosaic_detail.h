@@ -131,7 +131,8 @@ inline void pair_loop(const K& k, const float* const (&rows)[NPlanes][2 * Rad + 
 // written to the output row o (interleaved RGB) by other code: rows above, centre and below
 // (the mosaic rows y − 1, y, y + 1), red_row whether row y holds the red (or blue: false) sites,
 // ox the red site's column parity, clear RCCB's G = C − R − B. Returns false where it did not
-// (then the pair loop and the interleave run). The bilinear row on AVX-512 (sensor/demosaic.cpp).
+// (then the pair loop and the interleave run). The bilinear row on AVX-512 and AVX2
+// (sensor/demosaic.cpp).
 using InteriorRow = bool (*)(const float* above, const float* centre, const float* below, bool red_row, int ox,
                              bool clear, int xs, int xe, float* o);
 

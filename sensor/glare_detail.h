@@ -19,11 +19,11 @@ namespace photosite::shader {
 namespace photosite::detail {
 // glare_skirt_row's vertical step alone: row y of acc_1 interpolated between its two nearest
 // rows, t (3·acc_1 width floats, interleaved RGB, inside tmp at glare_row_layout's t, returned),
-// for a caller that forms the horizontal step in its own loop (the photon stage's AVX-512 and AVX2 rows).
+// for a caller that forms the horizontal step in its own loop (glare_row's AVX-512 pairs).
 const float* glare_skirt_vertical_row(const GlareSkirt& skirt, int y, float* tmp);
 // That step's two rows of acc_1 and their weights for row y: t[k] = glare_lerp(w0, a[k], w1, b[k])
 // for k < 3·acc_1 width, for a caller that forms t inside its own loop (the photon stage's
-// AVX-512 row) instead of storing it and reading it back.
+// AVX-512 and AVX2 rows) instead of storing it and reading it back.
 struct GlareVerticalTaps {
   const float* a;
   const float* b;

@@ -180,14 +180,17 @@ struct PhotonStage {
 
   // The sense stage's first step (SenseStage::mean_row: sense_mean_e, the mean collected
   // electrons signal·PRNU + dark·(dark-rate factor), capped) formed by the glared photon row's
-  // AVX-512 loop on the photon electrons it has just made (expose()): the two fixed-pattern maps'
-  // rows g, df are read there, beside the loop's division, instead of in a pass of their own.
+  // AVX-512 or AVX2 loop on the photon electrons it has just made (expose()): the two
+  // fixed-pattern maps' rows g, df are read there, beside the loop's division, instead of in a
+  // pass of their own.
   // The row reports the pixels [xa, xb) whose mean it wrote (none: xa == xb); the caller forms
   // the rest by mean_row. The same float operations per pixel as mean_row, so the same means
   // (tests SenseFused.ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh and
   // SenseFused.ExposeHoldsTheMeanCapInTheGlaredPhotonRow). Measured on the AMD EPYC Zen 4
   // (`bench night --threads 1 --cpu-clock`, 6 alternating pairs, 2026-11-30): `cpu: sensor
-  // (expose)` median 23.62 -> 22.69 ms, lower in 6 of 6 (docs/benchmarks.md).
+  // (expose)` median 23.62 -> 22.69 ms, lower in 6 of 6 (docs/benchmarks.md). The AVX2 loop
+  // (with the vertical step t formed in it, glared_row_simd), at PHOTOSITE_MAX_ISA=avx2, six
+  // rounds: 27.16 -> 26.44 ms, lower in 6 of 6 ("Twenty-sixth session: the sensor's AVX2 rows").
   struct MeanFusion {
     const float* g;
     const float* df;
@@ -278,12 +281,12 @@ struct PhotonStage {
   // take glared_electrons_row with glare_up_pixel's u. Returns whether every pixel's radiance
   // is physical (physical_row's test).
   //
-  // The vertical step (t, glare_skirt_vertical_row's row of acc_1) is formed on AVX-512 inside
-  // the loop from acc_1's two rows (glared_pairs_avx512), and stored for the row's ends only:
-  // the whole 3·cw-float row t was written and read back per row (lerp_row, ~1.2 % of perf's
-  // samples of `bench night --chain-only --threads 1`; `bench sense`'s photon stage 0.3-0.5 ms
-  // lower without it on the AMD EPYC Zen 4, 2026-11-30, docs/benchmarks.md). AVX2 keeps the
-  // stored row.
+  // The vertical step (t, glare_skirt_vertical_row's row of acc_1) is formed inside the loop
+  // from acc_1's two rows (glared_pairs_avx512, glared_pairs_avx2), and stored for the row's
+  // ends only: the whole 3·cw-float row t was written and read back per row (lerp_row, ~1.2 % of
+  // perf's samples of `bench night --chain-only --threads 1`; `bench sense`'s photon stage
+  // 0.3-0.5 ms lower without it on the AMD EPYC Zen 4, 2026-11-30, docs/benchmarks.md; the AVX2
+  // loop since the twenty-sixth session).
   bool glared_row_simd(int y, const float* l, const double* me, const double* mo, double dy2, float* o,
                        Scratch& sc, MeanFusion* mf) const {
     const detail::GlareVerticalTaps vt = detail::glare_skirt_vertical_taps(skirt, y);
@@ -294,20 +297,21 @@ struct PhotonStage {
     // u: the ends' upsampled pixels below
     float* u = sc.tmp.data() + glare_row_layout(skirt).u;
     int j_end;
-    if (isa >= 2) {
+    if (isa >= 2)
       j_end = mf ? glared_pairs_avx512<true>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
                                              pitch_over_f, o, physical, mf)
                  : glared_pairs_avx512<false>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
                                               pitch_over_f, o, physical, nullptr);
-      if (mf && j_end > 1) mf->xa = 2, mf->xb = 2 * j_end;
-      // t of the ends' taps (glare_up_pixel below): pixels 0 and 1 read pairs 0 and 1, pixels
-      // from 2·j_end on the pairs from j_end − 1 on.
-      detail::glare_vertical_lerp(vt, 0, std::min<size_t>(6, tn), t);
-      if (std::max(2, 2 * j_end) < w) detail::glare_vertical_lerp(vt, 3 * static_cast<size_t>(j_end - 1), tn, t);
-    } else {
-      detail::glare_vertical_lerp(vt, 0, tn, t);
-      j_end = glared_pairs_avx2(l, t, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f, o, physical);
-    }
+    else
+      j_end = mf ? glared_pairs_avx2<true>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2, pitch_over_f,
+                                           o, physical, mf)
+                 : glared_pairs_avx2<false>(l, vt, cw, skirt.keep, skirt.scale.data(), me, mo, cx, dy2,
+                                            pitch_over_f, o, physical, nullptr);
+    if (mf && j_end > 1) mf->xa = 2, mf->xb = 2 * j_end;
+    // t of the ends' taps (glare_up_pixel below): pixels 0 and 1 read pairs 0 and 1, pixels
+    // from 2·j_end on the pairs from j_end − 1 on.
+    detail::glare_vertical_lerp(vt, 0, std::min<size_t>(6, tn), t);
+    if (std::max(2, 2 * j_end) < w) detail::glare_vertical_lerp(vt, 3 * static_cast<size_t>(j_end - 1), tn, t);
     // The rest: pixels [0, 2) and [2·j_end, w) (all of them when no block of pairs ran).
     auto rest = [&](int xa, int xb) {
       if (xa >= xb) return;
@@ -421,8 +425,11 @@ struct PhotonStage {
   // are split by channel the same way: two blends put channel c of the 8 pairs or pixels in
   // distinct lanes of one vector (pair or pixel k at lane perm[c][k]), and one permute orders
   // them (L), or, for t, picks each pixel's taps at once: X's index perm[c][tap(p)], Y's
-  // perm[c][tap(p) + 1]. The radiance is prefetched kPrefetchFloats ahead (two lines cover a
-  // block's 96 bytes). Returns the first pair not done; physical is cleared if a pixel's
+  // perm[c][tap(p) + 1]. The window of t is formed from acc_1's two rows vt.a, vt.b as
+  // glared_pairs_avx512 forms it (glare_lerp: w0·a + w1·b in float, no FMA), so the same t. With
+  // Mean, the sense stage's mean of the block's pixels as glared_pairs_avx512 forms it
+  // (MeanFusion), 4 pixels at a time. The radiance is prefetched kPrefetchFloats ahead (two lines
+  // cover a block's 96 bytes). Returns the first pair not done; physical is cleared if a pixel's
   // radiance is not physical.
   // Channel c of 8 interleaved RGB triples a, b, c (24 floats) into distinct lanes of v[c]:
   // element k's channel c at lane perm[c][k] of glared_pairs_avx2 (R: floats 3k from lanes 0, 3,
@@ -433,12 +440,16 @@ struct PhotonStage {
     v[1] = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x24), c, 0x49);
     v[2] = _mm256_blend_ps(_mm256_blend_ps(a, b, 0x49), c, 0x92);
   }
+  template <bool Mean>
   __attribute__((target("avx2")))
-  static int glared_pairs_avx2(const float* l, const float* t, int cw, float keep, const float* s3,
-                               const double* me, const double* mo, double cx, double dy2, double pitch_over_f,
-                               float* o, bool& physical) {
+  static int glared_pairs_avx2(const float* l, const detail::GlareVerticalTaps& vt, int cw, float keep,
+                               const float* s3, const double* me, const double* mo, double cx, double dy2,
+                               double pitch_over_f, float* o, bool& physical, const MeanFusion* mf) {
     int j0 = 1;
     if (j0 + 8 > cw) return j0;
+    // The mean's operands (Mean), as in glared_pairs_avx512: min(s·g + dark·df, cap) = vminps(cap, m).
+    const __m128 vdark = _mm_set1_ps(Mean ? mf->dark : 0.f), vcap = _mm_set1_ps(shader::kMeanElectronsCap);
+    const __m256 tw0 = _mm256_set1_ps(vt.w0), tw1 = _mm256_set1_ps(vt.w1);
     const __m256i tap = _mm256_setr_epi32(0, 1, 1, 2, 2, 3, 3, 4), one_i = _mm256_set1_epi32(1);
     // pixel k of channel c at lane perm[c][k] after blend_channels_avx2
     const __m256i perm[3] = {_mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5), _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6),
@@ -470,8 +481,13 @@ struct PhotonStage {
       __m256 L[3], T[3];
       blend_channels_avx2(la, lb, lc, L);
       for (int c = 0; c < 3; ++c) L[c] = _mm256_permutevar8x32_ps(L[c], perm[c]);
-      const float* tw = t + 3 * (j0 - 1);
-      blend_channels_avx2(_mm256_loadu_ps(tw), _mm256_loadu_ps(tw + 8), _mm256_loadu_ps(tw + 16), T);
+      // the window of t: glare_lerp(w0, a[k], w1, b[k]) for its 24 floats
+      const float *pa = vt.a + 3 * (j0 - 1), *pb = vt.b + 3 * (j0 - 1);
+      __m256 tv[3];
+      for (int k = 0; k < 3; ++k)
+        tv[k] = _mm256_add_ps(_mm256_mul_ps(tw0, _mm256_loadu_ps(pa + 8 * k)),
+                              _mm256_mul_ps(tw1, _mm256_loadu_ps(pb + 8 * k)));
+      blend_channels_avx2(tv[0], tv[1], tv[2], T);
       __m256 g[3];
       for (int c = 0; c < 3; ++c) {
         const __m256 X = _mm256_permutevar8x32_ps(T[c], xi[c]);
@@ -496,7 +512,14 @@ struct PhotonStage {
           const __m256d q = _mm256_add_pd(one, t2);
           e = _mm256_div_pd(e, _mm256_mul_pd(q, q));
         }
-        _mm_storeu_ps(o + x0 + 4 * h, _mm256_cvtpd_ps(e));
+        const __m128 sig = _mm256_cvtpd_ps(e);
+        _mm_storeu_ps(o + x0 + 4 * h, sig);
+        if constexpr (Mean) {
+          const int x = x0 + 4 * h;
+          const __m128 m =
+              _mm_add_ps(_mm_mul_ps(sig, _mm_loadu_ps(mf->g + x)), _mm_mul_ps(vdark, _mm_loadu_ps(mf->df + x)));
+          _mm_storeu_ps(mf->mean + x, _mm_min_ps(vcap, m));
+        }
       }
     }
     if (ok != 0xff) physical = false;
@@ -750,8 +773,8 @@ constexpr int kBandRows = 32;
 // input from cache. The bilinear stencil reaches one row up and one down: the rows just outside
 // a thread's range are made again into scratch (their outputs are the neighbour's to write).
 // Each row's values depend on y alone, and the row demosaic is demosaic_bilinear's own row code
-// (detail::demosaic_bilinear_row; on AVX-512 its interior in one pass with the interleave, the
-// same operations per pixel), so the split, i.e. the thread count, changes no bit, and the
+// (detail::demosaic_bilinear_row; on AVX-512 and AVX2 its interior in one pass with the
+// interleave, the same operations per pixel), so the split, i.e. the thread count, changes no bit, and the
 // result equals demosaic(mosaic above black) of the unfused path below (test
 // SenseFused.EqualsTheUnfusedDefinition). Other methods and patterns: the whole frame first.
 template <class MakeWorker>

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <OpenImageIO/imageio.h>
 
+#include "core/isa_detail.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
@@ -26,6 +27,8 @@
 #include "photosite/sensor/preset.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/units.h"
+#include "sensor/demosaic_detail.h"
+#include "sensor/pixel_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -825,20 +828,28 @@ TEST(Expose, WholeChainOnEveryBundledCamera) {
 // buffer's wrap all move with the thread count and the height), for every Bayer phase, RCCB
 // (the fused path), RCCC and a non-bilinear method (the whole-frame path), heights from 2 rows
 // to several bands per thread. The electrons and raw DN must not move with the thread count.
+// At every vector level the CPU has (detail::interleave_rgb_max_isa, which also caps the fused
+// bilinear row): the pair loop then interleave_rgb (0), and the interior in one pass with the
+// interleave on AVX2 (1, bilinear_interior_avx2) and AVX-512 (2, bilinear_interior_avx512).
 TEST(SenseFused, EqualsTheUnfusedDefinition) {
   const std::pair<CfaPattern, DemosaicMethod> cases[] = {
       {CfaPattern::RGGB, DemosaicMethod::Bilinear}, {CfaPattern::BGGR, DemosaicMethod::Bilinear},
       {CfaPattern::GRBG, DemosaicMethod::Bilinear}, {CfaPattern::GBRG, DemosaicMethod::Bilinear},
       {CfaPattern::RCCB, DemosaicMethod::Bilinear}, {CfaPattern::RCCC, DemosaicMethod::Bilinear},
       {CfaPattern::RGGB, DemosaicMethod::Malvar}};
-  // 150, 231 and 97 wide: rows of 64 interior pixels and more, which take the AVX-512 bilinear
-  // row (demosaic.cpp's bilinear_interior_avx512) where the CPU has it, with every head and tail
-  // length as the rows' output alignment changes.
+  // 150, 231 and 97 wide: rows of 64 interior pixels and more, which take the AVX-512 or AVX2
+  // bilinear row (demosaic.cpp's bilinear_interior_avx512, _avx2) where the CPU has it, with
+  // every head and tail length as the rows' output alignment changes.
   const std::pair<int, int> sizes[] = {{2, 2}, {7, 3}, {33, 5}, {150, 71}, {64, 140}, {231, 9}, {97, 18}};
   const int saved = omp_get_max_threads();
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::interleave_rgb_max_isa(2); }
+  } uncap;
   int fused_cases = 0;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
   for (const auto& [cfa, method] : cases)
     for (const auto& [w, h] : sizes) {
+      detail::interleave_rgb_max_isa(isa);
       CameraPreset p = flat_qe_camera();
       p.cfa = cfa;
       p.prnu_percent = 1;
@@ -861,7 +872,9 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
         for (size_t i = 0; i < above_black.size(); ++i)
           above_black[i] = out.raw_dn[i] - static_cast<float>(p.black_level_dn);
         const ImageF ref = demosaic(above_black, cfa, method);
-        const std::string what = fmt::format("{} {} {}x{} at {} threads", to_string(cfa), to_string(method), w, h, threads);
+        const std::string what =
+            fmt::format("{} {} {}x{} at {} threads, vector level {}", to_string(cfa), to_string(method), w, h,
+                        threads, isa);
         ASSERT_EQ(out.rgb.channels(), 3) << what;
         EXPECT_EQ(out.rgb.vec(), ref.vec()) << what;
         if (threads == 1) {
@@ -873,15 +886,19 @@ TEST(SenseFused, EqualsTheUnfusedDefinition) {
       }
     }
   omp_set_num_threads(saved);
-  EXPECT_EQ(fused_cases, 5 * 7);  // every Bayer phase and RCCB at every size took the fused path
+  // every Bayer phase and RCCB at every size and level took the fused path
+  EXPECT_EQ(fused_cases, 5 * 7 * (detail::machine_isa_level() + 1));
 }
 
 // expose() (the photon stage with the lens glare, fused row by row into sense and the band
 // demosaic, its halo rows made twice) against its definition, mean_signal_electrons() then
-// sense() through the whole-frame mean signal, at 1 and 2 threads; and both into a reused
-// SensorOutput (a previous frame's images of the same shape, overwritten) against fresh ones.
+// sense() through the whole-frame mean signal, at 1 and 2 threads and every vector level the CPU
+// has (detail::photon_row_max_isa: the glared photon row's AVX-512 and AVX2 loops form the
+// mean); and both into a reused SensorOutput (a previous frame's images of the same shape,
+// overwritten) against fresh ones.
 // expose()'s glared photon row forms the sense stage's mean (sense_mean_e: signal·PRNU +
-// dark·(dark-rate factor), held at kMeanElectronsCap = 2^31 e⁻) in its AVX-512 loop: against
+// dark·(dark-rate factor), held at kMeanElectronsCap = 2^31 e⁻) in its AVX-512 and AVX2 loops
+// (at every vector level the CPU has, detail::photon_row_max_isa): against
 // mean_signal_electrons() then sense() on a scene whose lamps (1e38 W·sr⁻¹·m⁻² a band, R+G+B still
 // finite, so physical) put the photon count past float's range: +Inf at every pixel, the glare
 // skirt carrying it over the frame (6,400 of 6,400 when written). Every draw, raw DN and RGB value
@@ -901,15 +918,21 @@ TEST(SenseFused, ExposeHoldsTheMeanCapInTheGlaredPhotonRow) {
   ExposureSettings s;
   s.seed = 3;
   const ResolvedExposure ex = resolve(p, lens, s);
-  const ImageF mean_e = mean_signal_electrons(radiance, p, lens, ex);
-  int capped = 0;
-  for (size_t i = 0; i < mean_e.size(); ++i) capped += mean_e[i] * 0.9f > 2147483648.f;
-  EXPECT_GT(capped, w * h / 2) << "the scene should put the means past the cap";
-  const SensorOutput ref = sense(mean_e, p, ex, s, fpn);
-  const SensorOutput out = expose(radiance, p, lens, s, fpn);
-  EXPECT_EQ(out.electrons.vec(), ref.electrons.vec());
-  EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec());
-  EXPECT_EQ(out.rgb.vec(), ref.rgb.vec());
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa) {
+    detail::photon_row_max_isa(isa);
+    const ImageF mean_e = mean_signal_electrons(radiance, p, lens, ex);
+    int capped = 0;
+    for (size_t i = 0; i < mean_e.size(); ++i) capped += mean_e[i] * 0.9f > 2147483648.f;
+    EXPECT_GT(capped, w * h / 2) << "the scene should put the means past the cap";
+    const SensorOutput ref = sense(mean_e, p, ex, s, fpn);
+    const SensorOutput out = expose(radiance, p, lens, s, fpn);
+    EXPECT_EQ(out.electrons.vec(), ref.electrons.vec()) << "vector level " << isa;
+    EXPECT_EQ(out.raw_dn.vec(), ref.raw_dn.vec()) << "vector level " << isa;
+    EXPECT_EQ(out.rgb.vec(), ref.rgb.vec()) << "vector level " << isa;
+  }
 }
 
 TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
@@ -925,7 +948,13 @@ TEST(SenseFused, ExposeEqualsOpticsThenSenseAndReusedOutputsEqualFresh) {
   ExposureSettings s;
   s.seed = 11;
   const int saved = omp_get_max_threads();
+  struct UncapOnExit {
+    ~UncapOnExit() { detail::photon_row_max_isa(2); }
+  } uncap;
+  for (int isa = 0; isa <= detail::machine_isa_level(); ++isa)
   for (int threads : {1, 2}) {
+    SCOPED_TRACE(fmt::format("vector level {}", isa));
+    detail::photon_row_max_isa(isa);
     omp_set_num_threads(threads);
     s.frame = 0;
     const ResolvedExposure ex = resolve(p, lens, s);
