@@ -36,8 +36,16 @@ foreach(h ${headers})
   endif()
 endforeach()
 
+# An AddressSanitizer build's library (-DSANITIZE=ON) needs the ASan runtime first in the
+# program's library list, so its consumer is built with the same -fsanitize flags (else the
+# runtime refuses to start: "ASan runtime does not come first in initial library list").
+set(san_flags)
+if(SANITIZE)
+  set(san_flags "-DCMAKE_CXX_FLAGS=-fsanitize=address,undefined"
+                "-DCMAKE_EXE_LINKER_FLAGS=-fsanitize=address,undefined")
+endif()
 step("configure" ${CMAKE_COMMAND} -S "${SOURCE_DIR}/tests/consumer" -B "${WORK}/build" -G Ninja
-     -DCMAKE_BUILD_TYPE=Release "-DCMAKE_PREFIX_PATH=${prefix}")
+     -DCMAKE_BUILD_TYPE=Release "-DCMAKE_PREFIX_PATH=${prefix}" ${san_flags})
 step("build" ${CMAKE_COMMAND} --build "${WORK}/build")
 step("run" ${CMAKE_COMMAND} -E env --unset=PHOTOSITE_PRESET_DIR --unset=PHOTOSITE_DATA_DIR
      "${WORK}/build/consumer")
