@@ -1202,6 +1202,18 @@ __attribute__((target("avx2"))) int solid_columns_avx2(const uint16_t* id, int W
     if (id[x] < 64 && (solid >> id[x] & 1)) out[n++] = x;
   return n;
 }
+// The lanes of m, in order, to p (sixteen values stored: p needs room for 16; a compress in a
+// register then a plain store, as the compressing store is slow on some cores, Zen 4's).
+__attribute__((target("avx512f"))) inline void compress_store_ps(float* p, __mmask16 m, __m512 v) {
+  _mm512_storeu_ps(p, _mm512_maskz_compress_ps(m, v));
+}
+__attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, __mmask16 m, __m512i v) {
+  _mm512_storeu_si512(p, _mm512_maskz_compress_epi32(m, v));
+}
+// Lane i: x + i (the columns of a sixteen-lane step).
+__attribute__((target("avx512f"))) inline __m512i columns16(int x) {
+  return _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
+}
 // The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX-512 twin
 // tests sixteen at a time (out needs room for 16 past the count).
 int positive_columns(const float* e, int x0, int x1, int* out) {
@@ -1216,8 +1228,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int positive_colum
   for (int x = x0; x < x1; x += 16) {
     const __mmask16 lanes = x1 - x >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (x1 - x)) - 1);
     const __mmask16 pos = _mm512_mask_cmp_ps_mask(lanes, _mm512_maskz_loadu_ps(lanes, e + x), _mm512_setzero_ps(), _CMP_GT_OQ);
-    _mm512_storeu_si512(out + n, _mm512_maskz_compress_epi32(pos, _mm512_add_epi32(_mm512_set1_epi32(x),
-                                                                                     _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))));
+    compress_store_epi32(out + n, pos, columns16(x));
     n += __builtin_popcount(pos);
   }
   return n;
@@ -2059,18 +2070,6 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
 // w_Q > w_P + √2·cell·|∇w| + 2⁻¹⁶·w_P (the last: the floats' rounding of z·k_D, a few units of
 // 2⁻²⁴ on a plane facing the camera, with room: 0.4 mm at 25 m). A pixel with no such neighbour
 // along an axis, or a surface seen edge-on by the lamp (the system singular), is not shaded.
-// The columns 0 .. 16⌊W/16⌋ − 1 of a row whose pixel shade_vertical_row tests further (of a lit
-// class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
-// the scalar test's operations, in order into out; returns their count (shade_vertical_row then
-// decides each one, eight at a time by shade_decide_avx512: the same pixels, the same values).
-// The lanes of m, in order, to p (sixteen values stored: p needs room for 16; a compress in a
-// register then a plain store, as the compressing store is slow on some cores, Zen 4's).
-__attribute__((target("avx512f"))) inline void compress_store_ps(float* p, __mmask16 m, __m512 v) {
-  _mm512_storeu_ps(p, _mm512_maskz_compress_ps(m, v));
-}
-__attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, __mmask16 m, __m512i v) {
-  _mm512_storeu_si512(p, _mm512_maskz_compress_epi32(m, v));
-}
 // A row's candidates as shade_vertical_row's test reads them (floats; lane i of each array is the
 // i-th candidate): its point (D, X, Y), each lamp's nearer point Dq where cand (bit k: lamp k's cell
 // holds a nearer point, below the top), and its neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1
@@ -2091,6 +2090,10 @@ struct ShadeRows {
   const float* z[2];
   float kD[2], kY[2];
 };
+// The columns 0 .. 16⌊W/16⌋ − 1 of a row whose pixel shade_vertical_row tests further (of a lit
+// class, e > 0, its cell in a lamp's map holding a nearer point), sixteen at a time (AVX-512) by
+// the scalar test's operations, in order into out; returns their count (shade_vertical_row then
+// decides each one, eight at a time by shade_decide_avx512: the same pixels, the same values).
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shadow_candidates_avx512(
     const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const uint16_t* id, const float* z, const float* e,
     float kD, float kY, int* out, const ShadeRows& ry, ShadeCands& sc) {
@@ -2224,9 +2227,7 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
       vb = _mm512_mask_mov_epi32(vb, valid, _mm512_or_si512(vb, _mm512_set1_epi32(1 << j)));
     }
     compress_store_epi32(sc.valid.data() + n, o, vb);
-    compress_store_epi32(out + n, o,
-                                     _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9,
-                                                                                               10, 11, 12, 13, 14, 15)));
+    compress_store_epi32(out + n, o, columns16(x));
     n += __builtin_popcount(o);
   }
   return n;
