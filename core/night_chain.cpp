@@ -43,7 +43,7 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
-  if (!getenv("DC27")) codes = ImageU8();  // HACK
+  codes = ImageU8();
   lap("linearize");
   c.scene = night_scene_for(runner, lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), setup, nullptr,
                             &sums);

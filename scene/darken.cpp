@@ -1658,16 +1658,6 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
 
 void sun_penumbrae_enabled(bool on) { g_sun_penumbrae.store(on, std::memory_order_relaxed); }
 
-// MEASUREMENT ONLY (twenty-seventh session, reverted in the next commit; docs/benchmarks.md
-// "Twenty-seventh session: an 8-bit frame's codes read through the table"): the environment
-// variable DC27 selects, for an 8-bit RGB frame, 1: linearize_codes_with_texture_sums decodes
-// each block into a thread's L1 buffer and stores no linear image (its readers after pass 2 then
-// read whatever the buffer held: only the linearize and darken rows are meaningful), and pass 2
-// decodes each chunk's codes into a thread's buffer (393 KB at 2048x1024) and reads the runs
-// and the working rows there; 2: the linear image stored as on main, pass 2 as in 1 (every
-// output the same bits as main's); 3: as 2, pass 2 decoding one row pair (48 KB) at a time.
-const uint8_t* g_dc27_codes = nullptr;
-void dc27_decode(const uint8_t* c, int n, float* o);
 ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
                                 ImageF* work_luma, const TextureSums* sums) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
@@ -1726,25 +1716,9 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     const float* day_px = day.data();
     float* f_px = f.data();
     const size_t i0 = n * ch / kTextureChunks, i1 = n * (ch + 1) / kTextureChunks;
-    thread_local std::vector<float> hbuf;
-    static const int mode = getenv("DC27") ? atoi(getenv("DC27")) : 0;
-    const size_t row_pair = 2 * static_cast<size_t>(day.width());
-    const bool pieces = g_dc27_codes && mode == 3 && i0 % row_pair == 0 && i1 % row_pair == 0;
-    if (g_dc27_codes && !pieces) {
-      hbuf.resize(3 * (i1 - i0));
-      dc27_decode(g_dc27_codes + 3 * i0, static_cast<int>(3 * (i1 - i0)), hbuf.data());
-      day_px = hbuf.data() - 3 * i0;
-    }
-    if (pieces) hbuf.resize(3 * row_pair);
-    for (size_t a = i0; a < i1; a += pieces ? row_pair : i1 - i0) {
-    const size_t pe = pieces ? a + row_pair : i1;
-    if (pieces) {
-      dc27_decode(g_dc27_codes + 3 * a, static_cast<int>(3 * row_pair), hbuf.data());
-      day_px = hbuf.data() - 3 * a;
-    }
-    for (size_t i = a; i < pe;) {
+    for (size_t i = i0; i < i1;) {
       const int id = lab[i];
-      size_t e = run_end(lab, i, pe);
+      size_t e = run_end(lab, i, i1);
       float sc[3] = {scale[id], scale[id], scale[id]};
       if (sunlit && sun.ratio[id] > 1) {  // runs of one label and one side of the sun/shade split
         const uint8_t m = sunlit[i];
@@ -1766,19 +1740,10 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     // The working luminance's rows whose last day pixel lies in this chunk, (2y + 2)·W in
     // (i0, i1]: read back from cache (the chunk's day pixels were just read above), each row
     // computed by one chunk, so the same rows whatever the thread count.
-    if (pieces && work_luma) {
-      const size_t y = a / row_pair;
-      work_luma_row(hbuf.data(), hbuf.data() + 3 * (row_pair / 2), day.width() / 2, work_luma->row(static_cast<int>(y)));
-    }
-    }
-    if (work_luma && !pieces) {
-      for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y) {
-        if (g_dc27_codes && y * row_pair >= i0) {
-          const float* r0 = day_px + 3 * (y * row_pair);
-          work_luma_row(r0, r0 + 3 * (row_pair / 2), day.width() / 2, work_luma->row(static_cast<int>(y)));
-        } else
-          work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
-      }
+    if (work_luma) {
+      const size_t row_pair = 2 * static_cast<size_t>(day.width());
+      for (size_t y = i0 / row_pair; y < i1 / row_pair; ++y)
+        work_luma_row(day, static_cast<int>(y), work_luma->row(static_cast<int>(y)));
     }
   }
   if (sunlit && g_sun_penumbrae.load(std::memory_order_relaxed))
@@ -1899,8 +1864,6 @@ void decode8_samples(const uint8_t* c, int n, const Decode8& d8, float* o) {
 }
 }  // namespace
 
-void dc27_decode(const uint8_t* c, int n, float* o) { decode8_samples(c, n, decode8(), o); }
-
 void texture_decode_vbmi(bool on) {
 #if defined(__x86_64__)
   decode8_vbmi = on && kHaveVbmi;
@@ -1933,16 +1896,7 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   // linearize_with_texture_sums; codes have no damaged values to look for).
   sums->part.resize(kTextureChunks);
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
-  static const bool hack = getenv("DC27") != nullptr;
-  static const int mode = hack ? atoi(getenv("DC27")) : 0;
-  g_dc27_codes = hack ? codes.data() : nullptr;
-  if (hack && getenv("DC27V")) fprintf(stderr, "DC27 hack on\n");
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(), sums->part.data(), [&](int, size_t first, int count) {
-    if (hack && mode == 1) {
-      thread_local float hb[3 * kBoxBlock];
-      decode8_samples(codes.data() + 3 * first, 3 * count, d8, hb);
-      return static_cast<const float*>(hb);
-    }
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);
     return static_cast<const float*>(out.data() + 3 * first);
   }, sun);

@@ -357,14 +357,13 @@ const int kLumaIsa = photosite::detail::machine_isa_level();
 void work_luma_max_isa(int isa) { luma_max_isa = isa; }
 
 void work_luma_row(const ImageF& day, int y, float* o) {
-  work_luma_row(day.row(2 * y), day.row(2 * y + 1), day.width() / 2, o);
-}
-
-void work_luma_row(const float* r0, const float* r1, int ww, float* o) {
   // Exact halving: each working pixel is the mean of a 2x2 block, summed as (a + b) + (c + d)
   // and scaled by 0.25 — the arithmetic of OpenCV's INTER_AREA for this case (its vector path,
   // which covers rows whose width is a multiple of 16), so the same bits as cv::resize, in one
   // pass per pair of rows without the full-resolution luminance image.
+  const float* r0 = day.row(2 * y);
+  const float* r1 = day.row(2 * y + 1);
+  const int ww = day.width() / 2;
   int x = 0;
 #if defined(__x86_64__)
   const int isa = std::min(kLumaIsa, luma_max_isa);

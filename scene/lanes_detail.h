@@ -18,8 +18,6 @@ WorkSize work_size(int width, int height, int work_max_width);
 // Row y of the working luminance in the halving case: the 2x2 mean of day rows 2y and 2y + 1
 // (Rec. 709 luminance of linear sRGB), sRGB-encoded, into out (ww floats).
 void work_luma_row(const ImageF& day_linear_srgb, int y, float* out);
-// The same from the two day rows (3·2·ww linear sRGB floats each): row0 = day row 2y, row1 = 2y + 1.
-void work_luma_row(const float* row0, const float* row1, int ww, float* out);
 // The widest instruction set work_luma_row's 2x2 means and the sRGB encode (srgb_encode_floats)
 // may take: 2 AVX-512, 1 AVX2, 0 the scalar loop (default 2; the machine's own support caps it).
 // All give the same bits; the tests run each.
