@@ -101,11 +101,12 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, const ImageU16& labels) {
 }
 
 // Runs `first` on the calling thread and `second` on a second thread where `threads` is 2 (one
-// OpenMP team of two: thread 0 is the caller), else one after the other; an exception from
-// either is rethrown here. The caller's thread takes the half that allocates the images kept
-// after it: glibc gives each thread its own arena, and memory freed in the second thread's is not
-// reused by the caller's, so the large buffers stay in the main arena (the peak of
-// Memory.Night2048x1024StaysUnderTheDocumentedPeak).
+// OpenMP team of two: thread 0 is the caller), else one after the other, as where the team asked
+// for has one thread (OMP_THREAD_LIMIT=1, or OMP_DYNAMIC under load: the caller then runs both);
+// an exception from either is rethrown here. The caller's thread takes the half that allocates
+// the images kept after it: glibc gives each thread its own arena, and memory freed in the second
+// thread's is not reused by the caller's, so the large buffers stay in the main arena (the peak
+// of Memory.Night2048x1024StaysUnderTheDocumentedPeak).
 template <class First, class Second>
 void side_by_side(int threads, const First& first, const Second& second) {
   if (threads < 2) {
@@ -119,7 +120,7 @@ void side_by_side(int threads, const First& first, const Second& second) {
     const int i = omp_get_thread_num();
     try {
       if (i == 0) first();
-      else second();
+      if (i == 1 || omp_get_num_threads() == 1) second();
     } catch (...) {
       failed[i] = std::current_exception();
     }
