@@ -1010,53 +1010,69 @@ float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
   return beam_lux_f(static_cast<float>(X_m), D * D, 1.f / D, b);
 }
 
+// low_beam_illuminance's set-up (LowBeamRows, scene/night_detail.h): the beam's table, the
+// columns' x_n, the classes read and the instruction set.
+struct LowBeamRows::Impl {
+  const BeamF b;
+  const CameraGeometry g;
+  const int width, height;
+  const ImageU16* labels;
+  const ImageU8* lanes;
+  const std::array<bool, kLabelCount>& read = ground_classes();
+  const uint64_t read_mask = label_bits(read);  // ids of kLabelCount and above: not read
+  const double c, s;
+  std::vector<double> xn;
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  Impl(const CameraGeometry& g_, int w, int h, const ScenePreset& p, const ImageU16* labels_, const ImageU8* lanes_)
+      : b(beam_f(p)), g(g_), width(w), height(h), labels(labels_), lanes(lanes_), c(std::cos(g_.pitch_rad)),
+        s(std::sin(g_.pitch_rad)), xn(w) {
+    for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
+  }
+  void row(ImageF& E, int y) const;
+};
+
+LowBeamRows::LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels,
+                         const ImageU8* lanes)
+    : impl_(std::make_unique<Impl>(g, width, height, p, labels, lanes)) {}
+LowBeamRows::~LowBeamRows() = default;
+void LowBeamRows::row(ImageF& E, int y) const { impl_->row(E, y); }
+
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels, const ImageU8* lanes) {
-  const BeamF b = beam_f(p);
-  if (!b.ok) return ImageF(width, height, 1, 0.f);  // no table: no light (as beam_intensity_cd)
-  // Written whole by the rows below (zeros where nothing is computed), in parallel: no separate
+  const LowBeamRows rows(g, width, height, p, labels, lanes);
+  // Written whole by the rows (zeros where nothing is computed), in parallel: no separate
   // zeroing pass, and each thread touches its own rows first.
   ImageF E(width, height, 1, uninitialized);
-  // Only the pixels that read it (compose: ground classes; the light map: lane markings), when
-  // the labels are given.
-  const auto& read = ground_classes();
-  const uint64_t read_mask = label_bits(read);  // ids of kLabelCount and above: not read
-  // On the flat ground a row is one forward distance D and its ground points are X = t·x_n
-  // (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
-  // column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
-  // low_beam_lux_f32 at (X, D), 8 pixels at a time with AVX2, one by one otherwise: the same bits.
-  const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
-  std::vector<double> xn(width);
-  for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
-  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
 #pragma omp parallel for schedule(static, 8)
-  for (int y = 0; y < height; ++y) {
-    float* e = E.row(y);
-    const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
-    const double t = g.mount_height_m / den, D = t * (c - yn * s);
-    const float Df = static_cast<float>(D);
-    // At or above the horizon (den <= 0): no ground point.
-    if (den <= 0 || !(D > 0) || !(Df > 0)) {
-      std::fill_n(e, width, 0.f);
-      continue;
-    }
-    const float D2 = Df * Df, invD = 1.f / Df;
-    const uint16_t* id = labels ? labels->row(y) : nullptr;
-    const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
-    if (avx512) {
-      beam_row_avx512(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
-      continue;
-    }
-    if (avx2) {
-      beam_row_avx2(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
-      continue;
-    }
-    for (int x = 0; x < width; ++x) {
-      const bool needed = !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]);
-      e[x] = needed ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
-    }
-  }
+  for (int y = 0; y < height; ++y) rows.row(E, y);
   return E;
+}
+
+// Only the pixels that read it (compose: ground classes; the light map: lane markings), when the
+// labels are given. On the flat ground a row is one forward distance D and its ground points are
+// X = t·x_n (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
+// column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
+// low_beam_lux_f32 at (X, D), 8 pixels at a time with AVX2, one by one otherwise: the same bits.
+// Without a table, zeros: no light (as beam_intensity_cd).
+void LowBeamRows::Impl::row(ImageF& E, int y) const {
+  float* e = E.row(y);
+  const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+  const double t = g.mount_height_m / den, D = t * (c - yn * s);
+  const float Df = static_cast<float>(D);
+  // At or above the horizon (den <= 0): no ground point.
+  if (!b.ok || den <= 0 || !(D > 0) || !(Df > 0)) {
+    std::fill_n(e, width, 0.f);
+    return;
+  }
+  const float D2 = Df * Df, invD = 1.f / Df;
+  const uint16_t* id = labels ? labels->row(y) : nullptr;
+  const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
+  if (avx512) return beam_row_avx512(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
+  if (avx2) return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
+  for (int x = 0; x < width; ++x) {
+    const bool needed = !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]);
+    e[x] = needed ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
+  }
 }
 
 namespace {
@@ -1128,43 +1144,51 @@ struct LampShadowMap {
 // Fills both lamps' maps (allocated) with the solid points of every row: row(y, maps, cols) places
 // row y's points into `maps` (LampShadowMap::place; cols: a scratch of W ints). Where there are
 // two threads, each takes every other chunk of 32 rows, the second into its own maps, then the
-// least of the two per cell: the least D of a cell does not depend on the order the points come
-// in, so the same maps for any thread count. (The ground's maps and the vertical surfaces' are
-// filled so.) Then each map ends after its last written row (both lamps' maps after the later of
-// the two where `same_rows`), the rows before it not written made +∞.
+// least of the two per cell, lamp 0's map merged on one thread and lamp 1's on the other: the
+// least D of a cell does not depend on the order the points come in, so the same maps for any
+// thread count. (The ground's maps and the vertical surfaces' are filled so.) Inside another
+// parallel region (night_scene's depth stage makes both maps on one of its two threads) the
+// team has one thread, OpenMP's nested regions being inactive by default: the chunks follow the
+// team the region got, not the one asked for. Then each map ends after its last written row
+// (both lamps' maps after the later of the two where `same_rows`), the rows before it not
+// written made +∞.
 template <class RowFn>
 void fill_shadow_maps(std::array<LampShadowMap, 2>& maps, int W, int H, bool same_rows, RowFn&& row) {
-  const int teams = std::min(2, omp_get_max_threads());
+  const int asked = omp_in_parallel() ? 1 : std::min(2, omp_get_max_threads());
   std::array<LampShadowMap, 2> maps2;
-  if (teams > 1)
+  if (asked > 1)
     for (int k = 0; k < 2; ++k) {
       LampShadowMap& m2 = maps2[k];
       m2.xl = maps[k].xl, m2.u_lo = maps[k].u_lo, m2.inv_cell = maps[k].inv_cell, m2.v_lo = maps[k].v_lo;
       m2.allocate(maps[k].nu, maps[k].nv);
     }
-#pragma omp parallel num_threads(teams)
+  int end[2] = {0, 0};
+#pragma omp parallel num_threads(asked)
   {
-    const int team = omp_get_thread_num();
+    const int team = omp_get_thread_num(), teams = omp_get_num_threads();
     std::array<LampShadowMap, 2>& mt = team == 0 ? maps : maps2;
     std::vector<int> cols(W);
     constexpr int kChunk = 32;
     for (int y0 = team * kChunk; y0 < H; y0 += teams * kChunk)
       for (int y = y0; y < std::min(H, y0 + kChunk); ++y) row(y, mt, cols.data());
-  }
-  int end[2] = {0, 0};
-  for (int k = 0; k < 2; ++k) {
-    LampShadowMap& m = maps[k];
-    for (int iv = 0; iv < m.nv; ++iv) {
-      if (teams > 1 && maps2[k].written[iv]) {
-        const float* d2 = maps2[k].row(iv);
-        float* d = m.row(iv);
-        if (m.written[iv])
-          for (int c = 0; c < m.nu; ++c) d[c] = std::min(d[c], d2[c]);
-        else
-          std::copy_n(d2, m.nu, d);
-        m.written[iv] = 1;
+    if (teams > 1) {
+#pragma omp barrier
+    }
+    // Lamp k's map on thread k (both on thread 0 where the team has one).
+    for (int k = team; k < 2; k += teams) {
+      LampShadowMap& m = maps[k];
+      for (int iv = 0; iv < m.nv; ++iv) {
+        if (teams > 1 && maps2[k].written[iv]) {
+          const float* d2 = maps2[k].row(iv);
+          float* d = m.row(iv);
+          if (m.written[iv])
+            for (int c = 0; c < m.nu; ++c) d[c] = std::min(d[c], d2[c]);
+          else
+            std::copy_n(d2, m.nu, d);
+          m.written[iv] = 1;
+        }
+        if (m.written[iv]) end[k] = iv + 1;
       }
-      if (m.written[iv]) end[k] = iv + 1;
     }
   }
   for (int k = 0; k < 2; ++k) {
@@ -1320,27 +1344,37 @@ BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g,
   return shade_low_beam_ground_with(beam_lux, g, labels, depth_m, lanes, p, nullptr);
 }
 
-BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
-                                           const LabelRuns* runs) {
-  BeamShadowStats st;
-  const BeamF b = beam_f(p);
-  if (!b.ok) return st;
-  const int W = beam_lux.width(), H = beam_lux.height();
-  if (labels.width() != W || labels.height() != H || depth_m.width() != W || depth_m.height() != H ||
-      (lanes && (lanes->width() != W || lanes->height() != H)))
+// The ground's shadow maps (shade_low_beam_ground_with's first step): the beam's table, the
+// ground rows' t and D, each lamp's map of the solid points and its blocks' least D.
+struct GroundShadowMaps::Impl {
+  const BeamF b;
+  const ImageU16& labels;
+  const int W, H;
+  std::vector<double> xn;
+  struct Row { double t = 0, D = 0; };
+  std::vector<Row> rows;
+  double cell = 0;
+  std::array<LampShadowMap, 2> maps;
+  bool made = false;  // the maps made (a table, a frame with ground below the horizon)
+  Impl(int width, int height, const CameraGeometry& g, const ImageU16& labels_, const ImageF& depth_m,
+       const ScenePreset& p, const LabelRuns* runs);
+};
+
+GroundShadowMaps::Impl::Impl(int width, int height, const CameraGeometry& g, const ImageU16& labels_,
+                             const ImageF& depth_m, const ScenePreset& p, const LabelRuns* runs)
+    : b(beam_f(p)), labels(labels_), W(width), H(height) {
+  if (!b.ok) return;
+  if (labels.width() != W || labels.height() != H || depth_m.width() != W || depth_m.height() != H)
     fail("low beam shadows: the beam, labels, depth and lanes differ in size");
-  if (W == 0 || H == 0) return st;
+  if (W == 0 || H == 0) return;
   const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
-  std::vector<double> xn(W);
+  xn.resize(W);
   std::vector<float> xnf(W);
   for (int x = 0; x < W; ++x) xnf[x] = static_cast<float>(xn[x] = (x - g.cx_px) / g.f_px);
   // The ground rows' t and D (low_beam_illuminance's expressions), and each lamp's map over the
   // (u, v) the ground pixels of the frame take: a solid point outside it shades no ground pixel.
-  struct Row { double t = 0, D = 0; };
-  std::vector<Row> rows(H);
-  const double cell = kBeamShadowCellPx / g.f_px;
-  std::array<LampShadowMap, 2> maps;
+  rows.resize(H);
+  cell = kBeamShadowCellPx / g.f_px;
   double u_lo[2] = {INFINITY, INFINITY}, u_hi[2] = {-INFINITY, -INFINITY}, v_hi = 0;
   for (int y = 0; y < H; ++y) {
     const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
@@ -1353,7 +1387,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       u_hi[k] = std::max(u_hi[k], (t * xn[W - 1] - b.xl[k]) / D);
     }
   }
-  if (!(v_hi > 0)) return st;  // no ground below the horizon
+  if (!(v_hi > 0)) return;  // no ground below the horizon
   for (int k = 0; k < 2; ++k) {
     LampShadowMap& m = maps[k];
     m.xl = b.xl[k];
@@ -1412,6 +1446,29 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       }
     }
   }
+  made = true;
+}
+
+GroundShadowMaps::GroundShadowMaps(int width, int height, const CameraGeometry& g, const ImageU16& labels,
+                                   const ImageF& depth_m, const ScenePreset& p, const LabelRuns* runs)
+    : impl_(std::make_unique<Impl>(width, height, g, labels, depth_m, p, runs)) {}
+GroundShadowMaps::~GroundShadowMaps() = default;
+
+BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) const {
+  const Impl& gm = *impl_;
+  BeamShadowStats st;
+  if (!gm.b.ok) return st;
+  const int W = gm.W, H = gm.H;
+  if (beam_lux.width() != W || beam_lux.height() != H || (lanes && (lanes->width() != W || lanes->height() != H)))
+    fail("low beam shadows: the beam, labels, depth and lanes differ in size");
+  if (!gm.made) return st;
+  const BeamF& b = gm.b;
+  const ImageU16& labels = gm.labels;
+  const std::vector<double>& xn = gm.xn;
+  const std::vector<Impl::Row>& rows = gm.rows;
+  const std::array<LampShadowMap, 2>& maps = gm.maps;
+  const double cell = gm.cell;
+  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
   // The lit ground pixels (as low_beam_illuminance evaluates them: ground classes and lane
   // markings) beyond a solid point of their cell (by the margin above) lose that lamp's share:
   // the other lamp's E alone (beam_lux_f's sum less the shaded term, the same bits as that lamp's
@@ -1438,7 +1495,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     std::vector<std::pair<int, int>> spans[2];
 #pragma omp for schedule(static, 8)
     for (int y = 0; y < H; ++y) {
-      const Row r = rows[y];
+      const Impl::Row r = rows[y];
       if (!(r.D > 0)) continue;
       const float Df = static_cast<float>(r.D), D2 = Df * Df, invD = 1.f / Df, v = b.hl * invD;
       const float D_near = b.hl / (v + cellf);  // the ground one cell nearer: a solid point must be nearer still
@@ -1526,6 +1583,12 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   st.one_lamp[1] = n1;
   st.both = n2;
   return st;
+}
+
+BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
+                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
+                                           const LabelRuns* runs) {
+  return GroundShadowMaps(beam_lux.width(), beam_lux.height(), g, labels, depth_m, p, runs).shade(beam_lux, lanes);
 }
 
 float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset& p) {

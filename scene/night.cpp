@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <optional>
 #include <vector>
 #include <omp.h>
 #if defined(__x86_64__)
@@ -100,11 +101,12 @@ ImageU8 lanes_at_frame(const ImageU8& lanes_work, const ImageU16& labels) {
 }
 
 // Runs `first` on the calling thread and `second` on a second thread where `threads` is 2 (one
-// OpenMP team of two: thread 0 is the caller), else one after the other; an exception from
-// either is rethrown here. The caller's thread takes the half that allocates the images kept
-// after it: glibc gives each thread its own arena, and memory freed in the second thread's is not
-// reused by the caller's, so the large buffers stay in the main arena (the peak of
-// Memory.Night2048x1024StaysUnderTheDocumentedPeak).
+// OpenMP team of two: thread 0 is the caller), else one after the other, as where the team asked
+// for has one thread (OMP_THREAD_LIMIT=1, or OMP_DYNAMIC under load: the caller then runs both);
+// an exception from either is rethrown here. The caller's thread takes the half that allocates
+// the images kept after it: glibc gives each thread its own arena, and memory freed in the second
+// thread's is not reused by the caller's, so the large buffers stay in the main arena (the peak
+// of Memory.Night2048x1024StaysUnderTheDocumentedPeak).
 template <class First, class Second>
 void side_by_side(int threads, const First& first, const Second& second) {
   if (threads < 2) {
@@ -118,7 +120,7 @@ void side_by_side(int threads, const First& first, const Second& second) {
     const int i = omp_get_thread_num();
     try {
       if (i == 0) first();
-      else second();
+      if (i == 1 || omp_get_num_threads() == 1) second();
     } catch (...) {
       failed[i] = std::current_exception();
     }
@@ -175,7 +177,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // the plan itself needs the camera geometry, in the depth stage), and the light map's vehicle
   // rows (vehicle_rows_part: the rows holding vehicle labels or instance ids; a small struct, the
   // vehicles' images are added beside Hough on this thread). Thread CPU times on the bench frame
-  // (twenty-second session): Canny 0.83 ms, the runs and poles 0.43, the vehicle rows 0.43. At 1
+  // (twenty-second session): Canny 0.83 ms, the runs and poles 0.43, the vehicle rows 0.43; in the
+  // twenty-seventh, two runs of 9 chains: Canny 0.55-1.19 ms (medians 0.76 and 1.17), the other
+  // half 0.87-0.94 (the runs 0.32, the poles 0.11, the vehicle rows 0.45). At 1
   // thread both in turn (this lap then holds their time, no longer "depth" and "lights").
   std::shared_ptr<const PoleComponents> poles;
   std::shared_ptr<const LabelRuns> label_row_runs;
@@ -198,7 +202,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // (add_vehicle_parts: labels, instance ids and the day image only; the light map, much later,
   // takes them): nothing else can start before the vanishing point, which needs the lines. Thread
   // CPU times on the bench frame: Hough 2.05 ms; beside it 0.92 ms, then the vehicles' components
-  // and boxes 0.64 and cues 0.42. The vehicle analysis's red lens cue (0.9 ms with its road grey)
+  // and boxes 0.64 and cues 0.42 (twenty-seventh session, medians of 9 chains: this half 1.83-1.89
+  // ms in all, Hough 2.13-2.15). The vehicle analysis's red lens cue (0.9 ms with its road grey)
   // and its states (they need the geometry) stay in the light map: with the lens cue this half
   // outlasts Hough by more than it saves there (docs/benchmarks.md, "Night chain, twenty-second
   // session: the vehicle analysis beside the Hough transform"). At 1 thread both in turn (this
@@ -233,34 +238,57 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
   // The depth stage's two independent halves side by side, one per thread where there are two:
   // the façade planes (fitted once: depth, windows and the street light on façades read them), the
-  // metric depth, whose per-component fits and stack sweep are serial, and the street-lamp plan
+  // metric depth, whose per-component fits and stack sweep are serial, the street-lamp plan
   // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
-  // tracks it; its poles made beside the edges, above); and the ego low beam; then the coarse
-  // depth's rows, shared between them. Each half's loops run on its own thread then (nested
-  // regions get one thread: OpenMP's default), and every function gives the same result for any
-  // thread count, so the same bits. Split so (with the labels-only parts beside Hough and Canny,
-  // above), each side-by-side section's two halves took about the same thread CPU at 2 threads
-  // (docs/benchmarks.md, 2026-11-28, seventh session).
+  // tracks it; its poles made beside the edges, above), then the low beam's shadow maps of the
+  // vertical surfaces (BeamVerticalRows' set-up) and of the ground (GroundShadowMaps), which read
+  // only the labels and the metric depth; and the tram rails' markings (below). Then both halves
+  // share the rows of the ego low beam's image and of the coarse depth. Each half's loops run on
+  // its own thread (nested regions get one thread: OpenMP's default), and every function gives
+  // the same result for any thread count, so the same bits. Thread CPU times on the bench frame
+  // (twenty-seventh session): façades 0.69 ms, depth 1.84, plan 0.09, the two shadow maps' fills
+  // with their set-up ~1.2 (at 2 threads, after this stage, they had been 0.35 and 0.40 ms of
+  // wall time with merges and block minima on one thread); the rails 0.14; the low beam's rows
+  // 3.1 and the coarse depth's 0.4 (docs/benchmarks.md, "Twenty-seventh session").
   BuildingFacades facades;
   StreetLighting planned;
-  // The coarse depth's rows (0.4 ms of work at 1 thread) go to whichever half is free first, in
-  // chunks of 32 rows from a shared counter: each row is written by the same function whichever
-  // thread takes it, so the same bits. (At 1 thread the first half makes them all.)
+  // The shared rows go to whichever half is free first, in chunks of 32 rows from a counter per
+  // image: each row is written by the same function whichever thread takes it, so the same bits.
+  // The low beam's rows read the frame-size lane mask, which the rails' half may remake: they are
+  // taken only once it is final (rails_done; at 1 thread the first half then makes the coarse
+  // depth's rows alone, the second every low beam row).
   s.beam_input = ImageF(W, H, 1, uninitialized, unit::dimensionless);
+  s.beam_lux = ImageF(W, H, 1, uninitialized);
   const CoarseDepthRows coarse(W, H, vp.x, vp.y);
-  std::atomic<int> coarse_next{0};
-  auto coarse_rows = [&] {
+  std::optional<LowBeamRows> beam_rows;  // made on the rails' half, before rails_done
+  std::atomic<int> coarse_next{0}, beam_next{0};
+  std::atomic<bool> rails_done{false};
+  auto take_rows = [H](std::atomic<int>& next, const auto& row) {
     constexpr int kRows = 32;
-    for (int y0; (y0 = coarse_next.fetch_add(kRows)) < H;)
-      for (int y = y0; y < std::min(H, y0 + kRows); ++y) coarse.row(s.beam_input, y);
+    for (int y0; (y0 = next.fetch_add(kRows)) < H;)
+      for (int y = y0; y < std::min(H, y0 + kRows); ++y) row(y);
   };
+  auto shared_rows = [&] {
+    if (rails_done.load(std::memory_order_acquire))
+      take_rows(beam_next, [&](int y) { beam_rows->row(s.beam_lux, y); });
+    take_rows(coarse_next, [&](int y) { coarse.row(s.beam_input, y); });
+  };
+  // The low beam on vertical surfaces (cars, people, walls, crowns ahead; it needs the metric depth
+  // and the façade planes) is written into the beam image row by row in the light map's row pass
+  // (below); its set-up, the vertical surfaces' shadow maps, is made here. The ground's shadows
+  // (ego_beam.shadows) are taken off the beam image once it is whole, after this stage.
+  std::optional<BeamVerticalRows> beam_vertical;
+  std::optional<GroundShadowMaps> ground_shadows;
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
         planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
-        coarse_rows();
+        beam_vertical.emplace(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p, p.beam_shadows);
+        if (p.beam_shadows) ground_shadows.emplace(W, H, s.geometry, labels.ids, s.depth, p, label_row_runs.get());
+        shared_rows();
+        shared_rows();  // (the low beam's rows, where the rails were not yet done the first time)
       },
       [&] {
         // Tram rails that the lane stage took for markings (drop_tram_rails: they led the
@@ -274,15 +302,15 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
           lanes_full = lanes_at_frame(s.lanes_work, labels.ids);
           texture_under_rails(texture, labels.ids, lanes_at_frame(rails, labels.ids), s.geometry);
         }
-        s.beam_lux = low_beam_illuminance(s.geometry, W, H, p, &labels.ids, &lanes_full);
-        coarse_rows();
+        beam_rows.emplace(s.geometry, W, H, p, &labels.ids, &lanes_full);
+        rails_done.store(true, std::memory_order_release);
+        shared_rows();
       });
   // The low beam's shadows on the ground (the depth and the beam image both made now): each lamp's
   // share leaves the ground pixels that a solid object hides from it.
   // (ego_beam.shadows = false: none, on the ground or on vertical surfaces.)
-  if (p.beam_shadows)
-    s.beam_shadow = shade_low_beam_ground_with(s.beam_lux, s.geometry, labels.ids, s.depth, &lanes_full, p,
-                                               label_row_runs.get());
+  if (ground_shadows) s.beam_shadow = ground_shadows->shade(s.beam_lux, &lanes_full);
+  ground_shadows.reset();
   depth_runs.reset();
   regions.reset();
   label_row_runs.reset();
@@ -297,19 +325,18 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // once its light is final (LightMap::composed: the same bits as compose() after it, without a
   // pass of its own over four full-frame images); the stage is then timed as one,
   // "lights+compose". With a tail (the device's compose) the light map alone, then the tail.
-  // The low beam on vertical surfaces (cars, people, walls, crowns ahead; it needs the metric depth
-  // and the façade planes) into the beam image: each row inside the light map's row pass just
-  // before the row is composed, while its labels and depth are in cache; where the light map does
-  // not compose (a device tail), over the frame before the tail.
-  const BeamVerticalRows beam_vertical(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p, p.beam_shadows);
+  // The low beam on vertical surfaces into the beam image (its set-up made in the depth stage):
+  // each row inside the light map's row pass just before the row is composed, while its labels and
+  // depth are in cache; where the light map does not compose (a device tail), over the frame
+  // before the tail.
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
-                               vehicles.get(), &beam_vertical);
+                               vehicles.get(), &*beam_vertical);
   vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;
   if (!lm.composed.empty()) {
-    s.beam_shadow_vertical = beam_vertical.shadow_stats();  // its rows ran in the row pass
+    s.beam_shadow_vertical = beam_vertical->shadow_stats();  // its rows ran in the row pass
     s.radiance = std::move(lm.composed);
     s.lights = std::move(lm.radiance);
     s.glare_level1 = std::move(lm.glare_level1);
@@ -317,8 +344,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     return s;
   }
 #pragma omp parallel for schedule(static, 8)
-  for (int y = 0; y < H; ++y) beam_vertical.row(y);
-  s.beam_shadow_vertical = beam_vertical.shadow_stats();
+  for (int y = 0; y < H; ++y) beam_vertical->row(y);
+  s.beam_shadow_vertical = beam_vertical->shadow_stats();
   lap("lights");
   if (tail) {
     PixelTail t = tail(texture, lm.radiance, labels.ids, s.beam_lux, p, keep_darkened);

@@ -70,6 +70,23 @@ std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids);
 BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
                                            const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
                                            const LabelRuns* runs);
+// shade_low_beam_ground_with in its two steps (scene/lights.cpp): the constructor makes each
+// lamp's shadow map of the solid points (labels and metric depth only, of a width x height frame;
+// nothing of the beam image), shade() then takes the lamps' shares off the beam image's lit
+// ground pixels in those maps' shadows: the same image and counts as shade_low_beam_ground_with
+// (which is these two steps), at any thread count. night_scene makes the maps in its depth stage,
+// beside the low beam's rows, and shades once the beam image is whole.
+class GroundShadowMaps {
+ public:
+  GroundShadowMaps(int width, int height, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
+                   const ScenePreset& p, const LabelRuns* runs);
+  ~GroundShadowMaps();
+  BeamShadowStats shade(ImageF& beam_lux, const ImageU8* lanes) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 struct MetricDepthRuns;
 std::shared_ptr<const MetricDepthRuns> metric_depth_runs(const LabelMap& labels, const LabelRuns* runs = nullptr);
 ImageF metric_depth_with(const LabelMap& labels, const CameraGeometry& g, double max_depth_m,
@@ -153,6 +170,22 @@ struct CoarseDepthRows {
  private:
   std::vector<double> txs;
   double vy_, top, bottom;
+};
+// low_beam_illuminance row by row (scene/lights.cpp): its set-up once (the beam's table, the
+// columns' x_n), then any row y of a width x height image `E` written by row(E, y), the same values
+// as low_beam_illuminance's (which is these rows over the frame), from any thread. The labels and
+// lanes are read when a row is made (night_scene's depth halves share the rows, once the tram
+// rails' lane mask is final).
+class LowBeamRows {
+ public:
+  LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels,
+              const ImageU8* lanes);
+  ~LowBeamRows();
+  void row(ImageF& E, int y) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 // The widest instruction set low_beam_illuminance's rows may take (scene/lights.cpp): 2 AVX-512,
 // 1 AVX2, 0 the scalar loop (default 2; the machine's support and PHOTOSITE_SCALAR_LIGHTS cap

@@ -357,3 +357,42 @@ TEST(SceneNightCli, LightMapFastPathsEqualScalarAtOneAndTwoThreads) {
     EXPECT_EQ(ref.attributes.at("photosite/night/lights_windows"), other.attributes.at("photosite/night/lights_windows"));
   }
 }
+
+// The chain's two-thread sections (night_scene's side_by_side pairs: edges, lines, depth) ask
+// OpenMP for a team of two; where the team has one thread (OMP_THREAD_LIMIT=1 with
+// OMP_NUM_THREADS=2, or OMP_DYNAMIC under load) its caller must run both halves. `night` on a
+// shared Cityscapes frame (its instance ids too) so: every channel of every layer and every header
+// attribute but the time of writing the same as at OMP_NUM_THREADS=1. (Before the caller ran both,
+// the second half never ran there and the run crashed.)
+TEST(SceneNightCli, AOneThreadTeamRunsBothHalvesOfEachPair) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const fs::path dir = test::shared_dir() / "data/cityscapes";
+  const std::string base = "aachen_000000_000019";
+  test::TempDir tmp;
+  auto run = [&](const std::string& name, const char* threads, const char* limit) {
+    setenv("OMP_NUM_THREADS", threads, 1);
+    if (limit) setenv("OMP_THREAD_LIMIT", limit, 1);
+    const auto r = test::run_cli("night --backend cpu --compression none --image '" +
+                                 (dir / "leftImg8bit" / (base + "_leftImg8bit.png")).string() + "' --labels '" +
+                                 (dir / "gtFine" / (base + "_gtFine_labelIds.png")).string() + "' --instances '" +
+                                 (dir / "gtFine" / (base + "_gtFine_instanceIds.png")).string() + "' --out '" +
+                                 tmp.file(name) + "' --device-store '" + tmp.file("store") + "'");
+    unsetenv("OMP_THREAD_LIMIT");
+    unsetenv("OMP_NUM_THREADS");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return r.exit_code == 0 ? read_exr(tmp.file(name)) : ExrContents{};
+  };
+  const ExrContents one = run("one.exr", "1", nullptr);
+  const ExrContents limited = run("limited.exr", "2", "1");
+  ASSERT_GT(one.channels.size(), 10u);
+  ASSERT_EQ(limited.channels.size(), one.channels.size());
+  for (const auto& [ch, a] : one.channels) {
+    const ImageF& b = limited.channels.at(ch);
+    ASSERT_EQ(a.size(), b.size()) << ch;
+    EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float))) << ch;
+  }
+  std::map<std::string, std::string> x = one.attributes, y = limited.attributes;
+  x.erase("DateTime");
+  y.erase("DateTime");
+  EXPECT_EQ(x, y);
+}

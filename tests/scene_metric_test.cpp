@@ -4034,3 +4034,46 @@ TEST(EgoLowBeamShadow, SwitchedOffTheChainLightsAsIfNothingStoodBetween) {
   EXPECT_EQ(std::get<int>(a_on.at("photosite/scene/ego_beam.shadows")), 1);
   EXPECT_EQ(std::get<int>(a_off.at("photosite/scene/ego_beam.shadows")), 0);
 }
+
+// night_scene makes both kinds of the low beam's shadow maps inside its depth stage, on the first
+// of its two threads (GroundShadowMaps, BeamVerticalRows' set-up: their fills then run in a nested
+// region, of one thread), shares the low beam's rows between its two halves, and shades the ground
+// after the stage. On the vertical shadows' street (ground and vertical pixels in each lamp's
+// shadow), at 1 and 2 threads: the chain's beam image (the vertical surfaces' rows run in the light
+// map's row pass) and its three shadow counts of each kind are the stage functions called one after
+// the other at 1 thread on the chain's own geometry, depth and lane mask, bit for bit, and the night
+// radiance is the same at both thread counts.
+TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
+  const SyntheticCameraOptions o = beam_shadow_vertical_street();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  ASSERT_TRUE(p.beam_shadows);
+  const int before = omp_get_max_threads();
+  ImageF radiance[2];
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const NightScene ns = night_scene(s.day_linear_srgb, s.labels, p, 1);
+    radiance[threads - 1] = ns.radiance;
+    omp_set_num_threads(1);
+    const CameraGeometry& g = ns.geometry;
+    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, s.labels.ids);
+    const BuildingFacades fac = building_facades(s.labels.ids, g, p.max_depth_m);
+    ImageF beam = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids, &lanes);
+    const BeamShadowStats ground = shade_low_beam_ground(beam, g, s.labels.ids, ns.depth, &lanes, p);
+    const BeamVerticalRows rows(beam, g, s.labels.ids, ns.depth, &fac, p, true);
+    for (int y = 0; y < o.height; ++y) rows.row(y);
+    const BeamShadowStats vertical = rows.shadow_stats();
+    omp_set_num_threads(before);
+    EXPECT_GT(ground.one_lamp[0] + ground.one_lamp[1] + ground.both, 100) << "the street shades the ground";
+    EXPECT_GT(vertical.one_lamp[0] + vertical.one_lamp[1] + vertical.both, 100) << "and vertical surfaces";
+    EXPECT_EQ(ns.beam_lux.vec(), beam.vec()) << threads << " threads";
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_EQ(ns.beam_shadow.one_lamp[k], ground.one_lamp[k]) << threads << " threads, lamp " << k;
+      EXPECT_EQ(ns.beam_shadow_vertical.one_lamp[k], vertical.one_lamp[k]) << threads << " threads, lamp " << k;
+    }
+    EXPECT_EQ(ns.beam_shadow.both, ground.both) << threads << " threads";
+    EXPECT_EQ(ns.beam_shadow_vertical.both, vertical.both) << threads << " threads";
+  }
+  EXPECT_EQ(radiance[0].vec(), radiance[1].vec()) << "the night radiance at 1 and 2 threads";
+}
