@@ -1214,11 +1214,20 @@ __attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, 
 __attribute__((target("avx512f"))) inline __m512i columns16(int x) {
   return _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
 }
-// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX-512 twin
-// tests sixteen at a time (out needs room for 16 past the count).
+// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX2 twin
+// tests eight at a time, the AVX-512 twin sixteen (out needs room for 16 past the count).
 int positive_columns(const float* e, int x0, int x1, int* out) {
   int n = 0;
   for (int x = x0; x < x1; ++x)
+    if (e[x] > 0) out[n++] = x;
+  return n;
+}
+__attribute__((target("avx2"))) int positive_columns_avx2(const float* e, int x0, int x1, int* out) {
+  int n = 0, x = x0;
+  for (; x + 8 <= x1; x += 8)
+    for (unsigned m = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(e + x), _mm256_setzero_ps(), _CMP_GT_OQ))); m; m &= m - 1)
+      out[n++] = x + __builtin_ctz(m);
+  for (; x < x1; ++x)
     if (e[x] > 0) out[n++] = x;
   return n;
 }
@@ -1313,6 +1322,96 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void place_row_avx
       }
   }
 }
+// place_row_avx512's operations on eight lanes (AVX2: a Zen 3 or an older Intel, or
+// PHOTOSITE_MAX_ISA=avx2), lane masks as all-ones lanes; the last columns (under eight) by masked
+// loads of z and x_n and the labels copied with the lanes beyond the row of no class. The same
+// tests on each lane, the same points placed (a lane leaving its cell's least D to its right
+// neighbour as there): the same maps.
+template <bool kGround>
+__attribute__((target("avx2"))) void place_row_avx2(const uint16_t* id, const float* z, const float* xn, int W,
+                                                    uint64_t solid, float kD, float kY, float h, const BeamF& b,
+                                                    std::array<LampShadowMap, 2>& mt) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(solid & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(solid >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32), lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7);  // lane i: lane i + 1's (the last: its own)
+  const __m256 zero = _mm256_setzero_ps(), zinf = _mm256_set1_ps(kDepthInfinity_m), vkD = _mm256_set1_ps(kD),
+               vkY = _mm256_set1_ps(kY), vh = _mm256_set1_ps(h), vhl = _mm256_set1_ps(b.hl), fone = _mm256_set1_ps(1.f),
+               sign = _mm256_set1_ps(-0.f), tv2 = _mm256_set1_ps(b.tvmax2);
+  const bool t_pos = b.tvmax >= 0;
+  alignas(32) int32_t iv[2][8], iu[2][8];
+  alignas(32) float Ds[8];
+  for (int x = 0; x < W; x += 8) {
+    const bool full = W - x >= 8;
+    const __m256i lanes = _mm256_cmpgt_epi32(_mm256_set1_epi32(W - x), lane);
+    __m256i k;
+    if (full) {
+      k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    } else {
+      alignas(16) uint16_t t[8] = {0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff};  // of no class
+      std::copy_n(id + x, W - x, t);
+      k = _mm256_cvtepu16_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(t)));
+    }
+    // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    __m256 m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 zz = full ? _mm256_loadu_ps(z + x) : _mm256_maskload_ps(z + x, lanes);
+    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(zz, zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, zinf, _CMP_LT_OQ)));
+    const __m256 D = _mm256_mul_ps(zz, vkD), Y = _mm256_sub_ps(vh, _mm256_mul_ps(zz, vkY));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
+    // The ground's dv = h_l − Y > 0 (v = dv/D), the vertical surfaces' dy = Y − h_l (v = −dy/D).
+    const __m256 dv = kGround ? _mm256_sub_ps(vhl, Y) : _mm256_xor_ps(_mm256_sub_ps(Y, vhl), sign);
+    if (kGround) m = _mm256_and_ps(m, _mm256_cmp_ps(dv, zero, _CMP_GT_OQ));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 invD = _mm256_div_ps(fone, D),
+                 X = _mm256_mul_ps(zz, full ? _mm256_loadu_ps(xn + x) : _mm256_maskload_ps(xn + x, lanes));
+    const __m256 v = _mm256_mul_ps(dv, invD);
+    unsigned put[2];
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = mt[l];
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(mp.xl));
+      const __m256 cu = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(dx, invD), _mm256_set1_ps(mp.u_lo)),
+                                      _mm256_set1_ps(mp.inv_cell));
+      const __m256 cv = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(mp.v_lo)), _mm256_set1_ps(mp.inv_cell));
+      __m256 pm = _mm256_and_ps(
+          _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(cu, zero, _CMP_GE_OQ),
+                                         _mm256_cmp_ps(cu, _mm256_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ))),
+          _mm256_and_ps(_mm256_cmp_ps(cv, zero, _CMP_GE_OQ),
+                        _mm256_cmp_ps(cv, _mm256_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ)));
+      if (!kGround && _mm256_movemask_ps(pm)) {
+        // beam_above_top(dy, dx² + D², b), as place_row_avx512.
+        const __m256 dy = _mm256_xor_ps(dv, sign), q = _mm256_mul_ps(dy, dy);
+        const __m256 r = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(D, D)), tv2);
+        const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ);
+        const __m256 top = t_pos ? _mm256_and_ps(dy_pos, _mm256_cmp_ps(q, r, _CMP_GT_OQ))
+                                 : _mm256_or_ps(dy_pos, _mm256_cmp_ps(q, r, _CMP_LT_OQ));
+        pm = _mm256_andnot_ps(top, pm);
+      }
+      put[l] = static_cast<unsigned>(_mm256_movemask_ps(pm));
+      if (put[l]) {
+        const __m256i jv = _mm256_cvttps_epi32(cv), ju = _mm256_cvttps_epi32(cu);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iv[l]), jv);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iu[l]), ju);
+        // A lane whose right neighbour falls in the same cell with a D no larger leaves the cell's
+        // least D to it (place_row_avx512's; the last lane compares with itself and is kept).
+        const __m256i cidx = _mm256_add_epi32(_mm256_mullo_epi32(jv, _mm256_set1_epi32(mp.nu)), ju);
+        const unsigned same = static_cast<unsigned>(_mm256_movemask_ps(_mm256_and_ps(
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(cidx, _mm256_permutevar8x32_epi32(cidx, next))),
+            _mm256_cmp_ps(D, _mm256_permutevar8x32_ps(D, next), _CMP_GE_OQ))));
+        put[l] &= ~(same & (put[l] >> 1));
+      }
+    }
+    if (!(put[0] | put[1])) continue;
+    _mm256_store_ps(Ds, D);
+    for (int l = 0; l < 2; ++l)
+      for (unsigned r = put[l]; r; r &= r - 1) {
+        const int i = __builtin_ctz(r);
+        mt[l].place(iv[l][i], iu[l][i], Ds[i]);
+      }
+  }
+}
 }  // namespace
 
 BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
@@ -1366,7 +1465,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   // point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
-  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2,
+             avx2 = kHaveAvx2 && beam_isa_cap >= 1;
   fill_shadow_maps(maps, W, H, true, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
@@ -1375,6 +1475,7 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
     if (h > b.hl && !(kY > 0)) return;
     const float* z = depth_m.row(y);
     if (avx512) return place_row_avx512<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
+    if (avx2) return place_row_avx2<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
     // The row's solid columns: from the label runs where they are at hand (the chain's, made
     // beside the Hough stage), else by testing every label.
     int n = 0;
@@ -1428,7 +1529,6 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
   // A pixel in one lamp's shadow takes the other lamp's E, computed for the row's such pixels
   // together as the beam image's rows compute it (beam_row_avx512 / _avx2 with that lamp only:
   // beam_lamp_f's bits).
-  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1;
 #pragma omp parallel reduction(+ : n0, n1, n2)
   {
     std::vector<uint8_t> bits(W, 0);
@@ -1493,7 +1593,8 @@ BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometr
       for (int k = 0; k < 2; ++k) {
         int m = 0;
         for (const auto& [x0, x1] : spans[k]) {
-          const int np = (avx512 ? positive_columns_avx512 : positive_columns)(e, x0, x1, lit.data());
+          const int np = (avx512 ? positive_columns_avx512 : avx2 ? positive_columns_avx2 : positive_columns)(e, x0, x1,
+                                                                                                       lit.data());
           for (int j = 0; j < np; ++j) {
             const int x = lit[j];
             const uint8_t sb = bits[x];
@@ -2029,8 +2130,8 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     m.allocate(static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1, static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1);
   }
   // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps;
-  // sixteen columns at a time where there is AVX-512, place_row_avx512).
-  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  // sixteen columns at a time where there is AVX-512, place_row_avx512; eight with AVX2, place_row_avx2).
+  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2, avx2 = kHaveAvx2 && beam_isa_cap >= 1;
   fill_shadow_maps(vs.maps, W, H, false, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
@@ -2038,6 +2139,7 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
     const float* z = depth.row(y);
     if (avx512) return place_row_avx512<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
+    if (avx2) return place_row_avx2<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
     const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols);
     for (int j = 0; j < n; ++j) {
       const int x = cols[j];
@@ -2232,6 +2334,104 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
   }
   return n;
 }
+// The columns 0 .. 8⌊W/8⌋ − 1 of a row that shade_vertical_row's pixel() is to decide, eight at a
+// time (AVX2), in order into out; returns their count. A column is left out only where pixel()
+// would leave its e as it is: not of a lit class, e ≤ 0, no lamp whose cell holds a nearer point
+// below the top (pixel()'s own float operations), or (vertical_shadow_candidates_avx512's float
+// test of the x-neighbours' bound, on the lamps still in) every such lamp dropped by the bound
+// whichever x-neighbour pixel() takes. pixel() then decides each column left: the same pixels,
+// the same values.
+__attribute__((target("avx2"))) int vertical_shadow_candidates_avx2(const BeamVerticalCtx& c,
+                                                                    const VerticalShadowMaps& vs, const uint16_t* id,
+                                                                    const float* z, const float* e, float kD, float kY,
+                                                                    int* out) {
+  const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32);
+  const __m256 zero = _mm256_setzero_ps(), vkD = _mm256_set1_ps(kD), vkY = _mm256_set1_ps(kY), vh = _mm256_set1_ps(c.h),
+               vhl = _mm256_set1_ps(c.b.hl), fone = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f),
+               tv2 = _mm256_set1_ps(c.b.tvmax2), zinf = _mm256_set1_ps(kDepthInfinity_m);
+  const double cell = kBeamShadowCellPx / c.g.f_px;
+  // The class bits of eight labels as lane masks (0 for ids of 64 and above).
+  auto lit_class = [&](const uint16_t* p) __attribute__((target("avx2"))) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one),
+        one));
+  };
+  int n = 0;
+  for (int x = 0; x < Wv; x += 8) {
+    const __m256 m = _mm256_and_ps(lit_class(id + x), _mm256_cmp_ps(_mm256_loadu_ps(e + x), zero, _CMP_GT_OQ));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 vz = _mm256_loadu_ps(z + x), D = _mm256_mul_ps(vz, vkD), invD = _mm256_div_ps(fone, D);
+    const __m256 X = _mm256_mul_ps(vz, _mm256_loadu_ps(c.xn.data() + x));
+    const __m256 dy = _mm256_sub_ps(_mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY)), vhl);
+    const __m256 v = _mm256_mul_ps(_mm256_xor_ps(dy, sign), invD);
+    const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
+    __m256 ck[2] = {zero, zero}, dql[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = vs.maps[l];
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(mp.xl));
+      const __m256 cu = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(dx, invD), _mm256_set1_ps(mp.u_lo)),
+                                      _mm256_set1_ps(mp.inv_cell));
+      const __m256 cv = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(mp.v_lo)), _mm256_set1_ps(mp.inv_cell));
+      const __m256 in = _mm256_and_ps(
+          _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(cu, zero, _CMP_GE_OQ),
+                                         _mm256_cmp_ps(cu, _mm256_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ))),
+          _mm256_and_ps(_mm256_cmp_ps(cv, zero, _CMP_GE_OQ),
+                        _mm256_cmp_ps(cv, _mm256_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ)));
+      if (!_mm256_movemask_ps(in)) continue;
+      const __m256i i = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(cv), _mm256_set1_epi32(mp.nu)),
+                                         _mm256_cvttps_epi32(cu));
+      dql[l] = _mm256_mask_i32gather_ps(zero, mp.Dmin.get(), i, in, 4);
+      // Below the top (beam_above_top(dy, dx² + D², b) false), as pixel() asks it.
+      const __m256 r = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), D2), tv2);
+      const __m256 top = c.b.tvmax >= 0 ? _mm256_and_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_GT_OQ))
+                                        : _mm256_or_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_LT_OQ));
+      ck[l] = _mm256_andnot_ps(top, _mm256_and_ps(in, _mm256_cmp_ps(dql[l], D, _CMP_LT_OQ)));
+    }
+    __m256 cand = _mm256_or_ps(ck[0], ck[1]);
+    if (!_mm256_movemask_ps(cand)) continue;
+    // The x-neighbours' bound in float (vertical_shadow_candidates_avx512's test and its reasoning:
+    // a lamp is left out only where every lit x-neighbour's gap is at most half its bound).
+    if (x >= 1 && x + 9 <= W) {
+      const __m256 w = invD, wslack = _mm256_mul_ps(w, _mm256_set1_ps(1.f + 0x1p-16f - 0x1p-19f));
+      const __m256 Y = _mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY));
+      const __m256 c2 = _mm256_set1_ps(static_cast<float>(0.25 * 2 * cell * cell)), big = _mm256_set1_ps(0x1p100f),
+                   tiny = _mm256_set1_ps(0x1p-100f);
+      __m256 keep[2] = {zero, zero};
+      for (const int sgn : {-1, 1}) {
+        const __m256 zn = _mm256_loadu_ps(z + x + sgn), Dn = _mm256_mul_ps(zn, vkD);
+        const __m256 valid = _mm256_and_ps(
+            _mm256_and_ps(lit_class(id + x + sgn), _mm256_cmp_ps(zn, zero, _CMP_GT_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(zn, zinf, _CMP_LT_OQ), _mm256_cmp_ps(Dn, zero, _CMP_GT_OQ)));
+        const __m256 wn = _mm256_div_ps(fone, Dn), Xn = _mm256_mul_ps(zn, _mm256_loadu_ps(c.xn.data() + x + sgn));
+        const __m256 Yn = _mm256_sub_ps(vh, _mm256_mul_ps(zn, vkY));
+        const __m256 dw = _mm256_sub_ps(wn, w);
+        for (int l = 0; l < 2; ++l) {
+          const __m256 xl = _mm256_set1_ps(vs.maps[l].xl);
+          const __m256 du = _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(Xn, xl), wn), _mm256_mul_ps(_mm256_sub_ps(X, xl), w));
+          const __m256 dv = _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(vhl, Yn), wn), _mm256_mul_ps(_mm256_sub_ps(vhl, Y), w));
+          const __m256 gap = _mm256_sub_ps(_mm256_div_ps(fone, dql[l]), wslack);
+          const __m256 lhs =
+              _mm256_mul_ps(_mm256_mul_ps(gap, gap), _mm256_add_ps(_mm256_mul_ps(du, du), _mm256_mul_ps(dv, dv)));
+          const __m256 rhs = _mm256_mul_ps(c2, _mm256_mul_ps(dw, dw));
+          const __m256 odd = _mm256_or_ps(
+              _mm256_or_ps(_mm256_cmp_ps(lhs, big, _CMP_NLT_UQ), _mm256_cmp_ps(rhs, big, _CMP_NLT_UQ)),
+              _mm256_cmp_ps(lhs, tiny, _CMP_LT_OQ));
+          keep[l] = _mm256_or_ps(
+              keep[l], _mm256_and_ps(_mm256_and_ps(valid, ck[l]),
+                                     _mm256_and_ps(_mm256_cmp_ps(gap, zero, _CMP_GT_OQ),
+                                                   _mm256_or_ps(_mm256_cmp_ps(lhs, rhs, _CMP_GT_OQ), odd))));
+        }
+      }
+      cand = _mm256_or_ps(keep[0], keep[1]);
+    }
+    for (unsigned o = static_cast<unsigned>(_mm256_movemask_ps(cand)); o; o &= o - 1) out[n++] = x + __builtin_ctz(o);
+  }
+  return n;
+}
 // Up to eight candidates of shade_vertical_row (a lit pixel whose cell holds a nearer point, below
 // the top) with their neighbours, each lane as the scalar test reads them (floats), for
 // shade_decide_avx512. Neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1 (valid: of a lit class
@@ -2310,8 +2510,8 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_
 // counts[0], [1], [2] (zeroed by the caller) take the row's pixels shaded from the left lamp only, the
 // right only, both (sh − 1 for the hidden lamps' bits sh = 1, 2, 3): one add per shaded pixel.
 void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
-                        const ImageF& depth, int y, double cp, double sp, bool avx512, float* e, const float* t0,
-                        const float* t1, int* counts) {
+                        const ImageF& depth, int y, double cp, double sp, bool avx512, bool avx2, float* e,
+                        const float* t0, const float* t1, int* counts) {
   const BeamF& b = c.b;
   const CameraGeometry& g = c.g;
   const int W = labels.width(), H = labels.height();
@@ -2409,9 +2609,9 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
     e[x] = sh == 1 ? t1[x] : t0[x];
   };
   int x0 = 0;
+  thread_local std::vector<int> cols;
+  cols.resize(static_cast<size_t>(W) + 16);
   if (avx512) {
-    thread_local std::vector<int> cols;
-    cols.resize(static_cast<size_t>(W) + 16);
     // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time),
     // then decided eight at a time in vector double (shade_decide_avx512: the same lamps hidden).
     ShadeRows ry;
@@ -2456,6 +2656,12 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
       }
     }
     x0 = W & ~15;
+  } else if (avx2) {
+    // The columns pixel() may shade, eight at a time (vertical_shadow_candidates_avx2), then
+    // pixel() on each of them.
+    const int n = vertical_shadow_candidates_avx2(c, vs, id, z, e, kD, kY, cols.data());
+    for (int j = 0; j < n; ++j) pixel(cols[j]);
+    x0 = W & ~7;
   }
   for (int x = x0; x < W; ++x) pixel(x);
 }
@@ -2567,7 +2773,7 @@ void BeamVerticalRows::row(int y) const {
   beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e, t0, t1);
   if (m.shadow.ok) {
     int n[3] = {0, 0, 0};
-    shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1, n);
+    shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, m.avx2, e, t0, t1, n);
     m.shaded[static_cast<size_t>(y)] = {n[0], n[1], n[2]};
   }
 }
