@@ -2334,17 +2334,18 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
   }
   return n;
 }
-// The columns 0 .. 8⌊W/8⌋ − 1 of a row that shade_vertical_row's pixel() is to decide, eight at a
-// time (AVX2), in order into out; returns their count. A column is left out only where pixel()
-// would leave its e as it is: not of a lit class, e ≤ 0, no lamp whose cell holds a nearer point
-// below the top (pixel()'s own float operations), or (vertical_shadow_candidates_avx512's float
-// test of the x-neighbours' bound, on the lamps still in) every such lamp dropped by the bound
-// whichever x-neighbour pixel() takes. pixel() then decides each column left: the same pixels,
-// the same values.
+// vertical_shadow_candidates_avx512 on AVX2: the columns 0 .. 8⌊W/8⌋ − 1 of a row that
+// shade_vertical_row tests further, eight at a time, in order into out, with what the decision
+// reads (ShadeCands, the same values); returns their count. A column is left out only where
+// pixel() would leave its e as it is: not of a lit class, e ≤ 0, no lamp whose cell holds a nearer
+// point below the top (pixel()'s own float operations), or (the AVX-512 candidates' float test of
+// the x-neighbours' bound, on the lamps still in) every such lamp dropped by the bound whichever
+// x-neighbour pixel() takes. The candidates' values are stored lane by lane (AVX2 has no
+// compress), their neighbours (ShadeCands: 0, 1 x ∓ 1, 2, 3 rows y ∓ 1) read one by one.
 __attribute__((target("avx2"))) int vertical_shadow_candidates_avx2(const BeamVerticalCtx& c,
                                                                     const VerticalShadowMaps& vs, const uint16_t* id,
                                                                     const float* z, const float* e, float kD, float kY,
-                                                                    int* out) {
+                                                                    int* out, const ShadeRows& ry, ShadeCands& sc) {
   const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
                 mhi = _mm256_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm256_set1_epi32(1),
@@ -2428,7 +2429,35 @@ __attribute__((target("avx2"))) int vertical_shadow_candidates_avx2(const BeamVe
       }
       cand = _mm256_or_ps(keep[0], keep[1]);
     }
-    for (unsigned o = static_cast<unsigned>(_mm256_movemask_ps(cand)); o; o &= o - 1) out[n++] = x + __builtin_ctz(o);
+    unsigned o = static_cast<unsigned>(_mm256_movemask_ps(cand));
+    if (!o) continue;
+    alignas(32) float vD[8], vX[8], vY[8], vq[2][8];
+    _mm256_store_ps(vD, D), _mm256_store_ps(vX, X), _mm256_store_ps(vY, _mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY)));
+    _mm256_store_ps(vq[0], dql[0]), _mm256_store_ps(vq[1], dql[1]);
+    const unsigned ck0 = static_cast<unsigned>(_mm256_movemask_ps(ck[0])), ck1 = static_cast<unsigned>(_mm256_movemask_ps(ck[1]));
+    for (; o; o &= o - 1) {
+      const int i = __builtin_ctz(o), xi = x + i;
+      out[n] = xi;
+      sc.D[n] = vD[i], sc.X[n] = vX[i], sc.Y[n] = vY[i], sc.Dq[0][n] = vq[0][i], sc.Dq[1][n] = vq[1][i];
+      sc.cand[n] = static_cast<int32_t>((ck0 >> i & 1) | (ck1 >> i & 1) << 1);
+      int32_t vb = 0;
+      for (int j = 0; j < 4; ++j) {
+        // The neighbour: x ∓ 1 on this row, x on rows y ∓ 1 (valid: inside the frame, of a lit
+        // class, 0 < z < kDepthInfinity_m, D > 0; else D 1, X and Y 0, as the AVX-512 candidates').
+        const int xx = j == 0 ? xi - 1 : j == 1 ? xi + 1 : xi;
+        const uint16_t* idr = j < 2 ? id : ry.id[j - 2];
+        const float* zr = j < 2 ? z : ry.z[j - 2];
+        const float kDr = j < 2 ? kD : ry.kD[j - 2], kYr = j < 2 ? kY : ry.kY[j - 2];
+        bool valid = idr && xx >= 0 && xx < W && idr[xx] < 64 && (c.classes >> idr[xx] & 1);
+        const float zn = valid ? zr[xx] : 0.f, Dn = zn * kDr;
+        valid = valid && zn > 0 && zn < kDepthInfinity_m && Dn > 0;
+        sc.nD[j][n] = valid ? Dn : 1.f;
+        sc.nX[j][n] = valid ? zn * c.xn[xx] : 0.f;
+        sc.nY[j][n] = valid ? c.h - zn * kYr : 0.f;
+        vb |= static_cast<int32_t>(valid) << j;
+      }
+      sc.valid[n++] = vb;
+    }
   }
   return n;
 }
@@ -2505,6 +2534,79 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_
         _mm512_add_pd(_mm512_mul_pd(s2c, _mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(gu, gu), _mm512_mul_pd(gv, gv)))), wsl);
     sh[k] = cand[k] & have[1] & _mm512_cmp_pd_mask(abs_pd(det), zero, _CMP_GT_OQ) &
             _mm512_cmp_pd_mask(iq, _mm512_add_pd(w, margin), _CMP_GT_OQ);
+  }
+}
+// shade_decide_avx512 on AVX2: its operations per lane in the same order, in two halves of four
+// doubles (lanes h .. h + 3 of t), the lane masks as all-ones lanes; returns each lamp's bits of
+// hidden lanes (bit l: lane l). So the same lamps hidden as shade_decide_avx512 and pixel().
+// Four floats widened to double.
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline __m256d ld4(const float* f) {
+  return _mm256_cvtps_pd(_mm_load_ps(f));
+}
+__attribute__((target("avx2"))) void shade_decide_avx2(const ShadeBatch& t, const BeamF& b, double cell,
+                                                       unsigned sh[2]) {
+  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd(), slack = _mm256_set1_pd(0x1p-16),
+                hl = _mm256_set1_pd(static_cast<double>(b.hl)), c2 = _mm256_set1_pd(2 * cell * cell),
+                s2c = _mm256_set1_pd(std::sqrt(2.0) * cell), absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(INT64_MAX));
+  const __m256i lane_bit = _mm256_setr_epi64x(1, 2, 4, 8);
+  // Bits h .. h + 3 of `bits` as lanes.
+  auto lanes = [&](unsigned bits, int h) __attribute__((target("avx2"))) {
+    return _mm256_castsi256_pd(
+        _mm256_cmpeq_epi64(_mm256_and_si256(_mm256_set1_epi64x(bits >> h), lane_bit), lane_bit));
+  };
+  sh[0] = sh[1] = 0;
+  for (int h = 0; h < 8; h += 4) {
+    const __m256d X = ld4(t.X + h), w = _mm256_div_pd(one, ld4(t.D + h));
+    // (b.hl − Y) in float, as the scalar test's.
+    const __m256d hlY = _mm256_cvtps_pd(_mm_sub_ps(_mm_set1_ps(b.hl), _mm_load_ps(t.Y + h)));
+    __m256d nX[2], nY[2], nw[2], have[2];
+    for (int a = 0; a < 2; ++a) {
+      have[a] = nX[a] = nY[a] = nw[a] = zero;
+      for (int s = 0; s < 2; ++s) {
+        const int j = 2 * a + s;
+        const __m256d wn = _mm256_div_pd(one, ld4(t.nD[j] + h)), valid = lanes(t.valid[j], h);
+        const __m256d take = _mm256_and_pd(
+            valid, _mm256_or_pd(_mm256_xor_pd(have[a], _mm256_castsi256_pd(_mm256_set1_epi64x(-1))),
+                                _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(wn, w), absmask),
+                                              _mm256_and_pd(_mm256_sub_pd(nw[a], w), absmask), _CMP_LT_OQ)));
+        nX[a] = _mm256_blendv_pd(nX[a], ld4(t.nX[j] + h), take);
+        nY[a] = _mm256_blendv_pd(nY[a], ld4(t.nY[j] + h), take);
+        nw[a] = _mm256_blendv_pd(nw[a], wn, take);
+        have[a] = _mm256_or_pd(have[a], valid);
+      }
+    }
+    const __m256d wsl = _mm256_mul_pd(w, slack);
+    for (int k = 0; k < 2; ++k) {
+      const __m256d xl = _mm256_set1_pd(static_cast<double>(b.xl[k]));
+      const __m256d iq = _mm256_div_pd(one, ld4(t.Dq[k] + h));
+      // The x-neighbour's bound.
+      const __m256d du = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(nX[0], xl), nw[0]), _mm256_mul_pd(_mm256_sub_pd(X, xl), w));
+      const __m256d dv = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(hl, nY[0]), nw[0]), _mm256_mul_pd(hlY, w));
+      const __m256d dw = _mm256_sub_pd(nw[0], w), gap = _mm256_sub_pd(_mm256_sub_pd(iq, w), wsl);
+      const __m256d lhs = _mm256_mul_pd(_mm256_mul_pd(gap, gap), _mm256_add_pd(_mm256_mul_pd(du, du), _mm256_mul_pd(dv, dv)));
+      const __m256d rhs = _mm256_mul_pd(_mm256_mul_pd(c2, dw), dw);
+      const __m256d cand = _mm256_and_pd(
+          _mm256_and_pd(lanes(t.cand[k], h), have[0]),
+          _mm256_and_pd(_mm256_cmp_pd(gap, zero, _CMP_GT_OQ), _mm256_cmp_pd(lhs, rhs, _CMP_NLE_UQ)));
+      // The plane's gradient from both neighbours.
+      const __m256d u0 = _mm256_mul_pd(_mm256_sub_pd(X, xl), w), v0 = _mm256_mul_pd(hlY, w);
+      __m256d Du[2], Dv[2], Dw[2];
+      for (int a = 0; a < 2; ++a) {
+        Du[a] = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(nX[a], xl), nw[a]), u0);
+        Dv[a] = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(hl, nY[a]), nw[a]), v0);
+        Dw[a] = _mm256_sub_pd(nw[a], w);
+      }
+      const __m256d det = _mm256_sub_pd(_mm256_mul_pd(Du[0], Dv[1]), _mm256_mul_pd(Dv[0], Du[1]));
+      const __m256d gu = _mm256_div_pd(_mm256_sub_pd(_mm256_mul_pd(Dw[0], Dv[1]), _mm256_mul_pd(Dv[0], Dw[1])), det);
+      const __m256d gv = _mm256_div_pd(_mm256_sub_pd(_mm256_mul_pd(Du[0], Dw[1]), _mm256_mul_pd(Dw[0], Du[1])), det);
+      const __m256d margin =
+          _mm256_add_pd(_mm256_mul_pd(s2c, _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(gu, gu), _mm256_mul_pd(gv, gv)))), wsl);
+      const __m256d hid = _mm256_and_pd(
+          _mm256_and_pd(cand, have[1]),
+          _mm256_and_pd(_mm256_cmp_pd(_mm256_and_pd(det, absmask), zero, _CMP_GT_OQ),
+                        _mm256_cmp_pd(iq, _mm256_add_pd(w, margin), _CMP_GT_OQ)));
+      sh[k] |= static_cast<unsigned>(_mm256_movemask_pd(hid)) << h;
+    }
   }
 }
 // counts[0], [1], [2] (zeroed by the caller) take the row's pixels shaded from the left lamp only, the
@@ -2609,11 +2711,12 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
     e[x] = sh == 1 ? t1[x] : t0[x];
   };
   int x0 = 0;
-  thread_local std::vector<int> cols;
-  cols.resize(static_cast<size_t>(W) + 16);
-  if (avx512) {
-    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time),
-    // then decided eight at a time in vector double (shade_decide_avx512: the same lamps hidden).
+  if (avx512 || avx2) {
+    thread_local std::vector<int> cols;
+    cols.resize(static_cast<size_t>(W) + 16);
+    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time,
+    // or eight with AVX2), then decided eight at a time in vector double (shade_decide_avx512, or
+    // shade_decide_avx2 in halves of four: the same lamps hidden).
     ShadeRows ry;
     for (int s = 0; s < 2; ++s) {
       const int yy = y + (s == 0 ? -1 : 1);
@@ -2623,7 +2726,8 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
     }
     thread_local ShadeCands sc;
     sc.resize(static_cast<size_t>(W) + 16);
-    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
+    const int n = avx512 ? vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc)
+                         : vertical_shadow_candidates_avx2(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
     ShadeBatch t;
     for (int j0 = 0; j0 < n; j0 += 8) {
       const int m = std::min(8, n - j0);
@@ -2646,8 +2750,14 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
           t.valid[j] |= static_cast<uint8_t>((sc.valid[i] >> j & 1) << l);
         }
       }
-      __mmask8 sh[2];
-      shade_decide_avx512(t, b, cell, sh);
+      unsigned sh[2];
+      if (avx512) {
+        __mmask8 s8[2];
+        shade_decide_avx512(t, b, cell, s8);
+        sh[0] = s8[0], sh[1] = s8[1];
+      } else {
+        shade_decide_avx2(t, b, cell, sh);
+      }
       for (int l = 0; l < m; ++l) {
         const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
         if (!s) continue;
@@ -2655,13 +2765,7 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
         e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
       }
     }
-    x0 = W & ~15;
-  } else if (avx2) {
-    // The columns pixel() may shade, eight at a time (vertical_shadow_candidates_avx2), then
-    // pixel() on each of them.
-    const int n = vertical_shadow_candidates_avx2(c, vs, id, z, e, kD, kY, cols.data());
-    for (int j = 0; j < n; ++j) pixel(cols[j]);
-    x0 = W & ~7;
+    x0 = avx512 ? W & ~15 : W & ~7;
   }
   for (int x = x0; x < W; ++x) pixel(x);
 }
