@@ -516,7 +516,9 @@ namespace {
 // decoded by core/png_codec.cpp: 1.2x to 2.6x less CPU than OpenImageIO's libpng reader and
 // float conversion (`photosite bench batch`, docs/cli.md "PNG input and output"). Anything else
 // (another format, a PNG the decoder does not take, a damaged file) returns nullopt and goes
-// through OpenImageIO, which also words the errors.
+// through read_raster (above): each format's own library, libspng for any other PNG, which also
+// words the errors. (OpenImageIO is not linked into the library; where these comments say "as
+// OpenImageIO", they name the conversions the readers keep from it, which the tests check.)
 std::optional<png::Decoded> read_plain_png(const std::string& path, ImageFileInfo* info) {
   const fs::path p(path);
   const std::string ext = lower_extension(path);

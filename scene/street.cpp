@@ -1044,44 +1044,90 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 }
 
 namespace {
-// The lamp heads in the frame: discs of the head's diameter at its projected size, only over their
-// footprint, at the luminance the luminaire's own intensity distribution sends toward the camera:
-// L = I0·rel(γ) / (π d²/4), γ the angle from the nadir of the lamp-to-camera direction, so the
-// flux per steradian reaching the lens is I(γ), the distribution that lights the pools (as the
-// vehicle lamps are drawn at I/A). A cut-off luminaire seen in the frame is beyond its cut-off;
-// its peak luminance I0/A (4e4 cd/m² for night-urban) is seen only from below.
+// The lamp heads in the frame, at the luminance the luminaire's own intensity distribution sends
+// toward the camera, only over their footprint.
+//
+// The emitting face is the luminaire's flat, horizontal bottom (a full cut-off head with a flat
+// glass: the photometry the pools use, lamp_relative_intensity, is a cut-off one): a disc of
+// street_lamps.head_diameter_m facing the nadir. Seen from the camera along a direction at γ from
+// the nadir (the lamp-to-camera direction), its projected area is A·cos γ, so its luminance is
+// L = I0·rel(γ) / (A·cos γ) and the flux per steradian toward the lens is the luminaire's I(γ),
+// the distribution that lights the pools (as the vehicle lamps are drawn at I/A). A lamp seen in
+// the frame is beyond its cut-off (γ ≳ 77° for a 10 m mount and a ±12.7° vertical field): the face
+// is seen nearly edge-on, a thin ellipse cos γ ≈ 0.1-0.3 of its width high, 3-10 times the
+// luminance of a face seen head-on. (Until the twenty-seventh session the head was a disc facing
+// the camera, L = I/A: the same flux over 3-10 times the pixels.)
+//
+// Its image is the disc through the projection's Jacobian at the head's centre (the affine
+// approximation of the pinhole, exact to first order in d/z): with (X, Y, D) the centre in road
+// coordinates and z its depth (CameraGeometry::project), u = cx + f·X/z and v = cy + f·y_c/z give
+//   J = ∂(u, v)/∂(X, D) = [[f/z, −f·X·cos θ/z²], [0, f·(Y − h)/z²]]
+// (θ the pitch, h the camera height; ∂v/∂D = −f·(h − Y)/z² since sin θ·z + cos θ·y_c = h − Y), and
+// the disc {(X, D) + w : |w| ≤ d/2} maps to the ellipse {J·w}: S = (d/2)²·J·Jᵀ, inside where
+// Δᵀ·S⁻¹·Δ ≤ 1. Its area π·(d/2)²·|det J| in pixels, each of solid angle cos³(off-axis)/f², is
+// A·cos γ/dist²: the flux above, to the same first order. An ellipse narrower than 0.5 px along an
+// axis is drawn 0.5 px wide there with its luminance lowered in proportion, so that a far head
+// still sends I(γ) (before, a disc's radius was raised to 0.5 px at I/A: more flux than the lamp's).
 struct HeadDisc {
-  double u, v, r, z;
+  double u, v, z;
+  double q11, q12, q22;  // S⁻¹ of the drawn ellipse (pixels⁻²)
   std::array<double, 3> head;
   int y0, y1, x0, x1;  // the rows and columns of its bounding box inside the frame
 };
 std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p, int W,
                                       int H) {
   const auto head1 = spectrum::blackbody_rgb(p.streetlamp_cct_K, 1.0);
-  const double head_area_m2 = M_PI * 0.25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m;
+  const double rho = 0.5 * p.lamp_head_diameter_m, head_area_m2 = M_PI * rho * rho;
+  const double cos_pitch = std::cos(g.pitch_rad);
   std::vector<HeadDisc> out;
   for (const auto& l : s.lamps) {
     double u, v, z;
     if (!g.project(l.X_m, l.Y_m, l.D_m, &u, &v, &z)) continue;
-    const double gamma = std::atan2(std::hypot(l.X_m, l.D_m), l.Y_m - g.mount_height_m);
-    const double Lh = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / head_area_m2;
-    const double r = std::max(0.5, 0.5 * g.f_px * p.lamp_head_diameter_m / z);
-    if (u + r < 0 || u - r >= W || v + r < 0 || v - r >= H) continue;
-    out.push_back({u, v, r, z, {head1[0] * Lh, head1[1] * Lh, head1[2] * Lh},
-                   std::max(0, static_cast<int>(std::floor(v - r))), std::min(H - 1, static_cast<int>(std::ceil(v + r))),
-                   std::max(0, static_cast<int>(std::floor(u - r))), std::min(W - 1, static_cast<int>(std::ceil(u + r)))});
+    const double rise = l.Y_m - g.mount_height_m;  // the face looks down: seen only from below it
+    if (!(rise > 0)) continue;
+    const double dist = std::sqrt(l.X_m * l.X_m + l.D_m * l.D_m + rise * rise);
+    const double cos_gamma = rise / dist, gamma = std::atan2(std::hypot(l.X_m, l.D_m), rise);
+    const double j11 = g.f_px / z, j12 = -g.f_px * l.X_m * cos_pitch / (z * z), j22 = g.f_px * rise / (z * z);
+    // S = ρ²·J·Jᵀ (J's lower-left entry is 0), its eigenvalues (squared semi-axes) and those raised
+    // to 0.5² px² where smaller.
+    const double s11 = rho * rho * (j11 * j11 + j12 * j12), s12 = rho * rho * j12 * j22, s22 = rho * rho * j22 * j22;
+    const double mean = 0.5 * (s11 + s22), dev = std::hypot(0.5 * (s11 - s22), s12);
+    const double l1 = mean + dev, l2 = std::max(0.0, mean - dev);
+    const double m1 = std::max(l1, 0.25), m2 = std::max(l2, 0.25);
+    // The drawn S: the same axes, raised eigenvalues (S' = S + (m1 − l1)·e1e1ᵀ + (m2 − l2)·e2e2ᵀ).
+    double e1x = 1, e1y = 0;  // e1, the major axis (any axis where S is a multiple of the identity)
+    if (dev > 0) {
+      e1x = s12, e1y = l1 - s11;
+      if (std::abs(e1x) + std::abs(e1y) < 1e-12 * (std::abs(l1) + 1)) e1x = l1 - s22, e1y = s12;
+      const double n = std::hypot(e1x, e1y);
+      e1x /= n, e1y /= n;
+    }
+    const double t11 = m1 * e1x * e1x + m2 * e1y * e1y, t12 = (m1 - m2) * e1x * e1y,
+                 t22 = m1 * e1y * e1y + m2 * e1x * e1x;
+    const double det = t11 * t22 - t12 * t12;
+    // The luminance, lowered by the true area over the drawn one where an axis was raised.
+    const double Lh = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / (head_area_m2 * cos_gamma) *
+                      std::sqrt(l1 * l2 / (m1 * m2));
+    const double hx = std::sqrt(t11), hy = std::sqrt(t22);  // the box's half-width and half-height
+    if (u + hx < 0 || u - hx >= W || v + hy < 0 || v - hy >= H) continue;
+    out.push_back({u, v, z, t22 / det, -t12 / det, t11 / det, {head1[0] * Lh, head1[1] * Lh, head1[2] * Lh},
+                   std::max(0, static_cast<int>(std::floor(v - hy))), std::min(H - 1, static_cast<int>(std::ceil(v + hy))),
+                   std::max(0, static_cast<int>(std::floor(u - hx))), std::min(W - 1, static_cast<int>(std::ceil(u + hx)))});
   }
   return out;
 }
-// Disc d's pixels in row y (inside its box rows) as a maximum over L, where no depth is given or
+// Head d's pixels in row y (inside its box rows) as a maximum over L, where no depth is given or
 // the pixel's depth is not in front of the head by more than 1 m; whether any was drawn.
 bool draw_head_row(ImageF& L, const HeadDisc& d, int y, const ImageF* depth_m) {
   bool any = false;
-  for (int x = d.x0; x <= d.x1; ++x)
-    if ((x - d.u) * (x - d.u) + (y - d.v) * (y - d.v) <= d.r * d.r && (!depth_m || depth_m->at(x, y) >= d.z - 1.0)) {
+  const double dy = y - d.v;
+  for (int x = d.x0; x <= d.x1; ++x) {
+    const double dx = x - d.u;
+    if (d.q11 * dx * dx + 2 * d.q12 * dx * dy + d.q22 * dy * dy <= 1 && (!depth_m || depth_m->at(x, y) >= d.z - 1.0)) {
       for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(d.head[k]));
       any = true;
     }
+  }
   return any;
 }
 int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
