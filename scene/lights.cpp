@@ -1238,11 +1238,20 @@ __attribute__((target("avx512f"))) inline void compress_store_epi32(int32_t* p, 
 __attribute__((target("avx512f"))) inline __m512i columns16(int x) {
   return _mm512_add_epi32(_mm512_set1_epi32(x), _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
 }
-// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX-512 twin
-// tests sixteen at a time (out needs room for 16 past the count).
+// The columns x0 .. x1 − 1 whose e > 0, in order, into out; returns their count. The AVX2 twin
+// tests eight at a time, the AVX-512 twin sixteen (out needs room for 16 past the count).
 int positive_columns(const float* e, int x0, int x1, int* out) {
   int n = 0;
   for (int x = x0; x < x1; ++x)
+    if (e[x] > 0) out[n++] = x;
+  return n;
+}
+__attribute__((target("avx2"))) int positive_columns_avx2(const float* e, int x0, int x1, int* out) {
+  int n = 0, x = x0;
+  for (; x + 8 <= x1; x += 8)
+    for (unsigned m = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(e + x), _mm256_setzero_ps(), _CMP_GT_OQ))); m; m &= m - 1)
+      out[n++] = x + __builtin_ctz(m);
+  for (; x < x1; ++x)
     if (e[x] > 0) out[n++] = x;
   return n;
 }
@@ -1337,6 +1346,96 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void place_row_avx
       }
   }
 }
+// place_row_avx512's operations on eight lanes (AVX2: a Zen 3 or an older Intel, or
+// PHOTOSITE_MAX_ISA=avx2), lane masks as all-ones lanes; the last columns (under eight) by masked
+// loads of z and x_n and the labels copied with the lanes beyond the row of no class. The same
+// tests on each lane, the same points placed (a lane leaving its cell's least D to its right
+// neighbour as there): the same maps.
+template <bool kGround>
+__attribute__((target("avx2"))) void place_row_avx2(const uint16_t* id, const float* z, const float* xn, int W,
+                                                    uint64_t solid, float kD, float kY, float h, const BeamF& b,
+                                                    std::array<LampShadowMap, 2>& mt) {
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(solid & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(solid >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32), lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 7);  // lane i: lane i + 1's (the last: its own)
+  const __m256 zero = _mm256_setzero_ps(), zinf = _mm256_set1_ps(kDepthInfinity_m), vkD = _mm256_set1_ps(kD),
+               vkY = _mm256_set1_ps(kY), vh = _mm256_set1_ps(h), vhl = _mm256_set1_ps(b.hl), fone = _mm256_set1_ps(1.f),
+               sign = _mm256_set1_ps(-0.f), tv2 = _mm256_set1_ps(b.tvmax2);
+  const bool t_pos = b.tvmax >= 0;
+  alignas(32) int32_t iv[2][8], iu[2][8];
+  alignas(32) float Ds[8];
+  for (int x = 0; x < W; x += 8) {
+    const bool full = W - x >= 8;
+    const __m256i lanes = _mm256_cmpgt_epi32(_mm256_set1_epi32(W - x), lane);
+    __m256i k;
+    if (full) {
+      k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    } else {
+      alignas(16) uint16_t t[8] = {0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff, 0xffff};  // of no class
+      std::copy_n(id + x, W - x, t);
+      k = _mm256_cvtepu16_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(t)));
+    }
+    // The class bit (0 for ids of 64 and above: both shifts by 32 or more give 0).
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one);
+    __m256 m = _mm256_castsi256_ps(_mm256_cmpeq_epi32(bit, one));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 zz = full ? _mm256_loadu_ps(z + x) : _mm256_maskload_ps(z + x, lanes);
+    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(zz, zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, zinf, _CMP_LT_OQ)));
+    const __m256 D = _mm256_mul_ps(zz, vkD), Y = _mm256_sub_ps(vh, _mm256_mul_ps(zz, vkY));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
+    // The ground's dv = h_l − Y > 0 (v = dv/D), the vertical surfaces' dy = Y − h_l (v = −dy/D).
+    const __m256 dv = kGround ? _mm256_sub_ps(vhl, Y) : _mm256_xor_ps(_mm256_sub_ps(Y, vhl), sign);
+    if (kGround) m = _mm256_and_ps(m, _mm256_cmp_ps(dv, zero, _CMP_GT_OQ));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 invD = _mm256_div_ps(fone, D),
+                 X = _mm256_mul_ps(zz, full ? _mm256_loadu_ps(xn + x) : _mm256_maskload_ps(xn + x, lanes));
+    const __m256 v = _mm256_mul_ps(dv, invD);
+    unsigned put[2];
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = mt[l];
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(mp.xl));
+      const __m256 cu = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(dx, invD), _mm256_set1_ps(mp.u_lo)),
+                                      _mm256_set1_ps(mp.inv_cell));
+      const __m256 cv = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(mp.v_lo)), _mm256_set1_ps(mp.inv_cell));
+      __m256 pm = _mm256_and_ps(
+          _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(cu, zero, _CMP_GE_OQ),
+                                         _mm256_cmp_ps(cu, _mm256_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ))),
+          _mm256_and_ps(_mm256_cmp_ps(cv, zero, _CMP_GE_OQ),
+                        _mm256_cmp_ps(cv, _mm256_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ)));
+      if (!kGround && _mm256_movemask_ps(pm)) {
+        // beam_above_top(dy, dx² + D², b), as place_row_avx512.
+        const __m256 dy = _mm256_xor_ps(dv, sign), q = _mm256_mul_ps(dy, dy);
+        const __m256 r = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(D, D)), tv2);
+        const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ);
+        const __m256 top = t_pos ? _mm256_and_ps(dy_pos, _mm256_cmp_ps(q, r, _CMP_GT_OQ))
+                                 : _mm256_or_ps(dy_pos, _mm256_cmp_ps(q, r, _CMP_LT_OQ));
+        pm = _mm256_andnot_ps(top, pm);
+      }
+      put[l] = static_cast<unsigned>(_mm256_movemask_ps(pm));
+      if (put[l]) {
+        const __m256i jv = _mm256_cvttps_epi32(cv), ju = _mm256_cvttps_epi32(cu);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iv[l]), jv);
+        _mm256_store_si256(reinterpret_cast<__m256i*>(iu[l]), ju);
+        // A lane whose right neighbour falls in the same cell with a D no larger leaves the cell's
+        // least D to it (place_row_avx512's; the last lane compares with itself and is kept).
+        const __m256i cidx = _mm256_add_epi32(_mm256_mullo_epi32(jv, _mm256_set1_epi32(mp.nu)), ju);
+        const unsigned same = static_cast<unsigned>(_mm256_movemask_ps(_mm256_and_ps(
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(cidx, _mm256_permutevar8x32_epi32(cidx, next))),
+            _mm256_cmp_ps(D, _mm256_permutevar8x32_ps(D, next), _CMP_GE_OQ))));
+        put[l] &= ~(same & (put[l] >> 1));
+      }
+    }
+    if (!(put[0] | put[1])) continue;
+    _mm256_store_ps(Ds, D);
+    for (int l = 0; l < 2; ++l)
+      for (unsigned r = put[l]; r; r &= r - 1) {
+        const int i = __builtin_ctz(r);
+        mt[l].place(iv[l][i], iu[l][i], Ds[i]);
+      }
+  }
+}
 }  // namespace
 
 BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
@@ -1400,7 +1499,8 @@ GroundShadowMaps::Impl::Impl(int width, int height, const CameraGeometry& g, con
   // point's X = z·x_n, D = z·kD, Y = h − z·kY (the camera model's, as the vertical surfaces' rows).
   const uint64_t solid = label_bits(beam_vertical_classes());
   const float h = static_cast<float>(g.mount_height_m);
-  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  const bool with_runs = runs && runs->made_of(labels), avx512 = kHaveAvx512 && beam_isa_cap >= 2,
+             avx2 = kHaveAvx2 && beam_isa_cap >= 1;
   fill_shadow_maps(maps, W, H, true, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     const float kD = static_cast<float>(c - yn * s), kY = static_cast<float>(s + yn * c);
@@ -1409,6 +1509,7 @@ GroundShadowMaps::Impl::Impl(int width, int height, const CameraGeometry& g, con
     if (h > b.hl && !(kY > 0)) return;
     const float* z = depth_m.row(y);
     if (avx512) return place_row_avx512<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
+    if (avx2) return place_row_avx2<true>(labels.row(y), z, xnf.data(), W, solid, kD, kY, h, b, mt);
     // The row's solid columns: from the label runs where they are at hand (the chain's, made
     // beside the Hough stage), else by testing every label.
     int n = 0;
@@ -1485,7 +1586,6 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
   // A pixel in one lamp's shadow takes the other lamp's E, computed for the row's such pixels
   // together as the beam image's rows compute it (beam_row_avx512 / _avx2 with that lamp only:
   // beam_lamp_f's bits).
-  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1;
 #pragma omp parallel reduction(+ : n0, n1, n2)
   {
     std::vector<uint8_t> bits(W, 0);
@@ -1550,7 +1650,8 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
       for (int k = 0; k < 2; ++k) {
         int m = 0;
         for (const auto& [x0, x1] : spans[k]) {
-          const int np = (avx512 ? positive_columns_avx512 : positive_columns)(e, x0, x1, lit.data());
+          const int np = (avx512 ? positive_columns_avx512 : avx2 ? positive_columns_avx2 : positive_columns)(e, x0, x1,
+                                                                                                       lit.data());
           for (int j = 0; j < np; ++j) {
             const int x = lit[j];
             const uint8_t sb = bits[x];
@@ -1888,6 +1989,13 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
   const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
   return _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
 }
+// The lanes of v where `mask` (all-ones lanes) into p[0 .. 7], the others as they were: what
+// _mm256_maskstore_ps does, as a load, a blend and a plain store (the masked store is slow on AMD's
+// cores: on this Zen 4 host a fifth of beam_vertical_row_avx2's samples fell at its three masked
+// stores). p's floats are the caller's row's, which no other thread writes meanwhile.
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline void store_lanes8(float* p, __m256 mask, __m256 v) {
+  _mm256_storeu_ps(p, _mm256_blendv_ps(_mm256_loadu_ps(p), v, mask));
+}
 // beam_vertical_row_scalar eight pixels at a time (AVX2), over the columns 0 .. 8⌊W/8⌋ − 1
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
 // gathers. The same operations per lane: the same bits as the scalar rows (the lamps' terms into
@@ -1923,7 +2031,7 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     const __m256 Hc = _mm256_mul_ps(vz, vkY), Y = _mm256_sub_ps(vh, Hc);
     m = _mm256_and_ps(m, _mm256_cmp_ps(D, zero, _CMP_GT_OQ));
     if (!any(m)) {
-      _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), zero);
+      store_lanes8(e + x, cls, zero);
       continue;
     }
     const __m256 crown = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, veg)));
@@ -2008,10 +2116,10 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       El[l] = _mm256_and_ps(lit, el);
       E = _mm256_add_ps(E, El[l]);
     }
-    _mm256_maskstore_ps(e + x, _mm256_castps_si256(cls), E);  // (E is +0.0 on the lanes not lit)
+    store_lanes8(e + x, cls, E);  // (E is +0.0 on the lanes not lit)
     if (t0) {
-      _mm256_maskstore_ps(t0 + x, _mm256_castps_si256(m), El[0]);
-      _mm256_maskstore_ps(t1 + x, _mm256_castps_si256(m), El[1]);
+      store_lanes8(t0 + x, m, El[0]);
+      store_lanes8(t1 + x, m, El[1]);
     }
   }
   _mm256_zeroupper();
@@ -2092,8 +2200,8 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     m.allocate(static_cast<int>(std::ceil((u_hi - u_lo) / cell)) + 1, static_cast<int>(std::ceil((v_hi - v_lo) / cell)) + 1);
   }
   // Every solid point (the rule's own X, Y, D), both lamps' maps in one pass (fill_shadow_maps;
-  // sixteen columns at a time where there is AVX-512, place_row_avx512).
-  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  // sixteen columns at a time where there is AVX-512, place_row_avx512; eight with AVX2, place_row_avx2).
+  const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2, avx2 = kHaveAvx2 && beam_isa_cap >= 1;
   fill_shadow_maps(vs.maps, W, H, false, [&](int y, std::array<LampShadowMap, 2>& mt, int* cols) {
     const double yn = (y - g.cy_px) / g.f_px;
     // v = (h_l − h)/D + H/D < H/D when the camera is above the lamps: none in the maps here.
@@ -2101,6 +2209,7 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     const float kD = static_cast<float>(cp - yn * sp), kY = static_cast<float>(sp + yn * cp);
     const float* z = depth.row(y);
     if (avx512) return place_row_avx512<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
+    if (avx2) return place_row_avx2<false>(labels.row(y), z, c.xn.data(), W, c.classes, kD, kY, c.h, b, mt);
     const int n = (kHaveAvx2 ? solid_columns_avx2 : solid_columns)(labels.row(y), W, c.classes, cols);
     for (int j = 0; j < n; ++j) {
       const int x = cols[j];
@@ -2295,6 +2404,133 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) int vertical_shado
   }
   return n;
 }
+// vertical_shadow_candidates_avx512 on AVX2: the columns 0 .. 8⌊W/8⌋ − 1 of a row that
+// shade_vertical_row tests further, eight at a time, in order into out, with what the decision
+// reads (ShadeCands, the same values); returns their count. A column is left out only where
+// pixel() would leave its e as it is: not of a lit class, e ≤ 0, no lamp whose cell holds a nearer
+// point below the top (pixel()'s own float operations), or (the AVX-512 candidates' float test of
+// the x-neighbours' bound, on the lamps still in) every such lamp dropped by the bound whichever
+// x-neighbour pixel() takes. The candidates' values are stored lane by lane (AVX2 has no
+// compress), their neighbours (ShadeCands: 0, 1 x ∓ 1, 2, 3 rows y ∓ 1) read one by one.
+__attribute__((target("avx2"))) int vertical_shadow_candidates_avx2(const BeamVerticalCtx& c,
+                                                                    const VerticalShadowMaps& vs, const uint16_t* id,
+                                                                    const float* z, const float* e, float kD, float kY,
+                                                                    int* out, const ShadeRows& ry, ShadeCands& sc) {
+  const int W = static_cast<int>(c.xn.size()), Wv = W & ~7;
+  const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(c.classes & 0xffffffffu)),
+                mhi = _mm256_set1_epi32(static_cast<int32_t>(c.classes >> 32)), one = _mm256_set1_epi32(1),
+                k32 = _mm256_set1_epi32(32);
+  const __m256 zero = _mm256_setzero_ps(), vkD = _mm256_set1_ps(kD), vkY = _mm256_set1_ps(kY), vh = _mm256_set1_ps(c.h),
+               vhl = _mm256_set1_ps(c.b.hl), fone = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f),
+               tv2 = _mm256_set1_ps(c.b.tvmax2), zinf = _mm256_set1_ps(kDepthInfinity_m);
+  const double cell = kBeamShadowCellPx / c.g.f_px;
+  // The class bits of eight labels as lane masks (0 for ids of 64 and above).
+  auto lit_class = [&](const uint16_t* p) __attribute__((target("avx2"))) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+    return _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), one),
+        one));
+  };
+  int n = 0;
+  for (int x = 0; x < Wv; x += 8) {
+    const __m256 m = _mm256_and_ps(lit_class(id + x), _mm256_cmp_ps(_mm256_loadu_ps(e + x), zero, _CMP_GT_OQ));
+    if (!_mm256_movemask_ps(m)) continue;
+    const __m256 vz = _mm256_loadu_ps(z + x), D = _mm256_mul_ps(vz, vkD), invD = _mm256_div_ps(fone, D);
+    const __m256 X = _mm256_mul_ps(vz, _mm256_loadu_ps(c.xn.data() + x));
+    const __m256 dy = _mm256_sub_ps(_mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY)), vhl);
+    const __m256 v = _mm256_mul_ps(_mm256_xor_ps(dy, sign), invD);
+    const __m256 dy_pos = _mm256_cmp_ps(dy, zero, _CMP_GT_OQ), dy2 = _mm256_mul_ps(dy, dy), D2 = _mm256_mul_ps(D, D);
+    __m256 ck[2] = {zero, zero}, dql[2] = {zero, zero};
+    for (int l = 0; l < 2; ++l) {
+      const LampShadowMap& mp = vs.maps[l];
+      const __m256 dx = _mm256_sub_ps(X, _mm256_set1_ps(mp.xl));
+      const __m256 cu = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(dx, invD), _mm256_set1_ps(mp.u_lo)),
+                                      _mm256_set1_ps(mp.inv_cell));
+      const __m256 cv = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(mp.v_lo)), _mm256_set1_ps(mp.inv_cell));
+      const __m256 in = _mm256_and_ps(
+          _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(cu, zero, _CMP_GE_OQ),
+                                         _mm256_cmp_ps(cu, _mm256_set1_ps(static_cast<float>(mp.nu)), _CMP_LT_OQ))),
+          _mm256_and_ps(_mm256_cmp_ps(cv, zero, _CMP_GE_OQ),
+                        _mm256_cmp_ps(cv, _mm256_set1_ps(static_cast<float>(mp.nv)), _CMP_LT_OQ)));
+      if (!_mm256_movemask_ps(in)) continue;
+      const __m256i i = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(cv), _mm256_set1_epi32(mp.nu)),
+                                         _mm256_cvttps_epi32(cu));
+      dql[l] = _mm256_mask_i32gather_ps(zero, mp.Dmin.get(), i, in, 4);
+      // Below the top (beam_above_top(dy, dx² + D², b) false), as pixel() asks it.
+      const __m256 r = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), D2), tv2);
+      const __m256 top = c.b.tvmax >= 0 ? _mm256_and_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_GT_OQ))
+                                        : _mm256_or_ps(dy_pos, _mm256_cmp_ps(dy2, r, _CMP_LT_OQ));
+      ck[l] = _mm256_andnot_ps(top, _mm256_and_ps(in, _mm256_cmp_ps(dql[l], D, _CMP_LT_OQ)));
+    }
+    __m256 cand = _mm256_or_ps(ck[0], ck[1]);
+    if (!_mm256_movemask_ps(cand)) continue;
+    // The x-neighbours' bound in float (vertical_shadow_candidates_avx512's test and its reasoning:
+    // a lamp is left out only where every lit x-neighbour's gap is at most half its bound).
+    if (x >= 1 && x + 9 <= W) {
+      const __m256 w = invD, wslack = _mm256_mul_ps(w, _mm256_set1_ps(1.f + 0x1p-16f - 0x1p-19f));
+      const __m256 Y = _mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY));
+      const __m256 c2 = _mm256_set1_ps(static_cast<float>(0.25 * 2 * cell * cell)), big = _mm256_set1_ps(0x1p100f),
+                   tiny = _mm256_set1_ps(0x1p-100f);
+      __m256 keep[2] = {zero, zero};
+      for (const int sgn : {-1, 1}) {
+        const __m256 zn = _mm256_loadu_ps(z + x + sgn), Dn = _mm256_mul_ps(zn, vkD);
+        const __m256 valid = _mm256_and_ps(
+            _mm256_and_ps(lit_class(id + x + sgn), _mm256_cmp_ps(zn, zero, _CMP_GT_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(zn, zinf, _CMP_LT_OQ), _mm256_cmp_ps(Dn, zero, _CMP_GT_OQ)));
+        const __m256 wn = _mm256_div_ps(fone, Dn), Xn = _mm256_mul_ps(zn, _mm256_loadu_ps(c.xn.data() + x + sgn));
+        const __m256 Yn = _mm256_sub_ps(vh, _mm256_mul_ps(zn, vkY));
+        const __m256 dw = _mm256_sub_ps(wn, w);
+        for (int l = 0; l < 2; ++l) {
+          const __m256 xl = _mm256_set1_ps(vs.maps[l].xl);
+          const __m256 du = _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(Xn, xl), wn), _mm256_mul_ps(_mm256_sub_ps(X, xl), w));
+          const __m256 dv = _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(vhl, Yn), wn), _mm256_mul_ps(_mm256_sub_ps(vhl, Y), w));
+          const __m256 gap = _mm256_sub_ps(_mm256_div_ps(fone, dql[l]), wslack);
+          const __m256 lhs =
+              _mm256_mul_ps(_mm256_mul_ps(gap, gap), _mm256_add_ps(_mm256_mul_ps(du, du), _mm256_mul_ps(dv, dv)));
+          const __m256 rhs = _mm256_mul_ps(c2, _mm256_mul_ps(dw, dw));
+          const __m256 odd = _mm256_or_ps(
+              _mm256_or_ps(_mm256_cmp_ps(lhs, big, _CMP_NLT_UQ), _mm256_cmp_ps(rhs, big, _CMP_NLT_UQ)),
+              _mm256_cmp_ps(lhs, tiny, _CMP_LT_OQ));
+          keep[l] = _mm256_or_ps(
+              keep[l], _mm256_and_ps(_mm256_and_ps(valid, ck[l]),
+                                     _mm256_and_ps(_mm256_cmp_ps(gap, zero, _CMP_GT_OQ),
+                                                   _mm256_or_ps(_mm256_cmp_ps(lhs, rhs, _CMP_GT_OQ), odd))));
+        }
+      }
+      cand = _mm256_or_ps(keep[0], keep[1]);
+    }
+    unsigned o = static_cast<unsigned>(_mm256_movemask_ps(cand));
+    if (!o) continue;
+    alignas(32) float vD[8], vX[8], vY[8], vq[2][8];
+    _mm256_store_ps(vD, D), _mm256_store_ps(vX, X), _mm256_store_ps(vY, _mm256_sub_ps(vh, _mm256_mul_ps(vz, vkY)));
+    _mm256_store_ps(vq[0], dql[0]), _mm256_store_ps(vq[1], dql[1]);
+    const unsigned ck0 = static_cast<unsigned>(_mm256_movemask_ps(ck[0])), ck1 = static_cast<unsigned>(_mm256_movemask_ps(ck[1]));
+    for (; o; o &= o - 1) {
+      const int i = __builtin_ctz(o), xi = x + i;
+      out[n] = xi;
+      sc.D[n] = vD[i], sc.X[n] = vX[i], sc.Y[n] = vY[i], sc.Dq[0][n] = vq[0][i], sc.Dq[1][n] = vq[1][i];
+      sc.cand[n] = static_cast<int32_t>((ck0 >> i & 1) | (ck1 >> i & 1) << 1);
+      int32_t vb = 0;
+      for (int j = 0; j < 4; ++j) {
+        // The neighbour: x ∓ 1 on this row, x on rows y ∓ 1 (valid: inside the frame, of a lit
+        // class, 0 < z < kDepthInfinity_m, D > 0; else D 1, X and Y 0, as the AVX-512 candidates').
+        const int xx = j == 0 ? xi - 1 : j == 1 ? xi + 1 : xi;
+        const uint16_t* idr = j < 2 ? id : ry.id[j - 2];
+        const float* zr = j < 2 ? z : ry.z[j - 2];
+        const float kDr = j < 2 ? kD : ry.kD[j - 2], kYr = j < 2 ? kY : ry.kY[j - 2];
+        bool valid = idr && xx >= 0 && xx < W && idr[xx] < 64 && (c.classes >> idr[xx] & 1);
+        const float zn = valid ? zr[xx] : 0.f, Dn = zn * kDr;
+        valid = valid && zn > 0 && zn < kDepthInfinity_m && Dn > 0;
+        sc.nD[j][n] = valid ? Dn : 1.f;
+        sc.nX[j][n] = valid ? zn * c.xn[xx] : 0.f;
+        sc.nY[j][n] = valid ? c.h - zn * kYr : 0.f;
+        vb |= static_cast<int32_t>(valid) << j;
+      }
+      sc.valid[n++] = vb;
+    }
+  }
+  return n;
+}
 // Up to eight candidates of shade_vertical_row (a lit pixel whose cell holds a nearer point, below
 // the top) with their neighbours, each lane as the scalar test reads them (floats), for
 // shade_decide_avx512. Neighbours 0, 1: x − 1, x + 1; 2, 3: y − 1, y + 1 (valid: of a lit class
@@ -2370,11 +2606,84 @@ __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq"))) void shade_decide_
             _mm512_cmp_pd_mask(iq, _mm512_add_pd(w, margin), _CMP_GT_OQ);
   }
 }
+// shade_decide_avx512 on AVX2: its operations per lane in the same order, in two halves of four
+// doubles (lanes h .. h + 3 of t), the lane masks as all-ones lanes; returns each lamp's bits of
+// hidden lanes (bit l: lane l). So the same lamps hidden as shade_decide_avx512 and pixel().
+// Four floats widened to double.
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline __m256d ld4(const float* f) {
+  return _mm256_cvtps_pd(_mm_load_ps(f));
+}
+__attribute__((target("avx2"))) void shade_decide_avx2(const ShadeBatch& t, const BeamF& b, double cell,
+                                                       unsigned sh[2]) {
+  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd(), slack = _mm256_set1_pd(0x1p-16),
+                hl = _mm256_set1_pd(static_cast<double>(b.hl)), c2 = _mm256_set1_pd(2 * cell * cell),
+                s2c = _mm256_set1_pd(std::sqrt(2.0) * cell), absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(INT64_MAX));
+  const __m256i lane_bit = _mm256_setr_epi64x(1, 2, 4, 8);
+  // Bits h .. h + 3 of `bits` as lanes.
+  auto lanes = [&](unsigned bits, int h) __attribute__((target("avx2"))) {
+    return _mm256_castsi256_pd(
+        _mm256_cmpeq_epi64(_mm256_and_si256(_mm256_set1_epi64x(bits >> h), lane_bit), lane_bit));
+  };
+  sh[0] = sh[1] = 0;
+  for (int h = 0; h < 8; h += 4) {
+    const __m256d X = ld4(t.X + h), w = _mm256_div_pd(one, ld4(t.D + h));
+    // (b.hl − Y) in float, as the scalar test's.
+    const __m256d hlY = _mm256_cvtps_pd(_mm_sub_ps(_mm_set1_ps(b.hl), _mm_load_ps(t.Y + h)));
+    __m256d nX[2], nY[2], nw[2], have[2];
+    for (int a = 0; a < 2; ++a) {
+      have[a] = nX[a] = nY[a] = nw[a] = zero;
+      for (int s = 0; s < 2; ++s) {
+        const int j = 2 * a + s;
+        const __m256d wn = _mm256_div_pd(one, ld4(t.nD[j] + h)), valid = lanes(t.valid[j], h);
+        const __m256d take = _mm256_and_pd(
+            valid, _mm256_or_pd(_mm256_xor_pd(have[a], _mm256_castsi256_pd(_mm256_set1_epi64x(-1))),
+                                _mm256_cmp_pd(_mm256_and_pd(_mm256_sub_pd(wn, w), absmask),
+                                              _mm256_and_pd(_mm256_sub_pd(nw[a], w), absmask), _CMP_LT_OQ)));
+        nX[a] = _mm256_blendv_pd(nX[a], ld4(t.nX[j] + h), take);
+        nY[a] = _mm256_blendv_pd(nY[a], ld4(t.nY[j] + h), take);
+        nw[a] = _mm256_blendv_pd(nw[a], wn, take);
+        have[a] = _mm256_or_pd(have[a], valid);
+      }
+    }
+    const __m256d wsl = _mm256_mul_pd(w, slack);
+    for (int k = 0; k < 2; ++k) {
+      const __m256d xl = _mm256_set1_pd(static_cast<double>(b.xl[k]));
+      const __m256d iq = _mm256_div_pd(one, ld4(t.Dq[k] + h));
+      // The x-neighbour's bound.
+      const __m256d du = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(nX[0], xl), nw[0]), _mm256_mul_pd(_mm256_sub_pd(X, xl), w));
+      const __m256d dv = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(hl, nY[0]), nw[0]), _mm256_mul_pd(hlY, w));
+      const __m256d dw = _mm256_sub_pd(nw[0], w), gap = _mm256_sub_pd(_mm256_sub_pd(iq, w), wsl);
+      const __m256d lhs = _mm256_mul_pd(_mm256_mul_pd(gap, gap), _mm256_add_pd(_mm256_mul_pd(du, du), _mm256_mul_pd(dv, dv)));
+      const __m256d rhs = _mm256_mul_pd(_mm256_mul_pd(c2, dw), dw);
+      const __m256d cand = _mm256_and_pd(
+          _mm256_and_pd(lanes(t.cand[k], h), have[0]),
+          _mm256_and_pd(_mm256_cmp_pd(gap, zero, _CMP_GT_OQ), _mm256_cmp_pd(lhs, rhs, _CMP_NLE_UQ)));
+      // The plane's gradient from both neighbours.
+      const __m256d u0 = _mm256_mul_pd(_mm256_sub_pd(X, xl), w), v0 = _mm256_mul_pd(hlY, w);
+      __m256d Du[2], Dv[2], Dw[2];
+      for (int a = 0; a < 2; ++a) {
+        Du[a] = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(nX[a], xl), nw[a]), u0);
+        Dv[a] = _mm256_sub_pd(_mm256_mul_pd(_mm256_sub_pd(hl, nY[a]), nw[a]), v0);
+        Dw[a] = _mm256_sub_pd(nw[a], w);
+      }
+      const __m256d det = _mm256_sub_pd(_mm256_mul_pd(Du[0], Dv[1]), _mm256_mul_pd(Dv[0], Du[1]));
+      const __m256d gu = _mm256_div_pd(_mm256_sub_pd(_mm256_mul_pd(Dw[0], Dv[1]), _mm256_mul_pd(Dv[0], Dw[1])), det);
+      const __m256d gv = _mm256_div_pd(_mm256_sub_pd(_mm256_mul_pd(Du[0], Dw[1]), _mm256_mul_pd(Dw[0], Du[1])), det);
+      const __m256d margin =
+          _mm256_add_pd(_mm256_mul_pd(s2c, _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(gu, gu), _mm256_mul_pd(gv, gv)))), wsl);
+      const __m256d hid = _mm256_and_pd(
+          _mm256_and_pd(cand, have[1]),
+          _mm256_and_pd(_mm256_cmp_pd(_mm256_and_pd(det, absmask), zero, _CMP_GT_OQ),
+                        _mm256_cmp_pd(iq, _mm256_add_pd(w, margin), _CMP_GT_OQ)));
+      sh[k] |= static_cast<unsigned>(_mm256_movemask_pd(hid)) << h;
+    }
+  }
+}
 // counts[0], [1], [2] (zeroed by the caller) take the row's pixels shaded from the left lamp only, the
 // right only, both (sh − 1 for the hidden lamps' bits sh = 1, 2, 3): one add per shaded pixel.
 void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, const ImageU16& labels,
-                        const ImageF& depth, int y, double cp, double sp, bool avx512, float* e, const float* t0,
-                        const float* t1, int* counts) {
+                        const ImageF& depth, int y, double cp, double sp, bool avx512, bool avx2, float* e,
+                        const float* t0, const float* t1, int* counts) {
   const BeamF& b = c.b;
   const CameraGeometry& g = c.g;
   const int W = labels.width(), H = labels.height();
@@ -2472,11 +2781,12 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
     e[x] = sh == 1 ? t1[x] : t0[x];
   };
   int x0 = 0;
-  if (avx512) {
+  if (avx512 || avx2) {
     thread_local std::vector<int> cols;
     cols.resize(static_cast<size_t>(W) + 16);
-    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time),
-    // then decided eight at a time in vector double (shade_decide_avx512: the same lamps hidden).
+    // The candidates with their neighbours as pixel() reads them (ShadeCands, sixteen at a time,
+    // or eight with AVX2), then decided eight at a time in vector double (shade_decide_avx512, or
+    // shade_decide_avx2 in halves of four: the same lamps hidden).
     ShadeRows ry;
     for (int s = 0; s < 2; ++s) {
       const int yy = y + (s == 0 ? -1 : 1);
@@ -2486,7 +2796,8 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
     }
     thread_local ShadeCands sc;
     sc.resize(static_cast<size_t>(W) + 16);
-    const int n = vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
+    const int n = avx512 ? vertical_shadow_candidates_avx512(c, vs, id, z, e, kD, kY, cols.data(), ry, sc)
+                         : vertical_shadow_candidates_avx2(c, vs, id, z, e, kD, kY, cols.data(), ry, sc);
     ShadeBatch t;
     for (int j0 = 0; j0 < n; j0 += 8) {
       const int m = std::min(8, n - j0);
@@ -2509,8 +2820,14 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
           t.valid[j] |= static_cast<uint8_t>((sc.valid[i] >> j & 1) << l);
         }
       }
-      __mmask8 sh[2];
-      shade_decide_avx512(t, b, cell, sh);
+      unsigned sh[2];
+      if (avx512) {
+        __mmask8 s8[2];
+        shade_decide_avx512(t, b, cell, s8);
+        sh[0] = s8[0], sh[1] = s8[1];
+      } else {
+        shade_decide_avx2(t, b, cell, sh);
+      }
       for (int l = 0; l < m; ++l) {
         const unsigned s = (sh[0] >> l & 1) | (sh[1] >> l & 1) << 1;
         if (!s) continue;
@@ -2518,7 +2835,7 @@ void shade_vertical_row(const BeamVerticalCtx& c, const VerticalShadowMaps& vs, 
         e[t.x[l]] = s == 3 ? 0.f : s == 1 ? t1[t.x[l]] : t0[t.x[l]];
       }
     }
-    x0 = W & ~15;
+    x0 = avx512 ? W & ~15 : W & ~7;
   }
   for (int x = x0; x < W; ++x) pixel(x);
 }
@@ -2630,7 +2947,7 @@ void BeamVerticalRows::row(int y) const {
   beam_vertical_row_scalar(m.c, x0, id, z, reg, kD, kY, e, t0, t1);
   if (m.shadow.ok) {
     int n[3] = {0, 0, 0};
-    shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, e, t0, t1, n);
+    shade_vertical_row(m.c, m.shadow, m.labels, m.depth, y, m.cp, m.sp, m.avx512, m.avx2, e, t0, t1, n);
     m.shaded[static_cast<size_t>(y)] = {n[0], n[1], n[2]};
   }
 }

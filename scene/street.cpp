@@ -1468,10 +1468,11 @@ __attribute__((target("avx2"), always_inline)) inline void vertical_group(Vertic
 // column and are dropped), E_v = Σ_k vertical_term over the lamps in order per lane (the same
 // float operations as vertical_e_scalar; a lamp's lanes outside its reach, above it or facing
 // away masked to +0.0, and a lamp whose every lane is masked skipped: its contribution is
-// exactly zero; the lamps outside the group's lamp_window are beyond reach of every lane), then
-// o += (t·tint)·E_v on the candidates with E_v > 0 (reflect8_avx2: add_reflection_scalar's
-// operations). Each lane is its own pixel, so the same bits as the scalar path, where the pixels
-// are compacted first. Ends with vzeroupper (see clear_upper_vector_state).
+// exactly zero; the lamps outside the group's lamp_window are beyond reach of every lane; two
+// groups side by side go through one lamp loop, lamp_sums8), then o += (t·tint)·E_v on the
+// candidates with E_v > 0 (reflect8_avx2: add_reflection_scalar's operations). Each lane is its
+// own pixel, so the same bits as the scalar path, where the pixels are compacted first. Ends with
+// vzeroupper (see clear_upper_vector_state).
 // One group's lanes for its lamp loop (lamp_sum8): points, lit normals, the lanes with a point
 // (ok) and the crowns' lanes (crown).
 struct LampLanes8 {
@@ -1495,45 +1496,73 @@ struct RowAhead {
   const float* composed = nullptr;    // compose follows: the row of its output (nullptr: no compose)
   const float* beam = nullptr;        // and of the beam illuminance it reads
 };
-// E_v = Σ_k vertical_term over the lamps lo .. hi − 1 on eight lanes (vertical_row_body's lamp
-// loop): a lamp's lanes outside its reach, above it or (kCrown: but on a crown's lane) facing away
-// masked to +0.0, and a lamp whose every lane is masked skipped. kCrown adds n_Y·v_Y to n·v on
-// every lane (n_Y = +0.0 off the crowns: the sum's bits stay, up to the sign of a zero, which no
-// comparison or kept term sees) and takes crown_phase8 of cos α on the crowns' lanes.
+// E_v = Σ_k vertical_term over the lamps lo .. hi − 1 on N groups of eight lanes (g[0 .. N − 1],
+// their sums into acc[0 .. N − 1]; vertical_row_body's lamp loop): a lamp's lanes outside its
+// reach, above it or (kCrown: but on a crown's lane) facing away masked to +0.0, and a lamp whose
+// every lane in the N groups is masked skipped; a group none of whose lanes a lamp lights, while
+// another's are, adds +0.0 on every lane. kCrown adds n_Y·v_Y to n·v on every lane (n_Y = +0.0
+// off the crowns: the sum's bits stay, up to the sign of a zero, which no comparison or kept term
+// sees) and takes crown_phase8 of cos α on the crowns' lanes. With N = 2 (two groups side by
+// side, as vertical_row_avx512's sixteen lanes) the window lo .. hi covers both groups': a lamp
+// outside a group's own window is beyond reach of each of its lanes, so each group's sum has the
+// bits of its loop alone, with half as many loop turns and tests per lane (at the avx2 cap the
+// vertical light's row took 1.5 times vertical_row_avx512's time).
+template <bool kCrown, int N>
+__attribute__((target("avx2"), always_inline)) inline void lamp_sums8(const LampArrays& la, const RelTable& t, size_t lo,
+                                                                      size_t hi, const LampLanes8* g, __m256 vI0,
+                                                                      __m256 vd2min, __m256* acc) {
+  static_assert(N == 1 || N == 2, "one or two groups");
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), vcc = _mm256_set1_ps(t.fcc);
+  const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  // Whether any lane of the N groups' masks is set.
+  auto any = [](const __m256* m) __attribute__((target("avx2"), always_inline)) {
+    return _mm256_movemask_ps(N == 1 ? m[0] : _mm256_or_ps(m[0], m[N - 1])) != 0;
+  };
+  for (int j = 0; j < N; ++j) acc[j] = zero;
+  for (size_t k = lo; k < hi; ++k) {
+    const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
+    __m256 vD[N], in_reach[N];
+    for (int j = 0; j < N; ++j) {
+      vD[j] = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lD, g[j].D1)), _mm256_cvtpd_ps(_mm256_sub_pd(lD, g[j].D0)));
+      in_reach[j] = _mm256_and_ps(
+          g[j].ok, _mm256_cmp_ps(_mm256_and_ps(vD[j], absmask), _mm256_broadcast_ss(&la.reach[k]), _CMP_LE_OQ));
+    }
+    if (!any(in_reach)) continue;
+    const __m256d lX = _mm256_broadcast_sd(&la.X[k]), lY = _mm256_broadcast_sd(&la.Y[k]);
+    __m256 vX[N], vY[N], cb[N], lit[N];
+    for (int j = 0; j < N; ++j) {
+      vX[j] = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lX, g[j].X1)), _mm256_cvtpd_ps(_mm256_sub_pd(lX, g[j].X0)));
+      vY[j] = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lY, g[j].Y1)), _mm256_cvtpd_ps(_mm256_sub_pd(lY, g[j].Y0)));
+      cb[j] = _mm256_add_ps(_mm256_mul_ps(g[j].nX, vX[j]), _mm256_mul_ps(g[j].nD, vD[j]));
+      __m256 facing = _mm256_cmp_ps(cb[j], zero, _CMP_GT_OQ);
+      if (kCrown) {
+        cb[j] = _mm256_add_ps(cb[j], _mm256_mul_ps(g[j].nY, vY[j]));
+        facing = _mm256_or_ps(_mm256_cmp_ps(cb[j], zero, _CMP_GT_OQ), g[j].crown);
+      }
+      lit[j] = _mm256_and_ps(in_reach[j], _mm256_and_ps(_mm256_cmp_ps(vY[j], zero, _CMP_GT_OQ), facing));
+    }
+    if (!any(lit)) continue;
+    for (int j = 0; j < N; ++j) {
+      const __m256 dv2 =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX[j], vX[j]), _mm256_mul_ps(vY[j], vY[j])), _mm256_mul_ps(vD[j], vD[j]));
+      const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY[j], dv);
+      const __m256 beyond = _mm256_and_ps(lit[j], _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
+      __m256 rel = one;
+      if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
+      __m256 f = _mm256_div_ps(cb[j], dv);
+      if (kCrown) f = _mm256_blendv_ps(f, crown_phase8(f), g[j].crown);
+      const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), f), _mm256_max_ps(dv2, vd2min));
+      acc[j] = _mm256_add_ps(acc[j], _mm256_and_ps(lit[j], ek));
+    }
+  }
+}
+// One group's lamp loop (lamp_sums8 with N = 1).
 template <bool kCrown>
 __attribute__((target("avx2"), always_inline)) inline __m256 lamp_sum8(const LampArrays& la, const RelTable& t, size_t lo,
                                                                       size_t hi, const LampLanes8& g, __m256 vI0,
                                                                       __m256 vd2min) {
-  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), vcc = _mm256_set1_ps(t.fcc);
-  const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-  __m256 acc = zero;
-  for (size_t k = lo; k < hi; ++k) {
-    const __m256d lD = _mm256_broadcast_sd(&la.D[k]);
-    const __m256 vD = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lD, g.D1)), _mm256_cvtpd_ps(_mm256_sub_pd(lD, g.D0)));
-    const __m256 in_reach =
-        _mm256_and_ps(g.ok, _mm256_cmp_ps(_mm256_and_ps(vD, absmask), _mm256_broadcast_ss(&la.reach[k]), _CMP_LE_OQ));
-    if (!_mm256_movemask_ps(in_reach)) continue;
-    const __m256d lX = _mm256_broadcast_sd(&la.X[k]), lY = _mm256_broadcast_sd(&la.Y[k]);
-    const __m256 vX = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lX, g.X1)), _mm256_cvtpd_ps(_mm256_sub_pd(lX, g.X0)));
-    const __m256 vY = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(lY, g.Y1)), _mm256_cvtpd_ps(_mm256_sub_pd(lY, g.Y0)));
-    __m256 cb = _mm256_add_ps(_mm256_mul_ps(g.nX, vX), _mm256_mul_ps(g.nD, vD));
-    __m256 facing = _mm256_cmp_ps(cb, zero, _CMP_GT_OQ);
-    if (kCrown) {
-      cb = _mm256_add_ps(cb, _mm256_mul_ps(g.nY, vY));
-      facing = _mm256_or_ps(_mm256_cmp_ps(cb, zero, _CMP_GT_OQ), g.crown);
-    }
-    const __m256 lit = _mm256_and_ps(in_reach, _mm256_and_ps(_mm256_cmp_ps(vY, zero, _CMP_GT_OQ), facing));
-    if (!_mm256_movemask_ps(lit)) continue;
-    const __m256 dv2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX, vX), _mm256_mul_ps(vY, vY)), _mm256_mul_ps(vD, vD));
-    const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY, dv);
-    const __m256 beyond = _mm256_and_ps(lit, _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
-    __m256 rel = one;
-    if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
-    __m256 f = _mm256_div_ps(cb, dv);
-    if (kCrown) f = _mm256_blendv_ps(f, crown_phase8(f), g.crown);
-    const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), f), _mm256_max_ps(dv2, vd2min));
-    acc = _mm256_add_ps(acc, _mm256_and_ps(lit, ek));
-  }
+  __m256 acc;
+  lamp_sums8<kCrown, 1>(la, t, lo, hi, &g, vI0, vd2min, &acc);
   return acc;
 }
 // The lines holding bytes p .. p + kBytes − 1 asked for (for writing: kWrite), whatever p's offset.
@@ -1573,18 +1602,20 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
   const __m256 vI0 = _mm256_set1_ps(v.I0), vd2min = _mm256_set1_ps(v.d2_min), zero = _mm256_setzero_ps();
   const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   VerticalGroup gr;
-  size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
-  int x = 0;
-  for (; x + 8 <= W; x += 8) {
-    if (kAhead) {
-      // (The dark classes' lanes as candidates8_avx2 finds them: bit k of the class mask.)
-      const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
-      const __m256i bit = _mm256_and_si256(
-          _mm256_or_si256(_mm256_srlv_epi32(cc.mlo, k), _mm256_srlv_epi32(cc.mhi, _mm256_sub_epi32(k, cc.k32))), cc.one);
-      row_ahead<8>(ahead, x, _mm256_movemask_epi8(_mm256_cmpeq_epi32(bit, cc.one)) != 0, tx);
-    }
-    const int m = candidates8_avx2(id, z, x, cc);
-    if (!m) continue;
+  size_t win_lo = 0, win_hi = 0;  // the last lamp window
+  // Group x's look-ahead (RowAhead; the dark classes' lanes as candidates8_avx2 finds them: bit k
+  // of the class mask).
+  auto ahead8 = [&](int x) __attribute__((target("avx2,prfchw"), always_inline)) {
+    const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
+    const __m256i bit = _mm256_and_si256(
+        _mm256_or_si256(_mm256_srlv_epi32(cc.mlo, k), _mm256_srlv_epi32(cc.mhi, _mm256_sub_epi32(k, cc.k32))), cc.one);
+    row_ahead<8>(ahead, x, _mm256_movemask_epi8(_mm256_cmpeq_epi32(bit, cc.one)) != 0, tx);
+  };
+  // Group x's lanes for the lamp loop from its candidates m (vertical_group, point4; the lanes that
+  // are not candidates take the first candidate's column and are dropped), widening [Dmin, Dmax] to
+  // its D range; false where no candidate has a point.
+  auto lanes8 = [&](int x, int m, LampLanes8& ll, double& Dmin, double& Dmax)
+                    __attribute__((target("avx2"), always_inline)) {
     vertical_group(gr, x, m, x + __builtin_ctz(m), id, z, reg, v);
     __m256d X0, X1, Y0, Y1, D0, D1;
     __m128 nXa, nXb, nYa, nYb, nDa, nDb, oka, okb;
@@ -1593,20 +1624,59 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
     const __m256 cand = _mm256_castsi256_ps(
         _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(m), lane_bit), lane_bit));
     const __m256 ok = _mm256_and_ps(cand, _mm256_set_m128(okb, oka));
-    if (!_mm256_movemask_ps(ok)) continue;
-    const __m256 vnX = _mm256_set_m128(nXb, nXa), vnD = _mm256_set_m128(nDb, nDa), vnY = _mm256_set_m128(nYb, nYa);
+    if (!_mm256_movemask_ps(ok)) return false;
     const __m256 crown = _mm256_and_ps(ok, _mm256_load_ps(reinterpret_cast<const float*>(gr.crown)));
     const __m256d Dlo = _mm256_min_pd(D0, D1), Dhi = _mm256_max_pd(D0, D1);
     const __m256d m1 = _mm256_min_pd(Dlo, _mm256_permute2f128_pd(Dlo, Dlo, 1)), M1 = _mm256_max_pd(Dhi, _mm256_permute2f128_pd(Dhi, Dhi, 1));
-    const double Dmin = _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5)));
-    const double Dmax = _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5)));
-    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
-    const size_t lo = win_lo, hi = win_hi;
-    const LampLanes8 ll{X0, X1, Y0, Y1, D0, D1, vnX, vnY, vnD, ok, crown};
-    const __m256 acc = _mm256_movemask_ps(crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
-                                                 : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min);
+    Dmin = std::min(Dmin, _mm256_cvtsd_f64(_mm256_min_pd(m1, _mm256_permute_pd(m1, 5))));
+    Dmax = std::max(Dmax, _mm256_cvtsd_f64(_mm256_max_pd(M1, _mm256_permute_pd(M1, 5))));
+    ll = {X0, X1, Y0, Y1, D0, D1, _mm256_set_m128(nXb, nXa), _mm256_set_m128(nYb, nYa), _mm256_set_m128(nDb, nDa), ok, crown};
+    return true;
+  };
+  // o += (t·tint)·E_v on group x's candidates m with E_v > 0.
+  auto reflect = [&](int x, int m, __m256 acc) __attribute__((target("avx2"), always_inline)) {
     const unsigned lit_px = static_cast<unsigned>(m & _mm256_movemask_ps(_mm256_cmp_ps(acc, zero, _CMP_GT_OQ)));
     if (lit_px) reflect8_avx2(o + 3 * x, tx + 3 * x, acc, lit_px, rc);
+  };
+  int x = 0;
+  // Pairs of groups (sixteen columns) through one lamp loop (lamp_sums8, N = 2) where both have a
+  // candidate with a point, the window covering both; a lone group through lamp_sum8.
+  for (; x + 16 <= W; x += 16) {
+    if (kAhead) ahead8(x), ahead8(x + 8);
+    const int m[2] = {candidates8_avx2(id, z, x, cc), candidates8_avx2(id, z, x + 8, cc)};
+    if (!(m[0] | m[1])) continue;
+    LampLanes8 ll[2];
+    double Dmin = INFINITY, Dmax = -INFINITY;
+    const bool has0 = m[0] && lanes8(x, m[0], ll[0], Dmin, Dmax), has1 = m[1] && lanes8(x + 8, m[1], ll[1], Dmin, Dmax);
+    if (!has0 && !has1) continue;
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
+    if (has0 && has1) {
+      __m256 acc[2];
+      if (_mm256_movemask_ps(_mm256_or_ps(ll[0].crown, ll[1].crown)))
+        lamp_sums8<true, 2>(la, t, lo, hi, ll, vI0, vd2min, acc);
+      else
+        lamp_sums8<false, 2>(la, t, lo, hi, ll, vI0, vd2min, acc);
+      reflect(x, m[0], acc[0]);
+      reflect(x + 8, m[1], acc[1]);
+    } else {
+      const int j = has0 ? 0 : 1;
+      const __m256 acc = _mm256_movemask_ps(ll[j].crown) ? lamp_sum8<true>(la, t, lo, hi, ll[j], vI0, vd2min)
+                                                         : lamp_sum8<false>(la, t, lo, hi, ll[j], vI0, vd2min);
+      reflect(x + 8 * j, m[j], acc);
+    }
+  }
+  for (; x + 8 <= W; x += 8) {
+    if (kAhead) ahead8(x);
+    const int m = candidates8_avx2(id, z, x, cc);
+    if (!m) continue;
+    LampLanes8 ll;
+    double Dmin = INFINITY, Dmax = -INFINITY;
+    if (!lanes8(x, m, ll, Dmin, Dmax)) continue;
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
+    reflect(x, m, _mm256_movemask_ps(ll.crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
+                                               : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min));
   }
   _mm256_zeroupper();
   return x;

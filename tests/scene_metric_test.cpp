@@ -2985,14 +2985,15 @@ TEST(EgoLowBeamVertical, VectorRowsAreTheScalarBits) {
     ScenePreset q = p;
     q.beam_cutoff_max_v_deg = 3;
     std::vector<ImageF> outq;
-    for (const int isa : {0, 2}) {
+    for (const int isa : {0, 1, 2}) {
       beam_max_isa(isa);
       ImageF E(W, H, 1, -1.f);
       add_low_beam_vertical(E, o.camera, lab, depth, &fac, q);
       outq.push_back(std::move(E));
     }
     beam_max_isa(2);
-    EXPECT_EQ(differing_samples(outq[1], outq[0]), 0u) << "cut-off top at 3°: AVX-512 against the scalar code";
+    EXPECT_EQ(differing_samples(outq[1], outq[0]), 0u) << "cut-off top at 3°: AVX2 against the scalar code";
+    EXPECT_EQ(differing_samples(outq[2], outq[0]), 0u) << "cut-off top at 3°: AVX-512 against the scalar code";
   }
   long lit = 0, untouched = 0;
   for (int y = 0; y < H; ++y)
@@ -3767,8 +3768,8 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   ImageF E3 = E0;
   shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
   ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
-  // The solid points placed one by one (ISA caps 0, 1) and sixteen at a time (AVX-512, where the
-  // machine has it): the same image.
+  // The solid points placed one by one (ISA cap 0), eight at a time (cap 1: place_row_avx2, where
+  // the machine has AVX2) and sixteen at a time (AVX-512, where the machine has it): the same image.
   for (const int isa : {0, 1}) {
     beam_max_isa(isa);
     ImageF E4 = E0;
@@ -3855,7 +3856,7 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
   std::vector<ImageF> out;
   for (const int t : {1, 2}) {
     omp_set_num_threads(t);
-    for (const int isa : {2, 0}) {
+    for (const int isa : {2, 1, 0}) {
       beam_max_isa(isa);
       ImageF E = E0;
       add_low_beam_vertical(E, g, s.labels.ids, s.depth_m, nullptr, p);
@@ -3947,8 +3948,8 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
 // rule alone (shadows off), each classed by the value it now holds, gives the three counts. (A
 // shaded pixel whose hidden lamp gave nothing keeps its value and would be counted by the rows
 // only: none on this street, so the counts must match exactly.) Shadows off: all 0. The same at
-// 1 and 2 threads and with the scalar rows (beam_max_isa(0): the counting of pixel()'s path,
-// the AVX-512 decision's otherwise).
+// 1 and 2 threads and at each ISA cap (beam_max_isa(0): the counting of pixel()'s path; 1: of
+// pixel() on the AVX2 candidates' columns; 2: the AVX-512 decision's).
 TEST(EgoLowBeamShadow, VerticalCountsAreThePixelsWhoseBeamFell) {
   const SyntheticCameraOptions o = beam_shadow_vertical_street();
   const SyntheticCameraScene s = make_synthetic_camera_scene(o);
@@ -3968,7 +3969,7 @@ TEST(EgoLowBeamShadow, VerticalCountsAreThePixelsWhoseBeamFell) {
   EXPECT_EQ(st_off.both, 0);
   const int threads = omp_get_max_threads();
   for (const int t : {1, 2})
-    for (const int isa : {2, 0}) {
+    for (const int isa : {2, 1, 0}) {
       omp_set_num_threads(t);
       beam_max_isa(isa);
       ImageF on = E0;
