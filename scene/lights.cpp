@@ -1586,6 +1586,7 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
   // A pixel in one lamp's shadow takes the other lamp's E, computed for the row's such pixels
   // together as the beam image's rows compute it (beam_row_avx512 / _avx2 with that lamp only:
   // beam_lamp_f's bits).
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1;
 #pragma omp parallel reduction(+ : n0, n1, n2)
   {
     std::vector<uint8_t> bits(W, 0);
