@@ -1065,9 +1065,19 @@ namespace {
 // (θ the pitch, h the camera height; ∂v/∂D = −f·(h − Y)/z² since sin θ·z + cos θ·y_c = h − Y), and
 // the disc {(X, D) + w : |w| ≤ d/2} maps to the ellipse {J·w}: S = (d/2)²·J·Jᵀ, inside where
 // Δᵀ·S⁻¹·Δ ≤ 1. Its area π·(d/2)²·|det J| in pixels, each of solid angle cos³(off-axis)/f², is
-// A·cos γ/dist²: the flux above, to the same first order. An ellipse narrower than 0.5 px along an
-// axis is drawn 0.5 px wide there with its luminance lowered in proportion, so that a far head
-// still sends I(γ) (before, a disc's radius was raised to 0.5 px at I/A: more flux than the lamp's).
+// A·cos γ/dist²: the flux above, to the same first order.
+//
+// Drawn by its coverage of each pixel (kHeadSub² sub-pixel samples: L·covered share), and never
+// narrower than 2 px (one period of the colour filter array) along either axis: a thinner one is
+// drawn 2 px wide there with its luminance lowered in proportion, so that a far head still sends
+// I(γ). Why: a source narrower than the CFA's 2×2 cell lands on one or two of its colours and
+// comes out of the demosaic as a coloured dot (a far head seen edge-on is a fraction of a pixel
+// high); a real camera spreads it by its lens's blur (and often an optical low-pass filter), which
+// photosite's lens model does not have (its PSF is a delta plus the glare's skirt). A 2×2 box at
+// any position gives each of the cell's four sites a quarter of its flux, and a covered ellipse
+// 2 px across nearly so. This is a photosite choice standing in for that blur, not a model of it.
+// (Before: a disc facing the camera at I/A, sampled at pixel centres, its radius raised to 0.5 px
+// with more flux than the lamp's.)
 struct HeadDisc {
   double u, v, z;
   double q11, q12, q22;  // S⁻¹ of the drawn ellipse (pixels⁻²)
@@ -1089,11 +1099,11 @@ std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLight
     const double cos_gamma = rise / dist, gamma = std::atan2(std::hypot(l.X_m, l.D_m), rise);
     const double j11 = g.f_px / z, j12 = -g.f_px * l.X_m * cos_pitch / (z * z), j22 = g.f_px * rise / (z * z);
     // S = ρ²·J·Jᵀ (J's lower-left entry is 0), its eigenvalues (squared semi-axes) and those raised
-    // to 0.5² px² where smaller.
+    // to 1 px² (a 2 px axis) where smaller.
     const double s11 = rho * rho * (j11 * j11 + j12 * j12), s12 = rho * rho * j12 * j22, s22 = rho * rho * j22 * j22;
     const double mean = 0.5 * (s11 + s22), dev = std::hypot(0.5 * (s11 - s22), s12);
     const double l1 = mean + dev, l2 = std::max(0.0, mean - dev);
-    const double m1 = std::max(l1, 0.25), m2 = std::max(l2, 0.25);
+    const double m1 = std::max(l1, 1.0), m2 = std::max(l2, 1.0);
     // The drawn S: the same axes, raised eigenvalues (S' = S + (m1 − l1)·e1e1ᵀ + (m2 − l2)·e2e2ᵀ).
     double e1x = 1, e1y = 0;  // e1, the major axis (any axis where S is a multiple of the identity)
     if (dev > 0) {
@@ -1108,7 +1118,9 @@ std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLight
     // The luminance, lowered by the true area over the drawn one where an axis was raised.
     const double Lh = s.peak_intensity_cd * lamp_relative_intensity(gamma, p) / (head_area_m2 * cos_gamma) *
                       std::sqrt(l1 * l2 / (m1 * m2));
-    const double hx = std::sqrt(t11), hy = std::sqrt(t22);  // the box's half-width and half-height
+    // The box's half-width and half-height: the ellipse's extent plus the half pixel its covered
+    // pixels reach beyond it.
+    const double hx = std::sqrt(t11) + 0.5, hy = std::sqrt(t22) + 0.5;
     if (u + hx < 0 || u - hx >= W || v + hy < 0 || v - hy >= H) continue;
     out.push_back({u, v, z, t22 / det, -t12 / det, t11 / det, {head1[0] * Lh, head1[1] * Lh, head1[2] * Lh},
                    std::max(0, static_cast<int>(std::floor(v - hy))), std::min(H - 1, static_cast<int>(std::ceil(v + hy))),
@@ -1116,17 +1128,27 @@ std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLight
   }
   return out;
 }
-// Head d's pixels in row y (inside its box rows) as a maximum over L, where no depth is given or
-// the pixel's depth is not in front of the head by more than 1 m; whether any was drawn.
+// Head d's pixels in row y (inside its box rows), each at the head's luminance times the share of
+// its kHeadSub × kHeadSub sub-pixel samples (centres at (i + ½)/kHeadSub − ½ of a pixel from its
+// centre) inside the ellipse, as a maximum over L, where no depth is given or the pixel's depth is
+// not in front of the head by more than 1 m; whether any was drawn.
+constexpr int kHeadSub = 4;
 bool draw_head_row(ImageF& L, const HeadDisc& d, int y, const ImageF* depth_m) {
   bool any = false;
-  const double dy = y - d.v;
   for (int x = d.x0; x <= d.x1; ++x) {
-    const double dx = x - d.u;
-    if (d.q11 * dx * dx + 2 * d.q12 * dx * dy + d.q22 * dy * dy <= 1 && (!depth_m || depth_m->at(x, y) >= d.z - 1.0)) {
-      for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(d.head[k]));
-      any = true;
+    if (depth_m && !(depth_m->at(x, y) >= d.z - 1.0)) continue;
+    int in = 0;
+    for (int j = 0; j < kHeadSub; ++j) {
+      const double dy = y + (j + 0.5) / kHeadSub - 0.5 - d.v;
+      for (int i = 0; i < kHeadSub; ++i) {
+        const double dx = x + (i + 0.5) / kHeadSub - 0.5 - d.u;
+        in += d.q11 * dx * dx + 2 * d.q12 * dx * dy + d.q22 * dy * dy <= 1;
+      }
     }
+    if (!in) continue;
+    const double share = static_cast<double>(in) / (kHeadSub * kHeadSub);
+    for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(d.head[k] * share));
+    any = true;
   }
   return any;
 }

@@ -1518,20 +1518,25 @@ TEST(StreetLighting, PoolKneeColumnsAreThePredicateAtEveryColumn) {
 // A lamp head is the luminaire's flat, horizontal face (street.cpp lamp_head_discs), drawn at the
 // luminance its own intensity distribution sends toward the camera: L = I0·rel(γ) / (A·cos γ), γ
 // the angle from the nadir of the lamp-to-camera direction, A the face (π d²/4), A·cos γ its
-// projected area. So (1) at each head's centre pixel the luminance is that value to float
-// rounding: blackbody_rgb's three channels scaled in double, stored as float (2^-24 each) and
-// summed back with the luminous efficacies: 4·2^-24 (heads whose ellipse is at least 1 px across
-// its narrow axis, not raised to 0.5 px there); (2) the flux per steradian the drawn pixels send
-// toward the lens is the luminaire's I(γ): Σ L·Ω_px = I(γ)/dist², Ω_px = cos³(off-axis)/f² the
-// pixel's solid angle, for every head, the raised ones too (their luminance lowered by the
-// area). The pixels are those whose centre lies in the ellipse; for a convex shape K of area A_K
-// and perimeter P_K their squares lie inside K grown by the half-diagonal r = √2/2 and cover K
-// shrunk by it, so their count N obeys A_K − P_K·r ≤ N ≤ A_K + P_K·r + π·r² (Steiner's formula;
-// the inner body's area is at least A_K − P_K·r for a convex K). With P_K ≤ 2π·a (a the major
-// semi-axis) that bounds N/A_K, hence the flux ratio, the other factors being rounding (2^-20)
-// and Ω_px's variation over the head (its extent over f, below 1e-3 here). The ellipse is the
-// face through the projection's Jacobian, here taken by central differences of project() (1 mm),
-// not the code's closed form; (3) below. Heads whose box meets another's or the frame's edge are skipped.
+// projected area, each pixel at L times the share of its 4×4 sub-pixel samples inside the face's
+// ellipse, the ellipse never narrower than 2 px (a thinner axis raised to 2 px, L lowered by the
+// area). The ellipse is the face through the projection's Jacobian, here taken by central
+// differences of project() (1 mm), not the code's closed form. Checked per head:
+// (1) and (3) on heads not raised (both semi-axes ≥ 1 px): every pixel's luminance is L times its
+// sample share as this test counts it (pixels with a sample within 1e-6 of the edge, the
+// differences' error, not judged), to float rounding: blackbody_rgb's three channels scaled in
+// double, stored as float (2^-24 each) and summed back with the luminous efficacies: 4·2^-24;
+// the fully covered ones are L itself;
+// (2) on every head, the raised ones too: the flux per steradian the drawn pixels send toward the
+// lens is the luminaire's I(γ): Σ L·Ω_px = I(γ)/dist², Ω_px = cos³(off-axis)/f² the pixel's solid
+// angle. The drawn area is the count of samples inside over 16; for a convex shape K of area A_K
+// and perimeter P_K the sample cells (1/4 px squares) whose centre is inside lie within K grown by
+// their half-diagonal r = √2/8 px and cover K shrunk by it, so A_K − P_K·r ≤ count/16 ≤ A_K +
+// P_K·r + π·r² (Steiner's formula; the inner body's area is at least A_K − P_K·r for a convex K).
+// With P_K ≤ 2π·a (a the major semi-axis) that bounds the flux ratio, the other factors being
+// rounding (2^-20) and Ω_px's variation over the head (its extent over f, below 1e-3 here).
+// (4) every head's drawn pixels reach two rows and two columns at least.
+// Heads whose box meets another's or the frame's edge are skipped.
 TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
   const OpenStreet street = open_street();
   const auto& [o, sc, p, s] = street;
@@ -1564,43 +1569,59 @@ TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
     heads.push_back({u, v, std::sqrt(mean + dev), std::sqrt(std::max(0.0, mean - dev)), S11, S12, S22, dist,
                      I / (dist * dist), I / (area * rise / dist)});
   }
-  int centres = 0, fluxes = 0;
-  long shaped = 0;
+  int fluxes = 0;
+  long shaped = 0, full = 0;
   double lowest = 1e300, highest = 0;
   for (size_t k = 0; k < heads.size(); ++k) {
     const Head& h = heads[k];
-    const double hx = std::sqrt(std::max(h.S11, 0.25)) + 2, hy = std::sqrt(std::max(h.S22, 0.25)) + 2;
+    const double hx = std::sqrt(std::max(h.S11, 1.0)) + 2, hy = std::sqrt(std::max(h.S22, 1.0)) + 2;
     const int x0 = static_cast<int>(std::floor(h.u - hx)), x1 = static_cast<int>(std::ceil(h.u + hx));
     const int y0 = static_cast<int>(std::floor(h.v - hy)), y1 = static_cast<int>(std::ceil(h.v + hy));
     if (x0 < 0 || y0 < 0 || x1 >= o.width || y1 >= o.height) continue;
     bool overlapped = false;
     for (size_t m = 0; m < heads.size(); ++m) {
       if (m == k) continue;
-      const double mx = std::sqrt(std::max(heads[m].S11, 0.25)) + 2, my = std::sqrt(std::max(heads[m].S22, 0.25)) + 2;
+      const double mx = std::sqrt(std::max(heads[m].S11, 1.0)) + 2, my = std::sqrt(std::max(heads[m].S22, 1.0)) + 2;
       overlapped |= std::abs(heads[m].u - h.u) <= hx + mx && std::abs(heads[m].v - h.v) <= hy + my;
     }
     if (overlapped) continue;
+    const bool raised = h.b < 1;
     double flux = 0;
+    int row_lo = y1 + 1, row_hi = y0 - 1, col_lo = x1 + 1, col_hi = x0 - 1;  // the drawn pixels' extent
     const double det = h.S11 * h.S22 - h.S12 * h.S12;
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {
         const size_t i = static_cast<size_t>(y) * o.width + x;
         const float c[3] = {L[3 * i], L[3 * i + 1], L[3 * i + 2]};
-        // (3) Where no axis was raised, the drawn pixels are those whose centre lies in the
-        // ellipse Δᵀ·S⁻¹·Δ ≤ 1 (pixels within 1e-6 of its edge, the differences' error, not judged).
-        const double dx = x - h.u, dy = y - h.v;
-        const double q = (h.S22 * dx * dx - 2 * h.S12 * dx * dy + h.S11 * dy * dy) / det;
-        if (h.b >= 0.5 && std::abs(q - 1) > 1e-6) {
-          EXPECT_EQ(c[1] > 0, q < 1) << "pixel (" << x << ", " << y << ") of the head at (" << h.u << ", " << h.v << ")";
-          ++shaped;
-        }
+        const double lum = spectrum::luminance_cd_m2(c);
         // The pixel's solid angle: cos³ of its ray's angle off the optical axis over f².
         const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
         const double cos_off = 1 / std::sqrt(1 + xn * xn + yn * yn);
-        flux += spectrum::luminance_cd_m2(c) * cos_off * cos_off * cos_off / (g.f_px * g.f_px);
+        flux += lum * cos_off * cos_off * cos_off / (g.f_px * g.f_px);
+        if (lum > 0) row_lo = std::min(row_lo, y), row_hi = std::max(row_hi, y), col_lo = std::min(col_lo, x),
+                     col_hi = std::max(col_hi, x);
+        if (raised) continue;
+        // (1), (3): the share of the pixel's 4×4 samples inside Δᵀ·S⁻¹·Δ ≤ 1.
+        int in = 0;
+        bool edge = false;
+        for (int jj = 0; jj < 4; ++jj)
+          for (int ii = 0; ii < 4; ++ii) {
+            const double dx = x + (ii + 0.5) / 4 - 0.5 - h.u, dy = y + (jj + 0.5) / 4 - 0.5 - h.v;
+            const double q = (h.S22 * dx * dx - 2 * h.S12 * dx * dy + h.S11 * dy * dy) / det;
+            in += q <= 1;
+            edge |= std::abs(q - 1) <= 1e-6;
+          }
+        if (edge) continue;
+        EXPECT_NEAR(lum, h.want_L * in / 16, 4 * 0x1p-24 * h.want_L)
+            << "pixel (" << x << ", " << y << ") of the head at (" << h.u << ", " << h.v << "), " << in << "/16 inside";
+        ++shaped;
+        full += in == 16;
       }
-    // The drawn ellipse: raised to 0.5 px along a narrower axis (its area then π·a'·b').
-    const double a = std::max(h.a, 0.5), b = std::max(h.b, 0.5), r = std::sqrt(0.5);
+    // Every head reaches at least two rows and two columns: one cell of the colour filter array.
+    EXPECT_GE(row_hi - row_lo, 1) << "head at (" << h.u << ", " << h.v << "), semi-axes " << h.a << ", " << h.b;
+    EXPECT_GE(col_hi - col_lo, 1) << "head at (" << h.u << ", " << h.v << "), semi-axes " << h.a << ", " << h.b;
+    // The drawn ellipse: raised to 1 px along a narrower semi-axis (its area then π·a'·b').
+    const double a = std::max(h.a, 1.0), b = std::max(h.b, 1.0), r = std::sqrt(2.0) / 8;
     const double AK = M_PI * a * b, PK = 2 * M_PI * a;
     const double lo = (AK - PK * r) / AK - 0x1p-20, hi = (AK + PK * r + M_PI * r * r) / AK + 0x1p-20 + 1e-3;
     EXPECT_GE(flux / h.want_flux, lo) << "head at (" << h.u << ", " << h.v << "), semi-axes " << h.a << ", " << h.b;
@@ -1608,20 +1629,14 @@ TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
     ++fluxes;
     lowest = std::min(lowest, h.want_L);
     highest = std::max(highest, h.want_L);
-    if (h.b >= 1) {
-      const size_t i = static_cast<size_t>(std::lround(h.v)) * o.width + std::lround(h.u);
-      const float c[3] = {L[3 * i], L[3 * i + 1], L[3 * i + 2]};
-      EXPECT_NEAR(spectrum::luminance_cd_m2(c) / h.want_L, 1.0, 4 * 0x1p-24) << "head at D " << h.dist << " m";
-      ++centres;
-    }
   }
   EXPECT_GE(fluxes, 3);
-  EXPECT_GE(centres, 1);
   EXPECT_GT(shaped, 100);
+  EXPECT_GE(full, 1);
   std::fprintf(stderr,
-               "[lamp heads] %zu in view, %d flux-checked (luminance %.0f-%.0f cd/m²), %d centre-checked, %ld pixels' "
-               "shape checked, I0 %.0f cd\n",
-               heads.size(), fluxes, lowest, highest, centres, shaped, s.peak_intensity_cd);
+               "[lamp heads] %zu in view, %d flux-checked (luminance %.0f-%.0f cd/m²), %ld pixels' share checked "
+               "(%ld fully covered), I0 %.0f cd\n",
+               heads.size(), fluxes, lowest, highest, shaped, full, s.peak_intensity_cd);
 }
 
 // Vertical surfaces lit by the same lamps (street.cpp add_vertical_street_light): one lamp of
