@@ -178,20 +178,27 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
 
 #define PHILOX_AVX2_OP(x) _mm256_##x
 // The AVX2 path runs four vectors (32 pixels) at once. One vector's round is a chain of ~8
-// dependent instructions (shift, 32x32->64 multiply, shift, blend, two xors) for ~18 of them, so
-// ten rounds alone wait on latency (~80 cycles for 8 pixels on a Zen 3, where the ~180
-// instructions could issue in ~45); four independent chains interleaved round by round fill
+// dependent instructions (shift, 32x32->64 multiply, shift, blend, two xors) for ~16 of them, so
+// ten rounds alone wait on latency (~80 cycles for 8 pixels on a Zen 3, where the ~160
+// instructions could issue in ~40); four independent chains interleaved round by round fill
 // the gaps. Integer operations only: the same words as one vector at a time. A standalone loop
 // over 1,024 pixels (2026-11-29, AMD EPYC Zen 3): 3.25 ns a pixel one vector at a time, 2.35 with
 // two, 2.12 with four (the four's 16 state registers spill a few keys, still ahead).
 constexpr int kPhiloxAvx2Blocks = 4;
-// The products of the even lanes by mul_epu32, of the odd lanes shifted down the same way; the
-// halves put back in place by blends.
+// The high halves: the products of the even lanes by mul_epu32, of the odd lanes shifted down the
+// same way, put back in place by a shift and a blend. The low halves: one vpmulld (mullo_epi32),
+// the low 32 bits of each lane's product, which are the same bits as the 64-bit product's low
+// half (multiplication mod 2^32), where a shift and a blend of the two products were two
+// instructions. It also takes lo off the chain through the mul_epu32s. A photosite choice for the
+// AMD cores the AVX2 cap stands for: on this Zen 4 host (2026-12-01) a standalone loop of
+// 1,536 pixels' ten rounds, four vectors interleaved, best of 3,000: 1.89 ns a pixel with the
+// shift and blend, 1.65 with vpmulld. On Intel cores without AVX-512 (Skylake..) vpmulld is two
+// uops of latency 10 (Agner Fog's instruction tables), so there it may not gain.
 #define PHILOX_AVX2_MULHILO(c, m, hi, lo)                                                    \
   do {                                                                                       \
     const __m256i e_ = _mm256_mul_epu32(c, m), o_ = _mm256_mul_epu32(_mm256_srli_epi64(c, 32), m); \
     hi = _mm256_blend_epi32(_mm256_srli_epi64(e_, 32), o_, 0xAA);                            \
-    lo = _mm256_blend_epi32(e_, _mm256_slli_epi64(o_, 32), 0xAA);                            \
+    lo = _mm256_mullo_epi32(c, m);                                                           \
   } while (0)
 #define PHILOX_AVX2_XOR3(a, b, c) _mm256_xor_si256(_mm256_xor_si256(a, b), c)
 #define PHILOX_AVX2_LOAD(p) _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))
