@@ -371,8 +371,11 @@ void inversion_block_avx512(const float* mean, const uint32_t* w, float* k_out, 
 }
 // The same on the AVX2 path (GCC's AVX2 clone of inversion_block sums the go flags through a
 // horizontal add every step, as its AVX-512 clone did): eight vectors of 8 lanes in registers,
-// the stop test one OR of their go masks. k + 1 and cdf + p where a lane goes on, + 0 where it
-// does not (the select of inversion_block, then its add), so the same draws.
+// the stop test one OR of their go masks. cdf + p where a lane goes on, + 0 where it does not
+// (the select of inversion_block, then its add), so the same cdf. k is counted in integers, k − go
+// (go all ones, −1, where the lane goes on), and converted to float at the end: inversion_block's
+// float k, a sum of 1s from 0, is an integer below 64 and so exact, the same value as the
+// converted count (exact below 2^24). One AND a vector and step fewer than k + (go & 1).
 __attribute__((target("avx2")))
 void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, int m) {
   if (m % kInversionLanes != 0) __builtin_unreachable();
@@ -383,15 +386,16 @@ void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, in
       u[i] = detail::inversion_uniform(w[i0 + i]);
       p[i] = detail::fast_exp(-mean[i0 + i]);
     }
-    __m256 vmu[V], vu[V], vp[V], vcdf[V], vk[V];
+    __m256 vmu[V], vu[V], vp[V], vcdf[V];
+    __m256i vk[V];
     for (int v = 0; v < V; ++v) {
       vmu[v] = _mm256_loadu_ps(mean + i0 + 8 * v);
       vu[v] = _mm256_load_ps(u + 8 * v);
       vp[v] = _mm256_load_ps(p + 8 * v);
       vcdf[v] = vp[v];
-      vk[v] = _mm256_setzero_ps();
+      vk[v] = _mm256_setzero_si256();
     }
-    const __m256 one = _mm256_set1_ps(1.f), min_pmf = _mm256_set1_ps(detail::kInversionMinPmf);
+    const __m256 min_pmf = _mm256_set1_ps(detail::kInversionMinPmf);
     for (int j = 1; j < 64; ++j) {
       const __m256 inv_j = _mm256_set1_ps(detail::kInverseInteger[j]);
       __m256 any = _mm256_setzero_ps();
@@ -399,13 +403,13 @@ void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, in
         vp[v] = _mm256_mul_ps(vp[v], _mm256_mul_ps(vmu[v], inv_j));
         const __m256 go =
             _mm256_and_ps(_mm256_cmp_ps(vu[v], vcdf[v], _CMP_GT_OQ), _mm256_cmp_ps(vp[v], min_pmf, _CMP_GT_OQ));
-        vk[v] = _mm256_add_ps(vk[v], _mm256_and_ps(go, one));
+        vk[v] = _mm256_sub_epi32(vk[v], _mm256_castps_si256(go));
         vcdf[v] = _mm256_add_ps(vcdf[v], _mm256_and_ps(go, vp[v]));
         any = _mm256_or_ps(any, go);
       }
       if (_mm256_testz_ps(any, any)) break;
     }
-    for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, vk[v]);
+    for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, _mm256_cvtepi32_ps(vk[v]));
   }
 }
 PHOTOSITE_TARGET_CLONES
