@@ -118,7 +118,10 @@ int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s
 // (GlareFastPath.SkirtEqualsTheWholeImageDefinition, at each cap by IsaCaps.FastPathTestsPassAtEachCap).
 // Pairs j0 .. j0 + 3 are interior (j0 + 3 <= cw − 2) and the window's last float, offset
 // 9 + 3 + 7 = 19, lies inside t's 3·cw floats (3(j0 − 1) + 19 < 3cw) while j0 + 6 <= cw.
-// Returns the first pair it left.
+// Returns the first pair it left. Where upsample_row formed e and o over the row and interleaved
+// them: `photosite bench sense` at PHOTOSITE_MAX_ISA=avx2, 1 thread, "photon stage alone (with the
+// lens glare)" 7.20 -> 6.78 ms, medians (docs/benchmarks.md, "Twenty-seventh session: the sensor's
+// AVX2 gap").
 constexpr int kUpPair8Base[3] = {0, 5, 9};
 struct UpPair8Index {
   alignas(32) int32_t x[3][8];

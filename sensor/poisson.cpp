@@ -192,8 +192,10 @@ constexpr int kPhiloxAvx2Blocks = 4;
 // instructions. It also takes lo off the chain through the mul_epu32s. A photosite choice for the
 // AMD cores the AVX2 cap stands for: on this Zen 4 host (2026-12-01) a standalone loop of
 // 1,536 pixels' ten rounds, four vectors interleaved, best of 3,000: 1.89 ns a pixel with the
-// shift and blend, 1.65 with vpmulld. On Intel cores without AVX-512 (Skylake..) vpmulld is two
-// uops of latency 10 (Agner Fog's instruction tables), so there it may not gain.
+// shift and blend, 1.65 with vpmulld; `photosite bench sense` at PHOTOSITE_MAX_ISA=avx2, 1 thread,
+// row "Philox4x32-10 words, AVX2": 4.12 -> 3.58 ms (docs/benchmarks.md, "Twenty-seventh session:
+// the sensor's AVX2 gap"). On Intel cores without AVX-512 (Skylake..) vpmulld is two uops of
+// latency 10 (Agner Fog's instruction tables), so there it may not gain (not measured).
 #define PHILOX_AVX2_MULHILO(c, m, hi, lo)                                                    \
   do {                                                                                       \
     const __m256i e_ = _mm256_mul_epu32(c, m), o_ = _mm256_mul_epu32(_mm256_srli_epi64(c, 32), m); \
