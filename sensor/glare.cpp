@@ -51,6 +51,7 @@ using UpTap = shader::GlareTap;
 // the 32 floats of t from 3(j0 − 1) (offsets up to 3·7 + 6 + 2 = 29) by one two-source permute
 // each (kUpPairIndex). Returns the first pair it left.
 const bool kGlareAvx512 = photosite::detail::have_avx512();
+const bool kGlareAvx2 = photosite::detail::have_avx2();  // upsample_pairs_avx2, level1_row_sums_avx2, ...
 struct UpPairIndex {
   alignas(64) int32_t x[3][16], y[3][16];
   alignas(64) float w0[3][16], w1[3][16];
@@ -108,6 +109,56 @@ int upsample_mix_pairs_avx512(const float* t, int cw, float keep, const float* s
   return j0;
 }
 
+// The same interior on AVX2 (no two-source permute): four pixel pairs (24 floats of u, three
+// vectors) at a time. Output vector v's X operands lie within 8 consecutive floats of the window
+// t[3(j0 − 1), +20), from offset kUpPair8Base[v] (X = 3(q + odd) + c spans 0..5, 5..9, 9..14 for
+// v = 0, 1, 2), so one unaligned load and one permute across the vector (vpermps) give them; Y = X + 3
+// (the next tap, 3 floats on), the same permute of the load 3 floats on. Then w0·X + w1·Y, the
+// operations of glare_lerp and of upsample_pairs_avx512 per float, so the same bits
+// (GlareFastPath.SkirtEqualsTheWholeImageDefinition, at each cap by IsaCaps.FastPathTestsPassAtEachCap).
+// Pairs j0 .. j0 + 3 are interior (j0 + 3 <= cw − 2) and the window's last float, offset
+// 9 + 3 + 7 = 19, lies inside t's 3·cw floats (3(j0 − 1) + 19 < 3cw) while j0 + 6 <= cw.
+// Returns the first pair it left. Where upsample_row formed e and o over the row and interleaved
+// them: `photosite bench sense` at PHOTOSITE_MAX_ISA=avx2, 1 thread, "photon stage alone (with the
+// lens glare)" 7.20 -> 6.78 ms, medians (docs/benchmarks.md, "Twenty-seventh session: the sensor's
+// AVX2 gap").
+constexpr int kUpPair8Base[3] = {0, 5, 9};
+struct UpPair8Index {
+  alignas(32) int32_t x[3][8];
+  alignas(32) float w0[3][8], w1[3][8];
+  UpPair8Index() {
+    for (int v = 0; v < 3; ++v)
+      for (int l = 0; l < 8; ++l) {
+        const int i = 8 * v + l, q = i / 6, r = i % 6, odd = r >= 3 ? 1 : 0, c = r % 3;
+        x[v][l] = 3 * (q + odd) + c - kUpPair8Base[v];
+        w0[v][l] = odd ? 0.75f : 0.25f;
+        w1[v][l] = odd ? 0.25f : 0.75f;
+      }
+  }
+};
+const UpPair8Index kUpPair8Index;
+__attribute__((target("avx2")))
+int upsample_pairs_avx2(const float* t, int cw, float* u) {
+  const UpPair8Index& ix = kUpPair8Index;
+  __m256i idx[3];
+  __m256 w0[3], w1[3];
+  for (int v = 0; v < 3; ++v) {
+    idx[v] = _mm256_load_si256(reinterpret_cast<const __m256i*>(ix.x[v]));
+    w0[v] = _mm256_load_ps(ix.w0[v]);
+    w1[v] = _mm256_load_ps(ix.w1[v]);
+  }
+  int j0 = 1;
+  for (; j0 + 6 <= cw; j0 += 4) {
+    const float* tw = t + 3 * (j0 - 1);
+    for (int v = 0; v < 3; ++v) {
+      const __m256 X = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tw + kUpPair8Base[v]), idx[v]);
+      const __m256 Y = _mm256_permutevar8x32_ps(_mm256_loadu_ps(tw + kUpPair8Base[v] + 3), idx[v]);
+      _mm256_storeu_ps(u + 6 * j0 + 8 * v, _mm256_add_ps(_mm256_mul_ps(w0[v], X), _mm256_mul_ps(w1[v], Y)));
+    }
+  }
+  return j0;
+}
+
 PHOTOSITE_TARGET_CLONES
 void upsample_row(const float* __restrict t, int cw, int width, float* __restrict u, float* __restrict e,
                   float* __restrict o) {
@@ -119,7 +170,8 @@ void upsample_row(const float* __restrict t, int cw, int width, float* __restric
   one(0);
   one(1);
   const int k_end = 3 * (cw - 1);  // x = 2j and 2j + 1 for 1 <= j < cw − 1, below 2cw − 2 <= width
-  const int k0 = 3 * (kGlareAvx512 ? upsample_pairs_avx512(t, cw, u) : 1);  // pairs below k0/3 done
+  // pairs below k0/3 done
+  const int k0 = 3 * (kGlareAvx512 ? upsample_pairs_avx512(t, cw, u) : kGlareAvx2 ? upsample_pairs_avx2(t, cw, u) : 1);
   for (int k = k0; k < k_end; ++k) {
     e[k] = glare_lerp(0.25f, t[k - 3], 0.75f, t[k]);
     o[k] = glare_lerp(0.75f, t[k], 0.25f, t[k + 3]);
@@ -219,7 +271,6 @@ inline std::array<double, 3> level1_row_sum(const float* r, int w, int full_widt
 // full_width >= 2w − 1); the last pixel, its n and its three floats, by the scalar step after.
 // Per lane the scalar code's IEEE operations (double(v), n·v, s + n·v) in its order: the same bits
 // (test GlareFastPath.Level1RowSumsEqualTheRowByRowSums).
-const bool kGlareAvx2 = photosite::detail::have_avx2();
 __attribute__((target("avx2")))
 void level1_row_sums_avx2(const float* const* r, int nr, int w, int full_width, std::array<double, 3>* out) {
   constexpr int N = 8;

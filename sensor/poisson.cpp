@@ -178,20 +178,29 @@ void philox_words_scalar(uint64_t key, uint32_t frame, uint64_t first_pixel, uin
 
 #define PHILOX_AVX2_OP(x) _mm256_##x
 // The AVX2 path runs four vectors (32 pixels) at once. One vector's round is a chain of ~8
-// dependent instructions (shift, 32x32->64 multiply, shift, blend, two xors) for ~18 of them, so
-// ten rounds alone wait on latency (~80 cycles for 8 pixels on a Zen 3, where the ~180
-// instructions could issue in ~45); four independent chains interleaved round by round fill
+// dependent instructions (shift, 32x32->64 multiply, shift, blend, two xors) for ~16 of them, so
+// ten rounds alone wait on latency (~80 cycles for 8 pixels on a Zen 3, where the ~160
+// instructions could issue in ~40); four independent chains interleaved round by round fill
 // the gaps. Integer operations only: the same words as one vector at a time. A standalone loop
 // over 1,024 pixels (2026-11-29, AMD EPYC Zen 3): 3.25 ns a pixel one vector at a time, 2.35 with
 // two, 2.12 with four (the four's 16 state registers spill a few keys, still ahead).
 constexpr int kPhiloxAvx2Blocks = 4;
-// The products of the even lanes by mul_epu32, of the odd lanes shifted down the same way; the
-// halves put back in place by blends.
+// The high halves: the products of the even lanes by mul_epu32, of the odd lanes shifted down the
+// same way, put back in place by a shift and a blend. The low halves: one vpmulld (mullo_epi32),
+// the low 32 bits of each lane's product, which are the same bits as the 64-bit product's low
+// half (multiplication mod 2^32), where a shift and a blend of the two products were two
+// instructions. It also takes lo off the chain through the mul_epu32s. A photosite choice for the
+// AMD cores the AVX2 cap stands for: on this Zen 4 host (2026-12-01) a standalone loop of
+// 1,536 pixels' ten rounds, four vectors interleaved, best of 3,000: 1.89 ns a pixel with the
+// shift and blend, 1.65 with vpmulld; `photosite bench sense` at PHOTOSITE_MAX_ISA=avx2, 1 thread,
+// row "Philox4x32-10 words, AVX2": 4.12 -> 3.58 ms (docs/benchmarks.md, "Twenty-seventh session:
+// the sensor's AVX2 gap"). On Intel cores without AVX-512 (Skylake..) vpmulld is two uops of
+// latency 10 (Agner Fog's instruction tables), so there it may not gain (not measured).
 #define PHILOX_AVX2_MULHILO(c, m, hi, lo)                                                    \
   do {                                                                                       \
     const __m256i e_ = _mm256_mul_epu32(c, m), o_ = _mm256_mul_epu32(_mm256_srli_epi64(c, 32), m); \
     hi = _mm256_blend_epi32(_mm256_srli_epi64(e_, 32), o_, 0xAA);                            \
-    lo = _mm256_blend_epi32(e_, _mm256_slli_epi64(o_, 32), 0xAA);                            \
+    lo = _mm256_mullo_epi32(c, m);                                                           \
   } while (0)
 #define PHILOX_AVX2_XOR3(a, b, c) _mm256_xor_si256(_mm256_xor_si256(a, b), c)
 #define PHILOX_AVX2_LOAD(p) _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))
@@ -364,8 +373,11 @@ void inversion_block_avx512(const float* mean, const uint32_t* w, float* k_out, 
 }
 // The same on the AVX2 path (GCC's AVX2 clone of inversion_block sums the go flags through a
 // horizontal add every step, as its AVX-512 clone did): eight vectors of 8 lanes in registers,
-// the stop test one OR of their go masks. k + 1 and cdf + p where a lane goes on, + 0 where it
-// does not (the select of inversion_block, then its add), so the same draws.
+// the stop test one OR of their go masks. cdf + p where a lane goes on, + 0 where it does not
+// (the select of inversion_block, then its add), so the same cdf. k is counted in integers, k − go
+// (go all ones, −1, where the lane goes on), and converted to float at the end: inversion_block's
+// float k, a sum of 1s from 0, is an integer below 64 and so exact, the same value as the
+// converted count (exact below 2^24). One AND a vector and step fewer than k + (go & 1).
 __attribute__((target("avx2")))
 void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, int m) {
   if (m % kInversionLanes != 0) __builtin_unreachable();
@@ -376,15 +388,16 @@ void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, in
       u[i] = detail::inversion_uniform(w[i0 + i]);
       p[i] = detail::fast_exp(-mean[i0 + i]);
     }
-    __m256 vmu[V], vu[V], vp[V], vcdf[V], vk[V];
+    __m256 vmu[V], vu[V], vp[V], vcdf[V];
+    __m256i vk[V];
     for (int v = 0; v < V; ++v) {
       vmu[v] = _mm256_loadu_ps(mean + i0 + 8 * v);
       vu[v] = _mm256_load_ps(u + 8 * v);
       vp[v] = _mm256_load_ps(p + 8 * v);
       vcdf[v] = vp[v];
-      vk[v] = _mm256_setzero_ps();
+      vk[v] = _mm256_setzero_si256();
     }
-    const __m256 one = _mm256_set1_ps(1.f), min_pmf = _mm256_set1_ps(detail::kInversionMinPmf);
+    const __m256 min_pmf = _mm256_set1_ps(detail::kInversionMinPmf);
     for (int j = 1; j < 64; ++j) {
       const __m256 inv_j = _mm256_set1_ps(detail::kInverseInteger[j]);
       __m256 any = _mm256_setzero_ps();
@@ -392,13 +405,13 @@ void inversion_block_avx2(const float* mean, const uint32_t* w, float* k_out, in
         vp[v] = _mm256_mul_ps(vp[v], _mm256_mul_ps(vmu[v], inv_j));
         const __m256 go =
             _mm256_and_ps(_mm256_cmp_ps(vu[v], vcdf[v], _CMP_GT_OQ), _mm256_cmp_ps(vp[v], min_pmf, _CMP_GT_OQ));
-        vk[v] = _mm256_add_ps(vk[v], _mm256_and_ps(go, one));
+        vk[v] = _mm256_sub_epi32(vk[v], _mm256_castps_si256(go));
         vcdf[v] = _mm256_add_ps(vcdf[v], _mm256_and_ps(go, vp[v]));
         any = _mm256_or_ps(any, go);
       }
       if (_mm256_testz_ps(any, any)) break;
     }
-    for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, vk[v]);
+    for (int v = 0; v < V; ++v) _mm256_storeu_ps(k_out + i0 + 8 * v, _mm256_cvtepi32_ps(vk[v]));
   }
 }
 PHOTOSITE_TARGET_CLONES
@@ -545,6 +558,28 @@ int pack_lanes_avx512(const float* keep, int m, int* idx, const LaneCopy (&copie
   }
   return n;
 }
+// One group of pack_lanes_avx2: 8 lanes from i, n advanced by the kept ones. Full: all 8 below
+// m, read by plain loads (vmaskmov loads are slower: on AMD Zen 3 and 4 one per cycle against
+// two or three plain loads, uops.info); else the last group, by masked loads. The same lanes
+// either way.
+template <bool Full, int NC>
+__attribute__((target("avx2"), always_inline)) inline void pack_group_avx2(const float* keep, int m, int i, int* idx,
+                                                                           const uint32_t* const (&src)[NC],
+                                                                           uint32_t* const (&dst)[NC], int& n) {
+  const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(m - i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  const __m256 kv = Full ? _mm256_loadu_ps(keep + i) : _mm256_maskload_ps(keep + i, valid);  // lanes i + l < m
+  const __m256 kept = _mm256_cmp_ps(kv, _mm256_setzero_ps(), _CMP_NEQ_UQ);
+  const int mask = _mm256_movemask_ps(Full ? kept : _mm256_and_ps(_mm256_castsi256_ps(valid), kept));
+  const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
+#pragma GCC unroll 8
+  for (int c = 0; c < NC; ++c) {
+    const int* sc = reinterpret_cast<const int*>(src[c] + i);
+    const __m256i v = Full ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(sc)) : _mm256_maskload_epi32(sc, valid);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst[c] + n), _mm256_permutevar8x32_epi32(v, perm));
+  }
+  n += __builtin_popcount(static_cast<unsigned>(mask));
+}
 // The same on the AVX2 path, 8 lanes at a time: the compare's sign mask picks select_lanes'
 // left-packing permutation (kPack), which moves the kept lanes' indices and each array's values
 // to the front of the vector, stored whole at the count (AVX2 has no compress); the last group's
@@ -563,22 +598,10 @@ int pack_lanes_avx2(const float* keep, int m, int* idx, const LaneCopy (&copies)
     src[c] = static_cast<const uint32_t*>(s);
     dst[c] = static_cast<uint32_t*>(d);
   }
-  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   int n = 0;
-  for (int i = 0; i < m; i += 8) {
-    const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(m - i), iota);  // lanes i + l < m
-    const __m256 kv = _mm256_maskload_ps(keep + i, valid);
-    const int mask = _mm256_movemask_ps(_mm256_and_ps(_mm256_castsi256_ps(valid),
-                                                      _mm256_cmp_ps(kv, _mm256_setzero_ps(), _CMP_NEQ_UQ)));
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
-#pragma GCC unroll 8
-    for (int c = 0; c < NC; ++c) {
-      const __m256i v = _mm256_maskload_epi32(reinterpret_cast<const int*>(src[c] + i), valid);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst[c] + n), _mm256_permutevar8x32_epi32(v, perm));
-    }
-    n += __builtin_popcount(static_cast<unsigned>(mask));
-  }
+  int i = 0;
+  for (; i + 8 <= m; i += 8) pack_group_avx2<true, NC>(keep, m, i, idx, src, dst, n);
+  if (i < m) pack_group_avx2<false, NC>(keep, m, i, idx, src, dst, n);
   return n;
 }
 template <int NC>
