@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "photosite/error.h"
 #include "photosite/scene/night.h"
 #include "core/isa_detail.h"
 #include "scene/night_detail.h"
@@ -78,6 +79,26 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
     g.horizon_confidence = 0;
   }
   g.horizon_y = k.cy_px - k.f_px * std::tan(g.pitch_rad);
+  // Every row's ray must point ahead of the camera: its forward component per unit z,
+  // cos θ − y_n·sin θ (plane_depth_m's denominator, y_n = (v − c_y)/f), positive, i.e. the ray
+  // within 90° of the horizontal (θ + atan y_n in (−90°, 90°)). A rig whose field of view reaches
+  // past straight down (or up) at this frame's edge rows (fx_px of a few px, c_y far off the
+  // frame, |pitch| up to 30°: each within the rig schema's ranges) has ground points behind the
+  // camera (D < 0) and fronto-parallel planes at z = D/0 or D/(negative): the depth map then held
+  // −∞ and the façade windows converted ±∞ and NaN to integers (undefined behaviour, UBSan's
+  // float-cast-overflow, docs/robustness.md). The forward component is monotonic in v, so the two
+  // edges (v = −0.5 and H − 0.5) bound every row. Refused as bad input naming the rig.
+  for (const double v : {-0.5, height - 0.5}) {
+    const double yn = (v - k.cy_px) / k.f_px;
+    if (!(std::cos(g.pitch_rad) - yn * std::sin(g.pitch_rad) > 0))
+      fail(fmt::format("--rig {}{}: at pitch {:.2f} deg, f {:.4g} px and c_y {:.4g} px (for this {}x{} frame) the {} "
+                       "row's ray points {:.1f} deg {} the horizontal, past straight {}: the flat-ground model needs "
+                       "every row's ray ahead of the camera; check the rig's fx_px, cy_px and pitch_deg",
+                       rig.name, rig.file.empty() ? "" : " (" + rig.file + ")", g.pitch_rad * 180 / M_PI, k.f_px,
+                       k.cy_px, width, height, v < 0 ? "top" : "bottom",
+                       std::fabs(g.pitch_rad + std::atan(yn)) * 180 / M_PI, yn > 0 ? "below" : "above",
+                       yn > 0 ? "down" : "up"));
+  }
   // What the user should hear about (each a likely wrong --rig, or a frame no rig describes).
   auto add = [&](const std::string& s) { g.note += (g.note.empty() ? "" : "; ") + s; };
   const double aspect = static_cast<double>(width) / height, native = rig.native_width_px / rig.native_height_px;

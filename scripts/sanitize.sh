@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds photosite with AddressSanitizer + UndefinedBehaviorSanitizer (PHOTOSITE_SANITIZE) into
 # build-asan/ and runs the whole test suite under ctest. Any ASan report, leak or UBSan finding
-# fails the run (UBSan is built with -fno-sanitize-recover). docs/robustness.md has the results.
+# (float-cast-overflow included: CMakeLists.txt names it) fails the run (UBSan is built with
+# -fno-sanitize-recover). docs/robustness.md has the results.
 # Usage: scripts/sanitize.sh [ctest args...]     e.g. scripts/sanitize.sh -R 'BadInput'
 set -euo pipefail
 cd "$(dirname "$0")/.."
