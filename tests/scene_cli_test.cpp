@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <tuple>
 
 #include "photosite/io.h"
@@ -395,4 +396,28 @@ TEST(SceneNightCli, AOneThreadTeamRunsBothHalvesOfEachPair) {
   x.erase("DateTime");
   y.erase("DateTime");
   EXPECT_EQ(x, y);
+}
+
+// A long lens within the rig schema's range (fx_px 1e6: a 0.1° field of view) on a Cityscapes frame:
+// the low beam's shadow maps span the frame's directions widened by the lamps' parallax at 2 m, some
+// 10^5 × 10^5 cells of 2 px at that focal length, and `night` stopped "out of memory" (exit 1, the
+// rig-corner runs of docs/robustness.md). The maps' cells are now bounded (scene/lights.cpp
+// beam_shadow_max_cells, the cell widened): the run completes and writes its EXR.
+TEST(SceneNightCli, ALongLensRigBoundsTheBeamShadowMaps) {
+  PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
+  const fs::path dir = test::shared_dir() / "data/cityscapes";
+  const std::string base = "aachen_000000_000019";
+  test::TempDir tmp;
+  {
+    std::ofstream rig(tmp.file("rig.toml"));
+    rig << "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 1e6\ncx_px = 1096\ncy_px = 513\n"
+           "mount_height_m = 0.1\npitch_deg = 0\n";
+  }
+  const auto r = test::run_cli("night --backend cpu --layers radiance --image '" +
+                               (dir / "leftImg8bit" / (base + "_leftImg8bit.png")).string() + "' --labels '" +
+                               (dir / "gtFine" / (base + "_gtFine_labelIds.png")).string() + "' --rig '" +
+                               tmp.file("rig.toml") + "' --out '" + tmp.file("o.exr") + "' --device-store '" +
+                               tmp.file("store") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(tmp.file("o.exr"))) << r.output;
 }
