@@ -1101,16 +1101,21 @@ namespace {
 // behind an occluder that is not much lower than itself.
 constexpr int kBeamShadowCellPx = 2;
 constexpr int kBeamShadowBlock = 16;
-// The most cells a lamp's shadow map may take: 4 per frame pixel, at least 2^20 (16 bytes a pixel,
-// 4 MB for a small frame). A map spans the frame's directions widened by the lamps' parallax at
-// kBeamShadowNear_m (ground: the rows' whole range); at kBeamShadowCellPx pixels a cell that is
-// some 10^5 × 10^3 cells for a long lens (a rig's fx_px up to 10^6: a 0.1° field of view, a lamp's
-// 0.7 m offset 20° wide at 2 m), more than memory holds (the rig-corner runs of docs/robustness.md
-// stopped "out of memory"). Where the cells would exceed the bound, the cell is widened until they
-// do not: such a frame's shadows are then coarser than 2 px (a photosite choice, to degrade, not
-// stop); no rig of the data sets comes near it (the bench frame's maps: a few 10^5 cells).
-size_t beam_shadow_max_cells(int W, int H) {
-  return std::max<size_t>(size_t{1} << 20, 4 * static_cast<size_t>(W) * static_cast<size_t>(H));
+// The cell of a lamp's shadow maps: `cell` (kBeamShadowCellPx pixels' angle), doubled until each of
+// the two maps holds at most 4 cells per frame pixel, at least 2^20 (16 bytes a pixel, 4 MB for a
+// small frame); cells(k, c) is map k's count at cell c. A map spans the frame's directions widened by
+// the lamps' parallax at kBeamShadowNear_m (ground: the rows' whole range); at kBeamShadowCellPx
+// pixels that is some 10^5 × 10^3 cells for a long lens (a rig's fx_px up to 10^6: a 0.1° field of
+// view, a lamp's 0.7 m offset 20° wide at 2 m), more than memory holds (the rig-corner runs of
+// docs/robustness.md stopped "out of memory"). Such a frame's shadows are then coarser than 2 px (a
+// photosite choice, to degrade, not stop); no rig of the data sets comes near the bound (the bench
+// frame's maps: a few 10^5 cells), where the cell is returned as given.
+template <class Cells>
+double beam_shadow_cell(double cell, int W, int H, const Cells& cells) {
+  const double max_cells =
+      static_cast<double>(std::max<size_t>(size_t{1} << 20, 4 * static_cast<size_t>(W) * static_cast<size_t>(H)));
+  while (!(std::max(cells(0, cell), cells(1, cell)) <= max_cells)) cell *= 2;
+  return cell;
 }
 // The map's rows (cells of one v) are written +∞ only when a point first falls in them, and the
 // map ends after its last row that holds a point (fill_shadow_maps): the points of a frame take a
@@ -1498,12 +1503,10 @@ GroundShadowMaps::Impl::Impl(int width, int height, const CameraGeometry& g, con
     }
   }
   if (!(v_hi > 0)) return;  // no ground below the horizon
-  // Each map's cells at this cell size; widened where either would exceed beam_shadow_max_cells.
-  auto cells = [&](int k, double cl) {
+  // Each map's cells at cell size cl (the allocation's below), the cell bounded by them.
+  cell = beam_shadow_cell(cell, W, H, [&](int k, double cl) {
     return (std::ceil((u_hi[k] - u_lo[k]) / cl) + 3) * (std::ceil(v_hi / cl) + 2);
-  };
-  const double max_cells = static_cast<double>(beam_shadow_max_cells(W, H));
-  while (!(std::max(cells(0, cell), cells(1, cell)) <= max_cells)) cell *= 2;
+  });
   for (int k = 0; k < 2; ++k) {
     LampShadowMap& m = maps[k];
     m.xl = b.xl[k];
@@ -2211,13 +2214,11 @@ VerticalShadowMaps vertical_shadow_maps(const BeamVerticalCtx& c, const ImageU16
     const double v_lo = std::max(r_lo + std::min(0.0, dv), v_top) - cl, v_hi = r_hi + std::max(0.0, dv) + cl;
     return std::array<double, 4>{u_lo, u_hi, v_lo, v_hi};
   };
-  // Each map's cells, the cell widened where either would exceed beam_shadow_max_cells.
-  auto cells = [&](int k, double cl) {
+  // Each map's cells at cell size cl (the allocation's below), the cell bounded by them.
+  cell = beam_shadow_cell(cell, W, H, [&](int k, double cl) {
     const auto [u_lo, u_hi, v_lo, v_hi] = extent(k, cl);
     return v_hi > v_lo ? (std::ceil((u_hi - u_lo) / cl) + 1) * (std::ceil((v_hi - v_lo) / cl) + 1) : 0.0;
-  };
-  const double max_cells = static_cast<double>(beam_shadow_max_cells(W, H));
-  while (!(std::max(cells(0, cell), cells(1, cell)) <= max_cells)) cell *= 2;
+  });
   vs.r_min = INFINITY;
   for (int k = 0; k < 2; ++k) {
     LampShadowMap& m = vs.maps[k];

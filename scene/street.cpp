@@ -1660,6 +1660,13 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
     const unsigned lit_px = static_cast<unsigned>(m & _mm256_movemask_ps(_mm256_cmp_ps(acc, zero, _CMP_GT_OQ)));
     if (lit_px) reflect8_avx2(o + 3 * x, tx + 3 * x, acc, lit_px, rc);
   };
+  // A lone group x's lamp loop over lo .. hi (lamp_sum8, with the crowns' terms where it has a
+  // crown lane) and its reflection.
+  auto one_group = [&](int x, int m, const LampLanes8& ll, size_t lo, size_t hi)
+                       __attribute__((target("avx2"), always_inline)) {
+    reflect(x, m, _mm256_movemask_ps(ll.crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
+                                               : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min));
+  };
   int x = 0;
   // Pairs of groups (sixteen columns) through one lamp loop (lamp_sums8, N = 2) where both have a
   // candidate with a point, the window covering both; a lone group through lamp_sum8.
@@ -1683,9 +1690,7 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
       reflect(x + 8, m[1], acc[1]);
     } else {
       const int j = has0 ? 0 : 1;
-      const __m256 acc = _mm256_movemask_ps(ll[j].crown) ? lamp_sum8<true>(la, t, lo, hi, ll[j], vI0, vd2min)
-                                                         : lamp_sum8<false>(la, t, lo, hi, ll[j], vI0, vd2min);
-      reflect(x + 8 * j, m[j], acc);
+      one_group(x + 8 * j, m[j], ll[j], lo, hi);
     }
   }
   for (; x + 8 <= W; x += 8) {
@@ -1696,9 +1701,7 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
     double Dmin = INFINITY, Dmax = -INFINITY;
     if (!lanes8(x, m, ll, Dmin, Dmax)) continue;
     lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
-    const size_t lo = win_lo, hi = win_hi;
-    reflect(x, m, _mm256_movemask_ps(ll.crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
-                                               : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min));
+    one_group(x, m, ll, win_lo, win_hi);
   }
   _mm256_zeroupper();
   return x;

@@ -402,7 +402,7 @@ TEST(SceneNightCli, AOneThreadTeamRunsBothHalvesOfEachPair) {
 // the low beam's shadow maps span the frame's directions widened by the lamps' parallax at 2 m, some
 // 10^5 × 10^5 cells of 2 px at that focal length, and `night` stopped "out of memory" (exit 1, the
 // rig-corner runs of docs/robustness.md). The maps' cells are now bounded (scene/lights.cpp
-// beam_shadow_max_cells, the cell widened): the run completes and writes its EXR.
+// beam_shadow_cell, the cell widened): the run completes and writes its EXR.
 TEST(SceneNightCli, ALongLensRigBoundsTheBeamShadowMaps) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
   const fs::path dir = test::shared_dir() / "data/cityscapes";
