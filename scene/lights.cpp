@@ -1076,6 +1076,87 @@ void LowBeamRows::Impl::row(ImageF& E, int y) const {
 }
 
 namespace {
+// ---- Oncoming vehicles' low beams on the ground (docs/night.md §7, "Oncoming beams") ----------
+// A vehicle in traffic that faces the camera (light_map's vehicle states: oncoming) drives toward
+// it along the road with its low beam on. Each of its headlamps, at (X_k, veh_lamp_height_m, D_v)
+// in road coordinates (the drawn lamps' positions: D_v its ground contact's depth, the front it
+// shows), is taken as the [ego_beam] table (ECE R112 class B, the same regulation as the ego's)
+// aimed along −D. In that lamp's own frame a ground point (X, 0, D) lies D' = D_v − D ahead and
+// X_k − X to its right (its right is the camera's left). The ego beam's row evaluation gives that
+// exactly: with x_n negated (X' = t·(−x_n) = −X, a negation is exact) and the lamp at x' = −X_k,
+// its dx = X' − x' = X_k − X; D' in place of the row's D. So E = Σ_lamps I(h, v)·cos θ/d² with
+// the ego beam's float operations (low_beam_lux_f32's, the bound of docs/night.md §6c), on the
+// ground pixels in front of the vehicle. Not modelled: shadows (what stands between such a lamp and
+// the road is not looked for), vehicles going away (their beams light the road beyond them, mostly
+// hidden behind them; their fronts' depth is not known), the lamps' forward offset from the contact.
+struct OncomingBeam {
+  BeamF b;           // the table at the vehicle's lamp height, b.xl = −X_k
+  double D_m = 0;    // the lamps' depth along the road (the vehicle's ground contact)
+  double X_lo = 0, X_hi = 0;  // its lamps' X (the same for a two-wheeler's one lamp)
+  int only = -1;     // 0: one lamp (a motorcycle), −1: the pair
+};
+struct OncomingBeamRows {
+  const CameraGeometry& g;
+  const int W;
+  const double c, s;
+  std::vector<double> nxn;  // −x_n = −(x − c_x)/f per column
+  const uint64_t read_mask = label_bits(ground_classes());
+  const std::array<bool, kLabelCount>& read = ground_classes();
+  const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  float tint[3];  // the headlamps' colour t_k/π (illuminant_tint at headlamp_cct_K): L_k += f_k·(t_k/π)·E
+  std::vector<OncomingBeam> beams;
+  OncomingBeamRows(const CameraGeometry& g_, int width, const ScenePreset& p)
+      : g(g_), W(width), c(std::cos(g_.pitch_rad)), s(std::sin(g_.pitch_rad)), nxn(width) {
+    for (int x = 0; x < W; ++x) nxn[x] = -((x - g.cx_px) / g.f_px);
+    const auto t = illuminant_tint(p.headlamp_cct_K);
+    for (int k = 0; k < 3; ++k) tint[k] = static_cast<float>(t[k] / M_PI);
+  }
+  // Row y of L (3 channels) += texture·tint·E over the ground pixels each beam reaches: the columns
+  // whose ground point lies within the table's horizontal range [H₀, H₁] of a lamp
+  // (X_k − X ∈ [D'·tan H₀, D'·tan H₁]), with a margin of 2 columns (outside it the evaluation
+  // gives 0 anyway: the range only spares the work). `e`: W floats of scratch.
+  void row(float* Lr, const float* tr, const uint16_t* id, int y, float* e) const {
+    if (beams.empty()) return;
+    const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+    if (den <= 0) return;  // at or above the horizon
+    const double t = g.mount_height_m / den, D = t * (c - yn * s);
+    if (!(D > 0)) return;
+    for (const OncomingBeam& ob : beams) {
+      const double Dp = ob.D_m - D;
+      const float Df = static_cast<float>(Dp);
+      if (!ob.b.ok || !(Df > 0)) continue;
+      const double tan0 = std::tan(ob.b.H.front() / ob.b.deg), tan1 = std::tan(ob.b.H.back() / ob.b.deg);
+      const double X0 = ob.X_lo - Dp * tan1, X1 = ob.X_hi - Dp * tan0;  // the reached ground X
+      const double k = g.f_px / t;                                     // columns per metre of X
+      const double xa = std::floor(g.cx_px + X0 * k) - 2, xb = std::ceil(g.cx_px + X1 * k) + 3;
+      const int x0 = static_cast<int>(std::clamp(xa, 0.0, static_cast<double>(W)));
+      const int x1 = static_cast<int>(std::clamp(xb, 0.0, static_cast<double>(W)));
+      if (x1 <= x0) continue;
+      const float D2 = Df * Df, invD = 1.f / Df;
+      const int n = x1 - x0;
+      if (avx512) beam_row_avx512(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, nullptr, read_mask, e + x0, ob.only);
+      else if (avx2) beam_row_avx2(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, nullptr, read_mask, e + x0, ob.only);
+      else
+        for (int x = x0; x < x1; ++x) {
+          const bool needed = id[x] < kLabelCount && read[id[x]];
+          const float X = static_cast<float>(t * nxn[x]);
+          e[x] = !needed                ? 0.f
+                 : ob.only >= 0 ? beam_lamp_f(X - ob.b.xl[ob.only], D2, invD, ob.b)
+                                : beam_lux_f(X, D2, invD, ob.b);
+        }
+      for (int x = x0; x < x1; ++x) {
+        const float E = e[x];
+        if (!(E > 0.f)) continue;
+        float* l = Lr + 3 * static_cast<size_t>(x);
+        const float* f = tr + 3 * static_cast<size_t>(x);
+        for (int q = 0; q < 3; ++q) l[q] += f[q] * (tint[q] * E);
+      }
+    }
+  }
+};
+}  // namespace
+
+namespace {
 // ---- Shadows of the low beam (docs/night.md §6c, "Shadows of the low beam") ----------------------
 // A shadow map per lamp, built from the metric scene: the lamp at L = (x_l, h_l, 0) looks along
 // the road (the camera's forward direction D, no pitch); a point P = (X, Y, D) ahead of it is seen
@@ -3610,6 +3691,19 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // The vehicle lamps' pixels (maxima over L), recorded by vehicle_lamps (below) and drawn
   // after the retroreflection, row by row; all lie in the vehicle rows [ry0, ry1].
   MaxDraws veh(W, H);
+  // The oncoming vehicles' low beams on the ground (OncomingBeamRows, above): recorded by
+  // vehicle_lamps, added row by row after the retroreflection and before the vehicle lamps (ground
+  // pixels only: the lamps are drawn on vehicle pixels). With the row pass the rows from the first
+  // vehicle row down wait for vehicle_lamps (the side job's band is [ry0, H − 1]): a beam lights
+  // the ground below its vehicle.
+  std::optional<OncomingBeamRows> oncoming_beams;
+  if (geometry && p.veh_beams_on_road) oncoming_beams.emplace(*geometry, W, p);
+  const auto oncoming_beam_row = [&](int y) {
+    if (!oncoming_beams || oncoming_beams->beams.empty()) return;
+    thread_local std::vector<float> e;
+    if (e.size() < static_cast<size_t>(W)) e.resize(W);
+    oncoming_beams->row(L.row(y), texture.row(y), labels.row(y), y, e.data());
+  };
   // The vehicles' components, boxes, states, colour cues and placed lamps (those not handed),
   // recorded in veh. With the row pass, one thread runs it while the others make the rows
   // outside [ry0, ry1] (add_street_light_rows' side job: those rows read nothing it writes);
@@ -3810,7 +3904,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
         sink->push_back({inst_of[c], comp_class[c], b.x0, b.y0, b.x1, b.y1, b.n, vs[c].state, oncoming[c] != 0,
                          red_blob_px[c], lens_blob_px[c], vs[c].X, vs[c].D, travel_divide, sl.road_left_m,
                          sl.road_right_m, why[c].Xo, why[c].row, why[c].beside_median, why[c].across_median,
-                         why[c].kerb_gap, why[c].strip_m});
+                         why[c].kerb_gap, why[c].strip_m, vs[c].width_m});
       }
     }
     for (int y = std::max(1, ry0); y <= std::min(H - 2, ry1); ++y) {
@@ -3874,6 +3968,23 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           }
           out.stats.vehicle_lamps += n > 0;
         }
+        // Its low beam on the road ahead of it (toward the camera), as OncomingBeamRows.
+        const bool beam_class = cls == static_cast<int>(Label::Car) || cls == static_cast<int>(Label::Truck) ||
+                                cls == static_cast<int>(Label::Bus) || cls == static_cast<int>(Label::Motorcycle);
+        if (oncoming_beams && v.state == 1 && faces_camera && beam_class) {
+          OncomingBeam ob;
+          ob.b = beam_f(p);
+          ob.b.hl = static_cast<float>(p.veh_lamp_height_m);
+          ob.b.hl2 = ob.b.hl * ob.b.hl;
+          ob.b.xl[0] = static_cast<float>(-xs.front());
+          ob.b.xl[1] = static_cast<float>(-xs.back());
+          ob.D_m = v.D;
+          ob.X_lo = std::min(xs.front(), xs.back());
+          ob.X_hi = std::max(xs.front(), xs.back());
+          ob.only = xs.size() == 1 ? 0 : -1;
+          oncoming_beams->beams.push_back(std::move(ob));
+          ++out.stats.vehicle_beams;
+        }
         continue;
       }
       if (b.n < 40 || bw < 8 || bh < 6) continue;
@@ -3892,6 +4003,10 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   };
   if (!row_pass) {
     vehicle_lamps();
+    if (oncoming_beams && !oncoming_beams->beams.empty()) {
+#pragma omp parallel for schedule(static, 8)
+      for (int y = 0; y < H; ++y) oncoming_beam_row(y);
+    }
     for (int y = 0; y < H; ++y) veh.draw_row(L, y);
   }
 
@@ -3927,12 +4042,14 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       std::atomic<int> signals{0};
       const std::function<void(int)> first = [&](int y) {
         signals += retro_row(y);
+        if (y >= ry0) oncoming_beam_row(y);
         if (y >= ry0 && y <= ry1) veh.draw_row(L, y);
       };
       const std::function<void()> side = vehicle_lamps;
       const StreetRowsResult r =
           add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades, rows ? &*rows : nullptr,
-                                row_pass ? &first : nullptr, row_pass ? &side : nullptr, ry0, ry1);
+                                row_pass ? &first : nullptr, row_pass ? &side : nullptr, ry0,
+                                oncoming_beams && ry1 >= ry0 ? H - 1 : ry1);
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;

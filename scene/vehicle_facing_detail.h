@@ -29,6 +29,7 @@ struct VehicleDecision {
   bool across_median = false; // it stands on a road separated from the ego carriageway by a median
   double kerb_gap_m = INFINITY;  // road beside its outer side before the first off-carriageway label, m
   double strip_m = 0;            // that off-carriageway run's width, m
+  double width_m = 0;            // its metric width at the contact depth (the lamps' spacing reads it), m
 };
 
 // The colour of the frame's road relative to grey: gains g_k = m̄/m_k per linear sRGB channel,

@@ -155,9 +155,10 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
-// street_lamps.interp_tolerance; reflectance.sun_cct_K, shade_sky_cct_K). Values changed since, by
-// hand with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
-// vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).
+// street_lamps.interp_tolerance; reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road).
+// Values changed since, by hand with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the
+// visible reflectance of vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on,
+// with its colour test).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))

@@ -27,6 +27,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
+#include "scene/vehicle_facing_detail.h"
 #include "test_util.h"
 
 using namespace photosite;
@@ -2446,6 +2447,40 @@ SyntheticCameraScene free_road(SyntheticCameraOptions& o) {
   o.boxes.clear();
   return make_synthetic_camera_scene(o);
 }
+// One headlamp's E = I(h, v)·cos θ/d² at a ground point dx to the right of the lamp and D ahead of
+// it in the lamp's own frame (the double reference: atan2, the table read by table_cd), with the
+// bound of the float evaluation's error derived above EgoLowBeam.TableProjectedOntoTheMetricGround
+// (X and x_l: the ground point's and the lamp's X as the float code rounds them, |Δdx| ≤ u·(|X| +
+// |x_l| + |dx|)), and whether (h, v) lies within that error of a discontinuity of I.
+struct LampRef {
+  double E = 0, bound = 0;
+  bool lit = false, near_edge = false;
+};
+struct BeamRef {
+  const ScenePreset& p;
+  const double u = std::ldexp(1.0, -24), rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
+  const std::array<double, 4> slopes = table_slopes(p);  // S_h, S_v, A_h, A_v
+  LampRef lamp(double X, double xl, double dx, double D, double hl) const {
+    const auto [S_h, S_v, A_h, A_v] = slopes;
+    const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
+    const double d2 = dx * dx + D * D + hl * hl;
+    const double h = std::atan2(dx, D) * 180 / M_PI, v = -std::atan2(hl, std::hypot(dx, D)) * 180 / M_PI;
+    const double ddx = u * (std::fabs(X) + std::fabs(xl) + std::fabs(dx));
+    const double dh = 180 / M_PI * ddx / D + 9 * u * std::fabs(h) + 12 * u * A_h;
+    const double dv = std::fabs(v) * (ddx / D + 11 * u) + 12 * u * A_v;
+    const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * rise);
+    const double dcut = dv + rise * dh +
+                        4 * u * (std::fabs(p.beam_cutoff_v_deg) + std::fabs(p.beam_cutoff_max_v_deg) + std::fabs(h) * rise);
+    LampRef r;
+    r.near_edge = std::fabs(v - cut) <= dcut || std::fabs(h - Hg.front()) <= dh || std::fabs(h - Hg.back()) <= dh ||
+                  std::fabs(v - Vg.front()) <= dv || std::fabs(v - Vg.back()) <= dv;
+    const double I = table_cd(p, h, v), w = (hl / std::sqrt(d2)) / d2;
+    r.lit = I > 0;
+    r.E = I * w;
+    r.bound = (21 * u + 3 * ddx / D) * I * w + w * (S_h * dh + S_v * dv);
+    return r;
+  }
+};
 }  // namespace
 
 // E at a pixel = Σ over the two lamps (±spacing/2, h_l, 0) of I(h, v)·cos θ/d² for its ground point
@@ -2479,9 +2514,8 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   const ScenePreset p = urban();
   const CameraGeometry& g = o.camera;
   const ImageF E = low_beam_illuminance(g, o.width, o.height, p);
-  const double hl = p.beam_lamp_height_m, u = std::ldexp(1.0, -24), rise = std::tan(p.beam_cutoff_rise_deg * M_PI / 180);
-  const auto &Hg = p.beam_h_deg, &Vg = p.beam_v_deg;
-  const auto [S_h, S_v, A_h, A_v] = table_slopes(p);
+  const double hl = p.beam_lamp_height_m;
+  const BeamRef ref{p};
   int checked = 0, beyond_cutoff = 0, band = 0;
   double worst = 0;  // the largest |E_f − E| / bound seen
   const int xc = static_cast<int>(std::lround(g.cx_px));
@@ -2499,20 +2533,11 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
       double expect = 0, bound = 0;
       bool lit = false, near_edge = false;
       for (double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
-        const double dx = X - xl, d2 = dx * dx + D * D + hl * hl;
-        const double h = std::atan2(dx, D) * 180 / M_PI, v = -std::atan2(hl, std::hypot(dx, D)) * 180 / M_PI;
-        const double ddx = u * (std::fabs(X) + std::fabs(xl) + std::fabs(dx));
-        const double dh = 180 / M_PI * ddx / D + 9 * u * std::fabs(h) + 12 * u * A_h;
-        const double dv = std::fabs(v) * (ddx / D + 11 * u) + 12 * u * A_v;
-        const double cut = std::min(p.beam_cutoff_max_v_deg, p.beam_cutoff_v_deg + std::max(0.0, h) * rise);
-        const double dcut = dv + rise * dh +
-                            4 * u * (std::fabs(p.beam_cutoff_v_deg) + std::fabs(p.beam_cutoff_max_v_deg) + std::fabs(h) * rise);
-        near_edge = near_edge || std::fabs(v - cut) <= dcut || std::fabs(h - Hg.front()) <= dh ||
-                    std::fabs(h - Hg.back()) <= dh || std::fabs(v - Vg.front()) <= dv || std::fabs(v - Vg.back()) <= dv;
-        const double I = table_cd(p, h, v), w = (hl / std::sqrt(d2)) / d2;
-        lit = lit || I > 0;
-        expect += I * w;
-        bound += (21 * u + 3 * ddx / D) * I * w + w * (S_h * dh + S_v * dv);
+        const LampRef r = ref.lamp(X, xl, X - xl, D, hl);
+        near_edge = near_edge || r.near_edge;
+        lit = lit || r.lit;
+        expect += r.E;
+        bound += r.bound;
       }
       bound *= 1 + 1e-6;
       if (near_edge) {
@@ -2582,6 +2607,124 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
     }
   }
   EXPECT_GT(read, En.size() / 4);  // the ground is a large part of a road scene
+}
+
+// Oncoming vehicles' low beams on the road (vehicle_lamps.beams_on_road; OncomingBeamRows in
+// scene/lights.cpp). On an unlit road (no street lamps: street_road_luminance 0) of the scene
+// rendered from a known camera, box 0 (X = −3.5 m, D = 40 m, left of the divide: oncoming, in
+// traffic) lights the ground between itself and the camera; box 1 (right of the divide, going away)
+// does not. The reference, in double: each of box 0's two lamps at (X_k, vehicle_lamps.height_m, D_v)
+// (X_k = X ± (width/2 − inset), its contact's X, D and metric width as light_map's vehicle states
+// record them) is the [ego_beam] table aimed along −D, its right toward −X: a ground point (X, D)
+// lies D' = D_v − D ahead and dx = X_k − X to its right. A ground pixel lit by nothing else
+// (beams off: 0) carries f·(t·E) per channel (f the reflectance texture, t the 3200 K head lamps'
+// tint over π), so E = L_G/(f_G·t_G) within the ego beam's derived float bound (BeamRef, above, in
+// the lamp's frame: |X'| = |X|, |x'| = |X_k|) plus the two roundings of f·(t·E), 2u·E. Pixels within
+// the bound of the table's edges or the cut-off are left out and counted. At every vector level of
+// the beam rows (beam_max_isa 2, 1, 0) the same bits.
+TEST(MetricLights, AnOncomingVehiclesLowBeamLightsTheRoadInFrontOfIt) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes = {{-3.5, 40, 1.8, 1.5, 4.5}, {3.2, 20, 1.8, 1.5, 4.5}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  p.street_road_luminance_cd_m2 = 0;  // an unlit road (as night-rural): nothing but the beams on the ground
+  p.veh_beams_on_road = true;          // (night-urban leaves them off)
+  std::vector<VehicleDecision> seen;
+  set_vehicle_decision_sink(&seen);
+  const NightScene on = night_scene(s.day_linear_srgb, s.labels, p, 1);
+  set_vehicle_decision_sink(nullptr);
+  ScenePreset p_off = p;
+  p_off.veh_beams_on_road = false;
+  const NightScene off = night_scene(s.day_linear_srgb, s.labels, p_off, 1);
+  EXPECT_EQ(on.light_stats.vehicle_beams, 1);
+  EXPECT_EQ(off.light_stats.vehicle_beams, 0);
+  const VehicleDecision* v = nullptr;
+  for (const VehicleDecision& d : seen)
+    if (d.instance == 26000) v = &d;
+  ASSERT_NE(v, nullptr);
+  ASSERT_EQ(v->state, 1);
+  ASSERT_TRUE(v->faces_camera);
+  const double half = std::max(0.0, 0.5 * v->width_m - p.veh_lamp_inset_m), hl = p.veh_lamp_height_m;
+  const double lamps[2] = {v->X - half, v->X + half};
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const auto tint = illuminant_tint(p.headlamp_cct_K);
+  const float tG = static_cast<float>(tint[1] / M_PI);
+  const BeamRef ref{p};
+  const double u = ref.u;
+  const CameraGeometry& g = on.geometry;
+  int checked = 0, dark = 0, band = 0, behind = 0;
+  double worst = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      double X, D, z;
+      if (!ground_classes()[s.labels.ids.at(x, y)] || !g.ground_point(x, y, &X, &D, &z)) continue;
+      if (off.lights.at(x, y, 0) != 0 || off.lights.at(x, y, 1) != 0 || off.lights.at(x, y, 2) != 0) continue;
+      const float LG = on.lights.at(x, y, 1);
+      if (!(D < v->D)) {  // behind the vehicle's front: no beam of it
+        ++behind;
+        ASSERT_EQ(LG, 0.f) << x << "," << y;
+        continue;
+      }
+      double expect = 0, bound = 0;
+      bool lit = false, near_edge = false;
+      for (double Xk : lamps) {
+        const LampRef r = ref.lamp(X, Xk, Xk - X, v->D - D, hl);
+        near_edge = near_edge || r.near_edge;
+        lit = lit || r.lit;
+        expect += r.E;
+        bound += r.bound;
+      }
+      if (near_edge) {
+        ++band;
+        continue;
+      }
+      if (!lit) {
+        ++dark;
+        ASSERT_EQ(LG, 0.f) << x << "," << y;
+        continue;
+      }
+      const double E = LG / (static_cast<double>(tex.at(x, y, 1)) * tG);
+      const double tol = (bound + 2 * u * (expect + bound)) * (1 + 1e-6);
+      ASSERT_NEAR(E, expect, tol) << x << "," << y << " X " << X << " D " << D;
+      worst = std::max(worst, std::fabs(E - expect) / tol);
+      ++checked;
+    }
+  std::fprintf(stderr, "[oncoming beam] %d lit ground pixels within the derived bound (largest error/bound %.3f), "
+               "%d dark in front of it, %d behind it, %d in the edge band\n", checked, worst, dark, behind, band);
+  EXPECT_GT(checked, 10000);
+  EXPECT_LT(band, checked / 100);
+  // Class B is asymmetric above 1.72°D: at 1.72° right of its axis a lamp gives more than at 1.72°
+  // left (at 1.3°D 8,000 cd against 5,000, between 50L's column and the axis; the table's rows
+  // further down are symmetric). Mirrored for a vehicle coming the other way, its right is the
+  // camera's left: on each row 25-38 m in front of it (its lamps 0.7 m up see it 1.6-1.05° down)
+  // the ground 1.72° to the camera's left of the lamps' midpoint is brighter than 1.72° to the
+  // right (the image's own values, independently of the reference above).
+  const double Xc = 0.5 * (lamps[0] + lamps[1]);
+  int rows_left_brighter = 0, rows = 0;
+  for (int y = 0; y < o.height; ++y) {
+    double X0, D, z;
+    if (!g.ground_point(g.cx_px, y, &X0, &D, &z) || !(v->D - D >= 25 && v->D - D <= 38)) continue;
+    const double delta = (v->D - D) * std::tan(1.72 * M_PI / 180), k = g.f_px / z;  // columns per metre at this row
+    const int xl = static_cast<int>(std::lround(g.cx_px + (Xc - delta) * k));
+    const int xr = static_cast<int>(std::lround(g.cx_px + (Xc + delta) * k));
+    if (xl < 0 || xr >= o.width || s.labels.ids.at(xl, y) != static_cast<int>(Label::Road) ||
+        s.labels.ids.at(xr, y) != static_cast<int>(Label::Road))
+      continue;
+    const double El = on.lights.at(xl, y, 1) / tex.at(xl, y, 1), Er = on.lights.at(xr, y, 1) / tex.at(xr, y, 1);
+    ++rows;
+    rows_left_brighter += El > Er;
+  }
+  std::fprintf(stderr, "[oncoming beam] brighter 1.72° to the camera's left on %d of %d rows\n", rows_left_brighter, rows);
+  EXPECT_GT(rows, 5);
+  EXPECT_EQ(rows_left_brighter, rows);
+  // The vector rows are the scalar twins' bits.
+  for (const int isa : {1, 0}) {
+    beam_max_isa(isa);
+    const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1);
+    beam_max_isa(2);
+    EXPECT_EQ(differing_samples(n.lights, on.lights), 0u) << "beam_max_isa " << isa;
+  }
 }
 
 // Traffic signs with the metric geometry are lit by the beam's own intensity at their point

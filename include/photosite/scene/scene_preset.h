@@ -59,6 +59,10 @@ struct ScenePreset {
          veh_tail_diameter_m = 0.12, veh_head_intensity_cd = 350, veh_tail_intensity_cd = 8,
          veh_parking_intensity_cd = 4, veh_parked_lit_fraction = 0.05, veh_kerb_strip_m = 2.5,
          veh_lane_width_m = 3.25;
+  // The low beams of oncoming vehicles in traffic on the ground in front of them (scene/lights.cpp,
+  // docs/night.md §7): each headlamp the [ego_beam] table (ECE R112 class B) at height
+  // veh_lamp_height_m, aimed toward the camera's side along the road. Off: only their lamps drawn.
+  bool veh_beams_on_road = true;
   // [windows] façade layout in metres; ground-floor shops: pane width (on the window pitch),
   // sill and pane height above the ground, and the frontage of one shop (lit as a whole).
   double window_storey_m = 3, window_pitch_m = 1.3, window_width_m = 0.9, window_height_m = 1.3,
