@@ -3750,6 +3750,23 @@ SyntheticCameraOptions beam_shadow_vertical_street() {
              {-1.2, 13, 0.6, 1.8, 0.3, Label::Person}};
   return o;
 }
+// The shadow tests' set-up on a street (beam_shadow_street or beam_shadow_vertical_street): its
+// options, its scene, the urban preset, the camera geometry and the unshaded beam image
+// (low_beam_illuminance on the ground classes). A test binds them by name:
+//   const BeamShadowSetUp su(beam_shadow_street());
+//   const auto& [o, s, p, g, E0] = su;
+struct BeamShadowSetUp {
+  explicit BeamShadowSetUp(SyntheticCameraOptions street)
+      : o(std::move(street)), s(make_synthetic_camera_scene(o)), p(urban()), g(o.camera),
+        E0(low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids)) {}
+  BeamShadowSetUp(const BeamShadowSetUp&) = delete;  // g refers to o's camera
+  BeamShadowSetUp& operator=(const BeamShadowSetUp&) = delete;
+  const SyntheticCameraOptions o;
+  const SyntheticCameraScene s;
+  const ScenePreset p;
+  const CameraGeometry& g;
+  const ImageF E0;
+};
 }  // namespace
 
 // Shadows of the low beam on the ground (shade_low_beam_ground, docs/night.md §6c): a street of
@@ -3765,11 +3782,8 @@ SyntheticCameraOptions beam_shadow_vertical_street() {
 // counted, not checked. Every other lit pixel: outside both shadows the old value exactly, in one
 // lamp's shadow the other lamp's share (low_beam_lamp_lux_f32), in both 0.
 TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
-  const SyntheticCameraOptions o = beam_shadow_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_street());
+  const auto& [o, s, p, g, E0] = su;
   ImageF E = E0;
   const int threads = omp_get_max_threads();
   omp_set_num_threads(1);
@@ -3862,11 +3876,8 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
 // shadow the other lamp's share (BeamVerticalRows::lamp_lux), in both 0. A front face's own points
 // (one D) and a receding side's (its slope's margin) must not shade it.
 TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
-  const SyntheticCameraOptions o = beam_shadow_vertical_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_vertical_street());
+  const auto& [o, s, p, g, E0] = su;
   const int threads = omp_get_max_threads();
   std::vector<ImageF> out;
   for (const int t : {1, 2}) {
@@ -3966,11 +3977,8 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
 // 1 and 2 threads and at each ISA cap (beam_max_isa(0): the counting of pixel()'s path; 1: of
 // pixel() on the AVX2 candidates' columns; 2: the AVX-512 decision's).
 TEST(EgoLowBeamShadow, VerticalCountsAreThePixelsWhoseBeamFell) {
-  const SyntheticCameraOptions o = beam_shadow_vertical_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_vertical_street());
+  const auto& [o, s, p, g, E0] = su;
   auto run = [&](ImageF& E, bool shadows) {
     const BeamVerticalRows rows(E, g, s.labels.ids, s.depth_m, nullptr, p, shadows);
 #pragma omp parallel for schedule(dynamic, 3)
