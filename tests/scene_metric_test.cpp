@@ -2562,7 +2562,7 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   // margin's case) and end 200 m ahead, where the ground beside a façade's end may share a cell
   // with it (an edge placed to within a cell): every shaded pixel lies beyond 190 m.
   const ImageF En_unshaded = En;
-  shade_low_beam_ground(En, n.geometry, s.labels.ids, n.depth, nullptr, pc);
+  shade_low_beam_ground(En, n.geometry, s.labels.ids, n.depth, pc);
   int shaded = 0;
   for (int y = 0; y < o.height; ++y)
     for (int x = 0; x < o.width; ++x) {
@@ -3052,21 +3052,21 @@ TEST(EgoLowBeamVertical, ComposeReflectsItOnTheVerticalClasses) {
   EXPECT_FALSE(lit >> static_cast<int>(Label::Sky) & 1);
 }
 
-// A lane-marking pixel whose label is a vertical class (the upsampled lane mask's border reaches
-// past the road: lanes_at_frame repeats each working pixel over a block of frame pixels, and the
-// working labels are the frame's resized by nearest neighbour) takes its beam from the vertical
-// rule alone, as every pixel of its class: low_beam_illuminance computes the ground's E on lane
-// pixels (the light map's retroreflection reads it there), and compose applies the image on the
-// vertical classes, so the vertical rule must replace it there (E of the pixel's surface, 0 where
-// the rule lights nothing). The scene marked as lane markings all over against unmarked: every
-// pixel of a vertical class has the same beam, bit for bit, and the ground's E on the marked
-// vertical pixels (nonzero below the horizon) shows the test can see the difference.
+// A pixel of a vertical class takes its beam from the vertical rule alone, whatever E the image
+// held there before: compose applies the image on the vertical classes, so the vertical rule must
+// replace the ground's E (E of the pixel's surface, 0 where the rule lights nothing). In the chain
+// the ground's image is 0 there (low_beam_illuminance computes only the ground classes; the lane
+// markings lie on road and parking, lanes_at_frame clearing the upsampled mask's pixels off
+// them), but an image made without labels (the ground's E at every pixel, as a caller's own
+// image, or a lane marking lit on any class, may hold) must give the same: the ground's E at every
+// pixel against the labelled image, every pixel of a vertical class the same beam, bit for bit,
+// and the ground's E on the vertical pixels (nonzero below the horizon) shows the test can see the
+// difference.
 TEST(EgoLowBeamVertical, LaneMarkingPixelsOfAVerticalClassTakeTheVerticalRuleOnly) {
   const BeamVerticalScene s;
   const int W = s.o.width, H = s.o.height;
-  const ImageU8 lanes(W, H, 1, 255);
   const ImageF plain = s.beam();
-  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p, &s.sc.labels.ids, &lanes);
+  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p);
   ImageF marked = ground;
   add_low_beam_vertical(marked, s.o.camera, s.sc.labels.ids, s.sc.depth_m, nullptr, s.p);
   const auto& vertical = beam_vertical_classes();
@@ -3787,22 +3787,22 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
   ImageF E = E0;
   const int threads = omp_get_max_threads();
   omp_set_num_threads(1);
-  const BeamShadowStats st = shade_low_beam_ground(E, g, s.labels.ids, s.depth_m, nullptr, p);
+  const BeamShadowStats st = shade_low_beam_ground(E, g, s.labels.ids, s.depth_m, p);
   omp_set_num_threads(2);
   ImageF E2 = E0;
-  shade_low_beam_ground(E2, g, s.labels.ids, s.depth_m, nullptr, p);
+  shade_low_beam_ground(E2, g, s.labels.ids, s.depth_m, p);
   omp_set_num_threads(threads);
   ASSERT_EQ(std::memcmp(E.data(), E2.data(), E.size() * sizeof(float)), 0) << "1 and 2 threads differ";
   // The chain hands its label runs: the same image from them.
   ImageF E3 = E0;
-  shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
+  shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, p, label_runs(s.labels.ids).get());
   ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
   // The solid points placed one by one (ISA cap 0), eight at a time (cap 1: place_row_avx2, where
   // the machine has AVX2) and sixteen at a time (AVX-512, where the machine has it): the same image.
   for (const int isa : {0, 1}) {
     beam_max_isa(isa);
     ImageF E4 = E0;
-    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, nullptr, p);
+    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, p);
     beam_max_isa(2);
     ASSERT_EQ(std::memcmp(E.data(), E4.data(), E.size() * sizeof(float)), 0) << "ISA cap " << isa;
   }
@@ -4081,10 +4081,9 @@ TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
     radiance[threads - 1] = ns.radiance;
     omp_set_num_threads(1);
     const CameraGeometry& g = ns.geometry;
-    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, s.labels.ids);
     const BuildingFacades fac = building_facades(s.labels.ids, g, p.max_depth_m);
-    ImageF beam = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids, &lanes);
-    const BeamShadowStats ground = shade_low_beam_ground(beam, g, s.labels.ids, ns.depth, &lanes, p);
+    ImageF beam = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+    const BeamShadowStats ground = shade_low_beam_ground(beam, g, s.labels.ids, ns.depth, p);
     const BeamVerticalRows rows(beam, g, s.labels.ids, ns.depth, &fac, p, true);
     for (int y = 0; y < o.height; ++y) rows.row(y);
     const BeamShadowStats vertical = rows.shadow_stats();
