@@ -475,9 +475,9 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
 // CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
 // lane by lane, the rest by beam_lux_f itself; the same bits. Where `id` is given, only the
-// pixels that read the beam are evaluated (class id in `read_mask`, bit id for ids below 64, or a
-// lane marking when `lane` is given: low_beam_illuminance's scalar test), the others are 0; a
-// block of eight with none of them is not evaluated at all.
+// pixels that read the beam are evaluated (class id in `read_mask`, bit id for ids below 64:
+// low_beam_illuminance's scalar test), the others are 0; a block of eight with none of them is not
+// evaluated at all.
 // The table: the cell (i, j) of each lane by counting grid angles. Along a row the angles change
 // by about 1/f rad (~0.03°) per pixel, so the lit lanes of a block of eight almost always share
 // their cell, and mostly with the previous block: each lamp carries the cell its last block's
@@ -489,7 +489,7 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // With `only` 0 or 1, that lamp's E alone (beam_lamp_f's bits: the ground's shadows keep it).
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                   const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
+                   uint64_t read_mask, float* out, int only = -1) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
@@ -500,7 +500,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
   const __m256 H8 = _mm256_loadu_ps(b.H8), rH8 = _mm256_loadu_ps(b.rH8), V8 = _mm256_loadu_ps(b.V8), rV8 = _mm256_loadu_ps(b.rV8);
   const __m256i mlo = _mm256_set1_epi32(static_cast<int32_t>(read_mask & 0xffffffffu)),
                 mhi = _mm256_set1_epi32(static_cast<int32_t>(read_mask >> 32)), ione = _mm256_set1_epi32(1),
-                k32 = _mm256_set1_epi32(32), izero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
+                k32 = _mm256_set1_epi32(32), all = _mm256_set1_epi32(-1);
   const __m256d vt = _mm256_set1_pd(t);
   const float* I = b.I.data();
   BeamCell cell[2];  // each lamp's carried cell
@@ -511,14 +511,9 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     __m256 keep = _mm256_castsi256_ps(all);
     if (id) {
       const __m256i k = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)));
-      __m256i kk = _mm256_cmpeq_epi32(
+      keep = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
           _mm256_and_si256(_mm256_or_si256(_mm256_srlv_epi32(mlo, k), _mm256_srlv_epi32(mhi, _mm256_sub_epi32(k, k32))), ione),
-          ione);
-      if (lane) {
-        const __m256i m = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(lane + x)));
-        kk = _mm256_or_si256(kk, _mm256_xor_si256(_mm256_cmpeq_epi32(m, izero), all));
-      }
-      keep = _mm256_castsi256_ps(kk);
+          ione));
       if (_mm256_movemask_ps(keep) == 0) {
         _mm256_storeu_ps(out + x, zero);
         continue;
@@ -597,7 +592,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     _mm256_storeu_ps(out + x, _mm256_and_ps(keep, acc));
   }
   for (; x < n; ++x) {
-    const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1)) || (lane && lane[x]);
+    const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1));
     const float X = static_cast<float>(t * xn[x]);
     out[x] = !need ? 0.f : only < 0 ? beam_lux_f(X, D2, invD, b) : beam_lamp_f(X - b.xl[only], D2, invD, b);
   }
@@ -720,7 +715,7 @@ struct BeamCorners16 { __m512 Hj, rHj, Vi, rVi, r00, r01, r10, r11; };
 }
 PHOTOSITE_AVX512
 void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                     const uint8_t* lane, uint64_t read_mask, float* out, int only = -1) {
+                     uint64_t read_mask, float* out, int only = -1) {
   const __m512 zero = _mm512_setzero_ps();
   const __m512i sign = _mm512_set1_epi32(INT32_MIN);
   const __m512 vD2 = _mm512_set1_ps(D2), vinvD = _mm512_set1_ps(invD), hl = _mm512_set1_ps(b.hl),
@@ -745,10 +740,6 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
       const __m512i k = _mm512_cvtepu16_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id + x)));
       keep = _mm512_test_epi32_mask(_mm512_or_si512(_mm512_srlv_epi32(mlo, k), _mm512_srlv_epi32(mhi, _mm512_sub_epi32(k, k32))),
                                     ione);
-      if (lane) {
-        const __m512i m = _mm512_cvtepu8_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(lane + x)));
-        keep = static_cast<__mmask16>(keep | _mm512_test_epi32_mask(m, m));
-      }
       if (keep == 0) {
         _mm512_storeu_ps(out + x, zero);
         continue;
@@ -813,7 +804,7 @@ void beam_row_avx512(const double* xn, int n, double t, float D2, float invD, co
     _mm512_storeu_ps(out + x, _mm512_maskz_mov_ps(keep, acc));
   }
   if (x < n)
-    beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, lane ? lane + x : nullptr, read_mask, out + x, only);
+    beam_row_avx2(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, read_mask, out + x, only);
 }
 // beam_table_f on sixteen lanes for a small grid (BeamF::small: the grids and the table read by
 // lane permutations): the same operations per lane.
@@ -1017,29 +1008,27 @@ struct LowBeamRows::Impl {
   const CameraGeometry g;
   const int width, height;
   const ImageU16* labels;
-  const ImageU8* lanes;
   const std::array<bool, kLabelCount>& read = ground_classes();
   const uint64_t read_mask = label_bits(read);  // ids of kLabelCount and above: not read
   const double c, s;
   std::vector<double> xn;
   const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
-  Impl(const CameraGeometry& g_, int w, int h, const ScenePreset& p, const ImageU16* labels_, const ImageU8* lanes_)
-      : b(beam_f(p)), g(g_), width(w), height(h), labels(labels_), lanes(lanes_), c(std::cos(g_.pitch_rad)),
+  Impl(const CameraGeometry& g_, int w, int h, const ScenePreset& p, const ImageU16* labels_)
+      : b(beam_f(p)), g(g_), width(w), height(h), labels(labels_), c(std::cos(g_.pitch_rad)),
         s(std::sin(g_.pitch_rad)), xn(w) {
     for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
   }
   void row(ImageF& E, int y) const;
 };
 
-LowBeamRows::LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels,
-                         const ImageU8* lanes)
-    : impl_(std::make_unique<Impl>(g, width, height, p, labels, lanes)) {}
+LowBeamRows::LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels)
+    : impl_(std::make_unique<Impl>(g, width, height, p, labels)) {}
 LowBeamRows::~LowBeamRows() = default;
 void LowBeamRows::row(ImageF& E, int y) const { impl_->row(E, y); }
 
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
-                            const ImageU16* labels, const ImageU8* lanes) {
-  const LowBeamRows rows(g, width, height, p, labels, lanes);
+                            const ImageU16* labels) {
+  const LowBeamRows rows(g, width, height, p, labels);
   // Written whole by the rows (zeros where nothing is computed), in parallel: no separate
   // zeroing pass, and each thread touches its own rows first.
   ImageF E(width, height, 1, uninitialized);
@@ -1048,8 +1037,9 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
   return E;
 }
 
-// Only the pixels that read it (compose: ground classes; the light map: lane markings), when the
-// labels are given. On the flat ground a row is one forward distance D and its ground points are
+// Only the pixels that read it, when the labels are given: the ground classes (compose; and the
+// light map's lane markings, which lie on road and parking pixels: lane_markings marks only those,
+// lanes_at_frame clears the others). On the flat ground a row is one forward distance D and its ground points are
 // X = t·x_n (CameraGeometry::ground_point, whose expressions are repeated here in double: x_n per
 // column once, D and t once per row, X = t·x_n per pixel), then the float evaluation
 // low_beam_lux_f32 at (X, D), 8 pixels at a time with AVX2, one by one otherwise: the same bits.
@@ -1066,11 +1056,10 @@ void LowBeamRows::Impl::row(ImageF& E, int y) const {
   }
   const float D2 = Df * Df, invD = 1.f / Df;
   const uint16_t* id = labels ? labels->row(y) : nullptr;
-  const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
-  if (avx512) return beam_row_avx512(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
-  if (avx2) return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, lane, read_mask, e);
+  if (avx512) return beam_row_avx512(xn.data(), width, t, D2, invD, b, id, read_mask, e);
+  if (avx2) return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, read_mask, e);
   for (int x = 0; x < width; ++x) {
-    const bool needed = !id || (id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]);
+    const bool needed = !id || (id[x] < kLabelCount && read[id[x]]);
     e[x] = needed ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
   }
 }
@@ -1536,8 +1525,8 @@ __attribute__((target("avx2"))) void place_row_avx2(const uint16_t* id, const fl
 }  // namespace
 
 BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                      const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p) {
-  return shade_low_beam_ground_with(beam_lux, g, labels, depth_m, lanes, p, nullptr);
+                                      const ImageF& depth_m, const ScenePreset& p) {
+  return shade_low_beam_ground_with(beam_lux, g, labels, depth_m, p, nullptr);
 }
 
 // The ground's shadow maps (shade_low_beam_ground_with's first step): the beam's table, the
@@ -1561,7 +1550,7 @@ GroundShadowMaps::Impl::Impl(int width, int height, const CameraGeometry& g, con
     : b(beam_f(p)), labels(labels_), W(width), H(height) {
   if (!b.ok) return;
   if (labels.width() != W || labels.height() != H || depth_m.width() != W || depth_m.height() != H)
-    fail("low beam shadows: the beam, labels, depth and lanes differ in size");
+    fail("low beam shadows: the beam, labels and depth differ in size");
   if (W == 0 || H == 0) return;
   const double c = std::cos(g.pitch_rad), s = std::sin(g.pitch_rad);
   xn.resize(W);
@@ -1656,13 +1645,12 @@ GroundShadowMaps::GroundShadowMaps(int width, int height, const CameraGeometry& 
     : impl_(std::make_unique<Impl>(width, height, g, labels, depth_m, p, runs)) {}
 GroundShadowMaps::~GroundShadowMaps() = default;
 
-BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) const {
+BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux) const {
   const Impl& gm = *impl_;
   BeamShadowStats st;
   if (!gm.b.ok) return st;
   const int W = gm.W, H = gm.H;
-  if (beam_lux.width() != W || beam_lux.height() != H || (lanes && (lanes->width() != W || lanes->height() != H)))
-    fail("low beam shadows: the beam, labels, depth and lanes differ in size");
+  if (beam_lux.width() != W || beam_lux.height() != H) fail("low beam shadows: the beam, labels and depth differ in size");
   if (!gm.made) return st;
   const BeamF& b = gm.b;
   const ImageU16& labels = gm.labels;
@@ -1671,10 +1659,10 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
   const std::array<LampShadowMap, 2>& maps = gm.maps;
   const double cell = gm.cell;
   const bool avx512 = kHaveAvx512 && beam_isa_cap >= 2;
-  // The lit ground pixels (as low_beam_illuminance evaluates them: ground classes and lane
-  // markings) beyond a solid point of their cell (by the margin above) lose that lamp's share:
-  // the other lamp's E alone (beam_lux_f's sum less the shaded term, the same bits as that lamp's
-  // E), 0 in both shadows.
+  // The lit ground pixels (as low_beam_illuminance evaluates them: the ground classes) beyond a
+  // solid point of their cell (by the margin above) lose that lamp's share: the other lamp's E
+  // alone (beam_lux_f's sum less the shaded term, the same bits as that lamp's E), 0 in both
+  // shadows.
   const auto& read = ground_classes();
   const float cellf = static_cast<float>(cell);
   long long n0 = 0, n1 = 0, n2 = 0;
@@ -1744,7 +1732,6 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
         if (run >= 0) close(c_hi + 1);
       }
       const uint16_t* id = labels.row(y);
-      const uint8_t* lane = lanes ? lanes->row(y) : nullptr;
       float* e = beam_lux.row(y);
       // Each run of lamp k's shadow: its lit pixels (e > 0; most of a run's pixels are the
       // occluders' own, 0 in the ground's image) in both shadows 0, those in k's only the other
@@ -1758,7 +1745,7 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
             const int x = lit[j];
             const uint8_t sb = bits[x];
             if (sb != 3 && sb != 1 << k) continue;  // in the other lamp's shadow only: its runs
-            if (!((id[x] < kLabelCount && read[id[x]]) || (lane && lane[x]))) continue;
+            if (!(id[x] < kLabelCount && read[id[x]])) continue;
             if (sb == 3) {
               e[x] = 0.f;  // (e ≤ 0 from now on: not taken again in the other lamp's runs)
               ++n2;
@@ -1770,9 +1757,9 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
         if (!m) continue;
         const int other = 1 - k;
         if (avx512)
-          beam_row_avx512(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+          beam_row_avx512(xc.data(), m, r.t, D2, invD, b, nullptr, 0, E1.data(), other);
         else if (avx2)
-          beam_row_avx2(xc.data(), m, r.t, D2, invD, b, nullptr, nullptr, 0, E1.data(), other);
+          beam_row_avx2(xc.data(), m, r.t, D2, invD, b, nullptr, 0, E1.data(), other);
         else
           for (int j = 0; j < m; ++j) E1[j] = beam_lamp_f(static_cast<float>(r.t * xc[j]) - b.xl[other], D2, invD, b);
         for (int j = 0; j < m; ++j) e[xs[j]] = E1[j];
@@ -1789,9 +1776,9 @@ BeamShadowStats GroundShadowMaps::shade(ImageF& beam_lux, const ImageU8* lanes) 
 }
 
 BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
+                                           const ImageF& depth_m, const ScenePreset& p,
                                            const LabelRuns* runs) {
-  return GroundShadowMaps(beam_lux.width(), beam_lux.height(), g, labels, depth_m, p, runs).shade(beam_lux, lanes);
+  return GroundShadowMaps(beam_lux.width(), beam_lux.height(), g, labels, depth_m, p, runs).shade(beam_lux);
 }
 
 float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset& p) {

@@ -216,7 +216,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       [&] {
         depth_runs = metric_depth_runs(labels, label_row_runs.get());
         regions = building_regions(labels.ids, label_row_runs.get());
-        lanes_full = lanes_at_frame(s.lanes_work, labels.ids);  // what the low beam and the light map read
+        lanes_full = lanes_at_frame(s.lanes_work, labels.ids);  // what the light map reads
         add_vehicle_parts(*vehicles, day, labels);
       },
       [&] { s.lines_work = detect_lines(s.edges_work, p); });
@@ -254,23 +254,20 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   StreetLighting planned;
   // The shared rows go to whichever half is free first, in chunks of 32 rows from a counter per
   // image: each row is written by the same function whichever thread takes it, so the same bits.
-  // The low beam's rows read the frame-size lane mask, which the rails' half may remake: they are
-  // taken only once it is final (rails_done; at 1 thread the first half then makes the coarse
-  // depth's rows alone, the second every low beam row).
+  // The low beam's rows read the labels and the geometry only (the ground classes: the lane
+  // markings lie on road and parking pixels), so either half may take them at any time.
   s.beam_input = ImageF(W, H, 1, uninitialized, unit::dimensionless);
   s.beam_lux = ImageF(W, H, 1, uninitialized);
   const CoarseDepthRows coarse(W, H, vp.x, vp.y);
-  std::optional<LowBeamRows> beam_rows;  // made on the rails' half, before rails_done
+  const LowBeamRows beam_rows(s.geometry, W, H, p, &labels.ids);
   std::atomic<int> coarse_next{0}, beam_next{0};
-  std::atomic<bool> rails_done{false};
   auto take_rows = [H](std::atomic<int>& next, const auto& row) {
     constexpr int kRows = 32;
     for (int y0; (y0 = next.fetch_add(kRows)) < H;)
       for (int y = y0; y < std::min(H, y0 + kRows); ++y) row(y);
   };
   auto shared_rows = [&] {
-    if (rails_done.load(std::memory_order_acquire))
-      take_rows(beam_next, [&](int y) { beam_rows->row(s.beam_lux, y); });
+    take_rows(beam_next, [&](int y) { beam_rows.row(s.beam_lux, y); });
     take_rows(coarse_next, [&](int y) { coarse.row(s.beam_input, y); });
   };
   // The low beam on vertical surfaces (cars, people, walls, crowns ahead; it needs the metric depth
@@ -288,12 +285,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         beam_vertical.emplace(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p, p.beam_shadows);
         if (p.beam_shadows) ground_shadows.emplace(W, H, s.geometry, labels.ids, s.depth, p, label_row_runs.get());
         shared_rows();
-        shared_rows();  // (the low beam's rows, where the rails were not yet done the first time)
       },
       [&] {
         // Tram rails that the lane stage took for markings (drop_tram_rails: they led the
-        // vanishing point with the markings) leave the markings that the beam and the light map
-        // light; the frame-size mask is remade only where some were found.
+        // vanishing point with the markings) leave the markings that the light map lights; the
+        // frame-size mask is remade only where some were found.
         // Their texture becomes the road's beside them (texture_under_rails; nothing on the
         // other thread reads the texture before the light map).
         ImageU8 rails;
@@ -302,14 +298,12 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
           lanes_full = lanes_at_frame(s.lanes_work, labels.ids);
           texture_under_rails(texture, labels.ids, lanes_at_frame(rails, labels.ids), s.geometry);
         }
-        beam_rows.emplace(s.geometry, W, H, p, &labels.ids, &lanes_full);
-        rails_done.store(true, std::memory_order_release);
         shared_rows();
       });
   // The low beam's shadows on the ground (the depth and the beam image both made now): each lamp's
   // share leaves the ground pixels that a solid object hides from it.
   // (ego_beam.shadows = false: none, on the ground or on vertical surfaces.)
-  if (ground_shadows) s.beam_shadow = ground_shadows->shade(s.beam_lux, &lanes_full);
+  if (ground_shadows) s.beam_shadow = ground_shadows->shade(s.beam_lux);
   ground_shadows.reset();
   depth_runs.reset();
   regions.reset();

@@ -68,8 +68,7 @@ std::shared_ptr<const LabelRuns> label_runs(const ImageU16& ids);
 // label runs `runs` where they were made of these labels (night_scene's, made beside the Hough
 // stage), else from the labels: the same image.
 BeamShadowStats shade_low_beam_ground_with(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                           const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p,
-                                           const LabelRuns* runs);
+                                           const ImageF& depth_m, const ScenePreset& p, const LabelRuns* runs);
 // shade_low_beam_ground_with in its two steps (scene/lights.cpp): the constructor makes each
 // lamp's shadow map of the solid points (labels and metric depth only, of a width x height frame;
 // nothing of the beam image), shade() then takes the lamps' shares off the beam image's lit
@@ -81,7 +80,7 @@ class GroundShadowMaps {
   GroundShadowMaps(int width, int height, const CameraGeometry& g, const ImageU16& labels, const ImageF& depth_m,
                    const ScenePreset& p, const LabelRuns* runs);
   ~GroundShadowMaps();
-  BeamShadowStats shade(ImageF& beam_lux, const ImageU8* lanes) const;
+  BeamShadowStats shade(ImageF& beam_lux) const;
 
  private:
   struct Impl;
@@ -137,7 +136,7 @@ LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, co
 // so that the row's labels, depth and beam are read while in cache, not in a pass of their own:
 // after the row's retroreflection, which reads the ground's E on the lane markings (road and
 // parking pixels in the chain, lanes_at_frame; a mask given to the light map directly may mark a
-// pixel of a vertical class, whose E this then replaces).
+// pixel of a vertical class, whose E, 0 in the ground's image, this then replaces).
 class BeamVerticalRows {
  public:
   // shadows: the lamps' shadows on these surfaces (docs/night.md §6c, "Shadows of the low beam");
@@ -173,13 +172,11 @@ struct CoarseDepthRows {
 };
 // low_beam_illuminance row by row (scene/lights.cpp): its set-up once (the beam's table, the
 // columns' x_n), then any row y of a width x height image `E` written by row(E, y), the same values
-// as low_beam_illuminance's (which is these rows over the frame), from any thread. The labels and
-// lanes are read when a row is made (night_scene's depth halves share the rows, once the tram
-// rails' lane mask is final).
+// as low_beam_illuminance's (which is these rows over the frame), from any thread. The labels are
+// read when a row is made (night_scene's depth halves share the rows).
 class LowBeamRows {
  public:
-  LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels,
-              const ImageU8* lanes);
+  LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels);
   ~LowBeamRows();
   void row(ImageF& E, int y) const;
 

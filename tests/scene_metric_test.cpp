@@ -2587,7 +2587,7 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   // margin's case) and end 200 m ahead, where the ground beside a façade's end may share a cell
   // with it (an edge placed to within a cell): every shaded pixel lies beyond 190 m.
   const ImageF En_unshaded = En;
-  shade_low_beam_ground(En, n.geometry, s.labels.ids, n.depth, nullptr, pc);
+  shade_low_beam_ground(En, n.geometry, s.labels.ids, n.depth, pc);
   int shaded = 0;
   for (int y = 0; y < o.height; ++y)
     for (int x = 0; x < o.width; ++x) {
@@ -3195,21 +3195,21 @@ TEST(EgoLowBeamVertical, ComposeReflectsItOnTheVerticalClasses) {
   EXPECT_FALSE(lit >> static_cast<int>(Label::Sky) & 1);
 }
 
-// A lane-marking pixel whose label is a vertical class (the upsampled lane mask's border reaches
-// past the road: lanes_at_frame repeats each working pixel over a block of frame pixels, and the
-// working labels are the frame's resized by nearest neighbour) takes its beam from the vertical
-// rule alone, as every pixel of its class: low_beam_illuminance computes the ground's E on lane
-// pixels (the light map's retroreflection reads it there), and compose applies the image on the
-// vertical classes, so the vertical rule must replace it there (E of the pixel's surface, 0 where
-// the rule lights nothing). The scene marked as lane markings all over against unmarked: every
-// pixel of a vertical class has the same beam, bit for bit, and the ground's E on the marked
-// vertical pixels (nonzero below the horizon) shows the test can see the difference.
+// A pixel of a vertical class takes its beam from the vertical rule alone, whatever E the image
+// held there before: compose applies the image on the vertical classes, so the vertical rule must
+// replace the ground's E (E of the pixel's surface, 0 where the rule lights nothing). In the chain
+// the ground's image is 0 there (low_beam_illuminance computes only the ground classes; the lane
+// markings lie on road and parking, lanes_at_frame clearing the upsampled mask's pixels off
+// them), but an image made without labels (the ground's E at every pixel, as a caller's own
+// image, or a lane marking lit on any class, may hold) must give the same: the ground's E at every
+// pixel against the labelled image, every pixel of a vertical class the same beam, bit for bit,
+// and the ground's E on the vertical pixels (nonzero below the horizon) shows the test can see the
+// difference.
 TEST(EgoLowBeamVertical, LaneMarkingPixelsOfAVerticalClassTakeTheVerticalRuleOnly) {
   const BeamVerticalScene s;
   const int W = s.o.width, H = s.o.height;
-  const ImageU8 lanes(W, H, 1, 255);
   const ImageF plain = s.beam();
-  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p, &s.sc.labels.ids, &lanes);
+  const ImageF ground = low_beam_illuminance(s.o.camera, W, H, s.p);
   ImageF marked = ground;
   add_low_beam_vertical(marked, s.o.camera, s.sc.labels.ids, s.sc.depth_m, nullptr, s.p);
   const auto& vertical = beam_vertical_classes();
@@ -3893,6 +3893,23 @@ SyntheticCameraOptions beam_shadow_vertical_street() {
              {-1.2, 13, 0.6, 1.8, 0.3, Label::Person}};
   return o;
 }
+// The shadow tests' set-up on a street (beam_shadow_street or beam_shadow_vertical_street): its
+// options, its scene, the urban preset, the camera geometry and the unshaded beam image
+// (low_beam_illuminance on the ground classes). A test binds them by name:
+//   const BeamShadowSetUp su(beam_shadow_street());
+//   const auto& [o, s, p, g, E0] = su;
+struct BeamShadowSetUp {
+  explicit BeamShadowSetUp(SyntheticCameraOptions street)
+      : o(std::move(street)), s(make_synthetic_camera_scene(o)), p(urban()), g(o.camera),
+        E0(low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids)) {}
+  BeamShadowSetUp(const BeamShadowSetUp&) = delete;  // g refers to o's camera
+  BeamShadowSetUp& operator=(const BeamShadowSetUp&) = delete;
+  const SyntheticCameraOptions o;
+  const SyntheticCameraScene s;
+  const ScenePreset p;
+  const CameraGeometry& g;
+  const ImageF E0;
+};
 }  // namespace
 
 // Shadows of the low beam on the ground (shade_low_beam_ground, docs/night.md §6c): a street of
@@ -3908,30 +3925,27 @@ SyntheticCameraOptions beam_shadow_vertical_street() {
 // counted, not checked. Every other lit pixel: outside both shadows the old value exactly, in one
 // lamp's shadow the other lamp's share (low_beam_lamp_lux_f32), in both 0.
 TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
-  const SyntheticCameraOptions o = beam_shadow_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_street());
+  const auto& [o, s, p, g, E0] = su;
   ImageF E = E0;
   const int threads = omp_get_max_threads();
   omp_set_num_threads(1);
-  const BeamShadowStats st = shade_low_beam_ground(E, g, s.labels.ids, s.depth_m, nullptr, p);
+  const BeamShadowStats st = shade_low_beam_ground(E, g, s.labels.ids, s.depth_m, p);
   omp_set_num_threads(2);
   ImageF E2 = E0;
-  shade_low_beam_ground(E2, g, s.labels.ids, s.depth_m, nullptr, p);
+  shade_low_beam_ground(E2, g, s.labels.ids, s.depth_m, p);
   omp_set_num_threads(threads);
   ASSERT_EQ(std::memcmp(E.data(), E2.data(), E.size() * sizeof(float)), 0) << "1 and 2 threads differ";
   // The chain hands its label runs: the same image from them.
   ImageF E3 = E0;
-  shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, nullptr, p, label_runs(s.labels.ids).get());
+  shade_low_beam_ground_with(E3, g, s.labels.ids, s.depth_m, p, label_runs(s.labels.ids).get());
   ASSERT_EQ(std::memcmp(E.data(), E3.data(), E.size() * sizeof(float)), 0) << "with the label runs";
   // The solid points placed one by one (ISA cap 0), eight at a time (cap 1: place_row_avx2, where
   // the machine has AVX2) and sixteen at a time (AVX-512, where the machine has it): the same image.
   for (const int isa : {0, 1}) {
     beam_max_isa(isa);
     ImageF E4 = E0;
-    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, nullptr, p);
+    shade_low_beam_ground(E4, g, s.labels.ids, s.depth_m, p);
     beam_max_isa(2);
     ASSERT_EQ(std::memcmp(E.data(), E4.data(), E.size() * sizeof(float)), 0) << "ISA cap " << isa;
   }
@@ -4005,11 +4019,8 @@ TEST(EgoLowBeamShadow, GroundBehindABoxLosesTheLampsItHides) {
 // shadow the other lamp's share (BeamVerticalRows::lamp_lux), in both 0. A front face's own points
 // (one D) and a receding side's (its slope's margin) must not shade it.
 TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
-  const SyntheticCameraOptions o = beam_shadow_vertical_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_vertical_street());
+  const auto& [o, s, p, g, E0] = su;
   const int threads = omp_get_max_threads();
   std::vector<ImageF> out;
   for (const int t : {1, 2}) {
@@ -4109,11 +4120,8 @@ TEST(EgoLowBeamShadow, VerticalSurfacesBehindABoxLoseTheLampsItHides) {
 // 1 and 2 threads and at each ISA cap (beam_max_isa(0): the counting of pixel()'s path; 1: of
 // pixel() on the AVX2 candidates' columns; 2: the AVX-512 decision's).
 TEST(EgoLowBeamShadow, VerticalCountsAreThePixelsWhoseBeamFell) {
-  const SyntheticCameraOptions o = beam_shadow_vertical_street();
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  const ScenePreset p = urban();
-  const CameraGeometry& g = o.camera;
-  const ImageF E0 = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+  const BeamShadowSetUp su(beam_shadow_vertical_street());
+  const auto& [o, s, p, g, E0] = su;
   auto run = [&](ImageF& E, bool shadows) {
     const BeamVerticalRows rows(E, g, s.labels.ids, s.depth_m, nullptr, p, shadows);
 #pragma omp parallel for schedule(dynamic, 3)
@@ -4216,10 +4224,9 @@ TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
     radiance[threads - 1] = ns.radiance;
     omp_set_num_threads(1);
     const CameraGeometry& g = ns.geometry;
-    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, s.labels.ids);
     const BuildingFacades fac = building_facades(s.labels.ids, g, p.max_depth_m);
-    ImageF beam = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids, &lanes);
-    const BeamShadowStats ground = shade_low_beam_ground(beam, g, s.labels.ids, ns.depth, &lanes, p);
+    ImageF beam = low_beam_illuminance(g, o.width, o.height, p, &s.labels.ids);
+    const BeamShadowStats ground = shade_low_beam_ground(beam, g, s.labels.ids, ns.depth, p);
     const BeamVerticalRows rows(beam, g, s.labels.ids, ns.depth, &fac, p, true);
     for (int y = 0; y < o.height; ++y) rows.row(y);
     const BeamShadowStats vertical = rows.shadow_stats();

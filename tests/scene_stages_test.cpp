@@ -1258,11 +1258,10 @@ TEST(SceneChain, DepthStageHalvesAreTheirFunctionsAtOneAndTwoThreads) {
     const BuildingFacades fac = building_facades(s.labels.ids, ns.geometry, p.max_depth_m);
     const ImageF depth = metric_depth(s.labels, ns.geometry, p.max_depth_m, &fac);
     const ImageF coarse = coarse_depth(W, H, ns.vp.x, ns.vp.y);
-    const ImageU8 lanes = lanes_at_frame(ns.lanes_work, s.labels.ids);
     // The beam on the ground, its shadows there (after the depth stage), then the beam on the
     // vertical surfaces (which the chain makes row by row in the light map's row pass).
-    ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids, &lanes);
-    shade_low_beam_ground(beam, ns.geometry, s.labels.ids, depth, &lanes, p);
+    ImageF beam = low_beam_illuminance(ns.geometry, W, H, p, &s.labels.ids);
+    shade_low_beam_ground(beam, ns.geometry, s.labels.ids, depth, p);
     add_low_beam_vertical(beam, ns.geometry, s.labels.ids, depth, &fac, p);
     EXPECT_EQ(ns.depth.vec(), depth.vec()) << threads << " threads";
     EXPECT_EQ(ns.beam_input.vec(), coarse.vec()) << threads << " threads";
@@ -1703,13 +1702,12 @@ TEST(SceneLights, WindowColourSplitComesFromThePreset) {
   EXPECT_THROW(load_scene_preset(dir.file("bad.toml")), Error);
 }
 
-// low_beam_illuminance with the labels and lane markings (scene/lights.cpp: AVX2 rows that skip
-// the blocks of eight no pixel of which reads the beam, and broadcast the table cell that all lit
-// lanes of a block share instead of gathering it) against its definition per pixel: E =
-// low_beam_lux_f32 at the pixel's ground point where the pixel reads the beam (a ground class, or
-// a lane marking on any class), else 0, and 0 above the horizon. Random runs of label ids
-// (ground and not, ids beyond the label table and beyond 64), sparse markings, a width that
-// leaves a vector tail, the full grid of the preset's table (blocks inside one cell and across
+// low_beam_illuminance with the labels (scene/lights.cpp: AVX2 rows that skip the blocks of eight
+// no pixel of which reads the beam, and broadcast the table cell that all lit lanes of a block
+// share instead of gathering it) against its definition per pixel: E = low_beam_lux_f32 at the
+// pixel's ground point where the pixel reads the beam (a ground class), else 0, and 0 above the
+// horizon. Random runs of label ids (ground and not, ids beyond the label table and beyond 64), a
+// width that leaves a vector tail, the full grid of the preset's table (blocks inside one cell and across
 // cells), 1 and 2 threads, each instruction-set path (beam_max_isa: 16, 8 and 1 pixels at a time).
 TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   const int W = 1021, H = 512;
@@ -1717,7 +1715,6 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
   VanishingPoint none;
   const CameraGeometry g = camera_geometry(load_camera_rig("cityscapes"), W, H, none);
   ImageU16 ids(W, H, 1, 0);
-  ImageU8 lanes(W, H, 1, 0);
   XorShift rnd{777};
   const int classes[] = {int(Label::Road), int(Label::Sidewalk), int(Label::Terrain), int(Label::Car),
                          int(Label::Building), int(Label::EgoVehicle), 40, 70, 300};
@@ -1726,7 +1723,6 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
       const int len = 1 + static_cast<int>(rnd() * 40), id = classes[static_cast<int>(rnd() * 9)];
       for (int e = std::min(W, x + len); x < e; ++x) ids.at(x, y) = static_cast<uint16_t>(id);
     }
-  for (size_t i = 0; i < lanes.size(); ++i) lanes[i] = rnd() < 0.01 ? 255 : 0;
   ImageF want(W, H, 1, 0.f);
   long lit = 0, skipped = 0;
   for (int y = 0; y < H; ++y)
@@ -1734,7 +1730,7 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
       const int id = ids.at(x, y);
       double X, D;
       if (!g.ground_point(x, y, &X, &D, nullptr)) continue;
-      if (!((id < kLabelCount && is_ground(id)) || lanes.at(x, y))) {
+      if (!(id < kLabelCount && is_ground(id))) {
         ++skipped;
         continue;
       }
@@ -1748,7 +1744,7 @@ TEST(SceneGeometry, LowBeamImageOnReadPixelsIsItsPointFunction) {
     for (int threads : {1, 2}) {
       beam_max_isa(isa);
       omp_set_num_threads(threads);
-      const ImageF got = low_beam_illuminance(g, W, H, p, &ids, &lanes);
+      const ImageF got = low_beam_illuminance(g, W, H, p, &ids);
       ASSERT_EQ(got.size(), want.size());
       long differ = 0;
       for (size_t i = 0; i < want.size(); ++i) differ += std::bit_cast<uint32_t>(got[i]) != std::bit_cast<uint32_t>(want[i]);

@@ -286,8 +286,7 @@ void run(const Opts& o) {
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));
       // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
-      // pixels (the chain's lane-marking pixels add none: lanes_at_frame keeps them on road and
-      // parking, ground classes both).
+      // pixels, as the chain makes it.
       const double cb0 = cpu_ms();
       auto tb0 = clock::now();
       const ImageF beam = scene::low_beam_illuminance(ns.geometry, day.width(), day.height(), sp, &lm.ids);
@@ -302,7 +301,7 @@ void run(const Opts& o) {
       const std::shared_ptr<const scene::LabelRuns> runs = scene::label_runs(lm.ids);
       const double cbs0 = cpu_ms();
       auto tbs0 = clock::now();
-      scene::shade_low_beam_ground_with(beam_s, ns.geometry, lm.ids, ns.depth, &lanes_full, sp, runs.get());
+      scene::shade_low_beam_ground_with(beam_s, ns.geometry, lm.ids, ns.depth, sp, runs.get());
       auto tbs1 = clock::now();
       const double cbs1 = cpu_ms();
       add("ego low beam shadows on the ground (alone)", ms(tbs0, tbs1));

@@ -295,18 +295,19 @@ double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double came
 float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p);
 // E_beam per pixel (1 channel, lx): low_beam_lux_f32 at each pixel's flat-ground point
 // (CameraGeometry::ground_point), 0 at and above the horizon. What compose() reads.
-// labels (and lanes) given: computed only where it is read, on ground-class pixels (compose) and
-// lane-marking pixels (the light map's retroreflection); 0 elsewhere.
+// labels given: computed only where it is read, on ground-class pixels (compose, and the light
+// map's retroreflection on the lane markings, which lie on road and parking pixels:
+// lane_markings marks only those); 0 elsewhere.
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
-                            const ImageU16* labels = nullptr, const ImageU8* lanes = nullptr);
+                            const ImageU16* labels = nullptr);
 // One headlamp's share of low_beam_lux_f32 (lamp 0 on the left, x_l = −spacing/2; 1 on the
 // right): the same bits as the pair's E where the other lamp gives 0.
 float low_beam_lamp_lux_f32(double X_m, double D_m, int lamp, const ScenePreset& p);
 // Shadows of the low beam on the ground (docs/night.md §6c): a shadow map per lamp from the metric
 // scene (the points of beam_vertical_classes' pixels with a finite depth, below the lamps'
 // height, at their direction from the lamp, keeping the nearest forward distance D per cell of
-// kBeamShadowCellPx (2) image pixels); each lit ground pixel of beam_lux (ground classes and lane
-// markings, low_beam_illuminance's) whose flat-ground point lies farther than the nearest solid
+// kBeamShadowCellPx (2) image pixels); each lit ground pixel of beam_lux (the ground classes,
+// low_beam_illuminance's) whose flat-ground point lies farther than the nearest solid
 // point in its cell (by one cell's margin: 1/D_solid > 1/D + cell/h_l) loses that lamp's share:
 // it keeps the other lamp's (low_beam_lamp_lux_f32's bits), 0 in both lamps' shadows; every
 // other pixel keeps its value. The same image for any thread count. Returns the pixels in each
@@ -315,7 +316,7 @@ struct BeamShadowStats {
   long long one_lamp[2] = {0, 0}, both = 0;
 };
 BeamShadowStats shade_low_beam_ground(ImageF& beam_lux, const CameraGeometry& g, const ImageU16& labels,
-                                      const ImageF& depth_m, const ImageU8* lanes, const ScenePreset& p);
+                                      const ImageF& depth_m, const ScenePreset& p);
 // The low beam on vertical surfaces (scene/lights.cpp): the illuminance (lx) of the headlamp pair
 // on a surface element at road point (X_m, Y_m, D_m) with unit normal (nX, nY, nD) toward the
 // side it is seen from, Σ_lamps I(h, v)·cos β / max(d², (5·lens_diameter_m)²) with the table below
@@ -373,7 +374,8 @@ struct LightMap {
 // `geometry` and `depth_m` signs get sign_beam_lux at their metric point: the ramp runs to the image border and moved
 // with the view). `street` (a sequence's luminaires, scene/luminaires.h): the street lighting to
 // use; null: plan_street_lighting of this frame. `beam_lux` (low_beam_illuminance)
-// lights the lane markings (R_L·E); null: markings stay dark.
+// lights the lane markings (R_L·E; its E is the ground classes', so a marking on another class
+// stays dark, as lane_markings marks none there); null: markings stay dark.
 LightMap light_map(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                    const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp,
                    const ScenePreset& p, uint64_t seed, const CameraGeometry* geometry = nullptr,
