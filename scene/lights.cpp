@@ -1123,8 +1123,8 @@ struct OncomingBeamRows {
       if (x1 <= x0) continue;
       const float D2 = Df * Df, invD = 1.f / Df;
       const int n = x1 - x0;
-      if (avx512) beam_row_avx512(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, nullptr, read_mask, e + x0, ob.only);
-      else if (avx2) beam_row_avx2(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, nullptr, read_mask, e + x0, ob.only);
+      if (avx512) beam_row_avx512(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
+      else if (avx2) beam_row_avx2(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
       else
         for (int x = x0; x < x1; ++x) {
           const bool needed = id[x] < kLabelCount && read[id[x]];
