@@ -2081,9 +2081,14 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
 // The lanes of v where `mask` (all-ones lanes) into p[0 .. 7], the others as they were: what
 // _mm256_maskstore_ps does, as a load, a blend and a plain store (the masked store is slow on AMD's
 // cores: on this Zen 4 host a fifth of beam_vertical_row_avx2's samples fell at its three masked
-// stores). p's floats are the caller's row's, which no other thread writes meanwhile.
+// stores). p's floats are the caller's row's, which no other thread writes meanwhile. Where every
+// lane is on (97% of the vertical rows' groups on the bench frame) a plain store of v, without the
+// load and the blend, whose result waited on that load.
 [[gnu::always_inline]] __attribute__((target("avx2"))) inline void store_lanes8(float* p, __m256 mask, __m256 v) {
-  _mm256_storeu_ps(p, _mm256_blendv_ps(_mm256_loadu_ps(p), v, mask));
+  if (_mm256_movemask_ps(mask) == 0xff)
+    _mm256_storeu_ps(p, v);
+  else
+    _mm256_storeu_ps(p, _mm256_blendv_ps(_mm256_loadu_ps(p), v, mask));
 }
 // beam_vertical_row_scalar eight pixels at a time (AVX2), over the columns 0 .. 8⌊W/8⌋ − 1
 // (returned): beam_vertical_row_avx512's steps with vector masks (all-ones lanes) and the table by
@@ -2134,7 +2139,9 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
     }
     if (const __m256 bm = _mm256_and_ps(m, _mm256_castsi256_ps(_mm256_cmpeq_epi32(k, bld))); reg && any(bm)) {
       // The façade planes of the building lanes: all of one region and one plane (the common
-      // case) its normal broadcast, else lane by lane (beam_vertical_row_avx512's test).
+      // case: 99.99% of the groups with a building lane on the bench frame) its normal broadcast,
+      // else lane by lane (beam_vertical_row_avx512's test: the building lanes' column planes by
+      // one masked load, which reads only those lanes' entries, the ones a loop over them read).
       const int bits = _mm256_movemask_ps(bm), i0 = __builtin_ctz(static_cast<unsigned>(bits)), r0 = reg[x + i0];
       const __m256i rv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(reg + x));
       const int same_region = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv, _mm256_set1_epi32(r0))));
@@ -2143,9 +2150,11 @@ __attribute__((target("avx2"))) int beam_vertical_row_avx2(const BeamVerticalCtx
       if (r0 >= 0 && (bits & same_region) == bits) {
         const BuildingFacades::Region& R = c.fac->regions[r0];
         p0 = R.column_plane[x + i0 - R.x0];
-        one_plane = p0 >= 0;
-        for (int i = i0 + 1; one_plane && i < 8; ++i)
-          one_plane = !(bits >> i & 1) || R.column_plane[x + i - R.x0] == p0;
+        if (p0 >= 0) {
+          const __m256i pv = _mm256_maskload_epi32(R.column_plane.data() + (x - R.x0), _mm256_castps_si256(bm));
+          const int same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(pv, _mm256_set1_epi32(p0))));
+          one_plane = (same & bits) == bits;
+        }
       }
       if (one_plane) {
         mX = _mm256_blendv_ps(mX, _mm256_set1_ps(c.plane_nX[p0]), bm);
