@@ -17,7 +17,13 @@ relative spectral power distribution (SPD), integrates it over the boxes and pri
     the box basis's luminance is from V(lambda) on the real spectrum (for HP1 and for the Planck
     proxy of an LED);
   * the band ratios of CIE LED-B3 (a phosphor-converted white LED of about 4000 K) against those of
-    a Planck radiator at 4000 K, the proxy photosite uses for LED street lamps.
+    a Planck radiator at 4000 K, the proxy photosite uses for LED street lamps;
+  * the chromaticities of HP1 and LED-B3 against CIE 015:2018's published ones (a second check of
+    the data read), and the box radiances with HP1's CIE XYZ (a colorimetric metamer);
+  * what the two bundled dataset cameras (onsemi-ar0331, sony-icx267-flea2: their presets' QE
+    tables) see: the raw G/R and B/R of each lamp's SPD against those of its box radiances through
+    the sensor model's box-averaged QE. For HP1 the box basis is far off (its sodium light at
+    570-600 nm is averaged over the G box, where the R filter's QE is low): docs/night.md §7.
 
 Integration: the SPDs are sampled every 5 nm; the band integral is the trapezoid rule on that
 grid, i.e. each sample stands for the 5 nm around it and a sample on a band edge (400, 500, 600,
@@ -145,6 +151,88 @@ def main():
           % (photopic(LED_B3, 400, 700) / box_luminance(led)))
     print("  luminous efficacy of radiation, 380-780 nm: %.1f lm/W (night-photometry.md §0: 317)"
           % (photopic(LED_B3) / band_integral(LED_B3, 380, 780)))
+    report_chromaticities()
+    report_cameras()
+
+
+def x_bar_fit(l):  # photosite's CIE 1931 fits (Wyman, Sloan & Shirley 2013), as sensor/spectrum.cpp
+    return 1.056 * _g(l, 599.8, 37.9, 31.0) + 0.362 * _g(l, 442.0, 16.0, 26.7) - 0.065 * _g(l, 501.1, 20.4, 26.2)
+
+
+def z_bar_fit(l):
+    return 1.217 * _g(l, 437.0, 11.8, 36.0) + 0.681 * _g(l, 459.0, 26.0, 13.8)
+
+
+CMF = (x_bar_fit, y_bar_fit, z_bar_fit)
+
+
+def xyz(spd):
+    return [band_integral([s * f(l) for s, l in zip(spd, WL)], 380, 780) for f in CMF]
+
+
+def xyz_metamer(spd):
+    """The box radiances whose CIE 1931 XYZ (photosite's fits) equal the SPD's: the colorimetric
+    alternative to the band integrals (Cramer's rule on the boxes' XYZ matrix)."""
+    m = [[midpoint(f, *BANDS[k]) / 100.0 for k in "RGB"] for f in CMF]
+    t = xyz(spd)
+
+    def det(a):
+        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    d = det(m)
+    return [det([[t[r] if c == k else m[r][c] for c in range(3)] for r in range(3)]) / d for k in range(3)]
+
+
+def camera_signals(name, spd, box_rgb=None):
+    """A camera preset's raw signal per filter colour for an SPD on the 5-nm grid, two ways: with
+    the SPD itself, sum over 400-700 nm of S * QE_c * lambda (trapezoid, QE linear between the
+    preset's table points), and through photosite's box basis, sum_k B_k * mean over box k of
+    QE_c * lambda (0.5-nm midpoint rule, as the band integrals of the sensor model). Relative units."""
+    import pathlib
+    import tomllib
+    root = pathlib.Path(__file__).resolve().parent.parent
+    q = tomllib.loads((root / "presets" / "cameras" / (name + ".toml")).read_text())["qe"]
+    wl = q["wavelength_nm"]
+
+    def qe(c, l):
+        t = q[c]
+        if l <= wl[0]:
+            return t[0]
+        if l >= wl[-1]:
+            return t[-1]
+        i = max(j for j in range(len(wl) - 1) if wl[j] <= l)
+        f = (l - wl[i]) / (wl[i + 1] - wl[i])
+        return t[i] * (1 - f) + t[i + 1] * f
+
+    exact = {c: band_integral([s * qe(c, l) * l for s, l in zip(spd, WL)], 400, 700) for c in "rgb"}
+    b = box_rgb if box_rgb is not None else bands(spd)
+    box = {c: sum(b[i] * midpoint(lambda l: qe(c, l) * l, *BANDS[k]) / 100.0 for i, k in enumerate("RGB"))
+           for c in "rgb"}
+    return exact, box
+
+
+def report_cameras():
+    print("\nRaw camera signals (G/R, B/R of the filter colours), the SPD itself against the box basis:")
+    planck_spd = [planck(l, 4000.0) for l in WL]
+    for cam in ("onsemi-ar0331", "sony-icx267-flea2"):
+        for label, spd in (("HP1", HP1), ("Planck 4000 K", planck_spd), ("LED-B3", LED_B3)):
+            e, b = camera_signals(cam, spd)
+            print("  %-18s %-14s SPD: G/R %.3f B/R %.3f   box: G/R %.3f B/R %.3f   box/SPD: G/R x%.3f B/R x%.3f"
+                  % (cam, label, e["g"] / e["r"], e["b"] / e["r"], b["g"] / b["r"], b["b"] / b["r"],
+                     (b["g"] / b["r"]) / (e["g"] / e["r"]), (b["b"] / b["r"]) / (e["b"] / e["r"])))
+            _, m = camera_signals(cam, spd, xyz_metamer(spd))
+            print("  %-18s %-14s XYZ metamer instead of the band integrals:   box/SPD: G/R x%.3f B/R x%.3f"
+                  % ("", "", (m["g"] / m["r"]) / (e["g"] / e["r"]), (m["b"] / m["r"]) / (e["b"] / e["r"])))
+
+
+def report_chromaticities():
+    print("\nChromaticity (photosite's CIE 1931 fits over 380-780 nm) against CIE 015:2018's table:")
+    for label, spd, pub in (("HP1", HP1, (0.5330, 0.4150)), ("LED-B3", LED_B3, (0.3756, 0.3723))):
+        t = xyz(spd)
+        print("  %-7s x %.4f y %.4f (CIE: %.4f, %.4f)" % (label, t[0] / sum(t), t[1] / sum(t), *pub))
+    m = xyz_metamer(HP1)
+    print("  HP1's XYZ metamer in the boxes: B/R %.4f G/R %.4f (band integrals: 0.2234, 1.9454)"
+          % (m[2] / m[0], m[1] / m[0]))
 
 
 if __name__ == "__main__":

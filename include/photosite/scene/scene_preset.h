@@ -17,7 +17,9 @@ namespace photosite::scene {
 // Led, a white LED taken as a Planck radiator at lamps.streetlamp_cct_K (heads) and street.cct_K
 // (their light on the street) — a proxy: a phosphor LED's spectrum is a blue pump line and a broad
 // phosphor band, not Planck's; Hps, high-pressure sodium as CIE illuminant HP1 (spectrum::hp1_rgb),
-// where both CCT keys are unused.
+// where both CCT keys are unused. The sensor reads a radiance through box-averaged QE, which puts
+// sodium's 570-600 nm light in the G box: a camera sees an hps street about 2x greener (raw G/R)
+// than the lamp's spectrum gives (docs/night.md §7, "Lamp type").
 enum class StreetlampType { Led, Hps };
 inline constexpr const char* kStreetlampTypeNames = "led, hps";
 // "led" / "hps"; parse throws photosite::Error on any other name, listing the names.

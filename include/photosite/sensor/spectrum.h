@@ -41,7 +41,9 @@ std::array<double, 3> blackbody_rgb(double cct_K, double luminance_cd_m2);
 // computed offline by scripts/lamp_spectra.py from the tabulated SPD. HPS is not a Planck radiator:
 // its light is the pressure-broadened, self-reversed sodium D line (peaks near 568 nm and 589-615 nm,
 // a dip at 589 nm), so no CCT stands for it. Only the ratios matter (B/R 0.2234, G/R 1.9454);
-// hp1_rgb scales them to a luminance.
+// hp1_rgb scales them to a luminance. The sensor's box-averaged QE reads these band radiances as a
+// flat spectrum within each box: for sodium's lines the cameras' raw G/R then comes out 2.2-2.4x
+// the spectrum's (scripts/lamp_spectra.py, docs/night.md §7).
 inline constexpr double kHp1BandIntegral[3] = {3747.625, 7290.6, 837.2};  // R, G, B
 
 // The RGB radiance of CIE HP1 scaled to a luminance (cd/m², luminance_cd_m2's dot(K, rgb)), as
