@@ -31,6 +31,7 @@ struct NightCmd {
   std::string label_format = "auto";
   std::string resize_labels = "none";
   std::optional<double> ambient_lux;  // none: the scene preset's
+  std::optional<std::string> streetlamp_type;  // none: the scene preset's
   bool timings = false, overwrite = false, half = false;
   SensorOptions sensor;
   std::string backend = "auto";
@@ -62,6 +63,7 @@ void run_night(NightCmd c) {
   if (c.sensor.preset.empty()) c.sensor.preset = batch::dataset_camera(batch::Dataset::Cityscapes).camera;
   scene::ScenePreset sp = scene::load_scene_preset(c.scene_preset);
   if (c.ambient_lux) set_ambient_lux(sp, *c.ambient_lux);
+  if (c.streetlamp_type) set_streetlamp_type(sp, *c.streetlamp_type);
   const auto fmt_label = scene::parse_label_format(c.label_format);
   scene::ResizeLabels resize;
   if (c.resize_labels == "none") resize = scene::ResizeLabels::None;
@@ -168,6 +170,9 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--rig", c.rig, "camera rig: name in presets/rigs (kitti, cityscapes), a .toml path, a Cityscapes camera .json, or auto (the image's Cityscapes camera file when beside it in the data set's layout, else the nearest native aspect ratio)")
       ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
+  sub->add_option("--streetlamp-type", c.streetlamp_type,
+                  "street lamps' light source: led (Planck at the preset's CCT) or hps (high-pressure sodium, CIE HP1); "
+                  "default: the scene preset's lamps.streetlamp_type");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
   sub->add_option("--resize-labels", c.resize_labels, "none or nearest (labels of another size)")
       ->capture_default_str();

@@ -121,6 +121,14 @@ void set_ambient_lux(scene::ScenePreset& sp, double lux) {
   }
 }
 
+void set_streetlamp_type(scene::ScenePreset& sp, const std::string& name) {
+  try {
+    sp.streetlamp_type = scene::parse_streetlamp_type(name);
+  } catch (const Error&) {
+    fail_parameter("streetlamp_type", "", fmt::format(" '{}' is not one of {}", name, scene::kStreetlampTypeNames));
+  }
+}
+
 SensorOutput night_frame(SensorRunner& runner, const NightChain& c, const SensorSetup& setup, uint32_t frame) {
   ExposureSettings s = setup.settings;
   s.frame = frame;

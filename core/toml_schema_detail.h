@@ -369,6 +369,7 @@ std::vector<DocRow> doc_rows(std::span<const Param<P>> schema) {
         case Kind::Integer: def = std::to_string(detail::slot_ref<P, int>(r, defaults)); break;
         case Kind::Boolean: def = detail::slot_ref<P, bool>(r, defaults) ? "true" : "false"; break;
         case Kind::Text: def = "empty"; break;
+        case Kind::Choice: def = std::get<Choice<P>>(r.slot).get(defaults); break;
         case Kind::Table: def = "absent"; break;
         default: break;
       }

@@ -345,7 +345,8 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
                   std::optional<double> f_number, double gain_db, std::optional<double> temperature_c,
                   const py::object& seed, const py::object& frame, const std::string& demosaic,
                   const std::string& backend, const std::string& label_format, std::optional<double> ambient_lux,
-                  const std::string& resize_labels, const std::string& rig, const std::string& poisson) {
+                  const std::string& resize_labels, const std::string& rig, const std::string& poisson,
+                  const std::optional<std::string>& streetlamp_type) {
   // H x W (grey) or H x W x 3, as `night --image` takes a grey or an RGB file.
   const ArrayShape ds = check_image_array(day_rgb, "day_rgb", {1, 3});
   const bool day_float = is_dtype(day_rgb, py::dtype::of<float>());
@@ -366,6 +367,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
   else fail("resize_labels: '" + resize_labels + "' is not none or nearest");
   scene::ScenePreset sp = scene::load_scene_preset(scene_preset);
   if (ambient_lux) set_ambient_lux(sp, *ambient_lux);
+  if (streetlamp_type) set_streetlamp_type(sp, *streetlamp_type);
   // As `night --rig`: "auto" picks by aspect ratio (an array has no data-set path to find a
   // Cityscapes camera file by; pass the file itself).
   sp.rig = scene::resolve_camera_rig(rig, ds.width, ds.height);
@@ -731,7 +733,7 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
         py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",
         py::arg("label_format") = "auto", py::arg("ambient_lux") = py::none(), py::arg("resize_labels") = "none",
-        py::arg("rig") = "auto", py::arg("poisson") = "exact");
+        py::arg("rig") = "auto", py::arg("poisson") = "exact", py::arg("streetlamp_type") = py::none());
   m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
         py::arg("backend") = "auto", py::arg("white_level") = py::none());
   m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),

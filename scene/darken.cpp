@@ -1953,9 +1953,30 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   return out;
 }
 
-std::array<double, 3> illuminant_tint(double cct_K) {
-  const auto a = spectrum::blackbody_rgb(cct_K, 1.0), d = spectrum::blackbody_rgb(6504.0, 1.0);
+namespace {
+// A light of luminance 1 relative to D65's Planck proxy (6504 K) at luminance 1, per band.
+std::array<double, 3> relative_to_d65(const std::array<double, 3>& a) {
+  const auto d = spectrum::blackbody_rgb(6504.0, 1.0);
   return {a[0] / d[0], a[1] / d[1], a[2] / d[2]};
+}
+}  // namespace
+
+std::array<double, 3> illuminant_tint(double cct_K) { return relative_to_d65(spectrum::blackbody_rgb(cct_K, 1.0)); }
+
+std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
+  switch (p.streetlamp_type) {
+    case StreetlampType::Hps: return spectrum::hp1_rgb(luminance);
+    case StreetlampType::Led: break;
+  }
+  return spectrum::blackbody_rgb(p.streetlamp_cct_K, luminance);
+}
+
+std::array<double, 3> streetlamp_tint(const ScenePreset& p) {
+  switch (p.streetlamp_type) {
+    case StreetlampType::Hps: return relative_to_d65(spectrum::hp1_rgb(1.0));
+    case StreetlampType::Led: break;
+  }
+  return illuminant_tint(p.street_cct_K);
 }
 
 DarkenParams darken_params(const ScenePreset& p) {

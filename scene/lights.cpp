@@ -4080,7 +4080,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       }
     cv::Mat cc, stats, cent;
     const int n = cv::connectedComponentsWithStats(mask, cc, stats, cent, 8, CV_32S);
-    const Rgb lamp = blackbody(p.streetlamp_cct_K, p.streetlamp_luminance_cd_m2);
+    const Rgb lamp = streetlamp_rgb(p, p.streetlamp_luminance_cd_m2);
     for (int c = 1; c < n; ++c) {
       const int x0 = 2 * stats.at<int>(c, cv::CC_STAT_LEFT);
       const int bw = std::min(W - x0, 2 * stats.at<int>(c, cv::CC_STAT_WIDTH));

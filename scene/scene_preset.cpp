@@ -138,6 +138,14 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "street luminaire face", "NP §3"),
       num("lamps.streetlamp_cct_K", PHOTOSITE_AT(P, streetlamp_cct_K), "K", 1000, 20000, "street luminaire CCT",
           "NP §1"),
+      {"lamps.streetlamp_type", Kind::Choice,
+       schema::Choice<P>{[](P& p, const std::string& s) { p.streetlamp_type = parse_streetlamp_type(s); },
+                         [](const P& p) -> std::string { return streetlamp_type_name(p.streetlamp_type); },
+                         kStreetlampTypeNames},
+       "", -inf, inf, Need::Optional,
+       "the street lamps' light source, one per scene: led (Planck at streetlamp_cct_K and street.cct_K) or hps "
+       "(high-pressure sodium, CIE illuminant HP1; the CCT keys unused)",
+       "CIE 015:2018 HP1 via scripts/lamp_spectra.py (its efficacy 395 lm/W: NP §0)", {}, schema::Exr::Header},
       num("lamps.headlamp_luminance_cd_m2", PHOTOSITE_AT(P, headlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
           "headlamp lens", "NP §3 [D]"),
       num("lamps.headlamp_cct_K", PHOTOSITE_AT(P, headlamp_cct_K), "K", 1000, 20000, "headlamp CCT", "NP §3"),
@@ -304,6 +312,14 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
     err("reflectance.shade_sky_cct_K", "is not above sun_cct_K (the shade would not be bluer than the sun)");
 }
 }  // namespace
+
+const char* streetlamp_type_name(StreetlampType t) { return t == StreetlampType::Hps ? "hps" : "led"; }
+
+StreetlampType parse_streetlamp_type(const std::string& name) {
+  if (name == "led") return StreetlampType::Led;
+  if (name == "hps") return StreetlampType::Hps;
+  fail("unknown street lamp type '" + name + "' (expected " + kStreetlampTypeNames + ")");
+}
 
 ScenePreset parse_scene_preset(const std::string& text, const std::string& file) {
   const toml::table t = schema::parse_toml(text, file);

@@ -892,7 +892,7 @@ struct LitRows {
   const RelTable table;  // a copy: the threads each read it
   LitRows(const ImageF& texture_, const ImageU16& labels_, const CameraGeometry& g_, const ScenePreset& p, int width)
       : texture(texture_), labels(labels_), g(g_), W(width), table(rel_table(p)) {
-    const auto tl = illuminant_tint(p.street_cct_K);
+    const auto tl = streetlamp_tint(p);
     for (int k = 0; k < 3; ++k) tlf[k] = static_cast<float>(tl[k] / M_PI);
   }
 };
@@ -1086,7 +1086,7 @@ struct HeadDisc {
 };
 std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p, int W,
                                       int H) {
-  const auto head1 = spectrum::blackbody_rgb(p.streetlamp_cct_K, 1.0);
+  const auto head1 = streetlamp_rgb(p, 1.0);
   const double rho = 0.5 * p.lamp_head_diameter_m, head_area_m2 = M_PI * rho * rho;
   const double cos_pitch = std::cos(g.pitch_rad);
   std::vector<HeadDisc> out;

@@ -105,6 +105,14 @@ std::array<double, 3> blackbody_rgb(double cct_K, double luminance) {
   return rgb;
 }
 
+std::array<double, 3> hp1_rgb(double luminance) {
+  const auto& e = band_luminous_efficacy_lm_per_W();
+  const double lum = e[0] * kHp1BandIntegral[0] + e[1] * kHp1BandIntegral[1] + e[2] * kHp1BandIntegral[2];
+  std::array<double, 3> rgb{kHp1BandIntegral[0], kHp1BandIntegral[1], kHp1BandIntegral[2]};
+  for (auto& v : rgb) v *= luminance / lum;
+  return rgb;
+}
+
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb() {
   static const auto m = [] {
     // XYZ (absolute, Y in cd/m²) of one W·sr⁻¹·m⁻² in each box, then IEC 61966-2-1's XYZ→sRGB.

@@ -420,6 +420,8 @@ std::vector<Row> rows() {
   // held −∞ and the façade windows converted it to integers (UBSan float-cast-overflow).
   t.push_back({"night_rig_looks_past_straight_down", [](Ctx& c) { put(c.in("rig.toml"), "native_width_px = 2048\nnative_height_px = 1024\nfx_px = 1\ncx_px = -1e5\ncy_px = -1e5\nmount_height_m = 1.22\npitch_deg = 30\n"); }, kNight + "--rig '{in}/rig.toml'", {"rig.toml", "past straight down", "fx_px, cy_px and pitch_deg"}});
   t.push_back({"night_ambient_out_of_range", {}, kNight + "--ambient-lux 50", {"--ambient-lux"}});
+  t.push_back({"night_streetlamp_type_unknown", {}, kNight + "--streetlamp-type sodium", {"--streetlamp-type", "'sodium'", "led, hps"}});
+  t.push_back({"scene_preset_streetlamp_type_unknown", [](Ctx& c) { put(c.in("scene.toml"), "[lamps]\nstreetlamp_type = \"sodium\"\n"); }, kNight + "--scene-preset '{in}/scene.toml'", {"scene.toml:2: lamps.streetlamp_type", "'sodium'", "led, hps"}});
   t.push_back({"night_maps_folder_missing", {}, kNight + "--maps '{out}/nope'", {"nope", "does not exist"}});
   t.push_back({"night_output_folder_missing", {}, "night " + kSensor + "--image '{in}/day.png' --labels '{in}/labels.png' --out '{out}/nope/o.exr'", {"nope", "does not exist"}});
   // ---- batch --------------------------------------------------------------------------------

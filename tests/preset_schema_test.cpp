@@ -155,10 +155,10 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
-// street_lamps.interp_tolerance; reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road).
-// Values changed since, by hand with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the
-// visible reflectance of vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on,
-// with its colour test).
+// street_lamps.interp_tolerance; reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
+// lamps.streetlamp_type, an attribute only, the member being an enum). Values changed since, by hand
+// with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
+// vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))
@@ -209,6 +209,32 @@ TEST(PresetSchema, CameraAttributesAreTheMarkedRows) {
     EXPECT_EQ(std::get<int>(a.at("photosite/bit_depth")), p.bit_depth);
     EXPECT_EQ(std::get<double>(a.at("photosite/black_level_dn")), p.black_level_dn);
   }
+}
+
+// lamps.streetlamp_type: "led" (the bundled presets' value, and the default when the key is absent)
+// or "hps"; any other value, or a number, is refused at its line; the EXR header records it.
+TEST(PresetSchema, StreetlampTypeIsLedOrHpsAndTheHeaderRecordsIt) {
+  const std::string urban = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml");
+  const std::string key = "streetlamp_type = \"led\"";
+  const auto at = urban.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const std::string line = std::to_string(std::count(urban.begin(), urban.begin() + static_cast<long>(at), '\n') + 1);
+  auto with = [&](const std::string& to) {
+    std::string t = urban;
+    t.replace(at, key.size(), to);
+    return t;
+  };
+  EXPECT_EQ(scene::parse_scene_preset(urban, "s.toml").streetlamp_type, scene::StreetlampType::Led);
+  const scene::ScenePreset hps = scene::parse_scene_preset(with("streetlamp_type = \"hps\""), "s.toml");
+  EXPECT_EQ(hps.streetlamp_type, scene::StreetlampType::Hps);
+  EXPECT_EQ(std::get<std::string>(scene::scene_attributes(hps).at("photosite/scene/lamps.streetlamp_type")), "hps");
+  EXPECT_EQ(scene::parse_scene_preset(with(""), "s.toml").streetlamp_type, scene::StreetlampType::Led);
+  const std::string e1 = error_of([&] { scene::parse_scene_preset(with("streetlamp_type = \"sodium\""), "s.toml"); });
+  EXPECT_NE(e1.find("s.toml:" + line + ": lamps.streetlamp_type: unknown street lamp type 'sodium' (expected led, hps)"),
+            std::string::npos)
+      << e1;
+  const std::string e2 = error_of([&] { scene::parse_scene_preset(with("streetlamp_type = 2000"), "s.toml"); });
+  EXPECT_NE(e2.find("s.toml:" + line + ": lamps.streetlamp_type: expected a string"), std::string::npos) << e2;
 }
 
 // A scene file's errors have the camera's and lens's form, "file:line: key: problem".

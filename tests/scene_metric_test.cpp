@@ -421,6 +421,20 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
   EXPECT_NE(bad.output.find("nonesuch"), std::string::npos) << bad.output;
 }
 
+// `night --streetlamp-type` overrides the scene preset's lamps.streetlamp_type, and the EXR header
+// records the type that was used (the preset's "led" without the option).
+TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
+  test::TempDir tmp;
+  for (const char* type : {"", "hps", "led"}) {
+    SCOPED_TRACE(type);
+    const std::string out = tmp.file(std::string("n") + type + ".exr");
+    const auto r = test::run_cli(std::string("night --rig kitti --layers lights --out ") + out +
+                                 (*type ? std::string(" --streetlamp-type ") + type : std::string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read_exr(out).attributes.at("photosite/scene/lamps.streetlamp_type"), *type ? type : "led");
+  }
+}
+
 // A shared Cityscapes frame (../shared/data/cityscapes, 2048x1024): its day image linearized, and
 // its labels with the instance ids. (The caller skips without ../shared.)
 namespace {
@@ -1777,6 +1791,72 @@ TEST(VerticalStreetLight, CrownIsLitAsALambertSphereWhereAFaceIsTurnedAway) {
                  "%.2f lx), worst relative error against the Lambert sphere %.2e\n",
                  beside ? "beside it and 1 m behind its face" : "8 m up 6 m in front", n, lo, hi, car_max, worst);
   }
+}
+
+// lamps.streetlamp_type = "hps": every place the street lamps' colour reaches takes CIE HP1's
+// band ratios (spectrum::kHp1BandIntegral, scripts/lamp_spectra.py) instead of the LED's Planck
+// proxy. On the open synthetic street (luminaires planned, seed 7):
+// (1) the lamp heads (a black texture, so the light map holds the heads alone): each head pixel is
+//     float(head_k·share), head_k = hp1_k·L in double (the ratios to a few 2^-53), one float
+//     rounding per channel: R:G:B within 2·2^-24 (+ 2^-50) relative of HP1's;
+// (2) the pools on the road and (3) the light on a box's front (VerticalRig) are f_k·t_k·E per
+//     channel, t = float(tint_k/π), tint = HP1 over the 6504 K Planck proxy of D65 (both at
+//     luminance 1), E common to the channels: three float roundings per channel (t, f·t, ·E), so
+//     the ratios (L_k/f_k)/(L_G/f_G) within 6·2^-24 (+ 2^-50) of tint_k/tint_G.
+// And the luminaires' intensity is the class's, whatever their colour: I0 and the field's L_avg
+// (photopic, from the geometry) equal the LED street's bit for bit.
+TEST(StreetLampType, HpsHeadsPoolsAndVerticalLightAreCieHp1) {
+  OpenStreet street = open_street();
+  auto& [o, sc, p, s] = street;
+  p.lamp_interp_tolerance = 0;  // the exact per-pixel pools
+  ScenePreset hps = p;
+  hps.streetlamp_type = StreetlampType::Hps;
+  const StreetLighting s_hps = plan_street_lighting(sc.labels, o.camera, hps, 7);
+  EXPECT_EQ(s_hps.peak_intensity_cd, s.peak_intensity_cd);
+  EXPECT_EQ(s_hps.avg_luminance_cd_m2, s.avg_luminance_cd_m2);
+  const double* h = spectrum::kHp1BandIntegral;
+  const double want_rg = h[0] / h[1], want_bg = h[2] / h[1];
+  const ImageF black(o.width, o.height, 3, 0.f);
+  ImageF heads(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(heads, black, sc.labels.ids, o.camera, s_hps, hps);
+  long head_px = 0;
+  const double tol1 = 2 * 0x1p-24 + 0x1p-50;
+  for (size_t i = 0; i < heads.pixel_count(); ++i) {
+    const double r = heads[3 * i], g = heads[3 * i + 1], b = heads[3 * i + 2];
+    if (!(g > 0)) continue;
+    EXPECT_NEAR(r / g, want_rg, tol1 * want_rg) << "head pixel " << i;
+    EXPECT_NEAR(b / g, want_bg, tol1 * want_bg) << "head pixel " << i;
+    ++head_px;
+  }
+  EXPECT_GT(head_px, 20);
+  const auto a = spectrum::hp1_rgb(1.0), d = spectrum::blackbody_rgb(6504.0, 1.0);
+  const double tint_rg = (a[0] / d[0]) / (a[1] / d[1]), tint_bg = (a[2] / d[2]) / (a[1] / d[1]);
+  const double tol2 = 6 * 0x1p-24 + 0x1p-50;
+  auto check_tint = [&](const ImageF& L, const ImageF& tex, const ImageU16& labels, Label label, const char* what) {
+    long n = 0;
+    for (size_t i = 0; i < L.pixel_count(); ++i) {
+      if (labels[i] != static_cast<int>(label)) continue;
+      const double f[3] = {tex[3 * i], tex[3 * i + 1], tex[3 * i + 2]};
+      if (!(L[3 * i + 1] > 0 && f[0] > 0 && f[1] > 0 && f[2] > 0)) continue;
+      const double q[3] = {L[3 * i] / f[0], L[3 * i + 1] / f[1], L[3 * i + 2] / f[2]};
+      EXPECT_NEAR(q[0] / q[1], tint_rg, tol2 * tint_rg) << what << " pixel " << i;
+      EXPECT_NEAR(q[2] / q[1], tint_bg, tol2 * tint_bg) << what << " pixel " << i;
+      ++n;
+    }
+    return n;
+  };
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, hps);
+  ImageF pools(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(pools, tex, sc.labels.ids, o.camera, s_hps, hps);
+  const long pool_px = check_tint(pools, tex, sc.labels.ids, Label::Road, "pool");
+  EXPECT_GT(pool_px, 10000);
+  VerticalRig r(20);
+  r.p.streetlamp_type = StreetlampType::Hps;
+  add_vertical_street_light(r.L, r.tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p);
+  const long box_px = check_tint(r.L, r.tex, r.sc.labels.ids, Label::Car, "box");
+  EXPECT_GT(box_px, 100);
+  std::fprintf(stderr, "[hps] %ld head, %ld pool, %ld box pixels; head R:G:B 1 : %.6f : %.6f, tint %.6f : 1 : %.6f\n",
+               head_px, pool_px, box_px, 1 / want_rg, want_bg / want_rg, tint_rg, tint_bg);
 }
 
 // A box beyond every lamp's reach (its front at 50 m, the lamp's footprint ends at

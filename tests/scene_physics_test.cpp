@@ -173,6 +173,31 @@ struct Canvas {
 // of it too (twice that for the double arithmetic on both sides).
 constexpr double kLampRounding = 2 * 0x1p-24;
 
+// Without the metric geometry a tall pole whose top is above the vanishing point carries a lamp
+// head, a disc at lamps.streetlamp_luminance_cd_m2 in the lamps' colour: with
+// lamps.streetlamp_type = "hps" CIE HP1's (spectrum::kHp1BandIntegral's ratios), each channel the
+// colour scaled in double and stored as float (the ratios within 2·2⁻²⁴, the luminance within
+// kLampRounding).
+TEST(ScenePhysics, PoleLampsWithoutGeometryTakeTheStreetLampType) {
+  ScenePreset p = no_bloom();
+  p.streetlamp_type = StreetlampType::Hps;
+  Canvas c(64, 80);
+  c.fill(30, 10, 32, 75, Label::Pole, 0.3f, 0.3f, 0.3f);
+  const LightMap m = c.lights(p, 32, 40);
+  EXPECT_EQ(m.stats.pole_lamps, 1);
+  const double* h = spectrum::kHp1BandIntegral;
+  int lit = 0;
+  for (size_t i = 0; i < m.radiance.pixel_count(); ++i) {
+    const double r = m.radiance[3 * i], g = m.radiance[3 * i + 1], b = m.radiance[3 * i + 2];
+    if (!(g > 0)) continue;
+    ++lit;
+    EXPECT_NEAR(r / g, h[0] / h[1], 2 * 0x1p-24 * h[0] / h[1]) << i;
+    EXPECT_NEAR(b / g, h[2] / h[1], 2 * 0x1p-24 * h[2] / h[1]) << i;
+    EXPECT_NEAR(lum(m.radiance, i), p.streetlamp_luminance_cd_m2, kLampRounding * p.streetlamp_luminance_cd_m2) << i;
+  }
+  EXPECT_GT(lit, 4);
+}
+
 // Traffic signals: a lit lens (a traffic-light pixel of signal colour, CIELAB L* ≥ 25 and chroma
 // ≥ 30) emits the preset's signal luminance (a 200-400 cd LED signal over a 200 mm lens, ~1e4
 // cd/m²) in its colour; the dark housing, and the same red outside a traffic light, emit nothing.

@@ -736,6 +736,31 @@ TEST(Spectrum, BlackbodyRgbIsItsDefinitionWhateverWasAskedBefore) {
   EXPECT_EQ(checked, 2 * 3 * 3 * static_cast<long>(order.size()));
 }
 
+// CIE illuminant HP1 (high-pressure sodium) in the box basis (spectrum::hp1_rgb): the band ratios
+// are those scripts/lamp_spectra.py prints from the CIE 015:2018 table (B/R 0.223395, G/R 1.945392,
+// printed to 6 decimals: within 5e-7 of the table's), and the luminance luminance_cd_m2 reads back
+// from the float radiance is the one asked: each channel stored as float (2^-24 relative) and
+// summed with positive weights (so within 2^-24 of the sum), plus the double scaling (a few 2^-53).
+TEST(Spectrum, Hp1IsTheCieTablesBandsAtTheAskedLuminance) {
+  const double* b = spectrum::kHp1BandIntegral;
+  EXPECT_NEAR(b[2] / b[0], 0.223395, 5e-7);
+  EXPECT_NEAR(b[1] / b[0], 1.945392, 5e-7);
+  for (const double L : {1.0, 2.5, 7909.0, 4e4}) {
+    const auto rgb = spectrum::hp1_rgb(L);
+    // Each channel one double product of the table's value: the ratios to 2·2^-53 relative.
+    EXPECT_NEAR(rgb[2] / rgb[0], b[2] / b[0], 4 * 0x1p-53 * (b[2] / b[0])) << L;
+    EXPECT_NEAR(rgb[1] / rgb[0], b[1] / b[0], 4 * 0x1p-53 * (b[1] / b[0])) << L;
+    const float f[3] = {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]), static_cast<float>(rgb[2])};
+    EXPECT_NEAR(spectrum::luminance_cd_m2(f), L, (0x1p-24 + 8 * 0x1p-53) * L) << L;
+  }
+  // Not a Planck radiator at any CCT: where a black body's B/R is within half of HP1's (0.11-0.34,
+  // 2400-3300 K) its G/R is below half of HP1's (sodium's D line puts twice R's power in G).
+  for (double T = 1000; T <= 20000; T += 50) {
+    const auto p = spectrum::blackbody_rgb(T, 1.0);
+    if (std::fabs(p[2] / p[0] - b[2] / b[0]) < 0.5 * b[2] / b[0]) EXPECT_LT(p[1] / p[0], b[1] / b[0] / 2) << T << " K";
+  }
+}
+
 // Every bundled camera through its default lens, against the photon integral done here
 // independently: a pixel of filter colour c under band radiance L (W·sr⁻¹·m⁻², equal in R, G, B)
 // collects on average

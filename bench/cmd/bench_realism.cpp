@@ -171,6 +171,9 @@ void run(const Opts& o) {
       // The day's sunlight left in the texture (sun_shade_split off; the bundled presets take it
       // out of the classes whose shade is bluer than the sun's, docs/night.md §1).
       {"photosite no sun-shade split", [](scene::ScenePreset& sp) { sp.sun_shade_ratio_max = 1; }, 0.99},
+      // High-pressure sodium street lamps (CIE HP1) instead of the preset's 4000 K LED proxy
+      // (`night --streetlamp-type hps`), at the same road luminance class.
+      {"photosite hps", [](scene::ScenePreset& sp) { set_streetlamp_type(sp, "hps"); }, 0.99},
   };
   // The camera-ISP previews (`night --preview-isp camera`): its defaults, without the JPEG, with
   // twice the noise-reduction strength, and with in-camera sharpening.

@@ -81,6 +81,9 @@ DayImage read_day_image(const std::string& path, ImageFileInfo* info);
 // Sets the night ambient illuminance (moon + sky glow) to `lux` in [0, 10] lx, keeping the
 // preset's moon/sky-glow proportions; bad input naming `what` outside that range.
 void set_ambient_lux(scene::ScenePreset& sp, double lux);  // ParameterError "ambient_lux" outside [0, 10]
+// Sets the street lamps' type (scene preset key lamps.streetlamp_type) by its name, "led" or "hps";
+// ParameterError "streetlamp_type" for any other name.
+void set_streetlamp_type(scene::ScenePreset& sp, const std::string& name);
 
 // One frame of the camera (noise drawn for setup.settings.seed and `frame`).
 SensorOutput night_frame(SensorRunner& runner, const NightChain& chain, const SensorSetup& setup,

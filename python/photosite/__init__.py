@@ -161,7 +161,8 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
           f_number: Optional[float] = None, gain_db: float = 0.0, temperature_c: Optional[float] = None,
           seed: int = 0, frame: int = 0, demosaic: str = "bilinear", backend: str = "auto",
           label_format: str = "auto", ambient_lux: Optional[float] = None,
-          resize_labels: str = "none", rig: str = "auto", poisson: str = "exact") -> NightResult:
+          resize_labels: str = "none", rig: str = "auto", poisson: str = "exact",
+          streetlamp_type: Optional[str] = None) -> NightResult:
     """Translate a day photo to night and expose it through a camera (`photosite night`).
 
     day_rgb       H x W x 3 or H x W (grey, as `night --image grey.png`), uint8/uint16 sRGB codes (as a
@@ -184,6 +185,8 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     rig           camera rig: "auto" (by aspect ratio), a name in presets/rigs, a .toml path or a
                   Cityscapes camera .json (camera/<split>/<city>/<stem>_camera.json)
     poisson       shot-noise sampler: "exact", "cornish-fisher" or "normal" (`night --poisson`)
+    streetlamp_type  the street lamps' light source, "led" or "hps" (high-pressure sodium, CIE HP1)
+                  (None: the preset's lamps.streetlamp_type; `night --streetlamp-type`)
 
     Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,
     W.sr-1.m-2), .depth (float32 H x W, metres along the optical axis; sky 65504; from the rig),
@@ -194,7 +197,7 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     """
     return _photosite.night(day_rgb, labels, instances, _camera(camera, "onsemi-ar0331"), scene_preset,
                             exposure_s, f_number, gain_db, temperature_c, seed, frame, demosaic, backend,
-                            label_format, ambient_lux, resize_labels, rig, poisson)
+                            label_format, ambient_lux, resize_labels, rig, poisson, streetlamp_type)
 
 
 def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", backend: str = "auto",

@@ -46,7 +46,8 @@ def night(day_rgb: npt.NDArray[Union[np.uint8, np.uint16, np.float32]],  # H x W
           scene_preset: str = ..., exposure_s: float = ..., f_number: Optional[float] = ..., gain_db: float = ...,
           temperature_c: Optional[float] = ..., seed: int = ..., frame: int = ..., demosaic: str = ...,
           backend: str = ..., label_format: str = ..., ambient_lux: Optional[float] = ...,
-          resize_labels: str = ..., rig: str = ..., poisson: str = ...) -> NightResult: ...
+          resize_labels: str = ..., rig: str = ..., poisson: str = ...,
+          streetlamp_type: Optional[str] = ...) -> NightResult: ...
 def demosaic(mosaic: npt.NDArray[Union[np.float32, np.uint8, np.uint16]], cfa: str = ..., method: str = ...,
              backend: str = ..., white_level: Optional[float] = ...) -> npt.NDArray[np.float32]: ...
 def characterize(camera: Union[Camera, str], lens: Optional[str] = ..., device_id: Optional[str] = ...,

@@ -344,6 +344,8 @@ BAD = [
     ("unknown backend", lambda: ps.night(_day(), _labels(), backend="gpu"), ValueError, "unknown backend 'gpu'"),
     ("negative exposure", lambda: ps.night(_day(), _labels(), exposure_s=-1), ValueError, "exposure"),
     ("ambient lux", lambda: ps.night(_day(), _labels(), ambient_lux=50), ValueError, "ambient_lux 50"),
+    ("streetlamp type", lambda: ps.night(_day(), _labels(), streetlamp_type="sodium"), ValueError,
+     "streetlamp_type 'sodium' is not one of led, hps"),
     ("resize_labels", lambda: ps.night(_day(), _labels(), resize_labels="bicubic"), ValueError, "resize_labels"),
     ("label_format", lambda: ps.night(_day(), _labels(), label_format="png"), ValueError, "png"),
     ("unknown rig", lambda: ps.night(_day(), _labels(), rig="no-such-rig"), ValueError, "no-such-rig"),
@@ -541,6 +543,24 @@ def test_array_sides_of_2_31_or_more_are_refused(tmp_path):
         ps.write_exr(str(tmp_path / "x.exr"), {"a": m})
     assert not (tmp_path / "x.exr").exists()
     del m
+
+
+def test_night_streetlamp_type_is_the_clis(kitti, cli, store, tmp_path):
+    """streetlamp_type= is `night --streetlamp-type`: the same lights bit for bit, and the metadata
+    records the type (the preset's "led" without it)."""
+    day, labels = kitti
+    out = tmp_path / "hps.exr"
+    cli("night", "--image", KITTI_IMAGE, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--streetlamp-type",
+        "hps", "--layers", "lights", "--backend", "cpu", "--out", out)
+    ch, attrs, _ = exr_pixels(out)
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    r = ps.night(day, labels, camera=cam, backend="cpu", streetlamp_type="hps")
+    np.testing.assert_array_equal(np.stack([ch["lights." + c] for c in "RGB"], -1), r.lights)
+    assert attrs["photosite/scene/lamps.streetlamp_type"] == "hps"
+    assert r.sensor.metadata["scene/lamps.streetlamp_type"] == "hps"
+    led = ps.night(day, labels, camera=cam, backend="cpu")
+    assert led.sensor.metadata["scene/lamps.streetlamp_type"] == "led"
+    assert not np.array_equal(led.lights, r.lights)
 
 
 @pytest.mark.parametrize("bits", [8, 16])

@@ -88,6 +88,13 @@ ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels
                            ClassMeans* carried = nullptr);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
+// The street lamps' colour, by the scene's lamps.streetlamp_type (one dispatch for every place it
+// is used): the RGB radiance of a lamp face of a luminance (cd/m²) — led: blackbody_rgb at
+// lamps.streetlamp_cct_K; hps: spectrum::hp1_rgb — and the relative tint of their light on a
+// surface (as illuminant_tint) — led: illuminant_tint(street.cct_K); hps: HP1 over D65's Planck
+// proxy at 6504 K, per band, both at luminance 1.
+std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance_cd_m2);
+std::array<double, 3> streetlamp_tint(const ScenePreset& p);
 // The per-pixel darkening, shared by darken() and compose(): the ambient night illuminance (moon
 // and sky glow) per unit reflectance on every surface but the sky (E/π in lx·sr⁻¹ per band: times
 // the texture in W·lm⁻¹ it gives W·sr⁻¹·m⁻²; the street lamps add their light in the light map),

@@ -13,6 +13,19 @@
 
 namespace photosite::scene {
 
+// The street lamps' light source, one per scene (a street's luminaires are one installation):
+// Led, a white LED taken as a Planck radiator at lamps.streetlamp_cct_K (heads) and street.cct_K
+// (their light on the street) — a proxy: a phosphor LED's spectrum is a blue pump line and a broad
+// phosphor band, not Planck's; Hps, high-pressure sodium as CIE illuminant HP1 (spectrum::hp1_rgb),
+// where both CCT keys are unused. The sensor reads a radiance through box-averaged QE, which puts
+// sodium's 570-600 nm light in the G box: a camera sees an hps street about 2x greener (raw G/R)
+// than the lamp's spectrum gives (docs/night.md §7, "Lamp type").
+enum class StreetlampType { Led, Hps };
+inline constexpr const char* kStreetlampTypeNames = "led, hps";
+// "led" / "hps"; parse throws photosite::Error on any other name, listing the names.
+const char* streetlamp_type_name(StreetlampType t);
+StreetlampType parse_streetlamp_type(const std::string& name);
+
 struct ScenePreset {
   std::string name, file, description;
   // [reflectance] Table 1 of Baek 2020: representative material per class (dimensionless).
@@ -76,6 +89,7 @@ struct ScenePreset {
   double window_detect_contrast = 0;
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
+  StreetlampType streetlamp_type = StreetlampType::Led;  // colour of heads, pools and vertical light
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
   double taillamp_luminance_cd_m2 = 500;
   double signal_luminance_cd_m2 = 1e4;

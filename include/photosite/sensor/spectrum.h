@@ -35,6 +35,23 @@ double luminance_cd_m2(const float rgb_W_sr_m2[3]);
 // The RGB radiance of a black body (or a CCT proxy for a lamp) scaled to a given luminance.
 std::array<double, 3> blackbody_rgb(double cct_K, double luminance_cd_m2);
 
+// CIE illuminant HP1, the standard high-pressure sodium (HPS) lamp of CIE 015:2018 (5-nm table,
+// 380-780 nm), in the box basis: its band integrals ∫ S(λ) dλ over the R, G, B boxes in the table's
+// relative units (trapezoid rule on the 5-nm grid, a sample on a band edge split half and half),
+// computed offline by scripts/lamp_spectra.py from the tabulated SPD. HPS is not a Planck radiator:
+// its light is the pressure-broadened, self-reversed sodium D line (peaks near 568 nm and 589-615 nm,
+// a dip at 589 nm), so no CCT stands for it. Only the ratios matter (B/R 0.2234, G/R 1.9454);
+// hp1_rgb scales them to a luminance. The sensor's box-averaged QE reads these band radiances as a
+// flat spectrum within each box: for sodium's lines the cameras' raw G/R then comes out 2.2-2.4x
+// the spectrum's (scripts/lamp_spectra.py, docs/night.md §7).
+inline constexpr double kHp1BandIntegral[3] = {3747.625, 7290.6, 837.2};  // R, G, B
+
+// The RGB radiance of CIE HP1 scaled to a luminance (cd/m², luminance_cd_m2's dot(K, rgb)), as
+// blackbody_rgb for a CCT. (V(λ) on the SPD itself gives 1.098× this luminance over 400-700 nm: the
+// box basis averages V over each 100 nm, and HP1's light sits where V is above its band mean;
+// scripts/lamp_spectra.py.)
+std::array<double, 3> hp1_rgb(double luminance_cd_m2);
+
 // 3x3 matrices between photosite's box RGB radiance and linear sRGB (Rec. 709 primaries, D65),
 // from the boxes' CIE XYZ. srgb = M · box; box = M⁻¹ · srgb. Rows are output channels.
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb();
