@@ -8,6 +8,7 @@
 #include "photosite/error.h"
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/spectrum.h"
 #include "scene/texture_detail.h"
 
 namespace photosite {
@@ -75,6 +76,13 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
 }
 }  // namespace
 
+scene::ScenePreset scene_for_camera(const scene::ScenePreset& sp, const CameraPreset& camera) {
+  scene::ScenePreset s = sp;
+  if (s.streetlamp_type == scene::StreetlampType::Hps)
+    s.streetlamp_camera_rgb = camera_metamer_rgb(camera, spectrum::kHp1Spd5nm, 81);
+  return s;
+}
+
 scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
                                   const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,
                                   const SensorSetup& setup, scene::SequenceState* sequence,
@@ -84,6 +92,9 @@ scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear
   // cache, so that the sensor's glare never reads the full-resolution radiance again
   // (NightScene::glare_level1; the same bits).
   const bool glare = lens_glare_plan(setup.camera, setup.lens).active;
+  if (sp.streetlamp_type == scene::StreetlampType::Hps)
+    return scene::night_scene(day_linear, labels, scene_for_camera(sp, setup.camera), seed, keep_darkened, runner,
+                              sequence, sums, glare);
   return scene::night_scene(day_linear, labels, sp, seed, keep_darkened, runner, sequence, sums, glare);
 }
 

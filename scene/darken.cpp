@@ -1963,9 +1963,20 @@ std::array<double, 3> relative_to_d65(const std::array<double, 3>& a) {
 
 std::array<double, 3> illuminant_tint(double cct_K) { return relative_to_d65(spectrum::blackbody_rgb(cct_K, 1.0)); }
 
+namespace {
+bool has_camera_rgb(const ScenePreset& p) {
+  return p.streetlamp_camera_rgb[0] > 0 || p.streetlamp_camera_rgb[1] > 0 || p.streetlamp_camera_rgb[2] > 0;
+}
+}  // namespace
+
 std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
   switch (p.streetlamp_type) {
-    case StreetlampType::Hps: return spectrum::hp1_rgb(luminance);
+    case StreetlampType::Hps:
+      if (has_camera_rgb(p)) {
+        const auto& w = p.streetlamp_camera_rgb;
+        return {w[0] * luminance, w[1] * luminance, w[2] * luminance};
+      }
+      return spectrum::hp1_rgb(luminance);
     case StreetlampType::Led: break;
   }
   return spectrum::blackbody_rgb(p.streetlamp_cct_K, luminance);
@@ -1973,7 +1984,8 @@ std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
 
 std::array<double, 3> streetlamp_tint(const ScenePreset& p) {
   switch (p.streetlamp_type) {
-    case StreetlampType::Hps: return relative_to_d65(spectrum::hp1_rgb(1.0));
+    case StreetlampType::Hps:
+      return relative_to_d65(has_camera_rgb(p) ? p.streetlamp_camera_rgb : spectrum::hp1_rgb(1.0));
     case StreetlampType::Led: break;
   }
   return illuminant_tint(p.street_cct_K);

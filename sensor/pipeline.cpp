@@ -8,6 +8,8 @@
 #include <atomic>
 #include <limits>
 #include <fmt/format.h>
+#include <opencv2/core.hpp>
+#include <vector>
 
 #include "core/isa_detail.h"
 #include "photosite/error.h"
@@ -76,6 +78,55 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
     }
   }
   return m;
+}
+
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* spd, int n) {
+  // The same quadrature as photon_matrix (0.5-nm midpoints, photons per joule), without the
+  // exposure's and the pixel's factors, which cancel.
+  const double step = 0.5, lo = 380, hi = 380 + 5.0 * (n - 1);
+  auto S = [&](double l) {  // linear between the 5-nm samples
+    const double t = (l - lo) / 5;
+    const int i = std::clamp(static_cast<int>(t), 0, n - 2);
+    const double f = t - i;
+    return spd[i] * (1 - f) + spd[i + 1] * f;
+  };
+  double Lv = 0;
+  for (double l = lo + step / 2; l < hi; l += step) Lv += S(l) * spectrum::cie_y_bar(l);
+  Lv *= 683 * step;
+  std::vector<std::array<double, 3>> M;  // band integrals per filter colour the camera has
+  std::vector<double> e;                 // the source's electrons per filter colour, per cd/m²
+  for (int c = 0; c < kFilterColorCount; ++c) {
+    const auto color = static_cast<FilterColor>(c);
+    if (p.qe.qe[c].empty()) continue;
+    std::array<double, 3> row{};
+    for (int k = 0; k < 3; ++k) {
+      const double blo = spectrum::kBandLoNm[k], bhi = spectrum::kBandHiNm[k];
+      double s = 0;
+      for (double l = blo + step / 2; l < bhi; l += step) s += p.qe.at(color, l) / units::photon_energy_J(l);
+      row[k] = s * step / (bhi - blo);
+    }
+    double s = 0;
+    for (double l = lo + step / 2; l < hi; l += step) s += S(l) * p.qe.at(color, l) / units::photon_energy_J(l);
+    M.push_back(row);
+    e.push_back(s * step / Lv);
+  }
+  std::array<double, 3> w{};
+  if (M.empty() || !(Lv > 0)) return w;
+  // Three colours or more: OpenCV's SVD solve (exact for three, least squares for more). Fewer (RCCC's
+  // two): the least-norm solution w = Aᵀ·y with (A·Aᵀ)·y = e.
+  cv::Mat A(static_cast<int>(M.size()), 3, CV_64F), b(static_cast<int>(e.size()), 1, CV_64F, e.data()), x;
+  for (int r = 0; r < A.rows; ++r)
+    for (int k = 0; k < 3; ++k) A.at<double>(r, k) = M[r][k];
+  if (A.rows >= 3) {
+    if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return w;
+  } else {
+    cv::Mat y;
+    if (!cv::solve(A * A.t(), b, y, cv::DECOMP_SVD)) return w;
+    x = A.t() * y;
+  }
+  for (int k = 0; k < 3; ++k) w[k] = x.at<double>(k);
+  if (w[0] < 0 || w[1] < 0 || w[2] < 0) return {0, 0, 0};
+  return w;
 }
 
 // detail::analog_row (sensor/pixel_detail.h). The per-pixel definition, with AVX-512 and AVX2

@@ -18,12 +18,15 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/night_chain.h"
 #include "photosite/rng.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
 #include "photosite/sensor/glare.h"
 #include "photosite/sensor/isp.h"
+#include "photosite/sensor/pipeline.h"
+#include "photosite/sensor/preset.h"
 #include "photosite/sensor/spectrum.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
@@ -1857,6 +1860,42 @@ TEST(StreetLampType, HpsHeadsPoolsAndVerticalLightAreCieHp1) {
   EXPECT_GT(box_px, 100);
   std::fprintf(stderr, "[hps] %ld head, %ld pool, %ld box pixels; head R:G:B 1 : %.6f : %.6f, tint %.6f : 1 : %.6f\n",
                head_px, pool_px, box_px, 1 / want_rg, want_bg / want_rg, tint_rg, tint_bg);
+}
+
+// The night chain's scene for its camera (scene_for_camera, what night_scene_for and bench
+// realism run): with hps the lamps' colour is that camera's metamer of CIE HP1 (camera_metamer_rgb,
+// Spectrum.Hp1CameraMetamerGivesEachCameraTheSpectrumsRawColour), which streetlamp_rgb scales to the
+// luminance asked (one double product per band: 2^-53) and the heads on the open street take (their
+// R:G:B within 2·2^-24 + 2^-50 of the metamer's, as HpsHeadsPoolsAndVerticalLightAreCieHp1's (1));
+// with led, and for a scene made without a camera, nothing changes.
+TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
+  OpenStreet street = open_street();
+  auto& [o, sc, p, s] = street;
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  EXPECT_EQ(scene_for_camera(p, cam).streetlamp_camera_rgb, (std::array<double, 3>{0, 0, 0}));  // led
+  ScenePreset hps = p;
+  hps.streetlamp_type = StreetlampType::Hps;
+  const ScenePreset hc = scene_for_camera(hps, cam);
+  const auto w = camera_metamer_rgb(cam, spectrum::kHp1Spd5nm, 81);
+  ASSERT_EQ(hc.streetlamp_camera_rgb, w);
+  ASSERT_GT(w[1], 0);
+  const auto rgb = streetlamp_rgb(hc, 7909.0);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
+  const StreetLighting s_hps = plan_street_lighting(sc.labels, o.camera, hc, 7);
+  EXPECT_EQ(s_hps.peak_intensity_cd, s.peak_intensity_cd);  // the class, whatever the colour
+  const ImageF black(o.width, o.height, 3, 0.f);
+  ImageF heads(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(heads, black, sc.labels.ids, o.camera, s_hps, hc);
+  const double tol = 2 * 0x1p-24 + 0x1p-50;
+  long n = 0;
+  for (size_t i = 0; i < heads.pixel_count(); ++i) {
+    const double r = heads[3 * i], g = heads[3 * i + 1], b = heads[3 * i + 2];
+    if (!(g > 0)) continue;
+    EXPECT_NEAR(r / g, w[0] / w[1], tol * w[0] / w[1]) << "head pixel " << i;
+    EXPECT_NEAR(b / g, w[2] / w[1], tol * w[2] / w[1]) << "head pixel " << i;
+    ++n;
+  }
+  EXPECT_GT(n, 20);
 }
 
 // A box beyond every lamp's reach (its front at 50 m, the lamp's footprint ends at

@@ -761,6 +761,65 @@ TEST(Spectrum, Hp1IsTheCieTablesBandsAtTheAskedLuminance) {
   }
 }
 
+// HP1 as each bundled camera records it (camera_metamer_rgb): the box radiances it gives, through
+// the camera's own photon matrix (photon_matrix, what the sensor multiplies band radiance by),
+// make every filter colour's electrons in the same ratios as HP1's spectrum itself does, the
+// spectrum's photon integral done here independently (0.5-nm midpoints of S(λ)·QE_c(λ)·λ/(hc),
+// S linear between the CIE table's 5-nm samples): a few hundred positive double terms a side
+// (≤ 10³·2⁻⁵³ relative each) and a 3x3 solve (the matrices' condition numbers are below 10³): 10⁻⁹
+// relative. The radiances are positive.
+// Through the band integrals instead (spectrum::hp1_rgb) the same cameras' G/R comes out more than
+// twice the spectrum's: what the metamer is for (docs/night.md §7, "Lamp type").
+TEST(Spectrum, Hp1CameraMetamerGivesEachCameraTheSpectrumsRawColour) {
+  int cameras = 0;
+  for (const auto& entry : list_presets()) {
+    if (entry.kind != "camera") continue;
+    const CameraPreset cam = load_camera_preset(entry.name);
+    const LensPreset lens = load_lens_preset(cam.default_lens);
+    const ResolvedExposure ex = resolve(cam, lens, ExposureSettings());
+    const PhotonMatrix M = photon_matrix(cam, lens, ex);
+    const auto w = camera_metamer_rgb(cam, spectrum::kHp1Spd5nm, 81);
+    SCOPED_TRACE(entry.name);
+    EXPECT_GE(w[0], 0);
+    EXPECT_GE(w[1], 0);
+    EXPECT_GE(w[2], 0);
+    ASSERT_GT(w[0] + w[1] + w[2], 0);
+    auto S = [](double l) {
+      const double t = (l - 380) / 5;
+      const int i = std::min(79, static_cast<int>(t));
+      return spectrum::kHp1Spd5nm[i] + (t - i) * (spectrum::kHp1Spd5nm[i + 1] - spectrum::kHp1Spd5nm[i]);
+    };
+    double Lv = 0;
+    std::array<double, 4> e{};
+    for (double l = 380.25; l < 780; l += 0.5) {
+      Lv += 683 * 0.5 * S(l) * spectrum::cie_y_bar(l);
+      for (int c = 0; c < 4; ++c)
+        if (!cam.qe.qe[c].empty()) e[c] += 0.5 * S(l) * cam.qe.at(static_cast<FilterColor>(c), l) / units::photon_energy_J(l);
+    }
+    int colours = 0;
+    int ref = -1;
+    for (int c = 0; c < 4; ++c) {
+      if (cam.qe.qe[c].empty()) continue;
+      ++colours;
+      if (ref < 0) ref = c;
+      const double got = (M[c][0] * w[0] + M[c][1] * w[1] + M[c][2] * w[2]) /
+                         (M[ref][0] * w[0] + M[ref][1] * w[1] + M[ref][2] * w[2]);
+      EXPECT_NEAR(got, e[c] / e[ref], 1e-9 * e[c] / e[ref]) << "filter colour " << c;
+    }
+    EXPECT_GE(colours, 2);
+    const auto h = spectrum::hp1_rgb(1.0);
+    const int g = !cam.qe.qe[1].empty() ? 1 : 3;  // green, or clear where there is none
+    const double band_gr = (M[g][0] * h[0] + M[g][1] * h[1] + M[g][2] * h[2]) / (M[0][0] * h[0] + M[0][1] * h[1] + M[0][2] * h[2]);
+    std::fprintf(stderr, "[hp1 %s] raw %s/R: spectrum %.4f, metamer %.4f, band integrals %.4f\n", entry.name.c_str(),
+                 g == 1 ? "G" : "C", e[g] / e[0],
+                 (M[g][0] * w[0] + M[g][1] * w[1] + M[g][2] * w[2]) / (M[0][0] * w[0] + M[0][1] * w[1] + M[0][2] * w[2]),
+                 band_gr);
+    if (g == 1) EXPECT_GT(band_gr, 2 * e[g] / e[0]);
+    ++cameras;
+  }
+  EXPECT_GE(cameras, 5);
+}
+
 // Every bundled camera through its default lens, against the photon integral done here
 // independently: a pixel of filter colour c under band radiance L (W·sr⁻¹·m⁻², equal in R, G, B)
 // collects on average

@@ -249,6 +249,7 @@ void run(const Opts& o) {
       if (v.method != "photosite" && !wanted(v.method)) continue;
       scene::ScenePreset sp = scene::load_scene_preset("night-urban");
       if (v.scene) v.scene(sp);
+      sp = scene_for_camera(sp, cam);  // (hps: the camera's metamer of HP1, as the night chain)
       LensPreset lens = lens_preset;
       if (!v.lens_glare) lens.glare.enabled = false;
       ImageF preview;

@@ -51,6 +51,18 @@ using PhotonMatrix = std::array<std::array<double, 3>, 4>;
 PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
                            const ResolvedExposure& exposure);
 
+// A light source's colour as this camera records it, in photosite's box basis: the band radiances
+// w (R, G, B, W·sr⁻¹·m⁻² per cd/m² of the source's photometric luminance) that the camera's filters
+// turn into the same electrons as the source's own spectrum does, Σ_k M[c][k]·w_k = ∫ S(λ) QE_c(λ)
+// λ/(hc) dλ / L_v(S) for each filter colour c the camera has (M: photon_matrix's band integrals;
+// S: `spd` on the 5-nm grid from 380 nm, `n` samples, linear between them; L_v = 683 ∫ S·V dλ with
+// photosite's V(λ)). A camera metamer: for a line spectrum such as sodium's, which the boxes cannot
+// carry, the camera's raw colour of a grey surface it lights is the spectrum's (the band integrals'
+// would be 2.2-2.4 times too green, docs/night.md §7), but its box luminance is not L_v and another
+// camera needs other w. Three filter colours: the 3x3 solve; one or two (RCCC): the least-norm
+// solution. Empty (all 0) where no filter has a QE table or a w_k comes out negative.
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, const double* spd, int n);
+
 // The lens's veiling-glare plan on this camera: plan_glare at the lens's pixels per degree on the
 // sensor's pitch. The one plan the CPU and Vulkan photon stages use, and by which the night chain
 // decides whether its compose pass makes the glare's level 1.

@@ -43,8 +43,13 @@ std::array<double, 3> blackbody_rgb(double cct_K, double luminance_cd_m2);
 // a dip at 589 nm), so no CCT stands for it. Only the ratios matter (B/R 0.2234, G/R 1.9454);
 // hp1_rgb scales them to a luminance. The sensor's box-averaged QE reads these band radiances as a
 // flat spectrum within each box: for sodium's lines the cameras' raw G/R then comes out 2.2-2.4x
-// the spectrum's (scripts/lamp_spectra.py, docs/night.md §7).
+// the spectrum's (scripts/lamp_spectra.py, docs/night.md §7), which is why the night chain gives
+// the lamps its camera's metamer instead (camera_metamer_rgb, sensor/pipeline.h).
 inline constexpr double kHp1BandIntegral[3] = {3747.625, 7290.6, 837.2};  // R, G, B
+// CIE illuminant HP1's relative spectral power, 380-780 nm every 5 nm (CIE 015:2018, the table
+// scripts/lamp_spectra.py reads; its source there): what camera_metamer_rgb (sensor/pipeline.h)
+// runs through a camera's QE.
+inline constexpr double kHp1Spd5nm[81] = {1.9, 2.2, 2.5, 2.7, 3.1, 4.3, 3.8, 4.2, 4.8, 5.19, 5.89, 7.39, 7.89, 5.69, 12.89, 6.69, 4.3, 20.78, 12.99, 6.69, 1.4, 1.5, 3.2, 18.18, 56.24, 2.9, 2.1, 13.39, 2.1, 2, 2.2, 2.3, 2.6, 5.1, 11.39, 15.48, 20.78, 55.64, 254.03, 56.14, 111.78, 297.98, 142.55, 334.84, 189.4, 117.78, 79.92, 108.09, 46.85, 38.16, 32.47, 28.37, 25.37, 22.98, 20.38, 19.78, 17.78, 16.78, 19.18, 17.98, 13.69, 9.99, 8.19, 7.59, 6.99, 6.79, 6.49, 6.39, 6.09, 5.99, 5.79, 5.79, 5.79, 5.79, 6.39, 5.99, 5.59, 31.97, 27.87, 5.89, 6.69};
 
 // The RGB radiance of CIE HP1 scaled to a luminance (cd/m², luminance_cd_m2's dot(K, rgb)), as
 // blackbody_rgb for a CCT. (V(λ) on the SPD itself gives 1.098× this luminance over 400-700 nm: the
