@@ -425,7 +425,8 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
 }
 
 // `night --streetlamp-type` overrides the scene preset's lamps.streetlamp_type, and the EXR header
-// records the type that was used (the preset's "led" without the option).
+// records the type that was used (the preset's "led" without the option) and, with hps, the
+// camera's metamer the lamps took.
 TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
   test::TempDir tmp;
   for (const char* type : {"", "hps", "led"}) {
@@ -434,7 +435,18 @@ TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
     const auto r = test::run_cli(std::string("night --rig kitti --layers lights --out ") + out +
                                  (*type ? std::string(" --streetlamp-type ") + type : std::string()));
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_EQ(read_exr(out).attributes.at("photosite/scene/lamps.streetlamp_type"), *type ? type : "led");
+    const auto attrs = read_exr(out).attributes;
+    EXPECT_EQ(attrs.at("photosite/scene/lamps.streetlamp_type"), *type ? type : "led");
+    // With hps the header gives the run's camera's metamer of HP1, the lamps' band radiances per
+    // cd/m² (scene_for_camera): camera_metamer_rgb of the camera it names (the exact _text copies).
+    const bool hps = std::string(type) == "hps";
+    EXPECT_EQ(attrs.count("photosite/night/streetlamp_camera_rgb_per_cd_m2_G"), hps ? 1u : 0u);
+    if (hps) {
+      const auto w = camera_metamer_rgb(load_camera_preset(attrs.at("photosite/preset")), spectrum::kHp1Spd5nm, 81);
+      EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_R_text")), w[0]);
+      EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_G_text")), w[1]);
+      EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_B_text")), w[2]);
+    }
   }
 }
 
