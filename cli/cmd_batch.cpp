@@ -8,11 +8,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "photosite/batch.h"
+#include "photosite/night_chain.h"
 #include "photosite/scene/rig.h"
 #include "photosite/error.h"
 #include "backend.h"
@@ -50,6 +52,7 @@ struct BatchCmd {
   batch::Options options;
   SensorOptions sensor;
   std::string backend = "auto";
+  std::optional<std::string> streetlamp_type;  // none: the scene preset's
 };
 
 // The run; its exit status when that is not 0 or 2 (bad input is thrown as Error): 128 + the
@@ -90,6 +93,7 @@ int run(BatchCmd& c) {
   o.sensor = r;
   o.device_store = r.store.dir();
   o.scene = scene::load_scene_preset(c.scene_preset);
+  if (c.streetlamp_type) set_streetlamp_type(o.scene, *c.streetlamp_type);
   if (c.rig != "auto") o.scene.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)
   o.item_cameras = !rig_given;  // an explicit --rig wins over Cityscapes' per-image camera files
   SensorRunner runner(resolve_backend(c.backend, &r.camera));
@@ -161,6 +165,9 @@ static Registrar reg("f-batch", [](CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--queue-depth", o.queue_depth, "images in flight (bounds memory; at most this many workers)")->capture_default_str();
   sub->add_option("--scene-preset", c->scene_preset, "scene preset")->capture_default_str();
+  sub->add_option("--streetlamp-type", c->streetlamp_type,
+                  "street lamps' light source for every image: led or hps (as night --streetlamp-type); "
+                  "default: the scene preset's lamps.streetlamp_type");
   sub->add_option("--rig", c->rig, "camera rig (presets/rigs name, .toml path or Cityscapes camera .json; auto: each Cityscapes image's own camera file where the data set has it, else the data set's rig, else by aspect ratio)")
       ->capture_default_str();
   sub->add_flag("--sequence", o.sequences,

@@ -284,6 +284,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"poisson", to_string(r.settings.poisson)},
       {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
   if (o.sequences) params["sequences"] = true;  // only when set: earlier manifests stay valid
+  // The lamp type (night --streetlamp-type, or the preset's key) only when not the LED: earlier
+  // manifests, all LED, stay valid, and a run resumed with the other type is refused.
+  if (sp.streetlamp_type != scene::StreetlampType::Led)
+    params["streetlamp_type"] = scene::streetlamp_type_name(sp.streetlamp_type);
   // The PNG route writes the preview and the label copies whatever the set (as upgrade_params
   // reads the records of earlier runs): `--format png` with or without `--layers sensor,labels`
   // is one run.

@@ -218,6 +218,27 @@ TEST(Batch, LayersAreWrittenRecordedAndChecked) {
   EXPECT_FALSE(fs::exists(dir.file("o2/image_2/000000_10.exr")));
 }
 
+// --streetlamp-type: as night's, for every image; the EXR header records the type, the manifest
+// records it when it is not the LED (earlier manifests stay valid), a rerun with the other type into
+// the same folder is refused, and a bad value is bad input naming the option, before any file.
+TEST(Batch, StreetlampTypeIsRecordedAndChecked) {
+  test::TempDir dir;
+  make_kitti(dir.path() / "kitti", 1, 0);
+  const std::string base = "batch --dataset kitti --root '" + dir.file("kitti") + "' --quiet --layers lights --out '";
+  auto r = test::run_cli(base + dir.file("o") + "' --streetlamp-type hps");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read_exr(dir.file("o/image_2/000000_10.exr")).attributes.at("photosite/scene/lamps.streetlamp_type"), "hps");
+  std::ifstream m(dir.file("o/.photosite-batch/shard-0-of-1.jsonl"));
+  const std::string manifest((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
+  EXPECT_NE(manifest.find("\"streetlamp_type\":\"hps\""), std::string::npos) << manifest;
+  r = test::run_cli(base + dir.file("o") + "'");  // the preset's led into the hps run's folder
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = test::run_cli(base + dir.file("o2") + "' --streetlamp-type sodium");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("sodium"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir.file("o2/image_2/000000_10.exr")));
+}
+
 // `batch --backend vulkan` runs darken and compose (and the sensor with the lens glare) on the device for every image (one set
 // of device buffers reused across images, sizes differing): the same images as the CPU run, bit
 // for bit (docs/vulkan.md).
