@@ -487,6 +487,15 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
 // permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
 // With `only` 0 or 1, that lamp's E alone (beam_lamp_f's bits: the ground's shadows keep it).
+// beam_row_scalar: the same row one pixel at a time (the vector rows' definition and their tail).
+void beam_row_scalar(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
+                     uint64_t read_mask, float* out, int only = -1) {
+  for (int x = 0; x < n; ++x) {
+    const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1));
+    const float X = static_cast<float>(t * xn[x]);
+    out[x] = !need ? 0.f : only < 0 ? beam_lux_f(X, D2, invD, b) : beam_lamp_f(X - b.xl[only], D2, invD, b);
+  }
+}
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                    uint64_t read_mask, float* out, int only = -1) {
@@ -591,11 +600,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
     }
     _mm256_storeu_ps(out + x, _mm256_and_ps(keep, acc));
   }
-  for (; x < n; ++x) {
-    const bool need = !id || (id[x] < 64 && (read_mask >> id[x] & 1));
-    const float X = static_cast<float>(t * xn[x]);
-    out[x] = !need ? 0.f : only < 0 ? beam_lux_f(X, D2, invD, b) : beam_lamp_f(X - b.xl[only], D2, invD, b);
-  }
+  beam_row_scalar(xn + x, n - x, t, D2, invD, b, id ? id + x : nullptr, read_mask, out + x, only);
 }
 // PHOTOSITE_SCALAR_LIGHTS=1 (environment.h) takes the scalar path on an AVX2 machine.
 const bool kHaveAvx2 = photosite::detail::have_avx2() && env::get(env::Var::ScalarLights).value_or("0") != "1";
@@ -1058,10 +1063,7 @@ void LowBeamRows::Impl::row(ImageF& E, int y) const {
   const uint16_t* id = labels ? labels->row(y) : nullptr;
   if (avx512) return beam_row_avx512(xn.data(), width, t, D2, invD, b, id, read_mask, e);
   if (avx2) return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, read_mask, e);
-  for (int x = 0; x < width; ++x) {
-    const bool needed = !id || (id[x] < kLabelCount && read[id[x]]);
-    e[x] = needed ? beam_lux_f(static_cast<float>(t * xn[x]), D2, invD, b) : 0.f;
-  }
+  beam_row_scalar(xn.data(), width, t, D2, invD, b, id, read_mask, e);
 }
 
 namespace {
@@ -1090,13 +1092,15 @@ struct OncomingBeamRows {
   const double c, s;
   std::vector<double> nxn;  // −x_n = −(x − c_x)/f per column
   const uint64_t read_mask = label_bits(ground_classes());
-  const std::array<bool, kLabelCount>& read = ground_classes();
   const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
+  BeamF lamp;     // the [ego_beam] table at the vehicles' lamp height, the lamps' x set per vehicle
   float tint[3];  // the headlamps' colour t_k/π (illuminant_tint at headlamp_cct_K): L_k += f_k·(t_k/π)·E
   std::vector<OncomingBeam> beams;
   OncomingBeamRows(const CameraGeometry& g_, int width, const ScenePreset& p)
-      : g(g_), W(width), c(std::cos(g_.pitch_rad)), s(std::sin(g_.pitch_rad)), nxn(width) {
+      : g(g_), W(width), c(std::cos(g_.pitch_rad)), s(std::sin(g_.pitch_rad)), nxn(width), lamp(beam_f(p)) {
     for (int x = 0; x < W; ++x) nxn[x] = -((x - g.cx_px) / g.f_px);
+    lamp.hl = static_cast<float>(p.veh_lamp_height_m);
+    lamp.hl2 = lamp.hl * lamp.hl;
     const auto t = illuminant_tint(p.headlamp_cct_K);
     for (int k = 0; k < 3; ++k) tint[k] = static_cast<float>(t[k] / M_PI);
   }
@@ -1114,8 +1118,7 @@ struct OncomingBeamRows {
       const double Dp = ob.D_m - D;
       const float Df = static_cast<float>(Dp);
       if (!ob.b.ok || !(Df > 0)) continue;
-      const double tan0 = std::tan(ob.b.H.front() / ob.b.deg), tan1 = std::tan(ob.b.H.back() / ob.b.deg);
-      const double X0 = ob.X_lo - Dp * tan1, X1 = ob.X_hi - Dp * tan0;  // the reached ground X
+      const double X0 = ob.X_lo - Dp * ob.b.th1, X1 = ob.X_hi - Dp * ob.b.th0;  // the reached ground X
       const double k = g.f_px / t;                                     // columns per metre of X
       const double xa = std::floor(g.cx_px + X0 * k) - 2, xb = std::ceil(g.cx_px + X1 * k) + 3;
       const int x0 = static_cast<int>(std::clamp(xa, 0.0, static_cast<double>(W)));
@@ -1125,14 +1128,7 @@ struct OncomingBeamRows {
       const int n = x1 - x0;
       if (avx512) beam_row_avx512(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
       else if (avx2) beam_row_avx2(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
-      else
-        for (int x = x0; x < x1; ++x) {
-          const bool needed = id[x] < kLabelCount && read[id[x]];
-          const float X = static_cast<float>(t * nxn[x]);
-          e[x] = !needed                ? 0.f
-                 : ob.only >= 0 ? beam_lamp_f(X - ob.b.xl[ob.only], D2, invD, ob.b)
-                                : beam_lux_f(X, D2, invD, ob.b);
-        }
+      else beam_row_scalar(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
       for (int x = x0; x < x1; ++x) {
         const float E = e[x];
         if (!(E > 0.f)) continue;
@@ -3969,9 +3965,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
                                 cls == static_cast<int>(Label::Bus) || cls == static_cast<int>(Label::Motorcycle);
         if (oncoming_beams && v.state == 1 && faces_camera && beam_class) {
           OncomingBeam ob;
-          ob.b = beam_f(p);
-          ob.b.hl = static_cast<float>(p.veh_lamp_height_m);
-          ob.b.hl2 = ob.b.hl * ob.b.hl;
+          ob.b = oncoming_beams->lamp;
           ob.b.xl[0] = static_cast<float>(-xs.front());
           ob.b.xl[1] = static_cast<float>(-xs.back());
           ob.D_m = v.D;

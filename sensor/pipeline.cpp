@@ -60,6 +60,17 @@ GlarePlan lens_glare_plan(const CameraPreset& p, const LensPreset& lens) {
   return plan_glare(lens.glare, px_per_degree(lens.focal_length_mm, p.pixel_pitch_um));
 }
 
+namespace {
+// ∫ b_k(λ) QE_c(λ) λ/(hc) dλ with b_k = 1/(band width): photons-to-electrons per joule of band k's
+// radiance, by 0.5-nm midpoints.
+double band_photon_integral(const CameraPreset& p, FilterColor color, int k) {
+  const double lo = spectrum::kBandLoNm[k], hi = spectrum::kBandHiNm[k], step = 0.5;
+  double s = 0;
+  for (double l = lo + step / 2; l < hi; l += step) s += p.qe.at(color, l) / units::photon_energy_J(l);
+  return s * (step / (hi - lo));
+}
+}  // namespace
+
 PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
                            const ResolvedExposure& ex) {
   PhotonMatrix m{};
@@ -67,15 +78,7 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
   const double e_per_l = irradiance_per_radiance(ex.f_number, lens.magnification, lens.transmittance);
   for (int c = 0; c < kFilterColorCount; ++c) {
     const auto color = static_cast<FilterColor>(c);
-    for (int k = 0; k < 3; ++k) {
-      // ∫ b_k(λ) QE_c(λ) λ/(hc) dλ with b_k = 1/(band width): photons-to-electrons per joule.
-      const double lo = spectrum::kBandLoNm[k], hi = spectrum::kBandHiNm[k], step = 0.5;
-      double s = 0;
-      for (double l = lo + step / 2; l < hi; l += step)
-        s += p.qe.at(color, l) / units::photon_energy_J(l);
-      s *= step / (hi - lo);
-      m[c][k] = ex.exposure_s * area_m2 * e_per_l * s;
-    }
+    for (int k = 0; k < 3; ++k) m[c][k] = ex.exposure_s * area_m2 * e_per_l * band_photon_integral(p, color, k);
   }
   return m;
 }
@@ -99,12 +102,7 @@ std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* sp
     const auto color = static_cast<FilterColor>(c);
     if (p.qe.qe[c].empty()) continue;
     std::array<double, 3> row{};
-    for (int k = 0; k < 3; ++k) {
-      const double blo = spectrum::kBandLoNm[k], bhi = spectrum::kBandHiNm[k];
-      double s = 0;
-      for (double l = blo + step / 2; l < bhi; l += step) s += p.qe.at(color, l) / units::photon_energy_J(l);
-      row[k] = s * step / (bhi - blo);
-    }
+    for (int k = 0; k < 3; ++k) row[k] = band_photon_integral(p, color, k);
     double s = 0;
     for (double l = lo + step / 2; l < hi; l += step) s += S(l) * p.qe.at(color, l) / units::photon_energy_J(l);
     M.push_back(row);
