@@ -4043,6 +4043,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;
+      out.stats.street_shadow_pixels = r.shadow_pixels;
     } else {
       out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
     }

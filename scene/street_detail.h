@@ -97,6 +97,9 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
 struct ComposeRows;
 struct StreetRowsResult {
   int pole_lamps = 0, windows = 0;
+  // The lamps' shadows on the ground (street_lamps.shadows): (occluder column run, lamp) pairs
+  // drawn, and (ground pixel, lamp) pairs whose lamp's light they took off.
+  long long shadow_quads = 0, shadow_pixels = 0;
 };
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
