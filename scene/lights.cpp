@@ -75,9 +75,19 @@ Rgb coloured(double r, double g, double b, double luminance) {
   const double y = K[0] * r + K[1] * g + K[2] * b;
   return {r * luminance / y, g * luminance / y, b * luminance / y};
 }
-Rgb red_lamp(double L) { return coloured(1.0, 0.03, 0.0, L); }     // red signal / tail lamp
-Rgb amber_lamp(double L) { return coloured(1.0, 0.45, 0.0, L); }   // amber signal
-Rgb green_lamp(double L) { return coloured(0.0, 1.0, 0.6, L); }    // blue-green signal
+// A traffic signal's or rear lamp's LED of photometric luminance L: the run's camera's metamer of
+// its spectrum per cd/m² (spectrum::kRedLed etc., set by the night chain: lamp_camera_rgb) times L
+// (its box luminance Σ K_k c_k is then not L: docs/night.md §7), or where no camera set it (a scene
+// made without one) the box guess: saturated box ratios scaled so that Σ K_k c_k = L.
+Rgb led_lamp(const ScenePreset& p, spectrum::LampSpectrum s, double L) {
+  if (const auto* w = lamp_camera_rgb(p, s)) return {(*w)[0] * L, (*w)[1] * L, (*w)[2] * L};
+  switch (s) {
+    case spectrum::LampSpectrum::AmberLed: return coloured(1.0, 0.45, 0.0, L);
+    case spectrum::LampSpectrum::GreenLed: return coloured(0.0, 1.0, 0.6, L);  // blue-green
+    default: return coloured(1.0, 0.03, 0.0, L);                               // red signal / rear lamp
+  }
+}
+Rgb red_lamp(const ScenePreset& p, double L) { return led_lamp(p, spectrum::LampSpectrum::RedLed, L); }
 Rgb blackbody(double cct, double L) { return spectrum::blackbody_rgb(cct, L); }
 
 // Whether the eight ints from p are all zero.
@@ -3604,9 +3614,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
       if (c.L < 25 || chroma < 30) continue;
       Rgb col;
-      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+      if (hue > -20 && hue < 40) col = red_lamp(p, p.signal_luminance_cd_m2);
+      else if (hue >= 40 && hue < 85) col = led_lamp(p, spectrum::LampSpectrum::AmberLed, p.signal_luminance_cd_m2);
+      else if (hue > 120 && hue < 220) col = led_lamp(p, spectrum::LampSpectrum::GreenLed, p.signal_luminance_cd_m2);
       else continue;
       put_max(L, x, y, col);
       ++signals;
@@ -3811,7 +3821,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     // Colour cues inside vehicles (vehicle_cues): saturated red (lamp lenses, reflectors) and, on
     // vehicles where bright white is rare (so not a white body), near-white highlights in the
     // lower half; and the red blobs' pixels per vehicle (they tell which way it faces, below).
-    const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
+    const Rgb tail = red_lamp(p, p.taillamp_luminance_cd_m2);
     const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
     std::optional<VehicleCues> own_cues;
     if (&parts == &own || !parts.cues_of(day)) own_cues = vehicle_cues(parts, day);
@@ -3951,7 +3961,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           if (!geometry->project(X, p.veh_lamp_height_m, v.D, &u, &vv, &z)) continue;
           const double r = 0.5 * geometry->f_px * dia / z;
           const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
-          const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
+          const Rgb col = red ? red_lamp(p, lum) : blackbody(p.headlamp_cct_K, lum);
           int n = 0;
           if (r >= 0.6) n = disc(veh, u, vv, r, col, mine);
           else {

@@ -426,7 +426,8 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
 
 // `night --streetlamp-type` overrides the scene preset's lamps.streetlamp_type, and the EXR header
 // records the type that was used (the preset's "led" without the option) and, with hps, the
-// camera's metamer the lamps took.
+// camera's metamer the lamps took; and always the camera's metamers the signals' and rear lamps'
+// LEDs took.
 TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
   test::TempDir tmp;
   for (const char* type : {"", "hps", "led"}) {
@@ -446,6 +447,18 @@ TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_R_text")), w[0]);
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_G_text")), w[1]);
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_B_text")), w[2]);
+    }
+    // Whatever the type, the signals' and rear lamps' LEDs as this camera records them.
+    const CameraPreset cam = load_camera_preset(attrs.at("photosite/preset"));
+    for (const auto& [name, ls] : {std::pair{"red", spectrum::LampSpectrum::RedLed},
+                                   std::pair{"amber", spectrum::LampSpectrum::AmberLed},
+                                   std::pair{"green", spectrum::LampSpectrum::GreenLed}}) {
+      const auto w = camera_metamer_rgb(cam, ls);
+      const std::string stem = std::string("photosite/night/signal_camera_rgb_per_cd_m2_") + name;
+      ASSERT_EQ(attrs.count(stem + "_R_text"), 1u) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_R_text")), w[0]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_G_text")), w[1]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_B_text")), w[2]) << stem;
     }
   }
 }
@@ -1884,12 +1897,19 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
   OpenStreet street = open_street();
   auto& [o, sc, p, s] = street;
   const CameraPreset cam = load_camera_preset("onsemi-ar0331");
-  EXPECT_EQ(scene_for_camera(p, cam).streetlamp_camera_rgb, (std::array<double, 3>{0, 0, 0}));  // led
+  EXPECT_EQ(scene_for_camera(p, cam).lamp_camera_rgb[0], (std::array<double, 3>{0, 0, 0}));  // led: no HP1
   ScenePreset hps = p;
   hps.streetlamp_type = StreetlampType::Hps;
   const ScenePreset hc = scene_for_camera(hps, cam);
   const auto w = camera_metamer_rgb(cam, spectrum::kHp1Spd5nm, 81);
-  ASSERT_EQ(hc.streetlamp_camera_rgb, w);
+  ASSERT_EQ(hc.lamp_camera_rgb[0], w);
+  for (int i = 1; i < spectrum::kLampSpectrumCount; ++i) {  // the signals' and rear lamps' LEDs, led or hps
+    const auto wi = camera_metamer_rgb(cam, static_cast<spectrum::LampSpectrum>(i));
+    EXPECT_GT(wi[0] + wi[1] + wi[2], 0) << i;
+    EXPECT_EQ(hc.lamp_camera_rgb[i], wi) << i;
+    EXPECT_EQ(scene_for_camera(p, cam).lamp_camera_rgb[i], wi) << i;
+    EXPECT_EQ(p.lamp_camera_rgb[i], (std::array<double, 3>{0, 0, 0})) << i;  // a scene made without a camera
+  }
   ASSERT_GT(w[1], 0);
   const auto rgb = streetlamp_rgb(hc, 7909.0);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
