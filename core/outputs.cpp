@@ -179,7 +179,8 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/vehicles_in_traffic"] = ns.light_stats.vehicles_in_traffic;
   attrs["photosite/night/vehicles_parked"] = ns.light_stats.vehicles_parked;
   attrs["photosite/night/vehicles_parked_lit"] = ns.light_stats.vehicles_parked_lit;
-  attrs["photosite/night/vehicle_beams"] = ns.light_stats.vehicle_beams;
+  attrs["photosite/night/vehicle_beams"] = ns.light_stats.vehicle_beams;  // oncoming ones
+  attrs["photosite/night/vehicle_beams_going_away"] = ns.light_stats.vehicle_beams_going_away;
   attrs["photosite/night/street_lamps"] = ns.light_stats.street_lamps;
   attrs["photosite/night/street_lamp_source"] = ns.light_stats.street_lamp_source;
   attrs["photosite/night/street_peak_intensity_cd"] = ns.light_stats.street_peak_intensity_cd;

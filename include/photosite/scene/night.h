@@ -360,8 +360,9 @@ struct LightStats {
   // luminous intensity that makes the EN 13201 average hold, and the road's average luminance and
   // overall uniformity U0 = L_min / L_avg on the calculation grid.
   int vehicles_in_traffic = 0, vehicles_parked = 0, vehicles_parked_lit = 0;
-  // Oncoming vehicles whose low beams light the ground in front of them (vehicle_lamps.beams_on_road).
-  int vehicle_beams = 0;
+  // Vehicles whose low beams light the ground ahead of them (vehicle_lamps.beams_on_road): oncoming
+  // ones (vehicle_beams, toward the camera) and those going away (vehicle_beams_going_away).
+  int vehicle_beams = 0, vehicle_beams_going_away = 0;
   int street_lamps = 0;
   std::string street_lamp_source = "none";
   double street_peak_intensity_cd = 0, road_luminance_avg_cd_m2 = 0, road_uniformity_u0 = 0;
