@@ -78,8 +78,12 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
 
 scene::ScenePreset scene_for_camera(const scene::ScenePreset& sp, const CameraPreset& camera) {
   scene::ScenePreset s = sp;
-  if (s.streetlamp_type == scene::StreetlampType::Hps)
-    s.streetlamp_camera_rgb = camera_metamer_rgb(camera, spectrum::kHp1Spd5nm, 81);
+  for (int i = 0; i < spectrum::kLampSpectrumCount; ++i) {
+    const auto ls = static_cast<spectrum::LampSpectrum>(i);
+    // (HP1 only where the street lamps are hps: LED street lamps are Planck proxies, no metamer)
+    if (ls == spectrum::LampSpectrum::Hp1 && s.streetlamp_type != scene::StreetlampType::Hps) continue;
+    s.lamp_camera_rgb[i] = camera_metamer_rgb(camera, ls);
+  }
   return s;
 }
 
@@ -92,10 +96,8 @@ scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear
   // cache, so that the sensor's glare never reads the full-resolution radiance again
   // (NightScene::glare_level1; the same bits).
   const bool glare = lens_glare_plan(setup.camera, setup.lens).active;
-  if (sp.streetlamp_type == scene::StreetlampType::Hps)
-    return scene::night_scene(day_linear, labels, scene_for_camera(sp, setup.camera), seed, keep_darkened, runner,
-                              sequence, sums, glare);
-  return scene::night_scene(day_linear, labels, sp, seed, keep_darkened, runner, sequence, sums, glare);
+  return scene::night_scene(day_linear, labels, scene_for_camera(sp, setup.camera), seed, keep_darkened, runner,
+                            sequence, sums, glare);
 }
 
 LensPreset lens_for_frame(const LensPreset& lens, const CameraPreset& camera, const scene::CameraGeometry& g) {

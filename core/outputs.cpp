@@ -123,15 +123,22 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   auto attrs = sensor_attributes(r, ex, fpn);
   const auto scene_attrs = scene::scene_attributes(sp);
   attrs.insert(scene_attrs.begin(), scene_attrs.end());
-  // With hps street lamps the radiance layers hold this camera's metamer of CIE HP1 (scene_for_camera):
-  // its band radiances per cd/m², so that a reader of `night_radiance` or `lights` knows their box
-  // luminance is not the photometric one (docs/night.md §7, "Lamp type").
-  if (sp.streetlamp_type == scene::StreetlampType::Hps) {
-    const auto w = scene_for_camera(sp, r.camera).streetlamp_camera_rgb;
-    attrs["photosite/night/streetlamp_camera_rgb_per_cd_m2_R"] = w[0];
-    attrs["photosite/night/streetlamp_camera_rgb_per_cd_m2_G"] = w[1];
-    attrs["photosite/night/streetlamp_camera_rgb_per_cd_m2_B"] = w[2];
-  }
+  // The radiance layers hold this camera's metamers (scene_for_camera) of the traffic signals' and
+  // rear lamps' LEDs and, with hps street lamps, of CIE HP1: their band radiances per cd/m², so that
+  // a reader of `night_radiance` or `lights` knows their box luminance is not the photometric one
+  // (docs/night.md §7, "Lamp type" and "Signal and rear-lamp LEDs").
+  const scene::ScenePreset cs = scene_for_camera(sp, r.camera);
+  auto put = [&](const std::string& stem, spectrum::LampSpectrum ls) {
+    const auto& w = cs.lamp_camera_rgb[static_cast<int>(ls)];
+    attrs[stem + "_R"] = w[0];
+    attrs[stem + "_G"] = w[1];
+    attrs[stem + "_B"] = w[2];
+  };
+  if (sp.streetlamp_type == scene::StreetlampType::Hps)
+    put("photosite/night/streetlamp_camera_rgb_per_cd_m2", spectrum::LampSpectrum::Hp1);
+  put("photosite/night/signal_camera_rgb_per_cd_m2_red", spectrum::LampSpectrum::RedLed);
+  put("photosite/night/signal_camera_rgb_per_cd_m2_amber", spectrum::LampSpectrum::AmberLed);
+  put("photosite/night/signal_camera_rgb_per_cd_m2_green", spectrum::LampSpectrum::GreenLed);
   attrs["photosite/night/image"] = in.image;
   attrs["photosite/night/labels"] = in.labels;
   attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
@@ -172,7 +179,8 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/vehicles_in_traffic"] = ns.light_stats.vehicles_in_traffic;
   attrs["photosite/night/vehicles_parked"] = ns.light_stats.vehicles_parked;
   attrs["photosite/night/vehicles_parked_lit"] = ns.light_stats.vehicles_parked_lit;
-  attrs["photosite/night/vehicle_beams"] = ns.light_stats.vehicle_beams;
+  attrs["photosite/night/vehicle_beams"] = ns.light_stats.vehicle_beams;  // oncoming ones
+  attrs["photosite/night/vehicle_beams_going_away"] = ns.light_stats.vehicle_beams_going_away;
   attrs["photosite/night/street_lamps"] = ns.light_stats.street_lamps;
   attrs["photosite/night/street_lamp_source"] = ns.light_stats.street_lamp_source;
   attrs["photosite/night/street_lamp_shadow_pixels"] = static_cast<int>(ns.light_stats.street_shadow_pixels);

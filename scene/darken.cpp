@@ -1963,19 +1963,16 @@ std::array<double, 3> relative_to_d65(const std::array<double, 3>& a) {
 
 std::array<double, 3> illuminant_tint(double cct_K) { return relative_to_d65(spectrum::blackbody_rgb(cct_K, 1.0)); }
 
-namespace {
-bool has_camera_rgb(const ScenePreset& p) {
-  return p.streetlamp_camera_rgb[0] > 0 || p.streetlamp_camera_rgb[1] > 0 || p.streetlamp_camera_rgb[2] > 0;
+const std::array<double, 3>* lamp_camera_rgb(const ScenePreset& p, spectrum::LampSpectrum s) {
+  const auto& w = p.lamp_camera_rgb[static_cast<int>(s)];
+  return w[0] > 0 || w[1] > 0 || w[2] > 0 ? &w : nullptr;
 }
-}  // namespace
 
 std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
   switch (p.streetlamp_type) {
     case StreetlampType::Hps:
-      if (has_camera_rgb(p)) {
-        const auto& w = p.streetlamp_camera_rgb;
-        return {w[0] * luminance, w[1] * luminance, w[2] * luminance};
-      }
+      if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::Hp1))
+        return {(*w)[0] * luminance, (*w)[1] * luminance, (*w)[2] * luminance};
       return spectrum::hp1_rgb(luminance);
     case StreetlampType::Led: break;
   }
@@ -1985,7 +1982,8 @@ std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
 std::array<double, 3> streetlamp_tint(const ScenePreset& p) {
   switch (p.streetlamp_type) {
     case StreetlampType::Hps:
-      return relative_to_d65(has_camera_rgb(p) ? p.streetlamp_camera_rgb : spectrum::hp1_rgb(1.0));
+      if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::Hp1)) return relative_to_d65(*w);
+      return relative_to_d65(spectrum::hp1_rgb(1.0));
     case StreetlampType::Led: break;
   }
   return illuminant_tint(p.street_cct_K);

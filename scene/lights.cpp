@@ -75,9 +75,19 @@ Rgb coloured(double r, double g, double b, double luminance) {
   const double y = K[0] * r + K[1] * g + K[2] * b;
   return {r * luminance / y, g * luminance / y, b * luminance / y};
 }
-Rgb red_lamp(double L) { return coloured(1.0, 0.03, 0.0, L); }     // red signal / tail lamp
-Rgb amber_lamp(double L) { return coloured(1.0, 0.45, 0.0, L); }   // amber signal
-Rgb green_lamp(double L) { return coloured(0.0, 1.0, 0.6, L); }    // blue-green signal
+// A traffic signal's or rear lamp's LED of photometric luminance L: the run's camera's metamer of
+// its spectrum per cd/m² (spectrum::kRedLed etc., set by the night chain: lamp_camera_rgb) times L
+// (its box luminance Σ K_k c_k is then not L: docs/night.md §7), or where no camera set it (a scene
+// made without one) the box guess: saturated box ratios scaled so that Σ K_k c_k = L.
+Rgb led_lamp(const ScenePreset& p, spectrum::LampSpectrum s, double L) {
+  if (const auto* w = lamp_camera_rgb(p, s)) return {(*w)[0] * L, (*w)[1] * L, (*w)[2] * L};
+  switch (s) {
+    case spectrum::LampSpectrum::AmberLed: return coloured(1.0, 0.45, 0.0, L);
+    case spectrum::LampSpectrum::GreenLed: return coloured(0.0, 1.0, 0.6, L);  // blue-green
+    default: return coloured(1.0, 0.03, 0.0, L);                               // red signal / rear lamp
+  }
+}
+Rgb red_lamp(const ScenePreset& p, double L) { return led_lamp(p, spectrum::LampSpectrum::RedLed, L); }
 Rgb blackbody(double cct, double L) { return spectrum::blackbody_rgb(cct, L); }
 
 // Whether the eight ints from p are all zero.
@@ -1066,47 +1076,86 @@ void LowBeamRows::Impl::row(ImageF& E, int y) const {
   beam_row_scalar(xn.data(), width, t, D2, invD, b, id, read_mask, e);
 }
 
+// (scene/vehicle_facing_detail.h) A going-away vehicle's length, contact (its rear) to its head
+// lamps, per class (docs/night.md §7 "Going-away beams"; each a photosite choice [P] of one typical
+// vehicle of the class; the class does not tell a vehicle's size):
+//   car 4.28 m: the Volkswagen Golf VIII, 4,284 mm (manufacturer's data [U]), a compact
+//     (C-segment) car, for years Europe's best-selling model [U], between small cars (~4 m) and
+//     large ones (~5 m);
+//   truck 12.0 m: a rigid truck at EU Directive 96/53/EC's greatest length of a motor vehicle
+//     other than a bus, 12.00 m (Annex I 1.1 [U]), a bound taken as the length; an articulated
+//     vehicle (up to 16.50 m) has its lamps up to 4.5 m farther;
+//   bus 12.0 m: a standard two-axle city or coach bus, within 96/53/EC's 13.50 m for two axles
+//     (as amended by 2002/7/EC [U]);
+//   motorcycle 2.1 m: a mid-size road motorcycle (e.g. Honda CB500F, about 2.08 m [U]).
+double vehicle_length_m(int cls) {
+  if (cls == static_cast<int>(Label::Truck) || cls == static_cast<int>(Label::Bus)) return 12.0;
+  if (cls == static_cast<int>(Label::Motorcycle)) return 2.1;
+  return 4.28;  // car
+}
+
 namespace {
-// ---- Oncoming vehicles' low beams on the ground (docs/night.md §7, "Oncoming beams") ----------
-// A vehicle in traffic that faces the camera (light_map's vehicle states: oncoming) drives toward
-// it along the road with its low beam on. Each of its headlamps, at (X_k, veh_lamp_height_m, D_v)
-// in road coordinates (the drawn lamps' positions: D_v its ground contact's depth, the front it
-// shows), is taken as the [ego_beam] table (ECE R112 class B, the same regulation as the ego's)
-// aimed along −D. In that lamp's own frame a ground point (X, 0, D) lies D' = D_v − D ahead and
-// X_k − X to its right (its right is the camera's left). The ego beam's row evaluation gives that
-// exactly: with x_n negated (X' = t·(−x_n) = −X, a negation is exact) and the lamp at x' = −X_k,
-// its dx = X' − x' = X_k − X; D' in place of the row's D. So E = Σ_lamps I(h, v)·cos θ/d² with
-// the ego beam's float operations (low_beam_lux_f32's, the bound of docs/night.md §6c), on the
-// ground pixels in front of the vehicle. Not modelled: shadows (what stands between such a lamp and
-// the road is not looked for), vehicles going away (their beams light the road beyond them, mostly
-// hidden behind them; their fronts' depth is not known), the lamps' forward offset from the contact.
-struct OncomingBeam {
-  BeamF b;           // the table at the vehicle's lamp height, b.xl = −X_k
-  double D_m = 0;    // the lamps' depth along the road (the vehicle's ground contact)
+// ---- Vehicles' low beams on the ground (docs/night.md §7, "Oncoming beams" and "Going-away beams")
+// A vehicle in traffic (light_map's vehicle states, state 1) of a class with dipped-beam headlamps
+// drives along the road with its low beam on. Each of its headlamps, at (X_k, veh_lamp_height_m,
+// D_k) in road coordinates (X_k the drawn lamps' positions), is taken as the [ego_beam] table
+// (ECE R112 class B, the same regulation as the ego's) aimed along σ·D, σ its direction:
+//   oncoming (faces the camera, σ = −1): D_k = D_v, its ground contact's depth (the front it shows);
+//   going away (seen from behind, σ = +1): D_k = D_v + its class's length (vehicle_length_m: the
+//   contact is its rear, the lamps are at its front, which the camera does not see).
+// In that lamp's own frame a ground point (X, 0, D) lies D' = σ·(D − D_k) ahead and σ·(X − X_k) to
+// its right (an oncoming lamp's right is the camera's left; a going-away lamp's is the camera's).
+// The ego beam's row evaluation gives that exactly: with the columns' x_n times σ (X' = t·(σ·x_n) =
+// σ·X, a negation is exact) and the lamp at x' = σ·X_k, its dx = X' − x' = σ·(X − X_k); D' in place
+// of the row's D. So E = Σ_lamps I(h, v)·cos θ/d² with the ego beam's float operations
+// (low_beam_lux_f32's, the bound of docs/night.md §6c), on the ground pixels ahead of the lamps
+// (D' > 0). A going-away vehicle's own pixels hide the ground behind it in the labels: only the
+// road the camera sees beside and above it is lit. Not modelled: shadows (what stands between such
+// a lamp and the road is not looked for), the lamps' offset from the contact (oncoming) or from the
+// front (going away: taken at the class length's front), the vehicle's actual length.
+struct VehicleBeam {
+  BeamF b;           // the table at the vehicle's lamp height, b.xl = σ·X_k
+  double D_m = 0;    // the lamps' depth along the road
   double X_lo = 0, X_hi = 0;  // its lamps' X (the same for a two-wheeler's one lamp)
   int only = -1;     // 0: one lamp (a motorcycle), −1: the pair
+  bool away = false; // σ = +1 (going away) if set, −1 (oncoming) otherwise
 };
-struct OncomingBeamRows {
+struct VehicleBeamRows {
   const CameraGeometry& g;
   const int W;
   const double c, s;
-  std::vector<double> nxn;  // −x_n = −(x − c_x)/f per column
+  std::vector<double> xn[2];  // σ·x_n = σ·(x − c_x)/f per column: [0] σ = −1 (oncoming), [1] σ = +1 (going away)
   const uint64_t read_mask = label_bits(ground_classes());
   const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
   BeamF lamp;     // the [ego_beam] table at the vehicles' lamp height, the lamps' x set per vehicle
   float tint[3];  // the headlamps' colour t_k/π (illuminant_tint at headlamp_cct_K): L_k += f_k·(t_k/π)·E
-  std::vector<OncomingBeam> beams;
-  OncomingBeamRows(const CameraGeometry& g_, int width, const ScenePreset& p)
-      : g(g_), W(width), c(std::cos(g_.pitch_rad)), s(std::sin(g_.pitch_rad)), nxn(width), lamp(beam_f(p)) {
-    for (int x = 0; x < W; ++x) nxn[x] = -((x - g.cx_px) / g.f_px);
+  std::vector<VehicleBeam> beams;
+  VehicleBeamRows(const CameraGeometry& g_, int width, const ScenePreset& p)
+      : g(g_), W(width), c(std::cos(g_.pitch_rad)), s(std::sin(g_.pitch_rad)), lamp(beam_f(p)) {
+    xn[0].resize(W), xn[1].resize(W);
+    for (int x = 0; x < W; ++x) xn[1][x] = (x - g.cx_px) / g.f_px, xn[0][x] = -xn[1][x];
     lamp.hl = static_cast<float>(p.veh_lamp_height_m);
     lamp.hl2 = lamp.hl * lamp.hl;
     const auto t = illuminant_tint(p.headlamp_cct_K);
     for (int k = 0; k < 3; ++k) tint[k] = static_cast<float>(t[k] / M_PI);
   }
+  // A vehicle's beam: its lamps at xs (one or two), depth D_k, direction `away`.
+  void add(const std::vector<double>& xs, double D_k, bool away) {
+    VehicleBeam vb;
+    vb.b = lamp;
+    const float sg = away ? 1.f : -1.f;
+    vb.b.xl[0] = sg * static_cast<float>(xs.front());
+    vb.b.xl[1] = sg * static_cast<float>(xs.back());
+    vb.D_m = D_k;
+    vb.X_lo = std::min(xs.front(), xs.back());
+    vb.X_hi = std::max(xs.front(), xs.back());
+    vb.only = xs.size() == 1 ? 0 : -1;
+    vb.away = away;
+    beams.push_back(std::move(vb));
+  }
   // Row y of L (3 channels) += texture·tint·E over the ground pixels each beam reaches: the columns
   // whose ground point lies within the table's horizontal range [H₀, H₁] of a lamp
-  // (X_k − X ∈ [D'·tan H₀, D'·tan H₁]), with a margin of 2 columns (outside it the evaluation
+  // (σ·(X − X_k) ∈ [D'·tan H₀, D'·tan H₁]), with a margin of 2 columns (outside it the evaluation
   // gives 0 anyway: the range only spares the work). `e`: W floats of scratch.
   void row(float* Lr, const float* tr, const uint16_t* id, int y, float* e) const {
     if (beams.empty()) return;
@@ -1114,11 +1163,12 @@ struct OncomingBeamRows {
     if (den <= 0) return;  // at or above the horizon
     const double t = g.mount_height_m / den, D = t * (c - yn * s);
     if (!(D > 0)) return;
-    for (const OncomingBeam& ob : beams) {
-      const double Dp = ob.D_m - D;
+    for (const VehicleBeam& vb : beams) {
+      const double Dp = vb.away ? D - vb.D_m : vb.D_m - D;
       const float Df = static_cast<float>(Dp);
-      if (!ob.b.ok || !(Df > 0)) continue;
-      const double X0 = ob.X_lo - Dp * ob.b.th1, X1 = ob.X_hi - Dp * ob.b.th0;  // the reached ground X
+      if (!vb.b.ok || !(Df > 0)) continue;
+      const double X0 = vb.away ? vb.X_lo + Dp * vb.b.th0 : vb.X_lo - Dp * vb.b.th1;  // the reached ground X
+      const double X1 = vb.away ? vb.X_hi + Dp * vb.b.th1 : vb.X_hi - Dp * vb.b.th0;
       const double k = g.f_px / t;                                     // columns per metre of X
       const double xa = std::floor(g.cx_px + X0 * k) - 2, xb = std::ceil(g.cx_px + X1 * k) + 3;
       const int x0 = static_cast<int>(std::clamp(xa, 0.0, static_cast<double>(W)));
@@ -1126,9 +1176,10 @@ struct OncomingBeamRows {
       if (x1 <= x0) continue;
       const float D2 = Df * Df, invD = 1.f / Df;
       const int n = x1 - x0;
-      if (avx512) beam_row_avx512(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
-      else if (avx2) beam_row_avx2(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
-      else beam_row_scalar(nxn.data() + x0, n, t, D2, invD, ob.b, id + x0, read_mask, e + x0, ob.only);
+      const double* sx = xn[vb.away].data() + x0;
+      if (avx512) beam_row_avx512(sx, n, t, D2, invD, vb.b, id + x0, read_mask, e + x0, vb.only);
+      else if (avx2) beam_row_avx2(sx, n, t, D2, invD, vb.b, id + x0, read_mask, e + x0, vb.only);
+      else beam_row_scalar(sx, n, t, D2, invD, vb.b, id + x0, read_mask, e + x0, vb.only);
       for (int x = x0; x < x1; ++x) {
         const float E = e[x];
         if (!(E > 0.f)) continue;
@@ -3604,9 +3655,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       const double chroma = std::hypot(c.a, c.b), hue = std::atan2(c.b, c.a) * 180 / M_PI;
       if (c.L < 25 || chroma < 30) continue;
       Rgb col;
-      if (hue > -20 && hue < 40) col = red_lamp(p.signal_luminance_cd_m2);
-      else if (hue >= 40 && hue < 85) col = amber_lamp(p.signal_luminance_cd_m2);
-      else if (hue > 120 && hue < 220) col = green_lamp(p.signal_luminance_cd_m2);
+      if (hue > -20 && hue < 40) col = red_lamp(p, p.signal_luminance_cd_m2);
+      else if (hue >= 40 && hue < 85) col = led_lamp(p, spectrum::LampSpectrum::AmberLed, p.signal_luminance_cd_m2);
+      else if (hue > 120 && hue < 220) col = led_lamp(p, spectrum::LampSpectrum::GreenLed, p.signal_luminance_cd_m2);
       else continue;
       put_max(L, x, y, col);
       ++signals;
@@ -3683,18 +3734,26 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // The vehicle lamps' pixels (maxima over L), recorded by vehicle_lamps (below) and drawn
   // after the retroreflection, row by row; all lie in the vehicle rows [ry0, ry1].
   MaxDraws veh(W, H);
-  // The oncoming vehicles' low beams on the ground (OncomingBeamRows, above): recorded by
-  // vehicle_lamps, added row by row after the retroreflection and before the vehicle lamps (ground
-  // pixels only: the lamps are drawn on vehicle pixels). With the row pass the rows from the first
-  // vehicle row down wait for vehicle_lamps (the side job's band is [ry0, H − 1]): a beam lights
-  // the ground below its vehicle.
-  std::optional<OncomingBeamRows> oncoming_beams;
-  if (geometry && p.veh_beams_on_road) oncoming_beams.emplace(*geometry, W, p);
-  const auto oncoming_beam_row = [&](int y) {
-    if (!oncoming_beams || oncoming_beams->beams.empty()) return;
+  // The vehicles' low beams on the ground (VehicleBeamRows, above): recorded by vehicle_lamps,
+  // added row by row after the retroreflection and before the vehicle lamps (ground pixels only:
+  // the lamps are drawn on vehicle pixels). With the row pass the rows from beam_y0 down wait for
+  // vehicle_lamps (the side job's band is [beam_y0, H − 1]): an oncoming beam lights the ground
+  // below its vehicle, a going-away one the ground beyond it, which lies below the horizon but may
+  // lie above every vehicle row (vehicles lower than the camera); so beam_y0 is the first vehicle
+  // row or the first row below the horizon (den = y_n·cos + sin > 0, VehicleBeamRows::row),
+  // whichever is higher.
+  std::optional<VehicleBeamRows> vehicle_beams;
+  if (geometry && p.veh_beams_on_road) vehicle_beams.emplace(*geometry, W, p);
+  int beam_y0 = ry0;
+  if (vehicle_beams && ry1 >= ry0) {
+    const double yh = geometry->cy_px - geometry->f_px * std::tan(geometry->pitch_rad);  // the horizon's row
+    beam_y0 = std::min(ry0, static_cast<int>(std::clamp(std::floor(yh), 0.0, static_cast<double>(H))));
+  }
+  const auto vehicle_beam_row = [&](int y) {
+    if (!vehicle_beams || vehicle_beams->beams.empty()) return;
     thread_local std::vector<float> e;
     if (e.size() < static_cast<size_t>(W)) e.resize(W);
-    oncoming_beams->row(L.row(y), texture.row(y), labels.row(y), y, e.data());
+    vehicle_beams->row(L.row(y), texture.row(y), labels.row(y), y, e.data());
   };
   // The vehicles' components, boxes, states, colour cues and placed lamps (those not handed),
   // recorded in veh. With the row pass, one thread runs it while the others make the rows
@@ -3811,7 +3870,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     // Colour cues inside vehicles (vehicle_cues): saturated red (lamp lenses, reflectors) and, on
     // vehicles where bright white is rare (so not a white body), near-white highlights in the
     // lower half; and the red blobs' pixels per vehicle (they tell which way it faces, below).
-    const Rgb tail = red_lamp(p.taillamp_luminance_cd_m2);
+    const Rgb tail = red_lamp(p, p.taillamp_luminance_cd_m2);
     const Rgb head = blackbody(p.headlamp_cct_K, p.headlamp_luminance_cd_m2);
     std::optional<VehicleCues> own_cues;
     if (&parts == &own || !parts.cues_of(day)) own_cues = vehicle_cues(parts, day);
@@ -3951,7 +4010,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           if (!geometry->project(X, p.veh_lamp_height_m, v.D, &u, &vv, &z)) continue;
           const double r = 0.5 * geometry->f_px * dia / z;
           const double lum = r >= 0.6 ? I / (M_PI * 0.25 * dia * dia) : I * geometry->f_px * geometry->f_px / (z * z);
-          const Rgb col = red ? red_lamp(lum) : blackbody(p.headlamp_cct_K, lum);
+          const Rgb col = red ? red_lamp(p, lum) : blackbody(p.headlamp_cct_K, lum);
           int n = 0;
           if (r >= 0.6) n = disc(veh, u, vv, r, col, mine);
           else {
@@ -3960,20 +4019,19 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           }
           out.stats.vehicle_lamps += n > 0;
         }
-        // Its low beam on the road ahead of it (toward the camera), as OncomingBeamRows.
+        // Its low beam on the road ahead of it (VehicleBeamRows): toward the camera from its contact
+        // when it faces the camera, away from it from its front (contact + its class's length) when
+        // seen from behind. The head lamps' X are the drawn pair's (tail or head: the same inset).
         const bool beam_class = cls == static_cast<int>(Label::Car) || cls == static_cast<int>(Label::Truck) ||
                                 cls == static_cast<int>(Label::Bus) || cls == static_cast<int>(Label::Motorcycle);
-        if (oncoming_beams && v.state == 1 && faces_camera && beam_class) {
-          OncomingBeam ob;
-          ob.b = oncoming_beams->lamp;
-          ob.b.xl[0] = static_cast<float>(-xs.front());
-          ob.b.xl[1] = static_cast<float>(-xs.back());
-          ob.D_m = v.D;
-          ob.X_lo = std::min(xs.front(), xs.back());
-          ob.X_hi = std::max(xs.front(), xs.back());
-          ob.only = xs.size() == 1 ? 0 : -1;
-          oncoming_beams->beams.push_back(std::move(ob));
-          ++out.stats.vehicle_beams;
+        if (vehicle_beams && v.state == 1 && beam_class) {
+          if (faces_camera) {
+            vehicle_beams->add(xs, v.D, false);
+            ++out.stats.vehicle_beams;
+          } else {
+            vehicle_beams->add(xs, v.D + vehicle_length_m(cls), true);
+            ++out.stats.vehicle_beams_going_away;
+          }
         }
         continue;
       }
@@ -3993,9 +4051,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   };
   if (!row_pass) {
     vehicle_lamps();
-    if (oncoming_beams && !oncoming_beams->beams.empty()) {
+    if (vehicle_beams && !vehicle_beams->beams.empty()) {
 #pragma omp parallel for schedule(static, 8)
-      for (int y = 0; y < H; ++y) oncoming_beam_row(y);
+      for (int y = 0; y < H; ++y) vehicle_beam_row(y);
     }
     for (int y = 0; y < H; ++y) veh.draw_row(L, y);
   }
@@ -4032,14 +4090,15 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       std::atomic<int> signals{0};
       const std::function<void(int)> first = [&](int y) {
         signals += retro_row(y);
-        if (y >= ry0) oncoming_beam_row(y);
+        if (y >= beam_y0) vehicle_beam_row(y);
         if (y >= ry0 && y <= ry1) veh.draw_row(L, y);
       };
       const std::function<void()> side = vehicle_lamps;
       const StreetRowsResult r =
           add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades, rows ? &*rows : nullptr,
-                                row_pass ? &first : nullptr, row_pass ? &side : nullptr, ry0,
-                                oncoming_beams && ry1 >= ry0 ? H - 1 : ry1);
+                                row_pass ? &first : nullptr, row_pass ? &side : nullptr,
+                                vehicle_beams && ry1 >= ry0 ? beam_y0 : ry0,
+                                vehicle_beams && ry1 >= ry0 ? H - 1 : ry1);
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;

@@ -134,8 +134,9 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       num("vehicle_lamps.lane_width_m", PHOTOSITE_AT(P, veh_lane_width_m), "m", 2, 5,
           "traffic lane width: the ego lane's half width sets the head-or-tail divide on a straight road", "[U]"),
       {"vehicle_lamps.beams_on_road", Kind::Boolean, PHOTOSITE_AT(P, veh_beams_on_road), "", -inf, inf, Need::Optional,
-       "oncoming vehicles' low beams light the ground in front of them: the [ego_beam] table at height_m, aimed "
-       "along the road toward the camera (docs/night.md §7)",
+       "vehicles' low beams light the ground ahead of them: the [ego_beam] table at height_m at their head lamps, "
+       "aimed along the road toward the camera (oncoming) or away from it from their fronts (going away) "
+       "(docs/night.md §7)",
        "[U] ECE R112 class B (the [ego_beam] table); default true", {}, schema::Exr::Header},
       table("lamps", "luminances and CCTs of the light sources' own pixels", "NP §3"),
       num("lamps.streetlamp_luminance_cd_m2", PHOTOSITE_AT(P, streetlamp_luminance_cd_m2), "cd/m²", 0, 1e8,

@@ -65,6 +65,11 @@ struct BesideProbe {
 };
 BesideProbe probe_beside(const ImageU16& labels, const CameraGeometry& g, int x, int y, int dir, double max_m);
 
+// The length from a going-away vehicle's ground contact (its rear) to its head lamps at its front,
+// per label id (car, truck, bus, motorcycle; others as a car), m: where light_map puts such a
+// vehicle's low beam (docs/night.md §7 "Going-away beams"; the sources in scene/lights.cpp).
+double vehicle_length_m(int cls);
+
 // The test hook: while a sink is set, every light_map with geometry appends one VehicleDecision
 // per vehicle to it (from the thread that runs the vehicle lamps: one light_map at a time). Null
 // (the default) records nothing. For tests; returns the previous sink.

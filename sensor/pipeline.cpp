@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <immintrin.h>
 #include <atomic>
 #include <limits>
@@ -83,16 +84,13 @@ PhotonMatrix photon_matrix(const CameraPreset& p, const LensPreset& lens,
   return m;
 }
 
-std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* spd, int n) {
+namespace {
+// camera_metamer_rgb of a spectrum S(λ) over [lo, hi] nm.
+std::array<double, 3> metamer_of(const CameraPreset& p, const std::function<double(double)>& S, double lo,
+                                 double hi) {
   // The same quadrature as photon_matrix (0.5-nm midpoints, photons per joule), without the
   // exposure's and the pixel's factors, which cancel.
-  const double step = 0.5, lo = 380, hi = 380 + 5.0 * (n - 1);
-  auto S = [&](double l) {  // linear between the 5-nm samples
-    const double t = (l - lo) / 5;
-    const int i = std::clamp(static_cast<int>(t), 0, n - 2);
-    const double f = t - i;
-    return spd[i] * (1 - f) + spd[i + 1] * f;
-  };
+  const double step = 0.5;
   double Lv = 0;
   for (double l = lo + step / 2; l < hi; l += step) Lv += S(l) * spectrum::cie_y_bar(l);
   Lv *= 683 * step;
@@ -110,21 +108,72 @@ std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* sp
   }
   std::array<double, 3> w{};
   if (M.empty() || !(Lv > 0)) return w;
-  // Three colours or more: OpenCV's SVD solve (exact for three, least squares for more). Fewer (RCCC's
-  // two): the least-norm solution w = Aᵀ·y with (A·Aᵀ)·y = e.
-  cv::Mat A(static_cast<int>(M.size()), 3, CV_64F), b(static_cast<int>(e.size()), 1, CV_64F, e.data()), x;
-  for (int r = 0; r < A.rows; ++r)
-    for (int k = 0; k < 3; ++k) A.at<double>(r, k) = M[r][k];
-  if (A.rows >= 3) {
-    if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return w;
-  } else {
-    cv::Mat y;
-    if (!cv::solve(A * A.t(), b, y, cv::DECOMP_SVD)) return w;
-    x = A.t() * y;
+  // The boxes in `mask` (bit k: box k) solved for e: OpenCV's SVD solve (exact for as many colours
+  // as boxes, least squares for more); fewer colours than boxes (RCCC's two): the least-norm
+  // solution x = Aᵀ·y with (A·Aᵀ)·y = e. Returns false where the solve fails.
+  const cv::Mat b(static_cast<int>(e.size()), 1, CV_64F, e.data());
+  auto solve = [&](int mask, std::array<double, 3>& out) {
+    std::array<int, 3> cols{};
+    int nc = 0;
+    for (int k = 0; k < 3; ++k)
+      if (mask >> k & 1) cols[nc++] = k;
+    cv::Mat A(static_cast<int>(M.size()), nc, CV_64F), x;
+    for (int r = 0; r < A.rows; ++r)
+      for (int j = 0; j < nc; ++j) A.at<double>(r, j) = M[r][cols[j]];
+    if (A.rows >= nc) {
+      if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return false;
+    } else {
+      cv::Mat y;
+      if (!cv::solve(A * A.t(), b, y, cv::DECOMP_SVD)) return false;
+      x = A.t() * y;
+    }
+    out = {0, 0, 0};
+    for (int j = 0; j < nc; ++j) out[cols[j]] = x.at<double>(j);
+    return true;
+  };
+  if (!solve(7, w)) return {0, 0, 0};
+  if (w[0] >= 0 && w[1] >= 0 && w[2] >= 0) return w;
+  // No non-negative box radiances give every filter colour the spectrum's electrons: a narrow LED
+  // line such as a green signal's lies outside what the flat boxes can carry through these
+  // filters. Then the non-negative w closest to them in least squares (Σ_c (M·w − e)_c², all in
+  // electrons per cd/m², so the weakest filter's error counts least): the optimum of that convex
+  // problem solves the unconstrained least squares on the boxes it leaves free, so the best of the
+  // feasible solves on the six proper subsets of boxes is it (non-negative least squares, exactly).
+  std::array<double, 3> best{};
+  double best_r = std::numeric_limits<double>::infinity();
+  for (int mask = 1; mask < 7; ++mask) {
+    std::array<double, 3> x{};
+    if (!solve(mask, x) || x[0] < 0 || x[1] < 0 || x[2] < 0) continue;
+    double r = 0;
+    for (size_t c = 0; c < M.size(); ++c) {
+      const double d = M[c][0] * x[0] + M[c][1] * x[1] + M[c][2] * x[2] - e[c];
+      r += d * d;
+    }
+    if (r < best_r) best_r = r, best = x;
   }
-  for (int k = 0; k < 3; ++k) w[k] = x.at<double>(k);
-  if (w[0] < 0 || w[1] < 0 || w[2] < 0) return {0, 0, 0};
-  return w;
+  return best;
+}
+}  // namespace
+
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* spd, int n) {
+  const double lo = 380, hi = 380 + 5.0 * (n - 1);
+  return metamer_of(
+      p,
+      [&](double l) {  // linear between the 5-nm samples
+        const double t = (l - lo) / 5;
+        const int i = std::clamp(static_cast<int>(t), 0, n - 2);
+        const double f = t - i;
+        return spd[i] * (1 - f) + spd[i + 1] * f;
+      },
+      lo, hi);
+}
+
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, spectrum::LampSpectrum s) {
+  if (s == spectrum::LampSpectrum::Hp1) return camera_metamer_rgb(p, spectrum::kHp1Spd5nm, 81);
+  // The LEDs' Gaussians are evaluated where the quadrature needs them (their 17-30 nm widths
+  // would be coarsely sampled on a 5-nm table); 380-780 nm holds all of their power (≥ 7 FWHM
+  // from each peak, ~e⁻¹³⁶ of it outside).
+  return metamer_of(p, [s](double l) { return spectrum::lamp_spd(s, l); }, 380, 780);
 }
 
 // detail::analog_row (sensor/pixel_detail.h). The per-pixel definition, with AVX-512 and AVX2

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 
 #include "photosite/units.h"
 
@@ -111,6 +112,26 @@ std::array<double, 3> hp1_rgb(double luminance) {
   std::array<double, 3> rgb{kHp1BandIntegral[0], kHp1BandIntegral[1], kHp1BandIntegral[2]};
   for (auto& v : rgb) v *= luminance / lum;
   return rgb;
+}
+
+double lamp_spd(LampSpectrum s, double l) {
+  auto led = [l](const LedLine& d) {
+    const double t = (l - d.peak_nm) / d.fwhm_nm;
+    return std::exp(-4 * std::numbers::ln2 * t * t);
+  };
+  switch (s) {
+    case LampSpectrum::Hp1: {
+      if (!(l >= 380 && l <= 780)) return 0.0;
+      const double t = (l - 380) / 5;
+      const int i = std::clamp(static_cast<int>(t), 0, 79);
+      const double f = t - i;
+      return kHp1Spd5nm[i] * (1 - f) + kHp1Spd5nm[i + 1] * f;
+    }
+    case LampSpectrum::RedLed: return led(kRedLed);
+    case LampSpectrum::AmberLed: return led(kAmberLed);
+    case LampSpectrum::GreenLed: return led(kGreenLed);
+  }
+  return 0.0;
 }
 
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb() {

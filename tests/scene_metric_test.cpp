@@ -426,7 +426,8 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
 
 // `night --streetlamp-type` overrides the scene preset's lamps.streetlamp_type, and the EXR header
 // records the type that was used (the preset's "led" without the option) and, with hps, the
-// camera's metamer the lamps took.
+// camera's metamer the lamps took; and always the camera's metamers the signals' and rear lamps'
+// LEDs took.
 TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
   test::TempDir tmp;
   for (const char* type : {"", "hps", "led"}) {
@@ -446,6 +447,18 @@ TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_R_text")), w[0]);
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_G_text")), w[1]);
       EXPECT_EQ(std::stod(attrs.at("photosite/night/streetlamp_camera_rgb_per_cd_m2_B_text")), w[2]);
+    }
+    // Whatever the type, the signals' and rear lamps' LEDs as this camera records them.
+    const CameraPreset cam = load_camera_preset(attrs.at("photosite/preset"));
+    for (const auto& [name, ls] : {std::pair{"red", spectrum::LampSpectrum::RedLed},
+                                   std::pair{"amber", spectrum::LampSpectrum::AmberLed},
+                                   std::pair{"green", spectrum::LampSpectrum::GreenLed}}) {
+      const auto w = camera_metamer_rgb(cam, ls);
+      const std::string stem = std::string("photosite/night/signal_camera_rgb_per_cd_m2_") + name;
+      ASSERT_EQ(attrs.count(stem + "_R_text"), 1u) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_R_text")), w[0]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_G_text")), w[1]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_B_text")), w[2]) << stem;
     }
   }
 }
@@ -1884,12 +1897,19 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
   OpenStreet street = open_street();
   auto& [o, sc, p, s] = street;
   const CameraPreset cam = load_camera_preset("onsemi-ar0331");
-  EXPECT_EQ(scene_for_camera(p, cam).streetlamp_camera_rgb, (std::array<double, 3>{0, 0, 0}));  // led
+  EXPECT_EQ(scene_for_camera(p, cam).lamp_camera_rgb[0], (std::array<double, 3>{0, 0, 0}));  // led: no HP1
   ScenePreset hps = p;
   hps.streetlamp_type = StreetlampType::Hps;
   const ScenePreset hc = scene_for_camera(hps, cam);
   const auto w = camera_metamer_rgb(cam, spectrum::kHp1Spd5nm, 81);
-  ASSERT_EQ(hc.streetlamp_camera_rgb, w);
+  ASSERT_EQ(hc.lamp_camera_rgb[0], w);
+  for (int i = 1; i < spectrum::kLampSpectrumCount; ++i) {  // the signals' and rear lamps' LEDs, led or hps
+    const auto wi = camera_metamer_rgb(cam, static_cast<spectrum::LampSpectrum>(i));
+    EXPECT_GT(wi[0] + wi[1] + wi[2], 0) << i;
+    EXPECT_EQ(hc.lamp_camera_rgb[i], wi) << i;
+    EXPECT_EQ(scene_for_camera(p, cam).lamp_camera_rgb[i], wi) << i;
+    EXPECT_EQ(p.lamp_camera_rgb[i], (std::array<double, 3>{0, 0, 0})) << i;  // a scene made without a camera
+  }
   ASSERT_GT(w[1], 0);
   const auto rgb = streetlamp_rgb(hc, 7909.0);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
@@ -2740,121 +2760,240 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   EXPECT_GT(read, En.size() / 4);  // the ground is a large part of a road scene
 }
 
-// Oncoming vehicles' low beams on the road (vehicle_lamps.beams_on_road; OncomingBeamRows in
-// scene/lights.cpp). On an unlit road (no street lamps: street_road_luminance 0) of the scene
-// rendered from a known camera, box 0 (X = −3.5 m, D = 40 m, left of the divide: oncoming, in
-// traffic) lights the ground between itself and the camera; box 1 (right of the divide, going away)
-// does not. The reference, in double: each of box 0's two lamps at (X_k, vehicle_lamps.height_m, D_v)
-// (X_k = X ± (width/2 − inset), its contact's X, D and metric width as light_map's vehicle states
-// record them) is the [ego_beam] table aimed along −D, its right toward −X: a ground point (X, D)
-// lies D' = D_v − D ahead and dx = X_k − X to its right. A ground pixel lit by nothing else
-// (beams off: 0) carries f·(t·E) per channel (f the reflectance texture, t the 3200 K head lamps'
-// tint over π), so E = L_G/(f_G·t_G) within the ego beam's derived float bound (BeamRef, above, in
-// the lamp's frame: |X'| = |X|, |x'| = |X_k|) plus the two roundings of f·(t·E), 2u·E. Pixels within
-// the bound of the table's edges or the cut-off are left out and counted. At every vector level of
-// the beam rows (beam_max_isa 2, 1, 0) the same bits.
-TEST(MetricLights, AnOncomingVehiclesLowBeamLightsTheRoadInFrontOfIt) {
-  SyntheticCameraOptions o = camera_scene();
-  o.boxes = {{-3.5, 40, 1.8, 1.5, 4.5}, {3.2, 20, 1.8, 1.5, 4.5}};
-  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
-  ScenePreset p = urban();
-  p.rig = load_camera_rig("cityscapes");
-  p.street_road_luminance_cd_m2 = 0;  // an unlit road (as night-rural): nothing but the beams on the ground
-  p.veh_beams_on_road = true;          // (night-urban leaves them off)
+// Vehicles' low beams on the road (vehicle_lamps.beams_on_road; VehicleBeamRows in
+// scene/lights.cpp), checked on an unlit road (no street lamps: street_road_luminance 0) of the
+// scene rendered from a known camera. The reference, in double: each of a vehicle's two lamps at
+// (X_k, vehicle_lamps.height_m, D_k) (X_k = X ± (width/2 − inset), its contact's X, D and metric
+// width as light_map's vehicle states record them) is the [ego_beam] table aimed along σ·D:
+// oncoming (σ = −1, D_k = D_v), a ground point (X, D) lies D' = D_k − D ahead of the lamp and
+// dx = X_k − X to its right (its right is the camera's left); going away (σ = +1, D_k = D_v + the
+// class's length, vehicle_length_m), D' = D − D_k ahead and dx = X − X_k to its right (as the
+// ego's). A ground pixel lit by nothing else (beams off: 0) carries f·(t·E) per channel (f the
+// reflectance texture, t the 3200 K head lamps' tint over π), so E = L_G/(f_G·t_G) within the ego
+// beam's derived float bound (BeamRef, above, in the lamp's frame: |X'| = |X|, |x'| = |X_k|) summed
+// over the vehicles' lamps that reach it, plus the roundings of L: f·(t·E_v) per vehicle (2u·E_v)
+// and the sum over vehicles (u·E each), within 2u·E per vehicle. Pixels within the bound of the
+// table's edges or the cut-off are left out and counted; pixels ahead of no vehicle's lamps
+// (D' ≤ 0 for every one) are 0 exactly.
+namespace {
+// The synthetic road with `boxes` on an unlit road (no street lamps: street_road_luminance 0, as
+// night-rural), rendered with the vehicles' beams on (with each vehicle's decision) and off.
+struct VehicleBeamScenes {
+  SyntheticCameraScene s;
+  ScenePreset p;
   std::vector<VehicleDecision> seen;
-  set_vehicle_decision_sink(&seen);
-  const NightScene on = night_scene(s.day_linear_srgb, s.labels, p, 1);
+  NightScene on, off;
+};
+VehicleBeamScenes vehicle_beam_scenes(const std::vector<SyntheticBox>& boxes) {
+  VehicleBeamScenes r;
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes = boxes;
+  r.s = make_synthetic_camera_scene(o);
+  r.p = urban();
+  r.p.rig = load_camera_rig("cityscapes");
+  r.p.street_road_luminance_cd_m2 = 0;  // nothing but the beams on the ground
+  r.p.veh_beams_on_road = true;          // (night-urban leaves them off)
+  set_vehicle_decision_sink(&r.seen);
+  r.on = night_scene(r.s.day_linear_srgb, r.s.labels, r.p, 1);
   set_vehicle_decision_sink(nullptr);
-  ScenePreset p_off = p;
+  ScenePreset p_off = r.p;
   p_off.veh_beams_on_road = false;
-  const NightScene off = night_scene(s.day_linear_srgb, s.labels, p_off, 1);
-  EXPECT_EQ(on.light_stats.vehicle_beams, 1);
-  EXPECT_EQ(off.light_stats.vehicle_beams, 0);
-  const VehicleDecision* v = nullptr;
-  for (const VehicleDecision& d : seen)
-    if (d.instance == 26000) v = &d;
-  ASSERT_NE(v, nullptr);
-  ASSERT_EQ(v->state, 1);
-  ASSERT_TRUE(v->faces_camera);
-  const double half = std::max(0.0, 0.5 * v->width_m - p.veh_lamp_inset_m), hl = p.veh_lamp_height_m;
-  const double lamps[2] = {v->X - half, v->X + half};
+  r.off = night_scene(r.s.day_linear_srgb, r.s.labels, p_off, 1);
+  return r;
+}
+// The vector rows are the scalar twins' bits: the light map at beam_max_isa 1 and 0 is `on`'s.
+void expect_same_bits_at_every_isa(const VehicleBeamScenes& b) {
+  for (const int isa : {1, 0}) {
+    beam_max_isa(isa);
+    const NightScene n = night_scene(b.s.day_linear_srgb, b.s.labels, b.p, 1);
+    beam_max_isa(2);
+    EXPECT_EQ(differing_samples(n.lights, b.on.lights), 0u) << "beam_max_isa " << isa;
+  }
+}
+struct VehicleBeamSource {
+  double lamps[2];  // X_k of its pair
+  double D_k;       // the lamps' depth
+  bool away;        // σ = +1
+};
+VehicleBeamSource beam_source(const VehicleDecision& v, const ScenePreset& p) {
+  const double half = std::max(0.0, 0.5 * v.width_m - p.veh_lamp_inset_m);
+  const bool away = !v.faces_camera;
+  return {{v.X - half, v.X + half}, away ? v.D + vehicle_length_m(v.cls) : v.D, away};
+}
+struct VehicleBeamCheck {
+  int checked = 0, dark = 0, band = 0, unreached = 0;
+  double worst = 0;  // the largest |E − E_ref| / bound
+};
+// Every ground pixel of `on` (beams on) that `off` (beams off) leaves at 0, against the sum of
+// `sources`' references.
+VehicleBeamCheck check_vehicle_beams(const VehicleBeamScenes& b, const std::vector<VehicleBeamSource>& sources) {
+  const SyntheticCameraScene& s = b.s;
+  const NightScene &on = b.on, &off = b.off;
+  const ScenePreset& p = b.p;
+  VehicleBeamCheck r;
   const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
   const auto tint = illuminant_tint(p.headlamp_cct_K);
   const float tG = static_cast<float>(tint[1] / M_PI);
   const BeamRef ref{p};
-  const double u = ref.u;
+  const double u = ref.u, hl = p.veh_lamp_height_m;
   const CameraGeometry& g = on.geometry;
-  int checked = 0, dark = 0, band = 0, behind = 0;
-  double worst = 0;
-  for (int y = 0; y < o.height; ++y)
-    for (int x = 0; x < o.width; ++x) {
+  for (int y = 0; y < s.labels.ids.height(); ++y)
+    for (int x = 0; x < s.labels.ids.width(); ++x) {
       double X, D, z;
       if (!ground_classes()[s.labels.ids.at(x, y)] || !g.ground_point(x, y, &X, &D, &z)) continue;
       if (off.lights.at(x, y, 0) != 0 || off.lights.at(x, y, 1) != 0 || off.lights.at(x, y, 2) != 0) continue;
       const float LG = on.lights.at(x, y, 1);
-      if (!(D < v->D)) {  // behind the vehicle's front: no beam of it
-        ++behind;
-        ASSERT_EQ(LG, 0.f) << x << "," << y;
+      double expect = 0, bound = 0;
+      bool lit = false, near_edge = false, reached = false;
+      for (const VehicleBeamSource& v : sources) {
+        const double Dp = v.away ? D - v.D_k : v.D_k - D;
+        if (!(Dp > 0)) continue;  // behind its lamps: no beam of it
+        reached = true;
+        for (double Xk : v.lamps) {
+          const LampRef l = ref.lamp(X, Xk, v.away ? X - Xk : Xk - X, Dp, hl);
+          near_edge = near_edge || l.near_edge;
+          lit = lit || l.lit;
+          expect += l.E;
+          bound += l.bound;
+        }
+      }
+      if (!reached) {
+        ++r.unreached;
+        EXPECT_EQ(LG, 0.f) << x << "," << y << " X " << X << " D " << D;
         continue;
       }
-      double expect = 0, bound = 0;
-      bool lit = false, near_edge = false;
-      for (double Xk : lamps) {
-        const LampRef r = ref.lamp(X, Xk, Xk - X, v->D - D, hl);
-        near_edge = near_edge || r.near_edge;
-        lit = lit || r.lit;
-        expect += r.E;
-        bound += r.bound;
-      }
       if (near_edge) {
-        ++band;
+        ++r.band;
         continue;
       }
       if (!lit) {
-        ++dark;
-        ASSERT_EQ(LG, 0.f) << x << "," << y;
+        ++r.dark;
+        EXPECT_EQ(LG, 0.f) << x << "," << y << " X " << X << " D " << D;
         continue;
       }
       const double E = LG / (static_cast<double>(tex.at(x, y, 1)) * tG);
-      const double tol = (bound + 2 * u * (expect + bound)) * (1 + 1e-6);
-      ASSERT_NEAR(E, expect, tol) << x << "," << y << " X " << X << " D " << D;
-      worst = std::max(worst, std::fabs(E - expect) / tol);
-      ++checked;
+      const double tol = (bound + 2 * u * sources.size() * (expect + bound)) * (1 + 1e-6);
+      EXPECT_NEAR(E, expect, tol) << x << "," << y << " X " << X << " D " << D;
+      r.worst = std::max(r.worst, std::fabs(E - expect) / tol);
+      ++r.checked;
     }
-  std::fprintf(stderr, "[oncoming beam] %d lit ground pixels within the derived bound (largest error/bound %.3f), "
-               "%d dark in front of it, %d behind it, %d in the edge band\n", checked, worst, dark, behind, band);
-  EXPECT_GT(checked, 10000);
-  EXPECT_LT(band, checked / 100);
-  // Class B is asymmetric above 1.72°D: at 1.72° right of its axis a lamp gives more than at 1.72°
-  // left (at 1.3°D 8,000 cd against 5,000, between 50L's column and the axis; the table's rows
-  // further down are symmetric). Mirrored for a vehicle coming the other way, its right is the
-  // camera's left: on each row 25-38 m in front of it (its lamps 0.7 m up see it 1.6-1.05° down)
-  // the ground 1.72° to the camera's left of the lamps' midpoint is brighter than 1.72° to the
-  // right (the image's own values, independently of the reference above).
-  const double Xc = 0.5 * (lamps[0] + lamps[1]);
-  int rows_left_brighter = 0, rows = 0;
-  for (int y = 0; y < o.height; ++y) {
+  return r;
+}
+// Class B is asymmetric above 1.72°D: at 1.72° right of its axis a lamp gives more than at 1.72°
+// left (at 1.3°D 8,000 cd against 5,000, between 50L's column and the axis; the table's rows
+// further down are symmetric). On each row 25-38 m ahead of a vehicle's lamps (0.7 m up they see
+// it 1.6-1.05° down), the ground 1.72° to the lamps' right of their midpoint against 1.72° to their
+// left (the image's own values, independently of the reference): returns {rows, rows where the
+// camera's left is brighter}. An oncoming lamp's right is the camera's left; a going-away one's the
+// camera's right.
+std::pair<int, int> kerb_side_rows(const VehicleBeamScenes& b, const VehicleBeamSource& v) {
+  const SyntheticCameraScene& s = b.s;
+  const NightScene& on = b.on;
+  const ScenePreset& p = b.p;
+  const ImageF tex = reflectance_texture(s.day_linear_srgb, s.labels.ids, p);
+  const CameraGeometry& g = on.geometry;
+  const double Xc = 0.5 * (v.lamps[0] + v.lamps[1]);
+  int rows = 0, left_brighter = 0;
+  for (int y = 0; y < s.labels.ids.height(); ++y) {
     double X0, D, z;
-    if (!g.ground_point(g.cx_px, y, &X0, &D, &z) || !(v->D - D >= 25 && v->D - D <= 38)) continue;
-    const double delta = (v->D - D) * std::tan(1.72 * M_PI / 180), k = g.f_px / z;  // columns per metre at this row
+    if (!g.ground_point(g.cx_px, y, &X0, &D, &z)) continue;
+    const double Dp = v.away ? D - v.D_k : v.D_k - D;
+    if (!(Dp >= 25 && Dp <= 38)) continue;
+    const double delta = Dp * std::tan(1.72 * M_PI / 180), k = g.f_px / z;  // columns per metre at this row
     const int xl = static_cast<int>(std::lround(g.cx_px + (Xc - delta) * k));
     const int xr = static_cast<int>(std::lround(g.cx_px + (Xc + delta) * k));
-    if (xl < 0 || xr >= o.width || s.labels.ids.at(xl, y) != static_cast<int>(Label::Road) ||
+    if (xl < 0 || xr >= s.labels.ids.width() || s.labels.ids.at(xl, y) != static_cast<int>(Label::Road) ||
         s.labels.ids.at(xr, y) != static_cast<int>(Label::Road))
       continue;
     const double El = on.lights.at(xl, y, 1) / tex.at(xl, y, 1), Er = on.lights.at(xr, y, 1) / tex.at(xr, y, 1);
     ++rows;
-    rows_left_brighter += El > Er;
+    left_brighter += El > Er;
   }
+  return {rows, left_brighter};
+}
+const VehicleDecision* decision_of(const std::vector<VehicleDecision>& seen, int instance) {
+  for (const VehicleDecision& d : seen)
+    if (d.instance == instance) return &d;
+  return nullptr;
+}
+}  // namespace
+
+// Box 0 (X = −3.5 m, D = 40 m, left of the divide: oncoming, in traffic) lights the ground between
+// itself and the camera; box 1 (X = 3.2 m, D = 50 m, right of the divide: going away) the ground
+// beyond its front (D > 50 m + the car's length), so the ground from box 0's front to box 1's is
+// reached by neither. Class B's kerb side mirrored: on the rows 25-38 m in front of box 0 the
+// ground 1.72° to the camera's left of its lamps is the brighter. At every vector level of the beam
+// rows (beam_max_isa 2, 1, 0) the same bits.
+TEST(MetricLights, AnOncomingVehiclesLowBeamLightsTheRoadInFrontOfIt) {
+  const VehicleBeamScenes b = vehicle_beam_scenes({{-3.5, 40, 1.8, 1.5, 4.5}, {3.2, 50, 1.8, 1.5, 4.5}});
+  EXPECT_EQ(b.on.light_stats.vehicle_beams, 1);
+  EXPECT_EQ(b.on.light_stats.vehicle_beams_going_away, 1);
+  EXPECT_EQ(b.off.light_stats.vehicle_beams, 0);
+  EXPECT_EQ(b.off.light_stats.vehicle_beams_going_away, 0);
+  const VehicleDecision *v = decision_of(b.seen, 26000), *w = decision_of(b.seen, 26001);
+  ASSERT_NE(v, nullptr);
+  ASSERT_NE(w, nullptr);
+  ASSERT_EQ(v->state, 1);
+  ASSERT_TRUE(v->faces_camera);
+  ASSERT_EQ(w->state, 1);
+  ASSERT_FALSE(w->faces_camera);
+  const VehicleBeamSource src = beam_source(*v, b.p), away = beam_source(*w, b.p);
+  const VehicleBeamCheck c = check_vehicle_beams(b, {src, away});
+  std::fprintf(stderr, "[oncoming beam] %d lit ground pixels within the derived bound (largest error/bound %.3f), "
+               "%d dark in front of them, %d reached by neither, %d in the edge band\n", c.checked, c.worst, c.dark,
+               c.unreached, c.band);
+  EXPECT_GT(c.checked, 10000);
+  EXPECT_GT(c.unreached, 1000);  // the road from box 0's front to box 1's
+  EXPECT_LT(c.band, c.checked / 100);
+  const auto [rows, rows_left_brighter] = kerb_side_rows(b, src);
   std::fprintf(stderr, "[oncoming beam] brighter 1.72° to the camera's left on %d of %d rows\n", rows_left_brighter, rows);
   EXPECT_GT(rows, 5);
   EXPECT_EQ(rows_left_brighter, rows);
-  // The vector rows are the scalar twins' bits.
-  for (const int isa : {1, 0}) {
-    beam_max_isa(isa);
-    const NightScene n = night_scene(s.day_linear_srgb, s.labels, p, 1);
-    beam_max_isa(2);
-    EXPECT_EQ(differing_samples(n.lights, on.lights), 0u) << "beam_max_isa " << isa;
+  expect_same_bits_at_every_isa(b);
+}
+
+// A car going away (X = 3.2 m, in the lane right of the ego's, its rear 15 m ahead: right of the
+// divide, in traffic, tail lamps) lights the road beyond its front (its rear + vehicle_length_m, a
+// 4.28 m car) and nothing between the camera and its front; its own pixels hide the ground right
+// behind it, and the camera, 3.2 m to its left, sees the road beyond it beside that. Class B's kerb
+// side: its right is the camera's right, so on the rows 25-38 m beyond its front the ground 1.72°
+// to the camera's right of its lamps is the brighter (an oncoming car's mirror image, above).
+// At every vector level of the beam rows (beam_max_isa 2, 1, 0) the same bits. Twice: a car 1.5 m
+// tall (above the camera's 1.22 m: it reaches above the horizon) and one 1.1 m tall (below it, as
+// every car is from KITTI's 1.65 m), whose lit road lies in rows above every vehicle row (the row
+// pass's band for the beams starts at the horizon).
+TEST(MetricLights, AGoingAwayVehiclesLowBeamLightsTheRoadBeyondIt) {
+  for (const double height : {1.5, 1.1}) {
+    SCOPED_TRACE(height);
+    const VehicleBeamScenes b =
+        vehicle_beam_scenes({{3.2, 15, 1.8, height, vehicle_length_m(static_cast<int>(Label::Car))}});
+    EXPECT_EQ(b.on.light_stats.vehicle_beams, 0);
+    EXPECT_EQ(b.on.light_stats.vehicle_beams_going_away, 1);
+    EXPECT_EQ(b.off.light_stats.vehicle_beams_going_away, 0);
+    const VehicleDecision* v = decision_of(b.seen, 26000);
+    ASSERT_NE(v, nullptr);
+    ASSERT_EQ(v->state, 1);
+    ASSERT_FALSE(v->faces_camera);
+    EXPECT_NEAR(v->D, 15, 0.5);  // its contact: its rear
+    if (height < b.on.geometry.mount_height_m) {  // every vehicle row below the horizon
+      const double y_h = b.on.geometry.cy_px - b.on.geometry.f_px * std::tan(b.on.geometry.pitch_rad);
+      EXPECT_GT(v->y0, y_h + 1);
+    }
+    const VehicleBeamSource src = beam_source(*v, b.p);
+    ASSERT_TRUE(src.away);
+    const VehicleBeamCheck c = check_vehicle_beams(b, {src});
+    std::fprintf(stderr, "[going-away beam, car %.1f m tall] %d lit ground pixels within the derived bound (largest "
+                 "error/bound %.3f), %d dark beyond it, %d between the camera and its front, %d in the edge band\n",
+                 height, c.checked, c.worst, c.dark, c.unreached, c.band);
+    EXPECT_GT(c.checked, 10000);
+    EXPECT_GT(c.unreached, 10000);  // the road up to its front: 0
+    EXPECT_LT(c.band, c.checked / 100);
+    const auto [rows, rows_left_brighter] = kerb_side_rows(b, src);
+    std::fprintf(stderr, "[going-away beam, car %.1f m tall] brighter 1.72° to the camera's right on %d of %d rows\n",
+                 height, rows - rows_left_brighter, rows);
+    EXPECT_GT(rows, 5);
+    EXPECT_EQ(rows_left_brighter, 0);
+    expect_same_bits_at_every_isa(b);
   }
 }
 

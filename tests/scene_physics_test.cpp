@@ -10,7 +10,9 @@
 #include <random>
 #include <vector>
 
+#include "photosite/night_chain.h"
 #include "photosite/scene/night.h"
+#include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/spectrum.h"
 
 using namespace photosite;
@@ -201,7 +203,8 @@ TEST(ScenePhysics, PoleLampsWithoutGeometryTakeTheStreetLampType) {
 // Traffic signals: a lit lens (a traffic-light pixel of signal colour, CIELAB L* ≥ 25 and chroma
 // ≥ 30) emits the preset's signal luminance (a 200-400 cd LED signal over a 200 mm lens, ~1e4
 // cd/m²) in its colour; the dark housing, and the same red outside a traffic light, emit nothing.
-// The lamp colour is scaled so Σ_k K_k c_k is that luminance: exact up to float rounding (kLampRounding).
+// The lamp colour (in a scene made without a camera, as here: the box guesses) is scaled so
+// Σ_k K_k c_k is that luminance: exact up to float rounding (kLampRounding).
 TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   const ScenePreset p = no_bloom();
   Canvas c(64, 40);
@@ -224,6 +227,40 @@ TEST(ScenePhysics, LitSignalLensesEmitTheSignalLuminanceInTheirColour) {
   EXPECT_GT(at(26, 1), at(26, 2));
   for (int x0 : {34, 44})
     for (int k = 0; k < 3; ++k) EXPECT_EQ(at(x0 + 2, k), 0.f) << x0;
+}
+
+// The same lenses and a rear lamp in the night chain's scene for a camera (scene_for_camera): each
+// takes that camera's metamer of its LED (spectrum::kRedLed, kAmberLed, kGreenLed; camera_metamer_rgb,
+// Spectrum.SignalLedCameraMetamersAreTheClosestNonNegativeBoxes) times the preset's photometric
+// luminance: each channel w_k·L in double stored as float (2⁻²⁴ relative). The luminance is the
+// LED's photometric one (683 ∫ S·V dλ), so the box luminance Σ_k K_k c_k of the pixel is not
+// signal_luminance_cd_m2 (docs/night.md §7); the test above keeps the box guesses of a scene made
+// without a camera. The old code drew the box guesses whatever the camera.
+TEST(ScenePhysics, SignalsAndRearLampsTakeTheCamerasMetamerOfTheirLed) {
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  const ScenePreset p = scene_for_camera(no_bloom(), cam);
+  Canvas c(120, 60);
+  c.fill(4, 4, 10, 10, Label::TrafficLight, 0.8f, 0.03f, 0.03f);    // red lens
+  c.fill(14, 4, 20, 10, Label::TrafficLight, 0.8f, 0.35f, 0.01f);   // amber lens
+  c.fill(24, 4, 30, 10, Label::TrafficLight, 0.02f, 0.5f, 0.3f);    // green (blue-green) lens
+  c.fill(70, 30, 110, 54, Label::Car, 0.1f, 0.1f, 0.12f);            // right of the VP: seen from behind
+  c.fill(74, 46, 80, 51, Label::Car, 0.8f, 0.02f, 0.02f);            // its red lens
+  const LightMap m = c.lights(p, 60, 20);
+  EXPECT_EQ(m.stats.signals, 3 * 36);
+  auto expect_led = [&](int x, int y, spectrum::LampSpectrum s, double L) {
+    const auto w = camera_metamer_rgb(cam, s);
+    ASSERT_GT(w[0] + w[1] + w[2], 0);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(m.radiance.at(x, y, k), w[k] * L, 0x1p-24 * w[k] * L) << x << "," << y << " box " << k;
+  };
+  for (int y = 4; y < 10; ++y)
+    for (int x = 0; x < 6; ++x) {
+      expect_led(4 + x, y, spectrum::LampSpectrum::RedLed, p.signal_luminance_cd_m2);
+      expect_led(14 + x, y, spectrum::LampSpectrum::AmberLed, p.signal_luminance_cd_m2);
+      expect_led(24 + x, y, spectrum::LampSpectrum::GreenLed, p.signal_luminance_cd_m2);
+    }
+  for (int y = 47; y < 50; ++y)  // inside the rear lamp's lens (all 8 neighbours red)
+    for (int x = 75; x < 79; ++x) expect_led(x, y, spectrum::LampSpectrum::RedLed, p.taillamp_luminance_cd_m2);
 }
 
 // Vehicle colour cues: a saturated red blob on a car (a tail-lamp lens) lights with the

@@ -820,6 +820,90 @@ TEST(Spectrum, Hp1CameraMetamerGivesEachCameraTheSpectrumsRawColour) {
   EXPECT_GE(cameras, 5);
 }
 
+// The traffic signals' and rear lamps' LEDs as each bundled camera records them
+// (camera_metamer_rgb(cam, LampSpectrum)): non-negative box radiances, not all 0, and the closest
+// such to the spectrum's own electrons in least squares over the camera's filter colours. The
+// spectrum's electrons per cd/m² e_c and the boxes' A[c][k] = ∫ b_k QE_c λ/(hc) dλ are computed
+// here independently (0.5-nm midpoints; the Gaussian of spectrum::kRedLed etc. at each point).
+// Optimality is checked by its conditions, not by a second solver: for the convex problem
+// min ‖A·w − e‖² over w ≥ 0, w is the optimum iff the gradient g = Aᵀ(A·w − e) is 0 on the boxes
+// with w_k > 0 and ≥ 0 on those with w_k = 0 (Karush-Kuhn-Tucker). Tolerance on g_k: 10⁻⁹ of
+// Σ_c A[c][k]·e_c, the size of its terms: the library's sums and these differ only in rounding
+// (a few hundred positive terms, ≤ 10³·2⁻⁵³ relative) and its solve's error is ≲ κ·2⁻⁵³ with the
+// boxes' condition numbers κ < 10³ (Spectrum.Hp1CameraMetamerGivesEachCameraTheSpectrumsRawColour).
+// Where the solve needs no clipping (all of w > 0 on a camera with ≥ 3 colours) that is the
+// spectrum's raw colour exactly; the printed rows give each camera's G/R and B/R (RCCC: C/R) of the
+// spectrum, of the metamer and of the old box guesses (scene/lights.cpp), docs/night.md §7.
+// On the old code (a negative box returned all 0: the box guesses) the green LED's w is 0 on
+// every camera.
+TEST(Spectrum, SignalLedCameraMetamersAreTheClosestNonNegativeBoxes) {
+  using spectrum::LampSpectrum;
+  struct Led {
+    LampSpectrum s;
+    spectrum::LedLine line;
+    std::array<double, 3> old_boxes;
+    const char* name;
+  };
+  const Led leds[] = {{LampSpectrum::RedLed, spectrum::kRedLed, {1, 0.03, 0}, "red"},
+                      {LampSpectrum::AmberLed, spectrum::kAmberLed, {1, 0.45, 0}, "amber"},
+                      {LampSpectrum::GreenLed, spectrum::kGreenLed, {0, 1, 0.6}, "green"}};
+  int cameras = 0;
+  for (const auto& entry : list_presets()) {
+    if (entry.kind != "camera") continue;
+    const CameraPreset cam = load_camera_preset(entry.name);
+    SCOPED_TRACE(entry.name);
+    std::vector<int> colours;
+    for (int c = 0; c < 4; ++c)
+      if (!cam.qe.qe[c].empty()) colours.push_back(c);
+    ASSERT_GE(colours.size(), 2u);
+    std::array<std::array<double, 3>, 4> A{};
+    for (int c : colours)
+      for (int k = 0; k < 3; ++k) {
+        double s = 0;
+        for (double l = spectrum::kBandLoNm[k] + 0.25; l < spectrum::kBandHiNm[k]; l += 0.5)
+          s += cam.qe.at(static_cast<FilterColor>(c), l) / units::photon_energy_J(l);
+        A[c][k] = s * 0.5 / (spectrum::kBandHiNm[k] - spectrum::kBandLoNm[k]);
+      }
+    for (const Led& led : leds) {
+      SCOPED_TRACE(led.name);
+      const auto w = camera_metamer_rgb(cam, led.s);
+      EXPECT_GE(w[0], 0);
+      EXPECT_GE(w[1], 0);
+      EXPECT_GE(w[2], 0);
+      ASSERT_GT(w[0] + w[1] + w[2], 0);
+      auto S = [&](double l) {
+        const double t = (l - led.line.peak_nm) / led.line.fwhm_nm;
+        return std::exp(-4 * std::log(2.0) * t * t);
+      };
+      double Lv = 0;
+      std::array<double, 4> e{};
+      for (double l = 380.25; l < 780; l += 0.5) {
+        Lv += 683 * 0.5 * S(l) * spectrum::cie_y_bar(l);
+        for (int c : colours) e[c] += 0.5 * S(l) * cam.qe.at(static_cast<FilterColor>(c), l) / units::photon_energy_J(l);
+      }
+      for (int c : colours) e[c] /= Lv;
+      std::array<double, 4> got{}, old{};
+      for (int c : colours)
+        for (int k = 0; k < 3; ++k) got[c] += A[c][k] * w[k], old[c] += A[c][k] * led.old_boxes[k];
+      for (int k = 0; k < 3; ++k) {
+        double g = 0, scale = 0;
+        for (int c : colours) g += A[c][k] * (got[c] - e[c]), scale += A[c][k] * e[c];
+        const double tol = 1e-9 * scale;
+        if (w[k] > 0) EXPECT_NEAR(g, 0, tol) << "box " << k;
+        else EXPECT_GE(g, -tol) << "box " << k;
+      }
+      const int r = colours[0], g2 = colours[1];
+      const int b = colours.size() > 2 ? colours[2] : colours[1];
+      std::fprintf(stderr,
+                   "[led %s %s] raw %s/R, B/R: spectrum %.4f %.4f, metamer %.4f %.4f, old boxes %.4f %.4f; w %.4g %.4g %.4g\n",
+                   entry.name.c_str(), led.name, colours.size() > 2 ? "G" : "C", e[g2] / e[r], e[b] / e[r],
+                   got[g2] / got[r], got[b] / got[r], old[g2] / old[r], old[b] / old[r], w[0], w[1], w[2]);
+    }
+    ++cameras;
+  }
+  EXPECT_GE(cameras, 5);
+}
+
 // Every bundled camera through its default lens, against the photon integral done here
 // independently: a pixel of filter colour c under band radiance L (W·sr⁻¹·m⁻², equal in R, G, B)
 // collects on average

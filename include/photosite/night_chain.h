@@ -52,8 +52,8 @@ NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFil
 // on the CPU and where setup's lens has a glare (plan_glare active), the glare's level 1 made in
 // the compose pass (NightScene::glare_level1, for mean_signal_electrons / expose). What
 // prepare_night and `batch` both run. `seed`: the scene's seed (batch: the group's).
-// The scene preset as the run's camera needs it: with streetlamp_type hps, the lamps' colour the
-// camera's metamer of CIE HP1 (ScenePreset::streetlamp_camera_rgb); otherwise a copy.
+// The scene preset as the run's camera needs it (ScenePreset::lamp_camera_rgb): the camera's
+// metamers of the traffic signals' and rear lamps' LEDs and, with streetlamp_type hps, of CIE HP1.
 scene::ScenePreset scene_for_camera(const scene::ScenePreset& sp, const CameraPreset& camera);
 scene::NightScene night_scene_for(SensorRunner& runner, const ImageF& day_linear, const scene::LabelMap& labels,
                                   const scene::ScenePreset& sp, uint64_t seed, bool keep_darkened,

@@ -95,6 +95,10 @@ std::array<double, 3> illuminant_tint(double cct_K);
 // proxy at 6504 K, per band, both at luminance 1.
 std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance_cd_m2);
 std::array<double, 3> streetlamp_tint(const ScenePreset& p);
+// A named lamp spectrum's colour per cd/m² as the run's camera records it
+// (ScenePreset::lamp_camera_rgb, set by the night chain), or nullptr where it is not set (a scene
+// made without a camera: the callers' fallbacks).
+const std::array<double, 3>* lamp_camera_rgb(const ScenePreset& p, spectrum::LampSpectrum s);
 // The per-pixel darkening, shared by darken() and compose(): the ambient night illuminance (moon
 // and sky glow) per unit reflectance on every surface but the sky (E/π in lx·sr⁻¹ per band: times
 // the texture in W·lm⁻¹ it gives W·sr⁻¹·m⁻²; the street lamps add their light in the light map),
@@ -356,8 +360,9 @@ struct LightStats {
   // luminous intensity that makes the EN 13201 average hold, and the road's average luminance and
   // overall uniformity U0 = L_min / L_avg on the calculation grid.
   int vehicles_in_traffic = 0, vehicles_parked = 0, vehicles_parked_lit = 0;
-  // Oncoming vehicles whose low beams light the ground in front of them (vehicle_lamps.beams_on_road).
-  int vehicle_beams = 0;
+  // Vehicles whose low beams light the ground ahead of them (vehicle_lamps.beams_on_road): oncoming
+  // ones (vehicle_beams, toward the camera) and those going away (vehicle_beams_going_away).
+  int vehicle_beams = 0, vehicle_beams_going_away = 0;
   int street_lamps = 0;
   // The street lamps' shadows on the ground (street_lamps.shadows): (ground pixel, lamp) pairs
   // whose lamp's light an occluder takes off (docs/night.md §7).

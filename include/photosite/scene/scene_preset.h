@@ -10,6 +10,7 @@
 
 #include "photosite/io.h"
 #include "photosite/scene/rig.h"
+#include "photosite/sensor/spectrum.h"
 
 namespace photosite::scene {
 
@@ -94,11 +95,13 @@ struct ScenePreset {
   // [lamps] luminances of light sources (cd/m²) and CCTs (K).
   double streetlamp_luminance_cd_m2 = 3e4, streetlamp_cct_K = 4000;
   StreetlampType streetlamp_type = StreetlampType::Led;  // colour of heads, pools and vertical light
-  // Not a key: with streetlamp_type hps, the lamps' colour per cd/m² as the run's camera records CIE
-  // HP1 (camera_metamer_rgb, sensor/pipeline.h), set by the night chain from its camera
-  // (scene_for_camera, photosite/night_chain.h). All 0 (a scene made without a camera): HP1's band
-  // integrals (spectrum::hp1_rgb), which the cameras record 2.2-2.4 times too green.
-  std::array<double, 3> streetlamp_camera_rgb{};
+  // Not a key: each named lamp spectrum's colour per cd/m² as the run's camera records it
+  // (camera_metamer_rgb, sensor/pipeline.h), indexed by spectrum::LampSpectrum: HP1 for hps street
+  // lamps, the red, amber and green LEDs for traffic signals and the red for vehicles' rear lamps.
+  // Set by the night chain from its camera (scene_for_camera, photosite/night_chain.h). All 0 (a
+  // scene made without a camera): HP1's band integrals (spectrum::hp1_rgb), which the cameras record
+  // 2.2-2.4 times too green, and the signals' and rear lamps' box guesses (scene/lights.cpp).
+  std::array<std::array<double, 3>, spectrum::kLampSpectrumCount> lamp_camera_rgb{};
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
   double taillamp_luminance_cd_m2 = 500;
   double signal_luminance_cd_m2 = 1e4;

@@ -16,6 +16,7 @@
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/poisson.h"
 #include "photosite/sensor/preset.h"
+#include "photosite/sensor/spectrum.h"
 
 namespace photosite {
 
@@ -60,8 +61,15 @@ PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
 // carry, the camera's raw colour of a grey surface it lights is the spectrum's (the band integrals'
 // would be 2.2-2.4 times too green, docs/night.md §7), but its box luminance is not L_v and another
 // camera needs other w. Three filter colours: the 3x3 solve; one or two (RCCC): the least-norm
-// solution. Empty (all 0) where no filter has a QE table or a w_k comes out negative.
+// solution. Where that w has a negative box (a narrow LED line the flat boxes cannot carry through
+// these filters: the green signal on every bundled camera, the amber's B and the red's G on the
+// RGB ones), the non-negative w closest to the spectrum's electrons in least squares instead
+// (non-negative least squares over the filter colours; docs/night.md §7 "Signal and rear-lamp
+// LEDs" gives what is then left). Empty (all 0) where no filter has a QE table.
 std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, const double* spd, int n);
+// The same for one of the named lamp spectra (spectrum::lamp_spd): HP1 through its 5-nm table
+// (the overload above), an LED's Gaussian at every quadrature point.
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, spectrum::LampSpectrum s);
 
 // The lens's veiling-glare plan on this camera: plan_glare at the lens's pixels per degree on the
 // sensor's pitch. The one plan the CPU and Vulkan photon stages use, and by which the night chain

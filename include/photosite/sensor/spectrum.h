@@ -57,6 +57,33 @@ inline constexpr double kHp1Spd5nm[81] = {1.9, 2.2, 2.5, 2.7, 3.1, 4.3, 3.8, 4.2
 // scripts/lamp_spectra.py.)
 std::array<double, 3> hp1_rgb(double luminance_cd_m2);
 
+// Single-colour LEDs of traffic signals and rear lamps, each a Gaussian of its peak wavelength and
+// full width at half maximum: S(λ) = exp(−4 ln2 (λ − peak)² / fwhm²), relative units. The dominant
+// wavelengths are data sheets' (scripts/signal_spectra.py, its sources there): AlInGaP red 626 nm and
+// amber 590 nm (Broadcom HSMx-A46x Table 3; HLMP-EGxx/ELxx, the traffic-signal lamps), InGaN cyan 505
+// nm (Avago HLMP-CMxx, "matches international specifications for green traffic signals"). The
+// peaks are a photosite choice: solved by that script so that the Gaussian's dominant wavelength
+// (CIE 1931, from E) is the data sheet's (a symmetric Gaussian at the red data sheet's 635-nm peak
+// would have a 632-nm dominant wavelength). The widths are [U]: typical data-sheet "spectral
+// halfwidths" (17 nm AlInGaP, 30 nm InGaN), not read. Each lies inside ITE VTCSH's and EN 12368's
+// signal colour (red also ECE R48's rear-lamp red). Rear lamps take the red signal's LED (a
+// photosite choice: no rear-lamp LED data sheet read).
+struct LedLine {
+  double peak_nm, fwhm_nm;
+};
+inline constexpr LedLine kRedLed{628.49, 17.0};    // dominant 626 nm
+inline constexpr LedLine kAmberLed{590.62, 17.0};  // dominant 590 nm
+inline constexpr LedLine kGreenLed{505.70, 30.0};  // dominant 505 nm
+
+// The lamp spectra the night chain gives each camera's metamer of (camera_metamer_rgb,
+// sensor/pipeline.h; ScenePreset::lamp_camera_rgb): CIE HP1 for hps street lamps, the LEDs for
+// traffic signals (red, amber, green) and vehicles' rear lamps (red).
+enum class LampSpectrum : int { Hp1 = 0, RedLed, AmberLed, GreenLed };
+inline constexpr int kLampSpectrumCount = 4;
+// The spectrum's relative spectral power at λ (nm): HP1 linear between its 5-nm samples (0
+// outside 380-780 nm), an LED its Gaussian.
+double lamp_spd(LampSpectrum s, double wavelength_nm);
+
 // 3x3 matrices between photosite's box RGB radiance and linear sRGB (Rec. 709 primaries, D65),
 // from the boxes' CIE XYZ. srgb = M · box; box = M⁻¹ · srgb. Rows are output channels.
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb();
