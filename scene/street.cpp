@@ -910,18 +910,7 @@ constexpr double kOwnPole_m = 1.0;
 constexpr double kRunStep_m = 0.5;
 // Columns are joined into one quadrilateral only within blocks of this many (the threads' bands
 // are whole blocks, so the quadrilaterals, and their pixels, do not depend on the thread count).
-constexpr int kShadowBlock = 256;
-
-// Pixels x0 .. x1 − 1 of row y in the shadow of lamp `lamp` (its index in StreetLighting::lamps).
-struct ShadowSpan {
-  int32_t y, x0, x1, lamp;
-};
-struct LampShadowRows {
-  // Per image row y: spans[row_start[y] .. row_start[y + 1]), sorted by (lamp, x0), disjoint per lamp.
-  std::vector<ShadowSpan> spans;
-  std::vector<int32_t> row_start;
-  long long quads = 0;  // (occluder column run, lamp) pairs drawn
-};
+constexpr int kShadowBlock = 128;
 
 // The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
 // around it: per row, from the least to the largest u where the row's centre line crosses its
@@ -1019,33 +1008,37 @@ __attribute__((target("avx2"))) unsigned continue_lanes_avx2(const uint16_t* ids
 // hides); an occluder on one plane has no thickness along the ray, so a car's shadow starts at its
 // visible face, not under its far side. Deterministic: the spans are merged per row and lamp and
 // sorted, whatever the threads' order.
-LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                                        const StreetLighting& s, const std::vector<double>& reach) {
+}  // namespace
+
+StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                                         const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs)
+    : labels_(labels), depth_(depth_m), g_(g), s_(s), runs_(runs && runs->made_of(labels) ? runs : nullptr),
+      reach_(s.lamps.size()) {
+  for (size_t k = 0; k < s.lamps.size(); ++k) reach_[k] = reach_m(s.lamps[k].Y_m, p);
+  // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
+  double D;
+  if (g.ground_point(g.cx_px, labels.height() - 0.5, nullptr, &D, nullptr)) D_bottom_ = std::max(0.1, D - 0.5);
+}
+
+// Blocks of kShadowBlock columns, taken from the shared counter; each is scanned row by row,
+// keeping each column's open run.
+void StreetShadowBuilder::take_blocks() {
+  const ImageU16& labels = labels_;
+  const ImageF& depth_m = depth_;
+  const CameraGeometry& g = g_;
+  const StreetLighting& s = s_;
+  const std::vector<double>& reach = reach_;
+  const LabelRuns* runs = runs_;
+  const double D_bottom = D_bottom_;
   const int W = labels.width(), H = labels.height();
-  LampShadowRows out;
-  out.row_start.assign(H + 1, 0);
-  if (s.lamps.empty()) return out;
+  if (s.lamps.empty()) return;
   const uint64_t solid = label_bits(street_shadow_classes());
   const bool avx2 = light_isa() >= 1;
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
-  // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
-  double D_bottom = 0.1;
-  {
-    double D;
-    if (g.ground_point(g.cx_px, H - 0.5, nullptr, &D, nullptr)) D_bottom = std::max(0.1, D - 0.5);
-  }
-  const int nth = std::max(1, omp_get_max_threads());
-  std::vector<std::vector<ShadowSpan>> part(nth);
-  std::vector<long long> quads(nth, 0);
-  // Blocks of kShadowBlock columns, taken by the threads in turn; each is scanned row by row,
-  // keeping each column's open run.
   const int nbw = (W + kShadowBlock - 1) / kShadowBlock;
-  std::atomic<int> next_block{0};
-#pragma omp parallel num_threads(nth)
-  {
-    const int t = omp_get_thread_num();
-    std::vector<ShadowSpan>& mine = part[t];
-    for (int blk = next_block++; blk < nbw; blk = next_block++) {
+  std::vector<ShadowSpan> mine;
+  long long my_quads = 0;
+  for (int blk = next_block_++; blk < nbw; blk = next_block_++) {
     const int xa = blk * kShadowBlock, xb = std::min(W, xa + kShadowBlock);
     RunState r(xb - xa);
     // Runs of columns xl .. xr, each from row yt (top) to yb (bottom), of one class and the same
@@ -1089,75 +1082,125 @@ LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& de
         }
         if (!ok) continue;
         quad_spans(u, v, W, H, static_cast<int>(k), mine);
-        ++quads[t];
+        ++my_quads;
       }
     };
-    // Closed runs waiting to be joined by the next column's (columns of one block of
-    // kShadowBlock: the same quadrilaterals whatever the threads' bands, which are whole blocks).
-    struct Pending {
-      int x_l = -1, x_r = -1, yt = 0, yb = 0, id = -1;
-      float zt = 0, zb = 0;
-    } pend;
-    auto flush = [&] {
-      if (pend.x_l >= 0) emit(pend.x_l, pend.x_r, pend.yt, pend.yb, pend.id);
-      pend.x_l = -1;
+    // The block's runs as they close (column, rows, class, the depths at both ends); after the
+    // scan, neighbouring columns' runs with the same rows, class and depths are joined into one
+    // quadrilateral (sorted by bottom row and column: the same joins whichever path found them).
+    struct Closed {
+      int yb, x, yt, id;
+      float zt, zb;
     };
+    std::vector<Closed> closed;
     auto close = [&](int x, int yt, int yb, int id) {
-      const float zt = depth_m.at(x, yt), zb = depth_m.at(x, yb);
-      if (pend.x_l >= 0 && x == pend.x_r + 1 && x % kShadowBlock != 0 && yt == pend.yt && yb == pend.yb &&
-          id == pend.id && zt == pend.zt && zb == pend.zb) {
-        pend.x_r = x;
-        return;
-      }
-      flush();
-      pend = {x, x, yt, yb, id, zt, zb};
+      closed.push_back({yb, x, yt, id, depth_m.at(x, yt), depth_m.at(x, yb)});
     };
-    // Row by row, eight columns at a time: a group with no solid pixel and no open run is passed
-    // over on its two bytes (most of the frame); the lanes continuing their runs are found eight
-    // at a time (continue_lanes_*), the few that start or end one one by one.
-    const int ng = (xb - xa + 7) / 8;
-    std::vector<uint8_t> bits(ng + 1, 0), open(ng + 1, 0);
-    for (int y = 0; y < H; ++y) {
-      const uint16_t* ids = labels.row(y);
-      const float* z = depth_m.row(y);
-      const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
-      if (avx2) class_bits_avx2(ids + xa, xb - xa, solid, bits.data());
-      else class_bits_scalar(ids + xa, xb - xa, solid, bits.data());
-      for (int q = 0; q < ng; ++q) {
-        const int i0 = 8 * q, x0 = xa + i0;
-        const unsigned m = bits[q];
-        unsigned o = open[q];
-        if (!(m | o)) continue;
-        const bool full = x0 + 8 <= xb;
-        const unsigned cont = full && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r)
-                                           : continue_lanes_scalar(ids + x0, z + x0, i0, m, o, kD, y, r);
-        unsigned rest = (m | o) & ~cont;
-        while (rest) {
-          const int b = std::countr_zero(rest);
-          rest &= rest - 1;
-          const int i = i0 + b, x = x0 + b;
-          if (x >= xb) break;
-          if (o >> b & 1) close(x, r.top[i], r.bottom[i], r.id[i]);  // the open run ends here
-          // A new run starts (not on a pixel of infinite or no depth: the sky's value, a hole).
-          if ((m >> b & 1) && z[x] < kDepthInfinity_m && z[x] > 0) {
-            r.top[i] = r.bottom[i] = y;
-            r.id[i] = ids[x];
-            r.Dlast[i] = z[x] * kD;
-            o |= 1u << b;
-          } else {
-            r.top[i] = -1;
-            o &= ~(1u << b);
-          }
+    // A solid pixel (x, y) of class `lab` at camera depth zx: continues its column's run (the same
+    // class, the row below the run's last, D within kRunStep_m of its last), or closes it and
+    // starts one (not on a pixel of infinite or no depth: the sky's value, a hole).
+    const float step = static_cast<float>(kRunStep_m);
+    auto solid_pixel = [&](int x, int y, int lab, float zx, float kD) {
+      const int i = x - xa;
+      if (r.top[i] >= 0) {
+        const float D = zx * kD;
+        if (r.bottom[i] == y - 1 && r.id[i] == lab && std::fabs(D - r.Dlast[i]) <= step) {
+          r.bottom[i] = y;
+          r.Dlast[i] = D;
+          return;
         }
-        open[q] = static_cast<uint8_t>(o);
+        close(x, r.top[i], r.bottom[i], r.id[i]);
       }
-      flush();
+      if (zx < kDepthInfinity_m && zx > 0) {
+        r.top[i] = r.bottom[i] = y;
+        r.id[i] = lab;
+        r.Dlast[i] = zx * kD;
+      } else {
+        r.top[i] = -1;
+      }
+    };
+    if (runs) {
+      // The label runs (made beside the Hough stage in the chain): only the solid ones are
+      // visited; a run that a non-solid pixel ended is closed when its column's next solid pixel
+      // comes (its bottom is then not the row above) or after the last row.
+      for (int y = 0; y < H; ++y) {
+        const float* z = depth_m.row(y);
+        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
+        const int r0 = runs->row_start[y], r1 = runs->row_start[y + 1];
+        // The row's first run reaching column xa.
+        int k = static_cast<int>(std::upper_bound(runs->x0.begin() + r0, runs->x0.begin() + r1, xa) - runs->x0.begin()) - 1;
+        for (k = std::max(k, r0); k < r1 && runs->x0[k] < xb; ++k) {
+          const int lab = runs->id[k];
+          if (!(lab < 64 && (solid >> lab & 1))) continue;
+          const int x1 = std::min(runs->end(k, y), xb);
+          for (int x = std::max(runs->x0[k], xa); x < x1; ++x) solid_pixel(x, y, lab, z[x], kD);
+        }
+      }
+    } else {
+      // Row by row, eight columns at a time: a group with no solid pixel and no open run is passed
+      // over on its two bytes (most of the frame); the lanes continuing their runs are found eight
+      // at a time (continue_lanes_*, the same test as solid_pixel's), the few that start or end
+      // one one by one.
+      const int ng = (xb - xa + 7) / 8;
+      std::vector<uint8_t> bits(ng + 1, 0), open(ng + 1, 0);
+      for (int y = 0; y < H; ++y) {
+        const uint16_t* ids = labels.row(y);
+        const float* z = depth_m.row(y);
+        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
+        if (avx2) class_bits_avx2(ids + xa, xb - xa, solid, bits.data());
+        else class_bits_scalar(ids + xa, xb - xa, solid, bits.data());
+        for (int q = 0; q < ng; ++q) {
+          const int i0 = 8 * q, x0 = xa + i0;
+          const unsigned m = bits[q];
+          unsigned o = open[q];
+          if (!(m | o)) continue;
+          const bool full = x0 + 8 <= xb;
+          const unsigned cont = full && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r)
+                                             : continue_lanes_scalar(ids + x0, z + x0, i0, m, o, kD, y, r);
+          unsigned rest = (m | o) & ~cont;
+          while (rest) {
+            const int b = std::countr_zero(rest);
+            rest &= rest - 1;
+            const int i = i0 + b, x = x0 + b;
+            if (x >= xb) break;
+            if (m >> b & 1) {
+              solid_pixel(x, y, ids[x], z[x], kD);  // (its run did not continue: closed, one started)
+              if (r.top[i] >= 0) o |= 1u << b;
+              else o &= ~(1u << b);
+            } else {  // the open run ends here
+              close(x, r.top[i], r.bottom[i], r.id[i]);
+              r.top[i] = -1;
+              o &= ~(1u << b);
+            }
+          }
+          open[q] = static_cast<uint8_t>(o);
+        }
+      }
     }
     for (int i = 0; i < xb - xa; ++i)
       if (r.top[i] >= 0) close(xa + i, r.top[i], r.bottom[i], r.id[i]);
-    flush();
+    std::sort(closed.begin(), closed.end(),
+              [](const Closed& p, const Closed& q) { return p.yb != q.yb ? p.yb < q.yb : p.x < q.x; });
+    for (size_t j = 0; j < closed.size();) {
+      size_t e = j + 1;
+      while (e < closed.size() && closed[e].yb == closed[j].yb && closed[e].x == closed[e - 1].x + 1 &&
+             closed[e].yt == closed[j].yt && closed[e].id == closed[j].id && closed[e].zt == closed[j].zt &&
+             closed[e].zb == closed[j].zb)
+        ++e;
+      emit(closed[j].x, closed[e - 1].x, closed[j].yt, closed[j].yb, closed[j].id);
+      j = e;
     }
   }
+  quads_ += my_quads;
+  std::lock_guard<std::mutex> lock(parts_mutex_);
+  parts_.push_back(std::move(mine));
+}
+
+LampShadowRows StreetShadowBuilder::finish() {
+  const int H = labels_.height();
+  LampShadowRows out;
+  out.row_start.assign(H + 1, 0);
+  const std::vector<std::vector<ShadowSpan>>& part = parts_;
   // The threads' spans by row (a counting sort), then per row sorted by (lamp, x0) and merged
   // where they touch: the same spans whatever the threads' order.
   size_t n = 0;
@@ -1170,26 +1213,45 @@ LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& de
   out.spans.resize(n);
   for (const auto& pt : part)
     for (const ShadowSpan& sp : pt) out.spans[at[sp.y]++] = sp;
-  int32_t w = 0;
+  // Each row's spans merged in place (rows in parallel), then the rows packed in order.
+  std::vector<int32_t> kept(H, 0);
+#pragma omp parallel for schedule(dynamic, 32)
   for (int y = 0; y < H; ++y) {
     const int32_t a = out.row_start[y], b = out.row_start[y + 1];
-    out.row_start[y] = w;
     if (a == b) continue;
     std::sort(out.spans.begin() + a, out.spans.begin() + b, [](const ShadowSpan& p, const ShadowSpan& q) {
       return p.lamp != q.lamp ? p.lamp < q.lamp : p.x0 < q.x0;
     });
-    out.spans[w] = out.spans[a];
+    int32_t w = a;
     for (int32_t i = a + 1; i < b; ++i) {
       ShadowSpan& last = out.spans[w];
       if (out.spans[i].lamp == last.lamp && out.spans[i].x0 <= last.x1) last.x1 = std::max(last.x1, out.spans[i].x1);
       else out.spans[++w] = out.spans[i];
     }
-    ++w;
+    kept[y] = w + 1 - a;
+  }
+  int32_t w = 0;
+  for (int y = 0; y < H; ++y) {
+    const int32_t a = out.row_start[y];
+    out.row_start[y] = w;
+    for (int32_t i = 0; i < kept[y]; ++i) out.spans[w + i] = out.spans[a + i];  // a ≥ w: forward copy is safe
+    w += kept[y];
   }
   out.row_start[H] = w;
   out.spans.resize(w);
-  for (long long q : quads) out.quads += q;
+  out.quads = quads_;
+  out.lamps = s_.lamps.size();
   return out;
+}
+
+namespace {
+// The spans at once, over the threads (add_street_light_rows given none).
+LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                                        const StreetLighting& s, const ScenePreset& p) {
+  StreetShadowBuilder b(labels, depth_m, g, s, p);
+#pragma omp parallel
+  b.take_blocks();
+  return b.finish();
 }
 }  // namespace
 
@@ -3057,7 +3119,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                        uint64_t seed, const BuildingFacades* facades, const ComposeRows* compose,
                                        const std::function<void(int)>* first, const std::function<void()>* side,
-                                       int side_y0, int side_y1) {
+                                       int side_y0, int side_y1, const LampShadowRows* shadows) {
   const int W = L.width(), H = L.height();
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades* fac = facades ? facades : &computed;
@@ -3069,8 +3131,9 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     vertical.emplace(texture, labels, depth_m, g, s, p, fac, W);
     pools.emplace(texture, labels, g, s, p, W);
     if (p.lamp_shadows) {
-      shadow_rows = street_lamp_shadow_spans(labels, depth_m, g, s, pools->reach);
-      pools->shadows = &shadow_rows;
+      const bool given = shadows && shadows->lamps == s.lamps.size();
+      if (!given) shadow_rows = street_lamp_shadow_spans(labels, depth_m, g, s, p);
+      pools->shadows = given ? shadows : &shadow_rows;
     }
   }
   long long shaded = 0;
@@ -3155,7 +3218,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
   if (side_failed) std::rethrow_exception(side_failed);
   StreetRowsResult out;
   out.windows = static_cast<int>(all.size());
-  out.shadow_quads = shadow_rows.quads;
+  out.shadow_quads = pools && pools->shadows ? pools->shadows->quads : 0;
   out.shadow_pixels = shaded;
   if (lamps) {
     if (heads_in_pass) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));

@@ -4638,4 +4638,24 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
     }
   street_light_max_isa(2);
   omp_set_num_threads(before);
+  // The spans from the label runs (the chain's depth stage hands them) and from every label (the
+  // light map alone) are the same, and handed to the rows they give the same light.
+  const std::shared_ptr<const LabelRuns> runs = label_runs(sc.labels.ids);
+  auto spans_of = [&](const LabelRuns* lr) {
+    StreetShadowBuilder b(sc.labels.ids, depth, g, s, p, lr);
+#pragma omp parallel
+    b.take_blocks();
+    return b.finish();
+  };
+  const LampShadowRows a = spans_of(nullptr), b = spans_of(runs.get());
+  ASSERT_GT(a.spans.size(), 0u);
+  EXPECT_EQ(a.quads, b.quads);
+  EXPECT_EQ(a.row_start, b.row_start);
+  ASSERT_EQ(a.spans.size(), b.spans.size());
+  for (size_t i = 0; i < a.spans.size(); ++i)
+    ASSERT_TRUE(a.spans[i].y == b.spans[i].y && a.spans[i].x0 == b.spans[i].x0 && a.spans[i].x1 == b.spans[i].x1 &&
+                a.spans[i].lamp == b.spans[i].lamp) << i;
+  ImageF handed(W, H, 3, 0.f, unit::radiance);
+  add_street_light_rows(handed, tex, sc.labels.ids, depth, g, s, p, 1, nullptr, nullptr, nullptr, nullptr, 0, -1, &b);
+  EXPECT_EQ(std::memcmp(handed.data(), on.data(), on.size() * sizeof(float)), 0);
 }
