@@ -3502,7 +3502,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
                         uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                         const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
                         bool with_radiance, bool with_glare_level1, const VehicleParts* vehicles,
-                        const BeamVerticalRows* beam_vertical) {
+                        const BeamVerticalRows* beam_vertical, const LampShadowRows* street_shadows) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -4098,10 +4098,11 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
           add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades, rows ? &*rows : nullptr,
                                 row_pass ? &first : nullptr, row_pass ? &side : nullptr,
                                 vehicle_beams && ry1 >= ry0 ? beam_y0 : ry0,
-                                vehicle_beams && ry1 >= ry0 ? H - 1 : ry1);
+                                vehicle_beams && ry1 >= ry0 ? H - 1 : ry1, street_shadows);
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;
+      out.stats.street_shadow_pixels = r.shadow_pixels;
     } else {
       out.stats.pole_lamps = add_street_lighting(L, texture, labels, *geometry, sl, p);
     }

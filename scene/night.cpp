@@ -276,15 +276,30 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // (ego_beam.shadows) are taken off the beam image once it is whole, after this stage.
   std::optional<BeamVerticalRows> beam_vertical;
   std::optional<GroundShadowMaps> ground_shadows;
+  // The street lamps' shadows on the ground (street_lamps.shadows; a single frame's plan: a
+  // sequence's tracked lamps are known only after this stage, and the light map makes them then):
+  // their column blocks are taken by both halves once their own work and the shared rows are done
+  // (StreetShadowBuilder: the same spans whichever thread takes which block), the first half
+  // setting them up after the plan; the second half helps only where they are set up by then.
+  std::optional<StreetShadowBuilder> street_shadows;
+  std::atomic<bool> street_shadows_ready{false};
+  auto street_shadow_blocks = [&] {
+    if (street_shadows_ready.load(std::memory_order_acquire)) street_shadows->take_blocks();
+  };
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
         planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
+        if (p.lamp_shadows && !seq && !planned.lamps.empty()) {
+          street_shadows.emplace(labels.ids, s.depth, s.geometry, planned, p, label_row_runs.get());
+          street_shadows_ready.store(true, std::memory_order_release);
+        }
         beam_vertical.emplace(s.beam_lux, s.geometry, labels.ids, s.depth, &facades, p, p.beam_shadows);
         if (p.beam_shadows) ground_shadows.emplace(W, H, s.geometry, labels.ids, s.depth, p, label_row_runs.get());
         shared_rows();
+        street_shadow_blocks();
       },
       [&] {
         // Tram rails that the lane stage took for markings (drop_tram_rails: they led the
@@ -299,7 +314,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
           texture_under_rails(texture, labels.ids, lanes_at_frame(rails, labels.ids), s.geometry);
         }
         shared_rows();
+        street_shadow_blocks();
       });
+  LampShadowRows street_shadow_rows;
+  if (street_shadows) street_shadow_rows = street_shadows->finish();
+  street_shadows.reset();
   // The low beam's shadows on the ground (the depth and the beam image both made now): each lamp's
   // share leaves the ground pixels that a solid object hides from it.
   // (ego_beam.shadows = false: none, on the ground or on vertical surfaces.)
@@ -325,7 +344,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // before the tail.
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
-                               vehicles.get(), &*beam_vertical);
+                               vehicles.get(), &*beam_vertical, street_shadow_rows.lamps ? &street_shadow_rows : nullptr);
   vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;

@@ -108,6 +108,10 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "the ground pools evaluated at adaptive sample columns of each row and interpolated within "
           "this relative error (0: every pixel exactly)",
           "[C] ≤ 1/(4·√full_well) of the largest camera full well, 168,000 e- (sony-a7s2): 6.1e-4 (scene/street.cpp)"),
+      {"street_lamps.shadows", Kind::Boolean, PHOTOSITE_AT(P, lamp_shadows), "", -inf, inf, Need::Optional,
+       "the luminaires' shadows on the ground: a ground pixel that a vehicle, person, pole, sign, signal, fence or "
+       "guard rail hides from a lamp loses that lamp's light (docs/night.md §7)",
+       "photosite choice (default true)", {}, schema::Exr::Header},
       table("vehicle_lamps", "head, tail and parking lamps per vehicle (scene/lights.cpp)", "[U] ECE R48, R7, R112"),
       num("vehicle_lamps.height_m", PHOTOSITE_AT(P, veh_lamp_height_m), "m", 0.2, 3,
           "lamp height above the ground contact", "[U] ECE R48"),

@@ -881,6 +881,381 @@ void adaptive_span(int x0, int x1, int step, float tol, float* ev, AdaptiveScrat
 }  // namespace
 
 namespace {
+// ---- The street lamps' shadows on the ground (street_lamps.shadows) --------------------------
+// What casts them: the solid things that stand on the street between the lamps and the ground,
+// vehicles (car to bicycle), people and riders, poles, signs, signals, fences and guard rails.
+// Not buildings and walls (the lamps stand on the street side of them, and what a façade hides
+// from a lamp lies behind it, out of view), not vegetation (a crown's leaves pass part of the light
+// and their transmission is not known here; a trunk is not told from its crown in the labels).
+const std::array<bool, kLabelCount>& street_shadow_classes() {
+  static const std::array<bool, kLabelCount> t = [] {
+    std::array<bool, kLabelCount> c{};
+    for (Label l : {Label::Person, Label::Rider, Label::Car, Label::Truck, Label::Bus, Label::Caravan, Label::Trailer,
+                    Label::Train, Label::Motorcycle, Label::Bicycle, Label::Pole, Label::PoleGroup,
+                    Label::TrafficLight, Label::TrafficSign, Label::Fence, Label::GuardRail})
+      c[static_cast<int>(l)] = true;
+    return c;
+  }();
+  return t;
+}
+// A lamp's own pole stands under it: pixels within this horizontal distance of a lamp's foot
+// cast no shadow of that lamp (the pole's shadow from its own luminaire falls at its foot; the
+// labelled pole's pixels scatter its points by the depth's error around the foot, which would
+// otherwise throw long radial streaks). A photosite choice: about a luminaire's outreach.
+constexpr double kOwnPole_m = 1.0;
+// Runs of one class in an image column are one occluder while their points' forward distance D
+// stays within this of the run's lowest pixel (the depth stage puts an object on one vertical
+// plane: D is constant along its column; a step of more is another object behind or in front).
+// A photosite choice.
+constexpr double kRunStep_m = 0.5;
+// Columns are joined into one quadrilateral only within blocks of this many (the threads' bands
+// are whole blocks, so the quadrilaterals, and their pixels, do not depend on the thread count).
+constexpr int kShadowBlock = 128;
+
+// The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
+// around it: per row, from the least to the largest u where the row's centre line crosses its
+// edges (exact for a convex quadrilateral; a twisted one is filled to its hull on each row).
+void quad_spans(const double* u, const double* v, int W, int H, int lamp, std::vector<ShadowSpan>& out) {
+  double vmin = v[0], vmax = v[0];
+  for (int i = 1; i < 4; ++i) vmin = std::min(vmin, v[i]), vmax = std::max(vmax, v[i]);
+  const int y0 = std::max(0, static_cast<int>(std::ceil(vmin))), y1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
+  double slope[4];  // du/dv of each edge (i, i + 1)
+  for (int i = 0; i < 4; ++i) {
+    const int j = (i + 1) & 3;
+    slope[i] = v[i] != v[j] ? (u[j] - u[i]) / (v[j] - v[i]) : 0;
+  }
+  for (int y = y0; y <= y1; ++y) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (int i = 0; i < 4; ++i) {
+      const int j = (i + 1) & 3;
+      const double va = v[i], vb = v[j];
+      if ((va - y) * (vb - y) > 0) continue;  // the edge does not reach this row
+      if (va == vb) {                         // along the row: both ends
+        lo = std::min({lo, u[i], u[j]});
+        hi = std::max({hi, u[i], u[j]});
+        continue;
+      }
+      const double ux = u[i] + (y - va) * slope[i];
+      lo = std::min(lo, ux);
+      hi = std::max(hi, ux);
+    }
+    if (!(lo <= hi)) continue;
+    const int x0 = std::max(0, static_cast<int>(std::ceil(lo))), x1 = std::min(W - 1, static_cast<int>(std::floor(hi)));
+    if (x0 <= x1) out.push_back({y, x0, x1 + 1, lamp});
+  }
+}
+
+// The columns of one group of eight (lanes b = 0..7 at x = xg + b) that continue their open run
+// in row y: solid (`bits`), a run open (`open`), the same class as the run and a forward
+// distance D = z·k_D within kRunStep_m of the run's last one. Those lanes take y as their run's
+// bottom and D as its last distance here; the others (a run starting or ending) are left to the
+// caller. The AVX2 form of the scalar test below: the same float operations, the same lanes.
+struct RunState {
+  std::vector<int32_t> top, bottom, id;
+  std::vector<float> Dlast;
+  explicit RunState(int n) : top(n + 8, -1), bottom(n + 8, -1), id(n + 8, -1), Dlast(n + 8, 0.f) {}
+};
+inline unsigned continue_lanes_scalar(const uint16_t* ids, const float* z, int i, unsigned bits, unsigned open, float kD,
+                                      int y, RunState& r) {
+  unsigned cont = 0;
+  for (int b = 0; b < 8; ++b) {
+    if (!((bits & open) >> b & 1)) continue;
+    const float D = z[b] * kD;
+    if (static_cast<int>(ids[b]) == r.id[i + b] && std::fabs(D - r.Dlast[i + b]) <= static_cast<float>(kRunStep_m)) {
+      r.bottom[i + b] = y;
+      r.Dlast[i + b] = D;
+      cont |= 1u << b;
+    }
+  }
+  return cont;
+}
+__attribute__((target("avx2"))) unsigned continue_lanes_avx2(const uint16_t* ids, const float* z, int i, unsigned bits,
+                                                             unsigned open, float kD, int y, RunState& r) {
+  const unsigned cand = bits & open;
+  if (!cand) return 0;
+  const __m256i lanebit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m256i want = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(cand)), lanebit), lanebit);
+  const __m256i lab = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids)));
+  const __m256i same = _mm256_cmpeq_epi32(lab, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])));
+  const __m256 D = _mm256_mul_ps(_mm256_loadu_ps(z), _mm256_set1_ps(kD));
+  const __m256 Dl = _mm256_loadu_ps(&r.Dlast[i]);
+  const __m256 absd = _mm256_andnot_ps(_mm256_set1_ps(-0.f), _mm256_sub_ps(D, Dl));
+  const __m256 near = _mm256_cmp_ps(absd, _mm256_set1_ps(static_cast<float>(kRunStep_m)), _CMP_LE_OQ);
+  const __m256i m = _mm256_and_si256(_mm256_and_si256(want, same), _mm256_castps_si256(near));
+  const unsigned cont = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
+  if (cont) {  // blends and plain stores (a masked store is slow on AMD's cores)
+    __m256i* pb = reinterpret_cast<__m256i*>(&r.bottom[i]);
+    _mm256_storeu_si256(pb, _mm256_blendv_epi8(_mm256_loadu_si256(pb), _mm256_set1_epi32(y), m));
+    _mm256_storeu_ps(&r.Dlast[i], _mm256_blendv_ps(Dl, D, _mm256_castsi256_ps(m)));
+  }
+  return cont;
+}
+
+// Where each lamp's light on the ground is blocked, from the metric scene. A lamp S = (X_s, H, D_s)
+// and a solid point P = (X, Y, D) below it (Y < H): the ray from S through P meets the ground at
+//   G = S + λ·(P − S),  λ = H / (H − Y),
+// and every ground point on the segment from P's foot-side G(Y = its lowest) to G(its highest)
+// is hidden from S by the column of solid points between. Each image column's run of one solid
+// class (an occluder's pixels in that column; their points from depth_m, camera z, and the camera
+// model) is taken as its pixel's width at its lowest and highest points, x ± ½ at rows y_b + ½ and
+// y_t − ½: four points whose ground images G make a quadrilateral on the ground, projected into
+// the image; the pixels inside it lie in that lamp's shadow. The columns' quadrilaterals tile the
+// occluder's shadow. Only lamps within reach_m of the run's foot (beyond it a lamp's light is
+// dropped), not under 1 m from it (its own pole), and above the run's lowest point are taken; a
+// shadow reaching beyond the lamp's reach, or toward the camera past the nearest visible ground,
+// is cut there (λ capped: nothing it would cover there receives that lamp's light or is in view).
+// What the camera does not see of an occluder casts nothing (its far side, what another object
+// hides); an occluder on one plane has no thickness along the ray, so a car's shadow starts at its
+// visible face, not under its far side. Deterministic: the spans are merged per row and lamp and
+// sorted, whatever the threads' order.
+}  // namespace
+
+StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                                         const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs)
+    : labels_(labels), depth_(depth_m), g_(g), s_(s), runs_(runs && runs->made_of(labels) ? runs : nullptr),
+      reach_(s.lamps.size()) {
+  for (size_t k = 0; k < s.lamps.size(); ++k) reach_[k] = reach_m(s.lamps[k].Y_m, p);
+  // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
+  double D;
+  if (g.ground_point(g.cx_px, labels.height() - 0.5, nullptr, &D, nullptr)) D_bottom_ = std::max(0.1, D - 0.5);
+}
+
+// Blocks of kShadowBlock columns, taken from the shared counter; each is scanned row by row,
+// keeping each column's open run.
+void StreetShadowBuilder::take_blocks() {
+  const ImageU16& labels = labels_;
+  const ImageF& depth_m = depth_;
+  const CameraGeometry& g = g_;
+  const StreetLighting& s = s_;
+  const std::vector<double>& reach = reach_;
+  const LabelRuns* runs = runs_;
+  const double D_bottom = D_bottom_;
+  const int W = labels.width(), H = labels.height();
+  if (s.lamps.empty()) return;
+  const uint64_t solid = label_bits(street_shadow_classes());
+  const bool avx2 = light_isa() >= 1;
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  const int nbw = (W + kShadowBlock - 1) / kShadowBlock;
+  std::vector<ShadowSpan> mine;
+  long long my_quads = 0;
+  for (int blk = next_block_++; blk < nbw; blk = next_block_++) {
+    const int xa = blk * kShadowBlock, xb = std::min(W, xa + kShadowBlock);
+    RunState r(xb - xa);
+    // Runs of columns xl .. xr, each from row yt (top) to yb (bottom), of one class and the same
+    // depths at both ends, closed: their quadrilaterals, one per lamp (the columns' own tile it:
+    // their points lie on the same two horizontal lines of one plane, whose ground images from a
+    // point are two straight lines).
+    auto emit = [&](int x_l, int x_r, int yt, int yb, int id) {
+      // The run's lowest and highest points (pixel edges), each from its own depth.
+      const double zb = depth_m.at(x_l, yb), zt = depth_m.at(x_l, yt);
+      const double ynb = (yb + 0.5 - g.cy_px) / g.f_px, ynt = (yt - 0.5 - g.cy_px) / g.f_px;
+      const double Db = zb * (c - ynb * sn), Dt = zt * (c - ynt * sn);
+      const double Yb = std::max(0.0, h - zb * (ynb * c + sn)), Yt = std::max(Yb, h - zt * (ynt * c + sn));
+      const double xl = (x_l - 0.5 - g.cx_px) / g.f_px, xr = (x_r + 0.5 - g.cx_px) / g.f_px;
+      const double X[4] = {zb * xl, zb * xr, zt * xr, zt * xl}, Dp[4] = {Db, Db, Dt, Dt}, Yp[4] = {Yb, Yb, Yt, Yt};
+      const bool pole = id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup);
+      for (size_t k = 0; k < s.lamps.size(); ++k) {
+        const StreetLamp& l = s.lamps[k];
+        const double Hl = l.Y_m;
+        if (!(Yb < Hl)) continue;
+        // The run's foot nearest the lamp's: within its reach, and not its own pole.
+        const double dx = std::max({X[0] - l.X_m, 0.0, l.X_m - X[1]}), dd = Db - l.D_m, rb2 = dx * dx + dd * dd;
+        if (rb2 > reach[k] * reach[k] || (pole && rb2 < kOwnPole_m * kOwnPole_m)) continue;
+        double u[4], v[4];
+        bool ok = true;
+        for (int i = 0; i < 4 && ok; ++i) {
+          const double dX = X[i] - l.X_m, dD = Dp[i] - l.D_m, r2 = dX * dX + dD * dD;
+          // λ: the ground point of the ray over P; capped at the lamp's reach, and so that the
+          // shadow does not run past the nearest ground in view toward the camera.
+          double lam = Yp[i] < Hl * (1 - 1e-6) ? Hl / (Hl - Yp[i]) : INFINITY;
+          if (r2 > 0) lam = std::min(lam, std::max(1.0, reach[k] / std::sqrt(r2)));
+          if (dD < 0) lam = std::min(lam, std::max(0.0, (l.D_m - D_bottom) / -dD));
+          if (!std::isfinite(lam)) lam = 1;
+          const double GX = l.X_m + lam * dX, GD = l.D_m + lam * dD;
+          const double zc = h * sn + GD * c;  // CameraGeometry::project of (GX, 0, GD)
+          if (zc <= 0.05) {
+            ok = false;
+            break;
+          }
+          u[i] = g.cx_px + g.f_px * GX / zc;
+          v[i] = g.cy_px + g.f_px * (h * c - GD * sn) / zc;
+        }
+        if (!ok) continue;
+        quad_spans(u, v, W, H, static_cast<int>(k), mine);
+        ++my_quads;
+      }
+    };
+    // The block's runs as they close (column, rows, class, the depths at both ends); after the
+    // scan, neighbouring columns' runs with the same rows, class and depths are joined into one
+    // quadrilateral (sorted by bottom row and column: the same joins whichever path found them).
+    struct Closed {
+      int yb, x, yt, id;
+      float zt, zb;
+    };
+    std::vector<Closed> closed;
+    auto close = [&](int x, int yt, int yb, int id) {
+      closed.push_back({yb, x, yt, id, depth_m.at(x, yt), depth_m.at(x, yb)});
+    };
+    // A solid pixel (x, y) of class `lab` at camera depth zx: continues its column's run (the same
+    // class, the row below the run's last, D within kRunStep_m of its last), or closes it and
+    // starts one (not on a pixel of infinite or no depth: the sky's value, a hole).
+    const float step = static_cast<float>(kRunStep_m);
+    auto solid_pixel = [&](int x, int y, int lab, float zx, float kD) {
+      const int i = x - xa;
+      if (r.top[i] >= 0) {
+        const float D = zx * kD;
+        if (r.bottom[i] == y - 1 && r.id[i] == lab && std::fabs(D - r.Dlast[i]) <= step) {
+          r.bottom[i] = y;
+          r.Dlast[i] = D;
+          return;
+        }
+        close(x, r.top[i], r.bottom[i], r.id[i]);
+      }
+      if (zx < kDepthInfinity_m && zx > 0) {
+        r.top[i] = r.bottom[i] = y;
+        r.id[i] = lab;
+        r.Dlast[i] = zx * kD;
+      } else {
+        r.top[i] = -1;
+      }
+    };
+    if (runs) {
+      // The label runs (made beside the Hough stage in the chain): only the solid ones are
+      // visited; a run that a non-solid pixel ended is closed when its column's next solid pixel
+      // comes (its bottom is then not the row above) or after the last row.
+      for (int y = 0; y < H; ++y) {
+        const float* z = depth_m.row(y);
+        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
+        const int r0 = runs->row_start[y], r1 = runs->row_start[y + 1];
+        // The row's first run reaching column xa.
+        int k = static_cast<int>(std::upper_bound(runs->x0.begin() + r0, runs->x0.begin() + r1, xa) - runs->x0.begin()) - 1;
+        for (k = std::max(k, r0); k < r1 && runs->x0[k] < xb; ++k) {
+          const int lab = runs->id[k];
+          if (!(lab < 64 && (solid >> lab & 1))) continue;
+          const int x1 = std::min(runs->end(k, y), xb);
+          for (int x = std::max(runs->x0[k], xa); x < x1; ++x) solid_pixel(x, y, lab, z[x], kD);
+        }
+      }
+    } else {
+      // Row by row, eight columns at a time: a group with no solid pixel and no open run is passed
+      // over on its two bytes (most of the frame); the lanes continuing their runs are found eight
+      // at a time (continue_lanes_*, the same test as solid_pixel's), the few that start or end
+      // one one by one.
+      const int ng = (xb - xa + 7) / 8;
+      std::vector<uint8_t> bits(ng + 1, 0), open(ng + 1, 0);
+      for (int y = 0; y < H; ++y) {
+        const uint16_t* ids = labels.row(y);
+        const float* z = depth_m.row(y);
+        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
+        if (avx2) class_bits_avx2(ids + xa, xb - xa, solid, bits.data());
+        else class_bits_scalar(ids + xa, xb - xa, solid, bits.data());
+        for (int q = 0; q < ng; ++q) {
+          const int i0 = 8 * q, x0 = xa + i0;
+          const unsigned m = bits[q];
+          unsigned o = open[q];
+          if (!(m | o)) continue;
+          const bool full = x0 + 8 <= xb;
+          const unsigned cont = full && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r)
+                                             : continue_lanes_scalar(ids + x0, z + x0, i0, m, o, kD, y, r);
+          unsigned rest = (m | o) & ~cont;
+          while (rest) {
+            const int b = std::countr_zero(rest);
+            rest &= rest - 1;
+            const int i = i0 + b, x = x0 + b;
+            if (x >= xb) break;
+            if (m >> b & 1) {
+              solid_pixel(x, y, ids[x], z[x], kD);  // (its run did not continue: closed, one started)
+              if (r.top[i] >= 0) o |= 1u << b;
+              else o &= ~(1u << b);
+            } else {  // the open run ends here
+              close(x, r.top[i], r.bottom[i], r.id[i]);
+              r.top[i] = -1;
+              o &= ~(1u << b);
+            }
+          }
+          open[q] = static_cast<uint8_t>(o);
+        }
+      }
+    }
+    for (int i = 0; i < xb - xa; ++i)
+      if (r.top[i] >= 0) close(xa + i, r.top[i], r.bottom[i], r.id[i]);
+    std::sort(closed.begin(), closed.end(),
+              [](const Closed& p, const Closed& q) { return p.yb != q.yb ? p.yb < q.yb : p.x < q.x; });
+    for (size_t j = 0; j < closed.size();) {
+      size_t e = j + 1;
+      while (e < closed.size() && closed[e].yb == closed[j].yb && closed[e].x == closed[e - 1].x + 1 &&
+             closed[e].yt == closed[j].yt && closed[e].id == closed[j].id && closed[e].zt == closed[j].zt &&
+             closed[e].zb == closed[j].zb)
+        ++e;
+      emit(closed[j].x, closed[e - 1].x, closed[j].yt, closed[j].yb, closed[j].id);
+      j = e;
+    }
+  }
+  quads_ += my_quads;
+  std::lock_guard<std::mutex> lock(parts_mutex_);
+  parts_.push_back(std::move(mine));
+}
+
+LampShadowRows StreetShadowBuilder::finish() {
+  const int H = labels_.height();
+  LampShadowRows out;
+  out.row_start.assign(H + 1, 0);
+  const std::vector<std::vector<ShadowSpan>>& part = parts_;
+  // The threads' spans by row (a counting sort), then per row sorted by (lamp, x0) and merged
+  // where they touch: the same spans whatever the threads' order.
+  size_t n = 0;
+  for (const auto& pt : part) {
+    n += pt.size();
+    for (const ShadowSpan& sp : pt) ++out.row_start[sp.y + 1];
+  }
+  for (int y = 0; y < H; ++y) out.row_start[y + 1] += out.row_start[y];
+  std::vector<int32_t> at(out.row_start.begin(), out.row_start.end() - 1);
+  out.spans.resize(n);
+  for (const auto& pt : part)
+    for (const ShadowSpan& sp : pt) out.spans[at[sp.y]++] = sp;
+  // Each row's spans merged in place (rows in parallel), then the rows packed in order.
+  std::vector<int32_t> kept(H, 0);
+#pragma omp parallel for schedule(dynamic, 32)
+  for (int y = 0; y < H; ++y) {
+    const int32_t a = out.row_start[y], b = out.row_start[y + 1];
+    if (a == b) continue;
+    std::sort(out.spans.begin() + a, out.spans.begin() + b, [](const ShadowSpan& p, const ShadowSpan& q) {
+      return p.lamp != q.lamp ? p.lamp < q.lamp : p.x0 < q.x0;
+    });
+    int32_t w = a;
+    for (int32_t i = a + 1; i < b; ++i) {
+      ShadowSpan& last = out.spans[w];
+      if (out.spans[i].lamp == last.lamp && out.spans[i].x0 <= last.x1) last.x1 = std::max(last.x1, out.spans[i].x1);
+      else out.spans[++w] = out.spans[i];
+    }
+    kept[y] = w + 1 - a;
+  }
+  int32_t w = 0;
+  for (int y = 0; y < H; ++y) {
+    const int32_t a = out.row_start[y];
+    out.row_start[y] = w;
+    for (int32_t i = 0; i < kept[y]; ++i) out.spans[w + i] = out.spans[a + i];  // a ≥ w: forward copy is safe
+    w += kept[y];
+  }
+  out.row_start[H] = w;
+  out.spans.resize(w);
+  out.quads = quads_;
+  out.lamps = s_.lamps.size();
+  return out;
+}
+
+namespace {
+// The spans at once, over the threads (add_street_light_rows given none).
+LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                                        const StreetLighting& s, const ScenePreset& p) {
+  StreetShadowBuilder b(labels, depth_m, g, s, p);
+#pragma omp parallel
+  b.take_blocks();
+  return b.finish();
+}
+}  // namespace
+
+namespace {
 // What the pools and the vertical light share: their inputs, the street light's tint over π (the
 // Lambertian reflection L = ρ·E/π per channel) and the intensity table.
 struct LitRows {
@@ -907,6 +1282,8 @@ struct PoolPass : LitRows {
   std::vector<double> reach;  // each lamp's reach_m, once (not per row)
   const float I0;
   const float tol;  // street_lamps.interp_tolerance (0: every pixel exactly)
+  // The lamps' shadows on the ground (street_lamps.shadows with the metric depth), else null.
+  const LampShadowRows* shadows = nullptr;
   PoolPass(const ImageF& texture_, const ImageU16& labels_, const CameraGeometry& g_, const StreetLighting& s_,
            const ScenePreset& p, int width)
       : LitRows(texture_, labels_, g_, p, width), s(s_),
@@ -925,6 +1302,8 @@ struct PoolPass : LitRows {
     std::vector<float> es;
     std::vector<uint8_t> ones;
     std::vector<int> lo, hi, ends;  // per lamp: its columns within the cone [lo, hi); their ends, sorted
+    std::vector<int> lamp_index;    // the row's lamps (pl) by their index in StreetLighting::lamps
+    long long shaded = 0;           // (ground pixel, lamp) pairs taken off by the shadows
     AdaptiveScratch ad;
     explicit Scratch(int W)
         : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff) {}
@@ -961,9 +1340,13 @@ struct PoolPass : LitRows {
     // changed dim pixels by up to 4%: not taken.)
     const double kx = t / g.f_px;
     sc.pl.clear();
+    sc.lamp_index.clear();
     for (size_t k = 0; k < s.lamps.size(); ++k) {
       const auto& l = s.lamps[k];
-      if (std::fabs(D0 - l.D_m) <= reach[k]) sc.pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+      if (std::fabs(D0 - l.D_m) <= reach[k]) {
+        sc.pl.add(l.X_m, D0 - l.D_m, l.Y_m);
+        sc.lamp_index.push_back(static_cast<int>(k));
+      }
     }
     if (sc.pl.size() == 0) return;  // nothing is written in this row
     // The groups holding a ground pixel are computed (a pixel's E does not depend on its
@@ -1010,6 +1393,7 @@ struct PoolPass : LitRows {
             const auto e = std::upper_bound(sc.ends.begin(), sc.ends.end(), a);
             return e == sc.ends.end() || *e > b;
           });
+      shade(y, kx, acc, sc);
       if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       else add_reflection_scalar(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       return;
@@ -1018,10 +1402,36 @@ struct PoolPass : LitRows {
     if (isa >= 1) {
       if (isa >= 2) pool_row_avx512(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
       else pool_row_avx2(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
+      shade(y, kx, sc.acc.data(), sc);
       add_reflection_avx2(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
     } else {
       pool_row_scalar(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
+      shade(y, kx, sc.acc.data(), sc);
       add_reflection_scalar(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
+    }
+  }
+  // The shadows of row y: each ground pixel in lamp k's shadow loses k's term (pool_term, the
+  // bits it added to the sum), held at 0 or above (the sum's rounding, or an interpolated sum
+  // within street_lamps.interp_tolerance of the exact one).
+  void shade(int y, double kx, float* acc, Scratch& sc) const {
+    if (!shadows) return;
+    const int32_t a = shadows->row_start[y], b = shadows->row_start[y + 1];
+    if (a == b) return;
+    const uint8_t* gb = sc.gbits.data();
+    size_t j = 0;  // the row's lamp of the span (both lists ascend by lamp index)
+    const size_t nl = sc.lamp_index.size();
+    for (int32_t si = a; si < b; ++si) {
+      const ShadowSpan& sp = shadows->spans[si];
+      while (j < nl && sc.lamp_index[j] < sp.lamp) ++j;
+      if (j == nl) break;
+      if (sc.lamp_index[j] != sp.lamp) continue;  // not within reach of this row
+      for (int x = sp.x0; x < sp.x1; ++x) {
+        if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
+        const float e = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
+                                  sc.pl.Hl[j], I0, table);
+        acc[x] = std::max(0.f, acc[x] - e);
+        ++sc.shaded;
+      }
     }
   }
 };
@@ -2709,17 +3119,24 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                        uint64_t seed, const BuildingFacades* facades, const ComposeRows* compose,
                                        const std::function<void(int)>* first, const std::function<void()>* side,
-                                       int side_y0, int side_y1) {
+                                       int side_y0, int side_y1, const LampShadowRows* shadows) {
   const int W = L.width(), H = L.height();
   const BuildingFacades computed = facades ? BuildingFacades() : building_facades(labels, g, p.max_depth_m);
   const BuildingFacades* fac = facades ? facades : &computed;
   const bool lamps = !s.lamps.empty();
   std::optional<VerticalPass> vertical;
   std::optional<PoolPass> pools;
+  LampShadowRows shadow_rows;
   if (lamps) {
     vertical.emplace(texture, labels, depth_m, g, s, p, fac, W);
     pools.emplace(texture, labels, g, s, p, W);
+    if (p.lamp_shadows) {
+      const bool given = shadows && shadows->lamps == s.lamps.size();
+      if (!given) shadow_rows = street_lamp_shadow_spans(labels, depth_m, g, s, p);
+      pools->shadows = given ? shadows : &shadow_rows;
+    }
   }
+  long long shaded = 0;
   const WindowPass windows(labels, depth_m, g, p, seed, fac, W, &texture);
   // With compose or `first` (light_map's row pass, with or without its night radiance), the heads
   // row by row in the pass (each row's share of every disc crossing it, a maximum after the row's
@@ -2795,11 +3212,14 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     {
       all.insert(ws.seen.begin(), ws.seen.end());
       for (size_t k = 0; k < heads.size(); ++k) head_drawn[k] |= drawn[k];
+      shaded += ps.shaded;
     }
   }
   if (side_failed) std::rethrow_exception(side_failed);
   StreetRowsResult out;
   out.windows = static_cast<int>(all.size());
+  out.shadow_quads = pools && pools->shadows ? pools->shadows->quads : 0;
+  out.shadow_pixels = shaded;
   if (lamps) {
     if (heads_in_pass) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));
     else out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);

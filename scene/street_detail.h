@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "photosite/image.h"
@@ -97,14 +98,61 @@ FacadeWindowsFound find_facade_windows(const ImageF& texture, const ImageF& dept
 struct ComposeRows;
 struct StreetRowsResult {
   int pole_lamps = 0, windows = 0;
+  // The lamps' shadows on the ground (street_lamps.shadows): (occluder column run, lamp) pairs
+  // drawn, and (ground pixel, lamp) pairs whose lamp's light they took off.
+  long long shadow_quads = 0, shadow_pixels = 0;
 };
+// The street lamps' shadows on the ground (street_lamps.shadows; docs/night.md §7): the pixels
+// x0 .. x1 − 1 of row y in the shadow of lamp `lamp` (its index in StreetLighting::lamps).
+struct ShadowSpan {
+  int32_t y, x0, x1, lamp;
+};
+struct LampShadowRows {
+  // Per image row y: spans[row_start[y] .. row_start[y + 1]), sorted by (lamp, x0), disjoint per lamp.
+  std::vector<ShadowSpan> spans;
+  std::vector<int32_t> row_start;
+  long long quads = 0;  // (occluder column run, lamp) pairs drawn
+  size_t lamps = 0;     // the lamps they were made for (StreetLighting::lamps.size())
+};
+// The shadows' spans (scene/street.cpp, where the method is) in steps that several threads share:
+// the constructor takes the inputs (kept by reference: they must outlive it), take_blocks() scans
+// blocks of columns from a shared counter until none is left (from any number of threads at once,
+// each call on its own thread), finish() merges them once every call has returned. The same spans
+// whichever threads take which blocks. night_scene makes them in its depth stage, beside the low
+// beam's rows; add_street_light_rows (given none) makes them itself.
+class StreetShadowBuilder {
+ public:
+  // `runs`: the label runs of these labels where the caller has them (night_scene's, made beside
+  // the Hough stage): the scan then visits only the solid runs; else it reads every label. The
+  // same spans.
+  StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g, const StreetLighting& s,
+                      const ScenePreset& p, const LabelRuns* runs = nullptr);
+  void take_blocks();
+  LampShadowRows finish();
+
+ private:
+  const ImageU16& labels_;
+  const ImageF& depth_;
+  const CameraGeometry& g_;
+  const StreetLighting& s_;
+  const LabelRuns* runs_;
+  std::vector<double> reach_;
+  double D_bottom_ = 0.1;
+  std::atomic<int> next_block_{0};
+  std::atomic<long long> quads_{0};
+  std::mutex parts_mutex_;
+  std::vector<std::vector<ShadowSpan>> parts_;
+};
+
+// `shadows`: the lamps' shadow spans of these labels, depth and lamps (StreetShadowBuilder) where
+// the caller made them; else, with street_lamps.shadows, made here.
 StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const ImageU16& labels, const ImageF& depth_m,
                                        const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
                                        uint64_t seed, const BuildingFacades* facades,
                                        const ComposeRows* compose = nullptr,
                                        const std::function<void(int)>* first = nullptr,
                                        const std::function<void()>* side = nullptr, int side_y0 = 0,
-                                       int side_y1 = -1);
+                                       int side_y1 = -1, const LampShadowRows* shadows = nullptr);
 
 // compose() (scene/lights.cpp) one row at a time: the constants once, then any row y on any
 // thread writes night's row y from the same rows of texture, lights, labels and beam_lux (the

@@ -4513,3 +4513,149 @@ TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
   }
   EXPECT_EQ(radiance[0].vec(), radiance[1].vec()) << "the night radiance at 1 and 2 threads";
 }
+
+// street_lamps.shadows (docs/night.md §7, "Shadows of the street lamps"): a car on the synthetic
+// street (photosite's metric depth: one fronto-parallel plane at its contact, D_c) under two
+// luminaires, one beyond it and to its left, one nearer the camera and to its right. The reference
+// is a ray cast that does not share the rows' quadrilaterals: for a ground pixel's point G and a
+// lamp S, the segment G→S crosses the car's plane at C = G + μ(S − G), μ = (D_c − D_G)/(D_S − D_G)
+// in (0, 1); C projected into the image lands on the car's labelled silhouette (blocked) or not.
+// Pixels whose crossing lies within 2 px of the silhouette's edge (the quadrilaterals' pixel
+// edges against the labels' pixel centres, ±1 px, doubled) are not judged for that lamp. Every
+// judged pixel must have lost exactly the blocked lamps' terms: (L_off − L_on)/(f·t/π) against
+// Σ blocked E_k (the double law), within the derived float bound in the comment below; every
+// pixel blocked from no lamp is bit-identical with and without shadows.
+TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes = {{1.0, 15, 1.8, 1.5, 4.5}};
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  ScenePreset p = urban();
+  const CameraGeometry& g = o.camera;
+  const int W = o.width, H = o.height;
+  const ImageF depth = metric_depth(sc.labels, g, p.max_depth_m);
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+  StreetLighting s;
+  s.lamps = {{-2.0, 10, 24, false}, {4.5, 8, 9, false}};  // sorted by D in a plan; the rows need no order
+  std::sort(s.lamps.begin(), s.lamps.end(), [](const StreetLamp& a, const StreetLamp& b) { return a.D_m < b.D_m; });
+  s.peak_intensity_cd = 6000;
+  ImageF on(W, H, 3, 0.f, unit::radiance), off(W, H, 3, 0.f, unit::radiance);
+  ScenePreset p_off = p;
+  p_off.lamp_shadows = false;
+  ASSERT_TRUE(p.lamp_shadows);  // the default
+  const StreetRowsResult r_on = add_street_light_rows(on, tex, sc.labels.ids, depth, g, s, p, 1, nullptr);
+  const StreetRowsResult r_off = add_street_light_rows(off, tex, sc.labels.ids, depth, g, s, p_off, 1, nullptr);
+  EXPECT_GT(r_on.shadow_quads, 0);
+  EXPECT_EQ(r_off.shadow_pixels, 0);
+  // The car's plane and silhouette.
+  const int car = static_cast<int>(Label::Car);
+  double Dc = 0;
+  int ncar = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (sc.labels.ids.at(x, y) == car) {
+        const double yn = (y - g.cy_px) / g.f_px;
+        Dc += depth.at(x, y) * (std::cos(g.pitch_rad) - yn * std::sin(g.pitch_rad));
+        ++ncar;
+      }
+  ASSERT_GT(ncar, 1000);
+  Dc /= ncar;
+  auto car_near = [&](double u, double v, int r, bool* any, bool* all) {
+    *any = false, *all = true;
+    const int xc = static_cast<int>(std::lround(u)), yc = static_cast<int>(std::lround(v));
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dx = -r; dx <= r; ++dx) {
+        const int x = xc + dx, y = yc + dy;
+        const bool c = x >= 0 && y >= 0 && x < W && y < H && sc.labels.ids.at(x, y) == car;
+        *any |= c, *all &= c;
+      }
+  };
+  const auto tl = streetlamp_tint(p);
+  const double tG = static_cast<float>(tl[1] / M_PI);
+  int blocked_px[2] = {0, 0}, lit_px = 0, unsure = 0;
+  double worst = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      double X, D;
+      if (!ground_classes()[sc.labels.ids.at(x, y)] || !g.ground_point(x, y, &X, &D, nullptr)) continue;
+      double lost = 0, Esum = 0;
+      bool judged = true;
+      int nb = 0, which = -1;
+      for (size_t k = 0; k < s.lamps.size(); ++k) {
+        const StreetLamp& l = s.lamps[k];
+        const double Ek = street_illuminance_lux(X, D, StreetLighting{{l}, "", 0, 0, false, s.peak_intensity_cd}, p);
+        if (std::fabs(D - l.D_m) > street_lamp_reach_m(l.Y_m, p)) continue;  // the row drops it: no term
+        Esum += Ek;
+        const double mu = (Dc - D) / (l.D_m - D);
+        if (!(mu > 0 && mu < 1)) continue;
+        const double Xc = X + mu * (l.X_m - X), Yc = mu * l.Y_m;
+        double u, v;
+        if (!g.project(Xc, Yc, Dc, &u, &v, nullptr)) continue;
+        bool any, all;
+        car_near(u, v, 2, &any, &all);
+        if (all) lost += Ek, ++nb, which = static_cast<int>(k);
+        else if (any) judged = false;
+      }
+      if (!judged) {
+        ++unsure;
+        continue;
+      }
+      if (nb == 0) {
+        ++lit_px;
+        for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(on.at(x, y, ch), off.at(x, y, ch)) << x << "," << y;
+        continue;
+      }
+      if (nb == 1) ++blocked_px[which];
+      const double f = tex.at(x, y, 1) * tG;
+      const double dE = (static_cast<double>(off.at(x, y, 1)) - on.at(x, y, 1)) / f;
+      // Bound (u = 2⁻²⁴): a lamp's float term is within (62.6 + n)u of its law (street.cpp,
+      // pool_term: ≤ 65u for n ≤ 2 lamps), the table within 1e-6 of the law; the interpolated
+      // sum (interp_tolerance) is the same in both images, so it cancels, but where the shaded
+      // sum is held at 0 (an interpolated sum below the blocked terms) dE falls short of them by
+      // at most tol_interp·Esum; L = fl(fl(f·t)·E) in each image (2u each of L ≈ f·t·Esum) and
+      // the shaded sum fl(E − e_k) 1u of Esum: so
+      // |dE − lost| ≤ 65u·lost + 1e-6·lost + (6u + tol_interp)·Esum.
+      const double tol = 65 * 0x1p-24 * lost + (6 * 0x1p-24 + p.lamp_interp_tolerance) * Esum + 1e-6 * lost;
+      ASSERT_NEAR(dE, lost, tol) << x << "," << y << " X " << X << " D " << D << " lamps blocked " << nb;
+      worst = std::max(worst, std::fabs(dE - lost) / tol);
+    }
+  std::fprintf(stderr, "[street lamp shadows] blocked from lamp 0 only %d, lamp 1 only %d px; %d lit, %d in the "
+               "edge band; largest error/bound %.3f\n", blocked_px[0], blocked_px[1], lit_px, unsure, worst);
+  EXPECT_GT(blocked_px[0], 200);
+  EXPECT_GT(blocked_px[1], 200);
+  EXPECT_GT(lit_px, 100000);
+  EXPECT_LT(unsure, blocked_px[0] + blocked_px[1]);
+  // The same bits at 1 and 3 threads (the column blocks in another order) and at every
+  // instruction set (the runs' eight-lane test and the class bits).
+  const int before = omp_get_max_threads();
+  for (const int isa : {2, 1, 0})
+    for (const int threads : {1, 3}) {
+      street_light_max_isa(isa);
+      omp_set_num_threads(threads);
+      ImageF again(W, H, 3, 0.f, unit::radiance);
+      const StreetRowsResult r = add_street_light_rows(again, tex, sc.labels.ids, depth, g, s, p, 1, nullptr);
+      EXPECT_EQ(r.shadow_pixels, r_on.shadow_pixels) << isa << " " << threads;
+      EXPECT_EQ(std::memcmp(again.data(), on.data(), on.size() * sizeof(float)), 0) << isa << " " << threads;
+    }
+  street_light_max_isa(2);
+  omp_set_num_threads(before);
+  // The spans from the label runs (the chain's depth stage hands them) and from every label (the
+  // light map alone) are the same, and handed to the rows they give the same light.
+  const std::shared_ptr<const LabelRuns> runs = label_runs(sc.labels.ids);
+  auto spans_of = [&](const LabelRuns* lr) {
+    StreetShadowBuilder b(sc.labels.ids, depth, g, s, p, lr);
+#pragma omp parallel
+    b.take_blocks();
+    return b.finish();
+  };
+  const LampShadowRows a = spans_of(nullptr), b = spans_of(runs.get());
+  ASSERT_GT(a.spans.size(), 0u);
+  EXPECT_EQ(a.quads, b.quads);
+  EXPECT_EQ(a.row_start, b.row_start);
+  ASSERT_EQ(a.spans.size(), b.spans.size());
+  for (size_t i = 0; i < a.spans.size(); ++i)
+    ASSERT_TRUE(a.spans[i].y == b.spans[i].y && a.spans[i].x0 == b.spans[i].x0 && a.spans[i].x1 == b.spans[i].x1 &&
+                a.spans[i].lamp == b.spans[i].lamp) << i;
+  ImageF handed(W, H, 3, 0.f, unit::radiance);
+  add_street_light_rows(handed, tex, sc.labels.ids, depth, g, s, p, 1, nullptr, nullptr, nullptr, nullptr, 0, -1, &b);
+  EXPECT_EQ(std::memcmp(handed.data(), on.data(), on.size() * sizeof(float)), 0);
+}

@@ -33,6 +33,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 #include "scene/night_detail.h"
+#include "scene/street_detail.h"
 #include "scene/texture_detail.h"
 #ifdef PHOTOSITE_HAVE_VULKAN
 #include "photosite/gpu/context.h"
@@ -285,6 +286,22 @@ void run(const Opts& o) {
       auto tv3 = clock::now();
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));
+      // The street lamps' shadow spans (street_lamps.shadows), made in the chain's depth stage
+      // beside the low beam's rows, in the light map alone (and pools + heads above: none) by
+      // add_street_light_rows; here over the threads at once.
+      double cs_a = 0, cs_b = 0;
+      if (sp.lamp_shadows) {
+        cs_a = cpu_ms();
+        auto ts0 = clock::now();
+        scene::StreetShadowBuilder sb(lm.ids, ns.depth, ns.geometry, sl, sp);
+#pragma omp parallel
+        sb.take_blocks();
+        const scene::LampShadowRows spans = sb.finish();
+        auto ts1 = clock::now();
+        cs_b = cpu_ms();
+        (void)spans;
+        add("street lamp shadows (alone)", ms(ts0, ts1));
+      }
       // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
       // pixels, as the chain makes it.
       const double cb0 = cpu_ms();
@@ -358,6 +375,7 @@ void run(const Opts& o) {
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);
+        if (sp.lamp_shadows) add("cpu: street lamp shadows (alone)", cs_b - cs_a);
         add("cpu: facade windows (alone)", cv3 - cv2);
         add("cpu: peer", peer.cpu_ms);
       }

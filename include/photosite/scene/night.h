@@ -364,6 +364,9 @@ struct LightStats {
   // ones (vehicle_beams, toward the camera) and those going away (vehicle_beams_going_away).
   int vehicle_beams = 0, vehicle_beams_going_away = 0;
   int street_lamps = 0;
+  // The street lamps' shadows on the ground (street_lamps.shadows): (ground pixel, lamp) pairs
+  // whose lamp's light an occluder takes off (docs/night.md §7).
+  long long street_shadow_pixels = 0;
   std::string street_lamp_source = "none";
   double street_peak_intensity_cd = 0, road_luminance_avg_cd_m2 = 0, road_uniformity_u0 = 0;
 };

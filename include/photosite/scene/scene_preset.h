@@ -66,6 +66,10 @@ struct ScenePreset {
   // columns of each row and interpolates linearly between them within it (the bundled scene
   // presets: 6e-4).
   double lamp_interp_tolerance = 0;
+  // The luminaires' shadows on the ground (scene/street.cpp street_lamp_shadow_spans): a ground
+  // pixel that a vehicle, person, pole, sign, signal, fence or guard rail hides from a lamp loses
+  // that lamp's share of the pools (docs/night.md §7 "Shadows of the street lamps").
+  bool lamp_shadows = true;
   // [vehicle_lamps] lamps in metres per vehicle (scene/lights.cpp): height above the ground
   // contact, inset from the vehicle's side, lens diameters, intensities toward the camera, the
   // seeded share of parked vehicles with parking lights, the kerb strip where vehicles park.
