@@ -15,9 +15,15 @@ but the ground classes, scene/labels.cpp is_ground) whose night radiance fell in
 ground pixels whose night radiance fell in green. Prints the vertical pixels that fell per class
 and the EXR header's photosite/night/beam_shadow_vertical_{left,right,both}_pixels.
 
+Street lamps (--street): the same with the preset's [street_lamps] shadows switched off instead,
+written as docs/night/street_shadow_kitti.jpg: the two previews' lower two thirds and the
+shadows-on preview in grey with the pixels whose night radiance fell in magenta (docs/night.md §7,
+"Shadows of the street lamps").
+
 The previews are the simple ISP's (their 99th percentile to white), each exposed for itself.
 Usage: scripts/beam_shadow_figure.py --before /path/to/old/photosite
        scripts/beam_shadow_figure.py --vertical
+       scripts/beam_shadow_figure.py --street
 """
 import argparse
 import os
@@ -61,21 +67,55 @@ def ground_figure(before_exe):
                   (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], "beam_shadow_kitti.jpg")
 
 
-def vertical_figure():
+def shadows_off_preset(tmp, table):
+    """A copy of presets/scenes/night-urban.toml whose [table]'s `shadows = true` line reads false (the
+    only change), written into tmp; returns its path."""
+    with open(os.path.join(ROOT, "presets", "scenes", "night-urban.toml")) as f:
+        lines = f.read().split("\n")
+    section, n = None, 0
+    for i, line in enumerate(lines):
+        m = re.match(r"^\[([A-Za-z_]+)\]", line)
+        if m:
+            section = m.group(1)
+        elif section == table and re.match(r"^shadows = true\b", line):
+            lines[i] = re.sub(r"^shadows = true", "shadows = false", line)
+            n += 1
+    if n != 1:
+        sys.exit(f"presets/scenes/night-urban.toml: no single 'shadows = true' line in [{table}] to switch off")
+    path = os.path.join(tmp, f"night-urban-no-{table}-shadows.toml")
+    with open(path, "w") as f:
+        f.write("\n".join(lines))
+    return path
+
+
+def on_off(table):
+    """This checkout's `photosite night` on the bundled KITTI frame with the night-urban preset and with
+    its [table] shadows off: ((preview, channels, attrs) on, (preview, channels, attrs) off)."""
     os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
     exe = os.path.join(ROOT, "build", "photosite")
     with tempfile.TemporaryDirectory() as tmp:
-        with open(os.path.join(ROOT, "presets", "scenes", "night-urban.toml")) as f:
-            text, n = re.subn(r"^shadows = true\b", "shadows = false", f.read(), flags=re.M)
-        if n != 1:
-            sys.exit("presets/scenes/night-urban.toml: no single 'shadows = true' line to switch off")
-        off_preset = os.path.join(tmp, "night-urban-no-shadows.toml")
-        with open(off_preset, "w") as f:
-            f.write(text)
+        off_preset = shadows_off_preset(tmp, table)
         run(exe, [], os.path.join(tmp, "on"), maps=False)
         run(exe, ["--scene-preset", off_preset], os.path.join(tmp, "off"), maps=False)
-        on, c1, a1 = night(os.path.join(tmp, "on"))
-        off, c0, _ = night(os.path.join(tmp, "off"))
+        return night(os.path.join(tmp, "on")), night(os.path.join(tmp, "off"))
+
+
+def street_figure():
+    (on, c1, a1), (off, c0, _) = on_off("street_lamps")
+    fell = c1["night_radiance.G"] < c0["night_radiance.G"]
+    print("pixels whose night radiance fell:", int(fell.sum()), "; header street_lamp_shadow_pixels:",
+          a1["photosite/night/street_lamp_shadow_pixels"])
+    grey = np.asarray(on.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * 0.8
+    grey[fell] = (255, 0, 255)
+    mask = Image.fromarray(grey.astype(np.uint8))
+    h = on.size[1]
+    save_stacked([(lower(off, h), "street_lamps.shadows = false: the pools run under every car and pole"),
+                  (lower(on, h), "street_lamps.shadows = true: cars, poles and signs hide the lamps behind them"),
+                  (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], "street_shadow_kitti.jpg")
+
+
+def vertical_figure():
+    (on, c1, a1), (off, c0, _) = on_off("ego_beam")
     fell = c1["night_radiance.G"] < c0["night_radiance.G"]
     labels = c1["labels.Y"].astype(np.int32)
     ground = np.isin(labels, GROUND_IDS)
@@ -102,10 +142,14 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--before", help="an older photosite binary (without the beam's shadows): the ground figure")
     ap.add_argument("--vertical", action="store_true", help="the vertical surfaces' figure (this checkout only)")
+    ap.add_argument("--street", action="store_true",
+                    help="the street lamps' shadows (street_lamps.shadows on and off; this checkout only)")
     a = ap.parse_args()
-    if bool(a.before) == a.vertical:
-        ap.error("give either --before PHOTOSITE (the ground figure) or --vertical")
-    if a.vertical:
+    if bool(a.before) + a.vertical + a.street != 1:
+        ap.error("give one of --before PHOTOSITE (the ground figure), --vertical or --street")
+    if a.street:
+        street_figure()
+    elif a.vertical:
         vertical_figure()
     else:
         ground_figure(a.before)
