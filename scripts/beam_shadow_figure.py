@@ -54,17 +54,24 @@ def lower(im, h):
     return im.crop((0, h // 3, im.size[0], h))  # the road and what stands on it
 
 
+def fell_figure(without, with_, fell, grey_scale, labels, name):
+    """Three panels: `without` and `with_`'s lower parts, and `with_` in grey (times grey_scale) with the
+    pixels in `fell` in magenta; labels: the first two panels' captions."""
+    grey = np.asarray(with_.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * grey_scale
+    grey[fell] = (255, 0, 255)
+    mask = Image.fromarray(grey.astype(np.uint8))
+    h = with_.size[1]
+    save_stacked([(lower(without, h), labels[0]), (lower(with_, h), labels[1]),
+                  (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], name)
+
+
 def ground_figure(before_exe):
     (after, c1, _), (before, c0, _) = kitti_after_before(before_exe, night)
     shaded = c1["night_radiance.G"] < c0["night_radiance.G"]
     print("pixels whose night radiance fell:", int(shaded.sum()))
-    grey = np.asarray(after.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2)
-    grey[shaded] = (255, 0, 255)
-    mask = Image.fromarray(grey.astype(np.uint8))
-    h = after.size[1]
-    save_stacked([(lower(before, h), "before: the low beam lights every ground point"),
-                  (lower(after, h), "after: the ground behind cars, poles and walls loses the lamps they hide"),
-                  (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], "beam_shadow_kitti.jpg")
+    fell_figure(before, after, shaded, 1.0,
+                ("before: the low beam lights every ground point",
+                 "after: the ground behind cars, poles and walls loses the lamps they hide"), "beam_shadow_kitti.jpg")
 
 
 def shadows_off_preset(tmp, table):
@@ -105,13 +112,9 @@ def street_figure():
     fell = c1["night_radiance.G"] < c0["night_radiance.G"]
     print("pixels whose night radiance fell:", int(fell.sum()), "; header street_lamp_shadow_pixels:",
           a1["photosite/night/street_lamp_shadow_pixels"])
-    grey = np.asarray(on.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * 0.8
-    grey[fell] = (255, 0, 255)
-    mask = Image.fromarray(grey.astype(np.uint8))
-    h = on.size[1]
-    save_stacked([(lower(off, h), "street_lamps.shadows = false: the pools run under every car and pole"),
-                  (lower(on, h), "street_lamps.shadows = true: cars, poles and signs hide the lamps behind them"),
-                  (lower(mask, h), "the ground pixels whose night radiance fell (magenta)")], "street_shadow_kitti.jpg")
+    fell_figure(off, on, fell, 0.8,
+                ("street_lamps.shadows = false: the pools run under every car and pole",
+                 "street_lamps.shadows = true: cars, poles and signs hide the lamps behind them"), "street_shadow_kitti.jpg")
 
 
 def vertical_figure():
