@@ -171,7 +171,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
       ->capture_default_str();
   sub->add_option("--ambient-lux", c.ambient_lux, "night ambient illuminance (moon + sky glow) in lx");
   sub->add_option("--streetlamp-type", c.streetlamp_type,
-                  "street lamps' light source: led (Planck at the preset's CCT) or hps (high-pressure sodium, CIE HP1, as the camera records its spectrum: docs/night.md §7); "
+                  "street lamps' light source: led (phosphor white LED, CIE LED-B at the preset's CCTs) or hps (high-pressure sodium, CIE HP1), each as the camera records its spectrum (docs/night.md §7); "
                   "default: the scene preset's lamps.streetlamp_type");
   sub->add_option("--label-format", c.label_format, "auto, labelIds, trainIds or color")->capture_default_str();
   sub->add_option("--resize-labels", c.resize_labels, "none or nearest (labels of another size)")

@@ -80,9 +80,14 @@ scene::ScenePreset scene_for_camera(const scene::ScenePreset& sp, const CameraPr
   scene::ScenePreset s = sp;
   for (int i = 0; i < spectrum::kLampSpectrumCount; ++i) {
     const auto ls = static_cast<spectrum::LampSpectrum>(i);
-    // (HP1 only where the street lamps are hps: LED street lamps are Planck proxies, no metamer)
+    // HP1 only where the street lamps are hps, CIE LED-B only where they are led: the heads' at
+    // lamps.streetlamp_cct_K, their light on the street's at street.cct_K (the two keys keep their
+    // meanings; equal in the bundled presets, then the same numbers twice).
+    const bool led_b = ls == spectrum::LampSpectrum::LedBHeads || ls == spectrum::LampSpectrum::LedBStreet;
     if (ls == spectrum::LampSpectrum::Hp1 && s.streetlamp_type != scene::StreetlampType::Hps) continue;
-    s.lamp_camera_rgb[i] = camera_metamer_rgb(camera, ls);
+    if (led_b && s.streetlamp_type != scene::StreetlampType::Led) continue;
+    const double cct = ls == spectrum::LampSpectrum::LedBHeads ? s.streetlamp_cct_K : s.street_cct_K;
+    s.lamp_camera_rgb[i] = camera_metamer_rgb(camera, ls, led_b ? cct : 0.0);
   }
   return s;
 }

@@ -124,9 +124,10 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   const auto scene_attrs = scene::scene_attributes(sp);
   attrs.insert(scene_attrs.begin(), scene_attrs.end());
   // The radiance layers hold this camera's metamers (scene_for_camera) of the traffic signals' and
-  // rear lamps' LEDs and, with hps street lamps, of CIE HP1: their band radiances per cd/m², so that
-  // a reader of `night_radiance` or `lights` knows their box luminance is not the photometric one
-  // (docs/night.md §7, "Lamp type" and "Signal and rear-lamp LEDs").
+  // rear lamps' LEDs and, with hps street lamps, of CIE HP1, with led ones of CIE LED-B at the
+  // heads' CCT (`..._led_heads`) and at the street light's (`..._led_street`): their band radiances
+  // per cd/m², so that a reader of `night_radiance` or `lights` knows their box luminance is not
+  // the photometric one (docs/night.md §7, "Lamp type" and "Signal and rear-lamp LEDs").
   const scene::ScenePreset cs = scene_for_camera(sp, r.camera);
   auto put = [&](const std::string& stem, spectrum::LampSpectrum ls) {
     const auto& w = cs.lamp_camera_rgb[static_cast<int>(ls)];
@@ -136,6 +137,10 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   };
   if (sp.streetlamp_type == scene::StreetlampType::Hps)
     put("photosite/night/streetlamp_camera_rgb_per_cd_m2", spectrum::LampSpectrum::Hp1);
+  if (sp.streetlamp_type == scene::StreetlampType::Led) {
+    put("photosite/night/streetlamp_camera_rgb_per_cd_m2_led_heads", spectrum::LampSpectrum::LedBHeads);
+    put("photosite/night/streetlamp_camera_rgb_per_cd_m2_led_street", spectrum::LampSpectrum::LedBStreet);
+  }
   put("photosite/night/signal_camera_rgb_per_cd_m2_red", spectrum::LampSpectrum::RedLed);
   put("photosite/night/signal_camera_rgb_per_cd_m2_amber", spectrum::LampSpectrum::AmberLed);
   put("photosite/night/signal_camera_rgb_per_cd_m2_green", spectrum::LampSpectrum::GreenLed);

@@ -1974,7 +1974,10 @@ std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance) {
       if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::Hp1))
         return {(*w)[0] * luminance, (*w)[1] * luminance, (*w)[2] * luminance};
       return spectrum::hp1_rgb(luminance);
-    case StreetlampType::Led: break;
+    case StreetlampType::Led:
+      if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::LedBHeads))
+        return {(*w)[0] * luminance, (*w)[1] * luminance, (*w)[2] * luminance};
+      break;  // without a camera: the Planck proxy
   }
   return spectrum::blackbody_rgb(p.streetlamp_cct_K, luminance);
 }
@@ -1984,7 +1987,9 @@ std::array<double, 3> streetlamp_tint(const ScenePreset& p) {
     case StreetlampType::Hps:
       if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::Hp1)) return relative_to_d65(*w);
       return relative_to_d65(spectrum::hp1_rgb(1.0));
-    case StreetlampType::Led: break;
+    case StreetlampType::Led:
+      if (const auto* w = lamp_camera_rgb(p, spectrum::LampSpectrum::LedBStreet)) return relative_to_d65(*w);
+      break;  // without a camera: the Planck proxy
   }
   return illuminant_tint(p.street_cct_K);
 }

@@ -148,9 +148,10 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
                          [](const P& p) -> std::string { return streetlamp_type_name(p.streetlamp_type); },
                          kStreetlampTypeNames},
        "", -inf, inf, Need::Optional,
-       "the street lamps' light source, one per scene: led (Planck at streetlamp_cct_K and street.cct_K) or hps "
-       "(high-pressure sodium, CIE illuminant HP1; the CCT keys unused)",
-       "CIE 015:2018 HP1 via scripts/lamp_spectra.py (its efficacy 395 lm/W: NP §0)", {}, schema::Exr::Header},
+       "the street lamps' light source, one per scene: led (phosphor white LED, CIE LED-B at streetlamp_cct_K and "
+       "street.cct_K as the camera records it; Planck at them in a scene without a camera) or hps (high-pressure "
+       "sodium, CIE illuminant HP1; the CCT keys unused)",
+       "CIE 015:2018 HP1, LED-B1..B5 via scripts/lamp_spectra.py (efficacies 395, 305-319 lm/W: NP §0)", {}, schema::Exr::Header},
       num("lamps.headlamp_luminance_cd_m2", PHOTOSITE_AT(P, headlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
           "headlamp lens", "NP §3 [D]"),
       num("lamps.headlamp_cct_K", PHOTOSITE_AT(P, headlamp_cct_K), "K", 1000, 20000, "headlamp CCT", "NP §3"),

@@ -17,13 +17,19 @@ relative spectral power distribution (SPD), integrates it over the boxes and pri
     the box basis's luminance is from V(lambda) on the real spectrum (for HP1 and for the Planck
     proxy of an LED);
   * the band ratios of CIE LED-B3 (a phosphor-converted white LED of about 4000 K) against those of
-    a Planck radiator at 4000 K, the proxy photosite uses for LED street lamps;
-  * the chromaticities of HP1 and LED-B3 against CIE 015:2018's published ones (a second check of
-    the data read), and the box radiances with HP1's CIE XYZ (a colorimetric metamer);
+    a Planck radiator at 4000 K, the proxy photosite keeps for LED street lamps in a scene made
+    without a camera;
+  * the chromaticities of HP1 and LED-B1..B5 against CIE 015:2018's published ones and LED-B1..B5's
+    luminous efficacies against night-photometry.md §0's (checks of the data read, the tables that
+    include/photosite/sensor/spectrum.h holds as kLedBSpd5nm), and the box radiances with HP1's CIE
+    XYZ (a colorimetric metamer);
   * what the two bundled dataset cameras (onsemi-ar0331, sony-icx267-flea2: their presets' QE
     tables) see: the raw G/R and B/R of each lamp's SPD against those of its box radiances through
     the sensor model's box-averaged QE. For HP1 the box basis is far off (its sodium light at
-    570-600 nm is averaged over the G box, where the R filter's QE is low): docs/night.md §7.
+    570-600 nm is averaged over the G box, where the R filter's QE is low): docs/night.md §7. The
+    SPD's raw ratios are what the night chain's camera metamer (camera_metamer_rgb) gives a grey
+    surface; the Planck rows are what an led street gave before the LED-B metamer (and still gives
+    in a scene without a camera).
 
 Integration: the SPDs are sampled every 5 nm; the band integral is the trapezoid rule on that
 grid, i.e. each sample stands for the 5 nm around it and a sample on a band edge (400, 500, 600,
@@ -32,7 +38,7 @@ lines at 497.9/498.3 nm, which lie in the B box: the script also prints the rati
 sample wholly in B, the reading's uncertainty from the table's 5-nm resolution.
 
 Data (tabulated values, not code):
-  HP1, LED-B3: CIE 015:2018 Colorimetry, 4th edition (doi:10.25039/TR.015.2018), the illuminants
+  HP1, LED-B1..B5: CIE 015:2018 Colorimetry, 4th edition (doi:10.25039/TR.015.2018), the illuminants
     representing high-pressure discharge lamps (HP1-HP5) and typical LED lamps (LED-B1..B5), 5 nm,
     380-780 nm; read from colour-science/colour, colour/colorimetry/datasets/illuminants/sds.py
     (commit 9d743142e, 2024; it cites CIE 015:2018 as Carter et al. 2018).
@@ -51,11 +57,38 @@ HP1 = [1.90, 2.20, 2.50, 2.70, 3.10, 4.30, 3.80, 4.20, 4.80, 5.19, 5.89, 7.39, 7
        46.85, 38.16, 32.47, 28.37, 25.37, 22.98, 20.38, 19.78, 17.78, 16.78, 19.18, 17.98, 13.69, 9.99, 8.19, 7.59,
        6.99, 6.79, 6.49, 6.39, 6.09, 5.99, 5.79, 5.79, 5.79, 5.79, 6.39, 5.99, 5.59, 31.97, 27.87, 5.89, 6.69]
 
+LED_B1 = [0.00, 0.01, 0.01, 0.02, 0.04, 0.07, 0.15, 0.28, 0.53, 0.92, 1.54, 2.52, 4.16, 6.39, 7.89, 7.57, 6.25,
+          5.16, 4.37, 3.84, 3.70, 3.88, 4.26, 4.79, 5.41, 6.05, 6.70, 7.34, 7.98, 8.64, 9.31, 10.02, 10.76, 11.53,
+          12.38, 13.28, 14.23, 15.20, 16.20, 17.19, 18.14, 19.02, 19.78, 20.38, 20.80, 21.00, 20.97, 20.71, 20.23,
+          19.56, 18.76, 17.82, 16.78, 15.66, 14.49, 13.31, 12.15, 11.02, 9.95, 8.93, 7.98, 7.10, 6.30, 5.57, 4.89,
+          4.26, 3.72, 3.25, 2.83, 2.47, 2.15, 1.87, 1.63, 1.42, 1.25, 1.10, 0.97, 0.86, 0.76, 0.68, 0.61]
+LED_B2 = [0.00, 0.00, 0.00, 0.01, 0.02, 0.05, 0.11, 0.24, 0.50, 0.96, 1.71, 2.82, 4.71, 7.87, 10.56, 10.24, 7.94,
+          6.25, 5.23, 4.36, 4.00, 4.17, 4.59, 5.21, 5.96, 6.72, 7.44, 8.11, 8.74, 9.39, 10.06, 10.75, 11.49, 12.25,
+          13.05, 13.86, 14.70, 15.50, 16.28, 17.00, 17.69, 18.31, 18.83, 19.24, 19.51, 19.59, 19.48, 19.19, 18.72,
+          18.10, 17.34, 16.47, 15.51, 14.49, 13.42, 12.33, 11.26, 10.24, 9.25, 8.30, 7.42, 6.60, 5.85, 5.17, 4.55,
+          3.99, 3.49, 3.04, 2.65, 2.31, 2.01, 1.75, 1.52, 1.32, 1.15, 1.00, 0.87, 0.76, 0.67, 0.59, 0.52]
 LED_B3 = [0.00, 0.00, 0.01, 0.02, 0.05, 0.11, 0.25, 0.56, 1.20, 2.37, 4.24, 7.17, 12.11, 17.70, 18.87, 14.58, 9.90,
           7.53, 6.02, 5.11, 5.17, 5.82, 6.77, 7.88, 8.94, 9.82, 10.52, 11.06, 11.51, 11.93, 12.37, 12.83, 13.31,
           13.79, 14.26, 14.68, 15.08, 15.42, 15.72, 15.97, 16.18, 16.37, 16.50, 16.55, 16.50, 16.32, 16.00, 15.54,
           14.96, 14.27, 13.48, 12.62, 11.71, 10.78, 9.85, 8.93, 8.04, 7.20, 6.42, 5.69, 5.02, 4.42, 3.88, 3.39,
           2.95, 2.56, 2.22, 1.92, 1.65, 1.43, 1.23, 1.06, 0.91, 0.78, 0.68, 0.58, 0.50, 0.43, 0.37, 0.32, 0.28]
+LED_B4 = [0.00, 0.00, 0.00, 0.01, 0.03, 0.08, 0.21, 0.54, 1.31, 2.75, 5.04, 8.31, 13.37, 20.61, 25.91, 24.12, 17.47,
+          11.90, 8.62, 6.34, 4.89, 4.25, 4.19, 4.70, 5.77, 7.27, 8.94, 10.60, 12.11, 13.36, 14.30, 15.02, 15.54,
+          15.90, 16.15, 16.33, 16.42, 16.44, 16.36, 16.20, 15.98, 15.70, 15.36, 14.93, 14.44, 13.86, 13.24, 12.57,
+          11.84, 11.12, 10.38, 9.65, 8.91, 8.19, 7.51, 6.86, 6.21, 5.60, 5.05, 4.54, 4.05, 3.62, 3.23, 2.87, 2.53,
+          2.24, 1.99, 1.76, 1.55, 1.37, 1.21, 1.07, 0.95, 0.85, 0.75, 0.67, 0.61, 0.55, 0.50, 0.45, 0.42]
+LED_B5 = [0.00, 0.01, 0.01, 0.03, 0.07, 0.16, 0.35, 0.78, 1.67, 3.30, 5.94, 9.92, 16.15, 25.15, 32.34, 31.18, 23.46,
+          16.39, 12.08, 9.08, 7.21, 6.48, 6.49, 7.05, 8.10, 9.45, 10.88, 12.22, 13.38, 14.29, 14.98, 15.48, 15.81,
+          16.01, 16.10, 16.13, 16.10, 15.98, 15.77, 15.50, 15.15, 14.76, 14.31, 13.79, 13.22, 12.59, 11.91, 11.20,
+          10.47, 9.73, 9.00, 8.27, 7.57, 6.90, 6.25, 5.65, 5.08, 4.55, 4.06, 3.61, 3.22, 2.86, 2.54, 2.26, 2.00,
+          1.75, 1.54, 1.36, 1.20, 1.05, 0.93, 0.82, 0.72, 0.64, 0.56, 0.49, 0.44, 0.39, 0.35, 0.31, 0.27]
+LED_B = [LED_B1, LED_B2, LED_B3, LED_B4, LED_B5]  # include/photosite/sensor/spectrum.h kLedBSpd5nm
+LED_B_CCT = [2700, 3000, 4000, 5000, 6500]  # nominal CCTs, K
+# CIE 015:2018's published chromaticities (x, y) of LED-B1..B5 (colour-science/colour
+# colour/colorimetry/datasets/illuminants/chromaticity_coordinates.py, the same commit) and their
+# luminous efficacies of radiation, /work/shared/reference/night-photometry.md §0.
+LED_B_XY = [(0.4560, 0.4078), (0.4357, 0.4012), (0.3756, 0.3723), (0.3422, 0.3502), (0.3118, 0.3236)]
+LED_B_LER = [312, 314, 317, 319, 305]
 
 # CIE 1931 2° y-bar = V(lambda), 380-780 nm every 5 nm.
 V = [0.000039, 0.000064, 0.00012, 0.000217, 0.000396, 0.00064, 0.00121, 0.00218, 0.004, 0.0073, 0.0116, 0.01684,
@@ -153,6 +186,7 @@ def main():
           % (photopic(LED_B3) / band_integral(LED_B3, 380, 780)))
     report_chromaticities()
     report_cameras()
+    report_led_b_cameras()
 
 
 def x_bar_fit(l):  # photosite's CIE 1931 fits (Wyman, Sloan & Shirley 2013), as sensor/spectrum.cpp
@@ -225,11 +259,34 @@ def report_cameras():
                   % ("", "", (m["g"] / m["r"]) / (e["g"] / e["r"]), (m["b"] / m["r"]) / (e["b"] / e["r"])))
 
 
+def report_led_b_cameras():
+    print("\nLED street lamps on a grey road, raw G/R and B/R: the night chain's metamer of LED-B (= the SPD's)")
+    print("against the Planck proxy at the same CCT (photosite's blackbody_rgb through the box-averaged QE):")
+    for cam in ("onsemi-ar0331", "sony-icx267-flea2"):
+        for i in range(5):
+            e, _ = camera_signals(cam, LED_B[i])
+            _, p = camera_signals(cam, [planck(l, LED_B_CCT[i]) for l in WL], planck_bands(LED_B_CCT[i]))
+            gr, br, pgr, pbr = e["g"] / e["r"], e["b"] / e["r"], p["g"] / p["r"], p["b"] / p["r"]
+            print("  %-18s LED-B%d %d K: G/R %.3f B/R %.3f   Planck: G/R %.3f (%+.1f %%) B/R %.3f (%+.1f %%)"
+                  % (cam, i + 1, LED_B_CCT[i], gr, br, pgr, 100 * (pgr / gr - 1), pbr, 100 * (pbr / br - 1)))
+
+
 def report_chromaticities():
     print("\nChromaticity (photosite's CIE 1931 fits over 380-780 nm) against CIE 015:2018's table:")
-    for label, spd, pub in (("HP1", HP1, (0.5330, 0.4150)), ("LED-B3", LED_B3, (0.3756, 0.3723))):
+    rows = [("HP1", HP1, (0.5330, 0.4150))] + [("LED-B%d" % (i + 1), LED_B[i], LED_B_XY[i]) for i in range(5)]
+    for label, spd, pub in rows:
         t = xyz(spd)
         print("  %-7s x %.4f y %.4f (CIE: %.4f, %.4f)" % (label, t[0] / sum(t), t[1] / sum(t), *pub))
+    print("Luminous efficacy of radiation, 380-780 nm, CIE 1931 V, against night-photometry.md §0:")
+    for i in range(5):
+        ler = photopic(LED_B[i]) / band_integral(LED_B[i], 380, 780)
+        print("  LED-B%d (%d K): %.1f lm/W (§0: %d)" % (i + 1, LED_B_CCT[i], ler, LED_B_LER[i]))
+        # The data read must be CIE's: its efficacy to §0's rounding (0.5 lm/W), its chromaticity to
+        # 0.001 (CIE's 4 decimals plus the Wyman fits' error, 0.0006 at most on these six tables).
+        t = xyz(LED_B[i])
+        if abs(ler - LED_B_LER[i]) > 0.5 or max(abs(t[0] / sum(t) - LED_B_XY[i][0]),
+                                                abs(t[1] / sum(t) - LED_B_XY[i][1])) > 0.001:
+            raise SystemExit("LED-B%d does not match CIE 015:2018's published values" % (i + 1))
     m = xyz_metamer(HP1)
     print("  HP1's XYZ metamer in the boxes: B/R %.4f G/R %.4f (band integrals: 0.2234, 1.9454)"
           % (m[2] / m[0], m[1] / m[0]))

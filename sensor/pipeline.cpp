@@ -168,12 +168,13 @@ std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* sp
       lo, hi);
 }
 
-std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, spectrum::LampSpectrum s) {
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, spectrum::LampSpectrum s, double cct_K) {
   if (s == spectrum::LampSpectrum::Hp1) return camera_metamer_rgb(p, spectrum::kHp1Spd5nm, 81);
   // The LEDs' Gaussians are evaluated where the quadrature needs them (their 17-30 nm widths
   // would be coarsely sampled on a 5-nm table); 380-780 nm holds all of their power (≥ 7 FWHM
-  // from each peak, ~e⁻¹³⁶ of it outside).
-  return metamer_of(p, [s](double l) { return spectrum::lamp_spd(s, l); }, 380, 780);
+  // from each peak, ~e⁻¹³⁶ of it outside). LED-B (led street lamps) is its blend of the CIE
+  // tables at cct_K, linear between their 5-nm samples, on the same range.
+  return metamer_of(p, [s, cct_K](double l) { return spectrum::lamp_spd(s, l, cct_K); }, 380, 780);
 }
 
 // detail::analog_row (sensor/pixel_detail.h). The per-pixel definition, with AVX-512 and AVX2

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <numbers>
 
+#include "photosite/error.h"
 #include "photosite/units.h"
 
 namespace photosite::spectrum {
@@ -114,7 +115,31 @@ std::array<double, 3> hp1_rgb(double luminance) {
   return rgb;
 }
 
-double lamp_spd(LampSpectrum s, double l) {
+double led_b_spd(double cct_K, double l) {
+  if (!(cct_K > 0) || !std::isfinite(cct_K)) internal_error("led_b_spd: the CCT is not a positive number");
+  if (!(l >= 380 && l <= 780)) return 0.0;
+  // Each table's photopic sum Σ S_i·ȳ(λ_i) over its samples: the tables are in relative units of
+  // their own, and the blend is of equal-luminance spectra (the metamer is per cd/m² anyway).
+  static const std::array<double, 5> lum = [] {
+    std::array<double, 5> a{};
+    for (int t = 0; t < 5; ++t)
+      for (int i = 0; i < 81; ++i) a[t] += kLedBSpd5nm[t][i] * cie_y_bar(380 + 5.0 * i);
+    return a;
+  }();
+  const double u = (l - 380) / 5;
+  const int i = std::clamp(static_cast<int>(u), 0, 79);
+  const double f = u - i;
+  auto table = [&](int t) { return (kLedBSpd5nm[t][i] * (1 - f) + kLedBSpd5nm[t][i + 1] * f) / lum[t]; };
+  if (cct_K <= kLedBCct_K[0]) return table(0);
+  if (cct_K >= kLedBCct_K[4]) return table(4);
+  int j = 0;
+  while (!(cct_K < kLedBCct_K[j + 1])) ++j;  // kLedBCct_K[j] <= T < kLedBCct_K[j + 1]
+  const double w = (1e6 / kLedBCct_K[j] - 1e6 / cct_K) / (1e6 / kLedBCct_K[j] - 1e6 / kLedBCct_K[j + 1]);
+  if (w == 0) return table(j);  // on a table's CCT: that table alone
+  return table(j) * (1 - w) + table(j + 1) * w;
+}
+
+double lamp_spd(LampSpectrum s, double l, double cct_K) {
   auto led = [l](const LedLine& d) {
     const double t = (l - d.peak_nm) / d.fwhm_nm;
     return std::exp(-4 * std::numbers::ln2 * t * t);
@@ -130,6 +155,8 @@ double lamp_spd(LampSpectrum s, double l) {
     case LampSpectrum::RedLed: return led(kRedLed);
     case LampSpectrum::AmberLed: return led(kAmberLed);
     case LampSpectrum::GreenLed: return led(kGreenLed);
+    case LampSpectrum::LedBHeads:
+    case LampSpectrum::LedBStreet: return led_b_spd(cct_K, l);
   }
   return 0.0;
 }

@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "photosite/error.h"
@@ -426,8 +427,8 @@ TEST(MetricDepth, NightExrHeaderNamesTheHorizon) {
 
 // `night --streetlamp-type` overrides the scene preset's lamps.streetlamp_type, and the EXR header
 // records the type that was used (the preset's "led" without the option) and, with hps, the
-// camera's metamer the lamps took; and always the camera's metamers the signals' and rear lamps'
-// LEDs took.
+// camera's metamer the lamps took, with led its metamers of CIE LED-B at the heads' and the street
+// light's CCTs; and always the camera's metamers the signals' and rear lamps' LEDs took.
 TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
   test::TempDir tmp;
   for (const char* type : {"", "hps", "led"}) {
@@ -450,6 +451,17 @@ TEST(StreetLampType, NightCommandRecordsTheTypeInTheHeader) {
     }
     // Whatever the type, the signals' and rear lamps' LEDs as this camera records them.
     const CameraPreset cam = load_camera_preset(attrs.at("photosite/preset"));
+    // With led, the camera's metamers of CIE LED-B at the heads' and at the street light's CCT.
+    for (const auto& [name, ls, key] : {std::tuple{"heads", spectrum::LampSpectrum::LedBHeads, "lamps.streetlamp_cct_K"},
+                                        std::tuple{"street", spectrum::LampSpectrum::LedBStreet, "street.cct_K"}}) {
+      const std::string stem = std::string("photosite/night/streetlamp_camera_rgb_per_cd_m2_led_") + name;
+      ASSERT_EQ(attrs.count(stem + "_G_text"), hps ? 0u : 1u) << stem;
+      if (hps) continue;
+      const auto w = camera_metamer_rgb(cam, ls, std::stod(attrs.at(std::string("photosite/scene/") + key)));
+      EXPECT_EQ(std::stod(attrs.at(stem + "_R_text")), w[0]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_G_text")), w[1]) << stem;
+      EXPECT_EQ(std::stod(attrs.at(stem + "_B_text")), w[2]) << stem;
+    }
     for (const auto& [name, ls] : {std::pair{"red", spectrum::LampSpectrum::RedLed},
                                    std::pair{"amber", spectrum::LampSpectrum::AmberLed},
                                    std::pair{"green", spectrum::LampSpectrum::GreenLed}}) {
@@ -1254,6 +1266,50 @@ OpenStreet open_street() {
   r.s = plan_street_lighting(r.sc.labels, r.o.camera, r.p, 7);
   return r;
 }
+// Every lit pixel of the street lamps' heads (drawn on black) has R:G:B of rg : 1 : bg within the
+// relative tolerance tol; returns how many there were.
+long expect_head_ratios(const ImageF& heads, double rg, double bg, double tol) {
+  long n = 0;
+  for (size_t i = 0; i < heads.pixel_count(); ++i) {
+    const double r = heads[3 * i], g = heads[3 * i + 1], b = heads[3 * i + 2];
+    if (!(g > 0)) continue;
+    EXPECT_NEAR(r / g, rg, tol * rg) << "head pixel " << i;
+    EXPECT_NEAR(b / g, bg, tol * bg) << "head pixel " << i;
+    ++n;
+  }
+  return n;
+}
+// A scene for a camera (scene_for_camera) whose street lamps' metamer per cd/m² is w: streetlamp_rgb
+// scales it to the luminance asked (one double product per band: 2^-53), the class stays the
+// camera-free scene's whatever the colour, and the heads drawn on the open street take w's R:G:B
+// (within 2·2^-24 + 2^-50, as HpsHeadsPoolsAndVerticalLightAreCieHp1's (1)).
+void expect_heads_take(const OpenStreet& street, const ScenePreset& cs, const std::array<double, 3>& w) {
+  const auto& [o, sc, p, s] = street;
+  const auto rgb = streetlamp_rgb(cs, 7909.0);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
+  const StreetLighting s_cs = plan_street_lighting(sc.labels, o.camera, cs, 7);
+  EXPECT_EQ(s_cs.peak_intensity_cd, s.peak_intensity_cd);  // the class, whatever the colour
+  const ImageF black(o.width, o.height, 3, 0.f);
+  ImageF heads(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(heads, black, sc.labels.ids, o.camera, s_cs, cs);
+  EXPECT_GT(expect_head_ratios(heads, w[0] / w[1], w[2] / w[1], 2 * 0x1p-24 + 0x1p-50), 20);
+}
+// Every lit pixel of a label with a positive texture has the light's tint (per band over the
+// texture) in the ratios rg : 1 : bg within tol; returns how many there were.
+long expect_tint(const ImageF& L, const ImageF& tex, const ImageU16& labels, Label label, double rg, double bg,
+                 double tol, const char* what) {
+  long n = 0;
+  for (size_t i = 0; i < L.pixel_count(); ++i) {
+    if (labels[i] != static_cast<int>(label)) continue;
+    const double f[3] = {tex[3 * i], tex[3 * i + 1], tex[3 * i + 2]};
+    if (!(L[3 * i + 1] > 0 && f[0] > 0 && f[1] > 0 && f[2] > 0)) continue;
+    const double q[3] = {L[3 * i] / f[0], L[3 * i + 1] / f[1], L[3 * i + 2] / f[2]};
+    EXPECT_NEAR(q[0] / q[1], rg, tol * rg) << what << " pixel " << i;
+    EXPECT_NEAR(q[2] / q[1], bg, tol * bg) << what << " pixel " << i;
+    ++n;
+  }
+  return n;
+}
 }  // namespace
 
 // add_street_light_rows' side job (light_map's vehicle analysis) runs on one thread while the
@@ -1847,31 +1903,13 @@ TEST(StreetLampType, HpsHeadsPoolsAndVerticalLightAreCieHp1) {
   const ImageF black(o.width, o.height, 3, 0.f);
   ImageF heads(o.width, o.height, 3, 0.f, unit::radiance);
   add_street_lighting(heads, black, sc.labels.ids, o.camera, s_hps, hps);
-  long head_px = 0;
-  const double tol1 = 2 * 0x1p-24 + 0x1p-50;
-  for (size_t i = 0; i < heads.pixel_count(); ++i) {
-    const double r = heads[3 * i], g = heads[3 * i + 1], b = heads[3 * i + 2];
-    if (!(g > 0)) continue;
-    EXPECT_NEAR(r / g, want_rg, tol1 * want_rg) << "head pixel " << i;
-    EXPECT_NEAR(b / g, want_bg, tol1 * want_bg) << "head pixel " << i;
-    ++head_px;
-  }
+  const long head_px = expect_head_ratios(heads, want_rg, want_bg, 2 * 0x1p-24 + 0x1p-50);
   EXPECT_GT(head_px, 20);
   const auto a = spectrum::hp1_rgb(1.0), d = spectrum::blackbody_rgb(6504.0, 1.0);
   const double tint_rg = (a[0] / d[0]) / (a[1] / d[1]), tint_bg = (a[2] / d[2]) / (a[1] / d[1]);
   const double tol2 = 6 * 0x1p-24 + 0x1p-50;
   auto check_tint = [&](const ImageF& L, const ImageF& tex, const ImageU16& labels, Label label, const char* what) {
-    long n = 0;
-    for (size_t i = 0; i < L.pixel_count(); ++i) {
-      if (labels[i] != static_cast<int>(label)) continue;
-      const double f[3] = {tex[3 * i], tex[3 * i + 1], tex[3 * i + 2]};
-      if (!(L[3 * i + 1] > 0 && f[0] > 0 && f[1] > 0 && f[2] > 0)) continue;
-      const double q[3] = {L[3 * i] / f[0], L[3 * i + 1] / f[1], L[3 * i + 2] / f[2]};
-      EXPECT_NEAR(q[0] / q[1], tint_rg, tol2 * tint_rg) << what << " pixel " << i;
-      EXPECT_NEAR(q[2] / q[1], tint_bg, tol2 * tint_bg) << what << " pixel " << i;
-      ++n;
-    }
-    return n;
+    return expect_tint(L, tex, labels, label, tint_rg, tint_bg, tol2, what);
   };
   const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, hps);
   ImageF pools(o.width, o.height, 3, 0.f, unit::radiance);
@@ -1892,7 +1930,8 @@ TEST(StreetLampType, HpsHeadsPoolsAndVerticalLightAreCieHp1) {
 // Spectrum.Hp1CameraMetamerGivesEachCameraTheSpectrumsRawColour), which streetlamp_rgb scales to the
 // luminance asked (one double product per band: 2^-53) and the heads on the open street take (their
 // R:G:B within 2·2^-24 + 2^-50 of the metamer's, as HpsHeadsPoolsAndVerticalLightAreCieHp1's (1));
-// with led, and for a scene made without a camera, nothing changes.
+// with led there is no HP1 metamer (and with hps no LED-B one), and a scene made without a camera
+// has none.
 TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
   OpenStreet street = open_street();
   auto& [o, sc, p, s] = street;
@@ -1903,7 +1942,9 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
   const ScenePreset hc = scene_for_camera(hps, cam);
   const auto w = camera_metamer_rgb(cam, spectrum::kHp1Spd5nm, 81);
   ASSERT_EQ(hc.lamp_camera_rgb[0], w);
-  for (int i = 1; i < spectrum::kLampSpectrumCount; ++i) {  // the signals' and rear lamps' LEDs, led or hps
+  for (const auto ls : {spectrum::LampSpectrum::LedBHeads, spectrum::LampSpectrum::LedBStreet})
+    EXPECT_EQ(hc.lamp_camera_rgb[static_cast<int>(ls)], (std::array<double, 3>{0, 0, 0}));  // hps: no LED-B
+  for (int i = 1; i <= static_cast<int>(spectrum::LampSpectrum::GreenLed); ++i) {  // the signals' and rear lamps' LEDs
     const auto wi = camera_metamer_rgb(cam, static_cast<spectrum::LampSpectrum>(i));
     EXPECT_GT(wi[0] + wi[1] + wi[2], 0) << i;
     EXPECT_EQ(hc.lamp_camera_rgb[i], wi) << i;
@@ -1911,23 +1952,86 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfHp1) {
     EXPECT_EQ(p.lamp_camera_rgb[i], (std::array<double, 3>{0, 0, 0})) << i;  // a scene made without a camera
   }
   ASSERT_GT(w[1], 0);
-  const auto rgb = streetlamp_rgb(hc, 7909.0);
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
-  const StreetLighting s_hps = plan_street_lighting(sc.labels, o.camera, hc, 7);
-  EXPECT_EQ(s_hps.peak_intensity_cd, s.peak_intensity_cd);  // the class, whatever the colour
-  const ImageF black(o.width, o.height, 3, 0.f);
-  ImageF heads(o.width, o.height, 3, 0.f, unit::radiance);
-  add_street_lighting(heads, black, sc.labels.ids, o.camera, s_hps, hc);
-  const double tol = 2 * 0x1p-24 + 0x1p-50;
-  long n = 0;
-  for (size_t i = 0; i < heads.pixel_count(); ++i) {
-    const double r = heads[3 * i], g = heads[3 * i + 1], b = heads[3 * i + 2];
-    if (!(g > 0)) continue;
-    EXPECT_NEAR(r / g, w[0] / w[1], tol * w[0] / w[1]) << "head pixel " << i;
-    EXPECT_NEAR(b / g, w[2] / w[1], tol * w[2] / w[1]) << "head pixel " << i;
-    ++n;
+  expect_heads_take(street, hc, w);
+}
+
+// The night chain's scene for its camera with led street lamps (the presets' type): the heads take
+// the camera's metamer of CIE LED-B at lamps.streetlamp_cct_K, the light on the street (pools,
+// vertical light) the one at street.cct_K, each the metamer of that CIE table where the CCT is a
+// table's (camera_metamer_rgb of kLedBSpd5nm[t] through the 5-nm table overload: the same
+// quadrature of the same spectrum up to its scale, which the metamer divides out, a few hundred
+// double terms and a 3x3 solve of condition < 10³: 10⁻⁹ relative, as
+// Spectrum.LedBCameraMetamerGivesEachCameraTheSpectrumsRawColour). The heads' R:G:B within
+// 2·2^-24 + 2^-50 of the metamer's and the pools' and a box's tint within 6·2^-24 + 2^-50 of
+// LED-B's over D65's Planck proxy (HpsHeadsPoolsAndVerticalLightAreCieHp1's bounds, the same float
+// steps). Two different CCTs give two metamers; a scene made without a camera keeps the Planck
+// proxy, bit for bit. On the old code (Planck at both CCTs with a camera too) the heads' G/R on the
+// AR0331 is the proxy's, 11 % off LED-B3's metamer.
+TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfLedB) {
+  OpenStreet street = open_street();
+  auto& [o, sc, p, s] = street;
+  p.lamp_interp_tolerance = 0;  // the exact per-pixel pools
+  ASSERT_EQ(p.streetlamp_type, StreetlampType::Led);
+  ASSERT_EQ(p.streetlamp_cct_K, 4000);  // the bundled presets' (LED-B3's CCT)
+  ASSERT_EQ(p.street_cct_K, 4000);
+  const CameraPreset cam = load_camera_preset("onsemi-ar0331");
+  constexpr int kHeads = static_cast<int>(spectrum::LampSpectrum::LedBHeads);
+  constexpr int kStreet = static_cast<int>(spectrum::LampSpectrum::LedBStreet);
+  auto expect_metamer = [&](const std::array<double, 3>& got, int table, const char* what) {
+    const auto want = camera_metamer_rgb(cam, spectrum::kLedBSpd5nm[table], 81);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], want[k], 1e-9 * want[k]) << what << " LED-B" << table + 1 << " box " << k;
+  };
+  const ScenePreset lc = scene_for_camera(p, cam);
+  expect_metamer(lc.lamp_camera_rgb[kHeads], 2, "heads");
+  expect_metamer(lc.lamp_camera_rgb[kStreet], 2, "street");
+  EXPECT_EQ(lc.lamp_camera_rgb[0], (std::array<double, 3>{0, 0, 0}));  // led: no HP1
+  const auto w = lc.lamp_camera_rgb[kHeads];
+  ASSERT_GT(w[0], 0);
+  ASSERT_GT(w[1], 0);
+  ASSERT_GT(w[2], 0);
+  expect_heads_take(street, lc, w);
+  const StreetLighting s_led = plan_street_lighting(sc.labels, o.camera, lc, 7);
+  const auto ws = lc.lamp_camera_rgb[kStreet];
+  const auto d = spectrum::blackbody_rgb(6504.0, 1.0);
+  const double tint_rg = (ws[0] / d[0]) / (ws[1] / d[1]), tint_bg = (ws[2] / d[2]) / (ws[1] / d[1]);
+  auto check_tint = [&](const ImageF& L, const ImageF& tex, const ImageU16& labels, Label label, const char* what) {
+    return expect_tint(L, tex, labels, label, tint_rg, tint_bg, 6 * 0x1p-24 + 0x1p-50, what);
+  };
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, lc);
+  ImageF pools(o.width, o.height, 3, 0.f, unit::radiance);
+  add_street_lighting(pools, tex, sc.labels.ids, o.camera, s_led, lc);
+  EXPECT_GT(check_tint(pools, tex, sc.labels.ids, Label::Road, "pool"), 10000);
+  VerticalRig r(20);
+  r.p = scene_for_camera(r.p, cam);
+  ASSERT_EQ(r.p.street_cct_K, 4000);
+  add_vertical_street_light(r.L, r.tex, r.sc.labels.ids, r.sc.depth_m, r.o.camera, r.s, r.p);
+  EXPECT_GT(check_tint(r.L, r.tex, r.sc.labels.ids, Label::Car, "box"), 100);
+  // The Planck proxy's raw G/R on this camera against the metamer's (what the change is for).
+  const PhotonMatrix M = photon_matrix(cam, load_lens_preset(cam.default_lens),
+                                       resolve(cam, load_lens_preset(cam.default_lens), ExposureSettings()));
+  auto raw_gr = [&](const std::array<double, 3>& x) {
+    return (M[1][0] * x[0] + M[1][1] * x[1] + M[1][2] * x[2]) / (M[0][0] * x[0] + M[0][1] * x[1] + M[0][2] * x[2]);
+  };
+  const double gr_proxy = raw_gr(spectrum::blackbody_rgb(4000, 1.0)), gr_led = raw_gr(w);
+  std::fprintf(stderr, "[led-b] AR0331 raw G/R of the heads: LED-B3 metamer %.4f, Planck 4000 K proxy %.4f\n", gr_led,
+               gr_proxy);
+  EXPECT_GT(gr_led, 1.05 * gr_proxy);
+  // Two CCTs, two metamers: heads at LED-B2's 3000 K, the street at LED-B4's 5000 K.
+  ScenePreset q = p;
+  q.streetlamp_cct_K = 3000;
+  q.street_cct_K = 5000;
+  const ScenePreset qc = scene_for_camera(q, cam);
+  expect_metamer(qc.lamp_camera_rgb[kHeads], 1, "heads");
+  expect_metamer(qc.lamp_camera_rgb[kStreet], 3, "street");
+  const auto wq = qc.lamp_camera_rgb[kStreet];
+  const auto tq = streetlamp_tint(qc);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(tq[k], wq[k] / d[k], 0x1p-52 * wq[k] / d[k]) << k;
+  // Without a camera: the Planck proxy at both CCTs, the same bits as before.
+  for (const ScenePreset* x : {&p, &q}) {
+    EXPECT_EQ(x->lamp_camera_rgb[kHeads], (std::array<double, 3>{0, 0, 0}));
+    EXPECT_EQ(streetlamp_rgb(*x, 7909.0), spectrum::blackbody_rgb(x->streetlamp_cct_K, 7909.0));
+    EXPECT_EQ(streetlamp_tint(*x), illuminant_tint(x->street_cct_K));
   }
-  EXPECT_GT(n, 20);
 }
 
 // A box beyond every lamp's reach (its front at 50 m, the lamp's footprint ends at

@@ -185,7 +185,8 @@ def night(day_rgb: np.ndarray, labels: np.ndarray, instances: Optional[np.ndarra
     rig           camera rig: "auto" (by aspect ratio), a name in presets/rigs, a .toml path or a
                   Cityscapes camera .json (camera/<split>/<city>/<stem>_camera.json)
     poisson       shot-noise sampler: "exact", "cornish-fisher" or "normal" (`night --poisson`)
-    streetlamp_type  the street lamps' light source, "led" or "hps" (high-pressure sodium, CIE HP1)
+    streetlamp_type  the street lamps' light source, "led" (phosphor white LED, CIE LED-B) or "hps"
+                  (high-pressure sodium, CIE HP1), each as the camera records its spectrum
                   (None: the preset's lamps.streetlamp_type; `night --streetlamp-type`)
 
     Returns a NightResult: .radiance (float32 H x W x 3, W.sr-1.m-2), .lights (float32 H x W x 3,

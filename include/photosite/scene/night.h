@@ -89,10 +89,12 @@ ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
 std::array<double, 3> illuminant_tint(double cct_K);
 // The street lamps' colour, by the scene's lamps.streetlamp_type (one dispatch for every place it
-// is used): the RGB radiance of a lamp face of a luminance (cd/m²) — led: blackbody_rgb at
-// lamps.streetlamp_cct_K; hps: spectrum::hp1_rgb — and the relative tint of their light on a
-// surface (as illuminant_tint) — led: illuminant_tint(street.cct_K); hps: HP1 over D65's Planck
-// proxy at 6504 K, per band, both at luminance 1.
+// is used): the RGB radiance of a lamp face of a luminance (cd/m²) — led: the camera's metamer of
+// CIE LED-B at lamps.streetlamp_cct_K (lamp_camera_rgb), blackbody_rgb at that CCT without a
+// camera; hps: the camera's metamer of HP1, spectrum::hp1_rgb without one — and the relative tint
+// of their light on a surface (as illuminant_tint) — led: LED-B's metamer at street.cct_K,
+// illuminant_tint(street.cct_K) without a camera; hps: HP1's — over D65's Planck proxy at 6504 K,
+// per band, both per cd/m² (photometric for a metamer, box luminance for the proxies).
 std::array<double, 3> streetlamp_rgb(const ScenePreset& p, double luminance_cd_m2);
 std::array<double, 3> streetlamp_tint(const ScenePreset& p);
 // A named lamp spectrum's colour per cd/m² as the run's camera records it

@@ -15,9 +15,11 @@
 namespace photosite::scene {
 
 // The street lamps' light source, one per scene (a street's luminaires are one installation):
-// Led, a white LED taken as a Planck radiator at lamps.streetlamp_cct_K (heads) and street.cct_K
-// (their light on the street) — a proxy: a phosphor LED's spectrum is a blue pump line and a broad
-// phosphor band, not Planck's; Hps, high-pressure sodium as CIE illuminant HP1 (spectrum::hp1_rgb),
+// Led, a phosphor-converted white LED: through a camera (the night chain) that camera's metamer of
+// CIE LED-B at lamps.streetlamp_cct_K (heads) and street.cct_K (their light on the street)
+// (spectrum::led_b_spd; ScenePreset::lamp_camera_rgb); in a scene made without a camera a Planck
+// radiator at those CCTs (a proxy: a phosphor LED is a blue pump line and a broad phosphor band,
+// which a camera records about 10 % greener, raw G/R, than Planck's; docs/night.md §7); Hps, high-pressure sodium as CIE illuminant HP1 (spectrum::hp1_rgb),
 // where both CCT keys are unused. The sensor reads a radiance through box-averaged QE, which puts
 // sodium's 570-600 nm light in the G box: a camera sees an hps street about 2x greener (raw G/R)
 // than the lamp's spectrum gives (docs/night.md §7, "Lamp type").
@@ -97,10 +99,11 @@ struct ScenePreset {
   StreetlampType streetlamp_type = StreetlampType::Led;  // colour of heads, pools and vertical light
   // Not a key: each named lamp spectrum's colour per cd/m² as the run's camera records it
   // (camera_metamer_rgb, sensor/pipeline.h), indexed by spectrum::LampSpectrum: HP1 for hps street
-  // lamps, the red, amber and green LEDs for traffic signals and the red for vehicles' rear lamps.
-  // Set by the night chain from its camera (scene_for_camera, photosite/night_chain.h). All 0 (a
-  // scene made without a camera): HP1's band integrals (spectrum::hp1_rgb), which the cameras record
-  // 2.2-2.4 times too green, and the signals' and rear lamps' box guesses (scene/lights.cpp).
+  // lamps, CIE LED-B at lamps.streetlamp_cct_K and street.cct_K for led ones, the red, amber and
+  // green LEDs for traffic signals and the red for vehicles' rear lamps. Set by the night chain
+  // from its camera (scene_for_camera, photosite/night_chain.h). All 0 (a scene made without a
+  // camera): HP1's band integrals (spectrum::hp1_rgb), which the cameras record 2.2-2.4 times too
+  // green, the Planck proxy for led, and the signals' and rear lamps' box guesses (scene/lights.cpp).
   std::array<std::array<double, 3>, spectrum::kLampSpectrumCount> lamp_camera_rgb{};
   double headlamp_luminance_cd_m2 = 5e4, headlamp_cct_K = 3200;
   double taillamp_luminance_cd_m2 = 500;

@@ -68,8 +68,9 @@ PhotonMatrix photon_matrix(const CameraPreset& preset, const LensPreset& lens,
 // LEDs" gives what is then left). Empty (all 0) where no filter has a QE table.
 std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, const double* spd, int n);
 // The same for one of the named lamp spectra (spectrum::lamp_spd): HP1 through its 5-nm table
-// (the overload above), an LED's Gaussian at every quadrature point.
-std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, spectrum::LampSpectrum s);
+// (the overload above), an LED's Gaussian or CIE LED-B's blend at cct_K (LedBHeads, LedBStreet;
+// the others ignore cct_K) at every quadrature point.
+std::array<double, 3> camera_metamer_rgb(const CameraPreset& preset, spectrum::LampSpectrum s, double cct_K = 0);
 
 // The lens's veiling-glare plan on this camera: plan_glare at the lens's pixels per degree on the
 // sensor's pitch. The one plan the CPU and Vulkan photon stages use, and by which the night chain
