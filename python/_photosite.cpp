@@ -206,6 +206,11 @@ struct SensorResult {
   std::array<double, 3> wb_gains{1, 1, 1};
   PreviewNoise noise;  // the camera-ISP preview's noise model: system gain and read noise
   double min_white = 0;  // the previews' white floor (preview_min_white: no more gain than the camera's)
+  // For wb="auto" (`night --preview-wb auto`): the camera, the exposure's full scale and the AWB's bound.
+  CameraPreset camera;
+  ResolvedExposure exposure;
+  double full_scale_dn = 0;
+  AwbBounds awb_bounds;
 };
 
 SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam,
@@ -221,26 +226,38 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
     if (const double* k = std::get_if<double>(&it->second)) r.noise.gain_dn_per_e = *k;
   r.noise.read_noise_e = cam.read_noise_e;
   r.min_white = preview_min_white(cam, exposure, r.wb_gains);
+  r.camera = cam;
+  r.exposure = exposure;
+  r.full_scale_dn = sensor_full_scale_dn(cam, exposure);
+  r.awb_bounds = camera_awb_bounds(cam);
   return r;
 }
 
 // The sRGB preview (photosite/sensor/isp.h) as uint8, rounded as a PNG preview is: the simple
-// ISP, or with isp="camera" the camera-ISP preview (`night --preview-isp camera`).
+// ISP, or with isp="camera" the camera-ISP preview (`night --preview-isp camera`); wb="fixed" the
+// preset's white balance, "auto" the AWB of the frame (`night --preview-wb auto`).
 // jpeg_quality: a Python int, range-checked at any size (0: no JPEG round trip, else 1-100).
 py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, double denoise,
-                                const py::object& jpeg_quality_arg) {
+                                const py::object& jpeg_quality_arg, const std::string& wb_name) {
   if (isp != "simple" && isp != "camera") throw Error("isp: '" + isp + "' is not simple or camera");
+  if (wb_name != "fixed" && wb_name != "auto") throw Error("wb: '" + wb_name + "' is not fixed or auto");
   const int jpeg_quality = int_arg<int>(jpeg_quality_arg, "jpeg_quality", 0, 100);
   const auto rgb = s.rgb;
   ImageF in(static_cast<int>(rgb.shape(1)), static_cast<int>(rgb.shape(0)), 3, uninitialized);
   std::memcpy(in.data(), rgb.data(), in.size() * sizeof(float));
+  std::array<double, 3> wb = s.wb_gains;
+  double min_white = s.min_white;
+  if (wb_name == "auto") {
+    wb = auto_white_balance_gains(in, s.full_scale_dn, s.awb_bounds, s.wb_gains);
+    min_white = preview_min_white(s.camera, s.exposure, wb);
+  }
   ImageU8 out(in.width(), in.height(), 3, uninitialized);
   if (isp == "camera") {
     CameraIspOptions o;
     o.denoise = denoise;
     o.chroma_denoise = 2 * denoise;  // isp.h's default ratio, as the command line
     o.jpeg_quality = jpeg_quality;
-    o.min_white = s.min_white;
+    o.min_white = min_white;
     try {
       check_camera_isp_frame(o, in.width(), in.height());  // the options, and JPEG's 65500 px a side
     } catch (const ParameterError& e) {  // the keyword's name: denoise, jpeg_quality
@@ -249,10 +266,10 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
       throw Error(e.message_for(kw));
     }
     py::gil_scoped_release nogil;
-    out = preview_camera8(in, s.wb_gains, s.noise, o);
+    out = preview_camera8(in, wb, s.noise, o);
   } else {
     py::gil_scoped_release nogil;
-    const ImageF srgb = preview_srgb(in, s.wb_gains, 0.99, 1.0, s.min_white);
+    const ImageF srgb = preview_srgb(in, wb, 0.99, 1.0, min_white);
     for (size_t i = 0; i < out.size(); ++i) out[i] = float_to_code8(srgb[i]);
   }
   return to_array(std::move(out));
@@ -693,9 +710,11 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("metadata", &SensorResult::metadata, "dict: the command's photosite/ header attributes without the prefix, less the *_text copies, "
                     "unit/<channel> and radiance_file; floats in full, seed a str (docs/python.md)")
       .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90),
+           py::arg("wb") = "fixed",
            "uint8 H x W x 3 sRGB preview: isp='simple' (white balance, p99 exposure, sRGB) or 'camera' (+ noise "
            "reduction of strength `denoise` from the sensor's noise model and a JPEG round trip at `jpeg_quality`, 0: "
-           "none; docs/realism.md)");
+           "none; docs/realism.md); wb='fixed' (the camera preset's gains) or 'auto' (gray-world AWB of the frame "
+           "within the camera's 2000-10000 K black-body gains, `night --preview-wb auto`)");
 
   py::class_<NightResult>(m, "NightResult")
       .def_readonly("radiance", &NightResult::radiance, "float32 H x W x 3: night scene radiance, W.sr-1.m-2")
@@ -705,10 +724,10 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("vanishing_point", &NightResult::vanishing_point, "(x px, y px, confidence 0..1, method)")
       .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")
       .def_readonly("chain_ms", &NightResult::chain_ms, "ms spent in the library chain (labels .. sensor)")
-      .def("preview", [](const NightResult& r, const std::string& isp, double denoise, const py::object& jpeg_quality) {
-             return preview_u8(r.sensor, isp, denoise, jpeg_quality);
-           }, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90),
-           "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality: as SensorResult.preview)");
+      .def("preview", [](const NightResult& r, const std::string& isp, double denoise, const py::object& jpeg_quality,
+                         const std::string& wb) { return preview_u8(r.sensor, isp, denoise, jpeg_quality, wb); },
+           py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90), py::arg("wb") = "fixed",
+           "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality, wb: as SensorResult.preview)");
 
   py::class_<Camera>(m, "Camera")
       .def(py::init<const std::string&, std::optional<std::string>, std::optional<std::string>,

@@ -18,21 +18,103 @@
 #include "core/isa_detail.h"
 #include "core/raster_codecs.h"
 #include "photosite/error.h"
+#include "photosite/sensor/spectrum.h"
 
 namespace photosite {
 
-std::array<double, 3> white_balance_gains(const CameraPreset& p) {
+namespace {
+// The camera's photon matrix on axis at 1 s (the white balance's scale drops out of its ratios).
+PhotonMatrix unit_photon_matrix(const CameraPreset& p) {
   LensPreset lens;
   lens.cos4_falloff = false;
   ExposureSettings s;
   s.exposure_s = 1.0;
-  const PhotonMatrix m = photon_matrix(p, lens, resolve(p, lens, s));
+  return photon_matrix(p, lens, resolve(p, lens, s));
+}
+// The camera RGB (its filter planes through filter_planes_to_rgb) of box radiances w.
+void camera_rgb_of(const CameraPreset& p, const PhotonMatrix& m, const std::array<double, 3>& w, float rgb[3]) {
   float planes[4];
-  for (int c = 0; c < 4; ++c) planes[c] = static_cast<float>(m[c][0] + m[c][1] + m[c][2]);
-  float rgb[3];
+  for (int c = 0; c < 4; ++c) planes[c] = static_cast<float>(m[c][0] * w[0] + m[c][1] * w[1] + m[c][2] * w[2]);
   filter_planes_to_rgb(p.cfa, planes, rgb);
+}
+}  // namespace
+
+std::array<double, 3> white_balance_gains(const CameraPreset& p) {
+  float rgb[3];
+  camera_rgb_of(p, unit_photon_matrix(p), {1, 1, 1}, rgb);  // x * 1 is exact: the same sums as before
   std::array<double, 3> g{};
   for (int c = 0; c < 3; ++c) g[c] = rgb[c] > 0 ? rgb[1] / rgb[c] : 1.0;
+  return g;
+}
+
+// ---- auto white balance (isp.h: auto_white_balance_gains) ----
+AwbBounds camera_awb_bounds(const CameraPreset& p, double cct_lo_K, double cct_hi_K) {
+  if (!(cct_lo_K > 0 && cct_lo_K <= cct_hi_K) || !std::isfinite(cct_hi_K))
+    fail_parameter("awb_cct_range", "", fmt::format(": {}-{} K is not a colour-temperature range", cct_lo_K, cct_hi_K));
+  const PhotonMatrix m = unit_photon_matrix(p);
+  AwbBounds b;
+  b.lo = {std::numeric_limits<double>::infinity(), 1, std::numeric_limits<double>::infinity()};
+  b.hi = {0, 1, 0};
+  constexpr int kSteps = 64;
+  for (int i = 0; i <= kSteps; ++i) {  // uniform in mired (1e6 / T), the locus's near-uniform scale
+    const double mired = 1e6 / cct_hi_K + (1e6 / cct_lo_K - 1e6 / cct_hi_K) * i / kSteps;
+    float rgb[3];
+    camera_rgb_of(p, m, spectrum::blackbody_rgb(1e6 / mired, 1.0), rgb);
+    for (int c : {0, 2}) {
+      const double g = rgb[c] > 0 ? rgb[1] / rgb[c] : 1.0;
+      b.lo[c] = std::min(b.lo[c], g);
+      b.hi[c] = std::max(b.hi[c], g);
+    }
+  }
+  return b;
+}
+
+std::array<double, 3> auto_white_balance_gains(const ImageF& rgb, double full_scale_dn, const AwbBounds& bounds,
+                                               const std::array<double, 3>& fallback, double clip) {
+  if (rgb.channels() != 3) internal_error("auto_white_balance_gains: 3-channel RGB expected");
+  if (!(full_scale_dn > 0) || !std::isfinite(full_scale_dn))
+    fail_parameter("full_scale_dn", "", fmt::format(": {} is not a sensor full scale", full_scale_dn));
+  if (!(clip > 0 && clip <= 1)) fail_parameter("awb_clip", "", fmt::format(": {} is not a fraction in (0, 1]", clip));
+  for (int c = 0; c < 3; ++c)
+    if (!(bounds.lo[c] > 0 && bounds.lo[c] <= bounds.hi[c]) || !std::isfinite(bounds.hi[c]))
+      fail_parameter("awb_bounds", "", fmt::format(": channel {} range {}-{} is not a gain range", c, bounds.lo[c], bounds.hi[c]));
+  const int64_t n = static_cast<int64_t>(rgb.pixel_count());
+  const double top = clip * full_scale_dn;
+  constexpr int64_t kChunk = 1 << 16;
+  const int64_t chunks = (n + kChunk - 1) / kChunk;
+  // Per chunk: count, sum and sum of squares of each channel over the metered pixels.
+  std::vector<std::array<double, 7>> part(chunks);
+  const float* px = rgb.data();
+#pragma omp parallel for schedule(static)
+  for (int64_t c = 0; c < chunks; ++c) {
+    std::array<double, 7> a{};
+    for (int64_t i = c * kChunk, e = std::min(n, i + kChunk); i < e; ++i) {
+      const float* q = px + 3 * i;
+      bool ok = true;
+      for (int k = 0; k < 3; ++k) ok = ok && std::isfinite(q[k]) && q[k] < top;
+      if (!ok) continue;
+      a[0] += 1;
+      for (int k = 0; k < 3; ++k) {
+        a[1 + k] += q[k];
+        a[4 + k] += static_cast<double>(q[k]) * q[k];
+      }
+    }
+    part[c] = a;
+  }
+  std::array<double, 7> t{};
+  for (const auto& a : part)
+    for (int k = 0; k < 7; ++k) t[k] += a[k];
+  const double count = t[0];
+  if (count < 2) return fallback;
+  std::array<double, 3> mean{};
+  for (int k = 0; k < 3; ++k) {
+    mean[k] = t[1 + k] / count;
+    const double var = std::max(0.0, (t[4 + k] - count * mean[k] * mean[k]) / (count - 1));
+    // Signal, not noise: the mean at least 3 standard errors (sqrt(var / count)) above 0.
+    if (!(mean[k] > 3 * std::sqrt(var / count))) return fallback;
+  }
+  std::array<double, 3> g{};
+  for (int k = 0; k < 3; ++k) g[k] = std::clamp(mean[1] / mean[k], bounds.lo[k], bounds.hi[k]);
   return g;
 }
 

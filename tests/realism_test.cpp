@@ -554,6 +554,29 @@ TEST(CameraIsp, PreviewImageDispatchesToTheChosenIsp) {
     EXPECT_EQ(e.parameter(), "preview_isp");
     EXPECT_EQ(e.message_for("--preview-isp"), "--preview-isp: 'jpeg' is not simple or camera");
   }
+  // The white balance (PreviewWb): Auto is the AWB's gains (auto_white_balance_gains within
+  // camera_awb_bounds, the preset's as fallback) and their white floor; Fixed, the default, the
+  // preset's (s above).
+  o = {};
+  o.wb = PreviewWb::Auto;
+  const ImageU8 a = preview_image(out, setup, ex, o);
+  const auto awb = auto_white_balance_gains(out.rgb, sensor_full_scale_dn(setup.camera, ex),
+                                            camera_awb_bounds(setup.camera), wb);
+  EXPECT_EQ(awb, preview_wb_gains(out.rgb, setup, ex, PreviewWb::Auto));
+  EXPECT_EQ(wb, preview_wb_gains(out.rgb, setup, ex, PreviewWb::Fixed));
+  EXPECT_NE(awb, wb);
+  const ImageU8 a_ref = preview_srgb8(out.rgb, awb, 0.99, 1.0, preview_min_white(setup.camera, ex, awb));
+  ASSERT_EQ(a.size(), a_ref.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), a_ref.data(), a.size()));
+  EXPECT_NE(0, std::memcmp(a.data(), s.data(), a.size()));
+  EXPECT_EQ(parse_preview_wb("auto"), PreviewWb::Auto);
+  EXPECT_EQ(parse_preview_wb("fixed"), PreviewWb::Fixed);
+  try {
+    parse_preview_wb("grey");
+    ADD_FAILURE() << "no error";
+  } catch (const ParameterError& e) {
+    EXPECT_EQ(e.message_for("--preview-wb"), "--preview-wb: 'grey' is not fixed or auto");
+  }
 }
 
 // expose takes the same preview flags as night, checked before anything is read or written.

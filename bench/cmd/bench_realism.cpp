@@ -206,6 +206,7 @@ void run(const Opts& o) {
     std::vector<std::string> known;
     for (const Variant& v : variants) known.push_back(v.method);
     for (const AeVariant& v : ae_variants) known.push_back(v.method);
+    known.push_back("photosite awb");
     for (const CameraVariant& v : camera_variants) known.push_back(v.method);
     known.insert(known.end(), {"thesis baseline", "day photo"});
     std::string_view rest = o.methods;
@@ -291,6 +292,22 @@ void run(const Opts& o) {
         add(av.method, f, afile, ms - simple_ms + ae_ms, raw.width(), raw.height());
         std::printf("%-28s %-34s %10.1f  (AE preview alone %.1f ms, gain %.3f = %+.2f dB)\n", av.method.c_str(),
                     f.name.c_str(), ms - simple_ms + ae_ms, ae_ms, gain, 20 * std::log10(gain));
+      }
+      // The auto-white-balance preview (`night --preview-wb auto`): the simple ISP of the same
+      // sensor frame with the gray-world AWB's gains (isp.h auto_white_balance_gains) instead of
+      // the preset's, and the white floor of those gains, as preview_image makes it.
+      if (wanted("photosite awb")) {
+        ImageU8 p8;
+        std::array<double, 3> awb{};
+        const double awb_ms = best_ms(o.repeats, [&] {
+          awb = auto_white_balance_gains(so.rgb, full_scale_dn, camera_awb_bounds(cam), wb);
+          p8 = preview_srgb8(so.rgb, awb, v.white_percentile, 1.0, preview_min_white(cam, ex, awb));
+        });
+        const fs::path afile = prev / fmt::format("{}__photosite awb.png", f.name);
+        write_png8(afile.string(), p8);
+        add("photosite awb", f, afile, ms - simple_ms + awb_ms, raw.width(), raw.height());
+        std::printf("%-28s %-34s %10.1f  (AWB preview alone %.1f ms, gains R %.3f B %.3f, fixed R %.3f B %.3f)\n",
+                    "photosite awb", f.name.c_str(), ms - simple_ms + awb_ms, awb_ms, awb[0], awb[2], wb[0], wb[2]);
       }
       for (CameraVariant cv : camera_variants) {
         if (!wanted(cv.method)) continue;

@@ -87,17 +87,29 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& setup,
 // that white at least preview_min_white(), no more gain than the camera could add)
 // or the camera ISP (preview_camera8: noise reduction from the sensor's own noise model,
 // sharpening and a JPEG round trip, an approximation of a generic in-camera ISP; docs/realism.md).
+// Either ISP white-balances with the camera preset's fixed gains (white_balance_gains, the default)
+// or with an auto white balance of the frame itself (auto_white_balance_gains inside
+// camera_awb_bounds, as a consumer camera's AWB; docs/realism.md).
 enum class PreviewIsp { Simple, Camera };
+enum class PreviewWb { Fixed, Auto };
 struct PreviewOptions {
   PreviewIsp isp = PreviewIsp::Simple;
   CameraIspOptions camera;  // read with PreviewIsp::Camera
+  PreviewWb wb = PreviewWb::Fixed;
 };
 // "simple" or "camera"; anything else throws a ParameterError for the parameter "preview_isp".
 PreviewIsp parse_preview_isp(const std::string& name);
+// "fixed" or "auto"; anything else throws a ParameterError for the parameter "preview_wb".
+PreviewWb parse_preview_wb(const std::string& name);
+// The white-balance gains a preview of this frame uses: the preset's, or with PreviewWb::Auto the
+// AWB's (metered below 0.95 of the exposure's full scale, bounded by camera_awb_bounds, the
+// preset's where the frame has no signal).
+std::array<double, 3> preview_wb_gains(const ImageF& rgb, const SensorSetup& setup, const ResolvedExposure& exposure,
+                                       PreviewWb wb);
 // Bad input when the preview cannot be made for a width x height frame (the camera ISP's JPEG round
 // trip beyond JPEG's size limit): checked before a run writes anything.
 void check_preview_frame(const PreviewOptions& o, int width, int height);
-// The preview of one exposure: the camera preset's white balance, and for the camera ISP the
+// The preview of one exposure: preview_wb_gains' white balance, and for the camera ISP the
 // exposure's system gain and the preset's read noise (the noise model its denoise is scaled to).
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options = {});

@@ -87,6 +87,32 @@ AutoExposure camera_auto_exposure(const CameraPreset& camera, const ResolvedExpo
 double preview_min_white(const CameraPreset& camera, const ResolvedExposure& exposure,
                          const std::array<double, 3>& wb_gains);
 
+// Auto white balance of a preview (`night --preview-wb auto`, docs/realism.md): the gray-world
+// estimate (Buchsbaum 1980, J. Franklin Inst. 310:1-26: the scene's mean reflectance is taken as
+// achromatic, so the frame's mean raw colour is the illuminant's), metered as a camera ISP's AWB
+// statistics are: only pixels with every channel finite and below `clip` of the sensor's full scale
+// (a clipped channel's ratio is the clip level's, not the light's; OpenCV's xphoto::GrayworldWB
+// likewise drops pixels by a threshold). Pixels near black are kept: the frame is DN above black,
+// its noise is zero-mean, so the sums are unbiased where a dark cut would bias them (a photosite
+// choice). Gains g_c = mean_G / mean_c (green 1, as white_balance_gains), each then held inside
+// the box `bounds` (see camera_awb_bounds). Where the metered means are not signal (no pixel
+// metered, or a channel's mean below 3 standard errors of it from the pixels' own spread: a
+// black or noise-only frame) the gains are `fallback` (the preset's fixed white balance).
+// Sums in double over fixed 65536-pixel chunks added in chunk order: the same for any thread count.
+struct AwbBounds {
+  std::array<double, 3> lo{1, 1, 1}, hi{1, 1, 1};  // per-channel gain range, green 1
+};
+// The bound of a real AWB: it corrects only along the illuminants it expects. Here the gains the
+// camera itself needs for a black body between cct_lo_K and cct_hi_K (its photon_matrix on
+// blackbody_rgb, the box basis; sampled every 1/64 of the range in mired, min/max per channel).
+// 2000-10000 K: a camera's white-balance scale from blue sky (10000 K) down to sodium/candle
+// light (the colour-temperature chart of a camera manual's WHITE BAL menu, Samsung SCC-643P; the
+// high-pressure sodium street lamp, the warmest the night scenes have, is ~2000 K CCT); a
+// photosite choice of range, fixed before any measurement.
+AwbBounds camera_awb_bounds(const CameraPreset& camera, double cct_lo_K = 2000, double cct_hi_K = 10000);
+std::array<double, 3> auto_white_balance_gains(const ImageF& rgb, double full_scale_dn, const AwbBounds& bounds,
+                                               const std::array<double, 3>& fallback, double clip = 0.95);
+
 // The camera-ISP preview (`photosite night --preview-isp camera`, docs/realism.md): an
 // approximation of a generic in-camera ISP, what a dashcam or phone JPEG went through, for
 // previews that are compared with real night photos. Not any one camera's ISP; the EXR sensor
