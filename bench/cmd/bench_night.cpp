@@ -289,7 +289,7 @@ void run(const Opts& o) {
       // The street lamps' shadow spans (street_lamps.shadows), made in the chain's depth stage
       // beside the low beam's rows, in the light map alone (and pools + heads above: none) by
       // add_street_light_rows; here over the threads at once.
-      double cs_a = 0, cs_b = 0;
+      double cs_a = 0, cs_b = 0, cs_c = 0, cs_d = 0;
       if (sp.lamp_shadows) {
         cs_a = cpu_ms();
         auto ts0 = clock::now();
@@ -301,6 +301,19 @@ void run(const Opts& o) {
         cs_b = cpu_ms();
         (void)spans;
         add("street lamp shadows (alone)", ms(ts0, ts1));
+        // The same spans from the label runs, as the chain makes them (its depth stage visits only
+        // the solid runs; the runs themselves made beside the Hough stage, here untimed).
+        const auto runs = scene::label_runs(lm.ids);
+        cs_c = cpu_ms();
+        auto ts2 = clock::now();
+        scene::StreetShadowBuilder sr(lm.ids, ns.depth, ns.geometry, sl, sp, runs.get());
+#pragma omp parallel
+        sr.take_blocks();
+        const scene::LampShadowRows spans_r = sr.finish();
+        auto ts3 = clock::now();
+        cs_d = cpu_ms();
+        (void)spans_r;
+        add("street lamp shadows, label runs (alone)", ms(ts2, ts3));
       }
       // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
       // pixels, as the chain makes it.
@@ -376,6 +389,7 @@ void run(const Opts& o) {
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);
         if (sp.lamp_shadows) add("cpu: street lamp shadows (alone)", cs_b - cs_a);
+        if (sp.lamp_shadows) add("cpu: street lamp shadows, label runs (alone)", cs_d - cs_c);
         add("cpu: facade windows (alone)", cv3 - cv2);
         add("cpu: peer", peer.cpu_ms);
       }
