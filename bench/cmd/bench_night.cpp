@@ -289,18 +289,26 @@ void run(const Opts& o) {
       // The street lamps' shadow spans (street_lamps.shadows), made in the chain's depth stage
       // beside the low beam's rows, in the light map alone (and pools + heads above: none) by
       // add_street_light_rows; here over the threads at once.
-      double cs_a = 0, cs_b = 0;
-      if (sp.lamp_shadows) {
-        cs_a = cpu_ms();
-        auto ts0 = clock::now();
-        scene::StreetShadowBuilder sb(lm.ids, ns.depth, ns.geometry, sl, sp);
+      // Also from the label runs, as the chain makes them (its depth stage visits only the solid
+      // runs; the runs themselves made beside the Hough stage, here untimed). Returns the CPU ms.
+      auto time_shadow_spans = [&](const scene::LabelRuns* runs, const char* row) {
+        const double c0 = cpu_ms();
+        auto t0 = clock::now();
+        scene::StreetShadowBuilder sb(lm.ids, ns.depth, ns.geometry, sl, sp, runs);
 #pragma omp parallel
         sb.take_blocks();
         const scene::LampShadowRows spans = sb.finish();
-        auto ts1 = clock::now();
-        cs_b = cpu_ms();
+        auto t1 = clock::now();
+        const double c1 = cpu_ms();
         (void)spans;
-        add("street lamp shadows (alone)", ms(ts0, ts1));
+        add(row, ms(t0, t1));
+        return c1 - c0;
+      };
+      double cs_labels = 0, cs_runs = 0;
+      if (sp.lamp_shadows) {
+        cs_labels = time_shadow_spans(nullptr, "street lamp shadows (alone)");
+        const auto runs = scene::label_runs(lm.ids);
+        cs_runs = time_shadow_spans(runs.get(), "street lamp shadows, label runs (alone)");
       }
       // The ego low beam's illuminance image (it runs inside "depth" above) on the ground-class
       // pixels, as the chain makes it.
@@ -375,7 +383,10 @@ void run(const Opts& o) {
         add("cpu: street lamp plan (alone)", cp1 - cp0);
         add("cpu: vertical surfaces (alone)", cv1 - cv0);
         add("cpu: pools + heads (alone)", cv2 - cv1);
-        if (sp.lamp_shadows) add("cpu: street lamp shadows (alone)", cs_b - cs_a);
+        if (sp.lamp_shadows) {
+          add("cpu: street lamp shadows (alone)", cs_labels);
+          add("cpu: street lamp shadows, label runs (alone)", cs_runs);
+        }
         add("cpu: facade windows (alone)", cv3 - cv2);
         add("cpu: peer", peer.cpu_ms);
       }
