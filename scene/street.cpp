@@ -912,9 +912,6 @@ constexpr double kRunStep_m = 0.5;
 // are whole blocks, so the quadrilaterals, and their pixels, do not depend on the thread count).
 constexpr int kShadowBlock = 128;
 
-// The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
-// around it: per row, from the least to the largest u where the row's centre line crosses its
-// edges (exact for a convex quadrilateral; a twisted one is filled to its hull on each row).
 // A thread's spans as quad_spans makes them, each joined at once to the last one it made of the
 // same lamp and row where the two overlap or touch (x0 ≤ last x1 and last x0 ≤ x1): their union
 // is one span, the one finish()'s merge would make of the two, so the merged spans are the same
@@ -942,6 +939,9 @@ struct SpanSink {
   }
 };
 
+// The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
+// around it: per row, from the least to the largest u where the row's centre line crosses its
+// edges (exact for a convex quadrilateral; a twisted one is filled to its hull on each row).
 void quad_spans(const double* u, const double* v, int W, int H, int lamp, SpanSink& out) {
   double vmin = v[0], vmax = v[0];
   for (int i = 1; i < 4; ++i) vmin = std::min(vmin, v[i]), vmax = std::max(vmax, v[i]);
@@ -972,30 +972,37 @@ void quad_spans(const double* u, const double* v, int W, int H, int lamp, SpanSi
   }
 }
 
-// The columns of one group of eight (lanes b = 0..7 at x = xg + b) that continue their open run
-// in row y: solid (`bits`), a run open (`open`), the same class as the run and a forward
-// distance D = z·k_D within kRunStep_m of the run's last one. Those lanes take y as their run's
-// bottom and D as its last distance here; the others (a run starting or ending) are left to the
-// caller. The AVX2 form of the scalar test below: the same float operations, the same lanes.
+// Each column's open run in a block: its top and bottom rows (top −1: none open), its class and
+// the forward distance D = z·k_D of its last pixel.
 struct RunState {
   std::vector<int32_t> top, bottom, id;
   std::vector<float> Dlast;
   explicit RunState(int n) : top(n + 8, -1), bottom(n + 8, -1), id(n + 8, -1), Dlast(n + 8, 0.f) {}
 };
-inline unsigned continue_lanes_scalar(const uint16_t* ids, const float* z, int i, unsigned bits, unsigned open, float kD,
-                                      int y, RunState& r) {
-  unsigned cont = 0;
-  for (int b = 0; b < 8; ++b) {
-    if (!((bits & open) >> b & 1)) continue;
-    const float D = z[b] * kD;
-    if (static_cast<int>(ids[b]) == r.id[i + b] && std::fabs(D - r.Dlast[i + b]) <= static_cast<float>(kRunStep_m)) {
-      r.bottom[i + b] = y;
-      r.Dlast[i + b] = D;
-      cont |= 1u << b;
-    }
+// Of the candidate lanes `cand` (all bits set: lanes b = 0..7 at index i + b, row y), those whose
+// D = z·k_D lies within kRunStep_m of their run's last D continue it: they take y as their run's
+// bottom and D as its last distance (blends and plain stores: a masked store is slow on AMD's
+// cores). The float operations of StreetShadowBuilder's per-pixel test (solid_pixel), eight lanes
+// at once; returns the continuing lanes' bits.
+__attribute__((target("avx2"))) unsigned join_lanes_avx2(__m256i cand, const float* z, int i, float kD, int y,
+                                                         RunState& r) {
+  const __m256 D = _mm256_mul_ps(_mm256_loadu_ps(z), _mm256_set1_ps(kD));
+  const __m256 Dl = _mm256_loadu_ps(&r.Dlast[i]);
+  const __m256 absd = _mm256_andnot_ps(_mm256_set1_ps(-0.f), _mm256_sub_ps(D, Dl));
+  const __m256 near = _mm256_cmp_ps(absd, _mm256_set1_ps(static_cast<float>(kRunStep_m)), _CMP_LE_OQ);
+  const __m256i m = _mm256_and_si256(cand, _mm256_castps_si256(near));
+  const unsigned cont = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
+  if (cont) {
+    __m256i* pb = reinterpret_cast<__m256i*>(&r.bottom[i]);
+    _mm256_storeu_si256(pb, _mm256_blendv_epi8(_mm256_loadu_si256(pb), _mm256_set1_epi32(y), m));
+    _mm256_storeu_ps(&r.Dlast[i], _mm256_blendv_ps(Dl, D, _mm256_castsi256_ps(m)));
   }
   return cont;
 }
+// The class-bits scan's group of eight columns (lanes b = 0..7 at x = xg + b, index i + b): the
+// lanes that are solid (`bits`), have a run open (`open`: its last row is the row above), are of
+// the run's class and continue it (join_lanes_avx2). The others (a run starting or ending) are
+// left to the caller.
 __attribute__((target("avx2"))) unsigned continue_lanes_avx2(const uint16_t* ids, const float* z, int i, unsigned bits,
                                                              unsigned open, float kD, int y, RunState& r) {
   const unsigned cand = bits & open;
@@ -1004,50 +1011,27 @@ __attribute__((target("avx2"))) unsigned continue_lanes_avx2(const uint16_t* ids
   const __m256i want = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(cand)), lanebit), lanebit);
   const __m256i lab = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids)));
   const __m256i same = _mm256_cmpeq_epi32(lab, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])));
-  const __m256 D = _mm256_mul_ps(_mm256_loadu_ps(z), _mm256_set1_ps(kD));
-  const __m256 Dl = _mm256_loadu_ps(&r.Dlast[i]);
-  const __m256 absd = _mm256_andnot_ps(_mm256_set1_ps(-0.f), _mm256_sub_ps(D, Dl));
-  const __m256 near = _mm256_cmp_ps(absd, _mm256_set1_ps(static_cast<float>(kRunStep_m)), _CMP_LE_OQ);
-  const __m256i m = _mm256_and_si256(_mm256_and_si256(want, same), _mm256_castps_si256(near));
-  const unsigned cont = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
-  if (cont) {  // blends and plain stores (a masked store is slow on AMD's cores)
-    __m256i* pb = reinterpret_cast<__m256i*>(&r.bottom[i]);
-    _mm256_storeu_si256(pb, _mm256_blendv_epi8(_mm256_loadu_si256(pb), _mm256_set1_epi32(y), m));
-    _mm256_storeu_ps(&r.Dlast[i], _mm256_blendv_ps(Dl, D, _mm256_castsi256_ps(m)));
-  }
-  return cont;
+  return join_lanes_avx2(_mm256_and_si256(want, same), z, i, kD, y, r);
 }
-
 // The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y: the chain's path,
 // StreetShadowBuilder given the label runs) that continue their column's open run: a run open
-// (top ≥ 0) whose last row is the row above, of class `lab`, and D = z·k_D within kRunStep_m of its
-// last D. Those lanes take y as their run's bottom and D as their last distance; the others (a run
-// starting, or closed and one started) are left to the caller's solid_pixel. The same int and float
-// operations per lane as solid_pixel's test, eight lanes at once (z[0..7] must be readable).
+// (top ≥ 0) whose last row is the row above, of class `lab`, and continued (join_lanes_avx2). The
+// others (a run starting, or closed and one started) are left to the caller's solid_pixel
+// (z[0..7] must be readable).
 __attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z, int i, int n, int lab, float kD,
                                                                  int y, RunState& r) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
   const __m256i open = _mm256_cmpgt_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.top[i])),
                                           _mm256_set1_epi32(-1));
-  __m256i* pb = reinterpret_cast<__m256i*>(&r.bottom[i]);
-  const __m256i bot = _mm256_loadu_si256(pb);
-  const __m256i above = _mm256_cmpeq_epi32(bot, _mm256_set1_epi32(y - 1));
+  const __m256i above = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.bottom[i])),
+                                           _mm256_set1_epi32(y - 1));
   const __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])),
                                           _mm256_set1_epi32(lab));
-  const __m256 D = _mm256_mul_ps(_mm256_loadu_ps(z), _mm256_set1_ps(kD));
-  const __m256 Dl = _mm256_loadu_ps(&r.Dlast[i]);
-  const __m256 absd = _mm256_andnot_ps(_mm256_set1_ps(-0.f), _mm256_sub_ps(D, Dl));
-  const __m256 near = _mm256_cmp_ps(absd, _mm256_set1_ps(static_cast<float>(kRunStep_m)), _CMP_LE_OQ);
-  const __m256i m = _mm256_and_si256(_mm256_and_si256(_mm256_and_si256(valid, open), _mm256_and_si256(above, same)),
-                                     _mm256_castps_si256(near));
-  const unsigned cont = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(m)));
-  if (cont) {  // blends and plain stores, as continue_lanes_avx2
-    _mm256_storeu_si256(pb, _mm256_blendv_epi8(bot, _mm256_set1_epi32(y), m));
-    _mm256_storeu_ps(&r.Dlast[i], _mm256_blendv_ps(Dl, D, _mm256_castsi256_ps(m)));
-  }
-  return cont;
+  return join_lanes_avx2(_mm256_and_si256(_mm256_and_si256(valid, open), _mm256_and_si256(above, same)), z, i, kD, y,
+                         r);
 }
+}  // namespace
 
 // Where each lamp's light on the ground is blocked, from the metric scene. A lamp S = (X_s, H, D_s)
 // and a solid point P = (X, Y, D) below it (Y < H): the ray from S through P meets the ground at
@@ -1066,8 +1050,6 @@ __attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z,
 // hides); an occluder on one plane has no thickness along the ray, so a car's shadow starts at its
 // visible face, not under its far side. Deterministic: the spans are merged per row and lamp and
 // sorted, whatever the threads' order.
-}  // namespace
-
 StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                                          const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs)
     : labels_(labels), depth_(depth_m), g_(g), s_(s), runs_(runs && runs->made_of(labels) ? runs : nullptr),
@@ -1222,7 +1204,7 @@ void StreetShadowBuilder::take_blocks() {
     } else {
       // Row by row, eight columns at a time: a group with no solid pixel and no open run is passed
       // over on its two bytes (most of the frame); the lanes continuing their runs are found eight
-      // at a time (continue_lanes_*, the same test as solid_pixel's), the few that start or end
+      // at a time (continue_lanes_avx2, the same test as solid_pixel's), the few that start or end
       // one one by one.
       const int ng = (xb - xa + 7) / 8;
       std::vector<uint8_t> bits(ng + 1, 0), open(ng + 1, 0);
@@ -1237,9 +1219,9 @@ void StreetShadowBuilder::take_blocks() {
           const unsigned m = bits[q];
           unsigned o = open[q];
           if (!(m | o)) continue;
-          const bool full = x0 + 8 <= xb;
-          const unsigned cont = full && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r)
-                                             : continue_lanes_scalar(ids + x0, z + x0, i0, m, o, kD, y, r);
+          // (Without AVX2, or in a block's last short group, every lane goes to solid_pixel below,
+          // whose test is the same.)
+          const unsigned cont = x0 + 8 <= xb && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r) : 0u;
           unsigned rest = (m | o) & ~cont;
           while (rest) {
             const int b = std::countr_zero(rest);
