@@ -207,12 +207,11 @@ PreviewWb parse_preview_wb(const std::string& name) {
   fail_parameter("preview_wb", "", ": '" + name + "' is not fixed or auto");
 }
 
-std::array<double, 3> preview_wb_gains(const ImageF& rgb, const SensorSetup& setup, const ResolvedExposure& exposure,
+std::array<double, 3> preview_wb_gains(const ImageF& rgb, const CameraPreset& camera, const ResolvedExposure& exposure,
                                        PreviewWb wb) {
-  const auto fixed = white_balance_gains(setup.camera);
+  const auto fixed = white_balance_gains(camera);
   if (wb == PreviewWb::Fixed) return fixed;
-  return auto_white_balance_gains(rgb, sensor_full_scale_dn(setup.camera, exposure), camera_awb_bounds(setup.camera),
-                                  fixed);
+  return auto_white_balance_gains(rgb, sensor_full_scale_dn(camera, exposure), camera_awb_bounds(camera), fixed);
 }
 
 void check_preview_frame(const PreviewOptions& o, int width, int height) {
@@ -221,7 +220,7 @@ void check_preview_frame(const PreviewOptions& o, int width, int height) {
 
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options) {
-  const auto wb = preview_wb_gains(out.rgb, setup, exposure, options.wb);
+  const auto wb = preview_wb_gains(out.rgb, setup.camera, exposure, options.wb);
   const double min_white = preview_min_white(setup.camera, exposure, wb);
   if (options.isp == PreviewIsp::Simple) return preview_srgb8(out.rgb, wb, 0.99, 1.0, min_white);
   CameraIspOptions camera = options.camera;

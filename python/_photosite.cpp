@@ -206,11 +206,9 @@ struct SensorResult {
   std::array<double, 3> wb_gains{1, 1, 1};
   PreviewNoise noise;  // the camera-ISP preview's noise model: system gain and read noise
   double min_white = 0;  // the previews' white floor (preview_min_white: no more gain than the camera's)
-  // For wb="auto" (`night --preview-wb auto`): the camera, the exposure's full scale and the AWB's bound.
+  // For wb="auto" (`night --preview-wb auto`, the library's preview_wb_gains): the camera and the exposure.
   CameraPreset camera;
   ResolvedExposure exposure;
-  double full_scale_dn = 0;
-  AwbBounds awb_bounds;
 };
 
 SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute> attrs, const CameraPreset& cam,
@@ -228,8 +226,6 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
   r.min_white = preview_min_white(cam, exposure, r.wb_gains);
   r.camera = cam;
   r.exposure = exposure;
-  r.full_scale_dn = sensor_full_scale_dn(cam, exposure);
-  r.awb_bounds = camera_awb_bounds(cam);
   return r;
 }
 
@@ -248,7 +244,7 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
   std::array<double, 3> wb = s.wb_gains;
   double min_white = s.min_white;
   if (wb_name == "auto") {
-    wb = auto_white_balance_gains(in, s.full_scale_dn, s.awb_bounds, s.wb_gains);
+    wb = preview_wb_gains(in, s.camera, s.exposure, PreviewWb::Auto);
     min_white = preview_min_white(s.camera, s.exposure, wb);
   }
   ImageU8 out(in.width(), in.height(), 3, uninitialized);

@@ -562,8 +562,8 @@ TEST(CameraIsp, PreviewImageDispatchesToTheChosenIsp) {
   const ImageU8 a = preview_image(out, setup, ex, o);
   const auto awb = auto_white_balance_gains(out.rgb, sensor_full_scale_dn(setup.camera, ex),
                                             camera_awb_bounds(setup.camera), wb);
-  EXPECT_EQ(awb, preview_wb_gains(out.rgb, setup, ex, PreviewWb::Auto));
-  EXPECT_EQ(wb, preview_wb_gains(out.rgb, setup, ex, PreviewWb::Fixed));
+  EXPECT_EQ(awb, preview_wb_gains(out.rgb, setup.camera, ex, PreviewWb::Auto));
+  EXPECT_EQ(wb, preview_wb_gains(out.rgb, setup.camera, ex, PreviewWb::Fixed));
   EXPECT_NE(awb, wb);
   const ImageU8 a_ref = preview_srgb8(out.rgb, awb, 0.99, 1.0, preview_min_white(setup.camera, ex, awb));
   ASSERT_EQ(a.size(), a_ref.size());

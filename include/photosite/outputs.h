@@ -104,7 +104,7 @@ PreviewWb parse_preview_wb(const std::string& name);
 // The white-balance gains a preview of this frame uses: the preset's, or with PreviewWb::Auto the
 // AWB's (metered below 0.95 of the exposure's full scale, bounded by camera_awb_bounds, the
 // preset's where the frame has no signal).
-std::array<double, 3> preview_wb_gains(const ImageF& rgb, const SensorSetup& setup, const ResolvedExposure& exposure,
+std::array<double, 3> preview_wb_gains(const ImageF& rgb, const CameraPreset& camera, const ResolvedExposure& exposure,
                                        PreviewWb wb);
 // Bad input when the preview cannot be made for a width x height frame (the camera ISP's JPEG round
 // trip beyond JPEG's size limit): checked before a run writes anything.
