@@ -157,23 +157,15 @@ std::array<double, 3> metamer_of(const CameraPreset& p, const std::function<doub
 
 std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, const double* spd, int n) {
   const double lo = 380, hi = 380 + 5.0 * (n - 1);
-  return metamer_of(
-      p,
-      [&](double l) {  // linear between the 5-nm samples
-        const double t = (l - lo) / 5;
-        const int i = std::clamp(static_cast<int>(t), 0, n - 2);
-        const double f = t - i;
-        return spd[i] * (1 - f) + spd[i + 1] * f;
-      },
-      lo, hi);
+  return metamer_of(p, [&](double l) { return spectrum::table_5nm(spd, n, l); }, lo, hi);
 }
 
 std::array<double, 3> camera_metamer_rgb(const CameraPreset& p, spectrum::LampSpectrum s, double cct_K) {
-  if (s == spectrum::LampSpectrum::Hp1) return camera_metamer_rgb(p, spectrum::kHp1Spd5nm, 81);
-  // The LEDs' Gaussians are evaluated where the quadrature needs them (their 17-30 nm widths
-  // would be coarsely sampled on a 5-nm table); 380-780 nm holds all of their power (≥ 7 FWHM
-  // from each peak, ~e⁻¹³⁶ of it outside). LED-B (led street lamps) is its blend of the CIE
-  // tables at cct_K, linear between their 5-nm samples, on the same range.
+  // HP1 is its 5-nm table (table_5nm, as camera_metamer_rgb of the table takes it). The LEDs'
+  // Gaussians are evaluated where the quadrature needs them (their 17-30 nm widths would be coarsely
+  // sampled on a 5-nm table); 380-780 nm holds all of their power (≥ 7 FWHM from each peak,
+  // ~e⁻¹³⁶ of it outside). LED-B (led street lamps) is its blend of the CIE tables at cct_K, linear
+  // between their 5-nm samples, on the same range.
   return metamer_of(p, [s, cct_K](double l) { return spectrum::lamp_spd(s, l, cct_K); }, 380, 780);
 }
 

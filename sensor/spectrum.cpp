@@ -126,10 +126,7 @@ double led_b_spd(double cct_K, double l) {
       for (int i = 0; i < 81; ++i) a[t] += kLedBSpd5nm[t][i] * cie_y_bar(380 + 5.0 * i);
     return a;
   }();
-  const double u = (l - 380) / 5;
-  const int i = std::clamp(static_cast<int>(u), 0, 79);
-  const double f = u - i;
-  auto table = [&](int t) { return (kLedBSpd5nm[t][i] * (1 - f) + kLedBSpd5nm[t][i + 1] * f) / lum[t]; };
+  auto table = [&](int t) { return table_5nm(kLedBSpd5nm[t], 81, l) / lum[t]; };
   if (cct_K <= kLedBCct_K[0]) return table(0);
   if (cct_K >= kLedBCct_K[4]) return table(4);
   int j = 0;
@@ -139,19 +136,21 @@ double led_b_spd(double cct_K, double l) {
   return table(j) * (1 - w) + table(j + 1) * w;
 }
 
+double table_5nm(const double* spd, int n, double l) {
+  if (!(l >= 380 && l <= 380 + 5.0 * (n - 1))) return 0.0;
+  const double t = (l - 380) / 5;
+  const int i = std::clamp(static_cast<int>(t), 0, n - 2);
+  const double f = t - i;
+  return spd[i] * (1 - f) + spd[i + 1] * f;
+}
+
 double lamp_spd(LampSpectrum s, double l, double cct_K) {
   auto led = [l](const LedLine& d) {
     const double t = (l - d.peak_nm) / d.fwhm_nm;
     return std::exp(-4 * std::numbers::ln2 * t * t);
   };
   switch (s) {
-    case LampSpectrum::Hp1: {
-      if (!(l >= 380 && l <= 780)) return 0.0;
-      const double t = (l - 380) / 5;
-      const int i = std::clamp(static_cast<int>(t), 0, 79);
-      const double f = t - i;
-      return kHp1Spd5nm[i] * (1 - f) + kHp1Spd5nm[i + 1] * f;
-    }
+    case LampSpectrum::Hp1: return table_5nm(kHp1Spd5nm, 81, l);
     case LampSpectrum::RedLed: return led(kRedLed);
     case LampSpectrum::AmberLed: return led(kAmberLed);
     case LampSpectrum::GreenLed: return led(kGreenLed);

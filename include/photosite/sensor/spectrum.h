@@ -98,6 +98,11 @@ inline constexpr double kLedBSpd5nm[5][81] = {
 // photosite choice (no CIE LED-B beyond them). At a table's own CCT, that table (scaled).
 double led_b_spd(double cct_K, double wavelength_nm);
 
+// A spectrum tabulated every 5 nm from 380 nm (n samples) at λ (nm): linear between the samples,
+// 0 outside 380 .. 380 + 5·(n − 1) nm. What lamp_spd, led_b_spd and camera_metamer_rgb read the
+// CIE tables with.
+double table_5nm(const double* spd, int n, double wavelength_nm);
+
 // The lamp spectra the night chain gives each camera's metamer of (camera_metamer_rgb,
 // sensor/pipeline.h; ScenePreset::lamp_camera_rgb): CIE HP1 for hps street lamps, the LEDs for
 // traffic signals (red, amber, green) and vehicles' rear lamps (red), and for led street lamps CIE
