@@ -3696,6 +3696,22 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   StreetLighting sl;
   if (geometry && street) sl = *street;
   const bool plan_here = geometry && !street;
+  // Where the light map makes the plan and the lamps' shadows itself (light_map alone: the chain
+  // hands both), the label runs (label_runs) are made with the plan, on its thread: its poles
+  // (pole_components_of) and the shadows' scan (StreetShadowBuilder, below) read them, as the
+  // chain's do, rather than each scanning the labels (the same boxes and spans).
+  const bool runs_here = plan_here && depth_m && p.lamp_shadows && p.street_road_luminance_cd_m2 > 0 && !street_shadows;
+  std::shared_ptr<const LabelRuns> runs;
+  auto plan = [&] {
+    if (!runs_here) {
+      sl = plan_street_lighting(lm, *geometry, p, seed);
+      return;
+    }
+    runs = label_runs(labels);
+    const std::shared_ptr<const PoleComponents> poles =
+        p.street_road_luminance_cd_m2 > 0 ? pole_components_of(labels, runs.get()) : nullptr;
+    sl = plan_street_lighting_with(lm, *geometry, p, seed, poles.get());
+  };
   if (plan_here && !handed) {
     // The plan and the vehicle rows (light_map alone: the chain hands both) each read the whole
     // label image and nothing of the other: made side by side, one on each of two threads, rather
@@ -3709,7 +3725,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
 #pragma omp section
       {
         try {
-          sl = plan_street_lighting(lm, *geometry, p, seed);
+          plan();
         } catch (...) {
           plan_failed = std::current_exception();
         }
@@ -3719,7 +3735,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     }
     if (plan_failed) std::rethrow_exception(plan_failed);
   } else {
-    if (plan_here) sl = plan_street_lighting(lm, *geometry, p, seed);
+    if (plan_here) plan();
     if (!handed) vehicle_rows(lm, VehicleIds(), ry0, ry1);
   }
   const bool extent = sl.road_right_m > sl.road_left_m;
@@ -4094,11 +4110,15 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
         if (y >= ry0 && y <= ry1) veh.draw_row(L, y);
       };
       const std::function<void()> side = vehicle_lamps;
+      // The lamps' shadow spans from the runs made with the plan (above), over the threads.
+      LampShadowRows own_shadows;
+      if (runs && !sl.lamps.empty()) own_shadows = street_lamp_shadow_spans(labels, *depth_m, *geometry, sl, p, runs.get());
+      runs.reset();
       const StreetRowsResult r =
           add_street_light_rows(L, texture, labels, *depth_m, *geometry, sl, p, seed, facades, rows ? &*rows : nullptr,
                                 row_pass ? &first : nullptr, row_pass ? &side : nullptr,
-                                vehicle_beams && ry1 >= ry0 ? beam_y0 : ry0,
-                                vehicle_beams && ry1 >= ry0 ? H - 1 : ry1, street_shadows);
+                                vehicle_beams && ry1 >= ry0 ? beam_y0 : ry0, vehicle_beams && ry1 >= ry0 ? H - 1 : ry1,
+                                own_shadows.lamps ? &own_shadows : street_shadows);
       out.stats.signals = signals;
       out.stats.pole_lamps = r.pole_lamps;
       out.stats.windows = r.windows;

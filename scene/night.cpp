@@ -326,7 +326,6 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   ground_shadows.reset();
   depth_runs.reset();
   regions.reset();
-  label_row_runs.reset();
   poles.reset();
   // The darkened layer (asked for; a device tail makes its own) from the texture as it is final,
   // after the tram rails' painting above (its time then in "depth").
@@ -334,6 +333,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   lap("depth");
   StreetLighting tracked;
   if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
+  // A sequence's street lamps' shadows, for its tracked lamps, from the label runs made beside the
+  // Hough stage (street_lamp_shadow_spans over the threads; their time in the light map's stage).
+  if (seq && p.lamp_shadows && !tracked.lamps.empty())
+    street_shadow_rows = street_lamp_shadow_spans(labels.ids, s.depth, s.geometry, tracked, p, label_row_runs.get());
+  label_row_runs.reset();
   // On the CPU the light map composes the night radiance row by row inside its row pass, each row
   // once its light is final (LightMap::composed: the same bits as compose() after it, without a
   // pass of its own over four full-frame images); the stage is then timed as one,

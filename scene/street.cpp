@@ -999,22 +999,7 @@ __attribute__((target("avx2"))) unsigned join_lanes_avx2(__m256i cand, const flo
   }
   return cont;
 }
-// The class-bits scan's group of eight columns (lanes b = 0..7 at x = xg + b, index i + b): the
-// lanes that are solid (`bits`), have a run open (`open`: its last row is the row above), are of
-// the run's class and continue it (join_lanes_avx2). The others (a run starting or ending) are
-// left to the caller.
-__attribute__((target("avx2"))) unsigned continue_lanes_avx2(const uint16_t* ids, const float* z, int i, unsigned bits,
-                                                             unsigned open, float kD, int y, RunState& r) {
-  const unsigned cand = bits & open;
-  if (!cand) return 0;
-  const __m256i lanebit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  const __m256i want = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(cand)), lanebit), lanebit);
-  const __m256i lab = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids)));
-  const __m256i same = _mm256_cmpeq_epi32(lab, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])));
-  return join_lanes_avx2(_mm256_and_si256(want, same), z, i, kD, y, r);
-}
-// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y: the chain's path,
-// StreetShadowBuilder given the label runs) that continue their column's open run: a run open
+// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y) that continue their column's open run: a run open
 // (top ≥ 0) whose last row is the row above, of class `lab`, and continued (join_lanes_avx2). The
 // others (a run starting, or closed and one started) are left to the caller's solid_pixel
 // (z[0..7] must be readable).
@@ -1052,8 +1037,11 @@ __attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z,
 // sorted, whatever the threads' order.
 StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                                          const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs)
-    : labels_(labels), depth_(depth_m), g_(g), s_(s), runs_(runs && runs->made_of(labels) ? runs : nullptr),
-      reach_(s.lamps.size()) {
+    : labels_(labels), depth_(depth_m), g_(g), s_(s), reach_(s.lamps.size()) {
+  // The label runs handed where they were made of these labels, else made here (both threads):
+  // the scan visits only the solid runs.
+  if (!(runs && runs->made_of(labels)) && !s.lamps.empty()) own_runs_ = label_runs(labels);
+  runs_ = own_runs_ ? own_runs_.get() : runs;
   for (size_t k = 0; k < s.lamps.size(); ++k) reach_[k] = reach_m(s.lamps[k].Y_m, p);
   // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
   double D;
@@ -1168,77 +1156,35 @@ void StreetShadowBuilder::take_blocks() {
         r.top[i] = -1;
       }
     };
-    if (runs) {
-      // The label runs (made beside the Hough stage in the chain): only the solid ones are
-      // visited; a run that a non-solid pixel ended is closed when its column's next solid pixel
-      // comes (its bottom is then not the row above) or after the last row.
-      for (int y = 0; y < H; ++y) {
-        const float* z = depth_m.row(y);
-        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
-        const int r0 = runs->row_start[y], r1 = runs->row_start[y + 1];
-        // The row's first run reaching column xa.
-        int k = static_cast<int>(std::upper_bound(runs->x0.begin() + r0, runs->x0.begin() + r1, xa) - runs->x0.begin()) - 1;
-        for (k = std::max(k, r0); k < r1 && runs->x0[k] < xb; ++k) {
-          const int lab = runs->id[k];
-          if (!(lab < 64 && (solid >> lab & 1))) continue;
-          const int x1 = std::min(runs->end(k, y), xb);
-          // Eight columns at a time where the row has eight from x on (continue_run_lanes_avx2):
-          // most of a solid run's pixels continue their columns' runs; the rest one by one.
-          for (int x = std::max(runs->x0[k], xa); x < x1;) {
-            if (avx2 && x + 8 <= W) {
-              const int n = std::min(8, x1 - x);
-              unsigned rest = ((1u << n) - 1) & ~continue_run_lanes_avx2(z + x, x - xa, n, lab, kD, y, r);
-              while (rest) {
-                const int b = std::countr_zero(rest);
-                rest &= rest - 1;
-                solid_pixel(x + b, y, lab, z[x + b], kD);
-              }
-              x += n;
-            } else {
-              solid_pixel(x, y, lab, z[x], kD);
-              ++x;
+    // The label runs (the chain's, made beside the Hough stage, or the constructor's): only the
+    // solid ones are visited; a run that a non-solid pixel ended is closed when its column's next
+    // solid pixel comes (its bottom is then not the row above) or after the last row.
+    for (int y = 0; y < H; ++y) {
+      const float* z = depth_m.row(y);
+      const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
+      const int r0 = runs->row_start[y], r1 = runs->row_start[y + 1];
+      // The row's first run reaching column xa.
+      int k = static_cast<int>(std::upper_bound(runs->x0.begin() + r0, runs->x0.begin() + r1, xa) - runs->x0.begin()) - 1;
+      for (k = std::max(k, r0); k < r1 && runs->x0[k] < xb; ++k) {
+        const int lab = runs->id[k];
+        if (!(lab < 64 && (solid >> lab & 1))) continue;
+        const int x1 = std::min(runs->end(k, y), xb);
+        // Eight columns at a time where the row has eight from x on (continue_run_lanes_avx2):
+        // most of a solid run's pixels continue their columns' runs; the rest one by one.
+        for (int x = std::max(runs->x0[k], xa); x < x1;) {
+          if (avx2 && x + 8 <= W) {
+            const int n = std::min(8, x1 - x);
+            unsigned rest = ((1u << n) - 1) & ~continue_run_lanes_avx2(z + x, x - xa, n, lab, kD, y, r);
+            while (rest) {
+              const int b = std::countr_zero(rest);
+              rest &= rest - 1;
+              solid_pixel(x + b, y, lab, z[x + b], kD);
             }
+            x += n;
+          } else {
+            solid_pixel(x, y, lab, z[x], kD);
+            ++x;
           }
-        }
-      }
-    } else {
-      // Row by row, eight columns at a time: a group with no solid pixel and no open run is passed
-      // over on its two bytes (most of the frame); the lanes continuing their runs are found eight
-      // at a time (continue_lanes_avx2, the same test as solid_pixel's), the few that start or end
-      // one one by one.
-      const int ng = (xb - xa + 7) / 8;
-      std::vector<uint8_t> bits(ng + 1, 0), open(ng + 1, 0);
-      for (int y = 0; y < H; ++y) {
-        const uint16_t* ids = labels.row(y);
-        const float* z = depth_m.row(y);
-        const float kD = static_cast<float>(c - (y - g.cy_px) / g.f_px * sn);
-        if (avx2) class_bits_avx2(ids + xa, xb - xa, solid, bits.data());
-        else class_bits_scalar(ids + xa, xb - xa, solid, bits.data());
-        for (int q = 0; q < ng; ++q) {
-          const int i0 = 8 * q, x0 = xa + i0;
-          const unsigned m = bits[q];
-          unsigned o = open[q];
-          if (!(m | o)) continue;
-          // (Without AVX2, or in a block's last short group, every lane goes to solid_pixel below,
-          // whose test is the same.)
-          const unsigned cont = x0 + 8 <= xb && avx2 ? continue_lanes_avx2(ids + x0, z + x0, i0, m, o, kD, y, r) : 0u;
-          unsigned rest = (m | o) & ~cont;
-          while (rest) {
-            const int b = std::countr_zero(rest);
-            rest &= rest - 1;
-            const int i = i0 + b, x = x0 + b;
-            if (x >= xb) break;
-            if (m >> b & 1) {
-              solid_pixel(x, y, ids[x], z[x], kD);  // (its run did not continue: closed, one started)
-              if (r.top[i] >= 0) o |= 1u << b;
-              else o &= ~(1u << b);
-            } else {  // the open run ends here
-              close(x, r.top[i], r.bottom[i], r.id[i]);
-              r.top[i] = -1;
-              o &= ~(1u << b);
-            }
-          }
-          open[q] = static_cast<uint8_t>(o);
         }
       }
     }
@@ -1309,16 +1255,13 @@ LampShadowRows StreetShadowBuilder::finish() {
   return out;
 }
 
-namespace {
-// The spans at once, over the threads (add_street_light_rows given none).
 LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                                        const StreetLighting& s, const ScenePreset& p) {
-  StreetShadowBuilder b(labels, depth_m, g, s, p);
+                                        const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs) {
+  StreetShadowBuilder b(labels, depth_m, g, s, p, runs);
 #pragma omp parallel
   b.take_blocks();
   return b.finish();
 }
-}  // namespace
 
 namespace {
 // What the pools and the vertical light share: their inputs, the street light's tint over π (the

@@ -119,12 +119,13 @@ struct LampShadowRows {
 // blocks of columns from a shared counter until none is left (from any number of threads at once,
 // each call on its own thread), finish() merges them once every call has returned. The same spans
 // whichever threads take which blocks. night_scene makes them in its depth stage, beside the low
-// beam's rows; add_street_light_rows (given none) makes them itself.
+// beam's rows (a sequence's after it, for its tracked lamps: street_lamp_shadow_spans); the light
+// map alone after its plan, from the label runs it makes with the plan.
 class StreetShadowBuilder {
  public:
   // `runs`: the label runs of these labels where the caller has them (night_scene's, made beside
-  // the Hough stage): the scan then visits only the solid runs; else it reads every label. The
-  // same spans.
+  // the Hough stage); else (none, or made of other labels) the constructor makes them
+  // (label_runs, over the threads). The scan visits only their solid runs.
   StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g, const StreetLighting& s,
                       const ScenePreset& p, const LabelRuns* runs = nullptr);
   void take_blocks();
@@ -135,7 +136,8 @@ class StreetShadowBuilder {
   const ImageF& depth_;
   const CameraGeometry& g_;
   const StreetLighting& s_;
-  const LabelRuns* runs_;
+  std::shared_ptr<const LabelRuns> own_runs_;  // made by the constructor where none were handed
+  const LabelRuns* runs_ = nullptr;
   std::vector<double> reach_;
   double D_bottom_ = 0.1;
   std::atomic<int> next_block_{0};
@@ -143,6 +145,13 @@ class StreetShadowBuilder {
   std::mutex parts_mutex_;
   std::vector<std::vector<ShadowSpan>> parts_;
 };
+
+// StreetShadowBuilder's spans at once, over the threads (from `runs` where they were made of
+// these labels, else from the label runs it makes): the light map where it makes the plan
+// itself (light_map), a sequence's tracked lamps (night_scene), add_street_light_rows given none.
+LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
+                                        const StreetLighting& s, const ScenePreset& p,
+                                        const LabelRuns* runs = nullptr);
 
 // `shadows`: the lamps' shadow spans of these labels, depth and lamps (StreetShadowBuilder) where
 // the caller made them; else, with street_lamps.shadows, made here.

@@ -4742,23 +4742,33 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
     }
   street_light_max_isa(2);
   omp_set_num_threads(before);
-  // The spans from the label runs (the chain's depth stage hands them) and from every label (the
-  // light map alone) are the same, and handed to the rows they give the same light.
+  // The spans from the label runs handed (the chain's depth stage hands them), from none (the
+  // builder makes them: the light map alone, add_street_light_rows above) and from the runs of
+  // other labels (not taken: made again) are the same, and handed to the rows they give the same
+  // light. The other labels are road throughout: their runs, taken, would give no span.
   const std::shared_ptr<const LabelRuns> runs = label_runs(sc.labels.ids);
-  auto spans_of = [&](const LabelRuns* lr) {
-    StreetShadowBuilder b(sc.labels.ids, depth, g, s, p, lr);
+  ImageU16 road = sc.labels.ids;
+  std::fill(road.data(), road.data() + road.size(), static_cast<uint16_t>(Label::Road));
+  const std::shared_ptr<const LabelRuns> elsewhere = label_runs(road);
+  auto spans_of = [&](const ImageU16& ids, const LabelRuns* lr) {
+    StreetShadowBuilder b(ids, depth, g, s, p, lr);
 #pragma omp parallel
     b.take_blocks();
     return b.finish();
   };
-  const LampShadowRows a = spans_of(nullptr), b = spans_of(runs.get());
+  const LampShadowRows a = spans_of(sc.labels.ids, nullptr), b = spans_of(sc.labels.ids, runs.get()),
+                       c = spans_of(sc.labels.ids, elsewhere.get());
   ASSERT_GT(a.spans.size(), 0u);
-  EXPECT_EQ(a.quads, b.quads);
-  EXPECT_EQ(a.row_start, b.row_start);
-  ASSERT_EQ(a.spans.size(), b.spans.size());
-  for (size_t i = 0; i < a.spans.size(); ++i)
-    ASSERT_TRUE(a.spans[i].y == b.spans[i].y && a.spans[i].x0 == b.spans[i].x0 && a.spans[i].x1 == b.spans[i].x1 &&
-                a.spans[i].lamp == b.spans[i].lamp) << i;
+  EXPECT_EQ(spans_of(road, elsewhere.get()).spans.size(), 0u);
+  for (const auto& [q, which] : {std::pair(&b, "its runs"), std::pair(&c, "other labels' runs")}) {
+    EXPECT_EQ(a.quads, q->quads) << which;
+    EXPECT_EQ(a.row_start, q->row_start) << which;
+    ASSERT_EQ(a.spans.size(), q->spans.size()) << which;
+    for (size_t i = 0; i < a.spans.size(); ++i)
+      ASSERT_TRUE(a.spans[i].y == q->spans[i].y && a.spans[i].x0 == q->spans[i].x0 &&
+                  a.spans[i].x1 == q->spans[i].x1 && a.spans[i].lamp == q->spans[i].lamp)
+          << which << " " << i;
+  }
   ImageF handed(W, H, 3, 0.f, unit::radiance);
   add_street_light_rows(handed, tex, sc.labels.ids, depth, g, s, p, 1, nullptr, nullptr, nullptr, nullptr, 0, -1, &b);
   EXPECT_EQ(std::memcmp(handed.data(), on.data(), on.size() * sizeof(float)), 0);

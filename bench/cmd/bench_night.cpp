@@ -287,10 +287,11 @@ void run(const Opts& o) {
       const double cv3 = cpu_ms();
       add("facade windows (alone)", ms(tv2, tv3));
       // The street lamps' shadow spans (street_lamps.shadows), made in the chain's depth stage
-      // beside the low beam's rows, in the light map alone (and pools + heads above: none) by
-      // add_street_light_rows; here over the threads at once.
-      // Also from the label runs, as the chain makes them (its depth stage visits only the solid
-      // runs; the runs themselves made beside the Hough stage, here untimed). Returns the CPU ms.
+      // beside the low beam's rows, in the light map alone (and pools + heads above: none) after
+      // its plan; here over the threads at once. "(alone)": as the light map alone makes them,
+      // the label runs made first (label_runs, timed) and their solid runs scanned; "label runs
+      // (alone)": the chain's path, the runs handed (made beside its Hough stage; here untimed).
+      // Returns the CPU ms.
       auto time_shadow_spans = [&](const scene::LabelRuns* runs, const char* row) {
         const double c0 = cpu_ms();
         auto t0 = clock::now();
