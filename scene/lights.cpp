@@ -988,6 +988,74 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
   }
 }
 #pragma GCC diagnostic pop
+// sign_luminances_avx512 on four lanes of AVX2 (beam_max_isa 1, a machine without AVX-512): per
+// lane the same IEEE operations in the same order, the masks as all-ones lanes (lux where the
+// glare zone holds, +0 elsewhere, as the AVX-512 form's zero-masked quotient); a lane that needs
+// anything else, and the row's last n mod 4 sign pixels, are out[i] = scalar(i). So the same bits
+// as sign_pos pixel by pixel. (On the Zen 3 host the scalar sign pixels were a third of the
+// retroreflection rows' samples: docs/benchmarks.md, "Thirtieth session: the light map alone".)
+template <class Scalar>
+__attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, const double* x, const double* z, int n,
+                                                          double cx, double f, double h, double kY, double kD,
+                                                          double* out, Scalar&& scalar) {
+  const ScenePreset& p = sl.p;
+  const __m256d zero = _mm256_setzero_pd(), inf = _mm256_set1_pd(INFINITY), sign = _mm256_set1_pd(-0.0);
+  const __m256d vcx = _mm256_set1_pd(cx), vf = _mm256_set1_pd(f), vh = _mm256_set1_pd(h), vkY = _mm256_set1_pd(kY),
+                vkD = _mm256_set1_pd(kD), cam_h = _mm256_set1_pd(sl.cam_h), lh = _mm256_set1_pd(p.beam_lamp_height_m);
+  const __m256d cos_a0 = _mm256_set1_pd(sl.cos_a0), cos_a1 = _mm256_set1_pd(sl.cos_a1),
+                RA0 = _mm256_set1_pd(p.sign_RA), RA1 = _mm256_set1_pd(sl.RA_max);
+  const __m256d tvmax = _mm256_set1_pd(sl.tan_vmax), th0 = _mm256_set1_pd(sl.tan_h0), th1 = _mm256_set1_pd(sl.tan_h1),
+                above = _mm256_set1_pd(p.beam_above_cutoff_cd), lo_margin = _mm256_set1_pd(-1e-9),
+                hi_margin = _mm256_set1_pd(1e-9);
+  const __m256d table = _mm256_castsi256_pd(_mm256_set1_epi64x(sl.table ? -1 : 0));
+  const double xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
+  auto sq = [](__m256d a) __attribute__((target("avx2"), always_inline)) { return _mm256_mul_pd(a, a); };
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const __m256d vz = _mm256_loadu_pd(z + i), vx = _mm256_loadu_pd(x + i);
+    __m256d fast = _mm256_and_pd(_mm256_cmp_pd(vz, zero, _CMP_GT_OQ), _mm256_cmp_pd(vz, inf, _CMP_LT_OQ));
+    const __m256d X = _mm256_mul_pd(vz, _mm256_div_pd(_mm256_sub_pd(vx, vcx), vf));
+    const __m256d Y = _mm256_sub_pd(vh, _mm256_mul_pd(vz, vkY)), D = _mm256_mul_pd(vz, vkD);
+    fast = _mm256_and_pd(fast, _mm256_cmp_pd(D, zero, _CMP_GT_OQ));
+    const __m256d cX = _mm256_xor_pd(X, sign), cY = _mm256_sub_pd(cam_h, Y), cD = _mm256_xor_pd(D, sign);
+    const __m256d cn = _mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(sq(cX), sq(cY)), sq(cD)));
+    __m256d L = zero;
+    for (const double xl : xls) {
+      const __m256d vxl = _mm256_set1_pd(xl);
+      const __m256d lX = _mm256_sub_pd(vxl, X), lY = _mm256_sub_pd(lh, Y), lD = _mm256_xor_pd(D, sign);
+      const __m256d ln = _mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(sq(lX), sq(lY)), sq(lD)));
+      const __m256d ca = _mm256_div_pd(
+          _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cX, lX), _mm256_mul_pd(cY, lY)), _mm256_mul_pd(cD, lD)),
+          _mm256_mul_pd(cn, ln));
+      const __m256d ra0 = _mm256_cmp_pd(ca, cos_a0, _CMP_GE_OQ), ra1 = _mm256_cmp_pd(ca, cos_a1, _CMP_LE_OQ);
+      const __m256d RA = _mm256_blendv_pd(RA1, RA0, ra0);
+      const __m256d dx = _mm256_sub_pd(X, vxl), dy = _mm256_sub_pd(Y, lh);
+      const __m256d rh = _mm256_sqrt_pd(_mm256_add_pd(sq(dx), sq(D)));
+      const __m256d d2 = _mm256_add_pd(_mm256_add_pd(sq(dx), sq(dy)), sq(D));
+      const __m256d Dh0 = _mm256_mul_pd(D, th0), Dh1 = _mm256_mul_pd(D, th1);
+      const __m256d glare = _mm256_and_pd(
+          _mm256_cmp_pd(dy, _mm256_mul_pd(rh, tvmax), _CMP_GT_OQ),
+          _mm256_and_pd(_mm256_cmp_pd(dx, Dh0, _CMP_GE_OQ), _mm256_cmp_pd(dx, Dh1, _CMP_LE_OQ)));
+      const __m256d s = _mm256_add_pd(_mm256_andnot_pd(sign, dx), D);
+      const __m256d beside =
+          _mm256_or_pd(_mm256_cmp_pd(_mm256_sub_pd(dx, Dh0), _mm256_mul_pd(lo_margin, s), _CMP_LT_OQ),
+                       _mm256_cmp_pd(_mm256_sub_pd(dx, Dh1), _mm256_mul_pd(hi_margin, s), _CMP_GT_OQ));
+      fast = _mm256_and_pd(fast, _mm256_and_pd(_mm256_or_pd(ra0, ra1), _mm256_and_pd(table, _mm256_or_pd(glare, beside))));
+      const __m256d lux = _mm256_and_pd(glare, _mm256_div_pd(above, d2));  // (+0 where beside)
+      L = _mm256_add_pd(L, _mm256_mul_pd(RA, lux));
+    }
+    const int fm = _mm256_movemask_pd(fast);
+    if (fm == 0xf) {
+      _mm256_storeu_pd(out + i, L);
+      continue;
+    }
+    alignas(32) double l4[4];
+    _mm256_store_pd(l4, L);
+    for (int k = 0; k < 4; ++k) out[i + k] = fm >> k & 1 ? l4[k] : scalar(i + k);
+  }
+  _mm256_zeroupper();
+  for (; i < n; ++i) out[i] = scalar(i);
+}
 }  // namespace
 
 double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p) {
@@ -3551,9 +3619,11 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   const int traffic_light = static_cast<int>(Label::TrafficLight);
   const int traffic_sign = static_cast<int>(Label::TrafficSign);
   // With AVX-512 (and beam_max_isa 2), the sign pixels of a row are taken eight at a time
-  // (sign_luminances_avx512: the same bits as sign_pos): the row's loop records their columns
-  // and depths, and they are lit after it (each pixel is written by itself only).
+  // (sign_luminances_avx512: the same bits as sign_pos), with AVX2 (beam_max_isa 1) four at a time
+  // (sign_luminances_avx2): the row's loop records their columns and depths, and they are lit
+  // after it (each pixel is written by itself only).
   const bool sign_avx512 = has_sign_pos && kHaveAvx512 && beam_isa_cap >= 2;
+  const bool sign_lanes = sign_avx512 || (has_sign_pos && kHaveAvx2 && beam_isa_cap >= 1);
   // A retroreflecting pixel's radiance: the luminance lum in the beam's colour with the marking's
   // flat pattern or the day texture's.
   // (1/ktb made once: the same quotient as per pixel, without its three divisions per marking pixel.)
@@ -3616,12 +3686,12 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     const float* dr = depth.row(y);
     const float* dmr = has_sign_pos ? depth_m->row(y) : nullptr;
     const float* tr = texture.row(y);
-    // (sign_avx512: the row's sign pixels' columns, depths and luminances)
+    // (sign_lanes: the row's sign pixels' columns, depths and luminances)
     thread_local std::vector<double> sign_buf;
-    if (sign_avx512 && sign_buf.size() < 3 * static_cast<size_t>(W)) sign_buf.resize(3 * static_cast<size_t>(W));
-    double* const sx = sign_avx512 ? sign_buf.data() : nullptr;
-    double* const sz = sign_avx512 ? sx + W : nullptr;
-    double* const slum = sign_avx512 ? sz + W : nullptr;
+    if (sign_lanes && sign_buf.size() < 3 * static_cast<size_t>(W)) sign_buf.resize(3 * static_cast<size_t>(W));
+    double* const sx = sign_lanes ? sign_buf.data() : nullptr;
+    double* const sz = sign_lanes ? sx + W : nullptr;
+    double* const slum = sign_lanes ? sz + W : nullptr;
     int nsign = 0;
     const MarkingRow mrow = marking_row(y);
     for (int x = 0; x < W; ++x) {
@@ -3642,7 +3712,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       double lum = 0;
       if (lr[x]) lum = br ? p.marking_RL * br[x] * marking_perp(mrow, x) : 0.0;
       else if (id == traffic_sign) {
-        if (sign_avx512) {  // (lit after the loop; a sign pixel is no signal)
+        if (sign_lanes) {  // (lit after the loop; a sign pixel is no signal)
           sx[nsign] = x, sz[nsign] = dmr[x], ++nsign;
           continue;
         }
@@ -3664,10 +3734,13 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     }
     if (nsign > 0) {
       const double yn = (y - sg.cy_px) / sg.f_px;  // (sign_pos's y_n, kY and kD)
-      sign_luminances_avx512(sign_light, sx, sz, nsign, sg.cx_px, sg.f_px, sg.mount_height_m, sign_s + yn * sign_c,
-                             sign_c - yn * sign_s, slum, [&](int i) {
-                               return sign_pos(static_cast<int>(sx[i]), y, static_cast<float>(sz[i]));
-                             });
+      const auto scalar = [&](int i) { return sign_pos(static_cast<int>(sx[i]), y, static_cast<float>(sz[i])); };
+      if (sign_avx512)
+        sign_luminances_avx512(sign_light, sx, sz, nsign, sg.cx_px, sg.f_px, sg.mount_height_m, sign_s + yn * sign_c,
+                               sign_c - yn * sign_s, slum, scalar);
+      else
+        sign_luminances_avx2(sign_light, sx, sz, nsign, sg.cx_px, sg.f_px, sg.mount_height_m, sign_s + yn * sign_c,
+                             sign_c - yn * sign_s, slum, scalar);
       for (int i = 0; i < nsign; ++i)
         if (slum[i] > 0) retro_put(Lr, tr, static_cast<int>(sx[i]), false, traffic_sign, slum[i]);
     }
