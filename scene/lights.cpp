@@ -992,8 +992,9 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
 // lane the same IEEE operations in the same order, the masks as all-ones lanes (lux where the
 // glare zone holds, +0 elsewhere, as the AVX-512 form's zero-masked quotient); a lane that needs
 // anything else, and the row's last n mod 4 sign pixels, are out[i] = scalar(i). So the same bits
-// as sign_pos pixel by pixel. (On the Zen 3 host the scalar sign pixels were a third of the
-// retroreflection rows' samples: docs/benchmarks.md, "Thirtieth session: the light map alone".)
+// as sign_pos pixel by pixel. (On the Zen 3 host, AVX2 only, the scalar sign pixels took 31 % of
+// light_map_with's own samples, its retroreflection rows: docs/benchmarks.md, "Thirtieth session:
+// the light map alone".)
 template <class Scalar>
 __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, const double* x, const double* z, int n,
                                                           double cx, double f, double h, double kY, double kD,
