@@ -3782,9 +3782,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       return;
     }
     runs = label_runs(labels);
-    const std::shared_ptr<const PoleComponents> poles =
-        p.street_road_luminance_cd_m2 > 0 ? pole_components_of(labels, runs.get()) : nullptr;
-    sl = plan_street_lighting_with(lm, *geometry, p, seed, poles.get());
+    sl = plan_street_lighting_with(lm, *geometry, p, seed, pole_components_of(labels, runs.get()).get());
   };
   if (plan_here && !handed) {
     // The plan and the vehicle rows (light_map alone: the chain hands both) each read the whole

@@ -999,10 +999,10 @@ __attribute__((target("avx2"))) unsigned join_lanes_avx2(__m256i cand, const flo
   }
   return cont;
 }
-// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y) that continue their column's open run: a run open
-// (top ≥ 0) whose last row is the row above, of class `lab`, and continued (join_lanes_avx2). The
-// others (a run starting, or closed and one started) are left to the caller's solid_pixel
-// (z[0..7] must be readable).
+// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y) that continue
+// their column's open run: a run open (top ≥ 0) whose last row is the row above, of class `lab`,
+// and continued (join_lanes_avx2). The others (a run starting, or closed and one started) are
+// left to the caller's solid_pixel (z[0..7] must be readable).
 __attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z, int i, int n, int lab, float kD,
                                                                  int y, RunState& r) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -1038,10 +1038,14 @@ __attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z,
 StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                                          const StreetLighting& s, const ScenePreset& p, const LabelRuns* runs)
     : labels_(labels), depth_(depth_m), g_(g), s_(s), reach_(s.lamps.size()) {
-  // The label runs handed where they were made of these labels, else made here (both threads):
-  // the scan visits only the solid runs.
-  if (!(runs && runs->made_of(labels)) && !s.lamps.empty()) own_runs_ = label_runs(labels);
-  runs_ = own_runs_ ? own_runs_.get() : runs;
+  // The label runs handed where they were made of these labels, else made here (over the
+  // threads where this is not inside a parallel region): the scan visits only the solid runs.
+  if (runs && runs->made_of(labels)) {
+    runs_ = runs;
+  } else if (!s.lamps.empty()) {
+    own_runs_ = label_runs(labels);
+    runs_ = own_runs_.get();
+  }
   for (size_t k = 0; k < s.lamps.size(); ++k) reach_[k] = reach_m(s.lamps[k].Y_m, p);
   // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
   double D;
