@@ -27,15 +27,20 @@ const float kInverseInteger[64] = {
 }  // namespace shader
 
 namespace {
-// Pixels per block of poisson_block (a 2048-pixel row in two blocks). Larger blocks give the
+// Pixels per block of poisson_block (a 2048-pixel row in one block). Larger blocks give the
 // compacted PTRS passes (full test, retries) more lanes per call: at 256, a night frame's block
 // retried ~35 lanes per call, padded to whole vectors, with the per-call cost on each. On the
-// night bench frame's means (poisson_block over 2048x1024, 1 thread, best of 30 CPU times):
-// 21.3-22.3 ms at 256 before pack_lanes, 20.8-21.9 at 256 with it, 19.0-19.5 at 1024 (2048: the same).
-// The stack arrays of a block take ~150 KB over ptrs_block, ptrs_high_lanes and poisson_block
-// (a default glibc thread stack is 8 MB, a macOS secondary thread's 512 KB). No draw depends on
-// the block size.
-constexpr int kBlock = 1024;
+// night bench frame's means (poisson_block over 2048x1024, 1 thread, best of 30 CPU times, Intel
+// Xeon): 21.3-22.3 ms at 256 before pack_lanes, 20.8-21.9 at 256 with it, 19.0-19.5 at 1024
+// (2048: the same there). On the Zen 3 host (AVX2, 2026-12-01; `bench night --threads 1
+// --cpu-clock`, `cpu: sensor (expose)` of ~34 ms, rounds alternating the builds, the rest of the
+// code the same): 512 took 0.8-0.9 ms more than 1024 in each of 3 rounds, 2048 0.6-1.0 ms less
+// in each of 3 (docs/benchmarks.md, "Thirtieth session: the sensor on the AVX2-only host").
+// The stack arrays of a block take ~360 KB at 2048 over the deepest calls (poisson_block 72,
+// ptrs_high_lanes 48, ptrs_block 152, ptrs_attempts 16 and ptrs_first_attempt 72 KB, their AVX2
+// clones' frames), against a default glibc thread stack of 8 MB and a macOS secondary thread's
+// 512 KB. No draw depends on the block size.
+constexpr int kBlock = 2048;
 
 // The scalar Philox (kernels/common/philox_round.glsl) for one pixel, its four words stored at
 // index j of w0..w3.
@@ -622,6 +627,9 @@ int pack_lanes(const float* keep, int m, int* idx, const LaneCopy (&copies)[NC])
 // lanes below mean 10 run on 10 and accepted, left to the inversion); (2) the full acceptance test
 // only on the lanes the squeeze left undecided (verdict 0: 609,780 of the 1,580,389 first attempts
 // of a night frame, docs/benchmarks.md), compacted. rejected[i]: 1 where the attempt failed, else 0.
+// AVX-512 and AVX2 clones for its own loops (the verdict's flags, the scatter of the full test's
+// verdicts: compares and copies), as ptrs_block.
+PHOTOSITE_TARGET_CLONES
 void ptrs_first_attempt(const float* mean, const uint32_t* wu, const uint32_t* wv, float* mu, float* k,
                         float* rejected, int m) {
   constexpr int R = kBlock + kPackRoom;  // pack_lanes' destinations
@@ -686,10 +694,9 @@ void ptrs_block(const float* mean, const uint32_t* w0, const uint32_t* w1, int m
     pad8(qmu, n2, 10.f), pad8(q2, n2, 0u), pad8(q3, n2, 0u);
     ptrs_attempts(qmu, q2, q3, cv, round8(n2));
     for (int t = 0; t < n2; ++t) ck[sel2[t]] = cv[t];
-    for (int j = 0; j < nr; ++j) {
-      out[sel[j]] = ck[j];  // a lane still rejected (k < 0) is written again later
-      again[j] = ck[j] < 0.f ? 1.f : 0.f;
-    }
+    // (Two loops: in one, GCC made the select a branch on the random verdicts.)
+    for (int j = 0; j < nr; ++j) out[sel[j]] = ck[j];  // a lane still rejected (k < 0) is written again later
+    for (int j = 0; j < nr; ++j) again[j] = ck[j] < 0.f ? 1.f : 0.f;
     // The lanes still rejected, packed in place (pack_lanes allows it: lane j moves to a place
     // <= j, and a group's whole-vector stores reach no lane past those it has read).
     nr = pack_lanes(again, nr, sel2, {{sel, sel}, {cmu, cmu}, {plo, plo}, {phi, phi}});

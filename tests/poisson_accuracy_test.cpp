@@ -157,7 +157,7 @@ TEST(PoissonAccuracy, PtrsBlockEqualsScalarReference) {
 // kernel draws PTRS on the lit lanes compacted (ptrs_high_lanes in sensor/poisson.cpp), with each
 // lane's own pixel index for its retries. Every pixel must still equal the scalar reference:
 // ptrs_sample for mean >= 10 (means near 10, where PTRS rejects most often, so retries occur in
-// mixed blocks), inversion below, 0 for zero, negative and NaN means. Runs of 1024 pixels (one
+// mixed blocks), inversion below, 0 for zero, negative and NaN means. Runs of 2048 pixels (one
 // block of poisson_block) are all dark, all lit, or mixed at random, and the range crosses a 2^32
 // pixel boundary.
 TEST(PoissonAccuracy, MixedBlocksEqualScalarReference) {
@@ -171,7 +171,7 @@ TEST(PoissonAccuracy, MixedBlocksEqualScalarReference) {
     return z ^ (z >> 31);
   };
   for (int i = 0; i < n; ++i) {
-    const int kind = (i / 1024) % 4;  // 0: all dark, 1: all lit, 2, 3: mixed
+    const int kind = (i / 2048) % 4;  // 0: all dark, 1: all lit, 2, 3: mixed
     const double u = static_cast<double>(next() >> 11) * 0x1p-53;
     const bool lit = kind == 1 || (kind >= 2 && (next() & (kind == 2 ? 1 : 7)) == 0);
     mean[i] = lit ? static_cast<float>(10.0 + 30.0 * u) : static_cast<float>(10.0 * u);

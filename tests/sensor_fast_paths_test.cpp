@@ -116,7 +116,7 @@ TEST(Philox, PoissonDrawsEqualOnEveryPathAndThreadCount) {
 // definition: ptrs_sample for mean >= 10, poisson_inversion below, 0 for zero, negative and NaN
 // means, and the read-noise normal normal_from_words_f(w2, w3), on every path, at 1, 2 and 3
 // threads (poisson_fill splits into chunks of 4096), and at sizes that end inside a 16-lane
-// group, a block (1024 pixels) or a chunk. Means: runs of dark, lit and mixed pixels, lit near
+// group, a block (2048 pixels) or a chunk. Means: runs of dark, lit and mixed pixels, lit near
 // 10 where PTRS retries most, so every packed pass (undecided, rejected, retried twice, the lit
 // lanes of a mostly dark block, the dark lanes of any block) has lanes.
 TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
@@ -148,7 +148,7 @@ TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
   const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
   for (const auto path : cpu_paths()) {
     detail::set_philox_path(path);
-    for (const int n : {1, 15, 17, 333, 1023, 1025, 2049, 4097, n_max}) {
+    for (const int n : {1, 15, 17, 333, 1023, 1025, 2047, 2049, 4097, n_max}) {
       std::vector<float> out(n), z(n);
       poisson_block(mean.data(), out.data(), z.data(), n, first, key, frame, stream, PoissonMethod::Exact);
       for (int i = 0; i < n; ++i) {
