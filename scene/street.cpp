@@ -979,13 +979,24 @@ struct RunState {
   std::vector<float> Dlast;
   explicit RunState(int n) : top(n + 8, -1), bottom(n + 8, -1), id(n + 8, -1), Dlast(n + 8, 0.f) {}
 };
-// Of the candidate lanes `cand` (all bits set: lanes b = 0..7 at index i + b, row y), those whose
-// D = z·k_D lies within kRunStep_m of their run's last D continue it: they take y as their run's
-// bottom and D as its last distance (blends and plain stores: a masked store is slow on AMD's
-// cores). The float operations of StreetShadowBuilder's per-pixel test (solid_pixel), eight lanes
-// at once; returns the continuing lanes' bits.
-__attribute__((target("avx2"))) unsigned join_lanes_avx2(__m256i cand, const float* z, int i, float kD, int y,
-                                                         RunState& r) {
+// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y) that continue
+// their column's open run: a run open (top ≥ 0) whose last row is the row above, of class `lab`,
+// whose D = z·k_D lies within kRunStep_m of its last D. They take y as their run's bottom and D as
+// its last distance (blends and plain stores: a masked store is slow on AMD's cores); the float
+// operations of StreetShadowBuilder's per-pixel test (solid_pixel), eight lanes at once; returns
+// the continuing lanes' bits. The others (a run starting, or closed and one started) are left to
+// the caller's solid_pixel (z[0..7] must be readable).
+__attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z, int i, int n, int lab, float kD,
+                                                                 int y, RunState& r) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
+  const __m256i open = _mm256_cmpgt_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.top[i])),
+                                          _mm256_set1_epi32(-1));
+  const __m256i above = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.bottom[i])),
+                                           _mm256_set1_epi32(y - 1));
+  const __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])),
+                                          _mm256_set1_epi32(lab));
+  const __m256i cand = _mm256_and_si256(_mm256_and_si256(valid, open), _mm256_and_si256(above, same));
   const __m256 D = _mm256_mul_ps(_mm256_loadu_ps(z), _mm256_set1_ps(kD));
   const __m256 Dl = _mm256_loadu_ps(&r.Dlast[i]);
   const __m256 absd = _mm256_andnot_ps(_mm256_set1_ps(-0.f), _mm256_sub_ps(D, Dl));
@@ -998,23 +1009,6 @@ __attribute__((target("avx2"))) unsigned join_lanes_avx2(__m256i cand, const flo
     _mm256_storeu_ps(&r.Dlast[i], _mm256_blendv_ps(Dl, D, _mm256_castsi256_ps(m)));
   }
   return cont;
-}
-// The lanes b < n of a solid label run (class `lab`, columns xa + i + b, row y) that continue
-// their column's open run: a run open (top ≥ 0) whose last row is the row above, of class `lab`,
-// and continued (join_lanes_avx2). The others (a run starting, or closed and one started) are
-// left to the caller's solid_pixel (z[0..7] must be readable).
-__attribute__((target("avx2"))) unsigned continue_run_lanes_avx2(const float* z, int i, int n, int lab, float kD,
-                                                                 int y, RunState& r) {
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256i valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
-  const __m256i open = _mm256_cmpgt_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.top[i])),
-                                          _mm256_set1_epi32(-1));
-  const __m256i above = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.bottom[i])),
-                                           _mm256_set1_epi32(y - 1));
-  const __m256i same = _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(&r.id[i])),
-                                          _mm256_set1_epi32(lab));
-  return join_lanes_avx2(_mm256_and_si256(_mm256_and_si256(valid, open), _mm256_and_si256(above, same)), z, i, kD, y,
-                         r);
 }
 }  // namespace
 
