@@ -20,10 +20,17 @@ written as docs/night/street_shadow_kitti.jpg: the two previews' lower two third
 shadows-on preview in grey with the pixels whose night radiance fell in magenta (docs/night.md §7,
 "Shadows of the street lamps").
 
+Penumbrae (--penumbrae): this checkout's `photosite night` with the night-urban preset (the street
+lamps' penumbrae off: sharp edges) and with a copy whose only change is [street_lamps] penumbrae =
+true, written as docs/night/street_penumbra_kitti.jpg: a 240 x 100 px crop around the median of the
+changed pixels, enlarged 3x, of both previews, and the pixels whose night radiance fell (magenta) or
+rose (green) over the grey preview (docs/night.md §7, "Penumbrae").
+
 The previews are the simple ISP's (their 99th percentile to white), each exposed for itself.
 Usage: scripts/beam_shadow_figure.py --before /path/to/old/photosite
        scripts/beam_shadow_figure.py --vertical
        scripts/beam_shadow_figure.py --street
+       scripts/beam_shadow_figure.py --penumbrae
 """
 import argparse
 import os
@@ -74,9 +81,9 @@ def ground_figure(before_exe):
                  "after: the ground behind cars, poles and walls loses the lamps they hide"), "beam_shadow_kitti.jpg")
 
 
-def shadows_off_preset(tmp, table):
-    """A copy of presets/scenes/night-urban.toml whose [table]'s `shadows = true` line reads false (the
-    only change), written into tmp; returns its path."""
+def switched_preset(tmp, table, key="shadows", value="true", to="false"):
+    """A copy of presets/scenes/night-urban.toml whose [table]'s `key = value` line reads `to` (the only
+    change), written into tmp; returns its path."""
     with open(os.path.join(ROOT, "presets", "scenes", "night-urban.toml")) as f:
         lines = f.read().split("\n")
     section, n = None, 0
@@ -84,26 +91,27 @@ def shadows_off_preset(tmp, table):
         m = re.match(r"^\[([A-Za-z_]+)\]", line)
         if m:
             section = m.group(1)
-        elif section == table and re.match(r"^shadows = true\b", line):
-            lines[i] = re.sub(r"^shadows = true", "shadows = false", line)
+        elif section == table and re.match(rf"^{key} = {value}\b", line):
+            lines[i] = re.sub(rf"^{key} = {value}", f"{key} = {to}", line)
             n += 1
     if n != 1:
-        sys.exit(f"presets/scenes/night-urban.toml: no single 'shadows = true' line in [{table}] to switch off")
-    path = os.path.join(tmp, f"night-urban-no-{table}-shadows.toml")
+        sys.exit(f"presets/scenes/night-urban.toml: no single '{key} = {value}' line in [{table}] to switch")
+    path = os.path.join(tmp, f"night-urban-{table}-{key}-{to}.toml")
     with open(path, "w") as f:
         f.write("\n".join(lines))
     return path
 
 
-def on_off(table):
+def on_off(table, key="shadows", value="true", to="false"):
     """This checkout's `photosite night` on the bundled KITTI frame with the night-urban preset and with
-    its [table] shadows off: ((preview, channels, attrs) on, (preview, channels, attrs) off)."""
+    its [table]'s `key = value` switched to `to`: ((preview, channels, attrs) as bundled, (preview,
+    channels, attrs) switched)."""
     os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
     exe = os.path.join(ROOT, "build", "photosite")
     with tempfile.TemporaryDirectory() as tmp:
-        off_preset = shadows_off_preset(tmp, table)
+        switched = switched_preset(tmp, table, key, value, to)
         run(exe, [], os.path.join(tmp, "on"), maps=False)
-        run(exe, ["--scene-preset", off_preset], os.path.join(tmp, "off"), maps=False)
+        run(exe, ["--scene-preset", switched], os.path.join(tmp, "off"), maps=False)
         return night(os.path.join(tmp, "on")), night(os.path.join(tmp, "off"))
 
 
@@ -115,6 +123,34 @@ def street_figure():
     fell_figure(off, on, fell, 0.8,
                 ("street_lamps.shadows = false: the pools run under every car and pole",
                  "street_lamps.shadows = true: cars, poles and signs hide the lamps behind them"), "street_shadow_kitti.jpg")
+
+
+def penumbra_figure():
+    """The street lamps' penumbrae (street_lamps.penumbrae, off in the bundled presets: the sharp edges)
+    against a copy switching them on: a crop of the previews around the pixels that changed most,
+    enlarged 3x, and the changed pixels (darker magenta, brighter green) over the grey preview."""
+    (sharp, c0, _), (soft, c1, a1) = on_off("street_lamps", "penumbrae", "false", "true")
+    g0, g1 = c0["night_radiance.G"], c1["night_radiance.G"]
+    darker, brighter = g1 < g0, g1 > g0
+    changed = darker | brighter
+    print("pixels changed:", int(changed.sum()), "darker", int(darker.sum()), "brighter", int(brighter.sum()),
+          "; header street_lamp_shadow_pixels:", a1["photosite/night/street_lamp_shadow_pixels"])
+    # The crop: 240 x 100 px around the column and row where most pixels changed.
+    ys, xs = np.nonzero(changed)
+    h, w = changed.shape
+    cx = int(np.median(xs)) if xs.size else w // 2
+    cy = int(np.median(ys)) if ys.size else 2 * h // 3
+    x0, y0 = min(max(0, cx - 120), w - 240), min(max(0, cy - 50), h - 100)
+    box = (x0, y0, x0 + 240, y0 + 100)
+    grey = np.asarray(soft.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * 0.8
+    grey[darker] = (255, 0, 255)
+    grey[brighter] = (0, 200, 0)
+    mask = Image.fromarray(grey.astype(np.uint8))
+    big = lambda im: im.crop(box).resize((720, 300), Image.NEAREST)  # noqa: E731
+    save_stacked([(big(sharp), f"street_lamps.penumbrae = false: sharp edges (crop at x {x0}, y {y0}, 3x)"),
+                  (big(soft), "street_lamps.penumbrae = true: the face a 0.5 m disc, the edges soft"),
+                  (big(mask), "pixels whose night radiance fell (magenta) or rose (green)")],
+                 "street_penumbra_kitti.jpg", width=720)
 
 
 def vertical_figure():
@@ -147,10 +183,14 @@ def main():
     ap.add_argument("--vertical", action="store_true", help="the vertical surfaces' figure (this checkout only)")
     ap.add_argument("--street", action="store_true",
                     help="the street lamps' shadows (street_lamps.shadows on and off; this checkout only)")
+    ap.add_argument("--penumbrae", action="store_true",
+                    help="the street lamps' penumbrae (street_lamps.penumbrae off and on; this checkout only)")
     a = ap.parse_args()
-    if bool(a.before) + a.vertical + a.street != 1:
-        ap.error("give one of --before PHOTOSITE (the ground figure), --vertical or --street")
-    if a.street:
+    if bool(a.before) + a.vertical + a.street + a.penumbrae != 1:
+        ap.error("give one of --before PHOTOSITE (the ground figure), --vertical, --street or --penumbrae")
+    if a.penumbrae:
+        penumbra_figure()
+    elif a.street:
         street_figure()
     elif a.vertical:
         vertical_figure()
