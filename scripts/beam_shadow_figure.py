@@ -22,9 +22,10 @@ shadows-on preview in grey with the pixels whose night radiance fell in magenta 
 
 Penumbrae (--penumbrae): this checkout's `photosite night` with the night-urban preset (the street
 lamps' penumbrae off: sharp edges) and with a copy whose only change is [street_lamps] penumbrae =
-true, written as docs/night/street_penumbra_kitti.jpg: a 240 x 100 px crop around the median of the
-changed pixels, enlarged 3x, of both previews, and the pixels whose night radiance fell (magenta) or
-rose (green) over the grey preview (docs/night.md §7, "Penumbrae").
+true, on Cityscapes aachen_000000 (../shared), written as docs/night/street_penumbra_cityscapes.jpg: the
+240 x 100 px window holding the most changed pixels, enlarged 3x, of both previews, and the pixels
+whose night radiance fell (magenta) or rose (green) over the grey preview (docs/night.md §7,
+"Penumbrae").
 
 The previews are the simple ISP's (their 99th percentile to white), each exposed for itself.
 Usage: scripts/beam_shadow_figure.py --before /path/to/old/photosite
@@ -41,7 +42,7 @@ import tempfile
 import numpy as np
 from PIL import Image
 
-from night_figures import ROOT, kitti_after_before, run, save_stacked  # the same `photosite night` call as the other pictures
+from night_figures import ROOT, kitti_after_before, run, save_stacked, scenes  # the same `photosite night` call as the other pictures
 
 sys.path.insert(0, os.path.join(ROOT, "build", "python"))
 import photosite as ps  # noqa: E402  (this checkout's module: read_exr)
@@ -102,16 +103,16 @@ def switched_preset(tmp, table, key="shadows", value="true", to="false"):
     return path
 
 
-def on_off(table, key="shadows", value="true", to="false"):
-    """This checkout's `photosite night` on the bundled KITTI frame with the night-urban preset and with
-    its [table]'s `key = value` switched to `to`: ((preview, channels, attrs) as bundled, (preview,
-    channels, attrs) switched)."""
+def on_off(table, key="shadows", value="true", to="false", args=()):
+    """This checkout's `photosite night` on the bundled KITTI frame (or the frame `args` name) with the
+    night-urban preset and with its [table]'s `key = value` switched to `to`: ((preview, channels,
+    attrs) as bundled, (preview, channels, attrs) switched)."""
     os.environ.setdefault("PHOTOSITE_DEVICE_STORE", os.path.join(ROOT, "build", "figure-device-store"))
     exe = os.path.join(ROOT, "build", "photosite")
     with tempfile.TemporaryDirectory() as tmp:
         switched = switched_preset(tmp, table, key, value, to)
-        run(exe, [], os.path.join(tmp, "on"), maps=False)
-        run(exe, ["--scene-preset", switched], os.path.join(tmp, "off"), maps=False)
+        run(exe, [*args], os.path.join(tmp, "on"), maps=False)
+        run(exe, [*args, "--scene-preset", switched], os.path.join(tmp, "off"), maps=False)
         return night(os.path.join(tmp, "on")), night(os.path.join(tmp, "off"))
 
 
@@ -127,20 +128,25 @@ def street_figure():
 
 def penumbra_figure():
     """The street lamps' penumbrae (street_lamps.penumbrae, off in the bundled presets: the sharp edges)
-    against a copy switching them on: a crop of the previews around the pixels that changed most,
-    enlarged 3x, and the changed pixels (darker magenta, brighter green) over the grey preview."""
-    (sharp, c0, _), (soft, c1, a1) = on_off("street_lamps", "penumbrae", "false", "true")
+    against a copy switching them on, on Cityscapes aachen_000000 (f 2263 px: penumbrae of many pixels;
+    the bundled KITTI frame's are 1-2 px): a crop of the previews where most pixels changed, enlarged
+    3x, and the changed pixels (darker magenta, brighter green) over the grey preview."""
+    frame = [a for name, a, _ in scenes() if name == "cityscapes_000000"][0]
+    (sharp, c0, _), (soft, c1, a1) = on_off("street_lamps", "penumbrae", "false", "true", frame)
     g0, g1 = c0["night_radiance.G"], c1["night_radiance.G"]
     darker, brighter = g1 < g0, g1 > g0
     changed = darker | brighter
     print("pixels changed:", int(changed.sum()), "darker", int(darker.sum()), "brighter", int(brighter.sum()),
           "; header street_lamp_shadow_pixels:", a1["photosite/night/street_lamp_shadow_pixels"])
-    # The crop: 240 x 100 px around the column and row where most pixels changed.
-    ys, xs = np.nonzero(changed)
+    # The crop: the 240 x 100 px window (on a 10 px grid) holding the most changed pixels.
     h, w = changed.shape
-    cx = int(np.median(xs)) if xs.size else w // 2
-    cy = int(np.median(ys)) if ys.size else 2 * h // 3
-    x0, y0 = min(max(0, cx - 120), w - 240), min(max(0, cy - 50), h - 100)
+    ii = np.pad(changed.astype(np.int64).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    best, x0, y0 = -1, 0, 0
+    for y in range(0, h - 100 + 1, 10):
+        for x in range(0, w - 240 + 1, 10):
+            n = ii[y + 100, x + 240] - ii[y, x + 240] - ii[y + 100, x] + ii[y, x]
+            if n > best:
+                best, x0, y0 = n, x, y
     box = (x0, y0, x0 + 240, y0 + 100)
     grey = np.asarray(soft.convert("L"), dtype=np.float32)[..., None].repeat(3, axis=2) * 0.8
     grey[darker] = (255, 0, 255)
@@ -150,7 +156,7 @@ def penumbra_figure():
     save_stacked([(big(sharp), f"street_lamps.penumbrae = false: sharp edges (crop at x {x0}, y {y0}, 3x)"),
                   (big(soft), "street_lamps.penumbrae = true: the face a 0.5 m disc, the edges soft"),
                   (big(mask), "pixels whose night radiance fell (magenta) or rose (green)")],
-                 "street_penumbra_kitti.jpg", width=720)
+                 "street_penumbra_cityscapes.jpg", width=720)
 
 
 def vertical_figure():
