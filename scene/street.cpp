@@ -1041,6 +1041,8 @@ StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& d
     runs_ = own_runs_.get();
   }
   for (size_t k = 0; k < s.lamps.size(); ++k) reach_[k] = reach_m(s.lamps[k].Y_m, p);
+  disc_ = lamp_disc_samples(p.lamp_head_diameter_m, lamp_shadow_samples(p));
+  disc_radius_ = 0.5 * p.lamp_head_diameter_m;
   // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
   double D;
   if (g.ground_point(g.cx_px, labels.height() - 0.5, nullptr, &D, nullptr)) D_bottom_ = std::max(0.1, D - 0.5);
@@ -1065,7 +1067,10 @@ void StreetShadowBuilder::take_blocks() {
   const bool avx2 = light_isa() >= 1;
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
   const int nbw = (W + kShadowBlock - 1) / kShadowBlock;
-  SpanSink mine(s.lamps.size(), H);
+  const std::vector<std::array<double, 2>>& disc = disc_;
+  const int ns = static_cast<int>(disc.size());
+  const int ids = ns == 1 ? 1 : ns + 1;  // span ids per lamp (LampShadowRows::ids_per_lamp)
+  SpanSink mine(s.lamps.size() * ids, H);
   long long my_quads = 0;
   for (int blk = next_block_++; blk < nbw; blk = next_block_++) {
     const int xa = blk * kShadowBlock, xb = std::min(W, xa + kShadowBlock);
@@ -1090,34 +1095,64 @@ void StreetShadowBuilder::take_blocks() {
         // The run's foot nearest the lamp's: within its reach, and not its own pole.
         const double dx = std::max({X[0] - l.X_m, 0.0, l.X_m - X[1]}), dd = Db - l.D_m, rb2 = dx * dx + dd * dd;
         if (rb2 > reach2[k] || (pole && rb2 < kOwnPole_m * kOwnPole_m)) continue;
-        double u[4], v[4];
-        bool ok = true;
-        for (int i = 0; i < 4 && ok; ++i) {
-          const double dX = X[i] - l.X_m, dD = Dp[i] - l.D_m, r2 = dX * dX + dD * dD;
-          // λ: the ground point of the ray over P; capped at the lamp's reach, and so that the
-          // shadow does not run past the nearest ground in view toward the camera.
-          // Each cap's quotient is computed only where it can bind: λ ≥ 1 here (Y ≥ 0), and where
-          // λ²·r² < reach²·(1 − 1e-9) (or λ·(−dD) < (D_s − D_bottom)·(1 − 1e-9)) the cap exceeds λ
-          // by far more than the few ulps of the products' and the quotient's rounding, so the
-          // min keeps λ, bit for bit, as if the quotient had been taken.
-          double lam = Yp[i] < Hl * (1 - 1e-6) ? Hl / (Hl - Yp[i]) : INFINITY;
-          if (r2 > 0 && lam > 1 && !(lam * lam * r2 < reach2[k] * kCapMargin))
-            lam = std::min(lam, std::max(1.0, reach[k] / std::sqrt(r2)));
-          if (dD < 0 && !(lam * -dD < (l.D_m - D_bottom) * kCapMargin))
-            lam = std::min(lam, std::max(0.0, (l.D_m - D_bottom) / -dD));
-          if (!std::isfinite(lam)) lam = 1;
-          const double GX = l.X_m + lam * dX, GD = l.D_m + lam * dD;
-          const double zc = h * sn + GD * c;  // CameraGeometry::project of (GX, 0, GD)
-          if (zc <= 0.05) {
-            ok = false;
-            break;
+        // The quadrilateral from the point (SX, H, SD): its vertices' ground images, projected;
+        // with `shift_px`, the most a vertex moves in the image when the point moves by 1 m
+        // within the disc's plane (below). False where a vertex lies behind the camera.
+        auto project_quad = [&](double SX, double SD, double* u, double* v, double* shift_px) {
+          for (int i = 0; i < 4; ++i) {
+            const double dX = X[i] - SX, dD = Dp[i] - SD, r2 = dX * dX + dD * dD;
+            // λ: the ground point of the ray over P; capped at the lamp's reach, and so that the
+            // shadow does not run past the nearest ground in view toward the camera.
+            // Each cap's quotient is computed only where it can bind: λ ≥ 1 here (Y ≥ 0), and where
+            // λ²·r² < reach²·(1 − 1e-9) (or λ·(−dD) < (D_s − D_bottom)·(1 − 1e-9)) the cap exceeds λ
+            // by far more than the few ulps of the products' and the quotient's rounding, so the
+            // min keeps λ, bit for bit, as if the quotient had been taken.
+            double lam = Yp[i] < Hl * (1 - 1e-6) ? Hl / (Hl - Yp[i]) : INFINITY;
+            if (r2 > 0 && lam > 1 && !(lam * lam * r2 < reach2[k] * kCapMargin))
+              lam = std::min(lam, std::max(1.0, reach[k] / std::sqrt(r2)));
+            if (dD < 0 && !(lam * -dD < (SD - D_bottom) * kCapMargin))
+              lam = std::min(lam, std::max(0.0, (SD - D_bottom) / -dD));
+            if (!std::isfinite(lam)) lam = 1;
+            const double GX = SX + lam * dX, GD = SD + lam * dD;
+            const double zc = h * sn + GD * c;  // CameraGeometry::project of (GX, 0, GD)
+            if (zc <= 0.05) return false;
+            u[i] = g.cx_px + g.f_px * GX / zc;
+            v[i] = g.cy_px + g.f_px * (h * c - GD * sn) / zc;
+            // G = S + λ(P − S) moves by (1 − λ)·ΔS when S moves by ΔS in its plane (λ, a ratio of
+            // heights, stays); a ground step of 1 m at (GX, GD) moves the image point by at most
+            // (f/z)·(1 + (|GX| + h)/z) px (u = c_x + f·X/z, v's and z's change with D).
+            if (shift_px)
+              *shift_px = std::max(*shift_px, std::fabs(lam - 1) * g.f_px / zc * (1 + (std::fabs(GX) + h) / zc));
           }
-          u[i] = g.cx_px + g.f_px * GX / zc;
-          v[i] = g.cy_px + g.f_px * (h * c - GD * sn) / zc;
+          return true;
+        };
+        double u[4], v[4];
+        if (ns == 1) {  // the lamp a point: its centre
+          if (!project_quad(l.X_m, l.D_m, u, v, nullptr)) continue;
+          quad_spans(u, v, W, H, static_cast<int>(k), mine);
+          ++my_quads;
+          continue;
         }
-        if (!ok) continue;
-        quad_spans(u, v, W, H, static_cast<int>(k), mine);
-        ++my_quads;
+        // Penumbrae: where no vertex of the centre's quadrilateral moves by half a pixel as the
+        // point goes over the disc (radius R: R·shift_px < ½), the disc's points all cast the
+        // centre's pixels but for the one pixel at an edge whose centre lies within that
+        // half-pixel: the quadrilateral is drawn once, for all of them (id k·(n + 1) + n: an
+        // occluder far from the camera or low against its lamp's height). Else each sample
+        // point S_j = S + (ΔX_j, 0, ΔD_j) of the disc casts its own: the disc lies at the mount
+        // height, so λ's first form is the same for every point; the caps are each point's own.
+        double shift = 0;
+        if (project_quad(l.X_m, l.D_m, u, v, &shift) && disc_radius_ * shift < 0.5) {
+          quad_spans(u, v, W, H, static_cast<int>(k) * ids + ns, mine);
+          ++my_quads;
+          continue;
+        }
+        bool drawn = false;
+        for (int j = 0; j < ns; ++j) {
+          if (!project_quad(l.X_m + disc[j][0], l.D_m + disc[j][1], u, v, nullptr)) continue;
+          quad_spans(u, v, W, H, static_cast<int>(k) * ids + j, mine);
+          drawn = true;
+        }
+        my_quads += drawn;
       }
     };
     // The block's runs as they close (column, rows, class, the depths at both ends); after the
@@ -1250,6 +1285,7 @@ LampShadowRows StreetShadowBuilder::finish() {
   out.spans.resize(w);
   out.quads = quads_;
   out.lamps = s_.lamps.size();
+  out.samples = static_cast<int>(disc_.size());
   return out;
 }
 
@@ -1260,6 +1296,30 @@ LampShadowRows street_lamp_shadow_spans(const ImageU16& labels, const ImageF& de
   b.take_blocks();
   return b.finish();
 }
+
+// The luminaire's emitting face as n points of equal area (street_lamps.penumbrae): the face's
+// luminance is taken as uniform (a stated assumption: an LED luminaire's lens array spreads its
+// flux over the face; no measured map of it is at hand), so a ground point's share of the lamp's
+// light is the share of the disc's area it sees past the occluders, and each point stands for
+// 1/n of it. The Vogel spiral (H. Vogel, "A better way to construct the sunflower head", Math.
+// Biosci. 44:179–189, 1979) puts point i in the middle, by area, of the i-th of n equal-area
+// annuli (r² = (i + ½)/n of R²) and turns each by the golden angle, so that a straight edge
+// across the disc, the case of a shadow's edge, cuts off nearly its area's share of the points
+// (the half-plane discrepancy in street_detail.h). No point sits at the centre: the innermost
+// annulus is a disc whose middle by area lies at r = R·√(½/n), and a point at r = 0 would weight
+// the centre more than its area.
+std::vector<std::array<double, 2>> lamp_disc_samples(double diameter_m, int n) {
+  if (n <= 1) return {{0.0, 0.0}};
+  std::vector<std::array<double, 2>> pts(n);
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double r = 0.5 * diameter_m * std::sqrt((i + 0.5) / n), th = i * golden;
+    pts[i] = {r * std::cos(th), r * std::sin(th)};
+  }
+  return pts;
+}
+
+int lamp_shadow_samples(const ScenePreset& p) { return p.lamp_penumbrae ? kLampDiscSamples : 1; }
 
 namespace {
 // What the pools and the vertical light share: their inputs, the street light's tint over π (the
@@ -1309,6 +1369,7 @@ struct PoolPass : LitRows {
     std::vector<uint8_t> ones;
     std::vector<int> lo, hi, ends;  // per lamp: its columns within the cone [lo, hi); their ends, sorted
     std::vector<int> lamp_index;    // the row's lamps (pl) by their index in StreetLighting::lamps
+    std::vector<std::pair<int32_t, int32_t>> events;  // shade's span ends of a lamp's points on a row (column, ±count)
     long long shaded = 0;           // (ground pixel, lamp) pairs taken off by the shadows
     AdaptiveScratch ad;
     explicit Scratch(int W)
@@ -1418,7 +1479,10 @@ struct PoolPass : LitRows {
   }
   // The shadows of row y: each ground pixel in lamp k's shadow loses k's term (pool_term, the
   // bits it added to the sum), held at 0 or above (the sum's rounding, or an interpolated sum
-  // within street_lamps.interp_tolerance of the exact one).
+  // within street_lamps.interp_tolerance of the exact one). With penumbrae (n sample points per
+  // lamp) a pixel in the shadow of m of k's points loses m/n of it: the points' spans counted per
+  // pixel (+1 at a span's start, −1 at its end, summed along the row); m = n, the umbra, takes
+  // off the whole term as one point does, the same float operation.
   void shade(int y, double kx, float* acc, Scratch& sc) const {
     if (!shadows) return;
     const int32_t a = shadows->row_start[y], b = shadows->row_start[y + 1];
@@ -1426,18 +1490,64 @@ struct PoolPass : LitRows {
     const uint8_t* gb = sc.gbits.data();
     size_t j = 0;  // the row's lamp of the span (both lists ascend by lamp index)
     const size_t nl = sc.lamp_index.size();
-    for (int32_t si = a; si < b; ++si) {
-      const ShadowSpan& sp = shadows->spans[si];
-      while (j < nl && sc.lamp_index[j] < sp.lamp) ++j;
-      if (j == nl) break;
-      if (sc.lamp_index[j] != sp.lamp) continue;  // not within reach of this row
-      for (int x = sp.x0; x < sp.x1; ++x) {
-        if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
-        const float e = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
-                                  sc.pl.Hl[j], I0, table);
-        acc[x] = std::max(0.f, acc[x] - e);
-        ++sc.shaded;
+    const int ns = shadows->samples;
+    if (ns == 1) {
+      for (int32_t si = a; si < b; ++si) {
+        const ShadowSpan& sp = shadows->spans[si];
+        while (j < nl && sc.lamp_index[j] < sp.lamp) ++j;
+        if (j == nl) break;
+        if (sc.lamp_index[j] != sp.lamp) continue;  // not within reach of this row
+        for (int x = sp.x0; x < sp.x1; ++x) {
+          if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
+          const float e = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j],
+                                    sc.pl.H2[j], sc.pl.Hl[j], I0, table);
+          acc[x] = std::max(0.f, acc[x] - e);
+          ++sc.shaded;
+        }
       }
+      return;
+    }
+    const float per_point = 1.f / static_cast<float>(ns);
+    const int ids = shadows->ids_per_lamp();
+    for (int32_t si = a; si < b;) {
+      const int lamp = shadows->spans[si].lamp / ids;
+      int32_t se = si + 1;  // the spans of lamp's points: si .. se − 1
+      while (se < b && shadows->spans[se].lamp / ids == lamp) ++se;
+      while (j < nl && sc.lamp_index[j] < lamp) ++j;
+      if (j == nl) break;
+      if (sc.lamp_index[j] != lamp) {  // not within reach of this row
+        si = se;
+        continue;
+      }
+      // Each point's spans are disjoint (merged per id and row), a span of all of them counts n:
+      // the points in shadow are min(n, the count). The count changes only at the spans' ends:
+      // they are sorted once and only the columns between ends with a count above 0 are visited
+      // (not the gaps between one lamp's shadows on the row).
+      auto& ev = sc.events;
+      ev.clear();
+      for (int32_t i = si; i < se; ++i) {
+        const ShadowSpan& sp = shadows->spans[i];
+        const int32_t wgt = sp.lamp % ids == ns ? ns : 1;
+        ev.push_back({sp.x0, wgt});
+        ev.push_back({sp.x1, -wgt});
+      }
+      std::sort(ev.begin(), ev.end(), [](const std::pair<int32_t, int32_t>& p, const std::pair<int32_t, int32_t>& q) {
+        return p.first < q.first;
+      });
+      int m = 0;
+      for (size_t e = 0; e + 1 < ev.size(); ++e) {
+        m += ev[e].second;
+        if (m <= 0) continue;
+        const float share = m >= ns ? 1.f : static_cast<float>(m) * per_point;
+        for (int x = ev[e].first; x < ev[e + 1].first; ++x) {
+          if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
+          const float t = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
+                                    sc.pl.Hl[j], I0, table);
+          acc[x] = std::max(0.f, acc[x] - (m >= ns ? t : t * share));
+          ++sc.shaded;
+        }
+      }
+      si = se;
     }
   }
 };
@@ -3185,7 +3295,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     vertical.emplace(texture, labels, depth_m, g, s, p, fac, W);
     pools.emplace(texture, labels, g, s, p, W);
     if (p.lamp_shadows) {
-      const bool given = shadows && shadows->lamps == s.lamps.size();
+      const bool given = shadows && shadows->lamps == s.lamps.size() && shadows->samples == lamp_shadow_samples(p);
       if (!given) shadow_rows = street_lamp_shadow_spans(labels, depth_m, g, s, p);
       pools->shadows = given ? shadows : &shadow_rows;
     }

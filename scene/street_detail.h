@@ -2,6 +2,7 @@
 // and its instruction-set cap and the pole components of plan_street_lighting, for the tests
 // that pin them (the same bits on every path; OpenCV's labels).
 #pragma once
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -103,7 +104,11 @@ struct StreetRowsResult {
   long long shadow_quads = 0, shadow_pixels = 0;
 };
 // The street lamps' shadows on the ground (street_lamps.shadows; docs/night.md §7): the pixels
-// x0 .. x1 − 1 of row y in the shadow of lamp `lamp` (its index in StreetLighting::lamps).
+// x0 .. x1 − 1 of row y in the shadow of lamp k (its index in StreetLighting::lamps): lamp = k
+// without street_lamps.penumbrae (the lamp one point, its centre); with them (n = samples points
+// per lamp's disc) lamp = k·(n + 1) + j, in the shadow of the disc's point j, or, j = n, of all
+// of them at once (StreetShadowBuilder: an occluder whose shadow's edges move by under half a
+// pixel over the disc).
 struct ShadowSpan {
   int32_t y, x0, x1, lamp;
 };
@@ -113,7 +118,23 @@ struct LampShadowRows {
   std::vector<int32_t> row_start;
   long long quads = 0;  // (occluder column run, lamp) pairs drawn
   size_t lamps = 0;     // the lamps they were made for (StreetLighting::lamps.size())
+  int samples = 1;      // sample points per lamp's emitting disc (lamp_disc_samples)
+  int ids_per_lamp() const { return samples == 1 ? 1 : samples + 1; }
 };
+// street_lamps.penumbrae (docs/night.md §7): each luminaire's emitting face, a horizontal disc of
+// street_lamps.head_diameter_m at the mount height, is taken as this many points of equal area
+// (a Vogel spiral, lamp_disc_samples); a ground pixel in the shadow of m of them loses m/n of the
+// lamp's term. The layout's half-plane discrepancy (the most a straight shadow edge's share of
+// the points differs from its share of the disc's area) is 0.144 at 16 points:
+// tests/scene_metric_test.cpp measures it and bounds the shares by it.
+constexpr int kLampDiscSamples = 16;
+// The sample points' offsets (ΔX, ΔD) in metres from the disc's centre, n points over a disc of
+// diameter_m: r_i = (d/2)·√((i + ½)/n), θ_i = i·π(3 − √5) (Vogel 1979, the golden angle; each
+// point stands for an equal area, none at the centre). n = 1: the centre itself, (0, 0).
+std::vector<std::array<double, 2>> lamp_disc_samples(double diameter_m, int n);
+// The points StreetShadowBuilder takes per lamp under preset p: kLampDiscSamples with
+// street_lamps.penumbrae, else 1.
+int lamp_shadow_samples(const ScenePreset& p);
 // The shadows' spans (scene/street.cpp, where the method is) in steps that several threads share:
 // the constructor takes the inputs (kept by reference: they must outlive it), take_blocks() scans
 // blocks of columns from a shared counter until none is left (from any number of threads at once,
@@ -139,6 +160,8 @@ class StreetShadowBuilder {
   std::shared_ptr<const LabelRuns> own_runs_;  // made by the constructor where none were handed
   const LabelRuns* runs_ = nullptr;
   std::vector<double> reach_;
+  std::vector<std::array<double, 2>> disc_;  // the lamps' sample points (lamp_disc_samples)
+  double disc_radius_ = 0;                    // street_lamps.head_diameter_m / 2
   double D_bottom_ = 0.1;
   std::atomic<int> next_block_{0};
   std::atomic<long long> quads_{0};

@@ -155,7 +155,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
-// street_lamps.interp_tolerance, street_lamps.shadows (an attribute only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
+// street_lamps.interp_tolerance, street_lamps.shadows and street_lamps.penumbrae (attributes only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
 // lamps.streetlamp_type, an attribute only, the member being an enum). Values changed since, by hand
 // with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
 // vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).

@@ -4620,6 +4620,42 @@ TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
   EXPECT_EQ(radiance[0].vec(), radiance[1].vec()) << "the night radiance at 1 and 2 threads";
 }
 
+namespace {
+// The mean forward distance D of a label's pixels at the metric depth (the synthetic car's one
+// plane, D_c) and their count.
+std::pair<double, int> label_plane_D_m(const ImageU16& ids, int label, const ImageF& depth, const CameraGeometry& g) {
+  double D = 0;
+  int n = 0;
+  for (int y = 0; y < ids.height(); ++y)
+    for (int x = 0; x < ids.width(); ++x)
+      if (ids.at(x, y) == label) {
+        const double yn = (y - g.cy_px) / g.f_px;
+        D += depth.at(x, y) * (std::cos(g.pitch_rad) - yn * std::sin(g.pitch_rad));
+        ++n;
+      }
+  return {n ? D / n : 0, n};
+}
+// add_street_light_rows at 1 and 3 threads (the column blocks in another order) and at every
+// instruction set (the runs' eight-lane test and the class bits): the bits of `ref` and, given
+// (≥ 0), its count of shaded (pixel, lamp) pairs.
+void expect_street_rows_everywhere(const ImageF& ref, const ImageF& tex, const ImageU16& ids, const ImageF& depth,
+                                   const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
+                                   long long shadow_pixels) {
+  const int before = omp_get_max_threads();
+  for (const int isa : {2, 1, 0})
+    for (const int threads : {1, 3}) {
+      street_light_max_isa(isa);
+      omp_set_num_threads(threads);
+      ImageF again(ref.width(), ref.height(), 3, 0.f, unit::radiance);
+      const StreetRowsResult r = add_street_light_rows(again, tex, ids, depth, g, s, p, 1, nullptr);
+      if (shadow_pixels >= 0) EXPECT_EQ(r.shadow_pixels, shadow_pixels) << isa << " " << threads;
+      EXPECT_EQ(std::memcmp(again.data(), ref.data(), ref.size() * sizeof(float)), 0) << isa << " " << threads;
+    }
+  street_light_max_isa(2);
+  omp_set_num_threads(before);
+}
+}  // namespace
+
 // street_lamps.shadows (docs/night.md §7, "Shadows of the street lamps"): a car on the synthetic
 // street (photosite's metric depth: one fronto-parallel plane at its contact, D_c) under two
 // luminaires, one beyond it and to its left, one nearer the camera and to its right. The reference
@@ -4630,12 +4666,14 @@ TEST(EgoLowBeamShadow, ChainShadowsAreTheirFunctionsAtOneAndTwoThreads) {
 // edges against the labels' pixel centres, ±1 px, doubled) are not judged for that lamp. Every
 // judged pixel must have lost exactly the blocked lamps' terms: (L_off − L_on)/(f·t/π) against
 // Σ blocked E_k (the double law), within the derived float bound in the comment below; every
-// pixel blocked from no lamp is bit-identical with and without shadows.
+// pixel blocked from no lamp is bit-identical with and without shadows. The lamps are points here
+// (street_lamps.penumbrae off: the sharp edges; the penumbrae's own test is below).
 TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
   SyntheticCameraOptions o = camera_scene();
   o.boxes = {{1.0, 15, 1.8, 1.5, 4.5}};
   const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
   ScenePreset p = urban();
+  ASSERT_FALSE(p.lamp_penumbrae);  // the default
   const CameraGeometry& g = o.camera;
   const int W = o.width, H = o.height;
   const ImageF depth = metric_depth(sc.labels, g, p.max_depth_m);
@@ -4654,17 +4692,9 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
   EXPECT_EQ(r_off.shadow_pixels, 0);
   // The car's plane and silhouette.
   const int car = static_cast<int>(Label::Car);
-  double Dc = 0;
-  int ncar = 0;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      if (sc.labels.ids.at(x, y) == car) {
-        const double yn = (y - g.cy_px) / g.f_px;
-        Dc += depth.at(x, y) * (std::cos(g.pitch_rad) - yn * std::sin(g.pitch_rad));
-        ++ncar;
-      }
-  ASSERT_GT(ncar, 1000);
-  Dc /= ncar;
+  const std::pair<double, int> plane = label_plane_D_m(sc.labels.ids, car, depth, g);
+  const double Dc = plane.first;  // a plain variable: the lambdas below take it
+  ASSERT_GT(plane.second, 1000);
   auto car_near = [&](double u, double v, int r, bool* any, bool* all) {
     *any = false, *all = true;
     const int xc = static_cast<int>(std::lround(u)), yc = static_cast<int>(std::lround(v));
@@ -4730,20 +4760,8 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
   EXPECT_GT(blocked_px[1], 200);
   EXPECT_GT(lit_px, 100000);
   EXPECT_LT(unsure, blocked_px[0] + blocked_px[1]);
-  // The same bits at 1 and 3 threads (the column blocks in another order) and at every
-  // instruction set (the runs' eight-lane test and the class bits).
-  const int before = omp_get_max_threads();
-  for (const int isa : {2, 1, 0})
-    for (const int threads : {1, 3}) {
-      street_light_max_isa(isa);
-      omp_set_num_threads(threads);
-      ImageF again(W, H, 3, 0.f, unit::radiance);
-      const StreetRowsResult r = add_street_light_rows(again, tex, sc.labels.ids, depth, g, s, p, 1, nullptr);
-      EXPECT_EQ(r.shadow_pixels, r_on.shadow_pixels) << isa << " " << threads;
-      EXPECT_EQ(std::memcmp(again.data(), on.data(), on.size() * sizeof(float)), 0) << isa << " " << threads;
-    }
-  street_light_max_isa(2);
-  omp_set_num_threads(before);
+  // The same bits at 1 and 3 threads and at every instruction set.
+  expect_street_rows_everywhere(on, tex, sc.labels.ids, depth, g, s, p, r_on.shadow_pixels);
   // The spans from the label runs handed (the chain's depth stage hands them), from none (the
   // builder makes them: the light map alone, add_street_light_rows above) and from the runs of
   // other labels (not taken: made again) are the same, and handed to the rows they give the same
@@ -4774,4 +4792,247 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
   ImageF handed(W, H, 3, 0.f, unit::radiance);
   add_street_light_rows(handed, tex, sc.labels.ids, depth, g, s, p, 1, nullptr, nullptr, nullptr, nullptr, 0, -1, &b);
   EXPECT_EQ(std::memcmp(handed.data(), on.data(), on.size() * sizeof(float)), 0);
+}
+
+// street_lamps.penumbrae (docs/night.md §7, "Shadows of the street lamps"): each luminaire's face
+// is a horizontal disc of head_diameter_m at the mount height, taken as n = kLampDiscSamples
+// points of equal area (lamp_disc_samples); a ground pixel in the shadow of m of lamp k's points
+// loses m/n of k's term. On the car street of the test above, at head diameters 0.5 m (the
+// presets') and 1 m, the reference casts rays that share nothing with the quadrilaterals: from the
+// ground pixel's point G to a point Q of the disc the segment crosses the car's plane D_c at
+// C = G + μ(Q − G), μ = (D_c − D_G)/(D_Q − D_G) in (0, 1), and C projected into the image lands on
+// the car's labelled silhouette (blocked) or not. The disc's image on the car's plane is convex
+// (a central projection of a disc), so the box around 48 rim points' crossings, padded by 2 px,
+// holds it: where that box is all car or all not car the whole disc is hidden or seen.
+//  (a) The builder's count m (its spans) against the reference's count m_ref of the same n points:
+//      a point whose crossing lies within 2 px of the silhouette's edge (the test above's band)
+//      may go either way, so m_ref ≤ m ≤ m_ref + u with u such points (counted unblocked in m_ref).
+//  (b) The share m/n against the disc's exact visible share A, integrated by the reference over a
+//      polar grid of n_r × n_t equal-area cells (a point at each cell's middle), where the part of
+//      the disc hidden is a half-plane: the padded box meets the silhouette only along one column
+//      edge (a straight line on the car's plane, whose preimage on the disc's plane through G is a
+//      straight line; the box's rows all car there). Then |m/n − A| ≤ δ_n + ε_grid + u/n, with
+//      δ_n the layout's half-plane discrepancy, sup over lines of |#(points beyond)/n − the
+//      disc's area share beyond|, computed here (for each direction the count changes only at
+//      the points' projections and the area share is monotone in the offset, so the sup is at
+//      those ends; directions every 0.05°, between which the share moves by at most 2Δθ/π), and
+//      ε_grid = (1 + 2n_r + n_t/2)/(n_r·n_t): a line crosses each of the n_r ring circles at most
+//      twice and each of the n_t/2 diameters at most once, so it passes through at most that many
+//      cells, each off by at most its own weight.
+//  (c) The light: (L_off − L_on)/(f·t/π) against Σ_k E_k·m_k/n with the builder's m_k, within the
+//      test above's float bound with 1 u more per term (the product e·(m/n)): an umbra pixel
+//      (m = n) loses its whole term, a pixel in no lamp's shadow is bit-identical to shadows off.
+//  (d) A pixel whose padded box is uniform for every lamp within reach is bit-identical to the
+//      point lamps' image (penumbrae off).
+// It fails with the head's size ignored (every point at the centre: (a) and (b)) or with the
+// penumbrae off (m ∈ {0, n}: (b)). 1 and 3 threads and every instruction set give the same bits.
+TEST(StreetLampShadows, PenumbraeAreTheDiscsVisibleShare) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes = {{1.0, 15, 1.8, 1.5, 4.5}};
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const CameraGeometry& g = o.camera;
+  const int W = o.width, H = o.height;
+  ScenePreset p = urban();
+  ASSERT_TRUE(p.lamp_shadows && !p.lamp_penumbrae);  // the defaults
+  p.lamp_penumbrae = true;
+  const ImageF depth = metric_depth(sc.labels, g, p.max_depth_m);
+  const ImageF tex = reflectance_texture(sc.day_linear_srgb, sc.labels.ids, p);
+  StreetLighting s;
+  s.lamps = {{4.5, 8, 9, false}, {-2.0, 10, 24, false}};  // by D
+  s.peak_intensity_cd = 6000;
+  const int n = kLampDiscSamples, nL = static_cast<int>(s.lamps.size());
+  ASSERT_EQ(lamp_shadow_samples(p), n);
+  // δ_n on the unit disc.
+  double delta = 0;
+  {
+    const auto pts = lamp_disc_samples(2.0, n);
+    auto beyond = [](double d) {
+      d = std::clamp(d, -1.0, 1.0);
+      return (std::acos(d) - d * std::sqrt(1 - d * d)) / M_PI;
+    };
+    std::vector<double> pr(n);
+    const int na = 3600;
+    for (int a = 0; a < na; ++a) {
+      const double th = a * M_PI / na;
+      for (int i = 0; i < n; ++i) pr[i] = pts[i][0] * std::cos(th) + pts[i][1] * std::sin(th);
+      std::sort(pr.begin(), pr.end());
+      for (int i = 0; i < n; ++i) {
+        const double A = beyond(pr[i]);  // n − i points beyond just below pr[i], n − i − 1 just above
+        delta = std::max({delta, std::fabs((n - i) / double(n) - A), std::fabs((n - i - 1) / double(n) - A)});
+      }
+    }
+    delta += 2 * (M_PI / na) / M_PI;
+  }
+  std::fprintf(stderr, "[penumbrae] half-plane discrepancy of the %d points %.4f\n", n, delta);
+  EXPECT_LT(delta, 0.145) << "street_detail.h states 0.144";
+  constexpr int n_r = 64, n_t = 256;
+  const double eps_grid = (1 + 2.0 * n_r + n_t / 2.0) / (n_r * n_t);
+  // The car's plane and silhouette (as in the test above).
+  const int car = static_cast<int>(Label::Car);
+  const std::pair<double, int> plane = label_plane_D_m(sc.labels.ids, car, depth, g);
+  const double Dc = plane.first;  // a plain variable: the lambdas below take it
+  ASSERT_GT(plane.second, 1000);
+  auto is_car = [&](int x, int y) { return x >= 0 && y >= 0 && x < W && y < H && sc.labels.ids.at(x, y) == car; };
+  // The crossing of G → Q with the car's plane, projected; false: the plane is not between them.
+  auto crossing = [&](double X, double D, double QX, double QY, double QD, double* u, double* v) {
+    const double mu = (Dc - D) / (QD - D);
+    if (!(mu > 0 && mu < 1)) return false;
+    return g.project(X + mu * (QX - X), mu * QY, Dc, u, v, nullptr);
+  };
+  const auto tl = streetlamp_tint(p);
+  const double tG = static_cast<float>(tl[1] / M_PI);
+  const double u24 = 0x1p-24;
+  long long penumbra_pairs[2] = {0, 0};
+  ScenePreset p_point = p, p_off = p;
+  p_point.lamp_penumbrae = false;
+  p_off.lamp_shadows = false;
+  ImageF on05;
+  for (const double dia : {0.5, 1.0}) {
+    const int di = dia < 0.75 ? 0 : 1;
+    p.lamp_head_diameter_m = p_point.lamp_head_diameter_m = p_off.lamp_head_diameter_m = dia;
+    const LampShadowRows spans = street_lamp_shadow_spans(sc.labels.ids, depth, g, s, p);
+    ASSERT_EQ(spans.samples, n);
+    // m per (lamp, pixel): a point's span counts 1, a span of all points n (street_detail.h), at most n.
+    ASSERT_EQ(spans.ids_per_lamp(), n + 1);
+    std::vector<uint8_t> m_code(static_cast<size_t>(nL) * W * H, 0);
+    for (int y = 0; y < H; ++y)
+      for (int32_t i = spans.row_start[y]; i < spans.row_start[y + 1]; ++i) {
+        const ShadowSpan& sp = spans.spans[i];
+        const int wgt = sp.lamp % (n + 1) == n ? n : 1;
+        for (int x = sp.x0; x < sp.x1; ++x) {
+          uint8_t& m = m_code[(static_cast<size_t>(sp.lamp / (n + 1)) * H + y) * W + x];
+          m = static_cast<uint8_t>(std::min(n, m + wgt));
+        }
+      }
+    ImageF on(W, H, 3, 0.f, unit::radiance), point(W, H, 3, 0.f, unit::radiance), off(W, H, 3, 0.f, unit::radiance);
+    add_street_light_rows(on, tex, sc.labels.ids, depth, g, s, p, 1, nullptr);
+    add_street_light_rows(point, tex, sc.labels.ids, depth, g, s, p_point, 1, nullptr);
+    add_street_light_rows(off, tex, sc.labels.ids, depth, g, s, p_off, 1, nullptr);
+    if (di == 0) on05 = on;
+    const auto pts = lamp_disc_samples(dia, n);
+    const double R = 0.5 * dia;
+    long long judged_a = 0, judged_b = 0, umbra = 0, lit = 0, far = 0, mixed = 0;
+    double worst_b = 0, worst_c = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        double X, D;
+        if (!ground_classes()[sc.labels.ids.at(x, y)] || !g.ground_point(x, y, &X, &D, nullptr)) continue;
+        double lost = 0, Esum = 0;
+        bool uniform_all = true, any_m = false;
+        for (int k = 0; k < nL; ++k) {
+          const StreetLamp& l = s.lamps[k];
+          if (std::fabs(D - l.D_m) > street_lamp_reach_m(l.Y_m, p)) continue;  // the row drops it: no term
+          const double Ek = street_illuminance_lux(X, D, StreetLighting{{l}, "", 0, 0, false, s.peak_intensity_cd}, p);
+          const int m = m_code[(static_cast<size_t>(k) * H + y) * W + x];
+          Esum += Ek;
+          lost += Ek * m / n;
+          any_m |= m > 0;
+          if (m > 0 && m < n) ++penumbra_pairs[di];
+          // The disc's image: its rim's crossings and its centre's.
+          int crossed = 0;
+          double umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY;
+          for (int i = 0; i <= 48; ++i) {
+            const double th = 2 * M_PI * i / 48, r = i < 48 ? R : 0;
+            double u, v;
+            if (!crossing(X, D, l.X_m + r * std::cos(th), l.Y_m, l.D_m + r * std::sin(th), &u, &v)) continue;
+            ++crossed;
+            umin = std::min(umin, u), umax = std::max(umax, u), vmin = std::min(vmin, v), vmax = std::max(vmax, v);
+          }
+          if (crossed == 0) {  // the car's plane is not between G and the disc: seen whole
+            ASSERT_EQ(m, 0) << x << "," << y << " lamp " << k;
+            continue;
+          }
+          if (crossed < 49) {  // the disc straddles G's D: not judged
+            ++mixed;
+            uniform_all = false;
+            continue;
+          }
+          const int bx0 = static_cast<int>(std::floor(umin - 2)), bx1 = static_cast<int>(std::ceil(umax + 2));
+          const int by0 = static_cast<int>(std::floor(vmin - 2)), by1 = static_cast<int>(std::ceil(vmax + 2));
+          int ncar_box = 0, columns_constant = 1, transitions = 0;
+          for (int bx = bx0; bx <= bx1; ++bx) {
+            const bool c0 = is_car(bx, by0);
+            for (int by = by0; by <= by1; ++by) {
+              const bool c = is_car(bx, by);
+              ncar_box += c;
+              columns_constant &= c == c0;
+            }
+            if (bx > bx0 && c0 != is_car(bx - 1, by0)) ++transitions;
+          }
+          const int box = (bx1 - bx0 + 1) * (by1 - by0 + 1);
+          if (ncar_box == 0 || ncar_box == box) {  // the whole disc seen or hidden
+            ASSERT_EQ(m, ncar_box ? n : 0) << x << "," << y << " lamp " << k << " d " << dia;
+            if (m == n) ++umbra;
+            continue;
+          }
+          uniform_all = false;
+          // (a) the same n points, cast.
+          int m_ref = 0, unsure = 0;
+          for (const auto& q : pts) {
+            double u, v;
+            ASSERT_TRUE(crossing(X, D, l.X_m + q[0], l.Y_m, l.D_m + q[1], &u, &v));
+            bool any = false, all = true;
+            const int xc = static_cast<int>(std::lround(u)), yc = static_cast<int>(std::lround(v));
+            for (int dy = -2; dy <= 2; ++dy)
+              for (int dx = -2; dx <= 2; ++dx) {
+                const bool c = is_car(xc + dx, yc + dy);
+                any |= c, all &= c;
+              }
+            if (all) ++m_ref;
+            else if (any) ++unsure;
+          }
+          ASSERT_TRUE(m >= m_ref && m <= m_ref + unsure)
+              << x << "," << y << " lamp " << k << " d " << dia << ": m " << m << ", reference " << m_ref << " + "
+              << unsure << " in the edge band";
+          ++judged_a;
+          // (b) where the hidden part is a half-plane: the exact share over the polar grid.
+          if (!(columns_constant && transitions == 1)) continue;
+          int hidden = 0;
+          for (int ir = 0; ir < n_r; ++ir) {
+            const double r = R * std::sqrt((ir + 0.5) / n_r);
+            for (int it = 0; it < n_t; ++it) {
+              const double th = 2 * M_PI * (it + 0.5) / n_t;
+              double u, v;
+              ASSERT_TRUE(crossing(X, D, l.X_m + r * std::cos(th), l.Y_m, l.D_m + r * std::sin(th), &u, &v));
+              hidden += is_car(static_cast<int>(std::lround(u)), static_cast<int>(std::lround(v)));
+            }
+          }
+          const double A = static_cast<double>(hidden) / (n_r * n_t), bound = delta + eps_grid + double(unsure) / n;
+          ASSERT_LE(std::fabs(double(m) / n - A), bound)
+              << x << "," << y << " lamp " << k << " d " << dia << ": m/n " << double(m) / n << ", exact " << A;
+          worst_b = std::max(worst_b, std::fabs(double(m) / n - A) / bound);
+          ++judged_b;
+        }
+        // (c) the light.
+        if (!any_m) {
+          ++lit;
+          for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(on.at(x, y, ch), off.at(x, y, ch)) << x << "," << y;
+        } else {
+          const double f = tex.at(x, y, 1) * tG;
+          const double dE = (static_cast<double>(off.at(x, y, 1)) - on.at(x, y, 1)) / f;
+          const double tol = 66 * u24 * lost + (6 * u24 + p.lamp_interp_tolerance) * Esum + 1e-6 * lost;
+          ASSERT_NEAR(dE, lost, tol) << x << "," << y << " d " << dia;
+          worst_c = std::max(worst_c, std::fabs(dE - lost) / tol);
+        }
+        // (d) far from every edge: the point lamps' bits.
+        if (uniform_all) {
+          ++far;
+          for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(on.at(x, y, ch), point.at(x, y, ch)) << x << "," << y;
+        }
+      }
+    std::fprintf(stderr,
+                 "[penumbrae] head %.1f m: %lld (pixel, lamp) pairs in a penumbra, %lld in an umbra; (a) %lld pairs "
+                 "judged; (b) %lld half-plane pairs, largest error/bound %.3f; (c) largest error/bound %.3f, %lld "
+                 "pixels lit by both; (d) %lld pixels far from every edge; %lld pairs not judged\n",
+                 dia, penumbra_pairs[di], umbra, judged_a, judged_b, worst_b, worst_c, lit, far, mixed);
+    EXPECT_GT(umbra, 1000) << "the umbrae behind the car";
+    EXPECT_GT(judged_b, 200) << "the side edges' penumbrae";
+    EXPECT_GT(far, 100000);
+  }
+  // The penumbrae's widths w = d·|G − P|/|P − S| grow with the head's diameter d (each pixel's
+  // share is checked above against the exact geometry at both).
+  EXPECT_GT(penumbra_pairs[1], penumbra_pairs[0]);
+  // The same bits at 1 and 3 threads and at every instruction set.
+  p.lamp_head_diameter_m = 0.5;
+  expect_street_rows_everywhere(on05, tex, sc.labels.ids, depth, g, s, p, -1);
 }

@@ -72,6 +72,12 @@ struct ScenePreset {
   // pixel that a vehicle, person, pole, sign, signal, fence or guard rail hides from a lamp loses
   // that lamp's share of the pools (docs/night.md §7 "Shadows of the street lamps").
   bool lamp_shadows = true;
+  // The shadows' penumbrae (street_lamps.penumbrae; with lamp_shadows): each luminaire's face, a
+  // disc of lamp_head_diameter_m, as kLampDiscSamples points (scene/street_detail.h); a ground
+  // pixel hidden from part of the disc loses that part's share of the lamp's light. Off (the
+  // default: on costs the chain about 10 %, docs/benchmarks.md "Thirty-first session: penumbrae"):
+  // the lamp is one point and the shadows' edges are sharp (docs/night.md §7).
+  bool lamp_penumbrae = false;
   // [vehicle_lamps] lamps in metres per vehicle (scene/lights.cpp): height above the ground
   // contact, inset from the vehicle's side, lens diameters, intensities toward the camera, the
   // seeded share of parked vehicles with parking lights, the kerb strip where vehicles park.
