@@ -2587,7 +2587,38 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
 constexpr uint32_t kLaneBytes[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
                                      0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
                                      0x01010000, 0x01010001, 0x01010100, 0x01010101};
-__attribute__((target("avx2"), always_inline)) inline void window_geom_body(WindowRow& r, int n, const WindowGeom& w) {
+// With the day photo's windows (found: its planes, BuildingFacades::planes' indices; nullptr
+// without), a pane lane (bit k of `in`) in a column its plane (plane[k]) has resolved leaves the
+// panes (kind 0): WindowPass::photo_resolved's test from the lane's s (along_plane's operations,
+// in its order), the same cell ⌊(s − s0)·(1/kCell_m)⌋ and ordered tests, the table read for the
+// lanes in range only. The draw loop took these steps pixel by pixel, with X's division again, a
+// floor and two branches (window_block_avx512 filters its lanes the same way). The lanes of one
+// plane at a time (a quad holds one plane but where the candidates pass from one façade to the next).
+__attribute__((target("avx2"), always_inline)) inline int resolved_lanes4(__m256d s, int in, const int32_t* plane,
+                                                                          const FacadeWindowsFound::Plane* found) {
+  const __m256d inv_cell = _mm256_set1_pd(1 / FacadeWindowsFound::kCell_m);
+  const __m128i pl = _mm_loadu_si128(reinterpret_cast<const __m128i*>(plane));
+  int res = 0;
+  for (int todo = in; todo;) {
+    const int pi = plane[std::countr_zero(static_cast<unsigned>(todo))];
+    const int same = todo & _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(pl, _mm_set1_epi32(pi))));
+    todo &= ~same;
+    const FacadeWindowsFound::Plane& F = found[pi];
+    if (!F.used) continue;
+    const __m256d ci = _mm256_floor_pd(_mm256_mul_pd(_mm256_sub_pd(s, _mm256_set1_pd(F.s0)), inv_cell));
+    const int in_range = same & _mm256_movemask_pd(_mm256_cmp_pd(ci, _mm256_setzero_pd(), _CMP_GE_OQ)) &
+                         _mm256_movemask_pd(_mm256_cmp_pd(ci, _mm256_set1_pd(F.ns), _CMP_LT_OQ));
+    if (!in_range) continue;
+    alignas(16) int32_t idx[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(idx), _mm256_cvttpd_epi32(ci));  // (read for in_range only)
+    const uint8_t* tab = F.resolved.data();
+    for (int k = 0; k < 4; ++k) res |= ((in_range >> k & 1) && tab[idx[k]] != 0) << k;
+  }
+  return res;
+}
+__attribute__((target("avx2"), always_inline)) inline void window_geom_body(WindowRow& r, int n, const WindowGeom& w,
+                                                                           const int32_t* plane,
+                                                                           const FacadeWindowsFound::Plane* found) {
   const __m256d cx = _mm256_set1_pd(w.cx), f = _mm256_set1_pd(w.f), kD = _mm256_set1_pd(w.kD), kY = _mm256_set1_pd(w.kY),
                 h = _mm256_set1_pd(w.h), storey = _mm256_set1_pd(w.storey), pitch = _mm256_set1_pd(w.pitch),
                 frontage = _mm256_set1_pd(w.frontage), half_pitch = _mm256_set1_pd(w.half_pitch),
@@ -2615,7 +2646,13 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
     const __m256d out_shop = _mm256_or_pd(_mm256_cmp_pd(ds, half_shop, _CMP_GT_OQ),
                                           _mm256_or_pd(_mm256_cmp_pd(y_in, sill, _CMP_LT_OQ), _mm256_cmp_pd(y_in, sill_top, _CMP_GT_OQ)));
     const int not_below = ~_mm256_movemask_pd(below) & 0xf, gf = _mm256_movemask_pd(ground_floor);
-    const int glass = ~_mm256_movemask_pd(out_glass) & not_below, pane = ~_mm256_movemask_pd(out_shop) & not_below & gf;
+    int glass = ~_mm256_movemask_pd(out_glass) & not_below, pane = ~_mm256_movemask_pd(out_shop) & not_below & gf;
+    // (The lanes past n, r.pad's copies, have no plane of their own: not tested.)
+    if (const int in = (glass | pane) & (n - i >= 4 ? 0xf : (1 << (n - i)) - 1); found && in) {
+      const int res = resolved_lanes4(s, in, plane + i, found);
+      glass &= ~res;
+      pane &= ~res;
+    }
     // Without a branch on the lanes' panes (they change every few quads along a row: a
     // mispredicted branch there exposed the divisions' latency): the four kinds in one store, and
     // the storey, cell and (a ground-floor lane in the quad) unit of every lane, read only where
@@ -2633,11 +2670,16 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
     }
   }
 }
-__attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w) { window_geom_body(r, n, w); }
+__attribute__((target("avx2"))) void window_geom_avx2(WindowRow& r, int n, const WindowGeom& w, const int32_t* plane,
+                                                     const FacadeWindowsFound::Plane* found) {
+  window_geom_body(r, n, w, plane, found);
+}
 // The same compiled for AVX-512VL (its sixteen constants and the lanes' values in 32 registers;
 // the same operations, no FMA contraction: the same panes).
-__attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowRow& r, int n, const WindowGeom& w) {
-  window_geom_body(r, n, w);
+__attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowRow& r, int n, const WindowGeom& w,
+                                                                        const int32_t* plane,
+                                                                        const FacadeWindowsFound::Plane* found) {
+  window_geom_body(r, n, w, plane, found);
 }
 // A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
 // draws (add_facade_windows).
@@ -2660,18 +2702,22 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
 // add_facade_windows's compaction of columns x0 .. x1 − 1 of a row (its scalar loop: a building pixel with a plane and
 // z ≤ zmax gets column, z, the plane's axis and index) with AVX2: eight columns of one building
 // region whose eight columns take one plane and whose depths are all within zmax (inside a façade:
-// most groups) by vector loads and stores, groups of no building pixel skipped, other groups and
+// most groups) by vector loads and stores, groups of no building pixel skipped (on their labels
+// id first, as window_block_avx512 does: no region without a building label), other groups and
 // the last (x1 − x0) mod 8 columns one by one. The same entries in the same order. Returns their count.
 __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, const float* z, int x0, int x1, double zmax,
                                                           const BuildingFacades& fac, const FacadeFrame* fr,
-                                                          WindowRow& r, int32_t* rp) {
+                                                          WindowRow& r, int32_t* rp, const uint16_t* id) {
   int32_t* rx = r.x.data();
   double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
   int n = 0;
   auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
   const __m256d vzmax = _mm256_set1_pd(zmax);
+  const __m128i building = _mm_set1_epi16(static_cast<int16_t>(Label::Building));
   int x = x0;
   for (; x + 8 <= x1; x += 8) {
+    if (_mm_movemask_epi8(_mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + x)), building)) == 0)
+      continue;
     const int pi = window_group_plane(reg, x, fac);
     if (pi == -2) continue;  // no building region
     if (pi >= 0) {
@@ -3041,7 +3087,7 @@ struct WindowPass {
                     j == 0 ? static_cast<int64_t>(P.unit[i]) : 0, memo, sc.seen);
         }
       } else if (isa == 1) {
-        n = window_candidates_avx2(reg, z, x0, x1, zmax, fac, fr, sc.r, rp);
+        n = window_candidates_avx2(reg, z, x0, x1, zmax, fac, fr, sc.r, rp, labels.row(y));
       }
       for (int x = x0; x < x1 && isa == 0; ++x) {
         // Eight pixels of no building region (region −1: the AND of their ids keeps the sign bit
@@ -3056,8 +3102,10 @@ struct WindowPass {
       if (n == 0) continue;
       if (isa >= 1) {
         sc.r.pad(n);
-        if (isa >= 2) window_geom_avx512(sc.r, n, wg);
-        else window_geom_avx2(sc.r, n, wg);
+        // (The photo-resolved lanes' kinds cleared there: photo_resolved is done.)
+        const FacadeWindowsFound::Plane* fp = any_found ? found.planes.data() : nullptr;
+        if (isa >= 2) window_geom_avx512(sc.r, n, wg, rp, fp);
+        else window_geom_avx2(sc.r, n, wg, rp, fp);
       } else {
         window_geom_scalar(sc.r, n, wg);
       }
@@ -3072,7 +3120,7 @@ struct WindowPass {
         for (; in_pane; in_pane &= in_pane - 1) {
           const int i = i8 + (std::countr_zero(in_pane) >> 3);
           const int j = sc.r.j[i];
-          if (any_found && photo_resolved(sc.r.x[i], sc.plane_of[i], sc.r.z[i], wg)) continue;
+          if (any_found && isa == 0 && photo_resolved(sc.r.x[i], sc.plane_of[i], sc.r.z[i], wg)) continue;
           draw_pane(o, sc.r.x[i], sc.plane_of[i], j, sc.r.kind[i], sc.r.cell[i], j == 0 ? sc.r.unit[i] : 0, memo, sc.seen);
         }
       }
