@@ -82,6 +82,7 @@ void run(const ExposeCmd& c) {
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
   check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}}, {{"--radiance", c.radiance}});
   ImageF radiance = load_radiance(c.radiance);
+  if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, radiance.width(), radiance.height());
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   ImageF mean_e;

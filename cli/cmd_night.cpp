@@ -94,6 +94,7 @@ void run_night(NightCmd c) {
   // directly (prepare_night), the same bits as from read_image()'s floats.
   DayImage day_file = read_day_image(c.image, &info);
   const int day_w = day_file.width(), day_h = day_file.height();
+  if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, day_w, day_h);
   const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
   sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);

@@ -131,6 +131,7 @@ void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<
 void PreviewFlags::add(CLI::App* sub) {
   isp_option = sub->add_option("--preview-isp", isp, "preview ISP: simple (white balance, p99 exposure, sRGB) or camera (+ noise reduction from the sensor's noise model, JPEG; docs/realism.md); needs --preview")->capture_default_str();
   wb_option = sub->add_option("--preview-wb", wb, "preview white balance: fixed (the camera preset's gains) or auto (gray-world AWB of the frame, bounded to the camera's 2000-10000 K black-body gains; docs/realism.md); needs --preview")->capture_default_str();
+  ccm_option = sub->add_option("--preview-ccm", ccm, "preview colour matrix: none (camera RGB shown as sRGB) or camera (the camera's colour correction matrix, derived from its spectral response; docs/sensor.md section 9); needs --preview")->capture_default_str();
   denoise_option = sub->add_option("--preview-denoise", camera.denoise, "camera ISP: luma noise-reduction strength, 0-10 (0: off; chroma gets twice it); needs --preview-isp camera")->capture_default_str();
   jpeg_option = sub->add_option("--preview-jpeg-quality", camera.jpeg_quality, "camera ISP: JPEG round trip quality 1-100 (0: none); needs --preview-isp camera")->capture_default_str();
 }
@@ -139,11 +140,12 @@ PreviewOptions PreviewFlags::resolve(const std::string& preview) const {
   PreviewOptions o;
   o.isp = parse_preview_isp(isp);
   o.wb = parse_preview_wb(wb);
+  o.ccm = parse_preview_ccm(ccm);
   o.camera = camera;
   o.camera.chroma_denoise = 2 * camera.denoise;  // isp.h's default ratio
   check_camera_isp_options(o.camera);
   const auto given = [](const CLI::Option* opt) { return opt && opt->count() > 0; };
-  for (const CLI::Option* opt : {isp_option, wb_option, denoise_option, jpeg_option})
+  for (const CLI::Option* opt : {isp_option, wb_option, ccm_option, denoise_option, jpeg_option})
     if (given(opt) && preview.empty())
       fail(opt->get_name() + " " + opt->as<std::string>() + ": no preview is written (add --preview FILE.png), so it would do nothing");
   if (o.isp != PreviewIsp::Camera)

@@ -48,10 +48,11 @@ struct SensorOptions {
 struct PreviewFlags {
   std::string isp = "simple";
   std::string wb = "fixed";
+  std::string ccm = "none";
   CameraIspOptions camera;
   // The options as added (null when the flags were set in code, e.g. by `demo`): count() > 0
   // when given on the command line.
-  const CLI::Option *isp_option = nullptr, *wb_option = nullptr, *denoise_option = nullptr, *jpeg_option = nullptr;
+  const CLI::Option *isp_option = nullptr, *wb_option = nullptr, *ccm_option = nullptr, *denoise_option = nullptr, *jpeg_option = nullptr;
   void add(CLI::App* sub);
   // Throws ParameterError naming the parameter; bad input when a flag is given that cannot act:
   // any of them without a preview (`preview` empty), or the camera ISP's knobs with the simple ISP.

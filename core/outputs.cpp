@@ -207,6 +207,12 @@ PreviewWb parse_preview_wb(const std::string& name) {
   fail_parameter("preview_wb", "", ": '" + name + "' is not fixed or auto");
 }
 
+PreviewCcm parse_preview_ccm(const std::string& name) {
+  if (name == "none") return PreviewCcm::None;
+  if (name == "camera") return PreviewCcm::Camera;
+  fail_parameter("preview_ccm", "", ": '" + name + "' is not none or camera");
+}
+
 std::array<double, 3> preview_wb_gains(const ImageF& rgb, const CameraPreset& camera, const ResolvedExposure& exposure,
                                        PreviewWb wb) {
   const auto fixed = white_balance_gains(camera);
@@ -218,14 +224,22 @@ void check_preview_frame(const PreviewOptions& o, int width, int height) {
   if (o.isp == PreviewIsp::Camera) check_camera_isp_frame(o.camera, width, height);
 }
 
+void check_preview_camera(const PreviewOptions& o, const CameraPreset& camera) {
+  if (o.ccm == PreviewCcm::Camera) colour_correction_matrix(camera);
+}
+
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options) {
   const auto wb = preview_wb_gains(out.rgb, setup.camera, exposure, options.wb);
   const double min_white = preview_min_white(setup.camera, exposure, wb);
-  if (options.isp == PreviewIsp::Simple) return preview_srgb8(out.rgb, wb, 0.99, 1.0, min_white);
+  // The colour matrix keeps neutrals (its rows sum to 1), so the white floor keeps its meaning.
+  ImageF corrected;
+  if (options.ccm == PreviewCcm::Camera) corrected = apply_colour_matrix(out.rgb, colour_correction_matrix(setup.camera), wb);
+  const ImageF& rgb = options.ccm == PreviewCcm::Camera ? corrected : out.rgb;
+  if (options.isp == PreviewIsp::Simple) return preview_srgb8(rgb, wb, 0.99, 1.0, min_white);
   CameraIspOptions camera = options.camera;
   if (camera.min_white == 0) camera.min_white = min_white;
-  return preview_camera8(out.rgb, wb, {exposure.system_gain_dn_per_e, setup.camera.read_noise_e}, camera);
+  return preview_camera8(rgb, wb, {exposure.system_gain_dn_per_e, setup.camera.read_noise_e}, camera);
 }
 
 }  // namespace photosite

@@ -234,9 +234,10 @@ SensorResult wrap_sensor(SensorOutput&& out, std::map<std::string, ExrAttribute>
 // preset's white balance, "auto" the AWB of the frame (`night --preview-wb auto`).
 // jpeg_quality: a Python int, range-checked at any size (0: no JPEG round trip, else 1-100).
 py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, double denoise,
-                                const py::object& jpeg_quality_arg, const std::string& wb_name) {
+                                const py::object& jpeg_quality_arg, const std::string& wb_name, const std::string& ccm) {
   if (isp != "simple" && isp != "camera") throw Error("isp: '" + isp + "' is not simple or camera");
   if (wb_name != "fixed" && wb_name != "auto") throw Error("wb: '" + wb_name + "' is not fixed or auto");
+  if (ccm != "none" && ccm != "camera") throw Error("ccm: '" + ccm + "' is not none or camera");
   const int jpeg_quality = int_arg<int>(jpeg_quality_arg, "jpeg_quality", 0, 100);
   const auto rgb = s.rgb;
   ImageF in(static_cast<int>(rgb.shape(1)), static_cast<int>(rgb.shape(0)), 3, uninitialized);
@@ -246,6 +247,15 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
   if (wb_name == "auto") {
     wb = preview_wb_gains(in, s.camera, s.exposure, PreviewWb::Auto);
     min_white = preview_min_white(s.camera, s.exposure, wb);
+  }
+  if (ccm == "camera") {  // `night --preview-ccm camera`: the camera's colour matrix after the white balance
+    ColourMatrix C;
+    try {
+      C = colour_correction_matrix(s.camera);
+    } catch (const ParameterError& e) {
+      throw Error(e.message_for("ccm"));
+    }
+    in = apply_colour_matrix(in, C, wb);
   }
   ImageU8 out(in.width(), in.height(), 3, uninitialized);
   if (isp == "camera") {
@@ -706,11 +716,12 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("metadata", &SensorResult::metadata, "dict: the command's photosite/ header attributes without the prefix, less the *_text copies, "
                     "unit/<channel> and radiance_file; floats in full, seed a str (docs/python.md)")
       .def("preview", &preview_u8, py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90),
-           py::arg("wb") = "fixed",
+           py::arg("wb") = "fixed", py::arg("ccm") = "none",
            "uint8 H x W x 3 sRGB preview: isp='simple' (white balance, p99 exposure, sRGB) or 'camera' (+ noise "
            "reduction of strength `denoise` from the sensor's noise model and a JPEG round trip at `jpeg_quality`, 0: "
            "none; docs/realism.md); wb='fixed' (the camera preset's gains) or 'auto' (gray-world AWB of the frame "
-           "within the camera's 2000-10000 K black-body gains, `night --preview-wb auto`)");
+           "within the camera's 2000-10000 K black-body gains, `night --preview-wb auto`); ccm='none' (camera RGB shown as "
+           "sRGB) or 'camera' (the camera's colour correction matrix, `night --preview-ccm camera`)");
 
   py::class_<NightResult>(m, "NightResult")
       .def_readonly("radiance", &NightResult::radiance, "float32 H x W x 3: night scene radiance, W.sr-1.m-2")
@@ -721,9 +732,12 @@ PYBIND11_MODULE(_photosite, m) {
       .def_readonly("sensor", &NightResult::sensor, "SensorResult: the camera's frame of the night scene")
       .def_readonly("chain_ms", &NightResult::chain_ms, "ms spent in the library chain (labels .. sensor)")
       .def("preview", [](const NightResult& r, const std::string& isp, double denoise, const py::object& jpeg_quality,
-                         const std::string& wb) { return preview_u8(r.sensor, isp, denoise, jpeg_quality, wb); },
+                         const std::string& wb, const std::string& ccm) {
+             return preview_u8(r.sensor, isp, denoise, jpeg_quality, wb, ccm);
+           },
            py::arg("isp") = "simple", py::arg("denoise") = 1.0, py::arg("jpeg_quality") = py::int_(90), py::arg("wb") = "fixed",
-           "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality, wb: as SensorResult.preview)");
+           py::arg("ccm") = "none",
+           "uint8 H x W x 3 sRGB preview of the sensor frame (isp, denoise, jpeg_quality, wb, ccm: as SensorResult.preview)");
 
   py::class_<Camera>(m, "Camera")
       .def(py::init<const std::string&, std::optional<std::string>, std::optional<std::string>,

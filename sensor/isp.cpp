@@ -47,6 +47,62 @@ std::array<double, 3> white_balance_gains(const CameraPreset& p) {
   return g;
 }
 
+// ---- the colour correction matrix (isp.h: colour_correction_matrix) ----
+ColourMatrix colour_correction_matrix(const CameraPreset& p) {
+  const PhotonMatrix pm = unit_photon_matrix(p);
+  ColourMatrix M{};  // M[r][k]: camera channel r per unit radiance in box k
+  for (int k = 0; k < 3; ++k) {
+    std::array<double, 3> e{};
+    e[k] = 1;
+    float rgb[3];
+    camera_rgb_of(p, pm, e, rgb);
+    for (int r = 0; r < 3; ++r) M[r][k] = rgb[r];
+  }
+  // Singular (to the bound of isp.h): the determinant against the product of the columns' norms,
+  // the largest it can be (Hadamard's inequality), so the ratio does not depend on the units.
+  const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                     M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                     M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+  double norms = 1;
+  for (int k = 0; k < 3; ++k) norms *= std::sqrt(M[0][k] * M[0][k] + M[1][k] * M[1][k] + M[2][k] * M[2][k]);
+  if (!(std::abs(det) >= 1e-6 * norms))
+    fail_parameter("preview_ccm", "",
+                   fmt::format(": camera '{}' ({}) has no three independent colour channels (det/Hadamard bound {:.3g}), so no "
+                               "colour matrix; use --preview-ccm none",
+                               p.name, to_string(p.cfa), norms > 0 ? std::abs(det) / norms : 0.0));
+  const ColourMatrix Mi = spectrum::invert3(M);
+  const ColourMatrix& B = spectrum::box_to_linear_srgb();
+  const std::array<double, 3> wb = white_balance_gains(p);
+  const double s = M[1][0] + M[1][1] + M[1][2];  // (M·1)_G
+  ColourMatrix C{};
+  for (int r = 0; r < 3; ++r) {
+    const double white = B[r][0] + B[r][1] + B[r][2];  // (B·1)_r: the equal-energy white's sRGB
+    for (int c = 0; c < 3; ++c) {
+      double t_mi = 0;  // (B·M⁻¹)[r][c]
+      for (int k = 0; k < 3; ++k) t_mi += B[r][k] * Mi[k][c];
+      C[r][c] = s * t_mi / white / wb[c];
+    }
+  }
+  return C;
+}
+
+ImageF apply_colour_matrix(const ImageF& rgb, const ColourMatrix& C, const std::array<double, 3>& wb) {
+  if (rgb.channels() != 3) internal_error("apply_colour_matrix: 3-channel RGB expected");
+  double A[3][3];  // diag(1/wb)·C·diag(wb)
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) A[r][c] = C[r][c] * wb[c] / wb[r];
+  ImageF out(rgb.width(), rgb.height(), 3, uninitialized);
+  const int64_t n = static_cast<int64_t>(rgb.width()) * rgb.height();
+  const float* in = rgb.data();
+  float* o = out.data();
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const double x[3] = {in[3 * i], in[3 * i + 1], in[3 * i + 2]};
+    for (int r = 0; r < 3; ++r) o[3 * i + r] = static_cast<float>(A[r][0] * x[0] + A[r][1] * x[1] + A[r][2] * x[2]);
+  }
+  return out;
+}
+
 // ---- auto white balance (isp.h: auto_white_balance_gains) ----
 AwbBounds camera_awb_bounds(const CameraPreset& p, double cct_lo_K, double cct_hi_K) {
   if (!(cct_lo_K > 0 && cct_lo_K <= cct_hi_K) || !std::isfinite(cct_hi_K))

@@ -25,7 +25,10 @@ double integrate(const std::function<double(double)>& f, double lo, double hi) {
   return s * step;
 }
 
-std::array<std::array<double, 3>, 3> invert(const std::array<std::array<double, 3>, 3>& m) {
+}  // namespace
+
+// spectrum.h: the inverse of a 3 x 3 matrix by its adjugate over its determinant.
+std::array<std::array<double, 3>, 3> invert3(const std::array<std::array<double, 3>, 3>& m) {
   const double a = m[0][0], b = m[0][1], c = m[0][2], d = m[1][0], e = m[1][1], f = m[1][2],
                gg = m[2][0], h = m[2][1], i = m[2][2];
   const double det = a * (e * i - f * h) - b * (d * i - f * gg) + c * (d * h - e * gg);
@@ -33,7 +36,6 @@ std::array<std::array<double, 3>, 3> invert(const std::array<std::array<double, 
            {(f * gg - d * i) / det, (a * i - c * gg) / det, (c * d - a * f) / det},
            {(d * h - e * gg) / det, (b * gg - a * h) / det, (a * e - b * d) / det}}};
 }
-}  // namespace
 
 double cie_x_bar(double l) {
   return 1.056 * g(l, 599.8, 37.9, 31.0) + 0.362 * g(l, 442.0, 16.0, 26.7) -
@@ -181,7 +183,7 @@ const std::array<std::array<double, 3>, 3>& box_to_linear_srgb() {
 }
 
 const std::array<std::array<double, 3>, 3>& linear_srgb_to_box() {
-  static const auto m = invert(box_to_linear_srgb());
+  static const auto m = invert3(box_to_linear_srgb());
   return m;
 }
 

@@ -196,20 +196,11 @@ TEST(AutoWhiteBalance, DeterministicForAnyThreadCount) {
 // The flag: bad values exit 2 naming it, before any output; it needs --preview.
 TEST(AutoWhiteBalance, CommandLineRefusesBadValues) {
   test::TempDir tmp;
-  for (const auto& [cmd, what] : std::vector<std::pair<std::string, std::string>>{
-           {"night --out '{o}' --preview '{p}' --preview-wb grey", "--preview-wb: 'grey' is not fixed or auto"},
+  test::expect_preview_flag_refused(
+      tmp, {{"night --out '{o}' --preview '{p}' --preview-wb grey", "--preview-wb: 'grey' is not fixed or auto"},
            {"night --out '{o}' --preview-wb auto", "--preview-wb auto: no preview is written"},
            {"expose --preset onsemi-ar0331 --radiance '{r}' --out '{o}' --preview '{p}' --preview-wb Auto",
-            "--preview-wb: 'Auto' is not fixed or auto"}}) {
-    std::string args = cmd;
-    for (const auto& [key, file] : {std::pair<std::string, std::string>{"{o}", "o.exr"}, {"{p}", "o.png"}, {"{r}", "none.exr"}})
-      if (const size_t at = args.find(key); at != std::string::npos) args.replace(at, key.size(), tmp.file(file));
-    const auto r = test::run_cli(args);
-    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
-    EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
-    EXPECT_FALSE(std::filesystem::exists(tmp.file("o.exr"))) << args;
-    EXPECT_FALSE(std::filesystem::exists(tmp.file("o.png"))) << args;
-  }
+            "--preview-wb: 'Auto' is not fixed or auto"}});
 }
 
 }  // namespace

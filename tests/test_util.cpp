@@ -44,6 +44,19 @@ CliResult run_cli(const std::string& args) {
   return r;
 }
 
+void expect_preview_flag_refused(const TempDir& tmp, const std::vector<std::pair<std::string, std::string>>& cases) {
+  for (const auto& [cmd, what] : cases) {
+    std::string args = cmd;
+    for (const auto& [key, file] : {std::pair<std::string, std::string>{"{o}", "o.exr"}, {"{p}", "o.png"}, {"{r}", "none.exr"}})
+      if (const size_t at = args.find(key); at != std::string::npos) args.replace(at, key.size(), tmp.file(file));
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(what), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(tmp.file("o.exr"))) << args;
+    EXPECT_FALSE(std::filesystem::exists(tmp.file("o.png"))) << args;
+  }
+}
+
 TempDir::TempDir() {
   static std::atomic<int> counter{0};
   path_ = std::filesystem::temp_directory_path() /

@@ -8,6 +8,8 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "photosite/image.h"
 #include "photosite/io.h"
@@ -37,6 +39,11 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Runs each (command, message) case of a preview flag's bad input: its {o}, {p} and {r} become
+// tmp's o.exr, o.png and none.exr; each must exit 2 with the message and leave neither o.exr nor
+// o.png behind (bad input is refused before any output).
+void expect_preview_flag_refused(const TempDir& tmp, const std::vector<std::pair<std::string, std::string>>& cases);
 
 // ../shared beside the checkout, or empty when absent.
 std::filesystem::path shared_dir();

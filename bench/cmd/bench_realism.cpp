@@ -207,6 +207,7 @@ void run(const Opts& o) {
     for (const Variant& v : variants) known.push_back(v.method);
     for (const AeVariant& v : ae_variants) known.push_back(v.method);
     known.push_back("photosite awb");
+    known.push_back("photosite ccm");
     for (const CameraVariant& v : camera_variants) known.push_back(v.method);
     known.insert(known.end(), {"thesis baseline", "day photo"});
     std::string_view rest = o.methods;
@@ -308,6 +309,21 @@ void run(const Opts& o) {
         add("photosite awb", f, afile, ms - simple_ms + awb_ms, raw.width(), raw.height());
         std::printf("%-28s %-34s %10.1f  (AWB preview alone %.1f ms, gains R %.3f B %.3f, fixed R %.3f B %.3f)\n",
                     "photosite awb", f.name.c_str(), ms - simple_ms + awb_ms, awb_ms, awb[0], awb[2], wb[0], wb[2]);
+      }
+      // The colour-matrix preview (`night --preview-ccm camera`): the simple ISP of the same sensor
+      // frame through the camera's colour correction matrix (isp.h colour_correction_matrix) after
+      // the preset's white balance, as preview_image makes it.
+      if (wanted("photosite ccm")) {
+        ImageU8 p8;
+        const double ccm_ms = best_ms(o.repeats, [&] {
+          p8 = preview_srgb8(apply_colour_matrix(so.rgb, colour_correction_matrix(cam), wb), wb, v.white_percentile, 1.0,
+                             min_white);
+        });
+        const fs::path cfile = prev / fmt::format("{}__photosite ccm.png", f.name);
+        write_png8(cfile.string(), p8);
+        add("photosite ccm", f, cfile, ms - simple_ms + ccm_ms, raw.width(), raw.height());
+        std::printf("%-28s %-34s %10.1f  (CCM preview alone %.1f ms)\n", "photosite ccm", f.name.c_str(),
+                    ms - simple_ms + ccm_ms, ccm_ms);
       }
       for (CameraVariant cv : camera_variants) {
         if (!wanted(cv.method)) continue;

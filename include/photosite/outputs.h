@@ -92,15 +92,21 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& setup,
 // camera_awb_bounds, as a consumer camera's AWB; docs/realism.md).
 enum class PreviewIsp { Simple, Camera };
 enum class PreviewWb { Fixed, Auto };
+// Either ISP shows the camera's RGB as linear sRGB (None, the default) or first maps it through the
+// camera's colour correction matrix (Camera: colour_correction_matrix, sensor/isp.h).
+enum class PreviewCcm { None, Camera };
 struct PreviewOptions {
   PreviewIsp isp = PreviewIsp::Simple;
   CameraIspOptions camera;  // read with PreviewIsp::Camera
   PreviewWb wb = PreviewWb::Fixed;
+  PreviewCcm ccm = PreviewCcm::None;
 };
 // "simple" or "camera"; anything else throws a ParameterError for the parameter "preview_isp".
 PreviewIsp parse_preview_isp(const std::string& name);
 // "fixed" or "auto"; anything else throws a ParameterError for the parameter "preview_wb".
 PreviewWb parse_preview_wb(const std::string& name);
+// "none" or "camera"; anything else throws a ParameterError for the parameter "preview_ccm".
+PreviewCcm parse_preview_ccm(const std::string& name);
 // The white-balance gains a preview of this frame uses: the preset's, or with PreviewWb::Auto the
 // AWB's (metered below 0.95 of the exposure's full scale, bounded by camera_awb_bounds, the
 // preset's where the frame has no signal).
@@ -109,7 +115,11 @@ std::array<double, 3> preview_wb_gains(const ImageF& rgb, const CameraPreset& ca
 // Bad input when the preview cannot be made for a width x height frame (the camera ISP's JPEG round
 // trip beyond JPEG's size limit): checked before a run writes anything.
 void check_preview_frame(const PreviewOptions& o, int width, int height);
-// The preview of one exposure: preview_wb_gains' white balance, and for the camera ISP the
+// Bad input when the preview cannot be made with this camera (PreviewCcm::Camera on a camera with
+// no colour matrix: ParameterError "preview_ccm"): checked before a run writes anything.
+void check_preview_camera(const PreviewOptions& o, const CameraPreset& camera);
+// The preview of one exposure: preview_wb_gains' white balance, with PreviewCcm::Camera the
+// camera's colour matrix after it (apply_colour_matrix), and for the camera ISP the
 // exposure's system gain and the preset's read noise (the noise model its denoise is scaled to).
 ImageU8 preview_image(const SensorOutput& out, const SensorSetup& setup, const ResolvedExposure& exposure,
                       const PreviewOptions& options = {});

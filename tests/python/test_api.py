@@ -743,6 +743,23 @@ def test_wrong_argument_type_names_the_argument(store):
     assert cam.expose(rad).raw.shape == (4, 4)  # the right types still go through
 
 
+def test_ccm_preview_matches_cli(kitti, cli, store, tmp_path):
+    """preview(ccm="camera") is `night --preview-ccm camera`'s PNG, byte for byte (simple ISP); it
+    differs from the preview without the matrix, and a bad value raises ValueError naming ccm."""
+    from PIL import Image
+    day, labels = kitti
+    cli("night", "--image", KITTI_IMAGE, "--labels", KITTI_LABELS, "--preset", KITTI_CAMERA, "--seed", 5,
+        "--exposure-s", 0.03, "--backend", "cpu", "--out", tmp_path / "n.exr", "--preview", tmp_path / "n.png",
+        "--preview-ccm", "camera")
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    r = ps.night(day, labels, camera=cam, exposure_s=0.03, seed=5, backend="cpu")
+    pv = r.preview(ccm="camera")
+    np.testing.assert_array_equal(pv, np.asarray(Image.open(tmp_path / "n.png").convert("RGB")))
+    assert not np.array_equal(pv, r.preview())
+    with pytest.raises(ValueError, match="ccm: 'srgb' is not none or camera"):
+        r.sensor.preview(ccm="srgb")
+
+
 def test_auto_wb_preview_matches_cli(kitti, cli, store, tmp_path):
     """preview(wb="auto") is `night --preview-wb auto`'s PNG, byte for byte (camera ISP, as the test
     above); it differs from the fixed white balance, and a bad value raises ValueError naming wb."""

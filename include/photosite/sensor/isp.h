@@ -1,7 +1,8 @@
 // A small, documented ISP for previews (people look at these; the EXR is the data):
 //  1. white balance: per-channel gains that make an equal-energy white (box radiance 1,1,1)
 //     neutral through this camera's QE and CFA (von Kries on the camera's own response);
-//  2. colour matrix: none (camera RGB is shown as if it were linear sRGB; documented);
+//  2. colour matrix: none by default (camera RGB is shown as if it were linear sRGB; documented),
+//     or the camera's colour correction matrix (colour_correction_matrix below, `--preview-ccm camera`);
 //  3. exposure: the 99th percentile of luminance maps to `white_point` (default 1);
 //  4. tone curve: the sRGB transfer function (IEC 61966-2-1), clipped to [0, 1].
 #pragma once
@@ -35,6 +36,33 @@ uint8_t srgb_encode8(float linear);  // that code for one sample (NaN and below 
 void srgb_encode8_rgb(const float* src, size_t n, const float gain[3], uint8_t* dst, bool vector = true);
 ImageU8 preview_srgb8(const ImageF& rgb, const std::array<double, 3>& wb_gains,
                       double percentile = 0.99, double white_point = 1.0, double min_white = 0.0);
+
+// The camera's colour correction matrix (CCM; `night --preview-ccm camera`, docs/sensor.md §9):
+// a camera ISP maps its white-balanced raw RGB to the display's colour space with a 3 x 3 matrix
+// fitted to the camera's spectral sensitivities (ISO 17321-1; the raw processors' "camera matrix").
+// photosite's scene radiance lies in its three-box basis (spectrum::box_to_linear_srgb), where the
+// camera's RGB is exactly M·b (M: camera RGB per unit box radiance, the photon matrix through the
+// CFA's filter_planes_to_rgb), so the matrix is derived, not fitted: C = s·T·M⁻¹·diag(1/wb), with
+//   wb  the preset's white balance (white_balance_gains: equal-energy white neutral),
+//   T   = diag(1 / (B·1))·B, B = box_to_linear_srgb: the boxes' sRGB colours, von Kries-scaled so
+//       that the equal-energy white (box 1, 1, 1) is neutral, as the white balance makes it,
+//   s   = (M·1)_G, so that every row of C sums to 1: a neutral keeps its value (and the exposure,
+//       the white floor and the camera ISP's noise model their meaning).
+// Then C·(wb ∘ M·b) = s·T·b for every box radiance b: the preview shows the scene's colour instead
+// of the camera's (its filters' overlaps desaturate, their peaks shift the hues). Saturated
+// colours fall outside sRGB (negative entries, clipped by the tone curve, as in a camera) and the
+// off-diagonal terms amplify the chroma noise, as a real CCM does. A camera without three
+// independent colour channels (RCCC: its G and B are the same clear-minus-red; Mono) has no such
+// matrix: ParameterError "preview_ccm" where M's determinant is below 1e-6 of the product of its
+// columns' norms (Hadamard's bound on the determinant; a photosite threshold, far below the RGB
+// cameras' ratios, which the test ColourMatrix.* prints).
+using ColourMatrix = std::array<std::array<double, 3>, 3>;
+ColourMatrix colour_correction_matrix(const CameraPreset& camera);
+// The demosaiced DN above black through the CCM, still in the white-balanced preview's input space:
+// each pixel c -> diag(1/wb)·C·diag(wb)·c (in double, stored as float), so that a preview of it with
+// the gains wb shows C·(wb ∘ c). `wb`: the preview's gains (the preset's or the AWB's, whose ratio
+// to the preset's then acts in camera space before the matrix, as a camera's AWB gains do).
+ImageF apply_colour_matrix(const ImageF& rgb, const ColourMatrix& ccm, const std::array<double, 3>& wb_gains);
 
 // Auto exposure of a preview (`photosite bench realism`'s auto-exposure methods; not an option of
 // `night`, whose preview keeps the 99th percentile; docs/realism.md): the

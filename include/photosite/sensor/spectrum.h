@@ -118,6 +118,8 @@ double lamp_spd(LampSpectrum s, double wavelength_nm, double cct_K = 0);
 // 3x3 matrices between photosite's box RGB radiance and linear sRGB (Rec. 709 primaries, D65),
 // from the boxes' CIE XYZ. srgb = M · box; box = M⁻¹ · srgb. Rows are output channels.
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb();
+// The inverse of a 3 x 3 matrix (adjugate over determinant; a singular one gives inf or NaN entries).
+std::array<std::array<double, 3>, 3> invert3(const std::array<std::array<double, 3>, 3>& m);
 const std::array<std::array<double, 3>, 3>& linear_srgb_to_box();
 
 }  // namespace photosite::spectrum
