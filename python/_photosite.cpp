@@ -275,8 +275,10 @@ py::array_t<uint8_t> preview_u8(const SensorResult& s, const std::string& isp, d
     out = preview_camera8(in, wb, s.noise, o);
   } else {
     py::gil_scoped_release nogil;
-    const ImageF srgb = preview_srgb(in, wb, 0.99, 1.0, min_white);
-    for (size_t i = 0; i < out.size(); ++i) out[i] = float_to_code8(srgb[i]);
+    // The command's own 8-bit encoder (preview_srgb8, as preview_image), not preview_srgb's floats
+    // rounded here: those agree on every code only where no sample lies within a float rounding of
+    // a decision level, which the colour matrix's outputs did not always keep (3 codes of 1.36 M).
+    out = preview_srgb8(in, wb, 0.99, 1.0, min_white);
   }
   return to_array(std::move(out));
 }

@@ -11,7 +11,7 @@ class SensorResult:
     rgb: npt.NDArray[np.float32]       # H x W x 3 demosaiced DN above black
     electrons: npt.NDArray[np.float32] # H x W collected e-
     metadata: Dict[str, Union[str, int, float]]  # the photosite/ header attributes, without the prefix (docs/python.md)
-    def preview(self, isp: str = "simple", denoise: float = 1.0, jpeg_quality: int = 90, wb: str = "fixed") -> npt.NDArray[np.uint8]: ...  # H x W x 3 sRGB
+    def preview(self, isp: str = "simple", denoise: float = 1.0, jpeg_quality: int = 90, wb: str = "fixed", ccm: str = "none") -> npt.NDArray[np.uint8]: ...  # H x W x 3 sRGB
 
 class NightResult:
     radiance: npt.NDArray[np.float32]  # H x W x 3, W.sr-1.m-2
@@ -21,7 +21,7 @@ class NightResult:
     vanishing_point: Tuple[float, float, float, str]  # x px, y px, confidence 0..1, method
     sensor: SensorResult
     chain_ms: float                    # the library chain's time in ms
-    def preview(self, isp: str = "simple", denoise: float = 1.0, jpeg_quality: int = 90, wb: str = "fixed") -> npt.NDArray[np.uint8]: ...
+    def preview(self, isp: str = "simple", denoise: float = 1.0, jpeg_quality: int = 90, wb: str = "fixed", ccm: str = "none") -> npt.NDArray[np.uint8]: ...
 
 class Camera:
     preset: str
