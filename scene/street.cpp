@@ -1069,7 +1069,7 @@ void StreetShadowBuilder::take_blocks() {
   const int nbw = (W + kShadowBlock - 1) / kShadowBlock;
   const std::vector<std::array<double, 2>>& disc = disc_;
   const int ns = static_cast<int>(disc.size());
-  const int ids = ns == 1 ? 1 : ns + 1;  // span ids per lamp (LampShadowRows::ids_per_lamp)
+  const int ids = LampShadowRows::ids_per_lamp(ns);
   SpanSink mine(s.lamps.size() * ids, H);
   long long my_quads = 0;
   for (int blk = next_block_++; blk < nbw; blk = next_block_++) {
@@ -1491,23 +1491,29 @@ struct PoolPass : LitRows {
     size_t j = 0;  // the row's lamp of the span (both lists ascend by lamp index)
     const size_t nl = sc.lamp_index.size();
     const int ns = shadows->samples;
-    if (ns == 1) {
+    // Pixels x0 .. x1 − 1 of lamp j's row in the shadow of m of its ns points lose m/ns of its
+    // term (pool_term, the bits it added); m >= ns, the umbra, the whole term.
+    const float per_point = 1.f / static_cast<float>(ns);
+    auto lose = [&](int x0, int x1, int m) {
+      const float share = m >= ns ? 1.f : static_cast<float>(m) * per_point;
+      for (int x = x0; x < x1; ++x) {
+        if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
+        const float t = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
+                                  sc.pl.Hl[j], I0, table);
+        acc[x] = std::max(0.f, acc[x] - (m >= ns ? t : t * share));
+        ++sc.shaded;
+      }
+    };
+    if (ns == 1) {  // one point per lamp: each span its whole term (no counting needed)
       for (int32_t si = a; si < b; ++si) {
         const ShadowSpan& sp = shadows->spans[si];
         while (j < nl && sc.lamp_index[j] < sp.lamp) ++j;
         if (j == nl) break;
         if (sc.lamp_index[j] != sp.lamp) continue;  // not within reach of this row
-        for (int x = sp.x0; x < sp.x1; ++x) {
-          if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
-          const float e = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j],
-                                    sc.pl.H2[j], sc.pl.Hl[j], I0, table);
-          acc[x] = std::max(0.f, acc[x] - e);
-          ++sc.shaded;
-        }
+        lose(sp.x0, sp.x1, 1);
       }
       return;
     }
-    const float per_point = 1.f / static_cast<float>(ns);
     const int ids = shadows->ids_per_lamp();
     for (int32_t si = a; si < b;) {
       const int lamp = shadows->spans[si].lamp / ids;
@@ -1537,15 +1543,7 @@ struct PoolPass : LitRows {
       int m = 0;
       for (size_t e = 0; e + 1 < ev.size(); ++e) {
         m += ev[e].second;
-        if (m <= 0) continue;
-        const float share = m >= ns ? 1.f : static_cast<float>(m) * per_point;
-        for (int x = ev[e].first; x < ev[e + 1].first; ++x) {
-          if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
-          const float t = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
-                                    sc.pl.Hl[j], I0, table);
-          acc[x] = std::max(0.f, acc[x] - (m >= ns ? t : t * share));
-          ++sc.shaded;
-        }
+        if (m > 0) lose(ev[e].first, ev[e + 1].first, m);
       }
       si = se;
     }

@@ -119,7 +119,9 @@ struct LampShadowRows {
   long long quads = 0;  // (occluder column run, lamp) pairs drawn
   size_t lamps = 0;     // the lamps they were made for (StreetLighting::lamps.size())
   int samples = 1;      // sample points per lamp's emitting disc (lamp_disc_samples)
-  int ids_per_lamp() const { return samples == 1 ? 1 : samples + 1; }
+  // Span ids per lamp (ShadowSpan::lamp): one point, 1; n points, n + 1 (the last: all of them).
+  static int ids_per_lamp(int samples) { return samples == 1 ? 1 : samples + 1; }
+  int ids_per_lamp() const { return ids_per_lamp(samples); }
 };
 // street_lamps.penumbrae (docs/night.md §7): each luminaire's emitting face, a horizontal disc of
 // street_lamps.head_diameter_m at the mount height, is taken as this many points of equal area
