@@ -84,9 +84,24 @@ struct RelTable {
     const float x = u - static_cast<float>(j);
     return (((pc[4][j] * x + pc[3][j]) * x + pc[2][j]) * x + pc[1][j]) * x + pc[0][j];
   }
+  // polyf by Estrin's scheme, the vertical light's form (its lamp loop waits on one lit term's
+  // dependent chain, which Horner's eight steps lengthened; docs/benchmarks.md, "Thirty-second
+  // session"): with x² = x·x, ((p0 + p1·x) + x²·(p2 + p3·x)) + (x²·x²)·p4, five dependent steps
+  // instead of eight. Rounding over positive coefficients (the presets' pieces) and x ∈ [0, 1]: each
+  // monomial's path passes at most 6 roundings (p3·x³: p3·x, the sum, x², the product, two sums;
+  // p4·x⁴: x² twice in x⁴, x⁴, ·p4, the last sum), so within 6·2⁻²⁴ relative to first order,
+  // against Horner's 8.
+  float polyf_estrin(float c) const {
+    const float u = c * fseg;
+    const int j = std::max(0, std::min(15, static_cast<int>(u)));
+    const float x = u - static_cast<float>(j), x2 = x * x;
+    return ((pc[0][j] + pc[1][j] * x) + x2 * (pc[2][j] + pc[3][j] * x)) + (x2 * x2) * pc[4][j];
+  }
+  // kEstrin: the pieces by polyf_estrin (the vertical light), else polyf (the pools).
+  template <bool kEstrin = false>
   float atf(float c) const {
     if (!(c < fcc)) return 1.f;
-    if (poly) return polyf(c);
+    if (poly) return kEstrin ? polyf_estrin(c) : polyf(c);
     const float u = c * finv_step;
     const int i = std::max(0, std::min(4095, static_cast<int>(u)));
     return fv[i] + fdv[i] * (u - static_cast<float>(i));
@@ -228,8 +243,22 @@ __attribute__((target("avx2"), always_inline)) inline __m256 piece_coef8(const f
   return _mm256_blendv_ps(_mm256_permutevar8x32_ps(_mm256_load_ps(pc), j), _mm256_permutevar8x32_ps(_mm256_load_ps(pc + 8), j),
                           hi);
 }
+// kEstrin: RelTable::polyf_estrin's operations, the piece's index by a rounding down (u ≥ 0 on
+// every lane whose value is kept: the same j and x as the scalar's truncation, two dependent
+// conversions fewer).
+template <bool kEstrin>
 __attribute__((target("avx2"), always_inline)) inline __m256 rel_poly8(const RelTable& t, __m256 c) {
   const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.fseg));
+  if (kEstrin) {
+    const __m256 fj = _mm256_min_ps(_mm256_round_ps(u, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC), _mm256_set1_ps(15.f));
+    const __m256i j = _mm256_cvttps_epi32(fj);
+    const __m256 x = _mm256_sub_ps(u, fj), x2 = _mm256_mul_ps(x, x);
+    const __m256 hi = _mm256_castsi256_ps(_mm256_cmpgt_epi32(j, _mm256_set1_epi32(7)));
+    const __m256 a = _mm256_add_ps(piece_coef8(t.pc[0], j, hi), _mm256_mul_ps(piece_coef8(t.pc[1], j, hi), x));
+    const __m256 b = _mm256_add_ps(piece_coef8(t.pc[2], j, hi), _mm256_mul_ps(piece_coef8(t.pc[3], j, hi), x));
+    return _mm256_add_ps(_mm256_add_ps(a, _mm256_mul_ps(x2, b)),
+                         _mm256_mul_ps(_mm256_mul_ps(x2, x2), piece_coef8(t.pc[4], j, hi)));
+  }
   const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(15)),
                                      _mm256_setzero_si256());
   const __m256 x = _mm256_sub_ps(u, _mm256_cvtepi32_ps(j));
@@ -242,8 +271,10 @@ __attribute__((target("avx2"), always_inline)) inline __m256 rel_poly8(const Rel
 // RelTable::atf for eight lanes beyond the cut-off (the caller blends the others): the pieces
 // (rel_poly8) or the table's entries by gathers (the index clamped to [0, 4095] so that lanes
 // whose result is dropped stay inside the table): the same operations.
+// (kEstrin: the pieces as RelTable::atf<true>.)
+template <bool kEstrin = false>
 __attribute__((target("avx2"), always_inline)) inline __m256 rel_lerp_f(const RelTable& t, __m256 c) {
-  if (t.poly) return rel_poly8(t, c);
+  if (t.poly) return rel_poly8<kEstrin>(t, c);
   const __m256 u = _mm256_mul_ps(c, _mm256_set1_ps(t.finv_step));
   const __m256i j = _mm256_max_epi32(_mm256_min_epi32(_mm256_cvttps_epi32(u), _mm256_set1_epi32(4095)),
                                      _mm256_setzero_si256());
@@ -272,9 +303,22 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 diff16(__m512d a
 }
 // RelTable::atf (rel_lerp_f) for sixteen lanes: on the lanes of `beyond` (beyond the cut-off) the
 // same operations (the pieces' coefficients by permutes, or the table's entries gathered for those
-// lanes only); 1 on the others.
+// lanes only); 1 on the others. (kEstrin: the pieces as RelTable::atf<true>, rel_poly8's.)
+template <bool kEstrin = false>
 __attribute__((target("avx512f"), always_inline)) inline __m512 rel_lerp16(const RelTable& t, __m512 c,
                                                                           __mmask16 beyond) {
+  if (t.poly && kEstrin) {  // RelTable::polyf_estrin
+    const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.fseg));
+    const __m512 fj = _mm512_min_ps(_mm512_roundscale_ps(u, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC), _mm512_set1_ps(15.f));
+    const __m512i j = _mm512_cvttps_epi32(fj);
+    const __m512 x = _mm512_sub_ps(u, fj), x2 = _mm512_mul_ps(x, x);
+    const __m512 a = _mm512_add_ps(_mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[0])),
+                                   _mm512_mul_ps(_mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[1])), x));
+    const __m512 b = _mm512_add_ps(_mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[2])),
+                                   _mm512_mul_ps(_mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[3])), x));
+    return _mm512_mask_add_ps(_mm512_set1_ps(1.f), beyond, _mm512_add_ps(a, _mm512_mul_ps(x2, b)),
+                              _mm512_mul_ps(_mm512_mul_ps(x2, x2), _mm512_permutexvar_ps(j, _mm512_load_ps(t.pc[4]))));
+  }
   if (t.poly) {  // RelTable::polyf: the piece's coefficients by one permute each
     const __m512 u = _mm512_mul_ps(c, _mm512_set1_ps(t.fseg));
     const __m512i j = _mm512_max_epi32(_mm512_min_epi32(_mm512_cvttps_epi32(u), _mm512_set1_epi32(15)),
@@ -444,11 +488,11 @@ double street_illuminance_lux(double X, double D, const StreetLighting& s, const
   return e;
 }
 
-float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces, double* max_rel_err) {
+float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces, double* max_rel_err, bool estrin) {
   const RelTable& t = rel_table(p);
   if (pieces) *pieces = t.poly;
   if (max_rel_err) *max_rel_err = t.poly_max_rel_err;
-  return t.atf(c);
+  return estrin ? t.atf<true>(c) : t.atf(c);
 }
 void street_light_max_isa(int isa) { g_isa_cap = std::clamp(isa, 0, 2); }
 
@@ -1776,31 +1820,42 @@ inline void lamp_window_from(const LampArrays& la, double Dmin, double Dmax, siz
 // nothing beyond the lamp's reach along the road (|v_D| ≤ reach, both rounded to float: a pixel
 // within 2⁻²³·reach of the rim may fall either side), above the luminaire (a cut-off luminaire
 // emits no light upward: γ < 90°, an approximation of its upward light output ratio as 0) or on
-// faces turned away; else I0·rel(γ)·(cos β)/max(d², d²_min). The error per term as pool_term's
-// (u = 2⁻²⁴): v 1u each; d² = (v_X² + v_Y²) + v_D² 5u; d 3.5u; cos γ = v_Y/d 5.5u;
-// |v|·cos β = n_X·v_X + n_D·v_D with the normal rounded 1u: (3κ + 1)u with the condition number
-// κ = (|n_X·v_X| + |n_D·v_D|)/(n·v) ≥ 1 (1 for a face squarely lit); cos β = that/d: 3κ + 5.5;
-// e = ((I0·rel)·cos β)/max(d², d²_min): inside the cut-off 1 + (3κ + 5.5) + 1 + 5 + 1 = 13.5 + 3κ,
-// beyond it + 1 + 3 + 7.5·s (the table, as pool_term; + 1 + 8 + 7.5·s from the pieces): per term
-// k = 17.5 + 3κ + 7.5·s (22.5 + 3κ + 7.5·s), and for the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E
-// to first order.
+// faces turned away; else I0·rel(γ)·(cos β)/max(d², d²_min), evaluated as rel·((cos β)·(I0·r_m))
+// with r² = 1/d² and d = √d² side by side from d² (the division does not wait on the root),
+// cos γ = (v_Y·r²)·d, cos β = ((n·v)·r²)·d, r_m = min(r², 1/d²_min) (= 1/max(d², d²_min) rounded:
+// the reciprocal is monotone) and the pieces by Estrin's scheme (RelTable::polyf_estrin): one
+// division instead of three, and from d² to the sum 13 dependent operations instead of 20 (now √,
+// two products, the piece's argument 4, Estrin 5, ·rel, the sum, w made beside rel(γ); before √,
+// ÷, the argument 6, Horner 8, two products, ÷, the sum). The error per term (u = 2⁻²⁴): v 1u
+// each; d² = (v_X² + v_Y²) + v_D² 5u (δ); r²·d ∝ (1 + δ)^(−1/2), so δ enters cos γ and cos β as
+// 2.5u, with r²'s and d's roundings 1u each and the two products 2u: cos γ = 1 + 2.5 + 1 + 1 + 2
+// = 7.5u; |v|·cos β = n_X·v_X + n_D·v_D with the normal rounded 1u: (3κ + 1)u with the condition
+// number κ = (|n_X·v_X| + |n_D·v_D|)/(n·v) ≥ 1 (1 for a face squarely lit); cos β: 3κ + 7.5;
+// I0·r_m: I0 1 + δ 5 + r² 1 + 1 = 8u; inside the cut-off (rel = 1, its product exact) e =
+// (3κ + 7.5) + 8 + 1 = 16.5 + 3κ (the former quotients' 13.5 + 3κ), beyond it + 1 (·rel) + 3 +
+// 9.5·s (the table, as pool_term, its argument cos γ·(1/step) 7.5 + 1 + 1) or + 1 + 6 + 9.5·s
+// (the pieces by Estrin): per term k = 20.5 + 3κ + 9.5·s (23.5 + 3κ + 9.5·s; the former 17.5 +
+// 3κ + 7.5·s and 22.5 + 3κ + 7.5·s), and for the n-term sum |E_float − E| ≤ (k + n)·2⁻²⁴·E to
+// first order.
 // A crown pixel (crown = true; n = (nX, nY, nD) the unit vector to the camera) takes
 // I(γ)·Φ(α)/d² instead, cos α = (n·v)/d with n·v = (n_X·v_X + n_D·v_D) + n_Y·v_Y, and no face
 // turned away (Φ ≥ 0 on every side); crown_phase's error above adds to its terms'.
 [[gnu::always_inline]] inline float vertical_term(float vX, float vY, float vD, float nX, float nY, float nD, bool crown,
-                                                  float reach, float I0, float d2_min, const RelTable& t) {
+                                                  float reach, float I0, float inv_d2_min, const RelTable& t) {
   if (!(std::fabs(vD) <= reach)) return 0.f;
   float cb = nX * vX + nD * vD;  // |v|·cos β
   if (crown) cb = cb + nY * vY;  // |v|·cos α
   if (!(vY > 0) || !(crown || cb > 0)) return 0.f;
-  const float dv2 = (vX * vX + vY * vY) + vD * vD, dv = std::sqrt(dv2), cg = vY / dv;
-  const float f = crown ? crown_phase(cb / dv) : cb / dv;
-  return ((I0 * t.atf(cg)) * f) / std::max(dv2, d2_min);  // I(γ)·cos β / d², or I(γ)·Φ(α) / d²
+  const float dv2 = (vX * vX + vY * vY) + vD * vD, dv = std::sqrt(dv2), r2 = 1.f / dv2;
+  const float cg = (vY * r2) * dv, cf = (cb * r2) * dv;  // cos γ, cos β (cos α)
+  const float f = crown ? crown_phase(cf) : cf;
+  const float w = f * (I0 * std::min(r2, inv_d2_min));  // I0·cos β / max(d², d²_min), or I0·Φ(α) / …
+  return t.atf<true>(cg) * w;                           // I(γ)·cos β / d², or I(γ)·Φ(α) / d²
 }
 // E_v = Σ_k vertical_term over the lamps in order, per pixel (a skipped lamp adds +0.0, which
 // leaves the non-negative sum's bits unchanged). A pixel whose camera-facing normal is undefined
 // gets 0.
-void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float d2_min,
+void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays& la, float I0, float inv_d2_min,
                        const RelTable& t) {
   for (int i = 0; i < n; ++i) {
     double X, Y, D, nX, nY, nD;
@@ -1813,7 +1868,7 @@ void vertical_e_scalar(VerticalRow& r, int n, const RowGeom& q, const LampArrays
     float e = 0;
     for (size_t k = lo; k < hi; ++k)
       e += vertical_term(static_cast<float>(la.X[k] - X), static_cast<float>(la.Y[k] - Y),
-                         static_cast<float>(la.D[k] - D), nXf, nYf, nDf, crown, la.reach[k], I0, d2_min, t);
+                         static_cast<float>(la.D[k] - D), nXf, nYf, nDf, crown, la.reach[k], I0, inv_d2_min, t);
     r.e[i] = e;
   }
 }
@@ -1893,7 +1948,7 @@ struct VerticalCtx {
   const float* tint;
   uint64_t dark;
   double D_lo, D_hi;
-  float I0, d2_min;
+  float I0, inv_d2_min;  // 1/d²_min rounded to float (vertical_term)
   int building, vegetation;
 };
 // Candidates8 for the row (vertical_row_body's; vertical_row_avx512 makes the same test on sixteen
@@ -2056,7 +2111,7 @@ struct RowAhead {
 template <bool kCrown, int N>
 __attribute__((target("avx2"), always_inline)) inline void lamp_sums8(const LampArrays& la, const RelTable& t, size_t lo,
                                                                       size_t hi, const LampLanes8* g, __m256 vI0,
-                                                                      __m256 vd2min, __m256* acc) {
+                                                                      __m256 vinvd2min, __m256* acc) {
   static_assert(N == 1 || N == 2, "one or two groups");
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), vcc = _mm256_set1_ps(t.fcc);
   const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
@@ -2091,13 +2146,15 @@ __attribute__((target("avx2"), always_inline)) inline void lamp_sums8(const Lamp
     for (int j = 0; j < N; ++j) {
       const __m256 dv2 =
           _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vX[j], vX[j]), _mm256_mul_ps(vY[j], vY[j])), _mm256_mul_ps(vD[j], vD[j]));
-      const __m256 dv = _mm256_sqrt_ps(dv2), cg = _mm256_div_ps(vY[j], dv);
+      const __m256 dv = _mm256_sqrt_ps(dv2), r2 = _mm256_div_ps(one, dv2);
+      const __m256 cg = _mm256_mul_ps(_mm256_mul_ps(vY[j], r2), dv);
       const __m256 beyond = _mm256_and_ps(lit[j], _mm256_cmp_ps(cg, vcc, _CMP_LT_OQ));  // γ beyond the cut-off
-      __m256 rel = one;
-      if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, cg), beyond);
-      __m256 f = _mm256_div_ps(cb[j], dv);
+      __m256 f = _mm256_mul_ps(_mm256_mul_ps(cb[j], r2), dv);
       if (kCrown) f = _mm256_blendv_ps(f, crown_phase8(f), g[j].crown);
-      const __m256 ek = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), f), _mm256_max_ps(dv2, vd2min));
+      const __m256 w = _mm256_mul_ps(f, _mm256_mul_ps(vI0, _mm256_min_ps(r2, vinvd2min)));
+      // rel·w; rel = 1 on every lane (1·w = w exactly) where none is beyond the cut-off.
+      const __m256 ek =
+          _mm256_movemask_ps(beyond) ? _mm256_mul_ps(_mm256_blendv_ps(one, rel_lerp_f<true>(t, cg), beyond), w) : w;
       acc[j] = _mm256_add_ps(acc[j], _mm256_and_ps(lit[j], ek));
     }
   }
@@ -2106,9 +2163,9 @@ __attribute__((target("avx2"), always_inline)) inline void lamp_sums8(const Lamp
 template <bool kCrown>
 __attribute__((target("avx2"), always_inline)) inline __m256 lamp_sum8(const LampArrays& la, const RelTable& t, size_t lo,
                                                                       size_t hi, const LampLanes8& g, __m256 vI0,
-                                                                      __m256 vd2min) {
+                                                                      __m256 vinvd2min) {
   __m256 acc;
-  lamp_sums8<kCrown, 1>(la, t, lo, hi, &g, vI0, vd2min, &acc);
+  lamp_sums8<kCrown, 1>(la, t, lo, hi, &g, vI0, vinvd2min, &acc);
   return acc;
 }
 // The lines holding bytes p .. p + kBytes − 1 asked for (for writing: kWrite), whatever p's offset.
@@ -2145,7 +2202,7 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
   const RelTable& t = *v.t;
   const Candidates8 cc = candidates8_consts(q, v);
   const Reflect8 rc = reflect8_consts(v.tint);
-  const __m256 vI0 = _mm256_set1_ps(v.I0), vd2min = _mm256_set1_ps(v.d2_min), zero = _mm256_setzero_ps();
+  const __m256 vI0 = _mm256_set1_ps(v.I0), vinvd2min = _mm256_set1_ps(v.inv_d2_min), zero = _mm256_setzero_ps();
   const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
   VerticalGroup gr;
   size_t win_lo = 0, win_hi = 0;  // the last lamp window
@@ -2188,8 +2245,8 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
   // crown lane) and its reflection.
   auto one_group = [&](int x, int m, const LampLanes8& ll, size_t lo, size_t hi)
                        __attribute__((target("avx2"), always_inline)) {
-    reflect(x, m, _mm256_movemask_ps(ll.crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vd2min)
-                                               : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vd2min));
+    reflect(x, m, _mm256_movemask_ps(ll.crown) ? lamp_sum8<true>(la, t, lo, hi, ll, vI0, vinvd2min)
+                                               : lamp_sum8<false>(la, t, lo, hi, ll, vI0, vinvd2min));
   };
   int x = 0;
   // Pairs of groups (sixteen columns) through one lamp loop (lamp_sums8, N = 2) where both have a
@@ -2207,9 +2264,9 @@ __attribute__((target("avx2,prfchw"), always_inline)) inline int vertical_row_bo
     if (has0 && has1) {
       __m256 acc[2];
       if (_mm256_movemask_ps(_mm256_or_ps(ll[0].crown, ll[1].crown)))
-        lamp_sums8<true, 2>(la, t, lo, hi, ll, vI0, vd2min, acc);
+        lamp_sums8<true, 2>(la, t, lo, hi, ll, vI0, vinvd2min, acc);
       else
-        lamp_sums8<false, 2>(la, t, lo, hi, ll, vI0, vd2min, acc);
+        lamp_sums8<false, 2>(la, t, lo, hi, ll, vI0, vinvd2min, acc);
       reflect(x, m[0], acc[0]);
       reflect(x + 8, m[1], acc[1]);
     } else {
@@ -2378,7 +2435,7 @@ struct LampLanes16 {
 };
 template <bool kCrown>
 __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 lamp_sum16(
-    const LampArrays& la, const RelTable& t, size_t lo, size_t hi, const LampLanes16& g, __m512 vI0, __m512 vd2min) {
+    const LampArrays& la, const RelTable& t, size_t lo, size_t hi, const LampLanes16& g, __m512 vI0, __m512 vinvd2min) {
   const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f), vcc = _mm512_set1_ps(t.fcc);
   __m512 acc = zero;
   for (size_t k = lo; k < hi; ++k) {
@@ -2393,12 +2450,13 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 la
                                  : _mm512_mask_cmp_ps_mask(up, cb, zero, _CMP_GT_OQ);
     if (!lit) continue;
     const __m512 dv2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX, vX), _mm512_mul_ps(vY, vY)), _mm512_mul_ps(vD, vD));
-    const __m512 dv = _mm512_sqrt_ps(dv2), cg = _mm512_div_ps(vY, dv);
+    const __m512 dv = _mm512_sqrt_ps(dv2), r2 = _mm512_div_ps(one, dv2);
+    const __m512 cg = _mm512_mul_ps(_mm512_mul_ps(vY, r2), dv);
     const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit, cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
-    const __m512 rel = beyond ? rel_lerp16(t, cg, beyond) : one;
-    __m512 f = _mm512_div_ps(cb, dv);
+    __m512 f = _mm512_mul_ps(_mm512_mul_ps(cb, r2), dv);
     if (kCrown) f = _mm512_mask_mov_ps(f, g.crown, crown_phase16(f));
-    const __m512 ek = _mm512_div_ps(_mm512_mul_ps(_mm512_mul_ps(vI0, rel), f), _mm512_max_ps(dv2, vd2min));
+    const __m512 w = _mm512_mul_ps(f, _mm512_mul_ps(vI0, _mm512_min_ps(r2, vinvd2min)));
+    const __m512 ek = beyond ? _mm512_mul_ps(rel_lerp16<true>(t, cg, beyond), w) : w;  // rel·w (lamp_sums8's)
     acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
   }
   return acc;
@@ -2426,7 +2484,7 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
   const LampArrays& la = *v.la;
   const RelTable& t = *v.t;
   const Reflect16 rc16 = reflect16_consts(v.tint);
-  const __m512 vI0 = _mm512_set1_ps(v.I0), vd2min = _mm512_set1_ps(v.d2_min), zero = _mm512_setzero_ps();
+  const __m512 vI0 = _mm512_set1_ps(v.I0), vinvd2min = _mm512_set1_ps(v.inv_d2_min), zero = _mm512_setzero_ps();
   // The candidate test's constants (Candidates8's).
   const __m512i mlo = _mm512_set1_epi32(static_cast<int32_t>(v.dark & 0xffffffffu));
   const __m512i mhi = _mm512_set1_epi32(static_cast<int32_t>(v.dark >> 32));
@@ -2485,8 +2543,8 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
     lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
     const size_t lo = win_lo, hi = win_hi;
     const LampLanes16 ll{X0, X1, Y0, Y1, D0, D1, vnX, crownm ? join16(nYf0, nYf1) : zero, vnD, okm, crownm};
-    const __m512 acc = crownm ? lamp_sum16<true>(la, t, lo, hi, ll, vI0, vd2min)
-                              : lamp_sum16<false>(la, t, lo, hi, ll, vI0, vd2min);
+    const __m512 acc = crownm ? lamp_sum16<true>(la, t, lo, hi, ll, vI0, vinvd2min)
+                              : lamp_sum16<false>(la, t, lo, hi, ll, vI0, vinvd2min);
     const unsigned lit_px = m & _mm512_cmp_ps_mask(acc, zero, _CMP_GT_OQ);
     if (lit_px) reflect16_avx512(o + 3 * x, tx + 3 * x, acc, static_cast<__mmask16>(lit_px), rc16);
   }
@@ -2513,6 +2571,7 @@ struct VerticalPass : LitRows {
   // E finite. (The ground pools do not apply it: their d is at least the mounting height, 8-10 m
   // in the presets.)
   const float d2_min;
+  const float inv_d2_min;  // 1/d²_min rounded (vertical_term's r_m)
   const double c, sn, h;
   const int building = static_cast<int>(Label::Building);
   const int vegetation = static_cast<int>(Label::Vegetation);  // crowns (vertical_term)
@@ -2530,7 +2589,7 @@ struct VerticalPass : LitRows {
       : LitRows(texture_, labels_, g_, p, width), depth_m(depth_m_),
         computed(facades ? BuildingFacades() : building_facades(labels_, g_, p.max_depth_m)),
         fac(facades ? *facades : computed),
-        d2_min(static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m)),
+        d2_min(static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m)), inv_d2_min(1.f / d2_min),
         c(std::cos(g_.pitch_rad)), sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m),
         I0(static_cast<float>(s.peak_intensity_cd)) {
     for (const auto& l : s.lamps) {
@@ -2543,7 +2602,7 @@ struct VerticalPass : LitRows {
     }
     D_lo = la.D.front() - la.max_reach - 1.0;
     D_hi = la.D.back() + la.max_reach + 1.0;
-    ctx = VerticalCtx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, d2_min, building, vegetation};
+    ctx = VerticalCtx{&la, &fac, &table, tlf, dark_classes, D_lo, D_hi, I0, inv_d2_min, building, vegetation};
   }
   VerticalPass(const VerticalPass&) = delete;
   VerticalPass& operator=(const VerticalPass&) = delete;
@@ -2600,7 +2659,7 @@ struct VerticalPass : LitRows {
         pnD[i] = f ? -f->nD : 0.0;
       }
     }
-    vertical_e_scalar(r, n, q, la, I0, d2_min, table);
+    vertical_e_scalar(r, n, q, la, I0, inv_d2_min, table);
     const float* e = r.e.data();
     const float t0 = tlf[0], t1 = tlf[1], t2 = tlf[2];  // in registers (o's stores may alias tlf otherwise)
     for (int i = 0; i < n; ++i) {

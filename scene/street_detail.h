@@ -26,8 +26,10 @@ void street_light_max_isa(int isa);
 // The street lamps' distribution beyond the cut-off as the float paths (pools, vertical light)
 // evaluate it at cos γ = c: 16 quartic pieces where their measured relative error is within 10⁻⁶
 // (*pieces = true; *max_rel_err: that error), else the 4096-step table (street.cpp, RelTable).
+// estrin: the pieces as the vertical light evaluates them (Estrin's scheme), else as the pools
+// (Horner's).
 float lamp_relative_intensity_float(float c, const ScenePreset& p, bool* pieces = nullptr,
-                                    double* max_rel_err = nullptr);
+                                    double* max_rel_err = nullptr, bool estrin = false);
 
 // ⌊a[i]/b⌋ for i < n as the façade windows' AVX-512 layout takes its storeys, pitch cells and shop
 // units (floor_div8: from a·(1/b), the division itself where that product lies within 8·2⁻⁵³ of
