@@ -192,6 +192,13 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/street_peak_intensity_cd"] = ns.light_stats.street_peak_intensity_cd;
   attrs["photosite/night/road_luminance_avg_cd_m2"] = ns.light_stats.road_luminance_avg_cd_m2;
   attrs["photosite/night/road_uniformity_u0"] = ns.light_stats.road_uniformity_u0;
+  // The day photo's white balance the texture was made with (reflectance.day_white_balance).
+  attrs["photosite/night/day_white_balance"] = ns.day_balance.state;
+  attrs["photosite/night/day_white_balance_gain_R"] = ns.day_balance.gain[0];
+  attrs["photosite/night/day_white_balance_gain_G"] = ns.day_balance.gain[1];
+  attrs["photosite/night/day_white_balance_gain_B"] = ns.day_balance.gain[2];
+  attrs["photosite/night/day_white_balance_road_samples"] = static_cast<int>(ns.day_balance.samples);
+  attrs["photosite/night/day_white_balance_road_cct_K"] = ns.day_balance.road_cct_K;
   return attrs;
 }
 

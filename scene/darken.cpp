@@ -260,12 +260,14 @@ namespace {
 struct BoxCoef {
   double M[3][3], K[3];
 };
-BoxCoef box_coef() {
+// `gain`: the day photo's white balance (DayBalance), taken into the matrix, M·diag(gain): a
+// gain of exactly 1 leaves M's coefficients as they are (the same bits as without a balance).
+BoxCoef box_coef(const std::array<double, 3>& gain = {1.0, 1.0, 1.0}) {
   const auto& M = spectrum::linear_srgb_to_box();
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
   BoxCoef c;
   for (int r = 0; r < 3; ++r) {
-    for (int k = 0; k < 3; ++k) c.M[r][k] = M[r][k];
+    for (int k = 0; k < 3; ++k) c.M[r][k] = M[r][k] * gain[k];
     c.K[r] = K[r];
   }
   return c;
@@ -942,6 +944,7 @@ SunPassRows sun_pass_rows(const ScenePreset* split, const float* image, const ui
   SunPassRows r;
   if (!split || split->sun_shade_ratio_max <= 1 || W == 0 || H == 0) return r;
   auto s = new_sun_block_sums(image, labels, W, H, kTextureChunks);
+  s->gain = sums->balance.gain;  // the pass's Y are taken with the day white balance
   if (std::find(s->made.begin(), s->made.end(), 1) == s->made.end()) return r;  // no row lies in one chunk
   r.s = s.get();
   r.g = sun_grid(W, H, split->sun_shade_window_fraction);
@@ -1114,12 +1117,13 @@ int sun_diffuse_slot(int id) { return id >= 0 && id < kLabelCount ? diffuse_slot
 
 uint64_t sun_block_rows_summed_count() { return g_sun_rows_summed.load(std::memory_order_relaxed); }
 
-std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day, const ImageU16& labels) {
+std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day, const ImageU16& labels,
+                                             const std::array<double, 3>& gain) {
   const int W = day.width(), H = day.height();
   if (day.channels() != 3 || labels.width() != W || labels.height() != H) fail("sun_block_sums: image and labels differ");
   auto s = new_sun_block_sums(day.data(), labels.data(), W, H, 0);
   const SunGrid g = sun_grid(W, H, 0.03);
-  const BoxCoef coef = box_coef();
+  const BoxCoef coef = box_coef(gain);
   std::vector<double> yrow(W);
   for (int y = 0; y < H; ++y)
     if (sun_row_sampled(y, g))
@@ -1131,7 +1135,7 @@ std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day, const ImageU16& 
 }
 
 SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const ScenePreset& p, const double* class_px,
-                              const SunBlockSums* made) {
+                              const SunBlockSums* made, const std::array<double, 3>& gain) {
   SunShadeSplit out;
   out.ratio.fill(1.0);
   out.shade_tint.fill({1.0, 1.0, 1.0});
@@ -1148,7 +1152,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
     if (diffuse_class(id) && class_px[id] >= 2 * square_px) ids[slot[id] = ns++] = id;
   }
   if (ns == 0) return out;
-  const BoxCoef coef = box_coef();
+  const BoxCoef coef = box_coef(gain);
   const size_t nb = g.nb();
   const double q_min = sun_blue_contrast(p);
   // Block sums of Y and sample counts per class (every other row of a block sampled: a block's
@@ -1159,7 +1163,7 @@ SunShadeSplit sun_shade_split(const ImageF& day, const ImageU16& labels, const S
   // Per class and block row, the first and last blocks with samples (none: first > last).
   std::vector<int> row_x0(static_cast<size_t>(ns) * g.nby, g.nbx), row_x1(static_cast<size_t>(ns) * g.nby, -1);
   const bool take = made && made->image == day.data() && made->labels == labels.data() && made->width == W &&
-                    made->height == H && made->block_px == g.B;
+                    made->height == H && made->block_px == g.B && made->gain == gain;
   uint64_t own_rows = 0;
 #pragma omp parallel reduction(+ : own_rows)
   {
@@ -1707,11 +1711,26 @@ void soften_sun_edges(const ImageF& day, const ImageU16& labels, const SunShadeS
 void sun_penumbrae_enabled(bool on) { g_sun_penumbrae.store(on, std::memory_order_relaxed); }
 
 ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const ScenePreset& p, ClassMeans* carried,
-                                ImageF* work_luma, const TextureSums* sums) {
+                                ImageF* work_luma, const TextureSums* sums, DayBalance* balance_used) {
   if (work_luma && (day.width() != 2 * work_luma->width() || day.height() != 2 * work_luma->height()))
     fail("reflectance_texture: the working luminance must be half the frame's size");
   const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
-  const BoxCoef coef = box_coef();
+  // The day photo's white balance: a sequence's carried one, else the one the linearisation's pass
+  // found (the same as day_white_balance of this image), else found here.
+  const bool sums_of_this = sums && sums->image == day.data() && sums->labels == labels.data();
+  DayBalance balance;
+  if (carried && carried->balance_set) balance = carried->balance;
+  else if (sums_of_this && p.day_white_balance == DayWhiteBalance::Road && sums->balance.state != "none")
+    balance = sums->balance;
+  else balance = day.channels() == 3 && labels.width() == day.width() && labels.height() == day.height()
+                     ? day_white_balance(day, labels, p)
+                     : DayBalance();
+  if (carried && !carried->balance_set && balance.state == "road") {
+    carried->balance = balance;
+    carried->balance_set = true;
+  }
+  if (balance_used) *balance_used = balance;
+  const BoxCoef coef = box_coef(balance.gain);
   // Luminous efficacy of a linear sRGB colour through the box basis: Y = Σ_r K_r (M·s)_r
   // (after clipping negatives, which only out-of-gamut colours have).
   const size_t n = day.pixel_count();
@@ -1720,9 +1739,8 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   // result does not depend on the thread count (texture_class_sums); made by the linearisation's
   // pass when it was given the labels (linearize_with_texture_sums).
   std::vector<std::array<double, 2 * kLabelCount>> computed;
-  const bool have = sums && sums->image == day.data() && sums->labels == labels.data() &&
-                    sums->part.size() == static_cast<size_t>(kTextureChunks) && day.channels() == 3 &&
-                    labels.pixel_count() == n;
+  const bool have = sums_of_this && sums->part.size() == static_cast<size_t>(kTextureChunks) &&
+                    day.channels() == 3 && labels.pixel_count() == n && sums->balance.gain == balance.gain;
   if (!have) {
     g_texture_own_class_sums.fetch_add(1, std::memory_order_relaxed);
     computed.resize(kTextureChunks);
@@ -1735,7 +1753,7 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
     for (int id = 0; id < kLabelCount; ++id) { sum[id] += ps[id]; cnt[id] += ps[kLabelCount + id]; }
   // The day's sunlight out of the diffuse classes: their sunlit pixels divided by g, so the class
   // mean is taken over Y with that division, Σ Y − (1 − 1/g)·Σ_sunlit Y (sun_shade_split).
-  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt, have ? sums->sun.get() : nullptr);
+  const SunShadeSplit sun = sun_shade_split(day, labels, p, cnt, have ? sums->sun.get() : nullptr, balance.gain);
   float scale[kLabelCount], scale_sun[kLabelCount], scale_shade[kLabelCount][3];
   for (int id = 0; id < kLabelCount; ++id) {
     const double g = sun.ratio[id];
@@ -1799,6 +1817,138 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   return f;
 }
 
+std::array<double, 2> daylight_log_ratios(double cct_K) {
+  // CIE 015:2018 §4.1.2 (Judd, MacAdam and Wyszecki 1964): the chromaticity of the CIE daylight
+  // phase at a correlated colour temperature T, 4000-25000 K.
+  const double T = cct_K, T2 = T * T, T3 = T2 * T;
+  const double x = T <= 7000 ? -4.6070e9 / T3 + 2.9678e6 / T2 + 0.09911e3 / T + 0.244063
+                             : -2.0064e9 / T3 + 1.9018e6 / T2 + 0.24748e3 / T + 0.237040;
+  const double y = -3.000 * x * x + 2.870 * x - 0.275;
+  // XYZ (Y = 1) to linear sRGB: IEC 61966-2-1:1999's matrix (D65 white, Rec. 709 primaries).
+  const double X = x / y, Z = (1 - x - y) / y;
+  const double r = 3.2406 * X - 1.5372 - 0.4986 * Z, g = -0.9689 * X + 1.8758 + 0.0415 * Z,
+               b = 0.0557 * X - 0.2040 + 1.0570 * Z;
+  return {std::log(r / g), std::log(b / g)};
+}
+
+namespace {
+// The daylight locus from 4000 to 25000 K, kDaylightLocusPoints points evenly spaced in mired
+// (10⁶/T: 250 to 40), in the log-ratio plane: the polyline nearest_daylight searches first.
+constexpr int kDaylightLocusPoints = 1024;
+const std::vector<std::array<double, 2>>& daylight_locus() {
+  static const std::vector<std::array<double, 2>> pts = [] {
+    std::vector<std::array<double, 2>> v(kDaylightLocusPoints);
+    for (int i = 0; i < kDaylightLocusPoints; ++i)
+      v[i] = daylight_log_ratios(1e6 / (250.0 - 210.0 * i / (kDaylightLocusPoints - 1)));
+    return v;
+  }();
+  return pts;
+}
+}  // namespace
+
+std::array<double, 3> nearest_daylight(const std::array<double, 2>& q) {
+  // The polyline's nearest segment first (the global search), then Newton's method on the curve
+  // itself in mired m, on g(m) = (C(m) − q)·C'(m) = 0 with C' and C'' by central differences
+  // (h = 10⁻³ mired): the polyline alone is off the curve by up to 2.7e-6 (its sagitta at the
+  // formula's 7000 K seam), which a cast 0.3 off the locus turns into gains off by ~1e-5.
+  const auto& L = daylight_locus();
+  double best = std::numeric_limits<double>::infinity(), m = 250.0;
+  for (size_t i = 0; i + 1 < L.size(); ++i) {
+    const double dx = L[i + 1][0] - L[i][0], dy = L[i + 1][1] - L[i][1];
+    const double t = std::clamp(((q[0] - L[i][0]) * dx + (q[1] - L[i][1]) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+    const double px = L[i][0] + t * dx, py = L[i][1] + t * dy;
+    const double d = (q[0] - px) * (q[0] - px) + (q[1] - py) * (q[1] - py);
+    if (d < best) {
+      best = d;
+      m = 250.0 - 210.0 * (static_cast<double>(i) + t) / (kDaylightLocusPoints - 1);
+    }
+  }
+  auto C = [](double mired) { return daylight_log_ratios(1e6 / mired); };
+  constexpr double h = 1e-3;
+  for (int it = 0; it < 4; ++it) {
+    if (m - h < 40.0 || m + h > 250.0) break;  // at an end of the locus: the end itself
+    const auto c0 = C(m), cp = C(m + h), cm = C(m - h);
+    double g = 0, dg = 0;
+    for (int k = 0; k < 2; ++k) {
+      const double d1 = (cp[k] - cm[k]) / (2 * h), d2 = (cp[k] - 2 * c0[k] + cm[k]) / (h * h);
+      g += (c0[k] - q[k]) * d1;
+      dg += d1 * d1 + (c0[k] - q[k]) * d2;
+    }
+    if (!(dg > 0)) break;
+    m = std::clamp(m - g / dg, 40.0, 250.0);
+  }
+  const auto c = C(m);
+  return {c[0], c[1], 1e6 / m};
+}
+
+namespace {
+// The day photo's white balance by its road (DayBalance, include/photosite/scene/night.h), from the
+// linear sRGB of its pixels as px(x, y, rgb) gives them (the linear image, or the day image's
+// codes or floats decoded as linearize() decodes them: the same floats, so the same gains on
+// every path). The road's pixels of every 4th row and column (131,072 samples at 2048x1024 at
+// most), summed in reading order (the same double sums at any thread count).
+//
+// Why: the darkening keeps each pixel's colour as the surface's (f_k ∝ c_k), so a cast of the day
+// camera's (its white balance, a data set's processing) stays in every albedo: Cityscapes' frames
+// carry a green one (mean linear G/R 1.29-1.37 over the five shared frames, KITTI's 0.99-1.09;
+// docs/realism.md). Asphalt and concrete are near-neutral, so the road's mean colour is the light
+// that fell on it as the camera saw it. Daylight, sunlit or in the shade of the blue sky, lies on
+// the CIE daylight locus (a blue-yellow line); what takes the road's colour off that line (green or
+// magenta) is not daylight but the camera. So only that departure is taken out: the gains move the
+// road's mean (ln R/G, ln B/G) to the nearest point of the locus. The light's own colour stays (a
+// road in the sky's shade stays blue; the sun/shade split takes that out where it splits a class),
+// and green is kept (the raw converters' convention: gains relative to G).
+template <class Px>
+DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) {
+  DayBalance b;
+  double sum[3] = {0, 0, 0};
+  long n = 0;
+  for (int y = 0; y < H; y += 4) {
+    const uint16_t* lr = labels + static_cast<size_t>(y) * W;
+    for (int x = 0; x < W; x += 4) {
+      if (lr[x] != static_cast<uint16_t>(Label::Road)) continue;
+      float c[3];
+      px(x, y, c);
+      // A clipped channel (1: the file's white) or a black one has lost the sample's colour.
+      if (!(c[0] > 0.f && c[0] < 1.f && c[1] > 0.f && c[1] < 1.f && c[2] > 0.f && c[2] < 1.f)) continue;
+      for (int k = 0; k < 3; ++k) sum[k] += c[k];
+      ++n;
+    }
+  }
+  b.samples = n;
+  if (n > 0)
+    for (int k = 0; k < 3; ++k) b.road_mean[k] = sum[k] / static_cast<double>(n);
+  if (n < kDayBalanceMinSamples) {
+    b.state = fmt::format("none: {} road samples (under {})", n, kDayBalanceMinSamples);
+    return b;
+  }
+  const std::array<double, 2> q{std::log(sum[0] / sum[1]), std::log(sum[2] / sum[1])};
+  const std::array<double, 3> d = nearest_daylight(q);
+  const std::array<double, 3> g{std::exp(d[0] - q[0]), 1.0, std::exp(d[1] - q[1])};
+  b.road_cct_K = d[2];
+  const double spread = std::max({g[0], g[1], g[2]}) / std::min({g[0], g[1], g[2]});
+  if (!(spread <= kDayBalanceMaxSpread)) {
+    b.state = fmt::format("none: the road's mean colour ({:.4g}, {:.4g}, {:.4g}) is {:.3g}x off the daylight locus "
+                          "(over {}): not a camera cast",
+                          b.road_mean[0], b.road_mean[1], b.road_mean[2], spread, kDayBalanceMaxSpread);
+    return b;
+  }
+  b.gain = g;
+  b.state = "road";
+  return b;
+}
+}  // namespace
+
+DayBalance day_white_balance(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
+  if (p.day_white_balance == DayWhiteBalance::None) return DayBalance();
+  if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
+    fail("day_white_balance: the image and its labels differ in size");
+  return road_day_balance(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
+    const float* s = day.row(y) + 3 * x;
+    c[0] = s[0], c[1] = s[1], c[2] = s[2];
+  });
+}
+
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
                                    TextureSums* sums, const ScenePreset* split) {
   *sums = TextureSums();
@@ -1812,9 +1962,19 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
+  // The day white balance first, from the road's samples decoded as the pass decodes them
+  // (day_white_balance of the linear image, to the bit); a damaged sample decodes as 0, which the
+  // balance skips, and the pass below names it.
+  if (split && split->day_white_balance == DayWhiteBalance::Road) {
+    int64_t ignored = INT64_MAX;
+    sums->balance = road_day_balance(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
+      linearize_rgb_samples(day.row(y) + 3 * x, c, 3, static_cast<int64_t>(y) * day.width() + x, decode, d8, lut,
+                            &ignored);
+    });
+  }
   // With the split on, its block sums from the same Y (sun_pass_rows).
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), day.width(), day.height(), sums);
-  texture_class_sums(labels.data(), day.pixel_count(), box_coef(), sums->part.data(), [&](int ch, size_t first, int count) {
+  texture_class_sums(labels.data(), day.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int ch, size_t first, int count) {
     linearize_rgb_samples(day.data() + 3 * first, out.data() + 3 * first, 3 * count, static_cast<int64_t>(first), decode,
                           d8, lut, &bad[ch]);
     return static_cast<const float*>(out.data() + 3 * first);
@@ -1943,8 +2103,14 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   // Each block of pixels decoded right before pass 1 reads it back from L1 (as
   // linearize_with_texture_sums; codes have no damaged values to look for).
   sums->part.resize(kTextureChunks);
+  // The day white balance first, from the road's codes read through the same table.
+  if (split && split->day_white_balance == DayWhiteBalance::Road)
+    sums->balance = road_day_balance(codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
+      const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
+      c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];
+    });
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
-  texture_class_sums(labels.data(), codes.pixel_count(), box_coef(), sums->part.data(), [&](int, size_t first, int count) {
+  texture_class_sums(labels.data(), codes.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int, size_t first, int count) {
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);
     return static_cast<const float*>(out.data() + 3 * first);
   }, sun);

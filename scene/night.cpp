@@ -162,7 +162,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   const WorkSize ws = work_size(W, H, p.work_max_width);
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
   ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
-                                                  ws.halving ? &work_luma : nullptr, sums);
+                                                  ws.halving ? &work_luma : nullptr, sums, &s.day_balance);
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
   s.work_scale = w.scale;

@@ -74,6 +74,16 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "against the sun (at a step of sun_shade_ratio_min) is not split",
           "[S] thin cloud or haze 6500-7000 K, clear blue sky 12,000-18,000 K (same references)",
           "> reflectance.sun_cct_K"),
+      {"reflectance.day_white_balance", Kind::Choice,
+       schema::Choice<P>{[](P& p, const std::string& s) { p.day_white_balance = parse_day_white_balance(s); },
+                         [](const P& p) -> std::string { return day_white_balance_name(p.day_white_balance); },
+                         kDayWhiteBalanceNames},
+       "", -inf, inf, Need::Optional,
+       "the day photo's own camera cast, taken out before its colours become albedos: road (gains that make the "
+       "mean linear colour of its road pixels grey, green kept; none where the road is under 100 samples or its "
+       "colour is too far from grey to be a cast) or none (the photo's colours as they are)",
+       "photosite choice: asphalt and concrete are near-neutral (docs/night.md §3, \"The day photo's white "
+       "balance\"); default road", {}, schema::Exr::Header},
       table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
       num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
       num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
@@ -330,6 +340,14 @@ StreetlampType parse_streetlamp_type(const std::string& name) {
   if (name == "led") return StreetlampType::Led;
   if (name == "hps") return StreetlampType::Hps;
   fail("unknown street lamp type '" + name + "' (expected " + kStreetlampTypeNames + ")");
+}
+
+const char* day_white_balance_name(DayWhiteBalance m) { return m == DayWhiteBalance::Road ? "road" : "none"; }
+
+DayWhiteBalance parse_day_white_balance(const std::string& name) {
+  if (name == "road") return DayWhiteBalance::Road;
+  if (name == "none") return DayWhiteBalance::None;
+  fail("unknown day white balance '" + name + "' (expected " + kDayWhiteBalanceNames + ")");
 }
 
 ScenePreset parse_scene_preset(const std::string& text, const std::string& file) {

@@ -64,6 +64,7 @@ struct SunBlockSums {
   const float* image = nullptr;  // what they are of
   const uint16_t* labels = nullptr;
   int width = 0, height = 0, block_px = 0, nbx = 0, nby = 0;
+  std::array<double, 3> gain{1.0, 1.0, 1.0};  // the day white balance their Y was taken with
   std::unique_ptr<double[]> ysum, ycnt;  // [diffuse slot · nbx·nby + block]
   std::vector<int> row_x0, row_x1;       // [diffuse slot · nby + block row]
   std::vector<uint8_t> made;             // per block row: 1 where summed here
@@ -75,20 +76,26 @@ void sun_edge_blocks(const uint8_t* present, const uint8_t* sd, int w, int h, ui
 int sun_diffuse_slot(int id);
 // SunBlockSums of every block row summed the split's own way (reading the day image): the
 // reference for the sums made in the linearisation's pass (tests).
-std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day_linear_srgb, const ImageU16& labels);
+// `gain`: the day photo's white balance (DayBalance::gain) the Y are taken with.
+std::shared_ptr<SunBlockSums> sun_block_sums(const ImageF& day_linear_srgb, const ImageU16& labels,
+                                             const std::array<double, 3>& gain = {1.0, 1.0, 1.0});
 // How many block rows the split has summed itself (not taken from the linearisation's pass):
 // tests check that the chain's frames take them.
 uint64_t sun_block_rows_summed_count();
 // `class_px`: each class's pixel count in the frame (kLabelCount entries). `made`: the block sums
 // made in the linearisation's pass (taken for the rows they hold when made of this image and
-// these labels).
+// these labels with this gain). `gain`: the day photo's white balance (DayBalance::gain), taken
+// with the box basis as the texture takes it.
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
-                              const double* class_px, const SunBlockSums* made = nullptr);
-// The same, counting the classes' pixels itself.
+                              const double* class_px, const SunBlockSums* made = nullptr,
+                              const std::array<double, 3>& gain = {1.0, 1.0, 1.0});
+// The same, counting the classes' pixels itself (no white balance).
 SunShadeSplit sun_shade_split(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
 
+// `balance_used`: where given, the day white balance the texture was made with (NightScene::day_balance).
 ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
-                                ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr);
+                                ClassMeans* carried, ImageF* work_luma, const TextureSums* sums = nullptr,
+                                DayBalance* balance_used = nullptr);
 
 // linearize_with_texture_sums of an 8-bit sRGB file's codes (interleaved RGB, the frame's size;
 // other channel counts: linearize() alone): the same image and sums to the bit as from the

@@ -390,7 +390,11 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   auto c = a, d = b;
   c.out = dir.file("c"), d.out = dir.file("d");
   c.sequences = d.sequences = true;
+  // (A sequence's later frames take the group's first white balance, ClassMeans::balance, which
+  // their reader's sums were not made with: those frames sum again, so the count is not checked here.)
+  const uint64_t own_class_sums_before_sequences = scene::texture_own_class_sums_count();
   const auto rc = batch::run(items, c, cpu), rd = batch::run(items, d, cpu);
+  const uint64_t own_class_sums_in_sequences = scene::texture_own_class_sums_count() - own_class_sums_before_sequences;
   EXPECT_TRUE(rc.errors.empty() && rd.errors.empty());
   EXPECT_EQ(rd.progress.written, 6u);
   const auto tc = tree_bytes(dir.path() / "c"), td = tree_bytes(dir.path() / "d");
@@ -412,7 +416,7 @@ TEST(Batch, BytesDoNotDependOnThreadsOrQueueDepth) {
   EXPECT_EQ(detail::glare_full_resolution_level1_count(), full_resolution_level1)
       << "a batch frame's glare made its level 1 from the full-resolution radiance";
   // Every frame's texture took the class sums its reader made with the linearisation.
-  EXPECT_EQ(scene::texture_own_class_sums_count(), own_class_sums)
+  EXPECT_EQ(scene::texture_own_class_sums_count() - own_class_sums_in_sequences, own_class_sums)
       << "a batch frame's texture made its own class sums (the reader's were not handed on)";
   ImageF radiance(160, 80, 3);
   radiance.vec().assign(radiance.size(), 1.f);

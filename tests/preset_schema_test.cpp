@@ -156,7 +156,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
 // street_lamps.interp_tolerance, street_lamps.shadows and street_lamps.penumbrae (attributes only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
-// lamps.streetlamp_type, an attribute only, the member being an enum). Values changed since, by hand
+// lamps.streetlamp_type and reflectance.day_white_balance, attributes only, the members being enums). Values changed since, by hand
 // with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
 // vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
@@ -211,19 +211,30 @@ TEST(PresetSchema, CameraAttributesAreTheMarkedRows) {
   }
 }
 
-// lamps.streetlamp_type: "led" (the bundled presets' value, and the default when the key is absent)
-// or "hps"; any other value, or a number, is refused at its line; the EXR header records it.
-TEST(PresetSchema, StreetlampTypeIsLedOrHpsAndTheHeaderRecordsIt) {
-  const std::string urban = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml");
-  const std::string key = "streetlamp_type = \"led\"";
-  const auto at = urban.find(key);
-  ASSERT_NE(at, std::string::npos);
-  const std::string line = std::to_string(std::count(urban.begin(), urban.begin() + static_cast<long>(at), '\n') + 1);
-  auto with = [&](const std::string& to) {
+// The bundled urban scene preset with one line's `key` replaced (with), and that line's number.
+struct UrbanWithLine {
+  std::string urban, key, line;
+  size_t at = std::string::npos;
+  explicit UrbanWithLine(const std::string& k)
+      : urban(slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml")), key(k), at(urban.find(k)) {
+    if (at != std::string::npos)
+      line = std::to_string(std::count(urban.begin(), urban.begin() + static_cast<long>(at), '\n') + 1);
+  }
+  std::string with(const std::string& to) const {
     std::string t = urban;
     t.replace(at, key.size(), to);
     return t;
-  };
+  }
+};
+
+// lamps.streetlamp_type: "led" (the bundled presets' value, and the default when the key is absent)
+// or "hps"; any other value, or a number, is refused at its line; the EXR header records it.
+TEST(PresetSchema, StreetlampTypeIsLedOrHpsAndTheHeaderRecordsIt) {
+  const UrbanWithLine u("streetlamp_type = \"led\"");
+  ASSERT_NE(u.at, std::string::npos);
+  const std::string& urban = u.urban;
+  const std::string& line = u.line;
+  auto with = [&](const std::string& to) { return u.with(to); };
   EXPECT_EQ(scene::parse_scene_preset(urban, "s.toml").streetlamp_type, scene::StreetlampType::Led);
   const scene::ScenePreset hps = scene::parse_scene_preset(with("streetlamp_type = \"hps\""), "s.toml");
   EXPECT_EQ(hps.streetlamp_type, scene::StreetlampType::Hps);
@@ -235,6 +246,24 @@ TEST(PresetSchema, StreetlampTypeIsLedOrHpsAndTheHeaderRecordsIt) {
       << e1;
   const std::string e2 = error_of([&] { scene::parse_scene_preset(with("streetlamp_type = 2000"), "s.toml"); });
   EXPECT_NE(e2.find("s.toml:" + line + ": lamps.streetlamp_type: expected a string"), std::string::npos) << e2;
+}
+
+// reflectance.day_white_balance: "road" (the bundled presets' value and the default when the key is
+// absent) or "none"; any other value is refused at its line; the EXR header records it.
+TEST(PresetSchema, DayWhiteBalanceIsRoadOrNoneAndTheHeaderRecordsIt) {
+  const UrbanWithLine u("day_white_balance = \"road\"");
+  ASSERT_NE(u.at, std::string::npos);
+  EXPECT_EQ(scene::parse_scene_preset(u.urban, "s.toml").day_white_balance, scene::DayWhiteBalance::Road);
+  const scene::ScenePreset none = scene::parse_scene_preset(u.with("day_white_balance = \"none\""), "s.toml");
+  EXPECT_EQ(none.day_white_balance, scene::DayWhiteBalance::None);
+  EXPECT_EQ(std::get<std::string>(scene::scene_attributes(none).at("photosite/scene/reflectance.day_white_balance")),
+            "none");
+  EXPECT_EQ(scene::parse_scene_preset(u.with(""), "s.toml").day_white_balance, scene::DayWhiteBalance::Road);
+  const std::string e = error_of([&] { scene::parse_scene_preset(u.with("day_white_balance = \"grey_world\""), "s.toml"); });
+  EXPECT_NE(e.find("s.toml:" + u.line +
+                   ": reflectance.day_white_balance: unknown day white balance 'grey_world' (expected road, none)"),
+            std::string::npos)
+      << e;
 }
 
 // A scene file's errors have the camera's and lens's form, "file:line: key: problem".

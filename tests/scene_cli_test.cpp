@@ -32,8 +32,12 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   for (const char* at : {"photosite/night/vanishing_point_x", "photosite/night/vanishing_point_y",
                          "photosite/night/vanishing_point_confidence",
                          "photosite/night/vanishing_point_method", "photosite/scene/ambient.moon_lux",
-                         "photosite/scene/reflectance.road", "photosite/preset"})
+                         "photosite/scene/reflectance.road", "photosite/preset",
+                         "photosite/scene/reflectance.day_white_balance", "photosite/night/day_white_balance_gain_R",
+                         "photosite/night/day_white_balance_road_cct_K"})
     EXPECT_EQ(e.attributes.count(at), 1u) << at;
+  // The bundled frame's road is large enough and near daylight: its cast is taken out.
+  EXPECT_EQ(e.attributes.at("photosite/night/day_white_balance"), "road");
   EXPECT_EQ(e.width, 1224);
   EXPECT_EQ(e.height, 370);
   EXPECT_TRUE(fs::exists(d.file("n.png")));

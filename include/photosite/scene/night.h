@@ -40,8 +40,39 @@ const std::vector<float>& srgb_decode_table();
 // the 24 MB linear image. `image` and `labels` name what the sums are of: reflectance_texture
 // takes them only for that image and label map (else it sums itself). The same additions in the
 // same order either way, so the same texture to the bit.
+// The day photo's white balance (reflectance.day_white_balance, scene/darken.cpp): per-channel
+// gains on its linear sRGB, taken with the box basis (the texture's box RGB is M·diag(gain)·s), and
+// what was decided. With "road": the mean linear colour m of the road's pixels (every 4th row and
+// column, those with all channels inside (0, 1): a clipped or black sample has lost its colour)
+// is moved, in the plane (ln m_R/m_G, ln m_B/m_G), to the nearest point of the CIE daylight locus
+// (4000-25000 K), green kept: the camera's green or magenta cast out, the daylight's own colour
+// (sun, or the sky's blue in the shade) kept.
+struct DayBalance {
+  std::array<double, 3> gain{1.0, 1.0, 1.0};
+  // "road" (the gains above), "none" (the preset's choice) or "none: " and why the road was not
+  // used (under kDayBalanceMinSamples samples, or its colour too far off the locus to be a cast).
+  std::string state = "none";
+  long samples = 0;                    // the road samples the mean was taken over
+  std::array<double, 3> road_mean{};   // their mean linear sRGB
+  double road_cct_K = 0;               // the daylight the road's colour was moved to (0: none)
+};
+// Fewer road samples than this (100 samples: 1,600 road pixels at the 4×4 spacing) leave the
+// photo as it is: the mean of a sliver of road says little about the camera.
+inline constexpr long kDayBalanceMinSamples = 100;
+// Gains whose largest is more than this times their smallest are not taken as a camera cast: a
+// red bus lane or a sodium-lit road, not the camera (photosite choice; Cityscapes' measured cast
+// needs 1.42, docs/night.md §1).
+inline constexpr double kDayBalanceMaxSpread = 2.0;
+// The CIE daylight phase at cct_K (CIE 015:2018: 4000-25000 K) as (ln R/G, ln B/G) of its linear
+// sRGB, and the point of the locus (4000-25000 K) nearest to q in that plane: (ln R/G, ln B/G,
+// its CCT in K); found on a polyline of the locus, then refined on the curve by Newton's method.
+std::array<double, 2> daylight_log_ratios(double cct_K);
+std::array<double, 3> nearest_daylight(const std::array<double, 2>& q);
+DayBalance day_white_balance(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p);
+
 struct TextureSums {
   std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
+  DayBalance balance;  // the day photo's white balance the sums were made with
   const float* image = nullptr;
   const uint16_t* labels = nullptr;
   // The sun/shade split's block sums (its phase 1) of the block rows that lie in one chunk, made
@@ -50,7 +81,9 @@ struct TextureSums {
 };
 // linearize(), and with it the texture's class sums over `labels` (the frame's size) into
 // `sums`; other label sizes or channel counts than RGB: linearize() alone (sums left empty).
-// With `split` (the scene preset, its sun/shade split on) also the split's block sums (sums->sun).
+// With `split` (the scene preset) the sums are made with its day white balance (sums->balance,
+// day_white_balance of the linear image, found from the day image's road before the pass) and,
+// its sun/shade split on, also the split's block sums (sums->sun). Without it: no balance.
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
                                    TextureSums* sums, const ScenePreset* split = nullptr);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
@@ -83,7 +116,13 @@ bool diffuse_class(int label_id);
 // kClassMeanMinShare of the frame (below that, a sliver at a border, it is not fixed yet).
 // Null: this frame's means (a single frame).
 inline constexpr double kClassMeanMinShare = 1e-3;
-struct ClassMeans { std::array<double, kLabelCount> mean{}; };
+// The day photo's white balance is carried the same way: the first frame that has one
+// (balance_set) fixes the gains for the sequence, so that the colours do not change with the view.
+struct ClassMeans {
+  std::array<double, kLabelCount> mean{};
+  DayBalance balance;
+  bool balance_set = false;
+};
 ImageF reflectance_texture(const ImageF& day_linear_srgb, const ImageU16& labels, const ScenePreset& p,
                            ClassMeans* carried = nullptr);
 // Relative tint of a CCT in the box basis, luminance-preserving for a D65-white surface.
@@ -427,6 +466,7 @@ struct NightScene {
   std::vector<Segment> lines_work;
   VanishingPoint vp;  // full-resolution pixels
   LightStats light_stats;
+  DayBalance day_balance;  // the day photo's white balance the texture was made with
   std::vector<StageTiming> timings;
   DeviceImage resident_radiance;  // PixelTail::resident: `radiance` is still on the device
   // The lens glare's level 1 of `radiance` (LightMap::glare_level1) where night_scene was asked

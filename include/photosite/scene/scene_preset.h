@@ -28,6 +28,14 @@ inline constexpr const char* kStreetlampTypeNames = "led, hps";
 // "led" / "hps"; parse throws photosite::Error on any other name, listing the names.
 const char* streetlamp_type_name(StreetlampType t);
 StreetlampType parse_streetlamp_type(const std::string& name);
+// How the day photo's own camera cast is taken out before its colours become albedos
+// (reflectance.day_white_balance; scene/darken.cpp day_white_balance): Road, by the grey of its
+// road (the mean linear colour of the road's pixels made neutral, green kept); None, the photo's
+// colours as they are.
+enum class DayWhiteBalance { None, Road };
+inline constexpr const char* kDayWhiteBalanceNames = "road, none";
+const char* day_white_balance_name(DayWhiteBalance m);
+DayWhiteBalance parse_day_white_balance(const std::string& name);
 
 struct ScenePreset {
   std::string name, file, description;
@@ -48,6 +56,10 @@ struct ScenePreset {
   // (presets/scenes/night-urban.toml).
   double sun_shade_ratio_min = 2, sun_shade_ratio_max = 10, sun_shade_window_fraction = 0.03;
   double sun_cct_K = 5000, shade_sky_cct_K = 7000;
+  // The day photo's camera cast (a camera's white balance or a data set's processing, e.g.
+  // Cityscapes' green: mean linear G/R 1.29-1.37 over its frames against KITTI's 0.99-1.09,
+  // docs/realism.md), taken out before the texture keeps the photo's colours as albedo.
+  DayWhiteBalance day_white_balance = DayWhiteBalance::Road;
   // [ambient] illuminance on every surface (lx) and the sky's own luminance (cd/m²).
   double moon_lux = 0.1, moon_cct_K = 4100, skyglow_lux = 0.05, skyglow_cct_K = 2500;
   double sky_luminance_cd_m2 = 0.02;
