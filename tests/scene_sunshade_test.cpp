@@ -59,14 +59,18 @@ Scene road_scene(bool step, int id = int(Label::Road), double sun = kSun, bool t
     }
   return s;
 }
+// The split's tests compare the texture with the day photo's own colours: the day photo's white
+// balance off (its own tests: scene_day_balance_test.cpp), except where a test sets it on.
 ScenePreset off(ScenePreset p) {
   p.sun_shade_ratio_max = 1;
+  p.day_white_balance = DayWhiteBalance::None;
   return p;
 }
 // These tests set the split on at the sources' bound, g = 10 (100,000 lx in the open against
 // 10,000 lx in a tree's shade, CIBSE), as the bundled presets ship it.
 ScenePreset on(ScenePreset p) {
   p.sun_shade_ratio_max = 10;
+  p.day_white_balance = DayWhiteBalance::None;
   return p;
 }
 double Y(const ImageF& t, int x, int y) {
@@ -415,8 +419,9 @@ TEST(SunShade, BundledKittiRoadLosesTheDaysSunPatch) {
   const test::KittiSample k = test::bundled_kitti_sample();
   const LabelMap& lm = k.labels;
   const ImageF day = linearize(k.day, k.info);
-  const ScenePreset p = load_scene_preset("night-urban");
+  ScenePreset p = load_scene_preset("night-urban");
   ASSERT_GT(p.sun_shade_ratio_max, 1) << "the bundled preset ships the split on";
+  p.day_white_balance = DayWhiteBalance::None;  // the texture against the day photo's own colours
   auto mean_y = [&](const ImageF& t, int x0, int x1, int y0, int y1) {
     double s = 0;
     for (int y = y0; y < y1; ++y)
@@ -556,7 +561,10 @@ TEST(SunShade, PenumbraPixelsInTheShadeLoseTheirShareOfTheSun) {
 // of 1953.125 px: block rows across a chunk's start, which the split sums itself); each
 // instruction set, 1 and 2 threads, from the codes and from their floats.
 TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
-  const ScenePreset p = on(load_scene_preset("night-urban"));
+  // With the day photo's white balance on (the bundled presets' default): the pass's Y and the
+  // split's own are taken with the same gains.
+  ScenePreset p = on(load_scene_preset("night-urban"));
+  p.day_white_balance = DayWhiteBalance::Road;
   const int saved = omp_get_max_threads();
   struct Size { int W, H; bool all_made; };
   for (const Size sz : {Size{512, 256, true}, Size{256, 128, true}, Size{500, 250, false}}) {
@@ -597,7 +605,7 @@ TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
                                         : linearize_with_texture_sums(floats, info, ids, &sums, &p);
           ASSERT_TRUE(sums.sun) << at;
           const SunBlockSums& got = *sums.sun;
-          const auto want = sun_block_sums(lin, ids);
+          const auto want = sun_block_sums(lin, ids, sums.balance.gain);
           ASSERT_EQ(got.nby, want->nby) << at;
           const size_t nb = static_cast<size_t>(got.nbx) * got.nby;
           int made = 0;
@@ -622,9 +630,10 @@ TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
           else EXPECT_TRUE(made > 0 && made < got.nby) << at << ": " << made << " of " << got.nby;
           // The split takes the made rows (summing only the others itself) and gives what it gives alone.
           const uint64_t own0 = sun_block_rows_summed_count();
-          const SunShadeSplit with = sun_shade_split(lin, ids, p, class_px, &got);
+          const auto& gain = sums.balance.gain;
+          const SunShadeSplit with = sun_shade_split(lin, ids, p, class_px, &got, gain);
           EXPECT_EQ(sun_block_rows_summed_count() - own0, static_cast<uint64_t>(got.nby - made)) << at;
-          const SunShadeSplit alone = sun_shade_split(lin, ids, p, class_px);
+          const SunShadeSplit alone = sun_shade_split(lin, ids, p, class_px, nullptr, gain);
           ASSERT_FALSE(alone.sunlit.empty()) << at;  // the road splits
           EXPECT_EQ(with.sunlit, alone.sunlit) << at;
           EXPECT_EQ(with.ratio, alone.ratio) << at;
@@ -641,7 +650,7 @@ TEST(SunShade, BlockSumsMadeInTheLinearisationAreTheSplitsOwn) {
           // Sums of another image are not taken.
           const ImageF other = lin;
           const uint64_t own2 = sun_block_rows_summed_count();
-          EXPECT_EQ(sun_shade_split(other, ids, p, class_px, &got).ratio, alone.ratio) << at;
+          EXPECT_EQ(sun_shade_split(other, ids, p, class_px, &got, gain).ratio, alone.ratio) << at;
           EXPECT_EQ(sun_block_rows_summed_count() - own2, static_cast<uint64_t>(got.nby)) << at;
         }
     // With the split off, none are made.
