@@ -374,6 +374,45 @@ __attribute__((target("avx2"))) int shade_run_avx2(float* acc, const uint8_t* gb
   _mm256_zeroupper();
   return x;
 }
+// shade_run_avx2 with each column's own count m = cnt[x] ≥ 1 of the lamp's ns points in shadow:
+// a ground pixel loses the whole term where m ≥ ns, else the term times fl(m·per_point) (lose()'s
+// share); the same operations per pixel.
+__attribute__((target("avx2"))) int shade_counts_avx2(float* acc, const uint8_t* gb, const int32_t* cnt, int x0, int x1,
+                                                      int ns, float per_point, double cx_px, double kx, double Xl,
+                                                      float dz2, float H2, float Hl, float I0, const RelTable& t,
+                                                      long long* shaded) {
+  const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
+  const __m256 vdz2 = _mm256_set1_ps(dz2), vH2 = _mm256_set1_ps(H2), vHl = _mm256_set1_ps(Hl);
+  const __m256 vpp = _mm256_set1_ps(per_point), zero = _mm256_setzero_ps();
+  const __m256d vcx = _mm256_set1_pd(cx_px), vkx = _mm256_set1_pd(kx), xl = _mm256_set1_pd(Xl);
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128), nsm1 = _mm256_set1_epi32(ns - 1);
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) {
+    const unsigned bits = ((static_cast<unsigned>(gb[x >> 3]) | static_cast<unsigned>(gb[(x >> 3) + 1]) << 8) >> (x & 7)) & 255u;
+    if (!bits) continue;
+    const __m256d xs = _mm256_setr_pd(x, x + 1, x + 2, x + 3);
+    const __m256d X0 = _mm256_mul_pd(_mm256_sub_pd(xs, vcx), vkx);
+    const __m256d X1 = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(xs, _mm256_set1_pd(4.0)), vcx), vkx);
+    const __m256 dx = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(X1, xl)), _mm256_cvtpd_ps(_mm256_sub_pd(X0, xl)));
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), vdz2), vH2);
+    const __m256 c = _mm256_div_ps(vHl, _mm256_sqrt_ps(d2));
+    const __m256 beyond = _mm256_cmp_ps(c, vcc, _CMP_LT_OQ);
+    __m256 rel = one;
+    if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, c), beyond);
+    const __m256 term = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), c), d2);
+    const __m256i m = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cnt + x));
+    const __m256 whole = _mm256_castsi256_ps(_mm256_cmpgt_epi32(m, nsm1));  // m ≥ ns
+    const __m256 part = _mm256_mul_ps(term, _mm256_mul_ps(_mm256_cvtepi32_ps(m), vpp));
+    const __m256 a = _mm256_loadu_ps(acc + x);
+    const __m256 lost = _mm256_max_ps(_mm256_sub_ps(a, _mm256_blendv_ps(part, term, whole)), zero);
+    const __m256 on = _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(bits)), lane_bit), lane_bit));
+    _mm256_storeu_ps(acc + x, _mm256_blendv_ps(a, lost, on));
+    *shaded += std::popcount(bits);
+  }
+  _mm256_zeroupper();
+  return x;
+}
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
 // The same row compiled for AVX-512VL (32 vector registers; the same operations, no FMA
@@ -1739,10 +1778,11 @@ struct PoolPass : LitRows {
     std::vector<int> lo, hi, ends;  // per lamp: its columns within the cone [lo, hi); their ends, sorted
     std::vector<int> lamp_index;    // the row's lamps (pl) by their index in StreetLighting::lamps
     std::vector<std::pair<int32_t, int32_t>> events;  // shade's span ends of a lamp's points on a row (column, ±count)
+    std::vector<int32_t> counts;  // shade: per column of a covered stretch, the lamp's points in shadow
     long long shaded = 0;           // (ground pixel, lamp) pairs taken off by the shadows
     AdaptiveScratch ad;
     explicit Scratch(int W)
-        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff) {}
+        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff), counts(W + 8) {}
   };
   // The exact pools at n columns xs (compacted, into sc.es): the row kernel on their ground X
   // (the same expression as the full row's), each lane its own pixel: the same bits as at those
@@ -1877,6 +1917,18 @@ struct PoolPass : LitRows {
         ++sc.shaded;
       }
     };
+    // Columns x0 .. x1 − 1 with their counts (sc.counts[x] ≥ 1) of lamp j's points in shadow, with AVX2.
+    auto lose_counts = [&](int x0, int x1) {
+      const int32_t* cnt = sc.counts.data();
+      const int x = shade_counts_avx2(acc, gb, cnt, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
+                                      sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
+      for (int xe = x; xe < x1;) {  // the rest: runs of one count
+        int e = xe + 1;
+        while (e < x1 && cnt[e] == cnt[xe]) ++e;
+        lose(xe, e, cnt[xe]);
+        xe = e;
+      }
+    };
     if (ns == 1) {  // one point per lamp: each span its whole term (no counting needed)
       for (int32_t si = a; si < b; ++si) {
         const ShadowSpan& sp = shadows->spans[si];
@@ -1914,9 +1966,29 @@ struct PoolPass : LitRows {
         return p.first < q.first;
       });
       int m = 0;
-      for (size_t e = 0; e + 1 < ev.size(); ++e) {
-        m += ev[e].second;
-        if (m > 0) lose(ev[e].first, ev[e + 1].first, m);
+      if (isa < 1) {
+        for (size_t e = 0; e + 1 < ev.size(); ++e) {
+          m += ev[e].second;
+          if (m > 0) lose(ev[e].first, ev[e + 1].first, m);
+        }
+      } else {
+        // Each stretch of columns with a count above 0 at once, eight columns at a time with each
+        // column's own count (a penumbra's counts change every few columns): the same operations
+        // per pixel as lose().
+        int32_t* cnt = sc.counts.data();
+        int s0 = -1;
+        for (size_t e = 0; e + 1 < ev.size(); ++e) {
+          m += ev[e].second;
+          const int xa = ev[e].first, xb = ev[e + 1].first;
+          if (m > 0) {
+            if (s0 < 0) s0 = xa;
+            std::fill(cnt + xa, cnt + xb, m);
+          } else if (s0 >= 0) {
+            lose_counts(s0, xa);
+            s0 = -1;
+          }
+        }
+        if (s0 >= 0) lose_counts(s0, ev.back().first);
       }
       si = se;
     }
