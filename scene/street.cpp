@@ -336,56 +336,22 @@ __attribute__((target("avx2"))) void pool_row_avx2(float* e, const double* Xg, c
 }
 // The shadows' step (PoolPass::shade) eight pixels at a time: on the columns x0 .. x1 − 1 of a row
 // (whole groups of eight from x0; returns where it stopped, the rest left to the scalar loop), each
-// ground pixel (bit x of gb) loses one lamp's term, pool_term at its ground X = (x − c_x)·k_x
-// (whole) or that term times `share`, held at 0 or above: pool_row_body's operations for that lamp
-// (the same float term as the scalar pool_term), then fl(acc − t) and max(·, 0), the other pixels
-// kept; the same bits as the scalar loop. *shaded counts the ground pixels.
-__attribute__((target("avx2"))) int shade_run_avx2(float* acc, const uint8_t* gb, int x0, int x1, bool whole,
-                                                   float share, double cx_px, double kx, double Xl, float dz2,
-                                                   float H2, float Hl, float I0, const RelTable& t,
-                                                   long long* shaded) {
-  const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
-  const __m256 vdz2 = _mm256_set1_ps(dz2), vH2 = _mm256_set1_ps(H2), vHl = _mm256_set1_ps(Hl);
-  const __m256 vshare = _mm256_set1_ps(share), zero = _mm256_setzero_ps();
-  const __m256d vcx = _mm256_set1_pd(cx_px), vkx = _mm256_set1_pd(kx), xl = _mm256_set1_pd(Xl);
-  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-  int x = x0;
-  for (; x + 8 <= x1; x += 8) {
-    const unsigned bits = ((static_cast<unsigned>(gb[x >> 3]) | static_cast<unsigned>(gb[(x >> 3) + 1]) << 8) >> (x & 7)) & 255u;
-    if (!bits) continue;
-    const __m256d xs = _mm256_setr_pd(x, x + 1, x + 2, x + 3);
-    const __m256d X0 = _mm256_mul_pd(_mm256_sub_pd(xs, vcx), vkx);
-    const __m256d X1 = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(xs, _mm256_set1_pd(4.0)), vcx), vkx);
-    const __m256 dx = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(X1, xl)), _mm256_cvtpd_ps(_mm256_sub_pd(X0, xl)));
-    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), vdz2), vH2);
-    const __m256 c = _mm256_div_ps(vHl, _mm256_sqrt_ps(d2));
-    const __m256 beyond = _mm256_cmp_ps(c, vcc, _CMP_LT_OQ);
-    __m256 rel = one;
-    if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, c), beyond);
-    __m256 term = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), c), d2);
-    if (!whole) term = _mm256_mul_ps(term, vshare);
-    const __m256 a = _mm256_loadu_ps(acc + x);
-    const __m256 lost = _mm256_max_ps(_mm256_sub_ps(a, term), zero);
-    const __m256 on = _mm256_castsi256_ps(
-        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(bits)), lane_bit), lane_bit));
-    _mm256_storeu_ps(acc + x, _mm256_blendv_ps(a, lost, on));
-    *shaded += std::popcount(bits);
-  }
-  _mm256_zeroupper();
-  return x;
-}
-// shade_run_avx2 with each column's own count m = cnt[x] ≥ 1 of the lamp's ns points in shadow:
-// a ground pixel loses the whole term where m ≥ ns, else the term times fl(m·per_point) (lose()'s
-// share); the same operations per pixel.
-__attribute__((target("avx2"))) int shade_counts_avx2(float* acc, const uint8_t* gb, const int32_t* cnt, int x0, int x1,
-                                                      int ns, float per_point, double cx_px, double kx, double Xl,
-                                                      float dz2, float H2, float Hl, float I0, const RelTable& t,
-                                                      long long* shaded) {
+// ground pixel (bit x of gb) loses one lamp's term, pool_term at its ground X = (x − c_x)·k_x, held
+// at 0 or above: pool_row_body's operations for that lamp (the same float term as the scalar
+// pool_term), then fl(acc − t') and max(·, 0), the other pixels kept; the same bits as the scalar
+// loop. t' = the term where m ≥ ns, else term·fl(m·per_point) (lose()'s share), m the count of the
+// lamp's points in shadow: cnt[x] per column, or one m for all (cnt null). *shaded counts the
+// ground pixels.
+__attribute__((target("avx2"))) int shade_cols_avx2(float* acc, const uint8_t* gb, const int32_t* cnt, int m_all,
+                                                    int x0, int x1, int ns, float per_point, double cx_px, double kx,
+                                                    double Xl, float dz2, float H2, float Hl, float I0,
+                                                    const RelTable& t, long long* shaded) {
   const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
   const __m256 vdz2 = _mm256_set1_ps(dz2), vH2 = _mm256_set1_ps(H2), vHl = _mm256_set1_ps(Hl);
   const __m256 vpp = _mm256_set1_ps(per_point), zero = _mm256_setzero_ps();
   const __m256d vcx = _mm256_set1_pd(cx_px), vkx = _mm256_set1_pd(kx), xl = _mm256_set1_pd(Xl);
   const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128), nsm1 = _mm256_set1_epi32(ns - 1);
+  const __m256i m_one = _mm256_set1_epi32(m_all);
   int x = x0;
   for (; x + 8 <= x1; x += 8) {
     const unsigned bits = ((static_cast<unsigned>(gb[x >> 3]) | static_cast<unsigned>(gb[(x >> 3) + 1]) << 8) >> (x & 7)) & 255u;
@@ -400,7 +366,7 @@ __attribute__((target("avx2"))) int shade_counts_avx2(float* acc, const uint8_t*
     __m256 rel = one;
     if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, c), beyond);
     const __m256 term = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), c), d2);
-    const __m256i m = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cnt + x));
+    const __m256i m = cnt ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cnt + x)) : m_one;
     const __m256 whole = _mm256_castsi256_ps(_mm256_cmpgt_epi32(m, nsm1));  // m ≥ ns
     const __m256 part = _mm256_mul_ps(term, _mm256_mul_ps(_mm256_cvtepi32_ps(m), vpp));
     const __m256 a = _mm256_loadu_ps(acc + x);
@@ -1907,8 +1873,8 @@ struct PoolPass : LitRows {
       const float share = m >= ns ? 1.f : static_cast<float>(m) * per_point;
       int x = x0;
       if (isa >= 1)
-        x = shade_run_avx2(acc, gb, x0, x1, m >= ns, share, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j], sc.pl.H2[j],
-                           sc.pl.Hl[j], I0, table, &sc.shaded);
+        x = shade_cols_avx2(acc, gb, nullptr, m, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
+                            sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
       for (; x < x1; ++x) {
         if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
         const float t = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
@@ -1920,8 +1886,8 @@ struct PoolPass : LitRows {
     // Columns x0 .. x1 − 1 with their counts (sc.counts[x] ≥ 1) of lamp j's points in shadow, with AVX2.
     auto lose_counts = [&](int x0, int x1) {
       const int32_t* cnt = sc.counts.data();
-      const int x = shade_counts_avx2(acc, gb, cnt, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
-                                      sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
+      const int x = shade_cols_avx2(acc, gb, cnt, 0, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
+                                    sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
       for (int xe = x; xe < x1;) {  // the rest: runs of one count
         int e = xe + 1;
         while (e < x1 && cnt[e] == cnt[xe]) ++e;
