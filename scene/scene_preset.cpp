@@ -125,7 +125,7 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       {"street_lamps.penumbrae", Kind::Boolean, PHOTOSITE_AT(P, lamp_penumbrae), "", -inf, inf, Need::Optional,
        "with shadows: each luminaire's face a disc of head_diameter_m, so a ground pixel hidden from part of it "
        "loses that part's share of the lamp's light (the shadows' edges soft; docs/night.md §7)",
-       "photosite choice (default false): on costs the chain about 10 % (docs/benchmarks.md)", {},
+       "photosite choice (default false): on costs the chain about 4-5 % (docs/benchmarks.md)", {},
        schema::Exr::Header},
       table("vehicle_lamps", "head, tail and parking lamps per vehicle (scene/lights.cpp)", "[U] ECE R48, R7, R112"),
       num("vehicle_lamps.height_m", PHOTOSITE_AT(P, veh_lamp_height_m), "m", 0.2, 3,

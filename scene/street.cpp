@@ -378,6 +378,51 @@ __attribute__((target("avx2"))) void pool_row_avx2(float* e, const double* Xg, c
                                                   const PoolLamps& pl, float I0, const RelTable& t) {
   pool_row_body(e, Xg, mask, n, pl, I0, t);
 }
+// The shadows' step (PoolPass::shade) eight pixels at a time: on the columns x0 .. x1 − 1 of a row
+// (whole groups of eight from x0; returns where it stopped, the rest left to the scalar loop), each
+// ground pixel (bit x of gb) loses one lamp's term, pool_term at its ground X = (x − c_x)·k_x, held
+// at 0 or above: pool_row_body's operations for that lamp (the same float term as the scalar
+// pool_term), then fl(acc − t') and max(·, 0), the other pixels kept; the same bits as the scalar
+// loop. t' = the term where m ≥ ns, else term·fl(m·per_point) (lose()'s share), m the count of the
+// lamp's points in shadow: cnt[x] per column, or one m for all (cnt null). *shaded counts the
+// ground pixels.
+__attribute__((target("avx2"))) int shade_cols_avx2(float* acc, const uint8_t* gb, const int32_t* cnt, int m_all,
+                                                    int x0, int x1, int ns, float per_point, double cx_px, double kx,
+                                                    double Xl, float dz2, float H2, float Hl, float I0,
+                                                    const RelTable& t, long long* shaded) {
+  const __m256 vcc = _mm256_set1_ps(t.fcc), vI0 = _mm256_set1_ps(I0), one = _mm256_set1_ps(1.f);
+  const __m256 vdz2 = _mm256_set1_ps(dz2), vH2 = _mm256_set1_ps(H2), vHl = _mm256_set1_ps(Hl);
+  const __m256 vpp = _mm256_set1_ps(per_point), zero = _mm256_setzero_ps();
+  const __m256d vcx = _mm256_set1_pd(cx_px), vkx = _mm256_set1_pd(kx), xl = _mm256_set1_pd(Xl);
+  const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128), nsm1 = _mm256_set1_epi32(ns - 1);
+  const __m256i m_one = _mm256_set1_epi32(m_all);
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) {
+    const unsigned bits = ((static_cast<unsigned>(gb[x >> 3]) | static_cast<unsigned>(gb[(x >> 3) + 1]) << 8) >> (x & 7)) & 255u;
+    if (!bits) continue;
+    const __m256d xs = _mm256_setr_pd(x, x + 1, x + 2, x + 3);
+    const __m256d X0 = _mm256_mul_pd(_mm256_sub_pd(xs, vcx), vkx);
+    const __m256d X1 = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(xs, _mm256_set1_pd(4.0)), vcx), vkx);
+    const __m256 dx = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_sub_pd(X1, xl)), _mm256_cvtpd_ps(_mm256_sub_pd(X0, xl)));
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), vdz2), vH2);
+    const __m256 c = _mm256_div_ps(vHl, _mm256_sqrt_ps(d2));
+    const __m256 beyond = _mm256_cmp_ps(c, vcc, _CMP_LT_OQ);
+    __m256 rel = one;
+    if (_mm256_movemask_ps(beyond)) rel = _mm256_blendv_ps(one, rel_lerp_f(t, c), beyond);
+    const __m256 term = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(vI0, rel), c), d2);
+    const __m256i m = cnt ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cnt + x)) : m_one;
+    const __m256 whole = _mm256_castsi256_ps(_mm256_cmpgt_epi32(m, nsm1));  // m ≥ ns
+    const __m256 part = _mm256_mul_ps(term, _mm256_mul_ps(_mm256_cvtepi32_ps(m), vpp));
+    const __m256 a = _mm256_loadu_ps(acc + x);
+    const __m256 lost = _mm256_max_ps(_mm256_sub_ps(a, _mm256_blendv_ps(part, term, whole)), zero);
+    const __m256 on = _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(bits)), lane_bit), lane_bit));
+    _mm256_storeu_ps(acc + x, _mm256_blendv_ps(a, lost, on));
+    *shaded += std::popcount(bits);
+  }
+  _mm256_zeroupper();
+  return x;
+}
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12's _mm512_undefined_*() (as in darken.cpp)
 // The same row compiled for AVX-512VL (32 vector registers; the same operations, no FMA
@@ -959,17 +1004,20 @@ constexpr int kShadowBlock = 128;
 // A thread's spans as quad_spans makes them, each joined at once to the last one it made of the
 // same lamp and row where the two overlap or touch (x0 ≤ last x1 and last x0 ≤ x1): their union
 // is one span, the one finish()'s merge would make of the two, so the merged spans are the same
-// and finish() sorts and merges fewer (the columns of one occluder cast overlapping quadrilaterals:
-// on the bench frame 12,855 spans made, 936 after the merge).
+// and finish() sorts and merges fewer (the columns of one occluder cast overlapping quadrilaterals,
+// cast from left to right in take_blocks: on the bench frame, in the order of the runs' bottom rows,
+// 12,855 spans made, 936 after the merge). One slot per lamp: the ids of one lamp's spans here are
+// one (k without penumbrae, k·(n + 1) + n with them; the points' own go to PointSpanSink).
 struct SpanSink {
   std::vector<ShadowSpan> spans;
-  std::vector<int32_t> last;  // per (lamp, row): the index in spans of its last span, −1: none yet
+  std::vector<int32_t> last;  // per (slot, row): the index in spans of its last span, −1: none yet
   int H = 0;
   SpanSink(size_t lamps, int height) : last(lamps * static_cast<size_t>(height), -1), H(height) {
     spans.reserve(4096);
   }
-  void add(int y, int x0, int x1, int lamp) {
-    int32_t& at = last[static_cast<size_t>(lamp) * H + y];
+  // The span of id `lamp` (ShadowSpan::lamp) kept as the last one of its (slot, row).
+  void add(int y, int x0, int x1, int lamp, int slot) {
+    int32_t& at = last[static_cast<size_t>(slot) * H + y];
     if (at >= 0) {
       ShadowSpan& p = spans[at];
       if (x0 <= p.x1 && p.x0 <= x1) {
@@ -983,36 +1031,336 @@ struct SpanSink {
   }
 };
 
-// The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
-// around it: per row, from the least to the largest u where the row's centre line crosses its
-// edges (exact for a convex quadrilateral; a twisted one is filled to its hull on each row).
-void quad_spans(const double* u, const double* v, int W, int H, int lamp, SpanSink& out) {
-  double vmin = v[0], vmax = v[0];
-  for (int i = 1; i < 4; ++i) vmin = std::min(vmin, v[i]), vmax = std::max(vmax, v[i]);
-  const int y0 = std::max(0, static_cast<int>(std::ceil(vmin))), y1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
-  double slope[4];  // du/dv of each edge (i, i + 1)
+}  // namespace
+
+// The pixels of row y whose centres lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
+// around it (slope[i]: du/dv of edge (i, i + 1), 0 where it lies along a row): from the least to
+// the largest u where the row's centre line crosses its edges (exact for a convex quadrilateral; a
+// twisted one is filled to its hull on the row), as columns x0 .. x1 − 1 within 0 .. W − 1; false:
+// none. lo and hi are clamped to [−1, W] before ceil/floor: the same columns (ceil(max(lo, −1)) =
+// max(ceil(lo), −1), then max(0, ·)), and every value converted fits an int.
+bool quad_row_span(const double* u, const double* v, const double* slope, int W, int y, int* x0, int* x1) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (int i = 0; i < 4; ++i) {
+    const int j = (i + 1) & 3;
+    const double va = v[i], vb = v[j];
+    if ((va - y) * (vb - y) > 0) continue;  // the edge does not reach this row
+    if (va == vb) {                         // along the row: both ends
+      lo = std::min({lo, u[i], u[j]});
+      hi = std::max({hi, u[i], u[j]});
+      continue;
+    }
+    const double ux = u[i] + (y - va) * slope[i];
+    lo = std::min(lo, ux);
+    hi = std::max(hi, ux);
+  }
+  if (!(lo <= hi)) return false;
+  *x0 = std::max(0, static_cast<int>(std::ceil(std::max(lo, -1.0))));
+  *x1 = std::min(W - 1, static_cast<int>(std::floor(std::min(hi, static_cast<double>(W))))) + 1;
+  return *x0 < *x1;
+}
+
+// The edges' slopes of quad_row_span.
+void quad_slopes(const double* u, const double* v, double* slope) {
   for (int i = 0; i < 4; ++i) {
     const int j = (i + 1) & 3;
     slope[i] = v[i] != v[j] ? (u[j] - u[i]) / (v[j] - v[i]) : 0;
   }
-  for (int y = y0; y <= y1; ++y) {
-    double lo = INFINITY, hi = -INFINITY;
+}
+
+// quad_row_span for the disc's kLampDiscSamples points' quadrilaterals at once, four points to a
+// vector of doubles: the same operations on each lane (a comparison's mask where the scalar code
+// branches; min/max of the same values, so the same columns), so the same columns as
+// quad_row_span on each point (test StreetLampShadows.DiscRowSpansAreEachPointsOwn). Lanes of a
+// point not drawn carry v = −1e30 at every corner: no row reaches them.
+__attribute__((target("avx2"))) unsigned disc_row_spans_avx2(const DiscQuads& q, int W, int y, int32_t* x0,
+                                                              int32_t* x1) {
+  const __m256d yv = _mm256_set1_pd(y), zero = _mm256_setzero_pd();
+  const __m256d lo_clamp = _mm256_set1_pd(-1.0), hi_clamp = _mm256_set1_pd(W);
+  const __m128i wm1 = _mm_set1_epi32(W - 1), izero = _mm_setzero_si128();
+  unsigned valid = 0;
+  for (int g = 0; g < DiscQuads::kPoints; g += 4) {
+    __m256d lo = _mm256_set1_pd(INFINITY), hi = _mm256_set1_pd(-INFINITY);
     for (int i = 0; i < 4; ++i) {
       const int j = (i + 1) & 3;
-      const double va = v[i], vb = v[j];
-      if ((va - y) * (vb - y) > 0) continue;  // the edge does not reach this row
-      if (va == vb) {                         // along the row: both ends
-        lo = std::min({lo, u[i], u[j]});
-        hi = std::max({hi, u[i], u[j]});
-        continue;
-      }
-      const double ux = u[i] + (y - va) * slope[i];
-      lo = std::min(lo, ux);
-      hi = std::max(hi, ux);
+      const __m256d ua = _mm256_load_pd(&q.u[i][g]), ub = _mm256_load_pd(&q.u[j][g]);
+      const __m256d va = _mm256_load_pd(&q.v[i][g]), vb = _mm256_load_pd(&q.v[j][g]);
+      const __m256d reach =
+          _mm256_cmp_pd(_mm256_mul_pd(_mm256_sub_pd(va, yv), _mm256_sub_pd(vb, yv)), zero, _CMP_NGT_UQ);
+      const __m256d along = _mm256_cmp_pd(va, vb, _CMP_EQ_OQ);
+      const __m256d ux = _mm256_add_pd(ua, _mm256_mul_pd(_mm256_sub_pd(yv, va), _mm256_load_pd(&q.slope[i][g])));
+      // Along the row: both ends (min(u_a, u_b) and max); across it: the crossing.
+      const __m256d cl = _mm256_blendv_pd(ux, _mm256_min_pd(ua, ub), along);
+      const __m256d ch = _mm256_blendv_pd(ux, _mm256_max_pd(ua, ub), along);
+      lo = _mm256_blendv_pd(lo, _mm256_min_pd(lo, cl), reach);
+      hi = _mm256_blendv_pd(hi, _mm256_max_pd(hi, ch), reach);
     }
-    if (!(lo <= hi)) continue;
-    const int x0 = std::max(0, static_cast<int>(std::ceil(lo))), x1 = std::min(W - 1, static_cast<int>(std::floor(hi)));
-    if (x0 <= x1) out.add(y, x0, x1 + 1, lamp);
+    const __m256d has = _mm256_cmp_pd(lo, hi, _CMP_LE_OQ);
+    const unsigned ok = static_cast<unsigned>(_mm256_movemask_pd(has));
+    if (!ok) continue;
+    const __m256d lc = _mm256_round_pd(_mm256_max_pd(lo, lo_clamp), _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+    const __m256d hc = _mm256_round_pd(_mm256_min_pd(hi, hi_clamp), _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    // Lanes without a span (lo > hi) may hold ±inf: their conversions are not used.
+    const __m128i a = _mm_max_epi32(izero, _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, lc, has)));
+    const __m128i b =
+        _mm_add_epi32(_mm_min_epi32(wm1, _mm256_cvttpd_epi32(_mm256_blendv_pd(zero, hc, has))), _mm_set1_epi32(1));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(x0 + g), a);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(x1 + g), b);
+    const unsigned nonempty = static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(a, b))));
+    valid |= (ok & nonempty) << g;
+  }
+  return valid;
+}
+
+unsigned disc_row_spans_scalar(const DiscQuads& q, int W, int y, int32_t* x0, int32_t* x1) {
+  unsigned valid = 0;
+  for (int j = 0; j < DiscQuads::kPoints; ++j) {
+    const double u[4] = {q.u[0][j], q.u[1][j], q.u[2][j], q.u[3][j]};
+    const double v[4] = {q.v[0][j], q.v[1][j], q.v[2][j], q.v[3][j]};
+    const double sl[4] = {q.slope[0][j], q.slope[1][j], q.slope[2][j], q.slope[3][j]};
+    int a, b;
+    if (quad_row_span(u, v, sl, W, y, &a, &b)) {
+      x0[j] = a, x1[j] = b;
+      valid |= 1u << j;
+    }
+  }
+  return valid;
+}
+
+// The quadrilateral from the point (SX, H, SD): its vertices' ground images, projected; with
+// `shift_px`, the most a vertex moves in the image when the point moves by 1 m within the disc's
+// plane (below). False where a vertex lies behind the camera.
+bool cast_quad(const QuadCast& q, double SX, double SD, double* u, double* v, double* shift_px) {
+  constexpr double kCapMargin = 1 - 1e-9;
+  const double Hl = q.H_m, h = q.h_m, c = q.cos_pitch, sn = q.sin_pitch;
+  for (int i = 0; i < 4; ++i) {
+    const double dX = q.X[i] - SX, dD = q.D[i] - SD, r2 = dX * dX + dD * dD;
+    // λ: the ground point of the ray over P; capped at the lamp's reach, and so that the
+    // shadow does not run past the nearest ground in view toward the camera.
+    // Each cap's quotient is computed only where it can bind: λ ≥ 1 here (Y ≥ 0), and where
+    // λ²·r² < reach²·(1 − 1e-9) (or λ·(−dD) < (D_s − D_bottom)·(1 − 1e-9)) the cap exceeds λ
+    // by far more than the few ulps of the products' and the quotient's rounding, so the
+    // min keeps λ, bit for bit, as if the quotient had been taken.
+    double lam = q.Y[i] < Hl * (1 - 1e-6) ? Hl / (Hl - q.Y[i]) : INFINITY;
+    if (r2 > 0 && lam > 1 && !(lam * lam * r2 < q.reach2_m2 * kCapMargin))
+      lam = std::min(lam, std::max(1.0, q.reach_m / std::sqrt(r2)));
+    if (dD < 0 && !(lam * -dD < (SD - q.D_bottom_m) * kCapMargin))
+      lam = std::min(lam, std::max(0.0, (SD - q.D_bottom_m) / -dD));
+    if (!std::isfinite(lam)) lam = 1;
+    const double GX = SX + lam * dX, GD = SD + lam * dD;
+    const double zc = h * sn + GD * c;  // CameraGeometry::project of (GX, 0, GD)
+    if (zc <= 0.05) return false;
+    u[i] = q.cx_px + q.f_px * GX / zc;
+    v[i] = q.cy_px + q.f_px * (h * c - GD * sn) / zc;
+    // G = S + λ(P − S) moves by (1 − λ)·ΔS when S moves by ΔS in its plane (λ, a ratio of
+    // heights, stays); a ground step of 1 m at (GX, GD) moves the image point by at most
+    // (f/z)·(1 + (|GX| + h)/z) px (u = c_x + f·X/z, v's and z's change with D).
+    if (shift_px) *shift_px = std::max(*shift_px, std::fabs(lam - 1) * q.f_px / zc * (1 + (std::fabs(GX) + h) / zc));
+  }
+  return true;
+}
+
+namespace {
+// A point's lanes when it casts nothing (a vertex behind the camera): no row reaches them.
+void disc_point_out(DiscQuads& q, int j) {
+  for (int i = 0; i < 4; ++i) q.u[i][j] = 0, q.v[i][j] = -1e30, q.slope[i][j] = 0;
+}
+}  // namespace
+
+unsigned disc_quads_scalar(const QuadCast& in, const double* SX, const double* SD, DiscQuads& q, double* vlo,
+                           double* vhi) {
+  unsigned drawn = 0;
+  *vlo = INFINITY, *vhi = -INFINITY;
+  for (int j = 0; j < DiscQuads::kPoints; ++j) {
+    double u[4], v[4], sl[4];
+    if (!cast_quad(in, SX[j], SD[j], u, v, nullptr)) {
+      disc_point_out(q, j);
+      continue;
+    }
+    quad_slopes(u, v, sl);
+    for (int i = 0; i < 4; ++i) {
+      q.u[i][j] = u[i], q.v[i][j] = v[i], q.slope[i][j] = sl[i];
+      *vlo = std::min(*vlo, v[i]), *vhi = std::max(*vhi, v[i]);
+    }
+    drawn |= 1u << j;
+  }
+  return drawn;
+}
+
+// cast_quad of the disc's points four to a vector: each branch of the scalar code a mask and a
+// blend of the value it would take (both sides computed; a quotient masked off may be ±inf or NaN
+// and is not used), std::min(a, b) as _mm256_min_pd(b, a) and std::max(a, b) as
+// _mm256_max_pd(b, a) (the same operand returned on ties and NaN), each product, sum, quotient and
+// square root one IEEE operation as in the scalar code (the library builds with
+// -ffp-contract=off), so the same corners and slopes on every lane (test
+// StreetLampShadows.DiscQuadsAreEachPointsOwn).
+__attribute__((target("avx2"))) unsigned disc_quads_avx2(const QuadCast& in, const double* SX, const double* SD,
+                                                          DiscQuads& q, double* vlo, double* vhi) {
+  constexpr double kCapMargin = 1 - 1e-9;
+  const double Hl = in.H_m, h = in.h_m, c = in.cos_pitch, sn = in.sin_pitch;
+  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd(), inf = _mm256_set1_pd(INFINITY);
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  const __m256d reach2m = _mm256_set1_pd(in.reach2_m2 * kCapMargin), reach = _mm256_set1_pd(in.reach_m);
+  const __m256d Db = _mm256_set1_pd(in.D_bottom_m), margin = _mm256_set1_pd(kCapMargin);
+  const __m256d hsn = _mm256_set1_pd(h * sn), cv = _mm256_set1_pd(c), snv = _mm256_set1_pd(sn);
+  const __m256d hc = _mm256_set1_pd(h * c), f = _mm256_set1_pd(in.f_px), cx = _mm256_set1_pd(in.cx_px);
+  const __m256d cy = _mm256_set1_pd(in.cy_px), near = _mm256_set1_pd(0.05), sentinel = _mm256_set1_pd(-1e30);
+  double lam0[4];
+  for (int i = 0; i < 4; ++i) lam0[i] = in.Y[i] < Hl * (1 - 1e-6) ? Hl / (Hl - in.Y[i]) : INFINITY;
+  unsigned drawn = 0;
+  __m256d lo = inf, hi = _mm256_set1_pd(-INFINITY);
+  for (int g = 0; g < DiscQuads::kPoints; g += 4) {
+    const __m256d sx = _mm256_loadu_pd(SX + g), sd = _mm256_loadu_pd(SD + g);
+    const __m256d DbS = _mm256_mul_pd(_mm256_sub_pd(sd, Db), margin), SmDb = _mm256_sub_pd(sd, Db);
+    __m256d u[4], v[4], behind = zero;
+    for (int i = 0; i < 4; ++i) {
+      const __m256d dX = _mm256_sub_pd(_mm256_set1_pd(in.X[i]), sx), dD = _mm256_sub_pd(_mm256_set1_pd(in.D[i]), sd);
+      const __m256d r2 = _mm256_add_pd(_mm256_mul_pd(dX, dX), _mm256_mul_pd(dD, dD));
+      __m256d lam = _mm256_set1_pd(lam0[i]);
+      // The reach's cap where r2 > 0, λ > 1 and not λ²·r² < reach²·(1 − 1e-9).
+      const __m256d c1 = _mm256_and_pd(
+          _mm256_and_pd(_mm256_cmp_pd(r2, zero, _CMP_GT_OQ), _mm256_cmp_pd(lam, one, _CMP_GT_OQ)),
+          _mm256_cmp_pd(_mm256_mul_pd(_mm256_mul_pd(lam, lam), r2), reach2m, _CMP_NLT_UQ));
+      // The quotients only where a lane takes them (mostly none: the caps seldom bind).
+      if (_mm256_movemask_pd(c1)) {
+        const __m256d cap1 = _mm256_max_pd(_mm256_div_pd(reach, _mm256_sqrt_pd(r2)), one);
+        lam = _mm256_blendv_pd(lam, _mm256_min_pd(cap1, lam), c1);
+      }
+      // The nearest ground's cap where dD < 0 and not λ·(−dD) < (D_s − D_bottom)·(1 − 1e-9).
+      const __m256d ndD = _mm256_xor_pd(dD, sign);
+      const __m256d c2 = _mm256_and_pd(_mm256_cmp_pd(dD, zero, _CMP_LT_OQ),
+                                       _mm256_cmp_pd(_mm256_mul_pd(lam, ndD), DbS, _CMP_NLT_UQ));
+      if (_mm256_movemask_pd(c2)) {
+        const __m256d cap2 = _mm256_max_pd(_mm256_div_pd(SmDb, ndD), zero);
+        lam = _mm256_blendv_pd(lam, _mm256_min_pd(cap2, lam), c2);
+      }
+      // Not finite (|λ| < inf fails for ±inf and NaN): 1.
+      lam = _mm256_blendv_pd(one, lam, _mm256_cmp_pd(_mm256_andnot_pd(sign, lam), inf, _CMP_LT_OQ));
+      const __m256d GX = _mm256_add_pd(sx, _mm256_mul_pd(lam, dX)), GD = _mm256_add_pd(sd, _mm256_mul_pd(lam, dD));
+      const __m256d zc = _mm256_add_pd(hsn, _mm256_mul_pd(GD, cv));
+      behind = _mm256_or_pd(behind, _mm256_cmp_pd(zc, near, _CMP_LE_OQ));
+      u[i] = _mm256_add_pd(cx, _mm256_div_pd(_mm256_mul_pd(f, GX), zc));
+      v[i] = _mm256_add_pd(cy, _mm256_div_pd(_mm256_mul_pd(f, _mm256_sub_pd(hc, _mm256_mul_pd(GD, snv))), zc));
+    }
+    const unsigned out = static_cast<unsigned>(_mm256_movemask_pd(behind));
+    drawn |= (~out & 15u) << g;
+    for (int i = 0; i < 4; ++i) {
+      const int j = (i + 1) & 3;
+      const __m256d du = _mm256_sub_pd(u[j], u[i]), dv = _mm256_sub_pd(v[j], v[i]);
+      const __m256d sl = _mm256_blendv_pd(_mm256_div_pd(du, dv), zero, _mm256_cmp_pd(v[i], v[j], _CMP_EQ_OQ));
+      _mm256_store_pd(&q.u[i][g], _mm256_blendv_pd(u[i], zero, behind));
+      _mm256_store_pd(&q.v[i][g], _mm256_blendv_pd(v[i], sentinel, behind));
+      _mm256_store_pd(&q.slope[i][g], _mm256_blendv_pd(sl, zero, behind));
+      // The rows' range over the points drawn: min(vlo, v) as the scalar code takes it.
+      lo = _mm256_blendv_pd(_mm256_min_pd(v[i], lo), lo, behind);
+      hi = _mm256_blendv_pd(_mm256_max_pd(v[i], hi), hi, behind);
+    }
+  }
+  alignas(32) double l4[4], h4[4];
+  _mm256_store_pd(l4, lo);
+  _mm256_store_pd(h4, hi);
+  *vlo = std::min(std::min(l4[0], l4[1]), std::min(l4[2], l4[3]));
+  *vhi = std::max(std::max(h4[0], h4[1]), std::max(h4[2], h4[3]));
+  return drawn;
+}
+
+namespace {
+// SpanSink for the disc's points (penumbrae): per (lamp, row) the last span of each of its
+// kLampDiscSamples points, the points side by side (one place per lamp and row instead of one per
+// point id, ids k·(n + 1) + j, spread over the image's height), a row's new spans of all points
+// joined to them at once (lanes where the two overlap or touch: their union, as SpanSink::add),
+// the others' last span stored (to `spans`, as SpanSink's) and replaced. A (lamp, row) is set up
+// on its first span; flush() stores the last spans at the end. The same union per point id and
+// row as SpanSink's (finish() merges what is left: the same spans).
+struct PointSpanSink {
+  static constexpr int n = DiscQuads::kPoints;
+  // ((k·H + y)·n + j): point j's last span, x0 ≥ x1: none; not initialised (set up on first use).
+  std::unique_ptr<int32_t[]> x0, x1;
+  std::vector<uint8_t> used;     // (k·H + y) set up
+  std::vector<int32_t> touched;  // the (k·H + y) set up, in order
+  int H = 0, ids = 1;
+  PointSpanSink(size_t lamps, int height, int ids_per_lamp)
+      : x0(std::make_unique_for_overwrite<int32_t[]>(lamps * height * n)),
+        x1(std::make_unique_for_overwrite<int32_t[]>(lamps * height * n)), used(lamps * height, 0), H(height),
+        ids(ids_per_lamp) {}
+  void add(size_t k, int y, const int32_t* nx0, const int32_t* nx1, unsigned valid, bool avx2,
+           std::vector<ShadowSpan>& spans) {
+    const size_t r = k * H + y;
+    int32_t* p0 = &x0[r * n];
+    int32_t* p1 = &x1[r * n];
+    if (!used[r]) {
+      used[r] = 1;
+      touched.push_back(static_cast<int32_t>(r));
+      std::fill_n(p0, n, 0);
+      std::fill_n(p1, n, 0);
+    }
+    // The lanes whose span is not joined: their last span (if any) stored, then replaced.
+    unsigned apart = avx2 ? add_avx2(p0, p1, nx0, nx1, valid) : add_scalar(p0, p1, nx0, nx1, valid);
+    while (apart) {
+      const int j = std::countr_zero(apart);
+      apart &= apart - 1;
+      if (p0[j] < p1[j]) spans.push_back({y, p0[j], p1[j], static_cast<int32_t>(k) * ids + j});
+      p0[j] = nx0[j], p1[j] = nx1[j];
+    }
+  }
+  // The lanes of `valid` that overlap or touch their last span take the union; returns the others.
+  static unsigned add_scalar(int32_t* p0, int32_t* p1, const int32_t* nx0, const int32_t* nx1, unsigned valid) {
+    unsigned apart = 0;
+    for (unsigned b = valid; b; b &= b - 1) {
+      const int j = std::countr_zero(b);
+      if (p0[j] < p1[j] && nx0[j] <= p1[j] && p0[j] <= nx1[j]) {
+        p0[j] = std::min(p0[j], nx0[j]);
+        p1[j] = std::max(p1[j], nx1[j]);
+      } else {
+        apart |= 1u << j;
+      }
+    }
+    return apart;
+  }
+  __attribute__((target("avx2"))) static unsigned add_avx2(int32_t* p0, int32_t* p1, const int32_t* nx0,
+                                                          const int32_t* nx1, unsigned valid) {
+    unsigned apart = 0;
+    const __m256i lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    for (int g = 0; g < n; g += 8) {
+      const unsigned vb = valid >> g & 255u;
+      if (!vb) continue;
+      const __m256i a0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p0 + g));
+      const __m256i a1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p1 + g));
+      const __m256i b0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(nx0 + g));
+      const __m256i b1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(nx1 + g));
+      const __m256i vm = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(static_cast<int>(vb)), lane_bit), lane_bit);
+      // Joined: valid, a last span (a0 < a1), b0 ≤ a1 and a0 ≤ b1.
+      const __m256i join = _mm256_andnot_si256(
+          _mm256_or_si256(_mm256_cmpgt_epi32(b0, a1), _mm256_cmpgt_epi32(a0, b1)),
+          _mm256_and_si256(vm, _mm256_cmpgt_epi32(a1, a0)));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(p0 + g), _mm256_blendv_epi8(a0, _mm256_min_epi32(a0, b0), join));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(p1 + g), _mm256_blendv_epi8(a1, _mm256_max_epi32(a1, b1), join));
+      const unsigned jm = static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(join)));
+      apart |= (vb & ~jm) << g;
+    }
+    return apart;
+  }
+  void flush(std::vector<ShadowSpan>& spans) {
+    for (const int32_t r : touched) {
+      const int k = r / H, y = r % H;
+      for (int j = 0; j < n; ++j)
+        if (x0[static_cast<size_t>(r) * n + j] < x1[static_cast<size_t>(r) * n + j])
+          spans.push_back({y, x0[static_cast<size_t>(r) * n + j], x1[static_cast<size_t>(r) * n + j], k * ids + j});
+    }
+  }
+};
+
+// The pixels whose centres (x, y) lie inside the quadrilateral (u[i], v[i]), i = 0..3 in order
+// around it, row by row (quad_row_span).
+void quad_spans(const double* u, const double* v, int W, int H, int lamp, int slot, SpanSink& out) {
+  double vmin = v[0], vmax = v[0];
+  for (int i = 1; i < 4; ++i) vmin = std::min(vmin, v[i]), vmax = std::max(vmax, v[i]);
+  const int y0 = std::max(0, static_cast<int>(std::ceil(vmin))), y1 = std::min(H - 1, static_cast<int>(std::floor(vmax)));
+  double slope[4];
+  quad_slopes(u, v, slope);
+  for (int y = y0; y <= y1; ++y) {
+    int x0, x1;
+    if (quad_row_span(u, v, slope, W, y, &x0, &x1)) out.add(y, x0, x1, lamp, slot);
   }
 }
 
@@ -1090,6 +1438,7 @@ StreetShadowBuilder::StreetShadowBuilder(const ImageU16& labels, const ImageF& d
   // The nearest ground in view: the bottom row's (less half a metre); a shadow is cut there.
   double D;
   if (g.ground_point(g.cx_px, labels.height() - 0.5, nullptr, &D, nullptr)) D_bottom_ = std::max(0.1, D - 0.5);
+  blocks_ = std::make_unique<BlockRuns[]>((labels.width() + kShadowBlock - 1) / kShadowBlock);
 }
 
 // Blocks of kShadowBlock columns, taken from the shared counter; each is scanned row by row,
@@ -1102,7 +1451,6 @@ void StreetShadowBuilder::take_blocks() {
   const std::vector<double>& reach = reach_;
   std::vector<double> reach2(reach.size());
   for (size_t k = 0; k < reach.size(); ++k) reach2[k] = reach[k] * reach[k];
-  constexpr double kCapMargin = 1 - 1e-9;
   const LabelRuns* runs = runs_;
   const double D_bottom = D_bottom_;
   const int W = labels.width(), H = labels.height();
@@ -1114,16 +1462,87 @@ void StreetShadowBuilder::take_blocks() {
   const std::vector<std::array<double, 2>>& disc = disc_;
   const int ns = static_cast<int>(disc.size());
   const int ids = LampShadowRows::ids_per_lamp(ns);
-  SpanSink mine(s.lamps.size() * ids, H);
+  // One slot per lamp: its spans with one point, or those of all its points at once (id
+  // k·(n + 1) + n); the points' own in `points`.
+  SpanSink mine(s.lamps.size(), H);
   long long my_quads = 0;
+  DiscQuads dq;  // with penumbrae: one (run, lamp)'s points' quadrilaterals
+  std::optional<PointSpanSink> points;  // with penumbrae: the points' spans
+  if (ns > 1) points.emplace(s.lamps.size(), H, ids);
+  // The disc's points of each lamp, S_j = S + (ΔX_j, 0, ΔD_j) (ns == 1: the centre).
+  std::vector<double> SXk(s.lamps.size() * ns), SDk(s.lamps.size() * ns);
+  for (size_t k = 0; k < s.lamps.size(); ++k)
+    for (int j = 0; j < ns; ++j) {
+      SXk[k * ns + j] = s.lamps[k].X_m + disc[j][0];
+      SDk[k * ns + j] = s.lamps[k].D_m + disc[j][1];
+    }
+  // A closed run's quadrilateral from lamp k (its points with penumbrae) into this thread's sinks.
+  auto cast_run = [&](const CastRun& run, size_t k) {
+    const double* X = run.X;
+    const double* Dp = run.D;
+    const double* Yp = run.Y;
+    const double Yb = Yp[0], Db = Dp[0];
+    const bool pole = run.pole;
+    const StreetLamp& l = s.lamps[k];
+    const double Hl = l.Y_m;
+    if (!(Yb < Hl)) return;
+    // The run's foot nearest the lamp's: within its reach, and not its own pole.
+    const double dx = std::max({X[0] - l.X_m, 0.0, l.X_m - X[1]}), dd = Db - l.D_m, rb2 = dx * dx + dd * dd;
+    if (rb2 > reach2[k] || (pole && rb2 < kOwnPole_m * kOwnPole_m)) return;
+    const QuadCast cast{X, Dp, Yp, Hl, reach[k], reach2[k], D_bottom, g.cx_px, g.cy_px, g.f_px, h, c, sn};
+    double u[4], v[4];
+    if (ns == 1) {  // the lamp a point: its centre
+      if (!cast_quad(cast, l.X_m, l.D_m, u, v, nullptr)) return;
+      quad_spans(u, v, W, H, static_cast<int>(k), static_cast<int>(k), mine);
+      ++my_quads;
+      return;
+    }
+    // Penumbrae: where no vertex of the centre's quadrilateral moves by half a pixel as the
+    // point goes over the disc (radius R: R·shift_px < ½), the disc's points all cast the
+    // centre's pixels but for the one pixel at an edge whose centre lies within that
+    // half-pixel: the quadrilateral is drawn once, for all of them (id k·(n + 1) + n: an
+    // occluder far from the camera or low against its lamp's height). Else each sample
+    // point S_j = S + (ΔX_j, 0, ΔD_j) of the disc casts its own: the disc lies at the mount
+    // height, so λ's first form is the same for every point; the caps are each point's own.
+    double shift = 0;
+    if (cast_quad(cast, l.X_m, l.D_m, u, v, &shift) && disc_radius_ * shift < 0.5) {
+      quad_spans(u, v, W, H, static_cast<int>(k) * ids + ns, static_cast<int>(k), mine);
+      ++my_quads;
+      return;
+    }
+    // The points' quadrilaterals (four to a vector on AVX2: the same corners), then each
+    // row's spans of all of them at once (disc_row_spans_*: the same columns as quad_spans on
+    // each).
+    double vlo, vhi;
+    const bool drawn = (avx2 ? disc_quads_avx2(cast, SXk.data() + k * ns, SDk.data() + k * ns, dq, &vlo, &vhi)
+                             : disc_quads_scalar(cast, SXk.data() + k * ns, SDk.data() + k * ns, dq, &vlo, &vhi)) != 0;
+    if (!drawn) return;
+    ++my_quads;
+    const int ry0 = std::max(0, static_cast<int>(std::ceil(vlo)));
+    const int ry1 = std::min(H - 1, static_cast<int>(std::floor(vhi)));
+    for (int y = ry0; y <= ry1; ++y) {
+      alignas(32) int32_t x0[DiscQuads::kPoints], x1[DiscQuads::kPoints];
+      const unsigned valid = avx2 ? disc_row_spans_avx2(dq, W, y, x0, x1) : disc_row_spans_scalar(dq, W, y, x0, x1);
+      if (valid) points->add(k, y, x0, x1, valid, avx2, mine.spans);
+    }
+  };
+  // The lamps of block b's runs, taken one by one from its counter (by any thread, once it is
+  // published).
+  auto cast_block = [&](int b) {
+    BlockRuns& job = blocks_[b];
+    for (int k = job.next_lamp++; k < static_cast<int>(s.lamps.size()); k = job.next_lamp++)
+      for (const CastRun& run : job.runs) cast_run(run, static_cast<size_t>(k));
+  };
   for (int blk = next_block_++; blk < nbw; blk = next_block_++) {
     const int xa = blk * kShadowBlock, xb = std::min(W, xa + kShadowBlock);
     RunState r(xb - xa);
+    BlockRuns& job = blocks_[blk];
     // Runs of columns xl .. xr, each from row yt (top) to yb (bottom), of one class and the same
     // depths at both ends, closed: their quadrilaterals, one per lamp (the columns' own tile it:
     // their points lie on the same two horizontal lines of one plane, whose ground images from a
-    // point are two straight lines).
+    // point are two straight lines): the corners P_i, for cast_run.
     auto emit = [&](int x_l, int x_r, int yt, int yb, int id) {
+      CastRun& run = job.runs.emplace_back();
       // The run's lowest and highest points (pixel edges), each from its own depth.
       const double zb = depth_m.at(x_l, yb), zt = depth_m.at(x_l, yt);
       const double ynb = (yb + 0.5 - g.cy_px) / g.f_px, ynt = (yt - 0.5 - g.cy_px) / g.f_px;
@@ -1131,73 +1550,9 @@ void StreetShadowBuilder::take_blocks() {
       const double Yb = std::max(0.0, h - zb * (ynb * c + sn)), Yt = std::max(Yb, h - zt * (ynt * c + sn));
       const double xl = (x_l - 0.5 - g.cx_px) / g.f_px, xr = (x_r + 0.5 - g.cx_px) / g.f_px;
       const double X[4] = {zb * xl, zb * xr, zt * xr, zt * xl}, Dp[4] = {Db, Db, Dt, Dt}, Yp[4] = {Yb, Yb, Yt, Yt};
-      const bool pole = id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup);
-      for (size_t k = 0; k < s.lamps.size(); ++k) {
-        const StreetLamp& l = s.lamps[k];
-        const double Hl = l.Y_m;
-        if (!(Yb < Hl)) continue;
-        // The run's foot nearest the lamp's: within its reach, and not its own pole.
-        const double dx = std::max({X[0] - l.X_m, 0.0, l.X_m - X[1]}), dd = Db - l.D_m, rb2 = dx * dx + dd * dd;
-        if (rb2 > reach2[k] || (pole && rb2 < kOwnPole_m * kOwnPole_m)) continue;
-        // The quadrilateral from the point (SX, H, SD): its vertices' ground images, projected;
-        // with `shift_px`, the most a vertex moves in the image when the point moves by 1 m
-        // within the disc's plane (below). False where a vertex lies behind the camera.
-        auto project_quad = [&](double SX, double SD, double* u, double* v, double* shift_px) {
-          for (int i = 0; i < 4; ++i) {
-            const double dX = X[i] - SX, dD = Dp[i] - SD, r2 = dX * dX + dD * dD;
-            // λ: the ground point of the ray over P; capped at the lamp's reach, and so that the
-            // shadow does not run past the nearest ground in view toward the camera.
-            // Each cap's quotient is computed only where it can bind: λ ≥ 1 here (Y ≥ 0), and where
-            // λ²·r² < reach²·(1 − 1e-9) (or λ·(−dD) < (D_s − D_bottom)·(1 − 1e-9)) the cap exceeds λ
-            // by far more than the few ulps of the products' and the quotient's rounding, so the
-            // min keeps λ, bit for bit, as if the quotient had been taken.
-            double lam = Yp[i] < Hl * (1 - 1e-6) ? Hl / (Hl - Yp[i]) : INFINITY;
-            if (r2 > 0 && lam > 1 && !(lam * lam * r2 < reach2[k] * kCapMargin))
-              lam = std::min(lam, std::max(1.0, reach[k] / std::sqrt(r2)));
-            if (dD < 0 && !(lam * -dD < (SD - D_bottom) * kCapMargin))
-              lam = std::min(lam, std::max(0.0, (SD - D_bottom) / -dD));
-            if (!std::isfinite(lam)) lam = 1;
-            const double GX = SX + lam * dX, GD = SD + lam * dD;
-            const double zc = h * sn + GD * c;  // CameraGeometry::project of (GX, 0, GD)
-            if (zc <= 0.05) return false;
-            u[i] = g.cx_px + g.f_px * GX / zc;
-            v[i] = g.cy_px + g.f_px * (h * c - GD * sn) / zc;
-            // G = S + λ(P − S) moves by (1 − λ)·ΔS when S moves by ΔS in its plane (λ, a ratio of
-            // heights, stays); a ground step of 1 m at (GX, GD) moves the image point by at most
-            // (f/z)·(1 + (|GX| + h)/z) px (u = c_x + f·X/z, v's and z's change with D).
-            if (shift_px)
-              *shift_px = std::max(*shift_px, std::fabs(lam - 1) * g.f_px / zc * (1 + (std::fabs(GX) + h) / zc));
-          }
-          return true;
-        };
-        double u[4], v[4];
-        if (ns == 1) {  // the lamp a point: its centre
-          if (!project_quad(l.X_m, l.D_m, u, v, nullptr)) continue;
-          quad_spans(u, v, W, H, static_cast<int>(k), mine);
-          ++my_quads;
-          continue;
-        }
-        // Penumbrae: where no vertex of the centre's quadrilateral moves by half a pixel as the
-        // point goes over the disc (radius R: R·shift_px < ½), the disc's points all cast the
-        // centre's pixels but for the one pixel at an edge whose centre lies within that
-        // half-pixel: the quadrilateral is drawn once, for all of them (id k·(n + 1) + n: an
-        // occluder far from the camera or low against its lamp's height). Else each sample
-        // point S_j = S + (ΔX_j, 0, ΔD_j) of the disc casts its own: the disc lies at the mount
-        // height, so λ's first form is the same for every point; the caps are each point's own.
-        double shift = 0;
-        if (project_quad(l.X_m, l.D_m, u, v, &shift) && disc_radius_ * shift < 0.5) {
-          quad_spans(u, v, W, H, static_cast<int>(k) * ids + ns, mine);
-          ++my_quads;
-          continue;
-        }
-        bool drawn = false;
-        for (int j = 0; j < ns; ++j) {
-          if (!project_quad(l.X_m + disc[j][0], l.D_m + disc[j][1], u, v, nullptr)) continue;
-          quad_spans(u, v, W, H, static_cast<int>(k) * ids + j, mine);
-          drawn = true;
-        }
-        my_quads += drawn;
-      }
+      for (int i = 0; i < 4; ++i) run.X[i] = X[i], run.D[i] = Dp[i], run.Y[i] = Yp[i];
+      run.x = x_l;
+      run.pole = id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup);
     };
     // The block's runs as they close (column, rows, class, the depths at both ends); after the
     // scan, neighbouring columns' runs with the same rows, class and depths are joined into one
@@ -1278,7 +1633,26 @@ void StreetShadowBuilder::take_blocks() {
       emit(closed[j].x, closed[e - 1].x, closed[j].yt, closed[j].yb, closed[j].id);
       j = e;
     }
+    // Cast from left to right: the quadrilaterals of an occluder's neighbouring columns overlap,
+    // so each point's span on a row mostly joins the last one made (SpanSink, PointSpanSink)
+    // instead of another occluder's coming between (in the order of their bottom rows, 14 times
+    // the spans that the merge keeps on the bench frame, each stored and sorted by finish()).
+    // Any order gives the same merged spans.
+    std::sort(job.runs.begin(), job.runs.end(), [](const CastRun& p, const CastRun& q) { return p.x < q.x; });
+    // Published: its lamps are now shared with the threads that find no block left to scan.
+    job.ready.store(true, std::memory_order_release);
+    cast_block(blk);
   }
+  // No block left to scan: help with the lamps of the blocks still being cast (a block not yet
+  // published is being scanned by a thread that took it, which publishes it when done). The
+  // blocks' work is uneven (the occluders near the lamps cluster in a few columns), and a lamp
+  // of a block is the unit shared: the same spans whichever thread casts which.
+  for (int b = 0; b < nbw; ++b) {
+    if (blocks_[b].next_lamp.load(std::memory_order_relaxed) >= static_cast<int>(s.lamps.size())) continue;
+    while (!blocks_[b].ready.load(std::memory_order_acquire)) std::this_thread::yield();
+    cast_block(b);
+  }
+  if (points) points->flush(mine.spans);
   quads_ += my_quads;
   std::lock_guard<std::mutex> lock(parts_mutex_);
   parts_.push_back(std::move(mine.spans));
@@ -1414,10 +1788,11 @@ struct PoolPass : LitRows {
     std::vector<int> lo, hi, ends;  // per lamp: its columns within the cone [lo, hi); their ends, sorted
     std::vector<int> lamp_index;    // the row's lamps (pl) by their index in StreetLighting::lamps
     std::vector<std::pair<int32_t, int32_t>> events;  // shade's span ends of a lamp's points on a row (column, ±count)
+    std::vector<int32_t> counts;  // shade: per column of a covered stretch, the lamp's points in shadow
     long long shaded = 0;           // (ground pixel, lamp) pairs taken off by the shadows
     AdaptiveScratch ad;
     explicit Scratch(int W)
-        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff) {}
+        : acc(W + 8), Xg(W + 8), gbits(W / 8 + 2), Xs(W + 16), es(W + 16), ones(W / 8 + 4, 0xff), counts(W + 8) {}
   };
   // The exact pools at n columns xs (compacted, into sc.es): the row kernel on their ground X
   // (the same expression as the full row's), each lane its own pixel: the same bits as at those
@@ -1540,12 +1915,28 @@ struct PoolPass : LitRows {
     const float per_point = 1.f / static_cast<float>(ns);
     auto lose = [&](int x0, int x1, int m) {
       const float share = m >= ns ? 1.f : static_cast<float>(m) * per_point;
-      for (int x = x0; x < x1; ++x) {
+      int x = x0;
+      if (isa >= 1)
+        x = shade_cols_avx2(acc, gb, nullptr, m, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
+                            sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
+      for (; x < x1; ++x) {
         if (!(gb[x >> 3] >> (x & 7) & 1)) continue;
         const float t = pool_term(static_cast<float>((x - g.cx_px) * kx - sc.pl.Xl[j]), sc.pl.dz2[j], sc.pl.H2[j],
                                   sc.pl.Hl[j], I0, table);
         acc[x] = std::max(0.f, acc[x] - (m >= ns ? t : t * share));
         ++sc.shaded;
+      }
+    };
+    // Columns x0 .. x1 − 1 with their counts (sc.counts[x] ≥ 1) of lamp j's points in shadow, with AVX2.
+    auto lose_counts = [&](int x0, int x1) {
+      const int32_t* cnt = sc.counts.data();
+      const int x = shade_cols_avx2(acc, gb, cnt, 0, x0, x1, ns, per_point, g.cx_px, kx, sc.pl.Xl[j], sc.pl.dz2[j],
+                                    sc.pl.H2[j], sc.pl.Hl[j], I0, table, &sc.shaded);
+      for (int xe = x; xe < x1;) {  // the rest: runs of one count
+        int e = xe + 1;
+        while (e < x1 && cnt[e] == cnt[xe]) ++e;
+        lose(xe, e, cnt[xe]);
+        xe = e;
       }
     };
     if (ns == 1) {  // one point per lamp: each span its whole term (no counting needed)
@@ -1585,9 +1976,29 @@ struct PoolPass : LitRows {
         return p.first < q.first;
       });
       int m = 0;
-      for (size_t e = 0; e + 1 < ev.size(); ++e) {
-        m += ev[e].second;
-        if (m > 0) lose(ev[e].first, ev[e + 1].first, m);
+      if (isa < 1) {
+        for (size_t e = 0; e + 1 < ev.size(); ++e) {
+          m += ev[e].second;
+          if (m > 0) lose(ev[e].first, ev[e + 1].first, m);
+        }
+      } else {
+        // Each stretch of columns with a count above 0 at once, eight columns at a time with each
+        // column's own count (a penumbra's counts change every few columns): the same operations
+        // per pixel as lose().
+        int32_t* cnt = sc.counts.data();
+        int s0 = -1;
+        for (size_t e = 0; e + 1 < ev.size(); ++e) {
+          m += ev[e].second;
+          const int xa = ev[e].first, xb = ev[e + 1].first;
+          if (m > 0) {
+            if (s0 < 0) s0 = xa;
+            std::fill(cnt + xa, cnt + xb, m);
+          } else if (s0 >= 0) {
+            lose_counts(s0, xa);
+            s0 = -1;
+          }
+        }
+        if (s0 >= 0) lose_counts(s0, ev.back().first);
       }
       si = se;
     }

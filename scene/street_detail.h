@@ -132,6 +132,47 @@ struct LampShadowRows {
 // the points differs from its share of the disc's area) is 0.144 at 16 points:
 // tests/scene_metric_test.cpp measures it and bounds the shares by it.
 constexpr int kLampDiscSamples = 16;
+// The kLampDiscSamples points' quadrilaterals of one (occluder run, lamp) with penumbrae: corner i
+// of point j's at (u[i][j], v[i][j]) in the image, slope[i][j] = du/dv of its edge (i, i + 1) (0
+// along a row; quad_slopes); a point not drawn has v = −1e30 at every corner.
+struct DiscQuads {
+  static constexpr int kPoints = kLampDiscSamples;
+  alignas(32) double u[4][kPoints], v[4][kPoints], slope[4][kPoints];
+};
+// One occluder run's quadrilateral cast from a point of one lamp (StreetShadowBuilder): its four
+// corners P_i (X[i], Y[i], D[i], metres: the run's lowest and highest points at its columns'
+// outer edges), the lamp's mount height H_m, its reach (reach_m, reach2_m2 its square), the
+// nearest ground in view D_bottom_m (a shadow is cut there), the camera (cx_px, cy_px, f_px, its
+// height h_m, its pitch's cosine and sine).
+struct QuadCast {
+  const double* X;
+  const double* D;
+  const double* Y;
+  double H_m, reach_m, reach2_m2, D_bottom_m;
+  double cx_px, cy_px, f_px, h_m, cos_pitch, sin_pitch;
+};
+// The quadrilateral cast from the point (SX, H, SD): its corners' ground images (the caps in
+// scene/street.cpp) projected to (u[i], v[i]); with shift_px, the most a corner moves in the image
+// when the point moves by 1 m in the disc's plane (a maximum with *shift_px). False where a corner
+// lies behind the camera.
+bool cast_quad(const QuadCast& q, double SX, double SD, double* u, double* v, double* shift_px);
+// cast_quad from each of the kLampDiscSamples points (SX[j], SD[j]) into q (a point not drawn: the
+// v = −1e30 lanes); *vlo, *vhi: the least and largest v of the points drawn. Returns the points
+// drawn as bits. The AVX2 form four points to a vector (the same corners; test
+// StreetLampShadows.DiscQuadsAreEachPointsOwn); call it only where the machine has AVX2.
+unsigned disc_quads_avx2(const QuadCast& in, const double* SX, const double* SD, DiscQuads& q, double* vlo,
+                         double* vhi);
+unsigned disc_quads_scalar(const QuadCast& in, const double* SX, const double* SD, DiscQuads& q, double* vlo,
+                           double* vhi);
+// The columns x0 .. x1 − 1 of row y (within 0 .. W − 1) whose pixel centres lie inside the
+// quadrilateral (u[i], v[i]) (slope from quad_slopes); false: none (scene/street.cpp).
+bool quad_row_span(const double* u, const double* v, const double* slope, int W, int y, int* x0, int* x1);
+void quad_slopes(const double* u, const double* v, double* slope);
+// quad_row_span of each point's quadrilateral on row y: bit j of the result set where point j has
+// columns x0[j] .. x1[j] − 1. The AVX2 form takes four points to a vector (the same columns; test
+// StreetLampShadows.DiscRowSpansAreEachPointsOwn); call it only where the machine has AVX2.
+unsigned disc_row_spans_avx2(const DiscQuads& q, int W, int y, int32_t* x0, int32_t* x1);
+unsigned disc_row_spans_scalar(const DiscQuads& q, int W, int y, int32_t* x0, int32_t* x1);
 // The sample points' offsets (ΔX, ΔD) in metres from the disc's centre, n points over a disc of
 // diameter_m: r_i = (d/2)·√((i + ½)/n), θ_i = i·π(3 − √5) (Vogel 1979, the golden angle; each
 // point stands for an equal area, none at the centre). n = 1: the centre itself, (0, 0).
@@ -141,9 +182,11 @@ std::vector<std::array<double, 2>> lamp_disc_samples(double diameter_m, int n);
 int lamp_shadow_samples(const ScenePreset& p);
 // The shadows' spans (scene/street.cpp, where the method is) in steps that several threads share:
 // the constructor takes the inputs (kept by reference: they must outlive it), take_blocks() scans
-// blocks of columns from a shared counter until none is left (from any number of threads at once,
+// blocks of columns from a shared counter until none is left, casting each block's runs from one
+// lamp after another (a block's lamps taken from its own counter: a thread that finds no block left
+// to scan takes the lamps still to cast of the blocks scanned; from any number of threads at once,
 // each call on its own thread), finish() merges them once every call has returned. The same spans
-// whichever threads take which blocks. night_scene makes them in its depth stage, beside the low
+// whichever threads take which blocks and lamps. night_scene makes them in its depth stage, beside the low
 // beam's rows (a sequence's after it, for its tracked lamps: street_lamp_shadow_spans); the light
 // map alone after its plan, from the label runs it makes with the plan.
 class StreetShadowBuilder {
@@ -168,6 +211,19 @@ class StreetShadowBuilder {
   double disc_radius_ = 0;                    // street_lamps.head_diameter_m / 2
   double D_bottom_ = 0.1;
   std::atomic<int> next_block_{0};
+  // Per block of columns: its closed runs (their corners P_i), published (ready) once scanned;
+  // its lamps are then cast one by one from next_lamp, by any thread.
+  struct CastRun {
+    double X[4], D[4], Y[4];
+    int x;  // its first column
+    bool pole;
+  };
+  struct BlockRuns {
+    std::vector<CastRun> runs;
+    std::atomic<bool> ready{false};
+    std::atomic<int> next_lamp{0};
+  };
+  std::unique_ptr<BlockRuns[]> blocks_;
   std::atomic<long long> quads_{0};
   std::mutex parts_mutex_;
   std::vector<std::vector<ShadowSpan>> parts_;

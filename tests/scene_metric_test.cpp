@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -29,6 +30,7 @@
 #include "photosite/sensor/pipeline.h"
 #include "photosite/sensor/preset.h"
 #include "photosite/sensor/spectrum.h"
+#include "core/isa_detail.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
 #include "scene/vehicle_facing_detail.h"
@@ -4798,6 +4800,133 @@ TEST(StreetLampShadows, ACarHidesTheGroundBehindItFromEachLamp) {
   ImageF handed(W, H, 3, 0.f, unit::radiance);
   add_street_light_rows(handed, tex, sc.labels.ids, depth, g, s, p, 1, nullptr, nullptr, nullptr, nullptr, 0, -1, &b);
   EXPECT_EQ(std::memcmp(handed.data(), on.data(), on.size() * sizeof(float)), 0);
+}
+
+// The disc's points' quadrilaterals four to a vector (disc_quads_avx2, StreetShadowBuilder's path
+// with penumbrae on an AVX2 machine) against cast_quad from each point alone (the scalar path's),
+// on random occluder runs and lamps around a Cityscapes-like camera: corners above the lamp (λ
+// infinite, the reach's cap), runs near their lamp's reach and lamps beside the nearest ground in
+// view (both caps binding on some points and not on others), points whose quadrilateral runs
+// behind the camera (not drawn). The same bits of every corner and slope, the same points drawn
+// and the same range of rows.
+TEST(StreetLampShadows, DiscQuadsAreEachPointsOwn) {
+  if (!photosite::detail::have_avx2()) GTEST_SKIP() << "no AVX2 here (or PHOTOSITE_MAX_ISA caps it): the vector path is not taken";
+  constexpr int n = DiscQuads::kPoints;
+  std::mt19937_64 rng(1201);
+  std::uniform_real_distribution<double> U01(0.0, 1.0);
+  const auto disc = lamp_disc_samples(0.5, n);
+  long long drawn_pts = 0, out_pts = 0, inf_corners = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const double Hl = 6 + 4 * U01(rng), reach = 15 + 25 * U01(rng), Dbot = 1 + 4 * U01(rng);
+    const double SXc = -8 + 16 * U01(rng), SDc = Dbot - 3 + 40 * U01(rng);
+    const double pitch = 0.02 * (U01(rng) - 0.5);
+    const double xb = -10 + 20 * U01(rng), wdt = 0.05 + 2 * U01(rng);
+    const double Db = SDc + (trial % 3 == 0 ? -(1 + 12 * U01(rng)) : -4 + 20 * U01(rng)), Dt = Db + 0.3 * (U01(rng) - 0.5);
+    const double Yb = 2 * U01(rng) * U01(rng), Yt = trial % 5 == 0 ? Hl * (1 + 0.2 * U01(rng)) : Yb + (Hl - Yb) * U01(rng);
+    const double X[4] = {xb, xb + wdt, xb + wdt * 1.1, xb * 1.01}, D[4] = {Db, Db, Dt, Dt}, Y[4] = {Yb, Yb, Yt, Yt};
+    inf_corners += Yt >= Hl * (1 - 1e-6);
+    const QuadCast in{X, D, Y, Hl, reach, reach * reach, Dbot, 1024.0, 512.0, 2262.0, 1.22, std::cos(pitch),
+                      std::sin(pitch)};
+    double SX[n], SD[n];
+    for (int j = 0; j < n; ++j) SX[j] = SXc + disc[j][0], SD[j] = SDc + disc[j][1];
+    DiscQuads a, b;
+    double alo, ahi, blo, bhi;
+    const unsigned da = disc_quads_avx2(in, SX, SD, a, &alo, &ahi), db = disc_quads_scalar(in, SX, SD, b, &blo, &bhi);
+    ASSERT_EQ(da, db) << "trial " << trial;
+    if (da) {
+      ASSERT_EQ(std::ceil(alo), std::ceil(blo)) << "trial " << trial;
+      ASSERT_EQ(std::floor(ahi), std::floor(bhi)) << "trial " << trial;
+    }
+    for (int j = 0; j < n; ++j) {
+      double u[4], v[4];
+      const bool one = cast_quad(in, SX[j], SD[j], u, v, nullptr);
+      ASSERT_EQ(one, (da >> j & 1) != 0) << "trial " << trial << " point " << j;
+      (one ? drawn_pts : out_pts) += 1;
+      for (int i = 0; i < 4; ++i) {
+        ASSERT_EQ(std::bit_cast<uint64_t>(a.u[i][j]), std::bit_cast<uint64_t>(b.u[i][j])) << trial << " " << j << " " << i;
+        ASSERT_EQ(std::bit_cast<uint64_t>(a.v[i][j]), std::bit_cast<uint64_t>(b.v[i][j])) << trial << " " << j << " " << i;
+        ASSERT_EQ(std::bit_cast<uint64_t>(a.slope[i][j]), std::bit_cast<uint64_t>(b.slope[i][j]))
+            << trial << " " << j << " " << i;
+        if (one) ASSERT_EQ(std::bit_cast<uint64_t>(a.u[i][j]), std::bit_cast<uint64_t>(u[i]));
+        if (one) ASSERT_EQ(std::bit_cast<uint64_t>(a.v[i][j]), std::bit_cast<uint64_t>(v[i]));
+      }
+    }
+  }
+  std::fprintf(stderr, "[disc quads] %lld points drawn, %lld behind the camera; %lld runs reaching above their lamp\n",
+               drawn_pts, out_pts, inf_corners);
+  EXPECT_GT(drawn_pts, 100000);
+  EXPECT_GT(out_pts, 1000);
+  EXPECT_GT(inf_corners, 1000);
+}
+
+// The disc's points' row spans at once (disc_row_spans_avx2, four points to a vector, the path
+// StreetShadowBuilder takes with penumbrae on an AVX2 machine) against quad_row_span on each
+// point's quadrilateral alone (the one-point path's routine), on random quadrilaterals: convex
+// ones with rows along their top and bottom edges (the occluder runs' shape: both ends of a run's
+// bottom, and of its top, share one image row), twisted ones, corners on half-pixel and whole-pixel
+// values (crossings exactly at pixel centres and rows exactly at corners), quadrilaterals partly or
+// wholly outside the image and points not drawn (v = −1e30). The same columns on every row, exactly.
+TEST(StreetLampShadows, DiscRowSpansAreEachPointsOwn) {
+  if (!photosite::detail::have_avx2()) GTEST_SKIP() << "no AVX2 here (or PHOTOSITE_MAX_ISA caps it): the vector path is not taken";
+  constexpr int W = 300, H = 200, n = DiscQuads::kPoints;
+  std::mt19937_64 rng(20261201);
+  std::uniform_real_distribution<double> U(-60.0, 360.0), V(-40.0, 240.0), d(-20.0, 20.0);
+  std::uniform_int_distribution<int> kind(0, 5);
+  long long rows = 0, spans = 0, lanes_out = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    DiscQuads q;
+    for (int j = 0; j < n; ++j) {
+      double u[4], v[4];
+      const int k = kind(rng);
+      if (k == 5) {  // not drawn
+        for (int i = 0; i < 4; ++i) q.u[i][j] = 0, q.v[i][j] = -1e30, q.slope[i][j] = 0;
+        ++lanes_out;
+        continue;
+      }
+      if (k <= 2) {  // a run's quadrilateral: bottom edge (0, 1) and top edge (2, 3) each along a row
+        const double vb = V(rng), vt = vb - std::fabs(d(rng)) * 3, ub = U(rng), ut = ub + d(rng) * 2;
+        u[0] = ub, u[1] = ub + std::fabs(d(rng)), u[2] = ut + std::fabs(d(rng)) * 2, u[3] = ut;
+        v[0] = v[1] = vb, v[2] = v[3] = vt;
+      } else {  // any four corners (twisted ones too)
+        for (int i = 0; i < 4; ++i) u[i] = U(rng), v[i] = V(rng);
+      }
+      if (k == 1 || k == 3) {  // on the half-pixel grid: crossings at pixel centres, rows at corners
+        for (int i = 0; i < 4; ++i) u[i] = std::round(2 * u[i]) / 2, v[i] = std::round(2 * v[i]) / 2;
+      }
+      double sl[4];
+      quad_slopes(u, v, sl);
+      for (int i = 0; i < 4; ++i) q.u[i][j] = u[i], q.v[i][j] = v[i], q.slope[i][j] = sl[i];
+    }
+    for (int y = 0; y < H; ++y) {
+      alignas(32) int32_t a0[n], a1[n];
+      const unsigned got = disc_row_spans_avx2(q, W, y, a0, a1);
+      for (int j = 0; j < n; ++j) {
+        const double u[4] = {q.u[0][j], q.u[1][j], q.u[2][j], q.u[3][j]};
+        const double v[4] = {q.v[0][j], q.v[1][j], q.v[2][j], q.v[3][j]};
+        const double sl[4] = {q.slope[0][j], q.slope[1][j], q.slope[2][j], q.slope[3][j]};
+        int x0 = -1, x1 = -1;
+        const bool want = quad_row_span(u, v, sl, W, y, &x0, &x1);
+        ASSERT_EQ(want, (got >> j & 1) != 0) << "trial " << trial << " point " << j << " row " << y;
+        if (want) {
+          ASSERT_EQ(a0[j], x0) << "trial " << trial << " point " << j << " row " << y;
+          ASSERT_EQ(a1[j], x1) << "trial " << trial << " point " << j << " row " << y;
+          ASSERT_TRUE(x0 >= 0 && x0 < x1 && x1 <= W);
+          ++spans;
+        }
+      }
+      // The scalar twin (the path at PHOTOSITE_MAX_ISA=scalar) is quad_row_span on each point.
+      alignas(32) int32_t s0[n], s1[n];
+      ASSERT_EQ(disc_row_spans_scalar(q, W, y, s0, s1), got);
+      for (unsigned b = got; b; b &= b - 1) {
+        const int j = std::countr_zero(b);
+        ASSERT_TRUE(s0[j] == a0[j] && s1[j] == a1[j]);
+      }
+      ++rows;
+    }
+  }
+  std::fprintf(stderr, "[disc row spans] %lld rows of 16 points, %lld spans, %lld points not drawn\n", rows, spans,
+               lanes_out);
+  EXPECT_GT(spans, 1000000);
 }
 
 // street_lamps.penumbrae (docs/night.md §7, "Shadows of the street lamps"): each luminaire's face

@@ -87,8 +87,8 @@ struct ScenePreset {
   // The shadows' penumbrae (street_lamps.penumbrae; with lamp_shadows): each luminaire's face, a
   // disc of lamp_head_diameter_m, as kLampDiscSamples points (scene/street_detail.h); a ground
   // pixel hidden from part of the disc loses that part's share of the lamp's light. Off (the
-  // default: on costs the chain about 10 %, docs/benchmarks.md "Thirty-first session: penumbrae"):
-  // the lamp is one point and the shadows' edges are sharp (docs/night.md §7).
+  // default: on costs the chain about 4-5 %, docs/benchmarks.md "Thirty-second session:
+  // penumbrae"): the lamp is one point and the shadows' edges are sharp (docs/night.md §7).
   bool lamp_penumbrae = false;
   // [vehicle_lamps] lamps in metres per vehicle (scene/lights.cpp): height above the ground
   // contact, inset from the vehicle's side, lens diameters, intensities toward the camera, the
