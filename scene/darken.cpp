@@ -1901,20 +1901,12 @@ namespace {
 template <class Px>
 DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) {
   DayBalance b;
-  double sum[3] = {0, 0, 0};
-  long n = 0;
-  for (int y = 0; y < H; y += 4) {
-    const uint16_t* lr = labels + static_cast<size_t>(y) * W;
-    for (int x = 0; x < W; x += 4) {
-      if (lr[x] != static_cast<uint16_t>(Label::Road)) continue;
-      float c[3];
-      px(x, y, c);
-      // A clipped channel (1: the file's white) or a black one has lost the sample's colour.
-      if (!(c[0] > 0.f && c[0] < 1.f && c[1] > 0.f && c[1] < 1.f && c[2] > 0.f && c[2] < 1.f)) continue;
-      for (int k = 0; k < 3; ++k) sum[k] += c[k];
-      ++n;
-    }
-  }
+  // A clipped channel (1: the file's white) or a black one has lost the sample's colour.
+  const RoadSums r = road_samples(W, H, labels, px, [](const float* c) {
+    return c[0] > 0.f && c[0] < 1.f && c[1] > 0.f && c[1] < 1.f && c[2] > 0.f && c[2] < 1.f;
+  });
+  const double* sum = r.sum;
+  const long n = r.n;
   b.samples = n;
   if (n > 0)
     for (int k = 0; k < 3; ++k) b.road_mean[k] = sum[k] / static_cast<double>(n);

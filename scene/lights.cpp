@@ -28,6 +28,7 @@
 #include "scene/darken_detail.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
+#include "scene/texture_detail.h"
 #include "scene/vehicle_facing_detail.h"
 
 namespace photosite::scene {
@@ -156,17 +157,15 @@ int disc(Target& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
 }
 }  // namespace
 std::array<double, 3> road_grey_gains(const ImageF& day, const ImageU16& labels) {
-  double sum[3] = {0, 0, 0};
-  long n = 0;
-  for (int y = 0; y < labels.height(); y += 4) {
-    const uint16_t* r = labels.row(y);
-    for (int x = 0; x < labels.width(); x += 4) {
-      if (r[x] != static_cast<uint16_t>(Label::Road)) continue;
-      const float* s = day.data() + 3 * (static_cast<size_t>(y) * day.width() + x);
-      for (int k = 0; k < 3; ++k) sum[k] += s[k];
-      ++n;
-    }
-  }
+  const RoadSums r = road_samples(
+      labels.width(), labels.height(), labels.data(),
+      [&](int x, int y, float* c) {
+        const float* s = day.data() + 3 * (static_cast<size_t>(y) * day.width() + x);
+        c[0] = s[0], c[1] = s[1], c[2] = s[2];
+      },
+      [](const float*) { return true; });
+  const double* sum = r.sum;
+  const long n = r.n;
   if (n < 100 || !(sum[0] > 0) || !(sum[1] > 0) || !(sum[2] > 0)) return {1, 1, 1};
   const double mean = (sum[0] + sum[1] + sum[2]) / 3;
   return {mean / sum[0], mean / sum[1], mean / sum[2]};

@@ -105,4 +105,29 @@ ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& l
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums,
                                          const ScenePreset* split = nullptr);
 
+// The road's samples of a day image, for its mean colour (day_white_balance, and the vehicle-facing
+// cue's road_grey_gains): every 4th row and column of the W x H labels whose label is Road, in
+// reading order; px(x, y, c) writes a sample's linear sRGB into c[3], use(c) says whether it
+// counts. Their channel sums (double, in that order) and their count.
+struct RoadSums {
+  double sum[3] = {0, 0, 0};
+  long n = 0;
+};
+template <class Px, class Use>
+RoadSums road_samples(int W, int H, const uint16_t* labels, const Px& px, const Use& use) {
+  RoadSums r;
+  for (int y = 0; y < H; y += 4) {
+    const uint16_t* lr = labels + static_cast<size_t>(y) * W;
+    for (int x = 0; x < W; x += 4) {
+      if (lr[x] != static_cast<uint16_t>(Label::Road)) continue;
+      float c[3];
+      px(x, y, c);
+      if (!use(c)) continue;
+      for (int k = 0; k < 3; ++k) r.sum[k] += c[k];
+      ++r.n;
+    }
+  }
+  return r;
+}
+
 }  // namespace photosite::scene
