@@ -193,7 +193,7 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/road_luminance_avg_cd_m2"] = ns.light_stats.road_luminance_avg_cd_m2;
   attrs["photosite/night/road_uniformity_u0"] = ns.light_stats.road_uniformity_u0;
   // The day photo's white balance the texture was made with (reflectance.day_white_balance).
-  attrs["photosite/night/day_white_balance"] = ns.day_balance.state;
+  attrs["photosite/night/day_white_balance"] = ns.day_balance.state();
   attrs["photosite/night/day_white_balance_gain_R"] = ns.day_balance.gain[0];
   attrs["photosite/night/day_white_balance_gain_G"] = ns.day_balance.gain[1];
   attrs["photosite/night/day_white_balance_gain_B"] = ns.day_balance.gain[2];

@@ -1720,12 +1720,12 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   const bool sums_of_this = sums && sums->image == day.data() && sums->labels == labels.data();
   DayBalance balance;
   if (carried && carried->balance_set) balance = carried->balance;
-  else if (sums_of_this && p.day_white_balance == DayWhiteBalance::Road && sums->balance.state != "none")
+  else if (sums_of_this && p.day_white_balance == DayWhiteBalance::Road && sums->balance.use != DayBalance::Use::Off)
     balance = sums->balance;
   else balance = day.channels() == 3 && labels.width() == day.width() && labels.height() == day.height()
                      ? day_white_balance(day, labels, p)
                      : DayBalance();
-  if (carried && !carried->balance_set && balance.state == "road") {
+  if (carried && !carried->balance_set && balance.use == DayBalance::Use::Road) {
     carried->balance = balance;
     carried->balance_set = true;
   }
@@ -1824,10 +1824,11 @@ std::array<double, 2> daylight_log_ratios(double cct_K) {
   const double x = T <= 7000 ? -4.6070e9 / T3 + 2.9678e6 / T2 + 0.09911e3 / T + 0.244063
                              : -2.0064e9 / T3 + 1.9018e6 / T2 + 0.24748e3 / T + 0.237040;
   const double y = -3.000 * x * x + 2.870 * x - 0.275;
-  // XYZ (Y = 1) to linear sRGB: IEC 61966-2-1:1999's matrix (D65 white, Rec. 709 primaries).
+  // XYZ (Y = 1) to linear sRGB (D65 white, Rec. 709 primaries): the box basis's matrix.
   const double X = x / y, Z = (1 - x - y) / y;
-  const double r = 3.2406 * X - 1.5372 - 0.4986 * Z, g = -0.9689 * X + 1.8758 + 0.0415 * Z,
-               b = 0.0557 * X - 0.2040 + 1.0570 * Z;
+  const auto& m = spectrum::kXyzToLinearSrgb;
+  const double r = m[0][0] * X + m[0][1] + m[0][2] * Z, g = m[1][0] * X + m[1][1] + m[1][2] * Z,
+               b = m[2][0] * X + m[2][1] + m[2][2] * Z;
   return {std::log(r / g), std::log(b / g)};
 }
 
@@ -1911,7 +1912,8 @@ DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) 
   if (n > 0)
     for (int k = 0; k < 3; ++k) b.road_mean[k] = sum[k] / static_cast<double>(n);
   if (n < kDayBalanceMinSamples) {
-    b.state = fmt::format("none: {} road samples (under {})", n, kDayBalanceMinSamples);
+    b.use = DayBalance::Use::Fallback;
+    b.why = fmt::format("{} road samples (under {})", n, kDayBalanceMinSamples);
     return b;
   }
   const std::array<double, 2> q{std::log(sum[0] / sum[1]), std::log(sum[2] / sum[1])};
@@ -1920,13 +1922,14 @@ DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) 
   b.road_cct_K = d[2];
   const double spread = std::max({g[0], g[1], g[2]}) / std::min({g[0], g[1], g[2]});
   if (!(spread <= kDayBalanceMaxSpread)) {
-    b.state = fmt::format("none: the road's mean colour ({:.4g}, {:.4g}, {:.4g}) is {:.3g}x off the daylight locus "
+    b.use = DayBalance::Use::Fallback;
+    b.why = fmt::format("the road's mean colour ({:.4g}, {:.4g}, {:.4g}) is {:.3g}x off the daylight locus "
                           "(over {}): not a camera cast",
                           b.road_mean[0], b.road_mean[1], b.road_mean[2], spread, kDayBalanceMaxSpread);
     return b;
   }
   b.gain = g;
-  b.state = "road";
+  b.use = DayBalance::Use::Road;
   return b;
 }
 }  // namespace

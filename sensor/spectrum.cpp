@@ -164,10 +164,8 @@ double lamp_spd(LampSpectrum s, double l, double cct_K) {
 
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb() {
   static const auto m = [] {
-    // XYZ (absolute, Y in cd/m²) of one W·sr⁻¹·m⁻² in each box, then IEC 61966-2-1's XYZ→sRGB.
-    static constexpr double xyz_to_srgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
-                                                 {-0.9692660, 1.8760108, 0.0415560},
-                                                 {0.0556434, -0.2040259, 1.0572252}};
+    // XYZ (absolute, Y in cd/m²) of one W·sr⁻¹·m⁻² in each box, then XYZ→sRGB (kXyzToLinearSrgb).
+    const auto& xyz_to_srgb = kXyzToLinearSrgb;
     std::array<std::array<double, 3>, 3> out{};
     for (int k = 0; k < 3; ++k) {
       const double w = kBandHiNm[k] - kBandLoNm[k];

@@ -48,13 +48,20 @@ const std::vector<float>& srgb_decode_table();
 // (4000-25000 K), green kept: the camera's green or magenta cast out, the daylight's own colour
 // (sun, or the sky's blue in the shade) kept.
 struct DayBalance {
+  enum class Use {
+    Off,       // the preset's choice (day_white_balance = "none"): gains 1
+    Road,      // the gains below, from the road
+    Fallback,  // the road not used (under kDayBalanceMinSamples samples, or its colour too far off the
+               // locus to be a cast; `why` says which): gains 1
+  };
+  Use use = Use::Off;
+  std::string why;  // Fallback's reason
   std::array<double, 3> gain{1.0, 1.0, 1.0};
-  // "road" (the gains above), "none" (the preset's choice) or "none: " and why the road was not
-  // used (under kDayBalanceMinSamples samples, or its colour too far off the locus to be a cast).
-  std::string state = "none";
   long samples = 0;                    // the road samples the mean was taken over
   std::array<double, 3> road_mean{};   // their mean linear sRGB
   double road_cct_K = 0;               // the daylight the road's colour was moved to (0: none)
+  // The header's text (photosite/night/day_white_balance): "road", "none", or "none: " and why.
+  std::string state() const { return use == Use::Road ? "road" : use == Use::Off ? "none" : "none: " + why; }
 };
 // Fewer road samples than this (100 samples: 1,600 road pixels at the 4×4 spacing) leave the
 // photo as it is: the mean of a sliver of road says little about the camera.

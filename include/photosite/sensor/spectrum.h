@@ -115,6 +115,17 @@ inline constexpr int kLampSpectrumCount = 6;
 // the others ignore; a LED-B one without a positive, finite cct_K is an internal error).
 double lamp_spd(LampSpectrum s, double wavelength_nm, double cct_K = 0);
 
+// CIE XYZ to linear sRGB (Rec. 709 primaries, D65 white), rows R, G, B: the matrix derived from
+// the primaries' and the white's chromaticities (B. Lindbloom, "RGB/XYZ Matrices"). IEC
+// 61966-2-1:1999 prints a four-decimal matrix (3.2406, -1.5372, -0.4986 / -0.9689, 1.8758, 0.0415 /
+// 0.0557, -0.2040, 1.0570): the inverse of its four-decimal RGB→XYZ matrix (0.4124, 0.3576, 0.1805
+// / ...), which differs from this one by up to 3.7e-4 per entry.
+// photosite's one copy: the box basis (box_to_linear_srgb) and the daylight locus
+// (scene::daylight_log_ratios) both use it.
+inline constexpr double kXyzToLinearSrgb[3][3] = {{3.2404542, -1.5371385, -0.4985314},
+                                                  {-0.9692660, 1.8760108, 0.0415560},
+                                                  {0.0556434, -0.2040259, 1.0572252}};
+
 // 3x3 matrices between photosite's box RGB radiance and linear sRGB (Rec. 709 primaries, D65),
 // from the boxes' CIE XYZ. srgb = M · box; box = M⁻¹ · srgb. Rows are output channels.
 const std::array<std::array<double, 3>, 3>& box_to_linear_srgb();
