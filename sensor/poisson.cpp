@@ -476,24 +476,35 @@ void ptrs_attempts_definition(const float* __restrict mu, const uint32_t* __rest
 // lanes' indices to the front ("left-packing"), stored whole, the count advancing by its
 // popcount; plain C++ otherwise (every lane writes its index, the count advances by the
 // condition).
+// The permutations are stored a byte a lane (2 KB, 32 cache lines; widened to 32-bit lanes by one
+// vpmovzxbd from memory, the same permutations). As 32-bit lanes the table took 8 KB, 128 lines,
+// which the block's arrays (8 KB each) passing through the 32 KiB L1d evict between uses: the
+// table's load, on the path from the compare to every permute, held 31 % of pack_lanes_avx2<4>'s
+// cpu-clock samples, 21 % from the byte table, and the sampler's glue took fewer samples against
+// the unchanged sensor functions in 7 of 7 alternating profiles on the Zen 3 host
+// (docs/benchmarks.md, "Thirty-third session: the sensor's Poisson glue").
 struct PackTable {
-  alignas(32) int32_t perm[256][8];
+  alignas(64) uint8_t perm[256][8];
   PackTable() {
     for (int mask = 0; mask < 256; ++mask) {
       int n = 0;
       for (int j = 0; j < 8; ++j)
-        if (mask >> j & 1) perm[mask][n++] = j;
+        if (mask >> j & 1) perm[mask][n++] = static_cast<uint8_t>(j);
       for (; n < 8; ++n) perm[mask][n] = 0;
     }
   }
 };
 const PackTable kPack;
+// The permutation of mask's kept lanes, one lane index per 32-bit lane.
+__attribute__((target("avx2"), always_inline)) inline __m256i pack_perm_avx2(int mask) {
+  return _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(kPack.perm[mask])));
+}
 __attribute__((target("avx2")))
 int select_lanes_avx2(const float* keep, int m, int* idx) {
   int n = 0, i = 0;
   for (; i + 8 <= m; i += 8) {
     const int mask = _mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(keep + i), _mm256_setzero_ps(), _CMP_NEQ_UQ));
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
+    const __m256i perm = pack_perm_avx2(mask);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
     n += __builtin_popcount(static_cast<unsigned>(mask));
   }
@@ -575,7 +586,7 @@ __attribute__((target("avx2"), always_inline)) inline void pack_group_avx2(const
   const __m256 kv = Full ? _mm256_loadu_ps(keep + i) : _mm256_maskload_ps(keep + i, valid);  // lanes i + l < m
   const __m256 kept = _mm256_cmp_ps(kv, _mm256_setzero_ps(), _CMP_NEQ_UQ);
   const int mask = _mm256_movemask_ps(Full ? kept : _mm256_and_ps(_mm256_castsi256_ps(valid), kept));
-  const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.perm[mask]));
+  const __m256i perm = pack_perm_avx2(mask);
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(idx + n), _mm256_add_epi32(perm, _mm256_set1_epi32(i)));
 #pragma GCC unroll 8
   for (int c = 0; c < NC; ++c) {
@@ -743,6 +754,11 @@ void detail::ptrs_attempt_lanes(bool squeeze_first, const float* mu, const uint3
   if (m % 8 != 0 || m > kBlock) fail("ptrs_attempt_lanes: m must be a multiple of 8 up to the block size");
   if (squeeze_first) ptrs_attempts(mu, wu, wv, k, m);
   else ptrs_attempts_definition(mu, wu, wv, k, m);
+}
+
+int detail::pack_lanes_for_test(const float* keep, int m, int* idx, const float* src, float* dst) {
+  static_assert(kPackLanesRoom == kPackRoom);
+  return pack_lanes(keep, m, idx, {{src, dst}});
 }
 
 // AVX-512 and AVX2 clones for its own loops (the lane selections and the low-mean gathers:

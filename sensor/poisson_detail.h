@@ -107,4 +107,11 @@ void philox_words_rounds(int rounds, PhiloxPath path, uint64_t key, uint32_t fra
 // undecided lanes, compacted); otherwise the definition (the full test on every lane).
 void ptrs_attempt_lanes(bool squeeze_first, const float* mu, const uint32_t* wu, const uint32_t* wv, float* k, int m);
 
+// The sampler's lane packing (sensor/poisson.cpp, pack_lanes, on the current Philox path), for the
+// tests: the lanes i < m where keep[i] != 0, in order, their indices into idx and their values
+// src[i] into dst; returns their count. idx and dst hold m + kPackLanesRoom lanes (whole vectors
+// are stored past the count).
+constexpr int kPackLanesRoom = 16;
+int pack_lanes_for_test(const float* keep, int m, int* idx, const float* src, float* dst);
+
 }  // namespace photosite::detail

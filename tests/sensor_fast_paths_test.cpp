@@ -168,6 +168,42 @@ TEST(Philox, PoissonBlockEqualsPerPixelDefinitionOnEveryPathAtOddSizes) {
   detail::set_philox_path(saved);
 }
 
+// The sampler's lane packing (pack_lanes: AVX-512 compresses; AVX2 the left-packing permutations
+// of a 2 KB byte table, widened by vpmovzxbd; on the scalar path select_lanes' indices, by the same
+// table where the CPU has AVX2, and a gather) keeps the lanes whose flag is non-zero, in order, and
+// their values, on every Philox path (the PHOTOSITE_MAX_ISA caps), at counts that end inside a
+// group of 8 and of 16 lanes. Every one of the 256 masks of 8 lanes occurs twice (group g's mask
+// is 37g + ⌊g/256⌋ mod 256: 37 is odd, so g ↦ 37g mod 256 runs through all 256); negative zero is
+// not kept, NaN is (the scalar definition keep[i] != 0).
+TEST(Philox, PackLanesKeepTheFlaggedLanesInOrderOnEveryPath) {
+  const int n_max = 8 * 256 * 2 + 13;
+  std::vector<float> keep(n_max), src(n_max);
+  for (int i = 0; i < n_max; ++i) {
+    const int group = i / 8, lane = i % 8, mask = (group * 37 + group / 256) % 256;  // every mask, shifted
+    keep[i] = mask >> lane & 1 ? (i % 3 == 0 ? std::numeric_limits<float>::quiet_NaN() : 1.f + i) : (i % 5 ? 0.f : -0.f);
+    src[i] = 0.25f * static_cast<float>(i) - 100.f;
+  }
+  const auto saved = detail::set_philox_path(detail::PhiloxPath::Scalar);
+  for (const auto path : cpu_paths()) {
+    detail::set_philox_path(path);
+    for (const int m : {1, 7, 8, 9, 15, 16, 17, 255, 2048, n_max}) {
+      std::vector<int> idx(m + detail::kPackLanesRoom, -1);
+      std::vector<float> dst(m + detail::kPackLanesRoom, -1.f);
+      const int n = detail::pack_lanes_for_test(keep.data(), m, idx.data(), src.data(), dst.data());
+      int j = 0;
+      for (int i = 0; i < m; ++i) {
+        if (keep[i] == 0.f) continue;
+        ASSERT_LT(j, n) << "path " << static_cast<int>(path) << " m " << m;
+        ASSERT_EQ(idx[j], i) << "path " << static_cast<int>(path) << " m " << m << " kept lane " << j;
+        ASSERT_EQ(dst[j], src[i]) << "path " << static_cast<int>(path) << " m " << m << " kept lane " << j;
+        ++j;
+      }
+      EXPECT_EQ(n, j) << "path " << static_cast<int>(path) << " m " << m;
+    }
+  }
+  detail::set_philox_path(saved);
+}
+
 // The sampler's retry attempts (ptrs_attempt_lanes with the squeeze first: the full test only
 // on the lanes the squeeze left undecided, compacted) equal the definition (ptrs_attempt on
 // every lane, the full test evaluated everywhere) and ptrs_attempt lane by lane, bit for bit: at
