@@ -1883,11 +1883,11 @@ std::array<double, 3> nearest_daylight(const std::array<double, 2>& q) {
 }
 
 namespace {
-// The day photo's white balance by its road (DayBalance, include/photosite/scene/night.h), from the
-// linear sRGB of its pixels as px(x, y, rgb) gives them (the linear image, or the day image's
+// The day photo's white balance by its road (DayBalance, include/photosite/scene/night.h), from
+// road_samples' sums of the linear sRGB of its road pixels (the linear image, or the day image's
 // codes or floats decoded as linearize() decodes them: the same floats, so the same gains on
-// every path). The road's pixels of every 4th row and column (131,072 samples at 2048x1024 at
-// most), summed in reading order (the same double sums at any thread count).
+// every path): every 4th row and column (131,072 samples at 2048x1024 at most), summed in reading
+// order (the same double sums at any thread count).
 //
 // Why: the darkening keeps each pixel's colour as the surface's (f_k ∝ c_k), so a cast of the day
 // camera's (its white balance, a data set's processing) stays in every albedo: Cityscapes' frames
@@ -1899,13 +1899,15 @@ namespace {
 // road's mean (ln R/G, ln B/G) to the nearest point of the locus. The light's own colour stays (a
 // road in the sky's shade stays blue; the sun/shade split takes that out where it splits a class),
 // and green is kept (the raw converters' convention: gains relative to G).
-template <class Px>
-DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) {
+//
+// road_samples' `use`: a clipped channel (1: the file's white) or a black one has lost the sample's
+// colour.
+bool keeps_its_colour(const float* c) {
+  return c[0] > 0.f && c[0] < 1.f && c[1] > 0.f && c[1] < 1.f && c[2] > 0.f && c[2] < 1.f;
+}
+// The balance from those samples' sums.
+DayBalance road_day_balance(const RoadSums& r) {
   DayBalance b;
-  // A clipped channel (1: the file's white) or a black one has lost the sample's colour.
-  const RoadSums r = road_samples(W, H, labels, px, [](const float* c) {
-    return c[0] > 0.f && c[0] < 1.f && c[1] > 0.f && c[1] < 1.f && c[2] > 0.f && c[2] < 1.f;
-  });
   const double* sum = r.sum;
   const long n = r.n;
   b.samples = n;
@@ -1924,8 +1926,8 @@ DayBalance road_day_balance(int W, int H, const uint16_t* labels, const Px& px) 
   if (!(spread <= kDayBalanceMaxSpread)) {
     b.use = DayBalance::Use::Fallback;
     b.why = fmt::format("the road's mean colour ({:.4g}, {:.4g}, {:.4g}) is {:.3g}x off the daylight locus "
-                          "(over {}): not a camera cast",
-                          b.road_mean[0], b.road_mean[1], b.road_mean[2], spread, kDayBalanceMaxSpread);
+                        "(over {}): not a camera cast",
+                        b.road_mean[0], b.road_mean[1], b.road_mean[2], spread, kDayBalanceMaxSpread);
     return b;
   }
   b.gain = g;
@@ -1938,10 +1940,7 @@ DayBalance day_white_balance(const ImageF& day, const ImageU16& labels, const Sc
   if (p.day_white_balance == DayWhiteBalance::None) return DayBalance();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
     fail("day_white_balance: the image and its labels differ in size");
-  return road_day_balance(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
-    const float* s = day.row(y) + 3 * x;
-    c[0] = s[0], c[1] = s[1], c[2] = s[2];
-  });
+  return road_day_balance(road_samples(day, labels, keeps_its_colour));
 }
 
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
@@ -1962,10 +1961,10 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // balance skips, and the pass below names it.
   if (split && split->day_white_balance == DayWhiteBalance::Road) {
     int64_t ignored = INT64_MAX;
-    sums->balance = road_day_balance(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
+    sums->balance = road_day_balance(road_samples(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
       linearize_rgb_samples(day.row(y) + 3 * x, c, 3, static_cast<int64_t>(y) * day.width() + x, decode, d8, lut,
                             &ignored);
-    });
+    }, keeps_its_colour));
   }
   // With the split on, its block sums from the same Y (sun_pass_rows).
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), day.width(), day.height(), sums);
@@ -2100,10 +2099,10 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   sums->part.resize(kTextureChunks);
   // The day white balance first, from the road's codes read through the same table.
   if (split && split->day_white_balance == DayWhiteBalance::Road)
-    sums->balance = road_day_balance(codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
+    sums->balance = road_day_balance(road_samples(codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
       const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
       c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];
-    });
+    }, keeps_its_colour));
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int, size_t first, int count) {
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);

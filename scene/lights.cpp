@@ -157,13 +157,7 @@ int disc(Target& img, double cx, double cy, double r, const Rgb& c, Keep keep) {
 }
 }  // namespace
 std::array<double, 3> road_grey_gains(const ImageF& day, const ImageU16& labels) {
-  const RoadSums r = road_samples(
-      labels.width(), labels.height(), labels.data(),
-      [&](int x, int y, float* c) {
-        const float* s = day.data() + 3 * (static_cast<size_t>(y) * day.width() + x);
-        c[0] = s[0], c[1] = s[1], c[2] = s[2];
-      },
-      [](const float*) { return true; });
+  const RoadSums r = road_samples(day, labels, [](const float*) { return true; });
   const double* sum = r.sum;
   const long n = r.n;
   if (n < 100 || !(sum[0] > 0) || !(sum[1] > 0) || !(sum[2] > 0)) return {1, 1, 1};

@@ -36,6 +36,11 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
     return schema::Param<P>{key, Kind::Integer, at, unit, lo, hi, Need::Required, meaning, source, {},
                             schema::Exr::Header};
   };
+  // An enumerated key (Choice: its parser, its name, the names listed).
+  auto choice = [](std::string_view key, schema::Choice<P> c, std::string_view meaning, std::string_view source) {
+    return schema::Param<P>{key, Kind::Choice, std::move(c), "", -inf, inf, Need::Optional, meaning, source, {},
+                            schema::Exr::Header};
+  };
   static const std::vector<schema::Param<P>> rows{
       {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional, "one line",
        "free text"},
@@ -74,16 +79,16 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "against the sun (at a step of sun_shade_ratio_min) is not split",
           "[S] thin cloud or haze 6500-7000 K, clear blue sky 12,000-18,000 K (same references)",
           "> reflectance.sun_cct_K"),
-      {"reflectance.day_white_balance", Kind::Choice,
-       schema::Choice<P>{[](P& p, const std::string& s) { p.day_white_balance = parse_day_white_balance(s); },
-                         [](const P& p) -> std::string { return day_white_balance_name(p.day_white_balance); },
-                         kDayWhiteBalanceNames},
-       "", -inf, inf, Need::Optional,
-       "the day photo's own camera cast, taken out before its colours become albedos: road (gains that make the "
-       "mean linear colour of its road pixels grey, green kept; none where the road is under 100 samples or its "
-       "colour is too far from grey to be a cast) or none (the photo's colours as they are)",
-       "photosite choice: asphalt and concrete are near-neutral (docs/night.md §3, \"The day photo's white "
-       "balance\"); default road", {}, schema::Exr::Header},
+      choice("reflectance.day_white_balance",
+             {[](P& p, const std::string& s) { p.day_white_balance = parse_day_white_balance(s); },
+              [](const P& p) -> std::string { return day_white_balance_name(p.day_white_balance); },
+              kDayWhiteBalanceNames},
+             "the day photo's own camera cast, taken out before its colours become albedos: road (gains that move "
+             "the mean linear colour of its road pixels to the nearest point of the CIE daylight locus, green kept; "
+             "none where the road is under 100 samples or the gains would spread over 2x: not a cast) or none (the "
+             "photo's colours as they are)",
+             "photosite choice: asphalt and concrete are near-neutral (docs/night.md §1, \"The day photo's white "
+             "balance\"); default road"),
       table("ambient", "moonlight and sky glow on every surface, the sky's luminance", "NP §2"),
       num("ambient.moon_lux", PHOTOSITE_AT(P, moon_lux), "lx", 0, 1, "moonlight illuminance", "NP §2"),
       num("ambient.moon_cct_K", PHOTOSITE_AT(P, moon_cct_K), "K", 1000, 20000, "moonlight CCT", "NP §2"),
@@ -158,15 +163,14 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "street luminaire face", "NP §3"),
       num("lamps.streetlamp_cct_K", PHOTOSITE_AT(P, streetlamp_cct_K), "K", 1000, 20000, "street luminaire CCT",
           "NP §1"),
-      {"lamps.streetlamp_type", Kind::Choice,
-       schema::Choice<P>{[](P& p, const std::string& s) { p.streetlamp_type = parse_streetlamp_type(s); },
-                         [](const P& p) -> std::string { return streetlamp_type_name(p.streetlamp_type); },
-                         kStreetlampTypeNames},
-       "", -inf, inf, Need::Optional,
-       "the street lamps' light source, one per scene: led (phosphor white LED, CIE LED-B at streetlamp_cct_K and "
-       "street.cct_K as the camera records it; Planck at them in a scene without a camera) or hps (high-pressure "
-       "sodium, CIE illuminant HP1; the CCT keys unused)",
-       "CIE 015:2018 HP1, LED-B1..B5 via scripts/lamp_spectra.py (efficacies 395, 305-319 lm/W: NP §0)", {}, schema::Exr::Header},
+      choice("lamps.streetlamp_type",
+             {[](P& p, const std::string& s) { p.streetlamp_type = parse_streetlamp_type(s); },
+              [](const P& p) -> std::string { return streetlamp_type_name(p.streetlamp_type); },
+              kStreetlampTypeNames},
+             "the street lamps' light source, one per scene: led (phosphor white LED, CIE LED-B at streetlamp_cct_K "
+             "and street.cct_K as the camera records it; Planck at them in a scene without a camera) or hps "
+             "(high-pressure sodium, CIE illuminant HP1; the CCT keys unused)",
+             "CIE 015:2018 HP1, LED-B1..B5 via scripts/lamp_spectra.py (efficacies 395, 305-319 lm/W: NP §0)"),
       num("lamps.headlamp_luminance_cd_m2", PHOTOSITE_AT(P, headlamp_luminance_cd_m2), "cd/m²", 0, 1e8,
           "headlamp lens", "NP §3 [D]"),
       num("lamps.headlamp_cct_K", PHOTOSITE_AT(P, headlamp_cct_K), "K", 1000, 20000, "headlamp CCT", "NP §3"),

@@ -2980,9 +2980,8 @@ struct VerticalPass : LitRows {
   // photometric "five-times rule": an on-axis Lambertian disc of diameter a gives I/(d² + a²/4));
   // nearer (the top of a lamp's own pole) d² is held at (5a)², a stated approximation that keeps
   // E finite. (The ground pools do not apply it: their d is at least the mounting height, 8-10 m
-  // in the presets.)
-  const float d2_min;
-  const float inv_d2_min;  // 1/d²_min rounded (vertical_term's r_m)
+  // in the presets.) Kept as its reciprocal, 1/fl(d²_min) rounded (vertical_term's r_m).
+  const float inv_d2_min;
   const double c, sn, h;
   const int building = static_cast<int>(Label::Building);
   const int vegetation = static_cast<int>(Label::Vegetation);  // crowns (vertical_term)
@@ -3000,7 +2999,7 @@ struct VerticalPass : LitRows {
       : LitRows(texture_, labels_, g_, p, width), depth_m(depth_m_),
         computed(facades ? BuildingFacades() : building_facades(labels_, g_, p.max_depth_m)),
         fac(facades ? *facades : computed),
-        d2_min(static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m)), inv_d2_min(1.f / d2_min),
+        inv_d2_min(1.f / static_cast<float>(25 * p.lamp_head_diameter_m * p.lamp_head_diameter_m)),
         c(std::cos(g_.pitch_rad)), sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m),
         I0(static_cast<float>(s.peak_intensity_cd)) {
     for (const auto& l : s.lamps) {

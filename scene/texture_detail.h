@@ -129,5 +129,15 @@ RoadSums road_samples(int W, int H, const uint16_t* labels, const Px& px, const 
   }
   return r;
 }
+// The same over a linear sRGB image (3 channels, the labels' size) as it is.
+template <class Use>
+RoadSums road_samples(const ImageF& day_linear_srgb, const ImageU16& labels, const Use& use) {
+  return road_samples(labels.width(), labels.height(), labels.data(),
+                      [&](int x, int y, float* c) {
+                        const float* s = day_linear_srgb.row(y) + 3 * x;
+                        c[0] = s[0], c[1] = s[1], c[2] = s[2];
+                      },
+                      use);
+}
 
 }  // namespace photosite::scene

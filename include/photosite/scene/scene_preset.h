@@ -29,9 +29,9 @@ inline constexpr const char* kStreetlampTypeNames = "led, hps";
 const char* streetlamp_type_name(StreetlampType t);
 StreetlampType parse_streetlamp_type(const std::string& name);
 // How the day photo's own camera cast is taken out before its colours become albedos
-// (reflectance.day_white_balance; scene/darken.cpp day_white_balance): Road, by the grey of its
-// road (the mean linear colour of the road's pixels made neutral, green kept); None, the photo's
-// colours as they are.
+// (reflectance.day_white_balance; scene/darken.cpp day_white_balance): Road, by its road (the mean
+// linear colour of the road's pixels moved to the nearest point of the CIE daylight locus, green
+// kept); None, the photo's colours as they are.
 enum class DayWhiteBalance { None, Road };
 inline constexpr const char* kDayWhiteBalanceNames = "road, none";
 const char* day_white_balance_name(DayWhiteBalance m);
