@@ -111,6 +111,14 @@ struct Loaded {
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string error;
 };
+// A sequence's day white balance as its reader sees it: the rule of reflectance_texture's
+// ClassMeans (the group's first frame whose own balance is "road" fixes the gains for the group),
+// which the compute stage applies to the same frames in the same order. The reader makes a later
+// frame's class sums with those gains, so its texture takes them instead of summing again.
+struct ReaderBalance {
+  std::string group;
+  std::optional<scene::DayBalance> fixed;
+};
 struct Computed {
   Item item;
   std::optional<std::string> camera_sum;  // Loaded's
@@ -406,7 +414,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
 
   // ---- one item's stages ------------------------------------------------------------------
   // Read: decode the image and labels, linearize.
-  auto load = [&](const Item& it) {
+  // `rb`: the group's balance so far (batch --sequence), else null.
+  auto load = [&](const Item& it, ReaderBalance* rb) {
     Loaded l;
     l.item = it;
     try {
@@ -423,8 +432,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         l.rig = scene::load_cityscapes_camera(it.camera);
       }
       // (And the sun/shade split's block sums, from the same pass: the preset says whether it is on.)
-      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums, &sp)
-                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums, &sp);
+      if (rb && rb->group != it.group) *rb = ReaderBalance{it.group, std::nullopt};
+      const scene::DayBalance* carried = rb && rb->fixed ? &*rb->fixed : nullptr;
+      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums, &sp, carried)
+                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums, &sp, carried);
+      if (rb && !rb->fixed && l.sums.balance.use == scene::DayBalance::Use::Road) rb->fixed = l.sums.balance;
     } catch (const ParameterError& e) {
       // batch takes labels of the image's size (it has no --resize-labels): say what to do.
       l.error = e.parameter() == "resize_labels"
@@ -609,6 +621,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       StageTimes& t = times[j];
       scene::SequenceState seq;
       std::string seq_group;
+      ReaderBalance rb;
       for (;;) {
         if (stopped()) {
           interrupted = true;
@@ -619,7 +632,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         for (size_t i = units[u].first; i < units[u].second; ++i) {
           double c0 = thread_cpu_ms();
           team();
-          Loaded l = load(todo[i]);
+          Loaded l = load(todo[i], o.sequences ? &rb : nullptr);
           const double c1 = thread_cpu_ms();
           t.reader_cpu_ms += c1 - c0;
           team();
@@ -655,12 +668,13 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     const OmpThreads omp_team(o.compute_threads);
     std::thread reader([&] {
       const double cpu0 = thread_cpu_ms();
+      ReaderBalance rb;
       for (const auto& it : todo) {
         if (stopped()) {
           result.interrupted = true;  // read by the calling thread only after join()
           break;
         }
-        loaded.push(load(it), &st.reader_wait_ms);
+        loaded.push(load(it, o.sequences ? &rb : nullptr), &st.reader_wait_ms);
       }
       st.reader_cpu_ms = thread_cpu_ms() - cpu0;  // read by the calling thread only after join()
       loaded.close();

@@ -1720,7 +1720,8 @@ ImageF reflectance_texture_with(const ImageF& day, const ImageU16& labels, const
   const bool sums_of_this = sums && sums->image == day.data() && sums->labels == labels.data();
   DayBalance balance;
   if (carried && carried->balance_set) balance = carried->balance;
-  else if (sums_of_this && p.day_white_balance == DayWhiteBalance::Road && sums->balance.use != DayBalance::Use::Off)
+  else if (sums_of_this && p.day_white_balance == DayWhiteBalance::Road && sums->balance.use != DayBalance::Use::Off &&
+           !sums->balance_carried)
     balance = sums->balance;
   else balance = day.channels() == 3 && labels.width() == day.width() && labels.height() == day.height()
                      ? day_white_balance(day, labels, p)
@@ -1936,6 +1937,18 @@ DayBalance road_day_balance(const RoadSums& r) {
 }
 }  // namespace
 
+namespace {
+// The linearisations' sums made with a sequence's carried white balance (their `carried`), when
+// the preset uses the road's and one is given: sums->balance is then that one, marked as carried.
+bool carried_balance(const ScenePreset* split, const DayBalance* carried, TextureSums* sums) {
+  if (!split || split->day_white_balance != DayWhiteBalance::Road || !carried || carried->use != DayBalance::Use::Road)
+    return false;
+  sums->balance = *carried;
+  sums->balance_carried = true;
+  return true;
+}
+}  // namespace
+
 DayBalance day_white_balance(const ImageF& day, const ImageU16& labels, const ScenePreset& p) {
   if (p.day_white_balance == DayWhiteBalance::None) return DayBalance();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
@@ -1944,7 +1957,7 @@ DayBalance day_white_balance(const ImageF& day, const ImageU16& labels, const Sc
 }
 
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums, const ScenePreset* split) {
+                                   TextureSums* sums, const ScenePreset* split, const DayBalance* carried) {
   *sums = TextureSums();
   if (day.channels() != 3 || labels.width() != day.width() || labels.height() != day.height())
     return linearize(day, info);
@@ -1956,10 +1969,10 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // reads it back from L1; the first damaged pixel per chunk (each chunk's blocks ascend).
   std::vector<int64_t> bad(kTextureChunks, INT64_MAX);
   sums->part.resize(kTextureChunks);
-  // The day white balance first, from the road's samples decoded as the pass decodes them
-  // (day_white_balance of the linear image, to the bit); a damaged sample decodes as 0, which the
-  // balance skips, and the pass below names it.
-  if (split && split->day_white_balance == DayWhiteBalance::Road) {
+  // The day white balance first: a sequence's carried one, else from the road's samples decoded as
+  // the pass decodes them (day_white_balance of the linear image, to the bit); a damaged sample
+  // decodes as 0, which the balance skips, and the pass below names it.
+  if (!carried_balance(split, carried, sums) && split && split->day_white_balance == DayWhiteBalance::Road) {
     int64_t ignored = INT64_MAX;
     sums->balance = road_day_balance(road_samples(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
       linearize_rgb_samples(day.row(y) + 3 * x, c, 3, static_cast<int64_t>(y) * day.width() + x, decode, d8, lut,
@@ -2087,7 +2100,7 @@ ImageF linearize_code_floats(const ImageU8& codes, const Decode8& d8) {
 }  // namespace
 
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums,
-                                         const ScenePreset* split) {
+                                         const ScenePreset* split, const DayBalance* carried) {
   *sums = TextureSums();
   const Decode8& d8 = decode8();
   // Not the fused case: linearize() of the codes' floats.
@@ -2097,8 +2110,9 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   // Each block of pixels decoded right before pass 1 reads it back from L1 (as
   // linearize_with_texture_sums; codes have no damaged values to look for).
   sums->part.resize(kTextureChunks);
-  // The day white balance first, from the road's codes read through the same table.
-  if (split && split->day_white_balance == DayWhiteBalance::Road)
+  // The day white balance first (a sequence's carried one, else from the road's codes read through
+  // the same table).
+  if (!carried_balance(split, carried, sums) && split && split->day_white_balance == DayWhiteBalance::Road)
     sums->balance = road_day_balance(road_samples(codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
       const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
       c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];

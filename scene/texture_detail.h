@@ -102,8 +102,9 @@ ImageF reflectance_texture_with(const ImageF& day_linear_srgb, const ImageU16& l
 // codes' floats code·(1/255) that read_image() gives, reading a quarter of the bytes (each code's
 // linear value from linearize()'s own 256-entry table for 8-bit files).
 // With `split` (the scene preset, its sun/shade split on) also the split's block sums (sums->sun).
+// `carried`: as linearize_with_texture_sums'.
 ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& labels, TextureSums* sums,
-                                         const ScenePreset* split = nullptr);
+                                         const ScenePreset* split = nullptr, const DayBalance* carried = nullptr);
 
 // The road's samples of a day image, for its mean colour (day_white_balance, and the vehicle-facing
 // cue's road_grey_gains): every 4th row and column of the W x H labels whose label is Road, in

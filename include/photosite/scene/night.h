@@ -80,6 +80,9 @@ DayBalance day_white_balance(const ImageF& day_linear_srgb, const ImageU16& labe
 struct TextureSums {
   std::vector<std::array<double, 2 * kLabelCount>> part;  // per chunk: sums of Y, then counts
   DayBalance balance;  // the day photo's white balance the sums were made with
+  // Set when `balance` is a sequence's carried one (the `carried` argument below), not this frame's
+  // own: the texture then takes the sums only if its own carried balance has the same gains.
+  bool balance_carried = false;
   const float* image = nullptr;
   const uint16_t* labels = nullptr;
   // The sun/shade split's block sums (its phase 1) of the block rows that lie in one chunk, made
@@ -91,8 +94,13 @@ struct TextureSums {
 // With `split` (the scene preset) the sums are made with its day white balance (sums->balance,
 // day_white_balance of the linear image, found from the day image's road before the pass) and,
 // its sun/shade split on, also the split's block sums (sums->sun). Without it: no balance.
+// `carried` (with `split`'s day_white_balance = "road"): a sequence's white balance, fixed by an
+// earlier frame (ClassMeans::balance once balance_set): the sums are made with it and this frame's
+// own is not looked for (sums->balance_carried), so that the texture, which takes the carried
+// gains, does not sum the frame again (batch --sequence: its reader keeps the group's balance).
 ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info, const ImageU16& labels,
-                                   TextureSums* sums, const ScenePreset* split = nullptr);
+                                   TextureSums* sums, const ScenePreset* split = nullptr,
+                                   const DayBalance* carried = nullptr);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
