@@ -475,6 +475,73 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
   c.r00 = _mm256_set1_ps(r0[0]), c.r01 = _mm256_set1_ps(r0[1]);
   c.r10 = _mm256_set1_ps(r0[b.nh]), c.r11 = _mm256_set1_ps(r0[b.nh + 1]);
 }
+// The columns [lo, hi) of a row (xn increasing: the caller's promise) where every lane is surely
+// lit by each lamp evaluated (`only` as beam_row_avx2's), with v's arctangent argument at most
+// tan(π/8), so that beam_row_avx2 may skip the lit test (five comparisons, the cut-off's max, ×, +
+// and min per lamp) and v's reduction test there: the same bits. Empty where not derived (t <= 0,
+// h_l <= 0, a table without 0 inside its h range, V₀ >= 0 or V_last < 0).
+// Conditions, for a lane's float dx = fl(fl(t·x_n) − x_l) (computed here exactly as the lanes do;
+// with xn increasing and t > 0 it is non-decreasing along the row, so each condition
+// |dx| <= dx_max holds on one run of columns, found by bisection), D = √D2 in double, u = 2⁻²⁴,
+// Cephes' atanf rel. ≤ 4u (its stated 1.9e-7), atan concave on [0, ∞) (atan(λy) <= λ·atan(y) for
+// λ >= 1, >= for λ <= 1):
+//   the h argument fl(dx·fl(1/D_f)) is |dx|/D·(1 ± 3u), h = fl(fl(atanf)·fl(180/π)) within (1 ± 6u):
+//     |dx| <= D·tan(H_m·(1 − m)), H_m = min(−H₀, H_last): |h| <= H_m·(1 − m)(1 + 9u) < H_m: inside the table;
+//   the v argument fl(h_l/horiz), horiz = fl(√fl(fl(dx²) + D2)) >= fl(√D2) (rounding is monotone and
+//     fl(dx²) >= 0): the argument is positive and <= h_l/D·(1 + 3u), so with h_l/D <= λ(1 − m) unreduced
+//     (λ = fl(tan(π/8)), atanf_cephes' threshold),
+//     and |v| <= atan(h_l/D)·(180/π)(1 + 9u) <= |V₀| where atan(h_l/D)·180/π <= |V₀|(1 − m): v >= V₀;
+//     v = −(nonnegative) <= −0 <= V_last when V_last >= 0;
+//   the cut-off fl(min(fl(c_v + fl(max(h, 0)·tan rise)), c_max)) >= min(c_v, c_max) =: c (c_v + a
+//     nonnegative number rounds to at least c_v); where c < 0 and dx² + D2 <= H_c², H_c = h_l/tan(|c|(1 + m)):
+//     horiz <= √(dx² + D2)(1 + 3u), the argument >= h_l/√(dx² + D2)·(1 − 4u), |v| >= |c|(1 + m)(1 − 10u) > |c|,
+//     so v <= c <= the cut-off: lit; where c >= 0, v <= −0 <= c always.
+// m = 1e-4 is far above the 10u ≈ 6e-7 these roundings need and the double arithmetic's ~1e-15 here;
+// the √(H_c² − D2) bound is shrunk by (1 − m) as well. Tests: EgoLowBeam.RowsAreThePointFunctionAtEveryIsa.
+struct BeamSureSpan {
+  int lo = 0, hi = 0;
+};
+BeamSureSpan beam_sure_span(const BeamF& b, const double* xn, int n, double t, float D2, int only) {
+  BeamSureSpan span;
+  if (!b.ok || n <= 0 || !(t > 0) || !(b.hl > 0) || !(D2 > 0)) return span;
+  constexpr double m = 1e-4, rad = M_PI / 180, lambda = 0.4142135623730950f;  // atanf_cephes' threshold, in float
+  const double D = std::sqrt(static_cast<double>(D2)), hl = b.hl;
+  const double Hm = std::min(-static_cast<double>(b.H[0]), static_cast<double>(b.H[b.nh - 1]));
+  const double V0 = b.V[0], c = std::min(b.cv, b.cmax);
+  if (!(Hm > 0) || !(V0 < 0) || !(b.V[b.nv - 1] >= 0)) return span;
+  if (!(std::atan(hl / D) / rad <= -V0 * (1 - m)) || !(hl / D <= lambda * (1 - m))) return span;
+  double dx_max = D * std::tan(Hm * (1 - m) * rad);
+  if (c < 0) {
+    const double Hc = hl / std::tan(-c * (1 + m) * rad);
+    if (!(Hc * Hc > static_cast<double>(D2))) return span;
+    dx_max = std::min(dx_max, std::sqrt(Hc * Hc - static_cast<double>(D2)) * (1 - m));
+  }
+  const int k0 = only < 0 ? 0 : only, k1 = only < 0 ? 1 : only;
+  const auto dx = [&](int x, int k) { return static_cast<double>(static_cast<float>(t * xn[x]) - b.xl[k]); };
+  const auto past_lo = [&](int x) {  // every lamp's dx >= −dx_max (false, then true along the row)
+    for (int k = k0; k <= k1; ++k)
+      if (!(dx(x, k) >= -dx_max)) return false;
+    return true;
+  };
+  const auto within_hi = [&](int x) {  // every lamp's dx <= dx_max (true, then false)
+    for (int k = k0; k <= k1; ++k)
+      if (!(dx(x, k) <= dx_max)) return false;
+    return true;
+  };
+  int a = 0, z = n;
+  while (a < z) {
+    const int mid = (a + z) / 2;
+    past_lo(mid) ? z = mid : a = mid + 1;
+  }
+  span.lo = span.hi = a;
+  z = n;
+  while (a < z) {
+    const int mid = (a + z) / 2;
+    within_hi(mid) ? a = mid + 1 : z = mid;
+  }
+  span.hi = a;
+  return span;
+}
 // One row's E over pixels 0 .. n − 1 of xn ((x − c_x)/f per column; X = t·xn in double, as
 // CameraGeometry::ground_point, then rounded to float), 8 at a time: beam_lux_f's operations
 // lane by lane, the rest by beam_lux_f itself; the same bits. Where `id` is given, only the
@@ -490,6 +557,9 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
 // the gathers would read, so the same bits); otherwise they are gathered per lane (grid angles by
 // permutations when at most 8). Unlit lanes are masked to 0 at the end, whatever their cell.
 // With `only` 0 or 1, that lamp's E alone (beam_lamp_f's bits: the ground's shadows keep it).
+// Blocks of eight inside `sure` (beam_sure_span) skip the lit test, take v's arctangent without the
+// reduction test and the sign (its argument is positive and unreduced there), and where both lamps'
+// lanes lie in their carried cells run both tables without a branch: the same bits.
 // beam_row_scalar: the same row one pixel at a time (the vector rows' definition and their tail).
 void beam_row_scalar(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                      uint64_t read_mask, float* out, int only = -1) {
@@ -501,7 +571,7 @@ void beam_row_scalar(const double* xn, int n, double t, float D2, float invD, co
 }
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
-                   uint64_t read_mask, float* out, int only = -1) {
+                   uint64_t read_mask, float* out, int only = -1, BeamSureSpan sure = {}) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
@@ -531,6 +601,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
         continue;
       }
     }
+    const bool surely_lit = x >= sure.lo && x + 8 <= sure.hi;
     const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x)));
     const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(vt, _mm256_loadu_pd(xn + x + 4)));
     const __m256 X = _mm256_set_m128(hi, lo);
@@ -546,18 +617,59 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       args[2 * k] = _mm256_mul_ps(dx, vinvD);
       args[2 * k + 1] = _mm256_div_ps(hl, horiz);
     }
-    atanf_cephes8x4(args, angles);
+    if (surely_lit) {
+      // h by atanf_cephes8 (its own reduction test); v by its unreduced path (beam_sure_span) for
+      // the positive h_l/horiz: |x| is x, its sign bit 0 (the OR with it the identity).
+      for (int k = 0; k < 2; ++k) {
+        angles[2 * k] = atanf_cephes8(args[2 * k]);
+        angles[2 * k + 1] = atan_poly8(args[2 * k + 1]);
+      }
+    } else {
+      atanf_cephes8x4(args, angles);
+    }
+    if (surely_lit && only < 0 && b.sorted) {
+      // Both lamps lit in every lane: each lamp's carried-cell test, and where every lane of both
+      // lies in its lamp's carried cell, the two bilinear reads and divisions as one straight run
+      // (the loop below with its branches taken: the same operations in the same order).
+      __m256 h[2], v[2];
+      bool carried = true;
+      for (int k = 0; k < 2; ++k) {
+        h[k] = _mm256_mul_ps(angles[2 * k], deg);
+        v[k] = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
+        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_h, h[k], _CMP_LE_OQ), _mm256_cmp_ps(h[k], cell[k].hi_h, _CMP_LT_OQ));
+        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_v, v[k], _CMP_LE_OQ), _mm256_cmp_ps(v[k], cell[k].hi_v, _CMP_LT_OQ));
+        carried = carried && _mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) == 0xff;
+      }
+      if (carried) {
+        __m256 Iw[2];
+        for (int k = 0; k < 2; ++k) {
+          const BeamCell& q = cell[k];
+          const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h[k], q.Hj), q.rHj), c = _mm256_mul_ps(_mm256_sub_ps(v[k], q.Vi), q.rVi);
+          const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
+          const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, q.r00), _mm256_mul_ps(a, q.r01));
+          const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, q.r10), _mm256_mul_ps(a, q.r11));
+          const __m256 Iv = _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+          Iw[k] = _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2s[k], ds[k])));
+        }
+        _mm256_storeu_ps(out + x, _mm256_and_ps(keep, _mm256_add_ps(_mm256_add_ps(acc, Iw[0]), Iw[1])));
+        continue;
+      }
+    }
     for (int k = 0; k < 2; ++k) {
       if (only >= 0 && k != only) continue;
       const __m256 d2 = d2s[k], d = ds[k];
       const __m256 h = _mm256_mul_ps(angles[2 * k], deg);
       const __m256 v = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
-      const __m256 cut = _mm256_min_ps(_mm256_add_ps(cv, _mm256_mul_ps(_mm256_max_ps(h, zero), rise)), cmax);
-      __m256 lit = _mm256_cmp_ps(v, cut, _CMP_LE_OQ);
-      lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)));
-      lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
-      const int lit_bits = _mm256_movemask_ps(lit);
-      if (lit_bits == 0) continue;
+      __m256 lit = _mm256_castsi256_ps(all);  // every lane, inside `sure`
+      int lit_bits = 0xff;
+      if (!surely_lit) {
+        const __m256 cut = _mm256_min_ps(_mm256_add_ps(cv, _mm256_mul_ps(_mm256_max_ps(h, zero), rise)), cmax);
+        lit = _mm256_cmp_ps(v, cut, _CMP_LE_OQ);
+        lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(h, h_lo, _CMP_GE_OQ), _mm256_cmp_ps(h, h_hi, _CMP_LE_OQ)));
+        lit = _mm256_and_ps(lit, _mm256_and_ps(_mm256_cmp_ps(v, v_lo, _CMP_GE_OQ), _mm256_cmp_ps(v, v_hi, _CMP_LE_OQ)));
+        lit_bits = _mm256_movemask_ps(lit);
+        if (lit_bits == 0) continue;
+      }
       bool shared = false;
       __m256i j, i;
       if (b.sorted) {
@@ -598,7 +710,8 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
       const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
       const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
-      const __m256 Iv = _mm256_and_ps(lit, _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot)));
+      __m256 Iv = _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+      if (!surely_lit) Iv = _mm256_and_ps(lit, Iv);
       acc = _mm256_add_ps(acc, _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2, d))));
     }
     _mm256_storeu_ps(out + x, _mm256_and_ps(keep, acc));
@@ -1089,11 +1202,24 @@ struct LowBeamRows::Impl {
   const uint64_t read_mask = label_bits(read);  // ids of kLabelCount and above: not read
   const double c, s;
   std::vector<double> xn;
+  bool xn_increasing = true;  // (f_px > 0) beam_sure_span's premise
   const bool avx2 = kHaveAvx2 && beam_isa_cap >= 1, avx512 = kHaveAvx512 && beam_isa_cap >= 2;
   Impl(const CameraGeometry& g_, int w, int h, const ScenePreset& p, const ImageU16* labels_)
       : b(beam_f(p)), g(g_), width(w), height(h), labels(labels_), c(std::cos(g_.pitch_rad)),
         s(std::sin(g_.pitch_rad)), xn(w) {
     for (int x = 0; x < width; ++x) xn[x] = (x - g.cx_px) / g.f_px;
+    for (int x = 0; x + 1 < width; ++x) xn_increasing = xn_increasing && xn[x + 1] > xn[x];
+  }
+  // Row y's ray parameter t, D² and 1/D in float (CameraGeometry::ground_point's expressions in
+  // double, then rounded); false at and above the horizon and without a table.
+  bool row_ground(int y, double& t, float& D2, float& invD) const {
+    const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
+    t = g.mount_height_m / den;
+    const double D = t * (c - yn * s);
+    const float Df = static_cast<float>(D);
+    if (!b.ok || den <= 0 || !(D > 0) || !(Df > 0)) return false;
+    D2 = Df * Df, invD = 1.f / Df;
+    return true;
   }
   void row(ImageF& E, int y) const;
 };
@@ -1102,6 +1228,13 @@ LowBeamRows::LowBeamRows(const CameraGeometry& g, int width, int height, const S
     : impl_(std::make_unique<Impl>(g, width, height, p, labels)) {}
 LowBeamRows::~LowBeamRows() = default;
 void LowBeamRows::row(ImageF& E, int y) const { impl_->row(E, y); }
+std::pair<int, int> LowBeamRows::sure_columns(int y) const {
+  double t;
+  float D2, invD;
+  if (!impl_->xn_increasing || !impl_->row_ground(y, t, D2, invD)) return {0, 0};
+  const BeamSureSpan span = beam_sure_span(impl_->b, impl_->xn.data(), impl_->width, t, D2, -1);
+  return {span.lo, span.hi};
+}
 
 ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, const ScenePreset& p,
                             const ImageU16* labels) {
@@ -1123,18 +1256,18 @@ ImageF low_beam_illuminance(const CameraGeometry& g, int width, int height, cons
 // Without a table, zeros: no light (as beam_intensity_cd).
 void LowBeamRows::Impl::row(ImageF& E, int y) const {
   float* e = E.row(y);
-  const double yn = (y - g.cy_px) / g.f_px, den = yn * c + s;
-  const double t = g.mount_height_m / den, D = t * (c - yn * s);
-  const float Df = static_cast<float>(D);
+  double t;
+  float D2, invD;
   // At or above the horizon (den <= 0): no ground point.
-  if (!b.ok || den <= 0 || !(D > 0) || !(Df > 0)) {
+  if (!row_ground(y, t, D2, invD)) {
     std::fill_n(e, width, 0.f);
     return;
   }
-  const float D2 = Df * Df, invD = 1.f / Df;
   const uint16_t* id = labels ? labels->row(y) : nullptr;
   if (avx512) return beam_row_avx512(xn.data(), width, t, D2, invD, b, id, read_mask, e);
-  if (avx2) return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, read_mask, e);
+  if (avx2)
+    return beam_row_avx2(xn.data(), width, t, D2, invD, b, id, read_mask, e, -1,
+                         xn_increasing ? beam_sure_span(b, xn.data(), width, t, D2, -1) : BeamSureSpan{});
   beam_row_scalar(xn.data(), width, t, D2, invD, b, id, read_mask, e);
 }
 

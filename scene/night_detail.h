@@ -5,6 +5,7 @@
 #pragma once
 #include <functional>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "photosite/scene/night.h"
@@ -181,6 +182,10 @@ class LowBeamRows {
   LowBeamRows(const CameraGeometry& g, int width, int height, const ScenePreset& p, const ImageU16* labels);
   ~LowBeamRows();
   void row(ImageF& E, int y) const;
+  // The columns [first, second) of row y that the AVX2 rows evaluate without their lit test (every
+  // lamp surely lit there, no arctangent reduced: beam_sure_span in scene/lights.cpp); {0, 0}
+  // where none (at and above the horizon, without a table). For the tests.
+  std::pair<int, int> sure_columns(int y) const;
 
  private:
   struct Impl;

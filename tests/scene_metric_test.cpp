@@ -2872,6 +2872,69 @@ TEST(EgoLowBeam, TableProjectedOntoTheMetricGround) {
   EXPECT_GT(read, En.size() / 4);  // the ground is a large part of a road scene
 }
 
+// The ego low beam's rows (LowBeamRows: AVX2 blocks of eight, the lit test and the arctangents'
+// reduction test skipped inside LowBeamRows::sure_columns, the scalar tail; the scalar loop) at
+// every instruction-set cap (beam_max_isa 2, 1, 0) are low_beam_lux_f32 at each pixel's ground
+// point bit for bit, 0 off the ground classes (labels with runs of ground, other and unknown ids,
+// so that blocks are whole, mixed and empty) and at and above the horizon. The cameras put every
+// bound of the sure columns inside some image: odd widths (blocks and tails, widths 1 to 17),
+// rows right below the horizon (the far road beyond the cut-off: no sure columns), a wide field of
+// view (|h| beyond tan⁻¹ of the reduction's tan(π/8) and beyond the table's ±25°), a high, steep
+// camera (the near rows' v below the table's −10°). The sure columns must occur, whole rows and
+// rows where they end inside the row, so that the skipped path is the one checked.
+TEST(EgoLowBeam, RowsAreThePointFunctionAtEveryIsa) {
+  const ScenePreset p = urban();
+  struct Cam {
+    int w, h;
+    double f, cx, cy, mount, pitch;
+  };
+  const Cam cams[] = {{1001, 337, 1105.0, 537.3, 151.7, 1.22, 0.038},  // Cityscapes' rig at about half size
+                      {999, 301, 260.0, 480.2, 40.5, 1.3, 0.0},        // ±62° wide, horizon at row 40.5
+                      {517, 263, 300.0, 250.9, 20.2, 3.5, 0.35},       // 3.5 m up, pitched 20° down
+                      {17, 60, 30.0, 8.4, 5.5, 1.22, 0.0},            {15, 60, 40.0, 7.1, 3.5, 1.22, 0.0},
+                      {9, 60, 20.0, 4.1, 10.3, 1.22, 0.0},            {8, 60, 25.0, 3.6, 2.0, 1.2, 0.0},
+                      {7, 60, 25.0, 3.3, 2.0, 1.2, 0.0},              {1, 60, 25.0, 0.0, 2.0, 1.2, 0.0}};
+  const uint16_t ids[] = {7, 8, 9, 26, 11, 23, 300, 6, 10};  // road, sidewalk, parking, car, building, sky, unknown, ground, rail
+  int whole_rows = 0, partial_rows = 0;
+  long sure_px = 0, other_px = 0;
+  for (const Cam& cam : cams) {
+    CameraGeometry g;
+    g.f_px = cam.f, g.cx_px = cam.cx, g.cy_px = cam.cy, g.mount_height_m = cam.mount, g.pitch_rad = cam.pitch;
+    ImageU16 labels(cam.w, cam.h);
+    for (int y = 0; y < cam.h; ++y)  // runs of 3 to 13 pixels of one id
+      for (int x = 0, k = y; x < cam.w; ++k) {
+        const int run = 3 + (k * 7 + y) % 11;
+        for (int i = 0; i < run && x < cam.w; ++i, ++x) labels.at(x, y) = ids[(k * 5 + y / 3) % 9];
+      }
+    const LowBeamRows rows(g, cam.w, cam.h, p, nullptr);
+    for (int y = 0; y < cam.h; ++y) {
+      const auto [lo, hi] = rows.sure_columns(y);
+      if (hi > lo) ++(lo == 0 && hi == cam.w ? whole_rows : partial_rows);
+      sure_px += hi - lo, other_px += cam.w - (hi - lo);
+    }
+    for (int isa : {2, 1, 0}) {
+      beam_max_isa(isa);
+      for (const ImageU16* lab : std::initializer_list<const ImageU16*>{nullptr, &labels}) {
+        const ImageF E = low_beam_illuminance(g, cam.w, cam.h, p, lab);
+        for (int y = 0; y < cam.h; ++y)
+          for (int x = 0; x < cam.w; ++x) {
+            double X, D, z;
+            const uint16_t id = labels.at(x, y);
+            const bool read = !lab || (id < kLabelCount && ground_classes()[id]);
+            const float expect = read && g.ground_point(x, y, &X, &D, &z) ? low_beam_lux_f32(X, D, p) : 0.f;
+            ASSERT_EQ(std::bit_cast<uint32_t>(E.at(x, y)), std::bit_cast<uint32_t>(expect))
+                << "cap " << isa << (lab ? ", labels" : "") << ", " << cam.w << "x" << cam.h << " at " << x << "," << y;
+          }
+      }
+    }
+    beam_max_isa(2);
+  }
+  EXPECT_GT(whole_rows, 0);
+  EXPECT_GT(partial_rows, 0);
+  EXPECT_GT(sure_px, 0);
+  EXPECT_GT(other_px, 0);
+}
+
 // Vehicles' low beams on the road (vehicle_lamps.beams_on_road; VehicleBeamRows in
 // scene/lights.cpp), checked on an unlit road (no street lamps: street_road_luminance 0) of the
 // scene rendered from a known camera. The reference, in double: each of a vehicle's two lamps at
