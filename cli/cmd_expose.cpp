@@ -6,6 +6,7 @@
 
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/output_set.h"
 #include "photosite/sensor/isp.h"
 #include "backend.h"
 #include "registry.h"
@@ -104,12 +105,13 @@ void run(const ExposeCmd& c) {
     ExrWriteOptions wo;
     wo.half = c.half;
     wo.compression = c.compression;
+    // The frame's EXR and preview published together (include/photosite/output_set.h).
+    OutputSet publish;
     write_exr(outputs[f], groups, attrs, wo);
+    if (!previews.empty()) write_png8(previews[f], preview_image(out, r, ex, preview_options));
+    publish.commit();
     std::printf("%s\n", outputs[f].c_str());
-    if (!previews.empty()) {
-      write_png8(previews[f], preview_image(out, r, ex, preview_options));
-      std::printf("%s\n", previews[f].c_str());
-    }
+    if (!previews.empty()) std::printf("%s\n", previews[f].c_str());
   }
 }
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -16,6 +17,7 @@
 #include "photosite/sensor/isp.h"
 #include "photosite/sensor/spectrum.h"
 #include "photosite/night_chain.h"
+#include "photosite/output_set.h"
 #include "photosite/outputs.h"
 #include "photosite/visualize.h"
 #include "backend.h"
@@ -99,6 +101,9 @@ void run_night(NightCmd c) {
   const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
   sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);
   lap("read inputs");
+  // Each frame's files (the first frame's with the --maps pictures) are published together, when
+  // all are written: a run that fails on the way leaves none of them (include/photosite/output_set.h).
+  std::optional<OutputSet> publish(std::in_place);
   std::function<void(const ImageF&, const scene::NightScene&)> maps;
   if (!c.maps.empty())
     maps = [&](const ImageF& day, const scene::NightScene& ns) {
@@ -121,12 +126,13 @@ void run_night(NightCmd c) {
     ExrWriteOptions wo;
     wo.half = c.half;
     wo.compression = c.compression;
+    if (!publish) publish.emplace();
     write_exr(outputs[f], groups, attrs, wo);
+    if (!previews.empty()) write_png8(previews[f], preview_image(out, r, chain.exposure, preview_options));
+    publish->commit();
+    publish.reset();
     std::printf("%s\n", outputs[f].c_str());
-    if (!previews.empty()) {
-      write_png8(previews[f], preview_image(out, r, chain.exposure, preview_options));
-      std::printf("%s\n", previews[f].c_str());
-    }
+    if (!previews.empty()) std::printf("%s\n", previews[f].c_str());
     lap("write outputs");
   }
   std::printf("vanishing point (%.1f, %.1f) px, method %s, confidence %.2f%s%s\n", ns.vp.x, ns.vp.y,
@@ -140,6 +146,8 @@ void run_night(NightCmd c) {
               c.label_format == "auto" ? " (detected)" : "");
   if (!labels.note.empty()) std::printf("note: %s\n", labels.note.c_str());
   if (!ns.geometry.note.empty()) std::printf("note: %s\n", ns.geometry.note.c_str());
+  if (!ns.light_stats.street_lamp_note.empty())
+    std::printf("note: no street lamps: %s\n", ns.light_stats.street_lamp_note.c_str());
   if (c.timings) {
     std::printf("\n%-32s %10s   (%dx%d, %s)\n", "stage", "ms", frame_w, frame_h,
                 r.camera.name.c_str());

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "registry.h"
@@ -62,6 +63,7 @@ int main(int argc, char** argv) {
   std::sort(reg.begin(), reg.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (auto& [key, setup] : reg) setup(app);
   try {
+    check_openmp_threads();  // before any parallel region (include/photosite/environment.h)
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);

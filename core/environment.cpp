@@ -3,10 +3,14 @@
 #include "photosite/environment.h"
 
 #include <dlfcn.h>
+#include <fmt/format.h>
+#include <omp.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <system_error>
+
+#include "photosite/error.h"
 
 namespace photosite::env {
 
@@ -78,6 +82,14 @@ std::string data_dir() {
   std::error_code ec;
   if (auto d = data_dir_near(fs::read_symlink("/proc/self/exe", ec))) return *d;
   return PHOTOSITE_SOURCE_DIR;
+}
+
+void check_openmp_threads() {
+  const int n = omp_get_max_threads();
+  if (n > kMaxOpenmpThreads)
+    fail(fmt::format("OMP_NUM_THREADS: {} threads is more than photosite runs a parallel region on (at most {}; "
+                     "more only share the same cores; 100000 overflowed libgomp's stack)",
+                     n, kMaxOpenmpThreads));
 }
 
 }  // namespace photosite

@@ -26,6 +26,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <cctype>
+#include <mutex>
 #include <optional>
 #include <regex>
 #include <filesystem>
@@ -41,6 +42,7 @@
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/night_chain.h"
+#include "photosite/output_set.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -847,6 +849,22 @@ uint16_t float_to_code16(float v) {
   return static_cast<uint16_t>(std::clamp(s, 0.f, 65535.f));
 }
 
+namespace {
+// n bytes into the temporary tmp of path. A failed write, flush or close names the reason the
+// C library gave for that call (a full disk, a file-size limit): the writers took the errno of
+// fclose alone, which after a short fwrite had nothing left to flush and succeeded, so a full
+// disk was reported as "Input/output error" (thirty-fourth session, a 1 MB tmpfs).
+void write_bytes(const std::string& path, const std::string& tmp, const void* data, size_t n) {
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
+  errno = 0;
+  int err = 0;
+  if (std::fwrite(data, 1, n, f) != n || std::fflush(f) != 0) err = errno != 0 ? errno : EIO;
+  if (std::fclose(f) != 0 && err == 0) err = errno != 0 ? errno : EIO;
+  if (err != 0) fail_at(path, std::string("write failed (") + std::strerror(err) + ")");
+}
+}  // namespace
+
 void write_png(const std::string& path, const ImageF& image, int bits) {
   if (bits != 8 && bits != 16) internal_error("write_png: bits must be 8 or 16");
   const int w = image.width(), h = image.height(), ch = image.channels();
@@ -885,13 +903,7 @@ void write_png(const std::string& path, const ImageF& image, int bits) {
   size_t len = 0;
   std::unique_ptr<void, void (*)(void*)> png(spng_get_png_buffer(ctx.get(), &len, &e), std::free);
   if (!png || e) fail_at(path, fmt::format("cannot write ({})", spng_strerror(e)));
-  atomic_write(path, [&](const std::string& tmp) {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
-    const bool written = std::fwrite(png.get(), 1, len, f) == len && std::fflush(f) == 0;
-    const int close_errno = std::fclose(f) == 0 ? 0 : errno;
-    if (!written || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
-  });
+  atomic_write(path, [&](const std::string& tmp) { write_bytes(path, tmp, png.get(), len); });
 }
 
 void write_png8(const std::string& path, const ImageU8& image) {
@@ -900,13 +912,7 @@ void write_png8(const std::string& path, const ImageU8& image) {
   // One filter for every row and one whole-buffer deflate (core/png_codec.h; the setting and
   // its measurement against the others in docs/cli.md "PNG input and output").
   const std::string bytes = png::encode(image.data(), image.width(), image.height(), ch, png::default_encode_options());
-  atomic_write(path, [&](const std::string& tmp) {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
-    const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fflush(f) == 0;
-    const int close_errno = std::fclose(f) == 0 ? 0 : errno;
-    if (!written || close_errno) fail_at(path, std::string("write failed (") + std::strerror(close_errno ? close_errno : EIO) + ")");
-  });
+  atomic_write(path, [&](const std::string& tmp) { write_bytes(path, tmp, bytes.data(), bytes.size()); });
 }
 
 // An input file must be a regular file (or a link to one). A pipe or device is refused: the file
@@ -971,6 +977,8 @@ struct TemporarySlot {
 // whatever its name has become since (replacing the name after the creation needs write access
 // to the folder too, and reaches only the name); the link is made from the descriptor the same
 // way. Without /proc the writer gets the name (the exclusive creation still stands).
+std::atomic<OutputSet*> g_output_set{nullptr};
+
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
                         bool replace) {
   static std::atomic<unsigned> counter{0};
@@ -997,10 +1005,11 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
     const std::string& tmp;
     int fd;
     std::optional<TemporarySlot>& slot;
+    bool keep = false;  // held by the live OutputSet
     ~Remove() {
       slot.reset();  // released before the file is removed
       std::error_code ec;
-      fs::remove(tmp, ec);
+      if (!keep) fs::remove(tmp, ec);
       ::close(fd);
     }
   } remove{tmp, fd, slot};
@@ -1015,6 +1024,12 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
     struct stat a{}, b{};
     if (::fstat(fd, &a) != 0 || ::lstat(tmp.c_str(), &b) != 0 || a.st_dev != b.st_dev || a.st_ino != b.st_ino)
       fail_at(path, "the temporary " + tmp + " was replaced by another process while it was written; nothing published");
+    if (OutputSet* set = g_output_set.load()) {
+      auto held = std::make_unique<OutputSet::Pending>(tmp, path, a.st_dev, a.st_ino);
+      remove.keep = true;  // the set's slot (registered by Pending) now covers it
+      set->hold(std::move(held));
+      return true;
+    }
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
@@ -1071,6 +1086,53 @@ void remove_stale_temporaries(const std::string& folder) {
 void remove_partial_outputs() noexcept {
   for (auto& t : g_temporaries)
     if (const char* name = t.load()) ::unlink(name);
+}
+
+// A finished temporary waiting for its set's commit, registered for remove_partial_outputs as
+// while it was written (its name lives here, on the heap, as long as the slot).
+struct OutputSet::Pending {
+  std::string tmp, path;
+  dev_t dev;
+  ino_t ino;
+  std::optional<TemporarySlot> slot;
+  Pending(std::string t, std::string p, dev_t d, ino_t i) : tmp(std::move(t)), path(std::move(p)), dev(d), ino(i) {
+    slot.emplace(tmp.c_str());
+  }
+  ~Pending() {
+    slot.reset();
+    std::error_code ec;
+    if (!tmp.empty()) fs::remove(tmp, ec);  // not published: removed
+  }
+};
+
+OutputSet::OutputSet() {
+  OutputSet* none = nullptr;
+  if (!g_output_set.compare_exchange_strong(none, this)) internal_error("OutputSet: one set at a time");
+}
+
+OutputSet::~OutputSet() {
+  g_output_set.store(nullptr);
+  pending_.clear();  // without commit: every temporary removed
+}
+
+void OutputSet::hold(std::unique_ptr<Pending> p) {
+  static std::mutex m;  // files written by several threads at once
+  const std::lock_guard<std::mutex> lock(m);
+  pending_.push_back(std::move(p));
+}
+
+void OutputSet::commit() {
+  g_output_set.store(nullptr);  // later writes publish at once
+  for (auto& p : pending_) {
+    struct stat b{};
+    if (::lstat(p->tmp.c_str(), &b) != 0 || b.st_dev != p->dev || b.st_ino != p->ino)
+      fail_at(p->path, "the temporary " + p->tmp + " was replaced by another process before it was published; not published");
+    std::error_code ec;
+    fs::rename(p->tmp, p->path, ec);
+    if (ec) fail_at(p->path, "cannot move the finished file into place: " + ec.message());
+    p->tmp.clear();  // published
+  }
+  pending_.clear();
 }
 
 void atomic_write(const std::string& path, const std::function<void(const std::string&)>& write) {

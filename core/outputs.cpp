@@ -188,6 +188,8 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/vehicle_beams_going_away"] = ns.light_stats.vehicle_beams_going_away;
   attrs["photosite/night/street_lamps"] = ns.light_stats.street_lamps;
   attrs["photosite/night/street_lamp_source"] = ns.light_stats.street_lamp_source;
+  if (!ns.light_stats.street_lamp_note.empty())
+    attrs["photosite/night/street_lamp_note"] = ns.light_stats.street_lamp_note;
   attrs["photosite/night/street_lamp_shadow_pixels"] = static_cast<int>(ns.light_stats.street_shadow_pixels);
   attrs["photosite/night/street_peak_intensity_cd"] = ns.light_stats.street_peak_intensity_cd;
   attrs["photosite/night/road_luminance_avg_cd_m2"] = ns.light_stats.road_luminance_avg_cd_m2;

@@ -30,6 +30,7 @@
 #include <Imath/half.h>
 #include <fmt/format.h>
 
+#include "photosite/environment.h"
 #include "photosite/backend.h"
 #include "photosite/characterize.h"
 #include "photosite/error.h"
@@ -671,6 +672,9 @@ void after_fork_in_child() { omp_set_num_threads(1); }
 
 PYBIND11_MODULE(_photosite, m) {
   m.doc() = "photosite's C++ library (the extension under the photosite package)";
+  // OMP_NUM_THREADS beyond kMaxOpenmpThreads crashed the interpreter at the first parallel loop
+  // (include/photosite/environment.h): refused here, an ImportError with the message.
+  check_openmp_threads();
   m.def("_before_fork", &before_fork);
   m.def("_after_fork_in_parent", &after_fork_in_parent);
   m.def("_after_fork_in_child", &after_fork_in_child);

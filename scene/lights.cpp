@@ -4326,6 +4326,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     }
     out.stats.street_lamps = static_cast<int>(sl.lamps.size());
     out.stats.street_lamp_source = sl.source;
+    out.stats.street_lamp_note = sl.note;
     out.stats.street_peak_intensity_cd = sl.peak_intensity_cd;
     out.stats.road_luminance_avg_cd_m2 = sl.avg_luminance_cd_m2;
     out.stats.road_uniformity_u0 = sl.uniformity_u0;

@@ -45,7 +45,11 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       {"description", Kind::Text, PHOTOSITE_AT(P, description), "", -inf, inf, Need::Optional, "one line",
        "free text"},
       table("reflectance", "diffuse reflectance ρ of the label classes", "[T1]"),
-      num("reflectance.sign", PHOTOSITE_AT(P, rho_sign), "—", 0, 1, "traffic signs and lights", "[T1] aluminium"),
+      // Above 0: a sign's retroreflection takes its day texture's pattern as the texture over ρ
+      // (scene/lights.cpp retro_put), and at ρ = 0 the texture is 0 too: 0/0 made the sign pixels
+      // NaN (a run refused at the sensor with no key named; thirty-fourth session). 0.001 as the road's.
+      num("reflectance.sign", PHOTOSITE_AT(P, rho_sign), "—", 1e-3, 1,
+          "traffic signs and lights (above 0: their retroreflection is the day texture over ρ)", "[T1] aluminium"),
       num("reflectance.construction", PHOTOSITE_AT(P, rho_construction), "—", 0, 1, "buildings, walls, fences",
           "[T1] concrete; NP §4"),
       num("reflectance.human", PHOTOSITE_AT(P, rho_human), "—", 0, 1, "persons, riders", "[T1] skin"),

@@ -672,10 +672,13 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   std::vector<double> lefts, rights, lefts_seen;
   auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
   const int xc = static_cast<int>(std::lround(g.cx_px));
+  int rows_ahead = 0, rows_on_road = 0;  // for the note when no edge is found
   for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H && xc >= 0 && xc < W; ++y) {
     double D;
     if (!g.ground_point(g.cx_px, y, nullptr, &D, nullptr) || D < 20 || D > 60) continue;
+    ++rows_ahead;
     if (ids.at(xc, y) != static_cast<int>(Label::Road)) continue;
+    ++rows_on_road;
     int x0 = xc, x1 = xc;
     while (x0 > 0 && carriageway(ids.at(x0 - 1, y))) --x0;
     while (x1 < W - 1 && carriageway(ids.at(x1 + 1, y))) ++x1;
@@ -688,7 +691,17 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
     if (x0 > 0 && !is_vehicle(ids.at(x0, y))) lefts_seen.push_back(Xa);
     if (x1 < W - 1) rights.push_back(Xb);
   }
-  if (lefts.empty() || rights.empty()) return s;
+  // No road edge on a side: no layout to place luminaires along, and no lamps (the frame keeps
+  // the ambient light, the vehicles' and the windows'); the header says why (street_lamp_note).
+  if (lefts.empty() || rights.empty()) {
+    s.note = rows_ahead == 0     ? "no ground row 20-60 m ahead of the camera in the frame"
+             : rows_on_road == 0 ? "no road at the principal column 20-60 m ahead"
+             : lefts.empty() && rights.empty()
+                 ? "the road reaches both image borders 20-60 m ahead: no kerb seen"
+                 : (lefts.empty() ? "the road reaches the image's left border 20-60 m ahead: no left kerb seen"
+                                  : "the road reaches the image's right border 20-60 m ahead: no right kerb seen");
+    return s;
+  }
   auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     return v[v.size() / 2];
@@ -710,7 +723,10 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   }
   // A scene without street lighting (rural) keeps the road's extent, measured from the labels
   // alone: the vehicle lamps' in-traffic test reads it (the kerb strip), lit or not.
-  if (p.street_road_luminance_cd_m2 <= 0) return s;
+  if (p.street_road_luminance_cd_m2 <= 0) {
+    s.note = "street.road_luminance_cd_m2 is 0: an unlit road";
+    return s;
+  }
   // Poles: connected pole regions standing on the ground (their lowest pixel below the horizon),
   // at least min_pole_height_m tall, not capped by a sign or signal (those carry none), taken in
   // the order of OpenCV's 8-connected labels of the pole mask (pole_components; made ahead from

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/isa_detail.h"
+#include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 
@@ -60,6 +61,9 @@ constexpr int kMinSide = 2;
 void add_shared_checks(CLI::App* sub) {
   for (const char* name : {"--repeats", "--frames", "--inner", "--cycles", "--threads"})
     if (CLI::Option* opt = sub->get_option_no_throw(name)) opt->check(at_least(1));
+  // --threads at most what a parallel region runs on (libgomp's stack: include/photosite/environment.h).
+  if (CLI::Option* opt = sub->get_option_no_throw("--threads"))
+    opt->check(CLI::Range(1, kMaxOpenmpThreads, fmt::format("at most {}", kMaxOpenmpThreads)));
   for (const char* name : {"--width", "--height"})
     if (CLI::Option* opt = sub->get_option_no_throw(name)) opt->check(at_least(kMinSide));
   if (CLI::Option* opt = sub->get_option_no_throw("--out-dir"))

@@ -17,7 +17,8 @@
 //                                 capped: the target_clones functions (see isa_detail.h). Another
 //                                 value: a message naming the variable, exit status 2
 //
-// The Vulkan loader's own variables (VK_DRIVER_FILES, VK_ICD_FILENAMES) are read by the loader.
+// The Vulkan loader's own variables (VK_DRIVER_FILES, VK_ICD_FILENAMES) are read by the loader;
+// OpenMP's (OMP_NUM_THREADS, ...) by libgomp, whose team size check_openmp_threads() bounds.
 #pragma once
 #include <optional>
 #include <string>
@@ -58,5 +59,17 @@ namespace photosite {
 //   4. the source tree this library was built from.
 // The first three count only where a presets/ folder exists there.
 std::string data_dir();
+
+// The most OpenMP threads photosite runs a parallel region on. libgomp puts each new thread's
+// start record on the stack of the thread that opens the region (gomp_team_start's alloca, about
+// 100 bytes a thread), so OMP_NUM_THREADS=100000 overflowed the 8 MiB main stack: SIGSEGV in
+// GOMP_parallel at the first parallel loop (20000 ran; thirty-fourth session). 4096 is 0.4 MiB
+// of that stack and above the hardware threads of any one machine sold (a two-socket AMD EPYC
+// 9965 has 768), where more threads only share the same cores.
+inline constexpr int kMaxOpenmpThreads = 4096;
+// Bad input (exit status 2) naming OMP_NUM_THREADS when OpenMP would open a team of more than
+// kMaxOpenmpThreads threads (omp_get_max_threads(): the variable's first value). The command
+// checks it before any work, the Python module when it is imported.
+void check_openmp_threads();
 
 }  // namespace photosite

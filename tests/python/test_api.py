@@ -775,3 +775,24 @@ def test_auto_wb_preview_matches_cli(kitti, cli, store, tmp_path):
     assert not np.array_equal(pv, r.preview(isp="camera"))
     with pytest.raises(ValueError, match="wb: 'grey' is not fixed or auto"):
         r.sensor.preview(wb="grey")
+
+
+def test_huge_openmp_team_is_an_import_error_not_a_crash():
+    """OMP_NUM_THREADS=100000 crashed the interpreter (SIGSEGV in libgomp) at the first parallel
+    loop; the module now refuses it when imported, naming the variable (docs/cli.md "Edge cases")."""
+    code = "import photosite as ps; ps.chart(64, 48)"
+    env = dict(os.environ, OMP_NUM_THREADS="100000")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    assert "ImportError: OMP_NUM_THREADS: 100000 threads is more than photosite runs a parallel region on" in r.stderr
+
+
+def test_no_street_lamps_says_why_in_the_metadata(store):
+    """A frame with no road (all sky) gets no street lamps, and the metadata says why, as the
+    command's header does (photosite/night/street_lamp_note)."""
+    day = np.full((128, 256, 3), 90, np.uint8)
+    r = ps.night(day, np.full((128, 256), 23, np.uint8), camera=ps.Camera("onsemi-ar0331", device_store=store),
+                 backend="cpu")
+    assert np.isfinite(r.radiance).all()
+    assert r.sensor.metadata["night/street_lamp_source"] == "none"
+    assert r.sensor.metadata["night/street_lamp_note"] == "no road at the principal column 20-60 m ahead"

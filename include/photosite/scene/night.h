@@ -424,6 +424,7 @@ struct LightStats {
   // whose lamp's light an occluder takes off (docs/night.md §7).
   long long street_shadow_pixels = 0;
   std::string street_lamp_source = "none";
+  std::string street_lamp_note;  // why none were placed (StreetLighting::note); empty when there are lamps
   double street_peak_intensity_cd = 0, road_luminance_avg_cd_m2 = 0, road_uniformity_u0 = 0;
 };
 struct LightMap {

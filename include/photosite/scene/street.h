@@ -21,6 +21,9 @@ struct StreetLighting {
   double peak_intensity_cd = 0;          // I(γ ≤ cut-off)
   double grid_D0_m = 0;                  // start of the calculation field (one spacing long)
   double avg_luminance_cd_m2 = 0, uniformity_u0 = 0;
+  // With source "none": why no luminaire was placed (the header's street_lamp_note). Last, so the
+  // aggregate initialisations of the members above keep their order.
+  std::string note;
 };
 // The cut-off distribution relative to its peak: 1 up to cutoff_deg from the nadir, then
 // exp(-(γ - cutoff)/falloff).

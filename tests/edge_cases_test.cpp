@@ -1,0 +1,264 @@
+// The thirty-fourth session's sweep of the faces with a demanding user's inputs (docs/cli.md
+// "Edge cases (thirty-fourth session)"): each test reproduces one failure the sweep found and
+// checks its mend.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+
+#include "photosite/environment.h"
+#include "photosite/error.h"
+#include "photosite/io.h"
+#include "photosite/output_set.h"
+#include "photosite/scene/scene_preset.h"
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+using namespace photosite;
+using photosite::test::error_of;
+using photosite::test::run_cli;
+using photosite::test::TempDir;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+std::vector<std::string> files_in(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// The bundled KITTI sample's inputs, quoted for run_cli.
+std::string bundled_inputs() {
+  const std::string src = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  return "--image '" + src + "image_2/000000_10.png' --labels '" + src + "semantic/000000_10.png'";
+}
+
+// Sets an environment variable for the life of the object (the commands run_cli starts inherit
+// it; this process's OpenMP read its own at start-up).
+struct ScopedEnv {
+  std::string name;
+  std::optional<std::string> old;
+  ScopedEnv(std::string n, const std::string& value) : name(std::move(n)) {
+    if (const char* v = std::getenv(name.c_str())) old = v;
+    setenv(name.c_str(), value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (old) setenv(name.c_str(), old->c_str(), 1);
+    else unsetenv(name.c_str());
+  }
+};
+
+// A file-size limit (ulimit -f) for the life of the object, inherited by the commands run_cli
+// starts (photosite ignores SIGXFSZ, so a write past it fails with EFBIG).
+struct ScopedFileSizeLimit {
+  rlimit old{};
+  explicit ScopedFileSizeLimit(rlim_t bytes) {
+    getrlimit(RLIMIT_FSIZE, &old);
+    const rlimit lim{bytes, old.rlim_max};
+    setrlimit(RLIMIT_FSIZE, &lim);
+  }
+  ~ScopedFileSizeLimit() { setrlimit(RLIMIT_FSIZE, &old); }
+};
+
+}  // namespace
+
+// reflectance.sign = 0 was in range, and the sign pixels' retroreflection (the day texture over
+// ρ, scene/lights.cpp retro_put) became 0/0: night stopped at the sensor's radiance check with
+// "radiance at pixel (474, 141) is (-nan, -nan, -nan)", naming neither the preset nor the key.
+// Now the preset is refused naming the key and the range; at the new minimum the frame is finite.
+TEST(EdgeCases, SignReflectanceZeroIsRefusedNamingTheKey) {
+  const std::string urban = slurp(fs::path(PHOTOSITE_PRESET_DIR) / "scenes/night-urban.toml");
+  const std::string from = "\nsign = 0.7 ";
+  ASSERT_NE(urban.find(from), std::string::npos);
+  auto with_sign = [&](const std::string& v) {
+    std::string s = urban;
+    s.replace(s.find(from), from.size(), "\nsign = " + v + " ");
+    return s;
+  };
+  const std::string e = error_of([&] { scene::parse_scene_preset(with_sign("0"), "s.toml"); });
+  EXPECT_NE(e.find("reflectance.sign: value 0 is out of range, outside [0.001, 1]"), std::string::npos) << e;
+
+  TempDir t;
+  std::ofstream(t.file("sign.toml")) << with_sign("0.001");
+  const auto r = run_cli("night --backend cpu " + bundled_inputs() + " --scene-preset '" + t.file("sign.toml") +
+                         "' --layers radiance --compression none --out '" + t.file("o.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents c = read_exr(t.file("o.exr"));
+  for (const char* ch : {"night_radiance.R", "night_radiance.G", "night_radiance.B"}) {
+    const ImageF& p = c.channels.at(ch);
+    size_t bad = 0;
+    for (size_t i = 0; i < p.size(); ++i) bad += !std::isfinite(p[i]);
+    EXPECT_EQ(bad, 0u) << ch;
+  }
+}
+
+// A PNG write that ran out of room said "write failed (Input/output error)": the writers took
+// fclose's errno, and after a short fwrite fclose had nothing left to flush and succeeded. The
+// reason is now the failing call's: EFBIG under a file-size limit (ENOSPC on a full disk).
+TEST(EdgeCases, PngWriteThatRunsOutOfRoomNamesTheReason) {
+  TempDir t;
+  ImageU8 img(256, 256, 3);
+  for (size_t i = 0; i < img.size(); ++i) img[i] = static_cast<uint8_t>((i * 2654435761u) >> 24);  // little to compress
+  int pipe_fd[2];
+  ASSERT_EQ(pipe(pipe_fd), 0);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {  // the limit in a child of its own, so this process's writes keep theirs
+    close(pipe_fd[0]);
+    signal(SIGXFSZ, SIG_IGN);
+    const rlimit lim{4096, RLIM_INFINITY};
+    setrlimit(RLIMIT_FSIZE, &lim);
+    const std::string m = error_of([&] { write_png8(t.file("p.png"), img); });
+    if (write(pipe_fd[1], m.data(), m.size()) < 0) _exit(3);
+    _exit(0);
+  }
+  close(pipe_fd[1]);
+  std::string m;
+  char buf[512];
+  for (ssize_t n; (n = read(pipe_fd[0], buf, sizeof buf)) > 0;) m.append(buf, static_cast<size_t>(n));
+  close(pipe_fd[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  EXPECT_NE(m.find("p.png: write failed (" + std::string(std::strerror(EFBIG)) + ")"), std::string::npos) << m;
+  EXPECT_EQ(m.find(std::strerror(EIO)), std::string::npos) << m;
+  EXPECT_TRUE(files_in(t.path()).empty());  // no temporary left
+}
+
+// OutputSet: files written while it lives are published by commit(), all together; without
+// commit none is, and no temporary stays.
+TEST(EdgeCases, OutputSetPublishesAllOrNone) {
+  TempDir t;
+  const ImageU8 img(8, 4, 3, 7);
+  {
+    OutputSet set;
+    write_png8(t.file("a.png"), img);
+    write_png(t.file("b.png"), ImageF(8, 4, 1, 0.5f));
+    EXPECT_FALSE(fs::exists(t.file("a.png")));  // held under its temporary name
+    EXPECT_EQ(files_in(t.path()).size(), 2u);
+  }
+  EXPECT_TRUE(files_in(t.path()).empty());
+  {
+    OutputSet set;
+    write_png8(t.file("a.png"), img);
+    write_png(t.file("b.png"), ImageF(8, 4, 1, 0.5f));
+    set.commit();
+  }
+  EXPECT_EQ(files_in(t.path()), (std::vector<std::string>{"a.png", "b.png"}));
+  write_png8(t.file("c.png"), img);  // no set: published at once
+  EXPECT_TRUE(fs::exists(t.file("c.png")));
+}
+
+// night --maps --preview with room for the maps but not the EXR (a file-size limit below the
+// EXR's 22 MB and above every map's 0.9 MB) exited 2 and left the nine maps published; a full
+// disk at the preview left the EXR. A failed run now leaves none of its files.
+TEST(EdgeCases, NightThatFailsToWriteLeavesNoneOfItsFiles) {
+  TempDir t;
+  // The device map first, without the limit (the store publishes at once, as it should).
+  const auto warm = run_cli("night --backend cpu " + bundled_inputs() + " --layers labels --out '" + t.file("warm.exr") + "'");
+  ASSERT_EQ(warm.exit_code, 0) << warm.output;
+  fs::create_directory(t.path() / "out");
+  const std::string out = (t.path() / "out").string();
+  photosite::test::CliResult r;
+  {
+    const ScopedFileSizeLimit limit(2 << 20);
+    r = run_cli("night --backend cpu " + bundled_inputs() + " --compression none --maps '" + out + "' --preview '" + out +
+                "/o.png' --out '" + out + "/o.exr'");
+  }
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("o.exr: write failed"), std::string::npos) << r.output;
+  EXPECT_TRUE(files_in(out).empty()) << r.output << "\nleft: " << files_in(out).size() << " files";
+  // And with room, every file is there.
+  const auto ok = run_cli("night --backend cpu " + bundled_inputs() + " --maps '" + out + "' --preview '" + out +
+                          "/o.png' --out '" + out + "/o.exr'");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  const auto names = files_in(out);
+  EXPECT_TRUE(std::count(names.begin(), names.end(), "o.exr") == 1 && std::count(names.begin(), names.end(), "o.png") == 1 &&
+              std::count(names.begin(), names.end(), "depth.png") == 1)
+      << names.size();
+}
+
+// OMP_NUM_THREADS=100000 crashed every command at its first parallel loop (SIGSEGV in libgomp's
+// GOMP_parallel: the threads' start records overflow the stack); bench --threads the same. Now
+// bad input naming the variable (the option), before any work.
+TEST(EdgeCases, HugeOpenmpTeamIsRefusedNotACrash) {
+  TempDir t;
+  {
+    const ScopedEnv omp("OMP_NUM_THREADS", "100000");
+    const auto r = run_cli("night --backend cpu " + bundled_inputs() + " --out '" + t.file("n.exr") + "'");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("OMP_NUM_THREADS: 100000 threads is more than photosite runs a parallel region on (at most 4096"),
+              std::string::npos)
+        << r.output;
+  }
+  {
+    const ScopedEnv omp("OMP_NUM_THREADS", std::to_string(kMaxOpenmpThreads));
+    const auto r = run_cli("chart --width 64 --height 48 --out '" + t.file("c.exr") + "'");
+    EXPECT_FALSE(fs::exists(t.file("n.exr")));
+    EXPECT_EQ(r.exit_code, 0) << r.output;  // the limit itself runs
+  }
+  const auto b = run_cli("bench night --threads 100000 --repeats 1 --out-dir '" + t.path().string() + "'");
+  EXPECT_EQ(b.exit_code, 2) << b.output;
+  EXPECT_NE(b.output.find("--threads"), std::string::npos) << b.output;
+}
+
+// A stage with nothing to work on says why in the header, as the vanishing point's fallback does:
+// no road (all sky), a road from border to border (all road), an unlit scene (night-rural).
+TEST(EdgeCases, NoStreetLampsSaysWhy) {
+  TempDir t;
+  const int w = 256, h = 128;
+  ImageU8 day(w, h, 3, 90);
+  write_png8(t.file("day.png"), day);
+  auto note_for = [&](uint8_t label, const std::string& extra) {
+    write_png8(t.file("lab.png"), ImageU8(w, h, 1, label));
+    const auto r = run_cli("night --backend cpu --image '" + t.file("day.png") + "' --labels '" + t.file("lab.png") +
+                           "' --layers labels -y --out '" + t.file("o.exr") + "' " + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    const auto a = read_exr_attributes(t.file("o.exr"));
+    EXPECT_EQ(a.at("photosite/night/street_lamp_source"), "none");
+    const auto n = a.find("photosite/night/street_lamp_note");
+    EXPECT_NE(r.output.find("note: no street lamps: "), std::string::npos) << r.output;
+    return n == a.end() ? std::string("(no note)") : n->second;
+  };
+  EXPECT_EQ(note_for(23, ""), "no road at the principal column 20-60 m ahead");  // sky
+  EXPECT_EQ(note_for(7, ""), "the road reaches both image borders 20-60 m ahead: no kerb seen");  // road
+  // A road with kerbs (sidewalk either side) under the rural preset: the edges are found, and the
+  // road is unlit.
+  {
+    ImageU8 lab(w, h, 1, 8);  // sidewalk
+    for (int y = 0; y < h; ++y)
+      for (int x = w / 4; x < 3 * w / 4; ++x) lab.at(x, y) = 7;
+    write_png8(t.file("kerbs.png"), lab);
+    const auto r = run_cli("night --backend cpu --image '" + t.file("day.png") + "' --labels '" + t.file("kerbs.png") +
+                           "' --scene-preset night-rural --layers labels -y --out '" + t.file("o.exr") + "'");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read_exr_attributes(t.file("o.exr")).at("photosite/night/street_lamp_note"),
+              "street.road_luminance_cd_m2 is 0: an unlit road");
+    const auto lit = run_cli("night --backend cpu --image '" + t.file("day.png") + "' --labels '" + t.file("kerbs.png") +
+                             "' --layers labels -y --out '" + t.file("o.exr") + "'");
+    ASSERT_EQ(lit.exit_code, 0) << lit.output;
+    const auto a = read_exr_attributes(t.file("o.exr"));
+    EXPECT_NE(a.at("photosite/night/street_lamp_source"), "none");
+    EXPECT_EQ(a.count("photosite/night/street_lamp_note"), 0u);  // lamps placed: no note
+  }
+}
