@@ -9,7 +9,7 @@
 namespace photosite::cli {
 
 static Registrar reg("a-presets", [](CLI::App& app) {
-  auto* presets = app.add_subcommand("presets", "list and show camera and lens presets");
+  auto* presets = app.add_subcommand("presets", "list and show the camera, lens, scene and camera rig presets");
   presets->require_subcommand(1);
   auto* list = presets->add_subcommand("list", "one preset per line: name, kind, description");
   list->callback([] {

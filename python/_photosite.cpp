@@ -802,15 +802,6 @@ PYBIND11_MODULE(_photosite, m) {
     return names;
   }, py::arg("kind"));
   m.def("show_preset", [](const std::string& name) { return json_to_python(nlohmann::json::parse(show_preset(name))); }, py::arg("name"));
-  m.def("scene_presets", [] {
-    std::vector<std::string> names;
-    const auto dir = std::filesystem::path(preset_dir()) / "scenes";
-    if (std::filesystem::is_directory(dir))
-      for (const auto& e : std::filesystem::directory_iterator(dir))
-        if (e.path().extension() == ".toml") names.push_back(e.path().stem().string());
-    std::sort(names.begin(), names.end());
-    return names;
-  });
   m.def("read_image", [](const std::string& path) {
     require_file(path, "image file");
     ImageF img;

@@ -120,4 +120,11 @@ CameraIntrinsics scaled_intrinsics(const CameraRig& r, int width, int height) {
 
 std::string camera_rigs_doc_markdown() { return schema::markdown_table(schema::doc_rows<CameraRig>(rig_schema())); }
 
+std::string to_json(const CameraRig& r, int indent) {
+  nlohmann::json j = schema::to_json<CameraRig>(rig_schema(), r);
+  j["name"] = r.name;
+  j["file"] = r.file;
+  return j.dump(indent);
+}
+
 }  // namespace photosite::scene

@@ -387,6 +387,13 @@ std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p) {
   return a;
 }
 
+std::string to_json(const ScenePreset& p, int indent) {
+  nlohmann::json j = schema::to_json<ScenePreset>(scene_schema(), p);
+  j["name"] = p.name;
+  j["file"] = p.file;
+  return j.dump(indent);
+}
+
 std::string scene_presets_doc_markdown() {
   return schema::markdown_table(schema::doc_rows<ScenePreset>(scene_schema()));
 }

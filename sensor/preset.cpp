@@ -268,15 +268,16 @@ LensPreset load_lens_preset(const std::string& name_or_path) {
 
 std::vector<PresetEntry> list_presets() {
   std::vector<PresetEntry> out;
-  for (const char* kind : {"cameras", "lenses"}) {
+  const std::pair<const char*, const char*> kinds[] = {
+      {"cameras", "camera"}, {"lenses", "lens"}, {"scenes", "scene"}, {"rigs", "rig"}};
+  for (const auto& [kind, singular] : kinds) {
     fs::path dir = fs::path(preset_dir()) / kind;
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) continue;
     std::vector<PresetEntry> group;
     for (const auto& e : fs::directory_iterator(dir)) {
       if (e.path().extension() != ".toml") continue;
-      PresetEntry pe{e.path().stem().string(), std::string(kind) == "cameras" ? "camera" : "lens", "",
-                     e.path().string()};
+      PresetEntry pe{e.path().stem().string(), singular, "", e.path().string()};
       try {
         auto t = toml::parse_file(e.path().string());
         pe.description = t["description"].value_or(std::string());

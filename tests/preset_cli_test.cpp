@@ -8,6 +8,8 @@
 #include "photosite/checksum.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
+#include "photosite/scene/rig.h"
+#include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/preset.h"
 #include "test_util.h"
 
@@ -37,20 +39,27 @@ std::string replace_line(std::string text, const std::string& key, const std::st
 }  // namespace
 
 TEST(Presets, AllBundledPresetsLoad) {
-  int cameras = 0, lenses = 0;
+  std::map<std::string, int> count;
   for (const auto& e : list_presets()) {
+    ++count[e.kind];
     if (e.kind == "camera") {
       auto p = load_camera_preset(e.name);
       EXPECT_FALSE(p.default_lens.empty()) << e.name;
       EXPECT_NO_THROW(load_lens_preset(p.default_lens)) << e.name;
-      ++cameras;
-    } else {
+    } else if (e.kind == "lens") {
       load_lens_preset(e.name);
-      ++lenses;
+    } else if (e.kind == "scene") {
+      scene::load_scene_preset(e.name);
+    } else {
+      EXPECT_EQ(e.kind, "rig") << e.name;
+      scene::load_camera_rig(e.name);
     }
+    EXPECT_FALSE(e.description.empty()) << e.name;
   }
-  EXPECT_GE(cameras, 4);
-  EXPECT_GE(lenses, 2);
+  EXPECT_GE(count["camera"], 4);
+  EXPECT_GE(count["lens"], 2);
+  EXPECT_EQ(count["scene"], 2);  // night-urban, night-rural
+  EXPECT_EQ(count["rig"], 2);    // cityscapes, kitti
 }
 
 // The device map keeps each pixel's dark rate as a factor of the mean rate, so hot pixels without
@@ -124,6 +133,28 @@ TEST(Cli, PresetsListAndShowJson) {
   EXPECT_TRUE(j["qe"].contains("g"));
   EXPECT_EQ(j["qe"]["g"].size(), j["qe"]["wavelength_nm"].size());
   EXPECT_EQ(test::run_cli("presets show nope --json").exit_code, 2);
+
+  // Scenes and camera rigs too (`presets list` names their kind; `show` by name or by path).
+  r = test::run_cli("presets list");
+  EXPECT_NE(r.output.find("\nnight-urban\tscene\t"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\nkitti\trig\t"), std::string::npos) << r.output;
+  r = test::run_cli("presets show night-rural --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["name"], "night-rural");
+  EXPECT_EQ(j["reflectance"]["sign"], scene::load_scene_preset("night-rural").rho_sign);
+  EXPECT_TRUE(j.contains("street") && j.contains("ego_beam")) << r.output;
+  r = test::run_cli("presets show '" + std::string(PHOTOSITE_PRESET_DIR) + "/rigs/kitti.toml' --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["native_width_px"], scene::load_camera_rig("kitti").native_width_px);
+  r = test::run_cli("presets show '" + std::string(PHOTOSITE_PRESET_DIR) + "/scenes/night-urban.toml' --json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(nlohmann::json::parse(r.output)["name"], "night-urban");
+  r = test::run_cli("presets show nope");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("night-urban"), std::string::npos) << r.output;  // the error lists every kind
+  EXPECT_NE(r.output.find("cityscapes"), std::string::npos) << r.output;
 }
 
 // The header names a preset by its file stem, so an edited copy of a bundled preset looks the

@@ -18,10 +18,15 @@ def lenses() -> List[str]:
 
 def scenes() -> List[str]:
     """Names of the bundled scene presets (presets/scenes), sorted."""
-    return _photosite.scene_presets()
+    return _photosite.preset_names("scene")
+
+
+def rigs() -> List[str]:
+    """Names of the bundled camera rigs (presets/rigs), sorted."""
+    return _photosite.preset_names("rig")
 
 
 def show(name: str) -> dict:
-    """The resolved parameters of a camera or lens preset (name or .toml path): the same keys as
-    `photosite presets show NAME --json`."""
+    """The resolved parameters of a camera, lens, scene or rig preset (name or .toml path): the
+    same keys as `photosite presets show NAME --json`."""
     return _photosite.show_preset(name)

@@ -44,6 +44,10 @@ def test_presets_match_cli(cli):
     lens = ps.presets.lenses()[0]
     assert ps.presets.show(lens) == json.loads(cli("presets", "show", lens, "--json").stdout)
     assert "night-urban" in ps.presets.scenes()
+    assert ps.presets.scenes() == sorted(n for n, kind, *_ in listed if kind == "scene")
+    assert ps.presets.rigs() == sorted(n for n, kind, *_ in listed if kind == "rig") and "kitti" in ps.presets.rigs()
+    for name in ("night-urban", "kitti"):  # a scene and a camera rig, as the CLI shows them
+        assert ps.presets.show(name) == json.loads(cli("presets", "show", name, "--json").stdout)
 
 
 def test_night_matches_cli_exr_bit_for_bit(kitti, cli, store, tmp_path):

@@ -55,5 +55,7 @@ CameraIntrinsics scaled_intrinsics(const CameraRig& rig, int width, int height);
 
 // The Markdown reference table of the rig keys (part of `presets_doc_markdown()`).
 std::string camera_rigs_doc_markdown();
+// `presets show`'s JSON text of a rig (keys as in its TOML file, plus name and file).
+std::string to_json(const CameraRig& r, int indent = -1);
 
 }  // namespace photosite::scene

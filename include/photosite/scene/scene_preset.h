@@ -180,5 +180,8 @@ ScenePreset parse_scene_preset(const std::string& toml_text, const std::string& 
 std::map<std::string, ExrAttribute> scene_attributes(const ScenePreset& p);
 // The Markdown reference table of the scene keys (part of `presets_doc_markdown()`).
 std::string scene_presets_doc_markdown();
+// `presets show`'s JSON text of a scene preset (keys as in its TOML file, plus name and file);
+// indent as photosite::to_json's.
+std::string to_json(const ScenePreset& p, int indent = -1);
 
 }  // namespace photosite::scene

@@ -75,14 +75,17 @@ LensPreset parse_lens_preset(const std::string& toml_text, const std::string& fi
 void validate(const CameraPreset& p);
 
 struct PresetEntry { std::string name, kind, description, file; };
-std::vector<PresetEntry> list_presets();  // cameras then lenses, sorted by name
+// The bundled presets: cameras, lenses, scenes, then camera rigs (kind "camera", "lens", "scene",
+// "rig"), each kind sorted by name.
+std::vector<PresetEntry> list_presets();
 std::string preset_dir();  // $PHOTOSITE_PRESET_DIR, else data_dir()/presets (environment.h)
 
 // JSON text (an object, keys sorted); indent as nlohmann::json::dump's: -1 compact, else pretty.
 // Text, not a JSON library's type, so that this header pulls in no third-party library.
 std::string to_json(const CameraPreset& p, int indent = -1);
 std::string to_json(const LensPreset& p, int indent = -1);
-// `presets show --json`: a lens preset's JSON when `name` is a bundled lens, else the camera's.
+// `presets show --json`: the JSON of the bundled preset of that name (camera, lens, scene or rig),
+// or of a .toml path (its kind told by its keys).
 std::string show_preset(const std::string& name, int indent = -1);
 // The reference tables of the camera, lens, scene and camera rig keys (Markdown), generated from
 // the same schemas the readers use (sensor/preset.cpp, scene/scene_preset.cpp, scene/rig.cpp);
