@@ -1938,14 +1938,19 @@ DayBalance road_day_balance(const RoadSums& r) {
 }  // namespace
 
 namespace {
-// The linearisations' sums made with a sequence's carried white balance (their `carried`), when
-// the preset uses the road's and one is given: sums->balance is then that one, marked as carried.
-bool carried_balance(const ScenePreset* split, const DayBalance* carried, TextureSums* sums) {
-  if (!split || split->day_white_balance != DayWhiteBalance::Road || !carried || carried->use != DayBalance::Use::Road)
-    return false;
-  sums->balance = *carried;
-  sums->balance_carried = true;
-  return true;
+// The white balance a linearisation's class sums are made with (sums->balance), when `split` uses
+// the road's: a sequence's carried one (their `carried`, marked sums->balance_carried), else the
+// road's, from its samples as px(x, y, rgb) decodes them.
+template <class Px>
+void sums_day_balance(const ScenePreset* split, const DayBalance* carried, int W, int H, const uint16_t* labels,
+                      const Px& px, TextureSums* sums) {
+  if (!split || split->day_white_balance != DayWhiteBalance::Road) return;
+  if (carried && carried->use == DayBalance::Use::Road) {
+    sums->balance = *carried;
+    sums->balance_carried = true;
+    return;
+  }
+  sums->balance = road_day_balance(road_samples(W, H, labels, px, keeps_its_colour));
 }
 }  // namespace
 
@@ -1972,13 +1977,11 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
   // The day white balance first: a sequence's carried one, else from the road's samples decoded as
   // the pass decodes them (day_white_balance of the linear image, to the bit); a damaged sample
   // decodes as 0, which the balance skips, and the pass below names it.
-  if (!carried_balance(split, carried, sums) && split && split->day_white_balance == DayWhiteBalance::Road) {
-    int64_t ignored = INT64_MAX;
-    sums->balance = road_day_balance(road_samples(day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
-      linearize_rgb_samples(day.row(y) + 3 * x, c, 3, static_cast<int64_t>(y) * day.width() + x, decode, d8, lut,
-                            &ignored);
-    }, keeps_its_colour));
-  }
+  int64_t ignored = INT64_MAX;
+  sums_day_balance(split, carried, day.width(), day.height(), labels.data(), [&](int x, int y, float* c) {
+    linearize_rgb_samples(day.row(y) + 3 * x, c, 3, static_cast<int64_t>(y) * day.width() + x, decode, d8, lut,
+                          &ignored);
+  }, sums);
   // With the split on, its block sums from the same Y (sun_pass_rows).
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), day.width(), day.height(), sums);
   texture_class_sums(labels.data(), day.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int ch, size_t first, int count) {
@@ -2112,11 +2115,10 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   sums->part.resize(kTextureChunks);
   // The day white balance first (a sequence's carried one, else from the road's codes read through
   // the same table).
-  if (!carried_balance(split, carried, sums) && split && split->day_white_balance == DayWhiteBalance::Road)
-    sums->balance = road_day_balance(road_samples(codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
-      const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
-      c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];
-    }, keeps_its_colour));
+  sums_day_balance(split, carried, codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
+    const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
+    c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];
+  }, sums);
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int, size_t first, int count) {
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);

@@ -475,6 +475,24 @@ struct BeamCell { __m256 lo_h, hi_h, lo_v, hi_v, Hj, rHj, Vi, rVi, r00, r01, r10
   c.r00 = _mm256_set1_ps(r0[0]), c.r01 = _mm256_set1_ps(r0[1]);
   c.r10 = _mm256_set1_ps(r0[b.nh]), c.r11 = _mm256_set1_ps(r0[b.nh + 1]);
 }
+// The lanes whose (h, v) lie in cell c (lo <= angle < hi on both axes, BeamF::sorted's bounds).
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline __m256 in_beam_cell(const BeamCell& c, __m256 h, __m256 v) {
+  const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(c.lo_h, h, _CMP_LE_OQ), _mm256_cmp_ps(h, c.hi_h, _CMP_LT_OQ));
+  const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(c.lo_v, v, _CMP_LE_OQ), _mm256_cmp_ps(v, c.hi_v, _CMP_LT_OQ));
+  return _mm256_and_ps(in_h, in_v);
+}
+// The table's bilinear intensity at (h, v) in a cell: grid angles Hj, Vi, reciprocal widths rHj,
+// rVi, corner intensities r00 .. r11 (beam_lux_f's operations, lane by lane).
+[[gnu::always_inline]] __attribute__((target("avx2"))) inline __m256 beam_bilinear8(__m256 h, __m256 v, __m256 Hj, __m256 rHj,
+                                                                                 __m256 Vi, __m256 rVi, __m256 r00, __m256 r01,
+                                                                                 __m256 r10, __m256 r11) {
+  const __m256 one = _mm256_set1_ps(1.f);
+  const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
+  const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
+  const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
+  const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
+  return _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+}
 // The columns [lo, hi) of a row (xn increasing: the caller's promise) where every lane is surely
 // lit by each lamp evaluated (`only` as beam_row_avx2's), with v's arctangent argument at most
 // tan(π/8), so that beam_row_avx2 may skip the lit test (five comparisons, the cut-off's max, ×, +
@@ -572,7 +590,7 @@ void beam_row_scalar(const double* xn, int n, double t, float D2, float invD, co
 __attribute__((target("avx2")))
 void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, const BeamF& b, const uint16_t* id,
                    uint64_t read_mask, float* out, int only = -1, BeamSureSpan sure = {}) {
-  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
+  const __m256 zero = _mm256_setzero_ps(), sign = _mm256_set1_ps(-0.f);
   const __m256 vD2 = _mm256_set1_ps(D2), vinvD = _mm256_set1_ps(invD), hl = _mm256_set1_ps(b.hl),
                hl2 = _mm256_set1_ps(b.hl2), deg = _mm256_set1_ps(b.deg);
   const __m256 cv = _mm256_set1_ps(b.cv), cmax = _mm256_set1_ps(b.cmax), rise = _mm256_set1_ps(b.rise);
@@ -636,19 +654,13 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       for (int k = 0; k < 2; ++k) {
         h[k] = _mm256_mul_ps(angles[2 * k], deg);
         v[k] = _mm256_xor_ps(_mm256_mul_ps(angles[2 * k + 1], deg), sign);
-        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_h, h[k], _CMP_LE_OQ), _mm256_cmp_ps(h[k], cell[k].hi_h, _CMP_LT_OQ));
-        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_v, v[k], _CMP_LE_OQ), _mm256_cmp_ps(v[k], cell[k].hi_v, _CMP_LT_OQ));
-        carried = carried && _mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) == 0xff;
+        carried = carried && _mm256_movemask_ps(in_beam_cell(cell[k], h[k], v[k])) == 0xff;
       }
       if (carried) {
         __m256 Iw[2];
         for (int k = 0; k < 2; ++k) {
           const BeamCell& q = cell[k];
-          const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h[k], q.Hj), q.rHj), c = _mm256_mul_ps(_mm256_sub_ps(v[k], q.Vi), q.rVi);
-          const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
-          const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, q.r00), _mm256_mul_ps(a, q.r01));
-          const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, q.r10), _mm256_mul_ps(a, q.r11));
-          const __m256 Iv = _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+          const __m256 Iv = beam_bilinear8(h[k], v[k], q.Hj, q.rHj, q.Vi, q.rVi, q.r00, q.r01, q.r10, q.r11);
           Iw[k] = _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2s[k], ds[k])));
         }
         _mm256_storeu_ps(out + x, _mm256_and_ps(keep, _mm256_add_ps(_mm256_add_ps(acc, Iw[0]), Iw[1])));
@@ -672,11 +684,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
       }
       bool shared = false;
       __m256i j, i;
-      if (b.sorted) {
-        const __m256 in_h = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_h, h, _CMP_LE_OQ), _mm256_cmp_ps(h, cell[k].hi_h, _CMP_LT_OQ));
-        const __m256 in_v = _mm256_and_ps(_mm256_cmp_ps(cell[k].lo_v, v, _CMP_LE_OQ), _mm256_cmp_ps(v, cell[k].hi_v, _CMP_LT_OQ));
-        shared = (_mm256_movemask_ps(_mm256_and_ps(in_h, in_v)) & lit_bits) == lit_bits;
-      }
+      if (b.sorted) shared = (_mm256_movemask_ps(in_beam_cell(cell[k], h, v)) & lit_bits) == lit_bits;
       if (!shared) {
         j = _mm256_setzero_si256(), i = _mm256_setzero_si256();  // cell indices as counts
         for (int m = 1; m + 1 < b.nh; ++m)
@@ -706,11 +714,7 @@ void beam_row_avx2(const double* xn, int n, double t, float D2, float invD, cons
         r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
         r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
       }
-      const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
-      const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
-      const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
-      const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
-      __m256 Iv = _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+      __m256 Iv = beam_bilinear8(h, v, Hj, rHj, Vi, rVi, r00, r01, r10, r11);
       if (!surely_lit) Iv = _mm256_and_ps(lit, Iv);
       acc = _mm256_add_ps(acc, _mm256_mul_ps(Iv, _mm256_div_ps(hl, _mm256_mul_ps(d2, d))));
     }
@@ -2313,12 +2317,7 @@ __attribute__((target("avx2"))) inline __m256 beam_table8(__m256 h, __m256 v, co
   const float* I = b.I.data();
   const __m256 r00 = _mm256_i32gather_ps(I, c0, 4), r01 = _mm256_i32gather_ps(I + 1, c0, 4);
   const __m256 r10 = _mm256_i32gather_ps(I + b.nh, c0, 4), r11 = _mm256_i32gather_ps(I + b.nh + 1, c0, 4);
-  const __m256 one = _mm256_set1_ps(1.f);
-  const __m256 a = _mm256_mul_ps(_mm256_sub_ps(h, Hj), rHj), c = _mm256_mul_ps(_mm256_sub_ps(v, Vi), rVi);
-  const __m256 ia = _mm256_sub_ps(one, a), ic = _mm256_sub_ps(one, c);
-  const __m256 top = _mm256_add_ps(_mm256_mul_ps(ia, r00), _mm256_mul_ps(a, r01));
-  const __m256 bot = _mm256_add_ps(_mm256_mul_ps(ia, r10), _mm256_mul_ps(a, r11));
-  return _mm256_add_ps(_mm256_mul_ps(ic, top), _mm256_mul_ps(c, bot));
+  return beam_bilinear8(h, v, Hj, rHj, Vi, rVi, r00, r01, r10, r11);
 }
 // The lanes of v where `mask` (all-ones lanes) into p[0 .. 7], the others as they were: what
 // _mm256_maskstore_ps does, as a load, a blend and a plain store (the masked store is slow on AMD's
