@@ -16,9 +16,12 @@ Per image, on the sRGB-encoded preview (statistics()):
   luma_emd           earth mover's (1-D Wasserstein) distance between the image's luma histogram
                      and the pooled histogram of the real photos (for a real photo: of the others,
                      leave-one-out, so that the real spread is not shrunk by self-comparison)
-Then the classifier two-sample test of realism_stats.py for every method against the real photos.
+Then the classifier two-sample test of realism_stats.py for every method against the real photos,
+its calibration (each real source of two or more photos against the other real photos: what a real
+data set scores) and, with --permutations N, each method's permutation p-value.
 
 Writes <out>/realism.csv (one row per method), realism_per_image.csv, realism_classifier.csv,
+realism_calibration.csv (the calibration rows and the permutation tests),
 realism.png (each statistic: every method's images against the real photos' range) and
 realism_speed.png (median luma EMD against ms per frame).
 """
@@ -122,6 +125,8 @@ def main(argv=None):
     ap.add_argument("--out-dir", required=True)
     ap.add_argument("--machine", default="")
     ap.add_argument("--no-classifier", action="store_true")
+    ap.add_argument("--permutations", type=int, default=0,
+                    help="label shuffles for each method's permutation p-value (0: none; one classifier run each)")
     a = ap.parse_args(argv)
     with open(a.manifest) as f:
         manifest = list(csv.DictReader(f))
@@ -157,6 +162,19 @@ def main(argv=None):
             lo, hi = spread[k]
             r[f"{k}_inside"] = int(bool(lo <= r[k] <= hi)) if np.isfinite(r[k]) else 0
 
+    # The test's calibration: each real source with two or more photos against the other real
+    # photos (realism_stats.real_source_calibration), the score a real data set gets beside which
+    # a method's reads.
+    calib_rows = []
+    if not a.no_classifier:
+        for c in rs.real_source_calibration(feats["real night"], sources["real night"]):
+            calib_rows.append({"comparison": f"real {c['source']} vs the other real photos", "n_a": c["n_source"],
+                               "n_b": c["n_other"], "balanced_accuracy": c["balanced_accuracy"], "se": c["se"],
+                               "top_features": " ".join(c["top_features"])})
+            print(f"calibration: real {c['source']} ({c['n_source']}) vs the other real photos ({c['n_other']}): "
+                  f"balanced accuracy {c['balanced_accuracy']:.3f} +- {c['se']:.3f}; top features: "
+                  f"{' '.join(c['top_features'])}")
+
     summary, clf_rows = [], []
     for m in ["real night"] + methods:
         rows = [r for r in per_image if r["method"] == m]
@@ -182,12 +200,21 @@ def main(argv=None):
                   f"({t['n_a']} vs {t['n_b']} images; {t['photos_needed_per_class']} per class for a +-0.05 interval); "
                   f"top features: {' '.join(t['top_features'])}; leave-one-source-out "
                   f"{lo['balanced_accuracy']:.3f} +- {lo['se']:.3f}")
+            if a.permutations > 0:
+                pt = rs.permutation_test(feats[m], feats["real night"], t["balanced_accuracy"], a.permutations)
+                row["permutation_p"] = pt["p_value"]
+                calib_rows.append({"comparison": f"{m} vs real night, {pt['n_permutations']} label shuffles",
+                                   "n_a": t["n_a"], "n_b": t["n_b"], "balanced_accuracy": t["balanced_accuracy"],
+                                   "se": t["se"], **pt})
+                print(f"{'':28s} permutation test ({pt['n_permutations']} label shuffles): p = {pt['p_value']:.3f}; "
+                      f"shuffled balanced accuracy median {pt['null_median']:.3f}, 95th percentile "
+                      f"{pt['null_p95']:.3f}, max {pt['null_max']:.3f}")
         summary.append(row)
 
     os.makedirs(a.out_dir, exist_ok=True)
     keys = ["method", "images", "ms_per_frame"] + STATS + ["balanced_accuracy", "balanced_accuracy_se",
                                                            "balanced_accuracy_loso", "balanced_accuracy_loso_se",
-                                                           "photos_needed_per_class", "all_inside_fraction"] + \
+                                                           "photos_needed_per_class", "permutation_p", "all_inside_fraction"] + \
         [f"{k}_inside_fraction" for k in STATS]
     atomic_write_text(os.path.join(a.out_dir, "realism.csv"), to_csv(summary, keys))
     atomic_write_text(os.path.join(a.out_dir, "realism_per_image.csv"),
@@ -196,6 +223,11 @@ def main(argv=None):
         atomic_write_text(os.path.join(a.out_dir, "realism_classifier.csv"),
                           to_csv(clf_rows, ["method", "balanced_accuracy", "se", "n_a", "n_b", "photos_needed_per_class",
                                             "target", "met", "balanced_accuracy_loso", "se_loso", "top_features"]))
+    if calib_rows:
+        atomic_write_text(os.path.join(a.out_dir, "realism_calibration.csv"),
+                          to_csv(calib_rows, ["comparison", "n_a", "n_b", "balanced_accuracy", "se", "top_features",
+                                              "n_permutations", "p_value", "null_median", "null_p90", "null_p95",
+                                              "null_max"]))
     charts(per_image, summary, spread, methods, a.out_dir, a.machine)
     print()
     print(f"{'method':28s} " + " ".join(f"{k[:12]:>12s}" for k in STATS))

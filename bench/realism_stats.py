@@ -102,12 +102,16 @@ def photos_needed(se, n_per_class, margin=TARGET_BA - 0.5, z=1.96):
     return int(math.ceil(n_per_class * (z * se / margin) ** 2))
 
 
-def two_sample_test(feats_a, feats_b, n_splits=None, seed=0, sources_a=None, sources_b=None):
+def two_sample_test(feats_a, feats_b, n_splits=None, seed=0, sources_a=None, sources_b=None, importances=True,
+                    n_estimators=200):
     """Random forest a-vs-b with GroupKFold by image. feats_*: list of per-image feature arrays.
     With sources_a/sources_b (a source name per image: data set or camera), the folds are
     leave-one-source-out instead: the forest never sees the test image's source, so it cannot
     win by recognising a camera or a data set. Balanced accuracy is still per image.
-    Returns dict(balanced_accuracy, se, n_a, n_b, photos_needed_per_class, top_features)."""
+    Returns dict(balanced_accuracy, se, n_a, n_b, photos_needed_per_class, top_features);
+    importances=False skips the forest on all patches that names the top features (top_features
+    empty), for the permutation test's many repeats. n_estimators: the forest's trees (200 in the
+    bench; fewer only in tests on synthetic sets a handful of trees separate)."""
     from sklearn.ensemble import RandomForestClassifier
     from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
 
@@ -124,14 +128,62 @@ def two_sample_test(feats_a, feats_b, n_splits=None, seed=0, sources_a=None, sou
         splits = GroupKFold(n_splits=k).split(X, y, groups)
     for train, test in splits:
         # class_weight balanced: the two sides have different patch counts.
-        rf = RandomForestClassifier(n_estimators=200, min_samples_leaf=2, class_weight="balanced",
+        rf = RandomForestClassifier(n_estimators=n_estimators, min_samples_leaf=2, class_weight="balanced",
                                     random_state=seed, n_jobs=2)
         rf.fit(X[train], y[train])
         pred[test] = rf.predict(X[test])
     ba, se, (na, nb) = balanced_accuracy_by_image((pred == y).astype(float), y, groups)
+    if not importances:
+        return {"balanced_accuracy": ba, "se": se, "n_a": na, "n_b": nb,
+                "photos_needed_per_class": photos_needed(se, min(na, nb)), "top_features": []}
     # What tells the two apart: impurity importances of a forest fitted on all patches.
-    rf = RandomForestClassifier(n_estimators=200, min_samples_leaf=2, class_weight="balanced",
+    rf = RandomForestClassifier(n_estimators=n_estimators, min_samples_leaf=2, class_weight="balanced",
                                 random_state=seed, n_jobs=2).fit(X, y)
     top = [FEATURE_NAMES[i] for i in np.argsort(rf.feature_importances_)[::-1][:4]]
     return {"balanced_accuracy": ba, "se": se, "n_a": na, "n_b": nb,
             "photos_needed_per_class": photos_needed(se, min(na, nb)), "top_features": top}
+
+
+def permutation_test(feats_a, feats_b, observed_ba, n_permutations, seed=0, n_estimators=200):
+    """Monte Carlo permutation test of the classifier two-sample test (Lopez-Paz & Oquab 2017, §3;
+    Phipson & Smyth 2010 for the p-value). Under the null hypothesis that the two sets' images are
+    exchangeable, the image labels can be shuffled (the side sizes kept) and the same grouped
+    cross-validation run again; the balanced accuracies so drawn are the statistic's null
+    distribution for these very images, whatever their heterogeneity (camera, city, exposure),
+    which the image-level SE above does not capture. p = (1 + #{null >= observed}) / (1 + N):
+    the chance of a balanced accuracy at least as high when nothing tells the sets apart.
+    The observed accuracy must come from two_sample_test with the same seed and n_estimators.
+    Returns dict(p_value, n_permutations, null_median, null_p90, null_p95, null_max)."""
+    pool = list(feats_a) + list(feats_b)
+    na = len(feats_a)
+    rng = np.random.default_rng(seed)
+    null = []
+    for _ in range(n_permutations):
+        order = rng.permutation(len(pool))
+        a = [pool[i] for i in order[:na]]
+        b = [pool[i] for i in order[na:]]
+        null.append(two_sample_test(a, b, seed=seed, importances=False, n_estimators=n_estimators)["balanced_accuracy"])
+    null = np.array(null)
+    return {"p_value": float((1 + np.sum(null >= observed_ba - 1e-12)) / (1 + len(null))),
+            "n_permutations": len(null), "null_median": float(np.median(null)),
+            "null_p90": float(np.percentile(null, 90)), "null_p95": float(np.percentile(null, 95)),
+            "null_max": float(null.max())}
+
+
+def real_source_calibration(feats, sources, min_images=2):
+    """How well the same test tells one source of real night photos (a data set or a camera) from
+    the other real photos: the balanced accuracy a real, coherent source scores against the rest
+    of the reference set, beside which a renderer's score reads. Only sources with at least
+    min_images images (the grouped folds need one of them in training when another is tested)
+    and at least min_images others. Returns a list of dict(source, n_source, n_other,
+    balanced_accuracy, se, top_features), sources in sorted order."""
+    rows = []
+    for s in sorted(set(sources)):
+        a = [f for f, q in zip(feats, sources) if q == s]
+        b = [f for f, q in zip(feats, sources) if q != s]
+        if len(a) < min_images or len(b) < min_images:
+            continue
+        t = two_sample_test(a, b)
+        rows.append({"source": s, "n_source": len(a), "n_other": len(b), "balanced_accuracy": t["balanced_accuracy"],
+                     "se": t["se"], "top_features": t["top_features"]})
+    return rows

@@ -46,6 +46,7 @@ struct Opts {
   int threads = 2, repeats = 1;
   int max_frames = 0;  // per data set; 0: all
   bool no_stats = false;
+  int permutations = 0;  // label shuffles for each method's permutation p-value (bench/realism_stats.py)
   std::string methods;  // comma list of the methods to write (empty: all); "photosite" always runs
 };
 
@@ -364,10 +365,10 @@ void run(const Opts& o) {
   std::printf("%s\n", manifest_path.c_str());
   if (o.no_stats) return;
   const fs::path out = output_folder(o.out_dir);
-  const std::string cmd = fmt::format("/usr/bin/python3 {} --manifest {} --real {} --out-dir {} --machine {}",
+  const std::string cmd = fmt::format("/usr/bin/python3 {} --manifest {} --real {} --out-dir {} --machine {} --permutations {}",
                                       quote(std::string(PHOTOSITE_SOURCE_DIR) + "/bench/realism.py"),
                                       quote(manifest_path.string()), quote(real), quote(out.string()),
-                                      quote(machine + fmt::format(", {} threads", o.threads)));
+                                      quote(machine + fmt::format(", {} threads", o.threads)), o.permutations);
   std::fflush(stdout);
   const int rc = std::system(cmd.c_str());
   if (rc != 0) fail(fmt::format("bench realism: bench/realism.py failed (status {}): {}", rc, cmd));
@@ -390,6 +391,11 @@ static BenchRegistrar reg("realism",
                                             "comma list of methods to write (default: all), e.g. "
                                             "'photosite,photosite auto exposure,thesis baseline,day photo'");
                             sub->add_flag("--no-stats", o->no_stats, "only write the previews and the manifest");
+                            sub->add_option("--permutations", o->permutations,
+                                            "classifier permutation test: label shuffles per method for its p-value "
+                                            "(0: none; each costs one cross-validated classifier run)")
+                                ->capture_default_str()
+                                ->check(CLI::Range(0, 100000));
                             sub->callback([o] { run(*o); });
                           });
 }  // namespace photosite::bench

@@ -198,3 +198,43 @@ def test_csv_written_with_the_umask_mode_like_the_charts(tmp_path):
     finally:
         os.umask(old)
     assert not [f for f in os.listdir(tmp_path) if f.startswith(".tmp-")]
+
+
+def _noise_images(rng, mu, n):
+    """n images of 256x256 grey noise around mu: 4 patches each."""
+    return [rs.patch_features(np.clip(rng.normal(mu, 0.02, (256, 256, 3)), 0, 1).astype(np.float32)) for _ in range(n)]
+
+
+def test_permutation_test_is_small_only_when_the_sets_differ():
+    rng = np.random.default_rng(3)
+    dark, bright, same = _noise_images(rng, 0.1, 6), _noise_images(rng, 0.6, 6), _noise_images(rng, 0.1, 6)
+    n, trees = 19, 20  # 20 trees: grey levels 0.1 and 0.6 apart are split by any one tree
+    t = rs.two_sample_test(dark, bright, n_estimators=trees)
+    assert t["balanced_accuracy"] == 1.0
+    p = rs.permutation_test(dark, bright, t["balanced_accuracy"], n, n_estimators=trees)
+    # Only a shuffle that puts the six dark images on one side (2 of the C(12,6) = 924 splits:
+    # the split or its mirror) is told apart perfectly; a side holding an image of the other kind
+    # gets that image wrong when it is tested. So at most one of 19 shuffles ties (chance of one
+    # 19 * 2/924 = 4 %, of two 0.08 %), and p = (1 + ties)/(1 + n) <= 2/20.
+    assert p["n_permutations"] == n
+    assert p["p_value"] <= 2 / (n + 1)
+    assert p["null_max"] <= 1.0 and p["null_median"] < 1.0
+    # Exchangeable sets: the observed accuracy is one more draw of the null, p spread over
+    # {1/20, ..., 1}; with this seed it is far from the smallest value.
+    t = rs.two_sample_test(dark, same, n_estimators=trees)
+    p = rs.permutation_test(dark, same, t["balanced_accuracy"], n, n_estimators=trees)
+    assert p["p_value"] > 2 / (n + 1)
+
+
+def test_real_source_calibration_takes_sources_of_two_or_more_photos():
+    rng = np.random.default_rng(4)
+    feats = _noise_images(rng, 0.1, 3) + _noise_images(rng, 0.6, 3) + _noise_images(rng, 0.35, 1)
+    sources = ["x"] * 3 + ["y"] * 3 + ["z"]
+    rows = rs.real_source_calibration(feats, sources)
+    # z (one photo) cannot be tested by grouped folds: no row.
+    assert [r["source"] for r in rows] == ["x", "y"]
+    assert [(r["n_source"], r["n_other"]) for r in rows] == [(3, 4), (3, 4)]
+    # x (dark) against y (bright) and z (mid grey): x's and y's images are always placed right; z,
+    # between them, may go either way: balanced accuracy >= (1 + 3/4)/2.
+    for r in rows:
+        assert r["balanced_accuracy"] >= 0.875
