@@ -96,6 +96,7 @@ void run_night(NightCmd c) {
   // directly (prepare_night), the same bits as from read_image()'s floats.
   DayImage day_file = read_day_image(c.image, &info);
   const int day_w = day_file.width(), day_h = day_file.height();
+  const std::string image_note = day_file.codes ? std::string() : day_image_note(day_file.floats, info);
   if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, day_w, day_h);
   const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
@@ -122,7 +123,7 @@ void run_night(NightCmd c) {
     SensorOutput out = night_frame(runner, chain, r, r.settings.frame);
     lap("sensor: noise, ADC, demosaic");
     const auto groups = night_channels(out, ns, labels, layers);
-    const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances});
+    const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances, image_note});
     ExrWriteOptions wo;
     wo.half = c.half;
     wo.compression = c.compression;
@@ -144,6 +145,7 @@ void run_night(NightCmd c) {
               ns.geometry.pitch_rad * 180 / M_PI);
   std::printf("labels read as %s%s\n", scene::label_format_name(labels.format),
               c.label_format == "auto" ? " (detected)" : "");
+  if (!image_note.empty()) std::printf("note: %s: %s\n", c.image.c_str(), image_note.c_str());
   if (!labels.note.empty()) std::printf("note: %s\n", labels.note.c_str());
   if (!ns.geometry.note.empty()) std::printf("note: %s\n", ns.geometry.note.c_str());
   if (!ns.light_stats.street_lamp_note.empty())

@@ -3,7 +3,9 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 
 #include "photosite/environment.h"
@@ -83,6 +85,17 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "photosite: internal error: %s\n", e.what());
     return 1;
+  }
+  // What the command printed must have reached its standard output: `presets doc > docs/x.md` on a
+  // full disk (or > /dev/full) lost the text and exited 0. As a failed output file, exit 2.
+  errno = 0;
+  std::cout.flush();  // (synchronised with stdio: an fflush of stdout)
+  std::fflush(stdout);
+  const int err = errno;
+  if (std::ferror(stdout) || !std::cout) {
+    std::fprintf(stderr, "photosite: error: writing the standard output failed (%s); what it printed is incomplete\n",
+                 err ? std::strerror(err) : "an earlier write failed: a full disk, or a closed output?");
+    return 2;
   }
   return 0;
 }

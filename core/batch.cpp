@@ -4,6 +4,7 @@
 #include <cctype>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <regex>
 #include <set>
@@ -204,9 +205,60 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
   return items;
 }
 
+namespace {
+// The fields of one manifest line; `bad` throws (an unclosed quote).
+std::vector<std::string> manifest_fields(const std::string& line, const std::function<void(const std::string&)>& bad) {
+  // Outside double quotes '#' starts a comment. A line with a comma or a tab outside quotes is
+  // split at those alone, each field trimmed of spaces (CSV- or TSV-like: a path may hold
+  // spaces); any other line at runs of spaces. A double-quoted part is taken as it is, spaces,
+  // commas and '#' included ("" inside it is one quote); it must close on its line.
+  bool by_separator = false, quoted = false;
+  for (const char c : line) {
+    if (c == '"') quoted = !quoted;
+    else if (!quoted && c == '#') break;
+    else if (!quoted && (c == ',' || c == '\t')) by_separator = true;
+  }
+  std::vector<std::string> fields;
+  std::string cur;
+  bool have = false;  // cur is a field even if empty (it had a quoted part)
+  auto end_field = [&] {
+    if (by_separator) {
+      const size_t a = cur.find_first_not_of(" \r"), b = cur.find_last_not_of(" \r");
+      cur = a == std::string::npos ? std::string() : cur.substr(a, b - a + 1);
+    }
+    if (have || !cur.empty()) fields.push_back(cur);
+    cur.clear();
+    have = false;
+  };
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (c == '"') {
+      size_t j = i + 1;
+      for (;; ++j) {
+        if (j >= line.size()) bad("a double quote opens a field that does not close on its line");
+        if (line[j] != '"') cur += line[j];
+        else if (j + 1 < line.size() && line[j + 1] == '"') cur += line[++j];  // "" is one quote
+        else break;
+      }
+      have = true;
+      i = j;
+    } else if (c == '#') {
+      break;
+    } else if (by_separator ? (c == ',' || c == '\t') : (c == ' ' || c == '\r')) {
+      end_field();
+    } else {
+      cur += c;
+    }
+  }
+  end_field();
+  return fields;
+}
+}  // namespace
+
 std::vector<Item> read_manifest(const std::string& manifest) {
   std::error_code dir_ec;
   if (fs::is_directory(manifest, dir_ec)) fail_at(manifest, "is a folder, not a manifest file");
+  if (!fs::exists(manifest, dir_ec)) fail_missing(manifest, "manifest file not found");
   std::ifstream f(manifest);
   if (!f) fail_at(manifest, "cannot read the manifest");
   const fs::path base = fs::path(manifest).parent_path();
@@ -229,14 +281,21 @@ std::vector<Item> read_manifest(const std::string& manifest) {
     ++lineno;
     // A byte-order mark (editors on Windows save one) is not part of the first path.
     if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream ss(line);
-    std::vector<std::string> parts;
-    for (std::string w; ss >> w;) parts.push_back(w);
+    // An image file given as the manifest (its bytes are no text): said so, not "found 1 fields".
+    if (lineno == 1 && (line.find('\0') != std::string::npos || line.rfind("\x89PNG", 0) == 0 ||
+                        line.rfind("\xFF\xD8\xFF", 0) == 0))
+      fail_at(manifest, "is an image or other binary file, not a manifest (a text file of 'image labels "
+                        "[instances]' lines)");
+    const std::vector<std::string> parts = manifest_fields(line, [&](const std::string& why) {
+      fail(where(manifest, lineno) + ": " + why);
+    });
     if (parts.empty()) continue;
     if (parts.size() < 2 || parts.size() > 3)
-      fail(where(manifest, lineno) + ": expected 'image labels [instances]', found " + std::to_string(parts.size()) + " fields");
+      fail(where(manifest, lineno) + ": expected 'image labels [instances]', found " + std::to_string(parts.size()) +
+           " fields" +
+           (line.find_first_of(" #") != std::string::npos && line.find_first_of(",\t\"") == std::string::npos
+                ? " (a path with spaces or '#': put it in double quotes, or separate the fields with commas or tabs)"
+                : ""));
     Item it;
     it.image = resolve(parts[0]).string();
     it.labels = resolve(parts[1]).string();

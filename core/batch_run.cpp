@@ -109,6 +109,7 @@ struct Loaded {
   scene::TextureSums sums;
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
+  std::string image_note;  // the day image's negative samples (day_image_note), for the header
   std::string error;
 };
 // A sequence's day white balance as its reader sees it: the rule of reflectance_texture's
@@ -264,8 +265,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   std::error_code ec;
   if (!o.root.empty() && fs::exists(o.out, ec) && fs::equivalent(o.out, o.root, ec))
     fail_at(o.out, "the output folder is the data set's own root; choose another --out");
+  if (fs::exists(o.out, ec) && !fs::is_directory(o.out, ec)) fail_at(o.out, "is a file, not an output folder");
   fs::create_directories(o.out, ec);
-  if (!fs::is_directory(o.out, ec)) fail_at(o.out, "cannot create the output folder");
+  if (!fs::is_directory(o.out, ec))
+    fail_at(o.out, "cannot create the output folder" + (ec ? " (" + ec.message() + ")" : std::string()));
   const std::vector<Item> items = shard(all, o.shard_index, o.shard_count);
   const SensorSetup& r = o.sensor;
   const ResolvedExposure base_ex = resolve(r.camera, r.lens, r.settings);  // checks the settings
@@ -425,6 +428,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       // the texture's class sums, as `night` makes them (prepare_night): on this reader thread
       // while each block is in cache, instead of in a pass of the compute stage's own.
       const DayImage day = read_day_image(it.image, &info);
+      if (!day.codes) l.image_note = day_image_note(day.floats, info);
       l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                     scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
       if (item_cameras && !it.camera.empty()) {
@@ -502,7 +506,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       // The inputs as recorded in the header: lexically normal, so `--root ./cs` and `--root cs`
       // write the same bytes (the manifest's source is normal too).
       auto normal = [](const std::string& p) { return fs::path(p).lexically_normal().string(); };
-      const NightInputs in{normal(it.image), normal(it.labels), normal(it.instances)};
+      const NightInputs in{normal(it.image), normal(it.labels), normal(it.instances), l.image_note};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
       // three maps): only when an EXR is written.
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>();

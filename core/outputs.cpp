@@ -1,6 +1,7 @@
 // The EXR layers and header attributes of sensor outputs and night frames (see outputs.h).
 #include "photosite/outputs.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -35,6 +36,9 @@ LayerSet parse_layers(const std::string& list, LayerSet applicable, const std::s
         if (!has(applicable, l))
           fail(fmt::format("{} {}: {} does not write the layer '{}' (it writes {})", what, list, command, name,
                            layers_text(applicable)));
+        // A name given twice is most likely a slip for another layer (sensor,sensor for
+        // sensor,radiance): refused rather than read as once.
+        if (has(s, l)) fail(fmt::format("{} {}: the layer '{}' is named twice", what, list, name));
         s |= static_cast<unsigned>(l);
       }
     if (!known)
@@ -145,6 +149,7 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   put("photosite/night/signal_camera_rgb_per_cd_m2_amber", spectrum::LampSpectrum::AmberLed);
   put("photosite/night/signal_camera_rgb_per_cd_m2_green", spectrum::LampSpectrum::GreenLed);
   attrs["photosite/night/image"] = in.image;
+  if (!in.image_note.empty()) attrs["photosite/night/image_note"] = in.image_note;
   attrs["photosite/night/labels"] = in.labels;
   attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
   if (!in.instances.empty()) attrs["photosite/night/instances"] = in.instances;
@@ -202,6 +207,35 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/day_white_balance_road_samples"] = static_cast<int>(ns.day_balance.samples);
   attrs["photosite/night/day_white_balance_road_cct_K"] = ns.day_balance.road_cct_K;
   return attrs;
+}
+
+std::string day_image_note(const ImageF& day, const ImageFileInfo& info) {
+  if (!info.is_float) return {};
+  const int c = day.channels(), used = c >= 3 ? 3 : 1;  // the channels linearize() reads
+  const int64_t n = static_cast<int64_t>(day.pixel_count());
+  int64_t pixels = 0;
+  float least = 0.f;
+#pragma omp parallel for schedule(static) reduction(+ : pixels) reduction(min : least)
+  for (int64_t i = 0; i < n; ++i) {
+    bool negative = false;
+    for (int k = 0; k < used; ++k) {
+      const float v = day[i * c + k];
+      negative |= v < 0.f;
+      least = std::min(least, v);
+    }
+    pixels += negative;
+  }
+  if (pixels == 0) return {};
+  // The first sample in reading order that holds the least value (a count and a minimum are the
+  // same for any thread count; so is this).
+  int64_t at = 0;
+  while (day[at] != least || (c >= 3 ? at % c >= 3 : at % c != 0)) ++at;
+  static const char* const kRgb[] = {"R", "G", "B"};
+  const int64_t p = at / c;
+  const std::string where = fmt::format("{}at pixel ({}, {})", used == 3 ? std::string(kRgb[at % c]) + " " : "",
+                                        p % day.width(), p / day.width());
+  return fmt::format("{} of {} pixels have negative values, clipped to 0; the most negative {} ({})", pixels, n,
+                     least, where);
 }
 
 PreviewIsp parse_preview_isp(const std::string& name) {

@@ -53,6 +53,9 @@ std::string comma_list(const std::vector<std::string>& names) {
 }
 
 std::string read_text(const std::string& path, const std::string& what) {
+  // A folder opens as a stream of no bytes, read as an empty file (`--scene-preset /tmp` said
+  // "reflectance: required table is missing").
+  if (std::error_code ec; std::filesystem::is_directory(path, ec)) fail_at(path, "is a folder, not a " + what + " file");
   std::ifstream in(path);
   if (!in) {
     std::error_code ec;

@@ -310,6 +310,8 @@ struct Camera {
     if (lens_name.empty()) fail("camera preset " + setup.camera.file + " names no default_lens; pass lens=");
     setup.lens = load_lens_preset(lens_name);
     setup.device_id = device_id.value_or(setup.camera.name + "-0");
+    // The id names its maps' file: checked here (path_for checks it), not at the first expose.
+    (void)store.path_for(setup.camera, setup.device_id, 2, 2);
   }
 
   // The settings of one call, validated before any work (as the CLI's SensorOptions::resolve).
@@ -427,6 +429,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
     ImageF day = day_float ? float_image(day_rgb, "day_rgb", ds)
                  : as_codes ? ImageF()
                             : image_from_codes(day_rgb.data(), info.bits_per_sample, ds.width, ds.height, ds.channels);
+    const std::string image_note = day_float ? day_image_note(day, info) : std::string();
     const auto t0 = std::chrono::steady_clock::now();
     lm = scene::labels_from_codes(std::move(label_codes), instances ? &instance_codes : nullptr, ds.width, ds.height,
                                   fmt_label, resize, "labels", "instances");
@@ -435,7 +438,7 @@ NightResult night(const py::array& day_rgb, const py::array& labels, const std::
                          : prepare_night(runner, std::move(day), info, lm, sp, s, camera.store));
     out.emplace(night_frame(runner, *chain, s, s.settings.frame));
     attrs = night_attributes(s, chain->exposure, chain->fpn, sp, chain->scene, lm,
-                             {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : ""});
+                             {"<array day_rgb>", "<array labels>", instances ? "<array instances>" : "", image_note});
     // The intermediates no output keeps are released here, as a C++ caller's scope would.
     chain->mean_e = ImageF();
     chain->fpn = FixedPatternMaps();
@@ -552,6 +555,7 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
   images.reserve(layers.size());
   std::vector<ExrChannelGroup> groups;
   std::map<std::string, std::string> channel_layer;  // channel name -> the layer that made it
+  std::vector<std::string> layer_names;              // groups[i]'s layer
   std::string first_layer;
   ArrayShape first;
   for (const auto& [k, v] : layers) {
@@ -615,8 +619,32 @@ void write_exr_py(const std::string& path, const py::dict& layers, const py::dic
       fail(what + ": expected dtype float32, float16 or uint8/16/32, got " + dtype_name(a));
     }
     groups.push_back(std::move(g));
+    layer_names.push_back(name);
   }
   for (size_t i = 0; i < groups.size(); ++i) groups[i].image = &images[i];
+  // The float layers hold finite values only, and with half=True values that a half can hold:
+  // photosite's EXR layers are physical quantities with units (radiance, electrons, metres), where
+  // NaN or infinity is a bug upstream, and a file that carries one poisons every mean, filter and
+  // loss that reads it later, far from its cause. The first bad sample in reading order is named
+  // with its channel and pixel, before the file is opened. (OpenEXR's half rounds to nearest even:
+  // values of magnitude 65520 and above become infinity, 65504 is the largest finite.)
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    const ExrChannelGroup& g = groups[gi];
+    if (g.pixel == ExrPixel::Uint) continue;
+    const bool to_half = g.pixel == ExrPixel::Half || half;
+    const ImageF& f = images[gi];
+    const int c = f.channels();
+    for (size_t i = 0; i < f.size(); ++i) {
+      const float v = f[i];
+      const bool overflows = to_half && std::isfinite(v) && !std::isfinite(static_cast<float>(Imath::half(v)));
+      if (std::isfinite(v) && !overflows) continue;
+      const size_t p = i / c;
+      fail(fmt::format("layers['{}']: channel {} is {} at pixel ({}, {}){}; nothing was written", layer_names[gi],
+                       g.channel_names[i % c], v, p % f.width(), p / f.width(),
+                       overflows ? ", beyond a half's largest value 65504 (write it with half=False)"
+                                 : ": NaN and infinity are not values of a physical quantity (fix it upstream)"));
+    }
+  }
   std::map<std::string, ExrAttribute> attrs;
   for (const auto& [k, v] : attributes) {
     if (!py::isinstance<py::str>(k))

@@ -38,9 +38,18 @@ const std::vector<float>& srgb_decode_table() {
 }
 
 void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index) {
-  const int64_t y = index / day.width(), x = index % day.width();
-  fail_at(info.path, fmt::format("pixel ({}, {}) is {}: NaN and Inf are not light; the image is damaged",
-                                 x, y, day.at(static_cast<int>(x), static_cast<int>(y), 0)));
+  const int x = static_cast<int>(index % day.width()), y = static_cast<int>(index / day.width());
+  // The damaged sample itself, by its channel's name (a NaN in G was reported as R's finite value).
+  const int c = day.channels();
+  int k = 0;
+  while (k + 1 < c && std::isfinite(day.at(x, y, k))) ++k;
+  static const char* const kRgba[] = {"R", "G", "B", "A"}, *const kYa[] = {"Y", "A"};
+  const std::string channel = c == 1   ? ""
+                              : c == 2 ? std::string(" ") + kYa[k]
+                              : c <= 4 ? std::string(" ") + kRgba[k]
+                                       : fmt::format(" channel {}", k);
+  fail_at(info.path, fmt::format("pixel ({}, {}){} is {}: NaN and Inf are not light; the image is damaged", x, y,
+                                 channel, day.at(x, y, k)));
 }
 
 namespace {

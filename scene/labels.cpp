@@ -210,14 +210,33 @@ ImageU16 resize_nearest(const ImageU16& in, int width, int height) {
   return out;
 }
 
+namespace {
+// Ids are names, not intensities: a label file must give back exactly the codes it was saved
+// with. JPEG's lossy coding (the 8x8 DCT's quantised coefficients, and chroma subsampling in a
+// colour file) blends the codes of neighbouring classes along every border, and a blend is a
+// value of another class (between road 7 and building 11 lie sidewalk 8 and parking 9) or of
+// none: a JPEG label file is refused by its signature, whatever its values, before they are read
+// as classes. (Cityscapes labelIds saved as a quality-95 JPEG hold the value 35, which no class
+// has, at a border: docs/cli.md "Edge cases (thirty-fifth session)".)
+void refuse_lossy_ids(const ImageFileInfo& info, const char* what) {
+  if (info.format == "jpeg")
+    fail_at(info.path, fmt::format("{} in a JPEG file: JPEG's lossy compression changes them along every class "
+                                   "border, and {} must be exact; give them as a PNG (lossless)",
+                                   what, what));
+}
+}  // namespace
+
 LabelMap read_labels(const std::string& labels_path, const std::string& instances_path, int width,
                      int height, LabelFormat format, ResizeLabels resize) {
   if (!std::filesystem::exists(labels_path)) fail_missing(labels_path, "labels file not found");
-  ImageU16 raw = read_image_u16(labels_path);
+  ImageFileInfo info;
+  ImageU16 raw = read_image_u16(labels_path, &info);
+  refuse_lossy_ids(info, "label ids");
   ImageU16 inst;
   if (!instances_path.empty()) {
     if (!std::filesystem::exists(instances_path)) fail_missing(instances_path, "instances file not found");
-    inst = read_image_u16(instances_path);
+    inst = read_image_u16(instances_path, &info);
+    refuse_lossy_ids(info, "instance ids");
   }
   return labels_from_codes(std::move(raw), instances_path.empty() ? nullptr : &inst, width, height, format,
                            resize, labels_path, instances_path);

@@ -45,11 +45,20 @@ std::string fpn_params_text(const CameraPreset& p) {
                      p.hot_pixel_fraction, p.hot_pixel_dark_current_e_per_s, p.dark_current_e_per_s);
 }
 
+// The id names the map's file, "<id>_<W>x<H>.exr", written first as ".<that>.tmp-<scope>-<pid>-<n>.exr"
+// (about 60 bytes more than the id at the largest frame): at most 128 characters keeps both under
+// a file name's 255 bytes (NAME_MAX), where a longer id failed at the write with "File name too
+// long". A leading '.' would make the maps hidden files.
+constexpr size_t kMaxDeviceIdChars = 128;
 void check_device_id(const std::string& id) {
   if (id.empty()) fail("device id is empty");
   for (char c : id)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
       fail("device id '" + id + "' may contain only letters, digits, '-', '_' and '.'");
+  if (id.size() > kMaxDeviceIdChars)
+    fail(fmt::format("device id of {} characters is longer than {} (it names the maps' file)", id.size(),
+                     kMaxDeviceIdChars));
+  if (id[0] == '.') fail("device id '" + id + "' starts with '.' (its maps' file would be hidden)");
 }
 }  // namespace
 
@@ -205,8 +214,10 @@ std::string DeviceStore::path_for(const CameraPreset& preset, const std::string&
       .string();
 }
 
-FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& preset,
-                                   const std::string& device_id, int width, int height) const {
+namespace {
+// DeviceStore::load without its remedy.
+FixedPatternMaps load_map(const std::string& path, const CameraPreset& preset, const std::string& device_id,
+                          int width, int height) {
   // The header first: a map of another size (or a damaged header declaring a huge one) is
   // refused before its pixels are allocated and decoded.
   const ImageFileInfo info = probe_image(path);
@@ -266,6 +277,27 @@ FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& 
   }
   return m;
 }
+}  // namespace
+
+FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& preset,
+                                   const std::string& device_id, int width, int height) const {
+  // A map that cannot be used (damaged, cut short, another preset's, size's or device's) says so
+  // with what to do: the maps follow from the preset and the device id alone (generate_fixed_pattern),
+  // so removing the file makes the next run draw the device's maps again. Never done silently:
+  // the outputs made with the map on file record its checksum. (A ParameterError, other preset
+  // parameters, names its own remedy.)
+  try {
+    return load_map(path, preset, device_id, width, height);
+  } catch (const ParameterError&) {
+    throw;
+  } catch (const MissingFileError&) {
+    throw;
+  } catch (const Error& e) {
+    if (e.kind() != Error::Kind::BadInput) throw;
+    throw Error(std::string(e.what()) + "; remove the file, and the next run draws device " + device_id +
+                "'s maps again (they follow from the preset and the device id alone)");
+  }
+}
 
 FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                                              const std::string& device_id, int width,
@@ -278,6 +310,10 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   // is read without a lock: a read-only store shared by many jobs works as long as it holds
   // every map they need.
   if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
+  // A store given as a file (PHOTOSITE_DEVICE_STORE=a file) is named as such, not as a folder that
+  // could not be made.
+  if (std::error_code fe; fs::exists(dir_, fe) && !fs::is_directory(dir_, fe))
+    fail_at(dir_, "the device store is a file, not a folder");
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
     fail_at(dir, "cannot create the device store folder (" + (ec ? ec.message() : "not a folder") +

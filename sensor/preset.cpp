@@ -150,6 +150,9 @@ const std::vector<Param<LensPreset>>& lens_schema() {
 }
 
 std::string read_text(const std::string& path) {
+  // A folder opens as a stream of no bytes: it was read as an empty preset ("cfa: required key is
+  // missing", presets show /tmp).
+  if (std::error_code ec; fs::is_directory(path, ec)) fail_at(path, "is a folder, not a preset file");
   std::ifstream f(path);
   if (!f) fail_at(path, "cannot open preset file");
   std::stringstream ss;

@@ -18,11 +18,16 @@
 #include <sstream>
 #include <string>
 
+#include "core/raster_codecs.h"
+#include "photosite/batch.h"
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/output_set.h"
+#include "photosite/scene/labels.h"
 #include "photosite/scene/scene_preset.h"
+#include "photosite/sensor/fpn.h"
+#include "photosite/sensor/preset.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -261,4 +266,204 @@ TEST(EdgeCases, NoStreetLampsSaysWhy) {
     EXPECT_NE(a.at("photosite/night/street_lamp_source"), "none");
     EXPECT_EQ(a.count("photosite/night/street_lamp_note"), 0u);  // lamps placed: no note
   }
+}
+
+// ---- the thirty-fifth session (docs/cli.md "Edge cases (thirty-fifth session)") ----------------
+
+namespace {
+void put_bytes(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+}
+}  // namespace
+
+// Label files saved as JPEG were refused only when the lossy coding happened to make a value no
+// class has ("value 35 ... is not a Cityscapes labelIds value"), and read when it made another
+// class's: now any JPEG given as labels or instance ids is refused, saying why.
+TEST(EdgeCases, JpegLabelsAreRefusedSayingWhy) {
+  TempDir t;
+  const int w = 64, h = 32;
+  write_png8(t.file("lab.png"), ImageU8(w, h, 1, 7));
+  // A uniform car-coloured frame (0, 0, 142): a JPEG whose every pixel may decode to a palette colour.
+  std::vector<uint8_t> rgb(3 * w * h);
+  for (int i = 0; i < w * h; ++i) rgb[3 * i + 2] = 142;
+  put_bytes(t.file("lab.jpg"), codec::encode_jpeg_rgb8(rgb.data(), w, h, 100));
+  put_bytes(t.file("lab_jpeg.png"), codec::encode_jpeg_rgb8(rgb.data(), w, h, 100));  // by its bytes, not its name
+  for (const char* f : {"lab.jpg", "lab_jpeg.png"}) {
+    const std::string e = error_of([&] {
+      scene::read_labels(t.file(f), "", w, h, scene::LabelFormat::Auto, scene::ResizeLabels::None);
+    });
+    EXPECT_NE(e.find(t.file(f) + ": label ids in a JPEG file: JPEG's lossy compression changes them along every "
+                                 "class border, and label ids must be exact; give them as a PNG (lossless)"),
+              std::string::npos)
+        << e;
+  }
+  const std::string e = error_of([&] {
+    scene::read_labels(t.file("lab.png"), t.file("lab.jpg"), w, h, scene::LabelFormat::Auto, scene::ResizeLabels::None);
+  });
+  EXPECT_NE(e.find(t.file("lab.jpg") + ": instance ids in a JPEG file"), std::string::npos) << e;
+  // The same ids as a PNG are read.
+  EXPECT_EQ(scene::read_labels(t.file("lab.png"), "", w, h, scene::LabelFormat::Auto, scene::ResizeLabels::None).ids[0], 7);
+}
+
+// A linear (EXR) day image's negative samples were clipped to 0 without a word; now the header
+// and the console say how many pixels had one and the most negative value, and the frame is the
+// one of the image with those samples set to 0. A NaN in G was reported as R's finite value.
+TEST(EdgeCases, NegativeLinearDayImageIsClippedWithANote) {
+  TempDir t;
+  const int w = 128, h = 64;
+  ImageU8 lab(w, h, 1, 23);  // sky over road
+  for (int y = h / 2; y < h; ++y)
+    for (int x = 0; x < w; ++x) lab.at(x, y) = 7;
+  write_png8(t.file("lab.png"), lab);
+  ImageF day(w, h, 3, 0.2f);
+  ImageF clipped = day;
+  day.at(5, 3, 1) = -0.25f;
+  day.at(6, 3, 0) = -0.01f;
+  day.at(6, 3, 2) = -0.02f;  // one pixel, two negative samples
+  clipped.at(5, 3, 1) = clipped.at(6, 3, 0) = clipped.at(6, 3, 2) = 0.f;
+  auto put = [&](const std::string& name, const ImageF& img) {
+    std::vector<ExrChannelGroup> g{{{"R", "G", "B"}, &img, ""}};
+    write_exr(t.file(name), g, {}, ExrWriteOptions());
+  };
+  put("neg.exr", day);
+  put("zero.exr", clipped);
+  auto night = [&](const std::string& img, const std::string& out) {
+    return run_cli("night --backend cpu --image '" + t.file(img) + "' --labels '" + t.file("lab.png") +
+                   "' --layers radiance --compression none --out '" + t.file(out) + "'");
+  };
+  const auto r = night("neg.exr", "neg_out.exr");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string note = "2 of 8192 pixels have negative values, clipped to 0; the most negative -0.25 (G at pixel (5, 3))";
+  EXPECT_NE(r.output.find("note: " + t.file("neg.exr") + ": " + note), std::string::npos) << r.output;
+  EXPECT_EQ(read_exr_attributes(t.file("neg_out.exr")).at("photosite/night/image_note"), note);
+  const auto z = night("zero.exr", "zero_out.exr");
+  ASSERT_EQ(z.exit_code, 0) << z.output;
+  EXPECT_EQ(read_exr_attributes(t.file("zero_out.exr")).count("photosite/night/image_note"), 0u);  // none: no note
+  const ExrContents a = read_exr(t.file("neg_out.exr")), b = read_exr(t.file("zero_out.exr"));
+  for (const char* ch : {"night_radiance.R", "night_radiance.G", "night_radiance.B"}) {
+    const ImageF &pa = a.channels.at(ch), &pb = b.channels.at(ch);
+    EXPECT_EQ(std::memcmp(pa.data(), pb.data(), pa.size() * sizeof(float)), 0) << ch;
+  }
+  // NaN and Inf stay refused, naming the damaged sample's channel and value.
+  day.at(7, 4, 2) = std::nanf("");
+  put("nan.exr", day);
+  const auto n = night("nan.exr", "nan_out.exr");
+  EXPECT_EQ(n.exit_code, 2) << n.output;
+  EXPECT_NE(n.output.find(t.file("nan.exr") + ": pixel (7, 4) B is nan: NaN and Inf are not light"), std::string::npos)
+      << n.output;
+}
+
+// The device store: a damaged map names itself and the remedy (removing it makes the same maps
+// again: they follow from the preset and the device id); a store given as a file is named as one;
+// device ids too long for a file name, or hidden, are refused before any map is made.
+TEST(EdgeCases, DeviceStoreFailuresNameTheRemedy) {
+  TempDir t;
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  const DeviceStore store(t.file("store"));
+  const FixedPatternMaps made = store.load_or_create(cam, "cam1", 32, 16);
+  const std::string path = store.path_for(cam, "cam1", 32, 16);
+  fs::resize_file(path, fs::file_size(path) / 2);
+  const std::string e = error_of([&] { store.load_or_create(cam, "cam1", 32, 16); });
+  EXPECT_NE(e.find(path + ": corrupt or truncated EXR"), std::string::npos) << e;
+  EXPECT_NE(e.find("; remove the file, and the next run draws device cam1's maps again (they follow from the preset "
+                   "and the device id alone)"),
+            std::string::npos)
+      << e;
+  fs::remove(path);
+  EXPECT_EQ(store.load_or_create(cam, "cam1", 32, 16).checksum, made.checksum);  // the same maps
+  // Another preset's map under this one's name: the same remedy.
+  const CameraPreset other = load_camera_preset("onsemi-ar0331");
+  (void)store.load_or_create(other, "cam1", 32, 16);
+  fs::copy_file(store.path_for(other, "cam1", 32, 16), path, fs::copy_options::overwrite_existing);
+  const std::string e2 = error_of([&] { store.load_or_create(cam, "cam1", 32, 16); });
+  EXPECT_NE(e2.find("belongs to preset 'onsemi-ar0331', not 'sony-imx174'; remove the file"),
+            std::string::npos)
+      << e2;
+
+  std::ofstream(t.file("file")) << "x";
+  const std::string e3 = error_of([&] { DeviceStore(t.file("file")).load_or_create(cam, "cam1", 32, 16); });
+  EXPECT_NE(e3.find(t.file("file") + ": the device store is a file, not a folder"), std::string::npos) << e3;
+
+  const std::string e4 = error_of([&] { store.load_or_create(cam, std::string(129, 'x'), 32, 16); });
+  EXPECT_NE(e4.find("device id of 129 characters is longer than 128"), std::string::npos) << e4;
+  EXPECT_EQ(error_of([&] { store.load_or_create(cam, std::string(128, 'x'), 32, 16); }), "");  // the longest fits
+  const std::string e5 = error_of([&] { store.load_or_create(cam, ".cam", 32, 16); });
+  EXPECT_NE(e5.find("device id '.cam' starts with '.'"), std::string::npos) << e5;
+}
+
+// batch manifests: a path with spaces could not be given at all (every separator split it); now
+// a line with a comma or a tab is split at those alone, and a double-quoted field is taken whole
+// ('#' inside included). An image given as the manifest, an unclosed quote and a missing manifest
+// are named as such.
+TEST(EdgeCases, ManifestFieldsMayHoldSpaces) {
+  TempDir t;
+  for (const char* f : {"day two.png", "lab two.png", "f#1.png", "lab.png", "inst ü.png"}) std::ofstream(t.file(f)) << "x";
+  auto items = [&](const std::string& text) {
+    std::ofstream(t.file("m.txt")) << text;
+    return batch::read_manifest(t.file("m.txt"));
+  };
+  for (const std::string& line : {std::string("\"day two.png\" \"lab two.png\"  # a comment\n"),
+                                  std::string("day two.png, lab two.png\r\n"), std::string("day two.png\tlab two.png\n")}) {
+    const auto v = items(line);
+    ASSERT_EQ(v.size(), 1u) << line;
+    EXPECT_EQ(fs::path(v[0].image).filename(), "day two.png") << line;
+    EXPECT_EQ(fs::path(v[0].labels).filename(), "lab two.png") << line;
+  }
+  const auto q = items("\"f#1.png\",lab.png,\"inst ü.png\"\n");
+  ASSERT_EQ(q.size(), 1u);
+  EXPECT_EQ(fs::path(q[0].image).filename(), "f#1.png");
+  EXPECT_EQ(fs::path(q[0].instances).filename(), "inst ü.png");
+  // As before, spaces separate where there is no comma or tab, and '#' starts a comment.
+  const std::string e1 = error_of([&] { items("f#1.png lab.png\n"); });
+  EXPECT_NE(e1.find("m.txt:1: expected 'image labels [instances]', found 1 fields (a path with spaces or '#': put it "
+                    "in double quotes, or separate the fields with commas or tabs)"),
+            std::string::npos)
+      << e1;
+  const std::string e2 = error_of([&] { items("lab.png lab.png\n\"day two.png lab.png\n"); });
+  EXPECT_NE(e2.find("m.txt:2: a double quote opens a field that does not close on its line"), std::string::npos) << e2;
+  write_png8(t.file("img.png"), ImageU8(4, 4, 1, 0));
+  const std::string e3 = error_of([&] { batch::read_manifest(t.file("img.png")); });
+  EXPECT_NE(e3.find("img.png: is an image or other binary file, not a manifest"), std::string::npos) << e3;
+  EXPECT_THROW(batch::read_manifest(t.file("none.txt")), MissingFileError);
+}
+
+// Bad arguments the thirty-fourth session's sweep did not reach: each exits 2 naming the problem,
+// before any work (and a command whose printed output is lost, as on a full disk, fails).
+TEST(EdgeCases, BadArgumentsOfTheOtherCommandsAreNamed) {
+  TempDir t;
+  std::ofstream(t.file("file")) << "x";
+  fs::create_directory(t.path() / "dir");
+  const std::string file = t.file("file"), dir = t.file("dir");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"night --backend cpu " + bundled_inputs() + " --layers radiance,radiance --out '" + t.file("o.exr") + "'",
+       "--layers radiance,radiance: the layer 'radiance' is named twice"},
+      {"night --backend cpu " + bundled_inputs() + " --scene-preset '" + dir + "' --out '" + t.file("o.exr") + "'",
+       dir + ": is a folder, not a scene preset file"},
+      {"presets show '" + dir + "'", dir + ": is a folder, not a preset file"},
+      {"bench night --labels '" + file + "' --repeats 1 --out-dir '" + dir + "'",
+       "bench night: give --image with --labels"},
+      {"bench sense --out-dir '" + file + "'", file + ": --out-dir: is a file, not a folder"},
+      {"bench depth --kitti '" + dir + "' --max-frames -1", "--max-frames: -1 is not allowed"},
+      {"batch --manifest '" + file + "' --out '" + file + "'", "found 1 fields"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
+  }
+  EXPECT_FALSE(fs::exists(t.file("o.exr")));
+  // --out a file (the manifest itself): named as a file, not as a folder that could not be made.
+  write_png8(t.file("day.png"), ImageU8(8, 8, 3, 90));
+  write_png8(t.file("lab.png"), ImageU8(8, 8, 1, 7));
+  std::ofstream(t.file("m.txt")) << "day.png lab.png\n";
+  const auto b = run_cli("batch --backend cpu --manifest '" + t.file("m.txt") + "' --out '" + t.file("m.txt") + "'");
+  EXPECT_EQ(b.exit_code, 2) << b.output;
+  EXPECT_NE(b.output.find(t.file("m.txt") + ": is a file, not an output folder"), std::string::npos) << b.output;
+  // Standard output on a full device: the text is lost, so the command fails (it exited 0).
+  const auto full = run_cli("presets doc 2>'" + t.file("err") + "' >/dev/full; exit $?");
+  EXPECT_EQ(full.exit_code, 2);
+  EXPECT_NE(slurp(t.file("err")).find("photosite: error: writing the standard output failed ("),
+            std::string::npos)
+      << slurp(t.file("err"));
+  EXPECT_EQ(run_cli("presets doc >/dev/null").exit_code, 0);
 }

@@ -64,6 +64,8 @@ void add_shared_checks(CLI::App* sub) {
   // --threads at most what a parallel region runs on (libgomp's stack: include/photosite/environment.h).
   if (CLI::Option* opt = sub->get_option_no_throw("--threads"))
     opt->check(CLI::Range(1, kMaxOpenmpThreads, fmt::format("at most {}", kMaxOpenmpThreads)));
+  // --max-frames: 0 is all; a negative count was taken as all too (bench depth).
+  if (CLI::Option* opt = sub->get_option_no_throw("--max-frames")) opt->check(at_least(0));
   for (const char* name : {"--width", "--height"})
     if (CLI::Option* opt = sub->get_option_no_throw(name)) opt->check(at_least(kMinSide));
   if (CLI::Option* opt = sub->get_option_no_throw("--out-dir"))
@@ -71,6 +73,8 @@ void add_shared_checks(CLI::App* sub) {
       const std::string given = opt->count() ? opt->as<std::string>() : opt->get_default_str();
       const std::filesystem::path dir = output_folder(given);
       std::error_code ec;
+      if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec))
+        fail_at(dir.string(), "--out-dir: is a file, not a folder");
       if (!std::filesystem::is_directory(dir, ec))
         fail_at(dir.string(), "--out-dir: output folder does not exist (the bench does not create it)");
       if (access(dir.c_str(), W_OK) != 0) fail_at(dir.string(), "--out-dir: output folder is not writable");

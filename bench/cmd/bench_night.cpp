@@ -60,6 +60,11 @@ void run(const Opts& o) {
   using clock = std::chrono::steady_clock;
   omp_set_num_threads(o.threads);
   cv::setNumThreads(o.threads);
+  // As `night`: the image and its labels together (a --labels alone was dropped for the shared
+  // frame's, an --image alone failed naming an empty file).
+  if (o.image.empty() != o.labels.empty() || (o.image.empty() && !o.instances.empty()))
+    fail("bench night: give --image with --labels (and --instances if any), or none of them for a Cityscapes "
+         "frame from ../shared");
   std::string image = o.image, labels = o.labels, instances = o.instances, source;
   const fs::path shared = fs::path(PHOTOSITE_SOURCE_DIR) / ".." / "shared" / "data" / "cityscapes";
   if (image.empty() && fs::exists(shared / "leftImg8bit")) {

@@ -62,7 +62,20 @@ std::vector<ExrChannelGroup> sensor_channels(const SensorOutput& out, LayerSet l
 // ---- night frames (`night`, `batch`) ----------------------------------------------------------
 struct NightInputs {
   std::string image, labels, instances;
+  // A note on the day image, written as photosite/night/image_note when not empty: its negative
+  // samples, clipped to 0 (day_image_note).
+  std::string image_note;
 };
+
+// A linear day image's negative samples (a float EXR or a float32 array; integer files cannot
+// hold any), which the linearisation clips to 0 (scene::linearize): "N of M pixels have negative
+// values, clipped to 0; the most negative -v (B at pixel (x, y))", or empty when there are none
+// (the header names the image beside it, the console note puts its path first). Real scene-referred EXRs carry small negatives, from a colour transform into
+// sRGB's primaries (colours outside its gamut) or from black-level subtraction of a dark frame's
+// noise, so they are taken; the note says how much was clipped, for a user to judge whether the
+// image was what they meant (a whole frame below zero is no photo). Only the R, G, B samples the
+// linearisation reads count (a grey image's one, not an alpha channel).
+std::string day_image_note(const ImageF& day, const ImageFileInfo& info);
 
 // Channel groups: the sensor's (raw.Y, R,G,B, electrons.Y), night_radiance.R/G/B, depth.Z,
 // lights.R/G/B, labels.Y (the class ids written from their 16-bit samples to a UINT channel).

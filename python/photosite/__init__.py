@@ -265,8 +265,9 @@ def write_exr(path: str, layers: dict, attributes: Optional[dict] = None, half: 
     attributes  dict name -> str, int (32-bit) or float header attributes; a float x is also
                 written as the 17-digit text x_text. The header's own names (compression,
                 dataWindow, channels, capDate, ...) are refused.
-    Bad input (layers of different sizes, a channel made twice, an attribute out of range...)
-    is a ValueError naming the layer or attribute, raised before any file is made.
+    Bad input (layers of different sizes, a channel made twice, an attribute out of range, NaN or
+    infinity in a float layer, a float32 value beyond a half's 65504 with half=True...) is a
+    ValueError naming the layer or attribute (and the pixel), raised before any file is made.
     """
     _photosite.write_exr(path, layers, attributes or {}, half, overwrite)
 

@@ -46,6 +46,12 @@ class NightTransform:
                  output: str = "preview", device_store: Optional[str] = None, **night_kwargs: Any):
         if output not in ("preview", "rgb", "raw"):
             raise ValueError(f"output: '{output}' is not preview, rgb or raw")
+        # Checked as photosite.night checks its own (a float seed was truncated by int(), a str
+        # exposure raised float()'s message, which names no argument).
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+            raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
+        if isinstance(exposure_s, bool) or not isinstance(exposure_s, (int, float, np.integer, np.floating)):
+            raise TypeError(f"exposure_s: expected a number of seconds, got {type(exposure_s).__name__}")
         self.camera = camera
         self.seed = int(seed)
         self.exposure_s = float(exposure_s)

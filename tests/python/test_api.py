@@ -800,3 +800,55 @@ def test_no_street_lamps_says_why_in_the_metadata(store):
     assert np.isfinite(r.radiance).all()
     assert r.sensor.metadata["night/street_lamp_source"] == "none"
     assert r.sensor.metadata["night/street_lamp_note"] == "no road at the principal column 20-60 m ahead"
+
+
+# ---- the thirty-fifth session's edge cases (docs/cli.md "Edge cases (thirty-fifth session)") ----
+
+@pytest.mark.parametrize("layer, dtype, half, bad, match", [
+    ("rad", np.float32, False, np.nan, r"layers\['rad'\]: channel rad.G is nan at pixel \(2, 1\): NaN and infinity"),
+    ("rad", np.float32, False, -np.inf, r"layers\['rad'\]: channel rad.G is -inf at pixel \(2, 1\)"),
+    ("rad", np.float16, False, np.inf, r"layers\['rad'\]: channel rad.G is inf at pixel \(2, 1\)"),
+    ("rad", np.float32, True, 1e6, r"channel rad.G is 1000000 at pixel \(2, 1\), beyond a half's largest value 65504"),
+])
+def test_write_exr_refuses_nan_and_inf_naming_the_layer_and_pixel(layer, dtype, half, bad, match, tmp_path):
+    """ps.write_exr wrote the NaN or infinity it was given (and a float32 value beyond a half's
+    range as infinity with half=True): photosite's layers are physical quantities, so it is a
+    ValueError naming the layer, channel and first pixel, and no file is written."""
+    a = np.zeros((3, 4, 3), dtype)
+    a[1, 2, 1] = bad
+    a[2, 3, 0] = bad  # a later one is not named
+    p = tmp_path / "x.exr"
+    with pytest.raises(ValueError, match=match):
+        ps.write_exr(str(p), {layer: a}, half=half)
+    assert not p.exists()
+    a[1, 2, 1] = a[2, 3, 0] = 65504 if half else 1
+    ps.write_exr(str(p), {layer: a}, half=half)  # the largest finite half is written
+    assert ps.read_exr(str(p))[0]["rad.G"][1, 2] == a[1, 2, 1]
+
+
+def test_night_notes_negative_samples_of_a_float_day_image(store):
+    """A linear float32 day image's negative samples are clipped to 0 and counted in the metadata
+    (night/image_note), as in the command's header; the frame is that of the clipped image."""
+    cam = ps.Camera("onsemi-ar0331", device_store=store)
+    labels = np.full((64, 128), 23, np.uint8)
+    labels[32:] = 7
+    day = np.full((64, 128, 3), 0.2, np.float32)
+    clipped = day.copy()
+    day[3, 5, 1] = -0.25
+    day[3, 6, 0] = -0.01
+    clipped[3, 5, 1] = clipped[3, 6, 0] = 0
+    r = ps.night(day, labels, camera=cam, backend="cpu")
+    assert r.sensor.metadata["night/image_note"] == (
+        "2 of 8192 pixels have negative values, clipped to 0; the most negative -0.25 (G at pixel (5, 3))")
+    z = ps.night(clipped, labels, camera=cam, backend="cpu")
+    assert "night/image_note" not in z.sensor.metadata
+    assert np.array_equal(r.radiance, z.radiance)
+
+
+def test_camera_checks_its_device_id_when_made(store):
+    """A device id that cannot name a map file was accepted by Camera() and refused at the first
+    expose; now at once."""
+    for bad, match in [("../x", "may contain only letters"), ("", "device id is empty"),
+                       ("x" * 129, "longer than 128"), (".cam", "starts with '.'")]:
+        with pytest.raises(ValueError, match=match):
+            ps.Camera("onsemi-ar0331", device_id=bad, device_store=store)

@@ -96,3 +96,13 @@ def test_transform_needs_the_index_and_sRGB_codes(store):
         t((day.astype(np.float32) / 255, lab), index=0)
     img, _ = t((day, lab), index=np.int64(2))  # a NumPy integer index is an index
     assert img.shape[0] == 3
+
+
+def test_transform_names_a_bad_seed_or_exposure():
+    """A float seed was truncated by int() (1.5 ran as 1) and a str exposure raised float()'s own
+    message, which names no argument: both are TypeErrors naming the argument, as in ps.night."""
+    with pytest.raises(TypeError, match="seed: expected an int, got float"):
+        NightTransform(seed=1.5)
+    with pytest.raises(TypeError, match="exposure_s: expected a number of seconds, got str"):
+        NightTransform(exposure_s="x")
+    assert NightTransform(seed=np.int64(3), exposure_s=np.float32(0.01)).seed == 3
