@@ -615,3 +615,43 @@ TEST(Docs, JsonKeysAreTheDocumentedOnes) {
   for (const auto& k : keys) EXPECT_TRUE(actual.count(k)) << "docs/cli.md names characterize's JSON key " << k << ", which it lacks";
   for (const auto& [k, v] : j.items()) EXPECT_TRUE(keys.count(k)) << "characterize --json writes " << k << ", which docs/cli.md does not name";
 }
+
+namespace {
+
+// The `photosite/<key>` spans of a text (a channel's unit and <placeholders> left out).
+std::set<std::string> named_keys(const std::string& text) {
+  std::set<std::string> k;
+  for (const auto& s : code_spans(text))
+    if (starts_with(s, "photosite/") && !starts_with(s, "photosite/unit/") && s.find_first_of("<> ") == std::string::npos)
+      k.insert(s);
+  return k;
+}
+
+}  // namespace
+
+// chart's header is the one docs/cli.md's chart section names, both ways; demosaic's output keys
+// are named in its section, and every key the section names is in its output or (read from a
+// photosite raw mosaic) in its input.
+TEST(Docs, ChartAndDemosaicHeadersAreDocumented) {
+  TempDir tmp;
+  ASSERT_EQ(run_cli("chart --width 64 --height 48 --out " + tmp.file("c.exr")).exit_code, 0);
+  auto r = run_cli("expose --backend cpu --preset onsemi-ar0132at-rccc --layers raw --radiance " + tmp.file("c.exr") +
+                   " --out " + tmp.file("raw.exr"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("demosaic --backend cpu --white-level 3000 --in " + tmp.file("raw.exr") + " --out " + tmp.file("d.exr"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto c = photosite::read_exr(tmp.file("c.exr"));
+  const auto raw = photosite::read_exr_attributes(tmp.file("raw.exr"));
+  const auto d = photosite::read_exr(tmp.file("d.exr"));
+  const std::string cli = slurp(kRoot / "docs/cli.md");
+
+  EXPECT_EQ(named_keys(section(cli, "## chart")), photosite_keys(c.attributes));
+  EXPECT_EQ(keys_of(c.channels), (std::set<std::string>{"R", "G", "B"}));
+  for (const auto& [n, _] : c.channels) EXPECT_TRUE(c.attributes.count("photosite/unit/" + n)) << n;
+
+  const auto named = named_keys(section(cli, "## demosaic"));
+  for (const auto& k : photosite_keys(d.attributes)) EXPECT_TRUE(named.count(k)) << k << " is written but not in docs/cli.md's demosaic";
+  for (const auto& k : named)
+    EXPECT_TRUE(d.attributes.count(k) || raw.count(k)) << "docs/cli.md's demosaic names " << k << ", in neither its input nor its output";
+  for (const auto& [n, _] : d.channels) EXPECT_TRUE(d.attributes.count("photosite/unit/" + n)) << n;
+}
