@@ -655,3 +655,31 @@ TEST(Docs, ChartAndDemosaicHeadersAreDocumented) {
     EXPECT_TRUE(d.attributes.count(k) || raw.count(k)) << "docs/cli.md's demosaic names " << k << ", in neither its input nor its output";
   for (const auto& [n, _] : d.channels) EXPECT_TRUE(d.attributes.count("photosite/unit/" + n)) << n;
 }
+
+// batch's default layers are the set docs/cli.md gives ("for batch it is `sensor,raw,...`"): a
+// batch run with no --layers writes the channels night writes with --layers set to that list, and
+// records the list in its resume manifest.
+TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
+  const std::string cli = slurp(kRoot / "docs/cli.md");
+  const auto at = cli.find("for batch it is `");
+  ASSERT_NE(at, std::string::npos);
+  const auto b = cli.find('`', at) + 1;
+  const std::string layers = cli.substr(b, cli.find('`', b) - b);
+  TempDir tmp;
+  const std::string sample = kRoot.string() + "/samples/kitti/";
+  {
+    std::ofstream m(tmp.file("m.txt"));
+    m << sample << "image_2/000000_10.png " << sample << "semantic/000000_10.png\n";
+  }
+  auto r = run_cli("batch --backend cpu --quiet --manifest " + tmp.file("m.txt") + " --out " + tmp.file("out"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("night --backend cpu --layers " + layers + " --image " + sample + "image_2/000000_10.png --labels " + sample +
+              "semantic/000000_10.png --out " + tmp.file("n.exr"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::string exr;
+  for (const auto& e : fs::recursive_directory_iterator(tmp.path() / "out"))
+    if (e.path().extension() == ".exr") exr = e.path().string();
+  ASSERT_FALSE(exr.empty());
+  EXPECT_EQ(keys_of(photosite::read_exr(exr).channels), keys_of(photosite::read_exr(tmp.file("n.exr")).channels)) << layers;
+  EXPECT_NE(slurp(tmp.path() / "out/.photosite-batch/shard-0-of-1.jsonl").find("\"layers\":\"" + layers + "\""), std::string::npos);
+}
