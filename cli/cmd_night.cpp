@@ -190,7 +190,7 @@ void add_night_options(CLI::App* sub, NightCmd& c) {
   sub->add_option("--preview", c.preview, "also write an sRGB PNG preview (never changes the EXR)");
   c.preview_flags.add(sub);
   sub->add_flag("--timings", c.timings, "print the per-stage time table");
-  sub->add_option("--maps", c.maps, "folder for the intermediate maps as PNGs (lanes, edges, lines, depth, lights)");
+  sub->add_option("--maps", c.maps, "an existing folder for the intermediate maps as PNGs (day, labels, lanes, edges, lines and vanishing point, depth, darkened, lights, night radiance; written with the first frame)");
   sub->add_flag("--half", c.half, "store channels as half floats");
   sub->add_option("--layers", c.layers, "comma list of layers to write: sensor,raw,electrons,radiance,lights,depth,labels (default: all)");
   sub->add_option("--compression", c.compression, "EXR compression: none, rle, zips, zip, piz (lossless); pxr24, b44, b44a, dwaa, dwab (lossy)")->capture_default_str();

@@ -778,14 +778,15 @@ PYBIND11_MODULE(_photosite, m) {
                     std::optional<std::string>>(),
            py::arg("preset"), py::arg("lens") = py::none(), py::arg("device_id") = py::none(),
            py::arg("device_store") = py::none())
-      .def_property_readonly("preset", [](const Camera& c) { return c.setup.camera.name; })
-      .def_property_readonly("lens", [](const Camera& c) { return c.setup.lens.name; })
-      .def_property_readonly("device_id", [](const Camera& c) { return c.setup.device_id; })
-      .def_property_readonly("device_store", [](const Camera& c) { return c.store.dir(); })
-      .def_property_readonly("width_px", [](const Camera& c) { return c.setup.camera.width_px; })
-      .def_property_readonly("height_px", [](const Camera& c) { return c.setup.camera.height_px; })
-      .def_property_readonly("bit_depth", [](const Camera& c) { return c.setup.camera.bit_depth; })
-      .def_property_readonly("cfa", [](const Camera& c) { return std::string(to_string(c.setup.camera.cfa)); })
+      .def_property_readonly("preset", [](const Camera& c) { return c.setup.camera.name; }, "str: the camera preset's name (file stem)")
+      .def_property_readonly("lens", [](const Camera& c) { return c.setup.lens.name; }, "str: the lens preset's name")
+      .def_property_readonly("device_id", [](const Camera& c) { return c.setup.device_id; }, "str: the device identity of the fixed-pattern maps")
+      .def_property_readonly("device_store", [](const Camera& c) { return c.store.dir(); }, "str: the folder of the device's fixed-pattern maps")
+      .def_property_readonly("width_px", [](const Camera& c) { return c.setup.camera.width_px; }, "int: the sensor's native active width, px")
+      .def_property_readonly("height_px", [](const Camera& c) { return c.setup.camera.height_px; }, "int: the sensor's native active height, px")
+      .def_property_readonly("bit_depth", [](const Camera& c) { return c.setup.camera.bit_depth; }, "int: the ADC's bits")
+      .def_property_readonly("cfa", [](const Camera& c) { return std::string(to_string(c.setup.camera.cfa)); },
+                             "str: the colour filter array (RGGB, GRBG, ..., RCCB, RCCC, MONO)")
       .def("expose", &Camera::expose, py::arg("radiance"), py::arg("exposure_s") = 0.02,
            py::arg("f_number") = py::none(), py::arg("gain_db") = 0.0, py::arg("temperature_c") = py::none(),
            py::arg("seed") = 0, py::arg("frame") = 0, py::arg("demosaic") = "bilinear", py::arg("backend") = "auto",

@@ -511,7 +511,7 @@ static BenchRegistrar reg("batch", "batch engine end to end (EXR and PNG routes)
                           [](CLI::App* sub) {
                             auto o = std::make_shared<BenchBatchOptions>();
                             sub->add_option("--root", o->root, "Cityscapes-layout root")->capture_default_str();
-                            sub->add_option("--repeats", o->repeats, "end-to-end runs per route (median)")
+                            sub->add_option("--repeats", o->repeats, "end-to-end runs per route (median), 1 to 20")
                                 ->capture_default_str();
                             sub->add_option("--out-dir", o->out_dir, "where the CSVs and the chart go (default docs/)");
                             sub->add_flag("--codecs-only", o->codecs_only,

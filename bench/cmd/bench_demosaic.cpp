@@ -542,8 +542,8 @@ static BenchRegistrar reg("demosaic", "demosaic methods: Kodak and saturated-set
                             sub->add_option("--repeats", o->repeats, "best of N runs")->capture_default_str();
                             sub->add_flag("--accuracy-only", o->accuracy_only,
                                           "print the Kodak and saturated-set scores of photosite's methods, write nothing");
-                            sub->add_option("--width", o->width)->capture_default_str();
-                            sub->add_option("--height", o->height)->capture_default_str();
+                            sub->add_option("--width", o->width, "width of the timed frame in pixels (a Kodak image resized to it)")->capture_default_str();
+                            sub->add_option("--height", o->height, "height of the timed frame in pixels")->capture_default_str();
                             sub->callback([o] { run_bench(*o); });
                           });
 }  // namespace photosite::bench

@@ -273,8 +273,8 @@ static BenchRegistrar reg("noise", "Poisson sampler speed and accuracy vs std::,
                             auto o = std::make_shared<BenchNoiseOptions>();
                             sub->add_option("--out-dir", o->out_dir, "where CSV and chart go")->capture_default_str();
                             sub->add_option("--repeats", o->repeats, "best of N runs")->capture_default_str();
-                            sub->add_option("--width", o->width)->capture_default_str();
-                            sub->add_option("--height", o->height)->capture_default_str();
+                            sub->add_option("--width", o->width, "width of the timed frame in pixels (the mean ramps run along it)")->capture_default_str();
+                            sub->add_option("--height", o->height, "height of the timed frame in pixels")->capture_default_str();
                             sub->callback([o] { run_bench(*o); });
                           });
 }  // namespace photosite::bench

@@ -355,10 +355,10 @@ static BenchRegistrar reg("sense",
                           [](CLI::App* sub) {
                             auto o = std::make_shared<BenchSenseOptions>();
                             sub->add_option("--out-dir", o->out_dir, "where the CSV goes (default docs/)");
-                            sub->add_option("--repeats", o->repeats, "alternating rounds (best of each)")->capture_default_str();
+                            sub->add_option("--repeats", o->repeats, "alternating rounds (best of each), at least 3")->capture_default_str();
                             sub->add_option("--inner", o->inner, "calls per timing")->capture_default_str();
-                            sub->add_option("--width", o->width)->capture_default_str();
-                            sub->add_option("--height", o->height)->capture_default_str();
+                            sub->add_option("--width", o->width, "width of the timed frame in pixels, a multiple of 8")->capture_default_str();
+                            sub->add_option("--height", o->height, "height of the timed frame in pixels")->capture_default_str();
                             sub->callback([o] { run_bench(*o); });
                           });
 
