@@ -173,8 +173,21 @@ std::vector<std::string> words_of(const std::string& s) {
   return w;
 }
 
+// A file's text with its "## Edge cases ..." sections blanked (their lines kept, empty, so that
+// line numbers stay): those tables record what photosite refuses, bad options included
+// (`presets list --json`: exit 2), by design.
+std::string without_edge_case_tables(const std::string& raw) {
+  std::string text;
+  bool edge = false;
+  for (const auto& l : lines_of(raw)) {
+    if (l.rfind("## ", 0) == 0) edge = l.rfind("## Edge cases", 0) == 0;
+    text += (edge ? std::string() : l) + "\n";
+  }
+  return text;
+}
+
 std::vector<DocCommand> doc_commands(const std::string& file) {
-  const std::string text = slurp(kRoot / file);
+  const std::string text = without_edge_case_tables(slurp(kRoot / file));
   const auto ls = lines_of(text);
   std::vector<DocCommand> out;
   // A line that runs photosite: optional "$ ", VAR=value assignments and a path before the name.
