@@ -979,6 +979,20 @@ struct TemporarySlot {
 // way. Without /proc the writer gets the name (the exclusive creation still stands).
 std::atomic<OutputSet*> g_output_set{nullptr};
 
+// Whether the name tmp is still the file (dev, ino) that was written there: if not, another
+// process replaced it, and it must not be published (write_then_publish, OutputSet::commit).
+bool still_the_file(const std::string& tmp, dev_t dev, ino_t ino) {
+  struct stat b{};
+  return ::lstat(tmp.c_str(), &b) == 0 && b.st_dev == dev && b.st_ino == ino;
+}
+
+// A finished temporary renamed onto its path (write_then_publish, OutputSet::commit).
+void move_into_place(const std::string& tmp, const std::string& path) {
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
+}
+
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
                         bool replace) {
   static std::atomic<unsigned> counter{0};
@@ -1021,8 +1035,8 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
   write(via);
   if (replace) {
     // The name must still be this file (else someone replaced it: nothing is published).
-    struct stat a{}, b{};
-    if (::fstat(fd, &a) != 0 || ::lstat(tmp.c_str(), &b) != 0 || a.st_dev != b.st_dev || a.st_ino != b.st_ino)
+    struct stat a{};
+    if (::fstat(fd, &a) != 0 || !still_the_file(tmp, a.st_dev, a.st_ino))
       fail_at(path, "the temporary " + tmp + " was replaced by another process while it was written; nothing published");
     if (OutputSet* set = g_output_set.load()) {
       auto held = std::make_unique<OutputSet::Pending>(tmp, path, a.st_dev, a.st_ino);
@@ -1030,9 +1044,7 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
       set->hold(std::move(held));
       return true;
     }
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
+    move_into_place(tmp, path);
     return true;
   }
   if (::linkat(AT_FDCWD, via.c_str(), AT_FDCWD, path.c_str(), proc_fd ? AT_SYMLINK_FOLLOW : 0) == 0) return true;
@@ -1124,12 +1136,9 @@ void OutputSet::hold(std::unique_ptr<Pending> p) {
 void OutputSet::commit() {
   g_output_set.store(nullptr);  // later writes publish at once
   for (auto& p : pending_) {
-    struct stat b{};
-    if (::lstat(p->tmp.c_str(), &b) != 0 || b.st_dev != p->dev || b.st_ino != p->ino)
+    if (!still_the_file(p->tmp, p->dev, p->ino))
       fail_at(p->path, "the temporary " + p->tmp + " was replaced by another process before it was published; not published");
-    std::error_code ec;
-    fs::rename(p->tmp, p->path, ec);
-    if (ec) fail_at(p->path, "cannot move the finished file into place: " + ec.message());
+    move_into_place(p->tmp, p->path);
     p->tmp.clear();  // published
   }
   pending_.clear();
