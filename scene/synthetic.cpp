@@ -133,7 +133,7 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         const float tex = check ? 1.1f : 0.9f;
         if (ax <= o.road_half_width_m) {
           l = Label::Road;
-          const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(D, 9.0) < 3.0;
+          const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(D, o.dash_period_m) < o.dash_m;
           const bool edge = std::fabs(ax - (o.road_half_width_m - 0.2)) <= 0.075;
           bool rail = false;
           for (const double rx : o.rail_X_m) rail = rail || std::fabs(X - rx) <= o.rail_head_m / 2;

@@ -172,3 +172,176 @@ TEST(DepthEval, BenchOnARenderedSceneMeetsTheSyntheticBounds) {
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("disp_occ_0: not a folder"), std::string::npos) << bad.output;
 }
+
+// ---------------------------------------------------------------------------------------------
+// Dashed markings as rulers (`photosite bench markings`).
+namespace {
+// The Cityscapes rig at its native 2048 x 1024 with its nominal pitch, a straight road whose lane
+// lines are dashed as an advisory cycle lane's (ERA 2010: 1 m dash, 1 m gap), no boxes.
+SyntheticCameraOptions dashed_road(double dash_m = 1, double period_m = 2) {
+  SyntheticCameraOptions o;
+  o.width = 2048;
+  o.height = 1024;
+  o.camera = camera_geometry(load_camera_rig("cityscapes"), o.width, o.height, VanishingPoint{});
+  o.dash_m = dash_m;
+  o.dash_period_m = period_m;
+  return o;
+}
+ImageU8 markings_of(const SyntheticCameraScene& s, const ScenePreset& p, const CameraGeometry& g) {
+  const WorkImages w = make_work_images(s.day_linear_srgb, s.labels.ids, s.day_linear_srgb.width());
+  return metric_marking_mask(w.luma, w.labels, g, p.lane_blur_sigma_px, p.lane_contrast_threshold);
+}
+// The ground a row spans at distance D (between the edges half a row either side of its row).
+double row_span_m(const CameraGeometry& g, double D) {
+  double u, v, z, D0, D1;
+  g.project(0, 0, D, &u, &v, &z);
+  g.ground_point(u, v - 0.5, nullptr, &D1, nullptr);
+  g.ground_point(u, v + 0.5, nullptr, &D0, nullptr);
+  return D1 - D0;
+}
+// How far (rows) the marking detector's mask reaches past a dash's true end: the end is a step of
+// contrast c blurred by a Gaussian of σ = lane_blur_sigma_px, marked while the blurred excess over
+// the road stays above lane_contrast_threshold t, i.e. to σ·Φ⁻¹(1 − t/c) beyond the edge. c: the
+// synthetic marking (0.8) against the asphalt's darkest checker (0.08 × 1.1), sRGB-encoded as
+// the detector sees them; the 0.5 row of the pixel-centre sampling comes on top.
+double end_reach_rows(const ScenePreset& p) {
+  const double c = srgb_encode(0.8) - srgb_encode(0.08 * 1.1), q = 1 - p.lane_contrast_threshold / c;
+  // Φ⁻¹(q) by bisection on erfc.
+  double lo = 0, hi = 8;
+  for (int i = 0; i < 60; ++i) {
+    const double m = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-m / std::sqrt(2.0)) < q ? lo : hi) = m;
+  }
+  return p.lane_blur_sigma_px * lo + 0.5;
+}
+}  // namespace
+
+TEST(MarkingDashes, SyntheticDashesGiveTheRayCastPeriod) {
+  const SyntheticCameraOptions o = dashed_road();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = load_scene_preset("night-urban");
+  const ImageU8 marks = markings_of(s, p, o.camera);
+  const std::vector<MarkingDash> dashes = marking_dashes(marks, s.labels.ids, o.camera);
+  const std::vector<DashedLine> lines = dashed_lines(dashes);
+  ASSERT_EQ(lines.size(), 2u) << dashes.size() << " dashes";  // the two lane lines at X = ±1.75 m
+  const double e = end_reach_rows(p);
+  for (const DashedLine& L : lines) {
+    std::fprintf(stderr, "[dashes] line at X %.2f m: %zu dashes, %.1f-%.1f m, period %.4f m (sd %.4f), dash %.3f m, slope %.2e ± %.1e\n",
+                 L.X_m, L.dashes.size(), L.dashes.front().near_D_m, L.dashes.back().far_D_m, L.period_median_m,
+                 L.period_sd_m, L.dash_median_m, L.slope, L.slope_se);
+    EXPECT_NEAR(std::fabs(L.X_m), 1.75, 0.075 + row_span_m(o.camera, L.dashes[0].near_D_m)) << "the line's centre";
+    EXPECT_GE(L.dashes.size(), 10u);  // 5-28 m of 2 m periods
+    for (size_t i = 0; i < L.periods_m.size(); ++i) {
+      EXPECT_TRUE(L.regular[i]) << i;
+      // Each end within e rows of the true edge (sampling and blur), the same reach at the start of
+      // both dashes: a period's error is at most e·(span at one dash's end + span at the other's),
+      // averaged over the near and far ends.
+      const MarkingDash &a = L.dashes[i], &b = L.dashes[i + 1];
+      const double bound = 0.5 * e * (row_span_m(o.camera, a.near_D_m) + row_span_m(o.camera, b.near_D_m) +
+                                       row_span_m(o.camera, a.far_D_m) + row_span_m(o.camera, b.far_D_m));
+      EXPECT_NEAR(L.periods_m[i], 2.0, bound) << "period " << i << " at " << L.at_D_m[i] << " m";
+    }
+    // The dash: its two ends reach e rows each beyond the paint.
+    const MarkingDash& far = L.dashes.back();
+    EXPECT_NEAR(L.dash_median_m, 1.0, e * (row_span_m(o.camera, far.near_D_m) + row_span_m(o.camera, far.far_D_m)));
+    // At the right horizon the periods have no slope within 4 standard errors, and the horizon
+    // they imply is the rig's within 4 of its standard errors.
+    EXPECT_LE(std::fabs(L.slope), 4 * L.slope_se);
+    const FlatHorizon fh = flat_period_horizon(L, o.camera);
+    ASSERT_TRUE(std::isfinite(fh.shift_px));
+    EXPECT_LE(std::fabs(fh.shift_px), 4 * fh.se_px) << fh.shift_px << " ± " << fh.se_px;
+    const DashStandard* st = nearest_dash_standard(L.period_median_m, L.dash_median_m);
+    ASSERT_NE(st, nullptr);
+    EXPECT_EQ(st->dash_m, 1.0);
+    EXPECT_EQ(st->gap_m, 1.0);
+  }
+}
+
+TEST(MarkingDashes, AShiftedHorizonShowsInThePeriods) {
+  const SyntheticCameraOptions o = dashed_road();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const ScenePreset p = load_scene_preset("night-urban");
+  // The rows are measured through a horizon 10 rows too low: farther ground comes out ever
+  // farther, so the periods grow along the road by 2·δ·P/(f·h) per metre (depth_eval.h).
+  const CameraGeometry wrong = shift_horizon(o.camera, 10);
+  const std::vector<DashedLine> lines = dashed_lines(marking_dashes(markings_of(s, p, wrong), s.labels.ids, wrong));
+  ASSERT_EQ(lines.size(), 2u);
+  for (const DashedLine& L : lines) {
+    const double expected = 2 * 10 * L.period_mean_m / (o.camera.f_px * o.camera.mount_height_m);
+    std::fprintf(stderr, "[dashes] horizon +10 rows: slope %.2e ± %.1e (first order %.2e)\n", L.slope, L.slope_se, expected);
+    EXPECT_GT(L.slope, 4 * L.slope_se);
+    // The first-order slope within 4 standard errors plus its second-order term: the exact
+    // dD'/dD = 1/(1 − δ·D/(f·h))² grows by 3·(δ·D/(f·h))² beyond 1 + 2·δ·D/(f·h), at most at the
+    // line's far end.
+    const double x = 10 * L.dashes.back().far_D_m / (o.camera.f_px * o.camera.mount_height_m);
+    EXPECT_NEAR(L.slope, expected, 4 * L.slope_se + 3 * x * x * L.period_mean_m / L.dashes.back().far_D_m);
+    const FlatHorizon fh = flat_period_horizon(L, wrong);
+    ASSERT_TRUE(std::isfinite(fh.shift_px));
+    EXPECT_NEAR(fh.shift_px, -10, 4 * fh.se_px) << fh.shift_px << " ± " << fh.se_px;
+  }
+}
+
+TEST(MarkingDashes, HiddenCutOrMissingDashesAreNoRulers) {
+  const ScenePreset p = load_scene_preset("night-urban");
+  // A car standing on the right lane line at 12-16.5 m: the dashes it hides are cut, not short.
+  SyntheticCameraOptions o = dashed_road();
+  o.boxes = {{1.75, 12, 1.8, 1.5, 4.5}};
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  const std::vector<MarkingDash> dashes = marking_dashes(markings_of(s, p, o.camera), s.labels.ids, o.camera);
+  ASSERT_FALSE(dashes.empty());
+  for (const MarkingDash& d : dashes) {
+    // Every dash kept is whole: its length within the reach of its ends of the painted 1 m.
+    const double e = end_reach_rows(p);
+    EXPECT_NEAR(d.far_D_m - d.near_D_m, 1.0, e * (row_span_m(o.camera, d.near_D_m) + row_span_m(o.camera, d.far_D_m)))
+        << "dash at " << d.near_D_m << " m, X " << d.near_X_m;
+    // And none lies in the car's shadow of view: the car hides the ground behind it from 12 m on.
+    EXPECT_FALSE(d.near_X_m > 0 && d.far_D_m > 12 && d.near_D_m < 20) << "dash at " << d.near_D_m << " m behind the car";
+  }
+  // No markings at all, a mask of another size, a tiny frame: no lines, or a clear error.
+  EXPECT_TRUE(dashed_lines(marking_dashes(ImageU8(2048, 1024, 1, uint8_t{0}), s.labels.ids, o.camera)).empty());
+  EXPECT_THROW(marking_dashes(ImageU8(16, 8, 1, uint8_t{0}), s.labels.ids, o.camera), Error);
+  EXPECT_TRUE(marking_dashes(ImageU8(1, 1, 1, uint8_t{255}), ImageU16(1, 1, 1, uint16_t{7}), o.camera).empty());
+  // A continuous line (dash as long as the period) is no dashed line.
+  const SyntheticCameraOptions solid = dashed_road(2, 2);
+  const SyntheticCameraScene ss = make_synthetic_camera_scene(solid);
+  EXPECT_TRUE(dashed_lines(marking_dashes(markings_of(ss, p, solid.camera), ss.labels.ids, solid.camera)).empty());
+}
+
+TEST(MarkingDashes, BenchOnARenderedFrame) {
+  // A shared-data layout holding the dashed road as a Cityscapes frame (and no KITTI frame): the
+  // command runs the night scene (the vanishing point's horizon) and writes a row per line.
+  test::TempDir dir;
+  const fs::path cs = dir.path() / "data" / "cityscapes";
+  for (const char* d : {"leftImg8bit", "gtFine"}) fs::create_directories(cs / d);
+  fs::create_directories(dir.path() / "data" / "kitti" / "image_2");
+  const SyntheticCameraOptions o = dashed_road();
+  const SyntheticCameraScene s = make_synthetic_camera_scene(o);
+  ImageF srgb = s.day_linear_srgb;
+  for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
+  write_png((cs / "leftImg8bit" / "road_000000_000019_leftImg8bit.png").string(), srgb);
+  ImageF ids(o.width, o.height, 1);
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = s.labels.ids[i] / 255.0f;
+  write_png((cs / "gtFine" / "road_000000_000019_gtFine_labelIds.png").string(), ids);
+  const auto r = test::run_cli("bench markings --shared '" + dir.path().string() + "' --out-dir '" + dir.path().string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::fprintf(stderr, "%s", r.output.c_str());
+  const auto rows = read_csv(dir.file("bench_markings.csv"));
+  ASSERT_EQ(rows.size(), 3u) << r.output;  // header and the two lane lines
+  for (size_t k = 1; k < rows.size(); ++k) {
+    ASSERT_EQ(rows[k].size(), rows[0].size()) << k;
+    EXPECT_EQ(rows[k][0], "road_000000_000019");
+    EXPECT_EQ(rows[k][1], "vanishing_point");
+    EXPECT_NE(rows[k][16].find("ERA 2010"), std::string::npos) << rows[k][16];
+    // The chain's horizon is within 2 rows of the true one (MetricDepth.SyntheticCameraSceneThroughTheChain's
+    // bound), which moves the periods by at most 2·2·D/(f·h) at the line's far end, on top of the
+    // ends' reach (at most e rows of the farthest row's span at each of two ends, over a 2 m period).
+    const double D_far = std::stod(rows[k][8]);
+    const double bound = 2 * 2 * D_far / (o.camera.f_px * o.camera.mount_height_m) +
+                         2 * end_reach_rows(load_scene_preset("night-urban")) * row_span_m(o.camera, D_far) / 2;
+    EXPECT_NEAR(std::stod(rows[k][17]), 1.0, bound) << "period over the standard's";
+  }
+  // Bad input: no shared data there.
+  const auto bad = test::run_cli("bench markings --shared '" + dir.file("nowhere") + "' --out-dir '" + dir.path().string() + "'");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("needs cityscapes/leftImg8bit"), std::string::npos) << bad.output;
+}

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -88,6 +89,44 @@ void add_bench_targets(CLI::App* bench) {
     t.setup(sub);
     add_shared_checks(sub);
   }
+}
+
+std::vector<SharedFrame> shared_frames(const std::filesystem::path& data, int max_frames, const std::string& who) {
+  namespace fs = std::filesystem;
+  std::vector<SharedFrame> out;
+  const fs::path cs = data / "cityscapes", kt = data / "kitti";
+  if (!fs::is_directory(cs / "leftImg8bit") || !fs::is_directory(kt / "image_2"))
+    fail_at(data.string(), who + ": needs cityscapes/leftImg8bit and kitti/image_2 here (the shared data; "
+                           "give --shared DIR)");
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(cs / "leftImg8bit")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& p : files) {
+    const std::string stem = p.filename().string();
+    const auto cut = stem.find("_leftImg8bit.png");
+    if (cut == std::string::npos) continue;
+    const std::string base = stem.substr(0, cut);
+    SharedFrame f{"cityscapes", base, p.string(), (cs / "gtFine" / (base + "_gtFine_labelIds.png")).string(),
+            (cs / "gtFine" / (base + "_gtFine_instanceIds.png")).string(), "onsemi-ar0331"};
+    if (!fs::exists(f.labels)) fail_at(f.labels, who + ": labels of " + f.image + " missing");
+    if (!fs::exists(f.instances)) f.instances.clear();
+    if (max_frames > 0 && static_cast<int>(out.size()) >= max_frames) break;
+    out.push_back(f);
+  }
+  const size_t n_cityscapes = out.size();
+  files.clear();
+  for (const auto& e : fs::directory_iterator(kt / "image_2")) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& p : files) {
+    if (p.extension() != ".png") continue;
+    SharedFrame f{"kitti", "kitti_" + p.stem().string(), p.string(), (kt / "semantic" / p.filename()).string(), "",
+            "sony-icx267-flea2"};
+    if (!fs::exists(f.labels)) fail_at(f.labels, who + ": labels of " + f.image + " missing");
+    if (max_frames > 0 && static_cast<int>(out.size() - n_cityscapes) >= max_frames) break;
+    out.push_back(f);
+  }
+  if (out.empty()) fail_at(data.string(), who + ": no frames found");
+  return out;
 }
 
 std::filesystem::path output_folder(const std::string& out_dir) {

@@ -30,6 +30,15 @@ struct BenchRegistrar {
 std::string machine_description();
 // The folder a target writes into: out_dir, or docs/ in the source tree when it is empty.
 std::filesystem::path output_folder(const std::string& out_dir);
+// The shared frames under `data` (../shared/data): every Cityscapes leftImg8bit with its gtFine
+// labelIds (and instanceIds), every KITTI image_2 with its semantic labelIds, at most max_frames
+// of each data set (0: all). Cameras as `photosite night` uses them (Cityscapes: onsemi AR0331;
+// KITTI: Sony ICX267 on the Point Grey Flea2). Bad input naming `data` (and `who`, the command)
+// when either data set is missing.
+struct SharedFrame {
+  std::string dataset, name, image, labels, instances, camera;
+};
+std::vector<SharedFrame> shared_frames(const std::filesystem::path& data, int max_frames, const std::string& who);
 // Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
 // The wall time of one call of f, in ms.

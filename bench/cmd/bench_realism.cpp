@@ -50,50 +50,6 @@ struct Opts {
   std::string methods;  // comma list of the methods to write (empty: all); "photosite" always runs
 };
 
-struct Frame {
-  std::string dataset, name, image, labels, instances, camera;
-};
-
-// The shared frames: every Cityscapes leftImg8bit with its gtFine labelIds (and instanceIds),
-// every KITTI image_2 with its semantic labelIds. Cameras as `photosite night` uses them
-// (Cityscapes: onsemi AR0331; KITTI: Sony ICX267 on the Point Grey Flea2).
-std::vector<Frame> shared_frames(const fs::path& data, int max_frames) {
-  std::vector<Frame> out;
-  const fs::path cs = data / "cityscapes", kt = data / "kitti";
-  if (!fs::is_directory(cs / "leftImg8bit") || !fs::is_directory(kt / "image_2"))
-    fail_at(data.string(), "bench realism: needs cityscapes/leftImg8bit and kitti/image_2 here (the shared data; "
-                           "give --shared DIR)");
-  std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(cs / "leftImg8bit")) files.push_back(e.path());
-  std::sort(files.begin(), files.end());
-  for (const auto& p : files) {
-    const std::string stem = p.filename().string();
-    const auto cut = stem.find("_leftImg8bit.png");
-    if (cut == std::string::npos) continue;
-    const std::string base = stem.substr(0, cut);
-    Frame f{"cityscapes", base, p.string(), (cs / "gtFine" / (base + "_gtFine_labelIds.png")).string(),
-            (cs / "gtFine" / (base + "_gtFine_instanceIds.png")).string(), "onsemi-ar0331"};
-    if (!fs::exists(f.labels)) fail_at(f.labels, "bench realism: labels of " + f.image + " missing");
-    if (!fs::exists(f.instances)) f.instances.clear();
-    if (max_frames > 0 && static_cast<int>(out.size()) >= max_frames) break;
-    out.push_back(f);
-  }
-  const size_t n_cityscapes = out.size();
-  files.clear();
-  for (const auto& e : fs::directory_iterator(kt / "image_2")) files.push_back(e.path());
-  std::sort(files.begin(), files.end());
-  for (const auto& p : files) {
-    if (p.extension() != ".png") continue;
-    Frame f{"kitti", "kitti_" + p.stem().string(), p.string(), (kt / "semantic" / p.filename()).string(), "",
-            "sony-icx267-flea2"};
-    if (!fs::exists(f.labels)) fail_at(f.labels, "bench realism: labels of " + f.image + " missing");
-    if (max_frames > 0 && static_cast<int>(out.size() - n_cityscapes) >= max_frames) break;
-    out.push_back(f);
-  }
-  if (out.empty()) fail_at(data.string(), "bench realism: no frames found");
-  return out;
-}
-
 // A photosite variant: a change to the scene preset and the preview's white-point percentile.
 struct Variant {
   std::string method;
@@ -143,7 +99,7 @@ void run(const Opts& o) {
   if (o.repeats < 1) fail(fmt::format("--repeats {} must be at least 1", o.repeats));
   if (o.max_frames < 0) fail(fmt::format("--max-frames {} must be 0 (all) or more", o.max_frames));
   const fs::path shared(o.shared);
-  const std::vector<Frame> frames = shared_frames(shared / "data", o.max_frames);
+  const std::vector<SharedFrame> frames = shared_frames(shared / "data", o.max_frames, "bench realism");
   const std::string real = o.real.empty() ? (shared / "data" / "night_real").string() : o.real;
   if (!fs::is_directory(real)) fail_at(real, "--real: folder of real night photos not found");
   {
@@ -228,14 +184,14 @@ void run(const Opts& o) {
     return chosen.empty() || std::find(chosen.begin(), chosen.end(), method) != chosen.end();
   };
   std::string manifest = "method,dataset,frame,file,ms_per_frame,width,height\n";
-  auto add = [&](const std::string& method, const Frame& f, const fs::path& file, double ms, int w, int h) {
+  auto add = [&](const std::string& method, const SharedFrame& f, const fs::path& file, double ms, int w, int h) {
     manifest += fmt::format("\"{}\",{},{},\"{}\",{:.3f},{},{}\n", method, f.dataset, f.name, file.string(), ms, w, h);
   };
   const std::string machine = machine_description();
   std::printf("photosite bench realism: %zu frames, %d threads, best of %d\nmachine: %s\npreviews: %s\n\n",
               frames.size(), o.threads, o.repeats, machine.c_str(), prev.c_str());
   std::printf("%-28s %-34s %10s\n", "method", "frame", "ms/frame");
-  for (const Frame& f : frames) {
+  for (const SharedFrame& f : frames) {
     ImageFileInfo info;
     const ImageF raw = read_image(f.image, &info);
     const scene::LabelMap lm = scene::read_labels(f.labels, f.instances, raw.width(), raw.height(),

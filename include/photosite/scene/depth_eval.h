@@ -3,11 +3,13 @@
 // them by name) turned into camera z, and the errors issue 14 asks for: the median relative error
 // of depth.Z on road pixels (target <= 10%) and at vehicle ground contacts (<= 15%).
 #pragma once
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "photosite/image.h"
 #include "photosite/scene/labels.h"
+#include "photosite/scene/night.h"
 
 namespace photosite::scene {
 
@@ -45,5 +47,86 @@ double nearest_rank_quantile(std::vector<double> v, double q);
 // model caps depth there). NaN fields when nothing qualifies.
 DepthErrors depth_errors(const ImageF& depth_m, const ImageF& truth_m, const LabelMap& labels,
                          double max_depth_m, int min_vehicle_px = 50);
+
+
+// ---------------------------------------------------------------------------------------------
+// Depth on real frames, measured by the road's own rulers (issue 14 §1, where no stereo ground
+// truth is at hand). Dashed longitudinal markings are painted at standard dash and gap lengths,
+// so along one line the distance from one dash's start to the next (the period) is the same
+// everywhere on the road. Two checks follow from the metric depth alone:
+//  - **the horizon:** with the flat-ground model D = f·h / (v − y_h) (small pitch), a horizon off
+//    by δ rows gives D' = D / (1 − δ·D/(f·h)), so the measured period grows (δ > 0) or shrinks
+//    along the road by dD'/dD ≈ 1 + 2·δ·D/(f·h): a slope of the periods against distance of
+//    2·δ·P/(f·h) per metre. The shift that makes that slope 0 is the horizon the dashes imply;
+//  - **the scale:** where the pattern is a standard one, the period against its standard value
+//    (f and h set the scale; the horizon the trend).
+// Neither needs anything photosite does not already have: the day photo, its labels and the
+// camera geometry the night scene ran with.
+// Longitudinal markings of a frame (255 = marking) at full resolution, for the rulers below: a
+// road or parking pixel brighter than both pixels a metric half-width away on its row (Batista et
+// al.'s accumulation, as lane_markings: h = 2c − l − r − |l − r| > 2·threshold on the luminance
+// blurred by σ = blur_sigma_px, sRGB-encoded so contrasts are perceptual), with the two side pixels
+// side_m on the ground either side (CameraGeometry, the row's depth): a line up to 2·side_m wide
+// is marked whole at every distance. 0.25 m: the widest German longitudinal line, a motorway's
+// 0.30 m Breitstrich (Colliseum wiki "Fahrbahnmarkierung"), plus 0.10 m for the blur on each side
+// (7 px at 30 m in a Cityscapes frame); wider, neighbouring lines, kerbs and shadows reach the sides. lane_markings' width, a fraction of the image growing down
+// the road, is the night scene's (for its vanishing point), where near lines wider than twice it
+// come out as two edge strips; 0 above the horizon.
+ImageU8 metric_marking_mask(const ImageF& luma_srgb, const ImageU16& labels, const CameraGeometry& g,
+                            double blur_sigma_px, double threshold, double side_m = 0.25);
+struct MarkingDash {
+  double near_v = 0, far_v = 0;  // image rows of its near and far ends: pixel edges (last row + 0.5, first − 0.5)
+  double near_u = 0, far_u = 0;  // mean column of its pixels on its nearest and farthest rows
+  double near_D_m = 0, far_D_m = 0;  // ground distance of the ends (CameraGeometry::ground_point)
+  double near_X_m = 0, far_X_m = 0;  // lateral ground position at the ends
+  int pixels = 0;
+};
+// The dashes of a marking mask (nonzero = marking; metric_marking_mask): 8-connected
+// components that lie on the ground below the horizon and are shaped as a longitudinal dash —
+// 0.3 to 12 m long along the road, at most 0.35 m + 0.2 × that length across it (a 0.12-0.30 m
+// line at up to 0.2 rad to the camera's axis; stop lines, zebra bars and most arrows are wider),
+// and resolved: the ground a row spans at the far end, D²/(f·h), at most a quarter of the dash's
+// length (farther, one row's quantisation is a large part of it) — and whole: the labels just
+// beyond both ends (2 rows, at the end's column) are road or parking, so an end hidden by a
+// vehicle, a person or the frame's border (where the marking's own end is not seen) is no
+// ruler. Ordered by near_D_m.
+std::vector<MarkingDash> marking_dashes(const ImageU8& markings, const ImageU16& labels, const CameraGeometry& g);
+// One dashed line: dashes chained from near to far, each next one starting 0.2-15 m beyond the
+// end of the one before, within 0.25 m + 0.02 × the gap of where the line's direction (the last
+// dash's own, X against D) puts it. Only lines of at least 4 dashes whose periods are regular
+// (at least 3 periods, and 2/3 of them, within 25 % of the median period; a worn-away dash makes
+// one period double), and that run straight (every dash end within 0.15 m of the line fitted
+// through them on the ground) are kept; periods and dash lengths are along that line
+// (ΔD·√(1 + (dX/dD)²)); the statistics are over the regular periods.
+struct DashedLine {
+  std::vector<MarkingDash> dashes;  // near to far
+  std::vector<char> regular;        // per period (dashes.size() − 1): within 25 % of the median
+  std::vector<double> periods_m;    // per period: the mean of near end to near end and far end to far end
+  std::vector<double> at_D_m;       // per period: the distance it is measured at (mean of its four ends)
+  double period_median_m = 0, period_mean_m = 0, period_sd_m = 0;  // over the regular periods
+  double dash_median_m = 0;         // the dashes' lengths (far_D − near_D), median
+  double slope = 0, slope_se = 0;   // OLS slope of the regular periods against at_D (m per m) and its standard error
+  double X_m = 0;                   // lateral position of the first dash's near end
+  double direction = 0;             // the line on the ground: dX/dD, least squares over the dashes' ends
+  double straightness_m = 0;        // the farthest end from that line (a line is kept at 0.15 m or less)
+};
+std::vector<DashedLine> dashed_lines(const std::vector<MarkingDash>& dashes);
+// The line's dashes re-measured with another geometry (the same rows, another horizon).
+DashedLine remeasure(const DashedLine& line, const CameraGeometry& g);
+// The geometry with its horizon moved by shift_px rows (+: down), pitch atan((c_y − y_h)/f).
+CameraGeometry shift_horizon(const CameraGeometry& g, double shift_px);
+// The horizon shift (px) at which the line's regular periods have no slope against distance,
+// by bisection over ±search_px, and its standard error from the slope's (slope_se / |d slope/d shift|);
+// NaN when the slope does not change sign over the search.
+struct FlatHorizon { double shift_px = NAN, se_px = NAN; };
+FlatHorizon flat_period_horizon(const DashedLine& line, const CameraGeometry& g, double search_px = 60);
+// Standard dash patterns of longitudinal markings (German practice, the frames' country; names
+// hold no comma, a CSV field): a period measured against the pattern whose period is nearest in
+// ratio (within 1.5x), among those whose dash share of the period the measured share could come
+// from: from 0.1 below it (worn paint) to 0.25 above (the detector's reach lengthens each dash by
+// its blur over the threshold at both ends, docs/night.md §6b). Sources in depth_eval.cpp.
+struct DashStandard { double dash_m, gap_m; const char* name; };
+const std::vector<DashStandard>& dash_standards();
+const DashStandard* nearest_dash_standard(double period_m, double dash_m);
 
 }  // namespace photosite::scene

@@ -544,6 +544,9 @@ struct SyntheticCameraOptions {
   int width = 1024, height = 512;
   CameraGeometry camera;  // intrinsics and pose at width x height
   double road_half_width_m = 7, lane_width_m = 3.5, sidewalk_m = 3;
+  // The lane lines (at X = ±lane_width_m/2, 0.15 m wide): dashes dash_m long every dash_period_m
+  // along the road, from D = 0 (RMS-1's built-up Leitlinie by default: 3 m dash, 6 m gap).
+  double dash_m = 3, dash_period_m = 9;
   std::vector<SyntheticBox> boxes;
   // Windows in the façades' day texture (window_pitch_m 0: plain façades): dark glass (0.04
   // against the wall's 0.25) in boxes window_width_m wide centred at D = window_phase_m + k·pitch
