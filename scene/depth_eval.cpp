@@ -172,6 +172,24 @@ ImageU8 metric_marking_mask(const ImageF& luma_srgb, const ImageU16& labels, con
   return out;
 }
 
+namespace {
+// A dash's ends on the ground and the ground a row spans there; false where an end (or the row's
+// far edge) is at or above the horizon.
+bool ground_ends(MarkingDash& d, const CameraGeometry& g) {
+  double D0, D1, D2, D3;
+  if (!g.ground_point(d.near_u, d.near_v, &d.near_X_m, &d.near_D_m, nullptr) ||
+      !g.ground_point(d.far_u, d.far_v, &d.far_X_m, &d.far_D_m, nullptr) ||
+      !g.ground_point(d.near_u, d.near_v - 0.5, nullptr, &D0, nullptr) ||
+      !g.ground_point(d.near_u, d.near_v + 0.5, nullptr, &D1, nullptr) ||
+      !g.ground_point(d.far_u, d.far_v - 0.5, nullptr, &D2, nullptr) ||
+      !g.ground_point(d.far_u, d.far_v + 0.5, nullptr, &D3, nullptr))
+    return false;
+  d.near_row_m = D0 - D1;
+  d.far_row_m = D2 - D3;
+  return true;
+}
+}  // namespace
+
 std::vector<MarkingDash> marking_dashes(const ImageU8& markings, const ImageU16& labels, const CameraGeometry& g) {
   const int W = markings.width(), H = markings.height();
   std::vector<MarkingDash> out;
@@ -224,9 +242,7 @@ std::vector<MarkingDash> marking_dashes(const ImageU8& markings, const ImageU16&
     d.far_u = a.su_top / a.n_top;
     if (d.far_v - g.horizon_y < 2) continue;  // too near the horizon: rows span tens of metres
     if (!open_end(d.near_u, bot, 1) || !open_end(d.far_u, top, -1)) continue;
-    if (!g.ground_point(d.near_u, d.near_v, &d.near_X_m, &d.near_D_m, nullptr) ||
-        !g.ground_point(d.far_u, d.far_v, &d.far_X_m, &d.far_D_m, nullptr))
-      continue;
+    if (!ground_ends(d, g)) continue;
     const double L = d.far_D_m - d.near_D_m;
     if (L < 0.3 || L > 12) continue;
     if (a.Xmax - a.Xmin > 0.35 + 0.2 * L) continue;
@@ -278,6 +294,20 @@ void measure(DashedLine& L, bool keep_flags) {
   for (const MarkingDash& d : L.dashes) lengths.push_back(along * (d.far_D_m - d.near_D_m));
   L.period_median_m = nearest_rank_quantile(P, 0.5);
   L.dash_median_m = nearest_rank_quantile(lengths, 0.5);
+  {
+    // Painted length and reach: lengths against the sum of the end rows' spans, least squares.
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    const double k = static_cast<double>(n);
+    for (size_t i = 0; i < n; ++i) {
+      const double x = along * (L.dashes[i].near_row_m + L.dashes[i].far_row_m), y = lengths[i];
+      sx += x, sy += y, sxx += x * x, sxy += x * y;
+    }
+    const double var = sxx - sx * sx / k;
+    // The spans must vary: at least a row's worth at the nearest dash's distance across the line.
+    const bool fit = n >= 3 && var > 0 && std::sqrt(var / k) > 0.1 * sx / k;
+    L.reach_rows = fit ? (sxy - sx * sy / k) / var : NAN;
+    L.dash_painted_m = fit ? (sy - L.reach_rows * sx) / k : NAN;
+  }
   L.X_m = L.dashes[0].near_X_m;
   const double m = static_cast<double>(P.size());
   double sP = 0, sD = 0;
@@ -346,8 +376,7 @@ CameraGeometry shift_horizon(const CameraGeometry& g, double shift_px) {
 DashedLine remeasure(const DashedLine& line, const CameraGeometry& g) {
   DashedLine L = line;
   for (MarkingDash& d : L.dashes)
-    if (!g.ground_point(d.near_u, d.near_v, &d.near_X_m, &d.near_D_m, nullptr) ||
-        !g.ground_point(d.far_u, d.far_v, &d.far_X_m, &d.far_D_m, nullptr))
+    if (!ground_ends(d, g))
       fail(fmt::format("remeasure: a dash's end (row {:.1f}) lies at or above the horizon ({:.1f})", d.far_v, g.horizon_y));
   measure(L, true);
   return L;
@@ -401,8 +430,7 @@ const DashStandard* nearest_dash_standard(double period_m, double dash_m) {
   double best_r = std::log(1.5);  // a pattern more than 1.5x off in period is not that pattern
   for (const DashStandard& d : dash_standards()) {
     const double P = d.dash_m + d.gap_m;
-    const double share = dash_m / period_m - d.dash_m / P;
-    if (share < -0.1 || share > 0.25) continue;
+    if (std::fabs(dash_m / period_m - d.dash_m / P) > 0.1) continue;
     const double r = std::fabs(std::log(period_m / P));
     if (r < best_r) best_r = r, best = &d;
   }

@@ -244,6 +244,21 @@ TEST(MarkingDashes, SyntheticDashesGiveTheRayCastPeriod) {
     // The dash: its two ends reach e rows each beyond the paint.
     const MarkingDash& far = L.dashes.back();
     EXPECT_NEAR(L.dash_median_m, 1.0, e * (row_span_m(o.camera, far.near_D_m) + row_span_m(o.camera, far.far_D_m)));
+    // The painted length, the intercept of the lengths against the end rows' spans: the blur's
+    // reach is the same number of rows at every end here, so what remains is each end's sampling,
+    // within half a row: ε_i ≤ (s_near + s_far)/2. The OLS intercept is Σ w_i·L_i with
+    // w_i = 1/n − x̄·(x_i − x̄)/Sxx, so its error is at most Σ|w_i| · max ε_i.
+    {
+      const size_t n = L.dashes.size();
+      double xm = 0, sxx = 0, eps = 0, wsum = 0;
+      std::vector<double> x(n);
+      for (size_t i = 0; i < n; ++i) x[i] = L.dashes[i].near_row_m + L.dashes[i].far_row_m, xm += x[i] / n;
+      for (size_t i = 0; i < n; ++i) sxx += (x[i] - xm) * (x[i] - xm), eps = std::max(eps, x[i] / 2);
+      for (size_t i = 0; i < n; ++i) wsum += std::fabs(1.0 / n - xm * (x[i] - xm) / sxx);
+      std::fprintf(stderr, "[dashes] painted %.4f m (bound %.4f), reach %.2f rows (blur's %.2f)\n", L.dash_painted_m,
+                   wsum * eps, L.reach_rows, e - 0.5);
+      EXPECT_NEAR(L.dash_painted_m, 1.0, wsum * eps);
+    }
     // At the right horizon the periods have no slope within 4 standard errors, and the horizon
     // they imply is the rig's within 4 of its standard errors.
     EXPECT_LE(std::fabs(L.slope), 4 * L.slope_se);
@@ -327,18 +342,20 @@ TEST(MarkingDashes, BenchOnARenderedFrame) {
   std::fprintf(stderr, "%s", r.output.c_str());
   const auto rows = read_csv(dir.file("bench_markings.csv"));
   ASSERT_EQ(rows.size(), 3u) << r.output;  // header and the two lane lines
+  ASSERT_EQ(rows[0][18], "standard");
+  ASSERT_EQ(rows[0][19], "period_over_standard");
   for (size_t k = 1; k < rows.size(); ++k) {
     ASSERT_EQ(rows[k].size(), rows[0].size()) << k;
     EXPECT_EQ(rows[k][0], "road_000000_000019");
     EXPECT_EQ(rows[k][1], "vanishing_point");
-    EXPECT_NE(rows[k][16].find("ERA 2010"), std::string::npos) << rows[k][16];
+    EXPECT_NE(rows[k][18].find("ERA 2010"), std::string::npos) << rows[k][18];
     // The chain's horizon is within 2 rows of the true one (MetricDepth.SyntheticCameraSceneThroughTheChain's
     // bound), which moves the periods by at most 2·2·D/(f·h) at the line's far end, on top of the
     // ends' reach (at most e rows of the farthest row's span at each of two ends, over a 2 m period).
     const double D_far = std::stod(rows[k][8]);
     const double bound = 2 * 2 * D_far / (o.camera.f_px * o.camera.mount_height_m) +
                          2 * end_reach_rows(load_scene_preset("night-urban")) * row_span_m(o.camera, D_far) / 2;
-    EXPECT_NEAR(std::stod(rows[k][17]), 1.0, bound) << "period over the standard's";
+    EXPECT_NEAR(std::stod(rows[k][19]), 1.0, bound) << "period over the standard's";
   }
   // Bad input: no shared data there.
   const auto bad = test::run_cli("bench markings --shared '" + dir.file("nowhere") + "' --out-dir '" + dir.path().string() + "'");

@@ -52,11 +52,11 @@ void run(const MarkingsBench& b) {
   const scene::ScenePreset base = scene::load_scene_preset(b.scene_preset);
   std::string csv =
       "frame,horizon_source,horizon_y,line,dashes,regular_periods,X_m,D_from_m,D_to_m,period_median_m,period_sd_m,"
-      "dash_median_m,trend_pct_per_10m,trend_se_pct_per_10m,flat_shift_px,flat_shift_se_px,standard,"
+      "dash_median_m,dash_painted_m,reach_rows,trend_pct_per_10m,trend_se_pct_per_10m,flat_shift_px,flat_shift_se_px,standard,"
       "period_over_standard,rig_horizon_y,rig_period_median_m,rig_trend_pct_per_10m,periods_m\n";
   std::printf("depth on the road measured by its dashed markings (%zu frames)\n", frames.size());
-  std::printf("  %-22s %-8s %5s %6s %11s %8s %7s %13s %12s %9s %s\n", "frame", "horizon", "dash", "X m", "D m",
-              "period", "dash", "trend %/10m", "flat shift", "rig: per.", "standard (period / standard)");
+  std::printf("  %-22s %-8s %5s %6s %11s %8s %12s %13s %12s %9s %s\n", "frame", "horizon", "dashes", "X m", "D m",
+              "period", "dash (mask)", "trend %/10m", "flat shift", "rig: per.", "standard (period / standard)");
   int n_lines = 0;
   for (const SharedFrame& f : frames) {
     ImageFileInfo info;
@@ -83,29 +83,31 @@ void run(const MarkingsBench& b) {
     for (const scene::DashedLine& L : lines) {
       ++n_lines;
       const scene::FlatHorizon fh = scene::flat_period_horizon(L, g);
-      const scene::DashStandard* st = scene::nearest_dash_standard(L.period_median_m, L.dash_median_m);
+      const scene::DashStandard* st = scene::nearest_dash_standard(L.period_median_m, std::isfinite(L.dash_painted_m) ? L.dash_painted_m : L.dash_median_m);
       const double st_P = st ? st->dash_m + st->gap_m : NAN;
       bool rig_ok = true;
       for (const scene::MarkingDash& d : L.dashes) rig_ok = rig_ok && d.far_v - g_rig.horizon_y >= 1;
       const scene::DashedLine R = rig_ok ? scene::remeasure(L, g_rig) : scene::DashedLine{};
       const size_t regular = static_cast<size_t>(std::count(L.regular.begin(), L.regular.end(), 1));
       const double trend_se = 100 * 10 * L.slope_se / L.period_mean_m;
-      std::printf("  %-22s %-8s %5zu %6.2f %5.1f-%-5.1f %7.2f %7.2f %6.1f ± %-4.1f %6.1f ± %-4.1f %8.2f   %s\n",
+      std::printf("  %-22s %-8s %5zu %6.2f %5.1f-%-5.1f %7.2f %5.2f (%4.2f) %6.1f ± %-4.1f %6.1f ± %-4.1f %8.2f   %s\n",
                   (k == 0 ? f.name : std::string()).c_str(), g.horizon_source == "vanishing_point" ? "VP" : "rig",
                   L.dashes.size(), L.X_m, L.dashes.front().near_D_m, L.dashes.back().far_D_m, L.period_median_m,
-                  L.dash_median_m, trend_pct(L), trend_se, fh.shift_px, fh.se_px, rig_ok ? R.period_median_m : NAN,
+                  L.dash_painted_m, L.dash_median_m, trend_pct(L), trend_se, fh.shift_px, fh.se_px,
+                  rig_ok ? R.period_median_m : NAN,
                   st ? fmt::format("{:.3f}: {}", L.period_median_m / st_P, st->name).c_str() : "none within 1.5x");
-      csv += fmt::format("{},{},{:.2f},{},{},{},{:.3f},{:.2f},{:.2f},{:.4f},{:.4f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.4f},{:.2f},{:.4f},{:.2f},{}\n",
+      csv += fmt::format("{},{},{:.2f},{},{},{},{:.3f},{:.2f},{:.2f},{:.4f},{:.4f},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.4f},{:.2f},{:.4f},{:.2f},{}\n",
                          f.name, g.horizon_source, g.horizon_y, k, L.dashes.size(), regular, L.X_m,
                          L.dashes.front().near_D_m, L.dashes.back().far_D_m, L.period_median_m, L.period_sd_m,
-                         L.dash_median_m, trend_pct(L), trend_se, fh.shift_px, fh.se_px, st ? st->name : "",
+                         L.dash_median_m, L.dash_painted_m, L.reach_rows, trend_pct(L), trend_se, fh.shift_px, fh.se_px, st ? st->name : "",
                          st ? L.period_median_m / st_P : NAN, g_rig.horizon_y, rig_ok ? R.period_median_m : NAN,
                          rig_ok ? trend_pct(R) : NAN, periods_list(L));
       ++k;
     }
   }
-  std::printf("  %d dashed lines; trend: the period's change per 10 m of distance (0 with the right horizon); flat shift:\n"
-              "  the horizon move (rows, + down) that makes it 0; rig: the period at the rig's nominal horizon\n", n_lines);
+  std::printf("  %d dashed lines; dash: painted length (the mask's median length); trend: the period's change per 10 m\n"
+              "  of distance (0 with the right horizon); flat shift: the horizon move (rows, + down) that makes it 0;\n"
+              "  rig: the period at the rig's nominal horizon\n", n_lines);
   write_bench_csv(b.out_dir, "bench_markings.csv", csv);
 }
 

@@ -79,6 +79,7 @@ struct MarkingDash {
   double near_u = 0, far_u = 0;  // mean column of its pixels on its nearest and farthest rows
   double near_D_m = 0, far_D_m = 0;  // ground distance of the ends (CameraGeometry::ground_point)
   double near_X_m = 0, far_X_m = 0;  // lateral ground position at the ends
+  double near_row_m = 0, far_row_m = 0;  // the ground one row spans at each end (D at the row's two edges)
   int pixels = 0;
 };
 // The dashes of a marking mask (nonzero = marking; metric_marking_mask): 8-connected
@@ -105,6 +106,12 @@ struct DashedLine {
   std::vector<double> at_D_m;       // per period: the distance it is measured at (mean of its four ends)
   double period_median_m = 0, period_mean_m = 0, period_sd_m = 0;  // over the regular periods
   double dash_median_m = 0;         // the dashes' lengths (far_D − near_D), median
+  // The dashes' length without the detector's reach: the mask runs past each painted end by about
+  // the same number of rows r at every distance, so a dash measures L + r·(row span at its near
+  // end + at its far end); the least-squares line through the dashes' lengths against that sum of
+  // spans has the painted length as its intercept and r as its slope (NaN with fewer than 3
+  // dashes or spans that do not vary).
+  double dash_painted_m = 0, reach_rows = 0;
   double slope = 0, slope_se = 0;   // OLS slope of the regular periods against at_D (m per m) and its standard error
   double X_m = 0;                   // lateral position of the first dash's near end
   double direction = 0;             // the line on the ground: dX/dD, least squares over the dashes' ends
@@ -122,9 +129,9 @@ struct FlatHorizon { double shift_px = NAN, se_px = NAN; };
 FlatHorizon flat_period_horizon(const DashedLine& line, const CameraGeometry& g, double search_px = 60);
 // Standard dash patterns of longitudinal markings (German practice, the frames' country; names
 // hold no comma, a CSV field): a period measured against the pattern whose period is nearest in
-// ratio (within 1.5x), among those whose dash share of the period the measured share could come
-// from: from 0.1 below it (worn paint) to 0.25 above (the detector's reach lengthens each dash by
-// its blur over the threshold at both ends, docs/night.md §6b). Sources in depth_eval.cpp.
+// ratio (within 1.5x), among those whose dash share of the period is within 0.1 of the measured
+// one (dash_m: the painted length, DashedLine::dash_painted_m, where it is known). Sources in
+// depth_eval.cpp.
 struct DashStandard { double dash_m, gap_m; const char* name; };
 const std::vector<DashStandard>& dash_standards();
 const DashStandard* nearest_dash_standard(double period_m, double dash_m);
