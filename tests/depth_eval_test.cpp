@@ -357,6 +357,20 @@ TEST(MarkingDashes, BenchOnARenderedFrame) {
                          2 * end_reach_rows(load_scene_preset("night-urban")) * row_span_m(o.camera, D_far) / 2;
     EXPECT_NEAR(std::stod(rows[k][19]), 1.0, bound) << "period over the standard's";
   }
+  // The same frame given as the user's own, with its rig named: the same lines.
+  const std::string img = (cs / "leftImg8bit" / "road_000000_000019_leftImg8bit.png").string(),
+                    lab = (cs / "gtFine" / "road_000000_000019_gtFine_labelIds.png").string();
+  fs::create_directories(dir.path() / "own");
+  const auto own = test::run_cli("bench markings --image '" + img + "' --labels '" + lab + "' --rig cityscapes --out-dir '" +
+                                 dir.file("own") + "'");
+  ASSERT_EQ(own.exit_code, 0) << own.output;
+  const auto own_rows = read_csv(dir.file("own/bench_markings.csv"));
+  ASSERT_EQ(own_rows.size(), rows.size()) << own.output;
+  for (size_t k = 1; k < rows.size(); ++k)
+    for (size_t c = 1; c < rows[k].size(); ++c) EXPECT_EQ(own_rows[k][c], rows[k][c]) << "row " << k << " column " << rows[0][c];
+  const auto half = test::run_cli("bench markings --image '" + img + "' --out-dir '" + dir.path().string() + "'");
+  EXPECT_EQ(half.exit_code, 2) << half.output;
+  EXPECT_NE(half.output.find("--image: give its labels too"), std::string::npos) << half.output;
   // Bad input: no shared data there.
   const auto bad = test::run_cli("bench markings --shared '" + dir.file("nowhere") + "' --out-dir '" + dir.path().string() + "'");
   EXPECT_EQ(bad.exit_code, 2) << bad.output;

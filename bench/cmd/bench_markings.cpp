@@ -33,6 +33,7 @@ namespace fs = std::filesystem;
 struct MarkingsBench {
   std::string shared = std::string(PHOTOSITE_SOURCE_DIR) + "/../shared";
   std::string out_dir, scene_preset = "night-urban";
+  std::string image, labels, instances, rig = "auto";  // one frame of the user's instead of the shared ones
   int max_frames = 0;
 };
 
@@ -48,7 +49,19 @@ std::string periods_list(const scene::DashedLine& L) {
 double trend_pct(const scene::DashedLine& L) { return 100 * 10 * L.slope / L.period_mean_m; }
 
 void run(const MarkingsBench& b) {
-  const std::vector<SharedFrame> frames = shared_frames(fs::path(b.shared) / "data", b.max_frames, "bench markings");
+  // One frame of the user's (a rig preset checked on its own camera's frames), else the shared ones.
+  if (b.image.empty() != b.labels.empty())
+    fail(b.image.empty() ? "--labels: give the frame too (--image)" : "--image: give its labels too (--labels)");
+  if (b.image.empty() && (!b.instances.empty() || b.rig != "auto"))
+    fail("--instances and --rig go with --image (the shared frames take their own cameras' rigs)");
+  std::vector<SharedFrame> frames;
+  if (!b.image.empty()) {
+    for (const std::string* f : {&b.image, &b.labels, &b.instances})
+      if (!f->empty() && !fs::is_regular_file(*f)) fail_at(*f, "bench markings: not a file");
+    frames.push_back({"user", fs::path(b.image).stem().string(), b.image, b.labels, b.instances, ""});
+  } else {
+    frames = shared_frames(fs::path(b.shared) / "data", b.max_frames, "bench markings");
+  }
   const scene::ScenePreset base = scene::load_scene_preset(b.scene_preset);
   std::string csv =
       "frame,horizon_source,horizon_y,line,dashes,regular_periods,X_m,D_from_m,D_to_m,period_median_m,period_sd_m,"
@@ -65,7 +78,7 @@ void run(const MarkingsBench& b) {
     const auto labels = scene::read_labels(f.labels, f.instances, day.width(), day.height(), scene::LabelFormat::Auto,
                                            scene::ResizeLabels::None);
     scene::ScenePreset sp = base;
-    sp.rig = scene::resolve_camera_rig("auto", day.width(), day.height());
+    sp.rig = scene::resolve_camera_rig(b.image.empty() ? "auto" : b.rig, day.width(), day.height(), f.image);
     const ImageF linear = scene::linearize(day, info);
     const auto ns = scene::night_scene(linear, labels, sp, 0);
     const scene::CameraGeometry& g = ns.geometry;
@@ -121,6 +134,15 @@ static BenchRegistrar reg("markings",
                                 ->capture_default_str()
                                 ->check(CLI::NonNegativeNumber);
                             sub->add_option("--scene-preset", b->scene_preset, "scene preset")->capture_default_str();
+                            sub->add_option("--image", b->image,
+                                            "one day frame of your own instead of the shared ones (with --labels; "
+                                            "checks a rig preset's scale on its camera's frames)");
+                            sub->add_option("--labels", b->labels, "its Cityscapes-format labels");
+                            sub->add_option("--instances", b->instances, "its instance ids (optional)");
+                            sub->add_option("--rig", b->rig,
+                                            "with --image: the camera rig, as `night --rig` (a name in presets/rigs, "
+                                            "a .toml path, a Cityscapes camera .json, or auto)")
+                                ->capture_default_str();
                             sub->add_option("--out-dir", b->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([b] { run(*b); });
                           });
