@@ -150,7 +150,7 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       num("vehicle_lamps.tail_intensity_cd", PHOTOSITE_AT(P, veh_tail_intensity_cd), "cd", 0, 1e4,
           "tail lamp toward the camera", "NP §3; [U] ECE R7"),
       num("vehicle_lamps.parking_intensity_cd", PHOTOSITE_AT(P, veh_parking_intensity_cd), "cd", 0, 1e4,
-          "position lamp of a parked vehicle", "[U] ECE R7"),
+          "position lamp of a parked vehicle", "[S] UN R148 Table 3 (front: 4 cd minimum); [U] ECE R7 (rear)"),
       num("vehicle_lamps.parked_lit_fraction", PHOTOSITE_AT(P, veh_parked_lit_fraction), "fraction", 0, 1,
           "seeded share of parked vehicles with lamps on", "photosite choice"),
       num("vehicle_lamps.kerb_strip_m", PHOTOSITE_AT(P, veh_kerb_strip_m), "m", 0, 10,
