@@ -61,17 +61,19 @@ DepthErrors depth_errors(const ImageF& depth_m, const ImageF& truth_m, const Lab
 //  - **the scale:** where the pattern is a standard one, the period against its standard value
 //    (f and h set the scale; the horizon the trend).
 // Neither needs anything photosite does not already have: the day photo, its labels and the
-// camera geometry the night scene ran with.
+// camera geometry the night scene ran with (`photosite bench markings`, docs/night.md §6b).
+
 // Longitudinal markings of a frame (255 = marking) at full resolution, for the rulers below: a
 // road or parking pixel brighter than both pixels a metric half-width away on its row (Batista et
 // al.'s accumulation, as lane_markings: h = 2c − l − r − |l − r| > 2·threshold on the luminance
 // blurred by σ = blur_sigma_px, sRGB-encoded so contrasts are perceptual), with the two side pixels
 // side_m on the ground either side (CameraGeometry, the row's depth): a line up to 2·side_m wide
-// is marked whole at every distance. 0.25 m: the widest German longitudinal line, a motorway's
-// 0.30 m Breitstrich (Colliseum wiki "Fahrbahnmarkierung"), plus 0.10 m for the blur on each side
-// (7 px at 30 m in a Cityscapes frame); wider, neighbouring lines, kerbs and shadows reach the sides. lane_markings' width, a fraction of the image growing down
-// the road, is the night scene's (for its vanishing point), where near lines wider than twice it
-// come out as two edge strips; 0 above the horizon.
+// is marked whole at every distance. 0.25 m: half the widest German longitudinal line, a
+// motorway's 0.30 m Breitstrich (Colliseum wiki "Fahrbahnmarkierung"), plus 0.10 m for the blur
+// (7 px at 30 m in a Cityscapes frame); wider, neighbouring lines, kerbs and shadows reach the
+// sides. (lane_markings' own width, a fraction of the image growing down the road, serves the
+// night scene's vanishing point; near lines wider than twice it come out as two edge strips.)
+// 0 above the horizon.
 ImageU8 metric_marking_mask(const ImageF& luma_srgb, const ImageU16& labels, const CameraGeometry& g,
                             double blur_sigma_px, double threshold, double side_m = 0.25);
 struct MarkingDash {
