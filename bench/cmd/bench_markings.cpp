@@ -9,8 +9,10 @@
 // metric line width), cut into dashes and chained into lines. Per line: the periods at photosite's horizon and at the
 // rig's nominal one, their slope against distance, the horizon shift that flattens them, and the
 // standard pattern they match. Writes docs/bench_markings.csv.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -45,6 +47,12 @@ std::string periods_list(const scene::DashedLine& L) {
     s += (i ? " " : "") + (L.regular[i] ? fmt::format("{:.2f}", L.periods_m[i]) : fmt::format("({:.2f})", L.periods_m[i]));
   return s;
 }
+// The distances the periods are measured at, in the same order.
+std::string distances_list(const scene::DashedLine& L) {
+  std::string s;
+  for (size_t i = 0; i < L.at_D_m.size(); ++i) s += fmt::format("{}{:.2f}", i ? " " : "", L.at_D_m[i]);
+  return s;
+}
 // The period's change per 10 m of distance, in % of the mean period.
 double trend_pct(const scene::DashedLine& L) { return 100 * 10 * L.slope / L.period_mean_m; }
 
@@ -66,11 +74,13 @@ void run(const MarkingsBench& b) {
   std::string csv =
       "frame,horizon_source,horizon_y,line,dashes,regular_periods,X_m,D_from_m,D_to_m,period_median_m,period_sd_m,"
       "dash_median_m,dash_painted_m,reach_rows,trend_pct_per_10m,trend_se_pct_per_10m,flat_shift_px,flat_shift_se_px,standard,"
-      "period_over_standard,rig_horizon_y,rig_period_median_m,rig_trend_pct_per_10m,periods_m\n";
+      "period_over_standard,rig_horizon_y,rig_period_median_m,rig_trend_pct_per_10m,periods_m,periods_at_D_m,"
+      "rig_periods_m,rig_periods_at_D_m,standard_period_m\n";
   std::printf("depth on the road measured by its dashed markings (%zu frames)\n", frames.size());
   std::printf("  %-22s %-8s %5s %6s %11s %8s %12s %13s %12s %9s %s\n", "frame", "horizon", "dashes", "X m", "D m",
               "period", "dash (mask)", "trend %/10m", "flat shift", "rig: per.", "standard (period / standard)");
   int n_lines = 0;
+  std::vector<double> matched;  // period over the standard's, of the lines that match one
   for (const SharedFrame& f : frames) {
     ImageFileInfo info;
     const ImageF day = read_image(f.image, &info);
@@ -109,19 +119,34 @@ void run(const MarkingsBench& b) {
                   L.dash_painted_m, L.dash_median_m, trend_pct(L), trend_se, fh.shift_px, fh.se_px,
                   rig_ok ? R.period_median_m : NAN,
                   st ? fmt::format("{:.3f}: {}", L.period_median_m / st_P, st->name).c_str() : "none within 1.5x");
-      csv += fmt::format("{},{},{:.2f},{},{},{},{:.3f},{:.2f},{:.2f},{:.4f},{:.4f},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.4f},{:.2f},{:.4f},{:.2f},{}\n",
+      csv += fmt::format("{},{},{:.2f},{},{},{},{:.3f},{:.2f},{:.2f},{:.4f},{:.4f},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.4f},{:.2f},{:.4f},{:.2f},{},{},{},{},{:g}\n",
                          f.name, g.horizon_source, g.horizon_y, k, L.dashes.size(), regular, L.X_m,
                          L.dashes.front().near_D_m, L.dashes.back().far_D_m, L.period_median_m, L.period_sd_m,
                          L.dash_median_m, L.dash_painted_m, L.reach_rows, trend_pct(L), trend_se, fh.shift_px, fh.se_px, st ? st->name : "",
                          st ? L.period_median_m / st_P : NAN, g_rig.horizon_y, rig_ok ? R.period_median_m : NAN,
-                         rig_ok ? trend_pct(R) : NAN, periods_list(L));
+                         rig_ok ? trend_pct(R) : NAN, periods_list(L), distances_list(L), rig_ok ? periods_list(R) : "",
+                         rig_ok ? distances_list(R) : "", st_P);
+      if (st) matched.push_back(L.period_median_m / st_P);
       ++k;
     }
   }
   std::printf("  %d dashed lines; dash: painted length (the mask's median length); trend: the period's change per 10 m\n"
               "  of distance (0 with the right horizon); flat shift: the horizon move (rows, + down) that makes it 0;\n"
               "  rig: the period at the rig's nominal horizon\n", n_lines);
-  write_bench_csv(b.out_dir, "bench_markings.csv", csv);
+  if (!matched.empty()) {
+    std::sort(matched.begin(), matched.end());
+    std::printf("  %zu of them match a standard pattern: period over the standard's %.3f to %.3f (median %.3f)\n",
+                matched.size(), matched.front(), matched.back(), matched[(matched.size() - 1) / 2]);
+  }
+  const std::string csv_path = write_bench_csv(b.out_dir, "bench_markings.csv", csv);
+  if (n_lines == 0) return;
+  // The chart (bench/chart_markings.py, Debian matplotlib): each line's periods against distance at
+  // photosite's horizon and at the rig's nominal one, the standard period drawn across.
+  const std::string png = (fs::path(csv_path).parent_path() / "bench_markings.png").string();
+  const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_markings.py";
+  const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + png + "'";
+  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
+  else std::printf("%s\n", png.c_str());
 }
 
 static BenchRegistrar reg("markings",
