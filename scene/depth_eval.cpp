@@ -256,7 +256,7 @@ std::vector<MarkingDash> marking_dashes(const ImageU8& markings, const ImageU16&
 }
 
 namespace {
-// The line's periods and statistics from its dashes' ground ends; `flags`: keep the regular set
+// The line's periods and statistics from its dashes' ground ends; keep_flags: keep the regular set
 // as it is (a re-measurement), else choose it.
 void measure(DashedLine& L, bool keep_flags) {
   const size_t n = L.dashes.size();
