@@ -119,7 +119,6 @@ bool same_file(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
-namespace {
 // Whether `file` lies in `folder` or below it, through links (both made canonical as far as they
 // exist).
 bool inside(const std::string& file, const std::string& folder) {
@@ -132,7 +131,6 @@ bool inside(const std::string& file, const std::string& folder) {
   const fs::path rel = f.lexically_relative(d);
   return !rel.empty() && *rel.begin() != "..";
 }
-}  // namespace
 
 void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs,
                        const std::string& device_store) {

@@ -74,6 +74,9 @@ struct RunInput {
   std::string option;  // "--radiance"
   std::string path;
 };
+// Whether `file` lies in `folder` or below it (or is it), through links.
+bool inside(const std::string& file, const std::string& folder);
+
 // Bad input (exit 2) before anything is written: a file named by two outputs of the run (the
 // second write would replace the first: --out and --preview one file, or a --maps picture), an
 // output that is one of the run's inputs (-y replaces an existing output, never the input being

@@ -602,6 +602,14 @@ TEST(EdgeCases, OutputsNeverReplaceTheDeviceMapsOrAUsersFile) {
       << r.output;
   EXPECT_EQ(slurp(map), before);
   EXPECT_EQ(run_cli(expose + "'" + t.file("o.exr") + "' -y").exit_code, 0);  // the map still serves
+  // batch replaces no file it did not write, but its outputs would lie among the maps.
+  const std::string sample = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  std::ofstream(t.file("m.txt")) << sample << "image_2/000000_10.png " << sample << "semantic/000000_10.png\n";
+  const auto b = run_cli("batch --backend cpu --quiet --manifest '" + t.file("m.txt") + "' --device-store '" + store +
+                         "' --out '" + store + "/out'");
+  EXPECT_EQ(b.exit_code, 2) << b.output;
+  EXPECT_NE(b.output.find("--out is inside the device store " + store), std::string::npos) << b.output;
+  EXPECT_FALSE(fs::exists(store + "/out"));
 
   const std::string night = "night --backend cpu " + bundled_inputs() + " --layers labels --maps '" + t.file("m") + "' --out '";
   fs::create_directory(t.path() / "m");
