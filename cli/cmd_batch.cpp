@@ -92,6 +92,11 @@ int run(BatchCmd& c) {
   auto r = c.sensor.resolve();  // impossible settings name their option (ParameterError)
   o.sensor = r;
   o.device_store = r.store.dir();
+  // The device store holds the maps every run of a device reads; the batch replaces no file it
+  // did not write, but its outputs would lie among the maps (expose, flat and night refuse it too).
+  if (inside(o.out, o.device_store))
+    fail_at(o.out, "--out is inside the device store " + o.device_store +
+                       ", the folder of the devices' fixed-pattern maps: photosite writes no output there");
   o.scene = scene::load_scene_preset(c.scene_preset);
   if (c.streetlamp_type) set_streetlamp_type(o.scene, *c.streetlamp_type);
   if (c.rig != "auto") o.scene.rig = scene::load_camera_rig(c.rig);  // auto: per image (rig_for_image)

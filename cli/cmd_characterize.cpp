@@ -34,8 +34,8 @@ void run(const CharacterizeCmd& c) {
   std::printf("EMVA 1288 R4.0 photon transfer: %s (device %s), %dx%d region, %d %c pixels, %.0f nm\n",
               ch.preset.c_str(), ch.device_id.c_str(), ch.roi_w, ch.roi_h, ch.pixels_measured, ch.cfa_colour,
               c.wavelength_nm);
-  std::printf("conditions: gain %g dB, die temperature %g C, seed %llu, --poisson %s, preset file XXH3-64 %s\n",
-              ch.gain_db, ch.temperature_c, static_cast<unsigned long long>(ch.seed), ch.poisson.c_str(),
+  std::printf("conditions: exposure %g s, gain %g dB, die temperature %g C, seed %llu, --poisson %s, preset file XXH3-64 %s\n",
+              ch.exposure_s, ch.gain_db, ch.temperature_c, static_cast<unsigned long long>(ch.seed), ch.poisson.c_str(),
               ch.preset_xxh3_64.c_str());
   std::printf("%-22s %12s %10s %12s %10s %10s %6s\n", "quantity", "measured", "+/- 1 se", "preset", "+/- device",
               "deviation", "z");
@@ -52,7 +52,10 @@ void run(const CharacterizeCmd& c) {
 static Registrar reg("e-characterize", [](CLI::App& app) {
   auto cmd = std::make_shared<CharacterizeCmd>();
   auto* sub = app.add_subcommand("characterize", "measure a simulated camera with the EMVA 1288 method");
-  cmd->sensor.add(sub, true, 0);  // the measurement sets its own exposures and frames
+  // The photon-transfer sweep's exposure time (the irradiation varies at that one time), by default emva::Plan's 1 ms; the frames and the dark-current exposures
+  // are the plan's, and the photons are given per pixel (no lens, aperture or demosaic acts).
+  cmd->sensor.exposure_s = emva::Plan{}.exposure_s;
+  cmd->sensor.add(sub, true, SensorOptions::kExposure);
   sub->add_flag("--json", cmd->json, "print JSON (measured, uncertainty and preset value per quantity)");
   sub->add_option("--roi", cmd->roi, "side of the measured region in pixels")->capture_default_str();
   sub->add_option("--wavelength-nm", cmd->wavelength_nm, "wavelength of the light")->capture_default_str();

@@ -168,7 +168,9 @@ void run(const DemosaicCmd& c) {
     if (!is_clear_pattern(m.cfa))
       fail(fmt::format("--white-level: clip handling is for the clear patterns RCCB and RCCC; {} is {}", c.in,
                        to_string(m.cfa)));
-    if (!(v > m.stored_offset) || !std::isfinite(v))
+    if (!std::isfinite(v))
+      fail(fmt::format("--white-level {} is not a finite number (a stored value from which a sample counts as clipped)", v));
+    if (!(v > m.stored_offset))
       fail(fmt::format("--white-level {} is not above {}'s black level ({})", v, c.in, m.stored_offset));
   }
   ImageF rgb = runner.demosaic(m.image, m.cfa, method);
@@ -202,11 +204,12 @@ void run(const DemosaicCmd& c) {
 static Registrar reg("c-demosaic", [](CLI::App& app) {
   auto cmd = std::make_shared<DemosaicCmd>();
   auto* sub = app.add_subcommand("demosaic", "demosaic a single-channel CFA mosaic (PNG, TIFF, EXR) to RGB");
-  sub->add_option("--in", cmd->in, "single-channel mosaic: PNG 8/16-bit, TIFF or EXR");
-  sub->add_option("--out", cmd->out, "RGB output, .exr (float) or .png");
+  auto* in = sub->add_option("--in", cmd->in, "single-channel mosaic: PNG 8/16-bit, TIFF or EXR");
+  auto* out = sub->add_option("--out", cmd->out, "RGB output, .exr (float) or .png");
   cmd->cfa_option = sub->add_option("--cfa", cmd->cfa, "CFA pattern: RGGB, BGGR, GRBG, GBRG, RCCB, RCCC, MONO (default: the input's photosite/cfa, else RGGB)");
   sub->add_option("--method", cmd->method, "demosaic method (see --list)")->capture_default_str();
-  sub->add_flag("--list", cmd->list, "list the demosaic methods and exit");
+  // --list demosaics nothing: a mosaic or an output given with it would be silently left alone.
+  sub->add_flag("--list", cmd->list, "list the demosaic methods and exit")->excludes(in)->excludes(out);
   sub->add_option("--white-level", cmd->white_level,
                   "RCCB/RCCC: the stored value (integer code; DN with black level for a photosite raw) at which the "
                   "input clipped: pixels whose 3x3 window holds a sample at or above it come out neutral at "

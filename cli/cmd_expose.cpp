@@ -81,7 +81,8 @@ void run(const ExposeCmd& c) {
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
   const auto previews = c.preview.empty() ? std::vector<std::string>{}
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
-  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}}, {{"--radiance", c.radiance}});
+  check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}}, {{"--radiance", c.radiance}},
+                    r.store.dir());
   ImageF radiance = load_radiance(c.radiance);
   if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, radiance.width(), radiance.height());

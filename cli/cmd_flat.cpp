@@ -26,7 +26,7 @@ void run(const FlatCmd& c) {
   check_frame_size("--width/--height", c.width, c.height);
   SensorRunner runner(resolve_backend(c.backend, &r.camera));
   const auto outputs = frame_outputs(c.out, c.sensor.frames, c.overwrite);
-  check_run_outputs({{"--out", outputs, ".exr"}});
+  check_run_outputs({{"--out", outputs, ".exr"}}, {}, r.store.dir());
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
   // The flat field's inputs are checked before the device store is touched (no map for a run
   // that cannot go on).

@@ -5,12 +5,16 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <optional>
+#include <sstream>
 
 #include <fmt/format.h>
 
 #include "photosite/environment.h"
 #include "photosite/batch.h"
+#include "photosite/checksum.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/night.h"
@@ -41,6 +45,51 @@ struct NightCmd {
   std::string compression = kDefaultExrCompression;
   PreviewFlags preview_flags;
 };
+
+// The --maps pictures' record: `<folder>/.photosite-maps`, one line per picture written, "<XXH3-64 of
+// its bytes> <file name>". The pictures have plain names (day.png, labels.png, depth.png, ...)
+// that a user's own files in the folder may carry, and a user's file is never replaced, -y or
+// not; with -y a picture replaces only photosite's own earlier one: a file the record lists with
+// the bytes it has now (batch's rule for its output folder, the resume manifest's checksums).
+namespace {
+constexpr const char* kMapsRecord = ".photosite-maps";
+
+std::map<std::string, std::string> read_maps_record(const std::string& folder) {
+  std::map<std::string, std::string> sums;  // file name -> checksum
+  std::ifstream f(std::filesystem::path(folder) / kMapsRecord);
+  for (std::string sum, name; f >> sum >> name;) sums[name] = sum;
+  return sums;
+}
+
+// Before any work: with -y, every picture name that exists in the folder must be photosite's own.
+void check_maps_replace_only_their_own(const std::string& folder) {
+  const auto sums = read_maps_record(folder);
+  for (const auto& name : night_map_picture_files()) {
+    const std::string path = (std::filesystem::path(folder) / name).string();
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) continue;
+    const auto it = sums.find(name);
+    if (it == sums.end() || file_checksum_hex(path, ChecksumAlgorithm::Xxh3_64) != it->second)
+      fail_at(path, std::string("exists and is not a --maps picture of an earlier run (") + kMapsRecord +
+                        (it == sums.end() ? " does not list it" : " lists other bytes") +
+                        "); photosite never replaces a user's file, even with -y: move it, or give another --maps folder");
+  }
+}
+
+// After the pictures are published: their record, replaced whole.
+void record_maps(const std::string& folder) {
+  std::ostringstream text;
+  for (const auto& name : night_map_picture_files())
+    if (const auto sum = file_checksum_hex((std::filesystem::path(folder) / name).string(), ChecksumAlgorithm::Xxh3_64))
+      text << *sum << ' ' << name << '\n';
+  const std::string path = (std::filesystem::path(folder) / kMapsRecord).string();
+  atomic_write(path, [&](const std::string& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    f << text.str();
+    if (!f.flush()) fail_at(path, "cannot write the --maps pictures' record");
+  });
+}
+}  // namespace
 
 // The bundled KITTI sample (samples/kitti, CC BY-NC-SA 3.0, see its ATTRIBUTION.md).
 std::string night_sample_dir() {
@@ -80,7 +129,7 @@ void run_night(NightCmd c) {
   if (!c.maps.empty())
     for (const auto& f : night_map_picture_files()) map_files.push_back((std::filesystem::path(c.maps) / f).string());
   check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}, {"--maps", map_files, ""}},
-                    {{"--image", c.image}, {"--labels", c.labels}, {"--instances", c.instances}});
+                    {{"--image", c.image}, {"--labels", c.labels}, {"--instances", c.instances}}, r.store.dir());
 
   std::vector<scene::StageTiming> times;
   auto t = clock::now();
@@ -91,6 +140,7 @@ void run_night(NightCmd c) {
   };
   if (!std::filesystem::exists(c.image)) fail_at(c.image, "image file not found");
   if (!c.maps.empty() && !std::filesystem::is_directory(c.maps)) fail_at(c.maps, "--maps: folder does not exist");
+  if (!c.maps.empty() && c.overwrite) check_maps_replace_only_their_own(c.maps);
   ImageFileInfo info;
   // A plain 8-bit RGB PNG (Cityscapes' frames) stays as its codes: the chain linearises them
   // directly (prepare_night), the same bits as from read_image()'s floats.
@@ -132,6 +182,7 @@ void run_night(NightCmd c) {
     if (!previews.empty()) write_png8(previews[f], preview_image(out, r, chain.exposure, preview_options));
     publish->commit();
     publish.reset();
+    if (f == 0 && !c.maps.empty()) record_maps(c.maps);
     std::printf("%s\n", outputs[f].c_str());
     if (!previews.empty()) std::printf("%s\n", previews[f].c_str());
     lap("write outputs");

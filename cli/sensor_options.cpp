@@ -81,11 +81,25 @@ SensorOptions::Resolved SensorOptions::resolve() const {
 }
 
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite) {
-  if (frames > 1 && pattern.find('#') == std::string::npos)
-    fail_at(pattern, "--frames > 1 needs a run of '#' in the output name for the frame number");
+  // The frame number goes into the run of '#' of the file's name; a '#' in a folder's name is part
+  // of that name (take#2/), never a frame number: frames of one run are written into one folder
+  // (which must exist, as photosite creates no output folder), and a folder named with a '#' is
+  // not rewritten into another (take#2/ into take02/). A second run in the name would be left in
+  // it as a '#': bad input, so the number has one place.
+  const std::filesystem::path p(pattern);
+  const std::string name = p.filename().string();
+  const auto first = name.find('#');
+  if (frames > 1 && first == std::string::npos)
+    fail_at(pattern, pattern.find('#') == std::string::npos
+                         ? "--frames > 1 needs a run of '#' in the output name for the frame number"
+                         : "--frames > 1 needs a run of '#' in the output file's name for the frame number (a "
+                           "'#' in a folder's name is part of the name: the frames go into one folder)");
+  if (first != std::string::npos && name.find('#', name.find_first_not_of('#', first)) != std::string::npos)
+    fail_at(pattern, "the output file's name holds two runs of '#'; the frame number takes one run (the "
+                     "other would be left in the name as '#')");
   std::vector<std::string> out;
   for (int f = 0; f < frames; ++f) {
-    out.push_back(frame_path(pattern, f));
+    out.push_back((p.parent_path() / frame_path(name, f)).string());
     check_output_path(out.back(), overwrite);
   }
   return out;
@@ -105,21 +119,47 @@ bool same_file(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
-void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs) {
+// Whether `file` lies in `folder` or below it, through links (both made canonical as far as they
+// exist).
+bool inside(const std::string& file, const std::string& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path f = fs::weakly_canonical(fs::absolute(file, ec), ec);
+  if (ec) f = fs::absolute(file).lexically_normal();
+  fs::path d = fs::weakly_canonical(fs::absolute(folder, ec), ec);
+  if (ec) d = fs::absolute(folder).lexically_normal();
+  const fs::path rel = f.lexically_relative(d);
+  return !rel.empty() && *rel.begin() != "..";
+}
+
+void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs,
+                       const std::string& device_store) {
   namespace fs = std::filesystem;
   for (const auto& o : outputs)
     for (const auto& p : o.paths)
       for (const auto& in : inputs)
         if (!in.path.empty() && same_file(p, in.path))
-          fail_at(p, o.option + " is the run's " + in.option + " input: refused, the output would replace the file being read (even with -y)");
-  std::map<std::string, std::string> seen;  // the file, made absolute and normal, to its option
+          fail_at(p, o.option + " is the run's " + in.option + " input" + (p == in.path ? "" : " " + in.path) +
+                         ": refused, the output would replace the file being read (even with -y)");
+  // The device store holds the devices' fixed-pattern maps, which every run of a device reads:
+  // an output there could replace one (`--out` at the map's own path with -y did), and the
+  // frames made with it would no longer match their recorded checksum.
+  if (!device_store.empty())
+    for (const auto& o : outputs)
+      for (const auto& p : o.paths)
+        if (inside(p, device_store))
+          fail_at(p, o.option + " is inside the device store " + device_store +
+                         ", the folder of the devices' fixed-pattern maps: photosite writes no output there (even with -y)");
+  std::map<std::string, std::pair<std::string, std::string>> seen;  // the file, absolute and normal: option, path
   for (const auto& o : outputs)
     for (const auto& p : o.paths) {
       std::error_code ec;
       fs::path key = fs::weakly_canonical(fs::absolute(p, ec), ec);
       if (ec) key = fs::absolute(p).lexically_normal();
-      const auto [it, fresh] = seen.emplace(key.string(), o.option);
-      if (!fresh) fail_at(p, o.option + ": the same file is also the run's " + it->second + " output (one file per output)");
+      const auto [it, fresh] = seen.emplace(key.string(), std::make_pair(o.option, p));
+      if (!fresh)
+        fail_at(p, o.option + ": the same file is also the run's " + it->second.first + " output" +
+                       (it->second.second == p ? "" : " " + it->second.second) + " (one file per output)");
     }
   for (const auto& o : outputs)
     for (const auto& p : o.paths) {

@@ -59,7 +59,8 @@ struct PreviewFlags {
   PreviewOptions resolve(const std::string& preview) const;
 };
 
-// Output paths for N frames: with frames > 1 the pattern must hold a '#' run.
+// Output paths for N frames: with frames > 1 the file name of the pattern must hold a '#' run (a
+// '#' in its folder part is part of the folder's name), and it may hold only one.
 std::vector<std::string> frame_outputs(const std::string& pattern, int frames, bool overwrite);
 
 // One output option of a run and the files it names.
@@ -73,10 +74,15 @@ struct RunInput {
   std::string option;  // "--radiance"
   std::string path;
 };
+// Whether `file` lies in `folder` or below it (or is it), through links.
+bool inside(const std::string& file, const std::string& folder);
+
 // Bad input (exit 2) before anything is written: a file named by two outputs of the run (the
 // second write would replace the first: --out and --preview one file, or a --maps picture), an
 // output that is one of the run's inputs (-y replaces an existing output, never the input being
-// read), or an output without its format's extension (an EXR written to x.png).
-void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs = {});
+// read), an output inside `device_store` (the folder of the fixed-pattern maps the run reads), or
+// an output without its format's extension (an EXR written to x.png).
+void check_run_outputs(const std::vector<RunOutput>& outputs, const std::vector<RunInput>& inputs = {},
+                       const std::string& device_store = {});
 
 }  // namespace photosite::cli

@@ -486,7 +486,7 @@ py::array_t<float> demosaic_array(const py::array& mosaic, const std::string& cf
 }
 
 py::dict characterize_py(const py::object& camera, std::optional<std::string> lens, std::optional<std::string> device_id,
-                         std::optional<std::string> device_store, double exposure_s, double gain_db,
+                         std::optional<std::string> device_store, std::optional<double> exposure_s, double gain_db,
                          const py::object& seed, const py::object& roi_arg, double wavelength_nm,
                          const std::string& backend, std::optional<double> temperature_c,
                          const std::string& poisson) {
@@ -503,7 +503,9 @@ py::dict characterize_py(const py::object& camera, std::optional<std::string> le
   }
   const int roi = int_arg<int>(roi_arg, "roi", 16, 4096);  // the library's range (characterize.h)
   const SensorSetup s =
-      cam->with(exposure_s, std::nullopt, gain_db, temperature_c, seed, py::int_(0), "bilinear", poisson);
+      // None: emva::Plan's 1 ms, the command's default (characterize.h).
+      cam->with(exposure_s.value_or(emva::Plan{}.exposure_s), std::nullopt, gain_db, temperature_c, seed, py::int_(0),
+                "bilinear", poisson);
   nlohmann::json j;
   {
     py::gil_scoped_release nogil;
@@ -781,7 +783,8 @@ PYBIND11_MODULE(_photosite, m) {
       .def_property_readonly("preset", [](const Camera& c) { return c.setup.camera.name; }, "str: the camera preset's name (file stem)")
       .def_property_readonly("lens", [](const Camera& c) { return c.setup.lens.name; }, "str: the lens preset's name")
       .def_property_readonly("device_id", [](const Camera& c) { return c.setup.device_id; }, "str: the device identity of the fixed-pattern maps")
-      .def_property_readonly("device_store", [](const Camera& c) { return c.store.dir(); }, "str: the folder of the device's fixed-pattern maps")
+      .def_property_readonly("device_store", [](const Camera& c) { return c.store.dir(); }, "str: the folder of the device's fixed-pattern maps, absolute (a relative device_store, or "
+                             "PHOTOSITE_DEVICE_STORE, is taken against the working folder when the Camera is made)")
       .def_property_readonly("width_px", [](const Camera& c) { return c.setup.camera.width_px; }, "int: the sensor's native active width, px")
       .def_property_readonly("height_px", [](const Camera& c) { return c.setup.camera.height_px; }, "int: the sensor's native active height, px")
       .def_property_readonly("bit_depth", [](const Camera& c) { return c.setup.camera.bit_depth; }, "int: the ADC's bits")
@@ -801,7 +804,7 @@ PYBIND11_MODULE(_photosite, m) {
   m.def("demosaic", &demosaic_array, py::arg("mosaic"), py::arg("cfa") = "RGGB", py::arg("method") = "bilinear",
         py::arg("backend") = "auto", py::arg("white_level") = py::none());
   m.def("characterize", &characterize_py, py::arg("camera"), py::arg("lens") = py::none(),
-        py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = 0.02,
+        py::arg("device_id") = py::none(), py::arg("device_store") = py::none(), py::arg("exposure_s") = py::none(),
         py::arg("gain_db") = 0.0, py::arg("seed") = 0, py::arg("roi") = 256, py::arg("wavelength_nm") = 525.0,
         py::arg("backend") = "auto", py::arg("temperature_c") = py::none(), py::arg("poisson") = "exact");
   m.def("chart", [](const py::object& width_arg, const py::object& height_arg, double illuminance_lux, double cct_k, double lamp_cd_m2,

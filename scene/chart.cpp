@@ -27,12 +27,12 @@ void check(const ChartOptions& o) {
     fail_parameter("width", "chart size: ", fmt::format(" {} is outside [64, 16384] pixels (the chart size must be between 64x48 and 16384x16384)", o.width));
   if (o.height < 48 || o.height > 16384)
     fail_parameter("height", "chart size: ", fmt::format(" {} is outside [48, 16384] pixels (the chart size must be between 64x48 and 16384x16384)", o.height));
-  if (!(o.illuminance_lux >= 0)) fail_parameter("illuminance_lux", "chart: ", fmt::format(" {} lux must be >= 0", o.illuminance_lux));
+  if (!(o.illuminance_lux >= 0)) fail_parameter("illuminance_lux", "chart: ", fmt::format(" {} lux must be a number >= 0", o.illuminance_lux));
   if (!(o.cct_k >= 1000 && o.cct_k <= 25000))
     fail_parameter("cct_k", "chart: ", fmt::format(" {} K is outside the CCT range [1000, 25000] K", o.cct_k));
-  if (!(o.lamp_cd_m2 >= 0)) fail_parameter("lamp_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be >= 0", o.lamp_cd_m2));
+  if (!(o.lamp_cd_m2 >= 0)) fail_parameter("lamp_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be a number >= 0", o.lamp_cd_m2));
   if (!(o.background_cd_m2 >= 0))
-    fail_parameter("background_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be >= 0", o.background_cd_m2));
+    fail_parameter("background_cd_m2", "chart: ", fmt::format(" {} cd/m2 must be a number >= 0", o.background_cd_m2));
 }
 
 // A radiance the option made must be a finite float (the EXR stores float32; Inf is not a

@@ -19,6 +19,22 @@ Characterization characterize(const SensorSetup& setup, const DeviceStore& store
                               int roi, double wavelength_nm) {
   if (roi < 16 || roi > 4096) fail_parameter("roi", "", fmt::format(" {} must be in [16, 4096]", roi));
   detail::check_flat_field_wavelength(wavelength_nm, setup.camera);  // before the device store is touched
+  const ResolvedExposure ex = resolve(setup.camera, setup.lens, setup.settings);  // the exposure, gain, temperature
+  // The dark charge of the sweep's exposure shares the well with the photo-electrons: the
+  // signal clips at the full well or the ADC's top code, whichever comes first (in e⁻;
+  // emva::expected's clip), and a dark charge at or above that leaves no photo-signal to measure.
+  // Refused naming the exposure, before the device store is touched (the sweep would end in
+  // "too few points in the linear range"). The mean per-pixel rate is at least the preset's
+  // (the hot pixels' factors only add), so D·t is a lower bound on the mean dark charge.
+  const double clip_e = std::min(setup.camera.full_well_e,
+                                 (std::ldexp(1.0, setup.camera.bit_depth) - 1 - setup.camera.black_level_dn) /
+                                     ex.system_gain_dn_per_e);
+  const double dark_e = ex.dark_current_e_per_s * ex.exposure_s;
+  if (dark_e >= clip_e)
+    fail_parameter("exposure_s", "",
+                   fmt::format(" {} s: the dark charge alone, {:.4g} e- ({:.4g} e-/s at {:g} C), fills the well ({:.4g} e- to "
+                               "the clip), so no photo-signal is left to measure; give a shorter exposure",
+                               ex.exposure_s, dark_e, ex.dark_current_e_per_s, ex.temperature_c, clip_e));
   const int w = std::min(roi, setup.camera.width_px), h = std::min(roi, setup.camera.height_px);
   const FixedPatternMaps fpn = store.load_or_create(setup.camera, setup.device_id, w, h);
   emva::SimulatedCamera cam(setup.camera, setup.lens, setup.settings, fpn, wavelength_nm,
@@ -26,15 +42,30 @@ Characterization characterize(const SensorSetup& setup, const DeviceStore& store
                                       const ExposureSettings& s, const FixedPatternMaps& f) {
                               return runner.sense(m, p, ex, s, f);
                             });
-  const emva::Plan plan = emva::plan_for(setup.camera, wavelength_nm);
-  const emva::Result m = emva::measure(cam, plan);
+  emva::Plan plan = emva::plan_for(setup.camera, wavelength_nm);
+  plan.exposure_s = ex.exposure_s;  // the sweep at the caller's exposure time (characterize.h)
+  // Where the dark charge takes much of the well the sweep may still find too few linear points:
+  // the message then says how much the exposure's dark charge took.
+  const emva::Result m = [&] {
+    try {
+      return emva::measure(cam, plan);
+    } catch (const ParameterError&) {
+      throw;
+    } catch (const Error& err) {
+      if (err.kind() != Error::Kind::BadInput || !(dark_e > 0)) throw;
+      fail_parameter("exposure_s", std::string(err.what()) + " (the dark charge at ",
+                     fmt::format(" {} s, {:.4g} e-, takes {:.0f}% of the well's {:.4g} e-: a shorter exposure leaves "
+                                 "the photo-signal more room)",
+                                 ex.exposure_s, dark_e, 100 * dark_e / clip_e, clip_e));
+    }
+  }();
   const emva::Result e = emva::expected(setup.camera, setup.settings, plan, m.pixels_measured, wavelength_nm);
   Characterization c;
   c.preset = setup.camera.name;
   c.device_id = setup.device_id;
   c.preset_xxh3_64 = setup.camera.text_xxh3_64;
-  const ResolvedExposure ex = resolve(setup.camera, setup.lens, setup.settings);
   c.gain_db = ex.gain_db;
+  c.exposure_s = ex.exposure_s;
   c.temperature_c = ex.temperature_c;
   c.seed = setup.settings.seed;
   c.poisson = to_string(setup.settings.poisson);
@@ -74,7 +105,7 @@ std::string to_json(const Characterization& c, int indent) {
   j["cfa_colour"] = std::string(1, c.cfa_colour);
   j["roi"] = {c.roi_w, c.roi_h};
   // The seed as text, as in the EXR header (a 64-bit value; JSON readers keep doubles).
-  j["conditions"] = {{"preset_xxh3_64", c.preset_xxh3_64}, {"gain_db", c.gain_db},
+  j["conditions"] = {{"preset_xxh3_64", c.preset_xxh3_64}, {"exposure_s", c.exposure_s}, {"gain_db", c.gain_db},
                      {"temperature_c", c.temperature_c}, {"seed", std::to_string(c.seed)},
                      {"poisson", c.poisson}};
   for (const auto& row : c.rows)

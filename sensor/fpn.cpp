@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -31,6 +32,7 @@
 #include "photosite/io.h"
 #include "photosite/rng.h"
 #include "core/rng_detail.h"  // Philox inline in the per-pixel loop
+#include "sensor/fpn_detail.h"
 
 namespace photosite {
 namespace fs = std::filesystem;
@@ -116,7 +118,28 @@ std::string fixed_pattern_checksum(const FixedPatternMaps& m, ChecksumAlgorithm 
   return c.hex();
 }
 
-DeviceStore::DeviceStore(std::string dir) : dir_(dir.empty() ? default_dir() : std::move(dir)) {}
+namespace detail {
+std::atomic<FlockFn> device_store_flock{&::flock};
+}  // namespace detail
+
+namespace {
+// The store's folder as an absolute, lexically normal path without a trailing separator. A relative
+// folder (--device-store maps, PHOTOSITE_DEVICE_STORE=maps) is taken against the working folder
+// once, here: every map of the store is then read and made in that one folder, whatever the
+// working folder is at the time (a Python program that changes it with os.chdir between frames
+// would otherwise draw the device's maps again in a second store, and its frames would stop
+// sharing one fixed pattern).
+std::string absolute_store(const std::string& dir) {
+  std::error_code ec;
+  fs::path p = fs::absolute(dir, ec);
+  if (ec) fail_at(dir, "cannot make the device store's path absolute (" + ec.message() + "; the working folder is gone?)");
+  p = p.lexically_normal();
+  if (!p.has_filename() && p.has_relative_path()) p = p.parent_path();  // "maps/" -> "maps"
+  return p.string();
+}
+}  // namespace
+
+DeviceStore::DeviceStore(std::string dir) : dir_(absolute_store(dir.empty() ? default_dir() : dir)) {}
 
 namespace {
 // What identifies a file's contents for DeviceStore::Kept: a map is only ever published whole and
@@ -323,28 +346,50 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                      fs::path(path).filename().string() + " (make it writable, or create the map elsewhere and copy it in)");
   // Creation is serialised by an exclusive flock on the preset's folder itself (no lock files
   // to leave behind): the second process waits, then finds the first one's map. Where the file
-  // system has no flock (some network file systems answer ENOLCK), the lock is skipped and the
-  // no-replace publish below decides: the first map to be linked in wins, and a process that
-  // loses the race discards its own and loads the winner's, so every process uses one map.
+  // system has no file locks (flock fails with another error than EWOULDBLOCK: ENOLCK from an NFS
+  // mount without a lock daemon, EOPNOTSUPP or ENOSYS from some FUSE and network file systems),
+  // the map is made without the lock, and a note says so: the publish below is a no-replace link
+  // (atomic without any lock), so the first map to be linked in wins, and a process that loses
+  // the race discards its own and loads the winner's. Every process then uses one map; the cost
+  // is the losers' wasted draws. (Two maps of one device are the same bits anyway: they follow
+  // from the preset and the device id alone.)
   const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  const detail::FlockFn lock = detail::device_store_flock.load();
   struct Unlock {
     int fd;
+    bool locked = false;
+    detail::FlockFn lock;
     ~Unlock() {
       if (fd >= 0) {
-        ::flock(fd, LOCK_UN);
+        if (locked) lock(fd, LOCK_UN);
         ::close(fd);
       }
     }
-  } unlock{fd};
-  if (fd >= 0 && ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK) {
+  } unlock{fd, false, lock};
+  auto no_lock = [&](const char* call, int e) {
+    std::fprintf(stderr, "photosite: note: %s: no lock on the device store's folder (%s: %s); creating the "
+                 "fixed-pattern map without it: the first map published wins, and a process that made "
+                 "another loads that one\n", dir.c_str(), call, std::strerror(e));
+  };
+  if (fd < 0) {
+    no_lock("open", errno);
+  } else if (lock(fd, LOCK_EX | LOCK_NB) == 0) {
+    unlock.locked = true;
+  } else if (errno == EWOULDBLOCK) {
     // Another process is creating a map of this preset (any device or size): say so, then wait.
     std::fprintf(stderr, "photosite: waiting for another process creating a fixed-pattern map in %s (its lock on the folder)\n",
                  dir.c_str());
-    while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+    int r;
+    while ((r = lock(fd, LOCK_EX)) != 0 && errno == EINTR) {
     }
+    if (r == 0) unlock.locked = true;
+    else no_lock("flock", errno);
+  } else {
+    no_lock("flock", errno);
   }
   if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
-  // Under the lock: the temporaries of map creations killed outright (SIGKILL: no handler ran)
+  // Under the lock (where there is one; without it, only temporaries of processes gone are
+  // touched): the temporaries of map creations killed outright (SIGKILL: no handler ran)
   // in this pid space are removed.
   remove_stale_temporaries(dir);
   FixedPatternMaps m = generate_fixed_pattern(preset, width, height, device_id);

@@ -1015,7 +1015,7 @@ void detail::check_flat_field_wavelength(double wavelength_nm, const CameraPrese
 ImageF detail::flat_field_mean(double photons, double wavelength_nm, int width, int height,
                                const CameraPreset& p) {
   if (!std::isfinite(photons) || photons < 0)
-    fail(fmt::format("photons per pixel {} is impossible (must be >= 0)", photons));
+    fail_parameter("photons", "", fmt::format(" {} photons per pixel is impossible (a mean photon count is a finite number >= 0)", photons));
   check_flat_field_wavelength(wavelength_nm, p);
   if (width < 1 || height < 1 || static_cast<double>(width) * height > 4e8)
     fail(fmt::format("flat-field size {}x{} is impossible", width, height));

@@ -696,3 +696,49 @@ TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
   EXPECT_EQ(keys_of(photosite::read_exr(exr).channels), keys_of(photosite::read_exr(tmp.file("n.exr")).channels)) << layers;
   EXPECT_NE(slurp(tmp.path() / "out/.photosite-batch/shard-0-of-1.jsonl").find("\"layers\":\"" + layers + "\""), std::string::npos);
 }
+
+// batch's resume manifest (OUT/.photosite-batch/shard-I-of-N.jsonl) has the keys docs/cli.md's
+// "Resume manifest keys" paragraph names, both ways: the parameter record's (with the two written
+// only when set: --sequence and a lamp type other than LED), the "writing" record's, the finished
+// record's and its files' (with an item's Cityscapes camera file, whose checksum is recorded).
+TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
+  const std::string cli = slurp(kRoot / "docs/cli.md");
+  const auto at = cli.find("**Resume manifest keys**");
+  ASSERT_NE(at, std::string::npos);
+  const std::string para = cli.substr(at, cli.find("\n\n", at) - at);
+  std::set<std::string> documented;
+  static const std::regex ident(R"([a-z][a-z0-9_]*)"), quoted(R"re("([a-z][a-z0-9_]*)")re");
+  for (const auto& s : code_spans(para)) {
+    if (std::regex_match(s, ident)) documented.insert(s);
+    for (std::sregex_iterator m(s.begin(), s.end(), quoted), end; m != end; ++m) documented.insert((*m)[1]);
+  }
+  // A one-frame Cityscapes layout with the frame's camera file (the bundled KITTI frame as its image).
+  TempDir tmp;
+  const fs::path root = tmp.path() / "cs", sample = kRoot / "samples/kitti";
+  for (const char* d : {"leftImg8bit/val/city", "gtFine/val/city", "camera/val/city"}) fs::create_directories(root / d);
+  fs::copy_file(sample / "image_2/000000_10.png", root / "leftImg8bit/val/city/city_000000_000019_leftImg8bit.png");
+  fs::copy_file(sample / "semantic/000000_10.png", root / "gtFine/val/city/city_000000_000019_gtFine_labelIds.png");
+  std::ofstream(root / "camera/val/city/city_000000_000019_camera.json")
+      << R"({"extrinsic": {"pitch": 0.05, "z": 1.2}, "intrinsic": {"fx": 700, "fy": 700, "u0": 621, "v0": 187}})";
+  const auto r = run_cli("batch --backend cpu --quiet --dataset cityscapes --root " + root.string() + " --out " +
+                         tmp.file("out") + " --layers depth --sequence --streetlamp-type hps");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::set<std::string> written;
+  std::istringstream lines(slurp(tmp.path() / "out/.photosite-batch/shard-0-of-1.jsonl"));
+  int records = 0;
+  for (std::string l; std::getline(lines, l); ++records) {
+    const auto j = nlohmann::json::parse(l);
+    for (const auto& [k, v] : j.items()) {
+      written.insert(k);
+      if (v.is_object())
+        for (const auto& [k2, v2] : v.items()) written.insert(k2);
+      if (v.is_array())
+        for (const auto& e : v)
+          if (e.is_object())
+            for (const auto& [k2, v2] : e.items()) written.insert(k2);
+    }
+  }
+  EXPECT_EQ(records, 3);  // the parameters, "writing", the finished item
+  for (const auto& k : documented) EXPECT_TRUE(written.count(k)) << "docs/cli.md names the resume manifest key " << k << ", which batch does not write";
+  for (const auto& k : written) EXPECT_TRUE(documented.count(k)) << "batch's resume manifest has the key " << k << ", which docs/cli.md does not name";
+}

@@ -7,7 +7,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <sys/file.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -17,6 +20,10 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "core/raster_codecs.h"
 #include "photosite/batch.h"
@@ -28,6 +35,7 @@
 #include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/preset.h"
+#include "sensor/fpn_detail.h"
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -466,4 +474,211 @@ TEST(EdgeCases, BadArgumentsOfTheOtherCommandsAreNamed) {
             std::string::npos)
       << slurp(t.file("err"));
   EXPECT_EQ(run_cli("presets doc >/dev/null").exit_code, 0);
+}
+
+// ---- the thirty-sixth session (docs/cli.md "Edge cases (thirty-sixth session)") ----------------
+
+// characterize's exposure: Python's `exposure_s=` was accepted and ignored, and the command had no
+// --exposure-s; the sweep ran at 1 ms whatever was asked. Now it is the photon-transfer sweep's
+// exposure time on both faces, recorded in the result, and the figures follow it: at 0.5 s and
+// 80 C the dark charge's shot noise (D·t, e⁻², with D the dark current at 80 C) is part of the
+// temporal dark noise the preset column expects, √(σ_read² + row² + column² + D·t), and the
+// measurement agrees with it. The default stays 1 ms, and so do its figures.
+TEST(EdgeCases, CharacterizeMeasuresAtTheExposureGiven) {
+  const std::string base = "characterize --backend cpu --preset sony-imx174 --roi 16 --json --temperature-c 80";
+  auto json_of = [](const std::string& args) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
+    return r.exit_code == 0 ? nlohmann::json::parse(r.output.substr(r.output.find('{'))) : nlohmann::json();
+  };
+  const auto d = json_of(base), l = json_of(base + " --exposure-s 0.5");
+  ASSERT_TRUE(d.is_object() && l.is_object());
+  EXPECT_EQ(d["conditions"]["exposure_s"].get<double>(), 1e-3);
+  EXPECT_EQ(l["conditions"]["exposure_s"].get<double>(), 0.5);
+  const double sd_short = d["read_noise_e"]["preset"].get<double>(), sd_long = l["read_noise_e"]["preset"].get<double>();
+  const double dark = l["dark_current_e_per_s"]["preset"].get<double>();
+  // √(s² + D·t): the two preset values differ by the dark shot noise of the extra 0.499 s.
+  EXPECT_NEAR(sd_long * sd_long - sd_short * sd_short, dark * (0.5 - 1e-3), 1e-9 * sd_long * sd_long) << dark;
+  EXPECT_GT(dark * 0.5, 1.0);  // a visible effect: more than 1 e⁻² of variance
+  // The measured temporal dark noise follows: within 5 combined standard errors of the longer
+  // exposure's expectation (|z| < 5), and above the short one's by more than its own error.
+  EXPECT_LT(std::abs(l["read_noise_e"]["z"].get<double>()), 5.0) << l["read_noise_e"].dump();
+  EXPECT_GT(l["read_noise_e"]["measured"].get<double>(),
+            d["read_noise_e"]["measured"].get<double>() + l["read_noise_e"]["uncertainty"].get<double>());
+  const auto bad = run_cli(base + " --exposure-s -1");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--exposure-s -1 s is impossible"), std::string::npos) << bad.output;
+  // An hour at 80 C: the dark charge alone fills the well (the sweep ended in "EMVA 1288: too few
+  // points in the linear range to fit"); refused naming the exposure and the charge.
+  const auto full = run_cli(base + " --exposure-s 3600");
+  EXPECT_EQ(full.exit_code, 2) << full.output;
+  EXPECT_NE(full.output.find("--exposure-s 3600 s: the dark charge alone"), std::string::npos) << full.output;
+}
+
+// A relative device store (--device-store maps, PHOTOSITE_DEVICE_STORE=maps, Python's
+// device_store="maps") was taken against the working folder at each use: a program that changed
+// its working folder between two frames drew the device's maps again in a second store. Now it is
+// made absolute once, when the store is made.
+TEST(EdgeCases, RelativeDeviceStoreIsTakenOnce) {
+  TempDir t;
+  fs::create_directories(t.path() / "a");
+  fs::create_directories(t.path() / "b");
+  const fs::path was = fs::current_path();
+  struct Back {
+    fs::path to;
+    ~Back() { fs::current_path(to); }
+  } back{was};
+  fs::current_path(t.path() / "a");
+  const DeviceStore store("maps/");
+  EXPECT_EQ(store.dir(), (fs::canonical(t.path() / "a") / "maps").string());
+  fs::current_path(t.path() / "b");
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  (void)store.load_or_create(cam, "cam1", 32, 16);
+  EXPECT_TRUE(fs::exists(t.path() / "a/maps/sony-imx174/cam1_32x16.exr"));
+  EXPECT_FALSE(fs::exists(t.path() / "b/maps"));
+}
+
+// The device store's lock where the file system has none: flock answering ENOLCK (an NFS mount
+// without a lock daemon), EOPNOTSUPP or ENOSYS. The map is made without the lock, with a note,
+// and the publish decides: it links the finished map in without replacing (atomic with no lock),
+// so of several processes making one map at once the first to link wins and the others load its
+// map. Here four threads each with a store of their own race on one map; the lock function fails
+// only once all four have reached it, so every one of them draws and tries to publish.
+TEST(EdgeCases, DeviceStoreWithoutFileLocksPublishesOneMap) {
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  static std::atomic<int> arrived{0};
+  static std::atomic<int> lock_errno{0};
+  struct Restore {
+    ~Restore() { detail::device_store_flock.store(&::flock); }
+  } restore;
+  detail::device_store_flock.store([](int, int) {
+    ++arrived;
+    while (arrived.load() < 4) std::this_thread::yield();
+    errno = lock_errno.load();
+    return -1;
+  });
+  for (const int e : {ENOLCK, EOPNOTSUPP, ENOSYS}) {
+    TempDir t;
+    arrived = 0;
+    lock_errno = e;
+    std::vector<FixedPatternMaps> maps(4);
+    testing::internal::CaptureStderr();
+    {
+      std::vector<std::thread> threads;
+      for (int i = 0; i < 4; ++i)
+        threads.emplace_back([&, i] { maps[i] = DeviceStore(t.file("store")).load_or_create(cam, "cam1", 64, 32); });
+      for (auto& th : threads) th.join();
+    }
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find(std::string("no lock on the device store's folder (flock: ") + std::strerror(e) + ")"),
+              std::string::npos)
+        << err;
+    const FixedPatternMaps reference = generate_fixed_pattern(cam, 64, 32, "cam1");
+    for (const auto& m : maps) EXPECT_EQ(m.checksum_xxh3, reference.checksum_xxh3);
+    const auto names = files_in(t.path() / "store/sony-imx174");
+    EXPECT_EQ(names, std::vector<std::string>{"cam1_64x32.exr"}) << names.size() << " files";  // no temporary left
+    EXPECT_EQ(DeviceStore(t.file("store")).load_or_create(cam, "cam1", 64, 32).checksum_xxh3, reference.checksum_xxh3);
+  }
+}
+
+// Outputs that would replace user data. `--out` at the device store's map (an input of every run
+// of that device) replaced it with -y, and the device's next run failed on "not a photosite
+// device map"; `night --maps DIR -y` replaced a user's day.png or labels.png in DIR (its pictures
+// have plain names). Now no output goes into the device store, and with -y a --maps picture
+// replaces only the run's own earlier one (listed in DIR/.photosite-maps with its bytes).
+TEST(EdgeCases, OutputsNeverReplaceTheDeviceMapsOrAUsersFile) {
+  TempDir t;
+  const std::string store = t.file("store");
+  ASSERT_EQ(run_cli("chart --width 64 --height 48 --out '" + t.file("rad.exr") + "'").exit_code, 0);
+  const std::string expose = "expose --backend cpu --preset sony-imx174 --device-store '" + store + "' --radiance '" +
+                             t.file("rad.exr") + "' --out ";
+  ASSERT_EQ(run_cli(expose + "'" + t.file("o.exr") + "'").exit_code, 0);
+  const std::string map = store + "/sony-imx174/sony-imx174-0_64x48.exr";
+  const std::string before = slurp(map);
+  const auto r = run_cli(expose + "'" + map + "' -y");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out is inside the device store " + store + ", the folder of the devices' fixed-pattern maps"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(slurp(map), before);
+  EXPECT_EQ(run_cli(expose + "'" + t.file("o.exr") + "' -y").exit_code, 0);  // the map still serves
+  // batch replaces no file it did not write, but its outputs would lie among the maps.
+  const std::string sample = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  std::ofstream(t.file("m.txt")) << sample << "image_2/000000_10.png " << sample << "semantic/000000_10.png\n";
+  const auto b = run_cli("batch --backend cpu --quiet --manifest '" + t.file("m.txt") + "' --device-store '" + store +
+                         "' --out '" + store + "/out'");
+  EXPECT_EQ(b.exit_code, 2) << b.output;
+  EXPECT_NE(b.output.find("--out is inside the device store " + store), std::string::npos) << b.output;
+  EXPECT_FALSE(fs::exists(store + "/out"));
+
+  const std::string night = "night --backend cpu " + bundled_inputs() + " --layers labels --maps '" + t.file("m") + "' --out '";
+  fs::create_directory(t.path() / "m");
+  std::ofstream(t.file("m/day.png")) << "a user's file";
+  const auto u = run_cli(night + t.file("n.exr") + "' -y");
+  EXPECT_EQ(u.exit_code, 2) << u.output;
+  EXPECT_NE(u.output.find(t.file("m/day.png") + ": exists and is not a --maps picture of an earlier run (.photosite-maps does "
+                          "not list it); photosite never replaces a user's file, even with -y"),
+            std::string::npos)
+      << u.output;
+  EXPECT_EQ(slurp(t.file("m/day.png")), "a user's file");
+  EXPECT_FALSE(fs::exists(t.file("n.exr")));
+  // Its own pictures: written, then replaced with -y; a picture edited since is the user's.
+  fs::remove(t.file("m/day.png"));
+  ASSERT_EQ(run_cli(night + t.file("n.exr") + "'").exit_code, 0);
+  const auto again = run_cli(night + t.file("n2.exr") + "' -y");
+  EXPECT_EQ(again.exit_code, 0) << again.output;
+  std::ofstream(t.file("m/labels.png"), std::ios::app) << "edited";
+  const auto edited = run_cli(night + t.file("n3.exr") + "' -y");
+  EXPECT_EQ(edited.exit_code, 2) << edited.output;
+  EXPECT_NE(edited.output.find("labels.png: exists and is not a --maps picture of an earlier run (.photosite-maps lists other bytes)"),
+            std::string::npos)
+      << edited.output;
+}
+
+// --frames' '#' run: a '#' in the folder part was taken as the run (d#/f.exr wrote d0/f.exr,
+// d1/f.exr; a folder take#2/ became take02/, and in d#/f#.exr the file kept a literal '#'). Now
+// the run is the file name's: a folder's '#' is part of its name, and a name with two runs is bad
+// input. Two frames that are one file (d#/../f.exr, before) are named with both paths.
+TEST(EdgeCases, FrameNumbersGoIntoTheFileName) {
+  TempDir t;
+  fs::create_directory(t.path() / "take#2");
+  const std::string flat = "flat --backend cpu --preset sony-imx174 --width 32 --height 16 --photons 100 --wavelength-nm 525 "
+                           "--device-store '" + t.file("store") + "' --frames 2 --out '";
+  const auto ok = run_cli(flat + t.file("take#2/f#.exr") + "'");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_EQ(files_in(t.path() / "take#2"), (std::vector<std::string>{"f0.exr", "f1.exr"}));
+  const auto folder = run_cli(flat + t.file("d#/f.exr") + "'");
+  EXPECT_EQ(folder.exit_code, 2) << folder.output;
+  EXPECT_NE(folder.output.find("needs a run of '#' in the output file's name for the frame number (a '#' in a folder's name is part of the name"),
+            std::string::npos)
+      << folder.output;
+  const auto two = run_cli(flat + t.file("f#_#.exr") + "'");
+  EXPECT_EQ(two.exit_code, 2) << two.output;
+  EXPECT_NE(two.output.find("the output file's name holds two runs of '#'"), std::string::npos) << two.output;
+  EXPECT_EQ(files_in(t.path()), (std::vector<std::string>{"store", "take#2"}));
+}
+
+// The thirty-sixth session's sweep of chart, demosaic, flat and characterize: what it mended.
+TEST(EdgeCases, BadNumbersOfTheSweepCommandsAreNamed) {
+  TempDir t;
+  write_png8(t.file("m.png"), ImageU8(8, 8, 1, 90));
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      // flat named no option ("photons per pixel nan is impossible").
+      {"flat --backend cpu --preset sony-imx174 --width 32 --height 16 --frames 1 --wavelength-nm 525 --photons nan --out '" +
+           t.file("f.exr") + "'",
+       "--photons nan photons per pixel is impossible"},
+      // --white-level inf "is not above m.png's black level (0)".
+      {"demosaic --backend cpu --in '" + t.file("m.png") + "' --cfa RCCB --white-level inf --out '" + t.file("d.png") + "'",
+       "--white-level inf is not a finite number"},
+      // --list with a mosaic and an output ran the list and left them alone (exit 0).
+      {"demosaic --list --in '" + t.file("m.png") + "' --out '" + t.file("d.png") + "'", "--in excludes --list"},
+      // chart: "--illuminance-lux nan lux must be >= 0".
+      {"chart --illuminance-lux nan --out '" + t.file("c.exr") + "'", "--illuminance-lux nan lux must be a number >= 0"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
+  }
+  EXPECT_EQ(files_in(t.path()), std::vector<std::string>{"m.png"});
 }

@@ -19,6 +19,8 @@ struct Characterization {
   // the analog gain, the die temperature used, the temporal-noise seed and the shot-noise sampler.
   std::string preset_xxh3_64;
   double gain_db = 0, temperature_c = 0;
+  // The photon-transfer sweep's exposure time (setup.settings.exposure_s), in s.
+  double exposure_s = 0;
   uint64_t seed = 0;
   std::string poisson;
   double wavelength_nm = 525;
@@ -39,6 +41,14 @@ struct Characterization {
 };
 
 // roi: side of the measured region in pixels, [16, 4096] (ParameterError "roi" otherwise).
+// setup.settings.exposure_s is the exposure time of the photon-transfer sweep, the dark pair and
+// the DSNU/PRNU frames: the irradiation varies at that one time (a constant exposure time is one
+// of EMVA 1288's ways to vary the radiant exposure), and the figures hold for that time (the dark
+// charge's shot noise is part of the temporal dark noise, its spread part of DSNU1288). It must be
+// in [0, 3600] s (ParameterError "exposure_s"). The dark current is fitted over its own exposures
+// (emva::Plan::dark_exposures_s). The command line's and the Python module's default is
+// emva::Plan's 1 ms: short, so that the dark charge adds little to the temporal dark noise and
+// takes little of the well.
 Characterization characterize(const SensorSetup& setup, const DeviceStore& store, SensorRunner& runner,
                               int roi, double wavelength_nm);
 

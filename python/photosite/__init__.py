@@ -124,7 +124,9 @@ A camera: a camera preset (bundled name such as "onsemi-ar0331" or a .toml path)
 (default: the camera's default lens) and one device of it. The device's fixed-pattern maps (PRNU,
 DSNU, hot pixels) are created once per device_id and frame size and kept in device_store (default,
 the first that is set: $PHOTOSITE_DEVICE_STORE, $XDG_DATA_HOME/photosite/devices,
-~/.local/share/photosite/devices), exactly as the command line does (docs/sensor.md).
+~/.local/share/photosite/devices), exactly as the command line does (docs/sensor.md). A relative
+folder is taken against the working folder when the Camera is made, once: Camera.device_store is
+that absolute folder, and a later os.chdir does not move it.
 
 Camera.expose(radiance, exposure_s=0.02, f_number=None, gain_db=0, temperature_c=None, seed=0,
               frame=0, demosaic="bilinear", backend="auto", poisson="exact") -> SensorResult
@@ -220,14 +222,18 @@ def demosaic(mosaic: np.ndarray, cfa: str = "RGGB", method: str = "bilinear", ba
 
 
 def characterize(camera: Union[Camera, str], lens: Optional[str] = None, device_id: Optional[str] = None,
-                 device_store: Optional[str] = None, exposure_s: float = 0.02, gain_db: float = 0.0,
+                 device_store: Optional[str] = None, exposure_s: Optional[float] = None, gain_db: float = 0.0,
                  seed: int = 0, roi: int = 256, wavelength_nm: float = 525.0, backend: str = "auto",
                  temperature_c: Optional[float] = None, poisson: str = "exact") -> dict:
     """EMVA 1288 (R4.0) photon-transfer measurement of a simulated camera (`photosite characterize --json`).
 
     camera        a Camera or a camera preset name (then lens, device_id, device_store apply)
-    exposure_s    no effect: the EMVA plan sets its own exposure times (the command has no
-                  --exposure-s); kept so that existing calls still run. gain_db: analog gain in dB
+    exposure_s    exposure time in s of the photon-transfer sweep, the dark pair and the DSNU/PRNU
+                  frames (the irradiation varies at that one time, and the figures hold for it),
+                  [0, 3600]; None: 1 ms (`characterize --exposure-s`, default 0.001). The dark
+                  current is fitted over the plan's own exposures. Before 2026-12-02 it was
+                  accepted and ignored.
+    gain_db       analog gain in dB
     roi           side of the measured region in pixels, [16, 4096]
     wavelength_nm wavelength of the light in nm
     temperature_c die temperature in deg C (None: the preset's); sets the dark current

@@ -634,6 +634,40 @@ def test_characterize_temperature_and_poisson_match_cli(cli, store):
     assert ratio == pytest.approx(2.0**x, rel=rel, abs=0)
 
 
+def test_characterize_measures_at_exposure_s_as_the_cli(cli, store):
+    """exposure_s was accepted and ignored (the sweep ran at 1 ms whatever was asked); now it is
+    the photon-transfer sweep's exposure time, as the command's --exposure-s, and recorded."""
+    d = ps.characterize("sony-imx174", roi=16, device_store=store, backend="cpu", temperature_c=80, exposure_s=0.5)
+    j = json.loads(cli("characterize", "--preset", "sony-imx174", "--roi", 16, "--json", "--backend", "cpu",
+                       "--temperature-c", 80, "--exposure-s", 0.5).stdout)
+    assert d == j
+    assert d["conditions"]["exposure_s"] == 0.5
+    short = ps.characterize("sony-imx174", roi=16, device_store=store, backend="cpu", temperature_c=80)
+    assert short["conditions"]["exposure_s"] == 0.001
+    assert d["read_noise_e"]["preset"] > short["read_noise_e"]["preset"]  # the dark charge's shot noise
+    with pytest.raises(ValueError, match=r"exposure_s -1 s is impossible"):
+        ps.characterize("sony-imx174", roi=16, device_store=store, exposure_s=-1)
+
+
+def test_relative_device_store_is_taken_once(tmp_path):
+    """A relative device_store was taken against the working folder at each expose: after an
+    os.chdir the device's maps were drawn again in a second store. Now it is made absolute when
+    the Camera is made."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    was = os.getcwd()
+    try:
+        os.chdir(tmp_path / "a")
+        cam = ps.Camera("sony-imx174", device_store="maps")
+        assert cam.device_store == str((tmp_path / "a" / "maps").resolve())
+        os.chdir(tmp_path / "b")
+        cam.expose(np.full((16, 32, 3), 1e-3, np.float32), backend="cpu")
+    finally:
+        os.chdir(was)
+    assert (tmp_path / "a" / "maps" / "sony-imx174" / "sony-imx174-0_32x16.exr").exists()
+    assert not (tmp_path / "b" / "maps").exists()
+
+
 def test_metadata_is_the_photosite_header_attributes(cli, store, tmp_path):
     """SensorResult.metadata (docs/python.md): the header's photosite/ attributes without the
     prefix, less the *_text copies, unit/<channel> and radiance_file; floats at full precision

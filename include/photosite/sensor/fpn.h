@@ -38,7 +38,9 @@ std::string fixed_pattern_checksum(const FixedPatternMaps& maps, ChecksumAlgorit
 class DeviceStore {
  public:
   // dir empty: $PHOTOSITE_DEVICE_STORE, else $XDG_DATA_HOME/photosite/devices, else
-  // ~/.local/share/photosite/devices.
+  // ~/.local/share/photosite/devices. A relative folder (given or from the variable) is made
+  // absolute here, once, against the working folder of the moment: dir() is that absolute path,
+  // and a later change of the working folder does not move the store.
   explicit DeviceStore(std::string dir = {});
   static std::string default_dir();
   const std::string& dir() const { return dir_; }
