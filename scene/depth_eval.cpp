@@ -153,21 +153,14 @@ ImageU8 metric_marking_mask(const ImageF& luma_srgb, const ImageU16& labels, con
   ImageU8 out(W, H, 1, uint8_t{0});
   const ImageF blurred = blur_sigma_px > 0 ? lane_blur(luma_srgb, blur_sigma_px) : ImageF();
   const ImageF& b = blur_sigma_px > 0 ? blurred : luma_srgb;
-  const float thr2 = static_cast<float>(2 * threshold);
   const int y0 = std::max(0, static_cast<int>(std::floor(g.horizon_y)) + 1);
 #pragma omp parallel for schedule(static, 8)
   for (int y = y0; y < H; ++y) {
     const double z = g.ground_depth_m(y);
     if (!std::isfinite(z)) continue;
+    // The lane stage's row filter (horizontal pass only), its side pixels side_m away on the ground.
     const int w = std::max(2, static_cast<int>(std::lround(side_m * g.f_px / z)));
-    const float* r = b.row(y);
-    const uint16_t* lab = labels.row(y);
-    uint8_t* o = out.row(y);
-    for (int x = w; x < W - w; ++x) {
-      if (lab[x] != static_cast<uint16_t>(Label::Road) && lab[x] != static_cast<uint16_t>(Label::Parking)) continue;
-      const float l = r[x - w], c = r[x], rr = r[x + w];
-      if (2 * c - l - rr - std::fabs(l - rr) > thr2) o[x] = 255;
-    }
+    lane_row(b.row(y), nullptr, nullptr, labels.row(y), W, w, static_cast<float>(threshold), out.row(y));
   }
   return out;
 }

@@ -420,8 +420,7 @@ WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int 
   return w;
 }
 
-namespace {
-// One row of lane_markings, columns [w, W − w): 255 where the pixel is road (or parking) and
+// One row of lane_markings (lanes_detail.h), columns [w, W − w): 255 where the pixel is road (or parking) and
 // brighter than both sides. Horizontal accumulation (Batista et al.): h = 2c − l − r − |l − r|,
 // brighter than both sides by the threshold, with the side asymmetry subtracted so road edges
 // and shadows do not respond; with rows up and down (u, d: null where the vertical pass does not
@@ -449,7 +448,6 @@ void lane_row(const float* __restrict r, const float* __restrict up, const float
     }
   }
 }
-}  // namespace
 
 ImageF lane_blur(const ImageF& luma, double sigma_px, int bands) {
   const int W = luma.width(), H = luma.height();

@@ -26,6 +26,12 @@ void work_luma_max_isa(int isa);
 // whole image (default border), computed in `bands` row bands in parallel (0: one per OpenMP
 // thread, at most 8), the same bits for any band count.
 ImageF lane_blur(const ImageF& luma, double sigma_px, int bands = 0);
+// One row of lane_markings' filter, columns [w, W − w) of row r (W floats): 255 into o where the
+// label is road or parking and h = 2c − l − r − |l − r| over the pixels w to either side exceeds
+// 2·thr, or, with the rows up and down (null: none), the same across rows; o is left as it is
+// elsewhere. Also the markings of `bench markings` (scene/depth_eval.cpp), with a metric w.
+void lane_row(const float* __restrict r, const float* __restrict up, const float* __restrict down,
+              const uint16_t* __restrict lab, int W, int w, float thr, uint8_t* __restrict o);
 // make_work_images with its luminance already made (work_luma_row over every row, a
 // ww x wh image moved in), or computed here when luma is null.
 WorkImages make_work_images_with(const ImageF& day_linear_srgb, const ImageU16& labels, int work_max_width,
