@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -127,6 +128,14 @@ std::vector<SharedFrame> shared_frames(const std::filesystem::path& data, int ma
   }
   if (out.empty()) fail_at(data.string(), who + ": no frames found");
   return out;
+}
+
+bool draw_chart(const std::string& script, const std::string& csv_path, const std::string& png_path) {
+  const std::string cmd = "/usr/bin/python3 '" + std::string(PHOTOSITE_SOURCE_DIR) + "/" + script + "' '" + csv_path +
+                          "' '" + png_path + "'";
+  if (std::system(cmd.c_str()) == 0) return true;
+  std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
+  return false;
 }
 
 std::filesystem::path output_folder(const std::string& out_dir) {

@@ -39,6 +39,10 @@ struct SharedFrame {
   std::string dataset, name, image, labels, instances, camera;
 };
 std::vector<SharedFrame> shared_frames(const std::filesystem::path& data, int max_frames, const std::string& who);
+// Draws a bench's chart with Debian's matplotlib: /usr/bin/python3 <source tree>/script csv_path
+// png_path. True when it ran; else prints that only the CSV was written (no chart is not an error:
+// the figures are in the CSV).
+bool draw_chart(const std::string& script, const std::string& csv_path, const std::string& png_path);
 // Writes `csv` atomically to <out_dir or docs/>/<name> and prints the path.
 std::string write_bench_csv(const std::string& out_dir, const std::string& name, const std::string& csv);
 // The wall time of one call of f, in ms.

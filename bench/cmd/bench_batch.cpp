@@ -252,8 +252,7 @@ void codec_bench(const std::vector<batch::Item>& items, const std::vector<ImageU
                      items.size(), machine_description());
   const std::string csv_path = write_bench_csv(out_dir, "bench_png.csv", csv);
   const std::string chart = fs::path(csv_path).replace_extension(".png").string();
-  const std::string cmd = "/usr/bin/python3 '" + std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_png.py' '" + csv_path + "' '" + chart + "'";
-  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
+  draw_chart("bench/chart_png.py", csv_path, chart);
 }
 
 // CPU time (user + system) this process has used, in ms: on a shared machine the core-hours a

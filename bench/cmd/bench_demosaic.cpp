@@ -527,10 +527,8 @@ void run_bench(const BenchDemosaicOptions& o) {
   std::ofstream(o.out_dir + "/demosaic_saturated_per_image.csv") << sat_per_image;
   std::printf("\nwrote %s, %s/demosaic_per_image.csv, %s/demosaic_saturated_per_image.csv and crops in %s/demosaic/\n",
               csv_path.c_str(), o.out_dir.c_str(), o.out_dir.c_str(), o.out_dir.c_str());
-  const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/scripts/chart_demosaic.py";
-  const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + o.out_dir + "/demosaic.png'";
-  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
-  else std::printf("wrote %s/demosaic.png\n", o.out_dir.c_str());
+  if (draw_chart("scripts/chart_demosaic.py", csv_path, o.out_dir + "/demosaic.png"))
+    std::printf("wrote %s/demosaic.png\n", o.out_dir.c_str());
 }
 }  // namespace
 

@@ -81,10 +81,7 @@ void run(const ExrBench& b) {
                      fs::path(it.image).filename().string(), day.width(), day.height(), machine_description());
   const std::string csv_path = write_bench_csv(b.out_dir, "bench_exr.csv", csv);
   const std::string png = (fs::path(csv_path).parent_path() / "bench_exr.png").string();
-  const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_exr.py";
-  const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + png + "'";
-  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
-  else std::printf("%s\n", png.c_str());
+  if (draw_chart("bench/chart_exr.py", csv_path, png)) std::printf("%s\n", png.c_str());
 }
 }  // namespace
 

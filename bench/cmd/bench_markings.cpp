@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -143,10 +142,7 @@ void run(const MarkingsBench& b) {
   // The chart (bench/chart_markings.py, Debian matplotlib): each line's periods against distance at
   // photosite's horizon and at the rig's nominal one, the standard period drawn across.
   const std::string png = (fs::path(csv_path).parent_path() / "bench_markings.png").string();
-  const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_markings.py";
-  const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + png + "'";
-  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
-  else std::printf("%s\n", png.c_str());
+  if (draw_chart("bench/chart_markings.py", csv_path, png)) std::printf("%s\n", png.c_str());
 }
 
 static BenchRegistrar reg("markings",

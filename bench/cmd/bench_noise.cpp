@@ -261,10 +261,8 @@ void run_bench(const BenchNoiseOptions& o) {
   const std::string csv_path = o.out_dir + "/bench_noise.csv";
   std::ofstream(csv_path) << csv;
   std::printf("\nwrote %s and %s/bench_expose.csv\n", csv_path.c_str(), o.out_dir.c_str());
-  const std::string chart = std::string(PHOTOSITE_SOURCE_DIR) + "/bench/chart_noise.py";
-  const std::string cmd = "/usr/bin/python3 '" + chart + "' '" + csv_path + "' '" + o.out_dir + "/bench_noise.png'";
-  if (std::system(cmd.c_str()) != 0) std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
-  else std::printf("wrote %s/bench_noise.png\n", o.out_dir.c_str());
+  if (draw_chart("bench/chart_noise.py", csv_path, o.out_dir + "/bench_noise.png"))
+    std::printf("wrote %s/bench_noise.png\n", o.out_dir.c_str());
 }
 }  // namespace
 
