@@ -773,9 +773,9 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // leaving the view moves one luminaire, not the whole row.
   std::vector<StreetLamp> poles;
   poles.swap(s.lamps);
+  const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
   {
     const double phase = street_layout_phase_m(p, seed);
-    const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
     for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
       const double D = phase + k * S;
       s.lamps.push_back({s.road_right_m + p.lamp_setback_m, p.lamp_mount_height_m, D, false});
@@ -796,34 +796,65 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   s.source = poles.empty() ? "road_edges" : "poles+road_edges";
   std::sort(s.lamps.begin(), s.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
   // Luminous intensity: a luminaire's is a property of the installation, not of the view. It is
-  // set on the design layout (one row at the kerb, spacing S, height H, over a carriageway as
-  // wide as the mounting height, the rule of thumb for one-sided layouts [U]) so that the EN
-  // 13201-3 calculation field (one spacing long, 10 x 6 points) averages the class luminance:
-  //   L_avg = ρ_road·Ē/π = L_class  →  I0 = π·L_class / (ρ_road·Ē(I0 = 1)).
-  // L_avg and U0 are then reported on this scene's own layout and road extent.
-  auto field = [&](const StreetLighting& lay, double left, double right, double D0, double* u0) {
-    double sum = 0, mn = 1e300;
-    for (int i = 0; i < 10; ++i)
-      for (int j = 0; j < 6; ++j) {
-        const double e = street_illuminance_lux(left + (j + 0.5) * (right - left) / 6, D0 + (i + 0.5) * S / 10, lay, p);
-        sum += e;
-        mn = std::min(mn, e);
-      }
-    const double avg = sum / 60;
-    if (u0) *u0 = avg > 0 ? mn / avg : 0;
-    return avg;
-  };
-  {
-    StreetLighting design;
-    design.peak_intensity_cd = 1;
-    const double Hm = p.lamp_mount_height_m;
-    for (int k = -3; k <= 3; ++k) design.lamps.push_back({Hm + p.lamp_setback_m, Hm, k * S, false});
-    s.peak_intensity_cd = M_PI * p.street_road_luminance_cd_m2 / (p.rho_road * field(design, 0, Hm, 0, nullptr));
-  }
+  // set on the design layout of this street's kind (street_design_layout: one-sided, or staggered
+  // when the layout above has two rows) so that its EN 13201-3 calculation field averages the class
+  // luminance; L_avg and U0 are then reported on this scene's own layout and road extent.
+  s.peak_intensity_cd = street_design_layout(p, both).peak_intensity_cd;
   s.grid_D0_m = std::max(10.0, S);
-  const double avg = field(s, s.road_left_m, s.road_right_m, s.grid_D0_m, &s.uniformity_u0);
+  const double avg = street_calculation_field_lux(s, s.road_left_m, s.road_right_m, s.grid_D0_m, p, &s.uniformity_u0);
   s.avg_luminance_cd_m2 = p.rho_road * avg / M_PI;
   return s;
+}
+
+double street_calculation_field_lux(const StreetLighting& lay, double left_m, double right_m, double D0_m,
+                                    const ScenePreset& p, double* u0) {
+  // EN 13201-3's field: one spacing S long from D0, 10 points along and 6 across the carriageway
+  // (the standard's 3 per lane for two lanes), each at the centre of its cell.
+  const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
+  double sum = 0, mn = 1e300;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 6; ++j) {
+      const double e = street_illuminance_lux(left_m + (j + 0.5) * (right_m - left_m) / 6, D0_m + (i + 0.5) * S / 10, lay, p);
+      sum += e;
+      mn = std::min(mn, e);
+    }
+  const double avg = sum / 60;
+  if (u0) *u0 = avg > 0 ? mn / avg : 0;
+  return avg;
+}
+
+StreetLighting street_design_layout(const ScenePreset& p, bool staggered) {
+  // The layouts of the one-sided and staggered rules of thumb, each over the widest carriageway
+  // it serves: one row at the kerb over a carriageway as wide as the mounting height H, or two
+  // rows on opposite kerbs, staggered by S/2, over one 1.5 H wide (vonpower.com, mocled.com [S];
+  // a pole-spacing table allows H ≥ W for one-sided and H ≥ 0.7 W, W ≤ 1.43 H, for staggered
+  // cut-off layouts, ycbright.com [S]). Each row at spacing S, 0.5 m set back (the preset's);
+  // seven luminaires a row, k = -3..3: a field point 0..S ahead has every luminaire within the
+  // reach (H·tan 75° = 37.3 m at the presets') on each side, since 3·S ≥ 37.3 m for S ≥ 12.5 m.
+  // I0 = π·L_class / (ρ_road·Ē(I0 = 1)), so that L_avg = ρ_road·Ē/π = L_class: a street with two
+  // rows has dimmer luminaires than one with one row, as its designer would choose them.
+  StreetLighting d;
+  d.source = staggered ? "design_staggered" : "design_one_sided";
+  const double Hm = p.lamp_mount_height_m, S = p.lamp_spacing_ratio * Hm, W = staggered ? 1.5 * Hm : Hm;
+  for (int k = -3; k <= 3; ++k) {
+    d.lamps.push_back({W + p.lamp_setback_m, Hm, k * S, false});
+    if (staggered) d.lamps.push_back({-p.lamp_setback_m, Hm, k * S + 0.5 * S, false});
+  }
+  std::sort(d.lamps.begin(), d.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
+  d.road_left_m = 0;
+  d.road_right_m = W;
+  d.road_straight = true;
+  if (p.street_road_luminance_cd_m2 <= 0) {
+    d.note = "street.road_luminance_cd_m2 is 0: an unlit road";
+    d.lamps.clear();
+    return d;
+  }
+  d.peak_intensity_cd = 1;
+  d.peak_intensity_cd = M_PI * p.street_road_luminance_cd_m2 / (p.rho_road * street_calculation_field_lux(d, 0, W, 0, p, nullptr));
+  d.grid_D0_m = 0;
+  const double avg = street_calculation_field_lux(d, 0, W, 0, p, &d.uniformity_u0);
+  d.avg_luminance_cd_m2 = p.rho_road * avg / M_PI;
+  return d;
 }
 
 namespace {

@@ -158,7 +158,8 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // street_lamps.interp_tolerance, street_lamps.shadows and street_lamps.penumbrae (attributes only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
 // lamps.streetlamp_type and reflectance.day_white_balance, attributes only, the members being enums). Values changed since, by hand
 // with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
-// vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test).
+// vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test);
+// street_lamps.spacing_ratio 3.5 -> 3.0 (≤ 3 for cut-off luminaires, docs/night.md "Street lamp spacing").
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))

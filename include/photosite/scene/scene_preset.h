@@ -72,7 +72,7 @@ struct ScenePreset {
   // multiple of it, set-back from the road edge, the cut-off intensity distribution (constant to
   // cutoff_deg from the nadir, then falling as exp(-(γ - cutoff)/falloff_deg)), the lamp head's
   // size, how far placed lamps reach, the least pole height that carries a luminaire.
-  double lamp_mount_height_m = 10, lamp_spacing_ratio = 3.5, lamp_setback_m = 0.5;
+  double lamp_mount_height_m = 10, lamp_spacing_ratio = 3.0, lamp_setback_m = 0.5;
   double lamp_cutoff_deg = 65, lamp_falloff_deg = 5, lamp_head_diameter_m = 0.5;
   double lamp_max_distance_m = 150, lamp_min_pole_height_m = 5;
   // The ground pools' interpolation tolerance (relative; 0, a default-constructed preset's: every

@@ -36,6 +36,17 @@ double street_lamp_reach_m(double mount_height_m, const ScenePreset& p);
 double street_layout_phase_m(const ScenePreset& p, uint64_t seed);
 // Horizontal illuminance (lx) at ground point (X, D) from all lamps at peak intensity I0.
 double street_illuminance_lux(double X_m, double D_m, const StreetLighting& s, const ScenePreset& p);
+// EN 13201-3's calculation field (one spacing long from D0_m, 10 x 6 points over the carriageway
+// left_m..right_m): the average horizontal illuminance (lx) and, when u0 is given, E_min/E_avg.
+double street_calculation_field_lux(const StreetLighting& lay, double left_m, double right_m, double D0_m,
+                                    const ScenePreset& p, double* u0);
+// The preset's design layout: one row at the kerb over a carriageway as wide as the mounting
+// height H, or (staggered) two rows on opposite kerbs, S/2 apart along the road, over one 1.5 H
+// wide; spacing S. Its peak intensity is set so its calculation field averages the class luminance
+// (street.road_luminance_cd_m2); its avg_luminance_cd_m2 and uniformity_u0 are that field's. A
+// scene's luminaires take the peak intensity of the layout of its kind (plan_street_lighting). No
+// lamps when the road is unlit.
+StreetLighting street_design_layout(const ScenePreset& p, bool staggered = false);
 // Places the luminaires and scales them to the preset's road luminance (no lamps when it is 0).
 StreetLighting plan_street_lighting(const LabelMap& labels, const CameraGeometry& g, const ScenePreset& p,
                                     uint64_t seed);
