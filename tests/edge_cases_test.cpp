@@ -826,8 +826,12 @@ TEST(EdgeCases, DeviceStoreReaderWaitsForAMapFilledInPlace) {
   FixedPatternMaps got;
   std::string error;
   testing::internal::CaptureStderr();
-  std::thread reader([&] { error = error_of([&] { got = store.load_or_create(cam, "cam1", 64, 32); }); });
-  while (!reached.load()) std::this_thread::yield();
+  std::atomic<bool> returned{false};  // a reader that never waits for the lock returns at once
+  std::thread reader([&] {
+    error = error_of([&] { got = store.load_or_create(cam, "cam1", 64, 32); });
+    returned = true;
+  });
+  while (!reached.load() && !returned.load()) std::this_thread::yield();
   {
     std::ofstream f(path, std::ios::binary | std::ios::trunc);
     f << whole;
