@@ -13,12 +13,15 @@
 // (neutralize_clipped_highlights, sensor/demosaic.h, has the rule). Without the flag, a photosite
 // raw mosaic's header says where it clipped (photosite/clipped_at_dn, clip_neutral_dn: what
 // expose's own R,G,B used) and that is applied; other files do not say, and nothing is done.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <variant>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -144,6 +147,28 @@ Mosaic read_mosaic(const DemosaicCmd& c) {
   return m;
 }
 
+// A NaN or an infinity in a float mosaic (EXR, float TIFF) is refused, naming the file, the
+// channel and the first such sample in reading order: every method interpolates each sample into
+// its neighbours' missing colours (bilinear's 3x3, malvar's 5x5, LMMSE's and MLRI's filters
+// wider still), so one bad sample would spread over a patch of the output, and a PNG out would
+// write it as code 0 (NaN) or the top code (+inf) as if it were light. Negative samples are kept
+// as they are: a mosaic whose black level is subtracted (photosite's own raw read here, or another
+// tool's float raw) holds them wherever read noise takes a dark pixel below black, and dropping
+// them would bias the dark level up; a PNG out clamps them to 0 (float_to_code8/16).
+void check_finite_samples(const std::string& in, const Mosaic& m) {
+  const auto& v = m.image.vec();
+  const auto bad = std::find_if(v.begin(), v.end(), [](float s) { return !std::isfinite(s); });
+  if (bad == v.end()) return;
+  const int64_t i = bad - v.begin();
+  const auto channel = m.attributes.find("photosite/source_channel");
+  const std::string named =
+      channel == m.attributes.end() ? "" : " of channel " + std::get<std::string>(channel->second);
+  fail_at(in, fmt::format("the mosaic's sample at pixel ({}, {}){} is {}: a CFA sample must be a finite number "
+                          "(NaN and Inf spread through the demosaic's interpolation); the file is damaged",
+                          i % m.image.width(), i / m.image.width(), named,
+                          std::isnan(*bad) ? std::string("nan") : fmt::format("{}", *bad)));  // a NaN's sign says nothing
+}
+
 void run(const DemosaicCmd& c) {
   if (c.list) {
     for (auto m : all_demosaic_methods()) std::printf("%-16s %s\n", to_string(m), demosaic_method_description(m));
@@ -160,6 +185,7 @@ void run(const DemosaicCmd& c) {
   check_run_outputs({{"--out", {c.out}, ext}}, {{"--in", c.in}});
   check_output_path(c.out, c.overwrite);
   Mosaic m = read_mosaic(c);
+  check_finite_samples(c.in, m);
   if (ext == ".png" && !m.png_possible)
     fail_at(c.out, c.in + " holds counts of no known full scale (a UINT channel in " + m.image.unit() +
                        " without photosite/bit_depth): write .exr");

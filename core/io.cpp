@@ -33,9 +33,11 @@
 #include <fstream>
 #include <ctime>
 #include <thread>
+#include <vector>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/io_detail.h"
 #include "core/png_codec.h"
 #include "core/raster_codecs.h"
 #include "photosite/checksum.h"
@@ -978,6 +980,14 @@ struct TemporarySlot {
 // to the folder too, and reaches only the name); the link is made from the descriptor the same
 // way. Without /proc the writer gets the name (the exclusive creation still stands).
 std::atomic<OutputSet*> g_output_set{nullptr};
+}  // namespace
+
+namespace detail {
+std::atomic<LinkatFn> publish_linkat{&::linkat};
+std::atomic<Renameat2Fn> publish_renameat2{&::renameat2};
+}  // namespace detail
+
+namespace {
 
 // Whether the name tmp is still the file (dev, ino) that was written there: if not, another
 // process replaced it, and it must not be published (write_then_publish, OutputSet::commit).
@@ -991,6 +1001,104 @@ void move_into_place(const std::string& tmp, const std::string& path) {
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) fail_at(path, "cannot move the finished file into place: " + ec.message());
+}
+
+// Publishing without replacing (atomic_create, write_exr's create_only: the device store's maps).
+// The first way is link(): atomic, and EEXIST when the name exists, so a published file is never
+// replaced and never seen half-written. A file system without hard links (FAT, exFAT: EPERM; some
+// FUSE and network file systems: EOPNOTSUPP, ENOSYS, or EXDEV for a link even within one folder)
+// left no way to publish at all before the thirty-seventh session: a camera could not make its
+// maps there, so it could not run. The fallbacks keep the guarantee as far as the file system
+// allows:
+//  1. renameat2(RENAME_NOREPLACE) of the finished temporary onto the name (Linux 3.15, glibc 2.28;
+//     Debian 12 has glibc 2.36): as atomic as the link and refused alike (EEXIST) when the name
+//     exists. Linux's own vfat and exfat drivers take the flag (their rename refuses only other
+//     flags; not run here: this VM has neither driver), as ext4, xfs, btrfs and tmpfs do.
+//  2. Where the flag is not honoured either (EINVAL: NFS, CIFS, file systems on libfuse 2 such as
+//     fusefat, measured in docs/cli.md "Edge cases (thirty-seventh session)"): the name is created
+//     exclusively (O_CREAT | O_EXCL, the one no-replace step every file system has, NFSv3
+//     included), and the finished temporary is copied into it in full and fsync'd. An existing
+//     file is still never replaced, but the name now exists while it is filled: a reader that
+//     comes then finds a short file, which the device store's reader refuses (its header's size,
+//     the data's checksum) and reads once more under the folder's lock that its creator holds
+//     while it writes (DeviceStore::load_or_create). A copy that fails or is interrupted (SIGINT,
+//     SIGTERM: remove_partial_outputs) is removed; only SIGKILL or a crash in the copy can leave
+//     a short map, which the reader refuses naming the file and the remedy (remove it).
+// Chosen over an exclusive create alone (writing the final name from the start): the copy keeps
+// the window in which a partial file is visible to one read and write of the finished bytes
+// instead of the whole encode.
+bool no_hard_links(int e) { return e == EPERM || e == EOPNOTSUPP || e == ENOSYS || e == EXDEV; }
+
+// Whether the name tmp is still the file open as fd.
+bool still_the_file_fd(const std::string& tmp, int fd) {
+  struct stat a{};
+  return ::fstat(fd, &a) == 0 && still_the_file(tmp, a.st_dev, a.st_ino);
+}
+
+// A note, once per process and way (1: the no-replace rename, 2: the exclusive create and copy),
+// that the file system made photosite publish without a link.
+void publish_note(const std::string& path, int way, int link_errno, int rename_errno) {
+  static std::atomic<bool> said[3] = {};
+  if (said[way].exchange(true)) return;
+  const std::string dir = fs::path(path).parent_path().string();
+  if (way == 1)
+    std::fprintf(stderr, "photosite: note: %s: the file system makes no hard links (link: %s); publishing new "
+                 "files with a no-replace rename instead\n", dir.c_str(), std::strerror(link_errno));
+  else
+    std::fprintf(stderr, "photosite: note: %s: the file system makes no hard links (link: %s) and has no "
+                 "no-replace rename (renameat2: %s); new files are created exclusively and filled in place\n",
+                 dir.c_str(), std::strerror(link_errno), std::strerror(rename_errno));
+}
+
+// Way 2 above: path created exclusively, the finished temporary tmp (open for writing as fd)
+// copied in and fsync'd. False when path exists (nothing touched); on an error the part written is
+// removed. The temporary is read through a descriptor of its own, opened by name and checked to be
+// fd's file: fusefat refuses reads through the descriptor the file was created with (EPERM).
+bool create_and_copy(const std::string& path, const std::string& tmp, int fd) {
+  struct Source {
+    int fd;
+    ~Source() {
+      if (fd >= 0) ::close(fd);
+    }
+  } source{::open(tmp.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC)};
+  const int from = source.fd;
+  struct stat a{}, b{};
+  if (from < 0 || ::fstat(fd, &a) != 0 || ::fstat(from, &b) != 0 || a.st_dev != b.st_dev || a.st_ino != b.st_ino)
+    fail_at(path, "the temporary " + tmp + " was replaced by another process while it was written; nothing published");
+  const int out = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (out < 0) {
+    if (errno == EEXIST) return false;
+    fail_at(path, std::string("cannot create (") + std::strerror(errno) + ")");
+  }
+  struct Partial {
+    const std::string& path;
+    int out;
+    TemporarySlot slot;  // a signal during the copy removes the part written
+    bool done = false;
+    ~Partial() {
+      struct stat a{};
+      // Removed only while the name is still the file this process created.
+      if (!done && ::fstat(out, &a) == 0 && still_the_file(path, a.st_dev, a.st_ino)) ::unlink(path.c_str());
+      ::close(out);
+    }
+  } partial{path, out, TemporarySlot(path.c_str())};
+  std::vector<char> buffer(size_t{1} << 20);
+  for (off_t at = 0;;) {
+    const ssize_t n = ::pread(from, buffer.data(), buffer.size(), at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) fail_at(path, std::string("cannot read back the finished temporary (") + std::strerror(errno) + ")");
+    if (n == 0) break;
+    for (ssize_t put = 0; put < n;) {
+      const ssize_t w = ::write(out, buffer.data() + put, static_cast<size_t>(n - put));
+      if (w < 0 && errno == EINTR) continue;
+      if (w < 0) fail_at(path, std::string("cannot write (") + std::strerror(errno) + ")");
+      put += w;
+    }
+    at += n;
+  }
+  if (::fsync(out) != 0) fail_at(path, std::string("cannot write (fsync: ") + std::strerror(errno) + ")");
+  partial.done = true;
+  return true;
 }
 
 bool write_then_publish(const std::string& path, const std::function<void(const std::string&)>& write,
@@ -1047,9 +1155,24 @@ bool write_then_publish(const std::string& path, const std::function<void(const 
     move_into_place(tmp, path);
     return true;
   }
-  if (::linkat(AT_FDCWD, via.c_str(), AT_FDCWD, path.c_str(), proc_fd ? AT_SYMLINK_FOLLOW : 0) == 0) return true;
+  if (detail::publish_linkat.load()(AT_FDCWD, via.c_str(), AT_FDCWD, path.c_str(), proc_fd ? AT_SYMLINK_FOLLOW : 0) == 0)
+    return true;
   if (errno == EEXIST) return false;
-  fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
+  if (!no_hard_links(errno))
+    fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
+  const int link_errno = errno;
+  if (!still_the_file_fd(tmp, fd))
+    fail_at(path, "the temporary " + tmp + " was replaced by another process while it was written; nothing published");
+  if (detail::publish_renameat2.load()(AT_FDCWD, tmp.c_str(), AT_FDCWD, path.c_str(), RENAME_NOREPLACE) == 0) {
+    remove.keep = true;  // the temporary's name is now the file's
+    publish_note(path, 1, link_errno, 0);
+    return true;
+  }
+  if (errno == EEXIST) return false;
+  if (errno != EINVAL && errno != ENOSYS && !no_hard_links(errno))
+    fail_at(path, std::string("cannot move the finished file into place: ") + std::strerror(errno));
+  publish_note(path, 2, link_errno, errno);
+  return create_and_copy(path, tmp, fd);
 }
 }  // namespace
 

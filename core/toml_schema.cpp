@@ -33,15 +33,28 @@ std::optional<std::string> preset_file(const std::filesystem::path& dir, const s
   if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml")) return name_or_path;
   const auto path = dir / (name_or_path + ".toml");
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return std::nullopt;
+  if (!std::filesystem::exists(path, ec)) {
+    fail_if_dangling(path.string());
+    return std::nullopt;
+  }
   return path.string();
+}
+
+void fail_if_dangling(const std::string& path) {
+  // A symbolic link to nothing was an "unknown preset" that the same message listed as bundled.
+  std::error_code ec;
+  if (std::filesystem::is_symlink(path, ec) && !std::filesystem::exists(path, ec))
+    fail_at(path, "a symbolic link to nothing (" + std::filesystem::read_symlink(path, ec).string() +
+                      " is missing); mend or remove the link");
 }
 
 std::vector<std::string> preset_names(const std::filesystem::path& dir) {
   std::vector<std::string> names;
   std::error_code ec;
+  // Preset files only: a folder or a link to nothing of that name is none (they are named when asked
+  // for: read_text, fail_if_dangling).
   for (const auto& e : std::filesystem::directory_iterator(dir, ec))
-    if (e.path().extension() == ".toml") names.push_back(e.path().stem().string());
+    if (std::error_code fe; e.path().extension() == ".toml" && e.is_regular_file(fe)) names.push_back(e.path().stem().string());
   std::sort(names.begin(), names.end());
   return names;
 }

@@ -249,6 +249,39 @@ std::vector<MarkingDash> marking_dashes(const ImageU8& markings, const ImageU16&
 }
 
 namespace {
+// A least-squares line y = intercept + slope·x through points (x[i], y[i]), from centred sums: the
+// means first, then Sxx = Σ(x − x̄)², Sxy = Σ(x − x̄)(y − ȳ), Syy = Σ(y − ȳ)². The one-pass form
+// Σx² − (Σx)²/n subtracts two nearly equal numbers when the x lie far from 0 against their spread
+// (the dashes' distances, 10-40 m across a few metres), losing about log10(x̄²/var(x)) of double's
+// 16 digits; the centred sums lose none of them (Chan, Golub & LeVeque, "Algorithms for computing
+// the sample variance", The American Statistician 37(3), 1983). measure() fits three lines with it.
+struct LineFit {
+  size_t n = 0;
+  double x_mean = NAN, y_mean = NAN, sxx = 0, sxy = 0, syy = 0;
+  // NaN when the x do not vary (no line through them).
+  double slope() const { return sxx > 0 ? sxy / sxx : NAN; }
+  double intercept_at(double slope) const { return y_mean - slope * x_mean; }
+  // OLS standard error of the slope: sqrt(SSR / (n − 2) / Sxx), SSR = Syy − slope·Sxy (the
+  // residuals' sum of squares); NaN below three points.
+  double slope_se() const {
+    if (n <= 2 || !(sxx > 0)) return NAN;
+    return std::sqrt(std::max(0.0, syy - slope() * sxy) / static_cast<double>(n - 2) / sxx);
+  }
+};
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y) {
+  LineFit f;
+  f.n = x.size();
+  double sx = 0, sy = 0;
+  for (size_t i = 0; i < f.n; ++i) sx += x[i], sy += y[i];
+  f.x_mean = sx / static_cast<double>(f.n);
+  f.y_mean = sy / static_cast<double>(f.n);
+  for (size_t i = 0; i < f.n; ++i) {
+    const double dx = x[i] - f.x_mean, dy = y[i] - f.y_mean;
+    f.sxx += dx * dx, f.sxy += dx * dy, f.syy += dy * dy;
+  }
+  return f;
+}
+
 // The line's periods and statistics from its dashes' ground ends; keep_flags: keep the regular set
 // as it is (a re-measurement), else choose it.
 void measure(DashedLine& L, bool keep_flags) {
@@ -256,17 +289,17 @@ void measure(DashedLine& L, bool keep_flags) {
   // The line on the ground, X = a + b·D, by least squares over the dashes' ends, and the farthest
   // end from it: a period is the distance along the line, ΔD·√(1 + b²).
   {
-    double sD = 0, sX = 0, sDD = 0, sDX = 0;
-    for (const MarkingDash& d : L.dashes)
-      for (const auto& [D, X] : {std::pair{d.near_D_m, d.near_X_m}, std::pair{d.far_D_m, d.far_X_m}})
-        sD += D, sX += X, sDD += D * D, sDX += D * X;
-    const double m = 2.0 * static_cast<double>(n), var = sDD - sD * sD / m;
-    L.direction = var > 0 ? (sDX - sD * sX / m) / var : 0;
-    const double a = (sX - L.direction * sD) / m;
+    std::vector<double> ends_D, ends_X;
+    for (const MarkingDash& d : L.dashes) {
+      ends_D.insert(ends_D.end(), {d.near_D_m, d.far_D_m});
+      ends_X.insert(ends_X.end(), {d.near_X_m, d.far_X_m});
+    }
+    const LineFit line = fit_line(ends_D, ends_X);
+    L.direction = line.sxx > 0 ? line.slope() : 0;
+    const double a = line.intercept_at(L.direction);
     L.straightness_m = 0;
-    for (const MarkingDash& d : L.dashes)
-      for (const auto& [D, X] : {std::pair{d.near_D_m, d.near_X_m}, std::pair{d.far_D_m, d.far_X_m}})
-        L.straightness_m = std::max(L.straightness_m, std::fabs(X - a - L.direction * D));
+    for (size_t i = 0; i < ends_D.size(); ++i)
+      L.straightness_m = std::max(L.straightness_m, std::fabs(ends_X[i] - a - L.direction * ends_D[i]));
   }
   const double along = std::sqrt(1 + L.direction * L.direction);
   L.periods_m.assign(n - 1, 0);
@@ -281,43 +314,30 @@ void measure(DashedLine& L, bool keep_flags) {
     L.regular.assign(n - 1, 0);
     for (size_t i = 0; i + 1 < n; ++i) L.regular[i] = std::fabs(L.periods_m[i] / med - 1) <= 0.25;
   }
-  std::vector<double> P, D, lengths;
+  std::vector<double> P, D, lengths, spans;
   for (size_t i = 0; i + 1 < n; ++i)
     if (L.regular[i]) P.push_back(L.periods_m[i]), D.push_back(L.at_D_m[i]);
-  for (const MarkingDash& d : L.dashes) lengths.push_back(along * (d.far_D_m - d.near_D_m));
+  for (const MarkingDash& d : L.dashes) {
+    lengths.push_back(along * (d.far_D_m - d.near_D_m));
+    spans.push_back(along * (d.near_row_m + d.far_row_m));
+  }
   L.period_median_m = nearest_rank_quantile(P, 0.5);
   L.dash_median_m = nearest_rank_quantile(lengths, 0.5);
   {
     // Painted length and reach: lengths against the sum of the end rows' spans, least squares.
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    const double k = static_cast<double>(n);
-    for (size_t i = 0; i < n; ++i) {
-      const double x = along * (L.dashes[i].near_row_m + L.dashes[i].far_row_m), y = lengths[i];
-      sx += x, sy += y, sxx += x * x, sxy += x * y;
-    }
-    const double var = sxx - sx * sx / k;
+    const LineFit f = fit_line(spans, lengths);
     // The spans must vary: at least a row's worth at the nearest dash's distance across the line.
-    const bool fit = n >= 3 && var > 0 && std::sqrt(var / k) > 0.1 * sx / k;
-    L.reach_rows = fit ? (sxy - sx * sy / k) / var : NAN;
-    L.dash_painted_m = fit ? (sy - L.reach_rows * sx) / k : NAN;
+    const bool fit = n >= 3 && f.sxx > 0 && std::sqrt(f.sxx / static_cast<double>(n)) > 0.1 * f.x_mean;
+    L.reach_rows = fit ? f.slope() : NAN;
+    L.dash_painted_m = fit ? f.intercept_at(L.reach_rows) : NAN;
   }
   L.X_m = L.dashes[0].near_X_m;
-  const double m = static_cast<double>(P.size());
-  double sP = 0, sD = 0;
-  for (size_t i = 0; i < P.size(); ++i) sP += P[i], sD += D[i];
-  const double Pm = sP / m, Dm = sD / m;
-  double sxx = 0, sxy = 0, spp = 0;
-  for (size_t i = 0; i < P.size(); ++i) {
-    sxx += (D[i] - Dm) * (D[i] - Dm);
-    sxy += (D[i] - Dm) * (P[i] - Pm);
-    spp += (P[i] - Pm) * (P[i] - Pm);
-  }
-  L.period_mean_m = Pm;
-  L.period_sd_m = m > 1 ? std::sqrt(spp / (m - 1)) : NAN;
-  L.slope = sxx > 0 ? sxy / sxx : NAN;
-  // OLS standard error of the slope: sqrt(SSR / (m − 2) / Sxx).
-  const double ssr = spp - L.slope * sxy;
-  L.slope_se = m > 2 && sxx > 0 ? std::sqrt(std::max(0.0, ssr) / (m - 2) / sxx) : NAN;
+  // The periods against distance: their mean and spread, and the slope with its standard error.
+  const LineFit f = fit_line(D, P);
+  L.period_mean_m = f.y_mean;
+  L.period_sd_m = f.n > 1 ? std::sqrt(f.syy / static_cast<double>(f.n - 1)) : NAN;
+  L.slope = f.slope();
+  L.slope_se = f.slope_se();
 }
 }  // namespace
 

@@ -322,6 +322,57 @@ FixedPatternMaps DeviceStore::load(const std::string& path, const CameraPreset& 
   }
 }
 
+namespace {
+// Creation is serialised by an exclusive flock on the preset's folder itself (no lock files to
+// leave behind): the second process waits, then finds the first one's map. Where the file system
+// has no file locks (flock fails with another error than EWOULDBLOCK: ENOLCK from an NFS mount
+// without a lock daemon, EOPNOTSUPP or ENOSYS from some FUSE and network file systems), the map is
+// made without the lock, and a note says so: the publish is a no-replace link or rename (atomic
+// without any lock; write_then_publish in core/io.cpp), so the first map to be published wins, and
+// a process that loses the race discards its own and loads the winner's. Every process then uses
+// one map; the cost is the losers' wasted draws. (Two maps of one device are the same bits anyway:
+// they follow from the preset and the device id alone.) `doing` names what is done without the
+// lock in that note.
+class FolderLock {
+ public:
+  FolderLock(const std::string& dir, const char* doing) : fd_(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC)) {
+    auto no_lock = [&](const char* call, int e) {
+      std::fprintf(stderr, "photosite: note: %s: no lock on the device store's folder (%s: %s); %s\n", dir.c_str(), call,
+                   std::strerror(e), doing);
+    };
+    if (fd_ < 0) {
+      no_lock("open", errno);
+    } else if (lock_(fd_, LOCK_EX | LOCK_NB) == 0) {
+      locked_ = true;
+    } else if (errno == EWOULDBLOCK) {
+      // Another process is creating a map of this preset (any device or size): say so, then wait.
+      std::fprintf(stderr, "photosite: waiting for another process creating a fixed-pattern map in %s (its lock on the folder)\n",
+                   dir.c_str());
+      int r;
+      while ((r = lock_(fd_, LOCK_EX)) != 0 && errno == EINTR) {
+      }
+      if (r == 0) locked_ = true;
+      else no_lock("flock", errno);
+    } else {
+      no_lock("flock", errno);
+    }
+  }
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  ~FolderLock() {
+    if (fd_ >= 0) {
+      if (locked_) lock_(fd_, LOCK_UN);
+      ::close(fd_);
+    }
+  }
+
+ private:
+  int fd_;
+  bool locked_ = false;
+  detail::FlockFn lock_ = detail::device_store_flock.load();
+};
+}  // namespace
+
 FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                                              const std::string& device_id, int width,
                                              int height) const {
@@ -329,10 +380,27 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   const std::string path = path_for(preset, device_id, width, height);
   const std::string dir = fs::path(path).parent_path().string();
   std::error_code ec;
-  // Maps are only ever published whole (temporary + link), so one that exists is complete and
-  // is read without a lock: a read-only store shared by many jobs works as long as it holds
+  // A map on file, read. One that is refused (cut short, checksum) may be one being filled in place
+  // by its creator on a file system with neither hard links nor a no-replace rename (the last way
+  // of write_then_publish, core/io.cpp): the creator holds the folder's lock while it writes, so
+  // the map is read once more under that lock (unless this process holds it: `locked`), and a map
+  // refused again is reported as it is.
+  auto load_existing = [&](bool locked) {
+    try {
+      return load_or_keep(path, preset, device_id, width, height);
+    } catch (const Error& e) {
+      // Other preset parameters (a ParameterError) or a map gone is no map being filled.
+      if (locked || e.kind() != Error::Kind::BadInput || dynamic_cast<const ParameterError*>(&e) ||
+          dynamic_cast<const MissingFileError*>(&e))
+        throw;
+    }
+    const FolderLock lock(dir, "reading the fixed-pattern map again without it");
+    return load_or_keep(path, preset, device_id, width, height);
+  };
+  // Maps are published whole (a temporary linked or renamed in, never replacing), so one that
+  // exists is complete (but for the last way above) and is read without a lock: a read-only store shared by many jobs works as long as it holds
   // every map they need.
-  if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
+  if (fs::exists(path, ec)) return load_existing(false);
   // A store given as a file (PHOTOSITE_DEVICE_STORE=a file) is named as such, not as a folder that
   // could not be made.
   if (std::error_code fe; fs::exists(dir_, fe) && !fs::is_directory(dir_, fe))
@@ -344,50 +412,9 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
   if (::access(dir.c_str(), W_OK) != 0)
     fail_at(dir, "the device store folder is read-only; cannot create the fixed-pattern map " +
                      fs::path(path).filename().string() + " (make it writable, or create the map elsewhere and copy it in)");
-  // Creation is serialised by an exclusive flock on the preset's folder itself (no lock files
-  // to leave behind): the second process waits, then finds the first one's map. Where the file
-  // system has no file locks (flock fails with another error than EWOULDBLOCK: ENOLCK from an NFS
-  // mount without a lock daemon, EOPNOTSUPP or ENOSYS from some FUSE and network file systems),
-  // the map is made without the lock, and a note says so: the publish below is a no-replace link
-  // (atomic without any lock), so the first map to be linked in wins, and a process that loses
-  // the race discards its own and loads the winner's. Every process then uses one map; the cost
-  // is the losers' wasted draws. (Two maps of one device are the same bits anyway: they follow
-  // from the preset and the device id alone.)
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  const detail::FlockFn lock = detail::device_store_flock.load();
-  struct Unlock {
-    int fd;
-    bool locked = false;
-    detail::FlockFn lock;
-    ~Unlock() {
-      if (fd >= 0) {
-        if (locked) lock(fd, LOCK_UN);
-        ::close(fd);
-      }
-    }
-  } unlock{fd, false, lock};
-  auto no_lock = [&](const char* call, int e) {
-    std::fprintf(stderr, "photosite: note: %s: no lock on the device store's folder (%s: %s); creating the "
-                 "fixed-pattern map without it: the first map published wins, and a process that made "
-                 "another loads that one\n", dir.c_str(), call, std::strerror(e));
-  };
-  if (fd < 0) {
-    no_lock("open", errno);
-  } else if (lock(fd, LOCK_EX | LOCK_NB) == 0) {
-    unlock.locked = true;
-  } else if (errno == EWOULDBLOCK) {
-    // Another process is creating a map of this preset (any device or size): say so, then wait.
-    std::fprintf(stderr, "photosite: waiting for another process creating a fixed-pattern map in %s (its lock on the folder)\n",
-                 dir.c_str());
-    int r;
-    while ((r = lock(fd, LOCK_EX)) != 0 && errno == EINTR) {
-    }
-    if (r == 0) unlock.locked = true;
-    else no_lock("flock", errno);
-  } else {
-    no_lock("flock", errno);
-  }
-  if (fs::exists(path, ec)) return load_or_keep(path, preset, device_id, width, height);
+  const FolderLock lock(dir, "creating the fixed-pattern map without it: the first map published wins, and a process "
+                             "that made another loads that one");
+  if (fs::exists(path, ec)) return load_existing(true);
   // Under the lock (where there is one; without it, only temporaries of processes gone are
   // touched): the temporaries of map creations killed outright (SIGKILL: no handler ran)
   // in this pid space are removed.
@@ -415,7 +442,7 @@ FixedPatternMaps DeviceStore::load_or_create(const CameraPreset& preset,
                                     {"photosite/checksum", m.checksum},
                                     {"photosite/checksum_xxh3_64", m.checksum_xxh3}},
                                    wo);
-  if (!published) return load_or_keep(path, preset, device_id, width, height);
+  if (!published) return load_existing(true);
   std::fprintf(stderr, "photosite: created the fixed-pattern map %s\n", path.c_str());
   keep(path, preset, m);
   return m;

@@ -170,9 +170,10 @@ std::string resolve_preset_path(const std::string& name_or_path, const std::stri
   }
   fs::path p = fs::path(preset_dir()) / kind / (name_or_path + ".toml");
   if (fs::exists(p, ec)) return p.string();
+  schema::fail_if_dangling(p.string());
   std::string known;
   for (const auto& e : list_presets())
-    if (e.kind == singular) known += (known.empty() ? "" : ", ") + e.name;
+    if (e.kind == singular && !e.description.starts_with(schema::kNotAPresetFile)) known += (known.empty() ? "" : ", ") + e.name;
   fail("unknown " + singular + " preset '" + name_or_path + "' (bundled: " + known + ")");
 }
 
@@ -281,6 +282,15 @@ std::vector<PresetEntry> list_presets() {
     for (const auto& e : fs::directory_iterator(dir)) {
       if (e.path().extension() != ".toml") continue;
       PresetEntry pe{e.path().stem().string(), singular, "", e.path().string()};
+      // A folder of that name was listed with no description, and a link to nothing as
+      // "(malformed)": each is now named for what it is.
+      std::error_code fe;
+      if (!e.is_regular_file(fe)) {
+        pe.description = std::string(schema::kNotAPresetFile) +
+                         (e.is_directory(fe) ? "a folder)" : e.is_symlink(fe) ? "a symbolic link to nothing)" : "not a regular file)");
+        group.push_back(pe);
+        continue;
+      }
       try {
         auto t = toml::parse_file(e.path().string());
         pe.description = t["description"].value_or(std::string());

@@ -2,6 +2,7 @@
 
 #include <map>
 
+#include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 #include "photosite/scene/rig.h"
 #include "photosite/scene/scene_preset.h"
@@ -38,6 +39,7 @@ std::string show_preset(const std::string& name, int indent) {
   std::map<std::string, std::string> known;  // kind -> its names
   for (const auto& e : list_presets()) {
     if (e.name == name) return show_kind(e.kind, name, indent);
+    if (e.description.starts_with(schema::kNotAPresetFile)) continue;  // a folder, a link to nothing
     std::string& k = known[e.kind];
     k += (k.empty() ? "" : ", ") + e.name;
   }

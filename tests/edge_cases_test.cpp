@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -35,6 +36,7 @@
 #include "photosite/scene/scene_preset.h"
 #include "photosite/sensor/fpn.h"
 #include "photosite/sensor/preset.h"
+#include "core/io_detail.h"
 #include "sensor/fpn_detail.h"
 #include "test_util.h"
 
@@ -538,6 +540,25 @@ TEST(EdgeCases, RelativeDeviceStoreIsTakenOnce) {
   EXPECT_FALSE(fs::exists(t.path() / "b/maps"));
 }
 
+// Four threads, each with a store of its own in `store`, making one map (cam1, 64x32) at once; then
+// what every way of publishing must leave: each thread the generated map, one file (no
+// temporary), and a map a later store reads back.
+std::vector<FixedPatternMaps> four_creators_of_one_map(const std::string& store, const CameraPreset& cam) {
+  std::vector<FixedPatternMaps> maps(4);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 4; ++i)
+    threads.emplace_back([&, i] { maps[i] = DeviceStore(store).load_or_create(cam, "cam1", 64, 32); });
+  for (auto& th : threads) th.join();
+  return maps;
+}
+void expect_one_map(const std::string& store, const CameraPreset& cam, const std::vector<FixedPatternMaps>& maps) {
+  const FixedPatternMaps reference = generate_fixed_pattern(cam, 64, 32, "cam1");
+  for (const auto& m : maps) EXPECT_EQ(m.checksum_xxh3, reference.checksum_xxh3);
+  const auto names = files_in(fs::path(store) / "sony-imx174");
+  EXPECT_EQ(names, std::vector<std::string>{"cam1_64x32.exr"}) << names.size() << " files";  // no temporary left
+  EXPECT_EQ(DeviceStore(store).load_or_create(cam, "cam1", 64, 32).checksum_xxh3, reference.checksum_xxh3);
+}
+
 // The device store's lock where the file system has none: flock answering ENOLCK (an NFS mount
 // without a lock daemon), EOPNOTSUPP or ENOSYS. The map is made without the lock, with a note,
 // and the publish decides: it links the finished map in without replacing (atomic with no lock),
@@ -561,23 +582,13 @@ TEST(EdgeCases, DeviceStoreWithoutFileLocksPublishesOneMap) {
     TempDir t;
     arrived = 0;
     lock_errno = e;
-    std::vector<FixedPatternMaps> maps(4);
     testing::internal::CaptureStderr();
-    {
-      std::vector<std::thread> threads;
-      for (int i = 0; i < 4; ++i)
-        threads.emplace_back([&, i] { maps[i] = DeviceStore(t.file("store")).load_or_create(cam, "cam1", 64, 32); });
-      for (auto& th : threads) th.join();
-    }
+    const std::vector<FixedPatternMaps> maps = four_creators_of_one_map(t.file("store"), cam);
     const std::string err = testing::internal::GetCapturedStderr();
     EXPECT_NE(err.find(std::string("no lock on the device store's folder (flock: ") + std::strerror(e) + ")"),
               std::string::npos)
         << err;
-    const FixedPatternMaps reference = generate_fixed_pattern(cam, 64, 32, "cam1");
-    for (const auto& m : maps) EXPECT_EQ(m.checksum_xxh3, reference.checksum_xxh3);
-    const auto names = files_in(t.path() / "store/sony-imx174");
-    EXPECT_EQ(names, std::vector<std::string>{"cam1_64x32.exr"}) << names.size() << " files";  // no temporary left
-    EXPECT_EQ(DeviceStore(t.file("store")).load_or_create(cam, "cam1", 64, 32).checksum_xxh3, reference.checksum_xxh3);
+    expect_one_map(t.file("store"), cam, maps);
   }
 }
 
@@ -681,4 +692,298 @@ TEST(EdgeCases, BadNumbersOfTheSweepCommandsAreNamed) {
     EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
   }
   EXPECT_EQ(files_in(t.path()), std::vector<std::string>{"m.png"});
+}
+
+// ---- the thirty-seventh session (docs/cli.md "Edge cases (thirty-seventh session)") ----------------
+
+namespace {
+// Puts back the real publishing and locking calls when a test ends.
+struct RestorePublish {
+  ~RestorePublish() {
+    detail::publish_linkat.store(&::linkat);
+    detail::publish_renameat2.store(&::renameat2);
+    detail::device_store_flock.store(&::flock);
+  }
+};
+}  // namespace
+
+// A device store on a file system without hard links (FAT/exFAT: link() answers EPERM; some FUSE
+// and network file systems EOPNOTSUPP, ENOSYS or EXDEV) could make no map, so a camera could not
+// run there. Now the finished map is published with renameat2(RENAME_NOREPLACE), atomic and never
+// replacing as the link was. Four threads race on one map with no file lock (as
+// DeviceStoreWithoutFileLocksPublishesOneMap), and every one that reaches the publish fails its
+// link once all have (or after 2 s): exactly one rename wins, every other one is refused with
+// EEXIST, and all four use the one map.
+TEST(EdgeCases, DeviceStoreWithoutHardLinksPublishesOneMap) {
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  static std::atomic<int> locks{0}, links{0}, renamed{0}, refused{0};
+  static std::atomic<int> link_errno{0};
+  RestorePublish restore;
+  detail::device_store_flock.store([](int, int) {
+    ++locks;
+    while (locks.load() < 4) std::this_thread::yield();
+    errno = ENOLCK;
+    return -1;
+  });
+  detail::publish_linkat.store([](int, const char*, int, const char*, int) {
+    ++links;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (links.load() < 4 && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+    errno = link_errno.load();
+    return -1;
+  });
+  detail::publish_renameat2.store([](int a, const char* from, int b, const char* to, unsigned flags) {
+    const int r = ::renameat2(a, from, b, to, flags);
+    if (r == 0) ++renamed;
+    else if (errno == EEXIST) ++refused;
+    return r;
+  });
+  std::string all_err;
+  for (const int e : {EPERM, EOPNOTSUPP, ENOSYS, EXDEV}) {
+    TempDir t;
+    locks = links = renamed = refused = 0;
+    link_errno = e;
+    testing::internal::CaptureStderr();
+    const std::vector<FixedPatternMaps> maps = four_creators_of_one_map(t.file("store"), cam);
+    all_err += testing::internal::GetCapturedStderr();
+    EXPECT_EQ(renamed.load(), 1) << strerror(e);
+    EXPECT_EQ(refused.load(), links.load() - 1) << strerror(e);
+    expect_one_map(t.file("store"), cam, maps);
+  }
+  // The note, said once per process (this test is its first publish without a link).
+  EXPECT_NE(all_err.find("the file system makes no hard links (link: Operation not permitted); publishing new files "
+                         "with a no-replace rename instead"),
+            std::string::npos)
+      << all_err;
+}
+
+// Where the file system has no no-replace rename either (renameat2 answers EINVAL: NFS, CIFS,
+// libfuse 2 file systems such as fusefat), the map's name is created exclusively and the finished
+// map copied in. Four threads race on one map with the store's real lock, which serialises them:
+// one creates, the others wait and read it. An existing file is never replaced, by either way:
+// atomic_create returns false and leaves a user's bytes and no temporary.
+TEST(EdgeCases, DeviceStoreWithoutNoReplaceRenameCreatesExclusively) {
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  RestorePublish restore;
+  detail::publish_linkat.store([](int, const char*, int, const char*, int) {
+    errno = EPERM;
+    return -1;
+  });
+  detail::publish_renameat2.store([](int, const char*, int, const char*, unsigned) {
+    errno = EINVAL;
+    return -1;
+  });
+  TempDir t;
+  testing::internal::CaptureStderr();
+  const std::vector<FixedPatternMaps> maps = four_creators_of_one_map(t.file("store"), cam);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("the file system makes no hard links (link: Operation not permitted) and has no no-replace rename "
+                     "(renameat2: Invalid argument); new files are created exclusively and filled in place"),
+            std::string::npos)
+      << err;
+  expect_one_map(t.file("store"), cam, maps);
+
+  for (const bool rename_works : {false, true}) {
+    if (rename_works) detail::publish_renameat2.store(&::renameat2);
+    std::ofstream(t.file("user.txt")) << "a user's file";
+    bool wrote = false;
+    EXPECT_FALSE(atomic_create(t.file("user.txt"), [&](const std::string& tmp) {
+      std::ofstream(tmp) << "photosite's bytes";
+      wrote = true;
+    }));
+    EXPECT_TRUE(wrote);
+    EXPECT_EQ(slurp(t.file("user.txt")), "a user's file");
+    EXPECT_EQ(files_in(t.path()), (std::vector<std::string>{"store", "user.txt"}));
+    EXPECT_TRUE(atomic_create(t.file("new.txt"), [&](const std::string& tmp) { std::ofstream(tmp) << "new"; }));
+    EXPECT_EQ(slurp(t.file("new.txt")), "new");
+    fs::remove(t.file("new.txt"));
+  }
+}
+
+// A reader that meets a map being filled in place (the way above) finds it short: it is then read
+// once more under the folder's lock, which its creator holds while it writes. Here the test holds
+// the lock with a map cut short on file, lets the reader fail its first read and reach the lock,
+// then puts the whole map in place and unlocks: the reader gets the map, not an error.
+TEST(EdgeCases, DeviceStoreReaderWaitsForAMapFilledInPlace) {
+  const CameraPreset cam = load_camera_preset("sony-imx174");
+  TempDir t;
+  const DeviceStore made(t.file("made"));
+  (void)made.load_or_create(cam, "cam1", 64, 32);
+  const std::string whole = slurp(made.path_for(cam, "cam1", 64, 32));
+  const DeviceStore store(t.file("store"));
+  const std::string path = store.path_for(cam, "cam1", 64, 32);
+  fs::create_directories(fs::path(path).parent_path());
+  std::ofstream(path, std::ios::binary) << whole.substr(0, whole.size() / 2);
+  const int dir = ::open(fs::path(path).parent_path().c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  ASSERT_GE(dir, 0);
+  ASSERT_EQ(::flock(dir, LOCK_EX), 0);
+  static std::atomic<bool> reached{false};
+  RestorePublish restore;
+  detail::device_store_flock.store([](int fd, int op) {
+    if (op & LOCK_EX) reached = true;
+    return ::flock(fd, op);
+  });
+  FixedPatternMaps got;
+  std::string error;
+  testing::internal::CaptureStderr();
+  std::atomic<bool> returned{false};  // a reader that never waits for the lock returns at once
+  std::thread reader([&] {
+    error = error_of([&] { got = store.load_or_create(cam, "cam1", 64, 32); });
+    returned = true;
+  });
+  while (!reached.load() && !returned.load()) std::this_thread::yield();
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f << whole;
+  }
+  ::flock(dir, LOCK_UN);
+  ::close(dir);
+  reader.join();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(got.checksum_xxh3, generate_fixed_pattern(cam, 64, 32, "cam1").checksum_xxh3);
+  EXPECT_NE(err.find("waiting for another process creating a fixed-pattern map in"), std::string::npos) << err;
+}
+
+// demosaic of a float mosaic holding NaN or Inf: the method's interpolation spread the bad sample
+// over its neighbours' colours (a NaN became a patch of NaN, written to a PNG as black), exit 0.
+// Now refused, naming the file, the channel and the first bad sample, with no output. Negative
+// samples (a mosaic with its black level subtracted) are demosaiced as they are.
+TEST(EdgeCases, DemosaicRefusesNanAndInfKeepsNegatives) {
+  TempDir t;
+  const int w = 16, h = 8;
+  auto put = [&](const std::string& name, const ImageF& img) {
+    write_exr(t.file(name), {{{"raw.Y"}, &img, ""}}, {}, ExrWriteOptions());
+  };
+  const std::vector<std::pair<float, std::string>> bad = {
+      {std::nanf(""), "nan"}, {INFINITY, "inf"}, {-INFINITY, "-inf"}};
+  for (const auto& [v, text] : bad) {
+    ImageF m(w, h, 1, 0.5f);
+    m.at(5, 3) = v;
+    m.at(9, 6) = v;  // the first in reading order is named
+    put("bad.exr", m);
+    for (const char* out : {"d.exr", "d.png"}) {
+      const auto r = run_cli("demosaic --backend cpu --in '" + t.file("bad.exr") + "' --out '" + t.file(out) + "'");
+      EXPECT_EQ(r.exit_code, 2) << text << "\n" << r.output;
+      EXPECT_NE(r.output.find(t.file("bad.exr") + ": the mosaic's sample at pixel (5, 3) of channel raw.Y is " + text +
+                              ": a CFA sample must be a finite number"),
+                std::string::npos)
+          << r.output;
+      EXPECT_FALSE(fs::exists(t.file(out)));
+    }
+  }
+  // Negative samples: a uniform mosaic of -0.25 demosaics (bilinear) to -0.25 in every channel.
+  put("neg.exr", ImageF(w, h, 1, -0.25f));
+  const auto r = run_cli("demosaic --backend cpu --in '" + t.file("neg.exr") + "' --out '" + t.file("n.exr") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const ExrContents c = read_exr(t.file("n.exr"));
+  for (const char* ch : {"R", "G", "B"})
+    for (const float s : c.channels.at(ch).vec()) ASSERT_EQ(s, -0.25f) << ch;
+}
+
+// bench markings with a user's odd frame: labels of another size were refused with the advice
+// "pass --resize-labels=nearest", an option bench markings did not have; a frame without road said
+// only "no dashed line"; a rig for another camera's frame size was used without the note `night`
+// gives; and one frame of the user's wrote over docs/bench_markings.csv, the shared frames'
+// recorded results. Now --resize-labels is there, each case says what it is, and --image needs
+// --out-dir.
+TEST(EdgeCases, BenchMarkingsWithAUsersOddFrame) {
+  TempDir t;
+  const int w = 128, h = 64;
+  ImageF day(w, h, 3, 0.3f);
+  write_png(t.file("day.png"), day);
+  ImageU8 sky(w, h, 1, 23), road(w, h, 1, 23);
+  for (int y = h / 2; y < h; ++y)
+    for (int x = 0; x < w; ++x) road.at(x, y) = 7;
+  write_png8(t.file("sky.png"), sky);
+  write_png8(t.file("road.png"), road);
+  write_png8(t.file("half.png"), ImageU8(w / 2, h / 2, 1, 7));
+  fs::create_directory(t.path() / "out");
+  const std::string frame = "bench markings --image '" + t.file("day.png") + "' --labels '";
+  const std::string out = "' --out-dir '" + t.file("out") + "'";
+  const auto no_road = run_cli(frame + t.file("sky.png") + out);
+  EXPECT_EQ(no_road.exit_code, 0) << no_road.output;
+  EXPECT_NE(no_road.output.find("no road or parking in the labels: no markings to measure"), std::string::npos)
+      << no_road.output;
+  const auto plain = run_cli(frame + t.file("road.png") + out);
+  EXPECT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_NE(plain.output.find("no dashed line of 4 or more regular dashes"), std::string::npos) << plain.output;
+  EXPECT_EQ(slurp(t.file("out/bench_markings.csv")).find('\n') + 1, slurp(t.file("out/bench_markings.csv")).size());
+  const auto half = run_cli(frame + t.file("half.png") + out);
+  EXPECT_EQ(half.exit_code, 2) << half.output;
+  EXPECT_NE(half.output.find("pass --resize-labels=nearest"), std::string::npos) << half.output;
+  const auto resized = run_cli(frame + t.file("half.png") + out + " --resize-labels nearest");
+  EXPECT_EQ(resized.exit_code, 0) << resized.output;
+  const auto kitti = run_cli(frame + t.file("road.png") + out + " --rig kitti");
+  EXPECT_EQ(kitti.exit_code, 0) << kitti.output;
+  EXPECT_NE(kitti.output.find("note: day: the frame's aspect ratio 2.000 is not rig kitti's (1242x375, 3.312)"),
+            std::string::npos)
+      << kitti.output;
+  const std::string recorded = slurp(std::string(PHOTOSITE_SOURCE_DIR) + "/docs/bench_markings.csv");
+  const auto docs = run_cli(frame + t.file("road.png") + "'");
+  EXPECT_EQ(docs.exit_code, 2) << docs.output;
+  EXPECT_NE(docs.output.find("--out-dir: give the folder for the CSV of your frame"), std::string::npos) << docs.output;
+  EXPECT_EQ(slurp(std::string(PHOTOSITE_SOURCE_DIR) + "/docs/bench_markings.csv"), recorded);
+}
+
+// bench depth on a KITTI folder whose disparity maps are 8-bit (KITTI's are 16-bit: disparity ×
+// 256) measured nothing and printed nan% with exit 0; now refused naming the file. A folder whose
+// maps hold no measurement at all (every disparity 0) says that nothing was measured.
+TEST(EdgeCases, BenchDepthNamesAnUnusableDisparity) {
+  TempDir t;
+  const std::string src = std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/";
+  ImageFileInfo info;
+  const ImageF day = read_image(src + "image_2/000000_10.png", &info);
+  for (const char* k : {"k8", "k0"}) {
+    for (const char* sub : {"image_2", "semantic", "disp_occ_0"}) fs::create_directories(t.path() / k / sub);
+    fs::copy_file(src + "image_2/000000_10.png", t.path() / k / "image_2/000000_10.png");
+    fs::copy_file(src + "semantic/000000_10.png", t.path() / k / "semantic/000000_10.png");
+  }
+  write_png8(t.file("k8/disp_occ_0/000000_10.png"), ImageU8(day.width(), day.height(), 1, 30));
+  write_png(t.file("k0/disp_occ_0/000000_10.png"), ImageF(day.width(), day.height(), 1, 0.f), 16);
+  const auto r8 = run_cli("bench depth --kitti '" + t.file("k8") + "' --out-dir '" + t.file("k8") + "'");
+  EXPECT_EQ(r8.exit_code, 2) << r8.output;
+  EXPECT_NE(r8.output.find(t.file("k8/disp_occ_0/000000_10.png") + ": disparity map has 8-bit samples; KITTI's are 16-bit PNG"),
+            std::string::npos)
+      << r8.output;
+  EXPECT_FALSE(fs::exists(t.file("k8/bench_depth.csv")));
+  const auto r0 = run_cli("bench depth --kitti '" + t.file("k0") + "' --out-dir '" + t.file("k0") + "'");
+  EXPECT_EQ(r0.exit_code, 0) << r0.output;
+  EXPECT_NE(r0.output.find("000000_10      vanishing_point  no road pixel or vehicle contact with a ground-truth disparity"),
+            std::string::npos)
+      << r0.output;
+  EXPECT_NE(r0.output.find("pooled: nothing measured"), std::string::npos) << r0.output;
+}
+
+// A preset folder holding what is no preset: a folder named x.toml was listed with no description,
+// a symbolic link to nothing as "(malformed)", and asking for the link said "unknown camera rig
+// 'dangling' (bundled: ..., dangling, ...)". Now each is named for what it is, and a file that is
+// not TOML (a PNG named .toml) stays "(malformed)" in the list and names its line when used.
+TEST(EdgeCases, PresetFolderWithFilesThatAreNoPresets) {
+  TempDir t;
+  fs::copy(std::string(PHOTOSITE_SOURCE_DIR) + "/presets", t.path() / "presets", fs::copy_options::recursive);
+  fs::create_directory(t.path() / "presets/lenses/folder.toml");
+  fs::create_symlink("nowhere.toml", t.path() / "presets/rigs/dangling.toml");
+  fs::copy_file(std::string(PHOTOSITE_SOURCE_DIR) + "/samples/kitti/image_2/000000_10.png", t.path() / "presets/cameras/photo.toml");
+  std::ofstream(t.file("presets/cameras/notes.txt")) << "not a preset";
+  const ScopedEnv env("PHOTOSITE_PRESET_DIR", t.file("presets"));
+  const auto list = run_cli("presets list");
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find("folder\tlens\t(not a preset file: a folder)"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("dangling\trig\t(not a preset file: a symbolic link to nothing)"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("photo\tcamera\t(malformed)"), std::string::npos) << list.output;
+  EXPECT_EQ(list.output.find("notes"), std::string::npos) << list.output;
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"presets show dangling", t.file("presets/rigs/dangling.toml") + ": a symbolic link to nothing (nowhere.toml is missing)"},
+      {"presets show folder", t.file("presets/lenses/folder.toml") + ": is a folder, not a preset file"},
+      {"presets show photo", t.file("presets/cameras/photo.toml") + ":1: malformed TOML"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
+  }
+  const auto unknown = run_cli("presets show nothing-of-that-name");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_EQ(unknown.output.find("dangling"), std::string::npos) << unknown.output;
 }

@@ -82,6 +82,12 @@ void run(const DepthBench& b) {
     }
     ImageFileInfo dinfo;
     const ImageU16 codes = read_image_u16((disp / f).string(), &dinfo);
+    // KITTI's disparity maps are 16-bit PNG holding disparity × 256 (0: no measurement). An 8-bit map
+    // (the disparity saved in whole pixels, or a picture of it) read as codes / 256 gave depths
+    // of kilometres: no road pixel was measured, and the bench printed nan% with exit 0.
+    if (dinfo.bits_per_sample != 16)
+      fail_at((disp / f).string(), fmt::format("disparity map has {}-bit samples; KITTI's are 16-bit PNG holding the "
+                                              "disparity × 256 (0: no measurement)", dinfo.bits_per_sample));
     if (codes.width() != day.width() || codes.height() != day.height() || codes.channels() != 1)
       fail_at((disp / f).string(), fmt::format("disparity map is {}x{}x{}, the image {}x{}: expected one channel of the image's size",
                                               codes.width(), codes.height(), codes.channels(), day.width(), day.height()));
@@ -90,16 +96,24 @@ void run(const DepthBench& b) {
     if (e.road_pixels) road_medians.push_back(e.road_median_rel);
     road_pixels += e.road_pixels;
     contacts.insert(contacts.end(), e.contact_rel.begin(), e.contact_rel.end());
-    std::printf("  %-14s %-16s %9zu %11.1f%% %9.1f%% %9zu %11.1f%%\n", stem.c_str(), ns.geometry.horizon_source.c_str(),
-                e.road_pixels, 100 * e.road_median_rel, 100 * e.road_p90_rel, e.contacts, 100 * e.contact_median_rel);
+    if (e.road_pixels == 0 && e.contacts == 0)
+      std::printf("  %-14s %-16s no road pixel or vehicle contact with a ground-truth disparity (nothing measured)\n",
+                  stem.c_str(), ns.geometry.horizon_source.c_str());
+    else
+      std::printf("  %-14s %-16s %9zu %11.1f%% %9.1f%% %9zu %11.1f%%\n", stem.c_str(), ns.geometry.horizon_source.c_str(),
+                  e.road_pixels, 100 * e.road_median_rel, 100 * e.road_p90_rel, e.contacts, 100 * e.contact_median_rel);
     csv += fmt::format("{},{},{},{},{},{},{:.5f},{:.5f},{},{:.5f}\n", stem, day.width(), day.height(),
                        ns.geometry.horizon_source, calib_name, e.road_pixels, e.road_median_rel, e.road_p90_rel,
                        e.contacts, e.contact_median_rel);
   }
   const double road = scene::nearest_rank_quantile(road_medians, 0.5),
                contact = scene::nearest_rank_quantile(contacts, 0.5);
-  std::printf("  pooled: road %.1f%% (median of the frames' medians; target <= 10%%), vehicle contacts %.1f%% "
-              "(median over %zu vehicles; target <= 15%%)\n", 100 * road, 100 * contact, contacts.size());
+  if (road_medians.empty() && contacts.empty())
+    std::printf("  pooled: nothing measured: no frame has a road pixel or a vehicle contact with a ground-truth "
+                "disparity (the CSV's medians are nan)\n");
+  else
+    std::printf("  pooled: road %.1f%% (median of the frames' medians; target <= 10%%), vehicle contacts %.1f%% "
+                "(median over %zu vehicles; target <= 15%%)\n", 100 * road, 100 * contact, contacts.size());
   // Each column means what it means in the frames' rows: road_pixels and contacts summed over the
   // frames, the medians pooled as printed above.
   csv += fmt::format("all,,,,,{},{:.5f},,{},{:.5f}\n", road_pixels, road, contacts.size(), contact);

@@ -35,6 +35,7 @@ struct MarkingsBench {
   std::string shared = std::string(PHOTOSITE_SOURCE_DIR) + "/../shared";
   std::string out_dir, scene_preset = "night-urban";
   std::string image, labels, instances, rig = "auto";  // one frame of the user's instead of the shared ones
+  std::string resize_labels = "none";                   // with --image: labels of another size, as `night`
   int max_frames = 0;
 };
 
@@ -59,8 +60,16 @@ void run(const MarkingsBench& b) {
   // One frame of the user's (a rig preset checked on its own camera's frames), else the shared ones.
   if (b.image.empty() != b.labels.empty())
     fail(b.image.empty() ? "--labels: give the frame too (--image)" : "--image: give its labels too (--labels)");
-  if (b.image.empty() && (!b.instances.empty() || b.rig != "auto"))
-    fail("--instances and --rig go with --image (the shared frames take their own cameras' rigs)");
+  if (b.image.empty() && (!b.instances.empty() || b.rig != "auto" || b.resize_labels != "none"))
+    fail("--instances, --rig and --resize-labels go with --image (the shared frames take their own cameras' rigs)");
+  // One frame of the user's wrote its lines over docs/bench_markings.csv (and left the shared
+  // frames' chart beside it): the default folder holds the bench's recorded results.
+  if (!b.image.empty() && b.out_dir.empty())
+    fail("--out-dir: give the folder for the CSV of your frame (the default, docs/, holds the shared frames' results, "
+         "which it would replace)");
+  scene::ResizeLabels resize = scene::ResizeLabels::None;
+  if (b.resize_labels == "nearest") resize = scene::ResizeLabels::Nearest;
+  else if (b.resize_labels != "none") fail("--resize-labels: '" + b.resize_labels + "' is not none or nearest");
   std::vector<SharedFrame> frames;
   if (!b.image.empty()) {
     for (const std::string* f : {&b.image, &b.labels, &b.instances})
@@ -85,12 +94,15 @@ void run(const MarkingsBench& b) {
     const ImageF day = read_image(f.image, &info);
     if (day.channels() != 3) fail_at(f.image, "bench markings: an RGB day photo is needed (the markings' luminance)");
     const auto labels = scene::read_labels(f.labels, f.instances, day.width(), day.height(), scene::LabelFormat::Auto,
-                                           scene::ResizeLabels::None);
+                                           resize);
     scene::ScenePreset sp = base;
     sp.rig = scene::resolve_camera_rig(b.image.empty() ? "auto" : b.rig, day.width(), day.height(), f.image);
     const ImageF linear = scene::linearize(day, info);
     const auto ns = scene::night_scene(linear, labels, sp, 0);
     const scene::CameraGeometry& g = ns.geometry;
+    // What `night` says of the geometry (a rig for another camera's frame size, a horizon below the
+    // frame, a vanishing point far from the rig's pitch): the distances below rest on it.
+    if (!g.note.empty()) std::fprintf(stderr, "note: %s: %s\n", f.name.c_str(), g.note.c_str());
     // The rig's nominal horizon (no vanishing point: its pitch), for comparison.
     const scene::CameraGeometry g_rig = scene::camera_geometry(sp.rig, day.width(), day.height(), scene::VanishingPoint{});
     // The markings at full resolution on the frame's sRGB-encoded luminance (make_work_images at
@@ -98,7 +110,13 @@ void run(const MarkingsBench& b) {
     const scene::WorkImages w = scene::make_work_images(linear, labels.ids, day.width());
     const ImageU8 marks = scene::metric_marking_mask(w.luma, w.labels, g, sp.lane_blur_sigma_px, sp.lane_contrast_threshold);
     const std::vector<scene::DashedLine> lines = scene::dashed_lines(scene::marking_dashes(marks, labels.ids, g));
-    if (lines.empty())
+    const bool road = std::any_of(labels.ids.vec().begin(), labels.ids.vec().end(), [](uint16_t id) {
+      return id == static_cast<uint16_t>(scene::Label::Road) || id == static_cast<uint16_t>(scene::Label::Parking);
+    });
+    if (!road)
+      std::printf("  %-22s %-8s   no road or parking in the labels: no markings to measure\n", f.name.c_str(),
+                  g.horizon_source == "vanishing_point" ? "VP" : "rig");
+    else if (lines.empty())
       std::printf("  %-22s %-8s   no dashed line of 4 or more regular dashes\n", f.name.c_str(),
                   g.horizon_source == "vanishing_point" ? "VP" : "rig");
     int k = 0;
@@ -164,7 +182,11 @@ static BenchRegistrar reg("markings",
                                             "with --image: the camera rig, as `night --rig` (a name in presets/rigs, "
                                             "a .toml path, a Cityscapes camera .json, or auto)")
                                 ->capture_default_str();
-                            sub->add_option("--out-dir", b->out_dir, "where the CSV goes (default docs/)");
+                            sub->add_option("--resize-labels", b->resize_labels,
+                                            "with --image: none or nearest (labels of another size, as `night`)")
+                                ->capture_default_str();
+                            sub->add_option("--out-dir", b->out_dir,
+                                            "where the CSV goes (default docs/; required with --image)");
                             sub->callback([b] { run(*b); });
                           });
 }  // namespace

@@ -83,6 +83,8 @@ struct ExrWriteOptions {
   bool reproducible = false;
   // Never replace: the finished file is published with link(), which fails when the name
   // exists; write_exr then discards its own file and returns false (someone else's is there).
+  // Where the file system has no hard links: a no-replace rename, else an exclusive create of the
+  // name filled from the finished file (atomic_create; core/io.cpp, write_then_publish).
   bool create_only = false;
 };
 
