@@ -163,3 +163,15 @@ def test_frame_buffer_cache_keys_are_the_documented_ones():
                            capture_output=True, text=True, check=True,
                            env={**os.environ, "PYTHONPATH": str(pathlib.Path(ps.__file__).parents[1])})
     assert limit and int(limit.group(1)) == int(fresh.stdout), (limit, fresh.stdout)
+
+
+def test_characterize_quantity_keys_are_the_documented_ones(store):
+    """The walk-through's `c["system_gain_dn_per_e"]  # {'measured': ..., ...}` names the keys of
+    every quantity of ps.characterize's dict, both ways."""
+    text = (ROOT / "docs" / "python.md").read_text()
+    m = re.search(r'^c\["system_gain_dn_per_e"\]\s+#\s*(\{.*?\})', text, re.M)
+    assert m, "docs/python.md shows no characterize quantity"
+    documented = set(re.findall(r"'(\w+)':", m.group(1)))
+    assert len(documented) >= 4, m.group(1)
+    c = ps.characterize("sony-imx174", roi=16)
+    assert documented == set(c["system_gain_dn_per_e"]), (documented, c["system_gain_dn_per_e"])
