@@ -704,20 +704,15 @@ std::set<std::string> named_keys(const std::string& text) {
   return k;
 }
 
-}  // namespace
-
-// chart's header is the one docs/cli.md's chart section names, both ways; demosaic's output keys
-// are named in its section, and every key the section names is in its output or (read from a
-// photosite raw mosaic) in its input.
 // README.md and docs/*.md but the pages that keep a record of earlier sessions (benchmarks.md,
 // night.md and realism.md name files and tests of their time on purpose).
-namespace {
 std::vector<std::string> docs_without_history() {
   std::vector<std::string> out;
   for (const auto& f : kDocsWithCommands)
     if (f != "docs/benchmarks.md" && f != "docs/night.md" && f != "docs/realism.md") out.push_back(f);
   return out;
 }
+
 }  // namespace
 
 // Every source file the docs name (`sensor/glare.cpp`, `scripts/rccb_kodak.py`,
@@ -835,6 +830,9 @@ TEST(Docs, EmvaResultsBlockIsWhatCharacterizePrints) {
   EXPECT_EQ(shown, 3u);
 }
 
+// chart's header is the one docs/cli.md's chart section names, both ways; demosaic's output keys
+// are named in its section, and every key the section names is in its output or (read from a
+// photosite raw mosaic) in its input.
 TEST(Docs, ChartAndDemosaicHeadersAreDocumented) {
   TempDir tmp;
   ASSERT_EQ(run_cli("chart --width 64 --height 48 --out " + tmp.file("c.exr")).exit_code, 0);
