@@ -390,6 +390,70 @@ TEST(Docs, EveryOptionIsInDocsCli) {
 
 namespace {
 
+// The commands a section heading `## --poisson (expose, flat, ...)` of docs/cli.md names, by option.
+std::map<std::string, std::set<std::string>> cli_md_option_sections() {
+  static const std::regex heading(R"(^## (--[a-z0-9-]+) \(([^)]*)\)$)");
+  std::map<std::string, std::set<std::string>> out;
+  for (const auto& l : lines_of(slurp(kRoot / "docs/cli.md"))) {
+    std::smatch m;
+    if (!std::regex_match(l, m, heading)) continue;
+    std::stringstream cs(m[2].str());
+    for (std::string c; std::getline(cs, c, ',');) out[m[1]].insert(c.substr(c.find_first_not_of(' ')));
+  }
+  return out;
+}
+
+// The commands that take an option; the bench targets (`bench night --backend`) are left out:
+// each has its own synopsis in docs/cli.md's bench section, and the lists are of the commands.
+std::set<std::string> commands_taking(const std::string& option) {
+  std::set<std::string> out;
+  for (const auto& [cmd, help] : commands())
+    if (help.options.count(option) && !starts_with(cmd, "bench ")) out.insert(cmd);
+  return out;
+}
+
+// The `...` spans of README.md's sentence that ends in `tail`: "`expose`, `flat` ... take `--backend".
+std::set<std::string> readme_spans_before(const std::string& tail) {
+  const std::string readme = slurp(kRoot / "README.md");
+  const auto e = readme.find(tail);
+  EXPECT_NE(e, std::string::npos) << tail;
+  if (e == std::string::npos) return {};
+  const auto b = readme.rfind("\n\n", e);
+  std::set<std::string> out;
+  for (const auto& s : code_spans(readme.substr(b, e - b))) out.insert(s);
+  return out;
+}
+
+}  // namespace
+
+// The lists of commands the docs give for an option are exactly the commands that take it: the
+// sections `## --poisson (...)` and `## --backend (...)` of docs/cli.md, README.md's "... take
+// `--backend`" sentence and its list of bench targets (a command dropped from a list, or a list
+// naming one that lacks the option, fails; the converse of EveryOptionIsInDocsCli, which finds an
+// option in any section that names its command).
+TEST(Docs, CommandListsForAnOptionAreTheCommandsThatTakeIt) {
+  const auto sections = cli_md_option_sections();
+  ASSERT_TRUE(sections.count("--poisson") && sections.count("--backend")) << sections.size();
+  for (const auto& [option, named] : sections) EXPECT_EQ(named, commands_taking(option)) << "docs/cli.md: ## " << option;
+  const auto backend = commands_taking("--backend");
+  EXPECT_GE(backend.size(), 7u);
+  EXPECT_EQ(readme_spans_before("take `--backend cpu|vulkan|auto`"), backend);
+  // README.md's "photosite bench noise | night | ..." line: every target of `photosite bench`.
+  const std::string readme = slurp(kRoot / "README.md");
+  const auto b = readme.find("photosite bench noise");
+  ASSERT_NE(b, std::string::npos);
+  const size_t from = b + std::string("photosite bench").size();
+  std::set<std::string> listed;
+  std::stringstream targets(readme.substr(from, readme.find('\n', b) - from));
+  for (std::string w; targets >> w && w != "#";)
+    if (w != "|") listed.insert(w);
+  const auto& bench = commands().at("bench").subcommands;
+  EXPECT_GE(bench.size(), 10u);
+  EXPECT_EQ(listed, std::set<std::string>(bench.begin(), bench.end()));
+}
+
+namespace {
+
 // "R,G,B" -> R, G, B; "radiance.R/G/B" -> radiance.R, radiance.G, radiance.B; "raw.Y" -> raw.Y.
 std::set<std::string> channel_names(const std::string& text) {
   static const std::regex channel(R"(^(?:R,G,B|[a-z_]+\.[A-Z](?:/[A-Z])*)$)");
@@ -640,7 +704,131 @@ std::set<std::string> named_keys(const std::string& text) {
   return k;
 }
 
+// README.md and docs/*.md but the pages that keep a record of earlier sessions (benchmarks.md,
+// night.md and realism.md name files and tests of their time on purpose).
+std::vector<std::string> docs_without_history() {
+  std::vector<std::string> out;
+  for (const auto& f : kDocsWithCommands)
+    if (f != "docs/benchmarks.md" && f != "docs/night.md" && f != "docs/realism.md") out.push_back(f);
+  return out;
+}
+
 }  // namespace
+
+// Every source file the docs name (`sensor/glare.cpp`, `scripts/rccb_kodak.py`,
+// `include/photosite/scene/rig.h`) is in the repository: a file moved or removed must not be left
+// named where a reader looks for it (docs_without_history).
+TEST(Docs, SourceFilesTheDocsNameExist) {
+  static const std::regex path(
+      R"((?:^|[\s`(])((?:scripts|bench|tests|sensor|scene|core|kernels|gpu|include|python|cli|cmake)/[A-Za-z0-9_./-]*\.(?:py|sh|cpp|h|glsl|comp|inc|cmake|in))(?=[\s`),;:.]|$))");
+  // A file named alone in a code span (`frame_buffers.h`, `bench.cpp`) is some file of that name
+  // in the tree (build outputs, .git and the demo's out/ left out).
+  static const std::regex bare(R"([A-Za-z0-9_]+\.(?:py|sh|cpp|h|glsl|comp|inc))");
+  std::set<std::string> names;
+  for (auto it = fs::recursive_directory_iterator(kRoot); it != fs::recursive_directory_iterator(); ++it) {
+    const std::string n = it->path().filename().string();
+    if (it->is_directory() && (starts_with(n, "build") || n == ".git" || n == "out" || n == ".venv")) it.disable_recursion_pending();
+    else names.insert(n);
+  }
+  size_t named = 0, alone = 0;
+  for (const std::string& file : docs_without_history()) {
+    const std::string text = slurp(kRoot / file);
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), path); it != std::sregex_iterator(); ++it) {
+      ++named;
+      EXPECT_TRUE(fs::exists(kRoot / (*it)[1].str())) << file << " names " << (*it)[1] << ", which is not in the repository";
+    }
+    for (const auto& span : code_spans(text))
+      if (std::regex_match(span, bare)) {
+        ++alone;
+        EXPECT_TRUE(names.count(span)) << file << " names `" << span << "`, which no file in the repository is called";
+      }
+  }
+  EXPECT_GT(named, 50u);  // the docs' paths were found
+  EXPECT_GT(alone, 20u);
+}
+
+// docs/architecture.md's layer table lists the public API's headers: every header at the top of
+// include/photosite/ is named there (the folders sensor/, scene/, gpu/ are named as folders).
+TEST(Docs, ArchitectureNamesEveryPublicHeader) {
+  const std::string arch = slurp(kRoot / "docs/architecture.md");
+  const auto row = arch.substr(arch.find("| `include/photosite/` |"));
+  const std::string table_row = row.substr(0, row.find('\n'));
+  size_t headers = 0;
+  for (const auto& e : fs::directory_iterator(kRoot / "include/photosite"))
+    if (e.path().extension() == ".h") {
+      ++headers;
+      EXPECT_NE(table_row.find("`" + e.path().filename().string() + "`"), std::string::npos)
+          << "docs/architecture.md's include/photosite/ row does not name " << e.path().filename();
+    }
+  EXPECT_GT(headers, 15u);
+}
+
+// Every test the docs (docs_without_history) cite as evidence exists: a GoogleTest `Suite.Name` (or
+// `Suite.*`, `Suite.Prefix*`) code span is a TEST/TEST_F/TEST_P in tests/, a pytest name
+// `test_...` a `def` in tests/python. A renamed or removed test must not be left as the proof of a
+// claim. Read from the sources, so a test compiled out here (no Vulkan) still counts.
+TEST(Docs, TestsTheDocsCiteExist) {
+  std::string cpp, py;
+  for (const auto& e : fs::recursive_directory_iterator(kRoot / "tests")) {
+    if (e.path().extension() == ".cpp") cpp += slurp(e.path());
+    if (e.path().extension() == ".py") py += slurp(e.path());
+  }
+  static const std::regex gtest(R"(([A-Z][A-Za-z0-9]*)\.([A-Z][A-Za-z0-9]*)?(\*)?)");
+  static const std::regex pytest(R"(\btest_[a-z0-9_]+\b(?!\.py))");
+  size_t cited = 0;
+  for (const std::string& file : docs_without_history()) {
+    const std::string text = slurp(kRoot / file);
+    for (const auto& span : code_spans(text)) {
+      std::smatch m;
+      if (!std::regex_match(span, m, gtest) || (!m[2].matched && !m[3].matched)) continue;
+      ++cited;
+      // "TEST(Suite, Name)" or, for a pattern, "TEST(Suite, Prefix" (TEST_F and TEST_P too; the
+      // sources write them so, one space after the comma).
+      const std::string def = "(" + m[1].str() + ", " + m[2].str() + (m[3].matched ? "" : ")");
+      bool found = false;
+      for (const char* macro : {"TEST", "TEST_F", "TEST_P"}) found |= cpp.find(macro + def) != std::string::npos;
+      EXPECT_TRUE(found) << file << " cites `" << span << "`, which no test in tests/ defines";
+    }
+    for (auto it = std::sregex_iterator(text.begin(), text.end(), pytest); it != std::sregex_iterator(); ++it) {
+      const std::string name = (*it)[0];
+      if (name == "test_api" || name == "test_docs" || name == "test_torch") continue;  // the files, named without .py
+      ++cited;
+      EXPECT_NE(py.find("def " + name + "("), std::string::npos) << file << " cites " << name << ", which no test in tests/python defines";
+    }
+  }
+  EXPECT_GT(cited, 80u);  // the citations were found
+}
+
+// docs/emva1288.md's Results block is what `characterize --preset NAME --backend cpu` prints
+// today, character for character, for each preset it shows: the measurement is deterministic
+// (fixed seeds; the device's map is generated from its id, so a fresh store gives the same map),
+// so a changed camera model, fit or table layout must re-run the block, not leave an old one as
+// today's. The "created the fixed-pattern map" note (stderr, the store's path) is left out.
+TEST(Docs, EmvaResultsBlockIsWhatCharacterizePrints) {
+  const std::string results = section(slurp(kRoot / "docs/emva1288.md"), "## Results (this build; AMD EPYC, 2 hardware threads)");
+  const auto b = results.find("\n```\n"), e = results.find("\n```\n", b + 1);
+  ASSERT_TRUE(b != std::string::npos && e != std::string::npos);
+  const std::string block = results.substr(b + 5, e - b - 4);  // its lines, each ending in '\n'
+  TempDir tmp;
+  size_t shown = 0;
+  for (size_t at = 0; at < block.size();) {
+    size_t end = block.find("\n\n", at);
+    if (end == std::string::npos) end = block.size() - 1;
+    const std::string doc = block.substr(at, end + 1 - at);
+    at = end + 2;
+    static const std::regex first(R"(^EMVA 1288 R4\.0 photon transfer: (\S+) \(device)");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(doc, m, first)) << doc;
+    const auto r = run_cli("characterize --preset " + m[1].str() + " --backend cpu --device-store " + tmp.file("store"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    std::string printed;
+    for (const auto& l : lines_of(r.output))
+      if (!starts_with(l, "photosite: ")) printed += l + "\n";
+    EXPECT_EQ(printed, doc) << "docs/emva1288.md's block for " << m[1] << " is not what characterize prints";
+    ++shown;
+  }
+  EXPECT_EQ(shown, 3u);
+}
 
 // chart's header is the one docs/cli.md's chart section names, both ways; demosaic's output keys
 // are named in its section, and every key the section names is in its output or (read from a

@@ -4,7 +4,11 @@ and defaults it gives, and every public name of photosite, photosite.presets and
 default or a new function without a line in the docs fails here."""
 import ast
 import inspect
+import os
+import pathlib
 import re
+import subprocess
+import sys
 
 import pytest
 
@@ -142,3 +146,32 @@ def test_every_public_name_is_documented():
     entries = reference_entries()
     missing = sorted(public_names() - set(entries))
     assert not missing, f"public names missing from docs/python.md's Reference: {missing}"
+
+
+def test_frame_buffer_cache_keys_are_the_documented_ones():
+    """docs/python.md's `ps.frame_buffer_cache()  # {'limit_bytes': ..., ...}` lists the keys the
+    call returns, both ways (the comment runs onto the next line)."""
+    text = (ROOT / "docs" / "python.md").read_text()
+    m = re.search(r"^ps\.frame_buffer_cache\(\)\s+#\s*(\{.*?\})", text, re.S | re.M)
+    assert m, "docs/python.md shows no ps.frame_buffer_cache() result"
+    documented = set(re.findall(r"'(\w+)':", m.group(1)))
+    assert len(documented) >= 5, m.group(1)
+    assert documented == set(ps.frame_buffer_cache()), (documented, ps.frame_buffer_cache())
+    # The documented limit is the one a fresh interpreter's import sets (other tests here change it).
+    limit = re.search(r"'limit_bytes': (\d+)", m.group(1))
+    fresh = subprocess.run([sys.executable, "-c", "import photosite; print(photosite.frame_buffer_cache()['limit_bytes'])"],
+                           capture_output=True, text=True, check=True,
+                           env={**os.environ, "PYTHONPATH": str(pathlib.Path(ps.__file__).parents[1])})
+    assert limit and int(limit.group(1)) == int(fresh.stdout), (limit, fresh.stdout)
+
+
+def test_characterize_quantity_keys_are_the_documented_ones(store):
+    """The walk-through's `c["system_gain_dn_per_e"]  # {'measured': ..., ...}` names the keys of
+    every quantity of ps.characterize's dict, both ways."""
+    text = (ROOT / "docs" / "python.md").read_text()
+    m = re.search(r'^c\["system_gain_dn_per_e"\]\s+#\s*(\{.*?\})', text, re.M)
+    assert m, "docs/python.md shows no characterize quantity"
+    documented = set(re.findall(r"'(\w+)':", m.group(1)))
+    assert len(documented) >= 4, m.group(1)
+    c = ps.characterize("sony-imx174", roi=16)
+    assert documented == set(c["system_gain_dn_per_e"]), (documented, c["system_gain_dn_per_e"])
