@@ -836,19 +836,18 @@ StreetLighting street_design_layout(const ScenePreset& p, bool staggered) {
   StreetLighting d;
   d.source = staggered ? "design_staggered" : "design_one_sided";
   const double Hm = p.lamp_mount_height_m, S = p.lamp_spacing_ratio * Hm, W = staggered ? 1.5 * Hm : Hm;
-  for (int k = -3; k <= 3; ++k) {
-    d.lamps.push_back({W + p.lamp_setback_m, Hm, k * S, false});
-    if (staggered) d.lamps.push_back({-p.lamp_setback_m, Hm, k * S + 0.5 * S, false});
-  }
-  std::sort(d.lamps.begin(), d.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
   d.road_left_m = 0;
   d.road_right_m = W;
   d.road_straight = true;
   if (p.street_road_luminance_cd_m2 <= 0) {
     d.note = "street.road_luminance_cd_m2 is 0: an unlit road";
-    d.lamps.clear();
     return d;
   }
+  for (int k = -3; k <= 3; ++k) {
+    d.lamps.push_back({W + p.lamp_setback_m, Hm, k * S, false});
+    if (staggered) d.lamps.push_back({-p.lamp_setback_m, Hm, k * S + 0.5 * S, false});
+  }
+  std::sort(d.lamps.begin(), d.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
   d.peak_intensity_cd = 1;
   d.peak_intensity_cd = M_PI * p.street_road_luminance_cd_m2 / (p.rho_road * street_calculation_field_lux(d, 0, W, 0, p, nullptr));
   d.grid_D0_m = 0;

@@ -171,10 +171,10 @@ std::string resolve_preset_path(const std::string& name_or_path, const std::stri
   fs::path p = fs::path(preset_dir()) / kind / (name_or_path + ".toml");
   if (fs::exists(p, ec)) return p.string();
   schema::fail_if_dangling(p.string());
-  std::string known;
-  for (const auto& e : list_presets())
-    if (e.kind == singular && !e.description.starts_with(schema::kNotAPresetFile)) known += (known.empty() ? "" : ", ") + e.name;
-  fail("unknown " + singular + " preset '" + name_or_path + "' (bundled: " + known + ")");
+  // The bundled ones of this kind, as the scene presets' error lists them: the folder's preset
+  // files (no folder or link to nothing), sorted.
+  fail("unknown " + singular + " preset '" + name_or_path + "' (bundled: " +
+       schema::comma_list(schema::preset_names(fs::path(preset_dir()) / kind)) + ")");
 }
 
 }  // namespace
