@@ -53,6 +53,8 @@ struct BatchCmd {
   SensorOptions sensor;
   std::string backend = "auto";
   std::optional<std::string> streetlamp_type;  // none: the scene preset's
+  std::string ego_motion = "auto";  // auto: the data set's odometry where it has it (with --sequence); none
+  CLI::Option* ego_motion_option = nullptr;
 };
 
 // The run; its exit status when that is not 0 or 2 (bad input is thrown as Error): 128 + the
@@ -74,6 +76,11 @@ int run(BatchCmd& c) {
       fail("--layers " + c.layers + ": batch --format png writes the sensor preview, so the list must name sensor");
   }
   check_exr_compression(o.compression, "--compression");
+  if (c.ego_motion != "auto" && c.ego_motion != "none")
+    fail("--ego-motion '" + c.ego_motion + "' must be auto (the data set's odometry, where it has it) or none");
+  if (c.ego_motion_option->count() > 0 && !o.sequences)
+    fail("--ego-motion " + c.ego_motion + ": the camera's motion is read for sequences only; add --sequence");
+  o.ego_motion = c.ego_motion == "auto";
   if (o.jobs < 1 || o.jobs > 64) fail("--jobs must be in [1, 64]");
   std::tie(o.shard_index, o.shard_count) = batch::parse_shard(c.shard);
   std::vector<batch::Item> items;
@@ -177,7 +184,13 @@ static Registrar reg("f-batch", [](CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--sequence", o.sequences,
                 "carry each sequence's street luminaires, reflectance normalisation and pitch from frame to frame "
-                "(camera at rest or crops of one view; ego-motion is not read)");
+                "(the camera's motion from the data set's odometry where it has it, see --ego-motion; else at rest "
+                "or crops of one view)");
+  c->ego_motion_option =
+      sub->add_option("--ego-motion", c->ego_motion,
+                      "with --sequence: auto (each frame's camera pose from the data set's odometry: Cityscapes "
+                      "vehicle and timestamp files, KITTI raw OXTS) or none (every frame at pose 0)")
+          ->capture_default_str();
   sub->add_flag("--quiet", c->quiet, "no progress output");
   c->sensor.add(sub, false, SensorOptions::kAllExtras & ~SensorOptions::kFrames);  // frames come from the data set
   add_backend_option(sub, c->backend);

@@ -156,6 +156,12 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
         }
         it.group = (fs::path(top) / sub / (m[1].str() + "_" + m[2].str())).generic_string();
         it.camera = scene::cityscapes_camera_file(it.image);
+        // The odometry beside it: vehicle[_sequence]/ and timestamp[_sequence]/ as leftImg8bit[_sequence]/.
+        const std::string suffix = std::string(top) == "leftImg8bit" ? "" : "_sequence";
+        if (const fs::path veh = root / ("vehicle" + suffix) / sub / (stem + "_vehicle.json"); fs::exists(veh, ec)) {
+          it.odometry = veh.string();
+          it.odometry_time = (root / ("timestamp" + suffix) / sub / (stem + "_timestamp.txt")).string();
+        }
         require_labels(it);
         order[it.key] = std::stol(m[3].str());
         items.push_back(std::move(it));
@@ -177,6 +183,14 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
       }
       const std::string stem = p.stem().string();
       it.group = all_digits(stem) ? (fs::path("image_2") / sub.parent_path() / "seq").generic_string() : it.key;
+      // A numbered frame's OXTS record: the drive's oxts folder as KITTI raw ships it (data/<frame>.txt
+      // and timestamps.txt), at oxts/<sub>/ as the frames are at image_2/<sub>/.
+      if (const fs::path oxts = root / "oxts" / sub.parent_path(); all_digits(stem) &&
+                                                                    fs::exists(oxts / "data" / (stem + ".txt"), ec)) {
+        it.odometry = (oxts / "data" / (stem + ".txt")).string();
+        it.odometry_time = (oxts / "timestamps.txt").string();
+        it.odometry_line = std::stol(stem);
+      }
       require_labels(it);
       order[it.key] = all_digits(stem) ? std::stol(stem) : 0;
       items.push_back(std::move(it));

@@ -39,6 +39,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
+#include "photosite/scene/ego_motion.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
 #include "photosite/sensor/isp.h"
@@ -110,7 +111,16 @@ struct Loaded {
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string image_note;  // the day image's negative samples (day_image_note), for the header
+  std::optional<scene::OdometrySample> odometry;  // batch --sequence with ego-motion: the item's
   std::string error;
+};
+// A worker's sequence (batch --sequence): the group being computed, its scene state, and the
+// odometry of its last frame computed with ego-motion (scene/ego_motion.h).
+struct GroupState {
+  std::string group;
+  scene::SequenceState seq;
+  std::optional<scene::OdometrySample> odometry;  // the previous frame's
+  bool ego = false;                               // the group's first frame had odometry
 };
 // A sequence's day white balance as its reader sees it: the rule of reflectance_texture's
 // ClassMeans (the group's first frame whose own balance is "road" fixes the gains for the group),
@@ -295,6 +305,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       {"poisson", to_string(r.settings.poisson)},
       {"format", o.format}, {"half", o.half}, {"compression", o.compression}, {"layers", layers_text(o.layers)}};
   if (o.sequences) params["sequences"] = true;  // only when set: earlier manifests stay valid
+  // Ego-motion only where it is read (a sequence run over odometry): earlier manifests of runs
+  // without odometry stay valid; one of a run over odometry, which took every frame at pose 0, is
+  // refused by a run that reads it (and accepted with --ego-motion none).
+  if (o.sequences && o.ego_motion &&
+      std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.odometry.empty(); }))
+    params["ego_motion"] = "odometry";
   // The lamp type (night --streetlamp-type, or the preset's key) only when not the LED: earlier
   // manifests, all LED, stay valid, and a run resumed with the other type is refused.
   if (sp.streetlamp_type != scene::StreetlampType::Led)
@@ -435,6 +451,10 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         l.camera_sum = file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
         l.rig = scene::load_cityscapes_camera(it.camera);
       }
+      // The camera's lever arm is its camera file's whether or not --rig replaces the file's intrinsics.
+      if (o.sequences && o.ego_motion && !it.odometry.empty())
+        l.odometry = it.odometry_line >= 0 ? scene::read_kitti_oxts(it.odometry, it.odometry_time, it.odometry_line)
+                                           : scene::read_cityscapes_odometry(it.odometry, it.odometry_time, it.camera);
       // (And the sun/shade split's block sums, from the same pass: the preset says whether it is on.)
       if (rb && rb->group != it.group) *rb = ReaderBalance{it.group, std::nullopt};
       const scene::DayBalance* carried = rb && rb->fixed ? &*rb->fixed : nullptr;
@@ -459,8 +479,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   std::map<std::pair<int, int>, FixedPatternMaps> fpn_cache;
   std::mutex fpn_m;
   const auto wb = white_balance_gains(r.camera);
-  // seq, seq_group: o.sequences, the current group's state (a group's items in frame order).
-  auto compute = [&](Loaded& l, scene::SequenceState& seq, std::string& seq_group) {
+  // g: o.sequences, the current group's state (a group's items in frame order).
+  auto compute = [&](Loaded& l, GroupState& g) {
     Computed c;
     c.item = l.item;
     c.camera_sum = l.camera_sum;
@@ -478,12 +498,27 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         with_camera.rig = *l.rig;
         spi = &with_camera;
       }
-      if (o.sequences && it.group != seq_group) {
-        seq = scene::SequenceState();
-        seq_group = it.group;
+      if (o.sequences && it.group != g.group) {
+        g = GroupState();
+        g.group = it.group;
+      }
+      // The camera's pose: from the previous frame's by the odometry of both (a group whose first
+      // frame has odometry), else 0. A frame that fails before this point leaves the pose and the
+      // odometry of the last frame computed: the next one advances from there.
+      if (o.sequences && g.seq.frames == 0) g.ego = l.odometry.has_value();
+      if (g.ego) {
+        if (!l.odometry)
+          throw Error(it.image + ": no odometry for this frame (" +
+                      (it.odometry.empty() ? std::string("no vehicle or OXTS file") : it.odometry) +
+                      ") while its sequence's first frame had some: its camera pose is unknown (--ego-motion none "
+                      "takes every frame at pose 0)");
+        if (g.odometry) g.seq.pose = scene::advance_pose(g.seq.pose, *g.odometry, *l.odometry, it.odometry_time);
+      } else if (o.sequences && l.odometry) {
+        throw Error(it.image + ": has odometry (" + it.odometry + ") while its sequence's first frame had none");
       }
       auto ns = std::make_shared<scene::NightScene>(
-          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &seq : nullptr, &l.sums));
+          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &g.seq : nullptr, &l.sums));
+      if (g.ego) g.odometry = l.odometry;
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
@@ -513,6 +548,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       if (o.format != "png") {
         *attrs = night_attributes(*rr, ex, fpn, *spi, *ns, *labels, in);
         (*attrs)["photosite/batch/group"] = it.group;
+        if (g.ego) {  // the frame's camera pose from the odometry, in the road coordinates of its sequence's first frame
+          (*attrs)["photosite/batch/pose_X_m"] = g.seq.pose.X_m;
+          (*attrs)["photosite/batch/pose_D_m"] = g.seq.pose.D_m;
+          (*attrs)["photosite/batch/pose_yaw_rad"] = g.seq.pose.yaw_rad;
+        }
       }
       ExrWriteOptions wo;
       wo.half = o.half;
@@ -623,8 +663,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     };
     auto worker = [&](int j) {
       StageTimes& t = times[j];
-      scene::SequenceState seq;
-      std::string seq_group;
+      GroupState g;
       ReaderBalance rb;
       for (;;) {
         if (stopped()) {
@@ -640,7 +679,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           const double c1 = thread_cpu_ms();
           t.reader_cpu_ms += c1 - c0;
           team();
-          Computed c = compute(l, seq, seq_group);
+          Computed c = compute(l, g);
           l = Loaded();  // the day image and the labels' copy are no longer needed
           const double c2 = thread_cpu_ms();
           t.compute_cpu_ms += c2 - c1;
@@ -691,10 +730,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         while (auto cmp = computed.pop(&writer_wait_ms[j])) write(*cmp);
         writer_cpu_ms[j] = thread_cpu_ms() - cpu0;
       });
-    scene::SequenceState seq;
-    std::string seq_group;
+    GroupState g;
     const double compute_cpu0 = thread_cpu_ms();
-    while (auto l = loaded.pop(&st.compute_wait_in_ms)) computed.push(compute(*l, seq, seq_group), &st.compute_wait_out_ms);
+    while (auto l = loaded.pop(&st.compute_wait_in_ms)) computed.push(compute(*l, g), &st.compute_wait_out_ms);
     st.compute_cpu_ms = thread_cpu_ms() - compute_cpu0;
     reader.join();
     computed.close();

@@ -887,9 +887,10 @@ TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
 }
 
 // batch's resume manifest (OUT/.photosite-batch/shard-I-of-N.jsonl) has the keys docs/cli.md's
-// "Resume manifest keys" paragraph names, both ways: the parameter record's (with the two written
-// only when set: --sequence and a lamp type other than LED), the "writing" record's, the finished
-// record's and its files' (with an item's Cityscapes camera file, whose checksum is recorded).
+// "Resume manifest keys" paragraph names, both ways: the parameter record's (with the three written
+// only when set: --sequence, its odometry and a lamp type other than LED), the "writing" record's,
+// the finished record's and its files' (with an item's Cityscapes camera file, whose checksum is
+// recorded, and its vehicle and timestamp files, which --sequence reads).
 TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   const std::string cli = slurp(kRoot / "docs/cli.md");
   const auto at = cli.find("**Resume manifest keys**");
@@ -904,11 +905,14 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   // A one-frame Cityscapes layout with the frame's camera file (the bundled KITTI frame as its image).
   TempDir tmp;
   const fs::path root = tmp.path() / "cs", sample = kRoot / "samples/kitti";
-  for (const char* d : {"leftImg8bit/val/city", "gtFine/val/city", "camera/val/city"}) fs::create_directories(root / d);
+  for (const char* d : {"leftImg8bit/val/city", "gtFine/val/city", "camera/val/city", "vehicle/val/city", "timestamp/val/city"})
+    fs::create_directories(root / d);
   fs::copy_file(sample / "image_2/000000_10.png", root / "leftImg8bit/val/city/city_000000_000019_leftImg8bit.png");
   fs::copy_file(sample / "semantic/000000_10.png", root / "gtFine/val/city/city_000000_000019_gtFine_labelIds.png");
   std::ofstream(root / "camera/val/city/city_000000_000019_camera.json")
-      << R"({"extrinsic": {"pitch": 0.05, "z": 1.2}, "intrinsic": {"fx": 700, "fy": 700, "u0": 621, "v0": 187}})";
+      << R"({"extrinsic": {"pitch": 0.05, "x": 1.7, "y": 0.1, "z": 1.2}, "intrinsic": {"fx": 700, "fy": 700, "u0": 621, "v0": 187}})";
+  std::ofstream(root / "vehicle/val/city/city_000000_000019_vehicle.json") << R"({"speed": 5.0, "yawRate": 0.01})";
+  std::ofstream(root / "timestamp/val/city/city_000000_000019_timestamp.txt") << "0\n";
   const auto r = run_cli("batch --backend cpu --quiet --dataset cityscapes --root " + root.string() + " --out " +
                          tmp.file("out") + " --layers depth --sequence --streetlamp-type hps");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <omp.h>
 #include <opencv2/imgproc.hpp>
@@ -2694,6 +2695,17 @@ TEST(Luminaires, PolesStayInTheWorldAsTheCameraMoves) {
   EXPECT_TRUE(set.poles().empty());
 }
 
+namespace {
+// A 0.3 m wide lamp pole painted into `lm`: its foot projected at (u0, v0) from depth z0, its top
+// at row v1 (f_px: the camera's focal length in pixels).
+void paint_pole(LabelMap& lm, double u0, double v0, double z0, double v1, double f_px) {
+  const double half = 0.5 * f_px * 0.3 / z0;
+  for (int y = static_cast<int>(std::ceil(v1)); y <= static_cast<int>(std::floor(v0)); ++y)
+    for (int x = static_cast<int>(std::ceil(u0 - half)); x <= static_cast<int>(std::floor(u0 + half)); ++x)
+      lm.ids.at(x, y) = static_cast<uint16_t>(Label::Pole);
+}
+}  // namespace
+
 // `batch --sequence` over a KITTI-layout sequence of two frames of one view (the camera at
 // rest), the second with a lamp pole's labels taken out (as if hidden): frame by frame the
 // pole's lamp head goes out in frame 1; as a sequence it stays lit, at the value of frame 0.
@@ -2708,11 +2720,8 @@ TEST(Luminaires, BatchSequenceKeepsAPolesLampWhenItsLabelGoes) {
   ASSERT_TRUE(o.camera.project(8.0, 0, 50, &u0, &v0, &z0));
   ASSERT_TRUE(o.camera.project(8.0, 7, 50, &u1, &v1, &z1));
   ASSERT_GT(v1, 10);
-  const double half = 0.5 * o.camera.f_px * 0.3 / z0;
   LabelMap with_pole = sc.labels;
-  for (int y = static_cast<int>(std::ceil(v1)); y <= static_cast<int>(std::floor(v0)); ++y)
-    for (int x = static_cast<int>(std::ceil(u0 - half)); x <= static_cast<int>(std::floor(u0 + half)); ++x)
-      with_pole.ids.at(x, y) = static_cast<uint16_t>(Label::Pole);
+  paint_pole(with_pole, u0, v0, z0, v1, o.camera.f_px);
   test::TempDir dir;
   const auto root = dir.path() / "kitti";
   std::filesystem::create_directories(root / "image_2" / "seq");
@@ -2758,6 +2767,97 @@ TEST(Luminaires, BatchSequenceKeepsAPolesLampWhenItsLabelGoes) {
   EXPECT_LT(alone[1].at(hx, hy), 0.01f * best) << "frame by frame it goes out";
   std::fprintf(stderr, "[batch sequence] lamp head at (%d, %d): frame 0 %.4g, frame 1 alone %.4g, as a sequence %.4g\n",
                hx, hy, best, alone[1].at(hx, hy), seq[1].at(hx, hy));
+}
+
+// `batch --sequence` over a KITTI-raw-layout sequence whose camera drives 9 m on between two
+// frames (its OXTS records: vf 18 m/s, timestamps 0.5 s apart): frame 0 sees a lamp pole 50 m
+// ahead, frame 1 (the same straight street, 41 m from the pole) has lost the pole's labels. With
+// the odometry (--ego-motion auto, the default) the luminaire stays at its place in the world: in
+// frame 1 its head is drawn at the projection of the pole's top 41 m ahead, and nothing at the
+// pixel of frame 0's head. Without it (--ego-motion none: every frame at pose 0) the luminaire
+// rides with the camera and frame 1 shows it at frame 0's pixel, 50 m ahead, where no pole is.
+TEST(Luminaires, BatchSequenceFollowsTheOdometry) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();  // nothing in front of the pole's foot; the street then looks the same 9 m on
+  o.dash_period_m = 9;  // (the lane line's dashes too: one period)
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const int W = o.width, H = o.height;
+  auto top = [&](double D, double* u, double* v) {
+    double z;
+    ASSERT_TRUE(o.camera.project(8.0, 7, D, u, v, &z));
+  };
+  double u0, v0, z0, u1, v1;
+  ASSERT_TRUE(o.camera.project(8.0, 0, 50, &u0, &v0, &z0));
+  top(50, &u1, &v1);
+  ASSERT_GT(v1, 10);
+  LabelMap with_pole = sc.labels;
+  paint_pole(with_pole, u0, v0, z0, v1, o.camera.f_px);
+  test::TempDir dir;
+  const auto root = dir.path() / "kitti";
+  for (const char* d : {"image_2/drive", "semantic/drive", "oxts/drive/data"}) std::filesystem::create_directories(root / d);
+  ImageF srgb = sc.day_linear_srgb;
+  for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
+  // OXTS records: 30 numbers, vf (9th) 18 m/s, wu (23rd) 0.
+  std::string oxts;
+  for (int k = 0; k < 30; ++k) oxts += (k == 8 ? "18" : "0") + std::string(k < 29 ? " " : "\n");
+  for (int f = 0; f < 2; ++f) {
+    const std::string name = f == 0 ? "0000000000" : "0000000001";
+    write_png((root / "image_2" / "drive" / (name + ".png")).string(), srgb);
+    const LabelMap& lm = f == 0 ? with_pole : sc.labels;
+    ImageF ids(W, H, 1);
+    for (size_t k = 0; k < ids.size(); ++k) ids[k] = lm.ids[k] / 255.0f;
+    write_png((root / "semantic" / "drive" / (name + ".png")).string(), ids);
+    std::ofstream((root / "oxts" / "drive" / "data" / (name + ".txt")).string()) << oxts;
+  }
+  std::ofstream((root / "oxts" / "drive" / "timestamps.txt").string())
+      << "2011-09-26 13:02:25.000000000\n2011-09-26 13:02:25.500000000\n";
+  auto lights = [&](const std::string& ego, const std::string& out) {
+    const auto r = test::run_cli("batch --dataset kitti --root '" + root.string() + "' --out '" + dir.file(out) +
+                                 "' --rig cityscapes --layers lights --quiet --seed 3 --device-store '" + dir.file("store") +
+                                 "' --sequence --ego-motion " + ego);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::vector<ImageF> v;
+    for (const char* f : {"/image_2/drive/0000000000.exr", "/image_2/drive/0000000001.exr"})
+      v.push_back(read_exr(dir.file(out) + f).channels.at("lights.G"));
+    return v;
+  };
+  const auto moving = lights("auto", "moving"), still = lights("none", "still");
+  // The brightest light within the head's reach (1 m at its distance) of a pole top's projection.
+  auto head = [&](const ImageF& img, double D, int* hx, int* hy) {
+    double u, v;
+    top(D, &u, &v);
+    const int r = static_cast<int>(std::ceil(o.camera.f_px / D));
+    float best = 0;
+    for (int y = std::max(0, static_cast<int>(v) - r); y <= std::min(H - 1, static_cast<int>(v) + r); ++y)
+      for (int x = std::max(0, static_cast<int>(u) - r); x <= std::min(W - 1, static_cast<int>(u) + r); ++x)
+        if (img.at(x, y) > best) {
+          best = img.at(x, y);
+          *hx = x;
+          *hy = y;
+        }
+    return best;
+  };
+  // A lamp head (streetlamp_luminance_cd_m2, 10^4 cd/m² and more) against anything lit around it.
+  const float lit = static_cast<float>(0.01 * urban().streetlamp_luminance_cd_m2 / 683);
+  int hx = -1, hy = -1, mx = -1, my = -1;
+  ASSERT_GE(head(moving[0], 50, &hx, &hy), lit) << "no lamp head at the pole's top in frame 0";
+  EXPECT_EQ(still[0].at(hx, hy), moving[0].at(hx, hy));  // the first frame does not depend on the motion
+  // Frame 1, driven 9 m on: the head 41 m ahead, and gone from frame 0's pixel.
+  EXPECT_GE(head(moving[1], 41, &mx, &my), lit) << "the luminaire did not stay at its place in the world";
+  EXPECT_LT(moving[1].at(hx, hy), lit) << "frame 0's head pixel is still lit";
+  // At pose 0 the luminaire rides along: still at frame 0's pixel, and not 41 m ahead.
+  EXPECT_EQ(still[1].at(hx, hy), still[0].at(hx, hy));
+  EXPECT_LT(still[1].at(mx, my), lit);
+  // The header records the pose: 9 m on (mean speed 18 m/s over 0.5 s; rounded products of values
+  // below 20: within 4·2⁻⁵³·20).
+  const auto attrs = read_exr_attributes(dir.file("moving") + "/image_2/drive/0000000001.exr");
+  ASSERT_TRUE(attrs.count("photosite/batch/pose_D_m"));
+  EXPECT_NEAR(std::stod(attrs.at("photosite/batch/pose_D_m")), 9.0, 4 * 20 * 0x1p-53);
+  EXPECT_EQ(std::stod(attrs.at("photosite/batch/pose_X_m")), 0.0);
+  EXPECT_FALSE(read_exr_attributes(dir.file("still") + "/image_2/drive/0000000001.exr").count("photosite/batch/pose_D_m"));
+  std::fprintf(stderr, "[batch odometry] frame 0 head (%d, %d); frame 1 moving: head (%d, %d) %.4g, old pixel %.4g; "
+               "at pose 0: old pixel %.4g, new pixel %.4g\n", hx, hy, mx, my, moving[1].at(mx, my), moving[1].at(hx, hy),
+               still[1].at(hx, hy), still[1].at(mx, my));
 }
 
 // The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on

@@ -33,6 +33,12 @@ struct Item {
   std::string image, labels, instances;           // input paths
   std::string labels_rel, instances_rel;          // where the label copies go under --out
   std::string camera;       // the image's own calibration (Cityscapes camera/*.json), or ""
+  // The frame's odometry for `batch --sequence` (scene/ego_motion.h), "" where the data set has
+  // none: Cityscapes vehicle[_sequence]/<split>/<city>/<stem>_vehicle.json with odometry_time its
+  // timestamp[_sequence]/.../<stem>_timestamp.txt; KITTI oxts/<sub>/data/<frame>.txt with
+  // odometry_time the drive's oxts/<sub>/timestamps.txt and odometry_line the frame's number.
+  std::string odometry, odometry_time;
+  long odometry_line = -1;
   std::string origin;       // where the item is listed ("list.txt:3"), for messages; "" for a layout
 
   std::string label_format = "auto";
@@ -43,7 +49,10 @@ struct Item {
 // Walks a data set's layout under root (Cityscapes: leftImg8bit[_sequence]/ with gtFine/;
 // KITTI: image_2/ with semantic/ and instance/; BDD100K: images/10k/ with
 // labels/sem_seg/masks/). An image without labels is bad input naming the image. Cityscapes
-// items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists.
+// items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists, and
+// their odometry (Item::odometry) where the vehicle file exists; numbered KITTI frames theirs
+// where oxts/<sub>/data/<frame>.txt exists (the drive's oxts folder of KITTI raw, placed under
+// the root as the images are under image_2/).
 // Folder links are followed (not into a folder the walk is already inside: a cycle); image names
 // match in any case of ".png" (Cityscapes' "_leftImg8bit.PNG" too). The folder `out` (the run's
 // output folder, when it lies inside the data set) is left out: its previews are not inputs.
@@ -92,11 +101,16 @@ struct Options {
   bool item_cameras = true;
   // Each group's frames (a sequence: Cityscapes _sequence naming, numbered KITTI files) as one
   // sequence: a scene::SequenceState (scene/luminaires.h: street luminaires in the world, the
-  // reflectance normalisation and pitch of its first frame) carried from frame to frame, every
-  // frame at pose 0 — a camera at rest, or crops of one view with their own principal points
-  // (per-item camera files); ego-motion is not read. A group with an unfinished frame is
-  // recomputed whole on a re-run, as its state starts at its first frame.
+  // reflectance normalisation and pitch of its first frame) carried from frame to frame. A group
+  // with an unfinished frame is recomputed whole on a re-run, as its state starts at its first
+  // frame.
   bool sequences = false;
+  // With sequences: each frame's camera pose from the data set's odometry (Item::odometry;
+  // scene/ego_motion.h advance_pose from the previous frame's), where the group's first frame has
+  // it; a later frame of such a group without it fails (its pose is unknown). Off, or in a group
+  // whose first frame has none: every frame at pose 0 (a camera at rest, or crops of one view with
+  // their own principal points in per-item camera files).
+  bool ego_motion = true;
   int jobs = 1;               // writer threads (not with workers: each writes its own items)
   int queue_depth = 2;        // images in flight (bounds memory); with workers at most this many
   // OpenMP team of the compute stage (with workers: of each); 0: automatic (OpenMP's default;

@@ -1,0 +1,59 @@
+// The camera's motion over a sequence from the data set's own odometry (issue 14 §3: lights stay
+// put when the camera moves), read by `batch --sequence` (scene/ego_motion.cpp).
+//
+// A frame's pose (luminaires.h CameraPose: the camera's foot in the road coordinates of the
+// sequence's first frame, its heading) follows from the previous frame's by dead reckoning on the
+// vehicle's speed and yaw rate at the two frames' times. The data sets record them as:
+//  * Cityscapes (cityscapesScripts README; docs/csCalibration.pdf §3, Schneider & Cordts 2016):
+//    vehicle[_sequence]/<split>/<city>/<stem>_vehicle.json with "speed" in m/s and "yawRate" in
+//    rad/s in the vehicle frame of ISO 8855 (x forward, y left, z up; its origin on the ground
+//    below the rear axle's centre), and timestamp[_sequence]/<split>/<city>/<stem>_timestamp.txt,
+//    the time of recording in ns (the first frame of each sequence 0). The camera's place in that
+//    frame is its camera file's extrinsic x and y (m).
+//  * KITTI raw (its devkit's oxts/dataformat.txt): oxts/data/<frame>.txt, 30 numbers a line, of
+//    which vf (the 9th: forward velocity parallel to the earth's surface, m/s) and wu (the 23rd:
+//    angular rate around the upward axis, rad/s, positive counter-clockwise: to the left), and
+//    oxts/timestamps.txt, one "YYYY-MM-DD HH:MM:SS.fffffffff" line per frame. The OXTS unit is
+//    taken as the camera's place (its lever arm, about a metre, is not read: the pose's error is
+//    that lever times the heading's change since the first frame).
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "photosite/scene/luminaires.h"
+
+namespace photosite::scene {
+
+// The vehicle's motion at one frame, in the vehicle frame of ISO 8855.
+struct OdometrySample {
+  int64_t time_ns = 0;        // the frame's time of recording (any origin common to the sequence)
+  double speed_m_s = 0;       // along the vehicle's x (forward)
+  double yaw_rate_rad_s = 0;  // about its z (up): positive turning left
+  // The camera's place in the vehicle frame (m): ahead of and left of the odometry's reference
+  // point (Cityscapes: the rear axle's centre; KITTI: the OXTS unit itself, 0).
+  double camera_forward_m = 0, camera_left_m = 0;
+};
+
+// Cityscapes: the frame's vehicle JSON and timestamp file, and its camera file for the lever arm
+// ("" : none, 0). Bad input (file: key: problem) on a missing or non-numeric key, a speed outside
+// [-100, 100] m/s, a yaw rate outside [-5, 5] rad/s (no road vehicle: a file of another kind or
+// in other units), a timestamp that is not a whole number of ns.
+OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const std::string& timestamp_txt,
+                                        const std::string& camera_json = {});
+// KITTI raw: the frame's OXTS line and line `index` (0-based, the frame's number) of the drive's
+// timestamps file. Bad input as above, and on a line that does not hold 30 numbers or a
+// timestamps file without that line.
+OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index);
+// "YYYY-MM-DD HH:MM:SS[.fraction]" (UTC, up to 9 fraction digits) as ns since 1970 (KITTI's
+// timestamps). Bad input naming `where` otherwise.
+int64_t parse_kitti_timestamp_ns(const std::string& text, const std::string& where);
+
+// The pose of the frame recorded at b, from the pose of the frame recorded at a (the camera's, with
+// the lever arm of b; a and b share it). Between the two the vehicle is taken to move at the mean
+// of their speeds and turn at the mean of their yaw rates (an arc: exact for constant speed and
+// yaw rate, second-order in the frame interval otherwise). Bad input (`where`: problem) unless b
+// is later than a.
+CameraPose advance_pose(const CameraPose& pose_a, const OdometrySample& a, const OdometrySample& b,
+                        const std::string& where);
+
+}  // namespace photosite::scene
