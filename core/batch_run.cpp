@@ -119,8 +119,11 @@ struct Loaded {
 struct GroupState {
   std::string group;
   scene::SequenceState seq;
-  std::optional<scene::OdometrySample> odometry;  // the previous frame's
-  bool ego = false;                               // the group's first frame had odometry
+  // The last frame computed with ego-motion: its odometry and pose, which the next frame's advances
+  // (a frame that fails leaves them: the next one advances over both intervals).
+  std::optional<scene::OdometrySample> odometry;
+  scene::CameraPose pose;
+  bool ego = false;  // the group's first frame had odometry
 };
 // A sequence's day white balance as its reader sees it: the rule of reflectance_texture's
 // ClassMeans (the group's first frame whose own balance is "road" fixes the gains for the group),
@@ -502,9 +505,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         g = GroupState();
         g.group = it.group;
       }
-      // The camera's pose: from the previous frame's by the odometry of both (a group whose first
-      // frame has odometry), else 0. A frame that fails before this point leaves the pose and the
-      // odometry of the last frame computed: the next one advances from there.
+      // The camera's pose: from the last computed frame's by the odometry of both (a group whose
+      // first frame has odometry), else 0.
       if (o.sequences && g.seq.frames == 0) g.ego = l.odometry.has_value();
       if (g.ego) {
         if (!l.odometry)
@@ -512,13 +514,16 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
                       (it.odometry.empty() ? std::string("no vehicle or OXTS file") : it.odometry) +
                       ") while its sequence's first frame had some: its camera pose is unknown (--ego-motion none "
                       "takes every frame at pose 0)");
-        if (g.odometry) g.seq.pose = scene::advance_pose(g.seq.pose, *g.odometry, *l.odometry, it.odometry_time);
+        if (g.odometry) g.seq.pose = scene::advance_pose(g.pose, *g.odometry, *l.odometry, it.odometry_time);
       } else if (o.sequences && l.odometry) {
         throw Error(it.image + ": has odometry (" + it.odometry + ") while its sequence's first frame had none");
       }
       auto ns = std::make_shared<scene::NightScene>(
           night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &g.seq : nullptr, &l.sums));
-      if (g.ego) g.odometry = l.odometry;
+      if (g.ego) {
+        g.odometry = l.odometry;
+        g.pose = g.seq.pose;
+      }
       auto rr = std::make_shared<SensorSetup>(r);
       rr->settings.seed = seed;
       rr->settings.frame = static_cast<uint32_t>(it.frame);
