@@ -156,11 +156,14 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
         }
         it.group = (fs::path(top) / sub / (m[1].str() + "_" + m[2].str())).generic_string();
         it.camera = scene::cityscapes_camera_file(it.image);
-        // The odometry beside it: vehicle[_sequence]/ and timestamp[_sequence]/ as leftImg8bit[_sequence]/.
+        // The odometry beside it: vehicle[_sequence]/ and timestamp[_sequence]/ as leftImg8bit[_sequence]/,
+        // both (a vehicle package without the timestamps gives no times to integrate over).
         const std::string suffix = std::string(top) == "leftImg8bit" ? "" : "_sequence";
-        if (const fs::path veh = root / ("vehicle" + suffix) / sub / (stem + "_vehicle.json"); fs::exists(veh, ec)) {
+        const fs::path veh = root / ("vehicle" + suffix) / sub / (stem + "_vehicle.json"),
+                       ts = root / ("timestamp" + suffix) / sub / (stem + "_timestamp.txt");
+        if (fs::exists(veh, ec) && fs::exists(ts, ec)) {
           it.odometry = veh.string();
-          it.odometry_time = (root / ("timestamp" + suffix) / sub / (stem + "_timestamp.txt")).string();
+          it.odometry_time = ts.string();
         }
         require_labels(it);
         order[it.key] = std::stol(m[3].str());

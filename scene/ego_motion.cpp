@@ -61,6 +61,9 @@ OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const s
     // Within a vehicle's length of its reference point.
     s.camera_forward_m = checked(json_number(c["extrinsic"], "x", camera_json), 20, "extrinsic.x", "m", camera_json);
     s.camera_left_m = checked(json_number(c["extrinsic"], "y", camera_json), 20, "extrinsic.y", "m", camera_json);
+    // A camera looks along the road within a few degrees (Cityscapes: about −0.02 rad); 0.5 rad
+    // (29°) and more is not a forward camera, or another unit.
+    s.camera_yaw_rad = checked(json_number(c["extrinsic"], "yaw", camera_json), 0.5, "extrinsic.yaw", "rad", camera_json);
   }
   return s;
 }
@@ -125,18 +128,22 @@ CameraPose advance_pose(const CameraPose& pa, const OdometrySample& a, const Odo
   const double left = theta == 0 ? 0 : run * 2 * std::pow(std::sin(0.5 * theta), 2) / theta;
   // Photosite's road coordinates: X to the right, D ahead, the heading's yaw positive toward +X
   // (luminaires.cpp: a frame's (x, d) is (X + x·cos + d·sin, D − x·sin + d·cos) in the world).
-  auto to_world = [](double yaw, double x, double d, double* X, double* D) {
-    *X = x * std::cos(yaw) + d * std::sin(yaw);
-    *D = -x * std::sin(yaw) + d * std::cos(yaw);
+  // The vehicle's heading is the camera's less the camera's own yaw on the vehicle (ISO's left
+  // is photosite's −yaw): vehicle-frame vectors (left, ahead) go to the world by it.
+  auto to_world = [](double yaw, double left_m, double ahead_m, double* X, double* D) {
+    *X = -left_m * std::cos(yaw) + ahead_m * std::sin(yaw);
+    *D = left_m * std::sin(yaw) + ahead_m * std::cos(yaw);
   };
+  const double va = pa.yaw_rad + a.camera_yaw_rad;  // the vehicle's heading at a
   double lx, ld;  // the lever arm at a, in the world
-  to_world(pa.yaw_rad, -a.camera_left_m, a.camera_forward_m, &lx, &ld);
+  to_world(va, a.camera_left_m, a.camera_forward_m, &lx, &ld);
   double mx, md;  // the reference point's move
-  to_world(pa.yaw_rad, -left, ahead, &mx, &md);
+  to_world(va, left, ahead, &mx, &md);
+  const double vb = va - theta;  // the vehicle's heading at b
   CameraPose pb;
-  pb.yaw_rad = pa.yaw_rad - theta;
+  pb.yaw_rad = vb - b.camera_yaw_rad;
   double bx, bd;  // the lever arm at b
-  to_world(pb.yaw_rad, -b.camera_left_m, b.camera_forward_m, &bx, &bd);
+  to_world(vb, b.camera_left_m, b.camera_forward_m, &bx, &bd);
   pb.X_m = pa.X_m - lx + mx + bx;
   pb.D_m = pa.D_m - ld + md + bd;
   return pb;

@@ -910,7 +910,7 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   fs::copy_file(sample / "image_2/000000_10.png", root / "leftImg8bit/val/city/city_000000_000019_leftImg8bit.png");
   fs::copy_file(sample / "semantic/000000_10.png", root / "gtFine/val/city/city_000000_000019_gtFine_labelIds.png");
   std::ofstream(root / "camera/val/city/city_000000_000019_camera.json")
-      << R"({"extrinsic": {"pitch": 0.05, "x": 1.7, "y": 0.1, "z": 1.2}, "intrinsic": {"fx": 700, "fy": 700, "u0": 621, "v0": 187}})";
+      << R"({"extrinsic": {"pitch": 0.05, "x": 1.7, "y": 0.1, "yaw": -0.02, "z": 1.2}, "intrinsic": {"fx": 700, "fy": 700, "u0": 621, "v0": 187}})";
   std::ofstream(root / "vehicle/val/city/city_000000_000019_vehicle.json") << R"({"speed": 5.0, "yawRate": 0.01})";
   std::ofstream(root / "timestamp/val/city/city_000000_000019_timestamp.txt") << "0\n";
   const auto r = run_cli("batch --backend cpu --quiet --dataset cityscapes --root " + root.string() + " --out " +

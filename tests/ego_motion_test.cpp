@@ -59,6 +59,14 @@ TEST(EgoMotion, StraightAheadMovesByTheMeanSpeed) {
   // 6 m along (sin 0.3, cos 0.3): each coordinate one product and one sum, 2 roundings of < 6.
   EXPECT_NEAR(p2.X_m, 6 * std::sin(0.3), 2 * 6 * 0x1p-53);
   EXPECT_NEAR(p2.D_m, 6 * std::cos(0.3), 2 * 6 * 0x1p-53);
+  // A camera turned 0.02 rad to the left on its vehicle (Cityscapes' extrinsic yaw is of this
+  // size) sees the straight run go 0.02 rad to the right of its own heading, which stays 0.
+  OdometrySample a = sample(0, 20, 0), b = sample(0.5, 20, 0);
+  a.camera_yaw_rad = b.camera_yaw_rad = 0.02;
+  const CameraPose p3 = advance_pose(CameraPose{}, a, b, "t");
+  EXPECT_NEAR(p3.X_m, 10 * std::sin(0.02), 2 * 10 * 0x1p-53);
+  EXPECT_NEAR(p3.D_m, 10 * std::cos(0.02), 2 * 10 * 0x1p-53);
+  EXPECT_EQ(p3.yaw_rad, 0);  // (0 + 0.02) − 0 − 0.02, exact
 }
 
 // A constant turn: the vehicle's reference point runs on the circle of radius R = v/ω about the
@@ -116,6 +124,7 @@ TEST(EgoMotion, ReadsCityscapesVehicleAndTimestampFiles) {
   EXPECT_EQ(s.time_ns, 117647058);
   EXPECT_EQ(s.camera_forward_m, 1.7);
   EXPECT_EQ(s.camera_left_m, 0.1);
+  EXPECT_EQ(s.camera_yaw_rad, -0.0195);
   const OdometrySample n = read_cityscapes_odometry(tmp.file("v.json"), tmp.file("t.txt"));
   EXPECT_EQ(n.camera_forward_m, 0);  // no camera file: the reference point
   // Bad input names the file and the key.
@@ -132,6 +141,9 @@ TEST(EgoMotion, ReadsCityscapesVehicleAndTimestampFiles) {
   write_text(tmp.file("frac.txt"), "1176.5");
   expect_refused([&] { read_cityscapes_odometry(tmp.file("v.json"), tmp.file("frac.txt")); }, {"frac.txt", "whole ns"});
   expect_refused([&] { read_cityscapes_odometry(tmp.file("v.json"), tmp.file("missing.txt")); }, {"missing.txt"});
+  write_text(tmp.file("sideways.json"), R"({"extrinsic": {"x": 1.7, "y": 0.1, "yaw": 90}})");  // degrees
+  expect_refused([&] { read_cityscapes_odometry(tmp.file("v.json"), tmp.file("t.txt"), tmp.file("sideways.json")); },
+                 {"sideways.json", "extrinsic.yaw: 90"});
   write_text(tmp.file("nox.json"), R"({"extrinsic": {"y": 0.1}})");
   expect_refused([&] { read_cityscapes_odometry(tmp.file("v.json"), tmp.file("t.txt"), tmp.file("nox.json")); },
                  {"nox.json", "x: missing"});

@@ -50,7 +50,7 @@ struct Item {
 // KITTI: image_2/ with semantic/ and instance/; BDD100K: images/10k/ with
 // labels/sem_seg/masks/). An image without labels is bad input naming the image. Cityscapes
 // items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists, and
-// their odometry (Item::odometry) where the vehicle file exists; numbered KITTI frames theirs
+// their odometry (Item::odometry) where the vehicle and timestamp files exist; numbered KITTI frames theirs
 // where oxts/<sub>/data/<frame>.txt exists (the drive's oxts folder of KITTI raw, placed under
 // the root as the images are under image_2/).
 // Folder links are followed (not into a folder the walk is already inside: a cycle); image names

@@ -9,7 +9,7 @@
 //    rad/s in the vehicle frame of ISO 8855 (x forward, y left, z up; its origin on the ground
 //    below the rear axle's centre), and timestamp[_sequence]/<split>/<city>/<stem>_timestamp.txt,
 //    the time of recording in ns (the first frame of each sequence 0). The camera's place in that
-//    frame is its camera file's extrinsic x and y (m).
+//    frame is its camera file's extrinsic x and y (m), and its heading the extrinsic yaw (rad).
 //  * KITTI raw (its devkit's oxts/dataformat.txt): oxts/data/<frame>.txt, 30 numbers a line, of
 //    which vf (the 9th: forward velocity parallel to the earth's surface, m/s) and wu (the 23rd:
 //    angular rate around the upward axis, rad/s, positive counter-clockwise: to the left), and
@@ -32,10 +32,13 @@ struct OdometrySample {
   // The camera's place in the vehicle frame (m): ahead of and left of the odometry's reference
   // point (Cityscapes: the rear axle's centre; KITTI: the OXTS unit itself, 0).
   double camera_forward_m = 0, camera_left_m = 0;
+  // The camera's heading against the vehicle's (rad, ISO 8855: positive to the left): the road
+  // coordinates photosite measures in are the camera's, so the vehicle's run is turned into them.
+  double camera_yaw_rad = 0;
 };
 
 // Cityscapes: the frame's vehicle JSON and timestamp file, and its camera file for the lever arm
-// ("" : none, 0). Bad input (file: key: problem) on a missing or non-numeric key, a speed outside
+// and heading ("" : none, 0). Bad input (file: key: problem) on a missing or non-numeric key, a speed outside
 // [-100, 100] m/s, a yaw rate outside [-5, 5] rad/s (no road vehicle: a file of another kind or
 // in other units), a timestamp that is not a whole number of ns.
 OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const std::string& timestamp_txt,
