@@ -222,7 +222,7 @@ TEST(EgoMotion, BatchFlagMissingRecordAndResume) {
   // Frame 2's pose: 2 s at 10 m/s from frame 0 (frame 1 skipped: one arc over both intervals).
   const auto attrs = read_exr_attributes(tmp.file("b") + "/image_2/drive/0000000002.exr");
   ASSERT_TRUE(attrs.count("photosite/batch/pose_D_m"));
-  EXPECT_NEAR(std::stod(attrs.at("photosite/batch/pose_D_m")), 20.0, 4 * 32 * 0x1p-53);  // a few roundings of < 32
+  EXPECT_NEAR(std::stod(attrs.at("photosite/batch/pose_D_m_text")), 20.0, 4 * 32 * 0x1p-53);  // a few roundings of < 32
   // A run at pose 0 is not resumed by one that reads the odometry, and is by one that does not.
   write_text((root / "oxts" / "drive" / "data" / "0000000001.txt").string(), oxts);
   r = test::run_cli(base + tmp.file("c") + "' --sequence --ego-motion none");
@@ -232,4 +232,48 @@ TEST(EgoMotion, BatchFlagMissingRecordAndResume) {
   EXPECT_NE(r.output.find("ego_motion"), std::string::npos) << r.output;
   r = test::run_cli(base + tmp.file("c") + "' --sequence --ego-motion none");
   EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+// The Cityscapes sequence layout: leftImg8bit_sequence frames with their vehicle_sequence and
+// timestamp_sequence files and camera files (camera/, as batch reads them). Two frames 1/17 s
+// apart at 12 m/s straight on; the camera 0.02 rad to the right on its vehicle (extrinsic yaw
+// −0.02), 1.7 m ahead of the rear axle: in its road coordinates it moves s = 12 m/s · dt along
+// its vehicle's heading, (s·sin(−0.02), s·cos(−0.02)), its own heading unchanged.
+TEST(EgoMotion, CityscapesSequenceLayout) {
+  test::TempDir tmp;
+  const auto root = tmp.path() / "cs";
+  for (const char* d : {"leftImg8bit_sequence/val/city", "gtFine/val/city", "camera/val/city", "vehicle_sequence/val/city",
+                        "timestamp_sequence/val/city"})
+    std::filesystem::create_directories(root / d);
+  ImageF day(128, 64, 3, 0.25f);
+  ImageF ids(128, 64, 1, 7 / 255.0f);
+  for (int y = 0; y < 24; ++y)
+    for (int x = 0; x < 128; ++x) ids.at(x, y) = 23 / 255.0f;
+  const int64_t dt_ns = 58823529;  // 1/17 s
+  for (int f : {18, 19}) {
+    const std::string stem = "city_000000_0000" + std::to_string(f);
+    write_png((root / "leftImg8bit_sequence/val/city" / (stem + "_leftImg8bit.png")).string(), day);
+    write_png((root / "gtFine/val/city" / (stem + "_gtFine_labelIds.png")).string(), ids);
+    write_text((root / "camera/val/city" / (stem + "_camera.json")).string(),
+               R"({"extrinsic": {"baseline": 0.21, "pitch": 0.038, "roll": 0, "x": 1.7, "y": 0.1, "yaw": -0.02, "z": 1.22},
+                   "intrinsic": {"fx": 2262.52, "fy": 2265.3, "u0": 1096.98, "v0": 513.137}})");
+    write_text((root / "vehicle_sequence/val/city" / (stem + "_vehicle.json")).string(), R"({"speed": 12.0, "yawRate": 0.0})");
+    write_text((root / "timestamp_sequence/val/city" / (stem + "_timestamp.txt")).string(), std::to_string((f - 18) * dt_ns));
+  }
+  const auto r = test::run_cli("batch --dataset cityscapes --root '" + root.string() + "' --out '" + tmp.file("out") +
+                               "' --layers depth --quiet --device-store '" + tmp.file("store") + "' --sequence");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string dir = tmp.file("out") + "/leftImg8bit_sequence/val/city/";
+  const auto a0 = read_exr_attributes(dir + "city_000000_000018_leftImg8bit.exr");
+  const auto a1 = read_exr_attributes(dir + "city_000000_000019_leftImg8bit.exr");
+  EXPECT_EQ(std::stod(a0.at("photosite/batch/pose_D_m_text")), 0.0);
+  const double s = 12 * (dt_ns * 1e-9);
+  // A dozen rounded operations on values below 2 m (lever arms and the run): 12·2·2⁻⁵³ (the header's
+  // _text attribute holds the double in 17 significant digits, which round-trip it).
+  EXPECT_NEAR(std::stod(a1.at("photosite/batch/pose_X_m_text")), s * std::sin(-0.02), 12 * 2 * 0x1p-53);
+  EXPECT_NEAR(std::stod(a1.at("photosite/batch/pose_D_m_text")), s * std::cos(-0.02), 12 * 2 * 0x1p-53);
+  EXPECT_NEAR(std::stod(a1.at("photosite/batch/pose_yaw_rad_text")), 0.0, 2 * 0x1p-53 * 0.02);
+  std::fprintf(stderr, "[cityscapes odometry] frame 19 pose: X %s m, D %s m, yaw %s rad\n",
+               a1.at("photosite/batch/pose_X_m_text").c_str(), a1.at("photosite/batch/pose_D_m_text").c_str(),
+               a1.at("photosite/batch/pose_yaw_rad_text").c_str());
 }

@@ -2857,11 +2857,11 @@ TEST(Luminaires, BatchSequenceFollowsTheOdometry) {
   EXPECT_EQ(still[1].at(hx, hy), still[0].at(hx, hy));
   EXPECT_LT(still[1].at(mx, my), lit);
   // The header records the pose: 9 m on (mean speed 18 m/s over 0.5 s; rounded products of values
-  // below 20: within 4·2⁻⁵³·20).
+  // below 20: within 4·2⁻⁵³·20; the _text attribute's 17 digits round-trip the double).
   const auto attrs = read_exr_attributes(dir.file("moving") + "/image_2/drive/0000000001.exr");
   ASSERT_TRUE(attrs.count("photosite/batch/pose_D_m"));
-  EXPECT_NEAR(std::stod(attrs.at("photosite/batch/pose_D_m")), 9.0, 4 * 20 * 0x1p-53);
-  EXPECT_EQ(std::stod(attrs.at("photosite/batch/pose_X_m")), 0.0);
+  EXPECT_NEAR(std::stod(attrs.at("photosite/batch/pose_D_m_text")), 9.0, 4 * 20 * 0x1p-53);
+  EXPECT_EQ(std::stod(attrs.at("photosite/batch/pose_X_m_text")), 0.0);
   EXPECT_FALSE(read_exr_attributes(dir.file("still") + "/image_2/drive/0000000001.exr").count("photosite/batch/pose_D_m"));
   std::fprintf(stderr, "[batch odometry] frame 0 head (%d, %d); frame 1 moving: head (%d, %d) %.4g, old pixel %.4g; "
                "at pose 0: old pixel %.4g, new pixel %.4g\n", hx, hy, mx, my, moving[1].at(mx, my), moving[1].at(hx, hy),
