@@ -1,9 +1,10 @@
 // The camera's motion over a sequence from the data set's odometry (see ego_motion.h).
 #include "photosite/scene/ego_motion.h"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 #include <vector>
 
