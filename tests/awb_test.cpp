@@ -157,10 +157,16 @@ TEST(AutoWhiteBalance, DegenerateFramesKeepTheFixedGains) {
   for (size_t i = 0; i < noise.size(); ++i) noise[i] += 20.f;
   const auto g = auto_white_balance_gains(noise, fs, kWide, fixed);
   EXPECT_NE(g, fixed);
-  // Its gains are 1 within the noise: SE of a mean 1.26 / sqrt(32768) = 0.007 DN, 3.5e-4 of 20 DN;
-  // the ratio of two such means within 3 x sqrt(2) x 3.5e-4 = 1.5e-3 (3 SE).
-  EXPECT_NEAR(g[0], 1.0, 1.5e-3);
-  EXPECT_NEAR(g[2], 1.0, 1.5e-3);
+  // Its gains are 1 to float rounding, not merely within the noise: each channel's pairs +z, -z
+  // cancel, so its sample mean is 20.002 up to the roundings of 0.002 + z and of + 20, at most
+  // 2^-24 of |v - 20| and of |v| per pixel (v the stored value); a ratio of two such means is 1
+  // within twice their mean over 20, plus the double sums' 2^-53 per addition. (The bound this
+  // replaces, 1.5e-3, was 3 standard errors of independent means, which these are not.)
+  double abs_mean = 0;
+  for (float v : noise.vec()) abs_mean += (std::fabs(v) + std::fabs(v - 20.0)) / static_cast<double>(noise.size());
+  const double rounding = 2 * 0x1p-24 * abs_mean / 20 + static_cast<double>(noise.pixel_count()) * 0x1p-53;
+  EXPECT_NEAR(g[0], 1.0, rounding);
+  EXPECT_NEAR(g[2], 1.0, rounding);
   // Bad settings are refused, naming the parameter.
   auto parameter_of = [&](double full_scale, const AwbBounds& b, double clip) -> std::string {
     try {

@@ -202,6 +202,55 @@ TEST(Demosaic, RccbEdgeDirectedMethodsBeatBilinearOnACommonTexture) {
   }
 }
 
+// Malvar-He-Cutler is its paper's eight 5x5 filters (Malvar, He, Cutler, ICASSP 2004, Fig. 2, in
+// units of 1/8), evaluated here in double on a random RGGB mosaic at every interior pixel. The
+// smooth-field and flat-area tests cannot tell a wrong tap from a right one where the field has no
+// curvature (a filter's vertical and horizontal ±2 taps see the same values there): a mutation
+// that made the green pixels' filter read the horizontal ±2 taps for the vertical ones survived
+// them (docs/testing.md). Tolerance: the code's float evaluation takes at most 16 roundings, each
+// of an intermediate no larger than 8·Σ|w|·max|v| = 20 (Σ|w| ≤ 20/8, values in [0, 1)) before the
+// exact ×1/8: |error| ≤ 16·2⁻²⁴·2.5.
+TEST(Demosaic, MalvarIsThePapersFiltersOnARandomMosaic) {
+  const int w = 40, h = 30;
+  ImageF m(w, h, 1);
+  uint64_t state = 0x9e3779b97f4a7c15ull;
+  for (size_t i = 0; i < m.size(); ++i) {  // splitmix64 in [0, 1)
+    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    m[i] = static_cast<float>((z ^ (z >> 31)) >> 40) * 0x1p-24f;
+  }
+  const ImageF out = demosaic_malvar(m, CfaPattern::RGGB);
+  const double tol = 16 * 0x1p-24 * 2.5;
+  int checked = 0;
+  for (int y = 2; y < h - 2; ++y)
+    for (int x = 2; x < w - 2; ++x) {
+      auto v = [&](int dx, int dy) { return static_cast<double>(m.at(x + dx, y + dy, 0)); };
+      const double c = v(0, 0), cross = v(-1, 0) + v(1, 0) + v(0, -1) + v(0, 1);
+      const double h1 = v(-1, 0) + v(1, 0), v1 = v(0, -1) + v(0, 1);
+      const double h2 = v(-2, 0) + v(2, 0), v2 = v(0, -2) + v(0, 2);
+      const double diag = v(-1, -1) + v(1, -1) + v(-1, 1) + v(1, 1);
+      double want[3];
+      const bool even_x = x % 2 == 0, even_y = y % 2 == 0;
+      if (even_x == even_y) {  // R (even, even) or B (odd, odd)
+        const double g = (4 * c + 2 * cross - (h2 + v2)) / 8;            // G at R and B
+        const double other = (6 * c + 2 * diag - 1.5 * (h2 + v2)) / 8;   // B at R, R at B
+        want[0] = even_x ? c : other;
+        want[1] = g;
+        want[2] = even_x ? other : c;
+      } else {  // G in an R row (odd x, even y) or in a B row (even x, odd y)
+        const double row = (5 * c + 4 * h1 - h2 - diag + 0.5 * v2) / 8;  // the row's colour
+        const double col = (5 * c + 4 * v1 - v2 - diag + 0.5 * h2) / 8;  // the column's colour
+        want[0] = even_y ? row : col;
+        want[1] = c;
+        want[2] = even_y ? col : row;
+      }
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(out.at(x, y, k), want[k], tol) << x << "," << y << " channel " << k;
+      ++checked;
+    }
+  EXPECT_EQ(checked, (w - 4) * (h - 4));
+}
+
 // Flat areas come back to float rounding (not exactly: Malvar's and LMMSE's weighted sums round).
 // Every method forms each output in at most two passes of weighted sums of mosaic samples whose
 // weights sum to 1, at most 13 taps and Σ|w| ≤ 2 (Malvar's 5×5 filters, the widest with negative

@@ -229,6 +229,8 @@ TEST(MarkingDashes, SyntheticDashesGiveTheRayCastPeriod) {
     std::fprintf(stderr, "[dashes] line at X %.2f m: %zu dashes, %.1f-%.1f m, period %.4f m (sd %.4f), dash %.3f m, slope %.2e ± %.1e\n",
                  L.X_m, L.dashes.size(), L.dashes.front().near_D_m, L.dashes.back().far_D_m, L.period_median_m,
                  L.period_sd_m, L.dash_median_m, L.slope, L.slope_se);
+    // The detected centre within the 0.15 m line's half-width (night.h: lane lines 0.15 m wide) plus
+    // the ground one row spans at the nearest dash (the mask's row quantisation).
     EXPECT_NEAR(std::fabs(L.X_m), 1.75, 0.075 + row_span_m(o.camera, L.dashes[0].near_D_m)) << "the line's centre";
     EXPECT_GE(L.dashes.size(), 10u);  // 5-28 m of 2 m periods
     for (size_t i = 0; i < L.periods_m.size(); ++i) {
@@ -292,6 +294,7 @@ TEST(MarkingDashes, AShiftedHorizonShowsInThePeriods) {
     EXPECT_NEAR(L.slope, expected, 4 * L.slope_se + 3 * x * x * L.period_mean_m / L.dashes.back().far_D_m);
     const FlatHorizon fh = flat_period_horizon(L, wrong);
     ASSERT_TRUE(std::isfinite(fh.shift_px));
+    // 4 SE of the fitted shift (flat_period_horizon's own standard error).
     EXPECT_NEAR(fh.shift_px, -10, 4 * fh.se_px) << fh.shift_px << " ± " << fh.se_px;
   }
 }

@@ -935,3 +935,83 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   for (const auto& k : documented) EXPECT_TRUE(written.count(k)) << "docs/cli.md names the resume manifest key " << k << ", which batch does not write";
   for (const auto& k : written) EXPECT_TRUE(documented.count(k)) << "batch's resume manifest has the key " << k << ", which docs/cli.md does not name";
 }
+
+// Every EXPECT_NEAR / ASSERT_NEAR in tests/*.cpp whose tolerance has a numeric literal in it
+// (0.05, 5 * se, 0x1p-24) has a comment on its line or within the 3 lines above it (above the
+// first of a run of consecutive EXPECT_/ASSERT_ lines): the developers' guide asks that every
+// tolerance be derived, with the formula in a comment (docs/testing.md). A tolerance held in a
+// named constant (kNearestTol) has its comment where the constant is defined. The test checks that
+// a comment is there, not that it is right: docs/testing.md describes how the tolerances were
+// read by hand.
+namespace {
+struct NearSite {
+  int line;
+  std::string tolerance;
+};
+// The NEARs of `text` whose tolerance has a literal and no comment near it; `checked` counts the
+// NEARs read.
+std::vector<NearSite> uncommented_literal_nears(const std::string& text, int* checked) {
+  const std::vector<std::string> lines = lines_of(text);
+  static const std::regex macro(R"(\b(EXPECT|ASSERT)_NEAR\s*\()");
+  static const std::regex assertion(R"(^\s*(EXPECT|ASSERT)_)");
+  static const std::regex literal(R"((^|[^A-Za-z0-9_.])[0-9])");
+  std::vector<NearSite> out;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    std::smatch m;
+    if (!std::regex_search(lines[i], m, macro)) continue;
+    // The macro's arguments, up to its closing parenthesis (over at most 8 lines).
+    std::string rest = lines[i].substr(m.position(0) + m.length(0));
+    for (size_t j = i + 1; j < std::min(lines.size(), i + 8); ++j) rest += "\n" + lines[j];
+    std::vector<std::string> args(1);
+    int depth = 0;
+    for (char c : rest) {
+      if (c == '(' || c == '[' || c == '{') ++depth;
+      if (c == ')' || c == ']' || c == '}') {
+        if (depth == 0) break;
+        --depth;
+      }
+      if (c == ',' && depth == 0) args.emplace_back();
+      else args.back() += c;
+    }
+    if (args.size() < 3) continue;
+    ++*checked;
+    if (!std::regex_search(args[2], literal)) continue;
+    size_t first = i;  // the first line of the run of assertions this one ends
+    while (first > 0 && std::regex_search(lines[first - 1], assertion)) --first;
+    bool commented = lines[i].find("//") != std::string::npos;
+    for (size_t k = first >= 3 ? first - 3 : 0; k < first; ++k) commented |= lines[k].find("//") != std::string::npos;
+    if (!commented) out.push_back({static_cast<int>(i) + 1, args[2]});
+  }
+  return out;
+}
+}  // namespace
+
+TEST(Docs, LiteralNearTolerancesHaveAComment) {
+  // The scanner on a text made for it (the macro's name split so that this file's own scan does
+  // not read these lines): a bare literal is caught, a commented one and a run under a comment
+  // are not, a named tolerance is not counted.
+  const std::string near = std::string("EXPECT_") + "NEAR(";
+  const std::string sample = "  " + near + "a, 1.0, 0.05);\n"                // line 1: bare
+                             "  // 5 SE of the mean\n"                        // line 2
+                             "  " + near + "b, 1.0, 5 * se);\n"              // line 3: commented
+                             "  " + near + "c, 1.0, 5 * se);\n"              // line 4: same run
+                             "  x = 1;\n  y = 2;\n  z = 3;\n  w = 4;\n"        // lines 5-8
+                             "  " + near + "d, f(1, 2), 2 * 0x1p-24);\n"     // line 9: 4 lines from the comment
+                             "  " + near + "e, 1.0, kTol);\n";               // line 10: named
+  int sample_checked = 0;
+  const std::vector<NearSite> caught = uncommented_literal_nears(sample, &sample_checked);
+  EXPECT_EQ(sample_checked, 5);
+  ASSERT_EQ(caught.size(), 2u);
+  EXPECT_EQ(caught[0].line, 1);
+  EXPECT_EQ(caught[1].line, 9);
+  EXPECT_EQ(caught[1].tolerance, " 2 * 0x1p-24");
+  // The suite.
+  int checked = 0;
+  for (const auto& e : fs::directory_iterator(kRoot / "tests")) {
+    if (e.path().extension() != ".cpp") continue;
+    for (const NearSite& s : uncommented_literal_nears(slurp(e.path()), &checked))
+      ADD_FAILURE() << "tests/" << e.path().filename().string() << ":" << s.line << ": the NEAR's tolerance"
+                    << s.tolerance << " has no comment within 3 lines above it (derive it: docs/testing.md)";
+  }
+  EXPECT_GT(checked, 150);  // the suite's NEARs were found (202 on 2026-12-02)
+}

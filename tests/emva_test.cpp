@@ -75,6 +75,7 @@ TEST(Emva1288, RecoversATextbookCamera) {
   EXPECT_NEAR(r.system_gain_dn_per_e.value, C::K, 4 * r.system_gain_dn_per_e.uncertainty);
   EXPECT_NEAR(r.qe.value, C::eta, 4 * r.qe.uncertainty);
   const double sd = std::sqrt(C::sigma_r * C::sigma_r + C::dark * plan.exposure_s);
+  // (the 4σ of the standard errors above, for the dark-signal estimates)
   EXPECT_NEAR(r.temporal_dark_noise_e.value, sd, 4 * r.temporal_dark_noise_e.uncertainty);
   EXPECT_NEAR(r.dark_current_e_per_s.value, C::dark, 4 * r.dark_current_e_per_s.uncertainty);
   // The device's offsets and gains are n = 64² normal draws: their sample standard deviation has
@@ -112,6 +113,7 @@ TEST(Emva1288, RecoversATextbookCamera) {
   std::printf("saturation: measured %.1f ± %.1f e- (%.1f ± %.1f photons), model %.1f e- (%.1f photons)\n",
               r.saturation_capacity_e.value, r.saturation_capacity_e.uncertainty, r.saturation_photons,
               rel_span * r.saturation_photons, C::eta * p_star, p_star);
+  // 5 SE: the estimate's own uncertainty (half-span of the peak, in quadrature with η's).
   EXPECT_NEAR(r.saturation_capacity_e.value, C::eta * p_star, 5 * r.saturation_capacity_e.uncertainty);
   EXPECT_NEAR(r.saturation_photons, p_star, 5 * rel_span * r.saturation_photons);
   // The physical limit: no pixel holds more than the well (one-sided, 5 SE as above).
@@ -205,6 +207,7 @@ TEST(Emva1288, ClippedDarkSignalIsWarned) {
   const double p0 = 0.5 * std::erfc(-((0.5 - p.black_level_dn - K * dark_e) / (K * sigma)) / std::sqrt(2.0));
   const double se = std::sqrt(p0 * (1 - p0) / static_cast<double>(m.pixels_measured));
   std::printf("dark pixels reading 0 DN at %g dB: %.4f, model %.4f (SE %.4f)\n", s.gain_db, m.dark_clipped_fraction, p0, se);
+  // 5 SE of a binomial fraction, √(p₀(1 − p₀)/n) over the measured pixels.
   EXPECT_NEAR(m.dark_clipped_fraction, p0, 5 * se);
   ASSERT_FALSE(m.warnings.empty());
   EXPECT_NE(m.warnings.front().find("read 0 DN"), std::string::npos) << m.warnings.front();

@@ -49,6 +49,7 @@ TEST(Poisson, CorrectedNormalIsWithinStatedCdfErrorAboveThreshold) {
     for (long k = lo; k <= hi; ++k) worst = std::max(worst, std::fabs(approx_cdf(k, mu) - poisson_cdf(k, mu)));
     std::printf("cornish-fisher: max |F_cf(k) - F(k)| at mean %g: %.2e\n", mu, worst);
     EXPECT_LT(worst, kPoissonApproxMaxCdfError) << "mean " << mu;
+    // (the printed figure's rounding: ±0.05 in its second digit)
     if (mu == kPoissonApproxThreshold) EXPECT_NEAR(worst, 2.9e-5, 0.05e-5);
     if (mu == 128.0) EXPECT_NEAR(worst, 1.1e-7, 0.05e-7);
   }
@@ -143,6 +144,7 @@ TEST(Poisson, LargeMeansKeepMeanAndVariance) {
       s2 += k * k;
     }
     const double mean = s / n, var = s2 / n - mean * mean;
+    // 5 SE of a mean of n Poisson(μ) draws: √(μ/n).
     EXPECT_NEAR(mean, mu, 5 * std::sqrt(mu / n));
     // The standard error of var/μ is sqrt((1/μ + 2) / n) (the Poisson μ₄ = μ + 3μ²; sensor_test.cpp's
     // Poisson variance check): 0.00447 at n = 1e5 and μ ≥ 1e5; within 5 SE.

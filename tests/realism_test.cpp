@@ -74,6 +74,7 @@ TEST(ThesisBaseline, DarkenScalesValueByClassReflectance) {
     const int x = static_cast<int>(c) * 8 + 3;
     const double rho = thesis_reflectance(static_cast<int>(cls[c]));
     const int r = out.at(x, 1, 0), g = out.at(x, 1, 1), b = out.at(x, 1, 2);
+    // Half a code for the 8-bit rounding plus two float roundings (2^-24 relative each) of 200·ρ.
     EXPECT_NEAR(std::max({r, g, b}), 200 * rho, 0.5 + 2 * 200 * rho * 0x1p-24) << scene::label_name(static_cast<int>(cls[c]));
     // The order of the channels (the hue) is kept: R > G > B as in the day colour.
     EXPECT_GE(r, g);

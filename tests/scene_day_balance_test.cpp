@@ -133,6 +133,8 @@ TEST(DayWhiteBalance, DaylightLocusMatchesTheCieWhites) {
     const auto got = nearest_daylight(q);
     const auto want = nearest_by_search(q);
     EXPECT_NEAR(std::hypot(got[0] - q[0], got[1] - q[1]), want[0], kNearestTol) << q[0] << ", " << q[1];
+    // 1e-4 mired: a regression guard, not a derived bound (the distance, the quantity both minimise,
+    // is held to kNearestTol above; along the curve the minimum is flat, and no bound is derived here).
     EXPECT_NEAR(1e6 / got[2], want[1], 1e-4) << q[0] << ", " << q[1];
   }
 }
@@ -164,6 +166,7 @@ TEST(DayWhiteBalance, TakesACamerasCastOutOfTheTexture) {
     EXPECT_NEAR(bal.gain[0] * cast[0], 1.0, e) << at;
     EXPECT_EQ(bal.gain[1], 1.0) << at;
     EXPECT_NEAR(bal.gain[2] * cast[2], 1.0, e) << at;
+    // T0 to 1e-6 relative: a regression guard on nearest_daylight's solve, not a derived bound.
     EXPECT_NEAR(bal.road_cct_K, T0, T0 * 1e-6) << at;
     EXPECT_EQ(bal.samples, (kW / 4) * (kH / 2 / 4)) << at;  // every 4th row and column of the road
     const ImageF unbalanced = reflectance_texture(cast_photo.day, cast_photo.ids, preset(DayWhiteBalance::None));
@@ -192,6 +195,7 @@ TEST(DayWhiteBalance, KeepsTheDaylightsOwnColour) {
     const Street s = street({1, 1, 1}, kH / 2, daylight_rgb(T));
     const DayBalance b = day_white_balance(s.day, s.ids, preset(DayWhiteBalance::Road));
     EXPECT_EQ(b.state(), "road");
+    // kNearestTol for the nearest point and two float roundings of the road's mean ratios.
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.gain[k], 1.0, kNearestTol + 2 * 0x1p-24) << T << " K, channel " << k;
   }
 }

@@ -1237,6 +1237,7 @@ TEST(StreetLighting, PoolsAlongTheRoadEdgesHoldTheClassAverage) {
   double max_D = 0;
   for (const auto& l : s.lamps) max_D = std::max(max_D, std::fabs(l.D_m));
   for (size_t i = 1; i < s.lamps.size(); ++i)
+    // (8·2⁻⁵³·(max|D| + S): the layout's roundings above)
     EXPECT_NEAR(s.lamps[i].D_m - s.lamps[i - 1].D_m, S / 2, 8 * 0x1p-53 * (max_D + S));
   // The intensity is set on the design layout (one row at the kerb, carriageway as wide as the
   // mounting height): its EN 13201-3 field averages L_M.
@@ -1367,6 +1368,7 @@ long expect_head_ratios(const ImageF& heads, double rg, double bg, double tol) {
 void expect_heads_take(const OpenStreet& street, const ScenePreset& cs, const std::array<double, 3>& w) {
   const auto& [o, sc, p, s] = street;
   const auto rgb = streetlamp_rgb(cs, 7909.0);
+  // One double product per band in streetlamp_rgb and one in the test's 7909·w: 2·2⁻⁵³ = 2⁻⁵².
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(rgb[k], 7909.0 * w[k], 0x1p-52 * 7909.0 * w[k]) << k;
   const StreetLighting s_cs = plan_street_lighting(sc.labels, o.camera, cs, 7);
   EXPECT_EQ(s_cs.peak_intensity_cd, s.peak_intensity_cd);  // the class, whatever the colour
@@ -1485,6 +1487,8 @@ TEST(StreetLighting, EachLampOnlyOverItsFootprint) {
       const double tol = (k_term + static_cast<double>(in.lamps.size()) + 2) * std::ldexp(1.0, -24);
       worst_rel = std::max(worst_rel, std::fabs(e_img / e_in - 1));
       worst_tol = std::max(worst_tol, tol);
+      // tol: the float evaluation's bound above; the 1e-30 lux is an absolute floor with no physical
+      // meaning, below any illuminance a lamp gives here (it only matters where e_in is 0).
       ASSERT_NEAR(e_img, e_in, tol * e_in + 1e-30) << x << "," << y;
       // Beyond the rim by more than 1e-6·R each dropped lamp's E has fallen below E_R by at least
       // d ln E/d ln r·1e-6 (≈ 5.7e-6 at the presets' reach: the falloff's 1/φ_f and cos³'s 3·tan γ
@@ -1807,6 +1811,7 @@ TEST(StreetLighting, LampHeadLuminanceIsItsIntensityTowardTheCamera) {
             edge |= std::abs(q - 1) <= 1e-6;
           }
         if (edge) continue;
+        // Coverage in 1/16ths from the 4x4 supersampling, to 4 float roundings of the luminance.
         EXPECT_NEAR(lum, h.want_L * in / 16, 4 * 0x1p-24 * h.want_L)
             << "pixel (" << x << ", " << y << ") of the head at (" << h.u << ", " << h.v << "), " << in << "/16 inside";
         ++shaped;
@@ -2077,6 +2082,8 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfLedB) {
   constexpr int kStreet = static_cast<int>(spectrum::LampSpectrum::LedBStreet);
   auto expect_metamer = [&](const std::array<double, 3>& got, int table, const char* what) {
     const auto want = camera_metamer_rgb(cam, spectrum::kLedBSpd5nm[table], 81);
+    // 1e-9 relative: the bound sensor_test.cpp derives for camera_metamer_rgb (10³ double terms a
+    // side, a 3x3 solve of condition below 10³).
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], want[k], 1e-9 * want[k]) << what << " LED-B" << table + 1 << " box " << k;
   };
   const ScenePreset lc = scene_for_camera(p, cam);
@@ -2123,6 +2130,7 @@ TEST(StreetLampType, TheChainsSceneTakesItsCamerasMetamerOfLedB) {
   expect_metamer(qc.lamp_camera_rgb[kStreet], 3, "street");
   const auto wq = qc.lamp_camera_rgb[kStreet];
   const auto tq = streetlamp_tint(qc);
+  // The code's quotient and the test's, one double rounding each: 2⁻⁵² relative.
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(tq[k], wq[k] / d[k], 0x1p-52 * wq[k] / d[k]) << k;
   // Without a camera: the Planck proxy at both CCTs, the same bits as before.
   for (const ScenePreset* x : {&p, &q}) {
@@ -3410,7 +3418,9 @@ TEST(MetricLights, AGoingAwayVehiclesLowBeamLightsTheRoadBeyondIt) {
     ASSERT_NE(v, nullptr);
     ASSERT_EQ(v->state, 1);
     ASSERT_FALSE(v->faces_camera);
-    EXPECT_NEAR(v->D, 15, 0.5);  // its contact: its rear
+    // Its contact: its rear. One row at 15 m spans D²/(f·h) = 0.16 m (f = 1131 px at 1024 wide,
+    // h = 1.22 m); 0.5 m (3 rows) is a regression guard, not a derived bound.
+    EXPECT_NEAR(v->D, 15, 0.5);
     if (height < b.on.geometry.mount_height_m) {  // every vehicle row below the horizon
       const double y_h = b.on.geometry.cy_px - b.on.geometry.f_px * std::tan(b.on.geometry.pitch_rad);
       EXPECT_GT(v->y0, y_h + 1);
@@ -3625,6 +3635,7 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
                                   std::fabs(g.cx_px) + std::fabs(g.cy_px) + std::fabs(x - g.cx_px) + std::fabs(y - g.cy_px));
     EXPECT_NEAR(u, x, px);
     EXPECT_NEAR(v, y, px);
+    // 16 roundings (rnd = 2⁻⁵³) of the projection's magnitude, as for u and v above.
     EXPECT_NEAR(zz, z, 16 * rnd * M);
     return sign_retroreflected_cd_m2(X, Y, D, g.mount_height_m, p);
   };
@@ -3637,6 +3648,7 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
     for (int y = sg.y0; y < sg.y0 + 4; ++y)
       for (int x = sg.x0; x < sg.x0 + 4; ++x) {
         const double Lw = point_L(x, y, sg.z), L = m.radiance.at(x, y, 1);
+        // (8·2⁻²⁴: two float products per pixel on each side of the ratio, derived above the test)
         EXPECT_NEAR(L / L0, Lw / Lw0, 8 * std::ldexp(1.0, -24) * (Lw / Lw0)) << x << "," << y;
         ++n;
       }

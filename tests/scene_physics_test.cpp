@@ -79,6 +79,7 @@ TEST(ScenePhysics, MarkingLuminanceIsRLTimesBeamIlluminance) {
   std::fprintf(stderr, "[scene] %zu marking pixels: median L / (R_L E_h d_c/h_l) = %.9f (%.3g u off); E⊥/E_h "
                "%.1f..%.1f; the approximation within %.2g of Σ I/d²\n", ratio.size(), m, (m - 1) / 0x1p-24, min_gain,
                max_gain, worst_perp);
+  // (2u, u = 2⁻²⁴: step 1 of the derivation above the test)
   EXPECT_NEAR(m, 1.0, 2 * 0x1p-24);
 }
 
@@ -193,6 +194,7 @@ TEST(ScenePhysics, PoleLampsWithoutGeometryTakeTheStreetLampType) {
     const double r = m.radiance[3 * i], g = m.radiance[3 * i + 1], b = m.radiance[3 * i + 2];
     if (!(g > 0)) continue;
     ++lit;
+    // Each channel scaled in double and stored as float (2⁻²⁴): a ratio of two within 2·2⁻²⁴.
     EXPECT_NEAR(r / g, h[0] / h[1], 2 * 0x1p-24 * h[0] / h[1]) << i;
     EXPECT_NEAR(b / g, h[2] / h[1], 2 * 0x1p-24 * h[2] / h[1]) << i;
     EXPECT_NEAR(lum(m.radiance, i), p.streetlamp_luminance_cd_m2, kLampRounding * p.streetlamp_luminance_cd_m2) << i;
@@ -251,6 +253,7 @@ TEST(ScenePhysics, SignalsAndRearLampsTakeTheCamerasMetamerOfTheirLed) {
     const auto w = camera_metamer_rgb(cam, s);
     ASSERT_GT(w[0] + w[1] + w[2], 0);
     for (int k = 0; k < 3; ++k)
+      // The LED metamer times L, stored as float: one rounding, 2^-24 relative.
       EXPECT_NEAR(m.radiance.at(x, y, k), w[k] * L, 0x1p-24 * w[k] * L) << x << "," << y << " box " << k;
   };
   for (int y = 4; y < 10; ++y)
@@ -337,6 +340,7 @@ TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
         slope = std::max(slope, std::fabs(p.beam_intensity_cd[jv * nh + ih] - node) /
                                     (std::fabs(p.beam_v_deg[jv] - rows[r]) * node));
     const double u = 0x1p-53, want = 2 * I * (hl / d) / d2;
+    // (12u for the closed form, 7u·|row| degrees times the table's slope: derived above the test)
     EXPECT_NEAR(low_beam_lux(0, D, p), want, (12 * u + slope * 7 * u * std::fabs(rows[r])) * want) << D;
   }
   // Beyond the cut-off (farther than h_l / tan 0.57° ≈ 65 m, left of the axis) and behind the car: dark.

@@ -451,6 +451,7 @@ TEST(SceneDarken, ClassMeansHitReflectanceTimesIlluminance) {
   const ImageF box = linear_srgb_to_box_rgb(s.day_linear_srgb);
   const double day_contrast = double(box[3 * im + 1]) / box[3 * ia + 1];
   ASSERT_GT(day_contrast, 2.0);  // the synthetic road has painted markings on this row
+  // (12 float roundings per sample, two samples in the ratio: derived above)
   EXPECT_NEAR(double(dark[3 * im + 1]) / dark[3 * ia + 1], day_contrast, 2 * 12 * 0x1p-24 * day_contrast);
   {
   // Texture survives: within the road class every pixel is the day colour times one class scale,
@@ -507,7 +508,10 @@ TEST(SceneGeometry, SyntheticVanishingPointAndDepthOrdering) {
     SyntheticScene s = make_synthetic_road(o);
     NightScene n = night_scene(s.day_linear_srgb, s.labels, preset(), 1);
     EXPECT_EQ(n.vp.method, VpMethod::Hough) << n.vp.note;
+    // 6 px: a regression guard, not a derived bound (the mean of the detected segments'
+    // intersections, whose endpoints are quantised to pixels, has no error bound derived here).
     EXPECT_LT(std::hypot(n.vp.x - vx, n.vp.y - vy), 6.0) << n.vp.x << "," << n.vp.y;
+    // Exact by construction: a Hough point's confidence is at least 0.31 (scene/vanishing.cpp).
     EXPECT_GT(n.vp.confidence, 0.3);
     // Metric depth: far near the horizon, near at the bottom; the far car deeper than the near one.
     // Both pixels are road, on the flat-ground model z = f·h/((v − y_h)·cos θ) (ground_depth_m;
@@ -1797,6 +1801,7 @@ TEST(SceneChain, OpticsUseTheFramesOwnFocalLength) {
   const double u = 0x1p-53, f_px = 721.5377 * 414.0 / 1242.0;
   EXPECT_NEAR(c.scene.geometry.f_px, f_px, 4 * u * f_px);
   const LensPreset lens = lens_for_frame(setup.lens, setup.camera, c.scene.geometry);
+  // (8.5u: the rounding count above)
   EXPECT_NEAR(lens.focal_length_mm, f_px * 4.65e-3, 8.5 * u * f_px * 4.65e-3);
   EXPECT_EQ(lens.f_number, setup.lens.f_number);
   EXPECT_EQ(lens.transmittance, setup.lens.transmittance);

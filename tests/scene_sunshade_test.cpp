@@ -160,6 +160,7 @@ TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
     c[side] = Y(tex, 0, y) / s.rho[static_cast<size_t>(y) * kW];
     for (int yy = side ? kStepY : 0; yy < (side ? kH : kStepY); ++yy)
       for (int x = 0; x < kW; ++x)
+        // One constant per side, within 4 float roundings (2⁻²⁴) of the texture and the division.
         EXPECT_NEAR(Y(tex, x, yy) / s.rho[static_cast<size_t>(yy) * kW + x], c[side], 4 * 0x1p-24 * c[side])
             << x << "," << yy;
   }
@@ -181,6 +182,7 @@ TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
   double sum = 0;
   for (int y = 0; y < kH; ++y)
     for (int x = 0; x < kW; ++x) sum += Y(tex, x, y);
+  // Each sample within sample_rel, the class mean one more: 2·sample_rel (above).
   EXPECT_NEAR(sum / (kW * kH), p.rho_road, 2 * sample_rel * p.rho_road);
   // The marking in the sun and in the shade: paint over asphalt kPaint/kAsphalt = 5 on both sides
   // (means over its 4 columns and the asphalt's: the marking's 4 x 64 = 256 pixels per side, each of
@@ -193,6 +195,7 @@ TEST(SunShade, FlattensASunlitStepKeepingTheMarkingAndTheTexture) {
         (m ? mark : asph) += Y(tex, x, y);
         (m ? nm : na) += 1;
       }
+    // (5 SE of the marking-to-asphalt ratio: 3.6 %, derived above)
     EXPECT_NEAR((mark / nm) / (asph / na), kPaint / kAsphalt, 0.036 * kPaint / kAsphalt) << "side " << side;
   }
   // The same with the split off: the sun side keeps its 6×.
@@ -461,6 +464,7 @@ TEST(SunShade, BundledKittiRoadLosesTheDaysSunPatch) {
   };
   const double day_ratio = day_y(780, 860, 315, 345) / day_y(575, 630, 275, 305);
   EXPECT_GT(day_ratio, 2.0) << "the patch is sunlit in the day";
+  // (5κ + 2) float roundings (2⁻²⁴) per mean, κ the box conversion's conditioning; two means in the ratio.
   EXPECT_NEAR(off_ratio, day_ratio, 2 * (5 * kappa + 2) * 0x1p-24 * day_ratio) << "kappa " << kappa;
   // The bright outline round the former sun patches: road pixels on the shade level within 3 px of
   // the sunlit level whose night texture is more than 1.95 times the shade level's median (the

@@ -285,6 +285,7 @@ TEST(Adc, AnOverflowedSignalSaturatesThePixel) {
       ASSERT_TRUE(std::isfinite(out.electrons[i])) << to_string(m) << " pixel " << i;
       if (i % 7 == 0) {
         ASSERT_EQ(out.electrons[i], 20000.f) << to_string(m) << " pixel " << i << " mean " << sig[i];
+        // (±4 DN: over 6σ of the 0.6 DN read noise, above)
         ASSERT_NEAR(out.raw_dn[i], 64 + 0.2 * 20000, 4) << to_string(m) << " pixel " << i;
       } else {
         ASSERT_LT(out.electrons[i], 200.f) << to_string(m) << " pixel " << i;
@@ -327,6 +328,7 @@ TEST(FixedPattern, MapsHaveTheirStatisticsAndAreDeterministic) {
   auto se_sd = [n](double sigma, double beta2) { return sigma * std::sqrt((beta2 - 1) / n) / 2; };
   const double s2 = std::log1p(0.3 * 0.3);
   const double beta2_ln = std::exp(4 * s2) + 2 * std::exp(3 * s2) + 3 * std::exp(2 * s2) - 3;
+  // (5 SE each: σ/√n for the means, σ·√((β₂ − 1)/n)/2 for the SDs, above)
   EXPECT_NEAR(mean_of(a.prnu_gain), 1.0, 5 * 0.015 / std::sqrt(n));
   EXPECT_NEAR(std::sqrt(var_of(a.prnu_gain)), 0.015, 5 * se_sd(0.015, 3));
   EXPECT_NEAR(mean_of(a.dsnu_offset_e), 0.0, 5 * 4.0 / std::sqrt(n));
@@ -638,6 +640,7 @@ TEST(ReadNoise, TukeyLambdaHasTheStatedStandardDeviationAndHeavierTails) {
   const double var_b2 = (m8 / std::pow(m2, 4) - 4 * m4 * m6 / std::pow(m2, 5) + 4 * std::pow(m4, 3) / std::pow(m2, 6) -
                          m4 * m4 / std::pow(m2, 4)) / n;
   std::printf("Tukey lambda %g: sample kurtosis %.3f, the law's %.3f, SE %.3f\n", lam, beta2, beta2_model, std::sqrt(var_b2));
+  // 5 SE of the sample kurtosis (var_b2: the delta-method variance above).
   EXPECT_NEAR(beta2, beta2_model, 5 * std::sqrt(var_b2));
   EXPECT_GT(beta2_model, 3 + 5 * std::sqrt(var_b2));  // heavier tails than a Gaussian's, beyond the noise
 }
@@ -657,6 +660,7 @@ TEST(Spectrum, BandEfficaciesAndConversions) {
     vm += (i == 0 || i == 10 ? 1 : i % 2 ? 4 : 2) * v[i] / 30;
     worst_node = std::max(worst_node, std::fabs(spectrum::cie_y_bar(500 + 10 * i) - v[i]));
   }
+  // The fit's worst node deviation plus Simpson's error (4e-5, above), relative to the table's mean.
   EXPECT_NEAR(e[1] / (683.0 * vm), 1.0, (worst_node + 4e-5) / vm);
   // The luminance of the rounded-to-float colour: each band is off by at most 2⁻²⁴ relative, and
   // the terms are all positive, so the sum is off by at most 2⁻²⁴ of it (twice that for the double
@@ -753,6 +757,7 @@ TEST(Spectrum, Hp1IsTheCieTablesBandsAtTheAskedLuminance) {
     EXPECT_NEAR(rgb[2] / rgb[0], b[2] / b[0], 4 * 0x1p-53 * (b[2] / b[0])) << L;
     EXPECT_NEAR(rgb[1] / rgb[0], b[1] / b[0], 4 * 0x1p-53 * (b[1] / b[0])) << L;
     const float f[3] = {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]), static_cast<float>(rgb[2])};
+    // (2⁻²⁴ for the float radiance, 8·2⁻⁵³ for the double scaling: derived above the test)
     EXPECT_NEAR(spectrum::luminance_cd_m2(f), L, (0x1p-24 + 8 * 0x1p-53) * L) << L;
   }
   // Not a Planck radiator at any CCT: where a black body's B/R is within half of HP1's (0.11-0.34,
@@ -790,6 +795,7 @@ std::array<double, 4> expect_metamer_gives_raw_colour(const CameraPreset& cam, c
     if (ref < 0) ref = c;
     const double got = (M[c][0] * w[0] + M[c][1] * w[1] + M[c][2] * w[2]) /
                        (M[ref][0] * w[0] + M[ref][1] * w[1] + M[ref][2] * w[2]);
+    // (10⁻⁹ relative: the bound derived above expect_metamer_gives_raw_colour)
     EXPECT_NEAR(got, e[c] / e[ref], 1e-9 * e[c] / e[ref]) << "filter colour " << c;
   }
   EXPECT_GE(colours, 2);
@@ -1050,9 +1056,11 @@ TEST(Expose, WholeChainOnEveryBundledCamera) {
         }
       const double mu = mu_sum / n;
       const double model_rel = midpoint_rel[static_cast<int>(c)] + 0x1p-24;
+      // 5 SE of the electrons' mean (Poisson: √Σμ / n) plus the model's midpoint-rule error.
       EXPECT_NEAR(e_sum / n, mu, 5 * std::sqrt(mu_sum) / n + model_rel * mu) << entry.name << " colour " << static_cast<int>(c);
       const double dn_var = K * K * (mu + p.read_noise_e * p.read_noise_e) + 1.0 / 12;
       const double dn_se = std::sqrt(dn_var / n + K * K * (std::pow(p.row_noise_e, 2) / (h / 2) + std::pow(p.column_noise_e, 2) / (w / 2)));
+      // 5 SE of the DN mean: K²(μ + σ_r²) + 1/12 per pixel over n, and the row and column noise's share.
       EXPECT_NEAR(dn_sum / n, K * (e_sum + off_sum) / n + p.black_level_dn, 5 * dn_se) << entry.name << " colour " << static_cast<int>(c);
     }
   }

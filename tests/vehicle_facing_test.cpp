@@ -250,6 +250,7 @@ TEST(VehicleFacing, RoadGreyGainsUndoACast) {
   for (size_t i = 0; i < s.day_linear_srgb.size(); ++i) s.day_linear_srgb[i] *= cast[i % 3];
   const auto g = road_grey_gains(s.day_linear_srgb, s.labels.ids);
   const double m = (0.75 + 1 + 0.8) / 3;
+  // tol (above): 3 float roundings and the n + 4 double additions of the sums.
   EXPECT_NEAR(g[0], m / 0.75, tol * m / 0.75);
   EXPECT_NEAR(g[1], m / 1.0, tol * m);
   EXPECT_NEAR(g[2], m / 0.8, tol * m / 0.8);

@@ -601,6 +601,8 @@ def test_poisson_keyword_matches_cli(kitti, cli, store, tmp_path):
     o = cam.expose(radiance, seed=2, backend="cpu", poisson="cornish-fisher")
     np.testing.assert_array_equal(ch["raw.Y"], o.raw.astype(np.float32))
     assert o.metadata["poisson"] == "cornish-fisher"
+    # a frame whose mean is in the corrected normal's range (kPoissonApproxThreshold = 10 e-;
+    # below it the cornish-fisher mode samples by exact inversion too)
     assert o.electrons.mean() > 10
     assert (o.raw != cam.expose(radiance, seed=2, backend="cpu").raw).any()
     day, labels = kitti
