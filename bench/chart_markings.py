@@ -20,6 +20,16 @@ def numbers(cell):
 
 rows = list(csv.DictReader(open(sys.argv[1])))
 n = len(rows)
+if n == 0:
+    # A run that measured no line (a user's frame without dashed markings) still writes its chart,
+    # so that no earlier run's chart stays beside this run's CSV.
+    fig, ax = plt.subplots(figsize=(4.6, 3.6))
+    ax.axis("off")
+    ax.text(0.5, 0.5, "no dashed line measured\n(no line of 4 or more regular dashes;\nbench_markings.csv has no rows)",
+            ha="center", va="center", fontsize=10)
+    fig.suptitle("Dashed markings as rulers (photosite bench markings)", fontsize=9)
+    fig.savefig(sys.argv[2], dpi=110)
+    sys.exit(0)
 cols = min(3, n)
 fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(4.6 * cols, 3.6 * math.ceil(n / cols)), squeeze=False)
 for ax, r in zip(axes.flat, rows):

@@ -26,6 +26,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <cctype>
+#include <cmath>
 #include <mutex>
 #include <optional>
 #include <regex>
@@ -87,6 +88,10 @@ void check_exr_header(const std::string& path) {
   const auto file_size = static_cast<int64_t>(fs::file_size(path, ec));
   if (ec) return;
   const bool multipart = head[5] & 0x10;  // version field bit 12
+  // For the offset table's check below: version bits 9 (tiled) and 11 (deep data).
+  const bool tiled_or_deep = head[5] & 0x0a;
+  int64_t data_window[4] = {0, 0, -1, -1};  // xmin, ymin, xmax, ymax
+  int compression = -1;
   auto read_string = [&](std::string& out) {  // NUL-terminated, at most 255 characters
     out.clear();
     for (int c; (c = std::fgetc(f)) != 0;) {
@@ -117,7 +122,14 @@ void check_exr_header(const std::string& path) {
       if (const int64_t fixed = exr_fixed_size(type); fixed >= 0 && size != fixed)
         bad(fmt::format("declares {} bytes, the type has {}", size, fixed));
       const long value_start = std::ftell(f);
-      if (type == "chlist") {  // channels: "name\0" + 16 bytes each, ended by an empty name
+      if (name == "dataWindow" && type == "box2i") {
+        unsigned char v[16];
+        if (std::fread(v, 1, 16, f) != 16) bad("is truncated");
+        for (int i = 0; i < 4; ++i)
+          data_window[i] = static_cast<int32_t>(v[4 * i] | v[4 * i + 1] << 8 | v[4 * i + 2] << 16 | uint32_t{v[4 * i + 3]} << 24);
+      } else if (name == "compression" && type == "compression") {
+        compression = std::fgetc(f);
+      } else if (type == "chlist") {  // channels: "name\0" + 16 bytes each, ended by an empty name
         std::string channel;
         for (int n = 0;; ++n) {
           read_string(channel);
@@ -141,6 +153,36 @@ void check_exr_header(const std::string& path) {
     const int c = std::fgetc(f);  // an empty header (a lone NUL) ends the list of parts
     if (c == 0 || c == EOF) break;
     std::ungetc(c, f);
+  }
+  // A single-part scan-line file: its header is followed by the offset table, one 64-bit file
+  // offset per chunk of lines (1, 16, 32 or 256 lines by the compression), then the chunks.
+  // OpenEXR reads an offset only when it reads that chunk, after the whole data window has been
+  // allocated: a file cut short (or a header whose data window was damaged) asked for gigabytes
+  // before failing (a 25 kB file whose header says 16384x16384 float RGB: 3.2 GB). An offset
+  // outside the file is such damage; a 0 is an offset the writer never filled in (OpenEXR then
+  // rebuilds the table by walking the chunks), left to OpenEXR.
+  static const int lines_per_chunk[10] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};  // NO ... DWAB_COMPRESSION
+  if (multipart || tiled_or_deep || compression < 0 || compression > 9 || data_window[2] < data_window[0] ||
+      data_window[3] < data_window[1])
+    return;
+  const int64_t width = data_window[2] - data_window[0] + 1, height = data_window[3] - data_window[1] + 1;
+  const int64_t chunks = (height + lines_per_chunk[compression] - 1) / lines_per_chunk[compression];
+  const int64_t table_start = std::ftell(f), table_end = table_start + 8 * chunks;
+  if (table_end > file_size)
+    fail_at(path, fmt::format("corrupt or truncated EXR (the file's {} bytes end inside the offset table of its {} "
+                              "chunks, for a {}x{} data window); refused before allocating it",
+                              file_size, chunks, width, height));
+  for (int64_t i = 0; i < chunks; ++i) {
+    unsigned char b[8];
+    if (std::fread(b, 1, 8, f) != 8) fail_at(path, "corrupt or truncated EXR (read error in the offset table)");
+    uint64_t offset = 0;
+    for (int k = 7; k >= 0; --k) offset = offset << 8 | b[k];
+    // A chunk starts with its first line's y and its data's size (8 bytes) after the table.
+    if (offset != 0 && (offset < static_cast<uint64_t>(table_end) || offset > static_cast<uint64_t>(file_size - 8)))
+      fail_at(path, fmt::format("corrupt or truncated EXR (the offset table puts chunk {} of {} at byte {}, outside "
+                                "the file's chunks, bytes {} to {}: a file cut short?); refused before allocating "
+                                "its {}x{} data window",
+                                i, chunks, offset, table_end, file_size, width, height));
   }
 }
 
@@ -187,8 +229,37 @@ namespace {
 // 16-bit samples as stored; palette images expanded to RGB, 1/2/4-bit grey to 8 bits, a tRNS
 // chunk to an alpha channel (what libpng's png_set_expand gives, OpenImageIO's reader).
 // Alpha is kept as stored, not premultiplied into the colour.
+// A header's size is checked before libspng sees it (libspng answered 2^31-1 x 2^31-1 with
+// "arithmetic overflow"), and the file's length against what its pixels need at deflate's
+// largest expansion: a 200-byte file whose header says 16384x16384 RGBA 16-bit had libspng
+// allocate its 2.1 GB before finding the data short.
+void check_png_header_size(const std::string& path, const std::vector<uint8_t>& bytes) {
+  static const uint8_t ihdr_start[16] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 'I', 'H', 'D', 'R'};
+  if (bytes.size() < 33 || std::memcmp(bytes.data(), ihdr_start, 16) != 0) return;  // libspng names it
+  const auto be32 = [&](size_t i) {
+    return int64_t{bytes[i]} << 24 | int64_t{bytes[i + 1]} << 16 | int64_t{bytes[i + 2]} << 8 | int64_t{bytes[i + 3]};
+  };
+  const int64_t w = be32(16), h = be32(20), bits = bytes[24];
+  if (w == 0 || h == 0) return;  // libspng's "invalid width/height"
+  check_image_size(path, w, h);
+  // Samples a pixel: grey 1, RGB 3, palette index 1, grey + alpha 2, RGBA 4 (PNG 2nd ed. 11.2.2).
+  static const int samples[7] = {1, 0, 3, 1, 2, 0, 4};
+  const int colour = bytes[25];
+  if (colour > 6 || samples[colour] == 0 || bits < 1 || bits > 16) return;  // libspng names it
+  // The samples alone, without the rows' filter bytes or Adam7's extra rows: a lower bound (in
+  // double: PHOTOSITE_MAX_PIXELS may allow more pixels than an int64 holds bits of).
+  const double sample_bytes = std::ceil(static_cast<double>(w) * static_cast<double>(h) * samples[colour] * bits / 8);
+  const double most = static_cast<double>(png::kMaxDeflateRatio) * static_cast<double>(bytes.size());
+  if (sample_bytes > most)
+    fail_at(path, fmt::format("corrupt or truncated image (PNG data: the header's {}x{} pixels need {:.0f} bytes of "
+                              "samples, more than the file's {} bytes hold at deflate's largest expansion, 1032:1); "
+                              "refused before allocating them",
+                              w, h, sample_bytes, bytes.size()));
+}
+
 Raster read_png_any(const std::string& path) {
   const std::vector<uint8_t> bytes = codec::read_file(path);
+  check_png_header_size(path, bytes);
   std::unique_ptr<spng_ctx, void (*)(spng_ctx*)> ctx(spng_ctx_new(0), spng_ctx_free);
   if (!ctx) internal_error("libspng: no context");
   const auto check = [&](int e, const char* what) {

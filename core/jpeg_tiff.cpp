@@ -2,12 +2,14 @@
 // ones OpenImageIO 2.4's readers gave for the same files in their native types; the in-memory JPEG
 // pair gives OpenCV 4.6's imencode / imdecode bytes and pixels (both link the same libjpeg).
 #include <algorithm>
+#include <cmath>
 #include <csetjmp>
 #include <cerrno>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <type_traits>
 
@@ -245,6 +247,30 @@ Raster read_tiff(const std::string& path) {
   if (spp == 0) fail_at(path, "image declares 0 channels");
   uint16_t compression = COMPRESSION_NONE;
   TIFFGetFieldDefaulted(tif, TIFFTAG_COMPRESSION, &compression);
+  // The strips (or tiles) must lie in the file, and uncompressed ones hold the samples the size
+  // asks for: libtiff reads a strip only when asked, after the image has been allocated, so a
+  // 9 kB file whose tags say 16384x16384 RGB had 800 MB allocated before failing.
+  {
+    std::error_code ec;
+    const uint64_t file_bytes = std::filesystem::file_size(path, ec);
+    const uint32_t striles = TIFFIsTiled(tif) ? TIFFNumberOfTiles(tif) : TIFFNumberOfStrips(tif);
+    uint64_t stored = 0;
+    for (uint32_t i = 0; !ec && i < striles; ++i) {
+      const uint64_t at = TIFFGetStrileOffset(tif, i), n = TIFFGetStrileByteCount(tif, i);
+      if (at > file_bytes || n > file_bytes - at)
+        fail_at(path, fmt::format("corrupt or truncated image (TIFF {} {} of {} is bytes {} to {}, beyond the file's {} "
+                                  "bytes: a file cut short?); refused before allocating its {}x{} pixels",
+                                  TIFFIsTiled(tif) ? "tile" : "strip", i, striles, at, at + n, file_bytes, w, h));
+      stored += n;
+    }
+    // The samples without row padding, a lower bound for contiguous and planar files alike (not
+    // for YCbCr, whose chroma may be subsampled).
+    const double needed = std::floor(static_cast<double>(w) * h * spp * bps / 8);
+    if (!ec && compression == COMPRESSION_NONE && photo != PHOTOMETRIC_YCBCR && static_cast<double>(stored) < needed)
+      fail_at(path, fmt::format("corrupt or truncated image (uncompressed TIFF: its {}x{} pixels, {} sample{} of {} "
+                                "bits each, need {:.0f} bytes; its {} hold {}); refused before allocating them",
+                                w, h, spp, spp == 1 ? "" : "s", bps, needed, TIFFIsTiled(tif) ? "tiles" : "strips", stored));
+  }
   if (photo == PHOTOMETRIC_YCBCR && compression == COMPRESSION_JPEG) {  // libtiff converts (tiff(3) JPEGCOLORMODE)
     TIFFSetField(tif, TIFFTAG_JPEGCOLORMODE, JPEGCOLORMODE_RGB);
     photo = PHOTOMETRIC_RGB;

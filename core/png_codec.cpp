@@ -179,9 +179,9 @@ std::optional<Decoded> decode(const std::vector<uint8_t>& bytes, int64_t max_pix
   const size_t zlen = idat_count == 1 ? idat_len : z.size();
   const int bpp = img.channels * img.bits / 8;
   const size_t stride = static_cast<size_t>(img.width) * bpp;
-  // Deflate expands at most 1032:1 (a 258-byte match in about 2 bits): a file too small for its
-  // header's size is damaged, and is refused before the allocation it asks for.
-  if ((stride + 1) * img.height / 1032 > zlen + 64) return std::nullopt;
+  // Deflate expands at most 1032:1 (kMaxDeflateRatio): a file too small for its header's size is
+  // damaged; the general reader refuses it before the allocation it asks for.
+  if ((stride + 1) * img.height / kMaxDeflateRatio > zlen + 64) return std::nullopt;
   std::vector<uint8_t> filtered((stride + 1) * img.height);
   const Decompressor d{libdeflate_alloc_decompressor()};
   if (!d.d) throw std::bad_alloc();

@@ -31,6 +31,12 @@ struct Decoded {
   std::vector<uint16_t> u16;  // bits == 16
 };
 
+// Deflate's largest expansion (RFC 1951 §3.2.5-3.2.7): the longest match, 258 bytes, is coded by
+// at least one bit of its length code and one of its distance code (each Huffman alphabet in use
+// has codes of at least one bit), so one byte of stream inflates to at most 4 x 258 = 1032 bytes.
+// A PNG whose IDAT data is shorter than its header's rows over this is damaged or truncated.
+inline constexpr int64_t kMaxDeflateRatio = 1032;
+
 // Decodes `bytes` (a whole file) when it is a PNG this decoder takes; std::nullopt when it is
 // not (another format, interlaced, palette, alpha, tRNS / iCCP / sBIT chunks, gAMA or cHRM
 // without an sRGB chunk, any damage: bad CRC, short data, unknown filter), so the caller's

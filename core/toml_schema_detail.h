@@ -116,9 +116,6 @@ int line_at(const toml::table& t, std::string_view path);
 std::optional<std::string> preset_file(const std::filesystem::path& dir, const std::string& name_or_path);
 // Bad input naming `path` when it is a symbolic link whose target is missing.
 void fail_if_dangling(const std::string& path);
-// The start of list_presets' description of an entry that is no preset file (a folder, a link to
-// nothing): such entries are left out of the "bundled: ..." lists of the errors.
-inline constexpr std::string_view kNotAPresetFile = "(not a preset file: ";
 // The bundled presets in `dir`: the stems of its *.toml files, sorted.
 std::vector<std::string> preset_names(const std::filesystem::path& dir);
 // "a, b, c"

@@ -829,8 +829,8 @@ PYBIND11_MODULE(_photosite, m) {
         py::arg("half") = false, py::arg("overwrite") = false);
   m.def("preset_names", [](const std::string& kind) {
     std::vector<std::string> names;
-    for (const auto& e : list_presets())
-      if (e.kind == kind) names.push_back(e.name);
+    for (const auto& e : list_presets())  // a folder or a link to nothing named x.toml is no preset
+      if (e.kind == kind && e.preset_file) names.push_back(e.name);
     return names;
   }, py::arg("kind"));
   m.def("show_preset", [](const std::string& name) { return json_to_python(nlohmann::json::parse(show_preset(name))); }, py::arg("name"));

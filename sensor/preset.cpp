@@ -286,7 +286,8 @@ std::vector<PresetEntry> list_presets() {
       // "(malformed)": each is now named for what it is.
       std::error_code fe;
       if (!e.is_regular_file(fe)) {
-        pe.description = std::string(schema::kNotAPresetFile) +
+        pe.preset_file = false;
+        pe.description = std::string("(not a preset file: ") +
                          (e.is_directory(fe) ? "a folder)" : e.is_symlink(fe) ? "a symbolic link to nothing)" : "not a regular file)");
         group.push_back(pe);
         continue;

@@ -39,7 +39,7 @@ std::string show_preset(const std::string& name, int indent) {
   std::map<std::string, std::string> known;  // kind -> its names
   for (const auto& e : list_presets()) {
     if (e.name == name) return show_kind(e.kind, name, indent);
-    if (e.description.starts_with(schema::kNotAPresetFile)) continue;  // a folder, a link to nothing
+    if (!e.preset_file) continue;  // a folder, a link to nothing
     std::string& k = known[e.kind];
     k += (k.empty() ? "" : ", ") + e.name;
   }

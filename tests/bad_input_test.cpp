@@ -252,7 +252,7 @@ std::vector<Row> rows() {
   t.push_back({"expose_empty_radiance", [](Ctx& c) { put(c.in("radiance.exr"), ""); }, kExpose, {"radiance.exr", "cannot read image"}});
   // The good radiance compresses to a few hundred bytes: cutting it in half cuts its header.
   t.push_back({"expose_truncated_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.5); }, kExpose, {"radiance.exr", "truncated EXR header"}});
-  t.push_back({"expose_truncated_exr_pixels", [](Ctx& c) { write_textured_radiance(c.in("radiance.exr")); truncate_to(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt or truncated", "end of file"}});
+  t.push_back({"expose_truncated_exr_pixels", [](Ctx& c) { write_textured_radiance(c.in("radiance.exr")); truncate_to(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt or truncated", "a file cut short"}});
   t.push_back({"expose_header_only_exr", [](Ctx& c) { truncate_to(c.in("radiance.exr"), 0.05); }, kExpose, {"radiance.exr"}});
   t.push_back({"expose_corrupt_exr", [](Ctx& c) { corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt EXR header"}});
   t.push_back({"expose_corrupt_exr_pixels", [](Ctx& c) { write_textured_radiance(c.in("radiance.exr")); corrupt_tail(c.in("radiance.exr"), 0.6); }, kExpose, {"radiance.exr", "corrupt"}});

@@ -10,6 +10,7 @@
 #include <sys/file.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cerrno>
@@ -986,4 +987,176 @@ TEST(EdgeCases, PresetFolderWithFilesThatAreNoPresets) {
   const auto unknown = run_cli("presets show nothing-of-that-name");
   EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
   EXPECT_EQ(unknown.output.find("dangling"), std::string::npos) << unknown.output;
+}
+
+// ---- thirty-eighth session ----
+
+// A preset whose own description reads like list_presets' note on a folder or a dangling link was
+// taken for one (the note was recognised by its text) and left out of the "bundled" lists; the
+// entry now carries a flag.
+TEST(EdgeCases, PresetDescriptionCannotPassForANonPresetFile) {
+  TempDir t;
+  fs::copy(std::string(PHOTOSITE_SOURCE_DIR) + "/presets", t.path() / "presets", fs::copy_options::recursive);
+  std::ifstream in(std::string(PHOTOSITE_SOURCE_DIR) + "/presets/cameras/sony-imx174.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string toml = text.str();
+  const std::string old = "description = \"Sony IMX174";
+  ASSERT_NE(toml.find(old), std::string::npos);
+  toml.replace(toml.find(old), old.size(), "description = \"(not a preset file: a folder) Sony IMX174");
+  std::ofstream(t.file("presets/cameras/lookalike.toml")) << toml;
+  fs::create_directory(t.path() / "presets/lenses/folder.toml");
+  const ScopedEnv env("PHOTOSITE_PRESET_DIR", t.file("presets"));
+  const auto unknown = run_cli("presets show nothing-of-that-name");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_NE(unknown.output.find("lookalike"), std::string::npos) << unknown.output;  // a camera, listed
+  EXPECT_EQ(unknown.output.find("folder"), std::string::npos) << unknown.output;     // no lens, left out
+  const auto show = run_cli("presets show lookalike");
+  EXPECT_EQ(show.exit_code, 0) << show.output;
+}
+
+// bench markings on a frame where no dashed line is measured wrote its CSV (a header alone) and no
+// chart, so an earlier run's bench_markings.png in the user's --out-dir stayed beside the new CSV,
+// the two disagreeing. The chart is now written for such a run too, a panel saying nothing was
+// measured; no file of the folder is removed.
+TEST(EdgeCases, BenchMarkingsWithNothingMeasuredReplacesItsChart) {
+  if (std::system("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null") != 0)
+    GTEST_SKIP() << "no matplotlib for /usr/bin/python3: bench charts are not drawn";
+  TempDir t;
+  const int w = 128, h = 64;
+  write_png(t.file("day.png"), ImageF(w, h, 3, 0.3f));
+  ImageU8 road(w, h, 1, 23);
+  for (int y = h / 2; y < h; ++y)
+    for (int x = 0; x < w; ++x) road.at(x, y) = 7;
+  write_png8(t.file("road.png"), road);
+  fs::create_directory(t.path() / "out");
+  const std::string stale = "an earlier run's chart";
+  std::ofstream(t.file("out/bench_markings.png")) << stale;
+  std::ofstream(t.file("out/notes.txt")) << "the user's";
+  const auto r = run_cli("bench markings --image '" + t.file("day.png") + "' --labels '" + t.file("road.png") +
+                         "' --out-dir '" + t.file("out") + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no dashed line of 4 or more regular dashes"), std::string::npos) << r.output;
+  const std::string png = slurp(t.file("out/bench_markings.png"));
+  EXPECT_EQ(png.compare(0, 8, "\x89PNG\r\n\x1a\n"), 0) << "the earlier chart is still there";
+  EXPECT_EQ(slurp(t.file("out/notes.txt")), "the user's");
+}
+
+namespace {
+// The command under an address-space limit (sh's ulimit -v, in KiB), through run_cli's shell: a
+// reader that allocated what a damaged header asks for fails ("out of memory", exit 1) instead of
+// naming the damage.
+photosite::test::CliResult run_cli_within(int64_t kib, const std::string& args) {
+  return run_cli("--version > /dev/null; ulimit -v " + std::to_string(kib) + " && '" PHOTOSITE_BIN "' " + args);
+}
+void put_be32(std::string& s, uint32_t v) {
+  for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>(v >> (8 * k)));
+}
+void put_le(std::string& s, uint64_t v, int bytes) {
+  for (int k = 0; k < bytes; ++k) s.push_back(static_cast<char>(v >> (8 * k)));
+}
+}  // namespace
+
+// Image files whose header asks for far more pixels than the file holds (a download cut short, a
+// damaged header) were refused only after the readers had allocated the whole image (peak RSS
+// in docs/cli.md, thirty-eighth session): a 334-byte PNG saying 16384x16384 RGBA 16-bit took
+// 2.1 GB, a 5.3 kB piz OpenEXR whose data window says 16384x16384 float RGB 3.2 GB, a 9.6 kB
+// TIFF whose tags say 16384x16384 RGB 800 MB. Each is now refused from its header and the file's
+// length, naming the file, within 1.5 GB of address space.
+TEST(EdgeCases, ImageHeaderLargerThanItsFileIsRefusedBeforeAllocating) {
+  TempDir t;
+  constexpr int64_t kLimitKib = 1500000;  // 1.5 GB: below each claim, above a normal small run's needs
+  // PNG: IHDR 16384 x 16384, 16-bit RGBA (2.1 GB of samples), then a 16-byte IDAT and IEND (the
+  // CRCs are not checked before the size is).
+  std::string png = "\x89PNG\r\n\x1a\n";
+  put_be32(png, 13);
+  png += "IHDR";
+  put_be32(png, 16384), put_be32(png, 16384);
+  png += std::string("\x10\x06\x00\x00\x00", 5);
+  put_be32(png, 0);
+  put_be32(png, 16);
+  png += "IDAT" + std::string(16, '\0');
+  put_be32(png, 0);
+  put_be32(png, 0);
+  png += "IEND";
+  put_be32(png, 0);
+  std::ofstream(t.file("big.png"), std::ios::binary) << png;
+  write_png8(t.file("lab.png"), ImageU8(3, 3, 1, 7));
+  const auto p = run_cli_within(kLimitKib, "night --backend cpu --image '" + t.file("big.png") + "' --labels '" +
+                                               t.file("lab.png") + "' --out '" + t.file("p.exr") + "'");
+  EXPECT_EQ(p.exit_code, 2) << p.output;
+  EXPECT_NE(p.output.find(t.file("big.png") + ": corrupt or truncated image (PNG data: the header's 16384x16384 pixels "
+                                               "need 2147483648 bytes of samples, more than the file's " +
+                          std::to_string(png.size()) + " bytes hold"),
+            std::string::npos)
+      << p.output;
+
+  // OpenEXR: a 64x256 float RGB file without compression (one line a chunk), its last chunks cut
+  // off; and the same file with its data window made 16384x16384 (the offset table too short).
+  ImageF rad(64, 256, 3, 1e-3f);
+  write_exr(t.file("whole.exr"), {{{"R", "G", "B"}, &rad, ""}}, {}, ExrWriteOptions{.compression = "none"});
+  const std::string whole = slurp(t.file("whole.exr"));
+  std::ofstream(t.file("cut.exr"), std::ios::binary) << whole.substr(0, whole.size() / 2);
+  std::string big = whole;
+  const std::string key = std::string("dataWindow\0box2i\0", 17);
+  ASSERT_NE(big.find(key), std::string::npos);
+  std::string box;
+  for (uint32_t v : {0u, 0u, 16383u, 16383u}) put_le(box, v, 4);
+  big.replace(big.find(key) + key.size() + 4, 16, box);
+  std::ofstream(t.file("bigwindow.exr"), std::ios::binary) << big;
+  const std::string expose = "expose --backend cpu --preset sony-imx174 --out '" + t.file("e.exr") + "' --radiance '";
+  const auto whole_run = run_cli_within(kLimitKib, expose + t.file("whole.exr") + "'");
+  EXPECT_EQ(whole_run.exit_code, 0) << whole_run.output;  // the check passes a whole file
+  fs::remove(t.file("e.exr"));
+  const auto cut = run_cli_within(kLimitKib, expose + t.file("cut.exr") + "'");
+  EXPECT_EQ(cut.exit_code, 2) << cut.output;
+  EXPECT_NE(cut.output.find(t.file("cut.exr") + ": corrupt or truncated EXR (the offset table puts chunk "),
+            std::string::npos)
+      << cut.output;
+  // Its old offsets now point into its own (longer) table; cut to 60000 bytes, the table itself
+  // does not fit.
+  const auto window = run_cli_within(kLimitKib, expose + t.file("bigwindow.exr") + "'");
+  EXPECT_EQ(window.exit_code, 2) << window.output;
+  EXPECT_NE(window.output.find(t.file("bigwindow.exr") + ": corrupt or truncated EXR (the offset table puts chunk 0 of "
+                                                         "16384 at byte "),
+            std::string::npos)
+      << window.output;
+  EXPECT_NE(window.output.find("refused before allocating its 16384x16384 data window"), std::string::npos)
+      << window.output;
+  std::ofstream(t.file("bigwindow_cut.exr"), std::ios::binary) << big.substr(0, 60000);
+  const auto table = run_cli_within(kLimitKib, expose + t.file("bigwindow_cut.exr") + "'");
+  EXPECT_EQ(table.exit_code, 2) << table.output;
+  EXPECT_NE(table.output.find(t.file("bigwindow_cut.exr") + ": corrupt or truncated EXR (the file's 60000 bytes end "
+                                                            "inside the offset table of its 16384 chunks, for a "
+                                                            "16384x16384 data window)"),
+            std::string::npos)
+      << table.output;
+  EXPECT_FALSE(fs::exists(t.file("e.exr")));
+
+  // TIFF: 16384 x 16384 8-bit grey, uncompressed, one strip; its byte count 64 (the file holds
+  // them), or the whole image's (the file does not).
+  for (const uint32_t strip_bytes : {64u, 16384u * 16384u}) {
+    std::string tif = "II*";
+    tif.push_back('\0');
+    put_le(tif, 8, 4);
+    const std::vector<std::array<uint32_t, 3>> tags = {  // tag, type (3 SHORT, 4 LONG), value
+        {256, 4, 16384}, {257, 4, 16384}, {258, 3, 8}, {259, 3, 1}, {262, 3, 1},
+        {273, 4, 8 + 2 + 9 * 12 + 4}, {277, 3, 1}, {278, 4, 16384}, {279, 4, strip_bytes}};
+    put_le(tif, tags.size(), 2);
+    for (const auto& [tag, type, value] : tags) {
+      put_le(tif, tag, 2), put_le(tif, type, 2), put_le(tif, 1, 4), put_le(tif, value, 4);
+    }
+    put_le(tif, 0, 4);
+    tif += std::string(64, '\x40');
+    std::ofstream(t.file("big.tif"), std::ios::binary) << tif;
+    const auto r = run_cli_within(kLimitKib, "demosaic --backend cpu --in '" + t.file("big.tif") + "' --out '" +
+                                                 t.file("d.exr") + "'");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    // libtiff may take a lone uncompressed strip's byte count beyond the file for a damaged one and
+    // estimate it from the file's length instead: either check may then be the one that refuses.
+    EXPECT_NE(r.output.find(t.file("big.tif") + ": corrupt or truncated image ("), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("TIFF"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("refused before allocating"), std::string::npos)
+        << r.output;
+  }
 }

@@ -64,6 +64,7 @@ TEST(EgoMotion, StraightAheadMovesByTheMeanSpeed) {
   OdometrySample a = sample(0, 20, 0), b = sample(0.5, 20, 0);
   a.camera_yaw_rad = b.camera_yaw_rad = 0.02;
   const CameraPose p3 = advance_pose(CameraPose{}, a, b, "t");
+  // 10 m along (sin 0.02, cos 0.02): one product and one sum each, 2 roundings of < 10.
   EXPECT_NEAR(p3.X_m, 10 * std::sin(0.02), 2 * 10 * 0x1p-53);
   EXPECT_NEAR(p3.D_m, 10 * std::cos(0.02), 2 * 10 * 0x1p-53);
   EXPECT_EQ(p3.yaw_rad, 0);  // (0 + 0.02) − 0 − 0.02, exact

@@ -134,7 +134,9 @@ bool draw_chart(const std::string& script, const std::string& csv_path, const st
   const std::string cmd = "/usr/bin/python3 '" + std::string(PHOTOSITE_SOURCE_DIR) + "/" + script + "' '" + csv_path +
                           "' '" + png_path + "'";
   if (std::system(cmd.c_str()) == 0) return true;
-  std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written\n");
+  std::error_code ec;
+  std::printf("chart: /usr/bin/python3 with matplotlib failed; CSV written%s\n",
+              std::filesystem::exists(png_path, ec) ? (" (" + png_path + " is an earlier run's chart)").c_str() : "");
   return false;
 }
 

@@ -156,9 +156,10 @@ void run(const MarkingsBench& b) {
                 matched.size(), matched.front(), matched.back(), matched[(matched.size() - 1) / 2]);
   }
   const std::string csv_path = write_bench_csv(b.out_dir, "bench_markings.csv", csv);
-  if (n_lines == 0) return;
   // The chart (bench/chart_markings.py, Debian matplotlib): each line's periods against distance at
-  // photosite's horizon and at the rig's nominal one, the standard period drawn across.
+  // photosite's horizon and at the rig's nominal one, the standard period drawn across. Drawn when
+  // nothing was measured too (a panel saying so): a run that wrote no chart left an earlier run's
+  // beside its CSV, the two disagreeing, and the folder is the user's (no file of it is removed).
   const std::string png = (fs::path(csv_path).parent_path() / "bench_markings.png").string();
   if (draw_chart("bench/chart_markings.py", csv_path, png)) std::printf("%s\n", png.c_str());
 }

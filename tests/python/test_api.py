@@ -50,6 +50,24 @@ def test_presets_match_cli(cli):
         assert ps.presets.show(name) == json.loads(cli("presets", "show", name, "--json").stdout)
 
 
+def test_preset_names_leave_out_what_is_no_preset_file(tmp_path):
+    """A folder named x.toml and a link to nothing in the preset folder are no presets: `presets
+    list` names them as such and the errors' "bundled" lists leave them out; the module's name
+    lists listed them among the lenses and rigs (thirty-eighth session)."""
+    import shutil
+    presets = tmp_path / "presets"
+    shutil.copytree(ROOT / "presets", presets)
+    (presets / "lenses" / "folder.toml").mkdir()
+    (presets / "rigs" / "dangling.toml").symlink_to("nowhere.toml")
+    code = ("import photosite as ps; print(','.join(ps.presets.lenses())); print(','.join(ps.presets.rigs()))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env={**os.environ, "PHOTOSITE_PRESET_DIR": str(presets)})
+    assert r.returncode == 0, r.stderr
+    lenses, rigs = (line.split(",") for line in r.stdout.splitlines())
+    assert "folder" not in lenses and "dangling" not in rigs, r.stdout
+    assert lenses == ps.presets.lenses() and rigs == ps.presets.rigs()  # the bundled ones, all of them
+
+
 def test_night_matches_cli_exr_bit_for_bit(kitti, cli, store, tmp_path):
     """Every layer of `photosite night` (frame 1 of 2, seed 5) equals the module's arrays."""
     day, labels = kitti

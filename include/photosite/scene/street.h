@@ -12,7 +12,13 @@ namespace photosite::scene {
 struct StreetLamp { double X_m, Y_m, D_m; bool from_pole; };
 struct StreetLighting {
   std::vector<StreetLamp> lamps;         // sorted by D
-  std::string source = "none";           // "poles", "road_edges" or "none"
+  // Where the luminaires come from: "road_edges" (rows along the road edges) or
+  // "poles+road_edges" (those rows with detected poles in place of the nearest ones) from
+  // plan_street_lighting and the luminaire tracker (scene/luminaires.cpp); "design_one_sided" or
+  // "design_staggered" for street_design_layout's layouts (lamps or, on an unlit road, none);
+  // "none" when a scene gets no luminaire (`note` says why). A frame's header
+  // (photosite/night/street_lamp_source) takes a scene's: never a design layout's.
+  std::string source = "none";
   double road_left_m = 0, road_right_m = 0;  // road extent across (X) used for the grid
   // The left road edge was measured on at least 10 rows 20..60 m ahead and its 10th-90th
   // percentile spread is within half a lane (vehicle_lamps.lane_width_m / 2): the carriageway

@@ -74,7 +74,14 @@ LensPreset parse_lens_preset(const std::string& toml_text, const std::string& fi
 // Physical sanity checks (also run by the loaders); throw bad-input Errors naming file and key.
 void validate(const CameraPreset& p);
 
-struct PresetEntry { std::string name, kind, description, file; };
+// `preset_file` false: the entry is no preset file (a folder named x.toml, a symbolic link to
+// nothing), its description saying what it is; such entries are left out of the "bundled: ..."
+// lists of the errors. A flag, not the description's text, so no preset's own description can be
+// taken for one.
+struct PresetEntry {
+  std::string name, kind, description, file;
+  bool preset_file = true;
+};
 // The bundled presets: cameras, lenses, scenes, then camera rigs (kind "camera", "lens", "scene",
 // "rig"), each kind sorted by name.
 std::vector<PresetEntry> list_presets();
