@@ -187,9 +187,10 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
       const std::string stem = p.stem().string();
       it.group = all_digits(stem) ? (fs::path("image_2") / sub.parent_path() / "seq").generic_string() : it.key;
       // A numbered frame's OXTS record: the drive's oxts folder as KITTI raw ships it (data/<frame>.txt
-      // and timestamps.txt), at oxts/<sub>/ as the frames are at image_2/<sub>/.
+      // and timestamps.txt), at oxts/<sub>/ as the frames are at image_2/<sub>/. Where the drive has
+      // that folder every frame has its record: one missing is then read and refused by its name.
       if (const fs::path oxts = root / "oxts" / sub.parent_path(); all_digits(stem) &&
-                                                                    fs::exists(oxts / "data" / (stem + ".txt"), ec)) {
+                                                                    fs::is_directory(oxts / "data", ec)) {
         it.odometry = (oxts / "data" / (stem + ".txt")).string();
         it.odometry_time = (oxts / "timestamps.txt").string();
         it.odometry_line = std::stol(stem);

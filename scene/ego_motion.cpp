@@ -36,7 +36,7 @@ double json_number(const nlohmann::json& j, const char* key, const std::string& 
 
 nlohmann::json json_object(const std::string& file, const char* what) {
   const nlohmann::json j = nlohmann::json::parse(schema::read_text(file, what), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) fail_at(file, std::string("not a JSON object (expected ") + what + ")");
+  if (j.is_discarded() || !j.is_object()) fail_at(file, std::string("not a JSON object (expected a ") + what + " file)");
   return j;
 }
 
@@ -52,12 +52,12 @@ int64_t whole_ns(const std::string& text, const std::string& file) {
 OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const std::string& timestamp_txt,
                                         const std::string& camera_json) {
   OdometrySample s;
-  const nlohmann::json v = json_object(vehicle_json, "a Cityscapes vehicle file");
+  const nlohmann::json v = json_object(vehicle_json, "Cityscapes vehicle");
   s.speed_m_s = checked(json_number(v, "speed", vehicle_json), kMaxSpeed_m_s, "speed", "m/s", vehicle_json);
   s.yaw_rate_rad_s = checked(json_number(v, "yawRate", vehicle_json), kMaxYawRate_rad_s, "yawRate", "rad/s", vehicle_json);
-  s.time_ns = whole_ns(schema::read_text(timestamp_txt, "a Cityscapes timestamp file"), timestamp_txt);
+  s.time_ns = whole_ns(schema::read_text(timestamp_txt, "Cityscapes timestamp"), timestamp_txt);
   if (!camera_json.empty()) {
-    const nlohmann::json c = json_object(camera_json, "a Cityscapes camera file");
+    const nlohmann::json c = json_object(camera_json, "Cityscapes camera");
     if (!c.contains("extrinsic") || !c["extrinsic"].is_object()) fail_at(camera_json, "no \"extrinsic\" object");
     // Within a vehicle's length of its reference point.
     s.camera_forward_m = checked(json_number(c["extrinsic"], "x", camera_json), 20, "extrinsic.x", "m", camera_json);
@@ -97,7 +97,7 @@ int64_t parse_kitti_timestamp_ns(const std::string& text, const std::string& whe
 
 OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index) {
   OdometrySample s;
-  std::istringstream ss(schema::read_text(oxts_txt, "a KITTI OXTS file"));
+  std::istringstream ss(schema::read_text(oxts_txt, "KITTI OXTS"));
   std::vector<double> v;
   for (double x; ss >> x;) v.push_back(x);
   if (!ss.eof() || v.size() != 30)
@@ -105,7 +105,7 @@ OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& t
                                   v.size(), ss.eof() ? "" : " and then text"));
   s.speed_m_s = checked(v[8], kMaxSpeed_m_s, "vf", "m/s", oxts_txt);
   s.yaw_rate_rad_s = checked(v[22], kMaxYawRate_rad_s, "wu", "rad/s", oxts_txt);
-  std::istringstream ts(schema::read_text(timestamps_txt, "a KITTI timestamps file"));
+  std::istringstream ts(schema::read_text(timestamps_txt, "KITTI timestamps"));
   std::string line;
   for (long k = 0; k <= index; ++k)
     if (!std::getline(ts, line))

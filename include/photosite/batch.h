@@ -50,9 +50,9 @@ struct Item {
 // KITTI: image_2/ with semantic/ and instance/; BDD100K: images/10k/ with
 // labels/sem_seg/masks/). An image without labels is bad input naming the image. Cityscapes
 // items carry their camera file (camera/<split>/<city>/<stem>_camera.json) where it exists, and
-// their odometry (Item::odometry) where the vehicle and timestamp files exist; numbered KITTI frames theirs
-// where oxts/<sub>/data/<frame>.txt exists (the drive's oxts folder of KITTI raw, placed under
-// the root as the images are under image_2/).
+// their odometry (Item::odometry) where the vehicle and timestamp files exist; numbered KITTI frames
+// theirs, oxts/<sub>/data/<frame>.txt, where the drive's oxts/<sub>/data/ folder exists (KITTI raw's
+// oxts folder, placed under the root as the images are under image_2/).
 // Folder links are followed (not into a folder the walk is already inside: a cycle); image names
 // match in any case of ".png" (Cityscapes' "_leftImg8bit.PNG" too). The folder `out` (the run's
 // output folder, when it lies inside the data set) is left out: its previews are not inputs.
