@@ -332,7 +332,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   if (keep_darkened && !tail) s.darkened = darken(texture, labels.ids, p);
   lap("depth");
   StreetLighting tracked;
-  if (seq) tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
+  if (seq) {
+    tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
+    tracked.pose = seq->pose;  // the façade windows laid out in the sequence's world
+    tracked.facade_keys = seq->facades.keys(facades.planes, seq->pose, p.max_depth_m);
+  }
   // A sequence's street lamps' shadows, for its tracked lamps, from the label runs made beside the
   // Hough stage (street_lamp_shadow_spans over the threads; their time in the light map's stage).
   if (seq && p.lamp_shadows && !tracked.lamps.empty())

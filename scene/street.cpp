@@ -3172,13 +3172,13 @@ struct WindowGeom {
 // Padded to a multiple of 4 (kind to 8: read a word at a time).
 struct WindowRow {
   std::vector<int32_t> x, j;
-  std::vector<double> z, tX, tD;
+  std::vector<double> z, tX, tD, so;
   std::vector<int64_t> cell, unit;
   std::vector<uint8_t> kind;
   explicit WindowRow(int W)
-      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), cell(W + 4), unit(W + 4), kind(W + 8) {}
+      : x(W + 4), j(W + 4), z(W + 4), tX(W + 4), tD(W + 4), so(W + 4), cell(W + 4), unit(W + 4), kind(W + 8) {}
   void pad(int n) {
-    for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1];
+    for (int i = n; i % 4; ++i) x[i] = x[n - 1], z[i] = z[n - 1], tX[i] = tX[n - 1], tD[i] = tD[n - 1], so[i] = so[n - 1];
   }
 };
 void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
@@ -3186,11 +3186,12 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
     r.kind[i] = 0;
     const double zz = r.z[i], X = zz * (r.x[i] - w.cx) / w.f, D = zz * w.kD, Y = w.h - zz * w.kY;
     if (Y < 0) continue;
-    const double s = r.tX[i] * X + r.tD[i] * D;  // along the façade (m)
+    // Along the façade (m) from the camera's foot, and from the world's origin (the grid's).
+    const double s = r.tX[i] * X + r.tD[i] * D, sw = s + r.so[i];
     const int j = static_cast<int>(std::floor(Y / w.storey));
     const double y_in = Y - j * w.storey;
-    const int64_t c = static_cast<int64_t>(std::floor(s / w.pitch));
-    const double ds = std::fabs(s - c * w.pitch - w.half_pitch);
+    const int64_t c = static_cast<int64_t>(std::floor(sw / w.pitch));
+    const double ds = std::fabs(sw - c * w.pitch - w.half_pitch);
     const bool glass = !(ds > w.half_glass_width || std::fabs(y_in - w.half_storey) > w.half_glass_height ||
                          ds < w.half_mullion);
     const bool pane = j == 0 && !(ds > w.half_shop || y_in < w.sill || y_in > w.sill_top);
@@ -3198,7 +3199,7 @@ void window_geom_scalar(WindowRow& r, int n, const WindowGeom& w) {
     if (!r.kind[i]) continue;
     r.j[i] = j;
     r.cell[i] = c;
-    if (j == 0) r.unit[i] = static_cast<int64_t>(std::floor(s / w.frontage));
+    if (j == 0) r.unit[i] = static_cast<int64_t>(std::floor(sw / w.frontage));
   }
 }
 // window_geom_scalar four pixels at a time: the floors as doubles (exact integers; j·storey and
@@ -3256,10 +3257,11 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
     const __m256d X = _mm256_div_pd(_mm256_mul_pd(zz, _mm256_sub_pd(xd, cx)), f);
     const __m256d D = _mm256_mul_pd(zz, kD), Y = _mm256_sub_pd(h, _mm256_mul_pd(zz, kY));
     const __m256d s = _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(&r.tX[i]), X), _mm256_mul_pd(_mm256_loadu_pd(&r.tD[i]), D));
+    const __m256d sw = _mm256_add_pd(s, _mm256_loadu_pd(&r.so[i]));  // from the world's origin
     const __m256d jd = _mm256_floor_pd(_mm256_div_pd(Y, storey));
     const __m256d y_in = _mm256_sub_pd(Y, _mm256_mul_pd(jd, storey));
-    const __m256d cd = _mm256_floor_pd(_mm256_div_pd(s, pitch));
-    const __m256d ds = _mm256_and_pd(_mm256_sub_pd(_mm256_sub_pd(s, _mm256_mul_pd(cd, pitch)), half_pitch), absmask);
+    const __m256d cd = _mm256_floor_pd(_mm256_div_pd(sw, pitch));
+    const __m256d ds = _mm256_and_pd(_mm256_sub_pd(_mm256_sub_pd(sw, _mm256_mul_pd(cd, pitch)), half_pitch), absmask);
     // The scalar's tests (ordered comparisons: a NaN fails none there either).
     const __m256d below = _mm256_cmp_pd(Y, zero, _CMP_LT_OQ);
     const __m256d ground_floor = _mm256_cmp_pd(jd, zero, _CMP_EQ_OQ);
@@ -3288,7 +3290,7 @@ __attribute__((target("avx2"), always_inline)) inline void window_geom_body(Wind
     for (int k = 0; k < 4; ++k) r.cell[i + k] = static_cast<int64_t>(cv[k]);
     if (gf & (glass | pane)) {
       alignas(32) double uv[4];
-      _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(s, frontage)));
+      _mm256_store_pd(uv, _mm256_floor_pd(_mm256_div_pd(sw, frontage)));
       for (int k = 0; k < 4; ++k) r.unit[i + k] = static_cast<int64_t>(uv[k]);
     }
   }
@@ -3304,14 +3306,17 @@ __attribute__((target("avx2,avx512f,avx512vl"))) void window_geom_avx512(WindowR
                                                                         const FacadeWindowsFound::Plane* found) {
   window_geom_body(r, n, w, plane, found);
 }
-// A façade plane's horizontal unit vector along it (away from the camera) and the key of its lit
-// draws (add_facade_windows).
-struct FacadeFrame { double tX, tD; uint64_t key; };
+// A façade plane's horizontal unit vector along it (in the frame's road coordinates), the
+// coordinate along it of the camera's foot measured from the world's origin (s0: the grid's cells
+// and shop units are laid out from the world's origin, so they stay on the façade when the camera
+// moves), and the key of its lit draws (add_facade_windows).
+struct FacadeFrame { double tX, tD, s0; uint64_t key; };
 // Pixel x of the row as a window candidate (a building pixel with a plane, z ≤ zmax): its column,
-// z, plane axis and plane index appended at n.
+// z, plane axis, plane offset and plane index appended at n.
 [[gnu::always_inline]] inline void window_candidate(int x, const int32_t* reg, const float* z, double zmax,
                                                     const BuildingFacades& fac, const FacadeFrame* fr, int32_t* rx,
-                                                    double* rz, double* rtX, double* rtD, int32_t* rp, int& n) {
+                                                    double* rz, double* rtX, double* rtD, double* rso, int32_t* rp,
+                                                    int& n) {
   if (reg[x] < 0 || z[x] > zmax) return;
   const int pi = fac.plane_of_region(reg[x], x);
   if (pi < 0) return;
@@ -3319,6 +3324,7 @@ struct FacadeFrame { double tX, tD; uint64_t key; };
   rz[n] = z[x];
   rtX[n] = fr[pi].tX;
   rtD[n] = fr[pi].tD;
+  rso[n] = fr[pi].s0;
   rp[n] = pi;
   ++n;
 }
@@ -3332,9 +3338,9 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
                                                           const BuildingFacades& fac, const FacadeFrame* fr,
                                                           WindowRow& r, int32_t* rp, const uint16_t* id) {
   int32_t* rx = r.x.data();
-  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data(), *rso = r.so.data();
   int n = 0;
-  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
+  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rso, rp, n); };
   const __m256d vzmax = _mm256_set1_pd(zmax);
   const __m128i building = _mm_set1_epi16(static_cast<int16_t>(Label::Building));
   int x = x0;
@@ -3357,6 +3363,9 @@ __attribute__((target("avx2"))) int window_candidates_avx2(const int32_t* reg, c
         _mm256_storeu_pd(rtX + n + 4, tX);
         _mm256_storeu_pd(rtD + n, tD);
         _mm256_storeu_pd(rtD + n + 4, tD);
+        const __m256d so = _mm256_set1_pd(fr[pi].s0);
+        _mm256_storeu_pd(rso + n, so);
+        _mm256_storeu_pd(rso + n + 4, so);
         n += 8;
         continue;
       }
@@ -3428,9 +3437,9 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
                                                                           const FacadeWindowsFound::Plane* found,
                                                                           const uint16_t* id) {
   int32_t* rx = r.x.data();
-  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data();
+  double *rz = r.z.data(), *rtX = r.tX.data(), *rtD = r.tD.data(), *rso = r.so.data();
   int n = 0, np = 0;
-  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n); };
+  auto one = [&](int x) { window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rso, rp, n); };
   // (The preset's numbers broadcast where used: AVX-512 reads them as memory operands.)
   const __m512d zero = _mm512_setzero_pd(), iota = _mm512_setr_pd(0, 1, 2, 3, 4, 5, 6, 7);
   const __m512i absmask = _mm512_set1_epi64(0x7fffffffffffffffll);
@@ -3453,10 +3462,11 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
         const __m512d X = _mm512_div_pd(_mm512_mul_pd(zz, _mm512_sub_pd(xd, bcast8(w.cx))), bcast8(w.f));
         const __m512d D = _mm512_mul_pd(zz, bcast8(w.kD)), Y = _mm512_sub_pd(bcast8(w.h), _mm512_mul_pd(zz, bcast8(w.kY)));
         const __m512d s = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(fr[pi].tX), X), _mm512_mul_pd(_mm512_set1_pd(fr[pi].tD), D));
+        const __m512d sw = _mm512_add_pd(s, _mm512_set1_pd(fr[pi].s0));  // from the world's origin
         const __m512d jd = floor_div8(Y, w.storey, w.inv_storey, absmask);
         const __m512d y_in = _mm512_sub_pd(Y, _mm512_mul_pd(jd, bcast8(w.storey)));
-        const __m512d cd = floor_div8(s, w.pitch, w.inv_pitch, absmask);
-        const __m512d ds = fabs8(_mm512_sub_pd(_mm512_sub_pd(s, _mm512_mul_pd(cd, bcast8(w.pitch))), bcast8(w.half_pitch)), absmask);
+        const __m512d cd = floor_div8(sw, w.pitch, w.inv_pitch, absmask);
+        const __m512d ds = fabs8(_mm512_sub_pd(_mm512_sub_pd(sw, _mm512_mul_pd(cd, bcast8(w.pitch))), bcast8(w.half_pitch)), absmask);
         const __mmask8 not_below = static_cast<__mmask8>(~_mm512_cmp_pd_mask(Y, zero, _CMP_LT_OQ));
         const __mmask8 gf = _mm512_cmp_pd_mask(jd, zero, _CMP_EQ_OQ);
         const __mmask8 out_glass = _mm512_cmp_pd_mask(ds, bcast8(w.half_glass_width), _CMP_GT_OQ) |
@@ -3502,7 +3512,7 @@ __attribute__((target("avx2,avx512f,avx512vl"))) int window_block_avx512(const i
             _mm256_maskz_compress_epi32(in, _mm256_or_si256(_mm256_maskz_mov_epi32(glass, one32), _mm256_maskz_mov_epi32(pane, two32))));
         _mm512_storeu_pd(P.cell.data() + np, _mm512_maskz_compress_pd(in, cd));
         if (gf & in)
-          _mm512_storeu_pd(P.unit.data() + np, _mm512_maskz_compress_pd(in, floor_div8(s, w.frontage, w.inv_frontage, absmask)));
+          _mm512_storeu_pd(P.unit.data() + np, _mm512_maskz_compress_pd(in, floor_div8(sw, w.frontage, w.inv_frontage, absmask)));
         np += __builtin_popcount(in);
         continue;
       }
@@ -3535,10 +3545,16 @@ struct WindowPass {
   // region's unfitted plane), the same that gave metric_depth its depth.
   const BuildingFacades computed;
   const BuildingFacades& fac;
-  // Per plane: the horizontal unit vector along it, oriented away from the camera (increasing D;
-  // a plane facing the camera squarely runs toward +X), and the key of its lit draws: the
-  // normal's azimuth in 5° steps and its distance from the camera's foot in 5 m steps, both in
-  // the world, so a façade keeps its windows' draws when the camera moves.
+  // Per plane: the horizontal unit vector along it, oriented by its direction in the world (the
+  // sequence's first frame's road coordinates: toward increasing D there; a plane facing that
+  // frame squarely runs toward +X), the camera foot's coordinate along it from the world's origin
+  // (the grid's cells are counted from there), and the key of its lit draws: the normal's azimuth
+  // in 5° steps and its distance from the world's origin in 5 m steps (facade_key), or in a
+  // sequence the key of the façade it was matched to (FacadeSet, scene/luminaires.h, handed in as
+  // `keys`). All in the world, so a
+  // façade keeps its windows' layout and draws when the camera pans, drives or turns (`pose`:
+  // the frame's pose in its sequence's world; a single frame's is 0, the world its own road
+  // coordinates).
   std::vector<FacadeFrame> frames;
   // Unit-luminance colours of the three window CCTs (a blackbody's box RGB is linear in its
   // luminance; spectrum::blackbody_rgb integrates Planck's law, far too slow per pixel).
@@ -3571,20 +3587,33 @@ struct WindowPass {
     return ci >= 0 && ci < P.ns && P.resolved[static_cast<size_t>(ci)];
   }
   WindowPass(const ImageU16& labels_, const ImageF& depth_m_, const CameraGeometry& g_, const ScenePreset& p_,
-             uint64_t seed_, const BuildingFacades* facades, int width, const ImageF* texture = nullptr)
+             uint64_t seed_, const BuildingFacades* facades, int width, const ImageF* texture, const CameraPose& pose,
+             const std::vector<uint64_t>* keys)
       : labels(labels_), depth_m(depth_m_), g(g_), p(p_), seed(seed_), W(width), c(std::cos(g_.pitch_rad)),
         sn(std::sin(g_.pitch_rad)), h(g_.mount_height_m), max_z(0.5 * p_.window_width_m * g_.f_px),
         computed(facades ? BuildingFacades() : building_facades(labels_, g_, p_.max_depth_m)),
         fac(facades ? *facades : computed), frames(fac.planes.size()),
         warm1(spectrum::blackbody_rgb(p_.window_cct_K, 1.0)), cool1(spectrum::blackbody_rgb(p_.window_cool_cct_K, 1.0)),
         shop1(spectrum::blackbody_rgb(p_.shop_cct_K, 1.0)) {
+    // The frame's road coordinates → the world's (luminaires.cpp's Pose2): a direction v turns to
+    // R·v, R = [[cos ψ, sin ψ], [−sin ψ, cos ψ]] (ψ the yaw), a point to T + R·v (T the camera's
+    // foot). A plane n·P = d (n its unit normal toward the plane from the camera) is n_w·P_w = d +
+    // n_w·T in the world, and a point's coordinate along it t_w·P_w = s + t_w·T: the offset s0.
+    // At pose 0 none of this is taken (the same operations, so the same bits, as before poses).
+    const bool moved = pose.X_m != 0 || pose.D_m != 0 || pose.yaw_rad != 0;
+    const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
     for (size_t k = 0; k < fac.planes.size(); ++k) {
       const FacadePlane& f = fac.planes[k];
-      double tX = f.nD, tD = -f.nX;
-      if (tD < 0 || (tD == 0 && tX < 0)) { tX = -tX; tD = -tD; }
-      const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(f.nX, f.nD) * 180 / M_PI / 5.0) + 64) & 127;
-      const uint64_t dist = static_cast<uint64_t>(std::lround(f.d_m / 5.0)) & 1023;
-      frames[k] = {tX, tD, (az << 10) | dist};
+      double tX = f.nD, tD = -f.nX, s0 = 0;
+      if (!moved) {
+        if (tD < 0 || (tD == 0 && tX < 0)) { tX = -tX; tD = -tD; }
+      } else {
+        double tXw = tX * cy + tD * sy, tDw = -tX * sy + tD * cy;
+        if (tDw < 0 || (tDw == 0 && tXw < 0)) { tX = -tX; tD = -tD; tXw = -tXw; tDw = -tDw; }
+        s0 = tXw * pose.X_m + tDw * pose.D_m;
+      }
+      // A sequence's keys (FacadeSet: a plane keeps the key of the façade it was matched to).
+      frames[k] = {tX, tD, s0, keys && keys->size() == fac.planes.size() ? (*keys)[k] : facade_key(f, pose)};
     }
     if (texture && p.window_detect_contrast > 0) {
       std::vector<double> tXs(frames.size()), tDs(frames.size());
@@ -3594,7 +3623,9 @@ struct WindowPass {
       found_draws.resize(found.windows.size());
       for (size_t i = 0; i < found.windows.size(); ++i) {
         const FacadeWindowsFound::Window& w = found.windows[i];
-        const uint64_t qs = static_cast<uint64_t>(std::llround((w.s_lo + w.s_hi) / 2 / 0.5) + (1 << 19)) & 0xfffff;
+        // (The window's centre from the world's origin: s_lo, s_hi are from the camera's foot.)
+        const uint64_t qs =
+            static_cast<uint64_t>(std::llround(((w.s_lo + w.s_hi) / 2 + frames[w.plane].s0) / 0.5) + (1 << 19)) & 0xfffff;
         const uint64_t qy = static_cast<uint64_t>(std::llround((w.y_lo + w.y_hi) / 2 / 0.5)) & 0x3f;
         FoundDraw& d = found_draws[i];
         d.key = frames[w.plane].key << 40 | 1ull << 38 | qs << 12 | qy;
@@ -3679,7 +3710,7 @@ struct WindowPass {
     const int Wr = W;
     const double zmax = max_z;
     int32_t *rx = sc.r.x.data(), *rp = sc.plane_of.data();
-    double *rz = sc.r.z.data(), *rtX = sc.r.tX.data(), *rtD = sc.r.tD.data();
+    double *rz = sc.r.z.data(), *rtX = sc.r.tX.data(), *rtD = sc.r.tD.data(), *rso = sc.r.so.data();
     const FacadeFrame* fr = frames.data();
     const WindowGeom wg{g.cx_px, g.f_px, c - yn * sn, yn * c + sn, h,
                         p.window_storey_m, p.window_pitch_m, p.shop_frontage_m, 0.5 * p.window_pitch_m,
@@ -3720,7 +3751,7 @@ struct WindowPass {
           x += 7;
           continue;
         }
-        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rp, n);
+        window_candidate(x, reg, z, zmax, fac, fr, rx, rz, rtX, rtD, rso, rp, n);
       }
       if (n == 0) continue;
       if (isa >= 1) {
@@ -3771,9 +3802,24 @@ struct WindowPass {
 };
 }  // namespace
 
+uint64_t facade_key(const FacadePlane& f, const CameraPose& pose) {
+  double nX = f.nX, nD = f.nD, d = f.d_m;
+  // (At pose 0 the frame's own values: the same operations, so the same keys, as before poses.)
+  if (pose.X_m != 0 || pose.D_m != 0 || pose.yaw_rad != 0) {
+    const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
+    nX = f.nX * cy + f.nD * sy;
+    nD = -f.nX * sy + f.nD * cy;
+    d = f.d_m + nX * pose.X_m + nD * pose.D_m;
+  }
+  const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(nX, nD) * 180 / M_PI / 5.0) + 64) & 127;
+  const uint64_t dist = static_cast<uint64_t>(std::lround(d / 5.0)) & 1023;
+  return (az << 10) | dist;
+}
+
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
-                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades, const ImageF* texture) {
-  const WindowPass w(labels, depth_m, g, p, seed, facades, L.width(), texture);
+                       const ScenePreset& p, uint64_t seed, const BuildingFacades* facades, const ImageF* texture,
+                       const CameraPose& pose, const std::vector<uint64_t>* facade_keys) {
+  const WindowPass w(labels, depth_m, g, p, seed, facades, L.width(), texture, pose, facade_keys);
   std::unordered_set<uint64_t> all;
 #pragma omp parallel
   {
@@ -3814,7 +3860,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
     }
   }
   long long shaded = 0;
-  const WindowPass windows(labels, depth_m, g, p, seed, fac, W, &texture);
+  const WindowPass windows(labels, depth_m, g, p, seed, fac, W, &texture, s.pose, &s.facade_keys);
   // With compose or `first` (light_map's row pass, with or without its night radiance), the heads
   // row by row in the pass (each row's share of every disc crossing it, a maximum after the row's
   // windows, as draw_lamp_heads' after all rows), and each head's "drawn" from any thread's rows:

@@ -82,11 +82,17 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
   s.depth_m = ImageF(W, H, 1, kDepthInfinity_m, "m");
   s.box_front = ImageU8(W, H, 1, 0);
   const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), h = g.mount_height_m;
+  // The camera's place in the street: a ray's direction turned by the yaw (luminaires.cpp's Pose2,
+  // frame → world), its origin moved to the camera's foot. At the origin none of it is taken, so
+  // the same operations as before it.
+  const double X0 = o.world_X_m, D0 = o.world_D_m, cy = std::cos(o.world_yaw_rad), sy = std::sin(o.world_yaw_rad);
+  const bool posed = X0 != 0 || D0 != 0 || o.world_yaw_rad != 0;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       // Ray per unit camera z in road coordinates: origin (0, h, 0).
       const double xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
-      const double dX = xn, dY = -(yn * c + sn), dD = c - yn * sn;
+      const double dXc = xn, dY = -(yn * c + sn), dDc = c - yn * sn;
+      const double dX = posed ? dXc * cy + dDc * sy : dXc, dD = posed ? -dXc * sy + dDc * cy : dDc;
       double best = INFINITY;
       int hit = -1;  // -2 ground, >= 0 box index
       bool front = false;
@@ -98,14 +104,14 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         const double xf = o.road_half_width_m + o.sidewalk_m;
         for (double side : {-xf, xf})
           if (dX != 0) {
-            const double t = side / dX, Y = h + t * dY, D = t * dD;
+            const double t = (side - X0) / dX, Y = h + t * dY, D = D0 + t * dD;
             if (t > 0 && t < best && Y >= 0 && Y <= 12 && D >= 3 && D <= 200) { best = t; hit = -3; facade = true; }
           }
       }
       for (size_t b = 0; b < o.boxes.size(); ++b) {
         const SyntheticBox& B = o.boxes[b];
         auto inside = [&](double t, int face) {
-          const double X = t * dX, Y = h + t * dY, D = t * dD;
+          const double X = X0 + t * dX, Y = h + t * dY, D = D0 + t * dD;
           if (Y < B.base_m || Y > B.height_m) return false;
           if (face == 0) return std::fabs(X - B.X_m) <= B.width_m / 2;
           if (face == 2) return std::fabs(X - B.X_m) <= B.width_m / 2 && D >= B.D_m && D <= B.D_m + B.length_m;
@@ -116,19 +122,19 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
           if (t > 0 && t < best && inside(t, 2)) { best = t; hit = static_cast<int>(b); front = false; }
         }
         if (dD > 0) {
-          const double t = B.D_m / dD;
+          const double t = (B.D_m - D0) / dD;
           if (t > 0 && t < best && inside(t, 0)) { best = t; hit = static_cast<int>(b); front = true; }
         }
         for (double side : {B.X_m - B.width_m / 2, B.X_m + B.width_m / 2})
           if (dX != 0) {
-            const double t = side / dX;
+            const double t = (side - X0) / dX;
             if (t > 0 && t < best && inside(t, 1)) { best = t; hit = static_cast<int>(b); front = false; }
           }
       }
       float* px = &s.day_linear_srgb.at(x, y, 0);
       Label l = Label::Sky;
       if (hit == -2) {
-        const double X = best * dX, D = best * dD, ax = std::fabs(X);
+        const double X = X0 + best * dX, D = D0 + best * dD, ax = std::fabs(X);
         const bool check = (static_cast<int>(std::floor(X)) + static_cast<int>(std::floor(D))) & 1;
         const float tex = check ? 1.1f : 0.9f;
         if (ax <= o.road_half_width_m) {
@@ -151,7 +157,7 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         l = Label::Building;
         px[0] = 0.25f; px[1] = 0.22f; px[2] = 0.2f;
         if (o.window_pitch_m > 0) {
-          const double D = best * dD, Y = h + best * dY;
+          const double D = D0 + best * dD, Y = h + best * dY;
           const double u = D - o.window_phase_m + 0.5 * o.window_width_m;
           const double v = Y - o.window_sill_m;
           if (u - std::floor(u / o.window_pitch_m) * o.window_pitch_m < o.window_width_m && v >= 0 &&

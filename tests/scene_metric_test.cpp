@@ -24,6 +24,7 @@
 #include "photosite/io.h"
 #include "photosite/night_chain.h"
 #include "photosite/rng.h"
+#include "photosite/scene/ego_motion.h"
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
@@ -2714,19 +2715,21 @@ void paint_pole(LabelMap& lm, double u0, double v0, double z0, double v1, double
     for (int x = std::max(0, static_cast<int>(std::ceil(u0 - half))); x <= std::min(W - 1, static_cast<int>(std::floor(u0 + half))); ++x)
       lm.ids.at(x, y) = static_cast<uint16_t>(Label::Pole);
 }
-// A KITTI-raw-layout sequence under `root` (image_2/drive, semantic/drive, oxts/drive) of the
-// synthetic street `sc`, one frame per labels of `frames`, the camera driving `step_m` between
-// frames (OXTS vf = step_m / 0.5 s, timestamps 0.5 s apart, wu 0).
-void write_driving_sequence(const std::filesystem::path& root, const SyntheticCameraScene& sc,
-                            const std::vector<LabelMap>& frames, double step_m) {
+// A KITTI-raw-layout sequence under `root` (image_2/drive, semantic/drive, oxts/drive): frame f
+// the day photo days[f] (linear sRGB) with labels frames[f], its OXTS record vf = speed_m_s and
+// wu = yaw_rate_rad_s (ISO 8855: positive turning left), the timestamps 0.5 s apart.
+void write_kitti_sequence(const std::filesystem::path& root, const std::vector<const ImageF*>& days,
+                          const std::vector<LabelMap>& frames, double speed_m_s, double yaw_rate_rad_s) {
   for (const char* d : {"image_2/drive", "semantic/drive", "oxts/drive/data"}) std::filesystem::create_directories(root / d);
-  ImageF srgb = sc.day_linear_srgb;
-  for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
   std::string oxts;
-  for (int k = 0; k < 30; ++k) oxts += (k == 8 ? fmt::format("{}", step_m / 0.5) : "0") + std::string(k < 29 ? " " : "\n");
+  for (int k = 0; k < 30; ++k)
+    oxts += (k == 8 ? fmt::format("{}", speed_m_s) : k == 22 ? fmt::format("{}", yaw_rate_rad_s) : "0") +
+            std::string(k < 29 ? " " : "\n");
   std::string stamps;
   for (size_t f = 0; f < frames.size(); ++f) {
     const std::string name = fmt::format("{:010d}", f);
+    ImageF srgb = *days[f];
+    for (auto& v : srgb.vec()) v = static_cast<float>(srgb_encode(v));
     write_png((root / "image_2" / "drive" / (name + ".png")).string(), srgb);
     ImageF ids(frames[f].ids.width(), frames[f].ids.height(), 1);
     for (size_t k = 0; k < ids.size(); ++k) ids[k] = frames[f].ids[k] / 255.0f;
@@ -2735,6 +2738,12 @@ void write_driving_sequence(const std::filesystem::path& root, const SyntheticCa
     stamps += fmt::format("2011-09-26 13:02:{:02d}.{:03d}\n", 25 + static_cast<int>(f) / 2, 500 * (static_cast<int>(f) % 2));
   }
   std::ofstream((root / "oxts" / "drive" / "timestamps.txt").string()) << stamps;
+}
+// The same for the synthetic street `sc` seen in every frame, the camera driving `step_m` between
+// frames (OXTS vf = step_m / 0.5 s, wu 0).
+void write_driving_sequence(const std::filesystem::path& root, const SyntheticCameraScene& sc,
+                            const std::vector<LabelMap>& frames, double step_m) {
+  write_kitti_sequence(root, std::vector<const ImageF*>(frames.size(), &sc.day_linear_srgb), frames, step_m / 0.5, 0);
 }
 }  // namespace
 
@@ -2938,6 +2947,216 @@ TEST(Luminaires, DrivingOnKeepsTheLightOfPolesSeenOnce) {
     EXPECT_GT(s, a) << "frame " << f;
     std::fprintf(stderr, "[driving] frame %d (%g m on): as a sequence %.4f, at pose 0 %.4f, frame by frame %.4f of the light energy\n",
                  f, step * f, s, z, a);
+  }
+}
+
+namespace {
+// One frame of a `batch --sequence --layers lights,depth` run: lights.G, depth.Z and the pitch
+// photosite used (the header's 17 digits).
+struct WindowFrame { ImageF lights, depth; double pitch_rad; };
+std::vector<WindowFrame> window_frames(const std::filesystem::path& root, const std::string& out, const std::string& ego,
+                                       int n, const test::TempDir& dir) {
+  const auto r = test::run_cli("batch --dataset kitti --root '" + root.string() + "' --out '" + dir.file(out) +
+                               "' --rig cityscapes --layers lights,depth --quiet --seed 3 --device-store '" +
+                               dir.file("store") + "' --sequence --ego-motion " + ego);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::vector<WindowFrame> v;
+  for (int f = 0; f < n; ++f) {
+    const ExrContents e = read_exr(dir.file(out) + fmt::format("/image_2/drive/{:010d}.exr", f));
+    v.push_back({e.channels.at("lights.G"), e.channels.at("depth.Z"),
+                 std::stod(e.attributes.at("photosite/night/camera_pitch_deg_text")) * M_PI / 180});
+  }
+  return v;
+}
+// The share of frame a's façade light found at the same place in the world in frame b (issue 14
+// §3's criterion: at least 95 % of the light energy equal): Σ min(a(x), max₃ₓ₃ b) / Σ a over a's
+// building pixels, each pixel's point from `depth_a` (camera z) with camera g at pose pa, carried
+// into frame b's road coordinates (pose pb) and projected there with g, the largest value of b in
+// the 3 x 3 pixels around the projection (its rounding to a pixel moves a pane's edge by up to a
+// pixel); only points landing on b's building pixels 2 px inside its frame and 3-195 m along the
+// street (the façades' extent) count.
+double window_light_kept(const ImageF& a, const LabelMap& la, const ImageF& depth_a, const CameraPose& pa,
+                         const ImageF& b, const LabelMap& lb, const CameraPose& pb, const CameraGeometry& g) {
+  const int W = a.width(), H = a.height();
+  const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
+  const uint16_t building = static_cast<uint16_t>(Label::Building);
+  double num = 0, den = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (la.ids.at(x, y) != building || a.at(x, y) <= 0) continue;
+      const double z = depth_a.at(x, y), xn = (x - g.cx_px) / g.f_px, yn = (y - g.cy_px) / g.f_px;
+      const double X = z * xn, Y = g.mount_height_m - z * (yn * c + sn), D = z * (c - yn * sn);
+      // Frame a → the world → frame b (luminaires.cpp's Pose2).
+      const double ca = std::cos(pa.yaw_rad), sa = std::sin(pa.yaw_rad), cb = std::cos(pb.yaw_rad), sb = std::sin(pb.yaw_rad);
+      const double Xw = pa.X_m + X * ca + D * sa, Dw = pa.D_m - X * sa + D * ca;
+      if (Dw < 3 || Dw > 195) continue;
+      const double dx = Xw - pb.X_m, dd = Dw - pb.D_m, Xb = dx * cb - dd * sb, Db = dx * sb + dd * cb;
+      double u, v, zb;
+      if (!g.project(Xb, Y, Db, &u, &v, &zb)) continue;
+      const int ub = static_cast<int>(std::lround(u)), vb = static_cast<int>(std::lround(v));
+      if (ub < 2 || vb < 2 || ub >= W - 2 || vb >= H - 2 || lb.ids.at(ub, vb) != building) continue;
+      float m = 0;
+      for (int ddy = -1; ddy <= 1; ++ddy)
+        for (int ddx = -1; ddx <= 1; ++ddx) m = std::max(m, b.at(ub + ddx, vb + ddy));
+      num += std::min(a.at(x, y), m);
+      den += a.at(x, y);
+    }
+  return den > 0 ? num / den : NAN;
+}
+}  // namespace
+
+// The façade windows stay on their façades while the camera drives on (issue 14 §3: "batch over
+// a sequence keeps windows and lamps attached to buildings and poles"). The synthetic street with
+// its two 12 m façades (X = ±10 m, D 3-200 m) is driven 9 m a frame; the street is the same every
+// 9 m (its checker 1 m, its dashes 9 m), so every frame shows the same labels and photo, and the
+// windows are the grid's (plain façades: none found in the photo). Each frame's façade light
+// against the previous frame's at the same world point (window_light_kept), both ways. Asserted
+// in photosite's own geometry (its depth.Z and the sequence's pitch from the header): where the
+// windows are laid out. In the true geometry (the scene's depth and camera) the same shares are
+// reported: there the depth's own error (the vanishing point's horizon against the true one:
+// 1-6 % deeper on these façades, growing with distance) moves a window along its façade by that
+// error times the 9 m. At pose 0 (--ego-motion none) the grid rides with the camera: the same
+// pixels lit in every frame, so a world point's window is lit or not at random between frames.
+TEST(Luminaires, DrivingKeepsTheWindowsOnTheirFacades) {
+  SyntheticCameraOptions o = camera_scene();
+  o.boxes.clear();
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(o);
+  const double step = 9;
+  test::TempDir dir;
+  write_driving_sequence(dir.path() / "drive", sc, {sc.labels, sc.labels, sc.labels}, step);
+  const auto moving = window_frames(dir.path() / "drive", "moving", "auto", 3, dir),
+             still = window_frames(dir.path() / "drive", "still", "none", 3, dir);
+  for (int f = 1; f < 3; ++f) {
+    ASSERT_EQ(moving[f].pitch_rad, moving[0].pitch_rad);  // the sequence keeps its first frame's pitch
+    CameraGeometry g = o.camera;
+    g.pitch_rad = moving[f].pitch_rad;
+    const CameraPose pa{0, step * f, 0}, pb{0, step * (f - 1), 0};
+    auto both = [&](const std::vector<WindowFrame>& s, const CameraPose& a, const CameraPose& b, bool own) {
+      const CameraGeometry& gg = own ? g : o.camera;
+      return std::pair{window_light_kept(s[f].lights, sc.labels, own ? s[f].depth : sc.depth_m, a, s[f - 1].lights, sc.labels, b, gg),
+                       window_light_kept(s[f - 1].lights, sc.labels, own ? s[f - 1].depth : sc.depth_m, b, s[f].lights, sc.labels, a, gg)};
+    };
+    const auto [fwd, back] = both(moving, pa, pb, true);
+    const auto [fwd_true, back_true] = both(moving, pa, pb, false);
+    // At pose 0 the frames are the same, but the world still moved 9 m: compared at the true places.
+    const auto [fwd0, back0] = both(still, pa, pb, true);
+    EXPECT_GE(fwd, 0.95) << "frame " << f << ": its windows' light not in the previous frame's at the same place";
+    EXPECT_GE(back, 0.95) << "frame " << f << ": the previous frame's windows' light not in this frame's";
+    EXPECT_LT(fwd0, fwd) << "frame " << f;
+    EXPECT_LT(back0, back) << "frame " << f;
+    std::fprintf(stderr, "[driving windows] frame %d (%g m on): façade light energy kept (this frame's in the last's / "
+                 "the last's in this one's): with odometry %.4f / %.4f (true geometry %.4f / %.4f), at pose 0 %.4f / %.4f\n",
+                 f, step * f, fwd, back, fwd_true, back_true, fwd0, back0);
+  }
+}
+
+// A sequence's façades keep their windows' draw keys while each frame fits their planes anew
+// (FacadeSet): facade_key quantises the distance to 5 m, so a façade fitted at 12.49 m in one
+// frame and 12.51 m in the next would change its key (and every window's lit draw); matched to
+// the remembered façade it keeps frame 0's. A plane more than half a step away (in distance or
+// azimuth) is another façade; a façade beyond forget_m of the camera is forgotten.
+TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
+  auto plane = [](double az_deg, double d) {
+    FacadePlane f;
+    f.nX = std::sin(az_deg * M_PI / 180);
+    f.nD = std::cos(az_deg * M_PI / 180);
+    f.d_m = d;
+    f.fitted = true;
+    return f;
+  };
+  FacadeSet set;
+  const CameraPose p0{};
+  const FacadePlane near_edge = plane(90, 12.49), across = plane(90, 12.51), other = plane(90, 20), turned = plane(80, 12.5);
+  ASSERT_NE(facade_key(near_edge, p0), facade_key(across, p0));  // the step's edge lies between them
+  const auto k0 = set.keys({near_edge, other}, p0, 200);
+  ASSERT_EQ(k0.size(), 2u);
+  EXPECT_EQ(k0[0], facade_key(near_edge, p0));  // a first sighting: its own key
+  EXPECT_EQ(k0[1], facade_key(other, p0));
+  // Driven 9 m on and turned 2° (the plane given in that frame's coordinates): the same façade,
+  // fitted 0.02 m farther, keeps frame 0's key; 10° off is another façade.
+  const CameraPose p1{0, 9, 2 * M_PI / 180};
+  auto in_frame = [&](const FacadePlane& w, const CameraPose& pose) {  // a world plane into the frame at `pose`
+    const double c = std::cos(pose.yaw_rad), sn = std::sin(pose.yaw_rad);
+    FacadePlane f = w;
+    f.nX = w.nX * c - w.nD * sn;
+    f.nD = w.nX * sn + w.nD * c;
+    f.d_m = w.d_m - (w.nX * pose.X_m + w.nD * pose.D_m);
+    return f;
+  };
+  const auto k1 = set.keys({in_frame(across, p1), in_frame(turned, p1)}, p1, 200);
+  EXPECT_EQ(facade_key(in_frame(across, p1), p1), facade_key(across, p0));  // the world's own key: the step moved
+  EXPECT_EQ(k1[0], k0[0]) << "the façade took a new key when its fit crossed a step's edge";
+  EXPECT_NE(k1[1], k0[0]);
+  EXPECT_EQ(set.size(), 3u);
+  // 300 m to their left (on their side), every façade is beyond forget_m and forgotten: the plane
+  // across the edge is then seen afresh, with its own key.
+  const CameraPose far{-300, 9, 0};
+  const auto k2 = set.keys({in_frame(across, far)}, far, 200);
+  EXPECT_EQ(k2[0], facade_key(across, p0));
+  EXPECT_EQ(set.size(), 1u);
+}
+
+// The same while the camera turns: the synthetic street seen from the poses a vehicle reaches at
+// 18 m/s turning left at 0.1 rad/s (OXTS vf, wu; advance_pose's arc, 0.5 s a frame: 9 m and
+// 2.9° a frame), each frame rendered from its pose, so the façades run obliquely through the
+// view and their planes are fitted anew each frame. The window grid is laid out in the world
+// (the plane's direction, its distance and the cells turned and moved by the pose), so frame t's
+// façade light is found at the same world points in frame t − 1 (asserted ≥ 95 % both ways in
+// photosite's own geometry); the pose-0 sequence of the same frames keeps far less.
+TEST(Luminaires, TurningKeepsTheWindowsOnTheirFacades) {
+  const double speed = 18, yaw_rate = 0.1;
+  const int n = 3;
+  std::vector<CameraPose> poses(n);
+  for (int f = 1; f < n; ++f) {
+    OdometrySample a, b;
+    a.time_ns = 500'000'000ll * (f - 1);
+    b.time_ns = 500'000'000ll * f;
+    a.speed_m_s = b.speed_m_s = speed;
+    a.yaw_rate_rad_s = b.yaw_rate_rad_s = yaw_rate;
+    poses[f] = advance_pose(poses[f - 1], a, b, "test");
+  }
+  ASSERT_LT(poses[2].yaw_rad, -0.09);  // turning left: toward −X
+  std::vector<SyntheticCameraScene> scenes;
+  for (int f = 0; f < n; ++f) {
+    SyntheticCameraOptions o = camera_scene();
+    o.boxes.clear();
+    o.world_X_m = poses[f].X_m;
+    o.world_D_m = poses[f].D_m;
+    o.world_yaw_rad = poses[f].yaw_rad;
+    scenes.push_back(make_synthetic_camera_scene(o));
+  }
+  const SyntheticCameraOptions o = camera_scene();
+  test::TempDir dir;
+  std::vector<const ImageF*> days;
+  std::vector<LabelMap> labels;
+  for (const auto& sc : scenes) {
+    days.push_back(&sc.day_linear_srgb);
+    labels.push_back(sc.labels);
+  }
+  write_kitti_sequence(dir.path() / "drive", days, labels, speed, yaw_rate);
+  const auto moving = window_frames(dir.path() / "drive", "moving", "auto", n, dir),
+             still = window_frames(dir.path() / "drive", "still", "none", n, dir);
+  for (int f = 1; f < n; ++f) {
+    CameraGeometry g = o.camera;
+    g.pitch_rad = moving[f].pitch_rad;
+    auto both = [&](const std::vector<WindowFrame>& s, bool own) {
+      const CameraGeometry& gg = own ? g : o.camera;
+      const ImageF &za = own ? s[f].depth : scenes[f].depth_m, &zb = own ? s[f - 1].depth : scenes[f - 1].depth_m;
+      return std::pair{
+          window_light_kept(s[f].lights, labels[f], za, poses[f], s[f - 1].lights, labels[f - 1], poses[f - 1], gg),
+          window_light_kept(s[f - 1].lights, labels[f - 1], zb, poses[f - 1], s[f].lights, labels[f], poses[f], gg)};
+    };
+    const auto [fwd, back] = both(moving, true);
+    const auto [fwd_true, back_true] = both(moving, false);
+    const auto [fwd0, back0] = both(still, true);
+    EXPECT_GE(fwd, 0.95) << "frame " << f;
+    EXPECT_GE(back, 0.95) << "frame " << f;
+    EXPECT_LT(fwd0, fwd) << "frame " << f;
+    EXPECT_LT(back0, back) << "frame " << f;
+    std::fprintf(stderr, "[turning windows] frame %d (pose X %.3f m, D %.3f m, yaw %.4f rad): façade light energy kept "
+                 "(this frame's in the last's / the last's in this one's): with odometry %.4f / %.4f (true geometry "
+                 "%.4f / %.4f), at pose 0 %.4f / %.4f\n",
+                 f, poses[f].X_m, poses[f].D_m, poses[f].yaw_rad, fwd, back, fwd_true, back_true, fwd0, back0);
   }
 }
 

@@ -18,13 +18,6 @@
 
 namespace photosite::scene {
 
-// A camera pose in the sequence's world frame: the camera's foot at (X_m, D_m) in the road
-// coordinates of the sequence's first frame, its heading turned by yaw_rad from that frame's
-// (positive toward +X). Crops of one frame (a pan of the image plane) and a camera at rest: all
-// zero — a crop's shifted principal point is in its rig (CameraGeometry::cx_px), and the road
-// coordinates of every crop are the same.
-struct CameraPose { double X_m = 0, D_m = 0, yaw_rad = 0; };
-
 class LuminaireSet {
  public:
   // A pole luminaire in world coordinates; seen_m: the horizontal distance from the camera of the
@@ -63,11 +56,34 @@ class LuminaireSet {
   std::vector<Lamp> poles_;
 };
 
+// The building façades a sequence has seen, in the world, each with the key of its windows' lit
+// draws (facade_key, scene/street.h, at its first sighting). facade_key quantises the plane's
+// azimuth to 5° and its distance to 5 m, and each frame fits the planes anew: a façade whose fit
+// lies near a step's edge would change its key between frames, and every one of its windows would
+// be drawn lit or dark anew. keys() gives each of a frame's planes (in the frame's road
+// coordinates, the frame at `pose`) the key of the remembered façade it matches — its normal
+// within half an azimuth step (2.5°) and its distance from the world's origin within half a
+// distance step (2.5 m) of the remembered one's, the nearest in distance — so a plane's key moves
+// only when its fit moves by more than half a step; an unmatched plane is remembered with its own
+// key. A remembered façade farther than `forget_m` from the camera's foot (the preset's
+// max_depth_m: beyond it no pixel is given its depth) is forgotten. Deterministic: the same frames
+// in the same order give the same keys.
+class FacadeSet {
+ public:
+  std::vector<uint64_t> keys(const std::vector<FacadePlane>& planes, const CameraPose& pose, double forget_m);
+  size_t size() const { return seen_.size(); }
+
+ private:
+  struct Facade { double nX, nD, d_m; uint64_t key; };  // in the world
+  std::vector<Facade> seen_;
+};
+
 // Everything a sequence carries from frame to frame (night_scene's `sequence`). The caller sets
 // `pose` before each frame; the rest is filled in as frames are computed.
 struct SequenceState {
   CameraPose pose;          // of the frame about to be computed
   LuminaireSet luminaires;  // street lamps in the world
+  FacadeSet facades;        // building façades in the world, with their windows' draw keys
   ClassMeans reflectance;   // reflectance_texture's class means, fixed when a class is first seen
   // The camera pitch of the first frame (its horizon: the vanishing point's when accepted, else
   // the rig's), kept for the sequence: a camera on a vehicle keeps its mounting pitch, while the

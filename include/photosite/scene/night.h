@@ -557,6 +557,11 @@ struct SyntheticCameraOptions {
   // 0.5 against the asphalt's 0.08, centred at each X (a track: two rails gauge + head apart).
   std::vector<double> rail_X_m;
   double rail_head_m = 0.065;
+  // Where the camera stands in the street (the coordinates above: X across, D along): its foot at
+  // (world_X_m, world_D_m), its heading turned by world_yaw_rad toward +X (CameraPose's
+  // convention, scene/street.h). 0: at the street's origin, looking along it. The depth and the
+  // labels are the camera's as ever.
+  double world_X_m = 0, world_D_m = 0, world_yaw_rad = 0;
 };
 struct SyntheticCameraScene {
   ImageF day_linear_srgb;

@@ -10,6 +10,12 @@
 namespace photosite::scene {
 
 struct StreetLamp { double X_m, Y_m, D_m; bool from_pole; };
+// A camera pose in the sequence's world frame: the camera's foot at (X_m, D_m) in the road
+// coordinates of the sequence's first frame, its heading turned by yaw_rad from that frame's
+// (positive toward +X). Crops of one frame (a pan of the image plane) and a camera at rest: all
+// zero — a crop's shifted principal point is in its rig (CameraGeometry::cx_px), and the road
+// coordinates of every crop are the same.
+struct CameraPose { double X_m = 0, D_m = 0, yaw_rad = 0; };
 struct StreetLighting {
   std::vector<StreetLamp> lamps;         // sorted by D
   // Where the luminaires come from: "road_edges" (rows along the road edges) or
@@ -27,9 +33,16 @@ struct StreetLighting {
   double peak_intensity_cd = 0;          // I(γ ≤ cut-off)
   double grid_D0_m = 0;                  // start of the calculation field (one spacing long)
   double avg_luminance_cd_m2 = 0, uniformity_u0 = 0;
-  // With source "none": why no luminaire was placed (the header's street_lamp_note). Last, so the
-  // aggregate initialisations of the members above keep their order.
+  // With source "none": why no luminaire was placed (the header's street_lamp_note). After the
+  // members above, so their aggregate initialisations keep their order.
   std::string note;
+  // The frame's pose in its sequence's world (night_scene sets it from SequenceState::pose; a
+  // single frame's is 0): the façade windows are laid out and drawn in that world
+  // (add_facade_windows), so they stay on their façades when the camera drives or turns.
+  CameraPose pose;
+  // The draw key of each façade plane's windows (one per BuildingFacades::planes entry, from a
+  // sequence's FacadeSet: scene/luminaires.h); empty: each plane's facade_key.
+  std::vector<uint64_t> facade_keys;
 };
 // The cut-off distribution relative to its peak: 1 up to cutoff_deg from the nadir, then
 // exp(-(γ - cutoff)/falloff).
@@ -83,7 +96,8 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // height: storeys of window_storey_m, windows of window_width_m x window_height_m centred in cells
 // of window_pitch_m, perspective following from the projection. The lit draw is keyed by (run
 // seed, the plane's azimuth in 5° and distance in 5 m steps, cell, storey), all in world
-// coordinates, so windows stay on their façade when the camera moves. A window's glass is its
+// coordinates (the road coordinates of the frame at `pose`, the frame's pose in its sequence's
+// world; 0 for a single frame), so windows stay on their façade when the camera moves. A window's glass is its
 // opening less window_frame_m on every side, split by a central window_mullion_m (two lights); a
 // lit window is behind curtains with probability window_curtained_share (luminance
 // window_curtained_luminance_cd_m2 instead of window_luminance_cd_m2, each ×0.5..1.5). The ground
@@ -96,8 +110,13 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // preset's windows.detect_contrast above 0) the windows are first looked for in the photo: where it
 // resolves a façade, the windows lit are the ones it shows (scene/facade_windows.cpp), each a
 // seeded draw as the grid's; the grid lays out only the parts of the façades it does not resolve.
+// The key of a façade plane's window draws: the plane's normal's azimuth in 5° steps and its
+// distance from the world's origin in 5 m steps, the plane taken into the world of the frame at
+// `pose` (its normal turned by the yaw, its distance d + n_w·T, T the camera's foot).
+uint64_t facade_key(const FacadePlane& f, const CameraPose& pose);
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                        const ScenePreset& p, uint64_t seed, const BuildingFacades* facades = nullptr,
-                       const ImageF* texture = nullptr);
+                       const ImageF* texture = nullptr, const CameraPose& pose = {},
+                       const std::vector<uint64_t>* facade_keys = nullptr);
 
 }  // namespace photosite::scene
