@@ -19,6 +19,7 @@
 #include "photosite/environment.h"
 #include "photosite/error.h"
 #include "photosite/rng.h"
+#include "photosite/scene/luminaires.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/street.h"
 #include "photosite/sensor/glare.h"
@@ -3696,7 +3697,8 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
                         uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m,
                         const ImageF* beam_lux, const BuildingFacades* facades, const StreetLighting* street,
                         bool with_radiance, bool with_glare_level1, const VehicleParts* vehicles,
-                        const BeamVerticalRows* beam_vertical, const LampShadowRows* street_shadows) {
+                        const BeamVerticalRows* beam_vertical, const LampShadowRows* street_shadows,
+                        ParkedSet* parked) {
   const int W = day.width(), H = day.height();
   const ImageU16& labels = lm.ids;
   LightMap out;
@@ -4138,6 +4140,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
       std::map<int, int> row_size;
       for (int c : members) ++row_size[find(c)];
       for (int c : members) why[c].row = row_size[find(c)] >= 3 ? row_size[find(c)] : 0;
+      // In a sequence, the parked vehicles' draws go through the sequence's ParkedSet (below).
+      std::vector<int> parked_c;
+      std::vector<ParkedSet::Sighting> sightings;
       for (int c = 1; c <= ncomp; ++c) {
         if (!contact[c]) continue;
         VehState& v = vs[c];
@@ -4153,11 +4158,31 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
                                           : (static_cast<uint64_t>(std::lround(v.X / 2) + 4096) << 20) |
                                                 static_cast<uint64_t>(std::lround(v.D / 2) + 4096);
           const auto w = random_words(seed, 0, 0x9a4c000000ull ^ key, Stream::Scene);
-          if (uniform_open(w[0]) < p.veh_parked_lit_fraction) {
+          const bool lit = uniform_open(w[0]) < p.veh_parked_lit_fraction;
+          if (parked && street) {
+            parked_c.push_back(c);
+            // (A vehicle cut by the frame: its contact up to a car's length off, 5 m: passenger
+            // cars are 3.5-5 m long.)
+            sightings.push_back({v.X, v.D, cut[c] ? 5.0 : 0.0, lit});
+          } else if (lit) {
             v.state = 2;
             ++out.stats.vehicles_parked_lit;
           }
         }
+      }
+      // In a sequence each parked vehicle takes the draw of the one remembered at its place
+      // (ParkedSet, one to one), so its lights do not blink as its key moves. Matched within
+      // 4 px of contact row at the farther sighting's distance: 1 px of row quantisation at
+      // each sighting plus 2 px for the sequence's horizon against the true one (its error moves
+      // a contact by r²·δ/(f·h), differently at the two distances; 1.7 px on the synthetic
+      // street of Luminaires.ParkedVehiclesKeepTheirParkingLightsWhileDriving).
+      if (!sightings.empty()) {
+        const std::vector<char> lit = parked->lit(sightings, street->pose, 4 / (geometry->f_px * geometry->mount_height_m));
+        for (size_t k = 0; k < lit.size(); ++k)
+          if (lit[k]) {
+            vs[parked_c[k]].state = 2;
+            ++out.stats.vehicles_parked_lit;
+          }
       }
     }
     // The test hook (scene/vehicle_facing_detail.h): each vehicle's decision, with its instance code.

@@ -143,6 +143,44 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   return s;
 }
 
+std::vector<char> ParkedSet::lit(const std::vector<Sighting>& frame, const CameraPose& pose, double match_k) {
+  const Pose2 P(pose);
+  std::vector<size_t> order(frame.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return std::hypot(frame[a].X_m, frame[a].D_m) < std::hypot(frame[b].X_m, frame[b].D_m);
+  });
+  const size_t remembered = seen_.size();  // (this frame's new vehicles are not matched against)
+  std::vector<char> taken(remembered, 0), out(frame.size(), 0);
+  for (const size_t k : order) {
+    const Sighting& s = frame[k];
+    double Xw, Dw;
+    P.to_world(s.X_m, s.D_m, &Xw, &Dw);
+    const double seen = std::hypot(s.X_m, s.D_m);
+    int best = -1;
+    double best_d = INFINITY;
+    for (size_t i = 0; i < remembered; ++i) {
+      if (taken[i]) continue;
+      const double d = std::hypot(seen_[i].X_m - Xw, seen_[i].D_m - Dw), r = std::max(seen, seen_[i].seen_m);
+      if (d <= std::max(1.0, match_k * r * r) + s.slack_m && d < best_d) { best = static_cast<int>(i); best_d = d; }
+    }
+    if (best < 0) {
+      seen_.push_back({Xw, Dw, seen, s.draw});
+      out[k] = s.draw;
+      continue;
+    }
+    taken[best] = 1;
+    Vehicle& v = seen_[best];
+    if (seen < v.seen_m) { v.X_m = Xw; v.D_m = Dw; v.seen_m = seen; }
+    out[k] = v.lit;
+  }
+  return out;
+}
+
+void ParkedSet::forget(const CameraPose& pose, double forget_m) {
+  std::erase_if(seen_, [&](const Vehicle& v) { return std::hypot(v.X_m - pose.X_m, v.D_m - pose.D_m) > forget_m; });
+}
+
 std::vector<uint64_t> FacadeSet::keys(const std::vector<FacadePlane>& planes, const CameraPose& pose, double forget_m) {
   const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
   // Forgotten first: the façades now beyond forget_m of the camera's foot (|n·T − d|).

@@ -336,6 +336,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
     tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
     tracked.pose = seq->pose;  // the façade windows laid out in the sequence's world
     tracked.facade_keys = seq->facades.keys(facades.planes, seq->pose, p.max_depth_m);
+    seq->parked.forget(seq->pose, p.max_depth_m);
   }
   // A sequence's street lamps' shadows, for its tracked lamps, from the label runs made beside the
   // Hough stage (street_lamp_shadow_spans over the threads; their time in the light map's stage).
@@ -352,7 +353,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // before the tail.
   LightMap lm = light_map_with(day, texture, labels, lanes_full, s.beam_input, vp, p, seed, &s.geometry, &s.depth,
                                &s.beam_lux, &facades, seq ? &tracked : &planned, !tail, glare_level1 && !tail,
-                               vehicles.get(), &*beam_vertical, street_shadow_rows.lamps ? &street_shadow_rows : nullptr);
+                               vehicles.get(), &*beam_vertical, street_shadow_rows.lamps ? &street_shadow_rows : nullptr,
+                               seq ? &seq->parked : nullptr);
   vehicles.reset();
   if (seq) ++seq->frames;
   s.light_stats = lm.stats;

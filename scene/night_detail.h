@@ -126,13 +126,14 @@ class BeamVerticalRows;
 std::shared_ptr<VehicleParts> vehicle_rows_part(const LabelMap& labels);
 void add_vehicle_parts(VehicleParts& parts, const ImageF& day_linear_srgb, const LabelMap& labels);
 struct LampShadowRows;  // scene/street_detail.h
+class ParkedSet;        // scene/luminaires.h: a sequence's parked vehicles (their parking lights' draws)
 LightMap light_map_with(const ImageF& day_linear_srgb, const ImageF& texture, const LabelMap& labels,
                         const ImageU8& lanes, const ImageF& depth, const VanishingPoint& vp, const ScenePreset& p,
                         uint64_t seed, const CameraGeometry* geometry, const ImageF* depth_m, const ImageF* beam_lux,
                         const BuildingFacades* facades, const StreetLighting* street, bool with_radiance,
                         bool with_glare_level1, const VehicleParts* vehicles,
                         const BeamVerticalRows* beam_vertical = nullptr,
-                        const LampShadowRows* street_shadows = nullptr);
+                        const LampShadowRows* street_shadows = nullptr, ParkedSet* parked = nullptr);
 // add_low_beam_vertical (scene/lights.cpp) row by row: the set-up once, then row(y) writes the
 // vertical surfaces' beam E of row y into beam_lux (the same values as add_low_beam_vertical's),
 // from any thread. The light map's row pass runs it just before it composes the row (ComposeRows),

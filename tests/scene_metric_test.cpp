@@ -3096,6 +3096,73 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
   EXPECT_EQ(set.size(), 1u);
 }
 
+// Parked vehicles keep their parking lights over a sequence whose camera drives on. A row of
+// cars parked on the right sidewalk (X 8.5 m, every 6.5 m from 14 m on), the camera driving
+// 9 m a frame (each frame rendered from its pose), their instance codes numbered anew in each
+// frame (as a segmentation model numbers them: each parked vehicle's draw is keyed by its code,
+// which then names another car in the next frame), half the parked vehicles lit
+// (vehicle_lamps.parked_lit_fraction 0.5, so that a change shows). Each vehicle's decision is
+// read from the test hook, its car known from its code. As a sequence (ParkedSet, which matches
+// them by their place in the world) no parked car seen in two frames changes its lights; frame by
+// frame about half of them do (each a fresh draw).
+TEST(Luminaires, ParkedVehiclesKeepTheirParkingLightsWhileDriving) {
+  const double step = 9;
+  const int n = 3;
+  ScenePreset p = urban();
+  p.rig = load_camera_rig("cityscapes");
+  p.veh_parked_lit_fraction = 0.5;
+  std::vector<SyntheticCameraScene> scenes;
+  for (int f = 0; f < n; ++f) {
+    SyntheticCameraOptions o = camera_scene();
+    o.boxes.clear();
+    for (int k = 0; k < 9; ++k) o.boxes.push_back({8.5, 14 + 6.5 * k, 1.8, 1.5, 4.5});
+    o.world_D_m = step * f;
+    scenes.push_back(make_synthetic_camera_scene(o));
+    // The instance codes numbered anew each frame (the same car another code in each frame).
+    for (auto& v : scenes.back().labels.instances.vec())
+      if (v) v = static_cast<uint16_t>(26000 + (v - 26000 + 4 * f) % 9);
+  }
+  // Each decision's car (its box: the code's numbering undone) and state.
+  struct Seen { int car, state; };
+  auto decisions = [&](bool sequence) {
+    SequenceState st;
+    std::vector<std::vector<Seen>> out(n);
+    for (int f = 0; f < n; ++f) {
+      st.pose = CameraPose{0, step * f, 0};
+      std::vector<VehicleDecision> seen;
+      set_vehicle_decision_sink(&seen);
+      night_scene(scenes[f].day_linear_srgb, scenes[f].labels, p, 5, false, sequence ? &st : nullptr);
+      set_vehicle_decision_sink(nullptr);
+      for (const auto& d : seen)
+        if (d.state != 1 && d.instance) out[f].push_back({((d.instance - 26000 - 4 * f) % 9 + 9) % 9, d.state});
+    }
+    return out;
+  };
+  // Over consecutive frames, the parked cars seen in both (`matched`, of them `lit` in the later
+  // frame) and how many changed their lights.
+  auto changes = [&](const std::vector<std::vector<Seen>>& s, int* matched, int* lit) {
+    int changed = 0;
+    *matched = *lit = 0;
+    for (int f = 1; f < n; ++f)
+      for (const Seen& a : s[f])
+        for (const Seen& b : s[f - 1])
+          if (a.car == b.car) {
+            ++*matched;
+            *lit += a.state == 2;
+            changed += a.state != b.state;
+          }
+    return changed;
+  };
+  int m_seq, lit_seq, m_alone, lit_alone;
+  const int seq_changes = changes(decisions(true), &m_seq, &lit_seq), alone_changes = changes(decisions(false), &m_alone, &lit_alone);
+  std::fprintf(stderr, "[parked] vehicles seen parked in two frames: as a sequence %d (%d lit), %d changed their lights; "
+               "frame by frame %d (%d lit), %d changed\n", m_seq, lit_seq, seq_changes, m_alone, lit_alone, alone_changes);
+  ASSERT_GE(m_seq, 8) << "too few parked vehicles matched between frames for the test to say anything";
+  ASSERT_GT(lit_seq, 0);
+  EXPECT_EQ(seq_changes, 0) << "a parked vehicle's lights changed between frames of the sequence";
+  EXPECT_GT(alone_changes, 0);
+}
+
 // The same while the camera turns: the synthetic street seen from the poses a vehicle reaches at
 // 18 m/s turning left at 0.1 rad/s (OXTS vf, wu; advance_pose's arc, 0.5 s a frame: 9 m and
 // 2.9° a frame), each frame rendered from its pose, so the façades run obliquely through the

@@ -78,12 +78,41 @@ class FacadeSet {
   std::vector<Facade> seen_;
 };
 
+// The parked vehicles a sequence has seen, in the world, each with its parking lights' draw (on
+// or off: vehicle_lamps.parked_lit_fraction, scene/lights.cpp). A frame draws each parked
+// vehicle's lights from a key of its own (its instance code, else its ground contact on a 2 m grid
+// of the frame's road coordinates): over a sequence whose camera moves, or whose instance codes are
+// numbered anew each frame (a segmentation model's), that key changes from frame to frame and the
+// parking lights would blink. lit() takes a frame's parked vehicles (their ground contacts in the
+// frame at `pose`, and `draw`, the frame's own draw of each) nearest first, and gives each one the
+// draw of the nearest remembered vehicle not yet taken in this frame within max(1 m, match_k·r²)
+// of it (r the farther of the two sightings' distances; a pixel of contact row is r²/(f·h) at r)
+// plus its slack_m (a vehicle cut by the frame: its lowest visible row is not its nearest
+// contact, which may lie up to its length away),
+// one to one, so that a row of parked cars whose far contacts are located a few metres off is
+// not matched each to its neighbour; a matched vehicle's contact is moved to this sighting when
+// it is the nearer (a contact is located better from nearer). An unmatched vehicle is remembered
+// with its own draw. forget() drops those farther than `forget_m` from the camera's foot.
+// Deterministic: the same frames in the same order give the same draws.
+class ParkedSet {
+ public:
+  struct Sighting { double X_m, D_m, slack_m; bool draw; };
+  std::vector<char> lit(const std::vector<Sighting>& frame, const CameraPose& pose, double match_k);
+  void forget(const CameraPose& pose, double forget_m);
+  size_t size() const { return seen_.size(); }
+
+ private:
+  struct Vehicle { double X_m, D_m, seen_m; bool lit; };  // in the world; seen_m: its nearest sighting's distance
+  std::vector<Vehicle> seen_;
+};
+
 // Everything a sequence carries from frame to frame (night_scene's `sequence`). The caller sets
 // `pose` before each frame; the rest is filled in as frames are computed.
 struct SequenceState {
   CameraPose pose;          // of the frame about to be computed
   LuminaireSet luminaires;  // street lamps in the world
   FacadeSet facades;        // building façades in the world, with their windows' draw keys
+  ParkedSet parked;         // parked vehicles in the world, with their parking lights' draws
   ClassMeans reflectance;   // reflectance_texture's class means, fixed when a class is first seen
   // The camera pitch of the first frame (its horizon: the vanishing point's when accepted, else
   // the rig's), kept for the sequence: a camera on a vehicle keeps its mounting pitch, while the
