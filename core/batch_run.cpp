@@ -315,6 +315,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   if (o.sequences && o.ego_motion &&
       std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.odometry.empty(); }))
     params["ego_motion"] = "odometry";
+  // The camera's place on the vehicle from a KITTI drive's calibration files (calib/<sub>/), only
+  // when read: earlier manifests stay valid, and a run that took the OXTS unit's place is not
+  // resumed by one that reads the calibration, nor the reverse.
+  if (params.contains("ego_motion") &&
+      std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.odometry_calib.empty(); }))
+    params["camera_mount"] = "kitti_calibration";
   // The lamp type (night --streetlamp-type, or the preset's key) only when not the LED: earlier
   // manifests, all LED, stay valid, and a run resumed with the other type is refused.
   if (sp.streetlamp_type != scene::StreetlampType::Led)

@@ -592,6 +592,22 @@ TEST(EgoMotion, BatchKittiWithCalibration) {
   std::fprintf(stderr, "[kitti calib] frame 2 pose: X %s m, D %s m (OXTS unit alone: X %.6f m, D %.6f m)\n",
                attrs.at("photosite/batch/pose_X_m_text").c_str(), attrs.at("photosite/batch/pose_D_m_text").c_str(),
                bare.X_m, bare.D_m);
+  // A run that took the OXTS unit's place is not resumed by one that reads the calibration (the
+  // resume manifest's camera_mount), nor the reverse.
+  std::filesystem::rename(root / "calib", root / "calib.off");
+  r = test::run_cli(base + tmp.file("c") + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::filesystem::rename(root / "calib.off", root / "calib");
+  r = test::run_cli(base + tmp.file("c") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("camera_mount"), std::string::npos) << r.output;
+  r = test::run_cli(base + tmp.file("a") + "'");  // the same run again: resumed (all done)
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::filesystem::rename(root / "calib", root / "calib.off");
+  r = test::run_cli(base + tmp.file("a") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("camera_mount"), std::string::npos) << r.output;
+  std::filesystem::rename(root / "calib.off", root / "calib");
   // A calibration file without its T line: every frame fails, naming it; nothing is written.
   write_text((root / "calib" / "drive" / "calib_velo_to_cam.txt").string(), "R: 1 0 0 0 1 0 0 0 1\n");
   r = test::run_cli(base + tmp.file("b") + "'");
