@@ -194,6 +194,11 @@ std::vector<Item> discover(Dataset d, const std::string& root_s, const std::stri
         it.odometry = (oxts / "data" / (stem + ".txt")).string();
         it.odometry_time = (oxts / "timestamps.txt").string();
         it.odometry_line = std::stol(stem);
+        // The camera's place on the vehicle: the drive date's calibration files (KITTI raw ships
+        // them beside its drives, <date>/calib_*.txt) at calib/<sub>/; where that folder exists
+        // all three are read, a missing one refused by its name.
+        if (const fs::path calib = root / "calib" / sub.parent_path(); fs::is_directory(calib, ec))
+          it.odometry_calib = calib.string();
       }
       require_labels(it);
       order[it.key] = all_digits(stem) ? std::stol(stem) : 0;

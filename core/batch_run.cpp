@@ -112,6 +112,7 @@ struct Loaded {
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string image_note;  // the day image's negative samples (day_image_note), for the header
   std::optional<scene::OdometrySample> odometry;  // batch --sequence with ego-motion: the item's
+  std::string mount_source;  // where its camera_* (the camera's place on the vehicle) come from
   std::string error;
 };
 // A worker's sequence (batch --sequence): the group being computed, its scene state, and the
@@ -314,6 +315,12 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   if (o.sequences && o.ego_motion &&
       std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.odometry.empty(); }))
     params["ego_motion"] = "odometry";
+  // The camera's place on the vehicle from a KITTI drive's calibration files (calib/<sub>/), only
+  // when read: earlier manifests stay valid, and a run that took the OXTS unit's place is not
+  // resumed by one that reads the calibration, nor the reverse.
+  if (params.contains("ego_motion") &&
+      std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.odometry_calib.empty(); }))
+    params["camera_mount"] = "kitti_calibration";
   // The lamp type (night --streetlamp-type, or the preset's key) only when not the LED: earlier
   // manifests, all LED, stay valid, and a run resumed with the other type is refused.
   if (sp.streetlamp_type != scene::StreetlampType::Led)
@@ -450,14 +457,25 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       if (!day.codes) l.image_note = day_image_note(day.floats, info);
       l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                     scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
-      if (item_cameras && !it.camera.empty()) {
+      const bool ego = o.sequences && o.ego_motion && !it.odometry.empty();
+      // The camera file, read once: its intrinsics for the item's rig (unless --rig replaces them)
+      // and its extrinsics for the camera's place on the vehicle (with odometry, whatever --rig).
+      std::optional<scene::CameraRig> camera_file;
+      if ((item_cameras || ego) && !it.camera.empty()) camera_file = scene::load_cityscapes_camera(it.camera);
+      if (item_cameras && camera_file) {
         l.camera_sum = file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
-        l.rig = scene::load_cityscapes_camera(it.camera);
+        l.rig = camera_file;
       }
-      // The camera's lever arm is its camera file's whether or not --rig replaces the file's intrinsics.
-      if (o.sequences && o.ego_motion && !it.odometry.empty())
-        l.odometry = it.odometry_line >= 0 ? scene::read_kitti_oxts(it.odometry, it.odometry_time, it.odometry_line)
-                                           : scene::read_cityscapes_odometry(it.odometry, it.odometry_time, it.camera);
+      if (ego && it.odometry_line >= 0) {
+        const scene::CameraMount mount =
+            it.odometry_calib.empty() ? scene::CameraMount{} : scene::read_kitti_camera_mount(it.odometry_calib);
+        l.odometry = scene::read_kitti_oxts(it.odometry, it.odometry_time, it.odometry_line, mount);
+        l.mount_source = it.odometry_calib.empty() ? "none: the OXTS unit's place" : "KITTI calibration " + it.odometry_calib;
+      } else if (ego) {
+        const scene::CameraMount mount = camera_file ? scene::cityscapes_camera_mount(*camera_file) : scene::CameraMount{};
+        l.odometry = scene::read_cityscapes_odometry(it.odometry, it.odometry_time, mount);
+        l.mount_source = camera_file ? "Cityscapes camera file " + it.camera : "none: the rear axle's centre";
+      }
       // (And the sun/shade split's block sums, from the same pass: the preset says whether it is on.)
       if (rb && rb->group != it.group) *rb = ReaderBalance{it.group, std::nullopt};
       const scene::DayBalance* carried = rb && rb->fixed ? &*rb->fixed : nullptr;
@@ -557,6 +575,11 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
           (*attrs)["photosite/batch/pose_X_m"] = g.seq.pose.X_m;
           (*attrs)["photosite/batch/pose_D_m"] = g.seq.pose.D_m;
           (*attrs)["photosite/batch/pose_yaw_rad"] = g.seq.pose.yaw_rad;
+          // The camera's place on the vehicle the pose was computed with (ISO 8855, m and rad).
+          (*attrs)["photosite/batch/camera_forward_m"] = l.odometry->camera_forward_m;
+          (*attrs)["photosite/batch/camera_left_m"] = l.odometry->camera_left_m;
+          (*attrs)["photosite/batch/camera_yaw_rad"] = l.odometry->camera_yaw_rad;
+          (*attrs)["photosite/batch/camera_mount"] = l.mount_source;
         }
       }
       ExrWriteOptions wo;

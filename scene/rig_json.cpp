@@ -1,7 +1,8 @@
 // Cityscapes' own per-image camera calibration as a camera rig (see rig.h).
 //
 // The Cityscapes package camera_trainvaltest ships one file per image,
-// <root>/camera/<split>/<city>/<city>_<seq>_<frame>_camera.json:
+// <root>/camera/<split>/<city>/<city>_<seq>_<frame>_camera.json (x, y, yaw: the camera's place
+// and heading in the vehicle frame of ISO 8855, csCalibration.pdf §3):
 //   {"extrinsic": {"baseline": m, "pitch": rad, "roll": rad, "x": m, "y": m, "yaw": rad, "z": m},
 //    "intrinsic": {"fx": px, "fy": px, "u0": px, "v0": px}}
 // (Cordts et al., CVPR 2016, and the data set's README). z is the camera's height above the road
@@ -19,6 +20,7 @@
 #include "core/toml_schema_detail.h"
 #include "photosite/error.h"
 #include "photosite/scene/rig.h"
+#include "scene/data_file_detail.h"
 
 namespace photosite::scene {
 namespace fs = std::filesystem;
@@ -26,17 +28,19 @@ namespace fs = std::filesystem;
 namespace {
 constexpr int kCityscapesWidthPx = 2048, kCityscapesHeightPx = 1024;  // leftImg8bit frames
 
+const nlohmann::json& group_of(const nlohmann::json& j, const char* group, const std::string& file) {
+  if (!j.contains(group) || !j[group].is_object()) fail_at(file, std::string("no \"") + group + "\" object (a Cityscapes camera file has extrinsic and intrinsic)");
+  return j[group];
+}
 double number_at(const nlohmann::json& j, const char* group, const char* key, double lo, double hi,
                  const char* unit, const std::string& file) {
-  const std::string name = std::string(group) + "." + key;
-  if (!j.contains(group) || !j[group].is_object()) fail_at(file, std::string("no \"") + group + "\" object (a Cityscapes camera file has extrinsic and intrinsic)");
-  const auto& g = j[group];
-  if (!g.contains(key)) fail_at(file, name + ": missing");
-  if (!g[key].is_number()) fail_at(file, name + ": not a number");
-  const double v = g[key].get<double>();
-  if (!(v >= lo && v <= hi))
-    fail_at(file, fmt::format("{}: {} {} is outside [{}, {}]", name, v, unit, lo, hi));
-  return v;
+  return detail::json_number_in_range(group_of(j, group, file), key, std::string(group) + "." + key, lo, hi, unit, file);
+}
+// A key the file may leave out: absent, none; present, as number_at.
+std::optional<double> optional_number_at(const nlohmann::json& j, const char* group, const char* key, double lo,
+                                         double hi, const char* unit, const std::string& file) {
+  if (!group_of(j, group, file).contains(key)) return std::nullopt;
+  return number_at(j, group, key, lo, hi, unit, file);
 }
 }  // namespace
 
@@ -56,6 +60,12 @@ CameraRig parse_cityscapes_camera(const std::string& text, const std::string& fi
   r.mount_height_m = number_at(j, "extrinsic", "z", 0.1, 50, "m", file);
   const double pitch_rad = number_at(j, "extrinsic", "pitch", -30 * std::numbers::pi / 180, 30 * std::numbers::pi / 180, "rad", file);
   r.pitch_deg = pitch_rad * 180 / std::numbers::pi;
+  // The camera's place on the vehicle (ISO 8855, the origin below the rear axle's centre): within
+  // a vehicle's length of it; its heading along the road within a few degrees (Cityscapes: about
+  // −0.02 rad): 0.5 rad (29°) and more is not a forward camera, or another unit (degrees).
+  r.mount_forward_m = optional_number_at(j, "extrinsic", "x", -20, 20, "m", file);
+  r.mount_left_m = optional_number_at(j, "extrinsic", "y", -20, 20, "m", file);
+  r.mount_yaw_rad = optional_number_at(j, "extrinsic", "yaw", -0.5, 0.5, "rad", file);
   return r;
 }
 

@@ -887,8 +887,9 @@ TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
 }
 
 // batch's resume manifest (OUT/.photosite-batch/shard-I-of-N.jsonl) has the keys docs/cli.md's
-// "Resume manifest keys" paragraph names, both ways: the parameter record's (with the three written
-// only when set: --sequence, its odometry and a lamp type other than LED), the "writing" record's,
+// "Resume manifest keys" paragraph names, both ways: the parameter record's (with the four written
+// only when set: --sequence, its odometry, a KITTI drive's calibration (a second run) and a lamp
+// type other than LED), the "writing" record's,
 // the finished record's and its files' (with an item's Cityscapes camera file, whose checksum is
 // recorded, and its vehicle and timestamp files, which --sequence reads).
 TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
@@ -932,6 +933,28 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
     }
   }
   EXPECT_EQ(records, 3);  // the parameters, "writing", the finished item
+  // A one-frame KITTI drive with its OXTS record and calibration files (calib/<sub>/: the camera
+  // at the OXTS unit, looking ahead), whose parameter record adds camera_mount.
+  const fs::path kitti = tmp.path() / "kitti";
+  for (const char* d : {"image_2/drive", "semantic/drive", "oxts/drive/data", "calib/drive"}) fs::create_directories(kitti / d);
+  fs::copy_file(sample / "image_2/000000_10.png", kitti / "image_2/drive/0000000000.png");
+  fs::copy_file(sample / "semantic/000000_10.png", kitti / "semantic/drive/0000000000.png");
+  std::string oxts;
+  for (int k = 0; k < 30; ++k) oxts += k < 29 ? "0 " : "0\n";
+  std::ofstream(kitti / "oxts/drive/data/0000000000.txt") << oxts;
+  std::ofstream(kitti / "oxts/drive/timestamps.txt") << "2011-09-26 13:02:25.964389445\n";
+  std::ofstream(kitti / "calib/drive/calib_imu_to_velo.txt") << "R: 1 0 0 0 1 0 0 0 1\nT: 0 0 0\n";
+  std::ofstream(kitti / "calib/drive/calib_velo_to_cam.txt") << "R: 0 -1 0 0 0 -1 1 0 0\nT: 0 0 0\n";
+  std::ofstream(kitti / "calib/drive/calib_cam_to_cam.txt")
+      << "R_rect_00: 1 0 0 0 1 0 0 0 1\nP_rect_02: 700 0 621 0 0 700 187 0 0 0 1 0\n";
+  const auto rk = run_cli("batch --backend cpu --quiet --dataset kitti --root " + kitti.string() + " --out " +
+                          tmp.file("kout") + " --layers depth --sequence");
+  ASSERT_EQ(rk.exit_code, 0) << rk.output;
+  std::istringstream klines(slurp(tmp.path() / "kout/.photosite-batch/shard-0-of-1.jsonl"));
+  std::string first;
+  std::getline(klines, first);
+  const auto kparams = nlohmann::json::parse(first);  // kept: the loop's range refers into it
+  for (const auto& [k, v] : kparams.at("params").items()) written.insert(k);
   for (const auto& k : documented) EXPECT_TRUE(written.count(k)) << "docs/cli.md names the resume manifest key " << k << ", which batch does not write";
   for (const auto& k : written) EXPECT_TRUE(documented.count(k)) << "batch's resume manifest has the key " << k << ", which docs/cli.md does not name";
 }

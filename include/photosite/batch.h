@@ -39,6 +39,9 @@ struct Item {
   // odometry_time the drive's oxts/<sub>/timestamps.txt and odometry_line the frame's number.
   std::string odometry, odometry_time;
   long odometry_line = -1;
+  // KITTI: the folder of the drive's calibration files (calib/<sub>/, scene/ego_motion.h
+  // read_kitti_camera_mount) for the camera's place on the vehicle, or "" (the OXTS unit's place).
+  std::string odometry_calib;
   std::string origin;       // where the item is listed ("list.txt:3"), for messages; "" for a layout
 
   std::string label_format = "auto";

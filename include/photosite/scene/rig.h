@@ -3,6 +3,7 @@
 // the road and the nominal pitch. presets/rigs/<name>.toml, every number with its source; unknown
 // or missing keys and out-of-range values are errors naming file and line.
 #pragma once
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,13 @@ struct CameraRig {
   // driving: a vanishing-point horizon further off than this is a mis-detection (camera_geometry
   // falls back to the nominal pitch). Default kPitchToleranceDeg (rig.cpp derives it).
   double pitch_tolerance_deg = kPitchToleranceDeg;
+  // Where the camera sits on its vehicle, in the vehicle frame of ISO 8855 (x forward, y left,
+  // z up; Cityscapes: the origin on the ground below the rear axle's centre): its place ahead of
+  // (x) and left of (y) that origin in m, and its heading against the vehicle's in rad (yaw about
+  // z, positive turned to the left). A Cityscapes camera file's extrinsic x, y and yaw
+  // (parse_cityscapes_camera); absent in the rig presets and in camera files without those keys.
+  // `batch --sequence` places the camera on the odometry's path with them (scene/ego_motion.h).
+  std::optional<double> mount_forward_m, mount_left_m, mount_yaw_rad;
 };
 
 CameraRig parse_camera_rig(const std::string& toml_text, const std::string& file);
@@ -37,9 +45,10 @@ CameraRig rig_for_image(int width, int height);
 CameraRig resolve_camera_rig(const std::string& flag, int width, int height, const std::string& image_path = {});
 
 // Cityscapes' per-image calibration (camera/<split>/<city>/<stem>_camera.json: extrinsic z and
-// pitch, intrinsic fx, u0, v0) as a rig of the 2048x1024 leftImg8bit frames (scene/rig_json.cpp).
-// Bad input (file: key: problem) on a missing key, a non-number or a value outside the rig
-// schema's ranges.
+// pitch, intrinsic fx, u0, v0; extrinsic x, y, yaw where the file has them) as a rig of the
+// 2048x1024 leftImg8bit frames (scene/rig_json.cpp). Bad input (file: key: problem) on a missing
+// key, a non-number or a value outside the rig schema's ranges (x, y within 20 m of the vehicle's
+// reference point; |yaw| <= 0.5 rad).
 CameraRig parse_cityscapes_camera(const std::string& json_text, const std::string& file);
 CameraRig load_cityscapes_camera(const std::string& path);
 // The camera file of an image in the Cityscapes layout (leftImg8bit[_sequence]/<split>/<city>/

@@ -1,0 +1,32 @@
+// Numbers read from a data set's own files (Cityscapes' camera and vehicle JSON, KITTI raw's text
+// records): refused, naming the file and the key, when missing, not a number, or outside the
+// range of what the file can hold (scene/rig_json.cpp, scene/ego_motion.cpp).
+#pragma once
+#include <cmath>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "photosite/error.h"
+
+namespace photosite::scene::detail {
+
+// v, named `name` (unit `unit`) in `file`: bad input "file: name: v unit is outside [lo, hi]why"
+// unless finite and within [lo, hi].
+inline double number_in_range(double v, double lo, double hi, const std::string& name, const char* unit,
+                              const std::string& file, const char* why = "") {
+  if (!std::isfinite(v) || !(v >= lo && v <= hi))
+    fail_at(file, fmt::format("{}: {} {} is outside [{}, {}]{}", name, v, unit, lo, hi, why));
+  return v;
+}
+
+// obj[key] (`name` in messages): bad input when missing or not a number, then as number_in_range.
+inline double json_number_in_range(const nlohmann::json& obj, const char* key, const std::string& name, double lo,
+                                   double hi, const char* unit, const std::string& file, const char* why = "") {
+  if (!obj.contains(key)) fail_at(file, name + ": missing");
+  if (!obj[key].is_number()) fail_at(file, name + ": not a number");
+  return number_in_range(obj[key].get<double>(), lo, hi, name, unit, file, why);
+}
+
+}  // namespace photosite::scene::detail
