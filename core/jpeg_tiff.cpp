@@ -170,6 +170,45 @@ std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_
 }
 }  // namespace
 
+namespace {
+// The Exif orientation of a JPEG (the Orientation tag, 274, of the Exif APP1 segment's IFD0: Exif
+// 2.32 §4.6.4 A, its values those of TIFF 6.0's tag), or 0 where there is none or it cannot be
+// read. The marker segments before the first SOS are walked by their lengths (T.81 B.1.1.4).
+int jpeg_exif_orientation(const std::vector<uint8_t>& d) {
+  size_t at = 2;  // after SOI
+  while (at + 4 <= d.size() && d[at] == 0xff) {
+    const uint8_t marker = d[at + 1];
+    if (marker == 0xda || marker == 0xd9) break;  // SOS, EOI: no more header segments
+    const size_t len = size_t{d[at + 2]} << 8 | d[at + 3];
+    if (len < 2 || at + 2 + len > d.size()) break;
+    const size_t seg = at + 4, end = at + 2 + len;
+    static const uint8_t kExif[6] = {'E', 'x', 'i', 'f', 0, 0};
+    if (marker == 0xe1 && end - seg >= 14 && std::memcmp(&d[seg], kExif, 6) == 0) {
+      const size_t tiff = seg + 6;  // the TIFF header: II or MM, 42, the offset of IFD0
+      const bool le = d[tiff] == 'I' && d[tiff + 1] == 'I';
+      if (!le && !(d[tiff] == 'M' && d[tiff + 1] == 'M')) return 0;
+      auto u16 = [&](size_t i) { return le ? d[i] | d[i + 1] << 8 : d[i] << 8 | d[i + 1]; };
+      auto u32 = [&](size_t i) {
+        return le ? uint32_t{d[i]} | uint32_t{d[i + 1]} << 8 | uint32_t{d[i + 2]} << 16 | uint32_t{d[i + 3]} << 24
+                  : uint32_t{d[i]} << 24 | uint32_t{d[i + 1]} << 16 | uint32_t{d[i + 2]} << 8 | uint32_t{d[i + 3]};
+      };
+      const uint64_t ifd = tiff + uint64_t{u32(tiff + 4)};
+      if (ifd + 2 > end) return 0;
+      const int entries = u16(static_cast<size_t>(ifd));
+      for (int k = 0; k < entries; ++k) {
+        const uint64_t e = ifd + 2 + 12 * uint64_t(k);
+        if (e + 12 > end) return 0;
+        if (u16(static_cast<size_t>(e)) == 274 && u16(static_cast<size_t>(e) + 2) == 3)  // SHORT
+          return u16(static_cast<size_t>(e) + 8);
+      }
+      return 0;
+    }
+    at = end;
+  }
+  return 0;
+}
+}  // namespace
+
 Raster read_jpeg(const std::string& path) {
   const std::vector<uint8_t> data = read_file(path);
   Raster r;
@@ -185,6 +224,19 @@ Raster read_jpeg(const std::string& path) {
   }, r);
   if (!err.empty()) fail_at(path, "corrupt or truncated image (" + err + ")");
   r.channel_samples.assign(r.channels, Sample::U8);
+  // A camera held sideways stores its rows as the sensor read them and says in Exif how viewers
+  // should turn them. photosite reads the pixels as stored (as OpenImageIO did); said on the
+  // standard error, since labels made from the picture as viewers show it fit the stored pixels
+  // only after the same turn.
+  static const char* const kShown[9] = {"", "", "mirrored left to right", "turned 180 degrees",
+                                        "mirrored top to bottom", "mirrored about its main diagonal",
+                                        "turned 90 degrees clockwise", "mirrored about its other diagonal",
+                                        "turned 90 degrees counter-clockwise"};
+  if (const int o = jpeg_exif_orientation(data); o >= 2 && o <= 8)
+    std::fprintf(stderr,
+                 "photosite: note: %s: its Exif orientation (%d) has viewers show it %s; photosite reads its %dx%d "
+                 "pixels as stored, not turned (labels and instance ids must be of the stored pixels)\n",
+                 path.c_str(), o, kShown[o], r.width, r.height);
   return r;
 }
 

@@ -1063,6 +1063,16 @@ photosite::test::CliResult night_within(int64_t kib, const TempDir& t, const std
   return run_cli_within(kib, "night --backend cpu --image '" + t.file(name) + "' --labels '" + t.file("lab.png") +
                                  "' --out '" + t.file("p.exr") + "'");
 }
+// Writes `bytes` as t's file `name`, runs night_within on it and expects exit 2 (3x3 labels, or
+// the image refused) with `text` in the output, which it returns.
+std::string night_says(int64_t kib, const TempDir& t, const std::string& name, const std::string& bytes,
+                       const std::string& text) {
+  std::ofstream(t.file(name), std::ios::binary) << bytes;
+  const auto r = night_within(kib, t, name);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(text), std::string::npos) << r.output;
+  return r.output;
+}
 void put_be32(std::string& s, uint32_t v) {
   for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>(v >> (8 * k)));
 }
@@ -1365,14 +1375,59 @@ TEST(EdgeCases, CompressedTiffShorterThanItsPixelsIsRefusedBeforeAllocating) {
       put_le(tif_bytes, tag, 2), put_le(tif_bytes, type, 2), put_le(tif_bytes, 1, 4), put_le(tif_bytes, value, 4);
     put_le(tif_bytes, 0, 4);
     tif_bytes += std::string(64, '\x40');
-    std::ofstream(t.file("big.tif"), std::ios::binary) << tif_bytes;
-    const auto r = night_within(kLimitKib, t, "big.tif");
-    EXPECT_EQ(r.exit_code, 2) << r.output;
-    EXPECT_NE(r.output.find(fmt::format("{}: corrupt or truncated image (TIFF data: its 16384x16384 pixels, 1 sample of 8 "
-                                        "bits each, need 268435456 bytes; its strips hold 64 bytes of {}, which expand "
-                                        "at most {}:1); refused before allocating them",
-                                        t.file("big.tif"), c.name, c.ratio)),
-              std::string::npos)
-        << r.output;
+    night_says(kLimitKib, t, "big.tif", tif_bytes,
+               fmt::format("{}: corrupt or truncated image (TIFF data: its 16384x16384 pixels, 1 sample of 8 bits each, "
+                           "need 268435456 bytes; its strips hold 64 bytes of {}, which expand at most {}:1); refused "
+                           "before allocating them",
+                           t.file("big.tif"), c.name, c.ratio));
+  }
+}
+
+// A JPEG whose Exif orientation has viewers turn or mirror it (a camera held sideways) was read as
+// stored without a word, so labels made from the picture as it is shown fit it only after the
+// same turn. Its orientation is now said on the standard error; the pixels stay as stored.
+TEST(EdgeCases, JpegExifOrientationIsNoted) {
+  TempDir t;
+  constexpr int64_t kLimitKib = 1500000;  // as above: no limit meant, only the helper's form
+  std::vector<uint8_t> rgb(8 * 6 * 3, 90);
+  const std::vector<uint8_t> plain = codec::encode_jpeg_rgb8(rgb.data(), 8, 6, 90);
+  // An APP1 Exif segment whose IFD0 holds one entry, Orientation (274) SHORT = o, in either byte
+  // order, put after SOI.
+  auto with_orientation = [&](int o, bool little_endian, uint32_t ifd0 = 8) {
+    std::string tiff = little_endian ? std::string("II*\0", 4) : std::string("MM\0*", 4);
+    auto put = [&](uint32_t v, int bytes) {
+      for (int k = 0; k < bytes; ++k)
+        tiff.push_back(static_cast<char>(v >> (8 * (little_endian ? k : bytes - 1 - k))));
+    };
+    put(ifd0, 4);                               // IFD0's offset: 8, right after this header
+    put(1, 2);                                  // one entry
+    put(274, 2), put(3, 2), put(1, 4), put(o, 2), put(0, 2);
+    put(0, 4);                                  // no next IFD
+    const std::string app1 = std::string("Exif\0\0", 6) + tiff;
+    std::string j(plain.begin(), plain.begin() + 2);
+    j += "\xff\xe1";
+    j.push_back(static_cast<char>((app1.size() + 2) >> 8)), j.push_back(static_cast<char>((app1.size() + 2) & 255));
+    return j + app1 + std::string(plain.begin() + 2, plain.end());
+  };
+  struct Case {
+    int orientation;
+    bool little_endian;
+    const char* shown;
+  };
+  for (const Case& k : {Case{6, true, "turned 90 degrees clockwise"}, Case{8, false, "turned 90 degrees counter-clockwise"},
+                        Case{3, true, "turned 180 degrees"}, Case{2, false, "mirrored left to right"}}) {
+    const std::string out =
+        night_says(kLimitKib, t, "o.jpg", with_orientation(k.orientation, k.little_endian),
+                   fmt::format("photosite: note: {}: its Exif orientation ({}) has viewers show it {}; photosite reads "
+                               "its 8x6 pixels as stored, not turned (labels and instance ids must be of the stored "
+                               "pixels)",
+                               t.file("o.jpg"), k.orientation, k.shown));
+    EXPECT_NE(out.find("labels are 3x3 but the image is 8x6"), std::string::npos) << out;  // read, then refused
+  }
+  // Orientation 1 (as stored), no Exif, an IFD0 offset beyond the segment: the file reads, nothing said.
+  for (const std::string& j : {with_orientation(1, true), std::string(plain.begin(), plain.end()),
+                               with_orientation(6, true, 0xfffffff0u), with_orientation(6, false, 30)}) {
+    const std::string out = night_says(kLimitKib, t, "o.jpg", j, "labels are 3x3 but the image is 8x6");
+    EXPECT_EQ(out.find("orientation"), std::string::npos) << out;
   }
 }
