@@ -1,6 +1,9 @@
 // `photosite expose`: scene radiance (linear, W·sr⁻¹·m⁻²) in, the camera's output out.
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -28,7 +31,8 @@ struct ExposeCmd {
 // An EXR that records its channels' units (photosite's own outputs: photosite/unit/<channel>)
 // must hold radiance in the channels read (the unlayered R, G, B or Y come first): an expose or
 // night output's R,G,B are DN. The message points to a layer of the file that is radiance.
-void check_radiance_units(const std::string& path) {
+// Returns the file's attributes (read_exr_attributes).
+std::map<std::string, std::string> check_radiance_units(const std::string& path) {
   const auto attrs = read_exr_attributes(path);
   const std::string prefix = "photosite/unit/";
   for (const char* ch : {"R", "G", "B", "Y"}) {
@@ -45,16 +49,24 @@ void check_radiance_units(const std::string& path) {
                                                           "write {0}.R, {0}.G, {0}.B to an EXR of their own as R, G, B and expose that",
                                                           layer)));
   }
+  return attrs;
 }
 
-ImageF load_radiance(const std::string& path) {
+// The scene radiance of `path` as R, G, B; `windows` gets an EXR's data and display windows where
+// they say more than its size (data_window, display_window: read_exr_attributes' dataWindow and
+// displayWindow).
+ImageF load_radiance(const std::string& path, std::map<std::string, std::string>& windows) {
   ImageFileInfo info;
   ImageF img = read_image(path, &info);
   check_frame_size(path, img.width(), img.height());  // the sensor's frame: at least one CFA tile
   if (!info.is_float)
     fail_at(path, "scene radiance must be a floating-point (linear) image such as EXR, found " +
                       std::to_string(info.bits_per_sample) + "-bit integer " + info.format);
-  if (info.format == "openexr") check_radiance_units(path);
+  if (info.format == "openexr") {
+    const auto attrs = check_radiance_units(path);
+    for (const auto& [file_key, key] : {std::pair{"dataWindow", "data_window"}, {"displayWindow", "display_window"}})
+      if (const auto it = attrs.find(file_key); it != attrs.end()) windows[key] = it->second;
+  }
   if (img.channels() == 1) {  // grey radiance: equal band radiance in R, G, B
     ImageF rgb(img.width(), img.height(), 3);
     for (size_t i = 0; i < img.pixel_count(); ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = img[i];
@@ -83,7 +95,8 @@ void run(const ExposeCmd& c) {
                                           : frame_outputs(c.preview, c.sensor.frames, c.overwrite);
   check_run_outputs({{"--out", outputs, ".exr"}, {"--preview", previews, ".png"}}, {{"--radiance", c.radiance}},
                     r.store.dir());
-  ImageF radiance = load_radiance(c.radiance);
+  std::map<std::string, std::string> radiance_windows;
+  ImageF radiance = load_radiance(c.radiance, radiance_windows);
   if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, radiance.width(), radiance.height());
   const ResolvedExposure ex = resolve(r.camera, r.lens, r.settings);
@@ -103,6 +116,9 @@ void run(const ExposeCmd& c) {
       groups.push_back({{"radiance.R", "radiance.G", "radiance.B"}, &radiance, unit::radiance});
     auto attrs = sensor_attributes(r, ex, fpn);
     attrs["photosite/radiance_file"] = c.radiance;
+    // An EXR whose data window is not at (0, 0) or is not its display window: both, as it had them
+    // (xmin,ymin,xmax,ymax); the frame is the data window's pixels (the reader's note).
+    for (const auto& [key, value] : radiance_windows) attrs["photosite/radiance_file_" + key] = value;
     ExrWriteOptions wo;
     wo.half = c.half;
     wo.compression = c.compression;

@@ -393,8 +393,37 @@ std::string attribute_text(const Imf::Attribute& a) {
   return a.typeName();
 }
 
+// An OpenEXR header's data window not at (0, 0), or a display window other than the data window:
+// the readers take the data window's pixels as the image, from (0, 0), and keep neither window
+// (an image here is its pixels, with no origin). "" when there is nothing to say.
+bool exr_windows_plain(const Imf::Header& h) {
+  return h.dataWindow().min == Imath::V2i(0, 0) && h.dataWindow() == h.displayWindow();
+}
+std::string box_text(const Imath::Box2i& b) {  // "xmin,ymin,xmax,ymax", OpenEXR's box2i
+  return fmt::format("{},{},{},{}", b.min.x, b.min.y, b.max.x, b.max.y);
+}
+std::string exr_window_note(const Imf::Header& h) {
+  if (exr_windows_plain(h)) return {};
+  const Imath::Box2i d = h.dataWindow(), v = h.displayWindow();
+  const auto size = [](const Imath::Box2i& b) {
+    return fmt::format("{}x{}", int64_t{b.max.x} - b.min.x + 1, int64_t{b.max.y} - b.min.y + 1);
+  };
+  return fmt::format("its data window is {} at ({}, {}), its display window {} at ({}, {}): read as the data "
+                     "window's {} pixels, from (0, 0); neither the origin nor the display window is kept",
+                     size(d), d.min.x, d.min.y, size(v), v.min.x, v.min.y, size(d));
+}
+
+// Said on the standard error by both pixel readers (read_exr_raster, read_exr: every command and
+// the Python module; the commands' own output, on the standard output, stays what it was), after
+// the pixels are read; `expose` also records both windows in its header.
+void note_exr_windows(const std::string& path, const Imf::Header& h) {
+  if (const std::string note = exr_window_note(h); !note.empty())
+    std::fprintf(stderr, "photosite: note: %s: %s\n", path.c_str(), note.c_str());
+}
+
 // The header's attributes beyond the layout, by name, as text (attribute_text); capDate as
-// OpenImageIO's DateTime, the compression by its name.
+// OpenImageIO's DateTime, the compression by its name. The data and display windows only where
+// they say more than the image's size (exr_window_note), as "xmin,ymin,xmax,ymax".
 std::map<std::string, std::string> exr_attributes(const Imf::Header& h) {
   std::map<std::string, std::string> a;
   for (auto it = h.begin(); it != h.end(); ++it) {
@@ -404,6 +433,10 @@ std::map<std::string, std::string> exr_attributes(const Imf::Header& h) {
   }
   for (const auto& [name, c] : kExrCompressions)
     if (c == h.compression()) a["compression"] = name;
+  if (!exr_windows_plain(h)) {
+    a["dataWindow"] = box_text(h.dataWindow());
+    a["displayWindow"] = box_text(h.displayWindow());
+  }
   return a;
 }
 
@@ -472,6 +505,7 @@ Raster read_exr_raster(const std::string& path) {
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     r.attributes = exr_attributes(h);
+    note_exr_windows(path, h);
     return r;
   });
 }
@@ -901,6 +935,7 @@ ExrContents read_exr(const std::string& path) {
     }
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
+    note_exr_windows(path, h);
     return r;
   });
 }

@@ -17,6 +17,7 @@
 #include <jpeglib.h>  // after <cstdio>: it uses size_t and FILE without including them
 #include <tiffio.h>
 
+#include "core/png_codec.h"
 #include "core/raster_codecs.h"
 #include "photosite/error.h"
 #include "photosite/io.h"
@@ -36,12 +37,18 @@ namespace {
 // ---------------------------------------------------------------------------------------- JPEG
 // libjpeg reports a fatal error through error_exit, which must not return (libjpeg.txt "Error
 // handling"): ours keeps the message and longjmps back. Warnings (corrupt or missing data, which
-// libjpeg pads with grey) come through emit_message(-1); we count them instead of printing.
+// libjpeg pads with grey) come through emit_message(-1); we count them instead of printing, or,
+// where a warning is an error (`warnings_fatal`), leave at the first as error_exit does: a file
+// cut short then stops being decoded where its data ends (libjpeg would decode the rest of the
+// image from the grey it pads with, touching every row of the output and of its coefficient
+// buffer). Leaving from emit_message is as safe as from error_exit: libjpeg may call either at
+// any point, and jpeg_destroy_decompress frees what it had allocated.
 struct JpegErr {
   jpeg_error_mgr pub;
   std::jmp_buf jump;
   char message[JMSG_LENGTH_MAX] = "";
   int warnings = 0;
+  bool warnings_fatal = false;
 };
 void on_error(j_common_ptr c) {
   auto* e = reinterpret_cast<JpegErr*>(c->err);
@@ -50,7 +57,9 @@ void on_error(j_common_ptr c) {
 }
 void on_message(j_common_ptr c, int level) {
   auto* e = reinterpret_cast<JpegErr*>(c->err);
-  if (level < 0 && e->warnings++ == 0) c->err->format_message(c, e->message);  // keep the first
+  if (level >= 0) return;
+  if (e->warnings++ == 0) c->err->format_message(c, e->message);  // keep the first
+  if (e->warnings_fatal) std::longjmp(e->jump, 1);
 }
 // Runs libjpeg calls under setjmp. `f` must create no object with a destructor: longjmp skips
 // destructors. Returns false on a libjpeg error (message in e.message).
@@ -74,14 +83,56 @@ struct JpegDecoder {
   JpegDecoder& operator=(const JpegDecoder&) = delete;
 };
 
+// The least entropy-coded data a Huffman-coded JPEG of this frame holds, or "" where the bytes
+// after the first scan's header (everything that follows: the scans' data, later tables and scan
+// headers, EOI) can hold it. A lower bound, from ITU-T T.81:
+//  - A Huffman code is at least 1 bit long (B.2.4.2: the table lists the codes of each length
+//    1 to 16), and byte stuffing and restart markers (B.1.1.5, F.1.2.3) only add bytes.
+//  - Sequential DCT (Annex F, SOF0/SOF1): each component is coded in exactly one scan, which codes
+//    every one of its 8x8 blocks (an interleaved scan also its MCUs' padding blocks: more). A
+//    block is its DC difference's category code (F.1.2.1, at least 1 bit, even for a zero
+//    difference) and then its AC codes (F.1.2.2): an EOB after the last non-zero coefficient, or
+//    the code of a coefficient at position 63; either way at least one more code of at least 1
+//    bit. So at least 2 bits a block.
+//  - Progressive DCT (Annex G, SOF2): "for each component, a first DC scan shall precede any AC
+//    scans" (G.1.1.1.1), and the first DC scan codes each block's DC difference as the sequential
+//    process does (G.1.2.1): at least 1 bit a block. The AC scans' EOB runs (G.1.2.2: EOBRUN up
+//    to 32767 blocks in one code) can code whole bands of many blocks in a few bits, so they are
+//    not counted; refinement scans neither.
+// A file that codes no first DC scan for some component is not a conforming one (libjpeg decodes
+// that component as grey, silently), and is refused alike: the bound is the frame's, not the
+// scans', so every file it lets through holds at least 1 bit of data for each block libjpeg
+// allocates (its coefficient buffer, 128 bytes a block, and our output, 64 pixels of at most 3
+// bytes a block of a full-resolution component). Arithmetic coding (SOF9/SOF10, Annex D) has no
+// such floor: its adaptive coder codes a decision of probability near 1 in a small fraction of a
+// bit (a uniform image's blocks in far under a bit each), so its files are not bounded this way.
+std::string jpeg_entropy_shortfall(const jpeg_decompress_struct* c) {
+  if (c->arith_code) return {};
+  const int bits_a_block = c->progressive_mode ? 1 : 2;
+  double blocks = 0;  // in double: no overflow whatever the header says
+  for (int i = 0; i < c->num_components; ++i)
+    blocks += static_cast<double>(c->comp_info[i].width_in_blocks) * c->comp_info[i].height_in_blocks;
+  const double need = std::ceil(blocks * bits_a_block / 8);
+  const double have = static_cast<double>(c->src->bytes_in_buffer);
+  if (need <= have) return {};
+  return fmt::format("JPEG data: the header's {}x{} pixels in {} component{} are {:.0f} blocks of 8x8, whose {} "
+                     "Huffman codes need at least {:.0f} bytes ({} bit{} a block), more than the file's {:.0f} bytes "
+                     "after its first scan header hold; refused before allocating them",
+                     c->image_width, c->image_height, c->num_components, c->num_components == 1 ? "" : "s",
+                     blocks, c->progressive_mode ? "progressive" : "sequential", need, bits_a_block,
+                     bits_a_block == 1 ? "" : "s", have);
+}
+
 // Decodes with libjpeg's defaults (JDCT_ISLOW, fancy upsampling), as OpenImageIO and OpenCV do.
 // rgb: every file as 3-channel RGB (imdecode IMREAD_COLOR; greyscale is replicated by libjpeg);
 // otherwise 1 channel for greyscale files, 3 for colour (OpenImageIO). `header` sees w, h, channels
-// before the pixels are allocated and may throw. Returns "" or libjpeg's message.
+// before the pixels are allocated and may throw. Returns "" or why the file is refused (libjpeg's
+// message, or jpeg_entropy_shortfall's).
 template <class H>
 std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_fatal, H&& header,
                         Raster& out) {
   JpegDecoder d;
+  d.err.warnings_fatal = warnings_fatal;
   jpeg_decompress_struct* c = &d.cinfo;
   if (!guarded(d.err, [&] {
         jpeg_mem_src(c, in.data(), static_cast<unsigned long>(in.size()));
@@ -94,16 +145,21 @@ std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_
   header(out);  // may throw: outside `guarded`, and d's destructor releases libjpeg's memory
   if (c->num_components != 1 && c->num_components != 3)
     return fmt::format("{} colour components (CMYK / YCCK JPEG is not supported)", c->num_components);
+  if (std::string s = jpeg_entropy_shortfall(c); !s.empty()) return s;
   c->out_color_space = rgb || c->num_components == 3 ? JCS_RGB : JCS_GRAYSCALE;
   if (!guarded(d.err, [&] { jpeg_calc_output_dimensions(c); })) return d.err.message;
   out.channels = c->output_components;  // scale 1/1: output size == image size
   const size_t row = static_cast<size_t>(out.width) * out.channels;
-  out.bytes.resize(row * out.height);
-  uint8_t* base = out.bytes.data();
+  // The output's memory is reserved (address space only) and its rows are made as they are
+  // decoded: a file whose data ends early costs the rows it held, not the whole image.
+  out.bytes.clear();
+  out.bytes.reserve(row * out.height);
+  std::vector<uint8_t>& bytes = out.bytes;  // a reference: `guarded` code creates no object
   if (!guarded(d.err, [&] {
         jpeg_start_decompress(c);
         while (c->output_scanline < c->output_height) {
-          JSAMPROW r = base + row * c->output_scanline;
+          bytes.resize(row * (c->output_scanline + 1));  // within the reserve: no reallocation
+          JSAMPROW r = bytes.data() + row * c->output_scanline;
           jpeg_read_scanlines(c, &r, 1);
         }
         jpeg_finish_decompress(c);
@@ -111,6 +167,45 @@ std::string jpeg_decode(const std::vector<uint8_t>& in, bool rgb, bool warnings_
     return d.err.message;
   if (warnings_fatal && d.err.warnings) return d.err.message;
   return {};
+}
+}  // namespace
+
+namespace {
+// The Exif orientation of a JPEG (the Orientation tag, 274, of the Exif APP1 segment's IFD0: Exif
+// 2.32 §4.6.4 A, its values those of TIFF 6.0's tag), or 0 where there is none or it cannot be
+// read. The marker segments before the first SOS are walked by their lengths (T.81 B.1.1.4).
+int jpeg_exif_orientation(const std::vector<uint8_t>& d) {
+  size_t at = 2;  // after SOI
+  while (at + 4 <= d.size() && d[at] == 0xff) {
+    const uint8_t marker = d[at + 1];
+    if (marker == 0xda || marker == 0xd9) break;  // SOS, EOI: no more header segments
+    const size_t len = size_t{d[at + 2]} << 8 | d[at + 3];
+    if (len < 2 || at + 2 + len > d.size()) break;
+    const size_t seg = at + 4, end = at + 2 + len;
+    static const uint8_t kExif[6] = {'E', 'x', 'i', 'f', 0, 0};
+    if (marker == 0xe1 && end - seg >= 14 && std::memcmp(&d[seg], kExif, 6) == 0) {
+      const size_t tiff = seg + 6;  // the TIFF header: II or MM, 42, the offset of IFD0
+      const bool le = d[tiff] == 'I' && d[tiff + 1] == 'I';
+      if (!le && !(d[tiff] == 'M' && d[tiff + 1] == 'M')) return 0;
+      auto u16 = [&](size_t i) { return le ? d[i] | d[i + 1] << 8 : d[i] << 8 | d[i + 1]; };
+      auto u32 = [&](size_t i) {
+        return le ? uint32_t{d[i]} | uint32_t{d[i + 1]} << 8 | uint32_t{d[i + 2]} << 16 | uint32_t{d[i + 3]} << 24
+                  : uint32_t{d[i]} << 24 | uint32_t{d[i + 1]} << 16 | uint32_t{d[i + 2]} << 8 | uint32_t{d[i + 3]};
+      };
+      const uint64_t ifd = tiff + uint64_t{u32(tiff + 4)};
+      if (ifd + 2 > end) return 0;
+      const int entries = u16(static_cast<size_t>(ifd));
+      for (int k = 0; k < entries; ++k) {
+        const uint64_t e = ifd + 2 + 12 * uint64_t(k);
+        if (e + 12 > end) return 0;
+        if (u16(static_cast<size_t>(e)) == 274 && u16(static_cast<size_t>(e) + 2) == 3)  // SHORT
+          return u16(static_cast<size_t>(e) + 8);
+      }
+      return 0;
+    }
+    at = end;
+  }
+  return 0;
 }
 }  // namespace
 
@@ -129,6 +224,19 @@ Raster read_jpeg(const std::string& path) {
   }, r);
   if (!err.empty()) fail_at(path, "corrupt or truncated image (" + err + ")");
   r.channel_samples.assign(r.channels, Sample::U8);
+  // A camera held sideways stores its rows as the sensor read them and says in Exif how viewers
+  // should turn them. photosite reads the pixels as stored (as OpenImageIO did); said on the
+  // standard error, since labels made from the picture as viewers show it fit the stored pixels
+  // only after the same turn.
+  static const char* const kShown[9] = {"", "", "mirrored left to right", "turned 180 degrees",
+                                        "mirrored top to bottom", "mirrored about its main diagonal",
+                                        "turned 90 degrees clockwise", "mirrored about its other diagonal",
+                                        "turned 90 degrees counter-clockwise"};
+  if (const int o = jpeg_exif_orientation(data); o >= 2 && o <= 8)
+    std::fprintf(stderr,
+                 "photosite: note: %s: its Exif orientation (%d) has viewers show it %s; photosite reads its %dx%d "
+                 "pixels as stored, not turned (labels and instance ids must be of the stored pixels)\n",
+                 path.c_str(), o, kShown[o], r.width, r.height);
   return r;
 }
 
@@ -270,6 +378,28 @@ Raster read_tiff(const std::string& path) {
       fail_at(path, fmt::format("corrupt or truncated image (uncompressed TIFF: its {}x{} pixels, {} sample{} of {} "
                                 "bits each, need {:.0f} bytes; its {} hold {}); refused before allocating them",
                                 w, h, spp, spp == 1 ? "" : "s", bps, needed, TIFFIsTiled(tif) ? "tiles" : "strips", stored));
+    // Compressed strips expand by at most their codec's largest ratio, so their bytes bound the
+    // samples they can give (a predictor, TIFF 6.0 §14, changes no size):
+    //  - Deflate (8, and 32946 the old code): 1032:1 (png::kMaxDeflateRatio, RFC 1951).
+    //  - PackBits (32773, TIFF 6.0 §9): a run is a count byte and one byte repeated at most 128
+    //    times, 2 bytes for 128: 64:1.
+    //  - LZW (5, TIFF 6.0 §13): a code is at least 9 bits; each table entry after the 256 literals
+    //    and the Clear and EOI codes is an earlier entry plus one byte, so entry k (258 to 4095)
+    //    is at most k − 256 bytes and no code gives more than 3839: 3839 × 8 / 9 < 3413:1.
+    // Other codecs (JPEG, CCITT fax, LZMA, ZSTD, ...) are left to libtiff, which refuses such a
+    // file only after the image is allocated.
+    const struct { uint16_t code; double ratio; const char* name; } kExpansion[] = {
+        {COMPRESSION_ADOBE_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
+        {COMPRESSION_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
+        {COMPRESSION_PACKBITS, 64, "PackBits"},
+        {COMPRESSION_LZW, 3413, "LZW"}};
+    for (const auto& c : kExpansion)
+      if (!ec && compression == c.code && photo != PHOTOMETRIC_YCBCR && static_cast<double>(stored) * c.ratio < needed)
+        fail_at(path, fmt::format("corrupt or truncated image (TIFF data: its {}x{} pixels, {} sample{} of {} bits each, "
+                                  "need {:.0f} bytes; its {} hold {} bytes of {}, which expand at most {:.0f}:1); "
+                                  "refused before allocating them",
+                                  w, h, spp, spp == 1 ? "" : "s", bps, needed, TIFFIsTiled(tif) ? "tiles" : "strips",
+                                  stored, c.name, c.ratio));
   }
   if (photo == PHOTOMETRIC_YCBCR && compression == COMPRESSION_JPEG) {  // libtiff converts (tiff(3) JPEGCOLORMODE)
     TIFFSetField(tif, TIFFTAG_JPEGCOLORMODE, JPEGCOLORMODE_RGB);

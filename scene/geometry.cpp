@@ -102,10 +102,13 @@ CameraGeometry camera_geometry(const CameraRig& rig, int width, int height, cons
   // What the user should hear about (each a likely wrong --rig, or a frame no rig describes).
   auto add = [&](const std::string& s) { g.note += (g.note.empty() ? "" : "; ") + s; };
   const double aspect = static_cast<double>(width) / height, native = rig.native_width_px / rig.native_height_px;
+  // Three decimals down to 0.1 (every rig's and the usual frames' ratios); below, three
+  // significant digits: an 8x16384 strip is 0.000488, not 0.000.
+  const auto ratio = [](double a) { return a >= 0.1 ? fmt::format("{:.3f}", a) : fmt::format("{:.3g}", a); };
   if (std::fabs(aspect / native - 1) > 0.01)  // scaled_intrinsics' crop branch
-    add(fmt::format("the frame's aspect ratio {:.3f} is not rig {}'s ({:.0f}x{:.0f}, {:.3f}): taken as a centred "
+    add(fmt::format("the frame's aspect ratio {} is not rig {}'s ({:.0f}x{:.0f}, {:.3f}): taken as a centred "
                     "crop of that frame at its f {:.1f} px{}; pass --rig with this camera's intrinsics",
-                    aspect, rig.name, rig.native_width_px, rig.native_height_px, native, k.f_px,
+                    ratio(aspect), rig.name, rig.native_width_px, rig.native_height_px, native, k.f_px,
                     width > rig.native_width_px || height > rig.native_height_px ? ", although it is larger" : ""));
   if (vp.method == VpMethod::Hough && vp.confidence >= 0.3 && g.horizon_source == "rig")
     add(fmt::format("the vanishing point (confidence {:.2f}) puts the pitch at {:.2f} deg, {:.2f} deg from rig {}'s "

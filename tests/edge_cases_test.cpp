@@ -27,6 +27,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <fmt/format.h>
+#include <tiffio.h>
+
 #include "core/raster_codecs.h"
 #include "photosite/batch.h"
 #include "photosite/environment.h"
@@ -1049,6 +1056,23 @@ namespace {
 photosite::test::CliResult run_cli_within(int64_t kib, const std::string& args) {
   return run_cli("--version > /dev/null; ulimit -v " + std::to_string(kib) + " && '" PHOTOSITE_BIN "' " + args);
 }
+// `night` of the image file `name` in t, with 3x3 labels (an image that reads is then refused
+// for its size), within `kib` of address space; its output would be p.exr.
+photosite::test::CliResult night_within(int64_t kib, const TempDir& t, const std::string& name) {
+  write_png8(t.file("lab.png"), ImageU8(3, 3, 1, 7));
+  return run_cli_within(kib, "night --backend cpu --image '" + t.file(name) + "' --labels '" + t.file("lab.png") +
+                                 "' --out '" + t.file("p.exr") + "'");
+}
+// Writes `bytes` as t's file `name`, runs night_within on it and expects exit 2 (3x3 labels, or
+// the image refused) with `text` in the output, which it returns.
+std::string night_says(int64_t kib, const TempDir& t, const std::string& name, const std::string& bytes,
+                       const std::string& text) {
+  std::ofstream(t.file(name), std::ios::binary) << bytes;
+  const auto r = night_within(kib, t, name);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(text), std::string::npos) << r.output;
+  return r.output;
+}
 void put_be32(std::string& s, uint32_t v) {
   for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>(v >> (8 * k)));
 }
@@ -1081,9 +1105,7 @@ TEST(EdgeCases, ImageHeaderLargerThanItsFileIsRefusedBeforeAllocating) {
   png += "IEND";
   put_be32(png, 0);
   std::ofstream(t.file("big.png"), std::ios::binary) << png;
-  write_png8(t.file("lab.png"), ImageU8(3, 3, 1, 7));
-  const auto p = run_cli_within(kLimitKib, "night --backend cpu --image '" + t.file("big.png") + "' --labels '" +
-                                               t.file("lab.png") + "' --out '" + t.file("p.exr") + "'");
+  const auto p = night_within(kLimitKib, t, "big.png");
   EXPECT_EQ(p.exit_code, 2) << p.output;
   EXPECT_NE(p.output.find(t.file("big.png") + ": corrupt or truncated image (PNG data: the header's 16384x16384 pixels "
                                                "need 2147483648 bytes of samples, more than the file's " +
@@ -1158,5 +1180,254 @@ TEST(EdgeCases, ImageHeaderLargerThanItsFileIsRefusedBeforeAllocating) {
     EXPECT_NE(r.output.find("TIFF"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("refused before allocating"), std::string::npos)
         << r.output;
+  }
+}
+
+namespace {
+// A Huffman-coded JPEG of w x h pixels in `comps` components (each sampled 1x1: one block a
+// component an MCU), every DCT coefficient 0, in the fewest bits T.81 allows: one DC and one AC
+// Huffman table each of a single 1-bit code ('0'), for the DC difference category 0 and for EOB.
+// A sequential block is then '0' '0' (DC difference 0, EOB), a progressive file's one scan, its
+// first DC scan, codes '0' a block (no AC scan: its coefficients stay 0). The entropy-coded data
+// is all zero bytes; `missing` bytes of it are left out. Decodes to grey 128 in every channel.
+std::string zero_jpeg(int w, int h, int comps, bool progressive, int64_t missing = 0) {
+  std::string j = "\xff\xd8";
+  auto segment = [&](uint8_t marker, const std::string& body) {
+    j.push_back('\xff'), j.push_back(static_cast<char>(marker));
+    j.push_back(static_cast<char>((body.size() + 2) >> 8)), j.push_back(static_cast<char>((body.size() + 2) & 255));
+    j += body;
+  };
+  segment(0xdb, std::string(1, '\0') + std::string(64, '\x01'));  // DQT: table 0, all steps 1
+  std::string sof = {8, static_cast<char>(h >> 8), static_cast<char>(h & 255), static_cast<char>(w >> 8),
+                     static_cast<char>(w & 255), static_cast<char>(comps)};
+  for (int c = 0; c < comps; ++c) sof += std::string{static_cast<char>(c + 1), '\x11', '\0'};
+  segment(progressive ? 0xc2 : 0xc0, sof);
+  std::string one_code(16, '\0');  // BITS: one code of length 1
+  one_code[0] = 1;
+  segment(0xc4, std::string(1, '\x00') + one_code + std::string(1, '\x00') +  // DC table 0: category 0
+                    std::string(1, '\x10') + one_code + std::string(1, '\x00'));  // AC table 0: EOB
+  std::string sos(1, static_cast<char>(comps));
+  for (int c = 0; c < comps; ++c) sos += std::string{static_cast<char>(c + 1), '\0'};
+  sos += progressive ? std::string{0, 0, 0} : std::string{0, 63, 0};
+  segment(0xda, sos);
+  const int64_t blocks = int64_t{comps} * ((w + 7) / 8) * ((h + 7) / 8);
+  j += std::string(static_cast<size_t>((blocks * (progressive ? 1 : 2) + 7) / 8 - missing), '\0');
+  return j + "\xff\xd9";
+}
+}  // namespace
+
+// A JPEG's length bounded nothing (thirty-eighth session): a 1 kB file whose frame header said
+// 16384x16384 was refused only after the reader had allocated its 805 MB of pixels (libjpeg's
+// coefficient buffer too, for a progressive one). Every block of a Huffman-coded JPEG costs at
+// least 2 bits of a sequential file's data, 1 of a progressive one's (core/jpeg_tiff.cpp
+// jpeg_entropy_shortfall, from T.81): a file whose data after its first scan header is shorter is
+// refused from its header, naming the file. The smallest files T.81 allows (zero_jpeg) are exactly
+// at the bound, and still read; 3 bytes fewer (the bound then short by one byte) are refused.
+TEST(EdgeCases, JpegShorterThanItsBlocksIsRefusedBeforeAllocating) {
+  TempDir t;
+  struct Case {
+    int w, h, comps;
+    bool progressive;
+  };
+  for (const Case& k : {Case{4096, 2048, 1, false}, Case{1000, 600, 3, false}, Case{1024, 1024, 3, true},
+                        Case{999, 77, 1, true}}) {
+    const std::string what = fmt::format("{}x{} {} {}", k.w, k.h, k.comps, k.progressive ? "progressive" : "sequential");
+    std::ofstream(t.file("zero.jpg"), std::ios::binary) << zero_jpeg(k.w, k.h, k.comps, k.progressive);
+    ImageFileInfo info;
+    const ImageF img = read_image(t.file("zero.jpg"), &info);
+    ASSERT_EQ(img.width(), k.w) << what;
+    ASSERT_EQ(img.height(), k.h) << what;
+    EXPECT_EQ(info.format, "jpeg");
+    // Every coefficient 0: the level shift's 128 in Y, Cb and Cr, so 128 in R, G and B.
+    EXPECT_EQ(*std::min_element(img.data(), img.data() + img.size()), 128.f / 255) << what;
+    EXPECT_EQ(*std::max_element(img.data(), img.data() + img.size()), 128.f / 255) << what;
+    const std::string short_file = zero_jpeg(k.w, k.h, k.comps, k.progressive, 3);
+    std::ofstream(t.file("short.jpg"), std::ios::binary) << short_file;
+    const int64_t blocks = int64_t{k.comps} * ((k.w + 7) / 8) * ((k.h + 7) / 8),
+                  need = (blocks * (k.progressive ? 1 : 2) + 7) / 8;
+    const std::string e = error_of([&] { read_image(t.file("short.jpg")); });
+    EXPECT_NE(e.find(fmt::format("{}: corrupt or truncated image (JPEG data: the header's {}x{} pixels in {} component{} "
+                                 "are {} blocks of 8x8, whose {} Huffman codes need at least {} bytes ({} a block), "
+                                 "more than the file's {} bytes after its first scan header hold; refused before "
+                                 "allocating them)",
+                                 t.file("short.jpg"), k.w, k.h, k.comps, k.comps == 1 ? "" : "s", blocks,
+                                 k.progressive ? "progressive" : "sequential", need,
+                                 k.progressive ? "1 bit" : "2 bits", need - 1)),
+              std::string::npos)
+        << what << ": " << e;
+  }
+  // The frame header at the pixel limit, 16384x16384 in three components, with 64 bytes of data:
+  // refused before allocating, within 1.5 GB of address space (the pixels alone are 805 MB, a
+  // progressive file's coefficients 1.6 GB more).
+  constexpr int64_t kLimitKib = 1500000;
+  for (const bool progressive : {false, true}) {
+    const int64_t need = 3 * 2048 * 2048 * (progressive ? 1 : 2) / 8;  // the whole data's bytes
+    const std::string whole = zero_jpeg(16384, 16384, 3, progressive);
+    const std::string big = whole.substr(0, whole.size() - 2 - need) + std::string(64, '\0') + "\xff\xd9";
+    std::ofstream(t.file("big.jpg"), std::ios::binary) << big;
+    const auto p = night_within(kLimitKib, t, "big.jpg");
+    EXPECT_EQ(p.exit_code, 2) << p.output;
+    EXPECT_NE(p.output.find(t.file("big.jpg") + ": corrupt or truncated image (JPEG data: the header's 16384x16384 "
+                                                "pixels in 3 components are 12582912 blocks of 8x8"),
+              std::string::npos)
+        << p.output;
+    EXPECT_NE(p.output.find("more than the file's 66 bytes after its first scan header hold; refused before "
+                            "allocating them"),
+              std::string::npos)
+        << p.output;
+    EXPECT_FALSE(fs::exists(t.file("p.exr")));
+  }
+}
+
+// An OpenEXR file's data window not at (0, 0), or its display window not the data window, was read
+// as the data window's pixels without a word (thirty-eighth session). The reader says so on the
+// standard error, naming the file and both windows, and `expose` records them in its header.
+TEST(EdgeCases, ExrWindowsAreNotedAndRecorded) {
+  TempDir t;
+  const std::string expose = "expose --backend cpu --preset sony-imx174 --radiance '";
+  auto write = [&](const std::string& name, const Imath::Box2i& data, const Imath::Box2i& display) {
+    const int w = data.max.x - data.min.x + 1, h = data.max.y - data.min.y + 1;
+    std::vector<float> px(static_cast<size_t>(w) * h * 3, 1e-3f);
+    Imf::Header header(display, data);
+    for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    Imf::OutputFile out(t.file(name).c_str(), header);
+    Imf::FrameBuffer fb;
+    char* base = reinterpret_cast<char*>(px.data()) - (static_cast<ptrdiff_t>(data.min.x) +
+                                                      static_cast<ptrdiff_t>(data.min.y) * w) * 3 * sizeof(float);
+    for (int c = 0; c < 3; ++c)
+      fb.insert(std::string(1, "RGB"[c]), Imf::Slice(Imf::FLOAT, base + c * sizeof(float), 3 * sizeof(float),
+                                                     3 * sizeof(float) * w));
+    out.setFrameBuffer(fb);
+    out.writePixels(h);
+  };
+  struct Case {
+    std::string name;
+    Imath::Box2i data, display;
+    std::string note, data_text, display_text;
+  };
+  for (const Case& k :
+       {Case{"origin.exr", {{10, 20}, {73, 67}}, {{10, 20}, {73, 67}}, "its data window is 64x48 at (10, 20), its "
+             "display window 64x48 at (10, 20)", "10,20,73,67", "10,20,73,67"},
+        Case{"display.exr", {{0, 0}, {63, 47}}, {{0, 0}, {127, 95}}, "its data window is 64x48 at (0, 0), its display "
+             "window 128x96 at (0, 0)", "0,0,63,47", "0,0,127,95"},
+        Case{"negative.exr", {{-5, -7}, {58, 40}}, {{0, 0}, {31, 23}}, "its data window is 64x48 at (-5, -7), its "
+             "display window 32x24 at (0, 0)", "-5,-7,58,40", "0,0,31,23"}}) {
+    write(k.name, k.data, k.display);
+    const auto r = run_cli(expose + t.file(k.name) + "' --out '" + t.file("e.exr") + "' --overwrite");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("photosite: note: " + t.file(k.name) + ": " + k.note +
+                            ": read as the data window's 64x48 pixels, from (0, 0); neither the origin nor the display "
+                            "window is kept"),
+              std::string::npos)
+        << r.output;
+    const auto a = read_exr_attributes(t.file("e.exr"));
+    ASSERT_TRUE(a.count("photosite/radiance_file_data_window")) << k.name;
+    EXPECT_EQ(a.at("photosite/radiance_file_data_window"), k.data_text);
+    EXPECT_EQ(a.at("photosite/radiance_file_display_window"), k.display_text);
+  }
+  // A plain file (both windows the image at (0, 0)): no note, nothing recorded.
+  write("plain.exr", {{0, 0}, {63, 47}}, {{0, 0}, {63, 47}});
+  const auto r = run_cli(expose + t.file("plain.exr") + "' --out '" + t.file("e.exr") + "' --overwrite");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output.find("note:"), std::string::npos) << r.output;
+  EXPECT_EQ(read_exr_attributes(t.file("e.exr")).count("photosite/radiance_file_data_window"), 0u);
+}
+
+// A compressed TIFF whose tags say far more pixels than its strips could give was refused only
+// after libtiff had allocated them (803 MB for a 7 kB Deflate file whose tags say 16384x16384 RGB,
+// thirty-ninth session). Deflate expands at most 1032:1, PackBits 64:1, LZW under 3413:1 (core/jpeg_tiff.cpp):
+// strips shorter than that are refused from the tags, within 1.5 GB of address space. The
+// codecs' own best cases, all-zero images written by libtiff, still read: PackBits' is exactly at
+// its bound (two bytes a run of 128); zlib's is 780:1, LZW's 155:1 (in strips of 16 rows).
+TEST(EdgeCases, CompressedTiffShorterThanItsPixelsIsRefusedBeforeAllocating) {
+  TempDir t;
+  constexpr int64_t kLimitKib = 1500000;
+  struct Codec {
+    uint16_t code;
+    const char* name;
+    int ratio;
+  };
+  for (const Codec& c : {Codec{COMPRESSION_ADOBE_DEFLATE, "Deflate", 1032}, Codec{COMPRESSION_PACKBITS, "PackBits", 64},
+                         Codec{COMPRESSION_LZW, "LZW", 3413}}) {
+    // 4096x4096 8-bit grey, all 0, one strip of 16 rows at a time.
+    TIFF* tif = TIFFOpen(t.file("zero.tif").c_str(), "w");
+    ASSERT_NE(tif, nullptr);
+    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, 4096u), TIFFSetField(tif, TIFFTAG_IMAGELENGTH, 4096u);
+    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, 8), TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, 1);
+    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, PHOTOMETRIC_MINISBLACK), TIFFSetField(tif, TIFFTAG_COMPRESSION, c.code);
+    TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, 16u), TIFFSetField(tif, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+    if (c.code == COMPRESSION_ADOBE_DEFLATE) TIFFSetField(tif, TIFFTAG_ZIPQUALITY, 9);
+    std::vector<uint8_t> row(4096, 0);
+    for (uint32_t y = 0; y < 4096; ++y) ASSERT_EQ(TIFFWriteScanline(tif, row.data(), y, 0), 1);
+    TIFFClose(tif);
+    const ImageF img = read_image(t.file("zero.tif"));
+    EXPECT_EQ(img.width(), 4096) << c.name;
+    EXPECT_EQ(*std::max_element(img.data(), img.data() + img.size()), 0.f) << c.name;
+    // 16384x16384 8-bit grey in one strip of 64 bytes (its content never read).
+    std::string tif_bytes = "II*";
+    tif_bytes.push_back('\0');
+    put_le(tif_bytes, 8, 4);
+    const std::vector<std::array<uint32_t, 3>> tags = {  // tag, type (3 SHORT, 4 LONG), value
+        {256, 4, 16384}, {257, 4, 16384}, {258, 3, 8}, {259, 3, c.code}, {262, 3, 1},
+        {273, 4, 8 + 2 + 9 * 12 + 4}, {277, 3, 1}, {278, 4, 16384}, {279, 4, 64}};
+    put_le(tif_bytes, tags.size(), 2);
+    for (const auto& [tag, type, value] : tags)
+      put_le(tif_bytes, tag, 2), put_le(tif_bytes, type, 2), put_le(tif_bytes, 1, 4), put_le(tif_bytes, value, 4);
+    put_le(tif_bytes, 0, 4);
+    tif_bytes += std::string(64, '\x40');
+    night_says(kLimitKib, t, "big.tif", tif_bytes,
+               fmt::format("{}: corrupt or truncated image (TIFF data: its 16384x16384 pixels, 1 sample of 8 bits each, "
+                           "need 268435456 bytes; its strips hold 64 bytes of {}, which expand at most {}:1); refused "
+                           "before allocating them",
+                           t.file("big.tif"), c.name, c.ratio));
+  }
+}
+
+// A JPEG whose Exif orientation has viewers turn or mirror it (a camera held sideways) was read as
+// stored without a word, so labels made from the picture as it is shown fit it only after the
+// same turn. Its orientation is now said on the standard error; the pixels stay as stored.
+TEST(EdgeCases, JpegExifOrientationIsNoted) {
+  TempDir t;
+  constexpr int64_t kLimitKib = 1500000;  // as above: no limit meant, only the helper's form
+  std::vector<uint8_t> rgb(8 * 6 * 3, 90);
+  const std::vector<uint8_t> plain = codec::encode_jpeg_rgb8(rgb.data(), 8, 6, 90);
+  // An APP1 Exif segment whose IFD0 holds one entry, Orientation (274) SHORT = o, in either byte
+  // order, put after SOI.
+  auto with_orientation = [&](int o, bool little_endian, uint32_t ifd0 = 8) {
+    std::string tiff = little_endian ? std::string("II*\0", 4) : std::string("MM\0*", 4);
+    auto put = [&](uint32_t v, int bytes) {
+      for (int k = 0; k < bytes; ++k)
+        tiff.push_back(static_cast<char>(v >> (8 * (little_endian ? k : bytes - 1 - k))));
+    };
+    put(ifd0, 4);                               // IFD0's offset: 8, right after this header
+    put(1, 2);                                  // one entry
+    put(274, 2), put(3, 2), put(1, 4), put(o, 2), put(0, 2);
+    put(0, 4);                                  // no next IFD
+    const std::string app1 = std::string("Exif\0\0", 6) + tiff;
+    std::string j(plain.begin(), plain.begin() + 2);
+    j += "\xff\xe1";
+    j.push_back(static_cast<char>((app1.size() + 2) >> 8)), j.push_back(static_cast<char>((app1.size() + 2) & 255));
+    return j + app1 + std::string(plain.begin() + 2, plain.end());
+  };
+  struct Case {
+    int orientation;
+    bool little_endian;
+    const char* shown;
+  };
+  for (const Case& k : {Case{6, true, "turned 90 degrees clockwise"}, Case{8, false, "turned 90 degrees counter-clockwise"},
+                        Case{3, true, "turned 180 degrees"}, Case{2, false, "mirrored left to right"}}) {
+    const std::string out =
+        night_says(kLimitKib, t, "o.jpg", with_orientation(k.orientation, k.little_endian),
+                   fmt::format("photosite: note: {}: its Exif orientation ({}) has viewers show it {}; photosite reads "
+                               "its 8x6 pixels as stored, not turned (labels and instance ids must be of the stored "
+                               "pixels)",
+                               t.file("o.jpg"), k.orientation, k.shown));
+    EXPECT_NE(out.find("labels are 3x3 but the image is 8x6"), std::string::npos) << out;  // read, then refused
+  }
+  // Orientation 1 (as stored), no Exif, an IFD0 offset beyond the segment: the file reads, nothing said.
+  for (const std::string& j : {with_orientation(1, true), std::string(plain.begin(), plain.end()),
+                               with_orientation(6, true, 0xfffffff0u), with_orientation(6, false, 30)}) {
+    const std::string out = night_says(kLimitKib, t, "o.jpg", j, "labels are 3x3 but the image is 8x6");
+    EXPECT_EQ(out.find("orientation"), std::string::npos) << out;
   }
 }

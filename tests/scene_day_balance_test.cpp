@@ -139,6 +139,68 @@ TEST(DayWhiteBalance, DaylightLocusMatchesTheCieWhites) {
   }
 }
 
+// The locus is CIE 15:2004's formula for the chromaticity of daylight (§3.1; CIE 015:2018
+// §4.1.2), written here as the standard writes it, in powers of 10³/T:
+//   x_D = −4.6070 (10³/T)³ + 2.9678 (10³/T)² + 0.09911 (10³/T) + 0.244063   (4000 K to 7000 K)
+//   x_D = −2.0064 (10³/T)³ + 1.9018 (10³/T)² + 0.24748 (10³/T) + 0.237040   (7000 K to 25000 K)
+//   y_D = −3.000 x_D² + 2.870 x_D − 0.275
+// daylight_log_ratios' (ln R/G, ln B/G) is taken back to (x, y) through the inverse of the matrix
+// it used (kXyzToLinearSrgb; R, G, B ∝ M·(X, Y, Z), so X, Y, Z ∝ M⁻¹·(e^l₀, 1, e^l₁)). The two
+// sides differ by rounding alone: each evaluates x and y in under 20 operations (relative error
+// ≤ 20ε each, ε = 2⁻⁵³, x and y ≤ 0.42), and the way through linear sRGB and back multiplies a
+// relative error by at most κ∞(M) = ‖M‖∞·‖M⁻¹‖∞ (computed below, 5.8) twice more, with
+// exp, log and the sums a few ε each: |Δx|, |Δy| ≤ 100·κ∞²·ε ≈ 4e-13, under the bound 1e-12·κ∞
+// taken (and under the 4-digit reference test above by 8 orders). A fourth-digit typo in a
+// constant moves x by ≥ 1e-5 (0.244063 → 0.2441: 3.7e-5). CIE 15.2's worked example for D5000
+// (T = 5000 K: x 0.34574, y 0.35867, to 5 decimals) checks the transcription here: within 5e-6.
+TEST(DayWhiteBalance, DaylightLocusIsTheCieFormulaToRounding) {
+  const auto& M = spectrum::kXyzToLinearSrgb;
+  // M⁻¹ by cofactors.
+  double inv[3][3];
+  const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                     M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                     M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+      inv[i][j] = (M[r0][c0] * M[r1][c1] - M[r0][c1] * M[r1][c0]) / det;
+    }
+  double norm = 0, norm_inv = 0;
+  for (int i = 0; i < 3; ++i) {
+    double a = 0, b = 0;
+    for (int j = 0; j < 3; ++j) a += std::fabs(M[i][j]), b += std::fabs(inv[i][j]);
+    norm = std::max(norm, a), norm_inv = std::max(norm_inv, b);
+  }
+  const double kappa_inf = norm * norm_inv, tol = 1e-12 * kappa_inf;
+  ASSERT_GT(kappa_inf, 1.0);
+  ASSERT_LT(kappa_inf, 20.0);
+  auto xy_of = [&](double T) {  // the code's locus point as CIE 1931 (x, y)
+    const auto l = daylight_log_ratios(T);
+    const double rgb[3] = {std::exp(l[0]), 1.0, std::exp(l[1])};
+    double xyz[3];
+    for (int i = 0; i < 3; ++i) xyz[i] = inv[i][0] * rgb[0] + inv[i][1] * rgb[1] + inv[i][2] * rgb[2];
+    const double sum = xyz[0] + xyz[1] + xyz[2];
+    return std::array<double, 2>{xyz[0] / sum, xyz[1] / sum};
+  };
+  auto cie = [](double T) {  // CIE 15:2004, as above
+    const double u = 1e3 / T;
+    const double x = T <= 7000 ? -4.6070 * u * u * u + 2.9678 * u * u + 0.09911 * u + 0.244063
+                               : -2.0064 * u * u * u + 1.9018 * u * u + 0.24748 * u + 0.237040;
+    return std::array<double, 2>{x, -3.000 * x * x + 2.870 * x - 0.275};
+  };
+  for (double T = 4000; T <= 25000; T += 25) {
+    const auto got = xy_of(T), want = cie(T);
+    EXPECT_NEAR(got[0], want[0], tol) << T << " K";
+    EXPECT_NEAR(got[1], want[1], tol) << T << " K";
+  }
+  const auto d5000 = cie(5000);
+  // The published 5 decimals: ±5e-6.
+  EXPECT_NEAR(d5000[0], 0.34574, 5e-6);
+  EXPECT_NEAR(d5000[1], 0.35867, 5e-6);
+  EXPECT_NEAR(xy_of(5000)[0], 0.34574, 5e-6 + tol);
+  EXPECT_NEAR(xy_of(5000)[1], 0.35867, 5e-6 + tol);
+}
+
 // A street under daylight at T0 (its road that daylight's colour) recorded by a camera with a cast
 // off the locus (ln gains along the locus' normal at T0, 0.3: about the size of Cityscapes' green)
 // gives, balanced by its road, the texture of the same street without the cast. Tolerance per band

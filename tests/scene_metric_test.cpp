@@ -369,6 +369,12 @@ TEST(MetricDepth, VanishingPointFarFromTheRigsPitchFallsBack) {
   const CameraGeometry bdd = camera_geometry(rig, 1280, 720, vp_at_pitch(nominal));
   EXPECT_NE(bdd.note.find("aspect ratio 1.778 is not rig cityscapes's"), std::string::npos) << bdd.note;
   EXPECT_EQ(bdd.note.find("larger"), std::string::npos) << bdd.note;
+  // A strip's ratio below 0.1 in three significant digits: 8/1024 printed as 0.008, 8/16384 as
+  // 0.000 (thirty-eighth session); three decimals from 0.1 up, as BDD100K's above.
+  const CameraGeometry strip = camera_geometry(rig, 8, 1024, vp_at_pitch(nominal));
+  EXPECT_NE(strip.note.find("aspect ratio 0.00781 is not rig cityscapes's"), std::string::npos) << strip.note;
+  const CameraGeometry narrow = camera_geometry(rig, 103, 1024, vp_at_pitch(nominal));  // 0.1006
+  EXPECT_NE(narrow.note.find("aspect ratio 0.101 is not rig cityscapes's"), std::string::npos) << narrow.note;
   EXPECT_NE(camera_geometry(rig, 4000, 1000, vp_at_pitch(nominal)).note.find("although it is larger"),
             std::string::npos);
   // A horizon below the frame: no ground in view.
