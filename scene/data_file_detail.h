@@ -12,6 +12,13 @@
 
 namespace photosite::scene::detail {
 
+// A camera's place on its vehicle: within a vehicle's length of the odometry's reference point;
+// its heading along the road within a few degrees (Cityscapes about −0.02 rad, KITTI's camera 2
+// 0.001 rad): 0.5 rad (29°) and more is not a forward camera, or another unit (degrees). The
+// limits of a Cityscapes camera file's extrinsic x, y, yaw (scene/rig_json.cpp) and of KITTI's
+// calibrated camera 2 (scene/ego_motion.cpp).
+constexpr double kMaxCameraLever_m = 20, kMaxCameraYaw_rad = 0.5;
+
 // v, named `name` (unit `unit`) in `file`: bad input "file: name: v unit is outside [lo, hi]why"
 // unless finite and within [lo, hi].
 inline double number_in_range(double v, double lo, double hi, const std::string& name, const char* unit,

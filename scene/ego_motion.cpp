@@ -25,11 +25,7 @@ namespace {
 // circle in 1.3 s (a car at its steering lock at walking pace turns about 0.5 rad/s).
 constexpr double kMaxSpeed_m_s = 100, kMaxYawRate_rad_s = 5;
 constexpr const char* kNotOdometry = " (not a road vehicle's odometry)";
-// A camera's place on its vehicle: within a vehicle's length of the odometry's reference point;
-// its heading along the road within a few degrees (Cityscapes about −0.02 rad, KITTI's camera 2
-// 0.001 rad): 0.5 rad (29°) and more is not a forward camera, or another unit. The same limits as
-// a Cityscapes camera file's extrinsic x, y, yaw (scene/rig_json.cpp).
-constexpr double kMaxLever_m = 20, kMaxCameraYaw_rad = 0.5;
+using detail::kMaxCameraLever_m, detail::kMaxCameraYaw_rad;  // a camera's place on its vehicle
 
 nlohmann::json json_object(const std::string& file, const char* what) {
   const nlohmann::json j = nlohmann::json::parse(schema::read_text(file, what), nullptr, false);
@@ -157,9 +153,9 @@ CameraMount read_kitti_camera_mount(const std::string& calib_dir) {
   // plane, positive to the left (y).
   mount.yaw_rad = std::atan2(m_rot[2][1], m_rot[2][0]);
   const std::string files = fmt::format("{} with {} and {}", f_iv, kKittiCalibFiles[1], kKittiCalibFiles[2]);
-  detail::number_in_range(mount.forward_m, -kMaxLever_m, kMaxLever_m, "camera 2's place ahead of the OXTS unit", "m", files,
+  detail::number_in_range(mount.forward_m, -kMaxCameraLever_m, kMaxCameraLever_m, "camera 2's place ahead of the OXTS unit", "m", files,
                           " (not a camera on the vehicle)");
-  detail::number_in_range(mount.left_m, -kMaxLever_m, kMaxLever_m, "camera 2's place left of the OXTS unit", "m", files,
+  detail::number_in_range(mount.left_m, -kMaxCameraLever_m, kMaxCameraLever_m, "camera 2's place left of the OXTS unit", "m", files,
                           " (not a camera on the vehicle)");
   detail::number_in_range(mount.yaw_rad, -kMaxCameraYaw_rad, kMaxCameraYaw_rad, "camera 2's heading on the vehicle", "rad",
                           files, " (not a forward camera)");

@@ -182,27 +182,24 @@ void ParkedSet::forget(const CameraPose& pose, double forget_m) {
 }
 
 std::vector<uint64_t> FacadeSet::keys(const std::vector<FacadePlane>& planes, const CameraPose& pose, double forget_m) {
-  const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
   // Forgotten first: the façades now beyond forget_m of the camera's foot (|n·T − d|).
   std::erase_if(seen_, [&](const Facade& f) { return std::fabs(f.nX * pose.X_m + f.nD * pose.D_m - f.d_m) > forget_m; });
   const double cos_tol = std::cos(2.5 * M_PI / 180), d_tol = 2.5;
   const size_t remembered = seen_.size();  // (this frame's new façades are not matched against)
   std::vector<uint64_t> out(planes.size());
   for (size_t k = 0; k < planes.size(); ++k) {
-    const FacadePlane& p = planes[k];
-    // The plane in the world (facade_key's transform).
-    const double nX = p.nX * cy + p.nD * sy, nD = -p.nX * sy + p.nD * cy, d = p.d_m + nX * pose.X_m + nD * pose.D_m;
+    const FacadePlane w = facade_in_world(planes[k], pose);
     int best = -1;
     for (size_t i = 0; i < remembered; ++i) {
       const Facade& f = seen_[i];
-      if (f.nX * nX + f.nD * nD < cos_tol || std::fabs(f.d_m - d) > d_tol) continue;
-      if (best < 0 || std::fabs(f.d_m - d) < std::fabs(seen_[best].d_m - d)) best = static_cast<int>(i);
+      if (f.nX * w.nX + f.nD * w.nD < cos_tol || std::fabs(f.d_m - w.d_m) > d_tol) continue;
+      if (best < 0 || std::fabs(f.d_m - w.d_m) < std::fabs(seen_[best].d_m - w.d_m)) best = static_cast<int>(i);
     }
     if (best >= 0) {
       out[k] = seen_[best].key;
     } else {
-      out[k] = facade_key(p, pose);
-      seen_.push_back({nX, nD, d, out[k]});
+      out[k] = facade_key(w);
+      seen_.push_back({w.nX, w.nD, w.d_m, out[k]});
     }
   }
   return out;

@@ -60,12 +60,12 @@ CameraRig parse_cityscapes_camera(const std::string& text, const std::string& fi
   r.mount_height_m = number_at(j, "extrinsic", "z", 0.1, 50, "m", file);
   const double pitch_rad = number_at(j, "extrinsic", "pitch", -30 * std::numbers::pi / 180, 30 * std::numbers::pi / 180, "rad", file);
   r.pitch_deg = pitch_rad * 180 / std::numbers::pi;
-  // The camera's place on the vehicle (ISO 8855, the origin below the rear axle's centre): within
-  // a vehicle's length of it; its heading along the road within a few degrees (Cityscapes: about
-  // −0.02 rad): 0.5 rad (29°) and more is not a forward camera, or another unit (degrees).
-  r.mount_forward_m = optional_number_at(j, "extrinsic", "x", -20, 20, "m", file);
-  r.mount_left_m = optional_number_at(j, "extrinsic", "y", -20, 20, "m", file);
-  r.mount_yaw_rad = optional_number_at(j, "extrinsic", "yaw", -0.5, 0.5, "rad", file);
+  // The camera's place on the vehicle (ISO 8855, the origin below the rear axle's centre), within
+  // detail::kMaxCameraLever_m and kMaxCameraYaw_rad (scene/data_file_detail.h).
+  using detail::kMaxCameraLever_m, detail::kMaxCameraYaw_rad;
+  r.mount_forward_m = optional_number_at(j, "extrinsic", "x", -kMaxCameraLever_m, kMaxCameraLever_m, "m", file);
+  r.mount_left_m = optional_number_at(j, "extrinsic", "y", -kMaxCameraLever_m, kMaxCameraLever_m, "m", file);
+  r.mount_yaw_rad = optional_number_at(j, "extrinsic", "yaw", -kMaxCameraYaw_rad, kMaxCameraYaw_rad, "rad", file);
   return r;
 }
 

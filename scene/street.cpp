@@ -3600,7 +3600,7 @@ struct WindowPass {
     // foot). A plane n·P = d (n its unit normal toward the plane from the camera) is n_w·P_w = d +
     // n_w·T in the world, and a point's coordinate along it t_w·P_w = s + t_w·T: the offset s0.
     // At pose 0 none of this is taken (the same operations, so the same bits, as before poses).
-    const bool moved = pose.X_m != 0 || pose.D_m != 0 || pose.yaw_rad != 0;
+    const bool moved = !pose.at_origin();
     const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
     for (size_t k = 0; k < fac.planes.size(); ++k) {
       const FacadePlane& f = fac.planes[k];
@@ -3613,7 +3613,7 @@ struct WindowPass {
         s0 = tXw * pose.X_m + tDw * pose.D_m;
       }
       // A sequence's keys (FacadeSet: a plane keeps the key of the façade it was matched to).
-      frames[k] = {tX, tD, s0, keys && keys->size() == fac.planes.size() ? (*keys)[k] : facade_key(f, pose)};
+      frames[k] = {tX, tD, s0, keys && keys->size() == fac.planes.size() ? (*keys)[k] : facade_key(facade_in_world(f, pose))};
     }
     if (texture && p.window_detect_contrast > 0) {
       std::vector<double> tXs(frames.size()), tDs(frames.size());
@@ -3802,17 +3802,20 @@ struct WindowPass {
 };
 }  // namespace
 
-uint64_t facade_key(const FacadePlane& f, const CameraPose& pose) {
-  double nX = f.nX, nD = f.nD, d = f.d_m;
+FacadePlane facade_in_world(const FacadePlane& f, const CameraPose& pose) {
   // (At pose 0 the frame's own values: the same operations, so the same keys, as before poses.)
-  if (pose.X_m != 0 || pose.D_m != 0 || pose.yaw_rad != 0) {
-    const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
-    nX = f.nX * cy + f.nD * sy;
-    nD = -f.nX * sy + f.nD * cy;
-    d = f.d_m + nX * pose.X_m + nD * pose.D_m;
-  }
-  const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(nX, nD) * 180 / M_PI / 5.0) + 64) & 127;
-  const uint64_t dist = static_cast<uint64_t>(std::lround(d / 5.0)) & 1023;
+  if (pose.at_origin()) return f;
+  const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
+  FacadePlane w = f;
+  w.nX = f.nX * cy + f.nD * sy;
+  w.nD = -f.nX * sy + f.nD * cy;
+  w.d_m = f.d_m + w.nX * pose.X_m + w.nD * pose.D_m;
+  return w;
+}
+
+uint64_t facade_key(const FacadePlane& world) {
+  const uint64_t az = static_cast<uint64_t>(std::lround(std::atan2(world.nX, world.nD) * 180 / M_PI / 5.0) + 64) & 127;
+  const uint64_t dist = static_cast<uint64_t>(std::lround(world.d_m / 5.0)) & 1023;
   return (az << 10) | dist;
 }
 

@@ -3073,11 +3073,11 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
   FacadeSet set;
   const CameraPose p0{};
   const FacadePlane near_edge = plane(90, 12.49), across = plane(90, 12.51), other = plane(90, 20), turned = plane(80, 12.5);
-  ASSERT_NE(facade_key(near_edge, p0), facade_key(across, p0));  // the step's edge lies between them
+  ASSERT_NE(facade_key(facade_in_world(near_edge, p0)), facade_key(facade_in_world(across, p0)));  // the step's edge lies between them
   const auto k0 = set.keys({near_edge, other}, p0, 200);
   ASSERT_EQ(k0.size(), 2u);
-  EXPECT_EQ(k0[0], facade_key(near_edge, p0));  // a first sighting: its own key
-  EXPECT_EQ(k0[1], facade_key(other, p0));
+  EXPECT_EQ(k0[0], facade_key(facade_in_world(near_edge, p0)));  // a first sighting: its own key
+  EXPECT_EQ(k0[1], facade_key(facade_in_world(other, p0)));
   // Driven 9 m on and turned 2° (the plane given in that frame's coordinates): the same façade,
   // fitted 0.02 m farther, keeps frame 0's key; 10° off is another façade.
   const CameraPose p1{0, 9, 2 * M_PI / 180};
@@ -3090,7 +3090,7 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
     return f;
   };
   const auto k1 = set.keys({in_frame(across, p1), in_frame(turned, p1)}, p1, 200);
-  EXPECT_EQ(facade_key(in_frame(across, p1), p1), facade_key(across, p0));  // the world's own key: the step moved
+  EXPECT_EQ(facade_key(facade_in_world(in_frame(across, p1), p1)), facade_key(facade_in_world(across, p0)));  // the world's own key: the step moved
   EXPECT_EQ(k1[0], k0[0]) << "the façade took a new key when its fit crossed a step's edge";
   EXPECT_NE(k1[1], k0[0]);
   EXPECT_EQ(set.size(), 3u);
@@ -3098,7 +3098,7 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
   // across the edge is then seen afresh, with its own key.
   const CameraPose far{-300, 9, 0};
   const auto k2 = set.keys({in_frame(across, far)}, far, 200);
-  EXPECT_EQ(k2[0], facade_key(across, p0));
+  EXPECT_EQ(k2[0], facade_key(facade_in_world(across, p0)));
   EXPECT_EQ(set.size(), 1u);
 }
 

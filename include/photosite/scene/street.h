@@ -15,7 +15,10 @@ struct StreetLamp { double X_m, Y_m, D_m; bool from_pole; };
 // (positive toward +X). Crops of one frame (a pan of the image plane) and a camera at rest: all
 // zero — a crop's shifted principal point is in its rig (CameraGeometry::cx_px), and the road
 // coordinates of every crop are the same.
-struct CameraPose { double X_m = 0, D_m = 0, yaw_rad = 0; };
+struct CameraPose {
+  double X_m = 0, D_m = 0, yaw_rad = 0;
+  bool at_origin() const { return X_m == 0 && D_m == 0 && yaw_rad == 0; }
+};
 struct StreetLighting {
   std::vector<StreetLamp> lamps;         // sorted by D
   // Where the luminaires come from: "road_edges" (rows along the road edges) or
@@ -110,10 +113,12 @@ void add_vertical_street_light(ImageF& L, const ImageF& texture, const ImageU16&
 // preset's windows.detect_contrast above 0) the windows are first looked for in the photo: where it
 // resolves a façade, the windows lit are the ones it shows (scene/facade_windows.cpp), each a
 // seeded draw as the grid's; the grid lays out only the parts of the façades it does not resolve.
-// The key of a façade plane's window draws: the plane's normal's azimuth in 5° steps and its
-// distance from the world's origin in 5 m steps, the plane taken into the world of the frame at
-// `pose` (its normal turned by the yaw, its distance d + n_w·T, T the camera's foot).
-uint64_t facade_key(const FacadePlane& f, const CameraPose& pose);
+// A façade plane of the frame at `pose` in its sequence's world: its normal turned by the yaw,
+// its distance d + n_w·T (T the camera's foot). At pose 0 the plane itself.
+FacadePlane facade_in_world(const FacadePlane& f, const CameraPose& pose);
+// The key of a façade plane's window draws: the normal's azimuth in 5° steps and the distance
+// from the world's origin in 5 m steps, of `world` (facade_in_world's).
+uint64_t facade_key(const FacadePlane& world);
 int add_facade_windows(ImageF& L, const ImageU16& labels, const ImageF& depth_m, const CameraGeometry& g,
                        const ScenePreset& p, uint64_t seed, const BuildingFacades* facades = nullptr,
                        const ImageF* texture = nullptr, const CameraPose& pose = {},
