@@ -3169,6 +3169,45 @@ TEST(Luminaires, ParkedVehiclesKeepTheirParkingLightsWhileDriving) {
   EXPECT_GT(alone_changes, 0);
 }
 
+namespace {
+// The synthetic street (no boxes) seen from the poses a vehicle reaches at 18 m/s turning left at
+// 0.1 rad/s (OXTS vf, wu; advance_pose's arc, 0.5 s a frame: 9 m and 2.9° a frame), each frame
+// rendered from its pose, written as a KITTI drive with its OXTS records under `root`.
+struct TurningStreet {
+  std::vector<CameraPose> poses;
+  std::vector<SyntheticCameraScene> scenes;
+  std::vector<LabelMap> labels;
+};
+TurningStreet write_turning_street(const std::filesystem::path& root, int n) {
+  const double speed = 18, yaw_rate = 0.1;
+  TurningStreet t;
+  t.poses.resize(n);
+  for (int f = 1; f < n; ++f) {
+    OdometrySample a, b;
+    a.time_ns = 500'000'000ll * (f - 1);
+    b.time_ns = 500'000'000ll * f;
+    a.speed_m_s = b.speed_m_s = speed;
+    a.yaw_rate_rad_s = b.yaw_rate_rad_s = yaw_rate;
+    t.poses[f] = advance_pose(t.poses[f - 1], a, b, "test");
+  }
+  for (int f = 0; f < n; ++f) {
+    SyntheticCameraOptions o = camera_scene();
+    o.boxes.clear();
+    o.world_X_m = t.poses[f].X_m;
+    o.world_D_m = t.poses[f].D_m;
+    o.world_yaw_rad = t.poses[f].yaw_rad;
+    t.scenes.push_back(make_synthetic_camera_scene(o));
+  }
+  std::vector<const ImageF*> days;
+  for (const auto& sc : t.scenes) {
+    days.push_back(&sc.day_linear_srgb);
+    t.labels.push_back(sc.labels);
+  }
+  write_kitti_sequence(root, days, t.labels, speed, yaw_rate);
+  return t;
+}
+}  // namespace
+
 // The same while the camera turns: the synthetic street seen from the poses a vehicle reaches at
 // 18 m/s turning left at 0.1 rad/s (OXTS vf, wu; advance_pose's arc, 0.5 s a frame: 9 m and
 // 2.9° a frame), each frame rendered from its pose, so the façades run obliquely through the
@@ -3177,36 +3216,14 @@ TEST(Luminaires, ParkedVehiclesKeepTheirParkingLightsWhileDriving) {
 // façade light is found at the same world points in frame t − 1 (asserted ≥ 95 % both ways in
 // photosite's own geometry); the pose-0 sequence of the same frames keeps far less.
 TEST(Luminaires, TurningKeepsTheWindowsOnTheirFacades) {
-  const double speed = 18, yaw_rate = 0.1;
   const int n = 3;
-  std::vector<CameraPose> poses(n);
-  for (int f = 1; f < n; ++f) {
-    OdometrySample a, b;
-    a.time_ns = 500'000'000ll * (f - 1);
-    b.time_ns = 500'000'000ll * f;
-    a.speed_m_s = b.speed_m_s = speed;
-    a.yaw_rate_rad_s = b.yaw_rate_rad_s = yaw_rate;
-    poses[f] = advance_pose(poses[f - 1], a, b, "test");
-  }
-  ASSERT_LT(poses[2].yaw_rad, -0.09);  // turning left: toward −X
-  std::vector<SyntheticCameraScene> scenes;
-  for (int f = 0; f < n; ++f) {
-    SyntheticCameraOptions o = camera_scene();
-    o.boxes.clear();
-    o.world_X_m = poses[f].X_m;
-    o.world_D_m = poses[f].D_m;
-    o.world_yaw_rad = poses[f].yaw_rad;
-    scenes.push_back(make_synthetic_camera_scene(o));
-  }
-  const SyntheticCameraOptions o = camera_scene();
   test::TempDir dir;
-  std::vector<const ImageF*> days;
-  std::vector<LabelMap> labels;
-  for (const auto& sc : scenes) {
-    days.push_back(&sc.day_linear_srgb);
-    labels.push_back(sc.labels);
-  }
-  write_kitti_sequence(dir.path() / "drive", days, labels, speed, yaw_rate);
+  const TurningStreet t = write_turning_street(dir.path() / "drive", n);
+  const std::vector<CameraPose>& poses = t.poses;
+  const std::vector<SyntheticCameraScene>& scenes = t.scenes;
+  const std::vector<LabelMap>& labels = t.labels;
+  ASSERT_LT(poses[2].yaw_rad, -0.09);  // turning left: toward −X
+  const SyntheticCameraOptions o = camera_scene();
   const auto moving = window_frames(dir.path() / "drive", "moving", "auto", n, dir),
              still = window_frames(dir.path() / "drive", "still", "none", n, dir);
   for (int f = 1; f < n; ++f) {
@@ -3231,6 +3248,57 @@ TEST(Luminaires, TurningKeepsTheWindowsOnTheirFacades) {
                  "%.4f / %.4f), at pose 0 %.4f / %.4f\n",
                  f, poses[f].X_m, poses[f].D_m, poses[f].yaw_rad, fwd, back, fwd_true, back_true, fwd0, back0);
   }
+}
+
+// Every vector level gives a moving sequence the same bits. SceneNightCli.EveryIsaCapGivesTheSameNight
+// checks a single frame, at pose 0, where the window kernels' per-plane offset along the façade
+// (FacadeFrame::s0, scene/street.cpp) is 0 and the planes are not turned. Here the turning street
+// of the test above (9 m and 2.9° a frame) is run as a sequence at each PHOTOSITE_MAX_ISA level
+// this machine has: the scalar, AVX2 and AVX-512 window rows then add non-zero s0 to turned façade
+// coordinates, and every channel of every frame (lights and depth) must be the same bits.
+TEST(Luminaires, EveryIsaCapGivesTheSameTurningSequence) {
+  const int n = 3;
+  test::TempDir dir;
+  const std::vector<LabelMap> labels = write_turning_street(dir.path() / "drive", n).labels;
+  const auto machine = test::run_cli("version --backends");
+  ASSERT_EQ(machine.exit_code, 0) << machine.output;
+  std::vector<std::string> caps = {"scalar"};
+  if (machine.output.find(", AVX2") != std::string::npos) caps.push_back("avx2");
+  if (machine.output.find(", AVX-512") != std::string::npos) caps.push_back("avx512");
+  std::string names;
+  for (const auto& c : caps) names += (names.empty() ? "" : ", ") + c;
+  std::fprintf(stderr, "[isa sequence] levels compared: %zu (%s)\n", caps.size(), names.c_str());
+  std::vector<std::vector<ExrContents>> runs;
+  for (const std::string& cap : caps) {
+    setenv("PHOTOSITE_MAX_ISA", cap.c_str(), 1);
+    const std::string out = dir.file("out_" + cap);
+    const auto r = test::run_cli("batch --dataset kitti --root '" + (dir.path() / "drive").string() + "' --out '" + out +
+                                 "' --rig cityscapes --layers lights,depth --quiet --seed 3 --device-store '" +
+                                 dir.file("store") + "' --sequence --ego-motion auto");
+    unsetenv("PHOTOSITE_MAX_ISA");
+    ASSERT_EQ(r.exit_code, 0) << "PHOTOSITE_MAX_ISA=" << cap << ": " << r.output;
+    std::vector<ExrContents> frames;
+    for (int f = 0; f < n; ++f) frames.push_back(read_exr(out + fmt::format("/image_2/drive/{:010d}.exr", f)));
+    runs.push_back(std::move(frames));
+  }
+  // The windows' light is there to compare: frame 2 (turned 0.1 rad, 18 m on) has lit panes.
+  double windows = 0;
+  const ImageF& lights2 = runs[0][2].channels.at("lights.G");
+  for (int y = 0; y < lights2.height(); ++y)
+    for (int x = 0; x < lights2.width(); ++x)
+      if (labels[2].ids.at(x, y) == static_cast<uint16_t>(Label::Building)) windows += lights2.at(x, y);
+  EXPECT_GT(windows, 0.0);
+  for (size_t c = 1; c < runs.size(); ++c)
+    for (int f = 0; f < n; ++f) {
+      ASSERT_EQ(runs[c][f].channels.size(), runs[0][f].channels.size());
+      for (const auto& [name, img] : runs[0][f].channels) {
+        const ImageF& other = runs[c][f].channels.at(name);
+        ASSERT_EQ(other.size(), img.size());
+        size_t differ = 0;
+        for (size_t k = 0; k < img.size(); ++k) differ += std::memcmp(&img[k], &other[k], sizeof(float)) != 0;
+        EXPECT_EQ(differ, 0u) << "frame " << f << ", " << name << ": " << caps[c] << " against scalar";
+      }
+    }
 }
 
 // The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on
