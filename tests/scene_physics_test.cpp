@@ -293,7 +293,7 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
 }
 
 // The ego low beam (scene/lights.cpp): the preset's intensity table holds the ECE R112 class B
-// measuring points (per headlamp, cd = lx at 25 m × 625 m²) and nothing above the cut-off; on
+// test points (per headlamp, in cd: the 01 series' table) and nothing above the cut-off; on
 // the road the pair gives E = Σ I(h, v)·cos θ / d². With the lamps coincident (spacing 0) on the
 // axis (h = 0) at the distance D where v = −atan(h_l/D) is a table row, E = 2·I_row·(h_l/d)/d².
 // Tolerance (u = 2⁻⁵³): the intensity at the row itself is the table's node exactly (weights 0 and
@@ -304,16 +304,19 @@ TEST(ScenePhysics, VehicleLampsFromColourCuesAndPlacement) {
 // node (computed: its larger side, relative to the node, per degree) turns into intensity.
 TEST(ScenePhysics, LowBeamIlluminanceAtSetDepths) {
   ScenePreset p = no_bloom();
-  // R112 class B (right-hand traffic), [U] values recalled in presets/scenes/night-urban.toml.
-  EXPECT_GE(low_beam_intensity_cd(1.72, -0.86, p), 12 * 625.0);  // 50R >= 12 lx
-  EXPECT_GE(low_beam_intensity_cd(1.15, -0.57, p), 12 * 625.0);  // 75R >= 12 lx
-  EXPECT_GE(low_beam_intensity_cd(0.0, -0.86, p), 6 * 625.0);    // 50V >= 6 lx
-  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.86, p), 15 * 625.0); // 50L <= 15 lx
-  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.57, p), 12 * 625.0); // 75L <= 12 lx
-  EXPECT_LE(low_beam_intensity_cd(-3.43, 0.57, p), 0.4 * 625.0); // B50L <= 0.4 lx
-  EXPECT_GE(low_beam_intensity_cd(-9, -1.72, p), 2 * 625.0);     // 25L >= 2 lx
-  EXPECT_GE(low_beam_intensity_cd(9, -1.72, p), 2 * 625.0);      // 25R >= 2 lx
-  for (double h = -5.15; h <= 5.15; h += 0.5)                     // Zone IV >= 3 lx
+  // UN/ECE R112, 01 series, §6.2's passing-beam table, class B, right-hand traffic (cd; the
+  // source in presets/scenes/night-urban.toml at [ego_beam]).
+  EXPECT_GE(low_beam_intensity_cd(1.72, -0.86, p), 10100.0);  // 50R
+  EXPECT_GE(low_beam_intensity_cd(1.15, -0.57, p), 10100.0);  // 75R
+  EXPECT_GE(low_beam_intensity_cd(0.0, -0.86, p), 5100.0);    // 50V
+  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.86, p), 13200.0); // 50L
+  EXPECT_LE(low_beam_intensity_cd(-3.43, -0.57, p), 10600.0); // 75L
+  EXPECT_LE(low_beam_intensity_cd(-3.43, 0.57, p), 350.0);    // B50L
+  EXPECT_LE(low_beam_intensity_cd(2.5, 1.0, p), 1750.0);      // BR
+  EXPECT_GE(low_beam_intensity_cd(-9, -1.72, p), 1700.0);     // 25L
+  EXPECT_GE(low_beam_intensity_cd(9, -1.72, p), 1700.0);      // 25R
+  EXPECT_LE(p.beam_above_cutoff_cd, 625.0);                   // any point of zone III (above the cut-off)
+  for (double h = -5.15; h <= 5.15; h += 0.5)                  // Zone IV >= 3 lx at 25 m ([U]: the 00 series)
     for (double v = -1.72; v <= -0.86; v += 0.1) EXPECT_GE(low_beam_intensity_cd(h, v, p), 3 * 625.0) << h << " " << v;
   // The cut-off: horizontal at cutoff_v_deg on the left, nothing above; rising at 15° on the right.
   EXPECT_GT(low_beam_intensity_cd(-2, p.beam_cutoff_v_deg - 1e-9, p), 1000.0);
