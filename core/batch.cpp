@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -16,6 +18,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/rig.h"
+#include "scene/data_file_detail.h"
 
 namespace photosite::batch {
 namespace fs = std::filesystem;
@@ -278,6 +281,80 @@ std::vector<std::string> manifest_fields(const std::string& line, const std::fun
 }
 }  // namespace
 
+namespace {
+// A manifest line's fields: the paths, then key=value fields (read_manifest, batch.h).
+struct ManifestLine {
+  std::vector<std::string> paths;
+  std::string sequence;
+  std::optional<scene::OdometrySample> odometry;
+};
+constexpr const char* kManifestKeys[] = {"sequence", "time_s", "speed_m_s", "yaw_rate_rad_s",
+                                         "camera_forward_m", "camera_left_m", "camera_yaw_rad"};
+// The fields of the line at `at`; is_file(field): whether a field names an existing file (a path
+// that looks like key=value is a path when it is one).
+ManifestLine split_manifest_line(const std::vector<std::string>& fields, const std::string& at,
+                                 const std::function<bool(const std::string&)>& is_file) {
+  ManifestLine ml;
+  std::map<std::string, std::string> kv;
+  std::string known;
+  for (const char* k : kManifestKeys) known += std::string(known.empty() ? "" : ", ") + k;
+  for (const std::string& f : fields) {
+    const size_t eq = f.find('=');
+    const std::string key = eq == std::string::npos ? std::string() : f.substr(0, eq);
+    const bool keyish = !key.empty() && std::all_of(key.begin(), key.end(), [](unsigned char c) {
+      return std::islower(c) || c == '_';
+    });
+    if (keyish && std::find_if(std::begin(kManifestKeys), std::end(kManifestKeys),
+                               [&](const char* k) { return key == k; }) != std::end(kManifestKeys)) {
+      if (!kv.emplace(key, f.substr(eq + 1)).second) fail(at + ": " + key + " given twice");
+      continue;
+    }
+    if (keyish && !is_file(f)) fail(at + ": unknown field key '" + key + "' (the keys after the paths: " + known + ")");
+    if (!kv.empty()) fail(at + ": '" + f + "' after the key=value fields: the paths (image labels [instances]) come first");
+    ml.paths.push_back(f);
+  }
+  auto number = [&](const char* key, double lo, double hi, const char* unit, const char* why) -> std::optional<double> {
+    const auto i = kv.find(key);
+    if (i == kv.end()) return std::nullopt;
+    const std::string& t = i->second;
+    double v = 0;
+    const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (t.empty() || r.ec != std::errc() || r.ptr != t.data() + t.size()) fail(at + ": " + key + "=" + t + ": not a number");
+    return scene::detail::number_in_range(v, lo, hi, key, unit, at, why);
+  };
+  if (const auto i = kv.find("sequence"); i != kv.end()) {
+    if (i->second.empty()) fail(at + ": sequence= names no sequence");
+    ml.sequence = i->second;
+  }
+  using scene::detail::kMaxSpeed_m_s, scene::detail::kMaxYawRate_rad_s, scene::detail::kNotOdometry;
+  using scene::detail::kMaxCameraLever_m, scene::detail::kMaxCameraYaw_rad;
+  // Seconds from any origin (a Unix time too): within 9·10⁹ s its whole ns fit in 64 bits.
+  const auto t = number("time_s", -9e9, 9e9, "s", " (seconds; 9e9 s keeps whole ns within 64 bits)");
+  const auto v = number("speed_m_s", -kMaxSpeed_m_s, kMaxSpeed_m_s, "m/s", kNotOdometry);
+  const auto w = number("yaw_rate_rad_s", -kMaxYawRate_rad_s, kMaxYawRate_rad_s, "rad/s", kNotOdometry);
+  const auto cf = number("camera_forward_m", -kMaxCameraLever_m, kMaxCameraLever_m, "m", " (the camera's place on its vehicle)");
+  const auto cl = number("camera_left_m", -kMaxCameraLever_m, kMaxCameraLever_m, "m", " (the camera's place on its vehicle)");
+  const auto cy = number("camera_yaw_rad", -kMaxCameraYaw_rad, kMaxCameraYaw_rad, "rad", " (a forward camera's heading on its vehicle)");
+  if (t || v || w) {
+    if (!(t && v && w))
+      fail(at + ": " + (t ? "" : "time_s ") + (v ? "" : "speed_m_s ") + (w ? "" : "yaw_rate_rad_s ") +
+           "missing: a frame's odometry is time_s, speed_m_s and yaw_rate_rad_s together");
+    scene::OdometrySample o;
+    o.time_ns = std::llround(*t * 1e9);
+    o.speed_m_s = *v;
+    o.yaw_rate_rad_s = *w;
+    o.camera_forward_m = cf.value_or(0);
+    o.camera_left_m = cl.value_or(0);
+    o.camera_yaw_rad = cy.value_or(0);
+    ml.odometry = o;
+  } else if (cf || cl || cy) {
+    fail(at + ": camera_forward_m, camera_left_m and camera_yaw_rad place the camera for the odometry: give time_s, "
+              "speed_m_s and yaw_rate_rad_s too");
+  }
+  return ml;
+}
+}  // namespace
+
 std::vector<Item> read_manifest(const std::string& manifest) {
   std::error_code dir_ec;
   if (fs::is_directory(manifest, dir_ec)) fail_at(manifest, "is a folder, not a manifest file");
@@ -313,16 +390,22 @@ std::vector<Item> read_manifest(const std::string& manifest) {
       fail(where(manifest, lineno) + ": " + why);
     });
     if (parts.empty()) continue;
-    if (parts.size() < 2 || parts.size() > 3)
-      fail(where(manifest, lineno) + ": expected 'image labels [instances]', found " + std::to_string(parts.size()) +
+    const std::string at = where(manifest, lineno);
+    const ManifestLine ml = split_manifest_line(parts, at, [&](const std::string& f) {
+      std::error_code ec;
+      return fs::exists(resolve(f), ec);
+    });
+    const std::vector<std::string>& paths = ml.paths;
+    if (paths.size() < 2 || paths.size() > 3)
+      fail(at + ": expected 'image labels [instances]', found " + std::to_string(paths.size()) +
            " fields" +
            (line.find_first_of(" #") != std::string::npos && line.find_first_of(",\t\"") == std::string::npos
                 ? " (a path with spaces or '#': put it in double quotes, or separate the fields with commas or tabs)"
                 : ""));
     Item it;
-    it.image = resolve(parts[0]).string();
-    it.labels = resolve(parts[1]).string();
-    if (parts.size() == 3) it.instances = resolve(parts[2]).string();
+    it.image = resolve(paths[0]).string();
+    it.labels = resolve(paths[1]).string();
+    if (paths.size() == 3) it.instances = resolve(paths[2]).string();
     std::error_code ec;
     if (!fs::exists(it.image, ec)) throw MissingFileError(where(manifest, lineno) + ": image " + it.image + " not found");
     if (!fs::exists(it.labels, ec)) throw MissingFileError(where(manifest, lineno) + ": labels " + it.labels + " not found");
@@ -336,12 +419,33 @@ std::vector<Item> read_manifest(const std::string& manifest) {
                                           ? ": image listed twice (also on line " + std::to_string(k->second.first) + "): " + it.image
                                           : ": " + it.image + " and " + k->second.second + " (line " +
                                                 std::to_string(k->second.first) + ") would both write " + it.key + ".*"));
-    it.group = it.key;
-    it.origin = where(manifest, lineno);
+    it.group = ml.sequence.empty() ? it.key : "sequence:" + ml.sequence;
+    it.origin = at;
+    if (ml.odometry) {
+      it.odometry_given = ml.odometry;
+      it.odometry = it.odometry_time = at;  // (named in messages)
+    }
     order[it.key] = lineno;
     items.push_back(std::move(it));
   }
   if (items.empty()) fail_at(manifest, "the manifest lists no items");
+  // A sequence's frames, in line order: all with odometry or none (a frame without it would have
+  // no pose), their times increasing (the pose integrates forward in time).
+  std::map<std::string, const Item*> last_of;
+  for (const Item& it : items) {
+    if (it.group == it.key) continue;  // a line of its own
+    const auto [prev, first] = last_of.emplace(it.group, &it);
+    if (first) continue;
+    const Item& p = *prev->second;
+    const std::string seq = it.group.substr(std::string("sequence:").size());
+    if (p.odometry_given.has_value() != it.odometry_given.has_value())
+      fail(it.origin + ": sequence " + seq + (it.odometry_given ? " has odometry on this line but not on " : " has no odometry on this line but has on ") +
+           p.origin + " (time_s, speed_m_s, yaw_rate_rad_s on every line of a sequence, or on none)");
+    if (it.odometry_given && it.odometry_given->time_ns <= p.odometry_given->time_ns)
+      fail(it.origin + ": sequence " + seq + ": time_s is not after the previous line's (" + p.origin +
+           "): a sequence's lines are its frames in the order they were recorded");
+    prev->second = &it;
+  }
   number_frames(items, order);
   return items;
 }

@@ -466,7 +466,13 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         l.camera_sum = file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
         l.rig = camera_file;
       }
-      if (ego && it.odometry_line >= 0) {
+      if (ego && it.odometry_given) {  // a manifest line's own fields
+        l.odometry = it.odometry_given;
+        const scene::OdometrySample& g = *it.odometry_given;
+        l.mount_source = g.camera_forward_m != 0 || g.camera_left_m != 0 || g.camera_yaw_rad != 0
+                             ? "manifest " + it.odometry
+                             : "none: the odometry's reference point (manifest " + it.odometry + ")";
+      } else if (ego && it.odometry_line >= 0) {
         const scene::CameraMount mount =
             it.odometry_calib.empty() ? scene::CameraMount{} : scene::read_kitti_camera_mount(it.odometry_calib);
         l.odometry = scene::read_kitti_oxts(it.odometry, it.odometry_time, it.odometry_line, mount);

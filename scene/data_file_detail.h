@@ -1,6 +1,7 @@
 // Numbers read from a data set's own files (Cityscapes' camera and vehicle JSON, KITTI raw's text
 // records): refused, naming the file and the key, when missing, not a number, or outside the
-// range of what the file can hold (scene/rig_json.cpp, scene/ego_motion.cpp).
+// range of what the file can hold (scene/rig_json.cpp, scene/ego_motion.cpp, core/batch.cpp's
+// manifest fields).
 #pragma once
 #include <cmath>
 #include <string>
@@ -18,6 +19,14 @@ namespace photosite::scene::detail {
 // limits of a Cityscapes camera file's extrinsic x, y, yaw (scene/rig_json.cpp) and of KITTI's
 // calibrated camera 2 (scene/ego_motion.cpp).
 constexpr double kMaxCameraLever_m = 20, kMaxCameraYaw_rad = 0.5;
+
+// A road vehicle's speed and yaw rate: a value beyond these is a file of another kind or in other
+// units (km/h, deg/s), refused rather than integrated. 100 m/s is 360 km/h; 5 rad/s turns a full
+// circle in 1.3 s (a car at its steering lock at walking pace turns about 0.5 rad/s). The limits
+// of Cityscapes' vehicle files, KITTI's OXTS records (scene/ego_motion.cpp) and a batch
+// manifest's odometry fields (core/batch.cpp).
+constexpr double kMaxSpeed_m_s = 100, kMaxYawRate_rad_s = 5;
+constexpr const char* kNotOdometry = " (not a road vehicle's odometry)";
 
 // v, named `name` (unit `unit`) in `file`: bad input "file: name: v unit is outside [lo, hi]why"
 // unless finite and within [lo, hi].

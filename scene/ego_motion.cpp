@@ -20,12 +20,8 @@
 namespace photosite::scene {
 
 namespace {
-// A road vehicle's speed and yaw rate: a value beyond these is a file of another kind or in other
-// units (km/h, deg/s), refused rather than integrated. 100 m/s is 360 km/h; 5 rad/s turns a full
-// circle in 1.3 s (a car at its steering lock at walking pace turns about 0.5 rad/s).
-constexpr double kMaxSpeed_m_s = 100, kMaxYawRate_rad_s = 5;
-constexpr const char* kNotOdometry = " (not a road vehicle's odometry)";
 using detail::kMaxCameraLever_m, detail::kMaxCameraYaw_rad;  // a camera's place on its vehicle
+using detail::kMaxSpeed_m_s, detail::kMaxYawRate_rad_s, detail::kNotOdometry;  // a road vehicle's motion
 
 nlohmann::json json_object(const std::string& file, const char* what) {
   const nlohmann::json j = nlohmann::json::parse(schema::read_text(file, what), nullptr, false);

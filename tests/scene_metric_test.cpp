@@ -3301,6 +3301,74 @@ TEST(Luminaires, EveryIsaCapGivesTheSameTurningSequence) {
     }
 }
 
+// A manifest's own odometry (read_manifest's key=value fields, include/photosite/batch.h): the
+// turning street's three frames listed in a manifest with sequence=, time_s, speed_m_s and
+// yaw_rate_rad_s (the values of its OXTS records and timestamps) give each frame the pose the
+// KITTI layout's OXTS records give it, to the bit (the same samples into advance_pose: 0.5 s, 18
+// m/s, 0.1 rad/s, the camera at the odometry's reference point in both). The lines are listed out
+// of order between another sequence's (frames in line order per sequence). Bad lines are refused
+// before any work, naming the line.
+TEST(Luminaires, ManifestSequenceFollowsItsOdometryFields) {
+  const int n = 3;
+  test::TempDir dir;
+  const auto root = dir.path() / "drive";
+  write_turning_street(root, n);
+  std::filesystem::copy_file(root / "image_2/drive/0000000000.png", root / "x.png");
+  std::filesystem::copy_file(root / "semantic/drive/0000000000.png", root / "x_labels.png");
+  auto line = [](int f, const std::string& extra) {
+    return fmt::format("image_2/drive/{0:010d}.png semantic/drive/{0:010d}.png {1}\n", f, extra);
+  };
+  auto odo = [](int f) { return fmt::format("sequence=turn time_s={} speed_m_s=18 yaw_rate_rad_s=0.1", 25 + 0.5 * f); };
+  // Sequence "turn": frames 0, 1, 2 in line order, another sequence's line between them.
+  std::ofstream(root / "m.txt") << "# a video's frames\n" << line(0, odo(0)) << "x.png x_labels.png sequence=other\n"
+                                << line(1, odo(1)) << line(2, odo(2));
+  auto run = [&](const std::string& args) {
+    return test::run_cli("batch " + args + " --rig cityscapes --layers lights --quiet --seed 3 --device-store '" +
+                         dir.file("store") + "'");
+  };
+  const auto m = run("--manifest '" + (root / "m.txt").string() + "' --out '" + dir.file("out_m") + "' --sequence");
+  ASSERT_EQ(m.exit_code, 0) << m.output;
+  const auto k = run("--dataset kitti --root '" + root.string() + "' --out '" + dir.file("out_k") + "' --sequence");
+  ASSERT_EQ(k.exit_code, 0) << k.output;
+  for (int f = 0; f < n; ++f) {
+    const auto am = read_exr_attributes(dir.file("out_m") + fmt::format("/image_2/drive/{:010d}.exr", f));
+    const auto ak = read_exr_attributes(dir.file("out_k") + fmt::format("/image_2/drive/{:010d}.exr", f));
+    for (const char* key : {"photosite/batch/pose_X_m_text", "photosite/batch/pose_D_m_text", "photosite/batch/pose_yaw_rad_text"})
+      EXPECT_EQ(am.at(key), ak.at(key)) << "frame " << f << " " << key;
+    EXPECT_EQ(am.at("photosite/batch/group"), "sequence:turn");
+    EXPECT_NE(am.at("photosite/batch/camera_mount").find("m.txt:"), std::string::npos) << am.at("photosite/batch/camera_mount");
+    if (f > 0) EXPECT_GT(std::stod(am.at("photosite/batch/pose_D_m_text")), 8.0 * f) << f;  // 9 m a frame
+  }
+  // The other sequence has no odometry: no pose in its header.
+  EXPECT_EQ(read_exr_attributes(dir.file("out_m") + "/x.exr").count("photosite/batch/pose_D_m_text"), 0u);
+  // With --ego-motion none the same manifest takes every frame at pose 0 (no pose recorded).
+  const auto none = run("--manifest '" + (root / "m.txt").string() + "' --out '" + dir.file("out_none") + "' --sequence --ego-motion none");
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  EXPECT_EQ(read_exr_attributes(dir.file("out_none") + "/image_2/drive/0000000002.exr").count("photosite/batch/pose_D_m_text"), 0u);
+
+  // Bad lines: exit 2 naming the line, nothing written.
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {line(1, odo(1)) + line(0, odo(0)), "m_bad.txt:2: sequence turn: time_s is not after the previous line's ("},
+      {line(0, odo(0)) + line(1, "sequence=turn"), "m_bad.txt:2: sequence turn has no odometry on this line but has on "},
+      {line(0, "sequence=turn time_s=1 speed_m_s=3"), "m_bad.txt:1: yaw_rate_rad_s missing"},
+      {line(0, "sequence=turn time_s=1 speed_m_s=200 yaw_rate_rad_s=0"), "speed_m_s: 200 m/s is outside [-100, 100]"},
+      {line(0, "sequence=turn time_s=1s speed_m_s=1 yaw_rate_rad_s=0"), "m_bad.txt:1: time_s=1s: not a number"},
+      {line(0, "sequence=turn camera_left_m=0.3"), "give time_s, speed_m_s and yaw_rate_rad_s too"},
+      {line(0, "sequence=turn sequence=b"), "m_bad.txt:1: sequence given twice"},
+      {line(0, "sequnce=turn"), "m_bad.txt:1: unknown field key 'sequnce'"},
+      {line(0, "sequence="), "m_bad.txt:1: sequence= names no sequence"},
+      {"sequence=turn " + line(0, ""), "m_bad.txt:1: 'image_2/drive/0000000000.png' after the key=value fields"},
+  };
+  for (const auto& [text, want] : bad) {
+    std::ofstream(root / "m_bad.txt") << text;
+    const std::string out = dir.file("out_bad");
+    const auto r = run("--manifest '" + (root / "m_bad.txt").string() + "' --out '" + out + "' --sequence");
+    EXPECT_EQ(r.exit_code, 2) << text << r.output;
+    EXPECT_NE(r.output.find(want), std::string::npos) << text << "\n" << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out + "/image_2")) << text;
+  }
+}
+
 // The ego low beam projected onto the metric ground (scene/lights.cpp low_beam_illuminance), on
 // the synthetic camera scene without boxes (the centre line free to the horizon).
 namespace {

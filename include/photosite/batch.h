@@ -5,11 +5,13 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "photosite/backend.h"
 #include "photosite/outputs.h"
+#include "photosite/scene/ego_motion.h"
 #include "photosite/scene/scene_preset.h"
 
 namespace photosite::batch {
@@ -42,6 +44,9 @@ struct Item {
   // KITTI: the folder of the drive's calibration files (calib/<sub>/, scene/ego_motion.h
   // read_kitti_camera_mount) for the camera's place on the vehicle, or "" (the OXTS unit's place).
   std::string odometry_calib;
+  // A manifest line's own odometry (its time_s, speed_m_s, yaw_rate_rad_s and camera_* fields;
+  // read_manifest), with `odometry` then naming the line ("list.txt:3") for messages.
+  std::optional<scene::OdometrySample> odometry_given;
   std::string origin;       // where the item is listed ("list.txt:3"), for messages; "" for a layout
 
   std::string label_format = "auto";
@@ -62,7 +67,18 @@ struct Item {
 std::vector<Item> discover(Dataset dataset, const std::string& root, const std::string& out = {});
 // One item per line: image, labels and optional instances paths, separated by spaces or commas;
 // relative paths are relative to the manifest's folder; '#' starts a comment; a UTF-8 byte-order
-// mark at the start is skipped.
+// mark at the start is skipped. After the paths a line may carry key=value fields:
+//  * sequence=NAME: the line's sequence (its group "sequence:NAME"; frames in line order), for
+//    `batch --sequence` over frames that are not in a data set's layout (a video's frames with a
+//    segmentation model's labels). Without it each line is a sequence of its own.
+//  * time_s, speed_m_s, yaw_rate_rad_s (all three or none): the frame's odometry (OdometrySample:
+//    seconds from any origin common to the sequence, m/s forward, rad/s turning left), and with
+//    them optionally camera_forward_m, camera_left_m, camera_yaw_rad (the camera's place on the
+//    vehicle, ISO 8855; 0 by default).
+// Bad input (manifest:line: problem) on an unknown key, a key given twice, a value that is not a
+// finite number or outside the limits of the data sets' own odometry readers (scene/ego_motion.h:
+// |speed| <= 100 m/s, |yaw rate| <= 5 rad/s, the camera within 20 m and 0.5 rad), a sequence
+// whose lines mix frames with and without odometry, or whose times do not increase line by line.
 std::vector<Item> read_manifest(const std::string& manifest);
 
 // Items of shard `index` of `count`: whole groups, group g (in sorted order) to shard g mod count.
