@@ -380,9 +380,21 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     if (!item_cameras || it.camera.empty()) return std::nullopt;
     return file_checksum_hex(it.camera, ChecksumAlgorithm::Xxh3_64);
   };
+  // Likewise a manifest line's own odometry fields (read_manifest) where the run uses them: its
+  // record keeps them as text, and an item whose fields changed since is redone (with its
+  // sequence: a sequence with an unfinished frame is redone whole).
+  auto odometry_text = [&](const Item& it) -> std::optional<std::string> {
+    if (!(o.sequences && o.ego_motion && it.odometry_given)) return std::nullopt;
+    const scene::OdometrySample& g = *it.odometry_given;
+    return fmt::format("time_ns {} speed_m_s {:.17g} yaw_rate_rad_s {:.17g} camera_forward_m {:.17g} camera_left_m {:.17g} "
+                       "camera_yaw_rad {:.17g}", g.time_ns, g.speed_m_s, g.yaw_rate_rad_s, g.camera_forward_m,
+                       g.camera_left_m, g.camera_yaw_rad);
+  };
   auto finished = [&](const Item& it) {
     auto d = done.find(it.key);
     if (d == done.end()) return false;
+    if (const auto odo = odometry_text(it); d->second.contains("odometry") ? d->second["odometry"] != odo.value_or("") : odo.has_value())
+      return false;
     const auto now = camera_checksum(it);
     if (d->second.contains("camera_file_xxh3_64")) {
       if (!now || d->second["camera_file_xxh3_64"] != *now) return false;
@@ -652,6 +664,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     if (error.empty()) try {
         nlohmann::json rec = {{"key", cmp.item.key}, {"files", files}};
         if (cmp.camera_sum) rec["camera_file_xxh3_64"] = *cmp.camera_sum;
+        if (const auto odo = odometry_text(cmp.item)) rec["odometry"] = *odo;
         journal.append(rec.dump() + "\n");
       } catch (const Error& e) {
         error = e.what();  // published, unrecorded: its "writing" record has them redone

@@ -3341,6 +3341,20 @@ TEST(Luminaires, ManifestSequenceFollowsItsOdometryFields) {
   }
   // The other sequence has no odometry: no pose in its header.
   EXPECT_EQ(read_exr_attributes(dir.file("out_m") + "/x.exr").count("photosite/batch/pose_D_m_text"), 0u);
+  // Resumed: nothing to do. A frame's odometry edited: its sequence is redone whole (3 frames), the
+  // other sequence not (the item's record keeps its fields, core/batch_run.cpp).
+  auto resume = [&] {
+    return test::run_cli("batch --manifest '" + (root / "m.txt").string() + "' --out '" + dir.file("out_m") +
+                         "' --sequence --rig cityscapes --layers lights --seed 3 --device-store '" + dir.file("store") + "'");
+  };
+  const auto again = resume();
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("4 already done, 0 to do"), std::string::npos) << again.output;
+  std::ofstream(root / "m.txt") << line(0, odo(0)) << "x.png x_labels.png sequence=other\n"
+                                << line(1, "sequence=turn time_s=25.5 speed_m_s=17 yaw_rate_rad_s=0.1") << line(2, odo(2));
+  const auto edited = resume();
+  ASSERT_EQ(edited.exit_code, 0) << edited.output;
+  EXPECT_NE(edited.output.find("1 already done, 3 to do"), std::string::npos) << edited.output;
   // With --ego-motion none the same manifest takes every frame at pose 0 (no pose recorded).
   const auto none = run("--manifest '" + (root / "m.txt").string() + "' --out '" + dir.file("out_none") + "' --sequence --ego-motion none");
   ASSERT_EQ(none.exit_code, 0) << none.output;
