@@ -955,6 +955,19 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   std::getline(klines, first);
   const auto kparams = nlohmann::json::parse(first);  // kept: the loop's range refers into it
   for (const auto& [k, v] : kparams.at("params").items()) written.insert(k);
+  // A one-line manifest with its own odometry fields: its item's record adds odometry.
+  std::ofstream(tmp.path() / "m.txt") << (sample / "image_2/000000_10.png").string() << " "
+                                      << (sample / "semantic/000000_10.png").string()
+                                      << " sequence=s time_s=1 speed_m_s=5 yaw_rate_rad_s=0\n";
+  const auto rm = run_cli("batch --backend cpu --quiet --manifest " + (tmp.path() / "m.txt").string() + " --out " +
+                          tmp.file("mout") + " --layers depth --sequence");
+  ASSERT_EQ(rm.exit_code, 0) << rm.output;
+  std::istringstream mlines(slurp(tmp.path() / "mout/.photosite-batch/shard-0-of-1.jsonl"));
+  for (std::string l; std::getline(mlines, l);) {
+    const auto j = nlohmann::json::parse(l);
+    if (j.contains("key"))
+      for (const auto& [k, v] : j.items()) written.insert(k);
+  }
   for (const auto& k : documented) EXPECT_TRUE(written.count(k)) << "docs/cli.md names the resume manifest key " << k << ", which batch does not write";
   for (const auto& k : written) EXPECT_TRUE(documented.count(k)) << "batch's resume manifest has the key " << k << ", which docs/cli.md does not name";
 }
