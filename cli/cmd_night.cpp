@@ -173,7 +173,7 @@ void run_night(NightCmd c) {
     SensorOutput out = night_frame(runner, chain, r, r.settings.frame);
     lap("sensor: noise, ADC, demosaic");
     const auto groups = night_channels(out, ns, labels, layers);
-    const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances, image_note});
+    const auto attrs = night_attributes(r, chain.exposure, chain.fpn, sp, ns, labels, {c.image, c.labels, c.instances, image_note, info.note});
     ExrWriteOptions wo;
     wo.half = c.half;
     wo.compression = c.compression;

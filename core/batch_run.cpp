@@ -111,6 +111,7 @@ struct Loaded {
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string image_note;  // the day image's negative samples (day_image_note), for the header
+  std::string image_file_note;  // what its reader noted of its file (ImageFileInfo::note), for the header
   std::optional<scene::OdometrySample> odometry;  // batch --sequence with ego-motion: the item's
   std::string mount_source;  // where its camera_* (the camera's place on the vehicle) come from
   std::string error;
@@ -467,6 +468,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       // while each block is in cache, instead of in a pass of the compute stage's own.
       const DayImage day = read_day_image(it.image, &info);
       if (!day.codes) l.image_note = day_image_note(day.floats, info);
+      l.image_file_note = info.note;
       l.labels = scene::read_labels(it.labels, it.instances, day.width(), day.height(),
                                     scene::parse_label_format(it.label_format), scene::ResizeLabels::None);
       const bool ego = o.sequences && o.ego_motion && !it.odometry.empty();
@@ -582,7 +584,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       // The inputs as recorded in the header: lexically normal, so `--root ./cs` and `--root cs`
       // write the same bytes (the manifest's source is normal too).
       auto normal = [](const std::string& p) { return fs::path(p).lexically_normal().string(); };
-      const NightInputs in{normal(it.image), normal(it.labels), normal(it.instances), l.image_note};
+      const NightInputs in{normal(it.image), normal(it.labels), normal(it.instances), l.image_note, l.image_file_note};
       // The EXR header's attributes (the fixed pattern's checksum among them, a pass over its
       // three maps): only when an EXR is written.
       auto attrs = std::make_shared<std::map<std::string, ExrAttribute>>();

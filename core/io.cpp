@@ -506,6 +506,7 @@ Raster read_exr_raster(const std::string& path) {
     file.readPixels(dw.min.y, dw.max.y);
     r.attributes = exr_attributes(h);
     note_exr_windows(path, h);
+    r.note = exr_window_note(h);
     return r;
   });
 }
@@ -538,6 +539,7 @@ ImageFileInfo info_of(const std::string& path, const Raster& r) {
   info.bits_per_sample = codec::sample_bytes(r.sample) * 8;
   info.is_float = r.sample == Sample::Half || r.sample == Sample::F32;
   info.srgb_encoded = !info.is_float && !r.linear;
+  info.note = r.note;
   return info;
 }
 

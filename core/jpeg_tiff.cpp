@@ -232,11 +232,11 @@ Raster read_jpeg(const std::string& path) {
                                         "mirrored top to bottom", "mirrored about its main diagonal",
                                         "turned 90 degrees clockwise", "mirrored about its other diagonal",
                                         "turned 90 degrees counter-clockwise"};
-  if (const int o = jpeg_exif_orientation(data); o >= 2 && o <= 8)
-    std::fprintf(stderr,
-                 "photosite: note: %s: its Exif orientation (%d) has viewers show it %s; photosite reads its %dx%d "
-                 "pixels as stored, not turned (labels and instance ids must be of the stored pixels)\n",
-                 path.c_str(), o, kShown[o], r.width, r.height);
+  if (const int o = jpeg_exif_orientation(data); o >= 2 && o <= 8) {
+    r.note = fmt::format("its Exif orientation ({}) has viewers show it {}; photosite reads its {}x{} pixels as stored, "
+                         "not turned (labels and instance ids must be of the stored pixels)", o, kShown[o], r.width, r.height);
+    std::fprintf(stderr, "photosite: note: %s: %s\n", path.c_str(), r.note.c_str());
+  }
   return r;
 }
 

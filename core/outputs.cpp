@@ -150,6 +150,7 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   put("photosite/night/signal_camera_rgb_per_cd_m2_green", spectrum::LampSpectrum::GreenLed);
   attrs["photosite/night/image"] = in.image;
   if (!in.image_note.empty()) attrs["photosite/night/image_note"] = in.image_note;
+  if (!in.image_file_note.empty()) attrs["photosite/night/image_file_note"] = in.image_file_note;
   attrs["photosite/night/labels"] = in.labels;
   attrs["photosite/night/label_format"] = std::string(scene::label_format_name(labels.format));
   if (!in.instances.empty()) attrs["photosite/night/instances"] = in.instances;

@@ -28,6 +28,7 @@ struct Raster {
   bool linear = false;  // the file says its values are linear (float formats; PNG gAMA 1.0)
   std::vector<uint8_t> bytes;  // width * height * (sum of the channels' sample bytes)
   std::map<std::string, std::string> attributes;  // OpenEXR's header attributes as text
+  std::string note;  // ImageFileInfo::note: what the reader said of the file on the standard error
 };
 
 // The whole file at `path`; bad input naming it when it cannot be opened or read.

@@ -1073,6 +1073,18 @@ std::string night_says(int64_t kib, const TempDir& t, const std::string& name, c
   EXPECT_NE(r.output.find(text), std::string::npos) << r.output;
   return r.output;
 }
+// The header of `night` run on the day image `image` (in t) with labels of its size w x h, all
+// road (labelIds), as read_exr_attributes gives it; a failed run fails the test.
+std::map<std::string, std::string> night_header_of(const TempDir& t, const std::string& image, int w, int h) {
+  ImageF lab(w, h, 1);
+  for (auto& v : lab.vec()) v = 7 / 255.0f;
+  write_png(t.file("road_labels.png"), lab);
+  const auto n = run_cli("night --backend cpu --image '" + t.file(image) + "' --labels '" + t.file("road_labels.png") +
+                         "' --out '" + t.file("header_of.exr") + "' --layers depth --overwrite --device-store '" +
+                         t.file("store") + "'");
+  EXPECT_EQ(n.exit_code, 0) << n.output;
+  return n.exit_code == 0 ? read_exr_attributes(t.file("header_of.exr")) : std::map<std::string, std::string>();
+}
 void put_be32(std::string& s, uint32_t v) {
   for (int k = 3; k >= 0; --k) s.push_back(static_cast<char>(v >> (8 * k)));
 }
@@ -1325,6 +1337,8 @@ TEST(EdgeCases, ExrWindowsAreNotedAndRecorded) {
     EXPECT_EQ(a.at("photosite/radiance_file_data_window"), k.data_text);
     EXPECT_EQ(a.at("photosite/radiance_file_display_window"), k.display_text);
   }
+  // As a `night` day image the note goes into the header too (photosite/night/image_file_note).
+  EXPECT_EQ(night_header_of(t, "origin.exr", 64, 48)["photosite/night/image_file_note"].rfind("its data window is 64x48 at (10, 20)", 0), 0u);
   // A plain file (both windows the image at (0, 0)): no note, nothing recorded.
   write("plain.exr", {{0, 0}, {63, 47}}, {{0, 0}, {63, 47}});
   const auto r = run_cli(expose + t.file("plain.exr") + "' --out '" + t.file("e.exr") + "' --overwrite");
@@ -1424,6 +1438,11 @@ TEST(EdgeCases, JpegExifOrientationIsNoted) {
                                t.file("o.jpg"), k.orientation, k.shown));
     EXPECT_NE(out.find("labels are 3x3 but the image is 8x6"), std::string::npos) << out;  // read, then refused
   }
+  // With labels of its stored size `night` runs, and its header records the note.
+  std::ofstream(t.file("o6.jpg"), std::ios::binary) << with_orientation(6, true);
+  EXPECT_EQ(night_header_of(t, "o6.jpg", 8, 6)["photosite/night/image_file_note"],
+            "its Exif orientation (6) has viewers show it turned 90 degrees clockwise; photosite reads its 8x6 pixels "
+            "as stored, not turned (labels and instance ids must be of the stored pixels)");
   // Orientation 1 (as stored), no Exif, an IFD0 offset beyond the segment: the file reads, nothing said.
   for (const std::string& j : {with_orientation(1, true), std::string(plain.begin(), plain.end()),
                                with_orientation(6, true, 0xfffffff0u), with_orientation(6, false, 30)}) {

@@ -22,6 +22,10 @@ struct ImageFileInfo {
   int bits_per_sample = 0;  // 8, 16, 32 (float)...
   bool is_float = false;    // stored as float/half: taken as linear
   bool srgb_encoded = false;  // integer formats: sRGB transfer unless the file says linear
+  // What the reader noted of the file beyond its pixels, as it says it on the standard error: an
+  // OpenEXR data window not at (0, 0) or unlike its display window, a JPEG's Exif orientation
+  // (neither is applied: the pixels are read as stored). "" when there is nothing to say.
+  std::string note;
 };
 
 ImageFileInfo probe_image(const std::string& path);

@@ -65,6 +65,9 @@ struct NightInputs {
   // A note on the day image, written as photosite/night/image_note when not empty: its negative
   // samples, clipped to 0 (day_image_note).
   std::string image_note;
+  // What the reader noted of the day image's file (ImageFileInfo::note: an OpenEXR window, a
+  // JPEG's Exif orientation), written as photosite/night/image_file_note when not empty.
+  std::string image_file_note;
 };
 
 // A linear day image's negative samples (a float EXR or a float32 array; integer files cannot
