@@ -6,8 +6,8 @@
 // luminaire on a labelled pole, the road-edge layout anchored to the camera. Over a sequence that
 // makes a lamp vanish when its pole leaves the view, though its light still falls on what is in
 // view. A LuminaireSet keeps, in world coordinates (the road coordinates of the sequence's first
-// frame), the road-edge layout fixed where it was first anchored and every pole luminaire seen,
-// while its light can still reach the view.
+// frame), the road-edge layout along the road the vehicle drives (fixed where driven) and every
+// pole luminaire seen, while its light can still reach the view.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -34,19 +34,21 @@ class LuminaireSet {
   //    starts at that frame's camera along its heading and grows with the vehicle's steps (poses
   //    at least 1 m apart, each an arc turning by the two yaws' difference: advance_pose's): it
   //    turns as a step does where the frame's kerbs show the road bending that way (their shift
-  //    from the line continued straight, seen from the camera's offset and heading), else it runs
-  //    straight on (a lane change, a turn off the road, a drift across it: the vehicle turns, the
-  //    road does not). The part driven is fixed, so a luminaire placed there stays put. Ahead of
-  //    it the line is extrapolated on its last piece's curvature (straight after a straight one)
-  //    up to a quarter turn, then straight; a luminaire there moves when the next step bends the
-  //    line otherwise (entering or leaving a curve). Behind its start: straight back along it.
-  //    A straight drive is one straight piece: the straight rows of a single frame, bit for bit;
+  //    from the line continued straight, seen from the camera's offset and heading; with no kerb
+  //    measured, on the odometry alone), else it runs straight on (a lane change, a turn off the
+  //    road, a drift across it: the vehicle turns, the road does not). The part driven is fixed,
+  //    so a luminaire placed there stays put. Ahead of it the line is extrapolated on its last
+  //    piece's curvature (straight after a straight one) up to a quarter turn, then straight; a
+  //    luminaire there moves when the next step bends the line otherwise (entering or leaving a
+  //    curve). Behind its start: straight back along it. A straight drive is one straight piece:
+  //    the straight rows of a single frame, bit for bit;
   //  * the road edges are the anchoring frame's. A later frame's edges (medians of the kerb 20-60 m
-  //    ahead, which move with what is in view and, where the road bends, with the bend) replace
-  //    them from the last pose on only once the vehicle has driven 60 m beyond that frame without
-  //    turning (the road was straight where they were measured), its plan having found the road
-  //    straight ahead (road_straight) and an edge more than half a lane plus a quarter metre off
-  //    the kept one (the spread road_straight allows the edge rows, plus the medians' rounding);
+  //    ahead, which move with what is in view and, where the road bends, with the bend; taken
+  //    across the line) replace them from the line's end on only once the vehicle has driven 60 m
+  //    beyond that frame without turning (the road was straight where they were measured), its
+  //    plan having found the road straight ahead (road_straight) and an edge more than half a lane
+  //    plus a quarter metre off the kept one (the spread road_straight allows the edge rows, plus
+  //    the medians' rounding);
   //  * each pole luminaire of `frame_plan` is matched to a remembered one within
   //    max(1 m, 2 px of ground-contact row at its distance: 2·D²/(f·h)) and replaces it when seen
   //    from nearer, else it is added;
