@@ -33,21 +33,229 @@ double wedge_distance(double X, double D, double ul, double ur) {
   };
   return std::min(ray(ul), ray(ur));
 }
+
+using Piece = LuminaireSet::Piece;
+
+// A road straight within this curvature puts the kerb 60 m ahead (the plan's farthest row) off the
+// kerb at the camera by at most κ·60²/2 = 0.125 m, half the medians' quarter metre.
+constexpr double kStraightKappa = 2 * 0.125 / (60.0 * 60.0);
+
+// The world point at along-line coordinate a on piece q (its line or circle continued beyond its
+// ends), offset across the line (to the right) by off1 + off2, each added on its own.
+// A straight piece is taken from its origin O = P0 − a0·t (t = (sin ψ0, cos ψ0) along, n =
+// (cos ψ0, −sin ψ0) across): O + a·t + off1·n + off2·n. For ψ0 = 0 and D0 = a0 (the anchoring
+// pose of a straight drive) that is X0 + off1 + off2 and D = a, the expressions and roundings the
+// layout's rows had as straight world rows (right edge + setback; phase + k·S).
+// An arc turns about its centre C = P0 + n0/κ: P(a) = C − (1/κ − off)·n(ψ), ψ = ψ0 + κ·(a − a0).
+void piece_point(const Piece& q, double a, double off1, double off2, double* X, double* D) {
+  if (q.kappa == 0) {
+    const double s = std::sin(q.psi0), c = std::cos(q.psi0), OX = q.X0 - q.a0 * s, OD = q.D0 - q.a0 * c;
+    *X = ((OX + a * s) + off1 * c) + off2 * c;
+    *D = ((OD + a * c) - off1 * s) - off2 * s;
+    return;
+  }
+  const double r = 1 / q.kappa, CX = q.X0 + r * std::cos(q.psi0), CD = q.D0 - r * std::sin(q.psi0);
+  const double psi = q.psi0 + q.kappa * (a - q.a0), rho = r - (off1 + off2);
+  *X = CX - rho * std::cos(psi);
+  *D = CD + rho * std::sin(psi);
+}
+
+// A ground point's along-line coordinate *a and offset across the line *off (+ right) on piece q
+// (continued beyond its ends): the inverse of piece_point. On an arc the angle is taken within half
+// a turn of the piece's middle; a point beyond the centre (off > 1/κ) is not on this piece's side.
+void piece_project(const Piece& q, double X, double D, double* a, double* off) {
+  if (q.kappa == 0) {
+    const double s = std::sin(q.psi0), c = std::cos(q.psi0), OX = q.X0 - q.a0 * s, OD = q.D0 - q.a0 * c;
+    *a = (X - OX) * s + (D - OD) * c;
+    *off = (X - OX) * c - (D - OD) * s;
+    return;
+  }
+  const double r = 1 / q.kappa, CX = q.X0 + r * std::cos(q.psi0), CD = q.D0 - r * std::sin(q.psi0);
+  const double wX = X - CX, wD = D - CD, k = q.kappa > 0 ? 1.0 : -1.0;
+  const double psi = std::atan2(k * wD, -k * wX), um = 0.5 * q.len_m, psi_m = q.psi0 + q.kappa * um;
+  *a = q.a0 + um + std::remainder(psi - psi_m, 2 * M_PI) / q.kappa;
+  *off = r - k * std::hypot(wX, wD);
+}
 }  // namespace
+
+// The road line's piece that carries along-line coordinate a: the last one starting at or before
+// it (the first for a before the line: continued straight back along its heading); beyond the last
+// pose the last piece continued, an arc for at most a quarter turn and straight after it.
+LuminaireSet::Piece LuminaireSet::piece_at(double a) const {
+  if (a < path_.front().a0) {
+    Piece q = path_.front();
+    q.kappa = 0;
+    return q;
+  }
+  size_t i = path_.size() - 1;
+  while (i > 0 && path_[i].a0 > a) --i;
+  const Piece& q = path_[i];
+  // Extrapolated on the last arc's curvature: the vehicle keeps turning as it turned over its last
+  // step (a road's curvature changes gradually: a constant-radius curve is entered and left over
+  // transition curves; CameraPose's arc is the same model the odometry integrates), where a
+  // straight extrapolation would put every luminaire ahead on a curve off the road by d²/(2R) at d
+  // ahead (8 m at 40 m on a 100 m radius). Entering a curve it errs as much the other way for a
+  // step. A quarter turn at most: beyond it the extrapolated road runs across or behind the view,
+  // and a circle smaller than the layout's reach (2πR < lamp_max_distance_m) would lay a second row
+  // over the first; straight on from there (a photosite choice).
+  const double end = q.a0 + q.len_m, cap = q.kappa == 0 ? INFINITY : 0.5 * M_PI / std::fabs(q.kappa);
+  if (i + 1 < path_.size() || a <= end + cap) return q;
+  Piece s = q;
+  s.a0 = end + cap;
+  s.psi0 = q.psi0 + q.kappa * (s.a0 - q.a0);
+  piece_point(q, s.a0, 0, 0, &s.X0, &s.D0);
+  s.kappa = 0;
+  s.len_m = 0;
+  return s;
+}
+
+void LuminaireSet::project(double X, double D, double* a, double* off, Piece* on) const {
+  // Each piece's projection within its range (the first continued back, the last on), the one
+  // nearest across.
+  double best = INFINITY;
+  for (size_t i = 0; i < path_.size(); ++i) {
+    const Piece& q = path_[i];
+    double ai, oi;
+    piece_project(q, X, D, &ai, &oi);
+    if ((i > 0 && ai < q.a0) || (i + 1 < path_.size() && ai > q.a0 + q.len_m)) continue;
+    if (std::fabs(oi) < best) {
+      best = std::fabs(oi);
+      *a = ai;
+      *off = oi;
+      *on = q;
+    }
+  }
+  if (best == INFINITY) {  // in no piece's range (beside a kink of the line): the last piece's
+    piece_project(path_.back(), X, D, a, off);
+    *on = path_.back();
+  }
+}
+
+bool LuminaireSet::extend_path(const CameraPose& pose, const StreetLighting& plan) {
+  // The vehicle's step from the last pose: at least 1 m, ahead (a pose behind the last one,
+  // reversing, adds nothing). 1 m: a photosite choice — the curvature extrapolated ahead is the
+  // step's turn over its length, and over a shorter baseline a yaw-rate sensor's noise sets it (a
+  // vehicle creeping 0.01 m in a 0.06 s frame with 0.005 rad/s of noise would turn on a 30 m
+  // radius). Its arc (advance_pose's: through both poses, turning by their yaw difference) has
+  // length len and curvature turn/len.
+  Piece& last = path_.back();
+  const double dX = pose.X_m - node_X_, dD = pose.D_m - node_D_, chord = std::hypot(dX, dD);
+  const double psi_end = last.psi0 + last.kappa * last.len_m;
+  if (!(chord >= 1.0) || dX * std::sin(node_yaw_) + dD * std::cos(node_yaw_) <= 0) return false;
+  const double turn = std::remainder(pose.yaw_rad - node_yaw_, 2 * M_PI);
+  const double len = turn == 0 ? chord : chord * (0.5 * turn) / std::sin(0.5 * turn), kappa = turn / len;
+  // Bent: the vehicle turned, or stepped sideways, by more than a path straight within
+  // kStraightKappa (the pending road edges below wait for a straight drive).
+  const double chord_psi = std::atan2(dX, dD) - 0.5 * turn;
+  const bool bent = std::fabs(kappa) > kStraightKappa ||
+                    std::fabs(std::remainder(chord_psi - node_yaw_, 2 * M_PI)) > kStraightKappa * len;
+  node_X_ = pose.X_m;
+  node_D_ = pose.D_m;
+  node_yaw_ = pose.yaw_rad;
+  // Does the road turn with the vehicle? The frame's kerbs (medians 20-60 m ahead) against those
+  // of the road line continued straight along its heading at the camera: with the camera off the
+  // line by `off` and turned from it by β, a kerb at e across the line appears at
+  // (e − off)·cos β − D·sin β at D ahead, D = 30 m (the median row's distance over 20-60 m, where
+  // 1/D is even in the image rows). The mean shift of the two kerbs from that is where the road
+  // bends (κ·D²/2 on a curve); a vehicle that turns on a straight road (a lane change, a turn off
+  // it) sees none: its turn is in β. The turn is followed when the kerbs shift its way by more than
+  // the medians' quarter metre and the 30 m's error (D is anywhere in 20-60 m: |sin β|·30 m); not
+  // when they do not; with no kerb measured, on the odometry alone.
+  bool follow = turn != 0;
+  if (follow && plan.road_right_m > plan.road_left_m) {
+    double a, off;
+    Piece on;
+    project(pose.X_m, pose.D_m, &a, &off, &on);
+    const Piece q = piece_at(a);
+    const double beta = std::remainder(pose.yaw_rad - (q.psi0 + q.kappa * (a - q.a0)), 2 * M_PI);
+    const double cb = std::cos(beta), sb = std::sin(beta);
+    const double shift = 0.5 * ((plan.road_left_m - ((q.left_m - off) * cb - 30 * sb)) +
+                                (plan.road_right_m - ((q.right_m - off) * cb - 30 * sb)));
+    follow = shift * kappa > 0 && std::fabs(shift) > 0.25 + 30 * std::fabs(sb);
+  }
+  const double a_end = last.a0 + last.len_m;
+  if (follow) {  // the road line turns as the vehicle did, from its end
+    Piece n{0, 0, psi_end, kappa, a_end, len, last.left_m, last.right_m};
+    piece_point(last, a_end, 0, 0, &n.X0, &n.D0);
+    path_.push_back(n);
+  } else if (last.kappa == 0) {
+    // Straight on: the last piece grows to the camera's place along it (a straight drive stays one
+    // piece, its rows the straight rows of its first pose).
+    double a, off;
+    piece_project(last, pose.X_m, pose.D_m, &a, &off);
+    last.len_m = std::max(last.len_m, a - last.a0);
+  } else {  // straight on from the end of an arc
+    Piece n{0, 0, psi_end, 0, a_end, len, last.left_m, last.right_m};
+    piece_point(last, a_end, 0, 0, &n.X0, &n.D0);
+    path_.push_back(n);
+  }
+  return bent;
+}
 
 StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeometry& g, int width, int /*height*/,
                                     const CameraPose& pose, const ScenePreset& p, uint64_t seed) {
   const Pose2 P(pose);
   if (p.street_road_luminance_cd_m2 <= 0) return plan;  // no street lighting: nothing to keep (the plan has the road's extent)
+  const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
   if (!anchored_) {
     if (!(plan.road_right_m > plan.road_left_m)) return plan;  // nothing to anchor the layout to yet
-    double d;
-    P.to_world(plan.road_left_m, 0, &left_m_, &d);
-    P.to_world(plan.road_right_m, 0, &right_m_, &d);
-    phase_m_ = pose.D_m + street_layout_phase_m(p, seed);
+    // The first piece: at the camera's foot along its heading, the along-line coordinate there its
+    // D (so that at pose 0 and along a straight drive the rows are the single frame's).
+    path_.assign(1, Piece{pose.X_m, pose.D_m, pose.yaw_rad, 0, pose.D_m, 0, plan.road_left_m, plan.road_right_m});
+    node_X_ = pose.X_m;
+    node_D_ = pose.D_m;
+    node_yaw_ = pose.yaw_rad;
+    anchor_a_ = pose.D_m;
+    phase_m_ = anchor_a_ + street_layout_phase_m(p, seed);
     anchored_ = true;
+    pending_.clear();
   }
-  const double S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
+  const bool bent = extend_path(pose, plan);
+  double a_cam, off_cam;
+  Piece here;
+  project(pose.X_m, pose.D_m, &a_cam, &off_cam, &here);
+  // New road edges. A frame's edges are medians of the kerb 20-60 m ahead (plan_street_lighting):
+  // where the road bends there they are off the kerb at the camera by about κ·D²/2 at the median
+  // row's D, both the same way, as after a lane change, and the plan's road_straight does not
+  // always see it (a left-hand curve of 100 m radius keeps few rows on the road at the principal
+  // column: there it reports straight with both edges 2.75 m off; RoadEdgeLayoutFollowsACurvingRoad).
+  // So a frame's edges are taken only once the vehicle has driven the plan's farthest row (60 m)
+  // beyond it without turning (no step bent by more than kStraightKappa: the road there was
+  // straight), when its plan found the road straight and an edge more than half a lane plus a
+  // quarter metre off the kept one (road_straight lets the edge rows spread by half a lane, so a
+  // median of other rows moves that far; each median is rounded to a quarter metre): a road that
+  // widens or narrows. (A lane change moves the camera across the road line, not the kerbs: the
+  // frame's edges are taken across the line, off_cam added.) They apply from the road line's end
+  // on (the luminaires placed behind it stay).
+  const double edge_tol = 0.5 * p.veh_lane_width_m + 0.25;
+  auto differs = [&](double l, double r) {
+    const Piece& q = path_.back();
+    return std::fabs(l - q.left_m) > edge_tol || std::fabs(r - q.right_m) > edge_tol;
+  };
+  if (bent) pending_.clear();
+  // (The frame's kerbs across the road line: the camera is off it by off_cam.)
+  const double left_m = plan.road_left_m + off_cam, right_m = plan.road_right_m + off_cam;
+  if (plan.road_straight && plan.road_right_m > plan.road_left_m && differs(left_m, right_m) &&
+      (pending_.empty() || a_cam >= pending_.back().a + 1))  // one a metre at most: bounded
+    pending_.push_back({a_cam, left_m, right_m});
+  while (!pending_.empty() && a_cam - pending_.front().a >= 60) {
+    const Pending e = pending_.front();
+    pending_.erase(pending_.begin());
+    if (!differs(e.left, e.right)) continue;
+    Piece& last = path_.back();
+    if (last.len_m == 0) {
+      last.left_m = e.left;
+      last.right_m = e.right;
+    } else {
+      Piece n{0, 0, last.psi0 + last.kappa * last.len_m, last.kappa, last.a0 + last.len_m, 0, e.left, e.right};
+      piece_point(last, n.a0, 0, 0, &n.X0, &n.D0);
+      path_.push_back(n);
+    }
+  }
+  // The road line kept: from three spacings behind the camera (the layout below starts at most two
+  // behind; a pole matched within half a spacing of it).
+  while (path_.size() > 1 && path_[1].a0 < a_cam - 3 * S) path_.erase(path_.begin());
+
   // This frame's pole luminaires into the remembered set.
   const double match_k = 2.0 / (g.f_px * g.mount_height_m);  // 2 px of contact row: ΔD = 2·D²/(f·h)
   std::vector<char> matched(poles_.size(), 0);
@@ -89,25 +297,35 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   std::sort(poles_.begin(), poles_.end(),
             [](const Lamp& a, const Lamp& b) { return a.D_m != b.D_m ? a.D_m < b.D_m : a.X_m < b.X_m; });
 
-  // The layout in the world (plan_street_lighting's, shifted by whole spacings as the camera
-  // moves along the road), then the poles onto it.
-  std::vector<StreetLamp> world;
-  const bool both = right_m_ - left_m_ > p.lamp_mount_height_m;
-  const long k0 = static_cast<long>(std::floor(pose.D_m / S));
+  // The layout along the road line (plan_street_lighting's rows, their along-line coordinates counted
+  // in whole spacings from the anchoring pose), then the poles onto it.
+  struct Placed { StreetLamp l; double a, off, mid; };
+  std::vector<Placed> world;
+  auto place = [&](double a, bool right) {
+    const Piece q = piece_at(a);
+    if (!right && !(q.right_m - q.left_m > p.lamp_mount_height_m)) return;  // one row on a narrow road
+    const double edge = right ? q.right_m : q.left_m, setback = right ? p.lamp_setback_m : -p.lamp_setback_m;
+    Placed w{{0, p.lamp_mount_height_m, 0, false}, a, edge + setback, 0.5 * (q.left_m + q.right_m)};
+    piece_point(q, a, edge, setback, &w.l.X_m, &w.l.D_m);
+    world.push_back(w);
+  };
+  const long k0 = static_cast<long>(std::floor((a_cam - anchor_a_) / S));
   for (long k = -1; k * S <= p.lamp_max_distance_m; ++k) {
-    const double D = phase_m_ + (k + k0) * S;
-    world.push_back({right_m_ + p.lamp_setback_m, p.lamp_mount_height_m, D, false});
-    if (both) world.push_back({left_m_ - p.lamp_setback_m, p.lamp_mount_height_m, D + 0.5 * S, false});
+    const double a = phase_m_ + (k + k0) * S;
+    place(a, true);
+    place(a + 0.5 * S, false);
   }
-  const double mid = 0.5 * (left_m_ + right_m_);
   for (const auto& pole : poles_) {
+    double a, off;
+    Piece on;
+    project(pole.X_m, pole.D_m, &a, &off, &on);
     int best = -1;
     for (int i = 0; i < static_cast<int>(world.size()); ++i) {
-      const auto& l = world[i];
-      if (l.from_pole || (l.X_m - mid) * (pole.X_m - mid) <= 0 || std::fabs(l.D_m - pole.D_m) > 0.5 * S) continue;
-      if (best < 0 || std::fabs(l.D_m - pole.D_m) < std::fabs(world[best].D_m - pole.D_m)) best = i;
+      const auto& w = world[i];
+      if (w.l.from_pole || (w.off - w.mid) * (off - w.mid) <= 0 || std::fabs(w.a - a) > 0.5 * S) continue;
+      if (best < 0 || std::fabs(w.a - a) < std::fabs(world[best].a - a)) best = i;
     }
-    const StreetLamp sl{pole.X_m, pole.Y_m, pole.D_m, true};
+    const Placed sl{{pole.X_m, pole.Y_m, pole.D_m, true}, a, off, 0};
     if (best >= 0) world[best] = sl;
     else world.push_back(sl);
   }
@@ -117,15 +335,21 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   s.road_straight = plan.road_straight;  // this frame's measurement (the road ahead may bend later)
   s.source = poles_.empty() ? "road_edges" : "poles+road_edges";
   for (const auto& w : world) {
-    StreetLamp l = w;
-    P.to_frame(w.X_m, w.D_m, &l.X_m, &l.D_m);
+    StreetLamp l = w.l;
+    P.to_frame(w.l.X_m, w.l.D_m, &l.X_m, &l.D_m);
     s.lamps.push_back(l);
   }
   std::stable_sort(s.lamps.begin(), s.lamps.end(),
                    [](const StreetLamp& a, const StreetLamp& b) { return a.D_m != b.D_m ? a.D_m < b.D_m : a.X_m < b.X_m; });
-  double d;
-  P.to_frame(left_m_, pose.D_m, &s.road_left_m, &d);
-  P.to_frame(right_m_, pose.D_m, &s.road_right_m, &d);
+  // The road edges across the line at the camera, in the frame.
+  {
+    const Piece q = piece_at(a_cam);
+    double X, D, d;
+    piece_point(q, a_cam, q.left_m, 0, &X, &D);
+    P.to_frame(X, D, &s.road_left_m, &d);
+    piece_point(q, a_cam, q.right_m, 0, &X, &D);
+    P.to_frame(X, D, &s.road_right_m, &d);
+  }
   // The EN 13201-3 field of plan_street_lighting (10 x 6 points over one spacing from
   // max(10 m, S), across the road extent) on these lamps.
   s.grid_D0_m = std::max(10.0, S);

@@ -6,8 +6,8 @@
 // luminaire on a labelled pole, the road-edge layout anchored to the camera. Over a sequence that
 // makes a lamp vanish when its pole leaves the view, though its light still falls on what is in
 // view. A LuminaireSet keeps, in world coordinates (the road coordinates of the sequence's first
-// frame), the road-edge layout fixed where it was first anchored and every pole luminaire seen,
-// while its light can still reach the view.
+// frame), the road-edge layout along the road the vehicle drives (fixed where driven) and every
+// pole luminaire seen, while its light can still reach the view.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -28,9 +28,27 @@ class LuminaireSet {
   // The street lighting of one frame of the sequence, from this frame's own plan `frame_plan`
   // (plan_street_lighting with the frame's geometry `g`, width x height pixels, run seed `seed`)
   // and the frame's pose:
-  //  * the road-edge layout is anchored in the world at the first frame whose plan has a road
-  //    extent (its edges and the seed's phase) and kept there: a later frame's road edges (their
-  //    medians move with what is in view) do not move it;
+  //  * the road-edge layout runs along a road line, from the first frame whose plan has a road
+  //    extent: at along-line distance (arc length) a, the right row at phase + k·S and the left
+  //    row S/2 further, each offset across the line by its road edge and the setback. The line
+  //    starts at that frame's camera along its heading and grows with the vehicle's steps (poses
+  //    at least 1 m apart, each an arc turning by the two yaws' difference: advance_pose's): it
+  //    turns as a step does where the frame's kerbs show the road bending that way (their shift
+  //    from the line continued straight, seen from the camera's offset and heading; with no kerb
+  //    measured, on the odometry alone), else it runs straight on (a lane change, a turn off the
+  //    road, a drift across it: the vehicle turns, the road does not). The part driven is fixed,
+  //    so a luminaire placed there stays put. Ahead of it the line is extrapolated on its last
+  //    piece's curvature (straight after a straight one) up to a quarter turn, then straight; a
+  //    luminaire there moves when the next step bends the line otherwise (entering or leaving a
+  //    curve). Behind its start: straight back along it. A straight drive is one straight piece:
+  //    the straight rows of a single frame, bit for bit;
+  //  * the road edges are the anchoring frame's. A later frame's edges (medians of the kerb 20-60 m
+  //    ahead, which move with what is in view and, where the road bends, with the bend; taken
+  //    across the line) replace them from the line's end on only once the vehicle has driven 60 m
+  //    beyond that frame without turning (the road was straight where they were measured), its
+  //    plan having found the road straight ahead (road_straight) and an edge more than half a lane
+  //    plus a quarter metre off the kept one (the spread road_straight allows the edge rows, plus
+  //    the medians' rounding);
   //  * each pole luminaire of `frame_plan` is matched to a remembered one within
   //    max(1 m, 2 px of ground-contact row at its distance: 2·D²/(f·h)) and replaces it when seen
   //    from nearer, else it is added;
@@ -38,21 +56,41 @@ class LuminaireSet {
   //    foot to the horizontal view wedge (X/D between the image borders' (u − c_x)/f, an
   //    approximation that neglects the pitch's few-percent effect on X/D) is at most their reach
   //    (street_lamp_reach_m); others are forgotten;
-  //  * each pole replaces the layout's luminaire nearest to it on its side within half a spacing
-  //    (plan_street_lighting's rule), in world coordinates.
+  //  * each pole replaces the layout's luminaire nearest to it along the line on its side of the
+  //    road (across the line) within half a spacing (plan_street_lighting's rule).
   // The result is in the frame's road coordinates, sorted by (D, X); the peak intensity is the
   // plan's (a property of the installation), the EN 13201 field (L_avg, U0) is recomputed on
-  // these lamps. Deterministic: the same frames in the same order give the same lamps.
+  // these lamps. The line is kept from three spacings behind the camera on (memory bounded).
+  // Deterministic: the same frames in the same order give the same lamps.
   // Before any frame had a road extent: `frame_plan` unchanged.
   StreetLighting update(const StreetLighting& frame_plan, const CameraGeometry& g, int width, int height,
                         const CameraPose& pose, const ScenePreset& p, uint64_t seed);
 
   const std::vector<Lamp>& poles() const { return poles_; }
   bool anchored() const { return anchored_; }
+  // The pieces of the road line kept (each an arc or a straight line).
+  size_t path_pieces() const { return path_.size(); }
+
+  // One piece of the road line: from the world point (X0, D0) heading psi0 (CameraPose's yaw
+  // convention), curvature kappa (1/m, positive turning toward +X; 0 straight), along-line
+  // coordinate a0 there and len_m long (the last piece extrapolated beyond), with the road edges
+  // across the line (m, + to the right) that apply on it.
+  struct Piece { double X0, D0, psi0, kappa, a0, len_m, left_m, right_m; };
 
  private:
+  Piece piece_at(double a) const;
+  void project(double X_m, double D_m, double* a, double* off, Piece* on) const;
+  bool extend_path(const CameraPose& pose, const StreetLighting& plan);  // true: the vehicle turned
+
+  // A frame's road edges (across the line) that differ from the kept ones, at its along-line
+  // coordinate a: taken once the vehicle has driven 60 m beyond it without turning.
+  struct Pending { double a, left, right; };
+
   bool anchored_ = false;
-  double left_m_ = 0, right_m_ = 0, phase_m_ = 0;  // world road edges (X) and layout phase (D)
+  double anchor_a_ = 0, phase_m_ = 0;  // along-line coordinate of the anchoring pose, layout phase
+  double node_X_ = 0, node_D_ = 0, node_yaw_ = 0;  // the last pose stepped to
+  std::vector<Piece> path_;
+  std::vector<Pending> pending_;
   std::vector<Lamp> poles_;
 };
 
