@@ -510,6 +510,9 @@ __attribute__((target("avx2"))) void add_reflection_avx2(float* o, const float* 
   if (qfull < qb) add_reflection_scalar(o, tx, e, bits, std::max(qa, qfull), qb, W, tint);
   _mm256_zeroupper();
 }
+// (below, beside reflect16_avx512)
+void add_reflection_avx512(float* o, const float* tx, const float* e, const uint8_t* bits, int qa, int qb, int W,
+                           const float* tint);
 // vzeroupper: clears the upper halves of the vector registers. Vector code run earlier in the
 // chain leaves them dirty, and every SSE (non-VEX) instruction after it then waits on a merge with
 // them: add_vertical_street_light's loop ran 3.3× slower inside the light map than alone on the
@@ -1926,7 +1929,8 @@ struct PoolPass : LitRows {
             return e == sc.ends.end() || *e > b;
           });
       shade(y, kx, acc, sc);
-      if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
+      if (isa >= 2) add_reflection_avx512(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
+      else if (isa >= 1) add_reflection_avx2(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       else add_reflection_scalar(o, tx, acc, sc.gbits.data(), qa, qb, W, tlf);
       return;
     }
@@ -1935,7 +1939,8 @@ struct PoolPass : LitRows {
       if (isa >= 2) pool_row_avx512(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
       else pool_row_avx2(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
       shade(y, kx, sc.acc.data(), sc);
-      add_reflection_avx2(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
+      if (isa >= 2) add_reflection_avx512(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
+      else add_reflection_avx2(o, tx, sc.acc.data(), sc.gbits.data(), qa, qb, W, tlf);
     } else {
       pool_row_scalar(sc.acc.data() + xa, sc.Xg.data(), sc.gbits.data() + qa, n, sc.pl, I0, table);
       shade(y, kx, sc.acc.data(), sc);
@@ -2785,6 +2790,24 @@ __attribute__((target("avx512f"), always_inline)) inline void reflect16_avx512(f
                                                           _mm512_permutexvar_ps(s[j], ef))));
   }
 }
+// add_reflection_avx2 sixteen pixels at a time (the pools' reflection with AVX-512): two bytes of
+// bits, 48 channel floats, by reflect16_avx512 (the vertical light's: the same operations per lane
+// as reflect8_avx2, the unlit lanes left by a masked store where reflect8_avx2 blends their old
+// values back: the same floats); an odd last group and the row's last W mod 8 pixels as there.
+// (−4 % of the pools' CPU on the Zen 5 host: docs/benchmarks.md, "Fortieth session".)
+__attribute__((target("avx2,avx512f"))) void add_reflection_avx512(float* o, const float* tx, const float* e,
+                                                                  const uint8_t* bits, int qa, int qb, int W,
+                                                                  const float* tint) {
+  const Reflect16 c = reflect16_consts(tint);
+  const int qfull = std::min(qb, W / 8);
+  int q = qa;
+  for (; q + 2 <= qfull; q += 2) {
+    const unsigned b16 = bits[q] | static_cast<unsigned>(bits[q + 1]) << 8;
+    if (b16) reflect16_avx512(o + 24 * q, tx + 24 * q, _mm512_loadu_ps(e + 8 * q), static_cast<__mmask16>(b16), c);
+  }
+  if (q < qb) add_reflection_avx2(o, tx, e, bits, q, qb, W, tint);
+  _mm256_zeroupper();
+}
 // −a on the lanes of `k` (the sign bit flipped: exact), a on the others (AVX-512F has no xor_pd).
 __attribute__((target("avx512f"), always_inline)) inline __m512d neg_pd(__m512d a, __mmask8 k) {
   return _mm512_castsi512_pd(_mm512_mask_xor_epi64(_mm512_castpd_si512(a), k, _mm512_castpd_si512(a),
@@ -2890,33 +2913,54 @@ struct LampLanes16 {
   __m512 nX, nY, nD;
   __mmask16 ok, crown;
 };
-template <bool kCrown>
-__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 lamp_sum16(
-    const LampArrays& la, const RelTable& t, size_t lo, size_t hi, const LampLanes16& g, __m512 vI0, __m512 vinvd2min) {
-  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.f), vcc = _mm512_set1_ps(t.fcc);
-  __m512 acc = zero;
+// lamp_sums8 on sixteen lanes (vertical_row_avx512's lamp loop; the masks as k-registers): N
+// groups of sixteen (g[0 .. N − 1], their sums into acc[0 .. N − 1]) through one loop over the
+// lamps lo .. hi − 1, a lamp whose every lane in the N groups is out of reach or unlit skipped.
+// With N = 2 the window covers both groups' (a lamp outside a group's own window is beyond reach
+// of each of its lanes, so each group's sum has the bits of its loop alone, as lamp_sums8's).
+template <bool kCrown, int N>
+__attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline void lamp_sums16(
+    const LampArrays& la, const RelTable& t, size_t lo, size_t hi, const LampLanes16* g, __m512 vI0, __m512 vinvd2min,
+    __m512* acc) {
+  static_assert(N == 1 || N == 2, "one or two groups");
+  const __m512 zero = _mm512_setzero_ps(), vcc = _mm512_set1_ps(t.fcc);
+  for (int j = 0; j < N; ++j) acc[j] = zero;
   for (size_t k = lo; k < hi; ++k) {
-    const __m512 vD = diff16(_mm512_set1_pd(la.D[k]), g.D0, g.D1);
-    const __mmask16 in_reach = _mm512_mask_cmp_ps_mask(g.ok, _mm512_abs_ps(vD), _mm512_set1_ps(la.reach[k]), _CMP_LE_OQ);
-    if (!in_reach) continue;
-    const __m512 vX = diff16(_mm512_set1_pd(la.X[k]), g.X0, g.X1), vY = diff16(_mm512_set1_pd(la.Y[k]), g.Y0, g.Y1);
-    __m512 cb = _mm512_add_ps(_mm512_mul_ps(g.nX, vX), _mm512_mul_ps(g.nD, vD));
-    if (kCrown) cb = _mm512_add_ps(cb, _mm512_mul_ps(g.nY, vY));
-    const __mmask16 up = _mm512_mask_cmp_ps_mask(in_reach, vY, zero, _CMP_GT_OQ);
-    const __mmask16 lit = kCrown ? static_cast<__mmask16>(_mm512_mask_cmp_ps_mask(up, cb, zero, _CMP_GT_OQ) | (up & g.crown))
-                                 : _mm512_mask_cmp_ps_mask(up, cb, zero, _CMP_GT_OQ);
-    if (!lit) continue;
-    const __m512 dv2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX, vX), _mm512_mul_ps(vY, vY)), _mm512_mul_ps(vD, vD));
-    const __m512 dv = _mm512_sqrt_ps(dv2), r2 = _mm512_div_ps(one, dv2);
-    const __m512 cg = _mm512_mul_ps(_mm512_mul_ps(vY, r2), dv);
-    const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit, cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
-    __m512 f = _mm512_mul_ps(_mm512_mul_ps(cb, r2), dv);
-    if (kCrown) f = _mm512_mask_mov_ps(f, g.crown, crown_phase16(f));
-    const __m512 w = _mm512_mul_ps(f, _mm512_mul_ps(vI0, _mm512_min_ps(r2, vinvd2min)));
-    const __m512 ek = beyond ? _mm512_mul_ps(rel_lerp16<true>(t, cg, beyond), w) : w;  // rel·w (lamp_sums8's)
-    acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(lit, ek));
+    const __m512d lD = _mm512_set1_pd(la.D[k]);
+    const __m512 reach = _mm512_set1_ps(la.reach[k]);
+    __m512 vD[N];
+    __mmask16 in_reach[N];
+    for (int j = 0; j < N; ++j) {
+      vD[j] = diff16(lD, g[j].D0, g[j].D1);
+      in_reach[j] = _mm512_mask_cmp_ps_mask(g[j].ok, _mm512_abs_ps(vD[j]), reach, _CMP_LE_OQ);
+    }
+    if (!(N == 1 ? in_reach[0] : static_cast<__mmask16>(in_reach[0] | in_reach[N - 1]))) continue;
+    const __m512d lX = _mm512_set1_pd(la.X[k]), lY = _mm512_set1_pd(la.Y[k]);
+    __m512 vX[N], vY[N], cb[N];
+    __mmask16 lit[N];
+    for (int j = 0; j < N; ++j) {
+      vX[j] = diff16(lX, g[j].X0, g[j].X1);
+      vY[j] = diff16(lY, g[j].Y0, g[j].Y1);
+      cb[j] = _mm512_add_ps(_mm512_mul_ps(g[j].nX, vX[j]), _mm512_mul_ps(g[j].nD, vD[j]));
+      if (kCrown) cb[j] = _mm512_add_ps(cb[j], _mm512_mul_ps(g[j].nY, vY[j]));
+      const __mmask16 up = _mm512_mask_cmp_ps_mask(in_reach[j], vY[j], zero, _CMP_GT_OQ);
+      lit[j] = kCrown ? static_cast<__mmask16>(_mm512_mask_cmp_ps_mask(up, cb[j], zero, _CMP_GT_OQ) | (up & g[j].crown))
+                      : _mm512_mask_cmp_ps_mask(up, cb[j], zero, _CMP_GT_OQ);
+    }
+    if (!(N == 1 ? lit[0] : static_cast<__mmask16>(lit[0] | lit[N - 1]))) continue;
+    for (int j = 0; j < N; ++j) {
+      const __m512 dv2 =
+          _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(vX[j], vX[j]), _mm512_mul_ps(vY[j], vY[j])), _mm512_mul_ps(vD[j], vD[j]));
+      const __m512 dv = _mm512_sqrt_ps(dv2), r2 = _mm512_div_ps(_mm512_set1_ps(1.f), dv2);
+      const __m512 cg = _mm512_mul_ps(_mm512_mul_ps(vY[j], r2), dv);
+      const __mmask16 beyond = _mm512_mask_cmp_ps_mask(lit[j], cg, vcc, _CMP_LT_OQ);  // γ beyond the cut-off
+      __m512 f = _mm512_mul_ps(_mm512_mul_ps(cb[j], r2), dv);
+      if (kCrown) f = _mm512_mask_mov_ps(f, g[j].crown, crown_phase16(f));
+      const __m512 w = _mm512_mul_ps(f, _mm512_mul_ps(vI0, _mm512_min_ps(r2, vinvd2min)));
+      const __m512 ek = beyond ? _mm512_mul_ps(rel_lerp16<true>(t, cg, beyond), w) : w;  // rel·w (lamp_sums8's)
+      acc[j] = _mm512_add_ps(acc[j], _mm512_maskz_mov_ps(lit[j], ek));
+    }
   }
-  return acc;
 }
 // vertical_row_body for AVX-512: groups of sixteen columns, the lamp loop on sixteen lanes at once
 // over the lamps of the group's window (the candidates' D range). Per group the candidate test
@@ -2927,8 +2971,12 @@ __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) inline __m512 la
 // vertical_term (the differences in double rounded to float, the masks as k-registers where the
 // AVX2 row ANDs with all-ones lanes: a masked lane adds +0.0 either way; no FMA contraction:
 // -ffp-contract=off), so the same bits as the AVX2 and scalar paths. Columns 16⌊W/16⌋ .. W − 1 go
-// the scalar way. 32 vector registers keep the lamp loop's constants and accumulator in registers.
-// (The set-up was four of point4's quads from vertical_group's stores, the candidates as two
+// the scalar way. Two groups side by side (32 columns) go through one lamp loop where both have a
+// candidate with a point (lamp_sums16 with N = 2, the window covering both; as the AVX2 row's
+// pairs of eight): half as many loop turns, reach and lit tests per lane, and two independent
+// terms a turn for the out-of-order window, where Zen 5 runs each 512-bit operation whole (Zen 4
+// split it in two halves): −4 % of the vertical light's CPU on the Zen 5 host (docs/benchmarks.md,
+// "Fortieth session"). (The set-up was four of point4's quads from vertical_group's stores, the candidates as two
 // groups of eight; in 512-bit registers it measured faster: docs/benchmarks.md, "Light map,
 // twenty-second session".)
 // (prfchw: PREFETCHW, on every CPU with AVX-512. kAhead: any look-ahead asked for; without, the
@@ -2951,9 +2999,12 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
   const __m512d mY = _mm512_set1_pd(la.max_Y), Dlo = _mm512_set1_pd(v.D_lo), Dhi = _mm512_set1_pd(v.D_hi);
   const __m512d dinf = _mm512_set1_pd(INFINITY);
   const __m512i vveg = _mm512_set1_epi32(v.vegetation);
-  size_t win_lo = 0, win_hi = 0;  // the last group's lamp window
-  int x = 0;
-  for (; x + 16 <= W; x += 16) {
+  size_t win_lo = 0, win_hi = 0;  // the last lamp window
+  // Group x's lanes for the lamp loop (ll), its candidates (m) and their D range [Dmin, Dmax] (the
+  // window of every candidate, with or without a point: vertical_row_body's); false where no
+  // candidate has a point.
+  auto group16 = [&](int x, LampLanes16& ll, unsigned& m, double& Dmin, double& Dmax)
+                     __attribute__((target("avx2,avx512f,avx512vl,prfchw"), always_inline)) {
     // The candidate test (candidates8_avx2 on sixteen lanes): bit k of the class mask off (the
     // low word shifted by k, the high word by k − 32: 0 outside each word's range), 0 < z <
     // kDepthInfinity_m, and in double Y = h − z·kY < max_Y, D_lo ≤ D = z·kD ≤ D_hi.
@@ -2964,7 +3015,7 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
     if (kAhead) row_ahead<16>(ahead, x, _mm512_cmpeq_epi32_mask(bit, onei) != 0, tx);  // (RowAhead)
     const __mmask16 m0 = _mm512_mask_cmp_ps_mask(
         _mm512_mask_cmp_ps_mask(_mm512_cmpneq_epi32_mask(bit, onei), zf, zero, _CMP_GT_OQ), zf, zinf, _CMP_LT_OQ);
-    if (!m0) continue;
+    if (!m0) return false;
     const __m512d z0 = _mm512_cvtps_pd(_mm512_castps512_ps256(zf));  // float to double: exact
     const __m512d z1 = _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(zf), 1)));
     const __m512d D0 = _mm512_mul_pd(z0, kD), Y0 = _mm512_sub_pd(hh, _mm512_mul_pd(z0, kY));
@@ -2973,8 +3024,8 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
         _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(Y0, mY, _CMP_LT_OQ), D0, Dlo, _CMP_GE_OQ), D0, Dhi, _CMP_LE_OQ);
     const __mmask8 in1 = _mm512_mask_cmp_pd_mask(
         _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(Y1, mY, _CMP_LT_OQ), D1, Dlo, _CMP_GE_OQ), D1, Dhi, _CMP_LE_OQ);
-    const unsigned m = m0 & (in0 | static_cast<unsigned>(in1) << 8);
-    if (!m) continue;
+    m = m0 & (in0 | static_cast<unsigned>(in1) << 8);
+    if (!m) return false;
     __m512d nx0 = _mm512_setzero_pd(), nd0 = nx0, nx1 = nx0, nd1 = nx0, X0 = nx0, X1 = nx0;
     __mmask8 has0 = 0, has1 = 0, ok0 = 0, ok1 = 0;
     __m256 nXf0 = _mm256_setzero_ps(), nDf0 = nXf0, nXf1 = nXf0, nDf1 = nXf0, nYf0 = nXf0, nYf1 = nXf0;
@@ -2988,22 +3039,58 @@ __attribute__((target("avx2,avx512f,avx512vl,prfchw"))) int vertical_row_avx512(
       points8(x + 8, z1, q, D1, Y1, nx1, nd1, has1, static_cast<__mmask8>(crown >> 8), X1, nXf1, nYf1, nDf1, ok1);
     }
     const __mmask16 okm = static_cast<__mmask16>(m & (ok0 | static_cast<unsigned>(ok1) << 8));
-    if (!okm) continue;
-    const __m512 vnX = join16(nXf0, nXf1), vnD = join16(nDf0, nDf1);
+    if (!okm) return false;
     const __mmask16 crownm = static_cast<__mmask16>(crown) & okm;
-    // The lamp window from the candidates' D (the window of every candidate, with or without a
-    // point: vertical_row_body's).
-    const double Dmin = _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m), D0),
-                                                           _mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m >> 8), D1)));
-    const double Dmax = _mm512_reduce_max_pd(_mm512_max_pd(_mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m), D0),
-                                                           _mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m >> 8), D1)));
-    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
-    const size_t lo = win_lo, hi = win_hi;
-    const LampLanes16 ll{X0, X1, Y0, Y1, D0, D1, vnX, crownm ? join16(nYf0, nYf1) : zero, vnD, okm, crownm};
-    const __m512 acc = crownm ? lamp_sum16<true>(la, t, lo, hi, ll, vI0, vinvd2min)
-                              : lamp_sum16<false>(la, t, lo, hi, ll, vI0, vinvd2min);
+    Dmin = std::min(Dmin, _mm512_reduce_min_pd(_mm512_min_pd(_mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m), D0),
+                                                             _mm512_mask_mov_pd(dinf, static_cast<__mmask8>(m >> 8), D1))));
+    Dmax = std::max(Dmax, _mm512_reduce_max_pd(_mm512_max_pd(_mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m), D0),
+                                                             _mm512_mask_mov_pd(-dinf, static_cast<__mmask8>(m >> 8), D1))));
+    ll = LampLanes16{X0, X1, Y0, Y1, D0, D1, join16(nXf0, nXf1), crownm ? join16(nYf0, nYf1) : zero, join16(nDf0, nDf1),
+                     okm, crownm};
+    return true;
+  };
+  // o += (t·tint)·E_v on group x's candidates m with E_v > 0.
+  auto reflect = [&](int x, unsigned m, __m512 acc) __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) {
     const unsigned lit_px = m & _mm512_cmp_ps_mask(acc, zero, _CMP_GT_OQ);
     if (lit_px) reflect16_avx512(o + 3 * x, tx + 3 * x, acc, static_cast<__mmask16>(lit_px), rc16);
+  };
+  // A lone group's lamp loop (with the crowns' terms where it has a crown lane) and its reflection.
+  auto one_group = [&](int x, unsigned m, const LampLanes16& ll, size_t lo, size_t hi)
+                       __attribute__((target("avx2,avx512f,avx512vl"), always_inline)) {
+    __m512 acc;
+    if (ll.crown) lamp_sums16<true, 1>(la, t, lo, hi, &ll, vI0, vinvd2min, &acc);
+    else lamp_sums16<false, 1>(la, t, lo, hi, &ll, vI0, vinvd2min, &acc);
+    reflect(x, m, acc);
+  };
+  int x = 0;
+  // Pairs of groups (32 columns) through one lamp loop (lamp_sums16, N = 2) where both have a
+  // candidate with a point, the window covering both; a lone group through the loop alone.
+  for (; x + 32 <= W; x += 32) {
+    LampLanes16 ll[2];
+    unsigned m[2] = {0, 0};
+    double Dmin = INFINITY, Dmax = -INFINITY;
+    const bool has0 = group16(x, ll[0], m[0], Dmin, Dmax), has1 = group16(x + 16, ll[1], m[1], Dmin, Dmax);
+    if (!has0 && !has1) continue;
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    const size_t lo = win_lo, hi = win_hi;
+    if (has0 && has1) {
+      __m512 acc[2];
+      if (ll[0].crown | ll[1].crown) lamp_sums16<true, 2>(la, t, lo, hi, ll, vI0, vinvd2min, acc);
+      else lamp_sums16<false, 2>(la, t, lo, hi, ll, vI0, vinvd2min, acc);
+      reflect(x, m[0], acc[0]);
+      reflect(x + 16, m[1], acc[1]);
+    } else {
+      const int j = has0 ? 0 : 1;
+      one_group(x + 16 * j, m[j], ll[j], lo, hi);
+    }
+  }
+  for (; x + 16 <= W; x += 16) {
+    LampLanes16 ll;
+    unsigned m = 0;
+    double Dmin = INFINITY, Dmax = -INFINITY;
+    if (!group16(x, ll, m, Dmin, Dmax)) continue;
+    lamp_window_from(la, Dmin, Dmax, &win_lo, &win_hi);
+    one_group(x, m, ll, win_lo, win_hi);
   }
   _mm256_zeroupper();
   return x;
