@@ -72,6 +72,24 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o) {
 
 namespace photosite::scene {
 
+// The centre line's circle has its centre at (road_radius_m, curve_start_D_m), a distance |R| across
+// the straight's end, on the side it turns to. A point at distance ρ from the centre lies
+// sign(R)·(|R| − ρ) across the line (+ toward the centre for a right-hand curve, as +X on the
+// straight) and, at angle φ from the centre's radius to the curve's start (swept toward +D), at
+// arc length curve_start_D_m + |R|·φ. φ is taken in (0, π) (points beyond the start, D > D_c):
+// the arc runs at most a half turn.
+void synthetic_street_coordinates(const SyntheticCameraOptions& o, double X_m, double D_m, double* e_m, double* a_m) {
+  const double R = o.road_radius_m, Dc = o.curve_start_D_m;
+  if (R == 0 || D_m <= Dc) {
+    *e_m = X_m;
+    *a_m = D_m;
+    return;
+  }
+  const double sg = R > 0 ? 1 : -1, r = std::fabs(R);
+  *e_m = sg * (r - std::hypot(X_m - R, D_m - Dc));
+  *a_m = Dc + r * std::atan2(D_m - Dc, sg * (R - X_m));
+}
+
 SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o) {
   const int W = o.width, H = o.height;
   const CameraGeometry& g = o.camera;
@@ -87,6 +105,9 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
   // the same operations as before it.
   const double X0 = o.world_X_m, D0 = o.world_D_m, cy = std::cos(o.world_yaw_rad), sy = std::sin(o.world_yaw_rad);
   const bool posed = X0 != 0 || D0 != 0 || o.world_yaw_rad != 0;
+  // A curving street: the straight façades end where the curve starts, the curve's own follow it.
+  const bool curved = o.road_radius_m != 0;
+  const double facade_end_D = curved ? std::min(200.0, o.curve_start_D_m) : 200;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       // Ray per unit camera z in road coordinates: origin (0, h, 0).
@@ -100,13 +121,35 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
       // Building façades beyond the sidewalks: vertical planes X = ±(road + sidewalk), 12 m tall,
       // from 3 m to 200 m ahead.
       bool facade = false;
+      double facade_a = NAN;  // the arc length of a hit on a curved façade
       {
         const double xf = o.road_half_width_m + o.sidewalk_m;
         for (double side : {-xf, xf})
           if (dX != 0) {
             const double t = (side - X0) / dX, Y = h + t * dY, D = D0 + t * dD;
-            if (t > 0 && t < best && Y >= 0 && Y <= 12 && D >= 3 && D <= 200) { best = t; hit = -3; facade = true; }
+            if (t > 0 && t < best && Y >= 0 && Y <= 12 && D >= 3 && D <= facade_end_D) { best = t; hit = -3; facade = true; }
           }
+        // On the curve the façades are vertical cylinders about the circle's centre (R, D_c), of
+        // radius |R| − sign(R)·(±xf): |P0 + t·d − C|² = ρ² in the ground plane, the nearer root
+        // first; a hit counts beyond the curve's start, 3-200 m of arc length along the street.
+        const double A = dX * dX + dD * dD;
+        if (curved && A > 0) {
+          const double R = o.road_radius_m, sg = R > 0 ? 1 : -1, px = X0 - R, pd = D0 - o.curve_start_D_m;
+          const double B = px * dX + pd * dD;
+          for (double side : {-xf, xf}) {
+            const double rho = std::fabs(R) - sg * side, disc = B * B - A * (px * px + pd * pd - rho * rho);
+            if (!(rho > 0 && disc >= 0)) continue;
+            for (const double t : {(-B - std::sqrt(disc)) / A, (-B + std::sqrt(disc)) / A}) {
+              const double Y = h + t * dY, D = D0 + t * dD;
+              if (!(t > 0 && t < best && Y >= 0 && Y <= 12 && D > o.curve_start_D_m)) continue;
+              double e, a;
+              synthetic_street_coordinates(o, X0 + t * dX, D, &e, &a);
+              if (a < 3 || a > 200) continue;
+              best = t; hit = -3; facade = true; facade_a = a;
+              break;
+            }
+          }
+        }
       }
       for (size_t b = 0; b < o.boxes.size(); ++b) {
         const SyntheticBox& B = o.boxes[b];
@@ -134,15 +177,19 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
       float* px = &s.day_linear_srgb.at(x, y, 0);
       Label l = Label::Sky;
       if (hit == -2) {
-        const double X = X0 + best * dX, D = D0 + best * dD, ax = std::fabs(X);
+        const double X = X0 + best * dX, D = D0 + best * dD;
+        // Across and along the street (X and D where it is straight).
+        double e = X, along = D;
+        if (curved) synthetic_street_coordinates(o, X, D, &e, &along);
+        const double ax = std::fabs(e);
         const bool check = (static_cast<int>(std::floor(X)) + static_cast<int>(std::floor(D))) & 1;
         const float tex = check ? 1.1f : 0.9f;
         if (ax <= o.road_half_width_m) {
           l = Label::Road;
-          const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(D, o.dash_period_m) < o.dash_m;
+          const bool dash = std::fabs(ax - o.lane_width_m / 2) <= 0.075 && std::fmod(along, o.dash_period_m) < o.dash_m;
           const bool edge = std::fabs(ax - (o.road_half_width_m - 0.2)) <= 0.075;
           bool rail = false;
-          for (const double rx : o.rail_X_m) rail = rail || std::fabs(X - rx) <= o.rail_head_m / 2;
+          for (const double rx : o.rail_X_m) rail = rail || std::fabs(e - rx) <= o.rail_head_m / 2;
           const float v = dash || edge ? 0.8f : rail ? 0.5f : 0.08f * tex;
           px[0] = px[1] = px[2] = v;
         } else if (ax <= o.road_half_width_m + o.sidewalk_m) {
@@ -157,7 +204,7 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
         l = Label::Building;
         px[0] = 0.25f; px[1] = 0.22f; px[2] = 0.2f;
         if (o.window_pitch_m > 0) {
-          const double D = D0 + best * dD, Y = h + best * dY;
+          const double D = std::isnan(facade_a) ? D0 + best * dD : facade_a, Y = h + best * dY;
           const double u = D - o.window_phase_m + 0.5 * o.window_width_m;
           const double v = Y - o.window_sill_m;
           if (u - std::floor(u / o.window_pitch_m) * o.window_pitch_m < o.window_width_m && v >= 0 &&

@@ -562,7 +562,20 @@ struct SyntheticCameraOptions {
   // convention, scene/street.h). 0: at the street's origin, looking along it. The depth and the
   // labels are the camera's as ever.
   double world_X_m = 0, world_D_m = 0, world_yaw_rad = 0;
+  // A curving street (0: straight, the default, the same bits as before it): straight along X = 0
+  // up to D = curve_start_D_m, then its centre line follows a circle of radius |road_radius_m|
+  // turning toward +X (positive) or −X (negative), tangent to the straight there. The road, its
+  // lane and edge lines (dashes counted by arc length), sidewalks, rails and façades (the same
+  // offsets across the centre line, the façades as cylinders about the circle's centre, from 3 to
+  // 200 m of arc length) follow it; the boxes and the ground's check texture stay in (X, D). Only a
+  // radius beyond the façades' offset (road + sidewalk) makes sense; the arc runs at most a half turn.
+  double road_radius_m = 0, curve_start_D_m = 0;
 };
+// A ground point (X, D) of the street of `o` in the street's own coordinates: *e_m its signed
+// offset across the centre line (+ toward +X where the street is straight; on the curve, the
+// distance from the circle's centre taken the same way) and *a_m its arc length along it (= D on
+// the straight). The straight street (road_radius_m 0): (X, D).
+void synthetic_street_coordinates(const SyntheticCameraOptions& o, double X_m, double D_m, double* e_m, double* a_m);
 struct SyntheticCameraScene {
   ImageF day_linear_srgb;
   LabelMap labels;
