@@ -11,6 +11,7 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -288,6 +289,8 @@ struct ManifestLine {
   std::string sequence;
   std::optional<scene::OdometrySample> odometry;
 };
+// The group of a manifest line's sequence=NAME: kSequenceGroup + NAME (a line without is its own).
+constexpr std::string_view kSequenceGroup = "sequence:";
 constexpr const char* kManifestKeys[] = {"sequence", "time_s", "speed_m_s", "yaw_rate_rad_s",
                                          "camera_forward_m", "camera_left_m", "camera_yaw_rad"};
 // The fields of the line at `at`; is_file(field): whether a field names an existing file (a path
@@ -419,7 +422,7 @@ std::vector<Item> read_manifest(const std::string& manifest) {
                                           ? ": image listed twice (also on line " + std::to_string(k->second.first) + "): " + it.image
                                           : ": " + it.image + " and " + k->second.second + " (line " +
                                                 std::to_string(k->second.first) + ") would both write " + it.key + ".*"));
-    it.group = ml.sequence.empty() ? it.key : "sequence:" + ml.sequence;
+    it.group = ml.sequence.empty() ? it.key : std::string(kSequenceGroup) + ml.sequence;
     it.origin = at;
     if (ml.odometry) {
       it.odometry_given = ml.odometry;
@@ -437,7 +440,7 @@ std::vector<Item> read_manifest(const std::string& manifest) {
     const auto [prev, first] = last_of.emplace(it.group, &it);
     if (first) continue;
     const Item& p = *prev->second;
-    const std::string seq = it.group.substr(std::string("sequence:").size());
+    const std::string seq = it.group.substr(kSequenceGroup.size());
     if (p.odometry_given.has_value() != it.odometry_given.has_value())
       fail(it.origin + ": sequence " + seq + (it.odometry_given ? " has odometry on this line but not on " : " has no odometry on this line but has on ") +
            p.origin + " (time_s, speed_m_s, yaw_rate_rad_s on every line of a sequence, or on none)");

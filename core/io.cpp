@@ -415,10 +415,12 @@ std::string exr_window_note(const Imf::Header& h) {
 
 // Said on the standard error by both pixel readers (read_exr_raster, read_exr: every command and
 // the Python module; the commands' own output, on the standard output, stays what it was), after
-// the pixels are read; `expose` also records both windows in its header.
-void note_exr_windows(const std::string& path, const Imf::Header& h) {
-  if (const std::string note = exr_window_note(h); !note.empty())
-    std::fprintf(stderr, "photosite: note: %s: %s\n", path.c_str(), note.c_str());
+// the pixels are read; `expose` also records both windows in its header. The note ("" when there
+// is nothing to say), for the reader's Raster::note.
+std::string note_exr_windows(const std::string& path, const Imf::Header& h) {
+  std::string note = exr_window_note(h);
+  if (!note.empty()) std::fprintf(stderr, "photosite: note: %s: %s\n", path.c_str(), note.c_str());
+  return note;
 }
 
 // The header's attributes beyond the layout, by name, as text (attribute_text); capDate as
@@ -505,8 +507,7 @@ Raster read_exr_raster(const std::string& path) {
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     r.attributes = exr_attributes(h);
-    note_exr_windows(path, h);
-    r.note = exr_window_note(h);
+    r.note = note_exr_windows(path, h);
     return r;
   });
 }

@@ -60,6 +60,15 @@ void piece_point(const Piece& q, double a, double off1, double off2, double* X, 
   *D = CD + rho * std::sin(psi);
 }
 
+// The piece that starts where q ends (q's point and heading at its end), of curvature kappa and
+// len_m long, with the road edges left_m, right_m.
+Piece piece_after(const Piece& q, double kappa, double len_m, double left_m, double right_m) {
+  const double a_end = q.a0 + q.len_m;
+  Piece n{0, 0, q.psi0 + q.kappa * q.len_m, kappa, a_end, len_m, left_m, right_m};
+  piece_point(q, a_end, 0, 0, &n.X0, &n.D0);
+  return n;
+}
+
 // A ground point's along-line coordinate *a and offset across the line *off (+ right) on piece q
 // (continued beyond its ends): the inverse of piece_point. On an arc the angle is taken within half
 // a turn of the piece's middle; a point beyond the centre (off > 1/κ) is not on this piece's side.
@@ -140,7 +149,6 @@ bool LuminaireSet::extend_path(const CameraPose& pose, const StreetLighting& pla
   // length len and curvature turn/len.
   Piece& last = path_.back();
   const double dX = pose.X_m - node_X_, dD = pose.D_m - node_D_, chord = std::hypot(dX, dD);
-  const double psi_end = last.psi0 + last.kappa * last.len_m;
   if (!(chord >= 1.0) || dX * std::sin(node_yaw_) + dD * std::cos(node_yaw_) <= 0) return false;
   const double turn = std::remainder(pose.yaw_rad - node_yaw_, 2 * M_PI);
   const double len = turn == 0 ? chord : chord * (0.5 * turn) / std::sin(0.5 * turn), kappa = turn / len;
@@ -173,21 +181,15 @@ bool LuminaireSet::extend_path(const CameraPose& pose, const StreetLighting& pla
                                 (plan.road_right_m - ((q.right_m - off) * cb - 30 * sb)));
     follow = shift * kappa > 0 && std::fabs(shift) > 0.25 + 30 * std::fabs(sb);
   }
-  const double a_end = last.a0 + last.len_m;
-  if (follow) {  // the road line turns as the vehicle did, from its end
-    Piece n{0, 0, psi_end, kappa, a_end, len, last.left_m, last.right_m};
-    piece_point(last, a_end, 0, 0, &n.X0, &n.D0);
-    path_.push_back(n);
-  } else if (last.kappa == 0) {
+  if (follow || last.kappa != 0) {
+    // The road line turns as the vehicle did, from its end; or runs straight on from an arc's end.
+    path_.push_back(piece_after(last, follow ? kappa : 0, len, last.left_m, last.right_m));
+  } else {
     // Straight on: the last piece grows to the camera's place along it (a straight drive stays one
     // piece, its rows the straight rows of its first pose).
     double a, off;
     piece_project(last, pose.X_m, pose.D_m, &a, &off);
     last.len_m = std::max(last.len_m, a - last.a0);
-  } else {  // straight on from the end of an arc
-    Piece n{0, 0, psi_end, 0, a_end, len, last.left_m, last.right_m};
-    piece_point(last, a_end, 0, 0, &n.X0, &n.D0);
-    path_.push_back(n);
   }
   return bent;
 }
@@ -247,9 +249,7 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
       last.left_m = e.left;
       last.right_m = e.right;
     } else {
-      Piece n{0, 0, last.psi0 + last.kappa * last.len_m, last.kappa, last.a0 + last.len_m, 0, e.left, e.right};
-      piece_point(last, n.a0, 0, 0, &n.X0, &n.D0);
-      path_.push_back(n);
+      path_.push_back(piece_after(last, last.kappa, 0, e.left, e.right));
     }
   }
   // The road line kept: from three spacings behind the camera (the layout below starts at most two
