@@ -200,6 +200,10 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/street_peak_intensity_cd"] = ns.light_stats.street_peak_intensity_cd;
   attrs["photosite/night/road_luminance_avg_cd_m2"] = ns.light_stats.road_luminance_avg_cd_m2;
   attrs["photosite/night/road_uniformity_u0"] = ns.light_stats.road_uniformity_u0;
+  attrs["photosite/night/road_ahead"] = ns.light_stats.road_ahead;
+  attrs["photosite/night/road_curvature_per_m"] = ns.light_stats.road_curvature_per_m;
+  attrs["photosite/night/road_curve_start_m"] = ns.light_stats.road_curve_start_m;
+  attrs["photosite/night/road_curvature_se_per_m"] = ns.light_stats.road_curvature_se_per_m;
   // The day photo's white balance the texture was made with (reflectance.day_white_balance).
   attrs["photosite/night/day_white_balance"] = ns.day_balance.state();
   attrs["photosite/night/day_white_balance_gain_R"] = ns.day_balance.gain[0];

@@ -4354,6 +4354,10 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     out.stats.street_peak_intensity_cd = sl.peak_intensity_cd;
     out.stats.road_luminance_avg_cd_m2 = sl.avg_luminance_cd_m2;
     out.stats.road_uniformity_u0 = sl.uniformity_u0;
+    out.stats.road_ahead = sl.road_ahead.state;
+    out.stats.road_curvature_per_m = sl.road_ahead.kappa_per_m;
+    out.stats.road_curve_start_m = sl.road_ahead.curve_start_m;
+    out.stats.road_curvature_se_per_m = sl.road_ahead.kappa_se_per_m;
   }
   // Without geometry: lamp heads on poles: tall thin pole components whose top is above the
   // horizon and not capped by a sign or signal (those poles carry no luminaire).

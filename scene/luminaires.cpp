@@ -40,104 +40,12 @@ using Piece = LuminaireSet::Piece;
 // kerb at the camera by at most κ·60²/2 = 0.125 m, half the medians' quarter metre.
 constexpr double kStraightKappa = 2 * 0.125 / (60.0 * 60.0);
 
-// The world point at along-line coordinate a on piece q (its line or circle continued beyond its
-// ends), offset across the line (to the right) by off1 + off2, each added on its own.
-// A straight piece is taken from its origin O = P0 − a0·t (t = (sin ψ0, cos ψ0) along, n =
-// (cos ψ0, −sin ψ0) across): O + a·t + off1·n + off2·n. For ψ0 = 0 and D0 = a0 (the anchoring
-// pose of a straight drive) that is X0 + off1 + off2 and D = a, the expressions and roundings the
-// layout's rows had as straight world rows (right edge + setback; phase + k·S).
-// An arc turns about its centre C = P0 + n0/κ: P(a) = C − (1/κ − off)·n(ψ), ψ = ψ0 + κ·(a − a0).
-void piece_point(const Piece& q, double a, double off1, double off2, double* X, double* D) {
-  if (q.kappa == 0) {
-    const double s = std::sin(q.psi0), c = std::cos(q.psi0), OX = q.X0 - q.a0 * s, OD = q.D0 - q.a0 * c;
-    *X = ((OX + a * s) + off1 * c) + off2 * c;
-    *D = ((OD + a * c) - off1 * s) - off2 * s;
-    return;
-  }
-  const double r = 1 / q.kappa, CX = q.X0 + r * std::cos(q.psi0), CD = q.D0 - r * std::sin(q.psi0);
-  const double psi = q.psi0 + q.kappa * (a - q.a0), rho = r - (off1 + off2);
-  *X = CX - rho * std::cos(psi);
-  *D = CD + rho * std::sin(psi);
-}
-
-// The piece that starts where q ends (q's point and heading at its end), of curvature kappa and
-// len_m long, with the road edges left_m, right_m.
-Piece piece_after(const Piece& q, double kappa, double len_m, double left_m, double right_m) {
-  const double a_end = q.a0 + q.len_m;
-  Piece n{0, 0, q.psi0 + q.kappa * q.len_m, kappa, a_end, len_m, left_m, right_m};
-  piece_point(q, a_end, 0, 0, &n.X0, &n.D0);
-  return n;
-}
-
-// A ground point's along-line coordinate *a and offset across the line *off (+ right) on piece q
-// (continued beyond its ends): the inverse of piece_point. On an arc the angle is taken within half
-// a turn of the piece's middle; a point beyond the centre (off > 1/κ) is not on this piece's side.
-void piece_project(const Piece& q, double X, double D, double* a, double* off) {
-  if (q.kappa == 0) {
-    const double s = std::sin(q.psi0), c = std::cos(q.psi0), OX = q.X0 - q.a0 * s, OD = q.D0 - q.a0 * c;
-    *a = (X - OX) * s + (D - OD) * c;
-    *off = (X - OX) * c - (D - OD) * s;
-    return;
-  }
-  const double r = 1 / q.kappa, CX = q.X0 + r * std::cos(q.psi0), CD = q.D0 - r * std::sin(q.psi0);
-  const double wX = X - CX, wD = D - CD, k = q.kappa > 0 ? 1.0 : -1.0;
-  const double psi = std::atan2(k * wD, -k * wX), um = 0.5 * q.len_m, psi_m = q.psi0 + q.kappa * um;
-  *a = q.a0 + um + std::remainder(psi - psi_m, 2 * M_PI) / q.kappa;
-  *off = r - k * std::hypot(wX, wD);
-}
 }  // namespace
 
-// The road line's piece that carries along-line coordinate a: the last one starting at or before
-// it (the first for a before the line: continued straight back along its heading); beyond the last
-// pose the last piece continued, an arc for at most a quarter turn and straight after it.
-LuminaireSet::Piece LuminaireSet::piece_at(double a) const {
-  if (a < path_.front().a0) {
-    Piece q = path_.front();
-    q.kappa = 0;
-    return q;
-  }
-  size_t i = path_.size() - 1;
-  while (i > 0 && path_[i].a0 > a) --i;
-  const Piece& q = path_[i];
-  // Extrapolated on the last arc's curvature: the vehicle keeps turning as it turned over its last
-  // step (a road's curvature changes gradually: a constant-radius curve is entered and left over
-  // transition curves; CameraPose's arc is the same model the odometry integrates), where a
-  // straight extrapolation would put every luminaire ahead on a curve off the road by d²/(2R) at d
-  // ahead (8 m at 40 m on a 100 m radius). Entering a curve it errs as much the other way for a
-  // step. A quarter turn at most: beyond it the extrapolated road runs across or behind the view,
-  // and a circle smaller than the layout's reach (2πR < lamp_max_distance_m) would lay a second row
-  // over the first; straight on from there (a photosite choice).
-  const double end = q.a0 + q.len_m, cap = q.kappa == 0 ? INFINITY : 0.5 * M_PI / std::fabs(q.kappa);
-  if (i + 1 < path_.size() || a <= end + cap) return q;
-  Piece s = q;
-  s.a0 = end + cap;
-  s.psi0 = q.psi0 + q.kappa * (s.a0 - q.a0);
-  piece_point(q, s.a0, 0, 0, &s.X0, &s.D0);
-  s.kappa = 0;
-  s.len_m = 0;
-  return s;
-}
+LuminaireSet::Piece LuminaireSet::piece_at(double a) const { return road_line_piece(path_, a); }
 
 void LuminaireSet::project(double X, double D, double* a, double* off, Piece* on) const {
-  // Each piece's projection within its range (the first continued back, the last on), the one
-  // nearest across.
-  double best = INFINITY;
-  for (size_t i = 0; i < path_.size(); ++i) {
-    const Piece& q = path_[i];
-    double ai, oi;
-    piece_project(q, X, D, &ai, &oi);
-    if ((i > 0 && ai < q.a0) || (i + 1 < path_.size() && ai > q.a0 + q.len_m)) continue;
-    if (std::fabs(oi) < best) {
-      best = std::fabs(oi);
-      *a = ai;
-      *off = oi;
-      *on = q;
-    }
-  }
-  if (best == INFINITY) {  // in no piece's range (beside a kink of the line): the last piece's
-    piece_project(path_.back(), X, D, a, off);
-    *on = path_.back();
-  }
+  road_line_project(path_, X, D, a, off, on);
 }
 
 bool LuminaireSet::extend_path(const CameraPose& pose, const StreetLighting& plan) {
@@ -183,12 +91,12 @@ bool LuminaireSet::extend_path(const CameraPose& pose, const StreetLighting& pla
   }
   if (follow || last.kappa != 0) {
     // The road line turns as the vehicle did, from its end; or runs straight on from an arc's end.
-    path_.push_back(piece_after(last, follow ? kappa : 0, len, last.left_m, last.right_m));
+    path_.push_back(road_piece_after(last, follow ? kappa : 0, len, last.left_m, last.right_m));
   } else {
     // Straight on: the last piece grows to the camera's place along it (a straight drive stays one
     // piece, its rows the straight rows of its first pose).
     double a, off;
-    piece_project(last, pose.X_m, pose.D_m, &a, &off);
+    road_piece_project(last, pose.X_m, pose.D_m, &a, &off);
     last.len_m = std::max(last.len_m, a - last.a0);
   }
   return bent;
@@ -203,7 +111,14 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
     if (!(plan.road_right_m > plan.road_left_m)) return plan;  // nothing to anchor the layout to yet
     // The first piece: at the camera's foot along its heading, the along-line coordinate there its
     // D (so that at pose 0 and along a straight drive the rows are the single frame's).
-    path_.assign(1, Piece{pose.X_m, pose.D_m, pose.yaw_rad, 0, pose.D_m, 0, plan.road_left_m, plan.road_right_m});
+    // Where the frame's kerbs show the road bending (measure_road_ahead), the line starts along the
+    // road's measured heading with the kerbs' fitted offsets at the camera (the medians lie off
+    // them by about κD²/2 at their rows' D: 4.5 m at 30 m on a 100 m radius).
+    const RoadAhead& ra = plan.road_ahead;
+    if (ra.curved)
+      path_.assign(1, Piece{pose.X_m, pose.D_m, pose.yaw_rad + ra.heading_rad, 0, pose.D_m, 0, ra.left_m, ra.right_m});
+    else
+      path_.assign(1, Piece{pose.X_m, pose.D_m, pose.yaw_rad, 0, pose.D_m, 0, plan.road_left_m, plan.road_right_m});
     node_X_ = pose.X_m;
     node_D_ = pose.D_m;
     node_yaw_ = pose.yaw_rad;
@@ -249,13 +164,64 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
       last.left_m = e.left;
       last.right_m = e.right;
     } else {
-      path_.push_back(piece_after(last, last.kappa, 0, e.left, e.right));
+      path_.push_back(road_piece_after(last, last.kappa, 0, e.left, e.right));
     }
   }
   // The road line kept: from three spacings behind the camera (the layout below starts at most two
   // behind; a pole matched within half a spacing of it).
   while (path_.size() > 1 && path_[1].a0 < a_cam - 3 * S) path_.erase(path_.begin());
-
+  // The road line with the road ahead as this frame measures it (measure_road_ahead), where the
+  // measurement contradicts the line's own extrapolation (the last piece continued): the two kerbs
+  // they put at the farthest kerb point measured (reach, small angles: β·s + κ·s²/2 continued,
+  // ψ·s + κ_f·(s − c)²/2 measured, β the line's heading from the camera's) differ by more than 5 of
+  // the fitted kerb's standard errors there (road_ahead_kerb_se_m). Entering a curve the line runs
+  // straight while the kerbs bend; leaving one it still turns while they run straight. Then:
+  // straight to the bend's start, the fitted arc for a quarter turn, straight on, with the kerbs
+  // kept; from the line's end where the measured heading agrees with the line's, else from the
+  // camera's foot along the measured heading, the kerbs across that line (the camera is off_cam
+  // off the road line). A straight measurement replaces only a turning line: a straight drive keeps its
+  // one piece, bit for bit. The driven part stays as it was.
+  std::vector<Piece> line = path_;
+  {
+    const RoadAhead& ra = plan.road_ahead;
+    const Piece last = path_.back();
+    if ((ra.curved || (ra.state == "straight" && last.kappa != 0)) && a_cam >= last.a0) {
+      const double s_m = ra.reach_m;
+      const double beta = std::remainder(last.psi0 + last.kappa * (a_cam - last.a0) - pose.yaw_rad, 2 * M_PI);
+      const double q = ra.curved ? std::max(0.0, s_m - ra.curve_start_m) : 0;
+      const double continued = beta * s_m + 0.5 * last.kappa * s_m * s_m;
+      const double measured = ra.heading_rad * s_m + 0.5 * ra.kappa_per_m * q * q;
+      const double se = std::max(road_ahead_kerb_se_m(ra, s_m, false), road_ahead_kerb_se_m(ra, s_m, true));
+      if (std::fabs(continued - measured) > 5 * se) {
+        if (std::fabs(ra.heading_rad - beta) <= 5 * std::sqrt(std::max(0.0, ra.covariance[10]))) {
+          // The measured heading is the line's (within 5 of its standard errors): on from the
+          // line's end, the bend's start counted from the camera (a straight line's rows ahead of
+          // the bend stay where they were, to rounding).
+          const double a_end = last.a0 + last.len_m, c = ra.curved ? std::max(0.0, a_cam + ra.curve_start_m - a_end) : 0;
+          line.push_back(road_piece_after(last, 0, c, last.left_m, last.right_m));
+          if (ra.curved) {
+            line.push_back(road_piece_after(line.back(), ra.kappa_per_m, 0.5 * M_PI / std::fabs(ra.kappa_per_m), last.left_m,
+                                            last.right_m));
+            line.push_back(road_piece_after(line.back(), 0, 0, last.left_m, last.right_m));
+          }
+        } else {
+          RoadAhead here = ra;
+          here.left_m = last.left_m - off_cam;
+          here.right_m = last.right_m - off_cam;
+          for (Piece w : road_ahead_pieces(here)) {
+            // Frame → world: the pieces start at the camera's foot, their headings turned by the yaw.
+            double X, D;
+            P.to_world(w.X0, w.D0, &X, &D);
+            w.X0 = X;
+            w.D0 = D;
+            w.psi0 += pose.yaw_rad;
+            w.a0 += a_cam;
+            line.push_back(w);
+          }
+        }
+      }
+    }
+  }
   // This frame's pole luminaires into the remembered set.
   const double match_k = 2.0 / (g.f_px * g.mount_height_m);  // 2 px of contact row: ΔD = 2·D²/(f·h)
   std::vector<char> matched(poles_.size(), 0);
@@ -302,11 +268,11 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   struct Placed { StreetLamp l; double a, off, mid; };
   std::vector<Placed> world;
   auto place = [&](double a, bool right) {
-    const Piece q = piece_at(a);
+    const Piece q = road_line_piece(line, a);
     if (!right && !(q.right_m - q.left_m > p.lamp_mount_height_m)) return;  // one row on a narrow road
     const double edge = right ? q.right_m : q.left_m, setback = right ? p.lamp_setback_m : -p.lamp_setback_m;
     Placed w{{0, p.lamp_mount_height_m, 0, false}, a, edge + setback, 0.5 * (q.left_m + q.right_m)};
-    piece_point(q, a, edge, setback, &w.l.X_m, &w.l.D_m);
+    road_piece_point(q, a, edge, setback, &w.l.X_m, &w.l.D_m);
     world.push_back(w);
   };
   const long k0 = static_cast<long>(std::floor((a_cam - anchor_a_) / S));
@@ -318,7 +284,7 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   for (const auto& pole : poles_) {
     double a, off;
     Piece on;
-    project(pole.X_m, pole.D_m, &a, &off, &on);
+    road_line_project(line, pole.X_m, pole.D_m, &a, &off, &on);
     int best = -1;
     for (int i = 0; i < static_cast<int>(world.size()); ++i) {
       const auto& w = world[i];
@@ -333,6 +299,7 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   StreetLighting s;
   s.peak_intensity_cd = plan.peak_intensity_cd;
   s.road_straight = plan.road_straight;  // this frame's measurement (the road ahead may bend later)
+  s.road_ahead = plan.road_ahead;        // likewise
   s.source = poles_.empty() ? "road_edges" : "poles+road_edges";
   for (const auto& w : world) {
     StreetLamp l = w.l;
@@ -343,11 +310,11 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
                    [](const StreetLamp& a, const StreetLamp& b) { return a.D_m != b.D_m ? a.D_m < b.D_m : a.X_m < b.X_m; });
   // The road edges across the line at the camera, in the frame.
   {
-    const Piece q = piece_at(a_cam);
+    const Piece q = road_line_piece(line, a_cam);
     double X, D, d;
-    piece_point(q, a_cam, q.left_m, 0, &X, &D);
+    road_piece_point(q, a_cam, q.left_m, 0, &X, &D);
     P.to_frame(X, D, &s.road_left_m, &d);
-    piece_point(q, a_cam, q.right_m, 0, &X, &D);
+    road_piece_point(q, a_cam, q.right_m, 0, &X, &D);
     P.to_frame(X, D, &s.road_right_m, &d);
   }
   // The EN 13201-3 field of plan_street_lighting (10 x 6 points over one spacing from

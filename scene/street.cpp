@@ -776,26 +776,68 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // leaving the view moves one luminaire, not the whole row.
   std::vector<StreetLamp> poles;
   poles.swap(s.lamps);
-  const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
-  {
+  // Where the road bends ahead (measure_road_ahead: the kerbs 10-100 m ahead fitted with a road
+  // line that curves), the rows follow the fitted line, at along-line distances a = phase + k·S,
+  // each at its kerb's offset at the camera plus the setback; a pole then replaces the luminaire
+  // nearest to it along the line on its side of the line's middle. On a straight road the rows run
+  // straight ahead at the kerbs' medians, as before the fit (the same bits).
+  s.road_ahead = measure_road_ahead(ids, g);
+  if (s.road_ahead.curved) {
+    const RoadAhead& ra = s.road_ahead;
+    const std::vector<RoadPiece> line = road_ahead_pieces(ra);
+    const bool both = ra.right_m - ra.left_m > p.lamp_mount_height_m;
+    struct Placed { StreetLamp l; double a, off; };
+    std::vector<Placed> rows;
+    auto place = [&](double a, bool right) {
+      const RoadPiece q = road_line_piece(line, a);
+      Placed w{{0, p.lamp_mount_height_m, 0, false}, a, right ? q.right_m + p.lamp_setback_m : q.left_m - p.lamp_setback_m};
+      road_piece_point(q, a, right ? q.right_m : q.left_m, right ? p.lamp_setback_m : -p.lamp_setback_m, &w.l.X_m, &w.l.D_m);
+      rows.push_back(w);
+    };
     const double phase = street_layout_phase_m(p, seed);
     for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
-      const double D = phase + k * S;
-      s.lamps.push_back({s.road_right_m + p.lamp_setback_m, p.lamp_mount_height_m, D, false});
-      if (both) s.lamps.push_back({s.road_left_m - p.lamp_setback_m, p.lamp_mount_height_m, D + 0.5 * S, false});
+      place(phase + k * S, true);
+      if (both) place(phase + k * S + 0.5 * S, false);
+    }
+    const double mid = 0.5 * (ra.left_m + ra.right_m);
+    for (const auto& pole : poles) {
+      double a, off;
+      RoadPiece on;
+      road_line_project(line, pole.X_m, pole.D_m, &a, &off, &on);
+      int best = -1;
+      for (int i = 0; i < static_cast<int>(rows.size()); ++i) {
+        const auto& w = rows[i];
+        if (w.l.from_pole || (w.off - mid) * (off - mid) <= 0 || std::fabs(w.a - a) > 0.5 * S) continue;
+        if (best < 0 || std::fabs(w.a - a) < std::fabs(rows[best].a - a)) best = i;
+      }
+      if (best >= 0) rows[best] = {pole, a, off};
+      else rows.push_back({pole, a, off});
+    }
+    for (const auto& w : rows) s.lamps.push_back(w.l);
+  } else {
+    const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
+    {
+      const double phase = street_layout_phase_m(p, seed);
+      for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
+        const double D = phase + k * S;
+        s.lamps.push_back({s.road_right_m + p.lamp_setback_m, p.lamp_mount_height_m, D, false});
+        if (both) s.lamps.push_back({s.road_left_m - p.lamp_setback_m, p.lamp_mount_height_m, D + 0.5 * S, false});
+      }
+    }
+    const double mid = 0.5 * (s.road_left_m + s.road_right_m);
+    for (const auto& pole : poles) {
+      int best = -1;
+      for (int i = 0; i < static_cast<int>(s.lamps.size()); ++i) {
+        const auto& l = s.lamps[i];
+        if (l.from_pole || (l.X_m - mid) * (pole.X_m - mid) <= 0 || std::fabs(l.D_m - pole.D_m) > 0.5 * S) continue;
+        if (best < 0 || std::fabs(l.D_m - pole.D_m) < std::fabs(s.lamps[best].D_m - pole.D_m)) best = i;
+      }
+      if (best >= 0) s.lamps[best] = pole;
+      else s.lamps.push_back(pole);
     }
   }
-  const double mid = 0.5 * (s.road_left_m + s.road_right_m);
-  for (const auto& pole : poles) {
-    int best = -1;
-    for (int i = 0; i < static_cast<int>(s.lamps.size()); ++i) {
-      const auto& l = s.lamps[i];
-      if (l.from_pole || (l.X_m - mid) * (pole.X_m - mid) <= 0 || std::fabs(l.D_m - pole.D_m) > 0.5 * S) continue;
-      if (best < 0 || std::fabs(l.D_m - pole.D_m) < std::fabs(s.lamps[best].D_m - pole.D_m)) best = i;
-    }
-    if (best >= 0) s.lamps[best] = pole;
-    else s.lamps.push_back(pole);
-  }
+  const bool both = (s.road_ahead.curved ? s.road_ahead.right_m - s.road_ahead.left_m : s.road_right_m - s.road_left_m) >
+                    p.lamp_mount_height_m;
   s.source = poles.empty() ? "road_edges" : "poles+road_edges";
   std::sort(s.lamps.begin(), s.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
   // Luminous intensity: a luminaire's is a property of the installation, not of the view. It is

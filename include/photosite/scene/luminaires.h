@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "photosite/scene/night.h"
+#include "photosite/scene/road_line.h"
 #include "photosite/scene/street.h"
 
 namespace photosite::scene {
@@ -38,10 +39,16 @@ class LuminaireSet {
   //    measured, on the odometry alone), else it runs straight on (a lane change, a turn off the
   //    road, a drift across it: the vehicle turns, the road does not). The part driven is fixed,
   //    so a luminaire placed there stays put. Ahead of it the line is extrapolated on its last
-  //    piece's curvature (straight after a straight one) up to a quarter turn, then straight; a
-  //    luminaire there moves when the next step bends the line otherwise (entering or leaving a
-  //    curve). Behind its start: straight back along it. A straight drive is one straight piece:
-  //    the straight rows of a single frame, bit for bit;
+  //    piece's curvature (straight after a straight one) up to a quarter turn, then straight —
+  //    unless the frame's road ahead measured from its kerbs (StreetLighting::road_ahead,
+  //    measure_road_ahead) contradicts that: its kerb at the farthest point measured more than 5
+  //    of its standard errors off the extrapolation's. Then the line ahead is the measured one
+  //    (straight to the bend's start, the fitted arc for a quarter turn, straight on): a curve is
+  //    followed before the vehicle reaches it, and a line still turning after a curve runs
+  //    straight once the kerbs do. A luminaire ahead moves when a later frame measures otherwise.
+  //    The anchoring frame, where its road bends, starts the line along the measured heading with
+  //    the fitted kerbs. Behind its start: straight back along it. A straight drive is one straight
+  //    piece: the straight rows of a single frame, bit for bit;
   //  * the road edges are the anchoring frame's. A later frame's edges (medians of the kerb 20-60 m
   //    ahead, which move with what is in view and, where the road bends, with the bend; taken
   //    across the line) replace them from the line's end on only once the vehicle has driven 60 m
@@ -71,11 +78,8 @@ class LuminaireSet {
   // The pieces of the road line kept (each an arc or a straight line).
   size_t path_pieces() const { return path_.size(); }
 
-  // One piece of the road line: from the world point (X0, D0) heading psi0 (CameraPose's yaw
-  // convention), curvature kappa (1/m, positive turning toward +X; 0 straight), along-line
-  // coordinate a0 there and len_m long (the last piece extrapolated beyond), with the road edges
-  // across the line (m, + to the right) that apply on it.
-  struct Piece { double X0, D0, psi0, kappa, a0, len_m, left_m, right_m; };
+  // One piece of the road line, in world coordinates (RoadPiece, scene/road_line.h).
+  using Piece = RoadPiece;
 
  private:
   Piece piece_at(double a) const;

@@ -426,6 +426,11 @@ struct LightStats {
   std::string street_lamp_source = "none";
   std::string street_lamp_note;  // why none were placed (StreetLighting::note); empty when there are lamps
   double street_peak_intensity_cd = 0, road_luminance_avg_cd_m2 = 0, road_uniformity_u0 = 0;
+  // The road ahead from the kerbs (StreetLighting::road_ahead, measure_road_ahead): "curved",
+  // "straight" or why not measured; the arc's curvature (1/m, + toward +X; 0 unless curved), where
+  // it starts (m along the road from the camera), and the curvature's standard error.
+  std::string road_ahead = "not measured";
+  double road_curvature_per_m = 0, road_curve_start_m = 0, road_curvature_se_per_m = 0;
 };
 struct LightMap {
   ImageF radiance;  // W·sr⁻¹·m⁻², emitted + retroreflected (the lens's glare comes later, in the sensor)

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "photosite/scene/night.h"
+#include "photosite/scene/road_line.h"
 
 namespace photosite::scene {
 
@@ -46,6 +47,10 @@ struct StreetLighting {
   // The draw key of each façade plane's windows (one per BuildingFacades::planes entry, from a
   // sequence's FacadeSet: scene/luminaires.h); empty: each plane's facade_key.
   std::vector<uint64_t> facade_keys;
+  // The road ahead measured from the frame's kerbs 10-100 m ahead (measure_road_ahead,
+  // scene/road_line.h). Where it is "curved" the road-edge layout follows it: its rows stand along
+  // the fitted road line, at its kerbs' offsets, instead of straight ahead at the kerbs' medians.
+  RoadAhead road_ahead;
 };
 // The cut-off distribution relative to its peak: 1 up to cutoff_deg from the nadir, then
 // exp(-(γ - cutoff)/falloff).
