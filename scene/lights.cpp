@@ -4299,9 +4299,9 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // Street lighting in metres: luminaires on poles or along the road edges, their pools on the
   // ground and their heads (scene/street.cpp).
   if (geometry) {
-    // No depth test for the heads here: the depth of façades and trees whose contact is hidden
-    // depends on which of their columns are in view, and heads flipping between visible and
-    // hidden from frame to frame cost the panning test (MetricLights) 6 points on Cityscapes.
+    // The heads with the metric depth are hidden whole behind what stands in front of them
+    // beyond the depth's uncertainty (head_hidden, scene/street.cpp: not pixel by pixel, whose
+    // flips at silhouettes cost the panning test, MetricLights, 6 points on Cityscapes).
     // Vertical surfaces (cars, façades, people, poles) by the same lamps from their metric
     // depth, before the heads (drawn as a maximum over whatever light lies there). With metric
     // depth, the vertical light, the pools and the façade windows (below) in one pass over the

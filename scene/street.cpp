@@ -2099,7 +2099,7 @@ struct PoolPass : LitRows {
 };
 // The lamp heads (below add_street_lighting).
 int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                    const ImageF* depth_m);
+                    const ImageF* depth_m, const ImageU16& labels);
 }  // namespace
 
 int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
@@ -2112,7 +2112,7 @@ int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels
 #pragma omp for schedule(static, 8)
     for (int y = pools.y_start; y < L.height(); ++y) pools.row(L, y, sc);
   }
-  return draw_lamp_heads(L, g, s, p, depth_m);
+  return draw_lamp_heads(L, g, s, p, depth_m, labels);
 }
 
 namespace {
@@ -2155,6 +2155,7 @@ struct HeadDisc {
   double q11, q12, q22;  // S⁻¹ of the drawn ellipse (pixels⁻²)
   std::array<double, 3> head;
   int y0, y1, x0, x1;  // the rows and columns of its bounding box inside the frame
+  bool from_pole = false;  // the luminaire of a detected pole (StreetLamp::from_pole)
 };
 std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p, int W,
                                       int H) {
@@ -2197,26 +2198,30 @@ std::vector<HeadDisc> lamp_head_discs(const CameraGeometry& g, const StreetLight
     out.push_back({u, v, z, t22 / det, -t12 / det, t11 / det, {head1[0] * Lh, head1[1] * Lh, head1[2] * Lh},
                    std::max(0, static_cast<int>(std::floor(v - hy))), std::min(H - 1, static_cast<int>(std::ceil(v + hy))),
                    std::max(0, static_cast<int>(std::floor(u - hx))), std::min(W - 1, static_cast<int>(std::ceil(u + hx)))});
+    out.back().from_pole = l.from_pole;
   }
   return out;
 }
-// Head d's pixels in row y (inside its box rows), each at the head's luminance times the share of
-// its kHeadSub × kHeadSub sub-pixel samples (centres at (i + ½)/kHeadSub − ½ of a pixel from its
-// centre) inside the ellipse, as a maximum over L, where no depth is given or the pixel's depth is
-// not in front of the head by more than 1 m; whether any was drawn.
+// The share of pixel (x, y)'s kHeadSub × kHeadSub sub-pixel samples (centres at (i + ½)/kHeadSub
+// − ½ of a pixel from its centre) inside head d's ellipse, as a count.
 constexpr int kHeadSub = 4;
-bool draw_head_row(ImageF& L, const HeadDisc& d, int y, const ImageF* depth_m) {
+inline int head_samples_in(const HeadDisc& d, int x, int y) {
+  int in = 0;
+  for (int j = 0; j < kHeadSub; ++j) {
+    const double dy = y + (j + 0.5) / kHeadSub - 0.5 - d.v;
+    for (int i = 0; i < kHeadSub; ++i) {
+      const double dx = x + (i + 0.5) / kHeadSub - 0.5 - d.u;
+      in += d.q11 * dx * dx + 2 * d.q12 * dx * dy + d.q22 * dy * dy <= 1;
+    }
+  }
+  return in;
+}
+// Head d's pixels in row y (inside its box rows), each at the head's luminance times its share of
+// samples inside the ellipse, as a maximum over L; whether any was drawn.
+bool draw_head_row(ImageF& L, const HeadDisc& d, int y) {
   bool any = false;
   for (int x = d.x0; x <= d.x1; ++x) {
-    if (depth_m && !(depth_m->at(x, y) >= d.z - 1.0)) continue;
-    int in = 0;
-    for (int j = 0; j < kHeadSub; ++j) {
-      const double dy = y + (j + 0.5) / kHeadSub - 0.5 - d.v;
-      for (int i = 0; i < kHeadSub; ++i) {
-        const double dx = x + (i + 0.5) / kHeadSub - 0.5 - d.u;
-        in += d.q11 * dx * dx + 2 * d.q12 * dx * dy + d.q22 * dy * dy <= 1;
-      }
-    }
+    const int in = head_samples_in(d, x, y);
     if (!in) continue;
     const double share = static_cast<double>(in) / (kHeadSub * kHeadSub);
     for (int k = 0; k < 3; ++k) L.at(x, y, k) = std::max(L.at(x, y, k), static_cast<float>(d.head[k] * share));
@@ -2224,12 +2229,65 @@ bool draw_head_row(ImageF& L, const HeadDisc& d, int y, const ImageF* depth_m) {
   }
   return any;
 }
+// Whether head d stands behind what the metric depth puts in front of it (issue 14 §2: a luminaire
+// behind a building does not glow on its façade). A whole-head decision: hidden when more than
+// half of its samples (the drawn ellipse, head_samples_in) fall on pixels whose surface lies in
+// front of the head by more than that depth's own uncertainty; otherwise drawn whole. Why whole:
+// a head is 2-10 px, and a per-pixel test cut heads at silhouettes whose depth moves with the
+// columns in view (a façade or crown whose contact is hidden takes its depth from the columns that
+// show one), so parts of heads came and went from frame to frame (the panning test,
+// MetricLights.PanningCrops*, lost 6 points on Cityscapes with the 1 m per-pixel rule of before).
+// The uncertainty: every vertical surface's depth comes from a ground contact row through the
+// flat-ground model z = f·h/((v − y_h)·cos θ) (CameraGeometry::ground_point; the vertical plane
+// through the contact keeps that z up the column, to first order), so a contact row off by δv
+// rows moves it by δz = z²·cos θ·δv/(f·h); δv = kFacadeInlier_px (1.5 px: the row's quantisation
+// ±0.5 px and the labels' boundary ±1 px, the band the façade planes are fitted with). That is
+// 0.5 m at 30 m, 2 m at 60 m, 5.4 m at 100 m for Cityscapes' 2048-px frame (f 2262 px, h 1.22 m),
+// twice that at half the width; at the depth cap (no contact) or the sky nothing hides a head.
+// Every class with a depth counts (buildings, walls, fences, vehicles, poles, signs, vegetation:
+// a crown hides the lamps behind it as a wall does, up to its gaps).
+// Except a pole's own luminaire where the labels show its pole reaching up to the head (a pole
+// pixel under it: in the head's columns, in the two rows from its centre's down, the centre lying
+// on the top pixel's upper edge where plan_street_lighting puts it, at the pole's visible top; the
+// columns, not the centre's alone, as the pole's image leans with the pitch and its box's middle
+// column is not its top's): the photo shows the sight line to it clear, whatever depth the
+// surfaces around it got. Those are the depths least known: a crown or a building whose ground
+// contact is hidden gets one plane from the objects below it (docs/night.md §6b), and on
+// aachen_000001 and _000002 that put poles seen in front of a spire or a canopy behind them.
+bool head_hidden(const HeadDisc& d, const ImageF& depth_m, const ImageU16& labels, const CameraGeometry& g) {
+  if (d.from_pole) {
+    const int yc = static_cast<int>(std::lround(d.v));
+    for (int y = std::max(0, yc); y <= std::min(labels.height() - 1, yc + 1); ++y)
+      for (int x = d.x0; x <= d.x1; ++x) {
+        const int id = labels.at(x, y);
+        if (id == static_cast<int>(Label::Pole) || id == static_cast<int>(Label::PoleGroup)) return false;
+      }
+  }
+  const double k = std::cos(g.pitch_rad) * kFacadeInlier_px / (g.f_px * g.mount_height_m);
+  long all = 0, front = 0;
+  for (int y = d.y0; y <= d.y1; ++y)
+    for (int x = d.x0; x <= d.x1; ++x) {
+      const int in = head_samples_in(d, x, y);
+      if (!in) continue;
+      all += in;
+      const double zs = depth_m.at(x, y);
+      if (zs + k * zs * zs < d.z) front += in;
+    }
+  return 2 * front > all;
+}
+// lamp_head_discs less the heads that depth_m (when given) hides (head_hidden).
+std::vector<HeadDisc> visible_head_discs(const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p, int W,
+                                         int H, const ImageF* depth_m, const ImageU16& labels) {
+  std::vector<HeadDisc> heads = lamp_head_discs(g, s, p, W, H);
+  if (depth_m) std::erase_if(heads, [&](const HeadDisc& d) { return head_hidden(d, *depth_m, labels, g); });
+  return heads;
+}
 int draw_lamp_heads(ImageF& L, const CameraGeometry& g, const StreetLighting& s, const ScenePreset& p,
-                    const ImageF* depth_m) {
+                    const ImageF* depth_m, const ImageU16& labels) {
   int drawn = 0;
-  for (const HeadDisc& d : lamp_head_discs(g, s, p, L.width(), L.height())) {
+  for (const HeadDisc& d : visible_head_discs(g, s, p, L.width(), L.height(), depth_m, labels)) {
     bool any = false;
-    for (int y = d.y0; y <= d.y1; ++y) any |= draw_head_row(L, d, y, depth_m);
+    for (int y = d.y0; y <= d.y1; ++y) any |= draw_head_row(L, d, y);
     drawn += any;
   }
   return drawn;
@@ -3999,7 +4057,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
   // nothing runs on one thread alone after the pass. (Without either, as add_street_lighting, after
   // the pass: light_map's separate steps, its definition.)
   const bool heads_in_pass = (compose || first) && lamps;
-  const std::vector<HeadDisc> heads = heads_in_pass ? lamp_head_discs(g, s, p, W, H) : std::vector<HeadDisc>();
+  const std::vector<HeadDisc> heads = heads_in_pass ? visible_head_discs(g, s, p, W, H, &depth_m, labels) : std::vector<HeadDisc>();
   std::vector<uint8_t> head_drawn(heads.size(), 0);
   std::unordered_set<uint64_t> all;
   // The rows in chunks of 8, those outside the side job's band [b0, b1] first, then the band's;
@@ -4059,7 +4117,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
         }
         windows.row(L, y, ws);
         for (size_t k = 0; k < heads.size(); ++k)
-          if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y, nullptr)) drawn[k] = 1;
+          if (y >= heads[k].y0 && y <= heads[k].y1 && draw_head_row(L, heads[k], y)) drawn[k] = 1;
         if (compose) compose->row(y);
       }
     }
@@ -4077,7 +4135,7 @@ StreetRowsResult add_street_light_rows(ImageF& L, const ImageF& texture, const I
   out.shadow_pixels = shaded;
   if (lamps) {
     if (heads_in_pass) out.pole_lamps = static_cast<int>(std::count(head_drawn.begin(), head_drawn.end(), uint8_t{1}));
-    else out.pole_lamps = draw_lamp_heads(L, g, s, p, nullptr);
+    else out.pole_lamps = draw_lamp_heads(L, g, s, p, &depth_m, labels);
   }
   return out;
 }

@@ -79,8 +79,9 @@ StreetLighting plan_street_lighting(const LabelMap& labels, const CameraGeometry
                                     uint64_t seed);
 // Adds the ground's diffuse reflection of the street lighting (f_k·t_k·E/π, texture f, street
 // tint t) on ground classes below the horizon, and the lamp heads (discs of head_diameter_m at
-// streetlamp_luminance_cd_m2) to `L`, a head's pixel only where `depth_m` (when given) puts
-// nothing more than 1 m in front of it. Returns the number of heads drawn.
+// streetlamp_luminance_cd_m2) to `L`, a head only where `depth_m` (when given) does not hide it:
+// hidden whole when more than half of its footprint lies on surfaces in front of it by more than
+// the depth's uncertainty there (scene/street.cpp head_hidden). Returns the number of heads drawn.
 int add_street_lighting(ImageF& L, const ImageF& texture, const ImageU16& labels, const CameraGeometry& g,
                         const StreetLighting& s, const ScenePreset& p, const ImageF* depth_m = nullptr);
 
