@@ -341,6 +341,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   const std::string mname = fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count);
   const std::string mfile = (mdir / mname).string();
   std::map<std::string, nlohmann::json> done;  // key → record
+  std::map<std::string, fs::path> done_in;     // key → the manifest file its record is in
   std::set<std::string> publishing;            // paths of "writing" records: being published at a kill
   // This shard's manifest as found: whether it holds its parameter record yet (a kill or a full
   // disk between creating it and writing the record leaves it empty, or holding a cut line), and
@@ -368,7 +369,21 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         if (e.path().filename() == mname) own_has_params = true;
         continue;
       }
-      if (is_finished_record(j)) done[j["key"].get<std::string>()] = j;
+      if (is_finished_record(j)) {
+        done[j["key"].get<std::string>()] = j;
+        done_in[j["key"].get<std::string>()] = e.path().filename();
+      } else if (j.is_object() && j.contains("failed") && j["failed"].is_string()) {
+        // A sequence's frame that failed after an earlier run had finished it: that record no
+        // longer stands, as the frames after it were computed without it (with its input restored,
+        // its sequence is redone instead of keeping them). Its files stay ours, to be replaced.
+        // Only a record of the same file is cancelled (the same shard split): the files are read
+        // in no set order.
+        const std::string k = j["failed"].get<std::string>();
+        if (const auto d = done.find(k); d != done.end() && done_in[k] == e.path().filename()) {
+          for (const auto& f : d->second["files"]) publishing.insert(f["path"].get<std::string>());
+          done.erase(d);
+        }
+      }
       // An item whose files were being published when the run was killed: they are ours.
       else if (j.is_object() && j.contains("writing") && j.contains("paths") && j["paths"].is_array())
         for (const auto& p : j["paths"])
@@ -731,6 +746,13 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     if (!error.empty()) {
       result.errors.push_back(error);
       ++pr.failed;
+      // With sequences: the frames after it are computed without it, so an earlier finished record
+      // of it must not make its sequence look finished on the next run (the manifest's reader).
+      // Best effort: a manifest that cannot be written has failed the item already.
+      if (o.sequences) try {
+          journal.append(nlohmann::json({{"failed", cmp.item.key}}).dump() + "\n");
+        } catch (const Error&) {
+        }
     } else {
       ++pr.written;
     }

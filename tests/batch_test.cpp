@@ -1172,7 +1172,8 @@ void strip_odometry_sources(const fs::path& out) {
 // (odometry_sources), and an edit of any of them redoes the sequence, whose poses then follow the
 // edit. Before, a re-run found every frame "already done" and kept the poses of the old odometry.
 // An edit of a timestamps line no frame reads redoes nothing; a manifest written before the
-// sources were kept is redone once; a broken OXTS line fails its frame, naming the file.
+// sources were kept is redone once; a broken OXTS line fails its frame, naming the file, and
+// with the line restored the sequence is redone (the frames after it were computed without it).
 TEST(Batch, EditedKittiOdometryRedoesItsSequence) {
   test::TempDir dir;
   const fs::path root = dir.path() / "kitti";
@@ -1240,6 +1241,17 @@ TEST(Batch, EditedKittiOdometryRedoesItsSequence) {
   }
   for (const auto& e : fs::recursive_directory_iterator(out))
     EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  // The record restored as it was: frame 1's earlier record, which matches it again, no longer
+  // stands (frames 2 and 3 were computed without frame 1): the sequence is redone, to the bytes
+  // of a fresh run. Before, every frame was "already done" and frames 2 and 3 kept their poses
+  // integrated over the gap.
+  write_kitti_oxts(root / "oxts/seq01", 1, 12);
+  r = runs.run(out);
+  EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.written, 4u);
+  ASSERT_TRUE(runs.run(dir.file("fresh_restored")).errors.empty());
+  EXPECT_EQ(differing_files(out, dir.file("fresh_restored")), "") << "a resumed run differs from a fresh one";
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
 }
 
 // The same for a Cityscapes sequence: its frames' vehicle JSON, timestamp and camera files (the

@@ -891,8 +891,9 @@ TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
 // only when set: --sequence, its odometry, a KITTI drive's calibration (a second run) and a lamp
 // type other than LED), the "writing" record's,
 // the finished record's and its files' (with an item's Cityscapes camera file, whose checksum is
-// recorded, and its vehicle and timestamp files, which --sequence reads), and the odometry sources'
-// of a Cityscapes frame and of a KITTI frame with OXTS and calibration files.
+// recorded, and its vehicle and timestamp files, which --sequence reads), the odometry sources'
+// of a Cityscapes frame and of a KITTI frame with OXTS and calibration files, and a failed
+// sequence frame's record.
 TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   const std::string cli = slurp(kRoot / "docs/cli.md");
   const auto at = cli.find("**Resume manifest keys**");
@@ -952,6 +953,11 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   const auto rk = run_cli("batch --backend cpu --quiet --dataset kitti --root " + kitti.string() + " --out " +
                           tmp.file("kout") + " --layers depth --sequence");
   ASSERT_EQ(rk.exit_code, 0) << rk.output;
+  // Then its frame's OXTS line broken: the frame fails, and its record is cancelled ("failed").
+  std::ofstream(kitti / "oxts/drive/data/0000000000.txt") << "0 0\n";
+  const auto rf = run_cli("batch --backend cpu --quiet --dataset kitti --root " + kitti.string() + " --out " +
+                          tmp.file("kout") + " --layers depth --sequence");
+  ASSERT_EQ(rf.exit_code, 2) << rf.output;
   std::istringstream klines(slurp(tmp.path() / "kout/.photosite-batch/shard-0-of-1.jsonl"));
   for (std::string l; std::getline(klines, l);) collect(nlohmann::json::parse(l));  // its frame's odometry sources too
   // A one-line manifest with its own odometry fields: its item's record adds odometry.
