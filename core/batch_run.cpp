@@ -341,6 +341,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   const std::string mname = fmt::format("shard-{}-of-{}.jsonl", o.shard_index, o.shard_count);
   const std::string mfile = (mdir / mname).string();
   std::map<std::string, nlohmann::json> done;  // key → record
+  std::map<std::string, fs::path> done_in;     // key → the manifest file its record is in
   std::set<std::string> publishing;            // paths of "writing" records: being published at a kill
   // This shard's manifest as found: whether it holds its parameter record yet (a kill or a full
   // disk between creating it and writing the record leaves it empty, or holding a cut line), and
@@ -368,7 +369,21 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         if (e.path().filename() == mname) own_has_params = true;
         continue;
       }
-      if (is_finished_record(j)) done[j["key"].get<std::string>()] = j;
+      if (is_finished_record(j)) {
+        done[j["key"].get<std::string>()] = j;
+        done_in[j["key"].get<std::string>()] = e.path().filename();
+      } else if (j.is_object() && j.contains("failed") && j["failed"].is_string()) {
+        // A sequence's frame that failed after an earlier run had finished it: that record no
+        // longer stands, as the frames after it were computed without it (with its input restored,
+        // its sequence is redone instead of keeping them). Its files stay ours, to be replaced.
+        // Only a record of the same file is cancelled (the same shard split): the files are read
+        // in no set order.
+        const std::string k = j["failed"].get<std::string>();
+        if (const auto d = done.find(k); d != done.end() && done_in[k] == e.path().filename()) {
+          for (const auto& f : d->second["files"]) publishing.insert(f["path"].get<std::string>());
+          done.erase(d);
+        }
+      }
       // An item whose files were being published when the run was killed: they are ours.
       else if (j.is_object() && j.contains("writing") && j.contains("paths") && j["paths"].is_array())
         for (const auto& p : j["paths"])
@@ -391,10 +406,65 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
                        "camera_yaw_rad {:.17g}", g.time_ns, g.speed_m_s, g.yaw_rate_rad_s, g.camera_forward_m,
                        g.camera_left_m, g.camera_yaw_rad);
   };
+  // Likewise what a frame's pose is computed from where the run reads a data set's odometry files
+  // (the load stage below): KITTI raw's OXTS data file (its checksum), the frame's line of the
+  // drive's timestamps (its text, as read_kitti_oxts takes it: the only part of the file the frame
+  // reads, so an edit of another frame's line, or frames appended to the drive, leave it alone)
+  // and the drive's three calibration files where read (their checksums, in kKittiCalibFiles'
+  // order); Cityscapes' vehicle JSON, timestamp file and, where the item has one, camera file (the
+  // camera's place on the vehicle, read whatever --rig says). The record keeps them as
+  // "odometry_sources"; a frame whose sources differ now is not finished, and its sequence is
+  // redone whole (frame k's pose integrates the odometry of frames 0..k). A record without them
+  // (written before they were kept) is not trusted where the frame reads odometry files now: its
+  // pose cannot be checked, so it is redone once, as a record without camera_file_xxh3_64 is where
+  // a camera file exists. Taken here, before any item is read: a file edited while the run reads
+  // it leaves a record of its earlier content, which the next run finds changed (never the reverse).
+  std::map<std::string, nlohmann::json> odometry_sources;  // item key → its sources, where it has any
+  {
+    auto sum = [](const std::string& p) {
+      const auto s = file_checksum_hex(p, ChecksumAlgorithm::Xxh3_64);
+      return s ? nlohmann::json(*s) : nlohmann::json();  // null: unreadable now (its item then fails)
+    };
+    std::map<std::string, std::optional<std::vector<std::string>>> stamp_lines;  // per timestamps file
+    std::map<std::string, nlohmann::json> calib_sums;                             // per calibration folder
+    for (const Item& it : items) {
+      if (!(o.sequences && o.ego_motion) || it.odometry.empty() || it.odometry_given) continue;
+      nlohmann::json& s = odometry_sources[it.key];
+      if (it.odometry_line >= 0) {  // KITTI raw
+        s["oxts_xxh3_64"] = sum(it.odometry);
+        auto [lines, fresh] = stamp_lines.try_emplace(it.odometry_time);
+        if (fresh)
+          if (std::ifstream f(it.odometry_time, std::ios::binary); f) {
+            std::stringstream text;
+            text << f.rdbuf();
+            lines->second = scene::kitti_timestamps_lines(text.str());
+          }
+        const auto& l = lines->second;
+        s["timestamps_line"] = l && static_cast<size_t>(it.odometry_line) < l->size()
+                                   ? nlohmann::json((*l)[static_cast<size_t>(it.odometry_line)])
+                                   : nlohmann::json();
+        if (!it.odometry_calib.empty()) {
+          auto [calib, first] = calib_sums.try_emplace(it.odometry_calib, nlohmann::json::array());
+          if (first)
+            for (const char* name : scene::kKittiCalibFiles)
+              calib->second.push_back(sum((fs::path(it.odometry_calib) / name).string()));
+          s["calibration_xxh3_64"] = calib->second;
+        }
+      } else {  // Cityscapes
+        s["vehicle_xxh3_64"] = sum(it.odometry);
+        s["timestamp_xxh3_64"] = sum(it.odometry_time);
+        if (!it.camera.empty()) s["camera_xxh3_64"] = sum(it.camera);
+      }
+    }
+  }
   auto finished = [&](const Item& it) {
     auto d = done.find(it.key);
     if (d == done.end()) return false;
     if (const auto odo = odometry_text(it); d->second.contains("odometry") ? d->second["odometry"] != odo.value_or("") : odo.has_value())
+      return false;
+    if (const auto src = odometry_sources.find(it.key);
+        d->second.contains("odometry_sources") ? src == odometry_sources.end() || d->second["odometry_sources"] != src->second
+                                               : src != odometry_sources.end())
       return false;
     const auto now = camera_checksum(it);
     if (d->second.contains("camera_file_xxh3_64")) {
@@ -667,6 +737,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         nlohmann::json rec = {{"key", cmp.item.key}, {"files", files}};
         if (cmp.camera_sum) rec["camera_file_xxh3_64"] = *cmp.camera_sum;
         if (const auto odo = odometry_text(cmp.item)) rec["odometry"] = *odo;
+        if (const auto src = odometry_sources.find(cmp.item.key); src != odometry_sources.end())
+          rec["odometry_sources"] = src->second;
         journal.append(rec.dump() + "\n");
       } catch (const Error& e) {
         error = e.what();  // published, unrecorded: its "writing" record has them redone
@@ -674,6 +746,13 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     if (!error.empty()) {
       result.errors.push_back(error);
       ++pr.failed;
+      // With sequences: the frames after it are computed without it, so an earlier finished record
+      // of it must not make its sequence look finished on the next run (the manifest's reader).
+      // Best effort: a manifest that cannot be written has failed the item already.
+      if (o.sequences) try {
+          journal.append(nlohmann::json({{"failed", cmp.item.key}}).dump() + "\n");
+        } catch (const Error&) {
+        }
     } else {
       ++pr.written;
     }

@@ -212,14 +212,21 @@ OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& t
   s.camera_forward_m = mount.forward_m;
   s.camera_left_m = mount.left_m;
   s.camera_yaw_rad = mount.yaw_rad;
-  std::istringstream ts(schema::read_text(timestamps_txt, "KITTI timestamps"));
-  std::string line;
-  for (long k = 0; k <= index; ++k)
-    if (!std::getline(ts, line))
-      fail_at(timestamps_txt, fmt::format("has {} lines; frame {} needs line {}", k, index, index + 1));
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  s.time_ns = parse_kitti_timestamp_ns(line, fmt::format("{}:{}", timestamps_txt, index + 1));
+  const std::vector<std::string> lines = kitti_timestamps_lines(schema::read_text(timestamps_txt, "KITTI timestamps"));
+  if (index < 0 || static_cast<size_t>(index) >= lines.size())
+    fail_at(timestamps_txt, fmt::format("has {} lines; frame {} needs line {}", lines.size(), index, index + 1));
+  s.time_ns = parse_kitti_timestamp_ns(lines[static_cast<size_t>(index)], fmt::format("{}:{}", timestamps_txt, index + 1));
   return s;
+}
+
+std::vector<std::string> kitti_timestamps_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream ts(text);
+  for (std::string line; std::getline(ts, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(std::move(line));
+  }
+  return lines;
 }
 
 CameraPose advance_pose(const CameraPose& pa, const OdometrySample& a, const OdometrySample& b, const std::string& where) {

@@ -1073,3 +1073,283 @@ TEST(Batch, PngRouteLayersManifestBomAndFolder) {
   EXPECT_EQ(m[0].image, dir.file("kitti/image_2/000000_10.png"));
   EXPECT_NE(error_of([&] { batch::read_manifest(o.root); }).find("is a folder, not a manifest file"), std::string::npos);
 }
+
+// ---- the odometry a sequence's poses come from, in the resume manifest ------------------------
+namespace {
+// The files (relative paths, manifests aside) whose bytes differ between two output folders, or
+// that only one holds, as "a, b, ...".
+std::string differing_files(const fs::path& a, const fs::path& b) {
+  const auto ta = tree_bytes(a), tb = tree_bytes(b);
+  std::string d;
+  for (const auto& [rel, bytes] : ta)
+    if (!tb.count(rel) || tb.at(rel) != bytes) d += (d.empty() ? "" : ", ") + rel;
+  for (const auto& [rel, bytes] : tb)
+    if (!ta.count(rel)) d += (d.empty() ? "" : ", ") + rel;
+  return d;
+}
+// `batch --sequence` over a data set with odometry files, in process: each run discovers the
+// items afresh (a calibration folder is found by discover) and writes the depth layer only (the
+// EXR's header holds the frame's pose).
+struct OdometryRuns {
+  test::TempDir& dir;
+  batch::Dataset dataset;
+  std::string root;
+  bool item_cameras = true;
+  SensorRunner cpu{Backend::Cpu};
+  batch::Result run(const std::string& out) {
+    auto o = kitti_options(dir, root, out);
+    o.format = "exr";
+    o.layers = static_cast<unsigned>(Layer::Depth);
+    o.sequences = true;
+    o.item_cameras = item_cameras;
+    return batch::run(batch::discover(dataset, root), o, cpu);
+  }
+  // The pose the header of `out`/`key`.exr records, as text (17 digits: the doubles).
+  static std::string pose(const std::string& out, const std::string& key) {
+    const auto a = read_exr_attributes(out + "/" + key + ".exr");
+    return a.at("photosite/batch/pose_X_m_text") + " " + a.at("photosite/batch/pose_D_m_text") + " " +
+           a.at("photosite/batch/pose_yaw_rad_text");
+  }
+  // `edit` a source, then re-run into `out`: the whole sequence is redone (frame 0 too: a group
+  // with an unfinished frame is redone whole), the poses of frames keys[0..first_changed) stay,
+  // those of the later ones change, and the folder holds the bytes of a fresh run into another
+  // folder with the edited sources; a re-run then has nothing to do.
+  void expect_redone(const std::string& out, const std::vector<std::string>& keys, const std::function<void()>& edit,
+                     size_t first_changed, const std::string& fresh) {
+    std::vector<std::string> before;
+    for (const auto& k : keys) before.push_back(pose(out, k));
+    edit();
+    const auto r = run(out);
+    EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+    EXPECT_EQ(r.progress.already_done, 0u);
+    EXPECT_EQ(r.progress.written, keys.size());
+    for (size_t f = 0; f < keys.size(); ++f) {
+      if (f < first_changed) {
+        EXPECT_EQ(pose(out, keys[f]), before[f]) << keys[f];
+      } else {
+        EXPECT_NE(pose(out, keys[f]), before[f]) << keys[f] << ": the same pose after the edit";
+      }
+    }
+    ASSERT_TRUE(run(fresh).errors.empty());
+    EXPECT_EQ(differing_files(out, fresh), "") << "a resumed run differs from a fresh one";
+    EXPECT_EQ(run(out).progress.written, 0u);
+  }
+};
+// A KITTI raw drive's odometry (for make_kitti's sequence seq01: under oxts/seq01 and
+// calib/seq01): frame f's OXTS record in `oxts`/data (vf `speed_m_s`, wu 0.2 rad/s: a left turn,
+// so the camera's lever arm moves its pose), and calibration files in `c` placing camera 2
+// `forward_m` ahead of the OXTS unit, looking ahead (the chain's rotations the axes'
+// permutation: x_cam = (−y, −z, x)).
+void write_kitti_oxts(const fs::path& oxts, int f, double speed_m_s) {
+  std::string line;
+  for (int k = 0; k < 30; ++k)
+    line += (k == 8 ? fmt::format("{}", speed_m_s) : k == 22 ? std::string("0.2") : std::string("0")) + (k < 29 ? " " : "\n");
+  fs::create_directories(oxts / "data");
+  std::ofstream(oxts / "data" / fmt::format("{:010d}.txt", f)) << line;
+}
+void write_kitti_calib(const fs::path& c, double forward_m) {
+  fs::create_directories(c);
+  std::ofstream(c / "calib_imu_to_velo.txt") << fmt::format("R: 1 0 0 0 1 0 0 0 1\nT: {} 0 0\n", -forward_m);
+  std::ofstream(c / "calib_velo_to_cam.txt") << "R: 0 -1 0 0 0 -1 1 0 0\nT: 0 0 0\n";
+  std::ofstream(c / "calib_cam_to_cam.txt") << "R_rect_00: 1 0 0 0 1 0 0 0 1\nP_rect_02: 200 0 80 0 0 200 40 0 0 0 1 0\n";
+}
+// The resume manifest with "odometry_sources" taken out of every record: one written before they
+// were kept.
+void strip_odometry_sources(const fs::path& out) {
+  const fs::path m = out / ".photosite-batch/shard-0-of-1.jsonl";
+  std::string text;
+  for (const auto& line : lines_of(m)) {
+    auto j = nlohmann::json::parse(line);
+    j.erase("odometry_sources");
+    text += j.dump() + "\n";
+  }
+  std::ofstream(m, std::ios::binary) << text;
+}
+}  // namespace
+
+// A KITTI drive's odometry files are what its frames' poses are computed from: each frame's record
+// keeps its OXTS file's checksum, its timestamps line and the calibration files' checksums
+// (odometry_sources), and an edit of any of them redoes the sequence, whose poses then follow the
+// edit. Before, a re-run found every frame "already done" and kept the poses of the old odometry.
+// An edit of a timestamps line no frame reads redoes nothing; a manifest written before the
+// sources were kept is redone once; a broken OXTS line fails its frame, naming the file, and
+// with the line restored the sequence is redone (the frames after it were computed without it).
+TEST(Batch, EditedKittiOdometryRedoesItsSequence) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "kitti";
+  make_kitti(root, 0, 4);
+  std::vector<std::string> keys, stamps;
+  for (int f = 0; f < 4; ++f) {
+    keys.push_back(fmt::format("image_2/seq01/{:010d}", f));
+    write_kitti_oxts(root / "oxts/seq01", f, 10);
+    stamps.push_back(fmt::format("2011-09-26 13:02:2{}.{}00", f / 2, f % 2 ? 5 : 0));
+  }
+  auto write_stamps = [&] {
+    std::string text;
+    for (const auto& s : stamps) text += s + "\n";
+    std::ofstream(root / "oxts/seq01/timestamps.txt") << text;
+  };
+  write_stamps();
+  write_kitti_calib(root / "calib/seq01", 1.5);
+  OdometryRuns runs{dir, batch::Dataset::Kitti, root.string()};
+  const std::string out = dir.file("out");
+  auto r = runs.run(out);
+  ASSERT_TRUE(r.errors.empty()) << r.errors.front();
+  ASSERT_EQ(r.progress.written, 4u);
+  r = runs.run(out);  // untouched: nothing redone
+  EXPECT_EQ(r.progress.already_done, 4u);
+  EXPECT_EQ(r.progress.written, 0u);
+  const std::string frame0 = slurp_text(out + "/" + keys[0] + ".exr");
+  {
+    SCOPED_TRACE("frame 1's OXTS record: vf 10 -> 12 m/s");
+    runs.expect_redone(out, keys, [&] { write_kitti_oxts(root / "oxts/seq01", 1, 12); }, 1, dir.file("fresh_oxts"));
+    EXPECT_TRUE(slurp_text(out + "/" + keys[0] + ".exr") == frame0) << "frame 0 redone with other bytes";
+  }
+  {
+    SCOPED_TRACE("frame 2's timestamps line: 0.1 s later");
+    runs.expect_redone(out, keys, [&] { stamps[2] = "2011-09-26 13:02:21.100"; write_stamps(); }, 2, dir.file("fresh_stamps"));
+    EXPECT_TRUE(slurp_text(out + "/" + keys[0] + ".exr") == frame0) << "frame 0 redone with other bytes";
+  }
+  {
+    SCOPED_TRACE("the calibration: camera 2 1.5 -> 0.5 m ahead of the OXTS unit");
+    runs.expect_redone(out, keys, [&] { write_kitti_calib(root / "calib/seq01", 0.5); }, 1, dir.file("fresh_calib"));
+  }
+  // A line no frame reads (the drive's next frame, whose image is not in the data set): the file
+  // changed, every frame's own line did not.
+  stamps.push_back("2011-09-26 13:02:22.000");
+  write_stamps();
+  r = runs.run(out);
+  EXPECT_EQ(r.progress.already_done, 4u);
+  EXPECT_EQ(r.progress.written, 0u);
+  // A manifest written before the sources were kept: its frames' poses cannot be checked, so they
+  // are redone (to the same bytes), once.
+  const auto bytes = tree_bytes(out);
+  strip_odometry_sources(out);
+  r = runs.run(out);
+  EXPECT_EQ(r.progress.already_done, 0u);
+  EXPECT_EQ(r.progress.written, 4u);
+  EXPECT_TRUE(tree_bytes(out) == bytes) << "redone to other bytes";
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+  // Frame 1's OXTS record broken: that frame fails naming its file, on this run and the next (its
+  // record is not trusted), and no temporary is left.
+  std::ofstream(root / "oxts/seq01/data/0000000001.txt") << "10 0.2\n";
+  for (int pass = 0; pass < 2; ++pass) {
+    r = runs.run(out);
+    ASSERT_EQ(r.errors.size(), 1u);
+    EXPECT_NE(r.errors[0].find("seq01/data/0000000001.txt: holds 2 numbers"), std::string::npos) << r.errors[0];
+    EXPECT_EQ(r.progress.written, 3u);
+  }
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  // The record restored as it was: frame 1's earlier record, which matches it again, no longer
+  // stands (frames 2 and 3 were computed without frame 1): the sequence is redone, to the bytes
+  // of a fresh run. Before, every frame was "already done" and frames 2 and 3 kept their poses
+  // integrated over the gap.
+  write_kitti_oxts(root / "oxts/seq01", 1, 12);
+  r = runs.run(out);
+  EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.written, 4u);
+  ASSERT_TRUE(runs.run(dir.file("fresh_restored")).errors.empty());
+  EXPECT_EQ(differing_files(out, dir.file("fresh_restored")), "") << "a resumed run differs from a fresh one";
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+}
+
+// The same for a Cityscapes sequence: its frames' vehicle JSON, timestamp and camera files (the
+// camera's place on the vehicle, read with --rig too, where the camera file's own checksum is not
+// recorded as the item's rig).
+TEST(Batch, EditedCityscapesOdometryRedoesItsSequence) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "cs";
+  const std::vector<std::string> stems = {"city_000000_000018", "city_000000_000019"};
+  make_cityscapes(root, {"val/city/" + stems[0], "val/city/" + stems[1]});
+  for (const char* d : {"camera/val/city", "vehicle/val/city", "timestamp/val/city"}) fs::create_directories(root / d);
+  auto write_vehicle = [&](int f, double speed_m_s) {
+    std::ofstream(root / "vehicle/val/city" / (stems[f] + "_vehicle.json"))
+        << fmt::format(R"({{"speed": {}, "yawRate": 0.1}})", speed_m_s);
+  };
+  auto write_camera = [&](int f, double yaw_rad) {
+    std::ofstream(root / "camera/val/city" / (stems[f] + "_camera.json")) << fmt::format(
+        R"({{"extrinsic": {{"pitch": 0.05, "x": 1.7, "y": 0.1, "yaw": {}, "z": 1.2}}, "intrinsic": {{"fx": 200, "fy": 200, "u0": 80, "v0": 40}}}})",
+        yaw_rad);
+  };
+  std::vector<std::string> keys;
+  for (int f = 0; f < 2; ++f) {
+    keys.push_back("leftImg8bit/val/city/" + stems[f] + "_leftImg8bit");
+    write_vehicle(f, 12);
+    write_camera(f, -0.02);
+    std::ofstream(root / "timestamp/val/city" / (stems[f] + "_timestamp.txt")) << f * 58823529 << "\n";  // 1/17 s apart
+  }
+  OdometryRuns runs{dir, batch::Dataset::Cityscapes, root.string()};
+  runs.item_cameras = false;  // as with --rig: the camera files give the camera's place only
+  const std::string out = dir.file("out");
+  auto r = runs.run(out);
+  ASSERT_TRUE(r.errors.empty()) << r.errors.front();
+  ASSERT_EQ(r.progress.written, 2u);
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+  {
+    SCOPED_TRACE("frame 19's vehicle file: 12 -> 15 m/s");
+    runs.expect_redone(out, keys, [&] { write_vehicle(1, 15); }, 1, dir.file("fresh_vehicle"));
+  }
+  {
+    SCOPED_TRACE("frame 19's timestamp: 1/17 -> 1/10 s");
+    runs.expect_redone(
+        out, keys, [&] { std::ofstream(root / "timestamp/val/city" / (stems[1] + "_timestamp.txt")) << "100000000\n"; }, 1,
+        dir.file("fresh_timestamp"));
+  }
+  {
+    SCOPED_TRACE("frame 19's camera file: turned 0.02 rad further left on the vehicle");
+    runs.expect_redone(out, keys, [&] { write_camera(1, 0.0); }, 1, dir.file("fresh_camera"));
+  }
+  // A manifest written before the sources were kept is redone once.
+  strip_odometry_sources(out);
+  r = runs.run(out);
+  EXPECT_EQ(r.progress.written, 2u);
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+}
+
+// A KITTI raw download as it ships (DATE/DATE_drive_NNNN_sync/image_02/data/*.png, its oxts/
+// folder, DATE/calib_*.txt) is read through folder links into batch's layout, as docs/cli.md
+// tells: image_2/DRIVE and oxts/DRIVE link to the drive's folders, calib/DRIVE to the date's,
+// semantic/DRIVE holds the labels (KITTI raw has none). The frames get the poses, from the same
+// odometry and calibration, of the same drive copied into the layout.
+TEST(Batch, KittiRawDriveIsReadThroughFolderLinks) {
+  test::TempDir dir;
+  const fs::path copy = dir.path() / "copy";
+  make_kitti(copy, 0, 3);
+  const fs::path date = dir.path() / "raw/2011_09_26", drive = date / "2011_09_26_drive_0001_sync";
+  fs::create_directories(drive / "image_02/data");
+  std::string stamps;
+  for (int f = 0; f < 3; ++f) {
+    const std::string name = fmt::format("{:010d}", f);
+    write_kitti_oxts(copy / "oxts/seq01", f, 8 + f);
+    write_kitti_oxts(drive / "oxts", f, 8 + f);
+    fs::copy_file(copy / "image_2/seq01" / (name + ".png"), drive / "image_02/data" / (name + ".png"));
+    stamps += fmt::format("2011-09-26 13:02:2{}.000000000\n", f);
+  }
+  std::ofstream(copy / "oxts/seq01/timestamps.txt") << stamps;
+  std::ofstream(drive / "oxts/timestamps.txt") << stamps;
+  write_kitti_calib(copy / "calib/seq01", 1.2);
+  write_kitti_calib(date, 1.2);
+  const fs::path linked = dir.path() / "linked";
+  for (const char* d : {"image_2", "oxts", "calib"}) fs::create_directories(linked / d);
+  fs::create_symlink(drive / "image_02/data", linked / "image_2/2011_09_26_drive_0001");
+  fs::create_symlink(drive / "oxts", linked / "oxts/2011_09_26_drive_0001");
+  fs::create_symlink(date, linked / "calib/2011_09_26_drive_0001");
+  fs::create_directories(linked / "semantic");
+  fs::copy(copy / "semantic/seq01", linked / "semantic/2011_09_26_drive_0001");
+  const auto items = batch::discover(batch::Dataset::Kitti, linked.string());
+  ASSERT_EQ(items.size(), 3u);
+  EXPECT_EQ(items[2].key, "image_2/2011_09_26_drive_0001/0000000002");
+  EXPECT_EQ(items[2].odometry_calib, (linked / "calib/2011_09_26_drive_0001").string());
+  OdometryRuns from_copy{dir, batch::Dataset::Kitti, copy.string()}, from_links{dir, batch::Dataset::Kitti, linked.string()};
+  ASSERT_TRUE(from_copy.run(dir.file("out_copy")).errors.empty());
+  const auto r = from_links.run(dir.file("out_linked"));
+  ASSERT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.written, 3u);
+  for (int f = 1; f < 3; ++f)
+    EXPECT_EQ(OdometryRuns::pose(dir.file("out_linked"), fmt::format("image_2/2011_09_26_drive_0001/{:010d}", f)),
+              OdometryRuns::pose(dir.file("out_copy"), fmt::format("image_2/seq01/{:010d}", f)));
+  const auto a = read_exr_attributes(dir.file("out_linked/image_2/2011_09_26_drive_0001/0000000002.exr"));
+  EXPECT_NE(a.at("photosite/batch/camera_mount").find("KITTI calibration"), std::string::npos);
+  EXPECT_EQ(std::stod(a.at("photosite/batch/camera_forward_m_text")), 1.2);
+}

@@ -891,7 +891,9 @@ TEST(Docs, BatchDefaultLayersAreTheDocumentedOnes) {
 // only when set: --sequence, its odometry, a KITTI drive's calibration (a second run) and a lamp
 // type other than LED), the "writing" record's,
 // the finished record's and its files' (with an item's Cityscapes camera file, whose checksum is
-// recorded, and its vehicle and timestamp files, which --sequence reads).
+// recorded, and its vehicle and timestamp files, which --sequence reads), the odometry sources'
+// of a Cityscapes frame and of a KITTI frame with OXTS and calibration files, and a failed
+// sequence frame's record.
 TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   const std::string cli = slurp(kRoot / "docs/cli.md");
   const auto at = cli.find("**Resume manifest keys**");
@@ -918,10 +920,8 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
                          tmp.file("out") + " --layers depth --sequence --streetlamp-type hps");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::set<std::string> written;
-  std::istringstream lines(slurp(tmp.path() / "out/.photosite-batch/shard-0-of-1.jsonl"));
-  int records = 0;
-  for (std::string l; std::getline(lines, l); ++records) {
-    const auto j = nlohmann::json::parse(l);
+  // A record's keys, its objects' (the parameters, the odometry sources) and its arrays' objects' (files).
+  auto collect = [&](const nlohmann::json& j) {
     for (const auto& [k, v] : j.items()) {
       written.insert(k);
       if (v.is_object())
@@ -931,7 +931,10 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
           if (e.is_object())
             for (const auto& [k2, v2] : e.items()) written.insert(k2);
     }
-  }
+  };
+  std::istringstream lines(slurp(tmp.path() / "out/.photosite-batch/shard-0-of-1.jsonl"));
+  int records = 0;
+  for (std::string l; std::getline(lines, l); ++records) collect(nlohmann::json::parse(l));
   EXPECT_EQ(records, 3);  // the parameters, "writing", the finished item
   // A one-frame KITTI drive with its OXTS record and calibration files (calib/<sub>/: the camera
   // at the OXTS unit, looking ahead), whose parameter record adds camera_mount.
@@ -950,11 +953,13 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   const auto rk = run_cli("batch --backend cpu --quiet --dataset kitti --root " + kitti.string() + " --out " +
                           tmp.file("kout") + " --layers depth --sequence");
   ASSERT_EQ(rk.exit_code, 0) << rk.output;
+  // Then its frame's OXTS line broken: the frame fails, and its record is cancelled ("failed").
+  std::ofstream(kitti / "oxts/drive/data/0000000000.txt") << "0 0\n";
+  const auto rf = run_cli("batch --backend cpu --quiet --dataset kitti --root " + kitti.string() + " --out " +
+                          tmp.file("kout") + " --layers depth --sequence");
+  ASSERT_EQ(rf.exit_code, 2) << rf.output;
   std::istringstream klines(slurp(tmp.path() / "kout/.photosite-batch/shard-0-of-1.jsonl"));
-  std::string first;
-  std::getline(klines, first);
-  const auto kparams = nlohmann::json::parse(first);  // kept: the loop's range refers into it
-  for (const auto& [k, v] : kparams.at("params").items()) written.insert(k);
+  for (std::string l; std::getline(klines, l);) collect(nlohmann::json::parse(l));  // its frame's odometry sources too
   // A one-line manifest with its own odometry fields: its item's record adds odometry.
   std::ofstream(tmp.path() / "m.txt") << (sample / "image_2/000000_10.png").string() << " "
                                       << (sample / "semantic/000000_10.png").string()

@@ -182,11 +182,13 @@ std::vector<std::string> output_paths(const Item& item, const std::string& forma
 // written under a temporary name and renamed; temporaries of killed runs of this machine and pid
 // namespace are removed first (io.h is_stale_temporary; another machine's are left alone). A
 // per-shard manifest (<out>/.photosite-batch/) records each finished item with its files'
-// checksums: items whose files are intact are skipped. Bad input (Error) before any work: a
-// manifest of other parameters in `out` (the message names the first differing parameter), a
-// damaged manifest, an output that exists and is not this run's, two different inputs that
-// would be written to one output path (among all items, not only the shard's), `out` being the
-// data set root, a bad option. Items that fail (a manifest record that cannot be written among
+// checksums: items whose files are intact are skipped (not an item whose own inputs beyond its
+// image recorded there changed since: a Cityscapes camera file, a manifest line's odometry
+// fields, with sequences the odometry files its pose was computed from; docs/cli.md "Resume
+// manifest keys"). Bad input (Error) before any work: a manifest of other parameters in `out`
+// (the message names the first differing parameter), a damaged manifest, an output that exists
+// and is not this run's, two different inputs that would be written to one output path (among
+// all items, not only the shard's), `out` being the data set root, a bad option. Items that fail (a manifest record that cannot be written among
 // the reasons) are listed in Result::errors; the others are written. The bytes written depend
 // on neither jobs, queue_depth, compute_threads nor the sharding.
 Result run(const std::vector<Item>& items, const Options& options, SensorRunner& backend,

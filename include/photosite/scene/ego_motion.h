@@ -21,6 +21,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "photosite/scene/luminaires.h"
 #include "photosite/scene/rig.h"
@@ -78,6 +79,10 @@ OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const s
 // and on a line that does not hold 30 numbers or a timestamps file without that line.
 OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index,
                                const CameraMount& mount = {});
+// A KITTI timestamps file's text as read_kitti_oxts reads its lines: line k (0-based) is frame
+// k's, without its '\n' and a trailing '\r' (a file saved with CRLF endings reads the same). batch
+// records a frame's line (its resume manifest's odometry_sources) from these.
+std::vector<std::string> kitti_timestamps_lines(const std::string& text);
 // "YYYY-MM-DD HH:MM:SS[.fraction]" (UTC, up to 9 fraction digits) as ns since 1970 (KITTI's
 // timestamps). Bad input naming `where` otherwise.
 int64_t parse_kitti_timestamp_ns(const std::string& text, const std::string& where);
