@@ -279,21 +279,26 @@ Fit fit_road_line(const std::vector<KerbPoint>& pts, double c, bool curved, bool
     return true;
   };
   // Residuals (standardised) and each point's error at the current parameters.
-  auto residuals = [&](bool exact) {
+  // (The errors are set anew where the slopes may have moved: once the convex start has put the
+  // line near the points, and in each exact step; a tangent per point is the fit's dearest part.)
+  auto residuals = [&](bool exact, bool errors) {
     for (size_t i = 0; i < n; ++i) {
       const KerbPoint& k = pts[i];
       const double e = k.side == 0 ? th[0] : th[1];
       const double off = exact ? model_offset(k.X, k.D, th[2], c, th[3]) : k.X - th[2] * k.D - th[3] * quad(k);
-      const double slope = std::tan(std::clamp(th[2] + th[3] * std::max(0.0, k.D - c), -1.3, 1.3));
-      const double across = k.z / g.f_px, along = slope * k.D * k.D / (g.f_px * g.mount_height_m);
-      sig[i] = std::hypot(across, along);
+      if (errors) {
+        const double slope = std::tan(std::clamp(th[2] + th[3] * std::max(0.0, k.D - c), -1.3, 1.3));
+        const double across = k.z / g.f_px, along = slope * k.D * k.D / (g.f_px * g.mount_height_m);
+        sig[i] = std::hypot(across, along);
+      }
       r[i] = (off - e) / sig[i];
     }
   };
+  std::vector<double> abs_r(n);
   auto robust_scale = [&]() {
-    std::vector<double> a(n);
-    for (size_t i = 0; i < n; ++i) a[i] = std::fabs(r[i]);
-    return std::max(1.0, 1.4826 * median_of(a));
+    for (size_t i = 0; i < n; ++i) abs_r[i] = std::fabs(r[i]);
+    std::nth_element(abs_r.begin(), abs_r.begin() + n / 2, abs_r.end());
+    return std::max(1.0, 1.4826 * abs_r[n / 2]);
   };
   auto weight = [&](bool tukey, double t) {
     if (!tukey) return t <= 1.345 ? 1 : 1.345 / t;
@@ -307,24 +312,24 @@ Fit fit_road_line(const std::vector<KerbPoint>& pts, double c, bool curved, bool
   for (size_t i = 0; i < n; ++i) sig[i] = pts[i].z / g.f_px;
   if (!linear_step()) return f;
   for (int it = 0; it < 3; ++it) {
-    residuals(false);
+    residuals(false, it == 0);
     weigh(false, robust_scale());
     if (!linear_step()) return f;
   }
   double s = 1;
   for (int it = 0; it < 3; ++it) {
-    residuals(false);
+    residuals(false, it == 0);
     s = robust_scale();
     weigh(true, s);
     if (!linear_step()) return f;
   }
   for (int it = 0; exact && it < 4; ++it) {
-    residuals(true);
+    residuals(true, true);
     s = robust_scale();
     weigh(true, s);
     if (!exact_step(it == 3)) return f;
   }
-  residuals(exact);
+  residuals(exact, exact);
   f.ok = true;
   f.el = th[0];
   f.er = th[1];
@@ -367,7 +372,7 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
   // distance for the slope's own error over a gap behind a parked car); one farther off is a
   // junction's mouth, a driveway or a hidden stretch, and ends that kerb's track there (a kerb is
   // not picked up again: what lies beyond a mouth may be the side street's).
-  struct Track { bool alive = true, seen = false; double X = 0, D = 0, slope = 0; };
+  struct Track { bool alive = true, seen = false; double X = 0, D = 0, slope = 0, kept_D = 0; };
   Track track[2];
   auto predict = [&](const Track& t, double D) { return t.X + t.slope * (D - t.D); };
   // The scan starts at the principal column, then in the last row's run's middle until a kerb is
@@ -422,7 +427,15 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
       t.X = Xs[side];
       t.D = D;
       t.seen = true;
-      pts.push_back({Xs[side], D, z, side});
+      // Kept for the fit every 2% of distance: the rows near the camera are a few centimetres
+      // apart (D²/(f·h): 0.036 m at 10 m in a 2048-px Cityscapes frame), their kerb points the same
+      // label edge's pixels, not independent measurements; so the near rows do not outweigh the far
+      // ones and the fit's standard errors do not shrink with the resolution. 115 points a kerb
+      // at most over 10-100 m (ln 10 / ln 1.02).
+      if (!(t.kept_D > 0) || D >= 1.02 * t.kept_D) {
+        t.kept_D = D;
+        pts.push_back({Xs[side], D, z, side});
+      }
     }
     found = true;
     start = 0.5 * (x0 + x1);  // (until the kerbs are seen; then the kerbs continued, above)
@@ -452,8 +465,9 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
     if (f.ok && (best_c < 0 || f.cost < best_cost)) best_c = c, best_cost = f.cost;
   }
   // Then to the metre about it (a start off by δc moves the arc's points s beyond it by κ·s·δc:
-  // 0.1 m at 20 m on a 100 m radius for half a metre).
-  for (double c = std::max(0.0, best_c - 4), c0 = best_c, hi = std::min(far - 10, best_c + 4); best_c >= 0 && c <= hi; ++c) {
+  // 0.1 m at 20 m on a 100 m radius for half a metre): the grid's neighbours within 2 m (a start
+  // between two grid points fits best at the nearer, within 2.5 m).
+  for (double c = std::max(0.0, best_c - 2), c0 = best_c, hi = std::min(far - 10, best_c + 2); best_c >= 0 && c <= hi; ++c) {
     if (c == c0) continue;
     const Fit f = fit_road_line(pts, c, true, false, g);
     if (f.ok && f.cost < best_cost) best_c = c, best_cost = f.cost;
@@ -469,9 +483,9 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
     out.points = f.used;
     out.residual_rms_m = f.rms;
   };
-  // Curved: its curvature 5 standard errors from 0 (up to 27 starts are tried: at 4 a straight
-  // road's kerbs, with Gaussian errors, would be taken for curved in up to 27 × 6.3·10⁻⁵ = 1.7·10⁻³
-  // of frames (Bonferroni), at 5 in 27 × 5.7·10⁻⁷ = 1.5·10⁻⁵), and bending the line at least half a
+  // Curved: its curvature 5 standard errors from 0 (up to 23 starts are tried: at 4 a straight
+  // road's kerbs, with Gaussian errors, would be taken for curved in up to 23 × 6.3·10⁻⁵ = 1.4·10⁻³
+  // of frames (Bonferroni), at 5 in 23 × 5.7·10⁻⁷ = 1.3·10⁻⁵), and bending the line at least half a
   // metre from straight at the farthest point used (κ(D − c)²/2: twice the quarter metre the kerbs'
   // medians are rounded to, plan_street_lighting), so a bend too slight to move a luminaire is not
   // followed.
