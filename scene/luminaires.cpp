@@ -199,11 +199,7 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
           // the bend stay where they were, to rounding).
           const double a_end = last.a0 + last.len_m, c = ra.curved ? std::max(0.0, a_cam + ra.curve_start_m - a_end) : 0;
           line.push_back(road_piece_after(last, 0, c, last.left_m, last.right_m));
-          if (ra.curved) {
-            line.push_back(road_piece_after(line.back(), ra.kappa_per_m, 0.5 * M_PI / std::fabs(ra.kappa_per_m), last.left_m,
-                                            last.right_m));
-            line.push_back(road_piece_after(line.back(), 0, 0, last.left_m, last.right_m));
-          }
+          if (ra.curved) road_append_quarter_turn(&line, ra.kappa_per_m, last.left_m, last.right_m);
         } else {
           RoadAhead here = ra;
           here.left_m = last.left_m - off_cam;

@@ -101,15 +101,25 @@ void road_line_project(const std::vector<RoadPiece>& line, double X, double D, d
   }
 }
 
+void road_append_quarter_turn(std::vector<RoadPiece>* line, double kappa, double left_m, double right_m) {
+  // A quarter turn at most (road_line_piece's extrapolation: beyond it the road continued on the
+  // circle runs across or behind the view), then straight on.
+  line->push_back(road_piece_after(line->back(), kappa, 0.5 * M_PI / std::fabs(kappa), left_m, right_m));
+  line->push_back(road_piece_after(line->back(), 0, 0, left_m, right_m));
+}
+
 std::vector<RoadPiece> road_ahead_pieces(const RoadAhead& r) {
   std::vector<RoadPiece> line{{0, 0, r.heading_rad, 0, 0, r.curved ? r.curve_start_m : 0, r.left_m, r.right_m}};
-  if (!r.curved) return line;
-  // A quarter turn at most (LuminaireSet's extrapolation, scene/luminaires.cpp: beyond it the road
-  // continued on the circle runs across or behind the view), then straight on.
-  const double quarter = 0.5 * M_PI / std::fabs(r.kappa_per_m);
-  line.push_back(road_piece_after(line.back(), r.kappa_per_m, quarter, r.left_m, r.right_m));
-  line.push_back(road_piece_after(line.back(), 0, 0, r.left_m, r.right_m));
+  if (r.curved) road_append_quarter_turn(&line, r.kappa_per_m, r.left_m, r.right_m);
   return line;
+}
+
+void carriageway_run(const ImageU16& ids, int x, int y, int* x0, int* x1) {
+  auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
+  const int W = ids.width();
+  *x0 = *x1 = x;
+  while (*x0 > 0 && carriageway(ids.at(*x0 - 1, y))) --*x0;
+  while (*x1 < W - 1 && carriageway(ids.at(*x1 + 1, y))) ++*x1;
 }
 
 double road_ahead_kerb_se_m(const RoadAhead& r, double a_m, bool right) {
@@ -400,9 +410,8 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
       continue;
     }
     if (!found && ids.at(xs, y) != static_cast<int>(Label::Road)) continue;
-    int x0 = xs, x1 = xs;
-    while (x0 > 0 && carriageway(ids.at(x0 - 1, y))) --x0;
-    while (x1 < W - 1 && carriageway(ids.at(x1 + 1, y))) ++x1;
+    int x0, x1;
+    carriageway_run(ids, xs, y, &x0, &x1);
     double Xa, Xb;
     g.ground_point(x0 - 0.5, y, &Xa, nullptr, nullptr);
     g.ground_point(x1 + 0.5, y, &Xb, nullptr, nullptr);

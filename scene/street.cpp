@@ -673,7 +673,6 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // Medians over the rows. (Taking this run rather than the outermost road pixels keeps side
   // streets entering the view from moving the edges.)
   std::vector<double> lefts, rights, lefts_seen;
-  auto carriageway = [&](int id) { return id == static_cast<int>(Label::Road) || is_vehicle(id); };
   const int xc = static_cast<int>(std::lround(g.cx_px));
   int rows_ahead = 0, rows_on_road = 0;  // for the note when no edge is found
   for (int y = std::max(0, static_cast<int>(std::ceil(g.horizon_y)) + 1); y < H && xc >= 0 && xc < W; ++y) {
@@ -682,9 +681,8 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
     ++rows_ahead;
     if (ids.at(xc, y) != static_cast<int>(Label::Road)) continue;
     ++rows_on_road;
-    int x0 = xc, x1 = xc;
-    while (x0 > 0 && carriageway(ids.at(x0 - 1, y))) --x0;
-    while (x1 < W - 1 && carriageway(ids.at(x1 + 1, y))) ++x1;
+    int x0, x1;
+    carriageway_run(ids, xc, y, &x0, &x1);
     double Xa, Xb;
     g.ground_point(x0 - 0.5, y, &Xa, nullptr, nullptr);
     g.ground_point(x1 + 0.5, y, &Xb, nullptr, nullptr);
@@ -782,10 +780,12 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
   // nearest to it along the line on its side of the line's middle. On a straight road the rows run
   // straight ahead at the kerbs' medians, as before the fit (the same bits).
   s.road_ahead = measure_road_ahead(ids, g);
+  // Two staggered rows on a road wider than the mounting height (at the kerbs the rows stand along).
+  const bool both = (s.road_ahead.curved ? s.road_ahead.right_m - s.road_ahead.left_m : s.road_right_m - s.road_left_m) >
+                    p.lamp_mount_height_m;
   if (s.road_ahead.curved) {
     const RoadAhead& ra = s.road_ahead;
     const std::vector<RoadPiece> line = road_ahead_pieces(ra);
-    const bool both = ra.right_m - ra.left_m > p.lamp_mount_height_m;
     struct Placed { StreetLamp l; double a, off; };
     std::vector<Placed> rows;
     auto place = [&](double a, bool right) {
@@ -815,7 +815,6 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
     }
     for (const auto& w : rows) s.lamps.push_back(w.l);
   } else {
-    const bool both = s.road_right_m - s.road_left_m > p.lamp_mount_height_m;
     {
       const double phase = street_layout_phase_m(p, seed);
       for (int k = -1; k * S <= p.lamp_max_distance_m; ++k) {
@@ -836,8 +835,6 @@ StreetLighting plan_street_lighting_with(const LabelMap& lm, const CameraGeometr
       else s.lamps.push_back(pole);
     }
   }
-  const bool both = (s.road_ahead.curved ? s.road_ahead.right_m - s.road_ahead.left_m : s.road_right_m - s.road_left_m) >
-                    p.lamp_mount_height_m;
   s.source = poles.empty() ? "road_edges" : "poles+road_edges";
   std::sort(s.lamps.begin(), s.lamps.end(), [](const auto& a, const auto& b) { return a.D_m < b.D_m; });
   // Luminous intensity: a luminaire's is a property of the installation, not of the view. It is

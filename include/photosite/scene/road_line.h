@@ -72,6 +72,14 @@ double road_ahead_kerb_se_m(const RoadAhead& r, double a_m, bool right);
 // farthest kerb point used.
 RoadAhead measure_road_ahead(const ImageU16& labels, const CameraGeometry& g);
 
+// The run of carriageway (road, or a vehicle standing on it) through column x of row y of the
+// label ids, as [*x0, *x1] (x itself is taken to be on it): where plan_street_lighting and
+// measure_road_ahead find a row's kerbs.
+void carriageway_run(const ImageU16& ids, int x, int y, int* x0, int* x1);
+// Appends to `line` the arc of curvature kappa from its last piece's end for a quarter turn, then
+// a straight piece on from there (the road ahead beyond a measured bend's start), with the road
+// edges left_m, right_m.
+void road_append_quarter_turn(std::vector<RoadPiece>* line, double kappa, double left_m, double right_m);
 // The pieces of a frame's road line as `r` measured it, from the camera's foot: straight to the
 // curve's start, the arc for at most a quarter turn, then straight on (the extrapolation
 // LuminaireSet uses beyond its road line). Straight (one piece) unless r.curved.
