@@ -419,11 +419,34 @@ RoadAhead measure_road_ahead(const ImageU16& ids, const CameraGeometry& g) {
     // ground classes meet on the ground at this row's depth. An end against a standing object (a
     // façade, a wall, a hedge, a vehicle) may be its silhouette over a road that runs on behind
     // it: on a curve's inside the façades hide the kerb beyond some 70 m (the rendered street's
-    // at R = 100 m) and the run ends on them metres off it.
-    auto kerb = [&](int inside, int outside) {
-      return ids.at(inside, y) == static_cast<int>(Label::Road) && is_ground(ids.at(outside, y));
+    // at R = 100 m) and the run ends on them metres off it. It is the road's edge only where the
+    // object stands on the road there: where its lowest pixel in the column beside the run (its
+    // ground contact, or where something nearer hides it) lies on this row's ground line, i.e.
+    // at most the edge's own slope lower. A road edge at X across from a camera h above the road
+    // runs through the image along v − y_h = (h/X)·(u − c_x) (flat ground, small pitch: both
+    // are f·h/z and f·X/z), so one column outward its contact is h/|X| rows lower; plus the
+    // 1.5 px a label boundary's contact row is taken to (kFacadeInlier_px, scene/geometry.cpp); and
+    // the pixel below that lowest one a ground class (the object stands on the ground there).
+    // A façade in front of the road that it hides stands nearer than this row's ground, its
+    // contact lower by f·h·(1/z_b − 1/z): 20 px for 1 m at 10 m in a 2048-px Cityscapes frame.
+    // Walls, fences, guard rails, hedges and trunks (vegetation) and buildings count; a vehicle
+    // does not (a car at the kerb stands on the road beside it, its body over the edge).
+    auto stands_at_edge = [](int id) {
+      return id == static_cast<int>(Label::Building) || id == static_cast<int>(Label::Wall) ||
+             id == static_cast<int>(Label::Fence) || id == static_cast<int>(Label::GuardRail) ||
+             id == static_cast<int>(Label::Vegetation);
     };
-    const bool at[2] = {x0 > 0 && kerb(x0, x0 - 1), x1 < W - 1 && kerb(x1, x1 + 1)};
+    auto kerb = [&](int inside, int outside, double X_m) {
+      if (ids.at(inside, y) != static_cast<int>(Label::Road)) return false;
+      const int o = ids.at(outside, y);
+      if (is_ground(o)) return true;
+      if (!stands_at_edge(o)) return false;
+      const double allowed = g.mount_height_m / std::max(0.5, std::fabs(X_m)) + 1.5;
+      int yb = y;
+      while (yb + 1 < H && ids.at(outside, yb + 1) == o && yb - y <= allowed) ++yb;
+      return yb - y <= allowed && yb + 1 < H && is_ground(ids.at(outside, yb + 1));
+    };
+    const bool at[2] = {x0 > 0 && kerb(x0, x0 - 1, Xa), x1 < W - 1 && kerb(x1, x1 + 1, Xb)};
     const double Xs[2] = {Xa, Xb};
     for (int side = 0; side < 2; ++side) {
       Track& t = track[side];
