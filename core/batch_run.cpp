@@ -457,9 +457,40 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       }
     }
   }
+  // A sequence's frames as this run lists them (with --sequence, in a group of more than one
+  // frame): frame k's pose integrates the odometry of frames 0..k, and its street lamps, façades
+  // and parked vehicles carry over from them (scene::SequenceState), so a frame removed from the
+  // data set (or one inserted) changes every frame after it, whose own sources did not change.
+  // The record keeps "sequence_frames_xxh3_64": the XXH3-64 of the keys of frames 0..k, each
+  // followed by a newline, in frame order; a frame whose value differs now is not finished, and
+  // its sequence is redone whole. Frames appended after it leave it alone. A record without it in
+  // such a group (written before it was kept) is redone once: its frames cannot be checked.
+  std::map<std::string, std::string> sequence_frames;  // item key → its value, where it has one
+  if (o.sequences) {
+    std::map<std::string, size_t> group_size;
+    for (const Item& it : items) ++group_size[it.group];
+    std::vector<const Item*> by_frame;
+    for (const Item& it : items) by_frame.push_back(&it);
+    std::stable_sort(by_frame.begin(), by_frame.end(), [](const Item* a, const Item* b) {
+      return a->group != b->group ? a->group < b->group : a->frame < b->frame;
+    });
+    std::map<std::string, std::unique_ptr<Checksum>> running;  // per group, over its frames so far
+    for (const Item* p : by_frame) {
+      const Item& it = *p;
+      if (group_size[it.group] < 2) continue;
+      auto& c = running[it.group];
+      if (!c) c = std::make_unique<Checksum>(ChecksumAlgorithm::Xxh3_64);
+      c->update(it.key.data(), it.key.size());
+      c->update("\n", 1);
+      sequence_frames[it.key] = c->hex();
+    }
+  }
   auto finished = [&](const Item& it) {
     auto d = done.find(it.key);
     if (d == done.end()) return false;
+    if (const auto sf = sequence_frames.find(it.key);
+        sf != sequence_frames.end() && (!d->second.contains("sequence_frames_xxh3_64") || d->second["sequence_frames_xxh3_64"] != sf->second))
+      return false;
     if (const auto odo = odometry_text(it); d->second.contains("odometry") ? d->second["odometry"] != odo.value_or("") : odo.has_value())
       return false;
     if (const auto src = odometry_sources.find(it.key);
@@ -524,6 +555,20 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   report();
   auto stopped = [&] { return o.stop && o.stop->load(); };
 
+  // A KITTI drive's timestamps file, read once for its frames (the readers' threads share it; a
+  // file that cannot be read is not kept, so each frame that needs it fails naming it).
+  std::mutex stamps_m;
+  std::map<std::string, std::shared_ptr<const std::vector<std::string>>> stamps_read;
+  auto kitti_stamps = [&](const std::string& path) {
+    {
+      std::lock_guard l(stamps_m);
+      if (const auto f = stamps_read.find(path); f != stamps_read.end()) return f->second;
+    }
+    auto lines = std::make_shared<const std::vector<std::string>>(scene::read_kitti_timestamps(path));
+    std::lock_guard l(stamps_m);
+    return stamps_read.try_emplace(path, std::move(lines)).first->second;
+  };
+
   // ---- one item's stages ------------------------------------------------------------------
   // Read: decode the image and labels, linearize.
   // `rb`: the group's balance so far (batch --sequence), else null.
@@ -559,7 +604,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       } else if (ego && it.odometry_line >= 0) {
         const scene::CameraMount mount =
             it.odometry_calib.empty() ? scene::CameraMount{} : scene::read_kitti_camera_mount(it.odometry_calib);
-        l.odometry = scene::read_kitti_oxts(it.odometry, it.odometry_time, it.odometry_line, mount);
+        l.odometry = scene::read_kitti_oxts(it.odometry, it.odometry_time, *kitti_stamps(it.odometry_time), it.odometry_line, mount);
         l.mount_source = it.odometry_calib.empty() ? "none: the OXTS unit's place" : "KITTI calibration " + it.odometry_calib;
       } else if (ego) {
         const scene::CameraMount mount = camera_file ? scene::cityscapes_camera_mount(*camera_file) : scene::CameraMount{};
@@ -739,6 +784,8 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         if (const auto odo = odometry_text(cmp.item)) rec["odometry"] = *odo;
         if (const auto src = odometry_sources.find(cmp.item.key); src != odometry_sources.end())
           rec["odometry_sources"] = src->second;
+        if (const auto sf = sequence_frames.find(cmp.item.key); sf != sequence_frames.end())
+          rec["sequence_frames_xxh3_64"] = sf->second;
         journal.append(rec.dump() + "\n");
       } catch (const Error& e) {
         error = e.what();  // published, unrecorded: its "writing" record has them redone

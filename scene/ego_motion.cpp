@@ -198,8 +198,9 @@ int64_t parse_kitti_timestamp_ns(const std::string& text, const std::string& whe
   return ((days * 24 + h) * 60 + mi) * 60 * int64_t(1000000000) + sec * int64_t(1000000000) + frac_ns;
 }
 
-OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index,
-                               const CameraMount& mount) {
+namespace {
+// The OXTS line's speed and yaw rate, with the camera's mount (read_kitti_oxts' first half).
+OdometrySample kitti_oxts_sample(const std::string& oxts_txt, const CameraMount& mount) {
   OdometrySample s;
   std::istringstream ss(schema::read_text(oxts_txt, "KITTI OXTS"));
   std::vector<double> v;
@@ -212,11 +213,32 @@ OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& t
   s.camera_forward_m = mount.forward_m;
   s.camera_left_m = mount.left_m;
   s.camera_yaw_rad = mount.yaw_rad;
-  const std::vector<std::string> lines = kitti_timestamps_lines(schema::read_text(timestamps_txt, "KITTI timestamps"));
+  return s;
+}
+// Line `index` of the timestamps file's lines, as the sample's time (read_kitti_oxts' second half).
+void kitti_time(OdometrySample* s, const std::string& timestamps_txt, const std::vector<std::string>& lines, long index) {
   if (index < 0 || static_cast<size_t>(index) >= lines.size())
     fail_at(timestamps_txt, fmt::format("has {} lines; frame {} needs line {}", lines.size(), index, index + 1));
-  s.time_ns = parse_kitti_timestamp_ns(lines[static_cast<size_t>(index)], fmt::format("{}:{}", timestamps_txt, index + 1));
+  s->time_ns = parse_kitti_timestamp_ns(lines[static_cast<size_t>(index)], fmt::format("{}:{}", timestamps_txt, index + 1));
+}
+}  // namespace
+
+OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index,
+                               const CameraMount& mount) {
+  OdometrySample s = kitti_oxts_sample(oxts_txt, mount);
+  kitti_time(&s, timestamps_txt, read_kitti_timestamps(timestamps_txt), index);
   return s;
+}
+
+OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt,
+                               const std::vector<std::string>& timestamps_lines, long index, const CameraMount& mount) {
+  OdometrySample s = kitti_oxts_sample(oxts_txt, mount);
+  kitti_time(&s, timestamps_txt, timestamps_lines, index);
+  return s;
+}
+
+std::vector<std::string> read_kitti_timestamps(const std::string& timestamps_txt) {
+  return kitti_timestamps_lines(schema::read_text(timestamps_txt, "KITTI timestamps"));
 }
 
 std::vector<std::string> kitti_timestamps_lines(const std::string& text) {

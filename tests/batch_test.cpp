@@ -1153,14 +1153,13 @@ void write_kitti_calib(const fs::path& c, double forward_m) {
   std::ofstream(c / "calib_velo_to_cam.txt") << "R: 0 -1 0 0 0 -1 1 0 0\nT: 0 0 0\n";
   std::ofstream(c / "calib_cam_to_cam.txt") << "R_rect_00: 1 0 0 0 1 0 0 0 1\nP_rect_02: 200 0 80 0 0 200 40 0 0 0 1 0\n";
 }
-// The resume manifest with "odometry_sources" taken out of every record: one written before they
-// were kept.
-void strip_odometry_sources(const fs::path& out) {
+// The resume manifest with `key` taken out of every record: one written before it was kept.
+void strip_record_key(const fs::path& out, const char* key) {
   const fs::path m = out / ".photosite-batch/shard-0-of-1.jsonl";
   std::string text;
   for (const auto& line : lines_of(m)) {
     auto j = nlohmann::json::parse(line);
-    j.erase("odometry_sources");
+    j.erase(key);
     text += j.dump() + "\n";
   }
   std::ofstream(m, std::ios::binary) << text;
@@ -1224,7 +1223,7 @@ TEST(Batch, EditedKittiOdometryRedoesItsSequence) {
   // A manifest written before the sources were kept: its frames' poses cannot be checked, so they
   // are redone (to the same bytes), once.
   const auto bytes = tree_bytes(out);
-  strip_odometry_sources(out);
+  strip_record_key(out, "odometry_sources");
   r = runs.run(out);
   EXPECT_EQ(r.progress.already_done, 0u);
   EXPECT_EQ(r.progress.written, 4u);
@@ -1251,6 +1250,68 @@ TEST(Batch, EditedKittiOdometryRedoesItsSequence) {
   EXPECT_EQ(r.progress.written, 4u);
   ASSERT_TRUE(runs.run(dir.file("fresh_restored")).errors.empty());
   EXPECT_EQ(differing_files(out, dir.file("fresh_restored")), "") << "a resumed run differs from a fresh one";
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+}
+
+// A frame removed from a KITTI drive (its image, labels and OXTS record: a gap in the numbering,
+// as a user who drops a bad frame leaves it): the frames after it integrate their poses over the
+// gap now (and carry the sequence's lamps without it), so they are redone, with the sequence
+// (frame 0 to its same bytes), to the bytes of a fresh run on the shortened drive. Before, their
+// records still matched their files and sources ("sequence_frames_xxh3_64" absent): the re-run
+// found frames 0, 2 and 3 done and kept poses integrated through the removed frame. The same for
+// a frame put back; a manifest whose records lack the key is redone once; an untouched re-run
+// redoes nothing.
+TEST(Batch, RemovedKittiFrameRedoesItsSequence) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "kitti";
+  make_kitti(root, 0, 4);
+  std::vector<std::string> keys;
+  std::string stamps;
+  for (int f = 0; f < 4; ++f) {
+    keys.push_back(fmt::format("image_2/seq01/{:010d}", f));
+    write_kitti_oxts(root / "oxts/seq01", f, 10);
+    stamps += fmt::format("2011-09-26 13:02:2{}.{}00\n", f / 2, f % 2 ? 5 : 0);
+  }
+  std::ofstream(root / "oxts/seq01/timestamps.txt") << stamps;
+  write_kitti_calib(root / "calib/seq01", 1.5);
+  OdometryRuns runs{dir, batch::Dataset::Kitti, root.string()};
+  const std::string out = dir.file("out");
+  ASSERT_TRUE(runs.run(out).errors.empty());
+  std::vector<std::string> before;
+  for (const auto& k : keys) before.push_back(OdometryRuns::pose(out, k));
+  const std::string frame0 = slurp_text(out + "/" + keys[0] + ".exr");
+  // Frame 1 taken out of the data set (its files moved aside).
+  const fs::path aside = dir.path() / "aside";
+  fs::create_directories(aside);
+  for (const char* rel : {"image_2/seq01/0000000001.png", "semantic/seq01/0000000001.png", "oxts/seq01/data/0000000001.txt"})
+    fs::rename(root / rel, aside / fs::path(rel).filename().string().insert(0, fs::path(rel).begin()->string() + "_"));
+  auto r = runs.run(out);
+  EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.already_done, 0u);
+  EXPECT_EQ(r.progress.written, 3u);
+  EXPECT_TRUE(slurp_text(out + "/" + keys[0] + ".exr") == frame0) << "frame 0 redone with other bytes";
+  for (const size_t f : {2u, 3u}) EXPECT_NE(OdometryRuns::pose(out, keys[f]), before[f]) << keys[f] << ": the pose through the removed frame";
+  ASSERT_TRUE(runs.run(dir.file("fresh_removed")).errors.empty());
+  // The removed frame's old output stays in `out` (the run does not delete what the data set no
+  // longer lists); every file of the fresh run is the same.
+  for (const auto& k : {keys[0], keys[2], keys[3]})
+    EXPECT_TRUE(slurp_text(out + "/" + k + ".exr") == slurp_text(dir.file("fresh_removed") + "/" + k + ".exr")) << k;
+  r = runs.run(out);
+  EXPECT_EQ(r.progress.written, 0u);
+  EXPECT_EQ(r.progress.already_done, 3u);
+  // Put back: the sequence is redone again, to its first poses.
+  for (const char* rel : {"image_2/seq01/0000000001.png", "semantic/seq01/0000000001.png", "oxts/seq01/data/0000000001.txt"})
+    fs::rename(aside / fs::path(rel).filename().string().insert(0, fs::path(rel).begin()->string() + "_"), root / rel);
+  r = runs.run(out);
+  EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.written, 4u);
+  for (size_t f = 0; f < keys.size(); ++f) EXPECT_EQ(OdometryRuns::pose(out, keys[f]), before[f]) << keys[f];
+  // A manifest written before the key was kept: redone once, to the same bytes.
+  const auto bytes = tree_bytes(out);
+  strip_record_key(out, "sequence_frames_xxh3_64");
+  r = runs.run(out);
+  EXPECT_EQ(r.progress.written, 4u);
+  EXPECT_TRUE(tree_bytes(out) == bytes) << "redone to other bytes";
   EXPECT_EQ(runs.run(out).progress.written, 0u);
 }
 
@@ -1301,7 +1362,7 @@ TEST(Batch, EditedCityscapesOdometryRedoesItsSequence) {
     runs.expect_redone(out, keys, [&] { write_camera(1, 0.0); }, 1, dir.file("fresh_camera"));
   }
   // A manifest written before the sources were kept is redone once.
-  strip_odometry_sources(out);
+  strip_record_key(out, "odometry_sources");
   r = runs.run(out);
   EXPECT_EQ(r.progress.written, 2u);
   EXPECT_EQ(runs.run(out).progress.written, 0u);

@@ -960,10 +960,15 @@ TEST(Docs, BatchResumeManifestKeysAreTheDocumentedOnes) {
   ASSERT_EQ(rf.exit_code, 2) << rf.output;
   std::istringstream klines(slurp(tmp.path() / "kout/.photosite-batch/shard-0-of-1.jsonl"));
   for (std::string l; std::getline(klines, l);) collect(nlohmann::json::parse(l));  // its frame's odometry sources too
-  // A one-line manifest with its own odometry fields: its item's record adds odometry.
-  std::ofstream(tmp.path() / "m.txt") << (sample / "image_2/000000_10.png").string() << " "
-                                      << (sample / "semantic/000000_10.png").string()
-                                      << " sequence=s time_s=1 speed_m_s=5 yaw_rate_rad_s=0\n";
+  // A two-line manifest sequence with its own odometry fields: its items' records add odometry,
+  // and (a sequence of two frames) sequence_frames_xxh3_64.
+  {
+    fs::copy_file(sample / "image_2/000000_10.png", tmp.path() / "second.png");  // an image is listed once
+    std::ofstream m(tmp.path() / "m.txt");
+    for (const auto& [image, t] : {std::pair{sample / "image_2/000000_10.png", "1"}, std::pair{tmp.path() / "second.png", "1.5"}})
+      m << image.string() << " " << (sample / "semantic/000000_10.png").string() << " sequence=s time_s=" << t
+        << " speed_m_s=5 yaw_rate_rad_s=0\n";
+  }
   const auto rm = run_cli("batch --backend cpu --quiet --manifest " + (tmp.path() / "m.txt").string() + " --out " +
                           tmp.file("mout") + " --layers depth --sequence");
   ASSERT_EQ(rm.exit_code, 0) << rm.output;

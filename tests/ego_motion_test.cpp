@@ -186,6 +186,17 @@ TEST(EgoMotion, ReadsKittiOxtsRecordsAndTimestamps) {
                 read_kitti_oxts(tmp.file("o.txt"), tmp.file("ts.txt"), 2).time_ns,
             20000000);
   EXPECT_EQ(parse_kitti_timestamp_ns("1970-01-02 00:00:00", "x"), 86400LL * 1000000000LL);
+  // The drive's timestamps read once (batch's path) give every frame the same sample, and the
+  // same refusal beyond the file's lines.
+  const std::vector<std::string> lines = read_kitti_timestamps(tmp.file("ts.txt"));
+  for (long k = 0; k < 4; ++k) {
+    const OdometrySample a = read_kitti_oxts(tmp.file("o.txt"), tmp.file("ts.txt"), k);
+    const OdometrySample b = read_kitti_oxts(tmp.file("o.txt"), tmp.file("ts.txt"), lines, k, CameraMount{});
+    EXPECT_EQ(a.time_ns, b.time_ns);
+    EXPECT_EQ(a.speed_m_s, b.speed_m_s);
+    EXPECT_EQ(a.yaw_rate_rad_s, b.yaw_rate_rad_s);
+  }
+  expect_refused([&] { read_kitti_oxts(tmp.file("o.txt"), tmp.file("ts.txt"), lines, 4, CameraMount{}); }, {"ts.txt", "has 4 lines", "frame 4"});
   // Bad input.
   expect_refused([&] { read_kitti_oxts(tmp.file("o.txt"), tmp.file("ts.txt"), 4); }, {"ts.txt", "has 4 lines", "frame 4"});
   write_text(tmp.file("short.txt"), "1 2 3\n");

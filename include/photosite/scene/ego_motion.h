@@ -79,6 +79,13 @@ OdometrySample read_cityscapes_odometry(const std::string& vehicle_json, const s
 // and on a line that does not hold 30 numbers or a timestamps file without that line.
 OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt, long index,
                                const CameraMount& mount = {});
+// The same with the drive's timestamps file already read (read_kitti_timestamps of
+// timestamps_txt, which names it in messages): a drive's frames read it once, not once each
+// (batch: the whole file for each of a drive's n frames was n² lines read).
+OdometrySample read_kitti_oxts(const std::string& oxts_txt, const std::string& timestamps_txt,
+                               const std::vector<std::string>& timestamps_lines, long index, const CameraMount& mount);
+// A KITTI timestamps file's lines (kitti_timestamps_lines of its text); bad input when it cannot be read.
+std::vector<std::string> read_kitti_timestamps(const std::string& timestamps_txt);
 // A KITTI timestamps file's text as read_kitti_oxts reads its lines: line k (0-based) is frame
 // k's, without its '\n' and a trailing '\r' (a file saved with CRLF endings reads the same). batch
 // records a frame's line (its resume manifest's odometry_sources) from these.
