@@ -387,7 +387,7 @@ Raster read_tiff(const std::string& path) {
     //    and the Clear and EOI codes is an earlier entry plus one byte, so entry k (258 to 4095)
     //    is at most k − 256 bytes and no code gives more than 3839: 3839 × 8 / 9 < 3413:1.
     // Other codecs (JPEG, CCITT fax, LZMA, ZSTD, ...) are left to libtiff, which refuses such a
-    // file only after the image is allocated.
+    // file when a strip fails to decode; the samples' buffer below grows with the rows decoded.
     const struct { uint16_t code; double ratio; const char* name; } kExpansion[] = {
         {COMPRESSION_ADOBE_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
         {COMPRESSION_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
@@ -422,14 +422,34 @@ Raster read_tiff(const std::string& path) {
     // interface, 8-bit RGBA top row first (TIFFReadRGBAImage(3tiff)).
     r.channels = 4;
     r.sample = Sample::U8;
-    r.bytes.resize(size_t{w} * h * 4);
     char emsg[1024] = "";
     if (!TIFFRGBAImageOK(tif, emsg)) fail_at(path, fmt::format("unsupported TIFF layout ({})", emsg));
-    if (!TIFFReadRGBAImageOriented(tif, w, h, reinterpret_cast<uint32_t*>(r.bytes.data()), ORIENTATION_TOPLEFT, 1))
-      bad("cannot decode as RGBA");
+    // libtiff's RGBA reader allocates and zeroes a whole strip or tile before decoding it, and one
+    // strip may hold the whole image (1 GiB of CMYK at the pixel limit). So where the codec's
+    // expansion is unbounded (the bounded ones, and uncompressed data, are checked above) the
+    // first row of the first strip or tile is decoded first, alone: data that does not decode at
+    // all is refused before that (Memory.DamagedTiffCostsTheRowsItHolds). Not for JPEG (old or
+    // new), whose codec reads whole scanlines of its own size.
+    const bool bounded = compression == COMPRESSION_NONE || compression == COMPRESSION_ADOBE_DEFLATE ||
+                         compression == COMPRESSION_DEFLATE || compression == COMPRESSION_PACKBITS ||
+                         compression == COMPRESSION_LZW;
+    if (!bounded && compression != COMPRESSION_JPEG && compression != COMPRESSION_OJPEG) {
+      const tmsize_t first = TIFFIsTiled(tif) ? TIFFTileRowSize(tif) : TIFFScanlineSize(tif);
+      if (first > 0) {
+        std::vector<uint8_t> row(static_cast<size_t>(first));
+        if ((TIFFIsTiled(tif) ? TIFFReadEncodedTile(tif, 0, row.data(), first)
+                              : TIFFReadEncodedStrip(tif, 0, row.data(), first)) < 0)
+          bad("cannot decode its first row");
+      }
+    }
+    // libtiff's raster, not zeroed: it is written as the strips or tiles decode (a damaged file
+    // costs the pages they reached, Memory.DamagedTiffCostsTheRowsItHolds); the samples are made
+    // only from a raster read whole.
+    const auto raster = std::make_unique_for_overwrite<uint32_t[]>(size_t{w} * h);
+    if (!TIFFReadRGBAImageOriented(tif, w, h, raster.get(), ORIENTATION_TOPLEFT, 1)) bad("cannot decode as RGBA");
+    r.bytes.resize(size_t{w} * h * 4);
     for (size_t i = 0; i < size_t{w} * h; ++i) {  // ABGR in a host uint32 -> R, G, B, A bytes
-      uint32_t v;
-      std::memcpy(&v, &r.bytes[i * 4], 4);
+      const uint32_t v = raster[i];
       const uint8_t px[4] = {uint8_t(TIFFGetR(v)), uint8_t(TIFFGetG(v)), uint8_t(TIFFGetB(v)), uint8_t(TIFFGetA(v))};
       std::memcpy(&r.bytes[i * 4], px, 4);
     }
@@ -442,29 +462,41 @@ Raster read_tiff(const std::string& path) {
   const bool separate = planar == PLANARCONFIG_SEPARATE && spp > 1;
   const int planes = separate ? spp : 1, vals = separate ? 1 : spp;
   const size_t rowbytes = (size_t{w} * vals * bps + 7) / 8, planebytes = rowbytes * h;
-  std::vector<uint8_t> packed(planebytes * planes);
+  // Reserved (address space only) and made row by row as libtiff decodes them, plane after plane
+  // (the JPEG reader does the same): a damaged file costs the rows it held, not what its header
+  // asks for. The codecs without an expansion bound above (JPEG, CCITT fax, LZMA, ZSTD, ...) are
+  // refused only once a strip fails to decode, and a 1 kB file whose tags said 16384x16384 RGB had
+  // 805 MB zeroed before that (Memory.DamagedTiffCostsTheRowsItHolds).
+  std::vector<uint8_t> packed;
+  packed.reserve(planebytes * planes);
   if (TIFFIsTiled(tif)) {
     uint32_t tw = 0, th = 0;
     TIFFGetField(tif, TIFFTAG_TILEWIDTH, &tw);
     TIFFGetField(tif, TIFFTAG_TILELENGTH, &th);
     const tmsize_t tsize = TIFFTileSize(tif), trow = TIFFTileRowSize(tif);
     if (tw == 0 || th == 0 || tsize <= 0 || trow <= 0) bad("bad tile size");
-    std::vector<uint8_t> tile(static_cast<size_t>(tsize));
+    // Not zeroed: libtiff decodes into it row by row, so a damaged tile costs the pages it reached
+    // (one tile may be the whole image).
+    const auto tile = std::make_unique_for_overwrite<uint8_t[]>(static_cast<size_t>(tsize));
     for (int p = 0; p < planes; ++p)
-      for (uint32_t ty = 0; ty < h; ty += th)
+      for (uint32_t ty = 0; ty < h; ty += th) {
         for (uint32_t tx = 0; tx < w; tx += tw) {
-          if (TIFFReadTile(tif, tile.data(), tx, ty, 0, static_cast<uint16_t>(p)) < 0) bad("cannot read a tile");
+          if (TIFFReadTile(tif, tile.get(), tx, ty, 0, static_cast<uint16_t>(p)) < 0) bad("cannot read a tile");
+          if (tx == 0) packed.resize(p * planebytes + std::min(h, ty + th) * rowbytes);  // this row of tiles, once one is read
           const size_t x0 = size_t{tx} * vals * bps / 8;  // tile widths are multiples of 16 (TIFF 6.0)
           const size_t n = std::min<size_t>(static_cast<size_t>(trow), rowbytes - x0);
           for (uint32_t y = ty; y < std::min(h, ty + th); ++y)
             std::memcpy(&packed[p * planebytes + y * rowbytes + x0], &tile[(y - ty) * static_cast<size_t>(trow)], n);
         }
+      }
   } else {
     if (static_cast<size_t>(TIFFScanlineSize(tif)) != rowbytes) bad("bad scanline size");
     for (int p = 0; p < planes; ++p)  // plane by plane: libtiff reads compressed strips in order
-      for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t y = 0; y < h; ++y) {
+        packed.resize(p * planebytes + (y + 1) * rowbytes);  // within the reserve: no reallocation
         if (TIFFReadScanline(tif, &packed[p * planebytes + y * rowbytes], y, static_cast<uint16_t>(p)) < 0)
           bad("cannot read a scanline");
+      }
   }
   if (!t.error.empty()) bad("");
 

@@ -1397,6 +1397,95 @@ TEST(EdgeCases, CompressedTiffShorterThanItsPixelsIsRefusedBeforeAllocating) {
   }
 }
 
+// The TIFF codecs without an expansion bound (LZMA, ZSTD, CCITT fax) are read into buffers made as
+// their rows decode (Memory.DamagedTiffCostsTheRowsItHolds: a damaged file costs the rows it held),
+// and CMYK goes through libtiff's RGBA raster after its first row is decoded alone. Valid files
+// read as before: each codec's file, in strips of 5 rows or tiles of 16x16, planes contiguous or
+// separate, gives exactly the pixels of the same image written uncompressed.
+TEST(EdgeCases, UnboundedTiffCodecsReadAsUncompressed) {
+  TempDir t;
+  constexpr uint32_t kW = 37, kH = 23;
+  struct Layout {
+    uint16_t photometric, channels, bits, planar;
+    bool tiled;
+  };
+  auto write = [&](const std::string& name, const Layout& k, uint16_t codec) {
+    TIFF* tif = TIFFOpen(t.file(name).c_str(), "w");
+    ASSERT_NE(tif, nullptr) << name;
+    TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, kW), TIFFSetField(tif, TIFFTAG_IMAGELENGTH, kH);
+    TIFFSetField(tif, TIFFTAG_BITSPERSAMPLE, k.bits), TIFFSetField(tif, TIFFTAG_SAMPLESPERPIXEL, k.channels);
+    TIFFSetField(tif, TIFFTAG_PHOTOMETRIC, k.photometric), TIFFSetField(tif, TIFFTAG_COMPRESSION, codec);
+    TIFFSetField(tif, TIFFTAG_PLANARCONFIG, k.planar);
+    const int planes = k.planar == PLANARCONFIG_SEPARATE ? k.channels : 1, vals = k.channels / planes;
+    const size_t rowbytes = (size_t{kW} * vals * k.bits + 7) / 8;
+    // A pattern in every sample (bilevel: a checkerboard of 3-pixel cells).
+    auto sample_row = [&](uint32_t y, int p) {
+      std::vector<uint8_t> row(rowbytes, 0);
+      for (uint32_t x = 0; x < kW; ++x)
+        for (int v = 0; v < vals; ++v) {
+          if (k.bits == 1) {
+            if (((x / 3) + (y / 3)) % 2) row[x / 8] |= static_cast<uint8_t>(0x80 >> (x % 8));
+          } else {
+            row[x * vals + v] = static_cast<uint8_t>((x * 7 + y * 13 + (p + v) * 61) % 256);
+          }
+        }
+      return row;
+    };
+    if (k.tiled) {
+      TIFFSetField(tif, TIFFTAG_TILEWIDTH, 16u), TIFFSetField(tif, TIFFTAG_TILELENGTH, 16u);
+      std::vector<uint8_t> tile(static_cast<size_t>(TIFFTileSize(tif)));
+      const size_t trow = static_cast<size_t>(TIFFTileRowSize(tif));
+      for (int p = 0; p < planes; ++p)
+        for (uint32_t ty = 0; ty < kH; ty += 16)
+          for (uint32_t tx = 0; tx < kW; tx += 16) {
+            std::fill(tile.begin(), tile.end(), 0);
+            for (uint32_t y = ty; y < std::min(kH, ty + 16); ++y) {
+              const auto row = sample_row(y, p);
+              const size_t x0 = size_t{tx} * vals * k.bits / 8;
+              std::copy_n(row.begin() + x0, std::min(trow, rowbytes - x0), tile.begin() + (y - ty) * trow);
+            }
+            ASSERT_GE(TIFFWriteTile(tif, tile.data(), tx, ty, 0, static_cast<uint16_t>(p)), 0) << name;
+          }
+    } else {
+      TIFFSetField(tif, TIFFTAG_ROWSPERSTRIP, 5u);
+      for (int p = 0; p < planes; ++p)
+        for (uint32_t y = 0; y < kH; ++y) {
+          auto row = sample_row(y, p);
+          ASSERT_EQ(TIFFWriteScanline(tif, row.data(), y, static_cast<uint16_t>(p)), 1) << name;
+        }
+    }
+    TIFFClose(tif);
+  };
+  for (const Layout& k : {Layout{PHOTOMETRIC_RGB, 3, 8, PLANARCONFIG_CONTIG, false},
+                          Layout{PHOTOMETRIC_RGB, 3, 8, PLANARCONFIG_SEPARATE, false},
+                          Layout{PHOTOMETRIC_RGB, 3, 8, PLANARCONFIG_CONTIG, true},
+                          Layout{PHOTOMETRIC_RGB, 3, 8, PLANARCONFIG_SEPARATE, true},
+                          Layout{PHOTOMETRIC_SEPARATED, 4, 8, PLANARCONFIG_CONTIG, false},
+                          Layout{PHOTOMETRIC_SEPARATED, 4, 8, PLANARCONFIG_CONTIG, true},
+                          Layout{PHOTOMETRIC_MINISWHITE, 1, 1, PLANARCONFIG_CONTIG, false}}) {
+    const std::string what = fmt::format("photometric {}, {} channels of {} bits, planar {}, {}", k.photometric,
+                                         k.channels, k.bits, k.planar, k.tiled ? "tiles" : "strips");
+    write("plain.tif", k, COMPRESSION_NONE);
+    const ImageF plain = read_image(t.file("plain.tif"));
+    ASSERT_EQ(plain.width(), static_cast<int>(kW)) << what;
+    const std::vector<uint16_t> codecs =
+        k.bits == 1 ? std::vector<uint16_t>{COMPRESSION_CCITTFAX3, COMPRESSION_CCITTFAX4, COMPRESSION_LZMA, COMPRESSION_ZSTD}
+                    : std::vector<uint16_t>{COMPRESSION_LZMA, COMPRESSION_ZSTD};
+    for (const uint16_t codec : codecs) {
+      ASSERT_TRUE(TIFFIsCODECConfigured(codec)) << "this libtiff lacks codec " << codec;
+      write("packed.tif", k, codec);
+      const ImageF img = read_image(t.file("packed.tif"));
+      ASSERT_EQ(img.width(), plain.width()) << what << ", codec " << codec;
+      ASSERT_EQ(img.channels(), plain.channels()) << what << ", codec " << codec;
+      EXPECT_TRUE(std::equal(img.data(), img.data() + img.size(), plain.data())) << what << ", codec " << codec;
+    }
+    // The pattern is there (not, say, all zero in both).
+    EXPECT_GT(*std::max_element(plain.data(), plain.data() + plain.size()), 0.5f) << what;
+    EXPECT_NE(*std::min_element(plain.data(), plain.data() + plain.size()),
+              *std::max_element(plain.data(), plain.data() + plain.size())) << what;
+  }
+}
+
 // A JPEG whose Exif orientation has viewers turn or mirror it (a camera held sideways) was read as
 // stored without a word, so labels made from the picture as it is shown fit it only after the
 // same turn. Its orientation is now said on the standard error; the pixels stay as stored.

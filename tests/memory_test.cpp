@@ -2,6 +2,7 @@
 // (wait4's ru_maxrss, taken by tests/peak_rss.c, a small launcher: see there): a 2048x1024 `night` run stays under the bound documented in
 // docs/robustness.md, and a `batch` run's peak does not grow with the number of images (its
 // queues hold a bounded number of frames, whatever the data set's size).
+#include <array>
 #include <atomic>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -180,4 +181,66 @@ TEST(Memory, BatchPeakDoesNotGrowWithTheNumberOfImages) {
   // 0.1 MiB, so subtracting its peak removes the fixed cost and not this frame.
   EXPECT_GT(frame, 7 * (1024.0 * 512 * 4) / (1024.0 * 1024.0));
   EXPECT_LT(many, bound);
+}
+
+// A TIFF whose codec has no expansion bound that its strips' bytes could check (JPEG, LZMA, ZSTD:
+// core/jpeg_tiff.cpp refuses Deflate, PackBits and LZW strips too short for the header's size
+// before reading them) is refused only when a strip fails to decode. Until the forty-third session
+// the samples' buffer was made whole first: a 1 kB file whose tags said 16384x16384 RGB (8 bits)
+// had its 768 MiB zeroed before the first row failed. Now the buffer is made row by row as libtiff
+// decodes them, so such a file costs the rows it held (here none: one row, 48 KiB).
+// The bound: the same command's peak on a valid 64x32 file (the binary's fixed cost) plus half
+// the 768 MiB, which the whole buffer would exceed by 384 MiB and one row does not approach.
+TEST(Memory, DamagedTiffCostsTheRowsItHolds) {
+  PHOTOSITE_SKIP_UNDER_SANITIZER();
+  test::TempDir dir;
+  auto put_le = [](std::string& s, uint32_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i) s.push_back(static_cast<char>((v >> (8 * i)) & 255));
+  };
+  ImageF small(64, 32, 1);
+  for (size_t k = 0; k < small.size(); ++k) small[k] = static_cast<float>(k % 7) / 8;
+  write_png(dir.file("small.png"), small);
+  auto demosaic = [&](const std::string& in) {
+    return run_measured(fmt::format("demosaic --backend cpu --in '{}' --out '{}' --overwrite", in, dir.file("d.exr")));
+  };
+  const auto fixed = demosaic(dir.file("small.png"));
+  ASSERT_EQ(fixed.exit_code, 0);
+  constexpr uint32_t kSide = 16384;
+  const double samples_mb = 3.0 * kSide * kSide / (1024.0 * 1024.0);  // 768 MiB
+  struct Layout {
+    bool tiled;
+    uint32_t photometric, channels;  // RGB (2), 3: read as packed samples; CMYK (5), 4: through libtiff's RGBA raster
+  };
+  for (const Layout& k : {Layout{false, 2, 3}, Layout{true, 2, 3}, Layout{false, 5, 4}})
+  for (const uint32_t codec : {7u /* JPEG */, 34925u /* LZMA */, 50000u /* ZSTD */}) {
+    const bool tiled = k.tiled;
+    if (k.photometric == 5 && codec == 7) continue;  // libtiff's JPEG codec takes no CMYK strips
+    // Little-endian TIFF: one IFD of 10 entries, then 64 bytes of data that no codec decodes, as
+    // one strip or as one tile of the whole image (the tile buffer is the image's size then).
+    std::string tif = "II*";
+    tif.push_back('\0');
+    put_le(tif, 8, 4);
+    constexpr uint32_t kData = 8 + 2 + 10 * 12 + 4;
+    std::vector<std::array<uint32_t, 3>> tags = {  // tag, type (3 SHORT, 4 LONG), value
+        {256, 4, kSide}, {257, 4, kSide}, {258, 3, 8}, {259, 3, codec}, {262, 3, k.photometric}};
+    if (tiled)
+      tags.insert(tags.end(), {{277, 3, k.channels}, {284, 3, 1}, {322, 4, kSide}, {323, 4, kSide}, {324, 4, kData}});
+    else
+      tags.insert(tags.end(), {{273, 4, kData}, {277, 3, k.channels}, {278, 4, kSide}, {284, 3, 1}});
+    tags.push_back({tiled ? 325u : 279u, 4, 64});
+    put_le(tif, static_cast<uint32_t>(tags.size()), 2);
+    for (const auto& [tag, type, value] : tags) {
+      put_le(tif, tag, 2), put_le(tif, type, 2), put_le(tif, 1, 4), put_le(tif, value, 4);
+    }
+    put_le(tif, 0, 4);
+    tif += std::string(64, '\x5a');
+    const std::string path = dir.file(fmt::format("damaged_{}_{}_{}.tif", codec, tiled ? "tile" : "strip", k.photometric));
+    std::ofstream(path, std::ios::binary) << tif;
+    const auto r = demosaic(path);
+    std::printf("TIFF compression %u, 16384x16384 %s in 64 bytes (%s): exit %d, peak RSS %.0f MB (64x32 run %.0f MB, "
+                "the RGB samples %.0f MB)\n", codec, k.photometric == 2 ? "RGB" : "CMYK", tiled ? "one tile" : "one strip",
+                r.exit_code, r.peak_mb, fixed.peak_mb, samples_mb);
+    EXPECT_EQ(r.exit_code, 2) << path;
+    EXPECT_LT(r.peak_mb, fixed.peak_mb + samples_mb / 2) << path;
+  }
 }
