@@ -355,6 +355,9 @@ Raster read_tiff(const std::string& path) {
   if (spp == 0) fail_at(path, "image declares 0 channels");
   uint16_t compression = COMPRESSION_NONE;
   TIFFGetFieldDefaulted(tif, TIFFTAG_COMPRESSION, &compression);
+  // Whether the size checks below held the strips' bytes against the header's size (uncompressed
+  // or a codec with an expansion bound, not YCbCr, the file's size known).
+  bool size_checked = false;
   // The strips (or tiles) must lie in the file, and uncompressed ones hold the samples the size
   // asks for: libtiff reads a strip only when asked, after the image has been allocated, so a
   // 9 kB file whose tags say 16384x16384 RGB had 800 MB allocated before failing.
@@ -393,6 +396,9 @@ Raster read_tiff(const std::string& path) {
         {COMPRESSION_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
         {COMPRESSION_PACKBITS, 64, "PackBits"},
         {COMPRESSION_LZW, 3413, "LZW"}};
+    size_checked = !ec && photo != PHOTOMETRIC_YCBCR &&
+                   (compression == COMPRESSION_NONE ||
+                    std::any_of(std::begin(kExpansion), std::end(kExpansion), [&](const auto& c) { return c.code == compression; }));
     for (const auto& c : kExpansion)
       if (!ec && compression == c.code && photo != PHOTOMETRIC_YCBCR && static_cast<double>(stored) * c.ratio < needed)
         fail_at(path, fmt::format("corrupt or truncated image (TIFF data: its {}x{} pixels, {} sample{} of {} bits each, "
@@ -426,14 +432,11 @@ Raster read_tiff(const std::string& path) {
     if (!TIFFRGBAImageOK(tif, emsg)) fail_at(path, fmt::format("unsupported TIFF layout ({})", emsg));
     // libtiff's RGBA reader allocates and zeroes a whole strip or tile before decoding it, and one
     // strip may hold the whole image (1 GiB of CMYK at the pixel limit). So where the codec's
-    // expansion is unbounded (the bounded ones, and uncompressed data, are checked above) the
-    // first row of the first strip or tile is decoded first, alone: data that does not decode at
-    // all is refused before that (Memory.DamagedTiffCostsTheRowsItHolds). Not for JPEG (old or
+    // strips were not held against the size above (a codec without an expansion bound, or YCbCr)
+    // the first row of the first strip or tile is decoded first, alone: data that does not decode
+    // at all is refused before that (Memory.DamagedTiffCostsTheRowsItHolds). Not for JPEG (old or
     // new), whose codec reads whole scanlines of its own size.
-    const bool bounded = compression == COMPRESSION_NONE || compression == COMPRESSION_ADOBE_DEFLATE ||
-                         compression == COMPRESSION_DEFLATE || compression == COMPRESSION_PACKBITS ||
-                         compression == COMPRESSION_LZW;
-    if (!bounded && compression != COMPRESSION_JPEG && compression != COMPRESSION_OJPEG) {
+    if (!size_checked && compression != COMPRESSION_JPEG && compression != COMPRESSION_OJPEG) {
       const tmsize_t first = TIFFIsTiled(tif) ? TIFFTileRowSize(tif) : TIFFScanlineSize(tif);
       if (first > 0) {
         std::vector<uint8_t> row(static_cast<size_t>(first));
