@@ -419,27 +419,38 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   // pose cannot be checked, so it is redone once, as a record without camera_file_xxh3_64 is where
   // a camera file exists. Taken here, before any item is read: a file edited while the run reads
   // it leaves a record of its earlier content, which the next run finds changed (never the reverse).
+  // A KITTI drive's timestamps file, read once per run for all its frames: here, for the records'
+  // lines, and by the readers' threads, which share it (the frame's pose is computed from the very
+  // lines its record keeps). A file that cannot be read is not kept, so each frame that needs it
+  // fails naming it.
+  std::mutex stamps_m;
+  std::map<std::string, std::shared_ptr<const std::vector<std::string>>> stamps_read;
+  auto kitti_stamps = [&](const std::string& path) {
+    {
+      std::lock_guard l(stamps_m);
+      if (const auto f = stamps_read.find(path); f != stamps_read.end()) return f->second;
+    }
+    auto lines = std::make_shared<const std::vector<std::string>>(scene::read_kitti_timestamps(path));
+    std::lock_guard l(stamps_m);
+    return stamps_read.try_emplace(path, std::move(lines)).first->second;
+  };
   std::map<std::string, nlohmann::json> odometry_sources;  // item key → its sources, where it has any
   {
     auto sum = [](const std::string& p) {
       const auto s = file_checksum_hex(p, ChecksumAlgorithm::Xxh3_64);
       return s ? nlohmann::json(*s) : nlohmann::json();  // null: unreadable now (its item then fails)
     };
-    std::map<std::string, std::optional<std::vector<std::string>>> stamp_lines;  // per timestamps file
     std::map<std::string, nlohmann::json> calib_sums;                             // per calibration folder
     for (const Item& it : items) {
       if (!(o.sequences && o.ego_motion) || it.odometry.empty() || it.odometry_given) continue;
       nlohmann::json& s = odometry_sources[it.key];
       if (it.odometry_line >= 0) {  // KITTI raw
         s["oxts_xxh3_64"] = sum(it.odometry);
-        auto [lines, fresh] = stamp_lines.try_emplace(it.odometry_time);
-        if (fresh)
-          if (std::ifstream f(it.odometry_time, std::ios::binary); f) {
-            std::stringstream text;
-            text << f.rdbuf();
-            lines->second = scene::kitti_timestamps_lines(text.str());
-          }
-        const auto& l = lines->second;
+        std::shared_ptr<const std::vector<std::string>> l;  // null: unreadable now (its item then fails)
+        try {
+          l = kitti_stamps(it.odometry_time);
+        } catch (const Error&) {
+        }
         s["timestamps_line"] = l && static_cast<size_t>(it.odometry_line) < l->size()
                                    ? nlohmann::json((*l)[static_cast<size_t>(it.odometry_line)])
                                    : nlohmann::json();
@@ -554,20 +565,6 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   };
   report();
   auto stopped = [&] { return o.stop && o.stop->load(); };
-
-  // A KITTI drive's timestamps file, read once for its frames (the readers' threads share it; a
-  // file that cannot be read is not kept, so each frame that needs it fails naming it).
-  std::mutex stamps_m;
-  std::map<std::string, std::shared_ptr<const std::vector<std::string>>> stamps_read;
-  auto kitti_stamps = [&](const std::string& path) {
-    {
-      std::lock_guard l(stamps_m);
-      if (const auto f = stamps_read.find(path); f != stamps_read.end()) return f->second;
-    }
-    auto lines = std::make_shared<const std::vector<std::string>>(scene::read_kitti_timestamps(path));
-    std::lock_guard l(stamps_m);
-    return stamps_read.try_emplace(path, std::move(lines)).first->second;
-  };
 
   // ---- one item's stages ------------------------------------------------------------------
   // Read: decode the image and labels, linearize.

@@ -1315,6 +1315,49 @@ TEST(Batch, RemovedKittiFrameRedoesItsSequence) {
   EXPECT_EQ(runs.run(out).progress.written, 0u);
 }
 
+// A KITTI drive's timestamps file is read once per run, for the records' lines and the frames'
+// poses alike: missing, every frame of the drive fails naming it (on this run and the next: no
+// frame is recorded done) and nothing is written; a folder in its place likewise; put back, the
+// drive is written whole, to the bytes of a fresh run.
+TEST(Batch, UnreadableKittiTimestampsFailEachFrameNamingThem) {
+  test::TempDir dir;
+  const fs::path root = dir.path() / "kitti";
+  make_kitti(root, 0, 3);
+  std::string stamps;
+  for (int f = 0; f < 3; ++f) {
+    write_kitti_oxts(root / "oxts/seq01", f, 10);
+    stamps += fmt::format("2011-09-26 13:02:20.{}00\n", 2 * f);
+  }
+  const fs::path ts = root / "oxts/seq01/timestamps.txt";
+  OdometryRuns runs{dir, batch::Dataset::Kitti, root.string()};
+  const std::string out = dir.file("out");
+  for (const char* how : {"missing", "a folder"}) {
+    SCOPED_TRACE(how);
+    fs::remove_all(ts);
+    if (std::string(how) == "a folder") fs::create_directories(ts);
+    for (int pass = 0; pass < 2; ++pass) {
+      const auto r = runs.run(out);
+      ASSERT_EQ(r.errors.size(), 3u);
+      for (const auto& e : r.errors) {
+        EXPECT_NE(e.find(ts.string() + ": "), std::string::npos) << e;
+        EXPECT_NE(e.find(std::string(how) == "missing" ? "no such file" : "is a folder"), std::string::npos) << e;
+      }
+      EXPECT_EQ(r.progress.written, 0u);
+      EXPECT_EQ(r.progress.already_done, 0u);
+    }
+    for (const auto& e : fs::recursive_directory_iterator(out))
+      EXPECT_NE(e.path().extension(), ".exr") << e.path();
+  }
+  fs::remove_all(ts);
+  std::ofstream(ts) << stamps;
+  const auto r = runs.run(out);
+  EXPECT_TRUE(r.errors.empty()) << r.errors.front();
+  EXPECT_EQ(r.progress.written, 3u);
+  ASSERT_TRUE(runs.run(dir.file("fresh")).errors.empty());
+  EXPECT_EQ(differing_files(out, dir.file("fresh")), "") << "a resumed run differs from a fresh one";
+  EXPECT_EQ(runs.run(out).progress.written, 0u);
+}
+
 // The same for a Cityscapes sequence: its frames' vehicle JSON, timestamp and camera files (the
 // camera's place on the vehicle, read with --rig too, where the camera file's own checksum is not
 // recorded as the item's rig).
