@@ -173,6 +173,53 @@ TEST(DepthEval, BenchOnARenderedSceneMeetsTheSyntheticBounds) {
   EXPECT_NE(bad.output.find("disp_occ_0: not a folder"), std::string::npos) << bad.output;
 }
 
+// `bench depth --synthetic`: the horizon's error and the depth errors on streets rendered from a
+// known camera, the true pitch off the rig's nominal. The first fifteen cases are the straight
+// street with the camera 20, 40 and 50 m from its origin, each at pitch offsets 0, +0.5, −0.5, +1.0
+// and −1.0 degrees (on this build both horizons occur among them: 5 of the 15 take the rig's).
+// Checked: one row per case with every column; the renderer's own geometry gives its depth back on
+// the road (true_road_median_rel: the plane's depth in double, both stored as float, so within a
+// few float roundings, 2⁻²⁴ each: 1e-6 is 16 of them); where the rig's horizon is taken its error
+// is the offset itself (−offset degrees, printed to 3 decimals) and the road error as run is the
+// rig's (the same ground plane); --synthetic with --kitti, and neither, are refused naming them.
+TEST(DepthEval, SyntheticBenchMeasuresTheHorizonOnRenderedStreets) {
+  test::TempDir dir;
+  const auto r = test::run_cli("bench depth --synthetic --max-frames 15 --out-dir '" + dir.path().string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::fprintf(stderr, "%s", r.output.c_str());
+  const auto rows = read_csv(dir.file("bench_depth_synthetic.csv"));
+  ASSERT_EQ(rows.size(), 16u) << r.output;  // header and fifteen cases
+  ASSERT_EQ(rows[0].size(), 18u);
+  EXPECT_EQ(rows[0][7], "horizon_error_px");
+  const double offsets[5] = {0, 0.5, -0.5, 1.0, -1.0};
+  int rig_rows = 0;
+  for (int k = 1; k <= 15; ++k) {
+    const auto& c = rows[k];
+    ASSERT_EQ(c.size(), 18u);
+    SCOPED_TRACE(::testing::Message() << "case " << k);
+    EXPECT_EQ(std::stod(c[0]), 0);  // straight
+    EXPECT_DOUBLE_EQ(std::stod(c[2]), offsets[(k - 1) % 5]);
+    EXPECT_GT(std::stol(c[10]), 1000) << "road pixels";
+    EXPECT_LE(std::stod(c[17]), 1e-6) << "the renderer's geometry against its own depth";
+    if (c[6] == "rig") {
+      ++rig_rows;
+      // The printed degrees are rounded to 3 decimals: half a unit, 5e-4.
+      EXPECT_NEAR(std::stod(c[8]), -offsets[(k - 1) % 5], 5e-4);
+      EXPECT_EQ(c[11], c[15]) << "road error as run against the rig's";
+    } else {
+      EXPECT_EQ(c[6], "vanishing_point");
+      EXPECT_EQ(c[4], "hough");
+    }
+  }
+  std::fprintf(stderr, "[bench depth --synthetic] %d of 15 cases took the rig's horizon\n", rig_rows);
+  const auto both = test::run_cli("bench depth --synthetic --kitti /nonexistent --out-dir '" + dir.path().string() + "'");
+  EXPECT_EQ(both.exit_code, 2) << both.output;
+  EXPECT_NE(both.output.find("--synthetic and --kitti: give one"), std::string::npos) << both.output;
+  const auto neither = test::run_cli("bench depth --out-dir '" + dir.path().string() + "'");
+  EXPECT_EQ(neither.exit_code, 2) << neither.output;
+  EXPECT_NE(neither.output.find("--kitti: give the folder"), std::string::npos) << neither.output;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Dashed markings as rulers (`photosite bench markings`).
 namespace {

@@ -10,10 +10,21 @@
 // photosite ships none of these (the disparity maps are not in ../shared). Each frame runs the
 // whole night scene as `photosite night --rig auto` does and compares its depth.Z. Writes
 // docs/bench_depth.csv (one row per frame and a pooled row).
+//
+// `--synthetic`: the same errors on streets rendered from a known camera (make_synthetic_camera_scene),
+// where the truth is exact, to measure the horizon's own error: straight and curving streets
+// (radius ±60 to ±400 m from 60 m ahead of the street's origin), the camera 40 m before the bend
+// to 25 m into it, its pitch the rig's nominal and 0.5 and 1.0 degrees above and below it (a
+// loaded or braking car, within the rig's 1.6 degree tolerance: scene/rig.cpp). Each case runs
+// night_scene as `photosite night` does; its horizon (the vanishing point's, or the rig's) is
+// compared with the renderer's, and the road and contact depth errors are taken for it and for
+// the rig's nominal horizon alone. Writes docs/bench_depth_synthetic.csv (one row per case).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -22,6 +33,7 @@
 #include "photosite/error.h"
 #include "photosite/io.h"
 #include "photosite/scene/depth_eval.h"
+#include "photosite/scene/road_line.h"
 #include "photosite/scene/night.h"
 #include "photosite/scene/rig.h"
 #include "photosite/scene/scene_preset.h"
@@ -33,9 +45,121 @@ namespace fs = std::filesystem;
 struct DepthBench {
   std::string kitti, out_dir, scene_preset = "night-urban";
   int max_frames = 0;
+  bool synthetic = false;
 };
 
+// The ground point at arc length a_m along a synthetic street's centre line and offset e_m across
+// it (+ toward +X where it is straight), in the street's (X, D): the inverse of
+// synthetic_street_coordinates. Straight up to Dc, then the circle of radius |R| turning toward
+// sign(R)·X, centred at (R, Dc): a point at offset e lies |R| − sign(R)·e from the centre.
+void street_point(double R, double Dc, double a_m, double e_m, double* X, double* D) {
+  if (R == 0 || a_m <= Dc) {
+    *X = e_m;
+    *D = a_m;
+    return;
+  }
+  const double rho = std::fabs(R), sg = R > 0 ? 1.0 : -1.0, th = (a_m - Dc) / rho, dist = rho - sg * e_m;
+  *X = sg * rho - sg * dist * std::cos(th);
+  *D = Dc + dist * std::sin(th);
+}
+
+void run_synthetic(const DepthBench& b) {
+  const scene::ScenePreset base = scene::load_scene_preset(b.scene_preset);
+  scene::ScenePreset sp = base;
+  sp.rig = scene::load_camera_rig("cityscapes");
+  constexpr double kCurveStart_m = 60;
+  const std::vector<double> radii{0, 400, -400, 200, -200, 100, -100, 60, -60};
+  const std::vector<double> positions{-40, -20, -10, 0, 10, 25};  // the camera's arc length − kCurveStart_m
+  const std::vector<double> offsets{0, 0.5, -0.5, 1.0, -1.0};       // true pitch − the rig's nominal, degrees
+  std::string csv =
+      "radius_m,camera_from_bend_m,pitch_offset_deg,lines,vp_method,vp_confidence,horizon_source,horizon_error_px,"
+      "horizon_error_deg,road_ahead,road_pixels,road_median_rel,road_p90_rel,contacts,contact_median_rel,"
+      "rig_road_median_rel,rig_contact_median_rel,true_road_median_rel\n";
+  struct Row { double R, rel, off; bool vp, curved; double err_px, road, rig_road; };
+  std::vector<Row> rows;
+  int cases = 0;
+  for (const double R : radii)
+    for (const double rel : positions)
+      for (const double off : offsets) {
+        if (b.max_frames > 0 && cases >= b.max_frames) break;
+        ++cases;
+        scene::SyntheticCameraOptions o;
+        o.camera = scene::camera_geometry(sp.rig, o.width, o.height, scene::VanishingPoint{});
+        o.camera.pitch_rad += off * M_PI / 180;
+        o.camera.horizon_y = o.camera.cy_px - o.camera.f_px * std::tan(o.camera.pitch_rad);
+        o.road_radius_m = R;
+        o.curve_start_D_m = kCurveStart_m;
+        o.window_pitch_m = 2.5;  // windows in the façades' texture: their rows are lines too
+        const double a = kCurveStart_m + rel;
+        double X, D, Xa, Da;
+        street_point(R, kCurveStart_m, a, 0, &X, &D);
+        street_point(R, kCurveStart_m, a + 1, 0, &Xa, &Da);
+        o.world_X_m = X;
+        o.world_D_m = D;
+        o.world_yaw_rad = std::atan2(Xa - X, Da - D);  // along the centre line
+        // Two cars ahead in the lanes (a box stands in the street's X, D, axis-aligned).
+        for (const auto& [ahead, e] : {std::pair{15.0, 1.75}, std::pair{28.0, -1.75}}) {
+          street_point(R, kCurveStart_m, a + ahead, e, &X, &D);
+          o.boxes.push_back({X, D, 1.8, 1.5, 4.5});
+        }
+        const scene::SyntheticCameraScene sc = scene::make_synthetic_camera_scene(o);
+        const scene::NightScene ns = scene::night_scene(sc.day_linear_srgb, sc.labels, sp, 0);
+        const scene::CameraGeometry& g = ns.geometry;
+        const double err_px = g.horizon_y - o.camera.horizon_y;
+        const double err_deg = (g.pitch_rad - o.camera.pitch_rad) * 180 / M_PI;
+        const auto e = scene::depth_errors(ns.depth, sc.depth_m, sc.labels, sp.max_depth_m);
+        // The rig's nominal horizon alone, and the renderer's own (the evaluation's check: its
+        // ground depth is the rendered one up to rounding).
+        const scene::CameraGeometry rig_g = scene::camera_geometry(sp.rig, o.width, o.height, scene::VanishingPoint{});
+        const auto er = scene::depth_errors(scene::metric_depth(sc.labels, rig_g, sp.max_depth_m), sc.depth_m, sc.labels, sp.max_depth_m);
+        const auto et = scene::depth_errors(scene::metric_depth(sc.labels, o.camera, sp.max_depth_m), sc.depth_m, sc.labels, sp.max_depth_m);
+        const scene::RoadAhead ra = scene::measure_road_ahead(sc.labels.ids, g);
+        csv += fmt::format("{},{},{},{},{},{:.2f},{},{:.2f},{:.3f},{},{},{:.5f},{:.5f},{},{:.5f},{:.5f},{:.5f},{:.7f}\n", R, rel,
+                           off, ns.lines_work.size(), scene::vp_method_name(ns.vp.method), ns.vp.confidence,
+                           g.horizon_source, err_px, err_deg, ra.state.substr(0, ra.state.find(':')), e.road_pixels,
+                           e.road_median_rel, e.road_p90_rel, e.contacts, e.contact_median_rel, er.road_median_rel,
+                           er.contact_median_rel, et.road_median_rel);
+        rows.push_back({R, rel, off, g.horizon_source == "vanishing_point", ra.curved, err_px, e.road_median_rel, er.road_median_rel});
+      }
+  // The summary: per |radius|, the camera before the bend (its view holding the bend's start) or
+  // on it (on the straight street: the same positions, 20-50 and 60-85 m from its origin), the share of cases whose vanishing point is taken, the median and largest |horizon
+  // error| of those, and the median road depth error as run and with the rig's horizon alone.
+  std::printf("horizon and road depth on rendered streets (rig %s, %dx%d; %d cases)\n", sp.rig.name.c_str(),
+              1024, 512, cases);
+  std::printf("  %-9s %-12s %6s %10s %14s %14s %14s %14s %14s\n", "|radius|", "camera", "cases", "vp taken", "vp |err| med",
+              "vp |err| max", "road err run", "road err rig", "curved: rig");
+  for (const double absR : {0.0, 400.0, 200.0, 100.0, 60.0})
+    for (const int on : {0, 1}) {
+      std::vector<double> err, run, rig, pol;
+      int n = 0, taken = 0;
+      for (const Row& r : rows) {
+        if (std::fabs(r.R) != absR || (r.rel >= 0) != (on == 1)) continue;
+        ++n;
+        run.push_back(r.road);
+        rig.push_back(r.rig_road);
+        pol.push_back(r.vp && r.curved ? r.rig_road : r.road);
+        if (r.vp) {
+          ++taken;
+          err.push_back(std::fabs(r.err_px));
+        }
+      }
+      if (n == 0) continue;
+      const double mx = err.empty() ? NAN : *std::max_element(err.begin(), err.end());
+      std::printf("  %-9s %-12s %6d %9.0f%% %11.2f px %11.2f px %13.1f%% %13.1f%% %13.1f%%\n",
+                  absR == 0 ? "straight" : fmt::format("{:.0f} m", absR).c_str(),
+                  absR == 0 ? (on ? "at 60-85 m" : "at 20-50 m") : (on ? "on the bend" : "before it"), n,
+                  100.0 * taken / n, scene::nearest_rank_quantile(err, 0.5), mx, 100 * scene::nearest_rank_quantile(run, 0.5),
+                  100 * scene::nearest_rank_quantile(rig, 0.5), 100 * scene::nearest_rank_quantile(pol, 0.5));
+    }
+  write_bench_csv(b.out_dir, "bench_depth_synthetic.csv", csv);
+}
+
 void run(const DepthBench& b) {
+  if (b.synthetic) {
+    if (!b.kitti.empty()) fail("--synthetic and --kitti: give one (the rendered streets, or KITTI's stereo frames)");
+    run_synthetic(b);
+    return;
+  }
   if (b.kitti.empty()) fail("--kitti: give the folder holding image_2/, semantic/ and disp_occ_0/ (see `photosite bench depth --help`)");
   const fs::path root(b.kitti);
   for (const char* sub : {"image_2", "semantic"})
@@ -120,14 +244,17 @@ void run(const DepthBench& b) {
   write_bench_csv(b.out_dir, "bench_depth.csv", csv);
 }
 
-static BenchRegistrar reg("depth", "depth.Z against KITTI stereo 2015 disparity (road and vehicle-contact errors)",
+static BenchRegistrar reg("depth", "depth.Z against KITTI stereo 2015 disparity, or on rendered streets (--synthetic): road and vehicle-contact errors",
                           [](CLI::App* sub) {
                             auto b = std::make_shared<DepthBench>();
                             sub->add_option("--kitti", b->kitti,
                                             "folder with image_2/, semantic/ (instance/), disp_occ_0/ and "
-                                            "calib_cam_to_cam/ (KITTI semantics + stereo 2015 training)")
-                                ->required();
-                            sub->add_option("--max-frames", b->max_frames, "frames (0: all)")->capture_default_str();
+                                            "calib_cam_to_cam/ (KITTI semantics + stereo 2015 training)");
+                            sub->add_flag("--synthetic", b->synthetic,
+                                          "instead: streets rendered from a known camera, straight and curving, the "
+                                          "camera's pitch off the rig's by up to 1 degree (the horizon's error; "
+                                          "docs/bench_depth_synthetic.csv)");
+                            sub->add_option("--max-frames", b->max_frames, "frames (0: all; with --synthetic, the first N cases)")->capture_default_str();
                             sub->add_option("--scene-preset", b->scene_preset, "scene preset")->capture_default_str();
                             sub->add_option("--out-dir", b->out_dir, "where the CSV goes (default docs/)");
                             sub->callback([b] { run(*b); });
