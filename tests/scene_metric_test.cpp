@@ -3579,11 +3579,13 @@ TEST(Luminaires, BatchSequenceKeepsLampsBesideACurvingRoad) {
     double kerb_err = -1, worst_asserted = 0;
     int heads = 0, asserted = 0;
     std::string by_frame;
+    double pitch0 = 0;  // the sequence's pitch (its first frame's)
     for (int f = 0; f < n; ++f) {
       const ExrContents e = read_exr(dir.file("out") + fmt::format("/image_2/drive/{:010d}.exr", f));
       CameraGeometry g = o.camera;
       g.pitch_rad = std::stod(e.attributes.at("photosite/night/camera_pitch_deg_text")) * M_PI / 180;
       if (f == 0) {
+        pitch0 = g.pitch_rad;
         const StreetLighting plan = plan_street_lighting(labels[0], g, p, 3);
         kerb_err = std::max(std::fabs(plan.road_right_m - o.road_half_width_m), std::fabs(plan.road_left_m + o.road_half_width_m));
       }
@@ -3621,9 +3623,11 @@ TEST(Luminaires, BatchSequenceKeepsLampsBesideACurvingRoad) {
       if (on_circle) EXPECT_GE(frame_asserted, 1) << "frame " << f << ": no lamp head beside the road in view";
       by_frame += fmt::format(" {}: {} heads, {} off, worst {:.2f} m;", f, frame_heads, frame_off, frame_worst);
     }
-    std::fprintf(stderr, "[curving street] turning %s on R = %g m from %g m: photosite's kerbs off by %.2f m, odometry off by %.3f m; "
-                 "%d lamp heads, %d asserted (worst %.3f m off the kerb + setback, bound h²/(2R) + those + half a pixel); by frame:%s\n",
-                 sigma > 0 ? "right" : "left", R, Dc, kerb_err, pose_err, heads, asserted, worst_asserted, by_frame.c_str());
+    std::fprintf(stderr, "[curving street] turning %s on R = %g m from %g m: pitch %.5f rad (the renderer's %.5f), photosite's kerbs "
+                 "off by %.2f m, odometry off by %.3f m; %d lamp heads, %d asserted (worst %.3f m off the kerb + setback, bound "
+                 "h²/(2R) + those + half a pixel); by frame:%s\n",
+                 sigma > 0 ? "right" : "left", R, Dc, pitch0, o.camera.pitch_rad, kerb_err, pose_err, heads, asserted,
+                 worst_asserted, by_frame.c_str());
   }
 }
 
