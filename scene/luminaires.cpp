@@ -182,7 +182,10 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   // off the road line). A straight measurement replaces only a turning line: a straight drive keeps its
   // one piece, bit for bit. The driven part stays as it was.
   std::vector<Piece> line = path_;
-  {
+  // At the pose the line ahead was decided at, that decision (the same street in view).
+  if (ahead_decided_ && pose.X_m == ahead_X_ && pose.D_m == ahead_D_ && pose.yaw_rad == ahead_yaw_) {
+    line.insert(line.end(), ahead_.begin(), ahead_.end());
+  } else {
     const RoadAhead& ra = plan.road_ahead;
     const Piece last = path_.back();
     if ((ra.curved || (ra.state == "straight" && last.kappa != 0)) && a_cam >= last.a0) {
@@ -217,6 +220,11 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
         }
       }
     }
+    ahead_decided_ = true;
+    ahead_X_ = pose.X_m;
+    ahead_D_ = pose.D_m;
+    ahead_yaw_ = pose.yaw_rad;
+    ahead_.assign(line.begin() + static_cast<std::ptrdiff_t>(path_.size()), line.end());
   }
   // This frame's pole luminaires into the remembered set.
   const double match_k = 2.0 / (g.f_px * g.mount_height_m);  // 2 px of contact row: ΔD = 2·D²/(f·h)

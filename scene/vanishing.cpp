@@ -107,6 +107,30 @@ VanishingPoint label_prior(const ImageU16& labels, const std::string& why) {
   vp.confidence = 0;
   return vp;
 }
+
+// Whether two segments span nearby bands of rows: their row ranges overlap, or lie apart by at
+// most half the shorter one's span. On flat ground a row is one distance ahead, so the two are
+// chords of road lines (markings, kerbs, the sides of vehicles) over nearby stretches of road. Why
+// only those pairs: any two ground lines of one direction meet on the horizon, two of different
+// directions at a ground point, below the horizon where they converge ahead, above it where they
+// diverge. On a bend of radius R the road's lines are concentric arcs: chords of them over the
+// same stretch are parallel, while chords over stretches ΔD apart differ in direction by about
+// ΔD/R. A near chord of one line paired with a far one of another drew the vanishing point up to
+// 36 px (1.8°) off the horizon at 1024x512 near 100-400 m bends (`photosite bench depth
+// --synthetic`, docs/night.md §6b); with this rule at most 7.3 px. On a straight road all pairs are
+// of one direction and those left out add no other witness; with fewer intersections a frame of
+// few lines falls back to a prior more often (1 of that bench's 15 near straight cases). Measured,
+// not derived: requiring an overlap of 0 to 0.75 of the shorter span gave the same medians on the
+// bends, but the straight street with three vehicles of MetricDepth.SyntheticCameraSceneThroughTheChain
+// lost pairs whose rows lie apart (its horizon 1.02 → 2.02 px off); a gap of half the shorter span
+// keeps them (1.02 px) and the bends' medians. A photosite choice. (Test:
+// SceneGeometry.FarChordsOfABendDoNotDrawTheVanishingPoint.)
+bool share_rows(const Segment& a, const Segment& b) {
+  const double a0 = std::min(a.y0, a.y1), a1 = std::max(a.y0, a.y1);
+  const double b0 = std::min(b.y0, b.y1), b1 = std::max(b.y0, b.y1);
+  return std::min(a1, b1) - std::max(a0, b0) >= -0.5 * std::min(a1 - a0, b1 - b0);
+}
+
 }  // namespace
 
 VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
@@ -119,6 +143,7 @@ VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16
   for (size_t i = 0; i < lines.size(); ++i)
     for (size_t j = i + 1; j < lines.size(); ++j) {
       const Segment &a = lines[i], &b = lines[j];
+      if (!share_rows(a, b)) continue;  // chords of stretches of road far apart
       const double a1 = a.y1 - a.y0, b1 = a.x0 - a.x1, c1 = a1 * a.x0 + b1 * a.y0;
       const double a2 = b.y1 - b.y0, b2 = b.x0 - b.x1, c2 = a2 * b.x0 + b2 * b.y0;
       const double det = a1 * b2 - a2 * b1;
@@ -128,7 +153,7 @@ VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16
       if (x < -W || x > 2.0 * W || y < -H || y > 2.0 * H) continue;
       pts.push_back({x, y});
     }
-  if (pts.empty()) return label_prior(labels, "no line intersections near the image");
+  if (pts.empty()) return label_prior(labels, "no line intersections near the image (of lines over nearby rows)");
   // Densest cluster: vote in a grid of cells of the cluster radius, take the best 3x3
   // neighbourhood, then two mean-shift steps with a flat kernel of that radius.
   const double r = p.vp_cluster_radius_fraction * std::hypot(W, H);

@@ -2641,6 +2641,65 @@ TEST(MetricLights, PanningCropsOfACityscapesFrameReported) {
 // on its world positions, a re-detection from nearer moves it and one from farther does not, and
 // a luminaire whose light no longer reaches the view is forgotten. Two sets fed the same frames
 // give the same lamps.
+// At a pose the line ahead was decided at, a sequence keeps that decision (LuminaireSet::update):
+// two views of one street from one place (crops of a view, a camera at rest) can fit a bend
+// differently by more than their standard errors, and the luminaires ahead moved with each fit
+// (crops of aachen_000000 32 px apart measured heading −0.025 and −0.253 rad). Two plans of one
+// pose whose road ahead curves, measured differently (κ 0.010 from 20 m at heading 0; κ 0.012 from
+// 15 m at heading 0.02 rad), each with kerb errors of 1 cm, far from the straight line's
+// extrapolation: fed one after the other at pose 0 the second frame's lamps are the first's, bit
+// for bit; a set given the second alone places them elsewhere (each fit is taken, where it is the
+// first at its pose); and 2 m further along the road the frame's plan decides anew.
+TEST(Luminaires, TheLineAheadDecidedAtAPoseIsKeptThere) {
+  const ScenePreset p = urban();
+  VanishingPoint none;
+  const CameraGeometry g = camera_geometry(load_camera_rig("cityscapes"), 1024, 512, none);
+  auto plan = [](double kappa, double start, double heading) {
+    StreetLighting s;
+    s.road_left_m = -7;
+    s.road_right_m = 7;
+    s.peak_intensity_cd = 1000;
+    RoadAhead& r = s.road_ahead;
+    r.state = "curved";
+    r.curved = true;
+    r.kappa_per_m = kappa;
+    r.curve_start_m = start;
+    r.heading_rad = heading;
+    r.left_m = -7;
+    r.right_m = 7;
+    r.reach_m = 60;
+    r.covariance[0] = r.covariance[5] = 1e-4;  // 1 cm on each kerb
+    r.covariance[10] = 1e-8;                    // 1e-4 rad of heading
+    r.covariance[15] = 1e-12;                   // 1e-6 1/m of curvature
+    return s;
+  };
+  const StreetLighting A = plan(0.010, 20, 0), B = plan(0.012, 15, 0.02);
+  auto same = [](const StreetLighting& a, const StreetLighting& b) {
+    if (a.lamps.size() != b.lamps.size()) return false;
+    for (size_t i = 0; i < a.lamps.size(); ++i)
+      if (a.lamps[i].X_m != b.lamps[i].X_m || a.lamps[i].D_m != b.lamps[i].D_m) return false;
+    return true;
+  };
+  LuminaireSet set, fresh;
+  const StreetLighting a0 = set.update(A, g, 1024, 512, CameraPose{}, p, 7);
+  ASSERT_GT(a0.lamps.size(), 4u);
+  const StreetLighting b0 = set.update(B, g, 1024, 512, CameraPose{}, p, 7);
+  EXPECT_TRUE(same(a0, b0)) << "the second view of the same place moved the luminaires ahead";
+  const StreetLighting b_alone = fresh.update(B, g, 1024, 512, CameraPose{}, p, 7);
+  EXPECT_FALSE(same(a0, b_alone)) << "premise: the two fits place the luminaires differently";
+  // Two metres on, the frame's own fit decides again: after A and B at pose 0 (A kept), B at the
+  // new pose gives the lamps of a set that saw A at pose 0 and B there (the same path, anchored by
+  // A), and not those of one that saw A at both poses (premise: the fits differ there too).
+  const CameraPose on{0, 2, 0};
+  LuminaireSet y, z;
+  (void)y.update(A, g, 1024, 512, CameraPose{}, p, 7);
+  (void)z.update(A, g, 1024, 512, CameraPose{}, p, 7);
+  const StreetLighting b2 = set.update(B, g, 1024, 512, on, p, 7), y2 = y.update(B, g, 1024, 512, on, p, 7),
+                       z2 = z.update(A, g, 1024, 512, on, p, 7);
+  EXPECT_TRUE(same(b2, y2)) << "at a new pose the line ahead is the frame's own measurement";
+  EXPECT_FALSE(same(y2, z2)) << "premise: the two fits place the luminaires differently from there";
+}
+
 TEST(Luminaires, PolesStayInTheWorldAsTheCameraMoves) {
   const ScenePreset p = urban();
   VanishingPoint none;

@@ -45,7 +45,11 @@ class LuminaireSet {
   //    of its standard errors off the extrapolation's. Then the line ahead is the measured one
   //    (straight to the bend's start, the fitted arc for a quarter turn, straight on): a curve is
   //    followed before the vehicle reaches it, and a line still turning after a curve runs
-  //    straight once the kerbs do. A luminaire ahead moves when a later frame measures otherwise.
+  //    straight once the kerbs do. A luminaire ahead moves when a later frame measures otherwise,
+  //    from another pose: at the pose the line ahead was last decided at (a camera at rest, crops of
+  //    one view: the same street in view) that decision is kept, not taken anew from the frame's
+  //    own measurement (two views of one street can fit a bend differently by more than their
+  //    standard errors: crops of aachen_000000 32 px apart, heading −0.025 against −0.253 rad).
   //    The anchoring frame, where its road bends, starts the line along the measured heading with
   //    the fitted kerbs. Behind its start: straight back along it. A straight drive is one straight
   //    piece: the straight rows of a single frame, bit for bit;
@@ -96,6 +100,11 @@ class LuminaireSet {
   std::vector<Piece> path_;
   std::vector<Pending> pending_;
   std::vector<Lamp> poles_;
+  // The line ahead as last decided (the pieces appended to path_ for it, none where the
+  // extrapolation stood) and the pose it was decided at.
+  bool ahead_decided_ = false;
+  double ahead_X_ = 0, ahead_D_ = 0, ahead_yaw_ = 0;
+  std::vector<Piece> ahead_;
 };
 
 // The building façades a sequence has seen, in the world, each with the key of its windows' lit
