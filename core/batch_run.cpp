@@ -406,19 +406,6 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
                        "camera_yaw_rad {:.17g}", g.time_ns, g.speed_m_s, g.yaw_rate_rad_s, g.camera_forward_m,
                        g.camera_left_m, g.camera_yaw_rad);
   };
-  // Likewise what a frame's pose is computed from where the run reads a data set's odometry files
-  // (the load stage below): KITTI raw's OXTS data file (its checksum), the frame's line of the
-  // drive's timestamps (its text, as read_kitti_oxts takes it: the only part of the file the frame
-  // reads, so an edit of another frame's line, or frames appended to the drive, leave it alone)
-  // and the drive's three calibration files where read (their checksums, in kKittiCalibFiles'
-  // order); Cityscapes' vehicle JSON, timestamp file and, where the item has one, camera file (the
-  // camera's place on the vehicle, read whatever --rig says). The record keeps them as
-  // "odometry_sources"; a frame whose sources differ now is not finished, and its sequence is
-  // redone whole (frame k's pose integrates the odometry of frames 0..k). A record without them
-  // (written before they were kept) is not trusted where the frame reads odometry files now: its
-  // pose cannot be checked, so it is redone once, as a record without camera_file_xxh3_64 is where
-  // a camera file exists. Taken here, before any item is read: a file edited while the run reads
-  // it leaves a record of its earlier content, which the next run finds changed (never the reverse).
   // A KITTI drive's timestamps file, read once per run for all its frames: here, for the records'
   // lines, and by the readers' threads, which share it (the frame's pose is computed from the very
   // lines its record keeps). A file that cannot be read is not kept, so each frame that needs it
@@ -434,6 +421,19 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
     std::lock_guard l(stamps_m);
     return stamps_read.try_emplace(path, std::move(lines)).first->second;
   };
+  // Like those fields, what a frame's pose is computed from where the run reads a data set's odometry files
+  // (the load stage below): KITTI raw's OXTS data file (its checksum), the frame's line of the
+  // drive's timestamps (its text, as read_kitti_oxts takes it: the only part of the file the frame
+  // reads, so an edit of another frame's line, or frames appended to the drive, leave it alone)
+  // and the drive's three calibration files where read (their checksums, in kKittiCalibFiles'
+  // order); Cityscapes' vehicle JSON, timestamp file and, where the item has one, camera file (the
+  // camera's place on the vehicle, read whatever --rig says). The record keeps them as
+  // "odometry_sources"; a frame whose sources differ now is not finished, and its sequence is
+  // redone whole (frame k's pose integrates the odometry of frames 0..k). A record without them
+  // (written before they were kept) is not trusted where the frame reads odometry files now: its
+  // pose cannot be checked, so it is redone once, as a record without camera_file_xxh3_64 is where
+  // a camera file exists. Taken here, before any item is read: a file edited while the run reads
+  // it leaves a record of its earlier content, which the next run finds changed (never the reverse).
   std::map<std::string, nlohmann::json> odometry_sources;  // item key → its sources, where it has any
   {
     auto sum = [](const std::string& p) {

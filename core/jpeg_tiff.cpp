@@ -396,16 +396,16 @@ Raster read_tiff(const std::string& path) {
         {COMPRESSION_DEFLATE, static_cast<double>(png::kMaxDeflateRatio), "Deflate"},
         {COMPRESSION_PACKBITS, 64, "PackBits"},
         {COMPRESSION_LZW, 3413, "LZW"}};
-    size_checked = !ec && photo != PHOTOMETRIC_YCBCR &&
-                   (compression == COMPRESSION_NONE ||
-                    std::any_of(std::begin(kExpansion), std::end(kExpansion), [&](const auto& c) { return c.code == compression; }));
-    for (const auto& c : kExpansion)
-      if (!ec && compression == c.code && photo != PHOTOMETRIC_YCBCR && static_cast<double>(stored) * c.ratio < needed)
-        fail_at(path, fmt::format("corrupt or truncated image (TIFF data: its {}x{} pixels, {} sample{} of {} bits each, "
-                                  "need {:.0f} bytes; its {} hold {} bytes of {}, which expand at most {:.0f}:1); "
-                                  "refused before allocating them",
-                                  w, h, spp, spp == 1 ? "" : "s", bps, needed, TIFFIsTiled(tif) ? "tiles" : "strips",
-                                  stored, c.name, c.ratio));
+    const auto bound = std::find_if(std::begin(kExpansion), std::end(kExpansion),
+                                    [&](const auto& c) { return c.code == compression; });
+    const bool bounded = bound != std::end(kExpansion), checkable = !ec && photo != PHOTOMETRIC_YCBCR;
+    size_checked = checkable && (compression == COMPRESSION_NONE || bounded);
+    if (checkable && bounded && static_cast<double>(stored) * bound->ratio < needed)
+      fail_at(path, fmt::format("corrupt or truncated image (TIFF data: its {}x{} pixels, {} sample{} of {} bits each, "
+                                "need {:.0f} bytes; its {} hold {} bytes of {}, which expand at most {:.0f}:1); "
+                                "refused before allocating them",
+                                w, h, spp, spp == 1 ? "" : "s", bps, needed, TIFFIsTiled(tif) ? "tiles" : "strips",
+                                stored, bound->name, bound->ratio));
   }
   if (photo == PHOTOMETRIC_YCBCR && compression == COMPRESSION_JPEG) {  // libtiff converts (tiff(3) JPEGCOLORMODE)
     TIFFSetField(tif, TIFFTAG_JPEGCOLORMODE, JPEGCOLORMODE_RGB);

@@ -64,10 +64,13 @@ void street_point(double R, double Dc, double a_m, double e_m, double* X, double
 }
 
 void run_synthetic(const DepthBench& b) {
-  const scene::ScenePreset base = scene::load_scene_preset(b.scene_preset);
-  scene::ScenePreset sp = base;
+  scene::ScenePreset sp = scene::load_scene_preset(b.scene_preset);
   sp.rig = scene::load_camera_rig("cityscapes");
   constexpr double kCurveStart_m = 60;
+  const scene::SyntheticCameraOptions street;  // the renderer's frame size
+  // The rig's nominal geometry at that size: each case's true camera is it pitched by the offset,
+  // and its horizon is the "rig's horizon alone" column.
+  const scene::CameraGeometry rig_g = scene::camera_geometry(sp.rig, street.width, street.height, scene::VanishingPoint{});
   const std::vector<double> radii{0, 400, -400, 200, -200, 100, -100, 60, -60};
   const std::vector<double> positions{-40, -20, -10, 0, 10, 25};  // the camera's arc length − kCurveStart_m
   const std::vector<double> offsets{0, 0.5, -0.5, 1.0, -1.0};       // true pitch − the rig's nominal, degrees
@@ -83,8 +86,8 @@ void run_synthetic(const DepthBench& b) {
       for (const double off : offsets) {
         if (b.max_frames > 0 && cases >= b.max_frames) break;
         ++cases;
-        scene::SyntheticCameraOptions o;
-        o.camera = scene::camera_geometry(sp.rig, o.width, o.height, scene::VanishingPoint{});
+        scene::SyntheticCameraOptions o = street;
+        o.camera = rig_g;
         o.camera.pitch_rad += off * M_PI / 180;
         o.camera.horizon_y = o.camera.cy_px - o.camera.f_px * std::tan(o.camera.pitch_rad);
         o.road_radius_m = R;
@@ -110,7 +113,6 @@ void run_synthetic(const DepthBench& b) {
         const auto e = scene::depth_errors(ns.depth, sc.depth_m, sc.labels, sp.max_depth_m);
         // The rig's nominal horizon alone, and the renderer's own (the evaluation's check: its
         // ground depth is the rendered one up to rounding).
-        const scene::CameraGeometry rig_g = scene::camera_geometry(sp.rig, o.width, o.height, scene::VanishingPoint{});
         const auto er = scene::depth_errors(scene::metric_depth(sc.labels, rig_g, sp.max_depth_m), sc.depth_m, sc.labels, sp.max_depth_m);
         const auto et = scene::depth_errors(scene::metric_depth(sc.labels, o.camera, sp.max_depth_m), sc.depth_m, sc.labels, sp.max_depth_m);
         const scene::RoadAhead ra = scene::measure_road_ahead(sc.labels.ids, g);
@@ -125,7 +127,7 @@ void run_synthetic(const DepthBench& b) {
   // on it (on the straight street: the same positions, 20-50 and 60-85 m from its origin), the share of cases whose vanishing point is taken, the median and largest |horizon
   // error| of those, and the median road depth error as run and with the rig's horizon alone.
   std::printf("horizon and road depth on rendered streets (rig %s, %dx%d; %d cases)\n", sp.rig.name.c_str(),
-              1024, 512, cases);
+              street.width, street.height, cases);
   std::printf("  %-9s %-12s %6s %10s %14s %14s %14s %14s %14s\n", "|radius|", "camera", "cases", "vp taken", "vp |err| med",
               "vp |err| max", "road err run", "road err rig", "curved: rig");
   for (const double absR : {0.0, 400.0, 200.0, 100.0, 60.0})
