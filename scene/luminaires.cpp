@@ -377,6 +377,12 @@ void ParkedSet::forget(const CameraPose& pose, double forget_m) {
 }
 
 std::vector<uint64_t> FacadeSet::keys(const std::vector<FacadePlane>& planes, const CameraPose& pose, double forget_m) {
+  std::vector<FacadePlane> copy = planes;
+  return hold(&copy, pose, forget_m);
+}
+
+std::vector<uint64_t> FacadeSet::hold(std::vector<FacadePlane>* planes_io, const CameraPose& pose, double forget_m) {
+  std::vector<FacadePlane>& planes = *planes_io;
   // Forgotten first: the façades now beyond forget_m of the camera's foot (|n·T − d|).
   std::erase_if(seen_, [&](const Facade& f) { return std::fabs(f.nX * pose.X_m + f.nD * pose.D_m - f.d_m) > forget_m; });
   const double cos_tol = std::cos(2.5 * M_PI / 180), d_tol = 2.5;
@@ -391,10 +397,26 @@ std::vector<uint64_t> FacadeSet::keys(const std::vector<FacadePlane>& planes, co
       if (best < 0 || std::fabs(f.d_m - w.d_m) < std::fabs(seen_[best].d_m - w.d_m)) best = static_cast<int>(i);
     }
     if (best >= 0) {
-      out[k] = seen_[best].key;
+      const Facade& f = seen_[best];
+      out[k] = f.key;
+      if (f.fitted && planes[k].fitted) {
+        // The remembered plane in the frame (facade_in_world inverted: the normal turned back by
+        // the yaw, the distance less the normal's component of the pose's place).
+        FacadePlane& q = planes[k];
+        if (pose.at_origin()) {
+          q.nX = f.nX;
+          q.nD = f.nD;
+          q.d_m = f.d_m;
+        } else {
+          const double cy = std::cos(pose.yaw_rad), sy = std::sin(pose.yaw_rad);
+          q.nX = f.nX * cy - f.nD * sy;
+          q.nD = f.nX * sy + f.nD * cy;
+          q.d_m = f.d_m - (f.nX * pose.X_m + f.nD * pose.D_m);
+        }
+      }
     } else {
       out[k] = facade_key(w);
-      seen_.push_back({w.nX, w.nD, w.d_m, out[k]});
+      seen_.push_back({w.nX, w.nD, w.d_m, out[k], planes[k].fitted});
     }
   }
   return out;

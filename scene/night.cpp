@@ -251,6 +251,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   // wall time with merges and block minima on one thread); the rails 0.14; the low beam's rows
   // 3.1 and the coarse depth's 0.4 (docs/benchmarks.md, "Twenty-seventh session").
   BuildingFacades facades;
+  std::vector<uint64_t> facade_keys;  // a sequence's (FacadeSet::hold)
   StreetLighting planned;
   // The shared rows go to whichever half is free first, in chunks of 32 rows from a counter per
   // image: each row is written by the same function whichever thread takes it, so the same bits.
@@ -290,6 +291,9 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
       std::min(2, omp_get_max_threads()),
       [&] {
         facades = building_facades_with(labels.ids, s.geometry, p.max_depth_m, regions.get());
+        // A sequence's façades keep the planes they were first fitted with (FacadeSet::hold), for
+        // their depth and their windows alike.
+        if (seq) facade_keys = seq->facades.hold(&facades.planes, seq->pose, p.max_depth_m);
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
         planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
         if (p.lamp_shadows && !seq && !planned.lamps.empty()) {
@@ -335,7 +339,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   if (seq) {
     tracked = seq->luminaires.update(planned, s.geometry, W, H, seq->pose, p, seed);
     tracked.pose = seq->pose;  // the façade windows laid out in the sequence's world
-    tracked.facade_keys = seq->facades.keys(facades.planes, seq->pose, p.max_depth_m);
+    tracked.facade_keys = std::move(facade_keys);
     seq->parked.forget(seq->pose, p.max_depth_m);
   }
   // A sequence's street lamps' shadows, for its tracked lamps, from the label runs made beside the

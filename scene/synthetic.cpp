@@ -153,24 +153,35 @@ SyntheticCameraScene make_synthetic_camera_scene(const SyntheticCameraOptions& o
       }
       for (size_t b = 0; b < o.boxes.size(); ++b) {
         const SyntheticBox& B = o.boxes[b];
+        // A turned box: the ray in the box's own frame (its front face's centre the origin, its
+        // length along +D), as Pose2::to_frame; an unturned one in the street's, as before.
+        double bX0 = X0, bD0 = D0, bdX = dX, bdD = dD, bX = B.X_m, bD = B.D_m;
+        if (B.yaw_rad != 0) {
+          const double cb = std::cos(B.yaw_rad), sb = std::sin(B.yaw_rad), ox = X0 - B.X_m, od = D0 - B.D_m;
+          bX0 = ox * cb - od * sb;
+          bD0 = ox * sb + od * cb;
+          bdX = dX * cb - dD * sb;
+          bdD = dX * sb + dD * cb;
+          bX = bD = 0;
+        }
         auto inside = [&](double t, int face) {
-          const double X = X0 + t * dX, Y = h + t * dY, D = D0 + t * dD;
+          const double X = bX0 + t * bdX, Y = h + t * dY, D = bD0 + t * bdD;
           if (Y < B.base_m || Y > B.height_m) return false;
-          if (face == 0) return std::fabs(X - B.X_m) <= B.width_m / 2;
-          if (face == 2) return std::fabs(X - B.X_m) <= B.width_m / 2 && D >= B.D_m && D <= B.D_m + B.length_m;
-          return D >= B.D_m && D <= B.D_m + B.length_m;
+          if (face == 0) return std::fabs(X - bX) <= B.width_m / 2;
+          if (face == 2) return std::fabs(X - bX) <= B.width_m / 2 && D >= bD && D <= bD + B.length_m;
+          return D >= bD && D <= bD + B.length_m;
         };
         if (B.base_m > 0 && dY > 0) {  // the underside of a floating box, seen from below
           const double t = (B.base_m - h) / dY;
           if (t > 0 && t < best && inside(t, 2)) { best = t; hit = static_cast<int>(b); front = false; }
         }
-        if (dD > 0) {
-          const double t = (B.D_m - D0) / dD;
+        if (bdD > 0) {
+          const double t = (bD - bD0) / bdD;
           if (t > 0 && t < best && inside(t, 0)) { best = t; hit = static_cast<int>(b); front = true; }
         }
-        for (double side : {B.X_m - B.width_m / 2, B.X_m + B.width_m / 2})
-          if (dX != 0) {
-            const double t = (side - X0) / dX;
+        for (double side : {bX - B.width_m / 2, bX + B.width_m / 2})
+          if (bdX != 0) {
+            const double t = (side - bX0) / bdX;
             if (t > 0 && t < best && inside(t, 1)) { best = t; hit = static_cast<int>(b); front = false; }
           }
       }

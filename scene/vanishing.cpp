@@ -131,6 +131,20 @@ bool share_rows(const Segment& a, const Segment& b) {
   return std::min(a1, b1) - std::max(a0, b0) >= -0.5 * std::min(a1 - a0, b1 - b0);
 }
 
+// Whether the point (x, y) lies on the segment's line beyond its ends (within 2 px of an end
+// counts as beyond: a line drawn up to its vanishing point). A line's image ends at its vanishing
+// point, so the segment lies wholly on one side of it; a point well inside a segment is where it
+// crosses another line. On kitti_000002_10 (a street corner), with lines kept from 5° of
+// horizontal, the chords Hough cut of the corner's curved kerb crossed one another inside
+// themselves and drew a vanishing point 16 px (1.3°) below the rig's horizon; with this rule the
+// frame falls back to the rig, as it did with the 12° rule (docs/night.md §2–6).
+bool beyond_ends(const Segment& s, double x, double y) {
+  const double dx = s.x1 - s.x0, dy = s.y1 - s.y0, len2 = dx * dx + dy * dy;
+  if (!(len2 > 0)) return true;
+  const double t = ((x - s.x0) * dx + (y - s.y0) * dy) / len2, m = 2 / std::sqrt(len2);
+  return t <= m || t >= 1 - m;
+}
+
 }  // namespace
 
 VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16& labels,
@@ -150,6 +164,7 @@ VanishingPoint vanishing_point(const std::vector<Segment>& lines, const ImageU16
       const double na = std::hypot(a1, b1), nb = std::hypot(a2, b2);
       if (std::fabs(det) < 0.1 * na * nb) continue;  // within ~6° of parallel
       const double x = (b2 * c1 - b1 * c2) / det, y = (a1 * c2 - a2 * c1) / det;
+      if (!beyond_ends(a, x, y) || !beyond_ends(b, x, y)) continue;  // a line does not run past its vanishing point
       if (x < -W || x > 2.0 * W || y < -H || y > 2.0 * H) continue;
       pts.push_back({x, y});
     }

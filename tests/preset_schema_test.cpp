@@ -159,7 +159,9 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // lamps.streetlamp_type and reflectance.day_white_balance, attributes only, the members being enums). Values changed since, by hand
 // with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
 // vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test);
-// street_lamps.spacing_ratio 3.5 -> 3.0 (≤ 3 for cut-off luminaires, docs/night.md "Street lamp spacing").
+// street_lamps.spacing_ratio 3.5 -> 3.0 (≤ 3 for cut-off luminaires, docs/night.md "Street lamp spacing");
+// geometry.line_reject_angle_deg 12 -> 5 (the kerbs of streets wider than a lane each way kept;
+// docs/night.md §2–6, `photosite bench depth --synthetic`).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))

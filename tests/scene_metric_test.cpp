@@ -145,6 +145,43 @@ TEST(MetricDepth, GroundModelRoundTrips) {
     }
 }
 
+// A turned box (SyntheticBox::yaw_rad, turned about its front face's centre, its length along
+// (sin yaw, cos yaw)): turned a quarter right, a car 1.8 m wide and 4.5 m long with its front
+// face's centre at (X, D) covers X to X + 4.5 and D − 0.9 to D + 0.9, the footprint of an
+// unturned box 4.5 m wide and 1.8 m long whose front face (centre X + 2.25) stands at D − 0.9. Its
+// depth then agrees to the box frame's rounding: the ray's origin and direction turned by cos and
+// sin of π/2 (cos = 6e-17) and back, a few ulps of the ray parameter t ≤ 40 m (1e-12 m is far
+// above, far below a millimetre; depth_m is a float, so the float rounding of z ≤ 40 m, 2⁻²⁴·40 =
+// 2.4e-6 m, bounds it). Labels agree except where a pixel's ray passes within that rounding of
+// an edge, which no pixel centre of this scene does (the test fails if more than none differ).
+// And a turned box is not the unturned one: 30° turned, its pixels differ.
+TEST(MetricDepth, ATurnedSyntheticBoxIsItsFootprintsBox) {
+  SyntheticCameraOptions a = camera_scene();
+  a.boxes = {{1.0, 14, 1.8, 1.5, 4.5}};
+  a.boxes[0].yaw_rad = M_PI / 2;
+  SyntheticCameraOptions b = a;
+  b.boxes = {{1.0 + 2.25, 14 - 0.9, 4.5, 1.5, 1.8}};
+  const SyntheticCameraScene sa = make_synthetic_camera_scene(a), sb = make_synthetic_camera_scene(b);
+  int on_box = 0, label_diff = 0;
+  double worst = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      if (sa.labels.instances.at(x, y) != sb.labels.instances.at(x, y)) ++label_diff;
+      if (sa.labels.instances.at(x, y) == 0) continue;
+      ++on_box;
+      worst = std::max(worst, std::fabs(double(sa.depth_m.at(x, y)) - sb.depth_m.at(x, y)));
+    }
+  EXPECT_GT(on_box, 1000);  // the box is in view: 1.5 m tall at 13-18 m, over 90 rows
+  EXPECT_EQ(label_diff, 0);
+  EXPECT_LE(worst, 2.4e-6);  // one float rounding of z ≤ 40 m (above)
+  SyntheticCameraOptions c = a;
+  c.boxes[0].yaw_rad = M_PI / 6;
+  const SyntheticCameraScene sc = make_synthetic_camera_scene(c);
+  int turned_diff = 0;
+  for (size_t i = 0; i < sc.labels.instances.pixel_count(); ++i) turned_diff += sc.labels.instances[i] != sb.labels.instances[i];
+  EXPECT_GT(turned_diff, 100);
+}
+
 // Recovered depth on a scene rendered from the known camera. With the horizon from the rig (the
 // true pitch) the ground is exact up to float rounding, and a box's ground contact is found to
 // within half a pixel row (the lowest pixel centre whose ray hits the box lies within one row
@@ -3318,6 +3355,19 @@ TEST(Luminaires, DrivingKeepsTheWindowsOnTheirFacades) {
   }
 }
 
+namespace {
+// A world façade plane in the frame of a camera at `pose` (facade_in_world inverted: the normal
+// turned back by the yaw, the distance less the normal's component of the pose's place).
+FacadePlane in_frame(const FacadePlane& w, const CameraPose& pose) {
+  const double c = std::cos(pose.yaw_rad), sn = std::sin(pose.yaw_rad);
+  FacadePlane f = w;
+  f.nX = w.nX * c - w.nD * sn;
+  f.nD = w.nX * sn + w.nD * c;
+  f.d_m = w.d_m - (w.nX * pose.X_m + w.nD * pose.D_m);
+  return f;
+}
+}  // namespace
+
 // A sequence's façades keep their windows' draw keys while each frame fits their planes anew
 // (FacadeSet): facade_key quantises the distance to 5 m, so a façade fitted at 12.49 m in one
 // frame and 12.51 m in the next would change its key (and every window's lit draw); matched to
@@ -3343,14 +3393,6 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
   // Driven 9 m on and turned 2° (the plane given in that frame's coordinates): the same façade,
   // fitted 0.02 m farther, keeps frame 0's key; 10° off is another façade.
   const CameraPose p1{0, 9, 2 * M_PI / 180};
-  auto in_frame = [&](const FacadePlane& w, const CameraPose& pose) {  // a world plane into the frame at `pose`
-    const double c = std::cos(pose.yaw_rad), sn = std::sin(pose.yaw_rad);
-    FacadePlane f = w;
-    f.nX = w.nX * c - w.nD * sn;
-    f.nD = w.nX * sn + w.nD * c;
-    f.d_m = w.d_m - (w.nX * pose.X_m + w.nD * pose.D_m);
-    return f;
-  };
   const auto k1 = set.keys({in_frame(across, p1), in_frame(turned, p1)}, p1, 200);
   EXPECT_EQ(facade_key(facade_in_world(in_frame(across, p1), p1)), facade_key(facade_in_world(across, p0)));  // the world's own key: the step moved
   EXPECT_EQ(k1[0], k0[0]) << "the façade took a new key when its fit crossed a step's edge";
@@ -3362,6 +3404,56 @@ TEST(Luminaires, FacadesKeepTheirKeysAcrossAFitsStepEdge) {
   const auto k2 = set.keys({in_frame(across, far)}, far, 200);
   EXPECT_EQ(k2[0], facade_key(facade_in_world(across, p0)));
   EXPECT_EQ(set.size(), 1u);
+}
+
+// A sequence's fitted façades also keep their planes (FacadeSet::hold): the same façade fitted
+// 0.4 m farther and 1° turned in a later frame (a flat-ground depth with a horizon slightly off)
+// is given back as first fitted, carried into that frame, so its windows stand where they stood;
+// the frame's foot line and flags stay. A plane that was not fitted (a default façade) is neither
+// replaced nor replaces; another façade keeps its own fit.
+TEST(Luminaires, FacadesKeepTheirFirstFittedPlaneInASequence) {
+  auto plane = [](double az_deg, double d, bool fitted) {
+    FacadePlane f;
+    f.nX = std::sin(az_deg * M_PI / 180);
+    f.nD = std::cos(az_deg * M_PI / 180);
+    f.d_m = d;
+    f.fitted = fitted;
+    f.line_a = 300;
+    f.line_b = 0.25;
+    return f;
+  };
+  FacadeSet set;
+  const CameraPose p0{}, p1{0.5, 9, 3 * M_PI / 180};
+  const FacadePlane first = plane(90, 12.5, true), unfitted = plane(-90, 9, false), other = plane(60, 30, true);
+  std::vector<FacadePlane> f0{first, unfitted};
+  set.hold(&f0, p0, 200);
+  EXPECT_EQ(f0[0].d_m, 12.5);  // a first sighting: its own fit
+  // Frame 1: the same façade fitted 0.4 m farther and 1° turned (in the world), the unfitted one
+  // now fitted 0.3 m nearer, and another façade.
+  FacadePlane refit = in_frame(plane(91, 12.9, true), p1);
+  refit.line_a = 280;
+  refit.line_b = -0.1;
+  std::vector<FacadePlane> f1{refit, in_frame(plane(-90, 8.7, true), p1), in_frame(other, p1)};
+  const std::vector<FacadePlane> given = f1;
+  const auto k1 = set.hold(&f1, p1, 200);
+  const FacadePlane want = in_frame(first, p1);
+  // 1e-12: a rotation and a dot product of values below 20 in double (a few ulps of 20, 4e-15).
+  EXPECT_NEAR(f1[0].nX, want.nX, 1e-12);
+  EXPECT_NEAR(f1[0].nD, want.nD, 1e-12);
+  EXPECT_NEAR(f1[0].d_m, want.d_m, 1e-12);
+  EXPECT_GT(std::fabs(given[0].d_m - want.d_m), 0.3);  // the fit given was another plane
+  EXPECT_EQ(f1[0].line_a, 280);  // the frame's own foot line
+  EXPECT_EQ(f1[0].line_b, -0.1);
+  EXPECT_TRUE(f1[0].fitted);
+  EXPECT_EQ(f1[1].d_m, given[1].d_m);  // matched to an unfitted façade: its own fit
+  EXPECT_EQ(f1[1].nX, given[1].nX);
+  EXPECT_EQ(f1[2].d_m, given[2].d_m);  // another façade: its own fit
+  EXPECT_EQ(k1.size(), 3u);
+  // keys() gives the same keys and leaves the planes as they were.
+  FacadeSet again;
+  std::vector<FacadePlane> g0{first, unfitted};
+  again.hold(&g0, p0, 200);
+  EXPECT_EQ(again.keys(given, p1, 200), k1);
 }
 
 // Parked vehicles keep their parking lights over a sequence whose camera drives on. A row of
@@ -3507,8 +3599,9 @@ TEST(Luminaires, TurningKeepsTheWindowsOnTheirFacades) {
     EXPECT_LT(back0, back) << "frame " << f;
     std::fprintf(stderr, "[turning windows] frame %d (pose X %.3f m, D %.3f m, yaw %.4f rad): façade light energy kept "
                  "(this frame's in the last's / the last's in this one's): with odometry %.4f / %.4f (true geometry "
-                 "%.4f / %.4f), at pose 0 %.4f / %.4f\n",
-                 f, poses[f].X_m, poses[f].D_m, poses[f].yaw_rad, fwd, back, fwd_true, back_true, fwd0, back0);
+                 "%.4f / %.4f), at pose 0 %.4f / %.4f; pitch %.5f rad (the renderer's %.5f)\n",
+                 f, poses[f].X_m, poses[f].D_m, poses[f].yaw_rad, fwd, back, fwd_true, back_true, fwd0, back0, g.pitch_rad,
+                 o.camera.pitch_rad);
   }
 }
 
@@ -4413,6 +4506,10 @@ std::pair<int, int> kerb_side_rows(const VehicleBeamScenes& b, const VehicleBeam
     if (xl < 0 || xr >= s.labels.ids.width() || s.labels.ids.at(xl, y) != static_cast<int>(Label::Road) ||
         s.labels.ids.at(xr, y) != static_cast<int>(Label::Road))
       continue;
+    // Asphalt only: a lane marking (day value 0.8, the asphalt's 0.08 x texture) adds its
+    // retroreflection, which the texture does not divide out (the beam's 1.72° sample of row 238
+    // fell on a dash once the vanishing point, not the rig, set the horizon).
+    if (s.day_linear_srgb.at(xl, y, 1) > 0.5f || s.day_linear_srgb.at(xr, y, 1) > 0.5f) continue;
     const double El = on.lights.at(xl, y, 1) / tex.at(xl, y, 1), Er = on.lights.at(xr, y, 1) / tex.at(xr, y, 1);
     ++rows;
     left_brighter += El > Er;

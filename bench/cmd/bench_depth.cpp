@@ -100,10 +100,14 @@ void run_synthetic(const DepthBench& b) {
         o.world_X_m = X;
         o.world_D_m = D;
         o.world_yaw_rad = std::atan2(Xa - X, Da - D);  // along the centre line
-        // Two cars ahead in the lanes (a box stands in the street's X, D, axis-aligned).
+        // Two cars ahead in the lanes, each along its lane (turned by the street's heading at its
+        // front face: on a bend the cars follow the road, as cars do).
         for (const auto& [ahead, e] : {std::pair{15.0, 1.75}, std::pair{28.0, -1.75}}) {
           street_point(R, kCurveStart_m, a + ahead, e, &X, &D);
-          o.boxes.push_back({X, D, 1.8, 1.5, 4.5});
+          street_point(R, kCurveStart_m, a + ahead + 1, e, &Xa, &Da);
+          scene::SyntheticBox car{X, D, 1.8, 1.5, 4.5};
+          car.yaw_rad = std::atan2(Xa - X, Da - D);
+          o.boxes.push_back(car);
         }
         const scene::SyntheticCameraScene sc = scene::make_synthetic_camera_scene(o);
         const scene::NightScene ns = scene::night_scene(sc.day_linear_srgb, sc.labels, sp, 0);

@@ -539,11 +539,14 @@ SyntheticScene make_synthetic_road(const SyntheticOptions& o);
 // (3 to 200 m ahead), terrain beyond, sky above the horizon, and boxes standing on the road (front
 // face at D, sides visible, labelled car with instances, or with another label: vegetation for
 // a hedge, no instance). A box with base_m > 0 floats from base_m to height_m above the road (a
-// tree's crown, its trunk a box of its own), its underside visible from below.
+// tree's crown, its trunk a box of its own), its underside visible from below. A box with
+// yaw_rad != 0 is turned about its front face's centre (X_m, D_m): its length runs along
+// (sin yaw, cos yaw) in (X, D), as a camera's heading (a car following a bend).
 struct SyntheticBox {
   double X_m, D_m, width_m, height_m, length_m;
   Label label = Label::Car;
   double base_m = 0;
+  double yaw_rad = 0;
 };
 struct SyntheticCameraOptions {
   int width = 1024, height = 512;

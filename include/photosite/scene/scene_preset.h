@@ -162,7 +162,7 @@ struct ScenePreset {
   double canny_low = 40, canny_high = 120;
   int hough_threshold = 30;
   double hough_min_length_fraction = 0.04, hough_max_gap_fraction = 0.01;
-  double line_reject_angle_deg = 12, border_fraction = 0.03;
+  double line_reject_angle_deg = 5, border_fraction = 0.03;
   double vp_cluster_radius_fraction = 0.04;
   int vp_min_support = 4;
   double max_depth_m = 1000;  // metric depth cap for ground and objects near the horizon
