@@ -219,7 +219,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         lanes_full = lanes_at_frame(s.lanes_work, labels.ids);  // what the light map reads
         add_vehicle_parts(*vehicles, day, labels);
       },
-      [&] { s.lines_work = detect_lines(s.edges_work, p); });
+      [&] { s.lines_work = detect_lines(s.edges_work, p, &w.labels); });
   lap("lines");
   VanishingPoint vp = vanishing_point(s.lines_work, w.labels, p);
   // Back to full-resolution pixel coordinates (pixel centres).

@@ -575,6 +575,48 @@ TEST(SceneGeometry, LaneMarkingsLieOnThePaintedLines) {
   }
 }
 
+// The bonnet's edge is not a line of the scene (scene/lines.cpp along_non_scene). A 1024x512
+// segmentation: road, the camera's own car below a boundary leaning 6° (from (100, 470) to (500,
+// 428), as a Cityscapes bonnet's chords lean 5-7°, kept since lines are taken from 5°), and a road
+// line of 205 px marked as a lane marking that runs down to the bonnet and ends on it. Without the
+// labels Hough's lines include the bonnet's edge; with them none lies along it (more than half of
+// its points within 3 px of the ego vehicle) and the road line is kept (its last few points only
+// touch it).
+TEST(SceneGeometry, TheBonnetsEdgeIsNotALine) {
+  const int W = 1024, H = 512;
+  ImageU16 labels(W, H, 1, uint16_t(Label::Road));
+  ImageU8 lanes(W, H, 1, 0);
+  auto bonnet_y = [](double x) { return 470 - 42 * (x - 100) / 400; };  // 6.0°
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (y < 200) labels.at(x, y) = uint16_t(Label::Building);
+      if (x >= 60 && x <= 540 && y >= bonnet_y(x)) labels.at(x, y) = uint16_t(Label::EgoVehicle);
+    }
+  // The road line: from (600, 250) down-left to the bonnet (at about (498, 428)), 3 px wide, 60°
+  // from horizontal.
+  for (int y = 250; y < H; ++y) {
+    const int x0 = static_cast<int>(600 - (y - 250) / std::tan(60 * M_PI / 180));
+    if (labels.at(x0, y) == uint16_t(Label::EgoVehicle)) break;
+    for (int dx = -1; dx <= 1; ++dx) lanes.at(x0 + dx, y) = 255;
+  }
+  const ImageU8 edges = segmentation_edges(labels, lanes, preset());
+  auto along_bonnet = [&](const Segment& l) {
+    const double mx = 0.5 * (l.x0 + l.x1), my = 0.5 * (l.y0 + l.y1);
+    return mx > 100 && mx < 500 && std::fabs(my - bonnet_y(mx)) < 3;
+  };
+  auto steep = [](const Segment& l) { return std::fabs(l.y1 - l.y0) > std::fabs(l.x1 - l.x0); };
+  int bonnet = 0, road = 0;
+  for (const auto& l : detect_lines(edges, preset())) bonnet += along_bonnet(l);
+  ASSERT_GT(bonnet, 0) << "the case does not make the bonnet's edge a line";
+  bonnet = 0;
+  for (const auto& l : detect_lines(edges, preset(), &labels)) {
+    bonnet += along_bonnet(l);
+    road += steep(l);
+  }
+  EXPECT_EQ(bonnet, 0);
+  EXPECT_GT(road, 0);
+}
+
 // The lane stage's fast sRGB encode (scene/lanes.cpp) against the exact expression, bit for bit,
 // on every float from 0.003 (below the toe's end, 0.0031308) to 1, on a stride through the toe, and
 // on the values the clamp handles; in blocks of every size up to 7 mod 4, for the vector path's tail;

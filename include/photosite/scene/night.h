@@ -189,7 +189,10 @@ ImageU8 lane_markings(const ImageF& luma, const ImageU16& labels, const ScenePre
 ImageU8 segmentation_edges(const ImageU16& labels, const ImageU8& lanes, const ScenePreset& p);
 struct Segment { float x0, y0, x1, y1; };
 // HoughLinesP, dropping near-horizontal/near-vertical lines and lines within the outer border.
-std::vector<Segment> detect_lines(const ImageU8& edges, const ScenePreset& p);
+// With `labels` (the edges' own size), also lines that run along the frame's own car or the
+// rectification's edges: most of their points within 3 px of an ego-vehicle, rectification-border
+// or out-of-ROI pixel (scene/lines.cpp).
+std::vector<Segment> detect_lines(const ImageU8& edges, const ScenePreset& p, const ImageU16* labels = nullptr);
 
 enum class VpMethod { Hough, RoadPrior, GroundPrior, SkyPrior, ImageCentre };
 const char* vp_method_name(VpMethod m);
