@@ -126,9 +126,7 @@ namespace {
 // 0: ground-like (flat-ground model), 1: sky, 2: object.
 int kind_of(int id) {
   if (id == static_cast<int>(Label::Sky)) return 1;
-  if (is_ground(id) || id == static_cast<int>(Label::EgoVehicle) ||
-      id == static_cast<int>(Label::RectificationBorder) || id == static_cast<int>(Label::OutOfRoi))
-    return 0;
+  if (is_ground(id) || is_not_scene(id)) return 0;
   return 2;
 }
 bool single_plane_class(int id) {
@@ -782,8 +780,7 @@ BuildingFacades building_facades_with(const ImageU16& ids, const CameraGeometry&
     std::fill(o + x, o + W, -1);
   }
   auto object = [&](int id) {  // neither ground nor sky: something standing in front
-    return !is_ground(id) && id != static_cast<int>(Label::Sky) && id != static_cast<int>(Label::EgoVehicle) &&
-           id != static_cast<int>(Label::RectificationBorder) && id != static_cast<int>(Label::OutOfRoi);
+    return !is_ground(id) && id != static_cast<int>(Label::Sky) && !is_not_scene(id);
   };
   for (size_t r = 0; r < out.regions.size(); ++r) {
     auto& R = out.regions[r];

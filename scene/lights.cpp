@@ -205,7 +205,7 @@ BesideProbe probe_beside(const ImageU16& labels, const CameraGeometry& g, int x,
     const double at_m = k * px_m, far_m = (k + 1) * px_m;  // the pixel's near and far edges
     const int id = labels.at(x, y);
     const Label l = static_cast<Label>(id);
-    if (l == Label::EgoVehicle || l == Label::RectificationBorder || l == Label::OutOfRoi || l == Label::Sky) break;
+    if (is_not_scene(id) || l == Label::Sky) break;
     const bool road = l == Label::Road;
     const bool standing = is_vehicle(id) || l == Label::Person || l == Label::Rider || l == Label::Pole ||
                           l == Label::PoleGroup || l == Label::TrafficSign || l == Label::TrafficLight ||

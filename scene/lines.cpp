@@ -9,11 +9,6 @@ namespace photosite::scene {
 
 namespace {
 
-bool not_the_scene(uint16_t id) {
-  return id == static_cast<uint16_t>(Label::EgoVehicle) || id == static_cast<uint16_t>(Label::RectificationBorder) ||
-         id == static_cast<uint16_t>(Label::OutOfRoi);
-}
-
 // Whether a segment runs along the boundary of what is not the scene: the frame's own car (its
 // bonnet's edge, a gentle curve across the bottom of every Cityscapes frame) or the
 // rectification's border. Its Canny edge lies within a pixel of the boundary and Hough's segment
@@ -33,7 +28,7 @@ bool along_non_scene(const Segment& s, const ImageU16& labels) {
     for (int dy = -3; dy <= 3 && !hit; ++dy)
       for (int dx = -3; dx <= 3 && !hit; ++dx) {
         const int u = x + dx, v = y + dy;
-        if (u >= 0 && u < W && v >= 0 && v < H && not_the_scene(labels.at(u, v))) hit = true;
+        if (u >= 0 && u < W && v >= 0 && v < H && is_not_scene(labels.at(u, v))) hit = true;
       }
     near += hit;
   }

@@ -30,6 +30,12 @@ std::array<uint8_t, 3> label_color(int label_id);  // the Cityscapes palette col
 int train_id_to_label_id(int train_id);             // 255 → Unlabeled; unknown → -1
 bool is_vehicle(int label_id);  // car, truck, bus, caravan, trailer, train, motorcycle, bicycle
 bool is_ground(int label_id);   // road, sidewalk, parking, ground, rail track, terrain
+// Not the scene: the frame's own car (ego vehicle), the rectification's border and out of ROI
+// (inline: per-pixel tests call it, scene/lines.cpp's within a neighbourhood of each point).
+inline bool is_not_scene(int label_id) {
+  return label_id == static_cast<int>(Label::EgoVehicle) || label_id == static_cast<int>(Label::RectificationBorder) ||
+         label_id == static_cast<int>(Label::OutOfRoi);
+}
 // is_ground() of every label id as one table, for per-pixel loops (DarkenParams::ground_class,
 // the low beam, the street lamps' pools).
 const std::array<bool, kLabelCount>& ground_classes();
