@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <optional>
+#include <thread>
 #include <vector>
 #include <omp.h>
 #if defined(__x86_64__)
@@ -129,6 +131,39 @@ void side_by_side(int threads, const First& first, const Second& second) {
     if (e) std::rethrow_exception(e);
 }
 
+// A piece of work that either of side_by_side's two halves may run, once: take() runs it where
+// no half has yet (the second half, early), take_or_wait() runs it or waits until the other
+// half's run ends (the first half, where it needs the result). Never a wait on a half that has
+// not started: with one thread the first half runs whole before the second, and takes it. A run
+// that threw counts as ended: the waiting half goes on, and side_by_side rethrows the exception.
+class OnceBeside {
+ public:
+  explicit OnceBeside(std::function<void()> f) : f_(std::move(f)) {}
+  void take() {
+    int expected = 0;
+    if (!state_.compare_exchange_strong(expected, 1, std::memory_order_acq_rel)) return;
+    struct Done {  // ended, also where f_ throws
+      std::atomic<int>& s;
+      ~Done() { s.store(2, std::memory_order_release); }
+    } done{state_};
+    f_();
+  }
+  void take_or_wait() {
+    take();
+    while (state_.load(std::memory_order_acquire) != 2) {
+#if defined(__x86_64__)
+      _mm_pause();
+#else
+      std::this_thread::yield();
+#endif
+    }
+  }
+
+ private:
+  std::function<void()> f_;
+  std::atomic<int> state_{0};  // 0 not taken, 1 running, 2 ended
+};
+
 double process_cpu_ms() {
   timespec ts;
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
@@ -238,11 +273,11 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   }
   // The depth stage's two independent halves side by side, one per thread where there are two:
   // the façade planes (fitted once: depth, windows and the street light on façades read them), the
-  // metric depth, whose per-component fits and stack sweep are serial, the street-lamp plan
+  // metric depth, whose per-component fits and stack sweep are serial, then the low beam's shadow
+  // maps of the vertical surfaces (BeamVerticalRows' set-up) and of the ground (GroundShadowMaps),
+  // which read only the labels and the metric depth; and the street-lamp plan
   // (plan_street_lighting: labels and geometry only; the light map is handed it, and a sequence
-  // tracks it; its poles made beside the edges, above), then the low beam's shadow maps of the
-  // vertical surfaces (BeamVerticalRows' set-up) and of the ground (GroundShadowMaps), which read
-  // only the labels and the metric depth; and the tram rails' markings (below). Then both halves
+  // tracks it; its poles made beside the edges, above; `plan` below) and the tram rails' markings. Then both halves
   // share the rows of the ego low beam's image and of the coarse depth. Each half's loops run on
   // its own thread (nested regions get one thread: OpenMP's default), and every function gives
   // the same result for any thread count, so the same bits. Thread CPU times on the bench frame
@@ -287,6 +322,12 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
   auto street_shadow_blocks = [&] {
     if (street_shadows_ready.load(std::memory_order_acquire)) street_shadows->take_blocks();
   };
+  // The street-lamp plan reads the labels and the geometry only: the second half makes it first,
+  // beside the façades and the metric depth (its road ahead, measure_road_ahead, took it from
+  // 0.1 to ~1 ms, then on the first half's serial path), and the first half, which needs it for
+  // the street lamps' shadows, waits for it there; whichever half reaches it first makes it (one
+  // thread: the first half, before the second starts), so the same plan either way.
+  OnceBeside plan([&] { planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get()); });
   side_by_side(
       std::min(2, omp_get_max_threads()),
       [&] {
@@ -295,7 +336,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         // their depth and their windows alike.
         if (seq) facade_keys = seq->facades.hold(&facades.planes, seq->pose, p.max_depth_m);
         s.depth = metric_depth_with(labels, s.geometry, p.max_depth_m, &facades, depth_runs.get());
-        planned = plan_street_lighting_with(labels, s.geometry, p, seed, poles.get());
+        plan.take_or_wait();
         if (p.lamp_shadows && !seq && !planned.lamps.empty()) {
           street_shadows.emplace(labels.ids, s.depth, s.geometry, planned, p, label_row_runs.get());
           street_shadows_ready.store(true, std::memory_order_release);
@@ -306,6 +347,7 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const Sce
         street_shadow_blocks();
       },
       [&] {
+        plan.take();  // (the first half waits for it where it is being made here)
         // Tram rails that the lane stage took for markings (drop_tram_rails: they led the
         // vanishing point with the markings) leave the markings that the light map lights; the
         // frame-size mask is remade only where some were found.
