@@ -1950,16 +1950,57 @@ namespace {
 // The white balance a linearisation's class sums are made with (sums->balance), when `split` uses
 // the road's: a sequence's carried one (their `carried`, marked sums->balance_carried), else the
 // road's, from its samples as px(x, y, rgb) decodes them.
+// `exact`: px decodes 8-bit codes through linearize()'s table, and the frame has at most 2^18
+// samples (road_samples_sum_is_exact): its rows are then summed on the threads, each its own rows'
+// sums, added in any order, since every partial sum is exact.
 template <class Px>
 void sums_day_balance(const ScenePreset* split, const DayBalance* carried, int W, int H, const uint16_t* labels,
-                      const Px& px, TextureSums* sums) {
+                      const Px& px, TextureSums* sums, bool exact = false) {
   if (!split || split->day_white_balance != DayWhiteBalance::Road) return;
   if (carried && carried->use == DayBalance::Use::Road) {
     sums->balance = *carried;
     sums->balance_carried = true;
     return;
   }
-  sums->balance = road_day_balance(road_samples(W, H, labels, px, keeps_its_colour));
+  if (!exact) {
+    sums->balance = road_day_balance(road_samples(W, H, labels, px, keeps_its_colour));
+    return;
+  }
+  // Bands of 64 sampled rows (256 frame rows), taken as they come; each band's sums, then the bands'
+  // added in band order (exact: any order gives these bits).
+  const int bands = (H + 255) / 256;
+  std::vector<RoadSums> part(bands);
+#pragma omp parallel for schedule(dynamic)
+  for (int b = 0; b < bands; ++b) {
+    const int y0 = 256 * b, rows = std::min(H, y0 + 256) - y0;
+    part[b] = road_samples(W, rows, labels + static_cast<size_t>(y0) * W,
+                           [&](int x, int y, float* c) { px(x, y0 + y, c); }, keeps_its_colour);
+  }
+  RoadSums r;
+  for (const RoadSums& q : part) {
+    for (int k = 0; k < 3; ++k) r.sum[k] += q.sum[k];
+    r.n += q.n;
+  }
+  sums->balance = road_day_balance(r);
+}
+// Whether road_samples' double sums over a W x H frame of 8-bit codes decoded by linearize()'s
+// table are exact, so that any order of addition gives the same bits. The samples it keeps lie in
+// (0, 1) (keeps_its_colour); the least nonzero decoded code, 1/(255·12.92) = 3.04e-4, lies in
+// [2^-12, 2^-11), so every kept sample is a float that is a multiple of 2^-35 (a float's 24-bit
+// significand; larger ones are multiples of coarser powers). With n samples each below 1, every
+// partial sum is a multiple of 2^-35 below n; a double holds every such multiple exactly while
+// n·2^35 ≤ 2^53, n ≤ 2^18. road_samples takes every 4th row and column: ⌈H/4⌉·⌈W/4⌉ samples at
+// most (131,072 at 2048x1024; a 4096x2048 frame, 524,288, is summed in reading order on one thread).
+// (The table's entries are checked once rather than assumed: each one in (0, 1) times 2^35 is a
+// whole number.)
+bool road_samples_sum_is_exact(int W, int H) {
+  static const bool table_on_the_grid = [] {
+    for (const float v : decode8().out)
+      if (v > 0.f && v < 1.f && std::ldexp(static_cast<double>(v), 35) != std::floor(std::ldexp(static_cast<double>(v), 35)))
+        return false;
+    return true;
+  }();
+  return table_on_the_grid && static_cast<int64_t>((W + 3) / 4) * ((H + 3) / 4) <= (int64_t{1} << 18);
 }
 }  // namespace
 
@@ -2124,10 +2165,12 @@ ImageF linearize_codes_with_texture_sums(const ImageU8& codes, const ImageU16& l
   sums->part.resize(kTextureChunks);
   // The day white balance first (a sequence's carried one, else from the road's codes read through
   // the same table).
+  // (On the threads where its sums are exact: serial, it was 0.35-0.39 ms of the stage's 2.2-2.4
+  // at 2 threads on the bench frame, the second thread idle; docs/benchmarks.md, "Forty-seventh session".)
   sums_day_balance(split, carried, codes.width(), codes.height(), labels.data(), [&](int x, int y, float* c) {
     const uint8_t* s = codes.data() + 3 * (static_cast<size_t>(y) * codes.width() + x);
     c[0] = d8.out[s[0]], c[1] = d8.out[s[1]], c[2] = d8.out[s[2]];
-  }, sums);
+  }, sums, road_samples_sum_is_exact(codes.width(), codes.height()));
   const SunPassRows sun = sun_pass_rows(split, out.data(), labels.data(), codes.width(), codes.height(), sums);
   texture_class_sums(labels.data(), codes.pixel_count(), box_coef(sums->balance.gain), sums->part.data(), [&](int, size_t first, int count) {
     decode8_samples(codes.data() + 3 * first, 3 * count, d8, out.data() + 3 * first);

@@ -2,6 +2,7 @@
 // day_white_balance): a camera's cast on the day photo is taken out by the grey of its road before
 // the texture keeps the photo's colours as albedos.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -341,6 +342,43 @@ TEST(DayWhiteBalance, FoundInTheLinearisationPassAsFromTheLinearImage) {
       EXPECT_EQ(texture_own_class_sums_count(), own) << at << ": the pass's sums were not taken";
       EXPECT_TRUE(same_bits(with, reflectance_texture(lin, s.ids, p))) << at;
     }
+}
+
+// From 8-bit codes the road's samples are summed on the threads, in bands of 256 rows added in
+// band order (scene/darken.cpp, road_samples_sum_is_exact: every kept sample a multiple of 2^-35
+// below 1, at most 2^18 of them, so each partial sum is exact and the order cannot show). Over a
+// frame of several bands with a textured road, at 1 and 2 threads: the same gains, road mean and
+// sample count to the bit as day_white_balance's serial sums over the linear image: each band reads
+// its own rows' samples, none twice or missed (a band reading the first band's rows instead fails
+// it). A frame of more than 2^18 samples is summed serially: the same there too.
+TEST(DayWhiteBalance, CodesSummedOnTheThreadsGiveTheSerialSums) {
+  for (const int side : {1024, 2100}) {
+    ImageU8 codes(side, side, 3);
+    ImageU16 ids(side, side, 1);
+    Rnd rnd;
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x) {
+        const bool on_road = y >= side / 3;  // the road in the lower two thirds: every band
+        ids.at(x, y) = static_cast<uint16_t>(on_road ? Label::Road : Label::Building);
+        const double t = 1 + 0.3 * (2 * rnd() - 1);
+        const double c[3] = {0.35 * t, 0.45 * t, 0.33 * t};  // a green cast
+        for (int k = 0; k < 3; ++k) codes.at(x, y, k) = static_cast<uint8_t>(std::lround(255 * c[k] * (0.9 + 0.2 * rnd())));
+      }
+    const ScenePreset p = preset(DayWhiteBalance::Road);
+    const int before = omp_get_max_threads();
+    for (const int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      TextureSums sums;
+      const ImageF lin = linearize_codes_with_texture_sums(codes, ids, &sums, &p);
+      const DayBalance want = day_white_balance(lin, ids, p);
+      const std::string at = std::to_string(side) + "^2 at " + std::to_string(threads) + " threads";
+      ASSERT_EQ(want.use, DayBalance::Use::Road) << at;
+      EXPECT_EQ(sums.balance.samples, want.samples) << at;
+      EXPECT_EQ(sums.balance.road_mean, want.road_mean) << at;
+      EXPECT_EQ(sums.balance.gain, want.gain) << at;
+    }
+    omp_set_num_threads(before);
+  }
 }
 
 // A sequence keeps the first frame's gains (ClassMeans::balance): a later frame with another cast
