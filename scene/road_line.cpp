@@ -190,12 +190,6 @@ bool solve_spd(std::array<double, N * N> A, std::array<double, N> b, std::array<
   return true;
 }
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 // One fit of the road line for a given curve start c (straight: kappa fixed at 0). Parameters
 // (e_left, e_right, psi, kappa). Each point's offset error is its label boundary's pixel
 // (sigma_px) across the kerb: z/f across the row, and along the row where the kerb crosses the
