@@ -161,7 +161,8 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // vegetation, NP §4); reflectance.sun_shade_ratio_max 1 -> 10 (the split on, with its colour test);
 // street_lamps.spacing_ratio 3.5 -> 3.0 (≤ 3 for cut-off luminaires, docs/night.md "Street lamp spacing");
 // geometry.line_reject_angle_deg 12 -> 5 (the kerbs of streets wider than a lane each way kept;
-// docs/night.md §2–6, `photosite bench depth --synthetic`).
+// docs/night.md §2–6, `photosite bench depth --synthetic`); retroreflection.sign_RA_alpha_exponent
+// 1.056 -> 1.989 and sign_RA_alpha_max_deg 0.5 -> 2 (RA2 white sheeting's 2° figure, found: docs/night.md §7).
 TEST(PresetSchema, BundledScenesLoadToTheSameValuesAsBefore) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(fs::path(PHOTOSITE_SOURCE_DIR) / "tests/data/scenes_before"))
@@ -303,7 +304,7 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
             std::string::npos);
   EXPECT_NE(error("[2, 4, 6, 8, 8, 6, 2],", "[2, 4, 6, 8, 8, 6, 2e7],").find(": ego_beam.intensity_cd: value 2e7 is out of range, outside [0, 1e6] (cd)"),
             std::string::npos);
-  EXPECT_NE(error("sign_RA_alpha_max_deg = 0.5", "sign_RA_alpha_max_deg = 0.2")
+  EXPECT_NE(error("sign_RA_alpha_max_deg = 2 ", "sign_RA_alpha_max_deg = 0.2 ")
                 .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
                       ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
             std::string::npos);

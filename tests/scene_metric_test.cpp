@@ -4668,26 +4668,30 @@ TEST(EgoLowBeam, SignsBesideTheBeamTableDarkJustInsideLit) {
 }
 
 // R_A falls with the observation angle α between the lamp and the camera seen from the sign: the
-// preset's 180 (RA2) holds at 0.33°, R_A ∝ α^−1.056 (ASTM D4956 Type III white: 250 → 95 from 0.2°
-// to 0.5°) up to 0.5°, held beyond (an upper bound). The camera (1.22 m up on the car's centre line)
-// sees the headlamps (0.65 m up, ±0.75 m) at α ≈ 1.8° from a sign 30 m ahead, ≈ 0.2° from 300 m.
+// preset's 180 (RA2) holds at 0.33°, R_A ∝ α^−1.989 up to 2°, held beyond (an upper bound): the
+// class's white figures 180 and 5 cd·lx⁻¹·m⁻² at 0.33° and 2° (entrance 5°; Austrian StVZVO 1998
+// Anlage 2, "Typ 2", whose 0.2° and 0.33° figures are EN 12899-1's RA2). The camera (1.22 m up on
+// the car's centre line) sees the headlamps (0.65 m up, ±0.75 m) at α ≈ 5.4° from a sign 10 m
+// ahead (held), ≈ 0.2° from 300 m.
 TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
   const ScenePreset p = urban();
   EXPECT_EQ(sign_RA_at(0.1, p), p.sign_RA);
   EXPECT_EQ(sign_RA_at(0.33, p), p.sign_RA);
-  const double at05 = p.sign_RA * std::pow(0.5 / 0.33, -p.sign_RA_alpha_exponent);
-  EXPECT_EQ(sign_RA_at(0.5, p), at05);  // exact: lights.cpp's sign_RA_at is this expression
-  EXPECT_NEAR(at05, 116.1, 0.05);  // 0.645 × 180, the figure to its four digits (half a unit of the last)
-  EXPECT_EQ(sign_RA_at(2.0, p), sign_RA_at(0.5, p));
-  // The exponent reproduces the table's two points: 95/250 = 0.38. The preset states it to four
-  // digits (1.056, within 5e-4 of ln(250/95)/ln(2.5)), which moves 2.5^−k by a relative ln(2.5)·5e-4.
-  EXPECT_NEAR(std::pow(0.5 / 0.2, -p.sign_RA_alpha_exponent), 95.0 / 250.0, 0.38 * std::log(2.5) * 5e-4);
+  const double at2 = p.sign_RA * std::pow(2.0 / 0.33, -p.sign_RA_alpha_exponent);
+  EXPECT_EQ(sign_RA_at(2.0, p), at2);  // exact: lights.cpp's sign_RA_at is this expression
+  // The table's 2° figure, 5: the preset states k to four digits (1.989, within 5e-4 of
+  // ln(36)/ln(2/0.33) = 1.98884), which moves (2/0.33)^−k by a relative ln(2/0.33)·5e-4 = 9e-4.
+  EXPECT_NEAR(at2, 5.0, 5.0 * std::log(2.0 / 0.33) * 5e-4);
+  EXPECT_EQ(sign_RA_at(5.0, p), at2);  // held beyond 2°
+  EXPECT_GT(sign_RA_at(1.0, p), at2);
+  EXPECT_LT(sign_RA_at(1.0, p), p.sign_RA);
   const double h_cam = 1.22;
   // The code sums R_A·E⊥ per lamp (two products and a sum of positive terms: 2 roundings of the
   // total), this side multiplies the summed E⊥ (one for the sum, one for the product), R_A being
-  // the same double (RA_max = sign_RA_at(0.5), or sign_RA below 0.33°): within 4·2⁻⁵³ of it.
-  const double near_L = at05 * sign_beam_lux(0, 3.0, 30, p), far_L = p.sign_RA * sign_beam_lux(0, 3.0, 300, p);
-  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 30, h_cam, p), near_L, 4 * 0x1p-53 * near_L);
+  // the same double (RA_max = sign_RA_at(2), or sign_RA below 0.33°): within 4·2⁻⁵³ of it.
+  const double near_L = at2 * sign_beam_lux(0, 3.0, 10, p), far_L = p.sign_RA * sign_beam_lux(0, 3.0, 300, p);
+  EXPECT_GT(near_L, 0);
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 10, h_cam, p), near_L, 4 * 0x1p-53 * near_L);
   EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 300, h_cam, p), far_L, 4 * 0x1p-53 * far_L);
   EXPECT_EQ(sign_retroreflected_cd_m2(0, 3.0, 0, h_cam, p), 0);
 }
@@ -4814,10 +4818,22 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
         ++n;
       }
   EXPECT_EQ(n, 32);
-  // Farther and seen from the glare zone: the far sign is dimmer by about the inverse square
-  // (R_A is held at its 0.5° value at both: α > 0.5° at 20 and 45 m).
+  // Farther and seen from the glare zone: the far sign gets less light, E⊥ about the inverse square,
+  // but returns more of it: the observation angle between each lamp and the camera (0.9-1.3 m
+  // apart) is about 1.2° at 45 m (R_A 12-16 on the α^−1.989 law) and beyond the table's 2° at 20 m
+  // (R_A held at 5). So with E its E⊥ at the same point, Lw = Σ_lamps R_A·E_lamp lies between
+  // R_A's least and greatest times E: Lw0 = 5·E0, Lw1 > 5·E1, so Lw1/Lw0 > E1/E0; and it stays
+  // dimmer (E1/E0 ≈ (20/45)² ≈ 0.2 against R_A's ratio of at most 16.3/5).
   const double Lw1 = point_L(signs[1].x0, signs[1].y0, signs[1].z);
-  EXPECT_LT(Lw1, Lw0 * 0.3);
+  auto point_E = [&](int x, int y, double z) {  // E⊥ of both lamps at pixel (x, y) at camera z (point_L's point)
+    const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), yc = (y - g.cy_px) / g.f_px * z;
+    return sign_beam_lux((x - g.cx_px) / g.f_px * z, g.mount_height_m - (z * sn + yc * c), z * c - yc * sn, p);
+  };
+  const double E0 = point_E(signs[0].x0, signs[0].y0, signs[0].z), E1 = point_E(signs[1].x0, signs[1].y0, signs[1].z);
+  ASSERT_GT(E1, 0);
+  EXPECT_LT(Lw1, Lw0);
+  EXPECT_GT(Lw1 / Lw0, E1 / E0);
+  EXPECT_NEAR(Lw0, sign_RA_at(2.0, p) * E0, 4 * 0x1p-53 * Lw0);  // both lamps beyond 2° at 20 m: R_A held
   std::fprintf(stderr, "[signs] L = Σ R_A(α)·E⊥ = %.0f cd/m² at z 20 m, %.0f cd/m² at z 45 m\n", Lw0, Lw1);
 }
 
