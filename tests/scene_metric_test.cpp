@@ -4783,10 +4783,14 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
       }
   const LightMap m = b.lights();
   // The road point of pixel (x, y) at camera z: found by solving project(X, Y, D) = (x, y, z).
-  auto point_L = [&](int x, int y, double z) {
+  struct RoadPoint { double X, Y, D, yc; };  // yc: the camera y (down) at depth z
+  auto point_at = [&](int x, int y, double z) {
     const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad);
-    const double yc = (y - g.cy_px) / g.f_px * z;  // camera y (down) at depth z
-    const double D = z * c - yc * sn, Y = g.mount_height_m - (z * sn + yc * c), X = (x - g.cx_px) / g.f_px * z;
+    const double yc = (y - g.cy_px) / g.f_px * z;
+    return RoadPoint{(x - g.cx_px) / g.f_px * z, g.mount_height_m - (z * sn + yc * c), z * c - yc * sn, yc};
+  };
+  auto point_L = [&](int x, int y, double z) {
+    const auto [X, Y, D, yc] = point_at(x, y, z);
     double u, v, zz;
     EXPECT_TRUE(g.project(X, Y, D, &u, &v, &zz));
     // The round trip's rounding (u = 2⁻⁵³): every metric quantity of the chain (D, Y, h − Y, the
@@ -4826,8 +4830,8 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
   // dimmer (E1/E0 ≈ (20/45)² ≈ 0.2 against R_A's ratio of at most 16.3/5).
   const double Lw1 = point_L(signs[1].x0, signs[1].y0, signs[1].z);
   auto point_E = [&](int x, int y, double z) {  // E⊥ of both lamps at pixel (x, y) at camera z (point_L's point)
-    const double c = std::cos(g.pitch_rad), sn = std::sin(g.pitch_rad), yc = (y - g.cy_px) / g.f_px * z;
-    return sign_beam_lux((x - g.cx_px) / g.f_px * z, g.mount_height_m - (z * sn + yc * c), z * c - yc * sn, p);
+    const RoadPoint q = point_at(x, y, z);
+    return sign_beam_lux(q.X, q.Y, q.D, p);
   };
   const double E0 = point_E(signs[0].x0, signs[0].y0, signs[0].z), E1 = point_E(signs[1].x0, signs[1].y0, signs[1].z);
   ASSERT_GT(E1, 0);
