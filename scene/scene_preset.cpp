@@ -246,6 +246,19 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
       num("retroreflection.sign_RA_alpha_max_deg", PHOTOSITE_AT(P, sign_RA_alpha_max_deg), "°", 0.01, 5,
           "R_A held at its value here for larger α (an upper bound)", "that table's largest α, 2° [S]",
           "≥ retroreflection.sign_RA_alpha_deg"),
+      {"retroreflection.sign_RA_entrance_deg", Kind::NumberList, PHOTOSITE_AT(P, sign_RA_entrance_deg), "°", 0, 89,
+       Need::Optional,
+       "entrance angles (the lamp's ray against the sign's normal) of the factors below; R_A is linear in tan β "
+       "between them and held outside them (empty: no entrance-angle dependence)",
+       "[S] RA2 (\"Typ 2\") columns β 5°, 30°, 40°: Austrian StVZVO 1998 Anlage 2",
+       "strictly increasing; the factor lists have one value per angle"},
+      {"retroreflection.sign_RA_entrance_factor", Kind::NumberList, PHOTOSITE_AT(P, sign_RA_entrance_factor), "—",
+       1e-6, 10, Need::Optional, "R_A at each entrance angle over R_A at the first, at sign_RA_alpha_deg and below",
+       "[D] white RA2 at 0.33°: 180 / 100 / 95 (that table)", "one value per sign_RA_entrance_deg entry"},
+      {"retroreflection.sign_RA_entrance_factor_alpha_max", Kind::NumberList,
+       PHOTOSITE_AT(P, sign_RA_entrance_factor_alpha_max), "—", 1e-6, 10, Need::Optional,
+       "the same at sign_RA_alpha_max_deg and beyond (geometric in α between the two)",
+       "[D] white RA2 at 2°: 5 / 2.5 / 1.5 (that table)", "one value per sign_RA_entrance_deg entry"},
       table("ego_beam", "the camera car's low beam: E = Σ_lamps I(h, v)·cos θ / d² on the metric ground",
             "NP §3; [S] ECE R112 class B points (01 series; zone IV [U]); [S] R48 heights, cut-off geometry"),
       num("ego_beam.cct_K", PHOTOSITE_AT(P, beam_cct_K), "K", 1000, 20000, "low-beam CCT", "NP §3"),
@@ -347,6 +360,18 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
   if (p.sign_RA_alpha_max_deg < p.sign_RA_alpha_deg)
     err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
+  for (size_t i = 1; i < p.sign_RA_entrance_deg.size(); ++i)
+    if (!(p.sign_RA_entrance_deg[i] > p.sign_RA_entrance_deg[i - 1]))
+      err("retroreflection.sign_RA_entrance_deg", "angles must increase strictly");
+  for (const char* key : {"retroreflection.sign_RA_entrance_factor", "retroreflection.sign_RA_entrance_factor_alpha_max"}) {
+    const auto& f = std::string_view(key) == "retroreflection.sign_RA_entrance_factor" ? p.sign_RA_entrance_factor
+                                                                                      : p.sign_RA_entrance_factor_alpha_max;
+    if (f.size() != p.sign_RA_entrance_deg.size())
+      schema::key_error(file, schema::line_at(t, f.empty() ? "retroreflection.sign_RA_entrance_deg" : key),
+                        f.empty() ? "retroreflection.sign_RA_entrance_deg" : key,
+                        "needs one value of " + std::string(key) + " per sign_RA_entrance_deg entry (" +
+                            std::to_string(p.sign_RA_entrance_deg.size()) + "), has " + std::to_string(f.size()));
+  }
   if (p.sun_shade_ratio_min > p.sun_shade_ratio_max && p.sun_shade_ratio_max > 1)
     err("reflectance.sun_shade_ratio_min", "is above sun_shade_ratio_max (no class could split)");
   if (p.shade_sky_cct_K <= p.sun_cct_K)

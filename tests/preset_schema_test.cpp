@@ -141,6 +141,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
   X(window_lit_fraction) X(window_cell_fraction) X(window_warm_share) X(window_cool_cct_K) \
   X(window_curtained_share) X(window_curtained_luminance_cd_m2) \
   X(marking_RL) X(sign_RA) X(sign_RA_alpha_deg) X(sign_RA_alpha_exponent) X(sign_RA_alpha_max_deg) \
+  X(sign_RA_entrance_deg) X(sign_RA_entrance_factor) X(sign_RA_entrance_factor_alpha_max) \
   X(beam_cct_K) X(beam_sign_lux) X(beam_lamp_height_m) X(beam_lamp_spacing_m) X(beam_cutoff_v_deg) \
   X(beam_cutoff_rise_deg) X(beam_cutoff_max_v_deg) X(beam_above_cutoff_cd) X(beam_h_deg) X(beam_v_deg) X(beam_intensity_cd) \
   X(work_max_width) X(lane_blur_sigma_px) X(lane_contrast_threshold) X(canny_low) X(canny_high) \
@@ -154,6 +155,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // values. Keys added since are appended to those files by hand with their bundled values
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
+// retroreflection.sign_RA_entrance_deg, _entrance_factor, _entrance_factor_alpha_max (lists, no attribute);
 // reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
 // street_lamps.interp_tolerance, street_lamps.shadows and street_lamps.penumbrae (attributes only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
 // lamps.streetlamp_type and reflectance.day_white_balance, attributes only, the members being enums). Values changed since, by hand
@@ -308,6 +310,20 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
                 .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
                       ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
             std::string::npos);
+  EXPECT_NE(error("sign_RA_entrance_deg = [5, 30, 40]", "sign_RA_entrance_deg = [5, 40, 30]")
+                .find("s.toml:" + line_of("sign_RA_entrance_deg") +
+                      ": retroreflection.sign_RA_entrance_deg: angles must increase strictly"),
+            std::string::npos);
+  EXPECT_NE(error("sign_RA_entrance_factor_alpha_max = [1, 0.5, 0.3]", "sign_RA_entrance_factor_alpha_max = [1, 0.5]")
+                .find("s.toml:" + line_of("sign_RA_entrance_factor_alpha_max") +
+                      ": retroreflection.sign_RA_entrance_factor_alpha_max: needs one value of "
+                      "retroreflection.sign_RA_entrance_factor_alpha_max per sign_RA_entrance_deg entry (3), has 2"),
+            std::string::npos)
+      << error("sign_RA_entrance_factor_alpha_max = [1, 0.5, 0.3]", "sign_RA_entrance_factor_alpha_max = [1, 0.5]");
+  EXPECT_NE(error("sign_RA_entrance_factor = [1, 0.5556, 0.5278]", "sign_RA_entrance_factor = [1, 0, 0.5278]")
+                .find(": retroreflection.sign_RA_entrance_factor: value 0 is out of range, outside [1e-6, 10]"),
+            std::string::npos)
+      << error("sign_RA_entrance_factor = [1, 0.5556, 0.5278]", "sign_RA_entrance_factor = [1, 0, 0.5278]");
   {  // the split's lower bound above its upper
     std::string bad = urban;
     const std::string min20 = "sun_shade_ratio_min = 2 ";

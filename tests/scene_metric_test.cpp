@@ -4686,14 +4686,86 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheObservationAngle) {
   EXPECT_GT(sign_RA_at(1.0, p), at2);
   EXPECT_LT(sign_RA_at(1.0, p), p.sign_RA);
   const double h_cam = 1.22;
-  // The code sums R_A·E⊥ per lamp (two products and a sum of positive terms: 2 roundings of the
-  // total), this side multiplies the summed E⊥ (one for the sum, one for the product), R_A being
-  // the same double (RA_max = sign_RA_at(2), or sign_RA below 0.33°): within 4·2⁻⁵³ of it.
-  const double near_L = at2 * sign_beam_lux(0, 3.0, 10, p), far_L = p.sign_RA * sign_beam_lux(0, 3.0, 300, p);
+  // A sign on the centre line 3 m up sees both lamps (±0.75 m, 0.65 m up) at one entrance angle β,
+  // tan β = √(0.75² + 2.35²)/D: 13.9° at 10 m, where R_A is the 2° column's, F1 = 1 + (tan β −
+  // tan 5°)·(0.5 − 1)/(tan 30° − tan 5°) (the preset's factors, linear in tan β), 0.84; 0.47° at
+  // 300 m, below the table's 5°: F0 = 1. The code sums R_A·E⊥ per lamp (R_A = RA_max·F1: per lamp
+  // two products and the sum, 3 roundings of the total), this side multiplies the summed E⊥ (the
+  // sum, the products at2·F1 and ·E: 3 roundings), F1 being the same double (the same operations
+  // in the same order on the same tan β): within 8·2⁻⁵³ of it.
+  ASSERT_EQ(p.sign_RA_entrance_deg, (std::vector<double>{5, 30, 40}));
+  const double t5 = std::tan(5 * M_PI / 180), t30 = std::tan(30 * M_PI / 180);
+  const double tb10 = std::sqrt(0.75 * 0.75 + (0.65 - 3.0) * (0.65 - 3.0)) / 10;
+  ASSERT_EQ(p.beam_lamp_spacing_m, 1.5);
+  ASSERT_EQ(p.beam_lamp_height_m, 0.65);
+  const double F1 = p.sign_RA_entrance_factor_alpha_max[0] +
+                    (tb10 - t5) * ((p.sign_RA_entrance_factor_alpha_max[1] - p.sign_RA_entrance_factor_alpha_max[0]) / (t30 - t5));
+  EXPECT_NEAR(F1, 0.8375, 1e-4);  // (tan β 0.24667: 1 − 0.5·0.15918/0.48986)
+  const double near_L = at2 * F1 * sign_beam_lux(0, 3.0, 10, p), far_L = p.sign_RA * sign_beam_lux(0, 3.0, 300, p);
   EXPECT_GT(near_L, 0);
-  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 10, h_cam, p), near_L, 4 * 0x1p-53 * near_L);
+  EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 10, h_cam, p), near_L, 8 * 0x1p-53 * near_L);
   EXPECT_NEAR(sign_retroreflected_cd_m2(0, 3.0, 300, h_cam, p), far_L, 4 * 0x1p-53 * far_L);
   EXPECT_EQ(sign_retroreflected_cd_m2(0, 3.0, 0, h_cam, p), 0);
+}
+
+// R_A falls with the entrance angle β as the RA2 white sheeting's table ("Typ 2", Austrian StVZVO
+// 1998 Anlage 2): 180 / 100 / 95 at β 5° / 30° / 40° for α 0.33°, 5 / 2.5 / 1.5 at α 2°. The
+// preset's factors give 100/180 and 95/180 to four digits (0.5556, 0.5278: within 5·10⁻⁵ of
+// each), and at 2° R_A itself is the table's 5 within 9·10⁻⁴ relative (the exponent's four
+// digits, above): the bounds below are those roundings. Below 5° R_A is the 5° column's, beyond 40°
+// held at 40°'s; between the angles linear in tan β (the midpoint of tan 5° and tan 30° gets the
+// mean factor), between the α columns geometric in α.
+TEST(EgoLowBeam, SignRetroreflectionFallsWithTheEntranceAngle) {
+  const ScenePreset p = urban();
+  EXPECT_NEAR(sign_RA_at(0.33, 30, p), 100, 180 * 5e-5);
+  EXPECT_NEAR(sign_RA_at(0.33, 40, p), 95, 180 * 5e-5);
+  EXPECT_NEAR(sign_RA_at(2.0, 30, p), 2.5, 2.5 * 9e-4);
+  EXPECT_NEAR(sign_RA_at(2.0, 40, p), 1.5, 1.5 * 9e-4);
+  for (const double a : {0.1, 0.33, 1.0, 2.0, 5.0}) {
+    EXPECT_EQ(sign_RA_at(a, 5, p), sign_RA_at(a, p)) << a;  // the first column: factor 1
+    EXPECT_EQ(sign_RA_at(a, 0, p), sign_RA_at(a, p)) << a;  // held below it
+    EXPECT_EQ(sign_RA_at(a, 70, p), sign_RA_at(a, 40, p)) << a;  // held beyond 40°
+    EXPECT_LT(sign_RA_at(a, 35, p), sign_RA_at(a, 30, p)) << a;
+    EXPECT_LT(sign_RA_at(a, 20, p), sign_RA_at(a, 10, p)) << a;
+  }
+  // Linear in tan β: half way between tan 5° and tan 30° (β 17.4°) the mean of the two factors,
+  // within the rounding of tan(atan(x)) and the interpolation's four operations (a few 2⁻⁵³).
+  const double tm = 0.5 * (std::tan(5 * M_PI / 180) + std::tan(30 * M_PI / 180)), bm = std::atan(tm) * 180 / M_PI;
+  const double mean0 = 0.5 * (p.sign_RA_entrance_factor[0] + p.sign_RA_entrance_factor[1]);
+  EXPECT_NEAR(sign_RA_at(0.33, bm, p), p.sign_RA * mean0, 16 * 0x1p-53 * p.sign_RA);
+  // Between α 0.33° and 2° the factor lies between the two columns' (geometric: at α = √(0.33·2),
+  // u = 1/2, the geometric mean √(F0·F1)).
+  const double am = std::sqrt(0.33 * 2.0);
+  const double Fm = sign_RA_at(am, 40, p) / sign_RA_at(am, p);
+  // (u's rounding, |ln F1 − ln F0| < 1 times a few 2⁻⁵³, and the log, exp, product and quotient, one
+  // rounding each: within 16·2⁻⁵³ of Fm)
+  EXPECT_NEAR(Fm, std::sqrt(p.sign_RA_entrance_factor[2] * p.sign_RA_entrance_factor_alpha_max[2]), 16 * 0x1p-53 * Fm);
+  EXPECT_GT(Fm, p.sign_RA_entrance_factor_alpha_max[2]);
+  EXPECT_LT(Fm, p.sign_RA_entrance_factor[2]);
+  // A sign beside the road, 10 m ahead, 5 m right of the centre line and 2.5 m up: only the right
+  // lamp reaches it (the left one sees it at h 29.9°, beside the table's ±25°), at tan β =
+  // √(4.25² + 1.85²)/10 (β 24.9°), so at α beyond 2° it returns F1 = 1 + (tan β − tan 5°)·(0.5 −
+  // 1)/(tan 30° − tan 5°) = 0.62 of what a sign facing the lamp would; one on the centre line at
+  // that depth and height sees both lamps at tan β = √(0.75² + 1.85²)/10, F1 = 0.89. (Ratios of two
+  // sums of the same E⊥ terms, the factor's four operations and the quotient: within 16·2⁻⁵³.)
+  const double t5 = std::tan(5 * M_PI / 180), t30 = std::tan(30 * M_PI / 180);
+  const auto& f1 = p.sign_RA_entrance_factor_alpha_max;
+  auto F1_at = [&](double tb) { return f1[0] + (tb - t5) * ((f1[1] - f1[0]) / (t30 - t5)); };
+  ScenePreset flat = p;
+  flat.sign_RA_entrance_deg.clear();
+  flat.sign_RA_entrance_factor.clear();
+  flat.sign_RA_entrance_factor_alpha_max.clear();
+  const double side = sign_retroreflected_cd_m2(5, 2.5, 10, 1.22, p) / sign_retroreflected_cd_m2(5, 2.5, 10, 1.22, flat);
+  const double mid = sign_retroreflected_cd_m2(0, 2.5, 10, 1.22, p) / sign_retroreflected_cd_m2(0, 2.5, 10, 1.22, flat);
+  std::fprintf(stderr, "[signs] entrance factor at 10 m, 2.5 m up: %.3f beside the road (5 m right), %.3f on the centre line\n",
+               side, mid);
+  const double F_side = F1_at(std::sqrt(4.25 * 4.25 + 1.85 * 1.85) / 10), F_mid = F1_at(std::sqrt(0.75 * 0.75 + 1.85 * 1.85) / 10);
+  // The comment's figures, to their three digits (half a unit in the last: 5·10⁻⁴).
+  EXPECT_NEAR(F_side, 0.616, 5e-4);
+  EXPECT_NEAR(F_mid, 0.886, 5e-4);
+  // The ratios within 16·2⁻⁵³ (derived in the comment above the lambda).
+  EXPECT_NEAR(side, F_side, 16 * 0x1p-53);
+  EXPECT_NEAR(mid, F_mid, 16 * 0x1p-53);
 }
 
 // The free road with signs that only the ego beam lights (no street lamps): labels, metric depth
@@ -4837,7 +4909,30 @@ TEST(EgoLowBeam, SignPixelsLitAtTheirMetricPoint) {
   ASSERT_GT(E1, 0);
   EXPECT_LT(Lw1, Lw0);
   EXPECT_GT(Lw1 / Lw0, E1 / E0);
-  EXPECT_NEAR(Lw0, sign_RA_at(2.0, p) * E0, 4 * 0x1p-53 * Lw0);  // both lamps beyond 2° at 20 m: R_A held
+  // Both lamps beyond 2° at 20 m: R_A held, times each lamp's entrance factor (the 2° column at its
+  // β, which lies between the two lamps' β; the sign faces along the road): without the entrance
+  // table Lw0 is R_A(2°)·E0, with it between the two lamps' factors times that.
+  ScenePreset flat = p;
+  flat.sign_RA_entrance_deg.clear();
+  flat.sign_RA_entrance_factor.clear();
+  flat.sign_RA_entrance_factor_alpha_max.clear();
+  const RoadPoint q0 = point_at(signs[0].x0, signs[0].y0, signs[0].z);
+  const double Lflat = sign_retroreflected_cd_m2(q0.X, q0.Y, q0.D, g.mount_height_m, flat);
+  // (within 4·2⁻⁵³: the roundings of SignRetroreflectionFallsWithTheObservationAngle's near_L)
+  EXPECT_NEAR(Lflat, sign_RA_at(2.0, p) * E0, 4 * 0x1p-53 * Lflat);
+  double F_lo = INFINITY, F_hi = 0;
+  for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
+    const double b = std::atan(std::hypot(xl - q0.X, p.beam_lamp_height_m - q0.Y) / q0.D) * 180 / M_PI;
+    const double F = sign_RA_at(2.0, b, p) / sign_RA_at(2.0, p);
+    F_lo = std::min(F_lo, F);
+    F_hi = std::max(F_hi, F);
+  }
+  EXPECT_LT(F_hi, 1);  // the sign is beside and above the lamps: β beyond 5°
+  // Lw0 = Σ F_lamp·R_A·E_lamp is a weighted mean of the two F times Lflat; the sides' roundings (the
+  // tangent's round trip through atan in sign_RA_at, the quotient, the sums and products: a few
+  // 2⁻⁵³ each) within 16·2⁻⁵³.
+  EXPECT_GE(Lw0, F_lo * Lflat * (1 - 16 * 0x1p-53));
+  EXPECT_LE(Lw0, F_hi * Lflat * (1 + 16 * 0x1p-53));
   std::fprintf(stderr, "[signs] L = Σ R_A(α)·E⊥ = %.0f cd/m² at z 20 m, %.0f cd/m² at z 45 m\n", Lw0, Lw1);
 }
 

@@ -354,9 +354,14 @@ double sign_beam_lux(double X_m, double Y_m, double D_m, const ScenePreset& p);
 // A sign's coefficient of retroreflection at observation angle alpha_deg (cd·lx⁻¹·m⁻²): sign_RA at
 // sign_RA_alpha_deg and below, ∝ α^−sign_RA_alpha_exponent up to sign_RA_alpha_max_deg, held beyond.
 double sign_RA_at(double alpha_deg, const ScenePreset& p);
+// The same at entrance angle entrance_deg (the lamp's ray against the sign's normal): sign_RA_at(α)
+// times the preset's entrance factor (ScenePreset::sign_RA_entrance_deg; 1 where it is empty).
+double sign_RA_at(double alpha_deg, double entrance_deg, const ScenePreset& p);
 // The sign's retroreflected luminance toward the camera (cd/m²) at road point (X_m, Y_m, D_m), the
 // camera on the car's centre line camera_height_m up: Σ_lamps R_A(α_lamp)·E⊥_lamp, α_lamp the
-// angle at the sign between the lamp and the camera.
+// angle at the sign between the lamp and the camera, and (where the preset has an entrance table) at
+// the entrance angle β_lamp of the lamp's ray on a sign facing along the road: its normal toward the
+// camera's heading, (0, 0, −1), so tan β = √((x_lamp − X)² + (y_lamp − Y)²) / D.
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p);
 // The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
 // bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the

@@ -136,6 +136,12 @@ struct ScenePreset {
   // R_A's fall with the observation angle α (lamp to sign to camera): sign_RA holds at
   // sign_RA_alpha_deg, R_A ∝ α^−sign_RA_alpha_exponent up to sign_RA_alpha_max_deg, held beyond.
   double sign_RA_alpha_deg = 0.33, sign_RA_alpha_exponent = 0, sign_RA_alpha_max_deg = 0.33;
+  // R_A's fall with the entrance angle β (the lamp's ray against the sign's normal): at the angles
+  // sign_RA_entrance_deg R_A is the factors sign_RA_entrance_factor (at sign_RA_alpha_deg and below)
+  // and sign_RA_entrance_factor_alpha_max (at sign_RA_alpha_max_deg and beyond) times its value at
+  // the first angle, linear in tan β between the angles, held outside them, and between the two α
+  // geometric in α (F0^(1−t)·F1^t, t = ln(α/α0)/ln(α1/α0)). Empty: no entrance-angle dependence.
+  std::vector<double> sign_RA_entrance_deg, sign_RA_entrance_factor, sign_RA_entrance_factor_alpha_max;
   // [ego_beam] low beam: CCT, illuminance on signs, and the headlamp pair: mounting height above
   // the road and lateral spacing (m), the cut-off line (v = cutoff_v_deg left of the v-v line,
   // rising at cutoff_rise_deg to the right up to cutoff_max_v_deg; nothing above it) and one
