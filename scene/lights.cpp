@@ -27,6 +27,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "scene/crown_phase_detail.h"
 #include "scene/darken_detail.h"
+#include "scene/sign_retro_detail.h"
 #include "scene/night_detail.h"
 #include "scene/street_detail.h"
 #include "scene/texture_detail.h"
@@ -966,67 +967,23 @@ double low_beam_lux(double X_m, double D_m, const ScenePreset& p) {
 // One headlamp's E⊥ = I(h, v)/d² at road point (X, Y, D), the lamp at (x_l, lamp_height_m, 0): the
 // table below the cut-off, beam_above_cutoff_cd above it within the table's horizontal range.
 // SignLight holds what does not change from sign pixel to sign pixel (the tangents of the
-// cut-off's top and of the table's horizontal edges, the cosines of R_A's angle range), so that a
+// cut-off's top and of the table's horizontal edges, and R_A's columns: detail::SignRA), so that a
 // point above the whole cut-off and inside the table's range (most signs) needs no atan2: v > the
 // rising cut-off's maximum ⟺ dy > rh·tan(max), h in [H₀, H₁] ⟺ D·tan H₀ ≤ dx ≤ D·tan H₁ (D > 0,
-// |angles| < 90°); and an α outside [alpha_deg, alpha_max_deg] no acos and pow. Same values as
+// |angles| < 90°); R_A needs no libm call at any α (scene/sign_retro_detail.h). Same values as
 // the angle-by-angle evaluation, up to which side of a threshold a point within rounding of it
 // falls. Also without atan2: a point outside the table's horizontal range by a margin gets I = 0
 // (below), the same zero as the angle-by-angle evaluation's.
 namespace {
-// R_A's entrance-angle factor (ScenePreset::sign_RA_entrance_deg): at tan β the factors F0 (at
-// α ≤ sign_RA_alpha_deg) and F1 (α ≥ sign_RA_alpha_max_deg) piecewise linear in tan β through the
-// table's angles, held outside them. Linear in tan β rather than in β: it needs no trigonometry
-// per pixel (tan β = √(lX² + lY²)/D), and over the table's 5°..40° the two differ by at most 0.04
-// of the interval (tan is near-linear there); the table itself gives only its three columns. The
-// scalar form is written as the vector forms evaluate it (a blend per segment, in order), so
-// both give the same bits.
-struct EntranceTable {
-  std::vector<double> t, f0, f1, s0, s1;  // tan β_k, factors, slopes per unit tan β
-  explicit EntranceTable(const ScenePreset& p) {
-    const size_t n = p.sign_RA_entrance_deg.size();
-    if (n == 0 || p.sign_RA_entrance_factor.size() != n || p.sign_RA_entrance_factor_alpha_max.size() != n) return;
-    for (const double b : p.sign_RA_entrance_deg) t.push_back(std::tan(b * M_PI / 180));
-    f0 = p.sign_RA_entrance_factor;
-    f1 = p.sign_RA_entrance_factor_alpha_max;
-    for (size_t k = 1; k < n; ++k) {
-      s0.push_back((f0[k] - f0[k - 1]) / (t[k] - t[k - 1]));
-      s1.push_back((f1[k] - f1[k - 1]) / (t[k] - t[k - 1]));
-    }
-  }
-  bool on() const { return !t.empty(); }
-  static double at(const std::vector<double>& t, const std::vector<double>& f, const std::vector<double>& s,
-                   double tb) {
-    double F = f[0];
-    for (size_t k = 1; k < t.size(); ++k)
-      if (tb > t[k - 1]) F = f[k - 1] + (tb - t[k - 1]) * s[k - 1];
-    if (tb > t.back()) F = f.back();
-    return F;
-  }
-  double F0(double tb) const { return at(t, f0, s0, tb); }
-  double F1(double tb) const { return at(t, f1, s1, tb); }
-  // Between the two observation angles: F0^(1−u)·F1^u, u = ln(α/α0)/ln(α1/α0) (the table's columns
-  // are power laws in α between 0.33° and 2°, so their ratio is one too).
-  double between(double alpha_deg, double tb, const ScenePreset& p) const {
-    const double a0 = p.sign_RA_alpha_deg, a1 = std::max(p.sign_RA_alpha_deg, p.sign_RA_alpha_max_deg);
-    if (!(alpha_deg > a0)) return F0(tb);
-    if (!(alpha_deg < a1)) return F1(tb);
-    const double u = std::log(alpha_deg / a0) / std::log(a1 / a0);
-    return std::exp((1 - u) * std::log(F0(tb)) + u * std::log(F1(tb)));
-  }
-};
-
 struct SignLight {
   const ScenePreset& p;
-  double cam_h, tan_rise, tan_vmax, tan_h0, tan_h1, cos_a0, cos_a1, RA_max;
+  double cam_h, tan_rise, tan_vmax, tan_h0, tan_h1;
   bool table;
-  EntranceTable entrance;
+  detail::SignRA ra;  // R_A(α, β): scene/sign_retro_detail.h
   SignLight(const ScenePreset& pr, double camera_height_m)
       : p(pr), cam_h(camera_height_m), tan_rise(std::tan(pr.beam_cutoff_rise_deg * M_PI / 180)),
         tan_vmax(std::tan(pr.beam_cutoff_max_v_deg * M_PI / 180)), tan_h0(0), tan_h1(0),
-        cos_a0(std::cos(pr.sign_RA_alpha_deg * M_PI / 180)),
-        cos_a1(std::cos(std::max(pr.sign_RA_alpha_deg, pr.sign_RA_alpha_max_deg) * M_PI / 180)),
-        RA_max(sign_RA_at(pr.sign_RA_alpha_max_deg, pr)), table(pr.beam_h_deg.size() >= 2), entrance(pr) {
+        table(pr.beam_h_deg.size() >= 2), ra(pr) {
     if (table) {
       tan_h0 = std::tan(pr.beam_h_deg.front() * M_PI / 180);
       tan_h1 = std::tan(pr.beam_h_deg.back() * M_PI / 180);
@@ -1053,13 +1010,8 @@ struct SignLight {
     return I / d2;
   }
   // R_A at observation angle α (its cosine) and entrance angle β (its tangent; read only where the
-  // preset has an entrance table).
-  double RA(double cos_alpha, double tan_beta) const {
-    if (cos_alpha >= cos_a0) return entrance.on() ? p.sign_RA * entrance.F0(tan_beta) : p.sign_RA;
-    if (cos_alpha <= cos_a1) return entrance.on() ? RA_max * entrance.F1(tan_beta) : RA_max;
-    const double a = std::acos(cos_alpha) * 180 / M_PI;
-    return entrance.on() ? sign_RA_at(a, p) * entrance.between(a, tan_beta, p) : sign_RA_at(a, p);
-  }
+  // preset has an entrance table): the lanes' arithmetic on one lane.
+  double RA(double cos_alpha, double tan_beta) const { return detail::sign_RA_lanes<double>(ra, cos_alpha, tan_beta); }
   // L = Σ_lamps R_A(α, β)·E⊥: each lamp's light returns toward it, and the camera (on the car's
   // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and
   // sign-to-camera directions; the lamp's ray meets the sign, which faces along the road (normal
@@ -1070,7 +1022,7 @@ struct SignLight {
     double L = 0;
     for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
       const double lX = xl - X_m, lY = p.beam_lamp_height_m - Y_m, lD = -D_m, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
-      const double tb = entrance.on() ? std::sqrt(lX * lX + lY * lY) / D_m : 0;
+      const double tb = ra.n > 1 ? std::sqrt(lX * lX + lY * lY) / D_m : 0;
       L += RA((cX * lX + cY * lY + cD * lD) / (cn * ln), tb) * lamp_lux(X_m, Y_m, D_m, xl);
     }
     return L;
@@ -1082,10 +1034,11 @@ struct SignLight {
 // y_n·cos θ and kD = cos θ − y_n·sin θ of the row, as sign_pos computes them. Per lane the same
 // IEEE operations in the same order as the scalar code (X = z·((x − c_x)/f), Y = h − z·kY,
 // D = z·kD, then luminance's; -ffp-contract=off: no fused multiply-adds), with its branches as
-// lane masks: R_A where α is below alpha_deg or above alpha_max_deg, E⊥ where lamp_lux's two
-// fast paths hold (the glare zone's I/d², or 0 beside the table). A lane that needs anything else
-// (acos and pow for R_A, the atan2 path for E⊥, a depth that is not finite and positive, D ≤ 0)
-// is out[i] = scalar(i), the scalar code itself. So the same bits as sign_pos pixel by pixel.
+// lane masks: R_A at every α and β by the lane arithmetic that the scalar code runs on one lane
+// (detail::sign_RA_lanes), E⊥ where lamp_lux's two fast paths hold (the glare zone's I/d², or 0
+// beside the table). A lane that needs anything else (the atan2 path for E⊥, a depth that is not
+// finite and positive, D ≤ 0) is out[i] = scalar(i), the scalar code itself. So the same bits as
+// sign_pos pixel by pixel.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 __attribute__((target("avx512f"))) inline __m512d neg_pd8(__m512d a) {  // −a (the sign bit flipped)
@@ -1101,13 +1054,11 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
   const __m512d zero = _mm512_setzero_pd(), inf = _mm512_set1_pd(INFINITY);
   const __m512d vcx = _mm512_set1_pd(cx), vf = _mm512_set1_pd(f), vh = _mm512_set1_pd(h), vkY = _mm512_set1_pd(kY),
                 vkD = _mm512_set1_pd(kD), cam_h = _mm512_set1_pd(sl.cam_h), lh = _mm512_set1_pd(p.beam_lamp_height_m);
-  const __m512d cos_a0 = _mm512_set1_pd(sl.cos_a0), cos_a1 = _mm512_set1_pd(sl.cos_a1),
-                RA0 = _mm512_set1_pd(p.sign_RA), RA1 = _mm512_set1_pd(sl.RA_max);
   const __m512d tvmax = _mm512_set1_pd(sl.tan_vmax), th0 = _mm512_set1_pd(sl.tan_h0), th1 = _mm512_set1_pd(sl.tan_h1),
                 above = _mm512_set1_pd(p.beam_above_cutoff_cd), lo_margin = _mm512_set1_pd(-1e-9),
                 hi_margin = _mm512_set1_pd(1e-9);
   const double xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
-  const EntranceTable& et = sl.entrance;
+  const bool entrance = sl.ra.n > 1;
   for (int i = 0; i < n; i += 8) {
     const __mmask8 m = n - i >= 8 ? 0xff : static_cast<__mmask8>((1u << (n - i)) - 1);
     const __m512d vz = _mm512_maskz_loadu_pd(m, z + i), vx = _mm512_maskz_loadu_pd(m, x + i);
@@ -1125,24 +1076,9 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
       const __m512d ca = _mm512_div_pd(
           _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(cX, lX), _mm512_mul_pd(cY, lY)), _mm512_mul_pd(cD, lD)),
           _mm512_mul_pd(cn, ln));
-      const __mmask8 ra0 = _mm512_cmp_pd_mask(ca, cos_a0, _CMP_GE_OQ), ra1 = _mm512_cmp_pd_mask(ca, cos_a1, _CMP_LE_OQ);
-      __m512d RA = _mm512_mask_blend_pd(ra0, RA1, RA0);
-      if (et.on()) {  // R_A times the entrance factor at tan β = √(lX² + lY²)/D (EntranceTable::at, per segment)
-        const __m512d tb = _mm512_div_pd(_mm512_sqrt_pd(_mm512_add_pd(sq_pd8(lX), sq_pd8(lY))), D);
-        auto at = [&](const std::vector<double>& fs, const std::vector<double>& ss)
-                      __attribute__((target("avx512f"), always_inline)) {
-          __m512d F = _mm512_set1_pd(fs[0]);
-          for (size_t k = 1; k < et.t.size(); ++k) {
-            const __m512d tk = _mm512_set1_pd(et.t[k - 1]);
-            F = _mm512_mask_blend_pd(
-                _mm512_cmp_pd_mask(tb, tk, _CMP_GT_OQ), F,
-                _mm512_add_pd(_mm512_set1_pd(fs[k - 1]), _mm512_mul_pd(_mm512_sub_pd(tb, tk), _mm512_set1_pd(ss[k - 1]))));
-          }
-          return _mm512_mask_blend_pd(_mm512_cmp_pd_mask(tb, _mm512_set1_pd(et.t.back()), _CMP_GT_OQ), F,
-                                      _mm512_set1_pd(fs.back()));
-        };
-        RA = _mm512_mask_blend_pd(ra0, _mm512_mul_pd(RA1, at(et.f1, et.s1)), _mm512_mul_pd(RA0, at(et.f0, et.s0)));
-      }
+      // R_A(α, β) by the shared lane arithmetic (scene/sign_retro_detail.h), tan β = √(lX² + lY²)/D
+      const __m512d tb = entrance ? _mm512_div_pd(_mm512_sqrt_pd(_mm512_add_pd(sq_pd8(lX), sq_pd8(lY))), D) : zero;
+      const __m512d RA = detail::sign_RA_lanes<__m512d>(sl.ra, ca, tb);
       const __m512d dx = _mm512_sub_pd(X, vxl), dy = _mm512_sub_pd(Y, lh);
       const __m512d rh = _mm512_sqrt_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(D)));
       const __m512d d2 = _mm512_add_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(dy)), sq_pd8(D));
@@ -1152,7 +1088,7 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
       const __m512d s = _mm512_add_pd(_mm512_abs_pd(dx), D);
       const __mmask8 beside = _mm512_cmp_pd_mask(_mm512_sub_pd(dx, Dh0), _mm512_mul_pd(lo_margin, s), _CMP_LT_OQ) |
                               _mm512_cmp_pd_mask(_mm512_sub_pd(dx, Dh1), _mm512_mul_pd(hi_margin, s), _CMP_GT_OQ);
-      fast &= (ra0 | ra1) & (sl.table ? glare | beside : 0);
+      fast &= sl.table ? glare | beside : 0;
       const __m512d lux = _mm512_maskz_div_pd(glare, above, d2);  // (0 where beside)
       L = _mm512_add_pd(L, _mm512_mul_pd(RA, lux));
     }
@@ -1179,15 +1115,13 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
   const __m256d zero = _mm256_setzero_pd(), inf = _mm256_set1_pd(INFINITY), sign = _mm256_set1_pd(-0.0);
   const __m256d vcx = _mm256_set1_pd(cx), vf = _mm256_set1_pd(f), vh = _mm256_set1_pd(h), vkY = _mm256_set1_pd(kY),
                 vkD = _mm256_set1_pd(kD), cam_h = _mm256_set1_pd(sl.cam_h), lh = _mm256_set1_pd(p.beam_lamp_height_m);
-  const __m256d cos_a0 = _mm256_set1_pd(sl.cos_a0), cos_a1 = _mm256_set1_pd(sl.cos_a1),
-                RA0 = _mm256_set1_pd(p.sign_RA), RA1 = _mm256_set1_pd(sl.RA_max);
   const __m256d tvmax = _mm256_set1_pd(sl.tan_vmax), th0 = _mm256_set1_pd(sl.tan_h0), th1 = _mm256_set1_pd(sl.tan_h1),
                 above = _mm256_set1_pd(p.beam_above_cutoff_cd), lo_margin = _mm256_set1_pd(-1e-9),
                 hi_margin = _mm256_set1_pd(1e-9);
   const __m256d table = _mm256_castsi256_pd(_mm256_set1_epi64x(sl.table ? -1 : 0));
   const double xls[2] = {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m};
   auto sq = [](__m256d a) __attribute__((target("avx2"), always_inline)) { return _mm256_mul_pd(a, a); };
-  const EntranceTable& et = sl.entrance;
+  const bool entrance = sl.ra.n > 1;
   int i = 0;
   for (; i + 4 <= n; i += 4) {
     const __m256d vz = _mm256_loadu_pd(z + i), vx = _mm256_loadu_pd(x + i);
@@ -1205,23 +1139,9 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
       const __m256d ca = _mm256_div_pd(
           _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cX, lX), _mm256_mul_pd(cY, lY)), _mm256_mul_pd(cD, lD)),
           _mm256_mul_pd(cn, ln));
-      const __m256d ra0 = _mm256_cmp_pd(ca, cos_a0, _CMP_GE_OQ), ra1 = _mm256_cmp_pd(ca, cos_a1, _CMP_LE_OQ);
-      __m256d RA = _mm256_blendv_pd(RA1, RA0, ra0);
-      if (et.on()) {  // as sign_luminances_avx512's
-        const __m256d tb = _mm256_div_pd(_mm256_sqrt_pd(_mm256_add_pd(sq(lX), sq(lY))), D);
-        auto at = [&](const std::vector<double>& fs, const std::vector<double>& ss)
-                      __attribute__((target("avx2"), always_inline)) {
-          __m256d F = _mm256_set1_pd(fs[0]);
-          for (size_t k = 1; k < et.t.size(); ++k) {
-            const __m256d tk = _mm256_set1_pd(et.t[k - 1]);
-            F = _mm256_blendv_pd(
-                F, _mm256_add_pd(_mm256_set1_pd(fs[k - 1]), _mm256_mul_pd(_mm256_sub_pd(tb, tk), _mm256_set1_pd(ss[k - 1]))),
-                _mm256_cmp_pd(tb, tk, _CMP_GT_OQ));
-          }
-          return _mm256_blendv_pd(F, _mm256_set1_pd(fs.back()), _mm256_cmp_pd(tb, _mm256_set1_pd(et.t.back()), _CMP_GT_OQ));
-        };
-        RA = _mm256_blendv_pd(_mm256_mul_pd(RA1, at(et.f1, et.s1)), _mm256_mul_pd(RA0, at(et.f0, et.s0)), ra0);
-      }
+      // R_A(α, β) as sign_luminances_avx512's
+      const __m256d tb = entrance ? _mm256_div_pd(_mm256_sqrt_pd(_mm256_add_pd(sq(lX), sq(lY))), D) : zero;
+      const __m256d RA = detail::sign_RA_lanes<__m256d>(sl.ra, ca, tb);
       const __m256d dx = _mm256_sub_pd(X, vxl), dy = _mm256_sub_pd(Y, lh);
       const __m256d rh = _mm256_sqrt_pd(_mm256_add_pd(sq(dx), sq(D)));
       const __m256d d2 = _mm256_add_pd(_mm256_add_pd(sq(dx), sq(dy)), sq(D));
@@ -1233,7 +1153,7 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
       const __m256d beside =
           _mm256_or_pd(_mm256_cmp_pd(_mm256_sub_pd(dx, Dh0), _mm256_mul_pd(lo_margin, s), _CMP_LT_OQ),
                        _mm256_cmp_pd(_mm256_sub_pd(dx, Dh1), _mm256_mul_pd(hi_margin, s), _CMP_GT_OQ));
-      fast = _mm256_and_pd(fast, _mm256_and_pd(_mm256_or_pd(ra0, ra1), _mm256_and_pd(table, _mm256_or_pd(glare, beside))));
+      fast = _mm256_and_pd(fast, _mm256_and_pd(table, _mm256_or_pd(glare, beside)));
       const __m256d lux = _mm256_and_pd(glare, _mm256_div_pd(above, d2));  // (+0 where beside)
       L = _mm256_add_pd(L, _mm256_mul_pd(RA, lux));
     }
@@ -1267,9 +1187,21 @@ double sign_RA_at(double alpha_deg, const ScenePreset& p) {
 }
 
 double sign_RA_at(double alpha_deg, double entrance_deg, const ScenePreset& p) {
-  const EntranceTable e(p);
-  const double RA = sign_RA_at(alpha_deg, p);
-  return e.on() ? RA * e.between(alpha_deg, std::tan(entrance_deg * M_PI / 180), p) : RA;
+  // The model of scene/sign_retro_detail.h with libm's log and exp (a reference for the lanes'
+  // polynomials): each column's power law, then linear in tan β between the columns.
+  const detail::SignRA s(p);
+  const double a0 = p.sign_RA_alpha_deg, a1 = std::max(p.sign_RA_alpha_deg, p.sign_RA_alpha_max_deg);
+  const double tb = std::tan(entrance_deg * M_PI / 180);
+  auto column = [&](int k) {
+    if (!s.mid || alpha_deg <= a0) return s.R0[k];
+    if (alpha_deg >= a1) return s.R1[k];
+    return s.R0[k] * std::exp(-s.K[k] * std::log(alpha_deg / a0));
+  };
+  double R = column(0);
+  for (int k = 1; k < s.n; ++k)
+    if (tb > s.t[k - 1]) R = column(k - 1) + (tb - s.t[k - 1]) * ((column(k) - column(k - 1)) * s.inv_dt[k - 1]);
+  if (s.n > 1 && tb >= s.t[s.n - 1]) R = column(s.n - 1);
+  return R;
 }
 
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p) {

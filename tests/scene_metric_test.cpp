@@ -37,6 +37,7 @@
 #include "photosite/sensor/spectrum.h"
 #include "core/isa_detail.h"
 #include "scene/night_detail.h"
+#include "scene/sign_retro_detail.h"
 #include "scene/street_detail.h"
 #include "scene/vehicle_facing_detail.h"
 #include "test_util.h"
@@ -4768,6 +4769,67 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheEntranceAngle) {
   EXPECT_NEAR(mid, F_mid, 16 * 0x1p-53);
 }
 
+// The sign lanes' own log, exp and angle (scene/sign_retro_detail.h: no libm inside, so the vector
+// lanes run them too) against libm's: each within 16·2⁻⁵³ relative, the bound the header derives
+// ("a few ulp": z's and the Horner sums' roundings, and for ln y with e ≥ 1 the sum e·ln 2 + ln m,
+// whose terms may differ in sign but |ln m| ≤ ln √2 ≤ e·ln 2 / 2, losing at most a factor 2; libm's
+// own ≤ 1 ulp). Over their whole ranges: y in [1, 2¹⁸), t in [−48, 48], α up to 5°.
+TEST(EgoLowBeam, SignLanesLogExpAndAngleAreLibmsToAFewUlp) {
+  const double u = 0x1p-53;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(0, 1);
+  double worst_log = 0, worst_exp = 0, worst_ang = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const double y = std::pow(2.0, 18 * U(rng)) * (1 - 1e-15), ly = std::log(y);
+    if (ly > 0) worst_log = std::max(worst_log, std::fabs(scene::detail::lane_log_1_2p18(y) - ly) / ly);
+    const double t = -48 + 96 * U(rng), et = std::exp(t);
+    worst_exp = std::max(worst_exp, std::fabs(scene::detail::lane_exp_48(t) - et) / et);
+    const double a = 5 * M_PI / 180 * U(rng) + 1e-6, c = std::cos(a), ref = std::acos(c) * std::acos(c);
+    worst_ang = std::max(worst_ang, std::fabs(scene::detail::lane_angle2_from_cos(c) - ref) / ref);
+  }
+  for (const double y : {1.0, 1.4142135623730951, std::nextafter(1.4142135623730951, 0.0), 2.0, 0x1p17, std::nextafter(0x1p18, 0.0)})
+    if (std::log(y) > 0) worst_log = std::max(worst_log, std::fabs(scene::detail::lane_log_1_2p18(y) - std::log(y)) / std::log(y));
+  EXPECT_EQ(scene::detail::lane_log_1_2p18(1.0), 0.0);
+  for (const double t : {-48.0, -0.5 * M_LN2, 0.0, 0.5 * M_LN2, 48.0})
+    worst_exp = std::max(worst_exp, std::fabs(scene::detail::lane_exp_48(t) - std::exp(t)) / std::exp(t));
+  std::fprintf(stderr, "[signs] lanes against libm, relative: ln %.2g, exp %.2g, α² %.2g (units of 2⁻⁵³: %.1f, %.1f, %.1f)\n",
+               worst_log, worst_exp, worst_ang, worst_log / u, worst_exp / u, worst_ang / u);
+  EXPECT_LE(worst_log, 16 * u);
+  EXPECT_LE(worst_exp, 16 * u);
+  // (acos of a c near 1 is itself within 1 ulp of the true angle of that c; both sides see the same c)
+  EXPECT_LE(worst_ang, 16 * u);
+}
+
+// R_A as the light map's lanes evaluate it from cos α (scene::detail::sign_RA_lanes, scalar instance, the
+// vector lanes' bits: SignPixelsEightAtATimeAreTheScalarBits) against sign_RA_at(α, β) (libm's
+// log and exp on α itself), over α 0.05°..5° and β 0°..60°. The lanes see α only through its
+// rounded cosine c: an error δ ≤ 2⁻⁵³ in c moves α² = 2(1 − c) + … by 2δ, ln α by δ/α², and R_A by
+// K·δ/α² relative (K ≤ 2.4, the steepest column's exponent: k + ln(F0/F1)/ln(α1/α0) = 1.989 +
+// ln(0.5278/0.3)/ln(2/0.33) = 2.30); the polynomials add 16·2⁻⁵³ each (above), the column's
+// product and the interpolation in tan β a few more: within (2.4/α² + 64)·2⁻⁵³ relative.
+TEST(EgoLowBeam, SignLanesGiveTheModelsRA) {
+  const ScenePreset p = urban();
+  const scene::detail::SignRA s(p);
+  double K_max = 0;
+  for (const double K : s.K) K_max = std::max(K_max, K);
+  EXPECT_NEAR(K_max, 1.989 + std::log(0.5278 / 0.3) / std::log(2 / 0.33), 1e-12);  // (the 40° column's; 1e-12: a few roundings of ~2)
+  long n = 0;
+  double worst = 0;
+  for (double a_deg = 0.05; a_deg < 5; a_deg *= 1.013)
+    for (double b_deg = 0; b_deg <= 60; b_deg += 1.7) {
+      const double a = a_deg * M_PI / 180;
+      const double lanes = scene::detail::sign_RA_lanes<double>(s, std::cos(a), std::tan(b_deg * M_PI / 180));
+      const double ref = sign_RA_at(a_deg, b_deg, p), tol = (2.4 / (a * a) + 64) * 0x1p-53 * ref;
+      // (on the α0 and α1 boundaries the lanes decide held or power law by cos α and the reference by
+      // α: where they differ both give the column's value there within the tolerance: continuity)
+      EXPECT_NEAR(lanes, ref, tol) << "α " << a_deg << "°, β " << b_deg << "°";
+      worst = std::max(worst, std::fabs(lanes - ref) / tol);
+      ++n;
+    }
+  std::fprintf(stderr, "[signs] %ld (α, β) pairs: the lanes' R_A within %.2f of the derived bound of the model's\n", n, worst);
+  EXPECT_GT(n, 10000);
+}
+
 // The free road with signs that only the ego beam lights (no street lamps): labels, metric depth
 // and texture to draw the signs into, and the light map of them.
 struct BeamSignScene {
@@ -4791,7 +4853,7 @@ struct BeamSignScene {
 // and four at a time (AVX2, beam_max_isa 1: sign_luminances_avx2; on a machine without AVX-512
 // cap 2 takes it too) are the scalar code's bits (beam_max_isa 0), pixel by pixel: every row of the synthetic frame
 // made of signs in runs that leave every remainder of eight, at random camera z from 0.3 to 400 m
-// (R_A at 0.33° and below, between 0.33° and 0.5° (acos and pow), and above; the glare zone
+// (R_A at 0.33° and below, between 0.33° and 2° (the lanes' own log and exp), and above; the glare zone
 // above the cut-off, the table below it, and signs beside the table's ±25° both sides of its edge),
 // with depths that are not finite or not positive, and every row from the top to the bottom (D
 // down to its smallest, Y below the lamps). Fails if a lane's branch (R_A's two limits, the glare
