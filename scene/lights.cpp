@@ -1011,7 +1011,9 @@ struct SignLight {
   }
   // R_A at observation angle α (its cosine) and entrance angle β (its tangent; read only where the
   // preset has an entrance table): the lanes' arithmetic on one lane.
-  double RA(double cos_alpha, double tan_beta) const { return detail::sign_RA_lanes<double>(ra, cos_alpha, tan_beta); }
+  double RA(double cos_alpha, double tan_beta) const {
+    return detail::sign_RA_lanes<double>(ra, cos_alpha, tan_beta, !(cos_alpha >= ra.cos_a0) && !(cos_alpha <= ra.cos_a1));
+  }
   // L = Σ_lamps R_A(α, β)·E⊥: each lamp's light returns toward it, and the camera (on the car's
   // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and
   // sign-to-camera directions; the lamp's ray meets the sign, which faces along the road (normal
@@ -1078,7 +1080,9 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
           _mm512_mul_pd(cn, ln));
       // R_A(α, β) by the shared lane arithmetic (scene/sign_retro_detail.h), tan β = √(lX² + lY²)/D
       const __m512d tb = entrance ? _mm512_div_pd(_mm512_sqrt_pd(_mm512_add_pd(sq_pd8(lX), sq_pd8(lY))), D) : zero;
-      const __m512d RA = detail::sign_RA_lanes<__m512d>(sl.ra, ca, tb);
+      const bool any_mid = _mm512_cmp_pd_mask(ca, _mm512_set1_pd(sl.ra.cos_a0), _CMP_NGE_UQ) &
+                           _mm512_cmp_pd_mask(ca, _mm512_set1_pd(sl.ra.cos_a1), _CMP_NLE_UQ) & m;
+      const __m512d RA = detail::sign_RA_lanes<__m512d>(sl.ra, ca, tb, any_mid);
       const __m512d dx = _mm512_sub_pd(X, vxl), dy = _mm512_sub_pd(Y, lh);
       const __m512d rh = _mm512_sqrt_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(D)));
       const __m512d d2 = _mm512_add_pd(_mm512_add_pd(sq_pd8(dx), sq_pd8(dy)), sq_pd8(D));
@@ -1141,7 +1145,9 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
           _mm256_mul_pd(cn, ln));
       // R_A(α, β) as sign_luminances_avx512's
       const __m256d tb = entrance ? _mm256_div_pd(_mm256_sqrt_pd(_mm256_add_pd(sq(lX), sq(lY))), D) : zero;
-      const __m256d RA = detail::sign_RA_lanes<__m256d>(sl.ra, ca, tb);
+      const bool any_mid = _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(ca, _mm256_set1_pd(sl.ra.cos_a0), _CMP_NGE_UQ),
+                                                            _mm256_cmp_pd(ca, _mm256_set1_pd(sl.ra.cos_a1), _CMP_NLE_UQ)));
+      const __m256d RA = detail::sign_RA_lanes<__m256d>(sl.ra, ca, tb, any_mid);
       const __m256d dx = _mm256_sub_pd(X, vxl), dy = _mm256_sub_pd(Y, lh);
       const __m256d rh = _mm256_sqrt_pd(_mm256_add_pd(sq(dx), sq(D)));
       const __m256d d2 = _mm256_add_pd(_mm256_add_pd(sq(dx), sq(dy)), sq(D));

@@ -72,12 +72,12 @@ typedef long long i64x8 __attribute__((vector_size(64)));
 [[gnu::always_inline]] inline int64_t lane_bits(double x) { return std::bit_cast<int64_t>(x); }
 [[gnu::always_inline]] inline double lane_from_bits(int64_t b, double) { return std::bit_cast<double>(b); }
 template <class V>
-[[gnu::always_inline]] inline auto lane_bits(V x) {
+[[gnu::always_inline]] inline auto lane_bits(const V& x) {
   if constexpr (sizeof(V) == 32) return std::bit_cast<i64x4>(x);
   else return std::bit_cast<i64x8>(x);
 }
 template <class I, class V>
-[[gnu::always_inline]] inline V lane_from_bits(I b, V) {
+[[gnu::always_inline]] inline V lane_from_bits(const I& b, const V&) {
   return std::bit_cast<V>(b);
 }
 template <class V>
@@ -88,25 +88,28 @@ template <class V>
 // 2^n for integral n in [−1022, 1023] (here |n| ≤ 70): n + 1.5·2⁵² puts n in the low mantissa bits
 // (exact for |n| < 2⁵¹), and (n + 1023) << 52 is the double 2^n.
 template <class V>
-[[gnu::always_inline]] inline V lane_pow2i(V n) {
+[[gnu::always_inline]] inline V lane_pow2i(const V& n) {
   const auto b = lane_bits(n + 0x1.8p52);
   return lane_from_bits((b - 0x4338000000000000LL + 1023) << 52, n);
 }
 
-// ln y for 1 ≤ y < 2¹⁸ (y = (α/α0)², α/α0 ≤ 5°/0.01°): y = m·2^e with m in [1, √2) where y < √2,
-// else in [√2/2, √2), by at most eighteen halvings (exact), then ln m = 2·atanh(z) =
+// ln y for 1 ≤ y < 2¹⁸ (y = (α/α0)², α/α0 ≤ 5°/0.01°): y = m·2^e with m in [1, 2) from y's
+// exponent and mantissa bits (exact), then m in [√2/2, √2) by one halving where m ≥ √2 (exact;
+// e as a double by the 2⁵² bias: exact for 0 ≤ e < 2⁵²), then ln m = 2·atanh(z) =
 // 2·Σ z^(2j+1)/(2j+1), z = (m − 1)/(m + 1), |z| ≤ 0.1716: the series to z²¹/21 leaves
 // z²³/23 ≤ 0.02944¹¹/23 < 10⁻¹⁸ of z. Its roundings: z's (two, relative; m − 1 is exact), the
 // Horner sum of positive terms (a few ulp), e·ln 2 and the sum, where ln m may be negative but
-// |ln m| ≤ ln √2 ≤ e·ln 2 / 2 (at most a factor 2 lost): a few ulp of ln y.
+// |ln m| ≤ ln √2 ≤ e·ln 2 / 2 (at most a factor 2 lost): a few ulp of ln y. (Until the session's
+// end the exponent was taken by up to eighteen halvings: the same m and e, so the same bits, for
+// every y in the range.)
 template <class V>
-[[gnu::always_inline]] inline V lane_log_1_2p18(V y) {
-  V m = y, e = lane_splat<V>(0);
-  for (int j = 0; j < 18; ++j) {
-    const auto big = m >= 1.4142135623730951;
-    m = big ? m * 0.5 : m;
-    e = big ? e + 1.0 : e;
-  }
+[[gnu::always_inline]] inline V lane_log_1_2p18(const V& y) {
+  const auto b = lane_bits(y);
+  V m = lane_from_bits((b & 0x000fffffffffffffLL) | 0x3ff0000000000000LL, y);
+  V e = lane_from_bits(((b >> 52) - 1023) + 0x4330000000000000LL, y) - 0x1p52;
+  const auto big = m >= 1.4142135623730951;
+  m = big ? m * 0.5 : m;
+  e = big ? e + 1.0 : e;
   const V z = (m - 1.0) / (m + 1.0), z2 = z * z;
   V s = lane_splat<V>(1.0 / 21);
   for (int d = 19; d >= 1; d -= 2) s = s * z2 + 1.0 / d;
@@ -118,7 +121,7 @@ template <class V>
 // for |n| < 2¹¹), |r| ≤ ln 2/2 + ε, e^r by Taylor to r¹³/13! (the rest ≤ 0.347¹⁴/14! < 5·10⁻¹⁸),
 // times 2^n (exact): a few ulp.
 template <class V>
-[[gnu::always_inline]] inline V lane_exp_48(V t) {
+[[gnu::always_inline]] inline V lane_exp_48(const V& t) {
   const V n = (t * 1.4426950408889634 + 0x1.8p52) - 0x1.8p52;
   const V r = (t - n * 0x1.62e42fee00000p-1) - n * 0x1.a39ef35793c76p-33;
   V s = lane_splat<V>(1.0 / 6227020800.0);  // 1/13!
@@ -135,7 +138,7 @@ template <class V>
 // α² = 4·x²·(Σ)² with no square root. 1 − c inherits c's rounding (a few 2⁻⁵³ absolute) relative to
 // α²/2 ≥ 1.5·10⁻⁸ at 0.01°: acos(c) amplifies the same rounding the same way.
 template <class V>
-[[gnu::always_inline]] inline V lane_angle2_from_cos(V c) {
+[[gnu::always_inline]] inline V lane_angle2_from_cos(const V& c) {
   const V s2 = (1.0 - c) * 0.5;
   V p = lane_splat<V>(63.0 / 2816);
   p = p * s2 + 35.0 / 1152;
@@ -147,16 +150,19 @@ template <class V>
 }
 
 // R_A at cos α = ca and tan β = tb (see the top of the file), per lane.
+// any_mid: whether any lane lies between α0 and α1 (the caller's test on its lanes; the scalar
+// code's own); where none does, the power law is not evaluated (it would be selected away).
 template <class V>
-[[gnu::always_inline]] inline V sign_RA_lanes(const SignRA& s, V ca, V tb) {
+[[gnu::always_inline]] inline V sign_RA_lanes(const SignRA& s, const V& ca, const V& tb, bool any_mid = true) {
   const auto lo = ca >= s.cos_a0, hi = ca <= s.cos_a1;
+  const bool power = s.mid && any_mid;
   // L = ln(α/α0) = ½·ln((α/α0)²)
   V L = lane_splat<V>(0);
-  if (s.mid) L = 0.5 * lane_log_1_2p18(lane_angle2_from_cos(ca) * (s.inv_a0_rad * s.inv_a0_rad));
+  if (power) L = 0.5 * lane_log_1_2p18(lane_angle2_from_cos(ca) * (s.inv_a0_rad * s.inv_a0_rad));
   V Rprev{}, R{};
   for (int k = 0; k < s.n; ++k) {
     V Rk = hi ? lane_splat<V>(s.R1[k]) : lane_splat<V>(s.R0[k]);
-    if (s.mid) Rk = (lo || hi) ? Rk : s.R0[k] * lane_exp_48(L * -s.K[k]);
+    if (power) Rk = (lo || hi) ? Rk : s.R0[k] * lane_exp_48(L * -s.K[k]);
     if (k == 0) {
       R = Rk;
     } else {
