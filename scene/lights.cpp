@@ -1012,7 +1012,7 @@ struct SignLight {
   // R_A at observation angle α (its cosine) and entrance angle β (its tangent; read only where the
   // preset has an entrance table): the lanes' arithmetic on one lane.
   double RA(double cos_alpha, double tan_beta) const {
-    return detail::sign_RA_lanes<double>(ra, cos_alpha, tan_beta, !(cos_alpha >= ra.cos_a0) && !(cos_alpha <= ra.cos_a1));
+    return detail::sign_RA_lanes<double>(ra, cos_alpha, tan_beta);
   }
   // L = Σ_lamps R_A(α, β)·E⊥: each lamp's light returns toward it, and the camera (on the car's
   // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and

@@ -336,11 +336,14 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   auto err = [&](const char* key, const std::string& problem) {
     schema::key_error(file, schema::line_at(t, key), key, problem);
   };
+  auto increasing = [&](const char* key, const std::vector<double>& a) {
+    for (size_t i = 1; i < a.size(); ++i)
+      if (!(a[i] > a[i - 1])) err(key, "angles must increase strictly");
+  };
   for (const char* key : {"ego_beam.h_deg", "ego_beam.v_deg"}) {
     const auto& a = std::string_view(key) == "ego_beam.h_deg" ? p.beam_h_deg : p.beam_v_deg;
     if (a.size() < 2) err(key, "needs at least two angles");
-    for (size_t i = 1; i < a.size(); ++i)
-      if (!(a[i] > a[i - 1])) err(key, "angles must increase strictly");
+    increasing(key, a);
   }
   const toml::array* rows = t.at_path("ego_beam.intensity_cd").as_array();  // read() found it an array
   if (!rows || rows->size() != p.beam_v_deg.size() ||
@@ -360,18 +363,16 @@ void validate(const ScenePreset& p, const toml::table& t, const std::string& fil
   if (p.canny_low > p.canny_high) err("geometry.canny_low", "exceeds canny_high");
   if (p.sign_RA_alpha_max_deg < p.sign_RA_alpha_deg)
     err("retroreflection.sign_RA_alpha_max_deg", "is below sign_RA_alpha_deg");
-  for (size_t i = 1; i < p.sign_RA_entrance_deg.size(); ++i)
-    if (!(p.sign_RA_entrance_deg[i] > p.sign_RA_entrance_deg[i - 1]))
-      err("retroreflection.sign_RA_entrance_deg", "angles must increase strictly");
-  for (const char* key : {"retroreflection.sign_RA_entrance_factor", "retroreflection.sign_RA_entrance_factor_alpha_max"}) {
-    const auto& f = std::string_view(key) == "retroreflection.sign_RA_entrance_factor" ? p.sign_RA_entrance_factor
-                                                                                      : p.sign_RA_entrance_factor_alpha_max;
-    if (f.size() != p.sign_RA_entrance_deg.size())
-      schema::key_error(file, schema::line_at(t, f.empty() ? "retroreflection.sign_RA_entrance_deg" : key),
-                        f.empty() ? "retroreflection.sign_RA_entrance_deg" : key,
-                        "needs one value of " + std::string(key) + " per sign_RA_entrance_deg entry (" +
-                            std::to_string(p.sign_RA_entrance_deg.size()) + "), has " + std::to_string(f.size()));
-  }
+  const char* const entrance_key = "retroreflection.sign_RA_entrance_deg";
+  increasing(entrance_key, p.sign_RA_entrance_deg);
+  const std::pair<const char*, const std::vector<double>*> factors[] = {
+      {"retroreflection.sign_RA_entrance_factor", &p.sign_RA_entrance_factor},
+      {"retroreflection.sign_RA_entrance_factor_alpha_max", &p.sign_RA_entrance_factor_alpha_max}};
+  for (const auto& [key, f] : factors)
+    if (f->size() != p.sign_RA_entrance_deg.size())
+      err(f->empty() ? entrance_key : key, "needs one value of " + std::string(key) + " per sign_RA_entrance_deg entry (" +
+                                               std::to_string(p.sign_RA_entrance_deg.size()) + "), has " +
+                                               std::to_string(f->size()));
   if (p.sun_shade_ratio_min > p.sun_shade_ratio_max && p.sun_shade_ratio_max > 1)
     err("reflectance.sun_shade_ratio_min", "is above sun_shade_ratio_max (no class could split)");
   if (p.shade_sky_cct_K <= p.sun_cct_K)

@@ -20,8 +20,10 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
+#include "photosite/scene/night.h"
 #include "photosite/scene/scene_preset.h"
 
 // (The lanes' templates take and return vector types; they are always inlined into their callers,
@@ -43,10 +45,7 @@ struct SignRA {
     cos_a0 = std::cos(a0 * M_PI / 180);
     cos_a1 = std::cos(a1 * M_PI / 180);
     inv_a0_rad = 1 / (a0 * M_PI / 180);
-    const double Lam = std::log(a1 / a0), held = std::pow(a1 / a0, -p.sign_RA_alpha_exponent);
-    // (the held value at α1 as sign_RA_at computes it, so that R1 of the first column, factor 1, is
-    // sign_RA_at(α1) times 1)
-    const double RA_max = p.sign_RA * held;
+    const double Lam = std::log(a1 / a0), RA_max = sign_RA_at(p.sign_RA_alpha_max_deg, p);  // held beyond α1
     const size_t m = p.sign_RA_entrance_deg.size();
     const bool table = m > 0 && p.sign_RA_entrance_factor.size() == m && p.sign_RA_entrance_factor_alpha_max.size() == m;
     n = table ? static_cast<int>(m) : 1;
@@ -150,11 +149,13 @@ template <class V>
 }
 
 // R_A at cos α = ca and tan β = tb (see the top of the file), per lane.
-// any_mid: whether any lane lies between α0 and α1 (the caller's test on its lanes; the scalar
-// code's own); where none does, the power law is not evaluated (it would be selected away).
+// any_mid: whether any lane lies between α0 and α1 (the vector callers' test on their lanes; the
+// scalar code derives it from its one lane); where none does, the power law is not evaluated (it
+// would be selected away).
 template <class V>
 [[gnu::always_inline]] inline V sign_RA_lanes(const SignRA& s, const V& ca, const V& tb, bool any_mid = true) {
   const auto lo = ca >= s.cos_a0, hi = ca <= s.cos_a1;
+  if constexpr (std::is_same_v<V, double>) any_mid = !(lo || hi);
   const bool power = s.mid && any_mid;
   // L = ln(α/α0) = ½·ln((α/α0)²)
   V L = lane_splat<V>(0);
