@@ -149,7 +149,7 @@ void run_night(NightCmd c) {
   const std::string image_note = day_file.codes ? std::string() : day_image_note(day_file.floats, info);
   if (!previews.empty()) check_preview_camera(preview_options, r.camera);
   if (!previews.empty()) check_preview_frame(preview_options, day_w, day_h);
-  const scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
+  scene::LabelMap labels = scene::read_labels(c.labels, c.instances, day_w, day_h, fmt_label, resize);
   sp.rig = scene::resolve_camera_rig(bundled && c.rig == "auto" ? batch::dataset_camera(batch::Dataset::Kitti).rig : c.rig, day_w, day_h, c.image);
   lap("read inputs");
   // Each frame's files (the first frame's with the --maps pictures) are published together, when

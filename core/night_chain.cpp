@@ -17,7 +17,7 @@ namespace {
 // prepare_night of a day image given as its floats (`day`) or, for an 8-bit file, as its codes
 // (`codes`, when not empty).
 NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageFileInfo& info,
-                   const scene::LabelMap& labels, const scene::ScenePreset& sp, const SensorSetup& setup,
+                   scene::LabelMap& labels, const scene::ScenePreset& sp, const SensorSetup& setup,
                    const DeviceStore& store,
                    const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
   using clock = std::chrono::steady_clock;
@@ -38,17 +38,26 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   // With the preset's sun/shade split on, the same pass also makes the split's block sums (its
   // phase 1) from the Y it computes, for the block rows that lie in one of its chunks (every row
   // of a 2048x1024 frame), so the split does not read the linear image for them.
+  // The sky seen through tree crowns is taken for sky (scene::take_sky_gaps) before the class sums
+  // read the labels, from the day file's pixels as the pass decodes them; the file's ids are back
+  // when the scene is made. (A grey image: from the linear image, its sums then dropped where any
+  // were taken: the texture makes its own.)
+  scene::SkyGapsRestore restore(labels);
+  if (!codes.empty()) scene::take_sky_gaps(labels, codes, sp);
+  else scene::take_sky_gaps(labels, day, info, sp);
   scene::TextureSums sums;
   ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums, &sp)
                               : scene::linearize_with_texture_sums(day, info, labels.ids, &sums, &sp);
+  const bool sums_of_labels = labels.sky_gaps_taken || scene::take_sky_gaps(labels, lin, sp) == 0;
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   codes = ImageU8();
   lap("linearize");
   c.scene = night_scene_for(runner, lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), setup, nullptr,
-                            &sums);
+                            sums_of_labels ? &sums : nullptr);
   sums = scene::TextureSums();  // not held through the sensor stages
+  scene::restore_sky_gaps(labels);
   for (auto& st : c.scene.timings) c.timings.push_back(st);
   t = clock::now();
   if (inspect) {
@@ -113,18 +122,34 @@ LensPreset lens_for_frame(const LensPreset& lens, const CameraPreset& camera, co
 }
 
 NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
-                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,
                          const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
   return prepare(runner, std::move(day), ImageU8(), info, labels, sp, setup, store, inspect);
 }
 
 NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFileInfo& info,
-                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,
                          const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
   if (day_codes.empty()) fail("prepare_night: no day image codes");
   return prepare(runner, ImageF(), std::move(day_codes), info, labels, sp, setup, store, inspect);
+}
+
+NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
+  scene::LabelMap own = labels;
+  return prepare_night(runner, std::move(day), info, own, sp, setup, store, inspect);
+}
+
+NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect) {
+  scene::LabelMap own = labels;
+  return prepare_night(runner, std::move(day_codes), info, own, sp, setup, store, inspect);
 }
 
 void set_ambient_lux(scene::ScenePreset& sp, double lux) {

@@ -111,6 +111,8 @@ int decode8_codes_avx2(const float* in, int j, int n, const Decode8& d8, float* 
 #endif
 }  // namespace
 
+const float* srgb8_decodes() { return decode8().out; }
+
 namespace {
 #if defined(__x86_64__)
 const bool kAvx2 = photosite::detail::have_avx2();
@@ -156,6 +158,14 @@ void linearize_rgb_samples(const float* in, float* o, int n, int64_t pixel0, boo
   }
 }
 }  // namespace
+
+void linearize_day_pixel(const ImageF& day, const ImageFileInfo& info, size_t i, float* c) {
+  const bool decode = !info.is_float;
+  const Decode8* d8 = decode && info.bits_per_sample == 8 ? &decode8() : nullptr;
+  int64_t ignored = INT64_MAX;  // a damaged sample decodes as 0; linearize names it
+  linearize_rgb_samples(day.data() + 3 * i, c, 3, static_cast<int64_t>(i), decode, d8, srgb_decode_table().data(),
+                        &ignored);
+}
 
 ImageF linearize(const ImageF& day, const ImageFileInfo& info) {
   const int c = day.channels();

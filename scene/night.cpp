@@ -175,10 +175,20 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
   return night_scene_with(day, labels, p, seed, keep_darkened, {}, sequence, sums, glare_level1);
 }
 
-NightScene night_scene_with(const ImageF& day, const LabelMap& labels, const ScenePreset& p,
+NightScene night_scene_with(const ImageF& day, const LabelMap& labels_in, const ScenePreset& p,
                             uint64_t seed, bool keep_darkened, const NightTail& tail, SequenceState* seq,
                             const TextureSums* sums, bool glare_level1) {
   NightScene s;
+  // Sky seen through tree crowns (take_sky_gaps): the chain's callers (prepare_night, batch) take
+  // them from the codes before the linearisation's class sums; a caller that did not, here on a
+  // copy of its labels (and then the texture makes its own sums where any were taken).
+  std::optional<LabelMap> own;
+  if (!labels_in.sky_gaps_taken) {
+    own = labels_in;
+    if (take_sky_gaps(*own, day, p) > 0) sums = nullptr;
+  }
+  const LabelMap& labels = own ? *own : labels_in;
+  s.sky_gap_pixels = labels.sky_gaps.size();
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
   double c = process_cpu_ms();

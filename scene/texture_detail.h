@@ -18,6 +18,10 @@ void texture_max_isa(int isa);
 // (default) or the AVX-512 gathers; the same floats either way (the test runs both).
 void texture_decode_vbmi(bool on);
 
+// linearize's decodes of the 256 codes of an 8-bit file, to the bit (what its 8-bit paths read).
+const float* srgb8_decodes();
+// Pixel i of an RGB day image (read_image's samples) as linearize() gives it, to the bit.
+void linearize_day_pixel(const ImageF& day, const ImageFileInfo& info, size_t i, float* linear_srgb);
 // How many textures made their own class sums (pass 1) because none were handed to them (or
 // the ones handed were made for another image): the chain's callers (prepare_night, batch) hand
 // the linearisation's, and tests check that the count stays put.

@@ -1,18 +1,20 @@
 #!/usr/bin/env python3
-"""Sky seen through foliage: how much of a frame's vegetation label is day sky, and how bright
-photosite's night renders it against the rest of the vegetation.
+"""Sky seen through foliage: how much of a frame's vegetation label is day sky, which of it
+photosite takes for sky, and how bright photosite's night renders it against the rest of the
+vegetation and the sky.
 
 Cityscapes and KITTI label tree crowns as polygons, so the sky between the crown's leaves and
-around its edge is labelled vegetation. In the day photo those pixels are sky-bright; photosite
-takes them as vegetation of that (capped) reflectance and lights them, so crowns against the
-sky get a bright rim at night where a real night photo shows the dark sky. This script measures
-that, per frame of ../shared/data (Cityscapes labelIds, KITTI semantic): a vegetation pixel
-(label 21) is "sky-like" when its day luminance (linear sRGB, Rec. 709 weights) is at least
---fraction of the median luminance of the frame's sky pixels (label 23, at least 100 of them).
-It then runs `photosite night` on the frame and compares the median luminance of the night radiance
-(the `night_radiance` layer, the same Rec. 709 weights; medians, as lamp heads drawn over a few
-sky pixels would set a mean) over the sky-like vegetation pixels, over the rest of the vegetation,
-and over the sky.
+around its edge is labelled vegetation. This script measures that, per frame of ../shared/data
+(Cityscapes labelIds, KITTI semantic): a vegetation pixel (label 21) is "sky-like" when its day
+luminance (linear sRGB, Rec. 709 weights) is at least --fraction of the median luminance of the
+frame's sky pixels (label 23, at least 100 of them), and "joined" when a chain of sky-like pixels
+(8-neighbours) links it to the labelled sky: what photosite takes for sky (scene/sky_gaps.cpp,
+reflectance.sky_gap_fraction; its EXR header's photosite/night/sky_gap_pixels is printed beside
+this script's own count: photosite takes its sky median from a 1/16 sample, so the two may differ
+by a few pixels). It then runs `photosite night` on the frame and compares the median luminance
+of the night radiance (the `night_radiance` layer, the same Rec. 709 weights; medians, as lamp
+heads drawn over a few sky pixels would set a mean) over the joined pixels, the sky-like ones not
+joined, the rest of the vegetation, and the sky.
 
     /usr/bin/python3 scripts/sky_gaps.py --photosite build/photosite --shared ../shared [--fraction 0.6]
 
@@ -47,6 +49,33 @@ def frames(shared):
     return out
 
 
+def joined_to_sky(cand, sky):
+    """The candidates that a chain of candidates (8-neighbours) links to the sky."""
+    reach = sky.copy()
+    while True:
+        grown = reach.copy()
+        grown[1:, :] |= reach[:-1, :]
+        grown[:-1, :] |= reach[1:, :]
+        grown[:, 1:] |= reach[:, :-1]
+        grown[:, :-1] |= reach[:, 1:]
+        grown[1:, 1:] |= reach[:-1, :-1]
+        grown[1:, :-1] |= reach[:-1, 1:]
+        grown[:-1, 1:] |= reach[1:, :-1]
+        grown[:-1, :-1] |= reach[1:, 1:]
+        grown &= cand | sky
+        if (grown == reach).all():
+            return reach & cand
+        reach = grown
+
+
+def header_int(exr, name):
+    out = subprocess.run(["oiiotool", "--info", "-v", exr], check=True, capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        if name in line:
+            return int(line.split(":")[-1].strip())
+    return None
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--photosite", required=True, help="the photosite program")
@@ -57,7 +86,8 @@ def main():
     if not rows:
         print(f"sky_gaps.py: no frames under {a.shared}/data", file=sys.stderr)
         return 2
-    print("frame | vegetation px | sky-like | share | night L: sky-like veg | other veg | sky | sky-like / other")
+    print("frame | vegetation px | sky-like | joined (header) | night L median: joined | sky-like, not joined | "
+          "other veg | sky | joined / other veg | joined / sky")
     with tempfile.TemporaryDirectory() as tmp:
         for stem, img, lab in rows:
             day = np.asarray(Image.open(img).convert("RGB"))
@@ -65,20 +95,22 @@ def main():
             Y = linear(day) @ W709
             sky, veg = ids == 23, ids == 21
             if sky.sum() < 100 or veg.sum() == 0:
-                print(f"{stem} | {veg.sum()} | – (sky {sky.sum()} px) | | | | |")
+                print(f"{stem} | {veg.sum()} | – (sky {sky.sum()} px) | | | | | | |")
                 continue
-            gap = veg & (Y >= a.fraction * np.median(Y[sky]))
+            like = veg & (Y >= a.fraction * np.median(Y[sky]))
+            joined = joined_to_sky(like, sky)
             exr = os.path.join(tmp, stem + ".exr")
             subprocess.run([a.photosite, "night", "--image", img, "--labels", lab, "--out", exr, "-y"], check=True,
                            stdout=subprocess.DEVNULL)
+            taken = header_int(exr, "sky_gap_pixels")
             tif = os.path.join(tmp, stem + ".tif")
             subprocess.run(["oiiotool", exr, "--ch", "night_radiance.R,night_radiance.G,night_radiance.B",
                             "--chsum:weight=0.2126,0.7152,0.0722", "-d", "float", "-o", tif], check=True)
             L = np.asarray(Image.open(tif), dtype=np.float64)
-            other = veg & ~gap
-            lg, lo, ls = (float(np.median(L[m])) if m.any() else float("nan") for m in (gap, other, sky))
-            print(f"{stem} | {veg.sum()} | {gap.sum()} | {100 * gap.sum() / veg.sum():.2f} % | {lg:.3g} | {lo:.3g} | "
-                  f"{ls:.3g} | {lg / lo:.2f}")
+            med = [float(np.median(L[m])) if m.any() else float("nan")
+                   for m in (joined, like & ~joined, veg & ~like, sky)]
+            print(f"{stem} | {veg.sum()} | {like.sum()} | {joined.sum()} ({taken}) | "
+                  + " | ".join(f"{v:.3g}" for v in med) + f" | {med[0] / med[2]:.2f} | {med[0] / med[3]:.2f}")
     return 0
 
 

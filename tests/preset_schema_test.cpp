@@ -125,7 +125,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // Every member of ScenePreset that a scene file sets.
 #define PHOTOSITE_SCENE_FIELDS(X) \
   X(rho_sign) X(rho_construction) X(rho_human) X(rho_nature) X(rho_vehicle) X(rho_sky) X(rho_road) \
-  X(rho_diffuse_max) X(rho_glint_max) X(sun_shade_ratio_max) X(sun_shade_ratio_min) X(sun_shade_window_fraction) \
+  X(rho_diffuse_max) X(rho_glint_max) X(sun_shade_ratio_max) X(sun_shade_ratio_min) X(sun_shade_window_fraction) X(sky_gap_fraction) \
   X(sun_cct_K) X(shade_sky_cct_K) \
   X(moon_lux) X(moon_cct_K) X(skyglow_lux) X(skyglow_cct_K) X(sky_luminance_cd_m2) \
   X(street_road_luminance_cd_m2) X(street_cct_K) \

@@ -53,6 +53,15 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/street_lamps")), 0);
   // The bundled KITTI frame's near tram track is taken out of the markings (drop_tram_rails).
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/tram_rail_pixels")), 0);
+  // Its crowns against the sky show the sky between their leaves: the scene took those pixels for
+  // sky (take_sky_gaps), and labels.Y still holds the file's ids there, as everywhere.
+  EXPECT_GT(std::stoi(e.attributes.at("photosite/night/sky_gap_pixels")), 0);
+  const LabelMap file = read_labels(PHOTOSITE_SOURCE_DIR "/samples/kitti/semantic/000000_10.png", "", e.width, e.height,
+                                    LabelFormat::Auto, ResizeLabels::None);
+  const ImageF& labels_y = e.channels.at("labels.Y");
+  size_t not_the_files = 0;
+  for (size_t i = 0; i < labels_y.pixel_count(); ++i) not_the_files += labels_y[i] != file.ids[i];
+  EXPECT_EQ(not_the_files, 0u);
   // Its walls, vegetation, fences and cars hide the low beam's lamps from each other below the
   // cut-off's top (docs/night.md §6c): the header counts those vertical-surface pixels.
   int vertical_shaded = 0;

@@ -1057,8 +1057,12 @@ TEST(FacadeWindows, ReciprocalFloorsAreTheDivisionsFloors) {
 // radiance equals compose() of it, bit for bit, with the same counts.
 TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
   PHOTOSITE_REQUIRE_SHARED("data/cityscapes");
-  const auto [lin, lab] = cityscapes_frame("aachen_000000_000019");
+  const auto [lin, file_labels] = cityscapes_frame("aachen_000000_000019");
   const ScenePreset p = load_scene_preset("night-urban");
+  // The labels as the chain's stages see them, the sky through the crowns taken (take_sky_gaps;
+  // night_scene takes them itself only from labels where they were not).
+  LabelMap lab = file_labels;
+  ASSERT_GT(take_sky_gaps(lab, lin, p), 0u);
   const ImageF tex = reflectance_texture(lin, lab.ids, p);
   const int before = omp_get_max_threads();
   for (const int isa : {2, 1, 0})

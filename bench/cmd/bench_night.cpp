@@ -145,8 +145,9 @@ void run(const Opts& o) {
     return PeerTime{ms(p0, p1), cpu_ms() - c0};
   };
   // The chain's rows up to the sensor: linearize, the scene's stages, their sum and expose.
-  auto add_chain_rows = [&](const scene::NightScene& ns, auto t0, auto t1, auto t2, auto t3) {
+  auto add_chain_rows = [&](const scene::NightScene& ns, auto t0, auto tk, auto t1, auto t2, auto t3) {
     add("linearize", ms(t0, t1));
+    add("  of which sky gaps (take_sky_gaps)", ms(t0, tk));
     for (const auto& st : ns.timings) add(st.stage, st.ms);
     add("scene stages (linearize..compose)", ms(t0, t2));
     add("sensor (expose)", ms(t2, t3));
@@ -158,6 +159,11 @@ void run(const Opts& o) {
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
     // reflectance texture's class sums and the sun/shade split's block sums (their time is in
     // "linearize", no longer in "darken"); an 8-bit PNG's codes are linearised directly.
+    // The sky seen through tree crowns taken from the codes first (its time in "linearize" too),
+    // the file's ids back after the scene.
+    if (codes) scene::take_sky_gaps(lm, *codes, sp);
+    else scene::take_sky_gaps(lm, day, info, sp);
+    auto tk = clock::now();
     scene::TextureSums sums;
     const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums, &sp)
                              : scene::linearize_with_texture_sums(day, info, lm.ids, &sums, &sp);
@@ -166,6 +172,7 @@ void run(const Opts& o) {
     // As the chain on the CPU: the compose pass also makes the lens glare's level 1, which the
     // sensor rows below start from (its time is in "lights+compose", no longer in the sensor).
     scene::NightScene ns = scene::night_scene(lin, lm, sp, 1, false, nullptr, &sums, glare_plan.active);
+    scene::restore_sky_gaps(lm);
     const GlareLevel1* level1 = ns.glare_level1.get();
     auto t2 = clock::now();
     const double cs0 = cpu_ms();
@@ -182,7 +189,7 @@ void run(const Opts& o) {
     if (o.chain_only) {  // for a profiler: the chain and the peer only
       const PeerTime peer = run_peer(lin);
       if (!keep) continue;
-      add_chain_rows(ns, t0, t1, t2, t3);
+      add_chain_rows(ns, t0, tk, t1, t2, t3);
       add("whole chain", ms(t0, t3));
       add("peer: OpenCV cvtColor RGB2Lab", peer.wall_ms);
       continue;
@@ -213,11 +220,14 @@ void run(const Opts& o) {
       // between. Into fresh outputs, as the CPU's "sensor (expose)" row.
       const auto tr0 = device->transfers();
       auto td0 = clock::now();
+      if (codes) scene::take_sky_gaps(lm, *codes, sp);
+      else scene::take_sky_gaps(lm, day, info, sp);
       scene::TextureSums sums_d;
       const ImageF lin_d = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums_d, &sp)
                                  : scene::linearize_with_texture_sums(day, info, lm.ids, &sums_d, &sp);
       auto td1 = clock::now();
       scene::NightScene ns_d = scene::night_scene(lin_d, lm, sp, 1, false, *device, nullptr, &sums_d);
+      scene::restore_sky_gaps(lm);
       auto td2 = clock::now();
       const SensorOutput so_d = device->expose(ns_d.radiance, cam, lens, es, fpn, ns_d.resident_radiance);
       auto td3 = clock::now();
@@ -245,7 +255,7 @@ void run(const Opts& o) {
     }
     const PeerTime peer = run_peer(lin);
     if (!keep) continue;
-    add_chain_rows(ns, t0, t1, t2, t3);
+    add_chain_rows(ns, t0, tk, t1, t2, t3);
     add("sensor (optics, then sense: as night)", ms(tn0, tn1));
     add("sensor (expose into reused outputs)", ms(tn1, tn2));
     add("whole chain", ms(t0, t3));

@@ -36,14 +36,25 @@ struct NightChain {
 // encoded; float files linear); consumed, freed as soon as no later stage reads it.
 // inspect: when given, called with the linear day image and the scene (with its darkened map)
 // before the sensor stages — the command line's --maps.
+// labels: the scene's stages see the sky through tree crowns as sky (scene::take_sky_gaps);
+// labels.ids is the file's again when it returns (or throws).
 NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
-                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,
                          const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
 
 // The same from an 8-bit sRGB file's codes (interleaved, as read_image_codes8 gives them): on the
 // CPU linearised from the codes (a quarter of the bytes of their floats), the same scene to the
 // bit as prepare_night of read_image()'s floats of the same file.
+NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFileInfo& info,
+                         scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
+// The same for labels the caller cannot lend (a copy of them takes the sky gaps).
+NightChain prepare_night(SensorRunner& runner, ImageF day, const ImageFileInfo& info,
+                         const scene::LabelMap& labels, const scene::ScenePreset& sp,
+                         const SensorSetup& setup, const DeviceStore& store,
+                         const std::function<void(const ImageF&, const scene::NightScene&)>& inspect = {});
 NightChain prepare_night(SensorRunner& runner, ImageU8 day_codes, const ImageFileInfo& info,
                          const scene::LabelMap& labels, const scene::ScenePreset& sp,
                          const SensorSetup& setup, const DeviceStore& store,

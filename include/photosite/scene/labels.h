@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "photosite/image.h"
 
@@ -59,6 +60,12 @@ struct LabelMap {
   // Set when the format was detected and the file fits another reading too (values 0..18 only:
   // trainIds or labelIds); the console prints it.
   std::string note;
+  // Sky seen through tree crowns (scene::take_sky_gaps): the pixels, in reading order, that the
+  // file labels vegetation and the scene's stages take for sky; `ids` holds Sky (23) there from
+  // take_sky_gaps until restore_sky_gaps gives the file's ids back (the outputs' labels.Y is the
+  // file's). `sky_gaps_taken`: looked for (with or without any found), until restored.
+  std::vector<uint32_t> sky_gaps;
+  bool sky_gaps_taken = false;
 };
 
 // Interprets raw codes (1 channel: ids; 3 channels: palette) in `format` (Auto: detect). An

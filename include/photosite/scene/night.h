@@ -103,6 +103,35 @@ ImageF linearize_with_texture_sums(const ImageF& day, const ImageFileInfo& info,
                                    const DayBalance* carried = nullptr);
 // The refusal of a day image with NaN or Inf at pixel `index` (reading order), naming the file.
 [[noreturn]] void fail_damaged_pixel(const ImageF& day, const ImageFileInfo& info, int64_t index);
+// ---- sky seen through tree crowns ----------------------------------------------------------
+// Cityscapes and KITTI label a tree crown as one polygon, so the sky between its leaves and around
+// its edge is labelled vegetation (docs/night.md §1, "Sky through the crowns"). take_sky_gaps
+// finds those pixels: vegetation whose day luminance (linear sRGB, Rec. 709 weights) is at least
+// p.sky_gap_fraction of the median over the labelled sky, and which joins the labelled sky
+// through such pixels (8-neighbours). It labels them Sky in labels.ids and lists them in
+// labels.sky_gaps, so every stage after it (texture, darkening, depth, light map, the Vulkan
+// kernels) sees sky there; restore_sky_gaps gives the file's ids back. None where the fraction is
+// 0, the frame has under 64 sky pixels, or its sky's median is 0. The result is the connected
+// closure, independent of the order pixels are visited in. Returns how many were taken.
+size_t take_sky_gaps(LabelMap& labels, const ImageF& linear_srgb_day, const ScenePreset& p);
+// The same before the linearisation, from the day file's pixels as linearize() decodes them (the
+// same pixels as from its result): an 8-bit sRGB file's interleaved codes through its 256
+// decodes, or read_image()'s RGB samples with their file info. Other channel counts: none taken,
+// and labels.sky_gaps_taken stays false (night_scene takes them from the linear image).
+size_t take_sky_gaps(LabelMap& labels, const ImageU8& srgb8_codes, const ScenePreset& p);
+size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& info, const ScenePreset& p);
+void restore_sky_gaps(LabelMap& labels);
+// Gives the file's ids back when it goes out of scope (also on an exception).
+class SkyGapsRestore {
+ public:
+  explicit SkyGapsRestore(LabelMap& labels) : labels_(labels) {}
+  ~SkyGapsRestore() { restore_sky_gaps(labels_); }
+  SkyGapsRestore(const SkyGapsRestore&) = delete;
+  SkyGapsRestore& operator=(const SkyGapsRestore&) = delete;
+
+ private:
+  LabelMap& labels_;
+};
 // Linear sRGB → photosite's box RGB basis (sensor/spectrum.h).
 ImageF linear_srgb_to_box_rgb(const ImageF& linear_srgb);
 
@@ -488,6 +517,7 @@ struct NightScene {
   ImageU8 lanes_work, edges_work;            // working resolution
   double work_scale = 1;
   int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
+  size_t sky_gap_pixels = 0;  // vegetation pixels the scene took for sky (take_sky_gaps)
   BeamShadowStats beam_shadow;  // ground pixels in the low beam's shadows (shade_low_beam_ground)
   // Vertical-surface pixels in its shadows (below the cut-off's top, docs/night.md §6c), counted
   // as the ground's: each lamp's alone and both.

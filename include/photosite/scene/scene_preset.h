@@ -55,6 +55,10 @@ struct ScenePreset {
   // (shade_sky_cct_K) at a step of ratio_min. ratio_max = 1 turns it off; 10 is the sources' bound
   // (presets/scenes/night-urban.toml).
   double sun_shade_ratio_min = 2, sun_shade_ratio_max = 10, sun_shade_window_fraction = 0.03;
+  // reflectance.sky_gap_fraction: vegetation pixels at least this fraction of the sky's median day
+  // luminance, connected to the labelled sky through such pixels, are sky seen through the crown
+  // (take_sky_gaps); 0: none.
+  double sky_gap_fraction = 0.6;
   double sun_cct_K = 5000, shade_sky_cct_K = 7000;
   // The day photo's camera cast (a camera's white balance or a data set's processing, e.g.
   // Cityscapes' green: mean linear G/R 1.29-1.37 over its frames against KITTI's 0.99-1.09,

@@ -1,0 +1,192 @@
+// Sky seen through tree crowns (include/photosite/scene/night.h take_sky_gaps; docs/night.md §1,
+// "Sky through the crowns").
+//
+// Cityscapes (gtFine) and KITTI label a tree crown as one polygon: the sky between its leaves and
+// along its ragged edge is labelled vegetation. In the day photo those pixels are as bright as the
+// sky; taken as leaves, the texture gives them a leaf's reflectance at the diffuse cap and the
+// street lamps and the low beam light them, so at night every crown against the sky carried a
+// bright rim where a real night photo shows the dark sky (docs/realism.md, "Analysis: sky seen
+// through foliage": 4-30x the rest of the crown on 6 of 7 frames). Here such pixels become sky
+// before any stage reads the labels.
+//
+// Which pixels: vegetation whose day luminance Y (linear sRGB, Rec. 709 weights) is at least
+// f = reflectance.sky_gap_fraction of the median Y over the labelled sky, and which joins the
+// labelled sky through such pixels (8-connected). The connection is what tells the sky from a
+// bright wall seen through the same crown: on KITTI's saturated frames a sunlit white façade
+// behind the leaves is as bright as the sky (kitti_000000: 10,792 vegetation pixels pass the
+// luminance test, 1,814 of them join the sky), and it stays vegetation, as do sky holes inside
+// a crown that no chain of bright pixels joins to the open sky (what is left: docs/night.md).
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "core/isa_detail.h"
+#include "photosite/scene/night.h"
+#include "scene/texture_detail.h"
+
+namespace photosite::scene {
+
+namespace {
+
+constexpr uint16_t kVeg = static_cast<uint16_t>(Label::Vegetation);
+constexpr uint16_t kSky = static_cast<uint16_t>(Label::Sky);
+// Fewer labelled sky pixels than this (in the sample, then in the frame) give no sky level to
+// compare with: 64 samples put the median within ±1/16 of the distribution's mass (its standard
+// error for a fraction near 1/2 is 0.5/√64).
+constexpr size_t kMinSky = 64;
+
+// Whether a row of n labels holds vegetation (bit 0) and sky (bit 1): vectorised by the compiler
+// (a predicate: every clone gives the same answer).
+PHOTOSITE_TARGET_CLONES unsigned row_classes(const uint16_t* row, int n) {
+  uint8_t veg = 0, sky = 0;
+  for (int x = 0; x < n; ++x) {
+    veg |= static_cast<uint8_t>(row[x] == kVeg);
+    sky |= static_cast<uint8_t>(row[x] == kSky);
+  }
+  return static_cast<unsigned>(veg) | static_cast<unsigned>(sky) << 1;
+}
+
+// seed[x] = 1 where row[x] is vegetation with a sky pixel among its 8 neighbours (above and below:
+// the rows beside it; at the frame's edge, the row itself), else 0; `near` is scratch of n bytes.
+PHOTOSITE_TARGET_CLONES void sky_beside_veg(const uint16_t* above, const uint16_t* row, const uint16_t* below, int n,
+                                            uint8_t* near, uint8_t* seed) {
+  for (int x = 0; x < n; ++x)
+    near[x] = static_cast<uint8_t>((above[x] == kSky) | (row[x] == kSky) | (below[x] == kSky));
+  for (int x = 1; x + 1 < n; ++x)
+    seed[x] = static_cast<uint8_t>((row[x] == kVeg) & (near[x - 1] | near[x] | near[x + 1]));
+  seed[0] = static_cast<uint8_t>((row[0] == kVeg) & (near[0] | (n > 1 ? near[1] : 0)));
+  if (n > 1) seed[n - 1] = static_cast<uint8_t>((row[n - 1] == kVeg) & (near[n - 2] | near[n - 1]));
+}
+
+// Rec. 709 luminance of linear sRGB, in float, the same operations on both paths.
+inline float luma709(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
+
+// `rgb(i, out)` writes pixel i's linear sRGB.
+template <class Rgb>
+size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
+  labels.sky_gaps.clear();
+  labels.sky_gaps_taken = true;
+  if (!(fraction > 0)) return 0;
+  const int W = labels.ids.width(), H = labels.ids.height();
+  uint16_t* ids = labels.ids.data();
+  auto Y = [&](size_t i) {
+    float c[3];
+    rgb(i, c);
+    return luma709(c[0], c[1], c[2]);
+  };
+  // Which rows hold vegetation and which sky (one vectorised pass over the labels): a flood can
+  // only start on a vegetation row beside a sky row.
+  std::vector<uint8_t> has_veg(H), has_sky(H);
+  for (int y = 0; y < H; ++y) {
+    const unsigned c = row_classes(ids + static_cast<size_t>(y) * W, W);
+    has_veg[y] = c & 1;
+    has_sky[y] = c >> 1 & 1;
+  }
+  // The sky's level: the median of Y over every 4th pixel of every 4th row of the sky (the sky is
+  // smooth; 1/16 of its pixels, at most 131,072 on a 2048x1024 frame), over all its pixels where
+  // that sample is too small.
+  std::vector<float> sky;
+  for (int y = 0; y < H; y += 4) {
+    if (!has_sky[y]) continue;
+    for (int x = 0; x < W; x += 4) {
+      const size_t i = static_cast<size_t>(y) * W + x;
+      if (ids[i] == kSky) sky.push_back(Y(i));
+    }
+  }
+  if (sky.size() < kMinSky) {
+    sky.clear();
+    for (size_t i = 0; i < labels.ids.pixel_count(); ++i)
+      if (ids[i] == kSky) sky.push_back(Y(i));
+  }
+  if (sky.size() < kMinSky) return 0;
+  const auto mid = sky.begin() + static_cast<std::ptrdiff_t>(sky.size() / 2);
+  std::nth_element(sky.begin(), mid, sky.end());
+  const float level = *mid;
+  if (!(level > 0)) return 0;
+  const float threshold = static_cast<float>(fraction * level);
+  auto bright_veg = [&](size_t i) { return ids[i] == kVeg && Y(i) >= threshold; };
+  // One scan of the rows where a flood can start: a bright vegetation pixel beside the sky
+  // (labelled, or taken before it) is taken and its bright vegetation neighbours after it (a
+  // stack, which follows a chain onto any row). Taken pixels read as sky at once, so what is taken
+  // is the connected closure whatever the order.
+  std::vector<uint32_t> stack;
+  std::vector<uint8_t> near(W), seed(W);
+  for (int y = 0; y < H; ++y) {
+    if (!has_veg[y] || !(has_sky[y] || (y > 0 && has_sky[y - 1]) || (y + 1 < H && has_sky[y + 1]))) continue;
+    const uint16_t* row = ids + static_cast<size_t>(y) * W;
+    // The seeds of this row as it is now (pixels taken on it by an earlier flood are sky, and
+    // their neighbours were looked at by that flood).
+    sky_beside_veg(y > 0 ? row - W : row, row, y + 1 < H ? row + W : row, W, near.data(), seed.data());
+    for (int x = 0; x < W; ++x) {
+      const void* next = std::memchr(seed.data() + x, 1, static_cast<size_t>(W - x));
+      if (!next) break;
+      x = static_cast<int>(static_cast<const uint8_t*>(next) - seed.data());
+      const size_t i = static_cast<size_t>(y) * W + x;
+      if (!bright_veg(i)) continue;  // (a flood of this row may have taken it since: not vegetation)
+      ids[i] = kSky;
+      labels.sky_gaps.push_back(static_cast<uint32_t>(i));
+      stack.push_back(static_cast<uint32_t>(i));
+      while (!stack.empty()) {
+        const uint32_t j = stack.back();
+        stack.pop_back();
+        const int jx = static_cast<int>(j % static_cast<uint32_t>(W)), jy = static_cast<int>(j / static_cast<uint32_t>(W));
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = jx + dx, yy = jy + dy;
+            if (xx < 0 || xx >= W || yy < 0 || yy >= H) continue;
+            const size_t k = static_cast<size_t>(yy) * W + xx;
+            if (!bright_veg(k)) continue;
+            ids[k] = kSky;
+            labels.sky_gaps.push_back(static_cast<uint32_t>(k));
+            stack.push_back(static_cast<uint32_t>(k));
+          }
+      }
+    }
+  }
+  std::sort(labels.sky_gaps.begin(), labels.sky_gaps.end());
+  return labels.sky_gaps.size();
+}
+
+}  // namespace
+
+size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ScenePreset& p) {
+  if (day.channels() != 3 || !labels.ids.same_shape(day)) {  // other stages refuse the mismatch
+    labels.sky_gaps.clear();
+    labels.sky_gaps_taken = true;
+    return 0;
+  }
+  const float* d = day.data();
+  return take(labels, [d](size_t i, float* c) { c[0] = d[3 * i], c[1] = d[3 * i + 1], c[2] = d[3 * i + 2]; },
+              p.sky_gap_fraction);
+}
+
+size_t take_sky_gaps(LabelMap& labels, const ImageU8& codes, const ScenePreset& p) {
+  if (codes.channels() != 3 || !labels.ids.same_shape(codes)) {  // left to the linear image's (night_scene)
+    labels.sky_gaps.clear();
+    labels.sky_gaps_taken = false;
+    return 0;
+  }
+  const uint8_t* s = codes.data();
+  const float* lut = srgb8_decodes();
+  return take(labels, [s, lut](size_t i, float* c) {
+    c[0] = lut[s[3 * i]], c[1] = lut[s[3 * i + 1]], c[2] = lut[s[3 * i + 2]];
+  }, p.sky_gap_fraction);
+}
+
+size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& info, const ScenePreset& p) {
+  if (day.channels() != 3 || !labels.ids.same_shape(day)) {  // left to the linear image's (night_scene)
+    labels.sky_gaps.clear();
+    labels.sky_gaps_taken = false;
+    return 0;
+  }
+  return take(labels, [&day, &info](size_t i, float* c) { linearize_day_pixel(day, info, i, c); }, p.sky_gap_fraction);
+}
+
+void restore_sky_gaps(LabelMap& labels) {
+  for (const uint32_t i : labels.sky_gaps) labels.ids[i] = kVeg;
+  labels.sky_gaps.clear();
+  labels.sky_gaps_taken = false;
+}
+
+}  // namespace photosite::scene

@@ -1,0 +1,154 @@
+// Sky seen through tree crowns (scene::take_sky_gaps, scene/sky_gaps.cpp): which vegetation
+// pixels the scene takes for sky, from every form of the day image alike, and that the night then
+// renders them as it renders sky labelled so in the file.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "photosite/image.h"
+#include "photosite/scene/night.h"
+#include "scene/texture_detail.h"
+
+using namespace photosite;
+using namespace photosite::scene;
+
+namespace {
+
+constexpr uint16_t kVeg = static_cast<uint16_t>(Label::Vegetation);
+constexpr uint16_t kSky = static_cast<uint16_t>(Label::Sky);
+constexpr uint16_t kBuilding = static_cast<uint16_t>(Label::Building);
+
+// A grey 8-bit sRGB frame with labels: rows [0, 16) sky at code 188 (linear 0.50), rows [16, 48)
+// vegetation at code 48 (linear 0.030), with placed pixels; `expect` lists those that join the sky.
+struct Crown {
+  static constexpr int W = 64, H = 48;
+  ImageU8 codes{W, H, 3, 0};
+  LabelMap labels;
+  std::vector<uint32_t> expect;
+  Crown() {
+    labels.ids = ImageU16(W, H, 1, kVeg);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) put(x, y, y < 16 ? kSky : kVeg, y < 16 ? 188 : 48);
+    // The threshold is 0.6 of the sky's 0.5029: 0.3018 (code 150 decodes to 0.3050, 149 to 0.3005).
+    for (int x = 10; x < 15; ++x) put(x, 16, kVeg, 170, true);               // the crown's rim
+    for (int k = 0; k < 5; ++k) put(20 + k, 16 + k, kVeg, 150, true);        // a diagonal chain from it
+    for (int y = 30; y < 33; ++y)
+      for (int x = 30; x < 33; ++x) put(x, y, kVeg, 188);                    // a hole no chain joins
+    put(40, 16, kVeg, 149);                                                  // below the threshold,
+    put(40, 17, kVeg, 188);                                                  // so this one stays
+    put(50, 16, kBuilding, 255);                                             // a bright façade, and
+    put(50, 17, kVeg, 188);  // vegetation below it, beside dim leaves only (49/51,16 are leaves)
+    std::sort(expect.begin(), expect.end());
+  }
+  void put(int x, int y, uint16_t id, uint8_t code, bool joins = false) {
+    labels.ids.at(x, y) = id;
+    for (int c = 0; c < 3; ++c) codes.at(x, y, c) = code;
+    if (joins) expect.push_back(static_cast<uint32_t>(y * W + x));
+  }
+};
+
+ScenePreset with_fraction(double f) {
+  ScenePreset p = load_scene_preset("night-urban");
+  p.sky_gap_fraction = f;
+  return p;
+}
+
+}  // namespace
+
+// The rim and the chain joined to it are taken, from the codes, from read_image's floats of the
+// same file, and from the linear image alike; the hole, the pixel behind a dim one and the one
+// under a bright façade stay vegetation; restore gives the file's ids back.
+TEST(SkyGaps, TakesBrightVegetationJoinedToTheSkyOnly) {
+  const Crown c;
+  const ScenePreset p = with_fraction(0.6);
+  const float threshold = static_cast<float>(0.6 * srgb8_decodes()[188]);  // the construction's premise (Crown)
+  ASSERT_GE(srgb8_decodes()[150], threshold);
+  ASSERT_LT(srgb8_decodes()[149], threshold);
+  ImageF floats(Crown::W, Crown::H, 3);
+  for (size_t i = 0; i < floats.size(); ++i) floats[i] = c.codes[i] * (1.f / 255);
+  ImageFileInfo info;
+  info.bits_per_sample = 8;
+  const ImageF lin = linearize(floats, info);
+  for (int form = 0; form < 3; ++form) {
+    LabelMap l = c.labels;
+    const size_t n = form == 0 ? take_sky_gaps(l, c.codes, p) : form == 1 ? take_sky_gaps(l, floats, info, p)
+                                                                           : take_sky_gaps(l, lin, p);
+    EXPECT_TRUE(l.sky_gaps_taken);
+    EXPECT_EQ(n, c.expect.size()) << "form " << form;
+    EXPECT_EQ(l.sky_gaps, c.expect) << "form " << form;
+    for (const uint32_t i : c.expect) EXPECT_EQ(l.ids[i], kSky);
+    restore_sky_gaps(l);
+    EXPECT_FALSE(l.sky_gaps_taken);
+    EXPECT_EQ(l.ids.vec(), c.labels.ids.vec()) << "form " << form;
+  }
+}
+
+// None where the preset says 0, where the sky has fewer than 64 pixels (its level unknown), or
+// where its median is 0; 64 sky pixels are enough.
+TEST(SkyGaps, NoneWithoutASkyLevel) {
+  Crown c;
+  {
+    LabelMap l = c.labels;
+    EXPECT_EQ(take_sky_gaps(l, c.codes, with_fraction(0)), 0u);
+    EXPECT_TRUE(l.sky_gaps_taken);
+    EXPECT_EQ(l.ids.vec(), c.labels.ids.vec());
+  }
+  // Sky left only in row 15's first k pixels (the rest of rows 0-15: building, as dim as leaves).
+  for (const int k : {63, 64}) {
+    Crown s;
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < Crown::W; ++x)
+        if (y < 15 || x >= k) s.put(x, y, kBuilding, 48);
+    LabelMap l = s.labels;
+    const size_t n = take_sky_gaps(l, s.codes, with_fraction(0.6));
+    if (k == 63) EXPECT_EQ(n, 0u);
+    else EXPECT_GT(n, 0u);  // the rim at x 10-14 and the chain at x 20-24 lie under it
+  }
+  Crown black;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < Crown::W; ++x) black.put(x, y, kSky, 0);
+  LabelMap l = black.labels;
+  EXPECT_EQ(take_sky_gaps(l, black.codes, with_fraction(0.6)), 0u);
+}
+
+// The night of a crown whose rim shows the sky: with the gaps taken (night_scene takes them on a
+// copy when its caller did not) it is, to the bit, the night of the same frame with those pixels
+// labelled sky in the file; without (fraction 0) the rim renders otherwise.
+TEST(SkyGaps, NightRendersThemAsSkyLabelledInTheFile) {
+  SyntheticOptions o;  // 640x320, sky above row 130 between x 243 and 396 and over rows 0-50
+  o.cars = 1;
+  SyntheticScene s = make_synthetic_road(o);
+  // A crown in the sky, rows 60-110, x 270-370: leaves, a rim of sky along its top row and
+  // sides, and a sky-bright hole in the middle that no chain joins.
+  std::vector<uint32_t> rim;
+  for (int y = 60; y <= 110; ++y)
+    for (int x = 270; x <= 370; ++x) {
+      const bool edge = y == 60 || x == 270 || x == 370;
+      const bool hole = y >= 80 && y < 84 && x >= 316 && x < 320;
+      s.labels.ids.at(x, y) = kVeg;
+      const float* sky = edge || hole ? &s.day_linear_srgb.at(x, 40) : nullptr;  // the sky's colour
+      const float leaf[3] = {0.05f, 0.12f, 0.03f};
+      for (int ch = 0; ch < 3; ++ch) s.day_linear_srgb.at(x, y, ch) = sky ? sky[ch] : leaf[ch];
+      if (edge) rim.push_back(static_cast<uint32_t>(y * o.width + x));
+    }
+  std::sort(rim.begin(), rim.end());
+  const ScenePreset p = with_fraction(0.6);
+  const NightScene taken = night_scene(s.day_linear_srgb, s.labels, p, 7);
+  EXPECT_EQ(taken.sky_gap_pixels, rim.size());
+  LabelMap filed = s.labels;
+  for (const uint32_t i : rim) filed.ids[i] = kSky;
+  const NightScene as_sky = night_scene(s.day_linear_srgb, filed, p, 7);
+  EXPECT_EQ(as_sky.sky_gap_pixels, 0u);
+  EXPECT_EQ(taken.radiance.vec(), as_sky.radiance.vec());
+  EXPECT_EQ(taken.lights.vec(), as_sky.lights.vec());
+  EXPECT_EQ(taken.depth.vec(), as_sky.depth.vec());
+  const NightScene leaves = night_scene(s.day_linear_srgb, s.labels, with_fraction(0), 7);
+  EXPECT_EQ(leaves.sky_gap_pixels, 0u);
+  size_t differ = 0;
+  for (const uint32_t i : rim)
+    for (int ch = 0; ch < 3; ++ch) differ += leaves.radiance[3 * i + ch] != taken.radiance[3 * i + ch];
+  EXPECT_GT(differ, 0u);  // (how much: on real frames, docs/night.md §1)
+}
