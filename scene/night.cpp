@@ -208,6 +208,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels_in, const 
   ImageF work_luma = ws.halving ? ImageF(ws.width, ws.height, 1, uninitialized) : ImageF();
   ImageF texture = reflectance_texture_with(day, labels.ids, p, seq ? &seq->reflectance : nullptr,
                                                   ws.halving ? &work_luma : nullptr, sums, &s.day_balance);
+  // The crown's edge pixels left as vegetation: the leaf's share of the pixel only (unmix_sky_fringe).
+  s.sky_fringe_pixels = unmix_sky_fringe(texture, day, labels, p);
   lap("darken");
   WorkImages w = make_work_images_with(day, labels.ids, p.work_max_width, ws.halving ? &work_luma : nullptr);
   s.work_scale = w.scale;

@@ -23,6 +23,7 @@
 
 #include "core/isa_detail.h"
 #include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
 #include "scene/texture_detail.h"
 
 namespace photosite::scene {
@@ -66,7 +67,9 @@ inline float luma709(float r, float g, float b) { return 0.2126f * r + 0.7152f *
 template <class Rgb>
 size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
   labels.sky_gaps.clear();
+  labels.sky_fringe.clear();
   labels.sky_gaps_taken = true;
+  labels.sky_day_luminance = 0;
   if (!(fraction > 0)) return 0;
   const int W = labels.ids.width(), H = labels.ids.height();
   uint16_t* ids = labels.ids.data();
@@ -104,6 +107,7 @@ size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
   std::nth_element(sky.begin(), mid, sky.end());
   const float level = *mid;
   if (!(level > 0)) return 0;
+  labels.sky_day_luminance = level;
   const float threshold = static_cast<float>(fraction * level);
   auto bright_veg = [&](size_t i) { return ids[i] == kVeg && Y(i) >= threshold; };
   // One scan of the rows where a flood can start: a bright vegetation pixel beside the sky
@@ -145,6 +149,26 @@ size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
     }
   }
   std::sort(labels.sky_gaps.begin(), labels.sky_gaps.end());
+  // The crown's edge as the gaps leave it: on the rows a flood could start from, and beside the
+  // rows of the pixels taken.
+  std::vector<uint8_t> edge_rows(H);
+  for (int y = 0; y < H; ++y)
+    edge_rows[y] = has_veg[y] && (has_sky[y] || (y > 0 && has_sky[y - 1]) || (y + 1 < H && has_sky[y + 1]));
+  for (const uint32_t i : labels.sky_gaps) {
+    const int y = static_cast<int>(i / static_cast<uint32_t>(W));
+    for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy) edge_rows[yy] |= has_veg[yy];
+  }
+  for (int y = 0; y < H; ++y) {
+    if (!edge_rows[y]) continue;
+    const uint16_t* row = ids + static_cast<size_t>(y) * W;
+    sky_beside_veg(y > 0 ? row - W : row, row, y + 1 < H ? row + W : row, W, near.data(), seed.data());
+    for (int x = 0; x < W; ++x) {
+      const void* hit = std::memchr(seed.data() + x, 1, static_cast<size_t>(W - x));
+      if (!hit) break;
+      x = static_cast<int>(static_cast<const uint8_t*>(hit) - seed.data());
+      labels.sky_fringe.push_back(static_cast<uint32_t>(static_cast<size_t>(y) * W + x));
+    }
+  }
   return labels.sky_gaps.size();
 }
 
@@ -186,7 +210,32 @@ size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& i
 void restore_sky_gaps(LabelMap& labels) {
   for (const uint32_t i : labels.sky_gaps) labels.ids[i] = kVeg;
   labels.sky_gaps.clear();
+  labels.sky_fringe.clear();
   labels.sky_gaps_taken = false;
+  labels.sky_day_luminance = 0;
+}
+
+size_t unmix_sky_fringe(ImageF& texture, const ImageF& day, const LabelMap& labels, const ScenePreset& p) {
+  const float level = labels.sky_day_luminance;
+  if (!(level > 0) || texture.channels() != 3 || day.channels() != 3 || !texture.same_shape(labels.ids) ||
+      !day.same_shape(labels.ids))
+    return 0;
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const double rho = class_reflectance(kVeg, p);
+  size_t scaled = 0;
+  for (const uint32_t i : labels.sky_fringe) {
+    const float* c = day.data() + 3 * static_cast<size_t>(i);
+    const double f = std::min(1.0, static_cast<double>(luma709(c[0], c[1], c[2])) / level);
+    float* t = texture.data() + 3 * static_cast<size_t>(i);
+    const double lum = K[0] * t[0] + K[1] * t[1] + K[2] * t[2];  // its luminance factor
+    const double most = (1 - f) * rho;
+    if (lum > most) {
+      const double k = most / lum;
+      for (int ch = 0; ch < 3; ++ch) t[ch] = static_cast<float>(t[ch] * k);
+      ++scaled;
+    }
+  }
+  return scaled;
 }
 
 }  // namespace photosite::scene

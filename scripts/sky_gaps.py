@@ -14,7 +14,9 @@ this script's own count: photosite takes its sky median from a 1/16 sample, so t
 by a few pixels). It then runs `photosite night` on the frame and compares the median luminance
 of the night radiance (the `night_radiance` layer, the same Rec. 709 weights; medians, as lamp
 heads drawn over a few sky pixels would set a mean) over the joined pixels, the sky-like ones not
-joined, the rest of the vegetation, and the sky.
+joined, the crown's edge (the vegetation left beside the sky and the joined pixels, 8-neighbours:
+what scene/sky_gaps.cpp unmix_sky_fringe scales to the leaf's share of the pixel), the rest of the
+vegetation, and the sky.
 
     /usr/bin/python3 scripts/sky_gaps.py --photosite build/photosite --shared ../shared [--fraction 0.6]
 
@@ -86,8 +88,8 @@ def main():
     if not rows:
         print(f"sky_gaps.py: no frames under {a.shared}/data", file=sys.stderr)
         return 2
-    print("frame | vegetation px | sky-like | joined (header) | night L median: joined | sky-like, not joined | "
-          "other veg | sky | joined / other veg | joined / sky")
+    print("frame | vegetation px | sky-like | joined (header) | edge px | night L median: joined | sky-like, not joined | "
+          "edge | other veg | sky | joined / other veg | joined / sky | edge / other veg")
     with tempfile.TemporaryDirectory() as tmp:
         for stem, img, lab in rows:
             day = np.asarray(Image.open(img).convert("RGB"))
@@ -95,10 +97,20 @@ def main():
             Y = linear(day) @ W709
             sky, veg = ids == 23, ids == 21
             if sky.sum() < 100 or veg.sum() == 0:
-                print(f"{stem} | {veg.sum()} | – (sky {sky.sum()} px) | | | | | | |")
+                print(f"{stem} | {veg.sum()} | – (sky {sky.sum()} px) | | | | | | | | | | |")
                 continue
             like = veg & (Y >= a.fraction * np.median(Y[sky]))
             joined = joined_to_sky(like, sky)
+            open_sky = sky | joined
+            beside = np.zeros_like(open_sky)
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    shifted = np.zeros_like(open_sky)
+                    h, w = open_sky.shape
+                    shifted[max(dy, 0):h + min(dy, 0), max(dx, 0):w + min(dx, 0)] = \
+                        open_sky[max(-dy, 0):h + min(-dy, 0), max(-dx, 0):w + min(-dx, 0)]
+                    beside |= shifted
+            edge = veg & ~joined & beside
             exr = os.path.join(tmp, stem + ".exr")
             subprocess.run([a.photosite, "night", "--image", img, "--labels", lab, "--out", exr, "-y"], check=True,
                            stdout=subprocess.DEVNULL)
@@ -108,9 +120,10 @@ def main():
                             "--chsum:weight=0.2126,0.7152,0.0722", "-d", "float", "-o", tif], check=True)
             L = np.asarray(Image.open(tif), dtype=np.float64)
             med = [float(np.median(L[m])) if m.any() else float("nan")
-                   for m in (joined, like & ~joined, veg & ~like, sky)]
-            print(f"{stem} | {veg.sum()} | {like.sum()} | {joined.sum()} ({taken}) | "
-                  + " | ".join(f"{v:.3g}" for v in med) + f" | {med[0] / med[2]:.2f} | {med[0] / med[3]:.2f}")
+                   for m in (joined, like & ~joined, edge, veg & ~like & ~edge, sky)]
+            print(f"{stem} | {veg.sum()} | {like.sum()} | {joined.sum()} ({taken}) | {edge.sum()} | "
+                  + " | ".join(f"{v:.3g}" for v in med)
+                  + f" | {med[0] / med[3]:.2f} | {med[0] / med[4]:.2f} | {med[2] / med[3]:.2f}")
     return 0
 
 

@@ -1063,7 +1063,8 @@ TEST(StreetLighting, LightMapsRowPassAndItsRadianceAreTheSeparateSteps) {
   // night_scene takes them itself only from labels where they were not).
   LabelMap lab = file_labels;
   ASSERT_GT(take_sky_gaps(lab, lin, p), 0u);
-  const ImageF tex = reflectance_texture(lin, lab.ids, p);
+  ImageF tex = reflectance_texture(lin, lab.ids, p);
+  ASSERT_GT(unmix_sky_fringe(tex, lin, lab, p), 0u);  // as night_scene's texture
   const int before = omp_get_max_threads();
   for (const int isa : {2, 1, 0})
     for (const int threads : {1, 2}) {

@@ -10,6 +10,7 @@
 
 #include "photosite/image.h"
 #include "photosite/scene/night.h"
+#include "photosite/sensor/spectrum.h"
 #include "scene/texture_detail.h"
 
 using namespace photosite;
@@ -151,4 +152,67 @@ TEST(SkyGaps, NightRendersThemAsSkyLabelledInTheFile) {
   for (const uint32_t i : rim)
     for (int ch = 0; ch < 3; ++ch) differ += leaves.radiance[3 * i + ch] != taken.radiance[3 * i + ch];
   EXPECT_GT(differ, 0u);  // (how much: on real frames, docs/night.md §1)
+}
+
+// The crown's edge left as vegetation (unmix_sky_fringe): a vegetation pixel beside the sky at
+// half the sky's day luminance keeps at most half the vegetation's reflectance, scaled
+// in all three bands alike; vegetation not beside the sky, the sky and the other classes keep
+// their texture to the bit; with sky_gap_fraction 0 nothing is scaled.
+TEST(SkyGaps, FringeKeepsTheLeafsShareOnly) {
+  constexpr int W = 64, H = 48;
+  ImageF lin(W, H, 3, 0.f, "linear sRGB");
+  LabelMap labels;
+  labels.ids = ImageU16(W, H, 1, kVeg);
+  auto put = [&](int x, int y, uint16_t id, float v) {
+    labels.ids.at(x, y) = id;
+    for (int c = 0; c < 3; ++c) lin.at(x, y, c) = v;
+  };
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) put(x, y, y < 16 ? kSky : kVeg, y < 16 ? 0.5f : 0.03f);
+  for (int x = 8; x < 40; ++x) put(x, 16, kVeg, 0.25f);  // half sky: below 0.6 of it, not taken
+  put(50, 20, kVeg, 0.25f);                              // as bright, but not beside the sky
+  for (int x = 44; x < 48; ++x) put(x, 16, kBuilding, 0.25f);  // a façade's edge: not vegetation
+  const ScenePreset p = with_fraction(0.6);
+  LabelMap l = labels;
+  ASSERT_EQ(take_sky_gaps(l, lin, p), 0u);
+  EXPECT_FLOAT_EQ(l.sky_day_luminance, 0.5f);
+  const ImageF before = reflectance_texture(lin, l.ids, p);
+  ImageF tex = before;
+  const size_t n = unmix_sky_fringe(tex, lin, l, p);
+  const auto& K = spectrum::band_luminous_efficacy_lm_per_W();
+  const double rho = class_reflectance(kVeg, p);
+  auto lum = [&](const ImageF& t, int x, int y) { return K[0] * t.at(x, y, 0) + K[1] * t.at(x, y, 1) + K[2] * t.at(x, y, 2); };
+  size_t fringe = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool edge = y == 16 && labels.ids.at(x, y) == kVeg;  // every vegetation pixel of row 16
+      if (!edge) {
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(tex.at(x, y, c), before.at(x, y, c)) << x << "," << y;
+        continue;
+      }
+      ++fringe;
+      // f = 0.25/0.5 at the half-sky pixels, 0.03/0.5 at the leaves of row 16. The scaled
+      // texture's luminance factor is the bound up to the float rounding of the three products
+      // t_k·k (each within 2⁻²⁴ relative): at most (1 − f)·ρ·(1 + 2⁻²²).
+      const double f = lin.at(x, y, 0) / 0.5;
+      EXPECT_LE(lum(tex, x, y), (1 - f) * rho * (1 + std::ldexp(1.0, -22))) << x;
+      if (lum(before, x, y) > (1 - f) * rho) {  // scaled: all bands by one factor k ≤ 1, to the bound
+        // Each band's t_k·k is rounded to float (2⁻²⁴ relative), so two bands' ratios agree to
+        // 2·2⁻²⁴·k ≤ 2⁻²³; 2⁻²² bounds it.
+        EXPECT_NEAR(tex.at(x, y, 1) / before.at(x, y, 1), tex.at(x, y, 0) / before.at(x, y, 0), std::ldexp(1.0, -22));
+        // (the bound to 2⁻²² relative, as above)
+        EXPECT_NEAR(lum(tex, x, y), (1 - f) * rho, (1 - f) * rho * std::ldexp(1.0, -22));
+      } else {
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(tex.at(x, y, c), before.at(x, y, c));
+      }
+    }
+  EXPECT_EQ(fringe, static_cast<size_t>(W - 4));
+  EXPECT_GE(n, 32u);  // at least the 32 half-sky pixels were above half the leaves' reflectance
+  EXPECT_LE(n, fringe);
+  // Off: no sky level, nothing scaled.
+  LabelMap off = labels;
+  take_sky_gaps(off, lin, with_fraction(0));
+  ImageF same = before;
+  EXPECT_EQ(unmix_sky_fringe(same, lin, off, with_fraction(0)), 0u);
+  EXPECT_EQ(same.vec(), before.vec());
 }

@@ -66,6 +66,12 @@ struct LabelMap {
   // file's). `sky_gaps_taken`: looked for (with or without any found), until restored.
   std::vector<uint32_t> sky_gaps;
   bool sky_gaps_taken = false;
+  // The median day luminance of the labelled sky that take_sky_gaps compared with (linear sRGB,
+  // Rec. 709); 0 where it found none (or was not asked: sky_gap_fraction 0).
+  float sky_day_luminance = 0;
+  // The vegetation pixels left beside the sky (8-neighbours, after the gaps were taken), in
+  // reading order: the crown's edge, which unmix_sky_fringe scales.
+  std::vector<uint32_t> sky_fringe;
 };
 
 // Interprets raw codes (1 channel: ids; 3 channels: palette) in `format` (Auto: detect). An

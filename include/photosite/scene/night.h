@@ -121,6 +121,15 @@ size_t take_sky_gaps(LabelMap& labels, const ImageF& linear_srgb_day, const Scen
 size_t take_sky_gaps(LabelMap& labels, const ImageU8& srgb8_codes, const ScenePreset& p);
 size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& info, const ScenePreset& p);
 void restore_sky_gaps(LabelMap& labels);
+// The crown's edge pixels that stay vegetation hold leaves and sky in one pixel: a vegetation
+// pixel beside the sky (labels.sky_fringe: 8-neighbours, the sky as take_sky_gaps left it) of day
+// luminance Y is
+// taken as a share f = min(1, Y / labels.sky_day_luminance) of sky, and its texture (the
+// reflectance texture f_k, W/lm) is scaled down where needed so that its luminance factor
+// Σ_k K_k f_k is at most (1 − f) of the vegetation's reflectance ρ: the leaf's share, never a
+// sky-bright leaf. (The sky's share, f times the night sky's radiance, is left out: at most
+// 0.6 × 0.02 cd/m².) None where labels.sky_day_luminance is 0. Returns how many were scaled.
+size_t unmix_sky_fringe(ImageF& texture, const ImageF& linear_srgb_day, const LabelMap& labels, const ScenePreset& p);
 // Gives the file's ids back when it goes out of scope (also on an exception).
 class SkyGapsRestore {
  public:
@@ -518,6 +527,7 @@ struct NightScene {
   double work_scale = 1;
   int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
   size_t sky_gap_pixels = 0;  // vegetation pixels the scene took for sky (take_sky_gaps)
+  size_t sky_fringe_pixels = 0;  // crown-edge pixels whose texture unmix_sky_fringe scaled down
   BeamShadowStats beam_shadow;  // ground pixels in the low beam's shadows (shade_low_beam_ground)
   // Vertical-surface pixels in its shadows (below the cut-off's top, docs/night.md §6c), counted
   // as the ground's: each lamp's alone and both.
