@@ -16,6 +16,10 @@
 // behind the leaves is as bright as the sky (kitti_000000: 10,792 vegetation pixels pass the
 // luminance test, 1,814 of them join the sky), and it stays vegetation, as do sky holes inside
 // a crown that no chain of bright pixels joins to the open sky (what is left: docs/night.md).
+//
+// The crown's edge that stays vegetation (unmix_sky_fringe): a pixel beside the sky holds leaves
+// and sky; its share of sky is taken as f = Y / Y_sky, and its texture is held to the leaves'
+// share, (1 − f)·ρ_vegetation, instead of a sky-bright leaf at the diffuse cap.
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -116,18 +120,25 @@ size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
   // is the connected closure whatever the order.
   std::vector<uint32_t> stack;
   std::vector<uint8_t> near(W), seed(W);
-  for (int y = 0; y < H; ++y) {
-    if (!has_veg[y] || !(has_sky[y] || (y > 0 && has_sky[y - 1]) || (y + 1 < H && has_sky[y + 1]))) continue;
+  // f(i) for each vegetation pixel i of row y beside the sky, as the row is when called, left to
+  // right (the row's mask first; memchr skips its zeros).
+  auto for_each_beside_sky = [&](int y, const auto& f) {
     const uint16_t* row = ids + static_cast<size_t>(y) * W;
-    // The seeds of this row as it is now (pixels taken on it by an earlier flood are sky, and
-    // their neighbours were looked at by that flood).
     sky_beside_veg(y > 0 ? row - W : row, row, y + 1 < H ? row + W : row, W, near.data(), seed.data());
     for (int x = 0; x < W; ++x) {
-      const void* next = std::memchr(seed.data() + x, 1, static_cast<size_t>(W - x));
-      if (!next) break;
-      x = static_cast<int>(static_cast<const uint8_t*>(next) - seed.data());
-      const size_t i = static_cast<size_t>(y) * W + x;
-      if (!bright_veg(i)) continue;  // (a flood of this row may have taken it since: not vegetation)
+      const void* hit = std::memchr(seed.data() + x, 1, static_cast<size_t>(W - x));
+      if (!hit) return;
+      x = static_cast<int>(static_cast<const uint8_t*>(hit) - seed.data());
+      f(static_cast<size_t>(y) * W + x);
+    }
+  };
+  auto sky_row_beside = [&](int y) { return has_sky[y] || (y > 0 && has_sky[y - 1]) || (y + 1 < H && has_sky[y + 1]); };
+  for (int y = 0; y < H; ++y) {
+    if (!has_veg[y] || !sky_row_beside(y)) continue;
+    // The seeds of this row as it is now (pixels taken on it by an earlier flood are sky, and
+    // their neighbours were looked at by that flood).
+    for_each_beside_sky(y, [&](size_t i) {
+      if (!bright_veg(i)) return;  // (a flood of this row may have taken it since: not vegetation)
       ids[i] = kSky;
       labels.sky_gaps.push_back(static_cast<uint32_t>(i));
       stack.push_back(static_cast<uint32_t>(i));
@@ -146,29 +157,19 @@ size_t take(LabelMap& labels, const Rgb& rgb, double fraction) {
             stack.push_back(static_cast<uint32_t>(k));
           }
       }
-    }
+    });
   }
   std::sort(labels.sky_gaps.begin(), labels.sky_gaps.end());
   // The crown's edge as the gaps leave it: on the rows a flood could start from, and beside the
   // rows of the pixels taken.
   std::vector<uint8_t> edge_rows(H);
-  for (int y = 0; y < H; ++y)
-    edge_rows[y] = has_veg[y] && (has_sky[y] || (y > 0 && has_sky[y - 1]) || (y + 1 < H && has_sky[y + 1]));
+  for (int y = 0; y < H; ++y) edge_rows[y] = has_veg[y] && sky_row_beside(y);
   for (const uint32_t i : labels.sky_gaps) {
     const int y = static_cast<int>(i / static_cast<uint32_t>(W));
     for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1); ++yy) edge_rows[yy] |= has_veg[yy];
   }
-  for (int y = 0; y < H; ++y) {
-    if (!edge_rows[y]) continue;
-    const uint16_t* row = ids + static_cast<size_t>(y) * W;
-    sky_beside_veg(y > 0 ? row - W : row, row, y + 1 < H ? row + W : row, W, near.data(), seed.data());
-    for (int x = 0; x < W; ++x) {
-      const void* hit = std::memchr(seed.data() + x, 1, static_cast<size_t>(W - x));
-      if (!hit) break;
-      x = static_cast<int>(static_cast<const uint8_t*>(hit) - seed.data());
-      labels.sky_fringe.push_back(static_cast<uint32_t>(static_cast<size_t>(y) * W + x));
-    }
-  }
+  for (int y = 0; y < H; ++y)
+    if (edge_rows[y]) for_each_beside_sky(y, [&](size_t i) { labels.sky_fringe.push_back(static_cast<uint32_t>(i)); });
   return labels.sky_gaps.size();
 }
 
