@@ -216,3 +216,37 @@ TEST(SkyGaps, FringeKeepsTheLeafsShareOnly) {
   EXPECT_EQ(unmix_sky_fringe(same, lin, off, with_fraction(0)), 0u);
   EXPECT_EQ(same.vec(), before.vec());
 }
+
+// Frames one pixel wide or high, and a frame whose vegetation is all sky-bright: no reads outside
+// the frame (the edges' rows and columns), and the closure takes the whole bright class.
+TEST(SkyGaps, ThinFramesAndAWhollyBrightCrown) {
+  const ScenePreset p = with_fraction(0.6);
+  for (const bool column : {true, false}) {
+    const int n = 200;  // 100 sky, then 100 vegetation: the first bright, the next dim, then bright
+    ImageF lin(column ? 1 : n, column ? n : 1, 3, 0.f);
+    LabelMap l;
+    l.ids = ImageU16(lin.width(), lin.height(), 1, kVeg);
+    for (int k = 0; k < n; ++k) {
+      const uint16_t id = k < 100 ? kSky : kVeg;
+      const float v = k < 100 || k == 100 || k > 101 ? 0.5f : 0.01f;
+      l.ids[k] = id;
+      for (int c = 0; c < 3; ++c) lin[3 * k + c] = v;
+    }
+    EXPECT_EQ(take_sky_gaps(l, lin, p), 1u) << (column ? "column" : "row");
+    EXPECT_EQ(l.sky_gaps, std::vector<uint32_t>{100});
+    EXPECT_EQ(l.sky_fringe, std::vector<uint32_t>{101});  // the dim pixel beside it
+  }
+  {
+    ImageF lin(1, 1, 3, 0.5f);
+    LabelMap l;
+    l.ids = ImageU16(1, 1, 1, kVeg);
+    EXPECT_EQ(take_sky_gaps(l, lin, p), 0u);  // no sky
+  }
+  // 64 sky pixels over a crown as bright as the sky: all of it joins.
+  ImageF lin(64, 40, 3, 0.5f);
+  LabelMap l;
+  l.ids = ImageU16(64, 40, 1, kVeg);
+  for (int x = 0; x < 64; ++x) l.ids.at(x, 0) = kSky;
+  EXPECT_EQ(take_sky_gaps(l, lin, p), 64u * 39u);
+  EXPECT_TRUE(l.sky_fringe.empty());
+}
