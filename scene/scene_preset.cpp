@@ -75,10 +75,12 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
           "≤ reflectance.sun_shade_ratio_max"),
       num("reflectance.sun_shade_window_fraction", PHOTOSITE_AT(P, sun_shade_window_fraction), "fraction", 1e-3,
           0.5, "the sun/shade opening's square, of the image width (wider than a lane marking)", "photosite choice"),
-      num("reflectance.sky_gap_fraction", PHOTOSITE_AT(P, sky_gap_fraction), "fraction", 0, 1,
-          "vegetation pixels at least this fraction of the sky's median day luminance, joined to the labelled sky "
-          "through such pixels, are sky seen through the crown, and the scene takes them for sky (0: none)",
-          "photosite choice (docs/night.md §1, \"Sky through the crowns\"; docs/realism.md)"),
+      // Optional (default 0.6, ScenePreset): scene files written before it keep loading.
+      {"reflectance.sky_gap_fraction", Kind::Number, PHOTOSITE_AT(P, sky_gap_fraction), "fraction", 0, 1,
+       Need::Optional,
+       "vegetation pixels at least this fraction of the sky's median day luminance, joined to the labelled sky "
+       "through such pixels, are sky seen through the crown, and the scene takes them for sky (0: none)",
+       "photosite choice (docs/night.md §1, \"Sky through the crowns\"; docs/realism.md)", {}, schema::Exr::Header},
       num("reflectance.sun_cct_K", PHOTOSITE_AT(P, sun_cct_K), "K", 1000, 20000,
           "direct sunlight's CCT (the sunlit level's colour with the sky's)",
           "[S] noon direct sunlight about 5000-5500 K (photography and lighting references)"),

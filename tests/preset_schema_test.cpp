@@ -156,7 +156,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
 // (windows.frame_m, mullion_m, shop_share; lamps.window_curtained_share, _luminance_cd_m2;
 // ego_beam.above_cutoff_cd; retroreflection.sign_RA_alpha_deg, _alpha_exponent, _alpha_max_deg;
 // retroreflection.sign_RA_entrance_deg, _entrance_factor, _entrance_factor_alpha_max (lists, no attribute);
-// reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction;
+// reflectance.diffuse_max, glint_max; reflectance.sun_shade_ratio_max, _ratio_min, _window_fraction; reflectance.sky_gap_fraction;
 // street_lamps.interp_tolerance, street_lamps.shadows and street_lamps.penumbrae (attributes only, as ego_beam.shadows); reflectance.sun_cct_K, shade_sky_cct_K; vehicle_lamps.beams_on_road;
 // lamps.streetlamp_type and reflectance.day_white_balance, attributes only, the members being enums). Values changed since, by hand
 // with the commit that changed them: reflectance.nature 0.2 -> 0.08 (the visible reflectance of
@@ -306,6 +306,19 @@ TEST(PresetSchema, SceneErrorsNameFileLineKeyRangeAndUnit) {
             std::string::npos);
   EXPECT_NE(error("[2, 4, 6, 8, 8, 6, 2],", "[2, 4, 6, 8, 8, 6, 2e7],").find(": ego_beam.intensity_cd: value 2e7 is out of range, outside [0, 1e6] (cd)"),
             std::string::npos);
+  EXPECT_NE(error("sky_gap_fraction = 0.6 ", "sky_gap_fraction = 1.5 ")
+                .find("s.toml:" + line_of("sky_gap_fraction") +
+                      ": reflectance.sky_gap_fraction: value 1.5 is out of range, outside [0, 1] (fraction)"),
+            std::string::npos)
+      << error("sky_gap_fraction = 0.6 ", "sky_gap_fraction = 1.5 ");
+  {  // optional: a scene file written before the key loads, with its default
+    std::string old_file = urban;
+    const auto at = old_file.find("\nsky_gap_fraction = ");
+    ASSERT_NE(at, std::string::npos);
+    old_file.erase(at + 1, old_file.find('\n', at + 1) - at);
+    EXPECT_EQ(old_file.find("sky_gap_fraction = "), std::string::npos);
+    EXPECT_EQ(scene::parse_scene_preset(old_file, "s.toml").sky_gap_fraction, 0.6);
+  }
   EXPECT_NE(error("sign_RA_alpha_max_deg = 2 ", "sign_RA_alpha_max_deg = 0.2 ")
                 .find("s.toml:" + line_of("sign_RA_alpha_max_deg") +
                       ": retroreflection.sign_RA_alpha_max_deg: is below sign_RA_alpha_deg"),
