@@ -108,7 +108,6 @@ struct Loaded {
   // The texture's class sums made with the linearisation (linearize_with_texture_sums), which
   // the texture then does not make again (its pass 1); taken only for this day and these labels.
   scene::TextureSums sums;
-  bool sums_of_labels = true;  // false: made before the sky gaps were taken (the texture makes its own)
   std::optional<scene::CameraRig> rig;  // the item's own camera file, when used
   std::optional<std::string> camera_sum;  // and that file's XXH3-64, for the item's record
   std::string image_note;  // the day image's negative samples (day_image_note), for the header
@@ -613,14 +612,9 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
       if (rb && rb->group != it.group) *rb = ReaderBalance{it.group, std::nullopt};
       const scene::DayBalance* carried = rb && rb->fixed ? &*rb->fixed : nullptr;
       // The sky seen through tree crowns taken for sky before the sums read the labels, as `night`
-      // takes it (prepare_night), from the file's pixels as the pass decodes them (a grey image:
-      // from the linear image, the sums then made anew by the texture where any were taken); the
-      // compute stage gives the file's ids back.
-      if (day.codes) scene::take_sky_gaps(l.labels, *day.codes, sp);
-      else scene::take_sky_gaps(l.labels, day.floats, info, sp);
-      l.day = day.codes ? scene::linearize_codes_with_texture_sums(*day.codes, l.labels.ids, &l.sums, &sp, carried)
-                        : scene::linearize_with_texture_sums(day.floats, info, l.labels.ids, &l.sums, &sp, carried);
-      if (!l.labels.sky_gaps_taken && scene::take_sky_gaps(l.labels, l.day, sp) > 0) l.sums_of_labels = false;
+      // takes it (prepare_night); the compute stage gives the file's ids back.
+      l.day = scene::linearize_taking_sky_gaps(day.floats, day.codes ? &*day.codes : nullptr, info, l.labels, &l.sums,
+                                               sp, carried);
       if (rb && !rb->fixed && l.sums.balance.use == scene::DayBalance::Use::Road) rb->fixed = l.sums.balance;
     } catch (const ParameterError& e) {
       // batch takes labels of the image's size (it has no --resize-labels): say what to do.
@@ -677,8 +671,7 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
         throw Error(it.image + ": has odometry (" + it.odometry + ") while its sequence's first frame had none");
       }
       auto ns = std::make_shared<scene::NightScene>(
-          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &g.seq : nullptr,
-                          l.sums_of_labels ? &l.sums : nullptr));
+          night_scene_for(runner, l.day, l.labels, *spi, seed, false, r, o.sequences ? &g.seq : nullptr, &l.sums));
       scene::restore_sky_gaps(l.labels);  // the outputs' labels.Y: the file's
       if (g.ego) {
         g.odometry = l.odometry;

@@ -38,24 +38,18 @@ NightChain prepare(SensorRunner& runner, ImageF day, ImageU8 codes, const ImageF
   // With the preset's sun/shade split on, the same pass also makes the split's block sums (its
   // phase 1) from the Y it computes, for the block rows that lie in one of its chunks (every row
   // of a 2048x1024 frame), so the split does not read the linear image for them.
-  // The sky seen through tree crowns is taken for sky (scene::take_sky_gaps) before the class sums
-  // read the labels, from the day file's pixels as the pass decodes them; the file's ids are back
-  // when the scene is made. (A grey image: from the linear image, its sums then dropped where any
-  // were taken: the texture makes its own.)
+  // The sky seen through tree crowns is taken for sky before the class sums read the labels
+  // (scene::linearize_taking_sky_gaps); the file's ids are back when the scene is made.
   scene::SkyGapsRestore restore(labels);
-  if (!codes.empty()) scene::take_sky_gaps(labels, codes, sp);
-  else scene::take_sky_gaps(labels, day, info, sp);
   scene::TextureSums sums;
-  ImageF lin = !codes.empty() ? scene::linearize_codes_with_texture_sums(codes, labels.ids, &sums, &sp)
-                              : scene::linearize_with_texture_sums(day, info, labels.ids, &sums, &sp);
-  const bool sums_of_labels = labels.sky_gaps_taken || scene::take_sky_gaps(labels, lin, sp) == 0;
+  ImageF lin = scene::linearize_taking_sky_gaps(day, &codes, info, labels, &sums, sp);
   c.width = lin.width();
   c.height = lin.height();
   day = ImageF();  // frames are freed as soon as no later stage reads them (peak memory)
   codes = ImageU8();
   lap("linearize");
   c.scene = night_scene_for(runner, lin, labels, sp, setup.settings.seed, static_cast<bool>(inspect), setup, nullptr,
-                            sums_of_labels ? &sums : nullptr);
+                            &sums);
   sums = scene::TextureSums();  // not held through the sensor stages
   scene::restore_sky_gaps(labels);
   for (auto& st : c.scene.timings) c.timings.push_back(st);

@@ -211,6 +211,19 @@ size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& i
   return take(labels, [&day, &info](size_t i, float* c) { linearize_day_pixel(day, info, i, c); }, p.sky_gap_fraction);
 }
 
+ImageF linearize_taking_sky_gaps(const ImageF& day, const ImageU8* codes, const ImageFileInfo& info, LabelMap& labels,
+                                 TextureSums* sums, const ScenePreset& split, const DayBalance* carried) {
+  const bool from_codes = codes && !codes->empty();
+  if (!labels.sky_gaps_taken) {  // (bench night takes them before, to time the take alone)
+    if (from_codes) take_sky_gaps(labels, *codes, split);
+    else take_sky_gaps(labels, day, info, split);
+  }
+  ImageF lin = from_codes ? linearize_codes_with_texture_sums(*codes, labels.ids, sums, &split, carried)
+                          : linearize_with_texture_sums(day, info, labels.ids, sums, &split, carried);
+  if (!labels.sky_gaps_taken && take_sky_gaps(labels, lin, split) > 0) *sums = TextureSums();
+  return lin;
+}
+
 void restore_sky_gaps(LabelMap& labels) {
   for (const uint32_t i : labels.sky_gaps) labels.ids[i] = kVeg;
   labels.sky_gaps.clear();

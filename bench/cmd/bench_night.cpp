@@ -159,14 +159,14 @@ void run(const Opts& o) {
     // As the chain on the CPU (core/night_chain.cpp): the linearisation also makes the
     // reflectance texture's class sums and the sun/shade split's block sums (their time is in
     // "linearize", no longer in "darken"); an 8-bit PNG's codes are linearised directly.
-    // The sky seen through tree crowns taken from the codes first (its time in "linearize" too),
-    // the file's ids back after the scene.
+    // The sky seen through tree crowns taken first, here to time it alone (its own row; also in
+    // "linearize"), then the linearisation as the chain's (scene::linearize_taking_sky_gaps, which
+    // takes them where not yet taken); the file's ids back after the scene.
     if (codes) scene::take_sky_gaps(lm, *codes, sp);
     else scene::take_sky_gaps(lm, day, info, sp);
     auto tk = clock::now();
     scene::TextureSums sums;
-    const ImageF lin = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums, &sp)
-                             : scene::linearize_with_texture_sums(day, info, lm.ids, &sums, &sp);
+    const ImageF lin = scene::linearize_taking_sky_gaps(day, codes ? &*codes : nullptr, info, lm, &sums, sp);
     auto t1 = clock::now();
     const double cl1 = cpu_ms();
     // As the chain on the CPU: the compose pass also makes the lens glare's level 1, which the
@@ -220,11 +220,8 @@ void run(const Opts& o) {
       // between. Into fresh outputs, as the CPU's "sensor (expose)" row.
       const auto tr0 = device->transfers();
       auto td0 = clock::now();
-      if (codes) scene::take_sky_gaps(lm, *codes, sp);
-      else scene::take_sky_gaps(lm, day, info, sp);
       scene::TextureSums sums_d;
-      const ImageF lin_d = codes ? scene::linearize_codes_with_texture_sums(*codes, lm.ids, &sums_d, &sp)
-                                 : scene::linearize_with_texture_sums(day, info, lm.ids, &sums_d, &sp);
+      const ImageF lin_d = scene::linearize_taking_sky_gaps(day, codes ? &*codes : nullptr, info, lm, &sums_d, sp);
       auto td1 = clock::now();
       scene::NightScene ns_d = scene::night_scene(lin_d, lm, sp, 1, false, *device, nullptr, &sums_d);
       scene::restore_sky_gaps(lm);

@@ -121,6 +121,15 @@ size_t take_sky_gaps(LabelMap& labels, const ImageF& linear_srgb_day, const Scen
 size_t take_sky_gaps(LabelMap& labels, const ImageU8& srgb8_codes, const ScenePreset& p);
 size_t take_sky_gaps(LabelMap& labels, const ImageF& day, const ImageFileInfo& info, const ScenePreset& p);
 void restore_sky_gaps(LabelMap& labels);
+// The linearisation as the chain runs it (prepare_night, batch, bench night): the sky seen through
+// tree crowns taken into `labels` first, unless labels.sky_gaps_taken says they were (take_sky_gaps
+// from `codes` when given and not empty, else from `day` as linearize decodes it), then linearize_codes_with_texture_sums or
+// linearize_with_texture_sums (with `split` and `carried`) over the taken labels. Where the gaps
+// could be taken only from the linear image (a grey image), they are taken after the pass and
+// *sums is emptied where any were (the texture then makes its own). restore_sky_gaps gives the
+// file's ids back.
+ImageF linearize_taking_sky_gaps(const ImageF& day, const ImageU8* codes, const ImageFileInfo& info, LabelMap& labels,
+                                 TextureSums* sums, const ScenePreset& split, const DayBalance* carried = nullptr);
 // The crown's edge pixels that stay vegetation hold leaves and sky in one pixel: a vegetation
 // pixel beside the sky (labels.sky_fringe: 8-neighbours, the sky as take_sky_gaps left it) of day
 // luminance Y is
