@@ -51,20 +51,25 @@ def frames(shared):
     return out
 
 
+def dilate8(mask):
+    """The mask and its 8-neighbours."""
+    out = mask.copy()
+    out[1:, :] |= mask[:-1, :]
+    out[:-1, :] |= mask[1:, :]
+    out[:, 1:] |= mask[:, :-1]
+    out[:, :-1] |= mask[:, 1:]
+    out[1:, 1:] |= mask[:-1, :-1]
+    out[1:, :-1] |= mask[:-1, 1:]
+    out[:-1, 1:] |= mask[1:, :-1]
+    out[:-1, :-1] |= mask[1:, 1:]
+    return out
+
+
 def joined_to_sky(cand, sky):
     """The candidates that a chain of candidates (8-neighbours) links to the sky."""
     reach = sky.copy()
     while True:
-        grown = reach.copy()
-        grown[1:, :] |= reach[:-1, :]
-        grown[:-1, :] |= reach[1:, :]
-        grown[:, 1:] |= reach[:, :-1]
-        grown[:, :-1] |= reach[:, 1:]
-        grown[1:, 1:] |= reach[:-1, :-1]
-        grown[1:, :-1] |= reach[:-1, 1:]
-        grown[:-1, 1:] |= reach[1:, :-1]
-        grown[:-1, :-1] |= reach[1:, 1:]
-        grown &= cand | sky
+        grown = dilate8(reach) & (cand | sky)
         if (grown == reach).all():
             return reach & cand
         reach = grown
@@ -101,16 +106,7 @@ def main():
                 continue
             like = veg & (Y >= a.fraction * np.median(Y[sky]))
             joined = joined_to_sky(like, sky)
-            open_sky = sky | joined
-            beside = np.zeros_like(open_sky)
-            for dy in (-1, 0, 1):
-                for dx in (-1, 0, 1):
-                    shifted = np.zeros_like(open_sky)
-                    h, w = open_sky.shape
-                    shifted[max(dy, 0):h + min(dy, 0), max(dx, 0):w + min(dx, 0)] = \
-                        open_sky[max(-dy, 0):h + min(-dy, 0), max(-dx, 0):w + min(-dx, 0)]
-                    beside |= shifted
-            edge = veg & ~joined & beside
+            edge = veg & ~joined & dilate8(sky | joined)
             exr = os.path.join(tmp, stem + ".exr")
             subprocess.run([a.photosite, "night", "--image", img, "--labels", lab, "--out", exr, "-y"], check=True,
                            stdout=subprocess.DEVNULL)
