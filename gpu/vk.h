@@ -65,13 +65,14 @@ struct Context::Impl {
   uint32_t queue_family = 0;
   VkPhysicalDeviceMemoryProperties memory{};
   std::mutex queue_mutex;  // the one queue, submitted to from any thread
-  // Staged transfers (DeviceInfo::staged): one host-visible, cached staging buffer and a command
-  // buffer for the copies, shared by every Buffer of the context under transfer_mutex.
+  // Staged transfers (DeviceInfo::staged): one host-visible, cached staging buffer of two slots,
+  // each with its command buffer and fence (the host fills or empties one slot while the device
+  // copies the other), shared by every Buffer of the context under transfer_mutex.
   bool staged = false;
   std::mutex transfer_mutex;
   VkCommandPool transfer_pool = VK_NULL_HANDLE;
-  VkCommandBuffer transfer_cmd = VK_NULL_HANDLE;
-  VkFence transfer_fence = VK_NULL_HANDLE;
+  VkCommandBuffer transfer_cmd[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  VkFence transfer_fence[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   Buffer::Impl staging;  // its buffer and memory
   void* staging_mapped = nullptr;
   size_t staging_bytes = 0;

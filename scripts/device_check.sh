@@ -52,10 +52,12 @@ step "Vulkan and AVX-512 tests (whole output: tests_staged.txt)"
 timeout 200 $T --gtest_filter="$FILTER" > "$OUT/tests_staged.txt" 2>&1
 echo "tests exit: $?"
 grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran|^\[gpu\] device' "$OUT/tests_staged.txt"
-step "the Vulkan tests again with direct (mapped) buffers, not the staged copies a discrete GPU gets by default"
-PHOTOSITE_VK_STAGING=0 timeout 120 $T --gtest_filter='Gpu.*:Batch.Vulkan*' > "$OUT/tests_direct.txt" 2>&1
-echo "tests exit: $?"
-grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran' "$OUT/tests_direct.txt"
+if [ "${PHOTOSITE_DEVICE_QUICK:-0}" != 1 ]; then
+  step "the Vulkan tests again with direct (mapped) buffers, not the staged copies a discrete GPU gets by default"
+  PHOTOSITE_VK_STAGING=0 timeout 120 $T --gtest_filter='Gpu.*:Batch.Vulkan*' > "$OUT/tests_direct.txt" 2>&1
+  echo "tests exit: $?"
+  grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran' "$OUT/tests_direct.txt"
+fi
 if [ -x .dev/old/photosite_gpu_tests ]; then
   step "the previous test binary (.dev/old) on the demosaic tests (whole output: tests_old.txt)"
   timeout 100 .dev/old/photosite_gpu_tests --gtest_filter='Gpu.Demosaic*:Gpu.Mlri*:Gpu.CliDemosaic*' > "$OUT/tests_old.txt" 2>&1
@@ -75,6 +77,23 @@ timeout 70 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --inst
   --repeats 9 --threads 16 --out-dir "$OUT/t16" 2>&1 | tail -n 40
 step "bench pipeline"
 timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+if [ -x .dev/old/photosite ]; then
+  step "the previous command (.dev/old/photosite) against this one: bench night --backend vulkan, 2 threads, alternating"
+  for i in 1 2 3; do
+    for b in old bin; do
+      mkdir -p "/tmp/ab_$b$i"
+      echo "-- .dev/$b/photosite, pair $i"
+      timeout 60 .dev/$b/photosite bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+        --repeats 9 --threads 2 --out-dir "/tmp/ab_$b$i" 2>&1 | grep -E '^(vulkan|whole chain|peer:)'
+    done
+  done
+  for b in old bin; do
+    echo "-- .dev/$b/photosite bench pipeline"
+    timeout 60 .dev/$b/photosite bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir /tmp 2>&1 | grep -E 'wall|Sensor noise|RAW'
+  done
+fi
+# PHOTOSITE_DEVICE_QUICK=1: the staged path only (the mapped-buffer benches take minutes on a discrete GPU).
+[ "${PHOTOSITE_DEVICE_QUICK:-0}" = 1 ] && { step done; exit 0; }
 step "bench night and bench pipeline with mapped buffers (PHOTOSITE_VK_STAGING=0: no staging copies)"
 mkdir -p "$OUT/direct"
 PHOTOSITE_VK_STAGING=0 timeout 100 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \

@@ -677,7 +677,18 @@ TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
   o.staging = gpu::Staging::Staged;
   gpu::Context staged(o);
   ASSERT_TRUE(staged.device().staged);
-  // A buffer larger than one 32 MB staging chunk, at an offset, and a part read back.
+  // Sizes around the staging buffer's two 4 MB slots (one chunk, one short of a chunk, two and a
+  // word, three), at an offset of a word.
+  for (const size_t bytes : {size_t{4} << 20, (size_t{4} << 20) - 4, (size_t{8} << 20) + 4, size_t{12} << 20}) {
+    const size_t words = bytes / 4;
+    std::vector<uint32_t> in(words), out(words, 0);
+    for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>((i + bytes) * 2246822519u);
+    gpu::Buffer b(staged, bytes + 4);
+    b.upload(in.data(), bytes, 4);
+    b.download(out.data(), bytes, 4);
+    EXPECT_EQ(in, out) << bytes;
+  }
+  // A buffer of many chunks, at an offset, and a part read back.
   {
     const size_t words = (40u << 20) / 4;
     std::vector<uint32_t> in(words), out(words, 0);
