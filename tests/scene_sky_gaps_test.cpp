@@ -176,6 +176,9 @@ TEST(SkyGaps, FringeKeepsTheLeafsShareOnly) {
   LabelMap l = labels;
   ASSERT_EQ(take_sky_gaps(l, lin, p), 0u);
   EXPECT_FLOAT_EQ(l.sky_day_luminance, 0.5f);
+  // The leaves' level: the median of the vegetation under 0.6 × 0.5 (every pixel here: under 64
+  // in the 1/64 sample, so all of them), the 0.03 of the crown.
+  EXPECT_FLOAT_EQ(l.leaf_day_luminance, 0.03f);
   const ImageF before = reflectance_texture(lin, l.ids, p);
   ImageF tex = before;
   const size_t n = unmix_sky_fringe(tex, lin, l, p);
@@ -191,10 +194,11 @@ TEST(SkyGaps, FringeKeepsTheLeafsShareOnly) {
         continue;
       }
       ++fringe;
-      // f = 0.25/0.5 at the half-sky pixels, 0.03/0.5 at the leaves of row 16. The scaled
-      // texture's luminance factor is the bound up to the float rounding of the three products
-      // t_k·k (each within 2⁻²⁴ relative): at most (1 − f)·ρ·(1 + 2⁻²²).
-      const double f = lin.at(x, y, 0) / 0.5;
+      // The pixel as a mix of sky (0.5) and leaves (0.03): f = (0.25 − 0.03)/(0.5 − 0.03) at the
+      // half-sky pixels, 0 at the leaves of row 16. The scaled texture's luminance factor is the
+      // bound up to the float rounding of the three products t_k·k (each within 2⁻²⁴ relative):
+      // at most (1 − f)·ρ·(1 + 2⁻²²).
+      const double f = std::max(0.0, (lin.at(x, y, 0) - double{0.03f}) / (0.5 - double{0.03f}));
       EXPECT_LE(lum(tex, x, y), (1 - f) * rho * (1 + std::ldexp(1.0, -22))) << x;
       if (lum(before, x, y) > (1 - f) * rho) {  // scaled: all bands by one factor k ≤ 1, to the bound
         // Each band's t_k·k is rounded to float (2⁻²⁴ relative), so two bands' ratios agree to
@@ -207,8 +211,31 @@ TEST(SkyGaps, FringeKeepsTheLeafsShareOnly) {
       }
     }
   EXPECT_EQ(fringe, static_cast<size_t>(W - 4));
-  EXPECT_GE(n, 32u);  // at least the 32 half-sky pixels were above half the leaves' reflectance
-  EXPECT_LE(n, fringe);
+  // The 32 half-sky pixels (their texture twice the leaves' luminance factor over half of it)
+  // are scaled; the leaves of row 16, pure leaves by the mix (f = 0), are not.
+  EXPECT_EQ(n, 32u);
+  // Without a leaves' level (fewer than 64 vegetation pixels under the threshold): Y_leaf = 0, so
+  // f = Y / Y_sky, and the leaves of the edge are scaled to (1 − 0.03/0.5)·ρ too.
+  {
+    ImageF lin2 = lin;
+    LabelMap few = labels;
+    for (int y = 16; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        if (y > 16) few.ids.at(x, y) = kBuilding;
+        for (int c = 0; c < 3; ++c) lin2.at(x, y, c) = 0.03f;  // row 16: leaves only
+      }
+    ASSERT_EQ(take_sky_gaps(few, lin2, p), 0u);
+    EXPECT_EQ(few.leaf_day_luminance, 0.f);  // the 60 leaves of row 16 only
+    ImageF t2 = reflectance_texture(lin2, few.ids, p);
+    const ImageF t2_before = t2;
+    EXPECT_EQ(unmix_sky_fringe(t2, lin2, few, p), static_cast<size_t>(W - 4));
+    for (int x = 0; x < W; ++x) {
+      if (few.ids.at(x, 16) != kVeg) continue;
+      const double f = lin2.at(x, 16, 0) / 0.5;
+      EXPECT_LE(lum(t2, x, 16), (1 - f) * rho * (1 + std::ldexp(1.0, -22))) << x;
+      EXPECT_LT(lum(t2, x, 16), lum(t2_before, x, 16)) << x;
+    }
+  }
   // Off: no sky level, nothing scaled.
   LabelMap off = labels;
   take_sky_gaps(off, lin, with_fraction(0));

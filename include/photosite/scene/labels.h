@@ -69,6 +69,10 @@ struct LabelMap {
   // The median day luminance of the labelled sky that take_sky_gaps compared with (linear sRGB,
   // Rec. 709); 0 where it found none (or was not asked: sky_gap_fraction 0).
   float sky_day_luminance = 0;
+  // The median day luminance of the vegetation below the threshold (the leaves, sky-like pixels
+  // left out; from a 1/64 sample) that unmix_sky_fringe mixes with the sky's; 0 where under 64
+  // such pixels.
+  float leaf_day_luminance = 0;
   // The vegetation pixels left beside the sky (8-neighbours, after the gaps were taken), in
   // reading order: the crown's edge, which unmix_sky_fringe scales.
   std::vector<uint32_t> sky_fringe;

@@ -132,8 +132,9 @@ ImageF linearize_taking_sky_gaps(const ImageF& day, const ImageU8* codes, const 
                                  TextureSums* sums, const ScenePreset& split, const DayBalance* carried = nullptr);
 // The crown's edge pixels that stay vegetation hold leaves and sky in one pixel: a vegetation
 // pixel beside the sky (labels.sky_fringe: 8-neighbours, the sky as take_sky_gaps left it) of day
-// luminance Y is
-// taken as a share f = min(1, Y / labels.sky_day_luminance) of sky, and its texture (the
+// luminance Y is taken as a linear mix of sky and leaves, Y = f·Y_sky + (1 − f)·Y_leaf
+// (labels.sky_day_luminance and labels.leaf_day_luminance; Y_leaf = 0 where the latter is 0), so a
+// share f = clamp((Y − Y_leaf) / (Y_sky − Y_leaf), 0, 1) of sky, and its texture (the
 // reflectance texture f_k, W/lm) is scaled down where needed so that its luminance factor
 // Σ_k K_k f_k is at most (1 − f) of the vegetation's reflectance ρ: the leaf's share, never a
 // sky-bright leaf. (The sky's share, f times the night sky's radiance, is left out: at most
