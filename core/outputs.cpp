@@ -177,6 +177,9 @@ std::map<std::string, ExrAttribute> night_attributes(const SensorSetup& r,
   attrs["photosite/night/tram_rail_pixels"] = ns.tram_rail_pixels;
   attrs["photosite/night/sky_gap_pixels"] = static_cast<int>(ns.sky_gap_pixels);  // vegetation taken for sky (take_sky_gaps)
   attrs["photosite/night/sky_fringe_pixels"] = static_cast<int>(ns.sky_fringe_pixels);  // unmix_sky_fringe
+  // The day sky's and leaves' levels the crowns were read against (take_sky_gaps).
+  attrs["photosite/night/sky_day_luminance"] = static_cast<double>(ns.sky_day_luminance);
+  attrs["photosite/night/leaf_day_luminance"] = static_cast<double>(ns.leaf_day_luminance);
   // Ground pixels in the shadow of the left lamp only, the right lamp only, both (docs/night.md §6c).
   attrs["photosite/night/beam_shadow_left_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[0]);
   attrs["photosite/night/beam_shadow_right_pixels"] = static_cast<int>(ns.beam_shadow.one_lamp[1]);

@@ -189,6 +189,8 @@ NightScene night_scene_with(const ImageF& day, const LabelMap& labels_in, const 
   }
   const LabelMap& labels = own ? *own : labels_in;
   s.sky_gap_pixels = labels.sky_gaps.size();
+  s.sky_day_luminance = labels.sky_day_luminance;
+  s.leaf_day_luminance = labels.leaf_day_luminance;
   using clock = std::chrono::steady_clock;
   auto t = clock::now();
   double c = process_cpu_ms();

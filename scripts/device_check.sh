@@ -77,6 +77,22 @@ timeout 70 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --inst
   --repeats 9 --threads 16 --out-dir "$OUT/t16" 2>&1 | tail -n 40
 step "bench pipeline"
 timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+step "batch over 40 frames (the Cityscapes samples under 8 names each), CPU and Vulkan, every thread"
+mkdir -p /tmp/bf && : > /tmp/bf/manifest
+for k in 1 2 3 4 5 6 7 8; do
+  for f in $CS/leftImg8bit/*_leftImg8bit.png; do
+    s=$(basename "$f" _leftImg8bit.png)
+    ln -sf "$(pwd -P)/$f" /tmp/bf/${s}_$k.png
+    ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_labelIds.png" /tmp/bf/${s}_${k}_labelIds.png
+    ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_instanceIds.png" /tmp/bf/${s}_${k}_instanceIds.png
+    echo "/tmp/bf/${s}_$k.png /tmp/bf/${s}_${k}_labelIds.png /tmp/bf/${s}_${k}_instanceIds.png" >> /tmp/bf/manifest
+  done
+done
+for args in "--backend cpu" "--backend vulkan" "--backend vulkan --jobs 4" \
+            "--backend cpu --format png --layers sensor,labels" "--backend vulkan --format png --layers sensor,labels --jobs 4"; do
+  rm -rf /tmp/bo
+  echo "-- batch $args: $(timeout 120 $P batch --manifest /tmp/bf/manifest --out /tmp/bo $args 2>&1 | tail -n 1)"
+done
 if [ -x .dev/old/photosite ]; then
   step "the previous command (.dev/old/photosite) against this one: bench night --backend vulkan, 2 threads, alternating"
   for i in 1 2 3; do

@@ -56,6 +56,12 @@ TEST(SceneNightCli, BundledSampleWritesEveryLayerAndHeader) {
   // Its crowns against the sky show the sky between their leaves: the scene took those pixels for
   // sky (take_sky_gaps), and labels.Y still holds the file's ids there, as everywhere.
   EXPECT_GT(std::stoi(e.attributes.at("photosite/night/sky_gap_pixels")), 0);
+  // The levels they were read against: the leaves darker than the threshold, 0.6 of the sky's.
+  const double sky_y = std::stod(e.attributes.at("photosite/night/sky_day_luminance"));
+  const double leaf_y = std::stod(e.attributes.at("photosite/night/leaf_day_luminance"));
+  EXPECT_GT(leaf_y, 0.0);
+  EXPECT_LT(leaf_y, 0.6 * sky_y);
+  EXPECT_LE(sky_y, 1.0);
   const LabelMap file = read_labels(PHOTOSITE_SOURCE_DIR "/samples/kitti/semantic/000000_10.png", "", e.width, e.height,
                                     LabelFormat::Auto, ResizeLabels::None);
   const ImageF& labels_y = e.channels.at("labels.Y");

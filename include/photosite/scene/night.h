@@ -538,6 +538,9 @@ struct NightScene {
   int tram_rail_pixels = 0;  // working-resolution marking pixels taken for tram rails (drop_tram_rails)
   size_t sky_gap_pixels = 0;  // vegetation pixels the scene took for sky (take_sky_gaps)
   size_t sky_fringe_pixels = 0;  // crown-edge pixels whose texture unmix_sky_fringe scaled down
+  // The day levels the crowns were read against (LabelMap::sky_day_luminance, leaf_day_luminance:
+  // medians of linear sRGB Rec. 709 Y; 0 where none).
+  float sky_day_luminance = 0, leaf_day_luminance = 0;
   BeamShadowStats beam_shadow;  // ground pixels in the low beam's shadows (shade_low_beam_ground)
   // Vertical-surface pixels in its shadows (below the cut-off's top, docs/night.md §6c), counted
   // as the ground's: each lamp's alone and both.
