@@ -10,10 +10,19 @@
 # (libphotosite_opencv_peers.so, with OpenCV's codecs behind it) stays behind.
 # Usage, from the repository root after a Release build in build/:
 #   scripts/device_bundle.sh            then run scripts/device_check.sh on the device machine
+#   scripts/device_bundle.sh --keep-previous
+#                                       the same, the previous bundle's command kept as .dev/old/photosite,
+#                                       which device_check.sh then runs alternately with the new one
 set -euo pipefail
 cd "$(dirname "$0")/.."
 B=build
 [ -x "$B/photosite" ] && [ -f "$B/libphotosite_lib.a" ] || { echo "device_bundle: build first (build/photosite)" >&2; exit 2; }
+if [ "${1:-}" = --keep-previous ]; then
+  [ -x .dev/bin/photosite ] || { echo "device_bundle: --keep-previous: no previous bundle (.dev/bin/photosite)" >&2; exit 2; }
+  mkdir -p .dev/old && cp .dev/bin/photosite .dev/old/photosite
+elif [ -n "${1:-}" ]; then
+  echo "device_bundle: unknown argument '$1' (--keep-previous or nothing)" >&2; exit 2
+fi
 [ -d .dev/old ] && mv .dev/old /tmp/device-bundle-old
 rm -rf .dev && mkdir -p .dev/bin .dev/lib .dev/obj .dev/shared/data
 [ -d /tmp/device-bundle-old ] && mv /tmp/device-bundle-old .dev/old   # a previous test binary kept to compare with
