@@ -980,6 +980,7 @@ struct SignLight {
   double cam_h, tan_rise, tan_vmax, tan_h0, tan_h1;
   bool table;
   detail::SignRA ra;  // R_A(α, β): scene/sign_retro_detail.h
+  detail::SignFacing facing;  // which way the signs face (straight ahead unless the road bends)
   SignLight(const ScenePreset& pr, double camera_height_m)
       : p(pr), cam_h(camera_height_m), tan_rise(std::tan(pr.beam_cutoff_rise_deg * M_PI / 180)),
         tan_vmax(std::tan(pr.beam_cutoff_max_v_deg * M_PI / 180)), tan_h0(0), tan_h1(0),
@@ -1018,13 +1019,32 @@ struct SignLight {
   // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and
   // sign-to-camera directions; the lamp's ray meets the sign, which faces along the road (normal
   // (0, 0, −1)), at the entrance angle β: tan β = √(lX² + lY²)/D.
+  // Where the road ahead bends (facing.curved), the sign faces its own stretch of road instead:
+  // normal −(sin ψ, 0, cos ψ) (detail::SignFacing), taken as (u, v) = |w|·(sin ψ, cos ψ), w2 =
+  // |w|²: tan β = |l × n|/(l·n) = √(w2·lY² + (v·lX + u·D)²)/(v·D − u·lX), l = (lX, lY, −D) toward
+  // the lamp. A lamp behind the sign's face (v·D − u·lX ≤ 0) lights its back, and a camera behind
+  // it (X·u + D·v ≤ 0) sees its back: nothing returns. With (u, v, w2) = (0, 1, 1) these are the
+  // facing sign's expressions above, bit for bit (1·x and x + ±0 are x; the sum's terms swapped).
+  bool facing_front(double X_m, double D_m, double* u, double* v, double* w2) const {
+    if (!facing.curved) {
+      *u = 0, *v = 1, *w2 = 1;
+      return true;
+    }
+    detail::sign_facing_lanes<double>(facing, X_m, D_m, *u, *v, *w2);
+    return X_m * *u + D_m * *v > 0;
+  }
   double luminance(double X_m, double Y_m, double D_m) const {
     if (!(D_m > 0)) return 0;
+    double u, v, w2;
+    if (!facing_front(X_m, D_m, &u, &v, &w2)) return 0;
     const double cX = -X_m, cY = cam_h - Y_m, cD = -D_m, cn = std::sqrt(cX * cX + cY * cY + cD * cD);
     double L = 0;
     for (const double xl : {-0.5 * p.beam_lamp_spacing_m, 0.5 * p.beam_lamp_spacing_m}) {
       const double lX = xl - X_m, lY = p.beam_lamp_height_m - Y_m, lD = -D_m, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
-      const double tb = ra.n > 1 ? std::sqrt(lX * lX + lY * lY) / D_m : 0;
+      const double ln_n = v * D_m - u * lX;
+      if (!(ln_n > 0)) continue;
+      const double across = v * lX + u * D_m;
+      const double tb = ra.n > 1 ? std::sqrt(w2 * (lY * lY) + across * across) / ln_n : 0;
       L += RA((cX * lX + cY * lY + cD * lD) / (cn * ln), tb) * lamp_lux(X_m, Y_m, D_m, xl);
     }
     return L;
@@ -1053,7 +1073,7 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
                                                                int n, double cx, double f, double h, double kY,
                                                                double kD, double* out, Scalar&& scalar) {
   const ScenePreset& p = sl.p;
-  const __m512d zero = _mm512_setzero_pd(), inf = _mm512_set1_pd(INFINITY);
+  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0), inf = _mm512_set1_pd(INFINITY);
   const __m512d vcx = _mm512_set1_pd(cx), vf = _mm512_set1_pd(f), vh = _mm512_set1_pd(h), vkY = _mm512_set1_pd(kY),
                 vkD = _mm512_set1_pd(kD), cam_h = _mm512_set1_pd(sl.cam_h), lh = _mm512_set1_pd(p.beam_lamp_height_m);
   const __m512d tvmax = _mm512_set1_pd(sl.tan_vmax), th0 = _mm512_set1_pd(sl.tan_h0), th1 = _mm512_set1_pd(sl.tan_h1),
@@ -1068,6 +1088,14 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
     const __m512d X = _mm512_mul_pd(vz, _mm512_div_pd(_mm512_sub_pd(vx, vcx), vf));
     const __m512d Y = _mm512_sub_pd(vh, _mm512_mul_pd(vz, vkY)), D = _mm512_mul_pd(vz, vkD);
     fast &= _mm512_cmp_pd_mask(D, zero, _CMP_GT_OQ);
+    // Which way the signs face (SignLight::facing_front): (0, 1, 1) unless the road ahead bends;
+    // a lane whose camera sees the sign's back returns nothing (+0, as the scalar code's return).
+    __m512d u = zero, v = one, w2 = one;
+    __mmask8 front = 0xff;
+    if (sl.facing.curved) {
+      detail::sign_facing_lanes<__m512d>(sl.facing, X, D, u, v, w2);
+      front = _mm512_cmp_pd_mask(_mm512_add_pd(_mm512_mul_pd(X, u), _mm512_mul_pd(D, v)), zero, _CMP_GT_OQ);
+    }
     const __m512d cX = neg_pd8(X), cY = _mm512_sub_pd(cam_h, Y), cD = neg_pd8(D);
     const __m512d cn = _mm512_sqrt_pd(_mm512_add_pd(_mm512_add_pd(sq_pd8(cX), sq_pd8(cY)), sq_pd8(cD)));
     __m512d L = zero;
@@ -1078,8 +1106,15 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
       const __m512d ca = _mm512_div_pd(
           _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(cX, lX), _mm512_mul_pd(cY, lY)), _mm512_mul_pd(cD, lD)),
           _mm512_mul_pd(cn, ln));
-      // R_A(α, β) by the shared lane arithmetic (scene/sign_retro_detail.h), tan β = √(lX² + lY²)/D
-      const __m512d tb = entrance ? _mm512_div_pd(_mm512_sqrt_pd(_mm512_add_pd(sq_pd8(lX), sq_pd8(lY))), D) : zero;
+      // R_A(α, β) by the shared lane arithmetic (scene/sign_retro_detail.h), tan β = √(w2·lY² +
+      // (v·lX + u·D)²)/(v·D − u·lX) (SignLight::luminance); the lamp lights the sign's face where
+      // v·D − u·lX > 0
+      const __m512d ln_n = _mm512_sub_pd(_mm512_mul_pd(v, D), _mm512_mul_pd(u, lX));
+      const __m512d across = _mm512_add_pd(_mm512_mul_pd(v, lX), _mm512_mul_pd(u, D));
+      const __mmask8 lit = _mm512_cmp_pd_mask(ln_n, zero, _CMP_GT_OQ);
+      const __m512d tb =
+          entrance ? _mm512_div_pd(_mm512_sqrt_pd(_mm512_add_pd(_mm512_mul_pd(w2, sq_pd8(lY)), sq_pd8(across))), ln_n)
+                   : zero;
       const bool any_mid = _mm512_cmp_pd_mask(ca, _mm512_set1_pd(sl.ra.cos_a0), _CMP_NGE_UQ) &
                            _mm512_cmp_pd_mask(ca, _mm512_set1_pd(sl.ra.cos_a1), _CMP_NLE_UQ) & m;
       const __m512d RA = detail::sign_RA_lanes<__m512d>(sl.ra, ca, tb, any_mid);
@@ -1094,8 +1129,9 @@ __attribute__((target("avx512f"))) void sign_luminances_avx512(const SignLight& 
                               _mm512_cmp_pd_mask(_mm512_sub_pd(dx, Dh1), _mm512_mul_pd(hi_margin, s), _CMP_GT_OQ);
       fast &= sl.table ? glare | beside : 0;
       const __m512d lux = _mm512_maskz_div_pd(glare, above, d2);  // (0 where beside)
-      L = _mm512_add_pd(L, _mm512_mul_pd(RA, lux));
+      L = _mm512_add_pd(L, _mm512_maskz_mul_pd(lit, RA, lux));     // (+0 where the lamp lights its back)
     }
+    L = _mm512_maskz_mov_pd(front, L);
     _mm512_mask_storeu_pd(out + i, fast, L);
     for (unsigned rest = m & ~fast; rest; rest &= rest - 1) {
       const int k = i + __builtin_ctz(rest);
@@ -1117,6 +1153,7 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
                                                           double* out, Scalar&& scalar) {
   const ScenePreset& p = sl.p;
   const __m256d zero = _mm256_setzero_pd(), inf = _mm256_set1_pd(INFINITY), sign = _mm256_set1_pd(-0.0);
+  const __m256d one = _mm256_set1_pd(1.0), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
   const __m256d vcx = _mm256_set1_pd(cx), vf = _mm256_set1_pd(f), vh = _mm256_set1_pd(h), vkY = _mm256_set1_pd(kY),
                 vkD = _mm256_set1_pd(kD), cam_h = _mm256_set1_pd(sl.cam_h), lh = _mm256_set1_pd(p.beam_lamp_height_m);
   const __m256d tvmax = _mm256_set1_pd(sl.tan_vmax), th0 = _mm256_set1_pd(sl.tan_h0), th1 = _mm256_set1_pd(sl.tan_h1),
@@ -1133,6 +1170,12 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
     const __m256d X = _mm256_mul_pd(vz, _mm256_div_pd(_mm256_sub_pd(vx, vcx), vf));
     const __m256d Y = _mm256_sub_pd(vh, _mm256_mul_pd(vz, vkY)), D = _mm256_mul_pd(vz, vkD);
     fast = _mm256_and_pd(fast, _mm256_cmp_pd(D, zero, _CMP_GT_OQ));
+    // the signs' facing as sign_luminances_avx512's
+    __m256d u = zero, v = one, w2 = one, front = all;
+    if (sl.facing.curved) {
+      detail::sign_facing_lanes<__m256d>(sl.facing, X, D, u, v, w2);
+      front = _mm256_cmp_pd(_mm256_add_pd(_mm256_mul_pd(X, u), _mm256_mul_pd(D, v)), zero, _CMP_GT_OQ);
+    }
     const __m256d cX = _mm256_xor_pd(X, sign), cY = _mm256_sub_pd(cam_h, Y), cD = _mm256_xor_pd(D, sign);
     const __m256d cn = _mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(sq(cX), sq(cY)), sq(cD)));
     __m256d L = zero;
@@ -1144,7 +1187,11 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
           _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cX, lX), _mm256_mul_pd(cY, lY)), _mm256_mul_pd(cD, lD)),
           _mm256_mul_pd(cn, ln));
       // R_A(α, β) as sign_luminances_avx512's
-      const __m256d tb = entrance ? _mm256_div_pd(_mm256_sqrt_pd(_mm256_add_pd(sq(lX), sq(lY))), D) : zero;
+      const __m256d ln_n = _mm256_sub_pd(_mm256_mul_pd(v, D), _mm256_mul_pd(u, lX));
+      const __m256d across = _mm256_add_pd(_mm256_mul_pd(v, lX), _mm256_mul_pd(u, D));
+      const __m256d lit = _mm256_cmp_pd(ln_n, zero, _CMP_GT_OQ);
+      const __m256d tb =
+          entrance ? _mm256_div_pd(_mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(w2, sq(lY)), sq(across))), ln_n) : zero;
       const bool any_mid = _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(ca, _mm256_set1_pd(sl.ra.cos_a0), _CMP_NGE_UQ),
                                                             _mm256_cmp_pd(ca, _mm256_set1_pd(sl.ra.cos_a1), _CMP_NLE_UQ)));
       const __m256d RA = detail::sign_RA_lanes<__m256d>(sl.ra, ca, tb, any_mid);
@@ -1161,8 +1208,9 @@ __attribute__((target("avx2"))) void sign_luminances_avx2(const SignLight& sl, c
                        _mm256_cmp_pd(_mm256_sub_pd(dx, Dh1), _mm256_mul_pd(hi_margin, s), _CMP_GT_OQ));
       fast = _mm256_and_pd(fast, _mm256_and_pd(table, _mm256_or_pd(glare, beside)));
       const __m256d lux = _mm256_and_pd(glare, _mm256_div_pd(above, d2));  // (+0 where beside)
-      L = _mm256_add_pd(L, _mm256_mul_pd(RA, lux));
+      L = _mm256_add_pd(L, _mm256_and_pd(lit, _mm256_mul_pd(RA, lux)));   // (+0 where it lights the back)
     }
+    L = _mm256_and_pd(front, L);
     const int fm = _mm256_movemask_pd(fast);
     if (fm == 0xf) {
       _mm256_storeu_pd(out + i, L);
@@ -1212,6 +1260,21 @@ double sign_RA_at(double alpha_deg, double entrance_deg, const ScenePreset& p) {
 
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p) {
   return SignLight(p, camera_height_m).luminance(X_m, Y_m, D_m);
+}
+
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p,
+                                 const RoadAhead& road) {
+  SignLight s(p, camera_height_m);
+  s.facing = detail::SignFacing(road);
+  return s.luminance(X_m, Y_m, D_m);
+}
+
+double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m) {
+  const detail::SignFacing f(road);
+  if (!f.curved) return 0;
+  double u, v, w2;
+  detail::sign_facing_lanes<double>(f, X_m, D_m, u, v, w2);
+  return std::atan2(u, v);
 }
 
 float low_beam_lux_f32(double X_m, double D_m, const ScenePreset& p) {
@@ -3754,7 +3817,8 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   // (A plain lambda, called where has_sign_pos: through a std::function it was an indirect call
   // per sign pixel.)
   const bool has_sign_pos = geometry && depth_m;
-  const SignLight sign_light(p, geometry ? geometry->mount_height_m : 0);
+  // (its facing set from the road ahead once the street lighting's plan has measured it, below)
+  SignLight sign_light(p, geometry ? geometry->mount_height_m : 0);
   static const CameraGeometry kNoGeometry;  // (read only where has_sign_pos)
   const CameraGeometry& sg = geometry ? *geometry : kNoGeometry;
   const double sign_c = std::cos(sg.pitch_rad), sign_s = std::sin(sg.pitch_rad);
@@ -3899,12 +3963,6 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     }
     return signals;
   };
-  if (!row_pass) {
-    int signals = 0;
-#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
-    for (int y = 0; y < H; ++y) signals += retro_row(y);
-    out.stats.signals = signals;
-  }
 
   // Vehicles: instances from the instance ids, else connected components of each vehicle class
   // (VehicleParts, above). The vehicle rows, components and boxes (labels and instance ids only)
@@ -3961,6 +4019,14 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
   } else {
     if (plan_here) plan();
     if (!handed) vehicle_rows(lm, VehicleIds(), ry0, ry1);
+  }
+  // The signs face their own stretch of road where the road ahead bends (SignLight::facing).
+  if (has_sign_pos) sign_light.facing = detail::SignFacing(sl.road_ahead);
+  if (!row_pass) {
+    int signals = 0;
+#pragma omp parallel for schedule(static, 8) reduction(+ : signals)
+    for (int y = 0; y < H; ++y) signals += retro_row(y);
+    out.stats.signals = signals;
   }
   const bool extent = sl.road_right_m > sl.road_left_m;
   const double road_mid = extent ? 0.5 * (sl.road_left_m + sl.road_right_m) : 0.0;

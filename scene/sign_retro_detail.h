@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "photosite/scene/night.h"
+#include "photosite/scene/road_line.h"
 #include "photosite/scene/scene_preset.h"
 
 // (The lanes' templates take and return vector types; they are always inlined into their callers,
@@ -174,6 +175,60 @@ template <class V>
   }
   if (s.n > 1) R = tb >= s.t[s.n - 1] ? Rprev : R;
   return R;
+}
+
+// Which way a sign faces: along its own stretch of road, toward the traffic that drives up to it,
+// its normal n = −(sin ψ, 0, cos ψ) in road coordinates (X across, Y up, D along the camera's
+// axis), ψ the road's heading at the sign (RoadPiece's convention: from +D, positive toward +X).
+// Where the frame's road ahead was measured curved (RoadAhead: straight at heading ψ0 to the
+// curve's start P0, then an arc of curvature κ about C = P0 + (cos ψ0, −sin ψ0)/κ, for at most a
+// quarter turn, then straight on: road_ahead_pieces), ψ at a ground point (X, D) is the heading
+// of the circle about C through it, (sin ψ, cos ψ) = sgn κ·(w_D, −w_X)/|w|, w = (X, D) − C (the
+// road's heading at the point of the line nearest across: the arc's concentric circles share it);
+// ψ0 for points before the start ((X, D) − P0 against the heading ≤ 0), ψ0 + sgn κ·π/2 beyond the
+// quarter turn. Else the sign faces the camera's heading, ψ = 0 (on a straight road the
+// street lamps' rows, too, run straight ahead). The lanes below take ψ as
+// the unnormalised direction (u, v) = |w|·(sin ψ, cos ψ) with w2 = |w|² (1 where ψ is ψ0, the
+// end's heading, or 0): the entrance angle's tangent and the two facing tests need no square root
+// of their own.
+struct SignFacing {
+  bool curved = false;
+  double s0 = 0, c0 = 1;      // sin ψ0, cos ψ0
+  double P0X = 0, P0D = 0;    // the curve's start
+  double CX = 0, CD = 0;      // the arc's centre
+  double k = 1;               // sgn κ
+  SignFacing() = default;
+  explicit SignFacing(const RoadAhead& r) {
+    if (!r.curved || !(r.kappa_per_m != 0) || !std::isfinite(r.kappa_per_m)) return;
+    curved = true;
+    s0 = std::sin(r.heading_rad);
+    c0 = std::cos(r.heading_rad);
+    P0X = r.curve_start_m * s0;
+    P0D = r.curve_start_m * c0;
+    CX = P0X + c0 / r.kappa_per_m;
+    CD = P0D - s0 / r.kappa_per_m;
+    k = r.kappa_per_m > 0 ? 1.0 : -1.0;
+  }
+};
+
+// (u, v, w2) of SignFacing at ground points (X, D), lane by lane (the scalar code: V = double).
+// Only where f.curved (else (0, 1, 1)).
+template <class V>
+[[gnu::always_inline]] inline void sign_facing_lanes(const SignFacing& f, const V& X, const V& D, V& u, V& v, V& w2) {
+  const V wX = X - f.CX, wD = D - f.CD;
+  u = f.k * wD;
+  v = -f.k * wX;
+  w2 = wX * wX + wD * wD;
+  // beyond the quarter turn (the heading turned by more than 90° from ψ0): the end's heading
+  const auto past = v * f.c0 + u * f.s0 < 0.0;
+  u = past ? lane_splat<V>(f.k * f.c0) : u;
+  v = past ? lane_splat<V>(-f.k * f.s0) : v;
+  w2 = past ? lane_splat<V>(1.0) : w2;
+  // before the curve's start: ψ0
+  const auto before = (X - f.P0X) * f.s0 + (D - f.P0D) * f.c0 <= 0.0;
+  u = before ? lane_splat<V>(f.s0) : u;
+  v = before ? lane_splat<V>(f.c0) : v;
+  w2 = before ? lane_splat<V>(1.0) : w2;
 }
 
 }  // namespace photosite::scene::detail

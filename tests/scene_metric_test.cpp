@@ -4774,6 +4774,102 @@ TEST(EgoLowBeam, SignRetroreflectionFallsWithTheEntranceAngle) {
   EXPECT_NEAR(mid, F_mid, 16 * 0x1p-53);
 }
 
+// A road ahead bending left round a traffic island, as aachen_000000_000019's kerbs measure it
+// (docs/night.md §7 "The road ahead": κ −0.026 1/m from 15 m ahead), at a heading of 0.02 rad.
+RoadAhead left_bend() {
+  RoadAhead r;
+  r.state = "curved";
+  r.curved = true;
+  r.heading_rad = 0.02;
+  r.curve_start_m = 15;
+  r.kappa_per_m = -0.026;
+  r.left_m = -4;
+  r.right_m = 3.5;
+  return r;
+}
+
+// On a road that bends (RoadAhead curved) a sign faces its own stretch of road: its normal
+// −(sin ψ, 0, cos ψ), ψ the road's heading where it stands (sign_facing_heading_rad). On the road
+// line of left_bend (road_ahead_pieces: straight at 0.02 rad to 15 m, the arc of κ −0.026 1/m for a
+// quarter turn, straight on), at offsets across from the kerb to 6 m beyond it, ψ is the line's
+// heading at that along-line coordinate, ψ0 + κ·(a − 15) on the arc: the point's coordinates come
+// from road_piece_point (a cos, a sin and a few products: some 2⁻⁵³ of the 40-100 m magnitudes),
+// and the code's heading from them by a difference with the centre and atan2, so within 1e-12 rad
+// (|w| ≥ 28 m, the radius 38.5 m less the 10 m offsets: 1e-12 rad is 2.8e-11 m, far above those
+// roundings). Then the luminance of a sign lit by one lamp: its entrance factor is the table's at
+// the angle β between that lamp's ray and the turned normal (cos β = l·n/|l| by libm, tan β =
+// tan(acos)); with c = cos β formed by about 8 roundings (8·2⁻⁵³ relative), tan β = √(1 − c²)/c
+// moves by 8·2⁻⁵³/sin²β relative, and the factor F = F0 + (tan β − tan 5°)·slope by |slope|·tan β
+// times that, plus its own four operations and the ratio's (16·2⁻⁵³).
+TEST(EgoLowBeam, SignsOnABendFaceTheirStretchOfRoad) {
+  const ScenePreset p = urban();
+  const RoadAhead r = left_bend();
+  const std::vector<RoadPiece> line = road_ahead_pieces(r);
+  const double quarter = 0.5 * M_PI / std::fabs(r.kappa_per_m);
+  int checked = 0;
+  for (double a = 2; a < 15 + quarter + 40; a += 3.7)
+    for (const double off : {r.right_m, r.right_m + 6, r.left_m, r.left_m - 6}) {
+      const RoadPiece q = road_line_piece(line, a);
+      double X, D;
+      road_piece_point(q, a, off, 0, &X, &D);
+      const double want = a <= 15 ? r.heading_rad
+                          : a <= 15 + quarter ? r.heading_rad + r.kappa_per_m * (a - 15)
+                                              : r.heading_rad - 0.5 * M_PI;
+      // (1e-12 rad: |w| ≥ 28 m, so 2.8e-11 m across, far above the coordinates' roundings: derived above)
+      EXPECT_NEAR(sign_facing_heading_rad(r, X, D), want, 1e-12) << "a " << a << " m, off " << off << " m";
+      ++checked;
+    }
+  EXPECT_GT(checked, 100);
+  // Straight (or not measured): the camera's heading, and the luminance of the sign facing it.
+  RoadAhead straight = r;
+  straight.curved = false;
+  EXPECT_EQ(sign_facing_heading_rad(straight, 5, 40), 0);
+  EXPECT_EQ(sign_retroreflected_cd_m2(5, 2.5, 40, 1.22, p, straight), sign_retroreflected_cd_m2(5, 2.5, 40, 1.22, p));
+  // The luminance: with one headlamp (spacing 0: both at the centre line) the ratio of a sign's
+  // luminance to that of the same sign without the entrance table (one_flat) is that lamp's
+  // entrance factor. At the distances where α lies beyond 2° (the camera 0.57 m above the lamps:
+  // within about 16 m) it is the 2° column's, F1(tan β), so the bend is taken from 3 m ahead here
+  // (the same κ) to put such signs on the arc.
+  RoadAhead near = r;
+  near.curve_start_m = 3;
+  ScenePreset one = p, one_flat = p;
+  one.beam_lamp_spacing_m = 0;
+  one_flat.beam_lamp_spacing_m = 0;
+  one_flat.sign_RA_entrance_deg.clear();
+  one_flat.sign_RA_entrance_factor.clear();
+  one_flat.sign_RA_entrance_factor_alpha_max.clear();
+  const double t5 = std::tan(5 * M_PI / 180), t30 = std::tan(30 * M_PI / 180), t40 = std::tan(40 * M_PI / 180);
+  const auto& f1 = p.sign_RA_entrance_factor_alpha_max;
+  auto F1_at = [&](double tb) {  // the 2° column (α beyond 2° at these distances: the camera 1.22 m above the lamps' 0.65)
+    if (tb <= t5) return f1[0];
+    if (tb <= t30) return f1[0] + (tb - t5) * ((f1[1] - f1[0]) / (t30 - t5));
+    if (tb <= t40) return f1[1] + (tb - t30) * ((f1[2] - f1[1]) / (t40 - t30));
+    return f1[2];
+  };
+  int compared = 0;
+  for (const auto& [X, Y, D] : {std::array<double, 3>{5, 2.5, 12}, {3, 2.5, 14}, {-6, 3, 10}, {1, 2.5, 6}, {-2, 2, 8}}) {
+    const double psi = sign_facing_heading_rad(near, X, D);
+    const double Lr = sign_retroreflected_cd_m2(X, Y, D, 1.22, one, near);
+    const double Lf = sign_retroreflected_cd_m2(X, Y, D, 1.22, one_flat, near);
+    if (!(Lf > 0)) continue;
+    // The lamp at (0, 0.65, 0): l = (−X, 0.65 − Y, −D); n = −(sin ψ, 0, cos ψ).
+    const double lX = -X, lY = one.beam_lamp_height_m - Y, lD = -D, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
+    const double c = -(lX * std::sin(psi) + lD * std::cos(psi)) / ln, beta = std::acos(c);
+    // (α at the sign between the lamp and the camera: the F1 column's signs only)
+    const double cam[3] = {-X, 1.22 - Y, -D}, cn = std::sqrt(cam[0] * cam[0] + cam[1] * cam[1] + cam[2] * cam[2]);
+    const double alpha_deg = std::acos((cam[0] * lX + cam[1] * lY + cam[2] * lD) / (cn * ln)) * 180 / M_PI;
+    if (alpha_deg < 2.001) continue;
+    const double tb = std::tan(beta), F = F1_at(tb);
+    const double slope = std::fabs((f1[1] - f1[0]) / (t30 - t5)) + std::fabs((f1[2] - f1[1]) / (t40 - t30));
+    const double tol = (slope * tb * 8 / (std::sin(beta) * std::sin(beta)) + 16) * 0x1p-53;
+    std::fprintf(stderr, "[signs] on the bend at (%.0f, %.1f, %.0f) m: ψ %.3f rad, β %.1f° (facing the camera's heading: %.1f°), F %.3f\n",
+                 X, Y, D, psi, beta * 180 / M_PI, std::atan(std::sqrt(lX * lX + lY * lY) / D) * 180 / M_PI, F);
+    EXPECT_NEAR(Lr / Lf, F, tol) << X << ", " << D;
+    ++compared;
+  }
+  EXPECT_GE(compared, 4);
+}
+
 // The sign lanes' own log, exp and angle (scene/sign_retro_detail.h: no libm inside, so the vector
 // lanes run them too) against libm's: each within 16·2⁻⁵³ relative, the bound the header derives
 // ("a few ulp": z's and the Horner sums' roundings, and for ln y with e ≥ 1 the sum e·ln 2 + ln m,
@@ -4844,15 +4940,17 @@ struct BeamSignScene {
   LabelMap lm = s.labels;
   ImageF depth = s.depth_m;
   ImageF tex = ImageF(o.width, o.height, 3, 0.f);
+  StreetLighting street;  // no street lamps; its road_ahead where a test bends the road
   LightMap lights() const {
     const CameraGeometry& g = o.camera;
-    const StreetLighting none;
     return light_map(s.day_linear_srgb, tex, lm, ImageU8(o.width, o.height, 1, 0),
                      coarse_depth(o.width, o.height, g.cx_px, g.horizon_y),
                      VanishingPoint{g.cx_px, g.horizon_y, 0, VpMethod::ImageCentre, 0, ""}, p, 1, &g, &depth, nullptr,
-                     nullptr, &none);
+                     nullptr, &street);
   }
 };
+
+
 
 // The sign pixels' luminances eight at a time (AVX-512, beam_max_isa 2: sign_luminances_avx512)
 // and four at a time (AVX2, beam_max_isa 1: sign_luminances_avx2; on a machine without AVX-512
@@ -4881,21 +4979,35 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
       }
       x += gap;
     }
-  std::vector<ImageF> maps;
-  for (const int isa : {2, 1, 0}) {
-    beam_max_isa(isa);
-    maps.push_back(b.lights().radiance);
+  // Twice: the signs facing the camera's heading, and on a road bending left (left_bend: the signs
+  // then face their stretch of road, SignLight::facing; the random depths put them before the
+  // curve, on it, and beyond its quarter turn).
+  ImageF scalar_maps[2];
+  for (const bool bend : {false, true}) {
+    if (bend) b.street.road_ahead = left_bend();
+    std::vector<ImageF> maps;
+    for (const int isa : {2, 1, 0}) {
+      beam_max_isa(isa);
+      maps.push_back(b.lights().radiance);
+    }
+    beam_max_isa(2);
+    long lit = 0, dark = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (b.lm.ids.at(x, y) == static_cast<uint16_t>(Label::TrafficSign)) (maps[2].at(x, y, 1) > 0 ? lit : dark) += 1;
+    std::fprintf(stderr, "[signs] %ld sign pixels%s: %ld lit, %ld dark\n", signs, bend ? " (the road bending)" : "", lit,
+                 dark);
+    EXPECT_GT(lit, signs / 4);
+    EXPECT_GT(dark, signs / 20);  // beside the table, behind the camera, no depth
+    EXPECT_EQ(differing_samples(maps[0], maps[2]), 0u) << "eight at a time against the scalar code, bend " << bend;
+    EXPECT_EQ(differing_samples(maps[1], maps[2]), 0u) << "four at a time against the scalar code, bend " << bend;
+    if (bend) b.street.road_ahead = RoadAhead{};
+    scalar_maps[bend] = maps[2];
   }
-  beam_max_isa(2);
-  long lit = 0, dark = 0;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      if (b.lm.ids.at(x, y) == static_cast<uint16_t>(Label::TrafficSign)) (maps[2].at(x, y, 1) > 0 ? lit : dark) += 1;
-  std::fprintf(stderr, "[signs] %ld sign pixels: %ld lit, %ld dark\n", signs, lit, dark);
-  EXPECT_GT(lit, signs / 4);
-  EXPECT_GT(dark, signs / 20);  // beside the table, behind the camera, no depth
-  EXPECT_EQ(differing_samples(maps[0], maps[2]), 0u) << "eight at a time against the scalar code";
-  EXPECT_EQ(differing_samples(maps[1], maps[2]), 0u) << "four at a time against the scalar code";
+  // (and the bend turned the signs: beyond its start most sign pixels return another luminance)
+  const size_t turned = differing_samples(scalar_maps[0], scalar_maps[1]);
+  std::fprintf(stderr, "[signs] samples the bend changed: %zu\n", turned);
+  EXPECT_GT(turned, static_cast<size_t>(signs / 4));
 }
 
 // The light map reads the sign pixel's point from depth_m through the camera model: sign pixels

@@ -26,6 +26,7 @@ namespace photosite::scene {
 
 struct SequenceState;   // scene/luminaires.h
 struct StreetLighting;  // scene/street.h
+struct RoadAhead;       // scene/road_line.h
 struct SunBlockSums;    // scene/texture_detail.h
 
 // ---- linearize --------------------------------------------------------------------------
@@ -411,6 +412,19 @@ double sign_RA_at(double alpha_deg, double entrance_deg, const ScenePreset& p);
 // the entrance angle β_lamp of the lamp's ray on a sign facing along the road: its normal toward the
 // camera's heading, (0, 0, −1), so tan β = √((x_lamp − X)² + (y_lamp − Y)²) / D.
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p);
+// The same for a sign that faces its own stretch of the road ahead `road` (where it was measured
+// curved; else as above): its normal −(sin ψ, 0, cos ψ), ψ = sign_facing_heading_rad(road, X_m,
+// D_m), so tan β = |l × n|/(l·n) for the ray l toward each lamp; a lamp behind the sign's face
+// lights nothing that returns, and a sign whose back the camera sees returns 0. What the light map
+// evaluates per sign pixel.
+double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p,
+                                 const RoadAhead& road);
+// The heading ψ (rad from +D, positive toward +X) a sign at ground point (X_m, D_m) is taken to face
+// along (its normal −(sin ψ, 0, cos ψ)): on a road ahead measured curved, the heading of the arc's
+// concentric circle through the point (the road line's heading at the point nearest across), the
+// road's heading before the curve's start, the heading after a quarter turn beyond it; 0 (the
+// camera's heading) unless road.curved. (scene/sign_retro_detail.h, SignFacing.)
+double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m);
 // The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
 // bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the
 // angles' float error; may differ between lit and 0 within that error of the cut-off line or the
