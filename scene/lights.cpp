@@ -980,7 +980,7 @@ struct SignLight {
   double cam_h, tan_rise, tan_vmax, tan_h0, tan_h1;
   bool table;
   detail::SignRA ra;  // R_A(α, β): scene/sign_retro_detail.h
-  detail::SignFacing facing;  // which way the signs face (straight ahead unless the road bends)
+  detail::SignFacing facing;  // which way the signs face (the camera's heading unless the road bends)
   SignLight(const ScenePreset& pr, double camera_height_m)
       : p(pr), cam_h(camera_height_m), tan_rise(std::tan(pr.beam_cutoff_rise_deg * M_PI / 180)),
         tan_vmax(std::tan(pr.beam_cutoff_max_v_deg * M_PI / 180)), tan_h0(0), tan_h1(0),
@@ -1019,7 +1019,7 @@ struct SignLight {
   // centre line at cam_h) sees it at the observation angle α between the sign-to-lamp and
   // sign-to-camera directions; the lamp's ray meets the sign, which faces along the road (normal
   // (0, 0, −1)), at the entrance angle β: tan β = √(lX² + lY²)/D.
-  // Where the road ahead bends (facing.curved), the sign faces its own stretch of road instead:
+  // Where the road ahead bends (facing.curved), the sign faces the traffic that reads it instead:
   // normal −(sin ψ, 0, cos ψ) (detail::SignFacing), taken as (u, v) = |w|·(sin ψ, cos ψ), w2 =
   // |w|²: tan β = |l × n|/(l·n) = √(w2·lY² + (v·lX + u·D)²)/(v·D − u·lX), l = (lX, lY, −D) toward
   // the lamp. A lamp behind the sign's face (v·D − u·lX ≤ 0) lights its back, and a camera behind
@@ -1265,12 +1265,12 @@ double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double came
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p,
                                  const RoadAhead& road) {
   SignLight s(p, camera_height_m);
-  s.facing = detail::SignFacing(road);
+  s.facing = detail::SignFacing(road, p.sign_read_distance_m);
   return s.luminance(X_m, Y_m, D_m);
 }
 
-double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m) {
-  const detail::SignFacing f(road);
+double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m, double read_distance_m) {
+  const detail::SignFacing f(road, read_distance_m);
   if (!f.curved) return 0;
   double u, v, w2;
   detail::sign_facing_lanes<double>(f, X_m, D_m, u, v, w2);
@@ -4021,7 +4021,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     if (!handed) vehicle_rows(lm, VehicleIds(), ry0, ry1);
   }
   // The signs face their own stretch of road where the road ahead bends (SignLight::facing).
-  if (has_sign_pos) sign_light.facing = detail::SignFacing(sl.road_ahead);
+  if (has_sign_pos) sign_light.facing = detail::SignFacing(sl.road_ahead, p.sign_read_distance_m);
   if (!row_pass) {
     int signals = 0;
 #pragma omp parallel for schedule(static, 8) reduction(+ : signals)

@@ -265,6 +265,12 @@ const std::vector<schema::Param<ScenePreset>>& scene_schema() {
        PHOTOSITE_AT(P, sign_RA_entrance_factor_alpha_max), "—", 1e-6, 10, Need::Optional,
        "the same at sign_RA_alpha_max_deg and beyond (geometric in α between the two)",
        "[D] white RA2 at 2°: 5 / 2.5 / 1.5 (that table)", "one value per sign_RA_entrance_deg entry"},
+      // Optional (default 60, ScenePreset): scene files written before it keep loading.
+      {"retroreflection.sign_read_distance_m", Kind::Number, PHOTOSITE_AT(P, sign_read_distance_m), "m", 0, 500,
+       Need::Optional,
+       "where the road ahead bends, a sign faces the road's heading this far before it, where the traffic "
+       "that reads it approaches (0: the heading at the sign)",
+       "[S] visible for at least 60 m to approaching traffic: Ontario Reg. 615 s. 45"},
       table("ego_beam", "the camera car's low beam: E = Σ_lamps I(h, v)·cos θ / d² on the metric ground",
             "NP §3; [S] ECE R112 class B points (01 series; zone IV [U]); [S] R48 heights, cut-off geometry"),
       num("ego_beam.cct_K", PHOTOSITE_AT(P, beam_cct_K), "K", 1000, 20000, "low-beam CCT", "NP §3"),

@@ -141,7 +141,7 @@ TEST(PresetSchema, BundledPresetsLoadToTheSameValuesAsBefore) {
   X(window_lit_fraction) X(window_cell_fraction) X(window_warm_share) X(window_cool_cct_K) \
   X(window_curtained_share) X(window_curtained_luminance_cd_m2) \
   X(marking_RL) X(sign_RA) X(sign_RA_alpha_deg) X(sign_RA_alpha_exponent) X(sign_RA_alpha_max_deg) \
-  X(sign_RA_entrance_deg) X(sign_RA_entrance_factor) X(sign_RA_entrance_factor_alpha_max) \
+  X(sign_RA_entrance_deg) X(sign_RA_entrance_factor) X(sign_RA_entrance_factor_alpha_max) X(sign_read_distance_m) \
   X(beam_cct_K) X(beam_sign_lux) X(beam_lamp_height_m) X(beam_lamp_spacing_m) X(beam_cutoff_v_deg) \
   X(beam_cutoff_rise_deg) X(beam_cutoff_max_v_deg) X(beam_above_cutoff_cd) X(beam_h_deg) X(beam_v_deg) X(beam_intensity_cd) \
   X(work_max_width) X(lane_blur_sigma_px) X(lane_contrast_threshold) X(canny_low) X(canny_high) \

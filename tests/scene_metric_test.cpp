@@ -4788,48 +4788,76 @@ RoadAhead left_bend() {
   return r;
 }
 
-// On a road that bends (RoadAhead curved) a sign faces its own stretch of road: its normal
-// −(sin ψ, 0, cos ψ), ψ the road's heading where it stands (sign_facing_heading_rad). On the road
+// On a road that bends (RoadAhead curved) a sign faces the traffic that reads it: its normal
+// −(sin ψ, 0, cos ψ), ψ that traffic's course the reading distance d before it
+// (sign_facing_heading_rad): the camera's heading turned by the bend since its start. On the road
 // line of left_bend (road_ahead_pieces: straight at 0.02 rad to 15 m, the arc of κ −0.026 1/m for a
-// quarter turn, straight on), at offsets across from the kerb to 6 m beyond it, ψ is the line's
-// heading at that along-line coordinate, ψ0 + κ·(a − 15) on the arc: the point's coordinates come
-// from road_piece_point (a cos, a sin and a few products: some 2⁻⁵³ of the 40-100 m magnitudes),
-// and the code's heading from them by a difference with the centre and atan2, so within 1e-12 rad
-// (|w| ≥ 28 m, the radius 38.5 m less the 10 m offsets: 1e-12 rad is 2.8e-11 m, far above those
-// roundings). Then the luminance of a sign lit by one lamp: its entrance factor is the table's at
-// the angle β between that lamp's ray and the turned normal (cos β = l·n/|l| by libm, tan β =
-// tan(acos)); with c = cos β formed by about 8 roundings (8·2⁻⁵³ relative), tan β = √(1 − c²)/c
-// moves by 8·2⁻⁵³/sin²β relative, and the factor F = F0 + (tan β − tan 5°)·slope by |slope|·tan β
-// times that, plus its own four operations and the ratio's (16·2⁻⁵³).
-TEST(EgoLowBeam, SignsOnABendFaceTheirStretchOfRoad) {
+// quarter turn, straight on), at offsets across from the kerb to 6 m beyond it, ψ at along-line
+// coordinate a is the line's turn at a − d: 0 before the start, κ·(a − d − 15) on the arc, −90°
+// beyond it (for d = 0 everywhere; for d > 0 up to the quarter turn's end, and beyond it the
+// approximation, within x − atan x, x = |κ|·d, on the line: scene/sign_retro_detail.h). The point's
+// coordinates come from road_piece_point (a cos, a sin and a few products: some 2⁻⁵³ of the 40-100 m
+// magnitudes), and the code's heading from them by a difference with the centre, a fixed rotation
+// and atan2, so within 1e-12 rad (|w| ≥ 28 m, the radius 38.5 m less the 10 m offsets: 1e-12 rad is
+// 2.8e-11 m, far above those roundings). Then the luminance of a sign lit by one lamp: its entrance
+// factor is the table's at the angle β between that lamp's ray and the turned normal (cos β =
+// l·n/|l| by libm, tan β = tan(acos)); with c = cos β formed by about 8 roundings (8·2⁻⁵³
+// relative), tan β = √(1 − c²)/c moves by 8·2⁻⁵³/sin²β relative, and the factor F = F0 + (tan β −
+// tan 5°)·slope by |slope|·tan β times that, plus its own four operations and the ratio's (16·2⁻⁵³).
+TEST(EgoLowBeam, SignsOnABendFaceTheTrafficThatReadsThem) {
   const ScenePreset p = urban();
+  EXPECT_EQ(p.sign_read_distance_m, 60);
   const RoadAhead r = left_bend();
   const std::vector<RoadPiece> line = road_ahead_pieces(r);
-  const double quarter = 0.5 * M_PI / std::fabs(r.kappa_per_m);
-  int checked = 0;
-  for (double a = 2; a < 15 + quarter + 40; a += 3.7)
-    for (const double off : {r.right_m, r.right_m + 6, r.left_m, r.left_m - 6}) {
-      const RoadPiece q = road_line_piece(line, a);
-      double X, D;
-      road_piece_point(q, a, off, 0, &X, &D);
-      const double want = a <= 15 ? r.heading_rad
-                          : a <= 15 + quarter ? r.heading_rad + r.kappa_per_m * (a - 15)
-                                              : r.heading_rad - 0.5 * M_PI;
-      // (1e-12 rad: |w| ≥ 28 m, so 2.8e-11 m across, far above the coordinates' roundings: derived above)
-      EXPECT_NEAR(sign_facing_heading_rad(r, X, D), want, 1e-12) << "a " << a << " m, off " << off << " m";
-      ++checked;
-    }
-  EXPECT_GT(checked, 100);
+  const double quarter = 0.5 * M_PI / std::fabs(r.kappa_per_m), end = 15 + quarter;
+  const double x60 = std::fabs(r.kappa_per_m) * 60, bound60 = x60 - std::atan(x60);
+  int checked = 0, approximated = 0;
+  for (const double d : {0.0, 20.0, 60.0})
+    for (double a = 2; a < end + 80; a += 3.7)
+      for (const double off : {0.0, r.right_m, r.right_m + 6, r.left_m, r.left_m - 6}) {
+        const RoadPiece q = road_line_piece(line, a);
+        double X, D;
+        road_piece_point(q, a, off, 0, &X, &D);
+        const double ar = a - d;  // the reading point
+        const double want = ar <= 15 ? 0.0 : ar <= end ? r.kappa_per_m * (ar - 15) : -0.5 * M_PI;
+        const double got = sign_facing_heading_rad(r, X, D, d);
+        if (d > 0 && a > end) {
+          // Past the quarter turn: the approximation, the point's angle Δ about the arc's centre
+          // (libm's atan2 here, the code's fixed rotation there) less |κ|·d, held in [0, 90°]; on
+          // the road line itself it faces less turned than the line's heading d before it, by at
+          // most x − atan x (1e-12 rad for the roundings, derived above).
+          const double k = r.kappa_per_m > 0 ? 1 : -1, s0 = std::sin(r.heading_rad), c0 = std::cos(r.heading_rad);
+          const double CX = 15 * s0 + c0 / r.kappa_per_m, CD = 15 * c0 - s0 / r.kappa_per_m;
+          const double psi_s = std::atan2(k * (D - CD), -k * (X - CX));
+          const double turn = std::remainder(k * (psi_s - r.heading_rad), 2 * M_PI) - std::fabs(r.kappa_per_m) * d;
+          // (1e-12 rad: the roundings, derived above the test)
+          EXPECT_NEAR(got, k * std::clamp(turn, 0.0, 0.5 * M_PI), 1e-12) << "d " << d << ", a " << a;
+          if (off == 0) {
+            const double x = std::fabs(r.kappa_per_m) * d, diff = got - want;  // (κ < 0: less turned is larger)
+            EXPECT_GE(diff, -1e-12) << "d " << d << ", a " << a;
+            EXPECT_LE(diff, x - std::atan(x) + 1e-12) << "d " << d << ", a " << a;
+          }
+          ++approximated;
+          continue;
+        }
+        // (1e-12 rad: |w| ≥ 28 m, so 2.8e-11 m across, far above the coordinates' roundings: derived above)
+        EXPECT_NEAR(got, want, 1e-12) << "d " << d << " m, a " << a << " m, off " << off << " m";
+        ++checked;
+      }
+  std::fprintf(stderr, "[signs] facing on the bend: %d points exact, %d past the quarter turn within x − atan x (%.2f rad at d 60 m)\n",
+               checked, approximated, bound60);
+  EXPECT_GT(checked, 200);
+  EXPECT_GT(approximated, 20);
   // Straight (or not measured): the camera's heading, and the luminance of the sign facing it.
   RoadAhead straight = r;
   straight.curved = false;
-  EXPECT_EQ(sign_facing_heading_rad(straight, 5, 40), 0);
+  EXPECT_EQ(sign_facing_heading_rad(straight, 5, 40, 60), 0);
   EXPECT_EQ(sign_retroreflected_cd_m2(5, 2.5, 40, 1.22, p, straight), sign_retroreflected_cd_m2(5, 2.5, 40, 1.22, p));
   // The luminance: with one headlamp (spacing 0: both at the centre line) the ratio of a sign's
   // luminance to that of the same sign without the entrance table (one_flat) is that lamp's
   // entrance factor. At the distances where α lies beyond 2° (the camera 0.57 m above the lamps:
   // within about 16 m) it is the 2° column's, F1(tan β), so the bend is taken from 3 m ahead here
-  // (the same κ) to put such signs on the arc.
+  // (the same κ) and the reading distance 0 and 4 m, to put such signs' normals on the arc.
   RoadAhead near = r;
   near.curve_start_m = 3;
   ScenePreset one = p, one_flat = p;
@@ -4840,34 +4868,38 @@ TEST(EgoLowBeam, SignsOnABendFaceTheirStretchOfRoad) {
   one_flat.sign_RA_entrance_factor_alpha_max.clear();
   const double t5 = std::tan(5 * M_PI / 180), t30 = std::tan(30 * M_PI / 180), t40 = std::tan(40 * M_PI / 180);
   const auto& f1 = p.sign_RA_entrance_factor_alpha_max;
-  auto F1_at = [&](double tb) {  // the 2° column (α beyond 2° at these distances: the camera 1.22 m above the lamps' 0.65)
+  auto F1_at = [&](double tb) {  // the 2° column
     if (tb <= t5) return f1[0];
     if (tb <= t30) return f1[0] + (tb - t5) * ((f1[1] - f1[0]) / (t30 - t5));
     if (tb <= t40) return f1[1] + (tb - t30) * ((f1[2] - f1[1]) / (t40 - t30));
     return f1[2];
   };
   int compared = 0;
-  for (const auto& [X, Y, D] : {std::array<double, 3>{5, 2.5, 12}, {3, 2.5, 14}, {-6, 3, 10}, {1, 2.5, 6}, {-2, 2, 8}}) {
-    const double psi = sign_facing_heading_rad(near, X, D);
-    const double Lr = sign_retroreflected_cd_m2(X, Y, D, 1.22, one, near);
-    const double Lf = sign_retroreflected_cd_m2(X, Y, D, 1.22, one_flat, near);
-    if (!(Lf > 0)) continue;
-    // The lamp at (0, 0.65, 0): l = (−X, 0.65 − Y, −D); n = −(sin ψ, 0, cos ψ).
-    const double lX = -X, lY = one.beam_lamp_height_m - Y, lD = -D, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
-    const double c = -(lX * std::sin(psi) + lD * std::cos(psi)) / ln, beta = std::acos(c);
-    // (α at the sign between the lamp and the camera: the F1 column's signs only)
-    const double cam[3] = {-X, 1.22 - Y, -D}, cn = std::sqrt(cam[0] * cam[0] + cam[1] * cam[1] + cam[2] * cam[2]);
-    const double alpha_deg = std::acos((cam[0] * lX + cam[1] * lY + cam[2] * lD) / (cn * ln)) * 180 / M_PI;
-    if (alpha_deg < 2.001) continue;
-    const double tb = std::tan(beta), F = F1_at(tb);
-    const double slope = std::fabs((f1[1] - f1[0]) / (t30 - t5)) + std::fabs((f1[2] - f1[1]) / (t40 - t30));
-    const double tol = (slope * tb * 8 / (std::sin(beta) * std::sin(beta)) + 16) * 0x1p-53;
-    std::fprintf(stderr, "[signs] on the bend at (%.0f, %.1f, %.0f) m: ψ %.3f rad, β %.1f° (facing the camera's heading: %.1f°), F %.3f\n",
-                 X, Y, D, psi, beta * 180 / M_PI, std::atan(std::sqrt(lX * lX + lY * lY) / D) * 180 / M_PI, F);
-    EXPECT_NEAR(Lr / Lf, F, tol) << X << ", " << D;
-    ++compared;
+  for (const double d : {0.0, 4.0}) {
+    one.sign_read_distance_m = one_flat.sign_read_distance_m = d;
+    for (const auto& [X, Y, D] : {std::array<double, 3>{5, 2.5, 12}, {3, 2.5, 14}, {-6, 3, 10}, {1, 2.5, 6}, {-2, 2, 8}}) {
+      const double psi = sign_facing_heading_rad(near, X, D, d);
+      const double Lr = sign_retroreflected_cd_m2(X, Y, D, 1.22, one, near);
+      const double Lf = sign_retroreflected_cd_m2(X, Y, D, 1.22, one_flat, near);
+      if (!(Lf > 0)) continue;
+      // The lamp at (0, 0.65, 0): l = (−X, 0.65 − Y, −D); n = −(sin ψ, 0, cos ψ).
+      const double lX = -X, lY = one.beam_lamp_height_m - Y, lD = -D, ln = std::sqrt(lX * lX + lY * lY + lD * lD);
+      const double c = -(lX * std::sin(psi) + lD * std::cos(psi)) / ln, beta = std::acos(c);
+      // (α at the sign between the lamp and the camera: the F1 column's signs only)
+      const double cam[3] = {-X, 1.22 - Y, -D}, cn = std::sqrt(cam[0] * cam[0] + cam[1] * cam[1] + cam[2] * cam[2]);
+      const double alpha_deg = std::acos((cam[0] * lX + cam[1] * lY + cam[2] * lD) / (cn * ln)) * 180 / M_PI;
+      if (alpha_deg < 2.001) continue;
+      const double tb = std::tan(beta), F = F1_at(tb);
+      const double slope = std::fabs((f1[1] - f1[0]) / (t30 - t5)) + std::fabs((f1[2] - f1[1]) / (t40 - t30));
+      const double tol = (slope * tb * 8 / (std::sin(beta) * std::sin(beta)) + 16) * 0x1p-53;
+      std::fprintf(stderr,
+                   "[signs] on the bend at (%.0f, %.1f, %.0f) m, d %.0f m: ψ %.3f rad, β %.1f° (facing the camera's heading: %.1f°), F %.3f\n",
+                   X, Y, D, d, psi, beta * 180 / M_PI, std::atan(std::sqrt(lX * lX + lY * lY) / D) * 180 / M_PI, F);
+      EXPECT_NEAR(Lr / Lf, F, tol) << X << ", " << D << ", d " << d;
+      ++compared;
+    }
   }
-  EXPECT_GE(compared, 4);
+  EXPECT_GE(compared, 8);
 }
 
 // The sign lanes' own log, exp and angle (scene/sign_retro_detail.h: no libm inside, so the vector
@@ -4982,9 +5014,10 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
   // Twice: the signs facing the camera's heading, and on a road bending left (left_bend: the signs
   // then face their stretch of road, SignLight::facing; the random depths put them before the
   // curve, on it, and beyond its quarter turn).
-  ImageF scalar_maps[2];
-  for (const bool bend : {false, true}) {
+  ImageF scalar_maps[3];
+  for (const int bend : {0, 1, 2}) {  // straight; the bend at the preset's reading distance; at 0
     if (bend) b.street.road_ahead = left_bend();
+    b.p.sign_read_distance_m = bend == 2 ? 0 : urban().sign_read_distance_m;
     std::vector<ImageF> maps;
     for (const int isa : {2, 1, 0}) {
       beam_max_isa(isa);
@@ -4995,8 +5028,8 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
         if (b.lm.ids.at(x, y) == static_cast<uint16_t>(Label::TrafficSign)) (maps[2].at(x, y, 1) > 0 ? lit : dark) += 1;
-    std::fprintf(stderr, "[signs] %ld sign pixels%s: %ld lit, %ld dark\n", signs, bend ? " (the road bending)" : "", lit,
-                 dark);
+    std::fprintf(stderr, "[signs] %ld sign pixels%s: %ld lit, %ld dark\n", signs,
+                 bend == 1 ? " (the road bending)" : bend == 2 ? " (the road bending, read at the sign)" : "", lit, dark);
     EXPECT_GT(lit, signs / 4);
     EXPECT_GT(dark, signs / 20);  // beside the table, behind the camera, no depth
     EXPECT_EQ(differing_samples(maps[0], maps[2]), 0u) << "eight at a time against the scalar code, bend " << bend;
@@ -5004,10 +5037,15 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
     if (bend) b.street.road_ahead = RoadAhead{};
     scalar_maps[bend] = maps[2];
   }
-  // (and the bend turned the signs: beyond its start most sign pixels return another luminance)
-  const size_t turned = differing_samples(scalar_maps[0], scalar_maps[1]);
-  std::fprintf(stderr, "[signs] samples the bend changed: %zu\n", turned);
-  EXPECT_GT(turned, static_cast<size_t>(signs / 4));
+  // (and the bend turned the signs: read at the sign, most sign pixels beyond the curve's start
+  // (15 m) return another luminance; read 60 m before, those beyond about 75 m along it, a smaller
+  // share of the depths drawn log-uniform over 0.3-400 m)
+  const size_t turned = differing_samples(scalar_maps[0], scalar_maps[1]), turned0 = differing_samples(scalar_maps[0], scalar_maps[2]);
+  std::fprintf(stderr, "[signs] samples the bend changed: %zu (read at 60 m), %zu (at the sign)\n", turned, turned0);
+  EXPECT_GT(turned, static_cast<size_t>(signs / 20));
+  EXPECT_GT(turned0, static_cast<size_t>(signs / 2));
+  EXPECT_GT(turned0, turned);
+  b.p.sign_read_distance_m = urban().sign_read_distance_m;
 }
 
 // The light map reads the sign pixel's point from depth_m through the camera model: sign pixels

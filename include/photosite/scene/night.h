@@ -412,19 +412,20 @@ double sign_RA_at(double alpha_deg, double entrance_deg, const ScenePreset& p);
 // the entrance angle β_lamp of the lamp's ray on a sign facing along the road: its normal toward the
 // camera's heading, (0, 0, −1), so tan β = √((x_lamp − X)² + (y_lamp − Y)²) / D.
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p);
-// The same for a sign that faces its own stretch of the road ahead `road` (where it was measured
-// curved; else as above): its normal −(sin ψ, 0, cos ψ), ψ = sign_facing_heading_rad(road, X_m,
-// D_m), so tan β = |l × n|/(l·n) for the ray l toward each lamp; a lamp behind the sign's face
-// lights nothing that returns, and a sign whose back the camera sees returns 0. What the light map
-// evaluates per sign pixel.
+// The same for a sign on the road ahead `road`: where it was measured curved, the sign faces the
+// traffic that reads it (else as above), its normal −(sin ψ, 0, cos ψ), ψ =
+// sign_facing_heading_rad(road, X_m, D_m, p.sign_read_distance_m), so tan β = |l × n|/(l·n) for the
+// ray l toward each lamp; a lamp behind the sign's face lights nothing that returns, and a sign
+// whose back the camera sees returns 0. What the light map evaluates per sign pixel.
 double sign_retroreflected_cd_m2(double X_m, double Y_m, double D_m, double camera_height_m, const ScenePreset& p,
                                  const RoadAhead& road);
-// The heading ψ (rad from +D, positive toward +X) a sign at ground point (X_m, D_m) is taken to face
-// along (its normal −(sin ψ, 0, cos ψ)): on a road ahead measured curved, the heading of the arc's
-// concentric circle through the point (the road line's heading at the point nearest across), the
-// road's heading before the curve's start, the heading after a quarter turn beyond it; 0 (the
-// camera's heading) unless road.curved. (scene/sign_retro_detail.h, SignFacing.)
-double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m);
+// The heading ψ (rad from +D, positive toward +X) that a sign at ground point (X_m, D_m) faces along
+// (its normal −(sin ψ, 0, cos ψ)): on a road ahead measured curved, the course of the traffic that
+// reads it read_distance_m before it: the camera's heading (0) turned by the bend between the
+// curve's start and that point (0 where the point lies before the start, ±90° beyond the quarter
+// turn; the sign's arc length taken from its angle about the arc's centre; scene/
+// sign_retro_detail.h, SignFacing); 0 unless road.curved.
+double sign_facing_heading_rad(const RoadAhead& road, double X_m, double D_m, double read_distance_m);
 // The same E evaluated in float (IEEE binary32, Cephes' atanf): what low_beam_illuminance stores,
 // bit for bit. Within a few 2⁻²⁴ relative of low_beam_lux plus the table's slope times the
 // angles' float error; may differ between lit and 0 within that error of the cut-off line or the

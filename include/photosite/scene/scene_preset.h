@@ -146,6 +146,9 @@ struct ScenePreset {
   // the first angle, linear in tan β between the angles, held outside them, and between the two α
   // geometric in α (F0^(1−t)·F1^t, t = ln(α/α0)/ln(α1/α0)). Empty: no entrance-angle dependence.
   std::vector<double> sign_RA_entrance_deg, sign_RA_entrance_factor, sign_RA_entrance_factor_alpha_max;
+  // A sign faces the traffic that reads it: where the road ahead bends, its normal follows the
+  // road's heading sign_read_distance_m before the sign (detail::SignFacing, scene/sign_retro_detail.h).
+  double sign_read_distance_m = 60;
   // [ego_beam] low beam: CCT, illuminance on signs, and the headlamp pair: mounting height above
   // the road and lateral spacing (m), the cut-off line (v = cutoff_v_deg left of the v-v line,
   // rising at cutoff_rise_deg to the right up to cutoff_max_v_deg; nothing above it) and one
