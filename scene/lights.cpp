@@ -4020,7 +4020,7 @@ LightMap light_map_with(const ImageF& day, const ImageF& texture, const LabelMap
     if (plan_here) plan();
     if (!handed) vehicle_rows(lm, VehicleIds(), ry0, ry1);
   }
-  // The signs face their own stretch of road where the road ahead bends (SignLight::facing).
+  // Where the road ahead bends, the signs face the traffic that reads them (SignLight::facing).
   if (has_sign_pos) sign_light.facing = detail::SignFacing(sl.road_ahead, p.sign_read_distance_m);
   if (!row_pass) {
     int signals = 0;
