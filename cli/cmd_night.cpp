@@ -218,6 +218,7 @@ void run_night(NightCmd c) {
       const auto tr = runner.transfers();
       std::printf("%-32s %10.1f\n%-32s %10.1f\n%-32s %10s\n", "host->device (MB)", tr.uploaded / 1e6,
                   "device->host (MB)", tr.downloaded / 1e6, "transfers", tr.staged ? "staged" : "mapped");
+      if (tr.imported) std::printf("%-32s %10.1f\n", "of which from imported pages (MB)", tr.imported / 1e6);
     }
   }
 }

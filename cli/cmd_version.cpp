@@ -23,7 +23,9 @@ void print_backends() {
     const gpu::Context& ctx = gpu::shared_context();
     const gpu::DeviceInfo& d = ctx.device();
     std::printf("vulkan: %s (%s), Vulkan %u.%u, %s, %s\n", d.name.c_str(), d.type.c_str(), d.api_version >> 22,
-                (d.api_version >> 12) & 0x3ff, d.staged ? "staged transfers" : "mapped buffers",
+                (d.api_version >> 12) & 0x3ff,
+                !d.staged ? "mapped buffers" : d.host_import ? "staged transfers (host-page import offered: batch uses it)"
+                                                            : "staged transfers",
                 d.timestamps ? "kernel timestamps" : "no timestamps");
     std::printf("auto: %s\n", d.cpu ? "cpu (the Vulkan device is a CPU implementation, slower than the native path)"
                                     : "vulkan");

@@ -176,11 +176,23 @@ NightScene night_scene(const ImageF& day, const LabelMap& labels, const ScenePre
 }
 }  // namespace scene
 
+void SensorRunner::set_host_import(bool on) {
+  host_import_ = on;
+#ifdef PHOTOSITE_HAVE_VULKAN
+  if (device_) {
+    device_->chain.set_host_import(on);
+    device_->scene->set_host_import(on);
+  }
+#else
+  (void)on;
+#endif
+}
+
 SensorRunner::Transfers SensorRunner::transfers() const {
 #ifdef PHOTOSITE_HAVE_VULKAN
   if (device_) {
     const auto t = device_->chain.context().transfers();
-    return {t.uploaded, t.downloaded, device_->chain.context().device().staged};
+    return {t.uploaded, t.downloaded, t.imported, device_->chain.context().device().staged};
   }
 #endif
   return {};

@@ -290,6 +290,16 @@ Result run(const std::vector<Item>& all, const Options& o, SensorRunner& runner,
   (void)base_ex;
   const DeviceStore store(o.device_store);
   const scene::ScenePreset& sp = o.scene;
+  // On a GPU the run's large copies go by the device's copy engine straight from (to) the host's
+  // pages, not through the staging buffer by the host's memcpy: the host's cores are busy reading
+  // and encoding beside them (gpu::Buffer::set_host_import has the measurements). The runner's
+  // own setting comes back when the run ends.
+  struct HostImport {
+    SensorRunner& r;
+    bool before;
+    ~HostImport() { r.set_host_import(before); }
+  } host_import{runner, runner.host_import()};
+  runner.set_host_import(true);
   const bool item_cameras =
       o.item_cameras && std::any_of(items.begin(), items.end(), [](const Item& it) { return !it.camera.empty(); });
 

@@ -26,6 +26,7 @@ const char* name(Var v) {
     case Var::VkValidation: return "PHOTOSITE_VK_VALIDATION";
     case Var::VkSyncValidation: return "PHOTOSITE_VK_SYNC_VALIDATION";
     case Var::VkStaging: return "PHOTOSITE_VK_STAGING";
+    case Var::VkHostImport: return "PHOTOSITE_VK_HOST_IMPORT";
     case Var::SampleDir: return "PHOTOSITE_SAMPLE_DIR";
     case Var::ScalarLights: return "PHOTOSITE_SCALAR_LIGHTS";
     case Var::MaxIsa: return "PHOTOSITE_MAX_ISA";

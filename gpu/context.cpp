@@ -320,16 +320,6 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   qci.pQueuePriorities = &priority;
   VkPhysicalDeviceFeatures enabled{};
   enabled.shaderFloat64 = VK_TRUE;
-  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-  dci.queueCreateInfoCount = 1;
-  dci.pQueueCreateInfos = &qci;
-  dci.pEnabledFeatures = &enabled;
-  vk::check(f.vkCreateDevice(I.physical, &dci, nullptr, &I.device), "creating the device");
-#define PHOTOSITE_VK_LOAD_DEVICE(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetDeviceProcAddr(I.device, #name));
-  PHOTOSITE_VK_DEVICE(PHOTOSITE_VK_LOAD_DEVICE)
-#undef PHOTOSITE_VK_LOAD_DEVICE
-  f.vkGetDeviceQueue(I.device, I.queue_family, 0, &I.queue);
-
   // Direct (mapped storage buffers) where some memory is device-local, host-visible, coherent
   // and cached at once (lavapipe, integrated GPUs); staged copies otherwise.
   const bool unified = unified_memory(type_flags(I.memory));
@@ -337,7 +327,45 @@ Context::Context(const ContextOptions& options) : impl_(std::make_unique<Impl>()
   if (const auto e = env::get(env::Var::VkStaging); e && mode == Staging::Auto)
     mode = *e == "0" ? Staging::Direct : Staging::Staged;
   I.staged = mode == Staging::Staged || (mode == Staging::Auto && !unified);
+  // Staged contexts can import the caller's pages for large copies (of buffers that ask for it:
+  // Buffer::set_host_import) where the device offers VK_EXT_external_memory_host (NVIDIA's 580
+  // driver and Mesa's lavapipe do), with the alignment it needs.
+  std::vector<const char*> device_extensions;
+  const auto import_env = env::get(env::Var::VkHostImport);
+  if (I.staged && options.host_import && !(import_env && *import_env == "0")) {
+    uint32_t ne = 0;
+    f.vkEnumerateDeviceExtensionProperties(I.physical, nullptr, &ne, nullptr);
+    std::vector<VkExtensionProperties> ext(ne);
+    if (ne) f.vkEnumerateDeviceExtensionProperties(I.physical, nullptr, &ne, ext.data());
+    bool offered = false;
+    for (auto& e : ext) offered |= std::strcmp(e.extensionName, VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME) == 0;
+    if (offered) {
+      VkPhysicalDeviceExternalMemoryHostPropertiesEXT hp{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_EXTERNAL_MEMORY_HOST_PROPERTIES_EXT};
+      VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+      p2.pNext = &hp;
+      f.vkGetPhysicalDeviceProperties2(I.physical, &p2);
+      const VkDeviceSize a = hp.minImportedHostPointerAlignment;
+      if (a > 0 && (a & (a - 1)) == 0 && a <= (VkDeviceSize{1} << 21)) {
+        device_extensions.push_back(VK_EXT_EXTERNAL_MEMORY_HOST_EXTENSION_NAME);
+        I.import_alignment = static_cast<size_t>(a);
+      }
+    }
+  }
+  VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  dci.pEnabledFeatures = &enabled;
+  dci.enabledExtensionCount = static_cast<uint32_t>(device_extensions.size());
+  dci.ppEnabledExtensionNames = device_extensions.data();
+  vk::check(f.vkCreateDevice(I.physical, &dci, nullptr, &I.device), "creating the device");
+#define PHOTOSITE_VK_LOAD_DEVICE(name) f.name = reinterpret_cast<PFN_##name>(f.vkGetDeviceProcAddr(I.device, #name));
+  PHOTOSITE_VK_DEVICE(PHOTOSITE_VK_LOAD_DEVICE)
+#undef PHOTOSITE_VK_LOAD_DEVICE
+  f.vkGetDeviceQueue(I.device, I.queue_family, 0, &I.queue);
+  I.host_import = I.import_alignment > 0 && f.vkGetMemoryHostPointerPropertiesEXT != nullptr;
+  I.import_always = I.host_import && import_env && *import_env == "1";
   info_.staged = I.staged;
+  info_.host_import = I.host_import;
   if (I.staged) {
     VkCommandPoolCreateInfo cpi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     cpi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -417,8 +445,16 @@ Buffer::Buffer(Context& ctx, size_t bytes) : ctx_(ctx), bytes_(bytes), impl_(std
 
 Buffer& BufferCache::get(const std::string& name, size_t bytes) {
   auto& b = buffers_[name];
-  if (!b || b->bytes() != bytes) b = std::make_unique<Buffer>(ctx_, bytes);
+  if (!b || b->bytes() != bytes) {
+    b = std::make_unique<Buffer>(ctx_, bytes);
+    b->set_host_import(host_import_);
+  }
   return *b;
+}
+
+void BufferCache::set_host_import(bool on) {
+  host_import_ = on;
+  for (auto& [name, b] : buffers_) b->set_host_import(on);
 }
 
 Buffer* BufferCache::find(const std::string& name) {
@@ -465,8 +501,11 @@ void copy_parallel(void* dst, const void* src, size_t n) {
   }
 }
 
-// Records and submits the copy of chunk [done, done + c) through staging slot `slot`.
-void submit_chunk(Context::Impl& C, int slot, VkBuffer device_buffer, size_t device_offset, size_t c, bool up) {
+// Records and submits the copy of c bytes between the device buffer (at device_offset) and a
+// host-side buffer (at host_offset: a staging slot, or an imported range of the caller's pages),
+// with transfer_cmd[slot] and transfer_fence[slot].
+void submit_copy(Context::Impl& C, int slot, VkBuffer device_buffer, size_t device_offset, VkBuffer host_buffer,
+                 size_t host_offset, size_t c, bool up) {
   auto& f = C.f;
   VkCommandBuffer cmd = C.transfer_cmd[slot];
   vk::check(f.vkResetCommandBuffer(cmd, 0), "resetting a command buffer");
@@ -482,10 +521,9 @@ void submit_chunk(Context::Impl& C, int slot, VkBuffer device_buffer, size_t dev
                          VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
   VkBufferCopy region{};
   region.size = c;
-  const VkDeviceSize slot_offset = static_cast<VkDeviceSize>(slot) * kStagingChunk;
-  region.srcOffset = up ? slot_offset : device_offset;
-  region.dstOffset = up ? device_offset : slot_offset;
-  f.vkCmdCopyBuffer(cmd, up ? C.staging.buffer : device_buffer, up ? device_buffer : C.staging.buffer, 1, &region);
+  region.srcOffset = up ? host_offset : device_offset;
+  region.dstOffset = up ? device_offset : host_offset;
+  f.vkCmdCopyBuffer(cmd, up ? host_buffer : device_buffer, up ? device_buffer : host_buffer, 1, &region);
   // The copy's writes are visible to later kernels (upload) or to the host (download).
   VkMemoryBarrier after{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
   after.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
@@ -502,8 +540,75 @@ void submit_chunk(Context::Impl& C, int slot, VkBuffer device_buffer, size_t dev
   vk::check(f.vkQueueSubmit(C.queue, 1, &si, C.transfer_fence[slot]), "submitting a copy");
 }
 
-void staged_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, const void* src, void* dst, size_t n) {
+// The copy of chunk [offset, offset + c) of the device buffer through staging slot `slot`.
+void submit_chunk(Context::Impl& C, int slot, VkBuffer device_buffer, size_t device_offset, size_t c, bool up) {
+  submit_copy(C, slot, device_buffer, device_offset, C.staging.buffer, static_cast<size_t>(slot) * kStagingChunk, c,
+              up);
+}
+
+// One copy between the device buffer and the caller's own pages, imported for it
+// (VK_EXT_external_memory_host): the device's copy engine reads (writes) host memory itself, with
+// no memcpy through the staging slots. The import covers [p, p + n) widened to the device's
+// alignment (whole pages the process has mapped; the copy touches [p, p + n) alone) and lasts
+// the copy. False, with nothing copied, where the driver refuses the range (memory it cannot
+// import, e.g. a read-only file mapping, or no coherent host-visible type for it): the caller
+// then stages.
+bool imported_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, const void* src, void* dst, size_t n) {
+  auto& f = C.f;
+  const bool up = src != nullptr;
+  const auto p = reinterpret_cast<uintptr_t>(up ? src : dst);
+  const uintptr_t a = C.import_alignment, base = p & ~(a - 1), end = (p + n + a - 1) & ~(a - 1);
+  const size_t bytes = end - base;
+  void* host = reinterpret_cast<void*>(base);
+  const auto handle = VK_EXTERNAL_MEMORY_HANDLE_TYPE_HOST_ALLOCATION_BIT_EXT;
+  VkMemoryHostPointerPropertiesEXT hp{VK_STRUCTURE_TYPE_MEMORY_HOST_POINTER_PROPERTIES_EXT};
+  if (f.vkGetMemoryHostPointerPropertiesEXT(C.device, handle, host, &hp) != VK_SUCCESS) return false;
+  Buffer::Impl imp;
+  struct Release {  // the buffer and memory go when the copy is done, or when it fails
+    Context::Impl& C;
+    Buffer::Impl& b;
+    ~Release() {
+      if (b.buffer) C.f.vkDestroyBuffer(C.device, b.buffer, nullptr);
+      if (b.memory) C.f.vkFreeMemory(C.device, b.memory, nullptr);
+    }
+  } release{C, imp};
+  VkExternalMemoryBufferCreateInfo ebi{VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_BUFFER_CREATE_INFO};
+  ebi.handleTypes = handle;
+  VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bci.pNext = &ebi;
+  bci.size = bytes;
+  bci.usage = up ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  if (f.vkCreateBuffer(C.device, &bci, nullptr, &imp.buffer) != VK_SUCCESS) return false;
+  VkMemoryRequirements req;
+  f.vkGetBufferMemoryRequirements(C.device, imp.buffer, &req);
+  // Host-visible and coherent: the host's writes before an upload, and the device's writes
+  // before a download's fence, need no flush or invalidate (which only a mapping could do).
+  const int type = pick_memory_type(type_flags(C.memory), req.memoryTypeBits & hp.memoryTypeBits,
+                                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, 0);
+  if (type < 0 || req.size > bytes) return false;
+  VkImportMemoryHostPointerInfoEXT imi{VK_STRUCTURE_TYPE_IMPORT_MEMORY_HOST_POINTER_INFO_EXT};
+  imi.handleType = handle;
+  imi.pHostPointer = host;
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.pNext = &imi;
+  mai.allocationSize = bytes;
+  mai.memoryTypeIndex = static_cast<uint32_t>(type);
+  if (f.vkAllocateMemory(C.device, &mai, nullptr, &imp.memory) != VK_SUCCESS) return false;
+  vk::check(f.vkBindBufferMemory(C.device, imp.buffer, imp.memory, 0), "binding imported host memory");
+  submit_copy(C, 0, device_buffer, offset, imp.buffer, static_cast<size_t>(p - base), n, up);
+  vk::check(f.vkWaitForFences(C.device, 1, &C.transfer_fence[0], VK_TRUE, UINT64_MAX), "waiting for a copy");
+  return true;
+}
+
+// Returns whether the copy went straight from (to) the caller's imported pages (asked for by
+// `import`, or by PHOTOSITE_VK_HOST_IMPORT=1, where the context offers it).
+bool staged_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, const void* src, void* dst, size_t n,
+                 bool import) {
   std::lock_guard<std::mutex> lock(C.transfer_mutex);
+  if (C.host_import && (import || C.import_always) && n >= kHostImportMinBytes &&
+      imported_copy(C, device_buffer, offset, src, dst, n))
+    return true;
   ensure_staging(C, 2 * kStagingChunk);
   const bool up = src != nullptr;
   const size_t chunks = (n + kStagingChunk - 1) / kStagingChunk;
@@ -531,6 +636,7 @@ void staged_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, const 
         submit_chunk(C, static_cast<int>(k % 2), device_buffer, offset + (k + 2) * kStagingChunk, size_of(k + 2), false);
     }
   }
+  return false;
 }
 }  // namespace
 
@@ -538,14 +644,14 @@ void Buffer::upload(const void* src, size_t n, size_t offset) {
   if (offset + n > bytes_) internal_error("gpu::Buffer::upload beyond the buffer");
   if (n == 0) return;
   if (mapped_) std::memcpy(static_cast<char*>(mapped_) + offset, src, n);
-  else staged_copy(ctx_.impl(), impl_->buffer, offset, src, nullptr, n);
+  else if (staged_copy(ctx_.impl(), impl_->buffer, offset, src, nullptr, n, host_import_)) ctx_.count_imported(n);
   ctx_.count_upload(n);
 }
 void Buffer::download(void* dst, size_t n, size_t offset) const {
   if (offset + n > bytes_) internal_error("gpu::Buffer::download beyond the buffer");
   if (n == 0) return;
   if (mapped_) std::memcpy(dst, static_cast<const char*>(mapped_) + offset, n);
-  else staged_copy(ctx_.impl(), impl_->buffer, offset, nullptr, dst, n);
+  else if (staged_copy(ctx_.impl(), impl_->buffer, offset, nullptr, dst, n, host_import_)) ctx_.count_imported(n);
   ctx_.count_download(n);
 }
 

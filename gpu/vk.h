@@ -18,7 +18,8 @@ namespace photosite::gpu::vk {
   X(vkDestroyInstance) X(vkEnumeratePhysicalDevices) X(vkGetPhysicalDeviceProperties)          \
   X(vkGetPhysicalDeviceQueueFamilyProperties) X(vkGetPhysicalDeviceFeatures)                   \
   X(vkGetPhysicalDeviceMemoryProperties) X(vkCreateDevice) X(vkGetDeviceProcAddr)              \
-  X(vkCreateDebugUtilsMessengerEXT) X(vkDestroyDebugUtilsMessengerEXT)
+  X(vkCreateDebugUtilsMessengerEXT) X(vkDestroyDebugUtilsMessengerEXT)                         \
+  X(vkEnumerateDeviceExtensionProperties) X(vkGetPhysicalDeviceProperties2)
 #define PHOTOSITE_VK_DEVICE(X)                                                                 \
   X(vkDestroyDevice) X(vkGetDeviceQueue) X(vkDeviceWaitIdle) X(vkCreateBuffer)                 \
   X(vkDestroyBuffer) X(vkGetBufferMemoryRequirements) X(vkAllocateMemory) X(vkFreeMemory)       \
@@ -32,7 +33,8 @@ namespace photosite::gpu::vk {
   X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) X(vkCmdDispatch) X(vkCmdPipelineBarrier)     \
   X(vkQueueSubmit) X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences)       \
   X(vkCreateQueryPool) X(vkDestroyQueryPool) X(vkCmdResetQueryPool) X(vkCmdWriteTimestamp)     \
-  X(vkGetQueryPoolResults) X(vkCmdCopyBuffer)
+  X(vkGetQueryPoolResults) X(vkCmdCopyBuffer)                                                  \
+  X(vkGetMemoryHostPointerPropertiesEXT) /* VK_EXT_external_memory_host: null where not enabled */
 
 struct Functions {
   PFN_vkGetInstanceProcAddr vkGetInstanceProcAddr = nullptr;
@@ -76,6 +78,14 @@ struct Context::Impl {
   Buffer::Impl staging;  // its buffer and memory
   void* staging_mapped = nullptr;
   size_t staging_bytes = 0;
+  // Staged transfers of at least kHostImportMinBytes can copy straight from (to) the caller's own
+  // pages, imported for the copy with VK_EXT_external_memory_host (DeviceInfo::host_import), where
+  // the device offers it and the buffer asks for it (Buffer::set_host_import): no memcpy through
+  // the staging slots. import_alignment is the device's
+  // minImportedHostPointerAlignment (the imported range is widened to it).
+  bool host_import = false;
+  bool import_always = false;  // PHOTOSITE_VK_HOST_IMPORT=1: every buffer's, not only those asked to
+  size_t import_alignment = 0;
   void free_staging();
   ~Impl();
 };

@@ -39,6 +39,76 @@ IMG=$CS/leftImg8bit/aachen_000000_000019_leftImg8bit.png
 LAB=$CS/gtFine/aachen_000000_000019_gtFine_labelIds.png
 INS=$CS/gtFine/aachen_000000_000019_gtFine_instanceIds.png
 
+make_manifest() {
+  mkdir -p /tmp/bf && : > /tmp/bf/manifest
+  for k in 1 2 3 4 5 6 7 8; do
+    for f in $CS/leftImg8bit/*_leftImg8bit.png; do
+      s=$(basename "$f" _leftImg8bit.png)
+      ln -sf "$(pwd -P)/$f" /tmp/bf/${s}_$k.png
+      ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_labelIds.png" /tmp/bf/${s}_${k}_labelIds.png
+      ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_instanceIds.png" /tmp/bf/${s}_${k}_instanceIds.png
+      echo "/tmp/bf/${s}_$k.png /tmp/bf/${s}_${k}_labelIds.png /tmp/bf/${s}_${k}_instanceIds.png" >> /tmp/bf/manifest
+    done
+  done
+}
+import_step() {
+  step "imported host pages (the default where offered) against the staging slots alone (PHOTOSITE_VK_HOST_IMPORT=0): bench night --backend vulkan, 2 threads, alternating"
+  for i in 1 2 3 4; do
+    for m in 0 1; do
+      echo "-- PHOTOSITE_VK_HOST_IMPORT=$m, pair $i"
+      mkdir -p "/tmp/hi_$m$i"
+      PHOTOSITE_VK_HOST_IMPORT=$m timeout 60 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+        --repeats 9 --threads 2 --out-dir "/tmp/hi_$m$i" 2>&1 | grep -E '^(vulkan|whole chain|peer:)|imported host pages'
+    done
+  done
+  for m in 0 1; do
+    echo "-- bench pipeline, PHOTOSITE_VK_HOST_IMPORT=$m"
+    mkdir -p "$OUT/import$m"
+    PHOTOSITE_VK_HOST_IMPORT=$m timeout 60 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/import$m" 2>&1 |
+      grep -E 'wall|Sensor noise|RAW|Composition|device'
+  done
+  for m in 0 1; do
+    rm -rf /tmp/bo
+    echo "-- batch --backend vulkan --jobs 4, PHOTOSITE_VK_HOST_IMPORT=$m: $(PHOTOSITE_VK_HOST_IMPORT=$m timeout 120 $P batch --manifest /tmp/bf/manifest --out /tmp/bo --backend vulkan --jobs 4 2>&1 | tail -n 1)"
+  done
+}
+# PHOTOSITE_DEVICE_ONLY=import: the machine and the import comparison alone (its bench night pairs,
+# bench pipeline and batch --jobs 4 with and without imported host pages). import-batch: only
+# alternating batch runs over the 40 frames, PAIRS (6) pairs each with --jobs in JOBS ("4 1"), the
+# values of PHOTOSITE_VK_HOST_IMPORT in ORDER ("0 1"; "unset": batch's own choice); WITH_TESTS=1
+# runs the Vulkan tests first.
+if [ "${PHOTOSITE_DEVICE_ONLY:-}" = import ]; then
+  step machine; $P version 2>&1
+  make_manifest; import_step; step done; exit 0
+fi
+if [ "${PHOTOSITE_DEVICE_ONLY:-}" = import-batch ]; then
+  step machine; $P version 2>&1
+  if [ "${WITH_TESTS:-0}" = 1 ]; then
+    step "Vulkan and AVX-512 tests"
+    timeout 200 .dev/bin/photosite_gpu_tests --gtest_filter='Gpu.*:GpuCli.*:*Vulkan*:*Avx512*:FacadeWindows.Reciprocal*' > "$OUT/tests_staged.txt" 2>&1
+    echo "tests exit: $?"
+    grep -E '^\[  (FAILED|PASSED|SKIPPED) |tests ran|^\[gpu\] device' "$OUT/tests_staged.txt"
+  fi
+  make_manifest
+  # ORDER="1 0" runs the import first in each pair (a check on the order's own effect).
+  for jobs in ${JOBS:-4 1}; do
+    step "batch --backend vulkan --jobs $jobs over 40 frames, PHOTOSITE_VK_HOST_IMPORT=${ORDER:-0 1} alternating"
+    for i in $(seq 1 ${PAIRS:-6}); do
+      for m in ${ORDER:-0 1}; do
+        rm -rf /tmp/bo
+        t0=$(date +%s%N)
+        # "unset": batch's own choice (imported pages where offered)
+        if [ "$m" = unset ]; then
+          r=$(env -u PHOTOSITE_VK_HOST_IMPORT timeout 60 $P batch --manifest /tmp/bf/manifest --out /tmp/bo --backend vulkan --jobs $jobs 2>&1 | tail -n 1)
+        else
+          r=$(PHOTOSITE_VK_HOST_IMPORT=$m timeout 60 $P batch --manifest /tmp/bf/manifest --out /tmp/bo --backend vulkan --jobs $jobs 2>&1 | tail -n 1)
+        fi
+        echo "-- pair $i, PHOTOSITE_VK_HOST_IMPORT=$m: $(( ($(date +%s%N) - t0) / 1000000 )) ms wall: $r"
+      done
+    done
+  done
+  step done; exit 0
+fi
 step machine
 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.sm,clocks.mem --format=csv 2>&1 | head -3
 lscpu | grep -E '^(Model name|CPU\(s\)|Thread|Core)' ; uname -r
@@ -78,21 +148,13 @@ timeout 70 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --inst
 step "bench pipeline"
 timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
 step "batch over 40 frames (the Cityscapes samples under 8 names each), CPU and Vulkan, every thread"
-mkdir -p /tmp/bf && : > /tmp/bf/manifest
-for k in 1 2 3 4 5 6 7 8; do
-  for f in $CS/leftImg8bit/*_leftImg8bit.png; do
-    s=$(basename "$f" _leftImg8bit.png)
-    ln -sf "$(pwd -P)/$f" /tmp/bf/${s}_$k.png
-    ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_labelIds.png" /tmp/bf/${s}_${k}_labelIds.png
-    ln -sf "$(pwd -P)/$CS/gtFine/${s}_gtFine_instanceIds.png" /tmp/bf/${s}_${k}_instanceIds.png
-    echo "/tmp/bf/${s}_$k.png /tmp/bf/${s}_${k}_labelIds.png /tmp/bf/${s}_${k}_instanceIds.png" >> /tmp/bf/manifest
-  done
-done
+make_manifest
 for args in "--backend cpu" "--backend vulkan" "--backend vulkan --jobs 4" \
             "--backend cpu --format png --layers sensor,labels" "--backend vulkan --format png --layers sensor,labels --jobs 4"; do
   rm -rf /tmp/bo
   echo "-- batch $args: $(timeout 120 $P batch --manifest /tmp/bf/manifest --out /tmp/bo $args 2>&1 | tail -n 1)"
 done
+import_step
 if [ -x .dev/old/photosite ]; then
   step "the previous command (.dev/old/photosite) against this one: bench night --backend vulkan, 2 threads, alternating"
   for i in 1 2 3; do

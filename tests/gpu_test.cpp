@@ -14,6 +14,7 @@
 #include <iterator>
 #include <limits>
 #include <memory>
+#include <sys/mman.h>
 
 #include "photosite/error.h"
 #include "photosite/rng.h"
@@ -58,8 +59,9 @@ gpu::Context* test_context(std::string* why) {
     setenv("PHOTOSITE_VK_VALIDATION", "1", 0);
     try {
       ctx = std::make_unique<gpu::Context>();
-      std::fprintf(stderr, "[gpu] device: %s (%s)%s%s\n", ctx->device().name.c_str(), ctx->device().type.c_str(),
-                   ctx->validation() ? ", validation on" : "", ctx->device().staged ? ", staged transfers" : "");
+      std::fprintf(stderr, "[gpu] device: %s (%s)%s%s%s\n", ctx->device().name.c_str(), ctx->device().type.c_str(),
+                   ctx->validation() ? ", validation on" : "", ctx->device().staged ? ", staged transfers" : "",
+                   ctx->device().host_import ? " (host-page import offered)" : "");
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -673,34 +675,54 @@ TEST(GpuMemory, BuffersAndStagingPickTheRightMemoryTypes) {
 }
 
 TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
+  // Both staged routes: every copy through the staging buffer's slots, and (buffers asked to, where
+  // the device offers VK_EXT_external_memory_host: lavapipe does) copies of 1 MB or more straight
+  // from and to the caller's imported pages. A context made without import never imports.
+  for (const int route : {0, 1, 2}) {  // slots; imported pages; asked to, on a context without
+    gpu::ContextOptions o;
+    o.staging = gpu::Staging::Staged;
+    o.host_import = route != 2;
+    gpu::Context staged(o);
+    ASSERT_TRUE(staged.device().staged);
+    if (route == 2) EXPECT_FALSE(staged.device().host_import);
+    if (staged.device().cpu && route != 2) EXPECT_TRUE(staged.device().host_import) << "lavapipe offers host-pointer import";
+    const bool imports = route == 1 && staged.device().host_import;
+    const bool import = route != 0;
+    // Sizes around the staging buffer's two 4 MB slots (one chunk, one short of a chunk, two and a
+    // word, three), at an offset of a word.
+    for (const size_t bytes : {size_t{4} << 20, (size_t{4} << 20) - 4, (size_t{8} << 20) + 4, size_t{12} << 20}) {
+      const size_t words = bytes / 4;
+      std::vector<uint32_t> in(words), out(words, 0);
+      for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>((i + bytes) * 2246822519u);
+      gpu::Buffer b(staged, bytes + 4);
+      b.set_host_import(import);
+      const auto t0 = staged.transfers();
+      b.upload(in.data(), bytes, 4);
+      b.download(out.data(), bytes, 4);
+      EXPECT_EQ(in, out) << bytes << " import " << import;
+      EXPECT_EQ(staged.transfers().imported - t0.imported, imports ? 2 * bytes : 0) << bytes;
+    }
+    // A buffer of many chunks, at an offset, and a part read back (12 bytes: through the slots).
+    {
+      const size_t words = (40u << 20) / 4;
+      std::vector<uint32_t> in(words), out(words, 0);
+      for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>(i * 2654435761u);
+      gpu::Buffer b(staged, (words + 2) * 4);
+      b.set_host_import(import);
+      b.upload(in.data(), words * 4, 8);
+      b.download(out.data(), words * 4, 8);
+      EXPECT_EQ(in, out);
+      const auto t0 = staged.transfers();
+      uint32_t part[3];
+      b.download(part, sizeof(part), 8 + 4 * (words - 3));
+      EXPECT_TRUE(part[0] == in[words - 3] && part[2] == in[words - 1]);
+      EXPECT_EQ(staged.transfers().imported, t0.imported) << "12 bytes are not imported";
+    }
+    for (const auto& m : staged.messages()) ADD_FAILURE() << "Vulkan validation: " << m;
+  }
   gpu::ContextOptions o;
   o.staging = gpu::Staging::Staged;
   gpu::Context staged(o);
-  ASSERT_TRUE(staged.device().staged);
-  // Sizes around the staging buffer's two 4 MB slots (one chunk, one short of a chunk, two and a
-  // word, three), at an offset of a word.
-  for (const size_t bytes : {size_t{4} << 20, (size_t{4} << 20) - 4, (size_t{8} << 20) + 4, size_t{12} << 20}) {
-    const size_t words = bytes / 4;
-    std::vector<uint32_t> in(words), out(words, 0);
-    for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>((i + bytes) * 2246822519u);
-    gpu::Buffer b(staged, bytes + 4);
-    b.upload(in.data(), bytes, 4);
-    b.download(out.data(), bytes, 4);
-    EXPECT_EQ(in, out) << bytes;
-  }
-  // A buffer of many chunks, at an offset, and a part read back.
-  {
-    const size_t words = (40u << 20) / 4;
-    std::vector<uint32_t> in(words), out(words, 0);
-    for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>(i * 2654435761u);
-    gpu::Buffer b(staged, (words + 2) * 4);
-    b.upload(in.data(), words * 4, 8);
-    b.download(out.data(), words * 4, 8);
-    EXPECT_EQ(in, out);
-    uint32_t part[3];
-    b.download(part, sizeof(part), 8 + 4 * (words - 3));
-    EXPECT_TRUE(part[0] == in[words - 3] && part[2] == in[words - 1]);
-  }
   // The sensor chain, two frames (the fixed-pattern maps stay on the device).
   const CameraPreset cam = load_camera_preset("sony-imx490");
   const LensPreset lens = load_lens_preset(cam.default_lens);
@@ -739,6 +761,75 @@ TEST_F(Gpu, StagedTransfersAgreeWithMappedBuffers) {
   EXPECT_EQ(count_differences(gpu::linearize(*ctx, day, info), gpu::linearize(staged, day, info)), 0u);
   day[3 * (5 * 64 + 7)] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_THROW(gpu::linearize(staged, day, info), Error);
+  for (const auto& m : staged.messages()) ADD_FAILURE() << "Vulkan validation: " << m;
+}
+
+// An imported copy widens the import to whole pages (the device's minImportedHostPointerAlignment)
+// but touches only the bytes asked for: the bytes of the same pages before and after a download's
+// range keep their values. Memory the driver will not import (a read-only mapping on some
+// drivers) still uploads, through the staging buffer. A BufferCache's setting reaches its
+// buffers, and the sensor chain with its copies imported gives the direct context's bits.
+TEST_F(Gpu, ImportedHostPagesCopyOnlyTheirRange) {
+  gpu::ContextOptions o;
+  o.staging = gpu::Staging::Staged;
+  gpu::Context staged(o);
+  if (!staged.device().host_import) {
+    ASSERT_FALSE(staged.device().cpu) << "lavapipe offers host-pointer import";
+    GTEST_SKIP() << "this device does not offer VK_EXT_external_memory_host";
+  }
+  const size_t page = 4096, pages = 600, n = (pages - 2) * page - 2 * 1234;  // 2.4 MB, off the page grid
+  const size_t words = (n + 4) / 4;
+  std::vector<uint32_t> in(words);
+  for (size_t i = 0; i < words; ++i) in[i] = static_cast<uint32_t>(i * 2654435761u + 17);
+  gpu::Buffer b(staged, n + 64);
+  b.set_host_import(true);
+  // Page-aligned host memory; the range starts 1234 + 4 bytes into its second page.
+  void* mem = mmap(nullptr, pages * page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(mem, MAP_FAILED);
+  auto* host = static_cast<unsigned char*>(mem);
+  const size_t at = page + 1238;
+  std::memcpy(host + at, in.data(), n);
+  const auto t0 = staged.transfers();
+  b.upload(host + at, n, 12);
+  std::memset(host, 0xA5, pages * page);
+  b.download(host + at, n, 12);
+  EXPECT_EQ(staged.transfers().imported - t0.imported, 2 * n);
+  EXPECT_EQ(std::memcmp(host + at, in.data(), n), 0);
+  size_t touched = 0;
+  for (size_t i = 0; i < pages * page; ++i)
+    if (i < at || i >= at + n) touched += host[i] != 0xA5;
+  EXPECT_EQ(touched, 0u) << "bytes outside the range changed";
+  // A read-only mapping uploads too (imported where the driver allows it, else staged).
+  std::memcpy(host + at, in.data(), n);
+  ASSERT_EQ(mprotect(mem, pages * page, PROT_READ), 0);
+  b.upload(host + at, n, 0);
+  std::vector<uint32_t> back(words, 0);
+  b.download(back.data(), n, 0);
+  EXPECT_EQ(std::memcmp(back.data(), in.data(), n), 0);
+  munmap(mem, pages * page);
+  // A cache's setting reaches the buffers it made before and after it.
+  gpu::BufferCache cache(staged);
+  gpu::Buffer& early = cache.get("early", 64);
+  cache.set_host_import(true);
+  EXPECT_TRUE(early.host_import());
+  EXPECT_TRUE(cache.get("late", 64).host_import());
+  cache.set_host_import(false);
+  EXPECT_FALSE(early.host_import() || cache.get("late", 64).host_import());
+  // The sensor chain as batch runs it (its large copies from and to imported pages) gives the
+  // direct context's bits: 512 x 256 (the radiance 1.5 MB, the RGB output 1.5 MB, imported).
+  const CameraPreset cam = load_camera_preset("sony-imx490");
+  const LensPreset lens = load_lens_preset(cam.default_lens);
+  const FixedPatternMaps fpn = generate_fixed_pattern(cam, 512, 256, "imported-gpu-test");
+  const ImageF rad = test_radiance(512, 256, 40.0);
+  gpu::SensorChain direct(*ctx), imported(staged);
+  imported.set_host_import(true);
+  ExposureSettings s;
+  s.exposure_s = 0.01, s.seed = 9;
+  const auto t1 = staged.transfers();
+  const SensorOutput x = direct.expose(rad, cam, lens, s, fpn), y = imported.expose(rad, cam, lens, s, fpn);
+  EXPECT_GE(staged.transfers().imported - t1.imported, 2 * rad.size() * sizeof(float));
+  EXPECT_EQ(count_differences(x.raw_dn, y.raw_dn), 0u);
+  EXPECT_EQ(count_differences(x.rgb, y.rgb), 0u);
   for (const auto& m : staged.messages()) ADD_FAILURE() << "Vulkan validation: " << m;
 }
 

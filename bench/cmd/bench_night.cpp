@@ -123,7 +123,7 @@ void run(const Opts& o) {
   // largest difference over its peak, and the share of raw samples that differ (both 0: the
   // parity tests require every channel bit-equal, tests/gpu_test.cpp CliBackendsAgreeOnFlatAndNight).
   double device_radiance_diff = -1, device_raw_differ = -1;
-  double device_up_mb = 0, device_down_mb = 0;
+  double device_up_mb = 0, device_down_mb = 0, device_imported_mb = 0;
 
   std::map<std::string, std::vector<double>> t;
   std::vector<std::string> order;
@@ -237,6 +237,7 @@ void run(const Opts& o) {
         device_rows.emplace_back("vulkan: whole chain", ms(td0, td3));
         device_up_mb = (tr1.uploaded - tr0.uploaded) / 1e6;
         device_down_mb = (tr1.downloaded - tr0.downloaded) / 1e6;
+        device_imported_mb = (tr1.imported - tr0.imported) / 1e6;
         if (device_radiance_diff < 0) {
           double peak = 0, diff = 0;
           for (size_t i = 0; i < ns.radiance.size(); ++i) {
@@ -473,8 +474,9 @@ void run(const Opts& o) {
                 o.threads);
   if (device)
     std::printf("vulkan chain against the CPU's (first timed round): radiance max |diff| %.3g of its peak, "
-                "raw samples differing %.3g%%; per frame %.1f MB host->device, %.1f MB device->host\n",
-                device_radiance_diff, 100 * device_raw_differ, device_up_mb, device_down_mb);
+                "raw samples differing %.3g%%; per frame %.1f MB host->device, %.1f MB device->host (%.1f MB of "
+                "them straight from or to imported host pages)\n",
+                device_radiance_diff, 100 * device_raw_differ, device_up_mb, device_down_mb, device_imported_mb);
   if (o.chain_only) {  // a partial table: docs/night_bench.csv keeps the last full run
     std::printf("(--chain-only: no CSV written)\n");
     return;

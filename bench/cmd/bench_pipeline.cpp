@@ -99,7 +99,9 @@ void run(const Opts& o) {
       fail(std::string("bench pipeline --backend vulkan: ") + e.what());
     }
     if (!ctx->device().timestamps) fail("bench pipeline: the Vulkan device has no compute timestamps");
-    device = ctx->device().name + (ctx->device().staged ? " (staged transfers)" : " (mapped buffers)");
+    device = ctx->device().name + (!ctx->device().staged           ? " (mapped buffers)"
+                                       : ctx->device().host_import ? " (staged transfers; host-page import offered, not used here)"
+                                                                   : " (staged transfers)");
     chain = std::make_unique<gpu::SensorChain>(*ctx);
     stages = std::make_unique<gpu::SceneStages>(*ctx);
   }

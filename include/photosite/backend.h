@@ -69,12 +69,21 @@ class SensorRunner {
   // Bytes moved host→device and back so far (Vulkan; zeros on the CPU).
   struct Transfers {
     uint64_t uploaded = 0, downloaded = 0;
+    uint64_t imported = 0;  // of both: copied straight from (to) imported host pages (gpu::DeviceInfo::host_import)
     bool staged = false;  // through staging copies (a discrete GPU), not mapped buffers
   };
   Transfers transfers() const;
+  // On Vulkan, with staged transfers on a device that can import host memory: the large copies
+  // go straight from (to) the host's imported pages, by the device's copy engine, not through the
+  // staging buffer by the host's memcpy (gpu::Buffer::set_host_import, which has the measurements:
+  // faster where the host's cores are busy beside the copies, as in batch; slower for one frame on
+  // idle cores). Off by default; nothing on the CPU backend.
+  void set_host_import(bool on);
+  bool host_import() const { return host_import_; }
 
  private:
   Backend backend_;
+  bool host_import_ = false;
   struct Device;
   std::unique_ptr<Device> device_;
 };

@@ -9,6 +9,7 @@
 //   PHOTOSITE_VK_VALIDATION       1: Vulkan validation layer on, every message recorded
 //   PHOTOSITE_VK_SYNC_VALIDATION  0: without synchronization validation (when validation is on)
 //   PHOTOSITE_VK_STAGING          1|0: force staged copies or mapped buffers
+//   PHOTOSITE_VK_HOST_IMPORT      0|1: staged copies never / always import the caller's pages (gpu/context.h)
 //   PHOTOSITE_SAMPLE_DIR          the bundled sample images (the command's `night` default input)
 //   PHOTOSITE_SCALAR_LIGHTS       1: the light map's street light and low beam take their scalar
 //                                 paths on an AVX2 machine (read once; to check both give the same bits)
@@ -36,6 +37,7 @@ enum class Var {
   VkValidation,
   VkSyncValidation,
   VkStaging,
+  VkHostImport,
   SampleDir,
   ScalarLights,
   MaxIsa,

@@ -8,6 +8,9 @@
 //                              included) and record every message (tests fail on any); an
 //                              error if the layer is not installed.
 //   PHOTOSITE_VK_STAGING=1|0   force staged copies or mapped buffers (ContextOptions::staging).
+//   PHOTOSITE_VK_HOST_IMPORT=0|1  0: staged copies never import the caller's pages
+//                              (ContextOptions::host_import); 1: every Buffer's large staged copies
+//                              do, not only those of buffers asked to (Buffer::set_host_import).
 //   VK_DRIVER_FILES / VK_ICD_FILENAMES  the loader's own driver selection (lavapipe in CI).
 #pragma once
 #include <atomic>
@@ -32,7 +35,17 @@ struct DeviceInfo {
   // copied to and from a host-cached staging buffer) rather than through mapped storage buffers
   // (a CPU driver or an integrated GPU, whose memory is device-local, host-visible and cached).
   bool staged = false;
+  // Staged transfers of at least kHostImportMinBytes can run as one device copy straight from (or
+  // to) the caller's own pages, imported for that copy (VK_EXT_external_memory_host), not through
+  // the staging buffer: the device offers the extension and ContextOptions::host_import allows it.
+  // Which copies do: Buffer::set_host_import.
+  bool host_import = false;
 };
+
+// The smallest staged transfer that imports the caller's pages (Buffer::set_host_import); smaller
+// ones go through the staging buffer, where the import's fixed cost (the driver pins the pages and
+// maps them for the device) would outweigh the memcpy it saves.
+inline constexpr size_t kHostImportMinBytes = size_t{1} << 20;
 
 // How Buffer::upload / download reach device memory: Auto picks Staged unless a memory type is
 // device-local, host-visible, coherent and cached all at once (where mapping is free). Reading
@@ -43,6 +56,7 @@ struct ContextOptions {
   bool validation = false;       // also on when PHOTOSITE_VK_VALIDATION=1
   bool prefer_gpu = true;        // a real GPU over a CPU implementation when both are present
   Staging staging = Staging::Auto;  // Auto: PHOTOSITE_VK_STAGING=1 / 0 forces Staged / Direct
+  bool host_import = true;       // DeviceInfo::host_import where offered; PHOTOSITE_VK_HOST_IMPORT=0 turns it off
 };
 
 class Context;
@@ -62,6 +76,16 @@ class Buffer {
   size_t bytes() const { return bytes_; }
   void upload(const void* src, size_t n, size_t offset = 0);
   void download(void* dst, size_t n, size_t offset = 0) const;
+  // Staged copies of kHostImportMinBytes or more straight from (to) the caller's imported pages,
+  // where the context offers it (DeviceInfo::host_import), instead of through the staging slots.
+  // Off by default. On a lent H200 (docs/vulkan.md, 2026-12-04 17:40 UTC) the import made a single
+  // frame slower at 2 threads (the night tail 7.8-8.3 -> 10.1-12.1 ms, the sensor 4.7-4.9 ->
+  // 6.3-6.7 ms, 4 of 4 pairs): pinning the pages costs more than the staging slots' memcpy on
+  // idle cores. It made `batch` faster (4.86-5.09 -> 4.53-4.85 s for 40 frames at its default
+  // --jobs 1, 11 of 11 pairs), where the host's cores are busy encoding beside the copies and the
+  // device's copy engine spares them the memcpy; batch turns it on (SensorRunner::set_host_import).
+  void set_host_import(bool on) { host_import_ = on; }
+  bool host_import() const { return host_import_; }
   template <class T> void store(const T& value) { upload(&value, sizeof(T)); }
   template <class T> T load() const {
     T value;
@@ -75,6 +99,7 @@ class Buffer {
   Context& ctx_;
   size_t bytes_;
   void* mapped_ = nullptr;  // direct contexts only
+  bool host_import_ = false;
   std::unique_ptr<Impl> impl_;
 };
 
@@ -86,9 +111,12 @@ class BufferCache {
   Buffer& get(const std::string& name, size_t bytes);
   // The buffer `name` as it is, or nullptr when none was made yet.
   Buffer* find(const std::string& name);
+  // Buffer::set_host_import for every buffer, those made later included.
+  void set_host_import(bool on);
 
  private:
   Context& ctx_;
+  bool host_import_ = false;
   std::map<std::string, std::unique_ptr<Buffer>> buffers_;
 };
 
@@ -113,10 +141,13 @@ class Context {
   // Bytes copied host→device (Buffer::upload) and device→host (Buffer::download) since creation:
   // what a chain moves per frame, the cost that keeping images on the device saves (on a GPU
   // each byte crosses PCIe; on lavapipe it is a memcpy).
-  struct Transfers { uint64_t uploaded = 0, downloaded = 0; };
-  Transfers transfers() const { return {uploaded_.load(), downloaded_.load()}; }
+  // `imported`: the part of both that was copied straight from (to) the caller's imported pages
+  // (DeviceInfo::host_import), not through the staging buffer.
+  struct Transfers { uint64_t uploaded = 0, downloaded = 0, imported = 0; };
+  Transfers transfers() const { return {uploaded_.load(), downloaded_.load(), imported_.load()}; }
   void count_upload(size_t n) { uploaded_ += n; }
   void count_download(size_t n) { downloaded_ += n; }
+  void count_imported(size_t n) { imported_ += n; }
 
   struct Impl;
   Impl& impl() { return *impl_; }
@@ -127,7 +158,7 @@ class Context {
   bool validation_ = false;
   mutable std::mutex mutex_;
   std::vector<std::string> messages_;
-  std::atomic<uint64_t> uploaded_{0}, downloaded_{0};
+  std::atomic<uint64_t> uploaded_{0}, downloaded_{0}, imported_{0};
   std::unique_ptr<Impl> impl_;
 };
 

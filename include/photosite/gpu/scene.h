@@ -45,6 +45,9 @@ class SceneStages {
   // The device buffer holding the radiance of the tail() that gave `token`, or nullptr when
   // the token is 0 or stale (a later call has overwritten the buffer).
   Buffer* resident_radiance(DeviceImage image);
+  // Large staged copies of these stages' buffers from (to) the host's imported pages
+  // (Buffer::set_host_import).
+  void set_host_import(bool on) { buffers_.set_host_import(on); }
 
  private:
   Buffer& buffer(const std::string& name, size_t bytes);

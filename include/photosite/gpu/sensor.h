@@ -46,6 +46,9 @@ class SensorChain {
   // Device time per kernel of the last frame (empty without timestamps).
   std::vector<Sequence::StageTime> stage_times() const { return times_; }
   Context& context() { return ctx_; }
+  // Large staged copies of this chain's buffers from (to) the host's imported pages
+  // (Buffer::set_host_import).
+  void set_host_import(bool on) { buffers_.set_host_import(on); }
 
  private:
   Buffer& buffer(const std::string& name, size_t bytes);
