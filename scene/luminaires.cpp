@@ -304,6 +304,21 @@ StreetLighting LuminaireSet::update(const StreetLighting& plan, const CameraGeom
   s.peak_intensity_cd = plan.peak_intensity_cd;
   s.road_straight = plan.road_straight;  // this frame's measurement (the road ahead may bend later)
   s.road_ahead = plan.road_ahead;        // likewise
+  // Where this frame's bend starts at the camera: how far back along the road line driven the
+  // vehicle has been turning the bend's way (the pieces behind the camera with curvature of that
+  // sign, back from the camera's own), for the signs' facing (RoadAhead::turning_behind_m). Up to
+  // the line kept (three spacings behind the camera).
+  if (s.road_ahead.curved && s.road_ahead.curve_start_m <= kBendAtCameraM) {
+    double behind = 0;
+    for (size_t j = path_.size(); j-- > 0;) {
+      const Piece& q = path_[j];
+      if (q.a0 > a_cam) continue;  // (none: the line driven ends at the camera)
+      if (!(q.kappa * s.road_ahead.kappa_per_m > 0)) break;
+      // the part behind the camera (the last piece runs on to it: it is continued beyond its end)
+      behind += j + 1 == path_.size() ? a_cam - q.a0 : std::min(q.len_m, a_cam - q.a0);
+    }
+    s.road_ahead.turning_behind_m = behind;
+  }
   s.source = poles_.empty() ? "road_edges" : "poles+road_edges";
   for (const auto& w : world) {
     StreetLamp l = w.l;

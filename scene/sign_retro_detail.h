@@ -208,6 +208,10 @@ struct SignFacing {
   double CX = 0, CD = 0;      // the arc's centre
   double k = 1;               // sgn κ
   double sr = 0, cr = 1;      // sin, cos of −κ·d − ψ0 (|κ|·d held at π)
+  // In a sequence, the arc continued back b = RoadAhead::turning_behind_m (held at d and at a
+  // quarter turn): sin, cos of |κ|·b.
+  bool back = false;
+  double sb = 0, cb = 1;
   SignFacing() = default;
   SignFacing(const RoadAhead& r, double read_distance_m) {
     if (!r.curved || !(r.kappa_per_m != 0) || !std::isfinite(r.kappa_per_m)) return;
@@ -222,6 +226,15 @@ struct SignFacing {
     const double back = -k * std::min(std::fabs(r.kappa_per_m) * std::max(0.0, read_distance_m), M_PI) - r.heading_rad;
     sr = std::sin(back);
     cr = std::cos(back);
+    if (r.turning_behind_m > 0 && r.curve_start_m <= kBendAtCameraM) {
+      const double turned = std::min(std::fabs(r.kappa_per_m) * std::min(r.turning_behind_m, std::max(0.0, read_distance_m)),
+                                     0.5 * M_PI);
+      if (turned > 0) {
+        this->back = true;
+        sb = std::sin(turned);
+        cb = std::cos(turned);
+      }
+    }
   }
 };
 
@@ -239,6 +252,24 @@ template <class V>
   // beyond the quarter turn (its end's ±90°)
   const auto early = f.k * u < 0.0;
   const auto late = v < 0.0;
+  if (f.back) {
+    // A sequence's arc continued back by |κ|·b (SignFacing::back): a reading point turned back by
+    // less keeps its turn; one turned back further takes the arc's start behind, −sgn κ·|κ|·b.
+    // (sin(sgn κ·ψ + |κ|·b) ≥ 0, times |w|: the turn is at least −|κ|·b.)
+    const auto kept = f.k * u * f.cb + v * f.sb >= 0.0;
+    const V u0 = u, v0 = v, w20 = w2;
+    u = late ? lane_splat<V>(f.k) : u;
+    v = late ? lane_splat<V>(0.0) : v;
+    w2 = late ? lane_splat<V>(1.0) : w2;
+    u = early ? (kept ? u0 : lane_splat<V>(-f.k * f.sb)) : u;
+    v = early ? (kept ? v0 : lane_splat<V>(f.cb)) : v;
+    w2 = early ? (kept ? w20 : lane_splat<V>(1.0)) : w2;
+    const auto before = (X - f.P0X) * f.s0 + (D - f.P0D) * f.c0 <= 0.0;
+    u = before ? lane_splat<V>(0.0) : u;
+    v = before ? lane_splat<V>(1.0) : v;
+    w2 = before ? lane_splat<V>(1.0) : w2;
+    return;
+  }
   u = late ? lane_splat<V>(f.k) : u;
   v = late ? lane_splat<V>(0.0) : v;
   w2 = late ? lane_splat<V>(1.0) : w2;

@@ -2842,6 +2842,22 @@ LabelMap road_labels(const CameraGeometry& g, int W, int H, const CameraPose& q,
 }
 }  // namespace
 
+// A drive straight along +D, then round a circle of radius R entered Dc ahead, turning toward +X
+// (sigma 1) or −X (−1), in the world of the sequence's first frame.
+struct CircleDrive {
+  double R, Dc, sigma;
+  bool on_circle(double X, double D) const { return D > Dc || sigma * X > R; }
+  // A world point's offset across the camera's path (+ right).
+  double offset(double X, double D) const {
+    return on_circle(X, D) ? sigma * (R - std::hypot(X - sigma * R, D - Dc)) : X;
+  }
+  CameraPose pose_at(double s) const {  // the camera after s metres
+    if (s <= Dc) return CameraPose{0, s, 0};
+    const double th = (s - Dc) / R;
+    return CameraPose{sigma * (R - R * std::cos(th)), Dc + R * std::sin(th), sigma * th};
+  }
+};
+
 // The road-edge layout follows a curving road (issue 14 §3, lights stay put). A road straight for
 // 60 m, then turning on a circle of 100 m radius (the camera's path; a photosite choice within the
 // 60-150 m of city streets' curves) through a quarter turn, to the right and to the left. The
@@ -2879,15 +2895,10 @@ TEST(Luminaires, RoadEdgeLayoutFollowsACurvingRoad) {
   // h = 9 m; the steps after it continue the circle from there.
   const double tol_curve = step * step / (2 * R) + tol;
   for (const double sigma : {1.0, -1.0}) {  // turning right (+X, yaw growing), then left
-    const double CX = sigma * R, CD = Dc;     // the circle's centre
-    auto on_circle = [&](double X, double D) { return D > Dc || sigma * X > R; };
-    // A world point's offset across the camera's path (+ right).
-    auto offset = [&](double X, double D) { return on_circle(X, D) ? sigma * (R - std::hypot(X - CX, D - CD)) : X; };
-    auto pose_at = [&](double s) {
-      if (s <= Dc) return CameraPose{0, s, 0};
-      const double th = (s - Dc) / R;
-      return CameraPose{sigma * (R - R * std::cos(th)), Dc + R * std::sin(th), sigma * th};
-    };
+    const CircleDrive c{R, Dc, sigma};
+    auto on_circle = [&](double X, double D) { return c.on_circle(X, D); };
+    auto offset = [&](double X, double D) { return c.offset(X, D); };
+    auto pose_at = [&](double s) { return c.pose_at(s); };
     const auto to_world = frame_to_world;
     auto labels_at = [&](const CameraPose& q) { return road_labels(g, W, H, q, offset, left, right); };
     LuminaireSet set;
@@ -2959,6 +2970,82 @@ TEST(Luminaires, RoadEdgeLayoutFollowsACurvingRoad) {
                  sigma > 0 ? "right" : "left", R, poses.size(), checked, worst_checked, kept, worst_ahead, entering.c_str(), worst_move,
                  set.path_pieces());
   }
+}
+
+// Round a bend (RoadEdgeLayoutFollowsACurvingRoad's circle of 100 m radius entered 60 m ahead,
+// 9 m steps), each frame's road ahead says how far behind the camera the vehicle has been
+// turning its way (RoadAhead::turning_behind_m) where the frame's bend starts at the camera: the
+// line driven on the circle, between the arc length driven on it and one step more (the step that
+// enters the circle turns as one arc over its whole length), up to the line kept (three spacings
+// behind the camera, and the pieces back to the first that starts before that: at most one step
+// more). A single frame knows none (0). And a sign standing beside the circle keeps its facing in
+// the world from frame to frame while the camera, within its reading distance, turns by 0.09 rad a
+// step: printed with the camera's turn, and asserted within 5 of the fits' standard errors of the
+// heading at the reading point (the frame's heading and curvature errors, propagated over the
+// arc length from the camera to it: σψ² + s²·σκ² + 2·s·cov, s the reading point's signed arc
+// length; the world's true heading there the circle's).
+TEST(Luminaires, SequenceSignsKeepTheirFacingRoundABend) {
+  const ScenePreset p = urban();
+  const int W = 1024, H = 512;
+  const CameraGeometry g = camera_geometry(load_camera_rig("cityscapes"), W, H, VanishingPoint{});
+  const double R = 100, Dc = 60, left = -5.25, right = 3.5, step = 9, S = p.lamp_spacing_ratio * p.lamp_mount_height_m;
+  const double sigma = -1;  // turning left
+  const CircleDrive c{R, Dc, sigma};
+  auto offset = [&](double X, double D) { return c.offset(X, D); };
+  auto pose_at = [&](double s) { return c.pose_at(s); };
+  // A sign on the circle's right edge (the outside of a left bend), 130 m along the path: its
+  // reading point 60 m before it, at path length 70 m, on the circle; the road's heading there
+  // sigma·(70 − 60)/R in the world.
+  const double s_sign = 130, th_sign = (s_sign - Dc) / R, edge = R + right + 1;
+  const double sX = sigma * (R - edge * std::cos(th_sign)), sD = Dc + edge * std::sin(th_sign);
+  const double truth = sigma * (s_sign - p.sign_read_distance_m - Dc) / R;
+  LuminaireSet set;
+  int measured = 0, compared = 0;
+  double worst_behind = 0;
+  std::string row;
+  for (int f = 0; step * f <= s_sign - 5; ++f) {
+    const double s = step * f;
+    const CameraPose q = pose_at(s);
+    const StreetLighting plan = plan_street_lighting(road_labels(g, W, H, q, offset, left, right), g, p, 7);
+    EXPECT_EQ(plan.road_ahead.turning_behind_m, 0) << "a single frame";
+    const StreetLighting sl = set.update(plan, g, W, H, q, p, 7);
+    const RoadAhead& ra = sl.road_ahead;
+    if (!(ra.curved && ra.curve_start_m <= kBendAtCameraM)) {
+      EXPECT_EQ(ra.turning_behind_m, 0) << f;
+      continue;
+    }
+    const double on = std::max(0.0, s - Dc);  // driven on the circle
+    const double lo = std::min(on, 3 * S), hi = on + step;
+    if (on > 0) {
+      EXPECT_GE(ra.turning_behind_m, lo - 1e-9) << "frame " << f;
+      EXPECT_LE(ra.turning_behind_m, hi + 1e-9) << "frame " << f;
+      worst_behind = std::max(worst_behind, std::fabs(ra.turning_behind_m - on));
+      ++measured;
+    }
+    // The sign, in this frame: its facing in the world, where its reading point lies behind the camera.
+    const double dx = sX - q.X_m, dd = sD - q.D_m;
+    const double x = dx * std::cos(q.yaw_rad) - dd * std::sin(q.yaw_rad), d = dx * std::sin(q.yaw_rad) + dd * std::cos(q.yaw_rad);
+    const double s_read = s_sign - p.sign_read_distance_m - s;  // the reading point's arc length from the camera
+    if (s_read >= 0 || d <= 0) continue;
+    const double world = sign_facing_heading_rad(ra, x, d, p.sign_read_distance_m) + q.yaw_rad;
+    RoadAhead single = ra;
+    single.turning_behind_m = 0;
+    const double world_single = sign_facing_heading_rad(single, x, d, p.sign_read_distance_m) + q.yaw_rad;
+    // The fit's heading error at the reading point: ψ's and κ's variances and covariance
+    // (covariance rows: left, right, heading, curvature).
+    const auto& C = ra.covariance;
+    const double se = std::sqrt(std::max(0.0, C[10] + s_read * s_read * C[15] + 2 * s_read * C[11]));
+    // 5 SE; plus the circle's entry step's one-arc approximation (its end off the true path's heading by
+    // at most step/(2R): the step's turn spread over its whole length).
+    EXPECT_NEAR(world, truth, 5 * se + step / (2 * R)) << "frame " << f;
+    row += fmt::format(" {}: {:+.4f} ({:+.4f}; camera {:+.3f})", f, world - truth, world_single - truth, q.yaw_rad);
+    ++compared;
+  }
+  EXPECT_GT(measured, 3);
+  EXPECT_GT(compared, 2);
+  std::fprintf(stderr, "[signs] round a 100 m bend: turning behind within %.2f m of the arc driven in %d frames; the sign's facing "
+               "less the road's at its reading point, by frame (without the arc driven; the camera's yaw):%s\n",
+               worst_behind, measured, row.c_str());
 }
 
 // A vehicle that turns on a straight road (a lane change: 18 m/s, 0.5 s a frame, turning left at
@@ -4984,6 +5071,54 @@ struct BeamSignScene {
 
 
 
+// In a sequence the road behind the camera is known (LuminaireSet: the line driven). Where the
+// frame's bend starts at the camera and the vehicle has been turning its way for b metres
+// (RoadAhead::turning_behind_m), a sign whose reading point lies behind the camera takes the
+// arc continued back: ψ = κ·(a − d) down to −|κ|·min(b, d) (and at most a quarter turn back), not
+// the camera's heading, so a sign within the reading distance of a camera driving round the bend
+// keeps its facing in the world as the camera turns. Bend at 0 m, κ −0.026 1/m, d = 60 m, along
+// the road line (road_piece_point) at offsets across; 1e-12 rad as in
+// SignsOnABendFaceTheTrafficThatReadsThem (|w| ≥ 28 m; the same operations and roundings).
+TEST(EgoLowBeam, SignsInASequenceTakeTheArcDrivenBehindTheCamera) {
+  RoadAhead r = left_bend();
+  r.curve_start_m = 0;
+  const double d = 60, k = r.kappa_per_m;
+  const std::vector<RoadPiece> line = road_ahead_pieces(r);
+  const double end = 0.5 * M_PI / std::fabs(k);  // the quarter turn's end (60.4 m)
+  int checked = 0, back = 0, held = 0;
+  for (const double b : {0.0, 10.0, 40.0, 100.0}) {
+    r.turning_behind_m = b;
+    const double reach = std::min({b, d, end});  // how far back the arc runs
+    for (double a = 1; a < end; a += 2.3)
+      for (const double off : {0.0, r.right_m, r.left_m, r.left_m - 6}) {
+        const RoadPiece q = road_line_piece(line, a);
+        double X, D;
+        road_piece_point(q, a, off, 0, &X, &D);
+        const double ar = a - d;
+        const double want = ar >= 0 ? k * ar : ar >= -reach ? k * ar : -k * reach;
+        // (1e-12 rad: derived above the test)
+        EXPECT_NEAR(sign_facing_heading_rad(r, X, D, d), want, 1e-12) << "b " << b << " m, a " << a << " m, off " << off;
+        ++checked;
+        back += ar < 0 && ar >= -reach && b > 0;
+        held += ar < -reach && b > 0;
+      }
+  }
+  EXPECT_GT(back, 100);
+  EXPECT_GT(held, 20);
+  // A bend that starts ahead of the camera (beyond kBendAtCameraM) is not continued back: the
+  // vehicle's turning behind it belongs to another bend.
+  RoadAhead ahead = left_bend();
+  ahead.turning_behind_m = 40;
+  const RoadAhead plain = left_bend();
+  for (const double a : {20.0, 40.0, 70.0}) {
+    double X, D;
+    road_piece_point(road_line_piece(road_ahead_pieces(plain), a), a, 0, 0, &X, &D);
+    EXPECT_EQ(sign_facing_heading_rad(ahead, X, D, d), sign_facing_heading_rad(plain, X, D, d)) << a;
+  }
+  std::fprintf(stderr, "[signs] a sequence's bend at the camera: %d points, %d read on the arc continued back, %d at its start\n",
+               checked, back, held);
+}
+
 // The sign pixels' luminances eight at a time (AVX-512, beam_max_isa 2: sign_luminances_avx512)
 // and four at a time (AVX2, beam_max_isa 1: sign_luminances_avx2; on a machine without AVX-512
 // cap 2 takes it too) are the scalar code's bits (beam_max_isa 0), pixel by pixel: every row of the synthetic frame
@@ -5014,9 +5149,12 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
   // Twice: the signs facing the camera's heading, and on a road bending left (left_bend: the signs
   // then face their stretch of road, SignLight::facing; the random depths put them before the
   // curve, on it, and beyond its quarter turn).
-  ImageF scalar_maps[3];
-  for (const int bend : {0, 1, 2}) {  // straight; the bend at the preset's reading distance; at 0
+  // A fourth time: a sequence's bend starting at the camera, driven for 40 m behind it
+  // (RoadAhead::turning_behind_m: the arc continued back, SignFacing::back).
+  ImageF scalar_maps[4];
+  for (const int bend : {0, 1, 2, 3}) {  // straight; the bend at the preset's reading distance; at 0; driven
     if (bend) b.street.road_ahead = left_bend();
+    if (bend == 3) b.street.road_ahead.curve_start_m = 0, b.street.road_ahead.turning_behind_m = 40;
     b.p.sign_read_distance_m = bend == 2 ? 0 : urban().sign_read_distance_m;
     std::vector<ImageF> maps;
     for (const int isa : {2, 1, 0}) {
@@ -5029,7 +5167,11 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
       for (int x = 0; x < W; ++x)
         if (b.lm.ids.at(x, y) == static_cast<uint16_t>(Label::TrafficSign)) (maps[2].at(x, y, 1) > 0 ? lit : dark) += 1;
     std::fprintf(stderr, "[signs] %ld sign pixels%s: %ld lit, %ld dark\n", signs,
-                 bend == 1 ? " (the road bending)" : bend == 2 ? " (the road bending, read at the sign)" : "", lit, dark);
+                 bend == 1   ? " (the road bending)"
+                 : bend == 2 ? " (the road bending, read at the sign)"
+                 : bend == 3 ? " (a sequence's bend at the camera, driven 40 m)"
+                             : "",
+                 lit, dark);
     EXPECT_GT(lit, signs / 4);
     EXPECT_GT(dark, signs / 20);  // beside the table, behind the camera, no depth
     EXPECT_EQ(differing_samples(maps[0], maps[2]), 0u) << "eight at a time against the scalar code, bend " << bend;
@@ -5045,6 +5187,15 @@ TEST(EgoLowBeam, SignPixelsEightAtATimeAreTheScalarBits) {
   EXPECT_GT(turned, static_cast<size_t>(signs / 20));
   EXPECT_GT(turned0, static_cast<size_t>(signs / 2));
   EXPECT_GT(turned0, turned);
+  // (the arc continued back turns the signs whose reading point lies behind the camera)
+  RoadAhead at_camera = left_bend();
+  at_camera.curve_start_m = 0;
+  b.street.road_ahead = at_camera;
+  const ImageF undriven = b.lights().radiance;
+  b.street.road_ahead = RoadAhead{};
+  const size_t driven = differing_samples(undriven, scalar_maps[3]);
+  std::fprintf(stderr, "[signs] samples the 40 m driven changed: %zu\n", driven);
+  EXPECT_GT(driven, static_cast<size_t>(signs / 20));
   b.p.sign_read_distance_m = urban().sign_read_distance_m;
 }
 

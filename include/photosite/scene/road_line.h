@@ -55,7 +55,16 @@ struct RoadAhead {
   // curvature's row and column 0 when straight): the weighted least squares' (JᵀWJ)⁻¹ times the
   // residuals' robust scale². Zero when not measured.
   std::array<double, 16> covariance{};
+  // In a sequence (LuminaireSet::update, scene/luminaires.h): where this frame's bend starts at the
+  // camera (curve_start_m ≤ kBendAtCameraM), how far behind the camera the vehicle has already
+  // been turning the bend's way along the road line it drove; the signs' facing (SignFacing)
+  // continues the arc back that far. 0 in a single frame, which does not see the road behind.
+  double turning_behind_m = 0;
 };
+// A fitted bend that starts this close to the camera has the camera on it: the fit's starts are
+// tried on a 5 m grid from 0, then to the metre within 2 m of the best (measure_road_ahead), so a
+// camera on the arc is fitted a start of 0 to 2 m.
+inline constexpr double kBendAtCameraM = 2;
 // The standard error (m) of the fitted kerb's position across the road line at along-line
 // distance a_m from the camera (the right kerb or the left), from `covariance` (small angles).
 // It leaves out the curve start's own error (the start is chosen on a 1 m grid: see
