@@ -81,6 +81,19 @@ if [ "${PHOTOSITE_DEVICE_ONLY:-}" = import ]; then
   step machine; $P version 2>&1
   make_manifest; import_step; step done; exit 0
 fi
+# benches: the machine, then bench night --backend vulkan at 2 and 16 threads and bench pipeline alone.
+if [ "${PHOTOSITE_DEVICE_ONLY:-}" = benches ]; then
+  step machine; $P version --backends 2>&1
+  for t in 2 16; do
+    step "bench night, CPU and Vulkan, $t threads"
+    mkdir -p "$OUT/t$t"
+    timeout 100 $P bench night --backend vulkan --image "$IMG" --labels "$LAB" --instances "$INS" \
+      --repeats 9 --threads $t --out-dir "$OUT/t$t" 2>&1 | tail -n 40
+  done
+  step "bench pipeline"
+  timeout 90 $P bench pipeline --backend vulkan --repeats 5 --threads 2 --out-dir "$OUT/t2" 2>&1 | tail -n 40
+  step done; exit 0
+fi
 if [ "${PHOTOSITE_DEVICE_ONLY:-}" = import-batch ]; then
   step machine; $P version 2>&1
   if [ "${WITH_TESTS:-0}" = 1 ]; then
