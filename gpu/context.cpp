@@ -84,11 +84,16 @@ void pin_libraries_loaded_since(const std::vector<std::string>& before) {
 #endif
 }  // namespace
 
+void Context::Impl::release(Buffer::Impl& b, bool mapped) {
+  if (mapped) f.vkUnmapMemory(device, b.memory);
+  if (b.buffer) f.vkDestroyBuffer(device, b.buffer, nullptr);
+  if (b.memory) f.vkFreeMemory(device, b.memory, nullptr);
+  b = {};
+}
+
 void Context::Impl::free_staging() {
-  if (staging_mapped) f.vkUnmapMemory(device, staging.memory);
-  if (staging.buffer) f.vkDestroyBuffer(device, staging.buffer, nullptr);
-  if (staging.memory) f.vkFreeMemory(device, staging.memory, nullptr);
-  staging_mapped = nullptr, staging = {}, staging_bytes = 0;
+  release(staging, staging_mapped != nullptr);
+  staging_mapped = nullptr, staging_bytes = 0;
 }
 
 // ---- memory types ------------------------------------------------------------------------
@@ -462,12 +467,7 @@ Buffer* BufferCache::find(const std::string& name) {
   return it == buffers_.end() ? nullptr : it->second.get();
 }
 
-Buffer::~Buffer() {
-  auto& C = ctx_.impl();
-  if (mapped_) C.f.vkUnmapMemory(C.device, impl_->memory);
-  if (impl_->buffer) C.f.vkDestroyBuffer(C.device, impl_->buffer, nullptr);
-  if (impl_->memory) C.f.vkFreeMemory(C.device, impl_->memory, nullptr);
-}
+Buffer::~Buffer() { ctx_.impl().release(*impl_, mapped_ != nullptr); }
 
 namespace {
 // Staged transfers: host ↔ the context's staging buffer (memcpy) ↔ the device buffer (a copy
@@ -567,10 +567,7 @@ bool imported_copy(Context::Impl& C, VkBuffer device_buffer, size_t offset, cons
   struct Release {  // the buffer and memory go when the copy is done, or when it fails
     Context::Impl& C;
     Buffer::Impl& b;
-    ~Release() {
-      if (b.buffer) C.f.vkDestroyBuffer(C.device, b.buffer, nullptr);
-      if (b.memory) C.f.vkFreeMemory(C.device, b.memory, nullptr);
-    }
+    ~Release() { C.release(b, false); }
   } release{C, imp};
   VkExternalMemoryBufferCreateInfo ebi{VK_STRUCTURE_TYPE_EXTERNAL_MEMORY_BUFFER_CREATE_INFO};
   ebi.handleTypes = handle;

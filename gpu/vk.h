@@ -87,6 +87,8 @@ struct Context::Impl {
   bool import_always = false;  // PHOTOSITE_VK_HOST_IMPORT=1: every buffer's, not only those asked to
   size_t import_alignment = 0;
   void free_staging();
+  // Destroys b's buffer and frees its memory (unmapped first where `mapped`), where made.
+  void release(Buffer::Impl& b, bool mapped);
   ~Impl();
 };
 

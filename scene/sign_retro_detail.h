@@ -252,29 +252,23 @@ template <class V>
   // beyond the quarter turn (its end's ±90°)
   const auto early = f.k * u < 0.0;
   const auto late = v < 0.0;
-  if (f.back) {
-    // A sequence's arc continued back by |κ|·b (SignFacing::back): a reading point turned back by
-    // less keeps its turn; one turned back further takes the arc's start behind, −sgn κ·|κ|·b.
-    // (sin(sgn κ·ψ + |κ|·b) ≥ 0, times |w|: the turn is at least −|κ|·b.)
-    const auto kept = f.k * u * f.cb + v * f.sb >= 0.0;
-    const V u0 = u, v0 = v, w20 = w2;
-    u = late ? lane_splat<V>(f.k) : u;
-    v = late ? lane_splat<V>(0.0) : v;
-    w2 = late ? lane_splat<V>(1.0) : w2;
-    u = early ? (kept ? u0 : lane_splat<V>(-f.k * f.sb)) : u;
-    v = early ? (kept ? v0 : lane_splat<V>(f.cb)) : v;
-    w2 = early ? (kept ? w20 : lane_splat<V>(1.0)) : w2;
-    const auto before = (X - f.P0X) * f.s0 + (D - f.P0D) * f.c0 <= 0.0;
-    u = before ? lane_splat<V>(0.0) : u;
-    v = before ? lane_splat<V>(1.0) : v;
-    w2 = before ? lane_splat<V>(1.0) : w2;
-    return;
-  }
+  const V u0 = u, v0 = v, w20 = w2;  // the turn as read (kept on a sequence's arc continued back)
   u = late ? lane_splat<V>(f.k) : u;
   v = late ? lane_splat<V>(0.0) : v;
   w2 = late ? lane_splat<V>(1.0) : w2;
   // a sign before the curve's start: 0 (as one whose reading point is before it)
-  const auto before = ((X - f.P0X) * f.s0 + (D - f.P0D) * f.c0 <= 0.0) | early;
+  auto before = (X - f.P0X) * f.s0 + (D - f.P0D) * f.c0 <= 0.0;
+  if (f.back) {
+    // A sequence's arc continued back by |κ|·b (SignFacing::back): a reading point turned back by
+    // less keeps its turn; one turned back further takes the arc's start behind, −sgn κ·|κ|·b.
+    // (sin(sgn κ·ψ + |κ|·b) ≥ 0, times |w|: the turn is at least −|κ|·b.)
+    const auto kept = f.k * u0 * f.cb + v0 * f.sb >= 0.0;
+    u = early ? (kept ? u0 : lane_splat<V>(-f.k * f.sb)) : u;
+    v = early ? (kept ? v0 : lane_splat<V>(f.cb)) : v;
+    w2 = early ? (kept ? w20 : lane_splat<V>(1.0)) : w2;
+  } else {
+    before = before | early;  // a reading point before the start: 0
+  }
   u = before ? lane_splat<V>(0.0) : u;
   v = before ? lane_splat<V>(1.0) : v;
   w2 = before ? lane_splat<V>(1.0) : w2;
