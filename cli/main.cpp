@@ -1,6 +1,7 @@
 // photosite: the command-line front end. Subcommands register themselves (registry.h).
 #include <malloc.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -10,6 +11,7 @@
 
 #include "photosite/environment.h"
 #include "photosite/error.h"
+#include "photosite/frame_buffers.h"
 #include "photosite/io.h"
 #include "registry.h"
 
@@ -47,8 +49,21 @@ int main(int argc, char** argv) {
   // stage, frame after frame. Serve them from the heap and keep freed memory there, so a buffer
   // freed by one stage is reused by the next instead of being returned to the kernel and
   // page-faulted in again (measured: page faults were a fifth of a night run's time).
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's upper limit on 64-bit
+  constexpr size_t kMmapThreshold = size_t{32} << 20;  // glibc's upper limit on 64-bit
+  mallopt(M_MMAP_THRESHOLD, static_cast<int>(kMmapThreshold));
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // Larger buffers glibc always maps afresh and unmaps when freed (a 4096x2048 frame's RGB float
+  // images are 100 MB, its one-channel ones 32 MiB), so each was page-faulted in again at every
+  // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
+  // (docs/benchmarks.md, "Frames above 32 MiB a buffer"). The library's cache of freed frame
+  // buffers (include/photosite/frame_buffers.h) keeps those, up to a quarter of the machine's
+  // memory; smaller ones stay with the heap as before.
+  set_frame_buffer_cache_min_bytes(kMmapThreshold);
+  {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    set_frame_buffer_cache_limit(pages > 0 && page > 0 ? static_cast<size_t>(pages) / 4 * static_cast<size_t>(page)
+                                                       : kFrameBufferDefaultLimit);
+  }
   // A file-size limit (ulimit -f) or quota would otherwise kill the process with SIGXFSZ in the
   // middle of a write; ignored, the write fails with EFBIG and is reported as bad input (exit 2)
   // after the temporary file is removed.

@@ -7,6 +7,7 @@
 #include <unistd.h>
 #endif
 
+#include <algorithm>
 #include <list>
 #include <mutex>
 #include <new>
@@ -20,7 +21,7 @@ namespace {
 struct Cache {
   using Held = std::list<std::pair<size_t, void*>>;  // (bytes, buffer), the least recently freed first
   std::mutex m;
-  size_t limit = 0, held = 0;
+  size_t limit = 0, held = 0, min_bytes = kFrameBufferMinBytes;
   uint64_t reused = 0, allocated = 0;
   Held order;
   // Per size, its buffers in `order`, the most recently freed last.
@@ -39,6 +40,21 @@ struct Cache {
   }
   void trim_to(size_t target) {
     while (held > target) evict_oldest();
+  }
+  // Frees every held buffer smaller than min_bytes (under the lock).
+  void drop_below_min() {
+    for (auto it = by_size.begin(); it != by_size.end();) {
+      if (it->first >= min_bytes) {
+        ++it;
+        continue;
+      }
+      for (const auto& h : it->second) {
+        ::operator delete(h->second);
+        held -= h->first;
+        order.erase(h);
+      }
+      it = by_size.erase(it);
+    }
   }
 };
 
@@ -114,7 +130,7 @@ void advise_huge_pages(void* p, size_t bytes) noexcept {
 FrameBufferCacheStats frame_buffer_cache_stats() {
   Cache& c = cache();
   std::lock_guard<std::mutex> lock(c.m);
-  return {c.limit, c.held, c.order.size(), c.reused, c.allocated};
+  return {c.limit, c.min_bytes, c.held, c.order.size(), c.reused, c.allocated};
 }
 
 void set_frame_buffer_cache_limit(size_t bytes) {
@@ -124,12 +140,20 @@ void set_frame_buffer_cache_limit(size_t bytes) {
   c.trim_to(bytes);
 }
 
+void set_frame_buffer_cache_min_bytes(size_t bytes) {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.m);
+  c.min_bytes = std::max(bytes, kFrameBufferMinBytes);
+  c.drop_below_min();
+}
+
 namespace detail {
 
 void* frame_buffer_allocate(size_t bytes) {
   if (bytes >= kFrameBufferMinBytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
+    // (A size below min_bytes is never held: its lookup finds nothing, and it is not counted.)
     const auto it = c.by_size.find(bytes);
     if (it != c.by_size.end()) {  // the most recently freed of this size (warmest in the caches)
       const auto held_it = it->second.back();
@@ -141,7 +165,7 @@ void* frame_buffer_allocate(size_t bytes) {
       ++c.reused;
       return p;
     }
-    ++c.allocated;
+    if (bytes >= c.min_bytes) ++c.allocated;
   }
   void* p = ::operator new(bytes);
   advise_huge_pages(p, bytes);
@@ -152,7 +176,7 @@ void frame_buffer_release(void* p, size_t bytes) noexcept {
   if (bytes >= kFrameBufferMinBytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
-    if (bytes <= c.limit) {
+    if (bytes <= c.limit && bytes >= c.min_bytes) {
       // Room is made by freeing the least recently freed buffers: a loop whose sizes change
       // (KITTI's frames differ by a few pixels) keeps the sizes it is using now, not stale ones.
       try {

@@ -2,9 +2,11 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cfloat>
 #include <cmath>
 #include <cstdint>
 #include <omp.h>
+#include <vector>
 #include <opencv2/imgproc.hpp>
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -351,7 +353,113 @@ __attribute__((target("avx512f"))) int work_luma_avx512(const float* r0, const f
 }
 #pragma GCC diagnostic pop
 const int kLumaIsa = photosite::detail::machine_isa_level();
+__attribute__((target("avx512f"))) int luma_row_avx512(const float* r, int W, float* l) {
+  int x = 0;
+  for (; x + 16 <= W; x += 16) _mm512_storeu_ps(l + x, luma16(r + 3 * x));
+  return x;
+}
+__attribute__((target("avx2"))) int luma_row_avx2(const float* r, int W, float* l) {
+  int x = 0;
+  for (; x + 8 <= W; x += 8) _mm256_storeu_ps(l + x, luma8(r + 3 * x));
+  return x;
+}
 #endif
+// The luminance (luma_at) of an interleaved RGB row of W pixels into l: luma16 or luma8 where the
+// machine has them (the same float operations per pixel, so the same bits), then one at a time.
+void luma_row(const float* r, int W, float* l) {
+  int x = 0;
+#if defined(__x86_64__)
+  const int isa = std::min(kLumaIsa, luma_max_isa);
+  if (isa == 2) x = luma_row_avx512(r, W, l);
+  else if (isa == 1) x = luma_row_avx2(r, W, l);
+#endif
+  for (; x < W; ++x) l[x] = luma_at(r, x);
+}
+
+// Area means (the decimation of OpenCV's INTER_AREA: each working pixel the mean of the source
+// pixels under its cell, edge pixels weighted by the part of them it covers), separable: the
+// cell [d·s, d·s + s) of one axis, s = 1/(d_size/s_size) as OpenCV takes it, covers a partial
+// pixel before its first whole one (weight (⌈d·s⌉ − d·s)/c), its whole pixels (1/c) and a
+// partial one after (min(d·s + s − ⌊d·s + s⌋, 1, c)/c), c = min(s, s_size − d·s) the cell's width
+// inside the image; parts under 10⁻³ of a pixel are left out. Built with OpenCV's expressions,
+// so the same float weights.
+struct AreaTaps {
+  std::vector<int> begin;  // taps of output d: [begin[d], begin[d + 1])
+  std::vector<int> src;
+  std::vector<float> weight;
+};
+AreaTaps area_taps(int ssize, int dsize) {
+  const double scale = 1.0 / (static_cast<double>(dsize) / ssize);
+  AreaTaps t;
+  t.begin.reserve(dsize + 1);
+  for (int d = 0; d < dsize; ++d) {
+    t.begin.push_back(static_cast<int>(t.src.size()));
+    const double f1 = d * scale, f2 = f1 + scale, cell = std::min(scale, ssize - f1);
+    int s2 = static_cast<int>(std::floor(f2));
+    s2 = std::min(s2, ssize - 1);
+    const int s1 = std::min(static_cast<int>(std::ceil(f1)), s2);
+    auto tap = [&](int i, float w) { t.src.push_back(i), t.weight.push_back(w); };
+    if (s1 - f1 > 1e-3) tap(s1 - 1, static_cast<float>((s1 - f1) / cell));
+    for (int i = s1; i < s2; ++i) tap(i, static_cast<float>(1.0 / cell));
+    if (f2 - s2 > 1e-3) tap(s2, static_cast<float>(std::min(std::min(f2 - s2, 1.0), cell) / cell));
+  }
+  t.begin.push_back(static_cast<int>(t.src.size()));
+  return t;
+}
+// Whether cv::resize's INTER_AREA takes W x H to ww x wh by integer block means (its "fast"
+// path: both scales, as it computes them, integers to within DBL_EPSILON), not area_taps' weights.
+bool area_scale_is_integer(int W, int H, int ww, int wh) {
+  const double sx = 1.0 / (static_cast<double>(ww) / W), sy = 1.0 / (static_cast<double>(wh) / H);
+  return std::fabs(sx - std::lround(sx)) < DBL_EPSILON && std::fabs(sy - std::lround(sy)) < DBL_EPSILON;
+}
+// The area means of the day image's luminance (luma_at) into out (ww x wh, one channel), each row
+// on its own: per source row of the cell, its luminance, then the row's horizontal taps summed in
+// order into buf (buf[d] += l[src]·w, from 0), then the rows summed with their vertical weights β
+// (the first β·buf added to 0, the next ones added in order): cv::resize's order of float
+// operations for INTER_AREA on one channel (its rows, split among its threads, are each computed
+// the same way), so the same bits (test LaneMarkings.FractionalWorkingScaleIsOpenCvsAreaMeans).
+// On the OpenMP threads, where cv::resize ran on OpenCV's own, which contended with OpenMP's
+// spinning ones on a 2-core machine (5-6 ms for the 1024x512 working image of a 1280x640 frame,
+// against 2 ms on one thread: docs/benchmarks.md, "Frames of other sizes").
+void area_mean_luma(const ImageF& day, ImageF& out) {
+  const int W = day.width(), H = day.height(), ww = out.width(), wh = out.height();
+  const AreaTaps tx = area_taps(W, ww), ty = area_taps(H, wh);
+#pragma omp parallel
+  {
+    // A source row's horizontal sums depend on that row only, and a cell's last source row is
+    // mostly the next cell's first: the sums of the last row made are kept (cached, its row
+    // cached_y) and taken again, not made twice.
+    std::vector<float> l(W), made(ww), cached(ww), sum(ww);
+    int cached_y = -1;
+#pragma omp for schedule(static)
+    for (int dy = 0; dy < wh; ++dy) {
+      int last_made = -1;
+      for (int k = ty.begin[dy]; k < ty.begin[dy + 1]; ++k) {
+        const int sy = ty.src[k];
+        const float* buf = cached.data();
+        if (sy != cached_y) {
+          luma_row(day.row(sy), W, l.data());
+          std::fill(made.begin(), made.end(), 0.f);
+          for (int d = 0; d < ww; ++d)
+            for (int j = tx.begin[d]; j < tx.begin[d + 1]; ++j) made[d] += l[tx.src[j]] * tx.weight[j];
+          buf = made.data();
+          last_made = sy;
+        }
+        const float beta = ty.weight[k];
+        if (k == ty.begin[dy])
+          for (int d = 0; d < ww; ++d) sum[d] = 0.f + beta * buf[d];
+        else
+          for (int d = 0; d < ww; ++d) sum[d] += beta * buf[d];
+      }
+      // The cell's last row, if made here, is kept for the next cell.
+      if (last_made >= 0 && last_made == ty.src[ty.begin[dy + 1] - 1]) {
+        std::swap(made, cached);
+        cached_y = last_made;
+      }
+      std::copy(sum.begin(), sum.end(), out.row(dy));
+    }
+  }
+}
 }  // namespace
 
 void work_luma_max_isa(int isa) { luma_max_isa = isa; }
@@ -397,9 +505,22 @@ WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int 
     w.luma = ImageF(ww, wh, 1, uninitialized);
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < wh; ++y) work_luma_row(day, y, w.luma.row(y));
+  } else if (ww != W && !area_scale_is_integer(W, H, ww, wh)) {
+    // A fractional scale (KITTI's 1242 or BDD100K's 1280 columns to the 1024 working ones): the
+    // area means made here (area_mean_rows, the same bits as cv::resize's INTER_AREA), on the
+    // OpenMP threads, without the full-resolution luminance image.
+    w.luma = ImageF(ww, wh, 1, uninitialized);
+    area_mean_luma(day, w.luma);
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < wh; ++y) srgb_encode_floats(w.luma.row(y), ww, w.luma.row(y));
   } else {
     w.luma = ImageF(ww, wh, 1, uninitialized);
-    cv::Mat lum(H, W, CV_32F);
+    // The full-resolution luminance in an Image (its buffer from the frame buffers' allocator,
+    // include/photosite/frame_buffers.h, where a program keeps them: 32 MiB at 4096x2048, which a
+    // cv::Mat of its own page-faulted in afresh every frame), seen by OpenCV without a copy.
+    // (An integer scale: OpenCV's INTER_AREA then takes its block means.)
+    ImageF lum_buf(W, H, 1, uninitialized);
+    cv::Mat lum(H, W, CV_32F, lum_buf.data());
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; ++y) {
       const float* r = day.row(y);

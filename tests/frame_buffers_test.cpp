@@ -83,6 +83,41 @@ TEST(FrameBuffers, OffByDefaultThenReusedByExactSizeWithinTheLimit) {
   EXPECT_EQ(frame_buffer_cache_stats().held_buffers, 0u);
 }
 
+// The command keeps only the buffers glibc would map afresh (cli/main.cpp: its minimum is the mmap
+// threshold, 32 MiB): a size below the minimum is neither held nor counted, one at or above it is
+// reused as before; raising the minimum frees the held buffers below it at once, and a minimum
+// below kFrameBufferMinBytes is raised to it. Failed before the minimum existed (the 2 MiB plane
+// was held).
+TEST(FrameBuffers, ASmallestHeldSizeLeavesSmallerBuffersToTheAllocator) {
+  ASSERT_EQ(frame_buffer_cache_stats().min_bytes, kFrameBufferMinBytes) << "the library's default";
+  const size_t plane = size_t{1024} * 512 * sizeof(float);  // 2 MiB
+  CacheLimit on(16 * plane);
+  struct MinBytes {
+    ~MinBytes() { set_frame_buffer_cache_min_bytes(kFrameBufferMinBytes); }
+  } restore;
+  { ImageF a(1024, 512, 1, 0.f), b(2048, 512, 1, 0.f); }  // 2 and 4 MiB, held
+  FrameBufferCacheStats s = frame_buffer_cache_stats();
+  EXPECT_EQ(s.held_bytes, 3 * plane);
+  set_frame_buffer_cache_min_bytes(2 * plane);  // the 2 MiB buffer freed, the 4 MiB one kept
+  s = frame_buffer_cache_stats();
+  EXPECT_EQ(s.min_bytes, 2 * plane);
+  EXPECT_EQ(s.held_bytes, 2 * plane);
+  EXPECT_EQ(s.held_buffers, 1u);
+  {
+    ImageF small(1024, 512, 1, 0.f);  // below the minimum: from the allocator, not counted
+    ImageF big(2048, 512, 1, uninitialized);  // the held 4 MiB buffer
+    (void)small;
+    (void)big;
+  }
+  const FrameBufferCacheStats t = frame_buffer_cache_stats();
+  EXPECT_EQ(t.reused - s.reused, 1u);
+  EXPECT_EQ(t.allocated, s.allocated);
+  EXPECT_EQ(t.held_bytes, 2 * plane) << "only the 4 MiB buffer is held again";
+  EXPECT_EQ(t.held_buffers, 1u);
+  set_frame_buffer_cache_min_bytes(1);  // raised to kFrameBufferMinBytes
+  EXPECT_EQ(frame_buffer_cache_stats().min_bytes, kFrameBufferMinBytes);
+}
+
 // A buffer taken from the cache holds its last owner's samples, where fresh memory would be
 // zero pages: a stage that read a sample before writing it would give other numbers after another
 // scene. Scene A alone (cache off), then B and A again with the cache on: A's radiance, light map

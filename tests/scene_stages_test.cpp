@@ -684,6 +684,50 @@ TEST(SceneGeometry, WorkLumaHalvingIsOpenCvsAreaResize) {
   EXPECT_EQ(differ, 0);
 }
 
+// make_work_images at a fractional scale (area_mean_luma: the area means on the OpenMP threads)
+// against what it replaces: the full-resolution luminance through cv::resize INTER_AREA, then the
+// encode; bit for bit, on sizes whose cells start and end inside pixels in both axes (KITTI's
+// 1242x375, BDD100K's 1280 at 2:1, an odd 1031x517, a 4-row frame), at 1 and 2 threads and on each
+// instruction-set path of the rows' luminance (work_luma_max_isa), on a
+// day image with a value of its own in every sample (a shuffled tap or weight would show). An
+// integer scale (2048x1024 to 512x256: OpenCV's block means) still goes through cv::resize, and
+// gives its bits too.
+TEST(SceneGeometry, WorkLumaFractionalScaleIsOpenCvsAreaResize) {
+  const int threads = omp_get_max_threads();
+  for (const auto [W, H, ww] : {std::array{1242, 375, 1024}, std::array{1280, 640, 1024}, std::array{1031, 517, 1024},
+                                std::array{1500, 4, 1024}, std::array{2048, 1024, 512}}) {
+    ImageF day(W, H, 3, 0.f);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < 3 * W; ++x) day.row(y)[x] = static_cast<float>((x * 7919 + y * 104729) % 65521) / 65521.f;
+    const ImageU16 ids(W, H, 1, static_cast<uint16_t>(Label::Road));
+    const WorkSize ws = work_size(W, H, ww);
+    cv::Mat lum(H, W, CV_32F), small;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float* r = day.row(y) + 3 * x;
+        lum.at<float>(y, x) = 0.2126f * r[0] + 0.7152f * r[1] + 0.0722f * r[2];
+      }
+    cv::resize(lum, small, cv::Size(ws.width, ws.height), 0, 0, cv::INTER_AREA);
+    for (const auto [t, isa] : {std::pair{1, 2}, std::pair{2, 2}, std::pair{2, 1}, std::pair{2, 0}}) {
+      omp_set_num_threads(t);
+      work_luma_max_isa(isa);
+      const WorkImages w = make_work_images(day, ids, ww);
+      work_luma_max_isa(2);
+      ASSERT_EQ(w.luma.width(), ws.width);
+      ASSERT_EQ(w.luma.height(), ws.height);
+      long differ = 0;
+      for (int y = 0; y < ws.height; ++y)
+        for (int x = 0; x < ws.width; ++x) {
+          const float ref = static_cast<float>(srgb_encode(std::clamp(small.at<float>(y, x), 0.f, 1.f)));
+          differ += std::bit_cast<uint32_t>(ref) != std::bit_cast<uint32_t>(w.luma.at(x, y));
+        }
+      EXPECT_EQ(differ, 0) << W << "x" << H << " to " << ws.width << "x" << ws.height << " at " << t << " threads, ISA "
+                           << isa;
+    }
+  }
+  omp_set_num_threads(threads);
+}
+
 // night_scene's fused pass (scene/night.cpp): the working luminance made inside the texture's
 // second pass, row y by the chunk that holds its last day pixel, against make_work_images on its
 // own, and the texture against reflectance_texture; bit for bit, for 1 and 2 threads, on sizes

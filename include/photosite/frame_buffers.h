@@ -33,15 +33,21 @@ inline constexpr size_t kFrameBufferDefaultLimit = size_t{1} << 29;
 
 struct FrameBufferCacheStats {
   size_t limit_bytes = 0;  // the most the cache holds
+  size_t min_bytes = kFrameBufferMinBytes;  // the smallest buffer it holds
   size_t held_bytes = 0;   // freed buffers held now
   size_t held_buffers = 0;
   uint64_t reused = 0;     // allocations of at least kFrameBufferMinBytes served from the cache
-  uint64_t allocated = 0;  // ... and those that went to the allocator
+  uint64_t allocated = 0;  // ... and those of at least min_bytes that went to the allocator
 };
 
 FrameBufferCacheStats frame_buffer_cache_stats();
 // Sets the limit; buffers held beyond it are freed at once (0 frees them all and turns the cache off).
 void set_frame_buffer_cache_limit(size_t bytes);
+// Sets the smallest buffer the cache holds (at least kFrameBufferMinBytes; smaller values are
+// raised to it); held buffers below it are freed at once. The command sets it to glibc's mmap
+// threshold (cli/main.cpp): smaller buffers stay in its heap, which it keeps, and the cache takes
+// only those glibc would map afresh and unmap on every free.
+void set_frame_buffer_cache_min_bytes(size_t bytes);
 
 namespace detail {
 // The allocation and release of Image buffers (DefaultInitAllocator). `bytes` is the buffer's
