@@ -52,6 +52,15 @@ int main(int argc, char** argv) {
   constexpr size_t kMmapThreshold = size_t{32} << 20;  // glibc's upper limit on 64-bit
   mallopt(M_MMAP_THRESHOLD, static_cast<int>(kMmapThreshold));
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // One arena for every thread. With one per thread (glibc's default), the buffers that batch's
+  // reader and writer threads and the OpenMP workers allocate came from per-thread heaps of at
+  // most 64 MiB, mapped and unmapped as frame-size buffers came and went, so they were
+  // page-faulted in afresh frame after frame; in the main arena the settings above keep them.
+  // Measured (docs/benchmarks.md, "Fifty-third session: frames of other sizes"): `batch` over
+  // 4096x2048 frames on the PNG route 0.71x the wall time with a lower peak, 2048x1024 frames
+  // unchanged to 0.93x; the chain's own allocations are few and large, so the one arena's lock is
+  // not contended.
+  mallopt(M_ARENA_MAX, 1);
   // Larger buffers glibc always maps afresh and unmaps when freed (a 4096x2048 frame's RGB float
   // images are 100 MB, its one-channel ones 32 MiB), so each was page-faulted in again at every
   // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
