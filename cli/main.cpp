@@ -57,14 +57,14 @@ int main(int argc, char** argv) {
   // most 64 MiB, mapped and unmapped as frame-size buffers came and went, so they were
   // page-faulted in afresh frame after frame; in the main arena the settings above keep them.
   // Measured (docs/benchmarks.md, "Fifty-third session: frames of other sizes"): `batch` over
-  // 4096x2048 frames on the PNG route 0.71x the wall time with a lower peak, 2048x1024 frames
+  // 4096x2048 frames on the PNG route 0.71-0.81x the wall time with a lower peak, 2048x1024 frames
   // unchanged to 0.93x; the chain's own allocations are few and large, so the one arena's lock is
   // not contended.
   mallopt(M_ARENA_MAX, 1);
   // Larger buffers glibc always maps afresh and unmaps when freed (a 4096x2048 frame's RGB float
   // images are 100 MB, its one-channel ones 32 MiB), so each was page-faulted in again at every
   // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
-  // (docs/benchmarks.md, "Frames above 32 MiB a buffer"). The library's cache of freed frame
+  // (docs/benchmarks.md, "Fifty-third session: frames of other sizes"). The library's cache of freed frame
   // buffers (include/photosite/frame_buffers.h) keeps those, up to a quarter of the machine's
   // memory; smaller ones stay with the heap as before.
   set_frame_buffer_cache_min_bytes(kMmapThreshold);

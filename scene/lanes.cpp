@@ -417,10 +417,10 @@ bool area_scale_is_integer(int W, int H, int ww, int wh) {
 // order into buf (buf[d] += l[src]·w, from 0), then the rows summed with their vertical weights β
 // (the first β·buf added to 0, the next ones added in order): cv::resize's order of float
 // operations for INTER_AREA on one channel (its rows, split among its threads, are each computed
-// the same way), so the same bits (test LaneMarkings.FractionalWorkingScaleIsOpenCvsAreaMeans).
+// the same way), so the same bits (test SceneGeometry.WorkLumaFractionalScaleIsOpenCvsAreaResize).
 // On the OpenMP threads, where cv::resize ran on OpenCV's own, which contended with OpenMP's
 // spinning ones on a 2-core machine (5-6 ms for the 1024x512 working image of a 1280x640 frame,
-// against 2 ms on one thread: docs/benchmarks.md, "Frames of other sizes").
+// against 2 ms on one thread: docs/benchmarks.md, "Fifty-third session: frames of other sizes").
 void area_mean_luma(const ImageF& day, ImageF& out) {
   const int W = day.width(), H = day.height(), ww = out.width(), wh = out.height();
   const AreaTaps tx = area_taps(W, ww), ty = area_taps(H, wh);
@@ -507,7 +507,7 @@ WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int 
     for (int y = 0; y < wh; ++y) work_luma_row(day, y, w.luma.row(y));
   } else if (ww != W && !area_scale_is_integer(W, H, ww, wh)) {
     // A fractional scale (KITTI's 1242 or BDD100K's 1280 columns to the 1024 working ones): the
-    // area means made here (area_mean_rows, the same bits as cv::resize's INTER_AREA), on the
+    // area means made here (area_mean_luma, the same bits as cv::resize's INTER_AREA), on the
     // OpenMP threads, without the full-resolution luminance image.
     w.luma = ImageF(ww, wh, 1, uninitialized);
     area_mean_luma(day, w.luma);
