@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 
@@ -59,8 +60,14 @@ int main(int argc, char** argv) {
   // Measured (docs/benchmarks.md, "Fifty-third session: frames of other sizes"): `batch` over
   // 4096x2048 frames on the PNG route 0.71-0.81x the wall time with a lower peak, 2048x1024 frames
   // unchanged to 0.93x; the chain's own allocations are few and large, so the one arena's lock is
-  // not contended.
-  mallopt(M_ARENA_MAX, 1);
+  // not contended (measured on 2 cores; glibc's per-thread cache serves small allocations without
+  // the lock). A user's own setting (MALLOC_ARENA_MAX, or glibc.malloc.arena_max in
+  // GLIBC_TUNABLES) is left in force.
+  {
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    if (!std::getenv("MALLOC_ARENA_MAX") && !(tunables && std::strstr(tunables, "glibc.malloc.arena_max")))
+      mallopt(M_ARENA_MAX, 1);
+  }
   // Larger buffers glibc always maps afresh and unmaps when freed (a 4096x2048 frame's RGB float
   // images are 100 MB, its one-channel ones 32 MiB), so each was page-faulted in again at every
   // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
