@@ -72,13 +72,18 @@ int main(int argc, char** argv) {
   // images are 100 MB, its one-channel ones 32 MiB), so each was page-faulted in again at every
   // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
   // (docs/benchmarks.md, "Fifty-third session: frames of other sizes"). The library's cache of freed frame
-  // buffers (include/photosite/frame_buffers.h) keeps those, up to a quarter of the machine's
-  // memory; smaller ones stay with the heap as before.
+  // buffers (include/photosite/frame_buffers.h) keeps those, up to the limit below; smaller ones
+  // stay with the heap as before.
   set_frame_buffer_cache_min_bytes(kMmapThreshold);
   {
+    // At most a quarter of the machine's memory and at most 2 GiB: what a 4096x2048 frame frees
+    // in buffers this large, with room; a run over frames of many sizes holds at most this much of
+    // sizes it no longer asks for (the cache frees the least recently freed to make room).
+    constexpr size_t kLimitCap = size_t{2} << 30;
     const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    set_frame_buffer_cache_limit(pages > 0 && page > 0 ? static_cast<size_t>(pages) / 4 * static_cast<size_t>(page)
-                                                       : kFrameBufferDefaultLimit);
+    const size_t quarter = pages > 0 && page > 0 ? static_cast<size_t>(pages) / 4 * static_cast<size_t>(page)
+                                                 : kFrameBufferDefaultLimit;
+    set_frame_buffer_cache_limit(std::min(quarter, kLimitCap));
   }
   // A file-size limit (ulimit -f) or quota would otherwise kill the process with SIGXFSZ in the
   // middle of a write; ignored, the write fails with EFBIG and is reported as bad input (exit 2)
