@@ -412,9 +412,10 @@ bool area_scale_is_integer(int W, int H, int ww, int wh) {
   const double sx = 1.0 / (static_cast<double>(ww) / W), sy = 1.0 / (static_cast<double>(wh) / H);
   return std::fabs(sx - std::lround(sx)) < DBL_EPSILON && std::fabs(sy - std::lround(sy)) < DBL_EPSILON;
 }
-// The area means of the day image's luminance (luma_at) into out (ww x wh, one channel), each row
-// on its own: per source row of the cell, its luminance, then the row's horizontal taps summed in
-// order into buf (buf[d] += l[src]·w, from 0), then the rows summed with their vertical weights β
+// The area means of the day image's luminance (luma_at), sRGB-encoded (srgb_encode_floats, as the
+// other paths encode their means) into out (ww x wh, one channel), each row on its own: per
+// source row of the cell, its luminance, then the row's horizontal taps summed in order into buf
+// (buf[d] += l[src]·w, from 0), then the rows summed with their vertical weights β
 // (the first β·buf added to 0, the next ones added in order): cv::resize's order of float
 // operations for INTER_AREA on one channel (its rows, split among its threads, are each computed
 // the same way), so the same bits (test SceneGeometry.WorkLumaFractionalScaleIsOpenCvsAreaResize).
@@ -456,7 +457,7 @@ void area_mean_luma(const ImageF& day, ImageF& out) {
         std::swap(made, cached);
         cached_y = last_made;
       }
-      std::copy(sum.begin(), sum.end(), out.row(dy));
+      srgb_encode_floats(sum.data(), ww, out.row(dy));
     }
   }
 }
@@ -511,8 +512,6 @@ WorkImages make_work_images_with(const ImageF& day, const ImageU16& labels, int 
     // OpenMP threads, without the full-resolution luminance image.
     w.luma = ImageF(ww, wh, 1, uninitialized);
     area_mean_luma(day, w.luma);
-#pragma omp parallel for schedule(static)
-    for (int y = 0; y < wh; ++y) srgb_encode_floats(w.luma.row(y), ww, w.luma.row(y));
   } else {
     w.luma = ImageF(ww, wh, 1, uninitialized);
     // The full-resolution luminance in an Image (its buffer from the frame buffers' allocator,

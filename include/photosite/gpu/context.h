@@ -82,8 +82,9 @@ class Buffer {
   // frame slower at 2 threads (the night tail 7.8-8.3 -> 10.1-12.1 ms, the sensor 4.7-4.9 ->
   // 6.3-6.7 ms, 4 of 4 pairs): pinning the pages costs more than the staging slots' memcpy on
   // idle cores. It made `batch` faster (40 frames at its default --jobs 1: 4.86-5.09 -> 4.53-4.85 s
-  // in 6 pairs timed by the wall clock, lower in those and in 5 more), where the host's cores are busy encoding beside the copies and the
-  // device's copy engine spares them the memcpy; batch turns it on (SensorRunner::set_host_import).
+  // in 6 pairs timed by the wall clock, lower in those and in 5 more), where the host's cores are
+  // busy encoding beside the copies and the device's copy engine spares them the memcpy; batch
+  // turns it on (SensorRunner::set_host_import).
   void set_host_import(bool on) { host_import_ = on; }
   bool host_import() const { return host_import_; }
   template <class T> void store(const T& value) { upload(&value, sizeof(T)); }
