@@ -73,18 +73,13 @@ int main(int argc, char** argv) {
   // stage and frame: a fifth of `bench night`'s samples at 4096x2048 were the kernel zeroing pages
   // (docs/benchmarks.md, "Fifty-third session: frames of other sizes"). The library's cache of freed frame
   // buffers (include/photosite/frame_buffers.h) keeps those, up to the limit below; smaller ones
-  // stay with the heap as before.
+  // stay with the heap as before. The stale rule frees the sizes a run no longer asks for (a run over
+  // frames of many sizes) about two frames later; a quarter of the machine's memory caps what is
+  // held. (Until the fifty-fourth session the limit was instead capped at 2 GiB, for those stale
+  // sizes; at 8192x4096 that cap cost part of the gain: docs/benchmarks.md, "Fifty-fourth session".)
   set_frame_buffer_cache_min_bytes(kMmapThreshold);
-  {
-    // At most a quarter of the machine's memory and at most 2 GiB: what a 4096x2048 frame frees
-    // in buffers this large, with room; a run over frames of many sizes holds at most this much of
-    // sizes it no longer asks for (the cache frees the least recently freed to make room).
-    constexpr size_t kLimitCap = size_t{2} << 30;
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    const size_t quarter = pages > 0 && page > 0 ? static_cast<size_t>(pages) / 4 * static_cast<size_t>(page)
-                                                 : kFrameBufferDefaultLimit;
-    set_frame_buffer_cache_limit(std::min(quarter, kLimitCap));
-  }
+  set_frame_buffer_cache_free_stale(true);
+  set_frame_buffer_cache_limit(frame_buffer_cache_machine_limit());
   // A file-size limit (ulimit -f) or quota would otherwise kill the process with SIGXFSZ in the
   // middle of a write; ignored, the write fails with EFBIG and is reported as bad input (exit 2)
   // after the temporary file is removed.

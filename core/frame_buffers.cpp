@@ -19,10 +19,28 @@ namespace photosite {
 namespace {
 
 struct Cache {
-  using Held = std::list<std::pair<size_t, void*>>;  // (bytes, buffer), the least recently freed first
+  struct Entry {
+    size_t bytes;
+    void* p;
+    uint64_t freed_at;  // `requests` when it was freed
+  };
+  using Held = std::list<Entry>;  // the least recently freed first
   std::mutex m;
   size_t limit = 0, held = 0, min_bytes = kFrameBufferMinBytes;
   uint64_t reused = 0, allocated = 0;
+  // The stale rule (frame_buffers.h). `requests` counts the allocations of at least min_bytes (the
+  // clock, in the program's own steps, so a pause between frames ages nothing); `longest_wait` is
+  // the most requests a reused buffer waited in the cache.
+  bool free_stale = false;
+  uint64_t requests = 0, longest_wait = 0;
+  // Per size, when the last buffer the rule freed had been freed: a later request of that size is
+  // a wait the rule had not seen (a size that comes back every few frames), and longest_wait learns
+  // it, so the next such buffers are kept. At most kForgotten sizes (cleared when full).
+  static constexpr size_t kForgotten = 256;
+  std::unordered_map<size_t, uint64_t> forgotten;
+  // Every buffer of at least kFrameBufferMinBytes handed out and not yet back, whatever the limit,
+  // and the most of them at once since the process started (reported, for a user sizing the limit).
+  size_t in_use = 0, peak = 0;
   Held order;
   // Per size, its buffers in `order`, the most recently freed last.
   std::unordered_map<size_t, std::vector<Held::iterator>> by_size;
@@ -30,16 +48,44 @@ struct Cache {
   // Frees the least recently freed buffer (under the lock). Per size the buffers stand in `order`
   // in the order of their vector, so the list's first is its size's first.
   void evict_oldest() {
-    const auto [bytes, p] = order.front();
-    auto it = by_size.find(bytes);
+    const Entry e = order.front();
+    auto it = by_size.find(e.bytes);
     it->second.erase(it->second.begin());
     if (it->second.empty()) by_size.erase(it);
     order.pop_front();
-    held -= bytes;
-    ::operator delete(p);
+    held -= e.bytes;
+    ::operator delete(e.p);
   }
   void trim_to(size_t target) {
     while (held > target) evict_oldest();
+  }
+  // The most requests a held buffer may wait under the stale rule.
+  // A quarter more than the longest wait seen: room for the jitter of a loop's waits (threads
+  // free in varying order); a wait beyond it costs one new buffer and is learnt (learn_wait).
+  uint64_t stale_after() const {
+    return std::max(longest_wait + longest_wait / 4, 2 * kFrameBufferStaleFloorRequests);
+  }
+  // Under the stale rule, frees the held buffers that have waited longer than stale_after() (under
+  // the lock). `order` is by the time of freeing, so they stand at its front.
+  void free_stale_buffers() {
+    if (!free_stale) return;
+    const uint64_t horizon = stale_after();
+    while (!order.empty() && requests - order.front().freed_at > horizon) {
+      try {
+        if (forgotten.size() >= kForgotten) forgotten.clear();
+        forgotten[order.front().bytes] = order.front().freed_at;
+      } catch (...) {  // no memory for the entry: the wait is not learnt
+      }
+      evict_oldest();
+    }
+  }
+  // A request of a size the rule freed: learns the wait it would have had (under the lock).
+  void learn_wait(size_t bytes) {
+    if (forgotten.empty()) return;
+    const auto it = forgotten.find(bytes);
+    if (it == forgotten.end()) return;
+    longest_wait = std::max(longest_wait, requests - it->second);
+    forgotten.erase(it);
   }
   // Frees every held buffer smaller than min_bytes (under the lock).
   void drop_below_min() {
@@ -49,8 +95,8 @@ struct Cache {
         continue;
       }
       for (const auto& h : it->second) {
-        ::operator delete(h->second);
-        held -= h->first;
+        ::operator delete(h->p);
+        held -= h->bytes;
         order.erase(h);
       }
       it = by_size.erase(it);
@@ -130,7 +176,8 @@ void advise_huge_pages(void* p, size_t bytes) noexcept {
 FrameBufferCacheStats frame_buffer_cache_stats() {
   Cache& c = cache();
   std::lock_guard<std::mutex> lock(c.m);
-  return {c.limit, c.min_bytes, c.held, c.order.size(), c.reused, c.allocated};
+  return {c.limit, c.min_bytes, c.held, c.order.size(), c.reused, c.allocated,
+          c.free_stale, c.free_stale ? c.stale_after() : 0, c.in_use, c.peak};
 }
 
 void set_frame_buffer_cache_limit(size_t bytes) {
@@ -147,27 +194,61 @@ void set_frame_buffer_cache_min_bytes(size_t bytes) {
   c.drop_below_min();
 }
 
+size_t frame_buffer_cache_machine_limit() {
+#if defined(__linux__)
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) return static_cast<size_t>(pages) / 4 * static_cast<size_t>(page);
+#endif
+  return kFrameBufferDefaultLimit;
+}
+
+void set_frame_buffer_cache_free_stale(bool on) {
+  Cache& c = cache();
+  std::lock_guard<std::mutex> lock(c.m);
+  c.free_stale = on;
+  c.forgotten.clear();
+  c.free_stale_buffers();
+}
+
 namespace detail {
 
 void* frame_buffer_allocate(size_t bytes) {
   if (bytes >= kFrameBufferMinBytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
-    // (A size below min_bytes is never held: its lookup finds nothing, and it is not counted.)
+    if (bytes >= c.min_bytes) ++c.requests;  // (a size below min_bytes is never held)
+    c.in_use += bytes;  // counted before it is there: a second thread sees it at once
+    c.peak = std::max(c.peak, c.in_use);
     const auto it = c.by_size.find(bytes);
     if (it != c.by_size.end()) {  // the most recently freed of this size (warmest in the caches)
       const auto held_it = it->second.back();
-      void* p = held_it->second;
+      void* p = held_it->p;
+      c.longest_wait = std::max(c.longest_wait, c.requests - held_it->freed_at);
       it->second.pop_back();
       if (it->second.empty()) c.by_size.erase(it);
       c.order.erase(held_it);
       c.held -= bytes;
       ++c.reused;
+      c.free_stale_buffers();
       return p;
     }
-    if (bytes >= c.min_bytes) ++c.allocated;
+    if (bytes >= c.min_bytes) {
+      ++c.allocated;
+      c.learn_wait(bytes);
+    }
+    c.free_stale_buffers();
   }
-  void* p = ::operator new(bytes);
+  void* p;
+  try {
+    p = ::operator new(bytes);
+  } catch (...) {
+    if (bytes >= kFrameBufferMinBytes) {
+      Cache& c = cache();
+      std::lock_guard<std::mutex> lock(c.m);
+      c.in_use -= bytes;
+    }
+    throw;
+  }
   advise_huge_pages(p, bytes);
   return p;
 }
@@ -176,12 +257,13 @@ void frame_buffer_release(void* p, size_t bytes) noexcept {
   if (bytes >= kFrameBufferMinBytes) {
     Cache& c = cache();
     std::lock_guard<std::mutex> lock(c.m);
+    c.in_use -= bytes;
     if (bytes <= c.limit && bytes >= c.min_bytes) {
       // Room is made by freeing the least recently freed buffers: a loop whose sizes change
       // (KITTI's frames differ by a few pixels) keeps the sizes it is using now, not stale ones.
       try {
         c.trim_to(c.limit - bytes);
-        const auto held_it = c.order.emplace(c.order.end(), bytes, p);
+        const auto held_it = c.order.insert(c.order.end(), Cache::Entry{bytes, p, c.requests});
         try {
           c.by_size[bytes].push_back(held_it);
         } catch (...) {

@@ -711,15 +711,22 @@ PYBIND11_MODULE(_photosite, m) {
 
   // A frame loop in Python would otherwise page-fault every frame's buffers in afresh (glibc
   // returns freed ones to the kernel; the module must not change the host process's malloc
-  // settings): the library keeps its own freed frame buffers, up to the default limit
+  // settings): the library keeps its own freed frame buffers, freeing the sizes a loop no longer
+  // asks for (the stale rule), up to 1 GiB or a quarter of the machine's memory if less
   // (include/photosite/frame_buffers.h, docs/python.md).
-  set_frame_buffer_cache_limit(kFrameBufferDefaultLimit);
-  m.def("frame_buffer_cache", [](const py::object& limit_bytes) {
+  set_frame_buffer_cache_free_stale(true);
+  set_frame_buffer_cache_limit(std::min(kFrameBufferDefaultLimit, frame_buffer_cache_machine_limit()));
+  m.def("frame_buffer_cache", [](const py::object& limit_bytes, const py::object& free_stale) {
     if (!limit_bytes.is_none()) {
       if (PyIndex_Check(limit_bytes.ptr()) && !PyFloat_Check(limit_bytes.ptr()) && limit_bytes < py::int_(0))
         throw Error(fmt::format("frame_buffer_cache: limit_bytes is {}: must be 0 or more",
                                 py::str(limit_bytes).cast<std::string>()));
       set_frame_buffer_cache_limit(static_cast<size_t>(int_arg<int64_t>(limit_bytes, "limit_bytes", 0)));
+    }
+    if (!free_stale.is_none()) {
+      if (!PyBool_Check(free_stale.ptr()))
+        throw py::type_error(fmt::format("free_stale: expected a bool or None, got {}", Py_TYPE(free_stale.ptr())->tp_name));
+      set_frame_buffer_cache_free_stale(free_stale.cast<bool>());
     }
     const FrameBufferCacheStats s = frame_buffer_cache_stats();
     py::dict d;
@@ -728,8 +735,12 @@ PYBIND11_MODULE(_photosite, m) {
     d["held_buffers"] = s.held_buffers;
     d["reused"] = s.reused;
     d["allocated"] = s.allocated;
+    d["free_stale"] = s.free_stale;
+    d["stale_after_requests"] = s.stale_after_requests;
+    d["in_use_bytes"] = s.in_use_bytes;
+    d["peak_bytes"] = s.peak_bytes;
     return d;
-  }, py::arg("limit_bytes") = py::none());
+  }, py::arg("limit_bytes") = py::none(), py::arg("free_stale") = py::none());
 
   py::register_exception_translator([](std::exception_ptr p) {
     try {

@@ -208,3 +208,71 @@ TEST(FrameBuffers, WholeFrameBuffersAreAdvisedForHugePages) {
   EXPECT_EQ(frame.at(1024, 512, 1), 0.5f);
 #endif
 }
+
+// The stale rule (frame_buffers.h, set_frame_buffer_cache_free_stale): a held buffer that has
+// waited more than twice the longest wait of a reused one (at least twice the floor) is freed. A
+// loop of one size keeps every buffer (no loss against the plain limit); after a change of size the
+// old size's buffers are freed within that horizon, while with the limit alone they stay; a size
+// that comes back after longer than the horizon teaches the rule its wait. Failed before the rule
+// existed (the old size's buffers were held beside the new ones, up to the limit).
+TEST(FrameBuffers, TheStaleRuleFreesSizesNoLongerAskedFor) {
+  const size_t plane = size_t{1024} * 512 * sizeof(float);  // 2 MiB
+  CacheLimit on(64 * plane);
+  struct Stale {
+    Stale() { set_frame_buffer_cache_free_stale(true); }
+    ~Stale() { set_frame_buffer_cache_free_stale(false); }
+  } rule;
+  const FrameBufferCacheStats s0 = frame_buffer_cache_stats();
+  ASSERT_TRUE(s0.free_stale);
+  ASSERT_GE(s0.stale_after_requests, 2 * kFrameBufferStaleFloorRequests);
+  auto frame = [&](int w, int h, int n) {  // n images of w x h floats in use at once, then freed
+    std::vector<ImageF> v;
+    for (int i = 0; i < n; ++i) v.emplace_back(w, h, 1, uninitialized);
+    EXPECT_EQ(frame_buffer_cache_stats().in_use_bytes - s0.in_use_bytes, n * v[0].size() * sizeof(float));
+  };
+  frame(1024, 512, 3);
+  FrameBufferCacheStats s = frame_buffer_cache_stats();
+  EXPECT_EQ(s.held_bytes, 3 * plane);
+  EXPECT_GE(s.peak_bytes - s0.in_use_bytes, 3 * plane);
+  // Far more frames of the same size than the horizon has requests: every buffer reused, none freed.
+  const int frames = static_cast<int>(s0.stale_after_requests);
+  for (int k = 0; k < frames; ++k) frame(1024, 512, 3);
+  FrameBufferCacheStats t = frame_buffer_cache_stats();
+  EXPECT_EQ(t.reused - s.reused, 3u * frames);
+  EXPECT_EQ(t.allocated, s.allocated);
+  EXPECT_EQ(t.held_bytes, 3 * plane);
+  // Another size from now on (1.5 planes): its first frames hold both sizes; once the old size has
+  // waited past the horizon (stale_after_requests, each frame 2 requests) it is freed.
+  const uint64_t horizon = t.stale_after_requests;
+  frame(1024, 768, 2);
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, 6 * plane) << "the old size is not freed at once";
+  for (uint64_t k = 0; k < horizon / 2 + 1; ++k) frame(1024, 768, 2);
+  t = frame_buffer_cache_stats();
+  EXPECT_EQ(t.held_bytes, 3 * plane) << "the new size's two buffers, the old size's three freed";
+  EXPECT_EQ(t.held_buffers, 2u);
+  // A size that comes back after longer than the horizon: freed by the rule the first time, then
+  // its wait is learnt and it is kept (its next return takes its buffer from the cache).
+  const uint64_t gap = horizon + 10;  // requests of the other size between its returns
+  frame(512, 768, 1);  // 1.5 MiB
+  for (uint64_t k = 0; k < gap / 2; ++k) frame(1024, 768, 2);
+  FrameBufferCacheStats u = frame_buffer_cache_stats();
+  frame(512, 768, 1);
+  EXPECT_EQ(frame_buffer_cache_stats().allocated - u.allocated, 1u) << "freed by the rule: a new buffer";
+  EXPECT_GT(frame_buffer_cache_stats().stale_after_requests, gap) << "the wait learnt";
+  for (uint64_t k = 0; k < gap / 2; ++k) frame(1024, 768, 2);
+  u = frame_buffer_cache_stats();
+  frame(512, 768, 1);
+  EXPECT_EQ(frame_buffer_cache_stats().allocated, u.allocated) << "kept: its buffer from the cache";
+  // The limit still caps what is held.
+  set_frame_buffer_cache_limit(plane);
+  EXPECT_LE(frame_buffer_cache_stats().held_bytes, plane);
+  set_frame_buffer_cache_limit(64 * plane);
+  // Off: the old size's buffers stay beside the new (the plain limit alone), however long.
+  set_frame_buffer_cache_free_stale(false);
+  EXPECT_EQ(frame_buffer_cache_stats().stale_after_requests, 0u);
+  set_frame_buffer_cache_limit(0);
+  set_frame_buffer_cache_limit(64 * plane);
+  frame(1024, 512, 3);
+  for (uint64_t k = 0; k < horizon; ++k) frame(1024, 768, 2);
+  EXPECT_EQ(frame_buffer_cache_stats().held_bytes, 6 * plane);
+}

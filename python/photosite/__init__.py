@@ -298,19 +298,28 @@ def read_codes(path: str) -> np.ndarray:
     return _photosite.read_codes(path)
 
 
-def frame_buffer_cache(limit_bytes: Optional[int] = None) -> dict:
-    """The library's cache of freed frame buffers: read it, or set its limit in bytes.
+def frame_buffer_cache(limit_bytes: Optional[int] = None, free_stale: Optional[bool] = None) -> dict:
+    """The library's cache of freed frame buffers: read it, or set its limit in bytes and its stale rule.
 
     A loop of night() or expose() calls frees and allocates the same full-resolution buffers every
     frame (about 100 MB at 2048x1024). glibc hands large freed buffers back to the kernel, so each
     frame would fault its pages in and have them zeroed again; the module does not change the host
     process's malloc settings, so the library keeps buffers of 1 MiB and more, once freed, for
-    reuse by an allocation of the same size. On import the limit is 512 MiB (a 2048x1024 frame's freed
-    buffers are about 220 MB); the buffers held count in the process's memory, and the ones freed
-    longest ago go first when it is full. limit_bytes=0 frees them all and
-    turns the cache off.
+    reuse by an allocation of the same size.
 
-    Returns {"limit_bytes", "held_bytes", "held_buffers", "reused", "allocated"}: the limit, what it
-    holds now, and how many buffers of 1 MiB or more were taken from it or from the allocator.
+    On import the stale rule is on and the limit is 1 GiB (a quarter of the machine's memory if
+    that is less; per process: a data loader's workers each hold their own). The stale
+    rule frees a held buffer once it has waited longer than twice the longest wait of any buffer
+    reused so far (waits counted in requests for buffers, at least 16 of them, not in seconds): a
+    loop of one frame size keeps every buffer it frees (about 220 MB at 2048x1024, 778 MB at
+    4096x2048), and where the sizes change the sizes no longer asked for are freed a few frames
+    later; a size that comes back after the rule freed it teaches the rule that wait. The limit
+    caps what is held. limit_bytes=0 frees them all and turns the cache off; free_stale=False
+    leaves the limit alone to bound it.
+
+    Returns {"limit_bytes", "held_bytes", "held_buffers", "reused", "allocated", "free_stale",
+    "stale_after_requests", "in_use_bytes", "peak_bytes"}: the limit, what it holds now, how many
+    buffers of 1 MiB or more were taken from it or from the allocator, the rule and its horizon in
+    requests (0 when off), and the bytes of such buffers in use now and at most since import.
     """
-    return _photosite.frame_buffer_cache(limit_bytes)
+    return _photosite.frame_buffer_cache(limit_bytes, free_stale)

@@ -505,10 +505,15 @@ def test_camera_preview_matches_cli(kitti, cli, store, tmp_path):
         r.preview(isp="jpeg")
 
 
+def _import_limit():  # 1 GiB, or a quarter of the machine's memory if less
+    return min(1 << 30, os.sysconf("SC_PHYS_PAGES") // 4 * os.sysconf("SC_PAGE_SIZE"))
+
+
 def test_frame_buffer_cache_is_on_after_import_and_reuses_every_large_buffer(kitti, store):
-    # The module turns the library's frame-buffer cache on (512 MiB); a call repeating the last one
-    # then takes every buffer of 1 MiB and more from it: none goes to the allocator.
-    assert ps.frame_buffer_cache()["limit_bytes"] == 1 << 29
+    # The module turns the library's frame-buffer cache on (the stale rule, 1 GiB); a call repeating the last one then takes every buffer of 1 MiB and more
+    # from it: none goes to the allocator.
+    assert ps.frame_buffer_cache()["limit_bytes"] == _import_limit()
+    assert ps.frame_buffer_cache()["free_stale"] is True
     day, labels = kitti
     cam = ps.Camera(KITTI_CAMERA, device_store=store)
     for _ in range(2):  # the first call also makes the device's maps, the second reads them back
@@ -520,6 +525,42 @@ def test_frame_buffer_cache_is_on_after_import_and_reuses_every_large_buffer(kit
     assert after["reused"] > before["reused"]
     assert after["allocated"] == before["allocated"], (before, after)
     assert after["held_bytes"] <= after["limit_bytes"]
+    assert after["in_use_bytes"] <= after["peak_bytes"]
+
+
+def test_frame_buffer_cache_stale_rule_frees_a_size_no_longer_asked_for(kitti, store):
+    # Frames of one size, then frames of another (KITTI's differ by a few pixels): under the stale
+    # rule the first size's buffers are freed once they have waited past the horizon, with the limit
+    # alone they stay beside the second's. Failed before the rule existed.
+    day, labels = kitti
+    crop = (np.ascontiguousarray(day[:, 8:]), np.ascontiguousarray(labels[:, 8:]))
+    cam = ps.Camera(KITTI_CAMERA, device_store=store)
+    limit = ps.frame_buffer_cache()["limit_bytes"]
+
+    def held_after(free_stale):
+        ps.frame_buffer_cache(0)
+        ps.frame_buffer_cache(limit, free_stale=free_stale)
+        r = ps.night(day, labels, camera=cam, backend="cpu")
+        del r
+        one_size = ps.frame_buffer_cache()["held_bytes"]
+        start = ps.frame_buffer_cache()["allocated"] + ps.frame_buffer_cache()["reused"]
+        horizon = ps.frame_buffer_cache()["stale_after_requests"] or 512
+        while ps.frame_buffer_cache()["allocated"] + ps.frame_buffer_cache()["reused"] - start <= horizon + 64:
+            r = ps.night(*crop, camera=cam, backend="cpu")
+            del r
+        return one_size, ps.frame_buffer_cache()["held_bytes"]
+
+    try:
+        one, with_rule = held_after(True)
+        _, without = held_after(False)
+        # The crop's buffers alone (a little smaller than the first size's) against both sizes'.
+        assert with_rule <= one, (one, with_rule, without)
+        assert without > 1.5 * one, (one, with_rule, without)
+        with pytest.raises(TypeError, match="free_stale: expected a bool or None, got str"):
+            ps.frame_buffer_cache(free_stale="yes")
+    finally:
+        ps.frame_buffer_cache(0)
+        ps.frame_buffer_cache(limit, free_stale=True)
 
 
 def test_frame_buffer_cache_does_not_change_results(kitti, store):

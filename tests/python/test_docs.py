@@ -157,12 +157,17 @@ def test_frame_buffer_cache_keys_are_the_documented_ones():
     documented = set(re.findall(r"'(\w+)':", m.group(1)))
     assert len(documented) >= 5, m.group(1)
     assert documented == set(ps.frame_buffer_cache()), (documented, ps.frame_buffer_cache())
-    # The documented limit is the one a fresh interpreter's import sets (other tests here change it).
-    limit = re.search(r"'limit_bytes': (\d+)", m.group(1))
-    fresh = subprocess.run([sys.executable, "-c", "import photosite; print(photosite.frame_buffer_cache()['limit_bytes'])"],
+    # The documented settings are the ones a fresh interpreter's import sets (other tests here change
+    # them): the stale rule on, the limit 1 GiB or a quarter of the machine's memory if less.
+    assert "'free_stale': True" in m.group(1), m.group(1)
+    assert "a limit of 1 GiB (a quarter of the machine's memory if that is less)" in " ".join(text.split())
+    fresh = subprocess.run([sys.executable, "-c", "import photosite; c = photosite.frame_buffer_cache(); "
+                            "print(c['limit_bytes'], c['free_stale'])"],
                            capture_output=True, text=True, check=True,
                            env={**os.environ, "PYTHONPATH": str(pathlib.Path(ps.__file__).parents[1])})
-    assert limit and int(limit.group(1)) == int(fresh.stdout), (limit, fresh.stdout)
+    quarter = os.sysconf("SC_PHYS_PAGES") // 4 * os.sysconf("SC_PAGE_SIZE")
+    expected = min(1 << 30, quarter)
+    assert fresh.stdout.split() == [str(expected), "True"], fresh.stdout
 
 
 def test_characterize_quantity_keys_are_the_documented_ones(store):
