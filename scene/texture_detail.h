@@ -43,6 +43,24 @@ struct SunShadeSplit {
   std::array<std::array<double, 3>, kLabelCount> shade_tint{};
   int block_px = 0, opening_radius_blocks = 0;  // the block grid's edge, the opening's radius (blocks)
 };
+// Sorts nine floats (none NaN) ascending by a fixed network of 25 compare-exchanges (Knuth, TAOCP
+// vol. 3, §5.3.4, the best known for n = 9; each a min and a max, no data-dependent branch):
+// soften_sun_edges' median of a 3 x 3 neighbourhood (the absent neighbours +inf). The test
+// checks it against a sort on every 0/1 input (the 0-1 principle: then it sorts every input).
+inline void sort9(float v[9]) {
+  auto cx = [&](int i, int j) {
+    const float lo = v[i] < v[j] ? v[i] : v[j], hi = v[i] < v[j] ? v[j] : v[i];
+    v[i] = lo;
+    v[j] = hi;
+  };
+  cx(0, 3); cx(1, 7); cx(2, 5); cx(4, 8);
+  cx(0, 7); cx(2, 4); cx(3, 8); cx(5, 6);
+  cx(0, 2); cx(1, 3); cx(4, 5); cx(7, 8);
+  cx(1, 4); cx(3, 6); cx(5, 7);
+  cx(0, 1); cx(2, 4); cx(3, 5); cx(6, 8);
+  cx(2, 3); cx(4, 5); cx(6, 7);
+  cx(1, 2); cx(3, 4); cx(5, 6);
+}
 // Whether reflectance_texture softens the split's penumbrae (darken.cpp soften_sun_edges; on by
 // default): a test hook for the before/after comparison. Not thread-safe: set it between textures.
 void sun_penumbrae_enabled(bool on);

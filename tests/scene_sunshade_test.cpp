@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <vector>
 #include <omp.h>
 
@@ -695,4 +696,39 @@ TEST(SunShade, EdgeBlocksAreThoseWithANeighbourOnTheOtherSide) {
       sun_edge_blocks(present.data(), sd.data(), w, h, ed.data());
       ASSERT_EQ(ed, want) << w << " x " << h;
     }
+}
+
+// The penumbra's median (darken.cpp soften_sun_edges) sorts a 3 x 3 neighbourhood by sort9's fixed
+// network: it sorts all 512 inputs of 0s and 1s, so by the 0-1 principle (Knuth, TAOCP vol. 3,
+// §5.3.4) every input; and with the absent neighbours at
+// +inf the (m/2)-th element is the median an insertion sort of the m present gives, the
+// rule it replaced, on random neighbourhoods with ties and signed zeros. Fails with any one of its
+// 25 compare-exchanges taken out (the 0-1 inputs find it).
+TEST(SunShade, PenumbraMedianNetworkSortsEveryInput) {
+  for (int bits = 0; bits < 512; ++bits) {
+    float v[9];
+    for (int k = 0; k < 9; ++k) v[k] = static_cast<float>((bits >> k) & 1);
+    scene::sort9(v);
+    ASSERT_TRUE(std::is_sorted(v, v + 9)) << "input bits " << bits;
+  }
+  uint32_t r = 7;
+  auto next = [&] { return r = r * 1664525u + 1013904223u; };
+  const float levels[] = {-0.f, 0.f, 0.125f, 0.25f, 0.5f, 0.75f, 1.f};
+  for (int trial = 0; trial < 20000; ++trial) {
+    float v[9], ins[9];
+    int m = 0;
+    for (int k = 0; k < 9; ++k) {
+      const bool present = next() >> 31;
+      const float a = (next() >> 30) ? static_cast<float>(next() >> 8) / 16777216.f : levels[(next() >> 8) % 7];
+      v[k] = present ? a : std::numeric_limits<float>::infinity();
+      if (present) {  // the insertion sort the network replaced
+        int j = m++;
+        while (j > 0 && ins[j - 1] > a) { ins[j] = ins[j - 1]; --j; }
+        ins[j] = a;
+      }
+    }
+    if (m == 0) continue;
+    scene::sort9(v);
+    ASSERT_EQ(v[m / 2], ins[m / 2]) << "trial " << trial;  // (−0 == +0: equal as the snap sees them)
+  }
 }
