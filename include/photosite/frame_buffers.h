@@ -20,15 +20,15 @@
 // FrameBuffers.ReusedBuffersDoNotChangeResults, tests/python/test_api.py).
 //
 // The stale rule (set_frame_buffer_cache_free_stale): a held buffer that has waited longer than
-// twice the longest wait of any buffer reused so far (at least twice kFrameBufferStaleFloorRequests)
-// is freed. Waits are counted in the program's requests for buffers of at least the smallest held
-// size, not in seconds, so a pause between frames ages nothing. A loop over frames of one size
-// reuses each buffer within about one frame's requests, so the rule frees none of them; where the
-// sizes change (KITTI's frames differ by a few pixels, a data set of mixed resolutions) the sizes it
-// no longer asks for are freed a few frames later, instead of staying until the limit needs room. A
-// size the rule freed and the program then asks for again (one that comes back every few frames)
-// teaches the rule that wait, so its buffers are kept from then on. The limit still caps what is
-// held.
+// the longest wait of any buffer reused so far and a quarter more (at least twice
+// kFrameBufferStaleFloorRequests) is freed. Waits are counted in the program's requests for
+// buffers of at least the smallest held size, not in seconds, so a pause between frames ages
+// nothing. A loop over frames of one size reuses each buffer within about one frame's requests, so
+// the rule frees none of them; where the sizes change (KITTI's frames differ by a few pixels, a
+// data set of mixed resolutions) the sizes it no longer asks for are freed a few frames later,
+// instead of staying until the limit needs room. A size the rule freed and the program then asks
+// for again (one that comes back every few frames) teaches the rule that wait, so its buffers are
+// kept from then on. The limit still caps what is held.
 //
 // The limit is 0 (no cache) and the stale rule off until a program sets them: the command sets
 // frame_buffer_cache_machine_limit() and the stale rule, the Python module, when it is imported,

@@ -309,9 +309,9 @@ def frame_buffer_cache(limit_bytes: Optional[int] = None, free_stale: Optional[b
 
     On import the stale rule is on and the limit is 1 GiB (a quarter of the machine's memory if
     that is less; per process: a data loader's workers each hold their own). The stale
-    rule frees a held buffer once it has waited longer than twice the longest wait of any buffer
-    reused so far (waits counted in requests for buffers, at least 16 of them, not in seconds): a
-    loop of one frame size keeps every buffer it frees (about 220 MB at 2048x1024, 778 MB at
+    rule frees a held buffer once it has waited longer than the longest wait of any buffer reused
+    so far and a quarter more (waits counted in requests for buffers, at least 16 of them, not in
+    seconds): a loop of one frame size keeps every buffer it frees (about 220 MB at 2048x1024, 778 MB at
     4096x2048), and where the sizes change the sizes no longer asked for are freed a few frames
     later; a size that comes back after the rule freed it teaches the rule that wait. The limit
     caps what is held. limit_bytes=0 frees them all and turns the cache off; free_stale=False
