@@ -8,14 +8,15 @@ Usage: PYTHONPATH=build/python /usr/bin/python3 bench/python_frame_loop.py LABEL
 SHARED: the folder holding data/cityscapes (default: ../shared beside the checkout).
 --image, --labels: another frame (no instances) instead of aachen_000000 (scripts/resize_frame.py
 makes one of another size); --cache-limit: ps.frame_buffer_cache(BYTES) before the loop;
---vary: call k takes the frame less its last 8·(k mod 4) columns, so the sizes change every call
-(KITTI's frames differ by a few pixels): what the cache holds of sizes it no longer uses shows in
-the peak; --new-sizes: call k takes the frame less its last 8·k columns (every call a size not
-seen before, as in a data set of mixed resolutions); --calls: time N calls after the first (default 9).
-The line also gives the peak resident set (ru_maxrss) and the cache's limit.
-Prints one line: LABEL PATTERN wall MS cpu MS sys MS faults N peak MIB cache_limit BYTES held BYTES (what the
-cache holds once the last result is freed). docs/python.md's
-frame-buffer cache tables were measured with it (two builds' modules, alternately).
+--vary: call k takes the frame less its last 8·(k mod 4) columns, so the size changes every call
+and each size comes back every four (KITTI's frames differ by a few pixels); --new-sizes: call k
+takes the frame less its last 8·k columns (every call a size not seen before, as in a data set of
+mixed resolutions); what the cache holds of the sizes shows in the peak. --calls: time N calls
+after the first (default 9).
+Prints one line: LABEL PATTERN wall MS cpu MS sys MS faults N peak MIB cache_limit BYTES held BYTES
+(the peak resident set, ru_maxrss; the cache's limit; what it holds once the last result is
+freed). docs/python.md's frame-buffer cache tables were measured with it (two builds' modules,
+alternately).
 """
 import os
 import resource

@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
   // (docs/benchmarks.md, "Fifty-third session: frames of other sizes"). The library's cache of freed frame
   // buffers (include/photosite/frame_buffers.h) keeps those, up to the limit below; smaller ones
   // stay with the heap as before. The stale rule frees the sizes a run no longer asks for (a run over
-  // frames of many sizes) about two frames later; a quarter of the machine's memory caps what is
+  // frames of many sizes) a few frames later; a quarter of the machine's memory caps what is
   // held. (Until the fifty-fourth session the limit was instead capped at 2 GiB, for those stale
   // sizes; at 8192x4096 that cap cost part of the gain: docs/benchmarks.md, "Fifty-fourth session".)
   set_frame_buffer_cache_min_bytes(kMmapThreshold);

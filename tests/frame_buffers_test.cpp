@@ -211,10 +211,11 @@ TEST(FrameBuffers, WholeFrameBuffersAreAdvisedForHugePages) {
 
 // The stale rule (frame_buffers.h, set_frame_buffer_cache_free_stale): a held buffer that has
 // waited more than the longest wait of a reused one and a quarter more (at least twice the floor)
-// is freed. A loop of one size keeps every buffer (no loss against the plain limit); after a change of size the
-// old size's buffers are freed within that horizon, while with the limit alone they stay; a size
-// that comes back after longer than the horizon teaches the rule its wait. Failed before the rule
-// existed (the old size's buffers were held beside the new ones, up to the limit).
+// is freed. A loop of one size keeps every buffer (no loss against the plain limit); after a
+// change of size the old size's buffers are freed within that horizon, while with the limit alone
+// they stay; a size that comes back after longer than the horizon teaches the rule its wait.
+// Failed before the rule existed (the old size's buffers were held beside the new ones, up to the
+// limit).
 TEST(FrameBuffers, TheStaleRuleFreesSizesNoLongerAskedFor) {
   const size_t plane = size_t{1024} * 512 * sizeof(float);  // 2 MiB
   CacheLimit on(64 * plane);

@@ -510,8 +510,9 @@ def _import_limit():  # 1 GiB, or a quarter of the machine's memory if less
 
 
 def test_frame_buffer_cache_is_on_after_import_and_reuses_every_large_buffer(kitti, store):
-    # The module turns the library's frame-buffer cache on (the stale rule, 1 GiB); a call repeating the last one then takes every buffer of 1 MiB and more
-    # from it: none goes to the allocator.
+    # The module turns the library's frame-buffer cache on (the stale rule, 1 GiB); a call
+    # repeating the last one then takes every buffer of 1 MiB and more from it: none goes to the
+    # allocator.
     assert ps.frame_buffer_cache()["limit_bytes"] == _import_limit()
     assert ps.frame_buffer_cache()["free_stale"] is True
     day, labels = kitti
